@@ -1,0 +1,193 @@
+"""``analyzer``: a thin shell over :mod:`analyzer.pipeline` (see CONTRACT.md).
+
+Exit codes: 0 analyzed and no fault, 1 at least one fault, 2 usage or input error (one
+line on stderr, no traceback)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, NoReturn
+
+from analyzer import __version__
+from analyzer.errors import AnalyzerError, UsageError
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a usage error on one line (exit 2), as the contract asks."""
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(f"{self.prog}: {message}")
+
+
+def _positive_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
+    return v
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
+    return v
+
+
+def _csv_list(text: str) -> list[str]:
+    items = [t.strip() for t in text.split(",") if t.strip()]
+    if not items:
+        raise argparse.ArgumentTypeError("expected a comma-separated list")
+    return items
+
+
+def add_run_options(p: argparse.ArgumentParser) -> None:
+    """Options shared by ``run`` and ``watch``."""
+    p.add_argument("--channels", type=_csv_list, metavar="GLOB[,GLOB...]",
+                   help="channels to analyze (shell patterns); default: every non-constant numeric channel")
+    p.add_argument("--train", metavar="START:END",
+                   help="healthy reference window, seconds from the first sample or ISO-8601 times; "
+                        "default: the first 20%% of the data, at most 10 minutes")
+    p.add_argument("--config", metavar="FILE", help="TOML config (groups, model, detector options, thresholds)")
+    p.add_argument("--detectors", type=_csv_list, metavar="NAME[,NAME...]",
+                   help="detectors to run; default: every detector whose needs are met")
+    p.add_argument("--rate", type=_positive_float, metavar="HZ",
+                   help="rate of the common clock; default: the dominant rate of the channels")
+    p.add_argument("--jobs", type=_positive_int, metavar="N", help="local parallelism (default: cores)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask distributed scheduler, e.g. tcp://host:8786")
+    p.add_argument("--time", choices=("log", "header"), default="log",
+                   help="timestamps: log time (default) or header.stamp where messages have one")
+    p.add_argument("--corrected", action="store_true",
+                   help="also write DIR/corrected.csv with faulty channels corrected over their fault periods")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="analyzer", description="Audit sensor logs for faulty sensors.")
+    parser.add_argument("--version", action="version", version=f"analyzer {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    p = sub.add_parser("inspect", help="what is in an archive: channels, counts, rates, gaps")
+    p.add_argument("inputs", nargs="+", metavar="INPUT")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    p.add_argument("--time", choices=("log", "header"), default="log")
+
+    p = sub.add_parser("export", help="the time-aligned channels as .csv or .parquet")
+    p.add_argument("inputs", nargs="+", metavar="INPUT")
+    p.add_argument("--out", required=True, metavar="FILE", help="output .csv or .parquet")
+    p.add_argument("--channels", type=_csv_list, metavar="GLOB[,GLOB...]")
+    p.add_argument("--rate", type=_positive_float, metavar="HZ")
+    p.add_argument("--time", choices=("log", "header"), default="log")
+
+    p = sub.add_parser("run", help="analyze; write DIR/report.html and DIR/findings.json")
+    p.add_argument("inputs", nargs="+", metavar="INPUT")
+    p.add_argument("--out", required=True, metavar="DIR")
+    add_run_options(p)
+
+    p = sub.add_parser("watch", help="analyze every archive that lands in INBOX")
+    p.add_argument("inbox", metavar="INBOX")
+    p.add_argument("--out", required=True, metavar="REPORTS")
+    add_run_options(p)
+    p.add_argument("--poll", type=_positive_float, metavar="SECONDS",
+                   help="poll the folder every SECONDS instead of using file events")
+    p.add_argument("--settle", type=_positive_float, default=2.0, metavar="SECONDS",
+                   help="a file is ready when unchanged for this long (default 2)")
+    p.add_argument("--done", metavar="DIR", help="move each analyzed archive here")
+    p.add_argument("--failed", metavar="DIR", help="move each archive that could not be read here")
+    p.add_argument("--group-by", metavar="PATTERN",
+                   help="treat files whose names give the same value for this regex's first group as one archive")
+    p.add_argument("--once", action="store_true", help="process what is in INBOX, then exit")
+    return parser
+
+
+def _progress_printer(enabled: bool) -> Any:
+    if not enabled or not sys.stderr.isatty():
+        return None
+
+    def show(stage: str, fraction: float) -> None:
+        width = 30
+        done = int(round(width * max(0.0, min(1.0, fraction))))
+        sys.stderr.write(f"\r{stage:<16} [{'#' * done}{'.' * (width - done)}] {100 * fraction:5.1f}%")
+        if fraction >= 1.0:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+    return show
+
+
+def cmd_inspect(args: argparse.Namespace) -> int:
+    from analyzer.inspect import inspect_archive, render_table
+
+    doc = inspect_archive(args.inputs, time=args.time)
+    if args.json:
+        print(json.dumps(doc, indent=2))
+    else:
+        print(render_table(doc))
+    return 0
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from analyzer.export import export_archive
+
+    export_archive(args.inputs, Path(args.out), channels=args.channels, rate=args.rate, time=args.time)
+    return 0
+
+
+def _run_options(args: argparse.Namespace) -> Any:
+    from analyzer.pipeline import load_options
+
+    return load_options(
+        args.config,
+        channels=args.channels,
+        train=args.train,
+        detectors=args.detectors,
+        rate=args.rate,
+        jobs=args.jobs,
+        scheduler=args.scheduler,
+        time_source=args.time,
+        corrected=args.corrected,
+        progress=_progress_printer(not args.no_progress),
+    )
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from analyzer.pipeline import run
+
+    return run(args.inputs, Path(args.out), _run_options(args))
+
+
+def cmd_watch(args: argparse.Namespace) -> int:
+    try:
+        from analyzer.watch import watch_main
+    except ImportError as err:  # pragma: no cover - until the watcher lands
+        raise UsageError(f"watch: not available in this build ({err})") from err
+    return int(watch_main(args, _run_options(args)))
+
+
+COMMANDS = {"inspect": cmd_inspect, "export": cmd_export, "run": cmd_run, "watch": cmd_watch}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    try:
+        args = build_parser().parse_args(argv)
+        return COMMANDS[args.command](args)
+    except AnalyzerError as err:
+        msg = " ".join(str(err).split())  # one line, whatever the message held
+        print(f"analyzer: error: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("analyzer: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,152 @@
+"""Multichannel autoregressive model fitted on healthy data, and its companion
+state-space form (Chang et al. 2017, Eq. 1-8)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from analyzer.errors import DetectorError
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class ARModel:
+    """``y[k] = sum_i A_i y[k-i] + e[k]`` on centred, scaled data (Eq. 1).
+
+    ``coefs[i-1]`` is ``A_i`` (m x m); ``sigma`` the covariance of ``e`` (scaled units);
+    data are ``(raw - mean) / scale`` per channel."""
+
+    coefs: FloatArray
+    sigma: FloatArray
+    mean: FloatArray
+    scale: FloatArray
+    n_train: int
+    aic: float
+    bic: float
+
+    @property
+    def order(self) -> int:
+        return int(self.coefs.shape[0])
+
+    @property
+    def m(self) -> int:
+        return int(self.coefs.shape[1])
+
+    def companion(self) -> tuple[FloatArray, FloatArray]:
+        """``(A_d, C)`` of Eq. 8 with state ``[y[k-p+1]; ...; y[k]]``."""
+        p, m = self.order, self.m
+        A = np.zeros((p * m, p * m))
+        A[: (p - 1) * m, m:] = np.eye((p - 1) * m)
+        for i in range(p):  # last block row: [A_p, A_{p-1}, ..., A_1]
+            A[(p - 1) * m :, i * m : (i + 1) * m] = self.coefs[p - 1 - i]
+        C = np.zeros((m, p * m))
+        C[:, (p - 1) * m :] = np.eye(m)
+        return A, C
+
+    def r_squared(self) -> FloatArray:
+        """Share of each channel's (scaled) variance the model explains in training."""
+        return np.clip(1.0 - np.diag(self.sigma), 0.0, 1.0)
+
+
+def required_samples(order: int, m: int) -> int:
+    """Training samples needed for an order-``order`` AR model of ``m`` channels: the
+    paper asks ``n >= p + m - 1`` and recommends 2-3 times that (Section 2.3); least
+    squares also needs more equations than the ``p m`` unknowns of each row. We require
+    the larger of ``3 (p + m - 1)`` and ``2 p m``, plus the ``p`` initial lags."""
+    return order + max(3 * (order + m - 1), 2 * order * m)
+
+
+def _lagged(Z: FloatArray, p: int) -> tuple[FloatArray, FloatArray]:
+    """Regression pairs of Eq. 2-4 as rows: targets (n-p, m), regressors (n-p, p m) with
+    lags 1..p in that order."""
+    n = Z.shape[0]
+    Y = Z[p:]
+    X = np.hstack([Z[p - i : n - i] for i in range(1, p + 1)])
+    return Y, X
+
+
+def fit_ar(Y: FloatArray, order: int) -> ARModel:
+    """Least-squares AR fit (Eq. 5, by a stable lstsq rather than an explicit
+    pseudoinverse). Rows with a NaN in any lag are dropped."""
+    Y = np.asarray(Y, dtype=np.float64)
+    if Y.ndim != 2:
+        raise DetectorError(f"expected an (n, m) training array, got shape {Y.shape}")
+    n, m = Y.shape
+    if order < 1:
+        raise DetectorError(f"AR order must be at least 1, got {order}")
+    mean = np.nanmean(Y, axis=0)
+    scale = np.nanstd(Y, axis=0)
+    bad = [j for j in range(m) if not np.isfinite(scale[j]) or scale[j] <= 0.0]
+    if bad:
+        raise DetectorError(
+            f"channel(s) {bad} are constant or empty in the training window: an AR model "
+            "needs every channel to vary"
+        )
+    Z = (Y - mean) / scale
+    T, X = _lagged(Z, order)
+    ok = np.isfinite(T).all(axis=1) & np.isfinite(X).all(axis=1)
+    need = required_samples(order, m)
+    if int(ok.sum()) + order < need:
+        raise DetectorError(
+            f"too little healthy data for an order-{order} AR model of {m} channels: "
+            f"{int(ok.sum()) + order} usable training samples, need at least {need}"
+        )
+    T, X = T[ok], X[ok]
+    B, _, rank, _ = np.linalg.lstsq(X, T, rcond=None)
+    if rank < X.shape[1]:
+        raise DetectorError(
+            f"singular AR regression (rank {rank} < {X.shape[1]}): channels are linearly "
+            "dependent in the training window (duplicated or perfectly correlated sensors)"
+        )
+    E = T - X @ B
+    N = T.shape[0]
+    k = X.shape[1]
+    sigma = (E.T @ E) / max(N - k, 1)
+    coefs = B.T.reshape(m, order, m).transpose(1, 0, 2)  # coefs[i] = A_{i+1}
+    sign, logdet = np.linalg.slogdet((E.T @ E) / N)
+    if sign <= 0:
+        raise DetectorError("singular AR residual covariance: a channel is perfectly predictable")
+    n_par = k * m
+    aic = float(logdet + 2.0 * n_par / N)
+    bic = float(logdet + np.log(N) * n_par / N)
+    return ARModel(coefs, sigma, mean, scale, N, aic, bic)
+
+
+def select_order(Y: FloatArray, criterion: str = "bic", max_order: int = 12) -> int:
+    """AR order minimizing AIC or BIC (Akaike 1974) among the orders the training window
+    supports, all fitted on the same rows so the criteria are comparable."""
+    if criterion not in ("aic", "bic"):
+        raise DetectorError(f"order criterion must be 'aic' or 'bic', got {criterion!r}")
+    n, m = Y.shape
+    orders = [p for p in range(1, max_order + 1) if required_samples(p, m) <= n]
+    if not orders:
+        raise DetectorError(
+            f"too little healthy data for any AR model of {m} channels: {n} training samples, "
+            f"need at least {required_samples(1, m)}"
+        )
+    pmax = orders[-1]
+    mean = np.nanmean(Y, axis=0)
+    scale = np.nanstd(Y, axis=0)
+    scale[scale <= 0] = 1.0
+    Z = (Y - mean) / scale
+    T_all, X_all = _lagged(Z, pmax)
+    ok = np.isfinite(T_all).all(axis=1) & np.isfinite(X_all).all(axis=1)
+    T_all, X_all = T_all[ok], X_all[ok]
+    N = T_all.shape[0]
+    best, best_val = orders[0], np.inf
+    for p in orders:
+        X = X_all[:, : p * m]
+        B, *_ = np.linalg.lstsq(X, T_all, rcond=None)
+        E = T_all - X @ B
+        sign, logdet = np.linalg.slogdet(E.T @ E / N)
+        if sign <= 0:
+            continue
+        pen = 2.0 if criterion == "aic" else np.log(N)
+        val = logdet + pen * p * m * m / N
+        if val < best_val:
+            best, best_val = p, val
+    return best

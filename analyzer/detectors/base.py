@@ -1,0 +1,137 @@
+"""The life cycle every detector shares: settings in the constructor, learning in
+:meth:`Detector.fit` on the healthy window, then :meth:`Detector.run` over the aligned
+archive, returning residuals plus events.
+
+Conventions
+-----------
+* Data is the aligned archive: an (N, m) float64 array (possibly a read-only memmap) on
+  the common clock, one column per channel, NaN where a channel has a gap.
+* A *residual* of channel ``c`` is ``measured - estimated`` (channel units), so an additive
+  offset ``+D`` on the sensor shows as a residual near ``+D``; ``reference[c]`` is the
+  detector's fault-free estimate of the channel (what the sensor should have read).
+* Events are per channel and per detector; :mod:`analyzer.diagnosis.merge` turns them into
+  findings (one physical fault, one finding).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from analyzer.types import FaultType
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class Dataset:
+    """The aligned data a detector sees: ``values[k, j]`` is channel ``channels[j]`` at
+    time ``k / rate_hz`` seconds from the first sample; ``train`` is the healthy window
+    as a half-open index range ``[start, stop)``."""
+
+    values: FloatArray
+    channels: tuple[str, ...]
+    rate_hz: float
+    train: tuple[int, int]
+
+    @property
+    def n(self) -> int:
+        return int(self.values.shape[0])
+
+    def index(self, channel: str) -> int:
+        return self.channels.index(channel)
+
+    def train_values(self) -> FloatArray:
+        return self.values[self.train[0] : self.train[1]]
+
+
+@dataclass(slots=True)
+class RunContext:
+    """What the pipeline lends a detector: thresholds, scratch space and progress."""
+
+    false_alarm_rate: float = 1e-6
+    workdir: Path | None = None
+    jobs: int = 1
+    progress: Callable[[str, float], None] | None = None
+    config: Mapping[str, Any] = field(default_factory=dict)
+    """The whole parsed config (groups, model...), for detectors that need it."""
+
+    def allocate(self, name: str, shape: tuple[int, ...]) -> FloatArray:
+        """A float64 array for a long result; memory-mapped in ``workdir`` when set, so
+        peak memory does not grow with the archive's length."""
+        if self.workdir is None:
+            return np.zeros(shape, dtype=np.float64)
+        path = self.workdir / f"{name}.f64"
+        return np.lib.format.open_memmap(path.with_suffix(".npy"), mode="w+", dtype=np.float64, shape=shape)
+
+    def report(self, stage: str, fraction: float) -> None:
+        if self.progress is not None:
+            self.progress(stage, fraction)
+
+
+@dataclass(slots=True)
+class Event:
+    """One detection of one detector on one channel (before merging into findings)."""
+
+    channel: str
+    onset_s: float
+    end_s: float | None
+    type: FaultType
+    magnitude: dict[str, float]
+    confidence: float
+    detector: str
+    evidence: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(slots=True)
+class DetectorResult:
+    """What a detector run returns; every number the report shows comes from here."""
+
+    detector: str
+    channels: tuple[str, ...]
+    params: dict[str, Any]
+    events: list[Event]
+    residuals: dict[str, FloatArray]
+    """Per channel: the residual that speaks about that channel (measured - estimated)."""
+    reference: dict[str, FloatArray] = field(default_factory=dict)
+    """Per channel: the fault-free estimate of the channel, where the detector has one."""
+    sigma: dict[str, float] = field(default_factory=dict)
+    """Per channel: healthy (training) standard deviation of its residual."""
+    thresholds: dict[str, Any] = field(default_factory=dict)
+    model: dict[str, Any] = field(default_factory=dict)
+    """JSON-friendly summary of the fitted model (order, fit quality, training tests...)."""
+    notes: list[str] = field(default_factory=list)
+
+
+class Detector(Protocol):
+    """A detector: ``name`` is its registry key (used by ``--detectors``)."""
+
+    name: ClassVar[str]
+
+    def applicable(self, data: Dataset, context: RunContext) -> str | None:
+        """None when the detector's needs are met, else a one-line reason it cannot run
+        (used to skip it when ``--detectors`` is not given, and as the error otherwise)."""
+        ...
+
+    def fit(self, data: Dataset, context: RunContext) -> Any:
+        """Learn from ``data.train_values()`` only; return a frozen fitted model."""
+        ...
+
+    def run(self, model: Any, data: Dataset, context: RunContext) -> DetectorResult:
+        """Apply the fitted model to the whole archive."""
+        ...
+
+
+def channel_subset(channels: Sequence[str], wanted: Sequence[str]) -> list[int]:
+    """Indices of ``wanted`` in ``channels`` (raises ``KeyError`` naming a missing one)."""
+    out = []
+    for name in wanted:
+        if name not in channels:
+            raise KeyError(name)
+        out.append(list(channels).index(name))
+    return out

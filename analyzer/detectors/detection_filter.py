@@ -1,0 +1,1048 @@
+"""Beard-Jones detection filter for sensor faults by state augmentation (Park, Rizzoni &
+Ribbens 1994), designed in discrete time.
+
+Augmentation (Eq. 10-14)
+------------------------
+A sensor fault on sensor ``i`` enters the output, ``y = C x + e_i zeta`` (Eq. 6-7). Park et
+al. make it an *actuator-like* fault by adding the fault signal as a state,
+``xbar = [x; zeta]``, with the fault model ``zeta[k+1] = alpha zeta[k] + xi[k]`` (the discrete
+form of Eq. 13-14; ``alpha = 1``: a fault that stays until it changes, such as an offset)::
+
+    Abar = [[A, 0], [0, alpha]],  Bbar = [[B], [0]],  Cbar = [C, e_i],  fbar = [0; 1]   (Eq. 12)
+
+so that ``xbar[k+1] = Abar xbar + Bbar u + fbar xi`` and ``y = Cbar xbar + D u`` (Eq. 15-16):
+the fault event vector is ``fbar`` and the output direction it excites is ``Cbar fbar = e_i``.
+
+Detection gain (discrete Beard-Jones design)
+--------------------------------------------
+The filter ``s[k+1] = Abar s + Bbar u + D_i (y - Cbar s - D u)`` (Eq. 17-18) has the error
+``e[k+1] = (Abar - D_i Cbar) e + fbar xi`` and output residual ``q = Cbar e`` (Eq. 19-20). If
+``fbar`` is an eigenvector of the closed loop, ``(Abar - D_i Cbar) fbar = sigma fbar``, every
+error the fault causes stays on ``fbar`` and ``q = Cbar fbar * (scalar) = e_i * (scalar)``:
+the residual of a fault on sensor ``i`` keeps the fixed direction ``e_i`` whatever the fault
+signal. Writing ``D_i = [D_x; d_z]`` and using ``Abar fbar = [0; alpha]``, the condition reads
+
+    D_x e_i = 0   and   d_z e_i = alpha - sigma,
+
+i.e. the state part of the gain must ignore sensor ``i`` (column ``i`` of ``D_x`` is zero).
+Then ``Abar - D_i Cbar = [[A - D_x C, 0], [-d_z C, sigma]]`` is block lower triangular with
+eigenvalues ``eig(A - D_x C) U {sigma}``, and ``D_x C = D_x' C_{-i}`` (``C`` without row ``i``).
+We take the free part from the steady-state Kalman filter of ``(A, C_{-i})``: ``D_x`` is its
+predictor gain (column ``i`` zero), and ``d_z = (alpha - sigma) (e_i' - N_i)`` where
+``N_i`` (zero in entry ``i``) gives the filtered estimate ``yhat_i = C_i xhat + N_i q`` of
+sensor ``i`` from the *other* sensors -- the fault estimate is updated with
+``y_i - yhat_i - zeta``. For ``alpha = 1`` this is the first-order low-pass
+``zeta[k+1] = sigma zeta + (1 - sigma) (y_i - yhat_i)`` of the measured-minus-estimated
+signal. The pole ``sigma`` is the eigenvalue assigned to the fault direction.
+
+Conditions (Theorem 4.1, Lemmas 3.1-3.2)
+-----------------------------------------
+The sensor fault is detectable with a fixed direction iff ``(A, C)`` is observable; checked
+with the eigenvector (PBH) test of Lemma 3.1, and a non-observable pair is refused. The
+eigenvalues of ``A - D_x C`` that no gain can move are the invariant zeros of
+``(Abar, fbar, Cbar)``; eliminating the ``zeta`` rows and columns of the Rosenbrock matrix
+shows they are exactly the unobservable modes of ``(A, C_{-i})``. The paper does not
+discuss them; they must lie inside the unit circle for a stable filter, which is checked
+too. Lemma 3.2's proof assumes ``alpha`` is not an eigenvalue of ``A``; away from
+``lambda = alpha`` the PBH matrix of ``(Abar, Cbar)`` has full rank iff that of ``(A, C)``
+has (eliminate the ``zeta`` column), so ``(Abar, Cbar)`` is tested at ``alpha`` only.
+
+Isolation
+---------
+One filter per sensor (a bank). The fault estimate ``zeta`` of filter ``i`` (sensor units,
+``measured - estimated``) is the channel's residual and goes through
+:func:`analyzer.diagnosis.events.events_from_residual`. A fault on sensor ``j`` also moves
+``zeta`` of filters ``i != j`` (their state estimate uses sensor ``j``), but then the residual
+of filter ``i`` leaves the direction ``e_i``: the innovations of its other sensors become
+inconsistent (their normalized squared size, watched with the same windowed statistics as
+the residuals). Alarms within a long window of each other compete for one fault: the
+sensor is the one whose filter stays closest to its direction (if over its threshold,
+only when clearly below the other filters); it is reported when
+some other filter -- one that measures the sensor -- left its direction (confirmation).
+An alarm no filter confirms is model mismatch, noted but not reported. Thresholds of the
+AR-based bank are calibrated out of sample (models refitted on each half of the healthy
+window, run on the other half), since in-sample innovations are too small.
+
+Model: the ``[model]`` of the config when one is given, else a multichannel AR model
+identified on the healthy window, in block observer-canonical form (:func:`ar_observer_form`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+import numpy.typing as npt
+from scipy import linalg, signal
+
+from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
+from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
+from analyzer.detectors.lti import LiftedSystem
+from analyzer.diagnosis.changes import (
+    Calibration,
+    alarm_statistic,
+    calibrate,
+    default_window,
+)
+from analyzer.diagnosis.classify import correlation_time
+from analyzer.diagnosis.events import events_from_residual
+from analyzer.errors import DetectorError
+
+FloatArray = npt.NDArray[np.float64]
+
+UNCONFIRMED_FACTOR = 0.75
+"""Confidence factor for a fault that no other residual confirms (used by the
+equivalent-model detector for foot-sensors, whose fault reaches no other residual)."""
+
+DIRECTION_RELATIVE = 0.25
+"""A filter whose residual leaves its direction (off-direction statistic over 1) still
+isolates its sensor when it is at most this fraction as far off as the typical other
+filter: a burst of excitation that inflates every filter alike must not mask a sensor
+fault (the same rule as the AR Kalman bank's relative consistency)."""
+
+PBH_RTOL = 1e-9
+"""Relative size of the smallest singular value of ``[A - lambda I; C]`` below which the
+mode ``lambda`` counts as unobservable (Lemma 3.1)."""
+
+
+# -- linear-algebra checks ------------------------------------------------------------------
+def unobservable_modes(
+    A: FloatArray,
+    C: FloatArray,
+    rtol: float = PBH_RTOL,
+    at: Sequence[complex] | None = None,
+) -> list[complex]:
+    """Eigenvalues of ``A`` whose eigenvectors ``C`` does not see (PBH test, Lemma 3.1:
+    ``(A, C)`` is observable iff ``C v != 0`` for every eigenvector ``v``). Uses the smallest
+    singular value of ``[A - lambda I; C]`` so repeated eigenvalues are handled too; ``at``
+    restricts the test to the given eigenvalues."""
+    A = np.asarray(A, dtype=np.float64)
+    C = np.asarray(C, dtype=np.float64).reshape(-1, A.shape[0])
+    n = A.shape[0]
+    norm_c = float(np.linalg.norm(C, 2)) if C.size else 0.0
+    scale = max(1.0, float(np.linalg.norm(A, 2)) + norm_c)
+    out: list[complex] = []
+    for lam in np.linalg.eigvals(A) if at is None else at:
+        pbh = np.vstack([A - lam * np.eye(n), C.astype(np.complex128)])
+        smin = float(np.linalg.svd(pbh, compute_uv=False)[-1])
+        if smin <= rtol * scale:
+            out.append(complex(lam))
+    return out
+
+
+def check_observable(A: FloatArray, C: FloatArray) -> None:
+    """Raise :class:`DetectorError` unless ``(A, C)`` is observable (Theorem 4.1: the
+    condition for isolating sensor faults to fixed directions)."""
+    bad = unobservable_modes(A, C)
+    if bad:
+        raise DetectorError(
+            f"(A, C) is not observable (unobservable mode(s) {_fmt_modes(bad)}): by Park et al. "
+            "1994, Theorem 4.1, sensor faults cannot be isolated to fixed directions"
+        )
+
+
+def augment(
+    A: FloatArray, B: FloatArray, C: FloatArray, sensor: int, alpha: float = 1.0
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """``(Abar, Bbar, Cbar, fbar)`` of Park et al. (1994, Eq. 10-12, 15) for a fault on
+    output ``sensor`` (fault event vector ``f_s = e_sensor``, Eq. 7), discrete time."""
+    n = A.shape[0]
+    m = C.shape[0]
+    Ab = np.zeros((n + 1, n + 1))
+    Ab[:n, :n] = A
+    Ab[n, n] = alpha
+    Bb = np.vstack([B, np.zeros((1, B.shape[1]))])
+    fs = np.zeros((m, 1))
+    fs[sensor, 0] = 1.0
+    Cb = np.hstack([C, fs])
+    fb = np.zeros(n + 1)
+    fb[n] = 1.0
+    return Ab, Bb, Cb, fb
+
+
+def filter_riccati(
+    A: FloatArray, C: FloatArray, Q: FloatArray, R: FloatArray, S: FloatArray | None = None
+) -> FloatArray:
+    """Stabilizing solution ``P`` of the filtering Riccati equation
+    ``P = A P A' + Q - (A P C' + S)(C P C' + R)^-1 (A P C' + S)'``.
+
+    The cross term is removed first (``A - S R^-1 C``, ``Q - S R^-1 S'``), then the
+    structure-preserving doubling algorithm (Chu, Fan & Lin 2005) converges quadratically
+    with small matrix products only; scipy's QZ-based solver is the fallback when it does
+    not converge."""
+    n = A.shape[0]
+    A = np.asarray(A, dtype=np.float64)
+    C = np.asarray(C, dtype=np.float64)
+    Q = np.asarray(Q, dtype=np.float64)
+    R = np.asarray(R, dtype=np.float64)
+    Rinv = np.linalg.inv(R)
+    if S is not None:
+        S = np.asarray(S, dtype=np.float64)
+        Ab = A - S @ Rinv @ C
+        Qb = Q - S @ Rinv @ S.T
+    else:
+        Ab, Qb = A, Q
+    Ak = Ab.T.copy()
+    Gk = C.T @ Rinv @ C
+    Hk = 0.5 * (Qb + Qb.T)
+    eye = np.eye(n)
+    for _ in range(100):
+        W = eye + Gk @ Hk
+        WA = np.linalg.solve(W, Ak)
+        WG = np.linalg.solve(W, Gk)
+        H_next = Hk + Ak.T @ Hk @ WA
+        Gk = Gk + Ak @ WG @ Ak.T
+        Ak = Ak @ WA
+        step = float(np.abs(H_next - Hk).max())
+        Hk = 0.5 * (H_next + H_next.T)
+        if not np.isfinite(step):
+            break
+        if step <= 1e-13 * max(1.0, float(np.abs(Hk).max())):
+            return Hk
+    return np.asarray(linalg.solve_discrete_are(A.T, C.T, Q, R, s=S), dtype=np.float64)
+
+
+def kalman_gains(
+    A: FloatArray, C: FloatArray, Q: FloatArray, R: FloatArray, S: FloatArray | None = None
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Steady-state Kalman gains of ``x+ = A x + w``, ``y = C x + v`` with ``cov(w) = Q``,
+    ``cov(v) = R``, ``cov(w, v) = S``: returns the predictor gain
+    ``L = (A P C' + S) Re^-1``, the filter gain ``M = P C' Re^-1`` and the prediction
+    covariance ``P`` (:func:`filter_riccati`), ``Re = C P C' + R``."""
+    P = filter_riccati(A, C, Q, R, S)
+    Re = C @ P @ C.T + R
+    L = np.linalg.solve(Re, (A @ P @ C.T + (0.0 if S is None else S)).T).T
+    M = np.linalg.solve(Re, C @ P).T
+    return np.asarray(L, dtype=np.float64), np.asarray(M, dtype=np.float64), P
+
+
+@dataclass(frozen=True, slots=True)
+class ParkFilter:
+    """The detection filter of one sensor, as a discrete LTI system over ``v = [y; u]``.
+
+    State ``s = [xhat; zetahat]`` (predictions), outputs ``[q (m); zeta (1); yhat (1)]``:
+    the output residual ``q = y - Cbar s - D u`` (Eq. 20), the fault estimate after sample
+    ``k`` (sensor units, DC gain 1 for a constant fault) and the fault-free estimate of the
+    sensor from the others, ``C_i x[k|k] + D_i u``."""
+
+    sensor: int
+    Abar: FloatArray
+    Cbar: FloatArray
+    gain: FloatArray
+    """``D_i`` of Eq. 17, ``(n + 1, m)``."""
+    alpha: float
+    sigma: float
+    F: FloatArray
+    G: FloatArray
+    H: FloatArray
+    J: FloatArray
+    spectral_radius: float
+
+    @property
+    def n_outputs(self) -> int:
+        return int(self.Cbar.shape[0])
+
+    @property
+    def closed_loop(self) -> FloatArray:
+        """``Abar - D_i Cbar`` (Eq. 19)."""
+        return self.Abar - self.gain @ self.Cbar
+
+    def settle(self, tol: float = 1e-6) -> int:
+        """Samples for an initial error to decay by ``tol``."""
+        rho = min(max(self.spectral_radius, 1e-3), 1.0 - 1e-9)
+        return int(np.ceil(np.log(tol) / np.log(rho)))
+
+    def lifted(self, block: int = 64) -> LiftedSystem:
+        return LiftedSystem.build(self.F, self.G, self.H, self.J, block)
+
+    def run(self, y: FloatArray, u: FloatArray | None = None, block: int = 64) -> FloatArray:
+        """Outputs ``(N, m + 2)`` for outputs ``y`` (N, m) and inputs ``u`` (N, r)."""
+        v = _stack_inputs(y, u, self.G.shape[1] - self.n_outputs)
+        out, _ = self.lifted(block).run(v)
+        return out
+
+
+def _stack_inputs(y: FloatArray, u: FloatArray | None, r: int) -> FloatArray:
+    y = np.asarray(y, dtype=np.float64)
+    if r == 0:
+        return y
+    if u is None:
+        raise DetectorError(f"the model has {r} measured input(s) but no input data was given")
+    u = np.asarray(u, dtype=np.float64).reshape(y.shape[0], r)
+    return np.hstack([y, u])
+
+
+def park_filter(
+    A: FloatArray,
+    B: FloatArray,
+    C: FloatArray,
+    D: FloatArray,
+    sensor: int,
+    Q: FloatArray,
+    R: FloatArray,
+    S: FloatArray | None = None,
+    *,
+    alpha: float = 1.0,
+    sigma: float = 0.9,
+    names: Sequence[str] | None = None,
+    check_observability: bool = True,
+) -> ParkFilter:
+    """Design the detection filter of ``sensor`` (module docstring: augmentation Eq. 10-14,
+    gain with ``fbar`` as closed-loop eigenvector, Eq. 19; checks of Theorem 4.1).
+
+    ``B``, ``D`` are the columns of the *measured* inputs (may have zero columns); ``Q``,
+    ``R``, ``S`` the process, measurement and cross noise covariances that set the free part
+    of the gain (the Kalman filter of ``(A, C_{-i})``); ``sigma`` the closed-loop pole of the
+    fault estimate, ``0 <= sigma < alpha <= 1``. ``check_observability=False`` skips the
+    test of Theorem 4.1 when the caller (a bank) has done it once for all sensors."""
+    A = np.asarray(A, dtype=np.float64)
+    C = np.asarray(C, dtype=np.float64)
+    n = A.shape[0]
+    m = C.shape[0]
+    if A.shape != (n, n):
+        raise DetectorError(f"expected a square matrix for A, got {A.shape}")
+    if C.ndim != 2 or C.shape[1] != n:
+        raise DetectorError(f"expected a ({m}, {n}) matrix for C, got {C.shape}")
+    B = np.asarray(B, dtype=np.float64).reshape(n, -1)
+    D = np.asarray(D, dtype=np.float64).reshape(m, B.shape[1])
+    label = names[sensor] if names is not None else f"output {sensor}"
+    if not 0 <= sensor < m:
+        raise DetectorError(f"sensor index {sensor} out of range for {m} outputs")
+    if not 0.0 <= sigma < alpha <= 1.0:
+        raise DetectorError(
+            f"need 0 <= sigma < alpha <= 1 for the fault estimate, got sigma={sigma}, alpha={alpha}"
+        )
+    if check_observability:
+        check_observable(A, C)
+    Ab, Bb, Cb, fb = augment(A, B, C, sensor, alpha)
+    # Lemma 3.2: away from lambda = alpha the PBH matrix of (Abar, Cbar) has full rank iff
+    # that of (A, C) has (eliminate the zeta column), so only alpha needs a test
+    if unobservable_modes(Ab, Cb, at=[alpha]):
+        raise DetectorError(
+            f"the augmented pair (Abar, Cbar) for {label} is not observable: the fault pole "
+            f"alpha={alpha} is a mode of A seen only by {label} (Lemma 3.2); choose another "
+            "fault_pole"
+        )
+    others = [j for j in range(m) if j != sensor]
+    Co = C[others]
+    eig = np.linalg.eigvals(A)
+    fixed = unobservable_modes(A, Co, at=[lam for lam in eig if abs(lam) >= 1.0 - 1e-9])
+    if fixed:
+        raise DetectorError(
+            f"no stable detection filter for {label}: the invariant zero(s) "
+            f"{_fmt_modes(fixed)} of the augmented fault (the modes of A the other sensors do "
+            "not observe) lie on or outside the unit circle"
+        )
+    # free part of the gain: Kalman filter of (A, C_{-i}); column `sensor` stays zero
+    Lx = np.zeros((n, m))  # state predictor gain D_x
+    Ny = np.zeros(m)  # filtered estimate of y_i: yhat_i[k|k] = C_i xhat + Ny (y - C xhat - D u)
+    if others:
+        R = np.asarray(R, dtype=np.float64)
+        Ro = R[np.ix_(others, others)]
+        So = None if S is None else np.asarray(S, dtype=np.float64)[:, others]
+        try:
+            Lo, _, P = kalman_gains(A, Co, np.asarray(Q, dtype=np.float64), Ro, So)
+        except (linalg.LinAlgError, ValueError) as err:
+            raise DetectorError(
+                f"the state gain of the detection filter for {label} has no stabilizing "
+                f"Riccati solution ({err})"
+            ) from err
+        Lx[:, others] = Lo
+        Re = Co @ P @ Co.T + Ro
+        # E[y_i | innovations of the others]: through the state and through the
+        # measurement noise's correlation with the others' (zero for a diagonal R)
+        Ny[others] = np.linalg.solve(Re, Co @ P @ C[sensor] + R[others, sensor])
+    ei = np.zeros(m)
+    ei[sensor] = 1.0
+    dz = (alpha - sigma) * (ei - Ny)
+    gain = np.vstack([Lx, dz[None, :]])
+    # the Beard-Jones condition: fbar is an eigenvector of the closed loop (Eq. 19)
+    cl = Ab - gain @ Cb
+    if not np.allclose(cl @ fb, sigma * fb, atol=1e-9 * max(1.0, float(np.abs(cl).max()))):
+        raise DetectorError("internal error: the fault direction is not a closed-loop eigenvector")
+    rho = float(np.max(np.abs(np.linalg.eigvals(cl))))
+    if not rho < 1.0:
+        raise DetectorError(
+            f"the detection filter for {label} is unstable (spectral radius {rho:.6f})"
+        )
+    # LTI form over v = [y; u]
+    F = cl
+    G = np.hstack([gain, Bb - gain @ D])
+    norm = (1.0 - sigma) / (alpha - sigma)  # DC gain of the fault estimate -> 1
+    Hq = -Cb
+    Jq = np.hstack([np.eye(m), -D])
+    Hz = norm * cl[n : n + 1]
+    Jz = norm * G[n : n + 1]
+    ci = C[sensor]
+    Hy = np.concatenate([ci - Ny @ C, [0.0]])[None, :]
+    Jy = np.concatenate([Ny, D[sensor] - Ny @ D])[None, :]
+    H = np.vstack([Hq, Hz, Hy])
+    J = np.vstack([Jq, Jz, Jy])
+    return ParkFilter(sensor, Ab, Cb, gain, alpha, sigma, F, G, H, J, rho)
+
+
+def _fmt_modes(modes: Sequence[complex]) -> str:
+    parts = []
+    for z in modes[:4]:
+        parts.append(f"{z.real:.4g}" if abs(z.imag) < 1e-12 else f"{z.real:.4g}{z.imag:+.4g}j")
+    more = f" and {len(modes) - 4} more" if len(modes) > 4 else ""
+    return ", ".join(parts) + more
+
+
+def direction_angles(q: FloatArray, scale: FloatArray | None = None) -> FloatArray:
+    """Angles (radians) between residual vectors ``q`` (N, m) and every output direction
+    ``e_j``: ``(N, m)``, ``arccos(|q_j| / |q|)``; rows with ``q = 0`` give NaN. ``scale``
+    divides each component first (whitening by the healthy residual spread)."""
+    qq = np.asarray(q, dtype=np.float64)
+    if scale is not None:
+        qq = qq / np.asarray(scale, dtype=np.float64)
+    norm = np.linalg.norm(qq, axis=1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos = np.abs(qq) / norm
+    return np.arccos(np.clip(cos, 0.0, 1.0))
+
+
+# -- models -----------------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class StateSpaceModel:
+    """The model the bank is built on, on centred (and for AR, scaled) data:
+    ``x+ = A x + B u``, ``y = C x + D u`` with ``(y - mean) / scale`` per output channel."""
+
+    A: FloatArray
+    B: FloatArray
+    C: FloatArray
+    D: FloatArray
+    Q: FloatArray
+    R: FloatArray
+    S: FloatArray | None
+    outputs: tuple[int, ...]
+    inputs: tuple[int, ...]
+    y_mean: FloatArray
+    y_scale: FloatArray
+    u_mean: FloatArray
+    summary: dict[str, Any]
+
+
+def _centred(values: FloatArray, cols: Sequence[int]) -> tuple[FloatArray, FloatArray]:
+    X = np.asarray(values[:, list(cols)], dtype=np.float64)
+    mean = np.nanmean(X, axis=0) if X.shape[1] else np.zeros(0)
+    return X - mean, mean
+
+
+def innovation_nll(
+    A: FloatArray,
+    B: FloatArray,
+    C: FloatArray,
+    D: FloatArray,
+    Q: FloatArray,
+    R: FloatArray,
+    Y: FloatArray,
+    U: FloatArray,
+) -> tuple[float, float]:
+    """Gaussian negative log-likelihood per sample of the steady-state Kalman predictor's
+    innovations on ``Y``, with the overall noise scale ``c`` (both ``Q`` and ``R`` times
+    ``c``) profiled out; returns ``(nll, c)``."""
+    m = C.shape[0]
+    P = filter_riccati(A, C, Q, R)
+    S = C @ P @ C.T + R
+    M = np.linalg.solve(S, C @ P).T
+    F = A - A @ M @ C
+    G = np.hstack([A @ M, B - A @ M @ D])
+    H = -C
+    J = np.hstack([np.eye(m), -D])
+    sysl = LiftedSystem.build(F, G, H, J, 32)
+    e, _ = sysl.run(np.hstack([Y, U]) if U.shape[1] else Y)
+    skip = min(Y.shape[0] // 4, 200)
+    e = e[skip:]
+    ok = np.isfinite(e).all(axis=1)
+    e = e[ok]
+    Sinv = np.linalg.inv(S)
+    c = float(np.mean(np.einsum("ki,ij,kj->k", e, Sinv, e)) / m)
+    _, logdet = np.linalg.slogdet(S)
+    return 0.5 * (m * np.log(max(c, 1e-300)) + logdet + m), c
+
+
+def model_from_config(model: Mapping[str, Any], data: Dataset) -> StateSpaceModel:
+    """The bank's model from ``[model]``: output and input channels by name, training means
+    removed (the model describes deviations), and noise covariances for the free part of
+    the gain: unmeasured inputs (columns of B not named in ``inputs``) are the process noise,
+    ``Q = eta Bw Bw'`` (identity when every input is measured), measurement noise
+    proportional to each output's training variance, ``R = diag(var y)``; the ratio ``eta``
+    maximizes the innovations' likelihood on the healthy window (grid over decades)."""
+    A = np.asarray(model["A"], dtype=np.float64)
+    B = np.asarray(model.get("B", np.zeros((A.shape[0], 0))), dtype=np.float64)
+    C = np.asarray(model["C"], dtype=np.float64)
+    D = np.asarray(model.get("D", np.zeros((C.shape[0], B.shape[1]))), dtype=np.float64)
+    n = A.shape[0]
+    if A.shape != (n, n):
+        raise DetectorError(f"expected a square matrix for model A, got {A.shape}")
+    if C.ndim != 2 or C.shape[1] != n:
+        raise DetectorError(f"expected a ({C.shape[0]}, {n}) matrix for model C, got {C.shape}")
+    B = B.reshape(n, -1)
+    D = D.reshape(C.shape[0], B.shape[1])
+    dt = model.get("dt")
+    if dt is not None and abs(float(dt) * data.rate_hz - 1.0) > 1e-6:
+        raise DetectorError(
+            f"[model] dt = {dt} s does not match the analysis rate {data.rate_hz} Hz "
+            f"(expected dt = {1.0 / data.rate_hz})"
+        )
+    outputs = list(model.get("outputs") or [])
+    if not outputs:
+        if C.shape[0] != len(data.channels):
+            raise DetectorError(
+                f"[model] outputs not named and C has {C.shape[0]} rows for "
+                f"{len(data.channels)} channels"
+            )
+        outputs = list(data.channels)
+    if len(outputs) != C.shape[0]:
+        raise DetectorError(
+            f"[model] outputs names {len(outputs)} channels but C has {C.shape[0]} rows"
+        )
+    inputs = list(model.get("inputs") or [])
+    missing = [c for c in outputs + inputs if c not in data.channels]
+    if missing:
+        raise DetectorError(f"[model] names channel {missing[0]!r}, which is not analyzed")
+    if inputs and len(inputs) != B.shape[1]:
+        raise DetectorError(
+            f"[model] inputs names {len(inputs)} channels but B has {B.shape[1]} columns"
+        )
+    oi = tuple(data.index(c) for c in outputs)
+    ii = tuple(data.index(c) for c in inputs)
+    Bm = B if inputs else np.zeros((n, 0))
+    Dm = D if inputs else np.zeros((C.shape[0], 0))
+    Bw = np.zeros((n, 0)) if inputs else B
+    train = data.train_values()
+    Y, y_mean = _centred(train, oi)
+    U, u_mean = _centred(train, ii)
+    ok = np.isfinite(Y).all(axis=1) & (np.isfinite(U).all(axis=1) if U.shape[1] else True)
+    Y, U = Y[ok], U[ok]
+    if Y.shape[0] < 50:
+        raise DetectorError(
+            f"too little healthy data for the [model] noise design: {Y.shape[0]} samples"
+        )
+    var = np.var(Y, axis=0)
+    if np.any(var <= 0):
+        raise DetectorError("an output channel is constant in the training window")
+    R0 = np.diag(var)
+    G0 = Bw @ Bw.T if Bw.shape[1] else np.eye(n)
+    G0 = G0 / max(float(np.trace(G0)) / n, 1e-300)
+    tiny = 1e-9 * np.eye(n)
+    best: tuple[float, float, float] | None = None
+    for eta in 10.0 ** np.arange(-6.0, 6.5, 1.0):
+        try:
+            nll, c = innovation_nll(A, Bm, C, Dm, eta * G0 + tiny, R0, Y, U)
+        except (linalg.LinAlgError, ValueError):
+            continue
+        if np.isfinite(nll) and (best is None or nll < best[0]):
+            best = (nll, float(eta), c)
+    if best is None:
+        raise DetectorError(
+            "[model]: no noise ratio gives a stabilizing Kalman filter (is (A, C) detectable?)"
+        )
+    _, eta, c = best
+    summary = {
+        "type": "state-space",
+        "source": "config [model]",
+        "states": n,
+        "outputs": list(outputs),
+        "inputs": list(inputs),
+        "unmeasured_inputs": int(Bw.shape[1]),
+        "noise_ratio": eta,
+        "noise_scale": c,
+    }
+    return StateSpaceModel(
+        A,
+        Bm,
+        C,
+        Dm,
+        c * (eta * G0 + tiny),
+        c * R0,
+        None,
+        oi,
+        ii,
+        y_mean,
+        np.ones(len(oi)),
+        u_mean,
+        summary,
+    )
+
+
+def ar_observer_form(ar: ARModel) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``(A, C, K)`` of the AR model ``y[k] = sum_l A_l y[k-l] + e[k]`` (Chang et al. 2017,
+    Eq. 1) in block observer-canonical innovations form::
+
+        x[k+1] = A x[k] + K e[k],  y[k] = C x[k] + e[k],
+        A = [[A_1, I, 0, ...], [A_2, 0, I, ...], ..., [A_p, 0, ..., 0]],  C = [I, 0, ..., 0],
+        K = [A_1; A_2; ...; A_p],
+
+    with ``x_j[k] = sum_{l >= j} A_l y[k + j - 1 - l]`` (``x_1[k]`` is the one-step
+    prediction). Unlike the companion form (Eq. 8), whose fast modes ``lambda`` are seen
+    through ``lambda^(p-1)`` only, this realization is observable by construction, so the
+    observability test of Theorem 4.1 is well conditioned."""
+    p, m = ar.order, ar.m
+    n = p * m
+    A = np.zeros((n, n))
+    for j in range(p):
+        A[j * m : (j + 1) * m, :m] = ar.coefs[j]
+        if j + 1 < p:
+            A[j * m : (j + 1) * m, (j + 1) * m : (j + 2) * m] = np.eye(m)
+    C = np.zeros((m, n))
+    C[:, :m] = np.eye(m)
+    K = ar.coefs.reshape(n, m).copy()
+    return A, C, K
+
+
+def model_from_ar(
+    data: Dataset, order: int | str, max_order: int, rows: FloatArray | None = None
+) -> StateSpaceModel:
+    """An AR model identified on the healthy window (Chang et al. 2017, Eq. 1-5; or on
+    ``rows``), on centred and scaled data, in observer-canonical innovations form
+    (:func:`ar_observer_form`): ``Q = K Sigma K'``, ``R = Sigma``, ``S = K Sigma``."""
+    train = np.asarray(data.train_values() if rows is None else rows, dtype=np.float64)
+    p = select_order(train, order, max_order) if isinstance(order, str) else int(order)
+    ar = fit_ar(train, p)
+    A, C, K = ar_observer_form(ar)
+    n, m = A.shape[0], C.shape[0]
+    summary = {
+        "type": "AR (observer-canonical form)",
+        "source": "identified on the healthy window",
+        "order": ar.order,
+        "order_rule": order,
+        "states": n,
+        "outputs": list(data.channels),
+        "aic": ar.aic,
+        "bic": ar.bic,
+        "r_squared": {c: float(v) for c, v in zip(data.channels, ar.r_squared(), strict=True)},
+    }
+    Sig = ar.sigma
+    return StateSpaceModel(
+        A,
+        np.zeros((n, 0)),
+        C,
+        np.zeros((m, 0)),
+        K @ Sig @ K.T,
+        Sig,
+        K @ Sig,
+        tuple(range(m)),
+        (),
+        ar.mean,
+        ar.scale,
+        np.zeros(0),
+        summary,
+    )
+
+
+# -- the detector -----------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class FittedDetectionFilter:
+    model: StateSpaceModel
+    filters: tuple[ParkFilter, ...]
+    window: int
+    zeta_cal: tuple[Calibration, ...]
+    direction_cal: tuple[Calibration, ...]
+    direction_inv_cov: tuple[FloatArray, ...]
+    q_scale: tuple[FloatArray, ...]
+    tau: tuple[float, ...]
+    settle: int
+
+
+class DetectionFilter:
+    """``detection_filter``: a bank of Park et al. (1994) detection filters, one per sensor.
+
+    Settings: ``order`` (AR order or ``"aic"``/``"bic"``, used without a ``[model]``),
+    ``max_order``, ``fault_pole`` (``alpha`` of Eq. 12-14, 1 = constant faults),
+    ``time_constant_s`` (of the fault estimate, ``sigma = exp(-1 / (T rate))``; default one
+    sample period: the estimate follows a fault within a couple of samples, so a step stays
+    a step for the classifier -- averaging is the detection windows' job),
+    ``use_config_model`` (False ignores ``[model]``)."""
+
+    name: ClassVar[str] = "detection_filter"
+
+    def __init__(
+        self,
+        order: int | str = "bic",
+        max_order: int = 10,
+        fault_pole: float = 1.0,
+        time_constant_s: float | None = None,
+        use_config_model: bool = True,
+        block: int = 64,
+    ) -> None:
+        where = "[detectors.detection_filter]"
+        if isinstance(order, str) and order not in ("aic", "bic"):
+            raise DetectorError(
+                f"{where} order: expected an integer, 'aic' or 'bic', got {order!r}"
+            )
+        if isinstance(order, int) and order < 1:
+            raise DetectorError(f"{where} order must be >= 1, got {order}")
+        if not 0.0 < float(fault_pole) <= 1.0:
+            raise DetectorError(f"{where} fault_pole must be in (0, 1], got {fault_pole!r}")
+        if time_constant_s is not None and not float(time_constant_s) > 0.0:
+            raise DetectorError(f"{where} time_constant_s must be > 0, got {time_constant_s!r}")
+        self.order = order
+        self.max_order = int(max_order)
+        self.fault_pole = float(fault_pole)
+        self.time_constant_s = None if time_constant_s is None else float(time_constant_s)
+        self.use_config_model = bool(use_config_model)
+        self.block = int(block)
+
+    def _config_model(self, context: RunContext) -> Mapping[str, Any] | None:
+        model = context.config.get("model") if self.use_config_model else None
+        return model if model else None
+
+    def applicable(self, data: Dataset, context: RunContext) -> str | None:
+        model = self._config_model(context)
+        if model is not None:
+            outs = list(model.get("outputs") or [])
+            if outs and any(c not in data.channels for c in outs + list(model.get("inputs") or [])):
+                return "the [model] names channels that are not analyzed"
+            n_out = len(outs) or np.asarray(model["C"]).shape[0]
+            if n_out < 2:
+                return "needs a model with at least 2 outputs (one fault direction per sensor)"
+            return None
+        if len(data.channels) < 2:
+            return "needs at least 2 channels (one fault direction per sensor)"
+        return None
+
+    def _sigma(self, rate_hz: float) -> float:
+        tau_s = self.time_constant_s if self.time_constant_s is not None else 1.0 / rate_hz
+        return float(min(np.exp(-1.0 / (tau_s * rate_hz)), self.fault_pole * (1.0 - 1e-6)))
+
+    # -- fitting -----------------------------------------------------------------------------
+    def fit(self, data: Dataset, context: RunContext) -> FittedDetectionFilter:
+        reason = self.applicable(data, context)
+        if reason:
+            raise DetectorError(f"{self.name} {reason}")
+        cfg = self._config_model(context)
+        model = (
+            model_from_config(cfg, data)
+            if cfg is not None
+            else model_from_ar(data, self.order, self.max_order)
+        )
+        window = default_window(data.rate_hz)
+        sigma = self._sigma(data.rate_hz)
+        filters = self._bank(model, data, sigma)
+        train = np.asarray(data.train_values(), dtype=np.float64)
+        settle = max(f.settle() for f in filters)
+        if cfg is not None:
+            # a given model: only the noise ratio was fitted, calibrate in sample
+            skip = min(settle, train.shape[0] // 4)
+            outs = [(q[skip:], z[skip:]) for q, z, _ in self._outputs(model, filters, train)]
+        else:
+            outs = self._held_out(model, data, train, sigma)
+        alpha_far = context.false_alarm_rate / len(data.channels)  # per channel
+        zcal, dcal, dinv, qscale, taus = [], [], [], [], []
+        for i, (q, zeta) in enumerate(outs):
+            z = zeta
+            zcal.append(calibrate(z, window, alpha_far))
+            taus.append(long_run_time(z, window))
+            off = np.delete(q, i, axis=1)
+            good = np.isfinite(off).all(axis=1)
+            cov = np.atleast_2d(np.cov(off[good].T))
+            inv = np.asarray(np.linalg.pinv(cov), dtype=np.float64)
+            dinv.append(inv)
+            dcal.append(calibrate(_nis(off, inv), window, alpha_far))
+            qs = np.nanstd(q, axis=0)
+            qscale.append(np.where(qs > 0, qs, 1.0))
+        return FittedDetectionFilter(
+            model,
+            filters,
+            window,
+            tuple(zcal),
+            tuple(dcal),
+            tuple(dinv),
+            tuple(qscale),
+            tuple(taus),
+            settle,
+        )
+
+    def _bank(self, model: StateSpaceModel, data: Dataset, sigma: float) -> tuple[ParkFilter, ...]:
+        names = [data.channels[j] for j in model.outputs]
+        check_observable(model.A, model.C)  # once for the bank (Theorem 4.1)
+        return tuple(
+            park_filter(
+                model.A,
+                model.B,
+                model.C,
+                model.D,
+                i,
+                model.Q,
+                model.R,
+                model.S,
+                alpha=self.fault_pole,
+                sigma=sigma,
+                names=names,
+                check_observability=False,
+            )
+            for i in range(len(model.outputs))
+        )
+
+    def _held_out(
+        self, model: StateSpaceModel, data: Dataset, train: FloatArray, sigma: float
+    ) -> list[tuple[FloatArray, FloatArray]]:
+        """Healthy residual vectors and fault estimates for calibration, out of sample: the
+        AR model (same order) is refitted on each half of the training window, and each
+        half's bank runs over the other half. An AR model's in-sample innovations are
+        smaller than on new data, and the thresholds must hold on new data."""
+        n = train.shape[0]
+        half = n // 2
+        order = int(model.summary["order"])
+        parts: list[list[tuple[FloatArray, FloatArray]]] = []
+        for fit_rows, eval_rows in (
+            (slice(0, half), slice(half, n)),
+            (slice(half, n), slice(0, half)),
+        ):
+            try:
+                sub = model_from_ar(data, order, self.max_order, rows=train[fit_rows])
+                bank = self._bank(sub, data, sigma)
+            except DetectorError:
+                sub, bank = model, self._bank(model, data, sigma)  # halves too short
+            skip = min(max(f.settle() for f in bank), half // 4)
+            outs = self._outputs(sub, bank, train)
+            parts.append([(q[eval_rows][skip:], z[eval_rows][skip:]) for q, z, _ in outs])
+        first, second = parts[1], parts[0]  # evaluated on the first / second half
+        return [
+            (np.vstack([first[i][0], second[i][0]]), np.concatenate([first[i][1], second[i][1]]))
+            for i in range(len(first))
+        ]
+
+    def _outputs(
+        self, model: StateSpaceModel, filters: Sequence[ParkFilter], values: FloatArray
+    ) -> list[tuple[FloatArray, FloatArray, FloatArray]]:
+        """Per filter: residual vector ``q`` (N, m), fault estimate and
+        fault-free estimate (sensor units); NaN where an input was missing and while the
+        filter settles after it."""
+        Y = (
+            np.asarray(values[:, list(model.outputs)], dtype=np.float64) - model.y_mean
+        ) / model.y_scale
+        U = np.asarray(values[:, list(model.inputs)], dtype=np.float64) - model.u_mean
+        V = np.hstack([Y, U]) if U.shape[1] else Y
+        gap = ~np.isfinite(V)
+        bad = np.asarray(gap.any(axis=1), dtype=bool)
+        Vf = np.where(gap, 0.0, V)
+        res = []
+        for f in filters:
+            out, _ = f.lifted(self.block).run(Vf)
+            i = f.sensor
+            q = out[:, : f.n_outputs] * model.y_scale  # sensor units
+            zeta = out[:, f.n_outputs] * model.y_scale[i]
+            ref = out[:, f.n_outputs + 1] * model.y_scale[i] + model.y_mean[i]
+            if bad.any():
+                mask = _dilate_forward(bad, f.settle())
+                q[mask] = np.nan
+                zeta[mask] = np.nan
+                ref[mask] = np.nan
+            res.append((q, zeta, ref))
+        return res
+
+    # -- running -----------------------------------------------------------------------------
+    def run(
+        self, model: FittedDetectionFilter, data: Dataset, context: RunContext
+    ) -> DetectorResult:
+        ssm = model.model
+        names = tuple(data.channels[j] for j in ssm.outputs)
+        rate = data.rate_hz
+        outs = self._outputs(ssm, model.filters, np.asarray(data.values))
+        train_stop = data.train[1]
+        events: list[Event] = []
+        notes: list[str] = []
+        residuals: dict[str, FloatArray] = {}
+        reference: dict[str, FloatArray] = {}
+        n = data.n
+        m = len(outs)
+        # per filter: how far its residual leaves its own direction (> 1: alarm)
+        dstats = []
+        for i, (q, _, _) in enumerate(outs):
+            nis = _nis(np.delete(q, i, axis=1), model.direction_inv_cov[i])
+            dcal = model.direction_cal[i]
+            dstats.append(alarm_statistic(dcal.standardize(nis), dcal))
+        w = model.window
+        cands: list[tuple[int, int, Event]] = []  # (first alarm, filter, event)
+        for i, (_, zeta, ref) in enumerate(outs):
+            f = model.filters[i]
+            residuals[names[i]] = zeta
+            reference[names[i]] = ref
+            for ev in events_from_residual(
+                names[i],
+                zeta,
+                _lowpass(ref, f.sigma),
+                model.zeta_cal[i],
+                rate,
+                self.name,
+                search_start=train_stop,
+                tau_corr=model.tau[i],
+            ):
+                k0 = int(round(float(ev.evidence.get("first_alarm_s", ev.onset_s)) * rate))
+                cands.append((k0, i, ev))
+        cands.sort(key=lambda c: (c[0], c[1]))
+        span = model.zeta_cal[0].long_window
+        while cands:
+            # every alarm within a long window of the earliest competes for one fault
+            t0 = cands[0][0]
+            group = [c for c in cands if c[0] <= t0 + span]
+            cands = [c for c in cands if c[0] > t0 + span]
+            lo = max(train_stop, min(int(round(c[2].onset_s * rate)) for c in group) - w)
+            hi = min(n, t0 + 2 * span)
+            viol = [float(np.max(d[lo:hi], initial=0.0)) for d in dstats]
+            chans = sorted({c[1] for c in group})
+            # the sensor whose filter's residual stays closest to its own direction
+            j = min(
+                chans, key=lambda c: (viol[c], -_strength(outs[c][1], model.zeta_cal[c], lo, hi))
+            )
+            others = [viol[o] for o in range(m) if o != j]
+            typical = float(np.median(others)) if others else 0.0
+            confirmed = bool(others) and max(others) >= 1.0
+            k0, _, ev = next(c for c in group if c[1] == j)
+            k_on = int(round(ev.onset_s * rate))
+            f = model.filters[j]
+            seg = outs[j][0][k_on : min(n, k_on + max(2, int(np.ceil(1.0 / (1.0 - f.sigma)))))]
+            ev.evidence.update(
+                {
+                    "direction": names[j],
+                    "off_direction_violation": viol[j],
+                    "direction_angle_deg": _mean_angle_deg(seg, model.q_scale[j], j),
+                    "other_filters_violation": {names[o]: viol[o] for o in range(m) if o != j},
+                    "confirmed": confirmed,
+                    "candidates": [names[c] for c in chans],
+                }
+            )
+            when = f"{ev.onset_s:.3f} s"
+            if viol[j] >= 1.0 and viol[j] > DIRECTION_RELATIVE * typical:
+                notes.append(
+                    f"anomaly at {when} on {', '.join(names[c] for c in chans)} not attributed: "
+                    "the residual of every filter left its sensor's direction (a change of the "
+                    "structure or excitation, not one sensor)"
+                )
+                continue
+            if not confirmed:
+                notes.append(
+                    f"anomaly on {names[j]} at {when} not reported: no filter that measures "
+                    f"{names[j]} saw its signal change (model mismatch rather than a sensor "
+                    "fault)"
+                )
+                continue
+            events.append(ev)
+            for c in chans:
+                if c != j:
+                    notes.append(
+                        f"alarm on {names[c]} near {when} explained by the fault on {names[j]}: "
+                        f"the residual of {names[c]}'s filter left its direction"
+                    )
+        return DetectorResult(
+            detector=self.name,
+            channels=names,
+            params={
+                "order": self.order,
+                "fault_pole": self.fault_pole,
+                "fault_estimate_pole": model.filters[0].sigma,
+                "window": model.window,
+                "false_alarm_rate": context.false_alarm_rate,
+            },
+            events=events,
+            residuals=residuals,
+            reference=reference,
+            sigma={names[i]: model.zeta_cal[i].std for i in range(len(names))},
+            thresholds={names[i]: model.zeta_cal[i].as_dict() for i in range(len(names))},
+            model={
+                **ssm.summary,
+                "observable": True,
+                "filters": {
+                    names[i]: {
+                        "spectral_radius": f.spectral_radius,
+                        "fault_direction": names[i],
+                    }
+                    for i, f in enumerate(model.filters)
+                },
+            },
+            notes=notes,
+        )
+
+
+def long_run_time(r: FloatArray, window: int) -> float:
+    """Effective correlation time (samples) of a healthy residual for the classifier's
+    effective sample size: the larger of the integrated autocorrelation time
+    (:func:`correlation_time`) and the long-run variance ratio ``B var(block mean) / var``
+    at block lengths ``B = window, 2 window, ...`` up to an eighth of the record. A residual
+    that wanders slowly (more power near zero frequency than its short-lag autocorrelation
+    shows) would otherwise make a constant fault look like a slow drift."""
+    x = np.asarray(r, dtype=np.float64)
+    x = x[np.isfinite(x)]
+    tau = correlation_time(x)
+    v = float(np.var(x))
+    if not v > 0.0:
+        return tau
+    b = max(1, int(window))
+    while 8 * b <= x.shape[0]:
+        nb = x.shape[0] // b
+        means = x[: nb * b].reshape(nb, b).mean(axis=1)
+        tau = max(tau, float(b * np.var(means, ddof=1) / v))
+        b *= 2
+    return tau
+
+
+def _strength(z: FloatArray, cal: Calibration, a: int, b: int) -> float:
+    """Mean |standardized residual| over ``[a, b)``."""
+    seg = cal.standardize(z[a:b])
+    return float(np.nanmean(np.abs(seg))) if b > a and np.isfinite(seg).any() else 0.0
+
+
+def _nis(r: FloatArray, inv_cov: FloatArray) -> FloatArray:
+    """Normalized squared residual per sample, ``r' S^-1 r / dim``."""
+    if r.shape[1] == 0:
+        return np.zeros(r.shape[0])
+    return np.einsum("ki,ij,kj->k", r, inv_cov, r) / r.shape[1]
+
+
+def _lowpass(x: FloatArray, sigma: float) -> FloatArray:
+    """The fault estimate's own first-order low-pass (DC gain 1), started at steady state,
+    so the classifier's fault-free shape matches the residual's dynamics."""
+    xx = np.asarray(x, dtype=np.float64)
+    finite = np.isfinite(xx)
+    if not finite.any():
+        return xx.copy()
+    xf = np.where(finite, xx, 0.0)
+    b, a = [1.0 - sigma], [1.0, -sigma]
+    zi = signal.lfilter_zi(b, a) * xf[np.argmax(finite)]
+    out, _ = signal.lfilter(b, a, xf, zi=zi)
+    out[~finite] = np.nan
+    return np.asarray(out, dtype=np.float64)
+
+
+def _mean_angle_deg(q: FloatArray, scale: FloatArray, i: int) -> float | None:
+    """Angle (degrees) between the mean whitened residual over ``q`` and ``e_i``."""
+    good = np.isfinite(q).all(axis=1)
+    if not good.any():
+        return None
+    mean = np.mean(q[good] / scale, axis=0)
+    ang = direction_angles(mean[None, :])[0, i]
+    return None if not np.isfinite(ang) else float(np.degrees(ang))
+
+
+def _dilate_forward(mask: npt.NDArray[np.bool_], n: int) -> npt.NDArray[np.bool_]:
+    """True wherever ``mask`` was True within the previous ``n`` samples."""
+    if not mask.any():
+        return mask
+    c = np.cumsum(np.concatenate(([0], mask.astype(np.int64))))
+    k = np.arange(mask.shape[0])
+    lo = np.maximum(0, k - n)
+    return (c[k + 1] - c[lo]) > 0
+
+
+__all__ = [
+    "DetectionFilter",
+    "FittedDetectionFilter",
+    "ParkFilter",
+    "StateSpaceModel",
+    "augment",
+    "check_observable",
+    "filter_riccati",
+    "direction_angles",
+    "ar_observer_form",
+    "kalman_gains",
+    "long_run_time",
+    "model_from_ar",
+    "model_from_config",
+    "park_filter",
+    "unobservable_modes",
+]

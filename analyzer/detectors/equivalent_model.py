@@ -1,0 +1,762 @@
+"""Sensor fault diagnosis with equivalent models and an assistant state (Wang & Song 2014).
+
+Equivalent model (Section 2, Eq. 7-13)
+--------------------------------------
+For one target sensor ``i`` the plant, whatever its nonlinear structure, is written as a
+one-dimensional linear state equation with bounded uncertainty,
+``x_i' = a x_i + b u + d``, ``y = x_i + f_s`` (Eq. 13), where the *equivalent disturbance*
+``d`` collects the model uncertainty, the other states and the actuator faults.
+
+Assistant state and perfect decoupling (Section 4.2, Eq. 26-32)
+-----------------------------------------------------------------
+Adding the assistant state ``xbar_i = int x_i dt`` (measured, or computed from other
+sensors through an analytical relationship) gives (Eq. 26-27)::
+
+    [xbar_i; x_i]' = [[0, 1], [0, a]] [xbar_i; x_i] + [0; b] u + [0; 1] d,
+    [y_1; y_2]     = [xbar_i; x_i] + [fbar_s; f_s]
+
+and the observer ``xhat' = A xhat + B u + K (y - C xhat)``, ``r = W (y - C xhat)``
+(Eq. 28-29) with Theorem 6's gain ``W = [1 0]``, ``K = [[lambda1, 1], [0, a + lambda2]]``.
+Then ``A - K C = diag(-lambda1, -lambda2)``, ``W C E = 0`` and ``W C`` is a left eigenvector
+of ``A - K C`` (Lemma 1), so the disturbance, the model uncertainty and the input vanish
+from the residual::
+
+    r(s) = s / (s + lambda1) fbar_s(s) - 1 / (s + lambda1) f_s(s)          (Eq. 30)
+
+which settles at ``-f_s / lambda1`` (Eq. 31-32), while a bias of the assistant state dies
+out. Neither ``a`` nor ``b`` appears in Eq. 30: they shape only the output estimate
+``xhat_2`` (Theory 3-4), which is what the pretreatment of Algorithm 1 tunes.
+
+Discretization
+--------------
+The observer is discretized exactly (zero-order hold of the sampled inputs, ``expm``).
+When the assistant state is given as samples of ``xbar`` (``mode="state"``), holding it
+constant between samples while ``y_2`` is held too leaves an ``O(h)`` mismatch (the
+integral and its rate are not both piecewise constant) -- the "potential risk" of Section
+4.1; a first-order hold (``hold="foh"``) reduces it to ``O(h^2)``. When the assistant state is
+the integral of a *rate* ``z`` computed from other sensors (``mode="rate"``, used by the
+detector), ``xbar = int z`` is integrated inside the observer. In the coordinates
+``r = xbar - xhat_1`` the integrator drops out: ``r' = -lambda1 r + z - y_2`` (the
+integrator of the assistant state is unobservable from ``r`` and ``xhat_2``), so the exact
+ZOH discretization of the whole chain is the stable two-state system
+``r[k+1] = phi r[k] + (1 - phi) / lambda1 (z[k] - y_2[k])``, ``phi = exp(-lambda1 h)``:
+``z`` and ``y_2`` share the same hold, so perfect decoupling survives sampling exactly and
+a constant ``f_s`` gives ``-f_s / lambda1`` exactly.
+
+Detector
+--------
+For every target sensor with assistant sensors in the sensor network
+(:mod:`analyzer.detectors.network`), the rate ``z_i`` is a linear relation identified on
+the healthy window (least-squares FIR of the assistant sensors' samples, the "analytical
+relationship" of Section 4.3). The fault estimate ``-lambda1 r`` (sensor units,
+``measured - estimated``, the fault regeneration of Section 6.3) is the channel's residual;
+alarms are isolated by the network's laws (Section 6.2).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+import numpy.typing as npt
+from scipy import linalg, signal
+
+from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
+from analyzer.detectors.detection_filter import UNCONFIRMED_FACTOR, long_run_time
+from analyzer.detectors.network import NetworkDiagnosis, Propagation, SensorNetwork
+from analyzer.diagnosis.changes import Calibration, calibrate, default_window
+from analyzer.diagnosis.events import events_from_residual
+from analyzer.errors import DetectorError
+from analyzer.types import FaultType
+
+FloatArray = npt.NDArray[np.float64]
+Mode = Literal["state", "rate"]
+Hold = Literal["zoh", "foh"]
+
+
+# -- the observer ---------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class AssistantObserver:
+    """The observer of Eq. 28 with the gain of Theorem 6 for the equivalent model
+    ``x' = a x + b u + d`` (Eq. 13), sampled every ``dt`` seconds."""
+
+    a: float
+    b: float
+    lambda1: float
+    lambda2: float
+    dt: float
+
+    def __post_init__(self) -> None:
+        if not (self.lambda1 > 0.0 and self.lambda2 > 0.0):
+            raise DetectorError(
+                f"lambda1 and lambda2 must be positive (Theorem 6), got {self.lambda1}, "
+                f"{self.lambda2}"
+            )
+        if not self.dt > 0.0:
+            raise DetectorError(f"sample period must be positive, got {self.dt}")
+
+    # Eq. 27 and Theorem 6
+    @property
+    def A(self) -> FloatArray:
+        return np.array([[0.0, 1.0], [0.0, self.a]])
+
+    @property
+    def B(self) -> FloatArray:
+        return np.array([[0.0], [self.b]])
+
+    @property
+    def E(self) -> FloatArray:
+        return np.array([[0.0], [1.0]])
+
+    @property
+    def C(self) -> FloatArray:
+        return np.eye(2)
+
+    @property
+    def K(self) -> FloatArray:
+        return np.array([[self.lambda1, 1.0], [0.0, self.a + self.lambda2]])
+
+    @property
+    def W(self) -> FloatArray:
+        return np.array([[1.0, 0.0]])
+
+    @property
+    def Ac(self) -> FloatArray:
+        """``A - K C = diag(-lambda1, -lambda2)``."""
+        return self.A - self.K @ self.C
+
+    def transfer(self, s: complex) -> tuple[complex, complex, complex]:
+        """``(G_rd, G_r_fbar, G_r_fs)`` at the Laplace variable ``s`` (Eq. 25, 29-30):
+        ``G_rd = W C (sI - Ac)^-1 E`` (0 by Lemma 1) and the fault transfers
+        ``W (I - C (sI - Ac)^-1 K)`` split over ``[fbar_s, f_s]``."""
+        res = np.linalg.inv(s * np.eye(2) - self.Ac)
+        grd = complex((self.W @ self.C @ res @ self.E)[0, 0])
+        grf = self.W @ (np.eye(2) - self.C @ res @ self.K)
+        return grd, complex(grf[0, 0]), complex(grf[0, 1])
+
+    def continuous(
+        self, mode: Mode = "state"
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """``(A, B, C, D)`` of the observer as an LTI system.
+
+        ``mode="state"``: inputs ``[xbar, y, u]``, state ``xhat``, outputs ``[r, xhat_2]``.
+        ``mode="rate"``: inputs ``[z, y, u]`` with ``xbar = int z``, state ``[r, xhat_2]``
+        (module docstring), outputs ``[r, xhat_2]``."""
+        l1, l2 = self.lambda1, self.lambda2
+        if mode == "state":
+            Ao = self.Ac
+            Bo = np.hstack([self.K, self.B])
+            Co = np.array([[-1.0, 0.0], [0.0, 1.0]])
+            Do = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+            return Ao, Bo, Co, Do
+        if mode == "rate":
+            Ao = np.diag([-l1, -l2])
+            Bo = np.array([[1.0, -1.0, 0.0], [0.0, self.a + l2, self.b]])
+            return Ao, Bo, np.eye(2), np.zeros((2, 3))
+        raise DetectorError(f"observer mode must be 'state' or 'rate', got {mode!r}")
+
+    def discrete(
+        self, mode: Mode = "state", hold: Hold = "zoh"
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """Exact discretization ``(F, G, H, J)`` for the given hold of the sampled inputs."""
+        if hold not in ("zoh", "foh"):
+            raise DetectorError(f"hold must be 'zoh' or 'foh', got {hold!r}")
+        sysc = self.continuous(mode)
+        F, G, H, J, _ = signal.cont2discrete(sysc, self.dt, method=hold)
+        return (np.asarray(F), np.asarray(G), np.asarray(H), np.asarray(J))
+
+    def run(
+        self,
+        assistant: FloatArray,
+        measured: FloatArray,
+        u: FloatArray | None = None,
+        *,
+        mode: Mode = "state",
+        hold: Hold = "zoh",
+    ) -> tuple[FloatArray, FloatArray]:
+        """Residual ``r`` (Eq. 29) and output estimate ``xhat_2`` over the records.
+
+        ``assistant`` is ``xbar`` (``mode="state"``) or its rate ``z`` (``mode="rate"``);
+        the observer starts in the healthy steady state (``r = 0``, ``xhat_2 = y[0]``).
+        The recursion runs as first-order IIR filters (``A - K C`` is diagonal): no Python
+        loop per sample. Outputs are taken at the sample instants."""
+        xa = np.asarray(assistant, dtype=np.float64)
+        y = np.asarray(measured, dtype=np.float64)
+        uu = np.zeros_like(y) if u is None else np.asarray(u, dtype=np.float64)
+        V = np.column_stack([xa, y, uu])
+        F, G, H, J = self.discrete(mode, hold)
+        target = np.array([0.0, y[0]])
+        x0 = np.linalg.solve(H, target - J @ V[0])
+        X = _diag_states(F, G, V, x0)
+        out = X[:-1] @ H.T + V @ J.T
+        return out[:, 0], out[:, 1]
+
+    def rate_residual(self, z: FloatArray, measured: FloatArray) -> FloatArray:
+        """``r`` *after* each sample, ``r[k+1]`` (``mode="rate"``, ZOH): the residual at the
+        end of sample ``k``'s hold interval, so it includes sample ``k`` (no one-sample
+        lag); ``r[0] = 0`` before the first sample."""
+        phi = float(np.exp(-self.lambda1 * self.dt))
+        gain = (1.0 - phi) / self.lambda1
+        x = gain * (np.asarray(z, dtype=np.float64) - np.asarray(measured, dtype=np.float64))
+        out, _ = signal.lfilter([1.0], [1.0, -phi], x, zi=[0.0])
+        return np.asarray(out, dtype=np.float64)
+
+
+def _diag_states(F: FloatArray, G: FloatArray, V: FloatArray, x0: FloatArray) -> FloatArray:
+    """States ``x[0..N]`` of ``x[k+1] = F x[k] + G v[k]`` for a diagonal ``F``, each state a
+    first-order recursion run by ``lfilter``."""
+    d = np.diag(F)
+    if not np.allclose(F, np.diag(d), atol=1e-14 * max(1.0, float(np.abs(F).max()))):
+        raise DetectorError("internal error: the observer's state matrix is not diagonal")
+    N = V.shape[0]
+    X = np.empty((N + 1, F.shape[0]))
+    X[0] = x0
+    for j in range(F.shape[0]):
+        drive = V @ G[j]
+        out, _ = signal.lfilter([1.0], [1.0, -d[j]], drive, zi=[d[j] * x0[j]])
+        X[1:, j] = out
+    return X
+
+
+# -- pretreatment (Algorithm 1, Theory 3-4) ------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class Pretreatment:
+    """Observer parameters ``a``, ``b`` and the resulting RMS of ``e_y = y - yhat``."""
+
+    a: float
+    b: float
+    ey_rms: float
+    method: str
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"a": self.a, "b": self.b, "ey_rms": self.ey_rms, "method": self.method}
+
+
+def _output_error(
+    y: FloatArray, u: FloatArray, a: float, b: float, lambda2: float, dt: float
+) -> FloatArray:
+    """``e_y = y - xhat_2`` of the output observer (Eq. 14 and 17 with ``k = a + lambda2``),
+    exact ZOH, started at ``xhat_2 = y[0]``."""
+    obs = AssistantObserver(a, b, 1.0, lambda2, dt)
+    F, G, _, _ = obs.discrete("rate")
+    V = np.column_stack([np.zeros_like(y), y, u])
+    X = _diag_states(F[1:, 1:], G[1:], V, np.array([y[0]]))
+    return y - X[:-1, 0]
+
+
+def pretreat(
+    y: FloatArray,
+    u: FloatArray | None,
+    dt: float,
+    lambda2: float,
+    table: Sequence[Sequence[float]] | None = None,
+) -> Pretreatment:
+    """Algorithm 1 / Theory 3-4: choose ``a``, ``b`` of the observer so the output error
+    ``e_y = y - yhat`` (Eq. 20-22) is as small as possible on healthy data.
+
+    With a ``table`` of candidate ``(a, b)`` pairs this is the paper's table approach (the
+    pair with the smallest RMS ``e_y``). Without, the exact minimizer: ``xhat_2`` obeys
+    ``xhat_2' = -lambda2 xhat_2 + (a + lambda2) y + b u``, so the sampled ``e_y`` is affine in
+    ``(a, b)`` and three runs of the discrete observer give it in closed form; linear least
+    squares then minimizes ``||e_y||``. ``a = 0`` is excluded by Theory 1 and reported."""
+    yy = np.asarray(y, dtype=np.float64)
+    ok = np.isfinite(yy)
+    uu = np.zeros_like(yy) if u is None else np.asarray(u, dtype=np.float64)
+    ok &= np.isfinite(uu)
+    if ok.sum() < 16:
+        raise DetectorError(
+            f"too little healthy data for the pretreatment: {int(ok.sum())} samples"
+        )
+    # contiguous run with no gap (the observer needs consecutive samples)
+    runs = np.flatnonzero(np.diff(np.concatenate(([0], ok.astype(np.int8), [0]))))
+    lens = runs[1::2] - runs[::2]
+    k = int(np.argmax(lens))
+    seg = slice(int(runs[2 * k]), int(runs[2 * k + 1]))
+    yy, uu = yy[seg], uu[seg]
+    if table is not None:
+        best: Pretreatment | None = None
+        for row in table:
+            if len(row) != 2:
+                raise DetectorError(f"pretreatment table rows must be (a, b) pairs, got {row!r}")
+            a, b = float(row[0]), float(row[1])
+            e = _output_error(yy, uu, a, b, lambda2, dt)
+            rms = float(np.sqrt(np.mean(e * e)))
+            if best is None or rms < best.ey_rms:
+                best = Pretreatment(a, b, rms, "table (Algorithm 1)")
+        if best is None:
+            raise DetectorError("the pretreatment table is empty")
+        return best
+    e0 = _output_error(yy, uu, 0.0, 0.0, lambda2, dt)
+    cols = [_output_error(yy, uu, 1.0, 0.0, lambda2, dt) - e0]
+    with_input = u is not None and float(np.ptp(uu)) > 0.0
+    if with_input:
+        cols.append(_output_error(yy, uu, 0.0, 1.0, lambda2, dt) - e0)
+    M = np.column_stack(cols)
+    coef, *_ = np.linalg.lstsq(M, -e0, rcond=None)
+    a = float(coef[0])
+    b = float(coef[1]) if with_input else 0.0
+    e = e0 + M @ coef
+    return Pretreatment(a, b, float(np.sqrt(np.mean(e * e))), "least squares (Theory 4)")
+
+
+# -- relations identified on healthy data (Section 4.3) -------------------------------------
+@dataclass(frozen=True, slots=True)
+class Relation:
+    """``z[k] = c + sum_j sum_{l=0..L} h[j, l] y_j[k - l]``: the estimate of a target sensor
+    from its assistant sensors (a causal FIR), least squares on the healthy window."""
+
+    target: int
+    assistants: tuple[int, ...]
+    lags: int
+    coef: FloatArray  # (len(assistants), lags + 1)
+    intercept: float
+    r_squared: float
+
+    def estimate(self, values: FloatArray) -> FloatArray:
+        """``z`` over ``values`` (N, m); NaN inputs count as 0 (mask afterwards)."""
+        N = values.shape[0]
+        z = np.full(N, self.intercept)
+        for j, col in enumerate(self.assistants):
+            x = np.nan_to_num(np.asarray(values[:, col], dtype=np.float64), nan=0.0)
+            z += signal.lfilter(self.coef[j], [1.0], x)
+        return z
+
+    def as_dict(self, names: Sequence[str]) -> dict[str, Any]:
+        return {
+            "target": names[self.target],
+            "assistants": [names[j] for j in self.assistants],
+            "lags": self.lags,
+            "r_squared": self.r_squared,
+            "dc_gain": {names[j]: float(self.coef[i].sum()) for i, j in enumerate(self.assistants)},
+        }
+
+
+LAG_CANDIDATES = (0, 1, 2, 4, 8, 16, 32, 64, 128)
+
+
+def fit_relation(
+    values: FloatArray,
+    target: int,
+    assistants: Sequence[int],
+    lags: int | str = "bic",
+    max_lags: int = 64,
+) -> Relation:
+    """Least-squares FIR relation of ``target`` on ``assistants`` (rows with a NaN dropped);
+    ``lags="bic"`` picks the length among ``0, 1, 2, 4, ...`` up to ``max_lags`` by BIC, all
+    candidates fitted on the same rows."""
+    Y = np.asarray(values, dtype=np.float64)
+    if isinstance(lags, str):
+        if lags != "bic":
+            raise DetectorError(f"lags must be an integer or 'bic', got {lags!r}")
+        cands = [L for L in LAG_CANDIDATES if max_lags >= L]
+    else:
+        if int(lags) < 0:
+            raise DetectorError(f"lags must be >= 0, got {lags}")
+        cands = [int(lags)]
+    Lmax = max(cands)
+    N = Y.shape[0]
+    need = Lmax + 4 * (len(assistants) * (Lmax + 1) + 1)
+    if need >= N:
+        raise DetectorError(
+            f"too little healthy data for a {Lmax}-lag relation of {len(assistants)} sensor(s): "
+            f"{N} samples"
+        )
+    t = Y[Lmax:, target]
+    blocks = [
+        np.column_stack([Y[Lmax - g : N - g, j] for g in range(Lmax + 1)]) for j in assistants
+    ]
+    ok = np.isfinite(t)
+    for b in blocks:
+        ok &= np.isfinite(b).all(axis=1)
+    t = t[ok]
+    blocks = [b[ok] for b in blocks]
+    n = t.shape[0]
+    var_t = float(np.var(t))
+    if not var_t > 0.0:
+        raise DetectorError("the target sensor is constant in the training window")
+    # one Gram matrix for every candidate length (a single matrix product over the long
+    # axis), each candidate solved by Cholesky on its unit-diagonal sub-matrix
+    X = np.column_stack([np.ones(n), *blocks])
+    G = X.T @ X
+    h_all = X.T @ t
+    width = Lmax + 1
+    results = []
+    for L in cands:
+        idx = np.concatenate([[0], *[1 + j * width + np.arange(L + 1) for j in range(len(blocks))]])
+        coef = _solve_normal(G[np.ix_(idx, idx)], h_all[idx])
+        rss = float(np.sum((t - X[:, idx] @ coef) ** 2))
+        bic = n * np.log(max(rss / n, 1e-300)) + idx.shape[0] * np.log(n)
+        results.append((bic, L, coef, float(1.0 - rss / (n * var_t))))
+    _, L, coef, r2 = min(results, key=lambda r: r[0])
+    h = coef[1:].reshape(len(assistants), L + 1)
+    return Relation(target, tuple(assistants), L, h, float(coef[0]), r2)
+
+
+def _solve_normal(G: FloatArray, h: FloatArray) -> FloatArray:
+    """Least squares from the normal equations ``G b = h``: columns scaled to a unit
+    diagonal, a ridge of ``1e-10`` against rounding (lagged samples of smooth signals are
+    nearly collinear), Cholesky."""
+    d = np.sqrt(np.maximum(np.diag(G), 1e-300))
+    Gn = G / np.outer(d, d)
+    Gn[np.diag_indices_from(Gn)] += 1e-10
+    try:
+        c = linalg.cho_solve(linalg.cho_factor(Gn), h / d)
+    except linalg.LinAlgError:
+        c = np.linalg.lstsq(Gn, h / d, rcond=None)[0]
+    return np.asarray(c / d, dtype=np.float64)
+
+
+# -- the detector --------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class TargetObserver:
+    target: int
+    relation: Relation
+    observer: AssistantObserver
+    pretreatment: Pretreatment
+    input: int | None
+    cal: Calibration
+    tau: float
+
+
+@dataclass(frozen=True, slots=True)
+class FittedEquivalentModel:
+    network: SensorNetwork
+    observers: tuple[TargetObserver, ...]
+    window: int
+    settle: int
+
+
+class EquivalentModel:
+    """``equivalent_model``: Wang & Song (2014) observers with an assistant state, one per
+    target sensor, and the sensor-network diagnosis logic.
+
+    Settings: ``lambda1``, ``lambda2`` (rad/s, Theorem 6; default the sample rate, so the
+    residual follows a fault within about a sample), ``assistants`` (``{target = [sensor,
+    ...]}``; default a ring through the sensors in order of healthy correlation, each
+    target assisted by ``n_assistants`` sensors), ``quasi_heads``, ``propagation``
+    (``"direct"``/``"chained"``), ``lags`` (FIR length of the relations, or ``"bic"``),
+    ``max_lags``, ``inputs`` (``{target = input_channel}``, the ``u`` of Eq. 8),
+    ``table`` (candidate ``[a, b]`` pairs for Algorithm 1; default least squares)."""
+
+    name: ClassVar[str] = "equivalent_model"
+
+    def __init__(
+        self,
+        lambda1: float | None = None,
+        lambda2: float | None = None,
+        assistants: Mapping[str, Sequence[str]] | None = None,
+        n_assistants: int = 2,
+        quasi_heads: Sequence[str] = (),
+        propagation: str = "direct",
+        lags: int | str = "bic",
+        max_lags: int = 64,
+        inputs: Mapping[str, str] | None = None,
+        table: Sequence[Sequence[float]] | None = None,
+    ) -> None:
+        where = "[detectors.equivalent_model]"
+        for key, val in (("lambda1", lambda1), ("lambda2", lambda2)):
+            if val is not None and not float(val) > 0.0:
+                raise DetectorError(f"{where} {key} must be > 0 (Theorem 6), got {val!r}")
+        if int(n_assistants) < 1:
+            raise DetectorError(f"{where} n_assistants must be >= 1, got {n_assistants!r}")
+        if propagation not in ("direct", "chained"):
+            raise DetectorError(
+                f"{where} propagation must be 'direct' or 'chained', got {propagation!r}"
+            )
+        if isinstance(lags, str) and lags != "bic":
+            raise DetectorError(f"{where} lags: expected an integer or 'bic', got {lags!r}")
+        if isinstance(lags, int) and lags < 0:
+            raise DetectorError(f"{where} lags must be >= 0, got {lags}")
+        self.lambda1 = None if lambda1 is None else float(lambda1)
+        self.lambda2 = None if lambda2 is None else float(lambda2)
+        self.assistants = (
+            None if assistants is None else {k: list(v) for k, v in assistants.items()}
+        )
+        self.n_assistants = int(n_assistants)
+        self.quasi_heads = tuple(quasi_heads)
+        self.propagation = Propagation(propagation)
+        self.lags = lags
+        self.max_lags = int(max_lags)
+        self.inputs = dict(inputs or {})
+        self.table = None if table is None else [list(map(float, r)) for r in table]
+
+    def applicable(self, data: Dataset, context: RunContext) -> str | None:
+        names = set(data.channels)
+        if self.assistants is not None:
+            used = set(self.assistants) | {a for v in self.assistants.values() for a in v}
+            missing = sorted(used - names)
+            if missing:
+                return (
+                    f"[detectors.equivalent_model] assistants names channel {missing[0]!r}, "
+                    "which is not analyzed"
+                )
+            if not any(self.assistants.values()):
+                return "the configured sensor network has no assistant sensors"
+        elif len(data.channels) - len(set(self.inputs.values())) < 3:
+            return (
+                "needs at least 3 channels for an automatic sensor network (two sensors that "
+                "assist each other cannot be told apart); configure assistants otherwise"
+            )
+        bad = sorted((set(self.inputs) | set(self.inputs.values())) - names)
+        if bad:
+            return (
+                f"[detectors.equivalent_model] inputs names channel {bad[0]!r}, "
+                "which is not analyzed"
+            )
+        return None
+
+    def _network(self, data: Dataset) -> SensorNetwork:
+        input_ch = set(self.inputs.values())
+        sensors = [c for c in data.channels if c not in input_ch]
+        if self.assistants is not None:
+            try:
+                return SensorNetwork(
+                    tuple(sensors),
+                    {t: tuple(a) for t, a in self.assistants.items()},
+                    self.quasi_heads,
+                    self.propagation,
+                )
+            except ValueError as err:
+                raise DetectorError(f"[detectors.equivalent_model] {err}") from err
+        train = np.asarray(data.train_values(), dtype=np.float64)[
+            :, [data.index(c) for c in sensors]
+        ]
+        ok = np.isfinite(train).all(axis=1)
+        corr = np.corrcoef(train[ok].T)
+        net = SensorNetwork.design(sensors, np.nan_to_num(corr), self.n_assistants)
+        if self.quasi_heads or self.propagation is not Propagation.DIRECT:
+            net = SensorNetwork(net.sensors, net.assistants, self.quasi_heads, self.propagation)
+        return net
+
+    # -- fitting -----------------------------------------------------------------------------
+    def fit(self, data: Dataset, context: RunContext) -> FittedEquivalentModel:
+        reason = self.applicable(data, context)
+        if reason:
+            raise DetectorError(f"{self.name}: {reason}")
+        dt = 1.0 / data.rate_hz
+        l1 = self.lambda1 if self.lambda1 is not None else data.rate_hz
+        l2 = self.lambda2 if self.lambda2 is not None else l1
+        net = self._network(data)
+        train = np.asarray(data.train_values(), dtype=np.float64)
+        window = default_window(data.rate_hz)
+        targets = [s for s in net.sensors if net.assistant_sensors(s)]
+        far = context.false_alarm_rate / len(data.channels)  # per channel
+        observers = []
+        settle = 0
+        for s in targets:
+            i = data.index(s)
+            ass = [data.index(a) for a in net.assistant_sensors(s)]
+            rel = fit_relation(train, i, ass, self.lags, self.max_lags)
+            uch = self.inputs.get(s)
+            ui = None if uch is None else data.index(uch)
+            pre = pretreat(train[:, i], None if ui is None else train[:, ui], dt, l2, self.table)
+            obs = AssistantObserver(pre.a, pre.b, l1, l2, dt)
+            phi = float(np.exp(-l1 * dt))
+            lag = rel.lags + int(np.ceil(np.log(1e-6) / np.log(min(max(phi, 1e-3), 1 - 1e-9))))
+            settle = max(settle, lag)
+            z = self._held_out_estimate(obs, rel, train, i, lag)
+            cal = calibrate(z, window, far)
+            observers.append(TargetObserver(i, rel, obs, pre, ui, cal, long_run_time(z, window)))
+        return FittedEquivalentModel(net, tuple(observers), window, settle)
+
+    def _held_out_estimate(
+        self, obs: AssistantObserver, rel: Relation, train: FloatArray, i: int, skip: int
+    ) -> FloatArray:
+        """The healthy fault estimate for calibration, out of sample: the relation is
+        refitted on each half of the training window (same lags) and evaluated on the
+        other half, so the thresholds reflect how well it predicts data it has not seen."""
+        n = train.shape[0]
+        half = n // 2
+        parts = []
+        for fit_rows, eval_rows in (
+            (slice(0, half), slice(half, n)),
+            (slice(half, n), slice(0, half)),
+        ):
+            try:
+                r_half = fit_relation(train[fit_rows], i, rel.assistants, rel.lags)
+            except DetectorError:
+                r_half = rel  # too little data for halves: fall back to in-sample
+            zeta = self._fault_estimate(obs, r_half, train, i)
+            seg = zeta[eval_rows]
+            parts.append(seg[min(skip, seg.shape[0] // 4) :])
+        return np.concatenate(parts[::-1])
+
+    @staticmethod
+    def _fault_estimate(
+        obs: AssistantObserver, rel: Relation, values: FloatArray, i: int
+    ) -> FloatArray:
+        """``-lambda1 r`` after each sample (sensor units, measured - estimated; Eq. 32 and
+        the fault regeneration of Section 6.3), NaN around gaps."""
+        y = np.asarray(values[:, i], dtype=np.float64)
+        z = rel.estimate(values)
+        gap = ~np.isfinite(y)
+        for j in rel.assistants:
+            gap |= ~np.isfinite(values[:, j])
+        r = obs.rate_residual(z, np.where(np.isfinite(y), y, 0.0))
+        zeta = -obs.lambda1 * r
+        if gap.any():
+            phi = float(np.exp(-obs.lambda1 * obs.dt))
+            n_settle = rel.lags + int(np.ceil(np.log(1e-6) / np.log(min(max(phi, 1e-3), 1 - 1e-9))))
+            zeta[_dilate_forward(gap, n_settle)] = np.nan
+        return zeta
+
+    # -- running -----------------------------------------------------------------------------
+    def run(
+        self, model: FittedEquivalentModel, data: Dataset, context: RunContext
+    ) -> DetectorResult:
+        values = np.asarray(data.values)
+        rate = data.rate_hz
+        net = model.network
+        train_stop = data.train[1]
+        residuals: dict[str, FloatArray] = {}
+        reference: dict[str, FloatArray] = {}
+        cands: dict[str, list[Event]] = {}
+        for ob in model.observers:
+            name = data.channels[ob.target]
+            zeta = self._fault_estimate(ob.observer, ob.relation, values, ob.target)
+            z = ob.relation.estimate(values)
+            z[~np.isfinite(zeta)] = np.nan
+            residuals[name] = zeta
+            reference[name] = z
+            phi = float(np.exp(-ob.observer.lambda1 * ob.observer.dt))
+            cands[name] = events_from_residual(
+                name,
+                zeta,
+                _lowpass(z, phi),
+                ob.cal,
+                rate,
+                self.name,
+                search_start=train_stop,
+                tau_corr=ob.tau,
+            )
+        events, notes, decisions = self._isolate(net, cands, model.window * 8 / rate)
+        for s, why in net.undiagnosable().items():
+            notes.append(f"{s} cannot be diagnosed by the observers alone ({why})")
+        l1 = model.observers[0].observer.lambda1 if model.observers else self.lambda1
+        l2 = model.observers[0].observer.lambda2 if model.observers else self.lambda2
+        return DetectorResult(
+            detector=self.name,
+            channels=tuple(residuals),
+            params={
+                "lambda1": l1,
+                "lambda2": l2,
+                "lags": self.lags,
+                "window": model.window,
+                "false_alarm_rate": context.false_alarm_rate,
+            },
+            events=events,
+            residuals=residuals,
+            reference=reference,
+            sigma={data.channels[o.target]: o.cal.std for o in model.observers},
+            thresholds={data.channels[o.target]: o.cal.as_dict() for o in model.observers},
+            model={
+                "type": "equivalent models with assistant states",
+                "source": "relations identified on the healthy window",
+                "network": net.as_dict(),
+                "observers": {
+                    data.channels[o.target]: {
+                        "relation": o.relation.as_dict(data.channels),
+                        "pretreatment": o.pretreatment.as_dict(),
+                        "input": None if o.input is None else data.channels[o.input],
+                        "lambda1": o.observer.lambda1,
+                        "lambda2": o.observer.lambda2,
+                    }
+                    for o in model.observers
+                },
+                "decisions": decisions,
+            },
+            notes=notes,
+        )
+
+    @staticmethod
+    def _isolate(
+        net: SensorNetwork, cands: Mapping[str, list[Event]], slack_s: float
+    ) -> tuple[list[Event], list[str], list[dict[str, Any]]]:
+        """Keep the events the network's laws attribute to their own sensor: for each
+        event, the alarming set is every sensor whose residual alarms at (or first alarms
+        within ``slack_s`` of) the event's first alarm; :meth:`SensorNetwork.diagnose`
+        decides. First alarms are used, not fitted onsets, which a drift fit may move."""
+
+        def first(e: Event) -> float:
+            return float(e.evidence.get("first_alarm_s", e.onset_s))
+
+        allev = [(s, ev) for s, evs in cands.items() for ev in evs]
+        events: list[Event] = []
+        notes: list[str] = []
+        decisions: list[dict[str, Any]] = []
+        for s, ev in sorted(allev, key=lambda p: first(p[1])):
+            t0 = first(ev)
+            alarming = {
+                o
+                for o, e in allev
+                if abs(first(e) - t0) <= slack_s
+                or (first(e) <= t0 and (e.end_s is None or e.end_s >= t0))
+            }
+            diag: NetworkDiagnosis = net.diagnose(alarming)
+            decisions.append({"onset_s": t0, "sensor": s, **diag.as_dict()})
+            confirmed = [t for t in net.targets(s) if t in diag.propagated]
+            if s in diag.faulty and not confirmed and ev.type is FaultType.OTHER:
+                notes.append(
+                    f"anomaly on {s} at {t0:.3f} s not reported: it has no fault shape and "
+                    "no target sensor's residual saw it (model mismatch rather than a "
+                    "sensor fault)"
+                )
+            elif s in diag.faulty:
+                ev.evidence.update(
+                    {
+                        "law": diag.laws[s],
+                        "alarming": sorted(alarming),
+                        "assistants": list(net.assistant_sensors(s)),
+                        "confirmed_by": confirmed,
+                    }
+                )
+                if not confirmed:
+                    ev.confidence *= UNCONFIRMED_FACTOR
+                events.append(ev)
+            elif s in diag.propagated:
+                notes.append(
+                    f"alarm on {s} at {t0:.3f} s explained by the alarm on its assistant "
+                    f"sensor(s) {', '.join(diag.propagated[s])} (law 0)"
+                )
+            else:
+                notes.append(
+                    f"alarm on {s} at {t0:.3f} s not attributed: no law isolates one sensor "
+                    f"among {', '.join(sorted(alarming))}"
+                )
+        return events, notes, decisions
+
+
+def _lowpass(x: FloatArray, phi: float) -> FloatArray:
+    """``(1 - phi) / (1 - phi q^-1)``: the residual's own dynamics applied to the fault-free
+    estimate (started at steady state), so the classifier's gain-fault shape matches."""
+    xx = np.asarray(x, dtype=np.float64)
+    finite = np.isfinite(xx)
+    if not finite.any():
+        return xx.copy()
+    xf = np.where(finite, xx, 0.0)
+    b, a = [1.0 - phi], [1.0, -phi]
+    zi = signal.lfilter_zi(b, a) * xf[int(np.argmax(finite))]
+    out, _ = signal.lfilter(b, a, xf, zi=zi)
+    out[~finite] = np.nan
+    return np.asarray(out, dtype=np.float64)
+
+
+def _dilate_forward(mask: npt.NDArray[np.bool_], n: int) -> npt.NDArray[np.bool_]:
+    """True wherever ``mask`` was True within the previous ``n`` samples."""
+    c = np.cumsum(np.concatenate(([0], mask.astype(np.int64))))
+    k = np.arange(mask.shape[0])
+    lo = np.maximum(0, k - n)
+    return (c[k + 1] - c[lo]) > 0
+
+
+__all__ = [
+    "AssistantObserver",
+    "EquivalentModel",
+    "FittedEquivalentModel",
+    "Pretreatment",
+    "Relation",
+    "fit_relation",
+    "pretreat",
+]

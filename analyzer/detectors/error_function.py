@@ -1,0 +1,1046 @@
+"""Decoupled sensor error functions (Li, Koh & Nagarajaiah 2007).
+
+The sensors of a group are split into *reference* sensors (trusted) and *uncertain*
+sensors (under test). For each uncertain sensor ``i`` an *error function* ``e_i(k)`` is a
+linear combination of a window of ``p + 1`` samples of the reference sensors and of
+sensor ``i`` (plus measured inputs, if any) that vanishes whenever sensor ``i`` measures
+the structure correctly, whatever the other uncertain sensors read (Eq. 25-27). Its
+response to a failure of sensor ``i`` is what the detector watches; a failure of another
+uncertain sensor cannot raise it, because that sensor is not in the combination
+(decoupling, Eq. 17 and 21).
+
+Two ways to get the coefficients ``[beta_i, alpha_i]``:
+
+* **indirect** (Eq. 1-25), from a known discrete model ``(A, B, C, D)``: the inverse
+  model treats the uncertain sensors as inputs (Eq. 3-9), the stacked observability and
+  Toeplitz matrices (Eq. 10-14) express a window of reference samples, and an interaction
+  matrix (Eq. 15-18) together with a vector ``N_i`` (Eq. 21) eliminates the state and the
+  other uncertain sensors. Eq. 17 and Eq. 21 are linear in the row vector
+  ``w = [N_i^T, N_i^T C_s M_i]``, so every decoupled error function is a vector of the
+  left null space of ``[[C_s A^p, C_s tau_j, D_j], [O, T_j, 0]]`` (``j != i``). That space
+  is computed by SVD; the paper's own construction (Eq. 18 by pseudoinverse, then Eq. 21)
+  is one of its vectors and is available as ``direction="paper"``.
+* **direct** (Eq. 26-29), from healthy data only: the windows of the training data form
+  ``W_NY`` (Eq. 28) and the coefficients lie in its (near-)left null space (Eq. 29).
+
+Choosing the vector (``direction="sensitive"``, the default)
+-------------------------------------------------------------
+The null space is rarely one-dimensional. On noise-free data any vector works (Eq. 29's
+remark), but on noisy, band-limited data the paper's choice (the smallest singular
+vector) is poor: the excitation leaves no energy above its band, so high-pass
+combinations of the *reference* sensors alone, or of sensor ``i``'s own samples alone,
+are nearly null too. Their healthy output is tiny, but so is their response to an
+in-band failure of sensor ``i`` (a zero reading or a gain change is as band-limited as
+the signal): the smallest singular vector can be blind to the very sensor it examines.
+The detector therefore picks the vector that maximizes the error function's response to
+a failure of sensor ``i`` relative to its healthy variance::
+
+    max_w  (w^T S w) / (w^T R w),   w in the candidate space
+
+where ``R`` is the covariance of the (standardized) training windows plus a floor
+``NOISE_FLOOR**2 * I`` (the resolution of a 20-bit converter, so noise-free simulated data
+stay well posed) and ``S`` is the covariance of sensor ``i``'s own window embedded in
+zeros (the response energy when sensor ``i`` is lost, or reads a scaled copy of the
+truth). This generalized eigenproblem is a regularized canonical correlation between
+sensor ``i``'s window and the rest; for the direct approach the candidate space is every
+direction (directions with large singular values lose automatically), for the indirect
+approach it is the model's exact decoupling null space. Either way the choice is made on
+the training data only and does not depend on any failure.
+
+Units, alignment and vectorization
+----------------------------------
+``e_i`` is scaled to read in sensor ``i``'s units as ``measured - estimated``. Its
+response to a gain change ``y_i -> g y_i`` is ``(g - 1)`` times the sensor seen through
+the error function's own taps on it (:meth:`SensorFunction.sensor_view`); lag and scale
+are fitted (least squares on the training data) so that this view is as close as possible
+to ``y_i`` itself. The lag is the sample that plays "sensor ``i``'s current sample"
+(``s_cur``); the share of ``y_i``'s variance the view matches is reported
+(``unit_fit_r2``). The paper normalizes nothing, and a literal "coefficient of the current
+sample = 1" fails: that coefficient (``-N_i^T C_s B_i``, Eq. 24) is a reference's one-step
+response to the examined sensor, 3e-6 to 3e-3 of the largest coefficient in the paper's
+example at 1 kHz. ``reference`` (the fault-free estimate handed to the shared classifier)
+is the view minus the residual, i.e. what the references predict of it: a gain change
+``g`` then gives ``residual = (g - 1) * reference`` exactly, so the classifier reads the
+gain (0 for a dead sensor) even where the view differs from the raw sensor.
+
+An error function passes a constant offset of its sensor with the gain ``dc_gain``
+(reported). For accelerometers that is close to 0: the relations among accelerations
+involve their differences in time, so offsets are nearly invisible to this detector.
+
+Applying an error function is a sliding dot product, i.e. an FIR filter: it runs by
+overlap-add convolution per channel (``scipy.signal.oaconvolve``), with windows that touch
+a gap (NaN) set to NaN. Decisions use the shared path
+:func:`analyzer.diagnosis.events.events_from_residual`.
+
+Without a ``[[group]]`` in the config every channel is examined in turn with all the
+others as references. Then the error function of one sensor uses every other sensor,
+so a failed sensor also raises the others' error functions: isolation needs the groups.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+import numpy.typing as npt
+from numpy.lib.stride_tricks import sliding_window_view
+from scipy import linalg, signal
+
+from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
+from analyzer.diagnosis.changes import Calibration, calibrate, default_window
+from analyzer.diagnosis.classify import correlation_time
+from analyzer.diagnosis.events import events_from_residual
+from analyzer.errors import ConfigError, DetectorError
+
+FloatArray = npt.NDArray[np.float64]
+
+APPROACHES = ("direct", "indirect")
+DIRECTIONS = ("sensitive", "paper")
+
+NOISE_FLOOR = 1e-6
+"""Relative noise assumed on every standardized channel on top of the measured training
+covariance (a 20-bit converter's resolution): regularizes the choice of the error
+function on noise-free data, negligible on real data."""
+
+P_FACTOR = 2
+"""Default ``p`` is this many times the smallest ``p`` of Eq. 19 (the paper: "normally, p
+is selected to be several times larger than the required number"). Larger windows buy
+little (the paper's example at 250 Hz, 1 % noise: sensor 1's response to its loss is 11
+healthy standard deviations at p = 20, 12.5 at p = 40) but smear a failure's onset and end
+over the ``p + 1`` samples of the window."""
+
+MAX_COND = 1.0 / math.sqrt(np.finfo(np.float64).eps)
+"""Condition number above which ``D_d`` (Eq. 3) is treated as singular: its
+pseudoinverse would amplify rounding by more than half the available digits."""
+
+WEAK_SENSITIVITY = 2.0
+"""An error function whose response to the loss of its sensor is below this many healthy
+standard deviations is reported as weak (a loss then raises the residual's RMS only about
+twofold: easy to miss, hard to time)."""
+
+_CHUNK = 4096
+_RUN_CHUNK = 1 << 18
+
+
+def _finite(x: float) -> float | None:
+    """JSON-friendly float (None for inf/NaN)."""
+    return float(x) if math.isfinite(x) else None
+
+
+# --------------------------------------------------------------------------- groups
+
+
+@dataclass(frozen=True, slots=True)
+class Group:
+    """Sensors analyzed together: ``uncertain`` are examined, ``reference`` trusted,
+    ``inputs`` measured excitation channels (trusted, kept in every error function).
+    ``explicit`` is False for the no-config default (one sensor uncertain at a time)."""
+
+    name: str
+    uncertain: tuple[str, ...]
+    reference: tuple[str, ...]
+    inputs: tuple[str, ...] = ()
+    explicit: bool = True
+
+
+def _names(value: Any, what: str) -> tuple[str, ...]:
+    if value is None:
+        return ()
+    if isinstance(value, str) or not isinstance(value, Sequence):
+        raise ConfigError(f"{what}: expected a list of channel names, got {value!r}")
+    return tuple(str(v) for v in value)
+
+
+def resolve_groups(channels: Sequence[str], config: Mapping[str, Any]) -> list[Group]:
+    """The groups to analyze. From ``[[group]]`` entries: ``uncertain`` defaults to the
+    group's channels that are not ``reference`` and vice versa. Without groups: one group
+    per channel, that channel uncertain and every other channel a reference."""
+    raw = config.get("group", []) or []
+    if isinstance(raw, Mapping):
+        raw = [raw]
+    chans = tuple(channels)
+    if not raw:
+        return [
+            Group(f"{c}|rest", (c,), tuple(o for o in chans if o != c), (), explicit=False)
+            for c in chans
+        ]
+    out: list[Group] = []
+    seen: dict[str, str] = {}
+    for k, g in enumerate(raw):
+        name = str(g.get("name", f"group{k}"))
+        members = _names(g.get("channels"), f"group {name!r} channels")
+        ref = _names(g.get("reference"), f"group {name!r} reference")
+        unc = _names(g.get("uncertain"), f"group {name!r} uncertain")
+        inp = _names(g.get("inputs"), f"group {name!r} inputs")
+        if not unc and not ref:
+            raise ConfigError(
+                f"group {name!r}: the error_function detector needs 'reference' or "
+                f"'uncertain' sensors"
+            )
+        if not unc:
+            unc = tuple(c for c in members if c not in ref and c not in inp)
+        if not ref:
+            ref = tuple(c for c in members if c not in unc and c not in inp)
+        both = sorted(set(ref) & set(unc))
+        if both:
+            raise ConfigError(f"group {name!r}: {both} listed as both reference and uncertain")
+        for c in (*unc, *ref, *inp):
+            if c not in chans:
+                raise ConfigError(
+                    f"group {name!r}: channel {c!r} is not in the data (have {list(chans)})"
+                )
+        for c in unc:
+            if c in seen:
+                raise ConfigError(
+                    f"channel {c!r} is uncertain in groups {seen[c]!r} and {name!r}; "
+                    f"each sensor can be examined in one group only"
+                )
+            seen[c] = name
+        if not unc or not ref:
+            raise ConfigError(
+                f"group {name!r}: needs at least one uncertain and one reference sensor "
+                f"(uncertain={list(unc)}, reference={list(ref)})"
+            )
+        out.append(Group(name, unc, ref, inp, explicit=True))
+    return out
+
+
+# ------------------------------------------------------------------- conditions
+
+
+def minimal_p(n: int, n_s: int, n_d: int) -> int:
+    """Smallest window satisfying Eq. 19, ``p (n_s - n_d + 1) >= n - n_d + 1``."""
+    return max(1, math.ceil((n - n_d + 1) / (n_s - n_d + 1)))
+
+
+def check_conditions(
+    *, n: int | None, n_s: int, n_d: int, r: int | None, p: int, approach: str, group: str = ""
+) -> None:
+    """The paper's necessary conditions, raising :class:`DetectorError` with the numbers:
+    ``n_d >= r`` (Eq. 3, indirect only: the inverse model needs as many uncertain sensors
+    as unmeasured inputs), ``n_s >= n_d`` and ``p (n_s - n_d + 1) >= n - n_d + 1``
+    (Eq. 19; checked when the order ``n`` is known)."""
+    where = f"group {group!r}: " if group else ""
+    if approach == "indirect" and r is not None and n_d < r:
+        raise DetectorError(
+            f"{where}the inverse model (Li et al. 2007, Eq. 3) needs n_d >= r: "
+            f"{n_d} uncertain sensor(s) < {r} unmeasured input(s)"
+        )
+    if n_s < n_d:
+        raise DetectorError(
+            f"{where}decoupling (Li et al. 2007, Eq. 19) needs n_s >= n_d: "
+            f"{n_s} reference sensor(s) < {n_d} uncertain sensor(s)"
+        )
+    if p < 1:
+        raise DetectorError(f"{where}window length p must be >= 1, got {p}")
+    if n is not None and p * (n_s - n_d + 1) < n - n_d + 1:
+        raise DetectorError(
+            f"{where}Eq. 19 fails: p (n_s - n_d + 1) = {p} * {n_s - n_d + 1} = "
+            f"{p * (n_s - n_d + 1)} < n - n_d + 1 = {n - n_d + 1} (n={n}); "
+            f"use p >= {minimal_p(n, n_s, n_d)}"
+        )
+
+
+# ------------------------------------------------------------- indirect: model
+
+
+@dataclass(frozen=True, slots=True)
+class InverseModel:
+    """Eq. 8: ``x(k+1) = Ab x(k) + Bb v(k)``, ``y_s(k) = Cb x(k) + Db v(k)`` with
+    ``v = [y_d; u_m]`` (uncertain sensors, then measured inputs) as inputs and the
+    reference sensors as outputs; the unmeasured inputs are eliminated by Eq. 3."""
+
+    Ab: FloatArray
+    Bb: FloatArray
+    Cb: FloatArray
+    Db: FloatArray
+    n_d: int
+    cond_Dd: float
+
+
+def _matrix(model: Mapping[str, Any], key: str) -> FloatArray:
+    if key not in model:
+        raise ConfigError(f"[model]: missing matrix {key}")
+    try:
+        a = np.atleast_2d(np.asarray(model[key], dtype=np.float64))
+    except (TypeError, ValueError) as err:
+        raise ConfigError(f"[model]: {key} is not a numeric matrix ({err})") from err
+    if a.ndim != 2 or not np.all(np.isfinite(a)):
+        raise ConfigError(f"[model]: {key} must be a finite 2-D matrix, got shape {a.shape}")
+    return a
+
+
+def model_matrices(
+    model: Mapping[str, Any],
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, list[str], list[str]]:
+    """``(A, B, C, D, outputs, inputs)`` from ``[model]``, with their shapes checked."""
+    A, B, C, D = (_matrix(model, k) for k in ("A", "B", "C", "D"))
+    n = A.shape[0]
+    if A.shape != (n, n):
+        raise ConfigError(f"[model]: expected a square matrix for A, got {A.shape}")
+    if B.shape[0] != n:
+        raise ConfigError(f"[model]: expected B with {n} rows, got {B.shape}")
+    r = B.shape[1]
+    if C.shape[1] != n:
+        raise ConfigError(f"[model]: expected C with {n} columns, got {C.shape}")
+    if D.shape != (C.shape[0], r):
+        raise ConfigError(f"[model]: expected a {(C.shape[0], r)} matrix for D, got {D.shape}")
+    outputs = [str(o) for o in model.get("outputs", [])]
+    if len(outputs) != C.shape[0]:
+        raise ConfigError(
+            f"[model]: 'outputs' names {len(outputs)} channel(s) for the {C.shape[0]} rows of C"
+        )
+    inputs = [str(u) for u in model.get("inputs", [])]
+    if inputs and len(inputs) != r:
+        raise ConfigError(
+            f"[model]: 'inputs' names {len(inputs)} channel(s) for the {r} columns of B "
+            f"(leave it empty when the inputs are not measured)"
+        )
+    return A, B, C, D, outputs, inputs or [""] * r
+
+
+def inverse_model(
+    A: FloatArray,
+    B: FloatArray,
+    C: FloatArray,
+    D: FloatArray,
+    uncertain_rows: Sequence[int],
+    reference_rows: Sequence[int],
+    measured_cols: Sequence[int] = (),
+) -> InverseModel:
+    """Inverse model of Eq. 3-9: the unmeasured inputs ``u = D_d^+ (y_d - C_d x - ...)``
+    (Eq. 3) are substituted into the state and reference equations (Eq. 4-8). Unlike
+    Eq. 9, a direct term ``Db = D_s D_d^+`` is kept (it is zero when the references are
+    not collocated with an input, as in the paper)."""
+    r = B.shape[1]
+    mcols = list(measured_cols)
+    ucols = [c for c in range(r) if c not in mcols]
+    Cd, Cs = C[list(uncertain_rows)], C[list(reference_rows)]
+    Ddu, Dsu = D[np.ix_(uncertain_rows, ucols)], D[np.ix_(reference_rows, ucols)]
+    Ddm, Dsm = D[np.ix_(uncertain_rows, mcols)], D[np.ix_(reference_rows, mcols)]
+    Bu, Bm = B[:, ucols], B[:, mcols]
+    n_d = len(uncertain_rows)
+    if ucols:
+        sv = np.linalg.svd(Ddu, compute_uv=False)
+        cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
+        if len(sv) < len(ucols) or not cond < MAX_COND:
+            raise DetectorError(
+                f"D_d (uncertain sensors x unmeasured inputs, {Ddu.shape}) is singular or "
+                f"ill-conditioned (condition number {cond:.3g}): the inverse model "
+                f"(Li et al. 2007, Eq. 3) needs every unmeasured input to reach the "
+                f"uncertain sensors directly"
+            )
+        Ddp = np.linalg.pinv(Ddu)
+    else:
+        cond = 1.0
+        Ddp = np.zeros((0, n_d))
+    Ab = A - Bu @ Ddp @ Cd
+    Bb = np.hstack([Bu @ Ddp, Bm - Bu @ Ddp @ Ddm])
+    Cb = Cs - Dsu @ Ddp @ Cd
+    Db = np.hstack([Dsu @ Ddp, Dsm - Dsu @ Ddp @ Ddm])
+    return InverseModel(Ab, Bb, Cb, Db, n_d, cond)
+
+
+def stacked_matrices(
+    inv: InverseModel, p: int
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """``(O, T, tau, Ab^p)`` of Eq. 10-12 for the window ``v(k), ..., v(k+p-1)``:
+    ``y_ps(k) = O x(k) + T v_p(k)``, ``x(k+p) = Ab^p x(k) + tau v_p(k)``. ``T`` carries
+    ``Db`` on its block diagonal (zero in the paper's Eq. 12)."""
+    n = inv.Ab.shape[0]
+    n_s, q = inv.Db.shape
+    powers = [np.eye(n)]
+    for _ in range(p):
+        powers.append(powers[-1] @ inv.Ab)
+    Ob = np.vstack([inv.Cb @ powers[j] for j in range(p)])
+    markov = [inv.Db] + [inv.Cb @ powers[j] @ inv.Bb for j in range(p - 1)]
+    T = np.zeros((p * n_s, p * q))
+    for a in range(p):
+        for b in range(a + 1):
+            T[a * n_s : (a + 1) * n_s, b * q : (b + 1) * q] = markov[a - b]
+    tau = np.hstack([powers[p - 1 - j] @ inv.Bb for j in range(p)])
+    return Ob, T, tau, powers[p]
+
+
+def _decoupling_system(
+    inv: InverseModel, p: int, i: int
+) -> tuple[FloatArray, FloatArray, list[int]]:
+    """For examined uncertain sensor ``i`` (column of ``v``): ``Z`` whose left null space
+    holds the decoupled ``w = [g, h]`` (``g`` weighs ``y_s(k+p)``, ``h`` weighs
+    ``y_ps(k)``; Eq. 17 and 21), and ``F`` mapping ``w`` to the FIR taps of every window
+    channel (kept channels ``[i, measured inputs]``, then references; steps ``0..p``)."""
+    Ob, T, tau, Ap = stacked_matrices(inv, p)
+    n_s, q = inv.Db.shape
+    cb_tau = inv.Cb @ tau
+    elim = [j for j in range(inv.n_d) if j != i]
+    kept = [i, *range(inv.n_d, q)]
+    top = [inv.Cb @ Ap]
+    bottom = [Ob]
+    for j in elim:
+        cols = [s * q + j for s in range(p)]
+        top += [cb_tau[:, cols], inv.Db[:, [j]]]
+        bottom += [T[:, cols], np.zeros((p * n_s, 1))]
+    Z = np.vstack([np.hstack(top), np.hstack(bottom)])
+    # taps: e(k+p) = sum_c sum_s tap[c, s] y_c(k+s)
+    m = (len(kept) + n_s) * (p + 1)
+    F = np.zeros((m, n_s * (p + 1)))
+    for a, c in enumerate(kept):
+        cols = [s * q + c for s in range(p)]
+        base = a * (p + 1)
+        F[base : base + p, :n_s] = -cb_tau[:, cols].T
+        F[base : base + p, n_s:] = -T[:, cols].T
+        F[base + p, :n_s] = -inv.Db[:, c]
+    for a in range(n_s):
+        base = (len(kept) + a) * (p + 1)
+        for s in range(p):
+            F[base + s, n_s + s * n_s + a] = 1.0
+        F[base + p, a] = 1.0
+    return Z, F, kept
+
+
+def decoupling_basis(
+    inv: InverseModel, p: int, i: int, ref_scale: FloatArray
+) -> tuple[FloatArray, FloatArray, dict[str, Any]]:
+    """Basis of all error functions of sensor ``i`` that are decoupled from the state and
+    the other uncertain sensors (Eq. 17 and 21 together): the left null space of ``Z``
+    by SVD, rows scaled by the references' spread ``ref_scale`` and columns to unit norm
+    (neither changes the null space, both help the numerical rank). Returns
+    ``(basis, F, info)``: ``F @ basis`` are the FIR taps (physical units) of the basis."""
+    Z, F, _ = _decoupling_system(inv, p, i)
+    row_scale = np.tile(ref_scale, p + 1)
+    Zs = Z * row_scale[:, None]
+    norms = np.linalg.norm(Zs, axis=0)
+    Zs = Zs[:, norms > 0] / norms[norms > 0]
+    U, sv, _ = np.linalg.svd(Zs, full_matrices=True)
+    tol = max(Zs.shape) * np.finfo(np.float64).eps * (sv[0] if sv.size else 0.0)
+    rank = int(np.sum(sv > tol))
+    if rank >= Zs.shape[0]:
+        raise DetectorError(
+            f"no error function decouples uncertain sensor {i} with p={p}: the "
+            f"{Zs.shape[0]} x {Zs.shape[1]} decoupling matrix (Eq. 17) has full row rank; "
+            f"increase p"
+        )
+    basis = U[:, rank:] * row_scale[:, None]  # back to physical w = [g, h]
+    info = {
+        "decoupling_rank": rank,
+        "null_dim": int(Zs.shape[0] - rank),
+        "singular_values_smallest": [float(v) for v in sv[max(0, rank - 8) : rank]],
+        "singular_value_largest": float(sv[0]),
+        "rank_tolerance": float(tol),
+        "condition_number": _finite(float(sv[0] / sv[rank - 1])) if rank else None,
+    }
+    return basis, F, info
+
+
+def paper_coefficients(inv: InverseModel, p: int, i: int) -> tuple[FloatArray, dict[str, Any]]:
+    """The paper's construction: ``C_s M_i`` from Eq. 18 by truncated pseudoinverse, then
+    ``N_i`` orthogonal to what Eq. 18 leaves of the other uncertain sensors (Eq. 21), and
+    ``w = [N_i^T, N_i^T C_s M_i]``. The pseudoinverse's truncation rank is chosen to
+    minimize the leakage of the state and the other sensors into ``e_i`` (the graded
+    small singular values of ``[O T_j]`` are genuine, so neither the full inverse nor a
+    fixed tolerance is reliable). Returns ``(w, info)``."""
+    Ob, T, tau, Ap = stacked_matrices(inv, p)
+    n_s, q = inv.Db.shape
+    cb_tau = inv.Cb @ tau
+    Z, _, _ = _decoupling_system(inv, p, i)
+    lhs_cols: list[FloatArray] = [Ob]
+    rhs_cols: list[FloatArray] = [inv.Cb @ Ap]
+    for j in [j for j in range(inv.n_d) if j != i]:
+        for s in range(p):
+            col = T[:, [s * q + j]]
+            if np.any(col != 0.0):  # the paper's Eq. 18 omits the all-zero last column
+                lhs_cols.append(col)
+                rhs_cols.append(cb_tau[:, [s * q + j]])
+    L = np.hstack(lhs_cols)
+    R = -np.hstack(rhs_cols)
+    scale = np.linalg.norm(L, axis=0)
+    scale[scale == 0] = 1.0
+    U, sv, Vt = np.linalg.svd(L / scale, full_matrices=False)
+    proj = (R / scale) @ Vt.T  # n_s x rank
+    znorm = np.linalg.norm(Z, axis=0)
+    Zn = Z[:, znorm > 0] / znorm[znorm > 0]
+    best: tuple[float, FloatArray, int] | None = None
+    X = np.zeros((n_s, L.shape[0]))
+    for k in range(len(sv)):
+        if sv[k] <= max(L.shape) * np.finfo(np.float64).eps * sv[0]:
+            break
+        X = X + np.outer(proj[:, k] / sv[k], U[:, k])
+        # leftover of every eliminated term, per reference row (Eq. 20)
+        G = np.hstack([np.eye(n_s), X]) @ Z
+        Ug, sg, _ = np.linalg.svd(G)
+        N = Ug[:, -1]
+        w = np.concatenate([N, N @ X])
+        leak = float(np.linalg.norm(w @ Zn) / np.linalg.norm(w))
+        if best is None or leak < best[0]:
+            best = (leak, w, k + 1)
+    if best is None:
+        raise DetectorError("Eq. 18: the matrix [O T_j] is zero; the model has no dynamics")
+    return best[1], {"pinv_rank": best[2], "leakage": best[0]}
+
+
+# ----------------------------------------------------------------- data windows
+
+
+def _windows_gram(z: FloatArray, p: int) -> tuple[FloatArray, int]:
+    """``(sum of outer products, count)`` of the complete windows of ``p + 1`` samples of
+    the standardized data ``z`` (N, n_ch): the Gram matrix ``W_NY W_NY^T`` of Eq. 28 with
+    one column per window (windows touching a NaN are left out). A window's vector is
+    channel-major, ``c * (p + 1) + s`` with ``s = 0`` the oldest sample. Accumulated in
+    chunks, so memory does not grow with the training length."""
+    n_ch = z.shape[1]
+    m = n_ch * (p + 1)
+    gram = np.zeros((m, m))
+    count = 0
+    for a in range(0, z.shape[0] - p, _CHUNK):
+        b = min(z.shape[0], a + _CHUNK + p)
+        win = sliding_window_view(z[a:b], p + 1, axis=0).reshape(-1, m)
+        win = win[np.all(np.isfinite(win), axis=1)]
+        gram += win.T @ win
+        count += int(win.shape[0])
+    return gram, count
+
+
+def _select(S: FloatArray, R: FloatArray, basis: FloatArray) -> tuple[FloatArray, float]:
+    """The combination ``w = basis @ c`` maximizing ``w^T S w / w^T R w`` (symmetric
+    generalized eigenproblem, ``R`` positive definite on the basis); ``(w, ratio)``."""
+    Sb = basis.T @ S @ basis
+    Rb = basis.T @ R @ basis
+    try:
+        vals, vecs = linalg.eigh(0.5 * (Sb + Sb.T), 0.5 * (Rb + Rb.T))
+    except (linalg.LinAlgError, ValueError) as err:
+        raise DetectorError(
+            f"the healthy-data covariance of the error-function candidates is singular or "
+            f"not finite ({err})"
+        ) from err
+    return basis @ vecs[:, -1], float(vals[-1])
+
+
+def _unit_fit(w_i: FloatArray, R_ii: FloatArray) -> tuple[int, float, float]:
+    """Lag and scale that make the error function's response to a gain change of sensor
+    ``i`` closest (least squares over the training covariance ``R_ii`` of its window) to
+    ``(g - 1) y_i``; returns ``(s_cur, scale, r2)``: the step playing the sensor's current
+    sample, the factor to sensor units and the share of the sensor's variance matched."""
+    cross = R_ii @ w_i
+    var_f = float(w_i @ R_ii @ w_i)
+    if not var_f > 0.0:
+        raise DetectorError(
+            "the error function does not respond to its own sensor (its taps on the "
+            "examined sensor are zero)"
+        )
+    corr = cross / np.sqrt(var_f * np.maximum(np.diag(R_ii), np.finfo(np.float64).tiny))
+    s_cur = int(np.argmax(np.abs(corr)))
+    return s_cur, float(cross[s_cur] / var_f), float(corr[s_cur] ** 2)
+
+
+def apply_taps(values: FloatArray, taps: FloatArray, means: FloatArray, s_cur: int) -> FloatArray:
+    """Residual series of one error function over ``values`` (N, n_ch): ``r(t) = sum_c
+    sum_s taps[c, s] (y_c(t - s_cur + s) - mean_c)``, an FIR filter per channel run by
+    overlap-add convolution. Outputs whose window is incomplete or touches a NaN are NaN."""
+    n = values.shape[0]
+    p = taps.shape[1] - 1
+    e = np.zeros(n + p)
+    bad = np.zeros(n + p)
+    for c in range(values.shape[1]):
+        x = np.asarray(values[:, c], dtype=np.float64) - means[c]
+        nan = ~np.isfinite(x)
+        e += signal.oaconvolve(np.where(nan, 0.0, x), taps[c, ::-1], mode="full")
+        if nan.any():
+            bad += signal.oaconvolve(nan.astype(np.float64), np.ones(p + 1), mode="full")
+    out = np.full(n, np.nan)
+    # e[k] (k >= p) is the window ending at sample k; the residual at t is the window
+    # ending at t + (p - s_cur)
+    ends = np.arange(max(p, p - s_cur), min(n, n + p - s_cur))
+    if ends.size:
+        t = ends - (p - s_cur)
+        out[t] = np.where(bad[ends] > 0.5, np.nan, e[ends])
+    return out
+
+
+# ------------------------------------------------------------------ fitted model
+
+
+@dataclass(frozen=True, slots=True)
+class SensorFunction:
+    """The fitted error function of one uncertain sensor (``channels[0]``): its residual
+    ``apply_taps(values[:, channels], taps, means, s_cur)`` is in the sensor's units, and
+    ``calibration`` holds its healthy statistics."""
+
+    channel: str
+    group: str
+    channels: tuple[str, ...]
+    taps: FloatArray
+    means: FloatArray
+    s_cur: int
+    calibration: Calibration
+    tau_corr: float
+    summary: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def p(self) -> int:
+        return int(self.taps.shape[1] - 1)
+
+    def residual(self, values: FloatArray) -> FloatArray:
+        """The error function over ``values`` (N, len(channels)), in sensor units."""
+        return apply_taps(values, self.taps, self.means, self.s_cur)
+
+    def sensor_view(self, y: FloatArray) -> FloatArray:
+        """The examined sensor as its error function sees it: its own taps applied to
+        ``y`` (plus the DC they pass). For a gain change ``y -> g y`` the residual is
+        ``(g - 1)`` times the fault-free value of this view, so ``view - residual`` is the
+        fault-free estimate handed to the classifier (``reference``); ``unit_fit_r2``
+        says how close the view is to the raw sensor."""
+        dc = float(np.sum(self.taps[0]))
+        view = apply_taps(
+            np.asarray(y, dtype=np.float64)[:, None], self.taps[:1], self.means[:1], self.s_cur
+        )
+        return view + dc * float(self.means[0])
+
+
+@dataclass(frozen=True, slots=True)
+class ErrorFunctionModel:
+    """What :meth:`ErrorFunction.fit` learns: one error function per uncertain sensor."""
+
+    approach: str
+    direction: str
+    window: int
+    functions: tuple[SensorFunction, ...]
+    notes: tuple[str, ...] = ()
+
+    @property
+    def p(self) -> int:
+        return max((f.p for f in self.functions), default=0)
+
+
+# ---------------------------------------------------------------------- detector
+
+
+class ErrorFunction:
+    """Sensor failure detection by decoupled error functions (Li, Koh & Nagarajaiah 2007).
+
+    Settings (``[detectors.error_function]``):
+
+    * ``approach``: ``"direct"`` (coefficients from healthy data, Eq. 26-29) or
+      ``"indirect"`` (from ``[model]``, Eq. 1-25).
+    * ``p``: window length in samples. Default: ``P_FACTOR`` times the smallest ``p`` of
+      Eq. 19, with the model's order ``n`` (or, without ``[model]``, ``n = 2 x`` the
+      group's sensors: one second-order degree of freedom per sensor).
+    * ``l``: training samples (from the start of the training window) used for the
+      direct SVD (default: the whole training window).
+    * ``direction``: ``"sensitive"`` (default, see the module docstring) or ``"paper"``
+      (Eq. 29's smallest singular vector; Eq. 18 then Eq. 21 for the indirect approach).
+    * ``window``: detection window in samples (default
+      :func:`~analyzer.diagnosis.changes.default_window`). The shared detector also
+      watches ``8 x window``: failures of one sensor closer together than that (the
+      paper's are 2 s apart, the default long window is 2 s) are reported as one.
+
+    Groups come from ``[[group]]`` (``reference``, ``uncertain``, ``inputs``); without
+    groups every channel is examined in turn against all the others (no isolation).
+    """
+
+    name: ClassVar[str] = "error_function"
+
+    def __init__(
+        self,
+        approach: str = "direct",
+        p: int | None = None,
+        l: int | None = None,  # noqa: E741 - the paper's name
+        direction: str = "sensitive",
+        window: int | None = None,
+    ) -> None:
+        if approach not in APPROACHES:
+            raise ConfigError(
+                f"[detectors.error_function] approach: expected one of {list(APPROACHES)}, "
+                f"got {approach!r}"
+            )
+        if direction not in DIRECTIONS:
+            raise ConfigError(
+                f"[detectors.error_function] direction: expected one of {list(DIRECTIONS)}, "
+                f"got {direction!r}"
+            )
+        for key, val in (("p", p), ("l", l), ("window", window)):
+            if val is not None and (isinstance(val, bool) or not isinstance(val, int) or val < 1):
+                raise ConfigError(
+                    f"[detectors.error_function] {key}: expected a positive integer, got {val!r}"
+                )
+        self.approach = approach
+        self.p = p
+        self.l = l
+        self.direction = direction
+        self.window = window
+
+    # ---------------------------------------------------------------- checks
+
+    def applicable(self, data: Dataset, context: RunContext) -> str | None:
+        try:
+            self._check(data, context)
+        except (ConfigError, DetectorError) as err:
+            return str(err)
+        return None
+
+    def _check(self, data: Dataset, context: RunContext) -> list[Group]:
+        """The groups to analyze; raises when the detector's needs are not met (cheap:
+        no data is read)."""
+        if len(data.channels) < 2:
+            raise DetectorError(
+                f"needs at least 2 channels (one examined, one reference), got {len(data.channels)}"
+            )
+        if self.approach == "indirect" and not context.config.get("model"):
+            raise DetectorError("approach 'indirect' needs a [model] (A, B, C, D) in the config")
+        groups = resolve_groups(data.channels, context.config)
+        if self.approach == "indirect":
+            A, B, _, _, outputs, inputs = model_matrices(context.config["model"])
+            for g in groups:
+                _, _, meas = self._model_rows(g, outputs, inputs)
+                check_conditions(
+                    n=A.shape[0],
+                    n_s=len(g.reference),
+                    n_d=len(g.uncertain),
+                    r=B.shape[1] - len(meas),
+                    p=self._p_for(g, A.shape[0]),
+                    approach="indirect",
+                    group=g.name,
+                )
+        return groups
+
+    def _p_for(self, g: Group, n: int | None) -> int:
+        if self.p is not None:
+            return self.p
+        n_eff = n if n is not None else 2 * (len(g.uncertain) + len(g.reference))
+        n_d, n_s = len(g.uncertain), len(g.reference)
+        if n_s < n_d:
+            return 1  # check_conditions reports the real problem
+        return P_FACTOR * minimal_p(n_eff, n_s, n_d)
+
+    @staticmethod
+    def _model_rows(
+        g: Group, outputs: list[str], inputs: list[str]
+    ) -> tuple[list[int], list[int], list[int]]:
+        for c in (*g.uncertain, *g.reference):
+            if c not in outputs:
+                raise DetectorError(
+                    f"group {g.name!r}: channel {c!r} is not an output of [model] "
+                    f"(outputs: {outputs})"
+                )
+        for c in g.inputs:
+            if c not in inputs:
+                raise DetectorError(
+                    f"group {g.name!r}: input {c!r} is not an input of [model] (inputs: {inputs})"
+                )
+        return (
+            [outputs.index(c) for c in g.uncertain],
+            [outputs.index(c) for c in g.reference],
+            [inputs.index(c) for c in g.inputs],
+        )
+
+    # ------------------------------------------------------------------- fit
+
+    def fit(self, data: Dataset, context: RunContext) -> ErrorFunctionModel:
+        """Coefficients and healthy calibration of every uncertain sensor's error
+        function, from ``data.train_values()`` only."""
+        groups = self._check(data, context)
+        train = np.asarray(data.train_values(), dtype=np.float64)
+        window = self.window if self.window is not None else default_window(data.rate_hz)
+        model_cfg = context.config.get("model") if self.approach == "indirect" else None
+        if model_cfg is not None and model_cfg.get("dt") is not None:
+            dt = float(model_cfg["dt"])
+            if not math.isclose(dt, 1.0 / data.rate_hz, rel_tol=1e-6):
+                raise DetectorError(
+                    f"[model] dt = {dt:g} s does not match the data's sample time "
+                    f"{1.0 / data.rate_hz:g} s (rate {data.rate_hz:g} Hz)"
+                )
+        functions: list[SensorFunction] = []
+        notes: list[str] = []
+        for g in groups:
+            names = [*g.uncertain, *g.reference, *g.inputs]
+            stats = _channel_stats(train[:, [data.index(c) for c in names]], names)
+            for k, ch in enumerate(g.uncertain):
+                chans = [ch, *g.inputs, *g.reference]
+                mean = np.array([stats[c][0] for c in chans])
+                std = np.array([stats[c][1] for c in chans])
+                z = (train[:, [data.index(c) for c in chans]] - mean) / std
+                if self.approach == "indirect":
+                    w_std, cov, summary = self._indirect(g, k, z, std, context)
+                else:
+                    w_std, cov, summary = self._direct(g, ch, z, context)
+                f = self._finish(
+                    ch, g, chans, w_std, cov, mean, std, data, context, window, summary
+                )
+                if f.summary["sensitivity"] < WEAK_SENSITIVITY:
+                    notes.append(
+                        f"{ch}: weak error function (losing the sensor moves its residual "
+                        f"by only {f.summary['sensitivity']:.2g} healthy standard "
+                        f"deviations): the references carry little information about it"
+                    )
+                functions.append(f)
+        if not any(g.explicit for g in groups):
+            notes.append(
+                "no [[group]] configured: each sensor was examined with all the others as "
+                "references, so a failed sensor also disturbs the others' error functions "
+                "(no isolation)"
+            )
+        return ErrorFunctionModel(
+            self.approach, self.direction, window, tuple(functions), tuple(notes)
+        )
+
+    def _direct(
+        self, g: Group, channel: str, z: FloatArray, context: RunContext
+    ) -> tuple[FloatArray, FloatArray, dict[str, Any]]:
+        """Eq. 26-29 for the examined sensor (column 0 of the standardized training data
+        ``z``): ``W_NY`` from its windows, SVD, choice of the left null vector. The window
+        holds ``p + 1`` samples of every channel; Eq. 26 leaves out the examined sensor's
+        newest sample because in the paper's example no reference sees the input
+        directly, and then its coefficient simply comes out near zero."""
+        model = context.config.get("model")
+        n_model = int(model_matrices(model)[0].shape[0]) if model else None
+        p = self._p_for(g, n_model)
+        check_conditions(
+            n=n_model,
+            n_s=len(g.reference),
+            n_d=len(g.uncertain),
+            r=None,
+            p=p,
+            approach="direct",
+            group=g.name,
+        )
+        used = z if self.l is None else z[: self.l]
+        gram, n_win = _windows_gram(used, p)
+        m = z.shape[1] * (p + 1)
+        if n_win <= m:
+            raise DetectorError(
+                f"{channel}: too little training "
+                f"data for the SVD of W_NY (Li et al. 2007, Eq. 28-29): {n_win} complete windows "
+                f"of p + 1 = {p + 1} samples for {m} coefficients ({z.shape[1]} channels); "
+                f"need more than {m} windows (a longer training window, or a smaller p)"
+            )
+        cov = gram / n_win
+        evals, evecs = np.linalg.eigh(0.5 * (cov + cov.T))
+        sv = np.sqrt(np.maximum(evals, 0.0) * n_win)  # singular values of W_NY, ascending
+        if self.direction == "paper":
+            w_std = evecs[:, 0]
+            ratio = math.nan
+        else:
+            S = np.zeros_like(cov)
+            S[: p + 1, : p + 1] = cov[: p + 1, : p + 1]
+            w_std, ratio = _select(S, cov + NOISE_FLOOR**2 * np.eye(m), np.eye(m))
+        w_sv = float(np.sqrt(max(w_std @ gram @ w_std, 0.0) / (w_std @ w_std)))
+        summary: dict[str, Any] = {
+            "approach": "direct",
+            "direction": self.direction,
+            "p": p,
+            "l": n_win + p,
+            "coefficients": m,
+            "singular_values_smallest": [float(v) for v in sv[: min(m, 2 * (p + 1))]],
+            "singular_value_largest": float(sv[-1]),
+            "selected_singular_value": w_sv,
+            "condition_number": _finite(sv[-1] / sv[0]) if sv[0] > 0 else None,
+            "response_ratio": _finite(ratio),
+        }
+        return w_std, cov, summary
+
+    def _indirect(
+        self, g: Group, i: int, z: FloatArray, std: FloatArray, context: RunContext
+    ) -> tuple[FloatArray, FloatArray, dict[str, Any]]:
+        """Eq. 1-25 for uncertain sensor ``i`` of ``g``: inverse model, stacked matrices,
+        decoupled null space (or the paper's Eq. 18 and 21), choice on the training data
+        ``z`` (standardized; ``std`` converts physical taps to standardized ones)."""
+        A, B, C, D, outputs, inputs = model_matrices(context.config["model"])
+        unc, ref, meas = self._model_rows(g, outputs, inputs)
+        p = self._p_for(g, A.shape[0])
+        inv = inverse_model(A, B, C, D, unc, ref, meas)
+        gram, n_win = _windows_gram(z, p)
+        if n_win < 1:
+            raise DetectorError(
+                f"{g.uncertain[i]}: the training window ({z.shape[0]} samples) is shorter "
+                f"than one error-function window (p + 1 = {p + 1})"
+            )
+        cov = gram / n_win
+        m = cov.shape[0]
+        to_std = np.repeat(std, p + 1)  # taps on standardized data = physical taps * std
+        n_ref = len(ref)
+        summary: dict[str, Any] = {
+            "approach": "indirect",
+            "direction": self.direction,
+            "p": p,
+            "n": int(A.shape[0]),
+            "cond_Dd": _finite(inv.cond_Dd),
+        }
+        if self.direction == "paper":
+            w, info = paper_coefficients(inv, p, i)
+            _, F, _ = _decoupling_system(inv, p, i)
+            w_std = (F @ w) * to_std
+            summary.update(info)
+            summary["response_ratio"] = None
+        else:
+            basis, F, info = decoupling_basis(inv, p, i, std[-n_ref:])
+            S = np.zeros_like(cov)
+            S[: p + 1, : p + 1] = cov[: p + 1, : p + 1]
+            w_std, ratio = _select(
+                S, cov + NOISE_FLOOR**2 * np.eye(m), (F @ basis) * to_std[:, None]
+            )
+            summary.update(info)
+            summary["response_ratio"] = _finite(ratio)
+        return w_std, cov, summary
+
+    def _finish(
+        self,
+        channel: str,
+        g: Group,
+        chans: list[str],
+        w_std: FloatArray,
+        cov: FloatArray,
+        mean: FloatArray,
+        std: FloatArray,
+        data: Dataset,
+        context: RunContext,
+        window: int,
+        summary: dict[str, Any],
+    ) -> SensorFunction:
+        """Sensor units and alignment (:func:`_unit_fit`), healthy calibration on the
+        training residual, summary."""
+        p = int(summary["p"])
+        sl = slice(0, p + 1)  # the examined sensor is the first window channel
+        s_cur, scale, r2 = _unit_fit(w_std[sl], cov[sl, sl])
+        taps = (w_std * scale * std[0]).reshape(len(chans), p + 1) / std[:, None]
+        idx = [data.index(c) for c in chans]
+        resid = apply_taps(np.asarray(data.train_values()[:, idx]), taps, mean, s_cur)
+        healthy = float(w_std @ cov @ w_std) + NOISE_FLOOR**2 * float(w_std @ w_std)
+        lost = float(w_std[sl] @ cov[sl, sl] @ w_std[sl])
+        # Data are trusted to NOISE_FLOOR of each channel's spread: a healthy residual
+        # below what that resolution propagates to (noise-free simulation, duplicated
+        # channels) is calibrated as if it carried that resolution noise, so thresholds
+        # and change points stay finite and meaningful.
+        floor = NOISE_FLOOR * abs(scale) * float(std[0]) * float(np.linalg.norm(w_std))
+        ok = np.isfinite(resid)
+        spread = float(np.std(resid[ok])) if ok.any() else 0.0
+        cal_resid = resid
+        if spread < floor:
+            dither = np.random.default_rng(0).standard_normal(resid.shape[0]) * floor
+            cal_resid = resid + dither
+        try:
+            cal = calibrate(cal_resid, window, context.false_alarm_rate)
+        except DetectorError as err:
+            raise DetectorError(f"{channel}: {err}") from err
+        summary.update(
+            {
+                "group": g.name,
+                "channels": list(chans),
+                "s_cur": s_cur,
+                "unit_fit_r2": r2,
+                "sensitivity": float(np.sqrt(lost / healthy)),
+                "dc_gain": float(np.sum(taps[0])),
+                "resolution_floor": floor,
+                "floor_used": bool(spread < floor),
+            }
+        )
+        return SensorFunction(
+            channel,
+            g.name,
+            tuple(chans),
+            taps,
+            mean,
+            s_cur,
+            cal,
+            correlation_time(cal_resid),
+            summary,
+        )
+
+    # ------------------------------------------------------------------- run
+
+    def run(self, model: ErrorFunctionModel, data: Dataset, context: RunContext) -> DetectorResult:
+        """Error functions over the whole archive, then events per examined sensor by the
+        shared path (:func:`~analyzer.diagnosis.events.events_from_residual`)."""
+        residuals: dict[str, FloatArray] = {}
+        reference: dict[str, FloatArray] = {}
+        sigma: dict[str, float] = {}
+        thresholds: dict[str, Any] = {}
+        events: list[Event] = []
+        sensors: dict[str, Any] = {}
+        for k, f in enumerate(model.functions):
+            missing = [c for c in f.channels if c not in data.channels]
+            if missing:
+                raise DetectorError(
+                    f"error_function of {f.channel!r} needs channel(s) {missing}, "
+                    f"absent from the data"
+                )
+            r, ref = _residual_and_reference(f, data, context, k)
+            residuals[f.channel] = r
+            reference[f.channel] = ref
+            sigma[f.channel] = f.calibration.std
+            thresholds[f.channel] = f.calibration.as_dict()
+            sensors[f.channel] = dict(f.summary)
+            events.extend(
+                events_from_residual(
+                    f.channel,
+                    r,
+                    ref,
+                    f.calibration,
+                    data.rate_hz,
+                    self.name,
+                    search_start=data.train[1],
+                    tau_corr=f.tau_corr,
+                    evidence={"group": f.group, "references": list(f.channels[1:])},
+                )
+            )
+            context.report(self.name, (k + 1) / len(model.functions))
+        params = {
+            "approach": model.approach,
+            "p": model.p,
+            "l": self.l,
+            "direction": model.direction,
+            "window": model.window,
+        }
+        return DetectorResult(
+            detector=self.name,
+            channels=tuple(f.channel for f in model.functions),
+            params=params,
+            events=events,
+            residuals=residuals,
+            reference=reference,
+            sigma=sigma,
+            thresholds=thresholds,
+            model={"approach": model.approach, "p": model.p, "sensors": sensors},
+            notes=list(model.notes),
+        )
+
+
+def _residual_and_reference(
+    f: SensorFunction, data: Dataset, context: RunContext, k: int
+) -> tuple[FloatArray, FloatArray]:
+    """Residual and fault-free estimate of ``f`` over the whole archive, computed chunk by
+    chunk (each chunk reads the ``p`` samples of context it needs) into arrays from
+    ``context.allocate`` (memory-mapped when the pipeline has a work directory)."""
+    n = data.n
+    idx = [data.index(c) for c in f.channels]
+    r = context.allocate(f"error_function_{k}_residual", (n,))
+    ref = context.allocate(f"error_function_{k}_reference", (n,))
+    back, ahead = f.s_cur, f.p - f.s_cur
+    for a in range(0, n, _RUN_CHUNK):
+        b = min(n, a + _RUN_CHUNK)
+        lo, hi = max(0, a - back), min(n, b + ahead)
+        vals = np.asarray(data.values[lo:hi][:, idx], dtype=np.float64)
+        rr = f.residual(vals)
+        r[a:b] = rr[a - lo : b - lo]
+        ref[a:b] = f.sensor_view(vals[:, 0])[a - lo : b - lo] - rr[a - lo : b - lo]
+    return r, ref
+
+
+def _channel_stats(x: FloatArray, names: list[str]) -> dict[str, tuple[float, float]]:
+    """Training mean and standard deviation per channel; refuses NaN-only and constant
+    channels (no information to build an error function from)."""
+    out: dict[str, tuple[float, float]] = {}
+    for c, name in enumerate(names):
+        col = x[:, c]
+        ok = np.isfinite(col)
+        if not ok.any():
+            raise DetectorError(f"channel {name!r} has no finite sample in the training window")
+        sd = float(np.std(col[ok]))
+        if not sd > 0.0:
+            raise DetectorError(
+                f"channel {name!r} is constant in the training window: no dynamics to build "
+                f"an error function from"
+            )
+        out[name] = (float(np.mean(col[ok])), sd)
+    return out

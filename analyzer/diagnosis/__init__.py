@@ -1,0 +1,30 @@
+"""Diagnosis: from residuals to faults (when, what type, how large, how sure)."""
+
+from analyzer.diagnosis.changes import (
+    Calibration,
+    Interval,
+    alarm_statistic,
+    calibrate,
+    change_point,
+    default_window,
+    detect,
+    detection_confidence,
+)
+from analyzer.diagnosis.classify import Classification, classify, correlation_time
+from analyzer.diagnosis.merge import Finding, merge_events
+
+__all__ = [
+    "Calibration",
+    "Classification",
+    "Finding",
+    "Interval",
+    "alarm_statistic",
+    "calibrate",
+    "change_point",
+    "classify",
+    "correlation_time",
+    "default_window",
+    "detect",
+    "detection_confidence",
+    "merge_events",
+]

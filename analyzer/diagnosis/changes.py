@@ -1,0 +1,299 @@
+"""Deciding *when* a residual is faulty: thresholds from the healthy window, alarms on
+sliding-window statistics, onset and end by change-point likelihood.
+
+The residual is first standardized with its training mean and standard deviation, so
+a healthy stretch is close to zero-mean, unit-variance (though not white: residuals of
+the leave-one-out estimators are coloured). Two trailing-window statistics are watched:
+
+* the window mean ``m_k`` (an offset or a drift moves it),
+* the log of the window mean square ``log q_k`` (a gain change or an erratic sensor raises
+  it; an offset raises it too).
+
+Their healthy spread is measured on the training window, and a threshold is set where a
+Gaussian tail with that spread has probability ``false_alarm_rate`` per sample. A
+Gaussian model of window means is the central-limit approximation and holds for coloured
+residuals as long as the window spans many correlation times; ``log q`` is close to
+Gaussian for the same reason. No constant in here is tuned to a data set: everything
+scales with the training residual and the false-alarm rate.
+
+Onset and end are then refined by the maximum-likelihood change point (a Gaussian
+generalized-likelihood-ratio, GLR) inside a search window around the first and last
+alarm, computed with cumulative sums (no Python loop per sample).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy import stats as sps
+
+from analyzer.errors import DetectorError
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class Calibration:
+    """Healthy statistics of one residual and the thresholds derived from them.
+
+    Two window lengths are watched: ``window`` (times abrupt faults) and
+    ``LONG_FACTOR * window`` (sees sustained small changes, such as a modest gain change
+    whose residual swings through zero). The false-alarm rate is split between them."""
+
+    mean: float
+    std: float
+    window: int
+    windows: tuple[int, ...]
+    mean_sd: tuple[float, ...]
+    """Standard deviation of the window mean of the standardized training residual."""
+    logq_mean: tuple[float, ...]
+    logq_sd: tuple[float, ...]
+    false_alarm_rate: float
+
+    @property
+    def z_crit(self) -> float:
+        """Gaussian quantile for the per-sample false-alarm rate, two-sided, shared by the
+        two statistics at each window length (Bonferroni)."""
+        per_test = self.false_alarm_rate / (2.0 * len(self.windows))
+        return float(sps.norm.isf(per_test / 2.0))
+
+    @property
+    def long_window(self) -> int:
+        return self.windows[-1]
+
+    def mean_threshold(self, i: int = 0) -> float:
+        return self.z_crit * self.mean_sd[i]
+
+    def logq_threshold(self, i: int = 0) -> float:
+        return self.logq_mean[i] + self.z_crit * self.logq_sd[i]
+
+    def standardize(self, r: FloatArray) -> FloatArray:
+        return (np.asarray(r, dtype=np.float64) - self.mean) / self.std
+
+    def as_dict(self) -> dict[str, object]:
+        return {
+            "mean": self.mean,
+            "std": self.std,
+            "windows": list(self.windows),
+            "mean_threshold": [self.mean_threshold(i) for i in range(len(self.windows))],
+            "logq_threshold": [self.logq_threshold(i) for i in range(len(self.windows))],
+            "false_alarm_rate": self.false_alarm_rate,
+        }
+
+
+LONG_FACTOR = 8
+
+
+@dataclass(frozen=True, slots=True)
+class Interval:
+    """A faulty stretch of one residual: ``[onset, end)`` in samples, ``end`` None when the
+    fault lasts to the end of the data. ``peak`` is the largest alarm statistic in units
+    of its threshold (> 1 by construction); ``p_value`` is the Bonferroni-corrected chance
+    of such a peak in healthy data of the same length."""
+
+    onset: int
+    end: int | None
+    first_alarm: int
+    last_alarm: int
+    peak: float
+    p_value: float
+
+
+def default_window(rate_hz: float) -> int:
+    """Quarter of a second of samples, at least 16: long enough to average the coloured
+    healthy residual, short enough to time an abrupt fault to a fraction of a second."""
+    return max(16, int(round(0.25 * rate_hz)))
+
+
+def moving_mean(x: FloatArray, window: int) -> FloatArray:
+    """Trailing moving average; the first ``window - 1`` entries average what exists."""
+    c = np.cumsum(np.concatenate(([0.0], x)))
+    out = np.empty_like(x, dtype=np.float64)
+    w = min(window, x.shape[0])
+    out[w - 1 :] = (c[w:] - c[:-w]) / w
+    idx = np.arange(1, w)
+    out[: w - 1] = c[1:w] / idx
+    return out
+
+
+def _acf(z: FloatArray, max_lag: int) -> FloatArray:
+    """Sample autocorrelation up to ``max_lag`` by FFT (biased estimator, as in the
+    variance formula it feeds). Not truncated at the first zero crossing: an oscillating
+    residual's autocorrelation crosses zero and comes back, and every lag counts in a
+    window's variance."""
+    n = z.shape[0]
+    nfft = 1 << int(np.ceil(np.log2(2 * n)))
+    f = np.fft.rfft(z - z.mean(), nfft)
+    acf = np.fft.irfft(f * np.conj(f), nfft)[: max_lag + 1]
+    acf = acf / acf[0]
+    # lags inside the white-noise band carry estimation noise only: zero them one by one
+    # (an oscillating autocorrelation keeps its peaks; a short sum stays unbiased)
+    band = 2.0 / np.sqrt(n)
+    acf[1:][np.abs(acf[1:]) < band] = 0.0
+    return acf
+
+
+def calibrate(
+    train_residual: FloatArray, window: int, false_alarm_rate: float = 1e-6
+) -> Calibration:
+    """Healthy statistics of ``train_residual`` (NaNs ignored) for :func:`detect`."""
+    r = np.asarray(train_residual, dtype=np.float64)
+    r = r[np.isfinite(r)]
+    windows = (window, LONG_FACTOR * window)
+    need = 4 * windows[-1]
+    if r.shape[0] < need:
+        raise DetectorError(
+            f"too little healthy data to calibrate thresholds: {r.shape[0]} finite training "
+            f"samples, need at least {need} (4 windows of {windows[-1]})"
+        )
+    if not 0.0 < false_alarm_rate < 0.5:
+        raise DetectorError(f"false_alarm_rate must be in (0, 0.5), got {false_alarm_rate!r}")
+    mean = float(np.mean(r))
+    std = float(np.std(r, ddof=1))
+    if not std > 0.0:
+        raise DetectorError(
+            "the training residual is constant (zero variance): cannot set a threshold"
+        )
+    z = (r - mean) / std
+    rho = _acf(z, windows[-1])
+    z2 = z * z
+    rho2 = _acf(z2, windows[-1])
+    var_z2 = float(np.var(z2))
+    msd, lqm, lqs = [], [], []
+    for w in windows:
+        # Variance of a w-sample mean of a stationary sequence with autocorrelation rho
+        # (Priestley 1981, Eq. 5.3.5), applied to z and to z^2 (whose own autocorrelation
+        # carries the slow envelope of a lightly damped response). These model-based spreads
+        # use every training sample; the direct spread of the windowed statistics is
+        # noisy with few long windows. The larger of the two is used (conservative).
+        k = np.arange(1, w)
+        taper = 1.0 - k / w
+        var_m = (1.0 + 2.0 * np.sum(taper * rho[1:w])) / w
+        var_q = var_z2 * (1.0 + 2.0 * np.sum(taper * rho2[1:w])) / w
+        m = moving_mean(z, w)[w - 1 :]
+        logq = np.log(np.maximum(moving_mean(z * z, w)[w - 1 :], 1e-300))
+        msd.append(max(float(np.std(m, ddof=1)), float(np.sqrt(max(var_m, 0.0)))))
+        lqm.append(float(np.mean(logq)))
+        lqs.append(max(float(np.std(logq, ddof=1)), float(np.sqrt(max(var_q, 0.0)))))
+    return Calibration(
+        mean=mean,
+        std=std,
+        window=window,
+        windows=windows,
+        mean_sd=tuple(msd),
+        logq_mean=tuple(lqm),
+        logq_sd=tuple(lqs),
+        false_alarm_rate=false_alarm_rate,
+    )
+
+
+def alarm_statistic(z: FloatArray, cal: Calibration) -> FloatArray:
+    """Per-sample alarm statistic in units of its threshold (> 1 means alarm): the
+    largest, over both window lengths, of |window mean| / its threshold and the
+    log-mean-square excess / its threshold."""
+    finite = np.isfinite(z)
+    zz = np.where(finite, z, 0.0)
+    s = np.zeros(zz.shape[0], dtype=np.float64)
+    for i, w in enumerate(cal.windows):
+        m = np.abs(moving_mean(zz, w)) / cal.mean_threshold(i)
+        logq = np.log(np.maximum(moving_mean(zz * zz, w), 1e-300))
+        q = (logq - cal.logq_mean[i]) / (cal.logq_threshold(i) - cal.logq_mean[i])
+        si = np.maximum(m, q)
+        si[: w - 1] = 0.0
+        # A window that is mostly gap says nothing.
+        si[moving_mean(finite.astype(np.float64), w) <= 0.5] = 0.0
+        np.maximum(s, si, out=s)
+    return s
+
+
+def _runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """Half-open [start, stop) runs of True."""
+    d = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    starts = np.flatnonzero(d == 1)
+    stops = np.flatnonzero(d == -1)
+    return list(zip(starts.tolist(), stops.tolist(), strict=True))
+
+
+def change_point(z: FloatArray, *, before_normal: bool = True) -> int:
+    """Maximum-likelihood change point in ``z`` between N(0, 1) and N(mu, v).
+
+    With ``before_normal`` the samples before the change are healthy and those from the
+    change on follow an unknown Gaussian; the log-likelihood ratio of the change at ``k``
+    is ``0.5 * (S2 - n - n log v)`` over the ``n`` samples from ``k``, with ``S2`` their sum
+    of squares and ``v`` their ML variance (Basseville & Nikiforov 1993, GLR). Otherwise
+    the roles are swapped (the end of a fault). Returns the index of the first changed
+    sample (``before_normal``) or the first healthy one."""
+    x = np.where(np.isfinite(z), z, 0.0)
+    if not before_normal:
+        k = change_point(x[::-1], before_normal=True)
+        return x.shape[0] - k
+    n_tot = x.shape[0]
+    s1 = np.cumsum(x[::-1])[::-1]
+    s2 = np.cumsum((x * x)[::-1])[::-1]
+    n = np.arange(n_tot, 0, -1, dtype=np.float64)
+    mu = s1 / n
+    v = np.maximum(s2 / n - mu * mu, 1e-12)
+    llr = 0.5 * (s2 - n - n * np.log(v))
+    # need at least a couple of samples after the change to estimate (mu, v)
+    llr[-2:] = -np.inf
+    return int(np.argmax(llr))
+
+
+def detect(
+    residual: FloatArray,
+    cal: Calibration,
+    *,
+    min_gap: int | None = None,
+    search_start: int = 0,
+) -> list[Interval]:
+    """Faulty intervals of ``residual`` (channel units; standardized with ``cal``).
+
+    Alarm runs closer than ``min_gap`` samples (default: the long window) are one interval; a
+    fault whose residual swings through zero (a gain change) briefly drops its window
+    statistics, which must not split it. Alarms before ``search_start`` (the training
+    window's end, say) are ignored."""
+    z = cal.standardize(residual)
+    n = z.shape[0]
+    w = cal.window
+    wl = cal.long_window
+    gap = wl if min_gap is None else min_gap
+    s = alarm_statistic(z, cal)
+    s[:search_start] = 0.0
+    runs = _runs(s > 1.0)
+    merged: list[list[int]] = []
+    for a, b in runs:
+        if merged and a - merged[-1][1] <= gap:
+            merged[-1][1] = b
+        else:
+            merged.append([a, b])
+    n_windows = max(1.0, n / w) * len(cal.windows)
+    out: list[Interval] = []
+    prev_end = search_start
+    for a, b in merged:
+        peak = float(np.max(s[a:b]))
+        # one-sided Gaussian tail of the peak (in z units) over n/w independent windows
+        z_peak = peak * cal.z_crit
+        p = float(min(1.0, 2.0 * sps.norm.sf(z_peak) * n_windows))
+        lo = max(prev_end, a - wl - 2 * w)
+        hi = min(n, a + w)
+        onset = lo + change_point(z[lo:hi], before_normal=True) if hi - lo > 4 else a
+        onset = min(onset, a)
+        last = b - 1
+        if b >= n - 1:
+            end: int | None = None
+        else:
+            lo2 = max(onset + 1, last - wl - 2 * w)
+            hi2 = min(n, last + w)
+            end = lo2 + change_point(z[lo2:hi2], before_normal=False) if hi2 - lo2 > 4 else b
+            end = max(end, onset + 1)
+        out.append(Interval(onset, end, a, last, peak, p))
+        prev_end = end if end is not None else n
+    return out
+
+
+def detection_confidence(interval: Interval) -> float:
+    """1 - p-value of the interval's peak (the chance it is no false alarm)."""
+    return float(max(0.0, 1.0 - interval.p_value)) if math.isfinite(interval.p_value) else 0.0

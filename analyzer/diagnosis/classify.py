@@ -1,0 +1,160 @@
+"""Deciding *what kind* of fault a faulty stretch of residual shows, and how large.
+
+Chang et al. (2017, Section 2.3, Eq. 11-13) read the type off the residual's pattern:
+a constant offset (additive, ``y_f = y + D``), an oscillation whose size follows the
+signal (multiplicative, ``y_f = a y``), or a linear slope (drift, ``y_f = y + b (t - t_f)``).
+Here the pattern is tested rather than eyeballed: over the faulty stretch the fault
+signal ``f = measured - estimated`` is regressed on each candidate shape,
+
+* additive:       ``f = D``
+* multiplicative: ``f = (a - 1) * y_ref`` (``y_ref``: the fault-free estimate; gain 0 = dead)
+* drift:          ``f = c + b * tau`` (``tau``: seconds since onset; onset refined to ``-c/b``)
+
+and the shapes are compared by BIC with the healthy residual variance as the noise level
+(inflated by the residual's correlation time, so coloured residuals are not over-counted).
+The posterior weights of the three shapes give the classification's confidence. When even
+the best shape leaves most of the fault's energy unexplained, the fault is ``other``
+(erratic, stuck, noise burst).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from analyzer.types import FaultType
+
+FloatArray = npt.NDArray[np.float64]
+
+UNEXPLAINED_LIMIT = 0.5
+"""``other`` when the best shape explains less than this share of the fault energy above
+the healthy noise floor (a stated, documented rule, not a fitted constant)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Classification:
+    type: FaultType
+    magnitude: dict[str, float]
+    confidence: float
+    onset_shift_s: float = 0.0
+    """Correction to the onset (drift: back-extrapolated slope), seconds, <= 0."""
+    weights: dict[str, float] = field(default_factory=dict)
+    explained: float = 0.0
+    params: dict[str, float] = field(default_factory=dict)
+    """Fitted shape parameters: ``offset`` (additive), ``gain`` (multiplicative),
+    ``intercept`` and ``rate_per_s`` (drift, time from the detected onset)."""
+
+    def fault_signal(self, tau_s: FloatArray, reference: FloatArray | None) -> FloatArray | None:
+        """The fitted fault shape at ``tau_s`` seconds after the detected onset (channel
+        units), or None for ``other`` faults (no shape to extend)."""
+        tau = np.asarray(tau_s, dtype=np.float64)
+        if self.type is FaultType.ADDITIVE:
+            return np.full(tau.shape, self.params["offset"])
+        if self.type is FaultType.DRIFT:
+            return self.params["intercept"] + self.params["rate_per_s"] * tau
+        if self.type is FaultType.MULTIPLICATIVE and reference is not None:
+            return (self.params["gain"] - 1.0) * np.asarray(reference, dtype=np.float64)
+        return None
+
+
+def correlation_time(r: FloatArray, max_lag: int = 200) -> float:
+    """Integrated autocorrelation time (samples) of a healthy residual, >= 1: how many
+    samples carry one sample's worth of independent information."""
+    x = np.asarray(r, dtype=np.float64)
+    x = x[np.isfinite(x)]
+    x = x - x.mean()
+    n = x.shape[0]
+    if n < 8:
+        return 1.0
+    nfft = 1 << int(np.ceil(np.log2(2 * n)))
+    f = np.fft.rfft(x, nfft)
+    acf = np.fft.irfft(f * np.conj(f), nfft)[: min(max_lag, n - 1) + 1]
+    acf = acf / acf[0]
+    # sum until the autocorrelation first drops below zero (Geyer-style truncation)
+    neg = np.flatnonzero(acf[1:] <= 0.0)
+    stop = int(neg[0]) + 1 if neg.size else acf.shape[0]
+    return float(max(1.0, 1.0 + 2.0 * np.sum(acf[1:stop])))
+
+
+def classify(
+    fault: FloatArray,
+    reference: FloatArray | None,
+    sigma: float,
+    rate_hz: float,
+    tau_corr: float = 1.0,
+) -> Classification:
+    """Type, magnitude and confidence of the fault signal ``fault`` over its stretch.
+
+    ``fault`` is ``measured - estimated`` from the onset on (channel units), ``reference``
+    the fault-free estimate over the same samples (None: the multiplicative shape cannot be
+    tested), ``sigma`` the healthy residual standard deviation and ``tau_corr`` its
+    correlation time in samples."""
+    f = np.asarray(fault, dtype=np.float64)
+    ok = np.isfinite(f)
+    y = None if reference is None else np.asarray(reference, dtype=np.float64)
+    if y is not None:
+        ok &= np.isfinite(y)
+    idx = np.flatnonzero(ok)
+    f = f[ok]
+    n = f.shape[0]
+    tau = idx.astype(np.float64) / rate_hz
+    if n < 3:
+        return Classification(FaultType.OTHER, {"offset": float(np.mean(f)) if n else 0.0}, 0.0)
+    noise = max(sigma, 1e-12) ** 2
+    n_eff = max(3.0, n / max(tau_corr, 1.0))
+    scale = n_eff / n  # each squared residual counts for 1/tau_corr of a sample
+
+    fits: dict[FaultType, tuple[float, int, dict[str, float], float]] = {}
+    # additive: f = D
+    d = float(np.mean(f))
+    fits[FaultType.ADDITIVE] = (float(np.sum((f - d) ** 2)), 1, {"offset": d}, 0.0)
+    # drift: f = c + b tau
+    design = np.column_stack([np.ones(n), tau])
+    coef, *_ = np.linalg.lstsq(design, f, rcond=None)
+    c, b = float(coef[0]), float(coef[1])
+    rss = float(np.sum((f - design @ coef) ** 2))
+    shift = 0.0
+    if b != 0.0:
+        shift = float(np.clip(-c / b, -tau[-1], 0.0))
+    fits[FaultType.DRIFT] = (rss, 2, {"rate_per_s": b}, shift)
+    params = {"offset": d, "intercept": c, "rate_per_s": b}
+    # multiplicative: f = (a - 1) y
+    if y is not None:
+        yy = y[ok]
+        den = float(np.dot(yy, yy))
+        if den > 0.0:
+            g = float(np.dot(yy, f) / den)
+            fits[FaultType.MULTIPLICATIVE] = (
+                float(np.sum((f - g * yy) ** 2)), 1, {"gain": 1.0 + g}, 0.0
+            )
+            params["gain"] = 1.0 + g
+
+    bic = {
+        t: rss * scale / noise + k * np.log(n_eff) for t, (rss, k, _, _) in fits.items()
+    }
+    best = min(bic, key=lambda t: bic[t])
+    lo = min(bic.values())
+    w = {t: float(np.exp(-0.5 * (v - lo))) for t, v in bic.items()}
+    tot = sum(w.values())
+    weights = {t.value: v / tot for t, v in w.items()}
+
+    energy = float(np.sum(f * f))
+    floor = n * noise
+    rss_best = fits[best][0]
+    excess = energy - floor
+    explained = float((energy - rss_best) / excess) if excess > 0 else 0.0
+    if explained < UNEXPLAINED_LIMIT:
+        # the more of the fault energy the shapes leave unexplained, the surer "other" is
+        return Classification(
+            FaultType.OTHER,
+            {"offset": d, "rms": float(np.sqrt(energy / n))},
+            float(np.clip(1.0 - explained, 0.0, 1.0)),
+            0.0,
+            weights,
+            explained,
+            params,
+        )
+    _, _, mag, shift = fits[best]
+    return Classification(best, mag, weights[best.value], shift, weights, explained, params)

@@ -1,0 +1,79 @@
+"""One physical fault, one finding: events of several detectors on the same channel
+whose intervals overlap are merged; the finding's type, onset and magnitude come from
+the most confident event, and ``evidence.detectors`` lists every detector that saw it."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+from analyzer.detectors.base import Event
+from analyzer.types import FaultType
+
+
+@dataclass(slots=True)
+class Finding:
+    channel: str
+    type: FaultType
+    onset_s: float
+    end_s: float | None
+    magnitude: dict[str, float]
+    confidence: float
+    detector: str
+    evidence: dict[str, Any] = field(default_factory=dict)
+    events: list[Event] = field(default_factory=list)
+
+
+def _overlap(a0: float, a1: float | None, b0: float, b1: float | None, slack: float) -> bool:
+    a_end = float("inf") if a1 is None else a1
+    b_end = float("inf") if b1 is None else b1
+    return a0 <= b_end + slack and b0 <= a_end + slack
+
+
+def merge_events(events: Iterable[Event], slack_s: float = 1.0) -> list[Finding]:
+    """Group overlapping events per channel (``slack_s`` tolerates onset disagreement)."""
+    by_channel: dict[str, list[Event]] = {}
+    for ev in events:
+        by_channel.setdefault(ev.channel, []).append(ev)
+    findings: list[Finding] = []
+    for channel, evs in by_channel.items():
+        evs.sort(key=lambda e: e.onset_s)
+        groups: list[list[Event]] = []
+        for ev in evs:
+            for g in groups:
+                if any(_overlap(ev.onset_s, ev.end_s, o.onset_s, o.end_s, slack_s) for o in g):
+                    g.append(ev)
+                    break
+            else:
+                groups.append([ev])
+        for g in groups:
+            lead = max(g, key=lambda e: e.confidence)
+            detectors = sorted({e.detector for e in g})
+            # independent detectors agreeing raise the confidence: 1 - prod(1 - c_i)
+            miss = 1.0
+            for d in detectors:
+                miss *= 1.0 - max(e.confidence for e in g if e.detector == d)
+            evidence: dict[str, Any] = {"detectors": detectors, "tests": {}}
+            for e in g:
+                tests = e.evidence.get("tests")
+                if tests:
+                    evidence["tests"][e.detector] = tests
+                extra = {k: v for k, v in e.evidence.items() if k != "tests"}
+                if extra:
+                    evidence.setdefault("by_detector", {})[e.detector] = extra
+            findings.append(
+                Finding(
+                    channel=channel,
+                    type=lead.type,
+                    onset_s=lead.onset_s,
+                    end_s=lead.end_s,
+                    magnitude=dict(lead.magnitude),
+                    confidence=float(1.0 - miss),
+                    detector=lead.detector,
+                    evidence=evidence,
+                    events=list(g),
+                )
+            )
+    findings.sort(key=lambda f: (f.onset_s, f.channel))
+    return findings

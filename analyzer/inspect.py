@@ -1,0 +1,65 @@
+"""``analyzer inspect``: what is in an archive (channels, counts, rates, gaps)."""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from analyzer.readers import open_archive
+from analyzer.store import ChannelStore
+from analyzer.timeutil import iso_utc, plausible_epoch
+from analyzer.types import NS_PER_S
+
+
+def inspect_archive(inputs: Sequence[str | Path], time: str = "log") -> dict[str, Any]:
+    """The contract's ``inspect --json`` object (plus ``start``, absolute UTC, where known)."""
+    archive = open_archive(inputs)
+    with tempfile.TemporaryDirectory(prefix="analyzer-inspect-") as tmp, ChannelStore.from_chunks(
+        archive.chunks(time), Path(tmp)
+    ) as store:
+        infos = store.infos()
+        t0 = min((i.start_ns for i in infos), default=0)
+        absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(t0)
+        return {
+            "inputs": [
+                {"path": str(i.path), "format": str(i.format), "errors": list(i.errors)}
+                for i in archive.inputs
+            ],
+            "start": iso_utc(t0) if absolute and infos else None,
+            "channels": [
+                {
+                    "name": i.name,
+                    "samples": i.samples,
+                    "start_s": (i.start_ns - t0) / NS_PER_S,
+                    "end_s": (i.end_ns - t0) / NS_PER_S,
+                    "rate_hz": round(i.rate_hz, 6),
+                    "gaps": i.gaps,
+                }
+                for i in infos
+            ],
+        }
+
+
+def render_table(doc: dict[str, Any]) -> str:
+    """A table for people."""
+    lines = []
+    for i in doc["inputs"]:
+        lines.append(f"{i['path']}  [{i['format']}]")
+        for e in i["errors"]:
+            lines.append(f"  ! {e}")
+    if doc.get("start"):
+        lines.append(f"start {doc['start']}")
+    rows = [("channel", "samples", "start_s", "end_s", "rate_hz", "gaps")]
+    for c in doc["channels"]:
+        rows.append((c["name"], str(c["samples"]), f"{c['start_s']:.3f}", f"{c['end_s']:.3f}",
+                     f"{c['rate_hz']:.3f}", str(c["gaps"])))
+    widths = [max(len(r[k]) for r in rows) for k in range(len(rows[0]))]
+    for n, r in enumerate(rows):
+        cells = [r[0].ljust(widths[0])] + [r[k].rjust(widths[k]) for k in range(1, len(r))]
+        lines.append("  ".join(cells))
+        if n == 0:
+            lines.append("  ".join("-" * w for w in widths))
+    lines.append(f"{len(doc['channels'])} channel(s)")
+    return "\n".join(lines)

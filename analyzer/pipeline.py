@@ -1,0 +1,412 @@
+"""The one pipeline every entry point calls (``analyzer run``, the watcher, the Dask
+backend): readers -> store -> detectors -> diagnosis -> report."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from analyzer import __version__
+from analyzer.config import Config, load_config
+from analyzer.detectors import REGISTRY, Dataset, DetectorResult, RunContext, detector_class
+from analyzer.diagnosis import Finding, merge_events
+from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
+from analyzer.readers import open_archive
+from analyzer.readers.base import InputInfo
+from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore
+from analyzer.timeutil import iso_utc, parse_time, plausible_epoch
+from analyzer.types import NS_PER_S
+
+SCHEMA = "analyzer.findings/1"
+DEFAULT_TRAIN_FRACTION = 0.2
+DEFAULT_TRAIN_MAX_S = 600.0
+MATERIALIZE_IN_MEMORY = 1 << 24
+"""Aligned matrices up to this many values stay in memory; larger ones are memory-mapped."""
+
+Progress = Callable[[str, float], None]
+
+
+@dataclass(slots=True)
+class RunOptions:
+    """Options of ``analyzer run`` (and ``watch``); None means the contract's default."""
+
+    channels: list[str] | None = None
+    train: str | None = None
+    config: Config = field(default_factory=Config)
+    detectors: list[str] | None = None
+    rate: float | None = None
+    jobs: int | None = None
+    scheduler: str | None = None
+    time_source: str = "log"
+    corrected: bool = False
+    progress: Progress | None = None
+
+
+@dataclass(slots=True)
+class Analysis:
+    """Everything one run found; ``findings.json`` and the report are views of it."""
+
+    inputs: list[InputInfo]
+    channels: list[ChannelInfo]
+    analyzed: tuple[str, ...]
+    rate_hz: float
+    start_ns: int
+    absolute_time: bool
+    n: int
+    train: tuple[int, int]
+    results: list[DetectorResult]
+    findings: list[Finding]
+    values: np.ndarray
+    notes: list[str] = field(default_factory=list)
+    timings: dict[str, float] = field(default_factory=dict)
+    skipped: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def duration_s(self) -> float:
+        return (self.n - 1) / self.rate_hz if self.n else 0.0
+
+    @property
+    def faulty(self) -> bool:
+        return bool(self.findings)
+
+    def times_s(self) -> np.ndarray:
+        return np.arange(self.n) / self.rate_hz
+
+    def onset_iso(self, seconds: float | None) -> str | None:
+        if seconds is None or not self.absolute_time:
+            return None
+        return iso_utc(self.start_ns + int(round(seconds * NS_PER_S)))
+
+
+def parse_train(text: str, start_ns: int, duration_s: float, absolute: bool) -> tuple[float, float]:
+    """``--train START:END`` in seconds from the first sample or ISO-8601 times."""
+    if text.count(":") < 1:
+        raise UsageError(f"--train: expected START:END, got {text!r}")
+    # ISO times contain colons: split on the separating colon between two parseable halves
+    parts = None
+    for i, ch in enumerate(text):
+        if ch != ":":
+            continue
+        try:
+            a, b = parse_time(text[:i]), parse_time(text[i + 1 :])
+        except ValueError:
+            continue
+        parts = (a, b)
+        break
+    if parts is None:
+        raise UsageError(f"--train: cannot read {text!r} as START:END (seconds or ISO-8601 times)")
+    secs = []
+    for kind, val in parts:
+        if kind == "ns":
+            if not absolute:
+                raise UsageError(
+                    f"--train: {text!r} uses absolute times but the input has relative timestamps"
+                )
+            secs.append((int(val) - start_ns) / NS_PER_S)
+        else:
+            secs.append(float(val))
+    a, b = secs
+    if not (0.0 <= a < b):
+        raise UsageError(f"--train: the window {text!r} must satisfy 0 <= START < END")
+    if a >= duration_s:
+        raise UsageError(
+            f"--train: the window {text!r} starts after the data ends ({duration_s:.3f} s)"
+        )
+    return a, min(b, duration_s)
+
+
+def default_train(duration_s: float) -> tuple[float, float]:
+    """The first 20 % of the data, at most 10 minutes (CONTRACT.md)."""
+    return 0.0, min(DEFAULT_TRAIN_FRACTION * duration_s, DEFAULT_TRAIN_MAX_S)
+
+
+def _select(store: ChannelStore, patterns: list[str] | None, notes: list[str]) -> list[str]:
+    infos = {i.name: i for i in store.infos()}
+    if not infos:
+        raise ReaderError("no numeric channel found in the input")
+    if patterns:
+        chosen = store.select(patterns)
+        for p in patterns:
+            if not store.select([p]):
+                raise UsageError(f"--channels: pattern {p!r} matches no channel")
+        constant = [c for c in chosen if infos[c].constant]
+        if constant:
+            notes.append(f"constant or empty channels not analyzed: {', '.join(constant)}")
+        chosen = [c for c in chosen if not infos[c].constant]
+    else:
+        chosen = store.select(None)
+        constant = [c for c in infos if infos[c].constant]
+        if constant:
+            notes.append(f"constant or empty channels not analyzed: {', '.join(constant)}")
+    if not chosen:
+        raise UsageError("no channel left to analyze (all selected channels are constant or empty)")
+    return chosen
+
+
+def _detector_names(options: RunOptions) -> tuple[list[str], bool]:
+    if options.detectors:
+        for d in options.detectors:
+            if d not in REGISTRY:
+                detector_class(d)  # raises the UsageError naming the known ones
+        return list(options.detectors), True
+    return list(REGISTRY), False
+
+
+def analyze(
+    inputs: Sequence[str | Path], options: RunOptions, workdir: Path | None = None
+) -> Analysis:
+    """Read, align, fit on the healthy window, run the detectors and merge their events.
+
+    With ``workdir`` the raw store and, for long archives, the aligned matrix and long
+    results are memory-mapped there (the caller removes it after use); without it
+    everything is kept in memory and the scratch space is removed on return."""
+    if workdir is None:
+        with tempfile.TemporaryDirectory(prefix="analyzer-") as tmp:
+            return _analyze(inputs, options, Path(tmp), in_memory=True)
+    return _analyze(inputs, options, workdir, in_memory=False)
+
+
+def _analyze(
+    inputs: Sequence[str | Path], options: RunOptions, work: Path, in_memory: bool
+) -> Analysis:
+    timings: dict[str, float] = {}
+    notes: list[str] = []
+    progress = options.progress
+    t_start = time.perf_counter()
+    archive = open_archive(inputs)
+    with ChannelStore.from_chunks(archive.chunks(options.time_source), work / "store") as store:
+        timings["read"] = time.perf_counter() - t_start
+        if progress:
+            progress("read", 1.0)
+        if not store.infos():
+            bad = "; ".join(e for i in archive.inputs for e in i.errors)
+            raise ReaderError(
+                f"{', '.join(str(i.path) for i in archive.inputs)}: no numeric channel found"
+                + (f" ({bad})" if bad else "")
+            )
+        chosen = _select(store, options.channels, notes)
+        t0 = time.perf_counter()
+        aligned: AlignedSeries = store.align(chosen, options.rate)
+        n_values = aligned.n * len(chosen)
+        big = n_values > MATERIALIZE_IN_MEMORY and not in_memory
+        path = work / "aligned.npy" if big else None
+        values = aligned.materialize(path)
+        timings["align"] = time.perf_counter() - t0
+        absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(aligned.start_ns)
+        duration = aligned.duration_s
+        if options.train is not None:
+            tr = parse_train(options.train, aligned.start_ns, duration, absolute)
+        elif options.config.train is not None:
+            tr = options.config.train
+        else:
+            tr = default_train(duration)
+        train = (int(round(tr[0] * aligned.rate_hz)), int(round(tr[1] * aligned.rate_hz)) + 1)
+        train = (train[0], min(train[1], aligned.n))
+        data = Dataset(values, tuple(chosen), aligned.rate_hz, train)
+        ctx = RunContext(
+            false_alarm_rate=options.config.false_alarm_rate,
+            workdir=None if in_memory else work,
+            jobs=options.jobs or (os.cpu_count() or 1),
+            progress=progress,
+            config=options.config.as_context(),
+        )
+        names, explicit = _detector_names(options)
+        results: list[DetectorResult] = []
+        skipped: dict[str, str] = {}
+        t0 = time.perf_counter()
+        for name in names:
+            cls = detector_class(name)
+            try:
+                det = cls(**options.config.detectors.get(name, {}))
+            except TypeError as err:
+                raise ConfigError(f"[detectors.{name}]: {err}") from err
+            reason = det.applicable(data, ctx)
+            if reason is not None:
+                if explicit:
+                    raise DetectorError(f"{name}: {reason}")
+                skipped[name] = reason
+                continue
+            try:
+                model = det.fit(data, ctx)
+                results.append(det.run(model, data, ctx))
+            except DetectorError as err:
+                if explicit:
+                    raise
+                skipped[name] = str(err)
+        timings["detect"] = time.perf_counter() - t0
+        if not results:
+            why = "; ".join(f"{k}: {v}" for k, v in skipped.items())
+            raise DetectorError(f"no detector could run ({why})")
+        findings = merge_events(ev for r in results for ev in r.events)
+        timings["total"] = time.perf_counter() - t_start
+        return Analysis(
+            inputs=archive.inputs,
+            channels=store.infos(),
+            analyzed=tuple(chosen),
+            rate_hz=aligned.rate_hz,
+            start_ns=aligned.start_ns,
+            absolute_time=absolute,
+            n=aligned.n,
+            train=train,
+            results=results,
+            findings=findings,
+            values=values,
+            notes=notes,
+            timings=timings,
+            skipped=skipped,
+        )
+
+
+def sha256_of(path: Path) -> str:
+    h = hashlib.sha256()
+    if path.is_dir():
+        for p in sorted(path.rglob("*")):
+            if p.is_file():
+                h.update(p.relative_to(path).as_posix().encode())
+                with p.open("rb") as f:
+                    for blk in iter(lambda f=f: f.read(1 << 20), b""):
+                        h.update(blk)
+        return h.hexdigest()
+    with path.open("rb") as f:
+        for blk in iter(lambda: f.read(1 << 20), b""):
+            h.update(blk)
+    return h.hexdigest()
+
+
+def findings_document(analysis: Analysis) -> dict[str, Any]:
+    """``findings.json`` exactly as in CONTRACT.md (plus extension fields)."""
+    a = analysis
+    train0, train1 = a.train
+    return {
+        "schema": SCHEMA,
+        "analyzer_version": __version__,
+        "inputs": [
+            {
+                "path": str(i.path),
+                "format": str(i.format),
+                "sha256": i.sha256 or (sha256_of(Path(i.path)) if Path(i.path).exists() else ""),
+                "errors": list(i.errors),
+            }
+            for i in a.inputs
+        ],
+        "start": iso_utc(a.start_ns) if a.absolute_time else None,
+        "duration_s": round(a.duration_s, 6),
+        "rate_hz": a.rate_hz,
+        "train": {"start_s": train0 / a.rate_hz, "end_s": (train1 - 1) / a.rate_hz},
+        "channels": [
+            {
+                "name": c.name,
+                "samples": c.samples,
+                "rate_hz": round(c.rate_hz, 6),
+                "gaps": c.gaps,
+                "analyzed": c.name in a.analyzed,
+            }
+            for c in a.channels
+        ],
+        "faults": [
+            {
+                "channel": f.channel,
+                "type": str(f.type),
+                "onset_s": round(f.onset_s, 4),
+                "end_s": None if f.end_s is None else round(f.end_s, 4),
+                "onset": a.onset_iso(f.onset_s),
+                "end": a.onset_iso(f.end_s),
+                "magnitude": {k: float(v) for k, v in f.magnitude.items()},
+                "confidence": round(float(f.confidence), 4),
+                "detector": f.detector,
+                "evidence": _jsonable(f.evidence),
+            }
+            for f in a.findings
+        ],
+        "detectors": [
+            {"name": r.detector, "channels": list(r.channels), "params": _jsonable(r.params),
+             "model": _jsonable(r.model)}
+            for r in a.results
+        ],
+        "skipped_detectors": a.skipped,
+        "notes": a.notes,
+    }
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, (np.floating, float)):
+        v = float(x)
+        return v if np.isfinite(v) else None
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (np.bool_,)):
+        return bool(x)
+    if isinstance(x, (str, int, bool)) or x is None:
+        return x
+    return str(x)
+
+
+def write_atomic(path: Path, data: bytes | str) -> None:
+    """Write ``path`` via a temporary file and rename, so readers never see half a file."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data.encode("utf-8") if isinstance(data, str) else data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_outputs(analysis: Analysis, out_dir: Path) -> dict[str, Any]:
+    """``out_dir/findings.json`` and ``out_dir/report.html`` (atomically)."""
+    from analyzer.report import render_report
+
+    doc = findings_document(analysis)
+    write_atomic(out_dir / "findings.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
+    write_atomic(out_dir / "report.html", render_report(analysis, doc))
+    return doc
+
+
+def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) -> int:
+    """``analyzer run``: analyze, write the outputs, return the exit code (0 or 1)."""
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out: {out} exists and is not a directory")
+    work = Path(tempfile.mkdtemp(prefix="analyzer-"))
+    try:
+        analysis = analyze(inputs, options, work)
+        write_outputs(analysis, out)
+        return 1 if analysis.faulty else 0
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def load_options(config_path: str | None, **kw: Any) -> RunOptions:
+    """RunOptions with the config file loaded and validated."""
+    cfg = load_config(config_path, set(REGISTRY))
+    return RunOptions(config=cfg, **kw)
+
+
+__all__ = [
+    "Analysis",
+    "AnalyzerError",
+    "RunOptions",
+    "analyze",
+    "findings_document",
+    "load_options",
+    "run",
+    "write_outputs",
+]

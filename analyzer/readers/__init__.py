@@ -1,0 +1,229 @@
+"""The input layer: files in, :class:`~analyzer.readers.base.ChannelChunk` streams out.
+
+* :func:`open_input` opens one input (MCAP file, ROS 1 bag, ROS 2 bag directory or bare
+  ``.db3``, CSV/TSV optionally gzipped), detected by magic bytes first, then by suffix.
+* :func:`open_archive` opens the inputs that together form one archive (several paths,
+  and/or a directory of files such as one file per hour) and streams them in time order.
+
+Errors: a missing path, an unknown format or a file that cannot be opened raises
+:class:`~analyzer.errors.ReaderError` with one line naming the file and the problem. Inside
+a multi-file archive a damaged file does not stop the others: it is listed in
+``Archive.inputs`` with the problem in its ``errors``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+
+from analyzer.errors import ReaderError
+from analyzer.readers._common import file_digest, monotonic, one_line
+from analyzer.readers.base import ChannelChunk, InputInfo, Reader, TimeSource
+from analyzer.readers.csv_reader import CsvReader
+from analyzer.readers.mcap_reader import McapReader
+from analyzer.readers.ros1_reader import Ros1BagReader
+from analyzer.readers.ros2_reader import Ros2BagReader, bag_files
+from analyzer.types import Format
+
+__all__ = [
+    "Archive",
+    "ChannelChunk",
+    "InputInfo",
+    "Reader",
+    "detect_format",
+    "open_archive",
+    "open_input",
+]
+
+SUFFIXES: dict[str, Format] = {
+    ".mcap": Format.MCAP,
+    ".bag": Format.ROS1BAG,
+    ".db3": Format.ROS2BAG,
+    ".csv": Format.CSV,
+    ".tsv": Format.CSV,
+    ".csv.gz": Format.CSV,
+    ".tsv.gz": Format.CSV,
+}
+"""Suffixes of the files taken from a directory archive, and their format."""
+
+_MAGICS: tuple[tuple[bytes, Format], ...] = (
+    (b"\x89MCAP0\r\n", Format.MCAP),
+    (b"#ROSBAG V", Format.ROS1BAG),
+    (b"SQLite format 3\x00", Format.ROS2BAG),
+)
+
+
+def _suffix(path: Path) -> str:
+    name = path.name.lower()
+    for suffix in sorted(SUFFIXES, key=len, reverse=True):
+        if name.endswith(suffix):
+            return suffix
+    return ""
+
+
+def is_ros2_bag(path: Path) -> bool:
+    """A ROS 2 bag directory: one holding ``metadata.yaml``."""
+    return path.is_dir() and (path / "metadata.yaml").is_file()
+
+
+def detect_format(path: str | Path) -> Format:
+    """The format of ``path``: magic bytes first, then the suffix."""
+    path = Path(path)
+    if not path.exists():
+        raise ReaderError(f"{path}: no such file or directory")
+    if path.is_dir():
+        if is_ros2_bag(path):
+            return Format.ROS2BAG
+        raise ReaderError(
+            f"{path}: a directory without metadata.yaml is not a ROS 2 bag "
+            "(open it as a multi-file archive)"
+        )
+    try:
+        with path.open("rb") as handle:
+            head = handle.read(16)
+    except OSError as err:
+        raise ReaderError(f"{path}: cannot read: {one_line(err.strerror or err)}") from err
+    for magic, fmt in _MAGICS:
+        if head.startswith(magic):
+            return fmt
+    suffix = _suffix(path)
+    if suffix:
+        return SUFFIXES[suffix]
+    if not head:
+        raise ReaderError(f"{path}: empty file (0 bytes) of unknown format")
+    if head.startswith(b"\x89MCAP"):
+        return Format.MCAP  # damaged magic: the MCAP reader says how
+    raise ReaderError(
+        f"{path}: unknown format (expected .mcap, .bag, .db3, .csv, .tsv, .csv.gz or a "
+        "ROS 2 bag directory)"
+    )
+
+
+def open_input(path: str | Path) -> Reader:
+    """Open one input; raises ReaderError (one line, naming the file) if it cannot be read."""
+    path = Path(path)
+    fmt = detect_format(path)
+    if fmt is Format.MCAP:
+        return McapReader(path)
+    if fmt is Format.ROS1BAG:
+        return Ros1BagReader(path)
+    if fmt is Format.ROS2BAG:
+        return Ros2BagReader(path)
+    return CsvReader(path)
+
+
+class Archive:
+    """The inputs of one archive, stitched in time order (by each reader's start time).
+
+    ``inputs`` lists every input, readable or not (in stitching order, unreadable ones
+    last). :meth:`chunks` streams the readable ones one after the other; a sample not later
+    than one already streamed for the same channel (files overlapping in time) is dropped
+    and counted in the later file's errors.
+    """
+
+    def __init__(self, readers: Sequence[Reader], failed: Sequence[InputInfo] = ()) -> None:
+        starts = [(r.start_ns(), str(r.info.path), r) for r in readers]
+        starts.sort(key=lambda s: (s[0] is None, s[0] or 0, s[1]))
+        self.readers: list[Reader] = [s[2] for s in starts]
+        self.inputs: list[InputInfo] = [r.info for r in self.readers] + list(failed)
+
+    def start_ns(self) -> int | None:
+        """Start time of the first readable input."""
+        return next((s for r in self.readers if (s := r.start_ns()) is not None), None)
+
+    def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
+        """Every channel chunk of every readable input, input after input."""
+        if time not in ("log", "header"):
+            raise ValueError(f"time must be 'log' or 'header', not {time!r}")
+        last: dict[str, int] = {}
+        single = len(self.inputs) == 1
+        for reader in self.readers:
+            dropped: dict[str, int] = {}
+            try:
+                yield from monotonic(reader.chunks(time), last, dropped, strict=True)
+            except ReaderError as err:
+                if single:
+                    raise
+                reader.info.errors.append(f"reading stopped: {one_line(err)}")
+            except Exception as err:  # noqa: BLE001 - a damaged file must not stop the others
+                if single:
+                    raise ReaderError(f"{reader.info.path}: {one_line(err)}") from err
+                reader.info.errors.append(f"reading stopped: {one_line(err)}")
+            for name, count in dropped.items():
+                reader.info.errors.append(
+                    f"{name}: {count} samples overlap the previous input in time; dropped"
+                )
+
+
+def _members(directory: Path) -> list[Path]:
+    """The inputs of a directory archive: files with a known suffix, and ROS 2 bags."""
+    found = []
+    for entry in sorted(directory.iterdir()):
+        if entry.name.startswith("."):
+            continue
+        if entry.is_dir():
+            if is_ros2_bag(entry):
+                found.append(entry)
+        elif _suffix(entry):
+            found.append(entry)
+    return found
+
+
+def _failed(path: Path, err: ReaderError) -> InputInfo:
+    suffix = _suffix(path)
+    fmt = Format.ROS2BAG if path.is_dir() else SUFFIXES.get(suffix, Format.CSV)
+    message = str(err)
+    prefix = f"{path}: "
+    if message.startswith(prefix):
+        message = message[len(prefix) :]
+    info = InputInfo(path, fmt, errors=[message])
+    with contextlib.suppress(OSError):
+        info.size_bytes, info.sha256 = file_digest(bag_files(path))
+    return info
+
+
+def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
+    """Open the inputs of one archive.
+
+    A directory that is not a ROS 2 bag stands for the files in it (see :data:`SUFFIXES`)
+    and the ROS 2 bags under it. With one input in total, any problem raises
+    ReaderError; with several, an input that cannot be opened is recorded (and skipped)
+    unless none can be opened.
+    """
+    if isinstance(paths, str | Path):
+        paths = [paths]
+    if not paths:
+        raise ReaderError("no input given")
+    members: list[Path] = []
+    for raw in paths:
+        path = Path(raw)
+        if not path.exists():
+            raise ReaderError(f"{path}: no such file or directory")
+        if path.is_dir() and not is_ros2_bag(path):
+            found = _members(path)
+            if not found:
+                raise ReaderError(
+                    f"{path}: the directory holds no input (.mcap, .bag, .db3, .csv, .tsv, "
+                    ".csv.gz or ROS 2 bag directories)"
+                )
+            members.extend(found)
+        else:
+            if path.is_file() and not _suffix(path):
+                detect_format(path)  # an explicit file of unknown format is a usage error
+            members.append(path)
+    if len(members) == 1:
+        return Archive([open_input(members[0])])
+    readers: list[Reader] = []
+    failed: list[InputInfo] = []
+    for member in members:
+        try:
+            readers.append(open_input(member))
+        except ReaderError as err:
+            failed.append(_failed(member, err))
+    if not readers:
+        raise ReaderError(
+            f"none of the {len(members)} inputs can be read; first: {failed[0].path}: "
+            f"{failed[0].errors[0]}"
+        )
+    return Archive(readers, failed)

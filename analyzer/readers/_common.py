@@ -1,0 +1,316 @@
+"""Pieces every reader shares: byte gathering, decoded batches, time ordering, hashing.
+
+The readers cut an input into *batches* (an MCAP chunk, a ROS 1 chunk, a few thousand
+rows of a sqlite table or CSV), decode every channel of a batch with whole-array
+operations, and hand the samples to a :class:`Reorderer`, which makes sure the
+:class:`~analyzer.readers.base.ChannelChunk` stream of each channel is in time order
+without holding more than a batch or two in memory.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from numpy.lib.stride_tricks import sliding_window_view
+
+from analyzer.readers.base import ChannelChunk
+
+IntArray = npt.NDArray[np.int64]
+FloatArray = npt.NDArray[np.float64]
+ByteArray = npt.NDArray[np.uint8]
+
+NO_STAMP = np.iinfo(np.int64).min
+"""Header-stamp placeholder for a message without a header (its log time is used)."""
+
+HASH_BLOCK = 1 << 20
+"""Files are hashed in 1 MiB blocks so that hashing a large archive needs no memory."""
+
+RELEASE_SAMPLES = 1 << 21
+"""Samples (all channels) a :class:`Reorderer` gathers before releasing: fewer, larger
+chunks downstream, at most ~32 MB held."""
+
+REORDER_WINDOW_NS = 2_000_000_000
+"""Where no bound on future timestamps is known (header stamps, unindexed files), samples
+within this many nanoseconds of the newest one are held back for the next batch."""
+
+EMPTY_T: IntArray = np.zeros(0, dtype=np.int64)
+EMPTY_V: FloatArray = np.zeros(0, dtype=np.float64)
+
+
+# --------------------------------------------------------------------------- bytes
+
+
+def as_bytes_array(data: bytes | bytearray | memoryview) -> ByteArray:
+    """A read-only uint8 view of ``data`` (no copy)."""
+    return np.frombuffer(data, dtype=np.uint8)
+
+
+def gather_uint(buf: ByteArray, offsets: IntArray, width: int, endian: str = "<") -> IntArray:
+    """Unsigned integers of ``width`` bytes read at every offset of ``offsets`` in ``buf``,
+    as int64 (uint64 values above 2**63 wrap; callers use this for lengths and times)."""
+    if offsets.size == 0:
+        return EMPTY_T.copy()
+    rows = sliding_window_view(buf, width)[offsets]
+    values = np.ascontiguousarray(rows).view(f"{endian}u{width}").ravel()
+    return values.astype(np.int64)
+
+
+def field_view(rows: ByteArray, offset: int, dtype: str) -> npt.NDArray[Any]:
+    """Column ``offset`` of a C-contiguous (n, size) byte matrix read as ``dtype`` (a view)."""
+    return np.ndarray(
+        shape=(rows.shape[0],), dtype=dtype, buffer=rows, offset=offset, strides=(rows.shape[1],)
+    )
+
+
+def gather_rows(buf: ByteArray, starts: IntArray, size: int) -> ByteArray:
+    """The ``size``-byte records starting at ``starts`` as one C-contiguous (n, size) array.
+
+    Equally spaced records (one channel per chunk, the common case) are copied with one
+    strided copy; otherwise rows are gathered with one fancy-indexing copy.
+    """
+    n = int(starts.shape[0])
+    if n == 0 or size == 0:
+        return np.zeros((n, size), dtype=np.uint8)
+    if n > 1:
+        steps = np.diff(starts)
+        step = int(steps[0])
+        if step >= size and bool(np.all(steps == step)):
+            view = np.lib.stride_tricks.as_strided(
+                buf[int(starts[0]) :], shape=(n, size), strides=(step, 1), writeable=False
+            )
+            return np.array(view, dtype=np.uint8, order="C")
+    return np.ascontiguousarray(sliding_window_view(buf, size)[starts])
+
+
+def concat_payloads(payloads: Sequence[bytes]) -> tuple[ByteArray, IntArray, IntArray]:
+    """Join message payloads into one buffer; returns (buffer, starts, sizes).
+
+    ``b"".join`` and ``map(len, ...)`` run in C: no Python bytecode per message.
+    """
+    count = len(payloads)
+    sizes = np.fromiter(map(len, payloads), dtype=np.int64, count=count)
+    starts = np.cumsum(sizes) - sizes
+    return as_bytes_array(b"".join(payloads)), starts, sizes
+
+
+# --------------------------------------------------------------------------- decoded batches
+
+
+@dataclass(slots=True)
+class Decoded:
+    """Numeric fields of a batch of ``n`` messages of one topic.
+
+    ``columns`` maps a field path (``linear_acceleration.x``, ``data[3]``) to the message
+    rows that have it (``None``: every row) and its values. ``stamps`` holds each
+    message's header stamp in nanoseconds (``NO_STAMP`` where it has none), or is
+    ``None`` when no message has a header.
+    """
+
+    n: int
+    columns: dict[str, tuple[IntArray | None, FloatArray]] = field(default_factory=dict)
+    stamps: IntArray | None = None
+    failed: int = 0
+    first_error: str = ""
+
+    def note_failure(self, err: BaseException | str, count: int = 1) -> None:
+        """Count ``count`` undecodable messages, keeping the first reason."""
+        self.failed += count
+        if not self.first_error:
+            self.first_error = str(err).splitlines()[0] if str(err) else type(err).__name__
+
+
+class ColumnAccumulator:
+    """Collects (row, value) pairs per field from a per-message fallback decoder and
+    turns them into :class:`Decoded` columns."""
+
+    def __init__(self) -> None:
+        self._rows: dict[str, list[int]] = {}
+        self._values: dict[str, list[float]] = {}
+
+    def add(self, row: int, flat: dict[str, float]) -> None:
+        for name, value in flat.items():
+            rows = self._rows.get(name)
+            if rows is None:
+                rows = self._rows[name] = []
+                self._values[name] = []
+            rows.append(row)
+            self._values[name].append(value)
+
+    def into(self, decoded: Decoded) -> None:
+        for name, rows in self._rows.items():
+            r = np.asarray(rows, dtype=np.int64)
+            v = np.asarray(self._values[name], dtype=np.float64)
+            decoded.columns[name] = (None if r.size == decoded.n else r, v)
+
+
+def merge_parts(
+    parts: dict[str, list[tuple[IntArray | None, FloatArray]]], n: int
+) -> dict[str, tuple[IntArray | None, FloatArray]]:
+    """Merge per-group columns (one group per message layout) back into row order."""
+    merged: dict[str, tuple[IntArray | None, FloatArray]] = {}
+    for name, pieces in parts.items():
+        if len(pieces) == 1:
+            rows, values = pieces[0]
+            merged[name] = (None if rows is not None and rows.size == n else rows, values)
+            continue
+        all_rows = np.concatenate(
+            [np.arange(n, dtype=np.int64) if r is None else r for r, _ in pieces]
+        )
+        all_values = np.concatenate([v for _, v in pieces])
+        order = np.argsort(all_rows, kind="stable")
+        rows_sorted = all_rows[order]
+        merged[name] = (None if rows_sorted.size == n else rows_sorted, all_values[order])
+    return merged
+
+
+def sample_times(decoded: Decoded, log_ns: IntArray, time: str) -> IntArray:
+    """Per-message timestamps: log time, or the header stamp where there is one."""
+    if time == "header" and decoded.stamps is not None:
+        return np.where(decoded.stamps == NO_STAMP, log_ns, decoded.stamps)
+    return log_ns
+
+
+# --------------------------------------------------------------------------- time order
+
+
+class Reorderer:
+    """Turns per-batch samples into per-channel chunks in non-decreasing time order.
+
+    Samples are held until :meth:`release` is told a bound below which no further sample
+    will arrive (for indexed files, the start time of the next chunk), or, with no bound,
+    until they are :data:`REORDER_WINDOW_NS` older than the newest sample of their
+    channel. A sample that still arrives later than an already released one cannot be
+    placed; it is dropped and counted in :attr:`dropped`.
+    """
+
+    def __init__(
+        self, window_ns: int = REORDER_WINDOW_NS, batch_samples: int = RELEASE_SAMPLES
+    ) -> None:
+        self._window = window_ns
+        self._batch = batch_samples
+        self._held = 0
+        self._t: dict[str, list[IntArray]] = {}
+        self._v: dict[str, list[FloatArray]] = {}
+        self._last: dict[str, int] = {}
+        self.dropped: dict[str, int] = {}
+
+    def push(self, name: str, t: IntArray, values: FloatArray) -> None:
+        if t.size == 0:
+            return
+        if name not in self._t:
+            self._t[name] = []
+            self._v[name] = []
+        self._t[name].append(t)
+        self._v[name].append(values)
+        self._held += int(t.size)
+
+    def push_decoded(
+        self, topic: str, decoded: Decoded, times: IntArray, separator: str = "."
+    ) -> None:
+        """Push every column of ``decoded`` under ``{topic}{separator}{field}``."""
+        for fieldname, (rows, values) in decoded.columns.items():
+            t = times if rows is None else times[rows]
+            self.push(f"{topic}{separator}{fieldname}" if topic else fieldname, t, values)
+
+    def release(self, bound: int | None, *, final: bool = False) -> Iterator[ChannelChunk]:
+        """Yield what is known to be complete: samples before ``bound``, or, with
+        ``bound=None``, samples older than the window; with ``final``, everything.
+        Nothing is released before :data:`RELEASE_SAMPLES` samples are held."""
+        if not final and self._held < self._batch:
+            return
+        self._held = 0
+        for name in list(self._t):
+            parts_t, parts_v = self._t[name], self._v[name]
+            t = parts_t[0] if len(parts_t) == 1 else np.concatenate(parts_t)
+            v = parts_v[0] if len(parts_v) == 1 else np.concatenate(parts_v)
+            if t.size > 1 and bool(np.any(t[1:] < t[:-1])):
+                order = np.argsort(t, kind="stable")
+                t, v = t[order], v[order]
+            if final:
+                cut = t.size
+            else:
+                limit = bound if bound is not None else int(t[-1]) - self._window
+                cut = int(np.searchsorted(t, limit, side="left"))
+            if cut < t.size:
+                self._t[name], self._v[name] = [t[cut:]], [v[cut:]]
+                self._held += int(t.size - cut)
+            else:
+                del self._t[name], self._v[name]
+            if cut == 0:
+                continue
+            out_t, out_v = t[:cut], v[:cut]
+            last = self._last.get(name)
+            if last is not None and int(out_t[0]) < last:
+                keep = out_t >= last
+                self.dropped[name] = self.dropped.get(name, 0) + int(np.count_nonzero(~keep))
+                out_t, out_v = out_t[keep], out_v[keep]
+                if out_t.size == 0:
+                    continue
+            self._last[name] = int(out_t[-1])
+            yield ChannelChunk(name, np.ascontiguousarray(out_t), np.ascontiguousarray(out_v))
+
+    def flush(self) -> Iterator[ChannelChunk]:
+        """Release everything still held."""
+        yield from self.release(None, final=True)
+
+    def drop_report(self) -> list[str]:
+        """One error line per channel that lost out-of-order samples."""
+        return [
+            f"{name}: {count} samples dropped because their timestamps went back in time "
+            "by more than the reorder window"
+            for name, count in self.dropped.items()
+        ]
+
+
+def monotonic(
+    chunks: Iterable[ChannelChunk],
+    last: dict[str, int],
+    dropped: dict[str, int],
+    *,
+    strict: bool = False,
+) -> Iterator[ChannelChunk]:
+    """Pass ``chunks`` through, dropping samples earlier than the last one already passed
+    for the same channel (with ``strict``, also samples at the same time: duplicates where
+    two files overlap). ``last`` and ``dropped`` are updated in place. Used where several
+    sources are concatenated: the files of a directory archive, the split files of a
+    ROS 2 bag."""
+    for chunk in chunks:
+        if len(chunk) == 0:
+            continue
+        prev = last.get(chunk.name)
+        first = int(chunk.t_ns[0])
+        if prev is not None and (first < prev or (strict and first == prev)):
+            keep = chunk.t_ns > prev if strict else chunk.t_ns >= prev
+            dropped[chunk.name] = dropped.get(chunk.name, 0) + int(np.count_nonzero(~keep))
+            if not bool(np.any(keep)):
+                continue
+            chunk = ChannelChunk(chunk.name, chunk.t_ns[keep], chunk.values[keep])
+        last[chunk.name] = int(chunk.t_ns[-1])
+        yield chunk
+
+
+# --------------------------------------------------------------------------- files
+
+
+def file_digest(paths: Sequence[Path]) -> tuple[int, str]:
+    """Total size and sha256 of the concatenated bytes of ``paths``, read in 1 MiB blocks."""
+    digest = hashlib.sha256()
+    total = 0
+    for path in paths:
+        with path.open("rb") as handle:
+            while block := handle.read(HASH_BLOCK):
+                digest.update(block)
+                total += len(block)
+    return total, digest.hexdigest()
+
+
+def one_line(err: BaseException | str) -> str:
+    """An exception (or text) as a single line, for ``InputInfo.errors`` and messages."""
+    text = str(err).strip() or type(err).__name__
+    return " ".join(text.split())

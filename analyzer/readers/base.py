@@ -1,0 +1,63 @@
+"""The one protocol every reader speaks.
+
+A reader turns one input (file or ROS 2 bag directory) into a stream of
+:class:`ChannelChunk`: a channel name, integer-nanosecond timestamps and float64 values.
+Chunks of one channel arrive in non-decreasing time order within one input; a channel
+may be split over many chunks. Readers decode in bulk (a chunk holds many samples), never
+one Python object per sample on the hot path.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from analyzer.types import Format
+
+TimeSource = Literal["log", "header"]
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelChunk:
+    """Samples of one channel: ``t_ns`` int64 nanoseconds, ``values`` float64, same length."""
+
+    name: str
+    t_ns: npt.NDArray[np.int64]
+    values: npt.NDArray[np.float64]
+
+    def __len__(self) -> int:
+        return int(self.t_ns.shape[0])
+
+
+@dataclass(slots=True)
+class InputInfo:
+    """What the report and ``findings.json`` say about one input."""
+
+    path: Path
+    format: Format
+    size_bytes: int = 0
+    sha256: str = ""
+    errors: list[str] = field(default_factory=list)
+    absolute_time: bool = True
+    """True when timestamps are nanoseconds since the Unix epoch (UTC)."""
+
+
+class Reader(Protocol):
+    """One input. Construction validates the file (raising ``ReaderError`` with the path
+    and the problem); :meth:`chunks` streams its numeric channels. Problems found while
+    streaming that leave the rest readable (a truncated tail, an undecodable topic) are
+    appended to ``info.errors`` instead of raised."""
+
+    info: InputInfo
+
+    def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]: ...
+
+    def start_ns(self) -> int | None:
+        """First timestamp, cheaply (from a summary or index) where possible; used to
+        stitch the files of a directory archive in time order."""
+        ...

@@ -1,0 +1,389 @@
+"""CSV / TSV reader (optionally gzip-compressed).
+
+Layout detection, from the first lines: the separator (``,`` ``;`` tab ``|``: the one that
+splits every sample line into the same number of fields, tab and ``;`` preferred since
+they rule out a decimal comma), the decimal mark (``1,5`` under a ``;`` or tab separator),
+the header (first line) and the time column: the first column named ``time``,
+``timestamp``, ``t``, ``__time``, ``%time`` or ``datetime`` (any case), else the first
+column.
+
+The body is read by Arrow's streaming CSV reader in blocks, every column as text; each
+block is then converted column-wise (trim, numeric test by regular expression, cast): no
+Python per row. A column is a channel when its non-blank cells are numbers (``true`` /
+``false`` count as 1 / 0); blank cells are gaps, i.e. no sample of that channel on that
+row, and so are the odd non-numeric cells of a column that is at least 90 % numbers
+(counted in ``info.errors``). The time column holds seconds (decimal text is converted to
+integer nanoseconds exactly), integer nanoseconds (integers above 1e15) or date-time
+strings (ISO 8601 or any format pandas recognises; UTC where no zone is given). Seconds
+below 1e8 (before 1973) are taken as relative time: ``InputInfo.absolute_time`` is False.
+"""
+
+from __future__ import annotations
+
+import csv
+import gzip
+import re
+import warnings
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.csv as pacsv
+
+from analyzer.errors import ReaderError
+from analyzer.readers._common import FloatArray, IntArray, Reorderer, file_digest, one_line
+from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
+from analyzer.types import Format
+
+TIME_NAMES = ("time", "timestamp", "t", "__time", "%time", "datetime")
+SEPARATORS = ("\t", ";", ",", "|")
+SAMPLE_BYTES = 1 << 16
+BLOCK_BYTES = 1 << 22
+NS_THRESHOLD = 1e15
+"""Integer times above this are nanoseconds."""
+EPOCH_THRESHOLD_S = 1e8
+"""Times in seconds at or above this are Unix times; below, relative times."""
+
+NUMERIC_SHARE = 0.9
+"""A column is numeric when at least this share of its non-blank cells are numbers (a
+logger writing the odd ``ERR`` does not turn a sensor channel into text)."""
+
+NUMBER = r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^(?i:[-+]?(inf|infinity|nan))$"
+INTEGER = r"^[-+]?\d+$"
+BOOLEAN = r"^(?i:true|false)$"
+_NS_MIN = pd.Timestamp.min.tz_localize("UTC")
+_NS_MAX = pd.Timestamp.max.tz_localize("UTC")
+"""Dates outside what int64 nanoseconds can hold (years 1677-2262) are not times."""
+_DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+\s*$")
+
+
+@dataclass(frozen=True, slots=True)
+class _Layout:
+    separator: str
+    decimal_comma: bool
+    names: tuple[str, ...]
+    time_column: int
+    compressed: bool
+    encoding: str
+
+
+class CsvReader:
+    """One CSV/TSV file."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        try:
+            size = self.path.stat().st_size
+        except OSError as err:
+            raise ReaderError(f"{self.path}: cannot read: {one_line(err.strerror or err)}") from err
+        if size == 0:
+            raise ReaderError(f"{self.path}: empty file (0 bytes)")
+        self._layout = self._detect()
+        self._numeric: dict[int, bool] = {}
+        self._time_kind = ""
+        self._time_format: str | None = None
+        first_time = self._inspect_first_block()
+        total, sha = file_digest([self.path])
+        self.info = InputInfo(self.path, Format.CSV, size_bytes=total, sha256=sha)
+        self.info.absolute_time = self._time_kind != "seconds" or (
+            first_time is not None and first_time >= EPOCH_THRESHOLD_S * 1e9
+        )
+        self._first_time = first_time
+
+    # ------------------------------------------------------------------ protocol
+    def start_ns(self) -> int | None:
+        return self._first_time
+
+    def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
+        del time  # CSV rows have one time only
+        reorder = Reorderer()
+        skipped = 0
+        bad_cells: dict[str, int] = {}
+        try:
+            for batch, invalid in self._batches():
+                skipped += invalid
+                t_ns, keep = self._times(batch.column(self._layout.time_column))
+                skipped += int(np.count_nonzero(~keep))
+                for index, name in enumerate(self._layout.names):
+                    if index == self._layout.time_column:
+                        continue
+                    column = batch.column(index)
+                    if index not in self._numeric:
+                        decision = self._classify(column)
+                        if decision is None:
+                            continue
+                        self._numeric[index] = decision
+                    if not self._numeric[index]:
+                        continue
+                    present, values, bad = self._values(column)
+                    if bad:
+                        bad_cells[name] = bad_cells.get(name, 0) + bad
+                    present &= keep
+                    reorder.push(name, t_ns[present], values[present])
+                yield from reorder.release(None)
+        except (pa.ArrowException, OSError, EOFError, ValueError) as err:
+            self._error(
+                f"unreadable from some point on ({one_line(err)}); the rows before it were read"
+            )
+        yield from reorder.flush()
+        if skipped:
+            self._error(
+                f"{skipped} rows without a readable time or with the wrong number of fields skipped"
+            )
+        for name, count in bad_cells.items():
+            self._error(f"{name}: {count} non-numeric cells treated as gaps")
+        for line in reorder.drop_report():
+            self._error(line)
+
+    # ------------------------------------------------------------------ layout
+    def _detect(self) -> _Layout:
+        try:
+            with self.path.open("rb") as raw:
+                compressed = raw.read(2) == b"\x1f\x8b"
+                raw.seek(0)
+                stream = gzip.GzipFile(fileobj=raw) if compressed else raw
+                head = stream.read(SAMPLE_BYTES)
+        except (OSError, EOFError) as err:
+            raise ReaderError(f"{self.path}: cannot read as text ({one_line(err)})") from err
+        try:
+            sample = head.decode("utf-8-sig")
+            encoding = "utf8"
+        except UnicodeDecodeError as err:
+            if err.start < len(head) - 4:  # not just a character cut by the sample's end
+                encoding = "latin1"
+                sample = head.decode("latin-1")
+            else:
+                encoding = "utf8"
+                sample = head[: err.start].decode("utf-8-sig")
+        lines = sample.splitlines()
+        if len(sample) == SAMPLE_BYTES and len(lines) > 1:
+            lines = lines[:-1]  # the last line may be cut
+        lines = [line for line in lines if line.strip()][:50]
+        if not lines:
+            raise ReaderError(f"{self.path}: no header line")
+        if "\x00" in sample:
+            raise ReaderError(f"{self.path}: not a text file (binary data)")
+        separator = self._separator(lines)
+        header = next(csv.reader([lines[0]], delimiter=separator))
+        names = _unique([h.strip() or f"column{i}" for i, h in enumerate(header)])
+        if len(names) < 2:
+            raise ReaderError(f"{self.path}: no numeric column (a single column {names[0]!r})")
+        lowered = [n.lower() for n in names]
+        time_column = next((lowered.index(n) for n in TIME_NAMES if n in lowered), 0)
+        body = [row for row in csv.reader(lines[1:], delimiter=separator)]
+        decimal_comma = separator != "," and any(
+            _DECIMAL_COMMA.match(cell) for row in body for cell in row
+        )
+        return _Layout(separator, decimal_comma, tuple(names), time_column, compressed, encoding)
+
+    def _separator(self, lines: list[str]) -> str:
+        name = self.path.name.lower().removesuffix(".gz")
+        if name.endswith(".tsv"):
+            return "\t"
+        best, best_fields = ",", 0.0
+        for separator in SEPARATORS:
+            counts = [len(row) for row in csv.reader(lines, delimiter=separator)]
+            if counts[0] >= 2 and all(c == counts[0] for c in counts):
+                return separator
+            mean = sum(counts) / len(counts)
+            if mean > best_fields:
+                best, best_fields = separator, mean
+        return best
+
+    # ------------------------------------------------------------------ blocks
+    def _batches(self) -> Iterator[tuple[pa.RecordBatch, int]]:
+        layout = self._layout
+        invalid = [0]
+
+        def skip_row(_row: object) -> str:
+            invalid[0] += 1
+            return "skip"
+
+        stream = pa.input_stream(str(self.path), compression="gzip" if layout.compressed else None)
+        reader = pacsv.open_csv(
+            stream,
+            read_options=pacsv.ReadOptions(
+                column_names=list(layout.names),
+                skip_rows=1,
+                block_size=BLOCK_BYTES,
+                encoding=layout.encoding,
+            ),
+            parse_options=pacsv.ParseOptions(
+                delimiter=layout.separator, invalid_row_handler=skip_row
+            ),
+            convert_options=pacsv.ConvertOptions(
+                column_types={name: pa.string() for name in layout.names},
+                strings_can_be_null=False,
+                quoted_strings_can_be_null=False,
+            ),
+        )
+        try:
+            for batch in reader:
+                count, invalid[0] = invalid[0], 0
+                yield batch, count
+        finally:
+            reader.close()
+
+    def _inspect_first_block(self) -> int | None:
+        try:
+            batch = next((b for b, _ in self._batches() if b.num_rows), None)
+        except (pa.ArrowException, OSError, EOFError, ValueError) as err:
+            raise ReaderError(f"{self.path}: cannot parse as CSV ({one_line(err)})") from err
+        if batch is None:
+            raise ReaderError(f"{self.path}: no data rows")
+        numeric = []
+        for index in range(len(self._layout.names)):
+            if index == self._layout.time_column:
+                continue
+            decision = self._classify(batch.column(index))
+            if decision is not None:
+                self._numeric[index] = decision
+                if decision:
+                    numeric.append(index)
+        if not numeric:
+            raise ReaderError(
+                f"{self.path}: no numeric column besides the time column "
+                f"{self._layout.names[self._layout.time_column]!r}"
+            )
+        t_ns, keep = self._times(batch.column(self._layout.time_column), first=True)
+        if not bool(keep.any()):
+            raise ReaderError(
+                f"{self.path}: time column {self._layout.names[self._layout.time_column]!r} "
+                "holds neither numbers nor dates"
+            )
+        return int(t_ns[keep].min())
+
+    # ------------------------------------------------------------------ conversion
+    def _clean(self, column: pa.Array) -> pa.Array:
+        text = pc.utf8_trim_whitespace(column)
+        if self._layout.decimal_comma:
+            text = pc.replace_substring(text, ",", ".")
+        return text
+
+    def _classify(self, column: pa.Array) -> bool | None:
+        """True: numeric, False: text, None: only blanks so far."""
+        text = self._clean(column)
+        nonblank = int(pc.sum(pc.not_equal(text, "")).as_py() or 0)
+        if nonblank == 0:
+            return None
+        ok = pc.or_(pc.match_substring_regex(text, NUMBER), pc.match_substring_regex(text, BOOLEAN))
+        numeric = int(pc.sum(ok).as_py() or 0)
+        return numeric >= NUMERIC_SHARE * nonblank
+
+    def _values(self, column: pa.Array) -> tuple[np.ndarray, FloatArray, int]:
+        """(present mask, values, count of non-numeric non-blank cells)."""
+        text = self._clean(column)
+        number = pc.match_substring_regex(text, NUMBER)
+        boolean = pc.match_substring_regex(text, BOOLEAN)
+        values = pc.cast(pc.if_else(number, text, pa.scalar(None, pa.string())), pa.float64())
+        values = pc.if_else(
+            boolean, pc.cast(pc.equal(pc.utf8_lower(text), "true"), pa.float64()), values
+        )
+        present = np.asarray(pc.is_valid(values).to_numpy(zero_copy_only=False), dtype=bool)
+        blank = np.asarray(pc.equal(text, "").to_numpy(zero_copy_only=False), dtype=bool)
+        bad = int(np.count_nonzero(~present & ~blank))
+        out = values.to_numpy(zero_copy_only=False).astype(np.float64)
+        return present, out, bad
+
+    def _times(self, column: pa.Array, *, first: bool = False) -> tuple[IntArray, np.ndarray]:
+        """Integer nanoseconds of the time column and the mask of rows that have one."""
+        text = pc.utf8_trim_whitespace(column)
+        if self._layout.decimal_comma:
+            text = pc.replace_substring(text, ",", ".")
+        if first or not self._time_kind:
+            self._time_kind = self._time_kind_of(text)
+        n = len(text)
+        if self._time_kind == "datetime":
+            return self._datetimes(text)
+        number = pc.match_substring_regex(text, NUMBER)
+        keep = np.asarray(pc.fill_null(number, False).to_numpy(zero_copy_only=False), dtype=bool)
+        out = np.zeros(n, dtype=np.int64)
+        if not keep.any():
+            return out, keep
+        idx = np.nonzero(keep)[0]
+        selected = text.take(pa.array(idx))
+        if self._time_kind == "ns" and bool(
+            pc.all(pc.match_substring_regex(selected, INTEGER)).as_py()
+        ):
+            out[idx] = pc.cast(selected, pa.int64()).to_numpy(zero_copy_only=False)
+            return out, keep
+        try:
+            exact = pc.cast(selected, pa.decimal128(38, 9))
+            words = np.frombuffer(exact.buffers()[1], dtype="<i8")
+            start = exact.offset * 2
+            out[idx] = words[start : start + 2 * len(exact) : 2]
+        except pa.ArrowException:
+            seconds = pc.cast(selected, pa.float64()).to_numpy(zero_copy_only=False)
+            finite = np.isfinite(seconds)
+            keep[idx[~finite]] = False
+            out[idx[finite]] = np.round(seconds[finite] * 1e9).astype(np.int64)
+        return out, keep
+
+    @staticmethod
+    def _time_kind_of(text: pa.Array) -> str:
+        nonblank = text.filter(pc.not_equal(text, ""))
+        if len(nonblank) == 0:
+            return "seconds"
+        numbers = pc.match_substring_regex(nonblank, NUMBER)
+        if not pc.all(numbers).as_py():
+            return "datetime"
+        integers = pc.match_substring_regex(nonblank, INTEGER)
+        if pc.all(integers).as_py():
+            largest = pc.max(pc.abs(pc.cast(nonblank, pa.float64()))).as_py()
+            if largest is not None and largest > NS_THRESHOLD:
+                return "ns"
+        return "seconds"
+
+    def _datetimes(self, text: pa.Array) -> tuple[IntArray, np.ndarray]:
+        series = pd.Series(text.to_numpy(zero_copy_only=False), dtype=object)
+        series = series.where(series != "", None)
+        if self._time_format is None:
+            self._time_format = _datetime_format(series)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            parsed = pd.to_datetime(series, utc=True, format=self._time_format, errors="coerce")
+        in_range = parsed.notna() & (parsed >= _NS_MIN) & (parsed <= _NS_MAX)
+        keep = np.asarray(in_range.to_numpy(), dtype=bool)
+        out = np.zeros(len(series), dtype=np.int64)
+        out[keep] = parsed[keep].dt.as_unit("ns").astype("int64").to_numpy()
+        return out, keep
+
+    def _error(self, line: str) -> None:
+        if line not in self.info.errors:
+            self.info.errors.append(line)
+
+
+def _datetime_format(series: pd.Series) -> str:
+    """A format that parses ``series`` (ISO 8601 if it does, else pandas' inference)."""
+    sample = series.dropna().iloc[:200]
+    for fmt in ("ISO8601", None):
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)  # "could not infer format"
+                pd.to_datetime(sample, utc=True, format=fmt)
+        except (ValueError, TypeError):
+            continue
+        if fmt is None:
+            from pandas.tseries.api import guess_datetime_format
+
+            guessed = guess_datetime_format(str(sample.iloc[0])) if len(sample) else None
+            return guessed or "mixed"
+        return fmt
+    return "mixed"
+
+
+def _unique(names: list[str]) -> list[str]:
+    seen: dict[str, int] = {}
+    out = []
+    for name in names:
+        if name in seen:
+            seen[name] += 1
+            out.append(f"{name}_{seen[name]}")
+        else:
+            seen[name] = 1
+            out.append(name)
+    return out

@@ -1,0 +1,473 @@
+"""ROS 1 bag (format 2.0) reader.
+
+The bag's index (connection and chunk-info records at ``index_pos``, IndexData records
+after every chunk) gives, per chunk and connection, the time and offset of every message.
+The reader decompresses a whole chunk (none, bz2, lz4) and locates the message data
+records of a connection with numpy from those offsets; the payloads are decoded in bulk
+by :class:`~analyzer.readers.rosdecode.RosBatchDecoder` with the types parsed by rosbags
+from the connection's embedded ``message_definition``.
+
+A bag without a usable index (recording killed: ``index_pos`` 0; truncated file) is
+scanned record by record from the start; what is readable is read and the problem is
+recorded in ``info.errors``.
+"""
+
+from __future__ import annotations
+
+import bz2
+import struct
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import BinaryIO
+
+import lz4.frame
+import numpy as np
+
+from analyzer.errors import ReaderError
+from analyzer.readers._common import (
+    ByteArray,
+    IntArray,
+    Reorderer,
+    as_bytes_array,
+    file_digest,
+    gather_uint,
+    one_line,
+    sample_times,
+)
+from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
+from analyzer.readers.rosdecode import RosBatchDecoder
+from analyzer.readers.rostypes import TypeResolutionError, normalize_msgtype, store_from_definition
+from analyzer.types import Format
+
+MAGIC = b"#ROSBAG V2.0\n"
+OP_MSG_DATA, OP_BAG_HEADER, OP_INDEX_DATA, OP_CHUNK, OP_CHUNK_INFO, OP_CONNECTION = 2, 3, 4, 5, 6, 7
+_U32 = struct.Struct("<I")
+_U64 = struct.Struct("<Q")
+
+
+class _BagError(Exception):
+    """A record cannot be parsed."""
+
+
+@dataclass(frozen=True, slots=True)
+class _Connection:
+    conn: int
+    topic: str
+    msgtype: str
+    msgdef: str
+
+
+@dataclass(frozen=True, slots=True)
+class _ChunkInfo:
+    pos: int
+    start_ns: int
+    end_ns: int
+    connections: int
+
+
+def _fields(header: bytes) -> dict[str, bytes]:
+    """The ``name=value`` fields of a record header."""
+    out: dict[str, bytes] = {}
+    pos, end = 0, len(header)
+    while pos + 4 <= end:
+        size = _U32.unpack_from(header, pos)[0]
+        pos += 4
+        if pos + size > end:
+            raise _BagError("record header field runs past the header")
+        name, sep, value = header[pos : pos + size].partition(b"=")
+        if not sep:
+            raise _BagError("record header field without '='")
+        out[name.decode("ascii", "replace")] = value
+        pos += size
+    return out
+
+
+def _time(value: bytes) -> int:
+    sec, nsec = struct.unpack("<II", value)
+    return sec * 1_000_000_000 + nsec
+
+
+def _read_record(handle: BinaryIO) -> tuple[dict[str, bytes], bytes] | None:
+    """One record at the current position; None at a clean end of file."""
+    raw = handle.read(4)
+    if not raw:
+        return None
+    if len(raw) < 4:
+        raise _BagError("truncated record")
+    header_len = _U32.unpack(raw)[0]
+    header = handle.read(header_len)
+    raw = handle.read(4)
+    if len(header) < header_len or len(raw) < 4:
+        raise _BagError("truncated record")
+    data_len = _U32.unpack(raw)[0]
+    data = handle.read(data_len)
+    if len(data) < data_len:
+        raise _BagError("truncated record")
+    return _fields(header), data
+
+
+def _op(fields: dict[str, bytes]) -> int:
+    value = fields.get("op")
+    if value is None or len(value) != 1:
+        raise _BagError("record without an op field")
+    return value[0]
+
+
+def _decompress(compression: str, data: bytes, size: int) -> ByteArray:
+    try:
+        if compression == "none":
+            out = data
+        elif compression == "bz2":
+            out = bz2.decompress(data)
+        elif compression == "lz4":
+            out = lz4.frame.decompress(data)
+        else:
+            raise _BagError(f"unsupported chunk compression {compression!r}")
+    except (OSError, ValueError, RuntimeError) as err:
+        raise _BagError(f"cannot decompress ({compression}): {one_line(err)}") from err
+    if len(out) != size:
+        raise _BagError(f"decompressed {len(out)} bytes, expected {size}")
+    return as_bytes_array(out)
+
+
+class Ros1BagReader:
+    """One ROS 1 bag file."""
+
+    def __init__(self, path: str | Path, *, bulk: bool = True) -> None:
+        self.path = Path(path)
+        try:
+            size = self.path.stat().st_size
+            with self.path.open("rb") as handle:
+                head = handle.read(len(MAGIC))
+                bag_header = _read_record(handle) if head == MAGIC else None
+        except _BagError as err:
+            raise ReaderError(f"{self.path}: truncated ROS 1 bag (no complete bag header)") from err
+        except OSError as err:
+            raise ReaderError(f"{self.path}: cannot read: {one_line(err.strerror or err)}") from err
+        if size == 0:
+            raise ReaderError(f"{self.path}: empty file (0 bytes)")
+        if head != MAGIC:
+            if head.startswith(b"#ROSBAG V"):
+                version = head[9:].split(b"\n")[0].decode("ascii", "replace")
+                raise ReaderError(
+                    f"{self.path}: ROS bag version {version} is not supported (2.0 is)"
+                )
+            raise ReaderError(f"{self.path}: not a ROS 1 bag (missing '#ROSBAG V2.0' magic)")
+        if bag_header is None or _op(bag_header[0]) != OP_BAG_HEADER:
+            raise ReaderError(f"{self.path}: damaged ROS 1 bag (no bag header record)")
+        fields = bag_header[0]
+        total, sha = file_digest([self.path])
+        self.info = InputInfo(self.path, Format.ROS1BAG, size_bytes=total, sha256=sha)
+        self.bulk = bulk
+        self._size = size
+        self._connections: dict[int, _Connection] = {}
+        self._chunk_infos: list[_ChunkInfo] = []
+        self._index_error = ""
+        try:
+            index_pos = _U64.unpack(fields["index_pos"])[0]
+            conn_count = _U32.unpack(fields["conn_count"])[0]
+            chunk_count = _U32.unpack(fields["chunk_count"])[0]
+        except (KeyError, struct.error) as err:
+            raise ReaderError(f"{self.path}: damaged ROS 1 bag header ({one_line(err)})") from err
+        if index_pos == 0:
+            self._index_error = "bag is not indexed (recording not closed?); read sequentially"
+        elif index_pos > size or (index_pos == size and (conn_count or chunk_count)):
+            self._index_error = (
+                "bag index lies past the end of the file (truncated?); read sequentially"
+            )
+        else:
+            try:
+                self._read_index(index_pos, conn_count, chunk_count)
+            except (_BagError, struct.error, KeyError, OverflowError, MemoryError) as err:
+                self._connections.clear()
+                self._chunk_infos.clear()
+                self._index_error = f"bag index damaged ({one_line(err)}); read sequentially"
+        self._decoders: dict[int, RosBatchDecoder | None] = {}
+        self._failures: dict[str, list[object]] = {}
+
+    # ------------------------------------------------------------------ protocol
+    def start_ns(self) -> int | None:
+        if not self._index_error:
+            starts = [c.start_ns for c in self._chunk_infos if c.connections]
+            return min(starts) if starts else None
+        for chunk in self._scan(errors=False):
+            times = chunk[2]
+            if times.size:
+                return int(times.min())
+        return None
+
+    def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
+        self._failures.clear()
+        reorder = Reorderer()
+        if self._index_error:
+            self._error(self._index_error)
+            for records, conns, times, offsets in self._scan(errors=True):
+                self._decode(records, conns, times, offsets, reorder, time)
+                yield from reorder.release(None)
+        else:
+            yield from self._indexed(reorder, time)
+        yield from reorder.flush()
+        for line in reorder.drop_report():
+            self._error(line)
+        for topic, (count, reason) in self._failures.items():
+            self._error(f"{topic}: {count} messages could not be decoded ({reason})")
+
+    # ------------------------------------------------------------------ index
+    def _read_index(self, index_pos: int, conn_count: int, chunk_count: int) -> None:
+        with self.path.open("rb") as handle:
+            handle.seek(index_pos)
+            for _ in range(conn_count):
+                self._add_connection(self._expect(handle, OP_CONNECTION))
+            for _ in range(chunk_count):
+                fields, data = self._expect(handle, OP_CHUNK_INFO)
+                if _U32.unpack(fields["ver"])[0] != 1:
+                    raise _BagError("unsupported chunk info version")
+                count = _U32.unpack(fields["count"])[0]
+                self._chunk_infos.append(
+                    _ChunkInfo(
+                        pos=_U64.unpack(fields["chunk_pos"])[0],
+                        start_ns=_time(fields["start_time"]),
+                        end_ns=_time(fields["end_time"]),
+                        connections=count,
+                    )
+                )
+                if len(data) != 8 * count:
+                    raise _BagError("chunk info record of the wrong size")
+
+    @staticmethod
+    def _expect(handle: BinaryIO, op: int) -> tuple[dict[str, bytes], bytes]:
+        record = _read_record(handle)
+        if record is None or _op(record[0]) != op:
+            raise _BagError(f"expected a record with op {op}")
+        return record
+
+    def _add_connection(self, record: tuple[dict[str, bytes], bytes]) -> None:
+        fields, data = record
+        conn = _U32.unpack(fields["conn"])[0]
+        topic = fields["topic"].decode("utf-8", "replace")
+        details = _fields(data)
+        self._connections[conn] = _Connection(
+            conn=conn,
+            topic=topic,
+            msgtype=normalize_msgtype(details["type"].decode("utf-8", "replace")),
+            msgdef=details.get("message_definition", b"").decode("utf-8", "replace"),
+        )
+
+    # ------------------------------------------------------------------ indexed path
+    def _indexed(self, reorder: Reorderer, time: TimeSource) -> Iterator[ChannelChunk]:
+        infos = sorted(self._chunk_infos, key=lambda c: (c.start_ns, c.pos))
+        with self.path.open("rb") as handle:
+            for k, info in enumerate(infos):
+                try:
+                    handle.seek(info.pos)
+                    fields, data = self._expect(handle, OP_CHUNK)
+                    records = _decompress(
+                        fields["compression"].decode("ascii", "replace"),
+                        data,
+                        _U32.unpack(fields["size"])[0],
+                    )
+                    conns, times, offsets = [], [], []
+                    for _ in range(info.connections):
+                        ifields, idata = self._expect(handle, OP_INDEX_DATA)
+                        count = _U32.unpack(ifields["count"])[0]
+                        if _U32.unpack(ifields["ver"])[0] != 1 or len(idata) != 12 * count:
+                            raise _BagError("unsupported or damaged index data record")
+                        entries = (
+                            np.frombuffer(idata, dtype="<u4").reshape(count, 3).astype(np.int64)
+                        )
+                        conns.append(
+                            np.full(count, _U32.unpack(ifields["conn"])[0], dtype=np.int64)
+                        )
+                        times.append(entries[:, 0] * 1_000_000_000 + entries[:, 1])
+                        offsets.append(entries[:, 2])
+                except (_BagError, struct.error, KeyError, OverflowError, MemoryError) as err:
+                    self._error(f"chunk at byte {info.pos}: {one_line(err)}; skipped")
+                    continue
+                if conns:
+                    self._decode(
+                        records,
+                        np.concatenate(conns),
+                        np.concatenate(times),
+                        np.concatenate(offsets),
+                        reorder,
+                        time,
+                    )
+                if time == "log" and k + 1 < len(infos):
+                    yield from reorder.release(infos[k + 1].start_ns)
+                elif time != "log":
+                    yield from reorder.release(None)
+
+    # ------------------------------------------------------------------ sequential scan
+    def _scan(self, *, errors: bool) -> Iterator[tuple[ByteArray, IntArray, IntArray, IntArray]]:
+        """Chunks read from the start of the file: (records, conn, time, offset) per chunk."""
+        with self.path.open("rb") as handle:
+            handle.seek(len(MAGIC))
+            position = handle.tell()
+            try:
+                _read_record(handle)  # bag header
+                while True:
+                    position = handle.tell()
+                    record = _read_record(handle)
+                    if record is None:
+                        if errors:
+                            self._error(f"file ends at byte {position} without an index section")
+                        return
+                    fields, data = record
+                    op = _op(fields)
+                    if op == OP_CONNECTION:
+                        self._add_connection(record)
+                    elif op == OP_CHUNK:
+                        records = _decompress(
+                            fields["compression"].decode("ascii", "replace"),
+                            data,
+                            _U32.unpack(fields["size"])[0],
+                        )
+                        yield (records, *self._scan_chunk(records))
+                    elif op == OP_CHUNK_INFO:
+                        return  # the index section starts: all data was read
+            except (_BagError, struct.error, KeyError, OverflowError, MemoryError) as err:
+                if errors:
+                    self._error(
+                        f"truncated or damaged at byte {position} ({one_line(err)}); "
+                        "the messages before it were read"
+                    )
+
+    def _scan_chunk(self, records: ByteArray) -> tuple[IntArray, IntArray, IntArray]:
+        data = records.tobytes()
+        end = len(data)
+        conns: list[int] = []
+        times: list[int] = []
+        offsets: list[int] = []
+        pos = 0
+        while pos + 8 <= end:
+            header_len = _U32.unpack_from(data, pos)[0]
+            hdr_end = pos + 4 + header_len
+            if hdr_end + 4 > end:
+                raise _BagError(f"record at chunk offset {pos} runs past the chunk")
+            data_len = _U32.unpack_from(data, hdr_end)[0]
+            fields = _fields(data[pos + 4 : hdr_end])
+            op = _op(fields)
+            if op == OP_CONNECTION:
+                self._add_connection((fields, data[hdr_end + 4 : hdr_end + 4 + data_len]))
+            elif op == OP_MSG_DATA:
+                conns.append(_U32.unpack(fields["conn"])[0])
+                times.append(_time(fields["time"]))
+                offsets.append(pos)
+            pos = hdr_end + 4 + data_len
+        return (
+            np.asarray(conns, dtype=np.int64),
+            np.asarray(times, dtype=np.int64),
+            np.asarray(offsets, dtype=np.int64),
+        )
+
+    # ------------------------------------------------------------------ decoding
+    def _decode(
+        self,
+        records: ByteArray,
+        conns: IntArray,
+        times: IntArray,
+        offsets: IntArray,
+        reorder: Reorderer,
+        time: TimeSource,
+    ) -> None:
+        for conn in np.unique(conns).tolist():
+            sel = np.nonzero(conns == conn)[0]
+            decoder = self._decoder(int(conn))
+            if decoder is None:
+                continue
+            try:
+                starts, sizes = self._locate(records, offsets[sel], int(conn))
+            except _BagError as err:
+                self._error(f"{self._connections[int(conn)].topic}: {one_line(err)}")
+                continue
+            topic = self._connections[int(conn)].topic
+            decoded = decoder.decode(records, starts, sizes)
+            if decoded.failed:
+                seen = self._failures.setdefault(topic, [0, decoded.first_error])
+                seen[0] = int(seen[0]) + decoded.failed  # type: ignore[call-overload]
+            reorder.push_decoded(topic, decoded, sample_times(decoded, times[sel], time))
+
+    @staticmethod
+    def _locate(records: ByteArray, offsets: IntArray, conn: int) -> tuple[IntArray, IntArray]:
+        """Payload starts and sizes of the message data records at ``offsets``.
+
+        The header of the first record is parsed to find where ``op`` and ``conn`` sit;
+        every record is then checked against it with vectorized comparisons (writers put
+        the same fields in the same order in every message record).
+        """
+        end = records.shape[0]
+        if bool(np.any((offsets < 0) | (offsets + 8 > end))):
+            raise _BagError("index offsets point outside the chunk")
+        header_len = gather_uint(records, offsets, 4)
+        first = int(offsets[0])
+        template_len = int(header_len[0])
+        header = records[first + 4 : first + 4 + template_len].tobytes()
+        op_at = conn_at = -1
+        pos = 0
+        while pos + 4 <= len(header):
+            size = _U32.unpack_from(header, pos)[0]
+            name = header[pos + 4 : pos + 4 + size].partition(b"=")[0]
+            value_at = pos + 4 + len(name) + 1
+            if name == b"op":
+                op_at = value_at
+            elif name == b"conn":
+                conn_at = value_at
+            pos += 4 + size
+        if op_at < 0 or conn_at < 0:
+            raise _BagError("message record header without op or conn")
+        same = header_len == template_len
+        data_len_at = offsets + 4 + template_len
+        ok = same & (data_len_at + 4 <= end)
+        ok[ok] &= records[offsets[ok] + 4 + op_at] == OP_MSG_DATA
+        ok[ok] &= gather_uint(records, offsets[ok] + 4 + conn_at, 4) == conn
+        sizes = np.zeros(offsets.shape[0], dtype=np.int64)
+        sizes[ok] = gather_uint(records, data_len_at[ok], 4)
+        starts = data_len_at + 4
+        for i in np.nonzero(~ok)[0].tolist():
+            starts[i], sizes[i] = Ros1BagReader._locate_one(records, int(offsets[i]), conn)
+        if bool(np.any(starts + sizes > end)):
+            raise _BagError("message data runs past the chunk")
+        return starts, sizes
+
+    @staticmethod
+    def _locate_one(records: ByteArray, offset: int, conn: int) -> tuple[int, int]:
+        """Slow path for one index entry: skip connection records until the message."""
+        end = records.shape[0]
+        pos = offset
+        while pos + 8 <= end:
+            header_len = int(gather_uint(records, np.asarray([pos]), 4)[0])
+            hdr_end = pos + 4 + header_len
+            if hdr_end + 4 > end:
+                break
+            fields = _fields(records[pos + 4 : hdr_end].tobytes())
+            data_len = int(gather_uint(records, np.asarray([hdr_end]), 4)[0])
+            op = _op(fields)
+            if op == OP_MSG_DATA and _U32.unpack(fields["conn"])[0] == conn:
+                return hdr_end + 4, data_len
+            if op != OP_CONNECTION:
+                break
+            pos = hdr_end + 4 + data_len
+        raise _BagError(
+            f"index entry at chunk offset {offset} does not point at a message of its connection"
+        )
+
+    def _decoder(self, conn: int) -> RosBatchDecoder | None:
+        if conn in self._decoders:
+            return self._decoders[conn]
+        info = self._connections.get(conn)
+        decoder: RosBatchDecoder | None = None
+        if info is None:
+            self._error(f"messages of connection {conn} have no connection record; skipped")
+        else:
+            try:
+                store = store_from_definition(info.msgtype, info.msgdef, "msg")
+                decoder = RosBatchDecoder([store], info.msgtype, "ros1", bulk=self.bulk)
+            except TypeResolutionError as err:
+                self._error(f"{info.topic}: {one_line(err)}; skipped")
+        self._decoders[conn] = decoder
+        return decoder
+
+    def _error(self, line: str) -> None:
+        if line not in self.info.errors:
+            self.info.errors.append(line)

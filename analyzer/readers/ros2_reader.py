@@ -1,0 +1,266 @@
+"""ROS 2 bag reader (rosbag2 directory with ``metadata.yaml``, or a bare ``.db3`` file).
+
+rosbags opens the bag: metadata, split files, topics, embedded message definitions
+(sqlite3 ``message_definitions`` table or MCAP schemas). Bags that embed no definitions
+(rosbag2 before Iron) fall back to rosbags' standard typestores, newest first.
+
+The data is then read in bulk:
+
+* sqlite3 storage: ``SELECT topic_id, timestamp, data ... ORDER BY timestamp`` fetched a
+  few ten thousand rows at a time; the payloads are joined into one buffer in C
+  (``b"".join``) and decoded per topic by :class:`~analyzer.readers.rosdecode.RosBatchDecoder`;
+* MCAP storage: every storage file is read by :class:`~analyzer.readers.mcap_reader.McapReader`
+  (numpy chunk parsing);
+* per-message compressed bags: rosbags' own message iterator, decoded in batches.
+
+A bag none of whose topics can be decoded (unsupported serialization format, unknown
+message type without definitions) raises :class:`ReaderError`; otherwise the undecodable
+topics are recorded in ``info.errors``.
+"""
+
+from __future__ import annotations
+
+import sqlite3
+from collections.abc import Iterator
+from contextlib import closing
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rosbags.interfaces import MessageDefinitionFormat
+from rosbags.rosbag2 import Reader as BagReader
+from rosbags.rosbag2 import ReaderError as BagReaderError
+
+from analyzer.errors import ReaderError
+from analyzer.readers._common import (
+    Reorderer,
+    concat_payloads,
+    file_digest,
+    monotonic,
+    one_line,
+    sample_times,
+)
+from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
+from analyzer.readers.mcap_reader import McapReader
+from analyzer.readers.rosdecode import RosBatchDecoder
+from analyzer.readers.rostypes import (
+    TypeResolutionError,
+    normalize_msgtype,
+    standard_candidates,
+    store_from_definition,
+)
+from analyzer.types import Format
+
+SQL_BATCH = 50_000
+"""Rows fetched from a sqlite3 storage file per batch."""
+SIDECARS = ("-shm", "-wal", "-journal")
+
+
+def bag_files(path: Path) -> list[Path]:
+    """The files that make up a bag (hashed for ``findings.json``): for a directory its
+    regular files except sqlite sidecars, sorted; for a bare storage file itself."""
+    if path.is_dir():
+        return sorted(p for p in path.iterdir() if p.is_file() and not p.name.endswith(SIDECARS))
+    return [path]
+
+
+class Ros2BagReader:
+    """One ROS 2 bag."""
+
+    def __init__(self, path: str | Path, *, bulk: bool = True) -> None:
+        self.path = Path(path)
+        self.bulk = bulk
+        if self.path.is_file() and self.path.stat().st_size == 0:
+            raise ReaderError(f"{self.path}: empty file (0 bytes)")
+        try:
+            with _open_bag(self.path) as bag:
+                connections = list(bag.connections)
+                self._start = bag.start_time if bag.message_count else None
+                self._message_compressed = bag.compression_mode == "message"
+        except ReaderError:
+            raise
+        except Exception as err:  # rosbags raises several error types
+            raise ReaderError(f"{self.path}: {_bag_error(err)}") from err
+        self._decoders: dict[tuple[str, str], RosBatchDecoder | None] = {}
+        problems: list[str] = []
+        for conn in connections:
+            key = (conn.topic, conn.msgtype)
+            if key in self._decoders:
+                continue
+            try:
+                self._decoders[key] = self._make_decoder(conn)
+            except TypeResolutionError as err:
+                self._decoders[key] = None
+                if conn.msgcount:
+                    problems.append(f"{conn.topic}: {one_line(err)}")
+        decodable = [c for c in connections if self._decoders[(c.topic, c.msgtype)] is not None]
+        if problems and not any(c.msgcount for c in decodable):
+            raise ReaderError(f"{self.path}: {problems[0]}")
+        total, sha = file_digest(bag_files(self.path))
+        self.info = InputInfo(self.path, Format.ROS2BAG, size_bytes=total, sha256=sha)
+        for line in problems:
+            self._error(f"{line}; skipped")
+        self._failures: dict[str, list[Any]] = {}
+
+    # ------------------------------------------------------------------ protocol
+    def start_ns(self) -> int | None:
+        return self._start
+
+    def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
+        self._failures.clear()
+        last: dict[str, int] = {}
+        dropped: dict[str, int] = {}
+        with _open_bag(self.path) as bag:
+            storages = _storages(bag)
+            if self._message_compressed or storages is None:
+                yield from monotonic(self._generic(bag, time), last, dropped)
+            else:
+                for storage in storages:
+                    storage_path = Path(storage.path)
+                    if storage_path.suffix == ".mcap":
+                        try:
+                            reader = McapReader(storage_path, info=self.info, bulk=self.bulk)
+                        except ReaderError as err:
+                            self._error(f"{storage_path.name}: {one_line(err)}; skipped")
+                            continue
+                        yield from monotonic(reader.chunks(time), last, dropped)
+                    else:
+                        yield from monotonic(self._sqlite(storage, time), last, dropped)
+        for name, count in dropped.items():
+            self._error(
+                f"{name}: {count} samples of a later split file overlap earlier ones "
+                "in time; dropped"
+            )
+        for topic, (count, reason) in self._failures.items():
+            self._error(f"{topic}: {count} messages could not be decoded ({reason})")
+
+    # ------------------------------------------------------------------ types
+    def _make_decoder(self, conn: Any) -> RosBatchDecoder:
+        serialization = getattr(conn.ext, "serialization_format", "cdr")
+        if serialization != "cdr":
+            raise TypeResolutionError(
+                f"unsupported serialization_format {serialization!r} (only cdr)"
+            )
+        msgtype = normalize_msgtype(conn.msgtype)
+        fmt = conn.msgdef.format
+        if fmt in (MessageDefinitionFormat.MSG, MessageDefinitionFormat.IDL) and conn.msgdef.data:
+            kind = "idl" if fmt == MessageDefinitionFormat.IDL else "msg"
+            stores = [store_from_definition(msgtype, conn.msgdef.data, kind)]
+        else:
+            stores = standard_candidates(msgtype)
+            if not stores:
+                raise TypeResolutionError(f"unknown message type {msgtype!r} without definitions")
+        return RosBatchDecoder(stores, msgtype, "cdr", bulk=self.bulk)
+
+    # ------------------------------------------------------------------ sqlite3
+    def _sqlite(self, storage: Any, time: TimeSource) -> Iterator[ChannelChunk]:
+        topics = {c.id: (c.topic, c.msgtype) for c in storage.connections}
+        reorder = Reorderer()
+        uri = Path(storage.path).resolve().as_uri() + "?immutable=1"
+        try:
+            with closing(sqlite3.connect(uri, uri=True)) as db:
+                cursor = db.execute(
+                    "SELECT topic_id, timestamp, data FROM messages ORDER BY timestamp, id"
+                )
+                while rows := cursor.fetchmany(SQL_BATCH):
+                    ids_raw, times_raw, payloads = zip(*rows, strict=True)
+                    ids = np.asarray(ids_raw, dtype=np.int64)
+                    times = np.asarray(times_raw, dtype=np.int64)
+                    buf, starts, sizes = concat_payloads(payloads)
+                    for tid in np.unique(ids).tolist():
+                        key = topics.get(int(tid))
+                        decoder = self._decoders.get(key) if key else None
+                        if decoder is None or key is None:
+                            continue
+                        sel = np.nonzero(ids == tid)[0]
+                        self._push(
+                            reorder, key[0], decoder, buf, starts[sel], sizes[sel], times[sel], time
+                        )
+                    yield from reorder.release(int(times[-1]) if time == "log" else None)
+        except sqlite3.Error as err:
+            self._error(
+                f"{Path(storage.path).name}: sqlite error ({one_line(err)}); "
+                "the rows before it were read"
+            )
+        yield from reorder.flush()
+        for line in reorder.drop_report():
+            self._error(line)
+
+    # ------------------------------------------------------------------ fallback
+    def _generic(self, bag: Any, time: TimeSource) -> Iterator[ChannelChunk]:
+        """rosbags' message iterator (per-message compressed bags), decoded in batches."""
+        reorder = Reorderer()
+        batch: list[tuple[Any, int, bytes]] = []
+
+        def flush() -> None:
+            keys = [(c.topic, c.msgtype) for c, _, _ in batch]
+            times = np.asarray([t for _, t, _ in batch], dtype=np.int64)
+            buf, starts, sizes = concat_payloads([d for _, _, d in batch])
+            for key in dict.fromkeys(keys):
+                decoder = self._decoders.get(key)
+                if decoder is None:
+                    continue
+                sel = np.asarray([i for i, k in enumerate(keys) if k == key], dtype=np.int64)
+                self._push(reorder, key[0], decoder, buf, starts[sel], sizes[sel], times[sel], time)
+
+        for conn, timestamp, data in bag.messages(connections=bag.connections):
+            batch.append((conn, timestamp, data))
+            if len(batch) >= SQL_BATCH:
+                flush()
+                batch = []
+                yield from reorder.release(None)
+        if batch:
+            flush()
+        yield from reorder.flush()
+
+    def _push(
+        self,
+        reorder: Reorderer,
+        topic: str,
+        decoder: RosBatchDecoder,
+        buf: Any,
+        starts: Any,
+        sizes: Any,
+        log_ns: Any,
+        time: TimeSource,
+    ) -> None:
+        decoded = decoder.decode(buf, starts, sizes)
+        if decoded.failed:
+            seen = self._failures.setdefault(topic, [0, decoded.first_error])
+            seen[0] += decoded.failed
+        reorder.push_decoded(topic, decoded, sample_times(decoded, log_ns, time))
+
+    def _error(self, line: str) -> None:
+        if line not in self.info.errors:
+            self.info.errors.append(line)
+
+
+def _open_bag(path: Path) -> BagReader:
+    """An unopened rosbags reader; ``with`` opens and closes it."""
+    return BagReader(path)
+
+
+def _storages(bag: BagReader) -> list[Any] | None:
+    """The storage readers of an open bag, in file (= time) order, or None if the
+    layout of rosbags' internals is not the expected one."""
+    storage = getattr(bag, "storage", None)
+    inner = getattr(storage, "storages", None)
+    if inner is not None:
+        items = list(inner)
+    elif storage is not None:
+        items = [storage]
+    else:
+        return None
+    if all(hasattr(s, "path") and hasattr(s, "connections") for s in items):
+        return items
+    return None
+
+
+def _bag_error(err: BaseException) -> str:
+    text = one_line(err)
+    if isinstance(err, BagReaderError) and "Serialization format" in text:
+        formats = text.split("{", 1)[-1].split("}", 1)[0]
+        return f"unsupported serialization_format {formats} (only cdr is supported)"
+    if isinstance(err, FileNotFoundError):
+        return f"not a ROS 2 bag ({text})"
+    return f"cannot open ROS 2 bag: {text}"

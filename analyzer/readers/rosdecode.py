@@ -1,0 +1,535 @@
+"""Bulk decoding of ROS messages (CDR for ROS 2, the ROS 1 wire format) into channels.
+
+A reference decoder turns every message into a Python object: about 0.1 M messages/s.
+Most sensor topics, though, have a *fixed layout*: given the first message, every numeric
+field sits at the same byte offset in every message (all-numeric types such as
+``sensor_msgs/Imu`` or ``std_msgs/Float64``, and types whose strings and variable arrays
+keep their lengths over a run, such as a ``Float64MultiArray`` of 16 values or a
+``JointState`` of 6 joints).
+
+:class:`RosBatchDecoder` walks the message definition over one template message to
+compute a :class:`Layout`: the offset and type of every numeric leaf (with CDR alignment,
+relative to the 4-byte encapsulation header) and the offset of every length prefix
+(strings, sequences). Every message of the same size whose length prefixes equal the
+template's has, by induction over the fields, exactly the template's layout; this is
+checked for *every* message with a few vectorized comparisons. The matching messages are
+gathered into one ``(n, size)`` byte matrix and each leaf is read as a strided numpy view:
+a whole column per field, no Python per message. Messages that do not match start a new
+layout (up to :data:`MAX_LAYOUTS`); anything left (or undecodable by the walker) goes to
+the reference decoder of rosbags, flattened by the same naming rules, so both paths give
+the same channels and the same values.
+
+Naming: ``{field}.{subfield}``, arrays ``{field}[i]``; strings are skipped, and so are
+arrays of 8-bit integers (``uint8[]``, ``byte[]``, ``char[]``, ``int8[]``: images, point
+clouds and other binary blobs); ``std_msgs/Header`` fields are not channels, the
+top-level header's stamp is the message's header time.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+from rosbags.interfaces import Nodetype
+from rosbags.typesys.base import normalize_fieldname
+from rosbags.typesys.store import Typestore
+
+from analyzer.readers._common import (
+    NO_STAMP,
+    ByteArray,
+    ColumnAccumulator,
+    Decoded,
+    FloatArray,
+    IntArray,
+    field_view,
+    gather_rows,
+    merge_parts,
+)
+
+Encoding = Literal["cdr", "ros1"]
+FieldDesc = tuple[Any, ...]
+"""A rosbags field descriptor: ``(Nodetype, details)``."""
+
+MAX_LAYOUTS = 32
+"""Distinct layouts kept per topic before the rest of a batch goes to the reference decoder."""
+
+HEADER_TYPE = "std_msgs/msg/Header"
+FILLER_FIELD = "structure_needs_at_least_one_member"
+"""The dummy byte ROS 2 adds to empty messages: not a channel."""
+
+NUMERIC: dict[str, str] = {
+    "bool": "u1",
+    "byte": "i1",
+    "char": "u1",
+    "int8": "i1",
+    "uint8": "u1",
+    "int16": "i2",
+    "uint16": "u2",
+    "int32": "i4",
+    "uint32": "u4",
+    "int64": "i8",
+    "uint64": "u8",
+    "float32": "f4",
+    "float64": "f8",
+}
+"""ROS base types that become channels, with their numpy type (rosbags' conventions:
+``byte`` is signed, ``char`` unsigned)."""
+
+BLOB_TYPES = frozenset({"byte", "char", "int8", "uint8"})
+"""Arrays of these types are binary data, not measurements: skipped."""
+
+STRING_TYPES = frozenset({"string"})
+
+
+class LayoutError(Exception):
+    """The walker cannot lay out a message (unsupported type or inconsistent bytes)."""
+
+
+@dataclass(frozen=True, slots=True)
+class _Run:
+    """Consecutive leaves of one base type, ``stride`` bytes apart (an array, or one leaf)."""
+
+    kind: str
+    offset: int
+    count: int
+    first: int  # index into Layout.names
+
+
+@dataclass(frozen=True, slots=True)
+class Layout:
+    """Byte layout of the messages of one topic that share a template's lengths."""
+
+    size: int
+    names: tuple[str, ...]
+    runs: tuple[_Run, ...]
+    check_offsets: IntArray
+    check_values: IntArray
+    stamp: tuple[int, int] | None
+    endian: str
+
+    def matches(self, rows: ByteArray) -> npt.NDArray[np.bool_]:
+        """Which rows (messages of ``size`` bytes) have the template's length prefixes."""
+        ok = np.ones(rows.shape[0], dtype=bool)
+        for offset, expected in zip(
+            self.check_offsets.tolist(), self.check_values.tolist(), strict=True
+        ):
+            ok &= field_view(rows, offset, self.endian + "u4") == expected
+        return ok
+
+    def extract(self, rows: ByteArray) -> dict[str, FloatArray]:
+        """Every numeric leaf of ``rows`` as a float64 column (one strided read per run)."""
+        n = rows.shape[0]
+        out: dict[str, FloatArray] = {}
+        for run in self.runs:
+            dtype = np.dtype(self.endian + NUMERIC[run.kind])
+            view = np.ndarray(
+                shape=(run.count, n),
+                dtype=dtype,
+                buffer=rows,
+                offset=run.offset,
+                strides=(dtype.itemsize, self.size),
+            )
+            values = (view != 0) if run.kind == "bool" else view
+            block = values.astype(np.float64)
+            for j in range(run.count):
+                out[self.names[run.first + j]] = block[j]
+        return out
+
+    def leaves(self) -> dict[str, tuple[int, str]]:
+        """Byte offset and ROS base type of every numeric leaf, by name."""
+        out: dict[str, tuple[int, str]] = {}
+        for run in self.runs:
+            width = np.dtype(NUMERIC[run.kind]).itemsize
+            for j in range(run.count):
+                out[self.names[run.first + j]] = (run.offset + j * width, run.kind)
+        return out
+
+    def stamps(self, rows: ByteArray) -> IntArray | None:
+        """Header stamps (``sec * 1e9 + nanosec``) of ``rows``, if the type has a header."""
+        if self.stamp is None:
+            return None
+        sec_off, nsec_off = self.stamp
+        sec = field_view(rows, sec_off, self.endian + "i4").astype(np.int64)
+        return sec * 1_000_000_000 + field_view(rows, nsec_off, self.endian + "u4")
+
+
+class _Walker:
+    """Walks a message definition over one serialized message, collecting the layout."""
+
+    def __init__(self, store: Typestore, data: bytes, encoding: Encoding) -> None:
+        self.store = store
+        self.data = data
+        self.cdr = encoding == "cdr"
+        self.base = 4 if self.cdr else 0
+        self.pos = self.base
+        self.little = True
+        if self.cdr:
+            if len(data) < 4 or data[0] != 0 or data[1] not in (0, 1):
+                raise LayoutError("not a CDR message (bad encapsulation header)")
+            self.little = data[1] == 1
+        self.endian = "<" if self.little else ">"
+        self.u32 = struct.Struct(self.endian + "I").unpack_from
+        self.names: list[str] = []
+        self.offsets: list[int] = []
+        self.kinds: list[str] = []
+        self.checks: list[tuple[int, int]] = []
+        self.stamp: tuple[int, int] | None = None
+
+    def layout(self, msgtype: str) -> Layout:
+        self.message(msgtype, "", skip=False, top=True)
+        end = len(self.data)
+        slack = end - self.pos
+        if slack < 0 or slack > (3 if self.cdr else 0):
+            raise LayoutError(f"definition does not match the message size ({self.pos} != {end})")
+        checks = list(self.checks)
+        if self.cdr:
+            # the encapsulation header itself: byte order and options must match too
+            checks.insert(0, (0, int(self.u32(self.data, 0)[0])))
+        runs: list[_Run] = []
+        for i, (offset, kind) in enumerate(zip(self.offsets, self.kinds, strict=True)):
+            last = runs[-1] if runs else None
+            width = np.dtype(NUMERIC[kind]).itemsize
+            if (
+                last is not None
+                and last.kind == kind
+                and offset == last.offset + last.count * width
+            ):
+                runs[-1] = _Run(kind, last.offset, last.count + 1, last.first)
+            else:
+                runs.append(_Run(kind, offset, 1, i))
+        return Layout(
+            size=end,
+            names=tuple(self.names),
+            runs=tuple(runs),
+            check_offsets=np.asarray([c[0] for c in checks], dtype=np.int64),
+            check_values=np.asarray([c[1] for c in checks], dtype=np.int64),
+            stamp=self.stamp,
+            endian=self.endian,
+        )
+
+    # -- primitives
+    def align(self, width: int) -> None:
+        if self.cdr and width > 1:
+            rel = self.pos - self.base
+            self.pos = self.base + ((rel + width - 1) & -width)
+
+    def need(self, nbytes: int) -> None:
+        if self.pos + nbytes > len(self.data):
+            raise LayoutError("message shorter than its definition")
+
+    def length(self) -> int:
+        self.align(4)
+        self.need(4)
+        value = int(self.u32(self.data, self.pos)[0])
+        self.checks.append((self.pos, value))
+        self.pos += 4
+        return value
+
+    # -- structure
+    def message(self, msgtype: str, prefix: str, *, skip: bool, top: bool = False) -> None:
+        try:
+            fields = self.store.fielddefs[msgtype][1]
+        except KeyError:
+            raise LayoutError(f"type {msgtype!r} is not defined") from None
+        for fieldname, desc in fields:
+            filler = fieldname == FILLER_FIELD
+            self.field(prefix + fieldname, desc, skip=skip or filler, top=top)
+
+    def field(self, name: str, desc: FieldDesc, *, skip: bool, top: bool) -> None:
+        node = desc[0]
+        if node == Nodetype.NAME:
+            sub = desc[1]
+            if sub == HEADER_TYPE:
+                mark = len(self.names)
+                self.message(sub, name + ".", skip=False)
+                found = dict(zip(self.names[mark:], self.offsets[mark:], strict=True))
+                sec, nsec = found.get(f"{name}.stamp.sec"), found.get(f"{name}.stamp.nanosec")
+                if top and self.stamp is None and sec is not None and nsec is not None:
+                    self.stamp = (sec, nsec)
+                del self.names[mark:], self.offsets[mark:], self.kinds[mark:]
+            else:
+                self.message(sub, name + ".", skip=skip)
+        elif node == Nodetype.BASE:
+            self.base_value(name, desc[1][0], skip=skip)
+        elif node == Nodetype.ARRAY:
+            sub, count = desc[1]
+            self.array(name, sub, int(count), skip=skip)
+        elif node == Nodetype.SEQUENCE:
+            sub = desc[1][0]
+            self.array(name, sub, self.length(), skip=skip)
+        else:  # pragma: no cover - rosbags has no other node types
+            raise LayoutError(f"unknown node type {node!r}")
+
+    def base_value(self, name: str, kind: str, *, skip: bool) -> None:
+        if kind in STRING_TYPES:
+            size = self.length()
+            self.need(size)
+            self.pos += size
+            return
+        code = NUMERIC.get(kind)
+        if code is None:
+            raise LayoutError(f"base type {kind!r} is not supported by the bulk decoder")
+        width = int(code[1])
+        self.align(width)
+        self.need(width)
+        if not skip:
+            self.names.append(name)
+            self.offsets.append(self.pos)
+            self.kinds.append(kind)
+        self.pos += width
+
+    def array(self, name: str, sub: FieldDesc, count: int, *, skip: bool) -> None:
+        if sub[0] == Nodetype.BASE:
+            kind = sub[1][0]
+            if kind in STRING_TYPES:
+                for _ in range(count):
+                    self.base_value(name, kind, skip=True)
+                return
+            code = NUMERIC.get(kind)
+            if code is None:
+                raise LayoutError(f"base type {kind!r} is not supported by the bulk decoder")
+            width = int(code[1])
+            if count:
+                self.align(width)
+                self.need(count * width)
+                if not skip and kind not in BLOB_TYPES:
+                    self.names.extend(f"{name}[{i}]" for i in range(count))
+                    self.offsets.extend(range(self.pos, self.pos + count * width, width))
+                    self.kinds.extend([kind] * count)
+                self.pos += count * width
+            return
+        for i in range(count):
+            self.field(f"{name}[{i}]", sub, skip=skip, top=False)
+
+
+def compute_layout(store: Typestore, msgtype: str, data: bytes, encoding: Encoding) -> Layout:
+    """The layout of ``data``, one serialized ``msgtype`` message (raises LayoutError)."""
+    return _Walker(store, data, encoding).layout(msgtype)
+
+
+# --------------------------------------------------------------------------- reference path
+
+
+def flatten_message(store: Typestore, msgtype: str, obj: object) -> tuple[dict[str, float], int]:
+    """Numeric leaves of a rosbags message object, named like :class:`Layout` names, and
+    its top-level header stamp (``NO_STAMP`` if none)."""
+    out: dict[str, float] = {}
+    stamp = NO_STAMP
+    for fieldname, desc in store.fielddefs[msgtype][1]:
+        if fieldname == FILLER_FIELD:
+            continue
+        value = getattr(obj, normalize_fieldname(fieldname))
+        if desc[0] == Nodetype.NAME and desc[1] == HEADER_TYPE:
+            if stamp == NO_STAMP:
+                stamp = int(value.stamp.sec) * 1_000_000_000 + int(value.stamp.nanosec)
+            continue
+        _flatten_field(store, fieldname, desc, value, out)
+    return out, stamp
+
+
+def _flatten_field(
+    store: Typestore,
+    name: str,
+    desc: tuple,
+    value: object,
+    out: dict[str, float],
+) -> None:
+    node = desc[0]
+    if node == Nodetype.NAME:
+        if desc[1] == HEADER_TYPE:
+            return
+        for fieldname, sub in store.fielddefs[desc[1]][1]:
+            if fieldname == FILLER_FIELD:
+                continue
+            _flatten_field(
+                store,
+                f"{name}.{fieldname}",
+                sub,
+                getattr(value, normalize_fieldname(fieldname)),
+                out,
+            )
+    elif node == Nodetype.BASE:
+        if desc[1][0] in NUMERIC:
+            out[name] = float(value)  # type: ignore[arg-type]
+    else:
+        sub = desc[1][0]
+        items: Sequence[object] = value  # type: ignore[assignment]
+        if sub[0] == Nodetype.BASE:
+            kind = sub[1][0]
+            if kind in NUMERIC and kind not in BLOB_TYPES:
+                for i, item in enumerate(np.asarray(items).tolist()):
+                    out[f"{name}[{i}]"] = float(item)
+        else:
+            for i, item in enumerate(items):
+                _flatten_field(store, f"{name}[{i}]", sub, item, out)
+
+
+# --------------------------------------------------------------------------- batch decoder
+
+
+class RosBatchDecoder:
+    """Decodes batches of serialized messages of one ROS type into numeric columns.
+
+    ``stores`` are candidate typestores (several when a bag embeds no definition and the
+    standard typestores of different distributions disagree); the first one that decodes
+    the first message exactly is kept. ``bulk=False`` forces the reference path (tests
+    compare both).
+    """
+
+    def __init__(
+        self,
+        stores: Sequence[Typestore],
+        msgtype: str,
+        encoding: Encoding,
+        *,
+        bulk: bool = True,
+        max_layouts: int = MAX_LAYOUTS,
+    ) -> None:
+        if not stores:
+            raise ValueError("at least one typestore is needed")
+        self.msgtype = msgtype
+        self.encoding = encoding
+        self.bulk = bulk
+        self.max_layouts = max_layouts
+        self._candidates = list(stores)
+        self._store: Typestore | None = stores[0] if len(stores) == 1 else None
+        self._layouts: list[Layout] = []
+        self._layout_failed = False
+
+    # -- public
+    def decode(self, buf: ByteArray, starts: IntArray, sizes: IntArray) -> Decoded:
+        n = int(starts.shape[0])
+        decoded = Decoded(n)
+        if n == 0:
+            return decoded
+        if self._store is None:
+            self._store = self._choose_store(buf, int(starts[0]), int(sizes[0]))
+        parts: dict[str, list[tuple[IntArray | None, FloatArray]]] = {}
+        stamps = np.full(n, NO_STAMP, dtype=np.int64)
+        any_stamp = False
+        remaining = np.arange(n, dtype=np.int64)
+        if self.bulk:
+            remaining, any_stamp = self._bulk(buf, starts, sizes, remaining, parts, stamps)
+        if remaining.size:
+            any_stamp |= self._reference(buf, starts, sizes, remaining, parts, stamps, decoded)
+        decoded.columns = merge_parts(parts, n)
+        decoded.stamps = stamps if any_stamp else None
+        return decoded
+
+    def deserialize(self, data: bytes) -> object:
+        """The reference decoder (rosbags) for one message."""
+        store = self._store or self._candidates[0]
+        if self.encoding == "cdr":
+            return store.deserialize_cdr(data, self.msgtype)
+        return store.deserialize_ros1(data, self.msgtype)
+
+    # -- internals
+    def _choose_store(self, buf: ByteArray, start: int, size: int) -> Typestore:
+        data = buf[start : start + size].tobytes()
+        for store in self._candidates:
+            try:
+                compute_layout(store, self.msgtype, data, self.encoding)
+            except LayoutError:
+                try:
+                    if self.encoding == "cdr":
+                        store.deserialize_cdr(data, self.msgtype)
+                    else:
+                        store.deserialize_ros1(data, self.msgtype)
+                except Exception:  # noqa: BLE001 - any failure means "not this store"
+                    continue
+            return store
+        return self._candidates[0]
+
+    def _bulk(
+        self,
+        buf: ByteArray,
+        starts: IntArray,
+        sizes: IntArray,
+        remaining: IntArray,
+        parts: dict[str, list[tuple[IntArray | None, FloatArray]]],
+        stamps: IntArray,
+    ) -> tuple[IntArray, bool]:
+        assert self._store is not None
+        any_stamp = False
+        tried = 0
+        layouts = list(self._layouts)
+        while remaining.size:
+            if tried < len(layouts):
+                layout = layouts[tried]
+            else:
+                if self._layout_failed or len(self._layouts) >= self.max_layouts:
+                    break
+                first = int(remaining[0])
+                data = buf[int(starts[first]) : int(starts[first] + sizes[first])].tobytes()
+                try:
+                    layout = compute_layout(self._store, self.msgtype, data, self.encoding)
+                except LayoutError:
+                    if not self._layouts:
+                        self._layout_failed = True  # the walker cannot handle this type
+                    break
+                self._layouts.append(layout)
+                layouts.append(layout)
+            tried += 1
+            candidates = remaining[sizes[remaining] == layout.size]
+            if candidates.size == 0:
+                continue
+            rows = gather_rows(buf, starts[candidates], layout.size)
+            ok = layout.matches(rows)
+            if not bool(ok.all()):
+                rows = rows[ok]
+                candidates = candidates[ok]
+                if candidates.size == 0:
+                    continue
+            group = None if candidates.size == starts.shape[0] else candidates
+            for name, values in layout.extract(rows).items():
+                parts.setdefault(name, []).append((group, values))
+            group_stamps = layout.stamps(rows)
+            if group_stamps is not None:
+                stamps[candidates] = group_stamps
+                any_stamp = True
+            if candidates.size == remaining.size:
+                remaining = remaining[:0]
+            else:
+                remaining = np.setdiff1d(remaining, candidates, assume_unique=True)
+        return remaining, any_stamp
+
+    def _reference(
+        self,
+        buf: ByteArray,
+        starts: IntArray,
+        sizes: IntArray,
+        rows: IntArray,
+        parts: dict[str, list[tuple[IntArray | None, FloatArray]]],
+        stamps: IntArray,
+        decoded: Decoded,
+    ) -> bool:
+        store = self._store or self._candidates[0]
+        acc = ColumnAccumulator()
+        any_stamp = False
+        raw = buf.tobytes() if rows.size > 64 else None
+        for row in rows.tolist():
+            start, size = int(starts[row]), int(sizes[row])
+            data = (
+                raw[start : start + size]
+                if raw is not None
+                else buf[start : start + size].tobytes()
+            )
+            try:
+                obj = self.deserialize(data)
+                flat, stamp = flatten_message(store, self.msgtype, obj)
+            except Exception as err:  # noqa: BLE001 - recorded per topic, never fatal
+                decoded.note_failure(err)
+                continue
+            acc.add(row, flat)
+            if stamp != NO_STAMP:
+                stamps[row] = stamp
+                any_stamp = True
+        sub = Decoded(decoded.n)
+        acc.into(sub)
+        for name, column in sub.columns.items():
+            parts.setdefault(name, []).append(column)
+        return any_stamp

@@ -1,0 +1,122 @@
+"""ROS message types for the readers.
+
+Types come from the definitions a file embeds (ROS 1 connection headers, MCAP ``ros1msg``
+/ ``ros2msg`` / ``ros2idl`` schemas, rosbag2 ``message_definitions``), parsed by rosbags
+into a typestore per definition text (definitions of two files, or two topics, may
+differ under the same type name). ROS 2 bags that embed no definitions fall back to the
+standard typestores shipped with rosbags, newest distributions first.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+
+from rosbags.interfaces import Nodetype
+from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
+from rosbags.typesys.store import Typestore
+
+FALLBACK_STORES: tuple[Stores, ...] = (
+    Stores.ROS2_HUMBLE,
+    Stores.ROS2_JAZZY,
+    Stores.ROS2_IRON,
+    Stores.ROS2_KILTED,
+    Stores.ROS2_GALACTIC,
+    Stores.ROS2_FOXY,
+    Stores.ROS2_ELOQUENT,
+    Stores.ROS2_DASHING,
+)
+"""Standard typestores tried, in order, for a type a ROS 2 bag does not define."""
+
+IDL_SEPARATOR = "=" * 80 + "\n"
+
+
+class TypeResolutionError(Exception):
+    """A message type cannot be resolved (unparsable or missing definition)."""
+
+
+def normalize_msgtype(name: str) -> str:
+    """``pkg/Type`` -> ``pkg/msg/Type`` (ROS 1 and old rosbag2 spell types without ``msg``)."""
+    parts = name.strip().split("/")
+    if len(parts) == 2:
+        return f"{parts[0]}/msg/{parts[1]}"
+    return name.strip()
+
+
+@cache
+def _definition_store(msgtype: str, text: str, fmt: str) -> Typestore:
+    try:
+        if fmt == "idl":
+            types = {}
+            if text.startswith(f"{IDL_SEPARATOR}IDL: "):
+                for section in text.split(IDL_SEPARATOR)[1:]:
+                    _, idl = section.split("\n", 1)
+                    types.update(get_types_from_idl(idl))
+            else:
+                types.update(get_types_from_idl(text))
+        else:
+            types = get_types_from_msg(text, msgtype)
+        store = get_typestore(Stores.EMPTY)
+        store.register(types)
+    except Exception as err:  # rosbags raises several parser error types
+        raise TypeResolutionError(
+            f"cannot parse the {fmt} definition of {msgtype!r}: {_short(err)}"
+        ) from err
+    if msgtype not in store.fielddefs:
+        raise TypeResolutionError(f"the embedded definition does not define {msgtype!r}")
+    return store
+
+
+def store_from_definition(msgtype: str, text: str, fmt: str = "msg") -> Typestore:
+    """A typestore holding ``msgtype`` and its dependencies, parsed from ``text``
+    (``fmt`` ``"msg"``: ROS 1 or ROS 2 .msg text with ``MSG:`` sections; ``"idl"``)."""
+    return _definition_store(normalize_msgtype(msgtype), text, fmt)
+
+
+@cache
+def standard_store(store: Stores) -> Typestore:
+    """One of rosbags' standard typestores (cached: building one takes ~0.1 s)."""
+    return get_typestore(store)
+
+
+def standard_candidates(msgtype: str) -> list[Typestore]:
+    """Standard typestores that define ``msgtype``, in :data:`FALLBACK_STORES` order,
+    without duplicates of an identical definition."""
+    name = normalize_msgtype(msgtype)
+    found: list[Typestore] = []
+    seen: list[object] = []
+    for which in FALLBACK_STORES:
+        store = standard_store(which)
+        if name in store.fielddefs:
+            definition = _closure(store, name)
+            if definition not in seen:
+                seen.append(definition)
+                found.append(store)
+    return found
+
+
+def _closure(store: Typestore, name: str) -> tuple[object, ...]:
+    """The field definitions of ``name`` and every type it uses (for de-duplication)."""
+    out: list[object] = []
+    todo = [name]
+    done: set[str] = set()
+    while todo:
+        current = todo.pop()
+        if current in done:
+            continue
+        done.add(current)
+        fields = store.fielddefs[current][1]
+        out.append((current, tuple(fields)))
+        for _, desc in fields:
+            node = desc
+            while node[0] in (Nodetype.ARRAY, Nodetype.SEQUENCE):
+                node = node[1][0]
+            if node[0] == Nodetype.NAME:
+                todo.append(node[1])
+    return tuple(out)
+
+
+def _short(err: BaseException) -> str:
+    text = " ".join(str(err).split())
+    if text.startswith("Could not parse"):
+        return "syntax error"  # rosbags echoes the whole remaining text: not useful
+    return text[:160] if text else type(err).__name__

@@ -1,0 +1,155 @@
+"""Standardization of the innovation and the tests of its mean and covariance.
+
+Seed 003 (IST Advanced Control Systems 2012/2013):
+
+* "LDS - Statistics of the innovation sequence": the innovation r(t+1) = z(t+1) -
+  C x(t+1|t) of a Kalman filter is zero-mean Gaussian white noise with covariance
+  S(t+1) = C Sigma(t+1|t) C^T + Theta(t+1); the standardized innovation
+  eta(t+1) = S(t+1)^{-1/2} r(t+1) has covariance I.
+* "Tests of mean": the sample mean of eta is N(0, I/N) under the null, so a component is
+  rejected at 5 % when |mean| > 1.96 / sqrt(N).
+* "Tests of covariance": trace(N C0) with C0 = (1/N) sum eta eta^T is chi-square. The
+  slides estimate C0 around the sample mean ((N - 1) r degrees of freedom); here the
+  mean is known to be 0 under the null, so C0 is taken about 0 and trace(N C0) =
+  sum of all squared entries is chi-square with N r degrees of freedom.
+
+Both tests assume a white innovation: test whiteness first (the slides stop the test
+sequence when whiteness is rejected).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from scipy.stats import chi2, norm
+
+from analyzer.errors import DetectorError
+from analyzer.stats._checks import (
+    ALPHA,
+    Z_975,
+    FloatArray,
+    as_float_array,
+    as_matrix,
+    frozen,
+)
+from analyzer.stats.results import CovarianceResult, MeanResult
+
+
+def mean_test(x: Any) -> MeanResult:
+    """Zero-mean test of a standardized innovation, 1-D or (N, r) (rows with NaN dropped).
+
+    Per component j: ``z_j = sqrt(N) mean_j``, rejected when ``|z_j| > 1.96``
+    (equivalently ``|mean_j| > 1.96 / sqrt(N)``), two-sided ``p_j = 2 (1 - Phi(|z_j|))``.
+    ``reject`` is any component; for r > 1 the family-wise level is 1 - 0.95^r.
+    Seed 003, "Tests of mean".
+    """
+    eta = as_matrix(x, "x")
+    n = eta.shape[0]
+    mean = eta.mean(axis=0)
+    z = np.sqrt(n) * mean
+    per_component = np.abs(z) > Z_975
+    worst = float(np.max(np.abs(z)))
+    return MeanResult(
+        statistic=worst,
+        critical=Z_975,
+        reject=bool(per_component.any()),
+        pvalue=float(2.0 * norm.sf(worst)),
+        n=n,
+        mean=frozen(mean),
+        z=frozen(z),
+        per_component=frozen(per_component),
+    )
+
+
+def covariance_test(x: Any) -> CovarianceResult:
+    """Unit-covariance test of a standardized innovation, 1-D or (N, r) (NaN rows dropped).
+
+    ``statistic = trace(N C0) = sum_t eta_t^T eta_t`` with ``C0 = X^T X / N`` is
+    chi-square with ``dof = N r`` under the null. Two-sided at 5 %: rejected outside
+    [``critical_low``, ``critical``] (the 2.5 % and 97.5 % points), ``pvalue = 2 min(F,
+    1 - F)``. Too large: noisy sensor or underestimated S; too small: a stuck or
+    over-smoothed channel. Seed 003, "Tests of covariance".
+    """
+    eta = as_matrix(x, "x")
+    n, r = eta.shape
+    dof = n * r
+    statistic = float(np.einsum("ij,ij->", eta, eta))
+    tail = min(float(chi2.cdf(statistic, dof)), float(chi2.sf(statistic, dof)))
+    pvalue = min(1.0, 2.0 * tail)
+    return CovarianceResult(
+        statistic=statistic,
+        critical=float(chi2.ppf(1.0 - ALPHA / 2.0, dof)),
+        reject=pvalue < ALPHA,
+        pvalue=pvalue,
+        n=n,
+        critical_low=float(chi2.ppf(ALPHA / 2.0, dof)),
+        dof=dof,
+    )
+
+
+def inverse_sqrt(s: Any) -> FloatArray:
+    """Symmetric inverse square root ``S^{-1/2} = V diag(w^{-1/2}) V^T`` of a covariance
+    (r, r) or a stack (N, r, r), from ``numpy.linalg.eigh``.
+
+    Raises DetectorError when S is not square, not finite, not symmetric (to 1e-8 of its
+    largest entry) or not positive definite.
+    """
+    mat = as_float_array(s, "S")
+    if mat.ndim < 2 or mat.shape[-1] != mat.shape[-2] or mat.shape[-1] == 0:
+        raise DetectorError(f"expected a square (r, r) or (N, r, r) matrix for S, got {mat.shape}")
+    if not np.isfinite(mat).all():
+        raise DetectorError(
+            f"S has {int(np.size(mat) - np.isfinite(mat).sum())} non-finite entries"
+        )
+    asym = float(np.max(np.abs(mat - np.swapaxes(mat, -1, -2)), initial=0.0))
+    scale = float(np.max(np.abs(mat), initial=0.0))
+    if asym > 1e-8 * scale:
+        raise DetectorError(f"S is not symmetric: max |S - S^T| = {asym:.3g}")
+    if mat.shape[-1] == 1:
+        w = mat[..., 0]
+        _check_positive_definite(w, mat.ndim)
+        root: FloatArray = 1.0 / np.sqrt(mat)
+        return root
+    w, v = np.linalg.eigh(0.5 * (mat + np.swapaxes(mat, -1, -2)))
+    _check_positive_definite(w, mat.ndim)
+    out: FloatArray = (v / np.sqrt(w)[..., np.newaxis, :]) @ np.swapaxes(v, -1, -2)
+    return out
+
+
+def _check_positive_definite(eigenvalues: FloatArray, ndim: int) -> None:
+    if (eigenvalues > 0.0).all():
+        return
+    worst = np.unravel_index(int(np.argmin(eigenvalues)), eigenvalues.shape)
+    at = f" (at S[{worst[0]}])" if ndim == 3 else ""
+    raise DetectorError(
+        f"S is not positive definite: smallest eigenvalue {float(eigenvalues.min()):.6g}{at}"
+    )
+
+
+def standardize(e: Any, s: Any) -> FloatArray:
+    """Standardized innovation ``eta_t = S^{-1/2} e_t`` (seed 003, "LDS - Statistics of
+    the innovation sequence"), with the symmetric inverse square root of :func:`inverse_sqrt`.
+
+    ``e`` is (N, r) (or (N,) for one channel); ``S`` is the innovation covariance, fixed
+    (r, r) or time-varying (N, r, r). For one channel ``S`` may also be a scalar variance
+    or an (N,) array of variances. The result has the shape of ``e``; NaN rows stay NaN.
+    """
+    innov = as_float_array(e, "E")
+    if innov.ndim not in (1, 2) or innov.shape[0] == 0:
+        raise DetectorError(f"expected an (N,) or (N, r) innovation for E, got shape {innov.shape}")
+    cov = as_float_array(s, "S")
+    flat = innov.ndim == 1
+    mat = innov[:, np.newaxis] if flat else innov
+    n, r = mat.shape
+    if r == 1 and cov.ndim <= 1:
+        cov = cov.reshape(-1, 1, 1) if cov.ndim == 1 else cov.reshape(1, 1)
+    if cov.shape not in ((r, r), (n, r, r)):
+        raise DetectorError(
+            f"expected S of shape ({r}, {r}) or ({n}, {r}, {r}) for E of shape "
+            f"{innov.shape}, got {np.shape(s)}"
+        )
+    root = inverse_sqrt(cov)
+    eta = mat @ root if root.ndim == 2 else np.einsum("nij,nj->ni", root, mat)
+    out: FloatArray = eta[:, 0] if flat else eta
+    return out

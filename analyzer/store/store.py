@@ -1,0 +1,392 @@
+"""The channel store: raw samples of every channel, kept out of core, served as
+time-aligned blocks on a common clock.
+
+Raw samples are appended per channel to in-memory buffers that spill to flat binary
+files (int64 nanoseconds, float64 values) in a work directory once they pass a size
+limit, so ingesting a long archive needs memory for the buffers only; after
+:meth:`ChannelStore.finalize` each channel is a pair of (memory-mapped) arrays.
+
+:meth:`ChannelStore.align` returns an :class:`AlignedSeries`: a common clock
+``t_k = t0 + k / rate`` and, block by block, every channel on it:
+
+* a channel near the clock's rate is linearly interpolated (this absorbs jitter);
+* a faster channel is first low-passed with a windowed-sinc FIR (anti-aliasing: cutoff
+  0.45 x the clock rate), then interpolated: the polyphase-resampling result, without
+  assuming an exact integer rate ratio;
+* where two consecutive raw samples are more than ``GAP_FACTOR`` nominal periods apart,
+  the clock ticks between them are NaN: gaps are kept, never interpolated across.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import shutil
+import tempfile
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+from scipy import signal
+
+from analyzer.errors import StoreError
+from analyzer.readers.base import ChannelChunk
+from analyzer.types import NS_PER_S
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+GAP_FACTOR = 2.5
+"""A step between raw samples longer than this many nominal periods is a gap (so one
+dropped sample is bridged, two or more are not)."""
+
+SPILL_SAMPLES = 1 << 22
+"""Buffered samples (all channels) before the buffers are written to the work dir."""
+
+
+@dataclass(slots=True)
+class ChannelInfo:
+    """What ``inspect`` reports about one channel (raw samples, before alignment)."""
+
+    name: str
+    samples: int
+    start_ns: int
+    end_ns: int
+    rate_hz: float
+    gaps: int
+    finite: int
+    minimum: float
+    maximum: float
+
+    @property
+    def constant(self) -> bool:
+        return not (self.finite > 1 and self.maximum > self.minimum)
+
+
+@dataclass(slots=True)
+class _Raw:
+    t_parts: list[IntArray] = field(default_factory=list)
+    v_parts: list[FloatArray] = field(default_factory=list)
+    buffered: int = 0
+    spilled: int = 0
+    t: IntArray | None = None
+    v: FloatArray | None = None
+
+
+class ChannelStore:
+    """Raw channels of one archive. Use as a context manager (or call :meth:`close`) to
+    remove the spill files."""
+
+    def __init__(self, workdir: str | Path | None = None, spill_samples: int = SPILL_SAMPLES):
+        self._own_dir = workdir is None
+        self._workdir = Path(workdir) if workdir is not None else None
+        self._spill = spill_samples
+        self._raw: dict[str, _Raw] = {}
+        self._buffered = 0
+        self._info: dict[str, ChannelInfo] = {}
+        self._final = False
+
+    # -- building --------------------------------------------------------------------------
+    @classmethod
+    def from_chunks(
+        cls,
+        chunks: Iterable[ChannelChunk],
+        workdir: str | Path | None = None,
+        spill_samples: int = SPILL_SAMPLES,
+    ) -> ChannelStore:
+        store = cls(workdir, spill_samples)
+        for chunk in chunks:
+            store.add(chunk)
+        store.finalize()
+        return store
+
+    def _dir(self) -> Path:
+        if self._workdir is None:
+            self._workdir = Path(tempfile.mkdtemp(prefix="analyzer-store-"))
+        self._workdir.mkdir(parents=True, exist_ok=True)
+        return self._workdir
+
+    def add(self, chunk: ChannelChunk) -> None:
+        if self._final:
+            raise StoreError("the store is finalized: no more samples can be added")
+        if len(chunk) == 0:
+            return
+        raw = self._raw.setdefault(chunk.name, _Raw())
+        raw.t_parts.append(np.asarray(chunk.t_ns, dtype=np.int64))
+        raw.v_parts.append(np.asarray(chunk.values, dtype=np.float64))
+        raw.buffered += len(chunk)
+        self._buffered += len(chunk)
+        if self._buffered >= self._spill:
+            self._spill_all()
+
+    def _paths(self, name: str) -> tuple[Path, Path]:
+        idx = list(self._raw).index(name)
+        d = self._dir()
+        return d / f"ch{idx:05d}.t", d / f"ch{idx:05d}.v"
+
+    def _spill_all(self) -> None:
+        for name, raw in self._raw.items():
+            if not raw.buffered:
+                continue
+            tp, vp = self._paths(name)
+            with tp.open("ab") as ft, vp.open("ab") as fv:
+                for t, v in zip(raw.t_parts, raw.v_parts, strict=True):
+                    ft.write(np.ascontiguousarray(t).tobytes())
+                    fv.write(np.ascontiguousarray(v).tobytes())
+            raw.spilled += raw.buffered
+            raw.t_parts.clear()
+            raw.v_parts.clear()
+            raw.buffered = 0
+        self._buffered = 0
+
+    def finalize(self) -> None:
+        """Make every channel one time-sorted pair of arrays and compute its summary."""
+        if self._final:
+            return
+        if any(r.spilled for r in self._raw.values()):
+            self._spill_all()
+        for name, raw in self._raw.items():
+            if raw.spilled:
+                tp, vp = self._paths(name)
+                t: IntArray = np.memmap(tp, dtype=np.int64, mode="r")
+                v: FloatArray = np.memmap(vp, dtype=np.float64, mode="r")
+            else:
+                t = np.concatenate(raw.t_parts)
+                v = np.concatenate(raw.v_parts)
+                raw.t_parts.clear()
+                raw.v_parts.clear()
+            if not _is_sorted(t):
+                order = np.argsort(t, kind="stable")
+                t = np.asarray(t)[order]
+                v = np.asarray(v)[order]
+            raw.t, raw.v = t, v
+            self._info[name] = _summarize(name, t, v)
+        self._final = True
+
+    # -- reading ---------------------------------------------------------------------------
+    @property
+    def names(self) -> list[str]:
+        return list(self._info)
+
+    def info(self, name: str | None = None) -> ChannelInfo | list[ChannelInfo]:
+        self._need_final()
+        if name is None:
+            return list(self._info.values())
+        try:
+            return self._info[name]
+        except KeyError:
+            raise StoreError(f"unknown channel {name!r}") from None
+
+    def infos(self) -> list[ChannelInfo]:
+        self._need_final()
+        return list(self._info.values())
+
+    def raw(self, name: str) -> tuple[IntArray, FloatArray]:
+        self._need_final()
+        r = self._raw.get(name)
+        if r is None or r.t is None or r.v is None:
+            raise StoreError(f"unknown channel {name!r}")
+        return r.t, r.v
+
+    def select(self, patterns: Sequence[str] | None = None, numeric_only: bool = True) -> list[str]:
+        """Channels matching any shell-style pattern (all when None), without the constant
+        or empty ones when ``patterns`` is None (the contract's default)."""
+        self._need_final()
+        if not patterns:
+            return [i.name for i in self._info.values() if not (numeric_only and i.constant)]
+        out = []
+        for name in self._info:
+            if any(fnmatch.fnmatchcase(name, p) for p in patterns):
+                out.append(name)
+        return out
+
+    def align(
+        self,
+        channels: Sequence[str],
+        rate_hz: float | None = None,
+        start_ns: int | None = None,
+        end_ns: int | None = None,
+    ) -> AlignedSeries:
+        """The channels on a common clock (default rate: the dominant rate)."""
+        self._need_final()
+        if not channels:
+            raise StoreError("no channel to align")
+        infos = [self.info(c) for c in channels]
+        assert all(isinstance(i, ChannelInfo) for i in infos)
+        rate = dominant_rate([i.rate_hz for i in infos]) if rate_hz is None else float(rate_hz)  # type: ignore[union-attr]
+        if not rate > 0:
+            raise StoreError(f"cannot align on a clock rate of {rate!r} Hz")
+        t0 = min(i.start_ns for i in infos) if start_ns is None else int(start_ns)  # type: ignore[union-attr]
+        t1 = max(i.end_ns for i in infos) if end_ns is None else int(end_ns)  # type: ignore[union-attr]
+        if t1 < t0:
+            raise StoreError("empty time range")
+        n = int(np.floor((t1 - t0) * rate / NS_PER_S + 1e-9)) + 1
+        return AlignedSeries(self, tuple(channels), rate, t0, n)
+
+    def _need_final(self) -> None:
+        if not self._final:
+            raise StoreError("the store is not finalized")
+
+    def close(self) -> None:
+        for r in self._raw.values():
+            r.t = r.v = None
+        if self._own_dir and self._workdir is not None:
+            shutil.rmtree(self._workdir, ignore_errors=True)
+
+    def __enter__(self) -> ChannelStore:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _is_sorted(t: IntArray, block: int = 1 << 22) -> bool:
+    n = t.shape[0]
+    for s in range(0, n - 1, block):
+        e = min(n, s + block + 1)
+        if np.any(np.diff(t[s:e]) < 0):
+            return False
+    return True
+
+
+def _summarize(name: str, t: IntArray, v: FloatArray, block: int = 1 << 22) -> ChannelInfo:
+    n = int(t.shape[0])
+    # median period from up to ~1M evenly spread steps (exact for short channels)
+    if n > 1:
+        stride = max(1, (n - 1) // (1 << 20))
+        dt = np.diff(np.asarray(t[:: stride] if stride > 1 else t))
+        dt = dt[dt > 0]
+        if stride > 1:
+            dt = dt / stride  # spread steps estimate the period on average
+        period = float(np.median(dt)) if dt.size else 0.0
+    else:
+        period = 0.0
+    gaps = 0
+    finite = 0
+    lo, hi = np.inf, -np.inf
+    for s in range(0, n, block):
+        e = min(n, s + block)
+        vv = np.asarray(v[s:e])
+        fin = np.isfinite(vv)
+        finite += int(fin.sum())
+        if fin.any():
+            lo = min(lo, float(vv[fin].min()))
+            hi = max(hi, float(vv[fin].max()))
+        if period > 0:
+            tt = np.asarray(t[max(0, s - 1) : e])
+            gaps += int(np.count_nonzero(np.diff(tt) > GAP_FACTOR * period))
+    rate = NS_PER_S / period if period > 0 else 0.0
+    return ChannelInfo(name, n, int(t[0]), int(t[-1]), rate, gaps, finite, lo, hi)
+
+
+def dominant_rate(rates: Sequence[float]) -> float:
+    """The rate most channels share (within 2 %); ties go to the faster. Rounded to an
+    integer when within 0.1 % of one (nominal rates such as 200 Hz)."""
+    rs = sorted((r for r in rates if r > 0), reverse=True)
+    if not rs:
+        raise StoreError("no channel has at least two samples: cannot infer a clock rate")
+    best: list[float] = []
+    for r in rs:
+        group = [x for x in rs if abs(x - r) <= 0.02 * r]
+        if len(group) > len(best):
+            best = group
+    rate = float(np.median(best))
+    if abs(rate - round(rate)) <= 1e-3 * rate and round(rate) > 0:
+        rate = float(round(rate))
+    return rate
+
+
+@dataclass(frozen=True, slots=True)
+class AlignedSeries:
+    """Channels of a store on the clock ``start_ns + k / rate_hz``, ``k < n``."""
+
+    store: ChannelStore
+    channels: tuple[str, ...]
+    rate_hz: float
+    start_ns: int
+    n: int
+
+    @property
+    def duration_s(self) -> float:
+        return (self.n - 1) / self.rate_hz if self.n else 0.0
+
+    def times_ns(self, a: int = 0, b: int | None = None) -> IntArray:
+        b = self.n if b is None else b
+        k = np.arange(a, b, dtype=np.int64)
+        return self.start_ns + np.round(k * (NS_PER_S / self.rate_hz)).astype(np.int64)
+
+    def block(self, a: int, b: int) -> FloatArray:
+        """Rows ``a:b`` of the aligned matrix, (b - a, m) float64, NaN in gaps."""
+        a = max(0, a)
+        b = min(self.n, b)
+        out = np.full((max(0, b - a), len(self.channels)), np.nan)
+        if b <= a:
+            return out
+        grid = self.times_ns(a, b)
+        for j, name in enumerate(self.channels):
+            t, v = self.store.raw(name)
+            info = self.store.info(name)
+            assert isinstance(info, ChannelInfo)
+            out[:, j] = _resample(t, v, grid, info.rate_hz, self.rate_hz)
+        return out
+
+    def blocks(self, size: int = 1 << 16) -> Iterator[tuple[int, FloatArray]]:
+        for a in range(0, self.n, size):
+            yield a, self.block(a, a + size)
+
+    def materialize(self, path: Path | None = None, block: int = 1 << 16) -> FloatArray:
+        """The whole aligned matrix, in memory or memory-mapped at ``path`` (.npy)."""
+        shape = (self.n, len(self.channels))
+        if path is None:
+            out: FloatArray = np.empty(shape)
+        else:
+            out = np.lib.format.open_memmap(path, mode="w+", dtype=np.float64, shape=shape)
+        for a, blk in self.blocks(block):
+            out[a : a + blk.shape[0]] = blk
+        return out
+
+
+def _resample(t: IntArray, v: FloatArray, grid: IntArray, rate: float, target: float) -> FloatArray:
+    """One channel's raw samples onto ``grid`` (see the module docstring)."""
+    out = np.full(grid.shape[0], np.nan)
+    if t.shape[0] == 0 or rate <= 0:
+        if t.shape[0] == 1:
+            out[grid == t[0]] = v[0]
+        return out
+    period = NS_PER_S / rate
+    decimate = rate > 1.5 * target
+    taps = None
+    margin = 2
+    if decimate:
+        ntaps = int(8 * np.ceil(rate / target)) | 1
+        taps = signal.firwin(ntaps, 0.45 * target, fs=rate)
+        margin = ntaps
+    i0 = max(0, int(np.searchsorted(t, grid[0], "left")) - margin)
+    i1 = min(t.shape[0], int(np.searchsorted(t, grid[-1], "right")) + margin)
+    if i1 - i0 < 1:
+        return out
+    tt = np.asarray(t[i0:i1])
+    vv = np.asarray(v[i0:i1], dtype=np.float64)
+    if taps is not None and vv.shape[0] > taps.shape[0]:
+        fin = np.isfinite(vv)
+        vv = signal.oaconvolve(np.where(fin, vv, 0.0), taps, mode="same")
+        vv[~fin] = np.nan
+    base = tt[0]
+    x = (tt - base).astype(np.float64)
+    g = (grid - base).astype(np.float64)
+    if x.shape[0] == 1:
+        hit = np.abs(g - x[0]) <= 0.5 * period
+        out[hit] = vv[0]
+        return out
+    y = np.interp(g, x, vv)
+    # bracketing raw samples of each tick; a tick is valid when they are close enough
+    right = np.searchsorted(x, g, "left")
+    exact = (right < x.shape[0]) & (x[np.minimum(right, x.shape[0] - 1)] == g)
+    right = np.clip(right, 1, x.shape[0] - 1)
+    step = x[right] - x[right - 1]
+    inside = (g >= x[0] - 0.5 * period) & (g <= x[-1] + 0.5 * period)
+    ok = inside & ((step <= GAP_FACTOR * period) | exact)
+    # outside the channel's first/last sample by up to half a period: hold the edge value
+    out[ok] = y[ok]
+    return out

@@ -1,0 +1,313 @@
+"""Wang & Song (2014): the observer with an assistant state (Theorem 6, Eq. 26-32), its
+exact discretization, the pretreatment (Algorithm 1), the paper's nonlinear 4-state
+simulation (Section 5.2, Fig. 6/8, and Section 6.4, Fig. 12) and the detector on
+simulated buildings."""
+
+import json
+
+import numpy as np
+import pytest
+from scipy import signal
+from scipy.integrate import cumulative_trapezoid, solve_ivp
+
+from analyzer.detectors.base import Dataset, RunContext
+from analyzer.detectors.equivalent_model import (
+    AssistantObserver,
+    EquivalentModel,
+    fit_relation,
+    pretreat,
+)
+from analyzer.detectors.lti import simulate_reference
+from analyzer.detectors.network import network_from_config
+from analyzer.diagnosis.changes import calibrate, default_window, detect
+from analyzer.errors import DetectorError
+from analyzer.simulate import inject_fault, simulate_building
+
+RATE = 200.0
+TRAIN = (0, int(15 * RATE))
+
+
+# -- Theorem 6, Lemma 1, Eq. 30 --------------------------------------------------------------
+@pytest.mark.parametrize(("a", "b"), [(-1.0, 4.0), (1.0, 100.0), (-3.0, 0.0)])
+def test_theorem6_gain_decouples_the_disturbance(a, b):
+    obs = AssistantObserver(a, b, lambda1=1.5, lambda2=0.7, dt=0.01)
+    assert np.allclose(obs.Ac, np.diag([-1.5, -0.7]))
+    # Lemma 1: W C E = 0 and W C is a left eigenvector of A - K C
+    assert np.allclose(obs.W @ obs.C @ obs.E, 0.0)
+    assert np.allclose(obs.W @ obs.C @ obs.Ac, -1.5 * obs.W @ obs.C)
+    for s in (0.3j, 1.0 + 2.0j, 5.0, -0.2 + 10j):
+        grd, g_bar, g_fs = obs.transfer(s)
+        assert abs(grd) < 1e-12
+        assert g_bar == pytest.approx(s / (s + 1.5))  # Eq. 30, assistant-state bias
+        assert g_fs == pytest.approx(-1.0 / (s + 1.5))  # Eq. 30, sensor fault
+
+
+def test_rate_form_is_the_exact_discretization_of_the_integrated_assistant():
+    """Integrating the assistant rate inside the observer (three states, Eq. 28 plus
+    xbar' = z, exact ZOH) gives the same residual as the two-state rate form."""
+    a, b, l1, l2, h = -2.0, 3.0, 4.0, 1.5, 0.01
+    obs = AssistantObserver(a, b, l1, l2, h)
+    A3 = np.array([[0.0, 0.0, 0.0], [l1, -l1, 0.0], [0.0, 0.0, -l2]])
+    B3 = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, a + l2, b]])
+    C3 = np.array([[1.0, -1.0, 0.0], [0.0, 0.0, 1.0]])
+    F, G, H, J, _ = signal.cont2discrete((A3, B3, C3, np.zeros((2, 3))), h, method="zoh")
+    rng = np.random.default_rng(0)
+    N = 400
+    V = rng.standard_normal((N, 3))
+    V[:, 0] = np.cumsum(V[:, 0]) * 0.1  # any assistant rate
+    ref = simulate_reference(F, G, H, J, V)  # starts at xbar = xhat_1 = xhat_2 = 0
+    r, xh2 = obs.run(V[:, 0], V[:, 1], V[:, 2], mode="rate")
+    # the two start differently only through xhat_2(0) (= y[0] in run, 0 in ref), whose
+    # difference decays as exp(-lambda2 t)
+    assert np.allclose(r, ref[:, 0], atol=1e-12)
+    k = np.arange(N)
+    assert np.allclose(xh2 - ref[:, 1], V[0, 1] * np.exp(-l2 * h * k), atol=1e-12)
+    # the after-sample residual is the next sample's r
+    assert np.allclose(obs.rate_residual(V[:, 0], V[:, 1])[:-1], r[1:], atol=1e-12)
+
+
+def test_constant_fault_gives_minus_fs_over_lambda1_exactly_in_rate_form():
+    obs = AssistantObserver(-1.0, 0.0, lambda1=3.0, lambda2=1.0, dt=0.02)
+    rng = np.random.default_rng(1)
+    x = np.cumsum(rng.standard_normal(2000)) * 0.05
+    y = x.copy()
+    y[500:] += 0.8
+    r = obs.rate_residual(x, y)  # perfect relation: z = x
+    assert np.abs(r[:500]).max() < 1e-12
+    assert r[-1] == pytest.approx(-0.8 / 3.0, abs=1e-12)
+
+
+# -- the nonlinear example of Section 5.2 ----------------------------------------------------
+U2 = 10.0
+
+
+def _u1(t):
+    return 1.0 + 0.5 * np.sin(1.3 * t)
+
+
+def _disturbance(t):
+    return 3.0 * np.sin(2.0 * t) + 2.0 * np.sin(5.3 * t + 1.0)
+
+
+def _simulate_paper_system(rate, duration, d_scale=1.0, d_state=3, u1=None, x0=None):
+    """x1' = -x2 + x4, x2' = x1^3 + u1, x3' = x4^2 - x3 x4 - 2 x3 + u2, x4' = x2 - x4 (Section
+    5.2), plus the disturbance on state ``d_state``; a fifth state integrates x4 (the
+    assistant state of sensor four when it is measured)."""
+    u1f = (lambda t: 1.0) if u1 is None else u1
+
+    def rhs(t, x):
+        x1, x2, x3, x4, _ = x
+        dx = [-x2 + x4, x1**3 + u1f(t), x4**2 - x3 * x4 - 2.0 * x3 + U2, x2 - x4, x4]
+        dx[d_state] += d_scale * _disturbance(t)
+        return dx
+
+    t = np.arange(int(round(duration * rate))) / rate
+    start = [-1.0, 1.0, 3.0, 1.0, 0.0] if x0 is None else x0
+    sol = solve_ivp(rhs, (0.0, t[-1]), start, t_eval=t, method="DOP853", rtol=1e-10, atol=1e-12)
+    assert sol.success
+    return t, sol.y.T
+
+
+@pytest.fixture(scope="module")
+def section52():
+    rate = 1000.0
+    t, X = _simulate_paper_system(rate, 30.0)
+    _, X2 = _simulate_paper_system(rate, 30.0, d_scale=2.0)
+    return rate, t, X, X2
+
+
+def _sensor4(t, X, fs=0.5, bias=0.5):
+    """Sensor four with a fault f_s from 10 s (Fig. 4) and its measured assistant state
+    with a bias from 3 s (Fig. 5)."""
+    y4 = X[:, 3] + np.where(t >= 10.0, fs, 0.0)
+    xbar = X[:, 4] + np.where(t >= 3.0, bias, 0.0)
+    return xbar, y4
+
+
+@pytest.mark.parametrize("lambda1", [1.0, 2.0])
+def test_section52_residual_settles_at_minus_fs_over_lambda1(section52, lambda1):
+    rate, t, X, _ = section52
+    xbar, y4 = _sensor4(t, X)
+    obs = AssistantObserver(-1.0, 4.0, lambda1, 1.0, 1.0 / rate)  # a = -1, b = 4 (Fig. 6)
+    r, _ = obs.run(xbar, y4, np.full_like(t, U2))
+    settled = r[t >= 10.0 + 8.0 / lambda1]
+    assert np.mean(settled) == pytest.approx(-0.5 / lambda1, rel=0.01)  # Eq. 32
+    assert np.ptp(settled) < 0.01
+    # the assistant-state bias only passes transiently, s / (s + lambda1) (Eq. 30)
+    assert r[np.searchsorted(t, 3.0) + 1] > 0.4
+    assert np.abs(r[(t > 3.0 + 5.0 / lambda1) & (t < 10.0)]).max() < 0.01
+
+
+def test_section52_residual_ignores_disturbance_and_a_b(section52):
+    """Fig. 6 vs Fig. 8: the residual is the same for a = -1, b = 4 and a = 1, b = 100, and
+    doubling the disturbance (which moves sensor four by far more) leaves it alone."""
+    rate, t, X, X2 = section52
+    u = np.full_like(t, U2)
+    r1, _ = AssistantObserver(-1.0, 4.0, 1.0, 1.0, 1.0 / rate).run(*_sensor4(t, X), u)
+    r2, _ = AssistantObserver(1.0, 100.0, 1.0, 1.0, 1.0 / rate).run(*_sensor4(t, X), u)
+    assert np.allclose(r1, r2, atol=1e-10)
+    r3, _ = AssistantObserver(-1.0, 4.0, 1.0, 1.0, 1.0 / rate).run(*_sensor4(t, X2), u)
+    assert np.abs(X2[:, 3] - X[:, 3]).max() > 0.5
+    assert np.abs(r3 - r1).max() < 2e-3  # only the O(h) hold mismatch differs
+    r3f, _ = AssistantObserver(-1.0, 4.0, 1.0, 1.0, 1.0 / rate).run(*_sensor4(t, X2), u, hold="foh")
+    r1f, _ = AssistantObserver(-1.0, 4.0, 1.0, 1.0, 1.0 / rate).run(*_sensor4(t, X), u, hold="foh")
+    assert np.abs(r3f - r1f).max() < 1e-5  # first-order hold: the mismatch is O(h^2)
+
+
+# -- Section 6.4, Fig. 11-12 -----------------------------------------------------------------
+def test_section64_fault_on_sensor_two_is_isolated_like_fig12():
+    """Line s1 -> s4 -> s2 -> s3 (Fig. 11). Assistant states from the model equations:
+    int x4 = x1 - x1(0) + int x2 and int x2 = x2(0) t + int int (x1^3 + u1) from sensor one;
+    int x2 = x4 - x4(0) + int x4 from sensor four; sensor three from sensor two through a
+    relation identified on healthy data. A fault on sensor two at 10 s: residual four
+    stays quiet, two and three alarm, and the laws name sensor two (Fig. 12)."""
+    rate = 200.0
+    x0 = [-1.2, 0.6, 3.0, 1.4, 0.0]
+    t, X = _simulate_paper_system(rate, 20.0, d_scale=0.5, d_state=2, u1=_u1, x0=x0)
+    rng = np.random.default_rng(3)
+    Y = X[:, :4] + 0.002 * rng.standard_normal((t.shape[0], 4))
+    Y[t >= 10.0, 1] += 0.2  # sensor two
+    y1, y2, y3, y4 = Y.T
+    h = 1.0 / rate
+    w = cumulative_trapezoid(y1**3 + _u1(t), t, initial=0.0)
+    xbar4 = y1 - y1[0] + x0[1] * t + cumulative_trapezoid(w, t, initial=0.0)
+    xbar2 = y4 - y4[0] + cumulative_trapezoid(y4, t, initial=0.0)
+    l1 = 5.0
+    obs = AssistantObserver(-1.0, 0.0, l1, 1.0, h)
+    zeta = {
+        "s4": -l1 * obs.run(xbar4, y4)[0],
+        "s2": -l1 * obs.run(xbar2, y2)[0],
+    }
+    train = (int(1.0 * rate), int(9.5 * rate))
+    rel = fit_relation(Y[train[0] : train[1]], 2, [1], lags="bic", max_lags=16)
+    zeta["s3"] = -l1 * obs.rate_residual(rel.estimate(Y), y3)
+    window = default_window(rate)
+    alarming = set()
+    for name, z in zeta.items():
+        cal = calibrate(z[train[0] : train[1]], window, 1e-6)
+        if detect(z, cal, search_start=train[1]):
+            alarming.add(name)
+    assert "s4" not in alarming and "s2" in alarming
+    assert np.mean(zeta["s2"][t > 12.0]) == pytest.approx(0.2, rel=0.1)  # regenerated f_s
+    net = network_from_config(["s1", "s2", "s3", "s4"], {"s4": ["s1"], "s2": ["s4"], "s3": ["s2"]})
+    d = net.diagnose(alarming)
+    assert d.faulty == ("s2",)
+    assert set(d.propagated) <= {"s3"}
+    assert "s1" in net.undiagnosable()
+
+
+# -- pretreatment and relations --------------------------------------------------------------
+def test_pretreatment_recovers_a_b_of_a_linear_plant():
+    """Theory 3-4: on x' = a x + b u the least-squares pretreatment finds (a, b); the
+    table approach of Algorithm 1 picks the closest table entry."""
+    h = 0.01
+    t = np.arange(4000) * h
+    u = np.sin(0.7 * t) + 0.5 * np.sign(np.sin(0.13 * t))
+    a_true, b_true = -1.3, 2.0
+    sysd = signal.cont2discrete(
+        (np.array([[a_true]]), np.array([[b_true]]), np.eye(1), np.zeros((1, 1))), h
+    )
+    x = signal.dlsim(sysd[:4] + (h,), u, x0=[0.5])[1][:, 0]
+    pre = pretreat(x, u, h, lambda2=2.0)
+    # the observer holds y between samples while x moves: an O(h) bias remains
+    assert pre.a == pytest.approx(a_true, rel=1e-2)
+    assert pre.b == pytest.approx(b_true, rel=1e-2)
+    off = pretreat(x, u, h, lambda2=2.0, table=[(-0.5, 1.0)])
+    assert pre.ey_rms < 0.05 * off.ey_rms
+    table = [(a, b) for a in (-2.0, -1.3, -0.5) for b in (1.0, 2.0, 4.0)]
+    tab = pretreat(x, u, h, lambda2=2.0, table=table)
+    assert (tab.a, tab.b) == (-1.3, 2.0) and tab.method.startswith("table")
+    with pytest.raises(DetectorError, match=r"\(a, b\) pairs"):
+        pretreat(x, u, h, lambda2=2.0, table=[(1.0, 2.0, 3.0)])
+
+
+def test_fit_relation_recovers_a_fir():
+    rng = np.random.default_rng(5)
+    X = rng.standard_normal((3000, 2))
+    h0 = np.array([0.5, -0.3, 0.2])
+    h1 = np.array([1.0, 0.0, 0.4])
+    y = 0.7 + signal.lfilter(h0, 1, X[:, 0]) + signal.lfilter(h1, 1, X[:, 1])
+    y += 1e-3 * rng.standard_normal(3000)
+    V = np.column_stack([X, y])
+    rel = fit_relation(V, 2, [0, 1], lags=2)
+    assert np.allclose(rel.coef, [h0, h1], atol=2e-3)
+    assert rel.intercept == pytest.approx(0.7, abs=1e-3)
+    assert fit_relation(V, 2, [0, 1], lags="bic").lags >= 2
+
+
+# -- the detector on simulated buildings ------------------------------------------------------
+@pytest.fixture(scope="module")
+def buildings():
+    out = {}
+    for seed in (0, 2, 4):
+        _, Y, names = simulate_building(n_floors=5, duration_s=45.0, rate_hz=RATE, seed=seed)
+        det = EquivalentModel()
+        ctx = RunContext()
+        out[seed] = (Y, names, det, det.fit(Dataset(Y, tuple(names), RATE, TRAIN), ctx), ctx)
+    return out
+
+
+@pytest.mark.parametrize("seed", [0, 2, 4])
+def test_healthy_buildings_give_no_event(buildings, seed):
+    Y, names, det, model, ctx = buildings[seed]
+    res = det.run(model, Dataset(Y, tuple(names), RATE, TRAIN), ctx)
+    assert res.events == []
+    net = res.model["network"]
+    assert net["undiagnosable"] == {}  # the automatic network isolates every sensor
+    assert all(net["assistants"][s] for s in names)
+    json.dumps(res.model)
+
+
+@pytest.mark.parametrize("seed", [0, 2])
+@pytest.mark.parametrize("floor", range(5))
+def test_offset_fault_is_isolated(buildings, seed, floor):
+    Y, names, det, model, ctx = buildings[seed]
+    sd = float(np.std(Y[:, floor]))
+    Yf = Y.copy()
+    Yf[:, floor] = inject_fault(Y[:, floor], RATE, "additive", 20.0, sd)
+    res = det.run(model, Dataset(Yf, tuple(names), RATE, TRAIN), ctx)
+    assert [e.channel for e in res.events] == [names[floor]], (res.events, res.notes)
+    (ev,) = res.events
+    assert ev.type.value == "additive"
+    assert abs(ev.onset_s - 20.0) < 0.5
+    assert ev.magnitude["offset"] == pytest.approx(sd, rel=0.2)
+    assert ev.evidence["law"].startswith("law 0")
+
+
+def test_configured_line_reports_its_head(buildings):
+    Y, names, _, _, ctx = buildings[0]
+    det = EquivalentModel(assistants={"s1": ["s0"], "s2": ["s1"], "s3": ["s2"], "s4": ["s3"]})
+    ds = Dataset(Y, tuple(names), RATE, TRAIN)
+    model = det.fit(ds, ctx)
+    res = det.run(model, ds, ctx)
+    assert "s0" not in res.residuals  # a head has no observer
+    assert res.model["network"]["roles"]["s0"] == "head"
+    assert any("s0 cannot be diagnosed" in n for n in res.notes)
+    Yf = Y.copy()
+    Yf[:, 2] = inject_fault(Y[:, 2], RATE, "additive", 20.0, float(np.std(Y[:, 2])))
+    res = det.run(model, Dataset(Yf, tuple(names), RATE, TRAIN), ctx)
+    assert [e.channel for e in res.events] == ["s2"]
+    assert "law 2" in res.events[0].evidence["law"]
+
+
+def test_gap_is_no_fault(buildings):
+    Y, names, det, model, ctx = buildings[0]
+    Yg = Y.copy()
+    Yg[int(30 * RATE) : int(31 * RATE), 2] = np.nan
+    res = det.run(model, Dataset(Yg, tuple(names), RATE, TRAIN), ctx)
+    assert res.events == []
+    assert np.isnan(res.residuals["s2"][int(30.5 * RATE)])
+
+
+def test_settings_and_applicability_errors():
+    with pytest.raises(DetectorError, match="lambda1 must be > 0"):
+        EquivalentModel(lambda1=0.0)
+    with pytest.raises(DetectorError, match="propagation"):
+        EquivalentModel(propagation="sideways")
+    with pytest.raises(DetectorError, match="positive"):
+        AssistantObserver(-1.0, 0.0, -1.0, 1.0, 0.01)
+    ds2 = Dataset(np.zeros((100, 2)), ("a", "b"), 10.0, (0, 50))
+    assert "at least 3 channels" in EquivalentModel().applicable(ds2, RunContext())
+    ds3 = Dataset(np.zeros((100, 3)), ("a", "b", "c"), 10.0, (0, 50))
+    reason = EquivalentModel(assistants={"a": ["zz"]}).applicable(ds3, RunContext())
+    assert "'zz'" in reason

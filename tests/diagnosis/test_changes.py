@@ -1,0 +1,68 @@
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from analyzer.diagnosis import calibrate, change_point, detect
+from analyzer.errors import DetectorError
+
+
+def _noise(seed, n, phi=0.0):
+    e = np.random.default_rng(seed).normal(size=n)
+    return lfilter([1.0], [1.0, -phi], e) if phi else e
+
+
+@pytest.mark.parametrize("phi", [0.0, 0.8])
+def test_false_alarm_rate_is_respected(phi):
+    # 20 records x 200 000 samples at a per-sample rate of 1e-6: about 4 alarms expected
+    # if the Gaussian calibration were exact; more than 20 would mean it is not honest.
+    alarms = 0
+    for seed in range(20):
+        r = _noise(seed, 200_000, phi)
+        cal = calibrate(r[:3000], 50, 1e-6)
+        alarms += len(detect(r, cal, search_start=3000))
+    assert alarms <= 20
+
+
+def test_offset_is_detected_with_onset_and_end():
+    r = _noise(1, 20_000)
+    r[9000:14000] += 1.0
+    cal = calibrate(r[:3000], 50)
+    (iv,) = detect(r, cal, search_start=3000)
+    assert abs(iv.onset - 9000) <= 25
+    assert iv.end is not None and abs(iv.end - 14000) <= 50
+    assert iv.p_value < 1e-6
+
+
+def test_fault_lasting_to_the_end_has_no_end():
+    r = _noise(2, 10_000)
+    r[7000:] += 2.0
+    cal = calibrate(r[:3000], 50)
+    (iv,) = detect(r, cal, search_start=3000)
+    assert iv.end is None
+
+
+def test_change_point_finds_variance_change():
+    x = _noise(3, 2000)
+    x[1200:] *= 3.0
+    assert abs(change_point(x) - 1200) <= 15
+
+
+def test_change_point_end_of_fault():
+    x = _noise(4, 2000)
+    x[:800] += 2.5
+    assert abs(change_point(x, before_normal=False) - 800) <= 10
+
+
+def test_calibration_needs_enough_samples():
+    with pytest.raises(DetectorError, match="too little healthy data"):
+        calibrate(np.random.default_rng(0).normal(size=100), 50)
+
+
+def test_calibration_refuses_constant_residual():
+    with pytest.raises(DetectorError, match="constant"):
+        calibrate(np.ones(5000), 50)
+
+
+def test_calibration_refuses_bad_false_alarm_rate():
+    with pytest.raises(DetectorError, match="false_alarm_rate"):
+        calibrate(np.random.default_rng(0).normal(size=5000), 50, 0.7)

@@ -1,0 +1,139 @@
+"""Archives: several inputs stitched in time order, damaged members recorded, identical
+data in every format giving identical channels."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+from readers_helpers import T0, collect, synthetic
+
+from analyzer.errors import ReaderError
+from analyzer.readers import open_archive
+from analyzer.types import Format
+from analyzer.writers import write_archive
+
+HOUR = 3_600_000_000_000
+
+
+def _hours(tmp_path: Path, n: int = 600) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Three 'hourly' MCAP files whose names are not in time order."""
+    t, data = synthetic(3 * n, channels=2, rate_hz=n / 3600)
+    for index, name in enumerate(["c.mcap", "a.mcap", "b.mcap"]):
+        part = slice(index * n, (index + 1) * n)
+        write_archive(tmp_path / name, "mcap", t[part], {k: v[part] for k, v in data.items()})
+    return t, data
+
+
+def test_directory_is_stitched_in_time_order(tmp_path: Path) -> None:
+    t, data = _hours(tmp_path)
+    archive = open_archive(tmp_path)
+    assert [p.path.name for p in archive.inputs] == ["c.mcap", "a.mcap", "b.mcap"]
+    assert archive.start_ns() == T0
+    got = collect(archive.chunks())
+    np.testing.assert_array_equal(got["/s1.data"][0], t)
+    np.testing.assert_array_equal(got["/s1.data"][1], data["s1"])
+    for info in archive.inputs:
+        assert info.errors == []
+        digest = hashlib.sha256(info.path.read_bytes()).hexdigest()
+        assert (info.sha256, info.size_bytes) == (digest, info.path.stat().st_size)
+
+
+@pytest.mark.parametrize("damage", ["zero-bytes", "crlf", "truncated"])
+def test_damaged_member_is_recorded_not_raised(tmp_path: Path, damage: str) -> None:
+    t, data = _hours(tmp_path)
+    victim = tmp_path / "a.mcap"  # the second hour
+    raw = victim.read_bytes()
+    if damage == "zero-bytes":
+        victim.write_bytes(b"")
+    elif damage == "crlf":
+        victim.write_bytes(raw.replace(b"\r\n", b"\n"))
+    else:
+        second = slice(600, 1200)
+        write_archive(
+            victim.with_suffix(".tmp"),
+            "mcap",
+            t[second],
+            {k: v[second] for k, v in data.items()},
+            chunk_size=2048,
+        )
+        raw = victim.with_suffix(".tmp").read_bytes()
+        victim.with_suffix(".tmp").unlink()
+        victim.write_bytes(raw[: len(raw) // 2])
+    archive = open_archive([tmp_path])
+    got = collect(archive.chunks())
+    info = next(i for i in archive.inputs if i.path == victim)
+    assert info.errors, "the damage must be recorded"
+    assert info.format is Format.MCAP
+    assert info.sha256 == hashlib.sha256(victim.read_bytes()).hexdigest()
+    others = [i for i in archive.inputs if i.path != victim]
+    assert all(i.errors == [] for i in others)
+    t_got, v_got = got["/s0.data"]
+    first, third = slice(0, 600), slice(1200, 1800)
+    np.testing.assert_array_equal(t_got[:600], t[first])
+    np.testing.assert_array_equal(t_got[-600:], t[third])
+    np.testing.assert_array_equal(v_got[-600:], data["s0"][third])
+    if damage == "truncated":
+        assert 1200 < t_got.size < 1800 and any("truncated" in e for e in info.errors)
+        read_part = t_got.size - 1200
+        np.testing.assert_array_equal(
+            v_got[600 : 600 + read_part], data["s0"][600 : 600 + read_part]
+        )
+    else:
+        assert t_got.size == 1200
+
+
+def test_single_bad_input_raises(tmp_path: Path) -> None:
+    bad = tmp_path / "only" / "x.mcap"
+    bad.parent.mkdir()
+    bad.write_bytes(b"")
+    with pytest.raises(ReaderError, match="empty file"):
+        open_archive(bad)
+    with pytest.raises(ReaderError, match="empty file"):
+        open_archive(bad.parent)  # a directory holding one input is a single input
+
+
+def test_all_members_bad_raises(tmp_path: Path) -> None:
+    for name in ("a.mcap", "b.bag"):
+        (tmp_path / name).write_bytes(b"")
+    with pytest.raises(ReaderError, match="none of the 2 inputs can be read"):
+        open_archive(tmp_path)
+
+
+def test_overlapping_inputs_drop_the_overlap(tmp_path: Path) -> None:
+    t, data = synthetic(1000, channels=1)
+    write_archive(tmp_path / "one.mcap", "mcap", t[:600], {"s0": data["s0"][:600]})
+    write_archive(tmp_path / "two.mcap", "mcap", t[500:], {"s0": data["s0"][500:]})
+    archive = open_archive([tmp_path / "two.mcap", tmp_path / "one.mcap"])
+    got = collect(archive.chunks())
+    np.testing.assert_array_equal(got["/s0.data"][0], np.concatenate([t[:600], t[600:]]))
+    assert archive.inputs[1].errors == [
+        "/s0.data: 100 samples overlap the previous input in time; dropped"
+    ]
+
+
+def test_same_data_in_every_format(tmp_path: Path) -> None:
+    t, data = synthetic(1200, channels=3)
+    variants = {
+        "csv": ("x.csv", "csv", {"start_iso": "2026-01-01T00:00:00Z"}),
+        "mcap": ("x.mcap", "mcap", {}),
+        "ros1": ("x.bag", "ros1bag", {}),
+        "ros2-sqlite3": ("sq", "ros2bag", {"storage": "sqlite3"}),
+        "ros2-mcap": ("mc", "ros2bag", {"storage": "mcap"}),
+    }
+    results = {}
+    for label, (name, fmt, kwargs) in variants.items():
+        names = write_archive(tmp_path / name, fmt, t, data, **kwargs)
+        archive = open_archive(tmp_path / name)
+        assert archive.inputs[0].errors == []
+        got = collect(archive.chunks())
+        results[label] = {key: got[channel] for key, channel in names.items()}
+    reference = results.pop("csv")
+    for label, samples in results.items():
+        for key, (times, values) in samples.items():
+            np.testing.assert_array_equal(times, reference[key][0], err_msg=label)
+            np.testing.assert_array_equal(values, reference[key][1], err_msg=label)
+    for key in data:
+        np.testing.assert_array_equal(reference[key][1], data[key])

@@ -1,0 +1,256 @@
+"""Error paths: every problem is one ReaderError line naming the file, or, where the rest
+is readable, an entry in ``info.errors`` after reading what can be read."""
+
+from __future__ import annotations
+
+import sqlite3
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+from readers_helpers import collect, synthetic
+from rosbags.rosbag2 import Writer as Bag2Writer
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+from analyzer.errors import ReaderError
+from analyzer.readers import detect_format, open_archive, open_input
+from analyzer.types import Format
+from analyzer.writers import write_archive, write_ros2_bag
+
+
+def one_line(err: pytest.ExceptionInfo[ReaderError], path: Path) -> str:
+    message = str(err.value)
+    assert "\n" not in message
+    assert str(path) in message
+    return message
+
+
+def test_missing_path(tmp_path: Path) -> None:
+    path = tmp_path / "nope.mcap"
+    with pytest.raises(ReaderError, match="no such file or directory") as err:
+        open_input(path)
+    one_line(err, path)
+    with pytest.raises(ReaderError, match="no such file or directory"):
+        open_archive([path])
+
+
+def test_unknown_format(tmp_path: Path) -> None:
+    path = tmp_path / "notes.xyz"
+    path.write_text("hello\n")
+    with pytest.raises(ReaderError, match="unknown format") as err:
+        open_input(path)
+    one_line(err, path)
+
+
+@pytest.mark.parametrize("name", ["empty.mcap", "empty.bag", "empty.csv", "empty.db3"])
+def test_zero_byte_file(tmp_path: Path, name: str) -> None:
+    path = tmp_path / name
+    path.write_bytes(b"")
+    with pytest.raises(ReaderError, match=r"empty file \(0 bytes\)") as err:
+        open_input(path)
+    one_line(err, path)
+
+
+def test_crlf_mangled_mcap(tmp_path: Path) -> None:
+    t, data = synthetic(200)
+    good = tmp_path / "good.mcap"
+    write_archive(good, "mcap", t, data)
+    bad = tmp_path / "mangled.mcap"
+    bad.write_bytes(good.read_bytes().replace(b"\r\n", b"\n"))
+    with pytest.raises(
+        ReaderError,
+        match=r"not an MCAP file \(bad magic 89 4d 43 41 50 30 0a "
+        r".*possibly mangled by a CRLF conversion",
+    ) as err:
+        open_input(bad)
+    one_line(err, bad)
+
+
+def test_garbage_with_known_suffixes(tmp_path: Path) -> None:
+    mcap = tmp_path / "garbage.mcap"
+    mcap.write_bytes(b"\x00\x01garbage" * 10)
+    with pytest.raises(ReaderError, match=r"not an MCAP file \(bad magic 00 01 67") as err:
+        open_input(mcap)
+    assert "CRLF" not in str(err.value)
+    bag = tmp_path / "garbage.bag"
+    bag.write_bytes(b"garbage" * 10)
+    with pytest.raises(ReaderError, match="not a ROS 1 bag"):
+        open_input(bag)
+
+
+def test_truncated_mcap_reads_the_readable_part(tmp_path: Path) -> None:
+    t, data = synthetic(20_000, channels=2)
+    path = tmp_path / "full.mcap"
+    names = write_archive(path, "mcap", t, data, chunk_size=32 * 1024)
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(path.read_bytes()[: path.stat().st_size * 6 // 10])
+    reader = open_input(cut)
+    got = collect(reader.chunks())
+    assert any("truncated" in e for e in reader.info.errors), reader.info.errors
+    t_got, v_got = got[names["s1"]]
+    assert 0 < t_got.size < t.size
+    np.testing.assert_array_equal(v_got, data["s1"][: t_got.size])
+    np.testing.assert_array_equal(t_got, t[: t_got.size])
+    assert reader.start_ns() == t[0]
+
+
+def test_mcap_cut_inside_magic(tmp_path: Path) -> None:
+    path = tmp_path / "tiny.mcap"
+    path.write_bytes(b"\x89MCA")
+    with pytest.raises(ReaderError, match="truncated MCAP file"):
+        open_input(path)
+
+
+def test_truncated_ros1_bag_reads_complete_chunks(tmp_path: Path) -> None:
+    t, data = synthetic(40_000, channels=2)
+    path = tmp_path / "full.bag"
+    names = write_archive(path, "ros1bag", t, data)
+    cut = tmp_path / "cut.bag"
+    cut.write_bytes(path.read_bytes()[: path.stat().st_size * 7 // 10])
+    reader = open_input(cut)
+    got = collect(reader.chunks())
+    assert any("read sequentially" in e for e in reader.info.errors), reader.info.errors
+    assert any("truncated or damaged" in e for e in reader.info.errors), reader.info.errors
+    t_got, v_got = got[names["s0"]]
+    assert 0 < t_got.size < t.size
+    np.testing.assert_array_equal(v_got, data["s0"][: t_got.size])
+
+
+def test_unindexed_ros1_bag_is_scanned(tmp_path: Path) -> None:
+    t, data = synthetic(3000, channels=2)
+    path = tmp_path / "bag.bag"
+    names = write_archive(path, "ros1bag", t, data)
+    raw = bytearray(path.read_bytes())
+    at = raw.index(b"index_pos=") + len(b"index_pos=")
+    raw[at : at + 8] = struct.pack("<Q", 0)  # as left by a killed recorder
+    path.write_bytes(bytes(raw))
+    reader = open_input(path)
+    got = collect(reader.chunks())
+    assert any("not indexed" in e for e in reader.info.errors)
+    np.testing.assert_array_equal(got[names["s1"]][1], data["s1"])
+
+
+def _custom_type_bag(path: Path) -> None:
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    store.register(get_types_from_msg("float64 value\nstring label\n", "my_pkg/msg/Reading"))
+    cls = store.types["my_pkg/msg/Reading"]
+    with Bag2Writer(path, version=9) as writer:
+        conn = writer.add_connection("/reading", "my_pkg/msg/Reading", typestore=store)
+        for i in range(5):
+            writer.write(
+                conn,
+                1_000 + i,
+                store.serialize_cdr(cls(value=float(i), label="a"), "my_pkg/msg/Reading"),
+            )
+
+
+def _strip_definitions(bag: Path) -> None:
+    for db in bag.glob("*.db3"):
+        with sqlite3.connect(db) as conn:
+            conn.execute("DELETE FROM message_definitions")
+
+
+def test_custom_type_with_definitions_reads(tmp_path: Path) -> None:
+    bag = tmp_path / "custom"
+    _custom_type_bag(bag)
+    got = collect(open_input(bag).chunks())
+    np.testing.assert_array_equal(got["/reading.value"][1], np.arange(5.0))
+    assert "/reading.label" not in got
+
+
+def test_unknown_type_without_definitions(tmp_path: Path) -> None:
+    bag = tmp_path / "custom"
+    _custom_type_bag(bag)
+    _strip_definitions(bag)
+    with pytest.raises(
+        ReaderError,
+        match=r"unknown message type 'my_pkg/msg/Reading' "
+        "without definitions",
+    ) as err:
+        open_input(bag)
+    one_line(err, bag)
+
+
+def test_standard_type_without_definitions_falls_back(tmp_path: Path) -> None:
+    t, data = synthetic(500, channels=3)
+    bag = tmp_path / "imu"
+    names = write_ros2_bag(bag, t, data, layout="imu")
+    _strip_definitions(bag)
+    got = collect(open_input(bag).chunks())
+    for key, name in names.items():
+        np.testing.assert_array_equal(got[name][1], data[key])
+
+
+def test_unsupported_serialization_format(tmp_path: Path) -> None:
+    t, data = synthetic(50, channels=1)
+    bag = tmp_path / "bag"
+    write_ros2_bag(bag, t, data)
+    meta = bag / "metadata.yaml"
+    meta.write_text(
+        meta.read_text().replace("serialization_format: cdr", "serialization_format: json")
+    )
+    with pytest.raises(ReaderError, match="unsupported serialization_format 'json'") as err:
+        open_input(bag)
+    one_line(err, bag)
+
+
+def test_csv_without_numeric_column(tmp_path: Path) -> None:
+    path = tmp_path / "labels.csv"
+    path.write_text("time,label\n0.0,a\n0.1,b\n")
+    with pytest.raises(ReaderError, match="no numeric column") as err:
+        open_input(path)
+    one_line(err, path)
+
+
+def test_csv_with_unparseable_time(tmp_path: Path) -> None:
+    path = tmp_path / "odd.csv"
+    path.write_text("time,x\nabc,1\ndef,2\n")
+    with pytest.raises(ReaderError, match="holds neither numbers nor dates"):
+        open_input(path)
+
+
+def test_directory_is_not_a_single_input(tmp_path: Path) -> None:
+    with pytest.raises(ReaderError, match="not a ROS 2 bag"):
+        open_input(tmp_path)
+    with pytest.raises(ReaderError, match="holds no input"):
+        open_archive(tmp_path)
+
+
+def test_detect_format_prefers_magic(tmp_path: Path) -> None:
+    t, data = synthetic(50, channels=1)
+    path = tmp_path / "actually_mcap.bag"
+    write_archive(path, "mcap", t, data)
+    assert detect_format(path) is Format.MCAP
+    assert open_input(path).info.format is Format.MCAP
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "ros1bag", "csv"])
+def test_random_damage_reads_or_raises_cleanly(tmp_path: Path, fmt: str) -> None:
+    """Flipped bytes, zeroed runs and cut-out runs anywhere: the reader either reads
+    (recording what it skipped) or raises a one-line ReaderError, never anything else."""
+    t, data = synthetic(1500, channels=3)
+    suffix = {"mcap": ".mcap", "ros1bag": ".bag", "csv": ".csv"}[fmt]
+    good = tmp_path / f"good{suffix}"
+    write_archive(good, fmt, t, data, layout="imu")
+    original = good.read_bytes()
+    rng = np.random.default_rng(11)
+    for trial in range(15):
+        raw = bytearray(original)
+        at = int(rng.integers(0, len(raw)))
+        if trial % 3 == 0:
+            for i in rng.integers(0, len(raw), size=8):
+                raw[int(i)] = int(rng.integers(0, 256))
+        elif trial % 3 == 1:
+            raw[at : at + 3000] = bytes(len(raw[at : at + 3000]))
+        else:
+            del raw[at : at + int(rng.integers(1, 300))]
+        path = tmp_path / f"damaged{trial}{suffix}"
+        path.write_bytes(bytes(raw))
+        try:
+            archive = open_archive(path)
+        except ReaderError as err:
+            assert "\n" not in str(err)
+            continue
+        collect(archive.chunks())
+        collect(archive.chunks("header"))
