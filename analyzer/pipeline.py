@@ -221,6 +221,7 @@ def _analyze(
             config=options.config.as_context(),
         )
         names, explicit = _detector_names(options)
+        ctx.explicit = explicit
         results: list[DetectorResult] = []
         skipped: dict[str, str] = {}
         t0 = time.perf_counter()

@@ -368,7 +368,7 @@ class ARKalmanBank:
             # which no single sensor fault explains (Section 2.3)
             return None, [(c[1], c[0], c[3]) for c in group], None
         # confirmed: some estimator that sees sensor j degrades (Section 2.3)
-        isolated = bool(max(others, default=0.0) >= 1.0)
+        isolated = _confirmed(violation[j], max(others, default=0.0))
         _, _, iv, _ = next(c for c in group if c[1] == j)
         cal = model.residual_cal[j]
         # A later alarm on another channel is either this fault spreading through the
@@ -388,8 +388,9 @@ class ARKalmanBank:
             # a slowly growing fault disturbs the estimators that use the sensor only
             # later: look for the confirmation over the whole fault period
             until = stop if limit is None else min(stop, limit)
-            isolated = any(
-                self._violation(model, innov, i, lo, until) >= 1.0 for i in range(m) if i != j
+            isolated = _confirmed(
+                self._violation(model, innov, j, lo, until),
+                max(self._violation(model, innov, i, lo, until) for i in range(m) if i != j),
             )
         if not isolated and (cls.type is FaultType.OTHER or stop - iv.onset < span):
             # A change of residual that no estimator using the sensor confirms and that
@@ -447,6 +448,12 @@ def _undo_fault(y: FloatArray, est: FloatArray, cls: Classification, rate: float
     if shape is None or cls.type is FaultType.MULTIPLICATIVE:
         return est.copy()
     return y - shape
+
+
+def _confirmed(own: float, others: float) -> bool:
+    """A fault on sensor j is confirmed when some estimator that uses j is inconsistent
+    (over its threshold) and clearly more so than estimator j itself."""
+    return bool(others >= 1.0 and own <= RELATIVE_CONSISTENCY * others)
 
 
 def _overlaps(a0: int, a1: int, b0: int, b1: int, slack: int) -> bool:

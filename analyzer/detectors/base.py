@@ -60,6 +60,9 @@ class RunContext:
     progress: Callable[[str, float], None] | None = None
     config: Mapping[str, Any] = field(default_factory=dict)
     """The whole parsed config (groups, model...), for detectors that need it."""
+    explicit: bool = False
+    """True when the user named the detectors (``--detectors``): a detector may then run
+    with defaults it would not choose on its own."""
 
     def allocate(self, name: str, shape: tuple[int, ...]) -> FloatArray:
         """A float64 array for a long result; memory-mapped in ``workdir`` when set, so

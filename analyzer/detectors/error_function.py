@@ -674,6 +674,13 @@ class ErrorFunction:
     # ---------------------------------------------------------------- checks
 
     def applicable(self, data: Dataset, context: RunContext) -> str | None:
+        if not context.explicit and not context.config.get("group"):
+            # without reference/uncertain groups every error function involves every
+            # sensor: it detects but cannot isolate, so it runs only when asked for
+            return (
+                "needs [[group]] reference/uncertain sensors in the config to isolate "
+                "faults (or --detectors error_function to run it on every sensor in turn)"
+            )
         try:
             self._check(data, context)
         except (ConfigError, DetectorError) as err:
