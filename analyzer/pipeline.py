@@ -20,6 +20,7 @@ from analyzer import __version__
 from analyzer.config import Config, load_config
 from analyzer.detectors import REGISTRY, Dataset, DetectorResult, RunContext, detector_class
 from analyzer.diagnosis import Finding, merge_events
+from analyzer.diagnosis.evidence import attach_evidence, training_tests
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
 from analyzer.readers import open_archive
 from analyzer.readers.base import InputInfo
@@ -249,6 +250,11 @@ def _analyze(
             why = "; ".join(f"{k}: {v}" for k, v in skipped.items())
             raise DetectorError(f"no detector could run ({why})")
         findings = merge_events(ev for r in results for ev in r.events)
+        t0 = time.perf_counter()
+        attach_evidence(findings, results, aligned.rate_hz, train)
+        for r in results:
+            r.model["training_tests"] = training_tests(r, train)
+        timings["test"] = time.perf_counter() - t0
         timings["total"] = time.perf_counter() - t_start
         return Analysis(
             inputs=archive.inputs,
@@ -331,7 +337,7 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
         ],
         "detectors": [
             {"name": r.detector, "channels": list(r.channels), "params": _jsonable(r.params),
-             "model": _jsonable(r.model)}
+             "model": _jsonable(r.model), "notes": list(r.notes)}
             for r in a.results
         ],
         "skipped_detectors": a.skipped,
@@ -365,6 +371,9 @@ def write_atomic(path: Path, data: bytes | str) -> None:
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data.encode("utf-8") if isinstance(data, str) else data)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the usual file mode
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -1,0 +1,120 @@
+"""The statistical evidence behind each finding (seed 003: a correct model's
+standardized innovation is zero-mean, unit-variance, Gaussian and white; a fault breaks
+some of these, and *which* ones break speaks for the fault type).
+
+For every detector that saw a finding, its residual on the finding's channel is
+standardized with the detector's healthy mean and deviation, and the tests of
+:mod:`analyzer.stats` run on the healthy stretch before the onset and on the faulty
+stretch after it. The residuals of the leave-one-out estimators are coloured even when
+healthy, so whiteness often rejects on both sides: the report shows both, and the
+verdict leans on what *changes* across the onset.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from analyzer.detectors.base import DetectorResult
+from analyzer.diagnosis.merge import Finding
+from analyzer.errors import DetectorError
+from analyzer.stats import test_segment
+from analyzer.types import FaultType
+
+FloatArray = npt.NDArray[np.float64]
+
+MAX_SEGMENT = 20_000
+"""Samples tested on each side of an onset (tests on longer stretches only get slower)."""
+MIN_SEGMENT = 30
+
+
+def standardized(result: DetectorResult, channel: str) -> FloatArray | None:
+    """The detector's residual on ``channel`` in units of its healthy deviation."""
+    r = result.residuals.get(channel)
+    if r is None:
+        return None
+    th = result.thresholds.get(channel, {})
+    mean = float(th.get("mean", 0.0)) if isinstance(th, dict) else 0.0
+    std = float(th.get("std", result.sigma.get(channel, 0.0))) if isinstance(th, dict) else 0.0
+    if not std > 0:
+        std = float(result.sigma.get(channel, 0.0))
+    if not std > 0:
+        return None
+    return (np.asarray(r, dtype=np.float64) - mean) / std
+
+
+def _tests(z: FloatArray) -> dict[str, Any] | None:
+    z = z[np.isfinite(z)]
+    if z.shape[0] < MIN_SEGMENT:
+        return None
+    try:
+        return test_segment(z)
+    except DetectorError:
+        return None
+
+
+def consistent_types(after: dict[str, Any]) -> list[str]:
+    """Fault types the broken properties point to (seed 003): a rejected mean test speaks
+    for an offset or a drift; a rejected covariance test without a rejected mean for a
+    gain change; a rejected whiteness test also for a drift (a slow trend)."""
+    mean = bool(after.get("mean", {}).get("reject"))
+    cov = bool(after.get("covariance", {}).get("reject"))
+    white = bool(after.get("whiteness", {}).get("reject"))
+    out = []
+    if mean:
+        out += [FaultType.ADDITIVE.value, FaultType.DRIFT.value]
+    elif cov:
+        out.append(FaultType.MULTIPLICATIVE.value)
+    if white and FaultType.DRIFT.value not in out:
+        out.append(FaultType.DRIFT.value)
+    if cov or mean:
+        out.append(FaultType.OTHER.value)
+    return out
+
+
+def attach_evidence(
+    findings: list[Finding], results: list[DetectorResult], rate_hz: float, train: tuple[int, int]
+) -> None:
+    """Fill ``finding.evidence["tests"][detector]`` with before/after test results."""
+    by_name = {r.detector: r for r in results}
+    for f in findings:
+        tests: dict[str, Any] = {}
+        for det in f.evidence.get("detectors", []):
+            res = by_name.get(det)
+            if res is None:
+                continue
+            z = standardized(res, f.channel)
+            if z is None:
+                continue
+            onset = int(round(f.onset_s * rate_hz))
+            end = z.shape[0] if f.end_s is None else int(round(f.end_s * rate_hz))
+            lo = max(train[0], onset - MAX_SEGMENT)
+            before = _tests(z[lo:onset])
+            after = _tests(z[onset : min(end, onset + MAX_SEGMENT)])
+            if after is None:
+                continue
+            tests[det] = {
+                "before": before,
+                "after": after,
+                "before_span_s": [lo / rate_hz, onset / rate_hz],
+                "after_span_s": [onset / rate_hz, min(end, onset + MAX_SEGMENT) / rate_hz],
+                "consistent_with": consistent_types(after),
+            }
+        f.evidence["tests"] = tests
+
+
+def training_tests(result: DetectorResult, train: tuple[int, int]) -> dict[str, Any]:
+    """Tests of each channel's residual over the training window: a model whose training
+    residuals fail normality or whiteness badly is a poor model, and the report says so."""
+    out: dict[str, Any] = {}
+    for ch in result.residuals:
+        z = standardized(result, ch)
+        if z is None:
+            continue
+        t = _tests(z[train[0] : train[1]][:MAX_SEGMENT])
+        if t is not None:
+            out[ch] = {k: {"statistic": v.get("statistic"), "critical": v.get("critical"),
+                           "reject": v.get("reject")} for k, v in t.items()}
+    return out
