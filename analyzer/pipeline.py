@@ -24,6 +24,7 @@ from analyzer.diagnosis.evidence import attach_evidence, training_tests
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
 from analyzer.readers import open_archive
 from analyzer.readers.base import InputInfo
+from analyzer.regenerate import corrected_values, result_signals, write_corrected_csv
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore
 from analyzer.timeutil import iso_utc, parse_time, plausible_epoch
 from analyzer.types import NS_PER_S
@@ -71,6 +72,10 @@ class Analysis:
     notes: list[str] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
     skipped: dict[str, str] = field(default_factory=dict)
+    corrected: np.ndarray | None = None
+    """With ``--corrected``: the analyzed channels with every fault removed (Wang & Song
+    2014, Section 6.3), same shape as ``values``."""
+    corrections: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def duration_s(self) -> float:
@@ -255,6 +260,13 @@ def _analyze(
         for r in results:
             r.model["training_tests"] = training_tests(r, train)
         timings["test"] = time.perf_counter() - t0
+        corrected = None
+        corrections: list[dict[str, Any]] = []
+        if options.corrected:
+            res_map, ref_map = result_signals(results)
+            corrected, corrections = corrected_values(
+                values, chosen, aligned.rate_hz, findings, res_map, ref_map
+            )
         timings["total"] = time.perf_counter() - t_start
         return Analysis(
             inputs=archive.inputs,
@@ -271,6 +283,8 @@ def _analyze(
             notes=notes,
             timings=timings,
             skipped=skipped,
+            corrected=corrected,
+            corrections=corrections,
         )
 
 
@@ -342,6 +356,7 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
         ],
         "skipped_detectors": a.skipped,
         "notes": a.notes,
+        "corrections": _jsonable(a.corrections),
     }
 
 
@@ -387,6 +402,10 @@ def write_outputs(analysis: Analysis, out_dir: Path) -> dict[str, Any]:
     doc = findings_document(analysis)
     write_atomic(out_dir / "findings.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
     write_atomic(out_dir / "report.html", render_report(analysis, doc))
+    if analysis.corrected is not None:
+        write_corrected_csv(
+            out_dir / "corrected.csv", analysis.times_s(), analysis.analyzed, analysis.corrected
+        )
     return doc
 
 

@@ -1,0 +1,283 @@
+"""The command line against CONTRACT.md: commands, exit codes, one-line errors."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from analyzer.cli import main
+from analyzer.simulate import inject_fault, simulate_building
+from analyzer.writers import write_archive
+
+REPO = Path(__file__).resolve().parents[2]
+SAMPLES = REPO / "samples"
+RATE = 200.0
+
+
+def _building_csv(path: Path, fault: str | None = None, seconds: float = 60.0, seed: int = 0) -> Path:
+    t, Y, names = simulate_building(n_floors=4, duration_s=seconds, seed=seed)
+    if fault:
+        Y[:, 2] = inject_fault(Y[:, 2], RATE, fault, 30.0, {"additive": 3.0 * np.std(Y[:, 2]),
+                                                               "multiplicative": 0.0,
+                                                               "drift": 0.5}[fault])
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(path, "csv", t_ns, {n: Y[:, j] for j, n in enumerate(names)},
+                  start_iso="2026-03-01T12:00:00Z")
+    return path
+
+
+def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _one_line_error(err: str, *needles: str) -> None:
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    for n in needles:
+        assert n in lines[0], (n, lines[0])
+
+
+@pytest.fixture(scope="module")
+def faulty_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return _building_csv(tmp_path_factory.mktemp("in") / "faulty.csv", "additive")
+
+
+def test_run_finds_the_fault_and_writes_the_contract(faulty_csv, tmp_path, capsys):
+    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--no-progress"], capsys)
+    assert code == 1, err
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    for key in ("schema", "analyzer_version", "inputs", "start", "duration_s", "rate_hz", "train",
+                "channels", "faults", "detectors"):
+        assert key in doc
+    assert doc["schema"] == "analyzer.findings/1"
+    assert doc["inputs"][0]["format"] == "csv" and len(doc["inputs"][0]["sha256"]) == 64
+    assert doc["start"] == "2026-03-01T12:00:00.000Z"
+    assert doc["rate_hz"] == 200.0
+    assert doc["train"] == {"start_s": 0.0, "end_s": pytest.approx(12.0, abs=0.01)}
+    assert {c["name"] for c in doc["channels"]} == {"s0", "s1", "s2", "s3"}
+    assert all(c["samples"] == 12000 for c in doc["channels"])
+    (f,) = doc["faults"]
+    assert f["channel"] == "s2" and f["type"] == "additive"
+    assert abs(f["onset_s"] - 30.0) < 0.5 and f["end_s"] is None
+    assert f["onset"].startswith("2026-03-01T12:00:3")
+    assert 0.0 <= f["confidence"] <= 1.0
+    assert f["detector"] in f["evidence"]["detectors"]
+    assert (tmp_path / "o" / "report.html").stat().st_size > 500
+
+
+def test_healthy_run_exits_zero(tmp_path, capsys):
+    src = _building_csv(tmp_path / "ok.csv", None, seed=5)
+    code, _, err = _run(["run", str(src), "--out", str(tmp_path / "o"), "--no-progress"], capsys)
+    assert code == 0, err
+    assert json.loads((tmp_path / "o" / "findings.json").read_text())["faults"] == []
+
+
+@pytest.mark.parametrize(
+    ("sample", "channel", "kind"),
+    [
+        ("building_additive.mcap", "/s4.data", "additive"),
+        ("building_multiplicative.csv.gz", "s4", "multiplicative"),
+        ("building_drift.bag", "/data.data[4]", "drift"),
+    ],
+)
+def test_bundled_samples(sample, channel, kind, tmp_path, capsys):
+    before = (SAMPLES / sample).read_bytes()
+    code, _, err = _run(["run", str(SAMPLES / sample), "--out", str(tmp_path), "--no-progress"], capsys)
+    assert code == 1, err
+    faults = json.loads((tmp_path / "findings.json").read_text())["faults"]
+    assert [(f["channel"], f["type"]) for f in faults] == [(channel, kind)]
+    assert abs(faults[0]["onset_s"] - 16.0) < 0.5
+    assert (SAMPLES / sample).read_bytes() == before  # inputs are never modified
+
+
+def test_healthy_ros2_sample(tmp_path, capsys):
+    code, _, err = _run(["run", str(SAMPLES / "building_healthy_ros2"), "--out", str(tmp_path),
+                         "--no-progress"], capsys)
+    assert code == 0, err
+
+
+def test_corrected_csv(faulty_csv, tmp_path, capsys):
+    code, _, _ = _run(["run", str(faulty_csv), "--out", str(tmp_path), "--corrected",
+                       "--no-progress", "--detectors", "ar_kalman_bank"], capsys)
+    assert code == 1
+    corr = pd.read_csv(tmp_path / "corrected.csv")
+    raw = pd.read_csv(faulty_csv)
+    after = (corr["time"] > 31.0).to_numpy()
+    offset = raw["s2"].to_numpy()[after].mean() - raw["s2"].to_numpy()[~after].mean()
+    assert offset > 1.0
+    # the offset is gone from the corrected channel, the others are untouched
+    assert abs(corr["s2"].to_numpy()[after].mean() - raw["s2"].to_numpy()[~after].mean()) < 0.2 * offset
+    np.testing.assert_allclose(corr["s1"], raw["s1"], atol=1e-9)
+    assert json.loads((tmp_path / "findings.json").read_text())["corrections"][0]["channel"] == "s2"
+
+
+def test_inspect_json(faulty_csv, capsys):
+    code, out, _ = _run(["inspect", str(faulty_csv), "--json"], capsys)
+    assert code == 0
+    doc = json.loads(out)
+    assert doc["inputs"][0]["format"] == "csv" and doc["inputs"][0]["errors"] == []
+    ch = {c["name"]: c for c in doc["channels"]}
+    assert set(ch) == {"s0", "s1", "s2", "s3"}
+    assert ch["s0"]["samples"] == 12000 and ch["s0"]["rate_hz"] == pytest.approx(200.0)
+    assert ch["s0"]["start_s"] == 0.0 and ch["s0"]["end_s"] == pytest.approx(59.995)
+    assert ch["s0"]["gaps"] == 0
+
+
+def test_inspect_table(faulty_csv, capsys):
+    code, out, _ = _run(["inspect", str(faulty_csv)], capsys)
+    assert code == 0 and "s3" in out and "4 channel(s)" in out
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_export_round_trip(faulty_csv, tmp_path, capsys, suffix):
+    out = tmp_path / f"x{suffix}"
+    code, _, err = _run(["export", str(faulty_csv), "--out", str(out)], capsys)
+    assert code == 0, err
+    got = pd.read_csv(out) if suffix == ".csv" else pd.read_parquet(out)
+    raw = pd.read_csv(faulty_csv)
+    assert list(got.columns) == ["time", "s0", "s1", "s2", "s3"]
+    np.testing.assert_allclose(got["time"], np.arange(12000) / RATE, atol=1e-9)
+    np.testing.assert_allclose(got["s1"], raw["s1"], atol=1e-9)
+
+
+def test_export_keeps_gaps(tmp_path, capsys):
+    t, Y, names = simulate_building(n_floors=2, duration_s=10.0, seed=1)
+    df = pd.DataFrame({"time": t, "a": Y[:, 0], "b": Y[:, 1]})
+    df.loc[400:420, "a"] = np.nan  # 21 missing samples: a gap, never interpolated
+    src = tmp_path / "g.csv"
+    df.to_csv(src, index=False)
+    out = tmp_path / "g_out.csv"
+    assert main(["export", str(src), "--out", str(out)]) == 0
+    got = pd.read_csv(out)
+    assert got["a"].iloc[400:421].isna().all() and got["a"].iloc[[399, 421]].notna().all()
+    code, o, _ = _run(["inspect", str(src), "--json"], capsys)
+    assert {c["name"]: c["gaps"] for c in json.loads(o)["channels"]} == {"a": 1, "b": 0}
+
+
+# ----------------------------------------------------------------------------- bad input
+def test_missing_file(tmp_path, capsys):
+    code, _, err = _run(["run", str(tmp_path / "nope.mcap"), "--out", str(tmp_path / "o")], capsys)
+    assert code == 2
+    _one_line_error(err, "nope.mcap")
+
+
+def test_empty_file(tmp_path, capsys):
+    p = tmp_path / "empty.bag"
+    p.write_bytes(b"")
+    code, _, err = _run(["inspect", str(p)], capsys)
+    assert code == 2
+    _one_line_error(err, "empty.bag")
+
+
+def test_unknown_format(tmp_path, capsys):
+    p = tmp_path / "data.xyz"
+    p.write_bytes(b"\x00\x01garbage" * 10)
+    code, _, err = _run(["run", str(p), "--out", str(tmp_path / "o")], capsys)
+    assert code == 2
+    _one_line_error(err, "data.xyz")
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["run", "X", "--out", "O", "--rate", "-3"], "--rate"),
+        (["run", "X", "--out", "O", "--jobs", "zero"], "--jobs"),
+        (["run", "X"], "--out"),
+        (["frobnicate"], "frobnicate"),
+    ],
+)
+def test_bad_options(argv, needle, capsys):
+    code, _, err = _run(argv, capsys)
+    assert code == 2
+    _one_line_error(err, needle)
+
+
+def test_bad_train_window(faulty_csv, tmp_path, capsys):
+    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path), "--train", "10"], capsys)
+    assert code == 2
+    _one_line_error(err, "--train")
+    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path), "--train", "90:100"], capsys)
+    assert code == 2
+    _one_line_error(err, "--train", "after the data ends")
+
+
+def test_too_little_training_data(faulty_csv, tmp_path, capsys):
+    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path), "--train", "0:0.2",
+                         "--detectors", "ar_kalman_bank"], capsys)
+    assert code == 2
+    _one_line_error(err, "too little healthy data")
+
+
+def test_unknown_detector(faulty_csv, tmp_path, capsys):
+    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path), "--detectors", "magic"], capsys)
+    assert code == 2
+    _one_line_error(err, "--detectors", "magic", "ar_kalman_bank")
+
+
+def test_channels_pattern_that_matches_nothing(faulty_csv, tmp_path, capsys):
+    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path), "--channels", "zz*"], capsys)
+    assert code == 2
+    _one_line_error(err, "--channels", "zz*")
+
+
+def test_config_unknown_key(faulty_csv, tmp_path, capsys):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[thresholds]\nfalse_alarm_rat = 1e-6\n")
+    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--config", str(cfg)], capsys)
+    assert code == 2
+    _one_line_error(err, "false_alarm_rat")
+
+
+def test_config_bad_matrix_shape(faulty_csv, tmp_path, capsys):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[model]\nA = [[1.0, 0.0], [0.0, 1.0]]\nC = [[1.0, 0.0, 0.0]]\n")
+    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--config", str(cfg)], capsys)
+    assert code == 2
+    _one_line_error(err, "model.C", "(1, 3)")
+
+
+def test_config_train_window_is_used(faulty_csv, tmp_path, capsys):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[train]\nstart = 0.0\nend = 20.0\n\n[detectors.ar_kalman_bank]\norder = 5\n")
+    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--config", str(cfg),
+                         "--detectors", "ar_kalman_bank"], capsys)
+    assert code == 1, err
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    assert doc["train"]["end_s"] == pytest.approx(20.0, abs=0.01)
+    assert doc["detectors"][0]["params"]["order"] == 5
+
+
+def test_single_channel_is_a_clear_error(tmp_path, capsys):
+    t = np.arange(12000) / RATE
+    pd.DataFrame({"time": t, "x": np.sin(t)}).to_csv(tmp_path / "one.csv", index=False)
+    code, _, err = _run(["run", str(tmp_path / "one.csv"), "--out", str(tmp_path / "o")], capsys)
+    assert code == 2
+    _one_line_error(err, "at least 2 channels")
+
+
+def test_constant_channel_is_left_out(faulty_csv, tmp_path, capsys):
+    df = pd.read_csv(faulty_csv)
+    df["flat"] = 1.0
+    src = tmp_path / "flat.csv"
+    df.to_csv(src, index=False)
+    code, _, err = _run(["run", str(src), "--out", str(tmp_path / "o"), "--no-progress",
+                         "--detectors", "ar_kalman_bank"], capsys)
+    assert code == 1, err
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    assert any("flat" in n for n in doc["notes"])
+    assert {c["name"]: c["analyzed"] for c in doc["channels"]}["flat"] is False
+
+
+def test_console_script_runs():
+    proc = subprocess.run([sys.executable, "-m", "analyzer", "--version"], capture_output=True,
+                          text=True, check=False)
+    assert proc.returncode == 0 and "analyzer" in proc.stdout

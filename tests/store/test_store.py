@@ -1,0 +1,92 @@
+"""The channel store: raw samples out of core, aligned blocks on a common clock."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from analyzer.errors import StoreError
+from analyzer.readers.base import ChannelChunk
+from analyzer.store import ChannelStore, dominant_rate
+
+NS = 1_000_000_000
+
+
+def _chunks(name, t_ns, v, size):
+    for s in range(0, t_ns.shape[0], size):
+        yield ChannelChunk(name, t_ns[s : s + size], v[s : s + size])
+
+
+def test_spilled_store_equals_in_memory_store(tmp_path):
+    t = np.arange(50_000, dtype=np.int64) * 5_000_000
+    v = np.sin(t / NS)
+    mem = ChannelStore.from_chunks(_chunks("a", t, v, 1000))
+    disk = ChannelStore.from_chunks(_chunks("a", t, v, 1000), tmp_path, spill_samples=4096)
+    assert any(tmp_path.iterdir())  # really spilled
+    for store in (mem, disk):
+        tt, vv = store.raw("a")
+        np.testing.assert_array_equal(tt, t)
+        np.testing.assert_array_equal(vv, v)
+    np.testing.assert_array_equal(
+        mem.align(["a"]).materialize(), disk.align(["a"]).materialize(block=777)
+    )
+    mem.close()
+    disk.close()
+
+
+def test_jitter_is_interpolated_and_gaps_are_kept():
+    rng = np.random.default_rng(0)
+    t = np.arange(4000, dtype=np.int64) * 5_000_000 + rng.integers(-200_000, 200_000, 4000)
+    keep = np.ones(4000, bool)
+    keep[1000] = False  # one dropped sample: bridged
+    keep[2000:2005] = False  # five: a gap
+    t, v = t[keep], np.sin(2 * np.pi * t[keep] / NS)
+    with ChannelStore.from_chunks([ChannelChunk("a", t, v)]) as store:
+        info = store.info("a")
+        assert info.gaps == 1 and info.samples == 3994
+        al = store.align(["a"], rate_hz=200.0)
+        x = al.materialize()[:, 0]
+        grid = al.times_ns() / NS
+        truth = np.sin(2 * np.pi * grid)
+        nan = np.isnan(x)
+        # the ticks inside the gap (plus, with jitter, the one at its edge) are NaN
+        assert 5 <= nan.sum() <= 6 and nan[2000:2005].all() and not nan[:1999].any()
+        assert np.nanmax(np.abs(x - truth)) < 0.01
+
+
+def test_faster_channel_is_low_passed_before_decimation():
+    t = np.arange(80_000, dtype=np.int64) * 1_250_000  # 800 Hz
+    sec = t / NS
+    v = np.sin(2 * np.pi * 2.0 * sec) + 0.5 * np.sin(2 * np.pi * 170.0 * sec)
+    with ChannelStore.from_chunks([ChannelChunk("fast", t, v)]) as store:
+        x = store.align(["fast"], rate_hz=200.0).materialize()[:, 0]
+    grid = np.arange(x.shape[0]) / 200.0
+    # the 170 Hz tone (above the 100 Hz Nyquist) would alias to 30 Hz; it must be gone
+    err = x[200:-200] - np.sin(2 * np.pi * 2.0 * grid[200:-200])
+    assert np.max(np.abs(err)) < 1e-3
+
+
+def test_out_of_order_chunks_are_sorted():
+    t = np.arange(1000, dtype=np.int64) * 10_000_000
+    v = t.astype(float)
+    chunks = [ChannelChunk("a", t[500:], v[500:]), ChannelChunk("a", t[:500], v[:500])]
+    with ChannelStore.from_chunks(chunks) as store:
+        tt, vv = store.raw("a")
+        assert np.all(np.diff(tt) > 0) and np.array_equal(vv, v)
+
+
+def test_select_and_constant_channels():
+    t = np.arange(100, dtype=np.int64) * 10_000_000
+    chunks = [ChannelChunk("/imu.x", t, np.sin(t / 1e8)), ChannelChunk("/imu.flag", t, np.ones(100))]
+    with ChannelStore.from_chunks(chunks) as store:
+        assert store.select(None) == ["/imu.x"]
+        assert store.select(["/imu.*"]) == ["/imu.x", "/imu.flag"]
+        with pytest.raises(StoreError, match="unknown channel"):
+            store.raw("nope")
+
+
+def test_dominant_rate():
+    assert dominant_rate([200.01, 199.99, 100.0]) == 200.0
+    assert dominant_rate([100.0, 100.0, 200.0]) == 100.0
+    with pytest.raises(StoreError, match="clock rate"):
+        dominant_rate([])
