@@ -52,22 +52,50 @@ def _csv_list(text: str) -> list[str]:
 
 def add_run_options(p: argparse.ArgumentParser) -> None:
     """Options shared by ``run`` and ``watch``."""
-    p.add_argument("--channels", type=_csv_list, metavar="GLOB[,GLOB...]",
-                   help="channels to analyze (shell patterns); default: every non-constant numeric channel")
-    p.add_argument("--train", metavar="START:END",
-                   help="healthy reference window, seconds from the first sample or ISO-8601 times; "
-                        "default: the first 20%% of the data, at most 10 minutes")
-    p.add_argument("--config", metavar="FILE", help="TOML config (groups, model, detector options, thresholds)")
-    p.add_argument("--detectors", type=_csv_list, metavar="NAME[,NAME...]",
-                   help="detectors to run; default: every detector whose needs are met")
-    p.add_argument("--rate", type=_positive_float, metavar="HZ",
-                   help="rate of the common clock; default: the dominant rate of the channels")
-    p.add_argument("--jobs", type=_positive_int, metavar="N", help="local parallelism (default: cores)")
-    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask distributed scheduler, e.g. tcp://host:8786")
-    p.add_argument("--time", choices=("log", "header"), default="log",
-                   help="timestamps: log time (default) or header.stamp where messages have one")
-    p.add_argument("--corrected", action="store_true",
-                   help="also write DIR/corrected.csv with faulty channels corrected over their fault periods")
+    p.add_argument(
+        "--channels",
+        type=_csv_list,
+        metavar="GLOB[,GLOB...]",
+        help="channels to analyze (shell patterns); default: every non-constant numeric channel",
+    )
+    p.add_argument(
+        "--train",
+        metavar="START:END",
+        help="healthy reference window, seconds from the first sample or ISO-8601 times; "
+        "default: the first 20%% of the data, at most 10 minutes",
+    )
+    p.add_argument(
+        "--config", metavar="FILE", help="TOML config (groups, model, detector options, thresholds)"
+    )
+    p.add_argument(
+        "--detectors",
+        type=_csv_list,
+        metavar="NAME[,NAME...]",
+        help="detectors to run; default: every detector whose needs are met",
+    )
+    p.add_argument(
+        "--rate",
+        type=_positive_float,
+        metavar="HZ",
+        help="rate of the common clock; default: the dominant rate of the channels",
+    )
+    p.add_argument(
+        "--jobs", type=_positive_int, metavar="N", help="local parallelism (default: cores)"
+    )
+    p.add_argument(
+        "--scheduler", metavar="ADDRESS", help="Dask distributed scheduler, e.g. tcp://host:8786"
+    )
+    p.add_argument(
+        "--time",
+        choices=("log", "header"),
+        default="log",
+        help="timestamps: log time (default) or header.stamp where messages have one",
+    )
+    p.add_argument(
+        "--corrected",
+        action="store_true",
+        help="also write DIR/corrected.csv with faulty channels corrected over their fault periods",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
 
 
@@ -97,14 +125,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("inbox", metavar="INBOX")
     p.add_argument("--out", required=True, metavar="REPORTS")
     add_run_options(p)
-    p.add_argument("--poll", type=_positive_float, metavar="SECONDS",
-                   help="poll the folder every SECONDS instead of using file events")
-    p.add_argument("--settle", type=_positive_float, default=2.0, metavar="SECONDS",
-                   help="a file is ready when unchanged for this long (default 2)")
+    p.add_argument(
+        "--poll",
+        type=_positive_float,
+        metavar="SECONDS",
+        help="poll the folder every SECONDS instead of using file events",
+    )
+    p.add_argument(
+        "--settle",
+        type=_positive_float,
+        default=2.0,
+        metavar="SECONDS",
+        help="a file is ready when unchanged for this long (default 2)",
+    )
     p.add_argument("--done", metavar="DIR", help="move each analyzed archive here")
     p.add_argument("--failed", metavar="DIR", help="move each archive that could not be read here")
-    p.add_argument("--group-by", metavar="PATTERN",
-                   help="treat files whose names give the same value for this regex's first group as one archive")
+    p.add_argument(
+        "--group-by",
+        metavar="PATTERN",
+        help="treat files whose names give the same value for this regex's first group "
+        "as one archive",
+    )
     p.add_argument("--once", action="store_true", help="process what is in INBOX, then exit")
     return parser
 
@@ -116,7 +157,9 @@ def _progress_printer(enabled: bool) -> Any:
     def show(stage: str, fraction: float) -> None:
         width = 30
         done = int(round(width * max(0.0, min(1.0, fraction))))
-        sys.stderr.write(f"\r{stage:<16} [{'#' * done}{'.' * (width - done)}] {100 * fraction:5.1f}%")
+        sys.stderr.write(
+            f"\r{stage:<16} [{'#' * done}{'.' * (width - done)}] {100 * fraction:5.1f}%"
+        )
         if fraction >= 1.0:
             sys.stderr.write("\n")
         sys.stderr.flush()
@@ -138,7 +181,9 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 def cmd_export(args: argparse.Namespace) -> int:
     from analyzer.export import export_archive
 
-    export_archive(args.inputs, Path(args.out), channels=args.channels, rate=args.rate, time=args.time)
+    export_archive(
+        args.inputs, Path(args.out), channels=args.channels, rate=args.rate, time=args.time
+    )
     return 0
 
 

@@ -88,10 +88,14 @@ def load_model(raw: dict[str, Any], path: Path) -> dict[str, Any]:
         raise ConfigError(f"{path}: expected a square matrix for model.A, got {A.shape}")
     C = _matrix(mats["C"], "C", path)
     if C.shape[1] != n:
-        raise ConfigError(f"{path}: expected a ({C.shape[0]}, {n}) matrix for model.C, got {C.shape}")
+        raise ConfigError(
+            f"{path}: expected a ({C.shape[0]}, {n}) matrix for model.C, got {C.shape}"
+        )
     B = _matrix(mats["B"], "B", path) if "B" in mats else np.zeros((n, 0))
     if B.shape[0] != n:
-        raise ConfigError(f"{path}: expected a ({n}, {B.shape[1]}) matrix for model.B, got {B.shape}")
+        raise ConfigError(
+            f"{path}: expected a ({n}, {B.shape[1]}) matrix for model.B, got {B.shape}"
+        )
     D = _matrix(mats["D"], "D", path) if "D" in mats else np.zeros((C.shape[0], B.shape[1]))
     if D.shape != (C.shape[0], B.shape[1]):
         raise ConfigError(
@@ -108,8 +112,15 @@ def load_model(raw: dict[str, Any], path: Path) -> dict[str, Any]:
             f"{path}: model.inputs names {len(inputs)} channels but B has {B.shape[1]} columns"
         )
     dt = raw.get("dt", mats.get("dt"))
-    return {"A": A, "B": B, "C": C, "D": D, "dt": None if dt is None else float(dt),
-            "outputs": outputs, "inputs": inputs}
+    return {
+        "A": A,
+        "B": B,
+        "C": C,
+        "D": D,
+        "dt": None if dt is None else float(dt),
+        "outputs": outputs,
+        "inputs": inputs,
+    }
 
 
 def load_config(path: str | Path | None, known_detectors: set[str] | None = None) -> Config:
@@ -144,7 +155,7 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
         if not isinstance(g, dict):
             raise ConfigError(f"{p}: [[group]] #{i + 1} must be a table")
         _unknown(f"group[{i}].", g, _GROUP, p)
-        group = {
+        group: dict[str, Any] = {
             "name": str(g.get("name", f"group{i + 1}")),
             "channels": _names(g.get("channels", []), f"group[{i}].channels", p),
             "reference": _names(g.get("reference", []), f"group[{i}].reference", p),
@@ -152,7 +163,7 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
             "inputs": _names(g.get("inputs", []), f"group[{i}].inputs", p),
         }
         if not group["channels"]:
-            group["channels"] = group["reference"] + group["uncertain"]
+            group["channels"] = [*group["reference"], *group["uncertain"]]
         cfg.groups.append(group)
     if "model" in raw:
         cfg.model = load_model(raw["model"], p)

@@ -11,6 +11,7 @@ import numpy as np
 
 from analyzer.errors import UsageError
 from analyzer.readers import open_archive
+from analyzer.readers.base import TimeSource
 from analyzer.store import AlignedSeries, ChannelStore
 
 BLOCK = 1 << 16
@@ -21,15 +22,16 @@ def export_archive(
     out: Path,
     channels: list[str] | None = None,
     rate: float | None = None,
-    time: str = "log",
+    time: TimeSource = "log",
 ) -> Path:
     suffix = "".join(out.suffixes[-1:]).lower()
     if suffix not in (".csv", ".parquet"):
         raise UsageError(f"--out: {out} must end in .csv or .parquet")
     archive = open_archive(inputs)
-    with tempfile.TemporaryDirectory(prefix="analyzer-export-") as tmp, ChannelStore.from_chunks(
-        archive.chunks(time), Path(tmp)
-    ) as store:
+    with (
+        tempfile.TemporaryDirectory(prefix="analyzer-export-") as tmp,
+        ChannelStore.from_chunks(archive.chunks(time), Path(tmp)) as store,
+    ):
         if channels:
             for p in channels:
                 if not store.select([p]):
@@ -72,7 +74,7 @@ def _write_csv(aligned: AlignedSeries, path: Path) -> None:
     import pyarrow.csv as pcsv
 
     schema = _schema(aligned)
-    with pcsv.CSVWriter(str(path), schema) as w:  # type: ignore[arg-type]
+    with pcsv.CSVWriter(str(path), schema) as w:
         for a, blk in aligned.blocks(BLOCK):
             w.write_table(_table(aligned, a, blk, schema))
 
@@ -81,6 +83,6 @@ def _write_parquet(aligned: AlignedSeries, path: Path) -> None:
     import pyarrow.parquet as pq
 
     schema = _schema(aligned)
-    with pq.ParquetWriter(str(path), schema) as w:  # type: ignore[arg-type]
+    with pq.ParquetWriter(str(path), schema) as w:
         for a, blk in aligned.blocks(BLOCK):
             w.write_table(_table(aligned, a, blk, schema))

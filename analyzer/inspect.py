@@ -8,17 +8,19 @@ from pathlib import Path
 from typing import Any
 
 from analyzer.readers import open_archive
+from analyzer.readers.base import TimeSource
 from analyzer.store import ChannelStore
 from analyzer.timeutil import iso_utc, plausible_epoch
 from analyzer.types import NS_PER_S
 
 
-def inspect_archive(inputs: Sequence[str | Path], time: str = "log") -> dict[str, Any]:
+def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> dict[str, Any]:
     """The contract's ``inspect --json`` object (plus ``start``, absolute UTC, where known)."""
     archive = open_archive(inputs)
-    with tempfile.TemporaryDirectory(prefix="analyzer-inspect-") as tmp, ChannelStore.from_chunks(
-        archive.chunks(time), Path(tmp)
-    ) as store:
+    with (
+        tempfile.TemporaryDirectory(prefix="analyzer-inspect-") as tmp,
+        ChannelStore.from_chunks(archive.chunks(time), Path(tmp)) as store,
+    ):
         infos = store.infos()
         t0 = min((i.start_ns for i in infos), default=0)
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(t0)
@@ -53,8 +55,16 @@ def render_table(doc: dict[str, Any]) -> str:
         lines.append(f"start {doc['start']}")
     rows = [("channel", "samples", "start_s", "end_s", "rate_hz", "gaps")]
     for c in doc["channels"]:
-        rows.append((c["name"], str(c["samples"]), f"{c['start_s']:.3f}", f"{c['end_s']:.3f}",
-                     f"{c['rate_hz']:.3f}", str(c["gaps"])))
+        rows.append(
+            (
+                c["name"],
+                str(c["samples"]),
+                f"{c['start_s']:.3f}",
+                f"{c['end_s']:.3f}",
+                f"{c['rate_hz']:.3f}",
+                str(c["gaps"]),
+            )
+        )
     widths = [max(len(r[k]) for r in rows) for k in range(len(rows[0]))]
     for n, r in enumerate(rows):
         cells = [r[0].ljust(widths[0])] + [r[k].rjust(widths[k]) for k in range(1, len(r))]

@@ -23,7 +23,7 @@ from analyzer.diagnosis import Finding, merge_events
 from analyzer.diagnosis.evidence import attach_evidence, training_tests
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
 from analyzer.readers import open_archive
-from analyzer.readers.base import InputInfo
+from analyzer.readers.base import InputInfo, TimeSource
 from analyzer.regenerate import corrected_values, result_signals, write_corrected_csv
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore
 from analyzer.timeutil import iso_utc, parse_time, plausible_epoch
@@ -49,7 +49,7 @@ class RunOptions:
     rate: float | None = None
     jobs: int | None = None
     scheduler: str | None = None
-    time_source: str = "log"
+    time_source: TimeSource = "log"
     corrected: bool = False
     progress: Progress | None = None
 
@@ -121,14 +121,14 @@ def parse_train(text: str, start_ns: int, duration_s: float, absolute: bool) -> 
             secs.append((int(val) - start_ns) / NS_PER_S)
         else:
             secs.append(float(val))
-    a, b = secs
-    if not (0.0 <= a < b):
+    lo, hi = secs
+    if not (0.0 <= lo < hi):
         raise UsageError(f"--train: the window {text!r} must satisfy 0 <= START < END")
-    if a >= duration_s:
+    if lo >= duration_s:
         raise UsageError(
             f"--train: the window {text!r} starts after the data ends ({duration_s:.3f} s)"
         )
-    return a, min(b, duration_s)
+    return lo, min(hi, duration_s)
 
 
 def default_train(duration_s: float) -> tuple[float, float]:
@@ -208,7 +208,9 @@ def _analyze(
         path = work / "aligned.npy" if big else None
         values = aligned.materialize(path)
         timings["align"] = time.perf_counter() - t0
-        absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(aligned.start_ns)
+        absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
+            aligned.start_ns
+        )
         duration = aligned.duration_s
         if options.train is not None:
             tr = parse_train(options.train, aligned.start_ns, duration, absolute)
@@ -294,14 +296,16 @@ def sha256_of(path: Path) -> str:
         for p in sorted(path.rglob("*")):
             if p.is_file():
                 h.update(p.relative_to(path).as_posix().encode())
-                with p.open("rb") as f:
-                    for blk in iter(lambda f=f: f.read(1 << 20), b""):
-                        h.update(blk)
+                _hash_file(h, p)
         return h.hexdigest()
-    with path.open("rb") as f:
-        for blk in iter(lambda: f.read(1 << 20), b""):
-            h.update(blk)
+    _hash_file(h, path)
     return h.hexdigest()
+
+
+def _hash_file(h: Any, path: Path) -> None:
+    with path.open("rb") as f:
+        while blk := f.read(1 << 20):
+            h.update(blk)
 
 
 def findings_document(analysis: Analysis) -> dict[str, Any]:
@@ -350,8 +354,13 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
             for f in a.findings
         ],
         "detectors": [
-            {"name": r.detector, "channels": list(r.channels), "params": _jsonable(r.params),
-             "model": _jsonable(r.model), "notes": list(r.notes)}
+            {
+                "name": r.detector,
+                "channels": list(r.channels),
+                "params": _jsonable(r.params),
+                "model": _jsonable(r.model),
+                "notes": list(r.notes),
+            }
             for r in a.results
         ],
         "skipped_detectors": a.skipped,

@@ -26,15 +26,39 @@ ONSET_S = 16.0
 
 SAMPLES: list[dict[str, Any]] = [
     # one std_msgs/Float64 topic per accelerometer, zstd chunks
-    {"file": "building_additive.mcap", "format": Format.MCAP, "kind": "additive", "seed": 0,
-     "layout": "float64", "compression": "zstd"},
-    {"file": "building_multiplicative.csv.gz", "format": Format.CSV, "kind": "multiplicative",
-     "seed": 1, "layout": "float64", "compression": None},
+    {
+        "file": "building_additive.mcap",
+        "format": Format.MCAP,
+        "kind": "additive",
+        "seed": 0,
+        "layout": "float64",
+        "compression": "zstd",
+    },
+    {
+        "file": "building_multiplicative.csv.gz",
+        "format": Format.CSV,
+        "kind": "multiplicative",
+        "seed": 1,
+        "layout": "float64",
+        "compression": None,
+    },
     # one Float64MultiArray per tick, lz4 chunks
-    {"file": "building_drift.bag", "format": Format.ROS1BAG, "kind": "drift", "seed": 2,
-     "layout": "multiarray", "compression": "lz4"},
-    {"file": "building_healthy_ros2", "format": Format.ROS2BAG, "kind": None, "seed": 3,
-     "layout": "multiarray", "compression": None},
+    {
+        "file": "building_drift.bag",
+        "format": Format.ROS1BAG,
+        "kind": "drift",
+        "seed": 2,
+        "layout": "multiarray",
+        "compression": "lz4",
+    },
+    {
+        "file": "building_healthy_ros2",
+        "format": Format.ROS2BAG,
+        "kind": None,
+        "seed": 3,
+        "layout": "multiarray",
+        "compression": None,
+    },
 ]
 
 
@@ -51,12 +75,16 @@ def make_samples(out: Path) -> list[dict[str, Any]]:
     out.mkdir(parents=True, exist_ok=True)
     truth = []
     for spec in SAMPLES:
-        t, Y, names = simulate_building(n_floors=5, duration_s=60.0, rate_hz=RATE, seed=spec["seed"])
+        t, Y, names = simulate_building(
+            n_floors=5, duration_s=60.0, rate_hz=RATE, seed=spec["seed"]
+        )
         entry: dict[str, Any] = {"file": spec["file"], "format": str(spec["format"]), "faults": []}
         if spec["kind"]:
             size = fault_size(spec["kind"], Y[:, 4])
             Y[:, 4] = inject_fault(Y[:, 4], RATE, spec["kind"], ONSET_S, size)
-            key = {"additive": "offset", "multiplicative": "gain", "drift": "rate_per_s"}[spec["kind"]]
+            key = {"additive": "offset", "multiplicative": "gain", "drift": "rate_per_s"}[
+                spec["kind"]
+            ]
             entry["faults"].append(
                 {"sensor": "s4", "type": spec["kind"], "onset_s": ONSET_S, key: round(size, 6)}
             )
@@ -69,8 +97,13 @@ def make_samples(out: Path) -> list[dict[str, Any]]:
             path.unlink()
         target = path.with_suffix("") if path.suffix == ".gz" else path
         channels = write_archive(
-            target, spec["format"], t_ns, data, layout=spec["layout"],
-            compression=spec["compression"], start_iso=START_ISO,
+            target,
+            spec["format"],
+            t_ns,
+            data,
+            layout=spec["layout"],
+            compression=spec["compression"],
+            start_iso=START_ISO,
         )
         if target != path:
             with target.open("rb") as src, gzip.GzipFile(path, "wb", mtime=0) as dst:

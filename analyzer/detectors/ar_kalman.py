@@ -128,7 +128,10 @@ class ARKalmanBank:
 
     def __init__(self, order: int | str = "bic", max_order: int = 10, block: int = 64) -> None:
         if isinstance(order, str) and order not in ("aic", "bic"):
-            raise DetectorError(f"[detectors.ar_kalman_bank] order: expected an integer, 'aic' or 'bic', got {order!r}")
+            raise DetectorError(
+                "[detectors.ar_kalman_bank] order: expected an integer, 'aic' or 'bic', "
+                f"got {order!r}"
+            )
         if isinstance(order, int) and order < 1:
             raise DetectorError(f"[detectors.ar_kalman_bank] order must be >= 1, got {order}")
         self.order = order
@@ -158,7 +161,8 @@ class ARKalmanBank:
         inv_covs = []
         for j in range(ar.m):
             nu = innov[j][skip:]
-            inv_covs.append(np.linalg.pinv(np.cov(nu[np.isfinite(nu).all(axis=1)].T)))
+            cov = np.cov(nu[np.isfinite(nu).all(axis=1)].T)
+            inv_covs.append(np.asarray(np.linalg.pinv(cov), dtype=np.float64))
         cons = [self._consistency(innov[j], inv_covs[j]) for j in range(ar.m)]
         res_cal, con_cal, taus = [], [], []
         # the false-alarm rate is per sample of the archive: shared among its channels
@@ -169,8 +173,14 @@ class ARKalmanBank:
             con_cal.append(calibrate(cons[j][skip:], window, alpha))
             taus.append(correlation_time(r))
         return FittedBank(
-            ar, estimators, window, tuple(res_cal), tuple(con_cal), tuple(inv_covs),
-            tuple(taus), how,
+            ar,
+            estimators,
+            window,
+            tuple(res_cal),
+            tuple(con_cal),
+            tuple(inv_covs),
+            tuple(taus),
+            how,
         )
 
     def _calibration_outputs(
@@ -234,8 +244,7 @@ class ARKalmanBank:
             yhat = out[:, -1]
             if any_gap:
                 # mask samples whose inputs were missing, and the settling after them
-                bad = gap[:, list(e.measured)].any(axis=1)
-                bad = _dilate_forward(bad, e.settle)
+                bad = _dilate_forward(np.asarray(gap[:, list(e.measured)].any(axis=1)), e.settle)
                 nu[bad] = np.nan
                 yhat[bad] = np.nan
             est[:, j] = yhat * ar.scale[j] + ar.mean[j]
@@ -271,7 +280,7 @@ class ARKalmanBank:
                     "sensor (no estimator isolates it, or no fault shape and no confirmation)"
                 )
                 continue
-            (j, a, b), = spans
+            ((j, a, b),) = spans
             ev.channel = data.channels[j]
             events.append(ev)
             explained.append((j, a, b))
@@ -289,8 +298,13 @@ class ARKalmanBank:
         return DetectorResult(
             detector=self.name,
             channels=data.channels,
-            params={"order": ar.order, "order_rule": self.order, "block": self.block,
-                    "window": model.window, "false_alarm_rate": context.false_alarm_rate},
+            params={
+                "order": ar.order,
+                "order_rule": self.order,
+                "block": self.block,
+                "window": model.window,
+                "false_alarm_rate": context.false_alarm_rate,
+            },
             events=events,
             residuals=residuals,
             reference=reference,
@@ -303,7 +317,9 @@ class ARKalmanBank:
                 "n_train": ar.n_train,
                 "aic": ar.aic,
                 "bic": ar.bic,
-                "r_squared": {c: float(v) for c, v in zip(data.channels, ar.r_squared(), strict=True)},
+                "r_squared": {
+                    c: float(v) for c, v in zip(data.channels, ar.r_squared(), strict=True)
+                },
                 "estimator_states": ar.order * ar.m,
                 "threshold_calibration": model.calibration,
             },
@@ -357,7 +373,9 @@ class ARKalmanBank:
         # through the estimators); if none is consistent, the least inconsistent.
         consistent = [c for c in cand_ch if violation[c] < 1.0]
         if consistent:
-            j = max(consistent, key=lambda c: self._strength(resid[:, c], model.residual_cal[c], t0, hi))
+            j = max(
+                consistent, key=lambda c: self._strength(resid[:, c], model.residual_cal[c], t0, hi)
+            )
         else:
             j = min(cand_ch, key=lambda c: violation[c])
         others = [violation[i] for i in range(m) if i != j]

@@ -113,7 +113,7 @@ def fit_ar(Y: FloatArray, order: int) -> ARModel:
     n_par = k * m
     aic = float(logdet + 2.0 * n_par / N)
     bic = float(logdet + np.log(N) * n_par / N)
-    return ARModel(coefs, sigma, mean, scale, N, aic, bic)
+    return ARModel(np.asarray(coefs, dtype=np.float64), sigma, mean, scale, N, aic, bic)
 
 
 def select_order(Y: FloatArray, criterion: str = "bic", max_order: int = 12) -> int:

@@ -70,7 +70,9 @@ class RunContext:
         if self.workdir is None:
             return np.zeros(shape, dtype=np.float64)
         path = self.workdir / f"{name}.f64"
-        return np.lib.format.open_memmap(path.with_suffix(".npy"), mode="w+", dtype=np.float64, shape=shape)
+        return np.lib.format.open_memmap(
+            path.with_suffix(".npy"), mode="w+", dtype=np.float64, shape=shape
+        )
 
     def report(self, stage: str, fraction: float) -> None:
         if self.progress is not None:

@@ -674,6 +674,10 @@ class ErrorFunction:
     # ---------------------------------------------------------------- checks
 
     def applicable(self, data: Dataset, context: RunContext) -> str | None:
+        try:
+            self._check(data, context)
+        except (ConfigError, DetectorError) as err:
+            return str(err)
         if not context.explicit and not context.config.get("group"):
             # without reference/uncertain groups every error function involves every
             # sensor: it detects but cannot isolate, so it runs only when asked for
@@ -681,10 +685,6 @@ class ErrorFunction:
                 "needs [[group]] reference/uncertain sensors in the config to isolate "
                 "faults (or --detectors error_function to run it on every sensor in turn)"
             )
-        try:
-            self._check(data, context)
-        except (ConfigError, DetectorError) as err:
-            return str(err)
         return None
 
     def _check(self, data: Dataset, context: RunContext) -> list[Group]:

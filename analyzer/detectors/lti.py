@@ -31,7 +31,7 @@ class LiftedSystem:
     T: int
     FT: FloatArray  # F^T
     Gamma: FloatArray  # (n, T * r): [F^{T-1} G, ..., F G, G]
-    O: FloatArray  # (T * q, n): [H; H F; ...; H F^{T-1}]
+    Obs: FloatArray  # (T * q, n): [H; H F; ...; H F^{T-1}]
     Toe: FloatArray  # (T * q, T * r): block lower triangular Markov parameters
 
     @classmethod
@@ -44,13 +44,13 @@ class LiftedSystem:
         for _ in range(T):
             powers.append(F @ powers[-1])
         Gamma = np.hstack([powers[T - 1 - i] @ G for i in range(T)])
-        O = np.vstack([H @ powers[t] for t in range(T)])
+        Obs = np.vstack([H @ powers[t] for t in range(T)])
         markov = [J] + [H @ powers[i] @ G for i in range(T - 1)]  # h_0 = J, h_i = H F^{i-1} G
         Toe = np.zeros((T * q, T * r))
         for t in range(T):
             for i in range(t + 1):
                 Toe[t * q : (t + 1) * q, i * r : (i + 1) * r] = markov[t - i]
-        return cls(F, G, H, J, T, powers[T], Gamma, O, Toe)
+        return cls(F, G, H, J, T, powers[T], Gamma, Obs, Toe)
 
     def run(
         self,
@@ -82,7 +82,7 @@ class LiftedSystem:
                 for b in range(nb_full):  # one step per block of T samples
                     starts[b] = x
                     x = FT @ x + z[b]
-                yb = starts @ self.O.T + ub @ self.Toe.T  # (nb, T q)
+                yb = starts @ self.Obs.T + ub @ self.Toe.T  # (nb, T q)
                 y[s : s + nb_full * T] = yb.reshape(nb_full * T, q)
             tail = s + nb_full * T
             for k in range(tail, e):  # fewer than T samples, at the record's very end

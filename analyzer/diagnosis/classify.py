@@ -127,13 +127,14 @@ def classify(
         if den > 0.0:
             g = float(np.dot(yy, f) / den)
             fits[FaultType.MULTIPLICATIVE] = (
-                float(np.sum((f - g * yy) ** 2)), 1, {"gain": 1.0 + g}, 0.0
+                float(np.sum((f - g * yy) ** 2)),
+                1,
+                {"gain": 1.0 + g},
+                0.0,
             )
             params["gain"] = 1.0 + g
 
-    bic = {
-        t: rss * scale / noise + k * np.log(n_eff) for t, (rss, k, _, _) in fits.items()
-    }
+    bic = {t: rss * scale / noise + k * np.log(n_eff) for t, (rss, k, _, _) in fits.items()}
     best = min(bic, key=lambda t: bic[t])
     lo = min(bic.values())
     w = {t: float(np.exp(-0.5 * (v - lo))) for t, v in bic.items()}

@@ -86,8 +86,13 @@ def diagnose_interval(
     stop = min(n if iv.end is None else iv.end, limit)
     r = np.asarray(residual, dtype=np.float64)
     ref = None if reference is None else np.asarray(reference, dtype=np.float64)
-    cls = classify(r[iv.onset : stop] - cal.mean, None if ref is None else ref[iv.onset : stop],
-                   cal.std, rate_hz, tau_corr)
+    cls = classify(
+        r[iv.onset : stop] - cal.mean,
+        None if ref is None else ref[iv.onset : stop],
+        cal.std,
+        rate_hz,
+        tau_corr,
+    )
     tau = np.arange(n - iv.onset) / rate_hz
     shape = cls.fault_signal(tau, None if ref is None else ref[iv.onset :])
     if shape is None:
@@ -96,7 +101,12 @@ def diagnose_interval(
     corrected[iv.onset :] -= shape
     end: int | None = None
     raw_alarms = detect(r, cal, search_start=iv.onset)
-    for civ in detect(corrected, cal, search_start=iv.onset + cal.window):
+    corrected_alarms = detect(corrected, cal, search_start=iv.onset + cal.window)
+    if iv.end is not None and any(c.onset < iv.end for c in corrected_alarms):
+        # the shape does not hold even while the raw residual alarms (random data read as
+        # "dead sensor plus noise", say): it cannot be trusted past the alarms either
+        return cls, iv.end
+    for civ in corrected_alarms:
         lo, hi = civ.onset + cal.window, civ.onset + cal.long_window
         recovered = not any(
             a.onset < hi and (n if a.end is None else a.end) > lo for a in raw_alarms
@@ -107,6 +117,11 @@ def diagnose_interval(
     if end != iv.end:
         # refit the shape over the whole fault period
         stop = min(n if end is None else end, limit)
-        cls = classify(r[iv.onset : stop] - cal.mean,
-                       None if ref is None else ref[iv.onset : stop], cal.std, rate_hz, tau_corr)
+        cls = classify(
+            r[iv.onset : stop] - cal.mean,
+            None if ref is None else ref[iv.onset : stop],
+            cal.std,
+            rate_hz,
+            tau_corr,
+        )
     return cls, end

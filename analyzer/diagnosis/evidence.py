@@ -115,6 +115,12 @@ def training_tests(result: DetectorResult, train: tuple[int, int]) -> dict[str, 
             continue
         t = _tests(z[train[0] : train[1]][:MAX_SEGMENT])
         if t is not None:
-            out[ch] = {k: {"statistic": v.get("statistic"), "critical": v.get("critical"),
-                           "reject": v.get("reject")} for k, v in t.items()}
+            out[ch] = {
+                k: {
+                    "statistic": v.get("statistic"),
+                    "critical": v.get("critical"),
+                    "reject": v.get("reject"),
+                }
+                for k, v in t.items()
+            }
     return out

@@ -255,7 +255,7 @@ def _summarize(name: str, t: IntArray, v: FloatArray, block: int = 1 << 22) -> C
     # median period from up to ~1M evenly spread steps (exact for short channels)
     if n > 1:
         stride = max(1, (n - 1) // (1 << 20))
-        dt = np.diff(np.asarray(t[:: stride] if stride > 1 else t))
+        dt = np.diff(np.asarray(t[::stride] if stride > 1 else t))
         dt = dt[dt > 0]
         if stride > 1:
             dt = dt / stride  # spread steps estimate the period on average

@@ -20,15 +20,26 @@ SAMPLES = REPO / "samples"
 RATE = 200.0
 
 
-def _building_csv(path: Path, fault: str | None = None, seconds: float = 60.0, seed: int = 0) -> Path:
+def _building_csv(
+    path: Path, fault: str | None = None, seconds: float = 60.0, seed: int = 0
+) -> Path:
     t, Y, names = simulate_building(n_floors=4, duration_s=seconds, seed=seed)
     if fault:
-        Y[:, 2] = inject_fault(Y[:, 2], RATE, fault, 30.0, {"additive": 3.0 * np.std(Y[:, 2]),
-                                                               "multiplicative": 0.0,
-                                                               "drift": 0.5}[fault])
+        Y[:, 2] = inject_fault(
+            Y[:, 2],
+            RATE,
+            fault,
+            30.0,
+            {"additive": 3.0 * np.std(Y[:, 2]), "multiplicative": 0.0, "drift": 0.5}[fault],
+        )
     t_ns = np.round(t * 1e9).astype(np.int64)
-    write_archive(path, "csv", t_ns, {n: Y[:, j] for j, n in enumerate(names)},
-                  start_iso="2026-03-01T12:00:00Z")
+    write_archive(
+        path,
+        "csv",
+        t_ns,
+        {n: Y[:, j] for j, n in enumerate(names)},
+        start_iso="2026-03-01T12:00:00Z",
+    )
     return path
 
 
@@ -52,11 +63,23 @@ def faulty_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def test_run_finds_the_fault_and_writes_the_contract(faulty_csv, tmp_path, capsys):
-    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--no-progress"], capsys)
+    code, _, err = _run(
+        ["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--no-progress"], capsys
+    )
     assert code == 1, err
     doc = json.loads((tmp_path / "o" / "findings.json").read_text())
-    for key in ("schema", "analyzer_version", "inputs", "start", "duration_s", "rate_hz", "train",
-                "channels", "faults", "detectors"):
+    for key in (
+        "schema",
+        "analyzer_version",
+        "inputs",
+        "start",
+        "duration_s",
+        "rate_hz",
+        "train",
+        "channels",
+        "faults",
+        "detectors",
+    ):
         assert key in doc
     assert doc["schema"] == "analyzer.findings/1"
     assert doc["inputs"][0]["format"] == "csv" and len(doc["inputs"][0]["sha256"]) == 64
@@ -91,7 +114,9 @@ def test_healthy_run_exits_zero(tmp_path, capsys):
 )
 def test_bundled_samples(sample, channel, kind, tmp_path, capsys):
     before = (SAMPLES / sample).read_bytes()
-    code, _, err = _run(["run", str(SAMPLES / sample), "--out", str(tmp_path), "--no-progress"], capsys)
+    code, _, err = _run(
+        ["run", str(SAMPLES / sample), "--out", str(tmp_path), "--no-progress"], capsys
+    )
     assert code == 1, err
     faults = json.loads((tmp_path / "findings.json").read_text())["faults"]
     assert [(f["channel"], f["type"]) for f in faults] == [(channel, kind)]
@@ -100,14 +125,27 @@ def test_bundled_samples(sample, channel, kind, tmp_path, capsys):
 
 
 def test_healthy_ros2_sample(tmp_path, capsys):
-    code, _, err = _run(["run", str(SAMPLES / "building_healthy_ros2"), "--out", str(tmp_path),
-                         "--no-progress"], capsys)
+    code, _, err = _run(
+        ["run", str(SAMPLES / "building_healthy_ros2"), "--out", str(tmp_path), "--no-progress"],
+        capsys,
+    )
     assert code == 0, err
 
 
 def test_corrected_csv(faulty_csv, tmp_path, capsys):
-    code, _, _ = _run(["run", str(faulty_csv), "--out", str(tmp_path), "--corrected",
-                       "--no-progress", "--detectors", "ar_kalman_bank"], capsys)
+    code, _, _ = _run(
+        [
+            "run",
+            str(faulty_csv),
+            "--out",
+            str(tmp_path),
+            "--corrected",
+            "--no-progress",
+            "--detectors",
+            "ar_kalman_bank",
+        ],
+        capsys,
+    )
     assert code == 1
     corr = pd.read_csv(tmp_path / "corrected.csv")
     raw = pd.read_csv(faulty_csv)
@@ -115,7 +153,10 @@ def test_corrected_csv(faulty_csv, tmp_path, capsys):
     offset = raw["s2"].to_numpy()[after].mean() - raw["s2"].to_numpy()[~after].mean()
     assert offset > 1.0
     # the offset is gone from the corrected channel, the others are untouched
-    assert abs(corr["s2"].to_numpy()[after].mean() - raw["s2"].to_numpy()[~after].mean()) < 0.2 * offset
+    assert (
+        abs(corr["s2"].to_numpy()[after].mean() - raw["s2"].to_numpy()[~after].mean())
+        < 0.2 * offset
+    )
     np.testing.assert_allclose(corr["s1"], raw["s1"], atol=1e-9)
     assert json.loads((tmp_path / "findings.json").read_text())["corrections"][0]["channel"] == "s2"
 
@@ -205,26 +246,43 @@ def test_bad_train_window(faulty_csv, tmp_path, capsys):
     code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path), "--train", "10"], capsys)
     assert code == 2
     _one_line_error(err, "--train")
-    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path), "--train", "90:100"], capsys)
+    code, _, err = _run(
+        ["run", str(faulty_csv), "--out", str(tmp_path), "--train", "90:100"], capsys
+    )
     assert code == 2
     _one_line_error(err, "--train", "after the data ends")
 
 
 def test_too_little_training_data(faulty_csv, tmp_path, capsys):
-    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path), "--train", "0:0.2",
-                         "--detectors", "ar_kalman_bank"], capsys)
+    code, _, err = _run(
+        [
+            "run",
+            str(faulty_csv),
+            "--out",
+            str(tmp_path),
+            "--train",
+            "0:0.2",
+            "--detectors",
+            "ar_kalman_bank",
+        ],
+        capsys,
+    )
     assert code == 2
     _one_line_error(err, "too little healthy data")
 
 
 def test_unknown_detector(faulty_csv, tmp_path, capsys):
-    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path), "--detectors", "magic"], capsys)
+    code, _, err = _run(
+        ["run", str(faulty_csv), "--out", str(tmp_path), "--detectors", "magic"], capsys
+    )
     assert code == 2
     _one_line_error(err, "--detectors", "magic", "ar_kalman_bank")
 
 
 def test_channels_pattern_that_matches_nothing(faulty_csv, tmp_path, capsys):
-    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path), "--channels", "zz*"], capsys)
+    code, _, err = _run(
+        ["run", str(faulty_csv), "--out", str(tmp_path), "--channels", "zz*"], capsys
+    )
     assert code == 2
     _one_line_error(err, "--channels", "zz*")
 
@@ -232,7 +290,9 @@ def test_channels_pattern_that_matches_nothing(faulty_csv, tmp_path, capsys):
 def test_config_unknown_key(faulty_csv, tmp_path, capsys):
     cfg = tmp_path / "c.toml"
     cfg.write_text("[thresholds]\nfalse_alarm_rat = 1e-6\n")
-    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--config", str(cfg)], capsys)
+    code, _, err = _run(
+        ["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--config", str(cfg)], capsys
+    )
     assert code == 2
     _one_line_error(err, "false_alarm_rat")
 
@@ -240,7 +300,9 @@ def test_config_unknown_key(faulty_csv, tmp_path, capsys):
 def test_config_bad_matrix_shape(faulty_csv, tmp_path, capsys):
     cfg = tmp_path / "c.toml"
     cfg.write_text("[model]\nA = [[1.0, 0.0], [0.0, 1.0]]\nC = [[1.0, 0.0, 0.0]]\n")
-    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--config", str(cfg)], capsys)
+    code, _, err = _run(
+        ["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--config", str(cfg)], capsys
+    )
     assert code == 2
     _one_line_error(err, "model.C", "(1, 3)")
 
@@ -248,8 +310,19 @@ def test_config_bad_matrix_shape(faulty_csv, tmp_path, capsys):
 def test_config_train_window_is_used(faulty_csv, tmp_path, capsys):
     cfg = tmp_path / "c.toml"
     cfg.write_text("[train]\nstart = 0.0\nend = 20.0\n\n[detectors.ar_kalman_bank]\norder = 5\n")
-    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--config", str(cfg),
-                         "--detectors", "ar_kalman_bank"], capsys)
+    code, _, err = _run(
+        [
+            "run",
+            str(faulty_csv),
+            "--out",
+            str(tmp_path / "o"),
+            "--config",
+            str(cfg),
+            "--detectors",
+            "ar_kalman_bank",
+        ],
+        capsys,
+    )
     assert code == 1, err
     doc = json.loads((tmp_path / "o" / "findings.json").read_text())
     assert doc["train"]["end_s"] == pytest.approx(20.0, abs=0.01)
@@ -269,8 +342,18 @@ def test_constant_channel_is_left_out(faulty_csv, tmp_path, capsys):
     df["flat"] = 1.0
     src = tmp_path / "flat.csv"
     df.to_csv(src, index=False)
-    code, _, err = _run(["run", str(src), "--out", str(tmp_path / "o"), "--no-progress",
-                         "--detectors", "ar_kalman_bank"], capsys)
+    code, _, err = _run(
+        [
+            "run",
+            str(src),
+            "--out",
+            str(tmp_path / "o"),
+            "--no-progress",
+            "--detectors",
+            "ar_kalman_bank",
+        ],
+        capsys,
+    )
     assert code == 1, err
     doc = json.loads((tmp_path / "o" / "findings.json").read_text())
     assert any("flat" in n for n in doc["notes"])
@@ -278,6 +361,7 @@ def test_constant_channel_is_left_out(faulty_csv, tmp_path, capsys):
 
 
 def test_console_script_runs():
-    proc = subprocess.run([sys.executable, "-m", "analyzer", "--version"], capture_output=True,
-                          text=True, check=False)
+    proc = subprocess.run(
+        [sys.executable, "-m", "analyzer", "--version"], capture_output=True, text=True, check=False
+    )
     assert proc.returncode == 0 and "analyzer" in proc.stdout

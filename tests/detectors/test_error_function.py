@@ -59,7 +59,8 @@ def _run(
     arch: ChainArchive, config: dict[str, Any] | None = None, **kw: Any
 ) -> tuple[ErrorFunctionModel, DetectorResult]:
     data = Dataset(arch.values, arch.channels, arch.rate_hz, arch.train)
-    ctx = RunContext(config=arch.config if config is None else config)
+    # explicit: as with --detectors error_function (without groups it runs only on request)
+    ctx = RunContext(config=arch.config if config is None else config, explicit=True)
     det = ErrorFunction(**kw)
     assert det.applicable(data, ctx) is None
     model = det.fit(data, ctx)
@@ -315,18 +316,11 @@ def test_paper_example(approach: str, noise: float) -> None:
     assert set(res.residuals) == {"s1", "s2"}
     if noise > 0.0:
         # the zero reading of sensor 2 is a dead sensor: multiplicative, gain near 0
-        # (noise-free, the shared fault extension blurs the fit: see the xfail below)
         dead = [e for e in res.events if e.channel == "s2"][0]
         assert dead.type is FaultType.MULTIPLICATIVE
         assert dead.magnitude["gain"] == pytest.approx(0.0, abs=0.1)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="diagnosis.events.diagnose_interval extends a fault past its end when its "
-    "shape fit leaves alarms inside the fault (random data read as 'dead sensor + "
-    "noise'): the event of sensor 1's first failure gets end None",
-)
 def test_paper_example_event_ends() -> None:
     arch = chain_archive(noise=0.01, seed=0)
     _, res = _run(arch, approach="direct", window=int(PAPER_WINDOW_S * arch.rate_hz))
@@ -433,6 +427,13 @@ def test_without_groups_every_sensor_is_examined_against_the_others() -> None:
     assert any("no isolation" in n for n in res.notes)
     s2 = [e for e in res.events if e.channel == "s2"]
     assert len(s2) == 1 and abs(s2[0].onset_s - _truth(arch)["s2"][0][0]) <= TOL_S
+
+
+def test_without_groups_it_does_not_run_unless_asked() -> None:
+    arch = chain_archive(noise=0.01, seed=0, test_s=4.0)
+    data = Dataset(arch.values, arch.channels, arch.rate_hz, arch.train)
+    reason = ErrorFunction().applicable(data, RunContext(config={}))
+    assert reason is not None and "[[group]]" in reason
 
 
 def test_result_is_json_friendly() -> None:

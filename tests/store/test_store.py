@@ -77,7 +77,10 @@ def test_out_of_order_chunks_are_sorted():
 
 def test_select_and_constant_channels():
     t = np.arange(100, dtype=np.int64) * 10_000_000
-    chunks = [ChannelChunk("/imu.x", t, np.sin(t / 1e8)), ChannelChunk("/imu.flag", t, np.ones(100))]
+    chunks = [
+        ChannelChunk("/imu.x", t, np.sin(t / 1e8)),
+        ChannelChunk("/imu.flag", t, np.ones(100)),
+    ]
     with ChannelStore.from_chunks(chunks) as store:
         assert store.select(None) == ["/imu.x"]
         assert store.select(["/imu.*"]) == ["/imu.x", "/imu.flag"]

@@ -1,0 +1,359 @@
+"""The report's figures, drawn from arrays the view layer slices out of the analysis.
+
+Every series goes through :func:`analyzer.report.envelope.envelope` first, so a figure
+holds at most a few thousand points whatever the archive's length. Conventions follow
+the seed papers' figures: the identified onset is a vertical line (red, dashed), the end
+another (purple, dash-dot); the healthy training window is shaded green.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from markupsafe import Markup
+from matplotlib.axes import Axes
+from scipy import stats as sps
+
+from analyzer.report.envelope import envelope, moving_mean
+from analyzer.report.svg import label, new_figure, style, to_svg
+
+FloatArray = npt.NDArray[np.float64]
+
+MAX_POINTS = 1500
+"""Envelope bins per plotted series (a browser draws this many instantly)."""
+PROB_POINTS = 400
+"""Quantiles shown in a normal probability plot."""
+WIDTH_IN = 9.0
+
+C_MEASURED = "#1f4e79"
+C_ESTIMATE = "#e07b00"
+C_CORRECTED = "#2e7d32"
+C_RESIDUAL = "#7f7f7f"
+C_MEAN = "#111111"
+C_BAND = "#d62728"
+C_ONSET = "#c00000"
+C_END = "#7030a0"
+C_TRAIN = "#2ca02c"
+C_GAP = "#d62728"
+C_COVER = "#4f81bd"
+C_FAULT = "#ff9f1c"
+
+
+@dataclass(frozen=True, slots=True)
+class TimeAxis:
+    """Seconds shown in a readable unit: ``x_display = seconds / scale``."""
+
+    unit: str
+    scale: float
+
+    @classmethod
+    def for_span(cls, span_s: float) -> TimeAxis:
+        if span_s >= 3 * 3600:
+            return cls("h", 3600.0)
+        if span_s >= 15 * 60:
+            return cls("min", 60.0)
+        return cls("s", 1.0)
+
+    def label(self) -> str:
+        return f"time from start ({self.unit})"
+
+
+def _plot_series(
+    ax: Axes, t: FloatArray, y: FloatArray, axis: TimeAxis, color: str, name: str, lw: float = 0.8
+) -> None:
+    """A line, or its min/max envelope as a filled band when decimated."""
+    env = envelope(t, y, MAX_POINTS)
+    x = env.t / axis.scale
+    if env.decimated:
+        ax.fill_between(x, env.lo, env.hi, color=color, alpha=0.55, lw=0.0, label=label(name))
+        ax.plot(x, 0.5 * (env.lo + env.hi), color=color, lw=0.4, alpha=0.9)
+    else:
+        ax.plot(x, env.lo, color=color, lw=lw, label=label(name))
+
+
+def _mark_onset(ax: Axes, onset_s: float, end_s: float | None, axis: TimeAxis) -> None:
+    ax.axvline(onset_s / axis.scale, color=C_ONSET, ls="--", lw=1.2, label="onset")
+    if end_s is not None:
+        ax.axvline(end_s / axis.scale, color=C_END, ls="-.", lw=1.2, label="end")
+
+
+def _legend(ax: Axes, **kw: Any) -> None:
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        ax.legend(loc=kw.pop("loc", "upper left"), framealpha=0.85, ncols=kw.pop("ncols", 4), **kw)
+
+
+# -- archive overview -------------------------------------------------------------------
+
+
+@dataclass(slots=True)
+class CoverageRow:
+    """One channel of the timeline: covered span and gaps in seconds from the start."""
+
+    name: str
+    start_s: float
+    end_s: float
+    analyzed: bool
+    gaps: list[tuple[float, float]] = field(default_factory=list)
+    faults: list[tuple[float, float]] = field(default_factory=list)
+
+
+def coverage_figure(
+    rows: Sequence[CoverageRow], duration_s: float, train: tuple[float, float], key: str
+) -> Markup:
+    """Every channel's coverage as a bar, gaps in red, fault periods in orange, the
+    training window shaded."""
+    axis = TimeAxis.for_span(duration_s)
+    n = len(rows)
+    with style():
+        fig = new_figure(WIDTH_IN, 0.9 + 0.24 * max(n, 1))
+        ax = fig.add_subplot()
+        ax.axvspan(train[0] / axis.scale, train[1] / axis.scale, color=C_TRAIN, alpha=0.15,
+                   lw=0, label="training window")
+        for i, r in enumerate(rows):
+            y = n - 1 - i
+            color = C_COVER if r.analyzed else "#b0b0b0"
+            ax.broken_barh([(r.start_s / axis.scale, (r.end_s - r.start_s) / axis.scale)],
+                           (y - 0.32, 0.64), color=color, lw=0)
+            if r.gaps:
+                ax.broken_barh([(a / axis.scale, max(b - a, 0.0) / axis.scale) for a, b in r.gaps],
+                               (y - 0.4, 0.8), color=C_GAP, lw=0)
+            if r.faults:
+                ax.broken_barh([(a / axis.scale, max(b - a, 0.0) / axis.scale)
+                                for a, b in r.faults], (y - 0.18, 0.36), color=C_FAULT, lw=0)
+        ax.set_yticks(range(n), [label(r.name) for r in reversed(rows)])
+        ax.set_ylim(-0.7, n - 0.3)
+        ax.set_xlim(0, max(duration_s, 1e-9) / axis.scale)
+        ax.set_xlabel(axis.label())
+        ax.grid(axis="y", visible=False)
+        from matplotlib.patches import Patch
+
+        handles = [
+            Patch(color=C_COVER, label="analyzed"),
+            Patch(color="#b0b0b0", label="not analyzed"),
+            Patch(color=C_GAP, label="gap"),
+            Patch(color=C_FAULT, label="fault period"),
+            Patch(color=C_TRAIN, alpha=0.15, label="training window"),
+        ]
+        ax.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncols=5,
+                  frameon=False)
+        return to_svg(fig, key)
+
+
+# -- per finding ------------------------------------------------------------------------
+
+
+def signal_figure(
+    t: FloatArray,
+    measured: FloatArray,
+    estimate: FloatArray | None,
+    estimate_name: str,
+    onset_s: float,
+    end_s: float | None,
+    channel: str,
+    key: str,
+) -> Markup:
+    """The measured signal around the onset with the detector's fault-free estimate; the
+    gap between them is the estimated fault."""
+    axis = TimeAxis("s", 1.0)
+    with style():
+        fig = new_figure(WIDTH_IN, 3.0)
+        ax = fig.add_subplot()
+        _plot_series(ax, t, measured, axis, C_MEASURED, f"measured {channel}")
+        if estimate is not None:
+            _plot_series(ax, t, estimate, axis, C_ESTIMATE, f"fault-free estimate ({estimate_name})")
+        _mark_onset(ax, onset_s, end_s, axis)
+        ax.set_xlim(t[0], t[-1]) if t.size else None
+        ax.set_xlabel(axis.label())
+        ax.set_ylabel("channel units")
+        _legend(ax)
+        return to_svg(fig, key)
+
+
+def corrected_figure(
+    t: FloatArray,
+    measured: FloatArray,
+    corrected: FloatArray,
+    onset_s: float,
+    end_s: float | None,
+    channel: str,
+    key: str,
+) -> Markup:
+    """Measured and corrected signal (fault removed, Wang & Song 2014, Section 6.3)."""
+    axis = TimeAxis("s", 1.0)
+    with style():
+        fig = new_figure(WIDTH_IN, 2.6)
+        ax = fig.add_subplot()
+        _plot_series(ax, t, measured, axis, C_MEASURED, f"measured {channel}")
+        _plot_series(ax, t, corrected, axis, C_CORRECTED, "corrected")
+        _mark_onset(ax, onset_s, end_s, axis)
+        ax.set_xlim(t[0], t[-1]) if t.size else None
+        ax.set_xlabel(axis.label())
+        ax.set_ylabel("channel units")
+        _legend(ax)
+        return to_svg(fig, key)
+
+
+@dataclass(slots=True)
+class ResidualPanel:
+    """One detector's residual over the zoom window and its detection threshold: the
+    ``window``-sample moving mean alarms outside ``center +- half_band``."""
+
+    detector: str
+    t: FloatArray
+    residual: FloatArray
+    center: float | None = None
+    half_band: float | None = None
+    window: int | None = None
+
+
+def residual_figure(
+    overview_t: FloatArray,
+    overview_r: FloatArray,
+    overview_name: str,
+    panels: Sequence[ResidualPanel],
+    onset_s: float,
+    end_s: float | None,
+    train: tuple[float, float],
+    duration_s: float,
+    key: str,
+) -> Markup:
+    """Top: the leading detector's residual over the whole archive (envelope) with the
+    training window and the onset. Below, per detector that saw the fault: its residual
+    around the onset, its moving mean and the threshold band that mean must leave."""
+    axis = TimeAxis.for_span(duration_s)
+    sec = TimeAxis("s", 1.0)
+    with style():
+        fig = new_figure(WIDTH_IN, 2.3 + 1.9 * len(panels))
+        axes = fig.subplots(1 + len(panels), 1, squeeze=False)[:, 0]
+        ax = axes[0]
+        ax.axvspan(train[0] / axis.scale, train[1] / axis.scale, color=C_TRAIN, alpha=0.15, lw=0,
+                   label="training window")
+        _plot_series(ax, overview_t, overview_r, axis, C_RESIDUAL, f"residual ({overview_name})")
+        _mark_onset(ax, onset_s, end_s, axis)
+        ax.set_xlim(0, max(duration_s, 1e-9) / axis.scale)
+        ax.set_title(label(f"whole record: residual of {overview_name} (measured - estimate)"),
+                     loc="left")
+        ax.set_xlabel(axis.label())
+        _legend(ax)
+        for ax, p in zip(axes[1:], panels, strict=True):
+            _plot_series(ax, p.t, p.residual, sec, C_RESIDUAL, "residual")
+            if p.window and p.window > 1:
+                mm = moving_mean(p.residual, p.window)
+                env = envelope(p.t, mm, MAX_POINTS)
+                ax.plot(env.t, 0.5 * (env.lo + env.hi), color=C_MEAN, lw=1.0,
+                        label=f"{p.window}-sample moving mean")
+            if p.center is not None and p.half_band is not None:
+                ax.axhspan(p.center - p.half_band, p.center + p.half_band, color=C_BAND,
+                           alpha=0.12, lw=0, label="no-alarm band of the mean")
+                for s in (-1.0, 1.0):
+                    ax.axhline(p.center + s * p.half_band, color=C_BAND, lw=0.8, ls=":")
+            _mark_onset(ax, onset_s, end_s, sec)
+            if p.t.size:
+                ax.set_xlim(p.t[0], p.t[-1])
+            ax.set_title(label(f"{p.detector}: around the onset"), loc="left")
+            ax.set_ylabel("channel units")
+            _legend(ax, ncols=5)
+        axes[-1].set_xlabel(sec.label() if panels else axis.label())
+        return to_svg(fig, key)
+
+
+@dataclass(slots=True)
+class Segment:
+    """A standardized residual segment (before or after the onset) and its test dict."""
+
+    name: str
+    t: FloatArray
+    z: FloatArray
+    tests: dict[str, Any] | None
+
+
+def _shewhart(ax: Axes, seg: Segment) -> None:
+    sh = (seg.tests or {}).get("shewhart", {})
+    k = float(sh.get("k") or 3.0)
+    sec = TimeAxis("s", 1.0)
+    _plot_series(ax, seg.t, seg.z, sec, C_MEASURED, "z", lw=0.5)
+    out = np.abs(seg.z) > k
+    idx = np.flatnonzero(out)
+    if idx.size:
+        idx = idx[:: max(1, idx.size // MAX_POINTS)]
+        ax.plot(seg.t[idx], seg.z[idx], ".", ms=2.5, color=C_BAND)
+    for s in (-k, k):
+        ax.axhline(s, color=C_BAND, lw=0.9, ls="--")
+    ax.axhline(0.0, color="#555555", lw=0.6)
+    count, n = sh.get("count"), sh.get("n")
+    sub = f"{count} of {n} beyond ±{k:g}" if count is not None and n else ""
+    ax.set_title(label(f"{seg.name}: Shewhart chart\n{sub}"), loc="left")
+    ax.set_xlabel("time from start (s)")
+    ax.set_ylabel("standardized residual z")
+
+
+def _probability(ax: Axes, seg: Segment) -> None:
+    z = seg.z[np.isfinite(seg.z)]
+    ax.set_title(label(f"{seg.name}: normal probability plot"), loc="left")
+    ax.set_xlabel("standard normal quantile")
+    ax.set_ylabel("ordered z")
+    if z.size < 3:
+        return
+    zs = np.sort(z)
+    n = zs.size
+    pick = np.unique(np.round(np.linspace(0, n - 1, min(n, PROB_POINTS))).astype(np.int64))
+    q = sps.norm.ppf((pick + 1 - 0.375) / (n + 0.25))  # Blom plotting positions
+    ax.plot(q, zs[pick], ".", ms=3, color=C_MEASURED, label="data")
+    lim = float(np.max(np.abs(q)))
+    ax.plot([-lim, lim], [-lim, lim], color=C_BAND, lw=1.0, label="N(0, 1)")
+    _legend(ax, ncols=1)
+
+
+def _acf(ax: Axes, seg: Segment) -> None:
+    wh = (seg.tests or {}).get("whiteness", {})
+    acf = np.asarray([np.nan if v is None else v for v in wh.get("acf") or []], dtype=float)
+    band = wh.get("band")
+    ax.set_title(label(f"{seg.name}: autocorrelation"), loc="left")
+    ax.set_xlabel("lag (samples)")
+    ax.set_ylabel("r(lag)")
+    if acf.size:
+        lags = np.arange(1, acf.size + 1)
+        ax.vlines(lags, 0.0, acf, color=C_MEASURED, lw=1.6)
+        ax.plot(lags, acf, "o", ms=2.5, color=C_MEASURED)
+    if band is not None:
+        ax.axhspan(-band, band, color=C_BAND, alpha=0.12, lw=0, label="±1.96/√N")
+        ax.axhline(band, color=C_BAND, lw=0.8, ls="--")
+        ax.axhline(-band, color=C_BAND, lw=0.8, ls="--")
+    ax.axhline(0.0, color="#555555", lw=0.6)
+    ax.set_ylim(min(-0.2, float(np.nanmin(acf)) - 0.05) if acf.size else -1, 1.05)
+    _legend(ax, ncols=1, loc="upper right")
+
+
+def tests_figure(segments: Sequence[Segment], detector: str, key: str) -> Markup:
+    """Seed 003's innovation tests, one row per segment (before / after the onset):
+    Shewhart chart with the +-k limits, normal probability plot against N(0, 1), and the
+    autocorrelation with its 95 % white-noise band."""
+    with style():
+        fig = new_figure(WIDTH_IN, 2.6 * max(1, len(segments)) + 0.3)
+        axes = fig.subplots(max(1, len(segments)), 3, squeeze=False,
+                            width_ratios=[1.6, 1.0, 1.0])
+        for row, seg in zip(axes, segments, strict=False):
+            _shewhart(row[0], seg)
+            _probability(row[1], seg)
+            _acf(row[2], seg)
+        fig.suptitle(label(f"standardized residual of {detector}"), x=0.01, ha="left",
+                     fontsize=9.5)
+        return to_svg(fig, key)
+
+
+__all__ = [
+    "CoverageRow",
+    "ResidualPanel",
+    "Segment",
+    "TimeAxis",
+    "corrected_figure",
+    "coverage_figure",
+    "residual_figure",
+    "signal_figure",
+    "tests_figure",
+]

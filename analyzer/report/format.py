@@ -1,0 +1,125 @@
+"""Numbers as the report prints them. Templates show these strings as they are, so every
+rounding decision lives here, next to the code that computed the number."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+MISSING = "n/a"
+
+
+def num(x: Any, digits: int = 4) -> str:
+    """``x`` with ``digits`` significant digits; ``n/a`` for None, NaN or non-numbers."""
+    if isinstance(x, bool):
+        return "yes" if x else "no"
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return MISSING if x is None else str(x)
+    if not math.isfinite(v):
+        return MISSING
+    if v == 0.0:
+        return "0"
+    return f"{v:.{digits}g}"
+
+
+def seconds(x: float | None, decimals: int = 3) -> str:
+    """``16.000 s``; ``n/a`` for None."""
+    if x is None or not math.isfinite(float(x)):
+        return MISSING
+    return f"{float(x):.{decimals}f} s"
+
+
+def duration(x: float) -> str:
+    """A duration for people: ``59.995 s``, ``12 min 5.0 s``, ``23 h 59 min 59 s``."""
+    s = float(x)
+    if not math.isfinite(s):
+        return MISSING
+    if s < 120:
+        return f"{s:.3f} s"
+    h, rem = divmod(s, 3600.0)
+    m, sec = divmod(rem, 60.0)
+    if h >= 1:
+        return f"{int(h)} h {int(m)} min {sec:.0f} s"
+    return f"{int(m)} min {sec:.1f} s"
+
+
+def size(n_bytes: int | None) -> str:
+    """``1.2 MB`` (decimal units, as file managers show)."""
+    if n_bytes is None or n_bytes < 0:
+        return MISSING
+    v = float(n_bytes)
+    for unit in ("B", "kB", "MB", "GB"):
+        if v < 1000 or unit == "GB":
+            return f"{int(v)} B" if unit == "B" else f"{v:.1f} {unit}"
+        v /= 1000
+    return f"{v:.1f} TB"  # pragma: no cover
+
+
+def percent(p: float | None) -> str:
+    """A probability as a percentage: ``98.0 %``; never rounds a value below 1 up to 100."""
+    if p is None or not math.isfinite(float(p)):
+        return MISSING
+    v = 100.0 * float(p)
+    if 99.95 <= v < 100.0:
+        return "> 99.9 %"
+    return f"{v:.1f} %"
+
+
+def rate(hz: float | None) -> str:
+    return MISSING if hz is None else f"{num(hz, 6)} Hz"
+
+
+def magnitude(mag: Mapping[str, Any]) -> str:
+    """``offset +9.988``, ``gain x1.546``, ``drift +0.4998 per s`` (channel units)."""
+    parts = []
+    for key, v in mag.items():
+        if key == "offset":
+            parts.append(f"offset {_signed(v)}")
+        elif key == "gain":
+            dead = " (dead sensor)" if v is not None and abs(float(v)) < 0.1 else ""
+            parts.append(f"gain ×{num(v)}{dead}")
+        elif key == "rate_per_s":
+            parts.append(f"drift {_signed(v)} per s")
+        else:
+            parts.append(f"{key} {num(v)}")
+    return ", ".join(parts) or MISSING
+
+
+def _signed(v: Any) -> str:
+    s = num(v)
+    return s if s.startswith("-") or s == MISSING else f"+{s}"
+
+
+def scalar(v: Any) -> str:
+    """A model summary value: numbers rounded, short lists joined, the rest as text."""
+    if isinstance(v, (list, tuple)):
+        return ", ".join(scalar(x) for x in v)
+    if isinstance(v, float):
+        return num(v)
+    return num(v) if isinstance(v, bool) else str(v)
+
+
+def is_scalar(v: Any) -> bool:
+    return v is None or isinstance(v, (str, int, float, bool))
+
+
+def is_short_list(v: Any, limit: int = 8) -> bool:
+    return isinstance(v, (list, tuple)) and len(v) <= limit and all(is_scalar(x) for x in v)
+
+
+__all__ = [
+    "MISSING",
+    "duration",
+    "is_scalar",
+    "is_short_list",
+    "magnitude",
+    "num",
+    "percent",
+    "rate",
+    "scalar",
+    "seconds",
+    "size",
+]

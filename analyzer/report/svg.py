@@ -1,0 +1,102 @@
+"""Matplotlib figures as inline SVG: no files, no external references, safe to embed.
+
+Figures are built with the object-oriented API on an Agg canvas (no pyplot, so no global
+figure registry to leak into and nothing to close but the figure itself). The SVG is
+cleaned for inlining in an HTML page:
+
+* the XML prolog, DOCTYPE and metadata (which carry ``http://`` URLs) are dropped;
+* every ``id`` is prefixed with a per-figure key, so two figures never share an id
+  (matplotlib derives ids from content hashes, and a page holds many figures);
+* the root's fixed ``width``/``height`` go, the ``viewBox`` stays: the page's CSS sizes
+  the figure (responsive, printable);
+* text stays text (``svg.fonttype = none``: smaller and selectable); matplotlib escapes
+  it as XML, so a channel name like ``<script>`` cannot become markup.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import matplotlib as mpl
+from markupsafe import Markup
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+RC: dict[str, Any] = {
+    "svg.fonttype": "none",
+    "svg.hashsalt": "analyzer-report",
+    "font.family": "sans-serif",
+    "font.sans-serif": ["DejaVu Sans"],
+    "font.size": 9.0,
+    "axes.titlesize": 9.5,
+    "axes.labelsize": 9.0,
+    "xtick.labelsize": 8.0,
+    "ytick.labelsize": 8.0,
+    "legend.fontsize": 8.0,
+    "axes.grid": True,
+    "grid.color": "#d9d9d9",
+    "grid.linewidth": 0.6,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "axes.axisbelow": True,
+    "path.simplify": True,
+    "path.simplify_threshold": 0.5,
+    "agg.path.chunksize": 10000,
+}
+"""Style of every report figure (applied in a context, never globally)."""
+
+_PROLOG = re.compile(r"\A.*?(?=<svg\b)", re.S)
+_METADATA = re.compile(r"<metadata>.*?</metadata>\s*", re.S)
+_ROOT_SIZE = re.compile(r'(<svg\b[^>]*?)\s(?:width|height)="[^"]*"')
+
+
+@contextmanager
+def style() -> Iterator[None]:
+    """The report's matplotlib style for the duration of a block."""
+    with mpl.rc_context(RC):
+        yield
+
+
+def new_figure(width_in: float, height_in: float) -> Figure:
+    """A figure on an Agg canvas (no pyplot state)."""
+    fig = Figure(figsize=(width_in, height_in), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def label(text: str) -> str:
+    """``text`` safe for a matplotlib label: a ``$`` would start mathtext."""
+    return text.replace("$", r"\$")
+
+
+def to_svg(fig: Figure, key: str) -> Markup:
+    """The cleaned inline SVG of ``fig`` (see the module doc); the figure is cleared."""
+    buf = io.StringIO()
+    try:
+        fig.savefig(
+            buf,
+            format="svg",
+            metadata={"Date": None, "Creator": None, "Format": None, "Type": None},
+        )
+    finally:
+        fig.clear()
+    return Markup(clean_svg(buf.getvalue(), key))
+
+
+def clean_svg(svg: str, key: str) -> str:
+    """Matplotlib's SVG text made inlinable (see the module doc)."""
+    prefix = re.sub(r"[^A-Za-z0-9_-]", "-", key) + "-"
+    out = _PROLOG.sub("", svg, count=1)
+    out = _METADATA.sub("", out)
+    for _ in range(2):
+        out = _ROOT_SIZE.sub(r"\1", out, count=1)
+    out = out.replace(' id="', f' id="{prefix}')
+    out = out.replace('href="#', f'href="#{prefix}').replace("url(#", f"url(#{prefix}")
+    return out.strip()
+
+
+__all__ = ["RC", "clean_svg", "label", "new_figure", "style", "to_svg"]
