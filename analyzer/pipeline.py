@@ -20,7 +20,7 @@ from analyzer import __version__
 from analyzer.config import Config, load_config
 from analyzer.detectors import REGISTRY, Dataset, DetectorResult, RunContext, detector_class
 from analyzer.diagnosis import Finding, merge_events
-from analyzer.diagnosis.evidence import attach_evidence, training_tests
+from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
 from analyzer.readers import open_archive
 from analyzer.readers.base import InputInfo, TimeSource
@@ -261,6 +261,7 @@ def _analyze(
         attach_evidence(findings, results, aligned.rate_hz, train)
         for r in results:
             r.model["training_tests"] = training_tests(r, train)
+            r.model["windowed_tests"] = windowed_summary(r, aligned.rate_hz)
         timings["test"] = time.perf_counter() - t0
         corrected = None
         corrections: list[dict[str, Any]] = []

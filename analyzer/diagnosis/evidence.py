@@ -20,7 +20,7 @@ import numpy.typing as npt
 from analyzer.detectors.base import DetectorResult
 from analyzer.diagnosis.merge import Finding
 from analyzer.errors import DetectorError
-from analyzer.stats import test_segment
+from analyzer.stats import summarize, test_segment, windowed_tests
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -28,6 +28,8 @@ FloatArray = npt.NDArray[np.float64]
 MAX_SEGMENT = 20_000
 """Samples tested on each side of an onset (tests on longer stretches only get slower)."""
 MIN_SEGMENT = 30
+DISAGREEMENT_FACTOR = 0.8
+"""Confidence factor when the after-onset tests do not point to the finding's type."""
 
 
 def standardized(result: DetectorResult, channel: str) -> FloatArray | None:
@@ -103,6 +105,13 @@ def attach_evidence(
                 "consistent_with": consistent_types(after),
             }
         f.evidence["tests"] = tests
+        lead = tests.get(f.detector)
+        if lead is not None:
+            agree = f.type.value in lead["consistent_with"]
+            f.evidence["tests_agree"] = agree
+            if not agree:
+                # the innovation tests do not break the way this fault type breaks them
+                f.confidence *= DISAGREEMENT_FACTOR
 
 
 def training_tests(result: DetectorResult, train: tuple[int, int]) -> dict[str, Any]:
@@ -123,4 +132,21 @@ def training_tests(result: DetectorResult, train: tuple[int, int]) -> dict[str, 
                 }
                 for k, v in t.items()
             }
+    return out
+
+
+def windowed_summary(result: DetectorResult, rate_hz: float, window_s: float = 1.0) -> dict[str, Any]:
+    """Per channel: the innovation tests on consecutive windows over the whole archive
+    (vectorized, :func:`analyzer.stats.windowed_tests`), summarized as the share of
+    windows each test rejects (about 5 % for a healthy, well-modelled residual)."""
+    window = max(100, int(round(window_s * rate_hz)))
+    out: dict[str, Any] = {}
+    for ch in result.residuals:
+        z = standardized(result, ch)
+        if z is None or z.shape[0] < window:
+            continue
+        try:
+            out[ch] = summarize(windowed_tests(z, window))
+        except DetectorError:
+            continue
     return out

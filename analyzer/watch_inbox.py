@@ -1,0 +1,439 @@
+"""Which archives in a drop folder are ready to analyze (the discovery half of
+``analyzer watch``).
+
+:func:`ready_batches` is shaped like watchfiles' ``watch``: a generator of debounced
+batches. Each batch lists the archives that became *ready* since the previous one:
+
+* **Archives.** Every entry directly in INBOX is one archive: a file, a ROS 2 bag
+  directory, or a directory of files forming one archive (contract: "a directory holding
+  several such files"). With ``group_by`` the entries whose names give the same value for
+  the regex's first group form one archive named by that value (for example
+  ``(\\d{8}T\\d{2})``: one archive per hour). Hidden and temporary names are ignored: a
+  leading ``.``, or a trailing ``.tmp``, ``.part``, ``~`` or ``.active`` (``rosbag record``
+  writes ``NAME.bag.active`` and renames it when the bag is closed), as are sqlite sidecars
+  (``-journal``, ``-wal``, ``-shm``).
+* **Stable.** The (relative path, size, mtime) of every file of the archive has not
+  changed for ``settle`` seconds, measured on the monotonic clock by observing it (an old
+  mtime alone is not trusted: network file systems and copies that preserve times lie).
+* **Complete**, where the format says so (:func:`incomplete_reason`): an MCAP file has its
+  magic at both ends; a ROS 1 bag has an index (``index_pos`` in the bag header is not 0
+  and the file extends past it); a ROS 2 bag directory has its ``metadata.yaml``, the
+  storage files it lists and no sqlite journal; a CSV file only needs to be stable. An
+  archive that is stable but still looks unfinished after ``incomplete_timeout`` seconds
+  (a recorder that died, a truncated copy) is yielded anyway with the reason, so that it
+  ends up with an error record instead of waiting forever.
+
+Changes are noticed through file-system events (``watchdog``: inotify, FSEvents, kqueue,
+with a full rescan every :data:`RESCAN_S` seconds in case events were dropped) or, with
+``poll`` or where events are unavailable, by rescanning the folder every ``poll``
+seconds. An archive is yielded again when its content changes after it was yielded.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import queue
+import re
+import struct
+import threading
+import time
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+log = logging.getLogger("analyzer.watch")
+
+Signature = tuple[tuple[str, int, int], ...]
+"""(path relative to INBOX, size, mtime_ns) of every file of an archive, sorted."""
+
+IGNORED_SUFFIXES = (".tmp", ".part", "~", ".active")
+SQLITE_SIDECARS = ("-journal", "-wal", "-shm")
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+ROS1_MAGIC = b"#ROSBAG V2.0\n"
+SQLITE_MAGIC = b"SQLite format 3\x00"
+INCOMPLETE_TIMEOUT_S = 600.0
+"""An archive stable this long but still structurally unfinished is handed on anyway."""
+RESCAN_S = 30.0
+"""With file events, the whole folder is still rescanned this often (dropped events)."""
+FALLBACK_POLL_S = 1.0
+"""Polling interval where file events are unavailable and ``poll`` was not given."""
+
+
+@dataclass(frozen=True, slots=True)
+class ReadyArchive:
+    """One archive that is ready: its name (entry name or ``group_by`` value), its member
+    paths (sorted) and the signature it had when found stable."""
+
+    name: str
+    paths: tuple[Path, ...]
+    signature: Signature
+    incomplete: str | None = None
+    """Why it still looks unfinished, when handed on after ``incomplete_timeout``."""
+
+
+def ignored(name: str) -> bool:
+    """Hidden, temporary and sidecar names, never archives on their own."""
+    return (
+        name.startswith(".")
+        or name.endswith(IGNORED_SUFFIXES)
+        or name.endswith(SQLITE_SIDECARS)
+    )
+
+
+# --------------------------------------------------------------------------- signatures
+
+
+def _files(path: Path) -> list[Path]:
+    if path.is_dir():
+        return sorted(p for p in path.rglob("*") if p.is_file())
+    return [path]
+
+
+def signature(paths: Iterable[Path], root: Path) -> Signature:
+    """The signature of the files under ``paths``; raises OSError if one vanishes."""
+    sig = []
+    for path in paths:
+        for f in _files(path):
+            st = f.stat()
+            sig.append((f.relative_to(root).as_posix(), st.st_size, st.st_mtime_ns))
+    return tuple(sorted(sig))
+
+
+# --------------------------------------------------------------------------- completeness
+
+
+def _read_ends(path: Path, n: int) -> tuple[bytes, bytes, int]:
+    with path.open("rb") as f:
+        size = os.fstat(f.fileno()).st_size
+        head = f.read(n)
+        if size > n:
+            f.seek(max(0, size - n))
+        tail = f.read(n) if size > n else head
+    return head, tail, size
+
+
+def ros1_index_pos(header: bytes) -> int | None:
+    """``index_pos`` of a ROS 1 bag from its first bytes (magic + bag header record), or
+    None if it cannot be found there."""
+    if not header.startswith(ROS1_MAGIC):
+        return None
+    pos = len(ROS1_MAGIC)
+    if len(header) < pos + 4:
+        return None
+    (header_len,) = struct.unpack_from("<I", header, pos)
+    pos += 4
+    end = min(pos + header_len, len(header))
+    while pos + 4 <= end:
+        (field_len,) = struct.unpack_from("<I", header, pos)
+        pos += 4
+        entry = header[pos : pos + field_len]
+        pos += field_len
+        name, sep, value = entry.partition(b"=")
+        if sep and name == b"index_pos" and len(value) == 8:
+            return int(struct.unpack("<Q", value)[0])
+    return None
+
+
+def _file_incomplete(path: Path) -> str | None:
+    head, tail, size = _read_ends(path, 4096 + 64)
+    if size == 0:
+        return "empty file"
+    if head.startswith(MCAP_MAGIC):
+        if size < 2 * len(MCAP_MAGIC) or not tail.endswith(MCAP_MAGIC):
+            return "MCAP file without its closing magic (still being written?)"
+        return None
+    if head.startswith(ROS1_MAGIC):
+        index_pos = ros1_index_pos(head)
+        if index_pos is None:
+            return "ROS 1 bag header not complete"
+        if index_pos == 0:
+            return "ROS 1 bag not indexed yet (index_pos = 0)"
+        if size <= index_pos:
+            return f"ROS 1 bag ends at byte {size}, before its index at {index_pos}"
+        return None
+    if head.startswith(SQLITE_MAGIC) or path.suffix.lower() == ".db3":
+        busy = [s for s in SQLITE_SIDECARS if path.with_name(path.name + s).exists()]
+        if busy:
+            return f"sqlite file still open for writing ({path.name}{busy[0]} present)"
+    return None
+
+
+def _metadata_files(metadata: Path) -> list[str] | None:
+    """The storage files a rosbag2 ``metadata.yaml`` lists, or None if it is unreadable."""
+    from ruamel.yaml import YAML  # the YAML library rosbags itself uses
+
+    try:
+        doc: Any = YAML(typ="safe").load(metadata.read_text(encoding="utf-8"))
+        info = doc["rosbag2_bagfile_information"]
+        return [str(p) for p in info.get("relative_file_paths") or []]
+    except Exception:  # noqa: BLE001 - any parse problem means "not finished (yet)"
+        return None
+
+
+def _looks_like_bag(directory: Path, files: Sequence[Path]) -> bool:
+    """A directory without metadata.yaml that a ROS 2 recorder is filling: storage
+    files named ``<dir>.db3`` / ``<dir>_<N>.mcap`` (rosbag2, rosbags) or any ``.db3``."""
+    pattern = re.compile(rf"{re.escape(directory.name)}(_\d+)?\.(db3|mcap)(\.zstd)?")
+    return any(f.suffix == ".db3" or pattern.fullmatch(f.name) for f in files)
+
+
+def incomplete_reason(path: Path) -> str | None:
+    """Why the archive member ``path`` looks unfinished, or None when it looks complete.
+
+    Only the structure is checked here (a few bytes at each end); stability is the
+    caller's business. A file of unknown or damaged format is "complete": the analysis
+    will say what is wrong with it."""
+    if not path.is_dir():
+        return _file_incomplete(path)
+    files = [f for f in sorted(path.iterdir()) if f.is_file() and not f.name.startswith(".")]
+    metadata = path / "metadata.yaml"
+    if metadata.is_file():
+        listed = _metadata_files(metadata)
+        if listed is None:
+            return "metadata.yaml not readable yet"
+        for rel in listed:
+            if not (path / rel).is_file():
+                return f"storage file {rel} listed in metadata.yaml is missing"
+        for f in files:
+            if f.name != "metadata.yaml" and (reason := _file_incomplete(f)):
+                return f"{f.name}: {reason}"
+        return None
+    if not files:
+        return "empty directory"
+    if _looks_like_bag(path, files):
+        return "ROS 2 bag without metadata.yaml (still recording?)"
+    for f in files:
+        if not ignored(f.name) and (reason := _file_incomplete(f)):
+            return f"{f.name}: {reason}"
+    return None
+
+
+# --------------------------------------------------------------------------- tracking
+
+
+@dataclass(slots=True)
+class _Track:
+    signature: Signature
+    since: float
+    yielded: Signature | None = None
+    checked: Signature | None = None
+    reason: str | None = None
+
+
+@dataclass(slots=True)
+class InboxTracker:
+    """The bookkeeping behind :func:`ready_batches`, driven by an explicit clock so that
+    it can be tested step by step: :meth:`touch` the names that changed (or
+    :meth:`rescan`), then :meth:`step` returns the archives that became ready."""
+
+    inbox: Path
+    settle: float
+    group_by: re.Pattern[str] | None = None
+    exclude: frozenset[str] = frozenset()
+    incomplete_timeout: float = INCOMPLETE_TIMEOUT_S
+    _members: dict[str, set[str]] = field(default_factory=dict)
+    _tracks: dict[str, _Track] = field(default_factory=dict)
+    _dirty: set[str] = field(default_factory=set)
+
+    def key(self, name: str) -> str | None:
+        """The archive an INBOX entry belongs to, or None if the entry is ignored."""
+        if ignored(name) or name in self.exclude:
+            return None
+        if self.group_by is not None:
+            m = self.group_by.search(name)
+            if m is not None and m.group(1):
+                return m.group(1)
+        return name
+
+    def rescan(self) -> None:
+        """Re-list INBOX (start, polling, and the periodic safety rescan)."""
+        try:
+            names = {e.name for e in os.scandir(self.inbox)}
+        except FileNotFoundError:
+            names = set()
+        members: dict[str, set[str]] = {}
+        for name in names:
+            k = self.key(name)
+            if k is not None:
+                members.setdefault(k, set()).add(name)
+        self._dirty.update(self._members.keys() | members.keys())
+        self._members = members
+
+    def touch(self, name: str) -> None:
+        """An event about INBOX entry ``name`` (created, modified, moved, deleted)."""
+        name = name.removesuffix("-journal").removesuffix("-wal").removesuffix("-shm")
+        k = self.key(name)
+        if k is None:
+            return
+        if (self.inbox / name).exists() or os.path.lexists(self.inbox / name):
+            self._members.setdefault(k, set()).add(name)
+        else:
+            self._members.get(k, set()).discard(name)
+        self._dirty.add(k)
+
+    @property
+    def keys(self) -> set[str]:
+        return {k for k, v in self._members.items() if v}
+
+    def pending(self) -> set[str]:
+        """Archives seen but not (re)yielded in their current state."""
+        return {k for k, t in self._tracks.items() if t.yielded != t.signature}
+
+    def done(self, keys: Iterable[str]) -> bool:
+        """Whether each of ``keys`` has been yielded in its current state or is gone."""
+        return all(
+            k not in self._tracks or self._tracks[k].yielded == self._tracks[k].signature
+            for k in keys
+            if self._members.get(k)
+        )
+
+    def step(self, now: float) -> list[ReadyArchive]:
+        check = self._dirty | self.pending()
+        self._dirty = set()
+        ready = []
+        for k in sorted(check):
+            names = sorted(self._members.get(k, ()))
+            paths = tuple(self.inbox / n for n in names)
+            try:
+                sig = signature(paths, self.inbox) if paths else ()
+            except OSError:  # a member vanished or changed type under us: look again
+                self._dirty.add(k)
+                continue
+            if not sig and not any(p.is_dir() for p in paths):
+                self._tracks.pop(k, None)
+                if not paths:
+                    self._members.pop(k, None)
+                continue
+            track = self._tracks.get(k)
+            if track is None:
+                track = self._tracks[k] = _Track(sig, now)
+            elif sig != track.signature:
+                track.signature, track.since, track.checked = sig, now, None
+            if track.yielded == sig or now - track.since < self.settle:
+                continue
+            if track.checked != sig:
+                track.checked = sig
+                try:
+                    track.reason = next(
+                        (f"{p.name}: {r}" for p in paths if (r := incomplete_reason(p))), None
+                    )
+                except OSError as err:
+                    self._dirty.add(k)
+                    track.checked = None
+                    log.debug("%s: cannot check yet: %s", k, err)
+                    continue
+                if track.reason:
+                    log.info("%s: waiting: %s", k, track.reason)
+            gave_up = now - track.since >= self.incomplete_timeout
+            if track.reason is None or gave_up:
+                track.yielded = sig
+                ready.append(ReadyArchive(k, paths, sig, track.reason))
+        return ready
+
+
+# --------------------------------------------------------------------------- events
+
+
+def _start_observer(inbox: Path, sink: queue.SimpleQueue[str]) -> Any:
+    """A started watchdog observer feeding the names of changed INBOX entries into
+    ``sink``; raises whatever the platform raises when events are unavailable."""
+    from watchdog.events import FileSystemEvent, FileSystemEventHandler
+    from watchdog.observers import Observer
+
+    root = os.path.abspath(inbox)
+    quiet = {"opened", "closed_no_write"}  # reads (ours included) change nothing
+
+    class Handler(FileSystemEventHandler):
+        def on_any_event(self, event: FileSystemEvent) -> None:
+            if event.event_type in quiet:
+                return
+            for raw in (event.src_path, getattr(event, "dest_path", "")):
+                p = os.fsdecode(raw)
+                if not p:
+                    continue
+                rel = os.path.relpath(p, root)
+                if rel != "." and not rel.startswith(".."):
+                    sink.put(rel.split(os.sep, 1)[0])
+
+    observer = Observer()
+    observer.schedule(Handler(), root, recursive=True)
+    observer.daemon = True
+    observer.start()
+    return observer
+
+
+def ready_batches(
+    inbox: Path,
+    *,
+    settle: float = 2.0,
+    poll: float | None = None,
+    group_by: re.Pattern[str] | None = None,
+    exclude: Iterable[str] = (),
+    stop: threading.Event | None = None,
+    once: bool = False,
+    incomplete_timeout: float = INCOMPLETE_TIMEOUT_S,
+    yield_on_timeout: bool = False,
+) -> Iterator[list[ReadyArchive]]:
+    """Batches of archives of ``inbox`` that became ready (see the module doc).
+
+    ``poll``: rescan every ``poll`` seconds instead of using file events. ``exclude``:
+    entry names of INBOX that are never archives (output folders inside it). ``stop``:
+    the generator returns soon after it is set. ``once``: return when every archive
+    present at the start has been yielded (or has gone). ``yield_on_timeout``: yield an
+    empty batch after every idle tick (about 0.1 s) so the consumer can do other work.
+    """
+    stop = stop or threading.Event()
+    tracker = InboxTracker(inbox, settle, group_by, frozenset(exclude), incomplete_timeout)
+    tick = min(0.25, max(0.02, settle / 4))
+    sink: queue.SimpleQueue[str] = queue.SimpleQueue()
+    observer = None
+    if poll is None:
+        try:
+            observer = _start_observer(inbox, sink)
+        except Exception as err:  # noqa: BLE001 - any failure means "no events here"
+            poll = FALLBACK_POLL_S
+            log.warning("file events unavailable (%s); polling every %.1f s", err, poll)
+    interval = poll if poll is not None else RESCAN_S
+    try:
+        tracker.rescan()
+        initial = tracker.keys
+        next_scan = time.monotonic() + interval
+        next_step = 0.0
+        while not stop.is_set():
+            now = time.monotonic()
+            while True:
+                try:
+                    tracker.touch(sink.get_nowait())
+                except queue.Empty:
+                    break
+            if now >= next_scan:
+                tracker.rescan()
+                next_scan = now + interval
+            batch: list[ReadyArchive] = []
+            if now >= next_step:
+                batch = tracker.step(now)
+                next_step = now + (poll if poll is not None else 0.0)
+            if batch or yield_on_timeout:
+                yield batch
+            if once and tracker.done(initial):
+                return
+            stop.wait(tick)
+    finally:
+        if observer is not None:
+            observer.stop()
+            observer.join(timeout=5)
+
+
+__all__ = [
+    "INCOMPLETE_TIMEOUT_S",
+    "InboxTracker",
+    "ReadyArchive",
+    "Signature",
+    "ignored",
+    "incomplete_reason",
+    "ready_batches",
+    "ros1_index_pos",
+    "signature",
+]
