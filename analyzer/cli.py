@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
@@ -224,7 +225,11 @@ COMMANDS = {"inspect": cmd_inspect, "export": cmd_export, "run": cmd_run, "watch
 def main(argv: Sequence[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
-        return COMMANDS[args.command](args)
+        with warnings.catch_warnings():
+            # numerical warnings on degenerate stretches (all-NaN windows...) are handled
+            # by the code that meets them; stderr carries only the one-line verdicts
+            warnings.simplefilter("ignore", RuntimeWarning)
+            return COMMANDS[args.command](args)
     except AnalyzerError as err:
         msg = " ".join(str(err).split())  # one line, whatever the message held
         print(f"analyzer: error: {msg}", file=sys.stderr)

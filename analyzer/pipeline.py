@@ -19,6 +19,7 @@ import numpy as np
 from analyzer import __version__
 from analyzer.config import Config, load_config
 from analyzer.detectors import REGISTRY, Dataset, DetectorResult, RunContext, detector_class
+from analyzer.detectors.ar_model import flat_channels
 from analyzer.diagnosis import Finding, merge_events
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
@@ -220,6 +221,22 @@ def _analyze(
             tr = default_train(duration)
         train = (int(round(tr[0] * aligned.rate_hz)), int(round(tr[1] * aligned.rate_hz)) + 1)
         train = (train[0], min(train[1], aligned.n))
+        # a channel that does not vary in the healthy window cannot be modelled from it
+        tv = np.asarray(values[train[0] : train[1]])
+        flat = flat_channels(tv) if tv.shape[0] else np.ones(len(chosen), bool)
+        if flat.any():
+            dropped = [c for c, f in zip(chosen, flat, strict=True) if f]
+            notes.append(
+                "constant or empty in the training window, not analyzed: " + ", ".join(dropped)
+            )
+            keep = np.flatnonzero(~flat)
+            if keep.size == 0:
+                raise UsageError(
+                    "every selected channel is constant or empty in the training window "
+                    f"({tr[0]:.3f}-{tr[1]:.3f} s): choose another --train window"
+                )
+            chosen = [chosen[k] for k in keep]
+            values = np.asarray(values)[:, keep]
         data = Dataset(values, tuple(chosen), aligned.rate_hz, train)
         ctx = RunContext(
             false_alarm_rate=options.config.false_alarm_rate,

@@ -38,7 +38,7 @@ import re
 import struct
 import threading
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Generator, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -75,11 +75,7 @@ class ReadyArchive:
 
 def ignored(name: str) -> bool:
     """Hidden, temporary and sidecar names, never archives on their own."""
-    return (
-        name.startswith(".")
-        or name.endswith(IGNORED_SUFFIXES)
-        or name.endswith(SQLITE_SIDECARS)
-    )
+    return name.startswith(".") or name.endswith(IGNORED_SUFFIXES) or name.endswith(SQLITE_SIDECARS)
 
 
 # --------------------------------------------------------------------------- signatures
@@ -267,7 +263,7 @@ class InboxTracker:
         k = self.key(name)
         if k is None:
             return
-        if (self.inbox / name).exists() or os.path.lexists(self.inbox / name):
+        if os.path.lexists(self.inbox / name):
             self._members.setdefault(k, set()).add(name)
         else:
             self._members.get(k, set()).discard(name)
@@ -283,11 +279,13 @@ class InboxTracker:
 
     def done(self, keys: Iterable[str]) -> bool:
         """Whether each of ``keys`` has been yielded in its current state or is gone."""
-        return all(
-            k not in self._tracks or self._tracks[k].yielded == self._tracks[k].signature
-            for k in keys
-            if self._members.get(k)
-        )
+        for k in keys:
+            if not self._members.get(k):
+                continue
+            track = self._tracks.get(k)
+            if track is None or track.yielded != track.signature:
+                return False
+        return True
 
     def step(self, now: float) -> list[ReadyArchive]:
         check = self._dirty | self.pending()
@@ -295,16 +293,15 @@ class InboxTracker:
         ready = []
         for k in sorted(check):
             names = sorted(self._members.get(k, ()))
+            if not names:
+                self._members.pop(k, None)
+                self._tracks.pop(k, None)
+                continue
             paths = tuple(self.inbox / n for n in names)
             try:
-                sig = signature(paths, self.inbox) if paths else ()
+                sig = signature(paths, self.inbox)
             except OSError:  # a member vanished or changed type under us: look again
                 self._dirty.add(k)
-                continue
-            if not sig and not any(p.is_dir() for p in paths):
-                self._tracks.pop(k, None)
-                if not paths:
-                    self._members.pop(k, None)
                 continue
             track = self._tracks.get(k)
             if track is None:
@@ -375,7 +372,7 @@ def ready_batches(
     once: bool = False,
     incomplete_timeout: float = INCOMPLETE_TIMEOUT_S,
     yield_on_timeout: bool = False,
-) -> Iterator[list[ReadyArchive]]:
+) -> Generator[list[ReadyArchive], None, None]:
     """Batches of archives of ``inbox`` that became ready (see the module doc).
 
     ``poll``: rescan every ``poll`` seconds instead of using file events. ``exclude``:

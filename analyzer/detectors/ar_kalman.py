@@ -50,6 +50,10 @@ RELATIVE_CONSISTENCY = 0.25
 this fraction as inconsistent as the typical other estimator: a change that inflates
 every estimator alike (a burst of excitation) must not mask a sensor fault."""
 
+MAX_CHANNELS = 64
+"""A bank of m estimators with p m states each costs O(m^3 p^2) per sample: beyond this,
+the user should choose the sensors to analyze."""
+
 CV_FOLDS = 5
 """Folds of the cross-validation that gives out-of-sample training residuals."""
 
@@ -141,6 +145,11 @@ class ARKalmanBank:
     def applicable(self, data: Dataset, context: RunContext) -> str | None:
         if len(data.channels) < 2:
             return "needs at least 2 channels (each estimator of the bank leaves one out)"
+        if len(data.channels) > MAX_CHANNELS:
+            return (
+                f"{len(data.channels)} channels are too many for one bank (at most "
+                f"{MAX_CHANNELS}): select the sensors with --channels"
+            )
         return None
 
     # -- fitting ---------------------------------------------------------------------------

@@ -52,6 +52,15 @@ class ARModel:
         return np.clip(1.0 - np.diag(self.sigma), 0.0, 1.0)
 
 
+def flat_channels(Y: FloatArray) -> npt.NDArray[np.bool_]:
+    """Columns of ``Y`` that do not vary: empty, or a spread below 1e-9 of their level
+    (a constant written through float arithmetic keeps a rounding-noise spread)."""
+    with np.errstate(all="ignore"):
+        std = np.nanstd(Y, axis=0)
+        level = np.nanmax(np.abs(Y), axis=0)
+        return np.asarray(~(std > 1e-9 * np.where(np.isfinite(level), level, 0.0) + 1e-300))
+
+
 def required_samples(order: int, m: int) -> int:
     """Training samples needed for an order-``order`` AR model of ``m`` channels: the
     paper asks ``n >= p + m - 1`` and recommends 2-3 times that (Section 2.3); least
@@ -80,7 +89,7 @@ def fit_ar(Y: FloatArray, order: int) -> ARModel:
         raise DetectorError(f"AR order must be at least 1, got {order}")
     mean = np.nanmean(Y, axis=0)
     scale = np.nanstd(Y, axis=0)
-    bad = [j for j in range(m) if not np.isfinite(scale[j]) or scale[j] <= 0.0]
+    bad = [int(j) for j in np.flatnonzero(flat_channels(Y))]
     if bad:
         raise DetectorError(
             f"channel(s) {bad} are constant or empty in the training window: an AR model "

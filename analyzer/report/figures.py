@@ -23,9 +23,9 @@ from analyzer.report.svg import label, new_figure, style, to_svg
 
 FloatArray = npt.NDArray[np.float64]
 
-MAX_POINTS = 1500
+MAX_POINTS = 1000
 """Envelope bins per plotted series (a browser draws this many instantly)."""
-PROB_POINTS = 400
+PROB_POINTS = 200
 """Quantiles shown in a normal probability plot."""
 WIDTH_IN = 9.0
 
@@ -69,8 +69,9 @@ def _plot_series(
     env = envelope(t, y, MAX_POINTS)
     x = env.t / axis.scale
     if env.decimated:
-        ax.fill_between(x, env.lo, env.hi, color=color, alpha=0.55, lw=0.0, label=label(name))
-        ax.plot(x, 0.5 * (env.lo + env.hi), color=color, lw=0.4, alpha=0.9)
+        # the outline keeps a flat stretch (lo == hi, e.g. a stuck sensor) visible
+        ax.fill_between(x, env.lo, env.hi, facecolor=color, edgecolor=color, alpha=0.7,
+                        lw=0.4, label=label(name))
     else:
         ax.plot(x, env.lo, color=color, lw=lw, label=label(name))
 
@@ -277,13 +278,12 @@ def _shewhart(ax: Axes, seg: Segment) -> None:
     k = float(sh.get("k") or 3.0)
     sec = TimeAxis("s", 1.0)
     _plot_series(ax, seg.t, seg.z, sec, C_MEASURED, "z", lw=0.5)
-    out = np.abs(seg.z) > k
-    idx = np.flatnonzero(out)
-    if idx.size:
-        idx = idx[:: max(1, idx.size // MAX_POINTS)]
-        ax.plot(seg.t[idx], seg.z[idx], ".", ms=2.5, color=C_BAND)
     for s in (-k, k):
         ax.axhline(s, color=C_BAND, lw=0.9, ls="--")
+    top = max(k + 1.0, float(np.nanmax(np.abs(seg.z))) * 1.05) if np.isfinite(seg.z).any() else k + 1
+    ax.axhspan(k, top, color=C_BAND, alpha=0.08, lw=0)
+    ax.axhspan(-top, -k, color=C_BAND, alpha=0.08, lw=0)
+    ax.set_ylim(-top, top)
     ax.axhline(0.0, color="#555555", lw=0.6)
     count, n = sh.get("count"), sh.get("n")
     sub = f"{count} of {n} beyond ±{k:g}" if count is not None and n else ""

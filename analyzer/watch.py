@@ -1,0 +1,553 @@
+"""``analyzer watch INBOX --out REPORTS``: analyze every archive that lands in a folder.
+
+Monitoring systems and robots drop archives into INBOX (an SHM file per hour, a bag per
+mission); the watcher analyzes each once it is complete and keeps an index of verdicts.
+
+What is an archive, and when is it ready
+    Every entry of INBOX: a file, a ROS 2 bag directory (one archive, not many files) or a
+    directory of files forming one archive; with ``--group-by REGEX`` the entries whose
+    names give the same value for the regex's first group are one archive named by that
+    value (``(\\d{8}T\\d{2})``: one archive per hour), analyzed as a multi-file input. Hidden
+    and temporary names (``.x``, ``x.tmp``, ``x.part``, ``x~``, ``x.active``) are ignored.
+    An archive is ready when its files' sizes and mtimes have not changed for ``--settle``
+    seconds and it is structurally complete where the format allows: MCAP magic at both
+    ends, a ROS 1 bag with its index, a ROS 2 bag directory with its ``metadata.yaml``
+    (see :mod:`analyzer.watch_inbox`). Changes are seen through file-system events
+    (inotify and the like, via ``watchdog``), or by polling every ``--poll`` seconds,
+    which is also the fallback where events are unavailable (some network file systems:
+    there, pass ``--poll``).
+
+Exactly once
+    ``REPORTS/.watch-state.json`` records the sha256 of each archive's content (of the
+    file, of every file of a directory, of the members of a group) and its result. A
+    restarted watcher skips what it has done, and analyzes again an archive whose content
+    changed. The result of an archive that changed while it was analyzed is discarded;
+    it is analyzed again once it has settled. Options (``--train``, ``--config``...) are
+    not part of the record: changing them does not re-analyze archives already done.
+
+One watcher per REPORTS
+    ``REPORTS/.lock`` is ``flock``-ed for the watcher's lifetime. A second watcher on the
+    same REPORTS does not wait: it exits at once with code 2 and a one-line error.
+
+Outputs
+    ``REPORTS/<archive>/report.html`` and ``findings.json`` (as ``analyzer run``), or
+    ``REPORTS/<archive>/error.txt`` for an archive that cannot be analyzed (corrupt,
+    unreadable, too short...); each folder is written under a temporary name and renamed
+    into place, so no half-written report folder is ever visible. ``REPORTS/index.html``
+    and ``REPORTS/index.json`` list every archive (verdict ``fault``, ``no fault`` or
+    ``error``, faulty sensors, link to the report), newest first.
+
+Inputs
+    Archives are only read, never modified. ``--done DIR`` moves each analyzed archive
+    (fault or no fault) to DIR after its report is written, ``--failed DIR`` each archive
+    that could not be analyzed; an archive dropped again with the same content is moved
+    without being analyzed again. A name taken in DIR gets a ``-1``, ``-2``... suffix.
+
+Running
+    ``--jobs N`` analyses run at a time (default: one per core), each in its own process
+    (forked from a preloaded server: a crash or a runaway archive cannot take the watcher
+    down). One log line per archive on stderr when it starts and when it ends (verdict and
+    duration). The options of ``run`` apply to every archive. ``--once`` processes what is
+    in INBOX (waiting for it to be complete) and exits.
+
+Stopping
+    SIGINT or SIGTERM: no new analysis starts; the running ones finish and are recorded,
+    then the watcher exits with code 0. A second signal abandons the running analyses
+    (their processes are killed, their scratch folders removed, nothing recorded: they
+    are analyzed on the next start). Analysis processes ignore SIGINT, so Ctrl-C in a
+    terminal behaves the same; under systemd use ``KillMode=mixed`` so that SIGTERM
+    reaches only the watcher.
+
+Exit codes: 0 after a clean shutdown (or ``--once`` completed), 2 on a usage error
+(INBOX missing, REPORTS locked by another watcher, bad ``--group-by``...).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import hashlib
+import json
+import logging
+import multiprocessing
+import os
+import re
+import shutil
+import signal
+import sys
+import tempfile
+import threading
+import time
+import traceback
+from dataclasses import dataclass, replace
+from multiprocessing.connection import wait as wait_for
+from multiprocessing.context import ForkServerContext, SpawnContext
+from multiprocessing.process import BaseProcess
+from pathlib import Path
+from types import FrameType
+
+from analyzer.errors import AnalyzerError, UsageError
+from analyzer.pipeline import RunOptions, analyze, sha256_of, write_atomic, write_outputs
+from analyzer.readers._common import one_line
+from analyzer.watch_inbox import (
+    INCOMPLETE_TIMEOUT_S,
+    ReadyArchive,
+    ready_batches,
+    signature,
+)
+from analyzer.watch_index import (
+    Ledger,
+    Record,
+    ReportsLock,
+    Verdict,
+    now_iso,
+    publish,
+    report_dirname,
+    scratch_dir,
+)
+
+log = logging.getLogger("analyzer.watch")
+
+TICK_S = 0.1
+"""How often the loop wakes up while it waits for analyses to end."""
+KILL_GRACE_S = 2.0
+"""When abandoning, how long an analysis process gets after SIGTERM before SIGKILL."""
+
+
+@dataclass(frozen=True, slots=True)
+class WatchSettings:
+    """The watcher's own options (the analysis options are a :class:`RunOptions`)."""
+
+    inbox: Path
+    reports: Path
+    settle: float = 2.0
+    poll: float | None = None
+    done: Path | None = None
+    failed: Path | None = None
+    group_by: re.Pattern[str] | None = None
+    once: bool = False
+    jobs: int = 1
+    incomplete_timeout: float = INCOMPLETE_TIMEOUT_S
+
+    @classmethod
+    def from_args(cls, args: argparse.Namespace) -> WatchSettings:
+        group_by = None
+        if args.group_by:
+            try:
+                group_by = re.compile(args.group_by)
+            except re.error as err:
+                raise UsageError(
+                    f"--group-by: {args.group_by!r} is not a regular expression ({err})"
+                ) from None
+            if group_by.groups < 1:
+                raise UsageError(
+                    f"--group-by: {args.group_by!r} has no group; put the part of the name "
+                    r"that identifies the archive in parentheses, e.g. '(\d{8}T\d{2})'"
+                )
+        return cls(
+            inbox=Path(args.inbox),
+            reports=Path(args.out),
+            settle=args.settle,
+            poll=args.poll,
+            done=Path(args.done) if args.done else None,
+            failed=Path(args.failed) if args.failed else None,
+            group_by=group_by,
+            once=bool(args.once),
+            jobs=args.jobs or os.cpu_count() or 1,
+        )
+
+
+def _prepare(settings: WatchSettings) -> set[str]:
+    """Check the folders, create the output ones; return the INBOX entries that are
+    output folders (never archives)."""
+    inbox = settings.inbox
+    if not inbox.is_dir():
+        raise UsageError(f"INBOX: {inbox} is not a directory")
+    root = inbox.resolve()
+    exclude: set[str] = set()
+    for option, folder in (
+        ("--out", settings.reports),
+        ("--done", settings.done),
+        ("--failed", settings.failed),
+    ):
+        if folder is None:
+            continue
+        if folder.exists() and not folder.is_dir():
+            raise UsageError(f"{option}: {folder} exists and is not a directory")
+        if folder.resolve() == root:
+            raise UsageError(f"{option}: {folder} is INBOX itself; use another folder")
+        folder.mkdir(parents=True, exist_ok=True)
+        resolved = folder.resolve()
+        if resolved.is_relative_to(root):
+            exclude.add(resolved.relative_to(root).parts[0])
+    return exclude
+
+
+# --------------------------------------------------------------------------- analysis process
+
+
+def _analyze_into(inputs: list[str], options: RunOptions, out: str) -> None:
+    """Body of an analysis process: the outputs of ``analyzer run`` into ``out``, or
+    ``out/error.txt``. Exit code 0/1 analyzed (no fault/fault), 2 input error, 3 bug."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is for the watcher to handle
+    out_dir = Path(out)
+    work = Path(tempfile.mkdtemp(prefix="analyzer-watch-"))
+    code = 3
+    try:
+        analysis = analyze(inputs, options, work)
+        write_outputs(analysis, out_dir)
+        code = 1 if analysis.faulty else 0
+    except AnalyzerError as err:
+        write_atomic(out_dir / "error.txt", one_line(err) + "\n")
+        code = 2
+    except Exception as err:  # noqa: BLE001 - recorded as this archive's error
+        text = f"internal error: {type(err).__name__}: {one_line(err)}"
+        write_atomic(out_dir / "error.txt", f"{text}\n\n{traceback.format_exc()}")
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    sys.exit(code)
+
+
+def _context() -> ForkServerContext | SpawnContext:
+    """Analyses run in processes forked from a server that has the pipeline imported
+    (fast to start, safe with the watcher's threads); ``spawn`` where there is none."""
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload(["analyzer.watch"])
+        return ctx
+    return multiprocessing.get_context("spawn")
+
+
+@dataclass(slots=True)
+class _Job:
+    archive: ReadyArchive
+    sha256: str
+    scratch: Path
+    process: BaseProcess
+    started: float
+
+
+def _free_name(folder: Path, name: str) -> Path:
+    """``folder/name``, or ``folder/stem-N.suffixes`` if that is taken."""
+    target = folder / name
+    stem, dot, suffixes = name.partition(".")
+    n = 1
+    while os.path.lexists(target):
+        target = folder / f"{stem}-{n}{dot}{suffixes}"
+        n += 1
+    return target
+
+
+class _Runner:
+    """The queue of ready archives and the analysis processes (at most ``jobs``)."""
+
+    def __init__(self, settings: WatchSettings, options: RunOptions, ledger: Ledger) -> None:
+        self.settings = settings
+        self.ledger = ledger
+        self.options = replace(
+            options, progress=None, jobs=1 if settings.jobs > 1 else options.jobs
+        )
+        self.queue: dict[str, ReadyArchive] = {}
+        self.running: dict[str, _Job] = {}
+        self.ctx = _context()
+
+    def offer(self, archive: ReadyArchive) -> None:
+        self.queue.pop(archive.name, None)  # the newest state of an archive wins
+        self.queue[archive.name] = archive
+
+    def busy(self) -> bool:
+        return bool(self.queue or self.running)
+
+    def pump(self, wait: float = 0.0, start: bool = True) -> None:
+        """Record the analyses that ended (waiting up to ``wait`` seconds for one), then
+        start queued ones while there are free slots."""
+        self._reap(wait)
+        while start and len(self.running) < self.settings.jobs:
+            name = next((n for n in self.queue if n not in self.running), None)
+            if name is None:
+                break
+            self._start(self.queue.pop(name))
+
+    # ------------------------------------------------------------------ start
+    def _digest(self, archive: ReadyArchive) -> str:
+        """sha256 of the archive's content; reused from the state when the archive has
+        the same (path, size, mtime) signature as when it was recorded."""
+        rec = self.ledger.get(archive.name)
+        if rec is not None and rec.signature == [list(s) for s in archive.signature]:
+            return rec.sha256
+        if len(archive.paths) == 1:
+            return sha256_of(archive.paths[0])
+        h = hashlib.sha256()
+        for path in archive.paths:
+            h.update(f"{path.name}\0{sha256_of(path)}\n".encode())
+        return h.hexdigest()
+
+    def _start(self, archive: ReadyArchive) -> None:
+        name = archive.name
+        try:
+            digest = self._digest(archive)
+        except OSError as err:
+            log.info("%s: gone before its analysis (%s)", name, one_line(err.strerror or err))
+            return
+        rec = self.ledger.get(name)
+        if rec is not None and rec.sha256 == digest:
+            log.info("%s: already analyzed (same content): %s", name, rec.verdict)
+            self._move(archive, rec)
+            return
+        if archive.incomplete:
+            log.warning(
+                "%s: analyzing although it still looks unfinished: %s", name, archive.incomplete
+            )
+        scratch = scratch_dir(self.settings.reports, name)
+        process = self.ctx.Process(
+            target=_analyze_into,
+            args=([str(p) for p in archive.paths], self.options, str(scratch)),
+            name=f"analyzer-watch {name}",
+            daemon=True,
+        )
+        process.start()
+        self.running[name] = _Job(archive, digest, scratch, process, time.monotonic())
+        size = sum(s[1] for s in archive.signature)
+        log.info(
+            "%s: start (%d input%s, %.1f MB)",
+            name,
+            len(archive.paths),
+            "" if len(archive.paths) == 1 else "s",
+            size / 1e6,
+        )
+
+    # ------------------------------------------------------------------ finish
+    def _reap(self, wait: float) -> None:
+        if not self.running:
+            if wait > 0:
+                time.sleep(wait)
+            return
+        jobs = {job.process.sentinel: job for job in self.running.values()}
+        ended = set(wait_for(list(jobs), timeout=wait))
+        for sentinel, job in jobs.items():
+            if sentinel in ended:
+                self._finish(job)
+
+    def _finish(self, job: _Job) -> None:
+        name = job.archive.name
+        job.process.join()
+        del self.running[name]
+        elapsed = time.monotonic() - job.started
+        try:
+            current = signature(job.archive.paths, self.settings.inbox)
+        except OSError:
+            current = None
+        if current != job.archive.signature:
+            shutil.rmtree(job.scratch, ignore_errors=True)
+            log.info(
+                "%s: changed or removed while it was analyzed; result discarded "
+                "(it is analyzed again once it has settled)",
+                name,
+            )
+            return
+        rec = self._result(job, elapsed)
+        publish(job.scratch, self.settings.reports, name)
+        self.ledger.record(rec)
+        if rec.verdict is Verdict.ERROR:
+            log.info("%s: error in %.1f s: %s", name, elapsed, rec.error)
+        elif rec.verdict is Verdict.FAULT:
+            log.info("%s: fault (%s) in %.1f s", name, ", ".join(rec.faulty_sensors), elapsed)
+        else:
+            log.info("%s: no fault in %.1f s", name, elapsed)
+        self._move(job.archive, rec)
+
+    def _result(self, job: _Job, elapsed: float) -> Record:
+        """The record of a finished analysis process, from what it left in its scratch
+        folder (which then holds the report, or only ``error.txt``)."""
+        dirname = report_dirname(job.archive.name)
+        code = job.process.exitcode
+        rec = Record(
+            name=job.archive.name,
+            sha256=job.sha256,
+            verdict=Verdict.ERROR,
+            report=f"{dirname}/error.txt",
+            inputs=[str(p) for p in job.archive.paths],
+            processed=now_iso(),
+            analysis_s=round(elapsed, 3),
+            signature=[list(s) for s in job.archive.signature],
+        )
+        findings = job.scratch / "findings.json"
+        error = job.scratch / "error.txt"
+        keep_error = False
+        if code in (0, 1) and findings.is_file():
+            try:
+                doc = json.loads(findings.read_text(encoding="utf-8"))
+                faults = doc["faults"]
+                rec.faulty_sensors = sorted({str(f["channel"]) for f in faults})
+                rec.faults = len(faults)
+                rec.start = doc.get("start")
+                rec.duration_s = doc.get("duration_s")
+                rec.verdict = Verdict.FAULT if faults else Verdict.NO_FAULT
+                rec.report = f"{dirname}/report.html"
+                return rec
+            except (OSError, ValueError, KeyError, TypeError) as err:
+                message = f"internal error: unreadable findings.json ({one_line(err)})"
+        elif code in (2, 3) and error.is_file():
+            message = error.read_text(encoding="utf-8").splitlines()[0]
+            keep_error = True
+        elif code is not None and code < 0:
+            message = f"analysis process killed by signal {-code}"
+            with contextlib.suppress(ValueError):
+                message = f"analysis process killed by {signal.Signals(-code).name}"
+        else:
+            message = f"analysis process exited with code {code}"
+        for leftover in job.scratch.iterdir():  # no partial report next to an error
+            if leftover.name != "error.txt" or not keep_error:
+                leftover.unlink()
+        if not keep_error:
+            write_atomic(error, message + "\n")
+        rec.error = message
+        return rec
+
+    def _move(self, archive: ReadyArchive, rec: Record) -> None:
+        """``--done`` / ``--failed``: move the archive's files out of INBOX."""
+        folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
+        if folder is None:
+            return
+        moved = []
+        for path in archive.paths:
+            target = _free_name(folder, path.name)
+            try:
+                shutil.move(path, target)
+            except OSError as err:
+                log.warning(
+                    "%s: cannot move %s to %s: %s",
+                    archive.name,
+                    path,
+                    folder,
+                    one_line(err.strerror or err),
+                )
+                continue
+            moved.append(str(target))
+        if moved:
+            rec.moved_to = moved
+            self.ledger.record(rec)
+            log.info("%s: moved to %s", archive.name, folder)
+
+    # ------------------------------------------------------------------ stop
+    def abandon_all(self) -> None:
+        """Kill the running analyses and remove their scratch folders; nothing is
+        recorded, so they are analyzed on the next start."""
+        for job in self.running.values():
+            job.process.terminate()
+        for name, job in self.running.items():
+            job.process.join(KILL_GRACE_S)
+            if job.process.is_alive():
+                job.process.kill()
+                job.process.join()
+            shutil.rmtree(job.scratch, ignore_errors=True)
+            log.info("%s: abandoned; it will be analyzed on the next start", name)
+        self.running.clear()
+
+
+# --------------------------------------------------------------------------- the loop
+
+
+def watch(
+    settings: WatchSettings,
+    options: RunOptions,
+    *,
+    stop: threading.Event | None = None,
+    abandon: threading.Event | None = None,
+) -> int:
+    """Watch ``settings.inbox`` until ``stop`` is set (or, with ``once``, until what was
+    there is done). After ``stop``, running analyses finish unless ``abandon`` is set.
+    Returns 0; raises :class:`UsageError` for bad folders or a REPORTS folder locked by
+    another watcher."""
+    stop = stop or threading.Event()
+    abandon = abandon or threading.Event()
+    exclude = _prepare(settings)
+    with ReportsLock(settings.reports):
+        ledger = Ledger.load(settings.reports)
+        for name in ledger.tidy():
+            log.info("%s: its report folder is gone; it will be analyzed again", name)
+        ledger.save()
+        runner = _Runner(settings, options, ledger)
+        how = f"polling every {settings.poll:g} s" if settings.poll else "file events"
+        log.info(
+            "watching %s (%s, settle %g s); reports in %s; %d analysis process%s",
+            settings.inbox,
+            how,
+            settings.settle,
+            settings.reports,
+            settings.jobs,
+            "" if settings.jobs == 1 else "es",
+        )
+        batches = ready_batches(
+            settings.inbox,
+            settle=settings.settle,
+            poll=settings.poll,
+            group_by=settings.group_by,
+            exclude=exclude,
+            stop=stop,
+            once=settings.once,
+            incomplete_timeout=settings.incomplete_timeout,
+            yield_on_timeout=True,
+        )
+        try:
+            with contextlib.closing(batches):
+                for batch in batches:
+                    for archive in batch:
+                        runner.offer(archive)
+                    runner.pump()
+            while settings.once and runner.busy() and not stop.is_set():
+                runner.pump(wait=TICK_S)
+            if runner.running and not abandon.is_set():
+                log.info(
+                    "stopping: waiting for %d running analysis(es) to finish "
+                    "(signal again to abandon them)",
+                    len(runner.running),
+                )
+                while runner.running and not abandon.is_set():
+                    runner.pump(wait=TICK_S, start=False)
+        finally:
+            runner.abandon_all()
+            if runner.queue:
+                log.info(
+                    "%d ready archive(s) not started; they are analyzed on the next start",
+                    len(runner.queue),
+                )
+        log.info("stopped")
+    return 0
+
+
+class _StderrFormatter(logging.Formatter):
+    def formatTime(self, record: logging.LogRecord, datefmt: str | None = None) -> str:  # noqa: N802
+        return time.strftime("%Y-%m-%dT%H:%M:%S", time.localtime(record.created))
+
+
+def watch_main(args: argparse.Namespace, options: RunOptions) -> int:
+    """``analyzer watch``: :func:`watch` with log lines on stderr, and SIGINT/SIGTERM
+    handled as described in the module doc."""
+    settings = WatchSettings.from_args(args)
+    stop, abandon = threading.Event(), threading.Event()
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        (abandon if stop.is_set() else stop).set()
+
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_StderrFormatter("%(asctime)s analyzer watch: %(message)s"))
+    log.addHandler(handler)
+    level, propagate = log.level, log.propagate
+    log.setLevel(logging.INFO)
+    log.propagate = False
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            previous[signum] = signal.signal(signum, on_signal)
+    try:
+        return watch(settings, options, stop=stop, abandon=abandon)
+    finally:
+        for signum, old in previous.items():
+            signal.signal(signum, old)
+        log.removeHandler(handler)
+        log.setLevel(level)
+        log.propagate = propagate
+
+
+__all__ = ["WatchSettings", "watch", "watch_main"]

@@ -1,0 +1,335 @@
+"""What ``analyzer watch`` keeps in REPORTS: the lock, the state file and the index.
+
+* ``REPORTS/.lock``: ``fcntl.flock``-ed for the watcher's lifetime; it holds the pid of the
+  watcher for the error message a second watcher prints (the lock itself, not the pid,
+  is what counts, so a stale pid after a crash is harmless).
+* ``REPORTS/.watch-state.json``: one record per archive name: the sha256 of its content,
+  the (path, size, mtime) signature it had, and the result. Written atomically after
+  every archive; this is what makes the watcher process each content once across
+  restarts.
+* ``REPORTS/index.json`` and ``REPORTS/index.html``: every archive with its verdict,
+  faulty sensors and a link to its report (or error), newest first. Views of the state,
+  rewritten (atomically) with it.
+* ``REPORTS/<archive>/``: ``report.html`` + ``findings.json``, or ``error.txt``. Written
+  into a hidden temporary directory that is renamed into place (:func:`publish`).
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import shutil
+import time
+import uuid
+from dataclasses import asdict, dataclass, field
+from enum import StrEnum
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+from urllib.parse import quote
+
+from analyzer import __version__
+from analyzer.errors import UsageError
+from analyzer.pipeline import write_atomic
+from analyzer.timeutil import iso_utc
+
+STATE_SCHEMA = "analyzer.watch-state/1"
+INDEX_SCHEMA = "analyzer.watch-index/1"
+STATE_FILE = ".watch-state.json"
+LOCK_FILE = ".lock"
+TMP_PREFIX = ".tmp-"
+OLD_PREFIX = ".old-"
+RESERVED = frozenset({"index.html", "index.json"})
+
+
+class Verdict(StrEnum):
+    """The verdict of one archive in the index."""
+
+    FAULT = "fault"
+    NO_FAULT = "no fault"
+    ERROR = "error"
+
+
+@dataclass(slots=True)
+class Record:
+    """One archive's line in the state file and in ``index.json``."""
+
+    name: str
+    sha256: str
+    verdict: Verdict
+    report: str
+    """Link to the report (or error.txt), relative to REPORTS."""
+    inputs: list[str]
+    processed: str
+    """When the analysis finished, ISO-8601 UTC."""
+    analysis_s: float
+    faulty_sensors: list[str] = field(default_factory=list)
+    faults: int = 0
+    error: str | None = None
+    start: str | None = None
+    """First sample of the data, ISO-8601 UTC, where the archive has absolute times."""
+    duration_s: float | None = None
+    signature: list[list[Any]] = field(default_factory=list)
+    moved_to: list[str] = field(default_factory=list)
+
+    def as_json(self) -> dict[str, Any]:
+        doc = asdict(self)
+        doc["verdict"] = str(self.verdict)
+        return doc
+
+    @classmethod
+    def from_json(cls, doc: dict[str, Any]) -> Record:
+        doc = dict(doc)
+        doc["verdict"] = Verdict(doc["verdict"])
+        return cls(**doc)
+
+
+def report_dirname(name: str) -> str:
+    """The folder of REPORTS that holds an archive's report: its name, unless that
+    would collide with the index or be hidden."""
+    return f"_{name}" if name in RESERVED or name.startswith(".") else name
+
+
+def now_iso() -> str:
+    return iso_utc(time.time_ns()) or ""
+
+
+# --------------------------------------------------------------------------- lock
+
+
+class ReportsLock:
+    """``flock`` on ``REPORTS/.lock`` while the watcher runs. A second watcher on the same
+    REPORTS does not wait: :meth:`acquire` raises :class:`UsageError` (exit code 2)."""
+
+    def __init__(self, reports: Path) -> None:
+        self.path = reports / LOCK_FILE
+        self._fd: int | None = None
+
+    def acquire(self) -> None:
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise UsageError(
+                f"--out: {self.path.parent} is in use by another watcher (pid {holder}); "
+                "only one watcher may write a REPORTS folder"
+            ) from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        self._fd = fd
+
+    def release(self) -> None:
+        if self._fd is not None:
+            fcntl.flock(self._fd, fcntl.LOCK_UN)
+            os.close(self._fd)
+            self._fd = None
+
+    def __enter__(self) -> ReportsLock:
+        self.acquire()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.release()
+
+
+# --------------------------------------------------------------------------- report dirs
+
+
+def scratch_dir(reports: Path, name: str) -> Path:
+    """A new hidden folder of REPORTS to write an archive's outputs into."""
+    path = reports / f"{TMP_PREFIX}{report_dirname(name)}-{uuid.uuid4().hex[:8]}"
+    path.mkdir()
+    return path
+
+
+def publish(scratch: Path, reports: Path, name: str) -> Path:
+    """Rename ``scratch`` to ``REPORTS/<name>``, replacing an older report of the same
+    archive. Readers see the old folder or the new one, never a half-written one."""
+    final = reports / report_dirname(name)
+    old = None
+    if final.exists():
+        old = reports / f"{OLD_PREFIX}{final.name}-{uuid.uuid4().hex[:8]}"
+        os.replace(final, old)
+    os.replace(scratch, final)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+    return final
+
+
+# --------------------------------------------------------------------------- state + index
+
+
+class Ledger:
+    """The state file and the index of one REPORTS folder (the caller holds the lock)."""
+
+    def __init__(self, reports: Path) -> None:
+        self.reports = reports
+        self.path = reports / STATE_FILE
+        self.records: dict[str, Record] = {}
+
+    @classmethod
+    def load(cls, reports: Path) -> Ledger:
+        """Read the state; a state file that cannot be read is an error (exit 2) rather
+        than a silent restart that would analyze everything again."""
+        ledger = cls(reports)
+        if not ledger.path.exists():
+            return ledger
+        try:
+            doc = json.loads(ledger.path.read_text(encoding="utf-8"))
+            if doc.get("schema") != STATE_SCHEMA:
+                raise ValueError(f"schema {doc.get('schema')!r}, expected {STATE_SCHEMA!r}")
+            ledger.records = {name: Record.from_json(rec) for name, rec in doc["archives"].items()}
+        except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
+            raise UsageError(
+                f"{ledger.path}: unreadable watcher state ({err}); move it away to start "
+                "afresh (every archive in INBOX will then be analyzed again)"
+            ) from err
+        return ledger
+
+    def tidy(self) -> list[str]:
+        """Remove what an interrupted watcher left (scratch and replaced folders) and
+        forget archives whose report folder is gone, so that they are analyzed again.
+        Returns the names forgotten."""
+        for entry in self.reports.iterdir():
+            if entry.is_dir() and entry.name.startswith((TMP_PREFIX, OLD_PREFIX)):
+                shutil.rmtree(entry, ignore_errors=True)
+        gone = [name for name in self.records if not (self.reports / report_dirname(name)).is_dir()]
+        for name in gone:
+            del self.records[name]
+        if gone:
+            self.save()
+        return gone
+
+    def get(self, name: str) -> Record | None:
+        return self.records.get(name)
+
+    def record(self, rec: Record) -> None:
+        self.records[rec.name] = rec
+        self.save()
+
+    def newest_first(self) -> list[Record]:
+        return sorted(self.records.values(), key=lambda r: (r.processed, r.name), reverse=True)
+
+    def save(self) -> None:
+        """The state file, then ``index.json`` and ``index.html`` (each atomically)."""
+        state = {
+            "schema": STATE_SCHEMA,
+            "analyzer_version": __version__,
+            "archives": {name: rec.as_json() for name, rec in sorted(self.records.items())},
+        }
+        write_atomic(self.path, json.dumps(state, indent=1) + "\n")
+        index = self.index_document()
+        write_atomic(self.reports / "index.json", json.dumps(index, indent=2) + "\n")
+        write_atomic(self.reports / "index.html", render_index(index))
+
+    def index_document(self) -> dict[str, Any]:
+        rows = []
+        for rec in self.newest_first():
+            doc = rec.as_json()
+            del doc["signature"]
+            rows.append(doc)
+        counts = {str(v): sum(r["verdict"] == v for r in rows) for v in Verdict}
+        return {
+            "schema": INDEX_SCHEMA,
+            "analyzer_version": __version__,
+            "updated": now_iso(),
+            "counts": counts,
+            "archives": rows,
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class IndexRow:
+    """One archive in ``index.html``: display strings only."""
+
+    name: str
+    href: str
+    verdict: str
+    css: str
+    sensors: str
+    start: str
+    duration: str
+    processed: str
+    details: str
+    is_error: bool
+
+
+@dataclass(frozen=True, slots=True)
+class IndexView:
+    """What ``index.html`` shows (``title`` and ``version`` are the names ``base.html``
+    expects of every page)."""
+
+    title: str
+    version: str
+    summary: str
+    updated: str
+    rows: list[IndexRow]
+
+
+def index_view(index: dict[str, Any]) -> IndexView:
+    """The display strings of ``index.html`` from the ``index.json`` document."""
+    rows = []
+    for r in index["archives"]:
+        verdict = str(r["verdict"])
+        details = r["error"] or "report"
+        if r["moved_to"]:
+            details += f"; moved to {', '.join(r['moved_to'])}"
+        duration = r["duration_s"]
+        rows.append(
+            IndexRow(
+                name=r["name"],
+                href="/".join(quote(part) for part in str(r["report"]).split("/")),
+                verdict=verdict,
+                css={"fault": "faulty", "no fault": "healthy"}.get(verdict, "error"),
+                sensors=", ".join(r["faulty_sensors"]) or "none",
+                start=r["start"] or "n/a",
+                duration="n/a" if duration is None else f"{float(duration):.1f} s",
+                processed=r["processed"],
+                details=details,
+                is_error=verdict == Verdict.ERROR,
+            )
+        )
+    counts = index["counts"]
+    summary = (
+        f"{len(rows)} archive{'' if len(rows) == 1 else 's'}: "
+        f"{counts['fault']} with a sensor fault, {counts['no fault']} without, "
+        f"{counts['error']} that could not be analyzed."
+    )
+    return IndexView(
+        title="Sensor fault audit: archives",
+        version=str(index["analyzer_version"]),
+        summary=summary,
+        updated=str(index["updated"]),
+        rows=rows,
+    )
+
+
+def render_index(index: dict[str, Any]) -> str:
+    """``index.html`` from the ``index.json`` document."""
+    from analyzer.report import environment
+
+    return environment().get_template("index.html").render(report=index_view(index))
+
+
+__all__ = [
+    "IndexRow",
+    "IndexView",
+    "Ledger",
+    "Record",
+    "ReportsLock",
+    "Verdict",
+    "now_iso",
+    "publish",
+    "index_view",
+    "render_index",
+    "report_dirname",
+    "scratch_dir",
+]
