@@ -314,7 +314,12 @@ class InboxTracker:
                 track.checked = sig
                 try:
                     track.reason = next(
-                        (f"{p.name}: {r}" for p in paths if (r := incomplete_reason(p))), None
+                        (
+                            r if p.name == k else f"{p.name}: {r}"
+                            for p in paths
+                            if (r := incomplete_reason(p))
+                        ),
+                        None,
                     )
                 except OSError as err:
                     self._dirty.add(k)
@@ -391,7 +396,7 @@ def ready_batches(
             observer = _start_observer(inbox, sink)
         except Exception as err:  # noqa: BLE001 - any failure means "no events here"
             poll = FALLBACK_POLL_S
-            log.warning("file events unavailable (%s); polling every %.1f s", err, poll)
+            log.warning("file events unavailable (%s); polling every %g s", err, poll)
     interval = poll if poll is not None else RESCAN_S
     try:
         tracker.rescan()

@@ -22,7 +22,7 @@ import os
 import shutil
 import time
 import uuid
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from enum import StrEnum
 from pathlib import Path
 from types import TracebackType
@@ -80,7 +80,8 @@ class Record:
 
     @classmethod
     def from_json(cls, doc: dict[str, Any]) -> Record:
-        doc = dict(doc)
+        known = {f.name for f in fields(cls)}
+        doc = {k: v for k, v in doc.items() if k in known}  # fields of later versions
         doc["verdict"] = Verdict(doc["verdict"])
         return cls(**doc)
 
@@ -198,9 +199,12 @@ class Ledger:
         """Remove what an interrupted watcher left (scratch and replaced folders) and
         forget archives whose report folder is gone, so that they are analyzed again.
         Returns the names forgotten."""
+        own_temp = tuple(f".{name}." for name in (STATE_FILE, "index.json", "index.html"))
         for entry in self.reports.iterdir():
             if entry.is_dir() and entry.name.startswith((TMP_PREFIX, OLD_PREFIX)):
                 shutil.rmtree(entry, ignore_errors=True)
+            elif entry.is_file() and entry.name.startswith(own_temp):
+                entry.unlink()  # a write_atomic interrupted by a crash
         gone = [name for name in self.records if not (self.reports / report_dirname(name)).is_dir()]
         for name in gone:
             del self.records[name]
@@ -254,6 +258,7 @@ class IndexRow:
     href: str
     verdict: str
     css: str
+    """Classes of report.css: ``reject`` (red), ``pass`` (green), ``tag type`` (amber)."""
     sensors: str
     start: str
     duration: str
@@ -288,7 +293,7 @@ def index_view(index: dict[str, Any]) -> IndexView:
                 name=r["name"],
                 href="/".join(quote(part) for part in str(r["report"]).split("/")),
                 verdict=verdict,
-                css={"fault": "faulty", "no fault": "healthy"}.get(verdict, "error"),
+                css={"fault": "reject", "no fault": "pass"}.get(verdict, "tag type"),
                 sensors=", ".join(r["faulty_sensors"]) or "none",
                 start=r["start"] or "n/a",
                 duration="n/a" if duration is None else f"{float(duration):.1f} s",

@@ -14,7 +14,7 @@ from typing import Any
 
 from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 
-from analyzer.report.envelope import Envelope, envelope
+from analyzer.report.decimate import Envelope, envelope
 from analyzer.report.view import MAX_DETAILED, ReportView, build_view
 
 _env: Environment | None = None

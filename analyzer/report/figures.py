@@ -1,6 +1,6 @@
 """The report's figures, drawn from arrays the view layer slices out of the analysis.
 
-Every series goes through :func:`analyzer.report.envelope.envelope` first, so a figure
+Every series goes through :func:`analyzer.report.decimate.envelope` first, so a figure
 holds at most a few thousand points whatever the archive's length. Conventions follow
 the seed papers' figures: the identified onset is a vertical line (red, dashed), the end
 another (purple, dash-dot); the healthy training window is shaded green.
@@ -10,16 +10,17 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
 from markupsafe import Markup
 from matplotlib.axes import Axes
+from matplotlib.patches import Patch
 from scipy import stats as sps
 
-from analyzer.report.envelope import envelope, moving_mean
-from analyzer.report.svg import label, new_figure, style, to_svg
+from analyzer.report.decimate import envelope, moving_mean
+from analyzer.report.svg import grid, label, new_figure, style, to_svg
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -27,6 +28,8 @@ MAX_POINTS = 1000
 """Envelope bins per plotted series (a browser draws this many instantly)."""
 PROB_POINTS = 200
 """Quantiles shown in a normal probability plot."""
+MIN_MARK = 0.003
+"""Narrowest gap or fault mark in the coverage timeline, as a fraction of the record."""
 WIDTH_IN = 9.0
 
 C_MEASURED = "#1f4e79"
@@ -70,8 +73,16 @@ def _plot_series(
     x = env.t / axis.scale
     if env.decimated:
         # the outline keeps a flat stretch (lo == hi, e.g. a stuck sensor) visible
-        ax.fill_between(x, env.lo, env.hi, facecolor=color, edgecolor=color, alpha=0.7,
-                        lw=0.4, label=label(name))
+        ax.fill_between(
+            x,
+            env.lo,
+            env.hi,
+            facecolor=color,
+            edgecolor=color,
+            alpha=0.7,
+            lw=0.4,
+            label=label(name),
+        )
     else:
         ax.plot(x, env.lo, color=color, lw=lw, label=label(name))
 
@@ -82,10 +93,26 @@ def _mark_onset(ax: Axes, onset_s: float, end_s: float | None, axis: TimeAxis) -
         ax.axvline(end_s / axis.scale, color=C_END, ls="-.", lw=1.2, label="end")
 
 
-def _legend(ax: Axes, **kw: Any) -> None:
-    handles, labels = ax.get_legend_handles_labels()
-    if handles:
-        ax.legend(loc=kw.pop("loc", "upper left"), framealpha=0.85, ncols=kw.pop("ncols", 4), **kw)
+def _legend(
+    ax: Axes, ncols: int = 5, inside: Literal["upper left", "upper right"] | None = None
+) -> None:
+    """Legend above the axes, right-aligned (titles are left-aligned), so it never hides
+    data; or ``inside`` at that location for the small test panels."""
+    handles, _ = ax.get_legend_handles_labels()
+    if not handles:
+        return
+    if inside is not None:
+        ax.legend(loc=inside, framealpha=0.85, ncols=1)
+    else:
+        ax.legend(
+            loc="lower right",
+            bbox_to_anchor=(1.0, 1.0),
+            ncols=ncols,
+            frameon=False,
+            borderaxespad=0.1,
+            columnspacing=1.2,
+            handlelength=1.6,
+        )
 
 
 # -- archive overview -------------------------------------------------------------------
@@ -113,26 +140,45 @@ def coverage_figure(
     with style():
         fig = new_figure(WIDTH_IN, 0.9 + 0.24 * max(n, 1))
         ax = fig.add_subplot()
-        ax.axvspan(train[0] / axis.scale, train[1] / axis.scale, color=C_TRAIN, alpha=0.15,
-                   lw=0, label="training window")
+        ax.axvspan(
+            train[0] / axis.scale,
+            train[1] / axis.scale,
+            color=C_TRAIN,
+            alpha=0.15,
+            lw=0,
+            label="training window",
+        )
+        min_w = MIN_MARK * max(duration_s, 1e-9)  # a one-sample gap must still show
         for i, r in enumerate(rows):
             y = n - 1 - i
             color = C_COVER if r.analyzed else "#b0b0b0"
-            ax.broken_barh([(r.start_s / axis.scale, (r.end_s - r.start_s) / axis.scale)],
-                           (y - 0.32, 0.64), color=color, lw=0)
+            ax.broken_barh(
+                [(r.start_s / axis.scale, (r.end_s - r.start_s) / axis.scale)],
+                (y - 0.32, 0.64),
+                color=color,
+                lw=0,
+            )
             if r.gaps:
-                ax.broken_barh([(a / axis.scale, max(b - a, 0.0) / axis.scale) for a, b in r.gaps],
-                               (y - 0.4, 0.8), color=C_GAP, lw=0)
+                ax.broken_barh(
+                    [(a / axis.scale, max(b - a, min_w) / axis.scale) for a, b in r.gaps],
+                    (y - 0.4, 0.8),
+                    color=C_GAP,
+                    lw=0,
+                )
             if r.faults:
-                ax.broken_barh([(a / axis.scale, max(b - a, 0.0) / axis.scale)
-                                for a, b in r.faults], (y - 0.18, 0.36), color=C_FAULT, lw=0)
+                ax.broken_barh(
+                    [(a / axis.scale, max(b - a, min_w) / axis.scale) for a, b in r.faults],
+                    (y - 0.18, 0.36),
+                    color=C_FAULT,
+                    lw=0,
+                )
         ax.set_yticks(range(n), [label(r.name) for r in reversed(rows)])
         ax.set_ylim(-0.7, n - 0.3)
-        ax.set_xlim(0, max(duration_s, 1e-9) / axis.scale)
+        first = min([0.0, *[r.start_s for r in rows]])  # channels may start before the clock
+        last = max([duration_s, *[r.end_s for r in rows]])
+        ax.set_xlim(first / axis.scale, max(last, first + 1e-9) / axis.scale)
         ax.set_xlabel(axis.label())
         ax.grid(axis="y", visible=False)
-        from matplotlib.patches import Patch
-
         handles = [
             Patch(color=C_COVER, label="analyzed"),
             Patch(color="#b0b0b0", label="not analyzed"),
@@ -140,8 +186,9 @@ def coverage_figure(
             Patch(color=C_FAULT, label="fault period"),
             Patch(color=C_TRAIN, alpha=0.15, label="training window"),
         ]
-        ax.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncols=5,
-                  frameon=False)
+        ax.legend(
+            handles=handles, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncols=5, frameon=False
+        )
         return to_svg(fig, key)
 
 
@@ -157,21 +204,48 @@ def signal_figure(
     end_s: float | None,
     channel: str,
     key: str,
+    close_s: float | None = None,
 ) -> Markup:
-    """The measured signal around the onset with the detector's fault-free estimate; the
-    gap between them is the estimated fault."""
+    """The measured signal around the onset with the detector's fault-free estimate (the
+    gap between them is the estimated fault). With ``close_s``, a second panel shows
+    ``onset +- close_s`` closely enough to see the waveforms (shaded grey above)."""
     axis = TimeAxis("s", 1.0)
+    close = None
+    if close_s is not None and t.size:
+        near = (t >= onset_s - close_s) & (t <= onset_s + close_s)
+        if np.count_nonzero(near) >= 4:
+            close = near
     with style():
-        fig = new_figure(WIDTH_IN, 3.0)
-        ax = fig.add_subplot()
-        _plot_series(ax, t, measured, axis, C_MEASURED, f"measured {channel}")
-        if estimate is not None:
-            _plot_series(ax, t, estimate, axis, C_ESTIMATE, f"fault-free estimate ({estimate_name})")
-        _mark_onset(ax, onset_s, end_s, axis)
-        ax.set_xlim(t[0], t[-1]) if t.size else None
-        ax.set_xlabel(axis.label())
-        ax.set_ylabel("channel units")
-        _legend(ax)
+        fig = new_figure(WIDTH_IN, 3.0 if close is None else 5.6, constrained=False)
+        axes = grid(fig, 1 if close is None else 2, top=0.3, hgap=0.55)[:, 0]
+        views: list[tuple[Axes, npt.NDArray[np.bool_] | slice]] = [(axes[0], slice(None))]
+        if close is not None:
+            views.append((axes[1], close))
+        for i, (ax, sel) in enumerate(views):
+            tt = t[sel]
+            _plot_series(ax, tt, measured[sel], axis, C_MEASURED, f"measured {channel}")
+            if estimate is not None:
+                _plot_series(
+                    ax,
+                    tt,
+                    estimate[sel],
+                    axis,
+                    C_ESTIMATE,
+                    f"fault-free estimate ({estimate_name})",
+                )
+            _mark_onset(ax, onset_s, end_s, axis)
+            if tt.size:
+                ax.set_xlim(tt[0], tt[-1])
+            ax.set_ylabel("channel units")
+            if i == 0:
+                _legend(ax)
+                if close is not None and close_s is not None:
+                    ax.axvspan(
+                        onset_s - close_s, onset_s + close_s, color="#000000", alpha=0.06, lw=0
+                    )
+            else:
+                ax.set_title(f"close-up: onset ± {close_s:g} s", loc="left")
+        axes[-1].set_xlabel(axis.label())
         return to_svg(fig, key)
 
 
@@ -187,12 +261,13 @@ def corrected_figure(
     """Measured and corrected signal (fault removed, Wang & Song 2014, Section 6.3)."""
     axis = TimeAxis("s", 1.0)
     with style():
-        fig = new_figure(WIDTH_IN, 2.6)
-        ax = fig.add_subplot()
+        fig = new_figure(WIDTH_IN, 2.6, constrained=False)
+        ax = grid(fig, 1, top=0.3)[0, 0]
         _plot_series(ax, t, measured, axis, C_MEASURED, f"measured {channel}")
         _plot_series(ax, t, corrected, axis, C_CORRECTED, "corrected")
         _mark_onset(ax, onset_s, end_s, axis)
-        ax.set_xlim(t[0], t[-1]) if t.size else None
+        if t.size:
+            ax.set_xlim(t[0], t[-1])
         ax.set_xlabel(axis.label())
         ax.set_ylabel("channel units")
         _legend(ax)
@@ -229,16 +304,22 @@ def residual_figure(
     axis = TimeAxis.for_span(duration_s)
     sec = TimeAxis("s", 1.0)
     with style():
-        fig = new_figure(WIDTH_IN, 2.3 + 1.9 * len(panels))
-        axes = fig.subplots(1 + len(panels), 1, squeeze=False)[:, 0]
+        fig = new_figure(WIDTH_IN, 2.3 + 1.9 * len(panels), constrained=False)
+        axes = grid(fig, 1 + len(panels), top=0.3, hgap=0.75)[:, 0]
         ax = axes[0]
-        ax.axvspan(train[0] / axis.scale, train[1] / axis.scale, color=C_TRAIN, alpha=0.15, lw=0,
-                   label="training window")
+        ax.axvspan(
+            train[0] / axis.scale,
+            train[1] / axis.scale,
+            color=C_TRAIN,
+            alpha=0.15,
+            lw=0,
+            label="training window",
+        )
         _plot_series(ax, overview_t, overview_r, axis, C_RESIDUAL, f"residual ({overview_name})")
         _mark_onset(ax, onset_s, end_s, axis)
         ax.set_xlim(0, max(duration_s, 1e-9) / axis.scale)
-        ax.set_title(label(f"whole record: residual of {overview_name} (measured - estimate)"),
-                     loc="left")
+        ax.set_title("whole record", loc="left")
+        ax.set_ylabel("channel units")
         ax.set_xlabel(axis.label())
         _legend(ax)
         for ax, p in zip(axes[1:], panels, strict=True):
@@ -246,11 +327,22 @@ def residual_figure(
             if p.window and p.window > 1:
                 mm = moving_mean(p.residual, p.window)
                 env = envelope(p.t, mm, MAX_POINTS)
-                ax.plot(env.t, 0.5 * (env.lo + env.hi), color=C_MEAN, lw=1.0,
-                        label=f"{p.window}-sample moving mean")
+                ax.plot(
+                    env.t,
+                    0.5 * (env.lo + env.hi),
+                    color=C_MEAN,
+                    lw=1.0,
+                    label=f"{p.window}-sample moving mean",
+                )
             if p.center is not None and p.half_band is not None:
-                ax.axhspan(p.center - p.half_band, p.center + p.half_band, color=C_BAND,
-                           alpha=0.12, lw=0, label="no-alarm band of the mean")
+                ax.axhspan(
+                    p.center - p.half_band,
+                    p.center + p.half_band,
+                    color=C_BAND,
+                    alpha=0.12,
+                    lw=0,
+                    label="no-alarm band of the mean",
+                )
                 for s in (-1.0, 1.0):
                     ax.axhline(p.center + s * p.half_band, color=C_BAND, lw=0.8, ls=":")
             _mark_onset(ax, onset_s, end_s, sec)
@@ -258,7 +350,7 @@ def residual_figure(
                 ax.set_xlim(p.t[0], p.t[-1])
             ax.set_title(label(f"{p.detector}: around the onset"), loc="left")
             ax.set_ylabel("channel units")
-            _legend(ax, ncols=5)
+            _legend(ax)
         axes[-1].set_xlabel(sec.label() if panels else axis.label())
         return to_svg(fig, key)
 
@@ -280,7 +372,8 @@ def _shewhart(ax: Axes, seg: Segment) -> None:
     _plot_series(ax, seg.t, seg.z, sec, C_MEASURED, "z", lw=0.5)
     for s in (-k, k):
         ax.axhline(s, color=C_BAND, lw=0.9, ls="--")
-    top = max(k + 1.0, float(np.nanmax(np.abs(seg.z))) * 1.05) if np.isfinite(seg.z).any() else k + 1
+    finite = seg.z[np.isfinite(seg.z)]
+    top = max(k + 1.0, float(np.max(np.abs(finite))) * 1.05) if finite.size else k + 1.0
     ax.axhspan(k, top, color=C_BAND, alpha=0.08, lw=0)
     ax.axhspan(-top, -k, color=C_BAND, alpha=0.08, lw=0)
     ax.set_ylim(-top, top)
@@ -294,7 +387,7 @@ def _shewhart(ax: Axes, seg: Segment) -> None:
 
 def _probability(ax: Axes, seg: Segment) -> None:
     z = seg.z[np.isfinite(seg.z)]
-    ax.set_title(label(f"{seg.name}: normal probability plot"), loc="left")
+    ax.set_title("normal probability plot", loc="left")
     ax.set_xlabel("standard normal quantile")
     ax.set_ylabel("ordered z")
     if z.size < 3:
@@ -306,14 +399,14 @@ def _probability(ax: Axes, seg: Segment) -> None:
     ax.plot(q, zs[pick], ".", ms=3, color=C_MEASURED, label="data")
     lim = float(np.max(np.abs(q)))
     ax.plot([-lim, lim], [-lim, lim], color=C_BAND, lw=1.0, label="N(0, 1)")
-    _legend(ax, ncols=1)
+    _legend(ax, inside="upper left")
 
 
 def _acf(ax: Axes, seg: Segment) -> None:
     wh = (seg.tests or {}).get("whiteness", {})
     acf = np.asarray([np.nan if v is None else v for v in wh.get("acf") or []], dtype=float)
     band = wh.get("band")
-    ax.set_title(label(f"{seg.name}: autocorrelation"), loc="left")
+    ax.set_title("autocorrelation", loc="left")
     ax.set_xlabel("lag (samples)")
     ax.set_ylabel("r(lag)")
     if acf.size:
@@ -326,7 +419,7 @@ def _acf(ax: Axes, seg: Segment) -> None:
         ax.axhline(-band, color=C_BAND, lw=0.8, ls="--")
     ax.axhline(0.0, color="#555555", lw=0.6)
     ax.set_ylim(min(-0.2, float(np.nanmin(acf)) - 0.05) if acf.size else -1, 1.05)
-    _legend(ax, ncols=1, loc="upper right")
+    _legend(ax, inside="upper right")
 
 
 def tests_figure(segments: Sequence[Segment], detector: str, key: str) -> Markup:
@@ -334,15 +427,21 @@ def tests_figure(segments: Sequence[Segment], detector: str, key: str) -> Markup
     Shewhart chart with the +-k limits, normal probability plot against N(0, 1), and the
     autocorrelation with its 95 % white-noise band."""
     with style():
-        fig = new_figure(WIDTH_IN, 2.6 * max(1, len(segments)) + 0.3)
-        axes = fig.subplots(max(1, len(segments)), 3, squeeze=False,
-                            width_ratios=[1.6, 1.0, 1.0])
+        fig = new_figure(WIDTH_IN, 2.6 * max(1, len(segments)) + 0.3, constrained=False)
+        axes = grid(
+            fig,
+            max(1, len(segments)),
+            3,
+            top=0.75,
+            hgap=1.05,
+            wgap=0.75,
+            width_ratios=[1.6, 1.0, 1.0],
+        )
         for row, seg in zip(axes, segments, strict=False):
             _shewhart(row[0], seg)
             _probability(row[1], seg)
             _acf(row[2], seg)
-        fig.suptitle(label(f"standardized residual of {detector}"), x=0.01, ha="left",
-                     fontsize=9.5)
+        fig.suptitle(label(f"standardized residual of {detector}"), x=0.01, ha="left", fontsize=9.5)
         return to_svg(fig, key)
 
 

@@ -32,6 +32,18 @@ def seconds(x: float | None, decimals: int = 3) -> str:
     return f"{float(x):.{decimals}f} s"
 
 
+def clock(x: float | None) -> str:
+    """Seconds from the start as ``+HH:MM:SS.mmm`` (empty for None): a time in a long
+    record without absolute timestamps."""
+    if x is None or not math.isfinite(float(x)):
+        return ""
+    ms = int(round(float(x) * 1000.0))
+    h, rem = divmod(ms, 3_600_000)
+    m, rem = divmod(rem, 60_000)
+    s, ms = divmod(rem, 1000)
+    return f"+{h:02d}:{m:02d}:{s:02d}.{ms:03d}"
+
+
 def duration(x: float) -> str:
     """A duration for people: ``59.995 s``, ``12 min 5.0 s``, ``23 h 59 min 59 s``."""
     s = float(x)
@@ -97,9 +109,11 @@ def scalar(v: Any) -> str:
     """A model summary value: numbers rounded, short lists joined, the rest as text."""
     if isinstance(v, (list, tuple)):
         return ", ".join(scalar(x) for x in v)
-    if isinstance(v, float):
+    if v is None:
+        return "none"
+    if isinstance(v, (float, bool)):
         return num(v)
-    return num(v) if isinstance(v, bool) else str(v)
+    return str(v)
 
 
 def is_scalar(v: Any) -> bool:
@@ -112,6 +126,7 @@ def is_short_list(v: Any, limit: int = 8) -> bool:
 
 __all__ = [
     "MISSING",
+    "clock",
     "duration",
     "is_scalar",
     "is_short_list",

@@ -17,11 +17,13 @@ from __future__ import annotations
 
 import io
 import re
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
 import matplotlib as mpl
+import numpy as np
+import numpy.typing as npt
 from markupsafe import Markup
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -60,15 +62,46 @@ _ROOT_SIZE = re.compile(r'(<svg\b[^>]*?)\s(?:width|height)="[^"]*"')
 @contextmanager
 def style() -> Iterator[None]:
     """The report's matplotlib style for the duration of a block."""
-    with mpl.rc_context(RC):
+    with mpl.rc_context(RC):  # type: ignore[arg-type]  # keys are checked by matplotlib
         yield
 
 
-def new_figure(width_in: float, height_in: float) -> Figure:
-    """A figure on an Agg canvas (no pyplot state)."""
-    fig = Figure(figsize=(width_in, height_in), layout="constrained")
+def new_figure(width_in: float, height_in: float, constrained: bool = True) -> Figure:
+    """A figure on an Agg canvas (no pyplot state). ``constrained`` layout fits labels of
+    any length but measures every text twice; figures with a known structure use
+    :func:`grid` instead (about half the drawing time)."""
+    fig = Figure(figsize=(width_in, height_in), layout="constrained" if constrained else None)
     FigureCanvasAgg(fig)
     return fig
+
+
+def grid(
+    fig: Figure,
+    rows: int,
+    cols: int = 1,
+    *,
+    left: float = 0.8,
+    right: float = 0.35,
+    top: float = 0.4,
+    bottom: float = 0.45,
+    hgap: float = 0.65,
+    wgap: float = 0.75,
+    width_ratios: Sequence[float] | None = None,
+) -> npt.NDArray[np.object_]:
+    """A ``rows x cols`` array of axes with fixed margins and gaps in inches (room for
+    tick labels, axis labels and a title or legend line above each axes)."""
+    w_in, h_in = fig.get_size_inches()
+    ax_h = (h_in - top - bottom - (rows - 1) * hgap) / rows
+    ax_w = (w_in - left - right - (cols - 1) * wgap) / cols
+    fig.subplots_adjust(
+        left=left / w_in,
+        right=1.0 - right / w_in,
+        bottom=bottom / h_in,
+        top=1.0 - top / h_in,
+        hspace=hgap / max(ax_h, 1e-3),
+        wspace=wgap / max(ax_w, 1e-3),
+    )
+    return fig.subplots(rows, cols, squeeze=False, width_ratios=width_ratios)
 
 
 def label(text: str) -> str:
@@ -111,4 +144,4 @@ def _compact_path(m: re.Match[str]) -> str:
     return 'd="' + " ".join(d.split()) + '"'
 
 
-__all__ = ["RC", "clean_svg", "label", "new_figure", "style", "to_svg"]
+__all__ = ["RC", "clean_svg", "grid", "label", "new_figure", "style", "to_svg"]

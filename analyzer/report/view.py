@@ -28,7 +28,7 @@ from markupsafe import Markup
 from analyzer import __version__
 from analyzer.report import figures as fg
 from analyzer.report import format as fmt
-from analyzer.report.envelope import binned_nan_fraction, runs
+from analyzer.report.decimate import binned_nan_fraction, runs
 from analyzer.report.methods import DECISION, DETECTORS, TESTS, Method
 
 FloatArray = npt.NDArray[np.float64]
@@ -40,13 +40,17 @@ MAX_PANELS = 4
 """Detector panels in a finding's residual figure."""
 MAX_TIMELINE_ROWS = 60
 """Channels drawn in the coverage timeline (analyzed channels first)."""
+CLOSE_SAMPLES, CLOSE_MIN_S, CLOSE_MAX_S = 200, 1.0, 30.0
+"""Close-up of the onset in the signal figure: this many samples, within bounds (s)."""
+MAX_MODEL_COLUMNS = 8
+"""Per-channel model columns shown per detector (the rest is in findings.json)."""
 GAP_BINS = 2000
 """Time bins of the gap map of the analyzed channels."""
 ZOOM_MIN_S, ZOOM_MAX_S, ZOOM_FRACTION = 5.0, 120.0, 0.15
 """Half-width of the window around an onset: this fraction of the record, within bounds."""
 
 TEST_LABELS: dict[str, tuple[str, str]] = {
-    "shewhart": ("Shewhart chart", "fraction of |z| > 3"),
+    "shewhart": ("Shewhart chart", "fraction of |z| > 3 vs. expected"),
     "anderson_darling": ("Anderson-Darling", "A²* (normality)"),
     "cramer_von_mises": ("Cramér-von Mises", "W²* (normality)"),
     "whiteness": ("Whiteness", "Ljung-Box Q, 20 lags"),
@@ -115,10 +119,13 @@ class FindingView:
     onset_utc: str
     end_s: str
     end_utc: str
+    onset_clock: str
+    end_clock: str
     magnitude: str
     confidence: str
     detectors: list[str]
     lead: str
+    tests_agree: str = ""
     detailed: bool = False
     figures: list[FigureView] = field(default_factory=list)
     tests: list[DetectorTests] = field(default_factory=list)
@@ -165,6 +172,8 @@ class ModelView:
     per_channel: ChannelTable
     training_tests: ChannelTable
     training_rejects: str
+    windowed: ChannelTable
+    windowed_note: str
     notes: list[str]
 
 
@@ -214,8 +223,13 @@ def build_view(analysis: Any, doc: Mapping[str, Any]) -> ReportView:
     a = _Access(analysis, doc)
     faults = list(doc.get("faults", []))
     findings = [a.finding_view(i, f) for i, f in enumerate(faults)]
-    order = sorted(range(len(findings)), key=lambda i: (-float(faults[i].get("confidence") or 0),
-                                                        float(faults[i].get("onset_s") or 0)))
+    order = sorted(
+        range(len(findings)),
+        key=lambda i: (
+            -float(faults[i].get("confidence") or 0),
+            float(faults[i].get("onset_s") or 0),
+        ),
+    )
     for i in order[:MAX_DETAILED]:
         findings[i].detailed = True
         a.add_figures(findings[i], faults[i])
@@ -231,7 +245,9 @@ def build_view(analysis: Any, doc: Mapping[str, Any]) -> ReportView:
         checked=a.checked(),
         skipped=[Fact(k, str(v)) for k, v in (doc.get("skipped_detectors") or {}).items()],
         notes=[str(n) for n in doc.get("notes") or []],
-        input_errors=[f"{i['path']}: {e}" for i in doc.get("inputs", []) for e in i.get("errors", [])],
+        input_errors=[
+            f"{i['path']}: {e}" for i in doc.get("inputs", []) for e in i.get("errors", [])
+        ],
         inputs=a.inputs(),
         channels=a.channels(),
         coverage=coverage,
@@ -242,7 +258,9 @@ def build_view(analysis: Any, doc: Mapping[str, Any]) -> ReportView:
         tests_method=TESTS,
         decision=DECISION,
         thresholds=a.threshold_facts(),
-        timings=[Fact(k, fmt.seconds(v, 2)) for k, v in (getattr(analysis, "timings", {}) or {}).items()],
+        timings=[
+            Fact(k, fmt.seconds(v, 2)) for k, v in (getattr(analysis, "timings", {}) or {}).items()
+        ],
     )
 
 
@@ -281,8 +299,13 @@ class _Access:
         return [
             Fact("Record start", str(start) if start else "relative timestamps (no absolute time)"),
             Fact("Duration", fmt.duration(self.duration)),
-            Fact("Analyzed channels", f"{len(self.analyzed)} of {len(self.doc.get('channels', []))}"),
-            Fact("Detectors run", ", ".join(r["name"] for r in self.doc.get("detectors", [])) or "none"),
+            Fact(
+                "Analyzed channels", f"{len(self.analyzed)} of {len(self.doc.get('channels', []))}"
+            ),
+            Fact(
+                "Detectors run",
+                ", ".join(r["name"] for r in self.doc.get("detectors", [])) or "none",
+            ),
         ]
 
     def checked(self) -> list[Fact]:
@@ -290,7 +313,9 @@ class _Access:
         shown = ", ".join(names[:24]) + (f" and {len(names) - 24} more" if len(names) > 24 else "")
         return [
             Fact("Channels", f"{len(names)}: {shown}"),
-            Fact("Detectors", ", ".join(r["name"] for r in self.doc.get("detectors", [])) or "none"),
+            Fact(
+                "Detectors", ", ".join(r["name"] for r in self.doc.get("detectors", [])) or "none"
+            ),
             Fact("Duration", f"{fmt.duration(self.duration)} at {fmt.rate(self.rate)}"),
             Fact("Training window", self.train_text()),
             Fact("False-alarm rate", self.far_text()),
@@ -329,10 +354,13 @@ class _Access:
             onset_utc=str(f.get("onset") or fmt.MISSING),
             end_s=fmt.seconds(f["end_s"]) if f.get("end_s") is not None else "to the end",
             end_utc=str(f.get("end") or ("" if f.get("end_s") is None else fmt.MISSING)),
+            onset_clock=str(f.get("onset") or fmt.clock(f.get("onset_s"))),
+            end_clock=str(f.get("end") or fmt.clock(f.get("end_s"))),
             magnitude=fmt.magnitude(f.get("magnitude") or {}),
             confidence=fmt.percent(f.get("confidence")),
             detectors=[str(d) for d in ev.get("detectors", [f.get("detector")])],
             lead=str(f.get("detector")),
+            tests_agree=_agree(ev.get("tests_agree"), str(f["type"]), str(f.get("detector"))),
             tests=self.tests_views(f),
             evidence=self.evidence_facts(ev),
             corrections=self.corrections(f),
@@ -344,7 +372,12 @@ class _Access:
         for det, t in tests.items():
             before, after = t.get("before") or {}, t.get("after") or {}
             rows = [
-                TestRow(TEST_LABELS[k][0], TEST_LABELS[k][1], _cell(before.get(k)), _cell(after.get(k)))
+                TestRow(
+                    TEST_LABELS[k][0],
+                    TEST_LABELS[k][1],
+                    _cell(before.get(k), k),
+                    _cell(after.get(k), k),
+                )
                 for k in TEST_LABELS
                 if k in before or k in after
             ]
@@ -365,7 +398,7 @@ class _Access:
         known = {
             "first_alarm_s": ("first alarm", lambda v: fmt.seconds(v)),
             "peak_over_threshold": ("peak / threshold", lambda v: fmt.num(v, 3)),
-            "p_value": ("p-value (healthy data this extreme)", lambda v: fmt.num(v, 3)),
+            "p_value": ("p-value (healthy data this extreme)", _pvalue),
             "explained": ("share of residual explained by the fault model", fmt.percent),
             "type_weights": ("type weights", _weights),
         }
@@ -387,15 +420,20 @@ class _Access:
                 continue
             if abs(float(c.get("start_s") or 0) - float(f.get("onset_s") or 0)) > 1.0:
                 continue
-            out.append([
-                Fact("method", str(c.get("method"))),
-                Fact("period", f"{fmt.seconds(c.get('start_s'))} to "
-                     + (fmt.seconds(c["end_s"]) if c.get("end_s") is not None else "the end")),
-                Fact("samples corrected", fmt.num(c.get("samples"), 12)),
-                Fact("mean fault removed", fmt.num(c.get("mean_fault"))),
-                Fact("RMS fault removed", fmt.num(c.get("rms_fault"))),
-                *([Fact("note", str(c["note"]))] if c.get("note") else []),
-            ])
+            out.append(
+                [
+                    Fact("method", str(c.get("method"))),
+                    Fact(
+                        "period",
+                        f"{fmt.seconds(c.get('start_s'))} to "
+                        + (fmt.seconds(c["end_s"]) if c.get("end_s") is not None else "the end"),
+                    ),
+                    Fact("samples corrected", fmt.num(c.get("samples"), 12)),
+                    Fact("mean fault removed", fmt.num(c.get("mean_fault"))),
+                    Fact("RMS fault removed", fmt.num(c.get("rms_fault"))),
+                    *([Fact("note", str(c["note"]))] if c.get("note") else []),
+                ]
+            )
         return out
 
     # -- figures of one finding -----------------------------------------------------------
@@ -410,18 +448,36 @@ class _Access:
         key = view.anchor
         measured = self._measured(ch, k0, k1)
         if measured is not None:
-            est_det = next((d for d in [lead, *dets] if d and self._reference(d, ch) is not None),
-                           None)
+            est_det = next(
+                (d for d in [lead, *dets] if d and self._reference(d, ch) is not None), None
+            )
             est = None if est_det is None else self._reference(est_det, ch)
-            svg = fg.signal_figure(t, measured, None if est is None else _f64(est[k0:k1]),
-                                   est_det or "", onset, end, ch, f"{key}-signal")
-            view.figures.append(FigureView(
-                "signal", "Measured signal and fault-free estimate",
-                f"{ch} around the onset ({fmt.seconds(t[0] if t.size else 0)} to "
-                f"{fmt.seconds(t[-1] if t.size else 0)}): measured (blue) and the fault-free "
-                f"estimate of {est_det or 'no detector'} (orange); their difference is the "
-                "estimated fault. Dashed red line: identified onset"
-                + ("; dash-dot purple: end." if end is not None else "."), svg))
+            svg = fg.signal_figure(
+                t,
+                measured,
+                None if est is None else _f64(est[k0:k1]),
+                est_det or "",
+                onset,
+                end,
+                ch,
+                f"{key}-signal",
+                close_s=self._close_s(),
+            )
+            view.figures.append(
+                FigureView(
+                    "signal",
+                    "Measured signal and fault-free estimate",
+                    f"{ch} around the onset ({fmt.seconds(t[0] if t.size else 0)} to "
+                    f"{fmt.seconds(t[-1] if t.size else 0)}): measured (blue) and the fault-free "
+                    f"estimate of {est_det or 'no detector'} (orange); their difference is the "
+                    "estimated fault. Dashed red line: identified onset"
+                    + ("; dash-dot purple: end" if end is not None else "")
+                    + f". Below: close-up of the onset (± {self._close_s():g} s, shaded above); "
+                    "where a panel holds more samples than it has pixels, the band shows each "
+                    "pixel's minimum and maximum.",
+                    svg,
+                )
+            )
         else:
             view.remarks.append(f"{ch} is not among the analyzed channels: no signal figure.")
         if lead is not None:
@@ -434,18 +490,34 @@ class _Access:
         corrected = getattr(self.an, "corrected", None)
         if corrected is not None and measured is not None and ch in self.analyzed:
             j = self.analyzed.index(ch)
-            svg = fg.corrected_figure(t, measured, _f64(corrected[k0:k1, j]), onset, end, ch,
-                                      f"{key}-corrected")
-            view.figures.append(FigureView(
-                "corrected", "Corrected signal",
-                f"{ch} with the regenerated fault removed over the fault period (green), against "
-                "the measured signal (blue); see the correction record below.", svg))
+            svg = fg.corrected_figure(
+                t, measured, _f64(corrected[k0:k1, j]), onset, end, ch, f"{key}-corrected"
+            )
+            view.figures.append(
+                FigureView(
+                    "corrected",
+                    "Corrected signal",
+                    f"{ch} with the regenerated fault removed over the fault period (green), "
+                    "against the measured signal (blue); see the correction record below.",
+                    svg,
+                )
+            )
         elif corrected is None:
             view.remarks.append(
-                "Corrected signal not computed (run with --corrected to include it).")
+                "Corrected signal not computed (run with --corrected to include it)."
+            )
 
-    def _residual_figure(self, view: FindingView, ch: str, onset: float, end: float | None,
-                         dets: list[str], lead: str, k0: int, k1: int) -> FigureView:
+    def _residual_figure(
+        self,
+        view: FindingView,
+        ch: str,
+        onset: float,
+        end: float | None,
+        dets: list[str],
+        lead: str,
+        k0: int,
+        k1: int,
+    ) -> FigureView:
         full = _f64(self._residual(lead, ch))  # lead is in dets: it has a residual on ch
         panels = []
         for d in [lead, *[x for x in dets if x != lead]][:MAX_PANELS]:
@@ -453,34 +525,51 @@ class _Access:
             if r is None:
                 continue
             th = self._threshold(d, ch)
-            panels.append(fg.ResidualPanel(d, np.arange(k0, k1) / self.rate, _f64(r[k0:k1]),
-                                           *th))
+            panels.append(fg.ResidualPanel(d, np.arange(k0, k1) / self.rate, _f64(r[k0:k1]), *th))
         t_full = np.arange(full.shape[0], dtype=np.float64) / self.rate
-        svg = fg.residual_figure(t_full, full, lead, panels, onset, end, self.train_s,
-                                 self.duration, f"{view.anchor}-residual")
+        svg = fg.residual_figure(
+            t_full,
+            full,
+            lead,
+            panels,
+            onset,
+            end,
+            self.train_s,
+            self.duration,
+            f"{view.anchor}-residual",
+        )
         bands = "; ".join(
             f"{p.detector}: {p.window}-sample mean outside {fmt.num(p.center)} ± "
-            f"{fmt.num(p.half_band)}" for p in panels if p.half_band is not None)
+            f"{fmt.num(p.half_band)}"
+            for p in panels
+            if p.half_band is not None
+        )
         return FigureView(
-            "residual", "Residual time history",
+            "residual",
+            "Residual time history",
             "Residual (measured minus fault-free estimate, channel units). Top: the whole "
             f"record for {lead}, training window shaded green. Below: each detector that saw "
             "the fault, around the onset, with the trailing moving mean (black) and the band "
             "it must leave to raise an alarm (red; set from the training residual and the "
             f"false-alarm rate: {bands or 'not available'}). The log-mean-square statistic, "
-            "which alarms on gain changes, is not drawn.", svg)
+            "which alarms on gain changes, is not drawn.",
+            svg,
+        )
 
-    def _tests_figure(self, view: FindingView, ch: str, f: Mapping[str, Any],
-                      lead: str) -> FigureView | None:
-        tests = ((f.get("evidence") or {}).get("tests") or {})
+    def _tests_figure(
+        self, view: FindingView, ch: str, f: Mapping[str, Any], lead: str
+    ) -> FigureView | None:
+        tests = (f.get("evidence") or {}).get("tests") or {}
         det = lead if lead in tests else next(iter(tests), None)
         if det is None:
             view.remarks.append("No innovation test results (segments too short).")
             return None
         t = tests[det]
         segs = []
-        for name, span_key, test_key in (("before onset", "before_span_s", "before"),
-                                         ("after onset", "after_span_s", "after")):
+        for name, span_key, test_key in (
+            ("before onset", "before_span_s", "before"),
+            ("after onset", "after_span_s", "after"),
+        ):
             span = t.get(span_key)
             if not span:
                 continue
@@ -494,12 +583,15 @@ class _Access:
             return None
         svg = fg.tests_figure(segs, det, f"{view.anchor}-tests")
         return FigureView(
-            "tests", "Innovation tests before and after the onset",
+            "tests",
+            "Innovation tests before and after the onset",
             f"Standardized residual of {det} (training mean and deviation removed), on "
-            f"{' and '.join(_span(t.get(k)) for k in ('before_span_s', 'after_span_s') if t.get(k))}."
-            " Left: Shewhart chart with the ±3 limits (red dots: beyond). Middle: normal "
+            f"{' and '.join(_span(t.get(k)) for k in SPAN_KEYS if t.get(k))}."
+            " Left: Shewhart chart with the ±3 limits (shaded: beyond). Middle: normal "
             "probability plot; a healthy residual follows the red N(0, 1) line. Right: "
-            "autocorrelation at lags 1-20 with the ±1.96/√N band of white noise.", svg)
+            "autocorrelation at lags 1-20 with the ±1.96/√N band of white noise.",
+            svg,
+        )
 
     # -- array access -------------------------------------------------------------------
     def _residual(self, det: str | None, ch: str) -> Any:
@@ -530,9 +622,9 @@ class _Access:
         """``(r - mean) / std`` on ``[a, b)``, as analyzer.diagnosis.evidence.standardized
         (the same normalization the tests ran on)."""
         r = self.results.get(det)
-        res = None if r is None else r.residuals.get(ch)
-        if res is None:
+        if r is None or r.residuals.get(ch) is None:
             return None
+        res = r.residuals[ch]
         th = r.thresholds.get(ch, {}) if isinstance(r.thresholds.get(ch), dict) else {}
         mean = float(th.get("mean", 0.0))
         std = float(th.get("std", r.sigma.get(ch, 0.0)))
@@ -546,6 +638,11 @@ class _Access:
         if self.values is None or ch not in self.analyzed:
             return None
         return _f64(self.values[k0:k1, self.analyzed.index(ch)])
+
+    def _close_s(self) -> float:
+        """Half-width of the close-up of the onset: a couple of hundred samples, at
+        least a second (a few cycles of a structure's first modes), at most half a minute."""
+        return float(min(max(CLOSE_SAMPLES / self.rate, CLOSE_MIN_S), CLOSE_MAX_S))
 
     def _zoom(self, onset: float, end: float | None, det: str | None, ch: str) -> tuple[int, int]:
         half = min(max(ZOOM_FRACTION * self.duration, ZOOM_MIN_S), ZOOM_MAX_S)
@@ -569,9 +666,15 @@ class _Access:
             size = getattr(infos[i], "size_bytes", 0) if i < len(infos) else 0
             if not size:
                 size = _disk_size(Path(str(d.get("path", ""))))
-            out.append(InputView(str(d.get("path")), str(d.get("format")), fmt.size(size),
-                                 str(d.get("sha256") or fmt.MISSING),
-                                 [str(e) for e in d.get("errors", [])]))
+            out.append(
+                InputView(
+                    str(d.get("path")),
+                    str(d.get("format")),
+                    fmt.size(size),
+                    str(d.get("sha256") or fmt.MISSING),
+                    [str(e) for e in d.get("errors", [])],
+                )
+            )
         return out
 
     def _start_ns(self) -> int:
@@ -581,12 +684,18 @@ class _Access:
         start = self._start_ns()
         out = []
         for c in getattr(self.an, "channels", []) or []:
-            out.append(ChannelView(
-                name=c.name, analyzed=c.name in self.analyzed, samples=f"{c.samples:,}",
-                rate=fmt.rate(c.rate_hz),
-                start_s=fmt.seconds((c.start_ns - start) / NS_PER_S),
-                end_s=fmt.seconds((c.end_ns - start) / NS_PER_S), gaps=str(c.gaps),
-                range=f"{fmt.num(c.minimum)} to {fmt.num(c.maximum)}"))
+            out.append(
+                ChannelView(
+                    name=c.name,
+                    analyzed=c.name in self.analyzed,
+                    samples=f"{c.samples:,}",
+                    rate=fmt.rate(c.rate_hz),
+                    start_s=fmt.seconds((c.start_ns - start) / NS_PER_S),
+                    end_s=fmt.seconds((c.end_ns - start) / NS_PER_S),
+                    gaps=str(c.gaps),
+                    range=f"{fmt.num(c.minimum)} to {fmt.num(c.maximum)}",
+                )
+            )
         return out
 
     def coverage(self, faults: Sequence[Mapping[str, Any]]) -> tuple[FigureView | None, str]:
@@ -601,20 +710,30 @@ class _Access:
         for c in shown:
             a, b = (c.start_ns - start) / NS_PER_S, (c.end_ns - start) / NS_PER_S
             gl = [(max(x, a), min(y, b)) for x, y in gaps.get(c.name, []) if min(y, b) > max(x, a)]
-            fl = [(float(f["onset_s"]), float(f["end_s"]) if f.get("end_s") is not None
-                   else self.duration) for f in faults if f["channel"] == c.name]
+            fl = [
+                (
+                    float(f["onset_s"]),
+                    float(f["end_s"]) if f.get("end_s") is not None else self.duration,
+                )
+                for f in faults
+                if f["channel"] == c.name
+            ]
             rows.append(fg.CoverageRow(c.name, a, b, c.name in self.analyzed, gl, fl))
         span = max([self.duration, *[r.end_s for r in rows]])
         svg = fg.coverage_figure(rows, span, self.train_s, "coverage")
         note = ""
         if len(chans) > len(shown):
-            note = (f"{len(chans) - len(shown)} more channels are not drawn; the channel table "
-                    "lists them all.")
-        caption = ("Coverage of every channel from its first to its last raw sample (blue: "
-                   "analyzed, grey: not analyzed), gaps in red (for analyzed channels located "
-                   f"on the common clock, to within {fmt.duration(self.duration / GAP_BINS)}; "
-                   "for the others only counted in the table), fault periods in orange, the "
-                   "training window shaded green.")
+            note = (
+                f"{len(chans) - len(shown)} more channels are not drawn; the channel table "
+                "lists them all."
+            )
+        caption = (
+            "Coverage of every channel from its first to its last raw sample (blue: "
+            "analyzed, grey: not analyzed), gaps in red (for analyzed channels located "
+            f"on the common clock, to within {fmt.duration(self.duration / GAP_BINS)}; "
+            "for the others only counted in the table), fault periods in orange, the "
+            "training window shaded green."
+        )
         return FigureView("coverage", "Channel coverage", caption, svg), note
 
     def _gap_map(self) -> dict[str, list[tuple[float, float]]]:
@@ -633,50 +752,58 @@ class _Access:
         name = str(d.get("name"))
         model = dict(d.get("model") or {})
         chans = [str(c) for c in d.get("channels", [])]
-        params = [Fact(k, fmt.scalar(v)) for k, v in (d.get("params") or {}).items()
-                  if fmt.is_scalar(v) or fmt.is_short_list(v)]
-        summary, per_channel_cols = [], {}
-        for k, v in model.items():
-            if k in ("training_tests", "channels", "outputs"):
-                continue
-            if fmt.is_scalar(v) or fmt.is_short_list(v):
-                summary.append(Fact(k.replace("_", " "), fmt.scalar(v)))
-            elif isinstance(v, dict) and v and set(v) <= set(chans):
-                for ch, cv in v.items():
-                    if fmt.is_scalar(cv) or fmt.is_short_list(cv):
-                        per_channel_cols.setdefault(k, {})[ch] = fmt.scalar(cv)
-                    elif isinstance(cv, dict):
-                        for sk, sv in cv.items():
-                            if fmt.is_scalar(sv) or fmt.is_short_list(sv):
-                                per_channel_cols.setdefault(f"{k}: {sk}", {})[ch] = fmt.scalar(sv)
-        cols = list(per_channel_cols)[:8]
+        params = [
+            Fact(k, fmt.scalar(v))
+            for k, v in (d.get("params") or {}).items()
+            if fmt.is_scalar(v) or fmt.is_short_list(v)
+        ]
+        summary = [
+            Fact(k.replace("_", " "), fmt.scalar(v))
+            for k, v in model.items()
+            if k not in ("training_tests", "windowed_tests", "channels", "outputs")
+            and (fmt.is_scalar(v) or fmt.is_short_list(v))
+        ]
+        per_channel_cols = _per_channel_columns(
+            {k: v for k, v in model.items() if k not in ("training_tests", "windowed_tests")},
+            set(chans),
+        )
+        cols = list(per_channel_cols)[:MAX_MODEL_COLUMNS]
         result = self.results.get(name)
-        header = ["channel", "residual σ (training)", "window (samples)",
-                  "mean threshold (σ units)", "false-alarm rate", *[c.replace("_", " ") for c in cols]]
+        header = [
+            "channel",
+            "residual σ (training)",
+            "window (samples)",
+            "mean threshold (σ units)",
+            "false-alarm rate",
+            *[c.replace("_", " ") for c in cols],
+        ]
         rows = []
         for ch in chans:
             th = result.thresholds.get(ch) if result is not None else None
             th = th if isinstance(th, dict) else {}
             sigma = result.sigma.get(ch) if result is not None else None
-            rows.append([
-                ch, fmt.num(th.get("std", sigma)),
-                " / ".join(str(w) for w in th.get("windows", [])) or fmt.MISSING,
-                " / ".join(fmt.num(x, 3) for x in th.get("mean_threshold", [])) or fmt.MISSING,
-                fmt.num(th.get("false_alarm_rate"), 3),
-                *[per_channel_cols[c].get(ch, "") for c in cols],
-            ])
+            rows.append(
+                [
+                    ch,
+                    fmt.num(th.get("std", sigma)),
+                    " / ".join(str(w) for w in th.get("windows", [])) or fmt.MISSING,
+                    " / ".join(fmt.num(x, 3) for x in th.get("mean_threshold", [])) or fmt.MISSING,
+                    fmt.num(th.get("false_alarm_rate"), 3),
+                    *[per_channel_cols[c].get(ch, "") for c in cols],
+                ]
+            )
         tt = model.get("training_tests") or {}
         t_header = ["channel", *[TEST_LABELS[k][0] for k in TEST_LABELS]]
         t_rows, rejects = [], 0
         for ch, tests in tt.items():
             cells = [str(ch)]
             for k in TEST_LABELS:
-                c = _cell(tests.get(k))
+                c = _cell(tests.get(k), k)
                 rejects += bool(c.reject)
-                cells.append(f"{c.statistic} / {c.critical} {'✗' if c.reject else '✓'}"
-                             if c.reject is not None else fmt.MISSING)
+                cells.append(_compact(c, tests.get(k)))
             t_rows.append(cells)
         total = len(tt) * len(TEST_LABELS)
+        windowed, windowed_note = self._windowed(model.get("windowed_tests") or {})
         return ModelView(
             detector=name,
             channels=f"{len(chans)}: {', '.join(chans[:16])}" + (" ..." if len(chans) > 16 else ""),
@@ -684,9 +811,43 @@ class _Access:
             summary=summary,
             per_channel=ChannelTable(header, rows),
             training_tests=ChannelTable(t_header, t_rows),
-            training_rejects=f"{rejects} of {total} tests reject on the training window" if total else "",
+            training_rejects=f"{rejects} of {total} tests reject on the training window"
+            if total
+            else "",
+            windowed=windowed,
+            windowed_note=windowed_note,
             notes=[str(n) for n in d.get("notes", [])],
         )
+
+    def _windowed(self, wt: Mapping[str, Any]) -> tuple[ChannelTable, str]:
+        """The windowed tests over the whole record (``model["windowed_tests"]``): per
+        channel and test, the share of windows that reject."""
+        header = ["channel", *[TEST_LABELS[k][0] for k in TEST_LABELS]]
+        rows, layout = [], None
+        for ch, tests in wt.items():
+            if not isinstance(tests, Mapping):
+                continue
+            layout = layout or tests.get("windows")
+            cells = [str(ch)]
+            for k in TEST_LABELS:
+                t = tests.get(k) or {}
+                if t.get("windows"):
+                    cells.append(
+                        f"{fmt.percent(t.get('fraction'))} ({t.get('rejected')}/{t.get('windows')})"
+                    )
+                else:
+                    cells.append(fmt.MISSING)
+            rows.append(cells)
+        note = ""
+        if isinstance(layout, Mapping) and layout.get("window"):
+            w = int(layout["window"])
+            note = (
+                f"Consecutive windows of {w} samples ({fmt.seconds(w / self.rate, 2)}), "
+                f"{layout.get('valid', layout.get('count'))} per channel, over the whole record "
+                "(faulty stretches included). A healthy, well-modelled residual rejects in "
+                "about 5 % of the windows."
+            )
+        return ChannelTable(header, rows), note
 
     def methods(self) -> list[MethodView]:
         ran = {str(r["name"]): r for r in self.doc.get("detectors", [])}
@@ -726,20 +887,96 @@ def _f64(x: Any) -> FloatArray:
     return np.asarray(x, dtype=np.float64)
 
 
-def _cell(t: Mapping[str, Any] | None) -> TestCell:
+def _cell(t: Mapping[str, Any] | None, test: str = "") -> TestCell:
+    """One test result as display strings. The Shewhart chart's ``critical`` is the
+    fraction expected beyond the limits (the decision is a binomial test of the count),
+    so it is labelled as such, with the p-value where known."""
     if not t:
         return TestCell(fmt.MISSING, fmt.MISSING, None)
     crit = fmt.num(t.get("critical"), 4)
+    if test == "shewhart":
+        crit = f"exp. {crit}"
+        if t.get("pvalue") is not None:
+            crit += f", p {fmt.num(t['pvalue'], 2)}"
     if t.get("critical_low") is not None:
         crit = f"{fmt.num(t['critical_low'], 4)} to {crit}"
     reject = t.get("reject")
     return TestCell(fmt.num(t.get("statistic"), 4), crit, None if reject is None else bool(reject))
 
 
+def _agree(agree: Any, kind: str, lead: str) -> str:
+    if agree is None:
+        return ""
+    art = "an" if kind[:1] in "aeiou" else "a"
+    if agree:
+        return f"yes: the tests of {lead} break the way {art} {kind} fault breaks them"
+    return (
+        f"no: the tests of {lead} do not break the way {art} {kind} fault breaks them "
+        "(the confidence was lowered accordingly)"
+    )
+
+
+def _compact(c: TestCell, t: Mapping[str, Any] | None) -> str:
+    """``statistic / critical mark`` for the training-test table; a two-sided test that
+    rejects below its upper critical value rejected on the low side and says so."""
+    if c.reject is None:
+        return fmt.MISSING
+    low = ""
+    try:
+        if c.reject and t and float(t["statistic"]) < float(t["critical"]):
+            low = " (low)"
+    except (KeyError, TypeError, ValueError):
+        pass
+    return f"{c.statistic} / {c.critical} {'✗' if c.reject else '✓'}{low}"
+
+
+def _per_channel_columns(
+    tree: Mapping[str, Any], chans: set[str], depth: int = 3, path: str = ""
+) -> dict[str, dict[str, str]]:
+    """Per-channel columns of a model summary: wherever a dict is keyed by channel names,
+    its scalar (or short-list) leaves, up to two levels below the channel, become columns
+    named by their path (``r_squared``, ``filters: spectral radius``...). Columns whose
+    value is the same on every channel say nothing per channel and are dropped."""
+    cols: dict[str, dict[str, str]] = {}
+    keys = set(tree)
+    if keys and keys <= chans:
+        for ch, v in tree.items():
+            for name, val in _leaves(v, 2):
+                col = ": ".join(p for p in (path, name) if p) or "value"
+                cols.setdefault(col.replace("_", " "), {})[ch] = val
+    elif depth > 0:
+        for k, v in tree.items():
+            if isinstance(v, Mapping):
+                sub = _per_channel_columns(
+                    v, chans, depth - 1, ": ".join(p for p in (path, k) if p)
+                )
+                cols.update(sub)
+    return {k: v for k, v in cols.items() if len(set(v.values())) > 1 or len(chans) == 1}
+
+
+def _leaves(v: Any, depth: int, path: str = "") -> list[tuple[str, str]]:
+    if fmt.is_scalar(v) or fmt.is_short_list(v):
+        return [(path, fmt.scalar(v))]
+    if isinstance(v, Mapping) and depth > 0:
+        out = []
+        for k, x in v.items():
+            out += _leaves(x, depth - 1, " ".join(p for p in (path, str(k)) if p))
+        return out
+    return []
+
+
+SPAN_KEYS = ("before_span_s", "after_span_s")
+
+
 def _span(s: Sequence[float] | None) -> str:
     if not s:
         return fmt.MISSING
     return f"{float(s[0]):.3f}-{float(s[1]):.3f} s"
+
+
+def _pvalue(v: Any) -> str:
+    """A p-value; an underflowed 0 is shown as the bound it is."""
+    return "< 1e-300" if v == 0 else fmt.num(v, 3)
 
 
 def _weights(v: Any) -> str:

@@ -89,16 +89,16 @@ def binned_nan_fraction(values: npt.ArrayLike, bins: int) -> FloatArray:
         return np.zeros((0, m), dtype=np.float64)
     bins = max(1, min(int(bins), n))
     edges = (np.arange(bins + 1) * n) // bins
-    at_edges = np.zeros((bins + 1, m), dtype=np.int64)
-    running = np.zeros(m, dtype=np.int64)
+    counts = np.zeros((bins, m), dtype=np.int64)
     for start in range(0, n, ROW_BLOCK):
         stop = min(n, start + ROW_BLOCK)
-        c = running + np.cumsum(np.isnan(v[start:stop]), axis=0, dtype=np.int64)
-        k = np.flatnonzero((edges > start) & (edges <= stop))
-        at_edges[k] = c[edges[k] - start - 1]
-        running = c[-1]
+        nan = np.isnan(v[start:stop])
+        b0 = int(np.searchsorted(edges, start, side="right")) - 1
+        b1 = int(np.searchsorted(edges, stop - 1, side="right")) - 1
+        cuts = np.maximum(edges[b0 : b1 + 1] - start, 0)
+        counts[b0 : b1 + 1] += np.add.reduceat(nan, cuts, axis=0, dtype=np.int64)
     sizes = np.diff(edges).astype(np.float64)
-    return np.diff(at_edges, axis=0) / sizes[:, None]
+    return counts / sizes[:, None]
 
 
 def runs(mask: npt.ArrayLike) -> list[tuple[int, int]]:
