@@ -7,14 +7,21 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
-from analyzer import __version__
-from analyzer.errors import AnalyzerError, UsageError
+# One BLAS thread unless the user says otherwise: the hot paths are many small and tall
+# products, which threaded BLAS on a few cores makes far slower (measured 15x on 2 cores);
+# parallelism comes from --jobs. Set before numpy is first imported.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+from analyzer import __version__  # noqa: E402
+from analyzer.errors import AnalyzerError, UsageError  # noqa: E402
 
 
 class _Parser(argparse.ArgumentParser):

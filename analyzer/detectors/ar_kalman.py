@@ -170,7 +170,7 @@ class ARKalmanBank:
         inv_covs = []
         for j in range(ar.m):
             nu = innov[j][skip:]
-            cov = np.cov(nu[np.isfinite(nu).all(axis=1)].T)
+            cov = np.atleast_2d(np.cov(nu[np.isfinite(nu).all(axis=1)].T))
             inv_covs.append(np.asarray(np.linalg.pinv(cov), dtype=np.float64))
         cons = [self._consistency(innov[j], inv_covs[j]) for j in range(ar.m)]
         res_cal, con_cal, taus = [], [], []

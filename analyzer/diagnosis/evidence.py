@@ -135,7 +135,9 @@ def training_tests(result: DetectorResult, train: tuple[int, int]) -> dict[str, 
     return out
 
 
-def windowed_summary(result: DetectorResult, rate_hz: float, window_s: float = 1.0) -> dict[str, Any]:
+def windowed_summary(
+    result: DetectorResult, rate_hz: float, window_s: float = 1.0
+) -> dict[str, Any]:
     """Per channel: the innovation tests on consecutive windows over the whole archive
     (vectorized, :func:`analyzer.stats.windowed_tests`), summarized as the share of
     windows each test rejects (about 5 % for a healthy, well-modelled residual)."""

@@ -104,13 +104,27 @@ def open_input(path: str | Path) -> Reader:
     """Open one input; raises ReaderError (one line, naming the file) if it cannot be read."""
     path = Path(path)
     fmt = detect_format(path)
-    if fmt is Format.MCAP:
-        return McapReader(path)
-    if fmt is Format.ROS1BAG:
-        return Ros1BagReader(path)
-    if fmt is Format.ROS2BAG:
-        return Ros2BagReader(path)
-    return CsvReader(path)
+    try:
+        if fmt is Format.MCAP:
+            return McapReader(path)
+        if fmt is Format.ROS1BAG:
+            return Ros1BagReader(path)
+        if fmt is Format.ROS2BAG:
+            return Ros2BagReader(path)
+        return CsvReader(path)
+    except ReaderError:
+        raise
+    except Exception as err:  # noqa: BLE001 - a corrupt file fails in the parsing libraries
+        raise ReaderError(f"{path}: cannot be read as {fmt.value} ({one_line(err)})") from err
+
+
+def _safe_start(reader: Reader) -> int | None:
+    """A reader's start time, or None when finding it fails (a corrupt file fails later,
+    where its error is recorded or raised with the file's name)."""
+    try:
+        return reader.start_ns()
+    except Exception:  # noqa: BLE001
+        return None
 
 
 class Archive:
@@ -123,14 +137,14 @@ class Archive:
     """
 
     def __init__(self, readers: Sequence[Reader], failed: Sequence[InputInfo] = ()) -> None:
-        starts = [(r.start_ns(), str(r.info.path), r) for r in readers]
+        starts = [(_safe_start(r), str(r.info.path), r) for r in readers]
         starts.sort(key=lambda s: (s[0] is None, s[0] or 0, s[1]))
         self.readers: list[Reader] = [s[2] for s in starts]
         self.inputs: list[InputInfo] = [r.info for r in self.readers] + list(failed)
 
     def start_ns(self) -> int | None:
         """Start time of the first readable input."""
-        return next((s for r in self.readers if (s := r.start_ns()) is not None), None)
+        return next((s for r in self.readers if (s := _safe_start(r)) is not None), None)
 
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
         """Every channel chunk of every readable input, input after input."""

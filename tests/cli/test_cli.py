@@ -365,3 +365,32 @@ def test_console_script_runs():
         [sys.executable, "-m", "analyzer", "--version"], capture_output=True, text=True, check=False
     )
     assert proc.returncode == 0 and "analyzer" in proc.stdout
+
+
+def test_corrupt_mcap_is_a_one_line_error(tmp_path, capsys):
+    magic = b"\x89MCAP0\r\n"
+    p = tmp_path / "broken.mcap"
+    p.write_bytes(magic + np.random.default_rng(0).bytes(20_000) + magic)
+    code, _, err = _run(["run", str(p), "--out", str(tmp_path / "o")], capsys)
+    assert code == 2
+    _one_line_error(err, "broken.mcap")
+
+
+def test_two_channels_are_enough(tmp_path, capsys):
+    t, Y, names = simulate_building(n_floors=2, duration_s=60.0, seed=2)
+    Y[:, 1] = inject_fault(Y[:, 1], RATE, "additive", 40.0, 3.0 * np.std(Y[:, 1]))
+    pd.DataFrame({"time": t, "a": Y[:, 0], "b": Y[:, 1]}).to_csv(tmp_path / "two.csv", index=False)
+    code, _, err = _run(
+        [
+            "run",
+            str(tmp_path / "two.csv"),
+            "--out",
+            str(tmp_path / "o"),
+            "--no-progress",
+            "--detectors",
+            "ar_kalman_bank",
+        ],
+        capsys,
+    )
+    assert code in (0, 1), err
+    assert "Traceback" not in err
