@@ -394,3 +394,46 @@ def test_two_channels_are_enough(tmp_path, capsys):
     )
     assert code in (0, 1), err
     assert "Traceback" not in err
+
+
+@pytest.mark.parametrize("approach", ["direct", "indirect"])
+def test_error_function_end_to_end_with_config(tmp_path, capsys, approach):
+    """Li et al. (2007)'s 4-DOF example through the CLI: [[group]] and [model] from TOML."""
+    from analyzer.simulate_mdof import chain_archive
+
+    arch = chain_archive(noise=0.01, seed=0)
+    t = np.arange(arch.values.shape[0]) / arch.rate_hz
+    df = pd.DataFrame({"time": t, **{c: arch.values[:, j] for j, c in enumerate(arch.channels)}})
+    df.to_csv(tmp_path / "chain.csv", index=False)
+    A, B, C, D = (np.asarray(arch.config["model"][k]) for k in "ABCD")  # type: ignore[index]
+    np.savez(tmp_path / "model.npz", A=A, B=B, C=C, D=D)
+    model = arch.config["model"]
+    outputs = ", ".join(f'"{c}"' for c in model["outputs"])  # type: ignore[index]
+    (tmp_path / "c.toml").write_text(
+        f"[train]\nstart = 0.0\nend = {arch.train[1] / arch.rate_hz - 0.01}\n\n"
+        '[[group]]\nname = "chain"\nchannels = ["s1", "s2", "s3", "s4"]\n'
+        'reference = ["s3", "s4"]\nuncertain = ["s1", "s2"]\n\n'
+        f'[model]\nfile = "model.npz"\noutputs = [{outputs}]\n\n'
+        f'[detectors.error_function]\napproach = "{approach}"\nwindow = 25\n'
+    )
+    code, _, err = _run(
+        [
+            "run",
+            str(tmp_path / "chain.csv"),
+            "--out",
+            str(tmp_path / "o"),
+            "--config",
+            str(tmp_path / "c.toml"),
+            "--detectors",
+            "error_function",
+            "--no-progress",
+        ],
+        capsys,
+    )
+    assert code == 1, err
+    faults = json.loads((tmp_path / "o" / "findings.json").read_text())["faults"]
+    truth = {(arch.channels[f.channel], round(f.start_s)) for f in arch.failures}
+    got = {(f["channel"], round(f["onset_s"])) for f in faults}
+    assert truth <= got, (truth, got)
+    assert {f["channel"] for f in faults} <= {"s1", "s2"}
+    assert "error_function" in (tmp_path / "o" / "report.html").read_text()
