@@ -1,0 +1,436 @@
+"""End-to-end throughput, stage times and peak memory of ``analyzer run`` on long archives.
+
+Writes (in a temporary directory) a 16-channel, 100 Hz healthy archive as hourly files:
+``simulate_building`` with 8 floors x 2 sensors, one piece per hour with its own seed
+(after a discarded minute of warm-up, so no file starts from rest), the pieces stitched
+in time by consecutive ``start_iso``, each written with ``write_archive`` as CSV
+(ISO-8601 time column) and as MCAP (ROS 2 profile, one ``std_msgs/Float64MultiArray``
+message per sample, layout ``"multiarray"``). For every format and every length of
+``--hours`` (a directory holding the first hourly files) it runs ``analyzer run DIR --out
+OUT`` in a child process (the CLI's own ``main``; the child only wraps
+``pipeline.analyze`` to print ``Analysis.timings`` as JSON) and reports
+
+* end to end values/s: samples x analyzed channels over the child's wall time
+  (interpreter start, imports, reading, analysis and writing the report included),
+* the stage times (read, align, detect, test, total) and the time to write the outputs,
+* the child's peak resident memory (``os.wait4`` rusage, ``ru_maxrss``),
+
+against the targets of issue 9: >= 2 M values/s end to end from CSV, >= 5 M values/s
+from MCAP, peak memory of the longest archive <= 1.5 x that of the shortest + 100 MB.
+
+It also times the "straightforward way" in the same run: per-message decoding with the
+reference decoder (``mcap`` reader + ``mcap_ros2.decoder.DecoderFactory``, first
+``--reference-messages`` messages; for CSV, ``pandas.read_csv`` of the first file) plus
+statsmodels' ``KalmanFilter`` for the bank's estimators (``--sm-estimators`` of the 16
+estimators over ``--sm-samples`` samples). Both rates are per message / per sample per
+estimator, so they are extrapolated to the whole archive and all 16 estimators; the
+baseline has no fit, no detection and no report, which flatters it.
+
+``--profile`` runs the longest archive of the first format once more under cProfile
+and prints the top functions by own time and the analyzer functions by cumulative time.
+OPENBLAS_NUM_THREADS=1 is set for this script and the children unless already set. A
+script, not a timed test::
+
+    python benchmarks/bench_pipeline.py [--hours 1,4] [--formats csv,mcap] [--quick]
+                                        [--profile] [--keep DIR]
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy is imported
+
+import argparse  # noqa: E402
+import datetime as dt  # noqa: E402
+import itertools  # noqa: E402
+import json  # noqa: E402
+import math  # noqa: E402
+import platform  # noqa: E402
+import pstats  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from dataclasses import dataclass, field  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from analyzer.detectors.ar_model import fit_ar  # noqa: E402
+from analyzer.simulate import simulate_building  # noqa: E402
+from analyzer.writers import write_archive  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_bank import statsmodels_filter  # noqa: E402
+
+RATE_HZ = 100.0
+ORDER = 7
+WARMUP_S = 60.0
+"""Each piece is simulated this much longer and its start dropped, so no file begins with
+the building at rest (a transient the detectors would rightly flag)."""
+START = dt.datetime(2026, 1, 1, tzinfo=dt.UTC)
+SUFFIX = {"csv": "csv", "mcap": "mcap"}
+TARGET_RATE = {"csv": 2e6, "mcap": 5e6}
+MEMORY_FACTOR, MEMORY_SLACK_MB = 1.5, 100.0
+
+DRIVER = r"""
+import cProfile, json, os, sys, time
+start = time.perf_counter()
+import analyzer.pipeline as pipeline
+from analyzer.cli import main
+captured = {}
+_analyze = pipeline.analyze
+def analyze(*args, **kwargs):  # records what analyze() returns; the CLI is unchanged
+    result = _analyze(*args, **kwargs)
+    captured.update(
+        timings=dict(result.timings), n=result.n, channels=len(result.analyzed),
+        findings=len(result.findings), detectors=[r.detector for r in result.results],
+    )
+    return result
+pipeline.analyze = analyze
+profile = os.environ.get("BENCH_PROFILE")
+begin = time.perf_counter()
+if profile:
+    prof = cProfile.Profile()
+    rc = prof.runcall(main, sys.argv[1:])
+    prof.dump_stats(profile)
+else:
+    rc = main(sys.argv[1:])
+end = time.perf_counter()
+captured.update(rc=rc, main_s=end - begin, imports_s=begin - start)
+print("BENCH_JSON " + json.dumps(captured))
+"""
+
+
+@dataclass
+class Run:
+    fmt: str
+    hours: float
+    files: int
+    wall_s: float
+    peak_mb: float
+    cpu_s: float
+    rc: int
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def values(self) -> int:
+        return int(self.info.get("n", 0)) * int(self.info.get("channels", 0))
+
+    @property
+    def rate(self) -> float:
+        return self.values / self.wall_s if self.wall_s > 0 else 0.0
+
+
+# --------------------------------------------------------------------------- archives
+
+
+def write_pieces(
+    base: Path, formats: list[str], pieces: int, piece_s: float, floors: int
+) -> tuple[dict[str, list[Path]], dict[str, float]]:
+    """``pieces`` consecutive files per format (reused when ``base`` already holds them)."""
+    paths: dict[str, list[Path]] = {f: [] for f in formats}
+    spent = dict.fromkeys(formats, 0.0)
+    for h in range(pieces):
+        targets = {f: base / f / f"piece{h:03d}.{SUFFIX[f]}" for f in formats}
+        for f, p in targets.items():
+            paths[f].append(p)
+        todo = [f for f, p in targets.items() if not p.exists()]
+        if not todo:
+            continue
+        t_s, Y, names = simulate_building(
+            floors, WARMUP_S + piece_s, RATE_HZ, seed=1000 + h, sensors_per_floor=2
+        )
+        keep = int(round(WARMUP_S * RATE_HZ))  # drop the start from rest
+        t_s, Y = t_s[keep:] - t_s[keep], Y[keep:]
+        t_ns = np.round(t_s * 1e9).astype(np.int64)
+        start_iso = (START + dt.timedelta(seconds=h * piece_s)).isoformat().replace("+00:00", "Z")
+        data = {name: Y[:, i] for i, name in enumerate(names)}
+        for f in todo:
+            targets[f].parent.mkdir(parents=True, exist_ok=True)
+            begin = time.perf_counter()
+            tmp = targets[f].with_name("." + targets[f].name)
+            write_archive(tmp, f, t_ns, data, layout="multiarray", start_iso=start_iso)
+            tmp.rename(targets[f])  # a killed run leaves no half-written piece behind
+            spent[f] += time.perf_counter() - begin
+    return paths, spent
+
+
+def archive_dir(base: Path, fmt: str, hours: float, pieces: list[Path], piece_s: float) -> Path:
+    """A directory with hard links to the first pieces covering ``hours``."""
+    count = hours * 3600.0 / piece_s
+    if abs(count - round(count)) > 1e-9 or round(count) < 1:
+        raise SystemExit(f"--hours {hours:g} is not a whole number of {piece_s:g}-s pieces")
+    d = base / f"{fmt}_{hours:g}h"
+    d.mkdir(exist_ok=True)
+    for p in pieces[: int(round(count))]:
+        link = d / p.name
+        if not link.exists():
+            os.link(p, link)
+    return d
+
+
+# --------------------------------------------------------------------------- the child
+
+
+def run_child(archive: Path, out: Path, log: Path, profile: Path | None = None) -> Run:
+    """``analyzer run archive --out out`` in a child; wall time and its own peak RSS."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
+    if profile is not None:
+        env["BENCH_PROFILE"] = str(profile)
+    cmd = [sys.executable, "-c", DRIVER, "run", str(archive), "--out", str(out), "--no-progress"]
+    with log.open("w") as sink:
+        begin = time.perf_counter()
+        proc = subprocess.Popen(cmd, stdout=sink, stderr=subprocess.STDOUT, env=env)
+        _, status, usage = os.wait4(proc.pid, 0)  # this child's rusage alone
+        wall = time.perf_counter() - begin
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    info: dict[str, Any] = {}
+    for line in log.read_text().splitlines():
+        if line.startswith("BENCH_JSON "):
+            info = json.loads(line[len("BENCH_JSON ") :])
+    if not info:
+        tail = " | ".join(log.read_text().splitlines()[-3:])
+        raise SystemExit(f"analyzer run {archive} failed (exit {proc.returncode}): {tail}")
+    return Run(
+        fmt="",
+        hours=0.0,
+        files=len(list(archive.iterdir())),
+        wall_s=wall,
+        peak_mb=usage.ru_maxrss / 1024.0,  # kilobytes on Linux
+        cpu_s=usage.ru_utime + usage.ru_stime,
+        rc=int(info.get("rc", proc.returncode)),
+        info=info,
+    )
+
+
+# --------------------------------------------------------------------------- baseline
+
+
+@dataclass
+class Baseline:
+    decode_s_per_sample: dict[str, float]
+    filter_s_per_sample: float  # all m estimators
+    channels: int
+    note: str
+
+
+def baseline(
+    pieces: dict[str, list[Path]], floors: int, messages: int, sm_samples: int, sm_est: int
+) -> Baseline:
+    """Seconds per sample of the straightforward way: reference decoding (per message) and
+    statsmodels' Kalman filter for every estimator of the bank (extrapolated)."""
+    decode: dict[str, float] = {}
+    if "mcap" in pieces:
+        from mcap.reader import make_reader
+        from mcap_ros2.decoder import DecoderFactory
+
+        with pieces["mcap"][0].open("rb") as handle:
+            reader = make_reader(handle, decoder_factories=[DecoderFactory()])
+            begin = time.perf_counter()
+            count = 0
+            for _, _, _, msg in itertools.islice(reader.iter_decoded_messages(), messages):
+                _ = [float(v) for v in msg.data]  # the values, as a consumer reads them
+                count += 1
+            decode["mcap"] = (time.perf_counter() - begin) / max(count, 1)
+    if "csv" in pieces:
+        import pandas as pd
+
+        begin = time.perf_counter()
+        frame = pd.read_csv(pieces["csv"][0])
+        pd.to_datetime(frame["time"], utc=True)
+        decode["csv"] = (time.perf_counter() - begin) / max(len(frame), 1)
+    # statsmodels on the model the bank fits: AR(ORDER) on 10 minutes of healthy data
+    _, Y, _ = simulate_building(floors, 660.0, RATE_HZ, seed=1000, sensors_per_floor=2)
+    ar = fit_ar(Y[: int(600 * RATE_HZ)], ORDER)
+    Z = (Y - ar.mean) / ar.scale
+    n = min(sm_samples, Z.shape[0])
+    spent = 0.0
+    used = min(sm_est, ar.m)
+    for j in range(used):
+        measured = [i for i in range(ar.m) if i != j]
+        kf = statsmodels_filter(ar, measured, np.ascontiguousarray(Z[:n, measured]))
+        begin = time.perf_counter()
+        kf.filter()
+        spent += time.perf_counter() - begin
+    per_sample = spent / (used * n) * ar.m
+    note = (
+        f"extrapolated: decoding from the first {messages:,} messages (MCAP) / the first "
+        f"file (CSV); statsmodels (univariate filter, {ar.order * ar.m} states) from "
+        f"{used} of {ar.m} estimators x {n:,} samples; no fit, detection or report"
+    )
+    return Baseline(decode, per_sample, ar.m, note)
+
+
+# --------------------------------------------------------------------------- profile
+
+
+def print_profile(path: Path, top: int) -> None:
+    """Top functions by own time, and analyzer functions by cumulative time."""
+    stats = pstats.Stats(str(path))
+    raw: Any = stats.stats  # type: ignore[attr-defined]
+    entries = [(key, value) for key, value in raw.items()]
+    total = max(value[3] for _, value in entries)  # the outermost call's cumulative time
+
+    def name(key: tuple[str, int, str]) -> str:
+        file, line, func = key
+        short = file.split("site-packages/")[-1] if "site-packages" in file else file
+        short = short.replace(str(ROOT) + "/", "")
+        return f"{short}:{line}({func})"
+
+    print(f"cProfile of the longest run: {total:.1f} s in main()")
+    print(f"  top {top} by own time (tottime)")
+    for key, value in sorted(entries, key=lambda e: -e[1][2])[:top]:
+        print(
+            f"  {value[2]:8.1f} s {100 * value[2] / total:5.1f} %  {value[1]:>7} calls  {name(key)}"
+        )
+    print(f"  top {2 * top} analyzer functions by cumulative time")
+    ours = [(k, v) for k, v in entries if str(ROOT / "analyzer") in k[0]]
+    for key, value in sorted(ours, key=lambda e: -e[1][3])[: 2 * top]:
+        print(
+            f"  {value[3]:8.1f} s {100 * value[3] / total:5.1f} %  {value[1]:>7} calls  {name(key)}"
+        )
+
+
+# --------------------------------------------------------------------------- main
+
+
+def parse_list(text: str) -> list[str]:
+    return [t.strip() for t in text.split(",") if t.strip()]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--hours", default=None, help="archive lengths in hours (default 1,4)")
+    parser.add_argument("--formats", default=None, help="csv and/or mcap (default csv,mcap)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="4 channels, 3-minute files, 0.05 h and 0.2 h archives: a smoke run",
+    )
+    parser.add_argument("--profile", action="store_true", help="cProfile the longest run")
+    parser.add_argument("--keep", metavar="DIR", help="write (and reuse) the archives in DIR")
+    parser.add_argument("--reference-messages", type=int, default=50_000)
+    parser.add_argument("--sm-samples", type=int, default=5_000)
+    parser.add_argument("--sm-estimators", type=int, default=2)
+    args = parser.parse_args(argv)
+    floors = 2 if args.quick else 8
+    piece_s = 180.0 if args.quick else 3600.0
+    hours = [float(h) for h in parse_list(args.hours or ("0.05,0.2" if args.quick else "1,4"))]
+    formats = parse_list(args.formats or "csv,mcap")
+    if any(f not in SUFFIX for f in formats):
+        parser.error(f"--formats: expected csv and/or mcap, got {args.formats!r}")
+    if args.quick:
+        args.reference_messages = min(args.reference_messages, 10_000)
+        args.sm_samples = min(args.sm_samples, 2_000)
+        args.sm_estimators = min(args.sm_estimators, 1)
+    pieces_needed = max(math.ceil(h * 3600.0 / piece_s - 1e-9) for h in hours)
+    print(
+        f"bench_pipeline: {platform.machine()}, {os.cpu_count()} cores, "
+        f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}, "
+        f"{2 * floors} channels at {RATE_HZ:g} Hz, files of {piece_s / 60:g} min, "
+        f"hours {', '.join(f'{h:g}' for h in hours)}, load average {os.getloadavg()[0]:.1f}",
+        flush=True,
+    )
+
+    with tempfile.TemporaryDirectory(prefix="bench_pipeline_") as tmp:
+        base = Path(args.keep) if args.keep else Path(tmp)
+        data_dir = base / f"{2 * floors}ch_{piece_s:g}s"
+        pieces, spent = write_pieces(data_dir, formats, pieces_needed, piece_s, floors)
+        for f in formats:
+            size = sum(p.stat().st_size for p in pieces[f]) / 2**20
+            print(f"  {f}: {len(pieces[f])} files, {size:.0f} MB, written in {spent[f]:.0f} s")
+        runs: list[Run] = []
+        for f in formats:
+            for h in sorted(hours):
+                archive = archive_dir(data_dir, f, h, pieces[f], piece_s)
+                out = Path(tmp) / f"out_{f}_{h:g}h"
+                run = run_child(archive, out, Path(tmp) / f"log_{f}_{h:g}h.txt")
+                run.fmt, run.hours = f, h
+                runs.append(run)
+                print(
+                    f"  ran {f} {h:g} h: {run.wall_s:.1f} s, peak {run.peak_mb:.0f} MB",
+                    flush=True,
+                )
+        base_line = baseline(
+            pieces, floors, args.reference_messages, args.sm_samples, args.sm_estimators
+        )
+        print("  timed the baseline", flush=True)
+        profile_path = Path(tmp) / "profile.pstats"
+        if args.profile:
+            f, h = formats[0], max(hours)
+            archive = archive_dir(data_dir, f, h, pieces[f], piece_s)
+            run_child(
+                archive, Path(tmp) / "out_profile", Path(tmp) / "log_profile.txt", profile_path
+            )
+
+        print()
+        stages = ("read", "align", "detect", "test", "total")
+        print(
+            f"{'format':<7}{'hours':>6}{'files':>6}{'values':>13}{'wall s':>9}{'values/s':>12}"
+            + "".join(f"{s:>8}" for s in stages)
+            + f"{'outputs':>9}{'startup':>9}{'peak RSS':>11}{'exit':>6}"
+        )
+        for r in runs:
+            t = r.info.get("timings", {})
+            outputs = r.info.get("main_s", 0.0) - t.get("total", 0.0)
+            startup = r.wall_s - r.info.get("main_s", 0.0)
+            print(
+                f"{r.fmt:<7}{r.hours:>6g}{r.files:>6}{r.values:>13,}{r.wall_s:>9.1f}"
+                f"{r.rate:>12,.0f}"
+                + "".join(f"{t.get(s, float('nan')):>8.1f}" for s in stages)
+                + f"{outputs:>9.1f}{startup:>9.1f}{r.peak_mb:>8.0f} MB{r.rc:>6}"
+            )
+        print(
+            "values: samples x analyzed channels; values/s over the child's wall time; stage "
+            "times in s from Analysis.timings; outputs = findings.json + report.html; "
+            "startup = interpreter + imports; exit 0 = no fault found"
+        )
+        print()
+        m = base_line.channels
+        print(f"{'straightforward way':<34}{'decode s':>10}{'filter s':>10}{'values/s':>12}")
+        for r in runs:
+            n = int(r.info.get("n", 0))
+            dec = base_line.decode_s_per_sample.get(r.fmt, 0.0) * n
+            fil = base_line.filter_s_per_sample * n
+            how = "per-message mcap_ros2" if r.fmt == "mcap" else "pandas.read_csv"
+            label = f"{r.fmt} {r.hours:g} h ({how})"
+            print(f"{label:<34}{dec:>10.1f}{fil:>10.1f}{n * m / (dec + fil):>12,.0f}")
+        print(base_line.note)
+        print()
+        print("targets (issue 9)")
+        for f in formats:
+            mine = [r for r in runs if r.fmt == f]
+            longest = max(mine, key=lambda r: r.hours)
+            shortest = min(mine, key=lambda r: r.hours)
+            goal = TARGET_RATE[f]
+            short = f" ({goal / longest.rate:.0f}x short)" if 0 < longest.rate < goal else ""
+            print(
+                f"  {f}: end to end {longest.rate / 1e6:.3f} M values/s on {longest.hours:g} h "
+                f"(target >= {goal / 1e6:g} M): "
+                f"{'meets' if longest.rate >= goal else 'MISSES'}{short}"
+            )
+            if longest is not shortest:
+                limit = MEMORY_FACTOR * shortest.peak_mb + MEMORY_SLACK_MB
+                verdict = "meets" if longest.peak_mb <= limit else "MISSES"
+                print(
+                    f"  {f}: peak RSS {longest.hours:g} h {longest.peak_mb:.0f} MB vs "
+                    f"{shortest.hours:g} h {shortest.peak_mb:.0f} MB "
+                    f"({longest.peak_mb / shortest.peak_mb:.2f}x; limit {MEMORY_FACTOR:g} x + "
+                    f"{MEMORY_SLACK_MB:g} MB = {limit:.0f} MB): {verdict}"
+                )
+        print(f"load average at the end {os.getloadavg()[0]:.1f}")
+        if args.profile:
+            print()
+            print_profile(profile_path, 10)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
