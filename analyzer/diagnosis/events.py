@@ -86,13 +86,12 @@ def diagnose_interval(
     stop = min(n if iv.end is None else iv.end, limit)
     r = np.asarray(residual, dtype=np.float64)
     ref = None if reference is None else np.asarray(reference, dtype=np.float64)
-    cls = classify(
-        r[iv.onset : stop] - cal.mean,
-        None if ref is None else ref[iv.onset : stop],
-        cal.std,
-        rate_hz,
-        tau_corr,
-    )
+
+    def fit(stop: int) -> Classification:
+        seg_ref = None if ref is None else ref[iv.onset : stop]
+        return classify(r[iv.onset : stop] - cal.mean, seg_ref, cal.std, rate_hz, tau_corr)
+
+    cls = fit(stop)
     tau = np.arange(n - iv.onset) / rate_hz
     shape = cls.fault_signal(tau, None if ref is None else ref[iv.onset :])
     if shape is None:
@@ -116,12 +115,5 @@ def diagnose_interval(
             break
     if end != iv.end:
         # refit the shape over the whole fault period
-        stop = min(n if end is None else end, limit)
-        cls = classify(
-            r[iv.onset : stop] - cal.mean,
-            None if ref is None else ref[iv.onset : stop],
-            cal.std,
-            rate_hz,
-            tau_corr,
-        )
+        cls = fit(min(n if end is None else end, limit))
     return cls, end
