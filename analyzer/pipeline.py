@@ -237,6 +237,11 @@ def _analyze(
                 )
             chosen = [chosen[k] for k in keep]
             values = np.asarray(values)[:, keep]
+        if options.scheduler:
+            notes.append(
+                f"--scheduler {options.scheduler}: the Dask backend is not implemented yet; "
+                "the analysis ran locally"
+            )
         data = Dataset(values, tuple(chosen), aligned.rate_hz, train)
         ctx = RunContext(
             false_alarm_rate=options.config.false_alarm_rate,
