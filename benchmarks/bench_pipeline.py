@@ -457,6 +457,8 @@ def main(argv: list[str] | None = None) -> int:
                     f"({longest.peak_mb / shortest.peak_mb:.2f}x; limit {MEMORY_FACTOR:g} x + "
                     f"{MEMORY_SLACK_MB:g} MB = {limit:.0f} MB): {verdict}"
                 )
+        if args.quick:
+            print("  (--quick: archives this small say little about memory scaling)")
         print(f"load average at the end {os.getloadavg()[0]:.1f}")
         if args.profile:
             print()
