@@ -29,7 +29,8 @@ from scipy import linalg
 
 from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
 from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
-from analyzer.detectors.lti import LiftedSystem
+from analyzer.detectors.lti import LiftedSystem, StackedLiftedSystem
+from analyzer.detectors.riccati import solve_dare
 from analyzer.diagnosis.changes import (
     Calibration,
     alarm_statistic,
@@ -54,6 +55,17 @@ MAX_CHANNELS = 64
 """A bank of m estimators with p m states each costs O(m^3 p^2) per sample: beyond this,
 the user should choose the sensors to analyze."""
 
+WARMUP_DECAY = 1e-12
+"""Factor by which an estimator's initial state has faded after its warm-up: a time block
+filtered from a zero state that far before it equals the whole-record run to rounding."""
+
+AUTO_BLOCK = {2: 64, 6: 32}
+"""Lifted block length by channel count (largest key not above m; smaller blocks
+for larger states: measured by benchmarks/bench_bank.py --sweep)."""
+
+MIN_TIME_BLOCK = 8
+"""A time block handed to a worker is at least this many warm-ups long."""
+
 CV_FOLDS = 5
 """Folds of the cross-validation that gives out-of-sample training residuals."""
 
@@ -72,9 +84,76 @@ class LeaveOneOut:
 
     left_out: int
     measured: tuple[int, ...]
-    system: LiftedSystem
+    F: FloatArray
+    G: FloatArray
+    H: FloatArray
+    J: FloatArray
     settle: int
-    """Samples for the filter to forget its state (used after gaps)."""
+    """Samples for the filter to forget its state to 1e-6 (used after gaps)."""
+    block: int = 64
+    warmup: int = 0
+    """Samples for the filter to forget its state to ``WARMUP_DECAY``: a run that starts
+    this far before a time block matches, on the block, a run over the whole record."""
+
+    @property
+    def system(self) -> LiftedSystem:
+        """This estimator alone in lifted form (for tests and benchmarks; the bank runs
+        all estimators together in :class:`BankFilter`)."""
+        return LiftedSystem.build(self.F, self.G, self.H, self.J, self.block)
+
+
+@dataclass(frozen=True, slots=True)
+class BankFilter:
+    """All ``m`` estimators of the bank stacked on the shared (scaled) input: estimator
+    ``j`` has zero input columns for channel ``j``. Outputs per estimator: ``m - 1``
+    innovations (in the order of ``measured``) then the estimate of the left-out channel.
+
+    ``whitened``: the innovation outputs are premultiplied by ``S_j^-1/2`` (``S_j`` the
+    estimator's healthy innovation covariance), so the consistency ``nu' S^-1 nu`` is a
+    plain sum of squares of the outputs."""
+
+    stack: StackedLiftedSystem
+    measured: tuple[tuple[int, ...], ...]
+    settle: tuple[int, ...]
+    warmup: int
+    whitened: bool = False
+
+    @classmethod
+    def build(
+        cls,
+        estimators: tuple[LeaveOneOut, ...],
+        block: int,
+        inv_covs: list[FloatArray] | tuple[FloatArray, ...] | None = None,
+    ) -> BankFilter:
+        """The stacked bank; with ``inv_covs`` (one inverse innovation covariance per
+        estimator) its innovation outputs are whitened."""
+        m = len(estimators)
+        systems = []
+        for j, e in enumerate(estimators):
+            cols = list(e.measured)
+            G = np.zeros((e.F.shape[0], m))
+            G[:, cols] = e.G
+            J = np.zeros((e.H.shape[0], m))
+            J[:, cols] = e.J
+            H = e.H
+            if inv_covs is not None:
+                W = _sqrt_psd(np.asarray(inv_covs[j]))
+                H = np.vstack([W @ H[:-1], H[-1:]])
+                J[:-1] = W @ J[:-1]
+            systems.append((e.F, G, H, J))
+        return cls(
+            StackedLiftedSystem.build(systems, block),
+            tuple(e.measured for e in estimators),
+            tuple(e.settle for e in estimators),
+            max(e.warmup for e in estimators),
+            inv_covs is not None,
+        )
+
+
+def _sqrt_psd(a: FloatArray) -> FloatArray:
+    """Symmetric square root of a positive semi-definite matrix."""
+    w, V = np.linalg.eigh(0.5 * (a + a.T))
+    return np.asarray((V * np.sqrt(np.clip(w, 0.0, None))) @ V.T, dtype=np.float64)
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,6 +166,18 @@ class FittedBank:
     innovation_inv_cov: tuple[FloatArray, ...]
     tau: tuple[float, ...]
     calibration: str = "in-sample"
+    bank: BankFilter | None = None
+
+
+@dataclass(slots=True)
+class BankOutputs:
+    """What the bank yields per sample and channel ``j`` (all (N, m)): the residual of
+    sensor ``j`` against its estimate from the others, that estimate (raw units), and the
+    consistency of estimator ``j`` (normalized innovation squared, NaN where masked)."""
+
+    resid: FloatArray
+    est: FloatArray
+    nis: FloatArray
 
 
 def leave_one_out(ar: ARModel, j: int, block: int = 64) -> LeaveOneOut:
@@ -99,7 +190,7 @@ def leave_one_out(ar: ARModel, j: int, block: int = 64) -> LeaveOneOut:
     Q = K @ ar.sigma @ K.T
     R = ar.sigma[np.ix_(measured, measured)]
     try:
-        P = linalg.solve_discrete_are(A.T, Cb.T, Q, R)
+        P = solve_dare(A.T, Cb.T, Q, R)
     except (linalg.LinAlgError, ValueError) as err:
         raise DetectorError(
             f"the Kalman estimator without channel {j} has no stabilizing solution "
@@ -120,7 +211,8 @@ def leave_one_out(ar: ARModel, j: int, block: int = 64) -> LeaveOneOut:
             f"the Kalman estimator without channel {j} is unstable (spectral radius {rho:.4f})"
         )
     settle = int(np.ceil(np.log(1e-6) / np.log(max(rho, 1e-3))))
-    return LeaveOneOut(j, measured, LiftedSystem.build(F, G, H, J, block), settle)
+    warmup = int(np.ceil(np.log(WARMUP_DECAY) / np.log(max(rho, 1e-3))))
+    return LeaveOneOut(j, measured, F, G, H, J, settle, block, warmup)
 
 
 class ARKalmanBank:
@@ -130,7 +222,9 @@ class ARKalmanBank:
 
     name: ClassVar[str] = "ar_kalman_bank"
 
-    def __init__(self, order: int | str = "bic", max_order: int = 10, block: int = 64) -> None:
+    def __init__(
+        self, order: int | str = "bic", max_order: int = 10, block: int | None = None
+    ) -> None:
         if isinstance(order, str) and order not in ("aic", "bic"):
             raise DetectorError(
                 "[detectors.ar_kalman_bank] order: expected an integer, 'aic' or 'bic', "
@@ -140,7 +234,9 @@ class ARKalmanBank:
             raise DetectorError(f"[detectors.ar_kalman_bank] order must be >= 1, got {order}")
         self.order = order
         self.max_order = int(max_order)
-        self.block = int(block)
+        if block is not None and int(block) < 1:
+            raise DetectorError(f"[detectors.ar_kalman_bank] block must be >= 1, got {block}")
+        self.block = None if block is None else int(block)
 
     def applicable(self, data: Dataset, context: RunContext) -> str | None:
         if len(data.channels) < 2:
@@ -164,22 +260,17 @@ class ARKalmanBank:
             else self.order
         )
         ar = fit_ar(train, order)
-        estimators = tuple(leave_one_out(ar, j, self.block) for j in range(ar.m))
+        block = self._block(ar.m)
+        estimators = tuple(leave_one_out(ar, j, block) for j in range(ar.m))
         window = default_window(data.rate_hz)
-        resid, innov, skip, how = self._calibration_outputs(ar, estimators, train)
-        inv_covs = []
-        for j in range(ar.m):
-            nu = innov[j][skip:]
-            cov = np.atleast_2d(np.cov(nu[np.isfinite(nu).all(axis=1)].T))
-            inv_covs.append(np.asarray(np.linalg.pinv(cov), dtype=np.float64))
-        cons = [self._consistency(innov[j], inv_covs[j]) for j in range(ar.m)]
+        resid, cons, skip, how, inv_covs = self._calibration_outputs(ar, estimators, train)
         res_cal, con_cal, taus = [], [], []
         # the false-alarm rate is per sample of the archive: shared among its channels
         alpha = context.false_alarm_rate / ar.m
         for j in range(ar.m):
             r = resid[skip:, j]
             res_cal.append(calibrate(r, window, alpha))
-            con_cal.append(calibrate(cons[j][skip:], window, alpha))
+            con_cal.append(calibrate(cons[skip:, j], window, alpha))
             taus.append(correlation_time(r))
         return FittedBank(
             ar,
@@ -190,97 +281,124 @@ class ARKalmanBank:
             tuple(inv_covs),
             tuple(taus),
             how,
+            BankFilter.build(estimators, block, inv_covs),
         )
+
+    def _block(self, m: int) -> int:
+        if self.block is not None:
+            return self.block
+        return next((AUTO_BLOCK[k] for k in sorted(AUTO_BLOCK, reverse=True) if m >= k), 64)
 
     def _calibration_outputs(
         self, ar: ARModel, estimators: tuple[LeaveOneOut, ...], train: FloatArray
-    ) -> tuple[FloatArray, list[FloatArray], int, str]:
-        """Residuals and innovations of the training window *out of sample*.
+    ) -> tuple[FloatArray, FloatArray, int, str, list[FloatArray]]:
+        """Residuals and consistency of the training window *out of sample*, the skipped
+        cold start, how they were obtained, and each estimator's inverse innovation
+        covariance.
 
         A model judged on the data it was fitted to looks better than it is: in-sample
         residuals of an AR model with ``p m`` coefficients per channel understate its
         residuals on new data, and thresholds set from them raise false alarms. So the
         training window is cut into ``CV_FOLDS`` blocks; each block's residuals come from a
-        model fitted without it (K-fold cross-validation). Where the window is too short
-        for that, in-sample residuals are used and the model summary says so."""
+        model fitted without it (K-fold cross-validation), filtered from a warm-up before
+        the block. Where the window is too short for that, in-sample residuals are used and
+        the model summary says so."""
         n = train.shape[0]
+        skip = min(max(e.settle for e in estimators), n // 4)
+        block = estimators[0].block
         k = CV_FOLDS
         edges = np.linspace(0, n, k + 1).astype(int)
-        resid = np.full((n, ar.m), np.nan)
-        innov = [np.full((n, ar.m - 1), np.nan) for _ in range(ar.m)]
         try:
+            folds = []
             for f in range(k):
                 a, b = edges[f], edges[f + 1]
                 held = train.copy()
                 held[a:b] = np.nan  # rows whose lags touch the block drop out of the fit
                 ar_f = fit_ar(held, ar.order)
-                ests = tuple(leave_one_out(ar_f, j, self.block) for j in range(ar.m))
-                r, _, nu = self._bank_outputs(ar_f, ests, train)
-                resid[a:b] = r[a:b]
-                for j in range(ar.m):
-                    innov[j][a:b] = nu[j][a:b]
-            # the first block is filtered from a cold start: skip the transient
-            skip = min(max(e.settle for e in estimators), n // 4)
-            return resid, innov, skip, f"{k}-fold out-of-sample"
+                ests = tuple(leave_one_out(ar_f, j, block) for j in range(ar.m))
+                folds.append((a, b, ar_f, BankFilter.build(ests, block)))
+            how = f"{k}-fold out-of-sample"
         except DetectorError:
-            r, _, nu = self._bank_outputs(ar, estimators, train)
-            skip = min(max(e.settle for e in estimators), n // 4)
-            return r, nu, skip, "in-sample (training window too short for cross-validation)"
-
-    @staticmethod
-    def _consistency(nu: FloatArray, inv_cov: FloatArray) -> FloatArray:
-        """Normalized innovation squared per sample, ``nu' S^-1 nu / dim`` (chi-square
-        over its degrees of freedom: 1 on average while the estimator is consistent)."""
-        return np.einsum("ki,ij,kj->k", nu, inv_cov, nu) / nu.shape[1]
+            folds = [(0, n, ar, BankFilter.build(estimators, block))]
+            how = "in-sample (training window too short for cross-validation)"
+        # pass 1: residuals and the innovation covariance of every estimator (after the
+        # cold start); pass 2: the consistency, normalized by that covariance
+        resid = np.full((n, ar.m), np.nan)
+        moments = _Moments(ar.m)
+        for a, b, ar_f, bank in folds:
+            w = min(a, bank.warmup)
+            out = bank_block(ar_f.mean, ar_f.scale, bank, train[a - w : b], w, None)
+            resid[a:b] = out.resid
+            lo = max(0, skip - a)
+            assert out.innov is not None
+            moments.add(out.innov[lo:])
+        inv_covs = moments.inverse_covariances()
+        cons = np.full((n, ar.m), np.nan)
+        for a, b, ar_f, bank in folds:
+            w = min(a, bank.warmup)
+            cons[a:b] = bank_block(ar_f.mean, ar_f.scale, bank, train[a - w : b], w, inv_covs).nis
+        return resid, cons, skip, how, inv_covs
 
     def _bank_outputs(
-        self, ar: ARModel, estimators: tuple[LeaveOneOut, ...], Y: FloatArray
-    ) -> tuple[FloatArray, FloatArray, list[FloatArray]]:
-        """Run every estimator over ``Y`` (raw units). Returns the left-out residuals
-        (N, m) and estimates (N, m) in raw units, and each estimator's innovations."""
-        Z = (np.asarray(Y, dtype=np.float64) - ar.mean) / ar.scale
-        gap = ~np.isfinite(Z)
-        Zf = np.where(gap, 0.0, Z)
-        N, m = Z.shape
-        resid = np.empty((N, m))
-        est = np.empty((N, m))
-        innov: list[FloatArray] = []
-        any_gap = gap.any()
-        for j, e in enumerate(estimators):
-            u = Zf[:, list(e.measured)]
-            out, _ = e.system.run(u)
-            nu = out[:, :-1]
-            yhat = out[:, -1]
-            if any_gap:
-                # mask samples whose inputs were missing, and the settling after them
-                bad = _dilate_forward(np.asarray(gap[:, list(e.measured)].any(axis=1)), e.settle)
-                nu[bad] = np.nan
-                yhat[bad] = np.nan
-            est[:, j] = yhat * ar.scale[j] + ar.mean[j]
-            resid[:, j] = np.where(gap[:, j], np.nan, Y[:, j] - est[:, j])
-            innov.append(nu)
-        return resid, est, innov
+        self,
+        model: FittedBank,
+        Y: FloatArray,
+        context: RunContext | None = None,
+        start: int = 0,
+        stop: int | None = None,
+        into: BankOutputs | None = None,
+    ) -> BankOutputs:
+        """Run the bank over ``Y[start:stop]`` (raw units), into ``into`` when given.
+
+        Serially the span is one pass with the state carried from chunk to chunk (from a
+        zero state at the record's start, or after a warm-up when ``start > 0``). With a
+        parallel executor in ``context`` the span is cut into time blocks, each filtered
+        from a warm-up of ``BankFilter.warmup`` samples before it, so the blocks are
+        independent and equal the serial run to rounding."""
+        bank = model.bank
+        if bank is None:  # pragma: no cover - fitted by fit()
+            raise DetectorError("ar_kalman_bank: the model has no estimator bank")
+        ar = model.ar
+        N, m = Y.shape
+        stop = N if stop is None else stop
+        if into is None:
+            into = BankOutputs(np.empty((N, m)), np.empty((N, m)), np.empty((N, m)))
+        spans = _time_blocks(start, stop, bank.warmup, context)
+        items = [
+            (ar.mean, ar.scale, bank, Y[a - w : b], w, model.innovation_inv_cov)
+            for a, b, w in spans
+        ]
+        if len(items) == 1 or context is None:
+            results = [bank_block(*it) for it in items]
+        else:
+            results = context.map(_bank_block_task, items)
+        for (a, b, _), out in zip(spans, results, strict=True):
+            into.resid[a:b] = out.resid
+            into.est[a:b] = out.est
+            into.nis[a:b] = out.nis
+        return into
 
     # -- running ---------------------------------------------------------------------------
     def run(self, model: FittedBank, data: Dataset, context: RunContext) -> DetectorResult:
         ar = model.ar
         rate = data.rate_hz
-        Y = np.array(data.values, dtype=np.float64, copy=True)
+        Y = np.asarray(data.values, dtype=np.float64)
         N, m = Y.shape
         train_stop = data.train[1]
         events: list[Event] = []
         notes: list[str] = []
         explained: list[tuple[int, int, int]] = []  # (channel, start, stop) already isolated
-        first = None
+        out = self._bank_outputs(model, Y, context)
+        # the residual the report shows: as measured, before any correction
+        resid0, est0 = out.resid, out.est
+        corrected = False
         for _ in range(4 * m):
-            resid, est, innov = self._bank_outputs(ar, model.estimators, Y)
-            if first is None:
-                first = (resid.copy(), est.copy())
-            found = self._next_fault(model, resid, est, innov, rate, train_stop, explained)
+            found = self._next_fault(model, out, rate, train_stop, explained)
             if found is None:
                 break
             ev, spans, cls = found
             if ev is None or cls is None:
+                # nothing is corrected, so the bank's outputs stay as they are
                 explained.extend(spans)
                 t = min(a for _, a, _ in spans) / rate
                 notes.append(
@@ -293,14 +411,21 @@ class ARKalmanBank:
             ev.channel = data.channels[j]
             events.append(ev)
             explained.append((j, a, b))
+            if not corrected:  # copy on the first correction only: inputs stay untouched
+                Y = Y.copy()
+                out = BankOutputs(out.resid.copy(), out.est.copy(), out.nis)
+                corrected = True
             # Correct the isolated channel so the bank can isolate the next fault (Section 4:
             # "corrected by a curve-fitting algorithm"): remove the fitted fault shape, or
             # where there is none (type other) use the estimate from the other sensors.
-            Y[a:b, j] = _undo_fault(Y[a:b, j], est[a:b, j], cls, rate)
+            # The estimators forget the change within their warm-up, so only the fault
+            # period and the warm-up after it are filtered again.
+            Y[a:b, j] = _undo_fault(Y[a:b, j], out.est[a:b, j], cls, rate)
+            assert model.bank is not None
+            self._bank_outputs(
+                model, Y, context, start=a, stop=min(N, b + model.bank.warmup), into=out
+            )
             context.report("ar_kalman_bank", min(1.0, len(events) / m))
-        if first is None:  # pragma: no cover - the loop runs at least once
-            raise DetectorError("ar_kalman_bank produced no output")
-        resid0, est0 = first
         # the residual the report shows: as measured, before any correction
         residuals = {c: resid0[:, j] for j, c in enumerate(data.channels)}
         reference = {c: est0[:, j] for j, c in enumerate(data.channels)}
@@ -310,7 +435,7 @@ class ARKalmanBank:
             params={
                 "order": ar.order,
                 "order_rule": self.order,
-                "block": self.block,
+                "block": model.bank.stack.T if model.bank is not None else self.block,
                 "window": model.window,
                 "false_alarm_rate": context.false_alarm_rate,
             },
@@ -338,14 +463,13 @@ class ARKalmanBank:
     def _next_fault(
         self,
         model: FittedBank,
-        resid: FloatArray,
-        est: FloatArray,
-        innov: list[FloatArray],
+        out: BankOutputs,
         rate: float,
         train_stop: int,
         explained: list[tuple[int, int, int]],
     ) -> tuple[Event | None, list[tuple[int, int, int]], Classification | None] | None:
         """The earliest not-yet-explained fault, isolated to one sensor, or None."""
+        resid, est, nis = out.resid, out.est, out.nis
         N, m = resid.shape
         cands = []
         margin = model.residual_cal[0].long_window
@@ -374,7 +498,7 @@ class ARKalmanBank:
         # consistency of each estimator over the start of the fault
         lo = max(train_stop, t0 - model.window)
         hi = min(N, t0 + 2 * span)
-        violation = np.array([self._violation(model, innov, j, lo, hi) for j in range(m)])
+        violation = np.array([self._violation(model, nis, j, lo, hi) for j in range(m)])
         cand_ch = sorted({c[1] for c in group})
         # the faulty sensor: the candidate whose leave-out estimator stays most consistent
         # Among the candidates whose leave-out estimator is consistent, the one whose own
@@ -405,7 +529,7 @@ class ARKalmanBank:
         limit = None
         for t2 in sorted({c[0] for c in cands if c[1] != j and c[0] > t0 + span}):
             lo2, hi2 = max(train_stop, t2 - model.window), min(N, t2 + 2 * span)
-            if self._violation(model, innov, j, lo2, hi2) >= 1.0:
+            if self._violation(model, nis, j, lo2, hi2) >= 1.0:
                 # a slowly growing fault alarms late: keep a long window off its alarm
                 limit = max(iv.onset + span, t2 - span)
                 break
@@ -416,8 +540,8 @@ class ARKalmanBank:
             # later: look for the confirmation over the whole fault period
             until = stop if limit is None else min(stop, limit)
             isolated = _confirmed(
-                self._violation(model, innov, j, lo, until),
-                max(self._violation(model, innov, i, lo, until) for i in range(m) if i != j),
+                self._violation(model, nis, j, lo, until),
+                max(self._violation(model, nis, i, lo, until) for i in range(m) if i != j),
             )
         if not isolated and (cls.type is FaultType.OTHER or stop - iv.onset < span):
             # A change of residual that no estimator using the sensor confirms and that
@@ -449,12 +573,11 @@ class ARKalmanBank:
         )
         return ev, [(j, iv.onset, stop)], cls
 
-    def _violation(
-        self, model: FittedBank, innov: list[FloatArray], j: int, lo: int, hi: int
-    ) -> float:
+    def _violation(self, model: FittedBank, nis: FloatArray, j: int, lo: int, hi: int) -> float:
         """Largest alarm statistic of estimator ``j``'s normalized innovations over
-        ``[lo, hi)``: below 1 while the estimator is consistent."""
-        cons = self._consistency(np.nan_to_num(innov[j][lo:hi]), model.innovation_inv_cov[j])
+        ``[lo, hi)``: below 1 while the estimator is consistent (masked samples count as
+        consistent)."""
+        cons = np.nan_to_num(nis[lo:hi, j])
         cal = model.consistency_cal[j]
         return float(np.max(alarm_statistic(cal.standardize(cons), cal), initial=0.0))
 
@@ -462,6 +585,139 @@ class ARKalmanBank:
     def _strength(r: FloatArray, cal: Calibration, a: int, b: int) -> float:
         z = cal.standardize(r[a:b])
         return float(np.nanmean(np.abs(z))) if b > a else 0.0
+
+
+@dataclass(slots=True)
+class _Moments:
+    """Running mean and covariance of each estimator's innovations (finite rows only)."""
+
+    m: int
+    count: npt.NDArray[np.int64] | None = None
+    total: FloatArray | None = None
+    outer: FloatArray | None = None
+
+    def add(self, innov: FloatArray) -> None:
+        """``innov``: (L, m, m - 1), NaN where masked."""
+        if self.count is None:
+            d = innov.shape[2]
+            self.count = np.zeros(self.m, dtype=np.int64)
+            self.total = np.zeros((self.m, d))
+            self.outer = np.zeros((self.m, d, d))
+        assert self.total is not None and self.outer is not None
+        for j in range(self.m):
+            nu = innov[:, j]
+            nu = nu[np.isfinite(nu).all(axis=1)]
+            self.count[j] += nu.shape[0]
+            self.total[j] += nu.sum(axis=0)
+            self.outer[j] += nu.T @ nu
+
+    def inverse_covariances(self) -> list[FloatArray]:
+        assert self.count is not None and self.total is not None and self.outer is not None
+        inv = []
+        for j in range(self.m):
+            n = int(self.count[j])
+            if n < 2:
+                raise DetectorError(
+                    "ar_kalman_bank: too little finite training data to estimate the "
+                    f"innovation covariance of the estimator without channel {j}"
+                )
+            mu = self.total[j] / n
+            cov = (self.outer[j] - n * np.outer(mu, mu)) / (n - 1)
+            inv.append(np.asarray(np.linalg.pinv(np.atleast_2d(cov)), dtype=np.float64))
+        return inv
+
+
+@dataclass(slots=True)
+class BankBlock:
+    """Bank outputs over one time block (see :class:`BankOutputs`); ``innov`` (L, m, m-1)
+    instead of ``nis`` when no innovation covariance was given."""
+
+    resid: FloatArray
+    est: FloatArray
+    nis: FloatArray
+    innov: FloatArray | None = None
+
+
+def bank_block(
+    mean: FloatArray,
+    scale: FloatArray,
+    bank: BankFilter,
+    Y: FloatArray,
+    warm: int,
+    inv_covs: list[FloatArray] | tuple[FloatArray, ...] | None,
+    chunk: int = 1 << 14,
+) -> BankBlock:
+    """Bank outputs for ``Y[warm:]`` (raw units), every estimator filtered from a zero
+    state at ``Y[0]``. Works through ``Y`` in chunks with the state carried, so temporary
+    memory is set by ``chunk``, not by the block's length. Where an estimator's inputs
+    are missing (NaN), its outputs are masked for its settling time after the gap.
+
+    The consistency ``nu' S^-1 nu / (m - 1)`` is returned in ``nis`` for a whitened
+    bank, or given ``inv_covs`` (one inverse innovation covariance per estimator); else
+    the innovations themselves (``innov``) and ``nis`` is NaN."""
+    Z = (np.asarray(Y, dtype=np.float64) - mean) / scale
+    gap = ~np.isfinite(Z)
+    Zf = np.where(gap, 0.0, Z)
+    N, m = Z.shape
+    L = N - warm
+    resid = np.empty((L, m))
+    est = np.empty((L, m))
+    nis = np.full((L, m), np.nan)
+    innov = np.empty((L, m, m - 1)) if inv_covs is None and not bank.whitened else None
+    inv_stack = None if inv_covs is None else np.stack([np.asarray(c) for c in inv_covs])
+    bad = None
+    if gap.any():
+        n_gap = gap.sum(axis=1)
+        bad = np.empty((N, m), dtype=bool)
+        for j in range(m):  # estimator j misses data when any channel but j is missing
+            bad[:, j] = _dilate_forward((n_gap - gap[:, j]) > 0, bank.settle[j])
+    T = bank.stack.T
+    chunk = max(T, (chunk // T) * T)
+    x = None
+    for s0 in range(0, N, chunk):
+        e0 = min(N, s0 + chunk)
+        y, x = bank.stack.run(Zf[s0:e0], x)  # (c, m, m): innovations, then the estimate
+        lo = max(s0, warm)
+        if lo >= e0:
+            continue
+        y = y[lo - s0 :]
+        nu = y[:, :, :-1]
+        yhat = y[:, :, -1]
+        if bad is not None:
+            b = bad[lo:e0]
+            nu[b] = np.nan
+            yhat[b] = np.nan
+        rows = slice(lo - warm, e0 - warm)
+        est[rows] = yhat * scale + mean
+        resid[rows] = np.where(gap[lo:e0], np.nan, Y[lo:e0] - est[rows])
+        if bank.whitened:
+            nis[rows] = np.einsum("cjq,cjq->cj", nu, nu) / (m - 1)
+        elif innov is not None:
+            innov[rows] = nu
+        else:
+            assert inv_stack is not None
+            nt = nu.transpose(1, 0, 2)  # (m, c, m - 1)
+            nis[rows] = (np.matmul(nt, inv_stack) * nt).sum(axis=2).T / (m - 1)
+    return BankBlock(resid, est, nis, innov)
+
+
+def _bank_block_task(item: tuple) -> BankBlock:  # type: ignore[type-arg]
+    """:func:`bank_block` on one tuple of arguments (what an executor maps)."""
+    return bank_block(*item)
+
+
+def _time_blocks(
+    start: int, stop: int, warmup: int, context: RunContext | None
+) -> list[tuple[int, int, int]]:
+    """``(a, b, warm)`` spans covering ``[start, stop)``: one span serially; with a
+    parallel executor, about two per worker, each at least ``MIN_TIME_BLOCK`` warm-ups
+    long so the warm-up overhead stays small."""
+    executor = None if context is None else getattr(context, "executor", None)
+    if executor is None or stop - start <= 2 * MIN_TIME_BLOCK * warmup:
+        return [(start, stop, min(start, warmup))]
+    workers = max(2, int(getattr(context, "jobs", 2) or 2))
+    size = max(MIN_TIME_BLOCK * warmup, -(-(stop - start) // (2 * workers)))
+    return [(a, min(stop, a + size), min(a, warmup)) for a in range(start, stop, size)]
 
 
 def _undo_fault(y: FloatArray, est: FloatArray, cls: Classification, rate: float) -> FloatArray:
@@ -497,4 +753,12 @@ def _dilate_forward(mask: npt.NDArray[np.bool_], n: int) -> npt.NDArray[np.bool_
     return (c[k + 1] - c[lo]) > 0
 
 
-__all__ = ["ARKalmanBank", "FittedBank", "LeaveOneOut", "leave_one_out"]
+__all__ = [
+    "ARKalmanBank",
+    "BankFilter",
+    "BankOutputs",
+    "FittedBank",
+    "LeaveOneOut",
+    "bank_block",
+    "leave_one_out",
+]

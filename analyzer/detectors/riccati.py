@@ -1,0 +1,144 @@
+"""Discrete algebraic Riccati equation by the structure-preserving doubling algorithm.
+
+``scipy.linalg.solve_discrete_are`` solves the DARE through an ordered QZ decomposition of
+a ``2n x 2n`` pencil: robust, but about 0.7 s at ``n = 160`` states, and the bank of
+estimators solves one DARE per sensor (and per cross-validation fold), which made fitting
+a 16-channel order-10 bank take over a minute. The doubling algorithm (Chu, Fan, Lin,
+Wang, "Structure-preserving algorithms for periodic discrete-time algebraic Riccati
+equations", Int. J. Control 77, 2004; Lin & Xu, "Convergence analysis of structure-
+preserving doubling algorithms for Riccati-type matrix equations", SIAM J. Matrix Anal.
+Appl. 28, 2006) needs only ``n x n`` products and solves and converges quadratically: each
+step squares the closed loop's spectral radius, so ``k`` steps reach ``rho^(2^k)``.
+
+Solved here, with the same arguments and meaning as scipy's::
+
+    A' X A - X - (A' X B + S) (R + B' X B)^-1 (B' X A + S') + Q = 0
+
+The cross term is removed first (``A <- A - B R^-1 S'``, ``Q <- Q - S R^-1 S'``); the
+equation then reads ``X = A' X (I + G X)^-1 A + Q`` with ``G = B R^-1 B'``, and the
+iteration is::
+
+    W_k     = I + G_k H_k
+    A_{k+1} = A_k W_k^-1 A_k
+    G_{k+1} = G_k + A_k W_k^-1 G_k A_k'
+    H_{k+1} = H_k + A_k' H_k W_k^-1 A_k        (H_0 = Q, H_k -> X)
+
+The result is checked by its relative residual; where the doubling does not converge
+(no stabilizing solution, badly conditioned ``W``), scipy's QZ solver decides, so a model
+scipy accepts is never refused and a model it refuses is refused with its message.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+from scipy import linalg
+
+FloatArray = npt.NDArray[np.float64]
+
+MAX_STEPS = 60
+"""Doubling steps before giving up (each squares the convergence factor)."""
+
+TOLERANCE = 1e-12
+"""Relative change of ``H`` at which the iteration has converged."""
+
+RESIDUAL_LIMIT = 1e-8
+"""Largest relative residual of the Riccati equation accepted from the doubling."""
+
+
+def solve_dare(
+    a: FloatArray,
+    b: FloatArray,
+    q: FloatArray,
+    r: FloatArray,
+    s: FloatArray | None = None,
+) -> FloatArray:
+    """The stabilizing solution ``X`` of the DARE (arguments as
+    :func:`scipy.linalg.solve_discrete_are`)."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    q = np.asarray(q, dtype=np.float64)
+    r = np.asarray(r, dtype=np.float64)
+    x = _doubling(a, b, q, r, s)
+    if (
+        x is not None
+        and _relative_residual(x, a, b, q, r, s) < RESIDUAL_LIMIT
+        and _stabilizing(x, a, b, r, s)
+    ):
+        return x
+    return np.asarray(linalg.solve_discrete_are(a, b, q, r, s=s), dtype=np.float64)
+
+
+def _doubling(
+    a: FloatArray, b: FloatArray, q: FloatArray, r: FloatArray, s: FloatArray | None
+) -> FloatArray | None:
+    n = a.shape[0]
+    try:
+        rc = linalg.cho_factor(r)
+    except linalg.LinAlgError:
+        return None  # R not positive definite: scipy decides
+    Ak = a.copy()
+    Hk = q.copy()
+    if s is not None:
+        s = np.asarray(s, dtype=np.float64)
+        Ak = Ak - b @ linalg.cho_solve(rc, s.T)
+        Hk = Hk - s @ linalg.cho_solve(rc, s.T)
+    Gk = b @ linalg.cho_solve(rc, b.T)
+    eye = np.eye(n)
+    with np.errstate(all="ignore"):
+        for _ in range(MAX_STEPS):
+            W = eye + Gk @ Hk
+            try:
+                lu = linalg.lu_factor(W, check_finite=False)
+            except (linalg.LinAlgError, ValueError):
+                return None
+            WA = linalg.lu_solve(lu, Ak, check_finite=False)  # W^-1 A
+            WG = linalg.lu_solve(lu, Gk, check_finite=False)  # W^-1 G
+            H_next = Hk + Ak.T @ Hk @ WA
+            Gk = Gk + Ak @ WG @ Ak.T
+            Ak = Ak @ WA
+            if not np.all(np.isfinite(H_next)):
+                return None
+            change = np.max(np.abs(H_next - Hk))
+            Hk = H_next
+            if change <= TOLERANCE * max(1.0, float(np.max(np.abs(Hk)))):
+                return 0.5 * (Hk + Hk.T)
+    return None
+
+
+def _stabilizing(
+    x: FloatArray, a: FloatArray, b: FloatArray, r: FloatArray, s: FloatArray | None
+) -> bool:
+    """Whether ``A - B K`` (``K`` the gain of ``x``) has every eigenvalue inside the unit
+    circle: the doubling converges to the stabilizing solution, this guards the rest."""
+    axb = a.T @ x @ b if s is None else a.T @ x @ b + s
+    try:
+        k = np.linalg.solve(r + b.T @ x @ b, axb.T)
+    except np.linalg.LinAlgError:
+        return False
+    return bool(np.max(np.abs(np.linalg.eigvals(a - b @ k))) < 1.0)
+
+
+def _relative_residual(
+    x: FloatArray,
+    a: FloatArray,
+    b: FloatArray,
+    q: FloatArray,
+    r: FloatArray,
+    s: FloatArray | None,
+) -> float:
+    """``|DARE(x)| / (|A' X A| + |X| + |Q|)`` in the max norm."""
+    axb = a.T @ x @ b if s is None else a.T @ x @ b + s
+    try:
+        gain = np.linalg.solve(r + b.T @ x @ b, axb.T)
+    except np.linalg.LinAlgError:
+        return np.inf
+    axa = a.T @ x @ a
+    res = axa - x - axb @ gain + q
+    scale = np.max(np.abs(axa)) + np.max(np.abs(x)) + np.max(np.abs(q))
+    if not np.isfinite(res).all() or scale == 0:
+        return np.inf
+    return float(np.max(np.abs(res)) / scale)
+
+
+__all__ = ["solve_dare"]
