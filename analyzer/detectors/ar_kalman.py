@@ -20,7 +20,9 @@ Residual convention: ``measured - estimated`` (the paper plots ``estimated - mea
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import ClassVar
 
 import numpy as np
@@ -30,7 +32,7 @@ from scipy import linalg
 from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
 from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
 from analyzer.detectors.lti import LiftedSystem, StackedLiftedSystem
-from analyzer.detectors.riccati import solve_dare
+from analyzer.detectors.riccati import solve_dare, solve_dare_scipy
 from analyzer.diagnosis.changes import (
     Calibration,
     alarm_statistic,
@@ -180,6 +182,22 @@ class BankOutputs:
     nis: FloatArray
 
 
+def _filter_gain(
+    solver: Callable[..., FloatArray],
+    A: FloatArray,
+    Cb: FloatArray,
+    Q: FloatArray,
+    R: FloatArray,
+) -> tuple[FloatArray, FloatArray, float]:
+    """Steady-state filter gain ``M = P Cb' S^-1`` from the DARE solved by ``solver``, the
+    closed loop ``F = A (I - M Cb)`` and its spectral radius."""
+    P = solver(A.T, Cb.T, Q, R)
+    S = Cb @ P @ Cb.T + R
+    M = np.linalg.solve(S, Cb @ P).T
+    F = A @ (np.eye(A.shape[0]) - M @ Cb)
+    return M, F, float(np.max(np.abs(np.linalg.eigvals(F))))
+
+
 def leave_one_out(ar: ARModel, j: int, block: int = 64) -> LeaveOneOut:
     """Estimator ``j`` of the bank (Eq. 10) with the gain from the DARE."""
     A, C = ar.companion()
@@ -189,23 +207,21 @@ def leave_one_out(ar: ARModel, j: int, block: int = 64) -> LeaveOneOut:
     K = C.T  # noise enters the newest block row (Eq. 8)
     Q = K @ ar.sigma @ K.T
     R = ar.sigma[np.ix_(measured, measured)]
+    n = A.shape[0]
     try:
-        P = solve_dare(A.T, Cb.T, Q, R)
+        M, F, rho = _filter_gain(partial(solve_dare, check_stable=False), A, Cb, Q, R)
+        if not rho < 1.0:  # the doubling's answer is not the stabilizing one: QZ decides
+            M, F, rho = _filter_gain(solve_dare_scipy, A, Cb, Q, R)
     except (linalg.LinAlgError, ValueError) as err:
         raise DetectorError(
             f"the Kalman estimator without channel {j} has no stabilizing solution "
             f"(singular model: {err})"
         ) from err
-    S = Cb @ P @ Cb.T + R
-    M = np.linalg.solve(S, Cb @ P).T  # filter gain P Cb' S^-1
-    n = A.shape[0]
     I_MC = np.eye(n) - M @ Cb
-    F = A @ I_MC
     G = A @ M
     cj = C[j : j + 1]
     H = np.vstack([-Cb, cj @ I_MC])
     J = np.vstack([np.eye(len(measured)), cj @ M])
-    rho = float(np.max(np.abs(np.linalg.eigvals(F))))
     if not rho < 1.0:
         raise DetectorError(
             f"the Kalman estimator without channel {j} is unstable (spectral radius {rho:.4f})"

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+from scipy import linalg
 
 from analyzer.errors import DetectorError
 
@@ -105,7 +106,7 @@ def fit_ar(Y: FloatArray, order: int) -> ARModel:
             f"{int(ok.sum()) + order} usable training samples, need at least {need}"
         )
     T, X = T[ok], X[ok]
-    B, _, rank, _ = np.linalg.lstsq(X, T, rcond=None)
+    B, _, rank, _ = linalg.lstsq(X, T, lapack_driver="gelsy", check_finite=False)
     if rank < X.shape[1]:
         raise DetectorError(
             f"singular AR regression (rank {rank} < {X.shape[1]}): channels are linearly "
@@ -146,12 +147,17 @@ def select_order(Y: FloatArray, criterion: str = "bic", max_order: int = 12) -> 
     ok = np.isfinite(T_all).all(axis=1) & np.isfinite(X_all).all(axis=1)
     T_all, X_all = T_all[ok], X_all[ok]
     N = T_all.shape[0]
+    # One QR of [X T] serves every order: the lags are nested, so the residual of the
+    # order-p fit is R_tt' R_tt plus the rows of R_xt beyond the first p m columns
+    # (Golub & Van Loan, least squares by QR).
+    R = linalg.qr(np.hstack([X_all, T_all]), mode="r", check_finite=False)[0]
+    k = X_all.shape[1]
+    R_xt = R[:k, k:]
+    R_tt = R[k : k + m, k:]
     best, best_val = orders[0], np.inf
     for p in orders:
-        X = X_all[:, : p * m]
-        B, *_ = np.linalg.lstsq(X, T_all, rcond=None)
-        E = T_all - X @ B
-        sign, logdet = np.linalg.slogdet(E.T @ E / N)
+        rest = R_xt[p * m :]
+        sign, logdet = np.linalg.slogdet((rest.T @ rest + R_tt.T @ R_tt) / N)
         if sign <= 0:
             continue
         pen = 2.0 if criterion == "aic" else np.log(N)

@@ -52,9 +52,12 @@ def solve_dare(
     q: FloatArray,
     r: FloatArray,
     s: FloatArray | None = None,
+    check_stable: bool = True,
 ) -> FloatArray:
     """The stabilizing solution ``X`` of the DARE (arguments as
-    :func:`scipy.linalg.solve_discrete_are`)."""
+    :func:`scipy.linalg.solve_discrete_are`). ``check_stable=False`` leaves the check of
+    the closed loop's eigenvalues to a caller that computes them anyway (and falls back to
+    scipy itself when they are not inside the unit circle)."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
     q = np.asarray(q, dtype=np.float64)
@@ -63,9 +66,16 @@ def solve_dare(
     if (
         x is not None
         and _relative_residual(x, a, b, q, r, s) < RESIDUAL_LIMIT
-        and _stabilizing(x, a, b, r, s)
+        and (not check_stable or _stabilizing(x, a, b, r, s))
     ):
         return x
+    return solve_dare_scipy(a, b, q, r, s)
+
+
+def solve_dare_scipy(
+    a: FloatArray, b: FloatArray, q: FloatArray, r: FloatArray, s: FloatArray | None = None
+) -> FloatArray:
+    """scipy's QZ solver (the reference, and the fallback)."""
     return np.asarray(linalg.solve_discrete_are(a, b, q, r, s=s), dtype=np.float64)
 
 
@@ -141,4 +151,4 @@ def _relative_residual(
     return float(np.max(np.abs(res)) / scale)
 
 
-__all__ = ["solve_dare"]
+__all__ = ["solve_dare", "solve_dare_scipy"]
