@@ -106,7 +106,7 @@ def fit_ar(Y: FloatArray, order: int) -> ARModel:
             f"{int(ok.sum()) + order} usable training samples, need at least {need}"
         )
     T, X = T[ok], X[ok]
-    B, _, rank, _ = linalg.lstsq(X, T, lapack_driver="gelsy", check_finite=False)
+    B, rank = _least_squares(X, T)
     if rank < X.shape[1]:
         raise DetectorError(
             f"singular AR regression (rank {rank} < {X.shape[1]}): channels are linearly "
@@ -124,6 +124,25 @@ def fit_ar(Y: FloatArray, order: int) -> ARModel:
     aic = float(logdet + 2.0 * n_par / N)
     bic = float(logdet + np.log(N) * n_par / N)
     return ARModel(np.asarray(coefs, dtype=np.float64), sigma, mean, scale, N, aic, bic)
+
+
+NORMAL_EQUATIONS_COND = 1e8
+"""Largest condition number of ``X' X`` solved by Cholesky (about 8 of 16 digits kept);
+a worse-conditioned regression is solved by pivoted QR, which also finds its rank."""
+
+
+def _least_squares(X: FloatArray, T: FloatArray) -> tuple[FloatArray, int]:
+    """``argmin |X B - T|`` and the rank of ``X``. The normal equations by Cholesky cost one
+    GEMM (5-10x less than a QR of a tall ``X``) and are exact enough when ``X' X`` is well
+    conditioned; otherwise pivoted QR (``gelsy``) decides."""
+    G = X.T @ X
+    try:
+        if np.linalg.cond(G) < NORMAL_EQUATIONS_COND:
+            return linalg.cho_solve(linalg.cho_factor(G), X.T @ T), X.shape[1]
+    except (linalg.LinAlgError, ValueError):
+        pass
+    B, _, rank, _ = linalg.lstsq(X, T, lapack_driver="gelsy", check_finite=False)
+    return B, int(rank)
 
 
 def select_order(Y: FloatArray, criterion: str = "bic", max_order: int = 12) -> int:
