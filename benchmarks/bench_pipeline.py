@@ -200,6 +200,10 @@ def archive_dir(base: Path, fmt: str, hours: float, pieces: list[Path], piece_s:
 # --------------------------------------------------------------------------- the child
 
 
+RUN_ARGS: list[str] = []
+"""Extra ``analyzer run`` options (``--jobs N``)."""
+
+
 def run_child(archive: Path, out: Path, log: Path, profile: Path | None = None) -> Run:
     """``analyzer run archive --out out`` in a child; wall time and its own peak RSS."""
     env = dict(os.environ)
@@ -207,6 +211,7 @@ def run_child(archive: Path, out: Path, log: Path, profile: Path | None = None) 
     if profile is not None:
         env["BENCH_PROFILE"] = str(profile)
     cmd = [sys.executable, "-c", DRIVER, "run", str(archive), "--out", str(out), "--no-progress"]
+    cmd += RUN_ARGS
     with log.open("w") as sink:
         begin = time.perf_counter()
         proc = subprocess.Popen(cmd, stdout=sink, stderr=subprocess.STDOUT, env=env)
@@ -344,10 +349,13 @@ def main(argv: list[str] | None = None) -> int:
         "files meet at discontinuities the detectors see)",
     )
     parser.add_argument("--keep", metavar="DIR", help="write (and reuse) the archives in DIR")
+    parser.add_argument("--jobs", type=int, default=None, help="pass --jobs N to analyzer run")
     parser.add_argument("--reference-messages", type=int, default=50_000)
     parser.add_argument("--sm-samples", type=int, default=5_000)
     parser.add_argument("--sm-estimators", type=int, default=2)
     args = parser.parse_args(argv)
+    if args.jobs:
+        RUN_ARGS[:] = ["--jobs", str(args.jobs)]
     floors = 2 if args.quick else 8
     piece_s = 180.0 if args.quick else 3600.0
     hours = [float(h) for h in parse_list(args.hours or ("0.05,0.2" if args.quick else "1,4"))]
