@@ -88,10 +88,17 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         help="rate of the common clock; default: the dominant rate of the channels",
     )
     p.add_argument(
-        "--jobs", type=_positive_int, metavar="N", help="local parallelism (default: cores)"
+        "--jobs",
+        type=_positive_int,
+        metavar="N",
+        help="local parallelism: run the detectors (and the bank's time blocks) on N "
+        "threads, same results as serial; default: number of cores, 1 = serial",
     )
     p.add_argument(
-        "--scheduler", metavar="ADDRESS", help="Dask distributed scheduler, e.g. tcp://host:8786"
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run the detectors on an existing Dask distributed cluster, e.g. "
+        "tcp://host:8786 (needs the 'distributed' extra)",
     )
     p.add_argument(
         "--time",

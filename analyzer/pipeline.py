@@ -10,7 +10,7 @@ import shutil
 import tempfile
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +23,14 @@ from analyzer.detectors.ar_model import flat_channels
 from analyzer.diagnosis import Finding, merge_events
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
+from analyzer.parallel import (
+    DaskExecutor,
+    Executor,
+    SerialExecutor,
+    WorkerClientExecutor,
+    locked,
+    make_executor,
+)
 from analyzer.readers import open_archive
 from analyzer.readers.base import InputInfo, TimeSource
 from analyzer.regenerate import corrected_values, result_signals, write_corrected_csv
@@ -169,6 +177,84 @@ def _detector_names(options: RunOptions) -> tuple[list[str], bool]:
     return list(REGISTRY), False
 
 
+def _fit_and_run(det: Any, data: Dataset, ctx: RunContext) -> DetectorResult:
+    """One detector's task: fit on the healthy window, run over the archive."""
+    return det.run(det.fit(data, ctx), data, ctx)
+
+
+def _fit_and_run_on_worker(det: Any, data: Dataset, ctx: RunContext) -> DetectorResult:
+    """:func:`_fit_and_run` as a Dask task: a detector that splits its work
+    (``ctx.map``) spreads the pieces over the same cluster."""
+    if ctx.jobs > 1:
+        ctx = replace(ctx, executor=WorkerClientExecutor(ctx.jobs))
+    return _fit_and_run(det, data, ctx)
+
+
+def _run_detectors(
+    names: list[str], options: RunOptions, data: Dataset, ctx: RunContext, executor: Executor
+) -> tuple[list[DetectorResult], dict[str, str]]:
+    """Fit and run the detectors ``names``, each as a task of ``executor``; results and
+    skip reasons in registry order, so any executor gives the serial run's output.
+
+    A detector whose needs are not met, or that raises :class:`DetectorError`, is skipped
+    with its reason; when the user named the detectors (``ctx.explicit``) the first such
+    error in registry order is raised instead, as the plain loop would."""
+    on_dask = isinstance(executor, DaskExecutor)
+    task = _fit_and_run_on_worker if on_dask else _fit_and_run
+    shipped_data: Any = data
+    shipped_ctx = ctx
+    if on_dask:
+        # workers have neither the caller's terminal nor its scratch directory
+        shipped_ctx = replace(ctx, workdir=None, progress=None, executor=None)
+        shipped_data = executor.scatter(replace(data, values=np.asarray(data.values)))
+    # (name, handle) for a submitted task, (name, error) for one settled up front
+    planned: list[tuple[str, Any]] = []
+    for name in names:
+        cls = detector_class(name)
+        try:
+            det = cls(**options.config.detectors.get(name, {}))
+        except TypeError as err:
+            bad = ConfigError(f"[detectors.{name}]: {err}")
+            bad.__cause__ = err
+            planned.append((name, bad))
+            break  # the plain loop stops here at the latest: start nothing after it
+        reason = det.applicable(data, ctx)
+        if reason is not None:
+            planned.append((name, _NotApplicable(reason)))
+            if ctx.explicit:
+                break
+            continue
+        planned.append((name, executor.submit(task, det, shipped_data, shipped_ctx)))
+    results: list[DetectorResult] = []
+    skipped: dict[str, str] = {}
+    try:
+        for name, plan in planned:
+            if isinstance(plan, _NotApplicable):
+                if ctx.explicit:
+                    raise DetectorError(f"{name}: {plan.reason}")
+                skipped[name] = plan.reason
+                continue
+            if isinstance(plan, AnalyzerError):
+                raise plan
+            try:
+                results.append(plan.result())
+            except DetectorError as err:
+                if ctx.explicit:
+                    raise
+                skipped[name] = str(err)
+    except BaseException:
+        for _, plan in planned:
+            if hasattr(plan, "cancel"):
+                plan.cancel()
+        raise
+    return results, skipped
+
+
+@dataclass(frozen=True, slots=True)
+class _NotApplicable:
+    reason: str
+
+
 def analyze(
     inputs: Sequence[str | Path], options: RunOptions, workdir: Path | None = None
 ) -> Analysis:
@@ -176,15 +262,30 @@ def analyze(
 
     With ``workdir`` the raw store and, for long archives, the aligned matrix and long
     results are memory-mapped there (the caller removes it after use); without it
-    everything is kept in memory and the scratch space is removed on return."""
-    if workdir is None:
-        with tempfile.TemporaryDirectory(prefix="analyzer-") as tmp:
-            return _analyze(inputs, options, Path(tmp), in_memory=True)
-    return _analyze(inputs, options, workdir, in_memory=False)
+    everything is kept in memory and the scratch space is removed on return.
+
+    The detectors run as tasks of the executor ``--jobs``/``--scheduler`` ask for
+    (:func:`analyzer.parallel.make_executor`: a Dask cluster, else one thread per core by
+    default, ``--jobs 1`` serially); the results are the serial run's whatever the
+    executor. The scheduler is
+    contacted first, so an unreachable one fails before any reading."""
+    jobs = options.jobs if options.jobs is not None else (os.cpu_count() or 1)
+    executor = make_executor(jobs, options.scheduler)
+    try:
+        if workdir is None:
+            with tempfile.TemporaryDirectory(prefix="analyzer-") as tmp:
+                return _analyze(inputs, options, Path(tmp), True, executor)
+        return _analyze(inputs, options, workdir, False, executor)
+    finally:
+        executor.close()
 
 
 def _analyze(
-    inputs: Sequence[str | Path], options: RunOptions, work: Path, in_memory: bool
+    inputs: Sequence[str | Path],
+    options: RunOptions,
+    work: Path,
+    in_memory: bool,
+    executor: Executor,
 ) -> Analysis:
     timings: dict[str, float] = {}
     notes: list[str] = []
@@ -237,43 +338,22 @@ def _analyze(
                 )
             chosen = [chosen[k] for k in keep]
             values = np.asarray(values)[:, keep]
-        if options.scheduler:
-            notes.append(
-                f"--scheduler {options.scheduler}: the Dask backend is not implemented yet; "
-                "the analysis ran locally"
-            )
         data = Dataset(values, tuple(chosen), aligned.rate_hz, train)
+        names, explicit = _detector_names(options)
+        if isinstance(executor, DaskExecutor):
+            notes.append(executor.describe())
+        parallel = not isinstance(executor, SerialExecutor)
         ctx = RunContext(
             false_alarm_rate=options.config.false_alarm_rate,
             workdir=None if in_memory else work,
-            jobs=options.jobs or (os.cpu_count() or 1),
-            progress=progress,
+            jobs=executor.workers,
+            progress=locked(progress) if parallel else progress,
             config=options.config.as_context(),
+            explicit=explicit,
+            executor=executor if parallel else None,
         )
-        names, explicit = _detector_names(options)
-        ctx.explicit = explicit
-        results: list[DetectorResult] = []
-        skipped: dict[str, str] = {}
         t0 = time.perf_counter()
-        for name in names:
-            cls = detector_class(name)
-            try:
-                det = cls(**options.config.detectors.get(name, {}))
-            except TypeError as err:
-                raise ConfigError(f"[detectors.{name}]: {err}") from err
-            reason = det.applicable(data, ctx)
-            if reason is not None:
-                if explicit:
-                    raise DetectorError(f"{name}: {reason}")
-                skipped[name] = reason
-                continue
-            try:
-                model = det.fit(data, ctx)
-                results.append(det.run(model, data, ctx))
-            except DetectorError as err:
-                if explicit:
-                    raise
-                skipped[name] = str(err)
+        results, skipped = _run_detectors(names, options, data, ctx, executor)
         timings["detect"] = time.perf_counter() - t0
         if not results:
             why = "; ".join(f"{k}: {v}" for k, v in skipped.items())

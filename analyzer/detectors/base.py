@@ -18,7 +18,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar, Protocol
+from typing import Any, ClassVar, Protocol, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -26,6 +26,14 @@ import numpy.typing as npt
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+class MapExecutor(Protocol):
+    """The part of :class:`analyzer.parallel.Executor` a detector uses."""
+
+    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,7 +60,8 @@ class Dataset:
 
 @dataclass(slots=True)
 class RunContext:
-    """What the pipeline lends a detector: thresholds, scratch space and progress."""
+    """What the pipeline lends a detector: thresholds, scratch space, progress and an
+    executor for work that splits into independent pieces (:meth:`map`)."""
 
     false_alarm_rate: float = 1e-6
     workdir: Path | None = None
@@ -63,6 +72,19 @@ class RunContext:
     explicit: bool = False
     """True when the user named the detectors (``--detectors``): a detector may then run
     with defaults it would not choose on its own."""
+    executor: MapExecutor | None = None
+    """Where :meth:`map` runs its items (an :class:`analyzer.parallel.Executor`); None
+    runs them serially in the calling thread. ``jobs`` is its parallelism."""
+
+    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
+        """``[fn(x) for x in items]`` on the context's executor, results in input order.
+
+        ``fn`` must be a module-level (picklable) function and ``items`` picklable (numpy
+        arrays are fine): on a Dask cluster each item is a task. An exception raised by
+        ``fn`` comes back with its type and message."""
+        if self.executor is None:
+            return [fn(x) for x in items]
+        return self.executor.map(fn, items)
 
     def allocate(self, name: str, shape: tuple[int, ...]) -> FloatArray:
         """A float64 array for a long result; memory-mapped in ``workdir`` when set, so

@@ -1,0 +1,334 @@
+"""Where the work runs: one small executor protocol for the pipeline and the detectors.
+
+The pipeline runs each detector as a task (:meth:`Executor.submit`) and a detector may
+split its own work with :meth:`Executor.map` (through :meth:`RunContext.map
+<analyzer.detectors.base.RunContext.map>`), for example the AR-Kalman bank's time blocks.
+Three back ends, all with the same results as the serial run:
+
+* :class:`SerialExecutor` -- a plain loop (the default);
+* :class:`ThreadExecutor` -- ``--jobs N``: a thread pool; the hot paths (numpy, BLAS,
+  scipy, numba) release the GIL, and threads share the aligned matrix without copies;
+* :class:`DaskExecutor` -- ``--scheduler tcp://HOST:PORT``: an existing Dask distributed
+  cluster; large arguments are sent once with :meth:`Executor.scatter`.
+
+Tasks are module-level (picklable) functions. An exception raised in a task comes back
+from ``map``/``result()`` as the same type with the same message (Dask pickles it back),
+so a :class:`~analyzer.errors.DetectorError` in a worker is still a skipped detector.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import socket
+import threading
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any, Protocol, TypeVar
+
+from analyzer.errors import UsageError
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+CONNECT_TIMEOUT_S = 10.0
+"""How long ``--scheduler`` waits for the scheduler to answer before giving up."""
+
+
+class TaskHandle(Protocol):
+    """What :meth:`Executor.submit` returns: ``result()`` waits and re-raises the task's
+    exception; ``cancel()`` drops a task that has not started."""
+
+    def result(self) -> Any: ...
+
+    def cancel(self) -> bool: ...
+
+
+class Executor(Protocol):
+    """Runs picklable module-level functions; ``workers`` is the parallelism it offers."""
+
+    workers: int
+
+    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
+        """``[fn(x) for x in items]``, possibly concurrently, results in input order."""
+        ...
+
+    def submit(self, fn: Callable[..., R], *args: Any) -> TaskHandle:
+        """Start ``fn(*args)``; the handle's ``result()`` returns its value."""
+        ...
+
+    def scatter(self, obj: T) -> Any:
+        """A handle for a large argument used by several tasks (the object itself
+        locally, a future on the cluster); pass it to :meth:`submit` in place of ``obj``."""
+        ...
+
+    def close(self) -> None: ...
+
+
+class _Deferred:
+    """A serial task: runs on the first ``result()``, so a run stopped by an error in an
+    earlier task never starts the later ones (exactly the plain loop's behaviour)."""
+
+    __slots__ = ("_args", "_done", "_error", "_fn", "_value")
+
+    def __init__(self, fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+        self._fn, self._args = fn, args
+        self._done = False
+        self._value: Any = None
+        self._error: BaseException | None = None
+
+    def result(self) -> Any:
+        if not self._done:
+            self._done = True
+            try:
+                self._value = self._fn(*self._args)
+            except BaseException as err:  # re-raised below, and on every later call
+                self._error = err
+            self._fn, self._args = None, ()  # type: ignore[assignment]
+        if self._error is not None:
+            raise self._error
+        return self._value
+
+    def cancel(self) -> bool:
+        if self._done:
+            return False
+        self._done = True
+        self._fn, self._args = None, ()  # type: ignore[assignment]
+        return True
+
+
+class SerialExecutor:
+    """Everything in the calling thread, in order."""
+
+    workers = 1
+
+    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
+        return [fn(x) for x in items]
+
+    def submit(self, fn: Callable[..., R], *args: Any) -> TaskHandle:
+        return _Deferred(fn, args)
+
+    def scatter(self, obj: T) -> T:
+        return obj
+
+    def close(self) -> None:
+        pass
+
+    def __repr__(self) -> str:
+        return "SerialExecutor()"
+
+
+class ThreadExecutor:
+    """``jobs`` threads. :meth:`map` may be called from inside a task (a detector that
+    splits its work): the caller then runs the items no thread has started yet itself
+    instead of blocking on them, so nested maps never deadlock a full pool."""
+
+    def __init__(self, jobs: int) -> None:
+        if jobs < 1:
+            raise UsageError(f"--jobs: must be >= 1, got {jobs}")
+        self.workers = jobs
+        self._pool = ThreadPoolExecutor(max_workers=jobs, thread_name_prefix="analyzer")
+
+    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
+        items = list(items)
+        if len(items) <= 1:
+            return [fn(x) for x in items]
+        futures = [self._pool.submit(fn, x) for x in items]
+        out: list[R] = []
+        try:
+            for x, fut in zip(items, futures, strict=True):
+                # cancel() succeeds only for a task no thread has picked up: run it here
+                out.append(fn(x) if fut.cancel() else fut.result())
+        except BaseException:
+            for fut in futures:
+                fut.cancel()
+            raise
+        return out
+
+    def submit(self, fn: Callable[..., R], *args: Any) -> Future[R]:
+        return self._pool.submit(fn, *args)
+
+    def scatter(self, obj: T) -> T:
+        return obj
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+    def __repr__(self) -> str:
+        return f"ThreadExecutor({self.workers})"
+
+
+class DaskExecutor:
+    """A client of the Dask distributed scheduler at ``address`` (``tcp://HOST:PORT``).
+
+    Raises :class:`UsageError` naming ``--scheduler`` when ``distributed`` is missing or
+    the scheduler does not answer within ``timeout`` seconds. ``workers`` is the cluster's
+    total worker threads when connected (at least 1)."""
+
+    def __init__(self, address: str, timeout: float | None = None) -> None:
+        try:
+            from distributed import Client
+        except ImportError as err:
+            raise UsageError(
+                f"--scheduler {address}: needs the 'distributed' package "
+                "(pip install 'analyzer[distributed]')"
+            ) from err
+        self.address = address
+        wait = CONNECT_TIMEOUT_S if timeout is None else timeout
+        _probe(address, wait)
+        client = Client.__new__(Client)
+        try:
+            client.__init__(address, timeout=wait, set_as_default=False)  # type: ignore[misc]
+        except Exception as err:  # whatever answered there, it is not a usable scheduler
+            _quiet_close(client)
+            why = " ".join(str(err).split())[:200] or type(err).__name__
+            if not isinstance(err, OSError | TimeoutError):
+                why = f"no Dask scheduler answered there: {why}"
+            raise UsageError(f"--scheduler {address}: cannot connect ({why})") from err
+        self.client = client
+        info = self.client.scheduler_info()
+        workers = info.get("workers", {})
+        self.n_workers = len(workers)
+        self.workers = max(1, sum(int(w.get("nthreads", 1)) for w in workers.values()))
+        self.blas_threads: dict[str, str | None] = (
+            dict(self.client.run(blas_threads_setting)) if workers else {}
+        )
+
+    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
+        items = list(items)
+        if not items:
+            return []
+        return _map_on(self.client, fn, items)
+
+    def submit(self, fn: Callable[..., R], *args: Any) -> TaskHandle:
+        return self.client.submit(fn, *args, pure=False)
+
+    def scatter(self, obj: T) -> Any:
+        # broadcast: every worker that runs a detector needs it, fetch it once each
+        return self.client.scatter(obj, broadcast=True, hash=False)
+
+    def close(self) -> None:
+        self.client.close()
+
+    def describe(self) -> str:
+        """For the findings' notes: where the run happened."""
+        n = self.n_workers
+        text = (
+            f"ran on Dask scheduler {self.address}: {n} worker{'s' if n != 1 else ''}, "
+            f"{self.workers} thread{'s' if self.workers != 1 else ''}"
+        )
+        loose = sorted(w for w, v in self.blas_threads.items() if v != "1")
+        if loose:
+            text += (
+                f"; {len(loose)} worker{'s' if len(loose) != 1 else ''} without "
+                "OPENBLAS_NUM_THREADS=1 (threaded BLAS slows the filters down)"
+            )
+        return text
+
+    def __repr__(self) -> str:
+        return f"DaskExecutor({self.address!r})"
+
+
+def _map_on(client: Any, fn: Callable[[T], R], items: list[T]) -> list[R]:
+    """``fn`` over ``items`` as tasks of ``client``, in order. The items (time blocks of
+    the archive...) are scattered to the workers first rather than packed into the task
+    graph, which stays small however large the blocks are."""
+    handles = client.scatter(items, hash=False)
+    return list(client.gather(client.map(fn, handles, pure=False)))
+
+
+def _quiet_close(client: Any) -> None:
+    """Close a client whose start failed, so its finalizer has nothing left to report."""
+    with contextlib.suppress(Exception):  # best effort on an already broken client
+        client.close(timeout=2)
+
+
+def _probe(address: str, timeout: float) -> None:
+    """Check ``address`` is a scheduler address and, over TCP, that something listens
+    there: an unreachable scheduler fails at once with a clear message (rather than
+    after the client's retries)."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, location = parse_address(address)
+        if scheme not in ("tcp", "tls"):
+            return
+        host, port = parse_host_port(location)
+    except ValueError as err:
+        raise UsageError(
+            f"--scheduler {address}: expected an address like tcp://HOST:PORT ({err})"
+        ) from err
+    try:
+        with socket.create_connection((host, port), timeout=timeout):
+            pass
+    except OSError as err:
+        why = err.strerror or " ".join(str(err).split()) or type(err).__name__
+        raise UsageError(f"--scheduler {address}: cannot connect ({why})") from err
+
+
+class WorkerClientExecutor:
+    """:meth:`map` from inside a Dask task: the items become tasks on the same cluster
+    (the calling task leaves its worker thread while it waits, so nothing deadlocks)."""
+
+    def __init__(self, workers: int) -> None:
+        self.workers = workers
+
+    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
+        items = list(items)
+        if len(items) <= 1:
+            return [fn(x) for x in items]
+        from distributed import worker_client
+
+        with worker_client() as client:
+            return _map_on(client, fn, items)
+
+    def submit(self, fn: Callable[..., R], *args: Any) -> TaskHandle:  # pragma: no cover
+        return _Deferred(fn, args)
+
+    def scatter(self, obj: T) -> T:  # pragma: no cover
+        return obj
+
+    def close(self) -> None:
+        pass
+
+
+def blas_threads_setting() -> str | None:
+    """``OPENBLAS_NUM_THREADS`` of the process that runs this (asked of each worker)."""
+    return os.environ.get("OPENBLAS_NUM_THREADS")
+
+
+def make_executor(jobs: int | None = None, scheduler: str | None = None) -> Executor:
+    """The executor for ``--jobs``/``--scheduler``: Dask when a scheduler is given,
+    threads for ``jobs > 1``, else serial."""
+    if scheduler:
+        return DaskExecutor(scheduler)
+    if jobs is not None and jobs > 1:
+        return ThreadExecutor(jobs)
+    return SerialExecutor()
+
+
+def locked(progress: Callable[[str, float], None] | None) -> Callable[[str, float], None] | None:
+    """``progress`` made safe to call from several threads (one line at a time)."""
+    if progress is None:
+        return None
+    lock = threading.Lock()
+
+    def report(stage: str, fraction: float) -> None:
+        with lock:
+            progress(stage, fraction)
+
+    return report
+
+
+__all__ = [
+    "CONNECT_TIMEOUT_S",
+    "DaskExecutor",
+    "Executor",
+    "SerialExecutor",
+    "TaskHandle",
+    "ThreadExecutor",
+    "WorkerClientExecutor",
+    "blas_threads_setting",
+    "locked",
+    "make_executor",
+]

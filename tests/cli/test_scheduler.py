@@ -1,0 +1,190 @@
+"""``--scheduler tcp://HOST:PORT`` against a real local Dask cluster (two worker
+processes): the same findings as the serial run, errors that keep their type, and a
+one-line exit 2 for an unreachable scheduler.
+
+One cluster serves the whole module (starting one takes a few seconds)."""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+distributed = pytest.importorskip("distributed")
+cloudpickle = pytest.importorskip("cloudpickle")
+
+import analyzer.parallel  # noqa: E402
+from analyzer.cli import main  # noqa: E402
+from analyzer.errors import DetectorError, UsageError  # noqa: E402
+from analyzer.parallel import (  # noqa: E402
+    DaskExecutor,
+    WorkerClientExecutor,
+    blas_threads_setting,
+    make_executor,
+)
+from analyzer.pipeline import RunOptions, analyze  # noqa: E402
+
+SAMPLES = Path(__file__).resolve().parents[2] / "samples"
+SAMPLE = SAMPLES / "building_additive.mcap"
+BLAS_ENV = {v: "1" for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+
+# the workers cannot import this test module: ship its functions by value
+cloudpickle.register_pickle_by_value(sys.modules[__name__])
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with distributed.LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=None,
+        env=BLAS_ENV,
+    ) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def dask_ex(cluster):
+    ex = DaskExecutor(cluster.scheduler_address)
+    yield ex
+    ex.close()
+
+
+@pytest.fixture(scope="module")
+def serial_run():
+    return analyze([SAMPLE], RunOptions())
+
+
+def _truth_offset() -> float:
+    truth = json.loads((SAMPLES / "truth.json").read_text())
+    entry = next(t for t in truth if t["file"] == SAMPLE.name)
+    return float(entry["faults"][0]["offset"])
+
+
+def _findings(analysis):
+    return [(f.channel, str(f.type), f.onset_s, dict(f.magnitude)) for f in analysis.findings]
+
+
+def _same_findings(a, b):
+    assert [x[:2] for x in a] == [y[:2] for y in b]
+    for (_, _, onset_a, mag_a), (_, _, onset_b, mag_b) in zip(a, b, strict=True):
+        assert onset_a == pytest.approx(onset_b, abs=1e-9)
+        assert mag_a.keys() == mag_b.keys()
+        for k in mag_a:
+            assert mag_a[k] == pytest.approx(mag_b[k], rel=1e-9, abs=1e-9)
+
+
+def _double(x: np.ndarray) -> np.ndarray:
+    return 2.0 * x
+
+
+def _fail_on_three(x: int) -> int:
+    if x == 3:
+        raise DetectorError(f"cannot fit block {x}")
+    return x
+
+
+def _nested_map(items: list[int]) -> list[int]:
+    """What a detector running as a Dask task does through ``ctx.map``."""
+    return WorkerClientExecutor(2).map(_fail_on_three, items)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def test_workers_have_one_blas_thread(dask_ex):
+    assert dask_ex.n_workers == 2 and dask_ex.workers == 2
+    settings = dask_ex.client.run(blas_threads_setting)
+    assert len(settings) == 2 and set(settings.values()) == {"1"}
+    assert set(dask_ex.client.run(os.getpid).values()) != {os.getpid()}  # other processes
+    assert "without OPENBLAS_NUM_THREADS" not in dask_ex.describe()
+
+
+def test_dask_map_keeps_order_and_error_types(dask_ex):
+    items = [np.full(100 + k, float(k)) for k in range(9)]
+    out = dask_ex.map(_double, items)
+    for x, y in zip(items, out, strict=True):
+        np.testing.assert_array_equal(y, 2.0 * x)
+    with pytest.raises(DetectorError, match="cannot fit block 3"):
+        dask_ex.map(_fail_on_three, list(range(6)))
+    with pytest.raises(DetectorError, match="cannot fit block 3"):
+        dask_ex.submit(_fail_on_three, 3).result()
+
+
+def test_map_from_inside_a_dask_task(dask_ex):
+    assert dask_ex.submit(_nested_map, [1, 2, 4, 5]).result() == [1, 2, 4, 5]
+    with pytest.raises(DetectorError, match="cannot fit block 3"):
+        dask_ex.submit(_nested_map, [1, 3]).result()
+
+
+def test_scheduler_gives_the_serial_findings(cluster, serial_run):
+    serial = serial_run
+    dask = analyze([SAMPLE], RunOptions(scheduler=cluster.scheduler_address))
+    found = _findings(dask)
+    _same_findings(found, _findings(serial))
+    assert [r.detector for r in dask.results] == [r.detector for r in serial.results]
+    assert dask.skipped == serial.skipped
+    assert found[0][:2] == ("/s4.data", "additive")
+    assert found[0][2] == pytest.approx(16.0, abs=0.05)
+    assert found[0][3]["offset"] == pytest.approx(_truth_offset(), rel=0.01)
+    note = f"ran on Dask scheduler {cluster.scheduler_address}: 2 workers"
+    assert any(n.startswith(note) for n in dask.notes), dask.notes
+    assert not any("not implemented" in n for n in dask.notes)
+
+
+def test_cli_scheduler_writes_the_serial_findings(cluster, tmp_path, capsys):
+    # (--jobs 2 against the serial run: tests/test_parallel.py)
+    docs = {}
+    for label, extra in {
+        "serial": [],
+        "dask": ["--scheduler", cluster.scheduler_address],
+    }.items():
+        out = tmp_path / label
+        code = main(["run", str(SAMPLE), "--out", str(out), "--no-progress", *extra])
+        assert code == 1, capsys.readouterr().err
+        docs[label] = json.loads((out / "findings.json").read_text())
+    got, want = docs["dask"]["faults"], docs["serial"]["faults"]
+    _same_findings(
+        [(f["channel"], f["type"], f["onset_s"], f["magnitude"]) for f in got],
+        [(f["channel"], f["type"], f["onset_s"], f["magnitude"]) for f in want],
+    )
+    assert docs["dask"]["skipped_detectors"] == docs["serial"]["skipped_detectors"]
+    assert any(n.startswith("ran on Dask scheduler") for n in docs["dask"]["notes"])
+
+
+def test_explicit_detector_error_on_the_cluster(cluster):
+    with pytest.raises(DetectorError, match=r"^ar_kalman_bank: needs at least 2 channels"):
+        analyze(
+            [SAMPLE],
+            RunOptions(
+                scheduler=cluster.scheduler_address,
+                channels=["/s4.data"],
+                detectors=["ar_kalman_bank", "equivalent_model"],
+            ),
+        )
+
+
+def test_unreachable_scheduler_is_exit_2_in_one_line(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(analyzer.parallel, "CONNECT_TIMEOUT_S", 2.0)
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    code = main(["run", str(SAMPLE), "--out", str(tmp_path / "o"), "--scheduler", address])
+    _, err = capsys.readouterr()
+    assert code == 2
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    assert f"--scheduler {address}: cannot connect" in lines[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_bad_scheduler_address(monkeypatch):
+    with pytest.raises(UsageError, match="--scheduler tcp://host: expected an address"):
+        make_executor(None, "tcp://host")

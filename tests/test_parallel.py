@@ -1,0 +1,223 @@
+"""Executors (analyzer.parallel), RunContext.map, and ``--jobs N`` giving the serial run's
+findings. The Dask back end is checked against a real local cluster in
+tests/cli/test_scheduler.py."""
+
+from __future__ import annotations
+
+import pickle
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from analyzer.detectors import REGISTRY, Dataset, RunContext, detector_class
+from analyzer.errors import AnalyzerError, DetectorError, UsageError
+from analyzer.parallel import (
+    SerialExecutor,
+    ThreadExecutor,
+    make_executor,
+)
+from analyzer.pipeline import RunOptions, analyze
+
+SAMPLE = Path(__file__).resolve().parents[1] / "samples" / "building_additive.mcap"
+
+
+def _square_sum(x: np.ndarray) -> float:
+    return float(np.sum(x * x))
+
+
+def _fail_on_three(x: int) -> int:
+    if x == 3:
+        raise DetectorError(f"cannot fit block {x}")
+    return x
+
+
+def _nested(args: tuple[ThreadExecutor, int]) -> list[int]:
+    pool, k = args
+    return pool.map(_fail_on_three, [10 * k + i for i in range(4)])
+
+
+@pytest.fixture
+def pool():
+    ex = ThreadExecutor(2)
+    yield ex
+    ex.close()
+
+
+def _findings(analysis):
+    return [(f.channel, str(f.type), f.onset_s, dict(f.magnitude)) for f in analysis.findings]
+
+
+def _same_findings(a, b):
+    assert [x[:2] for x in a] == [y[:2] for y in b]
+    for (_, _, onset_a, mag_a), (_, _, onset_b, mag_b) in zip(a, b, strict=True):
+        assert onset_a == pytest.approx(onset_b, abs=1e-9)
+        assert mag_a.keys() == mag_b.keys()
+        for k in mag_a:
+            assert mag_a[k] == pytest.approx(mag_b[k], rel=1e-9, abs=1e-9)
+
+
+# -- executors ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("make", [SerialExecutor, lambda: ThreadExecutor(3)])
+def test_map_keeps_input_order(make):
+    ex = make()
+    try:
+        rng = np.random.default_rng(0)
+        items = [rng.standard_normal(1000 + 37 * k) for k in range(20)]
+        assert ex.map(_square_sum, items) == [_square_sum(x) for x in items]
+        assert ex.map(_square_sum, []) == []
+    finally:
+        ex.close()
+
+
+@pytest.mark.parametrize("make", [SerialExecutor, lambda: ThreadExecutor(2)])
+def test_task_errors_keep_type_and_message(make):
+    ex = make()
+    try:
+        with pytest.raises(DetectorError, match="cannot fit block 3"):
+            ex.map(_fail_on_three, list(range(6)))
+        handle = ex.submit(_fail_on_three, 3)
+        with pytest.raises(DetectorError, match="cannot fit block 3"):
+            handle.result()
+        assert ex.submit(_fail_on_three, 4).result() == 4
+    finally:
+        ex.close()
+
+
+def test_serial_submit_runs_lazily_in_order():
+    seen: list[int] = []
+    ex = SerialExecutor()
+    handles = [ex.submit(seen.append, k) for k in range(3)]
+    assert seen == []
+    assert handles[1].cancel()
+    handles[0].result()
+    handles[2].result()
+    assert seen == [0, 2]
+
+
+def test_nested_map_on_a_full_pool_does_not_deadlock(pool):
+    # every thread of the pool runs a task that maps again on the same pool
+    handles = [pool.submit(_nested, (pool, k)) for k in (1, 2)]
+    assert handles[0].result() == [10, 11, 12, 13]
+    assert handles[1].result() == [20, 21, 22, 23]
+    with pytest.raises(DetectorError, match="cannot fit block 3"):
+        pool.map(_nested, [(pool, 0), (pool, 1)])
+
+
+def test_thread_executor_uses_several_threads(pool):
+    names = set(pool.map(lambda _: threading.current_thread().name, list(range(50))))
+    assert any(n.startswith("analyzer") for n in names)
+
+
+def test_make_executor():
+    assert isinstance(make_executor(None, None), SerialExecutor)
+    assert isinstance(make_executor(1, None), SerialExecutor)
+    ex = make_executor(3, None)
+    try:
+        assert isinstance(ex, ThreadExecutor)
+        assert ex.workers == 3
+    finally:
+        ex.close()
+    with pytest.raises(UsageError, match="--jobs"):
+        ThreadExecutor(0)
+
+
+def test_bad_scheduler_address_is_a_usage_error():
+    pytest.importorskip("distributed")
+    with pytest.raises(UsageError, match=r"--scheduler nonsense: expected an address like tcp"):
+        make_executor(None, "nonsense")
+
+
+# -- RunContext ----------------------------------------------------------------------------
+
+
+def test_run_context_map_is_serial_without_executor():
+    ctx = RunContext(false_alarm_rate=1e-4, config={"group": []})
+    assert ctx.executor is None and ctx.jobs == 1
+    assert ctx.map(_fail_on_three, [1, 2]) == [1, 2]
+    with pytest.raises(DetectorError, match="block 3"):
+        ctx.map(_fail_on_three, [3])
+
+
+def test_run_context_map_uses_its_executor(pool):
+    calls = []
+
+    class Spy:
+        def map(self, fn, items):
+            calls.append(len(items))
+            return pool.map(fn, items)
+
+    ctx = RunContext(jobs=2, executor=Spy())
+    items = [np.arange(k, dtype=float) for k in range(5)]
+    assert ctx.map(_square_sum, items) == [_square_sum(x) for x in items]
+    assert calls == [5]
+
+
+def test_run_context_and_error_pickle():
+    ctx = RunContext(false_alarm_rate=1e-4, config={"group": [{"name": "g"}]}, jobs=2)
+    back = pickle.loads(pickle.dumps(ctx))
+    assert back.false_alarm_rate == 1e-4 and back.config == ctx.config and back.jobs == 2
+    err = pickle.loads(pickle.dumps(DetectorError("singular model")))
+    assert type(err) is DetectorError and str(err) == "singular model"
+    assert isinstance(err, AnalyzerError)
+
+
+# -- detectors as tasks ----------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def serial_run():
+    return analyze([SAMPLE], RunOptions())
+
+
+def test_detectors_and_fitted_models_pickle(serial_run):
+    """What a Dask worker receives (detector, data) and sends back (result)."""
+    a = serial_run
+    data = Dataset(a.values, a.analyzed, a.rate_hz, a.train)
+    ctx = RunContext(explicit=True)
+    pickle.loads(pickle.dumps(data))
+    for name in REGISTRY:
+        det = detector_class(name)()
+        pickle.loads(pickle.dumps(det))
+        if det.applicable(data, ctx) is not None:
+            continue
+        model = det.fit(data, ctx)
+        pickle.loads(pickle.dumps(model))
+        pickle.loads(pickle.dumps(det.run(model, data, ctx)))
+
+
+def test_jobs_gives_the_serial_findings(serial_run):
+    serial = serial_run
+    assert serial.findings, "the sample has an additive fault on s4"
+    par = analyze([SAMPLE], RunOptions(jobs=2))
+    _same_findings(_findings(par), _findings(serial))
+    assert [r.detector for r in par.results] == [r.detector for r in serial.results]
+    assert par.skipped == serial.skipped
+    for rs, rp in zip(serial.results, par.results, strict=True):
+        for c, res in rs.residuals.items():
+            scale = float(np.nanmax(np.abs(res)))
+            assert float(np.nanmax(np.abs(res - rp.residuals[c]))) <= 1e-9 * scale
+
+
+def test_jobs_keeps_explicit_detector_errors():
+    # detection_filter/equivalent_model need more channels than one: the first
+    # explicitly named detector that cannot run is the error, as in the serial loop
+    for jobs in (None, 2):
+        with pytest.raises(DetectorError, match=r"^ar_kalman_bank: needs at least 2 channels"):
+            analyze(
+                [SAMPLE],
+                RunOptions(
+                    jobs=jobs,
+                    channels=["/s4.data"],
+                    detectors=["ar_kalman_bank", "equivalent_model"],
+                ),
+            )
+
+
+def test_jobs_progress_is_reported(tmp_path):
+    seen: list[tuple[str, float]] = []
+    analyze([SAMPLE], RunOptions(jobs=2, progress=lambda s, f: seen.append((s, f))))
+    assert ("read", 1.0) in seen
