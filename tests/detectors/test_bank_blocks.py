@@ -151,3 +151,33 @@ def test_bank_run_in_time_blocks_equals_serial_run(fitted):
 def test_block_setting_is_checked():
     with pytest.raises(DetectorError, match="block"):
         ARKalmanBank(block=0)
+
+
+def test_bank_equals_statsmodels_kalman_filter(fitted):
+    """Every estimator of the stacked bank against statsmodels' KalmanFilter on the same
+    model (companion form, Q = sigma through C', R = sigma of the measured channels) once
+    statsmodels' time-varying gain has converged to the steady state."""
+    sm = pytest.importorskip("statsmodels.tsa.statespace.kalman_filter")
+    _, model, data = fitted
+    ar = model.ar
+    A, C = ar.companion()
+    n_obs = 3000
+    Y = np.asarray(data.values[:n_obs])
+    plain = BankFilter.build(model.estimators, model.bank.stack.T)
+    ours = bank_block(ar.mean, ar.scale, plain, Y, 0, None)
+    Z = (Y - ar.mean) / ar.scale
+    for e in model.estimators:
+        meas = list(e.measured)
+        kf = sm.KalmanFilter(k_endog=len(meas), k_states=A.shape[0], k_posdef=ar.m)
+        kf.bind(np.ascontiguousarray(Z[:, meas]))
+        kf.design, kf.transition, kf.selection = C[meas], A, C.T
+        kf.state_cov, kf.obs_cov = ar.sigma, ar.sigma[np.ix_(meas, meas)]
+        kf.initialize_known(np.zeros(A.shape[0]), np.eye(A.shape[0]))
+        res = kf.filter()
+        k0 = int(res.period_converged) + e.settle
+        nu = Z[:, meas] - (C[meas] @ np.asarray(res.predicted_state)[:, :n_obs]).T
+        yhat = C[e.left_out] @ np.asarray(res.filtered_state)
+        j = e.left_out
+        assert np.abs(ours.innov[k0:, j] - nu[k0:]).max() < 1e-8
+        est_scaled = (ours.est[:, j] - ar.mean[j]) / ar.scale[j]
+        assert np.abs(est_scaled[k0:] - yhat[k0:]).max() < 1e-8
