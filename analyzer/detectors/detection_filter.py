@@ -69,17 +69,18 @@ identified on the healthy window, in block observer-canonical form (:func:`ar_ob
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
-from scipy import linalg, signal
+from numpy.lib.stride_tricks import sliding_window_view
+from scipy import fft, linalg, signal
 
 from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
 from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
-from analyzer.detectors.lti import LiftedSystem
+from analyzer.detectors.lti import LiftedSystem, StackedLiftedSystem
 from analyzer.diagnosis.changes import (
     Calibration,
     alarm_statistic,
@@ -91,6 +92,7 @@ from analyzer.diagnosis.events import events_from_residual
 from analyzer.errors import DetectorError
 
 FloatArray = npt.NDArray[np.float64]
+Modes = Sequence[complex] | npt.NDArray[Any]
 
 UNCONFIRMED_FACTOR = 0.75
 """Confidence factor for a fault that no other residual confirms (used by the
@@ -106,13 +108,26 @@ PBH_RTOL = 1e-9
 """Relative size of the smallest singular value of ``[A - lambda I; C]`` below which the
 mode ``lambda`` counts as unobservable (Lemma 3.1)."""
 
+MEMORY_TOL = 1e-14
+"""The bank's filters are run as impulse responses cut after ``L`` samples, where the
+Frobenius norm of ``F^L`` (how much of a state survives ``L`` samples) is below this: the
+neglected tail is at rounding level (:class:`ImpulseResponseBank`)."""
+
+MAX_TAPS = 2048
+"""Longest impulse response run by FFT; filters with a longer memory (closed-loop poles
+near the unit circle) are run as a stacked lifted system instead."""
+
+CHUNK = 1 << 15
+"""Samples per chunk of the bank's outputs: the run's temporary memory does not grow with
+the record length."""
+
 
 # -- linear-algebra checks ------------------------------------------------------------------
 def unobservable_modes(
     A: FloatArray,
     C: FloatArray,
     rtol: float = PBH_RTOL,
-    at: Sequence[complex] | None = None,
+    at: Modes | None = None,
 ) -> list[complex]:
     """Eigenvalues of ``A`` whose eigenvectors ``C`` does not see (PBH test, Lemma 3.1:
     ``(A, C)`` is observable iff ``C v != 0`` for every eigenvector ``v``). Uses the smallest
@@ -124,18 +139,24 @@ def unobservable_modes(
     norm_c = float(np.linalg.norm(C, 2)) if C.size else 0.0
     scale = max(1.0, float(np.linalg.norm(A, 2)) + norm_c)
     out: list[complex] = []
+    smins: dict[tuple[float, float], float] = {}
     for lam in np.linalg.eigvals(A) if at is None else at:
-        pbh = np.vstack([A - lam * np.eye(n), C.astype(np.complex128)])
-        smin = float(np.linalg.svd(pbh, compute_uv=False)[-1])
-        if smin <= rtol * scale:
+        # [A - conj(lam) I; C] is the conjugate of [A - lam I; C] (A, C real): same
+        # singular values, so a complex pair needs one decomposition
+        key = (float(np.real(lam)), abs(float(np.imag(lam))))
+        if key not in smins:
+            pbh = np.vstack([A - lam * np.eye(n), C.astype(np.complex128)])
+            smins[key] = float(np.linalg.svd(pbh, compute_uv=False)[-1])
+        if smins[key] <= rtol * scale:
             out.append(complex(lam))
     return out
 
 
-def check_observable(A: FloatArray, C: FloatArray) -> None:
+def check_observable(A: FloatArray, C: FloatArray, eigenvalues: Modes | None = None) -> None:
     """Raise :class:`DetectorError` unless ``(A, C)`` is observable (Theorem 4.1: the
-    condition for isolating sensor faults to fixed directions)."""
-    bad = unobservable_modes(A, C)
+    condition for isolating sensor faults to fixed directions). ``eigenvalues`` of ``A``
+    may be passed when the caller has them."""
+    bad = unobservable_modes(A, C, at=eigenvalues)
     if bad:
         raise DetectorError(
             f"(A, C) is not observable (unobservable mode(s) {_fmt_modes(bad)}): by Park et al. "
@@ -189,9 +210,9 @@ def filter_riccati(
     Hk = 0.5 * (Qb + Qb.T)
     eye = np.eye(n)
     for _ in range(100):
-        W = eye + Gk @ Hk
-        WA = np.linalg.solve(W, Ak)
-        WG = np.linalg.solve(W, Gk)
+        W = linalg.lu_factor(eye + Gk @ Hk, check_finite=False)
+        WA = linalg.lu_solve(W, Ak, check_finite=False)
+        WG = linalg.lu_solve(W, Gk, check_finite=False)
         H_next = Hk + Ak.T @ Hk @ WA
         Gk = Gk + Ak @ WG @ Ak.T
         Ak = Ak @ WA
@@ -274,6 +295,144 @@ def _stack_inputs(y: FloatArray, u: FloatArray | None, r: int) -> FloatArray:
     return np.hstack([y, u])
 
 
+@dataclass(frozen=True, slots=True)
+class ImpulseResponseBank:
+    """``k`` stable LTI systems ``(F_i, G_i, H_i, J_i)`` of equal output size driven by one
+    input, run as impulse responses cut after ``taps`` samples (overlap-save FFT
+    convolution).
+
+    The filters of a bank forget their past fast (spectral radius well below 1): the
+    output at ``t`` is ``sum_{j < L} h_j v[t - j]`` with the Markov parameters ``h_0 = J``,
+    ``h_j = H F^(j-1) G``, up to the term ``H F^L x[t - L]``, which is at rounding level once
+    ``||F^L||`` is below :data:`MEMORY_TOL`. Per sample, the convolution of all ``k q``
+    outputs with all ``r`` inputs costs one ``(k q, r)`` complex product per frequency bin
+    and one inverse FFT per output: an order of magnitude fewer operations than the lifted
+    state-space form (:class:`~analyzer.detectors.lti.LiftedSystem`), whose block-Toeplitz
+    product grows with the block length and whose state recursion with the state size.
+    The output at ``t`` depends on ``v[t - taps + 1 .. t]`` only, so any stretch of the
+    record can be recomputed from ``taps - 1`` samples before it."""
+
+    taps: int
+    nfft: int
+    k: int
+    q: int
+    spectrum: npt.NDArray[np.complex128]
+    """``(nfft // 2 + 1, k q, r)``: the FFT of the Markov parameters of every output."""
+
+    @property
+    def history(self) -> int:
+        """Samples of past input an output depends on (besides its own)."""
+        return self.taps - 1
+
+    @classmethod
+    def build(
+        cls,
+        systems: Sequence[tuple[FloatArray, FloatArray, FloatArray, FloatArray]],
+        tol: float = MEMORY_TOL,
+        max_taps: int = MAX_TAPS,
+    ) -> ImpulseResponseBank | None:
+        """The bank of ``systems``, or None when a filter remembers its input longer than
+        ``max_taps`` samples (``||F^L||_F`` above ``tol`` at ``L = max_taps``)."""
+        taps = cls._taps(systems, tol, max_taps)
+        if taps is None:
+            return None
+        k = len(systems)
+        q, r = systems[0][2].shape[0], systems[0][1].shape[1]
+        h = np.empty((taps, k, q, r))
+        for i, (F, G, H, J) in enumerate(systems):
+            h[0, i] = J
+            FjG = G
+            for j in range(1, taps):
+                h[j, i] = H @ FjG
+                FjG = F @ FjG
+        nfft = 1024
+        while nfft < 4 * taps:
+            nfft *= 2
+        spectrum = fft.rfft(h.reshape(taps, k * q, r), n=nfft, axis=0)
+        return cls(taps, nfft, k, q, np.ascontiguousarray(spectrum))
+
+    @staticmethod
+    def _taps(
+        systems: Sequence[tuple[FloatArray, FloatArray, FloatArray, FloatArray]],
+        tol: float,
+        max_taps: int,
+        step: int = 16,
+    ) -> int | None:
+        """Smallest multiple of ``step`` with ``||F_i^L||_F <= tol`` for every system."""
+        taps = step
+        for F, _, _, _ in systems:
+            power = np.linalg.matrix_power(F, step)
+            decay, length = power, step
+            while float(np.linalg.norm(decay)) > tol:
+                if length >= max_taps:
+                    return None
+                decay = decay @ power
+                length += step
+            taps = max(taps, length)
+        return taps
+
+    def run(self, v: FloatArray) -> Iterator[tuple[int, FloatArray]]:
+        """Outputs for inputs ``v`` (N, r) from rest, in chunks: yields ``(start, y)`` with
+        ``y`` of shape ``(k, q, n)`` for samples ``start .. start + n - 1``."""
+        N, r = v.shape
+        hist = self.history
+        frame = self.nfft - hist  # new samples per FFT frame
+        per_chunk = max(1, CHUNK // frame)
+        for start in range(0, N, per_chunk * frame):
+            stop = min(N, start + per_chunk * frame)
+            frames = -(-(stop - start) // frame)
+            seg = np.zeros((frames * frame + hist, r))
+            lo = max(0, start - hist)
+            seg[hist - (start - lo) : hist + stop - start] = v[lo:stop]
+            windows = sliding_window_view(seg, self.nfft, axis=0)[::frame]  # (frames, r, nfft)
+            spec_u = fft.rfft(windows, axis=2).transpose(2, 1, 0)  # (bins, r, frames)
+            spec_y = np.matmul(self.spectrum, spec_u).transpose(1, 2, 0)  # (k q, frames, bins)
+            y = fft.irfft(np.ascontiguousarray(spec_y), n=self.nfft, axis=2)[:, :, hist:]
+            y = y.reshape(self.k, self.q, frames * frame)[:, :, : stop - start]
+            yield start, y
+
+
+@dataclass(frozen=True, slots=True)
+class _LiftedBank:
+    """The bank as one stacked lifted system (filters with a long memory), with the
+    interface of :class:`ImpulseResponseBank`; an output depends on the whole past."""
+
+    system: StackedLiftedSystem
+
+    @property
+    def history(self) -> int | None:
+        return None
+
+    def run(self, v: FloatArray) -> Iterator[tuple[int, FloatArray]]:
+        x = None
+        step = max(1, CHUNK // self.system.T) * self.system.T
+        for start in range(0, v.shape[0], step):
+            y, x = self.system.run(v[start : start + step], x)
+            yield start, y.transpose(1, 2, 0)
+
+
+def filter_bank(filters: Sequence[ParkFilter]) -> ImpulseResponseBank | _LiftedBank:
+    """All ``filters`` run together over one input: as impulse responses when they forget
+    their past within :data:`MAX_TAPS` samples, else as a stacked lifted system."""
+    systems = [(f.F, f.G, f.H, f.J) for f in filters]
+    fir = ImpulseResponseBank.build(systems)
+    return fir if fir is not None else _LiftedBank(StackedLiftedSystem.build(systems, 16))
+
+
+def bank_segment(
+    bank: ImpulseResponseBank | _LiftedBank, v: FloatArray, lo: int, hi: int
+) -> FloatArray:
+    """Outputs ``(k, q, hi - lo)`` of the bank over samples ``lo .. hi - 1`` of the run over
+    ``v``, recomputed from the input the bank remembers only."""
+    first = 0 if bank.history is None else max(0, lo - bank.history)
+    parts = [
+        y[:, :, max(0, lo - first - start) : hi - first - start]
+        for start, y in bank.run(v[first:hi])
+        if start + y.shape[2] > lo - first
+    ]
+    return np.concatenate(parts, axis=2)
+
+
 def park_filter(
     A: FloatArray,
     B: FloatArray,
@@ -288,6 +447,7 @@ def park_filter(
     sigma: float = 0.9,
     names: Sequence[str] | None = None,
     check_observability: bool = True,
+    eigenvalues: Modes | None = None,
 ) -> ParkFilter:
     """Design the detection filter of ``sensor`` (module docstring: augmentation Eq. 10-14,
     gain with ``fbar`` as closed-loop eigenvector, Eq. 19; checks of Theorem 4.1).
@@ -296,7 +456,8 @@ def park_filter(
     ``R``, ``S`` the process, measurement and cross noise covariances that set the free part
     of the gain (the Kalman filter of ``(A, C_{-i})``); ``sigma`` the closed-loop pole of the
     fault estimate, ``0 <= sigma < alpha <= 1``. ``check_observability=False`` skips the
-    test of Theorem 4.1 when the caller (a bank) has done it once for all sensors."""
+    test of Theorem 4.1 when the caller (a bank) has done it once for all sensors;
+    ``eigenvalues`` of ``A`` may be passed likewise (computed here otherwise)."""
     A = np.asarray(A, dtype=np.float64)
     C = np.asarray(C, dtype=np.float64)
     n = A.shape[0]
@@ -314,8 +475,9 @@ def park_filter(
         raise DetectorError(
             f"need 0 <= sigma < alpha <= 1 for the fault estimate, got sigma={sigma}, alpha={alpha}"
         )
+    eig = np.linalg.eigvals(A) if eigenvalues is None else np.asarray(eigenvalues)
     if check_observability:
-        check_observable(A, C)
+        check_observable(A, C, eig)
     Ab, Bb, Cb, fb = augment(A, B, C, sensor, alpha)
     # Lemma 3.2: away from lambda = alpha the PBH matrix of (Abar, Cbar) has full rank iff
     # that of (A, C) has (eliminate the zeta column), so only alpha needs a test
@@ -327,7 +489,6 @@ def park_filter(
         )
     others = [j for j in range(m) if j != sensor]
     Co = C[others]
-    eig = np.linalg.eigvals(A)
     fixed = unobservable_modes(A, Co, at=[lam for lam in eig if abs(lam) >= 1.0 - 1e-9])
     if fixed:
         raise DetectorError(
@@ -759,7 +920,8 @@ class DetectionFilter:
 
     def _bank(self, model: StateSpaceModel, data: Dataset, sigma: float) -> tuple[ParkFilter, ...]:
         names = [data.channels[j] for j in model.outputs]
-        check_observable(model.A, model.C)  # once for the bank (Theorem 4.1)
+        eig = np.linalg.eigvals(model.A)
+        check_observable(model.A, model.C, eig)  # once for the bank (Theorem 4.1)
         return tuple(
             park_filter(
                 model.A,
@@ -774,6 +936,7 @@ class DetectionFilter:
                 sigma=sigma,
                 names=names,
                 check_observability=False,
+                eigenvalues=eig,
             )
             for i in range(len(model.outputs))
         )
@@ -807,27 +970,41 @@ class DetectionFilter:
             for i in range(len(first))
         ]
 
+    @staticmethod
+    def _inputs(
+        model: StateSpaceModel, values: FloatArray
+    ) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
+        """The bank's input ``v = [y; u]`` (centred, outputs scaled, missing values as 0)
+        and the rows where a value is missing."""
+        outputs, inputs = list(model.outputs), list(model.inputs)
+        v = np.empty((values.shape[0], len(outputs) + len(inputs)))
+        v[:, : len(outputs)] = values[:, outputs]
+        v[:, : len(outputs)] -= model.y_mean
+        v[:, : len(outputs)] /= model.y_scale
+        if inputs:
+            v[:, len(outputs) :] = values[:, inputs]
+            v[:, len(outputs) :] -= model.u_mean
+        gap = ~np.isfinite(v)
+        v[gap] = 0.0
+        return v, np.asarray(gap.any(axis=1), dtype=bool)
+
     def _outputs(
         self, model: StateSpaceModel, filters: Sequence[ParkFilter], values: FloatArray
     ) -> list[tuple[FloatArray, FloatArray, FloatArray]]:
         """Per filter: residual vector ``q`` (N, m), fault estimate and
         fault-free estimate (sensor units); NaN where an input was missing and while the
-        filter settles after it."""
-        Y = (
-            np.asarray(values[:, list(model.outputs)], dtype=np.float64) - model.y_mean
-        ) / model.y_scale
-        U = np.asarray(values[:, list(model.inputs)], dtype=np.float64) - model.u_mean
-        V = np.hstack([Y, U]) if U.shape[1] else Y
-        gap = ~np.isfinite(V)
-        bad = np.asarray(gap.any(axis=1), dtype=bool)
-        Vf = np.where(gap, 0.0, V)
+        filter settles after it. Keeps every filter's ``q``: for the training window."""
+        v, bad = self._inputs(model, np.asarray(values))
+        m = filters[0].n_outputs
+        out = np.empty((len(filters), m + 2, v.shape[0]))
+        for start, y in filter_bank(filters).run(v):
+            out[:, :, start : start + y.shape[2]] = y
         res = []
         for f in filters:
-            out, _ = f.lifted(self.block).run(Vf)
             i = f.sensor
-            q = out[:, : f.n_outputs] * model.y_scale  # sensor units
-            zeta = out[:, f.n_outputs] * model.y_scale[i]
-            ref = out[:, f.n_outputs + 1] * model.y_scale[i] + model.y_mean[i]
+            q = out[i, :m].T * model.y_scale  # sensor units
+            zeta = out[i, m] * model.y_scale[i]
+            ref = out[i, m + 1] * model.y_scale[i] + model.y_mean[i]
             if bad.any():
                 mask = _dilate_forward(bad, f.settle())
                 q[mask] = np.nan
@@ -836,6 +1013,56 @@ class DetectionFilter:
             res.append((q, zeta, ref))
         return res
 
+    @staticmethod
+    def _run_outputs(
+        model: FittedDetectionFilter, v: FloatArray, bad: npt.NDArray[np.bool_]
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Per filter (rows): fault estimate, fault-free estimate (sensor units) and the
+        normalized squared residual off the filter's direction (:func:`_nis`), NaN where an
+        input was missing and while the filter settles after it. The residual vectors are
+        reduced chunk by chunk and not kept, so memory grows with ``3 k N`` only."""
+        ssm = model.model
+        k = len(model.filters)
+        m = model.filters[0].n_outputs
+        N = v.shape[0]
+        zeta, ref, nis = np.empty((k, N)), np.empty((k, N)), np.empty((k, N))
+        scale = ssm.y_scale[:, None]
+        for start, y in filter_bank(model.filters).run(v):
+            cols = slice(start, start + y.shape[2])
+            zeta[:, cols] = y[:, m] * scale
+            ref[:, cols] = y[:, m + 1] * scale + ssm.y_mean[:, None]
+            for i in range(k):
+                off = np.delete(y[i, :m] * scale, i, axis=0)
+                nis[i, cols] = _nis(off.T, model.direction_inv_cov[i])
+        if bad.any():
+            for i, f in enumerate(model.filters):
+                mask = _dilate_forward(bad, f.settle())
+                zeta[i, mask] = np.nan
+                ref[i, mask] = np.nan
+                nis[i, mask] = np.nan
+        return zeta, ref, nis
+
+    @staticmethod
+    def _residual_vectors(
+        model: FittedDetectionFilter,
+        j: int,
+        v: FloatArray,
+        bad: npt.NDArray[np.bool_],
+        lo: int,
+        hi: int,
+    ) -> FloatArray:
+        """Residual vectors ``q`` (sensor units) of filter ``j`` over samples ``lo .. hi - 1``
+        of the run (clipped to the record), recomputed for the few samples an event needs;
+        NaN as in :meth:`_run_outputs`."""
+        f = model.filters[j]
+        hi = min(v.shape[0], hi)
+        if hi <= lo:
+            return np.empty((0, f.n_outputs))
+        q = bank_segment(filter_bank([f]), v, lo, hi)[0, : f.n_outputs].T * model.model.y_scale
+        first = max(0, lo - f.settle())
+        q[_dilate_forward(bad[first:hi], f.settle())[lo - first :]] = np.nan
+        return q
+
     # -- running -----------------------------------------------------------------------------
     def run(
         self, model: FittedDetectionFilter, data: Dataset, context: RunContext
@@ -843,30 +1070,31 @@ class DetectionFilter:
         ssm = model.model
         names = tuple(data.channels[j] for j in ssm.outputs)
         rate = data.rate_hz
-        outs = self._outputs(ssm, model.filters, np.asarray(data.values))
+        v, bad = self._inputs(ssm, np.asarray(data.values))
+        zetas, refs, nises = self._run_outputs(model, v, bad)
         train_stop = data.train[1]
         events: list[Event] = []
         notes: list[str] = []
         residuals: dict[str, FloatArray] = {}
         reference: dict[str, FloatArray] = {}
         n = data.n
-        m = len(outs)
+        m = len(model.filters)
         # per filter: how far its residual leaves its own direction (> 1: alarm)
         dstats = []
-        for i, (q, _, _) in enumerate(outs):
-            nis = _nis(np.delete(q, i, axis=1), model.direction_inv_cov[i])
+        for i in range(m):
             dcal = model.direction_cal[i]
-            dstats.append(alarm_statistic(dcal.standardize(nis), dcal))
+            dstats.append(alarm_statistic(dcal.standardize(nises[i]), dcal))
+        del nises
         w = model.window
         cands: list[tuple[int, int, Event]] = []  # (first alarm, filter, event)
-        for i, (_, zeta, ref) in enumerate(outs):
+        for i in range(m):
             f = model.filters[i]
-            residuals[names[i]] = zeta
-            reference[names[i]] = ref
+            residuals[names[i]] = zetas[i]
+            reference[names[i]] = refs[i]
             for ev in events_from_residual(
                 names[i],
-                zeta,
-                _lowpass(ref, f.sigma),
+                zetas[i],
+                _lowpass(refs[i], f.sigma),
                 model.zeta_cal[i],
                 rate,
                 self.name,
@@ -887,16 +1115,15 @@ class DetectionFilter:
             viol = [float(np.max(d[lo:hi], initial=0.0)) for d in dstats]
             chans = sorted({c[1] for c in group})
             # the sensor whose filter's residual stays closest to its own direction
-            j = min(
-                chans, key=lambda c: (viol[c], -_strength(outs[c][1], model.zeta_cal[c], lo, hi))
-            )
+            j = min(chans, key=lambda c: (viol[c], -_strength(zetas[c], model.zeta_cal[c], lo, hi)))
             others = [viol[o] for o in range(m) if o != j]
             typical = float(np.median(others)) if others else 0.0
             confirmed = bool(others) and max(others) >= 1.0
             k0, _, ev = next(c for c in group if c[1] == j)
             k_on = int(round(ev.onset_s * rate))
             f = model.filters[j]
-            seg = outs[j][0][k_on : min(n, k_on + max(2, int(np.ceil(1.0 / (1.0 - f.sigma)))))]
+            span_j = max(2, int(np.ceil(1.0 / (1.0 - f.sigma))))
+            seg = self._residual_vectors(model, j, v, bad, k_on, k_on + span_j)
             ev.evidence.update(
                 {
                     "direction": names[j],
@@ -991,7 +1218,7 @@ def _nis(r: FloatArray, inv_cov: FloatArray) -> FloatArray:
     """Normalized squared residual per sample, ``r' S^-1 r / dim``."""
     if r.shape[1] == 0:
         return np.zeros(r.shape[0])
-    return np.einsum("ki,ij,kj->k", r, inv_cov, r) / r.shape[1]
+    return np.einsum("ki,ki->k", r @ inv_cov, r) / r.shape[1]
 
 
 def _lowpass(x: FloatArray, sigma: float) -> FloatArray:

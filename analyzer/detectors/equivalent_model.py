@@ -61,6 +61,7 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 import numpy.typing as npt
+from numpy.lib.stride_tricks import sliding_window_view
 from scipy import linalg, signal
 
 from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
@@ -363,30 +364,35 @@ def fit_relation(
             f"too little healthy data for a {Lmax}-lag relation of {len(assistants)} sensor(s): "
             f"{N} samples"
         )
+    width = Lmax + 1
     t = Y[Lmax:, target]
-    blocks = [
-        np.column_stack([Y[Lmax - g : N - g, j] for g in range(Lmax + 1)]) for j in assistants
-    ]
+    # row k of a window is y_j[k + Lmax - g] for g = Lmax .. 0: reversed, lags 0 .. Lmax
+    windows = [sliding_window_view(Y[:, j], width)[:, ::-1] for j in assistants]
     ok = np.isfinite(t)
-    for b in blocks:
-        ok &= np.isfinite(b).all(axis=1)
+    for w in windows:
+        ok &= np.isfinite(w).all(axis=1)
     t = t[ok]
-    blocks = [b[ok] for b in blocks]
     n = t.shape[0]
     var_t = float(np.var(t))
     if not var_t > 0.0:
         raise DetectorError("the target sensor is constant in the training window")
     # one Gram matrix for every candidate length (a single matrix product over the long
     # axis), each candidate solved by Cholesky on its unit-diagonal sub-matrix
-    X = np.column_stack([np.ones(n), *blocks])
+    X = np.empty((n, 1 + len(assistants) * width))
+    X[:, 0] = 1.0
+    for j, w in enumerate(windows):
+        X[:, 1 + j * width : 1 + (j + 1) * width] = w[ok]
     G = X.T @ X
     h_all = X.T @ t
-    width = Lmax + 1
     results = []
     for L in cands:
-        idx = np.concatenate([[0], *[1 + j * width + np.arange(L + 1) for j in range(len(blocks))]])
+        idx = np.concatenate(
+            [[0], *[1 + j * width + np.arange(L + 1) for j in range(len(windows))]]
+        )
         coef = _solve_normal(G[np.ix_(idx, idx)], h_all[idx])
-        rss = float(np.sum((t - X[:, idx] @ coef) ** 2))
+        full = np.zeros(X.shape[1])  # the candidate's coefficients, zero beyond its lags
+        full[idx] = coef
+        rss = float(np.sum((t - X @ full) ** 2))
         bic = n * np.log(max(rss / n, 1e-300)) + idx.shape[0] * np.log(n)
         results.append((bic, L, coef, float(1.0 - rss / (n * var_t))))
     _, L, coef, r2 = min(results, key=lambda r: r[0])
@@ -578,7 +584,7 @@ class EquivalentModel:
                 r_half = fit_relation(train[fit_rows], i, rel.assistants, rel.lags)
             except DetectorError:
                 r_half = rel  # too little data for halves: fall back to in-sample
-            zeta = self._fault_estimate(obs, r_half, train, i)
+            zeta, _ = self._fault_estimate(obs, r_half, train, i)
             seg = zeta[eval_rows]
             parts.append(seg[min(skip, seg.shape[0] // 4) :])
         return np.concatenate(parts[::-1])
@@ -586,9 +592,10 @@ class EquivalentModel:
     @staticmethod
     def _fault_estimate(
         obs: AssistantObserver, rel: Relation, values: FloatArray, i: int
-    ) -> FloatArray:
+    ) -> tuple[FloatArray, FloatArray]:
         """``-lambda1 r`` after each sample (sensor units, measured - estimated; Eq. 32 and
-        the fault regeneration of Section 6.3), NaN around gaps."""
+        the fault regeneration of Section 6.3), NaN around gaps, and the estimate ``z`` of
+        the sensor from its assistants that drives it."""
         y = np.asarray(values[:, i], dtype=np.float64)
         z = rel.estimate(values)
         gap = ~np.isfinite(y)
@@ -600,7 +607,7 @@ class EquivalentModel:
             phi = float(np.exp(-obs.lambda1 * obs.dt))
             n_settle = rel.lags + int(np.ceil(np.log(1e-6) / np.log(min(max(phi, 1e-3), 1 - 1e-9))))
             zeta[_dilate_forward(gap, n_settle)] = np.nan
-        return zeta
+        return zeta, z
 
     # -- running -----------------------------------------------------------------------------
     def run(
@@ -615,8 +622,7 @@ class EquivalentModel:
         cands: dict[str, list[Event]] = {}
         for ob in model.observers:
             name = data.channels[ob.target]
-            zeta = self._fault_estimate(ob.observer, ob.relation, values, ob.target)
-            z = ob.relation.estimate(values)
+            zeta, z = self._fault_estimate(ob.observer, ob.relation, values, ob.target)
             z[~np.isfinite(zeta)] = np.nan
             residuals[name] = zeta
             reference[name] = z

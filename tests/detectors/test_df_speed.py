@@ -1,0 +1,152 @@
+"""The fast paths of the detection-filter and equivalent-model detectors against the
+straightforward computations they replace: the bank run as impulse responses by FFT (and
+its stacked lifted fallback) against each filter's own lifted run, the streamed run
+outputs against the full residual vectors, the shared PBH tests of conjugate eigenvalues,
+and the sliding-window least squares of the relations against ``lstsq``."""
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from analyzer.detectors import detection_filter as dfm
+from analyzer.detectors.base import Dataset, RunContext
+from analyzer.detectors.detection_filter import (
+    DetectionFilter,
+    ImpulseResponseBank,
+    bank_segment,
+    filter_bank,
+    park_filter,
+    unobservable_modes,
+)
+from analyzer.detectors.equivalent_model import fit_relation
+from analyzer.detectors.lti import StackedLiftedSystem
+from analyzer.simulate import simulate_building
+
+RATE = 200.0
+TRAIN = (0, int(15 * RATE))
+
+
+def _bank(seed, n=6, m=4, sigma=0.9):
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((n, n))
+    A *= 0.9 / np.max(np.abs(np.linalg.eigvals(A)))
+    B, C, D = np.zeros((n, 0)), rng.standard_normal((m, n)), np.zeros((m, 0))
+    Q, R = np.eye(n), np.eye(m)
+    return [park_filter(A, B, C, D, i, Q, R, sigma=sigma) for i in range(m)]
+
+
+def _collect(bank, v):
+    parts = list(bank.run(v))
+    starts = [s for s, _ in parts]
+    assert starts == sorted(starts) and starts[0] == 0
+    return np.concatenate([y for _, y in parts], axis=2)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_impulse_response_bank_equals_each_filters_lifted_run(seed, monkeypatch):
+    monkeypatch.setattr(dfm, "CHUNK", 3000)  # several chunks over the record
+    filters = _bank(seed)
+    v = np.random.default_rng(seed + 10).standard_normal((10007, filters[0].n_outputs))
+    bank = filter_bank(filters)
+    assert isinstance(bank, ImpulseResponseBank)
+    out = _collect(bank, v)
+    for i, f in enumerate(filters):
+        ref = f.run(v)
+        assert np.max(np.abs(out[i].T - ref)) <= 1e-10 * np.max(np.abs(ref))
+
+
+def test_long_memory_falls_back_to_the_stacked_lifted_system(monkeypatch):
+    monkeypatch.setattr(dfm, "CHUNK", 1000)
+    filters = _bank(2, sigma=0.999)  # the fault estimate remembers ~1e4 samples
+    systems = [(f.F, f.G, f.H, f.J) for f in filters]
+    assert ImpulseResponseBank.build(systems) is None
+    bank = filter_bank(filters)
+    assert bank.history is None
+    v = np.random.default_rng(3).standard_normal((5003, filters[0].n_outputs))
+    out = _collect(bank, v)
+    stacked, _ = StackedLiftedSystem.build(systems, 16).run(v)
+    assert np.allclose(out, stacked.transpose(1, 2, 0), rtol=0, atol=1e-12)
+    for i, f in enumerate(filters):
+        ref = f.run(v)
+        assert np.max(np.abs(out[i].T - ref)) <= 1e-10 * np.max(np.abs(ref))
+    # a stretch recomputed alone equals the same stretch of the whole run
+    assert np.allclose(bank_segment(bank, v, 2100, 2130), out[:, :, 2100:2130], atol=1e-12)
+
+
+@pytest.mark.parametrize(("lo", "hi"), [(0, 5), (1, 40), (2990, 3020), (9990, 10007)])
+def test_bank_segment_equals_the_whole_run(lo, hi, monkeypatch):
+    monkeypatch.setattr(dfm, "CHUNK", 3000)
+    filters = _bank(4)
+    v = np.random.default_rng(5).standard_normal((10007, filters[0].n_outputs))
+    bank = filter_bank(filters)
+    out = _collect(bank, v)
+    seg = bank_segment(bank, v, lo, hi)
+    assert seg.shape == (len(filters), filters[0].n_outputs + 2, hi - lo)
+    assert np.max(np.abs(seg - out[:, :, lo:hi])) <= 1e-12 * np.max(np.abs(out))
+
+
+def test_streamed_run_outputs_equal_the_full_residual_vectors():
+    """``_run_outputs`` (chunked, residual vectors reduced to their off-direction statistic)
+    against ``_outputs`` (every residual vector kept), with a gap in the record."""
+    _, Y, names = simulate_building(n_floors=4, duration_s=40.0, rate_hz=RATE, seed=7)
+    ds = Dataset(Y, tuple(names), RATE, TRAIN)
+    det = DetectionFilter()
+    model = det.fit(ds, RunContext())
+    Yg = Y.copy()
+    Yg[5000:5040, 2] = np.nan
+    full = det._outputs(model.model, model.filters, Yg)
+    v, bad = det._inputs(model.model, Yg)
+    zeta, ref, nis = det._run_outputs(model, v, bad)
+    for i, (q, z, r) in enumerate(full):
+        np.testing.assert_allclose(zeta[i], z, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(ref[i], r, rtol=1e-10, atol=1e-12)
+        off = np.delete(q, i, axis=1)
+        inv = model.direction_inv_cov[i]
+        expect = np.einsum("ki,ij,kj->k", off, inv, off) / off.shape[1]
+        np.testing.assert_allclose(nis[i], expect, rtol=1e-9, atol=1e-12)
+        assert np.isnan(zeta[i, 5000:5040]).all() and np.isfinite(zeta[i, :5000]).all()
+        seg = det._residual_vectors(model, i, v, bad, 4990, 5010)
+        np.testing.assert_allclose(seg, q[4990:5010], rtol=1e-10, atol=1e-12)
+
+
+def test_conjugate_eigenvalues_share_their_pbh_test():
+    rng = np.random.default_rng(8)
+    # a complex pair and a real mode that C does not see, plus observable modes
+    T = rng.standard_normal((5, 5))
+    blocks = np.zeros((5, 5))
+    blocks[:2, :2] = [[0.5, -0.4], [0.4, 0.5]]
+    blocks[2, 2], blocks[3:, 3:] = 0.3, [[0.1, 0.7], [-0.7, 0.1]]
+    A = T @ blocks @ np.linalg.inv(T)
+    C = rng.standard_normal((2, 5))
+    C -= (C @ T[:, :3]) @ np.linalg.pinv(T[:, :3])  # C v = 0 on the first three modes
+    found = unobservable_modes(A, C)
+    brute = []
+    for lam in np.linalg.eigvals(A):
+        pbh = np.vstack([A - lam * np.eye(5), C.astype(np.complex128)])
+        smin = np.linalg.svd(pbh, compute_uv=False)[-1]
+        scale = max(1.0, np.linalg.norm(A, 2) + np.linalg.norm(C, 2))
+        if smin <= dfm.PBH_RTOL * scale:
+            brute.append(complex(lam))
+    assert found == brute
+    assert sorted(np.round(np.abs(found), 6)) == [0.3, 0.640312, 0.640312]
+
+
+def test_fit_relation_equals_lstsq_on_the_lagged_matrix():
+    rng = np.random.default_rng(9)
+    X = rng.standard_normal((4000, 3))
+    y = 0.2 + signal.lfilter([0.5, -0.3, 0.2, 0.1], 1, X[:, 0]) - 0.4 * X[:, 2]
+    y += 0.1 * rng.standard_normal(4000)
+    V = np.column_stack([X, y])
+    V[100:103, 0] = np.nan
+    V[2000, 3] = np.nan
+    L = 5
+    rel = fit_relation(V, 3, [0, 2], lags=L)
+    rows = np.arange(L, 4000)
+    M = np.column_stack(
+        [np.ones(rows.size)] + [V[rows - g, j] for j in (0, 2) for g in range(L + 1)]
+    )
+    t = V[rows, 3]
+    ok = np.isfinite(M).all(axis=1) & np.isfinite(t)
+    coef = np.linalg.lstsq(M[ok], t[ok], rcond=None)[0]
+    assert rel.intercept == pytest.approx(coef[0], abs=1e-8)
+    np.testing.assert_allclose(rel.coef.ravel(), coef[1:], atol=1e-8)
