@@ -69,7 +69,7 @@ from analyzer.detectors.ar_kalman import (  # noqa: E402
 )
 from analyzer.detectors.ar_model import ARModel  # noqa: E402
 from analyzer.detectors.base import Dataset, RunContext  # noqa: E402
-from analyzer.detectors.lti import LiftedSystem, simulate_reference  # noqa: E402
+from analyzer.detectors.lti import simulate_reference  # noqa: E402
 from analyzer.simulate import simulate_building  # noqa: E402
 
 FloatArray = npt.NDArray[np.float64]
@@ -221,7 +221,7 @@ def measure_size(
     u = np.ascontiguousarray(Z[:, list(est.measured)])
     print(
         f"  {m} channels, {states} states, {N:,} samples; fit {fit_s:.1f} s "
-        f"(order {ar.order}, block T={one.T}, bank T={model.bank.stack.T})",
+        f"(order {ar.order}, block T={one.T}, bank T={model.bank.block})",
         flush=True,
     )
     rows: list[Row] = []
@@ -234,7 +234,7 @@ def measure_size(
     t_raw, _ = best_time(lambda: bank._bank_outputs(model, Y), R)
     rows.append(
         Row(
-            f"ours: ARKalmanBank._bank_outputs (T={model.bank.stack.T})",
+            f"ours: ARKalmanBank._bank_outputs (T={model.bank.block})",
             "bank",
             m,
             states,
@@ -275,7 +275,7 @@ def measure_size(
     worst = 0.0
     Zf = Z[:n_smb]
     # the stacked bank (what the detector runs): innovations and left-out estimates, scaled
-    plain = BankFilter.build(model.estimators, model.bank.stack.T)  # innovations not whitened
+    plain = BankFilter.build(model.estimators, model.bank.block)  # innovations not whitened
     blk = bank_block(ar.mean, ar.scale, plain, Y[:n_smb], 0, None)
     assert blk.innov is not None
     ours_bank = [
@@ -326,9 +326,9 @@ def measure_size(
         t_T, _ = best_time(partial(bank._bank_outputs, model_T, Y), R)
         sweep.append((T, N * m / t_T, build_s))
         del model_T
-    best_T = max(sweep, key=lambda r: r[1])[0] if sweep else model.bank.stack.T
+    best_T = max(sweep, key=lambda r: r[1])[0] if sweep else model.bank.block
     bank_best = None
-    if sweep and best_T != model.bank.stack.T:
+    if sweep and best_T != model.bank.block:
         bank_best = Row(
             f"ours: _bank_outputs at best T={best_T}",
             "bank",

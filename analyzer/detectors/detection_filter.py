@@ -69,18 +69,23 @@ identified on the healthy window, in block observer-canonical form (:func:`ar_ob
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
-from numpy.lib.stride_tricks import sliding_window_view
-from scipy import fft, linalg, signal
+from scipy import linalg, signal
 
 from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
 from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
-from analyzer.detectors.lti import LiftedSystem, StackedLiftedSystem
+from analyzer.detectors.lti import (
+    ImpulseResponseBank,
+    LiftedBank,
+    LiftedSystem,
+    bank_segment,
+    system_bank,
+)
 from analyzer.diagnosis.changes import (
     Calibration,
     alarm_statistic,
@@ -107,19 +112,6 @@ fault (the same rule as the AR Kalman bank's relative consistency)."""
 PBH_RTOL = 1e-9
 """Relative size of the smallest singular value of ``[A - lambda I; C]`` below which the
 mode ``lambda`` counts as unobservable (Lemma 3.1)."""
-
-MEMORY_TOL = 1e-14
-"""The bank's filters are run as impulse responses cut after ``L`` samples, where the
-Frobenius norm of ``F^L`` (how much of a state survives ``L`` samples) is below this: the
-neglected tail is at rounding level (:class:`ImpulseResponseBank`)."""
-
-MAX_TAPS = 2048
-"""Longest impulse response run by FFT; filters with a longer memory (closed-loop poles
-near the unit circle) are run as a stacked lifted system instead."""
-
-CHUNK = 1 << 15
-"""Samples per chunk of the bank's outputs: the run's temporary memory does not grow with
-the record length."""
 
 
 # -- linear-algebra checks ------------------------------------------------------------------
@@ -295,142 +287,11 @@ def _stack_inputs(y: FloatArray, u: FloatArray | None, r: int) -> FloatArray:
     return np.hstack([y, u])
 
 
-@dataclass(frozen=True, slots=True)
-class ImpulseResponseBank:
-    """``k`` stable LTI systems ``(F_i, G_i, H_i, J_i)`` of equal output size driven by one
-    input, run as impulse responses cut after ``taps`` samples (overlap-save FFT
-    convolution).
-
-    The filters of a bank forget their past fast (spectral radius well below 1): the
-    output at ``t`` is ``sum_{j < L} h_j v[t - j]`` with the Markov parameters ``h_0 = J``,
-    ``h_j = H F^(j-1) G``, up to the term ``H F^L x[t - L]``, which is at rounding level once
-    ``||F^L||`` is below :data:`MEMORY_TOL`. Per sample, the convolution of all ``k q``
-    outputs with all ``r`` inputs costs one ``(k q, r)`` complex product per frequency bin
-    and one inverse FFT per output: an order of magnitude fewer operations than the lifted
-    state-space form (:class:`~analyzer.detectors.lti.LiftedSystem`), whose block-Toeplitz
-    product grows with the block length and whose state recursion with the state size.
-    The output at ``t`` depends on ``v[t - taps + 1 .. t]`` only, so any stretch of the
-    record can be recomputed from ``taps - 1`` samples before it."""
-
-    taps: int
-    nfft: int
-    k: int
-    q: int
-    spectrum: npt.NDArray[np.complex128]
-    """``(nfft // 2 + 1, k q, r)``: the FFT of the Markov parameters of every output."""
-
-    @property
-    def history(self) -> int:
-        """Samples of past input an output depends on (besides its own)."""
-        return self.taps - 1
-
-    @classmethod
-    def build(
-        cls,
-        systems: Sequence[tuple[FloatArray, FloatArray, FloatArray, FloatArray]],
-        tol: float = MEMORY_TOL,
-        max_taps: int = MAX_TAPS,
-    ) -> ImpulseResponseBank | None:
-        """The bank of ``systems``, or None when a filter remembers its input longer than
-        ``max_taps`` samples (``||F^L||_F`` above ``tol`` at ``L = max_taps``)."""
-        taps = cls._taps(systems, tol, max_taps)
-        if taps is None:
-            return None
-        k = len(systems)
-        q, r = systems[0][2].shape[0], systems[0][1].shape[1]
-        h = np.empty((taps, k, q, r))
-        for i, (F, G, H, J) in enumerate(systems):
-            h[0, i] = J
-            FjG = G
-            for j in range(1, taps):
-                h[j, i] = H @ FjG
-                FjG = F @ FjG
-        nfft = 1024
-        while nfft < 4 * taps:
-            nfft *= 2
-        spectrum = fft.rfft(h.reshape(taps, k * q, r), n=nfft, axis=0)
-        return cls(taps, nfft, k, q, np.ascontiguousarray(spectrum))
-
-    @staticmethod
-    def _taps(
-        systems: Sequence[tuple[FloatArray, FloatArray, FloatArray, FloatArray]],
-        tol: float,
-        max_taps: int,
-        step: int = 16,
-    ) -> int | None:
-        """Smallest multiple of ``step`` with ``||F_i^L||_F <= tol`` for every system."""
-        taps = step
-        for F, _, _, _ in systems:
-            power = np.linalg.matrix_power(F, step)
-            decay, length = power, step
-            while float(np.linalg.norm(decay)) > tol:
-                if length >= max_taps:
-                    return None
-                decay = decay @ power
-                length += step
-            taps = max(taps, length)
-        return taps
-
-    def run(self, v: FloatArray) -> Iterator[tuple[int, FloatArray]]:
-        """Outputs for inputs ``v`` (N, r) from rest, in chunks: yields ``(start, y)`` with
-        ``y`` of shape ``(k, q, n)`` for samples ``start .. start + n - 1``."""
-        N, r = v.shape
-        hist = self.history
-        frame = self.nfft - hist  # new samples per FFT frame
-        per_chunk = max(1, CHUNK // frame)
-        for start in range(0, N, per_chunk * frame):
-            stop = min(N, start + per_chunk * frame)
-            frames = -(-(stop - start) // frame)
-            seg = np.zeros((frames * frame + hist, r))
-            lo = max(0, start - hist)
-            seg[hist - (start - lo) : hist + stop - start] = v[lo:stop]
-            windows = sliding_window_view(seg, self.nfft, axis=0)[::frame]  # (frames, r, nfft)
-            spec_u = fft.rfft(windows, axis=2).transpose(2, 1, 0)  # (bins, r, frames)
-            spec_y = np.matmul(self.spectrum, spec_u).transpose(1, 2, 0)  # (k q, frames, bins)
-            y = fft.irfft(np.ascontiguousarray(spec_y), n=self.nfft, axis=2)[:, :, hist:]
-            y = y.reshape(self.k, self.q, frames * frame)[:, :, : stop - start]
-            yield start, y
-
-
-@dataclass(frozen=True, slots=True)
-class _LiftedBank:
-    """The bank as one stacked lifted system (filters with a long memory), with the
-    interface of :class:`ImpulseResponseBank`; an output depends on the whole past."""
-
-    system: StackedLiftedSystem
-
-    @property
-    def history(self) -> int | None:
-        return None
-
-    def run(self, v: FloatArray) -> Iterator[tuple[int, FloatArray]]:
-        x = None
-        step = max(1, CHUNK // self.system.T) * self.system.T
-        for start in range(0, v.shape[0], step):
-            y, x = self.system.run(v[start : start + step], x)
-            yield start, y.transpose(1, 2, 0)
-
-
-def filter_bank(filters: Sequence[ParkFilter]) -> ImpulseResponseBank | _LiftedBank:
+def filter_bank(filters: Sequence[ParkFilter]) -> ImpulseResponseBank | LiftedBank:
     """All ``filters`` run together over one input: as impulse responses when they forget
-    their past within :data:`MAX_TAPS` samples, else as a stacked lifted system."""
-    systems = [(f.F, f.G, f.H, f.J) for f in filters]
-    fir = ImpulseResponseBank.build(systems)
-    return fir if fir is not None else _LiftedBank(StackedLiftedSystem.build(systems, 16))
-
-
-def bank_segment(
-    bank: ImpulseResponseBank | _LiftedBank, v: FloatArray, lo: int, hi: int
-) -> FloatArray:
-    """Outputs ``(k, q, hi - lo)`` of the bank over samples ``lo .. hi - 1`` of the run over
-    ``v``, recomputed from the input the bank remembers only."""
-    first = 0 if bank.history is None else max(0, lo - bank.history)
-    parts = [
-        y[:, :, max(0, lo - first - start) : hi - first - start]
-        for start, y in bank.run(v[first:hi])
-        if start + y.shape[2] > lo - first
-    ]
-    return np.concatenate(parts, axis=2)
+    their past within :data:`~analyzer.detectors.lti.MAX_TAPS` samples, else as a stacked
+    lifted system."""
+    return system_bank([(f.F, f.G, f.H, f.J) for f in filters], 16)
 
 
 def park_filter(

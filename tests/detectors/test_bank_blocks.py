@@ -101,7 +101,7 @@ def test_time_blocks_after_warmup_equal_one_pass(fitted):
 def test_whitened_consistency_equals_explicit_form(fitted):
     _, model, data = fitted
     ar = model.ar
-    plain = BankFilter.build(model.estimators, model.bank.stack.T)
+    plain = BankFilter.build(model.estimators, model.bank.block)
     explicit = bank_block(ar.mean, ar.scale, plain, data.values, 0, model.innovation_inv_cov)
     whitened = bank_block(ar.mean, ar.scale, model.bank, data.values, 0, None)
     np.testing.assert_allclose(whitened.nis, explicit.nis, rtol=1e-9, atol=1e-12)
@@ -163,7 +163,7 @@ def test_bank_equals_statsmodels_kalman_filter(fitted):
     A, C = ar.companion()
     n_obs = 3000
     Y = np.asarray(data.values[:n_obs])
-    plain = BankFilter.build(model.estimators, model.bank.stack.T)
+    plain = BankFilter.build(model.estimators, model.bank.block)
     ours = bank_block(ar.mean, ar.scale, plain, Y, 0, None)
     Z = (Y - ar.mean) / ar.scale
     for e in model.estimators:

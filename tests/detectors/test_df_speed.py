@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
+import analyzer.detectors.lti as lti
 from analyzer.detectors import detection_filter as dfm
 from analyzer.detectors.base import Dataset, RunContext
 from analyzer.detectors.detection_filter import (
@@ -44,7 +45,7 @@ def _collect(bank, v):
 
 @pytest.mark.parametrize("seed", [0, 1])
 def test_impulse_response_bank_equals_each_filters_lifted_run(seed, monkeypatch):
-    monkeypatch.setattr(dfm, "CHUNK", 3000)  # several chunks over the record
+    monkeypatch.setattr(lti, "CHUNK", 3000)  # several chunks over the record
     filters = _bank(seed)
     v = np.random.default_rng(seed + 10).standard_normal((10007, filters[0].n_outputs))
     bank = filter_bank(filters)
@@ -56,7 +57,7 @@ def test_impulse_response_bank_equals_each_filters_lifted_run(seed, monkeypatch)
 
 
 def test_long_memory_falls_back_to_the_stacked_lifted_system(monkeypatch):
-    monkeypatch.setattr(dfm, "CHUNK", 1000)
+    monkeypatch.setattr(lti, "CHUNK", 1000)
     filters = _bank(2, sigma=0.999)  # the fault estimate remembers ~1e4 samples
     systems = [(f.F, f.G, f.H, f.J) for f in filters]
     assert ImpulseResponseBank.build(systems) is None
@@ -75,7 +76,7 @@ def test_long_memory_falls_back_to_the_stacked_lifted_system(monkeypatch):
 
 @pytest.mark.parametrize(("lo", "hi"), [(0, 5), (1, 40), (2990, 3020), (9990, 10007)])
 def test_bank_segment_equals_the_whole_run(lo, hi, monkeypatch):
-    monkeypatch.setattr(dfm, "CHUNK", 3000)
+    monkeypatch.setattr(lti, "CHUNK", 3000)
     filters = _bank(4)
     v = np.random.default_rng(5).standard_normal((10007, filters[0].n_outputs))
     bank = filter_bank(filters)
