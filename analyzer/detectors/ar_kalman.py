@@ -29,6 +29,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy import linalg
 
+from analyzer.detectors import lti
 from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
 from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
 from analyzer.detectors.lti import (
@@ -396,10 +397,10 @@ class ARKalmanBank:
             for a, b, w in spans
         ]
         if len(items) == 1 or context is None:
-            results = [bank_block(*it) for it in items]
-        else:
-            results = context.map(_bank_block_task, items)
-        for (a, b, _), out in zip(spans, results, strict=True):
+            for (a, _, _), item in zip(spans, items, strict=True):
+                bank_block(*item, into=into, at=a)  # written in place: no copies
+            return into
+        for (a, b, _), out in zip(spans, context.map(_bank_block_task, items), strict=True):
             into.resid[a:b] = out.resid
             into.est[a:b] = out.est
             into.nis[a:b] = out.nis
@@ -672,55 +673,65 @@ def bank_block(
     Y: FloatArray,
     warm: int,
     inv_covs: list[FloatArray] | tuple[FloatArray, ...] | None,
+    into: BankOutputs | None = None,
+    at: int = 0,
 ) -> BankBlock:
     """Bank outputs for ``Y[warm:]`` (raw units), every estimator filtered from a zero
-    state at ``Y[0]``. Works through ``Y`` in chunks, so temporary memory is set by the
-    chunk length (:data:`analyzer.detectors.lti.CHUNK`), not by the block's length.
-    Where an estimator's inputs are missing (NaN), its outputs are masked for its
-    settling time after the gap.
+    state at ``Y[0]``, written to rows ``at ..`` of ``into`` when given. Works through
+    ``Y`` in chunks of :data:`analyzer.detectors.lti.CHUNK` rows (an impulse-response
+    bank needs only its taps of history before a chunk), so temporary memory is set by
+    the chunk length, not by the block's length. Where an estimator's inputs are missing
+    (NaN), its outputs are masked for its settling time after the gap.
 
     The consistency ``nu' S^-1 nu / (m - 1)`` is returned in ``nis`` for a whitened
     bank, or given ``inv_covs`` (one inverse innovation covariance per estimator); else
     the innovations themselves (``innov``) and ``nis`` is NaN."""
-    Z = (np.asarray(Y, dtype=np.float64) - mean) / scale
-    gap = ~np.isfinite(Z)
-    Zf = np.where(gap, 0.0, Z)
-    N, m = Z.shape
+    N, m = Y.shape
     L = N - warm
-    resid = np.empty((L, m))
-    est = np.empty((L, m))
-    nis = np.full((L, m), np.nan)
+    if into is None:
+        resid, est, nis = np.empty((L, m)), np.empty((L, m)), np.empty((L, m))
+    else:
+        resid, est, nis = (a[at : at + L] for a in (into.resid, into.est, into.nis))
     innov = np.empty((L, m, m - 1)) if inv_covs is None and not bank.whitened else None
+    if innov is not None:
+        nis[:] = np.nan
     inv_stack = None if inv_covs is None else np.stack([np.asarray(c) for c in inv_covs])
+    gap = ~np.isfinite(np.asarray(Y))
     bad = None
     if gap.any():
         n_gap = gap.sum(axis=1)
         bad = np.empty((N, m), dtype=bool)
         for j in range(m):  # estimator j misses data when any channel but j is missing
             bad[:, j] = _dilate_forward((n_gap - gap[:, j]) > 0, bank.settle[j])
-    for s0, out in bank.system.run(Zf):  # (m, m, c): innovations, then the estimate
-        e0 = s0 + out.shape[2]
-        lo = max(s0, warm)
-        if lo >= e0:
-            continue
-        y = out[:, :, lo - s0 :].transpose(2, 0, 1)  # (c, m, m)
-        nu = y[:, :, :-1]
-        yhat = y[:, :, -1]
-        if bad is not None:
-            b = bad[lo:e0]
-            nu[b] = np.nan
-            yhat[b] = np.nan
-        rows = slice(lo - warm, e0 - warm)
-        est[rows] = yhat * scale + mean
-        resid[rows] = np.where(gap[lo:e0], np.nan, Y[lo:e0] - est[rows])
-        if bank.whitened:
-            nis[rows] = np.einsum("cjq,cjq->cj", nu, nu) / (m - 1)
-        elif innov is not None:
-            innov[rows] = nu
-        else:
-            assert inv_stack is not None
-            nt = nu.transpose(1, 0, 2)  # (m, c, m - 1)
-            nis[rows] = (np.matmul(nt, inv_stack) * nt).sum(axis=2).T / (m - 1)
+    hist = bank.system.history
+    step = max(N, 1) if hist is None else lti.CHUNK
+    for s in range(warm, N, step):
+        e = min(N, s + step)
+        p = 0 if hist is None else max(0, s - hist)  # input the outputs of s..e depend on
+        Yp = np.asarray(Y[p:e], dtype=np.float64)
+        Zf = np.where(gap[p:e], 0.0, (Yp - mean) / scale)
+        for s0, out in bank.system.run(Zf):  # (m, m, c): innovations, then the estimate
+            lo, e0 = max(p + s0, s), p + s0 + out.shape[2]
+            if lo >= e0:
+                continue
+            y = out[:, :, lo - p - s0 :].transpose(2, 0, 1)  # (c, m, m)
+            nu = y[:, :, :-1]
+            yhat = y[:, :, -1]
+            if bad is not None:
+                b = bad[lo:e0]
+                nu[b] = np.nan
+                yhat[b] = np.nan
+            rows = slice(lo - warm, e0 - warm)
+            est[rows] = yhat * scale + mean
+            resid[rows] = np.where(gap[lo:e0], np.nan, Yp[lo - p : e0 - p] - est[rows])
+            if bank.whitened:
+                nis[rows] = np.einsum("cjq,cjq->cj", nu, nu) / (m - 1)
+            elif innov is not None:
+                innov[rows] = nu
+            else:
+                assert inv_stack is not None
+                nt = nu.transpose(1, 0, 2)  # (m, c, m - 1)
+                nis[rows] = (np.matmul(nt, inv_stack) * nt).sum(axis=2).T / (m - 1)
     return BankBlock(resid, est, nis, innov)
 
 

@@ -181,3 +181,24 @@ def test_bank_equals_statsmodels_kalman_filter(fitted):
         assert np.abs(ours.innov[k0:, j] - nu[k0:]).max() < 1e-8
         est_scaled = (ours.est[:, j] - ar.mean[j]) / ar.scale[j]
         assert np.abs(est_scaled[k0:] - yhat[k0:]).max() < 1e-8
+
+
+def test_chunked_bank_block_equals_one_chunk(fitted, monkeypatch):
+    """Chunks of the record (each with the impulse responses' history before it) and the
+    in-place output give the outputs of one pass."""
+    import analyzer.detectors.lti as lti
+    from analyzer.detectors.ar_kalman import BankOutputs
+
+    _, model, data = fitted
+    ar, bank = model.ar, model.bank
+    Y = np.array(data.values, copy=True)
+    Y[7000:7050, 1] = np.nan
+    whole = bank_block(ar.mean, ar.scale, bank, Y, 0, None)
+    monkeypatch.setattr(lti, "CHUNK", 1000)
+    N, m = Y.shape
+    into = BankOutputs(np.zeros((N + 5, m)), np.zeros((N + 5, m)), np.zeros((N + 5, m)))
+    bank_block(ar.mean, ar.scale, bank, Y, 0, None, into=into, at=5)
+    for name in ("resid", "est", "nis"):
+        ref, got = getattr(whole, name), getattr(into, name)[5:]
+        assert np.array_equal(np.isnan(ref), np.isnan(got)), name
+        assert np.nanmax(np.abs(got - ref)) <= 1e-12 * np.nanmax(np.abs(ref)), name
