@@ -27,6 +27,7 @@ from analyzer.parallel import (
     DaskExecutor,
     Executor,
     SerialExecutor,
+    ThreadExecutor,
     WorkerClientExecutor,
     locked,
     make_executor,
@@ -178,8 +179,25 @@ def _detector_names(options: RunOptions) -> tuple[list[str], bool]:
 
 
 def _fit_and_run(det: Any, data: Dataset, ctx: RunContext) -> DetectorResult:
-    """One detector's task: fit on the healthy window, run over the archive."""
-    return det.run(det.fit(data, ctx), data, ctx)
+    """One detector's task: fit on the healthy window, run over the archive; its
+    per-sample signals are kept as float32 (see :data:`SIGNAL_DTYPE`)."""
+    return _compact(det.run(det.fit(data, ctx), data, ctx))
+
+
+SIGNAL_DTYPE = np.float32
+"""Precision of the residuals and fault-free estimates kept after a detector has run.
+Every decision (thresholds, onsets, classification, magnitudes) is taken inside the
+detector in float64; what is kept serves the evidence tests, the report and the corrected
+signals, where 7 significant digits are plenty, and halves the memory that grows with the
+archive's length."""
+
+
+def _compact(result: DetectorResult) -> DetectorResult:
+    """``result`` with its per-sample signals in :data:`SIGNAL_DTYPE` (the float64 arrays
+    of the detector are released as soon as its task ends)."""
+    result.residuals = {c: np.asarray(a, dtype=SIGNAL_DTYPE) for c, a in result.residuals.items()}
+    result.reference = {c: np.asarray(a, dtype=SIGNAL_DTYPE) for c, a in result.reference.items()}
+    return result
 
 
 def _fit_and_run_on_worker(det: Any, data: Dataset, ctx: RunContext) -> DetectorResult:
@@ -250,6 +268,15 @@ def _run_detectors(
     return results, skipped
 
 
+def _residual_tests(
+    task: tuple[DetectorResult, tuple[int, int], float],
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """One detector's residual tests: over the training window, and windowed over the
+    whole archive."""
+    result, train, rate_hz = task
+    return training_tests(result, train), windowed_summary(result, rate_hz)
+
+
 @dataclass(frozen=True, slots=True)
 class _NotApplicable:
     reason: str
@@ -310,6 +337,10 @@ def _analyze(
         path = work / "aligned.npy" if big else None
         values = aligned.materialize(path)
         timings["align"] = time.perf_counter() - t0
+        # the raw samples are no longer needed: unmap them now, or their pages stay in the
+        # resident set for the rest of the run (memory that grows with the archive)
+        infos = store.infos()
+        store.close()
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
             aligned.start_ns
         )
@@ -361,9 +392,14 @@ def _analyze(
         findings = merge_events(ev for r in results for ev in r.events)
         t0 = time.perf_counter()
         attach_evidence(findings, results, aligned.rate_hz, train)
-        for r in results:
-            r.model["training_tests"] = training_tests(r, train)
-            r.model["windowed_tests"] = windowed_summary(r, aligned.rate_hz)
+        # the tests of each detector's residuals are independent: local threads share
+        # the residuals without copies (a cluster would need them shipped, so not there)
+        tasks = [(r, train, aligned.rate_hz) for r in results]
+        threads = isinstance(executor, ThreadExecutor)
+        summaries = executor.map(_residual_tests, tasks) if threads else map(_residual_tests, tasks)
+        for r, (trained, windowed) in zip(results, summaries, strict=True):
+            r.model["training_tests"] = trained
+            r.model["windowed_tests"] = windowed
         timings["test"] = time.perf_counter() - t0
         corrected = None
         corrections: list[dict[str, Any]] = []
@@ -375,7 +411,7 @@ def _analyze(
         timings["total"] = time.perf_counter() - t_start
         return Analysis(
             inputs=archive.inputs,
-            channels=store.infos(),
+            channels=infos,
             analyzed=tuple(chosen),
             rate_hz=aligned.rate_hz,
             start_ns=aligned.start_ns,
