@@ -36,6 +36,7 @@ from analyzer.detectors.lti import (
     ImpulseResponseBank,
     LiftedBank,
     LiftedSystem,
+    StackedLiftedSystem,
     system_bank,
 )
 from analyzer.detectors.riccati import solve_dare, solve_dare_scipy
@@ -137,9 +138,11 @@ class BankFilter:
         estimators: tuple[LeaveOneOut, ...],
         block: int,
         inv_covs: list[FloatArray] | tuple[FloatArray, ...] | None = None,
+        lifted: bool = False,
     ) -> BankFilter:
-        """The stacked bank; with ``inv_covs`` (one inverse innovation covariance per
-        estimator) its innovation outputs are whitened."""
+        """The bank; with ``inv_covs`` (one inverse innovation covariance per estimator)
+        its innovation outputs are whitened; ``lifted`` forces the stacked lifted form
+        (benchmarks and tests compare the two forms)."""
         m = len(estimators)
         systems = []
         for j, e in enumerate(estimators):
@@ -154,8 +157,13 @@ class BankFilter:
                 H = np.vstack([W @ H[:-1], H[-1:]])
                 J[:-1] = W @ J[:-1]
             systems.append((e.F, G, H, J))
+        system = (
+            LiftedBank(StackedLiftedSystem.build(systems, block))
+            if lifted
+            else system_bank(systems, block)
+        )
         return cls(
-            system_bank(systems, block),
+            system,
             block,
             tuple(e.measured for e in estimators),
             tuple(e.settle for e in estimators),
