@@ -23,7 +23,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
@@ -213,7 +213,7 @@ def _filter_gain(
     closed loop ``F = A (I - M Cb)`` and its spectral radius."""
     P = solver(A.T, Cb.T, Q, R)
     S = Cb @ P @ Cb.T + R
-    M = np.linalg.solve(S, Cb @ P).T
+    M = np.asarray(np.linalg.solve(S, Cb @ P).T, dtype=np.float64)
     F = A @ (np.eye(A.shape[0]) - M @ Cb)
     return M, F, float(np.max(np.abs(np.linalg.eigvals(F))))
 
@@ -743,7 +743,7 @@ def bank_block(
     return BankBlock(resid, est, nis, innov)
 
 
-def _bank_block_task(item: tuple) -> BankBlock:  # type: ignore[type-arg]
+def _bank_block_task(item: tuple[Any, ...]) -> BankBlock:
     """:func:`bank_block` on one tuple of arguments (what an executor maps)."""
     return bank_block(*item)
 

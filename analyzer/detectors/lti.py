@@ -126,7 +126,7 @@ except ImportError:  # pragma: no cover - numba is a dependency; keep working wi
     _block_starts = _block_starts_numpy
 else:
 
-    @njit(cache=True, fastmath=True)  # type: ignore[misc]
+    @njit(cache=True, fastmath=True)
     def _block_starts(
         FT: FloatArray, z: FloatArray, x0: FloatArray, starts: FloatArray
     ) -> FloatArray:  # pragma: no cover - compiled
