@@ -77,6 +77,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy import linalg, signal
 
+from analyzer.detectors import lti
 from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
 from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
 from analyzer.detectors.lti import (
@@ -874,52 +875,73 @@ class DetectionFilter:
             res.append((q, zeta, ref))
         return res
 
-    @staticmethod
+    @classmethod
     def _run_outputs(
-        model: FittedDetectionFilter, v: FloatArray, bad: npt.NDArray[np.bool_]
-    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        cls, model: FittedDetectionFilter, values: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.bool_]]:
         """Per filter (rows): fault estimate, fault-free estimate (sensor units) and the
         normalized squared residual off the filter's direction (:func:`_nis`), NaN where an
-        input was missing and while the filter settles after it. The residual vectors are
-        reduced chunk by chunk and not kept, so memory grows with ``3 k N`` only."""
+        input was missing and while the filter settles after it; and the rows where an
+        input was missing. The bank's input is built chunk by chunk from ``values`` (with
+        the history an impulse-response bank remembers) and the residual vectors are
+        reduced per chunk and not kept, so memory grows with ``3 k N`` only."""
         ssm = model.model
         k = len(model.filters)
         m = model.filters[0].n_outputs
-        N = v.shape[0]
+        N = values.shape[0]
         zeta, ref, nis = np.empty((k, N)), np.empty((k, N)), np.empty((k, N))
+        bad = np.zeros(N, dtype=bool)
         scale = ssm.y_scale[:, None]
-        for start, y in filter_bank(model.filters).run(v):
-            cols = slice(start, start + y.shape[2])
-            zeta[:, cols] = y[:, m] * scale
-            ref[:, cols] = y[:, m + 1] * scale + ssm.y_mean[:, None]
-            for i in range(k):
-                off = np.delete(y[i, :m] * scale, i, axis=0)
-                nis[i, cols] = _nis(off.T, model.direction_inv_cov[i])
+        bank = filter_bank(model.filters)
+        hist = bank.history
+        step = max(N, 1) if hist is None else lti.CHUNK
+        for s in range(0, N, step):
+            e = min(N, s + step)
+            a = 0 if hist is None else max(0, s - hist)  # input the outputs of s..e need
+            v, bad_v = cls._inputs(ssm, np.asarray(values[a:e]))
+            bad[s:e] = bad_v[s - a :]
+            for start, y in bank.run(v):
+                lo, hi = max(a + start, s), a + start + y.shape[2]
+                if lo >= hi:
+                    continue
+                y = y[:, :, lo - a - start :]
+                cols = slice(lo, hi)
+                zeta[:, cols] = y[:, m] * scale
+                ref[:, cols] = y[:, m + 1] * scale + ssm.y_mean[:, None]
+                for i in range(k):
+                    off = np.delete(y[i, :m] * scale, i, axis=0)
+                    nis[i, cols] = _nis(off.T, model.direction_inv_cov[i])
         if bad.any():
             for i, f in enumerate(model.filters):
                 mask = _dilate_forward(bad, f.settle())
                 zeta[i, mask] = np.nan
                 ref[i, mask] = np.nan
                 nis[i, mask] = np.nan
-        return zeta, ref, nis
+        return zeta, ref, nis, bad
 
-    @staticmethod
+    @classmethod
     def _residual_vectors(
+        cls,
         model: FittedDetectionFilter,
         j: int,
-        v: FloatArray,
+        values: FloatArray,
         bad: npt.NDArray[np.bool_],
         lo: int,
         hi: int,
     ) -> FloatArray:
         """Residual vectors ``q`` (sensor units) of filter ``j`` over samples ``lo .. hi - 1``
-        of the run (clipped to the record), recomputed for the few samples an event needs;
-        NaN as in :meth:`_run_outputs`."""
+        of the run (clipped to the record), recomputed from the data for the few samples an
+        event needs (only the input the filter remembers is rebuilt); NaN as in
+        :meth:`_run_outputs`."""
         f = model.filters[j]
-        hi = min(v.shape[0], hi)
+        hi = min(values.shape[0], hi)
         if hi <= lo:
             return np.empty((0, f.n_outputs))
-        q = bank_segment(filter_bank([f]), v, lo, hi)[0, : f.n_outputs].T * model.model.y_scale
+        bank = filter_bank([f])
+        start = 0 if bank.history is None else max(0, lo - bank.history)
+        v, _ = cls._inputs(model.model, np.asarray(values[start:hi]))
+        q = bank_segment(bank, v, lo - start, hi - start)[0, : f.n_outputs].T
+        q = q * model.model.y_scale
         first = max(0, lo - f.settle())
         q[_dilate_forward(bad[first:hi], f.settle())[lo - first :]] = np.nan
         return q
@@ -931,8 +953,8 @@ class DetectionFilter:
         ssm = model.model
         names = tuple(data.channels[j] for j in ssm.outputs)
         rate = data.rate_hz
-        v, bad = self._inputs(ssm, np.asarray(data.values))
-        zetas, refs, nises = self._run_outputs(model, v, bad)
+        # the few stretches an event needs are rebuilt from data.values (_residual_vectors)
+        zetas, refs, nises, bad = self._run_outputs(model, data.values)
         train_stop = data.train[1]
         events: list[Event] = []
         notes: list[str] = []
@@ -940,12 +962,12 @@ class DetectionFilter:
         reference: dict[str, FloatArray] = {}
         n = data.n
         m = len(model.filters)
-        # per filter: how far its residual leaves its own direction (> 1: alarm)
-        dstats = []
+        # per filter: how far its residual leaves its own direction (> 1: alarm), in place
+        # of the normalized squared residual it is computed from (memory grows with N)
         for i in range(m):
             dcal = model.direction_cal[i]
-            dstats.append(alarm_statistic(dcal.standardize(nises[i]), dcal))
-        del nises
+            nises[i] = alarm_statistic(dcal.standardize(nises[i]), dcal)
+        dstats = nises
         w = model.window
         cands: list[tuple[int, int, Event]] = []  # (first alarm, filter, event)
         for i in range(m):
@@ -984,7 +1006,7 @@ class DetectionFilter:
             k_on = int(round(ev.onset_s * rate))
             f = model.filters[j]
             span_j = max(2, int(np.ceil(1.0 / (1.0 - f.sigma))))
-            seg = self._residual_vectors(model, j, v, bad, k_on, k_on + span_j)
+            seg = self._residual_vectors(model, j, data.values, bad, k_on, k_on + span_j)
             ev.evidence.update(
                 {
                     "direction": names[j],
