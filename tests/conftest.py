@@ -33,3 +33,28 @@ def realdata() -> Path:
     if root is None:
         pytest.skip("../shared/realdata is absent (set ANALYZER_REALDATA to run these tests)")
     return root
+
+
+def _findings_of(analysis) -> list[tuple]:
+    """``(channel, type, onset_s, magnitude)`` of each finding of an analysis."""
+    return [(f.channel, str(f.type), f.onset_s, dict(f.magnitude)) for f in analysis.findings]
+
+
+def _same_findings(a: list[tuple], b: list[tuple]) -> None:
+    """Same channels and types in the same order; onsets and magnitudes to 1e-9."""
+    assert [x[:2] for x in a] == [y[:2] for y in b]
+    for (_, _, onset_a, mag_a), (_, _, onset_b, mag_b) in zip(a, b, strict=True):
+        assert onset_a == pytest.approx(onset_b, abs=1e-9)
+        assert mag_a.keys() == mag_b.keys()
+        for k in mag_a:
+            assert mag_a[k] == pytest.approx(mag_b[k], rel=1e-9, abs=1e-9)
+
+
+@pytest.fixture
+def findings_of():
+    return _findings_of
+
+
+@pytest.fixture
+def same_findings():
+    return _same_findings

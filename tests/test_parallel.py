@@ -45,19 +45,6 @@ def pool():
     ex.close()
 
 
-def _findings(analysis):
-    return [(f.channel, str(f.type), f.onset_s, dict(f.magnitude)) for f in analysis.findings]
-
-
-def _same_findings(a, b):
-    assert [x[:2] for x in a] == [y[:2] for y in b]
-    for (_, _, onset_a, mag_a), (_, _, onset_b, mag_b) in zip(a, b, strict=True):
-        assert onset_a == pytest.approx(onset_b, abs=1e-9)
-        assert mag_a.keys() == mag_b.keys()
-        for k in mag_a:
-            assert mag_a[k] == pytest.approx(mag_b[k], rel=1e-9, abs=1e-9)
-
-
 # -- executors ---------------------------------------------------------------------------
 
 
@@ -189,11 +176,11 @@ def test_detectors_and_fitted_models_pickle(serial_run):
         pickle.loads(pickle.dumps(det.run(model, data, ctx)))
 
 
-def test_jobs_gives_the_serial_findings(serial_run):
+def test_jobs_gives_the_serial_findings(serial_run, findings_of, same_findings):
     serial = serial_run
     assert serial.findings, "the sample has an additive fault on s4"
     par = analyze([SAMPLE], RunOptions(jobs=2))
-    _same_findings(_findings(par), _findings(serial))
+    same_findings(findings_of(par), findings_of(serial))
     assert [r.detector for r in par.results] == [r.detector for r in serial.results]
     assert par.skipped == serial.skipped
     for rs, rp in zip(serial.results, par.results, strict=True):

@@ -29,7 +29,6 @@ import numpy as np
 import numpy.typing as npt
 from scipy import linalg
 
-from analyzer.detectors import lti
 from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
 from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
 from analyzer.detectors.lti import (
@@ -37,6 +36,7 @@ from analyzer.detectors.lti import (
     LiftedBank,
     LiftedSystem,
     StackedLiftedSystem,
+    run_chunked,
     system_bank,
 )
 from analyzer.detectors.riccati import solve_dare, solve_dare_scipy
@@ -711,35 +711,32 @@ def bank_block(
         bad = np.empty((N, m), dtype=bool)
         for j in range(m):  # estimator j misses data when any channel but j is missing
             bad[:, j] = _dilate_forward((n_gap - gap[:, j]) > 0, bank.settle[j])
-    hist = bank.system.history
-    step = max(N, 1) if hist is None else lti.CHUNK
-    for s in range(warm, N, step):
-        e = min(N, s + step)
-        p = 0 if hist is None else max(0, s - hist)  # input the outputs of s..e depend on
-        Yp = np.asarray(Y[p:e], dtype=np.float64)
-        Zf = np.where(gap[p:e], 0.0, (Yp - mean) / scale)
-        for s0, out in bank.system.run(Zf):  # (m, m, c): innovations, then the estimate
-            lo, e0 = max(p + s0, s), p + s0 + out.shape[2]
-            if lo >= e0:
-                continue
-            y = out[:, :, lo - p - s0 :].transpose(2, 0, 1)  # (c, m, m)
-            nu = y[:, :, :-1]
-            yhat = y[:, :, -1]
-            if bad is not None:
-                b = bad[lo:e0]
-                nu[b] = np.nan
-                yhat[b] = np.nan
-            rows = slice(lo - warm, e0 - warm)
-            est[rows] = yhat * scale + mean
-            resid[rows] = np.where(gap[lo:e0], np.nan, Yp[lo - p : e0 - p] - est[rows])
-            if bank.whitened:
-                nis[rows] = np.einsum("cjq,cjq->cj", nu, nu) / (m - 1)
-            elif innov is not None:
-                innov[rows] = nu
-            else:
-                assert inv_stack is not None
-                nt = nu.transpose(1, 0, 2)  # (m, c, m - 1)
-                nis[rows] = (np.matmul(nt, inv_stack) * nt).sum(axis=2).T / (m - 1)
+
+    def scaled(a: int, b: int) -> FloatArray:  # the bank's input, gaps as 0
+        return np.where(gap[a:b], 0.0, (np.asarray(Y[a:b], dtype=np.float64) - mean) / scale)
+
+    for lo, out in run_chunked(bank.system, scaled, N, warm):
+        e0 = lo + out.shape[2]
+        y = out.transpose(2, 0, 1)  # (c, m, m): innovations, then the estimate
+        nu = y[:, :, :-1]
+        yhat = y[:, :, -1]
+        if bad is not None:
+            b = bad[lo:e0]
+            nu[b] = np.nan
+            yhat[b] = np.nan
+        rows = slice(lo - warm, e0 - warm)
+        est[rows] = yhat * scale + mean
+        resid[rows] = np.where(
+            gap[lo:e0], np.nan, np.asarray(Y[lo:e0], dtype=np.float64) - est[rows]
+        )
+        if bank.whitened:
+            nis[rows] = np.einsum("cjq,cjq->cj", nu, nu) / (m - 1)
+        elif innov is not None:
+            innov[rows] = nu
+        else:
+            assert inv_stack is not None
+            nt = nu.transpose(1, 0, 2)  # (m, c, m - 1)
+            nis[rows] = (np.matmul(nt, inv_stack) * nt).sum(axis=2).T / (m - 1)
     return BankBlock(resid, est, nis, innov)
 
 

@@ -77,14 +77,13 @@ import numpy as np
 import numpy.typing as npt
 from scipy import linalg, signal
 
-from analyzer.detectors import lti
 from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
 from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
 from analyzer.detectors.lti import (
     ImpulseResponseBank,
     LiftedBank,
     LiftedSystem,
-    bank_segment,
+    run_chunked,
     system_bank,
 )
 from analyzer.diagnosis.changes import (
@@ -892,25 +891,19 @@ class DetectionFilter:
         zeta, ref, nis = np.empty((k, N)), np.empty((k, N)), np.empty((k, N))
         bad = np.zeros(N, dtype=bool)
         scale = ssm.y_scale[:, None]
-        bank = filter_bank(model.filters)
-        hist = bank.history
-        step = max(N, 1) if hist is None else lti.CHUNK
-        for s in range(0, N, step):
-            e = min(N, s + step)
-            a = 0 if hist is None else max(0, s - hist)  # input the outputs of s..e need
-            v, bad_v = cls._inputs(ssm, np.asarray(values[a:e]))
-            bad[s:e] = bad_v[s - a :]
-            for start, y in bank.run(v):
-                lo, hi = max(a + start, s), a + start + y.shape[2]
-                if lo >= hi:
-                    continue
-                y = y[:, :, lo - a - start :]
-                cols = slice(lo, hi)
-                zeta[:, cols] = y[:, m] * scale
-                ref[:, cols] = y[:, m + 1] * scale + ssm.y_mean[:, None]
-                for i in range(k):
-                    off = np.delete(y[i, :m] * scale, i, axis=0)
-                    nis[i, cols] = _nis(off.T, model.direction_inv_cov[i])
+
+        def inputs(a: int, b: int) -> FloatArray:
+            v, bad_v = cls._inputs(ssm, np.asarray(values[a:b]))
+            bad[a:b] = bad_v
+            return v
+
+        for lo, y in run_chunked(filter_bank(model.filters), inputs, N):
+            cols = slice(lo, lo + y.shape[2])
+            zeta[:, cols] = y[:, m] * scale
+            ref[:, cols] = y[:, m + 1] * scale + ssm.y_mean[:, None]
+            for i in range(k):
+                off = np.delete(y[i, :m] * scale, i, axis=0)
+                nis[i, cols] = _nis(off.T, model.direction_inv_cov[i])
         if bad.any():
             for i, f in enumerate(model.filters):
                 mask = _dilate_forward(bad, f.settle())
@@ -937,11 +930,12 @@ class DetectionFilter:
         hi = min(values.shape[0], hi)
         if hi <= lo:
             return np.empty((0, f.n_outputs))
-        bank = filter_bank([f])
-        start = 0 if bank.history is None else max(0, lo - bank.history)
-        v, _ = cls._inputs(model.model, np.asarray(values[start:hi]))
-        q = bank_segment(bank, v, lo - start, hi - start)[0, : f.n_outputs].T
-        q = q * model.model.y_scale
+
+        def inputs(a: int, b: int) -> FloatArray:
+            return cls._inputs(model.model, np.asarray(values[a:b]))[0]
+
+        pieces = [y[0, : f.n_outputs] for _, y in run_chunked(filter_bank([f]), inputs, hi, lo)]
+        q = np.concatenate(pieces, axis=1).T * model.model.y_scale
         first = max(0, lo - f.settle())
         q[_dilate_forward(bad[first:hi], f.settle())[lo - first :]] = np.nan
         return q

@@ -12,7 +12,7 @@ compiled per-sample loop. Results equal the sample-by-sample recursion to roundi
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -357,17 +357,34 @@ def system_bank(
     return fir if fir is not None else LiftedBank(StackedLiftedSystem.build(list(systems), block))
 
 
+def run_chunked(
+    bank: ImpulseResponseBank | LiftedBank,
+    inputs: Callable[[int, int], FloatArray],
+    stop: int,
+    start: int = 0,
+) -> Iterator[tuple[int, FloatArray]]:
+    """Outputs of ``bank`` over samples ``start .. stop - 1`` of a run from rest at sample 0,
+    as ``(first sample, y (k, q, n))`` pieces. The input is asked for chunk by chunk
+    (``inputs(a, b)``: samples ``a .. b - 1``), each chunk with only the history an
+    impulse-response bank remembers before it, so the caller never holds the whole input;
+    a lifted bank (whole past) gets one chunk from sample 0."""
+    hist = bank.history
+    step = max(stop - start, 1) if hist is None else CHUNK
+    for s in range(start, stop, step):
+        e = min(stop, s + step)
+        a = 0 if hist is None else max(0, s - hist)
+        for off, y in bank.run(inputs(a, e)):
+            lo, hi = max(a + off, s), a + off + y.shape[2]
+            if lo < hi:
+                yield lo, y[:, :, lo - a - off :]
+
+
 def bank_segment(
     bank: ImpulseResponseBank | LiftedBank, v: FloatArray, lo: int, hi: int
 ) -> FloatArray:
     """Outputs ``(k, q, hi - lo)`` of the bank over samples ``lo .. hi - 1`` of the run over
     ``v``, recomputed from the input the bank remembers only."""
-    first = 0 if bank.history is None else max(0, lo - bank.history)
-    parts = [
-        y[:, :, max(0, lo - first - start) : hi - first - start]
-        for start, y in bank.run(v[first:hi])
-        if start + y.shape[2] > lo - first
-    ]
+    parts = [y for _, y in run_chunked(bank, lambda a, b: v[a:b], hi, lo)]
     return np.concatenate(parts, axis=2)
 
 

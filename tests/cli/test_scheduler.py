@@ -67,19 +67,6 @@ def _truth_offset() -> float:
     return float(entry["faults"][0]["offset"])
 
 
-def _findings(analysis):
-    return [(f.channel, str(f.type), f.onset_s, dict(f.magnitude)) for f in analysis.findings]
-
-
-def _same_findings(a, b):
-    assert [x[:2] for x in a] == [y[:2] for y in b]
-    for (_, _, onset_a, mag_a), (_, _, onset_b, mag_b) in zip(a, b, strict=True):
-        assert onset_a == pytest.approx(onset_b, abs=1e-9)
-        assert mag_a.keys() == mag_b.keys()
-        for k in mag_a:
-            assert mag_a[k] == pytest.approx(mag_b[k], rel=1e-9, abs=1e-9)
-
-
 def _double(x: np.ndarray) -> np.ndarray:
     return 2.0 * x
 
@@ -126,11 +113,11 @@ def test_map_from_inside_a_dask_task(dask_ex):
         dask_ex.submit(_nested_map, [1, 3]).result()
 
 
-def test_scheduler_gives_the_serial_findings(cluster, serial_run):
+def test_scheduler_gives_the_serial_findings(cluster, serial_run, findings_of, same_findings):
     serial = serial_run
     dask = analyze([SAMPLE], RunOptions(scheduler=cluster.scheduler_address))
-    found = _findings(dask)
-    _same_findings(found, _findings(serial))
+    found = findings_of(dask)
+    same_findings(found, findings_of(serial))
     assert [r.detector for r in dask.results] == [r.detector for r in serial.results]
     assert dask.skipped == serial.skipped
     assert found[0][:2] == ("/s4.data", "additive")
@@ -141,7 +128,7 @@ def test_scheduler_gives_the_serial_findings(cluster, serial_run):
     assert not any("not implemented" in n for n in dask.notes)
 
 
-def test_cli_scheduler_writes_the_serial_findings(cluster, tmp_path, capsys):
+def test_cli_scheduler_writes_the_serial_findings(cluster, tmp_path, capsys, same_findings):
     # (--jobs 2 against the serial run: tests/test_parallel.py)
     docs = {}
     for label, extra in {
@@ -153,7 +140,7 @@ def test_cli_scheduler_writes_the_serial_findings(cluster, tmp_path, capsys):
         assert code == 1, capsys.readouterr().err
         docs[label] = json.loads((out / "findings.json").read_text())
     got, want = docs["dask"]["faults"], docs["serial"]["faults"]
-    _same_findings(
+    same_findings(
         [(f["channel"], f["type"], f["onset_s"], f["magnitude"]) for f in got],
         [(f["channel"], f["type"], f["onset_s"], f["magnitude"]) for f in want],
     )

@@ -14,13 +14,12 @@ from analyzer.detectors.base import Dataset, RunContext
 from analyzer.detectors.detection_filter import (
     DetectionFilter,
     ImpulseResponseBank,
-    bank_segment,
     filter_bank,
     park_filter,
     unobservable_modes,
 )
 from analyzer.detectors.equivalent_model import fit_relation
-from analyzer.detectors.lti import StackedLiftedSystem
+from analyzer.detectors.lti import StackedLiftedSystem, bank_segment
 from analyzer.simulate import simulate_building
 
 RATE = 200.0
