@@ -48,6 +48,9 @@ class Executor(Protocol):
     """Runs picklable module-level functions; ``workers`` is the parallelism it offers."""
 
     workers: int
+    shares_memory: bool
+    """True when tasks run in this process: a task may then write into the caller's
+    arrays (disjoint slices) instead of returning copies."""
 
     def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
         """``[fn(x) for x in items]``, possibly concurrently, results in input order."""
@@ -101,6 +104,7 @@ class SerialExecutor:
     """Everything in the calling thread, in order."""
 
     workers = 1
+    shares_memory = True
 
     def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
         return [fn(x) for x in items]
@@ -122,6 +126,8 @@ class ThreadExecutor:
     """``jobs`` threads. :meth:`map` may be called from inside a task (a detector that
     splits its work): the caller then runs the items no thread has started yet itself
     instead of blocking on them, so nested maps never deadlock a full pool."""
+
+    shares_memory = True
 
     def __init__(self, jobs: int) -> None:
         if jobs < 1:
@@ -164,6 +170,8 @@ class DaskExecutor:
     Raises :class:`UsageError` naming ``--scheduler`` when ``distributed`` is missing or
     the scheduler does not answer within ``timeout`` seconds. ``workers`` is the cluster's
     total worker threads when connected (at least 1)."""
+
+    shares_memory = False
 
     def __init__(self, address: str, timeout: float | None = None) -> None:
         try:
@@ -269,6 +277,8 @@ def _probe(address: str, timeout: float) -> None:
 class WorkerClientExecutor:
     """:meth:`map` from inside a Dask task: the items become tasks on the same cluster
     (the calling task leaves its worker thread while it waits, so nothing deadlocks)."""
+
+    shares_memory = False
 
     def __init__(self, workers: int) -> None:
         self.workers = workers

@@ -200,6 +200,11 @@ def _compact(result: DetectorResult) -> DetectorResult:
     return result
 
 
+def _fit(det: Any, data: Dataset, ctx: RunContext) -> tuple[Any, Any]:
+    """A detector's fit on the healthy window, as a task: ``(detector, fitted model)``."""
+    return det, det.fit(data, ctx)
+
+
 def _fit_and_run_on_worker(det: Any, data: Dataset, ctx: RunContext) -> DetectorResult:
     """:func:`_fit_and_run` as a Dask task: a detector that splits its work
     (``ctx.map``) spreads the pieces over the same cluster."""
@@ -218,7 +223,13 @@ def _run_detectors(
     with its reason; when the user named the detectors (``ctx.explicit``) the first such
     error in registry order is raised instead, as the plain loop would."""
     on_dask = isinstance(executor, DaskExecutor)
-    task = _fit_and_run_on_worker if on_dask else _fit_and_run
+    # Local threads: the fits (training window only, memory independent of the archive's
+    # length) run concurrently; the runs over the archive then follow one at a time in
+    # this thread, each splitting its own work over the pool (time blocks, chunks,
+    # sensors). Running two detectors over the archive at once would hold both their
+    # per-sample arrays: peak memory would grow twice as fast with the archive.
+    staged = isinstance(executor, ThreadExecutor)
+    task = _fit_and_run_on_worker if on_dask else _fit if staged else _fit_and_run
     shipped_data: Any = data
     shipped_ctx = ctx
     if on_dask:
@@ -255,7 +266,11 @@ def _run_detectors(
             if isinstance(plan, AnalyzerError):
                 raise plan
             try:
-                results.append(plan.result())
+                if staged:
+                    det, model = plan.result()
+                    results.append(_compact(det.run(model, data, ctx)))
+                else:
+                    results.append(plan.result())
             except DetectorError as err:
                 if ctx.explicit:
                     raise

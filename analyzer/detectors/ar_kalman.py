@@ -38,6 +38,7 @@ from analyzer.detectors.lti import (
     StackedLiftedSystem,
     run_chunked,
     system_bank,
+    time_blocks,
 )
 from analyzer.detectors.riccati import solve_dare, solve_dare_scipy
 from analyzer.diagnosis.changes import (
@@ -71,9 +72,6 @@ filtered from a zero state that far before it equals the whole-record run to rou
 AUTO_BLOCK = {2: 64, 6: 32}
 """Lifted block length by channel count (largest key not above m; smaller blocks
 for larger states: measured by benchmarks/bench_bank.py --sweep)."""
-
-MIN_TIME_BLOCK = 8
-"""A time block handed to a worker is at least this many warm-ups long."""
 
 CV_FOLDS = 5
 """Folds of the cross-validation that gives out-of-sample training residuals."""
@@ -399,7 +397,7 @@ class ARKalmanBank:
         stop = N if stop is None else stop
         if into is None:
             into = BankOutputs(np.empty((N, m)), np.empty((N, m)), np.empty((N, m)))
-        spans = _time_blocks(start, stop, bank.warmup, context)
+        spans = time_blocks(start, stop, bank.warmup, context)
         items = [
             (ar.mean, ar.scale, bank, Y[a - w : b], w, model.innovation_inv_cov)
             for a, b, w in spans
@@ -407,6 +405,12 @@ class ARKalmanBank:
         if len(items) == 1 or context is None:
             for (a, _, _), item in zip(spans, items, strict=True):
                 bank_block(*item, into=into, at=a)  # written in place: no copies
+            return into
+        if context.shares_memory:  # threads write their rows in place: no block copies
+            context.map(
+                _bank_block_into,
+                [(item, into, a) for (a, _, _), item in zip(spans, items, strict=True)],
+            )
             return into
         for (a, b, _), out in zip(spans, context.map(_bank_block_task, items), strict=True):
             into.resid[a:b] = out.resid
@@ -615,7 +619,7 @@ class ARKalmanBank:
         consistent)."""
         cons = np.nan_to_num(nis[lo:hi, j])
         cal = model.consistency_cal[j]
-        return float(np.max(alarm_statistic(cal.standardize(cons), cal), initial=0.0))
+        return float(np.max(alarm_statistic(cons, cal, raw=True), initial=0.0))
 
     @staticmethod
     def _strength(r: FloatArray, cal: Calibration, a: int, b: int) -> float:
@@ -745,18 +749,10 @@ def _bank_block_task(item: tuple[Any, ...]) -> BankBlock:
     return bank_block(*item)
 
 
-def _time_blocks(
-    start: int, stop: int, warmup: int, context: RunContext | None
-) -> list[tuple[int, int, int]]:
-    """``(a, b, warm)`` spans covering ``[start, stop)``: one span serially; with a
-    parallel executor, about two per worker, each at least ``MIN_TIME_BLOCK`` warm-ups
-    long so the warm-up overhead stays small."""
-    executor = None if context is None else getattr(context, "executor", None)
-    if executor is None or stop - start <= 2 * MIN_TIME_BLOCK * warmup:
-        return [(start, stop, min(start, warmup))]
-    workers = max(2, int(getattr(context, "jobs", 2) or 2))
-    size = max(MIN_TIME_BLOCK * warmup, -(-(stop - start) // (2 * workers)))
-    return [(a, min(stop, a + size), min(a, warmup)) for a in range(start, stop, size)]
+def _bank_block_into(task: tuple[tuple[Any, ...], BankOutputs, int]) -> None:
+    """:func:`bank_block` writing its rows into shared outputs (threads only)."""
+    (mean, scale, bank, Y, warm, inv_covs), into, at = task
+    bank_block(mean, scale, bank, Y, warm, inv_covs, into=into, at=at)
 
 
 def _describe(bank: BankFilter | None) -> str:

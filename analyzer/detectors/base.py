@@ -86,6 +86,12 @@ class RunContext:
             return [fn(x) for x in items]
         return self.executor.map(fn, items)
 
+    @property
+    def shares_memory(self) -> bool:
+        """True when :meth:`map`'s items run in this process (serially or on threads), so
+        they may write into the caller's arrays; False on a cluster."""
+        return self.executor is None or bool(getattr(self.executor, "shares_memory", False))
+
     def allocate(self, name: str, shape: tuple[int, ...]) -> FloatArray:
         """A float64 array for a long result; memory-mapped in ``workdir`` when set, so
         peak memory does not grow with the archive's length."""

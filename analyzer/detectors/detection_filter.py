@@ -85,6 +85,7 @@ from analyzer.detectors.lti import (
     LiftedSystem,
     run_chunked,
     system_bank,
+    time_blocks,
 )
 from analyzer.diagnosis.changes import (
     Calibration,
@@ -876,34 +877,36 @@ class DetectionFilter:
 
     @classmethod
     def _run_outputs(
-        cls, model: FittedDetectionFilter, values: FloatArray
+        cls, model: FittedDetectionFilter, values: FloatArray, context: RunContext | None = None
     ) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.bool_]]:
         """Per filter (rows): fault estimate, fault-free estimate (sensor units) and the
         normalized squared residual off the filter's direction (:func:`_nis`), NaN where an
         input was missing and while the filter settles after it; and the rows where an
         input was missing. The bank's input is built chunk by chunk from ``values`` (with
         the history an impulse-response bank remembers) and the residual vectors are
-        reduced per chunk and not kept, so memory grows with ``3 k N`` only."""
-        ssm = model.model
+        reduced per chunk and not kept, so memory grows with ``3 k N`` only. With a
+        parallel executor in ``context`` an impulse-response bank runs in time blocks
+        (each recomputed from the history it remembers: the serial outputs to rounding),
+        written in place on threads."""
         k = len(model.filters)
-        m = model.filters[0].n_outputs
         N = values.shape[0]
-        zeta, ref, nis = np.empty((k, N)), np.empty((k, N)), np.empty((k, N))
-        bad = np.zeros(N, dtype=bool)
-        scale = ssm.y_scale[:, None]
-
-        def inputs(a: int, b: int) -> FloatArray:
-            v, bad_v = cls._inputs(ssm, np.asarray(values[a:b]))
-            bad[a:b] = bad_v
-            return v
-
-        for lo, y in run_chunked(filter_bank(model.filters), inputs, N):
-            cols = slice(lo, lo + y.shape[2])
-            zeta[:, cols] = y[:, m] * scale
-            ref[:, cols] = y[:, m + 1] * scale + ssm.y_mean[:, None]
-            for i in range(k):
-                off = np.delete(y[i, :m] * scale, i, axis=0)
-                nis[i, cols] = _nis(off.T, model.direction_inv_cov[i])
+        bank = filter_bank(model.filters)
+        outs = (np.empty((k, N)), np.empty((k, N)), np.empty((k, N)), np.zeros(N, dtype=bool))
+        hist = bank.history
+        spans = [(0, N)]
+        if context is not None and hist is not None:
+            spans = [(a, b) for a, b, _ in time_blocks(0, N, max(hist, 1), context)]
+        if len(spans) == 1 or context is None:
+            for a, b in spans:
+                _df_span((model, bank, values, a, b, outs))
+        elif context.shares_memory:
+            context.map(_df_span, [(model, bank, values, a, b, outs) for a, b in spans])
+        else:
+            pieces = context.map(_df_span, [(model, bank, values, a, b, None) for a, b in spans])
+            for (a, b), piece in zip(spans, pieces, strict=True):
+                for whole, part in zip(outs, piece, strict=True):
+                    whole[..., a:b] = part
+        zeta, ref, nis, bad = outs
         if bad.any():
             for i, f in enumerate(model.filters):
                 mask = _dilate_forward(bad, f.settle())
@@ -948,7 +951,7 @@ class DetectionFilter:
         names = tuple(data.channels[j] for j in ssm.outputs)
         rate = data.rate_hz
         # the few stretches an event needs are rebuilt from data.values (_residual_vectors)
-        zetas, refs, nises, bad = self._run_outputs(model, data.values)
+        zetas, refs, nises, bad = self._run_outputs(model, data.values, context)
         train_stop = data.train[1]
         events: list[Event] = []
         notes: list[str] = []
@@ -960,7 +963,7 @@ class DetectionFilter:
         # of the normalized squared residual it is computed from (memory grows with N)
         for i in range(m):
             dcal = model.direction_cal[i]
-            nises[i] = alarm_statistic(dcal.standardize(nises[i]), dcal)
+            nises[i] = alarm_statistic(nises[i], dcal, raw=True)
         dstats = nises
         w = model.window
         cands: list[tuple[int, int, Event]] = []  # (first alarm, filter, event)
@@ -1083,6 +1086,37 @@ def long_run_time(r: FloatArray, window: int) -> float:
         tau = max(tau, float(b * np.var(means, ddof=1) / v))
         b *= 2
     return tau
+
+
+def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray, Any]:
+    """Outputs of the detection-filter bank over samples ``a .. b - 1`` (see
+    :meth:`DetectionFilter._run_outputs`): written into ``outs`` (columns
+    ``a .. b - 1``) when given, else returned as arrays of ``b - a`` columns."""
+    model, bank, values, a, b, outs = task
+    ssm = model.model
+    k = len(model.filters)
+    m = model.filters[0].n_outputs
+    at = a if outs is None else 0  # column of sample lo is lo - at
+    if outs is None:
+        outs = (np.empty((k, b - a)), np.empty((k, b - a)), np.empty((k, b - a)))
+        outs = (*outs, np.zeros(b - a, dtype=bool))
+    zeta, ref, nis, bad = outs
+    scale = ssm.y_scale[:, None]
+
+    def inputs(lo: int, hi: int) -> FloatArray:
+        v, bad_v = DetectionFilter._inputs(ssm, np.asarray(values[lo:hi]))
+        first = max(lo, a)  # the history before the span belongs to another span
+        bad[first - at : hi - at] = bad_v[first - lo :]
+        return v
+
+    for lo, y in run_chunked(bank, inputs, b, a):
+        cols = slice(lo - at, lo - at + y.shape[2])
+        zeta[:, cols] = y[:, m] * scale
+        ref[:, cols] = y[:, m + 1] * scale + ssm.y_mean[:, None]
+        for i in range(k):
+            off = np.delete(y[i, :m] * scale, i, axis=0)
+            nis[i, cols] = _nis(off.T, model.direction_inv_cov[i])
+    return outs
 
 
 def _strength(z: FloatArray, cal: Calibration, a: int, b: int) -> float:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -345,6 +346,24 @@ class LiftedBank:
         for start in range(0, v.shape[0], step):
             y, x = self.system.run(v[start : start + step], x)
             yield start, y.transpose(1, 2, 0)
+
+
+MIN_TIME_BLOCK = 8
+"""A time block handed to a worker is at least this many warm-ups long."""
+
+
+def time_blocks(start: int, stop: int, warmup: int, context: Any) -> list[tuple[int, int, int]]:
+    """``(a, b, warm)`` spans covering ``[start, stop)`` for a
+    :class:`~analyzer.detectors.base.RunContext` ``context``: one span serially; with a
+    parallel executor, about two per worker, each at least ``MIN_TIME_BLOCK`` warm-ups
+    long so the warm-up overhead stays small. ``warm`` samples before ``a`` (at most
+    ``warmup``) let a block start where a run from the record's start would be."""
+    executor = None if context is None else getattr(context, "executor", None)
+    if executor is None or stop - start <= 2 * MIN_TIME_BLOCK * warmup:
+        return [(start, stop, min(start, warmup))]
+    workers = max(2, int(getattr(context, "jobs", 2) or 2))
+    size = max(MIN_TIME_BLOCK * warmup, -(-(stop - start) // (2 * workers)))
+    return [(a, min(stop, a + size), min(a, warmup)) for a in range(start, stop, size)]
 
 
 def system_bank(

@@ -190,10 +190,33 @@ def calibrate(
     )
 
 
-def alarm_statistic(z: FloatArray, cal: Calibration) -> FloatArray:
+def alarm_statistic(x: FloatArray, cal: Calibration, *, raw: bool = False) -> FloatArray:
     """Per-sample alarm statistic in units of its threshold (> 1 means alarm): the
     largest, over both window lengths, of |window mean| / its threshold and the
-    log-mean-square excess / its threshold."""
+    log-mean-square excess / its threshold.
+
+    ``x`` is the standardized residual, or with ``raw`` the residual in channel units
+    (standardized on the fly with ``cal``, no standardized copy). NaNs count as gaps: a
+    window that is mostly gap says nothing (statistic 0). One compiled pass over the
+    samples, equal to :func:`_alarm_statistic_numpy` up to rounding (the same sums in the
+    same order)."""
+    arr = np.asarray(x)
+    if arr.dtype not in (np.float64, np.float32):
+        arr = arr.astype(np.float64)
+    mean, std = (cal.mean, cal.std) if raw else (0.0, 1.0)
+    k = len(cal.windows)
+    windows = np.asarray(cal.windows, dtype=np.int64)
+    mthr = np.array([cal.mean_threshold(i) for i in range(k)])
+    lqm = np.asarray(cal.logq_mean, dtype=np.float64)
+    lqden = np.array([cal.logq_threshold(i) - cal.logq_mean[i] for i in range(k)])
+    out = np.zeros(arr.shape[0], dtype=np.float64)
+    _alarm_kernel(arr, mean, std, windows, mthr, lqm, lqden, out)
+    return out
+
+
+def _alarm_statistic_numpy(z: FloatArray, cal: Calibration) -> FloatArray:
+    """Reference form of :func:`alarm_statistic` (standardized ``z``) with numpy moving
+    means; what the compiled kernel is checked against."""
     finite = np.isfinite(z)
     zz = np.where(finite, z, 0.0)
     s = np.zeros(zz.shape[0], dtype=np.float64)
@@ -203,10 +226,77 @@ def alarm_statistic(z: FloatArray, cal: Calibration) -> FloatArray:
         q = (logq - cal.logq_mean[i]) / (cal.logq_threshold(i) - cal.logq_mean[i])
         si = np.maximum(m, q)
         si[: w - 1] = 0.0
-        # A window that is mostly gap says nothing.
         si[moving_mean(finite.astype(np.float64), w) <= 0.5] = 0.0
         np.maximum(s, si, out=s)
     return s
+
+
+def _alarm_loop(
+    x: FloatArray,
+    mean: float,
+    std: float,
+    windows: npt.NDArray[np.int64],
+    mthr: FloatArray,
+    lqm: FloatArray,
+    lqden: FloatArray,
+    out: FloatArray,
+) -> None:  # pragma: no cover - compiled by numba (the Python form is the fallback)
+    """``out[t]`` = the alarm statistic at ``t``: running sums of z, z^2 and the finite
+    count, with the last prefix sums in a ring buffer (a power of two above
+    ``max(windows)``: memory set by the window, not the record). Sums run in sample
+    order, as ``np.cumsum`` does; divisions are folded into per-window constants."""
+    n = x.shape[0]
+    k = windows.shape[0]
+    ring = 1
+    while ring <= windows.max():
+        ring *= 2
+    mask = ring - 1
+    c1 = np.zeros(ring)
+    c2 = np.zeros(ring)
+    cf = np.zeros(ring, dtype=np.int64)
+    inv_std = 1.0 / std
+    a = 1.0 / (windows * mthr)  # |sum| * a = |window mean| / its threshold
+    lw = lqm + np.log(windows.astype(np.float64))  # log(sum of squares) at the healthy mean
+    floor = np.exp(lw)  # below it log q <= its healthy mean: q <= 0 adds nothing
+    g = 1.0 / lqden
+    s1 = 0.0
+    s2 = 0.0
+    sf = 0
+    for t in range(n):
+        v = (np.float64(x[t]) - mean) * inv_std
+        if np.isfinite(v):
+            s1 += v
+            s2 += v * v
+            sf += 1
+        j = (t + 1) & mask
+        c1[j] = s1
+        c2[j] = s2
+        cf[j] = sf
+        best = 0.0
+        for i in range(k):
+            w = windows[i]
+            if t + 1 < w:
+                continue
+            b = (t + 1 - w) & mask
+            if 2 * (sf - cf[b]) <= w:  # a window that is mostly gap says nothing
+                continue
+            m = abs(s1 - c1[b]) * a[i]
+            if m > best:
+                best = m
+            d2 = s2 - c2[b]
+            if d2 > floor[i]:
+                q = (math.log(d2) - lw[i]) * g[i]
+                if q > best:
+                    best = q
+        out[t] = best
+
+
+try:  # numba compiles the per-sample pass; nogil lets threads run channels at once
+    from numba import njit
+except ImportError:  # pragma: no cover - numba is a dependency; keep working without
+    _alarm_kernel = _alarm_loop
+else:
+    _alarm_kernel = njit(cache=True, nogil=True)(_alarm_loop)
 
 
 def _runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
@@ -255,12 +345,11 @@ def detect(
     fault whose residual swings through zero (a gain change) briefly drops its window
     statistics, which must not split it. Alarms before ``search_start`` (the training
     window's end, say) are ignored."""
-    z = cal.standardize(residual)
-    n = z.shape[0]
+    n = residual.shape[0]
     w = cal.window
     wl = cal.long_window
     gap = wl if min_gap is None else min_gap
-    s = alarm_statistic(z, cal)
+    s = alarm_statistic(residual, cal, raw=True)
     s[:search_start] = 0.0
     runs = _runs(s > 1.0)
     merged: list[list[int]] = []
@@ -279,7 +368,11 @@ def detect(
         p = float(min(1.0, 2.0 * sps.norm.sf(z_peak) * n_windows))
         lo = max(prev_end, a - wl - 2 * w)
         hi = min(n, a + w)
-        onset = lo + change_point(z[lo:hi], before_normal=True) if hi - lo > 4 else a
+        onset = (
+            lo + change_point(cal.standardize(residual[lo:hi]), before_normal=True)
+            if hi - lo > 4
+            else a
+        )
         onset = min(onset, a)
         last = b - 1
         if b >= n - 1:
@@ -287,7 +380,11 @@ def detect(
         else:
             lo2 = max(onset + 1, last - wl - 2 * w)
             hi2 = min(n, last + w)
-            end = lo2 + change_point(z[lo2:hi2], before_normal=False) if hi2 - lo2 > 4 else b
+            end = (
+                lo2 + change_point(cal.standardize(residual[lo2:hi2]), before_normal=False)
+                if hi2 - lo2 > 4
+                else b
+            )
             end = max(end, onset + 1)
         out.append(Interval(onset, end, a, last, peak, p))
         prev_end = end if end is not None else n

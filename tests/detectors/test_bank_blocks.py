@@ -120,7 +120,9 @@ class _Pool:
             return list(ex.map(fn, items))
 
 
-def test_bank_run_in_time_blocks_equals_serial_run(fitted):
+@pytest.mark.parametrize("shares_memory", [False, True])
+def test_bank_run_in_time_blocks_equals_serial_run(fitted, shares_memory):
+    """Blocks returned and copied (a cluster) or written in place (threads)."""
     det, model, data = fitted
     Y = np.array(data.values, copy=True)
     j = 4
@@ -128,6 +130,7 @@ def test_bank_run_in_time_blocks_equals_serial_run(fitted):
     faulty = Dataset(Y, data.channels, RATE, data.train)
     serial = det.run(model, faulty, RunContext())
     pool = _Pool()
+    pool.shares_memory = shares_memory  # type: ignore[attr-defined]
     ctx = RunContext(jobs=2)
     try:
         ctx.executor = pool  # type: ignore[attr-defined]

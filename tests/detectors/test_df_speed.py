@@ -113,6 +113,44 @@ def test_streamed_run_outputs_equal_the_full_residual_vectors(monkeypatch):
         np.testing.assert_allclose(seg, q[7000:7030], rtol=1e-10, atol=1e-12)
 
 
+class _Pool:
+    """A two-thread executor; ``shares_memory`` picks the in-place or the copy path."""
+
+    def __init__(self, shares_memory):
+        self.shares_memory = shares_memory
+        self.calls = 0
+
+    def map(self, fn, items):
+        from concurrent.futures import ThreadPoolExecutor
+
+        self.calls += 1
+        with ThreadPoolExecutor(2) as ex:
+            return list(ex.map(fn, items))
+
+
+@pytest.mark.parametrize("shares_memory", [True, False])
+def test_run_outputs_in_time_blocks_equal_the_serial_run(shares_memory, monkeypatch):
+    """With a parallel executor the bank runs in time blocks (each from the history it
+    remembers), written in place (threads) or returned and copied (a cluster): the serial
+    outputs to rounding, gap mask included."""
+    _, Y, names = simulate_building(n_floors=4, duration_s=60.0, rate_hz=RATE, seed=3)
+    ds = Dataset(Y, tuple(names), RATE, TRAIN)
+    det = DetectionFilter()
+    model = det.fit(ds, RunContext())
+    Yg = Y.copy()
+    Yg[9000:9030, 1] = np.nan
+    monkeypatch.setattr(lti, "MIN_TIME_BLOCK", 2)  # several blocks on a short record
+    serial = det._run_outputs(model, Yg)
+    pool = _Pool(shares_memory)
+    ctx = RunContext(jobs=2, executor=pool)
+    blocked = det._run_outputs(model, Yg, ctx)
+    assert pool.calls == 1
+    np.testing.assert_array_equal(blocked[3], serial[3])
+    for a, b in zip(blocked[:3], serial[:3], strict=True):
+        np.testing.assert_array_equal(np.isnan(a), np.isnan(b))
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-10 * np.nanmax(np.abs(b)))
+
+
 def test_conjugate_eigenvalues_share_their_pbh_test():
     rng = np.random.default_rng(8)
     # a complex pair and a real mode that C does not see, plus observable modes

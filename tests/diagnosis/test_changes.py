@@ -66,3 +66,30 @@ def test_calibration_refuses_constant_residual():
 def test_calibration_refuses_bad_false_alarm_rate():
     with pytest.raises(DetectorError, match="false_alarm_rate"):
         calibrate(np.random.default_rng(0).normal(size=5000), 50, 0.7)
+
+
+@pytest.mark.parametrize("n", [10, 199, 5_000])
+def test_compiled_alarm_statistic_equals_the_numpy_moving_means(n: int) -> None:
+    """The one-pass kernel (ring buffer of prefix sums) gives the statistic of the
+    numpy moving means, gaps included, standardized or in channel units."""
+    from analyzer.diagnosis.changes import _alarm_statistic_numpy, alarm_statistic
+
+    rng = np.random.default_rng(n)
+    healthy = 3.0 + 2.0 * rng.standard_normal(4_000)
+    cal = calibrate(healthy, 20)
+    r = 3.0 + 2.0 * rng.standard_normal(n)
+    r[n // 3 :] += 1.5  # an offset: alarms
+    r[n // 5 : n // 5 + 90] = np.nan  # a gap longer than half the long window
+    r[n // 2 : n // 2 + 7] = np.inf
+    z = cal.standardize(r)
+    expected = _alarm_statistic_numpy(z, cal)
+    np.testing.assert_allclose(alarm_statistic(z, cal), expected, rtol=1e-11, atol=1e-11)
+    np.testing.assert_allclose(alarm_statistic(r, cal, raw=True), expected, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(
+        alarm_statistic(r.astype(np.float32), cal, raw=True),
+        _alarm_statistic_numpy(cal.standardize(r.astype(np.float32)), cal),
+        rtol=1e-9,
+        atol=1e-9,
+    )
+    if n > 1_000:
+        assert (expected > 1.0).any() and (expected[: n // 5] <= 1.0).all()
