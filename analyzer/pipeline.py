@@ -20,6 +20,7 @@ from analyzer import __version__
 from analyzer.config import Config, load_config
 from analyzer.detectors import REGISTRY, Dataset, DetectorResult, RunContext, detector_class
 from analyzer.detectors.ar_model import flat_channels
+from analyzer.detectors.base import SIGNAL_DTYPE
 from analyzer.diagnosis import Finding, merge_events
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
@@ -182,14 +183,6 @@ def _fit_and_run(det: Any, data: Dataset, ctx: RunContext) -> DetectorResult:
     """One detector's task: fit on the healthy window, run over the archive; its
     per-sample signals are kept as float32 (see :data:`SIGNAL_DTYPE`)."""
     return _compact(det.run(det.fit(data, ctx), data, ctx))
-
-
-SIGNAL_DTYPE = np.float32
-"""Precision of the residuals and fault-free estimates kept after a detector has run.
-Every decision (thresholds, onsets, classification, magnitudes) is taken inside the
-detector in float64; what is kept serves the evidence tests, the report and the corrected
-signals, where 7 significant digits are plenty, and halves the memory that grows with the
-archive's length."""
 
 
 def _compact(result: DetectorResult) -> DetectorResult:

@@ -30,7 +30,7 @@ import numpy.typing as npt
 from scipy import linalg
 
 from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
-from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
+from analyzer.detectors.base import SIGNAL_DTYPE, Dataset, DetectorResult, Event, RunContext
 from analyzer.detectors.lti import (
     ImpulseResponseBank,
     LiftedBank,
@@ -295,9 +295,9 @@ class ARKalmanBank:
         )
         ar = fit_ar(train, order)
         block = self._block(ar.m)
-        estimators = tuple(leave_one_out(ar, j, block) for j in range(ar.m))
+        estimators = tuple(context.map(_leave_one_out_task, [(ar, j, block) for j in range(ar.m)]))
         window = default_window(data.rate_hz)
-        resid, cons, skip, how, inv_covs = self._calibration_outputs(ar, estimators, train)
+        resid, cons, skip, how, inv_covs = self._calibration_outputs(ar, estimators, train, context)
         res_cal, con_cal, taus = [], [], []
         # the false-alarm rate is per sample of the archive: shared among its channels
         alpha = context.false_alarm_rate / ar.m
@@ -324,7 +324,11 @@ class ARKalmanBank:
         return next((AUTO_BLOCK[k] for k in sorted(AUTO_BLOCK, reverse=True) if m >= k), 64)
 
     def _calibration_outputs(
-        self, ar: ARModel, estimators: tuple[LeaveOneOut, ...], train: FloatArray
+        self,
+        ar: ARModel,
+        estimators: tuple[LeaveOneOut, ...],
+        train: FloatArray,
+        context: RunContext | None = None,
     ) -> tuple[FloatArray, FloatArray, int, str, list[FloatArray]]:
         """Residuals and consistency of the training window *out of sample*, the skipped
         cold start, how they were obtained, and each estimator's inverse innovation
@@ -342,35 +346,28 @@ class ARKalmanBank:
         block = estimators[0].block
         k = CV_FOLDS
         edges = np.linspace(0, n, k + 1).astype(int)
+        run = context.map if context is not None else lambda fn, xs: [fn(x) for x in xs]
         try:
-            folds = []
-            for f in range(k):
-                a, b = edges[f], edges[f + 1]
-                held = train.copy()
-                held[a:b] = np.nan  # rows whose lags touch the block drop out of the fit
-                ar_f = fit_ar(held, ar.order)
-                ests = tuple(leave_one_out(ar_f, j, block) for j in range(ar.m))
-                folds.append((a, b, ar_f, BankFilter.build(ests, block)))
+            # the folds are independent: each is fitted and filtered (pass 1) as one task
+            spans = [(int(edges[f]), int(edges[f + 1])) for f in range(k)]
+            folds = run(_cv_fold_task, [(train, a, b, ar.order, block, skip) for a, b in spans])
             how = f"{k}-fold out-of-sample"
         except DetectorError:
-            folds = [(0, n, ar, BankFilter.build(estimators, block))]
+            folds = [_cv_fold_task((train, 0, n, None, block, skip), ar, estimators)]
             how = "in-sample (training window too short for cross-validation)"
-        # pass 1: residuals and the innovation covariance of every estimator (after the
-        # cold start); pass 2: the consistency, normalized by that covariance
+        # pass 1 (in the fold tasks): residuals and the innovation moments of every
+        # estimator after the cold start; pass 2: the consistency, normalized by the
+        # covariance from all folds' moments
         resid = np.full((n, ar.m), np.nan)
         moments = _Moments(ar.m)
-        for a, b, ar_f, bank in folds:
-            w = min(a, bank.warmup)
-            out = bank_block(ar_f.mean, ar_f.scale, bank, train[a - w : b], w, None)
-            resid[a:b] = out.resid
-            lo = max(0, skip - a)
-            assert out.innov is not None
-            moments.add(out.innov[lo:])
+        for fold in folds:
+            resid[fold.a : fold.b] = fold.resid
+            moments.merge(fold.moments)
         inv_covs = moments.inverse_covariances()
         cons = np.full((n, ar.m), np.nan)
-        for a, b, ar_f, bank in folds:
-            w = min(a, bank.warmup)
-            cons[a:b] = bank_block(ar_f.mean, ar_f.scale, bank, train[a - w : b], w, inv_covs).nis
+        nises = run(_cv_consistency_task, [(train, fold, inv_covs) for fold in folds])
+        for fold, nis in zip(folds, nises, strict=True):
+            cons[fold.a : fold.b] = nis
         return resid, cons, skip, how, inv_covs
 
     def _bank_outputs(
@@ -430,7 +427,9 @@ class ARKalmanBank:
         explained: list[tuple[int, int, int]] = []  # (channel, start, stop) already isolated
         out = self._bank_outputs(model, Y, context)
         # the residual the report shows: as measured, before any correction
-        resid0, est0 = out.resid, out.est
+        resid0: npt.NDArray[Any] = out.resid
+        est0: npt.NDArray[Any] = out.est
+        fixes: list[tuple[int, int, int, FloatArray]] = []  # (channel, a, b, corrected)
         corrected = False
         for _ in range(4 * m):
             found = self._next_fault(model, out, rate, train_stop, explained)
@@ -451,20 +450,26 @@ class ARKalmanBank:
             ev.channel = data.channels[j]
             events.append(ev)
             explained.append((j, a, b))
-            if not corrected:  # copy on the first correction only: inputs stay untouched
-                Y = Y.copy()
-                out = BankOutputs(out.resid.copy(), out.est.copy(), out.nis)
+            if not corrected:
+                # what the report shows is kept as measured (in the precision the pipeline
+                # keeps signals in); the bank's own outputs are then refiltered in place
+                resid0 = out.resid.astype(SIGNAL_DTYPE)
+                est0 = out.est.astype(SIGNAL_DTYPE)
                 corrected = True
             # Correct the isolated channel so the bank can isolate the next fault (Section 4:
             # "corrected by a curve-fitting algorithm"): remove the fitted fault shape, or
             # where there is none (type other) use the estimate from the other sensors.
             # The estimators forget the change within their warm-up, so only the fault
-            # period and the warm-up after it are filtered again.
-            Y[a:b, j] = _undo_fault(Y[a:b, j], out.est[a:b, j], cls, rate)
+            # period and the warm-up after it are filtered again, from a copy of those rows
+            # with every correction so far (the input itself is never written).
             assert model.bank is not None
-            self._bank_outputs(
-                model, Y, context, start=a, stop=min(N, b + model.bank.warmup), into=out
-            )
+            lo, hi = max(0, a - model.bank.warmup), min(N, b + model.bank.warmup)
+            seg = _corrected_rows(Y, fixes, lo, hi)
+            fixed = _undo_fault(seg[a - lo : b - lo, j], out.est[a:b, j], cls, rate)
+            fixes.append((j, a, b, fixed))
+            seg[a - lo : b - lo, j] = fixed
+            rows = BankOutputs(out.resid[lo:hi], out.est[lo:hi], out.nis[lo:hi])
+            self._bank_outputs(model, seg, context, start=a - lo, stop=hi - lo, into=rows)
             context.report("ar_kalman_bank", min(1.0, len(events) / m))
         # the residual the report shows: as measured, before any correction
         residuals = {c: resid0[:, j] for j, c in enumerate(data.channels)}
@@ -651,6 +656,20 @@ class _Moments:
             self.total[j] += nu.sum(axis=0)
             self.outer[j] += nu.T @ nu
 
+    def merge(self, other: _Moments) -> None:
+        """Add the rows ``other`` has seen (as if they were added here)."""
+        if other.count is None:
+            return
+        assert other.total is not None and other.outer is not None
+        if self.count is None:
+            self.count = np.zeros_like(other.count)
+            self.total = np.zeros_like(other.total)
+            self.outer = np.zeros_like(other.outer)
+        assert self.total is not None and self.outer is not None
+        self.count += other.count
+        self.total += other.total
+        self.outer += other.outer
+
     def inverse_covariances(self) -> list[FloatArray]:
         assert self.count is not None and self.total is not None and self.outer is not None
         inv = []
@@ -744,6 +763,59 @@ def bank_block(
     return BankBlock(resid, est, nis, innov)
 
 
+def _leave_one_out_task(item: tuple[ARModel, int, int]) -> LeaveOneOut:
+    """:func:`leave_one_out` on one tuple of arguments (what an executor maps)."""
+    return leave_one_out(*item)
+
+
+@dataclass(frozen=True, slots=True)
+class _Fold:
+    """One cross-validation fold: the training rows ``a .. b - 1`` held out, the model
+    fitted without them, its bank, and their out-of-sample residuals and innovation
+    moments (after the cold start)."""
+
+    a: int
+    b: int
+    ar: ARModel
+    bank: BankFilter
+    resid: FloatArray
+    moments: _Moments
+
+
+def _cv_fold_task(
+    item: tuple[FloatArray, int, int, int | None, int, int],
+    ar: ARModel | None = None,
+    estimators: tuple[LeaveOneOut, ...] | None = None,
+) -> _Fold:
+    """Fit without rows ``a .. b - 1`` of ``train`` (order ``order``; or use ``ar`` and
+    ``estimators`` as they are: the in-sample fallback) and filter the held-out rows from
+    a warm-up before them."""
+    train, a, b, order, block, skip = item
+    if ar is None or estimators is None:
+        assert order is not None
+        held = train.copy()
+        held[a:b] = np.nan  # rows whose lags touch the block drop out of the fit
+        ar = fit_ar(held, order)
+        estimators = tuple(leave_one_out(ar, j, block) for j in range(ar.m))
+    bank = BankFilter.build(estimators, block)
+    w = min(a, bank.warmup)
+    out = bank_block(ar.mean, ar.scale, bank, train[a - w : b], w, None)
+    moments = _Moments(ar.m)
+    assert out.innov is not None
+    moments.add(out.innov[max(0, skip - a) :])
+    return _Fold(a, b, ar, bank, out.resid, moments)
+
+
+def _cv_consistency_task(item: tuple[FloatArray, _Fold, list[FloatArray]]) -> FloatArray:
+    """Pass 2 of the calibration on one fold: the consistency of its held-out rows."""
+    train, fold, inv_covs = item
+    w = min(fold.a, fold.bank.warmup)
+    out = bank_block(
+        fold.ar.mean, fold.ar.scale, fold.bank, train[fold.a - w : fold.b], w, inv_covs
+    )
+    return out.nis
+
+
 def _bank_block_task(item: tuple[Any, ...]) -> BankBlock:
     """:func:`bank_block` on one tuple of arguments (what an executor maps)."""
     return bank_block(*item)
@@ -761,6 +833,19 @@ def _describe(bank: BankFilter | None) -> str:
     if isinstance(bank.system, ImpulseResponseBank):
         return f"impulse responses of {bank.system.taps} taps (FFT)"
     return f"lifted state space, block {bank.block}"
+
+
+def _corrected_rows(
+    Y: FloatArray, fixes: list[tuple[int, int, int, FloatArray]], lo: int, hi: int
+) -> FloatArray:
+    """A copy of rows ``lo .. hi - 1`` of ``Y`` with the corrections ``fixes`` applied
+    (in order) where they overlap."""
+    seg = np.array(Y[lo:hi], dtype=np.float64)
+    for j, a, b, fixed in fixes:
+        x0, x1 = max(a, lo), min(b, hi)
+        if x0 < x1:
+            seg[x0 - lo : x1 - lo, j] = fixed[x0 - a : x1 - a]
+    return seg
 
 
 def _undo_fault(y: FloatArray, est: FloatArray, cls: Classification, rate: float) -> FloatArray:

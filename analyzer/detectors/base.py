@@ -36,6 +36,14 @@ class MapExecutor(Protocol):
     def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]: ...
 
 
+SIGNAL_DTYPE = np.float32
+"""Precision of the residuals and fault-free estimates kept after a detector has run.
+Every decision (thresholds, onsets, classification, magnitudes) is taken inside the
+detector in float64; what is kept serves the evidence tests, the report and the corrected
+signals, where 7 significant digits are plenty, and halves the memory that grows with the
+archive's length."""
+
+
 @dataclass(frozen=True, slots=True)
 class Dataset:
     """The aligned data a detector sees: ``values[k, j]`` is channel ``channels[j]`` at

@@ -32,9 +32,11 @@ MAX_TAPS = 2048
 """Longest impulse response run by FFT; filters with a longer memory (closed-loop poles
 near the unit circle) are run as a stacked lifted system instead."""
 
-CHUNK = 1 << 15
+CHUNK = 1 << 12
 """Samples per chunk of the bank's outputs: the run's temporary memory does not grow with
-the record length."""
+the record length. Small enough for the frequency-domain products of a few frames to stay
+in cache: on a 16-channel bank (288 outputs, 1024-point FFTs) 4096 samples ran at 3.3 M
+values/s with 37 MB of temporaries, 32768 at 2.7 M values/s with 353 MB."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -388,7 +390,8 @@ def run_chunked(
     impulse-response bank remembers before it, so the caller never holds the whole input;
     a lifted bank (whole past) gets one chunk from sample 0."""
     hist = bank.history
-    step = max(stop - start, 1) if hist is None else CHUNK
+    # each chunk recomputes the history before it: keep that overhead at most a fifth
+    step = max(stop - start, 1) if hist is None else max(CHUNK, 4 * hist)
     for s in range(start, stop, step):
         e = min(stop, s + step)
         a = 0 if hist is None else max(0, s - hist)
