@@ -549,23 +549,38 @@ class EquivalentModel:
         window = default_window(data.rate_hz)
         targets = [s for s in net.sensors if net.assistant_sensors(s)]
         far = context.false_alarm_rate / len(data.channels)  # per channel
-        observers = []
-        settle = 0
-        for s in targets:
-            i = data.index(s)
-            ass = [data.index(a) for a in net.assistant_sensors(s)]
-            rel = fit_relation(train, i, ass, self.lags, self.max_lags)
+        tasks = []
+        for s in targets:  # each target's observer is fitted on its own (executor tasks)
             uch = self.inputs.get(s)
             ui = None if uch is None else data.index(uch)
-            pre = pretreat(train[:, i], None if ui is None else train[:, ui], dt, l2, self.table)
-            obs = AssistantObserver(pre.a, pre.b, l1, l2, dt)
-            phi = float(np.exp(-l1 * dt))
-            lag = rel.lags + int(np.ceil(np.log(1e-6) / np.log(min(max(phi, 1e-3), 1 - 1e-9))))
-            settle = max(settle, lag)
-            z = self._held_out_estimate(obs, rel, train, i, lag)
-            cal = calibrate(z, window, far)
-            observers.append(TargetObserver(i, rel, obs, pre, ui, cal, long_run_time(z, window)))
-        return FittedEquivalentModel(net, tuple(observers), window, settle)
+            ass = [data.index(a) for a in net.assistant_sensors(s)]
+            tasks.append((self, train, data.index(s), ass, ui, (dt, l1, l2), window, far))
+        fitted = context.map(_fit_observer_task, tasks)
+        observers = tuple(ob for ob, _ in fitted)
+        settle = max((lag for _, lag in fitted), default=0)
+        return FittedEquivalentModel(net, observers, window, settle)
+
+    def _fit_observer(
+        self,
+        train: FloatArray,
+        i: int,
+        ass: list[int],
+        ui: int | None,
+        rates: tuple[float, float, float],
+        window: int,
+        far: float,
+    ) -> tuple[TargetObserver, int]:
+        """The observer of sensor ``i`` from its assistants ``ass`` (input ``ui``), its
+        healthy calibration, and the samples it needs to settle."""
+        dt, l1, l2 = rates
+        rel = fit_relation(train, i, ass, self.lags, self.max_lags)
+        pre = pretreat(train[:, i], None if ui is None else train[:, ui], dt, l2, self.table)
+        obs = AssistantObserver(pre.a, pre.b, l1, l2, dt)
+        phi = float(np.exp(-l1 * dt))
+        lag = rel.lags + int(np.ceil(np.log(1e-6) / np.log(min(max(phi, 1e-3), 1 - 1e-9))))
+        z = self._held_out_estimate(obs, rel, train, i, lag)
+        cal = calibrate(z, window, far)
+        return TargetObserver(i, rel, obs, pre, ui, cal, long_run_time(z, window)), lag
 
     def _held_out_estimate(
         self, obs: AssistantObserver, rel: Relation, train: FloatArray, i: int, skip: int
@@ -620,23 +635,18 @@ class EquivalentModel:
         residuals: dict[str, FloatArray] = {}
         reference: dict[str, FloatArray] = {}
         cands: dict[str, list[Event]] = {}
-        for ob in model.observers:
-            name = data.channels[ob.target]
-            zeta, z = self._fault_estimate(ob.observer, ob.relation, values, ob.target)
-            z[~np.isfinite(zeta)] = np.nan
-            residuals[name] = zeta
-            reference[name] = z
-            phi = float(np.exp(-ob.observer.lambda1 * ob.observer.dt))
-            cands[name] = events_from_residual(
-                name,
-                zeta,
-                _lowpass(z, phi),
-                ob.cal,
-                rate,
-                self.name,
-                search_start=train_stop,
-                tau_corr=ob.tau,
-            )
+        # the observers are independent: on threads they share the archive (on a cluster
+        # each task would ship it, so there they run here one after the other)
+        tasks = [
+            (ob, values, data.channels[ob.target], rate, self.name, train_stop)
+            for ob in model.observers
+        ]
+        runs = context.map(_observer_task, tasks) if context.shares_memory else None
+        for k, task in enumerate(tasks):
+            zeta, z, found = _observer_task(task) if runs is None else runs[k]
+            residuals[task[2]] = zeta
+            reference[task[2]] = z
+            cands[task[2]] = found
         events, notes, decisions = self._isolate(net, cands, model.window * 8 / rate)
         for s, why in net.undiagnosable().items():
             notes.append(f"{s} cannot be diagnosed by the observers alone ({why})")
@@ -732,6 +742,35 @@ class EquivalentModel:
                     f"among {', '.join(sorted(alarming))}"
                 )
         return events, notes, decisions
+
+
+def _fit_observer_task(task: tuple[Any, ...]) -> tuple[TargetObserver, int]:
+    """:meth:`EquivalentModel._fit_observer` on one tuple (what an executor maps)."""
+    det, *args = task
+    out: tuple[TargetObserver, int] = det._fit_observer(*args)
+    return out
+
+
+def _observer_task(
+    task: tuple[TargetObserver, FloatArray, str, float, str, int],
+) -> tuple[FloatArray, FloatArray, list[Event]]:
+    """One observer over the archive: its fault estimate (residual), the estimate from
+    the assistants (NaN where the residual is) and its candidate events."""
+    ob, values, name, rate, detector, train_stop = task
+    zeta, z = EquivalentModel._fault_estimate(ob.observer, ob.relation, values, ob.target)
+    z[~np.isfinite(zeta)] = np.nan
+    phi = float(np.exp(-ob.observer.lambda1 * ob.observer.dt))
+    found = events_from_residual(
+        name,
+        zeta,
+        _lowpass(z, phi),
+        ob.cal,
+        rate,
+        detector,
+        search_start=train_stop,
+        tau_corr=ob.tau,
+    )
+    return zeta, z, found
 
 
 def _lowpass(x: FloatArray, phi: float) -> FloatArray:
