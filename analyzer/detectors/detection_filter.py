@@ -70,7 +70,7 @@ identified on the healthy window, in block observer-canonical form (:func:`ar_ob
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -745,7 +745,7 @@ class DetectionFilter:
         )
         window = default_window(data.rate_hz)
         sigma = self._sigma(data.rate_hz)
-        filters = self._bank(model, data, sigma)
+        filters = self._bank(model, data, sigma, context)
         train = np.asarray(data.train_values(), dtype=np.float64)
         settle = max(f.settle() for f in filters)
         if cfg is not None:
@@ -753,7 +753,7 @@ class DetectionFilter:
             skip = min(settle, train.shape[0] // 4)
             outs = [(q[skip:], z[skip:]) for q, z, _ in self._outputs(model, filters, train)]
         else:
-            outs = self._held_out(model, data, train, sigma)
+            outs = self._held_out(model, data, train, sigma, context)
         alpha_far = context.false_alarm_rate / len(data.channels)  # per channel
         zcal, dcal, dinv, qscale, taus = [], [], [], [], []
         for i, (q, zeta) in enumerate(outs):
@@ -780,31 +780,49 @@ class DetectionFilter:
             settle,
         )
 
-    def _bank(self, model: StateSpaceModel, data: Dataset, sigma: float) -> tuple[ParkFilter, ...]:
+    def _bank(
+        self,
+        model: StateSpaceModel,
+        data: Dataset,
+        sigma: float,
+        context: RunContext | None = None,
+    ) -> tuple[ParkFilter, ...]:
+        """One Park filter per output sensor (independent designs: executor tasks)."""
         names = [data.channels[j] for j in model.outputs]
         eig = np.linalg.eigvals(model.A)
         check_observable(model.A, model.C, eig)  # once for the bank (Theorem 4.1)
-        return tuple(
-            park_filter(
-                model.A,
-                model.B,
-                model.C,
-                model.D,
-                i,
-                model.Q,
-                model.R,
-                model.S,
-                alpha=self.fault_pole,
-                sigma=sigma,
-                names=names,
-                check_observability=False,
-                eigenvalues=eig,
-            )
-            for i in range(len(model.outputs))
-        )
+        tasks = [(model, i, self.fault_pole, sigma, names, eig) for i in range(len(model.outputs))]
+        run = context.map if context is not None else lambda fn, xs: [fn(x) for x in xs]
+        return tuple(run(_park_task, tasks))
+
+    def _held_out_half(
+        self,
+        model: StateSpaceModel,
+        data: Dataset,
+        train: FloatArray,
+        sigma: float,
+        order: int,
+        rows: tuple[slice, slice],
+    ) -> list[tuple[FloatArray, FloatArray]]:
+        """Per filter: residual vectors and fault estimates over ``rows[1]`` of the bank
+        fitted on ``rows[0]`` (the whole model where a half is too short)."""
+        fit_rows, eval_rows = rows
+        try:
+            sub = model_from_ar(data, order, self.max_order, rows=train[fit_rows])
+            bank = self._bank(sub, data, sigma)
+        except DetectorError:
+            sub, bank = model, self._bank(model, data, sigma)  # halves too short
+        skip = min(max(f.settle() for f in bank), (train.shape[0] // 2) // 4)
+        outs = self._outputs(sub, bank, train)
+        return [(q[eval_rows][skip:], z[eval_rows][skip:]) for q, z, _ in outs]
 
     def _held_out(
-        self, model: StateSpaceModel, data: Dataset, train: FloatArray, sigma: float
+        self,
+        model: StateSpaceModel,
+        data: Dataset,
+        train: FloatArray,
+        sigma: float,
+        context: RunContext | None = None,
     ) -> list[tuple[FloatArray, FloatArray]]:
         """Healthy residual vectors and fault estimates for calibration, out of sample: the
         AR model (same order) is refitted on each half of the training window, and each
@@ -813,19 +831,12 @@ class DetectionFilter:
         n = train.shape[0]
         half = n // 2
         order = int(model.summary["order"])
-        parts: list[list[tuple[FloatArray, FloatArray]]] = []
-        for fit_rows, eval_rows in (
-            (slice(0, half), slice(half, n)),
-            (slice(half, n), slice(0, half)),
-        ):
-            try:
-                sub = model_from_ar(data, order, self.max_order, rows=train[fit_rows])
-                bank = self._bank(sub, data, sigma)
-            except DetectorError:
-                sub, bank = model, self._bank(model, data, sigma)  # halves too short
-            skip = min(max(f.settle() for f in bank), half // 4)
-            outs = self._outputs(sub, bank, train)
-            parts.append([(q[eval_rows][skip:], z[eval_rows][skip:]) for q, z, _ in outs])
+        halves = ((slice(0, half), slice(half, n)), (slice(half, n), slice(0, half)))
+        run = context.map if context is not None else lambda fn, xs: [fn(x) for x in xs]
+        # the tasks need the channel names and the training rows, not the archive
+        light = replace(data, values=train, train=(0, n))
+        tasks = [(self, model, light, train, sigma, order, rows) for rows in halves]
+        parts = run(_held_out_half_task, tasks)
         first, second = parts[1], parts[0]  # evaluated on the first / second half
         return [
             (np.vstack([first[i][0], second[i][0]]), np.concatenate([first[i][1], second[i][1]]))
@@ -1086,6 +1097,33 @@ def long_run_time(r: FloatArray, window: int) -> float:
         tau = max(tau, float(b * np.var(means, ddof=1) / v))
         b *= 2
     return tau
+
+
+def _park_task(task: tuple[Any, ...]) -> ParkFilter:
+    """The Park filter of output ``i`` of ``model`` (what an executor maps)."""
+    model, i, alpha, sigma, names, eig = task
+    return park_filter(
+        model.A,
+        model.B,
+        model.C,
+        model.D,
+        i,
+        model.Q,
+        model.R,
+        model.S,
+        alpha=alpha,
+        sigma=sigma,
+        names=names,
+        check_observability=False,
+        eigenvalues=eig,
+    )
+
+
+def _held_out_half_task(task: tuple[Any, ...]) -> list[tuple[FloatArray, FloatArray]]:
+    """:meth:`DetectionFilter._held_out_half` on one tuple (what an executor maps)."""
+    det, *args = task
+    out: list[tuple[FloatArray, FloatArray]] = det._held_out_half(*args)
+    return out
 
 
 def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray, Any]:
