@@ -432,6 +432,11 @@ def main(argv: list[str] | None = None) -> int:
             "times in s from Analysis.timings; outputs = findings.json + report.html; "
             "startup = interpreter + imports; exit 0 = no fault found"
         )
+        for r in runs:  # per detector (threads: the fits overlap, the runs follow each other)
+            t = r.info.get("timings", {})
+            parts = [f"{k} {v:.1f}" for k, v in t.items() if k.startswith(("fit ", "run "))]
+            if parts:
+                print(f"  {r.fmt} {r.hours:g} h detect: " + ", ".join(parts))
         print()
         m = base_line.channels
         print(f"{'straightforward way':<34}{'decode s':>10}{'filter s':>10}{'values/s':>12}")

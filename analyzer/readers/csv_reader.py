@@ -276,6 +276,9 @@ class CsvReader:
 
     def _values(self, column: pa.Array) -> tuple[np.ndarray, FloatArray, int]:
         """(present mask, values, count of non-numeric non-blank cells)."""
+        fast = None if self._layout.decimal_comma else _all_numbers(column)
+        if fast is not None:
+            return np.ones(fast.shape[0], dtype=bool), fast, 0
         text = self._clean(column)
         number = pc.match_substring_regex(text, NUMBER)
         boolean = pc.match_substring_regex(text, BOOLEAN)
@@ -355,6 +358,20 @@ class CsvReader:
     def _error(self, line: str) -> None:
         if line not in self.info.errors:
             self.info.errors.append(line)
+
+
+def _all_numbers(column: pa.Array) -> FloatArray | None:
+    """The column as float64 when every cell is a plain finite number (Arrow's own
+    string-to-float conversion, one pass), else None: blanks, text, booleans, spelled-out
+    nan/inf and anything else unusual go the careful way (:meth:`CsvReader._values`)."""
+    try:
+        values = pc.cast(column, pa.float64())
+    except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+        return None
+    if values.null_count:
+        return None
+    out = np.asarray(values.to_numpy(zero_copy_only=False), dtype=np.float64)
+    return out if bool(np.isfinite(out).all()) else None
 
 
 def _datetime_format(series: pd.Series) -> str:

@@ -120,3 +120,19 @@ def test_latin1_file(tmp_path: Path) -> None:
     path.write_bytes("time;Temperatur (°C);Ort\n0;21,5;Köln\n1;22,0;Köln\n".encode("latin-1"))
     got, _ = read(path)
     np.testing.assert_array_equal(got["Temperatur (°C)"][1], [21.5, 22.0])
+
+
+def test_fast_numeric_path_equals_the_careful_path():
+    """A column of plain numbers is converted by Arrow's cast in one pass; anything the
+    careful path treats specially (blanks, text, booleans, nan/inf, padding) falls back,
+    and both give the same values."""
+    import pyarrow as pa
+
+    from analyzer.readers.csv_reader import _all_numbers
+
+    clean = pa.array(["1.5", "-2e-3", "+.5", "5.", "-0", "1E+05", "123456789.123456789"])
+    fast = _all_numbers(clean)
+    assert fast is not None
+    np.testing.assert_array_equal(fast, [1.5, -2e-3, 0.5, 5.0, -0.0, 1e5, 123456789.123456789])
+    for odd in ("", " 1.5", "true", "nan", "inf", "1,5", "abc"):
+        assert _all_numbers(pa.array(["1.0", odd])) is None, odd
