@@ -19,6 +19,14 @@ batches of windows so memory stays bounded (no Python loop per window or per sam
 * Anderson-Darling and Cramer-von Mises sort a strided (windows, W) view along axis 1
   and apply the same kernels as the scalar tests (:mod:`analyzer.stats.normality`).
 
+That is the numpy path, kept for when numba is missing. With numba (a dependency) every
+statistic but the sort comes from the compiled kernel of
+:mod:`analyzer.stats._windowed_kernel` instead: one pass per window by the scalar
+definitions (autocovariances about the window mean, which are also more accurate than
+prefix-sum differences), about 4x faster and free of the GIL, so threads testing
+different residuals run in parallel. The two paths agree to 1e-9 (autocorrelations to
+1e-10 absolute) and are tested against each other.
+
 Each per-window statistic equals the scalar test on that window to ~1e-12 (tested to
 1e-9). A window holding a NaN or inf sample is not tested: ``valid`` is False there, its
 statistics are NaN and it never rejects. Windows start at 0, ``step``, ``2 step``, ...;
@@ -50,6 +58,7 @@ from analyzer.stats._checks import (
     check_positive,
     frozen,
 )
+from analyzer.stats._windowed_kernel import window_kernel
 from analyzer.stats.normality import (
     AD_CRITICAL,
     CVM_CRITICAL,
@@ -275,10 +284,34 @@ def _run_batch(
     z: FloatArray, starts: IntArray, settings: _Settings, out: _Outputs, rows: slice
 ) -> None:
     """Fill ``out[rows]`` for the windows starting at ``starts`` (``step`` apart) from the
-    samples they cover; all sums are window differences of batch-local prefix sums."""
+    samples they cover: by the compiled kernel when there is one, else here, where all
+    sums are window differences of batch-local prefix sums."""
     window = settings.window
     seg = z[starts[0] : starts[-1] + window]
     lo = starts - starts[0]
+    block = np.sort(sliding_window_view(seg, window)[:: settings.step], axis=1)
+    if window_kernel is not None:
+        acf = out.acf[rows] if out.acf is not None else np.empty((0, settings.lags))
+        window_kernel(
+            np.require(seg, requirements=["C", "W"]),  # one compiled signature
+            lo,
+            block,
+            settings.lags,
+            settings.k,
+            settings.case,
+            band(window),
+            out.valid[rows],
+            out.constant[rows],
+            out.outliers[rows],
+            out.means[rows],
+            out.sumsq[rows],
+            out.q[rows],
+            out.band_fraction[rows],
+            acf,
+            out.a2[rows],
+            out.w2[rows],
+        )
+        return
     hi = lo + window
 
     finite = np.isfinite(seg)
@@ -317,7 +350,6 @@ def _run_batch(
     if out.acf is not None:
         out.acf[rows] = acf
 
-    block = np.sort(sliding_window_view(seg, window)[:: settings.step], axis=1)
     standardized, _ = standardize_sorted(block, settings.case)
     out.a2[rows] = anderson_darling_sorted(standardized)
     out.w2[rows] = cramer_von_mises_sorted(standardized)
