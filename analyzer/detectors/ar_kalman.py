@@ -43,6 +43,7 @@ from analyzer.detectors.lti import (
 from analyzer.detectors.riccati import solve_dare, solve_dare_scipy
 from analyzer.diagnosis.changes import (
     Calibration,
+    Interval,
     alarm_statistic,
     calibrate,
     default_window,
@@ -431,8 +432,11 @@ class ARKalmanBank:
         est0: npt.NDArray[Any] = out.est
         fixes: list[tuple[int, int, int, FloatArray]] = []  # (channel, a, b, corrected)
         corrected = False
+        alarms = None  # per channel, valid until the outputs are refiltered
         for _ in range(4 * m):
-            found = self._next_fault(model, out, rate, train_stop, explained)
+            if alarms is None:
+                alarms = _alarm_intervals(model, out, train_stop, context)
+            found = self._next_fault(model, out, rate, train_stop, explained, alarms)
             if found is None:
                 break
             ev, spans, cls = found
@@ -470,6 +474,7 @@ class ARKalmanBank:
             seg[a - lo : b - lo, j] = fixed
             rows = BankOutputs(out.resid[lo:hi], out.est[lo:hi], out.nis[lo:hi])
             self._bank_outputs(model, seg, context, start=a - lo, stop=hi - lo, into=rows)
+            alarms = None
             context.report("ar_kalman_bank", min(1.0, len(events) / m))
         # the residual the report shows: as measured, before any correction
         residuals = {c: resid0[:, j] for j, c in enumerate(data.channels)}
@@ -512,14 +517,19 @@ class ARKalmanBank:
         rate: float,
         train_stop: int,
         explained: list[tuple[int, int, int]],
+        alarms: list[list[Interval]] | None = None,
     ) -> tuple[Event | None, list[tuple[int, int, int]], Classification | None] | None:
-        """The earliest not-yet-explained fault, isolated to one sensor, or None."""
+        """The earliest not-yet-explained fault, isolated to one sensor, or None.
+        ``alarms``: each channel's alarm intervals in ``out`` when already known (they only
+        change when the outputs do)."""
         resid, est, nis = out.resid, out.est, out.nis
         N, m = resid.shape
         cands = []
         margin = model.residual_cal[0].long_window
+        if alarms is None:
+            alarms = _alarm_intervals(model, out, train_stop)
         for j in range(m):
-            for iv in detect(resid[:, j], model.residual_cal[j], search_start=train_stop):
+            for iv in alarms[j]:
                 stop = N if iv.end is None else iv.end
                 if any(_overlaps(iv.onset, stop, a, b, margin) for c, a, b in explained if c == j):
                     continue  # the same fault (or its onset's edge), seen again after correction
@@ -761,6 +771,24 @@ def bank_block(
             nt = nu.transpose(1, 0, 2)  # (m, c, m - 1)
             nis[rows] = (np.matmul(nt, inv_stack) * nt).sum(axis=2).T / (m - 1)
     return BankBlock(resid, est, nis, innov)
+
+
+def _alarm_intervals(
+    model: FittedBank, out: BankOutputs, train_stop: int, context: RunContext | None = None
+) -> list[list[Interval]]:
+    """Every channel's alarm intervals in the bank's residuals after the training window;
+    the channels in parallel on threads (the alarm statistic runs without the GIL)."""
+    tasks = [
+        (out.resid[:, j], model.residual_cal[j], train_stop) for j in range(out.resid.shape[1])
+    ]
+    if context is not None and context.shares_memory:
+        return context.map(_detect_task, tasks)
+    return [_detect_task(t) for t in tasks]
+
+
+def _detect_task(task: tuple[FloatArray, Calibration, int]) -> list[Interval]:
+    residual, cal, start = task
+    return detect(residual, cal, search_start=start)
 
 
 def _leave_one_out_task(item: tuple[ARModel, int, int]) -> LeaveOneOut:
