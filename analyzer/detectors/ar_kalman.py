@@ -74,6 +74,11 @@ AUTO_BLOCK = {2: 64, 6: 32}
 """Lifted block length by channel count (largest key not above m; smaller blocks
 for larger states: measured by benchmarks/bench_bank.py --sweep)."""
 
+NIS_DTYPE = np.float32
+"""Precision of the per-sample consistency kept over the archive: it is only compared with
+thresholds through its windowed alarm statistic (sums in float64), so single precision
+(relative rounding 6e-8) halves its memory without moving a decision."""
+
 CV_FOLDS = 5
 """Folds of the cross-validation that gives out-of-sample training residuals."""
 
@@ -393,8 +398,8 @@ class ARKalmanBank:
         ar = model.ar
         N, m = Y.shape
         stop = N if stop is None else stop
-        if into is None:
-            into = BankOutputs(np.empty((N, m)), np.empty((N, m)), np.empty((N, m)))
+        if into is None:  # the consistency only feeds alarm statistics: single precision
+            into = BankOutputs(np.empty((N, m)), np.empty((N, m)), np.empty((N, m), NIS_DTYPE))
         spans = time_blocks(start, stop, bank.warmup, context)
         items = [
             (ar.mean, ar.scale, bank, Y[a - w : b], w, model.innovation_inv_cov)
@@ -476,8 +481,12 @@ class ARKalmanBank:
             self._bank_outputs(model, seg, context, start=a - lo, stop=hi - lo, into=rows)
             alarms = None
             context.report("ar_kalman_bank", min(1.0, len(events) / m))
-        # the residual the report shows: as measured, before any correction
+        # the residual the report shows: as measured, before any correction, kept in the
+        # pipeline's signal precision (each float64 array let go before the next is copied)
+        del out
+        resid0 = resid0.astype(SIGNAL_DTYPE, copy=False)
         residuals = {c: resid0[:, j] for j, c in enumerate(data.channels)}
+        est0 = est0.astype(SIGNAL_DTYPE, copy=False)
         reference = {c: est0[:, j] for j, c in enumerate(data.channels)}
         return DetectorResult(
             detector=self.name,

@@ -78,7 +78,7 @@ import numpy.typing as npt
 from scipy import linalg, signal
 
 from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
-from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
+from analyzer.detectors.base import SIGNAL_DTYPE, Dataset, DetectorResult, Event, RunContext
 from analyzer.detectors.lti import (
     ImpulseResponseBank,
     LiftedBank,
@@ -889,7 +889,7 @@ class DetectionFilter:
     @classmethod
     def _run_outputs(
         cls, model: FittedDetectionFilter, values: FloatArray, context: RunContext | None = None
-    ) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.bool_]]:
+    ) -> tuple[FloatArray, FloatArray, npt.NDArray[np.float32], npt.NDArray[np.bool_]]:
         """Per filter (rows): fault estimate, fault-free estimate (sensor units) and the
         normalized squared residual off the filter's direction (:func:`_nis`), NaN where an
         input was missing and while the filter settles after it; and the rows where an
@@ -902,7 +902,13 @@ class DetectionFilter:
         k = len(model.filters)
         N = values.shape[0]
         bank = filter_bank(model.filters)
-        outs = (np.empty((k, N)), np.empty((k, N)), np.empty((k, N)), np.zeros(N, dtype=bool))
+        # the direction statistic only feeds alarm statistics: single precision
+        outs: tuple[npt.NDArray[Any], ...] = (
+            np.empty((k, N)),
+            np.empty((k, N)),
+            np.empty((k, N), dtype=np.float32),
+            np.zeros(N, dtype=bool),
+        )
         hist = bank.history
         spans = [(0, N)]
         if context is not None and hist is not None:
@@ -1047,6 +1053,15 @@ class DetectionFilter:
                         f"alarm on {names[c]} near {when} explained by the fault on {names[j]}: "
                         f"the residual of {names[c]}'s filter left its direction"
                     )
+        # kept in the pipeline's signal precision, each float64 array let go before the
+        # next is copied
+        del dstats, nises
+        residuals.clear()
+        zetas = zetas.astype(SIGNAL_DTYPE)
+        residuals.update((names[i], zetas[i]) for i in range(len(names)))
+        reference.clear()
+        refs = refs.astype(SIGNAL_DTYPE)
+        reference.update((names[i], refs[i]) for i in range(len(names)))
         return DetectorResult(
             detector=self.name,
             channels=names,
@@ -1136,7 +1151,7 @@ def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray,
     m = model.filters[0].n_outputs
     at = a if outs is None else 0  # column of sample lo is lo - at
     if outs is None:
-        outs = (np.empty((k, b - a)), np.empty((k, b - a)), np.empty((k, b - a)))
+        outs = (np.empty((k, b - a)), np.empty((k, b - a)), np.empty((k, b - a), np.float32))
         outs = (*outs, np.zeros(b - a, dtype=bool))
     zeta, ref, nis, bad = outs
     scale = ssm.y_scale[:, None]

@@ -64,7 +64,7 @@ import numpy.typing as npt
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy import linalg, signal
 
-from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
+from analyzer.detectors.base import SIGNAL_DTYPE, Dataset, DetectorResult, Event, RunContext
 from analyzer.detectors.detection_filter import UNCONFIRMED_FACTOR, long_run_time
 from analyzer.detectors.network import NetworkDiagnosis, Propagation, SensorNetwork
 from analyzer.diagnosis.changes import Calibration, calibrate, default_window
@@ -770,7 +770,8 @@ def _observer_task(
         search_start=train_stop,
         tau_corr=ob.tau,
     )
-    return zeta, z, found
+    # kept in the pipeline's signal precision (the float64 arrays go when the task ends)
+    return zeta.astype(SIGNAL_DTYPE), z.astype(SIGNAL_DTYPE), found
 
 
 def _lowpass(x: FloatArray, phi: float) -> FloatArray:

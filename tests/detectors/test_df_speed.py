@@ -104,7 +104,8 @@ def test_streamed_run_outputs_equal_the_full_residual_vectors(monkeypatch):
         off = np.delete(q, i, axis=1)
         inv = model.direction_inv_cov[i]
         expect = np.einsum("ki,ij,kj->k", off, inv, off) / off.shape[1]
-        np.testing.assert_allclose(nis[i], expect, rtol=1e-9, atol=1e-12)
+        assert nis.dtype == np.float32  # kept in single precision (alarm statistics only)
+        np.testing.assert_allclose(nis[i], expect, rtol=2e-7, atol=1e-12)
         assert np.isnan(zeta[i, 5000:5040]).all() and np.isfinite(zeta[i, :5000]).all()
         # rebuilt from the data around the stretch only (across the gap, and far in)
         seg = det._residual_vectors(model, i, Yg, bad, 4990, 5010)
