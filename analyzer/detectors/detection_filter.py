@@ -976,28 +976,23 @@ class DetectionFilter:
         reference: dict[str, FloatArray] = {}
         n = data.n
         m = len(model.filters)
-        # per filter: how far its residual leaves its own direction (> 1: alarm), in place
-        # of the normalized squared residual it is computed from (memory grows with N)
-        for i in range(m):
-            dcal = model.direction_cal[i]
-            nises[i] = alarm_statistic(nises[i], dcal, raw=True)
+        # per filter (independent: in parallel on threads, which share the arrays): how far
+        # its residual leaves its own direction (> 1: alarm), written in place of the
+        # normalized squared residual it is computed from (memory grows with N), and the
+        # candidate events of its fault estimate
+        tasks = [
+            (model, i, names[i], zetas, refs, nises, rate, self.name, train_stop) for i in range(m)
+        ]
+        found = context.map(_filter_events_task, tasks) if context.shares_memory else None
+        if found is None:
+            found = [_filter_events_task(t) for t in tasks]
         dstats = nises
         w = model.window
         cands: list[tuple[int, int, Event]] = []  # (first alarm, filter, event)
         for i in range(m):
-            f = model.filters[i]
             residuals[names[i]] = zetas[i]
             reference[names[i]] = refs[i]
-            for ev in events_from_residual(
-                names[i],
-                zetas[i],
-                _lowpass(refs[i], f.sigma),
-                model.zeta_cal[i],
-                rate,
-                self.name,
-                search_start=train_stop,
-                tau_corr=model.tau[i],
-            ):
+            for ev in found[i]:
                 k0 = int(round(float(ev.evidence.get("first_alarm_s", ev.onset_s)) * rate))
                 cands.append((k0, i, ev))
         cands.sort(key=lambda c: (c[0], c[1]))
@@ -1112,6 +1107,23 @@ def long_run_time(r: FloatArray, window: int) -> float:
         tau = max(tau, float(b * np.var(means, ddof=1) / v))
         b *= 2
     return tau
+
+
+def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
+    """Filter ``i``: its direction statistic turned into its alarm statistic in place
+    (``nises[i]``), and the candidate events of its fault estimate ``zetas[i]``."""
+    model, i, name, zetas, refs, nises, rate, detector, train_stop = task
+    nises[i] = alarm_statistic(nises[i], model.direction_cal[i], raw=True)
+    return events_from_residual(
+        name,
+        zetas[i],
+        _lowpass(refs[i], model.filters[i].sigma),
+        model.zeta_cal[i],
+        rate,
+        detector,
+        search_start=train_stop,
+        tau_corr=model.tau[i],
+    )
 
 
 def _park_task(task: tuple[Any, ...]) -> ParkFilter:
