@@ -39,6 +39,7 @@ script, not a timed test::
 
     python benchmarks/bench_pipeline.py [--hours 1,4] [--formats csv,mcap] [--quick]
                                         [--continuous] [--profile] [--keep DIR]
+                                        [--jobs N] [--detectors A,B]
 """
 
 from __future__ import annotations
@@ -201,7 +202,7 @@ def archive_dir(base: Path, fmt: str, hours: float, pieces: list[Path], piece_s:
 
 
 RUN_ARGS: list[str] = []
-"""Extra ``analyzer run`` options (``--jobs N``)."""
+"""Extra ``analyzer run`` options (``--jobs N``, ``--detectors A,B``)."""
 
 
 def run_child(archive: Path, out: Path, log: Path, profile: Path | None = None) -> Run:
@@ -350,12 +351,17 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--keep", metavar="DIR", help="write (and reuse) the archives in DIR")
     parser.add_argument("--jobs", type=int, default=None, help="pass --jobs N to analyzer run")
+    parser.add_argument(
+        "--detectors", default=None, help="pass --detectors A,B to analyzer run (default: all)"
+    )
     parser.add_argument("--reference-messages", type=int, default=50_000)
     parser.add_argument("--sm-samples", type=int, default=5_000)
     parser.add_argument("--sm-estimators", type=int, default=2)
     args = parser.parse_args(argv)
     if args.jobs:
-        RUN_ARGS[:] = ["--jobs", str(args.jobs)]
+        RUN_ARGS.extend(["--jobs", str(args.jobs)])
+    if args.detectors:
+        RUN_ARGS.extend(["--detectors", args.detectors])
     floors = 2 if args.quick else 8
     piece_s = 180.0 if args.quick else 3600.0
     hours = [float(h) for h in parse_list(args.hours or ("0.05,0.2" if args.quick else "1,4"))]
