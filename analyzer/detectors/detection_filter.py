@@ -915,11 +915,16 @@ class DetectionFilter:
             spans = [(a, b) for a, b, _ in time_blocks(0, N, max(hist, 1), context)]
         if len(spans) == 1 or context is None:
             for a, b in spans:
-                _df_span((model, bank, values, a, b, outs))
+                _df_span((model, bank, values, 0, a, b, outs))
         elif context.shares_memory:
-            context.map(_df_span, [(model, bank, values, a, b, outs) for a, b in spans])
-        else:
-            pieces = context.map(_df_span, [(model, bank, values, a, b, None) for a, b in spans])
+            context.map(_df_span, [(model, bank, values, 0, a, b, outs) for a, b in spans])
+        else:  # a cluster: each task gets its span and the history before it, nothing more
+            assert hist is not None
+            tasks = []
+            for a, b in spans:
+                base = max(0, a - hist)
+                tasks.append((model, bank, np.asarray(values[base:b]), base, a, b, None))
+            pieces = context.map(_df_span, tasks)
             for (a, b), piece in zip(spans, pieces, strict=True):
                 for whole, part in zip(outs, piece, strict=True):
                     whole[..., a:b] = part
@@ -1156,8 +1161,9 @@ def _held_out_half_task(task: tuple[Any, ...]) -> list[tuple[FloatArray, FloatAr
 def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray, Any]:
     """Outputs of the detection-filter bank over samples ``a .. b - 1`` (see
     :meth:`DetectionFilter._run_outputs`): written into ``outs`` (columns
-    ``a .. b - 1``) when given, else returned as arrays of ``b - a`` columns."""
-    model, bank, values, a, b, outs = task
+    ``a .. b - 1``) when given, else returned as arrays of ``b - a`` columns. ``values``
+    holds the archive's rows from ``base`` on."""
+    model, bank, values, base, a, b, outs = task
     ssm = model.model
     k = len(model.filters)
     m = model.filters[0].n_outputs
@@ -1169,7 +1175,7 @@ def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray,
     scale = ssm.y_scale[:, None]
 
     def inputs(lo: int, hi: int) -> FloatArray:
-        v, bad_v = DetectionFilter._inputs(ssm, np.asarray(values[lo:hi]))
+        v, bad_v = DetectionFilter._inputs(ssm, np.asarray(values[lo - base : hi - base]))
         first = max(lo, a)  # the history before the span belongs to another span
         bad[first - at : hi - at] = bad_v[first - lo :]
         return v
