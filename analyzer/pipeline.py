@@ -24,6 +24,7 @@ from analyzer.detectors.base import SIGNAL_DTYPE
 from analyzer.diagnosis import Finding, merge_events
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
+from analyzer.paging import release, spill
 from analyzer.parallel import (
     DaskExecutor,
     Executor,
@@ -193,6 +194,23 @@ def _compact(result: DetectorResult) -> DetectorResult:
     return result
 
 
+def _spill(result: DetectorResult, spill_dir: Path | None) -> DetectorResult:
+    """``result`` with its per-sample signals moved to memory-mapped files in
+    ``spill_dir`` (a long archive; :func:`analyzer.paging.spill`), so the signals of the
+    detectors that have finished stop counting against memory; unchanged without it."""
+    if spill_dir is None:
+        return result
+    spill_dir.mkdir(exist_ok=True)
+    base = spill_dir / result.detector
+    result.residuals = spill(
+        result.residuals, base.with_name(base.name + "-residuals.npy"), SIGNAL_DTYPE
+    )
+    result.reference = spill(
+        result.reference, base.with_name(base.name + "-reference.npy"), SIGNAL_DTYPE
+    )
+    return result
+
+
 def _fit(det: Any, data: Dataset, ctx: RunContext) -> tuple[Any, Any, float]:
     """A detector's fit on the healthy window, as a task: ``(detector, fitted model,
     seconds)``."""
@@ -216,6 +234,7 @@ def _run_detectors(
     ctx: RunContext,
     executor: Executor,
     timings: dict[str, float] | None = None,
+    spill_dir: Path | None = None,
 ) -> tuple[list[DetectorResult], dict[str, str]]:
     """Fit and run the detectors ``names``, each as a task of ``executor``; results and
     skip reasons in registry order, so any executor gives the serial run's output.
@@ -270,12 +289,13 @@ def _run_detectors(
                 if staged:
                     det, model, fit_s = plan.result()
                     t0 = time.perf_counter()
-                    results.append(_compact(det.run(model, data, ctx)))
+                    results.append(_spill(_compact(det.run(model, data, ctx)), spill_dir))
+                    release(data.values)  # what the run read of a memory-mapped archive
                     if timings is not None:  # the fits overlap: their sum exceeds the wall time
                         timings[f"fit {name}"] = fit_s
                         timings[f"run {name}"] = time.perf_counter() - t0
                 else:
-                    results.append(plan.result())
+                    results.append(_spill(plan.result(), spill_dir))
             except DetectorError as err:
                 if ctx.explicit:
                     raise
@@ -356,6 +376,7 @@ def _analyze(
         big = n_values > MATERIALIZE_IN_MEMORY and not in_memory
         path = work / "aligned.npy" if big else None
         values = aligned.materialize(path)
+        release(values)  # written: its pages go back to the page cache (see analyzer.paging)
         timings["align"] = time.perf_counter() - t0
         # the raw samples are no longer needed: unmap them now, or their pages stay in the
         # resident set for the rest of the run (memory that grows with the archive)
@@ -404,7 +425,9 @@ def _analyze(
             executor=executor if parallel else None,
         )
         t0 = time.perf_counter()
-        results, skipped = _run_detectors(names, options, data, ctx, executor, timings)
+        # a long archive's kept signals go to files as each detector finishes
+        spill_dir = work / "signals" if big else None
+        results, skipped = _run_detectors(names, options, data, ctx, executor, timings, spill_dir)
         timings["detect"] = time.perf_counter() - t0
         if not results:
             why = "; ".join(f"{k}: {v}" for k, v in skipped.items())

@@ -208,3 +208,29 @@ def test_jobs_progress_is_reported(tmp_path):
     seen: list[tuple[str, float]] = []
     analyze([SAMPLE], RunOptions(jobs=2, progress=lambda s, f: seen.append((s, f))))
     assert ("read", 1.0) in seen
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_long_archive_paths_give_the_in_memory_findings(
+    serial_run, findings_of, same_findings, tmp_path, monkeypatch, jobs
+):
+    """A long archive (here: any archive, with the size limit lowered) is memory-mapped,
+    read chunk by chunk with its pages released, and every detector's signals are moved to
+    files as it finishes: the findings and residuals of the in-memory run."""
+    import analyzer.pipeline as pl
+
+    monkeypatch.setattr(pl, "MATERIALIZE_IN_MEMORY", 1000)
+    paged = analyze([SAMPLE], RunOptions(jobs=jobs), workdir=tmp_path)
+    same_findings(findings_of(paged), findings_of(serial_run))
+    assert isinstance(paged.values, np.memmap)
+    for rs, rp in zip(serial_run.results, paged.results, strict=True):
+        assert rp.detector == rs.detector
+        for c, res in rs.residuals.items():
+            kept = rp.residuals[c]
+            assert isinstance(kept.base, np.memmap) and not kept.flags.writeable
+            scale = float(np.nanmax(np.abs(res)))
+            assert float(np.nanmax(np.abs(res - kept))) <= 1e-6 * scale
+        assert rp.model["windowed_tests"].keys() == rs.model["windowed_tests"].keys()
+    assert sorted(p.name for p in (tmp_path / "signals").iterdir()) == sorted(
+        f"{r.detector}-{kind}.npy" for r in paged.results for kind in ("reference", "residuals")
+    )

@@ -53,6 +53,7 @@ from analyzer.diagnosis.changes import (
 from analyzer.diagnosis.classify import Classification, correlation_time
 from analyzer.diagnosis.events import diagnose_interval
 from analyzer.errors import DetectorError
+from analyzer.paging import release
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -747,6 +748,7 @@ def bank_block(
         nis[:] = np.nan
     inv_stack = None if inv_covs is None else np.stack([np.asarray(c) for c in inv_covs])
     gap = ~np.isfinite(np.asarray(Y))
+    release(Y)  # a memory-mapped archive: read again chunk by chunk below
     bad = None
     if gap.any():
         n_gap = gap.sum(axis=1)
@@ -771,6 +773,8 @@ def bank_block(
         resid[rows] = np.where(
             gap[lo:e0], np.nan, np.asarray(Y[lo:e0], dtype=np.float64) - est[rows]
         )
+        h = bank.system.history  # the rows this chunk read: done with them
+        release(Y[0 if h is None else max(0, lo - h) : e0])
         if bank.whitened:
             nis[rows] = np.einsum("cjq,cjq->cj", nu, nu) / (m - 1)
         elif innov is not None:

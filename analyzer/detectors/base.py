@@ -38,10 +38,12 @@ class MapExecutor(Protocol):
 
 SIGNAL_DTYPE = np.float32
 """Precision of the residuals and fault-free estimates kept after a detector has run.
-Every decision (thresholds, onsets, classification, magnitudes) is taken inside the
-detector in float64; what is kept serves the evidence tests, the report and the corrected
-signals, where 7 significant digits are plenty, and halves the memory that grows with the
-archive's length."""
+Thresholds, onsets, classification and magnitudes are computed inside the detector from
+float64 residuals (the per-sample consistency statistics that only feed windowed alarm
+statistics are stored in float32, their sums taken in float64); what is kept serves the
+evidence tests, the report and the corrected signals, where 7 significant digits are
+plenty, and halves the memory that grows with the archive's length. A detector hands its
+signals over in this precision itself where it can release each float64 array first."""
 
 
 @dataclass(frozen=True, slots=True)

@@ -96,6 +96,7 @@ from analyzer.diagnosis.changes import (
 from analyzer.diagnosis.classify import correlation_time
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.errors import DetectorError
+from analyzer.paging import release
 
 FloatArray = npt.NDArray[np.float64]
 Modes = Sequence[complex] | npt.NDArray[Any]
@@ -1175,7 +1176,9 @@ def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray,
     scale = ssm.y_scale[:, None]
 
     def inputs(lo: int, hi: int) -> FloatArray:
-        v, bad_v = DetectionFilter._inputs(ssm, np.asarray(values[lo - base : hi - base]))
+        rows = values[lo - base : hi - base]
+        v, bad_v = DetectionFilter._inputs(ssm, np.asarray(rows))
+        release(rows)  # a memory-mapped archive: read once per chunk, not kept resident
         first = max(lo, a)  # the history before the span belongs to another span
         bad[first - at : hi - at] = bad_v[first - lo :]
         return v

@@ -70,6 +70,7 @@ from analyzer.detectors.network import NetworkDiagnosis, Propagation, SensorNetw
 from analyzer.diagnosis.changes import Calibration, calibrate, default_window
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.errors import DetectorError
+from analyzer.paging import release
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -758,6 +759,7 @@ def _observer_task(
     the assistants (NaN where the residual is) and its candidate events."""
     ob, values, name, rate, detector, train_stop = task
     zeta, z = EquivalentModel._fault_estimate(ob.observer, ob.relation, values, ob.target)
+    release(values)  # a memory-mapped archive: its columns were read whole, give them back
     z[~np.isfinite(zeta)] = np.nan
     phi = float(np.exp(-ob.observer.lambda1 * ob.observer.dt))
     found = events_from_residual(

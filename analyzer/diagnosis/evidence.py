@@ -20,6 +20,7 @@ import numpy.typing as npt
 from analyzer.detectors.base import DetectorResult
 from analyzer.diagnosis.merge import Finding
 from analyzer.errors import DetectorError
+from analyzer.paging import release
 from analyzer.stats import summarize, test_segment, windowed_tests
 from analyzer.types import FaultType
 
@@ -123,6 +124,7 @@ def training_tests(result: DetectorResult, train: tuple[int, int]) -> dict[str, 
         if z is None:
             continue
         t = _tests(z[train[0] : train[1]][:MAX_SEGMENT])
+        release(result.residuals[ch])  # a long archive's residual: pages back to the cache
         if t is not None:
             out[ch] = {
                 k: {
@@ -145,6 +147,7 @@ def windowed_summary(
     out: dict[str, Any] = {}
     for ch in result.residuals:
         z = standardized(result, ch)
+        release(result.residuals[ch])  # a long archive's residual: pages back to the cache
         if z is None or z.shape[0] < window:
             continue
         try:

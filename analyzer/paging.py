@@ -1,0 +1,86 @@
+"""Bounded resident memory for long arrays kept in memory-mapped files.
+
+A long archive's aligned matrix and the signals the detectors keep (residuals, fault-free
+estimates) are written to ``.npy`` files in the run's scratch directory and memory-mapped
+(shared mappings). Every page a pass reads or writes stays in the process's resident set
+until it is unmapped, so a pass over the whole record would hold the whole record. The
+passes therefore hand the pages they are done with back to the operating system
+(:func:`release`, ``madvise(MADV_DONTNEED)``): the data stays in the file and in the
+kernel's page cache (reclaimable, not the process's), and a later read faults it back in.
+What a pass holds at once is then its block, not the record.
+
+:func:`spill` moves a detector's kept signals to such a file, one channel after the other.
+Arrays that are not file-backed (in memory, private or read-only copies) are left alone:
+both functions are safe to call on anything.
+"""
+
+from __future__ import annotations
+
+import mmap
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+_SHARED_MODES = ("r", "r+", "w+")
+"""np.memmap modes whose mapping is shared: dropping a page loses nothing (mode ``c`` is
+copy-on-write, where it would drop the changes)."""
+
+
+def _mapping(a: Any) -> tuple[mmap.mmap, int] | None:
+    """The shared mapping ``a`` lives in and the address where that mapping starts."""
+    obj = a
+    while obj is not None:
+        mm = getattr(obj, "_mmap", None)
+        if isinstance(obj, np.memmap) and isinstance(mm, mmap.mmap):
+            if getattr(obj, "mode", None) not in _SHARED_MODES:
+                return None
+            start = obj.__array_interface__["data"][0] - obj.offset % mmap.ALLOCATIONGRANULARITY
+            return mm, start
+        obj = getattr(obj, "base", None)
+    return None
+
+
+def release(a: npt.NDArray[Any] | None) -> None:
+    """Drop the resident pages that hold ``a`` (a memory-mapped array or any view of one);
+    a no-op for arrays in memory. The values stay readable: the next access reads them
+    back from the page cache or the file."""
+    if a is None or not hasattr(mmap, "MADV_DONTNEED") or a.size == 0:
+        return
+    found = _mapping(a)
+    if found is None:
+        return
+    mm, start = found
+    lo, hi = np.lib.array_utils.byte_bounds(a)
+    page = mmap.PAGESIZE
+    first = max(0, (lo - start) // page * page)
+    last = min(len(mm), hi - start)
+    if last > first:
+        mm.madvise(mmap.MADV_DONTNEED, first, last - first)
+
+
+def spill(
+    signals: Mapping[str, npt.NDArray[Any]], path: Path, dtype: npt.DTypeLike
+) -> dict[str, npt.NDArray[Any]]:
+    """``signals`` (equal-length 1-D arrays) written as the rows of one ``.npy`` file at
+    ``path`` and returned as read-only views of its memory map, in the same order; each
+    row's pages are released once written, and each in-memory array can be freed by the
+    caller as soon as this returns."""
+    names = list(signals)
+    if not names:
+        return {}
+    n = int(np.asarray(signals[names[0]]).shape[0])
+    out = np.lib.format.open_memmap(path, mode="w+", dtype=dtype, shape=(len(names), n))
+    for i, name in enumerate(names):
+        out[i] = signals[name]
+        release(out[i])
+    out.flush()
+    rows = {name: out[i] for i, name in enumerate(names)}
+    for row in rows.values():
+        row.flags.writeable = False
+    return rows
+
+
+__all__ = ["release", "spill"]

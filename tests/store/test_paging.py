@@ -1,0 +1,56 @@
+"""Releasing the resident pages of memory-mapped arrays (analyzer.paging)."""
+
+import sys
+
+import numpy as np
+import pytest
+
+from analyzer.paging import release, spill
+
+
+def _rss_mb() -> float:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * 4096 / 1e6
+
+
+def test_release_keeps_the_values_and_ignores_arrays_in_memory(tmp_path):
+    a = np.lib.format.open_memmap(tmp_path / "a.npy", mode="w+", dtype=np.float64, shape=(5000, 7))
+    a[:] = np.arange(35000.0).reshape(5000, 7)
+    for view in (a, a[:, 3], np.asarray(a)[100:900], a[4999:]):
+        release(view)
+    np.testing.assert_array_equal(a, np.arange(35000.0).reshape(5000, 7))
+    ro = np.lib.format.open_memmap(tmp_path / "a.npy", mode="r")
+    release(ro[:, 2])
+    np.testing.assert_array_equal(ro[:, 2], np.arange(2, 35000, 7.0))
+    plain = np.ones(10)
+    release(plain)  # not file-backed: nothing to do
+    release(None)
+    cow = np.load(tmp_path / "a.npy", mmap_mode="c")
+    cow[0, 0] = -1.0
+    release(cow)  # copy-on-write: a release would lose the change, so none happens
+    assert cow[0, 0] == -1.0
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/self/statm")
+def test_release_gives_the_pages_back(tmp_path):
+    a = np.lib.format.open_memmap(
+        tmp_path / "big.npy", mode="w+", dtype=np.float64, shape=(4_000_000, 4)
+    )  # 128 MB
+    a[:] = 1.0
+    touched = _rss_mb()
+    release(a)
+    assert _rss_mb() < touched - 100
+    assert float(a[:, 1].sum()) == 4_000_000.0  # read back from the file
+    release(a[:, 1])
+    assert _rss_mb() < touched - 100
+
+
+def test_spill_writes_rows_and_returns_read_only_views(tmp_path):
+    signals = {"b": np.arange(1000.0), "a": np.full(1000, 2.5)}
+    rows = spill(signals, tmp_path / "s.npy", np.float32)
+    assert list(rows) == ["b", "a"]
+    for name, row in rows.items():
+        assert row.dtype == np.float32 and not row.flags.writeable
+        np.testing.assert_array_equal(row, signals[name].astype(np.float32))
+    assert np.load(tmp_path / "s.npy").shape == (2, 1000)
+    assert spill({}, tmp_path / "none.npy", np.float32) == {}
