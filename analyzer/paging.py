@@ -16,6 +16,8 @@ both functions are safe to call on anything.
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import mmap
 from collections.abc import Mapping
 from pathlib import Path
@@ -83,4 +85,27 @@ def spill(
     return rows
 
 
-__all__ = ["release", "spill"]
+def _malloc_trim() -> Any:
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        return libc.malloc_trim
+    except (OSError, AttributeError):  # not glibc: nothing to trim
+        return None
+
+
+_TRIM = _malloc_trim()
+
+
+def trim_heap() -> None:
+    """Hand the C heap's free memory back to the operating system (glibc ``malloc_trim``).
+
+    numpy's arrays of a few MB come from the heap once glibc has raised its mmap
+    threshold (it does after the first large array is freed), and memory freed there
+    stays in the process's resident set: between two passes over a long archive the
+    freed per-sample arrays of the first would still count. Called between the passes;
+    a no-op where the C library is not glibc."""
+    if _TRIM is not None:
+        _TRIM(0)
+
+
+__all__ = ["release", "spill", "trim_heap"]

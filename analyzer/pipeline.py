@@ -24,7 +24,7 @@ from analyzer.detectors.base import SIGNAL_DTYPE
 from analyzer.diagnosis import Finding, merge_events
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
-from analyzer.paging import release, spill
+from analyzer.paging import release, spill, trim_heap
 from analyzer.parallel import (
     DaskExecutor,
     Executor,
@@ -289,13 +289,16 @@ def _run_detectors(
                 if staged:
                     det, model, fit_s = plan.result()
                     t0 = time.perf_counter()
+                    trim_heap()  # what the fits freed
                     results.append(_spill(_compact(det.run(model, data, ctx)), spill_dir))
                     release(data.values)  # what the run read of a memory-mapped archive
+                    trim_heap()  # the run's per-sample arrays
                     if timings is not None:  # the fits overlap: their sum exceeds the wall time
                         timings[f"fit {name}"] = fit_s
                         timings[f"run {name}"] = time.perf_counter() - t0
                 else:
                     results.append(_spill(plan.result(), spill_dir))
+                    trim_heap()
             except DetectorError as err:
                 if ctx.explicit:
                     raise

@@ -1056,7 +1056,7 @@ class DetectionFilter:
                     )
         # kept in the pipeline's signal precision, each float64 array let go before the
         # next is copied
-        del dstats, nises
+        del dstats, nises, tasks, found
         residuals.clear()
         zetas = zetas.astype(SIGNAL_DTYPE)
         residuals.update((names[i], zetas[i]) for i in range(len(names)))
