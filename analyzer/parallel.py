@@ -31,6 +31,9 @@ from analyzer.errors import UsageError
 T = TypeVar("T")
 R = TypeVar("R")
 
+_THREAD_PREFIX = "analyzer-pool"
+"""Names of the ThreadExecutor's threads (how a nested map knows it runs in one)."""
+
 CONNECT_TIMEOUT_S = 10.0
 """How long ``--scheduler`` waits for the scheduler to answer before giving up."""
 
@@ -124,8 +127,9 @@ class SerialExecutor:
 
 class ThreadExecutor:
     """``jobs`` threads. :meth:`map` may be called from inside a task (a detector that
-    splits its work): the caller then runs the items no thread has started yet itself
-    instead of blocking on them, so nested maps never deadlock a full pool."""
+    splits its work): the calling pool thread then runs the items no thread has started
+    yet itself, from the back, while the other threads take them from the front, so a
+    nested map neither deadlocks a full pool nor leaves its caller idle."""
 
     shares_memory = True
 
@@ -133,23 +137,27 @@ class ThreadExecutor:
         if jobs < 1:
             raise UsageError(f"--jobs: must be >= 1, got {jobs}")
         self.workers = jobs
-        self._pool = ThreadPoolExecutor(max_workers=jobs, thread_name_prefix="analyzer")
+        self._pool = ThreadPoolExecutor(max_workers=jobs, thread_name_prefix=_THREAD_PREFIX)
 
     def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
         items = list(items)
         if len(items) <= 1:
             return [fn(x) for x in items]
         futures = [self._pool.submit(fn, x) for x in items]
-        out: list[R] = []
+        mine: dict[int, R] = {}
         try:
-            for x, fut in zip(items, futures, strict=True):
-                # cancel() succeeds only for a task no thread has picked up: run it here
-                out.append(fn(x) if fut.cancel() else fut.result())
+            if threading.current_thread().name.startswith(_THREAD_PREFIX):
+                # called from a task of this pool, whose thread would otherwise only wait:
+                # it takes the items no thread has picked up, from the back (the pool's
+                # threads take them from the front); cancel() succeeds only for those
+                for i in range(len(items) - 1, -1, -1):
+                    if futures[i].cancel():
+                        mine[i] = fn(items[i])
+            return [mine[i] if i in mine else futures[i].result() for i in range(len(items))]
         except BaseException:
             for fut in futures:
                 fut.cancel()
             raise
-        return out
 
     def submit(self, fn: Callable[..., R], *args: Any) -> Future[R]:
         return self._pool.submit(fn, *args)
