@@ -890,9 +890,11 @@ class DetectionFilter:
     @classmethod
     def _run_outputs(
         cls, model: FittedDetectionFilter, values: FloatArray, context: RunContext | None = None
-    ) -> tuple[FloatArray, FloatArray, npt.NDArray[np.float32], npt.NDArray[np.bool_]]:
-        """Per filter (rows): fault estimate, fault-free estimate (sensor units) and the
-        normalized squared residual off the filter's direction (:func:`_nis`), NaN where an
+    ) -> tuple[FloatArray, npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.bool_]]:
+        """Per filter (rows): fault estimate (sensor units), fault-free estimate (float32, in
+        the model's centred and scaled units: ``ref * y_scale + y_mean`` is in sensor units,
+        :func:`_sensor_units`) and the normalized squared residual off the filter's
+        direction (:func:`_nis`, float32), NaN where an
         input was missing and while the filter settles after it; and the rows where an
         input was missing. The bank's input is built chunk by chunk from ``values`` (with
         the history an impulse-response bank remembers) and the residual vectors are
@@ -903,10 +905,12 @@ class DetectionFilter:
         k = len(model.filters)
         N = values.shape[0]
         bank = filter_bank(model.filters)
-        # the direction statistic only feeds alarm statistics: single precision
+        # the fault-free estimate is kept centred and scaled (order 1, so single precision
+        # loses nothing a sensor's offset would), the direction statistic only feeds
+        # alarm statistics: both in float32
         outs: tuple[npt.NDArray[Any], ...] = (
             np.empty((k, N)),
-            np.empty((k, N)),
+            np.empty((k, N), dtype=np.float32),
             np.empty((k, N), dtype=np.float32),
             np.zeros(N, dtype=bool),
         )
@@ -996,8 +1000,6 @@ class DetectionFilter:
         w = model.window
         cands: list[tuple[int, int, Event]] = []  # (first alarm, filter, event)
         for i in range(m):
-            residuals[names[i]] = zetas[i]
-            reference[names[i]] = refs[i]
             for ev in found[i]:
                 k0 = int(round(float(ev.evidence.get("first_alarm_s", ev.onset_s)) * rate))
                 cands.append((k0, i, ev))
@@ -1061,8 +1063,9 @@ class DetectionFilter:
         zetas = zetas.astype(SIGNAL_DTYPE)
         residuals.update((names[i], zetas[i]) for i in range(len(names)))
         reference.clear()
-        refs = refs.astype(SIGNAL_DTYPE)
-        reference.update((names[i], refs[i]) for i in range(len(names)))
+        for i in range(len(names)):  # one float64 row at a time
+            reference[names[i]] = _sensor_units(model, refs, i).astype(SIGNAL_DTYPE)
+        del refs
         return DetectorResult(
             detector=self.name,
             channels=names,
@@ -1115,6 +1118,14 @@ def long_run_time(r: FloatArray, window: int) -> float:
     return tau
 
 
+def _sensor_units(model: FittedDetectionFilter, refs: npt.NDArray[Any], i: int) -> FloatArray:
+    """Filter ``i``'s fault-free estimate in sensor units (float64) from its centred,
+    scaled single-precision row."""
+    ssm = model.model
+    row = np.asarray(refs[i], dtype=np.float64)
+    return row * float(ssm.y_scale[i]) + float(ssm.y_mean[i])
+
+
 def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
     """Filter ``i``: its direction statistic turned into its alarm statistic in place
     (``nises[i]``), and the candidate events of its fault estimate ``zetas[i]``."""
@@ -1123,7 +1134,7 @@ def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
     return events_from_residual(
         name,
         zetas[i],
-        _lowpass(refs[i], model.filters[i].sigma),
+        _lowpass(_sensor_units(model, refs, i), model.filters[i].sigma),
         model.zeta_cal[i],
         rate,
         detector,
@@ -1170,7 +1181,11 @@ def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray,
     m = model.filters[0].n_outputs
     at = a if outs is None else 0  # column of sample lo is lo - at
     if outs is None:
-        outs = (np.empty((k, b - a)), np.empty((k, b - a)), np.empty((k, b - a), np.float32))
+        outs = (
+            np.empty((k, b - a)),
+            np.empty((k, b - a), np.float32),
+            np.empty((k, b - a), np.float32),
+        )
         outs = (*outs, np.zeros(b - a, dtype=bool))
     zeta, ref, nis, bad = outs
     scale = ssm.y_scale[:, None]
@@ -1186,7 +1201,7 @@ def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray,
     for lo, y in run_chunked(bank, inputs, b, a):
         cols = slice(lo - at, lo - at + y.shape[2])
         zeta[:, cols] = y[:, m] * scale
-        ref[:, cols] = y[:, m + 1] * scale + ssm.y_mean[:, None]
+        ref[:, cols] = y[:, m + 1]  # centred, scaled: see DetectionFilter._run_outputs
         for i in range(k):
             off = np.delete(y[i, :m] * scale, i, axis=0)
             nis[i, cols] = _nis(off.T, model.direction_inv_cov[i])
