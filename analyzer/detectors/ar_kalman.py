@@ -30,7 +30,14 @@ import numpy.typing as npt
 from scipy import linalg
 
 from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
-from analyzer.detectors.base import SIGNAL_DTYPE, Dataset, DetectorResult, Event, RunContext
+from analyzer.detectors.base import (
+    SIGNAL_DTYPE,
+    Dataset,
+    DetectorResult,
+    Event,
+    RunContext,
+    map_in,
+)
 from analyzer.detectors.lti import (
     ImpulseResponseBank,
     LiftedBank,
@@ -353,11 +360,11 @@ class ARKalmanBank:
         block = estimators[0].block
         k = CV_FOLDS
         edges = np.linspace(0, n, k + 1).astype(int)
-        run = context.map if context is not None else lambda fn, xs: [fn(x) for x in xs]
         try:
             # the folds are independent: each is fitted and filtered (pass 1) as one task
             spans = [(int(edges[f]), int(edges[f + 1])) for f in range(k)]
-            folds = run(_cv_fold_task, [(train, a, b, ar.order, block, skip) for a, b in spans])
+            tasks = [(train, a, b, ar.order, block, skip) for a, b in spans]
+            folds = map_in(context, _cv_fold_task, tasks)
             how = f"{k}-fold out-of-sample"
         except DetectorError:
             folds = [_cv_fold_task((train, 0, n, None, block, skip), ar, estimators)]
@@ -372,7 +379,7 @@ class ARKalmanBank:
             moments.merge(fold.moments)
         inv_covs = moments.inverse_covariances()
         cons = np.full((n, ar.m), np.nan)
-        nises = run(_cv_consistency_task, [(train, fold, inv_covs) for fold in folds])
+        nises = map_in(context, _cv_consistency_task, [(train, fold, inv_covs) for fold in folds])
         for fold, nis in zip(folds, nises, strict=True):
             cons[fold.a : fold.b] = nis
         return resid, cons, skip, how, inv_covs
@@ -794,9 +801,9 @@ def _alarm_intervals(
     tasks = [
         (out.resid[:, j], model.residual_cal[j], train_stop) for j in range(out.resid.shape[1])
     ]
-    if context is not None and context.shares_memory:
-        return context.map(_detect_task, tasks)
-    return [_detect_task(t) for t in tasks]
+    if context is None:
+        return [_detect_task(t) for t in tasks]
+    return context.map_shared(_detect_task, tasks)
 
 
 def _detect_task(task: tuple[FloatArray, Calibration, int]) -> list[Interval]:

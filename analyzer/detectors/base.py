@@ -68,6 +68,11 @@ class Dataset:
         return self.values[self.train[0] : self.train[1]]
 
 
+def map_in(context: RunContext | None, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
+    """``context.map(fn, items)``, or a plain loop when there is no context."""
+    return [fn(x) for x in items] if context is None else context.map(fn, items)
+
+
 @dataclass(slots=True)
 class RunContext:
     """What the pipeline lends a detector: thresholds, scratch space, progress and an
@@ -95,6 +100,13 @@ class RunContext:
         if self.executor is None:
             return [fn(x) for x in items]
         return self.executor.map(fn, items)
+
+    def map_shared(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
+        """:meth:`map` where the items share this process's memory (serially or on
+        threads); in this thread, one after the other, when the executor is a cluster:
+        for items that hold (views of) the archive, which a cluster would ship whole with
+        every item."""
+        return self.map(fn, items) if self.shares_memory else [fn(x) for x in items]
 
     @property
     def shares_memory(self) -> bool:

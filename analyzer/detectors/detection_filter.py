@@ -78,7 +78,14 @@ import numpy.typing as npt
 from scipy import linalg, signal
 
 from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
-from analyzer.detectors.base import SIGNAL_DTYPE, Dataset, DetectorResult, Event, RunContext
+from analyzer.detectors.base import (
+    SIGNAL_DTYPE,
+    Dataset,
+    DetectorResult,
+    Event,
+    RunContext,
+    map_in,
+)
 from analyzer.detectors.lti import (
     ImpulseResponseBank,
     LiftedBank,
@@ -793,8 +800,7 @@ class DetectionFilter:
         eig = np.linalg.eigvals(model.A)
         check_observable(model.A, model.C, eig)  # once for the bank (Theorem 4.1)
         tasks = [(model, i, self.fault_pole, sigma, names, eig) for i in range(len(model.outputs))]
-        run = context.map if context is not None else lambda fn, xs: [fn(x) for x in xs]
-        return tuple(run(_park_task, tasks))
+        return tuple(map_in(context, _park_task, tasks))
 
     def _held_out_half(
         self,
@@ -833,11 +839,10 @@ class DetectionFilter:
         half = n // 2
         order = int(model.summary["order"])
         halves = ((slice(0, half), slice(half, n)), (slice(half, n), slice(0, half)))
-        run = context.map if context is not None else lambda fn, xs: [fn(x) for x in xs]
         # the tasks need the channel names and the training rows, not the archive
         light = replace(data, values=train, train=(0, n))
         tasks = [(self, model, light, train, sigma, order, rows) for rows in halves]
-        parts = run(_held_out_half_task, tasks)
+        parts = map_in(context, _held_out_half_task, tasks)
         first, second = parts[1], parts[0]  # evaluated on the first / second half
         return [
             (np.vstack([first[i][0], second[i][0]]), np.concatenate([first[i][1], second[i][1]]))
@@ -993,9 +998,7 @@ class DetectionFilter:
         tasks = [
             (model, i, names[i], zetas, refs, nises, rate, self.name, train_stop) for i in range(m)
         ]
-        found = context.map(_filter_events_task, tasks) if context.shares_memory else None
-        if found is None:
-            found = [_filter_events_task(t) for t in tasks]
+        found = context.map_shared(_filter_events_task, tasks)
         dstats = nises
         w = model.window
         cands: list[tuple[int, int, Event]] = []  # (first alarm, filter, event)

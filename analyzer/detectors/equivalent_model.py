@@ -642,9 +642,9 @@ class EquivalentModel:
             (ob, values, data.channels[ob.target], rate, self.name, train_stop)
             for ob in model.observers
         ]
-        runs = context.map(_observer_task, tasks) if context.shares_memory else None
-        for k, task in enumerate(tasks):
-            zeta, z, found = _observer_task(task) if runs is None else runs[k]
+        for task, (zeta, z, found) in zip(
+            tasks, context.map_shared(_observer_task, tasks), strict=True
+        ):
             residuals[task[2]] = zeta
             reference[task[2]] = z
             cands[task[2]] = found

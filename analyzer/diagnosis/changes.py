@@ -24,6 +24,7 @@ alarm, computed with cumulative sums (no Python loop per sample).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -209,6 +210,9 @@ def alarm_statistic(x: FloatArray, cal: Calibration, *, raw: bool = False) -> Fl
     mthr = np.array([cal.mean_threshold(i) for i in range(k)])
     lqm = np.asarray(cal.logq_mean, dtype=np.float64)
     lqden = np.array([cal.logq_threshold(i) - cal.logq_mean[i] for i in range(k)])
+    if _alarm_kernel is None:  # pragma: no cover - numba is a dependency
+        z = cal.standardize(arr) if raw else np.asarray(arr, dtype=np.float64)
+        return _alarm_statistic_numpy(z, cal)
     out = np.zeros(arr.shape[0], dtype=np.float64)
     _alarm_kernel(arr, mean, std, windows, mthr, lqm, lqden, out)
     return out
@@ -240,7 +244,7 @@ def _alarm_loop(
     lqm: FloatArray,
     lqden: FloatArray,
     out: FloatArray,
-) -> None:  # pragma: no cover - compiled by numba (the Python form is the fallback)
+) -> None:  # pragma: no cover - compiled by numba
     """``out[t]`` = the alarm statistic at ``t``: running sums of z, z^2 and the finite
     count, with the last prefix sums in a ring buffer (a power of two above
     ``max(windows)``: memory set by the window, not the record). Sums run in sample
@@ -291,10 +295,11 @@ def _alarm_loop(
         out[t] = best
 
 
+_alarm_kernel: Callable[..., None] | None
 try:  # numba compiles the per-sample pass; nogil lets threads run channels at once
     from numba import njit
-except ImportError:  # pragma: no cover - numba is a dependency; keep working without
-    _alarm_kernel = _alarm_loop
+except ImportError:  # pragma: no cover - numba is a dependency; numpy without it
+    _alarm_kernel = None
 else:
     _alarm_kernel = njit(cache=True, nogil=True)(_alarm_loop)
 
