@@ -58,3 +58,26 @@ def findings_of():
 @pytest.fixture
 def same_findings():
     return _same_findings
+
+
+class _TwoThreadPool:
+    """A two-thread executor as the pipeline lends one to a detector (results in input
+    order); ``shares_memory`` picks the in-place (threads) or the copy (cluster) path, and
+    ``calls`` counts the maps."""
+
+    def __init__(self, shares_memory: bool) -> None:
+        self.shares_memory = shares_memory
+        self.calls = 0
+
+    def map(self, fn, items):
+        from concurrent.futures import ThreadPoolExecutor
+
+        self.calls += 1
+        with ThreadPoolExecutor(2) as ex:
+            return list(ex.map(fn, items))
+
+
+@pytest.fixture
+def two_thread_pool():
+    """``two_thread_pool(shares_memory)``: a new :class:`_TwoThreadPool`."""
+    return _TwoThreadPool

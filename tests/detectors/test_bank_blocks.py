@@ -3,8 +3,6 @@ scipy's QZ solver, the stacked lifted system against the sample-by-sample recurs
 blocks filtered after a warm-up against one pass over the record, and whitened
 consistency against the explicit ``nu' S^-1 nu``."""
 
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 import pytest
 from scipy import linalg
@@ -108,20 +106,8 @@ def test_whitened_consistency_equals_explicit_form(fitted):
     np.testing.assert_allclose(whitened.est, explicit.est, rtol=0, atol=1e-10)
 
 
-class _Pool:
-    """A parallel executor as the pipeline lends one (results in input order)."""
-
-    def __init__(self) -> None:
-        self.calls = 0
-
-    def map(self, fn, items):
-        self.calls += 1
-        with ThreadPoolExecutor(2) as ex:
-            return list(ex.map(fn, items))
-
-
 @pytest.mark.parametrize("shares_memory", [False, True])
-def test_bank_run_in_time_blocks_equals_serial_run(fitted, shares_memory):
+def test_bank_run_in_time_blocks_equals_serial_run(fitted, shares_memory, two_thread_pool):
     """Blocks returned and copied (a cluster) or written in place (threads)."""
     det, model, data = fitted
     Y = np.array(data.values, copy=True)
@@ -129,8 +115,7 @@ def test_bank_run_in_time_blocks_equals_serial_run(fitted, shares_memory):
     Y[:, j] = inject_fault(Y[:, j], RATE, "additive", 180.0, 3.0 * float(np.std(Y[:, j])))
     faulty = Dataset(Y, data.channels, RATE, data.train)
     serial = det.run(model, faulty, RunContext())
-    pool = _Pool()
-    pool.shares_memory = shares_memory  # type: ignore[attr-defined]
+    pool = two_thread_pool(shares_memory)
     ctx = RunContext(jobs=2)
     try:
         ctx.executor = pool  # type: ignore[attr-defined]

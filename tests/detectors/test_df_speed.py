@@ -85,13 +85,17 @@ def test_bank_segment_equals_the_whole_run(lo, hi, monkeypatch):
     assert np.max(np.abs(seg - out[:, :, lo:hi])) <= 1e-12 * np.max(np.abs(out))
 
 
+def _fitted_filter(duration_s, seed):
+    """A detection filter fitted on a simulated 4-floor building, and the record."""
+    _, Y, names = simulate_building(n_floors=4, duration_s=duration_s, rate_hz=RATE, seed=seed)
+    det = DetectionFilter()
+    return det, det.fit(Dataset(Y, tuple(names), RATE, TRAIN), RunContext()), Y
+
+
 def test_streamed_run_outputs_equal_the_full_residual_vectors(monkeypatch):
     """``_run_outputs`` (chunked, residual vectors reduced to their off-direction statistic)
     against ``_outputs`` (every residual vector kept), with a gap in the record."""
-    _, Y, names = simulate_building(n_floors=4, duration_s=40.0, rate_hz=RATE, seed=7)
-    ds = Dataset(Y, tuple(names), RATE, TRAIN)
-    det = DetectionFilter()
-    model = det.fit(ds, RunContext())
+    det, model, Y = _fitted_filter(40.0, seed=7)
     Yg = Y.copy()
     Yg[5000:5040, 2] = np.nan
     full = det._outputs(model.model, model.filters, Yg)
@@ -117,35 +121,19 @@ def test_streamed_run_outputs_equal_the_full_residual_vectors(monkeypatch):
         np.testing.assert_allclose(seg, q[7000:7030], rtol=1e-10, atol=1e-12)
 
 
-class _Pool:
-    """A two-thread executor; ``shares_memory`` picks the in-place or the copy path."""
-
-    def __init__(self, shares_memory):
-        self.shares_memory = shares_memory
-        self.calls = 0
-
-    def map(self, fn, items):
-        from concurrent.futures import ThreadPoolExecutor
-
-        self.calls += 1
-        with ThreadPoolExecutor(2) as ex:
-            return list(ex.map(fn, items))
-
-
 @pytest.mark.parametrize("shares_memory", [True, False])
-def test_run_outputs_in_time_blocks_equal_the_serial_run(shares_memory, monkeypatch):
+def test_run_outputs_in_time_blocks_equal_the_serial_run(
+    shares_memory, monkeypatch, two_thread_pool
+):
     """With a parallel executor the bank runs in time blocks (each from the history it
     remembers), written in place (threads) or returned and copied (a cluster): the serial
     outputs to rounding, gap mask included."""
-    _, Y, names = simulate_building(n_floors=4, duration_s=60.0, rate_hz=RATE, seed=3)
-    ds = Dataset(Y, tuple(names), RATE, TRAIN)
-    det = DetectionFilter()
-    model = det.fit(ds, RunContext())
+    det, model, Y = _fitted_filter(60.0, seed=3)
     Yg = Y.copy()
     Yg[9000:9030, 1] = np.nan
     monkeypatch.setattr(lti, "MIN_TIME_BLOCK", 2)  # several blocks on a short record
     serial = det._run_outputs(model, Yg)
-    pool = _Pool(shares_memory)
+    pool = two_thread_pool(shares_memory)
     ctx = RunContext(jobs=2, executor=pool)
     blocked = det._run_outputs(model, Yg, ctx)
     assert pool.calls == 1
