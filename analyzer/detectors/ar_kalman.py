@@ -20,7 +20,7 @@ Residual convention: ``measured - estimated`` (the paper plots ``estimated - mea
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import partial
 from typing import Any, ClassVar
@@ -90,6 +90,10 @@ thresholds through its windowed alarm statistic (sums in float64), so single pre
 CV_FOLDS = 5
 """Folds of the cross-validation that gives out-of-sample training residuals."""
 
+CONSISTENCY_PIECE = 1 << 17
+"""Rows of consistency recomputed at once around a fault (each piece after its own
+warm-up): bounds the memory of a window that spans a long fault."""
+
 UNCONFIRMED_FACTOR = 0.75
 """Confidence factor for a fault seen on its sensor's residual while no estimator that
 uses the sensor became inconsistent (a small fault: located, but not confirmed)."""
@@ -135,7 +139,12 @@ class BankFilter:
 
     ``whitened``: the innovation outputs are premultiplied by ``S_j^-1/2`` (``S_j`` the
     estimator's healthy innovation covariance), so the consistency ``nu' S^-1 nu`` is a
-    plain sum of squares of the outputs."""
+    plain sum of squares of the outputs.
+
+    ``estimates``: the same impulse responses restricted to each estimator's estimate of
+    its left-out channel (``m`` of the ``m^2`` outputs; None for the lifted form). The
+    residuals, and so the alarms, need only these; the consistency is needed only around
+    alarms, where :meth:`ARKalmanBank.run` recomputes it over the few rows it asks for."""
 
     system: ImpulseResponseBank | LiftedBank
     block: int
@@ -143,6 +152,7 @@ class BankFilter:
     settle: tuple[int, ...]
     warmup: int
     whitened: bool = False
+    estimates: ImpulseResponseBank | None = None
 
     @classmethod
     def build(
@@ -174,6 +184,9 @@ class BankFilter:
             if lifted
             else system_bank(systems, block)
         )
+        estimates = None
+        if isinstance(system, ImpulseResponseBank):  # the estimate: each one's last output
+            estimates = system.select([system.q - 1])
         return cls(
             system,
             block,
@@ -181,6 +194,7 @@ class BankFilter:
             tuple(e.settle for e in estimators),
             max(e.warmup for e in estimators),
             inv_covs is not None,
+            estimates,
         )
 
 
@@ -207,11 +221,12 @@ class FittedBank:
 class BankOutputs:
     """What the bank yields per sample and channel ``j`` (all (N, m)): the residual of
     sensor ``j`` against its estimate from the others, that estimate (raw units), and the
-    consistency of estimator ``j`` (normalized innovation squared, NaN where masked)."""
+    consistency of estimator ``j`` (normalized innovation squared, NaN where masked; None
+    when not computed, see :meth:`ARKalmanBank.run`)."""
 
     resid: FloatArray
     est: FloatArray
-    nis: FloatArray
+    nis: npt.NDArray[Any] | None
 
 
 def _filter_gain(
@@ -392,8 +407,11 @@ class ARKalmanBank:
         start: int = 0,
         stop: int | None = None,
         into: BankOutputs | None = None,
+        consistency: bool = True,
     ) -> BankOutputs:
-        """Run the bank over ``Y[start:stop]`` (raw units), into ``into`` when given.
+        """Run the bank over ``Y[start:stop]`` (raw units), into ``into`` when given;
+        without ``consistency`` only the residuals and estimates (``nis`` None: the
+        estimate outputs alone, a fraction ``1/m`` of the bank's work).
 
         Serially the span is one pass with the state carried from chunk to chunk (from a
         zero state at the record's start, or after a warm-up when ``start > 0``). With a
@@ -407,15 +425,24 @@ class ARKalmanBank:
         N, m = Y.shape
         stop = N if stop is None else stop
         if into is None:  # the consistency only feeds alarm statistics: single precision
-            into = BankOutputs(np.empty((N, m)), np.empty((N, m)), np.empty((N, m), NIS_DTYPE))
+            nis = np.empty((N, m), NIS_DTYPE) if consistency else None
+            into = BankOutputs(np.empty((N, m)), np.empty((N, m)), nis)
         spans = time_blocks(start, stop, bank.warmup, context)
         items = [
-            (ar.mean, ar.scale, bank, Y[a - w : b], w, model.innovation_inv_cov)
+            (
+                ar.mean,
+                ar.scale,
+                bank,
+                Y[a - w : b],
+                w,
+                model.innovation_inv_cov,
+                into.nis is not None,
+            )
             for a, b, w in spans
         ]
         if len(items) == 1 or context is None:
             for (a, _, _), item in zip(spans, items, strict=True):
-                bank_block(*item, into=into, at=a)  # written in place: no copies
+                _bank_block_into((item, into, a))  # written in place: no copies
             return into
         if context.shares_memory:  # threads write their rows in place: no block copies
             context.map(
@@ -426,7 +453,8 @@ class ARKalmanBank:
         for (a, b, _), out in zip(spans, context.map(_bank_block_task, items), strict=True):
             into.resid[a:b] = out.resid
             into.est[a:b] = out.est
-            into.nis[a:b] = out.nis
+            if into.nis is not None:
+                into.nis[a:b] = out.nis
         return into
 
     # -- running ---------------------------------------------------------------------------
@@ -439,17 +467,23 @@ class ARKalmanBank:
         events: list[Event] = []
         notes: list[str] = []
         explained: list[tuple[int, int, int]] = []  # (channel, start, stop) already isolated
-        out = self._bank_outputs(model, Y, context)
+        # the residuals and estimates over the whole record; the estimators' consistency
+        # only where a fault is isolated (recomputed there with the corrections so far)
+        out = self._bank_outputs(model, Y, context, consistency=False)
         # the residual the report shows: as measured, before any correction
         resid0: npt.NDArray[Any] = out.resid
         est0: npt.NDArray[Any] = out.est
         fixes: list[tuple[int, int, int, FloatArray]] = []  # (channel, a, b, corrected)
+
+        def consistency(lo: int, hi: int) -> FloatArray:
+            return self._consistency(model, Y, fixes, lo, hi, context)
+
         corrected = False
         alarms = None  # per channel, valid until the outputs are refiltered
         for _ in range(4 * m):
             if alarms is None:
                 alarms = _alarm_intervals(model, out, train_stop, context)
-            found = self._next_fault(model, out, rate, train_stop, explained, alarms)
+            found = self._next_fault(model, out, consistency, rate, train_stop, explained, alarms)
             if found is None:
                 break
             ev, spans, cls = found
@@ -485,7 +519,7 @@ class ARKalmanBank:
             fixed = _undo_fault(seg[a - lo : b - lo, j], out.est[a:b, j], cls, rate)
             fixes.append((j, a, b, fixed))
             seg[a - lo : b - lo, j] = fixed
-            rows = BankOutputs(out.resid[lo:hi], out.est[lo:hi], out.nis[lo:hi])
+            rows = BankOutputs(out.resid[lo:hi], out.est[lo:hi], None)
             self._bank_outputs(model, seg, context, start=a - lo, stop=hi - lo, into=rows)
             alarms = None
             context.report("ar_kalman_bank", min(1.0, len(events) / m))
@@ -527,10 +561,41 @@ class ARKalmanBank:
             notes=notes,
         )
 
+    def _consistency(
+        self,
+        model: FittedBank,
+        Y: FloatArray,
+        fixes: list[tuple[int, int, int, FloatArray]],
+        lo: int,
+        hi: int,
+        context: RunContext | None = None,
+    ) -> npt.NDArray[Any]:
+        """Every estimator's consistency ``(hi - lo, m)`` over rows ``lo .. hi - 1`` of the
+        record with the corrections ``fixes`` applied: recomputed from a warm-up before
+        each piece of at most :data:`CONSISTENCY_PIECE` rows, so it equals a run over the
+        whole (corrected) record to rounding and its memory is set by the piece."""
+        N, m = Y.shape
+        lo, hi = max(0, lo), min(N, hi)
+        assert model.bank is not None
+        warm = model.bank.warmup
+        nis = np.empty((max(0, hi - lo), m), NIS_DTYPE)
+        for a in range(lo, hi, CONSISTENCY_PIECE):
+            b = min(hi, a + CONSISTENCY_PIECE)
+            s = max(0, a - warm)
+            seg = _corrected_rows(Y, fixes, s, b)
+            rows = BankOutputs(
+                np.empty(seg.shape), np.empty(seg.shape), np.empty(seg.shape, NIS_DTYPE)
+            )
+            self._bank_outputs(model, seg, context, start=a - s, stop=b - s, into=rows)
+            assert rows.nis is not None
+            nis[a - lo : b - lo] = rows.nis[a - s :]
+        return nis
+
     def _next_fault(
         self,
         model: FittedBank,
         out: BankOutputs,
+        consistency: Callable[[int, int], FloatArray],
         rate: float,
         train_stop: int,
         explained: list[tuple[int, int, int]],
@@ -539,7 +604,7 @@ class ARKalmanBank:
         """The earliest not-yet-explained fault, isolated to one sensor, or None.
         ``alarms``: each channel's alarm intervals in ``out`` when already known (they only
         change when the outputs do)."""
-        resid, est, nis = out.resid, out.est, out.nis
+        resid, est = out.resid, out.est
         N, m = resid.shape
         cands = []
         margin = model.residual_cal[0].long_window
@@ -570,7 +635,7 @@ class ARKalmanBank:
         # consistency of each estimator over the start of the fault
         lo = max(train_stop, t0 - model.window)
         hi = min(N, t0 + 2 * span)
-        violation = np.array([self._violation(model, nis, j, lo, hi) for j in range(m)])
+        violation = self._violations(model, consistency(lo, hi))
         cand_ch = sorted({c[1] for c in group})
         # the faulty sensor: the candidate whose leave-out estimator stays most consistent
         # Among the candidates whose leave-out estimator is consistent, the one whose own
@@ -601,7 +666,7 @@ class ARKalmanBank:
         limit = None
         for t2 in sorted({c[0] for c in cands if c[1] != j and c[0] > t0 + span}):
             lo2, hi2 = max(train_stop, t2 - model.window), min(N, t2 + 2 * span)
-            if self._violation(model, nis, j, lo2, hi2) >= 1.0:
+            if self._violations(model, consistency(lo2, hi2), [j])[0] >= 1.0:
                 # a slowly growing fault alarms late: keep a long window off its alarm
                 limit = max(iv.onset + span, t2 - span)
                 break
@@ -611,10 +676,8 @@ class ARKalmanBank:
             # a slowly growing fault disturbs the estimators that use the sensor only
             # later: look for the confirmation over the whole fault period
             until = stop if limit is None else min(stop, limit)
-            isolated = _confirmed(
-                self._violation(model, nis, j, lo, until),
-                max(self._violation(model, nis, i, lo, until) for i in range(m) if i != j),
-            )
+            over = self._violations(model, consistency(lo, until))
+            isolated = _confirmed(over[j], max((over[i] for i in range(m) if i != j), default=0.0))
         if not isolated and (cls.type is FaultType.OTHER or stop - iv.onset < span):
             # A change of residual that no estimator using the sensor confirms and that
             # either no fault shape explains or that is gone within a long window is
@@ -644,6 +707,15 @@ class ARKalmanBank:
             },
         )
         return ev, [(j, iv.onset, stop)], cls
+
+    def _violations(
+        self, model: FittedBank, nis: FloatArray, channels: Sequence[int] | None = None
+    ) -> FloatArray:
+        """Largest alarm statistic of each estimator's normalized innovations ``nis``
+        (rows of a window, one column per estimator; of ``channels`` only, when given):
+        below 1 while the estimator is consistent (masked samples count as consistent)."""
+        cols = range(nis.shape[1]) if channels is None else channels
+        return np.array([self._violation(model, nis, j, 0, nis.shape[0]) for j in cols])
 
     def _violation(self, model: FittedBank, nis: FloatArray, j: int, lo: int, hi: int) -> float:
         """Largest alarm statistic of estimator ``j``'s normalized innovations over
@@ -720,7 +792,7 @@ class BankBlock:
 
     resid: FloatArray
     est: FloatArray
-    nis: FloatArray
+    nis: npt.NDArray[Any] | None
     innov: FloatArray | None = None
 
 
@@ -733,6 +805,7 @@ def bank_block(
     inv_covs: list[FloatArray] | tuple[FloatArray, ...] | None,
     into: BankOutputs | None = None,
     at: int = 0,
+    consistency: bool = True,
 ) -> BankBlock:
     """Bank outputs for ``Y[warm:]`` (raw units), every estimator filtered from a zero
     state at ``Y[0]``, written to rows ``at ..`` of ``into`` when given. Works through
@@ -743,15 +816,21 @@ def bank_block(
 
     The consistency ``nu' S^-1 nu / (m - 1)`` is returned in ``nis`` for a whitened
     bank, or given ``inv_covs`` (one inverse innovation covariance per estimator); else
-    the innovations themselves (``innov``) and ``nis`` is NaN."""
+    the innovations themselves (``innov``) and ``nis`` is NaN. Without ``consistency``
+    (or when ``into`` has no ``nis``) only the residuals and estimates are computed,
+    by the estimate outputs alone where the bank has them (``nis`` is None)."""
     N, m = Y.shape
     L = N - warm
     if into is None:
-        resid, est, nis = np.empty((L, m)), np.empty((L, m)), np.empty((L, m))
+        resid, est = np.empty((L, m)), np.empty((L, m))
+        nis = np.empty((L, m)) if consistency else None
     else:
-        resid, est, nis = (a[at : at + L] for a in (into.resid, into.est, into.nis))
-    innov = np.empty((L, m, m - 1)) if inv_covs is None and not bank.whitened else None
-    if innov is not None:
+        resid, est = into.resid[at : at + L], into.est[at : at + L]
+        nis = None if into.nis is None else into.nis[at : at + L]
+    system = bank.system if nis is not None or bank.estimates is None else bank.estimates
+    innov = None
+    if nis is not None and inv_covs is None and not bank.whitened:
+        innov = np.empty((L, m, m - 1))
         nis[:] = np.nan
     inv_stack = None if inv_covs is None else np.stack([np.asarray(c) for c in inv_covs])
     gap = ~np.isfinite(np.asarray(Y))
@@ -766,22 +845,25 @@ def bank_block(
     def scaled(a: int, b: int) -> FloatArray:  # the bank's input, gaps as 0
         return np.where(gap[a:b], 0.0, (np.asarray(Y[a:b], dtype=np.float64) - mean) / scale)
 
-    for lo, out in run_chunked(bank.system, scaled, N, warm):
+    for lo, out in run_chunked(system, scaled, N, warm):
         e0 = lo + out.shape[2]
         y = out.transpose(2, 0, 1)  # (c, m, m): innovations, then the estimate
         nu = y[:, :, :-1]
         yhat = y[:, :, -1]
         if bad is not None:
             b = bad[lo:e0]
-            nu[b] = np.nan
+            if nis is not None:
+                nu[b] = np.nan
             yhat[b] = np.nan
         rows = slice(lo - warm, e0 - warm)
         est[rows] = yhat * scale + mean
         resid[rows] = np.where(
             gap[lo:e0], np.nan, np.asarray(Y[lo:e0], dtype=np.float64) - est[rows]
         )
-        h = bank.system.history  # the rows this chunk read: done with them
+        h = system.history  # the rows this chunk read: done with them
         release(Y[0 if h is None else max(0, lo - h) : e0])
+        if nis is None:
+            continue
         if bank.whitened:
             nis[rows] = np.einsum("cjq,cjq->cj", nu, nu) / (m - 1)
         elif innov is not None:
@@ -861,18 +943,21 @@ def _cv_consistency_task(item: tuple[FloatArray, _Fold, list[FloatArray]]) -> Fl
     out = bank_block(
         fold.ar.mean, fold.ar.scale, fold.bank, train[fold.a - w : fold.b], w, inv_covs
     )
+    assert out.nis is not None
     return out.nis
 
 
 def _bank_block_task(item: tuple[Any, ...]) -> BankBlock:
-    """:func:`bank_block` on one tuple of arguments (what an executor maps)."""
-    return bank_block(*item)
+    """:func:`bank_block` on one tuple of arguments ``(mean, scale, bank, Y, warm,
+    inv_covs, consistency)`` (what an executor maps)."""
+    mean, scale, bank, Y, warm, inv_covs, consistency = item
+    return bank_block(mean, scale, bank, Y, warm, inv_covs, consistency=consistency)
 
 
 def _bank_block_into(task: tuple[tuple[Any, ...], BankOutputs, int]) -> None:
-    """:func:`bank_block` writing its rows into shared outputs (threads only)."""
-    (mean, scale, bank, Y, warm, inv_covs), into, at = task
-    bank_block(mean, scale, bank, Y, warm, inv_covs, into=into, at=at)
+    """:func:`bank_block` writing its rows into shared outputs (serially or on threads)."""
+    (mean, scale, bank, Y, warm, inv_covs, consistency), into, at = task
+    bank_block(mean, scale, bank, Y, warm, inv_covs, into=into, at=at, consistency=consistency)
 
 
 def _describe(bank: BankFilter | None) -> str:

@@ -894,14 +894,24 @@ class DetectionFilter:
 
     @classmethod
     def _run_outputs(
-        cls, model: FittedDetectionFilter, values: FloatArray, context: RunContext | None = None
-    ) -> tuple[FloatArray, npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.bool_]]:
+        cls,
+        model: FittedDetectionFilter,
+        values: FloatArray,
+        context: RunContext | None = None,
+        directions: bool = True,
+        bank: ImpulseResponseBank | LiftedBank | None = None,
+    ) -> tuple[
+        FloatArray, npt.NDArray[np.float32], npt.NDArray[np.float32] | None, npt.NDArray[np.bool_]
+    ]:
         """Per filter (rows): fault estimate (sensor units), fault-free estimate (float32, in
         the model's centred and scaled units: ``ref * y_scale + y_mean`` is in sensor units,
         :func:`_sensor_units`) and the normalized squared residual off the filter's
-        direction (:func:`_nis`, float32), NaN where an
+        direction (:func:`_nis`, float32; None without ``directions``: then an
+        impulse-response bank runs its two estimate outputs per filter only, about
+        ``2 / (m + 2)`` of its work), NaN where an
         input was missing and while the filter settles after it; and the rows where an
-        input was missing. The bank's input is built chunk by chunk from ``values`` (with
+        input was missing. ``bank``: :func:`filter_bank` of the model's filters, when the
+        caller has it. The bank's input is built chunk by chunk from ``values`` (with
         the history an impulse-response bank remembers) and the residual vectors are
         reduced per chunk and not kept, so memory grows with ``3 k N`` only. With a
         parallel executor in ``context`` an impulse-response bank runs in time blocks
@@ -909,14 +919,17 @@ class DetectionFilter:
         written in place on threads."""
         k = len(model.filters)
         N = values.shape[0]
-        bank = filter_bank(model.filters)
+        bank = filter_bank(model.filters) if bank is None else bank
+        if not directions and isinstance(bank, ImpulseResponseBank):
+            m = model.filters[0].n_outputs
+            bank = bank.select([m, m + 1])  # the fault estimate and the fault-free one
         # the fault-free estimate is kept centred and scaled (order 1, so single precision
         # loses nothing a sensor's offset would), the direction statistic only feeds
         # alarm statistics: both in float32
-        outs: tuple[npt.NDArray[Any], ...] = (
+        outs: tuple[Any, ...] = (
             np.empty((k, N)),
             np.empty((k, N), dtype=np.float32),
-            np.empty((k, N), dtype=np.float32),
+            np.empty((k, N), dtype=np.float32) if directions else None,
             np.zeros(N, dtype=bool),
         )
         hist = bank.history
@@ -925,27 +938,62 @@ class DetectionFilter:
             spans = [(a, b) for a, b, _ in time_blocks(0, N, max(hist, 1), context)]
         if len(spans) == 1 or context is None:
             for a, b in spans:
-                _df_span((model, bank, values, 0, a, b, outs))
+                _df_span((model, bank, values, 0, a, b, outs, directions))
         elif context.shares_memory:
-            context.map(_df_span, [(model, bank, values, 0, a, b, outs) for a, b in spans])
+            context.map(
+                _df_span, [(model, bank, values, 0, a, b, outs, directions) for a, b in spans]
+            )
         else:  # a cluster: each task gets its span and the history before it, nothing more
             assert hist is not None
             tasks = []
             for a, b in spans:
                 base = max(0, a - hist)
-                tasks.append((model, bank, np.asarray(values[base:b]), base, a, b, None))
+                tasks.append(
+                    (model, bank, np.asarray(values[base:b]), base, a, b, None, directions)
+                )
             pieces = context.map(_df_span, tasks)
             for (a, b), piece in zip(spans, pieces, strict=True):
                 for whole, part in zip(outs, piece, strict=True):
-                    whole[..., a:b] = part
+                    if whole is not None:
+                        whole[..., a:b] = part
         zeta, ref, nis, bad = outs
         if bad.any():
             for i, f in enumerate(model.filters):
                 mask = _dilate_forward(bad, f.settle())
                 zeta[i, mask] = np.nan
                 ref[i, mask] = np.nan
-                nis[i, mask] = np.nan
+                if nis is not None:
+                    nis[i, mask] = np.nan
         return zeta, ref, nis, bad
+
+    @classmethod
+    def _direction_statistics(
+        cls,
+        model: FittedDetectionFilter,
+        bank: ImpulseResponseBank | LiftedBank,
+        values: FloatArray,
+        bad: npt.NDArray[np.bool_],
+        lo: int,
+        hi: int,
+    ) -> list[FloatArray]:
+        """Per filter, the alarm statistic of its direction statistic over samples
+        ``lo .. hi - 1`` (> 1: its residual left its sensor's direction). Recomputed for
+        the window from the data (with the history the bank remembers and a long window
+        before ``lo`` for the statistic): what a run over the whole record gives there, to
+        rounding. ``bad``: the record's rows with a missing input."""
+        long = max(cal.long_window for cal in model.direction_cal)
+        s = max(0, lo - (long - 1))
+        _, _, nis, _ = _df_span((model, bank, values, 0, s, hi, None, True))
+        assert nis is not None
+        stats = []
+        for i, f in enumerate(model.filters):
+            settle = f.settle()
+            first = max(0, s - settle)
+            mask = _dilate_forward(bad[first:hi], settle)[s - first :]
+            row = nis[i]
+            row[mask] = np.nan
+            stats.append(alarm_statistic(row, model.direction_cal[i], raw=True)[lo - s :])
+        return stats
 
     @classmethod
     def _residual_vectors(
@@ -982,8 +1030,12 @@ class DetectionFilter:
         ssm = model.model
         names = tuple(data.channels[j] for j in ssm.outputs)
         rate = data.rate_hz
-        # the few stretches an event needs are rebuilt from data.values (_residual_vectors)
-        zetas, refs, nises, bad = self._run_outputs(model, data.values, context)
+        # the few stretches an event needs are rebuilt from data.values (_residual_vectors,
+        # _direction_violations): over the record only the two estimates per filter
+        bank = filter_bank(model.filters)
+        zetas, refs, _, bad = self._run_outputs(
+            model, data.values, context, directions=False, bank=bank
+        )
         train_stop = data.train[1]
         events: list[Event] = []
         notes: list[str] = []
@@ -991,15 +1043,10 @@ class DetectionFilter:
         reference: dict[str, FloatArray] = {}
         n = data.n
         m = len(model.filters)
-        # per filter (independent: in parallel on threads, which share the arrays): how far
-        # its residual leaves its own direction (> 1: alarm), written in place of the
-        # normalized squared residual it is computed from (memory grows with N), and the
+        # per filter (independent: in parallel on threads, which share the arrays): the
         # candidate events of its fault estimate
-        tasks = [
-            (model, i, names[i], zetas, refs, nises, rate, self.name, train_stop) for i in range(m)
-        ]
+        tasks = [(model, i, names[i], zetas, refs, rate, self.name, train_stop) for i in range(m)]
         found = context.map_shared(_filter_events_task, tasks)
-        dstats = nises
         w = model.window
         cands: list[tuple[int, int, Event]] = []  # (first alarm, filter, event)
         for i in range(m):
@@ -1015,7 +1062,8 @@ class DetectionFilter:
             cands = [c for c in cands if c[0] > t0 + span]
             lo = max(train_stop, min(int(round(c[2].onset_s * rate)) for c in group) - w)
             hi = min(n, t0 + 2 * span)
-            viol = [float(np.max(d[lo:hi], initial=0.0)) for d in dstats]
+            stats = self._direction_statistics(model, bank, data.values, bad, lo, hi)
+            viol = [float(np.max(st, initial=0.0)) for st in stats]
             chans = sorted({c[1] for c in group})
             # the sensor whose filter's residual stays closest to its own direction
             j = min(chans, key=lambda c: (viol[c], -_strength(zetas[c], model.zeta_cal[c], lo, hi)))
@@ -1061,7 +1109,7 @@ class DetectionFilter:
                     )
         # kept in the pipeline's signal precision, each float64 array let go before the
         # next is copied
-        del dstats, nises, tasks, found
+        del tasks, found
         residuals.clear()
         zetas = zetas.astype(SIGNAL_DTYPE)
         residuals.update((names[i], zetas[i]) for i in range(len(names)))
@@ -1130,10 +1178,8 @@ def _sensor_units(model: FittedDetectionFilter, refs: npt.NDArray[Any], i: int) 
 
 
 def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
-    """Filter ``i``: its direction statistic turned into its alarm statistic in place
-    (``nises[i]``), and the candidate events of its fault estimate ``zetas[i]``."""
-    model, i, name, zetas, refs, nises, rate, detector, train_stop = task
-    nises[i] = alarm_statistic(nises[i], model.direction_cal[i], raw=True)
+    """Filter ``i``: the candidate events of its fault estimate ``zetas[i]``."""
+    model, i, name, zetas, refs, rate, detector, train_stop = task
     return events_from_residual(
         name,
         zetas[i],
@@ -1173,12 +1219,13 @@ def _held_out_half_task(task: tuple[Any, ...]) -> list[tuple[FloatArray, FloatAr
     return out
 
 
-def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray, Any]:
+def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray | None, Any]:
     """Outputs of the detection-filter bank over samples ``a .. b - 1`` (see
     :meth:`DetectionFilter._run_outputs`): written into ``outs`` (columns
-    ``a .. b - 1``) when given, else returned as arrays of ``b - a`` columns. ``values``
-    holds the archive's rows from ``base`` on."""
-    model, bank, values, base, a, b, outs = task
+    ``a .. b - 1``) when given, else returned as arrays of ``b - a`` columns; the direction
+    statistic only with ``directions`` (and a bank with every output). ``values`` holds
+    the archive's rows from ``base`` on."""
+    model, bank, values, base, a, b, outs, directions = task
     ssm = model.model
     k = len(model.filters)
     m = model.filters[0].n_outputs
@@ -1187,9 +1234,9 @@ def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray,
         outs = (
             np.empty((k, b - a)),
             np.empty((k, b - a), np.float32),
-            np.empty((k, b - a), np.float32),
+            np.empty((k, b - a), np.float32) if directions else None,
+            np.zeros(b - a, dtype=bool),
         )
-        outs = (*outs, np.zeros(b - a, dtype=bool))
     zeta, ref, nis, bad = outs
     scale = ssm.y_scale[:, None]
 
@@ -1203,8 +1250,11 @@ def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray,
 
     for lo, y in run_chunked(bank, inputs, b, a):
         cols = slice(lo - at, lo - at + y.shape[2])
-        zeta[:, cols] = y[:, m] * scale
-        ref[:, cols] = y[:, m + 1]  # centred, scaled: see DetectionFilter._run_outputs
+        # the two estimates are each filter's last outputs (all it has in a selected bank)
+        zeta[:, cols] = y[:, -2] * scale
+        ref[:, cols] = y[:, -1]  # centred, scaled: see DetectionFilter._run_outputs
+        if nis is None:
+            continue
         for i in range(k):
             off = np.delete(y[i, :m] * scale, i, axis=0)
             nis[i, cols] = _nis(off.T, model.direction_inv_cov[i])

@@ -310,6 +310,13 @@ class ImpulseResponseBank:
             taps = max(taps, length)
         return taps
 
+    def select(self, outputs: Sequence[int]) -> ImpulseResponseBank:
+        """The bank restricted to the outputs ``outputs`` of every system: the same
+        numbers, at about ``len(outputs) / q`` of the cost of a run of the whole bank."""
+        idx = (np.arange(self.k)[:, None] * self.q + np.asarray(outputs)[None, :]).ravel()
+        spectrum = np.ascontiguousarray(self.spectrum[:, idx, :])
+        return ImpulseResponseBank(self.taps, self.nfft, self.k, len(outputs), spectrum)
+
     def run(self, v: FloatArray) -> Iterator[tuple[int, FloatArray]]:
         """Outputs for inputs ``v`` (N, r) from rest, in chunks: yields ``(start, y)`` with
         ``y`` of shape ``(k, q, n)`` for samples ``start .. start + n - 1``."""

@@ -190,3 +190,60 @@ def test_chunked_bank_block_equals_one_chunk(fitted, monkeypatch):
         ref, got = getattr(whole, name), getattr(into, name)[5:]
         assert np.array_equal(np.isnan(ref), np.isnan(got)), name
         assert np.nanmax(np.abs(got - ref)) <= 1e-12 * np.nanmax(np.abs(ref)), name
+
+
+def test_estimate_outputs_alone_equal_the_whole_bank(fitted):
+    """Without the consistency the bank runs its estimate outputs only: the same residuals
+    and estimates (gaps and their masks included), and no consistency."""
+    _, model, data = fitted
+    ar, bank = model.ar, model.bank
+    assert bank.estimates is not None and bank.estimates.k * bank.estimates.q == ar.m
+    Y = np.array(data.values, copy=True)
+    Y[7000:7050, 1] = np.nan
+    whole = bank_block(ar.mean, ar.scale, bank, Y, 0, None)
+    lean = bank_block(ar.mean, ar.scale, bank, Y, 0, None, consistency=False)
+    assert lean.nis is None and lean.innov is None
+    for name in ("resid", "est"):
+        ref, got = getattr(whole, name), getattr(lean, name)
+        assert np.array_equal(np.isnan(ref), np.isnan(got)), name
+        assert np.nanmax(np.abs(got - ref)) <= 1e-12 * np.nanmax(np.abs(ref)), name
+
+
+@pytest.mark.parametrize("pool", [None, "threads", "cluster"])
+def test_consistency_windows_equal_the_whole_record_run(fitted, two_thread_pool, pool, monkeypatch):
+    """The consistency recomputed over a window (pieces of a few rows, each after its
+    warm-up; time blocks on a pool; with a gap, and with a correction of the record)
+    equals the whole-record run's over the same rows."""
+    import analyzer.detectors.ar_kalman as ak
+    import analyzer.detectors.lti as lti
+
+    det, model, data = fitted
+    ctx = RunContext()
+    if pool is not None:
+        monkeypatch.setattr(lti, "MIN_TIME_BLOCK", 1)  # several time blocks per piece
+        ctx = RunContext(jobs=2, executor=two_thread_pool(pool == "threads"))
+    Y = np.array(data.values, copy=True)
+    Y[12000:12030, 2] = np.nan
+    whole = det._bank_outputs(model, Y, None)
+    piece = ak.CONSISTENCY_PIECE
+    try:
+        ak.CONSISTENCY_PIECE = 2500  # several pieces in the window
+        for lo, hi in [(0, 900), (11000, 19000), (29000, 30000)]:
+            got = det._consistency(model, Y, [], lo, hi, ctx)
+            ref = whole.nis[lo:hi]
+            assert got.shape == ref.shape and got.dtype == ak.NIS_DTYPE
+            assert np.array_equal(np.isnan(ref), np.isnan(got))
+            np.testing.assert_allclose(got, ref, rtol=1e-5, atol=1e-6)
+        # a correction: the window equals the run over the corrected record
+        fixed = Y[15000:16000, 0] + 3.0
+        fixes = [(0, 15000, 16000, fixed)]
+        Yc = Y.copy()
+        Yc[15000:16000, 0] = fixed
+        ref = det._bank_outputs(model, Yc, None).nis[14000:18000]
+        got = det._consistency(model, Y, fixes, 14000, 18000, ctx)
+        np.testing.assert_allclose(got, ref, rtol=1e-5, atol=1e-6)
+        assert np.array_equal(Y[15000:16000, 0], data.values[15000:16000, 0])  # input kept
+        if pool is not None:
+            assert ctx.executor.calls > 0
+    finally:
+        ak.CONSISTENCY_PIECE = piece

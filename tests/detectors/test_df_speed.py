@@ -184,3 +184,35 @@ def test_fit_relation_equals_lstsq_on_the_lagged_matrix():
     coef = np.linalg.lstsq(M[ok], t[ok], rcond=None)[0]
     assert rel.intercept == pytest.approx(coef[0], abs=1e-8)
     np.testing.assert_allclose(rel.coef.ravel(), coef[1:], atol=1e-8)
+
+
+@pytest.mark.parametrize("shares_memory", [None, True, False])
+def test_estimates_alone_and_direction_windows_equal_the_full_run(
+    shares_memory, monkeypatch, two_thread_pool
+):
+    """Without the direction statistic the bank runs its two estimate outputs per filter
+    only (serially, on threads, on a cluster): the same estimates and gap rows. The
+    alarm statistics of the direction statistic recomputed over a window equal those of
+    the whole-record direction statistic there, sample by sample (gap included)."""
+    from analyzer.diagnosis.changes import alarm_statistic
+
+    det, model, Y = _fitted_filter(60.0, seed=5)
+    Yg = Y.copy()
+    Yg[9000:9030, 1] = np.nan
+    zeta, ref, nis, bad = det._run_outputs(model, Yg)
+    ctx = None
+    if shares_memory is not None:
+        monkeypatch.setattr(lti, "MIN_TIME_BLOCK", 2)  # several blocks on a short record
+        ctx = RunContext(jobs=2, executor=two_thread_pool(shares_memory))
+    bank = filter_bank(model.filters)
+    z2, r2, n2, b2 = det._run_outputs(model, Yg, ctx, directions=False, bank=bank)
+    assert n2 is None
+    np.testing.assert_array_equal(b2, bad)
+    for a, b in ((z2, zeta), (r2, ref)):
+        np.testing.assert_array_equal(np.isnan(a), np.isnan(b))
+        np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-9 * np.nanmax(np.abs(b)))
+    stats = [alarm_statistic(nis[i], model.direction_cal[i], raw=True) for i in range(len(nis))]
+    for lo, hi in [(10, 700), (8600, 9600), (11000, 11900)]:
+        got = det._direction_statistics(model, bank, Yg, bad, lo, hi)
+        for g, s in zip(got, stats, strict=True):
+            np.testing.assert_allclose(g, s[lo:hi], rtol=1e-5, atol=1e-7)
