@@ -3,6 +3,9 @@ state-space form (Chang et al. 2017, Eq. 1-8)."""
 
 from __future__ import annotations
 
+import hashlib
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -145,11 +148,35 @@ def _least_squares(X: FloatArray, T: FloatArray) -> tuple[FloatArray, int]:
     return B, int(rank)
 
 
+_ORDERS: OrderedDict[tuple[object, ...], int] = OrderedDict()
+_ORDERS_LOCK = threading.Lock()
+_ORDERS_KEPT = 8
+
+
 def select_order(Y: FloatArray, criterion: str = "bic", max_order: int = 12) -> int:
     """AR order minimizing AIC or BIC (Akaike 1974) among the orders the training window
-    supports, all fitted on the same rows so the criteria are comparable."""
+    supports, all fitted on the same rows so the criteria are comparable.
+
+    The answer is remembered for the last few training windows (by content): the bank and
+    the detection filter select their order on the same window, often at the same time
+    on two threads, and the second then waits for the first instead of repeating it."""
     if criterion not in ("aic", "bic"):
         raise DetectorError(f"order criterion must be 'aic' or 'bic', got {criterion!r}")
+    Y = np.ascontiguousarray(Y, dtype=np.float64)
+    digest = hashlib.blake2b(Y.data, digest_size=16).digest()
+    key = (Y.shape, criterion, int(max_order), digest)
+    with _ORDERS_LOCK:
+        if key in _ORDERS:
+            _ORDERS.move_to_end(key)
+            return _ORDERS[key]
+        order = _select_order(Y, criterion, max_order)
+        _ORDERS[key] = order
+        while len(_ORDERS) > _ORDERS_KEPT:
+            _ORDERS.popitem(last=False)
+        return order
+
+
+def _select_order(Y: FloatArray, criterion: str, max_order: int) -> int:
     n, m = Y.shape
     orders = [p for p in range(1, max_order + 1) if required_samples(p, m) <= n]
     if not orders:

@@ -63,3 +63,31 @@ def test_duplicated_channel_is_singular(building):
 def test_bad_criterion():
     with pytest.raises(DetectorError, match="'aic' or 'bic'"):
         select_order(np.zeros((10, 2)), "hqic")
+
+
+def test_select_order_is_remembered_per_training_window(monkeypatch):
+    """The same window (by content, also from another array or thread) is scored once;
+    another window, criterion or maximum order is scored again."""
+    import threading
+
+    import analyzer.detectors.ar_model as arm
+
+    calls = []
+    real = arm._select_order
+    monkeypatch.setattr(arm, "_select_order", lambda *a: calls.append(1) or real(*a))
+    monkeypatch.setattr(arm, "_ORDERS", type(arm._ORDERS)())
+    rng = np.random.default_rng(5)
+    Y = rng.standard_normal((3000, 3)).cumsum(axis=0)
+    first = arm.select_order(Y, "bic", 6)
+    got = []
+    threads = [threading.Thread(target=lambda: got.append(arm.select_order(Y.copy(), "bic", 6)))]
+    threads[0].start()
+    threads[0].join()
+    assert got == [first] and len(calls) == 1
+    Z = Y.copy()
+    Z[10, 1] += 1e-9
+    arm.select_order(Z, "bic", 6)
+    arm.select_order(Y, "aic", 6)
+    arm.select_order(Y, "bic", 5)
+    assert len(calls) == 4
+    assert arm.select_order(Y, "bic", 6) == arm._select_order(Y, "bic", 6) == first
