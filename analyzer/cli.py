@@ -7,8 +7,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -21,7 +24,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 from analyzer import __version__  # noqa: E402
-from analyzer.errors import AnalyzerError, UsageError  # noqa: E402
+from analyzer.errors import AnalyzerError, ReaderError, UsageError  # noqa: E402
 
 
 class _Parser(argparse.ArgumentParser):
@@ -36,8 +39,8 @@ def _positive_float(text: str) -> float:
         v = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not v > 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
+    if not (v > 0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
     return v
 
 
@@ -186,6 +189,9 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     from analyzer.inspect import inspect_archive, render_table
 
     doc = inspect_archive(args.inputs, time=args.time)
+    errors = [f"{i['path']}: {e}" for i in doc["inputs"] for e in i["errors"]]
+    if not doc["channels"] and errors:  # nothing could be read: an input error, as for run
+        raise ReaderError("; ".join(errors))
     if args.json:
         print(json.dumps(doc, indent=2))
     else:
@@ -236,21 +242,66 @@ def cmd_watch(args: argparse.Namespace) -> int:
 COMMANDS = {"inspect": cmd_inspect, "export": cmd_export, "run": cmd_run, "watch": cmd_watch}
 
 
+def _terminate(signum: int, frame: Any) -> None:
+    raise KeyboardInterrupt  # unwinds like Ctrl-C: scratch files and partial outputs go
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
+
+
+def _naming_inputs(message: str, inputs: Sequence[str]) -> str:
+    """``message`` prefixed with the inputs it is about, unless it names an input or an
+    option already (the contract: an error names the file or the option)."""
+    head = message.split(":", 1)[0].strip()
+    if not inputs or head.startswith(("--", "[")) or (head and os.path.exists(head)):
+        return message  # an option, a config section, or a file (the config) first
+    for i in inputs:
+        if i in message or Path(i).name in message:
+            return message
+    return f"{', '.join(inputs)}: {message}"
+
+
+def _error(message: str) -> int:
+    print(f"analyzer: error: {_one_line(message)}", file=sys.stderr)
+    return 2
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    args = None
+    previous = None
     try:
         args = build_parser().parse_args(argv)
+        if args.command != "watch" and threading.current_thread() is threading.main_thread():
+            # SIGTERM (timeout, kill) unwinds as Ctrl-C does, so nothing is left behind;
+            # the watcher handles its own signals
+            previous = signal.signal(signal.SIGTERM, _terminate)
         with warnings.catch_warnings():
             # numerical warnings on degenerate stretches (all-NaN windows...) are handled
             # by the code that meets them; stderr carries only the one-line verdicts
             warnings.simplefilter("ignore", RuntimeWarning)
             return COMMANDS[args.command](args)
     except AnalyzerError as err:
-        msg = " ".join(str(err).split())  # one line, whatever the message held
-        print(f"analyzer: error: {msg}", file=sys.stderr)
-        return 2
+        inputs = [str(i) for i in getattr(args, "inputs", None) or []]
+        return _error(_naming_inputs(_one_line(str(err)), inputs))
     except KeyboardInterrupt:
         print("analyzer: interrupted", file=sys.stderr)
         return 130
+    except OSError as err:  # the file system refused (disk full, permissions...)
+        where = f"{err.filename}: " if getattr(err, "filename", None) else ""
+        return _error(f"{where}{err.strerror or err}")
+    except MemoryError:
+        return _error("out of memory (choose fewer channels with --channels, or a lower --rate)")
+    except Exception as err:  # a bug: still one line and exit 2, never 1 ("fault found")
+        if os.environ.get("ANALYZER_DEBUG"):
+            raise
+        return _error(
+            f"internal error: {type(err).__name__}: {err} (please report it; set "
+            "ANALYZER_DEBUG=1 for the traceback)"
+        )
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from analyzer.errors import UsageError
+from analyzer.outdir import prepare_dir, remove_if_empty
 from analyzer.readers import open_archive
 from analyzer.readers.base import TimeSource
 from analyzer.store import AlignedSeries, ChannelStore
@@ -27,6 +28,25 @@ def export_archive(
     suffix = "".join(out.suffixes[-1:]).lower()
     if suffix not in (".csv", ".parquet"):
         raise UsageError(f"--out: {out} must end in .csv or .parquet")
+    if out.is_dir():
+        raise UsageError(f"--out: {out} is a directory")
+    created = prepare_dir(out.parent, "--out")  # before reading: not at the end
+    try:
+        return _export(inputs, out, suffix, channels, rate, time)
+    except BaseException:
+        if created:
+            remove_if_empty(out.parent)
+        raise
+
+
+def _export(
+    inputs: Sequence[str | Path],
+    out: Path,
+    suffix: str,
+    channels: list[str] | None,
+    rate: float | None,
+    time: TimeSource,
+) -> Path:
     archive = open_archive(inputs)
     with (
         tempfile.TemporaryDirectory(prefix="analyzer-export-") as tmp,
@@ -42,7 +62,6 @@ def export_archive(
         if not names:
             raise UsageError(f"{', '.join(map(str, inputs))}: no numeric channel to export")
         aligned = store.align(names, rate)
-        out.parent.mkdir(parents=True, exist_ok=True)
         tmp_out = out.with_name(f".{out.name}.part")
         try:
             if suffix == ".csv":

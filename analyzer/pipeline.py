@@ -4,6 +4,7 @@ backend): readers -> store -> detectors -> diagnosis -> report."""
 from __future__ import annotations
 
 import hashlib
+import inspect
 import json
 import os
 import shutil
@@ -23,7 +24,9 @@ from analyzer.detectors.ar_model import flat_channels
 from analyzer.detectors.base import SIGNAL_DTYPE
 from analyzer.diagnosis import Finding, merge_events
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
+from analyzer.diagnosis.stuck import relabel_frozen
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
+from analyzer.outdir import prepare_dir, remove_if_empty
 from analyzer.paging import release, spill, trim_heap
 from analyzer.parallel import (
     DaskExecutor,
@@ -91,7 +94,8 @@ class Analysis:
 
     @property
     def duration_s(self) -> float:
-        return (self.n - 1) / self.rate_hz if self.n else 0.0
+        """``n / rate``: the time ``n`` samples cover (one sample period each)."""
+        return self.n / self.rate_hz
 
     @property
     def faulty(self) -> bool:
@@ -108,21 +112,7 @@ class Analysis:
 
 def parse_train(text: str, start_ns: int, duration_s: float, absolute: bool) -> tuple[float, float]:
     """``--train START:END`` in seconds from the first sample or ISO-8601 times."""
-    if text.count(":") < 1:
-        raise UsageError(f"--train: expected START:END, got {text!r}")
-    # ISO times contain colons: split on the separating colon between two parseable halves
-    parts = None
-    for i, ch in enumerate(text):
-        if ch != ":":
-            continue
-        try:
-            a, b = parse_time(text[:i]), parse_time(text[i + 1 :])
-        except ValueError:
-            continue
-        parts = (a, b)
-        break
-    if parts is None:
-        raise UsageError(f"--train: cannot read {text!r} as START:END (seconds or ISO-8601 times)")
+    parts = _train_parts(text)
     secs = []
     for kind, val in parts:
         if kind == "ns":
@@ -141,6 +131,30 @@ def parse_train(text: str, start_ns: int, duration_s: float, absolute: bool) -> 
             f"--train: the window {text!r} starts after the data ends ({duration_s:.3f} s)"
         )
     return lo, min(hi, duration_s)
+
+
+def _train_parts(text: str) -> tuple[tuple[str, Any], tuple[str, Any]]:
+    """The two halves of ``--train START:END`` as :func:`parse_time` reads them."""
+    if text.count(":") < 1:
+        raise UsageError(f"--train: expected START:END, got {text!r}")
+    # ISO times contain colons: split on the separating colon between two parseable halves
+    for i, ch in enumerate(text):
+        if ch != ":":
+            continue
+        try:
+            return parse_time(text[:i]), parse_time(text[i + 1 :])
+        except ValueError:
+            continue
+    raise UsageError(f"--train: cannot read {text!r} as START:END (seconds or ISO-8601 times)")
+
+
+def check_train(text: str) -> None:
+    """What can be checked of ``--train`` before the data is read (its syntax and order),
+    so a bad window is a usage error up front (the watcher checks it once, not per
+    archive)."""
+    (ka, a), (kb, b) = _train_parts(text)
+    if ka == kb and not (float(a) < float(b) and (ka == "ns" or float(a) >= 0.0)):
+        raise UsageError(f"--train: the window {text!r} must satisfy 0 <= START < END")
 
 
 def default_train(duration_s: float) -> tuple[float, float]:
@@ -393,6 +407,12 @@ def _analyze(
             tr = parse_train(options.train, aligned.start_ns, duration, absolute)
         elif options.config.train is not None:
             tr = options.config.train
+            if tr[0] >= duration:
+                raise ConfigError(
+                    f"{options.config.path}: [train] the window {tr[0]:g}-{tr[1]:g} s starts "
+                    f"after the data ends ({duration:.3f} s)"
+                )
+            tr = (tr[0], min(tr[1], duration))
         else:
             tr = default_train(duration)
         train = (int(round(tr[0] * aligned.rate_hz)), int(round(tr[1] * aligned.rate_hz)) + 1)
@@ -407,9 +427,16 @@ def _analyze(
             )
             keep = np.flatnonzero(~flat)
             if keep.size == 0:
+                how = (
+                    "--train"
+                    if options.train is not None
+                    else "[train] in the config"
+                    if options.config.train is not None
+                    else "--train (default: the first 20 % of the data)"
+                )
                 raise UsageError(
                     "every selected channel is constant or empty in the training window "
-                    f"({tr[0]:.3f}-{tr[1]:.3f} s): choose another --train window"
+                    f"({tr[0]:.3f}-{tr[1]:.3f} s): choose another window with {how}"
                 )
             chosen = [chosen[k] for k in keep]
             values = np.asarray(values)[:, keep]
@@ -436,6 +463,8 @@ def _analyze(
             why = "; ".join(f"{k}: {v}" for k, v in skipped.items())
             raise DetectorError(f"no detector could run ({why})")
         findings = merge_events(ev for r in results for ev in r.events)
+        # a frozen sensor is told by its readings, not by the residual's shape
+        notes.extend(relabel_frozen(findings, values, chosen, aligned.rate_hz, train))
         t0 = time.perf_counter()
         attach_evidence(findings, results, aligned.rate_hz, train)
         # the tests of each detector's residuals are independent: local threads share
@@ -606,21 +635,54 @@ def write_outputs(analysis: Analysis, out_dir: Path) -> dict[str, Any]:
 def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) -> int:
     """``analyzer run``: analyze, write the outputs, return the exit code (0 or 1)."""
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"--out: {out} exists and is not a directory")
+    created = prepare_dir(out, "--out")  # before the work: it must not fail at the end
     work = Path(tempfile.mkdtemp(prefix="analyzer-"))
     try:
         analysis = analyze(inputs, options, work)
         write_outputs(analysis, out)
         return 1 if analysis.faulty else 0
+    except BaseException:
+        if created:
+            remove_if_empty(out)
+        raise
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
 
 def load_options(config_path: str | None, **kw: Any) -> RunOptions:
-    """RunOptions with the config file loaded and validated."""
+    """RunOptions with the config file loaded and validated (every detector section,
+    whether or not that detector runs: a typo never passes silently)."""
     cfg = load_config(config_path, set(REGISTRY))
+    _check_detector_options(cfg)
+    if kw.get("train") is not None:
+        check_train(kw["train"])
+    if kw.get("detectors"):
+        kw["detectors"] = list(dict.fromkeys(kw["detectors"]))  # each detector runs once
+        for name in kw["detectors"]:
+            detector_class(name)  # an unknown name is a usage error before any reading
     return RunOptions(config=cfg, **kw)
+
+
+def _check_detector_options(cfg: Config) -> None:
+    """Each ``[detectors.NAME]`` section's settings: known to the detector and accepted by
+    it (:class:`ConfigError` naming the file, the section and the setting)."""
+    for name, opts in cfg.detectors.items():
+        cls = detector_class(name)
+        params = inspect.signature(cls.__init__).parameters
+        known = [k for k, p in params.items() if k != "self" and p.kind is p.POSITIONAL_OR_KEYWORD]
+        if not any(p.kind is p.VAR_KEYWORD for p in params.values()):
+            for key in opts:
+                if key not in known:
+                    raise ConfigError(
+                        f"{cfg.path}: [detectors.{name}] unknown setting {key!r} "
+                        f"(known: {', '.join(known)})"
+                    )
+        try:
+            cls(**opts)
+        except (AnalyzerError, TypeError, ValueError) as err:
+            msg = str(err)
+            where = "" if msg.startswith(f"[detectors.{name}]") else f"[detectors.{name}] "
+            raise ConfigError(f"{cfg.path}: {where}{msg}") from err
 
 
 __all__ = [

@@ -10,10 +10,12 @@ from analyzer.types import NS_PER_S
 
 
 def iso_utc(ns: int | None) -> str | None:
-    """``2026-01-01T00:01:43.990Z`` (millisecond precision) for epoch nanoseconds."""
+    """``2026-01-01T00:01:43.990Z`` for epoch nanoseconds, rounded to the nearest
+    millisecond (so it agrees with a time in seconds rounded to three decimals)."""
     if ns is None:
         return None
-    sec, rem = divmod(int(ns), NS_PER_S)
+    ms = (int(ns) + 500_000) // 1_000_000
+    sec, rem = divmod(ms * 1_000_000, NS_PER_S)
     dt = datetime.fromtimestamp(sec, tz=UTC)
     return dt.strftime("%Y-%m-%dT%H:%M:%S") + f".{rem // 1_000_000:03d}Z"
 

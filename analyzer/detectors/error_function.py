@@ -608,6 +608,9 @@ class ErrorFunctionModel:
     window: int
     functions: tuple[SensorFunction, ...]
     notes: tuple[str, ...] = ()
+    isolating: bool = True
+    """False without ``[[group]]``: each sensor was examined against all the others, so
+    one failed sensor disturbs every error function that uses it as a reference."""
 
     @property
     def p(self) -> int:
@@ -782,14 +785,15 @@ class ErrorFunction:
                         f"deviations): the references carry little information about it"
                     )
                 functions.append(f)
-        if not any(g.explicit for g in groups):
+        isolating = any(g.explicit for g in groups)
+        if not isolating:
             notes.append(
                 "no [[group]] configured: each sensor was examined with all the others as "
                 "references, so a failed sensor also disturbs the others' error functions "
                 "(no isolation)"
             )
         return ErrorFunctionModel(
-            self.approach, self.direction, window, tuple(functions), tuple(notes)
+            self.approach, self.direction, window, tuple(functions), tuple(notes), isolating
         )
 
     def _direct(
@@ -992,6 +996,10 @@ class ErrorFunction:
                 )
             )
             context.report(self.name, (k + 1) / len(model.functions))
+        notes = list(model.notes)
+        if not model.isolating and model.functions:
+            span = model.functions[0].calibration.long_window / data.rate_hz
+            events = _one_per_fault(events, span, notes)
         params = {
             "approach": model.approach,
             "p": model.p,
@@ -1009,8 +1017,53 @@ class ErrorFunction:
             sigma=sigma,
             thresholds=thresholds,
             model={"approach": model.approach, "p": model.p, "sensors": sensors},
-            notes=list(model.notes),
+            notes=notes,
         )
+
+
+UNISOLATED_FACTOR = 0.5
+"""Confidence factor of a fault the error functions saw without ``[[group]]``: which
+sensor failed is a best guess (the strongest alarm), not an isolation."""
+
+
+def _one_per_fault(events: list[Event], span_s: float, notes: list[str]) -> list[Event]:
+    """Without groups, alarms of several sensors' error functions that start within
+    ``span_s`` of each other are one physical fault (the failed sensor is a reference of
+    every other function): one event, on the sensor whose alarm is the strongest, with
+    the others as candidates and a lower confidence."""
+
+    def first(e: Event) -> float:
+        return float(e.evidence.get("first_alarm_s", e.onset_s))
+
+    out: list[Event] = []
+    pending = sorted(events, key=first)
+    while pending:
+        t0 = first(pending[0])
+        group = [e for e in pending if first(e) <= t0 + span_s]
+        best = max(group, key=lambda e: float(e.evidence.get("peak_over_threshold", 0.0)))
+        if len(group) > 1:
+            others = sorted({e.channel for e in group} - {best.channel})
+            best.evidence["isolated"] = False
+            best.evidence["candidates"] = sorted({e.channel for e in group})
+            best.confidence *= UNISOLATED_FACTOR
+            notes.append(
+                f"alarms near {t0:.3f} s on {best.channel} and {', '.join(others)}: reported "
+                f"once, on the strongest ({best.channel}); without [[group]] the error "
+                "functions cannot tell which sensor failed"
+            )
+        # while that fault lasts, every function that uses the sensor may alarm later
+        # (a growing disturbance): the same fault, as far as these functions can tell
+        until = np.inf if best.end_s is None else best.end_s
+        later = [e for e in pending if t0 + span_s < first(e) < until]
+        pending = [e for e in pending if first(e) > t0 + span_s and first(e) >= until]
+        for e in later:
+            notes.append(
+                f"alarm on {e.channel} at {first(e):.3f} s, during the fault reported on "
+                f"{best.channel}: taken as its effect (without [[group]] the error functions "
+                "cannot tell a second failure from it)"
+            )
+        out.append(best)
+    return out
 
 
 def _residual_and_reference(

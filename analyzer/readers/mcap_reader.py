@@ -248,6 +248,7 @@ class McapReader:
         loose: list[tuple[int, int, bytes]] = []
         finished = False
         count = 0
+        damage: str | None = None
         try:
             for record in reader.records:
                 if isinstance(record, MessageIndex) and pending is not None:
@@ -284,15 +285,14 @@ class McapReader:
         ) as err:
             eof = isinstance(err, EndOfFile)
             reason = "unexpected end of file" if eof else one_line(err)
-            self._error(
-                f"truncated or damaged at byte {handle.tell()} ({reason}); "
-                f"the {count} messages before it were read"
-            )
+            damage = f"truncated or damaged at byte {handle.tell()} ({reason})"
             finished = True
         if pending is not None:
             count += self._stream_chunk(*pending, reorder, time)
         if loose:
             count += self._decode_loose(loose, reorder, time)
+        if damage is not None:  # counted once what was read before the damage is decoded
+            self._error(f"{damage}; the {count} messages before it were read")
         if not finished:
             self._error("truncated: the file ends without a DataEnd/Footer record")
         yield from reorder.flush()

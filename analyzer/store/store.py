@@ -45,6 +45,15 @@ SPILL_SAMPLES = 1 << 22
 """Buffered samples (all channels) before the buffers are written to the work dir."""
 
 
+MAX_ROWS_PER_SAMPLE = 100
+"""The common clock may have at most this many rows per sample of the densest channel
+(plus :data:`MIN_ROWS_ALLOWED`): more means a timestamp far from the rest (one glitched
+row of an epoch-time log spans decades) or an absurd ``--rate``, which would otherwise
+fill the disk with an aligned matrix of gaps."""
+
+MIN_ROWS_ALLOWED = 1_000_000
+
+
 @dataclass(slots=True)
 class ChannelInfo:
     """What ``inspect`` reports about one channel (raw samples, before alignment)."""
@@ -191,13 +200,15 @@ class ChannelStore:
 
     def select(self, patterns: Sequence[str] | None = None, numeric_only: bool = True) -> list[str]:
         """Channels matching any shell-style pattern (all when None), without the constant
-        or empty ones when ``patterns`` is None (the contract's default)."""
+        or empty ones when ``patterns`` is None (the contract's default). A pattern that
+        is a channel's exact name selects that channel, so ``/accel.data[3]`` means the
+        array element, not a character class (as a pattern it also matches on)."""
         self._need_final()
         if not patterns:
             return [i.name for i in self._info.values() if not (numeric_only and i.constant)]
         out = []
         for name in self._info:
-            if any(fnmatch.fnmatchcase(name, p) for p in patterns):
+            if any(name == p or fnmatch.fnmatchcase(name, p) for p in patterns):
                 out.append(name)
         return out
 
@@ -222,6 +233,19 @@ class ChannelStore:
         if t1 < t0:
             raise StoreError("empty time range")
         n = int(np.floor((t1 - t0) * rate / NS_PER_S + 1e-9)) + 1
+        span = (t1 - t0) / NS_PER_S
+        if n < 2 and rate_hz is not None and span > 0:
+            raise StoreError(
+                f"--rate {rate:g} Hz is too low: the data span {span:.6g} s, which gives "
+                f"{n} row(s) on that clock (need at least 2, so at least {1 / span:.3g} Hz)"
+            )
+        most = max(i.samples for i in infos)  # type: ignore[union-attr]
+        if n > MAX_ROWS_PER_SAMPLE * most + MIN_ROWS_ALLOWED:
+            raise StoreError(
+                f"the common clock at {rate:g} Hz would need {n:,} rows over {span:.6g} s for "
+                f"at most {most:,} samples per channel: a timestamp lies far from the others "
+                "(an outlier, or a wrong unit), or --rate is far above the data's rate"
+            )
         return AlignedSeries(self, tuple(channels), rate, t0, n)
 
     def _need_final(self) -> None:
@@ -309,7 +333,8 @@ class AlignedSeries:
 
     @property
     def duration_s(self) -> float:
-        return (self.n - 1) / self.rate_hz if self.n else 0.0
+        """``n / rate``: the time ``n`` samples cover (one sample period each)."""
+        return self.n / self.rate_hz
 
     def times_ns(self, a: int = 0, b: int | None = None) -> IntArray:
         b = self.n if b is None else b

@@ -1,0 +1,82 @@
+"""Stuck and dead sensors, told apart from the raw readings over a fault.
+
+The residual shapes cannot separate a sensor frozen at some value from an offset or a
+gain: a reading frozen at ``c`` leaves the residual ``c - x`` (an "offset" if the
+structure is quiet, a "gain" near 0 otherwise). The readings themselves can: over the
+fault they hardly vary while in the healthy window they did. Frozen at the sensor's zero
+it is a dead sensor (the contract's multiplicative fault with gain 0); frozen anywhere
+else it is stuck (the contract's ``other``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from analyzer.diagnosis.merge import Finding
+from analyzer.types import FaultType
+
+FLAT = 0.01
+"""Readings vary by less than this fraction of their healthy standard deviation: frozen."""
+
+ZERO = 0.01
+"""A frozen reading within this fraction of the healthy standard deviation of zero reads
+zero: a dead sensor rather than a stuck one."""
+
+MIN_FLAT_SAMPLES = 16
+"""Fewer finite samples over a fault than this say nothing about its being frozen."""
+
+
+def relabel_frozen(
+    findings: Sequence[Finding],
+    values: npt.NDArray[Any],
+    channels: Sequence[str],
+    rate_hz: float,
+    train: tuple[int, int],
+) -> list[str]:
+    """Set the type of each finding whose channel is frozen over the fault: ``other``
+    (stuck, magnitude ``stuck_at`` and ``offset`` from the healthy mean) or
+    ``multiplicative`` with gain 0 (dead); returns a note per change."""
+    notes: list[str] = []
+    index = {c: j for j, c in enumerate(channels)}
+    n = values.shape[0]
+    for f in findings:
+        j = index.get(f.channel)
+        if j is None:
+            continue
+        a = max(0, int(round(f.onset_s * rate_hz)))
+        b = n if f.end_s is None else min(n, int(round(f.end_s * rate_hz)))
+        seg = np.asarray(values[a:b, j], dtype=np.float64)
+        seg = seg[np.isfinite(seg)]
+        healthy = np.asarray(values[train[0] : train[1], j], dtype=np.float64)
+        healthy = healthy[np.isfinite(healthy)]
+        if seg.size < MIN_FLAT_SAMPLES or healthy.size < 2:
+            continue
+        sd = float(np.std(healthy))
+        if not sd > 0 or float(np.std(seg)) > FLAT * sd:
+            continue
+        level = float(np.median(seg))
+        before = f.type
+        if abs(level) <= ZERO * sd:
+            f.type = FaultType.MULTIPLICATIVE
+            f.magnitude = {"gain": 0.0}
+            what = "dead (reads 0)"
+        else:
+            f.type = FaultType.OTHER
+            f.magnitude = {"stuck_at": level, "offset": level - float(np.mean(healthy))}
+            what = f"stuck at {level:.6g}"
+        f.evidence["frozen"] = {
+            "level": level,
+            "std_ratio": float(np.std(seg)) / sd,
+            "was": str(before),
+        }
+        if f.type is not before or what.startswith("stuck"):
+            notes.append(
+                f"{f.channel} from {f.onset_s:.3f} s: {what}: its readings vary by "
+                f"{float(np.std(seg)) / sd:.2g} of their healthy spread (the residual alone "
+                f"read it as {before})"
+            )
+    return notes

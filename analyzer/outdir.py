@@ -1,0 +1,34 @@
+"""Output locations checked before the work, not after it."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+
+from analyzer.errors import UsageError
+
+
+def prepare_dir(path: Path, option: str = "--out") -> bool:
+    """Create the directory ``path`` (with its parents) and check that a file can be
+    written in it, so a long analysis cannot fail at its very end for want of a place to
+    write; :class:`UsageError` naming ``option`` otherwise. Returns whether the directory
+    was created here (a caller may remove it again if it ends up empty)."""
+    if path.exists() and not path.is_dir():
+        raise UsageError(f"{option}: {path} exists and is not a directory")
+    created = not path.exists()
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".analyzer-probe-", dir=path)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as err:
+        raise UsageError(f"{option}: cannot write to {path}: {err.strerror or err}") from None
+    return created
+
+
+def remove_if_empty(path: Path) -> None:
+    """Remove the directory ``path`` if nothing was written to it."""
+    with contextlib.suppress(OSError):
+        path.rmdir()

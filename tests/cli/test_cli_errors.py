@@ -1,0 +1,281 @@
+"""Bad input and bad options found by a contract audit: each is exit 2 with one line that
+names the file or the option (never a traceback, never exit 1, which means "fault
+found"), checked before the work where it can be, and nothing left behind."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from analyzer.cli import main
+from analyzer.simulate import simulate_building
+from analyzer.timeutil import iso_utc
+from analyzer.writers import write_archive
+
+REPO = Path(__file__).resolve().parents[2]
+SAMPLES = REPO / "samples"
+RATE = 200.0
+
+
+def _csv(path: Path, seconds: float = 60.0, seed: int = 0, epoch: bool = False) -> Path:
+    t, Y, names = simulate_building(n_floors=3, duration_s=seconds, seed=seed)
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    start = "2026-03-01T12:00:00Z" if epoch else None
+    write_archive(path, "csv", t_ns, {n: Y[:, j] for j, n in enumerate(names)}, start_iso=start)
+    return path
+
+
+def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _one_line(err: str, *needles: str) -> str:
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    for n in needles:
+        assert n in lines[0], (n, lines[0])
+    return lines[0]
+
+
+@pytest.mark.parametrize("rate", ["inf", "nan", "-1"])
+def test_rate_must_be_finite_and_positive(rate, tmp_path, capsys):
+    code, _, err = _run(
+        ["run", _csv(tmp_path / "a.csv"), "--out", tmp_path / "o", "--rate", rate], capsys
+    )
+    assert code == 2
+    _one_line(err, "--rate")
+
+
+def test_rate_too_low_or_too_high_is_refused_before_aligning(tmp_path, capsys):
+    src = _csv(tmp_path / "a.csv")
+    code, _, err = _run(["export", src, "--out", tmp_path / "x.csv", "--rate", "1e-9"], capsys)
+    assert code == 2
+    _one_line(err, "--rate", "too low")
+    code, _, err = _run(["export", src, "--out", tmp_path / "x.csv", "--rate", "1e12"], capsys)
+    assert code == 2
+    _one_line(err, "rows")
+    assert not (tmp_path / "x.csv").exists()
+
+
+def test_an_outlier_timestamp_is_an_error_not_a_disk_full_of_gaps(tmp_path, capsys):
+    """One row at time 0 in an epoch-time log would span decades on the common clock."""
+    t, Y, _ = simulate_building(n_floors=3, duration_s=30.0, seed=0)
+    rows = [f"{1767225600.0 + ti:.3f},{y[0]},{y[1]},{y[2]}" for ti, y in zip(t, Y, strict=True)]
+    src = tmp_path / "epoch.csv"
+    src.write_text("\n".join(["epoch,s0,s1,s2", *rows, "0,1,2,3"]) + "\n")
+    for argv in (
+        ["run", src, "--out", tmp_path / "o"],
+        ["export", src, "--out", tmp_path / "x.csv"],
+    ):
+        code, _, err = _run(argv, capsys)
+        assert code == 2
+        _one_line(err, str(src), "timestamp")
+    assert not (tmp_path / "o").exists() and not (tmp_path / "x.csv").exists()
+
+
+@pytest.mark.parametrize("command", ["run", "export"])
+def test_unwritable_out_is_refused_before_the_work(command, tmp_path, capsys):
+    src = _csv(tmp_path / "a.csv")
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    out = blocker / ("sub" if command == "run" else "x.csv")
+    t0 = time.perf_counter()
+    code, _, err = _run([command, src, "--out", out], capsys)
+    assert code == 2
+    _one_line(err, "--out")
+    assert time.perf_counter() - t0 < 5.0  # refused up front, not after the analysis
+
+
+def test_a_failed_run_leaves_no_empty_out_dir(tmp_path, capsys):
+    src = tmp_path / "bad.mcap"
+    src.write_bytes(b"\x89MCAP0\r\n" + b"\0" * 50)
+    code, _, err = _run(["run", src, "--out", tmp_path / "o"], capsys)
+    assert code == 2
+    _one_line(err, str(src))
+    assert not (tmp_path / "o").exists()
+
+
+def test_exact_channel_names_with_brackets_select_the_element(tmp_path, capsys):
+    """``/data.data[4]`` is the contract's name of an array element: it selects it (as a
+    shell pattern ``[4]`` would be a character class and match nothing)."""
+    out = tmp_path / "x.csv"
+    src = SAMPLES / "building_drift.bag"
+    code, _, err = _run(["export", src, "--out", out, "--channels", "/data.data[4]"], capsys)
+    assert code == 0, err
+    assert out.read_text().splitlines()[0] == '"time","/data.data[4]"'
+
+
+@pytest.mark.parametrize(
+    "option,needle",
+    [
+        (["--detectors", "nope"], "--detectors"),
+        (["--train", "abc"], "--train"),
+        (["--train", "5:2"], "--train"),
+    ],
+)
+def test_watch_refuses_bad_options_up_front(option, needle, tmp_path, capsys):
+    inbox = tmp_path / "inbox"
+    inbox.mkdir()
+    _csv(inbox / "a.csv")
+    code, _, err = _run(["watch", inbox, "--out", tmp_path / "rep", "--once", *option], capsys)
+    assert code == 2
+    _one_line(err, needle)
+    assert not (tmp_path / "rep" / "index.json").exists()  # no archive was recorded
+
+
+@pytest.mark.parametrize(
+    "section,text,needle",
+    [
+        ("equivalent_model", "bogus_option = 7", "'bogus_option'"),
+        ("ar_kalman_bank", "ordr = 7", "'ordr'"),
+        ("error_function", 'approach = "sideways"', "sideways"),
+    ],
+)
+def test_config_typos_in_any_detector_section_are_errors(section, text, needle, tmp_path, capsys):
+    """Even for a detector that does not run, and naming the file and the section."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(f"[detectors.{section}]\n{text}\n")
+    argv = ["run", _csv(tmp_path / "a.csv"), "--out", tmp_path / "o", "--config", cfg]
+    code, _, err = _run([*argv, "--detectors", "detection_filter"], capsys)
+    assert code == 2
+    line = _one_line(err, str(cfg), f"[detectors.{section}]", needle)
+    assert "__init__" not in line and "keyword argument" not in line
+
+
+def test_config_train_window_after_the_data(tmp_path, capsys):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[train]\nstart = 100.0\nend = 200.0\n")
+    code, _, err = _run(
+        ["run", _csv(tmp_path / "a.csv"), "--out", tmp_path / "o", "--config", cfg], capsys
+    )
+    assert code == 2
+    _one_line(err, str(cfg), "[train]", "after the data ends")
+
+
+def test_a_detector_named_twice_runs_once(tmp_path, capsys):
+    out = tmp_path / "o"
+    src = _csv(tmp_path / "a.csv")
+    code, _, err = _run(
+        ["run", src, "--out", out, "--detectors", "ar_kalman_bank,ar_kalman_bank"], capsys
+    )
+    assert code in (0, 1), err
+    doc = json.loads((out / "findings.json").read_text())
+    assert [d["name"] for d in doc["detectors"]] == ["ar_kalman_bank"]
+
+
+def test_duration_is_samples_over_rate(tmp_path, capsys):
+    """12000 samples at 200 Hz last 60 s (as the contract's example: 36000 at 200 Hz,
+    180 s), not 59.995; the default training window is 20 % of that."""
+    out = tmp_path / "o"
+    code, _, err = _run(
+        [
+            "run",
+            _csv(tmp_path / "a.csv", seconds=60.0),
+            "--out",
+            out,
+            "--detectors",
+            "ar_kalman_bank",
+        ],
+        capsys,
+    )
+    assert code in (0, 1), err
+    doc = json.loads((out / "findings.json").read_text())
+    assert doc["duration_s"] == pytest.approx(60.0, abs=1e-9)
+    assert doc["train"]["end_s"] == pytest.approx(12.0, abs=1e-9)
+
+
+def test_iso_times_round_to_the_millisecond():
+    base = 1767225600 * 10**9  # 2026-01-01T00:00:00Z
+    assert iso_utc(base + 15_961_800_000) == "2026-01-01T00:00:15.962Z"
+    assert iso_utc(base + 15_961_200_000) == "2026-01-01T00:00:15.961Z"
+    assert iso_utc(base + 59_999_600_000) == "2026-01-01T00:01:00.000Z"
+
+
+def test_finding_onset_agrees_with_onset_s(tmp_path, capsys):
+    out = tmp_path / "o"
+    code, _, err = _run(["run", SAMPLES / "building_drift.bag", "--out", out], capsys)
+    assert code == 1, err
+    doc = json.loads((out / "findings.json").read_text())
+    start = doc["start"]
+    for f in doc["faults"]:
+        base = np.datetime64(start.rstrip("Z"), "ms")
+        expect = base + np.timedelta64(int(round(f["onset_s"] * 1000)), "ms")
+        assert f["onset"] == str(expect) + "Z"
+
+
+def test_inspect_of_an_unreadable_input_is_an_input_error(tmp_path, capsys):
+    src = tmp_path / "head.mcap"
+    src.write_bytes((SAMPLES / "building_additive.mcap").read_bytes()[:100])
+    code, _, err = _run(["inspect", src], capsys)
+    assert code == 2
+    _one_line(err, str(src))
+
+
+def test_truncated_mcap_counts_the_messages_it_read(tmp_path, capsys):
+    src = tmp_path / "trunc.mcap"
+    data = (SAMPLES / "building_additive.mcap").read_bytes()
+    src.write_bytes(data[: len(data) * 2 // 3])
+    code, out, err = _run(["inspect", src, "--json"], capsys)
+    assert code == 0, err
+    doc = json.loads(out)
+    (errors,) = [i["errors"] for i in doc["inputs"]]
+    read = sum(c["samples"] for c in doc["channels"])
+    assert read > 0 and errors and f"the {read} messages before it were read" in errors[0]
+
+
+def test_error_function_without_groups_reports_one_fault(tmp_path, capsys):
+    """Without [[group]] the error functions cannot isolate: the one fault of the sample
+    is one entry (on the strongest alarm, with the other sensors as candidates)."""
+    out = tmp_path / "o"
+    argv = [
+        "run",
+        SAMPLES / "building_additive.mcap",
+        "--out",
+        out,
+        "--detectors",
+        "error_function",
+    ]
+    code, _, err = _run(argv, capsys)
+    assert code == 1, err
+    doc = json.loads((out / "findings.json").read_text())
+    assert len(doc["faults"]) == 1
+    ev = doc["faults"][0]["evidence"]["by_detector"]["error_function"]
+    assert ev["isolated"] is False and doc["faults"][0]["channel"] in ev["candidates"]
+    assert doc["faults"][0]["confidence"] <= 0.5
+
+
+def test_sigterm_stops_cleanly_without_leftovers(tmp_path):
+    """``timeout``/``kill`` (SIGTERM) unwinds like Ctrl-C: exit 130, no scratch files, no
+    half-written outputs."""
+    src = tmp_path / "long.csv"
+    _csv(src, seconds=600.0)
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    env = {**os.environ, "TMPDIR": str(scratch)}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "analyzer", "run", str(src), "--out", str(tmp_path / "o")],
+        env=env,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 60
+    while not any(scratch.iterdir()) and time.monotonic() < deadline:  # the run has begun
+        time.sleep(0.05)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err
+    assert not any(scratch.iterdir())
+    assert not (tmp_path / "o").exists()

@@ -1,0 +1,62 @@
+"""Frozen sensors: stuck at a value (``other``) or dead at zero (multiplicative, gain 0),
+told from the readings over the fault whatever shape the residual took."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from analyzer.diagnosis.merge import Finding
+from analyzer.diagnosis.stuck import relabel_frozen
+from analyzer.pipeline import RunOptions, analyze
+from analyzer.simulate import simulate_building
+from analyzer.types import FaultType
+from analyzer.writers import write_archive
+
+RATE = 200.0
+
+
+def _finding(channel: str, kind: FaultType, onset: float) -> Finding:
+    return Finding(channel, kind, onset, None, {"offset": 1.0}, 0.9, "ar_kalman_bank")
+
+
+def test_frozen_readings_are_relabelled_and_others_kept():
+    rng = np.random.default_rng(0)
+    n = 4000
+    values = rng.standard_normal((n, 4))
+    values[2000:, 0] = 2.5  # stuck
+    values[2000:, 1] = 0.0  # dead
+    values[2000:, 2] += 3.0  # a real offset: keeps its type
+    values[2000:, 3] = 0.0
+    values[2000::7, 3] = np.nan  # dead with gaps: gaps are ignored
+    found = [
+        _finding("a", FaultType.ADDITIVE, 10.0),
+        _finding("b", FaultType.OTHER, 10.0),
+        _finding("c", FaultType.ADDITIVE, 10.0),
+        _finding("d", FaultType.DRIFT, 10.0),
+    ]
+    notes = relabel_frozen(found, values, ["a", "b", "c", "d"], RATE, (0, 1000))
+    assert found[0].type is FaultType.OTHER
+    assert found[0].magnitude["stuck_at"] == pytest.approx(2.5)
+    assert found[1].type is FaultType.MULTIPLICATIVE and found[1].magnitude == {"gain": 0.0}
+    assert found[2].type is FaultType.ADDITIVE and "frozen" not in found[2].evidence
+    assert found[3].type is FaultType.MULTIPLICATIVE
+    assert len(notes) == 3 and "stuck at 2.5" in notes[0]
+
+
+@pytest.mark.parametrize("level", ["onset", "zero"])
+def test_pipeline_reports_a_stuck_sensor_as_other_and_a_dead_one_as_gain_zero(tmp_path, level):
+    t, Y, names = simulate_building(n_floors=4, duration_s=60.0, seed=3)
+    k0 = int(30.0 * RATE)
+    Y[k0:, 2] = Y[k0, 2] + 1.0 if level == "onset" else 0.0
+    path = tmp_path / "frozen.csv"
+    write_archive(
+        path, "csv", np.round(t * 1e9).astype(np.int64), {n: Y[:, j] for j, n in enumerate(names)}
+    )
+    analysis = analyze([path], RunOptions())
+    (f,) = [f for f in analysis.findings if f.channel == names[2]]
+    assert f.onset_s == pytest.approx(30.0, abs=0.2)
+    if level == "onset":
+        assert f.type is FaultType.OTHER and f.magnitude["stuck_at"] == pytest.approx(Y[k0, 2])
+    else:
+        assert f.type is FaultType.MULTIPLICATIVE and f.magnitude["gain"] == 0.0
