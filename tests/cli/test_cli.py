@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from cli_helpers import one_line_error, run_cli
 
 from analyzer.cli import main
 from analyzer.simulate import inject_fault, simulate_building
@@ -43,27 +44,13 @@ def _building_csv(
     return path
 
 
-def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    code = main(argv)
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def _one_line_error(err: str, *needles: str) -> None:
-    lines = [ln for ln in err.splitlines() if ln.strip()]
-    assert len(lines) == 1, err
-    assert "Traceback" not in err
-    for n in needles:
-        assert n in lines[0], (n, lines[0])
-
-
 @pytest.fixture(scope="module")
 def faulty_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return _building_csv(tmp_path_factory.mktemp("in") / "faulty.csv", "additive")
 
 
 def test_run_finds_the_fault_and_writes_the_contract(faulty_csv, tmp_path, capsys):
-    code, _, err = _run(
+    code, _, err = run_cli(
         ["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--no-progress"], capsys
     )
     assert code == 1, err
@@ -99,7 +86,7 @@ def test_run_finds_the_fault_and_writes_the_contract(faulty_csv, tmp_path, capsy
 
 def test_healthy_run_exits_zero(tmp_path, capsys):
     src = _building_csv(tmp_path / "ok.csv", None, seed=5)
-    code, _, err = _run(["run", str(src), "--out", str(tmp_path / "o"), "--no-progress"], capsys)
+    code, _, err = run_cli(["run", str(src), "--out", str(tmp_path / "o"), "--no-progress"], capsys)
     assert code == 0, err
     assert json.loads((tmp_path / "o" / "findings.json").read_text())["faults"] == []
 
@@ -114,7 +101,7 @@ def test_healthy_run_exits_zero(tmp_path, capsys):
 )
 def test_bundled_samples(sample, channel, kind, tmp_path, capsys):
     before = (SAMPLES / sample).read_bytes()
-    code, _, err = _run(
+    code, _, err = run_cli(
         ["run", str(SAMPLES / sample), "--out", str(tmp_path), "--no-progress"], capsys
     )
     assert code == 1, err
@@ -125,7 +112,7 @@ def test_bundled_samples(sample, channel, kind, tmp_path, capsys):
 
 
 def test_healthy_ros2_sample(tmp_path, capsys):
-    code, _, err = _run(
+    code, _, err = run_cli(
         ["run", str(SAMPLES / "building_healthy_ros2"), "--out", str(tmp_path), "--no-progress"],
         capsys,
     )
@@ -133,7 +120,7 @@ def test_healthy_ros2_sample(tmp_path, capsys):
 
 
 def test_corrected_csv(faulty_csv, tmp_path, capsys):
-    code, _, _ = _run(
+    code, _, _ = run_cli(
         [
             "run",
             str(faulty_csv),
@@ -162,7 +149,7 @@ def test_corrected_csv(faulty_csv, tmp_path, capsys):
 
 
 def test_inspect_json(faulty_csv, capsys):
-    code, out, _ = _run(["inspect", str(faulty_csv), "--json"], capsys)
+    code, out, _ = run_cli(["inspect", str(faulty_csv), "--json"], capsys)
     assert code == 0
     doc = json.loads(out)
     assert doc["inputs"][0]["format"] == "csv" and doc["inputs"][0]["errors"] == []
@@ -174,14 +161,14 @@ def test_inspect_json(faulty_csv, capsys):
 
 
 def test_inspect_table(faulty_csv, capsys):
-    code, out, _ = _run(["inspect", str(faulty_csv)], capsys)
+    code, out, _ = run_cli(["inspect", str(faulty_csv)], capsys)
     assert code == 0 and "s3" in out and "4 channel(s)" in out
 
 
 @pytest.mark.parametrize("suffix", [".csv", ".parquet"])
 def test_export_round_trip(faulty_csv, tmp_path, capsys, suffix):
     out = tmp_path / f"x{suffix}"
-    code, _, err = _run(["export", str(faulty_csv), "--out", str(out)], capsys)
+    code, _, err = run_cli(["export", str(faulty_csv), "--out", str(out)], capsys)
     assert code == 0, err
     got = pd.read_csv(out) if suffix == ".csv" else pd.read_parquet(out)
     raw = pd.read_csv(faulty_csv)
@@ -200,31 +187,33 @@ def test_export_keeps_gaps(tmp_path, capsys):
     assert main(["export", str(src), "--out", str(out)]) == 0
     got = pd.read_csv(out)
     assert got["a"].iloc[400:421].isna().all() and got["a"].iloc[[399, 421]].notna().all()
-    code, o, _ = _run(["inspect", str(src), "--json"], capsys)
+    code, o, _ = run_cli(["inspect", str(src), "--json"], capsys)
     assert {c["name"]: c["gaps"] for c in json.loads(o)["channels"]} == {"a": 1, "b": 0}
 
 
 # ----------------------------------------------------------------------------- bad input
 def test_missing_file(tmp_path, capsys):
-    code, _, err = _run(["run", str(tmp_path / "nope.mcap"), "--out", str(tmp_path / "o")], capsys)
+    code, _, err = run_cli(
+        ["run", str(tmp_path / "nope.mcap"), "--out", str(tmp_path / "o")], capsys
+    )
     assert code == 2
-    _one_line_error(err, "nope.mcap")
+    one_line_error(err, "nope.mcap")
 
 
 def test_empty_file(tmp_path, capsys):
     p = tmp_path / "empty.bag"
     p.write_bytes(b"")
-    code, _, err = _run(["inspect", str(p)], capsys)
+    code, _, err = run_cli(["inspect", str(p)], capsys)
     assert code == 2
-    _one_line_error(err, "empty.bag")
+    one_line_error(err, "empty.bag")
 
 
 def test_unknown_format(tmp_path, capsys):
     p = tmp_path / "data.xyz"
     p.write_bytes(b"\x00\x01garbage" * 10)
-    code, _, err = _run(["run", str(p), "--out", str(tmp_path / "o")], capsys)
+    code, _, err = run_cli(["run", str(p), "--out", str(tmp_path / "o")], capsys)
     assert code == 2
-    _one_line_error(err, "data.xyz")
+    one_line_error(err, "data.xyz")
 
 
 @pytest.mark.parametrize(
@@ -237,24 +226,26 @@ def test_unknown_format(tmp_path, capsys):
     ],
 )
 def test_bad_options(argv, needle, capsys):
-    code, _, err = _run(argv, capsys)
+    code, _, err = run_cli(argv, capsys)
     assert code == 2
-    _one_line_error(err, needle)
+    one_line_error(err, needle)
 
 
 def test_bad_train_window(faulty_csv, tmp_path, capsys):
-    code, _, err = _run(["run", str(faulty_csv), "--out", str(tmp_path), "--train", "10"], capsys)
+    code, _, err = run_cli(
+        ["run", str(faulty_csv), "--out", str(tmp_path), "--train", "10"], capsys
+    )
     assert code == 2
-    _one_line_error(err, "--train")
-    code, _, err = _run(
+    one_line_error(err, "--train")
+    code, _, err = run_cli(
         ["run", str(faulty_csv), "--out", str(tmp_path), "--train", "90:100"], capsys
     )
     assert code == 2
-    _one_line_error(err, "--train", "after the data ends")
+    one_line_error(err, "--train", "after the data ends")
 
 
 def test_too_little_training_data(faulty_csv, tmp_path, capsys):
-    code, _, err = _run(
+    code, _, err = run_cli(
         [
             "run",
             str(faulty_csv),
@@ -268,49 +259,49 @@ def test_too_little_training_data(faulty_csv, tmp_path, capsys):
         capsys,
     )
     assert code == 2
-    _one_line_error(err, "too little healthy data")
+    one_line_error(err, "too little healthy data")
 
 
 def test_unknown_detector(faulty_csv, tmp_path, capsys):
-    code, _, err = _run(
+    code, _, err = run_cli(
         ["run", str(faulty_csv), "--out", str(tmp_path), "--detectors", "magic"], capsys
     )
     assert code == 2
-    _one_line_error(err, "--detectors", "magic", "ar_kalman_bank")
+    one_line_error(err, "--detectors", "magic", "ar_kalman_bank")
 
 
 def test_channels_pattern_that_matches_nothing(faulty_csv, tmp_path, capsys):
-    code, _, err = _run(
+    code, _, err = run_cli(
         ["run", str(faulty_csv), "--out", str(tmp_path), "--channels", "zz*"], capsys
     )
     assert code == 2
-    _one_line_error(err, "--channels", "zz*")
+    one_line_error(err, "--channels", "zz*")
 
 
 def test_config_unknown_key(faulty_csv, tmp_path, capsys):
     cfg = tmp_path / "c.toml"
     cfg.write_text("[thresholds]\nfalse_alarm_rat = 1e-6\n")
-    code, _, err = _run(
+    code, _, err = run_cli(
         ["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--config", str(cfg)], capsys
     )
     assert code == 2
-    _one_line_error(err, "false_alarm_rat")
+    one_line_error(err, "false_alarm_rat")
 
 
 def test_config_bad_matrix_shape(faulty_csv, tmp_path, capsys):
     cfg = tmp_path / "c.toml"
     cfg.write_text("[model]\nA = [[1.0, 0.0], [0.0, 1.0]]\nC = [[1.0, 0.0, 0.0]]\n")
-    code, _, err = _run(
+    code, _, err = run_cli(
         ["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--config", str(cfg)], capsys
     )
     assert code == 2
-    _one_line_error(err, "model.C", "(1, 3)")
+    one_line_error(err, "model.C", "(1, 3)")
 
 
 def test_config_train_window_is_used(faulty_csv, tmp_path, capsys):
     cfg = tmp_path / "c.toml"
     cfg.write_text("[train]\nstart = 0.0\nend = 20.0\n\n[detectors.ar_kalman_bank]\norder = 5\n")
-    code, _, err = _run(
+    code, _, err = run_cli(
         [
             "run",
             str(faulty_csv),
@@ -332,9 +323,9 @@ def test_config_train_window_is_used(faulty_csv, tmp_path, capsys):
 def test_single_channel_is_a_clear_error(tmp_path, capsys):
     t = np.arange(12000) / RATE
     pd.DataFrame({"time": t, "x": np.sin(t)}).to_csv(tmp_path / "one.csv", index=False)
-    code, _, err = _run(["run", str(tmp_path / "one.csv"), "--out", str(tmp_path / "o")], capsys)
+    code, _, err = run_cli(["run", str(tmp_path / "one.csv"), "--out", str(tmp_path / "o")], capsys)
     assert code == 2
-    _one_line_error(err, "at least 2 channels")
+    one_line_error(err, "at least 2 channels")
 
 
 def test_constant_channel_is_left_out(faulty_csv, tmp_path, capsys):
@@ -342,7 +333,7 @@ def test_constant_channel_is_left_out(faulty_csv, tmp_path, capsys):
     df["flat"] = 1.0
     src = tmp_path / "flat.csv"
     df.to_csv(src, index=False)
-    code, _, err = _run(
+    code, _, err = run_cli(
         [
             "run",
             str(src),
@@ -371,16 +362,16 @@ def test_corrupt_mcap_is_a_one_line_error(tmp_path, capsys):
     magic = b"\x89MCAP0\r\n"
     p = tmp_path / "broken.mcap"
     p.write_bytes(magic + np.random.default_rng(0).bytes(20_000) + magic)
-    code, _, err = _run(["run", str(p), "--out", str(tmp_path / "o")], capsys)
+    code, _, err = run_cli(["run", str(p), "--out", str(tmp_path / "o")], capsys)
     assert code == 2
-    _one_line_error(err, "broken.mcap")
+    one_line_error(err, "broken.mcap")
 
 
 def test_two_channels_are_enough(tmp_path, capsys):
     t, Y, names = simulate_building(n_floors=2, duration_s=60.0, seed=2)
     Y[:, 1] = inject_fault(Y[:, 1], RATE, "additive", 40.0, 3.0 * np.std(Y[:, 1]))
     pd.DataFrame({"time": t, "a": Y[:, 0], "b": Y[:, 1]}).to_csv(tmp_path / "two.csv", index=False)
-    code, _, err = _run(
+    code, _, err = run_cli(
         [
             "run",
             str(tmp_path / "two.csv"),
@@ -416,7 +407,7 @@ def test_error_function_end_to_end_with_config(tmp_path, capsys, approach):
         f'[model]\nfile = "model.npz"\noutputs = [{outputs}]\n\n'
         f'[detectors.error_function]\napproach = "{approach}"\nwindow = 25\n'
     )
-    code, _, err = _run(
+    code, _, err = run_cli(
         [
             "run",
             str(tmp_path / "chain.csv"),

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_helpers import one_line_error, run_cli
 
-from analyzer.cli import main
 from analyzer.simulate import simulate_building
 from analyzer.timeutil import iso_utc
 from analyzer.writers import write_archive
@@ -33,38 +33,23 @@ def _csv(path: Path, seconds: float = 60.0, seed: int = 0, epoch: bool = False) 
     return path
 
 
-def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def _one_line(err: str, *needles: str) -> str:
-    lines = [ln for ln in err.splitlines() if ln.strip()]
-    assert len(lines) == 1, err
-    assert "Traceback" not in err
-    for n in needles:
-        assert n in lines[0], (n, lines[0])
-    return lines[0]
-
-
 @pytest.mark.parametrize("rate", ["inf", "nan", "-1"])
 def test_rate_must_be_finite_and_positive(rate, tmp_path, capsys):
-    code, _, err = _run(
+    code, _, err = run_cli(
         ["run", _csv(tmp_path / "a.csv"), "--out", tmp_path / "o", "--rate", rate], capsys
     )
     assert code == 2
-    _one_line(err, "--rate")
+    one_line_error(err, "--rate")
 
 
 def test_rate_too_low_or_too_high_is_refused_before_aligning(tmp_path, capsys):
     src = _csv(tmp_path / "a.csv")
-    code, _, err = _run(["export", src, "--out", tmp_path / "x.csv", "--rate", "1e-9"], capsys)
+    code, _, err = run_cli(["export", src, "--out", tmp_path / "x.csv", "--rate", "1e-9"], capsys)
     assert code == 2
-    _one_line(err, "--rate", "too low")
-    code, _, err = _run(["export", src, "--out", tmp_path / "x.csv", "--rate", "1e12"], capsys)
+    one_line_error(err, "--rate", "too low")
+    code, _, err = run_cli(["export", src, "--out", tmp_path / "x.csv", "--rate", "1e12"], capsys)
     assert code == 2
-    _one_line(err, "rows")
+    one_line_error(err, "rows")
     assert not (tmp_path / "x.csv").exists()
 
 
@@ -78,9 +63,9 @@ def test_an_outlier_timestamp_is_an_error_not_a_disk_full_of_gaps(tmp_path, caps
         ["run", src, "--out", tmp_path / "o"],
         ["export", src, "--out", tmp_path / "x.csv"],
     ):
-        code, _, err = _run(argv, capsys)
+        code, _, err = run_cli(argv, capsys)
         assert code == 2
-        _one_line(err, str(src), "timestamp")
+        one_line_error(err, str(src), "timestamp")
     assert not (tmp_path / "o").exists() and not (tmp_path / "x.csv").exists()
 
 
@@ -91,18 +76,18 @@ def test_unwritable_out_is_refused_before_the_work(command, tmp_path, capsys):
     blocker.write_text("not a directory")
     out = blocker / ("sub" if command == "run" else "x.csv")
     t0 = time.perf_counter()
-    code, _, err = _run([command, src, "--out", out], capsys)
+    code, _, err = run_cli([command, src, "--out", out], capsys)
     assert code == 2
-    _one_line(err, "--out")
+    one_line_error(err, "--out")
     assert time.perf_counter() - t0 < 5.0  # refused up front, not after the analysis
 
 
 def test_a_failed_run_leaves_no_empty_out_dir(tmp_path, capsys):
     src = tmp_path / "bad.mcap"
     src.write_bytes(b"\x89MCAP0\r\n" + b"\0" * 50)
-    code, _, err = _run(["run", src, "--out", tmp_path / "o"], capsys)
+    code, _, err = run_cli(["run", src, "--out", tmp_path / "o"], capsys)
     assert code == 2
-    _one_line(err, str(src))
+    one_line_error(err, str(src))
     assert not (tmp_path / "o").exists()
 
 
@@ -111,7 +96,7 @@ def test_exact_channel_names_with_brackets_select_the_element(tmp_path, capsys):
     shell pattern ``[4]`` would be a character class and match nothing)."""
     out = tmp_path / "x.csv"
     src = SAMPLES / "building_drift.bag"
-    code, _, err = _run(["export", src, "--out", out, "--channels", "/data.data[4]"], capsys)
+    code, _, err = run_cli(["export", src, "--out", out, "--channels", "/data.data[4]"], capsys)
     assert code == 0, err
     assert out.read_text().splitlines()[0] == '"time","/data.data[4]"'
 
@@ -128,9 +113,9 @@ def test_watch_refuses_bad_options_up_front(option, needle, tmp_path, capsys):
     inbox = tmp_path / "inbox"
     inbox.mkdir()
     _csv(inbox / "a.csv")
-    code, _, err = _run(["watch", inbox, "--out", tmp_path / "rep", "--once", *option], capsys)
+    code, _, err = run_cli(["watch", inbox, "--out", tmp_path / "rep", "--once", *option], capsys)
     assert code == 2
-    _one_line(err, needle)
+    one_line_error(err, needle)
     assert not (tmp_path / "rep" / "index.json").exists()  # no archive was recorded
 
 
@@ -147,26 +132,26 @@ def test_config_typos_in_any_detector_section_are_errors(section, text, needle, 
     cfg = tmp_path / "c.toml"
     cfg.write_text(f"[detectors.{section}]\n{text}\n")
     argv = ["run", _csv(tmp_path / "a.csv"), "--out", tmp_path / "o", "--config", cfg]
-    code, _, err = _run([*argv, "--detectors", "detection_filter"], capsys)
+    code, _, err = run_cli([*argv, "--detectors", "detection_filter"], capsys)
     assert code == 2
-    line = _one_line(err, str(cfg), f"[detectors.{section}]", needle)
+    line = one_line_error(err, str(cfg), f"[detectors.{section}]", needle)
     assert "__init__" not in line and "keyword argument" not in line
 
 
 def test_config_train_window_after_the_data(tmp_path, capsys):
     cfg = tmp_path / "c.toml"
     cfg.write_text("[train]\nstart = 100.0\nend = 200.0\n")
-    code, _, err = _run(
+    code, _, err = run_cli(
         ["run", _csv(tmp_path / "a.csv"), "--out", tmp_path / "o", "--config", cfg], capsys
     )
     assert code == 2
-    _one_line(err, str(cfg), "[train]", "after the data ends")
+    one_line_error(err, str(cfg), "[train]", "after the data ends")
 
 
 def test_a_detector_named_twice_runs_once(tmp_path, capsys):
     out = tmp_path / "o"
     src = _csv(tmp_path / "a.csv")
-    code, _, err = _run(
+    code, _, err = run_cli(
         ["run", src, "--out", out, "--detectors", "ar_kalman_bank,ar_kalman_bank"], capsys
     )
     assert code in (0, 1), err
@@ -178,7 +163,7 @@ def test_duration_is_samples_over_rate(tmp_path, capsys):
     """12000 samples at 200 Hz last 60 s (as the contract's example: 36000 at 200 Hz,
     180 s), not 59.995; the default training window is 20 % of that."""
     out = tmp_path / "o"
-    code, _, err = _run(
+    code, _, err = run_cli(
         [
             "run",
             _csv(tmp_path / "a.csv", seconds=60.0),
@@ -204,7 +189,7 @@ def test_iso_times_round_to_the_millisecond():
 
 def test_finding_onset_agrees_with_onset_s(tmp_path, capsys):
     out = tmp_path / "o"
-    code, _, err = _run(["run", SAMPLES / "building_drift.bag", "--out", out], capsys)
+    code, _, err = run_cli(["run", SAMPLES / "building_drift.bag", "--out", out], capsys)
     assert code == 1, err
     doc = json.loads((out / "findings.json").read_text())
     start = doc["start"]
@@ -217,16 +202,16 @@ def test_finding_onset_agrees_with_onset_s(tmp_path, capsys):
 def test_inspect_of_an_unreadable_input_is_an_input_error(tmp_path, capsys):
     src = tmp_path / "head.mcap"
     src.write_bytes((SAMPLES / "building_additive.mcap").read_bytes()[:100])
-    code, _, err = _run(["inspect", src], capsys)
+    code, _, err = run_cli(["inspect", src], capsys)
     assert code == 2
-    _one_line(err, str(src))
+    one_line_error(err, str(src))
 
 
 def test_truncated_mcap_counts_the_messages_it_read(tmp_path, capsys):
     src = tmp_path / "trunc.mcap"
     data = (SAMPLES / "building_additive.mcap").read_bytes()
     src.write_bytes(data[: len(data) * 2 // 3])
-    code, out, err = _run(["inspect", src, "--json"], capsys)
+    code, out, err = run_cli(["inspect", src, "--json"], capsys)
     assert code == 0, err
     doc = json.loads(out)
     (errors,) = [i["errors"] for i in doc["inputs"]]
@@ -246,7 +231,7 @@ def test_error_function_without_groups_reports_one_fault(tmp_path, capsys):
         "--detectors",
         "error_function",
     ]
-    code, _, err = _run(argv, capsys)
+    code, _, err = run_cli(argv, capsys)
     assert code == 1, err
     doc = json.loads((out / "findings.json").read_text())
     assert len(doc["faults"]) == 1

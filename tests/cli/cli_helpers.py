@@ -1,0 +1,27 @@
+"""What the command-line tests share: running ``main`` in-process, and the contract's
+one-line error."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from analyzer.cli import main
+
+
+def run_cli(argv: list[Any], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    """``analyzer ARGV`` in this process: exit code, stdout, stderr."""
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def one_line_error(err: str, *needles: str) -> str:
+    """The contract's error: one line, no traceback, holding each of ``needles``."""
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    for n in needles:
+        assert n in lines[0], (n, lines[0])
+    return lines[0]
