@@ -381,24 +381,28 @@ def fit_relation(
     # axis), each candidate solved by Cholesky on its unit-diagonal sub-matrix
     X = np.empty((n, 1 + len(assistants) * width))
     X[:, 0] = 1.0
+    every = bool(ok.all())  # no gap: the windows are copied as they are (no row gather)
     for j, w in enumerate(windows):
-        X[:, 1 + j * width : 1 + (j + 1) * width] = w[ok]
+        X[:, 1 + j * width : 1 + (j + 1) * width] = w if every else w[ok]
     G = X.T @ X
     h_all = X.T @ t
+    tt = float(t @ t)
     results = []
     for L in cands:
         idx = np.concatenate(
             [[0], *[1 + j * width + np.arange(L + 1) for j in range(len(windows))]]
         )
         coef = _solve_normal(G[np.ix_(idx, idx)], h_all[idx])
-        full = np.zeros(X.shape[1])  # the candidate's coefficients, zero beyond its lags
-        full[idx] = coef
-        rss = float(np.sum((t - X @ full) ** 2))
+        # |t - X c|^2 from the Gram matrix (no pass over the rows per candidate)
+        rss = max(
+            tt - 2.0 * float(coef @ h_all[idx]) + float(coef @ G[np.ix_(idx, idx)] @ coef), 0.0
+        )
         bic = n * np.log(max(rss / n, 1e-300)) + idx.shape[0] * np.log(n)
-        results.append((bic, L, coef, float(1.0 - rss / (n * var_t))))
-    _, L, coef, r2 = min(results, key=lambda r: r[0])
+        results.append((bic, L, coef, idx))
+    _, L, coef, idx = min(results, key=lambda r: r[0])
+    rss = float(np.sum((t - X[:, idx] @ coef) ** 2))  # the chosen one's, from the rows
     h = coef[1:].reshape(len(assistants), L + 1)
-    return Relation(target, tuple(assistants), L, h, float(coef[0]), r2)
+    return Relation(target, tuple(assistants), L, h, float(coef[0]), float(1.0 - rss / (n * var_t)))
 
 
 def _solve_normal(G: FloatArray, h: FloatArray) -> FloatArray:
