@@ -108,7 +108,8 @@ def fit_ar(Y: FloatArray, order: int) -> ARModel:
             f"too little healthy data for an order-{order} AR model of {m} channels: "
             f"{int(ok.sum()) + order} usable training samples, need at least {need}"
         )
-    T, X = T[ok], X[ok]
+    if not ok.all():  # rows with a gap in a lag drop out (no copy when there is none)
+        T, X = T[ok], X[ok]
     B, rank = _least_squares(X, T)
     if rank < X.shape[1]:
         raise DetectorError(
@@ -191,7 +192,8 @@ def _select_order(Y: FloatArray, criterion: str, max_order: int) -> int:
     Z = (Y - mean) / scale
     T_all, X_all = _lagged(Z, pmax)
     ok = np.isfinite(T_all).all(axis=1) & np.isfinite(X_all).all(axis=1)
-    T_all, X_all = T_all[ok], X_all[ok]
+    if not ok.all():
+        T_all, X_all = T_all[ok], X_all[ok]
     N = T_all.shape[0]
     # One QR of [X T] serves every order: the lags are nested, so the residual of the
     # order-p fit is R_tt' R_tt plus the rows of R_xt beyond the first p m columns
