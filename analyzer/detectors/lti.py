@@ -32,6 +32,13 @@ MAX_TAPS = 2048
 """Longest impulse response run by FFT; filters with a longer memory (closed-loop poles
 near the unit circle) are run as a stacked lifted system instead."""
 
+MAX_BANK_BYTES = 96 << 20
+"""Largest impulse-response bank (spectra plus Markov parameters) held in memory; a larger
+one (many channels with a long memory: its size grows as ``channels^3 x taps``) runs as a
+stacked lifted system, whose memory does not grow with the filters' memory. A 16-channel
+bank of the usual 200-300 taps needs about 40 MB; 21 channels of 2048 taps needed 760 MB,
+and a fit builds one per cross-validation fold."""
+
 CHUNK = 1 << 12
 """Samples per chunk of the bank's outputs: the run's temporary memory does not grow with
 the record length. Small enough for the frequency-domain products of a few frames to stay
@@ -277,6 +284,10 @@ class ImpulseResponseBank:
             return None
         k = len(systems)
         q, r = systems[0][2].shape[0], systems[0][1].shape[1]
+        nfft = cls._nfft(taps)
+        size = (nfft // 2 + 1) * k * q * r * 16 + taps * k * q * r * 8
+        if size > MAX_BANK_BYTES:
+            return None  # spectra this large cost more memory than the lifted form's time
         h = np.empty((taps, k, q, r))
         for i, (F, G, H, J) in enumerate(systems):
             h[0, i] = J
@@ -284,11 +295,16 @@ class ImpulseResponseBank:
             for j in range(1, taps):
                 h[j, i] = H @ FjG
                 FjG = F @ FjG
+        spectrum = fft.rfft(h.reshape(taps, k * q, r), n=nfft, axis=0)
+        return cls(taps, nfft, k, q, np.ascontiguousarray(spectrum))
+
+    @staticmethod
+    def _nfft(taps: int) -> int:
+        """FFT length for ``taps``-long responses: at least 1024 and 4 responses long."""
         nfft = 1024
         while nfft < 4 * taps:
             nfft *= 2
-        spectrum = fft.rfft(h.reshape(taps, k * q, r), n=nfft, axis=0)
-        return cls(taps, nfft, k, q, np.ascontiguousarray(spectrum))
+        return nfft
 
     @staticmethod
     def _taps(

@@ -28,3 +28,27 @@ def test_state_carries_across_calls():
     first, x = sys_.run(u[:137])
     second, _ = sys_.run(u[137:], x0=x)
     np.testing.assert_allclose(np.vstack([first, second]), whole, atol=1e-12)
+
+
+def test_a_bank_too_large_for_memory_runs_in_lifted_form(monkeypatch):
+    """Above MAX_BANK_BYTES the impulse-response bank is not built (its size grows as
+    channels^3 x taps); the lifted form gives the same outputs."""
+    import analyzer.detectors.lti as lti
+
+    rng = np.random.default_rng(1)
+    systems = []
+    for _ in range(3):
+        F = rng.normal(size=(6, 6))
+        F *= 0.8 / np.max(np.abs(np.linalg.eigvals(F)))
+        systems.append(
+            (F, rng.normal(size=(6, 4)), rng.normal(size=(3, 6)), rng.normal(size=(3, 4)))
+        )
+    u = rng.normal(size=(3000, 4))
+    fir = lti.system_bank(systems)
+    assert isinstance(fir, lti.ImpulseResponseBank)
+    monkeypatch.setattr(lti, "MAX_BANK_BYTES", 1000)
+    lifted = lti.system_bank(systems)
+    assert isinstance(lifted, lti.LiftedBank)
+    a = np.concatenate([y for _, y in fir.run(u)], axis=2)
+    b = np.concatenate([y for _, y in lifted.run(u)], axis=2)
+    np.testing.assert_allclose(a, b, atol=1e-10)
