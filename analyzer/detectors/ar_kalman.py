@@ -58,7 +58,7 @@ from analyzer.diagnosis.changes import (
     detection_confidence,
 )
 from analyzer.diagnosis.classify import Classification, correlation_time
-from analyzer.diagnosis.events import diagnose_interval
+from analyzer.diagnosis.events import bounded_onset, diagnose_interval
 from analyzer.errors import DetectorError
 from analyzer.paging import release
 from analyzer.types import FaultType
@@ -684,12 +684,13 @@ class ARKalmanBank:
             # within the model's own error (it follows the response level): noted, not
             # reported as a faulty sensor.
             return None, [(j, iv.onset, stop)], None
-        conf = detection_confidence(iv) * cls.confidence
+        onset_s, factor, early = bounded_onset(iv.onset, cls, rate, train_stop)
+        conf = detection_confidence(iv) * cls.confidence * factor
         if not isolated:
             conf *= UNCONFIRMED_FACTOR
         ev = Event(
             channel="",
-            onset_s=float(max(0.0, iv.onset / rate + cls.onset_shift_s)),
+            onset_s=onset_s,
             end_s=None if end is None else end / rate,
             type=cls.type,
             magnitude=cls.magnitude,
@@ -704,6 +705,7 @@ class ARKalmanBank:
                 "p_value": iv.p_value,
                 "type_weights": cls.weights,
                 "explained": cls.explained,
+                **early,
             },
         )
         return ev, [(j, iv.onset, stop)], cls

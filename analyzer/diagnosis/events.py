@@ -37,29 +37,51 @@ def events_from_residual(
             continue  # inside a fault already extended over this stretch
         cls, end = diagnose_interval(residual, reference, cal, iv, rate_hz, tau_corr)
         covered = n if end is None else end
-        onset_s = iv.onset / rate_hz + cls.onset_shift_s
+        onset_s, factor, extra = bounded_onset(iv.onset, cls, rate_hz, search_start)
         ev = {
             "first_alarm_s": iv.first_alarm / rate_hz,
             "peak_over_threshold": iv.peak,
             "p_value": iv.p_value,
             "type_weights": cls.weights,
             "explained": cls.explained,
+            **extra,
         }
         if evidence:
             ev.update(evidence)
         out.append(
             Event(
                 channel=channel,
-                onset_s=float(max(0.0, onset_s)),
+                onset_s=onset_s,
                 end_s=None if end is None else end / rate_hz,
                 type=cls.type,
                 magnitude=cls.magnitude,
-                confidence=float(detection_confidence(iv) * cls.confidence),
+                confidence=float(detection_confidence(iv) * cls.confidence * factor),
                 detector=detector,
                 evidence=ev,
             )
         )
     return out
+
+
+EARLY_ONSET_FACTOR = 0.5
+"""Confidence factor of a fault whose fitted shape (a drift traced back to zero) starts
+inside the healthy window: the trend was already there when the data was called healthy,
+so it may be the structure's own slow change rather than the sensor's."""
+
+
+def bounded_onset(
+    onset: int, cls: Classification, rate_hz: float, search_start: int
+) -> tuple[float, float, dict[str, Any]]:
+    """A fault's onset in seconds: the alarm's change point moved by the fitted shape's
+    shift (a drift traced back to where it was zero), but never before ``search_start``
+    (the end of the healthy window, which the analysis takes as fault-free: a shape
+    traced back before it starts there). Returns the onset, a confidence factor and the
+    evidence of a shape traced back into the healthy window."""
+    traced = onset / rate_hz + cls.onset_shift_s
+    bound = search_start / rate_hz
+    if traced >= bound:
+        return float(max(0.0, traced)), 1.0, {}
+    return bound, EARLY_ONSET_FACTOR, {"traced_onset_s": float(traced), "starts_in_training": True}
 
 
 def diagnose_interval(

@@ -62,3 +62,19 @@ def test_correlation_time():
     ar = lfilter([1], [1, -0.9], white)
     # integrated autocorrelation time of AR(1): (1 + phi) / (1 - phi) = 19
     assert 12 < correlation_time(ar) < 26
+
+
+def test_a_shape_traced_back_into_the_healthy_window_starts_at_its_end():
+    """A drift traced back to zero before the end of the healthy window: the onset is the
+    window's end (the analysis takes the window as fault-free), with less confidence and
+    the traced onset kept as evidence; otherwise the traced onset stands."""
+    from types import SimpleNamespace
+
+    from analyzer.diagnosis.events import EARLY_ONSET_FACTOR, bounded_onset
+
+    drift = SimpleNamespace(onset_shift_s=-30.0)
+    onset, factor, ev = bounded_onset(4000, drift, 100.0, 2000)  # 40 s - 30 s < 20 s
+    assert onset == 20.0 and factor == EARLY_ONSET_FACTOR
+    assert ev == {"traced_onset_s": 10.0, "starts_in_training": True}
+    onset, factor, ev = bounded_onset(6000, drift, 100.0, 2000)  # 60 s - 30 s
+    assert (onset, factor, ev) == (30.0, 1.0, {})
