@@ -110,6 +110,11 @@ class Analysis:
         return iso_utc(self.start_ns + int(round(seconds * NS_PER_S)))
 
 
+MIN_TRAIN_ROWS = 16
+"""Fewer training samples than this cannot calibrate anything: a usage error naming
+``--train`` (the detectors ask for more, each with its own reason)."""
+
+
 def parse_train(text: str, start_ns: int, duration_s: float, absolute: bool) -> tuple[float, float]:
     """``--train START:END`` in seconds from the first sample or ISO-8601 times."""
     parts = _train_parts(text)
@@ -419,6 +424,12 @@ def _analyze(
         train = (train[0], min(train[1], aligned.n))
         # a channel that does not vary in the healthy window cannot be modelled from it
         tv = np.asarray(values[train[0] : train[1]])
+        if tv.shape[0] < MIN_TRAIN_ROWS:
+            raise UsageError(
+                f"the training window {tr[0]:.3f}-{tr[1]:.3f} s holds {tv.shape[0]} sample(s) "
+                f"at {aligned.rate_hz:.6g} Hz, need at least {MIN_TRAIN_ROWS}: give a longer "
+                "one with --train (the default is the first 20 % of the data, at most 10 min)"
+            )
         flat = flat_channels(tv) if tv.shape[0] else np.ones(len(chosen), bool)
         if flat.any():
             dropped = [c for c, f in zip(chosen, flat, strict=True) if f]
@@ -460,7 +471,9 @@ def _analyze(
         results, skipped = _run_detectors(names, options, data, ctx, executor, timings, spill_dir)
         timings["detect"] = time.perf_counter() - t0
         if not results:
-            why = "; ".join(f"{k}: {v}" for k, v in skipped.items())
+            why = "; ".join(
+                v if v.startswith((f"{k}:", f"{k} ")) else f"{k}: {v}" for k, v in skipped.items()
+            )
             raise DetectorError(f"no detector could run ({why})")
         findings = merge_events(ev for r in results for ev in r.events)
         # a frozen sensor is told by its readings, not by the residual's shape

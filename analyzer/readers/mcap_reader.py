@@ -53,6 +53,7 @@ from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
 from analyzer.readers.decoders import BatchDecoder, JsonBatchDecoder, ObjectDecoder
 from analyzer.readers.rosdecode import Encoding, RosBatchDecoder
 from analyzer.readers.rostypes import (
+    EmptyMessageType,
     TypeResolutionError,
     normalize_msgtype,
     standard_candidates,
@@ -423,6 +424,8 @@ class McapReader:
             schema = self._schemas.get(channel.schema_id) if channel.schema_id else None
             try:
                 entry = (channel.topic, self._make_decoder(channel, schema))
+            except EmptyMessageType:
+                pass  # no field, no channel: nothing is wrong
             except TypeResolutionError as err:
                 if not any(e.startswith(f"{channel.topic}: ") for e in self.info.errors):
                     self._error(f"{channel.topic}: {one_line(err)}; skipped")
@@ -473,6 +476,8 @@ class McapReader:
             )
         stores = standard_candidates(msgtype) if wire == "cdr" else []
         if not stores:
+            if schema.encoding in expected:  # a definition, and it is empty
+                raise EmptyMessageType(msgtype)
             raise TypeResolutionError(f"unknown message type {msgtype!r} without definitions")
         return RosBatchDecoder(stores, msgtype, wire, bulk=self.bulk)
 

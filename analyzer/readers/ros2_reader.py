@@ -44,6 +44,7 @@ from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
 from analyzer.readers.mcap_reader import McapReader
 from analyzer.readers.rosdecode import RosBatchDecoder
 from analyzer.readers.rostypes import (
+    EmptyMessageType,
     TypeResolutionError,
     normalize_msgtype,
     standard_candidates,
@@ -89,6 +90,8 @@ class Ros2BagReader:
                 continue
             try:
                 self._decoders[key] = self._make_decoder(conn)
+            except EmptyMessageType:
+                self._decoders[key] = None  # no field, no channel: nothing is wrong
             except TypeResolutionError as err:
                 self._decoders[key] = None
                 if conn.msgcount:
@@ -149,6 +152,8 @@ class Ros2BagReader:
         else:
             stores = standard_candidates(msgtype)
             if not stores:
+                if fmt in (MessageDefinitionFormat.MSG, MessageDefinitionFormat.IDL):
+                    raise EmptyMessageType(msgtype)  # a definition, and it is empty
                 raise TypeResolutionError(f"unknown message type {msgtype!r} without definitions")
         return RosBatchDecoder(stores, msgtype, "cdr", bulk=self.bulk)
 

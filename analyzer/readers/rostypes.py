@@ -34,6 +34,11 @@ class TypeResolutionError(Exception):
     """A message type cannot be resolved (unparsable or missing definition)."""
 
 
+class EmptyMessageType(TypeResolutionError):
+    """A message type whose definition is empty (``std_msgs/Empty``, a marker topic): it
+    has no field, so no channel; its topic is passed over without an error."""
+
+
 def normalize_msgtype(name: str) -> str:
     """``pkg/Type`` -> ``pkg/msg/Type`` (ROS 1 and old rosbag2 spell types without ``msg``)."""
     parts = name.strip().split("/")

@@ -254,3 +254,31 @@ def test_random_damage_reads_or_raises_cleanly(tmp_path: Path, fmt: str) -> None
             continue
         collect(archive.chunks())
         collect(archive.chunks("header"))
+
+
+def test_an_empty_message_type_is_no_channel_and_no_error(tmp_path):
+    """A topic whose message definition is empty (a marker type, ``test_msgs/Empty`` in
+    rosbag2's test bags) has no field: no channel, and nothing wrong with the file."""
+    import struct
+
+    from mcap.writer import Writer
+
+    from analyzer.inspect import inspect_archive
+
+    path = tmp_path / "marker.mcap"
+    with path.open("wb") as f:
+        w = Writer(f)
+        w.start()
+        empty = w.register_schema("my_msgs/msg/Marker", "ros2msg", b"")
+        value = w.register_schema("my_msgs/msg/Value", "ros2msg", b"float64 data\n")
+        c1 = w.register_channel("/marker", "cdr", empty)
+        c2 = w.register_channel("/value", "cdr", value)
+        for k in range(50):
+            t = k * 10_000_000
+            w.add_message(c1, log_time=t, data=b"\x00\x01\x00\x00\x00", publish_time=t)
+            payload = b"\x00\x01\x00\x00" + struct.pack("<d", float(k))
+            w.add_message(c2, log_time=t, data=payload, publish_time=t)
+        w.finish()
+    doc = inspect_archive([str(path)])
+    assert doc["inputs"][0]["errors"] == []
+    assert [c["name"] for c in doc["channels"]] == ["/value.data"]
