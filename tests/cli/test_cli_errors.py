@@ -264,3 +264,16 @@ def test_sigterm_stops_cleanly_without_leftovers(tmp_path):
     assert "interrupted" in err and "Traceback" not in err
     assert not any(scratch.iterdir())
     assert not (tmp_path / "o").exists()
+
+
+def test_a_training_window_of_a_few_samples_names_train(tmp_path, capsys):
+    """Sparse data (NAB: one value every 30 min) leaves the default 10 minutes a sample or
+    two: the error says so and names --train (not "constant or empty")."""
+    rng = np.random.default_rng(0)
+    rows = [f"{k * 1800.0},{rng.normal()},{rng.normal()},{rng.normal()}" for k in range(500)]
+    src = tmp_path / "sparse.csv"
+    src.write_text("\n".join(["time,a,b,c", *rows]) + "\n")
+    code, _, err = run_cli(["run", src, "--out", tmp_path / "o"], capsys)
+    assert code == 2
+    line = one_line_error(err, str(src), "--train", "holds 1 sample")
+    assert "constant" not in line
