@@ -190,6 +190,33 @@ def _select(store: ChannelStore, patterns: list[str] | None, notes: list[str]) -
     return chosen
 
 
+CROWDED = 1.5
+"""A channel with this many times more samples than ticks of the common clock over its
+span loses most of them in the alignment: said in a note."""
+
+
+def _crowded_channels(
+    infos: Sequence[ChannelInfo], chosen: Sequence[str], rate: float
+) -> list[str]:
+    """Notes on the analyzed channels whose samples crowd onto fewer clock ticks (log
+    times written in batches, or a clock slower than the channel): the alignment keeps
+    one value per tick, so the rest are not analyzed."""
+    notes = []
+    wanted = set(chosen)
+    for i in infos:
+        if i.name not in wanted:
+            continue
+        ticks = (i.end_ns - i.start_ns) / NS_PER_S * rate + 1
+        if i.samples > CROWDED * ticks:
+            notes.append(
+                f"{i.name}: {i.samples:,} samples but only about {int(ticks):,} ticks of the "
+                f"{rate:.6g} Hz clock over its span (log times written in batches, or a "
+                "faster channel): one value per tick is analyzed; --time header (where "
+                "messages carry stamps) or --rate may keep more"
+            )
+    return notes
+
+
 def _detector_names(options: RunOptions) -> tuple[list[str], bool]:
     if options.detectors:
         for d in options.detectors:
@@ -404,6 +431,7 @@ def _analyze(
         # resident set for the rest of the run (memory that grows with the archive)
         infos = store.infos()
         store.close()
+        notes.extend(_crowded_channels(infos, chosen, aligned.rate_hz))
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
             aligned.start_ns
         )

@@ -277,3 +277,17 @@ def test_a_training_window_of_a_few_samples_names_train(tmp_path, capsys):
     assert code == 2
     line = one_line_error(err, str(src), "--train", "holds 1 sample")
     assert "constant" not in line
+
+
+def test_samples_crowding_onto_fewer_ticks_are_noted():
+    """Log times written in batches (cart-pole kinda_works.mcap: 9,989 samples on 931
+    distinct times): the alignment keeps one value per tick, and a note says so."""
+    from analyzer.pipeline import _crowded_channels
+    from analyzer.store import ChannelInfo
+
+    ns = 10**9
+    batched = ChannelInfo("a", 9989, 0, 93 * ns, 10.0, 0, 9989, -1.0, 1.0)
+    regular = ChannelInfo("b", 931, 0, 93 * ns, 10.0, 0, 931, -1.0, 1.0)
+    notes = _crowded_channels([batched, regular], ["a", "b"], 10.0)
+    assert len(notes) == 1 and notes[0].startswith("a: 9,989 samples but only about 931 ticks")
+    assert _crowded_channels([batched], ["b"], 10.0) == []  # not analyzed: not noted
