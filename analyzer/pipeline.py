@@ -191,28 +191,29 @@ def _select(store: ChannelStore, patterns: list[str] | None, notes: list[str]) -
 
 
 CROWDED = 1.5
-"""A channel with this many times more samples than ticks of the common clock over its
-span loses most of them in the alignment: said in a note."""
+"""A channel with this many times more samples than its own rate gives over its span has
+samples that share log times: said in a note."""
 
 
 def _crowded_channels(
     infos: Sequence[ChannelInfo], chosen: Sequence[str], rate: float
 ) -> list[str]:
-    """Notes on the analyzed channels whose samples crowd onto fewer clock ticks (log
-    times written in batches, or a clock slower than the channel): the alignment keeps
-    one value per tick, so the rest are not analyzed."""
+    """Notes on the analyzed channels whose samples crowd onto fewer distinct times (log
+    times written in batches): the alignment keeps one value per tick of the ``rate`` Hz
+    clock, so the rest are not analyzed. (A channel merely faster than the clock is
+    low-passed and decimated: nothing to note.)"""
     notes = []
     wanted = set(chosen)
     for i in infos:
-        if i.name not in wanted:
+        if i.name not in wanted or not i.rate_hz > 0:
             continue
-        ticks = (i.end_ns - i.start_ns) / NS_PER_S * rate + 1
-        if i.samples > CROWDED * ticks:
+        times = (i.end_ns - i.start_ns) / NS_PER_S * i.rate_hz + 1
+        if i.samples > CROWDED * times:
             notes.append(
-                f"{i.name}: {i.samples:,} samples but only about {int(ticks):,} ticks of the "
-                f"{rate:.6g} Hz clock over its span (log times written in batches, or a "
-                "faster channel): one value per tick is analyzed; --time header (where "
-                "messages carry stamps) or --rate may keep more"
+                f"{i.name}: {i.samples:,} samples on only about {int(times):,} distinct log "
+                f"times at {i.rate_hz:.6g} Hz (written in batches): one value per tick of "
+                f"the {rate:.6g} Hz clock is analyzed; --time header (where messages carry "
+                "stamps) may keep more"
             )
     return notes
 

@@ -288,6 +288,8 @@ def test_samples_crowding_onto_fewer_ticks_are_noted():
     ns = 10**9
     batched = ChannelInfo("a", 9989, 0, 93 * ns, 10.0, 0, 9989, -1.0, 1.0)
     regular = ChannelInfo("b", 931, 0, 93 * ns, 10.0, 0, 931, -1.0, 1.0)
-    notes = _crowded_channels([batched, regular], ["a", "b"], 10.0)
-    assert len(notes) == 1 and notes[0].startswith("a: 9,989 samples but only about 931 ticks")
+    faster = ChannelInfo("c", 18601, 0, 93 * ns, 200.0, 0, 18601, -1.0, 1.0)  # decimated
+    notes = _crowded_channels([batched, regular, faster], ["a", "b", "c"], 10.0)
+    assert len(notes) == 1
+    assert notes[0].startswith("a: 9,989 samples on only about 931 distinct log times")
     assert _crowded_channels([batched], ["b"], 10.0) == []  # not analyzed: not noted
