@@ -346,9 +346,10 @@ def detect(
 ) -> list[Interval]:
     """Faulty intervals of ``residual`` (channel units; standardized with ``cal``).
 
-    Alarm runs closer than ``min_gap`` samples (default: the long window) are one interval; a
-    fault whose residual swings through zero (a gain change) briefly drops its window
-    statistics, which must not split it. Alarms before ``search_start`` (the training
+    Alarm runs closer than ``min_gap`` observed samples (default: the long window; missing
+    samples do not count) are one interval; a fault whose residual swings through zero (a
+    gain change) briefly drops its window statistics, which must not split it, and a gap
+    in the data does not end it. Alarms before ``search_start`` (the training
     window's end, say) are ignored."""
     n = residual.shape[0]
     w = cal.window
@@ -357,9 +358,12 @@ def detect(
     s = alarm_statistic(residual, cal, raw=True)
     s[:search_start] = 0.0
     runs = _runs(s > 1.0)
+    # samples between two runs count only where the residual was observed: a stretch of
+    # missing data (a damaged or absent file) says nothing about the fault having ended
+    seen = np.concatenate(([0], np.cumsum(np.isfinite(residual), dtype=np.int64)))
     merged: list[list[int]] = []
     for a, b in runs:
-        if merged and a - merged[-1][1] <= gap:
+        if merged and seen[a] - seen[merged[-1][1]] <= gap:
             merged[-1][1] = b
         else:
             merged.append([a, b])

@@ -93,3 +93,29 @@ def test_compiled_alarm_statistic_equals_the_numpy_moving_means(n: int) -> None:
     )
     if n > 1_000:
         assert (expected > 1.0).any() and (expected[: n // 5] <= 1.0).all()
+
+
+def test_a_gap_in_the_data_does_not_end_a_fault(tmp_path):
+    """The bundled gain-fault sample (s4 x 1.5 from 16 s) with its middle third lost (a
+    damaged file): one finding lasting to the end, not one that ends where the data stops
+    at 20 s."""
+    import gzip
+    from pathlib import Path
+
+    from analyzer.pipeline import RunOptions, analyze
+    from analyzer.types import FaultType
+
+    sample = Path(__file__).resolve().parents[2] / "samples" / "building_multiplicative.csv.gz"
+    header, *rows = gzip.decompress(sample.read_bytes()).decode().splitlines()
+    assert len(rows) == 12000  # 60 s at 200 Hz
+    folder = tmp_path / "archive"
+    folder.mkdir()
+    (folder / "part0.csv").write_text("\n".join([header, *rows[:4000]]) + "\n")
+    (folder / "part1.csv").write_bytes(b"\x00\xff" * 8)  # the damaged middle file
+    (folder / "part2.csv").write_text("\n".join([header, *rows[8000:]]) + "\n")
+    analysis = analyze([folder], RunOptions())
+    assert any(i.errors for i in analysis.inputs)
+    (f,) = analysis.findings
+    assert f.channel == "s4" and f.type is FaultType.MULTIPLICATIVE
+    assert f.end_s is None and f.onset_s == pytest.approx(16.0, abs=0.3)
+    assert f.magnitude["gain"] == pytest.approx(1.5, rel=0.1)
