@@ -48,7 +48,7 @@ def merge_events(events: Iterable[Event], slack_s: float = 1.0) -> list[Finding]
             else:
                 groups.append([ev])
         for g in groups:
-            lead = max(g, key=lambda e: e.confidence)
+            lead = _lead(g)
             detectors = sorted({e.detector for e in g})
             # independent detectors agreeing raise the confidence: 1 - prod(1 - c_i)
             miss = 1.0
@@ -77,3 +77,22 @@ def merge_events(events: Iterable[Event], slack_s: float = 1.0) -> list[Finding]
             )
     findings.sort(key=lambda f: (f.onset_s, f.channel))
     return findings
+
+
+def _lead(group: list[Event]) -> Event:
+    """The event a finding reports: the most confident of the type that the detectors,
+    each with the confidence of its own most confident event, vote for. One confident
+    detector misled (a second fault blurring its shape, say) does not outvote two that
+    agree."""
+    best: dict[str, Event] = {}
+    for e in group:
+        if e.detector not in best or e.confidence > best[e.detector].confidence:
+            best[e.detector] = e
+    votes: dict[Any, float] = {}
+    for e in best.values():
+        votes[e.type] = votes.get(e.type, 0.0) + e.confidence
+    winner = max(votes, key=lambda t: votes[t])
+    top = max(votes.values())
+    if sum(1 for v in votes.values() if v == top) > 1:  # a tie: the most confident event
+        return max(group, key=lambda e: e.confidence)
+    return max((e for e in group if e.type == winner), key=lambda e: e.confidence)
