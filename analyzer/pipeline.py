@@ -359,12 +359,15 @@ def _run_detectors(
 
 
 def _residual_tests(
-    task: tuple[DetectorResult, tuple[int, int], float],
+    task: tuple[DetectorResult, tuple[str, ...], tuple[int, int], float],
 ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """One detector's residual tests: over the training window, and windowed over the
-    whole archive."""
-    result, train, rate_hz = task
-    return training_tests(result, train), windowed_summary(result, rate_hz)
+    """The residual tests of some of a detector's channels: over the training window, and
+    windowed over the whole archive."""
+    result, channels, train, rate_hz = task
+    return (
+        training_tests(result, train, channels),
+        windowed_summary(result, rate_hz, channels=channels),
+    )
 
 
 @dataclass(frozen=True, slots=True)
@@ -509,14 +512,17 @@ def _analyze(
         notes.extend(relabel_frozen(findings, values, chosen, aligned.rate_hz, train))
         t0 = time.perf_counter()
         attach_evidence(findings, results, aligned.rate_hz, train)
-        # the tests of each detector's residuals are independent: local threads share
-        # the residuals without copies (a cluster would need them shipped, so not there)
-        tasks = [(r, train, aligned.rate_hz) for r in results]
+        # the tests of each residual are independent: local threads share the residuals
+        # without copies (a cluster would need them shipped, so not there), one task per
+        # detector and channel so the threads stay evenly loaded
+        tasks = [(r, (ch,), train, aligned.rate_hz) for r in results for ch in r.residuals]
         threads = isinstance(executor, ThreadExecutor)
         summaries = executor.map(_residual_tests, tasks) if threads else map(_residual_tests, tasks)
-        for r, (trained, windowed) in zip(results, summaries, strict=True):
-            r.model["training_tests"] = trained
-            r.model["windowed_tests"] = windowed
+        for r in results:
+            r.model["training_tests"], r.model["windowed_tests"] = {}, {}
+        for (r, *_), (trained, windowed) in zip(tasks, summaries, strict=True):
+            r.model["training_tests"].update(trained)
+            r.model["windowed_tests"].update(windowed)
         timings["test"] = time.perf_counter() - t0
         corrected = None
         corrections: list[dict[str, Any]] = []

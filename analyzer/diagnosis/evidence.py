@@ -12,6 +12,7 @@ verdict leans on what *changes* across the onset.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -115,11 +116,14 @@ def attach_evidence(
                 f.confidence *= DISAGREEMENT_FACTOR
 
 
-def training_tests(result: DetectorResult, train: tuple[int, int]) -> dict[str, Any]:
-    """Tests of each channel's residual over the training window: a model whose training
-    residuals fail normality or whiteness badly is a poor model, and the report says so."""
+def training_tests(
+    result: DetectorResult, train: tuple[int, int], channels: Sequence[str] | None = None
+) -> dict[str, Any]:
+    """Tests of each channel's residual (of ``channels`` only, when given) over the
+    training window: a model whose training residuals fail normality or whiteness badly is
+    a poor model, and the report says so."""
     out: dict[str, Any] = {}
-    for ch in result.residuals:
+    for ch in result.residuals if channels is None else channels:
         z = standardized(result, ch)
         if z is None:
             continue
@@ -138,14 +142,18 @@ def training_tests(result: DetectorResult, train: tuple[int, int]) -> dict[str, 
 
 
 def windowed_summary(
-    result: DetectorResult, rate_hz: float, window_s: float = 1.0
+    result: DetectorResult,
+    rate_hz: float,
+    window_s: float = 1.0,
+    channels: Sequence[str] | None = None,
 ) -> dict[str, Any]:
-    """Per channel: the innovation tests on consecutive windows over the whole archive
-    (vectorized, :func:`analyzer.stats.windowed_tests`), summarized as the share of
-    windows each test rejects (about 5 % for a healthy, well-modelled residual)."""
+    """Per channel (of ``channels`` only, when given): the innovation tests on consecutive
+    windows over the whole archive (vectorized, :func:`analyzer.stats.windowed_tests`),
+    summarized as the share of windows each test rejects (about 5 % for a healthy,
+    well-modelled residual)."""
     window = max(100, int(round(window_s * rate_hz)))
     out: dict[str, Any] = {}
-    for ch in result.residuals:
+    for ch in result.residuals if channels is None else channels:
         z = standardized(result, ch)
         release(result.residuals[ch])  # a long archive's residual: pages back to the cache
         if z is None or z.shape[0] < window:
