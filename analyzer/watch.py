@@ -194,12 +194,12 @@ def _prepare(settings: WatchSettings) -> set[str]:
 # --------------------------------------------------------------------------- analysis process
 
 
-def _analyze_into(inputs: list[str], options: RunOptions, out: str) -> None:
+def _analyze_into(inputs: list[str], options: RunOptions, out: str, work_dir: str) -> None:
     """Body of an analysis process: the outputs of ``analyzer run`` into ``out``, or
     ``out/error.txt``. Exit code 0/1 analyzed (no fault/fault), 2 input error, 3 bug."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is for the watcher to handle
     out_dir = Path(out)
-    work = Path(tempfile.mkdtemp(prefix="analyzer-watch-"))
+    work = Path(work_dir)  # the watcher's: it removes it however this process ends
     code = 3
     try:
         analysis = analyze(inputs, options, work)
@@ -264,6 +264,12 @@ class _Job:
     scratch: Path
     process: BaseProcess
     started: float
+    work: Path
+    """The analysis's scratch space (memory-mapped arrays of a long archive): made and
+    removed by the watcher, so a killed analysis leaves nothing behind."""
+
+    def remove_work(self) -> None:
+        shutil.rmtree(self.work, ignore_errors=True)
 
 
 def _free_name(folder: Path, name: str) -> Path:
@@ -347,15 +353,16 @@ class _Runner:
                 "%s: analyzing although it still looks unfinished: %s", name, archive.incomplete
             )
         scratch = scratch_dir(self.settings.reports, name)
+        work = Path(tempfile.mkdtemp(prefix="analyzer-watch-"))
         process = self.ctx.Process(
             target=_analyze_into,
-            args=([str(p) for p in archive.paths], self.options, str(scratch)),
+            args=([str(p) for p in archive.paths], self.options, str(scratch), str(work)),
             name=f"analyzer-watch {name}",
             daemon=True,
         )
         with _one_blas_thread():
             process.start()
-        self.running[name] = _Job(archive, digest, scratch, process, time.monotonic())
+        self.running[name] = _Job(archive, digest, scratch, process, time.monotonic(), work)
         size = sum(s[1] for s in archive.signature)
         log.info(
             "%s: start (%d input%s, %.1f MB)",
@@ -380,6 +387,7 @@ class _Runner:
     def _finish(self, job: _Job) -> None:
         name = job.archive.name
         job.process.join()
+        job.remove_work()
         del self.running[name]
         elapsed = time.monotonic() - job.started
         code = job.process.exitcode
@@ -497,6 +505,7 @@ class _Runner:
             if job.process.is_alive():
                 job.process.kill()
                 job.process.join()
+            job.remove_work()
             shutil.rmtree(job.scratch, ignore_errors=True)
             log.info("%s: abandoned; it will be analyzed on the next start", name)
         self.running.clear()

@@ -19,6 +19,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -369,6 +370,7 @@ def test_stop_waits_for_the_running_analysis_and_a_second_stop_abandons_it(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
     inbox, reports = folders
+    scratch_before = set(Path(tempfile.gettempdir()).glob("analyzer-watch-*"))
     write(tmp_path / "long.csv", "csv", seconds=300.0, rate=200.0, floors=5)
     w = start_watcher(WatchSettings(inbox, reports, settle=SETTLE, jobs=1))
     wait_until(lambda: (reports / "index.html").exists(), "the watcher to start")
@@ -387,6 +389,8 @@ def test_stop_waits_for_the_running_analysis_and_a_second_stop_abandons_it(
         "index.html",
         "index.json",
     ]
+    # the abandoned analysis took its scratch space with it
+    assert set(Path(tempfile.gettempdir()).glob("analyzer-watch-*")) <= scratch_before
 
 
 def test_a_crashed_analysis_is_an_error_record_and_the_watcher_goes_on(
@@ -396,6 +400,7 @@ def test_a_crashed_analysis_is_an_error_record_and_the_watcher_goes_on(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
     inbox, reports = folders
+    scratch_before = set(Path(tempfile.gettempdir()).glob("analyzer-watch-*"))
     write(tmp_path / "long.csv", "csv", seconds=300.0, rate=200.0, floors=5)
     w = start_watcher(WatchSettings(inbox, reports, settle=SETTLE, jobs=1))
     wait_until(lambda: (reports / "index.html").exists(), "the watcher to start")
@@ -412,6 +417,8 @@ def test_a_crashed_analysis_is_an_error_record_and_the_watcher_goes_on(
     corrupt_mcap(inbox / "next.mcap")
     wait_until(lambda: "next.mcap" in state(reports), "the next archive")
     assert w.thread is not None and w.thread.is_alive()
+    # the killed analysis's scratch space was the watcher's to remove
+    assert set(Path(tempfile.gettempdir()).glob("analyzer-watch-*")) <= scratch_before
 
 
 def test_cli_watcher_finishes_the_running_analysis_on_sigterm(
