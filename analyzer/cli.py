@@ -24,7 +24,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 from analyzer import __version__  # noqa: E402
-from analyzer.errors import AnalyzerError, ReaderError, UsageError  # noqa: E402
+from analyzer.errors import AnalyzerError, ReaderError, UsageError, one_line  # noqa: E402
 
 
 class _Parser(argparse.ArgumentParser):
@@ -246,10 +246,6 @@ def _terminate(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt  # unwinds like Ctrl-C: scratch files and partial outputs go
 
 
-def _one_line(text: str) -> str:
-    return " ".join(text.split())
-
-
 def _naming_inputs(message: str, inputs: Sequence[str]) -> str:
     """``message`` prefixed with the inputs it is about, unless it names an input or an
     option already (the contract: an error names the file or the option)."""
@@ -263,7 +259,7 @@ def _naming_inputs(message: str, inputs: Sequence[str]) -> str:
 
 
 def _error(message: str) -> int:
-    print(f"analyzer: error: {_one_line(message)}", file=sys.stderr)
+    print(f"analyzer: error: {one_line(message)}", file=sys.stderr)
     return 2
 
 
@@ -283,7 +279,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return COMMANDS[args.command](args)
     except AnalyzerError as err:
         inputs = [str(i) for i in getattr(args, "inputs", None) or []]
-        return _error(_naming_inputs(_one_line(str(err)), inputs))
+        return _error(_naming_inputs(one_line(str(err)), inputs))
     except KeyboardInterrupt:
         print("analyzer: interrupted", file=sys.stderr)
         return 130

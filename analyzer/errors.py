@@ -8,6 +8,12 @@ say what was expected.
 from __future__ import annotations
 
 
+def one_line(err: BaseException | str) -> str:
+    """An exception (or text) as a single line, for ``InputInfo.errors`` and messages."""
+    text = str(err).strip() or type(err).__name__
+    return " ".join(text.split())
+
+
 class AnalyzerError(Exception):
     """Root of every error the analyzer raises on purpose."""
 

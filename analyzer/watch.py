@@ -94,9 +94,8 @@ from multiprocessing.process import BaseProcess
 from pathlib import Path
 from types import FrameType
 
-from analyzer.errors import AnalyzerError, UsageError
+from analyzer.errors import AnalyzerError, UsageError, one_line
 from analyzer.pipeline import RunOptions, analyze, sha256_of, write_atomic, write_outputs
-from analyzer.readers._common import one_line
 from analyzer.watch_inbox import (
     INCOMPLETE_TIMEOUT_S,
     ReadyArchive,

@@ -717,13 +717,13 @@ class ARKalmanBank:
         (rows of a window, one column per estimator; of ``channels`` only, when given):
         below 1 while the estimator is consistent (masked samples count as consistent)."""
         cols = range(nis.shape[1]) if channels is None else channels
-        return np.array([self._violation(model, nis, j, 0, nis.shape[0]) for j in cols])
+        return np.array([self._violation(model, nis[:, j], j) for j in cols])
 
-    def _violation(self, model: FittedBank, nis: FloatArray, j: int, lo: int, hi: int) -> float:
-        """Largest alarm statistic of estimator ``j``'s normalized innovations over
-        ``[lo, hi)``: below 1 while the estimator is consistent (masked samples count as
-        consistent)."""
-        cons = np.nan_to_num(nis[lo:hi, j])
+    def _violation(self, model: FittedBank, nis: FloatArray, j: int) -> float:
+        """Largest alarm statistic of estimator ``j``'s normalized innovations ``nis`` (a
+        window's column): below 1 while the estimator is consistent (masked samples count
+        as consistent)."""
+        cons = np.nan_to_num(nis)
         cal = model.consistency_cal[j]
         return float(np.max(alarm_statistic(cons, cal, raw=True), initial=0.0))
 

@@ -19,6 +19,7 @@ import numpy as np
 import numpy.typing as npt
 from numpy.lib.stride_tricks import sliding_window_view
 
+from analyzer.errors import one_line  # noqa: F401 - re-exported for the readers
 from analyzer.readers.base import ChannelChunk
 
 IntArray = npt.NDArray[np.int64]
@@ -308,9 +309,3 @@ def file_digest(paths: Sequence[Path]) -> tuple[int, str]:
                 digest.update(block)
                 total += len(block)
     return total, digest.hexdigest()
-
-
-def one_line(err: BaseException | str) -> str:
-    """An exception (or text) as a single line, for ``InputInfo.errors`` and messages."""
-    text = str(err).strip() or type(err).__name__
-    return " ".join(text.split())
