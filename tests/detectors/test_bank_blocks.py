@@ -7,7 +7,13 @@ import numpy as np
 import pytest
 from scipy import linalg
 
-from analyzer.detectors.ar_kalman import ARKalmanBank, BankFilter, bank_block
+from analyzer.detectors.ar_kalman import (
+    ARKalmanBank,
+    BankFilter,
+    _contracts,
+    bank_block,
+    leave_one_out,
+)
 from analyzer.detectors.base import Dataset, RunContext
 from analyzer.detectors.lti import StackedLiftedSystem, simulate_reference
 from analyzer.detectors.riccati import solve_dare
@@ -94,6 +100,26 @@ def test_time_blocks_after_warmup_equal_one_pass(fitted):
             assert np.array_equal(np.isnan(ref), np.isnan(got)), name
             scale = np.nanmax(np.abs(ref))
             assert np.nanmax(np.abs(got - ref)) <= 1e-9 * scale, name
+
+
+@pytest.mark.parametrize("radius", [0.3, 0.9, 0.99])
+def test_contraction_proves_stability_and_only_then(radius):
+    rng = np.random.default_rng(int(radius * 1000))
+    F = rng.normal(size=(40, 40))
+    F *= radius / np.max(np.abs(np.linalg.eigvals(F)))
+    assert _contracts(F)
+    assert not _contracts(F * (1.001 / radius))  # a mode just outside the unit circle
+    assert not _contracts(F * (1.0 / radius))  # on it
+    assert not _contracts(np.diag([0.5, 1.0]))
+
+
+def test_fold_estimators_with_given_times_equal_the_full_design(fitted):
+    _, model, _ = fitted
+    for j, full in enumerate(model.estimators):
+        fast = leave_one_out(model.ar, j, full.block, (full.settle + 1, full.warmup + 2))
+        for name in ("F", "G", "H", "J"):
+            assert np.array_equal(getattr(fast, name), getattr(full, name)), name
+        assert (fast.settle, fast.warmup) == (full.settle + 1, full.warmup + 2)
 
 
 def test_whitened_consistency_equals_explicit_form(fitted):
