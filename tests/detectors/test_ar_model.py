@@ -2,7 +2,14 @@ import numpy as np
 import pytest
 from statsmodels.tsa.api import VAR
 
-from analyzer.detectors.ar_model import fit_ar, required_samples, select_order
+from scipy import linalg
+
+from analyzer.detectors.ar_model import (
+    _triangular_factor,
+    fit_ar,
+    required_samples,
+    select_order,
+)
 from analyzer.errors import DetectorError
 from analyzer.simulate import simulate_building
 
@@ -91,3 +98,15 @@ def test_select_order_is_remembered_per_training_window(monkeypatch):
     arm.select_order(Y, "bic", 5)
     assert len(calls) == 4
     assert arm.select_order(Y, "bic", 6) == arm._select_order(Y, "bic", 6) == first
+
+
+@pytest.mark.parametrize("ill", [False, True])
+def test_triangular_factor_equals_qr_up_to_row_signs(ill):
+    rng = np.random.default_rng(2)
+    M = rng.normal(size=(3000, 12))
+    if ill:  # nearly dependent columns: the Gram's Cholesky is refused, QR decides
+        M[:, 5] = M[:, 4] + 1e-7 * rng.normal(size=3000)
+    R = _triangular_factor(M)
+    ref = linalg.qr(M, mode="r")[0][:12]
+    assert np.allclose(np.tril(R, -1), 0.0)
+    np.testing.assert_allclose(np.abs(R[:12]), np.abs(ref), rtol=1e-8, atol=1e-8 * np.abs(ref).max())
