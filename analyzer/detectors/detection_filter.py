@@ -825,8 +825,9 @@ class DetectionFilter:
         except DetectorError:
             sub, bank = model, self._bank(model, data, sigma)  # halves too short
         skip = min(max(f.settle() for f in bank), (train.shape[0] // 2) // 4)
-        outs = self._outputs(sub, bank, train)
-        return [(q[eval_rows][skip:], z[eval_rows][skip:]) for q, z, _ in outs]
+        # only the evaluated rows (and the history the filters remember before them)
+        outs = self._outputs(sub, bank, train[: eval_rows.stop], start=eval_rows.start)
+        return [(q[skip:], z[skip:]) for q, z, _ in outs]
 
     def _held_out(
         self,
@@ -873,16 +874,28 @@ class DetectionFilter:
         return v, np.asarray(gap.any(axis=1), dtype=bool)
 
     def _outputs(
-        self, model: StateSpaceModel, filters: Sequence[ParkFilter], values: FloatArray
+        self,
+        model: StateSpaceModel,
+        filters: Sequence[ParkFilter],
+        values: FloatArray,
+        start: int = 0,
     ) -> list[tuple[FloatArray, FloatArray, FloatArray]]:
-        """Per filter: residual vector ``q`` (N, m), fault estimate and
-        fault-free estimate (sensor units); NaN where an input was missing and while the
-        filter settles after it. Keeps every filter's ``q``: for the training window."""
-        v, bad = self._inputs(model, np.asarray(values))
+        """Per filter: residual vector ``q`` (N - start, m), fault estimate and
+        fault-free estimate (sensor units) for the rows from ``start``; NaN where an input
+        was missing and while the filter settles after it. Keeps every filter's ``q``: for
+        the training window. An impulse-response bank filters only the history it
+        remembers before ``start`` (the outputs of a run from row 0, to rounding)."""
+        bank = filter_bank(filters)
+        if bank.history is not None:  # and a gap before it masks nothing from ``start`` on
+            first = max(0, start - max(bank.history, *(f.settle() for f in filters)))
+        else:  # a lifted bank remembers everything: run from the first row
+            first = 0
+        v, bad = self._inputs(model, np.asarray(values[first:]))
         m = filters[0].n_outputs
         out = np.empty((len(filters), m + 2, v.shape[0]))
-        for start, y in filter_bank(filters).run(v):
-            out[:, :, start : start + y.shape[2]] = y
+        for at, y in bank.run(v):
+            out[:, :, at : at + y.shape[2]] = y
+        out = out[:, :, start - first :]
         res = []
         for f in filters:
             i = f.sensor
@@ -890,7 +903,7 @@ class DetectionFilter:
             zeta = out[i, m] * model.y_scale[i]
             ref = out[i, m + 1] * model.y_scale[i] + model.y_mean[i]
             if bad.any():
-                mask = _dilate_forward(bad, f.settle())
+                mask = _dilate_forward(bad, f.settle())[start - first :]
                 q[mask] = np.nan
                 zeta[mask] = np.nan
                 ref[mask] = np.nan

@@ -121,6 +121,22 @@ def test_streamed_run_outputs_equal_the_full_residual_vectors(monkeypatch):
         np.testing.assert_allclose(seg, q[7000:7030], rtol=1e-10, atol=1e-12)
 
 
+@pytest.mark.parametrize("start", [0, 3000, 5045, 6000])
+def test_outputs_from_a_start_row_equal_the_whole_run(start):
+    """The calibration's held-out halves filter only the rows they evaluate (and the
+    history before them): the same outputs as a run from row 0, also just after a gap."""
+    det, model, Y = _fitted_filter(40.0, seed=7)
+    Yg = Y.copy()
+    Yg[5000:5040, 2] = np.nan
+    full = det._outputs(model.model, model.filters, Yg[:7000])
+    part = det._outputs(model.model, model.filters, Yg[:7000], start=start)
+    for (q, z, r), (qp, zp, rp) in zip(full, part, strict=True):
+        assert qp.shape == q[start:].shape
+        for a, b in ((q[start:], qp), (z[start:], zp), (r[start:], rp)):
+            assert np.array_equal(np.isnan(a), np.isnan(b))
+            np.testing.assert_allclose(b, a, rtol=1e-10, atol=1e-12)
+
+
 @pytest.mark.parametrize("shares_memory", [True, False])
 def test_run_outputs_in_time_blocks_equal_the_serial_run(
     shares_memory, monkeypatch, two_thread_pool
