@@ -969,8 +969,7 @@ def _cv_fold_task(
         held[a:b] = np.nan  # rows whose lags touch the block drop out of the fit
         ar = fit_ar(held, order)
         estimators = tuple(
-            leave_one_out(ar, j, block, None if times is None else times[j])
-            for j in range(ar.m)
+            leave_one_out(ar, j, block, None if times is None else times[j]) for j in range(ar.m)
         )
     bank = BankFilter.build(estimators, block)
     w = min(a, bank.warmup)

@@ -392,6 +392,13 @@ def _resample(t: IntArray, v: FloatArray, grid: IntArray, rate: float, target: f
     if i1 - i0 < 1:
         return out
     tt = np.asarray(t[i0:i1])
+    if taps is None:
+        # the channel was sampled on this very clock (the usual case for a logger's own
+        # channels): its samples are the aligned values, no interpolation needed
+        k = int(np.searchsorted(tt, grid[0], "left"))
+        if k + grid.shape[0] <= tt.shape[0] and np.array_equal(tt[k : k + grid.shape[0]], grid):
+            out[:] = v[i0 + k : i0 + k + grid.shape[0]]
+            return out
     vv = np.asarray(v[i0:i1], dtype=np.float64)
     if taps is not None and vv.shape[0] > taps.shape[0]:
         fin = np.isfinite(vv)

@@ -1,8 +1,7 @@
 import numpy as np
 import pytest
-from statsmodels.tsa.api import VAR
-
 from scipy import linalg
+from statsmodels.tsa.api import VAR
 
 from analyzer.detectors.ar_model import (
     _triangular_factor,
@@ -109,4 +108,6 @@ def test_triangular_factor_equals_qr_up_to_row_signs(ill):
     R = _triangular_factor(M)
     ref = linalg.qr(M, mode="r")[0][:12]
     assert np.allclose(np.tril(R, -1), 0.0)
-    np.testing.assert_allclose(np.abs(R[:12]), np.abs(ref), rtol=1e-8, atol=1e-8 * np.abs(ref).max())
+    np.testing.assert_allclose(
+        np.abs(R[:12]), np.abs(ref), rtol=1e-8, atol=1e-8 * np.abs(ref).max()
+    )

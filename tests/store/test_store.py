@@ -54,6 +54,28 @@ def test_jitter_is_interpolated_and_gaps_are_kept():
         assert np.nanmax(np.abs(x - truth)) < 0.01
 
 
+def test_channel_on_the_clock_keeps_its_samples_and_gaps():
+    """A channel sampled on the common clock takes its samples as they are (no
+    interpolation); blocks with missing samples keep their gap; a second channel off the
+    clock by a quarter period is interpolated as before."""
+    t = np.arange(5000, dtype=np.int64) * 10_000_000  # 100 Hz
+    v = np.cos(t / NS)
+    v[100] = np.nan  # a NaN reading stays NaN
+    keep = np.ones(5000, bool)
+    keep[3000:3010] = False  # a gap
+    off = t + 2_500_000
+    chunks = [ChannelChunk("a", t[keep], v[keep]), ChannelChunk("b", off, np.sin(off / NS))]
+    with ChannelStore.from_chunks(chunks) as store:
+        al = store.align(["a", "b"], rate_hz=100.0, start_ns=0, end_ns=int(t[-1]))
+        x = al.materialize(block=777)
+    expect = np.where(keep, v, np.nan)
+    np.testing.assert_array_equal(x[:, 0], expect)
+    grid = al.times_ns() / NS
+    inside = grid >= off[0] / NS
+    assert np.isnan(x[~inside, 1]).sum() == 0  # held at the edge within half a period
+    assert np.max(np.abs(x[inside, 1] - np.sin(grid[inside]))) < 1e-4
+
+
 def test_faster_channel_is_low_passed_before_decimation():
     t = np.arange(80_000, dtype=np.int64) * 1_250_000  # 800 Hz
     sec = t / NS
