@@ -282,9 +282,11 @@ def _run_detectors(
     executor: Executor,
     timings: dict[str, float] | None = None,
     spill_dir: Path | None = None,
+    finished: Callable[[DetectorResult], None] | None = None,
 ) -> tuple[list[DetectorResult], dict[str, str]]:
     """Fit and run the detectors ``names``, each as a task of ``executor``; results and
     skip reasons in registry order, so any executor gives the serial run's output.
+    ``finished`` is called with each result as soon as it is final (in that order).
 
     A detector whose needs are not met, or that raises :class:`DetectorError`, is skipped
     with its reason; when the user named the detectors (``ctx.explicit``) the first such
@@ -338,6 +340,8 @@ def _run_detectors(
                     t0 = time.perf_counter()
                     trim_heap()  # what the fits freed
                     results.append(_spill(_compact(det.run(model, data, ctx)), spill_dir))
+                    if finished is not None:
+                        finished(results[-1])
                     release(data.values)  # what the run read of a memory-mapped archive
                     trim_heap()  # the run's per-sample arrays
                     if timings is not None:  # the fits overlap: their sum exceeds the wall time
@@ -345,6 +349,8 @@ def _run_detectors(
                         timings[f"run {name}"] = time.perf_counter() - t0
                 else:
                     results.append(_spill(plan.result(), spill_dir))
+                    if finished is not None:
+                        finished(results[-1])
                     trim_heap()
             except DetectorError as err:
                 if ctx.explicit:
@@ -500,7 +506,28 @@ def _analyze(
         t0 = time.perf_counter()
         # a long archive's kept signals go to files as each detector finishes
         spill_dir = work / "signals" if big else None
-        results, skipped = _run_detectors(names, options, data, ctx, executor, timings, spill_dir)
+        # the tests of each residual are independent: local threads share the residuals
+        # without copies (a cluster would need them shipped, so not there), one task per
+        # detector and channel so the threads stay evenly loaded. On threads a detector's
+        # tests start as soon as its run ends, and fill the pool while the next one runs.
+        threads = isinstance(executor, ThreadExecutor)
+        tests: list[tuple[tuple[DetectorResult, tuple[str, ...], tuple[int, int], float], Any]]
+        tests = []
+
+        def start_tests(r: DetectorResult) -> None:
+            for ch in r.residuals:
+                task = (r, (ch,), train, aligned.rate_hz)
+                tests.append((task, executor.submit(_residual_tests, task) if threads else None))
+
+        try:
+            results, skipped = _run_detectors(
+                names, options, data, ctx, executor, timings, spill_dir, start_tests
+            )
+        except BaseException:
+            for _, handle in tests:
+                if handle is not None:
+                    handle.cancel()
+            raise
         timings["detect"] = time.perf_counter() - t0
         if not results:
             why = "; ".join(
@@ -512,17 +539,13 @@ def _analyze(
         notes.extend(relabel_frozen(findings, values, chosen, aligned.rate_hz, train))
         t0 = time.perf_counter()
         attach_evidence(findings, results, aligned.rate_hz, train)
-        # the tests of each residual are independent: local threads share the residuals
-        # without copies (a cluster would need them shipped, so not there), one task per
-        # detector and channel so the threads stay evenly loaded
-        tasks = [(r, (ch,), train, aligned.rate_hz) for r in results for ch in r.residuals]
-        threads = isinstance(executor, ThreadExecutor)
-        summaries = executor.map(_residual_tests, tasks) if threads else map(_residual_tests, tasks)
         for r in results:
             r.model["training_tests"], r.model["windowed_tests"] = {}, {}
-        for (r, *_), (trained, windowed) in zip(tasks, summaries, strict=True):
-            r.model["training_tests"].update(trained)
-            r.model["windowed_tests"].update(windowed)
+        for task, handle in tests:
+            trained, windowed = _residual_tests(task) if handle is None else handle.result()
+            task[0].model["training_tests"].update(trained)
+            task[0].model["windowed_tests"].update(windowed)
+        # on threads: what was left of the tests when the detection ended
         timings["test"] = time.perf_counter() - t0
         corrected = None
         corrections: list[dict[str, Any]] = []
