@@ -14,7 +14,10 @@ a multi-file archive a damaged file does not stop the others: it is listed in
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Iterator, Sequence
+import queue
+import threading
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from analyzer.errors import ReaderError
@@ -100,6 +103,38 @@ def detect_format(path: str | Path) -> Format:
     )
 
 
+OPEN_THREADS = 4
+"""Inputs opened at once (each reads its header and hashes its bytes, without the GIL)."""
+
+
+def _open_members(members: Sequence[Path]) -> list[Reader | ReaderError]:
+    """:func:`open_input` of each member, in order (its ReaderError in its place). MCAP and
+    CSV files are opened on threads; other formats (a ROS bag's sqlite connection belongs
+    to the thread that opened it) in this one."""
+
+    def attempt(member: Path) -> Reader | ReaderError:
+        try:
+            return open_input(member)
+        except ReaderError as err:
+            return err
+
+    def threadable(member: Path) -> bool:
+        try:
+            return detect_format(member) in (Format.MCAP, Format.CSV)
+        except ReaderError:
+            return False  # opened here, where it raises its error
+
+    threaded = [threadable(m) for m in members]
+    with ThreadPoolExecutor(min(OPEN_THREADS, max(1, sum(threaded)))) as pool:
+        pending = [
+            pool.submit(attempt, m) if t else None for m, t in zip(members, threaded, strict=True)
+        ]
+        return [
+            attempt(m) if handle is None else handle.result()
+            for m, handle in zip(members, pending, strict=True)
+        ]
+
+
 def open_input(path: str | Path) -> Reader:
     """Open one input; raises ReaderError (one line, naming the file) if it cannot be read."""
     path = Path(path)
@@ -152,22 +187,109 @@ class Archive:
             raise ValueError(f"time must be 'log' or 'header', not {time!r}")
         last: dict[str, int] = {}
         single = len(self.inputs) == 1
-        for reader in self.readers:
-            dropped: dict[str, int] = {}
+        # the next input is read ahead on a thread while this one is consumed: decoding
+        # (zstd, Arrow's CSV parser, numpy) runs without the GIL, so two files' worth of
+        # work overlaps; the queue bounds what is held ahead
+        ahead: dict[int, _ReadAhead] = {}
+        try:
+            for i, reader in enumerate(self.readers):
+                nxt = i + 1
+                if nxt < len(self.readers) and _threadable(self.readers[nxt]):
+                    ahead[nxt] = _ReadAhead(self.readers[nxt].chunks, time)
+                source = ahead.pop(i) if i in ahead else reader.chunks(time)
+                yield from self._stream(reader, source, last, single)
+        finally:
+            for pending in ahead.values():
+                pending.close()
+
+    @staticmethod
+    def _stream(
+        reader: Reader, source: Iterator[ChannelChunk], last: dict[str, int], single: bool
+    ) -> Iterator[ChannelChunk]:
+        """One input's chunks, time-ordered against the inputs before it; its errors
+        recorded (several inputs) or raised (one input)."""
+        dropped: dict[str, int] = {}
+        try:
+            yield from monotonic(source, last, dropped, strict=True)
+        except ReaderError as err:
+            if single:
+                raise
+            reader.info.errors.append(f"reading stopped: {one_line(err)}")
+        except Exception as err:  # noqa: BLE001 - a damaged file must not stop the others
+            if single:
+                raise ReaderError(f"{reader.info.path}: {one_line(err)}") from err
+            reader.info.errors.append(f"reading stopped: {one_line(err)}")
+        finally:
+            if isinstance(source, _ReadAhead):
+                source.close()
+        for name, count in dropped.items():
+            reader.info.errors.append(
+                f"{name}: {count} samples overlap the previous input in time; dropped"
+            )
+
+
+READ_AHEAD_CHUNKS = 64
+"""Chunks of the next input held ahead at most (a few tens of MB)."""
+
+
+def _threadable(reader: Reader) -> bool:
+    """Readers whose files may be read on another thread than the one that opened them
+    (a ROS 2 bag's sqlite connection may not)."""
+    return isinstance(reader, McapReader | CsvReader)
+
+
+class _End:
+    pass
+
+
+class _ReadAhead(Iterator[ChannelChunk]):
+    """``chunks(time)`` run on a thread into a bounded queue; iterating yields its chunks
+    and raises its exception where it occurred. :meth:`close` stops the thread."""
+
+    def __init__(self, chunks: Callable[[TimeSource], Iterator[ChannelChunk]], time: TimeSource):
+        self._queue: queue.Queue[object] = queue.Queue(READ_AHEAD_CHUNKS)
+        self._stop = threading.Event()
+        self._done = False
+        self._thread = threading.Thread(
+            target=self._produce, args=(chunks, time), name="analyzer-read-ahead", daemon=True
+        )
+        self._thread.start()
+
+    def _put(self, item: object) -> bool:
+        while not self._stop.is_set():
             try:
-                yield from monotonic(reader.chunks(time), last, dropped, strict=True)
-            except ReaderError as err:
-                if single:
-                    raise
-                reader.info.errors.append(f"reading stopped: {one_line(err)}")
-            except Exception as err:  # noqa: BLE001 - a damaged file must not stop the others
-                if single:
-                    raise ReaderError(f"{reader.info.path}: {one_line(err)}") from err
-                reader.info.errors.append(f"reading stopped: {one_line(err)}")
-            for name, count in dropped.items():
-                reader.info.errors.append(
-                    f"{name}: {count} samples overlap the previous input in time; dropped"
-                )
+                self._queue.put(item, timeout=0.05)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def _produce(self, chunks: Callable[[TimeSource], Iterator[ChannelChunk]], time: TimeSource):
+        try:
+            for chunk in chunks(time):
+                if not self._put(chunk):
+                    return
+            self._put(_End())
+        except BaseException as err:  # noqa: BLE001 - handed to the consumer, raised there
+            self._put(err)
+
+    def __next__(self) -> ChannelChunk:
+        if self._done:
+            raise StopIteration
+        item = self._queue.get()
+        if isinstance(item, _End):
+            self._done = True
+            raise StopIteration
+        if isinstance(item, BaseException):
+            self._done = True
+            raise item
+        assert isinstance(item, ChannelChunk)
+        return item
+
+    def close(self) -> None:
+        self._stop.set()
+        self._done = True
+        self._thread.join()
 
 
 def _members(directory: Path) -> list[Path]:
@@ -230,11 +352,11 @@ def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
         return Archive([open_input(members[0])])
     readers: list[Reader] = []
     failed: list[InputInfo] = []
-    for member in members:
-        try:
-            readers.append(open_input(member))
-        except ReaderError as err:
-            failed.append(_failed(member, err))
+    for member, opened in zip(members, _open_members(members), strict=True):
+        if isinstance(opened, ReaderError):
+            failed.append(_failed(member, opened))
+        else:
+            readers.append(opened)
     if not readers:
         raise ReaderError(
             f"none of the {len(members)} inputs can be read; first: {failed[0].path}: "

@@ -137,3 +137,30 @@ def test_same_data_in_every_format(tmp_path: Path) -> None:
             np.testing.assert_array_equal(values, reference[key][1], err_msg=label)
     for key in data:
         np.testing.assert_array_equal(reference[key][1], data[key])
+
+
+def test_read_ahead_gives_the_same_stream_and_stops_with_its_consumer(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The next input is read on a thread into a bounded queue: the stream is the same
+    chunk for chunk, a consumer that stops early stops the thread, and no thread is left."""
+    import threading
+
+    import analyzer.readers as readers
+
+    _hours(tmp_path)
+    with monkeypatch.context() as m:
+        m.setattr(readers, "_threadable", lambda reader: False)  # one input after the other
+        sequential = list(open_archive(tmp_path).chunks())
+    assert sequential
+    monkeypatch.setattr(readers, "READ_AHEAD_CHUNKS", 1)  # the producer waits on the queue
+    ahead = list(open_archive(tmp_path).chunks())
+    assert [c.name for c in ahead] == [c.name for c in sequential]
+    for a, b in zip(ahead, sequential, strict=True):
+        np.testing.assert_array_equal(a.t_ns, b.t_ns)
+        np.testing.assert_array_equal(a.values, b.values)
+    stream = open_archive(tmp_path).chunks()
+    next(stream)
+    assert any(t.name == "analyzer-read-ahead" for t in threading.enumerate())
+    stream.close()  # the consumer gives up in the first file, the second is being read
+    assert not any(t.name == "analyzer-read-ahead" for t in threading.enumerate())
