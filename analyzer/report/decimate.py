@@ -80,7 +80,12 @@ def envelope(t: npt.ArrayLike, y: npt.ArrayLike, max_points: int = 2000) -> Enve
 def binned_nan_fraction(values: npt.ArrayLike, bins: int) -> FloatArray:
     """Fraction of NaN samples per time bin and column of an (N, m) array: a
     ``(min(bins, N), m)`` array. Reads ``values`` in row blocks, so a memory-mapped archive
-    is streamed once instead of loaded."""
+    is streamed once instead of loaded.
+
+    Most blocks of most channels hold no NaN at all: a column sum (one fast pass, and NaN
+    whenever the column holds a NaN) picks the columns worth counting, and only those are
+    counted per bin. A sum can also be NaN without a NaN sample (``inf - inf``), which
+    merely counts that column exactly."""
     v = values if isinstance(values, np.ndarray) else np.asarray(values)
     if v.ndim != 2:
         raise ValueError(f"expected an (N, m) array, got shape {v.shape}")
@@ -92,11 +97,16 @@ def binned_nan_fraction(values: npt.ArrayLike, bins: int) -> FloatArray:
     counts = np.zeros((bins, m), dtype=np.int64)
     for start in range(0, n, ROW_BLOCK):
         stop = min(n, start + ROW_BLOCK)
-        nan = np.isnan(v[start:stop])
+        block = np.asarray(v[start:stop], dtype=np.float64)
+        with np.errstate(invalid="ignore", over="ignore"):
+            cols = np.flatnonzero(np.isnan(block.sum(axis=0)))
+        if cols.size == 0:
+            continue
+        nan = np.isnan(block[:, cols])
         b0 = int(np.searchsorted(edges, start, side="right")) - 1
         b1 = int(np.searchsorted(edges, stop - 1, side="right")) - 1
         cuts = np.maximum(edges[b0 : b1 + 1] - start, 0)
-        counts[b0 : b1 + 1] += np.add.reduceat(nan, cuts, axis=0, dtype=np.int64)
+        counts[b0 : b1 + 1, cols] += np.add.reduceat(nan, cuts, axis=0, dtype=np.int64)
     sizes = np.diff(edges).astype(np.float64)
     return counts / sizes[:, None]
 

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
+import matplotlib as mpl
 import numpy as np
 import numpy.typing as npt
 from markupsafe import Markup
@@ -20,7 +21,7 @@ from matplotlib.patches import Patch
 from scipy import stats as sps
 
 from analyzer.report.decimate import envelope, moving_mean
-from analyzer.report.svg import grid, label, new_figure, style, to_svg
+from analyzer.report.svg import grid, label, new_figure, style, text_width_in, to_svg
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -137,9 +138,15 @@ def coverage_figure(
     training window shaded."""
     axis = TimeAxis.for_span(duration_s)
     n = len(rows)
+    names = [label(r.name) for r in reversed(rows)]
     with style():
-        fig = new_figure(WIDTH_IN, 0.9 + 0.24 * max(n, 1))
-        ax = fig.add_subplot()
+        fig = new_figure(WIDTH_IN, 0.9 + 0.24 * max(n, 1), constrained=False)
+        # fixed margins instead of a constrained layout (which draws the figure twice):
+        # the longest channel name, the tick (3.5 pt) and its pad (3.5 pt) on the left;
+        # the one-row legend above; tick labels and the axis label below
+        size = float(mpl.rcParams["ytick.labelsize"])
+        widest = max((text_width_in(t, size) for t in names), default=0.0)
+        ax = grid(fig, 1, left=widest + 11.0 / 72.0, right=0.2, top=0.32, bottom=0.45)[0, 0]
         ax.axvspan(
             train[0] / axis.scale,
             train[1] / axis.scale,
@@ -172,7 +179,7 @@ def coverage_figure(
                     color=C_FAULT,
                     lw=0,
                 )
-        ax.set_yticks(range(n), [label(r.name) for r in reversed(rows)])
+        ax.set_yticks(range(n), names)
         ax.set_ylim(-0.7, n - 0.3)
         first = min([0.0, *[r.start_s for r in rows]])  # channels may start before the clock
         last = max([duration_s, *[r.end_s for r in rows]])

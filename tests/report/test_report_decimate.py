@@ -133,3 +133,37 @@ def test_clean_svg_prefixes_references():
     assert out.startswith('<svg viewBox="0 0 10 5">')
     assert 'id="k-m1"' in out and 'href="#k-m1"' in out and "url(#k-p1)" in out
     assert 'd="M 0.1 1.9 L 2 3"' in out and 'x="1.2"' in out
+
+
+@pytest.mark.parametrize("block", [7, 1 << 18])
+def test_binned_nan_fraction_counts_sparse_nans_and_infinities(block, monkeypatch):
+    """Columns and blocks without NaN are skipped (a column sum is NaN only where a NaN
+    or ``inf - inf`` is): the fractions stay those of the direct count."""
+    monkeypatch.setattr(dec, "ROW_BLOCK", block)
+    v = np.random.default_rng(1).random((500, 4))
+    v[40:43, 1] = np.nan  # one short gap in one column
+    v[400, 3] = np.nan
+    v[100, 2], v[101, 2] = np.inf, -np.inf  # a NaN sum without a NaN sample
+    v[200, 0] = np.inf
+    got = binned_nan_fraction(v, 37)
+    edges = (np.arange(38) * 500) // 37
+    want = np.array(
+        [np.isnan(v[a:b]).mean(axis=0) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+    )
+    np.testing.assert_array_equal(got, want)
+    assert got[:, 0].sum() == 0 and got[:, 2].sum() == 0 and np.count_nonzero(got[:, 1]) >= 1
+
+
+def test_compact_path_matches_the_group_form():
+    """The literal-replacement regex cuts every coordinate to one decimal exactly as the
+    straightforward ``(\\d+\\.\\d)\\d+ -> \\1`` substitution does."""
+    rng = np.random.default_rng(2)
+    nums = [f"{x:f}".rstrip("0").rstrip(".") for x in rng.normal(0, 300, 400)]
+    nums += ["0", "-0.5", "12.3", "7.05", "100", "-3.999999"]
+    pairs = zip(nums[::2], nums[1::2], strict=True)
+    d = " ".join(f"{'L' if i else 'M'} {a} {b}" for i, (a, b) in enumerate(pairs))
+    raw = f'<svg viewBox="0 0 1 1"><path d="{d} z" /><text x="1.2345" y="-0.98">a</text></svg>'
+    want_d = re.sub(r"(\d+\.\d)\d+", r"\1", d)
+    out = clean_svg(raw, "k")
+    assert f'd="{" ".join((want_d + " z").split())}"' in out
+    assert 'x="1.2"' in out and 'y="-0.9"' in out
