@@ -55,7 +55,7 @@ alarms are isolated by the network's laws (Section 6.2).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
@@ -347,7 +347,12 @@ def fit_relation(
 ) -> Relation:
     """Least-squares FIR relation of ``target`` on ``assistants`` (rows with a NaN dropped);
     ``lags="bic"`` picks the length among ``0, 1, 2, 4, ...`` up to ``max_lags`` by BIC, all
-    candidates fitted on the same rows."""
+    candidates fitted on the same rows.
+
+    One Gram matrix serves every candidate length, each solved by Cholesky on its
+    unit-diagonal sub-matrix. Without a gap in the columns used it comes from lagged
+    cross-products (:func:`_lagged_gram`, no design matrix); with one, from the design
+    matrix of the rows that have no NaN (:func:`_rows_gram`)."""
     Y = np.asarray(values, dtype=np.float64)
     if isinstance(lags, str):
         if lags != "bic":
@@ -366,32 +371,25 @@ def fit_relation(
             f"{N} samples"
         )
     width = Lmax + 1
-    t = Y[Lmax:, target]
-    # row k of a window is y_j[k + Lmax - g] for g = Lmax .. 0: reversed, lags 0 .. Lmax
-    windows = [sliding_window_view(Y[:, j], width)[:, ::-1] for j in assistants]
-    ok = np.isfinite(t)
-    for w in windows:
-        ok &= np.isfinite(w).all(axis=1)
-    t = t[ok]
-    n = t.shape[0]
+    p = len(assistants)
+    used = np.ascontiguousarray(Y[:, [target, *assistants]].T)  # one pass over the rows
+    if p and np.isfinite(used).all():
+        # no gap: every row counts and the Gram matrix follows from lagged products
+        t = used[0, Lmax:]
+        n = t.shape[0]
+        G, h_all = _lagged_gram(used[0], used[1:], Lmax)
+        every = True
+    else:
+        G, h_all, t, X = _rows_gram(Y, target, assistants, Lmax)
+        n = t.shape[0]
+        every = False
     var_t = float(np.var(t))
     if not var_t > 0.0:
         raise DetectorError("the target sensor is constant in the training window")
-    # one Gram matrix for every candidate length (a single matrix product over the long
-    # axis), each candidate solved by Cholesky on its unit-diagonal sub-matrix
-    X = np.empty((n, 1 + len(assistants) * width))
-    X[:, 0] = 1.0
-    every = bool(ok.all())  # no gap: the windows are copied as they are (no row gather)
-    for j, w in enumerate(windows):
-        X[:, 1 + j * width : 1 + (j + 1) * width] = w if every else w[ok]
-    G = X.T @ X
-    h_all = X.T @ t
     tt = float(t @ t)
     results = []
     for L in cands:
-        idx = np.concatenate(
-            [[0], *[1 + j * width + np.arange(L + 1) for j in range(len(windows))]]
-        )
+        idx = np.concatenate([[0], *[1 + j * width + np.arange(L + 1) for j in range(p)]])
         coef = _solve_normal(G[np.ix_(idx, idx)], h_all[idx])
         # |t - X c|^2 from the Gram matrix (no pass over the rows per candidate)
         rss = max(
@@ -400,9 +398,89 @@ def fit_relation(
         bic = n * np.log(max(rss / n, 1e-300)) + idx.shape[0] * np.log(n)
         results.append((bic, L, coef, idx))
     _, L, coef, idx = min(results, key=lambda r: r[0])
-    rss = float(np.sum((t - X[:, idx] @ coef) ** 2))  # the chosen one's, from the rows
-    h = coef[1:].reshape(len(assistants), L + 1)
+    h = coef[1:].reshape(p, L + 1)
+    # the chosen one's residual sum of squares, from the rows
+    if every:
+        fitted = np.full(n, coef[0])
+        for j in range(p):  # sum_l h[j, l] y_j[k - l] for k >= Lmax
+            fitted += np.convolve(used[1 + j, Lmax - L :], h[j], mode="valid")
+        rss = float(np.sum((t - fitted) ** 2))
+    else:
+        rss = float(np.sum((t - X[:, idx] @ coef) ** 2))
     return Relation(target, tuple(assistants), L, h, float(coef[0]), float(1.0 - rss / (n * var_t)))
+
+
+def _rows_gram(
+    Y: FloatArray, target: int, assistants: Sequence[int], Lmax: int
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """``(X^T X, X^T t, t, X)`` of the lagged design ``X = [1, y_j[k - l] ...]`` (lags
+    ``0 .. Lmax`` of each assistant) over the rows ``k >= Lmax`` without a NaN."""
+    width = Lmax + 1
+    t = Y[Lmax:, target]
+    # row k of a window is y_j[k + Lmax - g] for g = Lmax .. 0: reversed, lags 0 .. Lmax
+    windows = [sliding_window_view(Y[:, j], width)[:, ::-1] for j in assistants]
+    ok = np.isfinite(t)
+    for w in windows:
+        ok &= np.isfinite(w).all(axis=1)
+    t = t[ok]
+    n = t.shape[0]
+    X = np.empty((n, 1 + len(assistants) * width))
+    X[:, 0] = 1.0
+    every = bool(ok.all())  # no gap: the windows are copied as they are (no row gather)
+    for j, w in enumerate(windows):
+        X[:, 1 + j * width : 1 + (j + 1) * width] = w if every else w[ok]
+    return X.T @ X, X.T @ t, t, X
+
+
+def _lagged_gram(y_t: FloatArray, cols: FloatArray, Lmax: int) -> tuple[FloatArray, FloatArray]:
+    """``(X^T X, X^T t)`` of :func:`_rows_gram` for a record without a gap (the target
+    ``y_t`` and the assistants' rows ``cols``), without forming ``X``: the lagged columns
+    are shifts of one another, so
+
+        G_jk[a, b] = sum_{k=Lmax}^{N-1} y_j[k - a] y_k[k - b]
+                   = G_jk[a - 1, b - 1] + y_j[Lmax - a] y_k[Lmax - b] - y_j[N - a] y_k[N - b]:
+
+    one cross-correlation per pair of assistants gives the first row of each block and a
+    recursion over the ``Lmax`` boundary samples the rest (``O(N Lmax)`` instead of
+    ``O(N Lmax^2)``; the same sums, rounded differently)."""
+    p, N = cols.shape
+    width = Lmax + 1
+
+    def first_row(u: FloatArray, v: FloatArray) -> FloatArray:
+        """``sum_k u[k] v[k - b]`` over ``k >= Lmax``, ``b = 0 .. Lmax``."""
+        return np.correlate(v, u[Lmax:], mode="valid")[::-1]
+
+    # blocks[j, k] = G_jk (width x width); D: the boundary products added along diagonals
+    blocks = np.zeros((p, p, width, width))
+    heads = np.stack([c[:Lmax][::-1] for c in cols])  # heads[j, a - 1] = y_j[Lmax - a]
+    tails = np.stack([c[N - Lmax :][::-1] for c in cols])  # tails[j, a - 1] = y_j[N - a]
+    D = heads[:, None, :, None] * heads[None, :, None, :]
+    D -= tails[:, None, :, None] * tails[None, :, None, :]
+    for j in range(p):
+        for k in range(j, p):
+            blocks[j, k, 0, :] = first_row(cols[j], cols[k])
+            blocks[j, k, :, 0] = blocks[j, k, 0, :] if j == k else first_row(cols[k], cols[j])
+    for a in range(1, width):
+        blocks[:, :, a, 1:] = blocks[:, :, a - 1, :-1] + D[:, :, a - 1, :]
+    for j in range(p):  # G_kj = G_jk^T (only j <= k were computed)
+        for k in range(j):
+            blocks[j, k] = blocks[k, j].T
+    G = np.empty((1 + p * width, 1 + p * width))
+    G[0, 0] = N - Lmax
+    h_all = np.empty(1 + p * width)
+    h_all[0] = float(np.sum(y_t[Lmax:]))
+    for j, c in enumerate(cols):
+        sl = slice(1 + j * width, 1 + (j + 1) * width)
+        # sum_k y_j[k - a]: the window slides back one sample per lag
+        s = np.empty(width)
+        s[0] = float(np.sum(c[Lmax:]))
+        s[1:] = s[0] + np.cumsum(heads[j] - tails[j])
+        G[0, sl] = s
+        G[sl, 0] = s
+        for k in range(p):
+            G[sl, 1 + k * width : 1 + (k + 1) * width] = blocks[j, k]
+        h_all[sl] = first_row(y_t, c)
+    return G, h_all
 
 
 def _solve_normal(G: FloatArray, h: FloatArray) -> FloatArray:
@@ -582,7 +660,7 @@ class EquivalentModel:
         pre = pretreat(train[:, i], None if ui is None else train[:, ui], dt, l2, self.table)
         obs = AssistantObserver(pre.a, pre.b, l1, l2, dt)
         phi = float(np.exp(-l1 * dt))
-        lag = rel.lags + int(np.ceil(np.log(1e-6) / np.log(min(max(phi, 1e-3), 1 - 1e-9))))
+        lag = _settle_samples(rel, phi)
         z = self._held_out_estimate(obs, rel, train, i, lag)
         cal = calibrate(z, window, far)
         return TargetObserver(i, rel, obs, pre, ui, cal, long_run_time(z, window)), lag
@@ -615,18 +693,32 @@ class EquivalentModel:
     ) -> tuple[FloatArray, FloatArray]:
         """``-lambda1 r`` after each sample (sensor units, measured - estimated; Eq. 32 and
         the fault regeneration of Section 6.3), NaN around gaps, and the estimate ``z`` of
-        the sensor from its assistants that drives it."""
-        y = np.asarray(values[:, i], dtype=np.float64)
-        z = rel.estimate(values)
-        gap = ~np.isfinite(y)
-        for j in rel.assistants:
-            gap |= ~np.isfinite(values[:, j])
-        r = obs.rate_residual(z, np.where(np.isfinite(y), y, 0.0))
-        zeta = -obs.lambda1 * r
-        if gap.any():
-            phi = float(np.exp(-obs.lambda1 * obs.dt))
-            n_settle = rel.lags + int(np.ceil(np.log(1e-6) / np.log(min(max(phi, 1e-3), 1 - 1e-9))))
-            zeta[_dilate_forward(gap, n_settle)] = np.nan
+        the sensor from its assistants that drives it.
+
+        One compiled pass over the rows (:func:`_observer_loop`): the target's and the
+        assistants' samples are read where they lie (no column copies of the record), the
+        FIR, the observer's recursion and the gap mask run block by block. Without numba
+        (or for a non-float record) :func:`_fault_estimate_numpy` computes the same."""
+        arr = np.asarray(values)
+        if _observer_kernel is None or arr.ndim != 2 or arr.dtype.kind != "f":
+            return _fault_estimate_numpy(obs, rel, values, i)
+        phi = float(np.exp(-obs.lambda1 * obs.dt))
+        n = arr.shape[0]
+        zeta = np.empty(n)
+        z = np.empty(n)
+        _observer_kernel(
+            arr,
+            i,
+            np.asarray(rel.assistants, dtype=np.int64),
+            np.ascontiguousarray(rel.coef, dtype=np.float64).reshape(len(rel.assistants), -1),
+            float(rel.intercept),
+            phi,
+            (1.0 - phi) / obs.lambda1,
+            -obs.lambda1,
+            _settle_samples(rel, phi),
+            zeta,
+            z,
+        )
         return zeta, z
 
     # -- running -----------------------------------------------------------------------------
@@ -780,9 +872,139 @@ def _observer_task(
     return zeta.astype(SIGNAL_DTYPE), z.astype(SIGNAL_DTYPE), found
 
 
+def _settle_samples(rel: Relation, phi: float) -> int:
+    """Samples after a gap before the fault estimate is trusted again: the FIR's memory and
+    the observer's decay to ``1e-6``."""
+    return rel.lags + int(np.ceil(np.log(1e-6) / np.log(min(max(phi, 1e-3), 1 - 1e-9))))
+
+
+def _fault_estimate_numpy(
+    obs: AssistantObserver, rel: Relation, values: FloatArray, i: int
+) -> tuple[FloatArray, FloatArray]:
+    """:meth:`EquivalentModel._fault_estimate` from its parts, whole columns at a time:
+    :meth:`Relation.estimate`, :meth:`AssistantObserver.rate_residual` and the gap mask
+    (the reference form of the compiled :func:`_observer_loop`)."""
+    y = np.asarray(values[:, i], dtype=np.float64)
+    z = rel.estimate(values)
+    gap = ~np.isfinite(y)
+    for j in rel.assistants:
+        gap |= ~np.isfinite(values[:, j])
+    r = obs.rate_residual(z, np.where(np.isfinite(y), y, 0.0))
+    zeta = -obs.lambda1 * r
+    if gap.any():
+        phi = float(np.exp(-obs.lambda1 * obs.dt))
+        zeta[_dilate_forward(gap, _settle_samples(rel, phi))] = np.nan
+    return zeta, z
+
+
+_BLOCK = 1024  # rows per block of the compiled pass (its buffers stay in cache)
+_BIG = float(np.finfo(np.float64).max)
+
+
+def _observer_loop(
+    values: FloatArray,
+    target: int,
+    cols: npt.NDArray[np.int64],
+    coef: FloatArray,
+    intercept: float,
+    phi: float,
+    gain: float,
+    scale: float,
+    settle: int,
+    zeta: FloatArray,
+    z: FloatArray,
+) -> None:  # pragma: no cover - compiled by numba
+    """``z[k] = intercept + sum_j sum_l coef[j, l] x_j[k - l]`` (:meth:`Relation.estimate`:
+    NaN inputs count as 0, +-inf as the largest float, as ``np.nan_to_num`` does),
+    ``r[k] = phi r[k - 1] + gain (z[k] - y[k])`` (``y`` NaN -> 0; the recursion exactly as
+    ``lfilter`` runs it) and ``zeta = scale r``, NaN within ``settle`` samples after a
+    row where the target or an assistant is not finite. Block by block: the last ``L``
+    inputs of a block are the next one's FIR history; the FIR runs lag by lag over a
+    block (a vector loop) and sums the lags of each output in order."""
+    n = values.shape[0]
+    p = cols.shape[0]
+    width = coef.shape[1]
+    lag = width - 1
+    buf = np.zeros((p, lag + _BLOCK))
+    ym = np.empty(_BLOCK)
+    gaps = np.zeros(_BLOCK, dtype=np.bool_)
+    acc = np.empty(_BLOCK)
+    part = np.empty(_BLOCK)
+    r = 0.0
+    last_gap = -settle - 2  # no gap yet: every row is further than ``settle`` from one
+    for s in range(0, n, _BLOCK):
+        nb = min(_BLOCK, n - s)
+        for k in range(nb):
+            yv = float(values[s + k, target])
+            g = not np.isfinite(yv)
+            ym[k] = 0.0 if g else yv
+            for c in range(p):
+                xv = float(values[s + k, cols[c]])
+                if not np.isfinite(xv):
+                    g = True
+                    xv = 0.0 if np.isnan(xv) else (_BIG if xv > 0.0 else -_BIG)
+                buf[c, lag + k] = xv
+            gaps[k] = g
+        for k in range(nb):
+            acc[k] = intercept
+        for c in range(p):
+            xb = buf[c]
+            for k in range(nb):
+                part[k] = 0.0
+            m = 0
+            while m < width:  # four lags per sweep, added in lag order
+                if m + 4 <= width:
+                    h0, h1, h2, h3 = coef[c, m], coef[c, m + 1], coef[c, m + 2], coef[c, m + 3]
+                    x0 = xb[lag - m : lag - m + nb]
+                    x1 = xb[lag - m - 1 : lag - m - 1 + nb]
+                    x2 = xb[lag - m - 2 : lag - m - 2 + nb]
+                    x3 = xb[lag - m - 3 : lag - m - 3 + nb]
+                    for k in range(nb):
+                        part[k] = (((part[k] + h0 * x0[k]) + h1 * x1[k]) + h2 * x2[k]) + h3 * x3[k]
+                    m += 4
+                else:
+                    h0 = coef[c, m]
+                    x0 = xb[lag - m : lag - m + nb]
+                    for k in range(nb):
+                        part[k] += h0 * x0[k]
+                    m += 1
+            for k in range(nb):
+                acc[k] += part[k]
+        for k in range(nb):
+            x = gain * (acc[k] - ym[k])
+            # lfilter([1], [1, -phi]): y = x + zstate, zstate = 0 * x - (-phi) * y
+            r = x + r
+            z[s + k] = acc[k]
+            zeta[s + k] = scale * r
+            r = 0.0 * x + phi * r
+            if gaps[k]:
+                last_gap = s + k
+            if s + k - last_gap <= settle:
+                zeta[s + k] = np.nan
+        for c in range(p):  # the last ``lag`` inputs: the next block's history
+            for m in range(lag):
+                buf[c, m] = buf[c, nb + m]
+
+
 def _lowpass(x: FloatArray, phi: float) -> FloatArray:
     """``(1 - phi) / (1 - phi q^-1)``: the residual's own dynamics applied to the fault-free
-    estimate (started at steady state), so the classifier's gain-fault shape matches."""
+    estimate (started at steady state), so the classifier's gain-fault shape matches.
+    NaN samples count as 0 and stay NaN. One compiled pass (:func:`_lowpass_loop`), or
+    :func:`_lowpass_numpy` without numba."""
+    xx = np.asarray(x, dtype=np.float64)
+    if _lowpass_kernel is None:
+        return _lowpass_numpy(xx, phi)
+    b, a = [1.0 - phi], [1.0, -phi]
+    zi = float(signal.lfilter_zi(b, a)[0])
+    out = np.empty_like(xx)
+    if not _lowpass_kernel(xx, 1.0 - phi, phi, zi, out):
+        return xx.copy()  # nothing finite
+    return out
+
+
+def _lowpass_numpy(x: FloatArray, phi: float) -> FloatArray:
+    """:func:`_lowpass` with ``lfilter`` started by ``lfilter_zi`` at the first finite
+    sample (the reference form of :func:`_lowpass_loop`)."""
     xx = np.asarray(x, dtype=np.float64)
     finite = np.isfinite(xx)
     if not finite.any():
@@ -793,6 +1015,43 @@ def _lowpass(x: FloatArray, phi: float) -> FloatArray:
     out, _ = signal.lfilter(b, a, xf, zi=zi)
     out[~finite] = np.nan
     return np.asarray(out, dtype=np.float64)
+
+
+def _lowpass_loop(
+    x: FloatArray, b0: float, phi: float, zi: float, out: FloatArray
+) -> bool:  # pragma: no cover - compiled by numba
+    """``out = lfilter([b0], [1, -phi], x)`` with NaN/inf samples as 0 (and NaN in
+    ``out``), started at ``zi`` times the first finite sample, each step as ``lfilter``
+    rounds it. False when no sample is finite."""
+    n = x.shape[0]
+    first = -1
+    for k in range(n):
+        if np.isfinite(x[k]):
+            first = k
+            break
+    if first < 0:
+        return False
+    state = zi * x[first]
+    for k in range(n):
+        v = x[k]
+        finite = np.isfinite(v)
+        if not finite:
+            v = 0.0
+        y = state + b0 * v
+        state = 0.0 * v + phi * y  # b1 x - a1 y with b1 = 0, a1 = -phi
+        out[k] = y if finite else np.nan
+    return True
+
+
+_observer_kernel: Callable[..., None] | None
+_lowpass_kernel: Callable[..., bool] | None
+try:  # numba compiles the per-sample passes; nogil lets threads run observers at once
+    from numba import njit
+except ImportError:  # pragma: no cover - numba is a dependency; numpy without it
+    _observer_kernel = _lowpass_kernel = None
+else:
+    _observer_kernel = njit(cache=True, nogil=True)(_observer_loop)
+    _lowpass_kernel = njit(cache=True, nogil=True)(_lowpass_loop)
 
 
 def _dilate_forward(mask: npt.NDArray[np.bool_], n: int) -> npt.NDArray[np.bool_]:

@@ -14,6 +14,12 @@ from analyzer.detectors.base import Dataset, RunContext
 from analyzer.detectors.equivalent_model import (
     AssistantObserver,
     EquivalentModel,
+    Relation,
+    _fault_estimate_numpy,
+    _lagged_gram,
+    _lowpass,
+    _lowpass_numpy,
+    _rows_gram,
     fit_relation,
     pretreat,
 )
@@ -233,6 +239,120 @@ def test_fit_relation_recovers_a_fir():
     assert np.allclose(rel.coef, [h0, h1], atol=2e-3)
     assert rel.intercept == pytest.approx(0.7, abs=1e-3)
     assert fit_relation(V, 2, [0, 1], lags="bic").lags >= 2
+
+
+def _smooth_channels(n, m, seed):
+    """``m`` correlated, smooth (low-pass) channels with an offset: nearly collinear lagged
+    samples, the hard case for the normal equations."""
+    rng = np.random.default_rng(seed)
+    w = signal.lfilter([0.05], [1.0, -0.95], rng.standard_normal((n, m)), axis=0)
+    return 3.0 + w @ rng.standard_normal((m, m)) + 0.05 * rng.standard_normal((n, m))
+
+
+@pytest.mark.parametrize("lmax", [0, 1, 3, 16, 64])
+def test_lagged_gram_equals_the_gram_of_the_lagged_matrix(lmax):
+    """Without a gap the Gram matrix comes from lagged cross-products (no design matrix);
+    it equals X^T X and X^T t of the explicit lagged design."""
+    V = _smooth_channels(5000, 4, seed=lmax)
+    used = np.ascontiguousarray(V[:, [3, 0, 2]].T)
+    G, h = _lagged_gram(used[0], used[1:], lmax)
+    rows = np.arange(lmax, 5000)
+    X = np.column_stack(
+        [np.ones(rows.size)] + [V[rows - g, j] for j in (0, 2) for g in range(lmax + 1)]
+    )
+    np.testing.assert_allclose(G, X.T @ X, rtol=1e-12, atol=1e-12 * np.abs(X.T @ X).max())
+    np.testing.assert_allclose(h, X.T @ V[rows, 3], rtol=1e-12)
+    G2, h2, _, _ = _rows_gram(V, 3, [0, 2], lmax)  # the path for records with gaps
+    np.testing.assert_allclose(G, G2, rtol=1e-12, atol=1e-12 * np.abs(G2).max())
+    np.testing.assert_allclose(h, h2, rtol=1e-12)
+
+
+def test_fit_relation_without_gaps_equals_lstsq_and_the_gap_path():
+    """The gap-free path (lagged Gram) gives the least-squares FIR and R^2 of the explicit
+    lagged matrix, the BIC choice of the row path, and the same relation as the row
+    path sees when the only NaN lies where no row uses it."""
+    V = _smooth_channels(6000, 3, seed=11)
+    y = 0.4 + signal.lfilter([0.6, 0.2, -0.1], 1, V[:, 0]) - 0.3 * V[:, 1]
+    V = np.column_stack([V, y + 0.05 * np.random.default_rng(2).standard_normal(6000)])
+    L = 5
+    rel = fit_relation(V, 3, [0, 1], lags=L)
+    rows = np.arange(L, 6000)
+    M = np.column_stack(
+        [np.ones(rows.size)] + [V[rows - g, j] for j in (0, 1) for g in range(L + 1)]
+    )
+    t = V[rows, 3]
+    coef = np.linalg.lstsq(M, t, rcond=None)[0]
+    # the normal equations of nearly collinear columns (and their 1e-10 ridge) leave
+    # ~1e-8 of the SVD solution; the fitted values and R^2 agree much closer
+    assert rel.intercept == pytest.approx(coef[0], rel=1e-6)
+    np.testing.assert_allclose(rel.coef.ravel(), coef[1:], atol=1e-6)
+    r2 = 1.0 - np.sum((t - M @ coef) ** 2) / (t.size * np.var(t))
+    assert rel.r_squared == pytest.approx(r2, rel=1e-10)
+    # a NaN in a column no relation uses sends fit_relation down neither path differently
+    Vg = V.copy()
+    Vg[0, 3] = np.nan  # the target's first sample: no row of a lag >= 1 relation uses it
+    for lags in (L, "bic"):
+        fast, rows_path = (
+            fit_relation(V, 3, [0, 1], lags=lags),
+            fit_relation(Vg, 3, [0, 1], lags=lags),
+        )
+        assert fast.lags == rows_path.lags
+        np.testing.assert_allclose(fast.coef, rows_path.coef, rtol=1e-8, atol=1e-10)
+        assert fast.r_squared == pytest.approx(rows_path.r_squared, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("lags", "n", "dtype"),
+    [
+        (0, 3000, np.float64),
+        (5, 2049, np.float64),
+        (64, 5000, np.float64),
+        (1100, 12000, np.float64),
+        (7, 4000, np.float32),
+    ],
+)
+def test_compiled_fault_estimate_equals_its_reference_form(lags, n, dtype):
+    """The one-pass fault estimate (blocks of rows, FIR history carried across blocks)
+    equals the whole-column form built from Relation.estimate and rate_residual: gaps,
+    +-inf (counted as the largest float by the FIR, as np.nan_to_num does), the gap mask
+    and its settling time, lags longer than a block, float32 records."""
+    V = _smooth_channels(n, 4, seed=lags)
+    V[:, 3] += 0.5 * V[:, 1]
+    if 4 * 3 * (lags + 2) < n // 2:
+        rel = fit_relation(V[: n // 2], 3, [1, 2, 0], lags=lags)
+    else:  # too long to fit on this record: any FIR does
+        coef = np.random.default_rng(lags).standard_normal((3, lags + 1)) / (lags + 1)
+        rel = Relation(3, (1, 2, 0), lags, coef, 0.3, 0.0)
+    Vg = V.astype(dtype)
+    Vg[n // 3 : n // 3 + 7, 1] = np.nan
+    Vg[n // 2, 2] = np.inf
+    Vg[n // 2 + 300, 0] = -np.inf
+    Vg[2 * n // 3, 3] = np.nan
+    obs = AssistantObserver(-2.0, 0.0, lambda1=50.0, lambda2=20.0, dt=0.01)
+    scales = None
+    for data in (V.astype(dtype), Vg):
+        zeta, z = EquivalentModel._fault_estimate(obs, rel, data, 3)
+        zr, yr = _fault_estimate_numpy(obs, rel, data, 3)
+        if scales is None:  # absolute tolerances from the record without gaps
+            scales = (np.abs(yr).max(), np.abs(zr).max())
+        np.testing.assert_array_equal(np.isnan(zeta), np.isnan(zr))
+        np.testing.assert_allclose(z, yr, rtol=1e-12, atol=1e-12 * scales[0])
+        np.testing.assert_allclose(zeta, zr, rtol=1e-9, atol=1e-12 * scales[1])
+    # the mask: NaN from each gap row for the relation's memory plus the settling time
+    phi = np.exp(-obs.lambda1 * obs.dt)
+    settle = lags + int(np.ceil(np.log(1e-6) / np.log(phi)))
+    assert np.isnan(zeta[n // 3 + 6 + settle]) and np.isfinite(zeta[n // 3 + 7 + settle])
+
+
+def test_compiled_lowpass_equals_lfilter():
+    rng = np.random.default_rng(4)
+    x = np.cumsum(rng.standard_normal(5000))
+    x[:3] = np.nan
+    x[2000:2100] = np.nan
+    x[3000] = np.inf
+    for phi in (np.exp(-1.0), 0.3, 0.999):
+        np.testing.assert_array_equal(_lowpass(x, phi), _lowpass_numpy(x, phi))
+    assert np.isnan(_lowpass(np.full(10, np.nan), 0.5)).all()
 
 
 # -- the detector on simulated buildings ------------------------------------------------------
