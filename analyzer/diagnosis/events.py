@@ -10,7 +10,13 @@ import numpy as np
 import numpy.typing as npt
 
 from analyzer.detectors.base import Event
-from analyzer.diagnosis.changes import Calibration, Interval, detect, detection_confidence
+from analyzer.diagnosis.changes import (
+    Calibration,
+    Interval,
+    alarm_statistic,
+    detect,
+    detection_confidence,
+)
 from analyzer.diagnosis.classify import Classification, classify
 
 FloatArray = npt.NDArray[np.float64]
@@ -32,10 +38,14 @@ def events_from_residual(
     out: list[Event] = []
     n = residual.shape[0]
     covered = search_start
-    for iv in detect(residual, cal, search_start=search_start):
+    # one alarm statistic for the search and for every fault's end (diagnose_interval)
+    stat = alarm_statistic(residual, cal, raw=True, start=search_start)
+    for iv in detect(residual, cal, search_start=search_start, statistic=stat):
         if iv.onset < covered:
             continue  # inside a fault already extended over this stretch
-        cls, end = diagnose_interval(residual, reference, cal, iv, rate_hz, tau_corr)
+        cls, end = diagnose_interval(
+            residual, reference, cal, iv, rate_hz, tau_corr, statistic=stat
+        )
         covered = n if end is None else end
         onset_s, factor, extra = bounded_onset(iv.onset, cls, rate_hz, search_start)
         ev = {
@@ -92,6 +102,8 @@ def diagnose_interval(
     rate_hz: float,
     tau_corr: float = 1.0,
     classify_until: int | None = None,
+    *,
+    statistic: FloatArray | None = None,
 ) -> tuple[Classification, int | None]:
     """Classify the fault that starts at ``iv`` and find where it really ends.
 
@@ -102,7 +114,9 @@ def diagnose_interval(
     wrong). Faults of type ``other`` have no shape to extend and end with their alarms.
 
     ``classify_until`` bounds the stretch the shape is fitted on (a caller that knows
-    another fault begins there, which would blur this one's shape)."""
+    another fault begins there, which would blur this one's shape). ``statistic``: the
+    residual's :func:`~analyzer.diagnosis.changes.alarm_statistic` (``raw=True``) from
+    ``iv.onset`` on at least, when the caller has it (computed from there otherwise)."""
     n = residual.shape[0]
     limit = n if classify_until is None else max(iv.onset + 3, classify_until)
     stop = min(n if iv.end is None else iv.end, limit)
@@ -121,7 +135,7 @@ def diagnose_interval(
     corrected = r.copy()
     corrected[iv.onset :] -= shape
     end: int | None = None
-    raw_alarms = detect(r, cal, search_start=iv.onset)
+    raw_alarms = detect(r, cal, search_start=iv.onset, statistic=statistic)
     corrected_alarms = detect(corrected, cal, search_start=iv.onset + cal.window)
     if iv.end is not None and any(c.onset < iv.end for c in corrected_alarms):
         # the shape does not hold even while the raw residual alarms (random data read as
