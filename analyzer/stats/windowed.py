@@ -219,7 +219,7 @@ class _Outputs:
         z = np.sqrt(window) * self.means + untested
         mean_p = 2.0 * norm.sf(np.abs(z))
         sumsq = self.sumsq + untested
-        cov_p = np.minimum(1.0, 2.0 * np.minimum(chi2.cdf(sumsq, window), chi2.sf(sumsq, window)))
+        cov_p = _two_sided_chi2(sumsq, window)
         q = self.q + untested
         q_p = chi2.sf(q, lags)
         degenerate = self.constant & (case == 2)  # no spread to standardize with
@@ -253,6 +253,23 @@ class _Outputs:
             band_fraction=frozen(self.band_fraction + untested),
             acf=None if self.acf is None else frozen(self.acf + untested[:, np.newaxis]),
         )
+
+
+def _two_sided_chi2(x: FloatArray, df: int) -> FloatArray:
+    """``min(1, 2 min(cdf, sf))`` of chi^2(df) at ``x``, evaluating only the smaller tail
+    where it is clear which one that is: below the 40 % point the CDF is the smaller (the
+    survival function is then above 0.6), above the 60 % point the survival function; in
+    between, and for NaN, both as before. Each evaluation is an incomplete gamma function
+    (~0.3 us), the most expensive step after the windows themselves."""
+    low, high = chi2.ppf([0.4, 0.6], df)
+    below, above = x < low, x > high
+    both = ~(below | above)
+    tail = np.empty_like(x)
+    tail[below] = chi2.cdf(x[below], df)
+    tail[above] = chi2.sf(x[above], df)
+    tail[both] = np.minimum(chi2.cdf(x[both], df), chi2.sf(x[both], df))
+    out: FloatArray = np.minimum(1.0, 2.0 * tail)
+    return out
 
 
 def _stats(

@@ -1,6 +1,6 @@
 """The compiled kernel of windowed_tests agrees with its numpy path (to 1e-9 relative, same
-decisions), its normal CDF and log-CDF agree with scipy's, it is thread-safe, and the
-module works without numba."""
+decisions), its normal CDF and log-CDF and its A^2 and W^2 agree with scipy's, it is
+thread-safe, and the module works without numba."""
 
 from __future__ import annotations
 
@@ -13,10 +13,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy.special import log_ndtr, ndtr
+from scipy.stats import chi2
 
 import analyzer.stats.windowed as windowed
 from analyzer.stats import _windowed_kernel
 from analyzer.stats._checks import ALPHA
+from analyzer.stats.normality import (
+    anderson_darling_sorted,
+    cramer_von_mises_sorted,
+    modify_anderson_darling,
+    modify_cramer_von_mises,
+    standardize_sorted,
+)
 from analyzer.stats.whiteness import autocorrelation
 from analyzer.stats.windowed import WindowedTests, WindowStats, windowed_tests
 
@@ -205,3 +213,39 @@ def test_works_without_numba() -> None:
     )
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
     subprocess.run([sys.executable, "-c", code], cwd=REPO, env=env, check=True, timeout=120)
+
+
+@pytest.mark.parametrize("case", [1, 2])
+def test_kernel_normality_equals_log_ndtr_sums(case: int) -> None:
+    """A^2 (products of Phi, four logs per window) and W^2 of the kernel equal scipy's
+    ``log_ndtr``/``ndtr`` sums to 1e-11, also for windows of 5000 samples, for samples just
+    inside the 20-sigma limit of the products, where their factors are smallest
+    (Phi(-19.99) ~ 2^-294), and for samples beyond it (logs from normal_logs)."""
+    rng = np.random.default_rng(case)
+    z = rng.normal(size=60_000)
+    z[rng.choice(20_000, 400, replace=False)] = rng.choice([-19.99, -17.5, 16.0, 19.99], 400)
+    z[rng.choice(20_000, 40, replace=False)] = rng.choice([-45.0, -29.9, 20.0, 38.0], 40)
+    for window in (100, 5_000):
+        result = windowed_tests(z, window, case=case)
+        block = np.sort(z[: result.n_windows * window].reshape(-1, window), axis=1)
+        standardized, _ = standardize_sorted(block, case)
+        expected_a2 = modify_anderson_darling(anderson_darling_sorted(standardized), window, case)
+        expected_w2 = modify_cramer_von_mises(cramer_von_mises_sorted(standardized), window, case)
+        np.testing.assert_allclose(result.anderson_darling.statistic, expected_a2, rtol=1e-11)
+        np.testing.assert_allclose(result.cramer_von_mises.statistic, expected_w2, rtol=1e-11)
+        assert (np.abs(standardized) > 19.0).any() == (case == 1)  # case 2: std grows
+
+
+def test_two_sided_chi2_equals_both_tails() -> None:
+    """The covariance p-value evaluates one tail away from the median: the same numbers
+    as min(1, 2 min(cdf, sf)) everywhere, bit for bit."""
+    df = 100
+    x = np.concatenate(
+        [
+            chi2.ppf(np.linspace(0.0, 1.0, 2001), df),
+            np.linspace(0.0, 400.0, 4001),
+            [np.nan, np.inf, 0.0, 1e-300, 1e6],
+        ]
+    )
+    expected = np.minimum(1.0, 2.0 * np.minimum(chi2.cdf(x, df), chi2.sf(x, df)))
+    np.testing.assert_array_equal(windowed._two_sided_chi2(x, df), expected)
