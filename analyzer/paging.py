@@ -78,7 +78,9 @@ def spill(
     for i, name in enumerate(names):
         out[i] = signals[name]
         release(out[i])
-    out.flush()
+    # no flush (msync): the file is scratch space read back through the same page cache,
+    # so forcing its pages to disk would only wait on the disk; the kernel writes them
+    # back in its own time (or drops the file with the work directory)
     rows = {name: out[i] for i, name in enumerate(names)}
     for row in rows.values():
         row.flags.writeable = False
