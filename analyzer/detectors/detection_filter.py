@@ -124,6 +124,72 @@ mode ``lambda`` counts as unobservable (Lemma 3.1)."""
 
 
 # -- linear-algebra checks ------------------------------------------------------------------
+def observer_blocks(A: FloatArray, C: FloatArray) -> FloatArray | None:
+    """The blocks ``A_1 .. A_p`` (``(p, m, m)``) when ``(A, C)`` has the block
+    observer-canonical structure of :func:`ar_observer_form` (``C = [I, 0]``, identities on
+    the block superdiagonal and zeros elsewhere right of the first block column), else
+    None. The structure is exact (zeros and ones), so the test is an exact comparison."""
+    A = np.asarray(A)
+    C = np.asarray(C)
+    if C.ndim != 2 or A.ndim != 2:
+        return None
+    m, n = C.shape
+    if m == 0 or n % m or A.shape != (n, n):
+        return None
+    if not (
+        np.array_equal(C[:, :m], np.eye(m))
+        and not C[:, m:].any()
+        and np.array_equal(A[:, m:], np.eye(n, n - m))
+    ):
+        return None
+    return np.asarray(A[:, :m], dtype=np.float64).reshape(n // m, m, m)
+
+
+def observer_pbh_bound(
+    blocks: FloatArray, modes: Modes, sensor: int | None = None
+) -> npt.NDArray[np.float64]:
+    """Lower bounds, at each ``lambda`` of ``modes``, on the smallest singular value of the
+    PBH matrix ``[A - lambda I; C]`` of a pair in block observer form (``blocks``:
+    :func:`observer_blocks`); with ``sensor = i``, of the augmented pair's
+    ``[Abar - lambda I; Cbar]`` (:func:`augment`) at ``lambda = alpha``.
+
+    Why it holds: for a unit ``x`` with ``(A - lambda I) x = r`` and ``C x = x_1 = s``,
+    ``|r|^2 + |s|^2 = eps^2``, the block rows give ``x_{j+1} = lambda x_j - A_j x_1 + r_j``,
+    so ``x_j = P_j x_1 + R_j`` with ``P_1 = I``, ``P_{j+1} = lambda P_j - A_j`` and
+    ``|R_j| <= eps c_j``, ``c_1 = 0``, ``c_{j+1} = |lambda| c_j + 1``; then
+    ``1 = sum |x_j|^2 <= eps^2 sum (|P_j| + c_j)^2``. For the augmented pair
+    (``x_1 = s - e_i z``) the last block row adds ``|P_{p+1} x_1| <= eps c_{p+1}``, which
+    bounds the fault state ``|z| <= eps g``, ``g = (c_{p+1} + |P_{p+1}|) / |P_{p+1} e_i|``,
+    and ``1 <= eps^2 (g^2 + sum (|P_j| (1 + g) + c_j)^2)``. Frobenius norms bound the
+    spectral ones. The bound costs ``p`` products of ``m x m`` matrices per mode instead of
+    an SVD of the ``(n + m) x n`` PBH matrix; 0 (no bound) where ``|P_{p+1} e_i| = 0``."""
+    lam = np.asarray(modes, dtype=np.complex128).reshape(-1)
+    p, m, _ = blocks.shape
+    P = np.repeat(np.eye(m, dtype=np.complex128)[None], lam.size, axis=0)
+    c = np.zeros(lam.size)
+    norms = np.empty((p, lam.size))
+    cs = np.empty((p, lam.size))
+    with np.errstate(all="ignore"):  # a huge mode overflows: no bound (NaN or 0) there
+        for j in range(p):
+            norms[j] = np.linalg.norm(P, axis=(1, 2))
+            cs[j] = c
+            P = lam[:, None, None] * P - blocks[j]
+            c = np.abs(lam) * c + 1.0
+        if sensor is None:
+            bound = 1.0 / np.sqrt(((norms + cs) ** 2).sum(axis=0))
+        else:
+            seen = np.linalg.norm(P[:, :, sensor], axis=1)
+            g = (c + np.linalg.norm(P, axis=(1, 2))) / seen
+            bound = 1.0 / np.sqrt(g**2 + ((norms * (1.0 + g) + cs) ** 2).sum(axis=0))
+            bound = np.where(seen > 0.0, bound, 0.0)
+    return np.where(np.isfinite(bound), bound, 0.0)
+
+
+def _pbh_scale_bound(A: FloatArray, C: FloatArray) -> float:
+    """An upper bound (Frobenius norms) of :func:`unobservable_modes`' ``scale``."""
+    return max(1.0, float(np.linalg.norm(A)) + float(np.linalg.norm(C)))
+
+
 def unobservable_modes(
     A: FloatArray,
     C: FloatArray,
@@ -133,15 +199,27 @@ def unobservable_modes(
     """Eigenvalues of ``A`` whose eigenvectors ``C`` does not see (PBH test, Lemma 3.1:
     ``(A, C)`` is observable iff ``C v != 0`` for every eigenvector ``v``). Uses the smallest
     singular value of ``[A - lambda I; C]`` so repeated eigenvalues are handled too; ``at``
-    restricts the test to the given eigenvalues."""
+    restricts the test to the given eigenvalues. A pair in block observer form
+    (:func:`observer_blocks`) skips the SVD of every mode whose cheap lower bound
+    (:func:`observer_pbh_bound`) already clears the threshold twice over (far above the
+    SVD's rounding): the same answer."""
     A = np.asarray(A, dtype=np.float64)
     C = np.asarray(C, dtype=np.float64).reshape(-1, A.shape[0])
     n = A.shape[0]
-    norm_c = float(np.linalg.norm(C, 2)) if C.size else 0.0
-    scale = max(1.0, float(np.linalg.norm(A, 2)) + norm_c)
+    modes = list(np.linalg.eigvals(A) if at is None else at)
+    blocks = observer_blocks(A, C)
+    sure = np.zeros(len(modes), dtype=bool)
+    if blocks is not None and modes:
+        sure = observer_pbh_bound(blocks, modes) > 2.0 * rtol * _pbh_scale_bound(A, C)
     out: list[complex] = []
     smins: dict[tuple[float, float], float] = {}
-    for lam in np.linalg.eigvals(A) if at is None else at:
+    scale = 0.0
+    for lam, certain in zip(modes, sure, strict=True):
+        if certain:
+            continue
+        if not scale:
+            norm_c = float(np.linalg.norm(C, 2)) if C.size else 0.0
+            scale = max(1.0, float(np.linalg.norm(A, 2)) + norm_c)
         # [A - conj(lam) I; C] is the conjugate of [A - lam I; C] (A, C real): same
         # singular values, so a complex pair needs one decomposition
         key = (float(np.real(lam)), abs(float(np.imag(lam))))
@@ -352,9 +430,14 @@ def park_filter(
     if check_observability:
         check_observable(A, C, eig)
     Ab, Bb, Cb, fb = augment(A, B, C, sensor, alpha)
+    blocks = observer_blocks(A, C)
     # Lemma 3.2: away from lambda = alpha the PBH matrix of (Abar, Cbar) has full rank iff
-    # that of (A, C) has (eliminate the zeta column), so only alpha needs a test
-    if unobservable_modes(Ab, Cb, at=[alpha]):
+    # that of (A, C) has (eliminate the zeta column), so only alpha needs a test; in block
+    # observer form a lower bound of its smallest singular value usually settles it
+    certain = blocks is not None and bool(
+        observer_pbh_bound(blocks, [alpha], sensor)[0] > 2.0 * PBH_RTOL * _pbh_scale_bound(Ab, Cb)
+    )
+    if not certain and unobservable_modes(Ab, Cb, at=[alpha]):
         raise DetectorError(
             f"the augmented pair (Abar, Cbar) for {label} is not observable: the fault pole "
             f"alpha={alpha} is a mode of A seen only by {label} (Lemma 3.2); choose another "
@@ -372,22 +455,33 @@ def park_filter(
     # free part of the gain: Kalman filter of (A, C_{-i}); column `sensor` stays zero
     Lx = np.zeros((n, m))  # state predictor gain D_x
     Ny = np.zeros(m)  # filtered estimate of y_i: yhat_i[k|k] = C_i xhat + Ny (y - C xhat - D u)
+    rho_x: float | None = None  # spectral radius of A - D_x C, when known without eigvals
     if others:
         R = np.asarray(R, dtype=np.float64)
-        Ro = R[np.ix_(others, others)]
-        So = None if S is None else np.asarray(S, dtype=np.float64)[:, others]
-        try:
-            Lo, _, P = kalman_gains(A, Co, np.asarray(Q, dtype=np.float64), Ro, So)
-        except (linalg.LinAlgError, ValueError) as err:
-            raise DetectorError(
-                f"the state gain of the detection filter for {label} has no stabilizing "
-                f"Riccati solution ({err})"
-            ) from err
-        Lx[:, others] = Lo
-        Re = Co @ P @ Co.T + Ro
-        # E[y_i | innovations of the others]: through the state and through the
-        # measurement noise's correlation with the others' (zero for a diagonal R)
-        Ny[others] = np.linalg.solve(Re, Co @ P @ C[sensor] + R[others, sensor])
+        Q = np.asarray(Q, dtype=np.float64)
+        reduced = None
+        if blocks is not None and _innovations_form(A, Q, R, S):
+            try:
+                reduced = _ar_state_gain(A, blocks, R, sensor)
+            except (linalg.LinAlgError, ValueError):
+                reduced = None  # the general design decides (and words the error)
+        if reduced is not None:
+            Lx[:, others], Ny[others], rho_x = reduced
+        else:
+            Ro = R[np.ix_(others, others)]
+            So = None if S is None else np.asarray(S, dtype=np.float64)[:, others]
+            try:
+                Lo, _, P = kalman_gains(A, Co, Q, Ro, So)
+            except (linalg.LinAlgError, ValueError) as err:
+                raise DetectorError(
+                    f"the state gain of the detection filter for {label} has no stabilizing "
+                    f"Riccati solution ({err})"
+                ) from err
+            Lx[:, others] = Lo
+            Re = Co @ P @ Co.T + Ro
+            # E[y_i | innovations of the others]: through the state and through the
+            # measurement noise's correlation with the others' (zero for a diagonal R)
+            Ny[others] = np.linalg.solve(Re, Co @ P @ C[sensor] + R[others, sensor])
     ei = np.zeros(m)
     ei[sensor] = 1.0
     dz = (alpha - sigma) * (ei - Ny)
@@ -396,7 +490,19 @@ def park_filter(
     cl = Ab - gain @ Cb
     if not np.allclose(cl @ fb, sigma * fb, atol=1e-9 * max(1.0, float(np.abs(cl).max()))):
         raise DetectorError("internal error: the fault direction is not a closed-loop eigenvector")
-    rho = float(np.max(np.abs(np.linalg.eigvals(cl))))
+    # eig(cl) = eig(A - D_x C) U {sigma} (block triangular); with the AR reduction the
+    # former are those of the p-state filter plus zeros, which a dense eigensolver returns
+    # as rounding-sized values (a nilpotent block's eigenvalues move by eps^(1/p)): the
+    # dense spectrum is taken when the radius is not clear of them
+    rho_fast = None if rho_x is None else max(rho_x, sigma)
+    if (
+        rho_fast is not None
+        and blocks is not None
+        and rho_fast >= 4.0 * 1e-12 ** (1.0 / blocks.shape[0])
+    ):
+        rho = float(rho_fast)
+    else:
+        rho = float(np.max(np.abs(np.linalg.eigvals(cl))))
     if not rho < 1.0:
         raise DetectorError(
             f"the detection filter for {label} is unstable (spectral radius {rho:.6f})"
@@ -415,6 +521,75 @@ def park_filter(
     H = np.vstack([Hq, Hz, Hy])
     J = np.vstack([Jq, Jz, Jy])
     return ParkFilter(sensor, Ab, Cb, gain, alpha, sigma, F, G, H, J, rho)
+
+
+def _innovations_form(
+    A: FloatArray, Q: FloatArray, R: FloatArray, S: FloatArray | None, rtol: float = 1e-12
+) -> bool:
+    """Whether the noise of a pair in block observer form is that of its AR model's
+    innovations (:func:`model_from_ar`): ``Q = K R K'``, ``S = K R`` with ``K`` the first
+    block column of ``A`` (to ``rtol``)."""
+    if S is None:
+        return False
+    m = R.shape[0]
+    K = np.ascontiguousarray(A[:, :m])
+    KR = K @ R
+    S = np.asarray(S, dtype=np.float64)
+    if S.shape != KR.shape or Q.shape != A.shape:
+        return False
+
+    def close(x: FloatArray, y: FloatArray) -> bool:
+        return bool(np.abs(x - y).max() <= rtol * max(float(np.abs(y).max()), 1e-300))
+
+    return close(S, KR) and close(Q, KR @ K.T)
+
+
+def _ar_state_gain(
+    A: FloatArray, blocks: FloatArray, R: FloatArray, sensor: int
+) -> tuple[FloatArray, FloatArray, float]:
+    """The free part of the gain for ``sensor`` when the model is an AR model's
+    innovations form in block observer form (``A - K C`` the block shift ``Z``,
+    ``Q = K R K'``, ``S = K R``): ``(D_x`` columns of the other sensors, ``N_i`` entries of
+    the other sensors, spectral radius of ``A - D_x C)``, as :func:`kalman_gains` of
+    ``(A, C_{-i})`` gives them, from a Riccati equation of ``p`` states instead of ``n``.
+
+    The state is the AR prediction from the last ``p`` outputs,
+    ``x[k] = sum_l Z^l K y[k-1-l]``, so knowing the other sensors exactly leaves unknown
+    only the last ``p`` values of sensor ``i``, ``eta[k] = (y_i[k-1], ..., y_i[k-p])``:
+    ``x = (known) + T eta`` with ``T = [K e_i, Z K e_i, ...]`` and
+    ``eta[k+1] = (N + e_1 C_i T) eta + e_1 e_i[k]``, ``y_o = (known) + C_o T eta + e_o``
+    (``N`` the shift, ``C T = [A_1 e_i, ..., A_p e_i]``). Its Kalman filter has the
+    prediction covariance ``Pr`` with ``P = T Pr T'`` (rank ``p``), hence the gains. The
+    closed loop ``A - D_x C`` maps ``range(T)`` as the reduced closed loop
+    ``Fr = Ar - Lr Cr`` does (the Riccati identity ``Re = Cr Pr Cr' + R_oo``) and acts as
+    the nilpotent shift ``Z`` on the rest (its gain's columns of the other sensors are
+    ``K e_i w'`` modulo ``range(T)``): its eigenvalues are ``eig(Fr)`` and zeros."""
+    p, m, _ = blocks.shape
+    n = p * m
+    others = [j for j in range(m) if j != sensor]
+    CT = blocks[:, :, sensor].T  # (m, p): column l is A_{l+1} e_i
+    Ar = np.eye(p, k=-1)
+    Ar[0] += CT[sensor]
+    Cr = CT[others]
+    Qr = np.zeros((p, p))
+    Qr[0, 0] = R[sensor, sensor]
+    Rr = R[np.ix_(others, others)]
+    Sr = np.zeros((p, m - 1))
+    Sr[0] = R[sensor, others]
+    Pr = filter_riccati(Ar, Cr, Qr, Rr, Sr)
+    if not np.all(np.isfinite(Pr)):
+        raise ValueError("no finite solution of the reduced Riccati equation")
+    Re = Cr @ Pr @ Cr.T + Rr
+    cross = Pr @ Cr.T  # (p, m - 1)
+    col = A[:, sensor]  # K e_i; Z shifts a state up by one block
+    T = np.zeros((n, p))
+    for lag in range(p):
+        T[: n - lag * m, lag] = col[lag * m :]
+    Lo = np.linalg.solve(Re, ((A @ T) @ cross + A[:, :m] @ R[:, others]).T).T
+    Lr = np.linalg.solve(Re, (Ar @ cross + Sr).T).T
+    Ny = np.linalg.solve(Re, cross.T @ CT[sensor] + R[others, sensor])
+    rho = float(np.max(np.abs(np.linalg.eigvals(Ar - Lr @ Cr))))
+    return np.asarray(Lo, dtype=np.float64), np.asarray(Ny, dtype=np.float64), rho
 
 
 def _fmt_modes(modes: Sequence[complex]) -> str:
@@ -773,11 +948,14 @@ class DetectionFilter:
             taus.append(long_run_time(z, window))
             off = np.delete(q, i, axis=1)
             good = np.isfinite(off).all(axis=1)
-            cov = np.atleast_2d(np.cov(off[good].T))
+            whole = bool(good.all())  # no gap in the window: no masked copies
+            cov = np.atleast_2d(np.cov((off if whole else off[good]).T))
             inv = np.asarray(np.linalg.pinv(cov), dtype=np.float64)
             dinv.append(inv)
             dcal.append(calibrate(_nis(off, inv), window, alpha_far))
-            qs = np.nanstd(q, axis=0)
+            # np.std is np.nanstd's arithmetic without the NaN bookkeeping
+            finite = whole and bool(np.isfinite(q[:, i]).all())
+            qs = np.std(q, axis=0) if finite else np.nanstd(q, axis=0)
             qscale.append(np.where(qs > 0, qs, 1.0))
         return FittedDetectionFilter(
             model,
@@ -865,14 +1043,19 @@ class DetectionFilter:
         """The bank's input ``v = [y; u]`` (centred, outputs scaled, missing values as 0)
         and the rows where a value is missing."""
         outputs, inputs = list(model.outputs), list(model.inputs)
-        v = np.empty((values.shape[0], len(outputs) + len(inputs)))
-        v[:, : len(outputs)] = values[:, outputs]
-        v[:, : len(outputs)] -= model.y_mean
-        v[:, : len(outputs)] /= model.y_scale
+        m = len(outputs)
+        v = np.empty((values.shape[0], m + len(inputs)))
+        # the AR model's outputs are the leading columns: a slice, not a gathered copy
+        cols = values[:, :m] if outputs == list(range(m)) else values[:, outputs]
+        np.subtract(cols, model.y_mean, out=v[:, :m])
+        v[:, :m] /= model.y_scale
         if inputs:
-            v[:, len(outputs) :] = values[:, inputs]
-            v[:, len(outputs) :] -= model.u_mean
-        gap = ~np.isfinite(v)
+            v[:, m:] = values[:, inputs]
+            v[:, m:] -= model.u_mean
+        finite = np.isfinite(v)
+        if finite.all():  # the usual chunk: nothing to mask
+            return v, np.zeros(v.shape[0], dtype=bool)
+        gap = ~finite
         v[gap] = 0.0
         return v, np.asarray(gap.any(axis=1), dtype=bool)
 
@@ -1194,8 +1377,10 @@ def _sensor_units(model: FittedDetectionFilter, refs: npt.NDArray[Any], i: int) 
     """Filter ``i``'s fault-free estimate in sensor units (float64) from its centred,
     scaled single-precision row."""
     ssm = model.model
-    row = np.asarray(refs[i], dtype=np.float64)
-    return row * float(ssm.y_scale[i]) + float(ssm.y_mean[i])
+    row = np.array(refs[i], dtype=np.float64)  # a copy: scaled and shifted in place
+    row *= float(ssm.y_scale[i])
+    row += float(ssm.y_mean[i])
+    return row
 
 
 def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
@@ -1272,7 +1457,7 @@ def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray 
     for lo, y in run_chunked(bank, inputs, b, a):
         cols = slice(lo - at, lo - at + y.shape[2])
         # the two estimates are each filter's last outputs (all it has in a selected bank)
-        zeta[:, cols] = y[:, -2] * scale
+        np.multiply(y[:, -2], scale, out=zeta[:, cols])
         ref[:, cols] = y[:, -1]  # centred, scaled: see DetectionFilter._run_outputs
         if nis is None:
             continue
@@ -1337,6 +1522,8 @@ __all__ = [
     "StateSpaceModel",
     "augment",
     "check_observable",
+    "observer_blocks",
+    "observer_pbh_bound",
     "filter_riccati",
     "direction_angles",
     "ar_observer_form",

@@ -4,6 +4,8 @@ its stacked lifted fallback) against each filter's own lifted run, the streamed 
 outputs against the full residual vectors, the shared PBH tests of conjugate eigenvalues,
 and the sliding-window least squares of the relations against ``lstsq``."""
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from scipy import signal
@@ -232,3 +234,122 @@ def test_estimates_alone_and_direction_windows_equal_the_full_run(
         got = det._direction_statistics(model, bank, Yg, bad, lo, hi)
         for g, s in zip(got, stats, strict=True):
             np.testing.assert_allclose(g, s[lo:hi], rtol=1e-5, atol=1e-7)
+
+
+def _ar_innovations(seed, m=4, p=3, radius=0.9):
+    """A random stable AR model's innovations form in block observer form, with the
+    noise covariances :func:`model_from_ar` gives it (``Q = K R K'``, ``S = K R``)."""
+    rng = np.random.default_rng(seed)
+    coefs = rng.standard_normal((p, m, m)) / (m * p)
+    A, C, K = dfm.ar_observer_form(SimpleNamespace(order=p, m=m, coefs=coefs))
+    rho = np.max(np.abs(np.linalg.eigvals(A)))
+    coefs = coefs * np.array([(radius / rho) ** (j + 1) for j in range(p)])[:, None, None]
+    A, C, K = dfm.ar_observer_form(SimpleNamespace(order=p, m=m, coefs=coefs))
+    L = rng.standard_normal((m, m))
+    R = L @ L.T + 0.5 * np.eye(m)  # correlated innovations
+    return A, C, K, K @ R @ K.T, R, K @ R
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_observer_pbh_bound_is_below_the_smallest_singular_value(seed):
+    """The cheap bound that lets the PBH tests skip their SVD never exceeds the smallest
+    singular value it stands for: at the modes, at arbitrary complex points (far ones
+    included) and, for the augmented pair, at the fault pole (also at a mode of A)."""
+    A, C, _, _, _, _ = _ar_innovations(seed, m=3, p=4)
+    n, m = A.shape[0], C.shape[0]
+    blocks = dfm.observer_blocks(A, C)
+    assert blocks is not None and blocks.shape == (4, 3, 3)
+    rng = np.random.default_rng(seed + 20)
+    lams = np.concatenate(
+        [np.linalg.eigvals(A), rng.standard_normal(20) + 1j * rng.standard_normal(20), [3.0, -7.5j]]
+    )
+    bound = dfm.observer_pbh_bound(blocks, lams)
+    for lam, b in zip(lams, bound, strict=True):
+        smin = np.linalg.svd(np.vstack([A - lam * np.eye(n), C]), compute_uv=False)[-1]
+        assert 0.0 <= b <= smin * (1 + 1e-12)
+    assert np.all(bound[:n] > 1e-3)  # informative at the modes of a stable model
+    for alpha in (1.0, 0.5, float(np.real(lams[np.argmin(np.abs(lams[:n].imag))]))):
+        for i in range(m):
+            Ab, _, Cb, _ = dfm.augment(A, np.zeros((n, 0)), C, i, alpha)
+            smin = np.linalg.svd(np.vstack([Ab - alpha * np.eye(n + 1), Cb]), compute_uv=False)[-1]
+            b = dfm.observer_pbh_bound(blocks, [alpha], i)[0]
+            assert 0.0 <= b <= smin * (1 + 1e-12)
+    assert dfm.observer_blocks(A + 1e-3 * np.eye(n), C) is None  # not the structure
+    assert dfm.observer_blocks(A, C[::-1]) is None
+
+
+def test_observer_form_pbh_test_equals_the_svd_test():
+    """With a threshold that flags some modes, the certified skips leave the answer of
+    the SVD test unchanged."""
+    A, C, _, _, _, _ = _ar_innovations(3, m=3, p=4)
+    n = A.shape[0]
+    modes = np.linalg.eigvals(A)
+    scale = max(1.0, np.linalg.norm(A, 2) + np.linalg.norm(C, 2))
+    smins = np.array(
+        [np.linalg.svd(np.vstack([A - lam * np.eye(n), C]), compute_uv=False)[-1] for lam in modes]
+    )
+    for rtol in (dfm.PBH_RTOL, float(np.median(smins)) / scale, 2.0 * smins.max() / scale):
+        brute = [complex(lam) for lam, s in zip(modes, smins, strict=True) if s <= rtol * scale]
+        assert unobservable_modes(A, C, rtol=rtol) == brute
+    assert unobservable_modes(A, C) == []
+
+
+def _general_design(monkeypatch, *args, **kwargs):
+    """``park_filter`` without the observer-form shortcuts (dense Riccati, eigenvalues
+    and SVDs): the straightforward design."""
+    with monkeypatch.context() as mp:
+        mp.setattr(dfm, "observer_blocks", lambda A, C: None)
+        return park_filter(*args, **kwargs)
+
+
+@pytest.mark.parametrize(
+    ("seed", "m", "p", "sigma", "drop"),
+    [(0, 4, 3, 0.5, None), (1, 3, 5, 0.9, None), (2, 4, 3, 0.5, 1), (4, 2, 10, 0.05, None)],
+)
+def test_ar_reduced_design_equals_the_general_design(seed, m, p, sigma, drop, monkeypatch):
+    """For an AR model's innovations form the detection gain comes from a Riccati
+    equation of ``p`` states and the spectral radius from the ``p``-state closed loop
+    (:func:`_ar_state_gain`): the same filter as the ``n``-state design, also when the last
+    AR coefficient ignores the sensor (the lag basis loses rank) and when a small radius
+    falls back to the dense eigenvalues."""
+    A, C, K, Q, R, S = _ar_innovations(seed, m=m, p=p, radius=0.1 if sigma < 0.1 else 0.9)
+    n = A.shape[0]
+    if drop is not None:  # A_p e_drop = 0
+        A[(p - 1) * m :, drop] = 0.0
+        K = A[:, :m].copy()
+        Q, S = K @ R @ K.T, K @ R
+    B, D = np.zeros((n, 0)), np.zeros((m, 0))
+    assert dfm._innovations_form(A, Q, R, S)
+    assert not dfm._innovations_form(A, Q + 1e-6 * np.eye(n), R, S)
+    floor = 4.0 * 1e-12 ** (1.0 / p)  # below it the dense eigenvalues are taken
+    blocks = dfm.observer_blocks(A, C)
+    for i in range(m):
+        rho_x = dfm._ar_state_gain(A, blocks, R, i)[2]
+        assert (max(rho_x, sigma) < floor) == (sigma < 0.1)  # each branch is exercised
+        fast = park_filter(A, B, C, D, i, Q, R, S, sigma=sigma)
+        ref = _general_design(monkeypatch, A, B, C, D, i, Q, R, S, sigma=sigma)
+        for a, b in ((fast.F, ref.F), (fast.G, ref.G), (fast.H, ref.H), (fast.J, ref.J)):
+            np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-11)
+        assert fast.spectral_radius == pytest.approx(ref.spectral_radius, rel=1e-9)
+        dense = float(np.max(np.abs(np.linalg.eigvals(fast.closed_loop))))
+        assert fast.spectral_radius == pytest.approx(dense, rel=1e-9)
+        assert fast.settle() == ref.settle()
+
+
+def test_ar_detector_fit_equals_the_general_design(monkeypatch):
+    """The detector's fit on an AR model (bank and held-out calibration) with the
+    observer-form shortcuts gives the filters and thresholds of the general design."""
+    det, fast, Y = _fitted_filter(40.0, seed=11)
+    monkeypatch.setattr(dfm, "observer_blocks", lambda A, C: None)
+    ref = det.fit(Dataset(Y, tuple(fast.model.summary["outputs"]), RATE, TRAIN), RunContext())
+    for a, b in zip(fast.filters, ref.filters, strict=True):
+        np.testing.assert_allclose(a.F, b.F, rtol=1e-9, atol=1e-11)
+        np.testing.assert_allclose(a.G, b.G, rtol=1e-9, atol=1e-11)
+        assert a.spectral_radius == pytest.approx(b.spectral_radius, rel=1e-9)
+    for a, b in zip(
+        fast.zeta_cal + fast.direction_cal, ref.zeta_cal + ref.direction_cal, strict=True
+    ):
+        da, db = a.as_dict(), b.as_dict()
+        assert da.keys() == db.keys()
+        for key in da:
+            np.testing.assert_allclose(np.asarray(da[key]), np.asarray(db[key]), rtol=1e-6)
