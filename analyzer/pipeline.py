@@ -10,7 +10,8 @@ import os
 import shutil
 import tempfile
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, wait
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -323,44 +324,62 @@ def _run_detectors(
                 break
             continue
         planned.append((name, executor.submit(task, det, shipped_data, shipped_ctx)))
-    results: list[DetectorResult] = []
-    skipped: dict[str, str] = {}
+    # settled[i]: the result of planned[i], or the error its fit or run raised. On threads
+    # each run starts as soon as its fit is done (whichever detector that is: a fast fit
+    # need not wait for a slow one), one run at a time; results are then taken in
+    # registry order, the first error raised as the plain loop would
+    settled: dict[int, DetectorResult | BaseException] = {}
     try:
-        for name, plan in planned:
-            if isinstance(plan, _NotApplicable):
-                if ctx.explicit:
-                    raise DetectorError(f"{name}: {plan.reason}")
-                skipped[name] = plan.reason
+        for i in _fit_order(planned, staged):
+            name, plan = planned[i]
+            if isinstance(plan, _NotApplicable | AnalyzerError):
                 continue
-            if isinstance(plan, AnalyzerError):
-                raise plan
+            if ctx.explicit and any(
+                k < i and isinstance(v, BaseException) for k, v in settled.items()
+            ):
+                continue  # an earlier detector's error will be raised: no need to run this
             try:
                 if staged:
                     det, model, fit_s = plan.result()
                     t0 = time.perf_counter()
                     trim_heap()  # what the fits freed
-                    results.append(_spill(_compact(det.run(model, data, ctx)), spill_dir))
-                    if finished is not None:
-                        finished(results[-1])
+                    settled[i] = _spill(_compact(det.run(model, data, ctx)), spill_dir)
                     release(data.values)  # what the run read of a memory-mapped archive
                     trim_heap()  # the run's per-sample arrays
                     if timings is not None:  # the fits overlap: their sum exceeds the wall time
                         timings[f"fit {name}"] = fit_s
                         timings[f"run {name}"] = time.perf_counter() - t0
                 else:
-                    results.append(_spill(plan.result(), spill_dir))
-                    if finished is not None:
-                        finished(results[-1])
+                    settled[i] = _spill(plan.result(), spill_dir)
                     trim_heap()
             except DetectorError as err:
-                if ctx.explicit:
-                    raise
-                skipped[name] = str(err)
+                settled[i] = err
+                continue
+            result = settled[i]
+            if finished is not None and isinstance(result, DetectorResult):
+                finished(result)
     except BaseException:
         for _, plan in planned:
             if hasattr(plan, "cancel"):
                 plan.cancel()
         raise
+    results: list[DetectorResult] = []
+    skipped: dict[str, str] = {}
+    for i, (name, plan) in enumerate(planned):
+        if isinstance(plan, _NotApplicable):
+            if ctx.explicit:
+                raise DetectorError(f"{name}: {plan.reason}")
+            skipped[name] = plan.reason
+            continue
+        if isinstance(plan, AnalyzerError):
+            raise plan
+        outcome = settled.get(i)
+        if isinstance(outcome, DetectorError):
+            if ctx.explicit:
+                raise outcome
+            skipped[name] = str(outcome)
+        elif isinstance(outcome, DetectorResult):
+            results.append(outcome)
     return results, skipped
 
 
@@ -374,6 +393,21 @@ def _residual_tests(
         training_tests(result, train, channels),
         windowed_summary(result, rate_hz, channels=channels),
     )
+
+
+def _fit_order(planned: list[tuple[str, Any]], staged: bool) -> Iterator[int]:
+    """Indices of ``planned`` in the order their runs start: registry order, or on threads
+    (``staged``) as their fits finish (the earliest-registered of those done first)."""
+    if not staged:
+        yield from range(len(planned))
+        return
+    waiting = {i: plan for i, (_, plan) in enumerate(planned) if isinstance(plan, Future)}
+    yield from (i for i in range(len(planned)) if i not in waiting)
+    while waiting:
+        wait(list(waiting.values()), return_when=FIRST_COMPLETED)
+        first = min(i for i, plan in waiting.items() if plan.done())
+        del waiting[first]
+        yield first
 
 
 @dataclass(frozen=True, slots=True)

@@ -234,3 +234,90 @@ def test_long_archive_paths_give_the_in_memory_findings(
     assert sorted(p.name for p in (tmp_path / "signals").iterdir()) == sorted(
         f"{r.detector}-{kind}.npy" for r in paged.results for kind in ("reference", "residuals")
     )
+
+
+# -- runs start as fits finish -------------------------------------------------------------
+
+RUNS: list[str] = []
+
+
+class _Timed:
+    """A detector whose fit takes ``delay`` s (and fails when ``fail``); its run records
+    when it starts."""
+
+    name = "timed"
+    delay = 0.0
+    fail = False
+
+    def applicable(self, data, context):
+        return None
+
+    def fit(self, data, context):
+        threading.Event().wait(self.delay)
+        if self.fail:
+            raise DetectorError(f"{self.name} cannot fit")
+        return self.name
+
+    def run(self, model, data, context):
+        from analyzer.detectors import DetectorResult
+
+        RUNS.append(model)
+        return DetectorResult(model, tuple(data.channels), {}, [], {})
+
+
+class SlowFit(_Timed):
+    name, delay = "slow", 0.4
+
+
+class FastFit(_Timed):
+    name = "fast"
+
+
+class SlowFail(_Timed):
+    name, delay, fail = "slow", 0.4, True
+
+
+class FastFail(_Timed):
+    name, fail = "fast", True
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_runs_start_as_fits_finish_and_results_keep_registry_order(monkeypatch, jobs):
+    from analyzer import pipeline
+
+    monkeypatch.setitem(REGISTRY, "slow", f"{__name__}:SlowFit")
+    monkeypatch.setitem(REGISTRY, "fast", f"{__name__}:FastFit")
+    RUNS.clear()
+    data = Dataset(np.zeros((100, 2)), ("a", "b"), 10.0, (0, 50))
+    ex = make_executor(jobs)
+    try:
+        ctx = RunContext(executor=ex if jobs > 1 else None)
+        results, skipped = pipeline._run_detectors(
+            ["slow", "fast"], RunOptions(jobs=jobs), data, ctx, ex
+        )
+    finally:
+        ex.close()
+    assert [r.detector for r in results] == ["slow", "fast"] and not skipped
+    # on threads the fast fit's run does not wait for the slow fit; serially, registry order
+    assert RUNS == (["fast", "slow"] if jobs > 1 else ["slow", "fast"])
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_the_first_explicit_error_in_registry_order_is_raised(monkeypatch, jobs):
+    from analyzer import pipeline
+
+    monkeypatch.setitem(REGISTRY, "slow", f"{__name__}:SlowFail")
+    monkeypatch.setitem(REGISTRY, "fast", f"{__name__}:FastFail")
+    data = Dataset(np.zeros((100, 2)), ("a", "b"), 10.0, (0, 50))
+    ex = make_executor(jobs)
+    try:
+        ctx = RunContext(executor=ex if jobs > 1 else None, explicit=True)
+        with pytest.raises(DetectorError, match="^slow cannot fit"):
+            pipeline._run_detectors(["slow", "fast"], RunOptions(jobs=jobs), data, ctx, ex)
+        ctx = RunContext(executor=ex if jobs > 1 else None)  # not named: both skipped
+        results, skipped = pipeline._run_detectors(
+            ["slow", "fast"], RunOptions(jobs=jobs), data, ctx, ex
+        )
+        assert results == [] and list(skipped) == ["slow", "fast"]
+    finally:
+        ex.close()
