@@ -299,7 +299,7 @@ def test_runs_start_as_fits_finish_and_results_keep_registry_order(monkeypatch, 
         ex.close()
     assert [r.detector for r in results] == ["slow", "fast"] and not skipped
     # on threads the fast fit's run does not wait for the slow fit; serially, registry order
-    assert RUNS == (["fast", "slow"] if jobs > 1 else ["slow", "fast"])
+    assert (["fast", "slow"] if jobs > 1 else ["slow", "fast"]) == RUNS
 
 
 @pytest.mark.parametrize("jobs", [1, 2])
