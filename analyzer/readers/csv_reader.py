@@ -12,19 +12,25 @@ block is then converted column-wise (trim, numeric test by regular expression, c
 Python per row. A column is a channel when its non-blank cells are numbers (``true`` /
 ``false`` count as 1 / 0); blank cells are gaps, i.e. no sample of that channel on that
 row, and so are the odd non-numeric cells of a column that is at least 90 % numbers
-(counted in ``info.errors``). The time column holds seconds (decimal text is converted to
-integer nanoseconds exactly), integer nanoseconds (integers above 1e15) or date-time
-strings (ISO 8601 or any format pandas recognises; UTC where no zone is given). Seconds
-below 1e8 (before 1973) are taken as relative time: ``InputInfo.absolute_time`` is False.
+(counted in ``info.errors``). Fast path, same result: the columns whose first block holds
+only plain finite numbers are parsed by Arrow straight to float64 (no text, no cast); from
+the first block where one of them does not parse that way (a blank, ``ERR``, ``nan``), the
+file is read again as text (see :meth:`CsvReader._stream`).
+
+The time column holds seconds (decimal text is converted to integer nanoseconds exactly),
+integer nanoseconds (integers above 1e15) or date-time strings (ISO 8601 or any format
+pandas recognises; UTC where no zone is given). Seconds below 1e8 (before 1973) are taken
+as relative time: ``InputInfo.absolute_time`` is False.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import gzip
 import re
 import warnings
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -84,8 +90,10 @@ class CsvReader:
             raise ReaderError(f"{self.path}: empty file (0 bytes)")
         self._layout = self._detect()
         self._numeric: dict[int, bool] = {}
+        self._fast: tuple[int, ...] = ()
         self._time_kind = ""
         self._time_format: str | None = None
+        self._iso_type: pa.DataType = pa.timestamp("ns", "UTC")
         first_time = self._inspect_first_block()
         total, sha = file_digest([self.path])
         self.info = InputInfo(self.path, Format.CSV, size_bytes=total, sha256=sha)
@@ -104,14 +112,22 @@ class CsvReader:
         skipped = 0
         bad_cells: dict[str, int] = {}
         try:
-            for batch, invalid in self._batches():
+            for batch, invalid in self._stream():
                 skipped += invalid
                 t_ns, keep = self._times(batch.column(self._layout.time_column))
-                skipped += int(np.count_nonzero(~keep))
+                dropped = int(np.count_nonzero(~keep))
+                skipped += dropped
                 for index, name in enumerate(self._layout.names):
                     if index == self._layout.time_column:
                         continue
                     column = batch.column(index)
+                    if column.type == pa.float64():  # parsed by Arrow: all finite numbers
+                        values = column.to_numpy()
+                        if dropped:
+                            reorder.push(name, t_ns[keep], values[keep])
+                        else:  # a copy, cheaper than a mask
+                            reorder.push(name, t_ns.copy(), values.copy())
+                        continue
                     if index not in self._numeric:
                         decision = self._classify(column)
                         if decision is None:
@@ -195,8 +211,59 @@ class CsvReader:
         return best
 
     # ------------------------------------------------------------------ blocks
-    def _batches(self) -> Iterator[tuple[pa.RecordBatch, int]]:
+    def _stream(self) -> Iterator[tuple[pa.RecordBatch, int]]:
+        """The blocks of the body with the count of rows skipped for a wrong number of
+        fields since the previous block; the columns of :attr:`_fast` as float64 as long
+        as every cell of theirs parses as a finite number, else (from the first block
+        where one does not) every column as text.
+
+        Arrow's parse of a float64 column accepts exactly the cells that
+        :func:`_all_numbers` accepts after trimming blanks and tabs, with the same
+        value, so a fast block equals the text block converted. A block that fails
+        (or holds nan/inf, which the text path treats apart) is read again as text by a
+        second reader, which parses the blocks before it again without yielding them:
+        the blocks are cut at the same places (same block size, same parse options).
+        Its row-skip count restarts from the file's beginning; the first block it
+        yields carries the difference, so that the total is that of the text read.
+        """
+        done = 0
+        counted = 0
+        if self._fast:
+            fast = self._batches({self._layout.names[i]: pa.float64() for i in self._fast})
+            try:
+                for batch, invalid in fast:
+                    if not all(_finite(batch.column(i)) for i in self._fast):
+                        break
+                    yield batch, invalid
+                    done += 1
+                    counted += invalid
+                else:
+                    return
+            except (pa.ArrowException, OSError, EOFError, ValueError):
+                pass  # the text read below meets the same error at the same block
+            finally:
+                fast.close()
+        invalid_total = 0
+        for index, (batch, invalid) in enumerate(self._batches()):
+            invalid_total += invalid
+            if index < done:
+                continue
+            yield batch, invalid_total - counted
+            counted = invalid_total
+
+    def _batches(
+        self, types: dict[str, pa.DataType] | None = None
+    ) -> Generator[tuple[pa.RecordBatch, int], None, None]:
+        """Blocks of the body, every column as text except those in ``types``.
+
+        Arrow's threads are off: its streaming reader parses the blocks one after the
+        other either way (same wall time, measured), but with threads it parses blocks
+        ahead, which costs CPU for nothing when only the first block is wanted or when a
+        float64 read is abandoned, and a reader abandoned with work in flight on Arrow's
+        thread pool can hang the interpreter's exit (apache/arrow#43604, #43892)."""
         layout = self._layout
+        column_types = {name: pa.string() for name in layout.names}
+        column_types.update(types or {})
         invalid = [0]
 
         def skip_row(_row: object) -> str:
@@ -211,12 +278,14 @@ class CsvReader:
                 skip_rows=1,
                 block_size=BLOCK_BYTES,
                 encoding=layout.encoding,
+                use_threads=False,
             ),
             parse_options=pacsv.ParseOptions(
                 delimiter=layout.separator, invalid_row_handler=skip_row
             ),
             convert_options=pacsv.ConvertOptions(
-                column_types={name: pa.string() for name in layout.names},
+                column_types=column_types,
+                null_values=[],  # a blank or "NaN" cell fails a float64 column: text path
                 strings_can_be_null=False,
                 quoted_strings_can_be_null=False,
             ),
@@ -230,20 +299,28 @@ class CsvReader:
 
     def _inspect_first_block(self) -> int | None:
         try:
-            batch = next((b for b, _ in self._batches() if b.num_rows), None)
+            with contextlib.closing(self._batches()) as blocks:
+                batch = next((b for b, _ in blocks if b.num_rows), None)
         except (pa.ArrowException, OSError, EOFError, ValueError) as err:
             raise ReaderError(f"{self.path}: cannot parse as CSV ({one_line(err)})") from err
         if batch is None:
             raise ReaderError(f"{self.path}: no data rows")
         numeric = []
+        fast = []
         for index in range(len(self._layout.names)):
             if index == self._layout.time_column:
                 continue
-            decision = self._classify(batch.column(index))
+            column = batch.column(index)
+            if not self._layout.decimal_comma and _all_numbers(_trimmed(column)) is not None:
+                fast.append(index)  # plain numbers only: what _classify calls numeric
+                decision: bool | None = True
+            else:
+                decision = self._classify(column)
             if decision is not None:
                 self._numeric[index] = decision
                 if decision:
                     numeric.append(index)
+        self._fast = tuple(fast)
         if not numeric:
             raise ReaderError(
                 f"{self.path}: no numeric column besides the time column "
@@ -342,6 +419,10 @@ class CsvReader:
         return "seconds"
 
     def _datetimes(self, text: pa.Array) -> tuple[IntArray, np.ndarray]:
+        if self._time_format == "ISO8601":
+            fast = self._iso_datetimes(text)
+            if fast is not None:
+                return fast, np.ones(fast.shape[0], dtype=bool)
         series = pd.Series(text.to_numpy(zero_copy_only=False), dtype=object)
         series = series.where(series != "", None)
         if self._time_format is None:
@@ -354,6 +435,31 @@ class CsvReader:
         out = np.zeros(len(series), dtype=np.int64)
         out[keep] = parsed[keep].dt.as_unit("ns").astype("int64").to_numpy()
         return out, keep
+
+    def _iso_datetimes(self, text: pa.Array) -> IntArray | None:
+        """Nanoseconds of a block of ISO 8601 times by Arrow's own parser (several times
+        faster than pandas), or None when a cell does not parse that way (blank, out of
+        range, mixed with and without zone, or any other form): then pandas decides, as
+        for any other format. Where Arrow parses a time, it gives the instant pandas
+        gives (checked on zones, offsets, fractions, no such day, leap second, the
+        int64 range: tests/readers/test_readers_csv.py); the zoned and the zone-less
+        form are tried in turn, the one that worked last first."""
+        if len(text) == 0:
+            return None
+        other = pa.timestamp("ns") if self._iso_type.tz is not None else pa.timestamp("ns", "UTC")
+        for kind in (self._iso_type, other):
+            try:
+                parsed = pc.cast(text, kind)
+            except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+                continue
+            if parsed.null_count:
+                return None
+            self._iso_type = kind
+            out = np.asarray(parsed.cast(pa.int64()).to_numpy(), dtype=np.int64)
+            if int(out.min()) < _NS_MIN.value:  # pandas' NaT: not a time
+                return None
+            return out
+        return None
 
     def _error(self, line: str) -> None:
         if line not in self.info.errors:
@@ -372,6 +478,17 @@ def _all_numbers(column: pa.Array) -> FloatArray | None:
         return None
     out = np.asarray(values.to_numpy(zero_copy_only=False), dtype=np.float64)
     return out if bool(np.isfinite(out).all()) else None
+
+
+def _finite(column: pa.Array) -> bool:
+    """Whether every value of a float64 column is finite."""
+    return bool(np.isfinite(column.to_numpy()).all())
+
+
+def _trimmed(column: pa.Array) -> pa.Array:
+    """``column`` without leading and trailing blanks and tabs: what Arrow's float64
+    parse of a CSV cell ignores."""
+    return pc.utf8_trim(column, " \t")
 
 
 def _datetime_format(series: pd.Series) -> str:

@@ -136,3 +136,163 @@ def test_fast_numeric_path_equals_the_careful_path():
     np.testing.assert_array_equal(fast, [1.5, -2e-3, 0.5, 5.0, -0.0, 1e5, 123456789.123456789])
     for odd in ("", " 1.5", "true", "nan", "inf", "1,5", "abc"):
         assert _all_numbers(pa.array(["1.0", odd])) is None, odd
+
+
+# --------------------------------------------------------------------------- fast paths
+
+
+def _read_both(
+    path: Path, monkeypatch: pytest.MonkeyPatch
+) -> tuple[tuple[dict, list[str]], tuple[dict, list[str]], list[bool]]:
+    """``path`` read as it is (float64 blocks where they parse) and on the text path only
+    (no float64 column), with small blocks; also which reads were float64 reads."""
+    from analyzer.readers import csv_reader
+
+    monkeypatch.setattr(csv_reader, "BLOCK_BYTES", 4096)
+    typed: list[bool] = []
+    batches = csv_reader.CsvReader._batches
+
+    def spy(self, types=None, **kwargs):  # type: ignore[no-untyped-def]
+        typed.append(bool(types))
+        return batches(self, types, **kwargs)
+
+    monkeypatch.setattr(csv_reader.CsvReader, "_batches", spy)
+    fast = open_input(path)
+    fast_out = collect(fast.chunks()), fast.info.errors
+    fast_reads = typed[:]  # the first reader's reads only
+    text = open_input(path)
+    text._fast = ()  # type: ignore[attr-defined]
+    text_out = collect(text.chunks()), text.info.errors
+    return fast_out, text_out, fast_reads
+
+
+def _assert_same(a: tuple[dict, list[str]], b: tuple[dict, list[str]]) -> None:
+    assert set(a[0]) == set(b[0])
+    for name in a[0]:
+        np.testing.assert_array_equal(a[0][name][0], b[0][name][0])
+        assert a[0][name][1].tobytes() == b[0][name][1].tobytes(), name  # bit for bit
+    assert a[1] == b[1]
+
+
+def _rows(n: int, odd: dict[int, str] | None = None, width: int = 3) -> str:
+    """``n`` rows ``time,x0..`` with varied number spellings; row ``i`` of ``odd`` gets
+    that text instead (a cell, or a whole line when it starts with ``!``)."""
+    rng = np.random.default_rng(1)
+    forms = ["{:.17g}", "{:.3e}", " {:.6f}", "{:.4f}\t", '"{:.9g}"', "{:+.2f}", "{:.0f}."]
+    lines = ["time," + ",".join(f"x{j}" for j in range(width))]
+    for i in range(n):
+        cells = [
+            forms[(i + j) % len(forms)].format(v)
+            for j, v in enumerate(rng.normal(size=width) * 10.0 ** rng.integers(-5, 8))
+        ]
+        line = f"{i * 0.01:.2f}," + ",".join(cells)
+        text = (odd or {}).get(i)
+        if text is not None:
+            line = (
+                text[1:] if text.startswith("!") else f"{i * 0.01:.2f},{text}" + ",1" * (width - 1)
+            )
+        lines.append(line)
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize(
+    "odd",
+    [
+        {},  # every block float64
+        {900: "ERR"},  # a late non-numeric cell: text from that block on
+        {900: ""},  # a late blank
+        {900: "nan", 950: "-inf"},  # spelled-out values: the text path's
+        {900: "nan(1)"},  # parsed by Arrow as nan, not a number to the text path
+        {900: "true"},  # a boolean
+        {300: "!1.0,1", 600: "!x,y,z,w,v", 900: "ERR", 1200: "!5.0,1,2,3,4"},  # bad rows
+        {5: "!,1,2,3", 1100: "!abc,1,2,3"},  # rows without a time, no fallback
+        {850: "!1", 880: "!1", 900: "ERR", 901: "!1", 960: "!1", 1000: "!1"},  # near it
+    ],
+)
+def test_float64_blocks_equal_the_text_path(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, odd: dict[int, str]
+) -> None:
+    path = tmp_path / "many.csv"
+    path.write_text(_rows(1500, odd))
+    fast, text, typed = _read_both(path, monkeypatch)
+    _assert_same(fast, text)
+    assert typed[:2] == [False, True]  # first block as text, then the float64 read
+    fallback = any(not cell.startswith("!") for cell in odd.values())
+    assert typed[2:] == ([False] if fallback else [])  # then the text read
+    assert len(fast[0]["x1"][0]) > 1000
+
+
+def test_float64_blocks_equal_the_text_path_gzip_and_damage(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A gzip file cut short: both reads stop with the same error. Where exactly is up to
+    Arrow's read-ahead (it varies from run to run on the text path alone), so the rows
+    are compared as far as both got."""
+    data = gzip.compress(_rows(60000, {30000: "ERR"}).encode())
+    path = tmp_path / "cut.csv.gz"
+    path.write_bytes(data[: len(data) * 3 // 4])
+    fast, text, typed = _read_both(path, monkeypatch)
+    assert typed == [False, True, False]
+    assert fast[1] == text[1]
+    assert any("unreadable from some point on" in e for e in fast[1])
+    for name in text[0]:
+        n = min(len(fast[0][name][0]), len(text[0][name][0]))
+        assert n > 30000
+        np.testing.assert_array_equal(fast[0][name][0][:n], text[0][name][0][:n])
+        assert fast[0][name][1][:n].tobytes() == text[0][name][1][:n].tobytes()
+
+
+ISO_BLOCKS = [
+    ["2026-01-01T01:00:00Z", "2026-01-01 01:00:00.5Z", "2026-01-01T01:00:00.123456789Z"],
+    ["2026-01-01T01:00:00+02:00", "2026-01-01T01:00:00-05:30", "2026-01-01T01:00:00+0200"],
+    ["2026-01-01T01:00:00", "2026-01-01 01:00:00.25", "2026-01-01T01:00", "2026-01-01"],
+    ["2026-01-01T01:00:00Z", "2026-01-01T01:00:00"],  # with and without zone
+    ["2026-01-01T01:00:00Z", ""],  # a blank
+    ["2026-02-29T01:00:00Z", "2024-02-29T01:00:00Z"],  # no such day
+    ["2026-01-01T23:59:60Z", "2026-01-01T24:00:00Z"],  # leap second, hour 24
+    ["1600-01-01T00:00:00Z", "2300-01-01T00:00:00Z", "2262-04-11T23:47:16.854775807Z"],
+    ["1677-09-21T00:12:43.145224192Z", "1677-09-21T00:12:43.145224193Z"],  # int64 min, NaT
+    ["2026-01-01T01:00:00.1234567891Z", "20260101T010000Z", "2026-1-1T01:00:00Z"],
+]
+
+
+@pytest.mark.parametrize("cells", ISO_BLOCKS)
+def test_iso_times_by_arrow_equal_pandas(cells: list[str]) -> None:
+    """Arrow's ISO 8601 parse of a block, where it takes it, gives pandas' instants."""
+    import pyarrow as pa
+
+    from analyzer.readers.csv_reader import CsvReader
+
+    reader = CsvReader.__new__(CsvReader)
+    reader._time_format = "ISO8601"
+    reader._iso_type = pa.timestamp("ns", "UTC")
+    text = pa.array(cells)
+    t_fast, keep_fast = reader._datetimes(text)
+    reader._iso_type = pa.timestamp("ns")  # the other form first
+    t_other, keep_other = reader._datetimes(text)
+    reader._iso_datetimes = lambda _text: None  # type: ignore[method-assign]
+    t_pandas, keep_pandas = reader._datetimes(text)
+    np.testing.assert_array_equal(keep_fast, keep_pandas)
+    np.testing.assert_array_equal(t_fast[keep_fast], t_pandas[keep_pandas])
+    np.testing.assert_array_equal(keep_other, keep_pandas)
+    np.testing.assert_array_equal(t_other[keep_other], t_pandas[keep_pandas])
+
+
+def test_iso_time_file_equals_the_pandas_path(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from analyzer.readers import csv_reader
+
+    t, data = synthetic(3000, channels=2)
+    path = tmp_path / "iso.csv"
+    write_archive(path, "csv", t, data, start_iso="2026-01-01T00:00:00Z")
+    text = path.read_text().splitlines()
+    text[1500] = "2026-13-01T00:00:00Z," + text[1500].split(",", 1)[1]  # one bad time
+    path.write_text("\n".join(text) + "\n")
+    monkeypatch.setattr(csv_reader, "BLOCK_BYTES", 4096)
+    fast = open_input(path)
+    fast_out = collect(fast.chunks()), fast.info.errors
+    monkeypatch.setattr(csv_reader.CsvReader, "_iso_datetimes", lambda _self, _text: None)
+    slow = open_input(path)
+    _assert_same(fast_out, (collect(slow.chunks()), slow.info.errors))
+    assert len(fast_out[0]["s0"][0]) == 2999
