@@ -19,6 +19,7 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import mmap
+import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -108,6 +109,9 @@ def trim_heap() -> None:
     a no-op where the C library is not glibc."""
     if _TRIM is not None:
         _TRIM(0)
+    arrow = sys.modules.get("pyarrow")
+    if arrow is not None:  # Arrow's allocator (the CSV reader's) keeps freed blocks too
+        arrow.default_memory_pool().release_unused()
 
 
 __all__ = ["release", "spill", "trim_heap"]

@@ -475,6 +475,7 @@ def _analyze(
         # resident set for the rest of the run (memory that grows with the archive)
         infos = store.infos()
         store.close()
+        trim_heap()  # and what reading freed (the CSV reader's Arrow buffers, say)
         notes.extend(_crowded_channels(infos, chosen, aligned.rate_hz))
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
             aligned.start_ns
