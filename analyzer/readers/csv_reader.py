@@ -33,9 +33,9 @@ import warnings
 from collections.abc import Generator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.csv as pacsv
@@ -43,6 +43,9 @@ import pyarrow.csv as pacsv
 from analyzer.errors import ReaderError
 from analyzer.readers._common import FloatArray, IntArray, Reorderer, file_digest, one_line
 from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
+
+if TYPE_CHECKING:  # pandas is imported where a time column needs it: MCAP and bag runs,
+    import pandas as pd  # and CSVs with numeric or ISO times, never load it (~0.3 s)
 from analyzer.types import Format
 
 TIME_NAMES = ("time", "timestamp", "t", "__time", "%time", "datetime")
@@ -61,8 +64,10 @@ logger writing the odd ``ERR`` does not turn a sensor channel into text)."""
 NUMBER = r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^(?i:[-+]?(inf|infinity|nan))$"
 INTEGER = r"^[-+]?\d+$"
 BOOLEAN = r"^(?i:true|false)$"
-_NS_MIN = pd.Timestamp.min.tz_localize("UTC")
-_NS_MAX = pd.Timestamp.max.tz_localize("UTC")
+_NS_MIN = -9223372036854775807
+"""``pd.Timestamp.min`` in ns (pandas' NaT is one below)."""
+_NS_MAX = 9223372036854775807
+"""``pd.Timestamp.max`` in ns."""
 """Dates outside what int64 nanoseconds can hold (years 1677-2262) are not times."""
 _DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+\s*$")
 
@@ -423,6 +428,8 @@ class CsvReader:
             fast = self._iso_datetimes(text)
             if fast is not None:
                 return fast, np.ones(fast.shape[0], dtype=bool)
+        import pandas as pd
+
         series = pd.Series(text.to_numpy(zero_copy_only=False), dtype=object)
         series = series.where(series != "", None)
         if self._time_format is None:
@@ -430,7 +437,8 @@ class CsvReader:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
             parsed = pd.to_datetime(series, utc=True, format=self._time_format, errors="coerce")
-        in_range = parsed.notna() & (parsed >= _NS_MIN) & (parsed <= _NS_MAX)
+        lo, hi = pd.Timestamp(_NS_MIN, tz="UTC"), pd.Timestamp(_NS_MAX, tz="UTC")
+        in_range = parsed.notna() & (parsed >= lo) & (parsed <= hi)
         keep = np.asarray(in_range.to_numpy(), dtype=bool)
         out = np.zeros(len(series), dtype=np.int64)
         out[keep] = parsed[keep].dt.as_unit("ns").astype("int64").to_numpy()
@@ -456,7 +464,7 @@ class CsvReader:
                 return None
             self._iso_type = kind
             out = np.asarray(parsed.cast(pa.int64()).to_numpy(), dtype=np.int64)
-            if int(out.min()) < _NS_MIN.value:  # pandas' NaT: not a time
+            if int(out.min()) < _NS_MIN:  # pandas' NaT: not a time
                 return None
             return out
         return None
@@ -493,6 +501,8 @@ def _trimmed(column: pa.Array) -> pa.Array:
 
 def _datetime_format(series: pd.Series) -> str:
     """A format that parses ``series`` (ISO 8601 if it does, else pandas' inference)."""
+    import pandas as pd
+
     sample = series.dropna().iloc[:200]
     for fmt in ("ISO8601", None):
         try:

@@ -296,3 +296,26 @@ def test_iso_time_file_equals_the_pandas_path(
     slow = open_input(path)
     _assert_same(fast_out, (collect(slow.chunks()), slow.info.errors))
     assert len(fast_out[0]["s0"][0]) == 2999
+
+
+def test_time_bounds_are_pandas_and_pandas_loads_only_when_needed():
+    """The reader's ns bounds are pandas' Timestamp range, and reading an MCAP archive
+    (or importing the pipeline) never imports pandas: only a CSV time column needs it."""
+    import subprocess
+    import sys
+
+    import pandas as pd
+
+    from analyzer.readers import csv_reader
+
+    assert csv_reader._NS_MIN == pd.Timestamp.min.tz_localize("UTC").value
+    assert csv_reader._NS_MAX == pd.Timestamp.max.tz_localize("UTC").value
+    sample = Path(__file__).resolve().parents[2] / "samples" / "building_additive.mcap"
+    code = (
+        "import sys\n"
+        "from analyzer.pipeline import analyze, RunOptions\n"
+        f"analyze([{str(sample)!r}], RunOptions(jobs=1))\n"
+        "print('pandas' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
