@@ -308,8 +308,8 @@ def test_time_bounds_are_pandas_and_pandas_loads_only_when_needed():
 
     from analyzer.readers import csv_reader
 
-    assert csv_reader._NS_MIN == pd.Timestamp.min.tz_localize("UTC").value
-    assert csv_reader._NS_MAX == pd.Timestamp.max.tz_localize("UTC").value
+    assert pd.Timestamp.min.tz_localize("UTC").value == csv_reader._NS_MIN
+    assert pd.Timestamp.max.tz_localize("UTC").value == csv_reader._NS_MAX
     sample = Path(__file__).resolve().parents[2] / "samples" / "building_additive.mcap"
     code = (
         "import sys\n"
