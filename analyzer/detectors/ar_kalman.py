@@ -235,38 +235,45 @@ def _filter_gain(
     Cb: FloatArray,
     Q: FloatArray,
     R: FloatArray,
-    radius: bool = True,
+    horizon: int | None = None,
 ) -> tuple[FloatArray, FloatArray, float]:
     """Steady-state filter gain ``M = P Cb' S^-1`` from the DARE solved by ``solver``, the
-    closed loop ``F = A (I - M Cb)`` and its spectral radius (without ``radius``: 0 when a
-    power of ``F`` is shown to be a contraction, so the radius is below 1, else NaN)."""
+    closed loop ``F = A (I - M Cb)`` and its spectral radius. With a ``horizon`` the
+    radius is not computed: 0 when ``F`` is shown to forget its state within it
+    (:func:`_forgets_within`), else NaN."""
     P = solver(A.T, Cb.T, Q, R)
     S = Cb @ P @ Cb.T + R
     M = np.asarray(np.linalg.solve(S, Cb @ P).T, dtype=np.float64)
     F = A @ (np.eye(A.shape[0]) - M @ Cb)
-    if not radius:
-        return M, F, 0.0 if _contracts(F) else np.nan
+    if horizon is not None:
+        return M, F, 0.0 if _forgets_within(F, horizon) else np.nan
     return M, F, float(np.max(np.abs(np.linalg.eigvals(F))))
 
 
-CONTRACTION_SQUARINGS = 12
-"""Squarings of a closed loop tried before its eigenvalues are computed (``F^4096``)."""
+FOLD_DECAY = 1e-5
+"""What a cross-validation fold's estimator must have forgotten of its state within the
+whole model's warm-up to take over its times (:func:`_forgets_within`)."""
 
 
-def _contracts(F: FloatArray) -> bool:
-    """Whether some power ``F^(2^k)`` (``k <= CONTRACTION_SQUARINGS``) has Frobenius norm
-    below 1, which proves every eigenvalue of ``F`` inside the unit circle
-    (``rho(F)^L <= |F^L|``): a dozen small products instead of an eigenvalue problem that
-    costs ~15x more at 160 states."""
+def _forgets_within(F: FloatArray, horizon: int) -> bool:
+    """Whether some power ``F^(2^k)`` with ``2^k <= horizon`` has Frobenius norm at most
+    :data:`FOLD_DECAY`. That proves every eigenvalue of ``F`` inside the unit circle and
+    ``rho(F)^horizon <= FOLD_DECAY`` (``rho(F)^L <= |F^L|``): a fold's estimator that is
+    no slower than this forgets its state within the whole model's warm-up, and a few
+    small products stand in for an eigenvalue problem that costs ~15x more at 160
+    states. An estimator that forgets more slowly (a fold that changed the model) fails
+    the test and gets its own radius."""
     P = F
+    length = 1
     with np.errstate(all="ignore"):
-        for _ in range(CONTRACTION_SQUARINGS + 1):
+        while length <= horizon:
             norm = float(np.linalg.norm(P))
-            if norm < 1.0:
+            if norm <= FOLD_DECAY:
                 return True
             if not np.isfinite(norm):
                 return False
             P = P @ P
+            length *= 2
     return False
 
 
@@ -277,9 +284,9 @@ def leave_one_out(
 
     ``times``: the ``(settle, warmup)`` of the same estimator of a model fitted on nearly
     the same data (for a cross-validation fold: the whole window's model). They are taken
-    over and the closed loop's stability is proven by a contracting power instead of its
-    eigenvalues; the fold's estimator then forgets its state to within a small factor of
-    ``WARMUP_DECAY``, far below what the calibration can see."""
+    over when the fold's closed loop provably forgets its state within that warm-up
+    (:func:`_forgets_within`, a few squarings instead of its eigenvalues); otherwise the
+    fold's estimator gets its own times, as without ``times``."""
     A, C = ar.companion()
     m = ar.m
     measured = tuple(i for i in range(m) if i != j)
@@ -288,12 +295,15 @@ def leave_one_out(
     Q = K @ ar.sigma @ K.T
     R = ar.sigma[np.ix_(measured, measured)]
     n = A.shape[0]
-    radius = times is None
+    horizon = None if times is None else times[1]
+    dare = partial(solve_dare, check_stable=False)
     try:
-        M, F, rho = _filter_gain(partial(solve_dare, check_stable=False), A, Cb, Q, R, radius)
+        M, F, rho = _filter_gain(dare, A, Cb, Q, R, horizon)
+        if horizon is not None and not rho < 1.0:  # not shown to forget in time: measure
+            horizon = None
+            rho = float(np.max(np.abs(np.linalg.eigvals(F))))
         if not rho < 1.0:  # the doubling's answer is not the stabilizing one: QZ decides
             M, F, rho = _filter_gain(solve_dare_scipy, A, Cb, Q, R)
-            radius = True
     except (linalg.LinAlgError, ValueError) as err:
         raise DetectorError(
             f"the Kalman estimator without channel {j} has no stabilizing solution "
@@ -308,7 +318,7 @@ def leave_one_out(
         raise DetectorError(
             f"the Kalman estimator without channel {j} is unstable (spectral radius {rho:.4f})"
         )
-    if times is not None and not radius:
+    if times is not None and horizon is not None:
         return LeaveOneOut(j, measured, F, G, H, J, times[0], block, times[1])
     settle = int(np.ceil(np.log(1e-6) / np.log(max(rho, 1e-3))))
     warmup = int(np.ceil(np.log(WARMUP_DECAY) / np.log(max(rho, 1e-3))))

@@ -10,7 +10,7 @@ from scipy import linalg
 from analyzer.detectors.ar_kalman import (
     ARKalmanBank,
     BankFilter,
-    _contracts,
+    _forgets_within,
     bank_block,
     leave_one_out,
 )
@@ -103,14 +103,15 @@ def test_time_blocks_after_warmup_equal_one_pass(fitted):
 
 
 @pytest.mark.parametrize("radius", [0.3, 0.9, 0.99])
-def test_contraction_proves_stability_and_only_then(radius):
+def test_forgetting_within_a_horizon_is_proven_and_only_then(radius):
     rng = np.random.default_rng(int(radius * 1000))
     F = rng.normal(size=(40, 40))
     F *= radius / np.max(np.abs(np.linalg.eigvals(F)))
-    assert _contracts(F)
-    assert not _contracts(F * (1.001 / radius))  # a mode just outside the unit circle
-    assert not _contracts(F * (1.0 / radius))  # on it
-    assert not _contracts(np.diag([0.5, 1.0]))
+    assert _forgets_within(F, 1 << 14)
+    assert not _forgets_within(F, 8)  # radius^8 is far above the decay asked for
+    assert not _forgets_within(F * (1.001 / radius), 1 << 14)  # just outside the circle
+    assert not _forgets_within(F * (1.0 / radius), 1 << 14)  # on it
+    assert not _forgets_within(np.diag([0.5, 1.0]), 1 << 14)
 
 
 def test_fold_estimators_with_given_times_equal_the_full_design(fitted):
@@ -120,6 +121,9 @@ def test_fold_estimators_with_given_times_equal_the_full_design(fitted):
         for name in ("F", "G", "H", "J"):
             assert np.array_equal(getattr(fast, name), getattr(full, name)), name
         assert (fast.settle, fast.warmup) == (full.settle + 1, full.warmup + 2)
+        # times the estimator cannot be shown to keep: it measures its own
+        slow = leave_one_out(model.ar, j, full.block, (1, 1))
+        assert (slow.settle, slow.warmup) == (full.settle, full.warmup)
 
 
 def test_whitened_consistency_equals_explicit_form(fitted):
