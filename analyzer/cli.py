@@ -6,6 +6,7 @@ line on stderr, no traceback)."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -263,6 +264,27 @@ def _error(message: str) -> int:
     return 2
 
 
+_UNWOUND = False
+"""Set when :func:`main` stopped a command other than ``watch`` on an interrupt."""
+
+
+def entry() -> NoReturn:
+    """The console script and ``python -m analyzer``: :func:`main`'s return value as the
+    exit status. After an interrupt of ``run``, ``inspect`` or ``export`` (status 130) the
+    process ends as soon as its output is flushed: the unwinding has already removed its
+    scratch space and partial outputs, and the interpreter's own shutdown would wait for
+    pool threads still inside a compiled kernel; once in CI it even ended the process by
+    SIGINT instead of status 130. The watcher, whose worker processes need their normal
+    shutdown, exits as usual."""
+    code = main()
+    if code == 130 and _UNWOUND:
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(OSError, ValueError):  # a closed pipe: nothing to say
+                stream.flush()
+        os._exit(130)
+    sys.exit(code)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = None
     previous = None
@@ -282,6 +304,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _error(_naming_inputs(one_line(str(err)), inputs))
     except KeyboardInterrupt:
         print("analyzer: interrupted", file=sys.stderr)
+        global _UNWOUND
+        _UNWOUND = args is not None and args.command != "watch"
         return 130
     except OSError as err:  # the file system refused (disk full, permissions...)
         where = f"{err.filename}: " if getattr(err, "filename", None) else ""
