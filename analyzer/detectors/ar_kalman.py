@@ -247,7 +247,11 @@ def _filter_gain(
     F = A @ (np.eye(A.shape[0]) - M @ Cb)
     if horizon is not None:
         return M, F, 0.0 if _forgets_within(F, horizon) else np.nan
-    return M, F, float(np.max(np.abs(np.linalg.eigvals(F))))
+    return M, F, _spectral_radius(F)
+
+
+def _spectral_radius(F: FloatArray) -> float:
+    return float(np.max(np.abs(np.linalg.eigvals(F))))
 
 
 FOLD_DECAY = 1e-5
@@ -301,7 +305,7 @@ def leave_one_out(
         M, F, rho = _filter_gain(dare, A, Cb, Q, R, horizon)
         if horizon is not None and not rho < 1.0:  # not shown to forget in time: measure
             horizon = None
-            rho = float(np.max(np.abs(np.linalg.eigvals(F))))
+            rho = _spectral_radius(F)
         if not rho < 1.0:  # the doubling's answer is not the stabilizing one: QZ decides
             M, F, rho = _filter_gain(solve_dare_scipy, A, Cb, Q, R)
     except (linalg.LinAlgError, ValueError) as err:
