@@ -236,18 +236,20 @@ def _filter_gain(
     Q: FloatArray,
     R: FloatArray,
     horizon: int | None = None,
-) -> tuple[FloatArray, FloatArray, float]:
+    start: FloatArray | None = None,
+) -> tuple[FloatArray, FloatArray, float, FloatArray]:
     """Steady-state filter gain ``M = P Cb' S^-1`` from the DARE solved by ``solver``, the
-    closed loop ``F = A (I - M Cb)`` and its spectral radius. With a ``horizon`` the
-    radius is not computed: 0 when ``F`` is shown to forget its state within it
-    (:func:`_forgets_within`), else NaN."""
-    P = solver(A.T, Cb.T, Q, R)
+    closed loop ``F = A (I - M Cb)``, its spectral radius and the DARE's solution ``P``.
+    With a ``horizon`` the radius is not computed: 0 when ``F`` is shown to forget its
+    state within it (:func:`_forgets_within`), else NaN. ``start``: an approximate
+    ``P`` for the solver to start from (:func:`~analyzer.detectors.riccati.solve_dare`)."""
+    P = solver(A.T, Cb.T, Q, R) if start is None else solver(A.T, Cb.T, Q, R, start=start)
     S = Cb @ P @ Cb.T + R
     M = np.asarray(np.linalg.solve(S, Cb @ P).T, dtype=np.float64)
-    F = A @ (np.eye(A.shape[0]) - M @ Cb)
+    F = A - (A @ M) @ Cb  # A (I - M Cb) without an n x n x n product
     if horizon is not None:
-        return M, F, 0.0 if _forgets_within(F, horizon) else np.nan
-    return M, F, _spectral_radius(F)
+        return M, F, 0.0 if _forgets_within(F, horizon) else np.nan, P
+    return M, F, _spectral_radius(F), P
 
 
 def _spectral_radius(F: FloatArray) -> float:
@@ -282,7 +284,11 @@ def _forgets_within(F: FloatArray, horizon: int) -> bool:
 
 
 def leave_one_out(
-    ar: ARModel, j: int, block: int = 64, times: tuple[int, int] | None = None
+    ar: ARModel,
+    j: int,
+    block: int = 64,
+    times: tuple[int, int] | None = None,
+    start: FloatArray | None = None,
 ) -> LeaveOneOut:
     """Estimator ``j`` of the bank (Eq. 10) with the gain from the DARE.
 
@@ -290,7 +296,23 @@ def leave_one_out(
     the same data (for a cross-validation fold: the whole window's model). They are taken
     over when the fold's closed loop provably forgets its state within that warm-up
     (:func:`_forgets_within`, a few squarings instead of its eigenvalues); otherwise the
-    fold's estimator gets its own times, as without ``times``."""
+    fold's estimator gets its own times, as without ``times``. ``start``: that
+    estimator's DARE solution, from which this one's is found by a few Newton steps
+    (:func:`_solved_leave_one_out`)."""
+    return _solved_leave_one_out(ar, j, block, times, start)[0]
+
+
+def _solved_leave_one_out(
+    ar: ARModel,
+    j: int,
+    block: int = 64,
+    times: tuple[int, int] | None = None,
+    start: FloatArray | None = None,
+) -> tuple[LeaveOneOut, FloatArray]:
+    """:func:`leave_one_out` and its DARE's solution ``P`` (the start of the same
+    estimator's DARE for the cross-validation folds: their models differ little from the
+    whole window's, so Newton's method from ``P`` needs 3-4 steps of products where the
+    doubling takes 8 steps with an inverse each; the answer is the same solution)."""
     A, C = ar.companion()
     m = ar.m
     measured = tuple(i for i in range(m) if i != j)
@@ -302,12 +324,12 @@ def leave_one_out(
     horizon = None if times is None else times[1]
     dare = partial(solve_dare, check_stable=False)
     try:
-        M, F, rho = _filter_gain(dare, A, Cb, Q, R, horizon)
+        M, F, rho, P = _filter_gain(dare, A, Cb, Q, R, horizon, start)
         if horizon is not None and not rho < 1.0:  # not shown to forget in time: measure
             horizon = None
             rho = _spectral_radius(F)
-        if not rho < 1.0:  # the doubling's answer is not the stabilizing one: QZ decides
-            M, F, rho = _filter_gain(solve_dare_scipy, A, Cb, Q, R)
+        if not rho < 1.0:  # the iterations gave a non-stabilizing solution: QZ decides
+            M, F, rho, P = _filter_gain(solve_dare_scipy, A, Cb, Q, R)
     except (linalg.LinAlgError, ValueError) as err:
         raise DetectorError(
             f"the Kalman estimator without channel {j} has no stabilizing solution "
@@ -323,10 +345,15 @@ def leave_one_out(
             f"the Kalman estimator without channel {j} is unstable (spectral radius {rho:.4f})"
         )
     if times is not None and horizon is not None:
-        return LeaveOneOut(j, measured, F, G, H, J, times[0], block, times[1])
+        return LeaveOneOut(j, measured, F, G, H, J, times[0], block, times[1]), P
     settle = int(np.ceil(np.log(1e-6) / np.log(max(rho, 1e-3))))
     warmup = int(np.ceil(np.log(WARMUP_DECAY) / np.log(max(rho, 1e-3))))
-    return LeaveOneOut(j, measured, F, G, H, J, settle, block, warmup)
+    return LeaveOneOut(j, measured, F, G, H, J, settle, block, warmup), P
+
+
+def _solved_leave_one_out_task(item: tuple[ARModel, int, int]) -> tuple[LeaveOneOut, FloatArray]:
+    """:func:`_solved_leave_one_out` on one tuple of arguments (what an executor maps)."""
+    return _solved_leave_one_out(*item)
 
 
 class ARKalmanBank:
@@ -375,9 +402,12 @@ class ARKalmanBank:
         )
         ar = fit_ar(train, order)
         block = self._block(ar.m)
-        estimators = tuple(context.map(_leave_one_out_task, [(ar, j, block) for j in range(ar.m)]))
+        solved = context.map(_solved_leave_one_out_task, [(ar, j, block) for j in range(ar.m)])
+        estimators = tuple(e for e, _ in solved)
         window = default_window(data.rate_hz)
-        resid, cons, skip, how, inv_covs = self._calibration_outputs(ar, estimators, train, context)
+        resid, cons, skip, how, inv_covs = self._calibration_outputs(
+            ar, estimators, train, context, tuple(P for _, P in solved)
+        )
         res_cal, con_cal, taus = [], [], []
         # the false-alarm rate is per sample of the archive: shared among its channels
         alpha = context.false_alarm_rate / ar.m
@@ -409,6 +439,7 @@ class ARKalmanBank:
         estimators: tuple[LeaveOneOut, ...],
         train: FloatArray,
         context: RunContext | None = None,
+        solutions: tuple[FloatArray, ...] | None = None,
     ) -> tuple[FloatArray, FloatArray, int, str, list[FloatArray]]:
         """Residuals and consistency of the training window *out of sample*, the skipped
         cold start, how they were obtained, and each estimator's inverse innovation
@@ -420,7 +451,8 @@ class ARKalmanBank:
         training window is cut into ``CV_FOLDS`` blocks; each block's residuals come from a
         model fitted without it (K-fold cross-validation), filtered from a warm-up before
         the block. Where the window is too short for that, in-sample residuals are used and
-        the model summary says so."""
+        the model summary says so. ``solutions``: the estimators' DARE solutions, where
+        the folds' Riccati equations start from (:func:`_solved_leave_one_out`)."""
         n = train.shape[0]
         skip = min(max(e.settle for e in estimators), n // 4)
         block = estimators[0].block
@@ -431,11 +463,11 @@ class ARKalmanBank:
             spans = [(int(edges[f]), int(edges[f + 1])) for f in range(k)]
             # each fold's estimators take the whole model's settle and warm-up times
             times = tuple((e.settle, e.warmup) for e in estimators)
-            tasks = [(train, a, b, ar.order, block, skip, times) for a, b in spans]
+            tasks = [(train, a, b, ar.order, block, skip, times, solutions) for a, b in spans]
             folds = map_in(context, _cv_fold_task, tasks)
             how = f"{k}-fold out-of-sample"
         except DetectorError:
-            folds = [_cv_fold_task((train, 0, n, None, block, skip, None), ar, estimators)]
+            folds = [_cv_fold_task((train, 0, n, None, block, skip, None, None), ar, estimators)]
             how = "in-sample (training window too short for cross-validation)"
         # pass 1 (in the fold tasks): residuals and the innovation moments of every
         # estimator after the cold start; pass 2: the consistency, normalized by the
@@ -968,22 +1000,38 @@ class _Fold:
 
 
 def _cv_fold_task(
-    item: tuple[FloatArray, int, int, int | None, int, int, tuple[tuple[int, int], ...] | None],
+    item: tuple[
+        FloatArray,
+        int,
+        int,
+        int | None,
+        int,
+        int,
+        tuple[tuple[int, int], ...] | None,
+        tuple[FloatArray, ...] | None,
+    ],
     ar: ARModel | None = None,
     estimators: tuple[LeaveOneOut, ...] | None = None,
 ) -> _Fold:
     """Fit without rows ``a .. b - 1`` of ``train`` (order ``order``; or use ``ar`` and
     ``estimators`` as they are: the in-sample fallback) and filter the held-out rows from
     a warm-up before them; ``times`` are the whole model's estimators' settle and warm-up
-    times (:func:`leave_one_out`)."""
-    train, a, b, order, block, skip, times = item
+    times and ``solutions`` their DARE solutions (:func:`leave_one_out`)."""
+    train, a, b, order, block, skip, times, solutions = item
     if ar is None or estimators is None:
         assert order is not None
         held = train.copy()
         held[a:b] = np.nan  # rows whose lags touch the block drop out of the fit
         ar = fit_ar(held, order)
         estimators = tuple(
-            leave_one_out(ar, j, block, None if times is None else times[j]) for j in range(ar.m)
+            leave_one_out(
+                ar,
+                j,
+                block,
+                None if times is None else times[j],
+                None if solutions is None else solutions[j],
+            )
+            for j in range(ar.m)
         )
     bank = BankFilter.build(estimators, block)
     w = min(a, bank.warmup)

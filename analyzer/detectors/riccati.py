@@ -23,7 +23,14 @@ iteration is::
     G_{k+1} = G_k + A_k W_k^-1 G_k A_k'
     H_{k+1} = H_k + A_k' H_k W_k^-1 A_k        (H_0 = Q, H_k -> X)
 
-The result is checked by its relative residual; where the doubling does not converge
+Each step costs one ``n x n`` inverse and eight products.
+
+Given the solution of a nearby equation (a cross-validation fold's model differs little
+from the whole window's), Newton's method (Hewer's iteration) starts from it instead and
+converges quadratically in 3-4 steps, each a Stein equation solved by Smith's squaring
+(products only): at 160 states ~14 ms against ~18 ms for the doubling from scratch.
+
+The result is checked by its relative residual; where the iterations do not converge
 (no stabilizing solution, badly conditioned ``W``), scipy's QZ solver decides, so a model
 scipy accepts is never refused and a model it refuses is refused with its message.
 """
@@ -43,7 +50,20 @@ TOLERANCE = 1e-12
 """Relative change of ``H`` at which the iteration has converged."""
 
 RESIDUAL_LIMIT = 1e-8
-"""Largest relative residual of the Riccati equation accepted from the doubling."""
+"""Largest relative residual of the Riccati equation accepted from the doubling (or from
+Newton's method)."""
+
+
+NEWTON_STEPS = 12
+"""Newton steps from a given start before falling back to the doubling."""
+
+STEIN_ACCURACY = 1e-8
+"""Relative accuracy of the Stein equation solved in each Newton step: an inexact step
+still converges (linearly at this rate on top of the quadratic rate), and the converged
+``X`` is exact (the residual each step corrects is computed in full)."""
+
+STEIN_SQUARINGS = 40
+"""Squarings of the closed loop before a Stein equation is given up (not stable)."""
 
 
 def solve_dare(
@@ -53,21 +73,28 @@ def solve_dare(
     r: FloatArray,
     s: FloatArray | None = None,
     check_stable: bool = True,
+    start: FloatArray | None = None,
 ) -> FloatArray:
     """The stabilizing solution ``X`` of the DARE (arguments as
     :func:`scipy.linalg.solve_discrete_are`). ``check_stable=False`` leaves the check of
     the closed loop's eigenvalues to a caller that computes them anyway (and falls back to
-    scipy itself when they are not inside the unit circle)."""
+    scipy itself when they are not inside the unit circle).
+
+    ``start``: an approximate solution, such as the solution of the same equation for a
+    model fitted on nearly the same data (a cross-validation fold). Newton's method
+    (:func:`_newton`) then converges from it in a few steps of products only; where it
+    does not (the start's gain does not stabilize), the doubling decides, so the answer
+    is the same stabilizing solution either way."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
     q = np.asarray(q, dtype=np.float64)
     r = np.asarray(r, dtype=np.float64)
-    x = _doubling(a, b, q, r, s)
-    if (
-        x is not None
-        and _relative_residual(x, a, b, q, r, s) < RESIDUAL_LIMIT
-        and (not check_stable or _stabilizing(x, a, b, r, s))
-    ):
+    x = None if start is None or s is not None else _newton(a, b, q, r, start)
+    if x is None or not _relative_residual(x, a, b, q, r, s) < RESIDUAL_LIMIT:
+        x = _doubling(a, b, q, r, s)
+        if x is None or not _relative_residual(x, a, b, q, r, s) < RESIDUAL_LIMIT:
+            return solve_dare_scipy(a, b, q, r, s)
+    if not check_stable or _stabilizing(x, a, b, r, s):
         return x
     return solve_dare_scipy(a, b, q, r, s)
 
@@ -98,12 +125,12 @@ def _doubling(
     with np.errstate(all="ignore"):
         for _ in range(MAX_STEPS):
             W = eye + Gk @ Hk
-            try:
-                lu = linalg.lu_factor(W, check_finite=False)
+            try:  # one inverse and two products: ~2x faster than two n-column solves
+                Wi = linalg.inv(W, check_finite=False)
             except (linalg.LinAlgError, ValueError):
                 return None
-            WA = linalg.lu_solve(lu, Ak, check_finite=False)  # W^-1 A
-            WG = linalg.lu_solve(lu, Gk, check_finite=False)  # W^-1 G
+            WA = Wi @ Ak  # W^-1 A
+            WG = Wi @ Gk  # W^-1 G
             H_next = Hk + Ak.T @ Hk @ WA
             Gk = Gk + Ak @ WG @ Ak.T
             Ak = Ak @ WA
@@ -113,6 +140,63 @@ def _doubling(
             Hk = H_next
             if change <= TOLERANCE * max(1.0, float(np.max(np.abs(Hk)))):
                 return 0.5 * (Hk + Hk.T)
+    return None
+
+
+def _newton(
+    a: FloatArray, b: FloatArray, q: FloatArray, r: FloatArray, start: FloatArray
+) -> FloatArray | None:
+    """Newton's method for the DARE (Hewer 1971, "An iterative technique for the
+    computation of the steady state gains for the discrete optimal regulator", IEEE TAC
+    16; Kleinman's iteration in discrete time) from ``start``: with the gain
+    ``K = (R + B' X B)^-1 B' X A`` of the current ``X`` and its closed loop
+    ``Ac = A - B K``, the step ``D = X_next - X`` solves the Stein equation::
+
+        D - Ac' D Ac = DARE(X) = A' X A - X - A' X B K + Q
+
+    by Smith's squaring (:func:`_stein`, products only). From a stabilizing gain the
+    steps stay stabilizing and converge quadratically to the stabilizing solution;
+    they stop on the doubling's criterion (relative change at most ``TOLERANCE``).
+    None when a step fails (a closed loop that is not stable, a singular ``R + B' X B``):
+    the caller then solves from scratch."""
+    x = 0.5 * (start + start.T)
+    with np.errstate(all="ignore"):
+        for _ in range(NEWTON_STEPS):
+            xb = x @ b
+            try:
+                k = np.linalg.solve(r + b.T @ xb, xb.T @ a)
+            except np.linalg.LinAlgError:
+                return None
+            res = a.T @ (x @ a) - x - (a.T @ xb) @ k + q
+            scale = max(1.0, float(np.max(np.abs(x))))
+            d = _stein(a - b @ k, 0.5 * (res + res.T), 0.01 * TOLERANCE * scale)
+            if d is None:
+                return None
+            x = x + d
+            change = float(np.max(np.abs(d)))
+            if not np.isfinite(change):
+                return None
+            if change <= TOLERANCE * max(1.0, float(np.max(np.abs(x)))):
+                return 0.5 * (x + x.T)
+    return None
+
+
+def _stein(ac: FloatArray, c: FloatArray, floor: float) -> FloatArray | None:
+    """``D = sum_i Ac'^i C Ac^i`` (the solution of ``D - Ac' D Ac = C``) by Smith's
+    squaring: ``D <- D + P' D P``, ``P <- P^2`` doubles the terms summed each step. It
+    stops when the rest, at most ``|P|_F^2 |D|``, is below :data:`STEIN_ACCURACY` of
+    ``D`` or below ``floor``; None when ``P`` does not shrink (``Ac`` not stable)."""
+    d = c
+    p = ac
+    for _ in range(STEIN_SQUARINGS):
+        d = d + p.T @ d @ p
+        p = p @ p
+        tail = float(np.sum(p * p))
+        size = float(np.max(np.abs(d)))
+        if not (np.isfinite(tail) and np.isfinite(size)):
+            return None
+        if tail <= STEIN_ACCURACY or tail * size <= floor:
+            return d
     return None
 
 
