@@ -980,11 +980,6 @@ def _detect_task(task: tuple[FloatArray, Calibration, int]) -> list[Interval]:
     return detect(residual, cal, search_start=start)
 
 
-def _leave_one_out_task(item: tuple[ARModel, int, int]) -> LeaveOneOut:
-    """:func:`leave_one_out` on one tuple of arguments (what an executor maps)."""
-    return leave_one_out(*item)
-
-
 @dataclass(frozen=True, slots=True)
 class _Fold:
     """One cross-validation fold: the training rows ``a .. b - 1`` held out, the model
