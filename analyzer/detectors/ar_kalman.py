@@ -90,6 +90,11 @@ thresholds through its windowed alarm statistic (sums in float64), so single pre
 CV_FOLDS = 5
 """Folds of the cross-validation that gives out-of-sample training residuals."""
 
+KEPT_INNOVATIONS_BYTES = 160 << 20
+"""Memory the cross-validation may hold in its folds' innovations between its two
+passes (115 MB for 16 channels and a 10-minute window at 100 Hz); beyond it, pass 2
+filters each fold again (~0.1 s of CPU per fold at 16 channels)."""
+
 CONSISTENCY_PIECE = 1 << 17
 """Rows of consistency recomputed at once around a fault (each piece after its own
 warm-up): bounds the memory of a window that spans a long fault."""
@@ -992,6 +997,9 @@ class _Fold:
     bank: BankFilter
     resid: FloatArray
     moments: _Moments
+    innov: npt.NDArray[np.float64] | None = None
+    """The held-out rows' innovations (N, m, m - 1), kept for pass 2 when they fit in
+    :data:`KEPT_INNOVATIONS_BYTES` (else pass 2 filters the rows again)."""
 
 
 def _cv_fold_task(
@@ -1034,12 +1042,20 @@ def _cv_fold_task(
     moments = _Moments(ar.m)
     assert out.innov is not None
     moments.add(out.innov[max(0, skip - a) :])
-    return _Fold(a, b, ar, bank, out.resid, moments)
+    keep = out.innov.nbytes * CV_FOLDS <= KEPT_INNOVATIONS_BYTES
+    return _Fold(a, b, ar, bank, out.resid, moments, out.innov if keep else None)
 
 
 def _cv_consistency_task(item: tuple[FloatArray, _Fold, list[FloatArray]]) -> FloatArray:
-    """Pass 2 of the calibration on one fold: the consistency of its held-out rows."""
+    """Pass 2 of the calibration on one fold: the consistency of its held-out rows, from
+    the innovations pass 1 kept (the same products :func:`bank_block` takes of them),
+    or by filtering the rows again."""
     train, fold, inv_covs = item
+    if fold.innov is not None:
+        m = fold.innov.shape[1]
+        nt = fold.innov.transpose(1, 0, 2)  # (m, N, m - 1)
+        inv_stack = np.stack([np.asarray(c) for c in inv_covs])
+        return np.asarray((np.matmul(nt, inv_stack) * nt).sum(axis=2).T / (m - 1))
     w = min(fold.a, fold.bank.warmup)
     out = bank_block(
         fold.ar.mean, fold.ar.scale, fold.bank, train[fold.a - w : fold.b], w, inv_covs

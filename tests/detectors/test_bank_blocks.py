@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from scipy import linalg
 
+from analyzer.detectors import ar_kalman
 from analyzer.detectors.ar_kalman import (
     ARKalmanBank,
     BankFilter,
@@ -277,3 +278,23 @@ def test_consistency_windows_equal_the_whole_record_run(fitted, two_thread_pool,
             assert ctx.executor.calls > 0
     finally:
         ak.CONSISTENCY_PIECE = piece
+
+
+@pytest.mark.parametrize("gap", [False, True])
+def test_calibration_from_kept_innovations_equals_filtering_again(fitted, gap, monkeypatch):
+    """Pass 2 of the cross-validation from the innovations pass 1 kept, against filtering
+    every fold again (what a bank too large for the memory budget does)."""
+    det, model, data = fitted
+    train = np.array(data.train_values(), dtype=np.float64)
+    if gap:  # a gap masks rows of the consistency: kept innovations carry the same mask
+        train[700:760, 2] = np.nan
+    ar = model.ar
+    kept = det._calibration_outputs(ar, model.estimators, train)
+    monkeypatch.setattr(ar_kalman, "KEPT_INNOVATIONS_BYTES", 0)
+    again = det._calibration_outputs(ar, model.estimators, train)
+    assert kept[3] == again[3] == "5-fold out-of-sample"
+    np.testing.assert_array_equal(kept[0], again[0])  # residuals: pass 1 in both
+    assert np.array_equal(np.isnan(kept[1]), np.isnan(again[1]))
+    if gap:
+        assert np.isnan(kept[1][700:800]).all(axis=0).any()
+    np.testing.assert_allclose(kept[1], again[1], rtol=1e-12, atol=0)
