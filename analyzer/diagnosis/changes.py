@@ -196,7 +196,13 @@ def calibrate(
 
 
 def alarm_statistic(
-    x: FloatArray, cal: Calibration, *, raw: bool = False, start: int = 0
+    x: FloatArray,
+    cal: Calibration,
+    *,
+    raw: bool = False,
+    start: int = 0,
+    out: FloatArray | None = None,
+    carry: FloatArray | None = None,
 ) -> FloatArray:
     """Per-sample alarm statistic in units of its threshold (> 1 means alarm): the
     largest, over both window lengths, of |window mean| / its threshold and the
@@ -212,7 +218,13 @@ def alarm_statistic(
     of the training window or a fault's onset, needs no more); the entries before it are
     0. Those from ``start`` on are the whole-record pass's bit for bit: the running sums
     before ``start`` are still taken in sample order (a plain sum costs a fraction of the
-    statistic), so the window sums are the same differences of the same prefix sums."""
+    statistic), so the window sums are the same differences of the same prefix sums.
+
+    ``out``: an array of ``x``'s length to write the entries from ``start`` on into (the
+    others are left alone), returned; a new one of zeros otherwise. ``carry``: four
+    floats kept by a caller that computes a growing record's statistic piece by piece
+    (zeros at first): the running sums where the last call's window sums began, from
+    which the next call goes on instead of summing the record from its first sample."""
     arr = np.asarray(x)
     if arr.dtype not in (np.float64, np.float32):
         arr = arr.astype(np.float64)
@@ -232,9 +244,24 @@ def alarm_statistic(
         z = cal.standardize(arr) if raw else np.asarray(arr, dtype=np.float64)
         s = _alarm_statistic_numpy(z, cal)
         s[:start] = 0.0
-        return s
-    out = np.zeros(arr.shape[0], dtype=np.float64)
-    _alarm_kernel(arr, mean, std, windows, mthr, lqm, lqden, start, out)
+        if out is None:
+            return s
+        out[start:] = s[start:]
+        return out
+    if out is None:
+        out = np.zeros(arr.shape[0], dtype=np.float64)
+    _alarm_kernel(
+        arr,
+        mean,
+        std,
+        windows,
+        mthr,
+        lqm,
+        lqden,
+        start,
+        out,
+        np.zeros(4) if carry is None else carry,
+    )
     return out
 
 
@@ -255,6 +282,81 @@ def _alarm_statistic_numpy(z: FloatArray, cal: Calibration) -> FloatArray:
     return s
 
 
+def _tangent_bound(
+    d: float, log_at: float, inv_at: float, lw: float, g: float
+) -> float:  # pragma: no cover - compiled by numba
+    """Upper bound of ``(log d - lw) g`` by the tangent of the log at ``D``
+    (``log_at = log D``, ``inv_at = 1 / D``), with a margin of 1e-9 of the magnitudes
+    summed (their rounding is ~1e-16 of them)."""
+    r = d * inv_at
+    return (log_at - lw + r - 1.0 + 1e-9 * (1.0 + abs(log_at) + abs(lw) + r)) * g
+
+
+def _two_windows(
+    m0: float,
+    m1: float,
+    d0: float,
+    d1: float,
+    lw0: float,
+    lw1: float,
+    fl0: float,
+    fl1: float,
+    if0: float,
+    if1: float,
+    g0: float,
+    g1: float,
+    log0: float,
+    id0: float,
+    log1: float,
+    id1: float,
+) -> tuple[float, float, float, float, float]:  # pragma: no cover - compiled by numba
+    """One sample of :func:`_alarm_loop` with two windows: the largest of the window
+    means ``m0, m1`` and the log mean squares of the sums of squares ``d0, d1`` that can
+    beat it; returns it and the tangent points ``(log D, 1 / D)`` of both windows."""
+    best = 0.0
+    if m0 > best:
+        best = m0
+    if m1 > best:
+        best = m1
+    # the first bound times its denominator e = 6 + 4 u, with its margins
+    u0 = d0 * if0 - 1.0
+    u1 = d1 * if1 - 1.0
+    e0 = 6.0 + 4.0 * u0
+    e1 = 6.0 + 4.0 * u1
+    h0 = (u0 * (6.0 + u0) * (1.0 + 1e-12) + 1e-9 * e0) * g0
+    h1 = (u1 * (6.0 + u1) * (1.0 + 1e-12) + 1e-9 * e1) * g1
+    t0 = d0 > fl0 and not h0 < best * e0
+    t1 = d1 > fl1 and not h1 < best * e1
+    if t0 and t1:  # both may beat best: the tangent bounds too
+        ub0 = min(h0 / e0, _tangent_bound(d0, log0, id0, lw0, g0))
+        ub1 = min(h1 / e1, _tangent_bound(d1, log1, id1, lw1, g1))
+        t0 = not ub0 < best
+        t1 = not ub1 < best
+        if t1 and ub1 > ub0:  # the larger bound's log first: it may rule out the other
+            log1 = math.log(d1)
+            id1 = 1.0 / d1
+            q = (log1 - lw1) * g1
+            if q > best:
+                best = q
+            t1 = False
+            t0 = not ub0 < best
+    if t0:
+        log0 = math.log(d0)
+        id0 = 1.0 / d0
+        q = (log0 - lw0) * g0
+        if q > best:
+            best = q
+        if t1:  # window 1 still to do: rule it out against the new best if possible
+            t1 = not min(h1 / e1, _tangent_bound(d1, log1, id1, lw1, g1)) < best
+    if t1:
+        log1 = math.log(d1)
+        id1 = 1.0 / d1
+        q = (log1 - lw1) * g1
+        if q > best:
+            best = q
+    return best, log0, id0, log1, id1
+
+
 def _alarm_loop(
     x: FloatArray,
     mean: float,
@@ -265,6 +367,7 @@ def _alarm_loop(
     lqden: FloatArray,
     start: int,
     out: FloatArray,
+    carry: FloatArray,
 ) -> None:  # pragma: no cover - compiled by numba
     """``out[t]`` = the alarm statistic at ``t >= start`` (``out`` is left alone before):
     running sums of z, z^2 and the finite count, with the last prefix sums in a ring
@@ -275,10 +378,24 @@ def _alarm_loop(
     Before ``start - max(windows) + 1`` (the earliest prefix sum a window from ``start``
     on reads) only the running sums are taken. ``out[t]`` is the largest of the candidate
     values: the window means first (cheap), then each log mean square only where an upper
-    bound of it, ``log(1 + u) <= u (6 + u) / (6 + 4 u)`` for ``u >= 0`` (equal at 0; the
-    difference's derivative is ``4 u^3 / ((1 + u)(6 + 4 u)^2) >= 0``), can beat them. The
-    bound carries a margin far above rounding, so a log is skipped only where it could not
-    change ``out[t]``: the same maximum of the same values, with under half the logs."""
+    bound of it can beat them. The logs (most of the cost) are skipped only where they
+    could not change ``out[t]``: the same maximum of the same values. Two bounds of
+    ``log d`` (``d`` a window's sum of squares, above the healthy floor ``e^lw``):
+
+    * ``log(1 + u) <= u (6 + u) / (6 + 4 u)`` with ``u = d e^-lw - 1 >= 0`` (equal at 0;
+      the difference's derivative is ``4 u^3 / ((1 + u)(6 + 4 u)^2) >= 0``), tight near
+      the floor; tested without its division (``6 + 4 u > 0``);
+    * ``log d <= log D + d / D - 1`` for any ``D > 0`` (the tangent of the concave log),
+      ``D`` the window's sum of squares at its last log: tight while the window's
+      energy changes slowly, as in a long alarm, where the other bound grows like ``u/4``.
+
+    Both carry margins far above rounding (relative 1e-12 and absolute 1e-9 of the
+    magnitudes involved), and a log is skipped only on a definite ``bound < best`` (a
+    NaN bound computes it). With two windows (every :class:`Calibration`) the window with
+    the larger bound is taken first, so the other's log is mostly skipped when both
+    statistics are high; its constants are scalars; and a stretch without gaps (checked
+    first) needs no count of observed samples. Other window counts take the general
+    loop, with the first bound only."""
     n = x.shape[0]
     k = windows.shape[0]
     wmax = windows.max()
@@ -295,20 +412,85 @@ def _alarm_loop(
     floor = np.exp(lw)  # below it log q <= its healthy mean: q <= 0 adds nothing
     inv_floor = 1.0 / floor
     g = 1.0 / lqden
-    d2s = np.zeros(k)  # the window sums of squares at t
-    s1 = 0.0
-    s2 = 0.0
-    sf = 0
     first = max(0, min(start, n) - wmax + 1)
-    for t in range(first):
+    # carry: (index, its running sums): where a previous call on the same record began
+    p = int(carry[0])
+    s1, s2, sf = carry[1], carry[2], int(carry[3])
+    if p > first:  # a previous call's sums past first: no use
+        p, s1, s2, sf = 0, 0.0, 0.0, 0
+    for t in range(p, first):
         v = (np.float64(x[t]) - mean) * inv_std
         if np.isfinite(v):
             s1 += v
             s2 += v * v
             sf += 1
+    carry[0], carry[1], carry[2], carry[3] = first, s1, s2, sf
     c1[first & mask] = s1
     c2[first & mask] = s2
     cf[first & mask] = sf
+    if k == 2:
+        # without gaps every window from first on is full: no finite count is needed
+        gap = 0  # an or of flags, which the compiler vectorizes (a loop with a break not)
+        for t in range(first, n):
+            v = (np.float64(x[t]) - mean) * inv_std
+            gap |= v - v != 0.0  # inf - inf and NaN - NaN are NaN
+        gaps = gap != 0
+        w0, w1 = windows[0], windows[1]
+        a0, a1 = a[0], a[1]
+        lw0, lw1 = lw[0], lw[1]
+        fl0, fl1 = floor[0], floor[1]
+        if0, if1 = inv_floor[0], inv_floor[1]
+        g0, g1 = g[0], g[1]
+        log0, log1 = lw0, lw1  # tangent points (log D, 1 / D), first at the floors
+        id0, id1 = if0, if1
+        if not gaps:
+            for t in range(first, n):
+                v = (np.float64(x[t]) - mean) * inv_std
+                s1 += v
+                s2 += v * v
+                j = (t + 1) & mask
+                c1[j] = s1
+                c2[j] = s2
+                if t < start:
+                    continue
+                b0 = (t + 1 - w0) & mask
+                b1 = (t + 1 - w1) & mask
+                ok0 = t + 1 >= w0
+                ok1 = t + 1 >= w1
+                m0 = abs(s1 - c1[b0]) * a0 if ok0 else 0.0
+                m1 = abs(s1 - c1[b1]) * a1 if ok1 else 0.0
+                d0 = s2 - c2[b0] if ok0 else 0.0  # below every floor: no log mean square
+                d1 = s2 - c2[b1] if ok1 else 0.0
+                out[t], log0, id0, log1, id1 = _two_windows(
+                    m0, m1, d0, d1, lw0, lw1, fl0, fl1, if0, if1, g0, g1, log0, id0, log1, id1
+                )
+            return
+        for t in range(first, n):
+            v = (np.float64(x[t]) - mean) * inv_std
+            if np.isfinite(v):
+                s1 += v
+                s2 += v * v
+                sf += 1
+            j = (t + 1) & mask
+            c1[j] = s1
+            c2[j] = s2
+            cf[j] = sf
+            if t < start:
+                continue
+            b0 = (t + 1 - w0) & mask
+            b1 = (t + 1 - w1) & mask
+            # a window not yet full, or mostly gap, says nothing
+            ok0 = t + 1 >= w0 and 2 * (sf - cf[b0]) > w0
+            ok1 = t + 1 >= w1 and 2 * (sf - cf[b1]) > w1
+            m0 = abs(s1 - c1[b0]) * a0 if ok0 else 0.0
+            m1 = abs(s1 - c1[b1]) * a1 if ok1 else 0.0
+            d0 = s2 - c2[b0] if ok0 else 0.0
+            d1 = s2 - c2[b1] if ok1 else 0.0
+            out[t], log0, id0, log1, id1 = _two_windows(
+                m0, m1, d0, d1, lw0, lw1, fl0, fl1, if0, if1, g0, g1, log0, id0, log1, id1
+            )
+        return
+    d2s = np.zeros(k)  # the window sums of squares at t
     for t in range(first, n):
         v = (np.float64(x[t]) - mean) * inv_std
         if np.isfinite(v):
@@ -352,6 +534,9 @@ try:  # numba compiles the per-sample pass; nogil lets threads run channels at o
 except ImportError:  # pragma: no cover - numba is a dependency; numpy without it
     _alarm_kernel = None
 else:
+    # compiled before the kernel that calls it (numba resolves the global when compiling)
+    _tangent_bound = njit(cache=True, nogil=True, inline="always")(_tangent_bound)
+    _two_windows = njit(cache=True, nogil=True, inline="always")(_two_windows)
     _alarm_kernel = njit(cache=True, nogil=True)(_alarm_loop)
 
 

@@ -116,7 +116,11 @@ def diagnose_interval(
     ``classify_until`` bounds the stretch the shape is fitted on (a caller that knows
     another fault begins there, which would blur this one's shape). ``statistic``: the
     residual's :func:`~analyzer.diagnosis.changes.alarm_statistic` (``raw=True``) from
-    ``iv.onset`` on at least, when the caller has it (computed from there otherwise)."""
+    ``iv.onset`` on at least, when the caller has it (computed from there otherwise).
+
+    Both residuals' alarms are searched on a stretch from the onset that grows only as
+    far as the answer needs (:class:`_Intervals`; a fault's end is mostly seconds after
+    its onset), with the answer of the search over the whole record."""
     n = residual.shape[0]
     limit = n if classify_until is None else max(iv.onset + 3, classify_until)
     stop = min(n if iv.end is None else iv.end, limit)
@@ -128,28 +132,181 @@ def diagnose_interval(
         return classify(r[iv.onset : stop] - cal.mean, seg_ref, cal.std, rate_hz, tau_corr)
 
     cls = fit(stop)
-    tau = np.arange(n - iv.onset) / rate_hz
-    shape = cls.fault_signal(tau, None if ref is None else ref[iv.onset :])
+    # the shape is elementwise in tau and the reference: a stretch of it is the whole
+    # record's shape over that stretch, bit for bit
+    shape = cls.fault_signal(
+        np.arange(0) / rate_hz, None if ref is None else ref[iv.onset : iv.onset]
+    )
     if shape is None:
         return cls, iv.end
-    corrected = r.copy()
-    corrected[iv.onset :] -= shape
     end: int | None = None
-    raw_alarms = detect(r, cal, search_start=iv.onset, statistic=statistic)
-    corrected_alarms = detect(corrected, cal, search_start=iv.onset + cal.window)
-    if iv.end is not None and any(c.onset < iv.end for c in corrected_alarms):
+    raw_alarms = _Intervals(r, n, cal, iv.onset, statistic)
+    corrected_alarms = _Intervals(
+        _Corrected(r, ref, cls, iv.onset, rate_hz, cal, iv.onset + cal.window),
+        n,
+        cal,
+        iv.onset + cal.window,
+    )
+    # the onsets of detect's intervals strictly increase: only the first corrected one
+    # can begin before iv.end
+    if iv.end is not None and corrected_alarms.onset(0, iv.end) is not None:
         # the shape does not hold even while the raw residual alarms (random data read as
         # "dead sensor plus noise", say): it cannot be trusted past the alarms either
         return cls, iv.end
-    for civ in corrected_alarms:
-        lo, hi = civ.onset + cal.window, civ.onset + cal.long_window
-        recovered = not any(
-            a.onset < hi and (n if a.end is None else a.end) > lo for a in raw_alarms
-        )
-        if recovered:
-            end = civ.onset
+    i = 0
+    while (onset := corrected_alarms.onset(i, n)) is not None:
+        lo, hi = onset + cal.window, onset + cal.long_window
+        j = 0
+        while raw_alarms.onset(j, hi) is not None and not raw_alarms.ends_after(j, lo):
+            j += 1
+        if raw_alarms.onset(j, hi) is None:  # no raw interval overlaps [lo, hi): recovered
+            end = onset
             break
+        i += 1
     if end != iv.end:
         # refit the shape over the whole fault period
         cls = fit(min(n if end is None else end, limit))
     return cls, end
+
+
+class _Corrected:
+    """The residual less a fault's fitted shape from ``onset`` on, built on demand: its
+    first ``h`` samples, filled as ``h`` grows (a fault's end is usually found within
+    seconds of its onset; the rest of the record is not corrected), for
+    :class:`_Intervals` from ``search_start`` on.
+
+    Only what that search reads is filled: from the earliest sample of the first window
+    the alarm statistic computes (``search_start - max(windows) + 1``) on; detect reads
+    nothing before ``search_start``. The statistic's running sums before that sample are
+    the residual's, taken from it once (``carry``) instead of copying it."""
+
+    def __init__(
+        self,
+        r: FloatArray,
+        ref: FloatArray | None,
+        cls: Classification,
+        onset: int,
+        rate_hz: float,
+        cal: Calibration,
+        search_start: int,
+    ) -> None:
+        self.r, self.ref, self.cls, self.onset, self.rate_hz = r, ref, cls, onset, rate_hz
+        self.buf = np.empty(r.shape[0])  # pages are touched only as far as it is filled
+        self.carry = np.zeros(4)
+        head = min(max(0, search_start), r.shape[0])
+        # the running sums up to the first window from search_start on (no statistic:
+        # the record ends at search_start)
+        alarm_statistic(r[:head], cal, raw=True, start=head, out=self.buf[:head], carry=self.carry)
+        self.filled = int(self.carry[0])
+
+    def upto(self, h: int) -> FloatArray:
+        if h > self.filled:
+            a = min(h, max(self.filled, self.onset))
+            self.buf[self.filled : a] = self.r[self.filled : a]
+            if h > a:
+                tau = np.arange(a - self.onset, h - self.onset) / self.rate_hz
+                shape = self.cls.fault_signal(tau, None if self.ref is None else self.ref[a:h])
+                if shape is None:  # pragma: no cover - checked by diagnose_interval
+                    raise ValueError("a fault of type other has no shape to subtract")
+                np.subtract(self.r[a:h], shape, out=self.buf[a:h])
+            self.filled = h
+        return self.buf[:h]
+
+
+class _Intervals:
+    """:func:`~analyzer.diagnosis.changes.detect`'s intervals of a record from
+    ``search_start`` on, found on its first ``h`` samples with ``h`` grown (by growing
+    steps) as far as a question needs, not on the whole record.
+
+    detect on the first ``h`` samples gives the whole record's intervals (onset, end,
+    first and last alarm, peak; not the p-value, which counts the record's windows) for
+    every interval but the last, and for the last too once it is closed: more than
+    ``long_window`` (detect's merging gap) observed samples after its last alarm, so no
+    later alarm joins it, and its first and last alarm a window before ``h``, where the
+    change-point searches end. The alarm statistic is causal and bit-identical from any
+    start, so it is computed once per sample, a stretch per step. An interval not yet
+    settled begins at ``a - long_window - 2 window`` or later (detect's onset search),
+    ``a`` its first alarm: the first unsettled one's, or past ``h``."""
+
+    FIRST_STEP = 8.0
+    """The first stretch, in long windows (a fault's end is mostly found in it)."""
+    GROWTH = 8
+    """Each step this many times the last: few steps, each a pass over the samples
+    before the search (detect's runs) besides the statistic of the new samples."""
+
+    def __init__(
+        self,
+        record: FloatArray | _Corrected,
+        n: int,
+        cal: Calibration,
+        search_start: int,
+        statistic: FloatArray | None = None,
+    ) -> None:
+        self.record, self.n, self.cal = record, n, cal
+        self.search_start = max(0, search_start)
+        self.given = statistic is not None
+        # the statistic's pages are touched only as far as it is computed
+        self.stat = np.empty(n) if statistic is None else statistic
+        # the statistic's running sums, kept from step to step
+        self.carry = np.zeros(4) if isinstance(record, np.ndarray) else record.carry
+        self.found: list[Interval] = []  # detect's intervals of the first h samples
+        self.settled = 0  # how many of them are the whole record's
+        self.frontier = self.search_start  # no unsettled interval begins before it
+        self.h = self.search_start
+        self.step = max(1, int(self.FIRST_STEP * cal.long_window))
+
+    def onset(self, i: int, before: int) -> int | None:
+        """The ``i``-th interval's onset if it is before ``before``, else None (also when
+        there is no such interval)."""
+        while not self._onset_known(i) and self.frontier < before and self.h < self.n:
+            self._grow()
+        if self._onset_known(i) and self.found[i].onset < before:
+            return self.found[i].onset
+        return None
+
+    def ends_after(self, i: int, lo: int) -> bool:
+        """Whether the ``i``-th interval (its onset known) ends after ``lo`` (an interval
+        to the end of the record does). Before it is settled its end is at least
+        ``max(onset + 1, last alarm - long_window - 2 window)`` (detect's end search),
+        and its last alarm only moves on as the record grows."""
+        w, wl = self.cal.window, self.cal.long_window
+        while i >= self.settled:
+            iv = self.found[i]
+            if max(iv.onset + 1, iv.last_alarm - wl - 2 * w) > lo:
+                return True
+            self._grow()
+        end = self.found[i].end
+        return end is None or end > lo
+
+    def _onset_known(self, i: int) -> bool:
+        """The ``i``-th interval's onset is the whole record's: the intervals before it
+        are settled and its first alarm is a window before ``h``."""
+        return i < self.settled or (
+            i == self.settled
+            and i < len(self.found)
+            and self.found[i].first_alarm + self.cal.window <= self.h
+        )
+
+    def _grow(self) -> None:
+        h = min(self.n, self.h + self.step)
+        self.step *= self.GROWTH
+        x = self.record[:h] if isinstance(self.record, np.ndarray) else self.record.upto(h)
+        if not self.given:
+            new = max(self.h, self.search_start)
+            alarm_statistic(x, self.cal, raw=True, start=new, out=self.stat[:h], carry=self.carry)
+        found = detect(x, self.cal, search_start=self.search_start, statistic=self.stat[:h])
+        w, wl = self.cal.window, self.cal.long_window
+        settled = len(found)
+        if h < self.n:
+            settled = 0
+            for k, iv in enumerate(found):
+                if iv.first_alarm + w > h or iv.last_alarm + w > h:
+                    break
+                if k == len(found) - 1:
+                    after = np.count_nonzero(np.isfinite(x[iv.last_alarm + 1 : h]))
+                    if after <= wl:
+                        break
+                settled = k + 1
+        self.found, self.settled, self.h = found, settled, h
+        nxt = found[settled].first_alarm if settled < len(found) else h
+        self.frontier = nxt - wl - 2 * w
