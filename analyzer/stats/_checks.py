@@ -4,6 +4,12 @@
 Non-finite samples (NaN gaps of the aligned archive, infinities) are dropped by the
 order-free tests; :func:`as_series` and :func:`as_matrix` return the finite samples only,
 so a result's ``n`` is the number of samples actually tested.
+
+It also holds the few distribution functions the tests need (normal, chi-square and
+binomial tails and quantiles), written as the :mod:`scipy.special` functions that
+``scipy.stats``' distributions evaluate, with the same handling of the support's edges
+and of NaN: the same bits, without importing ``scipy.stats`` (~0.6 s at start-up) or
+its per-call argument handling (tests/stats/test_stats_distributions.py compares them).
 """
 
 from __future__ import annotations
@@ -12,7 +18,8 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy.stats import norm
+from scipy import special
+from scipy.special import _ufuncs as _scu
 
 from analyzer.errors import DetectorError
 
@@ -23,7 +30,76 @@ IntArray = npt.NDArray[np.int64]
 ALPHA = 0.05
 """Significance level of every test in :mod:`analyzer.stats` (the seed's 5 per cent)."""
 
-Z_975 = float(norm.ppf(1.0 - ALPHA / 2.0))
+
+def norm_sf(x: Any) -> Any:
+    """``scipy.stats.norm.sf(x)``: ``Phi(-x)`` (1 at -inf, 0 at +inf, NaN at NaN)."""
+    return special.ndtr(-np.asarray(x, dtype=np.float64))[()]
+
+
+def norm_ppf(q: Any) -> Any:
+    """``scipy.stats.norm.ppf(q)``: the standard normal quantile (``ndtri``; NaN outside
+    [0, 1], as the distribution's)."""
+    q = np.asarray(q, dtype=np.float64)
+    out = np.where((q >= 0.0) & (q <= 1.0), special.ndtri(q), np.nan) + 0.0
+    return out[()]
+
+
+def _chi2_args(x: Any, df: Any) -> tuple[FloatArray, FloatArray, BoolArray]:
+    x = np.asarray(x, dtype=np.float64)
+    dfa = np.asarray(df, dtype=np.float64)
+    inside = (x > 0.0) & (x < np.inf) & (dfa > 0.0)
+    return x, dfa, inside
+
+
+def chi2_sf(x: Any, df: Any) -> Any:
+    """``scipy.stats.chi2.sf(x, df)``: ``chdtrc(df, x)`` inside the support, 1 at or below
+    zero, 0 at +inf, NaN at NaN or ``df <= 0``."""
+    x, dfa, inside = _chi2_args(x, df)
+    edge = np.where(x <= 0.0, 1.0, 0.0)
+    out = np.where(inside, special.chdtrc(dfa, np.where(inside, x, 1.0)), edge)
+    out = np.where(np.isnan(x) | ~(dfa > 0.0), np.nan, out)
+    return out[()]
+
+
+def chi2_cdf(x: Any, df: Any) -> Any:
+    """``scipy.stats.chi2.cdf(x, df)``: ``chdtr(df, x)`` inside the support, 0 at or below
+    zero, 1 at +inf, NaN at NaN or ``df <= 0``."""
+    x, dfa, inside = _chi2_args(x, df)
+    edge = np.where(x == np.inf, 1.0, 0.0)
+    out = np.where(inside, special.chdtr(dfa, np.where(inside, x, 1.0)), edge)
+    out = np.where(np.isnan(x) | ~(dfa > 0.0), np.nan, out)
+    return out[()]
+
+
+def chi2_ppf(q: Any, df: Any) -> Any:
+    """``scipy.stats.chi2.ppf(q, df)``: ``2 gammaincinv(df / 2, q)`` for 0 < q < 1, 0 at
+    q = 0, +inf at q = 1, NaN otherwise."""
+    q = np.asarray(q, dtype=np.float64)
+    dfa = np.asarray(df, dtype=np.float64)
+    inside = (q > 0.0) & (q < 1.0) & (dfa > 0.0)
+    edge = np.where(q == 0.0, 0.0, np.where(q == 1.0, np.inf, np.nan))
+    edge = np.where(dfa > 0.0, edge, np.nan)
+    out = np.where(inside, 2 * special.gammaincinv(dfa / 2, np.where(inside, q, 0.5)), edge)
+    return out[()]
+
+
+def binom_sf(k: Any, n: Any, p: Any) -> Any:
+    """``scipy.stats.binom.sf(k, n, p)`` = P(X > k): the same Boost ufunc, 1 for
+    ``k < 0``, 0 for ``k >= n``, NaN for NaN ``k`` or invalid ``n``, ``p``."""
+    k = np.asarray(k, dtype=np.float64)
+    na = np.asarray(n, dtype=np.float64)
+    pa = np.asarray(p, dtype=np.float64)
+    valid = (na >= 0) & (na == np.floor(na)) & (pa >= 0) & (pa <= 1)
+    inside = valid & (k >= 0) & (k < na) & np.isfinite(k)
+    kk = np.floor(np.where(inside, k, 0.0))
+    tail = np.clip(_scu._binom_sf(kk, na, pa), 0, 1)
+    edge = np.where(valid & (k < 0), 1.0, 0.0)
+    out = np.where(inside, tail, edge)
+    out = np.where(~valid | np.isnan(k), np.nan, out)
+    return out[()]
+
+
+Z_975 = float(norm_ppf(1.0 - ALPHA / 2.0))
 """Two-sided 5 % point of the standard normal, 1.95996... (the slides' "1.96")."""
 
 NORMALITY_MIN_N = 8

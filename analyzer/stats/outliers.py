@@ -13,16 +13,22 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy.stats import binom, norm
 
 from analyzer.errors import DetectorError
-from analyzer.stats._checks import ALPHA, as_float_array, check_positive, frozen
+from analyzer.stats._checks import (
+    ALPHA,
+    as_float_array,
+    binom_sf,
+    check_positive,
+    frozen,
+    norm_sf,
+)
 from analyzer.stats.results import ShewhartResult
 
 
 def expected_fraction(k: float) -> float:
     """Chance that a N(0, 1) sample falls outside +-k: ``2 (1 - Phi(k))`` (0.27 % at k=3)."""
-    return float(2.0 * norm.sf(k))
+    return float(2.0 * norm_sf(k))
 
 
 def shewhart(x: Any, k: float = 3.0) -> ShewhartResult:
@@ -52,7 +58,7 @@ def shewhart(x: Any, k: float = 3.0) -> ShewhartResult:
     outliers = finite & (np.abs(np.where(finite, arr, 0.0)) > limit)
     count = int(outliers.sum())
     p0 = expected_fraction(limit)
-    pvalue = float(binom.sf(count - 1, n, p0))
+    pvalue = float(binom_sf(count - 1, n, p0))
     return ShewhartResult(
         statistic=count / n,
         critical=p0,

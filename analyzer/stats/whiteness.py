@@ -24,10 +24,18 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy.stats import chi2
 
 from analyzer.errors import DetectorError
-from analyzer.stats._checks import ALPHA, Z_975, FloatArray, as_series, check_int, frozen
+from analyzer.stats._checks import (
+    ALPHA,
+    Z_975,
+    FloatArray,
+    as_series,
+    check_int,
+    chi2_ppf,
+    chi2_sf,
+    frozen,
+)
 from analyzer.stats.results import WhitenessResult
 
 
@@ -42,7 +50,7 @@ def ljung_box(acf: FloatArray, n: int) -> tuple[FloatArray, FloatArray]:
     (last axis of ``acf``) of series of length ``n``."""
     lags = acf.shape[-1]
     q: FloatArray = n * (n + 2.0) * np.sum(acf**2 / (n - np.arange(1.0, lags + 1.0)), axis=-1)
-    p: FloatArray = chi2.sf(q, lags)
+    p: FloatArray = chi2_sf(q, lags)
     return q, p
 
 
@@ -84,7 +92,7 @@ def whiteness(x: Any, lags: int = 20) -> WhitenessResult:
     half_width = band(n)
     return WhitenessResult(
         statistic=float(q),
-        critical=float(chi2.ppf(1.0 - ALPHA, lags)),
+        critical=float(chi2_ppf(1.0 - ALPHA, lags)),
         reject=bool(p < ALPHA),
         pvalue=float(p),
         n=n,

@@ -42,7 +42,6 @@ from typing import Any, ClassVar
 import numpy as np
 import numpy.typing as npt
 from numpy.lib.stride_tricks import sliding_window_view
-from scipy.stats import binom, chi2, norm
 
 from analyzer.errors import DetectorError
 from analyzer.stats._checks import (
@@ -53,10 +52,15 @@ from analyzer.stats._checks import (
     FloatArray,
     IntArray,
     as_float_array,
+    binom_sf,
     check_case,
     check_int,
     check_positive,
+    chi2_cdf,
+    chi2_ppf,
+    chi2_sf,
     frozen,
+    norm_sf,
 )
 from analyzer.stats._windowed_kernel import window_kernel
 from analyzer.stats.normality import (
@@ -215,13 +219,13 @@ class _Outputs:
 
         p0 = expected_fraction(settings.k)
         outliers = np.where(valid, self.outliers, 0)
-        shewhart_p = binom.sf(outliers - 1, window, p0) + untested
+        shewhart_p = binom_sf(outliers - 1, window, p0) + untested
         z = np.sqrt(window) * self.means + untested
-        mean_p = 2.0 * norm.sf(np.abs(z))
+        mean_p = 2.0 * norm_sf(np.abs(z))
         sumsq = self.sumsq + untested
         cov_p = _two_sided_chi2(sumsq, window)
         q = self.q + untested
-        q_p = chi2.sf(q, lags)
+        q_p = chi2_sf(q, lags)
         degenerate = self.constant & (case == 2)  # no spread to standardize with
         a_star = np.where(degenerate, np.inf, modify_anderson_darling(self.a2, window, case))
         w_star = np.where(degenerate, np.inf, modify_cramer_von_mises(self.w2, window, case))
@@ -239,14 +243,14 @@ class _Outputs:
             shewhart=_stats(outliers / window + untested, p0, shewhart_p < ALPHA, shewhart_p),
             anderson_darling=_stats(a_star, ad_critical, a_star > ad_critical, None),
             cramer_von_mises=_stats(w_star, cvm_critical, w_star > cvm_critical, None),
-            whiteness=_stats(q, float(chi2.ppf(1.0 - ALPHA, lags)), q_p < ALPHA, q_p),
+            whiteness=_stats(q, float(chi2_ppf(1.0 - ALPHA, lags)), q_p < ALPHA, q_p),
             mean=_stats(np.abs(z), Z_975, mean_p < ALPHA, mean_p),
             covariance=_stats(
                 sumsq,
-                float(chi2.ppf(1.0 - ALPHA / 2.0, window)),
+                float(chi2_ppf(1.0 - ALPHA / 2.0, window)),
                 cov_p < ALPHA,
                 cov_p,
-                float(chi2.ppf(ALPHA / 2.0, window)),
+                float(chi2_ppf(ALPHA / 2.0, window)),
             ),
             means=frozen(self.means + untested),
             outliers=frozen(outliers),
@@ -261,13 +265,13 @@ def _two_sided_chi2(x: FloatArray, df: int) -> FloatArray:
     survival function is then above 0.6), above the 60 % point the survival function; in
     between, and for NaN, both as before. Each evaluation is an incomplete gamma function
     (~0.3 us), the most expensive step after the windows themselves."""
-    low, high = chi2.ppf([0.4, 0.6], df)
+    low, high = chi2_ppf([0.4, 0.6], df)
     below, above = x < low, x > high
     both = ~(below | above)
     tail = np.empty_like(x)
-    tail[below] = chi2.cdf(x[below], df)
-    tail[above] = chi2.sf(x[above], df)
-    tail[both] = np.minimum(chi2.cdf(x[both], df), chi2.sf(x[both], df))
+    tail[below] = chi2_cdf(x[below], df)
+    tail[above] = chi2_sf(x[above], df)
+    tail[both] = np.minimum(chi2_cdf(x[both], df), chi2_sf(x[both], df))
     out: FloatArray = np.minimum(1.0, 2.0 * tail)
     return out
 

@@ -28,7 +28,6 @@ from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
-from scipy import signal
 
 from analyzer.errors import StoreError
 from analyzer.readers.base import ChannelChunk
@@ -385,6 +384,8 @@ def _resample(t: IntArray, v: FloatArray, grid: IntArray, rate: float, target: f
     margin = 2
     if decimate:
         ntaps = int(8 * np.ceil(rate / target)) | 1
+        from scipy import signal  # only a decimated channel needs it (import: ~1 s)
+
         taps = signal.firwin(ntaps, 0.45 * target, fs=rate)
         margin = ntaps
     i0 = max(0, int(np.searchsorted(t, grid[0], "left")) - margin)
