@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy import linalg, signal
+from scipy import linalg
 
 from analyzer.types import FaultType
 
@@ -40,6 +40,8 @@ class Building:
 
     def discrete(self, rate_hz: float) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """Zero-order-hold discretization (Ad, Bd, C, D) at ``rate_hz``."""
+        from scipy import signal
+
         ad, bd, cd, dd, _ = signal.cont2discrete((self.A, self.B, self.C, self.D), 1.0 / rate_hz)
         return ad, bd, cd, dd
 
@@ -76,6 +78,8 @@ def band_limited_noise(
     n: int, rate_hz: float, cutoff_hz: float, rng: np.random.Generator
 ) -> FloatArray:
     """Unit-variance white noise low-passed at ``cutoff_hz`` (4th-order Butterworth)."""
+    from scipy import signal
+
     b, a = signal.butter(4, cutoff_hz, fs=rate_hz)
     x = signal.lfilter(b, a, rng.standard_normal(n + 500))[500:]
     return x / np.std(x)
@@ -85,6 +89,8 @@ def simulate_response(model: Building, u: FloatArray, rate_hz: float) -> FloatAr
     """Outputs (N, n_out) for ground acceleration ``u`` by exact modal ZOH discretization:
     each complex mode ``lambda`` is the first-order recursion
     ``z[k+1] = exp(lambda h) z[k] + b (exp(lambda h) - 1) / lambda u[k]`` run by lfilter."""
+    from scipy import signal
+
     h = 1.0 / rate_hz
     lam, V = np.linalg.eig(model.A)
     Vinv = np.linalg.inv(V)

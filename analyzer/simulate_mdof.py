@@ -25,7 +25,7 @@ from enum import StrEnum
 
 import numpy as np
 import numpy.typing as npt
-from scipy import linalg, signal
+from scipy import linalg
 
 from analyzer.simulate import band_limited_noise
 
@@ -128,6 +128,8 @@ def simulate_discrete(
     ``x(0) = 0`` for inputs ``u`` ``(N, r)``, by modal decomposition: each eigenvalue
     ``lam`` of ``A`` is the first-order recursion ``z(k+1) = lam z(k) + g(k)`` run by
     ``lfilter`` (``A`` must be diagonalizable, as a damped structure's is)."""
+    from scipy import signal
+
     lam, V = np.linalg.eig(A)
     Vinv = np.linalg.inv(V)
     g = u @ (Vinv @ B).T  # (N, n) modal inputs

@@ -75,7 +75,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
-from scipy import linalg, signal
+from scipy import linalg
 
 from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
 from analyzer.detectors.base import (
@@ -86,6 +86,7 @@ from analyzer.detectors.base import (
     RunContext,
     map_in,
 )
+from analyzer.detectors.lowpass import lowpass
 from analyzer.detectors.lti import (
     ImpulseResponseBank,
     LiftedBank,
@@ -1389,7 +1390,7 @@ def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
     return events_from_residual(
         name,
         zetas[i],
-        _lowpass(_sensor_units(model, refs, i), model.filters[i].sigma),
+        lowpass(_sensor_units(model, refs, i), model.filters[i].sigma),
         model.zeta_cal[i],
         rate,
         detector,
@@ -1478,21 +1479,6 @@ def _nis(r: FloatArray, inv_cov: FloatArray) -> FloatArray:
     if r.shape[1] == 0:
         return np.zeros(r.shape[0])
     return np.einsum("ki,ki->k", r @ inv_cov, r) / r.shape[1]
-
-
-def _lowpass(x: FloatArray, sigma: float) -> FloatArray:
-    """The fault estimate's own first-order low-pass (DC gain 1), started at steady state,
-    so the classifier's fault-free shape matches the residual's dynamics."""
-    xx = np.asarray(x, dtype=np.float64)
-    finite = np.isfinite(xx)
-    if not finite.any():
-        return xx.copy()
-    xf = np.where(finite, xx, 0.0)
-    b, a = [1.0 - sigma], [1.0, -sigma]
-    zi = signal.lfilter_zi(b, a) * xf[np.argmax(finite)]
-    out, _ = signal.lfilter(b, a, xf, zi=zi)
-    out[~finite] = np.nan
-    return np.asarray(out, dtype=np.float64)
 
 
 def _mean_angle_deg(q: FloatArray, scale: FloatArray, i: int) -> float | None:

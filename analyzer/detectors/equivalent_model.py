@@ -62,10 +62,11 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 import numpy.typing as npt
 from numpy.lib.stride_tricks import sliding_window_view
-from scipy import linalg, signal
+from scipy import linalg
 
 from analyzer.detectors.base import SIGNAL_DTYPE, Dataset, DetectorResult, Event, RunContext
 from analyzer.detectors.detection_filter import UNCONFIRMED_FACTOR, long_run_time
+from analyzer.detectors.lowpass import lowpass, recursion
 from analyzer.detectors.network import NetworkDiagnosis, Propagation, SensorNetwork
 from analyzer.diagnosis.changes import Calibration, calibrate, default_window
 from analyzer.diagnosis.events import events_from_residual
@@ -162,10 +163,18 @@ class AssistantObserver:
     def discrete(
         self, mode: Mode = "state", hold: Hold = "zoh"
     ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-        """Exact discretization ``(F, G, H, J)`` for the given hold of the sampled inputs."""
+        """Exact discretization ``(F, G, H, J)`` for the given hold of the sampled inputs
+        (``scipy.signal.cont2discrete``; the zero-order hold as it computes it, by
+        :func:`_zoh`, without importing ``scipy.signal``)."""
         if hold not in ("zoh", "foh"):
             raise DetectorError(f"hold must be 'zoh' or 'foh', got {hold!r}")
         sysc = self.continuous(mode)
+        if hold == "zoh":
+            Ao, Bo, Co, Do = sysc
+            F, G = _zoh(Ao, Bo, self.dt)
+            return (F, G, np.asarray(Co), np.asarray(Do))
+        from scipy import signal  # (import: ~1 s, with scipy.stats)
+
         F, G, H, J, _ = signal.cont2discrete(sysc, self.dt, method=hold)
         return (np.asarray(F), np.asarray(G), np.asarray(H), np.asarray(J))
 
@@ -199,6 +208,8 @@ class AssistantObserver:
         """``r`` *after* each sample, ``r[k+1]`` (``mode="rate"``, ZOH): the residual at the
         end of sample ``k``'s hold interval, so it includes sample ``k`` (no one-sample
         lag); ``r[0] = 0`` before the first sample."""
+        from scipy import signal
+
         phi = float(np.exp(-self.lambda1 * self.dt))
         gain = (1.0 - phi) / self.lambda1
         x = gain * (np.asarray(z, dtype=np.float64) - np.asarray(measured, dtype=np.float64))
@@ -206,9 +217,19 @@ class AssistantObserver:
         return np.asarray(out, dtype=np.float64)
 
 
+def _zoh(A: FloatArray, B: FloatArray, dt: float) -> tuple[FloatArray, FloatArray]:
+    """``(F, G)`` of ``scipy.signal.cont2discrete((A, B, C, D), dt, method="zoh")``, the same
+    operations: ``expm(dt [[A, B], [0, 0]])``'s upper blocks (tests compare the bits)."""
+    n, m = A.shape[0], B.shape[1]
+    em = np.vstack((np.hstack((A, B)), np.zeros((m, n + m))))
+    ms = linalg.expm(dt * em)[:n, :]
+    return np.asarray(ms[:, :n]), np.asarray(ms[:, n:])
+
+
 def _diag_states(F: FloatArray, G: FloatArray, V: FloatArray, x0: FloatArray) -> FloatArray:
     """States ``x[0..N]`` of ``x[k+1] = F x[k] + G v[k]`` for a diagonal ``F``, each state a
-    first-order recursion run by ``lfilter``."""
+    first-order recursion (:func:`~analyzer.detectors.lowpass.recursion`, ``lfilter``'s
+    bits)."""
     d = np.diag(F)
     if not np.allclose(F, np.diag(d), atol=1e-14 * max(1.0, float(np.abs(F).max()))):
         raise DetectorError("internal error: the observer's state matrix is not diagonal")
@@ -217,8 +238,7 @@ def _diag_states(F: FloatArray, G: FloatArray, V: FloatArray, x0: FloatArray) ->
     X[0] = x0
     for j in range(F.shape[0]):
         drive = V @ G[j]
-        out, _ = signal.lfilter([1.0], [1.0, -d[j]], drive, zi=[d[j] * x0[j]])
-        X[1:, j] = out
+        X[1:, j] = recursion(drive, d[j], d[j] * x0[j])
     return X
 
 
@@ -318,6 +338,8 @@ class Relation:
 
     def estimate(self, values: FloatArray) -> FloatArray:
         """``z`` over ``values`` (N, m); NaN inputs count as 0 (mask afterwards)."""
+        from scipy import signal
+
         N = values.shape[0]
         z = np.full(N, self.intercept)
         for j, col in enumerate(self.assistants):
@@ -861,7 +883,7 @@ def _observer_task(
     found = events_from_residual(
         name,
         zeta,
-        _lowpass(z, phi),
+        lowpass(z, phi),
         ob.cal,
         rate,
         detector,
@@ -986,72 +1008,13 @@ def _observer_loop(
                 buf[c, m] = buf[c, nb + m]
 
 
-def _lowpass(x: FloatArray, phi: float) -> FloatArray:
-    """``(1 - phi) / (1 - phi q^-1)``: the residual's own dynamics applied to the fault-free
-    estimate (started at steady state), so the classifier's gain-fault shape matches.
-    NaN samples count as 0 and stay NaN. One compiled pass (:func:`_lowpass_loop`), or
-    :func:`_lowpass_numpy` without numba."""
-    xx = np.asarray(x, dtype=np.float64)
-    if _lowpass_kernel is None:
-        return _lowpass_numpy(xx, phi)
-    b, a = [1.0 - phi], [1.0, -phi]
-    zi = float(signal.lfilter_zi(b, a)[0])
-    out = np.empty_like(xx)
-    if not _lowpass_kernel(xx, 1.0 - phi, phi, zi, out):
-        return xx.copy()  # nothing finite
-    return out
-
-
-def _lowpass_numpy(x: FloatArray, phi: float) -> FloatArray:
-    """:func:`_lowpass` with ``lfilter`` started by ``lfilter_zi`` at the first finite
-    sample (the reference form of :func:`_lowpass_loop`)."""
-    xx = np.asarray(x, dtype=np.float64)
-    finite = np.isfinite(xx)
-    if not finite.any():
-        return xx.copy()
-    xf = np.where(finite, xx, 0.0)
-    b, a = [1.0 - phi], [1.0, -phi]
-    zi = signal.lfilter_zi(b, a) * xf[int(np.argmax(finite))]
-    out, _ = signal.lfilter(b, a, xf, zi=zi)
-    out[~finite] = np.nan
-    return np.asarray(out, dtype=np.float64)
-
-
-def _lowpass_loop(
-    x: FloatArray, b0: float, phi: float, zi: float, out: FloatArray
-) -> bool:  # pragma: no cover - compiled by numba
-    """``out = lfilter([b0], [1, -phi], x)`` with NaN/inf samples as 0 (and NaN in
-    ``out``), started at ``zi`` times the first finite sample, each step as ``lfilter``
-    rounds it. False when no sample is finite."""
-    n = x.shape[0]
-    first = -1
-    for k in range(n):
-        if np.isfinite(x[k]):
-            first = k
-            break
-    if first < 0:
-        return False
-    state = zi * x[first]
-    for k in range(n):
-        v = x[k]
-        finite = np.isfinite(v)
-        if not finite:
-            v = 0.0
-        y = state + b0 * v
-        state = 0.0 * v + phi * y  # b1 x - a1 y with b1 = 0, a1 = -phi
-        out[k] = y if finite else np.nan
-    return True
-
-
 _observer_kernel: Callable[..., None] | None
-_lowpass_kernel: Callable[..., bool] | None
-try:  # numba compiles the per-sample passes; nogil lets threads run observers at once
+try:  # numba compiles the per-sample pass; nogil lets threads run observers at once
     from numba import njit
 except ImportError:  # pragma: no cover - numba is a dependency; numpy without it
-    _observer_kernel = _lowpass_kernel = None
+    _observer_kernel = None
 else:
     _observer_kernel = njit(cache=True, nogil=True)(_observer_loop)
-    _lowpass_kernel = njit(cache=True, nogil=True)(_lowpass_loop)
 
 
 def _dilate_forward(mask: npt.NDArray[np.bool_], n: int) -> npt.NDArray[np.bool_]:

@@ -87,7 +87,7 @@ from typing import Any, ClassVar
 import numpy as np
 import numpy.typing as npt
 from numpy.lib.stride_tricks import sliding_window_view
-from scipy import linalg, signal
+from scipy import linalg
 
 from analyzer.detectors.base import Dataset, DetectorResult, Event, RunContext
 from analyzer.diagnosis.changes import Calibration, calibrate, default_window
@@ -539,6 +539,8 @@ def apply_taps(values: FloatArray, taps: FloatArray, means: FloatArray, s_cur: i
     """Residual series of one error function over ``values`` (N, n_ch): ``r(t) = sum_c
     sum_s taps[c, s] (y_c(t - s_cur + s) - mean_c)``, an FIR filter per channel run by
     overlap-add convolution. Outputs whose window is incomplete or touches a NaN are NaN."""
+    from scipy import signal
+
     n = values.shape[0]
     p = taps.shape[1] - 1
     e = np.zeros(n + p)

@@ -19,11 +19,18 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from scipy import special
-from scipy.special import _ufuncs as _scu
+
+try:  # the Boost binomial tail scipy.stats.binom.sf evaluates: a private ufunc
+    from scipy.special import _ufuncs as _scu
+except ImportError:  # pragma: no cover - depends on the scipy version
+    _scu = None
 
 from analyzer.errors import DetectorError
 
 FloatArray = npt.NDArray[np.float64]
+_BINOM_SF: Any = getattr(_scu, "_binom_sf", None)
+"""``scipy.special._ufuncs._binom_sf`` where this scipy has it; :func:`binom_sf` falls back
+to ``scipy.stats.binom.sf`` (imported on first use) where not."""
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
 
@@ -85,14 +92,19 @@ def chi2_ppf(q: Any, df: Any) -> Any:
 
 def binom_sf(k: Any, n: Any, p: Any) -> Any:
     """``scipy.stats.binom.sf(k, n, p)`` = P(X > k): the same Boost ufunc, 1 for
-    ``k < 0``, 0 for ``k >= n``, NaN for NaN ``k`` or invalid ``n``, ``p``."""
+    ``k < 0``, 0 for ``k >= n``, NaN for NaN ``k`` or invalid ``n``, ``p``. A scipy
+    without the private ufunc gets ``scipy.stats.binom.sf`` itself."""
+    if _BINOM_SF is None:
+        from scipy.stats import binom  # (import: ~0.6 s)
+
+        return binom.sf(k, n, p)
     k = np.asarray(k, dtype=np.float64)
     na = np.asarray(n, dtype=np.float64)
     pa = np.asarray(p, dtype=np.float64)
     valid = (na >= 0) & (na == np.floor(na)) & (pa >= 0) & (pa <= 1)
     inside = valid & (k >= 0) & (k < na) & np.isfinite(k)
     kk = np.floor(np.where(inside, k, 0.0))
-    tail = np.clip(_scu._binom_sf(kk, na, pa), 0, 1)
+    tail = np.clip(_BINOM_SF(kk, na, pa), 0, 1)
     edge = np.where(valid & (k < 0), 1.0, 0.0)
     out = np.where(inside, tail, edge)
     out = np.where(~valid | np.isnan(k), np.nan, out)

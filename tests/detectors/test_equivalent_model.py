@@ -15,11 +15,11 @@ from analyzer.detectors.equivalent_model import (
     AssistantObserver,
     EquivalentModel,
     Relation,
+    _diag_states,
     _fault_estimate_numpy,
     _lagged_gram,
-    _lowpass,
-    _lowpass_numpy,
     _rows_gram,
+    _zoh,
     fit_relation,
     pretreat,
 )
@@ -344,15 +344,36 @@ def test_compiled_fault_estimate_equals_its_reference_form(lags, n, dtype):
     assert np.isnan(zeta[n // 3 + 6 + settle]) and np.isfinite(zeta[n // 3 + 7 + settle])
 
 
-def test_compiled_lowpass_equals_lfilter():
-    rng = np.random.default_rng(4)
-    x = np.cumsum(rng.standard_normal(5000))
-    x[:3] = np.nan
-    x[2000:2100] = np.nan
-    x[3000] = np.inf
-    for phi in (np.exp(-1.0), 0.3, 0.999):
-        np.testing.assert_array_equal(_lowpass(x, phi), _lowpass_numpy(x, phi))
-    assert np.isnan(_lowpass(np.full(10, np.nan), 0.5)).all()
+@pytest.mark.parametrize("mode", ["state", "rate"])
+@pytest.mark.parametrize(
+    ("a", "b", "l1", "l2", "dt"),
+    [(-1.0, 4.0, 1.5, 0.7, 0.01), (0.3, 0.0, 20.0, 3.0, 0.005), (-50.0, 2.0, 0.1, 8.0, 0.1)],
+)
+def test_zoh_is_cont2discrete_bit_for_bit(mode, a, b, l1, l2, dt):
+    """The zero-order hold without scipy.signal: ``cont2discrete``'s bits."""
+    obs = AssistantObserver(a, b, l1, l2, dt)
+    ours = obs.discrete(mode, "zoh")
+    ref = signal.cont2discrete(obs.continuous(mode), dt, method="zoh")[:4]
+    for m, r in zip(ours, ref, strict=True):
+        np.testing.assert_array_equal(np.asarray(m).view(np.uint64), np.asarray(r).view(np.uint64))
+    A, B = obs.continuous(mode)[:2]
+    F, G = _zoh(A, B, dt)
+    np.testing.assert_array_equal(F, ref[0])
+    np.testing.assert_array_equal(G, ref[1])
+
+
+def test_diag_states_is_lfilter_bit_for_bit():
+    """The observer states of the pretreatment: each a first-order ``lfilter`` pass."""
+    rng = np.random.default_rng(8)
+    obs = AssistantObserver(-2.0, 3.0, 1.5, 0.7, 0.01)
+    F, G, _, _ = obs.discrete("state")
+    V = rng.standard_normal((3000, 3))
+    x0 = rng.standard_normal(2)
+    X = _diag_states(F, G, V, x0)
+    for j in range(2):
+        ref, _ = signal.lfilter([1.0], [1.0, -F[j, j]], V @ G[j], zi=[F[j, j] * x0[j]])
+        np.testing.assert_array_equal(X[1:, j], ref)
+    np.testing.assert_array_equal(X[0], x0)
 
 
 # -- the detector on simulated buildings ------------------------------------------------------

@@ -18,6 +18,7 @@ from scipy import stats
 
 import analyzer
 from analyzer.diagnosis import changes
+from analyzer.stats import _checks
 from analyzer.stats._checks import (
     Z_975,
     binom_sf,
@@ -92,6 +93,14 @@ def test_binom_sf_invalid() -> None:
         _same(binom_sf(np.arange(-1, 4), n, p), stats.binom.sf(np.arange(-1, 4), n, p))
 
 
+def test_binom_sf_without_the_private_ufunc(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A scipy without ``special._ufuncs._binom_sf`` gets ``scipy.stats.binom.sf``."""
+    monkeypatch.setattr(_checks, "_BINOM_SF", None)
+    k = np.concatenate([np.arange(-2.0, 23.0), [2.5, np.nan, np.inf]])
+    _same(binom_sf(k, 20, 0.0455), stats.binom.sf(k, 20, 0.0455))
+    _same(binom_sf(3, 20, 0.3), stats.binom.sf(3, 20, 0.3))
+
+
 def test_changes_tail_is_norm_sf() -> None:
     """The change detector's peak tail (``special.ndtr(-z)``) is scipy's ``norm.sf(z)``."""
     z = np.linspace(-10.0, 40.0, 5001)
@@ -100,8 +109,8 @@ def test_changes_tail_is_norm_sf() -> None:
 
 def test_the_pipeline_does_not_import_scipy_stats() -> None:
     """Importing the pipeline (what every run does first) leaves scipy.stats out: about
-    0.6-0.8 s of start-up. (The detectors that use scipy.signal still import it with
-    their module, when they are first run.) In a fresh interpreter."""
+    0.6-0.8 s of start-up (a whole default run leaves out scipy.signal and scipy.stats
+    too: tests/cli/test_cli_imports.py). In a fresh interpreter."""
     code = (
         "import sys\n"
         "from analyzer import pipeline\n"

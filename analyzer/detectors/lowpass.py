@@ -1,0 +1,138 @@
+"""First-order recursions without ``scipy.signal``: the low-pass ``(1 - phi) / (1 - phi
+q^-1)`` (DC gain 1) started at steady state, shared by the detection filter and the
+equivalent-model detector, and ``y[k] = x[k] + phi y[k-1]`` from a given state (the
+equivalent model's diagonal observer states in its pretreatment).
+
+Both detectors apply their residual's own dynamics to the fault-free estimate over the
+whole record (so the classifier's fault-free shape matches the residual), which is
+``scipy.signal.lfilter`` started by ``lfilter_zi`` at the first finite sample. Here it is
+one compiled pass that rounds every step as ``lfilter`` does (:func:`_lowpass_loop`,
+bit-equal to the reference form :func:`lowpass_reference`), and the initial condition is
+the closed form :func:`steady_state_zi`, bit-equal to ``lfilter_zi``: the default run
+needs neither ``scipy.signal`` nor, through it, ``scipy.stats`` (~0.6-0.9 s at start-up).
+:func:`recursion` is ``lfilter([1], [1, -phi], x, zi=[z0])`` the same way.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def steady_state_zi(phi: float) -> float:
+    """``lfilter_zi([1 - phi], [1, -phi])[0]``, the state for which a constant input of 1
+    gives a constant output of 1, in closed form.
+
+    ``lfilter_zi`` solves ``(I - A) zi = B`` with ``A = [[phi]]`` and
+    ``B = b1 - a1 b0 = 0 - (-phi)(1 - phi) = phi (1 - phi)`` (both exact), and a 1x1
+    LAPACK solve divides: ``zi = phi (1 - phi) / (1 - phi)``, rounded twice as there, which
+    is not always ``phi``. tests/detectors/test_lowpass.py checks the bits over many
+    ``phi``."""
+    c = 1.0 - phi
+    return (phi * c) / c
+
+
+def lowpass(x: FloatArray, phi: float) -> FloatArray:
+    """``(1 - phi) / (1 - phi q^-1)`` over ``x``, started at steady state at the first finite
+    sample; NaN/inf samples count as 0 and are NaN in the output (all NaN when nothing is
+    finite). One compiled pass (:func:`_lowpass_loop`), or :func:`lowpass_reference`
+    without numba."""
+    xx = np.asarray(x, dtype=np.float64)
+    if _lowpass_kernel is None:  # pragma: no cover - numba is a dependency
+        return lowpass_reference(xx, phi)
+    out = np.empty_like(xx)
+    if not _lowpass_kernel(xx, 1.0 - phi, phi, steady_state_zi(phi), out):
+        return xx.copy()  # nothing finite
+    return out
+
+
+def lowpass_reference(x: FloatArray, phi: float) -> FloatArray:
+    """:func:`lowpass` with ``scipy.signal.lfilter`` started by ``lfilter_zi`` at the first
+    finite sample (the reference form of :func:`_lowpass_loop`)."""
+    from scipy import signal  # only without numba, and in tests (import: ~1 s)
+
+    xx = np.asarray(x, dtype=np.float64)
+    finite = np.isfinite(xx)
+    if not finite.any():
+        return xx.copy()
+    xf = np.where(finite, xx, 0.0)
+    b, a = [1.0 - phi], [1.0, -phi]
+    zi = signal.lfilter_zi(b, a) * xf[int(np.argmax(finite))]
+    out, _ = signal.lfilter(b, a, xf, zi=zi)
+    out[~finite] = np.nan
+    return np.asarray(out, dtype=np.float64)
+
+
+def recursion(x: FloatArray, phi: float, z0: float) -> FloatArray:
+    """``y[k] = x[k] + phi y[k-1]`` with the filter state ``z0`` before the first sample:
+    ``lfilter([1], [1, -phi], x, zi=[z0])[0]`` bit for bit (NaN/inf propagate as there),
+    one compiled pass, or :func:`recursion_reference` without numba."""
+    xx = np.ascontiguousarray(x, dtype=np.float64)
+    if _recursion_kernel is None:  # pragma: no cover - numba is a dependency
+        return recursion_reference(xx, phi, z0)
+    out = np.empty_like(xx)
+    _recursion_kernel(xx, float(phi), float(z0), out)
+    return out
+
+
+def recursion_reference(x: FloatArray, phi: float, z0: float) -> FloatArray:
+    """:func:`recursion` with ``scipy.signal.lfilter`` (the reference form of
+    :func:`_recursion_loop`)."""
+    from scipy import signal  # only without numba, and in tests (import: ~1 s)
+
+    out, _ = signal.lfilter([1.0], [1.0, -phi], np.asarray(x, dtype=np.float64), zi=[z0])
+    return np.asarray(out, dtype=np.float64)
+
+
+def _recursion_loop(
+    x: FloatArray, phi: float, z0: float, out: FloatArray
+) -> None:  # pragma: no cover - compiled by numba
+    """``out = lfilter([1], [1, -phi], x, zi=[z0])``, each step as ``lfilter`` rounds it
+    (``b = [1, 0]``, ``a = [1, -phi]``)."""
+    state = z0
+    for k in range(x.shape[0]):
+        v = x[k]
+        y = state + 1.0 * v
+        state = v * 0.0 - y * -phi
+        out[k] = y
+
+
+def _lowpass_loop(
+    x: FloatArray, b0: float, phi: float, zi: float, out: FloatArray
+) -> bool:  # pragma: no cover - compiled by numba
+    """``out = lfilter([b0], [1, -phi], x)`` with NaN/inf samples as 0 (and NaN in
+    ``out``), started at ``zi`` times the first finite sample, each step as ``lfilter``
+    rounds it. False when no sample is finite."""
+    n = x.shape[0]
+    first = -1
+    for k in range(n):
+        if np.isfinite(x[k]):
+            first = k
+            break
+    if first < 0:
+        return False
+    state = zi * x[first]
+    for k in range(n):
+        v = x[k]
+        finite = np.isfinite(v)
+        if not finite:
+            v = 0.0
+        y = state + b0 * v
+        state = 0.0 * v + phi * y  # b1 x - a1 y with b1 = 0, a1 = -phi
+        out[k] = y if finite else np.nan
+    return True
+
+
+_lowpass_kernel: Callable[..., bool] | None
+_recursion_kernel: Callable[..., None] | None
+try:  # numba compiles the per-sample passes; nogil lets threads filter at once
+    from numba import njit
+except ImportError:  # pragma: no cover - numba is a dependency; scipy without it
+    _lowpass_kernel = _recursion_kernel = None
+else:
+    _lowpass_kernel = njit(cache=True, nogil=True)(_lowpass_loop)
+    _recursion_kernel = njit(cache=True, nogil=True)(_recursion_loop)

@@ -1,0 +1,72 @@
+"""The shared first-order recursions against ``scipy.signal``, bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.testing import assert_array_equal
+from scipy import signal
+
+from analyzer.detectors.lowpass import (
+    lowpass,
+    lowpass_reference,
+    recursion,
+    recursion_reference,
+    steady_state_zi,
+)
+
+
+def _phis() -> np.ndarray:
+    """Poles over (0, 1) in every scale the detectors use (``exp(-lambda dt)``, near 0 and
+    near 1), plus a few negative ones."""
+    rng = np.random.default_rng(11)
+    return np.concatenate(
+        [
+            rng.uniform(0.0, 1.0, 4000),
+            np.exp(-rng.uniform(0.0, 20.0, 4000)),
+            1.0 - np.exp(-rng.uniform(0.0, 30.0, 4000)),
+            rng.uniform(-1.0, 0.0, 1000),
+            [0.0, 0.5, np.exp(-1.0), 0.3, 0.999, 1e-300, np.nextafter(1.0, 0.0)],
+        ]
+    )
+
+
+def test_steady_state_zi_is_lfilter_zi_bit_for_bit():
+    phis = _phis()
+    ours = np.array([steady_state_zi(float(p)) for p in phis])
+    ref = np.array([signal.lfilter_zi([1.0 - float(p)], [1.0, -float(p)])[0] for p in phis])
+    assert_array_equal(ours.view(np.uint64), ref.view(np.uint64))
+    # the closed form is not simply phi: the two roundings matter
+    assert (ours != phis).any()
+
+
+def test_compiled_lowpass_equals_lfilter():
+    rng = np.random.default_rng(4)
+    x = np.cumsum(rng.standard_normal(5000))
+    x[:3] = np.nan
+    x[2000:2100] = np.nan
+    x[3000] = np.inf
+    for phi in (np.exp(-1.0), 0.3, 0.999, *rng.uniform(0.0, 1.0, 20)):
+        assert_array_equal(lowpass(x, float(phi)), lowpass_reference(x, float(phi)))
+    y = rng.standard_normal(300)
+    for phi in (0.2, 0.95):  # finite from the first sample: started at steady state
+        assert_array_equal(lowpass(y, phi), lowpass_reference(y, phi))
+        assert lowpass(np.full(50, 3.0), phi)[0] == lowpass_reference(np.full(50, 3.0), phi)[0]
+    assert np.isnan(lowpass(np.full(10, np.nan), 0.5)).all()
+    assert np.isnan(lowpass_reference(np.full(10, np.nan), 0.5)).all()
+
+
+def test_compiled_recursion_equals_lfilter():
+    rng = np.random.default_rng(5)
+    x = rng.standard_normal(4000) * 10.0 ** rng.uniform(-3, 3, 4000)
+    for phi in (*rng.uniform(0.0, 1.0, 20), 0.0, -0.7, 0.99999):
+        for z0 in (0.0, 1.3, float(rng.standard_normal()) * 1e3):
+            assert_array_equal(
+                recursion(x, float(phi), z0).view(np.uint64),
+                recursion_reference(x, float(phi), z0).view(np.uint64),
+            )
+    xs = x[::2]  # a strided view
+    assert_array_equal(recursion(xs, 0.9, 0.5), recursion_reference(xs, 0.9, 0.5))
+    bad = x.copy()
+    bad[100] = np.nan
+    bad[200] = np.inf
+    assert_array_equal(recursion(bad, 0.9, 0.5), recursion_reference(bad, 0.9, 0.5))
