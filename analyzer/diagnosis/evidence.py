@@ -34,8 +34,11 @@ DISAGREEMENT_FACTOR = 0.8
 """Confidence factor when the after-onset tests do not point to the finding's type."""
 
 
-def standardized(result: DetectorResult, channel: str) -> FloatArray | None:
-    """The detector's residual on ``channel`` in units of its healthy deviation."""
+def standardized(
+    result: DetectorResult, channel: str, part: slice | None = None
+) -> FloatArray | None:
+    """The detector's residual on ``channel`` (its samples ``part`` only, when given) in
+    units of its healthy deviation."""
     r = result.residuals.get(channel)
     if r is None:
         return None
@@ -46,7 +49,11 @@ def standardized(result: DetectorResult, channel: str) -> FloatArray | None:
         std = float(result.sigma.get(channel, 0.0))
     if not std > 0:
         return None
-    return (np.asarray(r, dtype=np.float64) - mean) / std
+    # the same two operations as ``(r - mean) / std``, in one array
+    r = np.asarray(r if part is None else r[part])
+    out: FloatArray = np.subtract(r, mean, dtype=np.float64)
+    out /= std
+    return out
 
 
 def _tests(z: FloatArray) -> dict[str, Any] | None:
@@ -124,10 +131,11 @@ def training_tests(
     a poor model, and the report says so."""
     out: dict[str, Any] = {}
     for ch in result.residuals if channels is None else channels:
-        z = standardized(result, ch)
+        # the first MAX_SEGMENT training samples, not the whole (long) residual
+        z = standardized(result, ch, slice(train[0], min(train[1], train[0] + MAX_SEGMENT)))
         if z is None:
             continue
-        t = _tests(z[train[0] : train[1]][:MAX_SEGMENT])
+        t = _tests(z)
         release(result.residuals[ch])  # a long archive's residual: pages back to the cache
         if t is not None:
             out[ch] = {

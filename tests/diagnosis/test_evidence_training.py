@@ -1,0 +1,85 @@
+"""training_tests standardizes only the training samples it tests; it must give what
+standardizing the whole residual and then cutting the training window out gives."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from analyzer import stats
+from analyzer.detectors.base import DetectorResult
+from analyzer.diagnosis import evidence
+from analyzer.diagnosis.evidence import MAX_SEGMENT, standardized, training_tests
+
+
+def _result(dtype: type) -> DetectorResult:
+    rng = np.random.default_rng(7)
+    n = 3 * MAX_SEGMENT
+    a = (0.02 + 0.4 * rng.standard_normal(n)).astype(dtype)
+    b = (0.3 * rng.standard_normal(n) + np.linspace(0.0, 1.0, n)).astype(dtype)
+    b[MAX_SEGMENT // 3 : MAX_SEGMENT // 3 + 50] = np.nan  # a gap inside the training window
+    return DetectorResult(
+        "d",
+        ("a", "b", "c"),
+        {},
+        [],
+        {"a": a, "b": b, "c": np.zeros(n, dtype=dtype)},
+        sigma={"a": 0.4, "b": 0.5, "c": 0.0},
+        thresholds={"a": {"mean": 0.02, "std": 0.41}, "b": {"std": 0.0}},
+    )
+
+
+def _reference(result: DetectorResult, train: tuple[int, int]) -> dict[str, Any]:
+    """The straightforward form: the whole residual standardized, then cut."""
+    out: dict[str, Any] = {}
+    for ch, r in result.residuals.items():
+        th = result.thresholds.get(ch, {})
+        mean = float(th.get("mean", 0.0))
+        std = float(th.get("std", result.sigma.get(ch, 0.0)))
+        if not std > 0:
+            std = float(result.sigma.get(ch, 0.0))
+        if not std > 0:
+            continue
+        z = (np.asarray(r, dtype=np.float64) - mean) / std
+        seg = z[train[0] : train[1]][:MAX_SEGMENT]
+        seg = seg[np.isfinite(seg)]
+        if seg.shape[0] < evidence.MIN_SEGMENT:
+            continue
+        tests = stats.test_segment(seg)
+        out[ch] = {
+            k: {key: v.get(key) for key in ("statistic", "critical", "reject")}
+            for k, v in tests.items()
+        }
+    return out
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+@pytest.mark.parametrize(
+    "train",
+    [
+        (0, MAX_SEGMENT // 2),
+        (100, 100 + 2 * MAX_SEGMENT),
+        (5_000, 10**9),
+        (10, 5),
+        (10**9, 10**9 + 5),
+    ],
+)
+def test_training_tests_equal_whole_residual_cut(dtype: type, train: tuple[int, int]) -> None:
+    result = _result(dtype)
+    got = training_tests(result, train)
+    assert got == _reference(result, train)
+    assert "c" not in got  # no healthy deviation: not tested
+
+
+def test_standardized_part_equals_cut_of_whole() -> None:
+    result = _result(np.float32)
+    for ch in ("a", "b"):
+        whole = standardized(result, ch)
+        assert whole is not None and whole.dtype == np.float64
+        part = standardized(result, ch, slice(123, 4567))
+        assert part is not None
+        np.testing.assert_array_equal(part, whole[123:4567])
+    assert standardized(result, "c") is None
+    assert standardized(result, "missing") is None
