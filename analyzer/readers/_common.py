@@ -180,6 +180,18 @@ def sample_times(decoded: Decoded, log_ns: IntArray, time: str) -> IntArray:
 # --------------------------------------------------------------------------- time order
 
 
+@dataclass(slots=True)
+class _Times:
+    """Held times shared by channels (see :meth:`Reorderer.release`); ``parts`` keeps
+    the arrays whose ids key them alive while they are looked up."""
+
+    parts: list[IntArray]
+    t: IntArray
+    order: IntArray | None
+    cut: int
+    rest: IntArray
+
+
 class Reorderer:
     """Turns per-batch samples into per-channel chunks in non-decreasing time order.
 
@@ -226,20 +238,22 @@ class Reorderer:
         if not final and self._held < self._batch:
             return
         self._held = 0
+        # the fields of one topic (a CSV's columns) share their time arrays: their
+        # concatenation, order and cut are worked out once, and the part held back
+        # stays shared for the next release
+        shared: dict[tuple[int, ...], _Times] = {}
         for name in list(self._t):
             parts_t, parts_v = self._t[name], self._v[name]
-            t = parts_t[0] if len(parts_t) == 1 else np.concatenate(parts_t)
+            key = tuple(map(id, parts_t))
+            times = shared.get(key)
+            if times is None:
+                times = shared[key] = self._order(parts_t, bound, final)
+            order, t, cut = times.order, times.t, times.cut
             v = parts_v[0] if len(parts_v) == 1 else np.concatenate(parts_v)
-            if t.size > 1 and bool(np.any(t[1:] < t[:-1])):
-                order = np.argsort(t, kind="stable")
-                t, v = t[order], v[order]
-            if final:
-                cut = t.size
-            else:
-                limit = bound if bound is not None else int(t[-1]) - self._window
-                cut = int(np.searchsorted(t, limit, side="left"))
+            if order is not None:
+                v = v[order]
             if cut < t.size:
-                self._t[name], self._v[name] = [t[cut:]], [v[cut:]]
+                self._t[name], self._v[name] = [times.rest], [v[cut:]]
                 self._held += int(t.size - cut)
             else:
                 del self._t[name], self._v[name]
@@ -255,6 +269,21 @@ class Reorderer:
                     continue
             self._last[name] = int(out_t[-1])
             yield ChannelChunk(name, np.ascontiguousarray(out_t), np.ascontiguousarray(out_v))
+
+    def _order(self, parts_t: list[IntArray], bound: int | None, final: bool) -> _Times:
+        """The held times of a channel in order, their sorting order (None when they are
+        in order) and where :meth:`release` cuts them."""
+        t = parts_t[0] if len(parts_t) == 1 else np.concatenate(parts_t)
+        order = None
+        if t.size > 1 and bool(np.any(t[1:] < t[:-1])):
+            order = np.argsort(t, kind="stable")
+            t = t[order]
+        if final:
+            cut = t.size
+        else:
+            limit = bound if bound is not None else int(t[-1]) - self._window
+            cut = int(np.searchsorted(t, limit, side="left"))
+        return _Times(parts_t, t, order, cut, t[cut:])
 
     def flush(self) -> Iterator[ChannelChunk]:
         """Release everything still held."""

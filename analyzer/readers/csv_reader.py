@@ -64,6 +64,12 @@ logger writing the odd ``ERR`` does not turn a sensor channel into text)."""
 NUMBER = r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^(?i:[-+]?(inf|infinity|nan))$"
 INTEGER = r"^[-+]?\d+$"
 BOOLEAN = r"^(?i:true|false)$"
+FORMAT_SAMPLE = 200
+"""Leading time cells from which the date-time format of a file is chosen."""
+PLAIN_ISO = (
+    r"^\d{4}-\d{2}-\d{2}[T ](?:[01]\d|2[0-3]):[0-5]\d:[0-5]\d(?:\.\d{1,9})?"
+    r"(?:Z|[+-](?:[01]\d|2[0-3]):?[0-5]\d)?$"
+)
 _NS_MIN = -9223372036854775807
 """``pd.Timestamp.min`` in ns (pandas' NaT is one below)."""
 _NS_MAX = 9223372036854775807
@@ -122,16 +128,16 @@ class CsvReader:
                 t_ns, keep = self._times(batch.column(self._layout.time_column))
                 dropped = int(np.count_nonzero(~keep))
                 skipped += dropped
+                # one time array for every float64 column (the reorderer works out the
+                # order of shared times once); the values are Arrow's, viewed
+                t_kept = t_ns[keep] if dropped else t_ns
                 for index, name in enumerate(self._layout.names):
                     if index == self._layout.time_column:
                         continue
                     column = batch.column(index)
                     if column.type == pa.float64():  # parsed by Arrow: all finite numbers
-                        values = column.to_numpy()
-                        if dropped:
-                            reorder.push(name, t_ns[keep], values[keep])
-                        else:  # a copy, cheaper than a mask
-                            reorder.push(name, t_ns.copy(), values.copy())
+                        values = _numpy(column)
+                        reorder.push(name, t_kept, values[keep] if dropped else values)
                         continue
                     if index not in self._numeric:
                         decision = self._classify(column)
@@ -394,7 +400,7 @@ class CsvReader:
         if self._time_kind == "ns" and bool(
             pc.all(pc.match_substring_regex(selected, INTEGER)).as_py()
         ):
-            out[idx] = pc.cast(selected, pa.int64()).to_numpy(zero_copy_only=False)
+            out[idx] = _numpy(pc.cast(selected, pa.int64()))
             return out, keep
         try:
             exact = pc.cast(selected, pa.decimal128(38, 9))
@@ -402,7 +408,7 @@ class CsvReader:
             start = exact.offset * 2
             out[idx] = words[start : start + 2 * len(exact) : 2]
         except pa.ArrowException:
-            seconds = pc.cast(selected, pa.float64()).to_numpy(zero_copy_only=False)
+            seconds = _numpy(pc.cast(selected, pa.float64()))
             finite = np.isfinite(seconds)
             keep[idx[~finite]] = False
             out[idx[finite]] = np.round(seconds[finite] * 1e9).astype(np.int64)
@@ -410,7 +416,9 @@ class CsvReader:
 
     @staticmethod
     def _time_kind_of(text: pa.Array) -> str:
-        nonblank = text.filter(pc.not_equal(text, ""))
+        # a cell's length as a boolean: no Python value passes into Arrow, which would
+        # import pandas (pyarrow checks every such value for a pandas type)
+        nonblank = text.filter(pc.cast(pc.utf8_length(text), pa.bool_()))
         if len(nonblank) == 0:
             return "seconds"
         numbers = pc.match_substring_regex(nonblank, NUMBER)
@@ -424,6 +432,14 @@ class CsvReader:
         return "seconds"
 
     def _datetimes(self, text: pa.Array) -> tuple[IntArray, np.ndarray]:
+        if self._time_format is None and _plain_iso(text):
+            # the cells pandas samples to choose the format are plain ISO 8601, which
+            # its ISO8601 format parses: that is its choice, made without importing
+            # pandas (~0.3 s, and more when several files are opened on threads)
+            fast = self._iso_datetimes(text)
+            if fast is not None:
+                self._time_format = "ISO8601"
+                return fast, np.ones(fast.shape[0], dtype=bool)
         if self._time_format == "ISO8601":
             fast = self._iso_datetimes(text)
             if fast is not None:
@@ -463,7 +479,7 @@ class CsvReader:
             if parsed.null_count:
                 return None
             self._iso_type = kind
-            out = np.asarray(parsed.cast(pa.int64()).to_numpy(), dtype=np.int64)
+            out = np.asarray(_numpy(parsed.cast(pa.int64())), dtype=np.int64)
             if int(out.min()) < _NS_MIN:  # pandas' NaT: not a time
                 return None
             return out
@@ -484,13 +500,30 @@ def _all_numbers(column: pa.Array) -> FloatArray | None:
         return None
     if values.null_count:
         return None
-    out = np.asarray(values.to_numpy(zero_copy_only=False), dtype=np.float64)
+    out = np.asarray(_numpy(values), dtype=np.float64)
     return out if bool(np.isfinite(out).all()) else None
+
+
+_NUMPY_TYPES = {pa.float64(): np.dtype(np.float64), pa.int64(): np.dtype(np.int64)}
+
+
+def _numpy(array: pa.Array) -> np.ndarray:
+    """A float64 or int64 Arrow array without nulls as a read-only numpy view of its
+    buffer (what ``to_numpy()`` returns), any other as ``to_numpy(zero_copy_only=False)``.
+    pyarrow's ``to_numpy`` imports pandas on its first call (~0.3 s, serialised while the
+    files of an archive are opened on threads); a plain CSV needs it nowhere else."""
+    dtype = _NUMPY_TYPES.get(array.type)
+    if dtype is None or array.null_count:
+        return array.to_numpy(zero_copy_only=False)
+    data = array.buffers()[1]
+    if data is None or len(array) == 0:
+        return np.zeros(0, dtype=dtype)
+    return np.frombuffer(data, dtype=dtype, count=len(array), offset=array.offset * dtype.itemsize)
 
 
 def _finite(column: pa.Array) -> bool:
     """Whether every value of a float64 column is finite."""
-    return bool(np.isfinite(column.to_numpy()).all())
+    return bool(np.isfinite(_numpy(column)).all())
 
 
 def _trimmed(column: pa.Array) -> pa.Array:
@@ -499,11 +532,23 @@ def _trimmed(column: pa.Array) -> pa.Array:
     return pc.utf8_trim(column, " \t")
 
 
+def _plain_iso(text: pa.Array) -> bool:
+    """Whether the first :data:`FORMAT_SAMPLE` cells of ``text`` (a time column's first
+    block, trimmed) are all nonblank and in the plain ISO 8601 form (date, ``T`` or
+    blank, hours:minutes:seconds, up to 9 decimals, ``Z`` or an offset): then pandas'
+    ``ISO8601`` format parses any of them Arrow parses, which is what
+    :func:`_datetime_format` would test."""
+    sample = text.slice(0, FORMAT_SAMPLE)
+    if len(sample) == 0:
+        return False
+    return bool(pc.all(pc.match_substring_regex(sample, PLAIN_ISO)).as_py())
+
+
 def _datetime_format(series: pd.Series) -> str:
     """A format that parses ``series`` (ISO 8601 if it does, else pandas' inference)."""
     import pandas as pd
 
-    sample = series.dropna().iloc[:200]
+    sample = series.dropna().iloc[:FORMAT_SAMPLE]
     for fmt in ("ISO8601", None):
         try:
             with warnings.catch_warnings():

@@ -23,6 +23,7 @@ import fnmatch
 import shutil
 import tempfile
 from collections.abc import Iterable, Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -43,6 +44,12 @@ dropped sample is bridged, two or more are not)."""
 SPILL_SAMPLES = 1 << 22
 """Buffered samples (all channels) before the buffers are written to the work dir."""
 
+
+FINALIZE_THREADS = 2
+"""Channels finalized at once (threads: numpy's passes release the GIL)."""
+
+ALIGN_THREADS = 2
+"""Blocks of the aligned matrix filled at once (threads: numpy copies release the GIL)."""
 
 MAX_ROWS_PER_SAMPLE = 100
 """The common clock may have at most this many rows per sample of the densest channel
@@ -140,8 +147,8 @@ class ChannelStore:
             tp, vp = self._paths(name)
             with tp.open("ab") as ft, vp.open("ab") as fv:
                 for t, v in zip(raw.t_parts, raw.v_parts, strict=True):
-                    ft.write(np.ascontiguousarray(t).tobytes())
-                    fv.write(np.ascontiguousarray(v).tobytes())
+                    ft.write(np.ascontiguousarray(t).data)
+                    fv.write(np.ascontiguousarray(v).data)
             raw.spilled += raw.buffered
             raw.t_parts.clear()
             raw.v_parts.clear()
@@ -154,22 +161,14 @@ class ChannelStore:
             return
         if any(r.spilled for r in self._raw.values()):
             self._spill_all()
-        for name, raw in self._raw.items():
-            if raw.spilled:
-                tp, vp = self._paths(name)
-                t: IntArray = np.memmap(tp, dtype=np.int64, mode="r")
-                v: FloatArray = np.memmap(vp, dtype=np.float64, mode="r")
-            else:
-                t = np.concatenate(raw.t_parts)
-                v = np.concatenate(raw.v_parts)
-                raw.t_parts.clear()
-                raw.v_parts.clear()
-            if not _is_sorted(t):
-                order = np.argsort(t, kind="stable")
-                t = np.asarray(t)[order]
-                v = np.asarray(v)[order]
-            raw.t, raw.v = t, v
-            self._info[name] = _summarize(name, t, v)
+        paths = {name: self._paths(name) for name, raw in self._raw.items() if raw.spilled}
+        items = list(self._raw.items())
+        # the channels are independent and numpy's passes over them (the sort test, the
+        # summary's median, min/max, diff) release the GIL: on threads they overlap
+        with ThreadPoolExecutor(min(FINALIZE_THREADS, max(1, len(items)))) as pool:
+            infos = list(pool.map(lambda item: _finish(item[0], item[1], paths), items))
+        for (name, _), info in zip(items, infos, strict=True):
+            self._info[name] = info
         self._final = True
 
     # -- reading ---------------------------------------------------------------------------
@@ -262,6 +261,25 @@ class ChannelStore:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _finish(name: str, raw: _Raw, paths: dict[str, tuple[Path, Path]]) -> ChannelInfo:
+    """One channel's time-sorted arrays (set on ``raw``) and its summary."""
+    if name in paths:
+        tp, vp = paths[name]
+        t: IntArray = np.memmap(tp, dtype=np.int64, mode="r")
+        v: FloatArray = np.memmap(vp, dtype=np.float64, mode="r")
+    else:
+        t = np.concatenate(raw.t_parts)
+        v = np.concatenate(raw.v_parts)
+        raw.t_parts.clear()
+        raw.v_parts.clear()
+    if not _is_sorted(t):
+        order = np.argsort(t, kind="stable")
+        t = np.asarray(t)[order]
+        v = np.asarray(v)[order]
+    raw.t, raw.v = t, v
+    return _summarize(name, t, v)
 
 
 def _is_sorted(t: IntArray, block: int = 1 << 22) -> bool:
@@ -366,9 +384,47 @@ class AlignedSeries:
             out: FloatArray = np.empty(shape)
         else:
             out = np.lib.format.open_memmap(path, mode="w+", dtype=np.float64, shape=shape)
-        for a, blk in self.blocks(block):
-            out[a : a + blk.shape[0]] = blk
+        infos = [self.store.info(name) for name in self.channels]
+        raws = [self.store.raw(name) for name in self.channels]
+
+        def fill(a: int) -> None:
+            b = min(self.n, a + block)
+            grid = self.times_ns(a, b)
+            for j, ((t, v), info) in enumerate(zip(raws, infos, strict=True)):
+                assert isinstance(info, ChannelInfo)
+                # straight into the matrix, without the block's intermediate copies:
+                # a channel sampled on this very clock (what _resample returns for it)
+                s = _on_clock(t, grid, info.rate_hz, self.rate_hz)
+                if s is not None:
+                    out[a:b, j] = v[s : s + grid.shape[0]]
+                else:
+                    out[a:b, j] = _resample(t, v, grid, info.rate_hz, self.rate_hz)
+
+        # the blocks are independent and their copies (and page faults) run without the
+        # GIL: on threads they overlap
+        starts = range(0, self.n, block)
+        if len(starts) < 2 or ALIGN_THREADS < 2:
+            for a in starts:
+                fill(a)
+        else:
+            with ThreadPoolExecutor(ALIGN_THREADS) as pool:
+                for _ in pool.map(fill, starts):
+                    pass
         return out
+
+
+def _on_clock(t: IntArray, grid: IntArray, rate: float, target: float) -> int | None:
+    """Where ``grid`` starts in ``t`` when the channel's samples there are exactly the
+    ticks of ``grid`` (a channel sampled on the clock itself), else None: then
+    ``v[s : s + len(grid)]`` is what :func:`_resample` returns (its first shortcut, for a
+    channel it does not decimate)."""
+    n = grid.shape[0]
+    if t.shape[0] == 0 or n == 0 or not rate > 0 or rate > 1.5 * target:
+        return None
+    s = int(np.searchsorted(t, grid[0], "left"))
+    if s + n <= t.shape[0] and np.array_equal(t[s : s + n], grid):
+        return s
+    return None
 
 
 def _resample(t: IntArray, v: FloatArray, grid: IntArray, rate: float, target: float) -> FloatArray:
