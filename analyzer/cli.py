@@ -14,7 +14,7 @@ import signal
 import sys
 import threading
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -227,9 +227,44 @@ def _run_options(args: argparse.Namespace) -> Any:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from analyzer.pipeline import run
+    """From the real entry point, the report's figures are drawn by worker processes
+    whose server starts first and imports matplotlib while this process imports the
+    pipeline (a second of start-up on one core: the other is idle), see
+    :mod:`analyzer.report.workers`; called in-process (tests, embedding), they are
+    drawn in-process, with the same result."""
+    if not getattr(args, "figure_processes", False):
+        from analyzer.pipeline import run
 
-    return run(args.inputs, Path(args.out), _run_options(args))
+        return run(args.inputs, Path(args.out), _run_options(args))
+    with contextlib.ExitStack() as stack:
+        with _sigterm_after_imports():
+            from analyzer.report.workers import figure_workers
+
+            stack.enter_context(figure_workers())
+            from analyzer.pipeline import run
+
+            options = _run_options(args)
+        return run(args.inputs, Path(args.out), options)
+    raise AssertionError("unreachable")  # pragma: no cover - for mypy
+
+
+@contextlib.contextmanager
+def _sigterm_after_imports() -> Iterator[None]:
+    """A SIGTERM during the block (the start-up imports) is acted on at its end: a
+    KeyboardInterrupt raised inside an import can leave a module lock held (seen: a
+    later import in a detector thread then deadlocks) or be swallowed by the imported
+    code. The process still stops within the block's second, with exit code 130."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    seen: list[int] = []
+    previous = signal.signal(signal.SIGTERM, lambda signum, frame: seen.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    if seen:
+        raise KeyboardInterrupt
 
 
 def cmd_watch(args: argparse.Namespace) -> int:
@@ -276,20 +311,36 @@ def entry() -> NoReturn:
     pool threads still inside a compiled kernel; once in CI it even ended the process by
     SIGINT instead of status 130. The watcher, whose worker processes need their normal
     shutdown, exits as usual."""
-    code = main()
+    code = main(figure_processes=True)
     if code == 130 and _UNWOUND:
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(OSError, ValueError):  # a closed pipe: nothing to say
                 stream.flush()
+        _multiprocessing_exit()
         os._exit(130)
     sys.exit(code)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def _multiprocessing_exit() -> None:
+    """What multiprocessing does at a normal exit and ``os._exit`` skips: remove its
+    temporary folder in TMPDIR (the figure workers' server had its socket there) and
+    release its semaphores (else its resource tracker reports them as leaked). Its
+    worker processes are gone by now (the unwinding stopped them)."""
+    util = sys.modules.get("multiprocessing.util")
+    exit_function = getattr(util, "_exit_function", None)
+    if exit_function is not None:
+        with contextlib.suppress(Exception):
+            exit_function()
+
+
+def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -> int:
+    """``analyzer ARGV``: the exit code. ``figure_processes`` (the real entry point only)
+    lets ``run`` draw the report's figures in worker processes of its own."""
     args = None
     previous = None
     try:
         args = build_parser().parse_args(argv)
+        args.figure_processes = figure_processes
         if args.command != "watch" and threading.current_thread() is threading.main_thread():
             # SIGTERM (timeout, kill) unwinds as Ctrl-C does, so nothing is left behind;
             # the watcher handles its own signals

@@ -725,7 +725,10 @@ def write_atomic(path: Path, data: bytes | str) -> None:
 
 
 def write_outputs(analysis: Analysis, out_dir: Path) -> dict[str, Any]:
-    """``out_dir/findings.json`` and ``out_dir/report.html`` (atomically)."""
+    """``out_dir/findings.json`` and ``out_dir/report.html`` (atomically). The report's
+    figures are drawn by the worker processes of an enclosing
+    :func:`analyzer.report.workers.figure_workers` context (``analyzer run`` enters one),
+    else in this process; the page is the same either way."""
     from analyzer.report import render_report
 
     doc = findings_document(analysis)

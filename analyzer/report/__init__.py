@@ -4,7 +4,10 @@ each finding, the archive, the models and the method.
 
 Jinja2 templates (``reports/templates``, shipped as ``analyzer.templates``) only display
 strings the view layer (:mod:`analyzer.report.view`) computed from the analysis and its
-``findings.json`` document; autoescaping is on for every ``.html`` template.
+``findings.json`` document; autoescaping is on for every ``.html`` template. The view's
+figures are drawn by the worker processes of :func:`analyzer.report.workers.figure_workers`
+when the CLI started them (the main process then never imports matplotlib), else
+in-process; the page is the same byte for byte.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescap
 
 from analyzer.report.decimate import Envelope, envelope
 from analyzer.report.view import MAX_DETAILED, ReportView, build_view
+from analyzer.report.workers import FigureWorkers, figure_workers
 
 _env: Environment | None = None
 
@@ -39,19 +43,25 @@ def render_view(view: ReportView) -> str:
     return environment().get_template("report.html").render(report=view)
 
 
-def render_report(analysis: Any, doc: Mapping[str, Any]) -> str:
+def render_report(
+    analysis: Any, doc: Mapping[str, Any], workers: FigureWorkers | None = None
+) -> str:
     """The self-contained ``report.html`` for one analysis and its ``findings.json``
-    document (:func:`analyzer.pipeline.findings_document`)."""
-    return render_view(build_view(analysis, doc))
+    document (:func:`analyzer.pipeline.findings_document`); figures drawn by
+    ``workers`` (by default those of the enclosing :func:`figure_workers` context, if
+    any), else in-process."""
+    return render_view(build_view(analysis, doc, workers))
 
 
 __all__ = [
     "MAX_DETAILED",
     "Envelope",
+    "FigureWorkers",
     "ReportView",
     "build_view",
     "envelope",
     "environment",
+    "figure_workers",
     "render_report",
     "render_view",
 ]

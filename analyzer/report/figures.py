@@ -1,7 +1,13 @@
 """The report's figures, drawn from arrays the view layer slices out of the analysis.
 
-Every series goes through :func:`analyzer.report.decimate.envelope` first, so a figure
-holds at most a few thousand points whatever the archive's length. Conventions follow
+The view layer describes each figure as a job (:mod:`analyzer.report.jobs`: this module's
+function name and its arguments), drawn in a worker process or in-process; the records
+the functions take (:class:`CoverageRow`, :class:`ResidualPanel`, :class:`Segment`) live
+there too, so describing a figure does not import matplotlib.
+
+Every series goes through :func:`analyzer.report.decimate.envelope` first (the view
+decimates the whole-record residual itself before shipping it), so a figure holds at
+most a few thousand points whatever the archive's length. Conventions follow
 the seed papers' figures: the identified onset is a vertical line (red, dashed), the end
 another (purple, dash-dot); the healthy training window is shaded green.
 """
@@ -9,8 +15,8 @@ another (purple, dash-dot); the healthy training window is shaded green.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from typing import Any, Literal
+from dataclasses import dataclass
+from typing import Literal
 
 import matplotlib as mpl
 import numpy as np
@@ -20,13 +26,12 @@ from matplotlib.axes import Axes
 from matplotlib.patches import Patch
 from scipy import special
 
-from analyzer.report.decimate import envelope, moving_mean
+from analyzer.report.decimate import Envelope, envelope, moving_mean
+from analyzer.report.jobs import MAX_POINTS, CoverageRow, ResidualPanel, Segment
 from analyzer.report.svg import grid, label, new_figure, style, text_width_in, to_svg
 
 FloatArray = npt.NDArray[np.float64]
 
-MAX_POINTS = 1000
-"""Envelope bins per plotted series (a browser draws this many instantly)."""
 PROB_POINTS = 200
 """Quantiles shown in a normal probability plot."""
 MIN_MARK = 0.003
@@ -70,7 +75,13 @@ def _plot_series(
     ax: Axes, t: FloatArray, y: FloatArray, axis: TimeAxis, color: str, name: str, lw: float = 0.8
 ) -> None:
     """A line, or its min/max envelope as a filled band when decimated."""
-    env = envelope(t, y, MAX_POINTS)
+    _plot_envelope(ax, envelope(t, y, MAX_POINTS), axis, color, name, lw)
+
+
+def _plot_envelope(
+    ax: Axes, env: Envelope, axis: TimeAxis, color: str, name: str, lw: float = 0.8
+) -> None:
+    """:func:`_plot_series` of a series already decimated to ``MAX_POINTS`` bins."""
     x = env.t / axis.scale
     if env.decimated:
         # the outline keeps a flat stretch (lo == hi, e.g. a stuck sensor) visible
@@ -117,18 +128,6 @@ def _legend(
 
 
 # -- archive overview -------------------------------------------------------------------
-
-
-@dataclass(slots=True)
-class CoverageRow:
-    """One channel of the timeline: covered span and gaps in seconds from the start."""
-
-    name: str
-    start_s: float
-    end_s: float
-    analyzed: bool
-    gaps: list[tuple[float, float]] = field(default_factory=list)
-    faults: list[tuple[float, float]] = field(default_factory=list)
 
 
 def coverage_figure(
@@ -281,22 +280,8 @@ def corrected_figure(
         return to_svg(fig, key)
 
 
-@dataclass(slots=True)
-class ResidualPanel:
-    """One detector's residual over the zoom window and its detection threshold: the
-    ``window``-sample moving mean alarms outside ``center +- half_band``."""
-
-    detector: str
-    t: FloatArray
-    residual: FloatArray
-    center: float | None = None
-    half_band: float | None = None
-    window: int | None = None
-
-
 def residual_figure(
-    overview_t: FloatArray,
-    overview_r: FloatArray,
+    overview: Envelope,
     overview_name: str,
     panels: Sequence[ResidualPanel],
     onset_s: float,
@@ -305,9 +290,12 @@ def residual_figure(
     duration_s: float,
     key: str,
 ) -> Markup:
-    """Top: the leading detector's residual over the whole archive (envelope) with the
-    training window and the onset. Below, per detector that saw the fault: its residual
-    around the onset, its moving mean and the threshold band that mean must leave."""
+    """Top: the leading detector's residual over the whole archive with the training
+    window and the onset; ``overview`` is its ``envelope(t, r, MAX_POINTS)``, computed by
+    the caller (a 4-hour record at 100 Hz is 1.44 M samples: their envelope is what
+    this figure would draw anyway, and it ships to a worker process in 24 kB). Below,
+    per detector that saw the fault: its residual around the onset, its moving mean and
+    the threshold band that mean must leave."""
     axis = TimeAxis.for_span(duration_s)
     sec = TimeAxis("s", 1.0)
     with style():
@@ -322,7 +310,7 @@ def residual_figure(
             lw=0,
             label="training window",
         )
-        _plot_series(ax, overview_t, overview_r, axis, C_RESIDUAL, f"residual ({overview_name})")
+        _plot_envelope(ax, overview, axis, C_RESIDUAL, f"residual ({overview_name})")
         _mark_onset(ax, onset_s, end_s, axis)
         ax.set_xlim(0, max(duration_s, 1e-9) / axis.scale)
         ax.set_title("whole record", loc="left")
@@ -360,16 +348,6 @@ def residual_figure(
             _legend(ax)
         axes[-1].set_xlabel(sec.label() if panels else axis.label())
         return to_svg(fig, key)
-
-
-@dataclass(slots=True)
-class Segment:
-    """A standardized residual segment (before or after the onset) and its test dict."""
-
-    name: str
-    t: FloatArray
-    z: FloatArray
-    tests: dict[str, Any] | None
 
 
 def _shewhart(ax: Axes, seg: Segment) -> None:
@@ -455,6 +433,7 @@ def tests_figure(segments: Sequence[Segment], detector: str, key: str) -> Markup
 
 
 __all__ = [
+    "MAX_POINTS",
     "CoverageRow",
     "ResidualPanel",
     "Segment",

@@ -11,6 +11,12 @@ Cost stays bounded on long archives: at most :data:`MAX_DETAILED` findings get f
 (the most confident ones; the verdict table lists all), every plotted series is
 decimated to a min/max envelope, and gaps are located from a binned NaN map streamed
 once over the (possibly memory-mapped) aligned matrix.
+
+Figures are not drawn here: each is described as a job (:mod:`analyzer.report.jobs`)
+and handed to a :class:`~analyzer.report.workers.FigureBatch` as soon as its arrays are
+sliced out, so that worker processes (when the CLI started them) draw while the rest of
+the view is built; the SVGs are filled in at the end, in-process where there is no
+pool. Building a view therefore does not import matplotlib when a pool draws.
 """
 
 from __future__ import annotations
@@ -26,10 +32,11 @@ import numpy.typing as npt
 from markupsafe import Markup
 
 from analyzer import __version__
-from analyzer.report import figures as fg
 from analyzer.report import format as fmt
-from analyzer.report.decimate import binned_nan_fraction, runs
+from analyzer.report import jobs as fg
+from analyzer.report.decimate import binned_nan_fraction, envelope, runs
 from analyzer.report.methods import DECISION, DETECTORS, TESTS, Method
+from analyzer.report.workers import FigureBatch, FigureWorkers, active_workers
 
 FloatArray = npt.NDArray[np.float64]
 NS_PER_S = 1_000_000_000
@@ -218,9 +225,13 @@ class ReportView:
 # -- building the view ------------------------------------------------------------------
 
 
-def build_view(analysis: Any, doc: Mapping[str, Any]) -> ReportView:
-    """The view of one analysis (see the module doc)."""
-    a = _Access(analysis, doc)
+def build_view(
+    analysis: Any, doc: Mapping[str, Any], workers: FigureWorkers | None = None
+) -> ReportView:
+    """The view of one analysis (see the module doc). Figures are drawn by ``workers``,
+    by default the pool of the enclosing :func:`analyzer.report.workers.figure_workers`
+    context, and in-process where there is none."""
+    a = _Access(analysis, doc, FigureBatch(workers if workers is not None else active_workers()))
     faults = list(doc.get("faults", []))
     findings = [a.finding_view(i, f) for i, f in enumerate(faults)]
     order = sorted(
@@ -234,7 +245,7 @@ def build_view(analysis: Any, doc: Mapping[str, Any]) -> ReportView:
         findings[i].detailed = True
         a.add_figures(findings[i], faults[i])
     coverage, coverage_note = a.coverage(faults)
-    return ReportView(
+    view = ReportView(
         title=a.title(),
         version=str(doc.get("analyzer_version", __version__)),
         faulty=bool(faults),
@@ -262,14 +273,18 @@ def build_view(analysis: Any, doc: Mapping[str, Any]) -> ReportView:
             Fact(k, fmt.seconds(v, 2)) for k, v in (getattr(analysis, "timings", {}) or {}).items()
         ],
     )
+    a.draw_figures()
+    return view
 
 
 class _Access:
     """The analysis and its document, with the look-ups the view needs."""
 
-    def __init__(self, analysis: Any, doc: Mapping[str, Any]) -> None:
+    def __init__(self, analysis: Any, doc: Mapping[str, Any], batch: FigureBatch) -> None:
         self.an = analysis
         self.doc = doc
+        self.batch = batch
+        self.pending: list[tuple[FigureView, int]] = []
         self.rate = float(doc.get("rate_hz") or getattr(analysis, "rate_hz", 1.0) or 1.0)
         self.duration = float(doc.get("duration_s") or 0.0)
         self.analyzed: tuple[str, ...] = tuple(getattr(analysis, "analyzed", ()) or ())
@@ -437,6 +452,19 @@ class _Access:
         return out
 
     # -- figures of one finding -----------------------------------------------------------
+    def figure(self, kind: str, title: str, caption: str, job: fg.FigureJob) -> FigureView:
+        """A figure whose SVG :meth:`draw_figures` fills in (its job is drawing meanwhile
+        when there are workers)."""
+        fv = FigureView(kind, title, caption, Markup(""))
+        self.pending.append((fv, self.batch.add(job)))
+        return fv
+
+    def draw_figures(self) -> None:
+        svgs = self.batch.results()
+        for fv, i in self.pending:
+            fv.svg = svgs[i]
+        self.pending.clear()
+
     def add_figures(self, view: FindingView, f: Mapping[str, Any]) -> None:
         ch = str(f["channel"])
         onset = float(f["onset_s"])
@@ -452,19 +480,22 @@ class _Access:
                 (d for d in [lead, *dets] if d and self._reference(d, ch) is not None), None
             )
             est = None if est_det is None else self._reference(est_det, ch)
-            svg = fg.signal_figure(
-                t,
-                measured,
-                None if est is None else _f64(est[k0:k1]),
-                est_det or "",
-                onset,
-                end,
-                ch,
-                f"{key}-signal",
-                close_s=self._close_s(),
+            job = fg.FigureJob(
+                "signal_figure",
+                (
+                    t,
+                    measured,
+                    None if est is None else _f64(est[k0:k1]),
+                    est_det or "",
+                    onset,
+                    end,
+                    ch,
+                    f"{key}-signal",
+                ),
+                {"close_s": self._close_s()},
             )
             view.figures.append(
-                FigureView(
+                self.figure(
                     "signal",
                     "Measured signal and fault-free estimate",
                     f"{ch} around the onset ({fmt.seconds(t[0] if t.size else 0)} to "
@@ -475,7 +506,7 @@ class _Access:
                     + f". Below: close-up of the onset (± {self._close_s():g} s, shaded above); "
                     "where a panel holds more samples than it has pixels, the band shows each "
                     "pixel's minimum and maximum.",
-                    svg,
+                    job,
                 )
             )
         else:
@@ -490,16 +521,17 @@ class _Access:
         corrected = getattr(self.an, "corrected", None)
         if corrected is not None and measured is not None and ch in self.analyzed:
             j = self.analyzed.index(ch)
-            svg = fg.corrected_figure(
-                t, measured, _f64(corrected[k0:k1, j]), onset, end, ch, f"{key}-corrected"
+            job = fg.FigureJob(
+                "corrected_figure",
+                (t, measured, _f64(corrected[k0:k1, j]), onset, end, ch, f"{key}-corrected"),
             )
             view.figures.append(
-                FigureView(
+                self.figure(
                     "corrected",
                     "Corrected signal",
                     f"{ch} with the regenerated fault removed over the fault period (green), "
                     "against the measured signal (blue); see the correction record below.",
-                    svg,
+                    job,
                 )
             )
         elif corrected is None:
@@ -527,16 +559,18 @@ class _Access:
             th = self._threshold(d, ch)
             panels.append(fg.ResidualPanel(d, np.arange(k0, k1) / self.rate, _f64(r[k0:k1]), *th))
         t_full = np.arange(full.shape[0], dtype=np.float64) / self.rate
-        svg = fg.residual_figure(
-            t_full,
-            full,
-            lead,
-            panels,
-            onset,
-            end,
-            self.train_s,
-            self.duration,
-            f"{view.anchor}-residual",
+        job = fg.FigureJob(
+            "residual_figure",
+            (
+                envelope(t_full, full, fg.MAX_POINTS),  # what the figure draws of it
+                lead,
+                panels,
+                onset,
+                end,
+                self.train_s,
+                self.duration,
+                f"{view.anchor}-residual",
+            ),
         )
         bands = "; ".join(
             f"{p.detector}: {p.window}-sample mean outside {fmt.num(p.center)} ± "
@@ -544,7 +578,7 @@ class _Access:
             for p in panels
             if p.half_band is not None
         )
-        return FigureView(
+        return self.figure(
             "residual",
             "Residual time history",
             "Residual (measured minus fault-free estimate, channel units). Top: the whole "
@@ -553,7 +587,7 @@ class _Access:
             "it must leave to raise an alarm (red; set from the training residual and the "
             f"false-alarm rate: {bands or 'not available'}). The log-mean-square statistic, "
             "which alarms on gain changes, is not drawn.",
-            svg,
+            job,
         )
 
     def _tests_figure(
@@ -581,8 +615,8 @@ class _Access:
             segs.append(fg.Segment(name, np.arange(a, b) / self.rate, z, t.get(test_key)))
         if not segs:
             return None
-        svg = fg.tests_figure(segs, det, f"{view.anchor}-tests")
-        return FigureView(
+        job = fg.FigureJob("tests_figure", (segs, det, f"{view.anchor}-tests"))
+        return self.figure(
             "tests",
             "Innovation tests before and after the onset",
             f"Standardized residual of {det} (training mean and deviation removed), on "
@@ -590,7 +624,7 @@ class _Access:
             " Left: Shewhart chart with the ±3 limits (shaded: beyond). Middle: normal "
             "probability plot; a healthy residual follows the red N(0, 1) line. Right: "
             "autocorrelation at lags 1-20 with the ±1.96/√N band of white noise.",
-            svg,
+            job,
         )
 
     # -- array access -------------------------------------------------------------------
@@ -720,7 +754,7 @@ class _Access:
             ]
             rows.append(fg.CoverageRow(c.name, a, b, c.name in self.analyzed, gl, fl))
         span = max([self.duration, *[r.end_s for r in rows]])
-        svg = fg.coverage_figure(rows, span, self.train_s, "coverage")
+        job = fg.FigureJob("coverage_figure", (rows, span, self.train_s, "coverage"))
         note = ""
         if len(chans) > len(shown):
             note = (
@@ -734,7 +768,7 @@ class _Access:
             "for the others only counted in the table), fault periods in orange, the "
             "training window shaded green."
         )
-        return FigureView("coverage", "Channel coverage", caption, svg), note
+        return self.figure("coverage", "Channel coverage", caption, job), note
 
     def _gap_map(self) -> dict[str, list[tuple[float, float]]]:
         if self.values is None or not self.analyzed or self.n == 0:
