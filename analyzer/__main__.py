@@ -1,3 +1,4 @@
 from analyzer.cli import entry
 
-entry()
+if __name__ == "__main__":  # not when a worker process re-imports the main module
+    entry()
