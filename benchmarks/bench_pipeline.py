@@ -484,7 +484,7 @@ def main(argv: list[str] | None = None) -> int:
             longest = max(mine, key=lambda r: r.hours)
             shortest = min(mine, key=lambda r: r.hours)
             goal = TARGET_RATE[f]
-            short = f" ({goal / longest.rate:.0f}x short)" if 0 < longest.rate < goal else ""
+            short = f" ({goal / longest.rate:.1f}x short)" if 0 < longest.rate < goal else ""
             print(
                 f"  {f}: end to end {longest.rate / 1e6:.3f} M values/s on {longest.hours:g} h "
                 f"(target >= {goal / 1e6:g} M): "
