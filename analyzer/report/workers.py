@@ -48,6 +48,9 @@ log = logging.getLogger("analyzer.report")
 
 MAX_WORKERS = 2
 """Figure processes: the machine this is tuned for has two cores, and eight figures."""
+NICENESS = 10
+"""How much lower than the run the figure processes are scheduled (see
+:meth:`FigureWorkers._yield_cpu`)."""
 JOIN_TIMEOUT_S = 5.0
 """How long a terminated worker is waited for before it is killed."""
 
@@ -84,6 +87,8 @@ class FigureWorkers:
         # starts the server now (a fork and exec: milliseconds), not at the first figure:
         # its imports run on the idle core while this process reads the archive
         multiprocessing.forkserver.ensure_running()
+        if self._own_server:
+            self._yield_cpu(getattr(server, "_forkserver_pid", None))
         self._lock = threading.Lock()
         self._futures: list[Future[str]] = []
         try:
@@ -93,6 +98,17 @@ class FigureWorkers:
         except BaseException:
             self.close()
             raise
+
+    @staticmethod
+    def _yield_cpu(pid: int | None) -> None:
+        """Lower the server's scheduling priority by :data:`NICENESS` (its workers inherit
+        it): its matplotlib import should take a core the run leaves idle, not compete
+        with the run's reading (a CSV archive is parsed on every core); the figures are
+        needed only at the end, when the workers have the cores to themselves. Without
+        the permission or the call, the server keeps its priority."""
+        if pid is not None:
+            with contextlib.suppress(AttributeError, OSError):
+                os.setpriority(os.PRIO_PROCESS, pid, os.getpriority(os.PRIO_PROCESS, 0) + NICENESS)
 
     @property
     def usable(self) -> bool:

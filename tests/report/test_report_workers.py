@@ -127,6 +127,20 @@ def test_a_job_that_cannot_be_pickled_is_drawn_in_process():
     assert first == second and first.startswith("<svg")
 
 
+def test_the_figure_processes_yield_the_cpu_to_the_run():
+    """The server (and so every worker forked from it) runs NICENESS below this process:
+    its matplotlib import must not compete with the run's reading."""
+    from analyzer.report.workers import NICENESS
+
+    own = os.getpriority(os.PRIO_PROCESS, 0)
+    with figure_workers() as workers:
+        assert workers is not None
+        pid = _server_pid()
+        assert pid is not None
+        assert os.getpriority(os.PRIO_PROCESS, pid) == min(19, own + NICENESS)
+    assert _server_pid() is None
+
+
 def test_no_forkserver_means_in_process(sample, monkeypatch):
     analysis, doc, in_process = sample
 
