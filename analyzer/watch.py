@@ -96,7 +96,7 @@ from types import FrameType
 
 from analyzer.errors import AnalyzerError, UsageError, one_line
 from analyzer.pipeline import RunOptions, analyze, sha256_of, write_atomic, write_outputs
-from analyzer.report.jobs import FIGURES_MODULE
+from analyzer.report.jobs import PRELOAD_MODULE
 from analyzer.watch_inbox import (
     INCOMPLETE_TIMEOUT_S,
     ReadyArchive,
@@ -222,7 +222,7 @@ def _context() -> ForkServerContext | SpawnContext:
     start, safe with the watcher's threads); ``spawn`` where there is none."""
     if "forkserver" in multiprocessing.get_all_start_methods():
         ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(["analyzer.watch", FIGURES_MODULE])
+        ctx.set_forkserver_preload(["analyzer.watch", PRELOAD_MODULE])
         return ctx
     return multiprocessing.get_context("spawn")
 

@@ -25,6 +25,8 @@ FloatArray = npt.NDArray[np.float64]
 
 FIGURES_MODULE = "analyzer.report.figures"
 """The module whose functions draw the figures (imported only where a figure is drawn)."""
+PRELOAD_MODULE = "analyzer.report.preload"
+"""What fork servers preload: :data:`FIGURES_MODULE`, without stopping on its errors."""
 MAX_POINTS = 1000
 """Envelope bins per plotted series (a browser draws this many instantly)."""
 
@@ -85,6 +87,7 @@ def draw(job: FigureJob) -> str:
 
 __all__ = [
     "FIGURES_MODULE",
+    "PRELOAD_MODULE",
     "MAX_POINTS",
     "CoverageRow",
     "FigureJob",

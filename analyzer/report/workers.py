@@ -6,7 +6,7 @@ idle, and matplotlib holds the GIL, so threads cannot share the work. The CLI th
 enters :func:`figure_workers` first thing in ``run``:
 
 * a ``forkserver`` (a multiprocessing *context*, so the default start method of the
-  process is not changed) is started with :data:`~analyzer.report.jobs.FIGURES_MODULE`
+  process is not changed) is started with :data:`~analyzer.report.jobs.PRELOAD_MODULE`
   preloaded: the server imports matplotlib while the main process imports the pipeline
   (a second of start-up on one core) and reads the archive;
 * at the report, :class:`FigureBatch` submits each figure job as the view describes it
@@ -42,7 +42,7 @@ from multiprocessing.connection import wait
 
 from markupsafe import Markup
 
-from analyzer.report.jobs import FIGURES_MODULE, FigureJob, draw
+from analyzer.report.jobs import PRELOAD_MODULE, FigureJob, draw
 
 log = logging.getLogger("analyzer.report")
 
@@ -81,7 +81,7 @@ class FigureWorkers:
 
     def __init__(self, max_workers: int = MAX_WORKERS) -> None:
         ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload([FIGURES_MODULE])
+        ctx.set_forkserver_preload([PRELOAD_MODULE])
         server = getattr(multiprocessing.forkserver, "_forkserver", None)
         self._own_server = getattr(server, "_forkserver_pid", 0) is None
         # starts the server now (a fork and exec: milliseconds), not at the first figure:

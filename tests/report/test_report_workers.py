@@ -218,3 +218,28 @@ def test_cli_pool_path_imports_no_matplotlib_and_leaves_nothing(tmp_path, sample
     assert done.stderr == ""
     assert _leftovers(marker) == []
     assert not any(scratch.iterdir())
+
+
+_PRELOAD = """
+import importlib.abc, sys
+class Broken(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path, target=None):
+        if name == "analyzer.report.figures" and BREAK:
+            raise RuntimeError("a broken matplotlib configuration")
+        return None
+sys.meta_path.insert(0, Broken())
+import analyzer.report.preload
+print("matplotlib" in sys.modules, "analyzer.report.figures" in sys.modules)
+"""
+
+
+@pytest.mark.parametrize("broken", [False, True])
+def test_the_fork_servers_preload_never_fails(broken):
+    """A fork server stops on any preload error but ImportError (and the watcher's server
+    with it, every analysis it was to fork): the preload imports the figure module when
+    it can and swallows any error when it cannot."""
+    code = f"BREAK = {broken}\n" + _PRELOAD
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True
+    ).stdout.split()
+    assert out == (["False", "False"] if broken else ["True", "True"])
