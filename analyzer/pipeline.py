@@ -568,7 +568,18 @@ def _analyze(
             why = "; ".join(
                 v if v.startswith((f"{k}:", f"{k} ")) else f"{k}: {v}" for k, v in skipped.items()
             )
-            raise DetectorError(f"no detector could run ({why})")
+            hint = ""
+            if "too little healthy data" in why:
+                hint = (
+                    f"; the training window {tr[0]:.3f}-{tr[1]:.3f} s is too short for these "
+                    "detectors: give a longer healthy stretch with --train START:END"
+                    + (
+                        " (the default is the first 20 % of the data, at most 10 min)"
+                        if options.train is None and options.config.train is None
+                        else ""
+                    )
+                )
+            raise DetectorError(f"no detector could run ({why}){hint}")
         findings = merge_events(ev for r in results for ev in r.events)
         # a frozen sensor is told by its readings, not by the residual's shape
         notes.extend(relabel_frozen(findings, values, chosen, aligned.rate_hz, train))

@@ -262,6 +262,19 @@ def test_too_little_training_data(faulty_csv, tmp_path, capsys):
     one_line_error(err, "too little healthy data")
 
 
+def test_too_little_training_data_for_every_detector_names_train(faulty_csv, tmp_path, capsys):
+    """When no detector can be calibrated on the healthy window, the one-line error says
+    which window was used and how to give a longer one."""
+    code, _, err = run_cli(
+        ["run", str(faulty_csv), "--out", str(tmp_path), "--train", "0:1", "--no-progress"],
+        capsys,
+    )
+    assert code == 2
+    line = one_line_error(err, "no detector could run", "too little healthy data", "--train")
+    assert "the training window 0.000-1.000 s is too short" in line
+    assert "the default is" not in line  # the window was given
+
+
 def test_unknown_detector(faulty_csv, tmp_path, capsys):
     code, _, err = run_cli(
         ["run", str(faulty_csv), "--out", str(tmp_path), "--detectors", "magic"], capsys
