@@ -69,23 +69,31 @@ def spill(
 ) -> dict[str, npt.NDArray[Any]]:
     """``signals`` (equal-length 1-D arrays) written as the rows of one ``.npy`` file at
     ``path`` and returned as read-only views of its memory map, in the same order; each
-    row's pages are released once written, and each in-memory array can be freed by the
-    caller as soon as this returns."""
+    in-memory array can be freed by the caller as soon as this returns.
+
+    The rows go to the file by ``write`` (a copy into the page cache), not through a
+    writable mapping: storing into a new file's mapping faults every page in (and the
+    kernel zeroes each before the store overwrites it), which cost about three times as
+    much CPU (0.8 s of a 4-hour, 16-channel run, three detectors' signals). None of the
+    rows' pages is in the process's resident set afterwards until it is read."""
     names = list(signals)
     if not names:
         return {}
+    kind = np.dtype(dtype)
     n = int(np.asarray(signals[names[0]]).shape[0])
-    out = np.lib.format.open_memmap(path, mode="w+", dtype=dtype, shape=(len(names), n))
-    for i, name in enumerate(names):
-        out[i] = signals[name]
-        release(out[i])
-    # no flush (msync): the file is scratch space read back through the same page cache,
-    # so forcing its pages to disk would only wait on the disk; the kernel writes them
-    # back in its own time (or drops the file with the work directory)
-    rows = {name: out[i] for i, name in enumerate(names)}
-    for row in rows.values():
-        row.flags.writeable = False
-    return rows
+    header = {"descr": np.lib.format.dtype_to_descr(kind), "fortran_order": False}
+    with open(path, "wb") as f:
+        np.lib.format.write_array_header_1_0(f, {**header, "shape": (len(names), n)})
+        for name in names:
+            row = np.ascontiguousarray(signals[name], dtype=kind)
+            if row.shape != (n,):
+                raise ValueError(f"spill: {name} has shape {row.shape}, expected ({n},)")
+            f.write(memoryview(row).cast("B"))
+    # no flush to disk (fsync): the file is scratch space read back through the same
+    # page cache, so forcing its pages to disk would only wait on the disk; the kernel
+    # writes them back in its own time (or drops the file with the work directory)
+    out = np.load(path, mmap_mode="r")
+    return {name: out[i] for i, name in enumerate(names)}
 
 
 def _malloc_trim() -> Any:

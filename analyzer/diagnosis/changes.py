@@ -32,6 +32,7 @@ import numpy.typing as npt
 from scipy import special
 
 from analyzer.errors import DetectorError
+from analyzer.stats.whiteness import lagged_products
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -129,9 +130,7 @@ def _acf(z: FloatArray, max_lag: int) -> FloatArray:
     residual's autocorrelation crosses zero and comes back, and every lag counts in a
     window's variance."""
     n = z.shape[0]
-    nfft = 1 << int(np.ceil(np.log2(2 * n)))
-    f = np.fft.rfft(z - z.mean(), nfft)
-    acf = np.fft.irfft(f * np.conj(f), nfft)[: max_lag + 1]
+    acf = lagged_products(z - z.mean(), max_lag)
     acf = acf / acf[0]
     # lags inside the white-noise band carry estimation noise only: zero them one by one
     # (an oscillating autocorrelation keeps its peaks; a short sum stays unbiased)

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.stats.whiteness import lagged_products
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -68,9 +69,7 @@ def correlation_time(r: FloatArray, max_lag: int = 200) -> float:
     n = x.shape[0]
     if n < 8:
         return 1.0
-    nfft = 1 << int(np.ceil(np.log2(2 * n)))
-    f = np.fft.rfft(x, nfft)
-    acf = np.fft.irfft(f * np.conj(f), nfft)[: min(max_lag, n - 1) + 1]
+    acf = lagged_products(x, max_lag)
     acf = acf / acf[0]
     # sum until the autocorrelation first drops below zero (Geyer-style truncation)
     neg = np.flatnonzero(acf[1:] <= 0.0)

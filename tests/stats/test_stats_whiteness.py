@@ -90,3 +90,18 @@ def test_bad_input_raises() -> None:
         whiteness(np.zeros((50, 2)), 5)
     with pytest.raises(DetectorError, match=r"at least 6 finite samples, got 5"):
         autocorrelation(np.zeros(5), 5)
+
+
+@pytest.mark.parametrize(("n", "max_lag"), [(1, 3), (7, 3), (7, 50), (1000, 200), (48_001, 200)])
+def test_lagged_products_equal_the_direct_sums(n, max_lag):
+    """The FFT over ``n + max_lag`` points (no wrapped-around terms) gives the direct
+    ``sum_t d[t] d[t + k]``, including where ``max_lag`` is past the series."""
+    from analyzer.stats.whiteness import lagged_products
+
+    d = np.random.default_rng(n).standard_normal(n)
+    d[: n // 3] += 2.0  # uncentred: the sums are of the series as given
+    top = min(max_lag, n - 1)
+    direct = np.array([d[: n - k] @ d[k:] for k in range(top + 1)])
+    got = lagged_products(d, max_lag)
+    assert got.shape == (top + 1,)
+    np.testing.assert_allclose(got, direct, rtol=0, atol=1e-12 * float(d @ d))

@@ -56,6 +56,26 @@ def test_spill_writes_rows_and_returns_read_only_views(tmp_path):
     assert spill({}, tmp_path / "none.npy", np.float32) == {}
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/self/statm")
+def test_spilled_rows_are_released_like_any_mapping(tmp_path):
+    """The rows are views of a shared read-only mapping: reading them brings their pages
+    into the resident set, :func:`release` hands them back, and they read the same."""
+    n = 20_000_000  # 80 MB of float32
+    rows = spill({"x": np.full(n, 1.5)}, tmp_path / "big.npy", np.float32)
+    row = rows["x"]
+    before = _rss_mb()
+    assert float(row.sum(dtype=np.float64)) == 1.5 * n
+    assert _rss_mb() > before + 50
+    release(row)
+    assert _rss_mb() < before + 30
+    assert float(row[-1]) == 1.5
+
+
+def test_spill_refuses_rows_of_unequal_length(tmp_path):
+    with pytest.raises(ValueError, match="b has shape"):
+        spill({"a": np.zeros(10), "b": np.zeros(9)}, tmp_path / "s.npy", np.float32)
+
+
 def test_trim_heap_is_harmless():
     from analyzer.paging import trim_heap
 
