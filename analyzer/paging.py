@@ -88,7 +88,7 @@ def spill(
             row = np.ascontiguousarray(signals[name], dtype=kind)
             if row.shape != (n,):
                 raise ValueError(f"spill: {name} has shape {row.shape}, expected ({n},)")
-            f.write(memoryview(row).cast("B"))
+            f.write(row.data)
     # no flush to disk (fsync): the file is scratch space read back through the same
     # page cache, so forcing its pages to disk would only wait on the disk; the kernel
     # writes them back in its own time (or drops the file with the work directory)
