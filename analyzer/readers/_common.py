@@ -338,3 +338,14 @@ def file_digest(paths: Sequence[Path]) -> tuple[int, str]:
                 digest.update(block)
                 total += len(block)
     return total, digest.hexdigest()
+
+
+SIDECARS = ("-shm", "-wal", "-journal")
+
+
+def bag_files(path: Path) -> list[Path]:
+    """The files that make up a bag (hashed for ``findings.json``): for a directory its
+    regular files except sqlite sidecars, sorted; for a bare storage file itself."""
+    if path.is_dir():
+        return sorted(p for p in path.iterdir() if p.is_file() and not p.name.endswith(SIDECARS))
+    return [path]

@@ -32,8 +32,9 @@ from rosbags.rosbag2 import Reader as BagReader
 from rosbags.rosbag2 import ReaderError as BagReaderError
 
 from analyzer.errors import ReaderError
-from analyzer.readers._common import (
+from analyzer.readers._common import (  # noqa: F401 - bag_files re-exported
     Reorderer,
+    bag_files,
     concat_payloads,
     file_digest,
     monotonic,
@@ -54,15 +55,6 @@ from analyzer.types import Format
 
 SQL_BATCH = 50_000
 """Rows fetched from a sqlite3 storage file per batch."""
-SIDECARS = ("-shm", "-wal", "-journal")
-
-
-def bag_files(path: Path) -> list[Path]:
-    """The files that make up a bag (hashed for ``findings.json``): for a directory its
-    regular files except sqlite sidecars, sorted; for a bare storage file itself."""
-    if path.is_dir():
-        return sorted(p for p in path.iterdir() if p.is_file() and not p.name.endswith(SIDECARS))
-    return [path]
 
 
 class Ros2BagReader:
