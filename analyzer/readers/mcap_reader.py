@@ -24,7 +24,7 @@ import struct
 import zlib
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import TYPE_CHECKING, Any, BinaryIO
 
 import lz4.frame
 import numpy as np
@@ -50,7 +50,6 @@ from analyzer.readers._common import (
     sample_times,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
-from analyzer.readers.decoders import BatchDecoder, JsonBatchDecoder, ObjectDecoder
 from analyzer.readers.rosdecode import Encoding, RosBatchDecoder
 from analyzer.readers.rostypes import (
     EmptyMessageType,
@@ -60,6 +59,9 @@ from analyzer.readers.rostypes import (
     store_from_definition,
 )
 from analyzer.types import Format
+
+if TYPE_CHECKING:  # the JSON and protobuf decoders (pyarrow) load with their first topic
+    from analyzer.readers.decoders import BatchDecoder
 
 MAGIC = b"\x89MCAP0\r\n"
 OP_HEADER, OP_FOOTER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK, OP_MESSAGE_INDEX = range(1, 8)
@@ -437,6 +439,8 @@ class McapReader:
         if encoding in ("cdr", "ros1"):
             return self._ros_decoder(channel, schema)
         if encoding == "json":
+            from analyzer.readers.decoders import JsonBatchDecoder
+
             return JsonBatchDecoder(bulk=self.bulk)
         if encoding == "protobuf":
             if schema is None or schema.encoding != "protobuf" or not schema.data:
@@ -451,6 +455,8 @@ class McapReader:
                 raise TypeResolutionError(f"cannot load protobuf schema: {one_line(err)}") from err
             if decode is None:
                 raise TypeResolutionError("cannot load the protobuf schema")
+            from analyzer.readers.decoders import ObjectDecoder
+
             return ObjectDecoder(decode)
         raise TypeResolutionError(f"unsupported message encoding {encoding!r}")
 
@@ -498,6 +504,8 @@ def _mcap_ros2_fallback(schema: Schema, cause: BaseException) -> BatchDecoder:
         raise TypeResolutionError(f"{one_line(cause)}; mcap_ros2: {one_line(err)}") from err
     if decode is None:
         raise TypeResolutionError(one_line(cause))
+    from analyzer.readers.decoders import ObjectDecoder
+
     return ObjectDecoder(decode)
 
 
