@@ -321,7 +321,11 @@ def entry() -> NoReturn:
     teardown of the modules a run imports (scipy, numba, pyarrow...) only took time,
     0.3-0.4 s of every run. The watcher, whose worker processes need their normal
     shutdown, exits as usual."""
-    code = main(figure_processes=True)
+    end(main(figure_processes=True))
+
+
+def end(code: int) -> NoReturn:
+    """End the process after :func:`main` returned ``code``, as :func:`entry` does."""
     if code == 130 and _UNWOUND:
         _flush_std()
         _multiprocessing_exit()

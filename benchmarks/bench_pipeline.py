@@ -8,8 +8,8 @@ in time by consecutive ``start_iso``, each written with ``write_archive`` as CSV
 message per sample, layout ``"multiarray"``). For every format and every length of
 ``--hours`` (a directory holding the first hourly files) it runs ``analyzer run DIR --out
 OUT`` in a child process (the CLI's own ``main``, called as the console script calls it:
-the report's figures drawn by worker processes; the child only wraps ``pipeline.analyze``
-to print ``Analysis.timings`` as JSON) and reports
+the report's figures drawn by worker processes, the process ended by ``cli.end``; the
+child only wraps ``pipeline.analyze`` to print ``Analysis.timings`` as JSON) and reports
 
 * end to end values/s: samples x analyzed channels over the child's wall time
   (interpreter start, imports, reading, analysis and writing the report included),
@@ -135,6 +135,8 @@ else:
     rc = main(sys.argv[1:], figure_processes=True)
 captured.update(rc=rc, end_s=time.perf_counter() - start)
 print("BENCH_JSON " + json.dumps(captured))
+from analyzer.cli import end
+end(rc)  # as the console script ends (analyzer.cli.entry)
 """
 
 

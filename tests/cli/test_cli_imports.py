@@ -84,7 +84,9 @@ def test_console_script_ends_after_flushing_and_atexit(tmp_path: Path) -> None:
     and the handlers (multiprocessing's clean-up, temporary files' finalizers) have run."""
     t, Y, names = simulate_building(n_floors=2, duration_s=60.0, rate_hz=RATE, seed=3)
     src = tmp_path / "small.csv"
-    write_archive(src, "csv", np.round(t * 1e9).astype(np.int64), dict(zip(names, Y.T)))
+    write_archive(
+        src, "csv", np.round(t * 1e9).astype(np.int64), dict(zip(names, Y.T, strict=True))
+    )
     env = {**os.environ, "PYTHONPATH": str(Path(analyzer.__file__).parent.parent)}
     for args, status in (
         (["inspect", str(src), "--json"], 0),
