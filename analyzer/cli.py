@@ -27,6 +27,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 from analyzer import __version__  # noqa: E402
 from analyzer.errors import AnalyzerError, ReaderError, UsageError, one_line  # noqa: E402
+from analyzer.scratch import sweep_stale  # noqa: E402
 
 
 class _Parser(argparse.ArgumentParser):
@@ -366,6 +367,9 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
         args.figure_processes = figure_processes
         global _ONE_SHOT
         _ONE_SHOT = args.command != "watch"
+        # what runs killed outright (kill -9, the OOM killer) left in TMPDIR: their
+        # scratch directories, gigabytes for a long archive (see analyzer.scratch)
+        sweep_stale()
         if args.command != "watch" and threading.current_thread() is threading.main_thread():
             # SIGTERM (timeout, kill) unwinds as Ctrl-C does, so nothing is left behind;
             # the watcher handles its own signals

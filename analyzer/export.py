@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -13,6 +12,7 @@ from analyzer.errors import UsageError
 from analyzer.outdir import prepare_dir, remove_if_empty
 from analyzer.readers import open_archive
 from analyzer.readers.base import TimeSource
+from analyzer.scratch import scratch
 from analyzer.store import AlignedSeries, ChannelStore
 
 BLOCK = 1 << 16
@@ -49,8 +49,8 @@ def _export(
 ) -> Path:
     archive = open_archive(inputs)
     with (
-        tempfile.TemporaryDirectory(prefix="analyzer-export-") as tmp,
-        ChannelStore.from_chunks(archive.chunks(time), Path(tmp)) as store,
+        scratch("analyzer-export-") as tmp,
+        ChannelStore.from_chunks(archive.chunks(time), tmp) as store,
     ):
         if channels:
             for p in channels:

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from analyzer.readers import open_archive
 from analyzer.readers.base import TimeSource
+from analyzer.scratch import scratch
 from analyzer.store import ChannelStore
 from analyzer.timeutil import iso_utc, plausible_epoch
 from analyzer.types import NS_PER_S
@@ -18,8 +18,8 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
     """The contract's ``inspect --json`` object (plus ``start``, absolute UTC, where known)."""
     archive = open_archive(inputs)
     with (
-        tempfile.TemporaryDirectory(prefix="analyzer-inspect-") as tmp,
-        ChannelStore.from_chunks(archive.chunks(time), Path(tmp)) as store,
+        scratch("analyzer-inspect-") as tmp,
+        ChannelStore.from_chunks(archive.chunks(time), tmp) as store,
     ):
         infos = store.infos()
         t0 = min((i.start_ns for i in infos), default=0)

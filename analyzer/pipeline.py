@@ -7,7 +7,6 @@ import hashlib
 import inspect
 import json
 import os
-import shutil
 import tempfile
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -41,6 +40,7 @@ from analyzer.parallel import (
 from analyzer.readers import open_archive
 from analyzer.readers.base import InputInfo, TimeSource
 from analyzer.regenerate import corrected_values, result_signals, write_corrected_csv
+from analyzer.scratch import make_scratch, remove_scratch, scratch
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore
 from analyzer.timeutil import iso_utc, parse_time, plausible_epoch
 from analyzer.types import NS_PER_S
@@ -433,8 +433,8 @@ def analyze(
     executor = make_executor(jobs, options.scheduler)
     try:
         if workdir is None:
-            with tempfile.TemporaryDirectory(prefix="analyzer-") as tmp:
-                return _analyze(inputs, options, Path(tmp), True, executor)
+            with scratch() as tmp:
+                return _analyze(inputs, options, tmp, True, executor)
         return _analyze(inputs, options, workdir, False, executor)
     finally:
         executor.close()
@@ -756,7 +756,7 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
     """``analyzer run``: analyze, write the outputs, return the exit code (0 or 1)."""
     out = Path(out_dir)
     created = prepare_dir(out, "--out")  # before the work: it must not fail at the end
-    work = Path(tempfile.mkdtemp(prefix="analyzer-"))
+    work = make_scratch()
     try:
         analysis = analyze(inputs, options, work)
         write_outputs(analysis, out)
@@ -766,7 +766,7 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
             remove_if_empty(out)
         raise
     finally:
-        shutil.rmtree(work, ignore_errors=True)
+        remove_scratch(work)
 
 
 def load_options(config_path: str | None, **kw: Any) -> RunOptions:

@@ -82,7 +82,6 @@ import re
 import shutil
 import signal
 import sys
-import tempfile
 import threading
 import time
 import traceback
@@ -97,6 +96,7 @@ from types import FrameType
 from analyzer.errors import AnalyzerError, UsageError, one_line
 from analyzer.pipeline import RunOptions, analyze, sha256_of, write_atomic, write_outputs
 from analyzer.report.jobs import PRELOAD_MODULE
+from analyzer.scratch import hold, make_scratch, remove_scratch
 from analyzer.watch_inbox import (
     INCOMPLETE_TIMEOUT_S,
     ReadyArchive,
@@ -200,6 +200,7 @@ def _analyze_into(inputs: list[str], options: RunOptions, out: str, work_dir: st
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is for the watcher to handle
     out_dir = Path(out)
     work = Path(work_dir)  # the watcher's: it removes it however this process ends
+    hold(work)  # and if the watcher is killed, it stays while this process uses it
     code = 3
     try:
         analysis = analyze(inputs, options, work)
@@ -270,7 +271,7 @@ class _Job:
     removed by the watcher, so a killed analysis leaves nothing behind."""
 
     def remove_work(self) -> None:
-        shutil.rmtree(self.work, ignore_errors=True)
+        remove_scratch(self.work)
 
 
 def _free_name(folder: Path, name: str) -> Path:
@@ -354,7 +355,7 @@ class _Runner:
                 "%s: analyzing although it still looks unfinished: %s", name, archive.incomplete
             )
         scratch = scratch_dir(self.settings.reports, name)
-        work = Path(tempfile.mkdtemp(prefix="analyzer-watch-"))
+        work = make_scratch("analyzer-watch-")
         process = self.ctx.Process(
             target=_analyze_into,
             args=([str(p) for p in archive.paths], self.options, str(scratch), str(work)),

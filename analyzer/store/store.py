@@ -20,8 +20,6 @@ limit, so ingesting a long archive needs memory for the buffers only; after
 from __future__ import annotations
 
 import fnmatch
-import shutil
-import tempfile
 from collections.abc import Iterable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -32,6 +30,7 @@ import numpy.typing as npt
 
 from analyzer.errors import StoreError
 from analyzer.readers.base import ChannelChunk
+from analyzer.scratch import make_scratch, remove_scratch
 from analyzer.types import NS_PER_S
 
 FloatArray = npt.NDArray[np.float64]
@@ -118,7 +117,7 @@ class ChannelStore:
 
     def _dir(self) -> Path:
         if self._workdir is None:
-            self._workdir = Path(tempfile.mkdtemp(prefix="analyzer-store-"))
+            self._workdir = make_scratch("analyzer-store-")
         self._workdir.mkdir(parents=True, exist_ok=True)
         return self._workdir
 
@@ -254,7 +253,7 @@ class ChannelStore:
         for r in self._raw.values():
             r.t = r.v = None
         if self._own_dir and self._workdir is not None:
-            shutil.rmtree(self._workdir, ignore_errors=True)
+            remove_scratch(self._workdir)
 
     def __enter__(self) -> ChannelStore:
         return self
