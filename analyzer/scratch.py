@@ -46,7 +46,12 @@ def make_scratch(prefix: str = PREFIX, base: str | Path | None = None) -> Path:
     if fcntl is not None:
         temp = path / f"{LOCK}.{os.getpid()}"
         fd = os.open(temp, os.O_RDWR | os.O_CREAT, 0o600)
-        fcntl.flock(fd, fcntl.LOCK_SH)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH)
+        except OSError:  # a file system without locks: the directory is never swept
+            os.close(fd)
+            os.unlink(temp)
+            return path
         os.rename(temp, path / LOCK)
         _held[path] = fd
     return path

@@ -132,3 +132,22 @@ def test_the_cli_sweeps_what_a_killed_run_left(tmp_path):
         assert kept.is_dir()
     finally:
         _kill(living)
+
+
+def test_a_file_system_without_locks_still_gets_a_scratch_directory(tmp_path, monkeypatch):
+    """flock failing (ENOLCK on some network file systems): the directory is made and
+    used, without a lock file, so no sweep ever removes it."""
+    import fcntl
+
+    def no_locks(fd, op):
+        raise OSError(37, "No locks available")
+
+    monkeypatch.setattr(fcntl, "flock", no_locks)
+    path = make_scratch(base=tmp_path)
+    assert path.is_dir() and list(path.iterdir()) == []
+    monkeypatch.undo()
+    old = time.time() - 3600
+    os.utime(path, (old, old))
+    assert sweep_stale(tmp_path, min_age_s=0) == []
+    remove_scratch(path)
+    assert not path.exists()
