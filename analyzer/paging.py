@@ -33,16 +33,23 @@ copy-on-write, where it would drop the changes)."""
 
 
 def _mapping(a: Any) -> tuple[mmap.mmap, int] | None:
-    """The shared mapping ``a`` lives in and the address where that mapping starts."""
+    """The shared mapping ``a`` lives in and the address where that mapping starts.
+
+    The start is found from the memmap that owns the mapping (its ``base`` is the
+    ``mmap`` itself), the one array whose data begins at the mapping's start plus the
+    file offset's remainder modulo the allocation granularity. A view (a row, a slice)
+    also carries ``_mmap`` and ``offset``, but begins elsewhere: computed from the view,
+    the start came out at the view's first byte, so releasing a slice dropped pages at
+    the beginning of the file instead of the slice's own."""
     obj = a
     while obj is not None:
-        mm = getattr(obj, "_mmap", None)
-        if isinstance(obj, np.memmap) and isinstance(mm, mmap.mmap):
+        base = getattr(obj, "base", None)
+        if isinstance(obj, np.memmap) and isinstance(base, mmap.mmap):
             if getattr(obj, "mode", None) not in _SHARED_MODES:
                 return None
             start = obj.__array_interface__["data"][0] - obj.offset % mmap.ALLOCATIONGRANULARITY
-            return mm, start
-        obj = getattr(obj, "base", None)
+            return base, start
+        obj = base
     return None
 
 

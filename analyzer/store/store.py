@@ -29,6 +29,7 @@ import numpy as np
 import numpy.typing as npt
 
 from analyzer.errors import StoreError
+from analyzer.paging import release
 from analyzer.readers.base import ChannelChunk
 from analyzer.scratch import make_scratch, remove_scratch
 from analyzer.types import NS_PER_S
@@ -282,10 +283,15 @@ def _finish(name: str, raw: _Raw, paths: dict[str, tuple[Path, Path]]) -> Channe
 
 
 def _is_sorted(t: IntArray, block: int = 1 << 22) -> bool:
+    """Whether ``t`` never decreases; a spilled channel's pages read here go back to the
+    page cache block by block (:func:`~analyzer.paging.release`), so checking a long
+    channel does not hold it in the resident set."""
     n = t.shape[0]
     for s in range(0, n - 1, block):
         e = min(n, s + block + 1)
-        if np.any(np.diff(t[s:e]) < 0):
+        falls = bool(np.any(np.diff(t[s:e]) < 0))
+        release(t[s:e])
+        if falls:
             return False
     return True
 
@@ -300,6 +306,7 @@ def _summarize(name: str, t: IntArray, v: FloatArray, block: int = 1 << 22) -> C
         if stride > 1:
             dt = dt / stride  # spread steps estimate the period on average
         period = float(np.median(dt)) if dt.size else 0.0
+        release(t)  # the spread steps touched every page of a spilled channel
     else:
         period = 0.0
     gaps = 0
@@ -313,9 +320,11 @@ def _summarize(name: str, t: IntArray, v: FloatArray, block: int = 1 << 22) -> C
         if fin.any():
             lo = min(lo, float(vv[fin].min()))
             hi = max(hi, float(vv[fin].max()))
+        release(v[s:e])
         if period > 0:
             tt = np.asarray(t[max(0, s - 1) : e])
             gaps += int(np.count_nonzero(np.diff(tt) > GAP_FACTOR * period))
+            release(t[max(0, s - 1) : e])
     rate = NS_PER_S / period if period > 0 else 0.0
     return ChannelInfo(name, n, int(t[0]), int(t[-1]), rate, gaps, finite, lo, hi)
 
@@ -396,8 +405,12 @@ class AlignedSeries:
                 s = _on_clock(t, grid, info.rate_hz, self.rate_hz)
                 if s is not None:
                     out[a:b, j] = v[s : s + grid.shape[0]]
+                    # a spilled channel's pages back to the page cache once copied
+                    release(t[s : s + grid.shape[0]])
+                    release(v[s : s + grid.shape[0]])
                 else:
                     out[a:b, j] = _resample(t, v, grid, info.rate_hz, self.rate_hz)
+            release(out[a:b])  # the written rows of a file-backed matrix, likewise
 
         # the blocks are independent and their copies (and page faults) run without the
         # GIL: on threads they overlap

@@ -83,3 +83,22 @@ def test_trim_heap_is_harmless():
     del kept[1]
     trim_heap()  # glibc: returns free heap memory; elsewhere: nothing
     assert all(float(k.sum()) == 1_000_000.0 for k in kept)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/self/statm")
+def test_releasing_a_slice_drops_that_slice_s_pages(tmp_path):
+    """A slice's pages, not the file's first ones: the mapping's start comes from the
+    memmap that owns it (a slice carries the same ``offset`` but starts elsewhere)."""
+    path = tmp_path / "t.bin"
+    np.arange(20_000_000, dtype=np.int64).tofile(path)  # 160 MB
+    t = np.memmap(path, dtype=np.int64, mode="r", offset=8)  # an offset, as in a .npy
+    assert int(t[::512].sum()) > 0  # every page in
+    touched = _rss_mb()
+    half = t.shape[0] // 2
+    for a in range(half, t.shape[0], 65536):  # the second half, a block at a time
+        release(t[a : a + 65536])
+    dropped = touched - _rss_mb()
+    assert 60 < dropped < 100  # about the 80 MB released, not 65536 x 8 bytes
+    assert int(t[:: 512][:10].sum()) == sum(range(1, 5121, 512))  # values intact
+    release(np.asarray(t[: half // 2]))  # an ndarray view of a slice: found through .base
+    assert touched - _rss_mb() > dropped + 25
