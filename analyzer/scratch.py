@@ -107,9 +107,10 @@ def sweep_stale(base: str | Path | None = None, min_age_s: float = MIN_AGE_S) ->
         if path in _held:
             continue
         try:
-            if not entry.is_dir(follow_symlinks=False) or entry.stat().st_uid != os.getuid():
+            info = entry.stat(follow_symlinks=False)
+            if not entry.is_dir(follow_symlinks=False) or info.st_uid != os.getuid():
                 continue
-            if now - entry.stat().st_mtime < min_age_s:
+            if now - info.st_mtime < min_age_s:
                 continue
             fd = os.open(path / LOCK, os.O_RDWR | getattr(os, "O_NOFOLLOW", 0))
         except OSError:

@@ -213,7 +213,7 @@ def _analyze_into(inputs: list[str], options: RunOptions, out: str, work_dir: st
         text = f"internal error: {type(err).__name__}: {one_line(err)}"
         write_atomic(out_dir / "error.txt", f"{text}\n\n{traceback.format_exc()}")
     finally:
-        shutil.rmtree(work, ignore_errors=True)
+        remove_scratch(work)
     sys.exit(code)
 
 
