@@ -16,16 +16,29 @@ both functions are safe to call on anything.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import ctypes.util
 import mmap
+import os
 import sys
+import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+
+FOLIO = 2 << 20
+"""What :func:`release` rounds its byte range out to (from the mapping's start, which is
+at a file offset that is a multiple of it for every mapping made here). The page cache
+of a recent kernel holds a file in *large folios* (up to 2 MB) and maps a whole folio on
+a fault: reading one sample of a spilled channel maps up to 2 MB around it. A release of
+just the bytes read left the rest of the folio in the resident set; on a day-long
+archive that was 70 % of every channel's time file after the alignment. Releasing a
+little more than was read costs a page fault on the next access, nothing else: the
+data stays in the page cache."""
 
 _SHARED_MODES = ("r", "r+", "w+")
 """np.memmap modes whose mapping is shared: dropping a page loses nothing (mode ``c`` is
@@ -53,20 +66,33 @@ def _mapping(a: Any) -> tuple[mmap.mmap, int] | None:
     return None
 
 
+def is_mapped(a: Any) -> bool:
+    """True when ``a`` is (a view of) a shared memory map, whose pages :func:`release`
+    can give back."""
+    return isinstance(a, np.ndarray) and _mapping(a) is not None
+
+
 def release(a: npt.NDArray[Any] | None) -> None:
     """Drop the resident pages that hold ``a`` (a memory-mapped array or any view of one);
     a no-op for arrays in memory. The values stay readable: the next access reads them
     back from the page cache or the file."""
     if a is None or not hasattr(mmap, "MADV_DONTNEED") or a.size == 0:
         return
+    if a.ndim == 2 and not (a.flags.c_contiguous or a.flags.f_contiguous):
+        # rows ``a .. b`` of a channel-major buffer (:func:`buffer`): one stretch per
+        # channel, not everything between the first channel's and the last's
+        inner = int(np.argmin(np.abs(a.strides)))
+        if abs(a.strides[1 - inner]) > mmap.PAGESIZE:
+            for k in range(a.shape[1 - inner]):
+                release(a[k] if inner == 1 else a[:, k])
+            return
     found = _mapping(a)
     if found is None:
         return
     mm, start = found
     lo, hi = np.lib.array_utils.byte_bounds(a)
-    page = mmap.PAGESIZE
-    first = max(0, (lo - start) // page * page)
-    last = min(len(mm), hi - start)
+    first = max(0, (lo - start) // FOLIO * FOLIO)
+    last = min(len(mm), -(-(hi - start) // FOLIO) * FOLIO)
     if last > first:
         mm.madvise(mmap.MADV_DONTNEED, first, last - first)
 
@@ -96,11 +122,35 @@ def spill(
             if row.shape != (n,):
                 raise ValueError(f"spill: {name} has shape {row.shape}, expected ({n},)")
             f.write(row.data)
+            del row
+            release(signals[name])  # a memory-mapped source: its pages, one row at a time
     # no flush to disk (fsync): the file is scratch space read back through the same
     # page cache, so forcing its pages to disk would only wait on the disk; the kernel
     # writes them back in its own time (or drops the file with the work directory)
     out = np.load(path, mmap_mode="r")
     return {name: out[i] for i, name in enumerate(names)}
+
+
+def buffer(
+    workdir: Path | None, name: str, shape: tuple[int, int], dtype: npt.DTypeLike = np.float64
+) -> npt.NDArray[Any]:
+    """A new ``(n, m)`` array for a detector's per-sample outputs (``m`` channels, ``n``
+    samples). With ``workdir`` it is a channel-major memory map (the transpose of an
+    ``(m, n)`` ``.npy`` file): each channel's samples are contiguous, so a pass over one
+    channel reads one stretch of the file, and writing a block of rows touches ``m``
+    stretches that :func:`release` gives back. The file is unlinked at once: its space
+    lives as long as the mapping does, and nothing is left behind by a killed run.
+    Without ``workdir``, an uninitialised array in memory."""
+    n, m = shape
+    if workdir is None:
+        return np.empty(shape, dtype)
+    fd, tmp = tempfile.mkstemp(prefix=f"{name}-", suffix=".npy", dir=workdir)
+    os.close(fd)
+    path = Path(tmp)
+    out = np.lib.format.open_memmap(path, mode="w+", dtype=dtype, shape=(m, n))
+    with contextlib.suppress(OSError):  # where an open file cannot be unlinked: the
+        path.unlink()  # scratch directory's removal takes it
+    return out.T
 
 
 def _malloc_trim() -> Any:
@@ -129,4 +179,4 @@ def trim_heap() -> None:
         arrow.default_memory_pool().release_unused()
 
 
-__all__ = ["release", "spill", "trim_heap"]
+__all__ = ["buffer", "is_mapped", "release", "spill", "trim_heap"]

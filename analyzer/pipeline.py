@@ -27,7 +27,7 @@ from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowe
 from analyzer.diagnosis.stuck import relabel_frozen
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
 from analyzer.outdir import prepare_dir, remove_if_empty
-from analyzer.paging import release, spill, trim_heap
+from analyzer.paging import is_mapped, release, spill, trim_heap
 from analyzer.parallel import (
     DaskExecutor,
     Executor,
@@ -237,9 +237,16 @@ def _fit_and_run(det: Any, data: Dataset, ctx: RunContext) -> DetectorResult:
 def _compact(result: DetectorResult) -> DetectorResult:
     """``result`` with its per-sample signals in :data:`SIGNAL_DTYPE` (the float64 arrays
     of the detector are released as soon as its task ends)."""
-    result.residuals = {c: np.asarray(a, dtype=SIGNAL_DTYPE) for c, a in result.residuals.items()}
-    result.reference = {c: np.asarray(a, dtype=SIGNAL_DTYPE) for c, a in result.reference.items()}
+    result.residuals = {c: _compacted(a) for c, a in result.residuals.items()}
+    result.reference = {c: _compacted(a) for c, a in result.reference.items()}
     return result
+
+
+def _compacted(a: Any) -> Any:
+    """One signal in :data:`SIGNAL_DTYPE`; a memory-mapped one (a long archive's, see
+    :meth:`RunContext.buffer`) is left for :func:`_spill` to convert, one channel at a
+    time, rather than copied into memory here."""
+    return a if is_mapped(a) else np.asarray(a, dtype=SIGNAL_DTYPE)
 
 
 def _spill(result: DetectorResult, spill_dir: Path | None) -> DetectorResult:
@@ -532,6 +539,7 @@ def _analyze(
         ctx = RunContext(
             false_alarm_rate=options.config.false_alarm_rate,
             workdir=None if in_memory else work,
+            map_outputs=big,
             jobs=executor.workers,
             progress=locked(progress) if parallel else progress,
             config=options.config.as_context(),

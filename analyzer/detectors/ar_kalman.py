@@ -516,7 +516,11 @@ class ARKalmanBank:
         stop = N if stop is None else stop
         if into is None:  # the consistency only feeds alarm statistics: single precision
             nis = np.empty((N, m), NIS_DTYPE) if consistency else None
-            into = BankOutputs(np.empty((N, m)), np.empty((N, m)), nis)
+            if context is None:
+                into = BankOutputs(np.empty((N, m)), np.empty((N, m)), nis)
+            else:  # memory-mapped for a long archive (RunContext.buffer)
+                resid = context.buffer(f"{self.name}-resid", (N, m))
+                into = BankOutputs(resid, context.buffer(f"{self.name}-est", (N, m)), nis)
         spans = time_blocks(start, stop, bank.warmup, context)
         items = [
             (
@@ -574,6 +578,8 @@ class ARKalmanBank:
             if alarms is None:
                 alarms = _alarm_intervals(model, out, train_stop, context)
             found = self._next_fault(model, out, consistency, rate, train_stop, explained, alarms)
+            release(out.resid)  # what the search read of memory-mapped outputs
+            release(out.est)
             if found is None:
                 break
             ev, spans, cls = found
@@ -594,8 +600,8 @@ class ARKalmanBank:
             if not corrected:
                 # what the report shows is kept as measured (in the precision the pipeline
                 # keeps signals in); the bank's own outputs are then refiltered in place
-                resid0 = out.resid.astype(SIGNAL_DTYPE)
-                est0 = out.est.astype(SIGNAL_DTYPE)
+                resid0 = _kept(context, f"{self.name}-resid0", out.resid)
+                est0 = _kept(context, f"{self.name}-est0", out.est)
                 corrected = True
             # Correct the isolated channel so the bank can isolate the next fault (Section 4:
             # "corrected by a curve-fitting algorithm"): remove the fitted fault shape, or
@@ -614,11 +620,14 @@ class ARKalmanBank:
             alarms = None
             context.report("ar_kalman_bank", min(1.0, len(events) / m))
         # the residual the report shows: as measured, before any correction, kept in the
-        # pipeline's signal precision (each float64 array let go before the next is copied)
+        # pipeline's signal precision (each float64 array let go before the next is copied;
+        # memory-mapped ones are converted channel by channel as the pipeline spills them)
         del out
-        resid0 = resid0.astype(SIGNAL_DTYPE, copy=False)
+        if not context.map_outputs:
+            resid0 = resid0.astype(SIGNAL_DTYPE, copy=False)
         residuals = {c: resid0[:, j] for j, c in enumerate(data.channels)}
-        est0 = est0.astype(SIGNAL_DTYPE, copy=False)
+        if not context.map_outputs:
+            est0 = est0.astype(SIGNAL_DTYPE, copy=False)
         reference = {c: est0[:, j] for j, c in enumerate(data.channels)}
         return DetectorResult(
             detector=self.name,
@@ -954,6 +963,8 @@ def bank_block(
         )
         h = system.history  # the rows this chunk read: done with them
         release(Y[0 if h is None else max(0, lo - h) : e0])
+        release(est[rows])  # and the rows it wrote, when those are memory-mapped
+        release(resid[rows])
         if nis is None:
             continue
         if bank.whitened:
@@ -982,7 +993,9 @@ def _alarm_intervals(
 
 def _detect_task(task: tuple[FloatArray, Calibration, int]) -> list[Interval]:
     residual, cal, start = task
-    return detect(residual, cal, search_start=start)
+    found = detect(residual, cal, search_start=start)
+    release(residual)  # a memory-mapped channel: read again only where a fault is
+    return found
 
 
 @dataclass(frozen=True, slots=True)
@@ -1075,6 +1088,19 @@ def _bank_block_into(task: tuple[tuple[Any, ...], BankOutputs, int]) -> None:
     """:func:`bank_block` writing its rows into shared outputs (serially or on threads)."""
     (mean, scale, bank, Y, warm, inv_covs, consistency), into, at = task
     bank_block(mean, scale, bank, Y, warm, inv_covs, into=into, at=at, consistency=consistency)
+
+
+def _kept(context: RunContext, name: str, a: FloatArray) -> npt.NDArray[Any]:
+    """``a`` (samples, channels) in :data:`SIGNAL_DTYPE`: in memory, or for a long
+    archive a memory-mapped copy written one channel at a time (RunContext.buffer)."""
+    if not context.map_outputs:
+        return a.astype(SIGNAL_DTYPE)
+    out = context.buffer(name, a.shape, SIGNAL_DTYPE)
+    for j in range(a.shape[1]):
+        out[:, j] = a[:, j]
+        release(a[:, j])
+        release(out[:, j])
+    return out
 
 
 def _describe(bank: BankFilter | None) -> str:

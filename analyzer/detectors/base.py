@@ -23,6 +23,7 @@ from typing import Any, ClassVar, Protocol, TypeVar
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.paging import buffer
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -87,6 +88,10 @@ class RunContext:
     explicit: bool = False
     """True when the user named the detectors (``--detectors``): a detector may then run
     with defaults it would not choose on its own."""
+    map_outputs: bool = False
+    """True for a long archive: per-sample outputs over the whole record go to
+    memory-mapped files in ``workdir`` (:meth:`buffer`), so that what stays resident is
+    set by the block being worked on, not by the archive's length."""
     executor: MapExecutor | None = None
     """Where :meth:`map` runs its items (an :class:`analyzer.parallel.Executor`); None
     runs them serially in the calling thread. ``jobs`` is its parallelism."""
@@ -113,6 +118,14 @@ class RunContext:
         """True when :meth:`map`'s items run in this process (serially or on threads), so
         they may write into the caller's arrays; False on a cluster."""
         return self.executor is None or bool(getattr(self.executor, "shares_memory", False))
+
+    def buffer(
+        self, name: str, shape: tuple[int, int], dtype: npt.DTypeLike = np.float64
+    ) -> npt.NDArray[Any]:
+        """A new ``(samples, channels)`` array for per-sample outputs over the whole
+        record: channel-major and memory-mapped in ``workdir`` for a long archive
+        (``map_outputs``; see :func:`analyzer.paging.buffer`), else in memory."""
+        return buffer(self.workdir if self.map_outputs else None, name, shape, dtype)
 
     def allocate(self, name: str, shape: tuple[int, ...]) -> FloatArray:
         """A float64 array for a long result; memory-mapped in ``workdir`` when set, so

@@ -1131,9 +1131,14 @@ class DetectionFilter:
         # the fault-free estimate is kept centred and scaled (order 1, so single precision
         # loses nothing a sensor's offset would), the direction statistic only feeds
         # alarm statistics: both in float32
+        # (for a long archive the two estimates are memory-mapped, RunContext.buffer)
         outs: tuple[Any, ...] = (
-            np.empty((k, N)),
-            np.empty((k, N), dtype=np.float32),
+            np.empty((k, N)) if context is None else context.buffer("zeta", (N, k)).T,
+            (
+                np.empty((k, N), dtype=np.float32)
+                if context is None
+                else context.buffer("ref", (N, k), np.float32).T
+            ),
             np.empty((k, N), dtype=np.float32) if directions else None,
             np.zeros(N, dtype=bool),
         )
@@ -1167,6 +1172,8 @@ class DetectionFilter:
                 mask = _dilate_forward(bad, f.settle())
                 zeta[i, mask] = np.nan
                 ref[i, mask] = np.nan
+                release(zeta[i])
+                release(ref[i])
                 if nis is not None:
                     nis[i, mask] = np.nan
         return zeta, ref, nis, bad
@@ -1313,14 +1320,18 @@ class DetectionFilter:
                         f"the residual of {names[c]}'s filter left its direction"
                     )
         # kept in the pipeline's signal precision, each float64 array let go before the
-        # next is copied
+        # next is copied (memory-mapped ones are converted channel by channel as the
+        # pipeline spills them)
         del tasks, found
         residuals.clear()
-        zetas = zetas.astype(SIGNAL_DTYPE)
+        if not context.map_outputs:
+            zetas = zetas.astype(SIGNAL_DTYPE)
         residuals.update((names[i], zetas[i]) for i in range(len(names)))
         reference.clear()
-        for i in range(len(names)):  # one float64 row at a time
-            reference[names[i]] = _sensor_units(model, refs, i).astype(SIGNAL_DTYPE)
+        for i in range(len(names)):  # in sensor units, one float64 row at a time, in place
+            refs[i] = _sensor_units(model, refs, i)
+            release(refs[i])
+            reference[names[i]] = refs[i]
         del refs
         return DetectorResult(
             detector=self.name,
@@ -1387,7 +1398,7 @@ def _sensor_units(model: FittedDetectionFilter, refs: npt.NDArray[Any], i: int) 
 def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
     """Filter ``i``: the candidate events of its fault estimate ``zetas[i]``."""
     model, i, name, zetas, refs, rate, detector, train_stop = task
-    return events_from_residual(
+    found = events_from_residual(
         name,
         zetas[i],
         lowpass(_sensor_units(model, refs, i), model.filters[i].sigma),
@@ -1397,6 +1408,9 @@ def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
         search_start=train_stop,
         tau_corr=model.tau[i],
     )
+    release(zetas[i])  # memory-mapped rows: read again only where an event is
+    release(refs[i])
+    return found
 
 
 def _park_task(task: tuple[Any, ...]) -> ParkFilter:
@@ -1460,6 +1474,8 @@ def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray 
         # the two estimates are each filter's last outputs (all it has in a selected bank)
         np.multiply(y[:, -2], scale, out=zeta[:, cols])
         ref[:, cols] = y[:, -1]  # centred, scaled: see DetectionFilter._run_outputs
+        release(zeta[:, cols])  # written: memory-mapped outputs go back to the page cache
+        release(ref[:, cols])
         if nis is None:
             continue
         for i in range(k):

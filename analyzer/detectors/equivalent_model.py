@@ -728,19 +728,33 @@ class EquivalentModel:
         n = arr.shape[0]
         zeta = np.empty(n)
         z = np.empty(n)
-        _observer_kernel(
-            arr,
-            i,
-            np.asarray(rel.assistants, dtype=np.int64),
-            np.ascontiguousarray(rel.coef, dtype=np.float64).reshape(len(rel.assistants), -1),
-            float(rel.intercept),
-            phi,
-            (1.0 - phi) / obs.lambda1,
-            -obs.lambda1,
-            _settle_samples(rel, phi),
-            zeta,
-            z,
-        )
+        cols = np.asarray(rel.assistants, dtype=np.int64)
+        coef = np.ascontiguousarray(rel.coef, dtype=np.float64).reshape(len(rel.assistants), -1)
+        settle = _settle_samples(rel, phi)
+        # the pass carries its state (FIR history, recursion, last gap) from piece to
+        # piece, so a memory-mapped record is read and given back a piece at a time
+        hist = np.zeros((len(cols), coef.shape[1] - 1))
+        state = np.array([0.0, float(-settle - 2)])
+        for a in range(0, n, _PIECE):
+            b = min(n, a + _PIECE)
+            rows = arr[a:b]
+            _observer_kernel(
+                rows,
+                a,
+                i,
+                cols,
+                coef,
+                float(rel.intercept),
+                phi,
+                (1.0 - phi) / obs.lambda1,
+                -obs.lambda1,
+                settle,
+                hist,
+                state,
+                zeta[a:b],
+                z[a:b],
+            )
+            release(rows)
         return zeta, z
 
     # -- running -----------------------------------------------------------------------------
@@ -755,10 +769,26 @@ class EquivalentModel:
         reference: dict[str, FloatArray] = {}
         cands: dict[str, list[Event]] = {}
         # the observers are independent: on threads they share the archive (on a cluster
-        # each task would ship it, so there they run here one after the other)
+        # each task would ship it, so there they run here one after the other). For a long
+        # archive each writes its two signals into a row of a memory-mapped buffer.
+        kept: tuple[Any, Any] | None = None
+        if context.map_outputs and model.observers:
+            shape = (values.shape[0], len(model.observers))
+            kept = (
+                context.buffer(f"{self.name}-resid", shape, SIGNAL_DTYPE),
+                context.buffer(f"{self.name}-ref", shape, SIGNAL_DTYPE),
+            )
         tasks = [
-            (ob, values, data.channels[ob.target], rate, self.name, train_stop)
-            for ob in model.observers
+            (
+                ob,
+                values,
+                data.channels[ob.target],
+                rate,
+                self.name,
+                train_stop,
+                None if kept is None else (kept[0][:, k], kept[1][:, k]),
+            )
+            for k, ob in enumerate(model.observers)
         ]
         for task, (zeta, z, found) in zip(
             tasks, context.map_shared(_observer_task, tasks), strict=True
@@ -871,11 +901,13 @@ def _fit_observer_task(task: tuple[Any, ...]) -> tuple[TargetObserver, int]:
 
 
 def _observer_task(
-    task: tuple[TargetObserver, FloatArray, str, float, str, int],
+    task: tuple[TargetObserver, FloatArray, str, float, str, int, tuple[Any, Any] | None],
 ) -> tuple[FloatArray, FloatArray, list[Event]]:
     """One observer over the archive: its fault estimate (residual), the estimate from
-    the assistants (NaN where the residual is) and its candidate events."""
-    ob, values, name, rate, detector, train_stop = task
+    the assistants (NaN where the residual is) and its candidate events. The two
+    signals are returned in :data:`SIGNAL_DTYPE`, written into the two given arrays
+    (rows of memory-mapped buffers, whose pages are then released) when there are."""
+    ob, values, name, rate, detector, train_stop, into = task
     zeta, z = EquivalentModel._fault_estimate(ob.observer, ob.relation, values, ob.target)
     release(values)  # a memory-mapped archive: its columns were read whole, give them back
     z[~np.isfinite(zeta)] = np.nan
@@ -891,7 +923,12 @@ def _observer_task(
         tau_corr=ob.tau,
     )
     # kept in the pipeline's signal precision (the float64 arrays go when the task ends)
-    return zeta.astype(SIGNAL_DTYPE), z.astype(SIGNAL_DTYPE), found
+    if into is None:
+        return zeta.astype(SIGNAL_DTYPE), z.astype(SIGNAL_DTYPE), found
+    for row, signal in zip(into, (zeta, z), strict=True):
+        row[:] = signal
+        release(row)
+    return into[0], into[1], found
 
 
 def _settle_samples(rel: Relation, phi: float) -> int:
@@ -920,11 +957,15 @@ def _fault_estimate_numpy(
 
 
 _BLOCK = 1024  # rows per block of the compiled pass (its buffers stay in cache)
+_PIECE = 256 * _BLOCK
+"""Rows per call of the compiled pass (a memory-mapped record's pages are released after
+each: 32 MB of a 16-channel record)."""
 _BIG = float(np.finfo(np.float64).max)
 
 
 def _observer_loop(
     values: FloatArray,
+    offset: int,
     target: int,
     cols: npt.NDArray[np.int64],
     coef: FloatArray,
@@ -933,6 +974,8 @@ def _observer_loop(
     gain: float,
     scale: float,
     settle: int,
+    hist: FloatArray,
+    state: FloatArray,
     zeta: FloatArray,
     z: FloatArray,
 ) -> None:  # pragma: no cover - compiled by numba
@@ -942,18 +985,26 @@ def _observer_loop(
     ``lfilter`` runs it) and ``zeta = scale r``, NaN within ``settle`` samples after a
     row where the target or an assistant is not finite. Block by block: the last ``L``
     inputs of a block are the next one's FIR history; the FIR runs lag by lag over a
-    block (a vector loop) and sums the lags of each output in order."""
+    block (a vector loop) and sums the lags of each output in order.
+
+    ``values`` are the record's rows from ``offset`` on; the pass resumes from and leaves
+    its state in ``hist`` (the last ``L`` inputs, zeros at the record's start) and
+    ``state`` (``r`` and the record's row of the last gap, ``-settle - 2`` at the start),
+    so consecutive calls give the outputs of one call over their rows."""
     n = values.shape[0]
     p = cols.shape[0]
     width = coef.shape[1]
     lag = width - 1
     buf = np.zeros((p, lag + _BLOCK))
+    for c in range(p):
+        for m in range(lag):
+            buf[c, m] = hist[c, m]
     ym = np.empty(_BLOCK)
     gaps = np.zeros(_BLOCK, dtype=np.bool_)
     acc = np.empty(_BLOCK)
     part = np.empty(_BLOCK)
-    r = 0.0
-    last_gap = -settle - 2  # no gap yet: every row is further than ``settle`` from one
+    r = state[0]
+    last_gap = int(state[1]) - offset  # as a row of ``values``
     for s in range(0, n, _BLOCK):
         nb = min(_BLOCK, n - s)
         for k in range(nb):
@@ -1006,6 +1057,11 @@ def _observer_loop(
         for c in range(p):  # the last ``lag`` inputs: the next block's history
             for m in range(lag):
                 buf[c, m] = buf[c, nb + m]
+    for c in range(p):
+        for m in range(lag):
+            hist[c, m] = buf[c, m]
+    state[0] = r
+    state[1] = float(last_gap + offset)
 
 
 _observer_kernel: Callable[..., None] | None

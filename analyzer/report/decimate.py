@@ -16,6 +16,8 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.paging import release
+
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
@@ -72,6 +74,8 @@ def envelope(t: npt.ArrayLike, y: npt.ArrayLike, max_points: int = 2000) -> Enve
             warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN bins give NaN
             lo[b0:b1] = np.nanmin(block, axis=1)
             hi[b0:b1] = np.nanmax(block, axis=1)
+    if isinstance(y, np.ndarray):
+        release(y)  # a memory-mapped signal (a long archive's): its pages go back
     first = tt[::per]
     last = tt[np.minimum(np.arange(bins) * per + per - 1, n - 1)]
     return Envelope(0.5 * (first + last), lo, hi, True)
@@ -101,12 +105,14 @@ def binned_nan_fraction(values: npt.ArrayLike, bins: int) -> FloatArray:
         with np.errstate(invalid="ignore", over="ignore"):
             cols = np.flatnonzero(np.isnan(block.sum(axis=0)))
         if cols.size == 0:
+            release(v[start:stop])  # a memory-mapped archive: streamed, not kept resident
             continue
         nan = np.isnan(block[:, cols])
         b0 = int(np.searchsorted(edges, start, side="right")) - 1
         b1 = int(np.searchsorted(edges, stop - 1, side="right")) - 1
         cuts = np.maximum(edges[b0 : b1 + 1] - start, 0)
         counts[b0 : b1 + 1, cols] += np.add.reduceat(nan, cuts, axis=0, dtype=np.int64)
+        release(v[start:stop])
     sizes = np.diff(edges).astype(np.float64)
     return counts / sizes[:, None]
 

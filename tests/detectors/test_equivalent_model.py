@@ -452,3 +452,29 @@ def test_settings_and_applicability_errors():
     ds3 = Dataset(np.zeros((100, 3)), ("a", "b", "c"), 10.0, (0, 50))
     reason = EquivalentModel(assistants={"a": ["zz"]}).applicable(ds3, RunContext())
     assert "'zz'" in reason
+
+
+@pytest.mark.parametrize("piece", [1024, 3 * 1024, 1000, 7])
+def test_compiled_fault_estimate_in_pieces_equals_one_pass(monkeypatch, piece):
+    """The compiled pass resumes its state (FIR history, recursion, last gap) from call
+    to call: the record read a piece at a time gives exactly the outputs of one call,
+    with gaps just before, on and just after the pieces' edges (whose settling masks
+    cross them) and an FIR longer than a piece."""
+    import analyzer.detectors.equivalent_model as em
+
+    n = 12_000
+    V = _smooth_channels(n, 4, seed=3)
+    V[:, 3] += 0.5 * V[:, 1]
+    coef = np.random.default_rng(1).standard_normal((3, 40)) / 40
+    rel = Relation(3, (1, 2, 0), 39, coef, 0.3, 0.0)
+    for k in (piece - 1, 2 * piece, 3 * piece + 1, 5000):
+        if k < n:
+            V[k, 1 + k % 3] = np.nan
+    obs = AssistantObserver(-2.0, 0.0, lambda1=50.0, lambda2=20.0, dt=0.01)
+    monkeypatch.setattr(em, "_PIECE", n)
+    whole = EquivalentModel._fault_estimate(obs, rel, V, 3)
+    monkeypatch.setattr(em, "_PIECE", piece)
+    pieces = EquivalentModel._fault_estimate(obs, rel, V, 3)
+    for a, b in zip(whole, pieces, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert np.isnan(whole[0]).sum() > 0

@@ -80,3 +80,21 @@ def test_finalize_on_threads_keeps_channel_order_and_summaries(tmp_path, monkeyp
         assert infos == serial.infos()
         names = ["clock", "gapped", "half", "jitter", "late", "fast", "dup"]
         assert [i.name for i in infos] == names
+
+
+@pytest.mark.parametrize("n", [0, 1, 4095, 4096, 4097, 3 * 4096, 50_000])
+def test_finder_equals_searchsorted(n):
+    """The alignment's search through a long time array (a coarse index, then one
+    stretch) gives numpy's searchsorted on both sides, with repeated times, times
+    before, between and after the samples, and on the stretches' edges."""
+    rng = np.random.default_rng(n)
+    t = np.sort(rng.integers(0, 10 * n + 10, n)).astype(np.int64)
+    t[n // 2 : n // 2 + min(n // 2, 5000)] = t[n // 2] if n else 0  # a long run of one time
+    find = store_module._Finder(t)
+    keys = np.concatenate(
+        [t[:: max(1, n // 500)], t[:: max(1, n // 500)] + 1, [-5, 0, 10 * n + 20]]
+    ).astype(np.int64)
+    keys = np.concatenate([keys, t[4095::4096], t[4096::4096]]) if n else keys
+    for x in keys:
+        for side in ("left", "right"):
+            assert find(x, side) == int(np.searchsorted(t, x, side)), (x, side)
