@@ -97,6 +97,33 @@ def release(a: npt.NDArray[Any] | None) -> None:
         mm.madvise(mmap.MADV_DONTNEED, first, last - first)
 
 
+RELEASE_ROWS = 1 << 16
+"""Rows a sequential pass works through between two releases (:class:`Released`): a
+release per chunk of a few thousand rows cost a ``madvise`` per array and channel, and
+each one interrupts the other core to flush its TLB."""
+
+
+class Released:
+    """The pages of a pass's arrays given back behind it, :data:`RELEASE_ROWS` at a time:
+    ``upto(k)`` once the pass is done with indices ``start .. k - 1`` along ``axis`` of
+    each array (``final=True`` at the end). A no-op for arrays in memory."""
+
+    def __init__(self, *arrays: npt.NDArray[Any] | None, axis: int = 0, start: int = 0) -> None:
+        self.arrays = [a for a in arrays if a is not None and is_mapped(a)]
+        self.axis = axis
+        self.done = start
+
+    def upto(self, stop: int, final: bool = False) -> None:
+        if not self.arrays or (stop - self.done < RELEASE_ROWS and not final):
+            return
+        if stop > self.done:
+            for a in self.arrays:
+                index = [slice(None)] * a.ndim
+                index[self.axis] = slice(self.done, stop)
+                release(a[tuple(index)])
+        self.done = max(self.done, stop)
+
+
 def spill(
     signals: Mapping[str, npt.NDArray[Any]], path: Path, dtype: npt.DTypeLike
 ) -> dict[str, npt.NDArray[Any]]:
@@ -179,4 +206,4 @@ def trim_heap() -> None:
         arrow.default_memory_pool().release_unused()
 
 
-__all__ = ["buffer", "is_mapped", "release", "spill", "trim_heap"]
+__all__ = ["RELEASE_ROWS", "Released", "buffer", "is_mapped", "release", "spill", "trim_heap"]

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from analyzer import paging
 from analyzer.detectors import REGISTRY, Dataset, RunContext, detector_class
 from analyzer.errors import AnalyzerError, DetectorError, UsageError
 from analyzer.parallel import (
@@ -217,10 +218,23 @@ def test_long_archive_paths_give_the_in_memory_findings(
     """A long archive (here: any archive, with the size limit lowered) is memory-mapped,
     read chunk by chunk with its pages released, and every detector's signals are moved to
     files as it finishes: the findings and residuals of the in-memory run."""
+    import analyzer.detectors.base as base
     import analyzer.pipeline as pl
 
     monkeypatch.setattr(pl, "MATERIALIZE_IN_MEMORY", 1000)
+    mapped: list[str] = []
+
+    def buffer(workdir, name, shape, dtype=np.float64):
+        if workdir is not None:
+            mapped.append(name)
+        return paging.buffer(workdir, name, shape, dtype)
+
+    monkeypatch.setattr(base, "buffer", buffer)
     paged = analyze([SAMPLE], RunOptions(jobs=jobs), workdir=tmp_path)
+    # each detector's outputs went to buffers: the bank's also to its as-measured copy,
+    # made when it corrected the first fault it isolated
+    assert {"ar_kalman_bank-resid", "ar_kalman_bank-resid0", "zeta", "ref"} <= set(mapped)
+    assert "equivalent_model-resid" in mapped
     same_findings(findings_of(paged), findings_of(serial_run))
     assert isinstance(paged.values, np.memmap)
     for rs, rp in zip(serial_run.results, paged.results, strict=True):
@@ -230,10 +244,19 @@ def test_long_archive_paths_give_the_in_memory_findings(
             assert isinstance(kept.base, np.memmap) and not kept.flags.writeable
             scale = float(np.nanmax(np.abs(res)))
             assert float(np.nanmax(np.abs(res - kept))) <= 1e-6 * scale
+            assert kept.dtype == res.dtype == np.float32
+        # the detectors' own outputs went to memory-mapped buffers (RunContext.buffer)
+        # on the way: the fault-free estimates too, rounded once to float32 as in memory
+        assert rp.reference.keys() == rs.reference.keys()
+        for c, ref in rs.reference.items():
+            scale = float(np.nanmax(np.abs(ref)))
+            assert float(np.nanmax(np.abs(ref - rp.reference[c]))) <= 1e-6 * scale
         assert rp.model["windowed_tests"].keys() == rs.model["windowed_tests"].keys()
     assert sorted(p.name for p in (tmp_path / "signals").iterdir()) == sorted(
         f"{r.detector}-{kind}.npy" for r in paged.results for kind in ("reference", "residuals")
     )
+    # the buffers' files were unlinked as they were made: nothing else is left
+    assert {p.name for p in tmp_path.iterdir()} <= {"signals", "aligned.npy", "store", ".lock"}
 
 
 # -- runs start as fits finish -------------------------------------------------------------

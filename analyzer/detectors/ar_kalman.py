@@ -60,7 +60,7 @@ from analyzer.diagnosis.changes import (
 from analyzer.diagnosis.classify import Classification, correlation_time
 from analyzer.diagnosis.events import bounded_onset, diagnose_interval
 from analyzer.errors import DetectorError
-from analyzer.paging import release
+from analyzer.paging import Released, release
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -946,6 +946,8 @@ def bank_block(
     def scaled(a: int, b: int) -> FloatArray:  # the bank's input, gaps as 0
         return np.where(gap[a:b], 0.0, (np.asarray(Y[a:b], dtype=np.float64) - mean) / scale)
 
+    read = Released(Y)  # what the pass is done with, given back behind it
+    written = Released(est, resid)
     for lo, out in run_chunked(system, scaled, N, warm):
         e0 = lo + out.shape[2]
         y = out.transpose(2, 0, 1)  # (c, m, m): innovations, then the estimate
@@ -961,10 +963,9 @@ def bank_block(
         resid[rows] = np.where(
             gap[lo:e0], np.nan, np.asarray(Y[lo:e0], dtype=np.float64) - est[rows]
         )
-        h = system.history  # the rows this chunk read: done with them
-        release(Y[0 if h is None else max(0, lo - h) : e0])
-        release(est[rows])  # and the rows it wrote, when those are memory-mapped
-        release(resid[rows])
+        h = system.history  # the rows this chunk read: done with them, but the history
+        read.upto(e0 if h is None else max(0, e0 - h), final=e0 == N)
+        written.upto(rows.stop, final=e0 == N)  # and the rows it wrote (memory-mapped)
         if nis is None:
             continue
         if bank.whitened:

@@ -104,7 +104,7 @@ from analyzer.diagnosis.changes import (
 from analyzer.diagnosis.classify import correlation_time
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.errors import DetectorError
-from analyzer.paging import release
+from analyzer.paging import Released, release
 
 FloatArray = npt.NDArray[np.float64]
 Modes = Sequence[complex] | npt.NDArray[Any]
@@ -1469,13 +1469,13 @@ def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray 
         bad[first - at : hi - at] = bad_v[first - lo :]
         return v
 
+    written = Released(zeta, ref, axis=1, start=a - at)  # memory-mapped: given back behind
     for lo, y in run_chunked(bank, inputs, b, a):
         cols = slice(lo - at, lo - at + y.shape[2])
         # the two estimates are each filter's last outputs (all it has in a selected bank)
         np.multiply(y[:, -2], scale, out=zeta[:, cols])
         ref[:, cols] = y[:, -1]  # centred, scaled: see DetectionFilter._run_outputs
-        release(zeta[:, cols])  # written: memory-mapped outputs go back to the page cache
-        release(ref[:, cols])
+        written.upto(cols.stop, final=lo + y.shape[2] == b)
         if nis is None:
             continue
         for i in range(k):

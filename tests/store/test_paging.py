@@ -102,3 +102,46 @@ def test_releasing_a_slice_drops_that_slice_s_pages(tmp_path):
     assert int(t[::512][:10].sum()) == sum(range(1, 5121, 512))  # values intact
     release(np.asarray(t[: half // 2]))  # an ndarray view of a slice: found through .base
     assert touched - _rss_mb() > dropped + 25
+
+
+def test_released_gives_back_behind_a_pass_in_steps(tmp_path, monkeypatch):
+    """Released calls release on the rows a pass is done with, once a step's worth has
+    gathered (and at the end), from its start on, along the given axis; arrays in memory
+    are left out."""
+    import analyzer.paging as paging
+
+    calls = []
+    monkeypatch.setattr(paging, "release", lambda a: calls.append(a.shape))
+    monkeypatch.setattr(paging, "RELEASE_ROWS", 100)
+    a = paging.buffer(tmp_path, "a", (1000, 3))  # (n, m) view of an (m, n) file
+    b = np.lib.format.open_memmap(tmp_path / "b.npy", mode="w+", shape=(3, 1000)).T.T
+    r = paging.Released(a, np.zeros((1000, 3)), None)
+    assert len(r.arrays) == 1
+    r.upto(50)
+    assert calls == []
+    r.upto(120)
+    assert calls == [(120, 3)]
+    r.upto(130, final=True)
+    assert calls == [(120, 3), (10, 3)]
+    calls.clear()
+    c = paging.Released(b, axis=1, start=400)
+    c.upto(450)
+    c.upto(520)
+    assert calls == [(3, 120)]
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/self/statm")
+def test_buffer_is_channel_major_unlinked_and_released_per_channel(tmp_path):
+    """A buffer is an (n, m) view of an (m, n) memory map whose file is already gone;
+    releasing a block of its rows gives back each channel's stretch."""
+    from analyzer.paging import buffer
+
+    a = buffer(tmp_path, "x", (2_000_000, 8))  # 128 MB
+    assert a.shape == (2_000_000, 8) and a[:, 3].flags.c_contiguous
+    assert list(tmp_path.iterdir()) == []
+    a[:] = 2.0
+    touched = _rss_mb()
+    release(a[:1_000_000])
+    assert _rss_mb() < touched - 50
+    assert float(a[:, 5].sum()) == 4_000_000.0
+    assert isinstance(buffer(None, "y", (10, 2)), np.ndarray)
