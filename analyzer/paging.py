@@ -9,9 +9,12 @@ passes therefore hand the pages they are done with back to the operating system
 kernel's page cache (reclaimable, not the process's), and a later read faults it back in.
 What a pass holds at once is then its block, not the record.
 
-:func:`spill` moves a detector's kept signals to such a file, one channel after the other.
-Arrays that are not file-backed (in memory, private or read-only copies) are left alone:
-both functions are safe to call on anything.
+:func:`spill` moves a detector's kept signals to such a file, one channel after the other;
+:func:`buffer` makes the channel-major file a detector writes its per-sample outputs
+into, block by block, and :class:`Released` gives back a pass's pages behind it.
+:func:`mapped_file` reserves a new file's disk space up front (a full disk is then an
+error, not a SIGBUS). Arrays that are not file-backed (in memory, private copies) are
+left alone: :func:`release` is safe to call on anything.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import ctypes.util
+import errno
 import mmap
 import os
 import sys
@@ -174,10 +178,40 @@ def buffer(
     fd, tmp = tempfile.mkstemp(prefix=f"{name}-", suffix=".npy", dir=workdir)
     os.close(fd)
     path = Path(tmp)
-    out = np.lib.format.open_memmap(path, mode="w+", dtype=dtype, shape=(m, n))
-    with contextlib.suppress(OSError):  # where an open file cannot be unlinked: the
-        path.unlink()  # scratch directory's removal takes it
+    try:
+        out = mapped_file(path, (m, n), dtype)
+    finally:
+        with contextlib.suppress(OSError):  # where an open file cannot be unlinked: the
+            path.unlink()  # scratch directory's removal takes it
     return out.T
+
+
+_NO_FALLOCATE = {errno.EOPNOTSUPP, errno.EINVAL, errno.ENOSYS}
+
+
+def mapped_file(path: Path, shape: tuple[int, ...], dtype: npt.DTypeLike) -> np.memmap[Any, Any]:
+    """A new ``.npy`` file at ``path`` of ``shape`` and ``dtype``, memory-mapped for
+    writing, with its disk blocks reserved up front (``posix_fallocate``). A store
+    into a mapping of a sparse file that the disk has no room for kills the process
+    with SIGBUS, no error, no clean-up; reserved, a full disk is an ``OSError`` here
+    (naming the file and TMPDIR) that the CLI reports in one line. On a file system
+    without ``fallocate`` the file stays sparse."""
+    out = np.lib.format.open_memmap(path, mode="w+", dtype=dtype, shape=shape)
+    size = int(out.offset) + int(out.nbytes)
+    try:
+        with open(path, "r+b") as f:
+            os.posix_fallocate(f.fileno(), 0, size)
+    except OSError as err:
+        if err.errno in _NO_FALLOCATE:
+            return out
+        del out
+        raise OSError(
+            err.errno,
+            f"{err.strerror} (scratch space for {size / 1e6:.0f} MB; set TMPDIR to a "
+            "directory on a larger disk)",
+            str(path),
+        ) from err
+    return out
 
 
 def _malloc_trim() -> Any:
@@ -206,4 +240,13 @@ def trim_heap() -> None:
         arrow.default_memory_pool().release_unused()
 
 
-__all__ = ["RELEASE_ROWS", "Released", "buffer", "is_mapped", "release", "spill", "trim_heap"]
+__all__ = [
+    "RELEASE_ROWS",
+    "Released",
+    "buffer",
+    "is_mapped",
+    "mapped_file",
+    "release",
+    "spill",
+    "trim_heap",
+]

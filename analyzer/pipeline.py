@@ -310,8 +310,9 @@ def _run_detectors(
     shipped_data: Any = data
     shipped_ctx = ctx
     if on_dask:
-        # workers have neither the caller's terminal nor its scratch directory
-        shipped_ctx = replace(ctx, workdir=None, progress=None, executor=None)
+        # workers have neither the caller's terminal nor its scratch directory (so their
+        # outputs stay in memory, and come back as arrays)
+        shipped_ctx = replace(ctx, workdir=None, progress=None, executor=None, map_outputs=False)
         shipped_data = executor.scatter(replace(data, values=np.asarray(data.values)))
     # (name, handle) for a submitted task, (name, error) for one settled up front
     planned: list[tuple[str, Any]] = []

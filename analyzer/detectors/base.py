@@ -23,7 +23,7 @@ from typing import Any, ClassVar, Protocol, TypeVar
 import numpy as np
 import numpy.typing as npt
 
-from analyzer.paging import buffer
+from analyzer.paging import buffer, mapped_file
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -133,9 +133,7 @@ class RunContext:
         if self.workdir is None:
             return np.zeros(shape, dtype=np.float64)
         path = self.workdir / f"{name}.f64"
-        return np.lib.format.open_memmap(
-            path.with_suffix(".npy"), mode="w+", dtype=np.float64, shape=shape
-        )
+        return mapped_file(path.with_suffix(".npy"), shape, np.float64)
 
     def report(self, stage: str, fraction: float) -> None:
         if self.progress is not None:

@@ -30,7 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from analyzer.errors import StoreError
-from analyzer.paging import release
+from analyzer.paging import mapped_file, release
 from analyzer.readers.base import ChannelChunk
 from analyzer.scratch import make_scratch, remove_scratch
 from analyzer.types import NS_PER_S
@@ -392,7 +392,7 @@ class AlignedSeries:
         if path is None:
             out: FloatArray = np.empty(shape)
         else:
-            out = np.lib.format.open_memmap(path, mode="w+", dtype=np.float64, shape=shape)
+            out = mapped_file(path, shape, np.float64)
         infos = [self.store.info(name) for name in self.channels]
         raws = [self.store.raw(name) for name in self.channels]
         finders = [_Finder(t) for t, _ in raws]

@@ -293,3 +293,24 @@ def test_samples_crowding_onto_fewer_ticks_are_noted():
     assert len(notes) == 1
     assert notes[0].startswith("a: 9,989 samples on only about 931 distinct log times")
     assert _crowded_channels([batched], ["b"], 10.0) == []  # not analyzed: not noted
+
+
+def test_a_full_scratch_disk_is_a_one_line_error(tmp_path, capsys, monkeypatch):
+    """A long archive's memory-mapped scratch files reserve their space when made: with
+    no room left the run stops with one line naming the file and TMPDIR (exit 2), not a
+    SIGBUS at the first store into a page the disk cannot hold."""
+    import errno
+
+    import analyzer.pipeline as pl
+
+    def full(fd, offset, size):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(pl, "MATERIALIZE_IN_MEMORY", 1000)  # any archive is "long"
+    monkeypatch.setattr(os, "posix_fallocate", full)
+    code, _, err = run_cli(
+        ["run", SAMPLES / "building_additive.mcap", "--out", tmp_path / "o"], capsys
+    )
+    assert code == 2
+    one_line_error(err, "aligned.npy", "No space left on device", "TMPDIR")
+    assert not (tmp_path / "o").exists()

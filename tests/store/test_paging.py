@@ -145,3 +145,34 @@ def test_buffer_is_channel_major_unlinked_and_released_per_channel(tmp_path):
     assert _rss_mb() < touched - 50
     assert float(a[:, 5].sum()) == 4_000_000.0
     assert isinstance(buffer(None, "y", (10, 2)), np.ndarray)
+
+
+def test_mapped_files_reserve_their_space_and_a_full_disk_is_an_error(tmp_path, monkeypatch):
+    """A memory-mapped scratch file has its blocks reserved when it is made: a full disk
+    is an OSError naming the file and TMPDIR then, instead of a SIGBUS at the first store
+    into a page the disk has no room for. A file system without fallocate keeps the
+    sparse file."""
+    import errno
+    import os
+
+    from analyzer import paging
+
+    ok = paging.mapped_file(tmp_path / "a.npy", (1000, 4), np.float64)
+    assert os.stat(tmp_path / "a.npy").st_blocks * 512 >= ok.nbytes
+
+    def full(fd, offset, size):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "posix_fallocate", full)
+    with pytest.raises(OSError, match="No space left on device.*TMPDIR") as err:
+        paging.buffer(tmp_path, "resid", (1000, 4))
+    assert err.value.filename.startswith(str(tmp_path / "resid-"))
+    assert [p.name for p in tmp_path.iterdir()] == ["a.npy"]  # the buffer's file is gone
+
+    def unsupported(fd, offset, size):
+        raise OSError(errno.EOPNOTSUPP, "Operation not supported")
+
+    monkeypatch.setattr(os, "posix_fallocate", unsupported)
+    b = paging.mapped_file(tmp_path / "b.npy", (10, 2), np.float32)
+    b[:] = 1.0
+    assert b.shape == (10, 2)
