@@ -1398,10 +1398,11 @@ def _sensor_units(model: FittedDetectionFilter, refs: npt.NDArray[Any], i: int) 
 def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
     """Filter ``i``: the candidate events of its fault estimate ``zetas[i]``."""
     model, i, name, zetas, refs, rate, detector, train_stop = task
+    units = _sensor_units(model, refs, i)  # a float64 copy: low-passed in place
     found = events_from_residual(
         name,
         zetas[i],
-        lowpass(_sensor_units(model, refs, i), model.filters[i].sigma),
+        lowpass(units, model.filters[i].sigma, out=units),
         model.zeta_cal[i],
         rate,
         detector,

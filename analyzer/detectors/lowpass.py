@@ -36,18 +36,24 @@ def steady_state_zi(phi: float) -> float:
     return (phi * c) / c
 
 
-def lowpass(x: FloatArray, phi: float) -> FloatArray:
+def lowpass(x: FloatArray, phi: float, out: FloatArray | None = None) -> FloatArray:
     """``(1 - phi) / (1 - phi q^-1)`` over ``x``, started at steady state at the first finite
     sample; NaN/inf samples count as 0 and are NaN in the output (all NaN when nothing is
     finite). One compiled pass (:func:`_lowpass_loop`), or :func:`lowpass_reference`
-    without numba."""
+    without numba. ``out``: a float64 array of ``x``'s length to write into, which may be
+    ``x`` itself (the pass reads each sample before it writes it): no second whole-record
+    array."""
     xx = np.asarray(x, dtype=np.float64)
     if _lowpass_kernel is None:  # pragma: no cover - numba is a dependency
-        return lowpass_reference(xx, phi)
-    out = np.empty_like(xx)
-    if not _lowpass_kernel(xx, 1.0 - phi, phi, steady_state_zi(phi), out):
-        return xx.copy()  # nothing finite
-    return out
+        ref = lowpass_reference(xx, phi)
+        if out is None:
+            return ref
+        out[:] = ref
+        return out
+    target = np.empty_like(xx) if out is None else out
+    if not _lowpass_kernel(xx, 1.0 - phi, phi, steady_state_zi(phi), target):
+        target[:] = xx  # nothing finite: the input as it is
+    return target
 
 
 def lowpass_reference(x: FloatArray, phi: float) -> FloatArray:

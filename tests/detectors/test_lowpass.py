@@ -55,6 +55,28 @@ def test_compiled_lowpass_equals_lfilter():
     assert np.isnan(lowpass_reference(np.full(10, np.nan), 0.5)).all()
 
 
+def test_lowpass_in_place_equals_a_new_array():
+    """``out=x`` filters in place (the detection filter's alarm search keeps one
+    whole-record array, not two): the same bits as into a new array, gaps included; a
+    record with nothing finite comes back as it was."""
+    rng = np.random.default_rng(7)
+    x = np.cumsum(rng.standard_normal(3000))
+    x[:2] = np.nan
+    x[1000:1040] = np.nan
+    x[2000] = -np.inf
+    for phi in (0.1, 0.9, 0.999):
+        expected = lowpass(x, phi)
+        y = x.copy()
+        got = lowpass(y, phi, out=y)
+        assert got is y
+        assert_array_equal(got, expected)
+        other = np.empty_like(x)
+        assert lowpass(x, phi, out=other) is other
+        assert_array_equal(other, expected)
+    z = np.array([np.nan, np.inf, np.nan])
+    assert_array_equal(lowpass(z.copy(), 0.5, out=np.zeros(3)), z)
+
+
 def test_compiled_recursion_equals_lfilter():
     rng = np.random.default_rng(5)
     x = rng.standard_normal(4000) * 10.0 ** rng.uniform(-3, 3, 4000)
