@@ -625,9 +625,8 @@ class ARKalmanBank:
         del out
         if not context.map_outputs:
             resid0 = resid0.astype(SIGNAL_DTYPE, copy=False)
-        residuals = {c: resid0[:, j] for j, c in enumerate(data.channels)}
-        if not context.map_outputs:
             est0 = est0.astype(SIGNAL_DTYPE, copy=False)
+        residuals = {c: resid0[:, j] for j, c in enumerate(data.channels)}
         reference = {c: est0[:, j] for j, c in enumerate(data.channels)}
         return DetectorResult(
             detector=self.name,

@@ -1131,14 +1131,19 @@ class DetectionFilter:
         # the fault-free estimate is kept centred and scaled (order 1, so single precision
         # loses nothing a sensor's offset would), the direction statistic only feeds
         # alarm statistics: both in float32
-        # (for a long archive the two estimates are memory-mapped, RunContext.buffer)
+        mapped = context is not None and context.map_outputs
+
+        def rows(name: str, dtype: npt.DTypeLike) -> npt.NDArray[Any]:
+            """(k, N), a row per filter; memory-mapped for a long archive (its buffer is
+            channel-major: the transpose is), else in memory."""
+            if mapped:
+                assert context is not None
+                return context.buffer(name, (N, k), dtype).T
+            return np.empty((k, N), dtype)
+
         outs: tuple[Any, ...] = (
-            np.empty((k, N)) if context is None else context.buffer("zeta", (N, k)).T,
-            (
-                np.empty((k, N), dtype=np.float32)
-                if context is None
-                else context.buffer("ref", (N, k), np.float32).T
-            ),
+            rows("zeta", np.float64),
+            rows("ref", np.float32),
             np.empty((k, N), dtype=np.float32) if directions else None,
             np.zeros(N, dtype=bool),
         )

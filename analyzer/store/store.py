@@ -431,9 +431,9 @@ class _Finder:
     """``searchsorted`` on a long sorted time array that reads only near the answer.
 
     A binary search over a spilled channel touches a page at every halving, and the
-    kernel maps a few neighbouring pages with each: block after block of the alignment
-    that left about 70 % of each channel's time file resident on a day-long archive,
-    pages no block's own release covered. A coarse index (every :attr:`STEP`-th time,
+    kernel maps the whole large folio (up to 2 MB) around each: block after block of the
+    alignment that left about 70 % of each channel's time file resident on a day-long
+    archive, pages no block's own release covered. A coarse index (every :attr:`STEP`-th time,
     kept in memory) narrows each search to one stretch of ``STEP`` samples, read and
     given back at once."""
 
