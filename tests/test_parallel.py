@@ -229,12 +229,20 @@ def test_long_archive_paths_give_the_in_memory_findings(
             mapped.append(name)
         return paging.buffer(workdir, name, shape, dtype)
 
-    monkeypatch.setattr(base, "buffer", buffer)
+    import analyzer.detectors.detection_filter as df
+    import analyzer.detectors.equivalent_model as em
+
+    for module in (base, df, em):
+        monkeypatch.setattr(module, "buffer", buffer)
     paged = analyze([SAMPLE], RunOptions(jobs=jobs), workdir=tmp_path)
     # each detector's outputs went to buffers: the bank's also to its as-measured copy,
     # made when it corrected the first fault it isolated
     assert {"ar_kalman_bank-resid", "ar_kalman_bank-resid0", "zeta", "ref"} <= set(mapped)
     assert "equivalent_model-resid" in mapped
+    # and so did the whole-record float64 signals of the alarm searches: each detection
+    # filter's estimate in sensor units, each observer's two signals
+    assert {f"units{i}" for i in range(5)} <= set(mapped)
+    assert {"observer4-zeta", "observer4-z"} <= set(mapped)
     same_findings(findings_of(paged), findings_of(serial_run))
     assert isinstance(paged.values, np.memmap)
     for rs, rp in zip(serial_run.results, paged.results, strict=True):

@@ -104,7 +104,7 @@ from analyzer.diagnosis.changes import (
 from analyzer.diagnosis.classify import correlation_time
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.errors import DetectorError
-from analyzer.paging import Released, release
+from analyzer.paging import RELEASE_ROWS, Released, buffer, release
 
 FloatArray = npt.NDArray[np.float64]
 Modes = Sequence[complex] | npt.NDArray[Any]
@@ -1262,7 +1262,11 @@ class DetectionFilter:
         m = len(model.filters)
         # per filter (independent: in parallel on threads, which share the arrays): the
         # candidate events of its fault estimate
-        tasks = [(model, i, names[i], zetas, refs, rate, self.name, train_stop) for i in range(m)]
+        scratch = context.workdir if context.map_outputs else None
+        tasks = [
+            (model, i, names[i], zetas, refs, rate, self.name, train_stop, scratch)
+            for i in range(m)
+        ]
         found = context.map_shared(_filter_events_task, tasks)
         w = model.window
         cands: list[tuple[int, int, Event]] = []  # (first alarm, filter, event)
@@ -1333,10 +1337,8 @@ class DetectionFilter:
             zetas = zetas.astype(SIGNAL_DTYPE)
         residuals.update((names[i], zetas[i]) for i in range(len(names)))
         reference.clear()
-        for i in range(len(names)):  # in sensor units, one float64 row at a time, in place
-            refs[i] = _sensor_units(model, refs, i)
-            release(refs[i])
-            reference[names[i]] = refs[i]
+        for i in range(len(names)):  # in sensor units, a stretch at a time, in place
+            reference[names[i]] = _sensor_units(model, refs, i, out=refs[i])
         del refs
         return DetectorResult(
             detector=self.name,
@@ -1390,20 +1392,38 @@ def long_run_time(r: FloatArray, window: int) -> float:
     return tau
 
 
-def _sensor_units(model: FittedDetectionFilter, refs: npt.NDArray[Any], i: int) -> FloatArray:
-    """Filter ``i``'s fault-free estimate in sensor units (float64) from its centred,
-    scaled single-precision row."""
+def _sensor_units(
+    model: FittedDetectionFilter,
+    refs: npt.NDArray[Any],
+    i: int,
+    out: npt.NDArray[Any] | None = None,
+) -> npt.NDArray[Any]:
+    """Filter ``i``'s fault-free estimate in sensor units from its centred, scaled
+    single-precision row, computed in float64 :data:`RELEASE_ROWS` samples at a time
+    (memory-mapped rows are given back behind): into ``out`` (the row itself, say, or a
+    memory-mapped float64 array), else a new float64 array."""
     ssm = model.model
-    row = np.array(refs[i], dtype=np.float64)  # a copy: scaled and shifted in place
-    row *= float(ssm.y_scale[i])
-    row += float(ssm.y_mean[i])
-    return row
+    row = refs[i]
+    n = row.shape[0]
+    target = np.empty(n) if out is None else out
+    scale, mean = float(ssm.y_scale[i]), float(ssm.y_mean[i])
+    for a in range(0, n, RELEASE_ROWS):
+        b = min(n, a + RELEASE_ROWS)
+        part = row[a:b].astype(np.float64)
+        part *= scale
+        part += mean
+        target[a:b] = part
+        release(target[a:b])  # no-ops in memory
+        release(row[a:b])
+    return target
 
 
 def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
     """Filter ``i``: the candidate events of its fault estimate ``zetas[i]``."""
-    model, i, name, zetas, refs, rate, detector, train_stop = task
-    units = _sensor_units(model, refs, i)  # a float64 copy: low-passed in place
+    model, i, name, zetas, refs, rate, detector, train_stop, scratch = task
+    n = refs[i].shape[0]
+    into = None if scratch is None else buffer(scratch, f"units{i}", (n, 1))[:, 0]
+    units = _sensor_units(model, refs, i, into)  # float64: low-passed in place
     found = events_from_residual(
         name,
         zetas[i],

@@ -57,6 +57,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, ClassVar, Literal
 
 import numpy as np
@@ -71,7 +72,7 @@ from analyzer.detectors.network import NetworkDiagnosis, Propagation, SensorNetw
 from analyzer.diagnosis.changes import Calibration, calibrate, default_window
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.errors import DetectorError
-from analyzer.paging import release
+from analyzer.paging import RELEASE_ROWS, buffer, release
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -711,7 +712,11 @@ class EquivalentModel:
 
     @staticmethod
     def _fault_estimate(
-        obs: AssistantObserver, rel: Relation, values: FloatArray, i: int
+        obs: AssistantObserver,
+        rel: Relation,
+        values: FloatArray,
+        i: int,
+        out: tuple[FloatArray, FloatArray] | None = None,
     ) -> tuple[FloatArray, FloatArray]:
         """``-lambda1 r`` after each sample (sensor units, measured - estimated; Eq. 32 and
         the fault regeneration of Section 6.3), NaN around gaps, and the estimate ``z`` of
@@ -720,14 +725,19 @@ class EquivalentModel:
         One compiled pass over the rows (:func:`_observer_loop`): the target's and the
         assistants' samples are read where they lie (no column copies of the record), the
         FIR, the observer's recursion and the gap mask run block by block. Without numba
-        (or for a non-float record) :func:`_fault_estimate_numpy` computes the same."""
+        (or for a non-float record) :func:`_fault_estimate_numpy` computes the same.
+        ``out``: two float64 arrays of the record's length to write ``zeta`` and ``z``
+        into (memory-mapped ones are given back a piece at a time)."""
         arr = np.asarray(values)
         if _observer_kernel is None or arr.ndim != 2 or arr.dtype.kind != "f":
-            return _fault_estimate_numpy(obs, rel, values, i)
+            zeta, z = _fault_estimate_numpy(obs, rel, values, i)
+            if out is None:
+                return zeta, z
+            out[0][:], out[1][:] = zeta, z
+            return out
         phi = float(np.exp(-obs.lambda1 * obs.dt))
         n = arr.shape[0]
-        zeta = np.empty(n)
-        z = np.empty(n)
+        zeta, z = (np.empty(n), np.empty(n)) if out is None else out
         cols = np.asarray(rel.assistants, dtype=np.int64)
         coef = np.ascontiguousarray(rel.coef, dtype=np.float64).reshape(len(rel.assistants), -1)
         settle = _settle_samples(rel, phi)
@@ -755,6 +765,8 @@ class EquivalentModel:
                 z[a:b],
             )
             release(rows)
+            release(zeta[a:b])  # no-ops in memory
+            release(z[a:b])
         return zeta, z
 
     # -- running -----------------------------------------------------------------------------
@@ -787,6 +799,7 @@ class EquivalentModel:
                 self.name,
                 train_stop,
                 None if kept is None else (kept[0][:, k], kept[1][:, k]),
+                context.workdir if context.map_outputs else None,
             )
             for k, ob in enumerate(model.observers)
         ]
@@ -901,34 +914,48 @@ def _fit_observer_task(task: tuple[Any, ...]) -> tuple[TargetObserver, int]:
 
 
 def _observer_task(
-    task: tuple[TargetObserver, FloatArray, str, float, str, int, tuple[Any, Any] | None],
-) -> tuple[FloatArray, FloatArray, list[Event]]:
+    task: tuple[
+        TargetObserver, FloatArray, str, float, str, int, tuple[Any, Any] | None, Path | None
+    ],
+) -> tuple[npt.NDArray[Any], npt.NDArray[Any], list[Event]]:
     """One observer over the archive: its fault estimate (residual), the estimate from
     the assistants (NaN where the residual is) and its candidate events. The two
     signals are returned in :data:`SIGNAL_DTYPE`, written into the two given arrays
-    (rows of memory-mapped buffers, whose pages are then released) when there are."""
-    ob, values, name, rate, detector, train_stop, into = task
-    zeta, z = EquivalentModel._fault_estimate(ob.observer, ob.relation, values, ob.target)
+    (rows of memory-mapped buffers) when there are. With a scratch directory (a long
+    archive) the two float64 signals the event search reads are memory-mapped there too,
+    and every pass gives back what it is done with."""
+    ob, values, name, rate, detector, train_stop, into, scratch = task
+    n = values.shape[0]
+    out: tuple[FloatArray, FloatArray] | None = None
+    if scratch is not None:
+        out = (
+            buffer(scratch, f"observer{ob.target}-zeta", (n, 1))[:, 0],
+            buffer(scratch, f"observer{ob.target}-z", (n, 1))[:, 0],
+        )
+    zeta, z = EquivalentModel._fault_estimate(ob.observer, ob.relation, values, ob.target, out)
     release(values)  # a memory-mapped archive: its columns were read whole, give them back
-    z[~np.isfinite(zeta)] = np.nan
+    kept = (np.empty(n, SIGNAL_DTYPE), np.empty(n, SIGNAL_DTYPE)) if into is None else into
+    for a in range(0, n, RELEASE_ROWS):
+        b = min(n, a + RELEASE_ROWS)
+        zp, zz = zeta[a:b], z[a:b]
+        zz[~np.isfinite(zp)] = np.nan
+        # kept in the pipeline's signal precision
+        kept[0][a:b] = zp
+        kept[1][a:b] = zz
+        for part in (zp, zz, kept[0][a:b], kept[1][a:b]):
+            release(part)  # no-ops in memory
     phi = float(np.exp(-ob.observer.lambda1 * ob.observer.dt))
     found = events_from_residual(
         name,
         zeta,
-        lowpass(z, phi),
+        lowpass(z, phi, out=z),  # the estimate is kept already: low-passed in place
         ob.cal,
         rate,
         detector,
         search_start=train_stop,
         tau_corr=ob.tau,
     )
-    # kept in the pipeline's signal precision (the float64 arrays go when the task ends)
-    if into is None:
-        return zeta.astype(SIGNAL_DTYPE), z.astype(SIGNAL_DTYPE), found
-    for row, signal in zip(into, (zeta, z), strict=True):
-        row[:] = signal
-        release(row)
-    return into[0], into[1], found
+    return kept[0], kept[1], found
 
 
 def _settle_samples(rel: Relation, phi: float) -> int:

@@ -20,6 +20,8 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.paging import RELEASE_ROWS, is_mapped, release
+
 FloatArray = npt.NDArray[np.float64]
 
 
@@ -42,7 +44,8 @@ def lowpass(x: FloatArray, phi: float, out: FloatArray | None = None) -> FloatAr
     finite). One compiled pass (:func:`_lowpass_loop`), or :func:`lowpass_reference`
     without numba. ``out``: a float64 array of ``x``'s length to write into, which may be
     ``x`` itself (the pass reads each sample before it writes it): no second whole-record
-    array."""
+    array. A memory-mapped ``x`` or ``out`` is worked through :data:`RELEASE_ROWS` samples
+    at a time, the filter's state carried, and given back behind the pass."""
     xx = np.asarray(x, dtype=np.float64)
     if _lowpass_kernel is None:  # pragma: no cover - numba is a dependency
         ref = lowpass_reference(xx, phi)
@@ -51,8 +54,18 @@ def lowpass(x: FloatArray, phi: float, out: FloatArray | None = None) -> FloatAr
         out[:] = ref
         return out
     target = np.empty_like(xx) if out is None else out
-    if not _lowpass_kernel(xx, 1.0 - phi, phi, steady_state_zi(phi), target):
+    first = _first_finite_kernel(xx)
+    if first < 0:
         target[:] = xx  # nothing finite: the input as it is
+        return target
+    n = xx.shape[0]
+    state = np.array([steady_state_zi(phi) * xx[first]])
+    step = RELEASE_ROWS if is_mapped(xx) or is_mapped(target) else max(n, 1)
+    for a in range(0, n, step):
+        b = min(n, a + step)
+        _lowpass_kernel(xx[a:b], 1.0 - phi, phi, state, target[a:b])
+        release(xx[a:b])  # no-ops in memory
+        release(target[a:b])
     return target
 
 
@@ -108,37 +121,41 @@ def _recursion_loop(
 
 
 def _lowpass_loop(
-    x: FloatArray, b0: float, phi: float, zi: float, out: FloatArray
-) -> bool:  # pragma: no cover - compiled by numba
-    """``out = lfilter([b0], [1, -phi], x)`` with NaN/inf samples as 0 (and NaN in
-    ``out``), started at ``zi`` times the first finite sample, each step as ``lfilter``
-    rounds it. False when no sample is finite."""
-    n = x.shape[0]
-    first = -1
-    for k in range(n):
-        if np.isfinite(x[k]):
-            first = k
-            break
-    if first < 0:
-        return False
-    state = zi * x[first]
-    for k in range(n):
+    x: FloatArray, b0: float, phi: float, state: FloatArray, out: FloatArray
+) -> None:  # pragma: no cover - compiled by numba
+    """``out = lfilter([b0], [1, -phi], x, zi=state)`` with NaN/inf samples as 0 (and NaN
+    in ``out``), each step as ``lfilter`` rounds it; ``state[0]`` is the filter's state
+    before ``x[0]`` and after the pass the state after its last sample (a record is
+    filtered in pieces with it carried)."""
+    z = state[0]
+    for k in range(x.shape[0]):
         v = x[k]
         finite = np.isfinite(v)
         if not finite:
             v = 0.0
-        y = state + b0 * v
-        state = 0.0 * v + phi * y  # b1 x - a1 y with b1 = 0, a1 = -phi
+        y = z + b0 * v
+        z = 0.0 * v + phi * y  # b1 x - a1 y with b1 = 0, a1 = -phi
         out[k] = y if finite else np.nan
-    return True
+    state[0] = z
 
 
-_lowpass_kernel: Callable[..., bool] | None
+def _first_finite(x: FloatArray) -> int:  # pragma: no cover - compiled by numba
+    """Index of the first finite sample of ``x``, -1 if there is none (reads no further)."""
+    for k in range(x.shape[0]):
+        if np.isfinite(x[k]):
+            return k
+    return -1
+
+
+_lowpass_kernel: Callable[..., None] | None
+_first_finite_kernel: Callable[[FloatArray], int]
 _recursion_kernel: Callable[..., None] | None
 try:  # numba compiles the per-sample passes; nogil lets threads filter at once
     from numba import njit
 except ImportError:  # pragma: no cover - numba is a dependency; scipy without it
     _lowpass_kernel = _recursion_kernel = None
+    _first_finite_kernel = _first_finite
 else:
     _lowpass_kernel = njit(cache=True, nogil=True)(_lowpass_loop)
+    _first_finite_kernel = njit(cache=True, nogil=True)(_first_finite)
     _recursion_kernel = njit(cache=True, nogil=True)(_recursion_loop)

@@ -26,12 +26,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 from scipy import special
 
 from analyzer.errors import DetectorError
+from analyzer.paging import release
 from analyzer.stats.whiteness import lagged_products
 
 FloatArray = npt.NDArray[np.float64]
@@ -201,6 +203,7 @@ def alarm_statistic(
     start: int = 0,
     out: FloatArray | None = None,
     carry: FloatArray | None = None,
+    base: int = 0,
 ) -> FloatArray:
     """Per-sample alarm statistic in units of its threshold (> 1 means alarm): the
     largest, over both window lengths, of |window mean| / its threshold and the
@@ -222,7 +225,10 @@ def alarm_statistic(
     others are left alone), returned; a new one of zeros otherwise. ``carry``: four
     floats kept by a caller that computes a growing record's statistic piece by piece
     (zeros at first): the running sums where the last call's window sums began, from
-    which the next call goes on instead of summing the record from its first sample."""
+    which the next call goes on instead of summing the record from its first sample.
+    ``base``: ``out[i]`` holds the statistic at sample ``base + i`` (``base <= start``),
+    so a piece's statistic needs an array of the piece's length only (:func:`detect`
+    computes a long record's that way)."""
     arr = np.asarray(x)
     if arr.dtype not in (np.float64, np.float32):
         arr = arr.astype(np.float64)
@@ -238,16 +244,18 @@ def alarm_statistic(
         [(cal.logq_mean[i] + zc * cal.logq_sd[i]) - cal.logq_mean[i] for i in range(k)]
     )
     start = max(0, start)
+    if not 0 <= base <= start:
+        raise ValueError(f"alarm_statistic: base {base} must be in [0, start={start}]")
     if _alarm_kernel is None:  # pragma: no cover - numba is a dependency
         z = cal.standardize(arr) if raw else np.asarray(arr, dtype=np.float64)
         s = _alarm_statistic_numpy(z, cal)
         s[:start] = 0.0
         if out is None:
-            return s
-        out[start:] = s[start:]
+            return s[base:]
+        out[start - base :] = s[start:]
         return out
     if out is None:
-        out = np.zeros(arr.shape[0], dtype=np.float64)
+        out = np.zeros(arr.shape[0] - base, dtype=np.float64)
     _alarm_kernel(
         arr,
         mean,
@@ -259,6 +267,7 @@ def alarm_statistic(
         start,
         out,
         np.zeros(4) if carry is None else carry,
+        base,
     )
     return out
 
@@ -366,8 +375,10 @@ def _alarm_loop(
     start: int,
     out: FloatArray,
     carry: FloatArray,
+    base: int,
 ) -> None:  # pragma: no cover - compiled by numba
-    """``out[t]`` = the alarm statistic at ``t >= start`` (``out`` is left alone before):
+    """``out[t - base]`` = the alarm statistic at ``t >= start`` (``out`` is left alone
+    before):
     running sums of z, z^2 and the finite count, with the last prefix sums in a ring
     buffer (a power of two above ``max(windows)``: memory set by the window, not the
     record). Sums run in sample order, as ``np.cumsum`` does; divisions are folded into
@@ -459,7 +470,7 @@ def _alarm_loop(
                 m1 = abs(s1 - c1[b1]) * a1 if ok1 else 0.0
                 d0 = s2 - c2[b0] if ok0 else 0.0  # below every floor: no log mean square
                 d1 = s2 - c2[b1] if ok1 else 0.0
-                out[t], log0, id0, log1, id1 = _two_windows(
+                out[t - base], log0, id0, log1, id1 = _two_windows(
                     m0, m1, d0, d1, lw0, lw1, fl0, fl1, if0, if1, g0, g1, log0, id0, log1, id1
                 )
             return
@@ -484,7 +495,7 @@ def _alarm_loop(
             m1 = abs(s1 - c1[b1]) * a1 if ok1 else 0.0
             d0 = s2 - c2[b0] if ok0 else 0.0
             d1 = s2 - c2[b1] if ok1 else 0.0
-            out[t], log0, id0, log1, id1 = _two_windows(
+            out[t - base], log0, id0, log1, id1 = _two_windows(
                 m0, m1, d0, d1, lw0, lw1, fl0, fl1, if0, if1, g0, g1, log0, id0, log1, id1
             )
         return
@@ -523,7 +534,7 @@ def _alarm_loop(
                 q = (math.log(d2) - lw[i]) * g[i]
                 if q > best:
                     best = q
-        out[t] = best
+        out[t - base] = best
 
 
 _alarm_kernel: Callable[..., None] | None
@@ -575,6 +586,12 @@ def change_point(z: FloatArray, *, before_normal: bool = True) -> int:
     return int(np.argmax(llr))
 
 
+STAT_PIECE = 1 << 18
+"""Samples of the alarm statistic :func:`detect` computes at a time when it is not given
+one (2 MB): a long record's statistic is never held whole, and a memory-mapped residual
+is given back behind the pass."""
+
+
 def detect(
     residual: FloatArray,
     cal: Calibration,
@@ -593,34 +610,47 @@ def detect(
 
     ``statistic``: the residual's :func:`alarm_statistic` (``raw=True``), when the caller
     has it already; only its entries from ``search_start`` on are read (and none are
-    changed). Without it, it is computed from ``search_start`` on."""
+    changed). Without it, it is computed from ``search_start`` on, :data:`STAT_PIECE`
+    samples at a time with the running sums carried (bit for bit the whole-record
+    pass): what stays of it are the alarm runs and their peaks, so the memory does not
+    grow with the record."""
+    # alarms only from the search's start: the record before it is not looked at
+    first = max(0, search_start)
+    if statistic is not None:
+        runs = AlarmRuns.of_statistic(statistic, first, residual.shape[0])
+    else:
+        runs = AlarmRuns(cal, first).extend(residual, release_behind=True)
+    return intervals(residual, cal, runs, search_start=search_start, min_gap=min_gap)
+
+
+def intervals(
+    residual: FloatArray,
+    cal: Calibration,
+    runs: list[list[Any]],
+    *,
+    search_start: int = 0,
+    min_gap: int | None = None,
+) -> list[Interval]:
+    """:func:`detect`'s intervals from the alarm runs of ``residual`` (:class:`AlarmRuns`),
+    reading the residual only around the alarms and between them."""
     n = residual.shape[0]
     w = cal.window
     wl = cal.long_window
     gap = wl if min_gap is None else min_gap
-    first = max(0, search_start)
-    s = alarm_statistic(residual, cal, raw=True, start=first) if statistic is None else statistic
-    # alarms only from the search's start: the record before it is not looked at
-    runs = _runs(s[first:] > 1.0, first)
-    merged: list[list[int]] = []
-    if runs:
+    merged: list[list[Any]] = []
+    for a, b, peak in runs:
         # samples between two runs count only where the residual was observed: a stretch
         # of missing data (a damaged or absent file) says nothing about the fault having
-        # ended. Observed samples counted from the first run on (only differences are used)
-        r0 = runs[0][0]
-        seen = np.concatenate(
-            ([0], np.cumsum(np.isfinite(residual[r0 : runs[-1][1]]), dtype=np.int64))
-        )
-        for a, b in runs:
-            if merged and seen[a - r0] - seen[merged[-1][1] - r0] <= gap:
-                merged[-1][1] = b
-            else:
-                merged.append([a, b])
+        # ended
+        if merged and not _observed_above(residual, merged[-1][1], a, gap):
+            merged[-1][1] = b
+            merged[-1][2] = max(merged[-1][2], peak)
+        else:
+            merged.append([a, b, peak])
     n_windows = max(1.0, n / w) * len(cal.windows)
     out: list[Interval] = []
     prev_end = search_start
-    for a, b in merged:
-        peak = float(np.max(s[a:b]))
+    for a, b, peak in merged:
         # one-sided Gaussian tail of the peak (in z units) over n/w independent windows
         z_peak = peak * cal.z_crit
         p = float(min(1.0, 2.0 * special.ndtr(-z_peak) * n_windows))
@@ -647,6 +677,80 @@ def detect(
         out.append(Interval(onset, end, a, last, peak, p))
         prev_end = end if end is not None else n
     return out
+
+
+class AlarmRuns:
+    """The runs of alarm statistic above 1 of a record from ``first`` on, ``[start, stop,
+    peak]`` each, found a :data:`STAT_PIECE` at a time as the record grows
+    (:meth:`extend`): the statistic is bit for bit the whole-record pass's (its running
+    sums carried), and only its runs are kept. A run cut by a piece's edge comes as two,
+    which :func:`intervals` joins (no observed sample between them)."""
+
+    def __init__(self, cal: Calibration, first: int, carry: FloatArray | None = None) -> None:
+        self.cal = cal
+        self.h = max(0, first)  # the statistic is known before this sample
+        self.carry = np.zeros(4) if carry is None else carry
+        self.runs: list[list[Any]] = []
+
+    @staticmethod
+    def of_statistic(statistic: FloatArray, first: int, n: int) -> list[list[Any]]:
+        """The runs of a whole-record ``statistic`` over ``first .. n - 1``."""
+        return _runs_with_peaks(statistic[first:n], first)
+
+    def extend(self, record: FloatArray, release_behind: bool = False) -> list[list[Any]]:
+        """The runs up to the end of ``record`` (the record's first ``h`` samples, ``h`` at
+        least the last call's). ``release_behind``: give back a memory-mapped record's
+        pages behind the pass."""
+        n = record.shape[0]
+        if self.h >= n:
+            return self.runs
+        piece = np.empty(min(STAT_PIECE, n - self.h))
+        done = int(self.carry[0])  # the record before it is read no more
+        for lo in range(self.h, n, STAT_PIECE):
+            hi = min(n, lo + STAT_PIECE)
+            s = alarm_statistic(
+                record[:hi],
+                self.cal,
+                raw=True,
+                start=lo,
+                out=piece[: hi - lo],
+                carry=self.carry,
+                base=lo,
+            )
+            self.runs.extend(_runs_with_peaks(s, lo))
+            # the next piece reads the record from its first window's start on
+            read_from = int(self.carry[0])
+            if release_behind and read_from > done:
+                release(record[done:read_from])
+                done = read_from
+        if release_behind:
+            release(record[done:n])
+        self.h = n
+        return self.runs
+
+
+def _runs_with_peaks(s: FloatArray, offset: int) -> list[list[Any]]:
+    """``[start, stop, peak]`` of the runs of ``s > 1``, shifted by ``offset``."""
+    return [[a, b, float(np.max(s[a - offset : b - offset]))] for a, b in _runs(s > 1.0, offset)]
+
+
+def _observed_above(x: FloatArray, lo: int, hi: int, limit: int) -> bool:
+    """Whether more than ``limit`` samples of ``x[lo:hi]`` are finite, counted a stretch
+    at a time until the answer is known (the stretch between two alarms can be most of
+    the record)."""
+    if hi - lo <= limit:
+        return False
+    count = 0
+    step = max(limit + 1, 1 << 16)
+    while lo < hi:
+        b = min(hi, lo + step)
+        count += int(np.count_nonzero(np.isfinite(x[lo:b])))
+        if count > limit:
+            return True
+        if count + (hi - b) <= limit:
+            return False
+        lo = b
+    return False
 
 
 def detection_confidence(interval: Interval) -> float:

@@ -11,11 +11,14 @@ import numpy.typing as npt
 
 from analyzer.detectors.base import Event
 from analyzer.diagnosis.changes import (
+    STAT_PIECE,
+    AlarmRuns,
     Calibration,
     Interval,
     alarm_statistic,
     detect,
     detection_confidence,
+    intervals,
 )
 from analyzer.diagnosis.classify import Classification, classify
 
@@ -38,14 +41,13 @@ def events_from_residual(
     out: list[Event] = []
     n = residual.shape[0]
     covered = search_start
-    # one alarm statistic for the search and for every fault's end (diagnose_interval)
-    stat = alarm_statistic(residual, cal, raw=True, start=search_start)
-    for iv in detect(residual, cal, search_start=search_start, statistic=stat):
+    # the search computes the alarm statistic a piece at a time (its memory does not grow
+    # with the record); each fault's end is searched on the statistic of a stretch from
+    # its onset, grown as far as the answer needs (diagnose_interval)
+    for iv in detect(residual, cal, search_start=search_start):
         if iv.onset < covered:
             continue  # inside a fault already extended over this stretch
-        cls, end = diagnose_interval(
-            residual, reference, cal, iv, rate_hz, tau_corr, statistic=stat
-        )
+        cls, end = diagnose_interval(residual, reference, cal, iv, rate_hz, tau_corr)
         covered = n if end is None else end
         onset_s, factor, extra = bounded_onset(iv.onset, cls, rate_hz, search_start)
         ev = {
@@ -203,12 +205,14 @@ class _Corrected:
         if h > self.filled:
             a = min(h, max(self.filled, self.onset))
             self.buf[self.filled : a] = self.r[self.filled : a]
-            if h > a:
-                tau = np.arange(a - self.onset, h - self.onset) / self.rate_hz
-                shape = self.cls.fault_signal(tau, None if self.ref is None else self.ref[a:h])
+            # the shape a piece at a time: its temporaries do not grow with the stretch
+            for lo in range(a, h, STAT_PIECE):
+                hi = min(h, lo + STAT_PIECE)
+                tau = np.arange(lo - self.onset, hi - self.onset) / self.rate_hz
+                shape = self.cls.fault_signal(tau, None if self.ref is None else self.ref[lo:hi])
                 if shape is None:  # pragma: no cover - checked by diagnose_interval
                     raise ValueError("a fault of type other has no shape to subtract")
-                np.subtract(self.r[a:h], shape, out=self.buf[a:h])
+                np.subtract(self.r[lo:hi], shape, out=self.buf[lo:hi])
             self.filled = h
         return self.buf[:h]
 
@@ -244,11 +248,11 @@ class _Intervals:
     ) -> None:
         self.record, self.n, self.cal = record, n, cal
         self.search_start = max(0, search_start)
-        self.given = statistic is not None
-        # the statistic's pages are touched only as far as it is computed
-        self.stat = np.empty(n) if statistic is None else statistic
-        # the statistic's running sums, kept from step to step
-        self.carry = np.zeros(4) if isinstance(record, np.ndarray) else record.carry
+        self.stat = statistic
+        # without a statistic, its alarm runs, found a piece at a time as h grows (the
+        # running sums carried from step to step): none of it is kept whole
+        carry = None if isinstance(record, np.ndarray) else record.carry
+        self.runs = AlarmRuns(cal, self.search_start, carry)
         self.found: list[Interval] = []  # detect's intervals of the first h samples
         self.settled = 0  # how many of them are the whole record's
         self.frontier = self.search_start  # no unsettled interval begins before it
@@ -291,10 +295,11 @@ class _Intervals:
         h = min(self.n, self.h + self.step)
         self.step *= self.GROWTH
         x = self.record[:h] if isinstance(self.record, np.ndarray) else self.record.upto(h)
-        if not self.given:
-            new = max(self.h, self.search_start)
-            alarm_statistic(x, self.cal, raw=True, start=new, out=self.stat[:h], carry=self.carry)
-        found = detect(x, self.cal, search_start=self.search_start, statistic=self.stat[:h])
+        if self.stat is None:
+            runs = self.runs.extend(x)
+        else:
+            runs = AlarmRuns.of_statistic(self.stat, self.search_start, h)
+        found = intervals(x, self.cal, runs, search_start=self.search_start)
         w, wl = self.cal.window, self.cal.long_window
         settled = len(found)
         if h < self.n:

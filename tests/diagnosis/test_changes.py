@@ -119,3 +119,108 @@ def test_a_gap_in_the_data_does_not_end_a_fault(tmp_path):
     assert f.channel == "s4" and f.type is FaultType.MULTIPLICATIVE
     assert f.end_s is None and f.onset_s == pytest.approx(16.0, abs=0.3)
     assert f.magnitude["gain"] == pytest.approx(1.5, rel=0.1)
+
+
+def _faulty_record(n: int, seed: int) -> tuple[np.ndarray, object]:
+    """A coloured residual with offsets, a gain change and gaps, and its calibration."""
+    rng = np.random.default_rng(seed)
+    cal = calibrate(lfilter([1.0], [1.0, -0.6], rng.standard_normal(20_000)), 40)
+    r = lfilter([1.0], [1.0, -0.6], rng.standard_normal(n))
+    for k in range(5):  # short offsets, some closer than the long window
+        a = n // 7 * (k + 1) + int(rng.integers(0, 500))
+        r[a : a + int(rng.integers(50, 900))] += 3.0
+    r[n // 2 :] *= 1.0 + 0.8 * (np.arange(n - n // 2) > n // 4)  # a gain change to the end
+    r[n // 3 : n // 3 + 700] = np.nan  # a gap longer than the long window
+    r[n // 4 : n // 4 + 30] = np.inf
+    return r, cal
+
+
+@pytest.mark.parametrize("piece", [1_000, 4_096, 1 << 18])
+def test_detect_in_pieces_equals_detect_on_the_whole_statistic(monkeypatch, piece):
+    """detect without a statistic computes it a piece at a time: the same intervals (every
+    field) as detect given the whole-record statistic, with alarm runs, merges and gaps
+    across the pieces' edges."""
+    from analyzer.diagnosis import changes
+
+    n = 200_000
+    r, cal = _faulty_record(n, piece)
+    start = 7_000
+    whole = changes.alarm_statistic(r, cal, raw=True, start=start)
+    want = changes.detect(r, cal, search_start=start, statistic=whole)
+    assert len(want) >= 4
+    monkeypatch.setattr(changes, "STAT_PIECE", piece)
+    got = changes.detect(r, cal, search_start=start)
+    assert got == want
+    counts = []
+    for gap in (10, 20_000, 60_000):  # runs merged over observed gaps of up to gap samples
+        want = changes.detect(r, cal, search_start=start, min_gap=gap, statistic=whole)
+        assert changes.detect(r, cal, search_start=start, min_gap=gap) == want
+        counts.append(len(want))
+    assert counts[0] > counts[1] > counts[2] >= 1
+    assert changes.detect(r[:start], cal, search_start=start) == []
+
+
+def test_alarm_statistic_into_a_piece_of_its_own_length():
+    """``base``: the statistic of samples base.. written from out[0]; bit for bit the
+    whole-record pass's, and a base after the start is refused."""
+    from analyzer.diagnosis.changes import alarm_statistic
+
+    r, cal = _faulty_record(30_000, 1)
+    whole = alarm_statistic(r, cal, raw=True)
+    out = np.full(5_000, -1.0)
+    got = alarm_statistic(r[:20_000], cal, raw=True, start=15_000, out=out, base=15_000)
+    assert got is out
+    np.testing.assert_array_equal(out, whole[15_000:20_000])
+    np.testing.assert_array_equal(
+        alarm_statistic(r, cal, raw=True, start=12_000, base=10_000)[2_000:], whole[12_000:]
+    )
+    with pytest.raises(ValueError, match="base"):
+        alarm_statistic(r, cal, raw=True, start=10, base=11)
+
+
+def test_observed_above_counts_only_finite_samples():
+    from analyzer.diagnosis.changes import _observed_above
+
+    x = np.ones(300_000)
+    x[1_000:250_000] = np.nan
+    for lo, hi, limit in [
+        (0, 300_000, 50_999),
+        (0, 300_000, 51_000),
+        (500, 260_000, 10_499),
+        (500, 260_000, 10_500),
+        (2_000, 240_000, 0),
+        (0, 10, 10),
+    ]:
+        assert _observed_above(x, lo, hi, limit) == (np.isfinite(x[lo:hi]).sum() > limit)
+
+
+def test_detect_memory_does_not_grow_with_the_record():
+    """The alarm search over a long record holds a piece of the statistic, not the whole
+    of it: numpy's allocations during detect (traced) stay a few MB on a 4 M-sample
+    record (a whole-record statistic alone would be 32 MB), and so do those of the
+    search for a fault's end on the raw residual (diagnose_interval's _Intervals), which
+    grows its stretch to the end of the record here."""
+    import tracemalloc
+
+    from analyzer.diagnosis.events import _Intervals
+
+    rng = np.random.default_rng(5)
+    cal = calibrate(rng.standard_normal(20_000), 40, 1e-9)  # no false alarm in 4 M samples
+    n = 4_000_000
+    r = rng.standard_normal(n)
+    r[3_000_000:3_000_400] += 3.0  # one short fault
+    tracemalloc.start()
+    try:
+        found = detect(r, cal, search_start=10_000)
+        _, peak = tracemalloc.get_traced_memory()
+        tracemalloc.reset_peak()
+        later = _Intervals(r, n, cal, 2_000_000)
+        assert later.onset(1, n) is None  # searched to the record's end
+        _, peak_end = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert [iv.first_alarm // 1000 for iv in found] == [3_000]
+    assert later.h == n and [iv.first_alarm // 1000 for iv in later.found] == [3_000]
+    assert later.found == found
+    assert peak < 6e6, peak
+    assert peak_end < 6e6, peak_end
