@@ -20,7 +20,7 @@ Residual convention: ``measured - estimated`` (the paper plots ``estimated - mea
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import partial
 from typing import Any, ClassVar
@@ -577,7 +577,17 @@ class ARKalmanBank:
         for _ in range(4 * m):
             if alarms is None:
                 alarms = _alarm_intervals(model, out, train_stop, context)
-            found = self._next_fault(model, out, consistency, rate, train_stop, explained, alarms)
+            found = self._next_fault(
+                model,
+                out,
+                consistency,
+                rate,
+                train_stop,
+                explained,
+                alarms,
+                lambda j, windows: self._window_consistency(model, Y, fixes, j, windows),
+                lambda j, lo, hi: self._longest_violation(model, Y, fixes, j, lo, hi),
+            )
             release(out.resid)  # what the search read of memory-mapped outputs
             release(out.est)
             if found is None:
@@ -689,6 +699,95 @@ class ARKalmanBank:
             nis[a - lo : b - lo] = rows.nis[a - s :]
         return nis
 
+    def _estimator_consistency(
+        self,
+        model: FittedBank,
+        Y: FloatArray,
+        fixes: list[tuple[int, int, int, FloatArray]],
+        j: int,
+        lo: int,
+        hi: int,
+    ) -> npt.NDArray[Any]:
+        """Estimator ``j``'s consistency over rows ``lo .. hi - 1`` of the corrected
+        record (:meth:`_consistency`'s column ``j`` to rounding): its own impulse
+        responses only, about ``1 / m`` of the whole bank's work."""
+        N, m = Y.shape
+        lo, hi = max(0, lo), min(N, hi)
+        bank = model.bank
+        assert bank is not None
+        if not (isinstance(bank.system, ImpulseResponseBank) and bank.whitened):
+            return self._consistency(model, Y, fixes, lo, hi)[:, j]
+        system = bank.system.subset([j])
+        warm = bank.warmup
+        nis = np.empty(max(0, hi - lo), NIS_DTYPE)
+        for a in range(lo, hi, CONSISTENCY_PIECE):
+            b = min(hi, a + CONSISTENCY_PIECE)
+            s = max(0, a - warm)
+            seg = _corrected_rows(Y, fixes, s, b)
+            nis[a - lo : b - lo] = estimator_consistency(
+                model.ar.mean, model.ar.scale, bank, system, j, seg, a - s
+            )
+        return nis
+
+    def _window_consistency(
+        self,
+        model: FittedBank,
+        Y: FloatArray,
+        fixes: list[tuple[int, int, int, FloatArray]],
+        j: int,
+        windows: list[tuple[int, int]],
+    ) -> Iterator[npt.NDArray[Any]]:
+        """Estimator ``j``'s consistency over each of ``windows`` (in order of their
+        starts), computed for a batch of nearby windows at once: windows closer than the
+        warm-up share one pass, and the batches grow (4x, up to
+        :data:`CONSISTENCY_PIECE` rows) as the caller asks for more, so the first
+        windows cost little and a long run of them about one pass over their span."""
+        assert model.bank is not None
+        join = model.bank.warmup  # filtering a gap costs no more than a new warm-up
+        budget = 1 << 12
+        i = 0
+        while i < len(windows):
+            lo, hi = windows[i]
+            k = i + 1
+            while (
+                k < len(windows)
+                and windows[k][0] - hi <= join
+                and max(hi, windows[k][1]) - lo <= budget
+            ):
+                hi = max(hi, windows[k][1])
+                k += 1
+            block = self._estimator_consistency(model, Y, fixes, j, lo, hi)
+            for a, b in windows[i:k]:
+                yield block[a - lo : b - lo]
+            i = k
+            budget = min(CONSISTENCY_PIECE, 4 * budget)
+
+    def _longest_violation(
+        self,
+        model: FittedBank,
+        Y: FloatArray,
+        fixes: list[tuple[int, int, int, FloatArray]],
+        j: int,
+        lo: int,
+        hi: int,
+    ) -> float:
+        """:meth:`_violation` of estimator ``j``'s consistency over rows ``lo .. hi - 1``
+        (a whole fault period), computed a piece at a time: its memory does not grow with
+        the period."""
+        cal = model.consistency_cal[j]
+        history = max(cal.windows) - 1
+        tail = np.zeros(0)
+        best = 0.0
+        for a in range(max(0, lo), min(Y.shape[0], hi), CONSISTENCY_PIECE):
+            b = min(hi, a + CONSISTENCY_PIECE)
+            part = np.nan_to_num(self._estimator_consistency(model, Y, fixes, j, a, b))
+            # the windows that end in this piece reach back into the one before
+            x = np.concatenate((tail, part))
+            stat = alarm_statistic(x, cal, raw=True, start=tail.shape[0], base=tail.shape[0])
+            best = max(best, float(np.max(stat, initial=0.0)))
+            tail = x[x.shape[0] - min(history, x.shape[0]) :]
+        return best
+
     def _next_fault(
         self,
         model: FittedBank,
@@ -698,10 +797,25 @@ class ARKalmanBank:
         train_stop: int,
         explained: list[tuple[int, int, int]],
         alarms: list[list[Interval]] | None = None,
+        estimator: Callable[[int, list[tuple[int, int]]], Iterator[npt.NDArray[Any]]] | None = None,
+        longest: Callable[[int, int, int], float] | None = None,
     ) -> tuple[Event | None, list[tuple[int, int, int]], Classification | None] | None:
         """The earliest not-yet-explained fault, isolated to one sensor, or None.
         ``alarms``: each channel's alarm intervals in ``out`` when already known (they only
-        change when the outputs do)."""
+        change when the outputs do). ``estimator(j, windows)``: estimator ``j``'s
+        consistency over each window in turn; ``longest(j, lo, hi)``: the largest alarm
+        statistic of estimator ``j``'s consistency over ``lo .. hi - 1`` (both from
+        ``consistency`` when not given)."""
+        if estimator is None:
+
+            def estimator(j: int, windows: list[tuple[int, int]]) -> Iterator[npt.NDArray[Any]]:
+                return (consistency(a, b)[:, j] for a, b in windows)
+
+        if longest is None:
+
+            def longest(j: int, lo: int, hi: int) -> float:
+                return self._violation(model, consistency(lo, hi)[:, j], j)
+
         resid, est = out.resid, out.est
         N, m = resid.shape
         cands = []
@@ -762,9 +876,12 @@ class ARKalmanBank:
         # estimator j (which never sees sensor j) inconsistent; fit this fault's shape
         # before it, so the two do not blur (re-occurring faults, Section 4).
         limit = None
-        for t2 in sorted({c[0] for c in cands if c[1] != j and c[0] > t0 + span}):
-            lo2, hi2 = max(train_stop, t2 - model.window), min(N, t2 + 2 * span)
-            if self._violations(model, consistency(lo2, hi2), [j])[0] >= 1.0:
+        later = sorted({c[0] for c in cands if c[1] != j and c[0] > t0 + span})
+        windows = [(max(train_stop, t2 - model.window), min(N, t2 + 2 * span)) for t2 in later]
+        # estimator j's consistency only, over the windows batched (a fault that lasts
+        # spreads through the other estimators: thousands of alarms over a long archive)
+        for t2, nis_j in zip(later, estimator(j, windows), strict=False):
+            if self._violation(model, nis_j, j) >= 1.0:
                 # a slowly growing fault alarms late: keep a long window off its alarm
                 limit = max(iv.onset + span, t2 - span)
                 break
@@ -772,10 +889,12 @@ class ARKalmanBank:
         stop = N if end is None else end
         if not isolated:
             # a slowly growing fault disturbs the estimators that use the sensor only
-            # later: look for the confirmation over the whole fault period
+            # later: look for the confirmation over the whole fault period, estimator by
+            # estimator (the ones most inconsistent at the onset first) until one confirms
             until = stop if limit is None else min(stop, limit)
-            over = self._violations(model, consistency(lo, until))
-            isolated = _confirmed(over[j], max((over[i] for i in range(m) if i != j), default=0.0))
+            own = longest(j, lo, until)
+            order = sorted((i for i in range(m) if i != j), key=lambda i: -violation[i])
+            isolated = any(_confirmed(own, longest(i, lo, until)) for i in order)
         if not isolated and (cls.type is FaultType.OTHER or stop - iv.onset < span):
             # A change of residual that no estimator using the sensor confirms and that
             # either no fault shape explains or that is gone within a long window is
@@ -976,6 +1095,40 @@ def bank_block(
             nt = nu.transpose(1, 0, 2)  # (m, c, m - 1)
             nis[rows] = (np.matmul(nt, inv_stack) * nt).sum(axis=2).T / (m - 1)
     return BankBlock(resid, est, nis, innov)
+
+
+def estimator_consistency(
+    mean: FloatArray,
+    scale: FloatArray,
+    bank: BankFilter,
+    system: ImpulseResponseBank,
+    j: int,
+    Y: FloatArray,
+    warm: int,
+) -> npt.NDArray[Any]:
+    """Estimator ``j``'s consistency for ``Y[warm:]`` (raw units) from a zero state at
+    ``Y[0]``: :func:`bank_block`'s ``nis[:, j]`` of a whitened ``bank`` to rounding, from
+    ``system = bank.system.subset([j])`` (its ``m`` outputs, not the bank's ``m^2``),
+    masked where one of its inputs is missing and for its settling time after."""
+    N, m = Y.shape
+    gap = ~np.isfinite(np.asarray(Y))
+    bad = None
+    if gap.any():
+        others = gap.sum(axis=1) - gap[:, j]  # estimator j misses any channel but j
+        bad = _dilate_forward(others > 0, bank.settle[j])
+    nis = np.empty(N - warm, NIS_DTYPE)
+
+    def scaled(a: int, b: int) -> FloatArray:  # the bank's input, gaps as 0
+        return np.where(gap[a:b], 0.0, (np.asarray(Y[a:b], dtype=np.float64) - mean) / scale)
+
+    for lo, out in run_chunked(system, scaled, N, warm):
+        e0 = lo + out.shape[2]
+        nu = out.transpose(2, 0, 1)[:, :, :-1]  # (c, 1, m - 1): the whitened innovations
+        val = np.einsum("cjq,cjq->cj", nu, nu)[:, 0] / (m - 1)
+        if bad is not None:
+            val[bad[lo:e0]] = np.nan
+        nis[lo - warm : e0 - warm] = val
+    return nis
 
 
 def _alarm_intervals(

@@ -1221,11 +1221,14 @@ class DetectionFilter:
         bad: npt.NDArray[np.bool_],
         lo: int,
         hi: int,
+        bank: ImpulseResponseBank | LiftedBank | None = None,
     ) -> FloatArray:
         """Residual vectors ``q`` (sensor units) of filter ``j`` over samples ``lo .. hi - 1``
         of the run (clipped to the record), recomputed from the data for the few samples an
         event needs (only the input the filter remembers is rebuilt); NaN as in
-        :meth:`_run_outputs`."""
+        :meth:`_run_outputs`. ``bank``: the impulse responses of every filter (the run's
+        :func:`filter_bank`), whose filter ``j`` is taken instead of building its own (a
+        fault that lasts asks for this at hundreds of alarms)."""
         f = model.filters[j]
         hi = min(values.shape[0], hi)
         if hi <= lo:
@@ -1234,7 +1237,8 @@ class DetectionFilter:
         def inputs(a: int, b: int) -> FloatArray:
             return cls._inputs(model.model, np.asarray(values[a:b]))[0]
 
-        pieces = [y[0, : f.n_outputs] for _, y in run_chunked(filter_bank([f]), inputs, hi, lo)]
+        one = bank.subset([j]) if isinstance(bank, ImpulseResponseBank) else filter_bank([f])
+        pieces = [y[0, : f.n_outputs] for _, y in run_chunked(one, inputs, hi, lo)]
         q = np.concatenate(pieces, axis=1).T * model.model.y_scale
         first = max(0, lo - f.settle())
         q[_dilate_forward(bad[first:hi], f.settle())[lo - first :]] = np.nan
@@ -1295,7 +1299,7 @@ class DetectionFilter:
             k_on = int(round(ev.onset_s * rate))
             f = model.filters[j]
             span_j = max(2, int(np.ceil(1.0 / (1.0 - f.sigma))))
-            seg = self._residual_vectors(model, j, data.values, bad, k_on, k_on + span_j)
+            seg = self._residual_vectors(model, j, data.values, bad, k_on, k_on + span_j, bank)
             ev.evidence.update(
                 {
                     "direction": names[j],
