@@ -35,7 +35,13 @@ Independent pieces meet at discontinuities (a new seed is a new trajectory of th
 building): the detectors see each boundary as a change of the whole structure, the bank
 makes an extra pass per boundary and a detector may even report a finding there (exit 1).
 ``--continuous`` cuts one long simulation into the hourly files instead: a healthy archive
-without boundaries, the case the targets are about.
+without boundaries, the case the targets are about. ``--fault KIND`` (with
+``--continuous``) puts a sensor fault on one channel (``s5``) from the middle of the first
+file (30 minutes) to the end of the archive (``inject_fault``): ``additive`` (half the
+channel's healthy standard deviation), ``multiplicative`` (gain 1.3) or ``drift`` (one
+standard deviation per hour): a fault that lasts, whose alarms go on for hours on its
+channel and on the channels its error spreads to, the costliest case for the detectors'
+isolation and diagnosis.
 
 ``--profile`` runs the longest archive of the first format once more under cProfile
 and prints the top functions by own time and the analyzer functions by cumulative time.
@@ -45,6 +51,7 @@ script, not a timed test::
     python benchmarks/bench_pipeline.py [--hours 1,4] [--formats csv,mcap] [--quick]
                                         [--continuous] [--profile] [--keep DIR]
                                         [--jobs N] [--detectors A,B]
+                                        [--fault additive|multiplicative|drift]
 """
 
 from __future__ import annotations
@@ -75,7 +82,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from analyzer.detectors.ar_model import fit_ar  # noqa: E402
-from analyzer.simulate import simulate_building  # noqa: E402
+from analyzer.simulate import inject_fault, simulate_building  # noqa: E402
 from analyzer.writers import write_archive  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -172,12 +179,35 @@ class Run:
 # --------------------------------------------------------------------------- archives
 
 
+FAULT_CHANNEL = 5
+"""Channel of ``--fault`` (``s5``, floor 3's second sensor)."""
+
+
+def with_fault(Y: FloatArray, kind: str, onset_s: float) -> FloatArray:
+    """``Y`` with ``--fault kind`` on :data:`FAULT_CHANNEL` from ``onset_s`` to the end
+    (sizes scaled by the channel's healthy standard deviation before the onset)."""
+    j = min(FAULT_CHANNEL, Y.shape[1] - 1)  # s3 of --quick's 4 channels
+    k0 = int(round(onset_s * RATE_HZ))
+    sd = float(np.std(Y[:k0, j]))
+    size = {"additive": 0.5 * sd, "multiplicative": 1.3, "drift": sd / 3600.0}[kind]
+    out = np.array(Y, copy=True)
+    out[:, j] = inject_fault(Y[:, j], RATE_HZ, kind, onset_s, size)
+    return out
+
+
 def write_pieces(
-    base: Path, formats: list[str], pieces: int, piece_s: float, floors: int, continuous: bool
+    base: Path,
+    formats: list[str],
+    pieces: int,
+    piece_s: float,
+    floors: int,
+    continuous: bool,
+    fault: str | None = None,
 ) -> tuple[dict[str, list[Path]], dict[str, float]]:
     """``pieces`` consecutive files per format (reused when ``base`` already holds them):
     independent simulations with seeds 1000, 1001, ... or, with ``continuous``, one
-    simulation (seed 1000) cut into pieces."""
+    simulation (seed 1000) cut into pieces, with ``fault`` (:func:`with_fault`) when
+    given."""
     paths: dict[str, list[Path]] = {f: [] for f in formats}
     spent = dict.fromkeys(formats, 0.0)
     skip = int(round(WARMUP_S * RATE_HZ))  # the start from rest is dropped
@@ -195,6 +225,9 @@ def write_pieces(
                 _, Y_all, names = simulate_building(
                     floors, WARMUP_S + pieces * piece_s, RATE_HZ, seed=1000, sensors_per_floor=2
                 )
+                if fault is not None:
+                    # from the middle of the first file (30 min into hourly files)
+                    Y_all[skip:] = with_fault(Y_all[skip:], fault, piece_s / 2)
                 whole = (Y_all, names)
             Y_all, names = whole
             Y = Y_all[skip + h * per_piece : skip + (h + 1) * per_piece]
@@ -384,6 +417,12 @@ def main(argv: list[str] | None = None) -> int:
         help="cut one long simulation into the files (default: one seed per file, so the "
         "files meet at discontinuities the detectors see)",
     )
+    parser.add_argument(
+        "--fault",
+        choices=("additive", "multiplicative", "drift"),
+        help="with --continuous: a fault on s5 from the middle of the first file (30 min) "
+        "to the end of the archive",
+    )
     parser.add_argument("--keep", metavar="DIR", help="write (and reuse) the archives in DIR")
     parser.add_argument("--jobs", type=int, default=None, help="pass --jobs N to analyzer run")
     parser.add_argument(
@@ -402,6 +441,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.repeat < 1:
         parser.error(f"--repeat: must be >= 1, got {args.repeat}")
+    if args.fault and not args.continuous:
+        parser.error("--fault: needs --continuous (one simulation the fault runs through)")
     if args.jobs:
         RUN_ARGS.extend(["--jobs", str(args.jobs)])
     if args.detectors:
@@ -429,9 +470,11 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="bench_pipeline_") as tmp:
         base = Path(args.keep) if args.keep else Path(tmp)
         stitch = "continuous" if args.continuous else "seeds"
+        if args.fault:
+            stitch += f"_{args.fault}"
         data_dir = base / f"{2 * floors}ch_{piece_s:g}s_{stitch}"
         pieces, spent = write_pieces(
-            data_dir, formats, pieces_needed, piece_s, floors, args.continuous
+            data_dir, formats, pieces_needed, piece_s, floors, args.continuous, args.fault
         )
         for f in formats:
             size = sum(p.stat().st_size for p in pieces[f]) / 2**20
