@@ -617,16 +617,21 @@ class ARKalmanBank:
             # "corrected by a curve-fitting algorithm"): remove the fitted fault shape, or
             # where there is none (type other) use the estimate from the other sensors.
             # The estimators forget the change within their warm-up, so only the fault
-            # period and the warm-up after it are filtered again, from a copy of those rows
-            # with every correction so far (the input itself is never written).
+            # period and the warm-up after it are filtered again, from copies of those rows
+            # with every correction so far (the input itself is never written), a piece
+            # of CONSISTENCY_PIECE rows at a time after its own warm-up: a fault that
+            # lasts for hours is not copied whole.
             assert model.bank is not None
-            lo, hi = max(0, a - model.bank.warmup), min(N, b + model.bank.warmup)
-            seg = _corrected_rows(Y, fixes, lo, hi)
-            fixed = _undo_fault(seg[a - lo : b - lo, j], out.est[a:b, j], cls, rate)
-            fixes.append((j, a, b, fixed))
-            seg[a - lo : b - lo, j] = fixed
-            rows = BankOutputs(out.resid[lo:hi], out.est[lo:hi], None)
-            self._bank_outputs(model, seg, context, start=a - lo, stop=hi - lo, into=rows)
+            warm = model.bank.warmup
+            column = _corrected_rows(Y, fixes, a, b, channel=j)[:, 0]
+            fixes.append((j, a, b, _undo_fault(column, out.est[a:b, j], cls, rate)))
+            del column
+            for p in range(a, min(N, b + warm), CONSISTENCY_PIECE):
+                q = min(N, b + warm, p + CONSISTENCY_PIECE)
+                s = max(0, p - warm)
+                seg = _corrected_rows(Y, fixes, s, q)
+                rows = BankOutputs(out.resid[s:q], out.est[s:q], None)
+                self._bank_outputs(model, seg, context, start=p - s, stop=q - s, into=rows)
             alarms = None
             context.report("ar_kalman_bank", min(1.0, len(events) / m))
         # the residual the report shows: as measured, before any correction, kept in the
@@ -1265,15 +1270,22 @@ def _describe(bank: BankFilter | None) -> str:
 
 
 def _corrected_rows(
-    Y: FloatArray, fixes: list[tuple[int, int, int, FloatArray]], lo: int, hi: int
+    Y: FloatArray,
+    fixes: list[tuple[int, int, int, FloatArray]],
+    lo: int,
+    hi: int,
+    channel: int | None = None,
 ) -> FloatArray:
-    """A copy of rows ``lo .. hi - 1`` of ``Y`` with the corrections ``fixes`` applied
-    (in order) where they overlap."""
-    seg = np.array(Y[lo:hi], dtype=np.float64)
+    """A copy of rows ``lo .. hi - 1`` of ``Y`` (of its column ``channel`` only, as a
+    one-column array, when given) with the corrections ``fixes`` applied (in order) where
+    they overlap; a memory-mapped ``Y``'s rows are given back once copied."""
+    rows = Y[lo:hi]
+    seg = np.array(rows if channel is None else rows[:, channel : channel + 1], dtype=np.float64)
+    release(rows)
     for j, a, b, fixed in fixes:
         x0, x1 = max(a, lo), min(b, hi)
-        if x0 < x1:
-            seg[x0 - lo : x1 - lo, j] = fixed[x0 - a : x1 - a]
+        if x0 < x1 and (channel is None or j == channel):
+            seg[x0 - lo : x1 - lo, 0 if channel is not None else j] = fixed[x0 - a : x1 - a]
     return seg
 
 

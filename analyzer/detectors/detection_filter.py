@@ -1235,7 +1235,10 @@ class DetectionFilter:
             return np.empty((0, f.n_outputs))
 
         def inputs(a: int, b: int) -> FloatArray:
-            return cls._inputs(model.model, np.asarray(values[a:b]))[0]
+            rows = values[a:b]
+            v = cls._inputs(model.model, np.asarray(rows))[0]
+            release(rows)  # a memory-mapped archive: hundreds of events would map it all
+            return v
 
         one = bank.subset([j]) if isinstance(bank, ImpulseResponseBank) else filter_bank([f])
         pieces = [y[0, : f.n_outputs] for _, y in run_chunked(one, inputs, hi, lo)]

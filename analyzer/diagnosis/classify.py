@@ -19,6 +19,7 @@ the best shape leaves most of the fault's energy unexplained, the fault is ``oth
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -77,61 +78,100 @@ def correlation_time(r: FloatArray, max_lag: int = 200) -> float:
     return float(max(1.0, 1.0 + 2.0 * np.sum(acf[1:stop])))
 
 
+CLASSIFY_PIECE = 1 << 18
+"""Samples of a fault's stretch read at a time: the sums the fits need are taken a piece
+at a time, so a fault that lasts for hours is never copied whole."""
+
+
 def classify(
     fault: FloatArray,
     reference: FloatArray | None,
     sigma: float,
     rate_hz: float,
     tau_corr: float = 1.0,
+    *,
+    shift: float = 0.0,
 ) -> Classification:
-    """Type, magnitude and confidence of the fault signal ``fault`` over its stretch.
+    """Type, magnitude and confidence of the fault signal ``fault - shift`` over its
+    stretch.
 
-    ``fault`` is ``measured - estimated`` from the onset on (channel units), ``reference``
-    the fault-free estimate over the same samples (None: the multiplicative shape cannot be
+    ``fault`` is ``measured - estimated`` from the onset on (channel units; ``shift``: the
+    healthy residual mean, subtracted here a piece at a time), ``reference`` the
+    fault-free estimate over the same samples (None: the multiplicative shape cannot be
     tested), ``sigma`` the healthy residual standard deviation and ``tau_corr`` its
-    correlation time in samples."""
-    f = np.asarray(fault, dtype=np.float64)
-    ok = np.isfinite(f)
-    y = None if reference is None else np.asarray(reference, dtype=np.float64)
-    if y is not None:
-        ok &= np.isfinite(y)
-    idx = np.flatnonzero(ok)
-    f = f[ok]
-    n = f.shape[0]
-    tau = idx.astype(np.float64) / rate_hz
+    correlation time in samples. The three least-squares fits are computed from sums over
+    :data:`CLASSIFY_PIECE` samples at a time (two passes: the means, then the sums about
+    them), so memory does not grow with the stretch."""
+    fault_arr = np.asarray(fault)
+    ref_arr = None if reference is None else np.asarray(reference)
+    total = fault_arr.shape[0]
+
+    def pieces() -> Iterator[tuple[FloatArray, FloatArray | None, FloatArray]]:
+        """The stretch's valid samples a piece at a time: ``f``, ``y`` and ``tau``."""
+        for a in range(0, total, CLASSIFY_PIECE):
+            b = min(total, a + CLASSIFY_PIECE)
+            f = np.asarray(fault_arr[a:b], dtype=np.float64)
+            if shift:
+                f = f - shift
+            ok = np.isfinite(f)
+            y = None
+            if ref_arr is not None:
+                y = np.asarray(ref_arr[a:b], dtype=np.float64)
+                ok &= np.isfinite(y)
+                y = y[ok]
+            tau = (np.flatnonzero(ok) + a).astype(np.float64) / rate_hz
+            yield f[ok], y, tau
+
+    # pass 1: counts and plain sums
+    n, sum_f, sum_tau, energy, den, cross, last_tau = 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    for f, y, tau in pieces():
+        if not f.shape[0]:
+            continue
+        n += f.shape[0]
+        sum_f += float(np.add.reduce(f))
+        sum_tau += float(np.add.reduce(tau))
+        energy += float(np.sum(f * f))
+        last_tau = float(tau[-1])
+        if y is not None:
+            den += float(np.dot(y, y))
+            cross += float(np.dot(y, f))
     if n < 3:
-        return Classification(FaultType.OTHER, {"offset": float(np.mean(f)) if n else 0.0}, 0.0)
+        return Classification(FaultType.OTHER, {"offset": sum_f / n if n else 0.0}, 0.0)
     noise = max(sigma, 1e-12) ** 2
     n_eff = max(3.0, n / max(tau_corr, 1.0))
     scale = n_eff / n  # each squared residual counts for 1/tau_corr of a sample
 
+    d = sum_f / n
+    mean_tau = sum_tau / n
+    g = cross / den if ref_arr is not None and den > 0.0 else None
+    # pass 2: sums about the means, and the multiplicative fit's residual
+    rss_add, s_tt, s_tf, rss_mult = 0.0, 0.0, 0.0, 0.0
+    for f, y, tau in pieces():
+        fc = f - d
+        tc = tau - mean_tau
+        rss_add += float(np.sum(fc**2))
+        s_tt += float(np.dot(tc, tc))
+        s_tf += float(np.dot(tc, fc))
+        if g is not None and y is not None:
+            rss_mult += float(np.sum((f - g * y) ** 2))
+
     fits: dict[FaultType, tuple[float, int, dict[str, float], float]] = {}
     # additive: f = D
-    d = float(np.mean(f))
-    fits[FaultType.ADDITIVE] = (float(np.sum((f - d) ** 2)), 1, {"offset": d}, 0.0)
-    # drift: f = c + b tau
-    design = np.column_stack([np.ones(n), tau])
-    coef, *_ = np.linalg.lstsq(design, f, rcond=None)
-    c, b = float(coef[0]), float(coef[1])
-    rss = float(np.sum((f - design @ coef) ** 2))
-    shift = 0.0
+    fits[FaultType.ADDITIVE] = (rss_add, 1, {"offset": d}, 0.0)
+    # drift: f = c + b tau (least squares about the means; its residual sum of squares is
+    # the additive fit's less what the slope explains)
+    b = s_tf / s_tt if s_tt > 0.0 else 0.0
+    c = d - b * mean_tau
+    rss = max(0.0, rss_add - b * s_tf)
+    onset_shift = 0.0
     if b != 0.0:
-        shift = float(np.clip(-c / b, -tau[-1], 0.0))
-    fits[FaultType.DRIFT] = (rss, 2, {"rate_per_s": b}, shift)
+        onset_shift = float(np.clip(-c / b, -last_tau, 0.0))
+    fits[FaultType.DRIFT] = (rss, 2, {"rate_per_s": b}, onset_shift)
     params = {"offset": d, "intercept": c, "rate_per_s": b}
     # multiplicative: f = (a - 1) y
-    if y is not None:
-        yy = y[ok]
-        den = float(np.dot(yy, yy))
-        if den > 0.0:
-            g = float(np.dot(yy, f) / den)
-            fits[FaultType.MULTIPLICATIVE] = (
-                float(np.sum((f - g * yy) ** 2)),
-                1,
-                {"gain": 1.0 + g},
-                0.0,
-            )
-            params["gain"] = 1.0 + g
+    if g is not None:
+        fits[FaultType.MULTIPLICATIVE] = (rss_mult, 1, {"gain": 1.0 + g}, 0.0)
+        params["gain"] = 1.0 + g
 
     bic = {t: rss * scale / noise + k * np.log(n_eff) for t, (rss, k, _, _) in fits.items()}
     best = min(bic, key=lambda t: bic[t])
@@ -140,7 +180,6 @@ def classify(
     tot = sum(w.values())
     weights = {t.value: v / tot for t, v in w.items()}
 
-    energy = float(np.sum(f * f))
     floor = n * noise
     rss_best = fits[best][0]
     excess = energy - floor
@@ -156,5 +195,5 @@ def classify(
             explained,
             params,
         )
-    _, _, mag, shift = fits[best]
-    return Classification(best, mag, weights[best.value], shift, weights, explained, params)
+    _, _, mag, moved = fits[best]
+    return Classification(best, mag, weights[best.value], moved, weights, explained, params)

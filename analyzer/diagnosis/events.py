@@ -131,7 +131,8 @@ def diagnose_interval(
 
     def fit(stop: int) -> Classification:
         seg_ref = None if ref is None else ref[iv.onset : stop]
-        return classify(r[iv.onset : stop] - cal.mean, seg_ref, cal.std, rate_hz, tau_corr)
+        # the stretch as it lies (a view): classify reads it a piece at a time
+        return classify(r[iv.onset : stop], seg_ref, cal.std, rate_hz, tau_corr, shift=cal.mean)
 
     cls = fit(stop)
     # the shape is elementwise in tau and the reference: a stretch of it is the whole

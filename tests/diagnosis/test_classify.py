@@ -78,3 +78,60 @@ def test_a_shape_traced_back_into_the_healthy_window_starts_at_its_end():
     assert ev == {"traced_onset_s": 10.0, "starts_in_training": True}
     onset, factor, ev = bounded_onset(6000, drift, 100.0, 2000)  # 60 s - 30 s
     assert (onset, factor, ev) == (30.0, 1.0, {})
+
+
+def _reference_fits(f, y, rate):
+    """The three least-squares fits by numpy's lstsq on the whole stretch (valid samples):
+    residual sums of squares and coefficients."""
+    ok = np.isfinite(f) & np.isfinite(y)
+    tau = np.flatnonzero(ok) / rate
+    f, y = f[ok], y[ok]
+    d = f.mean()
+    design = np.column_stack([np.ones(f.shape[0]), tau])
+    (c, b), *_ = np.linalg.lstsq(design, f, rcond=None)
+    g = np.dot(y, f) / np.dot(y, y)
+    return {
+        "additive": (np.sum((f - d) ** 2), d),
+        "drift": (np.sum((f - c - b * tau) ** 2), b),
+        "multiplicative": (np.sum((f - g * y) ** 2), 1.0 + g),
+    }
+
+
+@pytest.mark.parametrize("kind", ["additive", "drift", "multiplicative"])
+def test_classify_in_pieces_equals_the_whole_stretch_fits(kind, monkeypatch):
+    """The fits' sums taken a piece at a time (two passes, gaps across the pieces' edges,
+    the healthy mean subtracted on the way) give the type and magnitudes of lstsq on the
+    whole stretch, and the same classification as one piece."""
+    import importlib
+
+    module = importlib.import_module("analyzer.diagnosis.classify")
+
+    rng = np.random.default_rng(3)
+    rate, n = 100.0, 50_000
+    y = np.sin(np.arange(n) / 17.0) * 3.0 + rng.standard_normal(n)
+    shape = {
+        "additive": np.full(n, 0.8),
+        "drift": 0.02 * np.arange(n) / rate + 0.3,
+        "multiplicative": 0.4 * y,
+    }[kind]
+    f = shape + 0.3 * rng.standard_normal(n) + 2.5  # 2.5: the healthy mean
+    f[9_990:10_020] = np.nan
+    y[30_000:30_005] = np.inf
+    whole = classify(f, y, 0.3, rate, shift=2.5)
+    monkeypatch.setattr(module, "CLASSIFY_PIECE", 4_000)
+    got = classify(f, y, 0.3, rate, shift=2.5)
+    assert got.type is whole.type is FaultType(kind)
+    assert got.magnitude == pytest.approx(whole.magnitude, rel=1e-9)
+    assert got.weights == pytest.approx(whole.weights, rel=1e-6, abs=1e-12)
+    assert got.explained == pytest.approx(whole.explained, rel=1e-9)
+    assert got.onset_shift_s == pytest.approx(whole.onset_shift_s, rel=1e-9, abs=1e-12)
+    ref = _reference_fits(f - 2.5, y, rate)
+    for name, value in got.magnitude.items():
+        expected = {
+            "offset": ref["additive"][1],
+            "rate_per_s": ref["drift"][1],
+            "gain": ref["multiplicative"][1],
+        }[name]
+        assert value == pytest.approx(expected, rel=1e-9)
+    assert got.params["rate_per_s"] == pytest.approx(ref["drift"][1], rel=1e-9)
+    assert got.params["gain"] == pytest.approx(ref["multiplicative"][1], rel=1e-9)
