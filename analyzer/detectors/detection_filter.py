@@ -69,7 +69,7 @@ identified on the healthy window, in block observer-canonical form (:func:`ar_ob
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, ClassVar
 
@@ -118,6 +118,11 @@ DIRECTION_RELATIVE = 0.25
 isolates its sensor when it is at most this fraction as far off as the typical other
 filter: a burst of excitation that inflates every filter alike must not mask a sensor
 fault (the same rule as the AR Kalman bank's relative consistency)."""
+
+DIRECTION_BATCH = 1 << 16
+"""Largest stretch of samples whose direction statistics are computed in one pass for a
+batch of nearby alarm windows (:meth:`DetectionFilter._batched_direction_statistics`):
+a filter bank's outputs over it are a few tens of MB."""
 
 PBH_RTOL = 1e-9
 """Relative size of the smallest singular value of ``[A - lambda I; C]`` below which the
@@ -1213,6 +1218,40 @@ class DetectionFilter:
         return stats
 
     @classmethod
+    def _batched_direction_statistics(
+        cls,
+        model: FittedDetectionFilter,
+        bank: ImpulseResponseBank | LiftedBank,
+        values: FloatArray,
+        bad: npt.NDArray[np.bool_],
+        windows: list[tuple[int, int]],
+    ) -> Iterator[list[FloatArray]]:
+        """:meth:`_direction_statistics` over each of ``windows`` in turn, computed for a
+        batch of nearby windows at once (closer than the history a window's statistics
+        are computed from, which a separate pass would filter again) and sliced: the
+        same values to rounding. Batches grow (4x, up to :data:`DIRECTION_BATCH` rows)
+        as the windows are asked for, so the first cost little."""
+        long = max(cal.long_window for cal in model.direction_cal)
+        join = long + (bank.history or 0)
+        budget = 1 << 12
+        i = 0
+        while i < len(windows):
+            lo, hi = windows[i]
+            k = i + 1
+            while (
+                k < len(windows)
+                and lo <= windows[k][0] <= hi + join
+                and max(hi, windows[k][1]) - lo <= budget
+            ):
+                hi = max(hi, windows[k][1])
+                k += 1
+            stats = cls._direction_statistics(model, bank, values, bad, lo, hi)
+            for a, b in windows[i:k]:
+                yield [st[a - lo : b - lo] for st in stats]
+            i = k
+            budget = min(DIRECTION_BATCH, 4 * budget)
+
+    @classmethod
     def _residual_vectors(
         cls,
         model: FittedDetectionFilter,
@@ -1283,14 +1322,19 @@ class DetectionFilter:
                 cands.append((k0, i, ev))
         cands.sort(key=lambda c: (c[0], c[1]))
         span = model.zeta_cal[0].long_window
+        groups: list[tuple[list[tuple[int, int, Event]], int, int]] = []
         while cands:
             # every alarm within a long window of the earliest competes for one fault
             t0 = cands[0][0]
             group = [c for c in cands if c[0] <= t0 + span]
             cands = [c for c in cands if c[0] > t0 + span]
             lo = max(train_stop, min(int(round(c[2].onset_s * rate)) for c in group) - w)
-            hi = min(n, t0 + 2 * span)
-            stats = self._direction_statistics(model, bank, data.values, bad, lo, hi)
+            groups.append((group, lo, min(n, t0 + 2 * span)))
+        # the direction statistics of nearby groups' windows in one pass (a fault that
+        # lasts has hundreds of alarm groups over a long archive)
+        windows = [(lo, hi) for _, lo, hi in groups]
+        batched = self._batched_direction_statistics(model, bank, data.values, bad, windows)
+        for (group, lo, hi), stats in zip(groups, batched, strict=True):
             viol = [float(np.max(st, initial=0.0)) for st in stats]
             chans = sorted({c[1] for c in group})
             # the sensor whose filter's residual stays closest to its own direction

@@ -230,9 +230,21 @@ def test_estimates_alone_and_direction_windows_equal_the_full_run(
         np.testing.assert_array_equal(np.isnan(a), np.isnan(b))
         np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-9 * np.nanmax(np.abs(b)))
     stats = [alarm_statistic(nis[i], model.direction_cal[i], raw=True) for i in range(len(nis))]
-    for lo, hi in [(10, 700), (8600, 9600), (11000, 11900)]:
+    windows = [(10, 700), (8600, 9600), (11000, 11900)]
+    for lo, hi in windows:
         got = det._direction_statistics(model, bank, Yg, bad, lo, hi)
         for g, s in zip(got, stats, strict=True):
+            np.testing.assert_allclose(g, s[lo:hi], rtol=1e-5, atol=1e-7)
+    # windows batched into shared passes (overlapping, adjacent, one behind another, far
+    # apart): each its own stretch of the whole-record statistics
+    n = Yg.shape[0]
+    windows += [(9000, 9500), (9500, 9800), (9200, 9300), (11500, n - 200), (n - 100, n)]
+    windows.sort()
+    batched = list(det._batched_direction_statistics(model, bank, Yg, bad, windows))
+    assert len(batched) == len(windows)
+    for (lo, hi), got in zip(windows, batched, strict=True):
+        for g, s in zip(got, stats, strict=True):
+            assert g.shape == (hi - lo,)
             np.testing.assert_allclose(g, s[lo:hi], rtol=1e-5, atol=1e-7)
 
 
