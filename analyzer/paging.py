@@ -107,6 +107,20 @@ release per chunk of a few thousand rows cost a ``madvise`` per array and channe
 each one interrupts the other core to flush its TLB."""
 
 
+def read_column(values: npt.NDArray[Any], j: int, a: int, b: int) -> npt.NDArray[np.float64]:
+    """Column ``j`` of rows ``a .. b - 1`` of a 2-D array as a new float64 array, read
+    :data:`RELEASE_ROWS` rows at a time with each piece's pages given back (a no-op in
+    memory): a column of a row-major matrix lies on every page of its rows, so reading a
+    long stretch of it whole would map all of them."""
+    out = np.empty(max(0, b - a))
+    for p in range(a, b, RELEASE_ROWS):
+        q = min(b, p + RELEASE_ROWS)
+        rows = values[p:q]
+        out[p - a : q - a] = rows[:, j]
+        release(rows)
+    return out
+
+
 class Released:
     """The pages of a pass's arrays given back behind it, :data:`RELEASE_ROWS` at a time:
     ``upto(k)`` once the pass is done with indices ``start .. k - 1`` along ``axis`` of
@@ -246,6 +260,7 @@ __all__ = [
     "buffer",
     "is_mapped",
     "mapped_file",
+    "read_column",
     "release",
     "spill",
     "trim_heap",

@@ -60,7 +60,7 @@ from analyzer.diagnosis.changes import (
 from analyzer.diagnosis.classify import Classification, correlation_time
 from analyzer.diagnosis.events import bounded_onset, diagnose_interval
 from analyzer.errors import DetectorError
-from analyzer.paging import Released, release
+from analyzer.paging import Released, read_column, release
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -1279,9 +1279,12 @@ def _corrected_rows(
     """A copy of rows ``lo .. hi - 1`` of ``Y`` (of its column ``channel`` only, as a
     one-column array, when given) with the corrections ``fixes`` applied (in order) where
     they overlap; a memory-mapped ``Y``'s rows are given back once copied."""
-    rows = Y[lo:hi]
-    seg = np.array(rows if channel is None else rows[:, channel : channel + 1], dtype=np.float64)
-    release(rows)
+    if channel is None:
+        rows = Y[lo:hi]
+        seg = np.array(rows, dtype=np.float64)
+        release(rows)
+    else:  # a piece of rows at a time: a long fault's column would map the whole matrix
+        seg = read_column(Y, channel, lo, hi)[:, None]
     for j, a, b, fixed in fixes:
         x0, x1 = max(a, lo), min(b, hi)
         if x0 < x1 and (channel is None or j == channel):

@@ -17,10 +17,8 @@ import numpy as np
 import numpy.typing as npt
 
 from analyzer.diagnosis.merge import Finding
-from analyzer.paging import release
+from analyzer.paging import read_column
 from analyzer.types import FaultType
-
-FloatArray = npt.NDArray[np.float64]
 
 FLAT = 0.01
 """Readings vary by less than this fraction of their healthy standard deviation: frozen."""
@@ -52,7 +50,7 @@ def relabel_frozen(
             continue
         a = max(0, int(round(f.onset_s * rate_hz)))
         b = n if f.end_s is None else min(n, int(round(f.end_s * rate_hz)))
-        seg = _column(values, j, a, b)
+        seg = read_column(values, j, a, b)
         seg = seg[np.isfinite(seg)]
         healthy = np.asarray(values[train[0] : train[1], j], dtype=np.float64)
         healthy = healthy[np.isfinite(healthy)]
@@ -83,21 +81,3 @@ def relabel_frozen(
                 f"read it as {before})"
             )
     return notes
-
-
-COLUMN_PIECE = 1 << 16
-"""Rows of the aligned matrix read at a time for one channel's readings over a fault."""
-
-
-def _column(values: npt.NDArray[Any], j: int, a: int, b: int) -> FloatArray:
-    """Column ``j`` of rows ``a .. b - 1`` as a new float64 array, read
-    :data:`COLUMN_PIECE` rows at a time: a memory-mapped matrix's rows are given back as
-    they are read (a column of a row-major matrix lies on every page of its rows, so a
-    fault that lasts hours would otherwise map the whole matrix)."""
-    out = np.empty(max(0, b - a))
-    for p in range(a, b, COLUMN_PIECE):
-        q = min(b, p + COLUMN_PIECE)
-        rows = values[p:q]
-        out[p - a : q - a] = rows[:, j]
-        release(rows)
-    return out

@@ -65,7 +65,6 @@ def test_pipeline_reports_a_stuck_sensor_as_other_and_a_dead_one_as_gain_zero(tm
 def test_readings_over_a_fault_are_read_in_pieces(tmp_path, monkeypatch):
     """One channel's readings over a fault come from a memory-mapped matrix a piece of
     rows at a time, each piece given back: the column itself, NaNs included."""
-    import analyzer.diagnosis.stuck as stuck
     from analyzer import paging
 
     rng = np.random.default_rng(2)
@@ -74,8 +73,9 @@ def test_readings_over_a_fault_are_read_in_pieces(tmp_path, monkeypatch):
     mapped = paging.mapped_file(tmp_path / "m.npy", values.shape, np.float64)
     mapped[:] = values
     released = []
-    monkeypatch.setattr(stuck, "COLUMN_PIECE", 999)
-    monkeypatch.setattr(stuck, "release", lambda a: released.append(a.shape[0]))
-    got = stuck._column(mapped, 1, 123, 9_876)
+    monkeypatch.setattr(paging, "RELEASE_ROWS", 999)
+    monkeypatch.setattr(paging, "release", lambda a: released.append(a.shape[0]))
+    got = paging.read_column(mapped, 1, 123, 9_876)
     np.testing.assert_array_equal(got, values[123:9_876, 1])
     assert sum(released) == 9_876 - 123 and max(released) == 999
+    assert paging.read_column(values, 2, 5, 5).shape == (0,)
