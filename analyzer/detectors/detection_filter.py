@@ -69,7 +69,7 @@ identified on the healthy window, in block observer-canonical form (:func:`ar_ob
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, ClassVar
 
@@ -120,9 +120,9 @@ filter: a burst of excitation that inflates every filter alike must not mask a s
 fault (the same rule as the AR Kalman bank's relative consistency)."""
 
 DIRECTION_BATCH = 1 << 16
-"""Largest stretch of samples whose direction statistics are computed in one pass for a
-batch of nearby alarm windows (:meth:`DetectionFilter._batched_direction_statistics`):
-a filter bank's outputs over it are a few tens of MB."""
+"""Longest stretch of samples whose direction statistics are computed in one pass for the
+alarm groups' windows (:meth:`DetectionFilter._window_violations`): a filter bank's
+outputs over it are a few tens of MB."""
 
 PBH_RTOL = 1e-9
 """Relative size of the smallest singular value of ``[A - lambda I; C]`` below which the
@@ -1218,38 +1218,51 @@ class DetectionFilter:
         return stats
 
     @classmethod
-    def _batched_direction_statistics(
+    def _window_violations(
         cls,
         model: FittedDetectionFilter,
         bank: ImpulseResponseBank | LiftedBank,
         values: FloatArray,
         bad: npt.NDArray[np.bool_],
         windows: list[tuple[int, int]],
-    ) -> Iterator[list[FloatArray]]:
-        """:meth:`_direction_statistics` over each of ``windows`` in turn, computed for a
-        batch of nearby windows at once (closer than the history a window's statistics
-        are computed from, which a separate pass would filter again) and sliced: the
-        same values to rounding. Batches grow (4x, up to :data:`DIRECTION_BATCH` rows)
-        as the windows are asked for, so the first cost little."""
+    ) -> list[list[float]]:
+        """Per window ``(lo, hi)``, each filter's largest direction alarm statistic over
+        it: ``max(_direction_statistics(..., lo, hi)[i], initial=0)``, to rounding.
+
+        The windows' union (windows overlapping, or closer than the history a window's
+        statistics start from, merged) is worked through in stretches of at most
+        :data:`DIRECTION_BATCH` samples, each computed once with the history it needs,
+        and every window takes the maxima over the stretches it overlaps: a sample's
+        statistics are computed once however many windows hold it (a slow drift's
+        alarm groups each reach back to its traced onset), and memory is set by the
+        stretch, not by the windows."""
+        k = len(model.filters)
+        viol = [[0.0] * k for _ in windows]
         long = max(cal.long_window for cal in model.direction_cal)
         join = long + (bank.history or 0)
-        budget = 1 << 12
-        i = 0
-        while i < len(windows):
-            lo, hi = windows[i]
-            k = i + 1
-            while (
-                k < len(windows)
-                and lo <= windows[k][0] <= hi + join
-                and max(hi, windows[k][1]) - lo <= budget
-            ):
-                hi = max(hi, windows[k][1])
-                k += 1
-            stats = cls._direction_statistics(model, bank, values, bad, lo, hi)
-            for a, b in windows[i:k]:
-                yield [st[a - lo : b - lo] for st in stats]
-            i = k
-            budget = min(DIRECTION_BATCH, 4 * budget)
+        order = sorted(range(len(windows)), key=lambda w: windows[w][0])
+        spans: list[list[int]] = []
+        for w in order:
+            lo, hi = windows[w]
+            if hi <= lo:
+                continue
+            if spans and lo <= spans[-1][1] + join:
+                spans[-1][1] = max(spans[-1][1], hi)
+            else:
+                spans.append([lo, hi])
+        for lo_s, hi_s in spans:
+            inside = [w for w in order if windows[w][0] < hi_s and windows[w][1] > lo_s]
+            for p in range(lo_s, hi_s, DIRECTION_BATCH):
+                q = min(hi_s, p + DIRECTION_BATCH)
+                held = [w for w in inside if windows[w][0] < q and windows[w][1] > p]
+                if not held:
+                    continue  # a gap between windows, filtered only as the next's history
+                stats = cls._direction_statistics(model, bank, values, bad, p, q)
+                for w in held:
+                    a, b = max(windows[w][0], p) - p, min(windows[w][1], q) - p
+                    for i, st in enumerate(stats):
+                        viol[w][i] = max(viol[w][i], float(np.max(st[a:b], initial=0.0)))
+        return viol
 
     @classmethod
     def _residual_vectors(
@@ -1330,12 +1343,11 @@ class DetectionFilter:
             cands = [c for c in cands if c[0] > t0 + span]
             lo = max(train_stop, min(int(round(c[2].onset_s * rate)) for c in group) - w)
             groups.append((group, lo, min(n, t0 + 2 * span)))
-        # the direction statistics of nearby groups' windows in one pass (a fault that
-        # lasts has hundreds of alarm groups over a long archive)
+        # each filter's largest direction statistic over each group's window, every
+        # sample computed once (a fault that lasts has hundreds of alarm groups)
         windows = [(lo, hi) for _, lo, hi in groups]
-        batched = self._batched_direction_statistics(model, bank, data.values, bad, windows)
-        for (group, lo, hi), stats in zip(groups, batched, strict=True):
-            viol = [float(np.max(st, initial=0.0)) for st in stats]
+        violations = self._window_violations(model, bank, data.values, bad, windows)
+        for (group, lo, hi), viol in zip(groups, violations, strict=True):
             chans = sorted({c[1] for c in group})
             # the sensor whose filter's residual stays closest to its own direction
             j = min(chans, key=lambda c: (viol[c], -_strength(zetas[c], model.zeta_cal[c], lo, hi)))

@@ -235,17 +235,20 @@ def test_estimates_alone_and_direction_windows_equal_the_full_run(
         got = det._direction_statistics(model, bank, Yg, bad, lo, hi)
         for g, s in zip(got, stats, strict=True):
             np.testing.assert_allclose(g, s[lo:hi], rtol=1e-5, atol=1e-7)
-    # windows batched into shared passes (overlapping, adjacent, one behind another, far
-    # apart): each its own stretch of the whole-record statistics
+    # each filter's largest statistic over each window, every sample computed once over
+    # the windows' union in stretches (overlapping, adjacent, nested, far apart windows;
+    # stretches shorter than some windows): the maxima of the per-window statistics
     n = Yg.shape[0]
     windows += [(9000, 9500), (9500, 9800), (9200, 9300), (11500, n - 200), (n - 100, n)]
-    windows.sort()
-    batched = list(det._batched_direction_statistics(model, bank, Yg, bad, windows))
-    assert len(batched) == len(windows)
-    for (lo, hi), got in zip(windows, batched, strict=True):
-        for g, s in zip(got, stats, strict=True):
-            assert g.shape == (hi - lo,)
-            np.testing.assert_allclose(g, s[lo:hi], rtol=1e-5, atol=1e-7)
+    windows += [(300, 9700), (9600, 9600)]
+    monkeypatch.setattr(dfm, "DIRECTION_BATCH", 1500)
+    got = det._window_violations(model, bank, Yg, bad, windows)
+    assert len(got) == len(windows)
+    for (lo, hi), viol in zip(windows, got, strict=True):
+        each = det._direction_statistics(model, bank, Yg, bad, lo, hi) if hi > lo else []
+        want = [float(np.max(st, initial=0.0)) for st in each] or [0.0] * len(stats)
+        assert viol == pytest.approx(want, rel=1e-5, abs=1e-7), (lo, hi)
+    assert max(max(v) for v in got) > 0.1  # the statistics are not all zero
 
 
 def _ar_innovations(seed, m=4, p=3, radius=0.9):
