@@ -105,6 +105,10 @@ class Analysis:
     def times_s(self) -> np.ndarray:
         return np.arange(self.n) / self.rate_hz
 
+    def times_between(self, a: int, b: int) -> np.ndarray:
+        """Rows ``a .. b - 1`` of :meth:`times_s`."""
+        return np.arange(a, b) / self.rate_hz
+
     def onset_iso(self, seconds: float | None) -> str | None:
         if seconds is None or not self.absolute_time:
             return None
@@ -607,7 +611,7 @@ def _analyze(
         if options.corrected:
             res_map, ref_map = result_signals(results)
             corrected, corrections = corrected_values(
-                values, chosen, aligned.rate_hz, findings, res_map, ref_map
+                values, chosen, aligned.rate_hz, findings, res_map, ref_map, ctx.buffer
             )
         timings["total"] = time.perf_counter() - t_start
         return Analysis(
@@ -756,7 +760,7 @@ def write_outputs(analysis: Analysis, out_dir: Path) -> dict[str, Any]:
     write_atomic(out_dir / "report.html", render_report(analysis, doc))
     if analysis.corrected is not None:
         write_corrected_csv(
-            out_dir / "corrected.csv", analysis.times_s(), analysis.analyzed, analysis.corrected
+            out_dir / "corrected.csv", analysis.times_between, analysis.analyzed, analysis.corrected
         )
     return doc
 

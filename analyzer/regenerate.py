@@ -23,7 +23,7 @@ correction; :func:`write_corrected_csv` writes the time column and every analyze
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -31,6 +31,7 @@ from typing import Any, Protocol
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.paging import RELEASE_ROWS, release
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -95,29 +96,66 @@ def fault_signal(
     indices into ``measured``), and the method used; ``f_s`` is None when nothing usable
     is known (no magnitude, no residual, no reference)."""
     y = np.asarray(measured, dtype=np.float64)
-    n = y.shape[0]
+    start, stop = _period(event, y.shape[0], rate_hz)
+    method = _method(event, residual, reference)
+    if method == "skipped":
+        return start, stop, None, method
+    fs = _fault_piece(method, event, rate_hz, y[start:stop], residual, reference, start, stop)
+    return start, stop, fs, method
+
+
+def _period(event: FaultLike, n: int, rate_hz: float) -> tuple[int, int]:
+    """The sample indices ``[start, stop)`` of ``event``'s period in a record of ``n``."""
     start = int(np.clip(round(event.onset_s * rate_hz), 0, n))
     stop = n if event.end_s is None else int(np.clip(round(event.end_s * rate_hz), start, n))
-    seg = slice(start, stop)
+    return start, stop
+
+
+def _method(event: FaultLike, residual: Any, reference: Any) -> str:
+    """How ``event``'s fault is regenerated (the order of the module's list)."""
     mag = event.magnitude or {}
     kind = FaultType(event.type)
     if kind is FaultType.ADDITIVE and "offset" in mag:
-        return start, stop, np.full(stop - start, float(mag["offset"])), "offset"
+        return "offset"
     if kind is FaultType.DRIFT and "rate_per_s" in mag:
-        tau = (np.arange(start, stop) - event.onset_s * rate_hz) / rate_hz
-        return start, stop, float(mag["rate_per_s"]) * np.maximum(tau, 0.0), "drift"
+        return "drift"
     if kind is FaultType.MULTIPLICATIVE and "gain" in mag and abs(float(mag["gain"])) >= MIN_GAIN:
-        g = float(mag["gain"])
-        return start, stop, y[seg] * (1.0 - 1.0 / g), "gain"
+        return "gain"
     if kind is FaultType.MULTIPLICATIVE and reference is not None:
-        ref = np.asarray(reference, dtype=np.float64)[seg]
-        return start, stop, y[seg] - ref, "reference"
+        return "reference"
     if residual is not None:
-        return start, stop, np.asarray(residual, dtype=np.float64)[seg].copy(), "residual"
+        return "residual"
     if reference is not None:
-        ref = np.asarray(reference, dtype=np.float64)[seg]
-        return start, stop, y[seg] - ref, "reference"
-    return start, stop, None, "skipped"
+        return "reference"
+    return "skipped"
+
+
+def _fault_piece(
+    method: str,
+    event: FaultLike,
+    rate_hz: float,
+    y: npt.NDArray[Any],
+    residual: npt.NDArray[Any] | None,
+    reference: npt.NDArray[Any] | None,
+    a: int,
+    b: int,
+) -> FloatArray:
+    """``f_s`` of ``method`` on samples ``a .. b - 1`` (a new float64 array): ``y`` holds
+    those samples of the measured channel, ``residual`` and ``reference`` the whole record."""
+    mag = event.magnitude or {}
+    if method == "offset":
+        return np.full(b - a, float(mag["offset"]))
+    if method == "drift":
+        tau = (np.arange(a, b) - event.onset_s * rate_hz) / rate_hz
+        return float(mag["rate_per_s"]) * np.maximum(tau, 0.0)
+    measured = np.asarray(y, dtype=np.float64)
+    if method == "gain":
+        return measured * (1.0 - 1.0 / float(mag["gain"]))
+    if method == "reference":
+        assert reference is not None
+        return measured - np.asarray(reference[a:b], dtype=np.float64)
+    assert residual is not None
+    return np.array(residual[a:b], dtype=np.float64, copy=True)
 
 
 SignalMap = Mapping[str, FloatArray | None] | Mapping[tuple[str, str], FloatArray | None]
@@ -138,13 +176,13 @@ def result_signals(
     return res, ref
 
 
-def _lookup(m: SignalMap | None, detector: str, channel: str) -> FloatArray | None:
+def _lookup(m: SignalMap | None, detector: str, channel: str) -> npt.NDArray[Any] | None:
     if m is None:
         return None
     got = m.get((detector, channel))  # type: ignore[call-overload]
     if got is None:
         got = m.get(channel)  # type: ignore[call-overload]
-    return None if got is None else np.asarray(got, dtype=np.float64)
+    return None if got is None else np.asarray(got)
 
 
 def corrected_values(
@@ -154,6 +192,7 @@ def corrected_values(
     events: Iterable[FaultLike],
     residuals: SignalMap | None = None,
     references: SignalMap | None = None,
+    buffer: Callable[[str, tuple[int, int], npt.DTypeLike], npt.NDArray[Any]] | None = None,
 ) -> tuple[FloatArray, list[dict[str, Any]]]:
     """``values`` (N, m) with every event's fault removed over its period
     (``S_fault_free = S_fault - f_s``, Section 6.3), and one record per event.
@@ -162,14 +201,32 @@ def corrected_values(
     estimate of the detector whose event is corrected, keyed by channel or by
     ``(detector, channel)`` (:func:`result_signals`; for merged findings the finding's
     ``detector`` is its leading detector). When two events of a channel overlap, samples
-    already corrected are not corrected again (the more confident event first)."""
-    out = np.array(values, dtype=np.float64, copy=True)
-    if out.ndim != 2 or out.shape[1] != len(channels):
+    already corrected are not corrected again (the more confident event first).
+
+    ``buffer(name, shape, dtype)`` allocates the result and the mask of corrected samples
+    (such as :meth:`~analyzer.detectors.base.RunContext.buffer`: memory-mapped for a long
+    archive); default new arrays in memory. Everything is done :data:`RELEASE_ROWS` rows
+    at a time with the pages of mapped arrays given back, so a long archive is corrected
+    in memory set by that piece, not by its length."""
+    n, m = np.shape(values) if np.ndim(values) == 2 else (-1, -1)
+    if m != len(channels):
         raise ValueError(
-            f"expected a (N, {len(channels)}) array for {len(channels)} channels, got {out.shape}"
+            f"expected a (N, {len(channels)}) array for {len(channels)} channels, "
+            f"got {np.shape(values)}"
         )
+
+    def make(name: str, dtype: npt.DTypeLike) -> npt.NDArray[Any]:
+        return np.empty((n, m), dtype) if buffer is None else buffer(name, (n, m), dtype)
+
+    out = make("corrected", np.float64)
+    done = make("corrected-done", np.bool_)
+    for a in range(0, n, RELEASE_ROWS):
+        b = min(n, a + RELEASE_ROWS)
+        out[a:b] = values[a:b]
+        done[a:b] = False
+        for arr in (values[a:b], out[a:b], done[a:b]):
+            release(arr)
     index = {c: j for j, c in enumerate(channels)}
-    done = np.zeros(out.shape, dtype=bool)
     records: list[dict[str, Any]] = []
     evs = sorted(events, key=lambda e: -float(getattr(e, "confidence", 0.0)))
     for ev in evs:
@@ -202,25 +259,36 @@ def corrected_values(
             continue
         res = _lookup(residuals, ev.detector, ev.channel)
         ref = _lookup(references, ev.detector, ev.channel)
-        start, stop, fs, method = fault_signal(ev, values[:, j], rate_hz, res, ref)
-        if fs is None:
+        start, stop = _period(ev, n, rate_hz)
+        method = _method(ev, res, ref)
+        if method == "skipped":
             records.append(record(method, note="no fault model, residual or reference"))
             continue
-        col = out[start:stop, j]
-        ok = np.isfinite(fs) & np.isfinite(col) & ~done[start:stop, j]
-        col[ok] = col[ok] - fs[ok]
-        done[start:stop, j] |= ok
-        used = fs[ok]
+        count, total, squares = 0, 0.0, 0.0
+        for a in range(start, stop, RELEASE_ROWS):
+            b = min(stop, a + RELEASE_ROWS)
+            rows = values[a:b]
+            fs = _fault_piece(method, ev, rate_hz, rows[:, j], res, ref, a, b)
+            col = out[a:b, j]
+            ok = np.isfinite(fs) & np.isfinite(col) & np.logical_not(done[a:b, j])
+            col[ok] = col[ok] - fs[ok]
+            done[a:b, j] |= ok
+            used = fs[ok]
+            count += int(used.size)
+            total += float(np.sum(used))
+            squares += float(np.sum(used * used))
+            release(rows)
+            for whole in (out, done, res, ref):
+                release(None if whole is None else whole[a:b])
         note = ""
-        if ok.sum() < stop - start:
-            left = stop - start - int(ok.sum())
-            note = f"{left} samples left as measured (gap or already corrected)"
+        if count < stop - start:
+            note = f"{stop - start - count} samples left as measured (gap or already corrected)"
         records.append(
             record(
                 method,
-                int(ok.sum()),
-                float(np.mean(used)) if used.size else None,
-                float(np.sqrt(np.mean(used * used))) if used.size else None,
+                count,
+                total / count if count else None,
+                float(np.sqrt(squares / count)) if count else None,
                 note,
             )
         )
@@ -228,31 +296,49 @@ def corrected_values(
 
 
 def write_corrected_csv(
-    path: str | Path, t_s: FloatArray, channels: Sequence[str], corrected: FloatArray
+    path: str | Path,
+    t_s: FloatArray | Callable[[int, int], FloatArray],
+    channels: Sequence[str],
+    corrected: FloatArray,
 ) -> Path:
     """Write ``time`` (seconds) and every channel of ``corrected`` as CSV: shortest
     round-trip floats, an empty cell for a gap (as ``analyzer export``); written to a
-    temporary name and renamed, so a reader never sees half a file."""
+    temporary name and renamed, so a reader never sees half a file. ``t_s``: the time
+    column, or a function of ``(a, b)`` that gives rows ``a .. b - 1`` of it. The rows are
+    written :data:`RELEASE_ROWS` at a time with the pages of a mapped ``corrected`` given
+    back, so a long archive takes memory set by that piece."""
     import pyarrow as pa
     import pyarrow.csv as pcsv
 
     p = Path(path)
-    t = np.asarray(t_s, dtype=np.float64)
-    data = np.asarray(corrected, dtype=np.float64)
-    if data.ndim != 2 or data.shape != (t.shape[0], len(channels)):
+    n = int(np.shape(corrected)[0]) if np.ndim(corrected) == 2 else -1
+    column = None if callable(t_s) else np.asarray(t_s, dtype=np.float64)
+
+    def times(a: int, b: int) -> FloatArray:
+        return column[a:b] if column is not None else np.asarray(t_s(a, b))  # type: ignore[operator]
+
+    length = n if column is None else int(column.shape[0])
+    if np.ndim(corrected) != 2 or n != length or np.shape(corrected)[1] != len(channels):
         raise ValueError(
-            f"expected a ({t.shape[0]}, {len(channels)}) array for the corrected channels, "
-            f"got {data.shape}"
+            f"expected a ({length}, {len(channels)}) array for the corrected channels, "
+            f"got {np.shape(corrected)}"
         )
     names = ["time", *channels]
     if len(set(names)) != len(names):
         raise ValueError(f"duplicate column names in {names}")
-    cols = [pa.array(t)] + [pa.array(data[:, j], from_pandas=True) for j in range(data.shape[1])]
-    table = pa.Table.from_arrays(cols, names=names)
+    schema = pa.schema([(name, pa.float64()) for name in names])
     p.parent.mkdir(parents=True, exist_ok=True)
     tmp = p.with_name(f".{p.name}.part")
     try:
-        pcsv.write_csv(table, str(tmp))
+        with pcsv.CSVWriter(str(tmp), schema) as writer:
+            for a in range(0, max(n, 1), RELEASE_ROWS):
+                b = min(n, a + RELEASE_ROWS)
+                rows = np.asarray(corrected[a:b], dtype=np.float64)
+                cols = [pa.array(np.asarray(times(a, b), dtype=np.float64))] + [
+                    pa.array(rows[:, j], from_pandas=True) for j in range(rows.shape[1])
+                ]
+                writer.write_table(pa.Table.from_arrays(cols, schema=schema))
+                release(corrected[a:b])
         os.replace(tmp, p)
     finally:
         tmp.unlink(missing_ok=True)

@@ -123,3 +123,112 @@ def test_write_corrected_csv(tmp_path):
     assert not list(tmp_path.glob("out/.*part"))
     with pytest.raises(ValueError, match=r"expected a \(4, 3\) array"):
         write_corrected_csv(tmp_path / "x.csv", t, ["a", "b", "c"], data)
+
+
+def _corrected_whole(values, channels, rate, events, residuals, references):
+    """The correction over whole arrays (the reference for the piecewise one)."""
+    out = np.array(values, dtype=np.float64, copy=True)
+    done = np.zeros(out.shape, dtype=bool)
+    index = {c: j for j, c in enumerate(channels)}
+    stats = []
+    for ev in sorted(events, key=lambda e: -e.confidence):
+        j = index[ev.channel]
+        res = residuals.get(ev.channel)
+        ref = references.get(ev.channel)
+        start, stop, fs, _ = fault_signal(ev, values[:, j], rate, res, ref)
+        col = out[start:stop, j]
+        ok = np.isfinite(fs) & np.isfinite(col) & ~done[start:stop, j]
+        col[ok] -= fs[ok]
+        done[start:stop, j] |= ok
+        stats.append((int(ok.sum()), np.mean(fs[ok]), np.sqrt(np.mean(fs[ok] ** 2))))
+    return out, stats
+
+
+def _long_record(n=20_000, seed=5):
+    rng = np.random.default_rng(seed)
+    y = rng.normal(size=(n, 3)) + np.array([1.0, 2.0, 3.0])
+    y[4000:4300, 0] = np.nan
+    y[9000:9050, 2] = np.nan
+    ref = {"a": y[:, 0] - 0.1 * rng.normal(size=n), "c": y[:, 2] + 0.2}
+    res = {"a": (y[:, 0] - ref["a"]).astype(np.float32), "b": 0.5 * y[:, 1]}
+    res["a"][6000:6100] = np.nan
+    evs = [
+        Event("a", 10.0, 120.0, FaultType.ADDITIVE, {"offset": 0.7}, 0.9, "d1"),
+        # overlaps the first, less confident: corrected by its residual where not done
+        Event("a", 50.0, None, FaultType.OTHER, {}, 0.6, "d2"),
+        Event("b", 3.0, None, FaultType.DRIFT, {"rate_per_s": 0.01}, 0.8, "d1"),
+        Event("c", 20.0, 150.0, FaultType.MULTIPLICATIVE, {"gain": 1.3}, 0.7, "d1"),
+        Event("c", 160.0, None, FaultType.MULTIPLICATIVE, {}, 0.5, "d1"),
+    ]
+    return y, ref, res, evs
+
+
+@pytest.mark.parametrize("piece", [1000, 4096, 1 << 16])
+def test_corrected_in_pieces_equals_the_whole_arrays(tmp_path, monkeypatch, piece):
+    """Corrected a piece of rows at a time, into memory-mapped buffers: the same values
+    and records as the correction over whole arrays, whatever the piece."""
+    import analyzer.regenerate as regen
+    from analyzer.paging import buffer
+
+    monkeypatch.setattr(regen, "RELEASE_ROWS", piece)
+    y, ref, res, evs = _long_record()
+    rate = 100.0
+    want, stats = _corrected_whole(y, ["a", "b", "c"], rate, evs, res, ref)
+    got, recs = corrected_values(
+        y, ["a", "b", "c"], rate, evs, res, ref, lambda n, s, d: buffer(tmp_path, n, s, d)
+    )
+    assert np.array_equal(np.asarray(got), want, equal_nan=True)
+    assert [r["method"] for r in recs] == ["offset", "drift", "gain", "residual", "reference"]
+    for r, (count, mean, rms) in zip(recs, stats, strict=True):
+        assert r["samples"] == count
+        assert r["mean_fault"] == pytest.approx(mean, rel=1e-12, abs=1e-15)
+        assert r["rms_fault"] == pytest.approx(rms, rel=1e-12)
+    # the overlapping event (from 50 s) only corrects after the first one's end (120 s)
+    assert recs[3]["samples"] == 20_000 - 12_000
+
+
+def test_corrected_csv_in_pieces_is_byte_equal(tmp_path, monkeypatch):
+    """The CSV written a piece at a time from a time function is byte for byte the one
+    written from the whole time column in one piece."""
+    import analyzer.regenerate as regen
+
+    y, _, _, _ = _long_record(5000)
+    t = np.arange(5000) / 100.0
+    one = write_corrected_csv(tmp_path / "one.csv", t, ["a", "b", "c"], y)
+    monkeypatch.setattr(regen, "RELEASE_ROWS", 777)
+    pieces = write_corrected_csv(
+        tmp_path / "pieces.csv", lambda a, b: np.arange(a, b) / 100.0, ["a", "b", "c"], y
+    )
+    assert one.read_bytes() == pieces.read_bytes()
+    assert one.read_text().count("\n") == 5001
+
+
+def test_corrected_memory_is_set_by_the_piece(tmp_path):
+    """A long mapped record is corrected and written with memory set by the piece: the
+    whole-array form allocated a copy of the matrix and a mask of it (36 MB here)."""
+    import tracemalloc
+
+    from analyzer.paging import buffer, mapped_file
+
+    n = 1_000_000
+    values = mapped_file(tmp_path / "values.npy", (n, 4), np.float64)
+    for a in range(0, n, 1 << 16):
+        values[a : a + (1 << 16)] = np.arange(a, min(n, a + (1 << 16)))[:, None] * 1e-3
+    evs = [
+        Event("a", 10.0, None, FaultType.ADDITIVE, {"offset": 0.7}, 0.9, "d1"),
+        Event("d", 100.0, None, FaultType.MULTIPLICATIVE, {"gain": 2.0}, 0.8, "d1"),
+    ]
+    tracemalloc.start()
+    try:
+        out, recs = corrected_values(
+            values, list("abcd"), 100.0, evs, buffer=lambda k, s, d: buffer(tmp_path, k, s, d)
+        )
+        write_corrected_csv(
+            tmp_path / "c.csv", lambda a, b: np.arange(a, b) / 100.0, list("abcd"), out
+        )
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 12e6, peak
+    assert recs[0]["samples"] == n - 1000 and recs[1]["samples"] == n - 10_000
+    assert out[5000, 0] == pytest.approx(5.0 - 0.7) and out[50_000, 3] == pytest.approx(25.0)
