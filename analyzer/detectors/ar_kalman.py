@@ -23,6 +23,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import partial
+from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
@@ -587,6 +588,7 @@ class ARKalmanBank:
                 alarms,
                 lambda j, windows: self._window_consistency(model, Y, fixes, j, windows),
                 lambda j, lo, hi: self._longest_violation(model, Y, fixes, j, lo, hi),
+                context.workdir if context.map_outputs else None,
             )
             release(out.resid)  # what the search read of memory-mapped outputs
             release(out.est)
@@ -804,13 +806,15 @@ class ARKalmanBank:
         alarms: list[list[Interval]] | None = None,
         estimator: Callable[[int, list[tuple[int, int]]], Iterator[npt.NDArray[Any]]] | None = None,
         longest: Callable[[int, int, int], float] | None = None,
+        scratch: Path | None = None,
     ) -> tuple[Event | None, list[tuple[int, int, int]], Classification | None] | None:
         """The earliest not-yet-explained fault, isolated to one sensor, or None.
         ``alarms``: each channel's alarm intervals in ``out`` when already known (they only
         change when the outputs do). ``estimator(j, windows)``: estimator ``j``'s
         consistency over each window in turn; ``longest(j, lo, hi)``: the largest alarm
         statistic of estimator ``j``'s consistency over ``lo .. hi - 1`` (both from
-        ``consistency`` when not given)."""
+        ``consistency`` when not given). ``scratch``: where a long fault's corrected
+        residual is mapped (:func:`~analyzer.diagnosis.events.diagnose_interval`)."""
         if estimator is None:
 
             def estimator(j: int, windows: list[tuple[int, int]]) -> Iterator[npt.NDArray[Any]]:
@@ -890,7 +894,9 @@ class ARKalmanBank:
                 # a slowly growing fault alarms late: keep a long window off its alarm
                 limit = max(iv.onset + span, t2 - span)
                 break
-        cls, end = diagnose_interval(resid[:, j], est[:, j], cal, iv, rate, model.tau[j], limit)
+        cls, end = diagnose_interval(
+            resid[:, j], est[:, j], cal, iv, rate, model.tau[j], limit, scratch=scratch
+        )
         stop = N if end is None else end
         if not isolated:
             # a slowly growing fault disturbs the estimators that use the sensor only

@@ -1496,6 +1496,7 @@ def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
         detector,
         search_start=train_stop,
         tau_corr=model.tau[i],
+        scratch=scratch,
     )
     release(zetas[i])  # memory-mapped rows: read again only where an event is
     release(refs[i])

@@ -954,6 +954,7 @@ def _observer_task(
         detector,
         search_start=train_stop,
         tau_corr=ob.tau,
+        scratch=scratch,
     )
     return kept[0], kept[1], found
 

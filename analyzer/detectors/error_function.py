@@ -995,6 +995,7 @@ class ErrorFunction:
                     search_start=data.train[1],
                     tau_corr=f.tau_corr,
                     evidence={"group": f.group, "references": list(f.channels[1:])},
+                    scratch=context.workdir if context.map_outputs else None,
                 )
             )
             context.report(self.name, (k + 1) / len(model.functions))

@@ -4,6 +4,7 @@ about one channel uses this, so thresholds and fault types mean the same everywh
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -21,6 +22,7 @@ from analyzer.diagnosis.changes import (
     intervals,
 )
 from analyzer.diagnosis.classify import Classification, classify
+from analyzer.paging import buffer, release
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -36,8 +38,11 @@ def events_from_residual(
     search_start: int = 0,
     tau_corr: float = 1.0,
     evidence: dict[str, Any] | None = None,
+    scratch: Path | None = None,
 ) -> list[Event]:
-    """Events on ``channel`` from its residual (measured - estimated)."""
+    """Events on ``channel`` from its residual (measured - estimated). ``scratch``: a
+    directory for the memory-mapped buffer of a long fault's corrected residual
+    (:func:`diagnose_interval`)."""
     out: list[Event] = []
     n = residual.shape[0]
     covered = search_start
@@ -47,7 +52,9 @@ def events_from_residual(
     for iv in detect(residual, cal, search_start=search_start):
         if iv.onset < covered:
             continue  # inside a fault already extended over this stretch
-        cls, end = diagnose_interval(residual, reference, cal, iv, rate_hz, tau_corr)
+        cls, end = diagnose_interval(
+            residual, reference, cal, iv, rate_hz, tau_corr, scratch=scratch
+        )
         covered = n if end is None else end
         onset_s, factor, extra = bounded_onset(iv.onset, cls, rate_hz, search_start)
         ev = {
@@ -106,6 +113,7 @@ def diagnose_interval(
     classify_until: int | None = None,
     *,
     statistic: FloatArray | None = None,
+    scratch: Path | None = None,
 ) -> tuple[Classification, int | None]:
     """Classify the fault that starts at ``iv`` and find where it really ends.
 
@@ -122,7 +130,10 @@ def diagnose_interval(
 
     Both residuals' alarms are searched on a stretch from the onset that grows only as
     far as the answer needs (:class:`_Intervals`; a fault's end is mostly seconds after
-    its onset), with the answer of the search over the whole record."""
+    its onset), with the answer of the search over the whole record. The corrected
+    residual is kept from the first sample the search reads to as far as it has grown:
+    in memory, or past :data:`MAPPED_CORRECTION` samples memory-mapped in ``scratch``
+    when given (a fault that lasts to the end of a long archive)."""
     n = residual.shape[0]
     limit = n if classify_until is None else max(iv.onset + 3, classify_until)
     stop = min(n if iv.end is None else iv.end, limit)
@@ -145,7 +156,7 @@ def diagnose_interval(
     end: int | None = None
     raw_alarms = _Intervals(r, n, cal, iv.onset, statistic)
     corrected_alarms = _Intervals(
-        _Corrected(r, ref, cls, iv.onset, rate_hz, cal, iv.onset + cal.window),
+        _Corrected(r, ref, cls, iv.onset, rate_hz, cal, iv.onset + cal.window, scratch),
         n,
         cal,
         iv.onset + cal.window,
@@ -172,6 +183,12 @@ def diagnose_interval(
     return cls, end
 
 
+MAPPED_CORRECTION = 1 << 20
+"""Samples of a corrected residual kept in memory (8 MB); a longer one moves to a
+memory-mapped buffer in the scratch directory, whose pages the search gives back after
+each step (one file per fault that lasts, not per fault: creating one costs ~3 ms)."""
+
+
 class _Corrected:
     """The residual less a fault's fitted shape from ``onset`` on, built on demand: its
     first ``h`` samples, filled as ``h`` grows (a fault's end is usually found within
@@ -192,17 +209,30 @@ class _Corrected:
         rate_hz: float,
         cal: Calibration,
         search_start: int,
+        scratch: Path | None = None,
     ) -> None:
         self.r, self.ref, self.cls, self.onset, self.rate_hz = r, ref, cls, onset, rate_hz
-        self.buf = np.empty(r.shape[0])  # pages are touched only as far as it is filled
+        self.scratch = scratch
         self.carry = np.zeros(4)
-        head = min(max(0, search_start), r.shape[0])
+        n = r.shape[0]
+        head = min(max(0, search_start), n)
         # the running sums up to the first window from search_start on (no statistic:
         # the record ends at search_start)
-        alarm_statistic(r[:head], cal, raw=True, start=head, out=self.buf[:head], carry=self.carry)
-        self.filled = int(self.carry[0])
+        alarm_statistic(
+            r[:head], cal, raw=True, start=head, out=np.empty(0), carry=self.carry, base=head
+        )
+        self.first = self.filled = int(self.carry[0])
+        # indexed by sample; its pages are touched only as far as it is filled
+        self.buf = np.empty(n if scratch is None else min(n, self.first + MAPPED_CORRECTION))
 
     def upto(self, h: int) -> FloatArray:
+        if h > self.buf.shape[0]:
+            # a long stretch (only with scratch): on to a mapped buffer, what is filled
+            # copied over
+            assert self.scratch is not None
+            mapped = buffer(self.scratch, "corrected-residual", (self.r.shape[0], 1))[:, 0]
+            mapped[self.first : self.filled] = self.buf[self.first : self.filled]
+            self.buf = mapped
         if h > self.filled:
             a = min(h, max(self.filled, self.onset))
             self.buf[self.filled : a] = self.r[self.filled : a]
@@ -316,3 +346,4 @@ class _Intervals:
         self.found, self.settled, self.h = found, settled, h
         nxt = found[settled].first_alarm if settled < len(found) else h
         self.frontier = nxt - wl - 2 * w
+        release(x)  # a memory-mapped record: read again only around its alarms

@@ -433,3 +433,59 @@ def test_intervals_on_a_growing_stretch_are_the_whole_records(
                             for j in range(i + 1):
                                 lazy.onset(j, n)
                             assert lazy.ends_after(i, lo) == (end is None or end > lo)
+
+
+@pytest.mark.parametrize("case", range(7))
+def test_diagnosis_with_a_mapped_corrected_residual(
+    case: int, tmp_path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With a scratch directory the corrected residual moves to a memory-mapped buffer
+    past MAPPED_CORRECTION samples: the same answers as in memory, and the faults that
+    last to the end of the record do move."""
+    import analyzer.diagnosis.events as events
+
+    made = []
+
+    def counted(*args, **kwargs):
+        made.append(args[1])
+        return events.buffer.__wrapped__(*args, **kwargs)
+
+    counted.__wrapped__ = events.buffer  # type: ignore[attr-defined]
+    monkeypatch.setattr(events, "MAPPED_CORRECTION", 2000)
+    monkeypatch.setattr(events, "buffer", counted)
+    name, r, ref = _cases()[case]
+    start = 6000
+    cal = calibrate(r[:start], 25)
+    for iv in detect(r, cal, search_start=start):
+        for reference in (ref, None):
+            want = diagnose_interval(r, reference, cal, iv, RATE, 2.0)
+            assert diagnose_interval(r, reference, cal, iv, RATE, 2.0, scratch=tmp_path) == want
+    if case in (1, 3):  # the search went to the end of the record
+        assert "corrected-residual" in made
+    assert events_from_residual(
+        "c", r, ref, cal, RATE, "d", search_start=start, scratch=tmp_path
+    ) == events_from_residual("c", r, ref, cal, RATE, "d", search_start=start)
+
+
+def test_mapped_corrected_residual_memory_is_set_by_its_limit(tmp_path) -> None:
+    """A gain fault to the end of a long record: with a scratch directory the search for
+    its end allocates memory set by its pieces, not by the record: 19 MB at 2, 4 and 8 M
+    samples, against 24, 40 and 73 MB in memory (the corrected residual is 32 MB here)."""
+    import tracemalloc
+
+    n = 4_000_000
+    ref = _structure(11, n)
+    r = _residual(11, n)
+    r[20_000:] += 0.8 * ref[20_000:]
+    cal = calibrate(r[:6000], 25)
+    iv = detect(r[:40_000], cal, search_start=6000)[0]
+    iv = dataclasses.replace(iv, end=None)
+    tracemalloc.start()
+    try:
+        got = diagnose_interval(r, ref, cal, iv, RATE, 2.0, scratch=tmp_path)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert got[1] is None  # lasts to the end: the search went through the record
+    assert peak < 24e6, peak
+    assert got == diagnose_interval(r, ref, cal, iv, RATE, 2.0)
