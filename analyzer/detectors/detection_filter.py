@@ -1225,6 +1225,7 @@ class DetectionFilter:
         values: FloatArray,
         bad: npt.NDArray[np.bool_],
         windows: list[tuple[int, int]],
+        context: RunContext | None = None,
     ) -> list[list[float]]:
         """Per window ``(lo, hi)``, each filter's largest direction alarm statistic over
         it: ``max(_direction_statistics(..., lo, hi)[i], initial=0)``, to rounding.
@@ -1235,7 +1236,8 @@ class DetectionFilter:
         and every window takes the maxima over the stretches it overlaps: a sample's
         statistics are computed once however many windows hold it (a slow drift's
         alarm groups each reach back to its traced onset), and memory is set by the
-        stretch, not by the windows."""
+        stretch, not by the windows. The stretches are independent: with a ``context``
+        they run on its threads (each returns only its windows' maxima)."""
         k = len(model.filters)
         viol = [[0.0] * k for _ in windows]
         long = max(cal.long_window for cal in model.direction_cal)
@@ -1250,6 +1252,7 @@ class DetectionFilter:
                 spans[-1][1] = max(spans[-1][1], hi)
             else:
                 spans.append([lo, hi])
+        tasks = []
         for lo_s, hi_s in spans:
             inside = [w for w in order if windows[w][0] < hi_s and windows[w][1] > lo_s]
             for p in range(lo_s, hi_s, DIRECTION_BATCH):
@@ -1257,11 +1260,16 @@ class DetectionFilter:
                 held = [w for w in inside if windows[w][0] < q and windows[w][1] > p]
                 if not held:
                     continue  # a gap between windows, filtered only as the next's history
-                stats = cls._direction_statistics(model, bank, values, bad, p, q)
-                for w in held:
-                    a, b = max(windows[w][0], p) - p, min(windows[w][1], q) - p
-                    for i, st in enumerate(stats):
-                        viol[w][i] = max(viol[w][i], float(np.max(st[a:b], initial=0.0)))
+                cuts = [(max(windows[w][0], p) - p, min(windows[w][1], q) - p) for w in held]
+                tasks.append(((model, bank, values, bad, p, q, cuts), held))
+        found = (
+            [_violations_task(t) for t, _ in tasks]
+            if context is None
+            else context.map_shared(_violations_task, [t for t, _ in tasks])
+        )
+        for (_, held), maxima in zip(tasks, found, strict=True):
+            for w, top in zip(held, maxima, strict=True):
+                viol[w] = [max(v, t) for v, t in zip(viol[w], top, strict=True)]
         return viol
 
     @classmethod
@@ -1346,7 +1354,7 @@ class DetectionFilter:
         # each filter's largest direction statistic over each group's window, every
         # sample computed once (a fault that lasts has hundreds of alarm groups)
         windows = [(lo, hi) for _, lo, hi in groups]
-        violations = self._window_violations(model, bank, data.values, bad, windows)
+        violations = self._window_violations(model, bank, data.values, bad, windows, context)
         for (group, lo, hi), viol in zip(groups, violations, strict=True):
             chans = sorted({c[1] for c in group})
             # the sensor whose filter's residual stays closest to its own direction
@@ -1501,6 +1509,15 @@ def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
     release(zetas[i])  # memory-mapped rows: read again only where an event is
     release(refs[i])
     return found
+
+
+def _violations_task(task: tuple[Any, ...]) -> list[list[float]]:
+    """Each filter's direction statistics over one stretch ``p .. q - 1``
+    (:meth:`DetectionFilter._direction_statistics`), reduced to their maxima over each
+    of ``cuts`` (offsets into the stretch)."""
+    model, bank, values, bad, p, q, cuts = task
+    stats = DetectionFilter._direction_statistics(model, bank, values, bad, p, q)
+    return [[float(np.max(st[a:b], initial=0.0)) for st in stats] for a, b in cuts]
 
 
 def _park_task(task: tuple[Any, ...]) -> ParkFilter:

@@ -242,8 +242,11 @@ def test_estimates_alone_and_direction_windows_equal_the_full_run(
     windows += [(9000, 9500), (9500, 9800), (9200, 9300), (11500, n - 200), (n - 100, n)]
     windows += [(300, 9700), (9600, 9600)]
     monkeypatch.setattr(dfm, "DIRECTION_BATCH", 1500)
-    got = det._window_violations(model, bank, Yg, bad, windows)
+    got = det._window_violations(model, bank, Yg, bad, windows, ctx)
     assert len(got) == len(windows)
+    # the stretches on the context's threads (or one after the other on a cluster's
+    # context): the same maxima as one after the other here
+    assert got == det._window_violations(model, bank, Yg, bad, windows)
     for (lo, hi), viol in zip(windows, got, strict=True):
         each = det._direction_statistics(model, bank, Yg, bad, lo, hi) if hi > lo else []
         want = [float(np.max(st, initial=0.0)) for st in each] or [0.0] * len(stats)
