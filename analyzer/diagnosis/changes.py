@@ -23,6 +23,7 @@ alarm, computed with cumulative sums (no Python loop per sample).
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -599,6 +600,7 @@ def detect(
     min_gap: int | None = None,
     search_start: int = 0,
     statistic: FloatArray | None = None,
+    index: SumsIndex | None = None,
 ) -> list[Interval]:
     """Faulty intervals of ``residual`` (channel units; standardized with ``cal``).
 
@@ -613,13 +615,14 @@ def detect(
     changed). Without it, it is computed from ``search_start`` on, :data:`STAT_PIECE`
     samples at a time with the running sums carried (bit for bit the whole-record
     pass): what stays of it are the alarm runs and their peaks, so the memory does not
-    grow with the record."""
+    grow with the record. ``index``: collects the running sums of that pass
+    (:class:`SumsIndex`, for the searches of the faults' ends on the same residual)."""
     # alarms only from the search's start: the record before it is not looked at
     first = max(0, search_start)
     if statistic is not None:
         runs = AlarmRuns.of_statistic(statistic, first, residual.shape[0])
     else:
-        runs = AlarmRuns(cal, first).extend(residual, release_behind=True)
+        runs = AlarmRuns(cal, first, index=index).extend(residual, release_behind=True)
     return intervals(residual, cal, runs, search_start=search_start, min_gap=min_gap)
 
 
@@ -679,6 +682,30 @@ def intervals(
     return out
 
 
+class SumsIndex:
+    """The alarm statistic's running sums of one record (and one calibration) at points
+    along it, kept by a pass over it (:class:`AlarmRuns` with ``index``): a later pass
+    that starts at some sample resumes from the last point before its first window
+    instead of summing the record from sample 0, with the same sums bit for bit (the
+    sums are sequential either way). A lasting fault's end searches each summed the
+    record up to their onset: thousands of searches over a long archive, a cost
+    quadratic in its length."""
+
+    def __init__(self) -> None:
+        self.points: list[FloatArray] = []  # carries, by increasing index
+
+    def add(self, carry: FloatArray) -> None:
+        if not self.points or carry[0] > self.points[-1][0]:
+            self.points.append(carry.copy())
+
+    def before(self, start: int, cal: Calibration) -> FloatArray:
+        """A carry for a statistic from ``start`` on: the last point at or before the
+        first sample its windows read (zeros, the record's start, when there is none)."""
+        first = max(0, start - max(cal.windows) + 1)
+        k = bisect.bisect_right([float(c[0]) for c in self.points], first)
+        return self.points[k - 1].copy() if k else np.zeros(4)
+
+
 class AlarmRuns:
     """The runs of alarm statistic above 1 of a record from ``first`` on, ``[start, stop,
     peak]`` each, found a :data:`STAT_PIECE` at a time as the record grows
@@ -686,10 +713,17 @@ class AlarmRuns:
     sums carried), and only its runs are kept. A run cut by a piece's edge comes as two,
     which :func:`intervals` joins (no observed sample between them)."""
 
-    def __init__(self, cal: Calibration, first: int, carry: FloatArray | None = None) -> None:
+    def __init__(
+        self,
+        cal: Calibration,
+        first: int,
+        carry: FloatArray | None = None,
+        index: SumsIndex | None = None,
+    ) -> None:
         self.cal = cal
         self.h = max(0, first)  # the statistic is known before this sample
         self.carry = np.zeros(4) if carry is None else carry
+        self.index = index  # where each piece's running sums are kept
         self.runs: list[list[Any]] = []
 
     @staticmethod
@@ -718,6 +752,8 @@ class AlarmRuns:
                 base=lo,
             )
             self.runs.extend(_runs_with_peaks(s, lo))
+            if self.index is not None:
+                self.index.add(self.carry)
             # the next piece reads the record from its first window's start on
             read_from = int(self.carry[0])
             if release_behind and read_from > done:

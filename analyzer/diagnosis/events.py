@@ -16,6 +16,7 @@ from analyzer.diagnosis.changes import (
     AlarmRuns,
     Calibration,
     Interval,
+    SumsIndex,
     alarm_statistic,
     detect,
     detection_confidence,
@@ -49,11 +50,14 @@ def events_from_residual(
     # the search computes the alarm statistic a piece at a time (its memory does not grow
     # with the record); each fault's end is searched on the statistic of a stretch from
     # its onset, grown as far as the answer needs (diagnose_interval)
-    for iv in detect(residual, cal, search_start=search_start):
+    # the detection's running sums at points along the residual: each end search resumes
+    # from them instead of summing the residual from its first sample
+    index = SumsIndex()
+    for iv in detect(residual, cal, search_start=search_start, index=index):
         if iv.onset < covered:
             continue  # inside a fault already extended over this stretch
         cls, end = diagnose_interval(
-            residual, reference, cal, iv, rate_hz, tau_corr, scratch=scratch
+            residual, reference, cal, iv, rate_hz, tau_corr, scratch=scratch, index=index
         )
         covered = n if end is None else end
         onset_s, factor, extra = bounded_onset(iv.onset, cls, rate_hz, search_start)
@@ -114,6 +118,7 @@ def diagnose_interval(
     *,
     statistic: FloatArray | None = None,
     scratch: Path | None = None,
+    index: SumsIndex | None = None,
 ) -> tuple[Classification, int | None]:
     """Classify the fault that starts at ``iv`` and find where it really ends.
 
@@ -133,7 +138,10 @@ def diagnose_interval(
     its onset), with the answer of the search over the whole record. The corrected
     residual is kept from the first sample the search reads to as far as it has grown:
     in memory, or past :data:`MAPPED_CORRECTION` samples memory-mapped in ``scratch``
-    when given (a fault that lasts to the end of a long archive)."""
+    when given (a fault that lasts to the end of a long archive). ``index``: the running
+    sums of a pass of :func:`~analyzer.diagnosis.changes.detect` over the same residual
+    with the same ``cal``, from which both searches start (instead of summing the
+    residual from its first sample; the same sums bit for bit)."""
     n = residual.shape[0]
     limit = n if classify_until is None else max(iv.onset + 3, classify_until)
     stop = min(n if iv.end is None else iv.end, limit)
@@ -154,9 +162,9 @@ def diagnose_interval(
     if shape is None:
         return cls, iv.end
     end: int | None = None
-    raw_alarms = _Intervals(r, n, cal, iv.onset, statistic)
+    raw_alarms = _Intervals(r, n, cal, iv.onset, statistic, index)
     corrected_alarms = _Intervals(
-        _Corrected(r, ref, cls, iv.onset, rate_hz, cal, iv.onset + cal.window, scratch),
+        _Corrected(r, ref, cls, iv.onset, rate_hz, cal, iv.onset + cal.window, scratch, index),
         n,
         cal,
         iv.onset + cal.window,
@@ -210,12 +218,15 @@ class _Corrected:
         cal: Calibration,
         search_start: int,
         scratch: Path | None = None,
+        index: SumsIndex | None = None,
     ) -> None:
         self.r, self.ref, self.cls, self.onset, self.rate_hz = r, ref, cls, onset, rate_hz
         self.scratch = scratch
-        self.carry = np.zeros(4)
         n = r.shape[0]
         head = min(max(0, search_start), n)
+        # the residual is corrected only from the onset on: before it, the raw residual's
+        # running sums (from the index when there is one)
+        self.carry = np.zeros(4) if index is None else index.before(head, cal)
         # the running sums up to the first window from search_start on (no statistic:
         # the record ends at search_start)
         alarm_statistic(
@@ -276,13 +287,18 @@ class _Intervals:
         cal: Calibration,
         search_start: int,
         statistic: FloatArray | None = None,
+        index: SumsIndex | None = None,
     ) -> None:
         self.record, self.n, self.cal = record, n, cal
         self.search_start = max(0, search_start)
         self.stat = statistic
         # without a statistic, its alarm runs, found a piece at a time as h grows (the
-        # running sums carried from step to step): none of it is kept whole
-        carry = None if isinstance(record, np.ndarray) else record.carry
+        # running sums carried from step to step, from the index's when there is one):
+        # none of it is kept whole
+        if isinstance(record, np.ndarray):
+            carry = None if index is None else index.before(self.search_start, cal)
+        else:
+            carry = record.carry
         self.runs = AlarmRuns(cal, self.search_start, carry)
         self.found: list[Interval] = []  # detect's intervals of the first h samples
         self.settled = 0  # how many of them are the whole record's

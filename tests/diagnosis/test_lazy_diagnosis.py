@@ -489,3 +489,41 @@ def test_mapped_corrected_residual_memory_is_set_by_its_limit(tmp_path) -> None:
     assert got[1] is None  # lasts to the end: the search went through the record
     assert peak < 24e6, peak
     assert got == diagnose_interval(r, ref, cal, iv, RATE, 2.0)
+
+
+@pytest.mark.parametrize("case", range(7))
+def test_end_searches_from_the_detections_running_sums(
+    case: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The end searches resume from the running sums detect kept along the residual
+    (SumsIndex), not from the residual's first sample: the same answers, and the same
+    statistic bit for bit from any start."""
+    from analyzer.diagnosis import changes
+    from analyzer.diagnosis import events as events_module
+
+    monkeypatch.setattr(changes, "STAT_PIECE", 1500)  # many points along the record
+    name, r, ref = _cases()[case]
+    start = 6000
+    cal = calibrate(r[:start], 25)
+    index = changes.SumsIndex()
+    ivs = detect(r, cal, search_start=start, index=index)
+    assert len(index.points) > 10
+    assert ivs == detect(r, cal, search_start=start)
+    whole = alarm_statistic(r, cal, raw=True)
+    for s in (start, 7777, 15_001, 39_000):
+        carry = index.before(s, cal)
+        assert 0 < carry[0] <= s - max(cal.windows) + 1
+        got = alarm_statistic(r, cal, raw=True, start=s, carry=carry)
+        assert np.array_equal(got[s:], whole[s:])
+    for iv in ivs:
+        for reference in (ref, None):
+            want = diagnose_interval(r, reference, cal, iv, RATE, 2.0)
+            assert diagnose_interval(r, reference, cal, iv, RATE, 2.0, index=index) == want
+
+    class NoIndex(changes.SumsIndex):
+        def before(self, start, cal):
+            return np.zeros(4)
+
+    with_index = events_from_residual("c", r, ref, cal, RATE, "d", search_start=start)
+    monkeypatch.setattr(events_module, "SumsIndex", NoIndex)
+    assert events_from_residual("c", r, ref, cal, RATE, "d", search_start=start) == with_index
