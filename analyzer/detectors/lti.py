@@ -12,8 +12,9 @@ compiled per-sample loop. Results equal the sample-by-sample recursion to roundi
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -319,6 +320,12 @@ def _decay_steps_linear(P: FloatArray, tol: float, most: int) -> int | None:
     return m
 
 
+SUBSETS_KEPT = 4
+"""Banks of subsets of a bank's systems kept for the next call (each ``len(systems) / k``
+of the bank's spectrum)."""
+_SUBSETS_LOCK = threading.Lock()
+
+
 @dataclass(frozen=True, slots=True)
 class ImpulseResponseBank:
     """``k`` stable LTI systems ``(F_i, G_i, H_i, J_i)`` of equal output size driven by one
@@ -342,6 +349,12 @@ class ImpulseResponseBank:
     q: int
     spectrum: npt.NDArray[np.complex128]
     """``(nfft // 2 + 1, k q, r)``: the FFT of the Markov parameters of every output."""
+    subsets: dict[tuple[int, ...], ImpulseResponseBank] = field(
+        default_factory=dict, compare=False, repr=False
+    )
+    """The last :data:`SUBSETS_KEPT` banks :meth:`subset` made, by their systems: a lasting
+    fault asks for the same one at each of thousands of alarms (a copy of its part of the
+    spectrum, 1-2 ms each)."""
 
     STEP = 16
     """The responses' length is a multiple of this; the Markov parameters are computed in
@@ -508,9 +521,17 @@ class ImpulseResponseBank:
         """The bank restricted to the systems ``systems`` (every output of each): the same
         numbers to rounding, at about ``len(systems) / k`` of the cost of a run of the
         whole bank."""
-        idx = (np.asarray(systems)[:, None] * self.q + np.arange(self.q)[None, :]).ravel()
-        spectrum = np.ascontiguousarray(self.spectrum[:, idx, :])
-        return ImpulseResponseBank(self.taps, self.nfft, len(systems), self.q, spectrum)
+        key = tuple(int(i) for i in systems)
+        with _SUBSETS_LOCK:  # threads may share the bank
+            kept = self.subsets.pop(key, None)
+            if kept is None:
+                idx = (np.asarray(key)[:, None] * self.q + np.arange(self.q)[None, :]).ravel()
+                spectrum = np.ascontiguousarray(self.spectrum[:, idx, :])
+                kept = ImpulseResponseBank(self.taps, self.nfft, len(key), self.q, spectrum)
+            self.subsets[key] = kept  # the most recent last
+            while len(self.subsets) > SUBSETS_KEPT:
+                self.subsets.pop(next(iter(self.subsets)))
+        return kept
 
     def run(self, v: FloatArray) -> Iterator[tuple[int, FloatArray]]:
         """Outputs for inputs ``v`` (N, r) from rest, in chunks: yields ``(start, y)`` with

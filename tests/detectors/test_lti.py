@@ -52,3 +52,40 @@ def test_a_bank_too_large_for_memory_runs_in_lifted_form(monkeypatch):
     a = np.concatenate([y for _, y in fir.run(u)], axis=2)
     b = np.concatenate([y for _, y in lifted.run(u)], axis=2)
     np.testing.assert_allclose(a, b, atol=1e-10)
+
+
+def test_subset_of_a_bank_runs_its_systems_and_is_kept(monkeypatch):
+    """A subset of the bank's systems gives those systems' outputs of the whole bank (to
+    rounding); asked for again it is the same object, and only the last SUBSETS_KEPT are
+    kept. A pickled bank (a cluster's task) runs the same."""
+    import pickle
+
+    import analyzer.detectors.lti as lti
+
+    rng = np.random.default_rng(3)
+    systems = []
+    for _ in range(6):
+        F = rng.normal(size=(5, 5))
+        F *= 0.7 / np.max(np.abs(np.linalg.eigvals(F)))
+        systems.append(
+            (F, rng.normal(size=(5, 3)), rng.normal(size=(2, 5)), rng.normal(size=(2, 3)))
+        )
+    bank = lti.system_bank(systems)
+    assert isinstance(bank, lti.ImpulseResponseBank)
+    u = rng.normal(size=(2500, 3))
+    whole = np.concatenate([y for _, y in bank.run(u)], axis=2)
+    for pick in ([4], [0, 5], [2]):
+        one = bank.subset(pick)
+        got = np.concatenate([y for _, y in one.run(u)], axis=2)
+        np.testing.assert_allclose(got, whole[pick], rtol=1e-12, atol=1e-12)
+        assert bank.subset(pick) is one
+    monkeypatch.setattr(lti, "SUBSETS_KEPT", 2)
+    first = bank.subset([1])
+    bank.subset([3])
+    bank.subset([4])  # [1] is the oldest: dropped
+    assert len(bank.subsets) == 2 and bank.subset([1]) is not first
+    copy = pickle.loads(pickle.dumps(bank))
+    np.testing.assert_array_equal(
+        np.concatenate([y for _, y in copy.subset([4]).run(u)], axis=2),
+        np.concatenate([y for _, y in bank.subset([4]).run(u)], axis=2),
+    )
