@@ -30,19 +30,26 @@ def test_state_carries_across_calls():
     np.testing.assert_allclose(np.vstack([first, second]), whole, atol=1e-12)
 
 
+def _stable_systems(rng, count, n, r, q, radius):
+    """``count`` random systems ``(F, G, H, J)`` with ``n`` states, ``r`` inputs and ``q``
+    outputs, ``F`` scaled to spectral radius ``radius``."""
+    systems = []
+    for _ in range(count):
+        F = rng.normal(size=(n, n))
+        F *= radius / np.max(np.abs(np.linalg.eigvals(F)))
+        systems.append(
+            (F, rng.normal(size=(n, r)), rng.normal(size=(q, n)), rng.normal(size=(q, r)))
+        )
+    return systems
+
+
 def test_a_bank_too_large_for_memory_runs_in_lifted_form(monkeypatch):
     """Above MAX_BANK_BYTES the impulse-response bank is not built (its size grows as
     channels^3 x taps); the lifted form gives the same outputs."""
     import analyzer.detectors.lti as lti
 
     rng = np.random.default_rng(1)
-    systems = []
-    for _ in range(3):
-        F = rng.normal(size=(6, 6))
-        F *= 0.8 / np.max(np.abs(np.linalg.eigvals(F)))
-        systems.append(
-            (F, rng.normal(size=(6, 4)), rng.normal(size=(3, 6)), rng.normal(size=(3, 4)))
-        )
+    systems = _stable_systems(rng, 3, n=6, r=4, q=3, radius=0.8)
     u = rng.normal(size=(3000, 4))
     fir = lti.system_bank(systems)
     assert isinstance(fir, lti.ImpulseResponseBank)
@@ -63,13 +70,7 @@ def test_subset_of_a_bank_runs_its_systems_and_is_kept(monkeypatch):
     import analyzer.detectors.lti as lti
 
     rng = np.random.default_rng(3)
-    systems = []
-    for _ in range(6):
-        F = rng.normal(size=(5, 5))
-        F *= 0.7 / np.max(np.abs(np.linalg.eigvals(F)))
-        systems.append(
-            (F, rng.normal(size=(5, 3)), rng.normal(size=(2, 5)), rng.normal(size=(2, 3)))
-        )
+    systems = _stable_systems(rng, 6, n=5, r=3, q=2, radius=0.7)
     bank = lti.system_bank(systems)
     assert isinstance(bank, lti.ImpulseResponseBank)
     u = rng.normal(size=(2500, 3))
