@@ -104,7 +104,7 @@ from analyzer.diagnosis.changes import (
 from analyzer.diagnosis.classify import correlation_time
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.errors import DetectorError
-from analyzer.paging import RELEASE_ROWS, Released, buffer, release
+from analyzer.paging import RELEASE_ROWS, Released, ScratchRows, release
 
 FloatArray = npt.NDArray[np.float64]
 Modes = Sequence[complex] | npt.NDArray[Any]
@@ -1329,7 +1329,9 @@ class DetectionFilter:
         m = len(model.filters)
         # per filter (independent: in parallel on threads, which share the arrays): the
         # candidate events of its fault estimate
-        scratch = context.workdir if context.map_outputs else None
+        # a long archive: each task's reference in sensor units goes to a scratch row,
+        # reused by the next task of the same thread
+        scratch = ScratchRows(context.workdir if context.map_outputs else None)
         tasks = [
             (model, i, names[i], zetas, refs, rate, self.name, train_stop, scratch)
             for i in range(m)
@@ -1493,19 +1495,19 @@ def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
     """Filter ``i``: the candidate events of its fault estimate ``zetas[i]``."""
     model, i, name, zetas, refs, rate, detector, train_stop, scratch = task
     n = refs[i].shape[0]
-    into = None if scratch is None else buffer(scratch, f"units{i}", (n, 1))[:, 0]
-    units = _sensor_units(model, refs, i, into)  # float64: low-passed in place
-    found = events_from_residual(
-        name,
-        zetas[i],
-        lowpass(units, model.filters[i].sigma, out=units),
-        model.zeta_cal[i],
-        rate,
-        detector,
-        search_start=train_stop,
-        tau_corr=model.tau[i],
-        scratch=scratch,
-    )
+    with scratch.row(f"units{i}", n) as into:
+        units = _sensor_units(model, refs, i, into)  # float64, every row: low-passed in place
+        found = events_from_residual(
+            name,
+            zetas[i],
+            lowpass(units, model.filters[i].sigma, out=units),
+            model.zeta_cal[i],
+            rate,
+            detector,
+            search_start=train_stop,
+            tau_corr=model.tau[i],
+            scratch=scratch.workdir,
+        )
     release(zetas[i])  # memory-mapped rows: read again only where an event is
     release(refs[i])
     return found

@@ -57,7 +57,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, ClassVar, Literal
 
 import numpy as np
@@ -72,7 +71,7 @@ from analyzer.detectors.network import NetworkDiagnosis, Propagation, SensorNetw
 from analyzer.diagnosis.changes import Calibration, calibrate, default_window
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.errors import DetectorError
-from analyzer.paging import RELEASE_ROWS, buffer, release
+from analyzer.paging import RELEASE_ROWS, ScratchRows, release
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -790,6 +789,9 @@ class EquivalentModel:
                 context.buffer(f"{self.name}-resid", shape, SIGNAL_DTYPE),
                 context.buffer(f"{self.name}-ref", shape, SIGNAL_DTYPE),
             )
+        # a long archive: each observer's two float64 signals go to scratch rows, reused
+        # by the next observer of the same thread
+        scratch = ScratchRows(context.workdir if context.map_outputs else None)
         tasks = [
             (
                 ob,
@@ -799,7 +801,7 @@ class EquivalentModel:
                 self.name,
                 train_stop,
                 None if kept is None else (kept[0][:, k], kept[1][:, k]),
-                context.workdir if context.map_outputs else None,
+                scratch,
             )
             for k, ob in enumerate(model.observers)
         ]
@@ -915,47 +917,44 @@ def _fit_observer_task(task: tuple[Any, ...]) -> tuple[TargetObserver, int]:
 
 def _observer_task(
     task: tuple[
-        TargetObserver, FloatArray, str, float, str, int, tuple[Any, Any] | None, Path | None
+        TargetObserver, FloatArray, str, float, str, int, tuple[Any, Any] | None, ScratchRows
     ],
 ) -> tuple[npt.NDArray[Any], npt.NDArray[Any], list[Event]]:
     """One observer over the archive: its fault estimate (residual), the estimate from
     the assistants (NaN where the residual is) and its candidate events. The two
     signals are returned in :data:`SIGNAL_DTYPE`, written into the two given arrays
-    (rows of memory-mapped buffers) when there are. With a scratch directory (a long
-    archive) the two float64 signals the event search reads are memory-mapped there too,
-    and every pass gives back what it is done with."""
+    (rows of memory-mapped buffers) when there are. For a long archive the two float64
+    signals the event search reads are scratch rows (memory-mapped, reused by the next
+    observer), and every pass gives back what it is done with."""
     ob, values, name, rate, detector, train_stop, into, scratch = task
     n = values.shape[0]
-    out: tuple[FloatArray, FloatArray] | None = None
-    if scratch is not None:
-        out = (
-            buffer(scratch, f"observer{ob.target}-zeta", (n, 1))[:, 0],
-            buffer(scratch, f"observer{ob.target}-z", (n, 1))[:, 0],
+    with scratch.row("observer-zeta", n) as zeta_row, scratch.row("observer-z", n) as z_row:
+        out = None if zeta_row is None or z_row is None else (zeta_row, z_row)
+        # writes every row of both (the pass's own arrays without scratch)
+        zeta, z = EquivalentModel._fault_estimate(ob.observer, ob.relation, values, ob.target, out)
+        release(values)  # a memory-mapped archive: its columns were read whole, give them back
+        kept = (np.empty(n, SIGNAL_DTYPE), np.empty(n, SIGNAL_DTYPE)) if into is None else into
+        for a in range(0, n, RELEASE_ROWS):
+            b = min(n, a + RELEASE_ROWS)
+            zp, zz = zeta[a:b], z[a:b]
+            zz[~np.isfinite(zp)] = np.nan
+            # kept in the pipeline's signal precision
+            kept[0][a:b] = zp
+            kept[1][a:b] = zz
+            for part in (zp, zz, kept[0][a:b], kept[1][a:b]):
+                release(part)  # no-ops in memory
+        phi = float(np.exp(-ob.observer.lambda1 * ob.observer.dt))
+        found = events_from_residual(
+            name,
+            zeta,
+            lowpass(z, phi, out=z),  # the estimate is kept already: low-passed in place
+            ob.cal,
+            rate,
+            detector,
+            search_start=train_stop,
+            tau_corr=ob.tau,
+            scratch=scratch.workdir,
         )
-    zeta, z = EquivalentModel._fault_estimate(ob.observer, ob.relation, values, ob.target, out)
-    release(values)  # a memory-mapped archive: its columns were read whole, give them back
-    kept = (np.empty(n, SIGNAL_DTYPE), np.empty(n, SIGNAL_DTYPE)) if into is None else into
-    for a in range(0, n, RELEASE_ROWS):
-        b = min(n, a + RELEASE_ROWS)
-        zp, zz = zeta[a:b], z[a:b]
-        zz[~np.isfinite(zp)] = np.nan
-        # kept in the pipeline's signal precision
-        kept[0][a:b] = zp
-        kept[1][a:b] = zz
-        for part in (zp, zz, kept[0][a:b], kept[1][a:b]):
-            release(part)  # no-ops in memory
-    phi = float(np.exp(-ob.observer.lambda1 * ob.observer.dt))
-    found = events_from_residual(
-        name,
-        zeta,
-        lowpass(z, phi, out=z),  # the estimate is kept already: low-passed in place
-        ob.cal,
-        rate,
-        detector,
-        search_start=train_stop,
-        tau_corr=ob.tau,
-        scratch=scratch,
-    )
     return kept[0], kept[1], found
 
 

@@ -71,6 +71,32 @@ def test_spilled_rows_are_released_like_any_mapping(tmp_path):
     assert float(row[-1]) == 1.5
 
 
+def test_spill_keeps_rows_already_mapped_in_its_precision(tmp_path):
+    """A float32 row of a memory-mapped buffer is returned as a read-only view of its own
+    map (no second copy); the others go to the file, which holds only them."""
+    from analyzer.paging import buffer, is_mapped
+
+    n = 5000
+    mapped = buffer(tmp_path, "kept", (n, 2), np.float32)
+    mapped[:, 0] = np.arange(n)
+    mapped[:, 1] = -1.0
+    wide = buffer(tmp_path, "wide", (n, 1))  # float64: converted, so written
+    wide[:, 0] = 0.25
+    signals = {"a": mapped[:, 0], "w": wide[:, 0], "b": mapped[:, 1], "m": np.full(n, 3.0)}
+    rows = spill(signals, tmp_path / "s.npy", np.float32)
+    assert list(rows) == ["a", "w", "b", "m"]
+    for name in ("a", "b"):
+        assert np.shares_memory(rows[name], signals[name])
+        assert is_mapped(rows[name])
+    for name, row in rows.items():
+        assert row.dtype == np.float32 and not row.flags.writeable
+        np.testing.assert_array_equal(row, np.asarray(signals[name], dtype=np.float32))
+    assert np.load(tmp_path / "s.npy").shape == (2, n)  # only w and m
+    only_kept = spill({"a": mapped[:, 0]}, tmp_path / "none.npy", np.float32)
+    assert not (tmp_path / "none.npy").exists()
+    np.testing.assert_array_equal(only_kept["a"], np.arange(n, dtype=np.float32))
+
+
 def test_spill_refuses_rows_of_unequal_length(tmp_path):
     with pytest.raises(ValueError, match="b has shape"):
         spill({"a": np.zeros(10), "b": np.zeros(9)}, tmp_path / "s.npy", np.float32)
@@ -176,3 +202,45 @@ def test_mapped_files_reserve_their_space_and_a_full_disk_is_an_error(tmp_path, 
     b = paging.mapped_file(tmp_path / "b.npy", (10, 2), np.float32)
     b[:] = 1.0
     assert b.shape == (10, 2)
+
+
+def test_scratch_rows_are_reused_and_go_with_the_pool(tmp_path):
+    """A returned row is lent again (same memory, holding the last pass's values, so a
+    user overwrites it whole); rows in use at once are distinct; without a workdir there
+    is no row; a pickled pool arrives empty."""
+    import pickle
+    import threading
+
+    from analyzer.paging import ScratchRows, is_mapped
+
+    pool = ScratchRows(tmp_path)
+    with pool.row("a", 1000) as first:
+        assert first is not None and is_mapped(first) and first.dtype == np.float64
+        first[:] = 7.0
+    with pool.row("b", 1000) as again:
+        assert np.shares_memory(again, first)
+        assert float(again[0]) == 7.0
+        with pool.row("c", 1000) as other, pool.row("d", 500) as short:
+            assert not np.shares_memory(other, again)
+            assert short.shape == (500,)
+    assert pool.made == 3
+    lent: list[np.ndarray] = []
+    barrier = threading.Barrier(2)
+
+    def use() -> None:
+        with pool.row("t", 1000) as r:
+            lent.append(r)
+            barrier.wait()  # both threads hold a row at once
+
+    threads = [threading.Thread(target=use) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not np.shares_memory(lent[0], lent[1])
+    assert pool.made == 3  # both came from the free rows
+    with ScratchRows(None).row("x", 10) as none:
+        assert none is None
+    copy = pickle.loads(pickle.dumps(pool))
+    assert copy.workdir == tmp_path and copy.made == 0
+    assert not any(tmp_path.iterdir())  # the files were unlinked as they were made
