@@ -150,6 +150,13 @@ try:  # this process's own high-water mark (see run_child)
                 captured["vmhwm_kb"] = int(line.split()[1])
 except OSError:
     pass
+try:  # bytes this process had written to files (scratch included), where /proc has it
+    with open("/proc/self/io") as io:
+        for line in io:
+            if line.startswith("write_bytes:"):
+                captured["write_bytes"] = int(line.split()[1])
+except OSError:
+    pass
 print("BENCH_JSON " + json.dumps(captured))
 from analyzer.cli import end
 end(rc)  # as the console script ends (analyzer.cli.entry)
@@ -166,6 +173,9 @@ class Run:
     cpu_s: float
     rc: int
     info: dict[str, Any] = field(default_factory=dict)
+    sys_s: float = 0.0
+    """The child's CPU time in the kernel (page faults on scratch files, copies into the
+    page cache): part of ``cpu_s``."""
 
     @property
     def values(self) -> int:
@@ -303,6 +313,7 @@ def run_child(archive: Path, out: Path, log: Path, profile: Path | None = None) 
         cpu_s=usage.ru_utime + usage.ru_stime,
         rc=int(info.get("rc", proc.returncode)),
         info=info,
+        sys_s=usage.ru_stime,
     )
 
 
@@ -518,7 +529,8 @@ def main(argv: list[str] | None = None) -> int:
         print(
             f"{'format':<7}{'hours':>6}{'files':>6}{'values':>13}{'wall s':>9}{'values/s':>12}"
             + "".join(f"{s:>8}" for s in stages)
-            + f"{'outputs':>9}{'startup':>9}{'peak RSS':>11}{'exit':>6}"
+            + f"{'outputs':>9}{'startup':>9}{'peak RSS':>11}{'cpu s':>8}{'sys s':>7}"
+            + f"{'written':>10}{'exit':>6}"
         )
         for r in runs:
             t = r.info.get("timings", {})
@@ -530,12 +542,17 @@ def main(argv: list[str] | None = None) -> int:
                 f"{r.fmt:<7}{r.hours:>6g}{r.files:>6}{r.values:>13,}{r.wall_s:>9.1f}"
                 f"{r.rate:>12,.0f}"
                 + "".join(f"{t.get(s, float('nan')):>8.1f}" for s in stages)
-                + f"{outputs:>9.1f}{startup:>9.1f}{r.peak_mb:>8.0f} MB{r.rc:>6}"
+                + f"{outputs:>9.1f}{startup:>9.1f}{r.peak_mb:>8.0f} MB"
+                + f"{r.cpu_s:>8.1f}{r.sys_s:>7.1f}"
+                + f"{r.info.get('write_bytes', float('nan')) / 1e9:>7.2f} GB{r.rc:>6}"
             )
         print(
             "values: samples x analyzed channels; values/s over the child's wall time; stage "
             "times in s from Analysis.timings; outputs = findings.json + report.html; "
-            "startup = interpreter + imports until the analysis begins; exit 0 = no fault found"
+            "startup = interpreter + imports until the analysis begins; cpu s = the child's "
+            "user + system time (sys s: in the kernel, mostly page faults and copies of "
+            "scratch files); written = bytes it wrote to files, its scratch space included "
+            "(/proc/PID/io); exit 0 = no fault found"
         )
         for r in runs:  # per detector (threads: the fits overlap, the runs follow each other)
             t = r.info.get("timings", {})
