@@ -143,20 +143,17 @@ if profile:
 else:
     rc = main(sys.argv[1:], figure_processes=True)
 captured.update(rc=rc, end_s=time.perf_counter() - start)
-try:  # this process's own high-water mark (see run_child)
-    with open("/proc/self/status") as status:
-        for line in status:
-            if line.startswith("VmHWM:"):
-                captured["vmhwm_kb"] = int(line.split()[1])
-except OSError:
-    pass
-try:  # bytes this process had written to files (scratch included), where /proc has it
-    with open("/proc/self/io") as io:
-        for line in io:
-            if line.startswith("write_bytes:"):
-                captured["write_bytes"] = int(line.split()[1])
-except OSError:
-    pass
+def proc_field(path, key, name):  # a number from a /proc/self file, where there is one
+    try:
+        with open(path) as f:
+            for line in f:
+                if line.startswith(key):
+                    captured[name] = int(line.split()[1])
+    except OSError:
+        pass
+
+proc_field("/proc/self/status", "VmHWM:", "vmhwm_kb")  # its own high-water mark (run_child)
+proc_field("/proc/self/io", "write_bytes:", "write_bytes")  # written to files, scratch too
 print("BENCH_JSON " + json.dumps(captured))
 from analyzer.cli import end
 end(rc)  # as the console script ends (analyzer.cli.entry)
