@@ -68,7 +68,10 @@ class Executor(Protocol):
         locally, a future on the cluster); pass it to :meth:`submit` in place of ``obj``."""
         ...
 
-    def close(self) -> None: ...
+    def close(self, wait: bool = True) -> None:
+        """Release the executor; ``wait=False`` (a run that stopped on an error or an
+        interrupt) does not wait for tasks already running."""
+        ...
 
 
 class _Deferred:
@@ -118,7 +121,7 @@ class SerialExecutor:
     def scatter(self, obj: T) -> T:
         return obj
 
-    def close(self) -> None:
+    def close(self, wait: bool = True) -> None:
         pass
 
     def __repr__(self) -> str:
@@ -165,8 +168,10 @@ class ThreadExecutor:
     def scatter(self, obj: T) -> T:
         return obj
 
-    def close(self) -> None:
-        self._pool.shutdown(wait=True, cancel_futures=True)
+    def close(self, wait: bool = True) -> None:
+        # after an interrupt the caller unwinds at once: a task inside a compiled kernel
+        # (minutes, on a large group of channels) is left to the process's end
+        self._pool.shutdown(wait=wait, cancel_futures=True)
 
     def __repr__(self) -> str:
         return f"ThreadExecutor({self.workers})"
@@ -223,7 +228,7 @@ class DaskExecutor:
         # broadcast: every worker that runs a detector needs it, fetch it once each
         return self.client.scatter(obj, broadcast=True, hash=False)
 
-    def close(self) -> None:
+    def close(self, wait: bool = True) -> None:
         self.client.close()
 
     def describe(self) -> str:
@@ -306,7 +311,7 @@ class WorkerClientExecutor:
     def scatter(self, obj: T) -> T:  # pragma: no cover
         return obj
 
-    def close(self) -> None:
+    def close(self, wait: bool = True) -> None:
         pass
 
 

@@ -3,6 +3,7 @@ backend): readers -> store -> detectors -> diagnosis -> report."""
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import inspect
 import json
@@ -16,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from analyzer import __version__
 from analyzer.config import Config, load_config
@@ -26,8 +28,9 @@ from analyzer.diagnosis import Finding, merge_events
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
 from analyzer.diagnosis.stuck import relabel_frozen
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
+from analyzer.grouping import partition
 from analyzer.outdir import prepare_dir, remove_if_empty
-from analyzer.paging import is_mapped, release, spill, trim_heap
+from analyzer.paging import is_mapped, mapped_file, release, spill, trim_heap
 from analyzer.parallel import (
     DaskExecutor,
     Executor,
@@ -253,14 +256,15 @@ def _compacted(a: Any) -> Any:
     return a if is_mapped(a) else np.asarray(a, dtype=SIGNAL_DTYPE)
 
 
-def _spill(result: DetectorResult, spill_dir: Path | None) -> DetectorResult:
+def _spill(result: DetectorResult, spill_dir: Path | None, tag: str = "") -> DetectorResult:
     """``result`` with its per-sample signals moved to memory-mapped files in
     ``spill_dir`` (a long archive; :func:`analyzer.paging.spill`), so the signals of the
-    detectors that have finished stop counting against memory; unchanged without it."""
+    detectors that have finished stop counting against memory; unchanged without it.
+    ``tag`` tells apart the files of one detector's runs on several channel groups."""
     if spill_dir is None:
         return result
     spill_dir.mkdir(exist_ok=True)
-    base = spill_dir / result.detector
+    base = spill_dir / f"{result.detector}{tag}"
     result.residuals = spill(
         result.residuals, base.with_name(base.name + "-residuals.npy"), SIGNAL_DTYPE
     )
@@ -295,10 +299,12 @@ def _run_detectors(
     timings: dict[str, float] | None = None,
     spill_dir: Path | None = None,
     finished: Callable[[DetectorResult], None] | None = None,
+    tag: str = "",
 ) -> tuple[list[DetectorResult], dict[str, str]]:
     """Fit and run the detectors ``names``, each as a task of ``executor``; results and
     skip reasons in registry order, so any executor gives the serial run's output.
-    ``finished`` is called with each result as soon as it is final (in that order).
+    ``finished`` is called with each result as soon as it is final (in that order);
+    ``tag`` names the channel group in spilled files' names (:func:`_spill`).
 
     A detector whose needs are not met, or that raises :class:`DetectorError`, is skipped
     with its reason; when the user named the detectors (``ctx.explicit``) the first such
@@ -355,14 +361,16 @@ def _run_detectors(
                     det, model, fit_s = plan.result()
                     t0 = time.perf_counter()
                     trim_heap()  # what the fits freed
-                    settled[i] = _spill(_compact(det.run(model, data, ctx)), spill_dir)
+                    settled[i] = _spill(_compact(det.run(model, data, ctx)), spill_dir, tag)
                     release(data.values)  # what the run read of a memory-mapped archive
                     trim_heap()  # the run's per-sample arrays
                     if timings is not None:  # the fits overlap: their sum exceeds the wall time
-                        timings[f"fit {name}"] = fit_s
-                        timings[f"run {name}"] = time.perf_counter() - t0
+                        # (summed over channel groups)
+                        run_s = time.perf_counter() - t0
+                        timings[f"fit {name}"] = timings.get(f"fit {name}", 0.0) + fit_s
+                        timings[f"run {name}"] = timings.get(f"run {name}", 0.0) + run_s
                 else:
-                    settled[i] = _spill(plan.result(), spill_dir)
+                    settled[i] = _spill(plan.result(), spill_dir, tag)
                     trim_heap()
             except DetectorError as err:
                 settled[i] = err
@@ -393,6 +401,125 @@ def _run_detectors(
         elif isinstance(outcome, DetectorResult):
             results.append(outcome)
     return results, skipped
+
+
+def _run_groups(
+    groups: list[tuple[str, ...]],
+    names: list[str],
+    options: RunOptions,
+    data: Dataset,
+    ctx: RunContext,
+    executor: Executor,
+    timings: dict[str, float],
+    spill_dir: Path | None,
+    finished: Callable[[DetectorResult], None],
+) -> tuple[list[DetectorResult], dict[str, str]]:
+    """:func:`_run_detectors` once per channel group (:mod:`analyzer.grouping`), one
+    group after the other, each on a copy of its columns (memory-mapped for a long
+    archive). The error functions, which pair sensors by the config's own groups, run
+    once on every channel. Each group's detectors share the run's false-alarm rate in
+    proportion to its channels, so the rate per sample of the archive stays the one
+    asked for. Results in group order; skip reasons name the group."""
+    results: list[DetectorResult] = []
+    skipped: dict[str, str] = {}
+    whole = [n for n in names if n == "error_function"]
+    if whole:
+        results, skipped = _run_detectors(
+            whole, options, data, ctx, executor, timings, spill_dir, finished
+        )
+    per_group = [n for n in names if n not in whole]
+    total = sum(len(g) for g in groups)
+    big = is_mapped(data.values)
+    for k, group in enumerate(groups):
+        columns = [data.channels.index(c) for c in group]
+        path = ctx.workdir / f"group{k}.npy" if big and ctx.workdir is not None else None
+        values = _columns(data.values, columns, path)
+        part = Dataset(values, group, data.rate_hz, data.train)
+        share = replace(ctx, false_alarm_rate=ctx.false_alarm_rate * len(group) / total)
+        got, why = _run_detectors(
+            per_group, options, part, share, executor, timings, spill_dir, finished, f"-g{k}"
+        )
+        results.extend(got)
+        for name, reason in why.items():
+            skipped[f"{name} ({group[0]}..{group[-1]})"] = reason
+        del values, part
+        trim_heap()
+    order = {n: i for i, n in enumerate(names)}
+    results.sort(key=lambda r: order.get(r.detector, len(order)))  # stable: groups in order
+    return results, skipped
+
+
+def _columns(values: Any, columns: list[int], path: Path | None) -> npt.NDArray[np.float64]:
+    """``values[:, columns]`` as a contiguous array: in memory, or written block by block
+    to a memory-mapped ``path``, unlinked at once (a long archive's matrix is not read
+    whole, and the copy's space goes with its mapping)."""
+    if path is None:
+        return np.ascontiguousarray(np.asarray(values)[:, columns], dtype=np.float64)
+    n = values.shape[0]
+    out = mapped_file(path, (n, len(columns)), np.float64)
+    with contextlib.suppress(OSError):
+        path.unlink()
+    step = 1 << 16
+    for a in range(0, n, step):
+        out[a : a + step] = values[a : a + step][:, columns]
+        release(values[a : a + step])
+        release(out[a : a + step])
+    return out
+
+
+def _merge_groups(results: list[DetectorResult]) -> list[DetectorResult]:
+    """One result per detector: the runs of a detector on several channel groups joined
+    (channels, events and per-channel signals; the model of each group under
+    ``model["groups"]``). Results of a detector that ran once are returned as they are."""
+    by_name: dict[str, list[DetectorResult]] = {}
+    for r in results:
+        by_name.setdefault(r.detector, []).append(r)
+    out = []
+    for name, parts in by_name.items():
+        if len(parts) == 1:
+            out.append(parts[0])
+            continue
+        merged = DetectorResult(
+            name,
+            tuple(dict.fromkeys(c for p in parts for c in p.channels)),
+            dict(parts[0].params),
+            [ev for p in parts for ev in p.events],
+            {},
+            notes=[n for p in parts for n in p.notes],
+        )
+        for p in parts:  # a channel in two configured groups: its first group's signals
+            for c, v in p.residuals.items():
+                merged.residuals.setdefault(c, v)
+            for c, v in p.reference.items():
+                merged.reference.setdefault(c, v)
+            for c, x in p.sigma.items():
+                merged.sigma.setdefault(c, x)
+            for c, t in p.thresholds.items():
+                merged.thresholds.setdefault(c, t)
+        merged.model = {
+            "groups": len(parts),
+            "group_models": [{"channels": list(p.channels), **p.model} for p in parts],
+        }
+        out.append(merged)
+    return out
+
+
+def _merge_tests(results: list[DetectorResult], parts: list[DetectorResult]) -> None:
+    """The residual tests of each group's run (:func:`_residual_tests`, kept in the
+    group's model) copied to the joined result of :func:`_merge_groups`."""
+    for r in results:
+        if "group_models" not in r.model:
+            continue
+        r.model["training_tests"], r.model["windowed_tests"] = {}, {}
+        for p in parts:
+            if p.detector != r.detector:
+                continue
+            for key in ("training_tests", "windowed_tests"):
+                for c, v in p.model.get(key, {}).items():
+                    r.model[key].setdefault(c, v)
+        for g in r.model["group_models"]:
+            g.pop("training_tests", None)
+            g.pop("windowed_tests", None)
 
 
 def _residual_tests(
@@ -443,13 +570,17 @@ def analyze(
     contacted first, so an unreachable one fails before any reading."""
     jobs = options.jobs if options.jobs is not None else (os.cpu_count() or 1)
     executor = make_executor(jobs, options.scheduler)
+    done = False
     try:
         if workdir is None:
             with scratch() as tmp:
-                return _analyze(inputs, options, tmp, True, executor)
-        return _analyze(inputs, options, workdir, False, executor)
+                analysis = _analyze(inputs, options, tmp, True, executor)
+        else:
+            analysis = _analyze(inputs, options, workdir, False, executor)
+        done = True
+        return analysis
     finally:
-        executor.close()
+        executor.close(wait=done)
 
 
 def _analyze(
@@ -567,10 +698,19 @@ def _analyze(
                 task = (r, (ch,), train, aligned.rate_hz)
                 tests.append((task, executor.submit(_residual_tests, task) if threads else None))
 
+        groups, group_notes = partition(
+            chosen, np.asarray(values[train[0] : train[1]]), options.config.groups
+        )
+        notes.extend(group_notes)
         try:
-            results, skipped = _run_detectors(
-                names, options, data, ctx, executor, timings, spill_dir, start_tests
-            )
+            if len(groups) == 1 and len(groups[0]) == len(chosen):
+                results, skipped = _run_detectors(
+                    names, options, data, ctx, executor, timings, spill_dir, start_tests
+                )
+            else:
+                results, skipped = _run_groups(
+                    groups, names, options, data, ctx, executor, timings, spill_dir, start_tests
+                )
         except BaseException:
             for _, handle in tests:
                 if handle is not None:
@@ -597,13 +737,16 @@ def _analyze(
         # a frozen sensor is told by its readings, not by the residual's shape
         notes.extend(relabel_frozen(findings, values, chosen, aligned.rate_hz, train))
         t0 = time.perf_counter()
+        parts = results
+        results = _merge_groups(parts)  # one result per detector (several channel groups)
         attach_evidence(findings, results, aligned.rate_hz, train)
-        for r in results:
+        for r in parts:
             r.model["training_tests"], r.model["windowed_tests"] = {}, {}
         for task, handle in tests:
             trained, windowed = _residual_tests(task) if handle is None else handle.result()
             task[0].model["training_tests"].update(trained)
             task[0].model["windowed_tests"].update(windowed)
+        _merge_tests(results, parts)
         # on threads: what was left of the tests when the detection ended
         timings["test"] = time.perf_counter() - t0
         corrected = None

@@ -357,3 +357,39 @@ def test_the_first_explicit_error_in_registry_order_is_raised(monkeypatch, jobs)
         assert results == [] and list(skipped) == ["slow", "fast"]
     finally:
         ex.close()
+
+
+def test_an_interrupted_run_does_not_wait_for_running_tasks(monkeypatch, tmp_path):
+    """A run stopped by an error or an interrupt closes its pool without waiting for the
+    tasks already running (one can be minutes inside a compiled kernel); a run that ends
+    normally waits for them."""
+    from analyzer import pipeline
+
+    release_task = threading.Event()
+    running = threading.Event()
+    closed: list[bool] = []
+
+    class Spy(ThreadExecutor):
+        def close(self, wait: bool = True) -> None:
+            closed.append(wait)
+            super().close(wait)
+
+    def stuck(*_args: object, **_kwargs: object) -> None:
+        pool = created[0]
+        pool.submit(lambda: (running.set(), release_task.wait(30)))
+        running.wait(5)
+        raise KeyboardInterrupt
+
+    created: list[Spy] = []
+
+    def make(jobs: int, scheduler: str | None) -> Spy:
+        created.append(Spy(2))
+        return created[0]
+
+    monkeypatch.setattr(pipeline, "make_executor", make)
+    monkeypatch.setattr(pipeline, "_analyze", stuck)
+    with pytest.raises(KeyboardInterrupt):
+        analyze([tmp_path / "x.csv"], RunOptions(jobs=2))
+    assert closed == [False]
+    assert not release_task.is_set()  # the task still runs: close did not wait for it
+    release_task.set()
