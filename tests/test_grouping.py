@@ -95,9 +95,7 @@ def _faulty_csv(tmp_path, floors=6, seconds=240.0, rate=50.0, channel=3, onset_s
     return path, names
 
 
-def test_grouped_run_finds_the_fault_and_joins_each_detector_over_its_groups(
-    tmp_path, monkeypatch
-):
+def test_grouped_run_finds_the_fault_and_joins_each_detector_over_its_groups(tmp_path, monkeypatch):
     path, names = _faulty_csv(tmp_path)
     whole = analyze([path], RunOptions(jobs=1))
     monkeypatch.setattr(pipeline, "partition", functools.partial(grouping.partition, size=6))
