@@ -482,7 +482,7 @@ def _merge_groups(results: list[DetectorResult]) -> list[DetectorResult]:
         merged = DetectorResult(
             name,
             tuple(dict.fromkeys(c for p in parts for c in p.channels)),
-            dict(parts[0].params),
+            _joined_params([p.params for p in parts]),
             [ev for p in parts for ev in p.events],
             {},
             notes=[n for p in parts for n in p.notes],
@@ -501,6 +501,20 @@ def _merge_groups(results: list[DetectorResult]) -> list[DetectorResult]:
             "group_models": [{"channels": list(p.channels), **p.model} for p in parts],
         }
         out.append(merged)
+    return out
+
+
+def _joined_params(params: list[dict[str, Any]]) -> dict[str, Any]:
+    """A detector's settings over its channel groups: a setting the groups share as it is,
+    one that differs (an order chosen by BIC per group) as the list of the groups'
+    values, and the false-alarm rate as the run's (the sum of the groups' shares)."""
+    out: dict[str, Any] = {}
+    for key in dict.fromkeys(k for p in params for k in p):
+        values = [p.get(key) for p in params]
+        out[key] = values[0] if all(repr(v) == repr(values[0]) for v in values) else values
+    rates = [p.get("false_alarm_rate") for p in params]
+    if all(isinstance(r, int | float) for r in rates):
+        out["false_alarm_rate"] = float(sum(rates))  # type: ignore[arg-type]
     return out
 
 

@@ -120,6 +120,10 @@ def test_grouped_run_finds_the_fault_and_joins_each_detector_over_its_groups(tmp
     rates = {c: bank.thresholds[c]["false_alarm_rate"] for c in names}
     ref = next(r for r in whole.results if r.detector == "ar_kalman_bank")
     assert rates == pytest.approx({c: ref.thresholds[c]["false_alarm_rate"] for c in names})
+    for r in grouped.results:  # the settings show the run's rate, not a group's share
+        whole_r = next(w for w in whole.results if w.detector == r.detector)
+        if "false_alarm_rate" in whole_r.params:
+            assert r.params["false_alarm_rate"] == pytest.approx(whole_r.params["false_alarm_rate"])
 
 
 def test_grouped_long_archive_path_gives_the_in_memory_findings(tmp_path, monkeypatch):
