@@ -175,3 +175,31 @@ def test_unreachable_scheduler_is_exit_2_in_one_line(tmp_path, capsys, monkeypat
 def test_bad_scheduler_address(monkeypatch):
     with pytest.raises(UsageError, match="--scheduler tcp://host: expected an address"):
         make_executor(None, "tcp://host")
+
+
+def test_grouped_run_on_the_cluster_gives_the_local_findings(cluster, tmp_path, monkeypatch):
+    """Channel groups (analyzer.grouping) on the cluster: each group's detectors are
+    tasks of their own, and the joined findings equal the local run's."""
+    import functools
+
+    from analyzer import grouping, pipeline
+    from analyzer.simulate import simulate_building
+
+    t, Y, names = simulate_building(6, 240.0, 50.0, seed=7, sensors_per_floor=2)
+    k = 150 * 50
+    Y[k:, 3] += Y[: k // 2, 3].std()
+    path = tmp_path / "b.csv"
+    header = "time," + ",".join(names)
+    np.savetxt(path, np.column_stack([t, Y]), delimiter=",", header=header, comments="")
+    monkeypatch.setattr(pipeline, "partition", functools.partial(grouping.partition, size=6))
+    local = analyze([path], RunOptions(jobs=2))
+    remote = analyze([path], RunOptions(scheduler=cluster.scheduler_address))
+    assert any("in 2 groups" in n for n in remote.notes)
+    assert (
+        [(f.channel, f.type) for f in remote.findings]
+        == [(f.channel, f.type) for f in local.findings]
+        == [("s3", local.findings[0].type)]
+    )
+    for a, b in zip(remote.findings, local.findings, strict=True):
+        assert a.onset_s == pytest.approx(b.onset_s, abs=1e-9)
+        assert a.magnitude == pytest.approx(b.magnitude, rel=1e-9)
