@@ -467,10 +467,12 @@ def _columns(values: Any, columns: list[int], path: Path | None) -> npt.NDArray[
     return out
 
 
-def _merge_groups(results: list[DetectorResult]) -> list[DetectorResult]:
+def _merge_groups(results: list[DetectorResult], order: Sequence[str]) -> list[DetectorResult]:
     """One result per detector: the runs of a detector on several channel groups joined
-    (channels, events and per-channel signals; the model of each group under
-    ``model["groups"]``). Results of a detector that ran once are returned as they are."""
+    (channels in the archive's ``order``, events and per-channel signals; the model of
+    each group under ``model["group_models"]``). Results of a detector that ran once are
+    returned as they are."""
+    rank = {c: i for i, c in enumerate(order)}
     by_name: dict[str, list[DetectorResult]] = {}
     for r in results:
         by_name.setdefault(r.detector, []).append(r)
@@ -481,7 +483,7 @@ def _merge_groups(results: list[DetectorResult]) -> list[DetectorResult]:
             continue
         merged = DetectorResult(
             name,
-            tuple(dict.fromkeys(c for p in parts for c in p.channels)),
+            tuple(sorted({c for p in parts for c in p.channels}, key=lambda c: rank.get(c, -1))),
             _joined_params([p.params for p in parts]),
             [ev for p in parts for ev in p.events],
             {},
@@ -752,7 +754,7 @@ def _analyze(
         notes.extend(relabel_frozen(findings, values, chosen, aligned.rate_hz, train))
         t0 = time.perf_counter()
         parts = results
-        results = _merge_groups(parts)  # one result per detector (several channel groups)
+        results = _merge_groups(parts, chosen)  # one result per detector (channel groups)
         attach_evidence(findings, results, aligned.rate_hz, train)
         for r in parts:
             r.model["training_tests"], r.model["windowed_tests"] = {}, {}
