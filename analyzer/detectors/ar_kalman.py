@@ -406,7 +406,7 @@ class ARKalmanBank:
             if isinstance(self.order, str)
             else self.order
         )
-        ar = fit_ar(train, order)
+        ar = fit_ar(train, order, data.channels)
         block = self._block(ar.m)
         solved = context.map(_solved_leave_one_out_task, [(ar, j, block) for j in range(ar.m)])
         estimators = tuple(e for e, _ in solved)

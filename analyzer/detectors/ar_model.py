@@ -6,6 +6,7 @@ from __future__ import annotations
 import hashlib
 import threading
 from collections import OrderedDict
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -106,9 +107,10 @@ def _design_rows(Z: FloatArray, p: int) -> tuple[FloatArray, FloatArray]:
     return T, X
 
 
-def fit_ar(Y: FloatArray, order: int) -> ARModel:
+def fit_ar(Y: FloatArray, order: int, names: Sequence[str] | None = None) -> ARModel:
     """Least-squares AR fit (Eq. 5, by a stable lstsq rather than an explicit
-    pseudoinverse). Rows with a NaN in any lag are dropped.
+    pseudoinverse). Rows with a NaN in any lag are dropped. ``names``: the channels'
+    names, for the error that says which channels make the regression singular.
 
     The normal equations come from lagged cross-products of the finite stretches of the
     data (:func:`_lagged_gram`, no ``(n, p m)`` design matrix) and the residuals from
@@ -156,9 +158,7 @@ def fit_ar(Y: FloatArray, order: int) -> ARModel:
         B, rank = _least_squares(X, T)
         if rank < k:
             raise DetectorError(
-                f"singular AR regression (rank {rank} < {k}): channels are linearly "
-                "dependent in the training window (duplicated or perfectly correlated "
-                "sensors)"
+                f"singular AR regression (rank {rank} < {k}): " + _dependence(Z, X, rank, names)
             )
         E = T - X @ B
         EE = E.T @ E
@@ -172,6 +172,43 @@ def fit_ar(Y: FloatArray, order: int) -> ARModel:
     aic = float(logdet + 2.0 * n_par / N)
     bic = float(logdet + np.log(N) * n_par / N)
     return ARModel(np.asarray(coefs, dtype=np.float64), sigma, mean, scale, N, aic, bic)
+
+
+def _dependence(Z: FloatArray, X: FloatArray, rank: int, names: Sequence[str] | None) -> str:
+    """Which channels make the regression singular, for its error. A pivoted QR puts the
+    columns that are combinations of others last: of the channels themselves when they
+    are dependent at one instant (a duplicated sensor, a sum of others), else of the
+    lagged design (a channel that is a delayed copy, a difference or a running sum of
+    another)."""
+    m = Z.shape[1]
+    label = list(names) if names is not None and len(names) == m else [str(i) for i in range(m)]
+    rows = Z[np.isfinite(Z).all(axis=1)]
+
+    def pivoted(M: FloatArray) -> tuple[npt.NDArray[np.intp], int]:
+        R, piv = linalg.qr(M, mode="r", pivoting=True, check_finite=False)
+        d = np.abs(np.diag(R))
+        tol = d.max(initial=0.0) * max(M.shape) * np.finfo(float).eps * 1e3
+        return np.asarray(piv), int(np.count_nonzero(d > tol))
+
+    if rows.shape[0] >= m:
+        piv, r = pivoted(rows)
+        if r < m:
+            dependent = ", ".join(label[j] for j in sorted(piv[r:]))
+            what = "is a linear combination" if m - r == 1 else "are linear combinations"
+            return (
+                f"{dependent} {what} of the other channels in the training window "
+                "(duplicated or perfectly correlated sensors): choose the channels to "
+                "analyze without them with --channels"
+            )
+    piv, _ = pivoted(X)
+    channels = sorted({int(c) % m for c in piv[rank:]})
+    verb = "follows" if len(channels) == 1 else "follow"
+    return (
+        f"{', '.join(label[j] for j in channels)} {verb} the other channels' past exactly "
+        "in the training window (a delayed copy, a difference or a running sum of another "
+        "channel, or a step signal): choose the channels to analyze without them with "
+        "--channels"
+    )
 
 
 MAX_SEGMENTS = 64

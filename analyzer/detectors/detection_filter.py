@@ -817,7 +817,7 @@ def model_from_ar(
     (:func:`ar_observer_form`): ``Q = K Sigma K'``, ``R = Sigma``, ``S = K Sigma``."""
     train = np.asarray(data.train_values() if rows is None else rows, dtype=np.float64)
     p = select_order(train, order, max_order) if isinstance(order, str) else int(order)
-    ar = fit_ar(train, p)
+    ar = fit_ar(train, p, data.channels)
     A, C, K = ar_observer_form(ar)
     n, m = A.shape[0], C.shape[0]
     summary = {

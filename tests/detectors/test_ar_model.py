@@ -66,6 +66,27 @@ def test_duplicated_channel_is_singular(building):
         fit_ar(Y, 3)
 
 
+def test_singular_regression_names_the_dependent_channels(building):
+    """The error says which channels make the regression singular: a sum of others at
+    one instant, or a delayed copy of another (dependent only across lags)."""
+    m = building.shape[1]
+    names = [f"floor{i}" for i in range(m)] + ["sum"]
+    Y = np.column_stack([building, building[:, 1] + 2.0 * building[:, 3]])
+    with pytest.raises(DetectorError) as err:
+        fit_ar(Y, 3, names)
+    text = str(err.value)
+    assert "is a linear combination of the other channels" in text
+    assert any(n in text for n in ("sum", "floor1", "floor3"))
+    assert "floor0," not in text and "floor2," not in text
+    delayed = np.column_stack([building[1:], building[:-1, 2]])  # floor2 one sample late
+    with pytest.raises(DetectorError) as err:
+        fit_ar(delayed, 3, names[:m] + ["late"])
+    text = str(err.value)
+    assert "the other channels' past exactly" in text
+    assert "late" in text or "floor2" in text
+    assert "floor0" not in text
+
+
 def test_bad_criterion():
     with pytest.raises(DetectorError, match="'aic' or 'bic'"):
         select_order(np.zeros((10, 2)), "hqic")
