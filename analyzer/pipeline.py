@@ -467,6 +467,29 @@ def _columns(values: Any, columns: list[int], path: Path | None) -> npt.NDArray[
     return out
 
 
+def _skip_reasons(skipped: dict[str, str]) -> list[str]:
+    """Why each detector did not run, for the one-line error: a detector skipped on
+    several channel groups (keys ``"name (first..last)"``, :func:`_run_groups`) gives its
+    first group's reason and how many more groups it failed on, so hundreds of channels
+    still make a readable line."""
+    by_name: dict[str, list[tuple[str, str]]] = {}
+    for key, reason in skipped.items():
+        by_name.setdefault(key.split(" (", 1)[0], []).append((key, reason))
+    out = []
+    for name, items in by_name.items():
+        key, reason = items[0]
+        if reason.startswith((f"{key}:", f"{key} ")):
+            text = reason
+        elif reason.startswith((f"{name}:", f"{name} ")):  # "name (group)" for "name"
+            text = key + reason[len(name) :]
+        else:
+            text = f"{key}: {reason}"
+        if len(items) > 1:
+            text += f" (and on {len(items) - 1} more channel groups)"
+        out.append(text)
+    return out
+
+
 def _merge_groups(results: list[DetectorResult], order: Sequence[str]) -> list[DetectorResult]:
     """One result per detector: the runs of a detector on several channel groups joined
     (channels in the archive's ``order``, events and per-channel signals; the model of
@@ -734,9 +757,7 @@ def _analyze(
             raise
         timings["detect"] = time.perf_counter() - t0
         if not results:
-            why = "; ".join(
-                v if v.startswith((f"{k}:", f"{k} ")) else f"{k}: {v}" for k, v in skipped.items()
-            )
+            why = "; ".join(_skip_reasons(skipped))
             hint = ""
             if "too little healthy data" in why:
                 hint = (

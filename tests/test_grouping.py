@@ -138,3 +138,19 @@ def test_grouped_long_archive_path_gives_the_in_memory_findings(tmp_path, monkey
     a, b = mapped.findings[0], memory.findings[0]
     assert (a.channel, a.type, a.onset_s) == (b.channel, b.type, b.onset_s)
     assert a.magnitude["offset"] == pytest.approx(b.magnitude["offset"], rel=1e-6)
+
+
+def test_skip_reasons_over_many_groups_make_one_readable_line():
+    skipped = {
+        "error_function": "needs [[group]] reference/uncertain sensors",
+        "ar_kalman_bank (s0..s15)": "too little healthy data: 36 samples",
+        "ar_kalman_bank (s16..s31)": "too little healthy data: 35 samples",
+        "ar_kalman_bank (s32..s47)": "too little healthy data: 36 samples",
+        "equivalent_model (s0..s15)": "equivalent_model needs 3 channels",
+    }
+    assert pipeline._skip_reasons(skipped) == [
+        "error_function: needs [[group]] reference/uncertain sensors",
+        "ar_kalman_bank (s0..s15): too little healthy data: 36 samples "
+        "(and on 2 more channel groups)",
+        "equivalent_model (s0..s15) needs 3 channels",
+    ]
