@@ -12,10 +12,14 @@ the same structure (the contract's ``[[group]]``):
 * the analyzed channels in no configured group, when there are more than
   :data:`GROUP_SIZE` of them, cut into ``ceil(n / GROUP_SIZE)`` groups of near-equal
   size by their correlation in the training window: average-linkage clustering on
-  ``1 - |r|`` (scipy) orders the channels so that correlated ones are adjacent, and the
-  order is cut into consecutive runs. Sensors on the same floor, or on neighbouring
-  floors, end up together: each sensor's estimators then have the sensors that predict
-  it best.
+  ``1 - |r|`` with the optimal leaf ordering (scipy; Bar-Joseph et al. 2001) orders the
+  channels so that the most correlated ones are adjacent, and the order is cut into
+  consecutive runs. Sensors on the same floor, or on neighbouring floors, end up
+  together (on a 48-floor building the plain dendrogram order put floors 0-5 with
+  48-55 in one group, and a group's model then missed the neighbours that predict a
+  sensor best: one false finding at 96 channels that contiguous floors did not give):
+  each sensor's estimators then have the sensors that predict it best. The ordering
+  takes 0.2 s at 500 channels and 2.4 s at 1000.
 
 A single leftover channel joins the configured group it correlates with most (a group of
 one cannot be analyzed by detectors that estimate a sensor from the others).
@@ -102,7 +106,11 @@ def _cut(members: list[int], corr: FloatArray, size: int) -> list[list[int]]:
     dist = np.clip(1.0 - sub, 0.0, None)
     np.fill_diagonal(dist, 0.0)
     dist = 0.5 * (dist + dist.T)
-    order = leaves_list(linkage(squareform(dist, checks=False), method="average"))
+    # the optimal leaf ordering (Bar-Joseph, Gifford & Jaakkola 2001) puts the most similar
+    # leaves next to each other: on a chain of sensors (the floors of a building) it
+    # recovers the chain, where the plain dendrogram order mixed far floors into a group
+    tree = linkage(squareform(dist, checks=False), method="average", optimal_ordering=True)
+    order = leaves_list(tree)
     bounds = np.linspace(0, n, k + 1).round().astype(int)
     groups = [
         sorted(members[j] for j in order[a:b]) for a, b in zip(bounds, bounds[1:], strict=False)

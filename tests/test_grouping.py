@@ -42,6 +42,11 @@ def test_many_channels_are_cut_into_balanced_groups_of_correlated_sensors():
     where = {c: i for i, g in enumerate(groups) for c in g}
     parted = sum(where[f"s{2 * f}"] != where[f"s{2 * f + 1}"] for f in range(floors))
     assert parted <= k - 1
+    # the floors form a chain, and each group is a stretch of it (neighbouring floors
+    # predict each other best); the plain dendrogram order mixed far floors
+    for g in groups:
+        floors = {int(c[1:]) // 2 for c in g}
+        assert max(floors) - min(floors) + 1 == len(floors), g
     assert len(notes) == 1 and f"in {k} groups of at most {GROUP_SIZE}" in notes[0]
 
 
