@@ -70,7 +70,8 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         "--channels",
         type=_csv_list,
         metavar="GLOB[,GLOB...]",
-        help="channels to analyze (shell patterns); default: every non-constant numeric channel",
+        help="channels to analyze (shell patterns; !GLOB leaves channels out); default: "
+        "every non-constant numeric channel",
     )
     p.add_argument(
         "--train",

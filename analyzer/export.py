@@ -53,10 +53,9 @@ def _export(
         ChannelStore.from_chunks(archive.chunks(time), tmp) as store,
     ):
         if channels:
-            for p in channels:
-                if not store.select([p]):
-                    raise UsageError(f"--channels: pattern {p!r} matches no channel")
-            names = store.select(channels)
+            for p in store.unmatched(channels):
+                raise UsageError(f"--channels: pattern {p!r} matches no channel")
+            names = store.select(channels, numeric_only=False)
         else:
             names = store.select(None, numeric_only=False)
         if not names:

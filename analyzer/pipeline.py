@@ -180,10 +180,9 @@ def _select(store: ChannelStore, patterns: list[str] | None, notes: list[str]) -
     if not infos:
         raise ReaderError("no numeric channel found in the input")
     if patterns:
+        for p in store.unmatched(patterns):
+            raise UsageError(f"--channels: pattern {p!r} matches no channel")
         chosen = store.select(patterns)
-        for p in patterns:
-            if not store.select([p]):
-                raise UsageError(f"--channels: pattern {p!r} matches no channel")
         constant = [c for c in chosen if infos[c].constant]
         if constant:
             notes.append(f"constant or empty channels not analyzed: {', '.join(constant)}")

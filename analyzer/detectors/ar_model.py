@@ -193,22 +193,25 @@ def _dependence(Z: FloatArray, X: FloatArray, rank: int, names: Sequence[str] | 
     if rows.shape[0] >= m:
         piv, r = pivoted(rows)
         if r < m:
-            dependent = ", ".join(label[j] for j in sorted(piv[r:]))
+            found = [label[j] for j in sorted(piv[r:])]
             what = "is a linear combination" if m - r == 1 else "are linear combinations"
             return (
-                f"{dependent} {what} of the other channels in the training window "
-                "(duplicated or perfectly correlated sensors): choose the channels to "
-                "analyze without them with --channels"
+                f"{', '.join(found)} {what} of the other channels in the training window "
+                f"(duplicated or perfectly correlated sensors): {_leave_out(found)}"
             )
     piv, _ = pivoted(X)
-    channels = sorted({int(c) % m for c in piv[rank:]})
-    verb = "follows" if len(channels) == 1 else "follow"
+    found = [label[j] for j in sorted({int(c) % m for c in piv[rank:]})]
+    verb = "follows" if len(found) == 1 else "follow"
     return (
-        f"{', '.join(label[j] for j in channels)} {verb} the other channels' past exactly "
-        "in the training window (a delayed copy, a difference or a running sum of another "
-        "channel, or a step signal): choose the channels to analyze without them with "
-        "--channels"
+        f"{', '.join(found)} {verb} the other channels' past exactly in the training "
+        "window (a delayed copy, a difference or a running sum of another channel, or a "
+        f"step signal): {_leave_out(found)}"
     )
+
+
+def _leave_out(names: list[str]) -> str:
+    """How to analyze without ``names``: the ``--channels`` exclusions that do it."""
+    return "leave them out with --channels '" + ",".join(f"!{n}" for n in names) + "'"
 
 
 MAX_SEGMENTS = 64

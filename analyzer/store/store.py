@@ -201,15 +201,40 @@ class ChannelStore:
         """Channels matching any shell-style pattern (all when None), without the constant
         or empty ones when ``patterns`` is None (the contract's default). A pattern that
         is a channel's exact name selects that channel, so ``/accel.data[3]`` means the
-        array element, not a character class (as a pattern it also matches on)."""
+        array element, not a character class (as a pattern it also matches on). A pattern
+        ``!GLOB`` leaves out the channels ``GLOB`` matches: from those the other patterns
+        select, or from the default selection when all patterns are exclusions."""
         self._need_final()
         if not patterns:
             return [i.name for i in self._info.values() if not (numeric_only and i.constant)]
-        out = []
-        for name in self._info:
-            if any(name == p or fnmatch.fnmatchcase(name, p) for p in patterns):
-                out.append(name)
-        return out
+        include, exclude = self._split(patterns)
+        chosen = self.select(None, numeric_only) if not include else self._matching(include)
+        if not exclude:
+            return chosen
+        dropped = set(self._matching(exclude))
+        return [c for c in chosen if c not in dropped]
+
+    def unmatched(self, patterns: Sequence[str]) -> list[str]:
+        """The patterns of ``patterns`` (as :meth:`select` reads them) that match no
+        channel: an exclusion ``!GLOB`` whose ``GLOB`` matches none is one too."""
+        self._need_final()
+        include, exclude = self._split(patterns)
+        bad = [p for p in include if not self._matching([p])]
+        return bad + [f"!{p}" for p in exclude if not self._matching([p])]
+
+    def _split(self, patterns: Sequence[str]) -> tuple[list[str], list[str]]:
+        """Patterns that select, and those that leave out (``!GLOB``; a channel whose name
+        starts with ``!`` is still selected by its exact name)."""
+        include = [p for p in patterns if not p.startswith("!") or p in self._info]
+        exclude = [p[1:] for p in patterns if p.startswith("!") and p not in self._info]
+        return include, exclude
+
+    def _matching(self, patterns: Sequence[str]) -> list[str]:
+        return [
+            name
+            for name in self._info
+            if any(name == p or fnmatch.fnmatchcase(name, p) for p in patterns)
+        ]
 
     def align(
         self,

@@ -291,6 +291,21 @@ def test_channels_pattern_that_matches_nothing(faulty_csv, tmp_path, capsys):
     one_line_error(err, "--channels", "zz*")
 
 
+def test_channels_exclusion_leaves_a_channel_out(faulty_csv, tmp_path, capsys):
+    code, _, err = run_cli(
+        ["run", str(faulty_csv), "--out", str(tmp_path / "o"), "--channels", "!s0"], capsys
+    )
+    assert code in (0, 1), err
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    analyzed = [c["name"] for c in doc["channels"] if c["analyzed"]]
+    assert "s0" not in analyzed and len(analyzed) == len(doc["channels"]) - 1
+    code, _, err = run_cli(
+        ["run", str(faulty_csv), "--out", str(tmp_path / "p"), "--channels", "!zz*"], capsys
+    )
+    assert code == 2
+    one_line_error(err, "--channels", "!zz*")
+
+
 def test_config_unknown_key(faulty_csv, tmp_path, capsys):
     cfg = tmp_path / "c.toml"
     cfg.write_text("[thresholds]\nfalse_alarm_rat = 1e-6\n")

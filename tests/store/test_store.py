@@ -110,6 +110,33 @@ def test_select_and_constant_channels():
             store.raw("nope")
 
 
+def test_select_leaves_out_bang_patterns():
+    """``!GLOB`` leaves channels out: from what the other patterns select, or from the
+    default selection when every pattern is an exclusion; a channel named ``!x`` is
+    still selected by its exact name; an exclusion that matches nothing is unmatched."""
+    t = np.arange(100, dtype=np.int64) * 10_000_000
+    wave = np.sin(t / 1e8)
+    chunks = [
+        ChannelChunk("/imu.x", t, wave),
+        ChannelChunk("/imu.y", t, 2 * wave),
+        ChannelChunk("/scan.ranges[0]", t, 3 * wave),
+        ChannelChunk("/imu.flag", t, np.ones(100)),
+        ChannelChunk("!odd", t, 4 * wave),
+    ]
+    with ChannelStore.from_chunks(chunks) as store:
+        assert store.select(["!/scan.*"]) == ["/imu.x", "/imu.y", "!odd"]
+        assert store.select(["!/scan.*"], numeric_only=False) == [
+            "/imu.x",
+            "/imu.y",
+            "/imu.flag",
+            "!odd",
+        ]
+        assert store.select(["/imu.*", "!/imu.y"]) == ["/imu.x", "/imu.flag"]
+        assert store.select(["!odd"]) == ["!odd"]  # the exact name wins
+        assert store.unmatched(["/imu.*", "!/nothing*", "zz"]) == ["zz", "!/nothing*"]
+        assert store.unmatched(["!/imu.y", "!odd"]) == []
+
+
 def test_dominant_rate():
     assert dominant_rate([200.01, 199.99, 100.0]) == 200.0
     assert dominant_rate([100.0, 100.0, 200.0]) == 100.0
