@@ -9,8 +9,9 @@ detectors did before the grouping, obtained now with a config whose single ``[[g
 lists every channel).
 
 For each count of ``--channels`` it writes a CSV of a simulated shear building
-(``simulate_building``, two sensors per floor, ``--minutes`` at ``--rate`` Hz) with an
-additive fault of half a standard deviation on ``s5`` from two thirds of the record on,
+(``simulate_building``, two sensors per floor, ``--minutes`` at ``--rate`` Hz) with a
+fault on ``s5`` from two thirds of the record on (``--fault``: an offset of half a
+standard deviation, a gain of 1.5, or a drift of one standard deviation per minute),
 runs ``analyzer run`` on it in a child process (as ``bench_pipeline.py`` does: the CLI's
 own ``main``, the child's own peak RSS from ``VmHWM``), and prints wall time, values/s,
 peak RSS and what was found. The baseline runs only up to ``--baseline-max`` channels and
@@ -19,6 +20,7 @@ not a timed test::
 
     python benchmarks/bench_channels.py [--channels 16,32,48] [--minutes 10] [--rate 100]
                                         [--baseline-max 48] [--timeout 900] [--keep DIR]
+                                        [--fault additive|multiplicative|drift]
 """
 
 from __future__ import annotations
@@ -58,16 +60,32 @@ class Outcome:
     groups: int
 
 
-def write_csv(path: Path, channels: int, minutes: float, rate: float) -> float:
-    """The building's record with the fault; returns the fault's onset in seconds."""
+FAULTS = {
+    "additive": "an offset of half a standard deviation",
+    "multiplicative": "a gain of 1.5",
+    "drift": "a drift of one standard deviation per minute",
+}
+
+
+def write_csv(path: Path, channels: int, minutes: float, rate: float, fault: str) -> str:
+    """The building's record with the fault (:data:`FAULTS`); returns what was injected."""
     t, Y, names = simulate_building(
         channels // 2, 60.0 * minutes, rate, seed=11, sensors_per_floor=2
     )
     onset = int(len(t) * 2 / 3)
-    Y[onset:, FAULTY] += 0.5 * Y[:onset, FAULTY].std()
+    sd = float(Y[:onset, FAULTY].std())
+    if fault == "additive":
+        Y[onset:, FAULTY] += 0.5 * sd
+        size = f"offset {0.5 * sd:.4g}"
+    elif fault == "multiplicative":
+        Y[onset:, FAULTY] *= 1.5
+        size = "gain 1.5"
+    else:
+        Y[onset:, FAULTY] += sd * (t[onset:] - t[onset]) / 60.0
+        size = f"rate {sd / 60.0:.4g} per s"
     header = "time," + ",".join(names)
     np.savetxt(path, np.column_stack([t, Y]), delimiter=",", header=header, comments="", fmt="%.6g")
-    return float(t[onset])
+    return f"{fault} {size} at {t[onset]:.2f} s"
 
 
 def run(archive: Path, out: Path, extra: list[str], timeout: float) -> Outcome:
@@ -96,7 +114,12 @@ def run(archive: Path, out: Path, extra: list[str], timeout: float) -> Outcome:
         tail = " | ".join(log.read_text().splitlines()[-3:])
         raise SystemExit(f"analyzer run {archive} failed (exit {proc.returncode}): {tail}")
     doc = json.loads((out / "findings.json").read_text())
-    found = "; ".join(f"{f['channel']} {f['type']} at {f['onset_s']:.2f} s" for f in doc["faults"])
+    found = "; ".join(
+        f"{f['channel']} {f['type']} "
+        + ", ".join(f"{k} {v:.4g}" for k, v in f["magnitude"].items())
+        + f" at {f['onset_s']:.2f} s"
+        for f in doc["faults"]
+    )
     bank = next((d for d in doc["detectors"] if d["name"] == "ar_kalman_bank"), None)
     groups = int((bank or {}).get("model", {}).get("groups", 1))
     peak = float(info.get("vmhwm_kb", 0.0)) / 1024.0  # type: ignore[arg-type]
@@ -122,6 +145,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--baseline-max", type=int, default=48)
     parser.add_argument("--timeout", type=float, default=900.0)
     parser.add_argument("--keep", type=Path, help="keep the archives and outputs here")
+    parser.add_argument("--fault", choices=sorted(FAULTS), default="additive")
     args = parser.parse_args(argv)
     counts = [int(c) for c in args.channels.split(",") if c.strip()]
     if any(c < 4 or c % 2 for c in counts):
@@ -131,23 +155,25 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"bench_channels: {os.cpu_count()} cores, OPENBLAS_NUM_THREADS="
         f"{os.environ['OPENBLAS_NUM_THREADS']}, {args.minutes:g} min at {args.rate:g} Hz, "
-        f"fault: additive on s{FAULTY} (half a standard deviation) from 2/3 of the record"
+        f"fault: {FAULTS[args.fault]} on s{FAULTY} from 2/3 of the record"
     )
     rows = []
     for m in counts:
-        folder = base / f"ch{m}"
+        folder = base / f"ch{m}-{args.fault}"
         folder.mkdir(exist_ok=True)
         csv = folder / "building.csv"
-        onset = write_csv(csv, m, args.minutes, args.rate) if not csv.exists() else None
+        truth = write_csv(csv, m, args.minutes, args.rate, args.fault) if not csv.exists() else None
         n_values = int(round(args.minutes * 60 * args.rate)) * m
-        grouped = run(folder, base / f"out{m}", [], args.timeout)
+        grouped = run(folder, base / f"out{m}-{args.fault}", [], args.timeout)
         one = None
         if m <= args.baseline_max:
             config = base / f"all{m}.toml"
             names = ", ".join(f'"s{i}"' for i in range(m))
             config.write_text(f'[[group]]\nname = "all"\nchannels = [{names}]\n')
-            one = run(folder, base / f"one{m}", ["--config", str(config)], args.timeout)
-        rows.append((m, n_values, onset, grouped, one))
+            one = run(
+                folder, base / f"one{m}-{args.fault}", ["--config", str(config)], args.timeout
+            )
+        rows.append((m, n_values, truth, grouped, one))
         print(f"  {m} channels done", flush=True)
 
     def cells(o: Outcome | None, n: int) -> str:
@@ -166,8 +192,8 @@ def main(argv: list[str] | None = None) -> int:
     for m, n, _, g, o in rows:
         print(f"{m:>8} {n:>11,} {cells(g, n)}   {cells(o, n)}  {g.groups}")
     print()
-    for m, _, onset, g, o in rows:
-        where = f" (injected at {onset:.2f} s)" if onset is not None else ""
+    for m, _, truth, g, o in rows:
+        where = f" (injected: {truth})" if truth is not None else ""
         other = o.found if o else "-"
         print(f"  {m} channels{where}: grouped found {g.found}; one group found {other}")
     print(f"archives and outputs in {base}")
