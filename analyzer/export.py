@@ -53,8 +53,9 @@ def _export(
         ChannelStore.from_chunks(archive.chunks(time), tmp) as store,
     ):
         if channels:
-            for p in store.unmatched(channels):
-                raise UsageError(f"--channels: pattern {p!r} matches no channel")
+            unmatched = store.unmatched(channels)
+            if unmatched:
+                raise UsageError(f"--channels: pattern {unmatched[0]!r} matches no channel")
             names = store.select(channels, numeric_only=False)
         else:
             names = store.select(None, numeric_only=False)

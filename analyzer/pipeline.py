@@ -180,8 +180,9 @@ def _select(store: ChannelStore, patterns: list[str] | None, notes: list[str]) -
     if not infos:
         raise ReaderError("no numeric channel found in the input")
     if patterns:
-        for p in store.unmatched(patterns):
-            raise UsageError(f"--channels: pattern {p!r} matches no channel")
+        unmatched = store.unmatched(patterns)
+        if unmatched:
+            raise UsageError(f"--channels: pattern {unmatched[0]!r} matches no channel")
         chosen = store.select(patterns)
         constant = [c for c in chosen if infos[c].constant]
         if constant:
