@@ -106,13 +106,7 @@ def run(archive: Path, out: Path, extra: list[str], timeout: float) -> Outcome:
             proc.wait()
             return Outcome(None, peak, "stopped", 1)
         wall = time.perf_counter() - begin
-    info: dict[str, object] = {}
-    for line in log.read_text().splitlines():
-        if line.startswith("BENCH_JSON "):
-            info = json.loads(line[len("BENCH_JSON ") :])
-    if not info:
-        tail = " | ".join(log.read_text().splitlines()[-3:])
-        raise SystemExit(f"analyzer run {archive} failed (exit {proc.returncode}): {tail}")
+    info = bench_pipeline.driver_info(log, archive, proc.returncode)
     doc = json.loads((out / "findings.json").read_text())
     found = "; ".join(
         f"{f['channel']} {f['type']} "
@@ -122,7 +116,7 @@ def run(archive: Path, out: Path, extra: list[str], timeout: float) -> Outcome:
     )
     bank = next((d for d in doc["detectors"] if d["name"] == "ar_kalman_bank"), None)
     groups = int((bank or {}).get("model", {}).get("groups", 1))
-    peak = float(info.get("vmhwm_kb", 0.0)) / 1024.0  # type: ignore[arg-type]
+    peak = float(info.get("vmhwm_kb", 0.0)) / 1024.0
     return Outcome(wall, peak, found or "nothing", groups)
 
 

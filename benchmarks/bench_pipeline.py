@@ -277,6 +277,19 @@ RUN_ARGS: list[str] = []
 """Extra ``analyzer run`` options (``--jobs N``, ``--detectors A,B``)."""
 
 
+def driver_info(log: Path, archive: Path, returncode: int | None) -> dict[str, Any]:
+    """What :data:`DRIVER` printed (its ``BENCH_JSON`` line) in the child's ``log``; a
+    child that printed none failed: the script stops with the log's last lines."""
+    info: dict[str, Any] = {}
+    for line in log.read_text().splitlines():
+        if line.startswith("BENCH_JSON "):
+            info = json.loads(line[len("BENCH_JSON ") :])
+    if not info:
+        tail = " | ".join(log.read_text().splitlines()[-3:])
+        raise SystemExit(f"analyzer run {archive} failed (exit {returncode}): {tail}")
+    return info
+
+
 def run_child(archive: Path, out: Path, log: Path, profile: Path | None = None) -> Run:
     """``analyzer run archive --out out`` in a child; wall time and its own peak RSS."""
     env = dict(os.environ)
@@ -291,13 +304,7 @@ def run_child(archive: Path, out: Path, log: Path, profile: Path | None = None) 
         _, status, usage = os.wait4(proc.pid, 0)  # this child's rusage alone
         wall = time.perf_counter() - begin
     proc.returncode = os.waitstatus_to_exitcode(status)
-    info: dict[str, Any] = {}
-    for line in log.read_text().splitlines():
-        if line.startswith("BENCH_JSON "):
-            info = json.loads(line[len("BENCH_JSON ") :])
-    if not info:
-        tail = " | ".join(log.read_text().splitlines()[-3:])
-        raise SystemExit(f"analyzer run {archive} failed (exit {proc.returncode}): {tail}")
+    info = driver_info(log, archive, proc.returncode)
     return Run(
         fmt="",
         hours=0.0,
