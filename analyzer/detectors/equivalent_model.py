@@ -866,6 +866,9 @@ class EquivalentModel:
         events: list[Event] = []
         notes: list[str] = []
         decisions: list[dict[str, Any]] = []
+        # events attributed to their own sensor: (sensor, event, first alarm, diagnosis,
+        # index of the decision)
+        accepted: list[tuple[str, Event, float, NetworkDiagnosis, int]] = []
         for s, ev in sorted(allev, key=lambda p: first(p[1])):
             t0 = first(ev)
             alarming = {
@@ -895,6 +898,7 @@ class EquivalentModel:
                 if not confirmed:
                     ev.confidence *= UNCONFIRMED_FACTOR
                 events.append(ev)
+                accepted.append((s, ev, t0, diag, len(decisions) - 1))
             elif s in diag.propagated:
                 notes.append(
                     f"alarm on {s} at {t0:.3f} s explained by the alarm on its assistant "
@@ -905,6 +909,34 @@ class EquivalentModel:
                     f"alarm on {s} at {t0:.3f} s not attributed: no law isolates one sensor "
                     f"among {', '.join(sorted(alarming))}"
                 )
+        # A target's observer can see its assistant's fault before the assistant's own
+        # residual does (a gain fault on s5 alarmed s4's residual, whose assistant it is,
+        # 16 s before s5's own): at that first alarm law 0 can only name the target. When
+        # the assistant's own alarm starts while the target's still lasts and its decision
+        # explains the target's alarm by it, the single fault is the assistant's: the
+        # target's earlier event is withdrawn (Section 6.2's laws applied to the alarms
+        # over the event's span, not only at its first instant).
+        withdrawn: set[int] = set()
+        for s, ev, t0, _, k in accepted:
+            end = np.inf if ev.end_s is None else ev.end_s
+            root = next(
+                (
+                    (r, tr)
+                    for r, _, tr, rdiag, _ in accepted
+                    if r != s and t0 < tr <= end and r in rdiag.propagated.get(s, ())
+                ),
+                None,
+            )
+            if root is None:
+                continue
+            r, tr = root
+            withdrawn.add(id(ev))
+            decisions[k]["revised"] = f"explained by the alarm on {r} at {tr:.3f} s (law 0)"
+            notes.append(
+                f"alarm on {s} at {t0:.3f} s explained by the alarm on its assistant sensor "
+                f"{r} that began at {tr:.3f} s while it lasted (law 0)"
+            )
+        events = [ev for ev in events if id(ev) not in withdrawn]
         return events, notes, decisions
 
 

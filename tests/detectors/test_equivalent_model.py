@@ -10,7 +10,7 @@ import pytest
 from scipy import signal
 from scipy.integrate import cumulative_trapezoid, solve_ivp
 
-from analyzer.detectors.base import Dataset, RunContext
+from analyzer.detectors.base import Dataset, Event, FaultType, RunContext
 from analyzer.detectors.equivalent_model import (
     AssistantObserver,
     EquivalentModel,
@@ -429,6 +429,42 @@ def test_configured_line_reports_its_head(buildings):
     res = det.run(model, Dataset(Yf, tuple(names), RATE, TRAIN), ctx)
     assert [e.channel for e in res.events] == ["s2"]
     assert "law 2" in res.events[0].evidence["law"]
+
+
+def _event(channel, first_alarm_s, end_s=None):
+    return Event(
+        channel, first_alarm_s, end_s, FaultType.MULTIPLICATIVE, {"gain": 1.3}, 0.8,
+        "equivalent_model", {"first_alarm_s": first_alarm_s},
+    )  # fmt: skip
+
+
+def test_target_alarm_before_its_assistants_own_is_withdrawn():
+    """A gain fault on s5 alarmed the residual of s4 (whose assistant s5 is) 16 s before
+    s5's own residual (the 1-hour benchmark archive): at s4's first alarm law 0 names s4,
+    but s5's alarm starts while s4's lasts and explains it, so only s5 is reported."""
+    net = network_from_config(
+        ["s3", "s4", "s5", "s6", "s7"],
+        {"s3": ["s5", "s4"], "s4": ["s5", "s6"], "s5": ["s6", "s7"], "s6": ["s7"]},
+    )
+    cands = {"s4": [_event("s4", 1800.19)], "s5": [_event("s5", 1816.73)]}
+    events, notes, decisions = EquivalentModel._isolate(net, cands, 2.0)
+    assert [e.channel for e in events] == ["s5"]
+    assert events[0].evidence["confirmed_by"] == ["s4"]
+    assert any("s4 at 1800.190 s explained by the alarm on its assistant sensor s5" in n
+               for n in notes)  # fmt: skip
+    assert decisions[0]["faulty"] == ["s4"] and "s5" in decisions[0]["revised"]
+
+
+def test_target_alarm_that_ended_before_its_assistants_stays():
+    """An s4 event that is over when s5's alarm starts is not explained by it."""
+    net = network_from_config(
+        ["s3", "s4", "s5", "s6", "s7"],
+        {"s3": ["s5", "s4"], "s4": ["s5", "s6"], "s5": ["s6", "s7"], "s6": ["s7"]},
+    )
+    cands = {"s4": [_event("s4", 100.0, 110.0)], "s5": [_event("s5", 200.0)]}
+    events, _, decisions = EquivalentModel._isolate(net, cands, 2.0)
+    assert [e.channel for e in events] == ["s4", "s5"]
+    assert "revised" not in decisions[0]
 
 
 def test_gap_is_no_fault(buildings):
