@@ -915,9 +915,12 @@ class EquivalentModel:
         # the assistant's own alarm starts while the target's still lasts and its decision
         # explains the target's alarm by it, the single fault is the assistant's: the
         # target's earlier event is withdrawn (Section 6.2's laws applied to the alarms
-        # over the event's span, not only at its first instant).
+        # over the event's span, not only at its first instant). Only an event no target
+        # of its sensor confirmed: a fault of its own would reach the residuals it assists.
         withdrawn: set[int] = set()
         for s, ev, t0, _, k in accepted:
+            if ev.evidence.get("confirmed_by"):
+                continue
             end = np.inf if ev.end_s is None else ev.end_s
             root = next(
                 (

@@ -455,6 +455,24 @@ def test_target_alarm_before_its_assistants_own_is_withdrawn():
     assert decisions[0]["faulty"] == ["s4"] and "s5" in decisions[0]["revised"]
 
 
+def test_target_alarm_its_own_targets_confirmed_stays():
+    """s3 (assisted by s4) alarms with s4: s4's fault reached the residual it assists, so
+    s5's later alarm does not take s4's event away."""
+    net = network_from_config(
+        ["s3", "s4", "s5", "s6", "s7"],
+        {"s3": ["s5", "s4"], "s4": ["s5", "s6"], "s5": ["s6", "s7"], "s6": ["s7"]},
+    )
+    cands = {
+        "s4": [_event("s4", 1800.19)],
+        "s3": [_event("s3", 1800.5)],
+        "s5": [_event("s5", 1816.73)],
+    }
+    events, _, decisions = EquivalentModel._isolate(net, cands, 2.0)
+    assert [e.channel for e in events] == ["s4", "s5"]
+    assert events[0].evidence["confirmed_by"] == ["s3"]
+    assert "revised" not in decisions[0]
+
+
 def test_target_alarm_that_ended_before_its_assistants_stays():
     """An s4 event that is over when s5's alarm starts is not explained by it."""
     net = network_from_config(
