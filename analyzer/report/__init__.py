@@ -12,10 +12,19 @@ in-process; the page is the same byte for byte.
 
 from __future__ import annotations
 
+import importlib.util
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
-from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+from jinja2 import (
+    BaseLoader,
+    Environment,
+    FileSystemLoader,
+    PackageLoader,
+    StrictUndefined,
+    select_autoescape,
+)
 
 from analyzer.report.decimate import Envelope, envelope
 from analyzer.report.view import MAX_DETAILED, ReportView, build_view
@@ -24,12 +33,25 @@ from analyzer.report.workers import FigureWorkers, figure_workers
 _env: Environment | None = None
 
 
+SOURCE_TEMPLATES = Path(__file__).resolve().parents[2] / "reports" / "templates"
+"""The templates in a source checkout (``analyzer`` imported from the repository without
+being installed, as the benchmarks' children and ``PYTHONPATH=. python -m analyzer`` do):
+the installed package maps them to ``analyzer.templates``."""
+
+
+def _loader() -> BaseLoader:
+    """The installed templates, else the source checkout's."""
+    if importlib.util.find_spec("analyzer.templates") is not None:
+        return PackageLoader("analyzer.templates", "")
+    return FileSystemLoader(SOURCE_TEMPLATES)
+
+
 def environment() -> Environment:
     """The report's Jinja2 environment (autoescaped HTML, undefined names are errors)."""
     global _env
     if _env is None:
         _env = Environment(
-            loader=PackageLoader("analyzer.templates", ""),
+            loader=_loader(),
             autoescape=select_autoescape(["html"]),
             undefined=StrictUndefined,
             trim_blocks=False,

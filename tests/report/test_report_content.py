@@ -188,6 +188,27 @@ def test_write_outputs_writes_the_same_report(faulty, tmp_path):
     assert json.loads((tmp_path / "findings.json").read_text())["faults"] == doc["faults"]
 
 
+def test_a_source_checkout_renders_the_same_report(faulty, monkeypatch):
+    """``analyzer`` imported from the repository without being installed (the
+    benchmarks' children, ``PYTHONPATH=. python -m analyzer``) has no
+    ``analyzer.templates`` package: the report is rendered from ``reports/templates``
+    (it ended with an internal error, exit 2, after findings.json was written)."""
+    import importlib.util
+
+    import analyzer.report as report
+
+    analysis, doc, html = faulty
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        report.importlib.util,
+        "find_spec",
+        lambda name, *a: None if name == "analyzer.templates" else real(name, *a),
+    )
+    monkeypatch.setattr(report, "_env", None)
+    assert type(report._loader()).__name__ == "FileSystemLoader"
+    assert render_report(analysis, doc) == html
+
+
 def test_only_the_most_confident_findings_get_figures(monkeypatch):
     monkeypatch.setattr(report_view, "MAX_DETAILED", 1)
     faults = [SyntheticFault(j, FaultType.ADDITIVE, 60.0 + 10 * j, None, 1.0) for j in range(3)]
