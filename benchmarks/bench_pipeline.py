@@ -279,14 +279,18 @@ RUN_ARGS: list[str] = []
 
 def driver_info(log: Path, archive: Path, returncode: int | None) -> dict[str, Any]:
     """What :data:`DRIVER` printed (its ``BENCH_JSON`` line) in the child's ``log``; a
-    child that printed none failed: the script stops with the log's last lines."""
+    child that printed none, or whose run ended with an error (exit code 2 or more: the
+    analysis may have finished and the report failed), failed: the script stops with the
+    log's last lines rather than time a failed run."""
     info: dict[str, Any] = {}
-    for line in log.read_text().splitlines():
+    lines = log.read_text().splitlines()
+    for line in lines:
         if line.startswith("BENCH_JSON "):
             info = json.loads(line[len("BENCH_JSON ") :])
-    if not info:
-        tail = " | ".join(log.read_text().splitlines()[-3:])
-        raise SystemExit(f"analyzer run {archive} failed (exit {returncode}): {tail}")
+    rc = info.get("rc", returncode)
+    if not info or rc not in (0, 1):
+        tail = " | ".join(x.strip() for x in lines if not x.startswith("BENCH_JSON ") and x.strip())
+        raise SystemExit(f"analyzer run {archive} failed (exit {rc}): {tail[-600:]}")
     return info
 
 
