@@ -24,7 +24,7 @@ from analyzer.config import Config, load_config
 from analyzer.detectors import REGISTRY, Dataset, DetectorResult, RunContext, detector_class
 from analyzer.detectors.ar_model import flat_channels
 from analyzer.detectors.base import SIGNAL_DTYPE
-from analyzer.diagnosis import Finding, merge_events
+from analyzer.diagnosis import Finding, merge_events, one_fault_at_a_time
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
 from analyzer.diagnosis.stuck import relabel_frozen
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
@@ -573,6 +573,15 @@ def _residual_tests(
     )
 
 
+def _coupled(results: Sequence[DetectorResult]) -> Callable[[str, str, str], bool]:
+    """Whether a detector modelled two channels together: both in one of its results
+    (one per channel group)."""
+    groups: dict[str, list[frozenset[str]]] = {}
+    for r in results:
+        groups.setdefault(r.detector, []).append(frozenset(r.channels))
+    return lambda detector, a, b: any(a in g and b in g for g in groups.get(detector, ()))
+
+
 def _fit_order(planned: list[tuple[str, Any]], staged: bool) -> Iterator[int]:
     """Indices of ``planned`` in the order their runs start: registry order, or on threads
     (``staged``) as their fits finish (the earliest-registered of those done first)."""
@@ -771,6 +780,9 @@ def _analyze(
                 )
             raise DetectorError(f"no detector could run ({why}){hint}")
         findings = merge_events(ev for r in results for ev in r.events)
+        # the seed methods isolate one fault at a time among the sensors modelled together
+        findings, conflicts = one_fault_at_a_time(findings, _coupled(results))
+        notes.extend(conflicts)
         # a frozen sensor is told by its readings, not by the residual's shape
         notes.extend(relabel_frozen(findings, values, chosen, aligned.rate_hz, train))
         t0 = time.perf_counter()

@@ -11,7 +11,7 @@ from analyzer.diagnosis.changes import (
     detection_confidence,
 )
 from analyzer.diagnosis.classify import Classification, classify, correlation_time
-from analyzer.diagnosis.merge import Finding, merge_events
+from analyzer.diagnosis.merge import Finding, merge_events, one_fault_at_a_time
 
 __all__ = [
     "Calibration",
@@ -27,4 +27,5 @@ __all__ = [
     "detect",
     "detection_confidence",
     "merge_events",
+    "one_fault_at_a_time",
 ]

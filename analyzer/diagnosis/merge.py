@@ -4,7 +4,7 @@ the most confident event, and ``evidence.detectors`` lists every detector that s
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -96,3 +96,53 @@ def _lead(group: list[Event]) -> Event:
     if sum(1 for v in votes.values() if v == top) > 1:  # a tie: the most confident event
         return max(group, key=lambda e: e.confidence)
     return max((e for e in group if e.type == winner), key=lambda e: e.confidence)
+
+
+def one_fault_at_a_time(
+    findings: list[Finding],
+    coupled: Callable[[str, str, str], bool],
+    slack_s: float = 1.0,
+) -> tuple[list[Finding], list[str]]:
+    """The findings without those that are one detector's misattribution of a fault the
+    other detectors agree on, and a note for each of those.
+
+    The seed methods isolate one sensor fault at a time among the sensors they model
+    together. A fault spreads into the estimates of the sensors it is modelled with, and
+    a detector can name one of those instead (a drift on s15 that the detection filter,
+    alone, put on s11 while the bank and the observers named s15). So a finding reported
+    by a single detector is taken for the fault of another finding when that one is
+    reported by more detectors, on another channel the single detector models jointly
+    with it (``coupled(detector, channel, other)``), and is already under way at the
+    single finding's onset (its onset no later than ``slack_s`` after it, its end not
+    before it). Its events stay in its detector's result; the note says where it went."""
+    kept: list[Finding] = []
+    notes: list[str] = []
+    for f in findings:
+        detectors = f.evidence.get("detectors", [f.detector])
+        cause = None
+        if len(detectors) == 1:
+            cause = next(
+                (
+                    g
+                    for g in findings
+                    if g is not f
+                    and g.channel != f.channel
+                    and len(g.evidence.get("detectors", [g.detector])) > 1
+                    and g.onset_s <= f.onset_s + slack_s
+                    and (g.end_s is None or g.end_s >= f.onset_s - slack_s)
+                    and coupled(detectors[0], f.channel, g.channel)
+                ),
+                None,
+            )
+        if cause is None:
+            kept.append(f)
+            continue
+        notes.append(
+            f"{detectors[0]}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
+            f"reported: it began while the {cause.type.value} fault on {cause.channel} "
+            f"(from {cause.onset_s:.3f} s, found by "
+            f"{', '.join(cause.evidence.get('detectors', [cause.detector]))}) was under way, "
+            f"and {detectors[0]} models the two sensors together: taken for that fault, "
+            "one fault at a time"
+        )
+    return kept, notes

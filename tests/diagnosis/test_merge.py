@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from analyzer.detectors.base import Event
-from analyzer.diagnosis import merge_events
+from analyzer.diagnosis import merge_events, one_fault_at_a_time
 from analyzer.types import FaultType
 
 A, D = FaultType.ADDITIVE, FaultType.DRIFT
@@ -43,3 +43,56 @@ def test_a_detector_votes_once_and_ties_go_to_the_most_confident_event():
     assert f.type is D  # 0.95 against the bank's best 0.6 (its events do not add up)
     (f,) = merge_events([_ev("ar_kalman_bank", A, 0.7), _ev("detection_filter", D, 0.7)])
     assert f.type is A and f.confidence == pytest.approx(1 - 0.3 * 0.3)  # the first of equals
+
+
+def _on(channel, detector, kind, onset, end=None, conf=1.0):
+    mag = {"offset": 1.0} if kind is A else {"rate_per_s": 0.003}
+    return Event(channel, onset, end, kind, mag, conf, detector)
+
+
+def _all_coupled(detector, a, b):
+    return True
+
+
+def test_one_detectors_finding_during_an_agreed_fault_is_taken_for_it():
+    """A drift on s15 (bank and observers) that the detection filter alone put on s11
+    7 s later (a 16-channel building in the robustness sweep): one finding, on s15, and a
+    note for the other."""
+    findings = merge_events(
+        [
+            _on("s15", "ar_kalman_bank", D, 719.6),
+            _on("s15", "equivalent_model", D, 719.3),
+            _on("s11", "detection_filter", D, 726.4),
+        ]
+    )
+    kept, notes = one_fault_at_a_time(findings, _all_coupled)
+    assert [f.channel for f in kept] == ["s15"]
+    (note,) = notes
+    assert "detection_filter's drift fault on s11 at 726.400 s not reported" in note
+    assert "drift fault on s15 (from 719.300 s, found by ar_kalman_bank, equivalent_model)" in note
+
+
+@pytest.mark.parametrize(
+    "single, coupled",
+    [
+        (_on("s11", "detection_filter", A, 700.0), True),  # began before the agreed fault
+        (_on("s11", "detection_filter", A, 800.0), True),  # after the agreed fault ended
+        (_on("s11", "detection_filter", A, 726.4), False),  # not modelled together
+    ],
+)
+def test_other_single_detector_findings_stay(single, coupled):
+    agreed = [
+        _on("s15", "ar_kalman_bank", D, 719.6, 760.0),
+        _on("s15", "equivalent_model", D, 719.3, 760.0),
+    ]
+    findings = merge_events([*agreed, single])
+    kept, notes = one_fault_at_a_time(findings, lambda d, a, b: coupled)
+    assert sorted(f.channel for f in kept) == ["s11", "s15"] and notes == []
+
+
+def test_two_single_detector_findings_both_stay():
+    findings = merge_events(
+        [_on("s15", "ar_kalman_bank", D, 719.6), _on("s11", "detection_filter", D, 726.4)]
+    )
+    kept, notes = one_fault_at_a_time(findings, _all_coupled)
+    assert len(kept) == 2 and notes == []
