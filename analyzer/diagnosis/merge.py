@@ -112,15 +112,20 @@ def one_fault_at_a_time(
     alone, put on s11 while the bank and the observers named s15). So a finding reported
     by a single detector is taken for the fault of another finding when that one is
     reported by more detectors, on another channel the single detector models jointly
-    with it (``coupled(detector, channel, other)``), and is already under way at the
-    single finding's onset (its onset no later than ``slack_s`` after it, its end not
-    before it). Its events stay in its detector's result; the note says where it went."""
+    with it (``coupled(detector, channel, other)``), and is already under way when the
+    single finding's first alarm rang (its first alarm no later than ``slack_s`` after
+    it, its end not before it). First alarms, not fitted onsets: a drift's onset is
+    extrapolated back to where its line meets zero, tens of seconds before anything
+    alarmed (the detection filter's misplaced drifts in the sweep were fitted up to 11 s
+    before the agreed one's onset, and first alarmed 40-50 s after it). The note names
+    the detector, the type, the sensor, the onset and the fault it was taken for."""
     kept: list[Finding] = []
     notes: list[str] = []
     for f in findings:
         detectors = f.evidence.get("detectors", [f.detector])
         cause = None
         if len(detectors) == 1:
+            t = _first_alarm(f)
             cause = next(
                 (
                     g
@@ -128,8 +133,8 @@ def one_fault_at_a_time(
                     if g is not f
                     and g.channel != f.channel
                     and len(g.evidence.get("detectors", [g.detector])) > 1
-                    and g.onset_s <= f.onset_s + slack_s
-                    and (g.end_s is None or g.end_s >= f.onset_s - slack_s)
+                    and _first_alarm(g) <= t + slack_s
+                    and (g.end_s is None or g.end_s >= t - slack_s)
                     and coupled(detectors[0], f.channel, g.channel)
                 ),
                 None,
@@ -146,3 +151,12 @@ def one_fault_at_a_time(
             "one fault at a time"
         )
     return kept, notes
+
+
+def _first_alarm(f: Finding) -> float:
+    """When a finding's first detector alarmed (an event's ``first_alarm_s``, else its
+    onset)."""
+    return min(
+        (float(e.evidence.get("first_alarm_s", e.onset_s)) for e in f.events),
+        default=f.onset_s,
+    )

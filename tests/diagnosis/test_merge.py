@@ -45,9 +45,10 @@ def test_a_detector_votes_once_and_ties_go_to_the_most_confident_event():
     assert f.type is A and f.confidence == pytest.approx(1 - 0.3 * 0.3)  # the first of equals
 
 
-def _on(channel, detector, kind, onset, end=None, conf=1.0):
+def _on(channel, detector, kind, onset, end=None, conf=1.0, first=None):
     mag = {"offset": 1.0} if kind is A else {"rate_per_s": 0.003}
-    return Event(channel, onset, end, kind, mag, conf, detector)
+    evidence = {} if first is None else {"first_alarm_s": first}
+    return Event(channel, onset, end, kind, mag, conf, detector, evidence)
 
 
 def _all_coupled(detector, a, b):
@@ -96,3 +97,18 @@ def test_two_single_detector_findings_both_stay():
     )
     kept, notes = one_fault_at_a_time(findings, _all_coupled)
     assert len(kept) == 2 and notes == []
+
+
+def test_drifts_are_compared_by_their_first_alarms():
+    """A drift's fitted onset goes back to where its line meets zero: the detection
+    filter's drift on s11 was fitted 11 s before the agreed drift on s14, but first
+    alarmed 44 s after it (a sweep of 16-channel buildings)."""
+    findings = merge_events(
+        [
+            _on("s14", "ar_kalman_bank", D, 719.17, first=747.62),
+            _on("s14", "equivalent_model", D, 719.37, first=752.24),
+            _on("s11", "detection_filter", D, 708.52, first=791.96),
+        ]
+    )
+    kept, notes = one_fault_at_a_time(findings, _all_coupled)
+    assert [f.channel for f in kept] == ["s14"] and len(notes) == 1
