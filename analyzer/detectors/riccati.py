@@ -164,14 +164,7 @@ def _newton(
     x = 0.5 * (start + start.T)
     with np.errstate(all="ignore"):
         for _ in range(NEWTON_STEPS):
-            xb = x @ b
-            try:
-                k = np.linalg.solve(r + b.T @ xb, xb.T @ a)
-            except np.linalg.LinAlgError:
-                return None
-            res = a.T @ (x @ a) - x - (a.T @ xb) @ k + q
-            scale = max(1.0, float(np.max(np.abs(x))))
-            d = _stein(a - b @ k, 0.5 * (res + res.T), 0.01 * TOLERANCE * scale)
+            d = _newton_correction(a, b, q, r, x)
             if d is None:
                 return None
             x = x + d
@@ -195,25 +188,33 @@ def newton_step(
     ~1e-4. The steady-state gain it gives is that close to the fold's optimal gain, and
     the innovations' variance is stationary at the optimal gain, so their statistics
     move by ~1e-8 (the calibration's, measured: ~1e-5 relative at most; see
-    :func:`analyzer.detectors.ar_kalman._cv_fold_task`), for a third of the steps the
-    converged solution takes. None when the step fails (the start's closed loop is not
-    stable, ``R + B' X B`` singular): the caller then solves the equation."""
+    ``tests/detectors/test_fit_fast_paths.py``), for a third of the steps the converged
+    solution takes. None when the step fails (the start's closed loop is not stable,
+    ``R + B' X B`` singular): the caller then solves the equation."""
     x = 0.5 * (start + start.T)
     with np.errstate(all="ignore"):
-        xb = x @ b
-        try:
-            k = np.linalg.solve(r + b.T @ xb, xb.T @ a)
-        except np.linalg.LinAlgError:
-            return None
-        res = a.T @ (x @ a) - x - (a.T @ xb) @ k + q
-        scale = max(1.0, float(np.max(np.abs(x))))
-        d = _stein(a - b @ k, 0.5 * (res + res.T), 0.01 * TOLERANCE * scale)
+        d = _newton_correction(a, b, q, r, x)
         if d is None:
             return None
         x = x + d
         if not np.all(np.isfinite(x)):
             return None
     return 0.5 * (x + x.T)
+
+
+def _newton_correction(
+    a: FloatArray, b: FloatArray, q: FloatArray, r: FloatArray, x: FloatArray
+) -> FloatArray | None:
+    """One Newton step's ``D = X_next - X`` from the symmetric ``x`` (:func:`_newton`),
+    or None when ``R + B' X B`` is singular or the closed loop is not stable."""
+    xb = x @ b
+    try:
+        k = np.linalg.solve(r + b.T @ xb, xb.T @ a)
+    except np.linalg.LinAlgError:
+        return None
+    res = a.T @ (x @ a) - x - (a.T @ xb) @ k + q
+    scale = max(1.0, float(np.max(np.abs(x))))
+    return _stein(a - b @ k, 0.5 * (res + res.T), 0.01 * TOLERANCE * scale)
 
 
 def _stein(ac: FloatArray, c: FloatArray, floor: float) -> FloatArray | None:

@@ -179,15 +179,20 @@ def _control_system(rng, n, r):
     return A, B, Qh @ Qh.T + 1e-3 * np.eye(n), Rh @ Rh.T + 0.1 * np.eye(r)
 
 
-@pytest.mark.parametrize("seed", range(4))
-def test_newton_from_a_nearby_solution_equals_scipy(seed):
+def _nearby_equations(seed):
+    """A control system's DARE solution (``start``) and a nearby equation ``(A2, B, Q2,
+    R)`` with scipy's solution ``ref``: the model refitted on slightly different data."""
     rng = np.random.default_rng(seed)
     A, B, Q, R = _control_system(rng, 14, 3)
     start = linalg.solve_discrete_are(A, B, Q, R)
-    # a nearby equation: the model refitted on slightly different data
     A2 = A + 0.01 * rng.normal(size=A.shape) * np.abs(A).max()
     Q2 = Q * (1 + 0.02 * rng.random())
-    ref = linalg.solve_discrete_are(A2, B, Q2, R)
+    return start, (A2, B, Q2, R), linalg.solve_discrete_are(A2, B, Q2, R)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_newton_from_a_nearby_solution_equals_scipy(seed):
+    start, (A2, B, Q2, R), ref = _nearby_equations(seed)
     X = solve_dare(A2, B, Q2, R, start=start)
     assert np.abs(X - ref).max() <= 1e-10 * np.abs(ref).max()
 
@@ -204,12 +209,7 @@ def test_newton_from_a_start_that_does_not_stabilize_falls_back():
 
 @pytest.mark.parametrize("seed", range(4))
 def test_one_newton_step_squares_the_distance_to_the_solution(seed):
-    rng = np.random.default_rng(seed)
-    A, B, Q, R = _control_system(rng, 14, 3)
-    start = linalg.solve_discrete_are(A, B, Q, R)
-    A2 = A + 0.01 * rng.normal(size=A.shape) * np.abs(A).max()
-    Q2 = Q * (1 + 0.02 * rng.random())
-    ref = linalg.solve_discrete_are(A2, B, Q2, R)
+    start, (A2, B, Q2, R), ref = _nearby_equations(seed)
     X = riccati.newton_step(A2, B, Q2, R, start)
     e0 = np.abs(start - ref).max() / np.abs(ref).max()
     e1 = np.abs(X - ref).max() / np.abs(ref).max()
