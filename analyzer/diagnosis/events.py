@@ -175,6 +175,7 @@ def diagnose_interval(
         # the shape does not hold even while the raw residual alarms (random data read as
         # "dead sensor plus noise", say): it cannot be trusted past the alarms either
         return cls, iv.end
+    fitted_to, refits = stop, 0
     i = 0
     while (onset := corrected_alarms.onset(i, n)) is not None:
         lo, hi = onset + cal.window, onset + cal.long_window
@@ -184,12 +185,44 @@ def diagnose_interval(
         if raw_alarms.onset(j, hi) is None:  # no raw interval overlaps [lo, hi): recovered
             end = onset
             break
+        # The fault still shows in the raw residual where its shape fails: a shape fitted
+        # on too short a stretch (a slow drift's first alarms, a few seconds of a ramp:
+        # its rate can come out with the wrong sign, and the corrected residual then
+        # alarms only long after the fault ended). Refitted on everything up to here,
+        # which is still the fault, and searched again; each refit on a stretch at least
+        # REFIT_GROWTH times the last, so there are few.
+        # A refit with no shape (type other over the longer stretch) is not taken, and
+        # the search goes on with the last shape.
+        grown = min(hi, limit)
+        if refits < MAX_REFITS and grown - iv.onset >= REFIT_GROWTH * (fitted_to - iv.onset):
+            fitted_to, refits = grown, refits + 1
+            refit = fit(fitted_to)
+            if refit.fault_signal(np.arange(0) / rate_hz, None if ref is None else ref[:0]) is None:
+                refits = MAX_REFITS
+            else:
+                cls = refit
+                corrected_alarms = _Intervals(
+                    _Corrected(
+                        r, ref, cls, iv.onset, rate_hz, cal, iv.onset + cal.window, scratch, index
+                    ),
+                    n,
+                    cal,
+                    iv.onset + cal.window,
+                )
+                i = 0
+                continue
         i += 1
     if end != iv.end:
         # refit the shape over the whole fault period
         cls = fit(min(n if end is None else end, limit))
     return cls, end
 
+
+REFIT_GROWTH = 1.5
+"""A fault's shape is refitted (:func:`diagnose_interval`) only on a stretch at least
+this many times as long as the last fit's."""
+MAX_REFITS = 12
+"""At most this many refits per fault (a stretch 1.5^12 ~ 130 times the first)."""
 
 MAPPED_CORRECTION = 1 << 20
 """Samples of a corrected residual kept in memory (8 MB); a longer one moves to a

@@ -109,54 +109,98 @@ def one_fault_at_a_time(
     The seed methods isolate one sensor fault at a time among the sensors they model
     together. A fault spreads into the estimates of the sensors it is modelled with, and
     a detector can name one of those instead (a drift on s15 that the detection filter,
-    alone, put on s11 while the bank and the observers named s15). So a finding reported
-    by a single detector is taken for the fault of another finding when that one is
-    reported by more detectors, on another channel the single detector models jointly
-    with it (``coupled(detector, channel, other)``), and is already under way when the
-    single finding's first alarm rang (its first alarm no later than ``slack_s`` after
-    it, its end not before it). First alarms, not fitted onsets: a drift's onset is
-    extrapolated back to where its line meets zero, tens of seconds before anything
-    alarmed (the detection filter's misplaced drifts in the sweep were fitted up to 11 s
-    before the agreed one's onset, and first alarmed 40-50 s after it). The note names
-    the detector, the type, the sensor, the onset and the fault it was taken for."""
+    alone, put on s11 while the bank and the observers named s15). So a finding that
+    rests on a single detector's attribution is taken for the fault of another finding
+    when that one is reported by more detectors, on another channel the single detector
+    models jointly with it (``coupled(detector, channel, other)``), and is already under
+    way when the single detector's first alarm rang (that finding's first alarm no later
+    than ``slack_s`` after it, its end not before it).
+
+    A finding rests on a single detector's attribution when it has one detector, or when
+    all its detectors but one are *followers*: detectors that had reported the other
+    fault first (their first alarm on it no later than ``slack_s`` after their first on
+    this one) and model the two sensors together, so that their part in this finding is
+    that fault spreading, not evidence of its own (a drift on s15 that the bank and the
+    observers reported, the detection filter put on s11 47 s later, and the bank, as the
+    drift grew, on s11 too, 165 s after its own s15). A finding every detector of which
+    followed (each reported the other fault, then this one) is kept: they all moved on,
+    as they would for a second fault.
+
+    First alarms, not fitted onsets: a drift's onset is extrapolated back to where its
+    line meets zero, tens of seconds before anything alarmed (the detection filter's
+    misplaced drifts in the sweep were fitted up to 11 s before the agreed one's onset,
+    and first alarmed 40-50 s after it). The note names the detector, the type, the
+    sensor, the onset, the fault it was taken for and the followers."""
     kept: list[Finding] = []
     notes: list[str] = []
     for f in findings:
-        detectors = f.evidence.get("detectors", [f.detector])
-        cause = None
-        if len(detectors) == 1:
-            t = _first_alarm(f)
-            cause = next(
-                (
-                    g
-                    for g in findings
-                    if g is not f
-                    and g.channel != f.channel
-                    and len(g.evidence.get("detectors", [g.detector])) > 1
-                    and _first_alarm(g) <= t + slack_s
-                    and (g.end_s is None or g.end_s >= t - slack_s)
-                    and coupled(detectors[0], f.channel, g.channel)
-                ),
-                None,
-            )
-        if cause is None:
+        taken = _taken_for(f, findings, coupled, slack_s)
+        if taken is None:
             kept.append(f)
             continue
-        notes.append(
-            f"{detectors[0]}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
+        cause, single, followers = taken
+        note = (
+            f"{single}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
             f"reported: it began while the {cause.type.value} fault on {cause.channel} "
-            f"(from {cause.onset_s:.3f} s, found by "
-            f"{', '.join(cause.evidence.get('detectors', [cause.detector]))}) was under way, "
-            f"and {detectors[0]} models the two sensors together: taken for that fault, "
-            "one fault at a time"
+            f"(from {cause.onset_s:.3f} s, found by {', '.join(_detectors(cause))}) was "
+            f"under way, and {single} models the two sensors together: taken for that "
+            "fault, one fault at a time"
         )
+        if followers:
+            note += (
+                f" ({', '.join(followers)} reported {f.channel} too, after reporting "
+                f"{cause.channel})"
+            )
+        notes.append(note)
     return kept, notes
 
 
-def _first_alarm(f: Finding) -> float:
-    """When a finding's first detector alarmed (an event's ``first_alarm_s``, else its
-    onset)."""
+def _taken_for(
+    f: Finding,
+    findings: list[Finding],
+    coupled: Callable[[str, str, str], bool],
+    slack_s: float,
+) -> tuple[Finding, str, list[str]] | None:
+    """``(the finding f is taken for, its single detector, its followers)`` when
+    :func:`one_fault_at_a_time` takes ``f`` for another finding, else None."""
+    detectors = _detectors(f)
+    for g in findings:
+        if g is f or g.channel == f.channel or len(_detectors(g)) < 2:
+            continue
+        followers = [
+            d
+            for d in detectors
+            if d in _detectors(g)
+            and coupled(d, f.channel, g.channel)
+            and _first_alarm(g, d) <= _first_alarm(f, d) + slack_s
+        ]
+        own = [d for d in detectors if d not in followers]
+        if len(own) > 1 or (not own and len(detectors) > 1):
+            continue
+        single = own[0] if own else detectors[0]
+        t = _first_alarm(f, single)
+        if (
+            _first_alarm(g) <= t + slack_s
+            and (g.end_s is None or g.end_s >= t - slack_s)
+            and coupled(single, f.channel, g.channel)
+        ):
+            return g, single, followers
+    return None
+
+
+def _detectors(f: Finding) -> list[str]:
+    detectors: list[str] = f.evidence.get("detectors", [f.detector])
+    return detectors
+
+
+def _first_alarm(f: Finding, detector: str | None = None) -> float:
+    """When a finding's first detector (or ``detector``) alarmed (an event's
+    ``first_alarm_s``, else its onset)."""
     return min(
-        (float(e.evidence.get("first_alarm_s", e.onset_s)) for e in f.events),
+        (
+            float(e.evidence.get("first_alarm_s", e.onset_s))
+            for e in f.events
+            if detector is None or e.detector == detector
+        ),
         default=f.onset_s,
     )

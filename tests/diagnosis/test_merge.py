@@ -112,3 +112,48 @@ def test_drifts_are_compared_by_their_first_alarms():
     )
     kept, notes = one_fault_at_a_time(findings, _all_coupled)
     assert [f.channel for f in kept] == ["s14"] and len(notes) == 1
+
+
+def test_a_finding_resting_on_one_detector_and_followers_is_taken_for_the_agreed_fault():
+    """A drift on s15 that the bank and the observers reported; the detection filter put
+    it on s11 50 s later, and the bank, as the drift grew, on s11 too, 165 s after its own
+    s15 (a 16-channel building, the drift ending at 80 % of the record). The bank follows
+    on s11: the s11 finding rests on the detection filter alone."""
+    findings = merge_events(
+        [
+            _on("s15", "ar_kalman_bank", D, 742.41, 1025.94, first=743.28),
+            _on("s15", "equivalent_model", D, 719.68, 960.01, first=743.32, conf=0.75),
+            _on("s11", "detection_filter", D, 725.33, 960.22, first=792.91),
+            _on("s11", "ar_kalman_bank", A, 906.28, 960.21, first=908.34, conf=0.6),
+        ]
+    )
+    assert [f.channel for f in findings] == ["s11", "s15"]
+    assert len(findings[0].evidence["detectors"]) == 2  # both findings have two detectors
+    kept, notes = one_fault_at_a_time(findings, _all_coupled)
+    assert [f.channel for f in kept] == ["s15"]
+    (note,) = notes
+    assert note.startswith("detection_filter's drift fault on s11 at 725.330 s not reported")
+    assert note.endswith("(ar_kalman_bank reported s11 too, after reporting s15)")
+    # the bank not modelling the two together: it is no follower, two detectors stand
+    kept, notes = one_fault_at_a_time(findings, lambda d, a, b: d != "ar_kalman_bank")
+    assert len(kept) == 2 and notes == []
+
+
+def test_a_second_fault_every_detector_moved_on_to_is_kept():
+    """An offset on s5, then, while it lasts, one on s6 that every detector reports after
+    its own s5: a second fault, not a spread of the first."""
+    dets = ("ar_kalman_bank", "detection_filter", "equivalent_model")
+    findings = merge_events(
+        [_on("s5", d, A, 600.0 + i) for i, d in enumerate(dets)]
+        + [_on("s6", d, A, 800.0 + i) for i, d in enumerate(dets)]
+    )
+    kept, notes = one_fault_at_a_time(findings, _all_coupled)
+    assert [f.channel for f in kept] == ["s5", "s6"] and notes == []
+    # two detectors of their own on s6 (the detection filter modelling the two apart, the
+    # observers new to it) and one follower: kept as well
+    findings = merge_events(
+        [_on("s5", d, A, 600.0 + i) for i, d in enumerate(dets[:2])]
+        + [_on("s6", d, A, 800.0 + i) for i, d in enumerate(dets)]
+    )
+    kept, notes = one_fault_at_a_time(findings, lambda d, a, b: d == "ar_kalman_bank")
+    assert [f.channel for f in kept] == ["s5", "s6"] and notes == []
