@@ -153,22 +153,24 @@ def diagnose_interval(
         # the stretch as it lies (a view): classify reads it a piece at a time
         return classify(r[iv.onset : stop], seg_ref, cal.std, rate_hz, tau_corr, shift=cal.mean)
 
+    def has_shape(cls: Classification) -> bool:
+        # the shape is elementwise in tau and the reference: a stretch of it is the whole
+        # record's shape over that stretch, bit for bit
+        empty = None if ref is None else ref[iv.onset : iv.onset]
+        return cls.fault_signal(np.arange(0) / rate_hz, empty) is not None
+
+    def corrected(cls: Classification) -> _Intervals:
+        """The alarms of the residual less ``cls``'s shape from the onset on."""
+        search = iv.onset + cal.window
+        record = _Corrected(r, ref, cls, iv.onset, rate_hz, cal, search, scratch, index)
+        return _Intervals(record, n, cal, search)
+
     cls = fit(stop)
-    # the shape is elementwise in tau and the reference: a stretch of it is the whole
-    # record's shape over that stretch, bit for bit
-    shape = cls.fault_signal(
-        np.arange(0) / rate_hz, None if ref is None else ref[iv.onset : iv.onset]
-    )
-    if shape is None:
+    if not has_shape(cls):
         return cls, iv.end
     end: int | None = None
     raw_alarms = _Intervals(r, n, cal, iv.onset, statistic, index)
-    corrected_alarms = _Intervals(
-        _Corrected(r, ref, cls, iv.onset, rate_hz, cal, iv.onset + cal.window, scratch, index),
-        n,
-        cal,
-        iv.onset + cal.window,
-    )
+    corrected_alarms = corrected(cls)
     # the onsets of detect's intervals strictly increase: only the first corrected one
     # can begin before iv.end
     if iv.end is not None and corrected_alarms.onset(0, iv.end) is not None:
@@ -197,18 +199,11 @@ def diagnose_interval(
         if refits < MAX_REFITS and grown - iv.onset >= REFIT_GROWTH * (fitted_to - iv.onset):
             fitted_to, refits = grown, refits + 1
             refit = fit(fitted_to)
-            if refit.fault_signal(np.arange(0) / rate_hz, None if ref is None else ref[:0]) is None:
+            if not has_shape(refit):
                 refits = MAX_REFITS
             else:
                 cls = refit
-                corrected_alarms = _Intervals(
-                    _Corrected(
-                        r, ref, cls, iv.onset, rate_hz, cal, iv.onset + cal.window, scratch, index
-                    ),
-                    n,
-                    cal,
-                    iv.onset + cal.window,
-                )
+                corrected_alarms = corrected(cls)
                 i = 0
                 continue
         i += 1
