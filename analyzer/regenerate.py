@@ -31,14 +31,11 @@ from typing import Any, Protocol
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.diagnosis.classify import MIN_GAIN
 from analyzer.paging import RELEASE_ROWS, release
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
-
-MIN_GAIN = 0.1
-"""Below this |gain| a multiplicative fault is treated as a dead sensor: dividing by the gain
-would amplify noise more than tenfold, so the fault-free estimate is used instead."""
 
 
 class FaultLike(Protocol):

@@ -1307,9 +1307,8 @@ def _undo_fault(y: FloatArray, est: FloatArray, cls: Classification, rate: float
     """The sensor's reading with the fitted fault removed: ``y - D`` (additive), ``y / a``
     (multiplicative, a not near 0), ``y - b t`` (drift); the estimate from the other
     sensors where the fault cannot be inverted (dead sensor, ``other``)."""
-    gain = cls.params.get("gain", 1.0)
-    if cls.type is FaultType.MULTIPLICATIVE and abs(gain) > 0.1:
-        return y / gain
+    if cls.reading_gain != 1.0:
+        return y / cls.reading_gain
     shape = cls.fault_signal(np.arange(y.shape[0]) / rate, est)
     if shape is None or cls.type is FaultType.MULTIPLICATIVE:
         return est.copy()

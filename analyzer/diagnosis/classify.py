@@ -30,6 +30,10 @@ from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
 
+MIN_GAIN = 0.1
+"""Below this |gain| a multiplicative fault is treated as a dead sensor: dividing by the gain
+would amplify noise more than tenfold, so the reading is not inverted."""
+
 UNEXPLAINED_LIMIT = 0.5
 """``other`` when the best shape explains less than this share of the fault energy above
 the healthy noise floor (a stated, documented rule, not a fitted constant)."""
@@ -59,6 +63,23 @@ class Classification:
         if self.type is FaultType.MULTIPLICATIVE and reference is not None:
             return (self.params["gain"] - 1.0) * np.asarray(reference, dtype=np.float64)
         return None
+
+    @property
+    def reading_gain(self) -> float:
+        """What the fault multiplies the sensor's reading by: a multiplicative fault's
+        gain ``a`` (not near 0: a dead sensor cannot be inverted), 1 for the others.
+
+        With the reference the fault-free estimate ``y_ref`` and the healthy residual
+        ``e``, a gain fault's residual is ``a (y_ref + e) - y_ref = (a - 1) y_ref + a e``:
+        the noise is scaled too. The residual of the corrected reading ``y / a`` is
+        ``(r - fault_signal) / reading_gain = e``; subtracting the shape alone leaves
+        ``a e``, whose variance a long alarm window sees as a fault of its own
+        (:func:`~analyzer.diagnosis.events.diagnose_interval`)."""
+        if self.type is FaultType.MULTIPLICATIVE:
+            gain = float(self.params.get("gain", 1.0))
+            if abs(gain) >= MIN_GAIN:
+                return gain
+        return 1.0
 
 
 def correlation_time(r: FloatArray, max_lag: int = 200) -> float:

@@ -226,7 +226,9 @@ each step (one file per fault that lasts, not per fault: creating one costs ~3 m
 
 
 class _Corrected:
-    """The residual less a fault's fitted shape from ``onset`` on, built on demand: its
+    """The residual of the reading with a fault's fitted shape undone from ``onset`` on
+    (the residual less the shape; a gain fault's divided by the gain too:
+    :attr:`~analyzer.diagnosis.classify.Classification.reading_gain`), built on demand: its
     first ``h`` samples, filled as ``h`` grows (a fault's end is usually found within
     seconds of its onset; the rest of the record is not corrected), for
     :class:`_Intervals` from ``search_start`` on.
@@ -283,6 +285,8 @@ class _Corrected:
                 if shape is None:  # pragma: no cover - checked by diagnose_interval
                     raise ValueError("a fault of type other has no shape to subtract")
                 np.subtract(self.r[lo:hi], shape, out=self.buf[lo:hi])
+                if self.cls.reading_gain != 1.0:  # the corrected reading's residual
+                    self.buf[lo:hi] /= self.cls.reading_gain
             self.filled = h
         return self.buf[:h]
 

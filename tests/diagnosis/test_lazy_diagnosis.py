@@ -66,6 +66,7 @@ def _whole_record_diagnosis(
         return cls, iv.end
     corrected = r.copy()
     corrected[iv.onset :] -= shape
+    corrected[iv.onset :] /= cls.reading_gain
     end: int | None = None
     raw_alarms = detect(r, cal, search_start=iv.onset, statistic=statistic)
     corrected_alarms = detect(corrected, cal, search_start=iv.onset + cal.window)
@@ -95,6 +96,7 @@ def _whole_record_diagnosis(
                 cls = refit
                 corrected = r.copy()
                 corrected[iv.onset :] -= shape
+                corrected[iv.onset :] /= cls.reading_gain
                 corrected_alarms = detect(corrected, cal, search_start=iv.onset + cal.window)
                 k = 0
                 continue
@@ -583,3 +585,43 @@ def test_a_shape_fitted_on_a_short_first_interval_is_refitted(
     assert all(c.magnitude[magnitude] == pytest.approx(truth, rel=0.02) for c, _ in got)
     monkeypatch.setattr("analyzer.diagnosis.events.MAX_REFITS", 0)
     assert any(end != 30_000 for _, end in diagnoses())
+
+
+def _gain_fault(seed: int, gain: float) -> tuple[np.ndarray, np.ndarray]:
+    """A residual ``measured - estimate`` whose sensor reads ``gain`` times the truth from
+    sample 10 000 to 30 000, the estimate (reference) fault-free: the healthy residual's
+    noise is scaled by the gain as well, not only the structure."""
+    n = 40_000
+    ref = _structure(seed, n)
+    measured = ref + _residual(seed, n)
+    measured[10_000:30_000] *= gain
+    return measured - ref, ref
+
+
+def test_a_gain_faults_end_is_searched_on_the_corrected_readings_residual(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A gain fault's residual is ``(a - 1) y_ref + a e``. Less the shape alone it is
+    ``a e``, 1.44 times the healthy variance for a = 1.2: over a long interval the
+    corrected residual alarms while the raw one still does, the shape is taken as not
+    holding and the fault ends with its first alarms, before a quiet stretch (190.47 s).
+    Divided by the gain (the residual of the corrected reading ``y / a``) it is the
+    healthy ``e``: one event per record, from 100 s to the end at 300 s."""
+    got, without = [], []
+    for seed in range(1, 9):
+        r, ref = _gain_fault(seed, 1.2)
+        cal = calibrate(r[:6000], 25)
+        events = events_from_residual("c", r, ref, cal, RATE, "d", search_start=6000, tau_corr=2.0)
+        got.append([(e.type.value, e.onset_s, e.end_s, e.magnitude.get("gain")) for e in events])
+        with monkeypatch.context() as m:
+            m.setattr(Classification, "reading_gain", property(lambda self: 1.0))
+            events = events_from_residual(
+                "c", r, ref, cal, RATE, "d", search_start=6000, tau_corr=2.0
+            )
+            without.append([e.end_s for e in events])
+    for events in got:
+        assert len(events) == 1, got
+        kind, onset, end, gain = events[0]
+        assert kind == "multiplicative" and gain == pytest.approx(1.2, abs=0.01), got
+        assert onset == pytest.approx(100.0, abs=0.1) and end == pytest.approx(300.0, abs=0.5)
+    assert sum(190.47 in ends for ends in without) >= 3, without
