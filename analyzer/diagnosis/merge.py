@@ -48,7 +48,7 @@ def merge_events(events: Iterable[Event], slack_s: float = 1.0) -> list[Finding]
             else:
                 groups.append([ev])
         for g in groups:
-            lead = _lead(g)
+            lead = _lead(g, slack_s)
             detectors = sorted({e.detector for e in g})
             # independent detectors agreeing raise the confidence: 1 - prod(1 - c_i)
             miss = 1.0
@@ -79,13 +79,32 @@ def merge_events(events: Iterable[Event], slack_s: float = 1.0) -> list[Finding]
     return findings
 
 
-def _lead(group: list[Event]) -> Event:
+def _lead(group: list[Event], slack_s: float = 1.0) -> Event:
     """The event a finding reports: the most confident of the type that the detectors,
     each with the confidence of its own most confident event, vote for. One confident
     detector misled (a second fault blurring its shape, say) does not outvote two that
-    agree."""
+    agree.
+
+    An event that begins after another event of the group had alarmed, and ends within
+    that event's span, saw only the later part of the fault, which the other's shape
+    was fitted on as well: alone in its type, it does not vote (a slow drift that one
+    detector traces from its start, and another catches late, at a level it reads as an
+    offset). Two detectors that agree on the type vote, late or not: one detector's
+    earlier alarm does not overrule them (an early false alarm whose shape then takes
+    in the fault). The event that alarmed first is never such a tail, so some event
+    always votes."""
+
+    def alone(e: Event) -> bool:
+        return not any(o.detector != e.detector and o.type is e.type for o in group)
+
+    voters = [
+        e
+        for e in group
+        if not (alone(e) and any(_tail_of(o, e, slack_s) for o in group if o is not e))
+    ]
+    voters = voters or group  # pragma: no cover - an onset after its own first alarm
     best: dict[str, Event] = {}
-    for e in group:
+    for e in voters:
         if e.detector not in best or e.confidence > best[e.detector].confidence:
             best[e.detector] = e
     votes: dict[Any, float] = {}
@@ -94,8 +113,17 @@ def _lead(group: list[Event]) -> Event:
     winner = max(votes, key=lambda t: votes[t])
     top = max(votes.values())
     if sum(1 for v in votes.values() if v == top) > 1:  # a tie: the most confident event
-        return max(group, key=lambda e: e.confidence)
-    return max((e for e in group if e.type == winner), key=lambda e: e.confidence)
+        return max(voters, key=lambda e: e.confidence)
+    return max((e for e in voters if e.type == winner), key=lambda e: e.confidence)
+
+
+def _tail_of(first: Event, e: Event, slack_s: float) -> bool:
+    """``e`` began more than ``slack_s`` after ``first`` alarmed and ends within
+    ``first``'s span (``first`` open, or ``e`` closed by its end)."""
+    alarmed = float(first.evidence.get("first_alarm_s", first.onset_s))
+    if e.onset_s <= alarmed + slack_s:
+        return False
+    return first.end_s is None or (e.end_s is not None and e.end_s <= first.end_s + slack_s)
 
 
 def one_fault_at_a_time(

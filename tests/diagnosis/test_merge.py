@@ -157,3 +157,42 @@ def test_a_second_fault_every_detector_moved_on_to_is_kept():
     )
     kept, notes = one_fault_at_a_time(findings, lambda d, a, b: d == "ar_kalman_bank")
     assert [f.channel for f in kept] == ["s5", "s6"] and notes == []
+
+
+def test_an_event_that_saw_only_a_faults_tail_does_not_vote():
+    """A half-size drift on a 16-channel building (sweep seed 5): the bank traces it from
+    717.4 s (first alarm 749.4 s, confidence 0.75: not confirmed by another estimator),
+    the equivalent model catches it at 896 s, at a level it reads as an offset
+    (confidence 0.96). The model's stretch lies inside the bank's, whose drift was
+    fitted on it too: the finding is the bank's drift. Both detectors stay evidence."""
+    bank = _on("s6", "ar_kalman_bank", D, 717.38, 960.0, 0.75, first=749.44)
+    em = _on("s6", "equivalent_model", A, 896.03, 960.38, 0.963, first=898.51)
+    (f,) = merge_events([bank, em])
+    assert (f.type, f.onset_s, f.end_s, f.detector) == (D, 717.38, 960.0, "ar_kalman_bank")
+    assert f.evidence["detectors"] == ["ar_kalman_bank", "equivalent_model"]
+    assert f.confidence == pytest.approx(1 - 0.25 * 0.037)
+    # the model's event lasting past the bank's (it saw what the bank did not), or
+    # beginning before the bank alarmed: it votes, and the more confident offset wins
+    late_end = _on("s6", "equivalent_model", A, 896.03, 975.0, 0.963, first=898.51)
+    assert merge_events([bank, late_end])[0].type is A
+    early = _on("s6", "equivalent_model", A, 750.0, 960.0, 0.963, first=751.0)
+    assert merge_events([bank, early])[0].type is A
+    # an open bank event covers a late one to the end of the record
+    open_bank = _on("s6", "ar_kalman_bank", D, 717.38, None, 0.75, first=749.44)
+    open_em = _on("s6", "equivalent_model", A, 896.03, None, 0.963, first=898.51)
+    assert merge_events([open_bank, open_em])[0].type is D
+
+
+def test_two_detectors_that_agree_late_vote_against_an_earlier_alarm():
+    """A step at 30 s on a 60 s record (the CLI's fixture): the equivalent model alarms
+    at 22.7 s, before the step, and reads the stretch as a drift traced from 12.9 s; the
+    bank and the detection filter both put an offset at 30.0 s. Their events begin after
+    the model's alarm and end within its span, but they agree: the finding is the
+    offset."""
+    em = _on("s2", "equivalent_model", D, 12.92, None, 0.75, first=22.705)
+    bank = _on("s2", "ar_kalman_bank", A, 30.0, None, 0.959, first=30.015)
+    df = _on("s2", "detection_filter", A, 30.0, None, 0.958, first=30.025)
+    (f,) = merge_events([em, bank, df])
+    assert (f.type, f.onset_s, f.detector) == (A, 30.0, "ar_kalman_bank")
+    # either alone is a tail of the model's drift
+    assert merge_events([em, bank])[0].type is D
