@@ -857,7 +857,9 @@ class EquivalentModel:
         """Keep the events the network's laws attribute to their own sensor: for each
         event, the alarming set is every sensor whose residual alarms at (or first alarms
         within ``slack_s`` of) the event's first alarm; :meth:`SensorNetwork.diagnose`
-        decides. First alarms are used, not fitted onsets, which a drift fit may move."""
+        decides. First alarms are used, not fitted onsets, which a drift fit may move.
+        An event that no target sensor's residual confirms is noted, not reported, when it
+        has no fault shape or is over within ``slack_s`` (the long window)."""
 
         def first(e: Event) -> float:
             return float(e.evidence.get("first_alarm_s", e.onset_s))
@@ -885,6 +887,19 @@ class EquivalentModel:
                     f"anomaly on {s} at {t0:.3f} s not reported: it has no fault shape and "
                     "no target sensor's residual saw it (model mismatch rather than a "
                     "sensor fault)"
+                )
+            elif (
+                s in diag.faulty
+                and not confirmed
+                and ev.end_s is not None
+                and ev.end_s - ev.onset_s < slack_s
+            ):
+                # as the bank does (ar_kalman_bank._next_fault): a change gone within the
+                # long window that no other residual confirms is within the model's error
+                notes.append(
+                    f"anomaly on {s} at {t0:.3f} s not reported: it was over within "
+                    f"{ev.end_s - ev.onset_s:.3f} s and no target sensor's residual saw it "
+                    "(within the model's own error rather than a sensor fault)"
                 )
             elif s in diag.faulty:
                 ev.evidence.update(

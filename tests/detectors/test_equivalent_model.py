@@ -485,6 +485,27 @@ def test_target_alarm_that_ended_before_its_assistants_stays():
     assert "revised" not in decisions[0]
 
 
+def test_short_unconfirmed_event_is_noted_not_reported():
+    """An event over within the long window (``slack_s``) that no target sensor's
+    residual saw is within the model's error (the bank's rule too): a 0.25 s offset of
+    the equivalent model alone, 147 s after a drift ended, in the faults-that-end sweep.
+    Longer, or confirmed by a target's alarm, it is reported."""
+    net = network_from_config(
+        ["s3", "s4", "s5", "s6", "s7"],
+        {"s3": ["s5", "s4"], "s4": ["s5", "s6"], "s5": ["s6", "s7"], "s6": ["s7"]},
+    )
+    events, notes, _ = EquivalentModel._isolate(net, {"s5": [_event("s5", 200.0, 200.25)]}, 2.0)
+    assert events == [] and any("s5 at 200.000 s not reported: it was over" in n for n in notes)
+    events, _, _ = EquivalentModel._isolate(net, {"s5": [_event("s5", 200.0, 203.0)]}, 2.0)
+    assert [e.channel for e in events] == ["s5"] and events[0].evidence["confirmed_by"] == []
+    cands = {"s5": [_event("s5", 200.0, 200.25)], "s4": [_event("s4", 200.1, 200.3)]}
+    events, _, _ = EquivalentModel._isolate(net, cands, 2.0)
+    assert [e.channel for e in events] == ["s5"] and events[0].evidence["confirmed_by"] == ["s4"]
+    # the event without an end (to the record's end) is not short
+    events, _, _ = EquivalentModel._isolate(net, {"s5": [_event("s5", 200.0)]}, 2.0)
+    assert [e.channel for e in events] == ["s5"]
+
+
 def test_gap_is_no_fault(buildings):
     Y, names, det, model, ctx = buildings[0]
     Yg = Y.copy()
