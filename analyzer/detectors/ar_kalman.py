@@ -58,7 +58,7 @@ from analyzer.diagnosis.changes import (
     detect,
     detection_confidence,
 )
-from analyzer.diagnosis.classify import Classification, correlation_time
+from analyzer.diagnosis.classify import MIN_GAIN, Classification, correlation_time
 from analyzer.diagnosis.events import bounded_onset, diagnose_interval
 from analyzer.errors import DetectorError
 from analyzer.paging import Released, read_column, release
@@ -1307,7 +1307,7 @@ def _undo_fault(y: FloatArray, est: FloatArray, cls: Classification, rate: float
     """The sensor's reading with the fitted fault removed: ``y - D`` (additive), ``y / a``
     (multiplicative, a not near 0), ``y - b t`` (drift); the estimate from the other
     sensors where the fault cannot be inverted (dead sensor, ``other``)."""
-    if cls.reading_gain != 1.0:
+    if cls.type is FaultType.MULTIPLICATIVE and abs(cls.params.get("gain", 1.0)) >= MIN_GAIN:
         return y / cls.reading_gain
     shape = cls.fault_signal(np.arange(y.shape[0]) / rate, est)
     if shape is None or cls.type is FaultType.MULTIPLICATIVE:
