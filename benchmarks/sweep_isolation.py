@@ -90,17 +90,20 @@ def case(
         for f in analysis.findings
     ]
     faulty = f"/data.data[{k}]"
-    mine = [f for f in found if f[0] == faulty and f[1] == kind]
+    mine = [
+        (row, f)
+        for row, f in zip(found, analysis.findings, strict=True)
+        if f.channel == faulty and f.type.value == kind
+    ]
     verdict = "right" if mine and len(found) == 1 else "extra" if mine else "wrong"
     errors = None
     if mine:
-        got_end = mine[0][3]
+        (_, _, got_onset, got_end), finding = mine[0]
         late = float("nan") if end is None or got_end is None else got_end - end
-        finding = next(f for f in analysis.findings if f.channel == faulty and f.type.value == kind)
         size_found = finding.magnitude.get(MAGNITUDE[kind], float("nan"))
         if kind == "multiplicative":  # the gain's departure from 1
             size_found, size = size_found - 1.0, size - 1.0
-        errors = (mine[0][2] - onset, late, size_found / size - 1.0)
+        errors = (got_onset - onset, late, size_found / size - 1.0)
         if verdict == "right" and end is not None and got_end is None:
             verdict = "open"
     return kind, faulty, verdict, found, errors

@@ -882,18 +882,14 @@ class EquivalentModel:
             diag: NetworkDiagnosis = net.diagnose(alarming)
             decisions.append({"onset_s": t0, "sensor": s, **diag.as_dict()})
             confirmed = [t for t in net.targets(s) if t in diag.propagated]
-            if s in diag.faulty and not confirmed and ev.type is FaultType.OTHER:
+            unconfirmed = s in diag.faulty and not confirmed
+            if unconfirmed and ev.type is FaultType.OTHER:
                 notes.append(
                     f"anomaly on {s} at {t0:.3f} s not reported: it has no fault shape and "
                     "no target sensor's residual saw it (model mismatch rather than a "
                     "sensor fault)"
                 )
-            elif (
-                s in diag.faulty
-                and not confirmed
-                and ev.end_s is not None
-                and ev.end_s - ev.onset_s < slack_s
-            ):
+            elif unconfirmed and ev.end_s is not None and ev.end_s - ev.onset_s < slack_s:
                 # as the bank does (ar_kalman_bank._next_fault): a change gone within the
                 # long window that no other residual confirms is within the model's error
                 notes.append(

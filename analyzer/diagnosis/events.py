@@ -160,7 +160,7 @@ def diagnose_interval(
         return cls.fault_signal(np.arange(0) / rate_hz, empty) is not None
 
     def corrected(cls: Classification) -> _Intervals:
-        """The alarms of the residual less ``cls``'s shape from the onset on."""
+        """The alarms of the residual with ``cls``'s shape undone from the onset on."""
         search = iv.onset + cal.window
         record = _Corrected(r, ref, cls, iv.onset, rate_hz, cal, search, scratch, index)
         return _Intervals(record, n, cal, search)

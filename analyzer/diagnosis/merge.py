@@ -120,8 +120,7 @@ def _lead(group: list[Event], slack_s: float = 1.0) -> Event:
 def _tail_of(first: Event, e: Event, slack_s: float) -> bool:
     """``e`` began more than ``slack_s`` after ``first`` alarmed and ends within
     ``first``'s span (``first`` open, or ``e`` closed by its end)."""
-    alarmed = float(first.evidence.get("first_alarm_s", first.onset_s))
-    if e.onset_s <= alarmed + slack_s:
+    if e.onset_s <= _alarmed(first) + slack_s:
         return False
     return first.end_s is None or (e.end_s is not None and e.end_s <= first.end_s + slack_s)
 
@@ -225,10 +224,11 @@ def _first_alarm(f: Finding, detector: str | None = None) -> float:
     """When a finding's first detector (or ``detector``) alarmed (an event's
     ``first_alarm_s``, else its onset)."""
     return min(
-        (
-            float(e.evidence.get("first_alarm_s", e.onset_s))
-            for e in f.events
-            if detector is None or e.detector == detector
-        ),
+        (_alarmed(e) for e in f.events if detector is None or e.detector == detector),
         default=f.onset_s,
     )
+
+
+def _alarmed(e: Event) -> float:
+    """When an event's detector first alarmed (``first_alarm_s``, else its onset)."""
+    return float(e.evidence.get("first_alarm_s", e.onset_s))
