@@ -117,12 +117,25 @@ def _lead(group: list[Event], slack_s: float = 1.0) -> Event:
     return max((e for e in voters if e.type == winner), key=lambda e: e.confidence)
 
 
+TAIL_END_SHARE = 0.1
+"""How far past another event's end (as a share of its own span) a late event may end and
+still count as that event's tail (:func:`_tail_of`): an end is found when the residual
+corrected by the event's shape alarms, which takes seconds for a small fault."""
+
+
 def _tail_of(first: Event, e: Event, slack_s: float) -> bool:
     """``e`` began more than ``slack_s`` after ``first`` alarmed and ends within
-    ``first``'s span (``first`` open, or ``e`` closed by its end)."""
+    ``first``'s span (``first`` open, or ``e`` closed by its end), or after it by no more
+    than ``slack_s`` or :data:`TAIL_END_SHARE` of ``e``'s own span, whichever is longer
+    (a half-size drift's late offset, fitted on the drift's last 80-110 s, ended 1.4 and
+    5.4 s after the drift's end, the time its detector took to see the end)."""
     if e.onset_s <= _alarmed(first) + slack_s:
         return False
-    return first.end_s is None or (e.end_s is not None and e.end_s <= first.end_s + slack_s)
+    if first.end_s is None:
+        return True
+    if e.end_s is None:
+        return False
+    return e.end_s - first.end_s <= max(slack_s, TAIL_END_SHARE * (e.end_s - e.onset_s))
 
 
 def one_fault_at_a_time(

@@ -183,6 +183,26 @@ def test_an_event_that_saw_only_a_faults_tail_does_not_vote():
     assert merge_events([open_bank, open_em])[0].type is D
 
 
+def test_a_tail_may_end_a_tenth_of_its_span_after_the_fault_it_saw():
+    """A half-size drift that ends at 960 s (sweep seed 11, ``--scale 0.5 --until 0.8``):
+    the bank traces it from 717.5 s to its end; the equivalent model catches it at 854 s
+    and reads an offset, whose end it sees 5.4 s late. Its 111 s stretch ends within a
+    tenth of that stretch of the bank's end: a tail, and the finding is the drift. An
+    event that lasts longer past that still votes."""
+    bank = _on("s4", "ar_kalman_bank", D, 717.46, 960.0, 0.75, first=761.74)
+    em = _on("s4", "equivalent_model", A, 854.26, 965.36, 0.807, first=856.7)
+    (f,) = merge_events([bank, em])
+    assert (f.type, f.onset_s, f.end_s, f.detector) == (D, 717.46, 960.0, "ar_kalman_bank")
+    span = 965.36 - 854.26
+    late = 965.36 - 960.0
+    assert late < 0.1 * span  # the case is inside the allowance
+    later = _on("s4", "equivalent_model", A, 854.26, 960.0 + 0.12 * span, 0.807, first=856.7)
+    assert merge_events([bank, later])[0].type is A
+    # a short late event keeps the fixed slack: 1 s past the bank's end, not a tenth of 5 s
+    short = _on("s4", "equivalent_model", A, 955.0, 961.5, 0.9, first=955.5)
+    assert merge_events([bank, short])[0].type is A
+
+
 def test_two_detectors_that_agree_late_vote_against_an_earlier_alarm():
     """A step at 30 s on a 60 s record (the CLI's fixture): the equivalent model alarms
     at 22.7 s, before the step, and reads the stretch as a drift traced from 12.9 s; the
