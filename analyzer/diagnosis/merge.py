@@ -170,13 +170,27 @@ def one_fault_at_a_time(
     line meets zero, tens of seconds before anything alarmed (the detection filter's
     misplaced drifts in the sweep were fitted up to 11 s before the agreed one's onset,
     and first alarmed 40-50 s after it). The note names the detector, the type, the
-    sensor, the onset, the fault it was taken for and the followers."""
+    sensor, the onset, the fault it was taken for and the followers.
+
+    A finding that rests on one detector's events none of which the sensors it assists
+    confirmed is taken for another detector's finding on one of its assistant sensors
+    the same way (:func:`_assistants_fault`), with a note."""
     kept: list[Finding] = []
     notes: list[str] = []
     for f in findings:
         taken = _taken_for(f, findings, coupled, slack_s)
         if taken is None:
-            kept.append(f)
+            cause = _assistants_fault(f, findings, slack_s)
+            if cause is None:
+                kept.append(f)
+                continue
+            notes.append(
+                f"{f.detector}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
+                f"reported: no residual of the sensors it assists confirmed it, and its "
+                f"assistant sensor {cause.channel} was already faulty ({cause.type.value} "
+                f"from {cause.onset_s:.3f} s, found by {', '.join(_detectors(cause))}): "
+                "taken for that fault (law 0), one fault at a time"
+            )
             continue
         cause, single, followers = taken
         note = (
@@ -225,6 +239,40 @@ def _taken_for(
             and coupled(single, f.channel, g.channel)
         ):
             return g, single, followers
+    return None
+
+
+def _assistants_fault(f: Finding, findings: list[Finding], slack_s: float) -> Finding | None:
+    """The finding on one of ``f``'s assistant sensors that explains ``f``, or None.
+
+    An observer with assistant sensors (the equivalent model, Wang & Song 2014) sees a
+    fault of an assistant in its target's residual too; its own laws then name the
+    assistant only if the assistant's residual alarms as well, which it cannot do for a
+    sensor the network does not observe. When ``f`` rests on one detector's events, none
+    of which a residual of the sensors it assists confirmed (``confirmed_by`` empty), and
+    another detector found one of those events' assistants faulty from no later than
+    ``slack_s`` after ``f``'s first alarm, still faulty then, the other finding stands in
+    for the assistant's alarm: law 0 explains ``f`` by it. (A half-size gain on a floor's
+    first sensor, seed 7 of ``sweep_isolation.py --scale 0.5``: the bank named it, the
+    equivalent model put a gain of 0.875, about its inverse, on the floor's other sensor,
+    which it models from the first, 0.3 s later, with no target confirming it.)"""
+    detectors = _detectors(f)
+    if len(detectors) != 1:
+        return None
+    mine = [e for e in f.events if e.detector == detectors[0]]
+    if not mine or any(e.evidence.get("confirmed_by", True) for e in mine):
+        return None  # confirmed, or a detector that does not report confirmation
+    assistants = {a for e in mine for a in e.evidence.get("assistants", ())}
+    t = _first_alarm(f)
+    for g in findings:
+        if (
+            g is not f
+            and g.channel in assistants
+            and detectors[0] not in _detectors(g)
+            and _first_alarm(g) <= t + slack_s
+            and (g.end_s is None or g.end_s >= t - slack_s)
+        ):
+            return g
     return None
 
 
