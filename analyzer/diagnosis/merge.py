@@ -153,8 +153,13 @@ def one_fault_at_a_time(
     rests on a single detector's attribution is taken for the fault of another finding
     when that one is reported by more detectors, on another channel the single detector
     models jointly with it (``coupled(detector, channel, other)``), and is already under
-    way when the single detector's first alarm rang (that finding's first alarm no later
-    than ``slack_s`` after it, its end not before it).
+    way when the single detector's first alarm rang (that finding's fitted onset or first
+    alarm, whichever is earlier, no later than ``slack_s`` after it, its end not before
+    it). The agreed fault counts from its onset because a sensor's fault can show in a
+    jointly modelled sensor's residual before it shows in its own: a drift on s1 of a
+    3-floor building turned up, sign turned, in the bank's estimate of its floor partner
+    s0 at 741.5 s, while the detectors that named s1, from 720.4 s, first alarmed at
+    754.1 s.
 
     A finding rests on a single detector's attribution when it has one detector, or when
     all its detectors but one are *followers*: detectors that had reported the other
@@ -234,7 +239,7 @@ def _taken_for(
         single = own[0] if own else detectors[0]
         t = _first_alarm(f, single)
         if (
-            _first_alarm(g) <= t + slack_s
+            min(g.onset_s, _first_alarm(g)) <= t + slack_s
             and (g.end_s is None or g.end_s >= t - slack_s)
             and coupled(single, f.channel, g.channel)
         ):

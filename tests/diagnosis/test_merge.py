@@ -114,6 +114,27 @@ def test_drifts_are_compared_by_their_first_alarms():
     assert [f.channel for f in kept] == ["s14"] and len(notes) == 1
 
 
+def test_an_agreed_drift_is_under_way_from_its_onset_when_it_alarms_late():
+    """A drift on s1 of a 3-floor building (sweep seed 35, ``--floors 3 --until 0.8``):
+    the bank's estimator of s0, which models s0 from its floor partner s1, alarms first,
+    at 741.5 s, with the drift's sign turned; the equivalent model names s1 from 720.4 s
+    (first alarm 754.1 s), and the bank names s1 too, later. The agreed drift had begun
+    when the bank's s0 alarmed: the s0 finding is taken for it. A finding that alarmed
+    before the agreed fault's fitted onset stays."""
+    events = [
+        _on("s0", "ar_kalman_bank", D, 719.31, 960.07, 0.75, first=741.53),
+        _on("s1", "equivalent_model", D, 720.43, 960.0, first=754.1),
+        _on("s1", "ar_kalman_bank", D, 803.77, None, 0.75, first=806.27),
+    ]
+    kept, notes = one_fault_at_a_time(merge_events(events), _all_coupled)
+    assert [f.channel for f in kept] == ["s1"]
+    (note,) = notes
+    assert note.startswith("ar_kalman_bank's drift fault on s0 at 719.310 s not reported")
+    early = _on("s0", "ar_kalman_bank", D, 700.0, 960.07, 0.75, first=719.0)
+    kept, notes = one_fault_at_a_time(merge_events([early, *events[1:]]), _all_coupled)
+    assert sorted(f.channel for f in kept) == ["s0", "s1"] and notes == []
+
+
 def test_a_finding_resting_on_one_detector_and_followers_is_taken_for_the_agreed_fault():
     """A drift on s15 that the bank and the observers reported; the detection filter put
     it on s11 50 s later, and the bank, as the drift grew, on s11 too, 165 s after its own
