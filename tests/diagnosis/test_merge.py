@@ -327,3 +327,33 @@ def test_an_unconfirmed_observer_does_not_count_as_a_findings_own_detector():
 
 def _alarm(e):
     return e.evidence["first_alarm_s"]
+
+
+def test_a_fault_is_under_way_until_the_detector_saw_it_end():
+    """A half-size gain on s1 of a 4-floor building, from 720 to 960 s (sweep seed 13,
+    ``--floors 4 --until 0.8 --scale 0.5``): all three detectors name s1; the detection
+    filter and the observers see it end at 960.0 s, the bank at 965.1 s, and until then
+    the bank's estimator of the floor partner s0 alarms (961.8 s). For the bank the s1
+    gain was still under way: the s0 finding is taken for it. Had the bank seen s1 end
+    with the others, s0 would stay."""
+
+    def gain(channel, detector, onset, end, first):
+        return Event(
+            channel, onset, end, FaultType.MULTIPLICATIVE, {"gain": 1.15}, 0.75, detector,
+            {"first_alarm_s": first},
+        )  # fmt: skip
+
+    s1 = [
+        gain("s1", "detection_filter", 720.04, 960.02, 721.66),
+        gain("s1", "equivalent_model", 720.04, 960.02, 721.65),
+    ]
+    s0 = gain("s0", "ar_kalman_bank", 959.96, 965.17, 961.75)
+    bank = gain("s1", "ar_kalman_bank", 720.91, 965.09, 721.83)
+    kept, notes = one_fault_at_a_time(merge_events([*s1, bank, s0]), _all_coupled)
+    assert [(f.channel, f.end_s) for f in kept] == [("s1", 960.02)]
+    (note,) = notes
+    assert note.startswith("ar_kalman_bank's multiplicative fault on s0 at 959.960 s")
+    assert note.endswith("one fault at a time")  # the bank named alone, not as a follower
+    bank_on_time = gain("s1", "ar_kalman_bank", 720.91, 960.1, 721.83)
+    kept, notes = one_fault_at_a_time(merge_events([*s1, bank_on_time, s0]), _all_coupled)
+    assert sorted(f.channel for f in kept) == ["s0", "s1"] and notes == []
