@@ -154,8 +154,9 @@ def one_fault_at_a_time(
     when that one is reported by more detectors, on another channel the single detector
     models jointly with it (``coupled(detector, channel, other)``), and is already under
     way when the single detector's first alarm rang (that finding's fitted onset or first
-    alarm, whichever is earlier, no later than ``slack_s`` after it, its end not before
-    it). The agreed fault counts from its onset because a sensor's fault can show in a
+    alarm, whichever is earlier, no later than ``slack_s`` after it, its end, or the end
+    the single detector saw if later (:func:`_not_over`), not before it). The agreed
+    fault counts from its onset because a sensor's fault can show in a
     jointly modelled sensor's residual before it shows in its own: a drift on s1 of a
     3-floor building turned up, sign turned, in the bank's estimate of its floor partner
     s0 at 741.5 s, while the detectors that named s1, from 720.4 s, first alarmed at
