@@ -357,3 +357,34 @@ def test_a_fault_is_under_way_until_the_detector_saw_it_end():
     bank_on_time = gain("s1", "ar_kalman_bank", 720.91, 960.1, 721.83)
     kept, notes = one_fault_at_a_time(merge_events([*s1, bank_on_time, s0]), _all_coupled)
     assert sorted(f.channel for f in kept) == ["s0", "s1"] and notes == []
+
+
+def test_a_single_detectors_finding_that_ends_with_its_own_fault_nearby_is_that_fault():
+    """A half-size gain on s0 to 960 s (16-channel sweep seed 7, ``--until 0.8 --scale
+    0.5``) that only the bank named; it saw the end at 967.7 s, and its estimator of the
+    floor partner s1 alarmed from 963.4 to 968.3 s meanwhile. The s1 finding ends with
+    the bank's s0 fault: taken for it. One that outlasts it, has no end, or that another
+    detector reports too, stays."""
+
+    def gain(channel, detector, onset, end, first):
+        return Event(
+            channel, onset, end, FaultType.MULTIPLICATIVE, {"gain": 1.17}, 0.75, detector,
+            {"first_alarm_s": first},
+        )  # fmt: skip
+
+    s0 = gain("s0", "ar_kalman_bank", 719.93, 967.68, 721.48)
+    s1 = gain("s1", "ar_kalman_bank", 963.36, 968.26, 965.83)
+    kept, notes = one_fault_at_a_time(merge_events([s0, s1]), _all_coupled)
+    assert [f.channel for f in kept] == ["s0"]
+    (note,) = notes
+    assert note.startswith("ar_kalman_bank's multiplicative fault on s1 at 963.360 s")
+    for other in (
+        [gain("s1", "ar_kalman_bank", 963.36, 990.0, 965.83)],
+        [gain("s1", "ar_kalman_bank", 963.36, None, 965.83)],
+        [s1, gain("s1", "detection_filter", 963.5, 968.2, 965.9)],
+    ):
+        kept, notes = one_fault_at_a_time(merge_events([s0, *other]), _all_coupled)
+        assert sorted(f.channel for f in kept) == ["s0", "s1"] and notes == []
+    # not modelled together: both stay
+    kept, notes = one_fault_at_a_time(merge_events([s0, s1]), lambda d, a, b: False)
+    assert len(kept) == 2 and notes == []
