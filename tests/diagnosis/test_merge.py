@@ -224,6 +224,27 @@ def test_a_tail_may_end_a_tenth_of_its_span_after_the_fault_it_saw():
     assert merge_events([bank, short])[0].type is A
 
 
+def test_a_late_event_of_the_winning_type_does_not_lead():
+    """A half-size drift on an 8-channel building (sweep seed 20, ``--floors 4 --scale 0.5
+    --until 0.8``): the bank traces it from 720.9 s (first alarm 765.3 s) to its end at
+    960.0 s; the equivalent model catches it at 834.4 s, also as a drift, with no end and
+    the wrong sign. Both vote for the drift; the model's confidence is higher in the
+    fifth decimal, but its event began after the bank had alarmed: the finding is the
+    bank's, onset, end and rate. An event that began before the other alarmed still
+    leads when it is the more confident."""
+    bank = Event("s6", 720.89, 960.0, D, {"rate_per_s": 0.0022}, 0.749966, "ar_kalman_bank",
+                 {"first_alarm_s": 765.27})  # fmt: skip
+    em = Event("s6", 834.39, None, D, {"rate_per_s": -0.0014}, 0.749997, "equivalent_model",
+               {"first_alarm_s": 835.7})  # fmt: skip
+    (f,) = merge_events([bank, em])
+    assert (f.detector, f.onset_s, f.end_s) == ("ar_kalman_bank", 720.89, 960.0)
+    assert f.magnitude == {"rate_per_s": 0.0022}
+    assert f.evidence["detectors"] == ["ar_kalman_bank", "equivalent_model"]
+    early = Event("s6", 760.0, 960.5, D, {"rate_per_s": 0.0021}, 0.749997, "equivalent_model",
+                  {"first_alarm_s": 766.0})  # fmt: skip
+    assert merge_events([bank, early])[0].detector == "equivalent_model"
+
+
 def test_two_detectors_that_agree_late_vote_against_an_earlier_alarm():
     """A step at 30 s on a 60 s record (the CLI's fixture): the equivalent model alarms
     at 22.7 s, before the step, and reads the stretch as a drift traced from 12.9 s; the
