@@ -201,8 +201,9 @@ def one_fault_at_a_time(
     on them and a single other detector is taken for another finding as above."""
     kept: list[Finding] = []
     notes: list[str] = []
-    for f in findings:
-        explained = _assistants_faults(f, findings, slack_s)
+    explains = [_assistants_faults(f, findings, slack_s) for f in findings]
+    support = _support(findings, explains)
+    for f, explained in zip(findings, explains, strict=True):
         if explained and len(explained) == len(_detectors(f)):
             notes.append(
                 f"{f.detector}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
@@ -210,7 +211,7 @@ def one_fault_at_a_time(
                 "fault at a time"
             )
             continue
-        taken = _taken_for(f, findings, coupled, slack_s, set(explained))
+        taken = _taken_for(f, findings, coupled, slack_s, set(explained), support)
         if taken is None:
             within = _ended_with(f, findings, coupled, slack_s)
             if within is None:
@@ -225,11 +226,13 @@ def one_fault_at_a_time(
             )
             continue
         cause, single, followers = taken
+        through = sorted(support[id(cause)] - set(_detectors(cause)))
+        by_law = f", and by {', '.join(through)} through law 0" if through else ""
         note = (
             f"{single}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
             f"reported: it began while the {cause.type.value} fault on {cause.channel} "
-            f"(from {cause.onset_s:.3f} s, found by {', '.join(_detectors(cause))}) was "
-            f"under way, and {single} models the two sensors together: taken for that "
+            f"(from {cause.onset_s:.3f} s, found by {', '.join(_detectors(cause))}{by_law}) "
+            f"was under way, and {single} models the two sensors together: taken for that "
             "fault, one fault at a time"
         )
         others = [d for d in followers if d != single]
@@ -249,13 +252,17 @@ def _taken_for(
     coupled: Callable[[str, str, str], bool],
     slack_s: float,
     explained: set[str],
+    support: dict[int, set[str]] | None = None,
 ) -> tuple[Finding, str, list[str]] | None:
     """``(the finding f is taken for, its single detector, its followers)`` when
     :func:`one_fault_at_a_time` takes ``f`` for another finding, else None. The
-    ``explained`` detectors (:func:`_assistants_faults`) do not count as its own."""
+    ``explained`` detectors (:func:`_assistants_faults`) do not count as its own;
+    ``support``: the detectors that agree on each finding (:func:`_support`; by default
+    its own)."""
     detectors = _detectors(f)
     for g in findings:
-        if g is f or g.channel == f.channel or len(_detectors(g)) < 2:
+        agree = set(_detectors(g)) if support is None else support[id(g)]
+        if g is f or g.channel == f.channel or len(agree) < 2:
             continue
         followers = [
             d
@@ -276,6 +283,21 @@ def _taken_for(
         ):
             return g, single, followers
     return None
+
+
+def _support(findings: list[Finding], explains: list[dict[str, Finding]]) -> dict[int, set[str]]:
+    """The detectors that agree on each finding (by ``id``): its own, and those whose part
+    in another finding its fault explains (law 0, :func:`_assistants_faults`). A detector
+    that alarmed on a sensor modelled from the faulty one, unconfirmed, saw that fault
+    too: a gain of 1.15 on s0 of a 16-channel building that only the bank named, and
+    that the equivalent model saw in s1's residual (s1 modelled from s0), is the fault
+    two detectors agree on (``sweep_isolation.py --scale 0.5``, seed 7), and the
+    detection filter's lone 2 s ``other`` on s2, 409 s into it, is taken for it."""
+    support = {id(g): set(_detectors(g)) for g in findings}
+    for explained in explains:
+        for d, g in explained.items():
+            support[id(g)].add(d)
+    return support
 
 
 def _ended_with(
