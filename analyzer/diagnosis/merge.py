@@ -167,7 +167,8 @@ def one_fault_at_a_time(
     a detector can name one of those instead (a drift on s15 that the detection filter,
     alone, put on s11 while the bank and the observers named s15). So a finding that
     rests on a single detector's attribution is taken for the fault of another finding
-    when that one is reported by more detectors, on another channel the single detector
+    when that one is reported by more detectors (a detector whose alarm law 0 takes for
+    that fault counts: :func:`_support`), on another channel the single detector
     models jointly with it (``coupled(detector, channel, other)``), and is already under
     way when the single detector's first alarm rang (that finding's fitted onset or first
     alarm, whichever is earlier, no later than ``slack_s`` after it, its end, or the end
