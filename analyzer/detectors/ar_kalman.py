@@ -612,6 +612,7 @@ class ARKalmanBank:
                 continue
             ((j, a, b),) = spans
             ev.channel = data.channels[j]
+            _name_estimators(ev, data.channels)
             events.append(ev)
             explained.append((j, a, b))
             if not corrected:
@@ -1257,6 +1258,17 @@ def _bank_block_into(task: tuple[tuple[Any, ...], BankOutputs, int]) -> None:
     """:func:`bank_block` writing its rows into shared outputs (serially or on threads)."""
     (mean, scale, bank, Y, warm, inv_covs, consistency), into, at = task
     bank_block(mean, scale, bank, Y, warm, inv_covs, into=into, at=at, consistency=consistency)
+
+
+def _name_estimators(ev: Event, channels: Sequence[str]) -> None:
+    """``ev``'s evidence with the estimators (by the sensor each leaves out) and the
+    candidate sensors named by channel instead of by their index in the bank."""
+    cand = ev.evidence.get("candidates")
+    if cand is not None:
+        ev.evidence["candidates"] = [channels[int(c)] for c in cand]
+    cons = ev.evidence.get("estimator_consistency")
+    if cons is not None:
+        ev.evidence["estimator_consistency"] = {channels[int(i)]: v for i, v in cons.items()}
 
 
 def _kept(context: RunContext, name: str, a: FloatArray) -> npt.NDArray[Any]:

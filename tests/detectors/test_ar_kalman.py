@@ -52,6 +52,9 @@ def test_paper_faults_on_floor_5(paper_building, kind, size):
     key = {"additive": "offset", "multiplicative": "gain", "drift": "rate_per_s"}[kind]
     assert ev.magnitude[key] == pytest.approx(amount, rel=0.1)
     assert ev.confidence > 0.7
+    # the evidence names the candidate sensors and the estimators by channel
+    assert "s4" in ev.evidence["candidates"] and set(ev.evidence["candidates"]) <= set(names)
+    assert sorted(ev.evidence["estimator_consistency"]) == sorted(names)
 
 
 def test_reoccurring_faults_are_isolated_one_after_the_other():
