@@ -243,6 +243,14 @@ def test_a_late_event_of_the_winning_type_does_not_lead():
     early = Event("s6", 760.0, 960.5, D, {"rate_per_s": 0.0021}, 0.749997, "equivalent_model",
                   {"first_alarm_s": 766.0})  # fmt: skip
     assert merge_events([bank, early])[0].detector == "equivalent_model"
+    # two detectors that agree on a later start outweigh one early alarm of the same type
+    # (a false alarm whose shape took in the fault): the most confident event leads
+    em_early = _on("s2", "equivalent_model", A, 12.92, None, 0.75, first=22.705)
+    bank_a = _on("s2", "ar_kalman_bank", A, 30.0, None, 0.959, first=30.015)
+    df_a = _on("s2", "detection_filter", A, 30.0, None, 0.958, first=30.025)
+    f = merge_events([em_early, bank_a, df_a])[0]
+    assert (f.detector, f.onset_s) == ("ar_kalman_bank", 30.0)
+    assert merge_events([em_early, bank_a])[0].detector == "equivalent_model"
 
 
 def test_two_detectors_that_agree_late_vote_against_an_earlier_alarm():
