@@ -594,6 +594,7 @@ class ARKalmanBank:
                 lambda j, windows: self._window_consistency(model, Y, fixes, j, windows),
                 lambda j, lo, hi: self._longest_violation(model, Y, fixes, j, lo, hi),
                 context.workdir if context.map_outputs else None,
+                names=data.channels,
             )
             release(out.resid)  # what the search read of memory-mapped outputs
             release(out.est)
@@ -612,7 +613,6 @@ class ARKalmanBank:
                 continue
             ((j, a, b),) = spans
             ev.channel = data.channels[j]
-            _name_estimators(ev, data.channels)
             events.append(ev)
             explained.append((j, a, b))
             if not corrected:
@@ -813,8 +813,11 @@ class ARKalmanBank:
         estimator: Callable[[int, list[tuple[int, int]]], Iterator[npt.NDArray[Any]]] | None = None,
         longest: Callable[[int, int, int], float] | None = None,
         scratch: Path | None = None,
+        *,
+        names: Sequence[str],
     ) -> tuple[Event | None, list[tuple[int, int, int]], Classification | None] | None:
-        """The earliest not-yet-explained fault, isolated to one sensor, or None.
+        """The earliest not-yet-explained fault, isolated to one sensor, or None
+        (``names``: the channels, which the evidence names the candidates and estimators by).
         ``alarms``: each channel's alarm intervals in ``out`` when already known (they only
         change when the outputs do). ``estimator(j, windows)``: estimator ``j``'s
         consistency over each window in turn; ``longest(j, lo, hi)``: the largest alarm
@@ -932,8 +935,8 @@ class ARKalmanBank:
             detector=self.name,
             evidence={
                 "isolated": isolated,
-                "estimator_consistency": {str(i): float(v) for i, v in enumerate(violation)},
-                "candidates": [int(c) for c in cand_ch],
+                "estimator_consistency": {names[i]: float(v) for i, v in enumerate(violation)},
+                "candidates": [names[c] for c in cand_ch],
                 "first_alarm_s": iv.first_alarm / rate,
                 "peak_over_threshold": iv.peak,
                 "p_value": iv.p_value,
@@ -1258,17 +1261,6 @@ def _bank_block_into(task: tuple[tuple[Any, ...], BankOutputs, int]) -> None:
     """:func:`bank_block` writing its rows into shared outputs (serially or on threads)."""
     (mean, scale, bank, Y, warm, inv_covs, consistency), into, at = task
     bank_block(mean, scale, bank, Y, warm, inv_covs, into=into, at=at, consistency=consistency)
-
-
-def _name_estimators(ev: Event, channels: Sequence[str]) -> None:
-    """``ev``'s evidence with the estimators (by the sensor each leaves out) and the
-    candidate sensors named by channel instead of by their index in the bank."""
-    cand = ev.evidence.get("candidates")
-    if cand is not None:
-        ev.evidence["candidates"] = [channels[int(c)] for c in cand]
-    cons = ev.evidence.get("estimator_consistency")
-    if cons is not None:
-        ev.evidence["estimator_consistency"] = {channels[int(i)]: v for i, v in cons.items()}
 
 
 def _kept(context: RunContext, name: str, a: FloatArray) -> npt.NDArray[Any]:

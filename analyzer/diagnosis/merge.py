@@ -259,17 +259,15 @@ def _taken_for(
     coupled: Callable[[str, str, str], bool],
     slack_s: float,
     explained: set[str],
-    support: dict[int, set[str]] | None = None,
+    support: dict[int, set[str]],
 ) -> tuple[Finding, str, list[str]] | None:
     """``(the finding f is taken for, its single detector, its followers)`` when
     :func:`one_fault_at_a_time` takes ``f`` for another finding, else None. The
     ``explained`` detectors (:func:`_assistants_faults`) do not count as its own;
-    ``support``: the detectors that agree on each finding (:func:`_support`; by default
-    its own)."""
+    ``support``: the detectors that agree on each finding (:func:`_support`)."""
     detectors = _detectors(f)
     for g in findings:
-        agree = set(_detectors(g)) if support is None else support[id(g)]
-        if g is f or g.channel == f.channel or len(agree) < 2:
+        if g is f or g.channel == f.channel or len(support[id(g)]) < 2:
             continue
         followers = [
             d
