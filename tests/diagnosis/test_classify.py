@@ -46,6 +46,35 @@ def test_drift_with_back_extrapolated_onset(signal):
     assert c.onset_shift_s == pytest.approx(-0.5, abs=0.1)
 
 
+def test_an_offset_with_a_slow_trend_is_not_a_drift(signal):
+    """A drift is zero at its onset (Chang et al., Eq. 13: ``b (t - t_f)``). An offset of
+    0.8 that sags by 0.03 over a 600 s stretch (a second fault's trace, say) fits the line
+    0.8 - 5e-5 tau better than the constant, by more than BIC's price of the slope, but
+    that line meets zero 16 000 s after the stretch began: no drift. The line through
+    the onset explains nothing of it: the fault is the offset."""
+    rng = np.random.default_rng(4)
+    rate, n = 100.0, 60_000
+    tau = np.arange(n) / rate
+    ref = 3.0 * np.sin(2 * np.pi * 1.3 * tau)
+    f = 0.8 - 5e-5 * tau + rng.normal(scale=0.3, size=n)
+    c0, b0 = np.polyfit(tau, f, 1)[::-1]
+    assert -c0 / b0 > 10 * tau[-1]  # the free line: zero long after the stretch's end
+    free_gain = b0**2 * np.sum((tau - tau.mean()) ** 2) / 0.3**2  # what the slope explains
+    assert free_gain > 2 * np.log(n)  # enough for the free line to outscore the offset
+    c = classify(f, ref, 0.3, rate)
+    assert c.type is FaultType.ADDITIVE and c.confidence > 0.999
+    assert c.magnitude["offset"] == pytest.approx(0.785, abs=0.01)
+    assert c.params["intercept"] == 0.0 and c.weights["drift"] < 1e-6
+    # a drift whose detected onset came 2 s early (zero for the first 2 s): its line
+    # meets zero after the onset, and is pinned there; still a drift
+    t, ref, noise = signal
+    d = 0.4 * np.clip(t - 2.0, 0.0, None) + noise
+    c = classify(d, ref, 0.3, RATE)
+    assert c.type is FaultType.DRIFT and c.onset_shift_s == 0.0
+    assert c.params["intercept"] == 0.0
+    assert c.magnitude["rate_per_s"] == pytest.approx(0.4, rel=0.25)
+
+
 def test_erratic_is_other(signal):
     t, ref, noise = signal
     erratic = np.random.default_rng(9).standard_t(2, size=t.shape) * 2.0
@@ -89,6 +118,10 @@ def _reference_fits(f, y, rate):
     d = f.mean()
     design = np.column_stack([np.ones(f.shape[0]), tau])
     (c, b), *_ = np.linalg.lstsq(design, f, rcond=None)
+    s = np.clip(-c / b, -tau[-1], 0.0)
+    if s != -c / b:  # the line through the nearest admissible onset s: b (tau - s)
+        (b,), *_ = np.linalg.lstsq((tau - s)[:, None], f, rcond=None)
+        c = -b * s
     g = np.dot(y, f) / np.dot(y, y)
     return {
         "additive": (np.sum((f - d) ** 2), d),
