@@ -103,7 +103,13 @@ def _lead(group: list[Event], slack_s: float = 1.0) -> Event:
     leads. Confidences that saturate differ in their fifth decimal: a
     half-size drift traced by the bank from 720.9 s to its end at 960.0 s (rate 0.0022
     per s, confidence 0.74997) and caught by the equivalent model at 834.4 s with no end
-    and a rate of -0.0014 (0.74999) was reported as the model's."""
+    and a rate of -0.0014 (0.74999) was reported as the model's.
+
+    Votes within :data:`VOTE_TIE` of each other are a tie, which goes to the event that
+    alarmed first (then to the most confident of those that alarmed within ``slack_s``
+    of it), for the same reason: the same drift, with the model's stretch then read as
+    an offset of 0.14 (its line meeting zero long after its onset: no drift), outvoted
+    the bank's drift by 0.749997 to 0.749966."""
 
     def alone(e: Event) -> bool:
         return not any(o.detector != e.detector and o.type is e.type for o in group)
@@ -123,14 +129,25 @@ def _lead(group: list[Event], slack_s: float = 1.0) -> Event:
         votes[e.type] = votes.get(e.type, 0.0) + e.confidence
     winner = max(votes, key=lambda t: votes[t])
     top = max(votes.values())
-    if sum(1 for v in votes.values() if v == top) > 1:  # a tie: the most confident event
-        return max(voters, key=lambda e: e.confidence)
+    tied = {t for t, v in votes.items() if v >= top * (1.0 - VOTE_TIE)}
+    if len(tied) > 1:
+        # a tie: the event that alarmed first (it traced the fault from its start), the
+        # most confident of those that alarmed together
+        even = [e for e in voters if e.type in tied]
+        first = min(_alarmed(e) for e in even)
+        return max((e for e in even if _alarmed(e) <= first + slack_s), key=lambda e: e.confidence)
     leads = [e for e in voters if e.type == winner]
     early = [e for e in leads if not any(_late(e, o, slack_s) for o in leads if o is not e)]
     late = {e.detector for e in leads if all(e is not x for x in early)}
     if len(late) > len({e.detector for e in early}):
         early = leads  # they agree on a later start: the early alarm may be a false one
     return max(early or leads, key=lambda e: e.confidence)
+
+
+VOTE_TIE = 1e-3
+"""Votes within this share of the largest are a tie (:func:`_lead`): confidences saturate
+(at 1, or at 0.75 for an unconfirmed bank fault) and then differ in their fourth or fifth
+decimal, which is no evidence for either type."""
 
 
 def _late(e: Event, first: Event, slack_s: float) -> bool:
@@ -174,7 +191,12 @@ def one_fault_at_a_time(
     alone, put on s11 while the bank and the observers named s15). So a finding that
     rests on a single detector's attribution is taken for the fault of another finding
     when that one is reported by more detectors (a detector whose alarm law 0 takes for
-    that fault counts: :func:`_support`), on another channel the single detector
+    that fault counts: :func:`_support`), or, when the single detector did not confirm
+    its own attribution (:func:`_confirmation`: the bank's estimators that use the sensor
+    stayed consistent), by a detector that confirmed it (a drift on s1 of a 3-floor
+    building that only the equivalent model named, confirmed by the residuals of s2 and
+    s3, while the bank put it, unconfirmed, on s0, then s3 and s2: ``sweep_isolation.py
+    --floors 3 --until 0.8``, seed 35), on another channel the single detector
     models jointly with it (``coupled(detector, channel, other)``), and is already under
     way when the single detector's first alarm rang (that finding's fitted onset or first
     alarm, whichever is earlier, no later than ``slack_s`` after it, its end, or the end
@@ -193,7 +215,13 @@ def one_fault_at_a_time(
     observers reported, the detection filter put on s11 47 s later, and the bank, as the
     drift grew, on s11 too, 165 s after its own s15). A finding every detector of which
     followed (each reported the other fault, then this one) is kept: they all moved on,
-    as they would for a second fault.
+    as they would for a second fault. So is one whose single detector followed and
+    isolated it (evidence ``isolated``: the bank, having corrected the other fault's
+    sensor, saw the estimator that leaves this sensor out stay consistent while one that
+    uses it did not): a drift on s11 from 840 s that only the bank reported, isolated,
+    360 s after its own drift on s8, which it and the observers had reported from 480 s
+    (16 channels, two lasting faults, ``sweep_isolation.py --onset 0.4 --second 0.7``,
+    seed 8).
 
     First alarms, not fitted onsets: a drift's onset is extrapolated back to where its
     line meets zero, tens of seconds before anything alarmed (the detection filter's
@@ -242,6 +270,11 @@ def one_fault_at_a_time(
             f"was under way, and {single} models the two sensors together: taken for that "
             "fault, one fault at a time"
         )
+        if len(support[id(cause)]) < 2:
+            note += (
+                f" ({single} did not confirm its fault on {f.channel}; "
+                f"{', '.join(_detectors(cause))} confirmed the one on {cause.channel})"
+            )
         others = [d for d in followers if d != single]
         if others:
             note += (
@@ -266,8 +299,11 @@ def _taken_for(
     ``explained`` detectors (:func:`_assistants_faults`) do not count as its own;
     ``support``: the detectors that agree on each finding (:func:`_support`)."""
     detectors = _detectors(f)
+    unconfirmed = len(detectors) == 1 and _confirmation(f) is False
     for g in findings:
-        if g is f or g.channel == f.channel or len(support[id(g)]) < 2:
+        if g is f or g.channel == f.channel:
+            continue
+        if len(support[id(g)]) < 2 and not (unconfirmed and _confirmation(g)):
             continue
         followers = [
             d
@@ -280,6 +316,8 @@ def _taken_for(
         if len(own) > 1 or (not own and len(detectors) > 1):
             continue
         single = own[0] if own else detectors[0]
+        if not own and _isolated(f, single):
+            continue  # it reported g first, then confirmed this one: a second fault
         t = _first_alarm(f, single)
         if (
             min(g.onset_s, _first_alarm(g)) <= t + slack_s
@@ -288,6 +326,30 @@ def _taken_for(
         ):
             return g, single, followers
     return None
+
+
+def _confirmation(f: Finding) -> bool | None:
+    """Whether a detector confirmed ``f`` on its sensor: True when one of its events was
+    confirmed (the bank's ``isolated``, the detection filter's ``confirmed``, the
+    equivalent model's ``confirmed_by`` a sensor it assists), False when every event says
+    it was not, None when none says either way."""
+    said = []
+    for e in f.events:
+        ev = e.evidence
+        if "isolated" in ev:
+            said.append(ev["isolated"] is True)
+        elif "confirmed" in ev:
+            said.append(ev["confirmed"] is True)
+        elif "confirmed_by" in ev:
+            said.append(bool(ev["confirmed_by"]))
+    return any(said) if said else None
+
+
+def _isolated(f: Finding, detector: str) -> bool:
+    """Whether ``detector`` confirmed each of its events in ``f`` on that sensor alone
+    (evidence ``isolated``)."""
+    mine = [e for e in f.events if e.detector == detector]
+    return bool(mine) and all(e.evidence.get("isolated") is True for e in mine)
 
 
 def _support(findings: list[Finding], explains: list[dict[str, Finding]]) -> dict[int, set[str]]:

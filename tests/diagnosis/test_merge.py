@@ -180,6 +180,74 @@ def test_a_second_fault_every_detector_moved_on_to_is_kept():
     assert [f.channel for f in kept] == ["s5", "s6"] and notes == []
 
 
+def test_a_second_fault_one_detector_moved_on_to_and_isolated_is_kept():
+    """A drift on s8 from 480 s that the bank and the observers reported, and, while it
+    lasts, a drift on s11 from 840 s that only the bank reported, after its own s8 and
+    isolated to s11 (a 16-channel building with two overlapping faults, seed 8): the bank
+    had corrected s8 and confirmed s11 on its own, a second fault. Without the bank's
+    confirmation, it is the first fault spreading, as before."""
+
+    def bank(channel, onset, first, isolated):
+        e = _on(channel, "ar_kalman_bank", D, onset, first=first)
+        e.evidence["isolated"] = isolated
+        return e
+
+    first = [
+        bank("s8", 476.5, 503.5, True),
+        _on("s8", "equivalent_model", D, 425.9, first=541.9),
+    ]
+    kept, notes = one_fault_at_a_time(
+        merge_events([*first, bank("s11", 839.6, 859.9, True)]), _all_coupled
+    )
+    assert sorted(f.channel for f in kept) == ["s11", "s8"] and notes == []
+    kept, notes = one_fault_at_a_time(
+        merge_events([*first, bank("s11", 839.6, 859.9, False)]), _all_coupled
+    )
+    assert [f.channel for f in kept] == ["s8"]
+    (note,) = notes
+    assert note.startswith("ar_kalman_bank's drift fault on s11 at 839.600 s not reported")
+
+
+def test_an_unconfirmed_finding_is_taken_for_a_confirmed_one_under_way():
+    """A drift on s1 of a 3-floor building to 960 s that only the equivalent model named,
+    confirmed by the residuals of s2 and s3, while the bank put it on s0 with no estimator
+    that uses s0 confirming it (``sweep_isolation.py --floors 3 --until 0.8``, seed 35):
+    one detector each, but only one of them confirmed its sensor. The s0 finding is taken
+    for the s1 fault; when the bank had confirmed s0, or the model not confirmed s1, both
+    stay."""
+
+    def pair(isolated, confirmed_by):
+        bank = _on("s0", "ar_kalman_bank", D, 719.31, 960.07, 0.75, first=741.53)
+        bank.evidence["isolated"] = isolated
+        model = _on("s1", "equivalent_model", D, 720.43, 960.0, first=754.1)
+        model.evidence["confirmed_by"] = confirmed_by
+        return merge_events([bank, model])
+
+    kept, notes = one_fault_at_a_time(pair(False, ["s2", "s3"]), _all_coupled)
+    assert [f.channel for f in kept] == ["s1"]
+    (note,) = notes
+    assert note.startswith("ar_kalman_bank's drift fault on s0 at 719.310 s not reported")
+    assert note.endswith(
+        "(ar_kalman_bank did not confirm its fault on s0; equivalent_model confirmed the one on s1)"
+    )
+    for isolated, confirmed_by in ((True, ["s2", "s3"]), (False, [])):
+        kept, notes = one_fault_at_a_time(pair(isolated, confirmed_by), _all_coupled)
+        assert sorted(f.channel for f in kept) == ["s0", "s1"] and notes == []
+
+
+def test_a_tie_of_votes_goes_to_the_event_that_alarmed_first():
+    """A half-size drift on s6 to 960 s that the bank traced from 720.9 s (first alarm
+    765.3 s, confidence 0.749966) and the equivalent model caught at 834.4 s with no end,
+    reading its stretch, most of it after the drift's end, as an offset (0.749997): a tie
+    within VOTE_TIE, which goes to the bank's drift, the first to alarm. A clearly more
+    confident offset wins the vote."""
+    bank = _on("s6", "ar_kalman_bank", D, 720.89, 960.0, 0.749966, first=765.27)
+    for conf, kind, onset in ((0.749997, D, 720.89), (0.9, A, 834.39)):
+        model = _on("s6", "equivalent_model", A, 834.39, None, conf, first=835.7)
+        (f,) = merge_events([bank, model])
+        assert (f.type, f.onset_s) == (kind, onset)
+
+
 def test_an_event_that_saw_only_a_faults_tail_does_not_vote():
     """A half-size drift on a 16-channel building (sweep seed 5): the bank traces it from
     717.4 s (first alarm 749.4 s, confidence 0.75: not confirmed by another estimator),
