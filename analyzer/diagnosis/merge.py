@@ -215,13 +215,14 @@ def one_fault_at_a_time(
     observers reported, the detection filter put on s11 47 s later, and the bank, as the
     drift grew, on s11 too, 165 s after its own s15). A finding every detector of which
     followed (each reported the other fault, then this one) is kept: they all moved on,
-    as they would for a second fault. So is one whose single detector followed and
-    isolated it (evidence ``isolated``: the bank, having corrected the other fault's
-    sensor, saw the estimator that leaves this sensor out stay consistent while one that
-    uses it did not): a drift on s11 from 840 s that only the bank reported, isolated,
-    360 s after its own drift on s8, which it and the observers had reported from 480 s
+    as they would for a second fault. So is one that a follower isolated (evidence
+    ``isolated``: the bank, having corrected the other fault's sensor, saw the estimator
+    that leaves this sensor out stay consistent while one that uses it did not), alone
+    or beside others: a gain on s11 from 840 s that only the bank reported, isolated,
+    360 s after its own gain on s10, which all three detectors had reported from 480 s
     (16 channels, two lasting faults, ``sweep_isolation.py --onset 0.4 --second 0.7``,
-    seed 8).
+    seed 16); a drift on s4 from 840 s that the bank isolated after its own gain on
+    s5, and that the equivalent model reported too (seed 19).
 
     First alarms, not fitted onsets: a drift's onset is extrapolated back to where its
     line meets zero, tens of seconds before anything alarmed (the detection filter's
@@ -312,12 +313,12 @@ def _taken_for(
             and coupled(d, f.channel, g.channel)
             and _first_alarm(g, d) <= _first_alarm(f, d) + slack_s
         ]
+        if any(_isolated(f, d) for d in followers):
+            continue  # one reported g first, then isolated this one: a second fault
         own = [d for d in detectors if d not in followers and d not in explained]
         if len(own) > 1 or (not own and len(detectors) > 1):
             continue
         single = own[0] if own else detectors[0]
-        if not own and _isolated(f, single):
-            continue  # it reported g first, then confirmed this one: a second fault
         t = _first_alarm(f, single)
         if (
             min(g.onset_s, _first_alarm(g)) <= t + slack_s

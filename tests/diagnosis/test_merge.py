@@ -181,31 +181,46 @@ def test_a_second_fault_every_detector_moved_on_to_is_kept():
 
 
 def test_a_second_fault_one_detector_moved_on_to_and_isolated_is_kept():
-    """A drift on s8 from 480 s that the bank and the observers reported, and, while it
-    lasts, a drift on s11 from 840 s that only the bank reported, after its own s8 and
-    isolated to s11 (a 16-channel building with two overlapping faults, seed 8): the bank
-    had corrected s8 and confirmed s11 on its own, a second fault. Without the bank's
-    confirmation, it is the first fault spreading, as before."""
+    """A gain on s10 from 480 s that all three detectors reported, and, while it lasts, a
+    gain on s11 from 840 s that only the bank reported, after its own s10, and isolated
+    to s11 (16 channels, ``sweep_isolation.py --onset 0.4 --second 0.7``, seed 16): the
+    bank had corrected s10 and confirmed s11 on its own, a second fault. Without the
+    bank's confirmation, it is the first fault spreading, as before."""
+    M = FaultType.MULTIPLICATIVE
 
-    def bank(channel, onset, first, isolated):
-        e = _on(channel, "ar_kalman_bank", D, onset, first=first)
+    def bank(channel, onset, first, isolated, kind=M):
+        e = _on(channel, "ar_kalman_bank", kind, onset, first=first)
         e.evidence["isolated"] = isolated
         return e
 
     first = [
-        bank("s8", 476.5, 503.5, True),
-        _on("s8", "equivalent_model", D, 425.9, first=541.9),
+        bank("s10", 480.08, 480.11, True),
+        _on("s10", "detection_filter", M, 480.08, first=480.11),
+        _on("s10", "equivalent_model", M, 480.07, first=480.3),
     ]
     kept, notes = one_fault_at_a_time(
-        merge_events([*first, bank("s11", 839.6, 859.9, True)]), _all_coupled
+        merge_events([*first, bank("s11", 840.17, 840.34, True)]), _all_coupled
     )
-    assert sorted(f.channel for f in kept) == ["s11", "s8"] and notes == []
+    assert sorted(f.channel for f in kept) == ["s10", "s11"] and notes == []
     kept, notes = one_fault_at_a_time(
-        merge_events([*first, bank("s11", 839.6, 859.9, False)]), _all_coupled
+        merge_events([*first, bank("s11", 840.17, 840.34, False)]), _all_coupled
     )
-    assert [f.channel for f in kept] == ["s8"]
+    assert [f.channel for f in kept] == ["s10"]
     (note,) = notes
-    assert note.startswith("ar_kalman_bank's drift fault on s11 at 839.600 s not reported")
+    assert note.startswith("ar_kalman_bank's multiplicative fault on s11 at 840.170 s not")
+    # beside another detector (seed 19: a gain on s5, then a drift on s4 that the bank
+    # isolated after its own s5 and the equivalent model reported too): kept as well
+    first = [
+        bank("s5", 480.04, 480.08, True),
+        _on("s5", "detection_filter", M, 480.0, first=480.07),
+    ]
+    for isolated, expected in ((True, ["s4", "s5"]), (False, ["s5"])):
+        second = [
+            _on("s4", "equivalent_model", D, 831.78, first=926.0),
+            bank("s4", 838.65, 861.67, isolated, D),
+        ]
+        kept, notes = one_fault_at_a_time(merge_events([*first, *second]), _all_coupled)
+        assert sorted(f.channel for f in kept) == expected
 
 
 def test_an_unconfirmed_finding_is_taken_for_a_confirmed_one_under_way():
