@@ -21,6 +21,9 @@ lasts or after it ended (``--onset``: where the first begins, default 60 %). A c
 then right with exactly two findings, each on its sensor with its type; the table counts
 the cases by the first fault's type and gives the errors of both faults by their type.
 
+With ``--healthy`` the records have no fault, and the sweep counts those with any
+finding (false alarms).
+
 With ``--until`` a right case's reported end is compared with the injected one as well
 (a fault reported as lasting to the end of the record is **open**), and the table gives
 the onset and end errors.
@@ -30,7 +33,7 @@ It prints one line per case and a table per fault type. A script, not a timed te
 
     python benchmarks/sweep_isolation.py [--seeds 0:45] [--floors 8] [--minutes 20]
                                          [--until F] [--scale S] [--onset F]
-                                         [--second F]
+                                         [--second F] [--healthy]
 """
 
 from __future__ import annotations
@@ -147,6 +150,21 @@ def case(
     return kind, faulty, verdict, found, errors
 
 
+def healthy_case(seed: int, floors: int, minutes: float, folder: Path) -> list:
+    """The findings on the seed's building with no fault (``--healthy``)."""
+    t, Y, names = simulate_building(floors, 60.0 * minutes, RATE_HZ, seed=seed, sensors_per_floor=2)
+    path = folder / f"healthy_{seed}.mcap"
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(
+        path, "mcap", t_ns, {n: Y[:, i] for i, n in enumerate(names)}, layout="multiarray"
+    )
+    try:
+        analysis = analyze([str(path)], RunOptions())
+    finally:
+        path.unlink()
+    return [(f.channel, f.type.value, round(f.onset_s, 2)) for f in analysis.findings]
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", default="0:45", help="first:stop (default 0:45)")
@@ -169,6 +187,11 @@ def main(argv: list[str] | None = None) -> int:
         metavar="F",
         help="a second fault, on another sensor, of the next type, from F of the record on",
     )
+    ap.add_argument(
+        "--healthy",
+        action="store_true",
+        help="no fault: count the records with any finding (false alarms)",
+    )
     args = ap.parse_args(argv)
     if not 0.2 < args.onset < 1.0:
         ap.error(f"--onset: {args.onset} is not after the training window (0.2) and < 1")
@@ -177,6 +200,21 @@ def main(argv: list[str] | None = None) -> int:
     if args.second is not None and not args.onset < args.second < 1.0:
         ap.error(f"--second: {args.second} is not after the onset ({args.onset}) and < 1")
     first, stop = (int(x) for x in args.seeds.split(":"))
+    if args.healthy:
+        print(
+            f"sweep_isolation: {2 * args.floors} channels, {args.minutes:g} min at "
+            f"{RATE_HZ:g} Hz, no fault, seeds {args.seeds}",
+            flush=True,
+        )
+        alarmed = 0
+        with tempfile.TemporaryDirectory(prefix="sweep_isolation_") as tmp:
+            for seed in range(first, stop):
+                found = healthy_case(seed, args.floors, args.minutes, Path(tmp))
+                alarmed += bool(found)
+                verdict = "extra" if found else "right"
+                print(f"  seed {seed:4d} healthy {verdict:<6} {found}", flush=True)
+        print(f"\nhealthy records with a finding: {alarmed} of {stop - first}")
+        return 0
     tally: dict[str, Counter[str]] = {k: Counter() for k in KINDS}
     errs: dict[str, list[tuple[float, float, float]]] = {k: [] for k in KINDS}
     span = "its end" if args.until is None else f"{args.until:.0%}"
