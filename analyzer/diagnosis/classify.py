@@ -193,9 +193,10 @@ def classify(
             # The line meets zero outside the onsets a drift can have (after the detected
             # onset, or further back than the stretch is long): a drift b (tau - s) is
             # zero at its onset s, so the drift fit is the line through the nearest
-            # admissible onset. (A lasting offset of 0.78 with a second fault's trace
-            # at its end fitted 0.78 - 4e-5 tau, zero 19 500 s after its onset, and
-            # outscored the offset by 18 units of BIC.)
+            # admissible onset. (A lasting offset of 0.73 with a second fault's trace
+            # at its end fitted 0.740 - 5.4e-5 tau, zero 13 800 s after its onset, and
+            # outscored the offset by 73 units of BIC: 16 channels,
+            # sweep_isolation.py --onset 0.4 --second 0.7, seed 3.)
             s_uf = s_tf + n * mean_tau * d - onset_shift * n * d  # sum (tau - s) f
             s_uu = s_tt + n * (mean_tau - onset_shift) ** 2  # sum (tau - s)^2
             b = s_uf / s_uu
