@@ -51,7 +51,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from analyzer.pipeline import RunOptions, analyze  # noqa: E402
+from analyzer.pipeline import Analysis, RunOptions, analyze  # noqa: E402
 from analyzer.simulate import inject_fault, simulate_building  # noqa: E402
 from analyzer.writers import write_archive  # noqa: E402
 
@@ -59,6 +59,19 @@ RATE_HZ = 100.0
 KINDS = ("additive", "multiplicative", "drift")
 MAGNITUDE = {"additive": "offset", "multiplicative": "gain", "drift": "rate_per_s"}
 ONSET_FRACTION = 0.6
+
+
+def _analyze(path: Path, t: np.ndarray, Y: np.ndarray, names: list[str]) -> Analysis:
+    """The record written as MCAP at ``path``, analyzed with the defaults (the file is
+    removed afterwards)."""
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(
+        path, "mcap", t_ns, {n: Y[:, i] for i, n in enumerate(names)}, layout="multiarray"
+    )
+    try:
+        return analyze([str(path)], RunOptions())
+    finally:
+        path.unlink()
 
 
 def _size(kind: str, sd: float, scale: float) -> float:
@@ -103,15 +116,7 @@ def case(
         size = _size(fault_kind, float(np.std(Y[:, i])), scale)
         Y[:, i] = inject_fault(Y[:, i], RATE_HZ, fault_kind, onset, size, stop)
         truth.append((f"/data.data[{i}]", fault_kind, onset, stop, size))
-    path = folder / f"building_{seed}.mcap"
-    t_ns = np.round(t * 1e9).astype(np.int64)
-    write_archive(
-        path, "mcap", t_ns, {n: Y[:, i] for i, n in enumerate(names)}, layout="multiarray"
-    )
-    try:
-        analysis = analyze([str(path)], RunOptions())
-    finally:
-        path.unlink()
+    analysis = _analyze(folder / f"building_{seed}.mcap", t, Y, names)
     found = [
         (
             f.channel,
@@ -153,15 +158,7 @@ def case(
 def healthy_case(seed: int, floors: int, minutes: float, folder: Path) -> list:
     """The findings on the seed's building with no fault (``--healthy``)."""
     t, Y, names = simulate_building(floors, 60.0 * minutes, RATE_HZ, seed=seed, sensors_per_floor=2)
-    path = folder / f"healthy_{seed}.mcap"
-    t_ns = np.round(t * 1e9).astype(np.int64)
-    write_archive(
-        path, "mcap", t_ns, {n: Y[:, i] for i, n in enumerate(names)}, layout="multiarray"
-    )
-    try:
-        analysis = analyze([str(path)], RunOptions())
-    finally:
-        path.unlink()
+    analysis = _analyze(folder / f"healthy_{seed}.mcap", t, Y, names)
     return [(f.channel, f.type.value, round(f.onset_s, 2)) for f in analysis.findings]
 
 
