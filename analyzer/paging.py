@@ -11,7 +11,8 @@ What a pass holds at once is then its block, not the record.
 
 :func:`spill` moves a detector's kept signals to such a file, one channel after the other;
 :func:`buffer` makes the channel-major file a detector writes its per-sample outputs
-into, block by block, and :class:`Released` gives back a pass's pages behind it.
+into, block by block (:func:`write_rows`: by ``pwrite``, not through the map), and
+:class:`Released` gives back a pass's pages behind it.
 :func:`mapped_file` reserves a new file's disk space up front (a full disk is then an
 error, not a SIGBUS). Arrays that are not file-backed (in memory, private copies) are
 left alone: :func:`release` is safe to call on anything.
@@ -28,6 +29,7 @@ import os
 import sys
 import tempfile
 import threading
+import weakref
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
@@ -220,14 +222,67 @@ def buffer(
     if workdir is None:
         return np.empty(shape, dtype)
     fd, tmp = tempfile.mkstemp(prefix=f"{name}-", suffix=".npy", dir=workdir)
-    os.close(fd)
     path = Path(tmp)
     try:
         out = mapped_file(path, (m, n), dtype)
+    except BaseException:
+        os.close(fd)
+        raise
     finally:
         with contextlib.suppress(OSError):  # where an open file cannot be unlinked: the
             path.unlink()  # scratch directory's removal takes it
+    found = _mapping(out)
+    if found is None:  # pragma: no cover - open_memmap always maps shared
+        os.close(fd)
+    else:  # kept open for write_rows; closed with the map
+        mapped_at = int(out.offset) - int(out.offset) % mmap.ALLOCATIONGRANULARITY
+        _WRITERS[id(found[0])] = (fd, mapped_at)
+        weakref.finalize(out, _forget_writer, id(found[0]), fd)
     return out.T
+
+
+_WRITERS: dict[int, tuple[int, int]] = {}
+"""id of a :func:`buffer`'s ``mmap`` -> (a descriptor of its file, the file offset where
+the mapping starts), for :func:`write_rows`; dropped when the map is."""
+
+
+def _forget_writer(key: int, fd: int) -> None:
+    _WRITERS.pop(key, None)
+    with contextlib.suppress(OSError):
+        os.close(fd)
+
+
+def write_rows(out: npt.NDArray[Any], a: int, block: npt.ArrayLike) -> None:
+    """``out[a : a + len(block)] = block`` for ``out`` made by :func:`buffer` (or a view
+    of rows of it). Into a memory-mapped buffer the rows go to its file by ``pwrite``,
+    one stretch per channel, not through the mapping: a store into a new file's mapping
+    faults every page in (the kernel zeroes each, then maps it into the process, which
+    must then give it back), 0.25 s of system time per 184 MB channel-major buffer
+    written a block at a time against 0.05 s for the same bytes by ``pwrite``. The map
+    sees the new values at once (one page cache). Anything else: a plain assignment."""
+    block = np.asarray(block)
+    if block.shape[0] == 0:
+        return
+    found = _mapping(out) if out.ndim == 2 else None
+    writer = None if found is None else _WRITERS.get(id(found[0]))
+    rows = block.shape[0]
+    if (
+        writer is None
+        or block.shape != (rows, out.shape[1])
+        or a < 0
+        or a + rows > out.shape[0]
+        or out.strides[0] != out.itemsize
+    ):
+        out[a : a + rows] = block
+        return
+    assert found is not None
+    fd, file_at = writer
+    mm, start = found
+    base = out[a:].__array_interface__["data"][0] - start + file_at
+    cols = np.empty((out.shape[1], rows), dtype=out.dtype)
+    cols[...] = block.T
+    for k in range(out.shape[1]):
+        os.pwrite(fd, cols[k].data, base + k * out.strides[1])
 
 
 class ScratchRows:

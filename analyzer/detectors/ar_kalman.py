@@ -61,7 +61,7 @@ from analyzer.diagnosis.changes import (
 from analyzer.diagnosis.classify import MIN_GAIN, Classification, correlation_time
 from analyzer.diagnosis.events import bounded_onset, diagnose_interval
 from analyzer.errors import DetectorError
-from analyzer.paging import Released, read_column, release
+from analyzer.paging import Released, read_column, release, write_rows
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -1097,9 +1097,12 @@ def bank_block(
                 nu[b] = np.nan
             yhat[b] = np.nan
         rows = slice(lo - warm, e0 - warm)
-        est[rows] = yhat * scale + mean
-        resid[rows] = np.where(
-            gap[lo:e0], np.nan, np.asarray(Y[lo:e0], dtype=np.float64) - est[rows]
+        estimate = yhat * scale + mean
+        write_rows(est, rows.start, estimate)  # a long archive's: by pwrite, not the map
+        write_rows(
+            resid,
+            rows.start,
+            np.where(gap[lo:e0], np.nan, np.asarray(Y[lo:e0], dtype=np.float64) - estimate),
         )
         h = system.history  # the rows this chunk read: done with them, but the history
         read.upto(e0 if h is None else max(0, e0 - h), final=e0 == N)

@@ -104,7 +104,7 @@ from analyzer.diagnosis.changes import (
 from analyzer.diagnosis.classify import correlation_time
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.errors import DetectorError
-from analyzer.paging import RELEASE_ROWS, Released, ScratchRows, release
+from analyzer.paging import RELEASE_ROWS, Released, ScratchRows, release, write_rows
 
 FloatArray = npt.NDArray[np.float64]
 Modes = Sequence[complex] | npt.NDArray[Any]
@@ -1582,8 +1582,9 @@ def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray 
     for lo, y in run_chunked(bank, inputs, b, a):
         cols = slice(lo - at, lo - at + y.shape[2])
         # the two estimates are each filter's last outputs (all it has in a selected bank)
-        np.multiply(y[:, -2], scale, out=zeta[:, cols])
-        ref[:, cols] = y[:, -1]  # centred, scaled: see DetectionFilter._run_outputs
+        # a long archive's buffers are written by pwrite, not through their maps
+        write_rows(zeta.T, cols.start, (y[:, -2] * scale).T)
+        write_rows(ref.T, cols.start, y[:, -1].T)  # centred, scaled: see _run_outputs
         written.upto(cols.stop, final=lo + y.shape[2] == b)
         if nis is None:
             continue

@@ -244,3 +244,36 @@ def test_scratch_rows_are_reused_and_go_with_the_pool(tmp_path):
     copy = pickle.loads(pickle.dumps(pool))
     assert copy.workdir == tmp_path and copy.made == 0
     assert not any(tmp_path.iterdir())  # the files were unlinked as they were made
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/self/statm")
+def test_write_rows_writes_a_buffer_s_file_without_mapping_its_pages(tmp_path):
+    """Rows written into a memory-mapped buffer go to its file (the map sees them at
+    once, in its own precision), and none of the written pages joins the resident set;
+    rows of a view (a block's rows) land at the view's place; anything else is a plain
+    assignment."""
+    from analyzer.paging import buffer, write_rows
+
+    n, m = 1_000_000, 8  # 64 MB
+    a = buffer(tmp_path, "w", (n, m))
+    rng = np.random.default_rng(0)
+    block = rng.standard_normal((n // 2, m))
+    step = 50_000
+    before = _rss_mb()
+    for s in range(0, n // 2, step):  # as a detector writes: a block at a time
+        write_rows(a, s, block[s : s + step])
+        write_rows(a[n // 2 :], s, block[::-1][s : s + step])  # a view's rows: from n // 2
+    assert _rss_mb() < before + 20  # a store through the map would add 64 MB
+    np.testing.assert_array_equal(a[: n // 2], block)
+    np.testing.assert_array_equal(a[n // 2 :], block[::-1])
+    single = buffer(tmp_path, "s", (1000, 3), np.float32)
+    part = np.arange(300.0).reshape(100, 3) / 7
+    write_rows(single, 450, part)
+    np.testing.assert_array_equal(single[450:550], part.astype(np.float32))
+    write_rows(single, 999, part[:0])  # nothing to write
+    plain = np.zeros((10, 3))
+    write_rows(plain, 2, np.ones((3, 3)))  # in memory: an assignment
+    assert plain.sum() == 9.0 and plain[2:5].all()
+    rows_major = np.zeros((3, 10)).T  # an (n, m) view of a row-major array in memory
+    write_rows(rows_major, 7, np.full((3, 3), 2.0))
+    assert rows_major[7:].sum() == 18.0
