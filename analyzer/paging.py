@@ -254,21 +254,22 @@ def _forget_writer(key: int, fd: int) -> None:
 
 def write_rows(out: npt.NDArray[Any], a: int, block: npt.ArrayLike) -> None:
     """``out[a : a + len(block)] = block`` for ``out`` made by :func:`buffer` (or a view
-    of rows of it). Into a memory-mapped buffer the rows go to its file by ``pwrite``,
-    one stretch per channel, not through the mapping: a store into a new file's mapping
-    faults every page in (the kernel zeroes each, then maps it into the process, which
-    must then give it back), 0.25 s of system time per 184 MB channel-major buffer
-    written a block at a time against 0.05 s for the same bytes by ``pwrite``. The map
-    sees the new values at once (one page cache). Anything else: a plain assignment."""
+    of rows of it, or one channel's column). Into a memory-mapped buffer the rows go to
+    its file by ``pwrite``, one stretch per channel, not through the mapping: a store
+    into a new file's mapping faults every page in (the kernel zeroes each, then maps it
+    into the process, which must then give it back), 0.25 s of system time per 184 MB
+    channel-major buffer written a block at a time against 0.05 s for the same bytes by
+    ``pwrite``. The map sees the new values at once (one page cache). Anything else: a
+    plain assignment."""
     block = np.asarray(block)
     if block.shape[0] == 0:
         return
-    found = _mapping(out) if out.ndim == 2 else None
+    found = _mapping(out) if out.ndim in (1, 2) else None
     writer = None if found is None else _WRITERS.get(id(found[0]))
     rows = block.shape[0]
     if (
         writer is None
-        or block.shape != (rows, out.shape[1])
+        or block.shape != (rows, *out.shape[1:])
         or a < 0
         or a + rows > out.shape[0]
         or out.strides[0] != out.itemsize
@@ -279,6 +280,9 @@ def write_rows(out: npt.NDArray[Any], a: int, block: npt.ArrayLike) -> None:
     fd, file_at = writer
     mm, start = found
     base = out[a:].__array_interface__["data"][0] - start + file_at
+    if out.ndim == 1:
+        os.pwrite(fd, np.ascontiguousarray(block, dtype=out.dtype).data, base)
+        return
     cols = np.empty((out.shape[1], rows), dtype=out.dtype)
     cols[...] = block.T
     for k in range(out.shape[1]):

@@ -71,7 +71,7 @@ from analyzer.detectors.network import NetworkDiagnosis, Propagation, SensorNetw
 from analyzer.diagnosis.changes import Calibration, calibrate, default_window
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.errors import DetectorError
-from analyzer.paging import RELEASE_ROWS, ScratchRows, release
+from analyzer.paging import RELEASE_ROWS, ScratchRows, release, write_rows
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -984,9 +984,9 @@ def _observer_task(
             b = min(n, a + RELEASE_ROWS)
             zp, zz = zeta[a:b], z[a:b]
             zz[~np.isfinite(zp)] = np.nan
-            # kept in the pipeline's signal precision
-            kept[0][a:b] = zp
-            kept[1][a:b] = zz
+            # kept in the pipeline's signal precision; a long archive's by pwrite
+            write_rows(kept[0], a, zp)
+            write_rows(kept[1], a, zz)
             for part in (zp, zz, kept[0][a:b], kept[1][a:b]):
                 release(part)  # no-ops in memory
         phi = float(np.exp(-ob.observer.lambda1 * ob.observer.dt))

@@ -271,6 +271,9 @@ def test_write_rows_writes_a_buffer_s_file_without_mapping_its_pages(tmp_path):
     write_rows(single, 450, part)
     np.testing.assert_array_equal(single[450:550], part.astype(np.float32))
     write_rows(single, 999, part[:0])  # nothing to write
+    write_rows(single[:, 1], 10, np.arange(5.0))  # one channel's column
+    np.testing.assert_array_equal(single[10:15, 1], np.arange(5.0, dtype=np.float32))
+    assert single[10:15, [0, 2]].sum() == 0.0
     plain = np.zeros((10, 3))
     write_rows(plain, 2, np.ones((3, 3)))  # in memory: an assignment
     assert plain.sum() == 9.0 and plain[2:5].all()
