@@ -942,6 +942,7 @@ class ARKalmanBank:
                 "p_value": iv.p_value,
                 "type_weights": cls.weights,
                 "explained": cls.explained,
+                "noise_scale": cls.noise_scale,
                 **early,
             },
         )

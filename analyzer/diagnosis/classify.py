@@ -14,6 +14,12 @@ signal ``f = measured - estimated`` is regressed on each candidate shape,
 
 and the shapes are compared by BIC with the healthy residual variance as the noise level
 (inflated by the residual's correlation time, so coloured residuals are not over-counted).
+A gain scales the reading's noise with it (``y_f = a (y_ref + e)``: the fault signal is
+``(a - 1) y_ref + a e``), so the gain's fit has the noise level ``a^2`` times the healthy
+one (:func:`_scaled_gain`): on a sensor whose reading sits on a large level that barely
+varies, where ``(a - 1) y_ref`` is all but constant, that is what tells a gain from an
+offset. Every shape may also have a noise level of its own, one parameter more
+(:func:`_free_noise`), so a stretch noisier than health is not the gain's by default.
 The posterior weights of the three shapes give the classification's confidence. When even
 the best shape leaves most of the fault's energy unexplained, the fault is ``other``
 (erratic, stuck, noise burst).
@@ -53,6 +59,10 @@ class Classification:
     params: dict[str, float] = field(default_factory=dict)
     """Fitted shape parameters: ``offset`` (additive), ``gain`` (multiplicative),
     ``intercept`` and ``rate_per_s`` (drift, time from the detected onset)."""
+    noise_scale: float = 1.0
+    """The residual's spread about the shape over the healthy one, as the chosen fit has it:
+    1 (the healthy level), the gain's magnitude (a gain scales the noise) or a level of
+    the fit's own."""
 
     def fault_signal(self, tau_s: FloatArray, reference: FloatArray | None) -> FloatArray | None:
         """The fitted fault shape at ``tau_s`` seconds after the detected onset (channel
@@ -99,6 +109,66 @@ def correlation_time(r: FloatArray, max_lag: int = 200) -> float:
     neg = np.flatnonzero(acf[1:] <= 0.0)
     stop = int(neg[0]) + 1 if neg.size else acf.shape[0]
     return float(max(1.0, 1.0 + 2.0 * np.sum(acf[1:stop])))
+
+
+def _scaled_gain(
+    n: int, energy: float, cross: float, den: float, noise: float
+) -> tuple[float, float] | None:
+    """The gain ``a`` of the multiplicative shape by maximum likelihood, and what its fit
+    adds to ``-2 log L`` (times the noise ``s2``), or None when the reading is all zero.
+
+    A gain multiplies the reading, noise included: with the fault-free estimate ``y`` and
+    the healthy residual ``e`` (variance ``s2``), the fault signal is ``f = (a - 1) y +
+    a e`` (Eq. 12 with ``y_f = a (y + e)``), so its noise is ``a e``, of variance ``a^2
+    s2``, not ``s2``. A fit of the shape alone with the healthy noise level sees only the
+    first term. Where ``y`` barely varies about a large level (a temperature, a pump's
+    current), ``(a - 1) y`` is then a constant, as an offset is: the two fit alike, and a
+    gain of 1.5 on a pump's 89-degree temperature (sweep_real_background.py) was read as
+    an offset of 44.6. The scaled noise tells them apart: an offset leaves the noise as
+    it was, a gain of 1.5 multiplies its spread by 1.5.
+
+    With the reading ``z = f + y`` and ``u = 1 / a``, the model is ``u z - y = e``:
+    ``-2 log L = -2 n log|u| + sum (u z - y)^2 / s2`` (constants apart), stationary where
+    ``u^2 Szz - u Szy - n s2 = 0``; of its two roots (one of each sign) the one of lower
+    ``-2 log L`` is the estimate. All from the sums the other fits take (``energy = Sff``,
+    ``cross = Sfy``, ``den = Syy``), so the stretch is not read again. The returned
+    ``-2 log L`` term is on the scale of a residual sum of squares (times ``s2``),
+    ``n s2 log a^2 + sum (f - (a - 1) y)^2 / a^2``, against the other shapes' sums of
+    squares: the same ``n log(2 pi s2)`` left out of each."""
+    szz = energy + 2.0 * cross + den
+    szy = cross + den
+    if not szz > 0.0 or not noise > 0.0:
+        return None
+    root = float(np.sqrt(szy * szy + 4.0 * n * noise * szz))
+    best: tuple[float, float] | None = None
+    for u in ((szy + root) / (2.0 * szz), (szy - root) / (2.0 * szz)):
+        if u == 0.0:
+            continue
+        a = 1.0 / u
+        shape = max(0.0, energy - 2.0 * (a - 1.0) * cross + (a - 1.0) ** 2 * den)
+        lack = n * noise * float(np.log(a * a)) + shape / (a * a)
+        if best is None or lack < best[1]:
+            best = (a, lack)
+    return best
+
+
+def _free_noise(rss: float, k: int, floor: float) -> list[tuple[float, int, float, float]]:
+    """A shape's fit with a noise level of its own, ``lambda^2 s2`` (``lambda > 1`` free, one
+    parameter more) when its residual is above the healthy floor ``n s2``: what it adds
+    to ``-2 log L`` (times ``s2``), ``n s2 (log lambda^2 + 1)`` with ``lambda^2 = rss / (n
+    s2)``, its parameter count, ``lambda`` and a gain of 1 (the caller's for a gain);
+    none when the residual is at the floor.
+
+    Without it a shape that leaves the noise larger than in health pays for the excess in
+    full, and a gain, whose model scales the noise (:func:`_scaled_gain`), pays only its
+    logarithm: the gain fit took in any fault whose stretch is noisier than health (a
+    drift of 10 units fitted a gain of 6.9). With it each shape may explain a noisier
+    stretch alike, and a gain still wins where one parameter explains both the level and
+    the spread."""
+    if not floor > 0.0 or rss <= floor:
+        return []
+    lam2 = rss / floor
+    return [(floor * (float(np.log(lam2)) + 1.0), k + 1, float(np.sqrt(lam2)), 1.0)]
 
 
 CLASSIFY_PIECE = 1 << 18
@@ -176,7 +246,7 @@ def classify(
         s_tt += float(np.dot(tc, tc))
         s_tf += float(np.dot(tc, fc))
         if g is not None and y is not None:
-            rss_mult += float(np.sum((f - g * y) ** 2))
+            rss_mult += float(np.sum((f - g * y) ** 2))  # the least-squares gain's
 
     fits: dict[FaultType, tuple[float, int, dict[str, float], float]] = {}
     # additive: f = D
@@ -204,12 +274,39 @@ def classify(
             rss = max(0.0, energy - b * s_uf)
     fits[FaultType.DRIFT] = (rss, 2, {"rate_per_s": b}, onset_shift)
     params = {"offset": d, "intercept": c, "rate_per_s": b}
+    # Each shape is fitted twice, once with the healthy noise level (a gain's scaled by
+    # the gain: _scaled_gain) and once with a noise level of its own (one parameter
+    # more, :func:`_free_noise`); the better BIC of the two stands for the shape.
+    # "lack": what the fit adds to -2 log L, times the noise (a residual sum of squares
+    # for the healthy level).
+    floor_n = n * noise
+    # (lack, parameters, noise scale, gain) of each variant of each shape
+    variants: dict[FaultType, list[tuple[float, int, float, float]]] = {
+        t: [(rss_t, k, 1.0, 1.0), *_free_noise(rss_t, k, floor_n)]
+        for t, (rss_t, k, _, _) in fits.items()
+    }
     # multiplicative: f = (a - 1) y
     if g is not None:
-        fits[FaultType.MULTIPLICATIVE] = (rss_mult, 1, {"gain": 1.0 + g}, 0.0)
-        params["gain"] = 1.0 + g
+        gain = 1.0 + g
+        scaled = _scaled_gain(n, energy, cross, den, noise) if abs(gain) >= MIN_GAIN else None
+        # the least-squares gain's fit with a noise level of its own
+        free = [(lack, k, lam, gain) for lack, k, lam, _ in _free_noise(rss_mult, 1, floor_n)]
+        if scaled is None:  # a dead sensor: the reading no longer carries the noise to scale
+            variants[FaultType.MULTIPLICATIVE] = [(rss_mult, 1, 1.0, gain), *free]
+        else:
+            a, lack_tied = scaled
+            variants[FaultType.MULTIPLICATIVE] = [(lack_tied, 1, abs(a), a), *free]
 
-    bic = {t: rss * scale / noise + k * np.log(n_eff) for t, (rss, k, _, _) in fits.items()}
+    def score(v: tuple[float, int, float, float]) -> float:
+        return v[0] * scale / noise + v[1] * np.log(n_eff)
+
+    chosen = {t: min(vs, key=score) for t, vs in variants.items()}
+    bic = {t: score(v) for t, v in chosen.items()}
+    if g is not None:
+        gain = chosen[FaultType.MULTIPLICATIVE][3]
+        rss_g = max(0.0, energy - 2.0 * (gain - 1.0) * cross + (gain - 1.0) ** 2 * den)
+        fits[FaultType.MULTIPLICATIVE] = (rss_g, 1, {"gain": gain}, 0.0)
+        params["gain"] = gain
     best = min(bic, key=lambda t: bic[t])
     lo = min(bic.values())
     w = {t: float(np.exp(-0.5 * (v - lo))) for t, v in bic.items()}
@@ -232,4 +329,6 @@ def classify(
             params,
         )
     _, _, mag, moved = fits[best]
-    return Classification(best, mag, weights[best.value], moved, weights, explained, params)
+    return Classification(
+        best, mag, weights[best.value], moved, weights, explained, params, chosen[best][2]
+    )

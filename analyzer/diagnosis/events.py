@@ -67,6 +67,7 @@ def events_from_residual(
             "p_value": iv.p_value,
             "type_weights": cls.weights,
             "explained": cls.explained,
+            "noise_scale": cls.noise_scale,
             **extra,
         }
         if evidence:

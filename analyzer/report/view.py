@@ -416,6 +416,7 @@ class _Access:
             "p_value": ("p-value (healthy data this extreme)", _pvalue),
             "explained": ("share of residual explained by the fault model", fmt.percent),
             "type_weights": ("type weights", _weights),
+            "noise_scale": ("residual spread / healthy spread (fitted)", lambda v: fmt.num(v, 3)),
         }
         out = []
         for det, extra in (ev.get("by_detector") or {}).items():

@@ -109,24 +109,43 @@ def test_a_shape_traced_back_into_the_healthy_window_starts_at_its_end():
     assert (onset, factor, ev) == (30.0, 1.0, {})
 
 
-def _reference_fits(f, y, rate):
-    """The three least-squares fits by numpy's lstsq on the whole stretch (valid samples):
-    residual sums of squares and coefficients."""
+def _reference_fits(f, y, rate, sigma):
+    """The three fits on the whole stretch (valid samples), independently of classify's
+    sums: the additive and drift fits by numpy's lstsq; the gain as the better (by BIC,
+    white noise) of the scaled-noise model ``f = (a - 1) y + a e`` (``e`` of standard
+    deviation ``sigma``), its ``-2 log L`` minimized by scipy's bounded scalar minimizer,
+    and the least-squares gain with a noise level of its own (one parameter more).
+    Residual sums of squares and coefficients."""
+    from scipy.optimize import minimize_scalar
+
     ok = np.isfinite(f) & np.isfinite(y)
     tau = np.flatnonzero(ok) / rate
     f, y = f[ok], y[ok]
+    n, s2 = f.shape[0], sigma**2
     d = f.mean()
-    design = np.column_stack([np.ones(f.shape[0]), tau])
+    design = np.column_stack([np.ones(n), tau])
     (c, b), *_ = np.linalg.lstsq(design, f, rcond=None)
     s = np.clip(-c / b, -tau[-1], 0.0)
     if s != -c / b:  # the line through the nearest admissible onset s: b (tau - s)
         (b,), *_ = np.linalg.lstsq((tau - s)[:, None], f, rcond=None)
         c = -b * s
-    g = np.dot(y, f) / np.dot(y, y)
+    g = np.dot(y, f) / np.dot(y, y)  # the least-squares gain - 1
+
+    def minus_2_log_l(a):
+        return n * np.log(a * a) + np.sum((f - (a - 1.0) * y) ** 2) / (a * a * s2)
+
+    lo, hi = sorted((0.5 * (1.0 + g), 2.0 * (1.0 + g)))
+    tied = minimize_scalar(
+        minus_2_log_l, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12}
+    )
+    bic_tied = tied.fun + np.log(n)
+    rss_ls = np.sum((f - g * y) ** 2)
+    bic_free = n * (np.log(rss_ls / (n * s2)) + 1.0) + 2 * np.log(n) if rss_ls > n * s2 else np.inf
+    a = tied.x if bic_tied <= bic_free else 1.0 + g
     return {
         "additive": (np.sum((f - d) ** 2), d),
         "drift": (np.sum((f - c - b * tau) ** 2), b),
-        "multiplicative": (np.sum((f - g * y) ** 2), 1.0 + g),
+        "multiplicative": (np.sum((f - (a - 1.0) * y) ** 2), a),
     }
 
 
@@ -158,7 +177,7 @@ def test_classify_in_pieces_equals_the_whole_stretch_fits(kind, monkeypatch):
     assert got.weights == pytest.approx(whole.weights, rel=1e-6, abs=1e-12)
     assert got.explained == pytest.approx(whole.explained, rel=1e-9)
     assert got.onset_shift_s == pytest.approx(whole.onset_shift_s, rel=1e-9, abs=1e-12)
-    ref = _reference_fits(f - 2.5, y, rate)
+    ref = _reference_fits(f - 2.5, y, rate, 0.3)
     for name, value in got.magnitude.items():
         expected = {
             "offset": ref["additive"][1],
@@ -168,3 +187,49 @@ def test_classify_in_pieces_equals_the_whole_stretch_fits(kind, monkeypatch):
         assert value == pytest.approx(expected, rel=1e-9)
     assert got.params["rate_per_s"] == pytest.approx(ref["drift"][1], rel=1e-9)
     assert got.params["gain"] == pytest.approx(ref["multiplicative"][1], rel=1e-9)
+
+
+def test_a_gain_on_a_large_level_is_told_from_an_offset_by_the_noise_it_scales():
+    """A sensor whose reading sits on a large level that its fault-free estimate carries
+    but not its fluctuation (a pump's 89-degree temperature): a gain ``a`` makes the
+    residual ``(a - 1) y + a e``, an offset ``D + e``. The shapes alone cannot tell them
+    apart (``(a - 1) y`` is all but constant): the spread of the residual can, the gain's
+    ``a`` times the healthy one. Each is classified as what it is, the gain at the
+    maximum-likelihood value scipy's minimizer finds, the offset at its size."""
+    from scipy.optimize import minimize_scalar
+
+    rng = np.random.default_rng(11)
+    rate, n, sigma = 1.0, 4_000, 0.3
+    estimate = 89.0 + 0.02 * rng.standard_normal(n)  # the level, little of the fluctuation
+    e = sigma * rng.standard_normal(n)  # the healthy residual: the fluctuation it misses
+    gain = classify(0.5 * estimate + 1.5 * e, estimate, sigma, rate)  # a gain of 1.5
+    offset = classify(44.5 + e, estimate, sigma, rate)  # the same level shift, as an offset
+    assert gain.type is FaultType.MULTIPLICATIVE and gain.confidence > 0.95
+    assert offset.type is FaultType.ADDITIVE and offset.confidence > 0.95
+    assert offset.magnitude["offset"] == pytest.approx(44.5, abs=0.05)
+    assert gain.noise_scale == pytest.approx(gain.magnitude["gain"]) and offset.noise_scale == 1.0
+
+    f = 0.5 * estimate + 1.5 * e
+
+    def minus_2_log_l(a):
+        return n * np.log(a * a) + np.sum((f - (a - 1.0) * estimate) ** 2) / (a * sigma) ** 2
+
+    best = minimize_scalar(
+        minus_2_log_l, bounds=(1.0, 2.0), method="bounded", options={"xatol": 1e-12}
+    )
+    assert gain.magnitude["gain"] == pytest.approx(best.x, rel=1e-8)
+    assert gain.magnitude["gain"] == pytest.approx(1.5, abs=0.01)
+
+
+def test_a_noisier_stretch_is_not_taken_for_a_gain():
+    """A drift or an offset whose stretch is noisier than health (twice the spread) on a
+    zero-mean signal keeps its type: the gain's model, which scales the noise, does not
+    take in the excess, as every shape may have a noise level of its own."""
+    rng = np.random.default_rng(12)
+    rate, n, sigma = 100.0, 30_000, 0.3
+    y = 3.0 * np.sin(np.arange(n) / 17.0) + rng.standard_normal(n)
+    noisy = 2.0 * sigma * rng.standard_normal(n)
+    drift = classify(0.02 * np.arange(n) / rate + noisy, y, sigma, rate)
+    offset = classify(1.5 + noisy, y, sigma, rate)
+    assert drift.type is FaultType.DRIFT and drift.noise_scale == pytest.approx(2.0, rel=0.02)
+    assert offset.type is FaultType.ADDITIVE and offset.noise_scale == pytest.approx(2.0, rel=0.02)
