@@ -26,6 +26,7 @@ from analyzer.detectors.ar_model import flat_channels
 from analyzer.detectors.base import SIGNAL_DTYPE
 from analyzer.diagnosis import Finding, merge_events, one_fault_at_a_time
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
+from analyzer.diagnosis.merge import traced_into_training
 from analyzer.diagnosis.stuck import relabel_frozen
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
 from analyzer.grouping import partition
@@ -785,6 +786,7 @@ def _analyze(
         notes.extend(conflicts)
         # a frozen sensor is told by its readings, not by the residual's shape
         notes.extend(relabel_frozen(findings, values, chosen, aligned.rate_hz, train))
+        notes.extend(traced_into_training(findings))
         t0 = time.perf_counter()
         parts = results
         results = _merge_groups(parts, chosen)  # one result per detector (channel groups)

@@ -525,3 +525,29 @@ def test_a_single_detectors_finding_that_ends_with_its_own_fault_nearby_is_that_
     # not modelled together: both stay
     kept, notes = one_fault_at_a_time(merge_events([s0, s1]), lambda d, a, b: False)
     assert len(kept) == 2 and notes == []
+
+
+def test_a_finding_traced_back_into_the_healthy_window_gets_a_note():
+    """A drift that the bank traced back to 1 109 s while the healthy window ends at
+    1 993 s starts at the window's end; the note names it, the traced onset and what tells
+    a slow change of the system from a sensor's; a finding without such an event gets
+    none."""
+    from analyzer.diagnosis.merge import traced_into_training
+
+    early = Event(
+        "acc1",
+        1993.0,
+        None,
+        D,
+        {"rate_per_s": -2e-6},
+        0.375,
+        "ar_kalman_bank",
+        evidence={"traced_onset_s": 1108.96, "starts_in_training": True},
+    )
+    late = Event("acc1", 7756.0, None, D, {"rate_per_s": -2e-6}, 0.9, "detection_filter")
+    other = Event("temp", 5000.0, None, A, {"offset": 0.3}, 0.9, "equivalent_model")
+    findings = merge_events([early, late, other])
+    notes = traced_into_training(findings)
+    assert len(notes) == 1
+    assert notes[0].startswith("drift fault on acc1 from 1993.000 s")
+    assert "traced back to 1108.960 s" in notes[0] and "--train" in notes[0]
