@@ -269,8 +269,36 @@ class ChannelStore:
                 f"the common clock at {rate:g} Hz would need {n:,} rows over {span:.6g} s for "
                 f"at most {most:,} samples per channel: a timestamp lies far from the others "
                 "(an outlier, or a wrong unit), or --rate is far above the data's rate"
+                + self._largest_gap(channels, span)
             )
         return AlignedSeries(self, tuple(channels), rate, t0, n)
+
+    def _largest_gap(self, channels: Sequence[str], span_s: float) -> str:
+        """For the error above: the largest gap between two samples of the channel with
+        the most samples, when it holds most of the span, said as what it likely is: a
+        lone sample far from the rest (an outlier timestamp), or two stretches far apart
+        (files of an archive recorded apart in time, which one clock cannot hold)."""
+        name = max(channels, key=lambda c: self.info(c).samples)  # type: ignore[union-attr]
+        t, _ = self.raw(name)
+        if t.shape[0] < 3:
+            return ""
+        steps = np.diff(np.asarray(t))
+        k = int(np.argmax(steps))
+        gap = float(steps[k]) / NS_PER_S
+        if gap < 0.5 * span_s:
+            return ""
+        start = float(self.info(name).start_ns)  # type: ignore[union-attr]
+        where = (float(t[k]) - start) / NS_PER_S
+        if k == 0 or k == t.shape[0] - 2:
+            which = "first" if k == 0 else "last"
+            return (
+                f"; the {which} sample of {name} lies {_span_text(gap)} from the others: "
+                "an outlier timestamp"
+            )
+        return (
+            f"; {name} has no sample for {_span_text(gap)} after {where:.6g} s: records that "
+            "far apart in time are analyzed one at a time (one clock cannot hold them)"
+        )
 
     def _need_final(self) -> None:
         if not self._final:
@@ -586,3 +614,12 @@ def _resampled(
     # outside the channel's first/last sample by up to half a period: hold the edge value
     out[ok] = y[ok]
     return out
+
+
+def _span_text(seconds: float) -> str:
+    """``45 s``, ``3.2 h``, ``29.7 days``."""
+    if seconds >= 2 * 86400:
+        return f"{seconds / 86400:.1f} days"
+    if seconds >= 2 * 3600:
+        return f"{seconds / 3600:.1f} h"
+    return f"{seconds:.6g} s"

@@ -65,8 +65,20 @@ def test_an_outlier_timestamp_is_an_error_not_a_disk_full_of_gaps(tmp_path, caps
     ):
         code, _, err = run_cli(argv, capsys)
         assert code == 2
-        one_line_error(err, str(src), "timestamp")
+        one_line_error(err, str(src), "timestamp", "the first sample of s0 lies", "outlier")
     assert not (tmp_path / "o").exists() and not (tmp_path / "x.csv").exists()
+
+
+def test_files_far_apart_in_time_are_an_error_that_says_so(tmp_path, capsys):
+    """Two records of one directory taken a month apart: one clock cannot hold them, and
+    the error names the gap and what to do."""
+    t, Y, _ = simulate_building(n_floors=3, duration_s=60.0, seed=0)
+    for name, start in (("a.csv", 1767225600.0), ("b.csv", 1767225600.0 + 30 * 86400.0)):
+        rows = [f"{start + ti:.3f},{y[0]},{y[1]},{y[2]}" for ti, y in zip(t, Y, strict=True)]
+        (tmp_path / name).write_text("\n".join(["epoch,s0,s1,s2", *rows]) + "\n")
+    code, _, err = run_cli(["run", tmp_path, "--out", tmp_path / "o"], capsys)
+    assert code == 2
+    one_line_error(err, "s0 has no sample for 30.0 days after 59.995 s", "analyzed one at a time")
 
 
 @pytest.mark.parametrize("command", ["run", "export"])
