@@ -278,13 +278,12 @@ def write_rows(out: npt.NDArray[Any], a: int, block: npt.ArrayLike) -> None:
         return
     assert found is not None
     fd, file_at = writer
-    mm, start = found
-    base = out[a:].__array_interface__["data"][0] - start + file_at
+    base = out[a:].__array_interface__["data"][0] - found[1] + file_at
     if out.ndim == 1:
         os.pwrite(fd, np.ascontiguousarray(block, dtype=out.dtype).data, base)
         return
-    cols = np.empty((out.shape[1], rows), dtype=out.dtype)
-    cols[...] = block.T
+    # channel-major, as the file is (no copy when the block already is, in its dtype)
+    cols = np.ascontiguousarray(block.T, dtype=out.dtype)
     for k in range(out.shape[1]):
         os.pwrite(fd, cols[k].data, base + k * out.strides[1])
 
