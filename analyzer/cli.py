@@ -119,6 +119,12 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         help="also write DIR/corrected.csv with faulty channels corrected over their fault periods",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    p.add_argument(
+        "--model",
+        metavar="FILE",
+        help="run the fitted models saved by --save-model instead of fitting on this "
+        "archive (a fault present from its first sample is found too)",
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -142,6 +148,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("inputs", nargs="+", metavar="INPUT")
     p.add_argument("--out", required=True, metavar="DIR")
     add_run_options(p)
+    p.add_argument(
+        "--save-model",
+        metavar="FILE",
+        help="also write the fitted models to FILE, for --model on later archives",
+    )
 
     p = sub.add_parser("watch", help="analyze every archive that lands in INBOX")
     p.add_argument("inbox", metavar="INBOX")
@@ -226,6 +237,8 @@ def _run_options(args: argparse.Namespace) -> Any:
         time_source=args.time,
         corrected=args.corrected,
         progress=_progress_printer(not args.no_progress),
+        model=args.model,
+        save_model=getattr(args, "save_model", None),
     )
 
 

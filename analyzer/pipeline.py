@@ -4,6 +4,7 @@ backend): readers -> store -> detectors -> diagnosis -> report."""
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import hashlib
 import inspect
 import json
@@ -25,11 +26,13 @@ from analyzer.detectors import REGISTRY, Dataset, DetectorResult, RunContext, de
 from analyzer.detectors.ar_model import flat_channels
 from analyzer.detectors.base import SIGNAL_DTYPE
 from analyzer.diagnosis import Finding, merge_events, one_fault_at_a_time
+from analyzer.diagnosis.changes import Calibration
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
 from analyzer.diagnosis.merge import traced_into_training
-from analyzer.diagnosis.stuck import relabel_frozen
+from analyzer.diagnosis.stuck import healthy_stats, relabel_frozen
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
 from analyzer.grouping import partition
+from analyzer.modelfile import SavedModel, check_model_path, load_model, save_model
 from analyzer.outdir import prepare_dir, remove_if_empty
 from analyzer.paging import is_mapped, mapped_file, release, spill, trim_heap
 from analyzer.parallel import (
@@ -72,6 +75,11 @@ class RunOptions:
     time_source: TimeSource = "log"
     corrected: bool = False
     progress: Progress | None = None
+    model: SavedModel | None = None
+    """``--model``: fitted models to run instead of fitting on this archive."""
+    model_path: str | None = None
+    save_model: Path | None = None
+    """``--save-model``: where to write this run's fitted models."""
 
 
 @dataclass(slots=True)
@@ -96,6 +104,10 @@ class Analysis:
     """With ``--corrected``: the analyzed channels with every fault removed (Wang & Song
     2014, Section 6.3), same shape as ``values``."""
     corrections: list[dict[str, Any]] = field(default_factory=list)
+    saved: SavedModel | None = None
+    """The fitted models of this run (with ``--save-model``), or those it ran (``--model``)."""
+    model_info: dict[str, Any] | None = None
+    """With ``--model``: the model file and what it was trained on (``findings.json``)."""
 
     @property
     def duration_s(self) -> float:
@@ -227,6 +239,105 @@ def _crowded_channels(
     return notes
 
 
+WARMUP_S = 1.0
+"""With ``--model``: the least time at a record's start in which no fault is searched."""
+
+
+def _model_channels(store: ChannelStore, model: SavedModel, options: RunOptions) -> list[str]:
+    """``--model``'s channels, all of which this archive must have (:class:`UsageError`
+    naming the option and the missing ones), in the model's order."""
+    have = {i.name for i in store.infos()}
+    missing = [c for c in model.channels if c not in have]
+    where = options.model_path or "the model"
+    if missing:
+        more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
+        raise UsageError(
+            f"--model {where}: this archive has no channel {', '.join(missing[:3])}{more} "
+            f"(the model was fitted on {len(model.channels)} channels)"
+        )
+    if options.rate is not None and abs(options.rate - model.rate_hz) > 1e-9 * model.rate_hz:
+        raise UsageError(
+            f"--rate {options.rate:g}: the model {where} was fitted at {model.rate_hz:.6g} Hz; "
+            "leave --rate out or fit a model at that rate"
+        )
+    return list(model.channels)
+
+
+def _warmup(model: SavedModel, n: int) -> int:
+    """Samples at the start of a record analyzed with ``--model`` in which no fault is
+    searched: the filters start from a zero state there, so each fitted model's settling
+    time (``settle``, a bank's ``warmup``) plus its longest alarm window (the windowed
+    statistics at the first searched sample must not reach back into the settling);
+    at least :data:`WARMUP_S`, at most half the record."""
+    warm = int(np.ceil(WARMUP_S * model.rate_hz))
+    for fits in model.fits.values():
+        for _, fitted in fits.values():
+            warm = max(warm, _settling(fitted) + _longest_window(fitted))
+    return max(1, min(warm, n // 2))
+
+
+def _settling(fitted: Any) -> int:
+    bank = getattr(fitted, "bank", None)
+    return max(int(getattr(fitted, "settle", 0) or 0), int(getattr(bank, "warmup", 0) or 0))
+
+
+def _longest_window(obj: Any, depth: int = 0) -> int:
+    """The longest window of the alarm calibrations (:class:`Calibration`) held in a
+    fitted model's fields (their tuples and nested dataclasses, a few levels deep)."""
+    if isinstance(obj, Calibration):
+        return max(obj.windows, default=obj.window)
+    if depth > 3:
+        return 0
+    if isinstance(obj, tuple | list):
+        return max((_longest_window(x, depth + 1) for x in obj), default=0)
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return max(
+            (_longest_window(getattr(obj, f.name), depth + 1) for f in dataclasses.fields(obj)),
+            default=0,
+        )
+    return 0
+
+
+def _model_detectors(model: SavedModel, options: RunOptions) -> list[str]:
+    """The detectors ``--model`` runs: all it holds, or those of ``--detectors`` (each
+    of which it must hold)."""
+    held = model.detectors()
+    if not options.detectors:
+        return held
+    absent = [d for d in options.detectors if d not in held]
+    if absent:
+        raise UsageError(
+            f"--detectors {absent[0]}: not in the model {options.model_path or ''} "
+            f"(it holds {', '.join(held)})"
+        )
+    return [d for d in held if d in options.detectors]
+
+
+def _reuse_note(model: SavedModel, options: RunOptions, warm_s: float) -> str:
+    trained = ", ".join(Path(p).name for p, _ in model.inputs[:3])
+    if len(model.inputs) > 3:
+        trained += f" and {len(model.inputs) - 3} more files"
+    return (
+        f"fitted models from {options.model_path or 'a model file'} (trained on {trained}, "
+        f"healthy window {model.train_s[0]:.3f}-{model.train_s[1]:.3f} s); nothing was "
+        f"fitted on this archive, and no fault is searched in its first {warm_s:.3f} s "
+        "while the filters settle"
+    )
+
+
+def _model_info(model: SavedModel, options: RunOptions) -> dict[str, Any]:
+    path = Path(options.model_path) if options.model_path else None
+    return {
+        "path": str(path) if path else None,
+        "sha256": sha256_of(path) if path is not None and path.is_file() else None,
+        **model.describe(),
+    }
+
+
+def _digest(path: Path) -> str:
+    return sha256_of(path) if path.exists() else ""
+
+
 def _detector_names(options: RunOptions) -> tuple[list[str], bool]:
     if options.detectors:
         for d in options.detectors:
@@ -236,10 +347,16 @@ def _detector_names(options: RunOptions) -> tuple[list[str], bool]:
     return list(REGISTRY), False
 
 
-def _fit_and_run(det: Any, data: Dataset, ctx: RunContext) -> DetectorResult:
-    """One detector's task: fit on the healthy window, run over the archive; its
-    per-sample signals are kept as float32 (see :data:`SIGNAL_DTYPE`)."""
-    return _compact(det.run(det.fit(data, ctx), data, ctx))
+def _fit_and_run(
+    det: Any, data: Dataset, ctx: RunContext, model: Any = None, keep: bool = False
+) -> tuple[Any, DetectorResult]:
+    """One detector's task: fit on the healthy window (unless ``model``, a fitted model
+    of ``--model``, is given), run over the archive; its per-sample signals are kept as
+    float32 (see :data:`SIGNAL_DTYPE`). Returns the fitted model when ``keep``
+    (``--save-model``), else None, with the result."""
+    if model is None:
+        model = det.fit(data, ctx)
+    return (model if keep else None), _compact(det.run(model, data, ctx))
 
 
 def _compact(result: DetectorResult) -> DetectorResult:
@@ -275,20 +392,23 @@ def _spill(result: DetectorResult, spill_dir: Path | None, tag: str = "") -> Det
     return result
 
 
-def _fit(det: Any, data: Dataset, ctx: RunContext) -> tuple[Any, Any, float]:
+def _fit(det: Any, data: Dataset, ctx: RunContext, model: Any = None) -> tuple[Any, Any, float]:
     """A detector's fit on the healthy window, as a task: ``(detector, fitted model,
-    seconds)``."""
+    seconds)``; ``model`` (``--model``) is returned as it is."""
     t0 = time.perf_counter()
-    model = det.fit(data, ctx)
+    if model is None:
+        model = det.fit(data, ctx)
     return det, model, time.perf_counter() - t0
 
 
-def _fit_and_run_on_worker(det: Any, data: Dataset, ctx: RunContext) -> DetectorResult:
+def _fit_and_run_on_worker(
+    det: Any, data: Dataset, ctx: RunContext, model: Any = None, keep: bool = False
+) -> tuple[Any, DetectorResult]:
     """:func:`_fit_and_run` as a Dask task: a detector that splits its work
     (``ctx.map``) spreads the pieces over the same cluster."""
     if ctx.jobs > 1:
         ctx = replace(ctx, executor=WorkerClientExecutor(ctx.jobs))
-    return _fit_and_run(det, data, ctx)
+    return _fit_and_run(det, data, ctx, model, keep)
 
 
 def _run_detectors(
@@ -301,15 +421,22 @@ def _run_detectors(
     spill_dir: Path | None = None,
     finished: Callable[[DetectorResult], None] | None = None,
     tag: str = "",
+    fits: dict[str, tuple[Any, Any]] | None = None,
+    kept: dict[str, tuple[Any, Any]] | None = None,
 ) -> tuple[list[DetectorResult], dict[str, str]]:
     """Fit and run the detectors ``names``, each as a task of ``executor``; results and
     skip reasons in registry order, so any executor gives the serial run's output.
     ``finished`` is called with each result as soon as it is final (in that order);
     ``tag`` names the channel group in spilled files' names (:func:`_spill`).
+    ``fits`` (``--model``) gives ``(detector, fitted model)`` by name: those run without
+    a fit; ``kept`` (``--save-model``) receives each detector's ``(detector, fitted
+    model)``.
 
     A detector whose needs are not met, or that raises :class:`DetectorError`, is skipped
     with its reason; when the user named the detectors (``ctx.explicit``) the first such
     error in registry order is raised instead, as the plain loop would."""
+    if fits is not None:  # --model: only what it fitted (on this channel group) runs
+        names = [n for n in names if n in fits]
     on_dask = isinstance(executor, DaskExecutor)
     # Local threads: the fits (training window only, memory independent of the archive's
     # length) run concurrently; the runs over the archive then follow one at a time in
@@ -327,7 +454,16 @@ def _run_detectors(
         shipped_data = executor.scatter(replace(data, values=np.asarray(data.values)))
     # (name, handle) for a submitted task, (name, error) for one settled up front
     planned: list[tuple[str, Any]] = []
+    keep = kept is not None
+    dets: dict[str, Any] = {}  # the detector object of each task (saved with its model)
     for name in names:
+        given = None if fits is None else fits.get(name)
+        if given is not None:  # --model: fitted on another archive, nothing to check here
+            det, model = given
+            dets[name] = det
+            extra: tuple[Any, ...] = (model,) if staged else (model, keep)
+            planned.append((name, executor.submit(task, det, shipped_data, shipped_ctx, *extra)))
+            continue
         cls = detector_class(name)
         try:
             det = cls(**options.config.detectors.get(name, {}))
@@ -342,7 +478,9 @@ def _run_detectors(
             if ctx.explicit:
                 break
             continue
-        planned.append((name, executor.submit(task, det, shipped_data, shipped_ctx)))
+        dets[name] = det
+        extra = () if staged else (None, keep)
+        planned.append((name, executor.submit(task, det, shipped_data, shipped_ctx, *extra)))
     # settled[i]: the result of planned[i], or the error its fit or run raised. On threads
     # each run starts as soon as its fit is done (whichever detector that is: a fast fit
     # need not wait for a slow one), one run at a time; results are then taken in
@@ -360,6 +498,8 @@ def _run_detectors(
             try:
                 if staged:
                     det, model, fit_s = plan.result()
+                    if kept is not None:
+                        kept[name] = (det, model)
                     t0 = time.perf_counter()
                     trim_heap()  # what the fits freed
                     settled[i] = _spill(_compact(det.run(model, data, ctx)), spill_dir, tag)
@@ -371,7 +511,11 @@ def _run_detectors(
                         timings[f"fit {name}"] = timings.get(f"fit {name}", 0.0) + fit_s
                         timings[f"run {name}"] = timings.get(f"run {name}", 0.0) + run_s
                 else:
-                    settled[i] = _spill(plan.result(), spill_dir, tag)
+                    model, result = plan.result()
+                    if kept is not None:
+                        kept[name] = (dets[name], model)
+                    settled[i] = _spill(result, spill_dir, tag)
+                    del result
                     trim_heap()
             except DetectorError as err:
                 settled[i] = err
@@ -414,6 +558,8 @@ def _run_groups(
     timings: dict[str, float],
     spill_dir: Path | None,
     finished: Callable[[DetectorResult], None],
+    fits: dict[str, dict[str, tuple[Any, Any]]] | None = None,
+    kept: dict[str, dict[str, tuple[Any, Any]]] | None = None,
 ) -> tuple[list[DetectorResult], dict[str, str]]:
     """:func:`_run_detectors` once per channel group (:mod:`analyzer.grouping`), one
     group after the other, each on a copy of its columns (memory-mapped for a long
@@ -426,7 +572,16 @@ def _run_groups(
     whole = [n for n in names if n == "error_function"]
     if whole:
         results, skipped = _run_detectors(
-            whole, options, data, ctx, executor, timings, spill_dir, finished
+            whole,
+            options,
+            data,
+            ctx,
+            executor,
+            timings,
+            spill_dir,
+            finished,
+            "",
+            *_fits_of("", fits, kept),
         )
     per_group = [n for n in names if n not in whole]
     total = sum(len(g) for g in groups)
@@ -437,8 +592,18 @@ def _run_groups(
         values = _columns(data.values, columns, path)
         part = Dataset(values, group, data.rate_hz, data.train)
         share = replace(ctx, false_alarm_rate=ctx.false_alarm_rate * len(group) / total)
+        tag = f"-g{k}"
         got, why = _run_detectors(
-            per_group, options, part, share, executor, timings, spill_dir, finished, f"-g{k}"
+            per_group,
+            options,
+            part,
+            share,
+            executor,
+            timings,
+            spill_dir,
+            finished,
+            tag,
+            *_fits_of(tag, fits, kept),
         )
         results.extend(got)
         for name, reason in why.items():
@@ -448,6 +613,20 @@ def _run_groups(
     order = {n: i for i, n in enumerate(names)}
     results.sort(key=lambda r: order.get(r.detector, len(order)))  # stable: groups in order
     return results, skipped
+
+
+def _fits_of(
+    tag: str,
+    fits: dict[str, dict[str, tuple[Any, Any]]] | None,
+    kept: dict[str, dict[str, tuple[Any, Any]]] | None,
+) -> tuple[dict[str, tuple[Any, Any]] | None, dict[str, tuple[Any, Any]] | None]:
+    """The ``fits`` and ``kept`` of :func:`_run_detectors` for the channel group ``tag``:
+    ``--model``'s fitted detectors of that group (none when the model has no such group),
+    and a dict of ``kept`` to receive the group's fits (``--save-model``)."""
+    return (
+        None if fits is None else fits.get(tag, {}),
+        None if kept is None else kept.setdefault(tag, {}),
+    )
 
 
 def _columns(values: Any, columns: list[int], path: Path | None) -> npt.NDArray[np.float64]:
@@ -654,9 +833,15 @@ def _analyze(
                 f"{', '.join(str(i.path) for i in archive.inputs)}: no numeric channel found"
                 + (f" ({bad})" if bad else "")
             )
-        chosen = _select(store, options.channels, notes)
+        reused = options.model
+        if reused is None:
+            chosen = _select(store, options.channels, notes)
+        else:
+            chosen = _model_channels(store, reused, options)
         t0 = time.perf_counter()
-        aligned: AlignedSeries = store.align(chosen, options.rate)
+        aligned: AlignedSeries = store.align(
+            chosen, options.rate if reused is None else reused.rate_hz
+        )
         n_values = aligned.n * len(chosen)
         big = n_values > MATERIALIZE_IN_MEMORY and not in_memory
         path = work / "aligned.npy" if big else None
@@ -673,7 +858,12 @@ def _analyze(
             aligned.start_ns
         )
         duration = aligned.duration_s
-        if options.train is not None:
+        if reused is not None:
+            # no fit here: the first samples only let the filters settle (no fault is
+            # searched there), the rest is tested whole
+            warm = _warmup(reused, aligned.n)
+            tr = (0.0, (warm - 1) / aligned.rate_hz)
+        elif options.train is not None:
             tr = parse_train(options.train, aligned.start_ns, duration, absolute)
         elif options.config.train is not None:
             tr = options.config.train
@@ -689,14 +879,16 @@ def _analyze(
         train = (train[0], min(train[1], aligned.n))
         # a channel that does not vary in the healthy window cannot be modelled from it
         tv = np.asarray(values[train[0] : train[1]])
-        if tv.shape[0] < MIN_TRAIN_ROWS:
+        if reused is not None:
+            pass  # the model's channels were modelled on its own training window
+        elif tv.shape[0] < MIN_TRAIN_ROWS:
             raise UsageError(
                 f"the training window {tr[0]:.3f}-{tr[1]:.3f} s holds {tv.shape[0]} sample(s) "
                 f"at {aligned.rate_hz:.6g} Hz, need at least {MIN_TRAIN_ROWS}: give a longer "
                 "one with --train (the default is the first 20 % of the data, at most 10 min)"
             )
         flat = flat_channels(tv) if tv.shape[0] else np.ones(len(chosen), bool)
-        if flat.any():
+        if reused is None and flat.any():
             dropped = [c for c, f in zip(chosen, flat, strict=True) if f]
             notes.append(
                 "constant or empty in the training window, not analyzed: " + ", ".join(dropped)
@@ -718,16 +910,22 @@ def _analyze(
             values = np.asarray(values)[:, keep]
         data = Dataset(values, tuple(chosen), aligned.rate_hz, train)
         names, explicit = _detector_names(options)
+        if reused is not None:
+            names = _model_detectors(reused, options)
+            notes.append(_reuse_note(reused, options, tr[1] + 1 / aligned.rate_hz))
+        healthy = healthy_stats(values, chosen, train) if reused is None else dict(reused.healthy)
         if isinstance(executor, DaskExecutor):
             notes.append(executor.describe())
         parallel = not isinstance(executor, SerialExecutor)
         ctx = RunContext(
-            false_alarm_rate=options.config.false_alarm_rate,
+            false_alarm_rate=options.config.false_alarm_rate
+            if reused is None
+            else reused.false_alarm_rate,
             workdir=None if in_memory else work,
             map_outputs=big,
             jobs=executor.workers,
             progress=locked(progress) if parallel else progress,
-            config=options.config.as_context(),
+            config=options.config.as_context() if reused is None else reused.config,
             explicit=explicit,
             executor=executor if parallel else None,
         )
@@ -742,23 +940,52 @@ def _analyze(
         tests: list[tuple[tuple[DetectorResult, tuple[str, ...], tuple[int, int], float], Any]]
         tests = []
 
+        # with --model the training window's tests are the model's (this record has none)
+        tested_train = train if reused is None else (0, 0)
+
         def start_tests(r: DetectorResult) -> None:
             for ch in r.residuals:
-                task = (r, (ch,), train, aligned.rate_hz)
+                task = (r, (ch,), tested_train, aligned.rate_hz)
                 tests.append((task, executor.submit(_residual_tests, task) if threads else None))
 
-        groups, group_notes = partition(
-            chosen, np.asarray(values[train[0] : train[1]]), options.config.groups
+        if reused is None:
+            groups, group_notes = partition(
+                chosen, np.asarray(values[train[0] : train[1]]), options.config.groups
+            )
+            notes.extend(group_notes)
+        else:
+            groups = [tuple(g) for g in reused.groups]
+        fits = None if reused is None else reused.fits
+        kept: dict[str, dict[str, tuple[Any, Any]]] | None = (
+            {} if options.save_model is not None else None
         )
-        notes.extend(group_notes)
         try:
             if len(groups) == 1 and len(groups[0]) == len(chosen):
                 results, skipped = _run_detectors(
-                    names, options, data, ctx, executor, timings, spill_dir, start_tests
+                    names,
+                    options,
+                    data,
+                    ctx,
+                    executor,
+                    timings,
+                    spill_dir,
+                    start_tests,
+                    "",
+                    *_fits_of("", fits, kept),
                 )
             else:
                 results, skipped = _run_groups(
-                    groups, names, options, data, ctx, executor, timings, spill_dir, start_tests
+                    groups,
+                    names,
+                    options,
+                    data,
+                    ctx,
+                    executor,
+                    timings,
+                    spill_dir,
+                    start_tests,
+                    fits,
+                    kept,
                 )
         except BaseException:
             for _, handle in tests:
@@ -785,8 +1012,8 @@ def _analyze(
         findings, conflicts = one_fault_at_a_time(findings, _coupled(results))
         notes.extend(conflicts)
         # a frozen sensor is told by its readings, not by the residual's shape
-        notes.extend(relabel_frozen(findings, values, chosen, aligned.rate_hz, train))
-        notes.extend(traced_into_training(findings))
+        notes.extend(relabel_frozen(findings, values, chosen, aligned.rate_hz, healthy))
+        notes.extend(traced_into_training(findings, reused is not None))
         t0 = time.perf_counter()
         parts = results
         results = _merge_groups(parts, chosen)  # one result per detector (channel groups)
@@ -798,6 +1025,9 @@ def _analyze(
             task[0].model["training_tests"].update(trained)
             task[0].model["windowed_tests"].update(windowed)
         _merge_tests(results, parts)
+        if reused is not None:
+            for r in results:
+                r.model["training_tests"] = dict(reused.training_tests.get(r.detector, {}))
         # on threads: what was left of the tests when the detection ended
         timings["test"] = time.perf_counter() - t0
         corrected = None
@@ -825,6 +1055,25 @@ def _analyze(
             skipped=skipped,
             corrected=corrected,
             corrections=corrections,
+            saved=reused
+            if kept is None
+            else SavedModel(
+                channels=tuple(chosen),
+                rate_hz=aligned.rate_hz,
+                train_s=(tr[0], tr[1]),
+                inputs=tuple(
+                    (str(i.path), i.sha256 or _digest(Path(i.path))) for i in archive.inputs
+                ),
+                groups=tuple(tuple(g) for g in groups),
+                fits=kept,
+                healthy=healthy,
+                training_tests={r.detector: dict(r.model["training_tests"]) for r in results},
+                false_alarm_rate=ctx.false_alarm_rate,
+                config=ctx.config if isinstance(ctx.config, dict) else dict(ctx.config),
+                time_source=options.time_source,
+                created=iso_utc(time.time_ns()) or "",
+            ),
+            model_info=None if reused is None else _model_info(reused, options),
         )
 
 
@@ -901,6 +1150,7 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
             }
             for r in a.results
         ],
+        "model": a.model_info,
         "skipped_detectors": a.skipped,
         "notes": a.notes,
         "corrections": _jsonable(a.corrections),
@@ -963,10 +1213,14 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
     """``analyzer run``: analyze, write the outputs, return the exit code (0 or 1)."""
     out = Path(out_dir)
     created = prepare_dir(out, "--out")  # before the work: it must not fail at the end
+    if options.save_model is not None:
+        check_model_path(options.save_model)
     work = make_scratch()
     try:
         analysis = analyze(inputs, options, work)
         write_outputs(analysis, out)
+        if options.save_model is not None and analysis.saved is not None:
+            save_model(options.save_model, analysis.saved)
         return 1 if analysis.faulty else 0
     except BaseException:
         if created:
@@ -979,6 +1233,27 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
 def load_options(config_path: str | None, **kw: Any) -> RunOptions:
     """RunOptions with the config file loaded and validated (every detector section,
     whether or not that detector runs: a typo never passes silently)."""
+    model_path = kw.pop("model", None)
+    save = kw.pop("save_model", None)
+    if model_path is not None:
+        for option, key in (("--train", "train"), ("--channels", "channels")):
+            if kw.get(key) is not None:
+                raise UsageError(
+                    f"{option}: not used with --model (the model was fitted on its own "
+                    "channels and healthy window)"
+                )
+        if config_path is not None:
+            raise UsageError(
+                f"--config {config_path}: not used with --model (the model holds the "
+                "configuration it was fitted with)"
+            )
+        if save is not None:
+            raise UsageError("--save-model: not used with --model (nothing is fitted)")
+        kw["model"] = load_model(model_path)
+        kw["model_path"] = str(model_path)
+    if save is not None:
+        kw["save_model"] = Path(save)
+        check_model_path(kw["save_model"])
     cfg = load_config(config_path, set(REGISTRY))
     _check_detector_options(cfg)
     if kw.get("train") is not None:

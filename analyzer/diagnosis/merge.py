@@ -485,7 +485,7 @@ def _alarmed(e: Event) -> float:
     return float(e.evidence.get("first_alarm_s", e.onset_s))
 
 
-def traced_into_training(findings: list[Finding]) -> list[str]:
+def traced_into_training(findings: list[Finding], reused: bool = False) -> list[str]:
     """A note for each finding whose shape one of its detectors traced back into the
     healthy window (evidence ``starts_in_training``: a drift's line meets zero before the
     window's end, so the finding starts at the end and its confidence was halved).
@@ -496,7 +496,11 @@ def traced_into_training(findings: list[Finding]) -> list[str]:
     a real pump that warms up over its run (SKAB's anomaly-free record, trained on its
     first 20 %) a vibration RMS was reported drifting from the window's end, traced to
     1 109 s, and while it lasted, the faults of the sensors modelled with it were taken for
-    it (one fault at a time). The note says so and what tells them apart."""
+    it (one fault at a time). The note says so and what tells them apart.
+
+    With ``reused`` (``--model``: fitted on another recording) the window is only the
+    filters' warm-up at the record's start, and a shape traced back into it means the
+    fault was already there when the record began."""
     notes = []
     for f in findings:
         traced = [
@@ -505,6 +509,18 @@ def traced_into_training(findings: list[Finding]) -> list[str]:
             if e.evidence.get("starts_in_training") and "traced_onset_s" in e.evidence
         ]
         if not traced:
+            continue
+        if reused:
+            back = (
+                "the record's start"
+                if min(traced) <= 0
+                else f"{min(traced):.3f} s, inside the warm-up"
+            )
+            notes.append(
+                f"{f.type.value} fault on {f.channel} from {f.onset_s:.3f} s (the end of the "
+                f"filters' warm-up, where the search starts): traced back to {back}, so it "
+                "was probably there when the record began (see the archive before this one)"
+            )
             continue
         notes.append(
             f"{f.type.value} fault on {f.channel} from {f.onset_s:.3f} s (the end of the "

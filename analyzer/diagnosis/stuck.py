@@ -10,7 +10,7 @@ else it is stuck (the contract's ``other``).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -36,11 +36,16 @@ def relabel_frozen(
     values: npt.NDArray[Any],
     channels: Sequence[str],
     rate_hz: float,
-    train: tuple[int, int],
+    healthy: tuple[int, int] | Mapping[str, tuple[float, float]],
 ) -> list[str]:
     """Set the type of each finding whose channel is frozen over the fault: ``other``
     (stuck, magnitude ``stuck_at`` and ``offset`` from the healthy mean) or
-    ``multiplicative`` with gain 0 (dead); returns a note per change."""
+    ``multiplicative`` with gain 0 (dead); returns a note per change. ``healthy`` is the
+    training window (an index range of ``values``) or each channel's healthy mean and
+    standard deviation (:func:`healthy_stats`; ``--model`` brings those of its own
+    training window)."""
+    if not isinstance(healthy, Mapping):
+        healthy = healthy_stats(values, channels, healthy)
     notes: list[str] = []
     index = {c: j for j, c in enumerate(channels)}
     n = values.shape[0]
@@ -52,11 +57,10 @@ def relabel_frozen(
         b = n if f.end_s is None else min(n, int(round(f.end_s * rate_hz)))
         seg = read_column(values, j, a, b)
         seg = seg[np.isfinite(seg)]
-        healthy = np.asarray(values[train[0] : train[1], j], dtype=np.float64)
-        healthy = healthy[np.isfinite(healthy)]
-        if seg.size < MIN_FLAT_SAMPLES or healthy.size < 2:
+        stats = healthy.get(f.channel)
+        if seg.size < MIN_FLAT_SAMPLES or stats is None:
             continue
-        sd = float(np.std(healthy))
+        mean, sd = stats
         if not sd > 0 or float(np.std(seg)) > FLAT * sd:
             continue
         level = float(np.median(seg))
@@ -67,7 +71,7 @@ def relabel_frozen(
             what = "dead (reads 0)"
         else:
             f.type = FaultType.OTHER
-            f.magnitude = {"stuck_at": level, "offset": level - float(np.mean(healthy))}
+            f.magnitude = {"stuck_at": level, "offset": level - mean}
             what = f"stuck at {level:.6g}"
         f.evidence["frozen"] = {
             "level": level,
@@ -81,3 +85,17 @@ def relabel_frozen(
                 f"read it as {before})"
             )
     return notes
+
+
+def healthy_stats(
+    values: npt.NDArray[Any], channels: Sequence[str], train: tuple[int, int]
+) -> dict[str, tuple[float, float]]:
+    """Each channel's mean and standard deviation over the training window ``train``
+    (finite samples only); a channel with fewer than 2 of them is left out."""
+    out: dict[str, tuple[float, float]] = {}
+    for j, c in enumerate(channels):
+        x = np.asarray(values[train[0] : train[1], j], dtype=np.float64)
+        x = x[np.isfinite(x)]
+        if x.size >= 2:
+            out[c] = (float(np.mean(x)), float(np.std(x)))
+    return out

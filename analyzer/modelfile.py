@@ -1,0 +1,169 @@
+"""A fitted analysis saved to a file and reused on the next archive.
+
+STYLE principle 2: a fitted model is a value that can be saved, reported and reused.
+``analyzer run A --save-model M`` fits every detector on A's healthy window and writes
+the fitted models to ``M``; ``analyzer run B --model M`` (or ``analyzer watch ... --model
+M``) runs them over B without fitting anything on B. That is how an SHM archive of one
+file per hour is audited: train once on a recording known to be healthy, then test each
+new file whole, a fault present from a file's first sample included (training on the
+file's own first minutes would take such a fault for the healthy state).
+
+The file is the magic line :data:`MAGIC` followed by a pickle of :class:`SavedModel`.
+Loading never runs arbitrary code: the unpickler only builds classes of the analyzer
+package, numpy arrays and plain builtin values (:class:`_Restricted`, after the pickle
+documentation's "Restricting Globals"); anything else is refused as a damaged or foreign
+file. A model is tied to the analyzer version that wrote it (the fitted classes change
+between versions): another version's model is refused with a message saying so.
+"""
+
+from __future__ import annotations
+
+import builtins
+import io
+import pickle
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from analyzer import __version__
+from analyzer.errors import UsageError
+
+MAGIC = b"analyzer.model/1\n"
+
+_BUILTINS = frozenset(
+    {
+        "complex",
+        "float",
+        "int",
+        "bool",
+        "str",
+        "bytes",
+        "bytearray",
+        "tuple",
+        "list",
+        "dict",
+        "set",
+        "frozenset",
+        "slice",
+        "range",
+    }  # fmt: skip
+)
+_NUMPY = {
+    "numpy": frozenset({"dtype", "ndarray"}),
+    "numpy._core.numeric": frozenset({"_frombuffer"}),
+    "numpy.core.numeric": frozenset({"_frombuffer"}),
+    "numpy._core.multiarray": frozenset({"_reconstruct", "scalar"}),
+    "numpy.core.multiarray": frozenset({"_reconstruct", "scalar"}),
+}
+
+
+@dataclass(frozen=True, slots=True)
+class SavedModel:
+    """Everything ``--model`` needs to analyze another archive as the training run did.
+
+    ``fits[group][detector]`` is ``(detector, fitted model)``: the detector object (its
+    settings) and what its ``fit`` returned, per channel group (``""`` for the whole
+    channel set, ``"-g0"``, ``"-g1"``... for the groups the training run partitioned the
+    channels into, in ``groups``). ``healthy[channel]`` is the channel's mean and
+    standard deviation over the training window (a frozen sensor is told by them);
+    ``training_tests[detector][channel]`` are the residual tests of that window, shown
+    again in the reports of the archives the model analyzes."""
+
+    channels: tuple[str, ...]
+    rate_hz: float
+    train_s: tuple[float, float]
+    inputs: tuple[tuple[str, str], ...]
+    """``(path, sha256)`` of each file of the training archive."""
+    groups: tuple[tuple[str, ...], ...]
+    fits: dict[str, dict[str, tuple[Any, Any]]]
+    healthy: dict[str, tuple[float, float]]
+    training_tests: dict[str, dict[str, Any]] = field(default_factory=dict)
+    false_alarm_rate: float = 1e-6
+    config: dict[str, Any] = field(default_factory=dict)
+    """The config's context the detectors were fitted with (groups, state-space model)."""
+    time_source: str = "log"
+    analyzer_version: str = __version__
+    created: str = ""
+
+    def detectors(self) -> list[str]:
+        """The detectors fitted in this model, in the order they ran."""
+        return list(dict.fromkeys(name for fits in self.fits.values() for name in fits))
+
+    def describe(self) -> dict[str, Any]:
+        """What ``findings.json`` and the report say about the model (JSON-friendly)."""
+        return {
+            "trained_on": [{"path": p, "sha256": h} for p, h in self.inputs],
+            "train": {"start_s": self.train_s[0], "end_s": self.train_s[1]},
+            "channels": list(self.channels),
+            "rate_hz": self.rate_hz,
+            "detectors": self.detectors(),
+            "analyzer_version": self.analyzer_version,
+            "created": self.created,
+        }
+
+
+class _Restricted(pickle.Unpickler):
+    """Builds only the analyzer's own classes, numpy arrays and builtin values."""
+
+    def find_class(self, module: str, name: str) -> Any:
+        if module == "builtins" and name in _BUILTINS:
+            return getattr(builtins, name)
+        if name in _NUMPY.get(module, ()):
+            return super().find_class(module, name)
+        if module == "numpy" and name[:1] != "_":
+            obj = super().find_class(module, name)
+            if isinstance(obj, type) and issubclass(obj, __import__("numpy").generic):
+                return obj  # numpy scalar types (float64, int64, bool_...)
+        if module == "analyzer" or module.startswith("analyzer."):
+            obj = super().find_class(module, name)
+            if isinstance(obj, type):
+                return obj
+        raise pickle.UnpicklingError(f"refused to build {module}.{name}")
+
+
+def save_model(path: Path, model: SavedModel) -> None:
+    """Write ``model`` to ``path`` atomically (a reader never sees half a file)."""
+    from analyzer.pipeline import write_atomic
+
+    write_atomic(path, MAGIC + pickle.dumps(model, protocol=5))
+
+
+def check_model_path(path: Path) -> None:
+    """Before any work: ``--save-model``'s directory must exist and ``path`` must not be
+    a directory (:class:`UsageError` naming the option), so a long analysis does not
+    fail at its end for want of a place to write its model."""
+    if path.is_dir():
+        raise UsageError(f"--save-model: {path} is a directory, expected a file name")
+    if not path.parent.is_dir():
+        raise UsageError(f"--save-model: directory {path.parent} does not exist")
+
+
+def load_model(path: str | Path) -> SavedModel:
+    """The model saved in ``path`` by ``--save-model``; :class:`UsageError` naming the
+    option and the file when it is missing, damaged, not a model, or of another analyzer
+    version."""
+    p = Path(path)
+    try:
+        data = p.read_bytes()
+    except OSError as err:
+        raise UsageError(f"--model: cannot read {p}: {err.strerror or err}") from None
+    if not data.startswith(MAGIC):
+        head = data[: len(MAGIC)].split(b"\n", 1)[0]
+        if head.startswith(b"analyzer.model/"):
+            raise UsageError(
+                f"--model: {p} is a model of another format ({head.decode(errors='replace')}),"
+                f" this analyzer reads {MAGIC.decode().strip()}"
+            )
+        raise UsageError(f"--model: {p} is not an analyzer model (written by --save-model)")
+    try:
+        model = _Restricted(io.BytesIO(data[len(MAGIC) :])).load()
+    except Exception as err:  # noqa: BLE001 - any failure to unpickle is a bad file
+        raise UsageError(f"--model: {p} is damaged or not an analyzer model ({err})") from None
+    if not isinstance(model, SavedModel):
+        raise UsageError(f"--model: {p} does not hold an analyzer model")
+    if model.analyzer_version != __version__:
+        raise UsageError(
+            f"--model: {p} was written by analyzer {model.analyzer_version}, this is "
+            f"{__version__}: fit it again with --save-model"
+        )
+    return model
