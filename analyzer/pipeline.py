@@ -301,7 +301,10 @@ def _longest_window(obj: Any, depth: int = 0) -> int:
 def _model_detectors(model: SavedModel, options: RunOptions) -> list[str]:
     """The detectors ``--model`` runs: all it holds, or those of ``--detectors`` (each
     of which it must hold)."""
-    held = model.detectors()
+    # registry order, as a run that fits them (the fits themselves may have been kept in
+    # the order they finished): the results, and so the findings' merge, follow it
+    rank = {n: i for i, n in enumerate(REGISTRY)}
+    held = sorted(model.detectors(), key=lambda n: rank.get(n, len(rank)))
     if not options.detectors:
         return held
     absent = [d for d in options.detectors if d not in held]

@@ -171,7 +171,7 @@ def fit_ar(Y: FloatArray, order: int, names: Sequence[str] | None = None) -> ARM
     n_par = k * m
     aic = float(logdet + 2.0 * n_par / N)
     bic = float(logdet + np.log(N) * n_par / N)
-    return ARModel(np.asarray(coefs, dtype=np.float64), sigma, mean, scale, N, aic, bic)
+    return ARModel(np.ascontiguousarray(coefs, dtype=np.float64), sigma, mean, scale, N, aic, bic)
 
 
 def _dependence(Z: FloatArray, X: FloatArray, rank: int, names: Sequence[str] | None) -> str:

@@ -209,6 +209,8 @@ class ReportView:
     coverage: FigureView | None
     coverage_note: str
     train: str
+    models_heading: str
+    reused: bool
     models: list[ModelView]
     methods: list[MethodView]
     tests_method: Method
@@ -264,6 +266,8 @@ def build_view(
         coverage=coverage,
         coverage_note=coverage_note,
         train=a.train_text(),
+        models_heading=a.models_heading(),
+        reused=bool(doc.get("model")),
         models=[a.model_view(r) for r in doc.get("detectors", [])],
         methods=a.methods(),
         tests_method=TESTS,
@@ -338,7 +342,29 @@ class _Access:
 
     def train_text(self) -> str:
         a, b = self.train_s
-        return f"{fmt.seconds(a)} to {fmt.seconds(b)} from the start ({fmt.duration(b - a)})"
+        model = self.doc.get("model")
+        if model:  # --model: nothing was fitted on this archive
+            tr = model.get("train") or {}
+            files = ", ".join(Path(str(i.get("path", ""))).name for i in model["trained_on"][:3])
+            more = len(model["trained_on"]) - 3
+            return (
+                f"No training on this archive: the models were fitted on {files}"
+                + (f" and {more} more" if more > 0 else "")
+                + f" ({fmt.seconds(float(tr.get('start_s', 0.0)))} to "
+                f"{fmt.seconds(float(tr.get('end_s', 0.0)))} of it) and loaded from "
+                f"{model.get('path')}; the first {fmt.duration(b - a + 1 / self.rate)} here "
+                "let the filters settle, and no fault is searched there"
+            )
+        return (
+            f"Training (healthy reference) window: {fmt.seconds(a)} to {fmt.seconds(b)} from "
+            f"the start ({fmt.duration(b - a)})"
+        )
+
+    def models_heading(self) -> str:
+        model = self.doc.get("model")
+        if model:
+            return f"Models loaded from {Path(str(model.get('path'))).name}"
+        return "Models fitted on the training window"
 
     def far(self) -> float | None:
         for r in self.doc.get("detectors", []):

@@ -203,3 +203,35 @@ def test_grouped_run_on_the_cluster_gives_the_local_findings(cluster, tmp_path, 
     for a, b in zip(remote.findings, local.findings, strict=True):
         assert a.onset_s == pytest.approx(b.onset_s, abs=1e-9)
         assert a.magnitude == pytest.approx(b.magnitude, rel=1e-9)
+
+
+def test_models_saved_and_run_on_the_cluster_match_the_local_ones(
+    cluster, tmp_path, capsys, same_findings
+):
+    """``--save-model`` with the fits done on workers writes the model the local run
+    writes, and ``--model`` runs on the cluster give the local findings."""
+    faults = {}
+    for label, extra in {
+        "serial": [],
+        "dask": ["--scheduler", cluster.scheduler_address],
+    }.items():
+        model = tmp_path / f"{label}.model"
+        code = main(["run", str(SAMPLE), "--out", str(tmp_path / f"fit-{label}"),
+                     "--no-progress", "--save-model", str(model), *extra])  # fmt: skip
+        assert code == 1, capsys.readouterr().err
+        for where, more in {
+            "serial": [],
+            "dask": ["--scheduler", cluster.scheduler_address],
+        }.items():
+            out = tmp_path / f"{label}-model-{where}"
+            code = main(["run", str(SAMPLE), "--out", str(out), "--no-progress",
+                         "--model", str(model), *more])  # fmt: skip
+            assert code == 1, capsys.readouterr().err
+            doc = json.loads((out / "findings.json").read_text())
+            faults[label, where] = [
+                (f["channel"], f["type"], f["onset_s"], f["magnitude"]) for f in doc["faults"]
+            ]
+    want = faults["serial", "serial"]
+    assert want[0][:2] == ("/s4.data", "additive")
+    for got in faults.values():
+        same_findings(got, want)

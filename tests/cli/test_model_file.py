@@ -1,0 +1,275 @@
+"""``run --save-model FILE`` and ``run/watch --model FILE``: fit once on a healthy
+recording, then analyze later archives whole (a fault present from their first sample
+included) with the saved models, and every way a model file or its options can be wrong
+(exit 2, one line naming the option)."""
+
+from __future__ import annotations
+
+import io
+import json
+import pickle
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_helpers import one_line_error, run_cli
+
+from analyzer import __version__
+from analyzer.diagnosis.merge import Finding
+from analyzer.diagnosis.stuck import healthy_stats, relabel_frozen
+from analyzer.modelfile import MAGIC, SavedModel, _Restricted, load_model, save_model
+from analyzer.simulate import inject_fault, simulate_building
+from analyzer.types import FaultType
+from analyzer.writers import write_archive
+
+RATE = 100.0
+TRAIN_S = 80.0
+PIECE_S = 40.0
+
+
+@pytest.fixture(scope="module")
+def record() -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """One continuous simulated record: the training file and the later pieces are cut
+    from it, as hourly files are from a monitoring system's stream (same sensors, same
+    noise)."""
+    t, y, names = simulate_building(5, TRAIN_S + 4 * PIECE_S, RATE, seed=11)
+    return t, y, names
+
+
+def _write(path: Path, t: np.ndarray, y: np.ndarray, names: list[str]) -> Path:
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(path, "csv", t_ns, {n: y[:, j] for j, n in enumerate(names)})
+    return path
+
+
+def _piece(record, k: int) -> tuple[np.ndarray, np.ndarray]:
+    t, y, _ = record
+    a = int((TRAIN_S + k * PIECE_S) * RATE)
+    b = a + int(PIECE_S * RATE)
+    return t[a:b], y[a:b].copy()
+
+
+@pytest.fixture(scope="module")
+def model(record, tmp_path_factory) -> Path:
+    t, y, names = record
+    d = tmp_path_factory.mktemp("model")
+    n = int(TRAIN_S * RATE)
+    src = _write(d / "train.csv", t[:n], y[:n], names)
+    code = _main(["run", src, "--out", d / "out", "--train", f"0:{TRAIN_S - 1}",
+                  "--save-model", d / "m.model"])  # fmt: skip
+    assert code == 0
+    return d / "m.model"
+
+
+def _main(argv: list) -> int:
+    from analyzer.cli import main
+
+    return main([str(a) for a in argv] + ["--no-progress"])
+
+
+def _faults(out: Path) -> list[dict]:
+    return json.loads((out / "findings.json").read_text())["faults"]
+
+
+def test_a_saved_model_holds_what_the_run_fitted(model, record):
+    m = load_model(model)
+    assert m.channels == tuple(record[2])
+    assert m.rate_hz == RATE
+    assert m.train_s == (0.0, TRAIN_S - 1)
+    assert set(m.detectors()) >= {"ar_kalman_bank", "detection_filter", "equivalent_model"}
+    assert m.inputs[0][0].endswith("train.csv") and len(m.inputs[0][1]) == 64
+    # each channel's healthy mean and spread are those of the training window
+    y = record[1][: int((TRAIN_S - 1) * RATE) + 1]
+    for j, c in enumerate(m.channels):
+        assert m.healthy[c][0] == pytest.approx(y[:, j].mean(), rel=1e-9, abs=1e-12)
+        assert m.healthy[c][1] == pytest.approx(y[:, j].std(), rel=1e-9)
+    assert m.training_tests["ar_kalman_bank"]  # shown again in later reports
+
+
+@pytest.mark.parametrize(
+    ("kind", "size"), [("additive", 1.0), ("multiplicative", 1.3), ("drift", 1 / 30)]
+)
+def test_a_fault_present_from_the_first_sample_is_found_with_the_model(
+    kind, size, model, record, tmp_path
+):
+    """Trained on its own first minutes, the archive takes such a fault for the healthy
+    state; the model trained on the earlier recording sees it, of the right type and
+    size, from the end of the filters' warm-up."""
+    t, y = _piece(record, 1)
+    sd = float(record[1][: int(TRAIN_S * RATE), 2].std())
+    amount = size if kind == "multiplicative" else size * sd
+    y[:, 2] = inject_fault(y[:, 2], RATE, kind, 0.0, amount)
+    src = _write(tmp_path / "faulty.csv", t, y, record[2])
+    assert _main(["run", src, "--out", tmp_path / "o", "--model", model]) == 1
+    faults = _faults(tmp_path / "o")
+    assert [(f["channel"], f["type"]) for f in faults] == [("s2", kind)]
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    warm_end = doc["train"]["end_s"]
+    assert 0 < warm_end < 0.5 * PIECE_S
+    assert faults[0]["onset_s"] == pytest.approx(warm_end + 1 / RATE, abs=0.02)
+    key = {"additive": "offset", "multiplicative": "gain", "drift": "rate_per_s"}[kind]
+    assert faults[0]["magnitude"][key] == pytest.approx(amount, rel=0.03)
+    if kind == "additive":  # trained on its own first half, the archive cannot see it
+        assert _main(["run", src, "--out", tmp_path / "own", "--train", "0:20"]) == 0
+
+
+def test_healthy_pieces_give_no_finding_and_name_the_model(model, record, tmp_path):
+    for k in (0, 2, 3):
+        t, y = _piece(record, k)
+        src = _write(tmp_path / f"p{k}.csv", t, y, record[2])
+        assert _main(["run", src, "--out", tmp_path / f"o{k}", "--model", model]) == 0
+    doc = json.loads((tmp_path / "o0" / "findings.json").read_text())
+    assert doc["model"]["path"] == str(model)
+    assert doc["model"]["trained_on"][0]["path"].endswith("train.csv")
+    assert doc["model"]["train"] == {"start_s": 0.0, "end_s": TRAIN_S - 1}
+    assert any("nothing was fitted on this archive" in n for n in doc["notes"])
+    bank = next(d for d in doc["detectors"] if d["name"] == "ar_kalman_bank")
+    assert bank["model"]["training_tests"] == load_model(model).training_tests["ar_kalman_bank"]
+    html = (tmp_path / "o0" / "report.html").read_text()
+    assert "nothing was fitted on this archive" in html
+
+
+def test_threads_and_serial_give_the_same_findings_with_a_model(model, record, tmp_path):
+    t, y = _piece(record, 2)
+    y[:, 4] = inject_fault(y[:, 4], RATE, "additive", 10.0, 2.0 * y[:, 4].std())
+    src = _write(tmp_path / "f.csv", t, y, record[2])
+    assert _main(["run", src, "--out", tmp_path / "a", "--model", model, "--jobs", "1"]) == 1
+    assert _main(["run", src, "--out", tmp_path / "b", "--model", model, "--jobs", "2"]) == 1
+    assert _faults(tmp_path / "a") == _faults(tmp_path / "b")
+    assert [(f["channel"], f["type"]) for f in _faults(tmp_path / "a")] == [("s4", "additive")]
+
+
+def test_the_watcher_runs_each_archive_with_the_model(model, record, tmp_path):
+    inbox = tmp_path / "inbox"
+    inbox.mkdir()
+    t, y = _piece(record, 3)
+    y[:, 0] = inject_fault(y[:, 0], RATE, "additive", 0.0, 2.0 * y[:, 0].std())
+    _write(inbox / "hour.csv", t, y, record[2])
+    reports = tmp_path / "reports"
+    # in a process of its own: the watcher's analysis processes fork from a fork server
+    # that would otherwise outlive this test
+    argv = ["watch", inbox, "--out", reports, "--once", "--model", model, "--no-progress"]
+    done = subprocess.run(
+        [sys.executable, "-m", "analyzer", *map(str, argv)], capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    (doc,) = [json.loads(p.read_text()) for p in reports.rglob("findings.json")]
+    assert doc["model"]["path"] == str(model)
+    assert [(f["channel"], f["type"]) for f in doc["faults"]] == [("s0", "additive")]
+
+
+# ------------------------------------------------------------------------- bad input
+
+
+def test_bad_model_options_are_one_line_errors(model, record, tmp_path, capsys):
+    t, y = _piece(record, 0)
+    src = _write(tmp_path / "p.csv", t, y, record[2])
+    out = tmp_path / "o"
+    cases = [
+        (["--model", tmp_path / "absent.model"], ["--model", "absent.model"]),
+        (["--model", src], ["--model", "not an analyzer model"]),
+        (["--model", model, "--train", "0:5"], ["--train", "--model"]),
+        (["--model", model, "--channels", "s0"], ["--channels", "--model"]),
+        (["--model", model, "--rate", "50"], ["--rate 50", "100 Hz"]),
+        (["--model", model, "--detectors", "error_function"], ["--detectors error_function"]),
+        (["--save-model", tmp_path / "no" / "m.model"], ["--save-model", "does not exist"]),
+        (["--save-model", tmp_path], ["--save-model", "is a directory"]),
+        (["--model", model, "--save-model", tmp_path / "x"], ["--save-model", "--model"]),
+    ]
+    for extra, needles in cases:
+        code, _, err = run_cli(["run", src, "--out", out, *extra], capsys)
+        assert code == 2, extra
+        one_line_error(err, *needles)
+        assert not out.exists()
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[thresholds]\nfalse_alarm_rate = 1e-5\n")
+    code, _, err = run_cli(["run", src, "--out", out, "--model", model, "--config", cfg], capsys)
+    assert code == 2
+    one_line_error(err, "--config", "--model")
+
+
+def test_an_archive_without_a_model_channel_is_refused(model, record, tmp_path, capsys):
+    t, y = _piece(record, 0)
+    src = _write(tmp_path / "p.csv", t, y[:, :4], record[2][:4])
+    code, _, err = run_cli(["run", src, "--out", tmp_path / "o", "--model", model], capsys)
+    assert code == 2
+    one_line_error(err, "--model", "no channel s4")
+
+
+def test_damaged_foreign_and_other_version_models_are_refused(model, tmp_path, capsys):
+    data = model.read_bytes()
+    cut = tmp_path / "cut.model"
+    cut.write_bytes(data[: len(data) // 2])
+    other = tmp_path / "other.model"
+    save_model(other, replace(load_model(model), analyzer_version="0.0.1"))
+    future = tmp_path / "future.model"
+    future.write_bytes(b"analyzer.model/9\n" + data[len(MAGIC) :])
+    for path, needle in [
+        (cut, "damaged"),
+        (other, "analyzer 0.0.1"),
+        (future, "another format"),
+    ]:
+        with pytest.raises(Exception, match=needle):
+            load_model(path)
+        code, _, err = run_cli(["run", model, "--out", tmp_path / "o", "--model", path], capsys)
+        assert code == 2
+        one_line_error(err, "--model", needle)
+
+
+class _Boom:
+    def __reduce__(self):
+        import os
+
+        return (os.system, ("echo pwned > /dev/null",))
+
+
+def test_a_model_file_cannot_run_code(tmp_path):
+    """Only the analyzer's classes, numpy arrays and builtin values are built: a pickle
+    that would call ``os.system`` (or any function) is refused, not run."""
+    evil = tmp_path / "evil.model"
+    evil.write_bytes(MAGIC + pickle.dumps(_Boom(), protocol=5))
+    with pytest.raises(Exception, match="refused to build posix.system|refused to build os"):
+        load_model(evil)
+    # what a model is made of goes through
+    arr = np.arange(6.0).reshape(2, 3)
+    back = _Restricted(io.BytesIO(pickle.dumps((arr, np.float64(2.5), FaultType.DRIFT)))).load()
+    assert np.array_equal(back[0], arr) and back[1] == 2.5 and back[2] is FaultType.DRIFT
+    with pytest.raises(pickle.UnpicklingError, match="refused"):
+        _Restricted(io.BytesIO(pickle.dumps(Path("x")))).load()
+
+
+def test_frozen_sensors_are_told_by_saved_healthy_stats_as_by_the_window():
+    """``relabel_frozen`` with the model's per-channel mean and spread decides as with
+    the training window they were taken from."""
+    rng = np.random.default_rng(3)
+    values = rng.standard_normal((2000, 2)) + [5.0, 0.0]
+    values[1200:, 0] = 7.25  # stuck
+    values[1500:, 1] = 0.0  # dead
+
+    def findings() -> list[Finding]:
+        return [
+            Finding("a", FaultType.ADDITIVE, 12.0, None, {"offset": 2.0}, 0.9, "x"),
+            Finding("b", FaultType.ADDITIVE, 15.0, None, {"offset": 0.1}, 0.9, "x"),
+        ]
+
+    by_window, by_stats = findings(), findings()
+    notes_w = relabel_frozen(by_window, values, ["a", "b"], 100.0, (0, 1000))
+    stats = healthy_stats(values, ["a", "b"], (0, 1000))
+    notes_s = relabel_frozen(by_stats, values, ["a", "b"], 100.0, stats)
+    assert notes_w == notes_s and len(notes_w) == 2
+    assert [(f.type, f.magnitude) for f in by_window] == [(f.type, f.magnitude) for f in by_stats]
+    assert by_stats[0].type is FaultType.OTHER and by_stats[0].magnitude["stuck_at"] == 7.25
+    assert by_stats[1].magnitude == {"gain": 0.0}
+
+
+def test_saved_model_round_trips_through_the_restricted_loader(model):
+    m = load_model(model)
+    assert isinstance(m, SavedModel) and m.analyzer_version == __version__
+    again = Path(str(model) + ".copy")
+    save_model(again, m)
+    m2 = load_model(again)
+    assert m2.channels == m.channels and m2.healthy == m.healthy
+    again.unlink()
