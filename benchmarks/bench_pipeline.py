@@ -43,9 +43,10 @@ standard deviation per hour): a fault that lasts, whose alarms go on for hours o
 channel and on the channels its error spreads to, the costliest case for the detectors'
 isolation and diagnosis.
 
-``--model FILE`` times the runs of a saved model (``analyzer run ... --save-model
-FILE``, for example on the 1-hour archive): nothing is fitted on the timed archives, as
-when an SHM system's hourly files are audited against one healthy recording.
+``--model`` first fits each format's model on its shortest archive (``analyzer run
+--save-model``, not timed), then times runs with ``--model``: nothing is fitted on the
+timed archives, as when an SHM system's hourly files are audited against one healthy
+recording.
 
 ``--profile`` runs the longest archive of the first format once more under cProfile
 and prints the top functions by own time and the analyzer functions by cumulative time.
@@ -54,7 +55,7 @@ script, not a timed test::
 
     python benchmarks/bench_pipeline.py [--hours 1,4] [--formats csv,mcap] [--quick]
                                         [--continuous] [--profile] [--keep DIR]
-                                        [--jobs N] [--detectors A,B] [--model FILE]
+                                        [--jobs N] [--detectors A,B] [--model]
                                         [--fault additive|multiplicative|drift]
 """
 
@@ -75,6 +76,7 @@ import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
+from collections.abc import Sequence  # noqa: E402
 from dataclasses import dataclass, field  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
@@ -298,14 +300,21 @@ def driver_info(log: Path, archive: Path, returncode: int | None) -> dict[str, A
     return info
 
 
-def run_child(archive: Path, out: Path, log: Path, profile: Path | None = None) -> Run:
-    """``analyzer run archive --out out`` in a child; wall time and its own peak RSS."""
+def run_child(
+    archive: Path,
+    out: Path,
+    log: Path,
+    profile: Path | None = None,
+    extra: Sequence[str] = (),
+) -> Run:
+    """``analyzer run archive --out out [extra]`` in a child; wall time and its own peak
+    RSS."""
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
     if profile is not None:
         env["BENCH_PROFILE"] = str(profile)
     cmd = [sys.executable, "-c", DRIVER, "run", str(archive), "--out", str(out), "--no-progress"]
-    cmd += RUN_ARGS
+    cmd += RUN_ARGS + list(extra)
     with log.open("w") as sink:
         begin = time.perf_counter()
         proc = subprocess.Popen(cmd, stdout=sink, stderr=subprocess.STDOUT, env=env)
@@ -453,9 +462,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument(
         "--model",
-        metavar="FILE",
-        help="pass --model FILE to analyzer run: the saved fits of an earlier run "
-        "(analyzer run ... --save-model FILE) run over the archive, nothing is fitted",
+        action="store_true",
+        help="fit once per format on the shortest archive (analyzer run --save-model, not "
+        "timed), then time runs with --model: nothing is fitted on the timed archives",
     )
     parser.add_argument(
         "--repeat",
@@ -476,8 +485,6 @@ def main(argv: list[str] | None = None) -> int:
         RUN_ARGS.extend(["--jobs", str(args.jobs)])
     if args.detectors:
         RUN_ARGS.extend(["--detectors", args.detectors])
-    if args.model:
-        RUN_ARGS.extend(["--model", str(Path(args.model).resolve())])
     floors = 2 if args.quick else 8
     piece_s = 180.0 if args.quick else 3600.0
     hours = [float(h) for h in parse_list(args.hours or ("0.05,0.2" if args.quick else "1,4"))]
@@ -510,6 +517,21 @@ def main(argv: list[str] | None = None) -> int:
         for f in formats:
             size = sum(p.stat().st_size for p in pieces[f]) / 2**20
             print(f"  {f}: {len(pieces[f])} files, {size:.0f} MB, written in {spent[f]:.0f} s")
+        models: dict[str, list[str]] = {f: [] for f in formats}
+        if args.model:  # one fit per format (channel names differ), on the shortest archive
+            for f in formats:
+                first = archive_dir(data_dir, f, min(hours), pieces[f], piece_s)
+                path = Path(tmp) / f"{f}.model"
+                fit = run_child(
+                    first, Path(tmp) / f"fit_{f}", Path(tmp) / f"log_fit_{f}.txt",
+                    extra=["--save-model", str(path)],
+                )  # fmt: skip
+                models[f] = ["--model", str(path)]
+                print(
+                    f"  fitted the {f} model on {min(hours):g} h ({path.stat().st_size / 1e6:.0f}"
+                    f" MB) in {fit.wall_s:.1f} s, not timed below",
+                    flush=True,
+                )
         tried: dict[tuple[str, float], list[Run]] = {
             (f, h): [] for f in formats for h in sorted(hours)
         }
@@ -518,7 +540,9 @@ def main(argv: list[str] | None = None) -> int:
                 for h in sorted(hours):
                     archive = archive_dir(data_dir, f, h, pieces[f], piece_s)
                     out = Path(tmp) / f"out_{f}_{h:g}h"
-                    run = run_child(archive, out, Path(tmp) / f"log_{f}_{h:g}h.txt")
+                    run = run_child(
+                        archive, out, Path(tmp) / f"log_{f}_{h:g}h.txt", extra=models[f]
+                    )
                     run.fmt, run.hours = f, h
                     tried[f, h].append(run)
                     print(
@@ -541,7 +565,11 @@ def main(argv: list[str] | None = None) -> int:
             f, h = formats[0], max(hours)
             archive = archive_dir(data_dir, f, h, pieces[f], piece_s)
             run_child(
-                archive, Path(tmp) / "out_profile", Path(tmp) / "log_profile.txt", profile_path
+                archive,
+                Path(tmp) / "out_profile",
+                Path(tmp) / "log_profile.txt",
+                profile_path,
+                models[f],
             )
 
         print()
@@ -593,7 +621,7 @@ def main(argv: list[str] | None = None) -> int:
         print()
         print(
             "targets (issue 9)"
-            + (" -- with --model: the fits were made before, on another run" if args.model else "")
+            + (" -- with --model: the fits were made before, in another run" if args.model else "")
         )
         for f in formats:
             mine = [r for r in runs if r.fmt == f]
