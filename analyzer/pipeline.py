@@ -263,22 +263,26 @@ def _model_channels(store: ChannelStore, model: SavedModel, options: RunOptions)
     return list(model.channels)
 
 
-def _warmup(model: SavedModel, n: int) -> int:
+def _warmup(model: SavedModel) -> int:
     """Samples at the start of a record analyzed with ``--model`` in which no fault is
     searched: the filters start from a zero state there, so each fitted model's settling
-    time (``settle``, a bank's ``warmup``) plus its longest alarm window (the windowed
-    statistics at the first searched sample must not reach back into the settling);
-    at least :data:`WARMUP_S`, at most half the record."""
+    time (:func:`_settling`) plus its longest alarm window (the windowed
+    statistics at the first searched sample must not reach back into the settling); at
+    least :data:`WARMUP_S`. (The caller keeps it to at most half the record.)"""
     warm = int(np.ceil(WARMUP_S * model.rate_hz))
     for fits in model.fits.values():
         for _, fitted in fits.values():
             warm = max(warm, _settling(fitted) + _longest_window(fitted))
-    return max(1, min(warm, n // 2))
+    return warm
 
 
 def _settling(fitted: Any) -> int:
+    """Samples a fitted model's filters take to forget their start state to 1e-6 (its
+    ``settle``; a bank's slowest estimator's, not the bank's 1e-12 block warm-up)."""
+    own = getattr(fitted, "settle", 0) or 0
     bank = getattr(fitted, "bank", None)
-    return max(int(getattr(fitted, "settle", 0) or 0), int(getattr(bank, "warmup", 0) or 0))
+    per_estimator = getattr(bank, "settle", ()) or ()
+    return int(max([int(own), *(int(x) for x in per_estimator)]))
 
 
 def _longest_window(obj: Any, depth: int = 0) -> int:
@@ -864,8 +868,17 @@ def _analyze(
         if reused is not None:
             # no fit here: the first samples only let the filters settle (no fault is
             # searched there), the rest is tested whole
-            warm = _warmup(reused, aligned.n)
+            wanted = _warmup(reused)
+            warm = max(1, min(wanted, aligned.n // 2))
             tr = (0.0, (warm - 1) / aligned.rate_hz)
+            if warm < wanted:
+                notes.append(
+                    f"the model's filters need {wanted / aligned.rate_hz:.6g} s to settle from "
+                    f"their zero start state, longer than half this record: the fault search "
+                    f"starts at {warm / aligned.rate_hz:.6g} s, and a finding there may be "
+                    "the filters still settling (a longer file, or one that follows on, "
+                    "tells)"
+                )
         elif options.train is not None:
             tr = parse_train(options.train, aligned.start_ns, duration, absolute)
         elif options.config.train is not None:

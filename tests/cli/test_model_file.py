@@ -273,3 +273,16 @@ def test_saved_model_round_trips_through_the_restricted_loader(model):
     m2 = load_model(again)
     assert m2.channels == m.channels and m2.healthy == m.healthy
     again.unlink()
+
+
+def test_a_file_shorter_than_twice_the_settling_says_so(model, record, tmp_path):
+    """The search starts at half such a file at the latest, with a note that a finding
+    there may be the filters still settling."""
+    t, y = _piece(record, 0)
+    n = int(4.0 * RATE)  # the model's filters settle in about 3 s
+    src = _write(tmp_path / "short.csv", t[:n], y[:n], record[2])
+    code = _main(["run", src, "--out", tmp_path / "o", "--model", model])
+    assert code in (0, 1)
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    assert doc["train"]["end_s"] == pytest.approx(2.0 - 1 / RATE)
+    assert any("longer than half this record" in n for n in doc["notes"]), doc["notes"]
