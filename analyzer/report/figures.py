@@ -131,10 +131,14 @@ def _legend(
 
 
 def coverage_figure(
-    rows: Sequence[CoverageRow], duration_s: float, train: tuple[float, float], key: str
+    rows: Sequence[CoverageRow],
+    duration_s: float,
+    train: tuple[float, float],
+    key: str,
+    train_label: str = "training window",
 ) -> Markup:
     """Every channel's coverage as a bar, gaps in red, fault periods in orange, the
-    training window shaded."""
+    training window (``train_label``: with ``--model``, the filters' warm-up) shaded."""
     axis = TimeAxis.for_span(duration_s)
     n = len(rows)
     names = [label(r.name) for r in reversed(rows)]
@@ -190,7 +194,7 @@ def coverage_figure(
             Patch(color="#b0b0b0", label="not analyzed"),
             Patch(color=C_GAP, label="gap"),
             Patch(color=C_FAULT, label="fault period"),
-            Patch(color=C_TRAIN, alpha=0.15, label="training window"),
+            Patch(color=C_TRAIN, alpha=0.15, label=train_label),
         ]
         ax.legend(
             handles=handles, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncols=5, frameon=False
@@ -289,13 +293,14 @@ def residual_figure(
     train: tuple[float, float],
     duration_s: float,
     key: str,
+    train_label: str = "training window",
 ) -> Markup:
     """Top: the leading detector's residual over the whole archive with the training
-    window and the onset; ``overview`` is its ``envelope(t, r, MAX_POINTS)``, computed by
-    the caller (a 4-hour record at 100 Hz is 1.44 M samples: their envelope is what
-    this figure would draw anyway, and it ships to a worker process in 24 kB). Below,
-    per detector that saw the fault: its residual around the onset, its moving mean and
-    the threshold band that mean must leave."""
+    window (``train_label``) and the onset; ``overview`` is its ``envelope(t, r,
+    MAX_POINTS)``, computed by the caller (a 4-hour record at 100 Hz is 1.44 M samples:
+    their envelope is what this figure would draw anyway, and it ships to a worker
+    process in 24 kB). Below, per detector that saw the fault: its residual around the
+    onset, its moving mean and the threshold band that mean must leave."""
     axis = TimeAxis.for_span(duration_s)
     sec = TimeAxis("s", 1.0)
     with style():
@@ -308,7 +313,7 @@ def residual_figure(
             color=C_TRAIN,
             alpha=0.15,
             lw=0,
-            label="training window",
+            label=train_label,
         )
         _plot_envelope(ax, overview, axis, C_RESIDUAL, f"residual ({overview_name})")
         _mark_onset(ax, onset_s, end_s, axis)

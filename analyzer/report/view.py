@@ -297,6 +297,8 @@ class _Access:
         self.results = {r.detector: r for r in getattr(analysis, "results", []) or []}
         tr = doc.get("train") or {}
         self.train_s = (float(tr.get("start_s", 0.0)), float(tr.get("end_s", 0.0)))
+        # with --model the shaded start is the filters' warm-up, not a training window
+        self.train_label = "filters' warm-up" if doc.get("model") else "training window"
 
     # -- verdict ----------------------------------------------------------------------
     def title(self) -> str:
@@ -597,6 +599,7 @@ class _Access:
                 self.train_s,
                 self.duration,
                 f"{view.anchor}-residual",
+                self.train_label,
             ),
         )
         bands = "; ".join(
@@ -609,7 +612,7 @@ class _Access:
             "residual",
             "Residual time history",
             "Residual (measured minus fault-free estimate, channel units). Top: the whole "
-            f"record for {lead}, training window shaded green. Below: each detector that saw "
+            f"record for {lead}, {self.train_label} shaded green. Below: each detector that saw "
             "the fault, around the onset, with the trailing moving mean (black) and the band "
             "it must leave to raise an alarm (red; set from the training residual and the "
             f"false-alarm rate: {bands or 'not available'}). The log-mean-square statistic, "
@@ -781,7 +784,9 @@ class _Access:
             ]
             rows.append(fg.CoverageRow(c.name, a, b, c.name in self.analyzed, gl, fl))
         span = max([self.duration, *[r.end_s for r in rows]])
-        job = fg.FigureJob("coverage_figure", (rows, span, self.train_s, "coverage"))
+        job = fg.FigureJob(
+            "coverage_figure", (rows, span, self.train_s, "coverage", self.train_label)
+        )
         note = ""
         if len(chans) > len(shown):
             note = (
@@ -793,7 +798,7 @@ class _Access:
             "analyzed, grey: not analyzed), gaps in red (for analyzed channels located "
             f"on the common clock, to within {fmt.duration(self.duration / GAP_BINS)}; "
             "for the others only counted in the table), fault periods in orange, the "
-            "training window shaded green."
+            f"{self.train_label} shaded green."
         )
         return self.figure("coverage", "Channel coverage", caption, job), note
 
