@@ -286,3 +286,22 @@ def test_a_file_shorter_than_twice_the_settling_says_so(model, record, tmp_path)
     doc = json.loads((tmp_path / "o" / "findings.json").read_text())
     assert doc["train"]["end_s"] == pytest.approx(2.0 - 1 / RATE)
     assert any("longer than half this record" in n for n in doc["notes"]), doc["notes"]
+
+
+def test_a_model_of_channel_groups_runs_each_group_as_fitted(tmp_path):
+    """More than 16 channels are partitioned into groups at the fit; the model keeps the
+    groups and each group's fitted detectors, and runs them so on a later file."""
+    t, y, names = simulate_building(10, 150.0, RATE, seed=3, sensors_per_floor=2)
+    n0 = int(100 * RATE)
+    src = _write(tmp_path / "train.csv", t[:n0], y[:n0], names)
+    model = tmp_path / "g.model"
+    assert _main(["run", src, "--out", tmp_path / "fit", "--train", "0:99",
+                  "--save-model", model]) == 0  # fmt: skip
+    m = load_model(model)
+    assert len(m.groups) > 1 and sorted(c for g in m.groups for c in g) == sorted(names)
+    assert {f"-g{k}" for k in range(len(m.groups))} <= set(m.fits)
+    z = y[n0:].copy()
+    z[:, 7] = inject_fault(z[:, 7], RATE, "additive", 0.0, 1.5 * y[:n0, 7].std())
+    later = _write(tmp_path / "later.csv", t[n0:], z, names)
+    assert _main(["run", later, "--out", tmp_path / "o", "--model", model]) == 1
+    assert [(f["channel"], f["type"]) for f in _faults(tmp_path / "o")] == [("s7", "additive")]
