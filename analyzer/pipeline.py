@@ -1228,9 +1228,10 @@ def write_outputs(analysis: Analysis, out_dir: Path) -> dict[str, Any]:
 def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) -> int:
     """``analyzer run``: analyze, write the outputs, return the exit code (0 or 1)."""
     out = Path(out_dir)
-    created = prepare_dir(out, "--out")  # before the work: it must not fail at the end
     if options.save_model is not None:
         check_model_path(options.save_model)
+        _not_into_inputs(options.save_model, inputs)
+    created = prepare_dir(out, "--out")  # before the work: it must not fail at the end
     work = make_scratch()
     try:
         analysis = analyze(inputs, options, work)
@@ -1244,6 +1245,19 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         raise
     finally:
         remove_scratch(work)
+
+
+def _not_into_inputs(path: Path, inputs: Sequence[str | Path]) -> None:
+    """``--save-model`` must not overwrite an input file nor add a file to an input
+    directory (an archive of several files): inputs are never modified."""
+    target = path.resolve()
+    for i in inputs:
+        src = Path(i).resolve()
+        if target == src or (src.is_dir() and src in target.parents):
+            raise UsageError(
+                f"--save-model: {path} is {'an input' if target == src else 'inside the input'}"
+                f" {i}: inputs are never modified; write the model elsewhere"
+            )
 
 
 def load_options(config_path: str | None, **kw: Any) -> RunOptions:

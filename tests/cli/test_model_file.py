@@ -178,6 +178,7 @@ def test_bad_model_options_are_one_line_errors(model, record, tmp_path, capsys):
         (["--save-model", tmp_path / "no" / "m.model"], ["--save-model", "does not exist"]),
         (["--save-model", tmp_path], ["--save-model", "is a directory"]),
         (["--model", model, "--save-model", tmp_path / "x"], ["--save-model", "--model"]),
+        (["--save-model", src], ["--save-model", "is an input"]),
     ]
     for extra, needles in cases:
         code, _, err = run_cli(["run", src, "--out", out, *extra], capsys)
@@ -189,6 +190,20 @@ def test_bad_model_options_are_one_line_errors(model, record, tmp_path, capsys):
     code, _, err = run_cli(["run", src, "--out", out, "--model", model, "--config", cfg], capsys)
     assert code == 2
     one_line_error(err, "--config", "--model")
+
+
+def test_a_model_is_not_written_into_an_input_directory(record, tmp_path, capsys):
+    archive = tmp_path / "archive"
+    archive.mkdir()
+    t, y = _piece(record, 0)
+    _write(archive / "a.csv", t, y, record[2])
+    before = sorted(p.name for p in archive.iterdir())
+    code, _, err = run_cli(
+        ["run", archive, "--out", tmp_path / "o", "--save-model", archive / "m.model"], capsys
+    )
+    assert code == 2
+    one_line_error(err, "--save-model", "inside the input")
+    assert sorted(p.name for p in archive.iterdir()) == before
 
 
 def test_an_archive_without_a_model_channel_is_refused(model, record, tmp_path, capsys):
