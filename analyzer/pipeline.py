@@ -243,9 +243,12 @@ WARMUP_S = 1.0
 """With ``--model``: the least time at a record's start in which no fault is searched."""
 
 
-def _model_channels(store: ChannelStore, model: SavedModel, options: RunOptions) -> list[str]:
+def _model_channels(
+    store: ChannelStore, model: SavedModel, options: RunOptions, notes: list[str]
+) -> list[str]:
     """``--model``'s channels, all of which this archive must have (:class:`UsageError`
-    naming the option and the missing ones), in the model's order."""
+    naming the option and the missing ones), in the model's order; a note names the
+    archive's other channels (not analyzed) and a time source other than the model's."""
     have = {i.name for i in store.infos()}
     missing = [c for c in model.channels if c not in have]
     where = options.model_path or "the model"
@@ -259,6 +262,19 @@ def _model_channels(store: ChannelStore, model: SavedModel, options: RunOptions)
         raise UsageError(
             f"--rate {options.rate:g}: the model {where} was fitted at {model.rate_hz:.6g} Hz; "
             "leave --rate out or fit a model at that rate"
+        )
+    fitted = set(model.channels)
+    others = [i.name for i in store.infos() if i.name not in fitted and not i.constant]
+    if others:
+        more = f" and {len(others) - 5} more" if len(others) > 5 else ""
+        notes.append(
+            f"{len(others)} channel(s) of this archive are not in the model and were not "
+            f"analyzed: {', '.join(others[:5])}{more} (a model fitted with them includes them)"
+        )
+    if options.time_source != model.time_source:
+        notes.append(
+            f"timestamps: --time {options.time_source} here, the model was fitted on "
+            f"--time {model.time_source} ones"
         )
     return list(model.channels)
 
@@ -844,7 +860,7 @@ def _analyze(
         if reused is None:
             chosen = _select(store, options.channels, notes)
         else:
-            chosen = _model_channels(store, reused, options)
+            chosen = _model_channels(store, reused, options, notes)
         t0 = time.perf_counter()
         aligned: AlignedSeries = store.align(
             chosen, options.rate if reused is None else reused.rate_hz

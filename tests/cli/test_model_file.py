@@ -206,6 +206,16 @@ def test_a_model_is_not_written_into_an_input_directory(record, tmp_path, capsys
     assert sorted(p.name for p in archive.iterdir()) == before
 
 
+def test_channels_beyond_the_model_are_named_in_a_note(model, record, tmp_path):
+    t, y = _piece(record, 0)
+    extra = np.column_stack([y, y[:, 0] * 0.5 + 1.0])
+    src = _write(tmp_path / "more.csv", t, extra, [*record[2], "spare"])
+    assert _main(["run", src, "--out", tmp_path / "o", "--model", model]) == 0
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    assert any("not in the model" in n and "spare" in n for n in doc["notes"]), doc["notes"]
+    assert [c["name"] for c in doc["channels"] if c["analyzed"]] == record[2]
+
+
 def test_an_archive_without_a_model_channel_is_refused(model, record, tmp_path, capsys):
     t, y = _piece(record, 0)
     src = _write(tmp_path / "p.csv", t, y[:, :4], record[2][:4])
