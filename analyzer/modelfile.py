@@ -9,8 +9,9 @@ new file whole, a fault present from a file's first sample included (training on
 file's own first minutes would take such a fault for the healthy state).
 
 The file is the magic line :data:`MAGIC` followed by a pickle of :class:`SavedModel`.
-Loading never runs arbitrary code: the unpickler only builds classes of the analyzer
-package, numpy arrays and plain builtin values (:class:`_Restricted`, after the pickle
+Loading never runs arbitrary code: the unpickler only builds the classes a model is
+made of (the analyzer's detectors, diagnosis and statistics), numpy arrays and plain
+builtin values (:class:`_Restricted`, after the pickle
 documentation's "Restricting Globals"); anything else is refused as a damaged or foreign
 file. A model is tied to the analyzer version that wrote it (the fitted classes change
 between versions): another version's model is refused with a message saying so.
@@ -55,6 +56,18 @@ _NUMPY = {
     "numpy._core.multiarray": frozenset({"_reconstruct", "scalar"}),
     "numpy.core.multiarray": frozenset({"_reconstruct", "scalar"}),
 }
+
+
+_MODEL_MODULES = (
+    "analyzer.detectors.",
+    "analyzer.diagnosis.",
+    "analyzer.stats.",
+    "analyzer.types",
+    "analyzer.modelfile",
+)
+"""The packages whose classes a model is made of (settings, fitted models, calibrations):
+a pickle may call a class it names with arguments of its choosing, so classes elsewhere in
+the analyzer (stores, scratch space, writers) are refused too."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -114,7 +127,7 @@ class _Restricted(pickle.Unpickler):
             obj = super().find_class(module, name)
             if isinstance(obj, type) and issubclass(obj, __import__("numpy").generic):
                 return obj  # numpy scalar types (float64, int64, bool_...)
-        if module == "analyzer" or module.startswith("analyzer."):
+        if module.startswith(_MODEL_MODULES):
             obj = super().find_class(module, name)
             if isinstance(obj, type):
                 return obj

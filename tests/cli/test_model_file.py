@@ -264,6 +264,11 @@ def test_a_model_file_cannot_run_code(tmp_path):
     assert np.array_equal(back[0], arr) and back[1] == 2.5 and back[2] is FaultType.DRIFT
     with pytest.raises(pickle.UnpicklingError, match="refused"):
         _Restricted(io.BytesIO(pickle.dumps(Path("x")))).load()
+    # analyzer classes outside what a model is made of (a store would open files) too
+    from analyzer.errors import UsageError
+
+    with pytest.raises(pickle.UnpicklingError, match="refused to build analyzer.errors"):
+        _Restricted(io.BytesIO(pickle.dumps(UsageError("x")))).load()
 
 
 def test_frozen_sensors_are_told_by_saved_healthy_stats_as_by_the_window():
