@@ -318,6 +318,17 @@ def _longest_window(obj: Any, depth: int = 0) -> int:
     return 0
 
 
+def _in_registry_order(
+    kept: dict[str, dict[str, tuple[Any, Any]]],
+) -> dict[str, dict[str, tuple[Any, Any]]]:
+    """Each channel group's fits in registry order (threads keep them as they finish)."""
+    rank = {n: i for i, n in enumerate(REGISTRY)}
+    return {
+        tag: {n: fits[n] for n in sorted(fits, key=lambda n: rank.get(n, len(rank)))}
+        for tag, fits in kept.items()
+    }
+
+
 def _model_detectors(model: SavedModel, options: RunOptions) -> list[str]:
     """The detectors ``--model`` runs: all it holds, or those of ``--detectors`` (each
     of which it must hold)."""
@@ -1097,7 +1108,7 @@ def _analyze(
                     (str(i.path), i.sha256 or _digest(Path(i.path))) for i in archive.inputs
                 ),
                 groups=tuple(tuple(g) for g in groups),
-                fits=kept,
+                fits=_in_registry_order(kept),
                 healthy=healthy,
                 training_tests={r.detector: dict(r.model["training_tests"]) for r in results},
                 false_alarm_rate=ctx.false_alarm_rate,

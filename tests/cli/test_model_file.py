@@ -335,3 +335,26 @@ def test_a_model_of_channel_groups_runs_each_group_as_fitted(tmp_path):
     later = _write(tmp_path / "later.csv", t[n0:], z, names)
     assert _main(["run", later, "--out", tmp_path / "o", "--model", model]) == 1
     assert [(f["channel"], f["type"]) for f in _faults(tmp_path / "o")] == [("s7", "additive")]
+
+
+def test_a_serial_fit_saves_the_model_the_threads_save(model, record, tmp_path):
+    """``--jobs 1`` (fit and run in one task per detector) and threads (fits first, kept
+    as they finish) write models that give the same findings."""
+    t, y, names = record
+    n = int(TRAIN_S * RATE)
+    src = _write(tmp_path / "train.csv", t[:n], y[:n], names)
+    serial = tmp_path / "serial.model"
+    code = _main(["run", src, "--out", tmp_path / "fit", "--train", f"0:{TRAIN_S - 1}",
+                  "--save-model", serial, "--jobs", "1"])  # fmt: skip
+    assert code == 0
+    assert load_model(serial).detectors() == load_model(model).detectors()
+    t2, y2 = _piece(record, 2)
+    y2[:, 1] = inject_fault(y2[:, 1], RATE, "multiplicative", 0.0, 1.4)
+    later = _write(tmp_path / "later.csv", t2, y2, names)
+    found = []
+    for m in (model, serial):
+        out = tmp_path / m.stem
+        assert _main(["run", later, "--out", out, "--model", m]) == 1
+        found.append(_faults(out))
+    assert found[0] == found[1]
+    assert [(f["channel"], f["type"]) for f in found[0]] == [("s1", "multiplicative")]
