@@ -28,7 +28,7 @@ from analyzer.detectors.base import SIGNAL_DTYPE
 from analyzer.diagnosis import Finding, merge_events, one_fault_at_a_time
 from analyzer.diagnosis.changes import Calibration
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
-from analyzer.diagnosis.merge import traced_into_training
+from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.stuck import healthy_stats, relabel_frozen
 from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
 from analyzer.grouping import partition
@@ -1057,6 +1057,9 @@ def _analyze(
         # a frozen sensor is told by its readings, not by the residual's shape
         notes.extend(relabel_frozen(findings, values, chosen, aligned.rate_hz, healthy))
         notes.extend(traced_into_training(findings, reused is not None))
+        if reused is not None:
+            search_s = train[1] / aligned.rate_hz
+            notes.extend(present_at_search_start(findings, search_s, aligned.rate_hz))
         t0 = time.perf_counter()
         parts = results
         results = _merge_groups(parts, chosen)  # one result per detector (channel groups)

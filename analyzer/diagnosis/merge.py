@@ -531,3 +531,23 @@ def traced_into_training(findings: list[Finding], reused: bool = False) -> list[
             "healthy window that covers such changes (--train) tells them apart"
         )
     return notes
+
+
+def present_at_search_start(findings: list[Finding], start_s: float, rate_hz: float) -> list[str]:
+    """With ``--model`` the fault search starts after the filters' warm-up (``start_s``):
+    a finding that starts there was already present, so its onset is only an upper
+    bound. Its evidence says so (``onset_at_or_before``) and a note says it (unless
+    :func:`traced_into_training` already traced its shape back)."""
+    notes = []
+    for f in findings:
+        if f.onset_s > start_s + 1.5 / rate_hz:
+            continue
+        f.evidence["onset_at_or_before"] = True
+        traced = any(e.evidence.get("starts_in_training") for e in f.events)
+        if not traced:
+            notes.append(
+                f"{f.type.value} fault on {f.channel}: present when the search started at "
+                f"{start_s:.3f} s (after the filters' warm-up), so it started at or before "
+                "then (see the archive before this one)"
+            )
+    return notes

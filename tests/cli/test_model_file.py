@@ -112,6 +112,9 @@ def test_a_fault_present_from_the_first_sample_is_found_with_the_model(
     assert faults[0]["onset_s"] == pytest.approx(warm_end + 1 / RATE, abs=0.02)
     key = {"additive": "offset", "multiplicative": "gain", "drift": "rate_per_s"}[kind]
     assert faults[0]["magnitude"][key] == pytest.approx(amount, rel=0.03)
+    # its onset is an upper bound: it was there when the search started
+    assert faults[0]["evidence"]["onset_at_or_before"] is True
+    assert any("s2" in n and ("at or before" in n or "record began" in n) for n in doc["notes"])
     if kind == "additive":  # trained on its own first half, the archive cannot see it
         assert _main(["run", src, "--out", tmp_path / "own", "--train", "0:20"]) == 0
 
