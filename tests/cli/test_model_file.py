@@ -268,10 +268,10 @@ def test_a_model_file_cannot_run_code(tmp_path):
     with pytest.raises(pickle.UnpicklingError, match="refused"):
         _Restricted(io.BytesIO(pickle.dumps(Path("x")))).load()
     # analyzer classes outside what a model is made of (a store would open files) too
-    from analyzer.errors import UsageError
+    from analyzer.config import Config
 
-    with pytest.raises(pickle.UnpicklingError, match="refused to build analyzer.errors"):
-        _Restricted(io.BytesIO(pickle.dumps(UsageError("x")))).load()
+    with pytest.raises(pickle.UnpicklingError, match="refused to build analyzer.config.Config"):
+        _Restricted(io.BytesIO(pickle.dumps(Config()))).load()
 
 
 def test_frozen_sensors_are_told_by_saved_healthy_stats_as_by_the_window():
