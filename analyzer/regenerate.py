@@ -261,6 +261,13 @@ def corrected_values(
         if method == "skipped":
             records.append(record(method, note="no fault model, residual or reference"))
             continue
+        before = ""
+        evidence = getattr(ev, "evidence", None) or {}
+        if method in ("offset", "gain") and evidence.get("onset_at_or_before") and start > 0:
+            # --model: the fault was there when the search began, after the filters'
+            # warm-up; a constant offset or gain holds over that warm-up as well
+            before = f"corrected from the record's start (the fault was there at {ev.onset_s:g} s)"
+            start = 0
         count, total, squares = 0, 0.0, 0.0
         for a in range(start, stop, RELEASE_ROWS):
             b = min(stop, a + RELEASE_ROWS)
@@ -277,9 +284,10 @@ def corrected_values(
             release(rows)
             for whole in (out, done, res, ref):
                 release(None if whole is None else whole[a:b])
-        note = ""
+        note = before
         if count < stop - start:
-            note = f"{stop - start - count} samples left as measured (gap or already corrected)"
+            left = f"{stop - start - count} samples left as measured (gap or already corrected)"
+            note = f"{note}; {left}" if note else left
         records.append(
             record(
                 method,

@@ -115,6 +115,12 @@ def test_a_fault_present_from_the_first_sample_is_found_with_the_model(
     # its onset is an upper bound: it was there when the search started
     assert faults[0]["evidence"]["onset_at_or_before"] is True
     assert any("s2" in n and ("at or before" in n or "record began" in n) for n in doc["notes"])
+    if kind != "drift":  # --corrected: a constant offset or gain undone from the start
+        out = tmp_path / "c"
+        assert _main(["run", src, "--out", out, "--model", model, "--corrected"]) == 1
+        fixed = np.loadtxt(out / "corrected.csv", delimiter=",", skiprows=1)[:, 3]
+        truth = _piece(record, 1)[1][:, 2]
+        assert np.abs(fixed - truth).max() < 0.05 * np.abs(truth).max()
     if kind == "additive":  # trained on its own first half, the archive cannot see it
         assert _main(["run", src, "--out", tmp_path / "own", "--train", "0:20"]) == 0
 
