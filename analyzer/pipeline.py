@@ -1002,34 +1002,12 @@ def _analyze(
         kept: dict[str, dict[str, tuple[Any, Any]]] | None = (
             {} if options.save_model is not None else None
         )
+        shared = (options, data, ctx, executor, timings, spill_dir, start_tests)
         try:
             if len(groups) == 1 and len(groups[0]) == len(chosen):
-                results, skipped = _run_detectors(
-                    names,
-                    options,
-                    data,
-                    ctx,
-                    executor,
-                    timings,
-                    spill_dir,
-                    start_tests,
-                    "",
-                    *_fits_of("", fits, kept),
-                )
+                results, skipped = _run_detectors(names, *shared, "", *_fits_of("", fits, kept))
             else:
-                results, skipped = _run_groups(
-                    groups,
-                    names,
-                    options,
-                    data,
-                    ctx,
-                    executor,
-                    timings,
-                    spill_dir,
-                    start_tests,
-                    fits,
-                    kept,
-                )
+                results, skipped = _run_groups(groups, names, *shared, fits, kept)
         except BaseException:
             for _, handle in tests:
                 if handle is not None:
