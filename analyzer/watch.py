@@ -52,9 +52,12 @@ Running
     down) with one BLAS thread unless ``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS`` /
     ``MKL_NUM_THREADS`` say otherwise. One log line per archive on stderr when it starts
     and one when it ends (verdict and duration). The options of ``run`` apply to every
-    archive. ``--once`` processes what is in INBOX (waiting for it to be complete) and
-    exits. An archive that stays stable but structurally unfinished for 10 minutes (a
-    recorder that died, a truncated copy) is analyzed anyway, and gets its error record.
+    archive; with ``--model FILE`` (saved by ``run --save-model``) every archive is tested
+    whole against that one fitted model instead of being fitted on its own first minutes
+    (the model file is read once, at start-up). ``--once`` processes what is in INBOX
+    (waiting for it to be complete) and exits. An archive that stays stable but
+    structurally unfinished for 10 minutes (a recorder that died, a truncated copy) is
+    analyzed anyway, and gets its error record.
 
 Stopping
     SIGINT or SIGTERM: no new analysis starts; the running ones finish and are recorded,
