@@ -249,7 +249,8 @@ def _model_channels(
     """``--model``'s channels, all of which this archive must have (:class:`UsageError`
     naming the option and the missing ones), in the model's order; a note names the
     archive's other channels (not analyzed) and a time source other than the model's."""
-    have = {i.name for i in store.infos()}
+    infos = store.infos()
+    have = {i.name for i in infos}
     missing = [c for c in model.channels if c not in have]
     where = options.model_path or "the model"
     if missing:
@@ -264,7 +265,7 @@ def _model_channels(
             "leave --rate out or fit a model at that rate"
         )
     fitted = set(model.channels)
-    others = [i.name for i in store.infos() if i.name not in fitted and not i.constant]
+    others = [i.name for i in infos if i.name not in fitted and not i.constant]
     if others:
         more = f" and {len(others) - 5} more" if len(others) > 5 else ""
         notes.append(
@@ -369,6 +370,7 @@ def _model_info(model: SavedModel, options: RunOptions) -> dict[str, Any]:
 
 
 def _digest(path: Path) -> str:
+    """An input's SHA-256, or "" when it is gone."""
     return sha256_of(path) if path.exists() else ""
 
 
@@ -1093,7 +1095,7 @@ def _analyze(
                 healthy=healthy,
                 training_tests={r.detector: dict(r.model["training_tests"]) for r in results},
                 false_alarm_rate=ctx.false_alarm_rate,
-                config=ctx.config if isinstance(ctx.config, dict) else dict(ctx.config),
+                config=dict(ctx.config),
                 time_source=options.time_source,
                 created=iso_utc(time.time_ns()) or "",
             ),
@@ -1130,7 +1132,7 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
             {
                 "path": str(i.path),
                 "format": str(i.format),
-                "sha256": i.sha256 or (sha256_of(Path(i.path)) if Path(i.path).exists() else ""),
+                "sha256": i.sha256 or _digest(Path(i.path)),
                 "errors": list(i.errors),
             }
             for i in a.inputs

@@ -44,26 +44,19 @@ from analyzer.cli import main
 from analyzer.simulate import inject_fault, simulate_building
 from analyzer.writers import write_archive
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from sweep_real_background import DEFAULT_CORPUS, load  # noqa: E402
+
 KINDS = ("additive", "multiplicative", "drift")
 KEY = {"additive": "offset", "multiplicative": "gain", "drift": "rate_per_s"}
 
 
-CORPUS = Path(__file__).resolve().parents[2] / "shared" / "realdata"
-SKAB = Path("benchmark/SKAB/data/anomaly-free/anomaly-free.csv")
-
-
 def _skab(corpus: Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """SKAB's anomaly-free record (read from the corpus, never copied): seconds from its
-    first row, the 8 sensors, their names."""
-    import pandas as pd
-
-    path = corpus / SKAB
-    if not path.is_file():
-        raise SystemExit(f"sweep_model_reuse: {path}: not found (give --corpus DIR)")
-    frame = pd.read_csv(path, sep=";")
-    stamps = pd.to_datetime(frame.pop("datetime"))
-    t = (stamps - stamps.iloc[0]).dt.total_seconds().to_numpy()
-    return t, frame.to_numpy(dtype=np.float64), list(frame.columns)
+    """SKAB's anomaly-free record as ``sweep_real_background.py`` reads it (from the
+    corpus, never copied): seconds from its first row, the 8 sensors, their names."""
+    frame, seconds = load(corpus)
+    sensors = frame.drop(columns="datetime")
+    return seconds, sensors.to_numpy(dtype=np.float64), list(sensors.columns)
 
 
 def _write(path: Path, t: np.ndarray, y: np.ndarray, names: list[str]) -> Path:
@@ -113,7 +106,7 @@ def main_(argv: list[str] | None = None) -> int:
         help="a real record instead: SKAB's anomaly-free pump run from --corpus, its first "
         "--train-frac fitted, the rest cut into --pieces files",
     )
-    ap.add_argument("--corpus", type=Path, default=CORPUS)
+    ap.add_argument("--corpus", type=Path, default=DEFAULT_CORPUS)
     ap.add_argument("--train-frac", type=float, default=0.45)
     args = ap.parse_args(argv)
 
