@@ -21,7 +21,7 @@ Residual convention: ``measured - estimated`` (the paper plots ``estimated - mea
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
 from typing import Any, ClassVar
@@ -488,6 +488,8 @@ class ARKalmanBank:
         for fold in folds:
             resid[fold.a : fold.b] = fold.resid
             moments.merge(fold.moments)
+        # pass 2 needs the folds' models and banks, not their residuals: not held twice
+        folds = [replace(fold, resid=resid[fold.a : fold.b]) for fold in folds]
         inv_covs = moments.inverse_covariances()
         cons = np.full((n, ar.m), np.nan)
         nises = map_in(context, _cv_consistency_task, [(train, fold, inv_covs) for fold in folds])
@@ -1046,6 +1048,8 @@ def bank_block(
     into: BankOutputs | None = None,
     at: int = 0,
     consistency: bool = True,
+    innov_moments: _Moments | None = None,
+    moments_from: int = 0,
 ) -> BankBlock:
     """Bank outputs for ``Y[warm:]`` (raw units), every estimator filtered from a zero
     state at ``Y[0]``, written to rows ``at ..`` of ``into`` when given. Works through
@@ -1056,7 +1060,10 @@ def bank_block(
 
     The consistency ``nu' S^-1 nu / (m - 1)`` is returned in ``nis`` for a whitened
     bank, or given ``inv_covs`` (one inverse innovation covariance per estimator); else
-    the innovations themselves (``innov``) and ``nis`` is NaN. Without ``consistency``
+    the innovations themselves (``innov``) and ``nis`` is NaN; or, given
+    ``innov_moments``, the innovations of the output rows from ``moments_from`` on are
+    added to it chunk by chunk instead (``innov`` None: a long window's innovations,
+    ``m - 1`` values per estimator and sample, are not held). Without ``consistency``
     (or when ``into`` has no ``nis``) only the residuals and estimates are computed,
     by the estimate outputs alone where the bank has them (``nis`` is None)."""
     N, m = Y.shape
@@ -1070,7 +1077,8 @@ def bank_block(
     system = bank.system if nis is not None or bank.estimates is None else bank.estimates
     innov = None
     if nis is not None and inv_covs is None and not bank.whitened:
-        innov = np.empty((L, m, m - 1))
+        if innov_moments is None:
+            innov = np.empty((L, m, m - 1))
         nis[:] = np.nan
     inv_stack = None if inv_covs is None else np.stack([np.asarray(c) for c in inv_covs])
     gap = ~np.isfinite(np.asarray(Y))
@@ -1114,6 +1122,8 @@ def bank_block(
             nis[rows] = np.einsum("cjq,cjq->cj", nu, nu) / (m - 1)
         elif innov is not None:
             innov[rows] = nu
+        elif innov_moments is not None and inv_covs is None:
+            innov_moments.add(nu[max(0, moments_from - rows.start) :])
         else:
             assert inv_stack is not None
             nt = nu.transpose(1, 0, 2)  # (m, c, m - 1)
@@ -1228,11 +1238,27 @@ def _cv_fold_task(
         )
     bank = BankFilter.build(estimators, block)
     w = min(a, bank.warmup)
-    out = bank_block(ar.mean, ar.scale, bank, train[a - w : b], w, None)
     moments = _Moments(ar.m)
-    assert out.innov is not None
-    moments.add(out.innov[max(0, skip - a) :])
-    keep = out.innov.nbytes * CV_FOLDS <= KEPT_INNOVATIONS_BYTES
+    # the innovations are kept for pass 2 when they fit in KEPT_INNOVATIONS_BYTES; else
+    # (a long window) only their moments are taken, chunk by chunk, and pass 2 filters
+    # the fold again
+    keep = (b - a) * ar.m * (ar.m - 1) * 8 * CV_FOLDS <= KEPT_INNOVATIONS_BYTES
+    held_out = train[a - w : b]
+    if keep:
+        out = bank_block(ar.mean, ar.scale, bank, held_out, w, None)
+        assert out.innov is not None
+        moments.add(out.innov[max(0, skip - a) :])
+    else:
+        out = bank_block(
+            ar.mean,
+            ar.scale,
+            bank,
+            held_out,
+            w,
+            None,
+            innov_moments=moments,
+            moments_from=max(0, skip - a),
+        )
     return _Fold(a, b, ar, bank, out.resid, moments, out.innov if keep else None)
 
 

@@ -61,7 +61,11 @@ only when clearly below the other filters); it is reported when
 some other filter -- one that measures the sensor -- left its direction (confirmation).
 An alarm no filter confirms is model mismatch, noted but not reported. Thresholds of the
 AR-based bank are calibrated out of sample (models refitted on each half of the healthy
-window, run on the other half), since in-sample innovations are too small.
+window, run on the other half), since in-sample innovations are too small. The
+calibration streams the bank's outputs over the window (fault estimates kept, residual
+vectors reduced to running moments, then filtered again for their normalized squares),
+so fitting on an hour holds a few values per filter and sample, not every residual
+vector.
 
 Model: the ``[model]`` of the config when one is given, else a multichannel AR model
 identified on the healthy window, in block observer-canonical form (:func:`ar_observer_form`).
@@ -69,7 +73,7 @@ identified on the healthy window, in block observer-canonical form (:func:`ar_ob
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, ClassVar
 
@@ -943,26 +947,26 @@ class DetectionFilter:
         if cfg is not None:
             # a given model: only the noise ratio was fitted, calibrate in sample
             skip = min(settle, train.shape[0] // 4)
-            outs = [(q[skip:], z[skip:]) for q, z, _ in self._outputs(model, filters, train)]
+            segments = [_Segment(model, filters, train, skip)]
         else:
-            outs = self._held_out(model, data, train, sigma, context)
+            segments = self._held_out(model, data, train, sigma, context)
+        parts = map_in(context, _moments_task, segments)
         alpha_far = context.false_alarm_rate / len(data.channels)  # per channel
         zcal, dcal, dinv, qscale, taus = [], [], [], [], []
-        for i, (q, zeta) in enumerate(outs):
-            z = zeta
+        for i in range(len(filters)):
+            z = np.concatenate([zetas[i] for zetas, _ in parts])
             zcal.append(calibrate(z, window, alpha_far))
             taus.append(long_run_time(z, window))
-            off = np.delete(q, i, axis=1)
-            good = np.isfinite(off).all(axis=1)
-            whole = bool(good.all())  # no gap in the window: no masked copies
-            cov = np.atleast_2d(np.cov((off if whole else off[good]).T))
-            inv = np.asarray(np.linalg.pinv(cov), dtype=np.float64)
-            dinv.append(inv)
-            dcal.append(calibrate(_nis(off, inv), window, alpha_far))
-            # np.std is np.nanstd's arithmetic without the NaN bookkeeping
-            finite = whole and bool(np.isfinite(q[:, i]).all())
-            qs = np.std(q, axis=0) if finite else np.nanstd(q, axis=0)
+            moments = _Moments.merged([each[i] for _, each in parts])
+            # np.cov of the residual vectors without the filter's own direction
+            cov = np.atleast_2d(np.delete(np.delete(moments.m2, i, 0), i, 1) / (moments.n - 1))
+            dinv.append(np.asarray(np.linalg.pinv(cov), dtype=np.float64))
+            qs = np.sqrt(np.diag(moments.m2) / moments.n)  # np.std of each component
             qscale.append(np.where(qs > 0, qs, 1.0))
+        inv_covs = tuple(dinv)
+        nis = map_in(context, _nis_task, [(seg, inv_covs) for seg in segments])
+        for i in range(len(filters)):
+            dcal.append(calibrate(np.concatenate([part[i] for part in nis]), window, alpha_far))
         return FittedDetectionFilter(
             model,
             filters,
@@ -1000,9 +1004,10 @@ class DetectionFilter:
         sigma: float,
         order: int,
         rows: tuple[slice, slice],
-    ) -> list[tuple[FloatArray, FloatArray]]:
-        """Per filter: residual vectors and fault estimates over ``rows[1]`` of the bank
-        fitted on ``rows[0]`` (the whole model where a half is too short)."""
+    ) -> _Segment:
+        """The rows ``rows[1]`` of the training window under the bank fitted on
+        ``rows[0]`` (the whole model where a half is too short), as a :class:`_Segment`
+        whose outputs the calibration streams."""
         fit_rows, eval_rows = rows
         try:
             sub = model_from_ar(data, order, self.max_order, rows=train[fit_rows])
@@ -1013,8 +1018,7 @@ class DetectionFilter:
             sub, bank = model, self._bank(model, data, sigma)  # halves too short
         skip = min(max(f.settle() for f in bank), (train.shape[0] // 2) // 4)
         # only the evaluated rows (and the history the filters remember before them)
-        outs = self._outputs(sub, bank, train[: eval_rows.stop], start=eval_rows.start)
-        return [(q[skip:], z[skip:]) for q, z, _ in outs]
+        return _Segment(sub, bank, train[: eval_rows.stop], eval_rows.start + skip)
 
     def _held_out(
         self,
@@ -1023,11 +1027,12 @@ class DetectionFilter:
         train: FloatArray,
         sigma: float,
         context: RunContext | None = None,
-    ) -> list[tuple[FloatArray, FloatArray]]:
-        """Healthy residual vectors and fault estimates for calibration, out of sample: the
-        AR model (same order) is refitted on each half of the training window, and each
-        half's bank runs over the other half. An AR model's in-sample innovations are
-        smaller than on new data, and the thresholds must hold on new data."""
+    ) -> list[_Segment]:
+        """Healthy stretches for calibration, out of sample: the AR model (same order) is
+        refitted on each half of the training window, and each half's bank runs over the
+        other half (first the first half's rows, then the second's). An AR model's
+        in-sample innovations are smaller than on new data, and the thresholds must hold
+        on new data."""
         n = train.shape[0]
         half = n // 2
         order = int(model.summary["order"])
@@ -1036,11 +1041,7 @@ class DetectionFilter:
         light = replace(data, values=train, train=(0, n))
         tasks = [(self, model, light, train, sigma, order, rows) for rows in halves]
         parts = map_in(context, _held_out_half_task, tasks)
-        first, second = parts[1], parts[0]  # evaluated on the first / second half
-        return [
-            (np.vstack([first[i][0], second[i][0]]), np.concatenate([first[i][1], second[i][1]]))
-            for i in range(len(first))
-        ]
+        return [parts[1], parts[0]]  # evaluated on the first half, then on the second
 
     @staticmethod
     def _inputs(
@@ -1074,8 +1075,10 @@ class DetectionFilter:
     ) -> list[tuple[FloatArray, FloatArray, FloatArray]]:
         """Per filter: residual vector ``q`` (N - start, m), fault estimate and
         fault-free estimate (sensor units) for the rows from ``start``; NaN where an input
-        was missing and while the filter settles after it. Keeps every filter's ``q``: for
-        the training window. An impulse-response bank filters only the history it
+        was missing and while the filter settles after it. Keeps every filter's ``q``
+        (``k m`` values per row): the whole-array reference that the streamed outputs
+        of the calibration (:func:`_moments_task`) and of a run (:meth:`_run_outputs`)
+        are tested against. An impulse-response bank filters only the history it
         remembers before ``start`` (the outputs of a run from row 0, to rounding)."""
         bank = filter_bank(filters)
         if bank.history is not None:  # and a gap before it masks nothing from ``start`` on
@@ -1542,11 +1545,123 @@ def _park_task(task: tuple[Any, ...]) -> ParkFilter:
     )
 
 
-def _held_out_half_task(task: tuple[Any, ...]) -> list[tuple[FloatArray, FloatArray]]:
+def _held_out_half_task(task: tuple[Any, ...]) -> _Segment:
     """:meth:`DetectionFilter._held_out_half` on one tuple (what an executor maps)."""
     det, *args = task
-    out: list[tuple[FloatArray, FloatArray]] = det._held_out_half(*args)
+    out: _Segment = det._held_out_half(*args)
     return out
+
+
+@dataclass(frozen=True, slots=True)
+class _Segment:
+    """A healthy stretch the thresholds are calibrated on: the rows ``start ..`` of
+    ``values`` under the bank ``filters`` of ``model`` (the rows before ``start`` are the
+    history the filters remember)."""
+
+    model: StateSpaceModel
+    filters: tuple[ParkFilter, ...]
+    values: FloatArray
+    start: int
+
+
+class _Moments:
+    """Count, mean and centred sum of squares and products (``m2``) of row vectors,
+    added chunk by chunk: each chunk's own mean and centred products (two passes over
+    the chunk, as ``np.cov``), merged by the pairwise update of Chan, Golub and LeVeque
+    (1979). A covariance over a long stretch without holding the stretch."""
+
+    __slots__ = ("m2", "mean", "n")
+
+    def __init__(self, d: int) -> None:
+        self.n = 0
+        self.mean = np.zeros(d)
+        self.m2 = np.zeros((d, d))
+
+    def add(self, x: FloatArray) -> None:
+        if x.shape[0]:
+            mu = x.mean(axis=0)
+            d = x - mu
+            self._merge(x.shape[0], mu, d.T @ d)
+
+    def _merge(self, k: int, mu: FloatArray, m2: FloatArray) -> None:
+        n = self.n + k
+        delta = mu - self.mean
+        self.mean = self.mean + delta * (k / n)
+        self.m2 = self.m2 + m2 + np.outer(delta, delta) * (self.n * k / n)
+        self.n = n
+
+    @staticmethod
+    def merged(parts: Sequence[_Moments]) -> _Moments:
+        out = _Moments(parts[0].mean.shape[0])
+        for p in parts:
+            if p.n:
+                out._merge(p.n, p.mean, p.m2)
+        return out
+
+
+def _segment_chunks(seg: _Segment) -> Iterator[tuple[int, FloatArray, FloatArray]]:
+    """The bank's residual vectors ``q`` (k, n, m) and fault estimates ``zeta`` (k, n),
+    in sensor units, over the rows ``seg.start ..`` of ``seg.values``, chunk by chunk
+    (``(first row - start, q, zeta)``): what :meth:`DetectionFilter._outputs` gives for
+    those rows, NaN where an input was missing and while each filter settles after it,
+    with only a chunk of outputs held at once. Filter ``i`` is the bank's row
+    ``filters[i].sensor``, as in ``_outputs``."""
+    model, filters, values, start = seg.model, seg.filters, seg.values, seg.start
+    stop = values.shape[0]
+    bank = filter_bank(filters)
+    settles = [f.settle() for f in filters]
+    # a gap before ``first`` masks nothing from ``start`` on; a lifted bank remembers
+    # everything and runs from the first row
+    first = 0 if bank.history is None else max(0, start - max(bank.history, *settles))
+    cols = list(model.outputs) + list(model.inputs)
+    bad = np.asarray(~np.isfinite(values[first:stop][:, cols]).all(axis=1), dtype=bool)
+    masks = [_dilate_forward(bad, s)[start - first :] for s in settles] if bad.any() else None
+    m = filters[0].n_outputs
+    rows = np.array([f.sensor for f in filters])
+    scale = model.y_scale
+
+    def inputs(a: int, b: int) -> FloatArray:
+        v, _ = DetectionFilter._inputs(model, np.asarray(values[a:b]))
+        return v
+
+    for lo, y in run_chunked(bank, inputs, stop, start):
+        at = lo - start
+        q = y[rows, :m].transpose(0, 2, 1) * scale
+        zeta = y[rows, m] * scale[rows, None]
+        if masks is not None:
+            for i, mask in enumerate(masks):
+                hit = mask[at : at + y.shape[2]]
+                q[i, hit] = np.nan
+                zeta[i, hit] = np.nan
+        yield at, q, zeta
+
+
+def _moments_task(seg: _Segment) -> tuple[list[FloatArray], list[_Moments]]:
+    """Per filter over a calibration stretch: its fault estimates, and the moments of
+    its residual vectors over the rows where none is missing (what an executor maps)."""
+    n = seg.values.shape[0] - seg.start
+    k, m = len(seg.filters), seg.filters[0].n_outputs
+    zetas = np.empty((k, n))
+    moments = [_Moments(m) for _ in range(k)]
+    for at, q, zeta in _segment_chunks(seg):
+        zetas[:, at : at + zeta.shape[1]] = zeta
+        for i in range(k):
+            good = np.isfinite(q[i]).all(axis=1)
+            moments[i].add(q[i] if good.all() else q[i][good])
+    return list(zetas), moments
+
+
+def _nis_task(task: tuple[_Segment, tuple[FloatArray, ...]]) -> list[FloatArray]:
+    """Per filter over a calibration stretch: the normalized squared residual vector
+    off its own direction, under the inverse covariances ``inv_covs`` (a second run of
+    the bank: the covariances needed the whole window first)."""
+    seg, inv_covs = task
+    n = seg.values.shape[0] - seg.start
+    out = np.empty((len(seg.filters), n))
+    for at, q, _ in _segment_chunks(seg):
+        for i, inv in enumerate(inv_covs):
+            out[i, at : at + q.shape[1]] = _nis(np.delete(q[i], i, axis=1), inv)
+    return list(out)
 
 
 def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray | None, Any]:

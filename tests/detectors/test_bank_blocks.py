@@ -371,3 +371,39 @@ def test_refiltering_after_a_correction_in_pieces_equals_one_pass(fitted, monkey
     for c in data.channels:
         ref = one.residuals[c]
         np.testing.assert_allclose(pieces.residuals[c], ref, atol=1e-5 * np.nanmax(np.abs(ref)))
+
+
+@pytest.mark.parametrize("gap", [False, True])
+def test_innovation_moments_taken_chunk_by_chunk_equal_the_stored_innovations(
+    fitted, gap, monkeypatch
+):
+    """A long cross-validation fold takes its innovations' moments chunk by chunk instead
+    of holding ``(N, m, m - 1)`` innovations: the same counts, sums and products (from
+    the cold start's end on) as those of the stored innovations, across chunk edges and
+    with a gap masked."""
+    import analyzer.detectors.lti as lti
+
+    monkeypatch.setattr(lti, "CHUNK", 700)  # many chunks over the block
+    det, model, data = fitted
+    ar = model.ar
+    bank = BankFilter.build(model.estimators, model.estimators[0].block)
+    Y = np.array(data.values[:9000], dtype=np.float64)
+    if gap:
+        Y[4000:4050, 1] = np.nan
+    w, start = 300, 1234
+    stored = bank_block(ar.mean, ar.scale, bank, Y, w, None)
+    assert stored.innov is not None
+    expect = ar_kalman._Moments(ar.m)
+    expect.add(stored.innov[start:])
+    got = ar_kalman._Moments(ar.m)
+    chunked = bank_block(ar.mean, ar.scale, bank, Y, w, None, innov_moments=got, moments_from=start)
+    assert chunked.innov is None
+    np.testing.assert_array_equal(chunked.resid, stored.resid)
+    np.testing.assert_array_equal(got.count, expect.count)
+    if gap:  # the masked rows are left out, but not by the estimator without channel 1
+        rows = Y.shape[0] - w - start
+        assert got.count[1] == rows and (np.delete(got.count, 1) < rows).all()
+    np.testing.assert_allclose(got.total, expect.total, rtol=1e-10, atol=1e-9)
+    np.testing.assert_allclose(got.outer, expect.outer, rtol=1e-11, atol=0)
+    for a, b in zip(got.inverse_covariances(), expect.inverse_covariances(), strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=0)

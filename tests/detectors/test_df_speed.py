@@ -371,3 +371,46 @@ def test_ar_detector_fit_equals_the_general_design(monkeypatch):
         assert da.keys() == db.keys()
         for key in da:
             np.testing.assert_allclose(np.asarray(da[key]), np.asarray(db[key]), rtol=1e-6)
+
+
+@pytest.mark.parametrize("gap", [False, True])
+def test_streamed_calibration_equals_the_kept_residual_vectors(gap, monkeypatch):
+    """The calibration streams each healthy stretch's outputs (fault estimates kept,
+    residual vectors reduced to their moments, then run again for their normalized
+    squares) instead of holding every filter's residual vectors: the same numbers as
+    ``_outputs`` and ``np.cov`` / ``np.std`` / the squares of the kept vectors, across
+    chunk edges and a gap."""
+    det, model, Y = _fitted_filter(40.0, seed=7)
+    Yg = Y[:7000].copy()
+    if gap:
+        Yg[3000:3040, 1] = np.nan
+    monkeypatch.setattr(lti, "CHUNK", 900)  # several chunks, each with its history
+    start = 1500
+    seg = dfm._Segment(model.model, model.filters, Yg, start)
+    zetas, moments = dfm._moments_task(seg)
+    full = det._outputs(model.model, model.filters, Yg, start=start)
+    inv_covs = []
+    for i, (q, z, _) in enumerate(full):
+        assert np.array_equal(np.isnan(zetas[i]), np.isnan(z))
+        np.testing.assert_allclose(zetas[i], z, rtol=1e-10, atol=1e-12)
+        good = np.isfinite(q).all(axis=1)
+        assert moments[i].n == good.sum()
+        assert good.all() != gap  # a gap masks rows (and the settling after it)
+        off = np.delete(q[good], i, axis=1)
+        cov = np.delete(np.delete(moments[i].m2, i, 0), i, 1) / (moments[i].n - 1)
+        np.testing.assert_allclose(cov, np.cov(off.T), rtol=1e-9, atol=0)
+        std = np.sqrt(np.diag(moments[i].m2) / moments[i].n)
+        np.testing.assert_allclose(std, np.nanstd(q, axis=0), rtol=1e-10, atol=0)
+        inv_covs.append(np.linalg.pinv(cov))
+    if gap:
+        assert moments[0].n < Yg.shape[0] - start
+    nis = dfm._nis_task((seg, tuple(inv_covs)))
+    for i, (q, _, _) in enumerate(full):
+        expect = dfm._nis(np.delete(q, i, axis=1), inv_covs[i])
+        assert np.array_equal(np.isnan(nis[i]), np.isnan(expect))
+        np.testing.assert_allclose(nis[i], expect, rtol=1e-10, atol=1e-12)
+    # the merged moments of two stretches are the moments of both
+    both = dfm._Moments.merged([moments[0], moments[0]])
+    assert both.n == 2 * moments[0].n
+    np.testing.assert_allclose(both.mean, moments[0].mean, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(both.m2, 2 * moments[0].m2, rtol=1e-12, atol=0)
