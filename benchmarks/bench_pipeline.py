@@ -306,18 +306,22 @@ def run_child(
     log: Path,
     profile: Path | None = None,
     extra: Sequence[str] = (),
+    root: Path = ROOT,
 ) -> Run:
-    """``analyzer run archive --out out [extra]`` in a child; wall time and its own peak
-    RSS."""
+    """``analyzer run archive --out out [extra]`` in a child, with the analyzer of the
+    checkout ``root`` (this one by default); wall time and its own peak RSS."""
     env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(root), env.get("PYTHONPATH")]))
     if profile is not None:
         env["BENCH_PROFILE"] = str(profile)
+    archive, out = archive.resolve(), out.resolve()
     cmd = [sys.executable, "-c", DRIVER, "run", str(archive), "--out", str(out), "--no-progress"]
     cmd += RUN_ARGS + list(extra)
     with log.open("w") as sink:
         begin = time.perf_counter()
-        proc = subprocess.Popen(cmd, stdout=sink, stderr=subprocess.STDOUT, env=env)
+        # in root: ``python -c`` puts its working directory first on sys.path, before
+        # PYTHONPATH, so a child started in another checkout would import that one's
+        proc = subprocess.Popen(cmd, stdout=sink, stderr=subprocess.STDOUT, env=env, cwd=root)
         _, status, usage = os.wait4(proc.pid, 0)  # this child's rusage alone
         wall = time.perf_counter() - begin
     proc.returncode = os.waitstatus_to_exitcode(status)

@@ -326,6 +326,25 @@ of the bank's spectrum)."""
 _SUBSETS_LOCK = threading.Lock()
 
 
+def _spectrum(markov: FloatArray, k: int, nfft: int) -> npt.NDArray[np.complex128]:
+    """The ``(nfft // 2 + 1, k q, r)`` spectrum of the Markov parameters ``markov``
+    (``(k q, r, taps)``), one system at a time: its responses zero-padded to the FFT
+    length in a ``(q, r, nfft)`` array, transformed along time. The FFT runs over
+    contiguous memory and the transposed write is one system's spectrum (2.4 MB at 16
+    channels): one transform of the whole bank over its first axis (strided) took about
+    1.5x as long as both. Each response's transform does not depend on the others in the
+    array (tested bit for bit), so a bank's selected outputs transform to the same numbers
+    as the whole bank's."""
+    kq, r, taps = markov.shape
+    q = kq // k
+    spectrum = np.empty((nfft // 2 + 1, kq, r), dtype=np.complex128)
+    h = np.zeros((q, r, nfft))
+    for i in range(k):
+        h[:, :, :taps] = markov[i * q : (i + 1) * q]
+        spectrum[:, i * q : (i + 1) * q, :] = fft.rfft(h, axis=2).transpose(2, 0, 1)
+    return spectrum
+
+
 @dataclass(frozen=True, slots=True)
 class ImpulseResponseBank:
     """``k`` stable LTI systems ``(F_i, G_i, H_i, J_i)`` of equal output size driven by one
@@ -349,6 +368,11 @@ class ImpulseResponseBank:
     q: int
     spectrum: npt.NDArray[np.complex128]
     """``(nfft // 2 + 1, k q, r)``: the FFT of the Markov parameters of every output."""
+    markov: FloatArray
+    """``(k q, r, taps)``: the Markov parameters themselves. A pickle (a saved model, a
+    task sent to a Dask worker) holds them instead of the spectrum, about a sixth of its
+    size, and the spectrum is transformed again from them on loading, by the same FFT
+    calls as :meth:`build`: the same numbers to the last bit (tested)."""
     subsets: dict[tuple[int, ...], ImpulseResponseBank] = field(
         default_factory=dict, compare=False, repr=False
     )
@@ -394,15 +418,28 @@ class ImpulseResponseBank:
         size = (nfft // 2 + 1) * k * q * r * 16 + taps * k * q * r * 8
         if size > MAX_BANK_BYTES:
             return None  # spectra this large cost more memory than the lifted form's time
-        spectrum = np.empty((nfft // 2 + 1, k * q, r), dtype=np.complex128)
+        markov = np.empty((k * q, r, taps))
         h = np.zeros((q, r, nfft))  # one system's responses, zero-padded to the FFT length
         for i, ((_, G, H, J), power) in enumerate(zip(systems, powers, strict=True)):
             cls._markov(power, G, H, J, taps, cls.STEP, h)
-            # the FFT runs over contiguous memory and the transposed write is one system's
-            # spectrum (2.4 MB at 16 channels): one transform of the whole bank over its
-            # first axis (strided) took about 1.5x as long as both
-            spectrum[:, i * q : (i + 1) * q, :] = fft.rfft(h, axis=2).transpose(2, 0, 1)
-        return cls(taps, nfft, k, q, spectrum)
+            markov[i * q : (i + 1) * q] = h[:, :, :taps]
+        return cls(taps, nfft, k, q, _spectrum(markov, k, nfft), markov)
+
+    def __getstate__(self) -> tuple[int, int, int, int, FloatArray]:
+        """What a pickle holds: the Markov parameters, not their spectrum (nor the
+        :attr:`subsets` cache)."""
+        return (self.taps, self.nfft, self.k, self.q, self.markov)
+
+    def __setstate__(self, state: tuple[int, int, int, int, FloatArray]) -> None:
+        taps, nfft, k, q, markov = state
+        markov = np.ascontiguousarray(markov, dtype=np.float64)
+        if markov.ndim != 3 or markov.shape[0] != k * q or markov.shape[2] != taps:
+            raise ValueError(f"impulse-response bank: Markov parameters of shape {markov.shape}")
+        for name, value in (("taps", taps), ("nfft", nfft), ("k", k), ("q", q)):
+            object.__setattr__(self, name, int(value))
+        object.__setattr__(self, "markov", markov)
+        object.__setattr__(self, "spectrum", _spectrum(markov, k, int(nfft)))
+        object.__setattr__(self, "subsets", {})
 
     @staticmethod
     def _markov(
@@ -515,7 +552,9 @@ class ImpulseResponseBank:
         numbers, at about ``len(outputs) / q`` of the cost of a run of the whole bank."""
         idx = (np.arange(self.k)[:, None] * self.q + np.asarray(outputs)[None, :]).ravel()
         spectrum = np.ascontiguousarray(self.spectrum[:, idx, :])
-        return ImpulseResponseBank(self.taps, self.nfft, self.k, len(outputs), spectrum)
+        return ImpulseResponseBank(
+            self.taps, self.nfft, self.k, len(outputs), spectrum, self.markov[idx]
+        )
 
     def subset(self, systems: Sequence[int]) -> ImpulseResponseBank:
         """The bank restricted to the systems ``systems`` (every output of each): the same
@@ -527,7 +566,9 @@ class ImpulseResponseBank:
             if kept is None:
                 idx = (np.asarray(key)[:, None] * self.q + np.arange(self.q)[None, :]).ravel()
                 spectrum = np.ascontiguousarray(self.spectrum[:, idx, :])
-                kept = ImpulseResponseBank(self.taps, self.nfft, len(key), self.q, spectrum)
+                kept = ImpulseResponseBank(
+                    self.taps, self.nfft, len(key), self.q, spectrum, self.markov[idx]
+                )
             self.subsets[key] = kept  # the most recent last
             while len(self.subsets) > SUBSETS_KEPT:
                 self.subsets.pop(next(iter(self.subsets)))

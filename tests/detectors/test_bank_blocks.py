@@ -407,3 +407,35 @@ def test_innovation_moments_taken_chunk_by_chunk_equal_the_stored_innovations(
     np.testing.assert_allclose(got.outer, expect.outer, rtol=1e-11, atol=0)
     for a, b in zip(got.inverse_covariances(), expect.inverse_covariances(), strict=True):
         np.testing.assert_allclose(a, b, rtol=1e-10, atol=0)
+
+
+def test_a_pickled_bank_keeps_its_markov_parameters_and_the_same_spectrum(fitted):
+    """A pickle (a saved model, a task for a Dask worker) holds an impulse-response bank's
+    Markov parameters, not its spectrum nor its cache of subsets: a fraction of the
+    bytes, and the spectrum transformed again on loading is the same to the last bit, for
+    the whole bank and for its selected estimate outputs; so are a run's outputs."""
+    import pickle
+
+    from analyzer.detectors.lti import ImpulseResponseBank
+
+    det, model, data = fitted
+    system, estimates = model.bank.system, model.bank.estimates
+    assert isinstance(system, ImpulseResponseBank) and estimates is not None
+    system.subset([0, 2])  # a cached subset is not saved
+    for bank in (system, estimates):
+        blob = pickle.dumps(bank, protocol=5)
+        assert len(blob) < 0.5 * bank.spectrum.nbytes
+        back = pickle.loads(blob)
+        assert back.subsets == {}
+        assert (back.taps, back.nfft, back.k, back.q) == (bank.taps, bank.nfft, bank.k, bank.q)
+        assert np.array_equal(back.markov, bank.markov)
+        assert np.array_equal(back.spectrum, bank.spectrum)  # bit for bit
+    # the estimates are outputs of the whole bank: their spectrum is its columns
+    last = [system.q - 1]
+    assert np.array_equal(system.select(last).spectrum, estimates.spectrum)
+    Y = np.asarray(data.values[:6000], dtype=np.float64)
+    again = pickle.loads(pickle.dumps(model, protocol=5))
+    one = det._bank_outputs(model, Y)
+    two = det._bank_outputs(again, Y)
+    for a, b in ((one.resid, two.resid), (one.est, two.est), (one.nis, two.nis)):
+        assert np.array_equal(a, b, equal_nan=True)
