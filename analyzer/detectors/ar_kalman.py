@@ -1223,9 +1223,8 @@ def _cv_fold_task(
     train, a, b, order, block, skip, times, solutions = item
     if ar is None or estimators is None:
         assert order is not None
-        held = train.copy()
-        held[a:b] = np.nan  # rows whose lags touch the block drop out of the fit
-        ar = fit_ar(held, order)
+        # the block's rows, and the rows whose lags touch it, drop out of the fit
+        ar = fit_ar(train, order, exclude=(a, b))
         estimators = tuple(
             leave_one_out(
                 ar,

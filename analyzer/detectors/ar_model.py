@@ -8,6 +8,7 @@ import threading
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -80,6 +81,64 @@ def _column_stats(Y: FloatArray) -> tuple[FloatArray, FloatArray, npt.NDArray[np
     return mean, std, np.asarray(flat)
 
 
+def _column_stats_outside(
+    Y: FloatArray, a: int, b: int, finite: npt.NDArray[np.bool_]
+) -> tuple[FloatArray, FloatArray, npt.NDArray[np.bool_]]:
+    """:func:`_column_stats` of the rows of ``Y`` outside ``[a, b)``: of each part alone,
+    merged by the pairwise update of Chan, Golub and LeVeque (1979), when the parts have
+    no NaN (``finite``: the rows without one, those in ``[a, b)`` cleared); else of a copy
+    with the rows ``[a, b)`` set to NaN."""
+    if not (finite[:a].all() and finite[b:].all()):
+        held = np.array(Y, dtype=np.float64)
+        held[a:b] = np.nan
+        return _column_stats(held)
+    n, mean, m2 = 0, np.zeros(Y.shape[1]), np.zeros(Y.shape[1])
+    level = np.zeros(Y.shape[1])
+    with np.errstate(all="ignore"):
+        for part in (Y[:a], Y[b:]):
+            k = part.shape[0]
+            if not k:
+                continue
+            mu = part.mean(axis=0)
+            delta = mu - mean
+            total = n + k
+            m2 = m2 + part.var(axis=0) * k + delta * delta * (n * k / total)
+            mean = mean + delta * (k / total)
+            n = total
+            level = np.maximum(level, np.abs(part).max(axis=0))
+        std = np.sqrt(m2 / n) if n else np.full(Y.shape[1], np.nan)
+        flat = ~(std > 1e-9 * level + 1e-300)
+    return mean, std, np.asarray(flat)
+
+
+class _Scaled:
+    """``(Y - mean) / scale``, computed for the rows asked for (``Z[a:b]``): what the
+    lagged Gram matrix and the residuals read a stretch at a time, so a fit holds a
+    block of standardized rows, not a standardized copy of the whole window."""
+
+    def __init__(self, Y: FloatArray, mean: FloatArray, scale: FloatArray) -> None:
+        self.Y, self.mean, self.scale = Y, mean, scale
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(self.Y.shape)
+
+    def __getitem__(self, rows: slice) -> FloatArray:
+        out: FloatArray = (self.Y[rows] - self.mean) / self.scale
+        return out
+
+
+def _scaled_rows(
+    Y: FloatArray, mean: FloatArray, scale: FloatArray, exclude: tuple[int, int] | None
+) -> FloatArray:
+    """The whole window standardized, the rows of ``exclude`` as NaN (for the design
+    matrix of a window cut by many gaps, and the singular fit's diagnosis)."""
+    Z = (Y - mean) / scale
+    if exclude is not None:
+        Z[exclude[0] : exclude[1]] = np.nan
+    return Z
+
+
 def required_samples(order: int, m: int) -> int:
     """Training samples needed for an order-``order`` AR model of ``m`` channels: the
     paper asks ``n >= p + m - 1`` and recommends 2-3 times that (Section 2.3); least
@@ -107,33 +166,47 @@ def _design_rows(Z: FloatArray, p: int) -> tuple[FloatArray, FloatArray]:
     return T, X
 
 
-def fit_ar(Y: FloatArray, order: int, names: Sequence[str] | None = None) -> ARModel:
+def fit_ar(
+    Y: FloatArray,
+    order: int,
+    names: Sequence[str] | None = None,
+    exclude: tuple[int, int] | None = None,
+) -> ARModel:
     """Least-squares AR fit (Eq. 5, by a stable lstsq rather than an explicit
     pseudoinverse). Rows with a NaN in any lag are dropped. ``names``: the channels'
     names, for the error that says which channels make the regression singular.
+    ``exclude``: rows ``[a, b)`` left out as if they were missing (a cross-validation
+    fold), without a copy of the window.
 
     The normal equations come from lagged cross-products of the finite stretches of the
-    data (:func:`_lagged_gram`, no ``(n, p m)`` design matrix) and the residuals from
-    the same stretches; a window cut by many gaps, or a regression too ill-conditioned
-    for the normal equations, takes the design matrix and pivoted QR instead."""
+    data (:func:`_lagged_gram`, no ``(n, p m)`` design matrix), standardized a block of
+    rows at a time (no scaled copy of the window), and the residuals from the same
+    stretches; a window cut by many gaps, or a regression too ill-conditioned for the
+    normal equations, takes the design matrix and pivoted QR instead."""
     Y = np.asarray(Y, dtype=np.float64)
     if Y.ndim != 2:
         raise DetectorError(f"expected an (n, m) training array, got shape {Y.shape}")
     n, m = Y.shape
     if order < 1:
         raise DetectorError(f"AR order must be at least 1, got {order}")
-    mean, scale, flat = _column_stats(Y)
+    finite = np.asarray(np.isfinite(Y).all(axis=1), dtype=bool)
+    if exclude is not None:
+        a, b = exclude
+        finite[a:b] = False
+        mean, scale, flat = _column_stats_outside(Y, a, b, finite)
+    else:
+        mean, scale, flat = _column_stats(Y)
     bad = [int(j) for j in np.flatnonzero(flat)]
     if bad:
         raise DetectorError(
             f"channel(s) {bad} are constant or empty in the training window: an AR model "
             "needs every channel to vary"
         )
-    Z = (Y - mean) / scale
-    segments = _finite_segments(Z, order)
+    Z = _Scaled(Y, mean, scale)
+    segments = _finite_segments(finite, order)
     design = None
     if segments is None:  # many gaps: the design matrix of the rows without one
-        design = _design_rows(Z, order)
+        design = _design_rows(_scaled_rows(Y, mean, scale, exclude), order)
         usable = design[0].shape[0]
     else:
         usable = sum(b - a - order for a, b in segments)
@@ -154,11 +227,12 @@ def fit_ar(Y: FloatArray, order: int, names: Sequence[str] | None = None) -> ARM
                 E = _ar_residuals(Z, B, order, segments)
                 EE = E.T @ E
     if B is None or EE is None:  # ill-conditioned (or many gaps): QR on the design matrix
-        T, X = design if design is not None else _design_rows(Z, order)
+        whole = _scaled_rows(Y, mean, scale, exclude)
+        T, X = design if design is not None else _design_rows(whole, order)
         B, rank = _least_squares(X, T)
         if rank < k:
             raise DetectorError(
-                f"singular AR regression (rank {rank} < {k}): " + _dependence(Z, X, rank, names)
+                f"singular AR regression (rank {rank} < {k}): " + _dependence(whole, X, rank, names)
             )
         E = T - X @ B
         EE = E.T @ E
@@ -220,12 +294,12 @@ cross-products (a few small products per stretch); a window cut by more gaps tak
 design matrix of its rows without a gap."""
 
 
-def _finite_segments(Z: FloatArray, p: int) -> list[tuple[int, int]] | None:
+def _finite_segments(Z: npt.NDArray[Any], p: int) -> list[tuple[int, int]] | None:
     """The maximal runs ``[a, b)`` of rows of ``Z`` without a NaN that are longer than
     ``p`` (so they hold a regression row: ``t`` with ``Z[t - p .. t]`` finite, exactly
     the rows the design matrix keeps), or None when there are more than
-    :data:`MAX_SEGMENTS` of them."""
-    finite = np.isfinite(Z).all(axis=1)
+    :data:`MAX_SEGMENTS` of them. ``Z`` may also be the rows' mask of finiteness (1-D)."""
+    finite = Z if Z.ndim == 1 else np.isfinite(Z).all(axis=1)
     if finite.all():
         return [(0, Z.shape[0])] if Z.shape[0] > p else []
     edges = np.diff(np.concatenate(([0], finite.astype(np.int8), [0])))
@@ -237,7 +311,13 @@ def _finite_segments(Z: FloatArray, p: int) -> list[tuple[int, int]] | None:
     return [(int(a), int(b)) for a, b in zip(starts[keep], stops[keep], strict=True)]
 
 
-def _lagged_gram(Z: FloatArray, p: int, segments: list[tuple[int, int]]) -> FloatArray:
+GRAM_ROWS = 1 << 16
+"""Rows of a stretch taken at once by :func:`_lagged_gram` (and standardized at once by
+:class:`_Scaled`): a longer stretch is cut into pieces of this many regression rows,
+each with the ``p`` rows before it (about 8 MB at 16 channels)."""
+
+
+def _lagged_gram(Z: FloatArray | _Scaled, p: int, segments: list[tuple[int, int]]) -> FloatArray:
     """Gram matrix of the regression rows' lags ``0 .. p`` (columns ``[Z[t], Z[t-1],
     ..., Z[t-p]]``, ``(p + 1) m`` square) over the rows ``t`` of ``segments``
     (:func:`_finite_segments`), without forming them. Within one stretch ``S`` of
@@ -248,11 +328,17 @@ def _lagged_gram(Z: FloatArray, p: int, segments: list[tuple[int, int]]) -> Floa
 
     so ``p + 1`` products ``G(0, b)`` over the stretch and a recursion over its ``p``
     boundary rows give all of them (``O(L p m^2)`` instead of ``O(L p^2 m^2)``; the same
-    sums, rounded differently)."""
+    sums, rounded differently). A stretch longer than :data:`GRAM_ROWS` regression rows
+    is taken in pieces that overlap by ``p`` rows: each regression row in exactly one."""
     m = Z.shape[1]
     w = p + 1
     blocks = np.zeros((w, w, m, m))
-    for a0, b0 in segments:
+    pieces = [
+        (c0, min(b0, c0 + GRAM_ROWS + p))
+        for a0, b0 in segments
+        for c0 in range(a0, b0 - p, GRAM_ROWS)
+    ]
+    for a0, b0 in pieces:
         S = Z[a0:b0]
         L = S.shape[0]
         part = np.empty((w, w, m, m))
@@ -292,7 +378,7 @@ def _residual_gram(G: FloatArray, B: FloatArray) -> FloatArray | None:
 
 
 def _ar_residuals(
-    Z: FloatArray, B: FloatArray, p: int, segments: list[tuple[int, int]]
+    Z: FloatArray | _Scaled, B: FloatArray, p: int, segments: list[tuple[int, int]]
 ) -> FloatArray:
     """``T - X B`` of the regression rows of ``segments`` (in order), stretch by stretch
     from lagged products: ``E[t] = Z[t] - sum_i Z[t - i] B_i`` (``B_i`` the rows of

@@ -272,3 +272,41 @@ def test_calibration_from_one_step_folds_equals_converged_folds(monkeypatch):
             # a mean near zero: on the scale of its spread
             gap = np.abs(np.subtract(a.logq_mean, b.logq_mean))
             assert np.all(gap <= 1e-3 * np.asarray(b.logq_sd))
+
+
+@pytest.mark.parametrize("gaps", [False, True])
+def test_fit_leaving_rows_out_equals_the_fit_of_a_copy_with_them_missing(building, gaps):
+    """``exclude=(a, b)`` (a cross-validation fold) fits without the rows ``[a, b)`` and
+    without copying the window: the fit of a copy with those rows set to NaN, and the
+    least-squares reference of it."""
+    Y = _with_gaps(building) if gaps else building
+    a, b = 1500, 2700
+    held = np.array(Y, copy=True)
+    held[a:b] = np.nan
+    got = fit_ar(Y, 5, exclude=(a, b))
+    want = fit_ar(held, 5)
+    _assert_fit_equals_reference(got, held, 5)
+    for name in ("coefs", "sigma", "mean", "scale"):
+        ref = getattr(want, name)
+        np.testing.assert_allclose(getattr(got, name), ref, rtol=0, atol=1e-11 * np.abs(ref).max())
+    assert got.n_train == want.n_train
+    kept = _with_gaps(building) if gaps else building
+    assert np.array_equal(Y, kept, equal_nan=True)  # the input is not touched
+
+
+def test_lagged_gram_taken_in_pieces_equals_the_whole(building, monkeypatch):
+    """A stretch longer than ``GRAM_ROWS`` regression rows is taken in pieces that overlap
+    by ``p`` rows, standardized a piece at a time: the same Gram matrix and fit."""
+    Y = _with_gaps(building)
+    p = 4
+    whole = fit_ar(Y, p)
+    mean, scale = whole.mean, whole.scale
+    Z = (Y - mean) / scale
+    segments = arm._finite_segments(Z, p)
+    G = arm._lagged_gram(Z, p, segments)
+    monkeypatch.setattr(arm, "GRAM_ROWS", 333)  # many pieces, of odd lengths
+    pieces = arm._lagged_gram(arm._Scaled(Y, mean, scale), p, segments)
+    np.testing.assert_allclose(pieces, G, rtol=0, atol=1e-11 * np.abs(G).max())
+    again = fit_ar(Y, p)
+    np.testing.assert_allclose(again.coefs, whole.coefs, rtol=0, atol=1e-10)
+    _assert_fit_equals_reference(again, Y, p)
