@@ -15,11 +15,16 @@ growth of the peak per hour of training (a least-squares slope over the cases).
 
 The baseline, in the same run: ``--baseline-src DIR``, another checkout of the analyzer
 (for example ``git worktree add /tmp/before <commit>``), run the same way on the same
-archive; its rows are marked ``baseline``. A script, not a timed test::
+archive; its rows are marked ``baseline``.
+
+``--ar-rows N`` measures the AR fit alone instead (``fit_ar``, order 7, on a synthetic
+``N x 16`` window, and a cross-validation fold's fit without its second fifth), in a
+child per checkout: time and the peak of numpy's allocations above the start
+(``tracemalloc``), against one copy of the window. A script, not a timed test::
 
     python benchmarks/bench_fit_memory.py [--hours 4] [--train-minutes 10,60,240]
                                           [--keep DIR] [--baseline-src DIR]
-                                          [--detectors A,B] [--jobs N]
+                                          [--detectors A,B] [--jobs N] [--ar-rows N]
 """
 
 from __future__ import annotations
@@ -69,6 +74,50 @@ def measure(
     return Case(label, train_min, run, size)
 
 
+AR_CHILD = r"""
+import sys, time, tracemalloc
+import numpy as np
+import analyzer.detectors.ar_model as arm
+rows, m, order = int(sys.argv[1]), 16, 7
+rng = np.random.default_rng(0)
+Y = np.cumsum(rng.standard_normal((rows, m)), axis=0) * 1e-3 + rng.standard_normal((rows, m))
+a, b = rows // 5, 2 * rows // 5
+tracemalloc.start()
+for what in ("whole window", "a fold"):
+    tracemalloc.reset_peak()
+    base = tracemalloc.get_traced_memory()[0]
+    t0 = time.perf_counter()
+    if what == "whole window":
+        arm.fit_ar(Y, order)
+    elif "exclude" in arm.fit_ar.__code__.co_varnames:
+        arm.fit_ar(Y, order, exclude=(a, b))
+    else:  # before fit_ar(exclude=...): the fold's copy, as the bank made it
+        held = Y.copy()
+        held[a:b] = np.nan
+        arm.fit_ar(held, order)
+        del held
+    wall = time.perf_counter() - t0
+    peak = (tracemalloc.get_traced_memory()[1] - base) / 2**20
+    print(f"AR {what}|{wall:.2f}|{peak:.0f}|{Y.nbytes / 2**20:.0f}")
+"""
+
+
+def ar_fits(rows: int, sources: list[tuple[str, Path]]) -> None:
+    """``--ar-rows``: the AR fit alone, in a child per checkout (:data:`AR_CHILD`)."""
+    print(f"{'source':8s} {'fit':14s} {'wall s':>7s} {'peak MB':>8s} {'one copy MB':>11s}")
+    for label, root in sources:
+        env = dict(os.environ)
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(root), env.get("PYTHONPATH")]))
+        done = subprocess.run(
+            [sys.executable, "-c", AR_CHILD, str(rows)],
+            capture_output=True, text=True, env=env, cwd=root, check=True,
+        )  # fmt: skip
+        for line in done.stdout.splitlines():
+            if line.startswith("AR "):
+                what, wall, peak, copy = line[3:].split("|")
+                print(f"{label:8s} {what:14s} {float(wall):7.2f} {float(peak):8.0f} {copy:>11s}")
+
+
 def checkout_revision(root: Path) -> str:
     """The commit checked out in ``root``, or "unknown"."""
     try:
@@ -106,6 +155,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--detectors", default=None, help="pass --detectors A,B")
     parser.add_argument("--jobs", type=int, default=None, help="pass --jobs N")
+    parser.add_argument(
+        "--ar-rows",
+        type=int,
+        default=None,
+        help="measure the AR fit alone on a synthetic window of this many rows x 16",
+    )
     args = parser.parse_args(argv)
     minutes = [float(x) for x in args.train_minutes.split(",") if x.strip()]
     if not minutes or max(minutes) * 60.0 > args.hours * PIECE_S:
@@ -122,6 +177,12 @@ def main(argv: list[str] | None = None) -> int:
             raise SystemExit(f"bench_fit_memory: --baseline-src {base}: no analyzer package")
         sources.append(("baseline", base))
         print(f"# baseline: {base}, commit {checkout_revision(base)}")
+    if args.ar_rows:
+        print(
+            f"# commit {revision()}, OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}"
+        )
+        ar_fits(args.ar_rows, sources)
+        return 0
 
     with tempfile.TemporaryDirectory(prefix="bench-fit-") as tmp:
         base_dir = Path(args.keep) if args.keep else Path(tmp)
