@@ -128,6 +128,9 @@ DIRECTION_BATCH = 1 << 16
 alarm groups' windows (:meth:`DetectionFilter._window_violations`): a filter bank's
 outputs over it are a few tens of MB."""
 
+CALIBRATION_ROWS = 1 << 16
+"""Rows of the training window a calibration pass reads at once to find its gaps."""
+
 PBH_RTOL = 1e-9
 """Relative size of the smallest singular value of ``[A - lambda I; C]`` below which the
 mode ``lambda`` counts as unobservable (Lemma 3.1)."""
@@ -1614,7 +1617,10 @@ def _segment_chunks(seg: _Segment) -> Iterator[tuple[int, FloatArray, FloatArray
     # everything and runs from the first row
     first = 0 if bank.history is None else max(0, start - max(bank.history, *settles))
     cols = list(model.outputs) + list(model.inputs)
-    bad = np.asarray(~np.isfinite(values[first:stop][:, cols]).all(axis=1), dtype=bool)
+    bad = np.zeros(stop - first, dtype=bool)  # read a block of rows at a time: no copy
+    for a in range(first, stop, CALIBRATION_ROWS):
+        rows = np.asarray(values[a : min(stop, a + CALIBRATION_ROWS)])[:, cols]
+        bad[a - first : a - first + rows.shape[0]] = ~np.isfinite(rows).all(axis=1)
     masks = [_dilate_forward(bad, s)[start - first :] for s in settles] if bad.any() else None
     m = filters[0].n_outputs
     rows = np.array([f.sensor for f in filters])

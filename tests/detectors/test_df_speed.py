@@ -385,6 +385,7 @@ def test_streamed_calibration_equals_the_kept_residual_vectors(gap, monkeypatch)
     if gap:
         Yg[3000:3040, 1] = np.nan
     monkeypatch.setattr(lti, "CHUNK", 900)  # several chunks, each with its history
+    monkeypatch.setattr(dfm, "CALIBRATION_ROWS", 1000)  # gaps found block by block
     start = 1500
     seg = dfm._Segment(model.model, model.filters, Yg, start)
     zetas, moments = dfm._moments_task(seg)
