@@ -522,6 +522,16 @@ def _run_detectors(
     # need not wait for a slow one), one run at a time; results are then taken in
     # registry order, the first error raised as the plain loop would
     settled: dict[int, DetectorResult | BaseException] = {}
+    # progress: on threads each detector's fit, then its run; else each fit-and-run
+    stage = "detect" + (f" group {tag[2:]}" if tag.startswith("-g") else "")
+    per = 2 if staged else 1
+    total = per * sum(1 for _, p in planned if not isinstance(p, _NotApplicable | AnalyzerError))
+    ended = 0
+
+    def show(extra: int = 0) -> None:
+        if total:
+            ctx.report(stage, min(1.0, (per * ended + extra) / total))
+
     try:
         for i in _fit_order(planned, staged):
             name, plan = planned[i]
@@ -534,6 +544,7 @@ def _run_detectors(
             try:
                 if staged:
                     det, model, fit_s = plan.result()
+                    show(1)  # fitted
                     if kept is not None:
                         kept[name] = (det, model)
                     t0 = time.perf_counter()
@@ -555,7 +566,11 @@ def _run_detectors(
                     trim_heap()
             except DetectorError as err:
                 settled[i] = err
+                ended += 1
+                show()
                 continue
+            ended += 1
+            show()
             result = settled[i]
             if finished is not None and isinstance(result, DetectorResult):
                 finished(result)
@@ -564,6 +579,8 @@ def _run_detectors(
             if hasattr(plan, "cancel"):
                 plan.cancel()
         raise
+    if total and per * ended < total:  # detectors left out after an earlier one's error
+        ctx.report(stage, 1.0)
     results: list[DetectorResult] = []
     skipped: dict[str, str] = {}
     for i, (name, plan) in enumerate(planned):
@@ -1046,10 +1063,11 @@ def _analyze(
         attach_evidence(findings, results, aligned.rate_hz, train)
         for r in parts:
             r.model["training_tests"], r.model["windowed_tests"] = {}, {}
-        for task, handle in tests:
+        for k, (task, handle) in enumerate(tests):
             trained, windowed = _residual_tests(task) if handle is None else handle.result()
             task[0].model["training_tests"].update(trained)
             task[0].model["windowed_tests"].update(windowed)
+            ctx.report("tests", (k + 1) / len(tests))
         _merge_tests(results, parts)
         if reused is not None:
             for r in results:

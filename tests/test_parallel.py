@@ -205,10 +205,19 @@ def test_jobs_keeps_explicit_detector_errors():
             )
 
 
-def test_jobs_progress_is_reported(tmp_path):
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_progress_is_reported_for_reading_detection_and_tests(jobs):
+    """The long stages report their progress: reading, the detectors (on threads each
+    fit, then each run), the residual tests; each stage's fractions rise to 1."""
     seen: list[tuple[str, float]] = []
-    analyze([SAMPLE], RunOptions(jobs=2, progress=lambda s, f: seen.append((s, f))))
+    analyze([SAMPLE], RunOptions(jobs=jobs, progress=lambda s, f: seen.append((s, f))))
     assert ("read", 1.0) in seen
+    for stage in ("detect", "tests"):
+        fractions = [f for s, f in seen if s == stage]
+        assert fractions and fractions[-1] == 1.0, stage
+        assert all(b >= a for a, b in zip(fractions, fractions[1:], strict=False)), stage
+    detect = [f for s, f in seen if s == "detect"]
+    assert len(detect) == (6 if jobs == 2 else 3)  # three detectors: fit and run, or both
 
 
 @pytest.mark.parametrize("jobs", [1, 2])
