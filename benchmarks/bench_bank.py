@@ -108,9 +108,10 @@ def best_time(fn: Callable[[], Any], repeat: int) -> tuple[float, Any]:
     return best, result
 
 
-def revision() -> str:
-    """The commit measured (and whether analyzer/ has uncommitted changes), or "unknown"."""
-    root = Path(__file__).resolve().parents[1]
+def revision(root: Path | None = None) -> str:
+    """The commit measured (and whether analyzer/ has uncommitted changes), or "unknown";
+    of the checkout ``root`` (default: this one)."""
+    root = Path(__file__).resolve().parents[1] if root is None else root
     try:
         head = subprocess.run(
             ["git", "-C", str(root), "rev-parse", "--short", "HEAD"],

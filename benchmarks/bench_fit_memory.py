@@ -118,20 +118,6 @@ def ar_fits(rows: int, sources: list[tuple[str, Path]]) -> None:
                 print(f"{label:8s} {what:14s} {float(wall):7.2f} {float(peak):8.0f} {copy:>11s}")
 
 
-def checkout_revision(root: Path) -> str:
-    """The commit checked out in ``root``, or "unknown"."""
-    try:
-        done = subprocess.run(
-            ["git", "-C", str(root), "rev-parse", "--short", "HEAD"],
-            capture_output=True,
-            text=True,
-            check=True,
-        )
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-    return done.stdout.strip()
-
-
 def slope_mb_per_hour(cases: list[Case]) -> float:
     """Least-squares growth of the peak RSS per hour of training."""
     if len(cases) < 2:
@@ -176,7 +162,7 @@ def main(argv: list[str] | None = None) -> int:
         if not (base / "analyzer" / "__init__.py").is_file():
             raise SystemExit(f"bench_fit_memory: --baseline-src {base}: no analyzer package")
         sources.append(("baseline", base))
-        print(f"# baseline: {base}, commit {checkout_revision(base)}")
+        print(f"# baseline: {base}, commit {revision(base)}")
     if args.ar_rows:
         print(
             f"# commit {revision()}, OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}"
