@@ -483,18 +483,23 @@ class ARKalmanBank:
         # pass 1 (in the fold tasks): residuals and the innovation moments of every
         # estimator after the cold start; pass 2: the consistency, normalized by the
         # covariance from all folds' moments
-        resid = np.full((n, ar.m), np.nan)
+        # (the folds cover the window: every row of resid and cons is written)
+        resid = np.empty((n, ar.m))
         moments = _Moments(ar.m)
-        for fold in folds:
+        for f, fold in enumerate(folds):
             resid[fold.a : fold.b] = fold.resid
             moments.merge(fold.moments)
-        # pass 2 needs the folds' models and banks, not their residuals: not held twice
-        folds = [replace(fold, resid=resid[fold.a : fold.b]) for fold in folds]
+            # pass 2 needs the folds' models, not their residuals: not held twice
+            folds[f] = replace(fold, resid=resid[fold.a : fold.b])
+            del fold
         inv_covs = moments.inverse_covariances()
-        cons = np.full((n, ar.m), np.nan)
-        nises = map_in(context, _cv_consistency_task, [(train, fold, inv_covs) for fold in folds])
-        for fold, nis in zip(folds, nises, strict=True):
-            cons[fold.a : fold.b] = nis
+        cons = np.empty((n, ar.m))
+        # in this process each fold writes its rows in place (no second copy of them)
+        into = cons if context is None or context.shares_memory else None
+        items = [(train, fold, inv_covs, into) for fold in folds]
+        for fold, nis in zip(folds, map_in(context, _cv_consistency_task, items), strict=True):
+            if nis is not None:
+                cons[fold.a : fold.b] = nis
         return resid, cons, skip, how, inv_covs
 
     def _bank_outputs(
@@ -1188,13 +1193,15 @@ def _detect_task(task: tuple[FloatArray, Calibration, int]) -> list[Interval]:
 @dataclass(frozen=True, slots=True)
 class _Fold:
     """One cross-validation fold: the training rows ``a .. b - 1`` held out, the model
-    fitted without them, its bank, and their out-of-sample residuals and innovation
-    moments (after the cold start)."""
+    fitted without them, its estimators (a bank is built from them again where pass 2
+    filters the rows again: a bank's spectra, ~40 MB at 16 channels, are not held per
+    fold between the passes), and their out-of-sample residuals and innovation moments
+    (after the cold start)."""
 
     a: int
     b: int
     ar: ARModel
-    bank: BankFilter
+    estimators: tuple[LeaveOneOut, ...]
     resid: FloatArray
     moments: _Moments
     innov: npt.NDArray[np.float64] | None = None
@@ -1258,25 +1265,33 @@ def _cv_fold_task(
             innov_moments=moments,
             moments_from=max(0, skip - a),
         )
-    return _Fold(a, b, ar, bank, out.resid, moments, out.innov if keep else None)
+    return _Fold(a, b, ar, estimators, out.resid, moments, out.innov if keep else None)
 
 
-def _cv_consistency_task(item: tuple[FloatArray, _Fold, list[FloatArray]]) -> FloatArray:
+def _cv_consistency_task(
+    item: tuple[FloatArray, _Fold, list[FloatArray], FloatArray | None],
+) -> FloatArray | None:
     """Pass 2 of the calibration on one fold: the consistency of its held-out rows, from
     the innovations pass 1 kept (the same products :func:`bank_block` takes of them),
-    or by filtering the rows again."""
-    train, fold, inv_covs = item
+    or by filtering the rows again with the fold's bank, built again from its
+    estimators (the same bank: the build is deterministic). Written into the rows
+    ``a .. b - 1`` of ``into`` when given (None returned), else returned."""
+    train, fold, inv_covs, into = item
     if fold.innov is not None:
         m = fold.innov.shape[1]
         nt = fold.innov.transpose(1, 0, 2)  # (m, N, m - 1)
         inv_stack = np.stack([np.asarray(c) for c in inv_covs])
-        return np.asarray((np.matmul(nt, inv_stack) * nt).sum(axis=2).T / (m - 1))
-    w = min(fold.a, fold.bank.warmup)
-    out = bank_block(
-        fold.ar.mean, fold.ar.scale, fold.bank, train[fold.a - w : fold.b], w, inv_covs
-    )
-    assert out.nis is not None
-    return out.nis
+        nis = np.asarray((np.matmul(nt, inv_stack) * nt).sum(axis=2).T / (m - 1))
+    else:
+        bank = BankFilter.build(fold.estimators, fold.estimators[0].block)
+        w = min(fold.a, bank.warmup)
+        out = bank_block(fold.ar.mean, fold.ar.scale, bank, train[fold.a - w : fold.b], w, inv_covs)
+        assert out.nis is not None
+        nis = out.nis
+    if into is None:
+        return nis
+    into[fold.a : fold.b] = nis
+    return None
 
 
 def _bank_block_task(item: tuple[Any, ...]) -> BankBlock:
