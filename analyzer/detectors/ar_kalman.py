@@ -1249,22 +1249,20 @@ def _cv_fold_task(
     # (a long window) only their moments are taken, chunk by chunk, and pass 2 filters
     # the fold again
     keep = (b - a) * ar.m * (ar.m - 1) * 8 * CV_FOLDS <= KEPT_INNOVATIONS_BYTES
-    held_out = train[a - w : b]
+    first = max(0, skip - a)  # the cold start's rows are not in the moments
+    out = bank_block(
+        ar.mean,
+        ar.scale,
+        bank,
+        train[a - w : b],
+        w,
+        None,
+        innov_moments=None if keep else moments,
+        moments_from=first,
+    )
     if keep:
-        out = bank_block(ar.mean, ar.scale, bank, held_out, w, None)
         assert out.innov is not None
-        moments.add(out.innov[max(0, skip - a) :])
-    else:
-        out = bank_block(
-            ar.mean,
-            ar.scale,
-            bank,
-            held_out,
-            w,
-            None,
-            innov_moments=moments,
-            moments_from=max(0, skip - a),
-        )
+        moments.add(out.innov[first:])
     return _Fold(a, b, ar, estimators, out.resid, moments, out.innov if keep else None)
 
 

@@ -204,9 +204,10 @@ def fit_ar(
         )
     Z = _Scaled(Y, mean, scale)
     segments = _finite_segments(finite, order)
-    design = None
+    design = whole = None
     if segments is None:  # many gaps: the design matrix of the rows without one
-        design = _design_rows(_scaled_rows(Y, mean, scale, exclude), order)
+        whole = _scaled_rows(Y, mean, scale, exclude)
+        design = _design_rows(whole, order)
         usable = design[0].shape[0]
     else:
         usable = sum(b - a - order for a, b in segments)
@@ -227,7 +228,8 @@ def fit_ar(
                 E = _ar_residuals(Z, B, order, segments)
                 EE = E.T @ E
     if B is None or EE is None:  # ill-conditioned (or many gaps): QR on the design matrix
-        whole = _scaled_rows(Y, mean, scale, exclude)
+        if whole is None:
+            whole = _scaled_rows(Y, mean, scale, exclude)
         T, X = design if design is not None else _design_rows(whole, order)
         B, rank = _least_squares(X, T)
         if rank < k:
