@@ -469,37 +469,49 @@ class ARKalmanBank:
         block = estimators[0].block
         k = CV_FOLDS
         edges = np.linspace(0, n, k + 1).astype(int)
+        # the calibration series over the window (memory-mapped for a long archive: a
+        # long training window's are not held, calibrate reads them a block at a time);
+        # in this process each fold writes its rows in place (no second copy of them)
+        # (the folds cover the window: every row of resid and cons is written)
+        shared = context is None or context.shares_memory
+
+        def series(name: str) -> npt.NDArray[Any]:
+            if context is None:
+                return np.empty((n, ar.m))
+            return context.buffer(f"{self.name}-{name}", (n, ar.m))
+
+        resid = series("cal-resid")
+        into = resid if shared else None
         try:
             # the folds are independent: each is fitted and filtered (pass 1) as one task
             spans = [(int(edges[f]), int(edges[f + 1])) for f in range(k)]
             # each fold's estimators take the whole model's settle and warm-up times
             times = tuple((e.settle, e.warmup) for e in estimators)
-            tasks = [(train, a, b, ar.order, block, skip, times, solutions) for a, b in spans]
+            tasks = [(train, a, b, ar.order, block, skip, times, solutions, into) for a, b in spans]
             folds = map_in(context, _cv_fold_task, tasks)
             how = f"{k}-fold out-of-sample"
         except DetectorError:
-            folds = [_cv_fold_task((train, 0, n, None, block, skip, None, None), ar, estimators)]
+            item = (train, 0, n, None, block, skip, None, None, into)
+            folds = [_cv_fold_task(item, ar, estimators)]
             how = "in-sample (training window too short for cross-validation)"
         # pass 1 (in the fold tasks): residuals and the innovation moments of every
         # estimator after the cold start; pass 2: the consistency, normalized by the
         # covariance from all folds' moments
-        # (the folds cover the window: every row of resid and cons is written)
-        resid = np.empty((n, ar.m))
         moments = _Moments(ar.m)
         for f, fold in enumerate(folds):
-            resid[fold.a : fold.b] = fold.resid
+            if fold.resid is not None:  # from another process
+                write_rows(resid, fold.a, fold.resid)
+                # pass 2 needs the folds' models, not their residuals: not held twice
+                folds[f] = replace(fold, resid=None)
             moments.merge(fold.moments)
-            # pass 2 needs the folds' models, not their residuals: not held twice
-            folds[f] = replace(fold, resid=resid[fold.a : fold.b])
             del fold
         inv_covs = moments.inverse_covariances()
-        cons = np.empty((n, ar.m))
-        # in this process each fold writes its rows in place (no second copy of them)
-        into = cons if context is None or context.shares_memory else None
+        cons = series("cal-cons")
+        into = cons if shared else None
         items = [(train, fold, inv_covs, into) for fold in folds]
         for fold, nis in zip(folds, map_in(context, _cv_consistency_task, items), strict=True):
             if nis is not None:
-                cons[fold.a : fold.b] = nis
+                write_rows(cons, fold.a, nis)
         return resid, cons, skip, how, inv_covs
 
     def _bank_outputs(
@@ -1202,7 +1214,8 @@ class _Fold:
     b: int
     ar: ARModel
     estimators: tuple[LeaveOneOut, ...]
-    resid: FloatArray
+    resid: FloatArray | None
+    """None once written into the caller's residuals."""
     moments: _Moments
     innov: npt.NDArray[np.float64] | None = None
     """The held-out rows' innovations (N, m, m - 1), kept for pass 2 when they fit in
@@ -1219,6 +1232,7 @@ def _cv_fold_task(
         int,
         tuple[tuple[int, int], ...] | None,
         tuple[FloatArray, ...] | None,
+        npt.NDArray[Any] | None,
     ],
     ar: ARModel | None = None,
     estimators: tuple[LeaveOneOut, ...] | None = None,
@@ -1226,8 +1240,10 @@ def _cv_fold_task(
     """Fit without rows ``a .. b - 1`` of ``train`` (order ``order``; or use ``ar`` and
     ``estimators`` as they are: the in-sample fallback) and filter the held-out rows from
     a warm-up before them; ``times`` are the whole model's estimators' settle and warm-up
-    times and ``solutions`` their DARE solutions (:func:`leave_one_out`)."""
-    train, a, b, order, block, skip, times, solutions = item
+    times and ``solutions`` their DARE solutions (:func:`leave_one_out`). The residuals
+    are written into rows ``a .. b - 1`` of ``into`` when given (the fold's ``resid`` is
+    then None), else kept in the fold."""
+    train, a, b, order, block, skip, times, solutions, into = item
     if ar is None or estimators is None:
         assert order is not None
         # the block's rows, and the rows whose lags touch it, drop out of the fit
@@ -1263,7 +1279,11 @@ def _cv_fold_task(
     if keep:
         assert out.innov is not None
         moments.add(out.innov[first:])
-    return _Fold(a, b, ar, estimators, out.resid, moments, out.innov if keep else None)
+    resid = out.resid
+    if into is not None:
+        write_rows(into, a, resid)
+        resid = None
+    return _Fold(a, b, ar, estimators, resid, moments, out.innov if keep else None)
 
 
 def _cv_consistency_task(
@@ -1288,7 +1308,7 @@ def _cv_consistency_task(
         nis = out.nis
     if into is None:
         return nis
-    into[fold.a : fold.b] = nis
+    write_rows(into, fold.a, nis)
     return None
 
 

@@ -105,8 +105,15 @@ from analyzer.diagnosis.changes import (
     calibrate,
     default_window,
 )
-from analyzer.diagnosis.classify import correlation_time
+from analyzer.diagnosis.classify import CORRELATION_LAGS, integrated_time
 from analyzer.diagnosis.events import events_from_residual
+from analyzer.diagnosis.streamed import (
+    BlockMeans,
+    LaggedSums,
+    Series,
+    finite_blocks,
+    series_moments,
+)
 from analyzer.errors import DetectorError
 from analyzer.paging import RELEASE_ROWS, Released, ScratchRows, release, write_rows
 
@@ -953,11 +960,20 @@ class DetectionFilter:
             segments = [_Segment(model, filters, train, skip)]
         else:
             segments = self._held_out(model, data, train, sigma, context)
-        parts = map_in(context, _moments_task, segments)
+        k = len(filters)
+
+        def kept(name: str, seg: _Segment) -> npt.NDArray[Any] | None:
+            """Where a task writes a stretch's series per filter: a buffer of the
+            caller's (memory-mapped for a long archive) where tasks share its memory."""
+            n = seg.values.shape[0] - seg.start
+            return context.buffer(f"{self.name}-{name}", (n, k)) if context.shares_memory else None
+
+        parts = map_in(context, _moments_task, [(seg, kept("zeta", seg)) for seg in segments])
         alpha_far = context.false_alarm_rate / len(data.channels)  # per channel
         zcal, dcal, dinv, qscale, taus = [], [], [], [], []
-        for i in range(len(filters)):
-            z = np.concatenate([zetas[i] for zetas, _ in parts])
+        for i in range(k):
+            # the stretches' series read one after the other (no concatenated copy)
+            z = [zetas[:, i] for zetas, _ in parts]
             zcal.append(calibrate(z, window, alpha_far))
             taus.append(long_run_time(z, window))
             moments = _Moments.merged([each[i] for _, each in parts])
@@ -967,9 +983,11 @@ class DetectionFilter:
             qs = np.sqrt(np.diag(moments.m2) / moments.n)  # np.std of each component
             qscale.append(np.where(qs > 0, qs, 1.0))
         inv_covs = tuple(dinv)
-        nis = map_in(context, _nis_task, [(seg, inv_covs) for seg in segments])
-        for i in range(len(filters)):
-            dcal.append(calibrate(np.concatenate([part[i] for part in nis]), window, alpha_far))
+        del parts
+        nis = map_in(context, _nis_task, [(seg, inv_covs, kept("nis", seg)) for seg in segments])
+        for i in range(k):
+            dcal.append(calibrate([part[:, i] for part in nis], window, alpha_far))
+        del nis
         return FittedDetectionFilter(
             model,
             filters,
@@ -1449,25 +1467,38 @@ class DetectionFilter:
         )
 
 
-def long_run_time(r: FloatArray, window: int) -> float:
+def long_run_time(r: Series, window: int) -> float:
     """Effective correlation time (samples) of a healthy residual for the classifier's
     effective sample size: the larger of the integrated autocorrelation time
     (:func:`correlation_time`) and the long-run variance ratio ``B var(block mean) / var``
     at block lengths ``B = window, 2 window, ...`` up to an eighth of the record. A residual
     that wanders slowly (more power near zero frequency than its short-lag autocorrelation
-    shows) would otherwise make a constant fault look like a slow drift."""
-    x = np.asarray(r, dtype=np.float64)
-    x = x[np.isfinite(x)]
-    tau = correlation_time(x)
-    v = float(np.var(x))
+    shows) would otherwise make a constant fault look like a slow drift.
+
+    ``r``: one array, or arrays read one after the other as one series (NaNs ignored);
+    two passes a block at a time (:mod:`analyzer.diagnosis.streamed`), the same numbers
+    as the whole-series formulas to rounding."""
+    first = series_moments(r)
+    n = first.n
+    sizes = []
+    b = max(1, int(window))
+    while 8 * b <= n:
+        sizes.append(b)
+        b *= 2
+    lags = LaggedSums(CORRELATION_LAGS) if n >= 8 else None
+    means = [BlockMeans(b) for b in sizes]
+    if lags is not None or means:
+        for x in finite_blocks(r):
+            if lags is not None:
+                lags.add(x - first.mean)
+            for each in means:
+                each.add(x)
+    tau = 1.0 if lags is None else integrated_time(lags.values())
+    v = first.var()
     if not v > 0.0:
         return tau
-    b = max(1, int(window))
-    while 8 * b <= x.shape[0]:
-        nb = x.shape[0] // b
-        means = x[: nb * b].reshape(nb, b).mean(axis=1)
-        tau = max(tau, float(b * np.var(means, ddof=1) / v))
-        b *= 2
+    for each in means:
+        tau = max(tau, float(each.b * each.moments.var(ddof=1) / v))
     return tau
 
 
@@ -1642,32 +1673,49 @@ def _segment_chunks(seg: _Segment) -> Iterator[tuple[int, FloatArray, FloatArray
         yield at, q, zeta
 
 
-def _moments_task(seg: _Segment) -> tuple[list[FloatArray], list[_Moments]]:
-    """Per filter over a calibration stretch: its fault estimates, and the moments of
-    its residual vectors over the rows where none is missing (what an executor maps)."""
-    n = seg.values.shape[0] - seg.start
+def _series_out(seg: _Segment, into: npt.NDArray[Any] | None) -> npt.NDArray[Any]:
+    """``into``, or a new ``(n, k)`` array (column ``i`` contiguous: filter ``i``'s
+    series) for a stretch's ``n`` rows and ``k`` filters."""
+    if into is not None:
+        return into
+    return np.empty((len(seg.filters), seg.values.shape[0] - seg.start)).T
+
+
+def _moments_task(
+    task: tuple[_Segment, npt.NDArray[Any] | None],
+) -> tuple[npt.NDArray[Any], list[_Moments]]:
+    """Per filter over a calibration stretch: its fault estimates (column ``i`` of the
+    ``(n, k)`` array returned: ``into`` when given, a :func:`~analyzer.paging.buffer`
+    written by :func:`~analyzer.paging.write_rows`, so a memory-mapped one's pages are
+    not held), and the moments of its residual vectors over the rows where none is
+    missing (what an executor maps)."""
+    seg, into = task
+    zetas = _series_out(seg, into)
     k, m = len(seg.filters), seg.filters[0].n_outputs
-    zetas = np.empty((k, n))
     moments = [_Moments(m) for _ in range(k)]
     for at, q, zeta in _segment_chunks(seg):
-        zetas[:, at : at + zeta.shape[1]] = zeta
+        write_rows(zetas, at, zeta.T)
         for i in range(k):
             good = np.isfinite(q[i]).all(axis=1)
             moments[i].add(q[i] if good.all() else q[i][good])
-    return list(zetas), moments
+    return zetas, moments
 
 
-def _nis_task(task: tuple[_Segment, tuple[FloatArray, ...]]) -> list[FloatArray]:
+def _nis_task(
+    task: tuple[_Segment, tuple[FloatArray, ...], npt.NDArray[Any] | None],
+) -> npt.NDArray[Any]:
     """Per filter over a calibration stretch: the normalized squared residual vector
     off its own direction, under the inverse covariances ``inv_covs`` (a second run of
-    the bank: the covariances needed the whole window first)."""
-    seg, inv_covs = task
-    n = seg.values.shape[0] - seg.start
-    out = np.empty((len(seg.filters), n))
+    the bank: the covariances needed the whole window first), as column ``i`` of the
+    ``(n, k)`` array returned (``into`` when given, as in :func:`_moments_task`)."""
+    seg, inv_covs, into = task
+    out = _series_out(seg, into)
     for at, q, _ in _segment_chunks(seg):
+        nis = np.empty((q.shape[1], len(inv_covs)))
         for i, inv in enumerate(inv_covs):
-            out[i, at : at + q.shape[1]] = _nis(np.delete(q[i], i, axis=1), inv)
-    return list(out)
+            nis[:, i] = _nis(np.delete(q[i], i, axis=1), inv)
+        write_rows(out, at, nis)
+    return out
 
 
 def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray | None, Any]:

@@ -689,10 +689,11 @@ class EquivalentModel:
 
     def _held_out_estimate(
         self, obs: AssistantObserver, rel: Relation, train: FloatArray, i: int, skip: int
-    ) -> FloatArray:
+    ) -> list[FloatArray]:
         """The healthy fault estimate for calibration, out of sample: the relation is
         refitted on each half of the training window (same lags) and evaluated on the
-        other half, so the thresholds reflect how well it predicts data it has not seen."""
+        other half, so the thresholds reflect how well it predicts data it has not seen.
+        The two halves in time order, to be read as one series (not concatenated)."""
         n = train.shape[0]
         half = n // 2
         parts = []
@@ -706,8 +707,10 @@ class EquivalentModel:
                 r_half = rel  # too little data for halves: fall back to in-sample
             zeta, _ = self._fault_estimate(obs, r_half, train, i)
             seg = zeta[eval_rows]
-            parts.append(seg[min(skip, seg.shape[0] // 4) :])
-        return np.concatenate(parts[::-1])
+            # a copy of the half it evaluates: the estimate over the whole window is freed
+            parts.append(seg[min(skip, seg.shape[0] // 4) :].copy())
+            del zeta, seg
+        return parts[::-1]
 
     @staticmethod
     def _fault_estimate(

@@ -33,9 +33,16 @@ import numpy as np
 import numpy.typing as npt
 from scipy import special
 
+from analyzer.diagnosis.streamed import (
+    LaggedSums,
+    RunningMoments,
+    Series,
+    WindowSums,
+    finite_blocks,
+    series_moments,
+)
 from analyzer.errors import DetectorError
 from analyzer.paging import release
-from analyzer.stats.whiteness import lagged_products
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -127,14 +134,12 @@ def moving_mean(x: FloatArray, window: int) -> FloatArray:
     return out
 
 
-def _acf(z: FloatArray, max_lag: int) -> FloatArray:
-    """Sample autocorrelation up to ``max_lag`` by FFT (biased estimator, as in the
-    variance formula it feeds). Not truncated at the first zero crossing: an oscillating
-    residual's autocorrelation crosses zero and comes back, and every lag counts in a
-    window's variance."""
-    n = z.shape[0]
-    acf = lagged_products(z - z.mean(), max_lag)
-    acf = acf / acf[0]
+def _acf(lagged: FloatArray, n: int) -> FloatArray:
+    """Sample autocorrelation from the lagged products ``lagged`` of a centred series of
+    ``n`` samples (biased estimator, as in the variance formula it feeds). Not truncated
+    at the first zero crossing: an oscillating residual's autocorrelation crosses zero
+    and comes back, and every lag counts in a window's variance."""
+    acf = lagged / lagged[0]
     # lags inside the white-noise band carry estimation noise only: zero them one by one
     # (an oscillating autocorrelation keeps its peaks; a short sum stays unbiased)
     band = 2.0 / np.sqrt(n)
@@ -142,34 +147,56 @@ def _acf(z: FloatArray, max_lag: int) -> FloatArray:
     return acf
 
 
-def calibrate(
-    train_residual: FloatArray, window: int, false_alarm_rate: float = 1e-6
-) -> Calibration:
-    """Healthy statistics of ``train_residual`` (NaNs ignored) for :func:`detect`."""
-    r = np.asarray(train_residual, dtype=np.float64)
-    r = r[np.isfinite(r)]
+def calibrate(train_residual: Series, window: int, false_alarm_rate: float = 1e-6) -> Calibration:
+    """Healthy statistics of ``train_residual`` (NaNs ignored; one array, or arrays read
+    one after the other as one series) for :func:`detect`.
+
+    Two passes a block at a time (:mod:`analyzer.diagnosis.streamed`): the mean and
+    spread, then, of the standardized series ``z``, its autocorrelation and that of
+    ``z^2``, and the spread of the window means and log mean squares. What is held at
+    once is a block, not the series: a fit on a long healthy window holds no copy of
+    its residuals here (a memory-mapped series' pages are given back as the passes go).
+    The same statistics as the whole-series formulas to rounding (tested)."""
     windows = (window, LONG_FACTOR * window)
     need = 4 * windows[-1]
-    if r.shape[0] < need:
+    first = series_moments(train_residual)
+    if first.n < need:
         raise DetectorError(
-            f"too little healthy data to calibrate thresholds: {r.shape[0]} finite training "
+            f"too little healthy data to calibrate thresholds: {first.n} finite training "
             f"samples, need at least {need} (4 windows of {windows[-1]})"
         )
     if not 0.0 < false_alarm_rate < 0.5:
         raise DetectorError(f"false_alarm_rate must be in (0, 0.5), got {false_alarm_rate!r}")
-    mean = float(np.mean(r))
-    std = float(np.std(r, ddof=1))
+    mean = first.mean
+    std = first.std(ddof=1)
     if not std > 0.0:
         raise DetectorError(
             "the training residual is constant (zero variance): cannot set a threshold"
         )
-    z = (r - mean) / std
-    rho = _acf(z, windows[-1])
-    z2 = z * z
-    rho2 = _acf(z2, windows[-1])
-    var_z2 = float(np.var(z2))
+    n = first.n
+    # z has mean 0 and z^2 mean (n - 1) / n by construction (to rounding): the centres
+    # of the autocorrelations are known before the second pass
+    z2_centre = (n - 1) / n
+    lags_z, lags_z2 = LaggedSums(windows[-1]), LaggedSums(windows[-1])
+    z2_moments = RunningMoments()
+    sums = [(WindowSums(w), WindowSums(w)) for w in windows]
+    m_moments = [RunningMoments() for _ in windows]
+    q_moments = [RunningMoments() for _ in windows]
+    for x in finite_blocks(train_residual):
+        z = (x - mean) / std
+        z2 = z * z
+        lags_z.add(z)
+        z2_moments.add(z2)
+        for (of_z, of_z2), w, mm, qm in zip(sums, windows, m_moments, q_moments, strict=True):
+            mm.add(of_z.add(z) / w)
+            qm.add(np.log(np.maximum(of_z2.add(z2) / w, 1e-300)))
+        z2 -= z2_centre
+        lags_z2.add(z2)
+    rho = _acf(lags_z.values(), n)
+    rho2 = _acf(lags_z2.values(), n)
+    var_z2 = z2_moments.var()
     msd, lqm, lqs = [], [], []
-    for w in windows:
+    for w, mm, qm in zip(windows, m_moments, q_moments, strict=True):
         # Variance of a w-sample mean of a stationary sequence with autocorrelation rho
         # (Priestley 1981, Eq. 5.3.5), applied to z and to z^2 (whose own autocorrelation
         # carries the slow envelope of a lightly damped response). These model-based spreads
@@ -179,11 +206,9 @@ def calibrate(
         taper = 1.0 - k / w
         var_m = (1.0 + 2.0 * np.sum(taper * rho[1:w])) / w
         var_q = var_z2 * (1.0 + 2.0 * np.sum(taper * rho2[1:w])) / w
-        m = moving_mean(z, w)[w - 1 :]
-        logq = np.log(np.maximum(moving_mean(z * z, w)[w - 1 :], 1e-300))
-        msd.append(max(float(np.std(m, ddof=1)), float(np.sqrt(max(var_m, 0.0)))))
-        lqm.append(float(np.mean(logq)))
-        lqs.append(max(float(np.std(logq, ddof=1)), float(np.sqrt(max(var_q, 0.0)))))
+        msd.append(max(mm.std(ddof=1), float(np.sqrt(max(var_m, 0.0)))))
+        lqm.append(qm.mean)
+        lqs.append(max(qm.std(ddof=1), float(np.sqrt(max(var_q, 0.0)))))
     return Calibration(
         mean=mean,
         std=std,

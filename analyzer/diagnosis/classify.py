@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from analyzer.stats.whiteness import lagged_products
+from analyzer.diagnosis.streamed import LaggedSums, Series, finite_blocks, series_moments
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -94,17 +94,31 @@ class Classification:
         return 1.0
 
 
-def correlation_time(r: FloatArray, max_lag: int = 200) -> float:
+CORRELATION_LAGS = 200
+"""Lags of the autocorrelation summed into a correlation time (a few seconds at 100 Hz:
+more than a healthy residual's correlation lasts)."""
+
+
+def correlation_time(r: Series, max_lag: int = CORRELATION_LAGS) -> float:
     """Integrated autocorrelation time (samples) of a healthy residual, >= 1: how many
-    samples carry one sample's worth of independent information."""
-    x = np.asarray(r, dtype=np.float64)
-    x = x[np.isfinite(x)]
-    x = x - x.mean()
-    n = x.shape[0]
-    if n < 8:
+    samples carry one sample's worth of independent information. ``r``: one array, or
+    arrays read one after the other as one series (NaNs ignored); taken a block at a
+    time (:mod:`analyzer.diagnosis.streamed`)."""
+    first = series_moments(r)
+    if first.n < 8:
         return 1.0
-    acf = lagged_products(x, max_lag)
-    acf = acf / acf[0]
+    lags = LaggedSums(max_lag)
+    for x in finite_blocks(r):
+        lags.add(x - first.mean)
+    return integrated_time(lags.values())
+
+
+def integrated_time(lagged: FloatArray) -> float:
+    """:func:`correlation_time` from the lagged products of the centred series
+    (:class:`~analyzer.diagnosis.streamed.LaggedSums`)."""
+    if not lagged[0] > 0.0:  # a constant series: no correlation to speak of
+        return 1.0
+    acf = lagged / lagged[0]
     # sum until the autocorrelation first drops below zero (Geyer-style truncation)
     neg = np.flatnonzero(acf[1:] <= 0.0)
     stop = int(neg[0]) + 1 if neg.size else acf.shape[0]

@@ -11,6 +11,7 @@ import pytest
 from scipy import signal
 
 import analyzer.detectors.lti as lti
+from analyzer import paging
 from analyzer.detectors import detection_filter as dfm
 from analyzer.detectors.base import Dataset, RunContext
 from analyzer.detectors.detection_filter import (
@@ -373,13 +374,14 @@ def test_ar_detector_fit_equals_the_general_design(monkeypatch):
             np.testing.assert_allclose(np.asarray(da[key]), np.asarray(db[key]), rtol=1e-6)
 
 
-@pytest.mark.parametrize("gap", [False, True])
-def test_streamed_calibration_equals_the_kept_residual_vectors(gap, monkeypatch):
+@pytest.mark.parametrize(("gap", "mapped"), [(False, False), (True, False), (True, True)])
+def test_streamed_calibration_equals_the_kept_residual_vectors(gap, mapped, monkeypatch, tmp_path):
     """The calibration streams each healthy stretch's outputs (fault estimates kept,
     residual vectors reduced to their moments, then run again for their normalized
     squares) instead of holding every filter's residual vectors: the same numbers as
     ``_outputs`` and ``np.cov`` / ``np.std`` / the squares of the kept vectors, across
-    chunk edges and a gap."""
+    chunk edges and a gap; written into a memory-mapped buffer (``mapped``: a long
+    archive's) or into a new array."""
     det, model, Y = _fitted_filter(40.0, seed=7)
     Yg = Y[:7000].copy()
     if gap:
@@ -388,7 +390,14 @@ def test_streamed_calibration_equals_the_kept_residual_vectors(gap, monkeypatch)
     monkeypatch.setattr(dfm, "CALIBRATION_ROWS", 1000)  # gaps found block by block
     start = 1500
     seg = dfm._Segment(model.model, model.filters, Yg, start)
-    zetas, moments = dfm._moments_task(seg)
+    k = len(model.filters)
+
+    def into(name):
+        return paging.buffer(tmp_path, name, (Yg.shape[0] - start, k)) if mapped else None
+
+    zetas, moments = dfm._moments_task((seg, into("z")))
+    assert paging.is_mapped(zetas) == mapped
+    zetas = zetas.T  # filter i's series: row i
     full = det._outputs(model.model, model.filters, Yg, start=start)
     inv_covs = []
     for i, (q, z, _) in enumerate(full):
@@ -405,7 +414,7 @@ def test_streamed_calibration_equals_the_kept_residual_vectors(gap, monkeypatch)
         inv_covs.append(np.linalg.pinv(cov))
     if gap:
         assert moments[0].n < Yg.shape[0] - start
-    nis = dfm._nis_task((seg, tuple(inv_covs)))
+    nis = dfm._nis_task((seg, tuple(inv_covs), into("nis"))).T
     for i, (q, _, _) in enumerate(full):
         expect = dfm._nis(np.delete(q, i, axis=1), inv_covs[i])
         assert np.array_equal(np.isnan(nis[i]), np.isnan(expect))

@@ -1,0 +1,175 @@
+"""Statistics of a long healthy series taken a block at a time.
+
+A detector's calibration reduces a healthy residual over the training window to a few
+numbers: its mean and spread, its autocorrelation up to a few hundred lags, the spread of
+its moving means and of their log mean squares, the variance of its block means. Taken
+on the whole series at once, each of these made several copies of it (the finite values,
+the standardized series, its square, the moving means, their logs): fitting on a day of
+16 channels at 100 Hz held gigabytes that only fed a few sums. Here each statistic is a
+running sum carried from block to block, with the few samples a block's sums need from
+the block before (the last ``max_lag`` samples for lagged products, ``w - 1`` for moving
+windows), so what is held at once is a block (:data:`SERIES_BLOCK` samples), whatever the
+series' length; a memory-mapped series' pages are given back behind the pass
+(:class:`analyzer.paging.Released`).
+
+The sums are the whole-series sums in another order: they equal them to rounding
+(tested against the whole-series formulas). The spread is merged block by block with the
+pairwise update of Chan, Golub and LeVeque (1979), which is as accurate as the two-pass
+formula.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from analyzer.paging import Released
+from analyzer.stats.whiteness import lagged_products
+
+FloatArray = npt.NDArray[np.float64]
+
+SERIES_BLOCK = 1 << 17
+"""Samples of a series a pass holds at once (1 MB in float64; a dozen temporaries)."""
+
+Series = npt.NDArray[Any] | Sequence[npt.NDArray[Any]]
+"""A 1-D array, or 1-D arrays read one after the other as one series (the held-out
+parts of a training window, say: not concatenated into a copy)."""
+
+
+def finite_blocks(series: Series, block: int | None = None) -> Iterator[FloatArray]:
+    """The finite values of ``series`` in order, as float64 blocks of at most ``block``
+    samples (default :data:`SERIES_BLOCK`; gaps closed up, as ``x[np.isfinite(x)]``
+    closes them). Each block is a new array; the pages of a memory-mapped series are
+    given back as the pass goes."""
+    block = SERIES_BLOCK if block is None else int(block)
+    parts = [series] if isinstance(series, np.ndarray) else list(series)
+    for part in parts:
+        arr = np.asarray(part)
+        if arr.ndim != 1:
+            raise ValueError(f"finite_blocks: expected 1-D series, got shape {arr.shape}")
+        behind = Released(arr)
+        for a in range(0, arr.shape[0], block):
+            b = min(a + block, arr.shape[0])
+            x = np.asarray(arr[a:b], dtype=np.float64)
+            x = x[np.isfinite(x)]  # a copy, even where every value is finite
+            behind.upto(b)
+            if x.shape[0]:
+                yield x
+        behind.upto(arr.shape[0], final=True)
+
+
+class RunningMoments:
+    """Count, mean and centred sum of squares of the values added so far (Chan, Golub
+    and LeVeque's pairwise update of a block's two-pass moments)."""
+
+    __slots__ = ("m2", "mean", "n")
+
+    def __init__(self) -> None:
+        self.n = 0
+        self.mean = 0.0
+        self.m2 = 0.0
+
+    def add(self, x: FloatArray) -> None:
+        k = x.shape[0]
+        if k == 0:
+            return
+        mu = float(np.mean(x))
+        d = x - mu
+        m2 = float(d @ d)
+        if self.n == 0:
+            self.n, self.mean, self.m2 = k, mu, m2
+            return
+        n = self.n + k
+        delta = mu - self.mean
+        self.mean += delta * k / n
+        self.m2 += m2 + delta * delta * self.n * k / n
+        self.n = n
+
+    def var(self, ddof: int = 0) -> float:
+        return self.m2 / (self.n - ddof) if self.n > ddof else float("nan")
+
+    def std(self, ddof: int = 0) -> float:
+        return float(np.sqrt(self.var(ddof)))
+
+
+class LaggedSums:
+    """``c[k] = sum_t d[t] d[t + k]`` for ``k = 0 .. max_lag`` of the series added block
+    by block (what :func:`analyzer.stats.whiteness.lagged_products` gives for the whole
+    series). A block adds the products whose later factor lies in it: those of the block
+    with the previous ``max_lag`` samples prepended, less those of the prepended samples
+    alone (already counted)."""
+
+    __slots__ = ("max_lag", "n", "sums", "tail")
+
+    def __init__(self, max_lag: int) -> None:
+        self.max_lag = int(max_lag)
+        self.sums = np.zeros(self.max_lag + 1)
+        self.tail = np.empty(0)
+        self.n = 0
+
+    def add(self, d: FloatArray) -> None:
+        if d.shape[0] == 0:
+            return
+        ext = np.concatenate((self.tail, d)) if self.tail.shape[0] else d
+        s = lagged_products(ext, self.max_lag)
+        self.sums[: s.shape[0]] += s
+        if self.tail.shape[0]:
+            t = lagged_products(self.tail, self.max_lag)
+            self.sums[: t.shape[0]] -= t
+        self.tail = ext[max(0, ext.shape[0] - self.max_lag) :].copy()
+        self.n += d.shape[0]
+
+    def values(self) -> FloatArray:
+        """The sums at the lags the series is long enough for (``min(max_lag, n - 1)``)."""
+        return self.sums[: max(0, min(self.max_lag, self.n - 1)) + 1].copy()
+
+
+class WindowSums:
+    """Sums of every ``w`` consecutive samples of the series added block by block, the
+    windows that end in each block (the trailing ``w - 1`` samples are carried)."""
+
+    __slots__ = ("tail", "w")
+
+    def __init__(self, w: int) -> None:
+        self.w = int(w)
+        self.tail = np.empty(0)
+
+    def add(self, x: FloatArray) -> FloatArray:
+        ext = np.concatenate((self.tail, x)) if self.tail.shape[0] else x
+        w = self.w
+        self.tail = ext[max(0, ext.shape[0] - (w - 1)) :].copy()
+        if ext.shape[0] < w:
+            return np.empty(0)
+        c = np.cumsum(np.concatenate(([0.0], ext)))
+        out: FloatArray = c[w:] - c[:-w]
+        return out
+
+
+class BlockMeans:
+    """Moments of the means of consecutive, non-overlapping ``b``-sample blocks of the
+    series added block by block (a last incomplete block does not count)."""
+
+    __slots__ = ("b", "moments", "rest")
+
+    def __init__(self, b: int) -> None:
+        self.b = int(b)
+        self.rest = np.empty(0)
+        self.moments = RunningMoments()
+
+    def add(self, x: FloatArray) -> None:
+        ext = np.concatenate((self.rest, x)) if self.rest.shape[0] else x
+        nb = ext.shape[0] // self.b
+        if nb:
+            self.moments.add(ext[: nb * self.b].reshape(nb, self.b).mean(axis=1))
+        self.rest = ext[nb * self.b :].copy()
+
+
+def series_moments(series: Series) -> RunningMoments:
+    """Count, mean and spread of the finite values of ``series`` (one pass)."""
+    moments = RunningMoments()
+    for x in finite_blocks(series):
+        moments.add(x)
+    return moments
