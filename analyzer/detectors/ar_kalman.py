@@ -1279,11 +1279,10 @@ def _cv_fold_task(
     if keep:
         assert out.innov is not None
         moments.add(out.innov[first:])
-    resid = out.resid
     if into is not None:
-        write_rows(into, a, resid)
-        resid = None
-    return _Fold(a, b, ar, estimators, resid, moments, out.innov if keep else None)
+        write_rows(into, a, out.resid)
+    kept = None if into is not None else out.resid
+    return _Fold(a, b, ar, estimators, kept, moments, out.innov if keep else None)
 
 
 def _cv_consistency_task(
