@@ -55,7 +55,7 @@ alarms are isolated by the network's laws (Section 6.2).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
@@ -256,16 +256,37 @@ class Pretreatment:
         return {"a": self.a, "b": self.b, "ey_rms": self.ey_rms, "method": self.method}
 
 
-def _output_error(
-    y: FloatArray, u: FloatArray, a: float, b: float, lambda2: float, dt: float
-) -> FloatArray:
+PRETREAT_ROWS = 1 << 16
+"""Samples the pretreatment's observers run through at a time (their states carried)."""
+
+
+def _output_errors(
+    y: FloatArray,
+    u: FloatArray | None,
+    pairs: Sequence[tuple[float, float]],
+    lambda2: float,
+    dt: float,
+) -> Iterator[list[FloatArray]]:
     """``e_y = y - xhat_2`` of the output observer (Eq. 14 and 17 with ``k = a + lambda2``),
-    exact ZOH, started at ``xhat_2 = y[0]``."""
-    obs = AssistantObserver(a, b, 1.0, lambda2, dt)
-    F, G, _, _ = obs.discrete("rate")
-    V = np.column_stack([np.zeros_like(y), y, u])
-    X = _diag_states(F[1:, 1:], G[1:], V, np.array([y[0]]))
-    return y - X[:-1, 0]
+    exact ZOH, started at ``xhat_2 = y[0]``, for each ``(a, b)`` of ``pairs`` (``u`` 0 when
+    None): :data:`PRETREAT_ROWS` samples at a time, each observer's state carried from
+    block to block (the recursion of the whole series, cut), so a long training window is
+    not copied."""
+    systems = []
+    for a, b in pairs:
+        F, G, _, _ = AssistantObserver(a, b, 1.0, lambda2, dt).discrete("rate")
+        systems.append((F[1:, 1:], G[1:]))
+    states = [np.array([float(y[0])]) for _ in pairs]
+    for lo in range(0, y.shape[0], PRETREAT_ROWS):
+        yb = np.asarray(y[lo : lo + PRETREAT_ROWS], dtype=np.float64)
+        ub = np.zeros_like(yb) if u is None else np.asarray(u[lo : lo + PRETREAT_ROWS], np.float64)
+        V = np.column_stack([np.zeros_like(yb), yb, ub])
+        out = []
+        for k, (F, G) in enumerate(systems):
+            X = _diag_states(F, G, V, states[k])
+            states[k] = X[-1].copy()
+            out.append(yb - X[:-1, 0])
+        yield out
 
 
 def pretreat(
@@ -282,11 +303,14 @@ def pretreat(
     pair with the smallest RMS ``e_y``). Without, the exact minimizer: ``xhat_2`` obeys
     ``xhat_2' = -lambda2 xhat_2 + (a + lambda2) y + b u``, so the sampled ``e_y`` is affine in
     ``(a, b)`` and three runs of the discrete observer give it in closed form; linear least
-    squares then minimizes ``||e_y||``. ``a = 0`` is excluded by Theory 1 and reported."""
-    yy = np.asarray(y, dtype=np.float64)
+    squares then minimizes ``||e_y||`` (its normal equations, summed a block at a time:
+    ``e_y = e_0 + M (a, b)`` with one or two columns in ``M``). ``a = 0`` is excluded by
+    Theory 1 and reported. The RMS is that of the chosen observer's run. The observers run
+    :data:`PRETREAT_ROWS` samples at a time: no copy of the window is held."""
+    yy = np.asarray(y)
     ok = np.isfinite(yy)
-    uu = np.zeros_like(yy) if u is None else np.asarray(u, dtype=np.float64)
-    ok &= np.isfinite(uu)
+    if u is not None:
+        ok &= np.isfinite(np.asarray(u))
     if ok.sum() < 16:
         raise DetectorError(
             f"too little healthy data for the pretreatment: {int(ok.sum())} samples"
@@ -296,31 +320,40 @@ def pretreat(
     lens = runs[1::2] - runs[::2]
     k = int(np.argmax(lens))
     seg = slice(int(runs[2 * k]), int(runs[2 * k + 1]))
-    yy, uu = yy[seg], uu[seg]
+    del ok
+    yy = yy[seg]
+    uu = None if u is None else np.asarray(u)[seg]
+
+    def rms(pairs: Sequence[tuple[float, float]]) -> list[float]:
+        sq = np.zeros(len(pairs))
+        for errors in _output_errors(yy, uu, pairs, lambda2, dt):
+            sq += [float(e @ e) for e in errors]
+        return [float(np.sqrt(v / yy.shape[0])) for v in sq]
+
     if table is not None:
-        best: Pretreatment | None = None
+        pairs = []
         for row in table:
             if len(row) != 2:
                 raise DetectorError(f"pretreatment table rows must be (a, b) pairs, got {row!r}")
-            a, b = float(row[0]), float(row[1])
-            e = _output_error(yy, uu, a, b, lambda2, dt)
-            rms = float(np.sqrt(np.mean(e * e)))
-            if best is None or rms < best.ey_rms:
-                best = Pretreatment(a, b, rms, "table (Algorithm 1)")
-        if best is None:
+            pairs.append((float(row[0]), float(row[1])))
+        if not pairs:
             raise DetectorError("the pretreatment table is empty")
-        return best
-    e0 = _output_error(yy, uu, 0.0, 0.0, lambda2, dt)
-    cols = [_output_error(yy, uu, 1.0, 0.0, lambda2, dt) - e0]
-    with_input = u is not None and float(np.ptp(uu)) > 0.0
-    if with_input:
-        cols.append(_output_error(yy, uu, 0.0, 1.0, lambda2, dt) - e0)
-    M = np.column_stack(cols)
-    coef, *_ = np.linalg.lstsq(M, -e0, rcond=None)
+        found = rms(pairs)
+        best = int(np.argmin(found))  # the first of equal ones, as a scan keeps
+        return Pretreatment(*pairs[best], found[best], "table (Algorithm 1)")
+    with_input = uu is not None and float(np.ptp(uu)) > 0.0
+    pairs = [(0.0, 0.0), (1.0, 0.0)] + ([(0.0, 1.0)] if with_input else [])
+    MtM = np.zeros((len(pairs) - 1, len(pairs) - 1))
+    Mte = np.zeros(len(pairs) - 1)
+    for e0, *runs_ab in _output_errors(yy, uu, pairs, lambda2, dt):
+        M = np.column_stack([e - e0 for e in runs_ab])
+        MtM += M.T @ M
+        Mte += M.T @ e0
+    coef, *_ = np.linalg.lstsq(MtM, -Mte, rcond=None)
     a = float(coef[0])
     b = float(coef[1]) if with_input else 0.0
-    e = e0 + M @ coef
-    return Pretreatment(a, b, float(np.sqrt(np.mean(e * e))), "least squares (Theory 4)")
+    (ey_rms,) = rms([(a, b)])
+    return Pretreatment(a, b, ey_rms, "least squares (Theory 4)")
 
 
 # -- relations identified on healthy data (Section 4.3) -------------------------------------

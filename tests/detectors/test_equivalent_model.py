@@ -553,3 +553,52 @@ def test_compiled_fault_estimate_in_pieces_equals_one_pass(monkeypatch, piece):
     for a, b in zip(whole, pieces, strict=True):
         np.testing.assert_array_equal(a, b)
     assert np.isnan(whole[0]).sum() > 0
+
+
+def _whole_pretreat(y, u, dt, lambda2, table=None):
+    """The pretreatment on the whole window at once (what it computed before it ran a
+    block at a time): three observer runs, ``np.linalg.lstsq`` on their columns."""
+    from analyzer.detectors.equivalent_model import AssistantObserver, _diag_states
+
+    def error(a, b):
+        F, G, _, _ = AssistantObserver(a, b, 1.0, lambda2, dt).discrete("rate")
+        V = np.column_stack([np.zeros_like(y), y, u])
+        return y - _diag_states(F[1:, 1:], G[1:], V, np.array([y[0]]))[:-1, 0]
+
+    if table is not None:
+        scores = [float(np.sqrt(np.mean(error(a, b) ** 2))) for a, b in table]
+        best = int(np.argmin(scores))
+        return (*table[best], scores[best])
+    e0 = error(0.0, 0.0)
+    M = np.column_stack([error(1.0, 0.0) - e0, error(0.0, 1.0) - e0])
+    coef, *_ = np.linalg.lstsq(M, -e0, rcond=None)
+    e = e0 + M @ coef
+    return (float(coef[0]), float(coef[1]), float(np.sqrt(np.mean(e * e))))
+
+
+@pytest.mark.parametrize("rows", [None, 1000, 777])
+def test_pretreatment_block_by_block_equals_the_whole_window(rows, monkeypatch):
+    """The observers run a block at a time with their states carried, the normal
+    equations summed: the whole-window least squares and table scores, to rounding;
+    with a gap, only the longest run without one counts."""
+    import analyzer.detectors.equivalent_model as em
+
+    if rows is not None:
+        monkeypatch.setattr(em, "PRETREAT_ROWS", rows)
+    h = 0.01
+    rng = np.random.default_rng(3)
+    t = np.arange(6000) * h
+    u = np.sin(0.7 * t) + 0.5 * np.sign(np.sin(0.13 * t)) + 0.05 * rng.standard_normal(t.size)
+    sysd = signal.cont2discrete(
+        (np.array([[-1.3]]), np.array([[2.0]]), np.eye(1), np.zeros((1, 1))), h
+    )
+    x = signal.dlsim(sysd[:4] + (h,), u, x0=[0.5])[1][:, 0] + 0.01 * rng.standard_normal(t.size)
+    x[900] = np.nan  # the longest run without a gap: 901 .. 5999
+    pre = pretreat(x, u, h, lambda2=2.0)
+    a, b, ey = _whole_pretreat(x[901:], u[901:], h, 2.0)
+    assert (pre.a, pre.b, pre.ey_rms) == pytest.approx((a, b, ey), rel=1e-9)
+    table = [(-2.0, 1.0), (-1.3, 2.0), (-0.5, 4.0)]
+    tab = pretreat(x, u, h, lambda2=2.0, table=table)
+    assert (tab.a, tab.b, tab.ey_rms) == pytest.approx(
+        _whole_pretreat(x[901:], u[901:], h, 2.0, table), rel=1e-12
+    )
