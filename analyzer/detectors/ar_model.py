@@ -64,10 +64,22 @@ def flat_channels(Y: FloatArray) -> npt.NDArray[np.bool_]:
     return _column_stats(Y)[2]
 
 
+COLUMN_ROWS = 1 << 16
+"""Rows :func:`_column_stats` reduces at once: a longer window is taken a block of rows
+at a time, the blocks' moments merged (no copy of the window: ``Y.std`` and ``abs(Y)``
+each made one)."""
+
+
 def _column_stats(Y: FloatArray) -> tuple[FloatArray, FloatArray, npt.NDArray[np.bool_]]:
     """Mean, standard deviation and :func:`flat_channels` of the columns of ``Y``
     (ignoring NaN) in one go; a window without a NaN takes the plain reductions (the
-    same sums in the same order, ~2x faster than the NaN-aware ones)."""
+    same sums in the same order, ~2x faster than the NaN-aware ones). A window longer
+    than :data:`COLUMN_ROWS` rows is reduced a block at a time (:class:`_ColumnMoments`)."""
+    if Y.shape[0] > COLUMN_ROWS:
+        moments = _ColumnMoments(Y.shape[1])
+        for a in range(0, Y.shape[0], COLUMN_ROWS):
+            moments.add(np.asarray(Y[a : a + COLUMN_ROWS], dtype=np.float64))
+        return moments.stats()
     with np.errstate(all="ignore"):
         if np.isfinite(Y).all():
             mean = Y.mean(axis=0)
@@ -81,34 +93,65 @@ def _column_stats(Y: FloatArray) -> tuple[FloatArray, FloatArray, npt.NDArray[np
     return mean, std, np.asarray(flat)
 
 
+class _ColumnMoments:
+    """Per column: the count of finite values, their mean, centred sum of squares and
+    largest magnitude, over blocks of rows added one after the other (each block's own
+    moments merged by the pairwise update of Chan, Golub and LeVeque, 1979; the counts
+    may differ by column where a block has NaN)."""
+
+    def __init__(self, m: int) -> None:
+        self.n = np.zeros(m)
+        self.mean = np.zeros(m)
+        self.m2 = np.zeros(m)
+        self.level = np.zeros(m)
+
+    def add(self, part: FloatArray) -> None:
+        rows = part.shape[0]
+        if not rows:
+            return
+        with np.errstate(all="ignore"):
+            if np.isfinite(part).all():
+                k = np.full(part.shape[1], float(rows))
+                mu = part.mean(axis=0)
+                m2 = part.var(axis=0) * k
+                level = np.abs(part).max(axis=0)
+            else:
+                # as nanmean / nanvar / nanmax, and 0 for a column without a value
+                ok = np.isfinite(part)
+                k = ok.sum(axis=0).astype(np.float64)
+                mu = np.where(ok, part, 0.0).sum(axis=0) / np.where(k > 0, k, 1.0)
+                d = np.where(ok, part - mu, 0.0)
+                m2 = (d * d).sum(axis=0)
+                level = np.where(ok, np.abs(part), 0.0).max(axis=0)
+            total = self.n + k
+            safe = np.where(total > 0, total, 1.0)  # a column with no value yet: no change
+            delta = mu - self.mean
+            self.m2 = self.m2 + m2 + delta * delta * (self.n * k / safe)
+            self.mean = self.mean + delta * (k / safe)
+            self.n = total
+            self.level = np.maximum(self.level, level)
+
+    def stats(self) -> tuple[FloatArray, FloatArray, npt.NDArray[np.bool_]]:
+        """:func:`_column_stats` of the rows added (NaN mean and spread for a column
+        without a finite value: flat)."""
+        with np.errstate(all="ignore"):
+            some = self.n > 0
+            mean = np.where(some, self.mean, np.nan)
+            std = np.where(some, np.sqrt(self.m2 / np.where(some, self.n, 1.0)), np.nan)
+            flat = ~(std > 1e-9 * self.level + 1e-300)
+        return mean, std, np.asarray(flat)
+
+
 def _column_stats_outside(
-    Y: FloatArray, a: int, b: int, finite: npt.NDArray[np.bool_]
+    Y: FloatArray, a: int, b: int
 ) -> tuple[FloatArray, FloatArray, npt.NDArray[np.bool_]]:
-    """:func:`_column_stats` of the rows of ``Y`` outside ``[a, b)``: of each part alone,
-    merged by the pairwise update of Chan, Golub and LeVeque (1979), when the parts have
-    no NaN (``finite``: the rows without one, those in ``[a, b)`` cleared); else of a copy
-    with the rows ``[a, b)`` set to NaN."""
-    if not (finite[:a].all() and finite[b:].all()):
-        held = np.array(Y, dtype=np.float64)
-        held[a:b] = np.nan
-        return _column_stats(held)
-    n, mean, m2 = 0, np.zeros(Y.shape[1]), np.zeros(Y.shape[1])
-    level = np.zeros(Y.shape[1])
-    with np.errstate(all="ignore"):
-        for part in (Y[:a], Y[b:]):
-            k = part.shape[0]
-            if not k:
-                continue
-            mu = part.mean(axis=0)
-            delta = mu - mean
-            total = n + k
-            m2 = m2 + part.var(axis=0) * k + delta * delta * (n * k / total)
-            mean = mean + delta * (k / total)
-            n = total
-            level = np.maximum(level, np.abs(part).max(axis=0))
-        std = np.sqrt(m2 / n) if n else np.full(Y.shape[1], np.nan)
-        flat = ~(std > 1e-9 * level + 1e-300)
-    return mean, std, np.asarray(flat)
+    """:func:`_column_stats` of the rows of ``Y`` outside ``[a, b)``: the parts' blocks'
+    moments merged (:class:`_ColumnMoments`), with or without NaN, no copy of them."""
+    moments = _ColumnMoments(Y.shape[1])
+    for part in (Y[:a], Y[b:]):
+        for lo in range(0, part.shape[0], COLUMN_ROWS):
+            moments.add(np.asarray(part[lo : lo + COLUMN_ROWS], dtype=np.float64))
+    return moments.stats()
 
 
 class _Scaled:
@@ -193,7 +236,7 @@ def fit_ar(
     if exclude is not None:
         a, b = exclude
         finite[a:b] = False
-        mean, scale, flat = _column_stats_outside(Y, a, b, finite)
+        mean, scale, flat = _column_stats_outside(Y, a, b)
     else:
         mean, scale, flat = _column_stats(Y)
     bad = [int(j) for j in np.flatnonzero(flat)]
@@ -489,8 +532,8 @@ def _select_order(Y: FloatArray, criterion: str, max_order: int) -> int:
     pmax = orders[-1]
     mean, scale, _ = _column_stats(Y)
     scale[scale <= 0] = 1.0
-    Z = (Y - mean) / scale
-    segments = _finite_segments(Z, pmax)
+    # standardized a stretch at a time where the Gram matrix serves (no copy)
+    segments = _finite_segments(np.asarray(np.isfinite(Y).all(axis=1)), pmax)
     k = pmax * m
     # One triangular factor R of [X T] serves every order: the lags are nested, so the
     # residual of the order-p fit is R_tt' R_tt plus the rows of R_xt beyond the first
@@ -499,11 +542,11 @@ def _select_order(Y: FloatArray, criterion: str, max_order: int) -> int:
     R = None
     if segments is not None:
         N = sum(b - a - pmax for a, b in segments)
-        G = _lagged_gram(Z, pmax, segments)
+        G = _lagged_gram(_Scaled(Y, mean, scale), pmax, segments)
         order_xt = np.r_[m : (pmax + 1) * m, 0:m]  # lags 1 .. pmax, then lag 0
         R = _cholesky_factor(G[np.ix_(order_xt, order_xt)])
     if R is None:
-        T_all, X_all = _design_rows(Z, pmax)
+        T_all, X_all = _design_rows((Y - mean) / scale, pmax)
         N = T_all.shape[0]
         R = _triangular_factor(np.hstack([X_all, T_all]))
     R_xt = R[:k, k:]

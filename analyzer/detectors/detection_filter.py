@@ -110,6 +110,7 @@ from analyzer.diagnosis.events import events_from_residual
 from analyzer.diagnosis.streamed import (
     BlockMeans,
     LaggedSums,
+    RowMoments,
     Series,
     finite_blocks,
     series_moments,
@@ -976,7 +977,7 @@ class DetectionFilter:
             z = [zetas[:, i] for zetas, _ in parts]
             zcal.append(calibrate(z, window, alpha_far))
             taus.append(long_run_time(z, window))
-            moments = _Moments.merged([each[i] for _, each in parts])
+            moments = RowMoments.merged([each[i] for _, each in parts])
             # np.cov of the residual vectors without the filter's own direction
             cov = np.atleast_2d(np.delete(np.delete(moments.m2, i, 0), i, 1) / (moments.n - 1))
             dinv.append(np.asarray(np.linalg.pinv(cov), dtype=np.float64))
@@ -1598,41 +1599,6 @@ class _Segment:
     start: int
 
 
-class _Moments:
-    """Count, mean and centred sum of squares and products (``m2``) of row vectors,
-    added chunk by chunk: each chunk's own mean and centred products (two passes over
-    the chunk, as ``np.cov``), merged by the pairwise update of Chan, Golub and LeVeque
-    (1979). A covariance over a long stretch without holding the stretch."""
-
-    __slots__ = ("m2", "mean", "n")
-
-    def __init__(self, d: int) -> None:
-        self.n = 0
-        self.mean = np.zeros(d)
-        self.m2 = np.zeros((d, d))
-
-    def add(self, x: FloatArray) -> None:
-        if x.shape[0]:
-            mu = x.mean(axis=0)
-            d = x - mu
-            self._merge(x.shape[0], mu, d.T @ d)
-
-    def _merge(self, k: int, mu: FloatArray, m2: FloatArray) -> None:
-        n = self.n + k
-        delta = mu - self.mean
-        self.mean = self.mean + delta * (k / n)
-        self.m2 = self.m2 + m2 + np.outer(delta, delta) * (self.n * k / n)
-        self.n = n
-
-    @staticmethod
-    def merged(parts: Sequence[_Moments]) -> _Moments:
-        out = _Moments(parts[0].mean.shape[0])
-        for p in parts:
-            if p.n:
-                out._merge(p.n, p.mean, p.m2)
-        return out
-
-
 def _segment_chunks(seg: _Segment) -> Iterator[tuple[int, FloatArray, FloatArray]]:
     """The bank's residual vectors ``q`` (k, n, m) and fault estimates ``zeta`` (k, n),
     in sensor units, over the rows ``seg.start ..`` of ``seg.values``, chunk by chunk
@@ -1683,7 +1649,7 @@ def _series_out(seg: _Segment, into: npt.NDArray[Any] | None) -> npt.NDArray[Any
 
 def _moments_task(
     task: tuple[_Segment, npt.NDArray[Any] | None],
-) -> tuple[npt.NDArray[Any], list[_Moments]]:
+) -> tuple[npt.NDArray[Any], list[RowMoments]]:
     """Per filter over a calibration stretch: its fault estimates (column ``i`` of the
     ``(n, k)`` array returned: ``into`` when given, a :func:`~analyzer.paging.buffer`
     written by :func:`~analyzer.paging.write_rows`, so a memory-mapped one's pages are
@@ -1692,7 +1658,7 @@ def _moments_task(
     seg, into = task
     zetas = _series_out(seg, into)
     k, m = len(seg.filters), seg.filters[0].n_outputs
-    moments = [_Moments(m) for _ in range(k)]
+    moments = [RowMoments(m) for _ in range(k)]
     for at, q, zeta in _segment_chunks(seg):
         write_rows(zetas, at, zeta.T)
         for i in range(k):

@@ -70,6 +70,7 @@ from analyzer.detectors.lowpass import lowpass, recursion
 from analyzer.detectors.network import NetworkDiagnosis, Propagation, SensorNetwork
 from analyzer.diagnosis.changes import Calibration, calibrate, default_window
 from analyzer.diagnosis.events import events_from_residual
+from analyzer.diagnosis.streamed import row_moments
 from analyzer.errors import DetectorError
 from analyzer.paging import RELEASE_ROWS, ScratchRows, release, write_rows
 from analyzer.types import FaultType
@@ -664,11 +665,9 @@ class EquivalentModel:
                 )
             except ValueError as err:
                 raise DetectorError(f"[detectors.equivalent_model] {err}") from err
-        train = np.asarray(data.train_values(), dtype=np.float64)[
-            :, [data.index(c) for c in sensors]
-        ]
-        ok = np.isfinite(train).all(axis=1)
-        corr = np.corrcoef(train[ok].T)
+        # the correlations of the rows without a gap, a block of rows at a time (a
+        # long training window is not copied)
+        corr = row_moments(data.train_values(), [data.index(c) for c in sensors]).correlation()
         net = SensorNetwork.design(sensors, np.nan_to_num(corr), self.n_assistants)
         if self.quasi_heads or self.propagation is not Propagation.DIRECT:
             net = SensorNetwork(net.sensors, net.assistants, self.quasi_heads, self.propagation)

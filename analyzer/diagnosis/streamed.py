@@ -34,9 +34,10 @@ FloatArray = npt.NDArray[np.float64]
 SERIES_BLOCK = 1 << 17
 """Samples of a series a pass holds at once (1 MB in float64; a dozen temporaries)."""
 
-Series = npt.NDArray[Any] | Sequence[npt.NDArray[Any]]
+Series = npt.NDArray[Any] | Sequence[npt.NDArray[Any]] | Sequence[float]
 """A 1-D array, or 1-D arrays read one after the other as one series (the held-out
-parts of a training window, say: not concatenated into a copy)."""
+parts of a training window, say: not concatenated into a copy), or a sequence of
+numbers."""
 
 
 def finite_blocks(series: Series, block: int | None = None) -> Iterator[FloatArray]:
@@ -45,7 +46,11 @@ def finite_blocks(series: Series, block: int | None = None) -> Iterator[FloatArr
     closes them). Each block is a new array; the pages of a memory-mapped series are
     given back as the pass goes."""
     block = SERIES_BLOCK if block is None else int(block)
-    parts = [series] if isinstance(series, np.ndarray) else list(series)
+    if isinstance(series, np.ndarray):
+        parts: list[Any] = [series]
+    else:  # arrays read one after the other; anything else (a list of numbers) is one
+        items = list(series)
+        parts = items if items and all(isinstance(p, np.ndarray) for p in items) else [items]
     for part in parts:
         arr = np.asarray(part)
         if arr.ndim != 1:
@@ -93,6 +98,54 @@ class RunningMoments:
 
     def std(self, ddof: int = 0) -> float:
         return float(np.sqrt(self.var(ddof)))
+
+
+class RowMoments:
+    """Count, mean and centred sum of squares and products (``m2``) of row vectors,
+    added chunk by chunk: each chunk's own mean and centred products (two passes over
+    the chunk, as ``np.cov``), merged by the pairwise update of Chan, Golub and LeVeque
+    (1979). A covariance over a long stretch without holding the stretch."""
+
+    __slots__ = ("m2", "mean", "n")
+
+    def __init__(self, d: int) -> None:
+        self.n = 0
+        self.mean = np.zeros(d)
+        self.m2 = np.zeros((d, d))
+
+    def add(self, x: FloatArray) -> None:
+        if x.shape[0]:
+            mu = x.mean(axis=0)
+            d = x - mu
+            self._merge(x.shape[0], mu, d.T @ d)
+
+    def _merge(self, k: int, mu: FloatArray, m2: FloatArray) -> None:
+        n = self.n + k
+        delta = mu - self.mean
+        self.mean = self.mean + delta * (k / n)
+        self.m2 = self.m2 + m2 + np.outer(delta, delta) * (self.n * k / n)
+        self.n = n
+
+    @staticmethod
+    def merged(parts: Sequence[RowMoments]) -> RowMoments:
+        out = RowMoments(parts[0].mean.shape[0])
+        for p in parts:
+            if p.n:
+                out._merge(p.n, p.mean, p.m2)
+        return out
+
+    def covariance(self, ddof: int = 1) -> FloatArray:
+        return self.m2 / (self.n - ddof)
+
+    def correlation(self) -> FloatArray:
+        """As ``np.corrcoef`` of the rows added: NaN where a component is constant (or
+        fewer than two rows were added)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            c = self.covariance()
+            d = np.sqrt(np.diag(c))
+            c = c / d[:, None] / d[None, :]
+        out: FloatArray = np.clip(c, -1.0, 1.0)
+        return out
 
 
 class LaggedSums:
@@ -172,4 +225,20 @@ def series_moments(series: Series) -> RunningMoments:
     moments = RunningMoments()
     for x in finite_blocks(series):
         moments.add(x)
+    return moments
+
+
+def row_moments(values: npt.NDArray[Any], cols: Sequence[int]) -> RowMoments:
+    """Moments of the rows of ``values[:, cols]`` that have no NaN in those columns,
+    read :data:`SERIES_BLOCK` rows at a time (no copy of the selection; a memory-mapped
+    record's pages are given back behind)."""
+    moments = RowMoments(len(cols))
+    behind = Released(values)
+    step = max(1, SERIES_BLOCK // max(1, len(cols)))
+    for a in range(0, values.shape[0], step):
+        rows = np.asarray(values[a : a + step], dtype=np.float64)[:, list(cols)]
+        ok = np.isfinite(rows).all(axis=1)
+        moments.add(rows if ok.all() else rows[ok])
+        behind.upto(min(a + step, values.shape[0]))
+    behind.upto(values.shape[0], final=True)
     return moments

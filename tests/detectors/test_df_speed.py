@@ -420,7 +420,7 @@ def test_streamed_calibration_equals_the_kept_residual_vectors(gap, mapped, monk
         assert np.array_equal(np.isnan(nis[i]), np.isnan(expect))
         np.testing.assert_allclose(nis[i], expect, rtol=1e-10, atol=1e-12)
     # the merged moments of two stretches are the moments of both
-    both = dfm._Moments.merged([moments[0], moments[0]])
+    both = dfm.RowMoments.merged([moments[0], moments[0]])
     assert both.n == 2 * moments[0].n
     np.testing.assert_allclose(both.mean, moments[0].mean, rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(both.m2, 2 * moments[0].m2, rtol=1e-12, atol=0)

@@ -170,6 +170,37 @@ def test_column_stats_without_gaps_equal_the_nan_aware_ones(building):
     assert list(np.flatnonzero(arm._column_stats(Y)[2])) == [2]
 
 
+@pytest.mark.parametrize("rows", [7, 1000])
+def test_column_stats_block_by_block_equal_the_whole_window(building, rows, monkeypatch):
+    """A window longer than COLUMN_ROWS is reduced a block of rows at a time (no copy of
+    it): the whole window's mean, spread and flat channels to rounding, with NaN in some
+    blocks (a column's count then differs from the others'), a column empty in a block
+    and a constant column; and the rows outside a fold's block likewise."""
+    monkeypatch.setattr(arm, "COLUMN_ROWS", rows)
+    Y = np.array(building, copy=True)
+    Y[10:2200, 1] = np.nan  # whole blocks of column 1 without a value
+    Y[5, 0] = np.nan
+    Y[:, 2] = 3.0
+    mean, std, flat = arm._column_stats(Y)
+    np.testing.assert_allclose(mean, np.nanmean(Y, axis=0), rtol=1e-12)
+    np.testing.assert_allclose(std, np.nanstd(Y, axis=0), rtol=1e-9, atol=1e-15)
+    assert list(np.flatnonzero(flat)) == [2]
+    a, b = 1500, 2600
+    held = np.array(Y, copy=True)
+    held[a:b] = np.nan
+    out = arm._column_stats_outside(Y, a, b)
+    np.testing.assert_allclose(out[0], np.nanmean(held, axis=0), rtol=1e-12)
+    np.testing.assert_allclose(out[1], np.nanstd(held, axis=0), rtol=1e-9, atol=1e-15)
+    assert list(np.flatnonzero(out[2])) == [2]
+    empty = np.array(building[:50], copy=True)
+    empty[:, 0] = np.nan
+    got = arm._ColumnMoments(empty.shape[1])
+    got.add(empty[:20])
+    got.add(empty[20:])
+    m, sd, fl = got.stats()
+    assert np.isnan(m[0]) and np.isnan(sd[0]) and fl[0] and not fl[1:].any()
+
+
 def _control_system(rng, n, r):
     A = rng.normal(size=(n, n))
     A *= 1.05 / np.max(np.abs(np.linalg.eigvals(A)))  # unstable: the gain must stabilize

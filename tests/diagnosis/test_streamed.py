@@ -182,5 +182,32 @@ def test_finite_blocks_close_gaps_in_order():
     parts = [np.array([1.0, np.nan, 2.0, 3.0]), np.array([np.inf, 4.0]), np.array([], float)]
     got = list(finite_blocks(parts, block=2))
     assert [b.tolist() for b in got] == [[1.0], [2.0, 3.0], [4.0]]
+    assert [b.tolist() for b in finite_blocks([1.0, float("nan"), 2.0])] == [[1.0, 2.0]]
+    assert list(finite_blocks([])) == []
     with pytest.raises(ValueError, match="1-D"):
         list(finite_blocks(np.ones((3, 2))))
+
+
+@pytest.mark.parametrize("block", [None, 40])
+def test_row_moments_equal_corrcoef_of_the_rows_without_a_gap(block, monkeypatch):
+    """The equivalent model's sensor network is designed from these correlations."""
+    if block is not None:
+        monkeypatch.setattr(streamed, "SERIES_BLOCK", block)  # 10 rows per block of 4 columns
+    rng = np.random.default_rng(7)
+    X = rng.standard_normal((1001, 6)) @ rng.standard_normal((6, 6)) + 10.0
+    X[5, 2] = np.nan
+    X[300:320, 4] = np.nan
+    X[400, 0] = np.nan  # not a used column: the row counts
+    cols = [1, 2, 4, 5]
+    got = streamed.row_moments(X, cols)
+    sel = X[:, cols]
+    ok = np.isfinite(sel).all(axis=1)
+    assert got.n == ok.sum() == 1001 - 21
+    np.testing.assert_allclose(got.correlation(), np.corrcoef(sel[ok].T), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(got.covariance(), np.cov(sel[ok].T), rtol=1e-12)
+    flat = X.copy()
+    flat[:, 1] = 2.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        expect = np.corrcoef(flat[ok][:, cols].T)
+    c = streamed.row_moments(flat, cols).correlation()
+    assert np.array_equal(np.isnan(c), np.isnan(expect))  # a constant sensor: NaN, as before
