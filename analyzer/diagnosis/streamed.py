@@ -12,6 +12,9 @@ windows), so what is held at once is a block (:data:`SERIES_BLOCK` samples), wha
 series' length; a memory-mapped series' pages are given back behind the pass
 (:class:`analyzer.paging.Released`).
 
+:func:`row_moments` does the same for the covariance of a window's rows (the sensor
+correlations of the equivalent model's network).
+
 The sums are the whole-series sums in another order: they equal them to rounding
 (tested against the whole-series formulas). The spread is merged block by block with the
 pairwise update of Chan, Golub and LeVeque (1979), which is as accurate as the two-pass
@@ -230,8 +233,9 @@ def series_moments(series: Series) -> RunningMoments:
 
 def row_moments(values: npt.NDArray[Any], cols: Sequence[int]) -> RowMoments:
     """Moments of the rows of ``values[:, cols]`` that have no NaN in those columns,
-    read :data:`SERIES_BLOCK` rows at a time (no copy of the selection; a memory-mapped
-    record's pages are given back behind)."""
+    read about :data:`SERIES_BLOCK` values at a time (no copy of the selection; a
+    memory-mapped record's pages are given back behind): the correlations the
+    equivalent model designs its sensor network from."""
     moments = RowMoments(len(cols))
     behind = Released(values)
     step = max(1, SERIES_BLOCK // max(1, len(cols)))
