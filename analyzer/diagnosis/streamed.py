@@ -206,21 +206,35 @@ class WindowSums:
 
 class BlockMeans:
     """Moments of the means of consecutive, non-overlapping ``b``-sample blocks of the
-    series added block by block (a last incomplete block does not count)."""
+    series added block by block (a last incomplete block does not count). An incomplete
+    block is carried as its sum and count, not its samples: ``b`` may be an eighth of a
+    day-long series."""
 
-    __slots__ = ("b", "moments", "rest")
+    __slots__ = ("b", "count", "moments", "partial")
 
     def __init__(self, b: int) -> None:
         self.b = int(b)
-        self.rest = np.empty(0)
+        self.partial = 0.0
+        self.count = 0
         self.moments = RunningMoments()
 
     def add(self, x: FloatArray) -> None:
-        ext = np.concatenate((self.rest, x)) if self.rest.shape[0] else x
-        nb = ext.shape[0] // self.b
+        b = self.b
+        if self.count:  # complete the block begun before
+            take = min(b - self.count, x.shape[0])
+            self.partial += float(np.sum(x[:take]))
+            self.count += take
+            x = x[take:]
+            if self.count < b:
+                return
+            self.moments.add(np.array([self.partial / b]))
+            self.partial, self.count = 0.0, 0
+        nb = x.shape[0] // b
         if nb:
-            self.moments.add(ext[: nb * self.b].reshape(nb, self.b).mean(axis=1))
-        self.rest = ext[nb * self.b :].copy()
+            self.moments.add(x[: nb * b].reshape(nb, b).mean(axis=1))
+        if x.shape[0] > nb * b:
+            self.partial = float(np.sum(x[nb * b :]))
+            self.count = x.shape[0] - nb * b
 
 
 def series_moments(series: Series) -> RunningMoments:

@@ -211,3 +211,32 @@ def test_row_moments_equal_corrcoef_of_the_rows_without_a_gap(block, monkeypatch
         expect = np.corrcoef(flat[ok][:, cols].T)
     c = streamed.row_moments(flat, cols).correlation()
     assert np.array_equal(np.isnan(c), np.isnan(expect))  # a constant sensor: NaN, as before
+
+
+def test_the_statistics_hold_blocks_not_the_series():
+    """What a fit on a long window relies on: numpy's allocations during each statistic
+    stay a few blocks (a few MB), whatever the length (here a 19 MB series, a 49 MB
+    window, both above the bound; computed on the whole, each made several copies)."""
+    import tracemalloc
+
+    from analyzer.detectors.ar_model import _column_stats
+
+    rng = np.random.default_rng(8)
+    r = rng.standard_normal(2_500_000)
+    r[1000:1100] = np.nan
+    Y = rng.standard_normal((400_000, 16))
+    cases = {
+        "calibrate": lambda: calibrate(r, 25, 1e-6),
+        "correlation_time": lambda: correlation_time(r),
+        "long_run_time": lambda: long_run_time([r[:1_500_000], r[1_500_000:]], 25),
+        "column stats": lambda: _column_stats(Y),
+        "row moments": lambda: streamed.row_moments(Y, [0, 3, 5, 15]),
+    }
+    for name, run in cases.items():
+        tracemalloc.start()
+        try:
+            run()
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        assert peak < 16 * 2**20, f"{name}: {peak / 2**20:.1f} MB"
