@@ -124,6 +124,28 @@ def read_column(values: npt.NDArray[Any], j: int, a: int, b: int) -> npt.NDArray
     return out
 
 
+def row_blocks(
+    a: npt.NDArray[Any], rows: int = RELEASE_ROWS
+) -> Iterator[tuple[int, npt.NDArray[Any]]]:
+    """``(lo, a[lo : lo + rows])`` for ``lo = 0, rows, ...``: a pass over a long array a
+    block of rows at a time, each block's pages given back (:func:`release`) once the
+    caller asks for the next, so a pass over a memory-mapped record holds a block of it,
+    not the record. For an array in memory, the plain blocks."""
+    for lo in range(0, a.shape[0], rows):
+        block = a[lo : lo + rows]
+        yield lo, block
+        release(block)
+
+
+def finite_rows(a: npt.NDArray[Any]) -> npt.NDArray[np.bool_]:
+    """``np.isfinite(a).all(axis=1)`` taken a block of rows at a time (:func:`row_blocks`):
+    neither a boolean copy of ``a`` nor a memory-mapped record's pages are held."""
+    out = np.empty(a.shape[0], dtype=bool)
+    for lo, block in row_blocks(a):
+        out[lo : lo + block.shape[0]] = np.isfinite(block).all(axis=1)
+    return out
+
+
 class Released:
     """The pages of a pass's arrays given back behind it, :data:`RELEASE_ROWS` at a time:
     ``upto(k)`` once the pass is done with indices ``start .. k - 1`` along ``axis`` of

@@ -14,7 +14,9 @@ import numpy as np
 import numpy.typing as npt
 from scipy import linalg
 
+from analyzer.diagnosis.streamed import ColumnMoments
 from analyzer.errors import DetectorError
+from analyzer.paging import finite_rows, release, row_blocks
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -74,11 +76,11 @@ def _column_stats(Y: FloatArray) -> tuple[FloatArray, FloatArray, npt.NDArray[np
     """Mean, standard deviation and :func:`flat_channels` of the columns of ``Y``
     (ignoring NaN) in one go; a window without a NaN takes the plain reductions (the
     same sums in the same order, ~2x faster than the NaN-aware ones). A window longer
-    than :data:`COLUMN_ROWS` rows is reduced a block at a time (:class:`_ColumnMoments`)."""
+    than :data:`COLUMN_ROWS` rows is reduced a block at a time (:class:`ColumnMoments`)."""
     if Y.shape[0] > COLUMN_ROWS:
-        moments = _ColumnMoments(Y.shape[1])
-        for a in range(0, Y.shape[0], COLUMN_ROWS):
-            moments.add(np.asarray(Y[a : a + COLUMN_ROWS], dtype=np.float64))
+        moments = ColumnMoments(Y.shape[1])
+        for _, block in row_blocks(Y, COLUMN_ROWS):
+            moments.add(np.asarray(block, dtype=np.float64))
         return moments.stats()
     with np.errstate(all="ignore"):
         if np.isfinite(Y).all():
@@ -93,64 +95,15 @@ def _column_stats(Y: FloatArray) -> tuple[FloatArray, FloatArray, npt.NDArray[np
     return mean, std, np.asarray(flat)
 
 
-class _ColumnMoments:
-    """Per column: the count of finite values, their mean, centred sum of squares and
-    largest magnitude, over blocks of rows added one after the other (each block's own
-    moments merged by the pairwise update of Chan, Golub and LeVeque, 1979; the counts
-    may differ by column where a block has NaN)."""
-
-    def __init__(self, m: int) -> None:
-        self.n = np.zeros(m)
-        self.mean = np.zeros(m)
-        self.m2 = np.zeros(m)
-        self.level = np.zeros(m)
-
-    def add(self, part: FloatArray) -> None:
-        rows = part.shape[0]
-        if not rows:
-            return
-        with np.errstate(all="ignore"):
-            if np.isfinite(part).all():
-                k = np.full(part.shape[1], float(rows))
-                mu = part.mean(axis=0)
-                m2 = part.var(axis=0) * k
-                level = np.abs(part).max(axis=0)
-            else:
-                # as nanmean / nanvar / nanmax, and 0 for a column without a value
-                ok = np.isfinite(part)
-                k = ok.sum(axis=0).astype(np.float64)
-                mu = np.where(ok, part, 0.0).sum(axis=0) / np.where(k > 0, k, 1.0)
-                d = np.where(ok, part - mu, 0.0)
-                m2 = (d * d).sum(axis=0)
-                level = np.where(ok, np.abs(part), 0.0).max(axis=0)
-            total = self.n + k
-            safe = np.where(total > 0, total, 1.0)  # a column with no value yet: no change
-            delta = mu - self.mean
-            self.m2 = self.m2 + m2 + delta * delta * (self.n * k / safe)
-            self.mean = self.mean + delta * (k / safe)
-            self.n = total
-            self.level = np.maximum(self.level, level)
-
-    def stats(self) -> tuple[FloatArray, FloatArray, npt.NDArray[np.bool_]]:
-        """:func:`_column_stats` of the rows added (NaN mean and spread for a column
-        without a finite value: flat)."""
-        with np.errstate(all="ignore"):
-            some = self.n > 0
-            mean = np.where(some, self.mean, np.nan)
-            std = np.where(some, np.sqrt(self.m2 / np.where(some, self.n, 1.0)), np.nan)
-            flat = ~(std > 1e-9 * self.level + 1e-300)
-        return mean, std, np.asarray(flat)
-
-
 def _column_stats_outside(
     Y: FloatArray, a: int, b: int
 ) -> tuple[FloatArray, FloatArray, npt.NDArray[np.bool_]]:
     """:func:`_column_stats` of the rows of ``Y`` outside ``[a, b)``: the parts' blocks'
-    moments merged (:class:`_ColumnMoments`), with or without NaN, no copy of them."""
-    moments = _ColumnMoments(Y.shape[1])
+    moments merged (:class:`ColumnMoments`), with or without NaN, no copy of them."""
+    moments = ColumnMoments(Y.shape[1])
     for part in (Y[:a], Y[b:]):
-        for lo in range(0, part.shape[0], COLUMN_ROWS):
-            moments.add(np.asarray(part[lo : lo + COLUMN_ROWS], dtype=np.float64))
+        for _, block in row_blocks(part, COLUMN_ROWS):
+            moments.add(np.asarray(block, dtype=np.float64))
     return moments.stats()
 
 
@@ -168,6 +121,7 @@ class _Scaled:
 
     def __getitem__(self, rows: slice) -> FloatArray:
         out: FloatArray = (self.Y[rows] - self.mean) / self.scale
+        release(self.Y[rows])  # a memory-mapped window: read a stretch at a time
         return out
 
 
@@ -232,7 +186,7 @@ def fit_ar(
     n, m = Y.shape
     if order < 1:
         raise DetectorError(f"AR order must be at least 1, got {order}")
-    finite = np.asarray(np.isfinite(Y).all(axis=1), dtype=bool)
+    finite = finite_rows(Y)
     if exclude is not None:
         a, b = exclude
         finite[a:b] = False
@@ -508,7 +462,10 @@ def select_order(Y: FloatArray, criterion: str = "bic", max_order: int = 12) -> 
     if criterion not in ("aic", "bic"):
         raise DetectorError(f"order criterion must be 'aic' or 'bic', got {criterion!r}")
     Y = np.ascontiguousarray(Y, dtype=np.float64)
-    digest = hashlib.blake2b(Y.data, digest_size=16).digest()
+    hasher = hashlib.blake2b(digest_size=16)
+    for _, block in row_blocks(Y):  # a memory-mapped window's pages are not all held
+        hasher.update(block.data)
+    digest = hasher.digest()
     key = (Y.shape, criterion, int(max_order), digest)
     with _ORDERS_LOCK:
         if key in _ORDERS:
@@ -533,7 +490,7 @@ def _select_order(Y: FloatArray, criterion: str, max_order: int) -> int:
     mean, scale, _ = _column_stats(Y)
     scale[scale <= 0] = 1.0
     # standardized a stretch at a time where the Gram matrix serves (no copy)
-    segments = _finite_segments(np.asarray(np.isfinite(Y).all(axis=1)), pmax)
+    segments = _finite_segments(finite_rows(Y), pmax)
     k = pmax * m
     # One triangular factor R of [X T] serves every order: the lags are nested, so the
     # residual of the order-p fit is R_tt' R_tt plus the rows of R_xt beyond the first

@@ -1616,8 +1616,10 @@ def _segment_chunks(seg: _Segment) -> Iterator[tuple[int, FloatArray, FloatArray
     cols = list(model.outputs) + list(model.inputs)
     bad = np.zeros(stop - first, dtype=bool)  # read a block of rows at a time: no copy
     for a in range(first, stop, CALIBRATION_ROWS):
-        rows = np.asarray(values[a : min(stop, a + CALIBRATION_ROWS)])[:, cols]
+        block = values[a : min(stop, a + CALIBRATION_ROWS)]
+        rows = np.asarray(block)[:, cols]
         bad[a - first : a - first + rows.shape[0]] = ~np.isfinite(rows).all(axis=1)
+        release(block)  # a memory-mapped window: read a block at a time
     masks = [_dilate_forward(bad, s)[start - first :] for s in settles] if bad.any() else None
     m = filters[0].n_outputs
     rows = np.array([f.sensor for f in filters])
@@ -1625,6 +1627,7 @@ def _segment_chunks(seg: _Segment) -> Iterator[tuple[int, FloatArray, FloatArray
 
     def inputs(a: int, b: int) -> FloatArray:
         v, _ = DetectionFilter._inputs(model, np.asarray(values[a:b]))
+        release(values[a:b])
         return v
 
     for lo, y in run_chunked(bank, inputs, stop, start):

@@ -72,7 +72,7 @@ from analyzer.diagnosis.changes import Calibration, calibrate, default_window
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.diagnosis.streamed import row_moments
 from analyzer.errors import DetectorError
-from analyzer.paging import RELEASE_ROWS, ScratchRows, release, write_rows
+from analyzer.paging import RELEASE_ROWS, ScratchRows, release, row_blocks, write_rows
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -279,8 +279,11 @@ def _output_errors(
         systems.append((F[1:, 1:], G[1:]))
     states = [np.array([float(y[0])]) for _ in pairs]
     for lo in range(0, y.shape[0], PRETREAT_ROWS):
-        yb = np.asarray(y[lo : lo + PRETREAT_ROWS], dtype=np.float64)
-        ub = np.zeros_like(yb) if u is None else np.asarray(u[lo : lo + PRETREAT_ROWS], np.float64)
+        yb = np.array(y[lo : lo + PRETREAT_ROWS], dtype=np.float64)
+        ub = np.zeros_like(yb) if u is None else np.array(u[lo : lo + PRETREAT_ROWS], np.float64)
+        release(y[lo : lo + PRETREAT_ROWS])  # a memory-mapped window's rows: copied above
+        if u is not None:
+            release(u[lo : lo + PRETREAT_ROWS])
         V = np.column_stack([np.zeros_like(yb), yb, ub])
         out = []
         for k, (F, G) in enumerate(systems):
@@ -309,9 +312,12 @@ def pretreat(
     Theory 1 and reported. The RMS is that of the chosen observer's run. The observers run
     :data:`PRETREAT_ROWS` samples at a time: no copy of the window is held."""
     yy = np.asarray(y)
-    ok = np.isfinite(yy)
+    ok = np.empty(yy.shape[0], dtype=bool)  # a block of a memory-mapped window at a time
+    for lo, block in row_blocks(yy):
+        ok[lo : lo + block.shape[0]] = np.isfinite(block)
     if u is not None:
-        ok &= np.isfinite(np.asarray(u))
+        for lo, block in row_blocks(np.asarray(u)):
+            ok[lo : lo + block.shape[0]] &= np.isfinite(block)
     if ok.sum() < 16:
         raise DetectorError(
             f"too little healthy data for the pretreatment: {int(ok.sum())} samples"
@@ -428,7 +434,10 @@ def fit_relation(
         )
     width = Lmax + 1
     p = len(assistants)
-    used = np.ascontiguousarray(Y[:, [target, *assistants]].T)  # one pass over the rows
+    cols = [target, *assistants]
+    used = np.empty((len(cols), N))  # one pass over the rows, a block at a time
+    for lo, block in row_blocks(Y):
+        used[:, lo : lo + block.shape[0]] = block[:, cols].T
     if p and np.isfinite(used).all():
         # no gap: every row counts and the Gram matrix follows from lagged products
         t = used[0, Lmax:]

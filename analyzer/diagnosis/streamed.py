@@ -151,6 +151,57 @@ class RowMoments:
         return out
 
 
+class ColumnMoments:
+    """Per column: the count of finite values, their mean, centred sum of squares and
+    largest magnitude, over blocks of rows added one after the other (each block's own
+    moments merged by the pairwise update of Chan, Golub and LeVeque, 1979; the counts
+    may differ by column where a block has NaN)."""
+
+    def __init__(self, m: int) -> None:
+        self.n = np.zeros(m)
+        self.mean = np.zeros(m)
+        self.m2 = np.zeros(m)
+        self.level = np.zeros(m)
+
+    def add(self, part: FloatArray) -> None:
+        rows = part.shape[0]
+        if not rows:
+            return
+        with np.errstate(all="ignore"):
+            if np.isfinite(part).all():
+                k = np.full(part.shape[1], float(rows))
+                mu = part.mean(axis=0)
+                m2 = part.var(axis=0) * k
+                level = np.abs(part).max(axis=0)
+            else:
+                # as nanmean / nanvar / nanmax, and 0 for a column without a value
+                ok = np.isfinite(part)
+                k = ok.sum(axis=0).astype(np.float64)
+                mu = np.where(ok, part, 0.0).sum(axis=0) / np.where(k > 0, k, 1.0)
+                d = np.where(ok, part - mu, 0.0)
+                m2 = (d * d).sum(axis=0)
+                level = np.where(ok, np.abs(part), 0.0).max(axis=0)
+            total = self.n + k
+            safe = np.where(total > 0, total, 1.0)  # a column with no value yet: no change
+            delta = mu - self.mean
+            self.m2 = self.m2 + m2 + delta * delta * (self.n * k / safe)
+            self.mean = self.mean + delta * (k / safe)
+            self.n = total
+            self.level = np.maximum(self.level, level)
+
+    def stats(self) -> tuple[FloatArray, FloatArray, npt.NDArray[np.bool_]]:
+        """Per column of the rows added: the mean, the spread (population) and whether
+        it is flat (a spread below 1e-9 of its level, as
+        :func:`~analyzer.detectors.ar_model.flat_channels`; NaN mean and spread for a
+        column without a finite value: flat)."""
+        with np.errstate(all="ignore"):
+            some = self.n > 0
+            mean = np.where(some, self.mean, np.nan)
+            std = np.where(some, np.sqrt(self.m2 / np.where(some, self.n, 1.0)), np.nan)
+            flat = ~(std > 1e-9 * self.level + 1e-300)
+        return mean, std, np.asarray(flat)
+
+
 class LaggedSums:
     """``c[k] = sum_t d[t] d[t + k]`` for ``k = 0 .. max_lag`` of the series added block
     by block (what :func:`analyzer.stats.whiteness.lagged_products` gives for the whole

@@ -17,7 +17,8 @@ import numpy as np
 import numpy.typing as npt
 
 from analyzer.diagnosis.merge import Finding
-from analyzer.paging import read_column
+from analyzer.diagnosis.streamed import ColumnMoments
+from analyzer.paging import read_column, row_blocks
 from analyzer.types import FaultType
 
 FLAT = 0.01
@@ -92,10 +93,9 @@ def healthy_stats(
 ) -> dict[str, tuple[float, float]]:
     """Each channel's mean and standard deviation over the training window ``train``
     (finite samples only); a channel with fewer than 2 of them is left out."""
-    out: dict[str, tuple[float, float]] = {}
-    for j, c in enumerate(channels):
-        x = np.asarray(values[train[0] : train[1], j], dtype=np.float64)
-        x = x[np.isfinite(x)]
-        if x.size >= 2:
-            out[c] = (float(np.mean(x)), float(np.std(x)))
-    return out
+    moments = ColumnMoments(len(channels))
+    # one pass a block of rows at a time (a long window's pages are not all held)
+    for _, block in row_blocks(values[train[0] : train[1]]):
+        moments.add(np.asarray(block, dtype=np.float64))
+    mean, std, _ = moments.stats()
+    return {c: (float(mean[j]), float(std[j])) for j, c in enumerate(channels) if moments.n[j] >= 2}

@@ -194,7 +194,7 @@ def test_column_stats_block_by_block_equal_the_whole_window(building, rows, monk
     assert list(np.flatnonzero(out[2])) == [2]
     empty = np.array(building[:50], copy=True)
     empty[:, 0] = np.nan
-    got = arm._ColumnMoments(empty.shape[1])
+    got = arm.ColumnMoments(empty.shape[1])
     got.add(empty[:20])
     got.add(empty[20:])
     m, sd, fl = got.stats()

@@ -280,3 +280,28 @@ def test_write_rows_writes_a_buffer_s_file_without_mapping_its_pages(tmp_path):
     rows_major = np.zeros((3, 10)).T  # an (n, m) view of a row-major array in memory
     write_rows(rows_major, 7, np.full((3, 3), 2.0))
     assert rows_major[7:].sum() == 18.0
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/self/statm")
+def test_a_pass_by_row_blocks_holds_a_block_of_a_mapped_record(tmp_path):
+    """finite_rows (and any pass by row_blocks) reads a memory-mapped record a block at a
+    time and gives each back: the resident set grows by a block, not the record; the
+    answer is np.isfinite(a).all(axis=1), for a record in memory too."""
+    from analyzer.paging import finite_rows, row_blocks
+
+    a = np.lib.format.open_memmap(
+        tmp_path / "rec.npy", mode="w+", dtype=np.float64, shape=(1_000_000, 16)
+    )  # 128 MB
+    a[:] = 1.0
+    a[123_456, 7] = np.nan
+    a.flush()
+    release(a)
+    ro = np.lib.format.open_memmap(tmp_path / "rec.npy", mode="r")
+    before = _rss_mb()
+    got = finite_rows(ro)
+    assert _rss_mb() < before + 40  # 128 MB read
+    assert np.flatnonzero(~got).tolist() == [123_456]
+    small = np.ones((10, 3))
+    small[4, 1] = np.inf
+    np.testing.assert_array_equal(finite_rows(small), np.isfinite(small).all(axis=1))
+    assert [(lo, b.shape[0]) for lo, b in row_blocks(small, 4)] == [(0, 4), (4, 4), (8, 2)]
