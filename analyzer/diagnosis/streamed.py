@@ -13,7 +13,9 @@ series' length; a memory-mapped series' pages are given back behind the pass
 (:class:`analyzer.paging.Released`).
 
 :func:`row_moments` does the same for the covariance of a window's rows (the sensor
-correlations of the equivalent model's network).
+correlations of the equivalent model's network), :class:`ColumnMoments` for each
+column's mean, spread and level (the healthy statistics, the flat-channel check and the
+AR fits' standardization), NaN skipped column by column.
 
 The sums are the whole-series sums in another order: they equal them to rounding
 (tested against the whole-series formulas). The spread is merged block by block with the
