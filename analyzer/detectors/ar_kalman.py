@@ -1259,30 +1259,51 @@ def _cv_fold_task(
             for j in range(ar.m)
         )
     bank = BankFilter.build(estimators, block)
-    w = min(a, bank.warmup)
     moments = _Moments(ar.m)
     # the innovations are kept for pass 2 when they fit in KEPT_INNOVATIONS_BYTES; else
     # (a long window) only their moments are taken, chunk by chunk, and pass 2 filters
     # the fold again
     keep = (b - a) * ar.m * (ar.m - 1) * 8 * CV_FOLDS <= KEPT_INNOVATIONS_BYTES
-    first = max(0, skip - a)  # the cold start's rows are not in the moments
-    out = bank_block(
-        ar.mean,
-        ar.scale,
-        bank,
-        train[a - w : b],
-        w,
-        None,
-        innov_moments=None if keep else moments,
-        moments_from=first,
-    )
-    if keep:
-        assert out.innov is not None
-        moments.add(out.innov[first:])
-    if into is not None:
-        write_rows(into, a, out.resid)
-    kept = None if into is not None else out.resid
-    return _Fold(a, b, ar, estimators, kept, moments, out.innov if keep else None)
+    pieces = []
+    innov = None
+    for lo, hi, w in _fold_pieces(a, b, bank.warmup):
+        first = max(0, skip - lo)  # the cold start's rows are not in the moments
+        out = bank_block(
+            ar.mean,
+            ar.scale,
+            bank,
+            train[lo - w : hi],
+            w,
+            None,
+            innov_moments=None if keep else moments,
+            moments_from=first,
+        )
+        if keep:  # one piece: a short fold
+            assert out.innov is not None
+            moments.add(out.innov[first:])
+            innov = out.innov
+        if into is not None:
+            write_rows(into, lo, out.resid)
+        else:
+            pieces.append(out.resid)
+        del out
+    kept = None if into is not None else np.concatenate(pieces)
+    return _Fold(a, b, ar, estimators, kept, moments, innov)
+
+
+FOLD_PIECE = 1 << 17
+"""Rows of a long cross-validation fold filtered at once (each piece after its own
+warm-up): the bank's per-row outputs of a piece (residuals, estimates, consistency:
+about 50 MB at 16 channels), not of the fold, are held at once."""
+
+
+def _fold_pieces(a: int, b: int, warmup: int) -> list[tuple[int, int, int]]:
+    """The rows ``a .. b - 1`` of a fold in pieces of :data:`FOLD_PIECE` rows, each
+    with its warm-up (``lo, hi, w``: filtered from row ``lo - w``). The bank's filters
+    forget their state within ``warmup`` rows, so the pieces equal one pass over the
+    fold to rounding (as the run's time blocks do); a fold of at most ``FOLD_PIECE``
+    rows is one piece, as before."""
+    return [(lo, min(b, lo + FOLD_PIECE), min(lo, warmup)) for lo in range(a, b, FOLD_PIECE)]
 
 
 def _cv_consistency_task(
@@ -1299,12 +1320,20 @@ def _cv_consistency_task(
         nt = fold.innov.transpose(1, 0, 2)  # (m, N, m - 1)
         inv_stack = np.stack([np.asarray(c) for c in inv_covs])
         nis = np.asarray((np.matmul(nt, inv_stack) * nt).sum(axis=2).T / (m - 1))
-    else:
+    else:  # a piece at a time, as pass 1 (written into ``into`` as they come)
         bank = BankFilter.build(fold.estimators, fold.estimators[0].block)
-        w = min(fold.a, bank.warmup)
-        out = bank_block(fold.ar.mean, fold.ar.scale, bank, train[fold.a - w : fold.b], w, inv_covs)
-        assert out.nis is not None
-        nis = out.nis
+        pieces = []
+        for lo, hi, w in _fold_pieces(fold.a, fold.b, bank.warmup):
+            out = bank_block(fold.ar.mean, fold.ar.scale, bank, train[lo - w : hi], w, inv_covs)
+            assert out.nis is not None
+            if into is not None:
+                write_rows(into, lo, out.nis)
+            else:
+                pieces.append(out.nis)
+            del out
+        if into is not None:
+            return None
+        nis = np.concatenate(pieces)
     if into is None:
         return nis
     write_rows(into, fold.a, nis)

@@ -300,6 +300,29 @@ def test_calibration_from_kept_innovations_equals_filtering_again(fitted, gap, m
     np.testing.assert_allclose(kept[1], again[1], rtol=1e-12, atol=0)
 
 
+@pytest.mark.parametrize("gap", [False, True])
+def test_long_folds_filtered_in_pieces_equal_one_pass(fitted, gap, monkeypatch):
+    """A long fold is filtered a piece of FOLD_PIECE rows at a time, each after its own
+    warm-up, in both passes (the bank's per-row outputs of a piece, not of the fold, are
+    held): the same residuals, consistency and innovation covariances as one pass over
+    each fold, to rounding (a gap straddling a piece's start masks the same rows)."""
+    det, model, data = fitted
+    train = np.array(data.train_values(), dtype=np.float64)
+    if gap:
+        train[990:1030, 1] = np.nan
+    ar = model.ar
+    monkeypatch.setattr(ar_kalman, "KEPT_INNOVATIONS_BYTES", 0)  # pass 2 filters again
+    whole = det._calibration_outputs(ar, model.estimators, train)
+    monkeypatch.setattr(ar_kalman, "FOLD_PIECE", 333)
+    assert len(ar_kalman._fold_pieces(0, train.shape[0] // 5, 10)) > 2
+    pieces = det._calibration_outputs(ar, model.estimators, train)
+    for a, b in ((whole[0], pieces[0]), (whole[1], pieces[1])):
+        assert np.array_equal(np.isnan(a), np.isnan(b))
+        np.testing.assert_allclose(a, b, rtol=1e-7, atol=1e-10)
+    for a, b in zip(whole[4], pieces[4], strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-9)
+
+
 def test_one_estimators_consistency_equals_the_whole_banks(fitted, monkeypatch):
     """Estimator j's consistency from its own impulse responses (the bank's subset) equals
     column j of the whole bank's, with a gap masked for its settling time and with a
