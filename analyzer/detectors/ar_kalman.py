@@ -47,6 +47,7 @@ from analyzer.detectors.lti import (
     run_chunked,
     system_bank,
     time_blocks,
+    warm_spans,
 )
 from analyzer.detectors.riccati import newton_step, solve_dare, solve_dare_scipy
 from analyzer.diagnosis.changes import (
@@ -1303,7 +1304,7 @@ def _fold_pieces(a: int, b: int, warmup: int) -> list[tuple[int, int, int]]:
     forget their state within ``warmup`` rows, so the pieces equal one pass over the
     fold to rounding (as the run's time blocks do); a fold of at most ``FOLD_PIECE``
     rows is one piece, as before."""
-    return [(lo, min(b, lo + FOLD_PIECE), min(lo, warmup)) for lo in range(a, b, FOLD_PIECE)]
+    return warm_spans(a, b, FOLD_PIECE, warmup)
 
 
 def _cv_consistency_task(

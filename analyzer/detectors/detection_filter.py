@@ -116,7 +116,14 @@ from analyzer.diagnosis.streamed import (
     series_moments,
 )
 from analyzer.errors import DetectorError
-from analyzer.paging import RELEASE_ROWS, Released, ScratchRows, release, write_rows
+from analyzer.paging import (
+    RELEASE_ROWS,
+    Released,
+    ScratchRows,
+    release,
+    row_blocks,
+    write_rows,
+)
 
 FloatArray = npt.NDArray[np.float64]
 Modes = Sequence[complex] | npt.NDArray[Any]
@@ -1615,11 +1622,9 @@ def _segment_chunks(seg: _Segment) -> Iterator[tuple[int, FloatArray, FloatArray
     first = 0 if bank.history is None else max(0, start - max(bank.history, *settles))
     cols = list(model.outputs) + list(model.inputs)
     bad = np.zeros(stop - first, dtype=bool)  # read a block of rows at a time: no copy
-    for a in range(first, stop, CALIBRATION_ROWS):
-        block = values[a : min(stop, a + CALIBRATION_ROWS)]
+    for lo, block in row_blocks(values[first:stop], CALIBRATION_ROWS):
         rows = np.asarray(block)[:, cols]
-        bad[a - first : a - first + rows.shape[0]] = ~np.isfinite(rows).all(axis=1)
-        release(block)  # a memory-mapped window: read a block at a time
+        bad[lo : lo + rows.shape[0]] = ~np.isfinite(rows).all(axis=1)
     masks = [_dilate_forward(bad, s)[start - first :] for s in settles] if bad.any() else None
     m = filters[0].n_outputs
     rows = np.array([f.sensor for f in filters])

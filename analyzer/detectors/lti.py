@@ -629,6 +629,14 @@ def time_blocks(start: int, stop: int, warmup: int, context: Any) -> list[tuple[
         return [(start, stop, min(start, warmup))]
     workers = max(2, int(getattr(context, "jobs", 2) or 2))
     size = max(MIN_TIME_BLOCK * warmup, -(-(stop - start) // (2 * workers)))
+    return warm_spans(start, stop, size, warmup)
+
+
+def warm_spans(start: int, stop: int, size: int, warmup: int) -> list[tuple[int, int, int]]:
+    """``[start, stop)`` cut into spans of ``size`` samples, each ``(a, b, warm)`` with
+    ``warm`` (at most ``warmup``) samples before ``a`` to filter from: a bank that
+    forgets its state within ``warmup`` samples gives each span what one pass from the
+    record's start gives, to rounding."""
     return [(a, min(stop, a + size), min(a, warmup)) for a in range(start, stop, size)]
 
 

@@ -10,7 +10,7 @@ running sum carried from block to block, with the few samples a block's sums nee
 the block before (the last ``max_lag`` samples for lagged products, ``w - 1`` for moving
 windows), so what is held at once is a block (:data:`SERIES_BLOCK` samples), whatever the
 series' length; a memory-mapped series' pages are given back behind the pass
-(:class:`analyzer.paging.Released`).
+(:func:`analyzer.paging.row_blocks`).
 
 :func:`row_moments` does the same for the covariance of a window's rows (the sensor
 correlations of the equivalent model's network), :class:`ColumnMoments` for each
@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from analyzer.paging import Released
+from analyzer.paging import row_blocks
 from analyzer.stats.whiteness import lagged_products
 
 FloatArray = npt.NDArray[np.float64]
@@ -60,15 +60,11 @@ def finite_blocks(series: Series, block: int | None = None) -> Iterator[FloatArr
         arr = np.asarray(part)
         if arr.ndim != 1:
             raise ValueError(f"finite_blocks: expected 1-D series, got shape {arr.shape}")
-        behind = Released(arr)
-        for a in range(0, arr.shape[0], block):
-            b = min(a + block, arr.shape[0])
-            x = np.asarray(arr[a:b], dtype=np.float64)
+        for _, piece in row_blocks(arr, block):
+            x = np.asarray(piece, dtype=np.float64)
             x = x[np.isfinite(x)]  # a copy, even where every value is finite
-            behind.upto(b)
             if x.shape[0]:
                 yield x
-        behind.upto(arr.shape[0], final=True)
 
 
 class RunningMoments:
@@ -304,12 +300,8 @@ def row_moments(values: npt.NDArray[Any], cols: Sequence[int]) -> RowMoments:
     memory-mapped record's pages are given back behind): the correlations the
     equivalent model designs its sensor network from."""
     moments = RowMoments(len(cols))
-    behind = Released(values)
-    step = max(1, SERIES_BLOCK // max(1, len(cols)))
-    for a in range(0, values.shape[0], step):
-        rows = np.asarray(values[a : a + step], dtype=np.float64)[:, list(cols)]
+    for _, block in row_blocks(values, max(1, SERIES_BLOCK // max(1, len(cols)))):
+        rows = np.asarray(block, dtype=np.float64)[:, list(cols)]
         ok = np.isfinite(rows).all(axis=1)
         moments.add(rows if ok.all() else rows[ok])
-        behind.upto(min(a + step, values.shape[0]))
-    behind.upto(values.shape[0], final=True)
     return moments
