@@ -368,6 +368,86 @@ def test_the_first_explicit_error_in_registry_order_is_raised(monkeypatch, jobs)
         ex.close()
 
 
+def test_on_threads_spills_overlap_the_next_run_and_finish_in_run_order(monkeypatch, tmp_path):
+    """On threads a finished run's signals are spilled by a pool task while the next run
+    goes on; the spills follow one another in the order the runs ended, each hands its
+    result to ``finished`` after it is spilled, and ``_run_detectors`` returns only
+    when every spill is done."""
+    from analyzer import pipeline
+
+    monkeypatch.setitem(REGISTRY, "slow", f"{__name__}:SlowFit")
+    monkeypatch.setitem(REGISTRY, "fast", f"{__name__}:FastFit")
+    RUNS.clear()
+    log: list[str] = []
+
+    def spill(result, spill_dir, tag=""):
+        log.append(f"spill {result.detector} start")
+        if result.detector == "fast":  # the first run to end: its spill waits for the
+            # next run, which an inline spill would never see (5 s, then it goes on)
+            for _ in range(500):
+                if "slow" in RUNS:
+                    break
+                threading.Event().wait(0.01)
+            log.append(f"runs {','.join(RUNS)}")
+        log.append(f"spill {result.detector} end")
+        return result
+
+    def finished(result):
+        log.append(f"finished {result.detector}")
+
+    monkeypatch.setattr(pipeline, "_spill", spill)
+    data = Dataset(np.zeros((100, 2)), ("a", "b"), 10.0, (0, 50))
+    ex = make_executor(2)
+    try:
+        ctx = RunContext(executor=ex)
+        results, _ = pipeline._run_detectors(
+            ["slow", "fast"],
+            RunOptions(jobs=2),
+            data,
+            ctx,
+            ex,
+            spill_dir=tmp_path,
+            finished=finished,
+        )
+    finally:
+        ex.close()
+    assert log == [
+        "spill fast start",
+        "runs fast,slow",  # the slow detector ran while the fast one's spill went on
+        "spill fast end",
+        "finished fast",
+        "spill slow start",
+        "spill slow end",
+        "finished slow",
+    ]
+    assert [r.detector for r in results] == ["slow", "fast"]
+
+
+def test_on_threads_a_failed_spill_is_raised(monkeypatch, tmp_path):
+    from analyzer import pipeline
+
+    monkeypatch.setitem(REGISTRY, "fast", f"{__name__}:FastFit")
+
+    def spill(result, spill_dir, tag=""):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(pipeline, "_spill", spill)
+    data = Dataset(np.zeros((100, 2)), ("a", "b"), 10.0, (0, 50))
+    ex = make_executor(2)
+    try:
+        with pytest.raises(OSError, match="No space left"):
+            pipeline._run_detectors(
+                ["fast"],
+                RunOptions(jobs=2),
+                data,
+                RunContext(executor=ex),
+                ex,
+                spill_dir=tmp_path,
+            )
+    finally:
+        ex.close()
+
+
 def test_an_interrupted_run_does_not_wait_for_running_tasks(monkeypatch, tmp_path):
     """A run stopped by an error or an interrupt closes its pool without waiting for the
     tasks already running (one can be minutes inside a compiled kernel); a run that ends
