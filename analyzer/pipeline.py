@@ -612,7 +612,11 @@ def _run_detectors(
         for _, plan in planned:
             if hasattr(plan, "cancel"):
                 plan.cancel()
-        for spilled in spilling:  # none may still write when the scratch space goes
+        # the spills not started are dropped; one that runs (a fraction of a second) is
+        # waited for, so none writes into the scratch space as it is removed
+        for spilled in spilling:
+            spilled.cancel()
+        for spilled in spilling:
             with contextlib.suppress(BaseException):
                 spilled.result()
         raise

@@ -423,6 +423,49 @@ def test_on_threads_spills_overlap_the_next_run_and_finish_in_run_order(monkeypa
     assert [r.detector for r in results] == ["slow", "fast"]
 
 
+class SlowBroken(_Timed):
+    """A detector whose run fails with an error that ends the analysis."""
+
+    name, delay = "slow", 0.2
+
+    def run(self, model, data, context):
+        raise RuntimeError("slow run broke")
+
+
+def test_an_error_in_a_later_run_waits_for_the_running_spill(monkeypatch, tmp_path):
+    """A run that fails while the previous run's spill is being written: the error is
+    raised once that spill is done (nothing writes into the scratch space after
+    ``_run_detectors`` has returned or raised)."""
+    from analyzer import pipeline
+
+    monkeypatch.setitem(REGISTRY, "slow", f"{__name__}:SlowBroken")
+    monkeypatch.setitem(REGISTRY, "fast", f"{__name__}:FastFit")
+    log: list[str] = []
+
+    def spill(result, spill_dir, tag=""):
+        log.append("start")
+        threading.Event().wait(0.5)  # still writing when the slow run fails (at 0.2 s)
+        log.append("end")
+        return result
+
+    monkeypatch.setattr(pipeline, "_spill", spill)
+    data = Dataset(np.zeros((100, 2)), ("a", "b"), 10.0, (0, 50))
+    ex = make_executor(2)
+    try:
+        with pytest.raises(RuntimeError, match="slow run broke"):
+            pipeline._run_detectors(
+                ["slow", "fast"],
+                RunOptions(jobs=2),
+                data,
+                RunContext(executor=ex),
+                ex,
+                spill_dir=tmp_path,
+            )
+        assert log == ["start", "end"]
+    finally:
+        ex.close()
+
+
 def test_on_threads_a_failed_spill_is_raised(monkeypatch, tmp_path):
     from analyzer import pipeline
 
