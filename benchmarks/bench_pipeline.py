@@ -57,6 +57,13 @@ script, not a timed test::
                                         [--continuous] [--profile] [--keep DIR]
                                         [--jobs N] [--detectors A,B] [--model]
                                         [--fault additive|multiplicative|drift]
+                                        [--repeat N] [--baseline-src DIR]
+
+``--baseline-src DIR`` runs another checkout (``git worktree add DIR COMMIT``) the same
+way, each format and length in turns with this one (the two take turns at going first),
+and prints their median wall and CPU times and peaks side by side, with how many pairs
+of runs listed the same faults: how a change is judged on this shared machine, whose
+speed drifts within minutes.
 """
 
 from __future__ import annotations
@@ -430,6 +437,48 @@ def print_profile(path: Path, top: int) -> None:
         )
 
 
+# --------------------------------------------------------------------------- baseline src
+
+
+def faults_of(out: Path) -> Any:
+    """The ``faults`` of a run's ``findings.json`` (None when it wrote none)."""
+    path = out / "findings.json"
+    return json.loads(path.read_text())["faults"] if path.is_file() else None
+
+
+def print_against_baseline(
+    tried: dict[tuple[str, str, float], list[Run]],
+    same: dict[tuple[str, float], list[bool]],
+    repeat: int,
+) -> None:
+    """Medians of this checkout's runs against the baseline's, per format and length."""
+
+    def median(values: list[float]) -> float:
+        return float(np.median(values)) if values else float("nan")
+
+    print(f"against --baseline-src (medians of {repeat} run(s) each, in turns)")
+    print(
+        f"{'format':<7}{'hours':>6}{'wall s':>9}{'base':>8}{'ratio':>7}{'cpu s':>8}{'base':>8}"
+        f"{'peak MB':>9}{'base':>7}   same findings"
+    )
+    for (label, f, h), mine in tried.items():
+        if label != "this":
+            continue
+        theirs = tried["baseline", f, h]
+        wall, base_wall = median([r.wall_s for r in mine]), median([r.wall_s for r in theirs])
+        agree = same[f, h]
+        print(
+            f"{f:<7}{h:>6g}{wall:>9.1f}{base_wall:>8.1f}{wall / base_wall:>7.2f}"
+            f"{median([r.cpu_s for r in mine]):>8.1f}{median([r.cpu_s for r in theirs]):>8.1f}"
+            f"{median([r.peak_mb for r in mine]):>9.0f}{median([r.peak_mb for r in theirs]):>7.0f}"
+            f"   {sum(agree)}/{len(agree)}"
+        )
+    print(
+        "  ratio: this checkout's median wall time over the baseline's; same findings: "
+        "pairs of runs whose findings.json list the same faults (every field)"
+    )
+
+
 # --------------------------------------------------------------------------- main
 
 
@@ -477,6 +526,13 @@ def main(argv: list[str] | None = None) -> int:
         help="runs per format and length, taken in turns (the machine's speed drifts); "
         "the table shows the run with the median wall time, all wall times are printed",
     )
+    parser.add_argument(
+        "--baseline-src",
+        metavar="DIR",
+        help="another checkout of the analyzer (git worktree add DIR COMMIT), run the same "
+        "way in turns with this one; a table compares their wall time, CPU time, peak RSS "
+        "and findings",
+    )
     parser.add_argument("--reference-messages", type=int, default=50_000)
     parser.add_argument("--sm-samples", type=int, default=5_000)
     parser.add_argument("--sm-estimators", type=int, default=2)
@@ -500,6 +556,12 @@ def main(argv: list[str] | None = None) -> int:
         args.sm_samples = min(args.sm_samples, 2_000)
         args.sm_estimators = min(args.sm_estimators, 1)
     pieces_needed = max(math.ceil(h * 3600.0 / piece_s - 1e-9) for h in hours)
+    sources = [("this", ROOT)]
+    if args.baseline_src:
+        other = Path(args.baseline_src).resolve()
+        if not (other / "analyzer" / "__init__.py").is_file():
+            parser.error(f"--baseline-src {other}: no analyzer package there")
+        sources.append(("baseline", other))
     print(
         f"bench_pipeline: {platform.machine()}, {os.cpu_count()} cores, "
         f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}, "
@@ -508,6 +570,8 @@ def main(argv: list[str] | None = None) -> int:
         f"commit {revision()}",
         flush=True,
     )
+    if len(sources) > 1:
+        print(f"baseline: {sources[1][1]}, commit {revision(sources[1][1])}", flush=True)
 
     with tempfile.TemporaryDirectory(prefix="bench_pipeline_") as tmp:
         base = Path(args.keep) if args.keep else Path(tmp)
@@ -521,40 +585,55 @@ def main(argv: list[str] | None = None) -> int:
         for f in formats:
             size = sum(p.stat().st_size for p in pieces[f]) / 2**20
             print(f"  {f}: {len(pieces[f])} files, {size:.0f} MB, written in {spent[f]:.0f} s")
-        models: dict[str, list[str]] = {f: [] for f in formats}
+        # per checkout (a model is tied to the analyzer that wrote it) and format
+        models: dict[tuple[str, str], list[str]] = {
+            (label, f): [] for label, _ in sources for f in formats
+        }
         if args.model:  # one fit per format (channel names differ), on the shortest archive
-            for f in formats:
+            for (label, root), f in itertools.product(sources, formats):
                 first = archive_dir(data_dir, f, min(hours), pieces[f], piece_s)
-                path = Path(tmp) / f"{f}.model"
+                path = Path(tmp) / f"{label}_{f}.model"
                 fit = run_child(
                     first, Path(tmp) / f"fit_{f}", Path(tmp) / f"log_fit_{f}.txt",
-                    extra=["--save-model", str(path)],
+                    extra=["--save-model", str(path)], root=root,
                 )  # fmt: skip
-                models[f] = ["--model", str(path)]
+                models[label, f] = ["--model", str(path)]
                 print(
-                    f"  fitted the {f} model on {min(hours):g} h ({path.stat().st_size / 1e6:.0f}"
-                    f" MB) in {fit.wall_s:.1f} s, not timed below",
+                    f"  fitted the {f} model ({label}) on {min(hours):g} h "
+                    f"({path.stat().st_size / 1e6:.0f} MB) in {fit.wall_s:.1f} s, not timed below",
                     flush=True,
                 )
-        tried: dict[tuple[str, float], list[Run]] = {
-            (f, h): [] for f in formats for h in sorted(hours)
+        tried: dict[tuple[str, str, float], list[Run]] = {
+            (label, f, h): [] for label, _ in sources for f in formats for h in sorted(hours)
         }
-        for _ in range(args.repeat):  # in turns: a drift of the machine's speed hits all
+        same: dict[tuple[str, float], list[bool]] = {(f, h): [] for f in formats for h in hours}
+        for turn in range(args.repeat):  # in turns: a drift of the machine's speed hits all
             for f in formats:
                 for h in sorted(hours):
                     archive = archive_dir(data_dir, f, h, pieces[f], piece_s)
-                    out = Path(tmp) / f"out_{f}_{h:g}h"
-                    run = run_child(
-                        archive, out, Path(tmp) / f"log_{f}_{h:g}h.txt", extra=models[f]
-                    )
-                    run.fmt, run.hours = f, h
-                    tried[f, h].append(run)
-                    print(
-                        f"  ran {f} {h:g} h: {run.wall_s:.1f} s, peak {run.peak_mb:.0f} MB",
-                        flush=True,
-                    )
+                    # with a baseline, the two checkouts take turns at going first
+                    for label, root in sources if turn % 2 == 0 else sources[::-1]:
+                        out = Path(tmp) / f"out_{label}_{f}_{h:g}h"
+                        run = run_child(
+                            archive, out, Path(tmp) / f"log_{label}_{f}_{h:g}h.txt",
+                            extra=models[label, f], root=root,
+                        )  # fmt: skip
+                        run.fmt, run.hours = f, h
+                        tried[label, f, h].append(run)
+                        print(
+                            f"  ran {f} {h:g} h{'' if label == 'this' else ' (baseline)'}: "
+                            f"{run.wall_s:.1f} s, peak {run.peak_mb:.0f} MB",
+                            flush=True,
+                        )
+                    if len(sources) > 1:
+                        same[f, h].append(
+                            faults_of(Path(tmp) / f"out_this_{f}_{h:g}h")
+                            == faults_of(Path(tmp) / f"out_baseline_{f}_{h:g}h")
+                        )
         runs: list[Run] = []
-        for (f, h), done in tried.items():
+        for (label, f, h), done in tried.items():
+            if label != "this":
+                continue
             ordered = sorted(done, key=lambda r: r.wall_s)
             runs.append(ordered[(len(ordered) - 1) // 2])  # the median (the lower one of two)
             if len(done) > 1:
@@ -573,7 +652,7 @@ def main(argv: list[str] | None = None) -> int:
                 Path(tmp) / "out_profile",
                 Path(tmp) / "log_profile.txt",
                 profile_path,
-                models[f],
+                models["this", f],
             )
 
         print()
@@ -649,6 +728,9 @@ def main(argv: list[str] | None = None) -> int:
                 )
         if args.quick:
             print("  (--quick: archives this small say little about memory scaling)")
+        if len(sources) > 1:
+            print()
+            print_against_baseline(tried, same, args.repeat)
         print(f"load average at the end {os.getloadavg()[0]:.1f}")
         if args.profile:
             print()
