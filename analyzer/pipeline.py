@@ -39,7 +39,6 @@ from analyzer.parallel import (
     DaskExecutor,
     Executor,
     SerialExecutor,
-    TaskHandle,
     ThreadExecutor,
     WorkerClientExecutor,
     locked,
@@ -429,25 +428,6 @@ def _spill(result: DetectorResult, spill_dir: Path | None, tag: str = "") -> Det
     return result
 
 
-def _spill_after(
-    before: TaskHandle | None,
-    result: DetectorResult,
-    spill_dir: Path | None,
-    tag: str,
-    finished: Callable[[DetectorResult], None] | None,
-) -> DetectorResult:
-    """A pool task: :func:`_spill` ``result`` once the spill ``before`` (the previous
-    run's) is done, then hand it to ``finished``; the main thread meanwhile starts the
-    next run (the conversion to files of a long archive's signals took 0.1-0.4 s per
-    detector, with the other core idle)."""
-    if before is not None:
-        before.result()
-    result = _spill(result, spill_dir, tag)
-    if finished is not None:
-        finished(result)
-    return result
-
-
 def _fit(det: Any, data: Dataset, ctx: RunContext, model: Any = None) -> tuple[Any, Any, float]:
     """A detector's fit on the healthy window, as a task: ``(detector, fitted model,
     seconds)``; ``model`` (``--model``) is returned as it is."""
@@ -542,11 +522,6 @@ def _run_detectors(
     # need not wait for a slow one), one run at a time; results are then taken in
     # registry order, the first error raised as the plain loop would
     settled: dict[int, DetectorResult | BaseException] = {}
-    # on threads, a run's signals are spilled (converted to files, :func:`_spill`) by a
-    # pool task while the next run starts, one spill after the other; each spill task
-    # then hands its result to ``finished``, so ``finished`` sees the results in the
-    # order the runs ended, as the plain loop does
-    spilling: list[TaskHandle] = []
     # progress: on threads each detector's fit, then its run; else each fit-and-run
     stage = "detect" + (f" group {tag[2:]}" if tag.startswith("-g") else "")
     per = 2 if staged else 1
@@ -574,15 +549,9 @@ def _run_detectors(
                         kept[name] = (det, model)
                     t0 = time.perf_counter()
                     trim_heap()  # what the fits freed
-                    ran = _compact(det.run(model, data, ctx))
+                    settled[i] = _spill(_compact(det.run(model, data, ctx)), spill_dir, tag)
                     release(data.values)  # what the run read of a memory-mapped archive
                     trim_heap()  # the run's per-sample arrays
-                    settled[i] = ran  # spilled in place by the task
-                    before = spilling[-1] if spilling else None
-                    spilling.append(
-                        executor.submit(_spill_after, before, ran, spill_dir, tag, finished)
-                    )
-                    del ran
                     if timings is not None:  # the fits overlap: their sum exceeds the wall time
                         # (summed over channel groups)
                         run_s = time.perf_counter() - t0
@@ -602,23 +571,13 @@ def _run_detectors(
                 continue
             ended += 1
             show()
-            final = settled[i]
-            if not staged and finished is not None and isinstance(final, DetectorResult):
-                finished(final)
-            del final
-        for spilled in spilling:
-            spilled.result()  # raises a spill's error
+            result = settled[i]
+            if finished is not None and isinstance(result, DetectorResult):
+                finished(result)
     except BaseException:
         for _, plan in planned:
             if hasattr(plan, "cancel"):
                 plan.cancel()
-        # the spills not started are dropped; one that runs (a fraction of a second) is
-        # waited for, so none writes into the scratch space as it is removed
-        for spilled in spilling:
-            spilled.cancel()
-        for spilled in spilling:
-            with contextlib.suppress(BaseException):
-                spilled.result()
         raise
     if total and per * ended < total:  # detectors left out after an earlier one's error
         ctx.report(stage, 1.0)
