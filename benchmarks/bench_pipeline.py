@@ -474,8 +474,10 @@ def print_against_baseline(
             f"   {sum(agree)}/{len(agree)}"
         )
     print(
-        "  ratio: this checkout's median wall time over the baseline's; same findings: "
-        "pairs of runs whose findings.json list the same faults (every field)"
+        "  medians of all runs (of an even count: the mean of the middle two; the main "
+        "table shows the lower middle run); ratio: this checkout's median wall time over "
+        "the baseline's; same findings: pairs of runs whose findings.json list the same "
+        "faults (every field)"
     )
 
 
