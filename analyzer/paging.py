@@ -30,7 +30,7 @@ import sys
 import tempfile
 import threading
 import weakref
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -137,12 +137,17 @@ def row_blocks(
         release(block)
 
 
-def finite_rows(a: npt.NDArray[Any]) -> npt.NDArray[np.bool_]:
-    """``np.isfinite(a).all(axis=1)`` taken a block of rows at a time (:func:`row_blocks`):
-    neither a boolean copy of ``a`` nor a memory-mapped record's pages are held."""
+def finite_rows(
+    a: npt.NDArray[Any], columns: Sequence[int] | None = None, rows: int = RELEASE_ROWS
+) -> npt.NDArray[np.bool_]:
+    """``np.isfinite(a[:, columns]).all(axis=1)`` (every column by default; a 1-D ``a``
+    is one column) taken ``rows`` rows at a time (:func:`row_blocks`): neither a boolean
+    copy of ``a`` nor a memory-mapped record's pages are held."""
     out = np.empty(a.shape[0], dtype=bool)
-    for lo, block in row_blocks(a):
-        out[lo : lo + block.shape[0]] = np.isfinite(block).all(axis=1)
+    for lo, block in row_blocks(a, rows):
+        part = np.asarray(block) if columns is None else np.asarray(block)[:, columns]
+        finite = np.isfinite(part)
+        out[lo : lo + part.shape[0]] = finite if finite.ndim == 1 else finite.all(axis=1)
     return out
 
 

@@ -120,8 +120,8 @@ from analyzer.paging import (
     RELEASE_ROWS,
     Released,
     ScratchRows,
+    finite_rows,
     release,
-    row_blocks,
     write_rows,
 )
 
@@ -1621,10 +1621,7 @@ def _segment_chunks(seg: _Segment) -> Iterator[tuple[int, FloatArray, FloatArray
     # everything and runs from the first row
     first = 0 if bank.history is None else max(0, start - max(bank.history, *settles))
     cols = list(model.outputs) + list(model.inputs)
-    bad = np.zeros(stop - first, dtype=bool)  # read a block of rows at a time: no copy
-    for lo, block in row_blocks(values[first:stop], CALIBRATION_ROWS):
-        rows = np.asarray(block)[:, cols]
-        bad[lo : lo + rows.shape[0]] = ~np.isfinite(rows).all(axis=1)
+    bad = ~finite_rows(values[first:stop], cols, CALIBRATION_ROWS)  # no copy of the rows
     masks = [_dilate_forward(bad, s)[start - first :] for s in settles] if bad.any() else None
     m = filters[0].n_outputs
     rows = np.array([f.sensor for f in filters])

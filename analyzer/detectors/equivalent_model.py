@@ -72,7 +72,14 @@ from analyzer.diagnosis.changes import Calibration, calibrate, default_window
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.diagnosis.streamed import row_moments
 from analyzer.errors import DetectorError
-from analyzer.paging import RELEASE_ROWS, ScratchRows, release, row_blocks, write_rows
+from analyzer.paging import (
+    RELEASE_ROWS,
+    ScratchRows,
+    finite_rows,
+    release,
+    row_blocks,
+    write_rows,
+)
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -312,12 +319,9 @@ def pretreat(
     Theory 1 and reported. The RMS is that of the chosen observer's run. The observers run
     :data:`PRETREAT_ROWS` samples at a time: no copy of the window is held."""
     yy = np.asarray(y)
-    ok = np.empty(yy.shape[0], dtype=bool)  # a block of a memory-mapped window at a time
-    for lo, block in row_blocks(yy):
-        ok[lo : lo + block.shape[0]] = np.isfinite(block)
+    ok = finite_rows(yy)  # a block of a memory-mapped window at a time
     if u is not None:
-        for lo, block in row_blocks(np.asarray(u)):
-            ok[lo : lo + block.shape[0]] &= np.isfinite(block)
+        ok &= finite_rows(np.asarray(u))
     if ok.sum() < 16:
         raise DetectorError(
             f"too little healthy data for the pretreatment: {int(ok.sum())} samples"

@@ -5,7 +5,7 @@ import sys
 import numpy as np
 import pytest
 
-from analyzer.paging import release, spill
+from analyzer.paging import finite_rows, release, spill
 
 
 def _rss_mb() -> float:
@@ -305,3 +305,15 @@ def test_a_pass_by_row_blocks_holds_a_block_of_a_mapped_record(tmp_path):
     small[4, 1] = np.inf
     np.testing.assert_array_equal(finite_rows(small), np.isfinite(small).all(axis=1))
     assert [(lo, b.shape[0]) for lo, b in row_blocks(small, 4)] == [(0, 4), (4, 4), (8, 2)]
+
+
+def test_finite_rows_of_some_columns_and_of_a_vector():
+    rng = np.random.default_rng(4)
+    a = rng.normal(size=(1000, 5))
+    a[[3, 500, 999], [0, 2, 4]] = np.nan
+    np.testing.assert_array_equal(finite_rows(a), np.isfinite(a).all(axis=1))
+    some = [1, 2]
+    np.testing.assert_array_equal(
+        finite_rows(a, some, rows=97), np.isfinite(a[:, some]).all(axis=1)
+    )
+    np.testing.assert_array_equal(finite_rows(a[:, 4], rows=97), np.isfinite(a[:, 4]))
