@@ -9,7 +9,9 @@ Three back ends, all with the same results as the serial run:
 * :class:`ThreadExecutor` -- ``--jobs N``: a thread pool; the hot paths (numpy, BLAS,
   scipy, numba) release the GIL, and threads share the aligned matrix without copies;
 * :class:`DaskExecutor` -- ``--scheduler tcp://HOST:PORT``: an existing Dask distributed
-  cluster; large arguments are sent once with :meth:`Executor.scatter`.
+  cluster. The detectors' own steps stay in the calling process (over its memory-mapped
+  archive); the pieces they split off go to the workers, each with its rows only, a
+  bounded number at a time (:meth:`Executor.imap`), so neither side holds the archive.
 
 Tasks are module-level (picklable) functions. An exception raised in a task comes back
 from ``map``/``result()`` as the same type with the same message (Dask pickles it back),
@@ -19,14 +21,19 @@ so a :class:`~analyzer.errors.DetectorError` in a worker is still a skipped dete
 from __future__ import annotations
 
 import contextlib
+import itertools
 import os
 import socket
 import threading
-from collections.abc import Callable, Sequence
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Protocol, TypeVar
 
+import numpy as np
+
 from analyzer.errors import UsageError
+from analyzer.paging import release
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -59,13 +66,20 @@ class Executor(Protocol):
         """``[fn(x) for x in items]``, possibly concurrently, results in input order."""
         ...
 
-    def submit(self, fn: Callable[..., R], *args: Any) -> TaskHandle:
-        """Start ``fn(*args)``; the handle's ``result()`` returns its value."""
+    def imap(self, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[R]:
+        """:meth:`map` as an iterator, for a caller that consumes each result once (a
+        time block's outputs, written into the caller's arrays): on a cluster only a few
+        items and results are held at once, the rest not yet sent or already handed over."""
         ...
 
     def scatter(self, obj: T) -> Any:
-        """A handle for a large argument used by several tasks (the object itself
-        locally, a future on the cluster); pass it to :meth:`submit` in place of ``obj``."""
+        """A handle for a large argument shared by several items of :meth:`map` or
+        :meth:`imap` (a fitted model): the object itself locally, a future on a cluster,
+        sent to each worker once; put it in the items (tuples) in place of ``obj``."""
+        ...
+
+    def submit(self, fn: Callable[..., R], *args: Any) -> TaskHandle:
+        """Start ``fn(*args)``; the handle's ``result()`` returns its value."""
         ...
 
     def close(self, wait: bool = True) -> None:
@@ -115,6 +129,9 @@ class SerialExecutor:
     def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
         return [fn(x) for x in items]
 
+    def imap(self, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[R]:
+        return map(fn, items)
+
     def submit(self, fn: Callable[..., R], *args: Any) -> TaskHandle:
         return _Deferred(fn, args)
 
@@ -161,6 +178,9 @@ class ThreadExecutor:
             for fut in futures:
                 fut.cancel()
             raise
+
+    def imap(self, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[R]:
+        return iter(self.map(fn, list(items)))
 
     def submit(self, fn: Callable[..., R], *args: Any) -> Future[R]:
         return self._pool.submit(fn, *args)
@@ -216,16 +236,15 @@ class DaskExecutor:
         )
 
     def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
-        items = list(items)
-        if not items:
-            return []
-        return _map_on(self.client, fn, items)
+        return list(self.imap(fn, items))
+
+    def imap(self, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[R]:
+        return _stream_on(self.client, fn, items, IN_FLIGHT_PER_THREAD * self.workers)
 
     def submit(self, fn: Callable[..., R], *args: Any) -> TaskHandle:
         return self.client.submit(fn, *args, pure=False)
 
     def scatter(self, obj: T) -> Any:
-        # broadcast: every worker that runs a detector needs it, fetch it once each
         return self.client.scatter(obj, broadcast=True, hash=False)
 
     def close(self, wait: bool = True) -> None:
@@ -250,12 +269,64 @@ class DaskExecutor:
         return f"DaskExecutor({self.address!r})"
 
 
-def _map_on(client: Any, fn: Callable[[T], R], items: list[T]) -> list[R]:
-    """``fn`` over ``items`` as tasks of ``client``, in order. The items (time blocks of
-    the archive...) are scattered to the workers first rather than packed into the task
-    graph, which stays small however large the blocks are."""
-    handles = client.scatter(items, hash=False)
-    return list(client.gather(client.map(fn, handles, pure=False)))
+IN_FLIGHT_PER_THREAD = 2
+"""Items of :meth:`DaskExecutor.imap` on the cluster at once, per worker thread: enough
+to keep every thread busy while the results of the others travel."""
+
+
+INLINE_BYTES = 1 << 16
+"""An item's arrays smaller than this go with its task; larger ones are scattered."""
+
+
+def _stream_on(client: Any, fn: Callable[[T], R], items: Iterable[T], window: int) -> Iterator[R]:
+    """``fn`` over ``items`` as tasks of ``client``, results in order, with at most
+    ``window`` items sent and not yet handed over: an item is taken from ``items`` (and
+    its rows read, for a view of a memory-mapped archive) only when one of those is
+    handed over, so the caller and the workers hold a few items each, not the archive.
+    An item's arrays are scattered rather than packed into the task graph, which stays
+    small however large they are; its futures (:meth:`DaskExecutor.scatter`) are passed
+    on, so what they stand for is sent to a worker once, not with every item. Tasks
+    still pending are cancelled when the caller stops early (an error, or a result it
+    did not need)."""
+    source = iter(items)
+    pending: deque[Any] = deque()
+
+    def send(count: int) -> None:
+        for item in itertools.islice(source, count):
+            if isinstance(item, tuple):
+                # (a view of a memory-mapped array goes as a plain array)
+                parts = [np.asarray(x) if isinstance(x, np.ndarray) else x for x in item]
+                big = [
+                    k
+                    for k, x in enumerate(parts)
+                    if isinstance(x, np.ndarray) and x.nbytes >= INLINE_BYTES
+                ]
+                if big:
+                    sent = client.scatter([parts[k] for k in big], hash=False)
+                    for k, handle in zip(big, sent, strict=True):
+                        release(parts[k])  # rows of a memory-mapped archive: sent, let go
+                        parts[k] = handle
+                # futures among the arguments are replaced by their values on the worker
+                pending.append(client.submit(_apply, fn, *parts, pure=False))
+            else:
+                [handle] = client.scatter([item], hash=False)
+                pending.append(client.submit(fn, handle, pure=False))
+
+    try:
+        send(max(1, window))
+        while pending:
+            value = pending[0].result()
+            pending.popleft()
+            send(1)
+            yield value
+    finally:
+        for future in pending:
+            future.cancel()
+
+
+def _apply(fn: Callable[[tuple[Any, ...]], R], *parts: Any) -> R:
+    """``fn`` on the tuple of ``parts`` (a task of :func:`_stream_on`)."""
+    return fn(parts)
 
 
 def _quiet_close(client: Any) -> None:
@@ -285,34 +356,6 @@ def _probe(address: str, timeout: float) -> None:
     except OSError as err:
         why = err.strerror or " ".join(str(err).split()) or type(err).__name__
         raise UsageError(f"--scheduler {address}: cannot connect ({why})") from err
-
-
-class WorkerClientExecutor:
-    """:meth:`map` from inside a Dask task: the items become tasks on the same cluster
-    (the calling task leaves its worker thread while it waits, so nothing deadlocks)."""
-
-    shares_memory = False
-
-    def __init__(self, workers: int) -> None:
-        self.workers = workers
-
-    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
-        items = list(items)
-        if len(items) <= 1:
-            return [fn(x) for x in items]
-        from distributed import worker_client
-
-        with worker_client() as client:
-            return _map_on(client, fn, items)
-
-    def submit(self, fn: Callable[..., R], *args: Any) -> TaskHandle:  # pragma: no cover
-        return _Deferred(fn, args)
-
-    def scatter(self, obj: T) -> T:  # pragma: no cover
-        return obj
-
-    def close(self, wait: bool = True) -> None:
-        pass
 
 
 def blas_threads_setting() -> str | None:
@@ -350,7 +393,6 @@ __all__ = [
     "SerialExecutor",
     "TaskHandle",
     "ThreadExecutor",
-    "WorkerClientExecutor",
     "blas_threads_setting",
     "locked",
     "make_executor",

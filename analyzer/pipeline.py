@@ -40,7 +40,6 @@ from analyzer.parallel import (
     Executor,
     SerialExecutor,
     ThreadExecutor,
-    WorkerClientExecutor,
     locked,
     make_executor,
 )
@@ -437,17 +436,33 @@ def _fit(det: Any, data: Dataset, ctx: RunContext, model: Any = None) -> tuple[A
     return det, model, time.perf_counter() - t0
 
 
-def _fit_and_run_on_worker(
-    det: Any, data: Dataset, ctx: RunContext, model: Any = None, keep: bool = False
-) -> tuple[Any, DetectorResult]:
-    """:func:`_fit_and_run` as a Dask task: a detector that splits its work
-    (``ctx.map``) spreads the pieces over the same cluster."""
-    if ctx.jobs > 1:
-        ctx = replace(ctx, executor=WorkerClientExecutor(ctx.jobs))
-    return _fit_and_run(det, data, ctx, model, keep)
-
-
 def _run_detectors(
+    names: list[str],
+    options: RunOptions,
+    data: Dataset,
+    ctx: RunContext,
+    executor: Executor,
+    *rest: Any,
+) -> tuple[list[DetectorResult], dict[str, str]]:
+    """:func:`_run_planned` with ``executor``; on a Dask cluster the detectors' own steps
+    run in this process (threads for the fits, as with ``--jobs``), over its memory-mapped
+    archive and scratch space, and only the pieces they split off (time blocks, folds,
+    estimators: ``ctx.map``/``ctx.imap``) go to the workers, a few at a time. Neither
+    side then holds the archive: each task carries its block's rows, each result is
+    written here as it comes back."""
+    if not isinstance(executor, DaskExecutor):
+        return _run_planned(names, options, data, ctx, executor, *rest)
+    local = ThreadExecutor(max(1, len(names)))
+    done = False
+    try:
+        outcome = _run_planned(names, options, data, ctx, local, *rest)
+        done = True
+        return outcome
+    finally:
+        local.close(wait=done)
+
+
+def _run_planned(
     names: list[str],
     options: RunOptions,
     data: Dataset,
@@ -473,21 +488,14 @@ def _run_detectors(
     error in registry order is raised instead, as the plain loop would."""
     if fits is not None:  # --model: only what it fitted (on this channel group) runs
         names = [n for n in names if n in fits]
-    on_dask = isinstance(executor, DaskExecutor)
     # Local threads: the fits (training window only, memory independent of the archive's
     # length) run concurrently; the runs over the archive then follow one at a time in
     # this thread, each splitting its own work over the pool (time blocks, chunks,
-    # sensors). Running two detectors over the archive at once would hold both their
-    # per-sample arrays: peak memory would grow twice as fast with the archive.
+    # sensors), or over the cluster's workers (ctx.executor). Running two detectors over
+    # the archive at once would hold both their per-sample arrays: peak memory would
+    # grow twice as fast with the archive.
     staged = isinstance(executor, ThreadExecutor)
-    task = _fit_and_run_on_worker if on_dask else _fit if staged else _fit_and_run
-    shipped_data: Any = data
-    shipped_ctx = ctx
-    if on_dask:
-        # workers have neither the caller's terminal nor its scratch directory (so their
-        # outputs stay in memory, and come back as arrays)
-        shipped_ctx = replace(ctx, workdir=None, progress=None, executor=None, map_outputs=False)
-        shipped_data = executor.scatter(replace(data, values=np.asarray(data.values)))
+    task = _fit if staged else _fit_and_run
     # (name, handle) for a submitted task, (name, error) for one settled up front
     planned: list[tuple[str, Any]] = []
     keep = kept is not None
@@ -498,7 +506,7 @@ def _run_detectors(
             det, model = given
             dets[name] = det
             extra: tuple[Any, ...] = (model,) if staged else (model, keep)
-            planned.append((name, executor.submit(task, det, shipped_data, shipped_ctx, *extra)))
+            planned.append((name, executor.submit(task, det, data, ctx, *extra)))
             continue
         cls = detector_class(name)
         try:
@@ -516,7 +524,7 @@ def _run_detectors(
             continue
         dets[name] = det
         extra = () if staged else (None, keep)
-        planned.append((name, executor.submit(task, det, shipped_data, shipped_ctx, *extra)))
+        planned.append((name, executor.submit(task, det, data, ctx, *extra)))
     # settled[i]: the result of planned[i], or the error its fit or run raised. On threads
     # each run starts as soon as its fit is done (whichever detector that is: a fast fit
     # need not wait for a slow one), one run at a time; results are then taken in

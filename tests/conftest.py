@@ -76,6 +76,12 @@ class _TwoThreadPool:
         with ThreadPoolExecutor(2) as ex:
             return list(ex.map(fn, items))
 
+    def imap(self, fn, items):
+        return iter(self.map(fn, list(items)))
+
+    def scatter(self, obj):
+        return obj
+
 
 @pytest.fixture
 def two_thread_pool():

@@ -547,34 +547,43 @@ class ARKalmanBank:
             else:  # memory-mapped for a long archive (RunContext.buffer)
                 resid = context.buffer(f"{self.name}-resid", (N, m))
                 into = BankOutputs(resid, context.buffer(f"{self.name}-est", (N, m)), nis)
-        spans = time_blocks(start, stop, bank.warmup, context)
-        items = [
+        spans = time_blocks(start, stop, bank.warmup, context, m)
+        if context is not None and len(spans) > 1 and not context.shares_memory:
+            # a cluster: each task gets its block's rows (and the warm-up before them) and
+            # the bank, sent to each worker once; a few blocks in flight at a time, each
+            # result written here as it comes back
+            shared, inv = context.scatter(bank), model.innovation_inv_cov
+            wanted = into.nis is not None
+            items = ((ar.mean, ar.scale, shared, Y[a - w : b], w, inv, wanted) for a, b, w in spans)
+            for (a, _, _), out in zip(spans, context.imap(_bank_block_task, items), strict=True):
+                write_rows(into.resid, a, out.resid)
+                write_rows(into.est, a, out.est)
+                if into.nis is not None:
+                    assert out.nis is not None
+                    write_rows(into.nis, a, out.nis)
+                del out
+            return into
+        tasks = [
             (
-                ar.mean,
-                ar.scale,
-                bank,
-                Y[a - w : b],
-                w,
-                model.innovation_inv_cov,
-                into.nis is not None,
+                (
+                    ar.mean,
+                    ar.scale,
+                    bank,
+                    Y[a - w : b],
+                    w,
+                    model.innovation_inv_cov,
+                    into.nis is not None,
+                ),
+                into,
+                a,
             )
             for a, b, w in spans
         ]
-        if len(items) == 1 or context is None:
-            for (a, _, _), item in zip(spans, items, strict=True):
-                _bank_block_into((item, into, a))  # written in place: no copies
-            return into
-        if context.shares_memory:  # threads write their rows in place: no block copies
-            context.map(
-                _bank_block_into,
-                [(item, into, a) for (a, _, _), item in zip(spans, items, strict=True)],
-            )
-            return into
-        for (a, b, _), out in zip(spans, context.map(_bank_block_task, items), strict=True):
-            into.resid[a:b] = out.resid
-            into.est[a:b] = out.est
-            if into.nis is not None:
-                into.nis[a:b] = out.nis
+        if len(tasks) == 1 or context is None:
+            for task in tasks:
+                _bank_block_into(task)  # written in place: no copies
+        else:  # threads write their rows in place: no block copies
+            context.map(_bank_block_into, tasks)
         return into
 
     # -- running ---------------------------------------------------------------------------

@@ -15,7 +15,7 @@ Conventions
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar, Protocol, TypeVar
@@ -35,6 +35,10 @@ class MapExecutor(Protocol):
     """The part of :class:`analyzer.parallel.Executor` a detector uses."""
 
     def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]: ...
+
+    def imap(self, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[R]: ...
+
+    def scatter(self, obj: T) -> Any: ...
 
 
 SIGNAL_DTYPE = np.float32
@@ -105,6 +109,21 @@ class RunContext:
         if self.executor is None:
             return [fn(x) for x in items]
         return self.executor.map(fn, items)
+
+    def imap(self, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[R]:
+        """:meth:`map` as an iterator, for results each consumed once and then dropped
+        (time blocks' outputs written into the caller's arrays): on a cluster only a few
+        items are in flight at once, so neither this process nor a worker holds more than
+        a few blocks of the archive (:meth:`analyzer.parallel.Executor.imap`)."""
+        if self.executor is None:
+            return (fn(x) for x in items)
+        return self.executor.imap(fn, items)
+
+    def scatter(self, obj: T) -> Any:
+        """A handle for a large argument of many :meth:`map`/:meth:`imap` items (a fitted
+        model): ``obj`` itself in this process, on a cluster a future sent to each worker
+        once; the items (tuples) carry it in place of ``obj``."""
+        return obj if self.shares_memory else self.executor.scatter(obj)  # type: ignore[union-attr]
 
     def map_shared(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
         """:meth:`map` where the items share this process's memory (serially or on

@@ -1187,7 +1187,8 @@ class DetectionFilter:
         hist = bank.history
         spans = [(0, N)]
         if context is not None and hist is not None:
-            spans = [(a, b) for a, b, _ in time_blocks(0, N, max(hist, 1), context)]
+            blocks = time_blocks(0, N, max(hist, 1), context, values.shape[1])
+            spans = [(a, b) for a, b, _ in blocks]
         if len(spans) == 1 or context is None:
             for a, b in spans:
                 _df_span((model, bank, values, 0, a, b, outs, directions))
@@ -1196,18 +1197,22 @@ class DetectionFilter:
                 _df_span, [(model, bank, values, 0, a, b, outs, directions) for a, b in spans]
             )
         else:  # a cluster: each task gets its span and the history before it, nothing more
+            # (the model and the bank are sent to each worker once); a few spans in flight
+            # at a time, each written here as it comes back
             assert hist is not None
-            tasks = []
-            for a, b in spans:
-                base = max(0, a - hist)
-                tasks.append(
-                    (model, bank, np.asarray(values[base:b]), base, a, b, None, directions)
-                )
-            pieces = context.map(_df_span, tasks)
-            for (a, b), piece in zip(spans, pieces, strict=True):
+            shared_model, shared_bank = context.scatter(model), context.scatter(bank)
+            starts = [max(0, a - hist) for a, _ in spans]
+            tasks = (
+                (shared_model, shared_bank, values[base:b], base, a, b, None, directions)
+                for base, (a, b) in zip(starts, spans, strict=True)
+            )
+            for (a, b), piece in zip(spans, context.imap(_df_span, tasks), strict=True):
                 for whole, part in zip(outs, piece, strict=True):
-                    if whole is not None:
-                        whole[..., a:b] = part
+                    if whole is not None and whole.ndim == 2:  # (filters, samples)
+                        write_rows(whole.T, a, part.T)  # to a long archive's file directly
+                    elif whole is not None:
+                        whole[a:b] = part
+                del piece
         zeta, ref, nis, bad = outs
         if bad.any():
             for i, f in enumerate(model.filters):

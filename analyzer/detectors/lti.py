@@ -617,18 +617,30 @@ class LiftedBank:
 MIN_TIME_BLOCK = 8
 """A time block handed to a worker is at least this many warm-ups long."""
 
+CLUSTER_BLOCK_VALUES = 1 << 22
+"""On a cluster, a time block holds at most about this many values (rows x channels: 32
+MB of float64, 44 minutes of 16 channels at 100 Hz) unless its warm-ups ask for more:
+each task's message, and what a worker holds for it, stays bounded however long the
+archive (:meth:`~analyzer.detectors.base.RunContext.imap` keeps a few in flight)."""
 
-def time_blocks(start: int, stop: int, warmup: int, context: Any) -> list[tuple[int, int, int]]:
+
+def time_blocks(
+    start: int, stop: int, warmup: int, context: Any, width: int = 1
+) -> list[tuple[int, int, int]]:
     """``(a, b, warm)`` spans covering ``[start, stop)`` for a
     :class:`~analyzer.detectors.base.RunContext` ``context``: one span serially; with a
     parallel executor, about two per worker, each at least ``MIN_TIME_BLOCK`` warm-ups
-    long so the warm-up overhead stays small. ``warm`` samples before ``a`` (at most
-    ``warmup``) let a block start where a run from the record's start would be."""
+    long so the warm-up overhead stays small, and on a cluster (an executor that does not
+    share this process's memory) at most :data:`CLUSTER_BLOCK_VALUES` values of ``width``
+    channels. ``warm`` samples before ``a`` (at most ``warmup``) let a block start where a
+    run from the record's start would be."""
     executor = None if context is None else getattr(context, "executor", None)
     if executor is None or stop - start <= 2 * MIN_TIME_BLOCK * warmup:
         return [(start, stop, min(start, warmup))]
     workers = max(2, int(getattr(context, "jobs", 2) or 2))
     size = max(MIN_TIME_BLOCK * warmup, -(-(stop - start) // (2 * workers)))
+    if not getattr(context, "shares_memory", True):
+        size = min(size, max(MIN_TIME_BLOCK * warmup, CLUSTER_BLOCK_VALUES // max(1, width)))
     return warm_spans(start, stop, size, warmup)
 
 

@@ -22,8 +22,8 @@ import analyzer.parallel  # noqa: E402
 from analyzer.cli import main  # noqa: E402
 from analyzer.errors import DetectorError, UsageError  # noqa: E402
 from analyzer.parallel import (  # noqa: E402
+    IN_FLIGHT_PER_THREAD,
     DaskExecutor,
-    WorkerClientExecutor,
     blas_threads_setting,
     make_executor,
 )
@@ -77,9 +77,10 @@ def _fail_on_three(x: int) -> int:
     return x
 
 
-def _nested_map(items: list[int]) -> list[int]:
-    """What a detector running as a Dask task does through ``ctx.map``."""
-    return WorkerClientExecutor(2).map(_fail_on_three, items)
+def _weighted(item: tuple[np.ndarray, np.ndarray, int]) -> float:
+    """A time block's task: a shared array (a fitted model), the block's rows, its index."""
+    shared, rows, k = item
+    return float(rows @ shared[: rows.shape[0]]) + k
 
 
 def _free_port() -> int:
@@ -107,10 +108,47 @@ def test_dask_map_keeps_order_and_error_types(dask_ex):
         dask_ex.submit(_fail_on_three, 3).result()
 
 
-def test_map_from_inside_a_dask_task(dask_ex):
-    assert dask_ex.submit(_nested_map, [1, 2, 4, 5]).result() == [1, 2, 4, 5]
+def test_imap_keeps_a_few_items_in_flight(dask_ex):
+    """Items are taken from the caller one at a time as results are handed over: at most
+    IN_FLIGHT_PER_THREAD per worker thread beyond the ones consumed, so a long archive's
+    time blocks are never all read (nor all on the workers) at once."""
+    window = IN_FLIGHT_PER_THREAD * dask_ex.workers
+    taken = []
+
+    def blocks():
+        for k in range(20):
+            taken.append(k)
+            yield np.full(50, float(k))
+
+    results = dask_ex.imap(_double, blocks())
+    first = next(results)
+    np.testing.assert_array_equal(first, np.zeros(50))
+    assert len(taken) <= window + 1
+    rest = list(results)
+    assert len(taken) == 20
+    for k, y in enumerate([first, *rest]):
+        np.testing.assert_array_equal(y, np.full(50, 2.0 * k))
+
+
+def test_imap_items_with_a_scattered_model_and_memory_mapped_rows(dask_ex, tmp_path):
+    """Tuple items: a scattered handle is replaced by its value on the worker, a large
+    array (a view of a memory-mapped file, as a long archive's rows are) is scattered
+    beside the task, small ones go with it; results in order."""
+    shared = np.linspace(0.0, 1.0, 40_000)
+    rows = np.memmap(tmp_path / "rows.f64", dtype=np.float64, mode="w+", shape=(30_000,))
+    rows[:] = np.arange(30_000.0)
+    spans = [(0, 20_000), (5_000, 30_000), (29_000, 30_000)]
+    handle = dask_ex.scatter(shared)
+    items = ((handle, rows[a:b], k) for k, (a, b) in enumerate(spans))
+    got = list(dask_ex.imap(_weighted, items))
+    want = [_weighted((shared, np.asarray(rows[a:b]), k)) for k, (a, b) in enumerate(spans)]
+    assert got == pytest.approx(want, rel=1e-12)
+
+
+def test_imap_error_keeps_its_type(dask_ex):
     with pytest.raises(DetectorError, match="cannot fit block 3"):
-        dask_ex.submit(_nested_map, [1, 3]).result()
+        list(dask_ex.imap(_fail_on_three, iter(range(10))))
+    assert list(dask_ex.imap(_fail_on_three, [])) == []
 
 
 def test_scheduler_gives_the_serial_findings(cluster, serial_run, findings_of, same_findings):
@@ -126,6 +164,46 @@ def test_scheduler_gives_the_serial_findings(cluster, serial_run, findings_of, s
     note = f"ran on Dask scheduler {cluster.scheduler_address}: 2 workers"
     assert any(n.startswith(note) for n in dask.notes), dask.notes
     assert not any("not implemented" in n for n in dask.notes)
+
+
+def test_cluster_time_blocks_are_bounded_and_give_the_serial_run(
+    cluster, serial_run, findings_of, same_findings, monkeypatch
+):
+    """With blocks capped at a few thousand values (and one warm-up), the bank and the
+    detection filter send the record to the workers in many blocks (each with its
+    warm-up), a few at a time, and write each back as it arrives: the serial findings,
+    and the serial residuals to the precision they are kept in."""
+    import analyzer.detectors.ar_kalman as ak
+    import analyzer.detectors.detection_filter as df
+    import analyzer.detectors.lti as lti
+
+    monkeypatch.setattr(lti, "CLUSTER_BLOCK_VALUES", 1 << 12)
+    monkeypatch.setattr(lti, "MIN_TIME_BLOCK", 1)  # blocks as short as one warm-up
+    sizes: dict[str, list[int]] = {"bank": [], "df": []}
+
+    def spy(tag):
+        def blocks(start, stop, warmup, context, width=1):
+            spans = lti.time_blocks(start, stop, warmup, context, width)
+            if not context.shares_memory and len(spans) > 1:
+                sizes[tag].append(len(spans))
+                assert all(b - a <= max(warmup, (1 << 12) // width) for a, b, _ in spans)
+            return spans
+
+        return blocks
+
+    monkeypatch.setattr(ak, "time_blocks", spy("bank"))
+    monkeypatch.setattr(df, "time_blocks", spy("df"))
+    dask = analyze([SAMPLE], RunOptions(scheduler=cluster.scheduler_address))
+    # (two blocks per worker thread without the cap)
+    assert max(sizes["bank"]) > 4 and max(sizes["df"]) > 4, sizes
+    same_findings(findings_of(dask), findings_of(serial_run))
+    for mine, ref in zip(dask.results, serial_run.results, strict=True):
+        assert mine.detector == ref.detector
+        for c, r in ref.residuals.items():
+            want = np.asarray(r, dtype=np.float64)
+            got = np.asarray(mine.residuals[c], dtype=np.float64)
+            scale = np.nanstd(want) or 1.0
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-5 * scale, err_msg=c)
 
 
 def test_cli_scheduler_writes_the_serial_findings(cluster, tmp_path, capsys, same_findings):

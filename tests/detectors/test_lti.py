@@ -90,3 +90,28 @@ def test_subset_of_a_bank_runs_its_systems_and_is_kept(monkeypatch):
         np.concatenate([y for _, y in copy.subset([4]).run(u)], axis=2),
         np.concatenate([y for _, y in bank.subset([4]).run(u)], axis=2),
     )
+
+
+@pytest.mark.parametrize("shares_memory", [True, False])
+def test_time_blocks_cover_the_span_and_are_bounded_on_a_cluster(shares_memory, two_thread_pool):
+    """Threads: about two blocks per worker whatever the length; a cluster (no shared
+    memory): blocks of at most CLUSTER_BLOCK_VALUES values of the given width (or one
+    MIN_TIME_BLOCK of warm-ups), so a long archive goes out in many bounded pieces."""
+    from analyzer.detectors.base import RunContext
+    from analyzer.detectors.lti import CLUSTER_BLOCK_VALUES, MIN_TIME_BLOCK, time_blocks
+
+    ctx = RunContext(jobs=2, executor=two_thread_pool(shares_memory))
+    start, stop, warmup, width = 1000, 9_000_000, 300, 16
+    spans = time_blocks(start, stop, warmup, ctx, width)
+    assert spans[0][0] == start and spans[-1][1] == stop
+    assert all(b == a2 for (_, b, _), (a2, _, _) in zip(spans[:-1], spans[1:], strict=True))
+    assert all(w == min(a, warmup) for a, _, w in spans)
+    longest = max(b - a for a, b, _ in spans)
+    if shares_memory:
+        assert len(spans) == 4
+    else:
+        assert longest <= CLUSTER_BLOCK_VALUES // width
+        assert len(spans) == -(-(stop - start) // longest) > 4
+        wide = time_blocks(start, stop, warmup, ctx, 10**6)  # one warm-up block minimum
+        assert max(b - a for a, b, _ in wide) == MIN_TIME_BLOCK * warmup
+    assert time_blocks(start, stop, warmup, RunContext(), width) == [(start, stop, warmup)]
