@@ -852,11 +852,12 @@ def analyze(
     results are memory-mapped there (the caller removes it after use); without it
     everything is kept in memory and the scratch space is removed on return.
 
-    The detectors run as tasks of the executor ``--jobs``/``--scheduler`` ask for
-    (:func:`analyzer.parallel.make_executor`: a Dask cluster, else one thread per core by
-    default, ``--jobs 1`` serially); the results are the serial run's whatever the
-    executor. The scheduler is
-    contacted first, so an unreachable one fails before any reading."""
+    The detectors run on the executor ``--jobs``/``--scheduler`` ask for
+    (:func:`analyzer.parallel.make_executor`: one thread per core by default, ``--jobs 1``
+    serially; on a Dask cluster the detectors' steps stay here and the pieces they split
+    off go to the workers, see :func:`_run_detectors`); the results are the serial run's
+    whatever the executor. The scheduler is contacted first, so an unreachable one fails
+    before any reading."""
     jobs = options.jobs if options.jobs is not None else (os.cpu_count() or 1)
     executor = make_executor(jobs, options.scheduler)
     done = False
@@ -1003,9 +1004,10 @@ def _analyze(
         # a long archive's kept signals go to files as each detector finishes
         spill_dir = work / "signals" if big else None
         # the tests of each residual are independent: local threads share the residuals
-        # without copies (a cluster would need them shipped, so not there), one task per
-        # detector and channel so the threads stay evenly loaded. On threads a detector's
-        # tests start as soon as its run ends, and fill the pool while the next one runs.
+        # without copies (a cluster would need them shipped: there they run here, after
+        # the detection), one task per detector and channel so the threads stay evenly
+        # loaded. On threads a detector's tests start as soon as its run ends, and fill
+        # the pool while the next one runs.
         threads = isinstance(executor, ThreadExecutor)
         tests: list[tuple[tuple[DetectorResult, tuple[str, ...], tuple[int, int], float], Any]]
         tests = []

@@ -131,10 +131,15 @@ def main(argv: list[str] | None = None) -> int:
                     for kind, root in kinds if turn % 2 == 0 else kinds[::-1]:
                         out = Path(tmp) / f"out_{kind.replace(' ', '_')}_{f}_{h:g}"
                         log = Path(tmp) / f"log_{kind.replace(' ', '_')}_{f}_{h:g}.txt"
-                        if kind == "local":
-                            run, peaks = run_child(archive, out, log, root=root), []
-                        else:
-                            run, peaks = cluster_run(archive, out, log, root, args.workers)
+                        try:
+                            if kind == "local":
+                                run, peaks = run_child(archive, out, log, root=root), []
+                            else:
+                                run, peaks = cluster_run(archive, out, log, root, args.workers)
+                        except SystemExit as failed:  # run_child: exit 2, or a crash
+                            print(f"  {f} {h:g} h {kind}: {failed}", flush=True)
+                            seen[kind].append(None)
+                            continue
                         seen[kind].append((run, peaks, faults_of(out)))
                         workers = ", ".join(f"{p:.0f}" for p in peaks)
                         print(
@@ -142,9 +147,14 @@ def main(argv: list[str] | None = None) -> int:
                             f"{run.peak_mb:.0f} MB" + (f", workers {workers} MB" if peaks else ""),
                             flush=True,
                         )
-                local_faults = seen["local"][0][2]
+                local = [x for x in seen["local"] if x is not None]
+                local_faults = local[0][2] if local else None
                 for kind, _ in kinds:
-                    done = seen[kind]
+                    done = [x for x in seen[kind] if x is not None]
+                    failed = len(seen[kind]) - len(done)
+                    if not done:
+                        rows.append((f, h, kind, None, None, None, 0, failed))
+                        continue
                     rows.append(
                         (
                             f,
@@ -154,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
                             statistics.median(r.peak_mb for r, _, _ in done),
                             max((max(p) for _, p, _ in done if p), default=float("nan")),
                             sum(fa == local_faults for _, _, fa in done),
-                            len(done),
+                            failed,
                         )
                     )
         print()
@@ -162,9 +172,16 @@ def main(argv: list[str] | None = None) -> int:
             f"{'format':<7}{'hours':>6}  {'run':<14}{'wall s':>8}{'run peak':>11}"
             f"{'worker peak':>13}  same faults as local"
         )
-        for f, h, kind, wall, peak, wpeak, same, n in rows:
+        for f, h, kind, wall, peak, wpeak, same, failed in rows:
+            if wall is None:
+                print(f"{f:<7}{h:>6g}  {kind:<14}  failed ({failed} of {args.repeat} runs)")
+                continue
             worker = f"{wpeak:>10.0f} MB" if wpeak == wpeak else f"{'-':>13}"
-            print(f"{f:<7}{h:>6g}  {kind:<14}{wall:>8.1f}{peak:>8.0f} MB{worker}  {same}/{n}")
+            note = f" ({failed} failed)" if failed else ""
+            print(
+                f"{f:<7}{h:>6g}  {kind:<14}{wall:>8.1f}{peak:>8.0f} MB{worker}  "
+                f"{same}/{args.repeat - failed}{note}"
+            )
         print(
             "medians over the runs; run peak: VmHWM of the analyzer's process; worker peak: "
             "the largest VmHWM of the cluster's workers after the run (each run has its own "
