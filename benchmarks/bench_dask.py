@@ -7,9 +7,9 @@ format and length of ``--hours`` it runs, in turns:
 
 * ``local``: ``analyzer run ARCHIVE`` (threads, as by default);
 * ``dask``: ``analyzer run ARCHIVE --scheduler ADDRESS`` against a fresh
-  ``distributed.LocalCluster`` of ``--workers`` worker processes with one thread each
-  (``OPENBLAS_NUM_THREADS=1``), started for that run alone so each worker's peak belongs
-  to it;
+  local cluster (a ``dask scheduler`` and ``--workers`` worker processes with one thread
+  each, ``OPENBLAS_NUM_THREADS=1``, all importing the checkout being measured), started
+  for that run alone so each worker's peak belongs to it;
 
 and prints their wall time, the run's peak RSS (its ``VmHWM``), each worker's peak RSS
 (``VmHWM`` asked of the worker after the run) and whether the two runs listed the same
@@ -29,7 +29,9 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy is imported
 
 import argparse  # noqa: E402
+import socket  # noqa: E402
 import statistics  # noqa: E402
+import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -49,7 +51,7 @@ from bench_pipeline import (  # noqa: E402
 )
 
 
-def peak_kb() -> int:
+def peak_kb() -> int:  # (sent by value: the workers cannot import this script)
     """This process's peak resident set (``VmHWM``), in kB: run on each worker."""
     with open("/proc/self/status") as f:
         for line in f:
@@ -60,34 +62,60 @@ def peak_kb() -> int:
     return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
 
 
-def cluster_run(archive: Path, out: Path, log: Path, root: Path, workers: int):
-    """``archive`` analyzed on a fresh local cluster whose workers import ``root``'s
-    analyzer: the run and the workers' peak RSS in MB."""
-    from distributed import Client, LocalCluster
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
 
-    env = {
-        "OPENBLAS_NUM_THREADS": "1",
-        "OMP_NUM_THREADS": "1",
-        "PYTHONPATH": os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")])),
-    }
-    with (
-        LocalCluster(
-            n_workers=workers,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            env=env,
-        ) as cluster,
-        Client(cluster) as client,
-    ):
-        run = run_child(
-            archive, out, log, extra=["--scheduler", cluster.scheduler_address], root=root
+
+def cluster_run(archive: Path, out: Path, log: Path, root: Path, workers: int):
+    """``archive`` analyzed on a fresh local cluster (a scheduler and ``workers`` worker
+    processes of one thread each, started as ``dask scheduler`` / ``dask worker`` would
+    be, all importing ``root``'s analyzer: the scheduler unpickles the task graph too, so
+    it must run the same checkout as the run): the run and the workers' peak RSS in MB."""
+    from distributed import Client
+
+    env = dict(os.environ)
+    env.update(
+        OPENBLAS_NUM_THREADS="1",
+        OMP_NUM_THREADS="1",
+        PYTHONPATH=os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")])),
+    )
+    address = f"tcp://127.0.0.1:{free_port()}"
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "env": env, "cwd": root}
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+             "--port", address.rsplit(":", 1)[1], "--dashboard-address", ":0"],
+            **quiet,
         )
-        peaks = sorted(v / 1024.0 for v in client.run(peak_kb).values())
+    ]  # fmt: skip
+    try:
+        with Client(address, timeout=60) as client:
+            procs.append(
+                subprocess.Popen(
+                    [sys.executable, "-m", "distributed.cli.dask_worker", address,
+                     "--nworkers", str(workers), "--nthreads", "1", "--no-dashboard"],
+                    **quiet,
+                )
+            )  # fmt: skip
+            client.wait_for_workers(workers, timeout=120)
+            run = run_child(archive, out, log, extra=["--scheduler", address], root=root)
+            peaks = sorted(v / 1024.0 for v in client.run(peak_kb).values())
+    finally:
+        for proc in reversed(procs):
+            proc.terminate()
+            try:
+                proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                proc.kill()
     return run, peaks
 
 
 def main(argv: list[str] | None = None) -> int:
+    import cloudpickle
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--hours", default="1,4", help="archive lengths in hours (default 1,4)")
     parser.add_argument("--formats", default="mcap", help="csv and/or mcap (default mcap)")
