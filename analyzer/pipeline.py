@@ -445,11 +445,11 @@ def _run_detectors(
     *rest: Any,
 ) -> tuple[list[DetectorResult], dict[str, str]]:
     """:func:`_run_planned` with ``executor``; on a Dask cluster the detectors' own steps
-    run in this process (threads for the fits, as with ``--jobs``), over its memory-mapped
-    archive and scratch space, and only the pieces they split off (time blocks, folds,
-    estimators: ``ctx.map``/``ctx.imap``) go to the workers, a few at a time. Neither
-    side then holds the archive: each task carries its block's rows, each result is
-    written here as it comes back."""
+    run in this process (threads for the fits, as with ``--jobs``; ``ctx.map_shared`` on
+    ``ctx.local``), over its memory-mapped archive and scratch space, and only the pieces
+    they split off (time blocks, folds, estimators: ``ctx.map``/``ctx.imap``) go to the
+    workers, a few at a time. Neither side then holds the archive: each task carries its
+    block's rows, each result is written here as it comes back."""
     if not isinstance(executor, DaskExecutor):
         return _run_planned(names, options, data, ctx, executor, *rest)
     local = ThreadExecutor(max(1, len(names)))
@@ -860,16 +860,21 @@ def analyze(
     before any reading."""
     jobs = options.jobs if options.jobs is not None else (os.cpu_count() or 1)
     executor = make_executor(jobs, options.scheduler)
+    # on a cluster, this process's own share of the work (alarm searches, observers,
+    # residual tests) runs on --jobs threads (default: one per core) of its own
+    local = ThreadExecutor(jobs) if isinstance(executor, DaskExecutor) and jobs > 1 else None
     done = False
     try:
         if workdir is None:
             with scratch() as tmp:
-                analysis = _analyze(inputs, options, tmp, True, executor)
+                analysis = _analyze(inputs, options, tmp, True, executor, local)
         else:
-            analysis = _analyze(inputs, options, workdir, False, executor)
+            analysis = _analyze(inputs, options, workdir, False, executor, local)
         done = True
         return analysis
     finally:
+        if local is not None:
+            local.close(wait=done)
         executor.close(wait=done)
 
 
@@ -879,6 +884,7 @@ def _analyze(
     work: Path,
     in_memory: bool,
     executor: Executor,
+    local: ThreadExecutor | None = None,
 ) -> Analysis:
     timings: dict[str, float] = {}
     notes: list[str] = []
@@ -999,16 +1005,17 @@ def _analyze(
             config=options.config.as_context() if reused is None else reused.config,
             explicit=explicit,
             executor=executor if parallel else None,
+            local=local,
         )
         t0 = time.perf_counter()
         # a long archive's kept signals go to files as each detector finishes
         spill_dir = work / "signals" if big else None
         # the tests of each residual are independent: local threads share the residuals
-        # without copies (a cluster would need them shipped: there they run here, after
-        # the detection), one task per detector and channel so the threads stay evenly
-        # loaded. On threads a detector's tests start as soon as its run ends, and fill
-        # the pool while the next one runs.
-        threads = isinstance(executor, ThreadExecutor)
+        # without copies (a cluster would need them shipped: there they run on this
+        # process's own threads), one task per detector and channel so the threads stay
+        # evenly loaded. A detector's tests start as soon as its run ends, and fill the
+        # pool while the next one runs.
+        pool = executor if isinstance(executor, ThreadExecutor) else local
         tests: list[tuple[tuple[DetectorResult, tuple[str, ...], tuple[int, int], float], Any]]
         tests = []
 
@@ -1018,7 +1025,7 @@ def _analyze(
         def start_tests(r: DetectorResult) -> None:
             for ch in r.residuals:
                 task = (r, (ch,), tested_train, aligned.rate_hz)
-                tests.append((task, executor.submit(_residual_tests, task) if threads else None))
+                tests.append((task, pool.submit(_residual_tests, task) if pool else None))
 
         if reused is None:
             groups, group_notes = partition(

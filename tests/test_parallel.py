@@ -144,6 +144,29 @@ def test_run_context_map_uses_its_executor(pool):
     assert calls == [5]
 
 
+def test_map_shared_on_a_cluster_runs_on_the_local_threads(two_thread_pool):
+    """Items over this process's memory are never shipped to a cluster: they run on the
+    run's own threads (``local``) when it has some, else one after the other in the
+    calling thread; with shared memory, on the executor itself."""
+
+    def where(x: int) -> tuple[int, str]:
+        return x, threading.current_thread().name
+
+    cluster = two_thread_pool(False)
+    local = ThreadExecutor(2)
+    try:
+        got = RunContext(jobs=4, executor=cluster, local=local).map_shared(where, list(range(8)))
+        assert [x for x, _ in got] == list(range(8)) and cluster.calls == 0
+        assert any(name.startswith("analyzer-pool") for _, name in got)
+        alone = RunContext(jobs=4, executor=cluster).map_shared(where, [1, 2])
+        assert [name for _, name in alone] == [threading.current_thread().name] * 2
+        threads = two_thread_pool(True)
+        RunContext(jobs=2, executor=threads, local=local).map_shared(where, [1, 2])
+        assert threads.calls == 1
+    finally:
+        local.close()
+
+
 def test_run_context_and_error_pickle():
     ctx = RunContext(false_alarm_rate=1e-4, config={"group": [{"name": "g"}]}, jobs=2)
     back = pickle.loads(pickle.dumps(ctx))

@@ -99,6 +99,9 @@ class RunContext:
     executor: MapExecutor | None = None
     """Where :meth:`map` runs its items (an :class:`analyzer.parallel.Executor`); None
     runs them serially in the calling thread. ``jobs`` is its parallelism."""
+    local: MapExecutor | None = None
+    """Threads of this process for :meth:`map_shared` when ``executor`` is a cluster
+    (None: those items run one after the other in the calling thread)."""
 
     def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
         """``[fn(x) for x in items]`` on the context's executor, results in input order.
@@ -127,10 +130,14 @@ class RunContext:
 
     def map_shared(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
         """:meth:`map` where the items share this process's memory (serially or on
-        threads); in this thread, one after the other, when the executor is a cluster:
-        for items that hold (views of) the archive, which a cluster would ship whole with
-        every item."""
-        return self.map(fn, items) if self.shares_memory else [fn(x) for x in items]
+        threads); when the executor is a cluster, on this process's own threads
+        (``local``), else one after the other in this thread: for items that hold (views
+        of) the archive, which a cluster would ship whole with every item."""
+        if self.shares_memory:
+            return self.map(fn, items)
+        if self.local is not None:
+            return self.local.map(fn, items)
+        return [fn(x) for x in items]
 
     @property
     def shares_memory(self) -> bool:
