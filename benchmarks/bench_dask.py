@@ -44,6 +44,7 @@ from bench_bank import revision  # noqa: E402
 from bench_pipeline import (  # noqa: E402
     RATE_HZ,
     archive_dir,
+    baseline_checkout,
     faults_of,
     parse_list,
     run_child,
@@ -134,10 +135,7 @@ def main(argv: list[str] | None = None) -> int:
     formats = parse_list(args.formats)
     kinds = [("local", ROOT), ("dask", ROOT)]
     if args.baseline_src:
-        other = Path(args.baseline_src).resolve()
-        if not (other / "analyzer" / "__init__.py").is_file():
-            parser.error(f"--baseline-src {other}: no analyzer package there")
-        kinds.append(("dask baseline", other))
+        kinds.append(("dask baseline", baseline_checkout(parser, args.baseline_src)))
     print(
         f"bench_dask: {os.cpu_count()} cores, {args.workers} workers x 1 thread, 16 channels "
         f"at {RATE_HZ:g} Hz, commit {revision()}"

@@ -484,6 +484,15 @@ def print_against_baseline(
 # --------------------------------------------------------------------------- main
 
 
+def baseline_checkout(parser: argparse.ArgumentParser, text: str) -> Path:
+    """The checkout ``--baseline-src`` names (an error of ``parser`` when it holds no
+    analyzer package)."""
+    other = Path(text).resolve()
+    if not (other / "analyzer" / "__init__.py").is_file():
+        parser.error(f"--baseline-src {other}: no analyzer package there")
+    return other
+
+
 def parse_list(text: str) -> list[str]:
     return [t.strip() for t in text.split(",") if t.strip()]
 
@@ -560,10 +569,7 @@ def main(argv: list[str] | None = None) -> int:
     pieces_needed = max(math.ceil(h * 3600.0 / piece_s - 1e-9) for h in hours)
     sources = [("this", ROOT)]
     if args.baseline_src:
-        other = Path(args.baseline_src).resolve()
-        if not (other / "analyzer" / "__init__.py").is_file():
-            parser.error(f"--baseline-src {other}: no analyzer package there")
-        sources.append(("baseline", other))
+        sources.append(("baseline", baseline_checkout(parser, args.baseline_src)))
     print(
         f"bench_pipeline: {platform.machine()}, {os.cpu_count()} cores, "
         f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}, "
