@@ -483,12 +483,14 @@ class ARKalmanBank:
 
         resid = series("cal-resid")
         into = resid if shared else None
+        # on a cluster the window is sent to each worker once, not with every fold's task
+        held = train if context is None else context.scatter(train)
         try:
             # the folds are independent: each is fitted and filtered (pass 1) as one task
             spans = [(int(edges[f]), int(edges[f + 1])) for f in range(k)]
             # each fold's estimators take the whole model's settle and warm-up times
             times = tuple((e.settle, e.warmup) for e in estimators)
-            tasks = [(train, a, b, ar.order, block, skip, times, solutions, into) for a, b in spans]
+            tasks = [(held, a, b, ar.order, block, skip, times, solutions, into) for a, b in spans]
             folds = map_in(context, _cv_fold_task, tasks)
             how = f"{k}-fold out-of-sample"
         except DetectorError:
@@ -509,7 +511,7 @@ class ARKalmanBank:
         inv_covs = moments.inverse_covariances()
         cons = series("cal-cons")
         into = cons if shared else None
-        items = [(train, fold, inv_covs, into) for fold in folds]
+        items = [(held, fold, inv_covs, into) for fold in folds]
         for fold, nis in zip(folds, map_in(context, _cv_consistency_task, items), strict=True):
             if nis is not None:
                 write_rows(cons, fold.a, nis)

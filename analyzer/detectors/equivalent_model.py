@@ -700,11 +700,12 @@ class EquivalentModel:
         targets = [s for s in net.sensors if net.assistant_sensors(s)]
         far = context.false_alarm_rate / len(data.channels)  # per channel
         tasks = []
+        shared = context.scatter(train)  # on a cluster, sent to each worker once
         for s in targets:  # each target's observer is fitted on its own (executor tasks)
             uch = self.inputs.get(s)
             ui = None if uch is None else data.index(uch)
             ass = [data.index(a) for a in net.assistant_sensors(s)]
-            tasks.append((self, train, data.index(s), ass, ui, (dt, l1, l2), window, far))
+            tasks.append((self, shared, data.index(s), ass, ui, (dt, l1, l2), window, far))
         fitted = context.map(_fit_observer_task, tasks)
         observers = tuple(ob for ob, _ in fitted)
         settle = max((lag for _, lag in fitted), default=0)
