@@ -200,9 +200,10 @@ class ThreadExecutor:
 class DaskExecutor:
     """A client of the Dask distributed scheduler at ``address`` (``tcp://HOST:PORT``).
 
-    Raises :class:`UsageError` naming ``--scheduler`` when ``distributed`` is missing or
-    the scheduler does not answer within ``timeout`` seconds. ``workers`` is the cluster's
-    total worker threads when connected (at least 1)."""
+    Raises :class:`UsageError` naming ``--scheduler`` when ``distributed`` is missing,
+    the scheduler does not answer within ``timeout`` seconds, or no worker is connected
+    to it within that time (before anything is read, not when the first task waits).
+    ``workers`` is the cluster's total worker threads when connected (at least 1)."""
 
     shares_memory = False
 
@@ -228,6 +229,16 @@ class DaskExecutor:
             raise UsageError(f"--scheduler {address}: cannot connect ({why})") from err
         self.client = client
         info = self.client.scheduler_info()
+        if not info.get("workers"):  # workers may still be starting: wait for one
+            try:
+                client.wait_for_workers(1, timeout=wait)
+            except Exception as err:  # noqa: BLE001 - Dask's timeout types vary by version
+                _quiet_close(client)
+                raise UsageError(
+                    f"--scheduler {address}: no worker is connected to the scheduler (waited "
+                    f"{wait:g} s); start some with 'dask worker {address}'"
+                ) from err
+            info = self.client.scheduler_info()
         workers = info.get("workers", {})
         self.n_workers = len(workers)
         self.workers = max(1, sum(int(w.get("nthreads", 1)) for w in workers.values()))

@@ -250,6 +250,24 @@ def test_unreachable_scheduler_is_exit_2_in_one_line(tmp_path, capsys, monkeypat
     assert not (tmp_path / "o").exists()
 
 
+def test_scheduler_without_workers_is_exit_2_before_reading(tmp_path, capsys, monkeypatch):
+    """A scheduler with no worker connected: one line naming --scheduler, after waiting
+    CONNECT_TIMEOUT_S for one, and nothing read or written (rather than Dask's "No valid
+    workers found" once the archive has been read)."""
+    monkeypatch.setattr(analyzer.parallel, "CONNECT_TIMEOUT_S", 1.0)
+    read = []
+    monkeypatch.setattr("analyzer.pipeline.open_archive", lambda *a: read.append(a))
+    with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=None) as c:
+        address = c.scheduler_address
+        code = main(["run", str(SAMPLE), "--out", str(tmp_path / "o"), "--scheduler", address])
+    _, err = capsys.readouterr()
+    assert code == 2 and not read
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    assert f"--scheduler {address}: no worker is connected to the scheduler" in lines[0]
+    assert not (tmp_path / "o").exists()
+
+
 def test_bad_scheduler_address(monkeypatch):
     with pytest.raises(UsageError, match="--scheduler tcp://host: expected an address"):
         make_executor(None, "tcp://host")
