@@ -257,7 +257,7 @@ def test_scheduler_without_workers_is_exit_2_before_reading(tmp_path, capsys, mo
     monkeypatch.setattr(analyzer.parallel, "CONNECT_TIMEOUT_S", 1.0)
     read = []
     monkeypatch.setattr("analyzer.pipeline.open_archive", lambda *a: read.append(a))
-    with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=None) as c:
+    with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as c:
         address = c.scheduler_address
         code = main(["run", str(SAMPLE), "--out", str(tmp_path / "o"), "--scheduler", address])
     _, err = capsys.readouterr()
