@@ -550,13 +550,17 @@ class ARKalmanBank:
                 resid = context.buffer(f"{self.name}-resid", (N, m))
                 into = BankOutputs(resid, context.buffer(f"{self.name}-est", (N, m)), nis)
         spans = time_blocks(start, stop, bank.warmup, context, m)
-        if context is not None and len(spans) > 1 and not context.shares_memory:
-            # a cluster: each task gets its block's rows (and the warm-up before them) and
-            # the bank, sent to each worker once; a few blocks in flight at a time, each
-            # result written here as it comes back
-            shared, inv = context.scatter(bank), model.innovation_inv_cov
-            wanted = into.nis is not None
-            items = ((ar.mean, ar.scale, shared, Y[a - w : b], w, inv, wanted) for a, b, w in spans)
+        # a cluster: each task gets its block's rows (and the warm-up before them) and the
+        # bank, sent to each worker once (RunContext.scatter); a few blocks in flight at a
+        # time, each result written here as it comes back. Else the blocks write their
+        # rows in place (serially, or on threads): no block copies
+        cluster = context is not None and len(spans) > 1 and not context.shares_memory
+        held = context.scatter(bank) if cluster and context is not None else bank
+        wanted = into.nis is not None
+        inv = model.innovation_inv_cov
+        items = [(ar.mean, ar.scale, held, Y[a - w : b], w, inv, wanted) for a, b, w in spans]
+        if cluster:
+            assert context is not None
             for (a, _, _), out in zip(spans, context.imap(_bank_block_task, items), strict=True):
                 write_rows(into.resid, a, out.resid)
                 write_rows(into.est, a, out.est)
@@ -565,26 +569,11 @@ class ARKalmanBank:
                     write_rows(into.nis, a, out.nis)
                 del out
             return into
-        tasks = [
-            (
-                (
-                    ar.mean,
-                    ar.scale,
-                    bank,
-                    Y[a - w : b],
-                    w,
-                    model.innovation_inv_cov,
-                    into.nis is not None,
-                ),
-                into,
-                a,
-            )
-            for a, b, w in spans
-        ]
+        tasks = [(item, into, a) for (a, _, _), item in zip(spans, items, strict=True)]
         if len(tasks) == 1 or context is None:
             for task in tasks:
-                _bank_block_into(task)  # written in place: no copies
-        else:  # threads write their rows in place: no block copies
+                _bank_block_into(task)
+        else:
             context.map(_bank_block_into, tasks)
         return into
 
