@@ -1535,9 +1535,8 @@ def _sensor_units(
         part = row[a:b].astype(np.float64)
         part *= scale
         part += mean
-        target[a:b] = part
-        release(target[a:b])  # no-ops in memory
-        release(row[a:b])
+        write_rows(target, a, part)  # a mapped row's file by pwrite, not its mapping
+        release(row[a:b])  # no-op in memory
     return target
 
 

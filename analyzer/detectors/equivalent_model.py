@@ -76,6 +76,7 @@ from analyzer.paging import (
     RELEASE_ROWS,
     ScratchRows,
     finite_rows,
+    is_mapped,
     release,
     row_blocks,
     write_rows,
@@ -793,9 +794,16 @@ class EquivalentModel:
         # piece, so a memory-mapped record is read and given back a piece at a time
         hist = np.zeros((len(cols), coef.shape[1] - 1))
         state = np.array([0.0, float(-settle - 2)])
+        # memory-mapped outputs are written a piece at a time from memory (pwrite), not
+        # stored through their mapping, which faults every page in
+        mapped = is_mapped(zeta) or is_mapped(z)
+        pieces = (np.empty(min(n, _PIECE)), np.empty(min(n, _PIECE))) if mapped else None
         for a in range(0, n, _PIECE):
             b = min(n, a + _PIECE)
             rows = arr[a:b]
+            into = (
+                (zeta[a:b], z[a:b]) if pieces is None else (pieces[0][: b - a], pieces[1][: b - a])
+            )
             _observer_kernel(
                 rows,
                 a,
@@ -809,12 +817,13 @@ class EquivalentModel:
                 settle,
                 hist,
                 state,
-                zeta[a:b],
-                z[a:b],
+                into[0],
+                into[1],
             )
             release(rows)
-            release(zeta[a:b])  # no-ops in memory
-            release(z[a:b])
+            if pieces is not None:
+                write_rows(zeta, a, into[0])
+                write_rows(z, a, into[1])
         return zeta, z
 
     # -- running -----------------------------------------------------------------------------
@@ -1032,7 +1041,11 @@ def _observer_task(
         for a in range(0, n, RELEASE_ROWS):
             b = min(n, a + RELEASE_ROWS)
             zp, zz = zeta[a:b], z[a:b]
-            zz[~np.isfinite(zp)] = np.nan
+            bad = ~np.isfinite(zp)
+            if bad.any():  # around gaps only: written back where needed
+                zz = np.array(zz)
+                zz[bad] = np.nan
+                write_rows(z, a, zz)
             # kept in the pipeline's signal precision; a long archive's by pwrite
             write_rows(kept[0], a, zp)
             write_rows(kept[1], a, zz)

@@ -20,7 +20,7 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
-from analyzer.paging import RELEASE_ROWS, is_mapped, release
+from analyzer.paging import RELEASE_ROWS, is_mapped, release, write_rows
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -61,11 +61,16 @@ def lowpass(x: FloatArray, phi: float, out: FloatArray | None = None) -> FloatAr
     n = xx.shape[0]
     state = np.array([steady_state_zi(phi) * xx[first]])
     step = RELEASE_ROWS if is_mapped(xx) or is_mapped(target) else max(n, 1)
+    # a memory-mapped target is written from memory a piece at a time (pwrite), not
+    # stored through its mapping, which faults every page in
+    piece = np.empty(min(n, step)) if is_mapped(target) else None
     for a in range(0, n, step):
         b = min(n, a + step)
-        _lowpass_kernel(xx[a:b], 1.0 - phi, phi, state, target[a:b])
+        into = target[a:b] if piece is None else piece[: b - a]
+        _lowpass_kernel(xx[a:b], 1.0 - phi, phi, state, into)
         release(xx[a:b])  # no-ops in memory
-        release(target[a:b])
+        if piece is not None:
+            write_rows(target, a, into)
     return target
 
 

@@ -555,6 +555,44 @@ def test_compiled_fault_estimate_in_pieces_equals_one_pass(monkeypatch, piece):
     assert np.isnan(whole[0]).sum() > 0
 
 
+def test_compiled_fault_estimate_into_memory_mapped_rows(tmp_path, monkeypatch):
+    """Into memory-mapped rows (a long archive's scratch rows) the pass writes each piece
+    from memory to the rows' file (``write_rows``: pwrite, not a store through the
+    mapping that faults every page in): the same bits as in memory."""
+    import analyzer.detectors.equivalent_model as em
+    from analyzer import paging
+
+    n = 12_000
+    V = _smooth_channels(n, 4, seed=5)
+    V[2000, 2] = np.nan
+    coef = np.random.default_rng(2).standard_normal((3, 20)) / 20
+    rel = Relation(3, (1, 2, 0), 19, coef, 0.3, 0.0)
+    obs = AssistantObserver(-2.0, 0.0, lambda1=50.0, lambda2=20.0, dt=0.01)
+    want = EquivalentModel._fault_estimate(obs, rel, V, 3)
+    writes = []
+
+    def write_rows(out, a, block):
+        writes.append((a, block.shape[0]))
+        paging.write_rows(out, a, block)
+
+    monkeypatch.setattr(em, "write_rows", write_rows)
+    monkeypatch.setattr(em, "_PIECE", 5000)
+    rows = tuple(paging.buffer(tmp_path, name, (n, 1))[:, 0] for name in ("zeta", "z"))
+    got = EquivalentModel._fault_estimate(obs, rel, V, 3, out=rows)
+    assert got[0] is rows[0] and got[1] is rows[1]
+    for a, b in zip(want, got, strict=True):
+        np.testing.assert_array_equal(np.asarray(b).view(np.uint64), a.view(np.uint64))
+    assert writes == [
+        (0, 5000),
+        (0, 5000),
+        (5000, 5000),
+        (5000, 5000),
+        (10000, 2000),
+        (10000, 2000),
+    ]
+    assert np.isnan(want[0][2000])
+
+
 def _whole_pretreat(y, u, dt, lambda2, table=None):
     """The pretreatment on the whole window at once (what it computed before it ran a
     block at a time): three observer runs, ``np.linalg.lstsq`` on their columns."""
