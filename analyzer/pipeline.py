@@ -9,6 +9,7 @@ import hashlib
 import inspect
 import json
 import os
+import shutil
 import tempfile
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -920,6 +921,9 @@ def _analyze(
         # resident set for the rest of the run (memory that grows with the archive)
         infos = store.infos()
         store.close()
+        # and their files: for a long archive the largest scratch files after the matrix
+        # (16 bytes per value: a time and a value), kept to the end of the run until now
+        shutil.rmtree(work / "store", ignore_errors=True)
         trim_heap()  # and what reading freed (the CSV reader's Arrow buffers, say)
         notes.extend(_crowded_channels(infos, chosen, aligned.rate_hz))
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(

@@ -425,3 +425,31 @@ def test_an_interrupted_run_does_not_wait_for_running_tasks(monkeypatch, tmp_pat
     assert closed == [False]
     assert not release_task.is_set()  # the task still runs: close did not wait for it
     release_task.set()
+
+
+def test_raw_store_files_go_once_the_archive_is_aligned(tmp_path, monkeypatch):
+    """The raw store's files (a time and a value per sample: after the aligned matrix the
+    largest scratch files of a long archive) are removed once the matrix is built, not
+    kept to the end of the run: the detectors run without them."""
+    import analyzer.pipeline as pl
+    from analyzer.store.store import ChannelStore
+
+    real = ChannelStore.from_chunks.__func__
+    seen: dict[str, object] = {}
+
+    def from_chunks(cls, chunks, workdir=None, spill_samples=0):
+        store = real(cls, chunks, workdir, spill_samples=1000)  # every channel to files
+        seen["files"] = sorted(p.suffix for p in Path(workdir).iterdir())
+        return store
+
+    def healthy_stats(*args, **kwargs):
+        seen["during"] = (tmp_path / "store").exists()
+        return real_stats(*args, **kwargs)
+
+    real_stats = pl.healthy_stats
+    monkeypatch.setattr(ChannelStore, "from_chunks", classmethod(from_chunks))
+    monkeypatch.setattr(pl, "healthy_stats", healthy_stats)
+    analysis = analyze([SAMPLE], RunOptions(jobs=1), workdir=tmp_path)
+    assert {".t", ".v"} <= set(seen["files"])  # the store was on disk
+    assert seen["during"] is False  # and gone before the detectors ran
+    assert [(f.channel, str(f.type)) for f in analysis.findings] == [("/s4.data", "additive")]
