@@ -40,6 +40,7 @@ from analyzer.parallel import (
     DaskExecutor,
     Executor,
     SerialExecutor,
+    TaskHandle,
     ThreadExecutor,
     locked,
     make_executor,
@@ -531,6 +532,16 @@ def _run_planned(
     # need not wait for a slow one), one run at a time; results are then taken in
     # registry order, the first error raised as the plain loop would
     settled: dict[int, DetectorResult | BaseException] = {}
+    # on threads, a long archive's signals go to files (_spill, then ``finished``) on the
+    # pool while the next detector runs, not in between (where one core waited)
+    spilling: dict[int, TaskHandle] = {}
+
+    def spill_and_finish(result: DetectorResult) -> DetectorResult:
+        out = _spill(result, spill_dir, tag)
+        if finished is not None:
+            finished(out)
+        return out
+
     # progress: on threads each detector's fit, then its run; else each fit-and-run
     stage = "detect" + (f" group {tag[2:]}" if tag.startswith("-g") else "")
     per = 2 if staged else 1
@@ -558,7 +569,12 @@ def _run_planned(
                         kept[name] = (det, model)
                     t0 = time.perf_counter()
                     trim_heap()  # what the fits freed
-                    settled[i] = _spill(_compact(det.run(model, data, ctx)), spill_dir, tag)
+                    ran = _compact(det.run(model, data, ctx))
+                    if spill_dir is None:
+                        settled[i] = ran
+                    else:
+                        spilling[i] = executor.submit(spill_and_finish, ran)
+                    del ran
                     release(data.values)  # what the run read of a memory-mapped archive
                     trim_heap()  # the run's per-sample arrays
                     if timings is not None:  # the fits overlap: their sum exceeds the wall time
@@ -580,11 +596,15 @@ def _run_planned(
                 continue
             ended += 1
             show()
+            if i in spilling:
+                continue  # finished once its signals are in their files
             result = settled[i]
             if finished is not None and isinstance(result, DetectorResult):
                 finished(result)
+        for i, handle in spilling.items():
+            settled[i] = handle.result()
     except BaseException:
-        for _, plan in planned:
+        for plan in [p for _, p in planned] + list(spilling.values()):
             if hasattr(plan, "cancel"):
                 plan.cancel()
         raise

@@ -453,3 +453,36 @@ def test_raw_store_files_go_once_the_archive_is_aligned(tmp_path, monkeypatch):
     assert {".t", ".v"} <= set(seen["files"])  # the store was on disk
     assert seen["during"] is False  # and gone before the detectors ran
     assert [(f.channel, str(f.type)) for f in analysis.findings] == [("/s4.data", "additive")]
+
+
+def test_long_archive_signals_go_to_files_while_the_next_detector_runs(tmp_path, monkeypatch):
+    """On threads, a long archive's finished detector moves its signals to files on the
+    pool while the next detector runs (not in between, with a core idle), and its
+    residual tests start only once they are there: every detector's tests are in the
+    results, computed on the spilled (file-backed) residuals."""
+    import analyzer.pipeline as pl
+
+    monkeypatch.setattr(pl, "MATERIALIZE_IN_MEMORY", 1000)
+    main = threading.main_thread()
+    spilled_on: list[bool] = []
+    tested: list[bool] = []
+    real_spill, real_tests = pl._spill, pl._residual_tests
+
+    def spill(result, spill_dir, tag=""):
+        spilled_on.append(threading.current_thread() is main)
+        return real_spill(result, spill_dir, tag)
+
+    def residual_tests(task):
+        res = task[0].residuals[task[1][0]]
+        # spilled: a read-only float32 row of a file (a float64 or writable one is the
+        # detector's own buffer, not yet moved)
+        tested.append(res.dtype == np.float32 and not res.flags.writeable)
+        return real_tests(task)
+
+    monkeypatch.setattr(pl, "_spill", spill)
+    monkeypatch.setattr(pl, "_residual_tests", residual_tests)
+    analysis = analyze([SAMPLE], RunOptions(jobs=2), workdir=tmp_path)
+    assert spilled_on == [False, False, False]  # on the pool, one per detector
+    assert tested and all(tested)  # each test read a spilled residual
+    for r in analysis.results:
+        assert r.model["windowed_tests"].keys() == r.residuals.keys(), r.detector
