@@ -1523,8 +1523,9 @@ def _sensor_units(
 ) -> npt.NDArray[Any]:
     """Filter ``i``'s fault-free estimate in sensor units from its centred, scaled
     single-precision row, computed in float64 :data:`RELEASE_ROWS` samples at a time
-    (memory-mapped rows are given back behind): into ``out`` (the row itself, say, or a
-    memory-mapped float64 array), else a new float64 array."""
+    (a memory-mapped source row is given back behind, a memory-mapped ``out`` written
+    by ``pwrite``, :func:`~analyzer.paging.write_rows`): into ``out`` (the row itself,
+    say, or a memory-mapped float64 array), else a new float64 array."""
     ssm = model.model
     row = refs[i]
     n = row.shape[0]

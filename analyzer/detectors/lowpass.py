@@ -45,7 +45,9 @@ def lowpass(x: FloatArray, phi: float, out: FloatArray | None = None) -> FloatAr
     without numba. ``out``: a float64 array of ``x``'s length to write into, which may be
     ``x`` itself (the pass reads each sample before it writes it): no second whole-record
     array. A memory-mapped ``x`` or ``out`` is worked through :data:`RELEASE_ROWS` samples
-    at a time, the filter's state carried, and given back behind the pass."""
+    at a time, the filter's state carried: ``x`` given back behind the pass, ``out``
+    written from memory by ``pwrite`` (:func:`~analyzer.paging.write_rows`), not stored
+    through its mapping, which faults every page in."""
     xx = np.asarray(x, dtype=np.float64)
     if _lowpass_kernel is None:  # pragma: no cover - numba is a dependency
         ref = lowpass_reference(xx, phi)
