@@ -326,3 +326,28 @@ def test_a_full_scratch_disk_is_a_one_line_error(tmp_path, capsys, monkeypatch):
     assert code == 2
     one_line_error(err, "aligned.npy", "No space left on device", "TMPDIR")
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_a_full_disk_while_signals_go_to_files_is_a_one_line_error(
+    tmp_path, capsys, monkeypatch, jobs
+):
+    """A long archive's finished detector moves its signals to files (on threads, on the
+    pool while the next detector runs): a disk that fills up then still stops the run
+    with one line naming the file (exit 2), whichever thread met it."""
+    import errno
+
+    import analyzer.pipeline as pl
+
+    def full(result, spill_dir, tag=""):
+        raise OSError(errno.ENOSPC, "No space left on device", str(spill_dir / "x.npy"))
+
+    monkeypatch.setattr(pl, "MATERIALIZE_IN_MEMORY", 1000)  # any archive is "long"
+    monkeypatch.setattr(pl, "_spill", full)
+    code, _, err = run_cli(
+        ["run", SAMPLES / "building_additive.mcap", "--out", tmp_path / "o", "--jobs", jobs],
+        capsys,
+    )
+    assert code == 2
+    one_line_error(err, "x.npy", "No space left on device")
+    assert not (tmp_path / "o").exists()
