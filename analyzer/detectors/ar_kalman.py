@@ -62,7 +62,7 @@ from analyzer.diagnosis.changes import (
 from analyzer.diagnosis.classify import MIN_GAIN, Classification, correlation_time
 from analyzer.diagnosis.events import bounded_onset, diagnose_interval
 from analyzer.errors import DetectorError
-from analyzer.paging import Released, read_column, release, write_rows
+from analyzer.paging import Released, finite_rows, read_column, release, write_rows
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -1099,17 +1099,30 @@ def bank_block(
             innov = np.empty((L, m, m - 1))
         nis[:] = np.nan
     inv_stack = None if inv_covs is None else np.stack([np.asarray(c) for c in inv_covs])
-    gap = ~np.isfinite(np.asarray(Y))
-    release(Y)  # a memory-mapped archive: read again chunk by chunk below
-    bad = None
-    if gap.any():
+    # whether the block has gaps at all, a piece at a time (a boolean copy of the block,
+    # or its memory-mapped pages all at once, would grow with the block: a quarter of
+    # the archive on two threads); the masks are then made chunk by chunk
+    gaps = not bool(finite_rows(Y).all())
+    look = max(bank.settle) if gaps else 0  # the rows a chunk's masks look back
+
+    def missing(lo: int, hi: int) -> npt.NDArray[np.bool_] | None:
+        """Where each estimator misses data over rows ``lo .. hi - 1``: when any channel
+        but its own is missing, and for its settling time after (None: nowhere)."""
+        if not gaps:
+            return None
+        w0 = max(0, lo - look)  # each estimator's settling time back: the whole-block mask
+        gap = ~np.isfinite(np.asarray(Y[w0:hi]))
+        if not gap.any():
+            return None
         n_gap = gap.sum(axis=1)
-        bad = np.empty((N, m), dtype=bool)
+        out = np.empty((hi - lo, m), dtype=bool)
         for j in range(m):  # estimator j misses data when any channel but j is missing
-            bad[:, j] = _dilate_forward((n_gap - gap[:, j]) > 0, bank.settle[j])
+            out[:, j] = _dilate_forward((n_gap - gap[:, j]) > 0, bank.settle[j])[lo - w0 :]
+        return out
 
     def scaled(a: int, b: int) -> FloatArray:  # the bank's input, gaps as 0
-        return np.where(gap[a:b], 0.0, (np.asarray(Y[a:b], dtype=np.float64) - mean) / scale)
+        rows = np.asarray(Y[a:b], dtype=np.float64)
+        return np.where(~np.isfinite(rows), 0.0, (rows - mean) / scale)
 
     read = Released(Y)  # what the pass is done with, given back behind it
     written = Released(est, resid)
@@ -1118,19 +1131,16 @@ def bank_block(
         y = out.transpose(2, 0, 1)  # (c, m, m): innovations, then the estimate
         nu = y[:, :, :-1]
         yhat = y[:, :, -1]
-        if bad is not None:
-            b = bad[lo:e0]
+        b = missing(lo, e0)
+        if b is not None:
             if nis is not None:
                 nu[b] = np.nan
             yhat[b] = np.nan
         rows = slice(lo - warm, e0 - warm)
         estimate = yhat * scale + mean
         write_rows(est, rows.start, estimate)  # a long archive's: by pwrite, not the map
-        write_rows(
-            resid,
-            rows.start,
-            np.where(gap[lo:e0], np.nan, np.asarray(Y[lo:e0], dtype=np.float64) - estimate),
-        )
+        measured = np.asarray(Y[lo:e0], dtype=np.float64)
+        write_rows(resid, rows.start, np.where(~np.isfinite(measured), np.nan, measured - estimate))
         h = system.history  # the rows this chunk read: done with them, but the history
         read.upto(e0 if h is None else max(0, e0 - h), final=e0 == N)
         written.upto(rows.stop, final=e0 == N)  # and the rows it wrote (memory-mapped)

@@ -462,3 +462,33 @@ def test_a_pickled_bank_keeps_its_markov_parameters_and_the_same_spectrum(fitted
     two = det._bank_outputs(again, Y)
     for a, b in ((one.resid, two.resid), (one.est, two.est), (one.nis, two.nis)):
         assert np.array_equal(a, b, equal_nan=True)
+
+
+@pytest.mark.parametrize("chunk", [300, 1000, 4096])
+def test_gap_masks_made_chunk_by_chunk_equal_the_whole_block(fitted, monkeypatch, chunk):
+    """The masks of a block with gaps are made chunk by chunk, each looking back the
+    estimators' settling time (a boolean copy of the block, or all its memory-mapped
+    pages at once, would grow with the block): an estimator's outputs are NaN exactly
+    where one of its inputs is missing or was within its settling time, whatever the
+    chunks; a residual also where its own sample is missing."""
+    import analyzer.detectors.lti as lti
+    from analyzer.detectors.ar_kalman import _dilate_forward
+
+    _, model, data = fitted
+    ar, bank = model.ar, model.bank
+    Y = np.array(data.values, copy=True)
+    step = max(chunk, 4 * bank.system.history)  # run_chunked's chunks
+    Y[7000:7050, 1] = np.nan
+    Y[step - 3 : step + 2, 4] = np.nan  # across a chunk's edge
+    Y[2 * step - 20 : 2 * step - 10, 2] = np.nan  # its settling time across the next
+    Y[21000, 0] = np.inf
+    gap = ~np.isfinite(Y)
+    n_gap = gap.sum(axis=1)
+    bad = np.column_stack(
+        [_dilate_forward((n_gap - gap[:, j]) > 0, bank.settle[j]) for j in range(Y.shape[1])]
+    )
+    assert min(bank.settle) > 10  # settling times that cross chunks' edges
+    monkeypatch.setattr(lti, "CHUNK", chunk)
+    out = bank_block(ar.mean, ar.scale, bank, Y, 0, None, consistency=False)
+    assert np.array_equal(np.isnan(out.est), bad)
+    assert np.array_equal(np.isnan(out.resid), bad | gap)
