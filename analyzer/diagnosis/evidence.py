@@ -40,8 +40,20 @@ def standardized(
     """The detector's residual on ``channel`` (its samples ``part`` only, when given) in
     units of its healthy deviation."""
     r = result.residuals.get(channel)
-    if r is None:
+    scaling = _scaling(result, channel)
+    if r is None or scaling is None:
         return None
+    mean, std = scaling
+    # the same two operations as ``(r - mean) / std``, in one array
+    r = np.asarray(r if part is None else r[part])
+    out: FloatArray = np.subtract(r, mean, dtype=np.float64)
+    out /= std
+    return out
+
+
+def _scaling(result: DetectorResult, channel: str) -> tuple[float, float] | None:
+    """The ``(mean, std)`` that :func:`standardized` uses for ``channel`` (None: no
+    healthy deviation known)."""
     th = result.thresholds.get(channel, {})
     mean = float(th.get("mean", 0.0)) if isinstance(th, dict) else 0.0
     std = float(th.get("std", result.sigma.get(channel, 0.0))) if isinstance(th, dict) else 0.0
@@ -49,11 +61,7 @@ def standardized(
         std = float(result.sigma.get(channel, 0.0))
     if not std > 0:
         return None
-    # the same two operations as ``(r - mean) / std``, in one array
-    r = np.asarray(r if part is None else r[part])
-    out: FloatArray = np.subtract(r, mean, dtype=np.float64)
-    out /= std
-    return out
+    return mean, std
 
 
 def _tests(z: FloatArray) -> dict[str, Any] | None:
@@ -162,12 +170,16 @@ def windowed_summary(
     window = max(100, int(round(window_s * rate_hz)))
     out: dict[str, Any] = {}
     for ch in result.residuals if channels is None else channels:
-        z = standardized(result, ch)
-        release(result.residuals[ch])  # a long archive's residual: pages back to the cache
-        if z is None or z.shape[0] < window:
+        r = result.residuals.get(ch)
+        scaling = _scaling(result, ch)
+        if r is None or scaling is None or r.shape[0] < window:
             continue
         try:
-            out[ch] = summarize(windowed_tests(z, window))
+            # standardized a batch at a time, as standardized() does it whole: a long
+            # archive's residual is read in pieces, not copied whole to float64
+            out[ch] = summarize(windowed_tests(r, window, standardize=scaling))
         except DetectorError:
             continue
+        finally:
+            release(r)  # a long archive's residual: pages back to the cache
     return out

@@ -44,6 +44,7 @@ import numpy.typing as npt
 from numpy.lib.stride_tricks import sliding_window_view
 
 from analyzer.errors import DetectorError
+from analyzer.paging import release
 from analyzer.stats._checks import (
     ALPHA,
     NORMALITY_MIN_N,
@@ -155,6 +156,7 @@ def windowed_tests(
     case: int = 1,
     keep_acf: bool = False,
     batch_values: int = DEFAULT_BATCH_VALUES,
+    standardize: tuple[float, float] | None = None,
 ) -> WindowedTests:
     """Run every innovation test on each window of a 1-D standardized residual ``z``.
 
@@ -164,8 +166,18 @@ def windowed_tests(
     :func:`~analyzer.stats.outliers.shewhart` and the normality tests. ``keep_acf``
     stores the (windows, lags) autocorrelations. ``batch_values`` bounds the samples
     processed at once (memory), not the result.
+
+    ``standardize=(mean, std)``: ``z`` is the raw residual (any float precision, memory-
+    mapped or not), standardized as ``(z - mean) / std`` in float64 a batch at a time
+    (the same two operations per sample as standardizing it whole, so the same bits)
+    and its pages given back behind: no float64 copy of a long archive's residual.
     """
-    arr = as_float_array(z, "z")
+    if standardize is not None:
+        arr = np.asarray(z)
+        if arr.dtype.kind != "f":
+            arr = as_float_array(arr, "z")
+    else:
+        arr = as_float_array(z, "z")
     if arr.ndim != 1:
         raise DetectorError(f"expected a 1-D standardized residual for z, got shape {arr.shape}")
     lags = check_int(lags, "lags", 1)
@@ -183,7 +195,15 @@ def windowed_tests(
     per_batch = max(1, min(batch_values // window, (batch_values - window) // step + 1))
     for first in range(0, starts.shape[0], per_batch):
         rows = slice(first, min(first + per_batch, starts.shape[0]))
-        _run_batch(arr, starts[rows], settings, out, rows)
+        if standardize is None:
+            _run_batch(arr, starts[rows], settings, out, rows)
+            continue
+        lo = int(starts[rows][0])
+        raw = arr[lo : int(starts[rows][-1]) + window]
+        seg = np.subtract(raw, standardize[0], dtype=np.float64)
+        seg /= standardize[1]
+        release(raw)  # no-op in memory
+        _run_batch(seg, starts[rows] - lo, settings, out, rows)
     return out.finish(starts, settings)
 
 

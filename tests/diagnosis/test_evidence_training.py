@@ -83,3 +83,22 @@ def test_standardized_part_equals_cut_of_whole() -> None:
         np.testing.assert_array_equal(part, whole[123:4567])
     assert standardized(result, "c") is None
     assert standardized(result, "missing") is None
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_windowed_summary_standardizes_a_batch_at_a_time(dtype, monkeypatch):
+    """windowed_summary hands each residual to the windowed tests raw, with its
+    ``(mean, std)``, instead of a float64 standardized copy of the whole archive: the
+    summaries of the residual standardized whole, and no whole-length copy is made."""
+    from analyzer.stats import summarize, windowed_tests
+
+    result = _result(dtype)
+    want = {}
+    for ch in result.residuals:
+        z = standardized(result, ch)
+        if z is not None:
+            want[ch] = summarize(windowed_tests(z, 100))
+    monkeypatch.setattr(evidence, "standardized", None)  # not called
+    got = evidence.windowed_summary(result, 100.0)
+    assert got.keys() == want.keys() == {"a", "b"}
+    assert got == want

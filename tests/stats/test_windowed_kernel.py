@@ -176,6 +176,35 @@ def test_kernel_batches_do_not_change_the_result() -> None:
     np.testing.assert_array_equal(one.acf, many.acf)
 
 
+@pytest.mark.parametrize("batch_values", [1, 1000, 1 << 20])
+def test_standardized_a_batch_at_a_time_equals_standardized_whole(tmp_path, batch_values):
+    """``standardize=(mean, std)``: the raw residual (float32, memory-mapped, with a gap)
+    standardized a batch at a time gives the tests of the residual standardized whole,
+    bit for bit (the same two operations per sample), and its pages are given back."""
+    from analyzer import paging
+
+    rng = np.random.default_rng(11)
+    raw = (0.3 + 2.5 * rng.standard_normal(20_017)).astype(np.float32)
+    raw[5000:5040] = np.nan
+    mapped = paging.buffer(tmp_path, "r", (raw.shape[0], 1), np.float32)[:, 0]
+    mapped[:] = raw
+    mean, std = 0.25, 2.4
+    whole = np.subtract(raw, mean, dtype=np.float64)
+    whole /= std
+    want = windowed_tests(whole, 200, 70, keep_acf=True)
+    for source in (raw, mapped):
+        got = windowed_tests(
+            source, 200, 70, keep_acf=True, batch_values=batch_values, standardize=(mean, std)
+        )
+        np.testing.assert_array_equal(got.start, want.start)
+        for name in WindowedTests.TESTS:
+            a, b = getattr(want, name), getattr(got, name)
+            np.testing.assert_array_equal(a.statistic, b.statistic)
+            np.testing.assert_array_equal(a.reject, b.reject)
+        np.testing.assert_array_equal(got.acf, want.acf)
+        np.testing.assert_array_equal(got.valid, want.valid)
+
+
 def test_normal_logs_match_scipy() -> None:
     normal_logs = _windowed_kernel.normal_logs
     assert normal_logs is not None
