@@ -211,10 +211,14 @@ def spill(
         with open(path, "wb") as f:
             np.lib.format.write_array_header_1_0(f, {**header, "shape": (len(rest), n)})
             for name in rest:
-                row = np.ascontiguousarray(signals[name], dtype=kind)
-                f.write(row.data)
-                del row
-                release(signals[name])  # a memory-mapped source: its pages, one row at a time
+                # a piece at a time, each given back behind (a memory-mapped source): a
+                # whole row converted at once held the row's pages and its copy, both
+                # as long as the archive
+                sig = signals[name]
+                for a in range(0, n, RELEASE_ROWS):
+                    piece = sig[a : a + RELEASE_ROWS]
+                    f.write(np.ascontiguousarray(piece, dtype=kind).data)
+                    release(piece)
         # no flush to disk (fsync): the file is scratch space read back through the same
         # page cache, so forcing its pages to disk would only wait on the disk; the kernel
         # writes them back in its own time (or drops the file with the work directory)

@@ -317,3 +317,25 @@ def test_finite_rows_of_some_columns_and_of_a_vector():
         finite_rows(a, some, rows=97), np.isfinite(a[:, some]).all(axis=1)
     )
     np.testing.assert_array_equal(finite_rows(a[:, 4], rows=97), np.isfinite(a[:, 4]))
+
+
+def test_spill_converts_a_long_row_a_piece_at_a_time(tmp_path, monkeypatch):
+    """A row that is converted (float64 to float32 here) goes to the file a piece at a
+    time, each piece of a memory-mapped source given back behind it: neither the row's
+    pages nor a converted copy of the whole row are held (both as long as the
+    archive); the file holds the row's values rounded once."""
+    from analyzer import paging
+
+    n = 3 * paging.RELEASE_ROWS + 77
+    src = paging.buffer(tmp_path, "src", (n, 2))  # float64, channel-major, mapped
+    values = np.random.default_rng(2).standard_normal((n, 2))
+    src[:] = values
+    released = []
+    real = paging.release
+    monkeypatch.setattr(paging, "release", lambda a: (released.append(a.shape), real(a)))
+    rows = spill({"x": src[:, 0], "y": src[:, 1]}, tmp_path / "s.npy", np.float32)
+    for k, name in enumerate(("x", "y")):
+        np.testing.assert_array_equal(rows[name], values[:, k].astype(np.float32))
+    assert released == [(paging.RELEASE_ROWS,)] * 3 + [(77,)] + [(paging.RELEASE_ROWS,)] * 3 + [
+        (77,)
+    ]
