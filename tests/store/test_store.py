@@ -142,3 +142,30 @@ def test_dominant_rate():
     assert dominant_rate([100.0, 100.0, 200.0]) == 100.0
     with pytest.raises(StoreError, match="clock rate"):
         dominant_rate([])
+
+
+def test_summary_of_a_spilled_channel_reads_its_times_a_block_at_a_time(tmp_path, monkeypatch):
+    """The period of a long spilled channel comes from spread steps ``t[::stride]``, taken
+    a block at a time with each block's pages given back (taken at once, they touched
+    every page of the channel's time file: all of it resident, as long as the archive):
+    the same summary as from the times in memory."""
+    from analyzer import paging
+    from analyzer.store import store as st
+
+    n = 2_500_000  # stride 2: every page of the times is touched
+    rng = np.random.default_rng(4)
+    t = np.cumsum(rng.integers(9_000_000, 11_000_000, n)).astype(np.int64)
+    t[1_000_000:] += 5_000_000_000  # a gap
+    v = rng.standard_normal(n)
+    tp, vp = tmp_path / "c.t", tmp_path / "c.v"
+    t.tofile(tp)
+    v.tofile(vp)
+    tm = np.memmap(tp, dtype=np.int64, mode="r")
+    vm = np.memmap(vp, dtype=np.float64, mode="r")
+    released: list[int] = []
+    real = paging.release
+    monkeypatch.setattr(st, "release", lambda a: (released.append(a.shape[0]), real(a)))
+    got = st._summarize("c", tm, vm, block=1 << 19)
+    assert got == st._summarize("c", t, v, block=1 << 19)
+    assert got.gaps == 1
+    assert max(released) <= (1 << 19) + 1  # never the whole channel at once
