@@ -215,8 +215,8 @@ def spill(
                 # whole row converted at once held the row's pages and its copy, both
                 # as long as the archive
                 sig = signals[name]
-                for a in range(0, n, RELEASE_ROWS):
-                    piece = sig[a : a + RELEASE_ROWS]
+                for at in range(0, n, RELEASE_ROWS):
+                    piece = sig[at : at + RELEASE_ROWS]
                     f.write(np.ascontiguousarray(piece, dtype=kind).data)
                     release(piece)
         # no flush to disk (fsync): the file is scratch space read back through the same
