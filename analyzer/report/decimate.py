@@ -11,6 +11,7 @@ and every step visible at the cost of the detail inside a bin. All of it is vect
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
@@ -39,16 +40,42 @@ class Envelope(NamedTuple):
     decimated: bool
 
 
-def envelope(t: npt.ArrayLike, y: npt.ArrayLike, max_points: int = 2000) -> Envelope:
+@dataclass(frozen=True, slots=True)
+class Clock:
+    """The times ``k / rate`` of samples ``k = 0 .. n - 1``, for :func:`envelope`
+    without an array of them (as long as the archive): indexed like that array, with
+    the same values (the same division of the same exact integers)."""
+
+    n: int
+    rate: float
+
+    @property
+    def shape(self) -> tuple[int]:
+        return (self.n,)
+
+    @property
+    def ndim(self) -> int:
+        return 1
+
+    def __getitem__(self, k: slice | npt.NDArray[np.int64]) -> FloatArray:
+        idx = np.arange(*k.indices(self.n)) if isinstance(k, slice) else np.asarray(k)
+        return idx.astype(np.float64) / self.rate
+
+
+def envelope(t: npt.ArrayLike | Clock, y: npt.ArrayLike, max_points: int = 2000) -> Envelope:
     """Min/max envelope of ``y(t)`` in at most ``max_points`` bins of equal sample count.
 
-    ``t`` and ``y`` are 1-D and of the same length (``t`` increasing). With at most
-    ``max_points`` samples the series comes back unchanged (``lo == hi == y``). Otherwise
-    the samples are grouped in bins of ``ceil(n / max_points)``; the last, shorter bin is
-    padded with NaN, which the reductions ignore. Raises ValueError on mismatched
-    shapes or a non-positive ``max_points``."""
-    tt = np.asarray(t, dtype=np.float64)
-    yy = np.asarray(y, dtype=np.float64)
+    ``t`` and ``y`` are 1-D and of the same length (``t`` increasing; a :class:`Clock`
+    for a uniform one). With at most ``max_points`` samples the series comes back
+    unchanged (``lo == hi == y``). Otherwise the samples are grouped in bins of
+    ``ceil(n / max_points)``; the last, shorter bin is padded with NaN, which the
+    reductions ignore. ``y`` (any float precision, memory-mapped or not) is read and
+    converted to float64 a chunk at a time. Raises ValueError on mismatched shapes or a
+    non-positive ``max_points``."""
+    tt = t if isinstance(t, Clock) else np.asarray(t, dtype=np.float64)
+    yy = np.asarray(y)
+    if yy.dtype.kind != "f":
+        yy = np.asarray(yy, dtype=np.float64)
     if tt.ndim != 1 or yy.shape != tt.shape:
         raise ValueError(
             f"expected 1-D t and y of the same length, got shapes {tt.shape} and {yy.shape}"
@@ -57,7 +84,9 @@ def envelope(t: npt.ArrayLike, y: npt.ArrayLike, max_points: int = 2000) -> Enve
         raise ValueError(f"max_points must be >= 1, got {max_points}")
     n = tt.shape[0]
     if n <= max_points:
-        return Envelope(tt.copy(), yy.copy(), yy.copy(), False)
+        ts = tt[0:n] if isinstance(tt, Clock) else tt.copy()
+        ys = np.array(yy, dtype=np.float64)
+        return Envelope(ts, ys, ys.copy(), False)
     per = -(-n // max_points)
     bins = -(-n // per)
     lo = np.empty(bins, dtype=np.float64)
@@ -65,7 +94,7 @@ def envelope(t: npt.ArrayLike, y: npt.ArrayLike, max_points: int = 2000) -> Enve
     step = max(1, CHUNK_VALUES // per)  # bins per chunk: bounded temporaries on long input
     for b0 in range(0, bins, step):
         b1 = min(bins, b0 + step)
-        seg = yy[b0 * per : min(n, b1 * per)]
+        seg = np.asarray(yy[b0 * per : min(n, b1 * per)], dtype=np.float64)
         pad = (b1 - b0) * per - seg.shape[0]
         if pad:
             seg = np.concatenate((seg, np.full(pad, np.nan)))

@@ -34,7 +34,7 @@ from markupsafe import Markup
 from analyzer import __version__
 from analyzer.report import format as fmt
 from analyzer.report import jobs as fg
-from analyzer.report.decimate import binned_nan_fraction, envelope, runs
+from analyzer.report.decimate import Clock, binned_nan_fraction, envelope, runs
 from analyzer.report.methods import DECISION, DETECTORS, TESTS, Method
 from analyzer.report.workers import FigureBatch, FigureWorkers, active_workers
 
@@ -579,7 +579,9 @@ class _Access:
         k0: int,
         k1: int,
     ) -> FigureView:
-        full = _f64(self._residual(lead, ch))  # lead is in dets: it has a residual on ch
+        # lead is in dets: it has a residual on ch (as kept: the envelope reads a long
+        # archive's a chunk at a time, no float64 copy of it, nor an array of its times)
+        full = np.asarray(self._residual(lead, ch))
         panels = []
         for d in [lead, *[x for x in dets if x != lead]][:MAX_PANELS]:
             r = self._residual(d, ch)
@@ -587,11 +589,10 @@ class _Access:
                 continue
             th = self._threshold(d, ch)
             panels.append(fg.ResidualPanel(d, np.arange(k0, k1) / self.rate, _f64(r[k0:k1]), *th))
-        t_full = np.arange(full.shape[0], dtype=np.float64) / self.rate
         job = fg.FigureJob(
             "residual_figure",
             (
-                envelope(t_full, full, fg.MAX_POINTS),  # what the figure draws of it
+                envelope(Clock(full.shape[0], self.rate), full, fg.MAX_POINTS),  # drawn of it
                 lead,
                 panels,
                 onset,

@@ -41,6 +41,34 @@ def test_envelope_matches_a_loop_over_bins(n, monkeypatch):
     assert np.all(np.diff(env.t) > 0) and env.t[0] >= t[0] and env.t[-1] <= t[-1]
 
 
+@pytest.mark.parametrize("n", [1, 99, 100, 101, 12_345])
+def test_envelope_of_a_clock_and_a_mapped_float32_signal_is_the_arrays_envelope(
+    n, tmp_path, monkeypatch
+):
+    """A uniform clock (``dec.Clock``) and a float32 memory-mapped signal, read and
+    converted a chunk at a time: the envelope of the float64 times and float64 copy of
+    the signal, bit for bit, with no array as long as the signal made on the way."""
+    from analyzer import paging
+
+    monkeypatch.setattr(dec, "CHUNK_VALUES", 64)
+    rng = np.random.default_rng(n)
+    y = rng.standard_normal(n).astype(np.float32)
+    y[n // 3 : n // 3 + 7] = np.nan
+    mapped = paging.buffer(tmp_path, "y", (n, 1), np.float32)[:, 0]
+    mapped[:] = y
+    want = envelope(np.arange(n, dtype=np.float64) / 100.0, y.astype(np.float64), 100)
+    made = []
+    real_arange = np.arange
+    monkeypatch.setattr(np, "arange", lambda *a, **k: made.append(real_arange(*a, **k)) or made[-1])
+    got = envelope(dec.Clock(n, 100.0), mapped, 100)
+    monkeypatch.setattr(np, "arange", real_arange)
+    assert got.decimated == want.decimated
+    for a, b in zip(got[:3], want[:3], strict=True):
+        np.testing.assert_array_equal(a.view(np.uint64), b.view(np.uint64))
+    if n > 100:
+        assert max(len(m) for m in made) <= 100  # no arange of every sample
+
+
 def test_envelope_keeps_a_single_sample_spike():
     y = np.zeros(1_000_000)
     y[654_321] = 7.0
