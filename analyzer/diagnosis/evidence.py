@@ -51,6 +51,13 @@ def standardized(
     return out
 
 
+def _standard_part(result: DetectorResult, channel: str, part: slice) -> FloatArray:
+    """:func:`standardized` of a channel known to have a residual and a deviation."""
+    z = standardized(result, channel, part)
+    assert z is not None
+    return z
+
+
 def _scaling(result: DetectorResult, channel: str) -> tuple[float, float] | None:
     """The ``(mean, std)`` that :func:`standardized` uses for ``channel`` (None: no
     healthy deviation known)."""
@@ -104,14 +111,17 @@ def attach_evidence(
             res = by_name.get(det)
             if res is None:
                 continue
-            z = standardized(res, f.channel)
-            if z is None:
+            r = res.residuals.get(f.channel)
+            if r is None or _scaling(res, f.channel) is None:
                 continue
             onset = int(round(f.onset_s * rate_hz))
-            end = z.shape[0] if f.end_s is None else int(round(f.end_s * rate_hz))
+            end = r.shape[0] if f.end_s is None else int(round(f.end_s * rate_hz))
             lo = max(train[0], onset - MAX_SEGMENT)
-            before = _tests(z[lo:onset])
-            after = _tests(z[onset : min(end, onset + MAX_SEGMENT)])
+            # only the two stretches tested are standardized (not a float64 copy of the
+            # whole residual: as long as the archive), the same bits
+            spans = (slice(lo, onset), slice(onset, min(end, onset + MAX_SEGMENT)))
+            before, after = (_tests(_standard_part(res, f.channel, s)) for s in spans)
+            release(r)  # a long archive's residual: pages back to the cache
             if after is None:
                 continue
             tests[det] = {

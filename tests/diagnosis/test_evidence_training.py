@@ -102,3 +102,46 @@ def test_windowed_summary_standardizes_a_batch_at_a_time(dtype, monkeypatch):
     got = evidence.windowed_summary(result, 100.0)
     assert got.keys() == want.keys() == {"a", "b"}
     assert got == want
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("end_s", [None, 251.23])  # onset 201.23 s
+def test_finding_evidence_standardizes_only_the_stretches_it_tests(dtype, end_s, monkeypatch):
+    """attach_evidence tests the stretches before and after a finding's onset; it
+    standardizes those two only (not the whole residual, as long as the archive): the
+    tests of the whole residual standardized and then cut, the same values."""
+    from analyzer.diagnosis.merge import Finding
+    from analyzer.types import FaultType
+
+    result = _result(dtype)
+    rate, train = 100.0, (0, MAX_SEGMENT // 2)
+    onset = MAX_SEGMENT + 123
+    z = standardized(result, "a")
+    n = z.shape[0]
+    end = n if end_s is None else int(round(end_s * rate))
+    lo = max(train[0], onset - MAX_SEGMENT)
+    want_before = evidence._tests(z[lo:onset])
+    want_after = evidence._tests(z[onset : min(end, onset + MAX_SEGMENT)])
+    finding = Finding(
+        "a",
+        FaultType.ADDITIVE,
+        onset / rate,
+        end_s,
+        {"offset": 1.0},
+        0.9,
+        "d",
+        {"detectors": ["d"]},
+    )
+    whole: list[int] = []
+    real = evidence.standardized
+
+    def spy(res, ch, part=None):
+        out = real(res, ch, part)
+        whole.append(out.shape[0])
+        return out
+
+    monkeypatch.setattr(evidence, "standardized", spy)
+    evidence.attach_evidence([finding], [result], rate, train)
+    got = finding.evidence["tests"]["d"]
+    assert got["before"] == want_before and got["after"] == want_after
+    assert max(whole) <= MAX_SEGMENT < n  # never the whole residual
