@@ -23,6 +23,7 @@ from analyzer.diagnosis.merge import Finding
 from analyzer.errors import DetectorError
 from analyzer.paging import release
 from analyzer.stats import summarize, test_segment, windowed_tests
+from analyzer.stats._checks import standardize
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -44,11 +45,7 @@ def standardized(
     if r is None or scaling is None:
         return None
     mean, std = scaling
-    # the same two operations as ``(r - mean) / std``, in one array
-    r = np.asarray(r if part is None else r[part])
-    out: FloatArray = np.subtract(r, mean, dtype=np.float64)
-    out /= std
-    return out
+    return standardize(np.asarray(r if part is None else r[part]), mean, std)
 
 
 def _standard_part(result: DetectorResult, channel: str, part: slice) -> FloatArray:

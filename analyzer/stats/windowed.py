@@ -63,6 +63,7 @@ from analyzer.stats._checks import (
     frozen,
     norm_sf,
 )
+from analyzer.stats._checks import standardize as standardized_values
 from analyzer.stats._windowed_kernel import window_kernel
 from analyzer.stats.normality import (
     AD_CRITICAL,
@@ -200,8 +201,7 @@ def windowed_tests(
             continue
         lo = int(starts[rows][0])
         raw = arr[lo : int(starts[rows][-1]) + window]
-        seg = np.subtract(raw, standardize[0], dtype=np.float64)
-        seg /= standardize[1]
+        seg = standardized_values(raw, *standardize)
         release(raw)  # no-op in memory
         _run_batch(seg, starts[rows] - lo, settings, out, rows)
     return out.finish(starts, settings)
