@@ -14,6 +14,7 @@ import os
 import signal
 import sys
 import threading
+import time
 import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -184,14 +185,19 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _progress_printer(enabled: bool) -> Any:
+    """A progress bar on stderr (a terminal only): the stage, its share done and the
+    seconds since the run began."""
     if not enabled or not sys.stderr.isatty():
         return None
+    began = time.monotonic()
 
     def show(stage: str, fraction: float) -> None:
         width = 30
         done = int(round(width * max(0.0, min(1.0, fraction))))
+        elapsed = time.monotonic() - began
         sys.stderr.write(
             f"\r{stage:<16} [{'#' * done}{'.' * (width - done)}] {100 * fraction:5.1f}%"
+            f" {elapsed:8.1f} s"
         )
         if fraction >= 1.0:
             sys.stderr.write("\n")

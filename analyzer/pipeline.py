@@ -15,6 +15,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, wait
 from dataclasses import dataclass, field, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -912,7 +913,9 @@ def _analyze(
     progress = options.progress
     t_start = time.perf_counter()
     archive = open_archive(inputs)
-    with ChannelStore.from_chunks(archive.chunks(options.time_source), work / "store") as store:
+    reading = None if progress is None else partial(progress, "read")
+    chunks = archive.chunks(options.time_source, reading)
+    with ChannelStore.from_chunks(chunks, work / "store") as store:
         timings["read"] = time.perf_counter() - t_start
         if progress:
             progress("read", 1.0)
@@ -937,6 +940,8 @@ def _analyze(
         values = aligned.materialize(path)
         release(values)  # written: its pages go back to the page cache (see analyzer.paging)
         timings["align"] = time.perf_counter() - t0
+        if progress:
+            progress("align", 1.0)
         # the raw samples are no longer needed: unmap them now, or their pages stay in the
         # resident set for the rest of the run (memory that grows with the archive)
         infos = store.infos()
@@ -1304,7 +1309,11 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
     work = make_scratch()
     try:
         analysis = analyze(inputs, options, work)
+        if options.progress:
+            options.progress("report", 0.0)
         write_outputs(analysis, out)
+        if options.progress:
+            options.progress("report", 1.0)
         if options.save_model is not None and analysis.saved is not None:
             save_model(options.save_model, analysis.saved)
         return 1 if analysis.faulty else 0

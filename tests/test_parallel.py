@@ -230,12 +230,18 @@ def test_jobs_keeps_explicit_detector_errors():
 
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_progress_is_reported_for_reading_detection_and_tests(jobs):
-    """The long stages report their progress: reading, the detectors (on threads each
-    fit, then each run), the residual tests; each stage's fractions rise to 1."""
+    """The long stages report their progress: reading (by input bytes), alignment, the
+    detectors (on threads each fit, then each run), the residual tests; each stage's
+    fractions rise to 1."""
     seen: list[tuple[str, float]] = []
     analyze([SAMPLE], RunOptions(jobs=jobs, progress=lambda s, f: seen.append((s, f))))
-    assert ("read", 1.0) in seen
-    for stage in ("detect", "tests"):
+    assert ("read", 1.0) in seen and ("align", 1.0) in seen
+    # one after the other (a detector may report its own steps among the detectors')
+    first = {s: next(i for i, (t, _) in enumerate(seen) if t == s) for s, _ in seen}
+    last = {s: max(i for i, (t, _) in enumerate(seen) if t == s) for s, _ in seen}
+    assert last["read"] < first["align"] <= last["align"] < first["detect"]
+    assert last["detect"] < first["tests"]
+    for stage in ("read", "detect", "tests"):
         fractions = [f for s, f in seen if s == stage]
         assert fractions and fractions[-1] == 1.0, stage
         assert all(b >= a for a, b in zip(fractions, fractions[1:], strict=False)), stage

@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import queue
 import threading
+import time as time_module
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -189,12 +190,32 @@ class Archive:
         """Start time of the first readable input."""
         return next((s for r in self.readers if (s := _safe_start(r)) is not None), None)
 
-    def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
-        """Every channel chunk of every readable input, input after input."""
+    def chunks(
+        self, time: TimeSource = "log", progress: Callable[[float], None] | None = None
+    ) -> Iterator[ChannelChunk]:
+        """Every channel chunk of every readable input, input after input.
+
+        ``progress`` is called with the share of the archive read so far (by input bytes:
+        the inputs before this one, and this one's ``fraction_read`` where its reader
+        keeps one), at most every :data:`PROGRESS_EVERY_S` seconds and after each input,
+        below 1 (the caller says when reading is done)."""
         if time not in ("log", "header"):
             raise ValueError(f"time must be 'log' or 'header', not {time!r}")
         last: dict[str, int] = {}
         single = len(self.inputs) == 1
+        if progress is not None:
+            sizes = [max(1, r.info.size_bytes) for r in self.readers]
+            total = float(sum(sizes))
+            done = 0
+            shown = [time_module.monotonic()]
+
+            def show(reader: Reader, size: int, force: bool = False) -> None:
+                now = time_module.monotonic()
+                if force or now - shown[0] >= PROGRESS_EVERY_S:
+                    shown[0] = now
+                    within = min(1.0, max(0.0, float(getattr(reader, "fraction_read", 0.0))))
+                    progress(min(PROGRESS_CAP, (done + within * size) / total))
+
         # the next input is read ahead on a thread while this one is consumed: decoding
         # (zstd, Arrow's CSV parser, numpy) runs without the GIL, so two files' worth of
         # work overlaps; the queue bounds what is held ahead
@@ -205,7 +226,15 @@ class Archive:
                 if nxt < len(self.readers) and _threadable(self.readers[nxt]):
                     ahead[nxt] = _ReadAhead(self.readers[nxt].chunks, time)
                 source = ahead.pop(i) if i in ahead else reader.chunks(time)
-                yield from self._stream(reader, source, last, single)
+                if progress is None:
+                    yield from self._stream(reader, source, last, single)
+                    continue
+                size = sizes[i]
+                for chunk in self._stream(reader, source, last, single):
+                    show(reader, size)
+                    yield chunk
+                done += size
+                show(reader, 0, force=True)
         finally:
             for pending in ahead.values():
                 pending.close()
@@ -235,6 +264,12 @@ class Archive:
                 f"{name}: {count} samples overlap the previous input in time; dropped"
             )
 
+
+PROGRESS_EVERY_S = 0.2
+"""Seconds between two reports of the reading's progress (:meth:`Archive.chunks`)."""
+PROGRESS_CAP = 0.99
+"""The reading's progress stays below this until the caller has finished with the chunks
+(a fraction of 1 ends the stage's line)."""
 
 READ_AHEAD_CHUNKS = 64
 """Chunks of the next input held ahead at most (a few tens of MB)."""

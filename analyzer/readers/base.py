@@ -51,7 +51,12 @@ class Reader(Protocol):
     """One input. Construction validates the file (raising ``ReaderError`` with the path
     and the problem); :meth:`chunks` streams its numeric channels. Problems found while
     streaming that leave the rest readable (a truncated tail, an undecodable topic) are
-    appended to ``info.errors`` instead of raised."""
+    appended to ``info.errors`` instead of raised.
+
+    A reader may also keep ``fraction_read``: the share of its input that
+    :meth:`chunks` has got through so far (0 to 1, rising, approximate), which the
+    archive turns into the reading stage's progress; one without it counts as read
+    when its chunks end."""
 
     info: InputInfo
 

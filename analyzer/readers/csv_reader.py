@@ -99,6 +99,9 @@ class CsvReader:
             raise ReaderError(f"{self.path}: cannot read: {one_line(err.strerror or err)}") from err
         if size == 0:
             raise ReaderError(f"{self.path}: empty file (0 bytes)")
+        self._size = size
+        self.fraction_read = 0.0
+        """The share of the file :meth:`chunks` has got through (see ``Reader``)."""
         self._layout = self._detect()
         self._numeric: dict[int, bool] = {}
         self._fast: tuple[int, ...] = ()
@@ -119,6 +122,7 @@ class CsvReader:
 
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
         del time  # CSV rows have one time only
+        self.fraction_read = 0.0
         reorder = Reorderer()
         skipped = 0
         bad_cells: dict[str, int] = {}
@@ -281,7 +285,11 @@ class CsvReader:
             invalid[0] += 1
             return "skip"
 
-        stream = pa.input_stream(str(self.path), compression="gzip" if layout.compressed else None)
+        # how far the reader has got: a block is BLOCK_BYTES of the text (Arrow reads
+        # the file itself far ahead); of a .gz, the position in the compressed file
+        raw = pa.OSFile(str(self.path))
+        stream = pa.CompressedInputStream(raw, "gzip") if layout.compressed else raw
+        blocks = 0
         reader = pacsv.open_csv(
             stream,
             read_options=pacsv.ReadOptions(
@@ -304,9 +312,14 @@ class CsvReader:
         try:
             for batch in reader:
                 count, invalid[0] = invalid[0], 0
+                blocks += 1
+                with contextlib.suppress(OSError, pa.ArrowException):
+                    at = raw.tell() if layout.compressed else blocks * BLOCK_BYTES
+                    self.fraction_read = max(self.fraction_read, min(1.0, at / self._size))
                 yield batch, count
         finally:
             reader.close()
+            raw.close()
 
     def _inspect_first_block(self) -> int | None:
         try:

@@ -146,6 +146,8 @@ class McapReader:
         self._decoders: dict[int, tuple[str, BatchDecoder] | None] = {}
         self._failures: dict[str, list[Any]] = {}
         self._protobuf: Any = None  # one mcap_protobuf factory: it caches per schema
+        self.fraction_read = 0.0
+        """The share of the file :meth:`chunks` has got through (see ``Reader``)."""
 
     # ------------------------------------------------------------------ protocol
     def start_ns(self) -> int | None:
@@ -161,6 +163,7 @@ class McapReader:
 
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
         self._failures.clear()
+        self.fraction_read = 0.0
         reorder = Reorderer()
         with self.path.open("rb") as handle:
             if self._summary is not None and self._summary.chunk_indexes:
@@ -234,6 +237,8 @@ class McapReader:
             except _DAMAGE as err:
                 self._error(f"chunk at byte {index.chunk_start_offset}: {one_line(err)}; skipped")
                 continue
+            finally:
+                self.fraction_read = (k + 1) / len(indexes)
             bound = indexes[k + 1].message_start_time if k + 1 < len(indexes) else None
             if time == "log" and bound is not None:
                 yield from reorder.release(bound)
@@ -260,6 +265,7 @@ class McapReader:
                 if pending is not None:
                     count += self._stream_chunk(*pending, reorder, time)
                     pending = None
+                    self.fraction_read = max(self.fraction_read, handle.tell() / self._size)
                     nxt = record.message_start_time if isinstance(record, Chunk) else None
                     yield from reorder.release(nxt if time == "log" else None)
                 if isinstance(record, Schema):

@@ -456,3 +456,24 @@ def test_error_function_end_to_end_with_config(tmp_path, capsys, approach):
     assert truth <= got, (truth, got)
     assert {f["channel"] for f in faults} <= {"s1", "s2"}
     assert "error_function" in (tmp_path / "o" / "report.html").read_text()
+
+
+def test_progress_bar_on_a_terminal_shows_each_stage_and_the_time(tmp_path, monkeypatch, capsys):
+    """On a terminal, ``run`` shows one bar per stage, from reading to the report, each
+    ending at 100 % on its own line with the seconds since the run began; off a terminal
+    (or with --no-progress) nothing."""
+    import re
+
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    code, _, err = run_cli(["run", SAMPLES / "building_additive.mcap", "--out", tmp_path], capsys)
+    assert code == 1
+    ended = [line for line in err.split("\n") if "100.0%" in line]
+    stages = [line.rsplit("\r", 1)[-1].split()[0] for line in ended]
+    assert stages == ["read", "align", "detect", "tests", "report"]
+    seconds = [float(re.search(r"100\.0%\s+([0-9.]+) s$", line).group(1)) for line in ended]
+    assert seconds == sorted(seconds) and seconds[0] >= 0.0
+    code, _, err = run_cli(
+        ["run", SAMPLES / "building_additive.mcap", "--out", tmp_path / "b", "--no-progress"],
+        capsys,
+    )
+    assert code == 1 and "100.0%" not in err

@@ -164,3 +164,47 @@ def test_read_ahead_gives_the_same_stream_and_stops_with_its_consumer(
     assert any(t.name == "analyzer-read-ahead" for t in threading.enumerate())
     stream.close()  # the consumer gives up in the first file, the second is being read
     assert not any(t.name == "analyzer-read-ahead" for t in threading.enumerate())
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "csv", "csv.gz"])
+def test_reading_progress_rises_by_bytes_within_and_across_files(
+    tmp_path: Path, fmt: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``Archive.chunks(progress=...)`` reports the share read by input bytes: rising,
+    below 1 (the caller ends the stage), past each file's share when it is done, and
+    inside a file as its reader gets through it (an MCAP file's chunks, a CSV's blocks);
+    every report made while the archive is read, none after."""
+    import analyzer.readers as readers_module
+    from analyzer.readers import _common, csv_reader
+
+    monkeypatch.setattr(readers_module, "PROGRESS_EVERY_S", 0.0)  # every chunk
+    monkeypatch.setattr(csv_reader, "BLOCK_BYTES", 1 << 14)  # several blocks per file
+    # chunks released every 5000 samples, not every 2 M: a small file's arrive while
+    # it is read, as a long file's do
+    window = _common.Reorderer.__init__.__defaults__[0]
+    monkeypatch.setattr(_common.Reorderer.__init__, "__defaults__", (window, 5000))
+    n = 20_000
+    t, data = synthetic(3 * n, channels=3, rate_hz=100.0)
+    for index in range(3):
+        part = slice(index * n, (index + 1) * n)
+        start = np.datetime_as_string(np.datetime64(int(t[part][0]), "ns"), unit="ns") + "Z"
+        write_archive(
+            tmp_path / f"h{index}.{fmt}",
+            fmt.split(".")[0],
+            t[part],
+            {k: v[part] for k, v in data.items()},
+            chunk_size=1 << 14,
+            start_iso=start if fmt != "mcap" else None,
+        )
+    archive = open_archive(tmp_path)
+    sizes = [info.size_bytes for info in archive.inputs]
+    bounds = np.cumsum(sizes) / sum(sizes)
+    seen: list[float] = []
+    got = collect(archive.chunks(progress=seen.append))
+    assert len(got["/s0.data" if fmt == "mcap" else "s0"][0]) == 3 * n  # all read
+    assert seen == sorted(seen) and seen[0] >= 0.0 and seen[-1] == readers_module.PROGRESS_CAP
+    assert all(f < 1.0 for f in seen)
+    for bound in bounds[:-1]:  # each file's end is reported
+        assert any(abs(f - bound) < 1e-12 for f in seen)
+    # inside the first file: strictly between 0 and its share
+    assert any(0.0 < f < bounds[0] - 1e-9 for f in seen), seen[:10]
