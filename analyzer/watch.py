@@ -222,14 +222,19 @@ def _analyze_into(inputs: list[str], options: RunOptions, out: str, work_dir: st
 
 def _context() -> ForkServerContext | SpawnContext:
     """Analyses run in processes forked from a server that has the pipeline and the
-    report's figure module (matplotlib: ~0.7 s per analysis otherwise) imported (fast to
-    start, safe with the watcher's threads); ``spawn`` where there is none."""
+    report's figure module (matplotlib: ~0.7 s per analysis otherwise) imported and the
+    compiled kernels warmed (numba's first call: ~0.3 s per analysis otherwise,
+    :mod:`analyzer.warm`); fast to start, safe with the watcher's threads. ``spawn``
+    where there is no fork server."""
     if "forkserver" in multiprocessing.get_all_start_methods():
         ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(["analyzer.watch", PRELOAD_MODULE])
+        ctx.set_forkserver_preload(["analyzer.watch", PRELOAD_MODULE, WARM_PRELOAD])
         return ctx
     return multiprocessing.get_context("spawn")
 
+
+WARM_PRELOAD = "analyzer.warm_preload"
+"""The fork server's module that warms the compiled kernels (:mod:`analyzer.warm`)."""
 
 BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 _ENV_LOCK = threading.Lock()
