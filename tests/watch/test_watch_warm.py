@@ -48,3 +48,58 @@ def test_the_watchers_fork_server_preloads_the_warm_up():
     assert WARM_PRELOAD in preload and "analyzer.watch" in preload
     module = importlib.import_module(WARM_PRELOAD)
     assert module.WARMED is True
+
+
+def test_an_analysis_that_starts_alone_gets_every_thread(tmp_path, monkeypatch):
+    """With ``--jobs 2`` an archive that starts while nothing else runs or waits (the
+    usual file an hour) is analyzed on two threads; one that starts beside others, or
+    with more waiting, on one (the cores are shared); ``--jobs 1``: one thread always.
+    The process started gets those options."""
+    import threading
+
+    from analyzer import watch as watch_module
+    from analyzer.pipeline import RunOptions
+    from analyzer.scratch import remove_scratch
+    from analyzer.watch_inbox import ReadyArchive
+    from analyzer.watch_index import Ledger
+
+    started: list[RunOptions] = []
+
+    class Process:
+        def __init__(self, target, args, name, daemon):
+            started.append(args[1])
+            self.sentinel = 0
+
+        def start(self):
+            pass
+
+    def runner(jobs: int) -> watch_module._Runner:
+        settings = watch_module.WatchSettings(tmp_path / "in", tmp_path / "out", jobs=jobs)
+        options = RunOptions(jobs=jobs)
+        r = watch_module._Runner(settings, options, Ledger(tmp_path / "out"), threading.Event())
+        monkeypatch.setattr(r, "ctx", type("Ctx", (), {"Process": Process})())
+        return r
+
+    def archive(name: str) -> ReadyArchive:
+        path = tmp_path / name
+        path.write_bytes(name.encode())
+        return ReadyArchive(name, (path,), ((str(path), path.stat().st_size, 0),))
+
+    (tmp_path / "out").mkdir()
+    r = runner(2)
+    r._start(archive("a"))  # alone
+    r.offer(archive("c"))  # waiting while b starts
+    r._start(archive("b"))
+    assert [o.jobs for o in started] == [2, 1]
+    works = [job.work for job in r.running.values()]
+    r.queue.clear()
+    r.running.clear()
+    assert r._options().jobs == 2
+    r.offer(archive("d"))
+    assert r._options().jobs == 1
+    started.clear()
+    single = runner(1)
+    single._start(archive("e"))
+    assert [o.jobs for o in started] == [1]
+    for work in [*works, *(job.work for job in single.running.values())]:
+        remove_scratch(work)
