@@ -33,7 +33,7 @@ import warnings
 from collections.abc import Generator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pyarrow as pa
@@ -293,9 +293,31 @@ class CsvReader:
         # how far the reader has got: a block is BLOCK_BYTES of the text (Arrow reads
         # the file itself far ahead); of a .gz, the position in the compressed file
         raw = pa.OSFile(str(self.path))
-        stream = pa.CompressedInputStream(raw, "gzip") if layout.compressed else raw
         blocks = 0
-        reader = pacsv.open_csv(
+        try:
+            stream = pa.CompressedInputStream(raw, "gzip") if layout.compressed else raw
+            reader = self._open(stream, column_types, skip_row)
+        except BaseException:
+            raw.close()
+            raise
+        try:
+            for batch in reader:
+                count, invalid[0] = invalid[0], 0
+                blocks += 1
+                with contextlib.suppress(OSError, pa.ArrowException):
+                    at = raw.tell() if layout.compressed else blocks * BLOCK_BYTES
+                    self.fraction_read = max(self.fraction_read, min(1.0, at / self._size))
+                yield batch, count
+        finally:
+            reader.close()
+            raw.close()
+
+    def _open(
+        self, stream: pa.NativeFile, column_types: dict[str, pa.DataType], skip_row: Any
+    ) -> pacsv.CSVStreamingReader:
+        """Arrow's streaming reader of the body of ``stream`` (see :meth:`_batches`)."""
+        layout = self._layout
+        return pacsv.open_csv(
             stream,
             read_options=pacsv.ReadOptions(
                 column_names=list(layout.names),
@@ -314,17 +336,6 @@ class CsvReader:
                 quoted_strings_can_be_null=False,
             ),
         )
-        try:
-            for batch in reader:
-                count, invalid[0] = invalid[0], 0
-                blocks += 1
-                with contextlib.suppress(OSError, pa.ArrowException):
-                    at = raw.tell() if layout.compressed else blocks * BLOCK_BYTES
-                    self.fraction_read = max(self.fraction_read, min(1.0, at / self._size))
-                yield batch, count
-        finally:
-            reader.close()
-            raw.close()
 
     def _inspect_first_block(self) -> int | None:
         try:
