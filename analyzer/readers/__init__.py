@@ -203,19 +203,7 @@ class Archive:
             raise ValueError(f"time must be 'log' or 'header', not {time!r}")
         last: dict[str, int] = {}
         single = len(self.inputs) == 1
-        if progress is not None:
-            sizes = [max(1, r.info.size_bytes) for r in self.readers]
-            total = float(sum(sizes))
-            done = 0
-            shown = [time_module.monotonic()]
-
-            def show(reader: Reader, size: int, force: bool = False) -> None:
-                now = time_module.monotonic()
-                if force or now - shown[0] >= PROGRESS_EVERY_S:
-                    shown[0] = now
-                    within = min(1.0, max(0.0, float(getattr(reader, "fraction_read", 0.0))))
-                    progress(min(PROGRESS_CAP, (done + within * size) / total))
-
+        report = None if progress is None else _ReadProgress(progress, self.readers)
         # the next input is read ahead on a thread while this one is consumed: decoding
         # (zstd, Arrow's CSV parser, numpy) runs without the GIL, so two files' worth of
         # work overlaps; the queue bounds what is held ahead
@@ -226,15 +214,12 @@ class Archive:
                 if nxt < len(self.readers) and _threadable(self.readers[nxt]):
                     ahead[nxt] = _ReadAhead(self.readers[nxt].chunks, time)
                 source = ahead.pop(i) if i in ahead else reader.chunks(time)
-                if progress is None:
-                    yield from self._stream(reader, source, last, single)
-                    continue
-                size = sizes[i]
                 for chunk in self._stream(reader, source, last, single):
-                    show(reader, size)
+                    if report is not None:
+                        report.inside(i)
                     yield chunk
-                done += size
-                show(reader, 0, force=True)
+                if report is not None:
+                    report.finished(i)
         finally:
             for pending in ahead.values():
                 pending.close()
@@ -263,6 +248,36 @@ class Archive:
             reader.info.errors.append(
                 f"{name}: {count} samples overlap the previous input in time; dropped"
             )
+
+
+class _ReadProgress:
+    """The reading's progress for :meth:`Archive.chunks`: the share of the archive's
+    input bytes read, below :data:`PROGRESS_CAP`, at most every
+    :data:`PROGRESS_EVERY_S` seconds inside an input and always at its end."""
+
+    def __init__(self, progress: Callable[[float], None], readers: Sequence[Reader]) -> None:
+        self._progress = progress
+        self._readers = readers
+        self._sizes = [max(1, r.info.size_bytes) for r in readers]
+        self._total = float(sum(self._sizes))
+        self._done = 0  # bytes of the inputs before the current one
+        self._shown = time_module.monotonic()
+
+    def inside(self, i: int) -> None:
+        """Input ``i`` is being read: its reader's ``fraction_read`` of it counts."""
+        now = time_module.monotonic()
+        if now - self._shown >= PROGRESS_EVERY_S:
+            within = float(getattr(self._readers[i], "fraction_read", 0.0))
+            self._show(self._done + min(1.0, max(0.0, within)) * self._sizes[i], now)
+
+    def finished(self, i: int) -> None:
+        """Input ``i`` is read whole."""
+        self._done += self._sizes[i]
+        self._show(self._done, time_module.monotonic())
+
+    def _show(self, read: float, now: float) -> None:
+        self._shown = now
+        self._progress(min(PROGRESS_CAP, read / self._total))
 
 
 PROGRESS_EVERY_S = 0.2
