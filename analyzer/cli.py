@@ -258,6 +258,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         from analyzer.pipeline import run
 
         return run(args.inputs, Path(args.out), _run_options(args))
+    from analyzer.paging import tune_heap
+
+    tune_heap()  # the process is the run's own: glibc may keep what it frees for reuse
     with contextlib.ExitStack() as stack:
         with _sigterm_after_imports():
             from analyzer.report.workers import figure_workers

@@ -405,6 +405,39 @@ def _malloc_trim() -> Any:
 
 _TRIM = _malloc_trim()
 
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # glibc's mallopt parameters (malloc.h)
+HEAP_MMAP_THRESHOLD = 32 << 20
+"""Allocations from this size on are mapped (and unmapped when freed) by glibc; smaller
+ones come from its heaps (see :func:`tune_heap`)."""
+HEAP_TRIM_THRESHOLD = 256 << 20
+"""Free memory at the top of a heap that glibc keeps instead of giving back at each free
+(the run gives it back itself between passes: :func:`trim_heap`)."""
+
+
+def tune_heap() -> bool:
+    """Let glibc keep freed memory for the next allocation instead of handing it back to
+    the kernel at once (``mallopt``: a fixed mmap threshold of
+    :data:`HEAP_MMAP_THRESHOLD`, a trim threshold of :data:`HEAP_TRIM_THRESHOLD`).
+
+    A run allocates and frees the same few-MB block arrays thousands of times on its
+    threads; by default glibc returns a thread heap's free top as soon as it exceeds twice
+    the (dynamic) mmap threshold, so the next block's pages are faulted in and zeroed by
+    the kernel again. Kept, they are reused: on the 4-hour 16-channel MCAP archive system
+    time fell by ~0.5 s and wall time by ~5 %, peak RSS rose by 20-40 MB (it still falls
+    back between passes, where :func:`trim_heap` trims every heap). Process-wide, so it is
+    called by the command line (``analyzer run``, the watcher's analyses), not by the
+    library. Returns False where the C library is not glibc (nothing changed)."""
+    if _TRIM is None:
+        return False
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        mallopt = libc.mallopt
+    except (OSError, AttributeError):
+        return False
+    mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
+    ok = mallopt(_M_MMAP_THRESHOLD, HEAP_MMAP_THRESHOLD) == 1
+    return bool(mallopt(_M_TRIM_THRESHOLD, HEAP_TRIM_THRESHOLD) == 1 and ok)
+
 
 def trim_heap() -> None:
     """Hand the C heap's free memory back to the operating system (glibc ``malloc_trim``).
@@ -432,4 +465,5 @@ __all__ = [
     "release",
     "spill",
     "trim_heap",
+    "tune_heap",
 ]

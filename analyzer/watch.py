@@ -99,6 +99,7 @@ from pathlib import Path
 from types import FrameType
 
 from analyzer.errors import AnalyzerError, UsageError, one_line
+from analyzer.paging import tune_heap
 from analyzer.pipeline import RunOptions, analyze, sha256_of, write_atomic, write_outputs
 from analyzer.report.jobs import PRELOAD_MODULE
 from analyzer.scratch import hold, make_scratch, remove_scratch
@@ -206,6 +207,7 @@ def _analyze_into(inputs: list[str], options: RunOptions, out: str, work_dir: st
     out_dir = Path(out)
     work = Path(work_dir)  # the watcher's: it removes it however this process ends
     hold(work)  # and if the watcher is killed, it stays while this process uses it
+    tune_heap()  # this process is the analysis's own (see analyzer.paging.tune_heap)
     code = 3
     try:
         analysis = analyze(inputs, options, work)
