@@ -105,8 +105,9 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--scheduler",
         metavar="ADDRESS",
-        help="run the detectors on an existing Dask distributed cluster, e.g. "
-        "tcp://host:8786 (needs the 'distributed' extra)",
+        help="use an existing Dask distributed cluster, e.g. tcp://host:8786 (needs the "
+        "'distributed' extra): run sends it the detectors' blocks; watch sends it each "
+        "archive, which the workers read themselves",
     )
     p.add_argument(
         "--time",

@@ -61,6 +61,12 @@ Running
     structurally unfinished for 10 minutes (a recorder that died, a truncated copy) is
     analyzed anyway, and gets its error record.
 
+On a cluster
+    With ``--scheduler ADDRESS`` each archive's analysis is a task of that Dask cluster,
+    one per worker thread at a time, and the worker reads the archive's files itself
+    (INBOX at the same path on every worker); the report's files come back to the
+    watcher, which publishes and records them as above (:mod:`analyzer.watch_cluster`).
+
 Stopping
     SIGINT or SIGTERM: no new analysis starts; the running ones finish and are recorded,
     then the watcher exits with code 0. A second signal abandons the running analyses
@@ -97,12 +103,15 @@ from multiprocessing.context import ForkServerContext, SpawnContext
 from multiprocessing.process import BaseProcess
 from pathlib import Path
 from types import FrameType
+from typing import Any
 
 from analyzer.errors import AnalyzerError, UsageError, one_line
 from analyzer.paging import tune_heap
+from analyzer.parallel import DaskExecutor
 from analyzer.pipeline import RunOptions, analyze, sha256_of, write_atomic, write_outputs
 from analyzer.report.jobs import PRELOAD_MODULE
 from analyzer.scratch import hold, make_scratch, remove_scratch
+from analyzer.watch_cluster import ClusterTask, warm_worker
 from analyzer.watch_inbox import (
     INCOMPLETE_TIMEOUT_S,
     ReadyArchive,
@@ -200,25 +209,32 @@ def _prepare(settings: WatchSettings) -> set[str]:
 # --------------------------------------------------------------------------- analysis process
 
 
+def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: Path) -> int:
+    """One archive's analysis: the outputs of ``analyzer run`` into ``out_dir``, or
+    ``out_dir/error.txt``, with ``work`` as its scratch space. Returns the exit code: 0/1
+    analyzed (no fault/fault), 2 input error, 3 bug."""
+    try:
+        analysis = analyze(inputs, options, work)
+        write_outputs(analysis, out_dir)
+        return 1 if analysis.faulty else 0
+    except AnalyzerError as err:
+        write_atomic(out_dir / "error.txt", one_line(err) + "\n")
+        return 2
+    except Exception as err:  # noqa: BLE001 - recorded as this archive's error
+        text = f"internal error: {type(err).__name__}: {one_line(err)}"
+        write_atomic(out_dir / "error.txt", f"{text}\n\n{traceback.format_exc()}")
+        return 3
+
+
 def _analyze_into(inputs: list[str], options: RunOptions, out: str, work_dir: str) -> None:
-    """Body of an analysis process: the outputs of ``analyzer run`` into ``out``, or
-    ``out/error.txt``. Exit code 0/1 analyzed (no fault/fault), 2 input error, 3 bug."""
+    """Body of an analysis process: :func:`analysis_into`, its code the exit code."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is for the watcher to handle
-    out_dir = Path(out)
     work = Path(work_dir)  # the watcher's: it removes it however this process ends
     hold(work)  # and if the watcher is killed, it stays while this process uses it
     tune_heap()  # this process is the analysis's own (see analyzer.paging.tune_heap)
     code = 3
     try:
-        analysis = analyze(inputs, options, work)
-        write_outputs(analysis, out_dir)
-        code = 1 if analysis.faulty else 0
-    except AnalyzerError as err:
-        write_atomic(out_dir / "error.txt", one_line(err) + "\n")
-        code = 2
-    except Exception as err:  # noqa: BLE001 - recorded as this archive's error
-        text = f"internal error: {type(err).__name__}: {one_line(err)}"
-        write_atomic(out_dir / "error.txt", f"{text}\n\n{traceback.format_exc()}")
+        code = analysis_into(inputs, options, Path(out), work)
     finally:
         remove_scratch(work)
     sys.exit(code)
@@ -276,14 +292,23 @@ class _Job:
     archive: ReadyArchive
     sha256: str
     scratch: Path
-    process: BaseProcess
+    process: BaseProcess | ClusterTask
     started: float
-    work: Path
+    work: Path | None
     """The analysis's scratch space (memory-mapped arrays of a long archive): made and
-    removed by the watcher, so a killed analysis leaves nothing behind."""
+    removed by the watcher, so a killed analysis leaves nothing behind (None on a
+    cluster: the worker has its own)."""
 
     def remove_work(self) -> None:
-        remove_scratch(self.work)
+        if self.work is not None:
+            remove_scratch(self.work)
+
+
+def _warm_cluster(cluster: DaskExecutor) -> None:
+    """:func:`~analyzer.watch_cluster.warm_worker` on every worker (imports and compiled
+    kernels), while the first archives settle."""
+    with contextlib.suppress(Exception):
+        cluster.client.run(warm_worker)
 
 
 def _free_name(folder: Path, name: str) -> Path:
@@ -306,6 +331,7 @@ class _Runner:
         options: RunOptions,
         ledger: Ledger,
         stopping: threading.Event,
+        cluster: DaskExecutor | None = None,
     ) -> None:
         self.settings = settings
         self.stopping = stopping
@@ -315,8 +341,19 @@ class _Runner:
         )
         self.queue: dict[str, ReadyArchive] = {}
         self.running: dict[str, _Job] = {}
+        self.cluster = cluster
+        self.slots = settings.jobs
         self.ctx = _context()
-        if self.ctx.get_start_method() == "forkserver":
+        self.cluster_options: Any = None
+        if cluster is not None:
+            # one analysis per worker thread, each on that thread; the options (with a
+            # saved model: megabytes) go to the workers once, not with every archive
+            self.slots = cluster.workers
+            self.cluster_options = cluster.scatter(replace(self.options, scheduler=None, jobs=1))
+            threading.Thread(
+                target=_warm_cluster, args=(cluster,), name="analyzer-watch-warm-up", daemon=True
+            ).start()
+        elif self.ctx.get_start_method() == "forkserver":
             threading.Thread(target=_warm_up, name="analyzer-watch-warm-up", daemon=True).start()
 
     def offer(self, archive: ReadyArchive) -> None:
@@ -330,7 +367,7 @@ class _Runner:
         """Record the analyses that ended (waiting up to ``wait`` seconds for one), then
         start queued ones while there are free slots."""
         self._reap(wait)
-        while start and len(self.running) < self.settings.jobs:
+        while start and len(self.running) < self.slots:
             name = next((n for n in self.queue if n not in self.running), None)
             if name is None:
                 break
@@ -367,15 +404,21 @@ class _Runner:
                 "%s: analyzing although it still looks unfinished: %s", name, archive.incomplete
             )
         scratch = scratch_dir(self.settings.reports, name)
-        work = make_scratch("analyzer-watch-")
-        process = self.ctx.Process(
-            target=_analyze_into,
-            args=([str(p) for p in archive.paths], self._options(), str(scratch), str(work)),
-            name=f"analyzer-watch {name}",
-            daemon=True,
-        )
-        with _one_blas_thread():
-            process.start()
+        inputs = [str(p) for p in archive.paths]
+        process: BaseProcess | ClusterTask
+        work = None
+        if self.cluster is not None:
+            process = ClusterTask(self.cluster, inputs, self.cluster_options, scratch)
+        else:
+            work = make_scratch("analyzer-watch-")
+            process = self.ctx.Process(
+                target=_analyze_into,
+                args=(inputs, self._options(), str(scratch), str(work)),
+                name=f"analyzer-watch {name}",
+                daemon=True,
+            )
+            with _one_blas_thread():
+                process.start()
         self.running[name] = _Job(archive, digest, scratch, process, time.monotonic(), work)
         size = sum(s[1] for s in archive.signature)
         log.info(
@@ -560,58 +603,80 @@ def watch(
         failed=settings.failed.absolute() if settings.failed else None,
     )
     exclude = _prepare(settings)
-    with ReportsLock(settings.reports):
-        ledger = Ledger.load(settings.reports)
-        for name in ledger.tidy():
-            log.info("%s: its report folder is gone; it will be analyzed again", name)
-        ledger.save()
-        runner = _Runner(settings, options, ledger, stop)
-        how = f"polling every {settings.poll:g} s" if settings.poll else "file events"
-        log.info(
-            "watching %s (%s, settle %g s); reports in %s; %d analysis process%s",
-            settings.inbox,
-            how,
-            settings.settle,
-            settings.reports,
-            settings.jobs,
-            "" if settings.jobs == 1 else "es",
-        )
-        batches = ready_batches(
-            settings.inbox,
-            settle=settings.settle,
-            poll=settings.poll,
-            group_by=settings.group_by,
-            exclude=exclude,
-            stop=stop,
-            once=settings.once,
-            incomplete_timeout=settings.incomplete_timeout,
-            yield_on_timeout=True,
-        )
-        try:
-            with contextlib.closing(batches):
-                for batch in batches:
-                    for archive in batch:
-                        runner.offer(archive)
-                    runner.pump()
-            while settings.once and runner.busy() and not stop.is_set():
-                runner.pump(wait=TICK_S)
-            if runner.running and not abandon.is_set():
-                log.info(
-                    "stopping: waiting for %d running analysis(es) to finish "
-                    "(signal again to abandon them)",
-                    len(runner.running),
-                )
-                while runner.running and not abandon.is_set():
-                    runner.pump(wait=TICK_S, start=False)
-        finally:
-            runner.abandon_all()
-            if runner.queue:
-                log.info(
-                    "%d ready archive(s) not started; they are analyzed on the next start",
-                    len(runner.queue),
-                )
-        log.info("stopped")
+    # the scheduler is contacted before REPORTS is locked: an unreachable one is exit 2 at once
+    cluster = DaskExecutor(options.scheduler) if options.scheduler else None
+    with contextlib.ExitStack() as stack:
+        if cluster is not None:
+            stack.callback(cluster.close)
+        stack.enter_context(ReportsLock(settings.reports))
+        _watch_locked(settings, options, stop, abandon, exclude, cluster)
     return 0
+
+
+def _watch_locked(
+    settings: WatchSettings,
+    options: RunOptions,
+    stop: threading.Event,
+    abandon: threading.Event,
+    exclude: set[str],
+    cluster: DaskExecutor | None,
+) -> None:
+    """:func:`watch` once REPORTS is locked (and the cluster, if any, connected)."""
+    ledger = Ledger.load(settings.reports)
+    for name in ledger.tidy():
+        log.info("%s: its report folder is gone; it will be analyzed again", name)
+    ledger.save()
+    runner = _Runner(settings, options, ledger, stop, cluster)
+    how = f"polling every {settings.poll:g} s" if settings.poll else "file events"
+    if cluster is None:
+        where = f"{settings.jobs} analysis process{'' if settings.jobs == 1 else 'es'}"
+    else:
+        where = (
+            f"analyses as cluster tasks {cluster.describe()[4:]} (the workers read the archives)"
+        )
+    log.info(
+        "watching %s (%s, settle %g s); reports in %s; %s",
+        settings.inbox,
+        how,
+        settings.settle,
+        settings.reports,
+        where,
+    )
+    batches = ready_batches(
+        settings.inbox,
+        settle=settings.settle,
+        poll=settings.poll,
+        group_by=settings.group_by,
+        exclude=exclude,
+        stop=stop,
+        once=settings.once,
+        incomplete_timeout=settings.incomplete_timeout,
+        yield_on_timeout=True,
+    )
+    try:
+        with contextlib.closing(batches):
+            for batch in batches:
+                for archive in batch:
+                    runner.offer(archive)
+                runner.pump()
+        while settings.once and runner.busy() and not stop.is_set():
+            runner.pump(wait=TICK_S)
+        if runner.running and not abandon.is_set():
+            log.info(
+                "stopping: waiting for %d running analysis(es) to finish "
+                "(signal again to abandon them)",
+                len(runner.running),
+            )
+            while runner.running and not abandon.is_set():
+                runner.pump(wait=TICK_S, start=False)
+    finally:
+        runner.abandon_all()
+        if runner.queue:
+            log.info(
+                "%d ready archive(s) not started; they are analyzed on the next start",
+                len(runner.queue),
+            )
+    log.info("stopped")
 
 
 class _StderrFormatter(logging.Formatter):

@@ -344,16 +344,23 @@ def test_spill_converts_a_long_row_a_piece_at_a_time(tmp_path, monkeypatch):
 _FAULTS_OF_A_BLOCK_LOOP = """
 import resource, sys
 import numpy as np
-from analyzer.paging import tune_heap
-if sys.argv[1] == "tuned":
-    assert tune_heap()
+from analyzer.paging import heap_tuned, tune_heap
 def faults():
     return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
-np.ones(1 << 20).sum()  # 8 MB: the first one is mapped either way
-before = faults()
-for _ in range(40):  # a pass's block arrays: the same size allocated and freed again
-    np.ones(1 << 20).sum()
-print(faults() - before)
+def loop():
+    np.ones(1 << 20).sum()  # 8 MB: the first one is mapped either way
+    before = faults()
+    for _ in range(40):  # a pass's block arrays: the same size allocated and freed again
+        np.ones(1 << 20).sum()
+    return faults() - before
+if sys.argv[1] == "tuned":
+    assert tune_heap()
+if sys.argv[1] in ("block", "after"):
+    with heap_tuned(), heap_tuned():  # (nested: restored when the outer one ends)
+        inside = loop()
+    print(inside if sys.argv[1] == "block" else loop())
+else:
+    print(loop())
 """
 
 
@@ -374,3 +381,24 @@ def test_tune_heap_keeps_freed_blocks_for_the_next_allocation():
     # zeroed by the kernel each time); tuned, the freed block is reused from the heap
     assert counts["default"] >= 40, counts  # at least a fault per block (huge pages: few)
     assert counts["tuned"] < counts["default"] / 10, counts
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt")
+def test_heap_tuned_tunes_a_dask_worker_s_heap_for_a_block_then_restores_it():
+    import os
+    import subprocess
+
+    env = dict(os.environ, MALLOC_TRIM_THRESHOLD_="65536")  # as Dask's nanny starts workers
+    counts = {}
+    for how in ("default", "block", "after"):
+        out = subprocess.run(
+            [sys.executable, "-c", _FAULTS_OF_A_BLOCK_LOOP, how],
+            capture_output=True,
+            text=True,
+            check=True,
+            env=env,
+        )
+        counts[how] = int(out.stdout.split()[-1])
+    assert counts["default"] >= 40, counts
+    assert counts["block"] < counts["default"] / 10, counts
+    assert counts["after"] >= 40, counts  # the worker's own setting is back

@@ -1,0 +1,141 @@
+"""``analyzer watch --scheduler ADDRESS``: each archive's analysis is a task of a Dask
+cluster, and the worker that runs it reads the archive itself.
+
+A year of hourly files is 8 760 independent analyses: the watcher keeps the queue, the
+state and the index, and sends each archive's *paths* to the cluster, never its data. A
+worker reads the files (so INBOX must be at the same path on every worker: a shared or
+network file system), analyzes them in a scratch directory of its own, and returns the
+report's files (``findings.json``, ``report.html``, ``corrected.csv`` with
+``--corrected``), which the watcher writes and publishes exactly as for a local
+analysis; REPORTS need not be visible to the workers. The analyses are the local
+watcher's, so are their findings (``tests/watch/test_watch_cluster.py``).
+
+As many analyses are in flight as the cluster has worker threads (each runs on one
+thread, with the BLAS threads its worker was started with). A worker that cannot see an
+archive's files records an error naming the file and the worker; a task that fails on the
+cluster (its worker lost twice, say) records an error too, never a silent gap. Stopping
+cancels the tasks not yet started; a task already running on a worker cannot be
+interrupted there: it finishes and its result is dropped (it is analyzed again on the
+next start, as a local analysis that was abandoned).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import socket
+import threading
+from pathlib import Path
+from typing import Any
+
+from analyzer.errors import one_line
+from analyzer.paging import heap_tuned
+from analyzer.parallel import DaskExecutor
+from analyzer.pipeline import RunOptions, write_atomic
+
+CANCELLED = -15
+"""The exit code a cancelled task reports (as a process ended by SIGTERM would)."""
+
+
+def analyze_on_worker(inputs: list[str], options: RunOptions) -> tuple[int, dict[str, bytes]]:
+    """Body of a cluster task: the analysis of ``inputs`` (paths as the watcher sees them)
+    in a scratch directory of this worker; returns the exit code (0/1 analyzed, 2 input
+    error, 3 internal error) and the output files by name."""
+    from analyzer.scratch import scratch
+    from analyzer.watch import analysis_into
+
+    missing = [p for p in inputs if not os.path.exists(p)]
+    if missing:
+        return 2, {
+            "error.txt": (
+                f"{missing[0]}: not found on the cluster worker {socket.gethostname()} (the "
+                "workers read the archives themselves: INBOX must be at the same path on "
+                "every worker)\n"
+            ).encode()
+        }
+    # (a worker's heap as Dask leaves it would make the analysis take twice the CPU)
+    with heap_tuned(), scratch("analyzer-worker-") as tmp:
+        out, work = tmp / "out", tmp / "work"
+        out.mkdir()
+        work.mkdir()
+        code = analysis_into(inputs, options, out, work)
+        return code, {f.name: f.read_bytes() for f in sorted(out.iterdir()) if f.is_file()}
+
+
+def warm_worker() -> bool:
+    """Run once on every worker at start-up: import the pipeline and the report's figure
+    module and load the compiled kernels (:mod:`analyzer.warm`), so the first archives do
+    not pay for them."""
+    import analyzer.pipeline  # noqa: F401
+    from analyzer.report.jobs import FIGURES_MODULE
+    from analyzer.warm import warm
+
+    with contextlib.suppress(Exception):
+        __import__(FIGURES_MODULE)
+    return warm()
+
+
+class ClusterTask:
+    """One archive's analysis on the cluster, behind the part of the interface of
+    :class:`multiprocessing.Process` the watcher uses: ``sentinel`` (a pipe that becomes
+    readable when the task ends, for ``multiprocessing.connection.wait``), ``exitcode``,
+    ``join``, ``is_alive``, ``terminate``/``kill`` (cancel). ``join`` writes the task's
+    files into ``out``, the archive's report folder under its temporary name."""
+
+    def __init__(self, executor: DaskExecutor, inputs: list[str], options: Any, out: Path) -> None:
+        self.out = out
+        self.exitcode: int | None = None
+        self._read, self._write = os.pipe()
+        self._lock = threading.Lock()
+        self.future = executor.client.submit(analyze_on_worker, inputs, options, pure=False)
+        self.future.add_done_callback(self._ended)
+
+    @property
+    def sentinel(self) -> int:
+        return self._read
+
+    def _ended(self, _future: Any) -> None:  # on the client's thread
+        with self._lock, contextlib.suppress(OSError):
+            if self._write >= 0:
+                os.write(self._write, b"x")
+
+    def is_alive(self) -> bool:
+        return self.exitcode is None and not self.future.done()
+
+    def join(self, timeout: float | None = None) -> None:
+        if self.exitcode is not None:
+            return
+        try:
+            code, files = self.future.result(timeout=timeout)
+        except TimeoutError:
+            return
+        except BaseException as err:  # noqa: BLE001 - recorded as this archive's error
+            if self.future.cancelled():
+                code, files = CANCELLED, {}
+            else:
+                text = (
+                    f"internal error: the analysis task failed on the cluster: "
+                    f"{type(err).__name__}: {one_line(err)}\n"
+                )
+                code, files = 3, {"error.txt": text.encode()}
+        for name, data in files.items():
+            write_atomic(self.out / Path(name).name, data)
+        self.exitcode = code
+        self._close()
+
+    def terminate(self) -> None:
+        """Cancel the task: one not yet started never runs; one running on a worker
+        finishes there, and its result is dropped."""
+        self.future.cancel()
+
+    kill = terminate
+
+    def _close(self) -> None:
+        with self._lock:
+            for fd in (self._read, self._write):
+                with contextlib.suppress(OSError):
+                    os.close(fd)
+            self._read = self._write = -1
+
+
+__all__ = ["CANCELLED", "ClusterTask", "analyze_on_worker", "warm_worker"]
