@@ -21,6 +21,7 @@ next start, as a local analysis that was abandoned).
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import os
 import socket
@@ -109,7 +110,7 @@ class ClusterTask:
             code, files = self.future.result(timeout=timeout)
         except TimeoutError:
             return
-        except BaseException as err:  # noqa: BLE001 - recorded as this archive's error
+        except (Exception, asyncio.CancelledError) as err:  # recorded as this archive's
             if self.future.cancelled():
                 code, files = CANCELLED, {}
             else:
