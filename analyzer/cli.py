@@ -261,7 +261,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         return run(args.inputs, Path(args.out), _run_options(args))
     from analyzer.paging import tune_heap
 
-    tune_heap()  # the process is the run's own: glibc may keep what it frees for reuse
+    if not args.scheduler:  # (a cluster's client frees the blocks it sends: let them go)
+        tune_heap()  # the process is the run's own: glibc may keep what it frees for reuse
     with contextlib.ExitStack() as stack:
         with _sigterm_after_imports():
             from analyzer.report.workers import figure_workers
