@@ -80,6 +80,10 @@ class RunOptions:
     model: SavedModel | None = None
     """``--model``: fitted models to run instead of fitting on this archive."""
     model_path: str | None = None
+    model_sha256: str | None = None
+    """The SHA-256 of the model file as it was read (``findings.json``'s ``model``): taken
+    when the file is loaded, so a watcher that runs for weeks names the model it uses,
+    not a file replaced since, and a cluster worker need not see the file."""
     save_model: Path | None = None
     """``--save-model``: where to write this run's fitted models."""
 
@@ -364,9 +368,12 @@ def _reuse_note(model: SavedModel, options: RunOptions, warm_s: float) -> str:
 
 def _model_info(model: SavedModel, options: RunOptions) -> dict[str, Any]:
     path = Path(options.model_path) if options.model_path else None
+    digest = options.model_sha256
+    if digest is None and path is not None and path.is_file():
+        digest = sha256_of(path)
     return {
         "path": str(path) if path else None,
-        "sha256": sha256_of(path) if path is not None and path.is_file() else None,
+        "sha256": digest,
         **model.describe(),
     }
 
@@ -1359,6 +1366,8 @@ def load_options(config_path: str | None, **kw: Any) -> RunOptions:
             raise UsageError("--save-model: not used with --model (nothing is fitted)")
         kw["model"] = load_model(model_path)
         kw["model_path"] = str(model_path)
+        with contextlib.suppress(OSError):  # (read a moment ago: gone only in a race)
+            kw["model_sha256"] = sha256_of(Path(model_path))
     if save is not None:
         kw["save_model"] = Path(save)
         check_model_path(kw["save_model"])

@@ -5,6 +5,7 @@ one task) is checked on its own with plain futures: results, failures and cancel
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import os
@@ -168,3 +169,38 @@ def test_a_failed_task_is_an_error_record_and_a_cancelled_one_is_abandoned(
     other.join(timeout=1)
     assert other.exitcode == CANCELLED and list(other.out.iterdir()) == []
     assert os.listdir(tmp_path / "b" / "out") == []
+
+
+def test_cluster_watcher_with_a_saved_model_gives_the_local_records(
+    cluster: Any, tmp_path: Path
+) -> None:
+    from dataclasses import replace
+
+    from analyzer.pipeline import load_options
+
+    write(tmp_path / "healthy.mcap", "mcap", seed=5)
+    model = tmp_path / "building.model"
+    fit = ["run", str(tmp_path / "healthy.mcap"), "--out", str(tmp_path / "fit")]
+    assert main([*fit, "--train", "0:30", "--save-model", str(model), "--no-progress"]) == 0
+    inbox = tmp_path / "inbox"
+    inbox.mkdir()
+    write(inbox / "a.mcap", "mcap", seed=6)
+    write(inbox / "b.mcap", "mcap", seed=7, fault=True)
+    saved = load_options(None, model=str(model))  # as the command line loads it
+    moved = tmp_path / "moved.model"
+    os.replace(model, moved)  # the workers need not see the file, nor the watcher after
+    local, remote = tmp_path / "local", tmp_path / "remote"
+    settings = WatchSettings(inbox, local, settle=0.2, once=True, jobs=2)
+    assert watch(settings, saved) == 0
+    on_cluster = replace(saved, scheduler=cluster.scheduler_address)
+    assert watch(WatchSettings(inbox, remote, settle=0.2, once=True), on_cluster) == 0
+    records = _records(remote)
+    assert records == _records(local)
+    assert records["b.mcap"]["verdict"] == "fault" and records["b.mcap"]["faulty_sensors"]
+    for name in ("a.mcap", "b.mcap"):
+        ours, theirs = (
+            json.loads((d / name / "findings.json").read_text()) for d in (remote, local)
+        )
+        assert ours["model"] == theirs["model"]
+        assert ours["model"]["sha256"] == hashlib.sha256(moved.read_bytes()).hexdigest()
+        assert ours["faults"] == theirs["faults"]
