@@ -63,7 +63,8 @@ Running
 
 On a cluster
     With ``--scheduler ADDRESS`` each archive's analysis is a task of that Dask cluster,
-    one per worker thread at a time, and the worker reads the archive's files itself
+    one per worker thread at a time (``--jobs`` does not apply), and the worker reads the
+    archive's files itself
     (INBOX at the same path on every worker); the report's files come back to the
     watcher, which publishes and records them as above (:mod:`analyzer.watch_cluster`).
 
