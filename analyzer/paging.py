@@ -422,9 +422,11 @@ def tune_heap() -> bool:
     A run allocates and frees the same few-MB block arrays thousands of times on its
     threads; by default glibc returns a thread heap's free top as soon as it exceeds twice
     the (dynamic) mmap threshold, so the next block's pages are faulted in and zeroed by
-    the kernel again. Kept, they are reused: on the 4-hour 16-channel MCAP archive system
-    time fell by ~0.5 s and wall time by ~5 %, peak RSS rose by 20-40 MB (it still falls
-    back between passes, where :func:`trim_heap` trims every heap). Process-wide, so it is
+    the kernel again. Kept, they are reused: on the 4-hour 16-channel archives system
+    time fell by 0.3-0.6 s and 11 of 13 alternating pairs of runs were faster, by 2-4 % at
+    the median (within the machine's noise in a benchmark's medians); peak RSS rose by
+    20-50 MB (it still falls back between passes, where :func:`trim_heap` trims every
+    heap). On a Dask worker the difference is large (:func:`heap_tuned`). Process-wide, so it is
     called by the command line (``analyzer run``, the watcher's analyses), not by the
     library; in a process that is not the analyzer's own, :func:`heap_tuned`. Returns
     False where the C library is not glibc (nothing changed)."""
@@ -434,17 +436,26 @@ def tune_heap() -> bool:
 _GLIBC_DEFAULT_THRESHOLD = 128 * 1024  # both thresholds' initial value (malloc.c)
 
 
-def _mallopt(trim: int, mmap_at: int) -> bool:
-    if _TRIM is None:
-        return False
+def _mallopt_function() -> Any:
+    if _TRIM is None:  # not glibc
+        return None
     try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        mallopt = libc.mallopt
+        fn = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").mallopt
     except (OSError, AttributeError):
+        return None
+    fn.argtypes = (ctypes.c_int, ctypes.c_int)
+    return fn
+
+
+_MALLOPT = _mallopt_function()
+
+
+def _mallopt(trim: int, mmap_at: int) -> bool:
+    """glibc's trim and mmap thresholds set; False where there is no ``mallopt``."""
+    if _MALLOPT is None:
         return False
-    mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
-    ok = mallopt(_M_MMAP_THRESHOLD, mmap_at) == 1
-    return bool(mallopt(_M_TRIM_THRESHOLD, trim) == 1 and ok)
+    ok = _MALLOPT(_M_MMAP_THRESHOLD, mmap_at) == 1
+    return bool(_MALLOPT(_M_TRIM_THRESHOLD, trim) == 1 and ok)
 
 
 def _environment_threshold(name: str) -> int:

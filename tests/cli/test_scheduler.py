@@ -97,6 +97,39 @@ def test_workers_have_one_blas_thread(dask_ex):
     assert "without OPENBLAS_NUM_THREADS" not in dask_ex.describe()
 
 
+def _block_faults(_: object = None) -> int:
+    """Page faults of 40 rounds of an 8 MB block array allocated and freed, in this
+    process (a worker's)."""
+    import resource
+
+    def faults() -> int:
+        return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+
+    np.ones(1 << 20).sum()
+    before = faults()
+    for _ in range(40):
+        np.ones(1 << 20).sum()
+    return faults() - before
+
+
+def _trim_setting() -> str | None:
+    return os.environ.get("MALLOC_TRIM_THRESHOLD_")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt")
+def test_tasks_run_with_the_heap_tuned_on_dask_s_workers(dask_ex):
+    settings = set(dask_ex.client.run(_trim_setting).values())
+    if settings != {"65536"}:
+        pytest.skip(f"this Dask starts its workers with MALLOC_TRIM_THRESHOLD_={settings}")
+    # a plain task: each freed block goes back to the kernel and is faulted in again
+    raw = dask_ex.client.submit(_block_faults, pure=False).result()
+    mapped = dask_ex.map(_block_faults, [None, None])  # the executor's tasks: tuned
+    submitted = dask_ex.submit(_block_faults, None).result()
+    again = dask_ex.client.submit(_block_faults, pure=False).result()  # restored after
+    assert raw >= 40 and again >= 40, (raw, again)
+    assert max(*mapped, submitted) < raw / 10, (raw, mapped, submitted)
+
+
 def test_dask_map_keeps_order_and_error_types(dask_ex):
     items = [np.full(100 + k, float(k)) for k in range(9)]
     out = dask_ex.map(_double, items)
