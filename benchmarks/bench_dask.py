@@ -29,12 +29,15 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy is imported
 
 import argparse  # noqa: E402
+import contextlib  # noqa: E402
 import socket  # noqa: E402
 import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
+from collections.abc import Iterator  # noqa: E402
 from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -63,17 +66,27 @@ def peak_kb() -> int:  # (sent by value: the workers cannot import this script)
     return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
 
 
+def require_distributed(parser: argparse.ArgumentParser) -> None:
+    """A usage error of ``parser`` when the ``distributed`` extra is not installed."""
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        parser.error("needs the distributed extra: pip install -e '.[distributed]'")
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
 
 
-def cluster_run(archive: Path, out: Path, log: Path, root: Path, workers: int):
-    """``archive`` analyzed on a fresh local cluster (a scheduler and ``workers`` worker
+@contextlib.contextmanager
+def started_cluster(root: Path, workers: int) -> Iterator[tuple[str, Any]]:
+    """A fresh local cluster for one measurement: a scheduler and ``workers`` worker
     processes of one thread each, started as ``dask scheduler`` / ``dask worker`` would
-    be, all importing ``root``'s analyzer: the scheduler unpickles the task graph too, so
-    it must run the same checkout as the run): the run and the workers' peak RSS in MB."""
+    be, all importing ``root``'s analyzer (the scheduler unpickles the task graph too, so
+    it must run the same checkout as the run); yields its address and a client, and
+    stops every process at the end."""
     from distributed import Client
 
     env = dict(os.environ)
@@ -101,8 +114,7 @@ def cluster_run(archive: Path, out: Path, log: Path, root: Path, workers: int):
                 )
             )  # fmt: skip
             client.wait_for_workers(workers, timeout=120)
-            run = run_child(archive, out, log, extra=["--scheduler", address], root=root)
-            peaks = sorted(v / 1024.0 for v in client.run(peak_kb).values())
+            yield address, client
     finally:
         for proc in reversed(procs):
             proc.terminate()
@@ -110,6 +122,14 @@ def cluster_run(archive: Path, out: Path, log: Path, root: Path, workers: int):
                 proc.wait(timeout=30)
             except subprocess.TimeoutExpired:
                 proc.kill()
+
+
+def cluster_run(archive: Path, out: Path, log: Path, root: Path, workers: int):
+    """``archive`` analyzed on a fresh local cluster (:func:`started_cluster`): the run
+    and the workers' peak RSS in MB."""
+    with started_cluster(root, workers) as (address, client):
+        run = run_child(archive, out, log, extra=["--scheduler", address], root=root)
+        peaks = sorted(v / 1024.0 for v in client.run(peak_kb).values())
     return run, peaks
 
 
@@ -125,10 +145,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=1, help="runs of each kind, in turns")
     parser.add_argument("--baseline-src", metavar="DIR", help="another checkout's cluster run")
     args = parser.parse_args(argv)
-    try:
-        import distributed  # noqa: F401
-    except ImportError:
-        parser.error("needs the distributed extra: pip install -e '.[distributed]'")
+    require_distributed(parser)
     if args.workers < 1 or args.repeat < 1:
         parser.error("--workers and --repeat must be >= 1")
     hours = [float(h) for h in parse_list(args.hours)]

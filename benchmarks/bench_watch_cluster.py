@@ -34,7 +34,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_bank import revision  # noqa: E402
-from bench_dask import free_port, peak_kb  # noqa: E402
+from bench_dask import peak_kb, require_distributed, started_cluster  # noqa: E402
 from bench_pipeline import RATE_HZ, byte_compile, parse_list, write_pieces  # noqa: E402
 
 ENV = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", PYTHONPATH=str(ROOT))
@@ -82,39 +82,11 @@ def records(reports: Path) -> dict[str, Any]:
 
 
 def on_cluster(inbox: Path, reports: Path, extra: list[str], workers: int) -> tuple[Any, ...]:
-    """:func:`watch_once` with ``--scheduler`` on a fresh local cluster (``dask
-    scheduler`` and ``workers`` worker processes of one thread each, as they would be
-    started by hand); also the workers' peak RSS in MB."""
-    from distributed import Client
-
-    address = f"tcp://127.0.0.1:{free_port()}"
-    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "env": ENV, "cwd": ROOT}
-    procs = [
-        subprocess.Popen(
-            [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
-             "--port", address.rsplit(":", 1)[1], "--dashboard-address", ":0"],
-            **quiet,
-        )
-    ]  # fmt: skip
-    try:
-        with Client(address, timeout=60) as client:
-            procs.append(
-                subprocess.Popen(
-                    [sys.executable, "-m", "distributed.cli.dask_worker", address,
-                     "--nworkers", str(workers), "--nthreads", "1", "--no-dashboard"],
-                    **quiet,
-                )
-            )  # fmt: skip
-            client.wait_for_workers(workers, timeout=120)
-            wall, peak, code = watch_once(inbox, reports, [*extra, "--scheduler", address])
-            peaks = sorted(v / 1024.0 for v in client.run(peak_kb).values())
-    finally:
-        for proc in reversed(procs):
-            proc.terminate()
-            try:
-                proc.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                proc.kill()
+    """:func:`watch_once` with ``--scheduler`` on a fresh local cluster
+    (:func:`bench_dask.started_cluster`); also the workers' peak RSS in MB."""
+    with started_cluster(ROOT, workers) as (address, client):
+        wall, peak, code = watch_once(inbox, reports, [*extra, "--scheduler", address])
+        peaks = sorted(v / 1024.0 for v in client.run(peak_kb).values())
     return wall, peak, code, peaks
 
 
@@ -130,10 +102,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--keep", metavar="DIR", help="write (and reuse) the files in DIR")
     parser.add_argument("--model", action="store_true", help="test every file against one model")
     args = parser.parse_args(argv)
-    try:
-        import distributed  # noqa: F401
-    except ImportError:
-        parser.error("needs the distributed extra: pip install -e '.[distributed]'")
+    require_distributed(parser)
     if args.files < 1 or args.workers < 1:
         parser.error("--files and --workers must be >= 1")
     formats = parse_list(args.formats)
