@@ -86,6 +86,7 @@ class ClusterTask:
     def __init__(self, executor: DaskExecutor, inputs: list[str], options: Any, out: Path) -> None:
         self.out = out
         self.exitcode: int | None = None
+        self._abandoned = False  # cancelled by the watcher (not by the cluster)
         self._read, self._write = os.pipe()
         self._lock = threading.Lock()
         self.future = executor.client.submit(analyze_on_worker, inputs, options, pure=False)
@@ -111,13 +112,13 @@ class ClusterTask:
         except TimeoutError:
             return
         except (Exception, asyncio.CancelledError) as err:  # recorded as this archive's
-            if self.future.cancelled():
+            if self._abandoned:
                 code, files = CANCELLED, {}
-            else:
-                text = (
-                    f"internal error: the analysis task failed on the cluster: "
-                    f"{type(err).__name__}: {one_line(err)}\n"
-                )
+            else:  # failed, or cancelled by the cluster (its scheduler lost, say)
+                how = "cancelled by" if self.future.cancelled() else "failed on"
+                why = one_line(err) or "no reason given"
+                text = f"internal error: the analysis task {how} the cluster: "
+                text += f"{type(err).__name__}: {why}\n"
                 code, files = 3, {"error.txt": text.encode()}
         for name, data in files.items():
             write_atomic(self.out / Path(name).name, data)
@@ -127,6 +128,7 @@ class ClusterTask:
     def terminate(self) -> None:
         """Cancel the task: one not yet started never runs; one running on a worker
         finishes there, and its result is dropped."""
+        self._abandoned = True
         self.future.cancel()
 
     kill = terminate

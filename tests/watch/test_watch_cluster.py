@@ -163,12 +163,23 @@ def test_a_failed_task_is_an_error_record_and_a_cancelled_one_is_abandoned(
     assert (task.out / "error.txt").read_text() == (
         "internal error: the analysis task failed on the cluster: RuntimeError: worker lost twice\n"
     )
-    other, ex2 = _task(tmp_path / "b") if (tmp_path / "b").mkdir() is None else (None, None)
-    assert other is not None and ex2 is not None
-    other.terminate()
+    (tmp_path / "b").mkdir()
+    other, _ = _task(tmp_path / "b")
+    other.terminate()  # by the watcher: abandoned, nothing written
     other.join(timeout=1)
     assert other.exitcode == CANCELLED and list(other.out.iterdir()) == []
     assert os.listdir(tmp_path / "b" / "out") == []
+    # cancelled by the cluster, not by the watcher (a scheduler that went away): an error
+    (tmp_path / "c").mkdir()
+    lost, ex3 = _task(tmp_path / "c")
+    ex3.client.future.cancel()
+    lost.join(timeout=1)
+    assert lost.exitcode == 3
+    assert (
+        (lost.out / "error.txt")
+        .read_text()
+        .startswith("internal error: the analysis task cancelled by the cluster: CancelledError")
+    )
 
 
 def test_cluster_watcher_with_a_saved_model_gives_the_local_records(
