@@ -17,7 +17,12 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from test_watch_run import OPTIONS, corrupt_mcap, write  # this folder is on sys.path
+from test_watch_run import (  # this folder is on sys.path
+    OPTIONS,
+    _stop_fork_server,  # noqa: F401 - stops the local watcher's server
+    corrupt_mcap,
+    write,
+)
 
 from analyzer.cli import main
 from analyzer.pipeline import RunOptions
