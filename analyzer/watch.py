@@ -38,7 +38,9 @@ Outputs
     unreadable, too short...); each folder is written under a temporary name and renamed
     into place, so no half-written report folder is ever visible. ``REPORTS/index.html``
     and ``REPORTS/index.json`` list every archive (verdict ``fault``, ``no fault`` or
-    ``error``, faulty sensors, link to the report), newest first.
+    ``error``, faulty sensors, link to the report), newest first, and every fault once
+    across the archives: one that goes on from an archive into the next is one episode
+    (:func:`analyzer.watch_index.episodes`).
 
 Inputs
     Archives are only read, never modified. ``--done DIR`` moves each analyzed archive
@@ -515,6 +517,16 @@ class _Runner:
                 faults = doc["faults"]
                 rec.faulty_sensors = sorted({str(f["channel"]) for f in faults})
                 rec.faults = len(faults)
+                rec.fault_list = [
+                    {
+                        "channel": str(f["channel"]),
+                        "type": str(f["type"]),
+                        "onset": f.get("onset"),
+                        "end": f.get("end"),
+                        "from_start": bool(f.get("evidence", {}).get("onset_at_or_before")),
+                    }
+                    for f in faults
+                ]
                 rec.start = doc.get("start")
                 rec.duration_s = doc.get("duration_s")
                 rec.verdict = Verdict.FAULT if faults else Verdict.NO_FAULT

@@ -22,6 +22,7 @@ import os
 import shutil
 import time
 import uuid
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field, fields
 from enum import StrEnum
 from pathlib import Path
@@ -32,7 +33,8 @@ from urllib.parse import quote
 from analyzer import __version__
 from analyzer.errors import UsageError
 from analyzer.pipeline import write_atomic
-from analyzer.timeutil import iso_utc
+from analyzer.timeutil import iso_utc, parse_time
+from analyzer.types import NS_PER_S
 
 STATE_SCHEMA = "analyzer.watch-state/1"
 INDEX_SCHEMA = "analyzer.watch-index/1"
@@ -72,6 +74,10 @@ class Record:
     duration_s: float | None = None
     signature: list[list[Any]] = field(default_factory=list)
     moved_to: list[str] = field(default_factory=list)
+    fault_list: list[dict[str, Any]] = field(default_factory=list)
+    """Each fault of the archive: ``channel``, ``type``, ``onset`` and ``end`` (ISO-8601
+    UTC; ``end`` None while it lasts to the archive's end) and ``from_start`` (present
+    from the first sample searched: it may have begun before the archive)."""
 
     def as_json(self) -> dict[str, Any]:
         doc = asdict(self)
@@ -247,7 +253,80 @@ class Ledger:
             "updated": now_iso(),
             "counts": counts,
             "archives": rows,
+            "episodes": episodes(self.records.values())[::-1],
         }
+
+
+JOIN_GAP_S = 5.0
+"""Two archives are consecutive when the second starts within this many seconds of the
+first one's end (hourly files of one recorder meet to a sample period)."""
+
+
+def episodes(records: Iterable[Record]) -> list[dict[str, Any]]:
+    """Every fault of the archives, oldest first, joined across consecutive archives
+    where it goes on: a fault that lasts to the end of one archive and is present from
+    the first sample of the next (``from_start``: with ``--model``, which searches a
+    file from its start) on the same sensor is one episode, with the first archive's
+    onset and the last one's end (None while it lasts to the end of the latest). An
+    archive in between without that fault ends the episode. Archives without absolute
+    times are never joined. Each episode: ``channel``, ``types`` (as classified in each
+    archive, in order, each once), ``onset``, ``end``, ``archives``."""
+    timed: list[tuple[int, Record]] = []
+    out: list[dict[str, Any]] = []
+    for rec in records:
+        start = _epoch_ns(rec.start)
+        if start is None or rec.duration_s is None:
+            out.extend(_episode(f, rec.name) for f in rec.fault_list)
+        else:
+            timed.append((start, rec))
+    timed.sort(key=lambda item: (item[0], item[1].name))
+    going: dict[str, tuple[dict[str, Any], int]] = {}  # channel -> (episode, its end in ns)
+    for start, rec in timed:
+        end = start + int(round(float(rec.duration_s or 0.0) * NS_PER_S))
+        # an episode goes on only into the archive that follows its last one
+        going = {
+            ch: (ep, at)
+            for ch, (ep, at) in going.items()
+            if abs(start - at) <= JOIN_GAP_S * NS_PER_S
+        }
+        after: dict[str, tuple[dict[str, Any], int]] = {}
+        for fault in rec.fault_list:
+            channel = str(fault["channel"])
+            earlier = going.pop(channel, None) if fault.get("from_start") else None
+            if earlier is None:
+                ep = _episode(fault, rec.name)
+                out.append(ep)
+            else:
+                ep = earlier[0]
+                ep["archives"].append(rec.name)
+                if fault["type"] not in ep["types"]:
+                    ep["types"].append(fault["type"])
+                ep["end"] = fault.get("end")
+            if fault.get("end") is None:
+                after[channel] = (ep, end)
+        going = after
+    out.sort(key=lambda ep: (_epoch_ns(ep["onset"]) or 0, ep["channel"]))
+    return out
+
+
+def _episode(fault: dict[str, Any], archive: str) -> dict[str, Any]:
+    return {
+        "channel": str(fault["channel"]),
+        "types": [fault["type"]],
+        "onset": fault.get("onset"),
+        "end": fault.get("end"),
+        "archives": [archive],
+    }
+
+
+def _epoch_ns(text: str | None) -> int | None:
+    if not text:
+        return None
+    try:
+        kind, value = parse_time(text)
+    except ValueError:
+        return None
+    return int(value) if kind == "ns" else None
 
 
 @dataclass(frozen=True, slots=True)
@@ -268,6 +347,19 @@ class IndexRow:
 
 
 @dataclass(frozen=True, slots=True)
+class EpisodeRow:
+    """One fault episode in ``index.html`` (:func:`episodes`): display strings only."""
+
+    sensor: str
+    types: str
+    onset: str
+    end: str
+    archives: str
+    href: str
+    """The report of the archive it starts in."""
+
+
+@dataclass(frozen=True, slots=True)
 class IndexView:
     """What ``index.html`` shows (``title`` and ``version`` are the names ``base.html``
     expects of every page)."""
@@ -277,6 +369,7 @@ class IndexView:
     summary: str
     updated: str
     rows: list[IndexRow]
+    episodes: list[EpisodeRow] = field(default_factory=list)
 
 
 def index_view(index: dict[str, Any]) -> IndexView:
@@ -302,6 +395,21 @@ def index_view(index: dict[str, Any]) -> IndexView:
                 is_error=verdict == Verdict.ERROR,
             )
         )
+    hrefs = {row.name: row.href for row in rows}
+    shown = []
+    for ep in index.get("episodes", []):
+        names = list(ep["archives"])
+        span = names[0] if len(names) == 1 else f"{len(names)} archives: {names[0]} to {names[-1]}"
+        shown.append(
+            EpisodeRow(
+                sensor=str(ep["channel"]),
+                types=", ".join(str(t) for t in ep["types"]),
+                onset=str(ep["onset"] or "n/a"),
+                end=str(ep["end"] or f"to the end of {names[-1]}"),
+                archives=span,
+                href=hrefs.get(names[0], ""),
+            )
+        )
     counts = index["counts"]
     summary = (
         f"{len(rows)} archive{'' if len(rows) == 1 else 's'}: "
@@ -314,6 +422,7 @@ def index_view(index: dict[str, Any]) -> IndexView:
         summary=summary,
         updated=str(index["updated"]),
         rows=rows,
+        episodes=shown,
     )
 
 
@@ -325,12 +434,14 @@ def render_index(index: dict[str, Any]) -> str:
 
 
 __all__ = [
+    "EpisodeRow",
     "IndexRow",
     "IndexView",
     "Ledger",
     "Record",
     "ReportsLock",
     "Verdict",
+    "episodes",
     "now_iso",
     "publish",
     "index_view",

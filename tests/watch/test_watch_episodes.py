@@ -1,0 +1,140 @@
+"""The watcher's fault episodes (``index.json``'s ``episodes``, ``index.html``): a fault
+that goes on from one archive into the next is one line, from its first onset to its last
+end; anything in between that breaks the chain (a healthy archive, a gap, a fault that is
+not there from the next archive's start) ends it."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from test_watch_run import (
+    _stop_fork_server,  # noqa: F401 - stops the local watcher's server
+)
+
+from analyzer.cli import main
+from analyzer.pipeline import load_options
+from analyzer.simulate import inject_fault, simulate_building
+from analyzer.watch import WatchSettings, watch
+from analyzer.watch_index import JOIN_GAP_S, Record, Verdict, episodes
+from analyzer.writers import write_archive
+
+
+def _rec(
+    name: str, start: str | None, faults: list[dict[str, Any]], duration: float = 3600.0
+) -> Record:
+    return Record(
+        name=name,
+        sha256="0",
+        verdict=Verdict.FAULT if faults else Verdict.NO_FAULT,
+        report=f"{name}/report.html",
+        inputs=[name],
+        processed="2026-01-02T00:00:00.000Z",
+        analysis_s=1.0,
+        start=start,
+        duration_s=duration,
+        fault_list=faults,
+    )
+
+
+def _f(channel: str, onset: str, end: str | None, from_start: Any, kind: str = "additive"):
+    return {"channel": channel, "type": kind, "onset": onset, "end": end, "from_start": from_start}
+
+
+H0, H1, H2, H3 = (f"2026-03-02T{h:02d}:00:00.000Z" for h in (0, 1, 2, 3))
+
+
+def test_a_fault_going_on_across_hourly_archives_is_one_episode():
+    recs = [
+        _rec("h0", H0, [_f("s5", "2026-03-02T00:30:00.000Z", None, False)]),
+        _rec(
+            "h1", H1, [_f("s5", H1, None, True), _f("s2", "2026-03-02T01:10:00.000Z", None, False)]
+        ),
+        _rec("h2", H2, [_f("s5", H2, "2026-03-02T02:20:00.000Z", True, kind="drift")]),
+    ]
+    eps = episodes(reversed(recs))  # whatever the order they come in
+    assert eps == [
+        {
+            "channel": "s5",
+            "types": ["additive", "drift"],
+            "onset": "2026-03-02T00:30:00.000Z",
+            "end": "2026-03-02T02:20:00.000Z",
+            "archives": ["h0", "h1", "h2"],
+        },
+        {  # lasted to the end of h1, but h2 does not have it from its start
+            "channel": "s2",
+            "types": ["additive"],
+            "onset": "2026-03-02T01:10:00.000Z",
+            "end": None,
+            "archives": ["h1"],
+        },
+    ]
+
+
+def test_what_breaks_an_episode():
+    open_s5 = _f("s5", "2026-03-02T00:30:00.000Z", None, False)
+    # a healthy archive in between
+    eps = episodes(
+        [_rec("h0", H0, [open_s5]), _rec("h1", H1, []), _rec("h2", H2, [_f("s5", H2, None, True)])]
+    )
+    assert [e["archives"] for e in eps] == [["h0"], ["h2"]]
+    # the next archive starts later than the gap allows
+    late = f"2026-03-02T01:00:{JOIN_GAP_S + 1:06.3f}Z"
+    eps = episodes([_rec("h0", H0, [open_s5]), _rec("h1", late, [_f("s5", late, None, True)])])
+    assert [e["archives"] for e in eps] == [["h0"], ["h1"]]
+    # within the gap: joined
+    near = f"2026-03-02T01:00:{JOIN_GAP_S - 1:06.3f}Z"
+    eps = episodes([_rec("h0", H0, [open_s5]), _rec("h1", near, [_f("s5", near, None, True)])])
+    assert [e["archives"] for e in eps] == [["h0", "h1"]]
+    # not there from the next archive's start (a new onset), or ended before its archive did
+    later_onset = _f("s5", "2026-03-02T01:05:00.000Z", None, False)
+    ended = _f("s5", "2026-03-02T00:30:00.000Z", "2026-03-02T00:40:00.000Z", False)
+    for first, second in ((open_s5, later_onset), (ended, _f("s5", H1, None, True))):
+        eps = episodes([_rec("h0", H0, [first]), _rec("h1", H1, [second])])
+        assert [e["archives"] for e in eps] == [["h0"], ["h1"]]
+    # archives without absolute times: each fault on its own
+    eps = episodes([_rec("a", None, [open_s5]), _rec("b", None, [_f("s5", H1, None, True)])])
+    assert [e["archives"] for e in eps] == [["a"], ["b"]]
+
+
+def test_watcher_joins_a_fault_across_two_consecutive_files(tmp_path: Path):
+    """One continuous record cut into a healthy file (the model's) and two files audited
+    with ``--model``: an offset from the middle of the first goes on through the second."""
+    rate = 100.0
+    t, y, names = simulate_building(3, 100.0, rate, seed=11)
+    y[:, 1] = inject_fault(y[:, 1], rate, "additive", 50.0, 8.0 * y[:3000, 1].std())
+    t_ns = np.round(t * 1e9).astype(np.int64)
+
+    def cut(path: Path, a_s: float, b_s: float) -> Path:
+        rows = slice(int(a_s * rate), int(b_s * rate))
+        data = {n: y[rows, i] for i, n in enumerate(names)}
+        # (write_archive puts the first sample at start_iso: each file's own start)
+        begin = f"2026-01-01T00:{int(a_s) // 60:02d}:{a_s % 60:06.3f}Z"
+        write_archive(path, "mcap", t_ns[rows], data, start_iso=begin)
+        return path
+
+    cut(tmp_path / "healthy.mcap", 0.0, 30.0)
+    inbox = tmp_path / "inbox"
+    inbox.mkdir()
+    cut(inbox / "part1.mcap", 30.0, 65.0)
+    cut(inbox / "part2.mcap", 65.0, 100.0)
+    model = tmp_path / "m.model"
+    fit = ["run", str(tmp_path / "healthy.mcap"), "--out", str(tmp_path / "fit")]
+    assert main([*fit, "--train", "0:30", "--save-model", str(model), "--no-progress"]) == 0
+    reports = tmp_path / "reports"
+    options = load_options(None, model=str(model))
+    assert watch(WatchSettings(inbox, reports, settle=0.2, once=True, jobs=2), options) == 0
+
+    index = json.loads((reports / "index.json").read_text())
+    faulty = [e for e in index["episodes"] if e["channel"] == "/s1.data"]
+    assert len(faulty) == 1, index["episodes"]
+    (ep,) = faulty
+    assert ep["archives"] == ["part1.mcap", "part2.mcap"] and ep["types"] == ["additive"]
+    assert abs(
+        np.datetime64(ep["onset"].rstrip("Z")) - np.datetime64("2026-01-01T00:00:50")
+    ) < np.timedelta64(1, "s")
+    assert ep["end"] is None  # it lasts to the end of the latest file
+    page = (reports / "index.html").read_text()
+    assert "2 archives: part1.mcap to part2.mcap" in page
