@@ -98,17 +98,17 @@ def test_workers_have_one_blas_thread(dask_ex):
 
 
 def _block_faults(_: object = None) -> int:
-    """Page faults of 40 rounds of an 8 MB block array allocated and freed, in this
+    """Page faults of 40 rounds of a 16 MB block array allocated and freed, in this
     process (a worker's)."""
     import resource
 
     def faults() -> int:
         return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
 
-    np.ones(1 << 20).sum()
+    np.ones(1 << 21).sum()
     before = faults()
     for _ in range(40):
-        np.ones(1 << 20).sum()
+        np.ones(1 << 21).sum()
     return faults() - before
 
 
@@ -126,8 +126,10 @@ def test_tasks_run_with_the_heap_tuned_on_dask_s_workers(dask_ex):
     mapped = dask_ex.map(_block_faults, [None, None])  # the executor's tasks: tuned
     submitted = dask_ex.submit(_block_faults, None).result()
     again = dask_ex.client.submit(_block_faults, pure=False).result()  # restored after
-    assert raw >= 40 and again >= 40, (raw, again)
-    assert max(*mapped, submitted) < raw / 10, (raw, mapped, submitted)
+    assert raw >= 80 and again >= 80, (raw, again)
+    # (a worker's own threads fault a few pages meanwhile: with 8 MB blocks up to 51 in a
+    # tuned task on a loaded machine, against 200 or more in a plain one)
+    assert max(*mapped, submitted) < raw / 3, (raw, mapped, submitted)
 
 
 def test_dask_map_keeps_order_and_error_types(dask_ex):
