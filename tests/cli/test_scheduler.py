@@ -97,39 +97,23 @@ def test_workers_have_one_blas_thread(dask_ex):
     assert "without OPENBLAS_NUM_THREADS" not in dask_ex.describe()
 
 
-def _block_faults(_: object = None) -> int:
-    """Page faults of 40 rounds of a 16 MB block array allocated and freed, in this
-    process (a worker's)."""
-    import resource
+def _heap_tuned_blocks(_: object = None) -> int:
+    """How many ``heap_tuned`` blocks the task runs in, on its worker."""
+    import analyzer.paging
 
-    def faults() -> int:
-        return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
-
-    np.ones(1 << 21).sum()
-    before = faults()
-    for _ in range(40):
-        np.ones(1 << 21).sum()
-    return faults() - before
+    return analyzer.paging._tuned_blocks
 
 
-def _trim_setting() -> str | None:
-    return os.environ.get("MALLOC_TRIM_THRESHOLD_")
-
-
-@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt")
 def test_tasks_run_with_the_heap_tuned_on_dask_s_workers(dask_ex):
-    settings = set(dask_ex.client.run(_trim_setting).values())
-    if settings != {"65536"}:
-        pytest.skip(f"this Dask starts its workers with MALLOC_TRIM_THRESHOLD_={settings}")
-    # a plain task: each freed block goes back to the kernel and is faulted in again
-    raw = dask_ex.client.submit(_block_faults, pure=False).result()
-    mapped = dask_ex.map(_block_faults, [None, None])  # the executor's tasks: tuned
-    submitted = dask_ex.submit(_block_faults, None).result()
-    again = dask_ex.client.submit(_block_faults, pure=False).result()  # restored after
-    assert raw >= 80 and again >= 80, (raw, again)
-    # (a worker's own threads fault a few pages meanwhile: with 8 MB blocks up to 51 in a
-    # tuned task on a loaded machine, against 200 or more in a plain one)
-    assert max(*mapped, submitted) < raw / 3, (raw, mapped, submitted)
+    """Every task the executor sends runs inside ``heap_tuned`` (what that does to a
+    worker's heap is checked in a clean process: ``tests/store/test_paging.py``; inside
+    a worker, its other threads' allocations make page-fault counts too noisy to test)."""
+    assert dask_ex.client.submit(_heap_tuned_blocks, pure=False).result() == 0  # plain
+    assert dask_ex.map(_heap_tuned_blocks, [None, None]) == [1, 1]
+    assert dask_ex.submit(_heap_tuned_blocks, None).result() == 1
+    assert list(dask_ex.imap(_heap_tuned_blocks, [(np.zeros(1 << 14),)])) == [1]  # scattered
+    # and the worker's own setting is back after each
+    assert set(dask_ex.client.run(_heap_tuned_blocks).values()) == {0}
 
 
 def test_dask_map_keeps_order_and_error_types(dask_ex):
