@@ -251,13 +251,16 @@ def _context() -> ForkServerContext | SpawnContext:
     where there is no fork server."""
     if "forkserver" in multiprocessing.get_all_start_methods():
         ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(["analyzer.watch", PRELOAD_MODULE, WARM_PRELOAD])
+        ctx.set_forkserver_preload(list(PRELOADED))
         return ctx
     return multiprocessing.get_context("spawn")
 
 
 WARM_PRELOAD = "analyzer.warm_preload"
 """The fork server's module that warms the compiled kernels (:mod:`analyzer.warm`)."""
+PRELOADED = ("analyzer.watch", PRELOAD_MODULE, WARM_PRELOAD)
+"""What an analysis finds imported and warmed: in the fork server, and on each worker of
+a cluster (:func:`analyzer.watch_cluster.warm_worker`)."""
 
 BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 _ENV_LOCK = threading.Lock()

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import importlib
 import os
 import socket
 import threading
@@ -64,16 +65,14 @@ def analyze_on_worker(inputs: list[str], options: RunOptions) -> tuple[int, dict
 
 
 def warm_worker() -> bool:
-    """Run once on every worker at start-up: import the pipeline and the report's figure
-    module and load the compiled kernels (:mod:`analyzer.warm`), so the first archives do
-    not pay for them."""
-    import analyzer.pipeline  # noqa: F401
-    from analyzer.report.jobs import FIGURES_MODULE
-    from analyzer.warm import warm
+    """Run once on every worker at start-up: import what the local watcher's fork server
+    preloads (the pipeline, the report's figure module, the compiled kernels loaded:
+    :data:`analyzer.watch.PRELOADED`), so the first archives do not pay for it."""
+    from analyzer.watch import PRELOADED, WARM_PRELOAD
 
-    with contextlib.suppress(Exception):
-        __import__(FIGURES_MODULE)
-    return warm()
+    for name in PRELOADED:
+        importlib.import_module(name)
+    return bool(importlib.import_module(WARM_PRELOAD).WARMED)
 
 
 class ClusterTask:
