@@ -37,6 +37,7 @@ from analyzer.detectors.base import (
     DetectorResult,
     Event,
     RunContext,
+    dilate_forward,
     map_in,
 )
 from analyzer.detectors.lti import (
@@ -1117,7 +1118,7 @@ def bank_block(
         n_gap = gap.sum(axis=1)
         out = np.empty((hi - lo, m), dtype=bool)
         for j in range(m):  # estimator j misses data when any channel but j is missing
-            out[:, j] = _dilate_forward((n_gap - gap[:, j]) > 0, bank.settle[j])[lo - w0 :]
+            out[:, j] = dilate_forward((n_gap - gap[:, j]) > 0, bank.settle[j])[lo - w0 :]
         return out
 
     def scaled(a: int, b: int) -> FloatArray:  # the bank's input, gaps as 0
@@ -1177,7 +1178,7 @@ def estimator_consistency(
     bad = None
     if gap.any():
         others = gap.sum(axis=1) - gap[:, j]  # estimator j misses any channel but j
-        bad = _dilate_forward(others > 0, bank.settle[j])
+        bad = dilate_forward(others > 0, bank.settle[j])
     nis = np.empty(N - warm, NIS_DTYPE)
 
     def scaled(a: int, b: int) -> FloatArray:  # the bank's input, gaps as 0
@@ -1428,16 +1429,6 @@ def _confirmed(own: float, others: float) -> bool:
 
 def _overlaps(a0: int, a1: int, b0: int, b1: int, slack: int) -> bool:
     return a0 < b1 + slack and b0 - slack < a1
-
-
-def _dilate_forward(mask: npt.NDArray[np.bool_], n: int) -> npt.NDArray[np.bool_]:
-    """True wherever ``mask`` was True within the previous ``n`` samples."""
-    if not mask.any():
-        return mask
-    c = np.cumsum(np.concatenate(([0], mask.astype(np.int64))))
-    k = np.arange(mask.shape[0])
-    lo = np.maximum(0, k - n)
-    return (c[k + 1] - c[lo]) > 0
 
 
 __all__ = [

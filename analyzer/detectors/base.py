@@ -227,3 +227,15 @@ def channel_subset(channels: Sequence[str], wanted: Sequence[str]) -> list[int]:
             raise KeyError(name)
         out.append(list(channels).index(name))
     return out
+
+
+def dilate_forward(mask: npt.NDArray[np.bool_], n: int) -> npt.NDArray[np.bool_]:
+    """True wherever ``mask`` was True within the previous ``n`` samples (the samples a
+    filter that settles in ``n`` samples still remembers a gap in); ``mask`` itself when
+    it holds no True."""
+    if not mask.any():
+        return mask
+    c = np.cumsum(np.concatenate(([0], mask.astype(np.int64))))
+    k = np.arange(mask.shape[0])
+    lo = np.maximum(0, k - n)
+    return (c[k + 1] - c[lo]) > 0

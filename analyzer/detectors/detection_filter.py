@@ -88,6 +88,7 @@ from analyzer.detectors.base import (
     DetectorResult,
     Event,
     RunContext,
+    dilate_forward,
     map_in,
 )
 from analyzer.detectors.lowpass import lowpass
@@ -1127,7 +1128,7 @@ class DetectionFilter:
             zeta = out[i, m] * model.y_scale[i]
             ref = out[i, m + 1] * model.y_scale[i] + model.y_mean[i]
             if bad.any():
-                mask = _dilate_forward(bad, f.settle())[start - first :]
+                mask = dilate_forward(bad, f.settle())[start - first :]
                 q[mask] = np.nan
                 zeta[mask] = np.nan
                 ref[mask] = np.nan
@@ -1216,7 +1217,7 @@ class DetectionFilter:
         zeta, ref, nis, bad = outs
         if bad.any():
             for i, f in enumerate(model.filters):
-                mask = _dilate_forward(bad, f.settle())
+                mask = dilate_forward(bad, f.settle())
                 zeta[i, mask] = np.nan
                 ref[i, mask] = np.nan
                 release(zeta[i])
@@ -1248,7 +1249,7 @@ class DetectionFilter:
         for i, f in enumerate(model.filters):
             settle = f.settle()
             first = max(0, s - settle)
-            mask = _dilate_forward(bad[first:hi], settle)[s - first :]
+            mask = dilate_forward(bad[first:hi], settle)[s - first :]
             row = nis[i]
             row[mask] = np.nan
             stats.append(alarm_statistic(row, model.direction_cal[i], raw=True)[lo - s :])
@@ -1341,7 +1342,7 @@ class DetectionFilter:
         pieces = [y[0, : f.n_outputs] for _, y in run_chunked(one, inputs, hi, lo)]
         q = np.concatenate(pieces, axis=1).T * model.model.y_scale
         first = max(0, lo - f.settle())
-        q[_dilate_forward(bad[first:hi], f.settle())[lo - first :]] = np.nan
+        q[dilate_forward(bad[first:hi], f.settle())[lo - first :]] = np.nan
         return q
 
     # -- running -----------------------------------------------------------------------------
@@ -1627,7 +1628,7 @@ def _segment_chunks(seg: _Segment) -> Iterator[tuple[int, FloatArray, FloatArray
     first = 0 if bank.history is None else max(0, start - max(bank.history, *settles))
     cols = list(model.outputs) + list(model.inputs)
     bad = ~finite_rows(values[first:stop], cols, CALIBRATION_ROWS)  # no copy of the rows
-    masks = [_dilate_forward(bad, s)[start - first :] for s in settles] if bad.any() else None
+    masks = [dilate_forward(bad, s)[start - first :] for s in settles] if bad.any() else None
     m = filters[0].n_outputs
     rows = np.array([f.sensor for f in filters])
     scale = model.y_scale
@@ -1760,16 +1761,6 @@ def _mean_angle_deg(q: FloatArray, scale: FloatArray, i: int) -> float | None:
     mean = np.mean(q[good] / scale, axis=0)
     ang = direction_angles(mean[None, :])[0, i]
     return None if not np.isfinite(ang) else float(np.degrees(ang))
-
-
-def _dilate_forward(mask: npt.NDArray[np.bool_], n: int) -> npt.NDArray[np.bool_]:
-    """True wherever ``mask`` was True within the previous ``n`` samples."""
-    if not mask.any():
-        return mask
-    c = np.cumsum(np.concatenate(([0], mask.astype(np.int64))))
-    k = np.arange(mask.shape[0])
-    lo = np.maximum(0, k - n)
-    return (c[k + 1] - c[lo]) > 0
 
 
 __all__ = [

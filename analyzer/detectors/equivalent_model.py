@@ -64,7 +64,14 @@ import numpy.typing as npt
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy import linalg
 
-from analyzer.detectors.base import SIGNAL_DTYPE, Dataset, DetectorResult, Event, RunContext
+from analyzer.detectors.base import (
+    SIGNAL_DTYPE,
+    Dataset,
+    DetectorResult,
+    Event,
+    RunContext,
+    dilate_forward,
+)
 from analyzer.detectors.detection_filter import UNCONFIRMED_FACTOR, long_run_time
 from analyzer.detectors.lowpass import lowpass, recursion
 from analyzer.detectors.network import NetworkDiagnosis, Propagation, SensorNetwork
@@ -1090,7 +1097,7 @@ def _fault_estimate_numpy(
     zeta = -obs.lambda1 * r
     if gap.any():
         phi = float(np.exp(-obs.lambda1 * obs.dt))
-        zeta[_dilate_forward(gap, _settle_samples(rel, phi))] = np.nan
+        zeta[dilate_forward(gap, _settle_samples(rel, phi))] = np.nan
     return zeta, z
 
 
@@ -1209,14 +1216,6 @@ except ImportError:  # pragma: no cover - numba is a dependency; numpy without i
     _observer_kernel = None
 else:
     _observer_kernel = njit(cache=True, nogil=True)(_observer_loop)
-
-
-def _dilate_forward(mask: npt.NDArray[np.bool_], n: int) -> npt.NDArray[np.bool_]:
-    """True wherever ``mask`` was True within the previous ``n`` samples."""
-    c = np.cumsum(np.concatenate(([0], mask.astype(np.int64))))
-    k = np.arange(mask.shape[0])
-    lo = np.maximum(0, k - n)
-    return (c[k + 1] - c[lo]) > 0
 
 
 __all__ = [

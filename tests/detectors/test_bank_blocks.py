@@ -472,7 +472,7 @@ def test_gap_masks_made_chunk_by_chunk_equal_the_whole_block(fitted, monkeypatch
     where one of its inputs is missing or was within its settling time, whatever the
     chunks; a residual also where its own sample is missing."""
     import analyzer.detectors.lti as lti
-    from analyzer.detectors.ar_kalman import _dilate_forward
+    from analyzer.detectors.base import dilate_forward
 
     _, model, data = fitted
     ar, bank = model.ar, model.bank
@@ -485,7 +485,7 @@ def test_gap_masks_made_chunk_by_chunk_equal_the_whole_block(fitted, monkeypatch
     gap = ~np.isfinite(Y)
     n_gap = gap.sum(axis=1)
     bad = np.column_stack(
-        [_dilate_forward((n_gap - gap[:, j]) > 0, bank.settle[j]) for j in range(Y.shape[1])]
+        [dilate_forward((n_gap - gap[:, j]) > 0, bank.settle[j]) for j in range(Y.shape[1])]
     )
     assert min(bank.settle) > 10  # settling times that cross chunks' edges
     monkeypatch.setattr(lti, "CHUNK", chunk)
