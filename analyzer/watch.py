@@ -378,6 +378,8 @@ class _Runner:
             if name is None:
                 break
             self._start(self.queue.pop(name))
+        # the index: when due while archives end in quick succession, at once when idle
+        self.ledger.refresh_views(force=not self.busy())
 
     # ------------------------------------------------------------------ start
     def _digest(self, archive: ReadyArchive) -> str:
@@ -687,6 +689,7 @@ def _watch_locked(
                 runner.pump(wait=TICK_S, start=False)
     finally:
         runner.abandon_all()
+        ledger.refresh_views(force=True)
         if runner.queue:
             log.info(
                 "%d ready archive(s) not started; they are analyzed on the next start",

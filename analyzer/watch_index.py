@@ -5,11 +5,14 @@
   is what counts, so a stale pid after a crash is harmless).
 * ``REPORTS/.watch-state.json``: one record per archive name: the sha256 of its content,
   the (path, size, mtime) signature it had, and the result. Written atomically after
-  every archive; this is what makes the watcher process each content once across
-  restarts.
+  every archive (before its files are moved); this is what makes the watcher process
+  each content once across restarts.
 * ``REPORTS/index.json`` and ``REPORTS/index.html``: every archive with its verdict,
   faulty sensors and a link to its report (or error), newest first. Views of the state,
-  rewritten (atomically) with it.
+  rewritten (atomically) after an archive, or, while archives end in quick succession,
+  at most every :data:`VIEW_INTERVAL_S` seconds (:meth:`Ledger.refresh_views`): a year
+  of hourly files is 8760 lines, and rewriting both views after each of a burst of
+  archives would cost the watcher more than the bookkeeping of the state itself.
 * ``REPORTS/<archive>/``: ``report.html`` + ``findings.json``, or ``error.txt``. Written
   into a hidden temporary directory that is renamed into place (:func:`publish`).
 """
@@ -18,12 +21,13 @@ from __future__ import annotations
 
 import fcntl
 import json
+import math
 import os
 import shutil
 import time
 import uuid
 from collections.abc import Iterable
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 from enum import StrEnum
 from pathlib import Path
 from types import TracebackType
@@ -43,6 +47,14 @@ LOCK_FILE = ".lock"
 TMP_PREFIX = ".tmp-"
 OLD_PREFIX = ".old-"
 RESERVED = frozenset({"index.html", "index.json"})
+VIEW_INTERVAL_S = 5.0
+"""Least time between two rewrites of ``index.json`` and ``index.html`` while archives end
+in quick succession; the views are rewritten at once when the watcher has nothing left
+to do, and when it stops."""
+VIEW_SHARE = 0.02
+"""Largest share of the watcher's time its rewrites of the views may take while archives
+keep ending: the interval grows to ``1 / VIEW_SHARE`` times the last rewrite's duration
+(0.3 s for a year of hourly files: every 15 s)."""
 
 
 class Verdict(StrEnum):
@@ -80,7 +92,10 @@ class Record:
     from the first sample searched: it may have begun before the archive)."""
 
     def as_json(self) -> dict[str, Any]:
-        doc = asdict(self)
+        """The record as a JSON object: a new dict, whose lists are the record's own (to
+        be serialized, not changed; ``dataclasses.asdict`` deep-copied them, which was
+        most of the cost of writing the state of a year of files)."""
+        doc = {name: getattr(self, name) for name in _RECORD_FIELDS}
         doc["verdict"] = str(self.verdict)
         return doc
 
@@ -90,6 +105,9 @@ class Record:
         doc = {k: v for k, v in doc.items() if k in known}  # fields of later versions
         doc["verdict"] = Verdict(doc["verdict"])
         return cls(**doc)
+
+
+_RECORD_FIELDS = tuple(f.name for f in fields(Record))
 
 
 def report_dirname(name: str) -> str:
@@ -181,6 +199,10 @@ class Ledger:
         self.reports = reports
         self.path = reports / STATE_FILE
         self.records: dict[str, Record] = {}
+        self._views_stale = True
+        self._views_written = -math.inf
+        """``time.monotonic()`` of the last rewrite of the views."""
+        self._views_interval = VIEW_INTERVAL_S
 
     @classmethod
     def load(cls, reports: Path) -> Ledger:
@@ -222,23 +244,50 @@ class Ledger:
         return self.records.get(name)
 
     def record(self, rec: Record) -> None:
+        """Keep ``rec``: the state file at once, the views when due
+        (:meth:`refresh_views`)."""
         self.records[rec.name] = rec
-        self.save()
+        self.save_state()
+        self._views_stale = True
+        self.refresh_views()
 
     def newest_first(self) -> list[Record]:
         return sorted(self.records.values(), key=lambda r: (r.processed, r.name), reverse=True)
 
     def save(self) -> None:
         """The state file, then ``index.json`` and ``index.html`` (each atomically)."""
-        state = {
-            "schema": STATE_SCHEMA,
-            "analyzer_version": __version__,
-            "archives": {name: rec.as_json() for name, rec in sorted(self.records.items())},
-        }
-        write_atomic(self.path, json.dumps(state, indent=1) + "\n")
+        self.save_state()
+        self._views_stale = True
+        self.refresh_views(force=True)
+
+    def save_state(self) -> None:
+        """The state file (atomically; compact JSON, one record per line)."""
+        lines = [
+            f"{json.dumps(name)}:{json.dumps(rec.as_json(), separators=(',', ':'))}"
+            for name, rec in sorted(self.records.items())
+        ]
+        head = {"schema": STATE_SCHEMA, "analyzer_version": __version__}
+        text = json.dumps(head)[:-1] + ', "archives": {\n' + ",\n".join(lines) + "\n}}\n"
+        write_atomic(self.path, text)
+
+    def refresh_views(self, *, force: bool = False) -> bool:
+        """Rewrite ``index.json`` and ``index.html`` if a record changed since they were
+        written, and ``force`` or their interval has passed since then (at least
+        :data:`VIEW_INTERVAL_S`, longer when they take long to write: :data:`VIEW_SHARE`).
+        Returns whether they were written."""
+        if not self._views_stale:
+            return False
+        begin = time.monotonic()
+        if not force and begin - self._views_written < self._views_interval:
+            return False
         index = self.index_document()
-        write_atomic(self.reports / "index.json", json.dumps(index, indent=2) + "\n")
+        write_atomic(self.reports / "index.json", index_json(index))
         write_atomic(self.reports / "index.html", render_index(index))
+        self._views_stale = False
+        self._views_written = time.monotonic()
+        cost = self._views_written - begin
+        self._views_interval = max(VIEW_INTERVAL_S, cost / VIEW_SHARE)
+        return True
 
     def index_document(self) -> dict[str, Any]:
         rows = []
@@ -255,6 +304,19 @@ class Ledger:
             "archives": rows,
             "episodes": episodes(self.records.values())[::-1],
         }
+
+
+def index_json(index: dict[str, Any]) -> str:
+    """``index.json``'s text: indented, but each archive and each episode on one line (a
+    year of hourly files is 8760 of them; fully indented they took 3x longer to write)."""
+    parts = []
+    for key, value in index.items():
+        if isinstance(value, list) and value:
+            rows = ",\n    ".join(json.dumps(row, separators=(", ", ": ")) for row in value)
+            parts.append(f"  {json.dumps(key)}: [\n    {rows}\n  ]")
+        else:
+            parts.append(f"  {json.dumps(key)}: {json.dumps(value)}")
+    return "{\n" + ",\n".join(parts) + "\n}\n"
 
 
 JOIN_GAP_S = 5.0

@@ -11,11 +11,12 @@ import shutil
 import struct
 import threading
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
-from analyzer import watch_inbox
+from analyzer import watch_inbox, watch_index
 from analyzer.errors import UsageError
 from analyzer.watch_inbox import (
     InboxTracker,
@@ -261,6 +262,7 @@ def test_ledger_round_trip_and_index_newest_first(tmp_path: Path) -> None:
         ledger.record(_record(name, when, verdict))
     again = Ledger.load(tmp_path)
     assert again.records == ledger.records
+    assert ledger.refresh_views(force=True)  # the second record came within the interval
     index = json.loads((tmp_path / "index.json").read_text())
     assert index["schema"] == "analyzer.watch-index/1"
     assert [a["name"] for a in index["archives"]] == ["new <b>.mcap", "old.csv"]
@@ -269,6 +271,75 @@ def test_ledger_round_trip_and_index_newest_first(tmp_path: Path) -> None:
     page = (tmp_path / "index.html").read_text()
     assert '<a href="new%20%3Cb%3E.mcap/report.html">new &lt;b&gt;.mcap</a>' in page
     assert page.index("new &lt;b&gt;.mcap") < page.index("old.csv")
+
+
+def test_the_state_is_written_at_every_record_and_the_views_at_most_every_interval(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    clock = [1000.0]
+    monkeypatch.setattr(watch_index.time, "monotonic", lambda: clock[0])
+
+    def listed() -> list[str]:
+        return [a["name"] for a in json.loads((tmp_path / "index.json").read_text())["archives"]]
+
+    ledger = Ledger(tmp_path)
+    ledger.record(_record("a.csv", "2026-01-01T00:00:00.000Z"))
+    assert listed() == ["a.csv"]  # the first record: the views at once
+    clock[0] += watch_index.VIEW_INTERVAL_S / 2
+    ledger.record(_record("b.csv", "2026-01-01T01:00:00.000Z"))
+    assert set(Ledger.load(tmp_path).records) == {"a.csv", "b.csv"}  # the state at once
+    assert listed() == ["a.csv"]  # the views not yet
+    assert not ledger.refresh_views()
+    clock[0] += watch_index.VIEW_INTERVAL_S / 2
+    assert ledger.refresh_views()  # due
+    assert listed() == ["b.csv", "a.csv"]
+    assert not ledger.refresh_views(force=True)  # nothing changed since
+    ledger.record(_record("c.csv", "2026-01-01T02:00:00.000Z"))
+    assert listed() == ["b.csv", "a.csv"]
+    assert ledger.refresh_views(force=True)  # what the watcher does when it is idle or stops
+    assert listed() == ["c.csv", "b.csv", "a.csv"]
+
+
+def test_views_that_take_long_to_write_are_written_less_often(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    clock = [1000.0]
+    monkeypatch.setattr(watch_index.time, "monotonic", lambda: clock[0])
+    render = watch_index.render_index
+
+    def slow_render(index: dict[str, Any]) -> str:
+        clock[0] += 1.0  # a page of a year of archives: a second to render, say
+        return render(index)
+
+    monkeypatch.setattr(watch_index, "render_index", slow_render)
+    ledger = Ledger(tmp_path)
+    ledger.record(_record("a.csv", "2026-01-01T00:00:00.000Z"))
+    interval = 1.0 / watch_index.VIEW_SHARE
+    assert interval > watch_index.VIEW_INTERVAL_S
+    clock[0] += interval / 2
+    ledger.record(_record("b.csv", "2026-01-01T01:00:00.000Z"))
+    assert not ledger.refresh_views()  # past VIEW_INTERVAL_S, not past the grown interval
+    clock[0] += interval / 2
+    assert ledger.refresh_views()
+
+
+def test_the_state_file_is_json_with_one_record_per_line(tmp_path: Path) -> None:
+    ledger = Ledger(tmp_path)
+    ledger.save_state()
+    assert json.loads((tmp_path / ".watch-state.json").read_text())["archives"] == {}
+    names = ["b.csv", 'quo"te.csv', "a.csv"]
+    for name in names:
+        ledger.record(_record(name, "2026-01-01T00:00:00.000Z", Verdict.FAULT))
+    text = (tmp_path / ".watch-state.json").read_text()
+    doc = json.loads(text)
+    assert doc["schema"] == "analyzer.watch-state/1"
+    assert list(doc["archives"]) == sorted(names)
+    assert (
+        doc["archives"]['quo"te.csv']
+        == _record('quo"te.csv', "2026-01-01T00:00:00.000Z", Verdict.FAULT).as_json()
+    )
+    assert len(text.splitlines()) == 2 + len(names)
+    assert Ledger.load(tmp_path).records == ledger.records
 
 
 def test_unreadable_state_is_an_error(tmp_path: Path) -> None:
