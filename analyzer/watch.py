@@ -118,6 +118,7 @@ from analyzer.watch_cluster import ClusterTask, warm_worker
 from analyzer.watch_inbox import (
     INCOMPLETE_TIMEOUT_S,
     ReadyArchive,
+    archive_names,
     ready_batches,
     signature,
 )
@@ -317,6 +318,16 @@ def _warm_cluster(cluster: DaskExecutor) -> None:
         cluster.client.run(warm_worker)
 
 
+def _duration(seconds: float) -> str:
+    """``40 s``, ``12 min``, ``3 h 58 min``."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    minutes = int(round(seconds / 60))
+    if minutes < 90:
+        return f"{minutes} min"
+    return f"{minutes // 60} h {minutes % 60:02d} min"
+
+
 def _free_name(folder: Path, name: str) -> Path:
     """``folder/name``, or ``folder/stem-N.suffixes`` if that is taken."""
     target = folder / name
@@ -347,6 +358,12 @@ class _Runner:
         )
         self.queue: dict[str, ReadyArchive] = {}
         self.running: dict[str, _Job] = {}
+        self.expected: int | None = None
+        """With ``--once``: the archives INBOX held at the start (the progress's total)."""
+        self.counted = 0
+        """Archives recorded (or found recorded already) since the start."""
+        self.begun: float | None = None
+        """``time.monotonic()`` when the first archive was taken up."""
         self.cluster = cluster
         self.slots = settings.jobs
         self.ctx = _context()
@@ -395,8 +412,21 @@ class _Runner:
             h.update(f"{path.name}\0{sha256_of(path)}\n".encode())
         return h.hexdigest()
 
+    def progress(self) -> str:
+        """With ``--once``, where the watcher stands: `` [done/total, about T left]``
+        (the time left from the rate so far, parallel analyses included); else ""."""
+        if self.expected is None or self.begun is None:
+            return ""
+        total = max(self.expected, self.counted)
+        if self.counted == 0 or self.counted >= total:
+            return f" [{self.counted}/{total}]"
+        left = (time.monotonic() - self.begun) / self.counted * (total - self.counted)
+        return f" [{self.counted}/{total}, about {_duration(left)} left]"
+
     def _start(self, archive: ReadyArchive) -> None:
         name = archive.name
+        if self.begun is None:
+            self.begun = time.monotonic()
         try:
             digest = self._digest(archive)
         except OSError as err:
@@ -404,6 +434,7 @@ class _Runner:
             return
         rec = self.ledger.get(name)
         if rec is not None and rec.sha256 == digest:
+            self.counted += 1
             log.debug("%s: already analyzed (same content): %s", name, rec.verdict)
             self._move(archive, rec)
             return
@@ -490,12 +521,15 @@ class _Runner:
         rec = self._result(job, elapsed)
         publish(job.scratch, self.settings.reports, name)
         self.ledger.record(rec)
+        self.counted += 1
+        at = self.progress()
         if rec.verdict is Verdict.ERROR:
-            log.info("%s: error in %.1f s: %s", name, elapsed, rec.error)
+            log.info("%s: error in %.1f s%s: %s", name, elapsed, at, rec.error)
         elif rec.verdict is Verdict.FAULT:
-            log.info("%s: fault (%s) in %.1f s", name, ", ".join(rec.faulty_sensors), elapsed)
+            faulty = ", ".join(rec.faulty_sensors)
+            log.info("%s: fault (%s) in %.1f s%s", name, faulty, elapsed, at)
         else:
-            log.info("%s: no fault in %.1f s", name, elapsed)
+            log.info("%s: no fault in %.1f s%s", name, elapsed, at)
         self._move(job.archive, rec)
 
     def _result(self, job: _Job, elapsed: float) -> Record:
@@ -645,6 +679,8 @@ def _watch_locked(
         log.info("%s: its report folder is gone; it will be analyzed again", name)
     ledger.save()
     runner = _Runner(settings, options, ledger, stop, cluster)
+    if settings.once:  # what --once will go through: the progress's total
+        runner.expected = len(archive_names(settings.inbox, settings.group_by, exclude))
     how = f"polling every {settings.poll:g} s" if settings.poll else "file events"
     if cluster is None:
         where = f"{settings.jobs} analysis process{'' if settings.jobs == 1 else 'es'}"

@@ -335,6 +335,15 @@ class InboxTracker:
         return ready
 
 
+def archive_names(
+    inbox: Path, group_by: re.Pattern[str] | None = None, exclude: Iterable[str] = ()
+) -> set[str]:
+    """The archives INBOX holds now, as :func:`ready_batches` groups its entries."""
+    tracker = InboxTracker(inbox, 0.0, group_by, frozenset(exclude))
+    tracker.rescan()
+    return tracker.keys
+
+
 # --------------------------------------------------------------------------- events
 
 
@@ -432,6 +441,7 @@ __all__ = [
     "INCOMPLETE_TIMEOUT_S",
     "InboxTracker",
     "ReadyArchive",
+    "archive_names",
     "Signature",
     "ignored",
     "incomplete_reason",

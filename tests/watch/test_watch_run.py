@@ -311,6 +311,47 @@ def test_done_and_failed_folders_receive_the_archives(
     assert records["broken.mcap"]["verdict"] == "error"
 
 
+def test_once_says_how_far_it_is_and_how_long_is_left(
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    inbox, reports = folders
+    for seed in range(3):
+        write(inbox / f"hour{seed}.csv", "csv", seed=10 + seed)
+    (inbox / "notes.txt.part").write_text("not an archive")  # ignored: not counted
+    settings = WatchSettings(inbox, reports, settle=SETTLE, jobs=1, once=True)
+    assert start_watcher(settings).join() == 0
+    ends = [
+        r.getMessage()
+        for r in caplog.records
+        if re.match(r"hour\d\.csv: (no fault|fault|error)", r.getMessage())
+    ]
+    assert len(ends) == 3
+    assert re.search(r" \[1/3, about \d+ s left\]", ends[0]), ends
+    assert re.search(r" \[2/3, about \d+ s left\]", ends[1]), ends
+    assert ends[2].endswith(" [3/3]") or " [3/3]:" in ends[2], ends
+    # a second pass finds them recorded: counted, nothing analyzed, no progress lines
+    caplog.clear()
+    assert start_watcher(settings).join() == 0
+    assert not [r for r in caplog.records if " [" in r.getMessage()]
+
+
+def test_without_once_there_is_no_total(
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    inbox, reports = folders
+    w = start_watcher(WatchSettings(inbox, reports, settle=SETTLE, jobs=1))
+    write(inbox / "one.csv", "csv", seed=20)
+    wait_until(lambda: "one.csv" in state(reports), "one.csv")
+    w.stop.set()
+    assert w.join() == 0
+    (line,) = [r.getMessage() for r in caplog.records if r.getMessage().startswith("one.csv: no")]
+    assert "[" not in line
+
+
 def test_group_by_analyzes_an_hour_as_one_archive(
     folders: tuple[Path, Path], start_watcher: Callable[..., Watcher]
 ) -> None:
