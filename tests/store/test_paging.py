@@ -204,25 +204,31 @@ def test_mapped_files_reserve_their_space_and_a_full_disk_is_an_error(tmp_path, 
     assert b.shape == (10, 2)
 
 
-def test_scratch_rows_are_reused_and_go_with_the_pool(tmp_path):
+@pytest.mark.parametrize("in_memory", [False, True])
+def test_scratch_rows_are_reused_and_go_with_the_pool(tmp_path, monkeypatch, in_memory):
     """A returned row is lent again (same memory, holding the last pass's values, so a
     user overwrites it whole); rows in use at once are distinct; without a workdir there
-    is no row; a pickled pool arrives empty."""
+    is no row; a pickled pool arrives empty. Rows up to MEMORY_ROW_BYTES are in memory,
+    longer ones in files (here the bound moved to put these 1000-sample rows on each
+    side of it)."""
     import pickle
     import threading
 
+    from analyzer import paging
     from analyzer.paging import ScratchRows, is_mapped
 
+    monkeypatch.setattr(paging, "MEMORY_ROW_BYTES", 8000 if in_memory else 7999)
     pool = ScratchRows(tmp_path)
     with pool.row("a", 1000) as first:
-        assert first is not None and is_mapped(first) and first.dtype == np.float64
+        assert first is not None and is_mapped(first) != in_memory
+        assert first.dtype == np.float64
         first[:] = 7.0
     with pool.row("b", 1000) as again:
         assert np.shares_memory(again, first)
         assert float(again[0]) == 7.0
         with pool.row("c", 1000) as other, pool.row("d", 500) as short:
             assert not np.shares_memory(other, again)
-            assert short.shape == (500,)
+            assert short.shape == (500,) and not is_mapped(short)  # 4000 bytes: in memory
     assert pool.made == 3
     lent: list[np.ndarray] = []
     barrier = threading.Barrier(2)
