@@ -63,7 +63,14 @@ from analyzer.diagnosis.changes import (
 from analyzer.diagnosis.classify import MIN_GAIN, Classification, correlation_time
 from analyzer.diagnosis.events import bounded_onset, diagnose_interval
 from analyzer.errors import DetectorError
-from analyzer.paging import Released, finite_rows, read_column, release, write_rows
+from analyzer.paging import (
+    RELEASE_ROWS,
+    Released,
+    finite_rows,
+    read_column,
+    release,
+    write_rows,
+)
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -1367,14 +1374,17 @@ def _bank_block_into(task: tuple[tuple[Any, ...], BankOutputs, int]) -> None:
 
 def _kept(context: RunContext, name: str, a: FloatArray) -> npt.NDArray[Any]:
     """``a`` (samples, channels) in :data:`SIGNAL_DTYPE`: in memory, or for a long
-    archive a memory-mapped copy written one channel at a time (RunContext.buffer)."""
+    archive a memory-mapped copy written one channel at a time (RunContext.buffer), by
+    ``pwrite`` (:func:`~analyzer.paging.write_rows`: a store through the new file's
+    mapping would fault in, and have the kernel zero, every page first)."""
     if not context.map_outputs:
         return a.astype(SIGNAL_DTYPE)
     out = context.buffer(name, a.shape, SIGNAL_DTYPE)
     for j in range(a.shape[1]):
-        out[:, j] = a[:, j]
-        release(a[:, j])
-        release(out[:, j])
+        for p in range(0, a.shape[0], RELEASE_ROWS):
+            q = min(a.shape[0], p + RELEASE_ROWS)
+            write_rows(out[:, j], p, a[p:q, j].astype(SIGNAL_DTYPE))
+            release(a[p:q, j])
     return out
 
 

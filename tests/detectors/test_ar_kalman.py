@@ -145,3 +145,30 @@ def test_bad_order_setting():
         ARKalmanBank(order="hqic")
     with pytest.raises(DetectorError, match="order"):
         ARKalmanBank(order=0)
+
+
+def test_the_as_measured_copy_of_a_long_archive_is_written_by_pwrite(tmp_path, monkeypatch):
+    """``_kept`` (the bank's outputs as measured, kept before the first correction) goes
+    to its memory-mapped float32 buffer by ``pwrite``, channel by channel, not by stores
+    through the new file's mapping (which fault in and zero every page first)."""
+    import os
+
+    from analyzer import paging
+    from analyzer.detectors.ar_kalman import _kept
+    from analyzer.detectors.base import SIGNAL_DTYPE
+    from analyzer.paging import is_mapped
+
+    a = np.random.default_rng(0).standard_normal((200_000, 5))
+    written: list[int] = []
+    pwrite = os.pwrite
+
+    def counting(fd: int, data: object, offset: int) -> int:
+        written.append(memoryview(data).nbytes)  # type: ignore[arg-type]
+        return pwrite(fd, data, offset)
+
+    monkeypatch.setattr(paging.os, "pwrite", counting)
+    out = _kept(RunContext(workdir=tmp_path, map_outputs=True), "k", a)
+    assert is_mapped(out) and out.dtype == SIGNAL_DTYPE
+    assert np.array_equal(out, a.astype(SIGNAL_DTYPE))
+    assert sum(written) == a.size * np.dtype(SIGNAL_DTYPE).itemsize
+    assert np.array_equal(_kept(RunContext(), "k", a), out)  # in memory: the same values
