@@ -20,6 +20,7 @@ limit, so ingesting a long archive needs memory for the buffers only; after
 from __future__ import annotations
 
 import fnmatch
+import os
 from collections.abc import Iterable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -451,7 +452,12 @@ class AlignedSeries:
             yield a, self.block(a, a + size)
 
     def materialize(self, path: Path | None = None, block: int = 1 << 16) -> FloatArray:
-        """The whole aligned matrix, in memory or memory-mapped at ``path`` (.npy)."""
+        """The whole aligned matrix, in memory or memory-mapped at ``path`` (.npy).
+
+        A file-backed matrix is filled a block of rows at a time in memory and each block
+        written to the file by ``pwrite``: stored through the mapping (a channel's column
+        at a time), every page of the new file was faulted in and zeroed by the kernel
+        before being overwritten (2 % of a 4-hour run's CPU)."""
         shape = (self.n, len(self.channels))
         if path is None:
             out: FloatArray = np.empty(shape)
@@ -460,35 +466,51 @@ class AlignedSeries:
         infos = [self.store.info(name) for name in self.channels]
         raws = [self.store.raw(name) for name in self.channels]
         finders = [_Finder(t) for t, _ in raws]
+        fd = None if path is None else os.open(path, os.O_WRONLY)
 
         def fill(a: int) -> None:
             b = min(self.n, a + block)
             grid = self.times_ns(a, b)
+            rows = out[a:b] if fd is None else np.empty((b - a, shape[1]))
             for j, ((t, v), info, find) in enumerate(zip(raws, infos, finders, strict=True)):
                 assert isinstance(info, ChannelInfo)
-                # straight into the matrix, without the block's intermediate copies:
+                # straight into the rows, without the block's intermediate copies:
                 # a channel sampled on this very clock (what _resample returns for it)
                 s = _on_clock(t, grid, info.rate_hz, self.rate_hz, find)
                 if s is not None:
-                    out[a:b, j] = v[s : s + grid.shape[0]]
+                    rows[:, j] = v[s : s + grid.shape[0]]
                     # a spilled channel's pages back to the page cache once copied
                     release(t[s : s + grid.shape[0]])
                     release(v[s : s + grid.shape[0]])
                 else:
-                    out[a:b, j] = _resample(t, v, grid, info.rate_hz, self.rate_hz, find)
-            release(out[a:b])  # the written rows of a file-backed matrix, likewise
+                    rows[:, j] = _resample(t, v, grid, info.rate_hz, self.rate_hz, find)
+            if fd is not None:
+                assert isinstance(out, np.memmap)
+                at = int(out.offset) + a * shape[1] * rows.itemsize
+                _pwrite_all(fd, rows.data.cast("B"), at)
 
         # the blocks are independent and their copies (and page faults) run without the
         # GIL: on threads they overlap
         starts = range(0, self.n, block)
-        if len(starts) < 2 or ALIGN_THREADS < 2:
-            for a in starts:
-                fill(a)
-        else:
-            with ThreadPoolExecutor(ALIGN_THREADS) as pool:
-                for _ in pool.map(fill, starts):
-                    pass
+        try:
+            if len(starts) < 2 or ALIGN_THREADS < 2:
+                for a in starts:
+                    fill(a)
+            else:
+                with ThreadPoolExecutor(ALIGN_THREADS) as pool:
+                    for _ in pool.map(fill, starts):
+                        pass
+        finally:
+            if fd is not None:
+                os.close(fd)
         return out
+
+
+def _pwrite_all(fd: int, data: memoryview, at: int) -> None:
+    """``os.pwrite`` until every byte of ``data`` is written at offset ``at``."""
+    while data:
+        done = os.pwrite(fd, data, at)
+        data, at = data[done:], at + done
 
 
 class _Finder:

@@ -58,8 +58,20 @@ def test_materialize_equals_the_stacked_blocks(tmp_path, monkeypatch, threads, b
         reference = np.vstack([blk for _, blk in aligned.blocks(block)])
         got = aligned.materialize(block=block)
         np.testing.assert_array_equal(got, reference)
+        written: list[int] = []
+        pwrite = store_module.os.pwrite
+
+        def counting(fd, data, offset):
+            done = pwrite(fd, data, offset)
+            written.append(done)
+            return done
+
+        monkeypatch.setattr(store_module.os, "pwrite", counting)
         on_disk = aligned.materialize(tmp_path / "aligned.npy", block=block)
         np.testing.assert_array_equal(np.asarray(on_disk), reference)
+        # every byte went to the file by pwrite, none through the new file's mapping
+        assert sum(written) == reference.nbytes
+        assert len(written) >= -(-reference.shape[0] // block)
         # the shortcut did apply (and did not apply) where expected
         clock = store.raw("clock")[0]
         grid = aligned.times_ns(0, 1000)
