@@ -362,8 +362,10 @@ class _Runner:
         """With ``--once``: the archives INBOX held at the start (the progress's total)."""
         self.counted = 0
         """Archives recorded (or found recorded already) since the start."""
+        self.skipped = 0
+        """Of those, the ones found recorded already (not in the rate of the analyses)."""
         self.begun: float | None = None
-        """``time.monotonic()`` when the first archive was taken up."""
+        """``time.monotonic()`` when the first analysis started."""
         self.cluster = cluster
         self.slots = settings.jobs
         self.ctx = _context()
@@ -415,18 +417,17 @@ class _Runner:
     def progress(self) -> str:
         """With ``--once``, where the watcher stands: `` [done/total, about T left]``
         (the time left from the rate so far, parallel analyses included); else ""."""
-        if self.expected is None or self.begun is None:
+        if self.expected is None:
             return ""
         total = max(self.expected, self.counted)
-        if self.counted == 0 or self.counted >= total:
+        analyzed = self.counted - self.skipped
+        if self.begun is None or analyzed == 0 or self.counted >= total:
             return f" [{self.counted}/{total}]"
-        left = (time.monotonic() - self.begun) / self.counted * (total - self.counted)
+        left = (time.monotonic() - self.begun) / analyzed * (total - self.counted)
         return f" [{self.counted}/{total}, about {_duration(left)} left]"
 
     def _start(self, archive: ReadyArchive) -> None:
         name = archive.name
-        if self.begun is None:
-            self.begun = time.monotonic()
         try:
             digest = self._digest(archive)
         except OSError as err:
@@ -435,6 +436,7 @@ class _Runner:
         rec = self.ledger.get(name)
         if rec is not None and rec.sha256 == digest:
             self.counted += 1
+            self.skipped += 1
             log.debug("%s: already analyzed (same content): %s", name, rec.verdict)
             self._move(archive, rec)
             return
@@ -442,6 +444,8 @@ class _Runner:
             log.warning(
                 "%s: analyzing although it still looks unfinished: %s", name, archive.incomplete
             )
+        if self.begun is None:
+            self.begun = time.monotonic()
         scratch = scratch_dir(self.settings.reports, name)
         inputs = [str(p) for p in archive.paths]
         process: BaseProcess | ClusterTask

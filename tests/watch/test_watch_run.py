@@ -331,10 +331,34 @@ def test_once_says_how_far_it_is_and_how_long_is_left(
     assert re.search(r" \[1/3, about \d+ s left\]", ends[0]), ends
     assert re.search(r" \[2/3, about \d+ s left\]", ends[1]), ends
     assert ends[2].endswith(" [3/3]") or " [3/3]:" in ends[2], ends
-    # a second pass finds them recorded: counted, nothing analyzed, no progress lines
+    # a second pass finds them recorded and one new: the recorded count, the rate is
+    # that of the one analysis (here: nothing left after it)
+    write(inbox / "hour3.csv", "csv", seed=13)
     caplog.clear()
     assert start_watcher(settings).join() == 0
-    assert not [r for r in caplog.records if " [" in r.getMessage()]
+    lines = [r.getMessage() for r in caplog.records if " [" in r.getMessage()]
+    assert len(lines) == 1 and lines[0].startswith("hour3.csv: "), lines
+    assert lines[0].endswith(" [4/4]"), lines
+
+
+def test_the_time_left_comes_from_the_analyses_not_from_archives_found_recorded(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from types import SimpleNamespace
+
+    from analyzer import watch as watch_module
+
+    monkeypatch.setattr(watch_module.time, "monotonic", lambda: 1000.0)
+    progress = watch_module._Runner.progress
+    # 4000 of a year found recorded at once, then 10 analyses in 100 s: 10 s each
+    state = SimpleNamespace(expected=8760, counted=4010, skipped=4000, begun=900.0)
+    assert progress(state) == " [4010/8760, about 13 h 12 min left]"  # 4750 x 10 s
+    state = SimpleNamespace(expected=3, counted=1, skipped=0, begun=990.0)
+    assert progress(state) == " [1/3, about 20 s left]"
+    state = SimpleNamespace(expected=3, counted=2, skipped=2, begun=None)  # none analyzed
+    assert progress(state) == " [2/3]"
+    assert progress(SimpleNamespace(expected=None)) == ""
+    assert watch_module._duration(89) == "89 s" and watch_module._duration(3600) == "60 min"
 
 
 def test_without_once_there_is_no_total(
