@@ -366,6 +366,8 @@ class _Runner:
         """Of those, the ones found recorded already (not in the rate of the analyses)."""
         self.begun: float | None = None
         """``time.monotonic()`` when the first analysis started."""
+        self.verdicts: dict[Verdict, int] = dict.fromkeys(Verdict, 0)
+        """The verdicts recorded since the start (:meth:`summary`)."""
         self.cluster = cluster
         self.slots = settings.jobs
         self.ctx = _context()
@@ -425,6 +427,20 @@ class _Runner:
             return f" [{self.counted}/{total}]"
         left = (time.monotonic() - self.begun) / analyzed * (total - self.counted)
         return f" [{self.counted}/{total}, about {_duration(left)} left]"
+
+    def summary(self) -> str | None:
+        """What this watcher did, for its last lines: ``24 archives analyzed in 39.5 s: 22
+        no fault, 1 fault, 1 error (3 found analyzed already)``; None if nothing."""
+        analyzed = sum(self.verdicts.values())
+        if not analyzed and not self.skipped:
+            return None
+        took = "" if self.begun is None else f" in {_duration(time.monotonic() - self.begun)}"
+        parts = ", ".join(f"{n} {v}" for v, n in self.verdicts.items() if n)
+        text = f"{analyzed} archive{'' if analyzed == 1 else 's'} analyzed{took}"
+        text += f": {parts}" if parts else ""
+        if self.skipped:
+            text += f" ({self.skipped} found analyzed already)"
+        return text
 
     def _start(self, archive: ReadyArchive) -> None:
         name = archive.name
@@ -526,6 +542,7 @@ class _Runner:
         publish(job.scratch, self.settings.reports, name)
         self.ledger.record(rec)
         self.counted += 1
+        self.verdicts[rec.verdict] += 1
         at = self.progress()
         if rec.verdict is Verdict.ERROR:
             log.info("%s: error in %.1f s%s: %s", name, elapsed, at, rec.error)
@@ -735,6 +752,9 @@ def _watch_locked(
                 "%d ready archive(s) not started; they are analyzed on the next start",
                 len(runner.queue),
             )
+    summary = runner.summary()
+    if summary is not None:
+        log.info("%s; index: %s", summary, settings.reports / "index.html")
     log.info("stopped")
 
 

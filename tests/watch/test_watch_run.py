@@ -331,6 +331,11 @@ def test_once_says_how_far_it_is_and_how_long_is_left(
     assert re.search(r" \[1/3, about \d+ s left\]", ends[0]), ends
     assert re.search(r" \[2/3, about \d+ s left\]", ends[1]), ends
     assert ends[2].endswith(" [3/3]") or " [3/3]:" in ends[2], ends
+    verdicts = [e.split(": ")[1].split(" in ")[0] for e in ends]  # no fault / fault (..)
+    (summary,) = [r.getMessage() for r in caplog.records if " analyzed" in r.getMessage()]
+    assert summary.startswith("3 archives analyzed in ")
+    assert f"{verdicts.count('no fault')} no fault" in summary or "no fault" not in verdicts
+    assert summary.endswith(f"; index: {reports / 'index.html'}")
     # a second pass finds them recorded and one new: the recorded count, the rate is
     # that of the one analysis (here: nothing left after it)
     write(inbox / "hour3.csv", "csv", seed=13)
@@ -339,6 +344,11 @@ def test_once_says_how_far_it_is_and_how_long_is_left(
     lines = [r.getMessage() for r in caplog.records if " [" in r.getMessage()]
     assert len(lines) == 1 and lines[0].startswith("hour3.csv: "), lines
     assert lines[0].endswith(" [4/4]"), lines
+    assert any(
+        r.getMessage().startswith("1 archive analyzed in ")
+        and "(3 found analyzed already); index: " in r.getMessage()
+        for r in caplog.records
+    )
 
 
 def test_the_time_left_comes_from_the_analyses_not_from_archives_found_recorded(
