@@ -360,10 +360,8 @@ class _Runner:
         self.running: dict[str, _Job] = {}
         self.expected: int | None = None
         """With ``--once``: the archives INBOX held at the start (the progress's total)."""
-        self.counted = 0
-        """Archives recorded (or found recorded already) since the start."""
         self.skipped = 0
-        """Of those, the ones found recorded already (not in the rate of the analyses)."""
+        """Archives found recorded already (not in the rate of the analyses)."""
         self.begun: float | None = None
         """``time.monotonic()`` when the first analysis started."""
         self.verdicts: dict[Verdict, int] = dict.fromkeys(Verdict, 0)
@@ -416,6 +414,11 @@ class _Runner:
             h.update(f"{path.name}\0{sha256_of(path)}\n".encode())
         return h.hexdigest()
 
+    @property
+    def counted(self) -> int:
+        """Archives recorded, or found recorded already, since the start."""
+        return self.skipped + sum(self.verdicts.values())
+
     def progress(self) -> str:
         """With ``--once``, where the watcher stands: `` [done/total, about T left]``
         (the time left from the rate so far, parallel analyses included); else ""."""
@@ -451,7 +454,6 @@ class _Runner:
             return
         rec = self.ledger.get(name)
         if rec is not None and rec.sha256 == digest:
-            self.counted += 1
             self.skipped += 1
             log.debug("%s: already analyzed (same content): %s", name, rec.verdict)
             self._move(archive, rec)
@@ -541,7 +543,6 @@ class _Runner:
         rec = self._result(job, elapsed)
         publish(job.scratch, self.settings.reports, name)
         self.ledger.record(rec)
-        self.counted += 1
         self.verdicts[rec.verdict] += 1
         at = self.progress()
         if rec.verdict is Verdict.ERROR:
