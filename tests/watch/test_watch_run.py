@@ -474,21 +474,36 @@ def test_a_crashed_analysis_is_an_error_record_and_the_watcher_goes_on(
     start_watcher: Callable[..., Watcher],
     caplog: pytest.LogCaptureFixture,
 ) -> None:
+    """An analysis process killed outright (as the OOM killer would) is an error record
+    with its cause, and the watcher goes on with the next archive.
+
+    The kill follows the analysis's start by a poll of the log (50 ms), about 1.3 s
+    before that analysis would end; should it have ended anyway (this thread kept off
+    the CPU that long on a loaded machine), nothing was tested: then again, on an
+    archive 4x as long."""
     inbox, reports = folders
     scratch_before = set(Path(tempfile.gettempdir()).glob("analyzer-watch-*"))
-    write(tmp_path / "long.csv", "csv", seconds=300.0, rate=200.0, floors=5)
     w = start_watcher(WatchSettings(inbox, reports, settle=SETTLE, jobs=1))
     wait_until(lambda: (reports / "index.html").exists(), "the watcher to start")
-    os.replace(tmp_path / "long.csv", inbox / "long.csv")
-    wait_until(lambda: started(caplog) == ["long.csv"], "the analysis to start")
-    (child,) = multiprocessing.active_children()
-    assert child.pid is not None
-    os.kill(child.pid, signal.SIGKILL)  # as the OOM killer would
-    wait_until(lambda: "long.csv" in state(reports), "the crash to be recorded")
-    record = state(reports)["long.csv"]
-    assert record["verdict"] == "error"
-    assert record["error"] == "analysis process killed by SIGKILL"
-    assert (reports / "long.csv" / "error.txt").read_text() == record["error"] + "\n"
+    for attempt, seconds in enumerate((300.0, 1200.0)):
+        name = f"long{attempt}.csv"
+        write(tmp_path / name, "csv", seconds=seconds, rate=200.0, floors=5)
+        os.replace(tmp_path / name, inbox / name)
+        wait_until(lambda: name in started(caplog), "the analysis to start")  # noqa: B023
+        children = multiprocessing.active_children()  # (reaps those that have ended)
+        if children:
+            (child,) = children
+            assert child.pid is not None
+            os.kill(child.pid, signal.SIGKILL)  # as the OOM killer would
+        wait_until(lambda: name in state(reports), "the crash to be recorded")  # noqa: B023
+        record = state(reports)[name]
+        if attempt == 0 and (not children or child.exitcode != -signal.SIGKILL):
+            assert record["verdict"] in ("no fault", "fault"), record  # ended before
+            continue
+        assert record["verdict"] == "error"
+        assert record["error"] == "analysis process killed by SIGKILL"
+        assert (reports / name / "error.txt").read_text() == record["error"] + "\n"
+        break
     corrupt_mcap(inbox / "next.mcap")
     wait_until(lambda: "next.mcap" in state(reports), "the next archive")
     assert w.thread is not None and w.thread.is_alive()
