@@ -24,6 +24,10 @@ the cases by the first fault's type and gives the errors of both faults by their
 With ``--healthy`` the records have no fault, and the sweep counts those with any
 finding (false alarms).
 
+With ``--detectors A,B`` only those detectors run (``analyzer run --detectors``): what a
+screening with fewer of them finds and misses, beside its speed (``bench_pipeline.py
+--detectors``).
+
 With ``--until`` a right case's reported end is compared with the injected one as well
 (a fault reported as lasting to the end of the record is **open**), and the table gives
 the onset and end errors.
@@ -34,6 +38,7 @@ It prints one line per case and a table per fault type. A script, not a timed te
     python benchmarks/sweep_isolation.py [--seeds 0:45] [--floors 8] [--minutes 20]
                                          [--until F] [--scale S] [--onset F]
                                          [--second F] [--healthy]
+                                         [--detectors A,B]
 """
 
 from __future__ import annotations
@@ -59,17 +64,19 @@ RATE_HZ = 100.0
 KINDS = ("additive", "multiplicative", "drift")
 MAGNITUDE = {"additive": "offset", "multiplicative": "gain", "drift": "rate_per_s"}
 ONSET_FRACTION = 0.6
+DETECTORS: list[str] | None = None
+"""``--detectors``: the detectors every case runs (None: the defaults)."""
 
 
 def _analyze(path: Path, t: np.ndarray, Y: np.ndarray, names: list[str]) -> Analysis:
-    """The record written as MCAP at ``path``, analyzed with the defaults (the file is
-    removed afterwards)."""
+    """The record written as MCAP at ``path``, analyzed with the defaults (but
+    :data:`DETECTORS`; the file is removed afterwards)."""
     t_ns = np.round(t * 1e9).astype(np.int64)
     write_archive(
         path, "mcap", t_ns, {n: Y[:, i] for i, n in enumerate(names)}, layout="multiarray"
     )
     try:
-        return analyze([str(path)], RunOptions())
+        return analyze([str(path)], RunOptions(detectors=DETECTORS))
     finally:
         path.unlink()
 
@@ -189,7 +196,16 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="no fault: count the records with any finding (false alarms)",
     )
+    ap.add_argument(
+        "--detectors",
+        default=None,
+        metavar="A,B",
+        help="run only these detectors (analyzer run --detectors; default: the defaults)",
+    )
     args = ap.parse_args(argv)
+    global DETECTORS
+    DETECTORS = args.detectors.split(",") if args.detectors else None
+    which = f", detectors {args.detectors}" if args.detectors else ""
     if not 0.2 < args.onset < 1.0:
         ap.error(f"--onset: {args.onset} is not after the training window (0.2) and < 1")
     if args.until is not None and not args.onset < args.until <= 1.0:
@@ -200,7 +216,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.healthy:
         print(
             f"sweep_isolation: {2 * args.floors} channels, {args.minutes:g} min at "
-            f"{RATE_HZ:g} Hz, no fault, seeds {args.seeds}",
+            f"{RATE_HZ:g} Hz, no fault, seeds {args.seeds}{which}",
             flush=True,
         )
         alarmed = 0
@@ -223,7 +239,7 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"sweep_isolation: {2 * args.floors} channels, {args.minutes:g} min at "
         f"{RATE_HZ:g} Hz, fault from {args.onset:.0%} of the record to {span}{also}, "
-        f"size x{args.scale:g}, seeds {args.seeds}",
+        f"size x{args.scale:g}, seeds {args.seeds}{which}",
         flush=True,
     )
     with tempfile.TemporaryDirectory(prefix="sweep_isolation_") as tmp:
