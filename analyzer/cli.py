@@ -90,6 +90,13 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         help="detectors to run; default: every detector whose needs are met",
     )
     p.add_argument(
+        "--screen",
+        type=_csv_list,
+        metavar="NAME[,NAME...]",
+        help="analyze with these detectors first, and with all of them only when these "
+        "find a fault (faster on mostly healthy archives; what these miss is missed)",
+    )
+    p.add_argument(
         "--rate",
         type=_positive_float,
         metavar="HZ",
@@ -246,6 +253,7 @@ def _run_options(args: argparse.Namespace) -> Any:
         progress=_progress_printer(not args.no_progress),
         model=args.model,
         save_model=getattr(args, "save_model", None),
+        screen=args.screen,
     )
 
 

@@ -111,7 +111,13 @@ from typing import Any
 from analyzer.errors import AnalyzerError, UsageError, one_line
 from analyzer.paging import tune_heap
 from analyzer.parallel import DaskExecutor
-from analyzer.pipeline import RunOptions, analyze, sha256_of, write_atomic, write_outputs
+from analyzer.pipeline import (
+    RunOptions,
+    analyze_screened,
+    sha256_of,
+    write_atomic,
+    write_outputs,
+)
 from analyzer.report.jobs import PRELOAD_MODULE
 from analyzer.scratch import hold, make_scratch, remove_scratch
 from analyzer.watch_cluster import ClusterTask, warm_worker
@@ -218,7 +224,7 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
     ``out_dir/error.txt``, with ``work`` as its scratch space. Returns the exit code: 0/1
     analyzed (no fault/fault), 2 input error, 3 bug."""
     try:
-        analysis = analyze(inputs, options, work)
+        analysis = analyze_screened(inputs, options, work)
         write_outputs(analysis, out_dir)
         return 1 if analysis.faulty else 0
     except AnalyzerError as err:
