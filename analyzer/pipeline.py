@@ -931,7 +931,15 @@ def analyze_screened(inputs: Sequence[str | Path], options: RunOptions, workdir:
     names = ", ".join(options.screen)
     screen_dir = workdir / "screen"
     screen_dir.mkdir()
-    screening = replace(options, detectors=list(options.screen), screen=None)
+    shown = options.progress
+    screening = replace(
+        options,
+        detectors=list(options.screen),
+        screen=None,
+        # its stages shown as the screening's ("screen read", ...): a fault's full
+        # analysis shows the plain ones after them
+        progress=None if shown is None else lambda stage, done: shown(f"screen {stage}", done),
+    )
     first = analyze(inputs, screening, screen_dir)
     if not first.faulty:
         first.screen = {"detectors": list(options.screen), "fault": False}

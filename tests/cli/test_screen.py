@@ -99,3 +99,21 @@ def test_a_screen_that_cannot_work_is_a_usage_error(extra, needle, tmp_path, cap
     assert code == 2
     one_line_error(err, "--screen", needle)
     assert not (tmp_path / "o").exists()
+
+
+def test_the_screenings_progress_stages_are_named_as_its_own(tmp_path):
+    """On a terminal the screening's stages show as ``screen read``, ``screen detect``...;
+    after a fault the full analysis's show under their plain names."""
+    stages: list[str] = []
+
+    def progress(stage: str, done: float) -> None:
+        if not stages or stages[-1] != stage:
+            stages.append(stage)
+
+    options = RunOptions(screen=["equivalent_model"], progress=progress)
+    assert pipeline.run([FAULTY], tmp_path, options) == 1
+    first_plain = next(i for i, s in enumerate(stages) if not s.startswith("screen "))
+    assert stages[0] == "screen read" and "screen detect" in stages[:first_plain]
+    assert all(s.startswith("screen ") for s in stages[:first_plain])
+    assert "read" in stages[first_plain:] and "report" in stages[first_plain:]
+    assert not any(s.startswith("screen ") for s in stages[first_plain:])
