@@ -32,7 +32,14 @@ from analyzer.diagnosis.changes import Calibration
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.stuck import healthy_stats, relabel_frozen
-from analyzer.errors import AnalyzerError, ConfigError, DetectorError, ReaderError, UsageError
+from analyzer.errors import (
+    AnalyzerError,
+    ConfigError,
+    DetectorError,
+    ReaderError,
+    UsageError,
+    one_line,
+)
 from analyzer.grouping import partition
 from analyzer.modelfile import SavedModel, check_model_path, load_model, save_model
 from analyzer.outdir import prepare_dir, remove_if_empty
@@ -922,7 +929,10 @@ def analyze_screened(inputs: Sequence[str | Path], options: RunOptions, workdir:
     long run of mostly healthy archives (one detector alone analyzes 4 hours of MCAP
     1.2-2.6x as fast as all three, the equivalent model fastest), at the price of what
     the screening's detectors miss and the others would have found; a faulty archive
-    costs the screening more than a plain run. Without ``--screen``: :func:`analyze`.
+    costs the screening more than a plain run. Screening detectors that cannot run on
+    the archive (a :class:`DetectorError`, such as too little healthy data for them)
+    leave it to every detector, with their error in ``screen``. Without ``--screen``:
+    :func:`analyze`.
 
     The screening works in a directory of its own in ``workdir``, removed before the
     second analysis (a long archive's aligned matrix and signals are files there)."""
@@ -940,21 +950,27 @@ def analyze_screened(inputs: Sequence[str | Path], options: RunOptions, workdir:
         # analysis shows the plain ones after them
         progress=None if shown is None else lambda stage, done: shown(f"screen {stage}", done),
     )
-    first = analyze(inputs, screening, screen_dir)
-    if not first.faulty:
+    try:
+        first: Analysis | None = analyze(inputs, screening, screen_dir)
+    except DetectorError as err:  # say, too little healthy data for them: the others decide
+        first, failed = None, one_line(err)
+    if first is not None and not first.faulty:
         first.screen = {"detectors": list(options.screen), "fault": False}
         first.notes.append(
             f"screened with {names} alone (--screen): no fault, so the other detectors did not run"
         )
         return first
+    screen: dict[str, Any] = {"detectors": list(options.screen), "fault": True}
+    if first is None:  # no verdict of theirs: what stopped them instead
+        screen["fault"], screen["error"] = None, failed
+        why = f"they could not run ({failed}), so analyzed with every detector"
+    else:
+        why = "a fault, so analyzed again with every detector; these findings are that analysis's"
     del first
     shutil.rmtree(screen_dir, ignore_errors=True)
     analysis = analyze(inputs, replace(options, screen=None), workdir)
-    analysis.screen = {"detectors": list(options.screen), "fault": True}
-    analysis.notes.append(
-        f"screened with {names} alone (--screen): a fault, so analyzed again with every "
-        "detector; these findings are that analysis's"
-    )
+    analysis.screen = screen
+    analysis.notes.append(f"screened with {names} alone (--screen): {why}")
     return analysis
 
 

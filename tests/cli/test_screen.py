@@ -117,3 +117,31 @@ def test_the_screenings_progress_stages_are_named_as_its_own(tmp_path):
     assert all(s.startswith("screen ") for s in stages[:first_plain])
     assert "read" in stages[first_plain:] and "report" in stages[first_plain:]
     assert not any(s.startswith("screen ") for s in stages[first_plain:])
+
+
+def test_a_screening_that_cannot_run_leaves_the_archive_to_every_detector(tmp_path, monkeypatch):
+    """When the screening's detectors cannot run on an archive (a ``DetectorError``: too
+    little healthy data for them, say) the full analysis decides, and says why."""
+    from analyzer.errors import DetectorError
+
+    real = pipeline.analyze
+    calls: list[list[str] | None] = []
+
+    def first_fails(inputs, options, workdir=None):
+        calls.append(options.detectors)
+        if len(calls) == 1:
+            raise DetectorError("no detector could run (equivalent_model: too little data)")
+        return real(inputs, options, workdir)
+
+    monkeypatch.setattr(pipeline, "analyze", first_fails)
+    options = RunOptions(screen=["equivalent_model"])
+    assert pipeline.run([FAULTY], tmp_path, options) == 1
+    assert calls == [["equivalent_model"], None]
+    found = _findings(tmp_path)
+    assert found["screen"] == {
+        "detectors": ["equivalent_model"],
+        "fault": None,
+        "error": "no detector could run (equivalent_model: too little data)",
+    }
+    assert len(found["detectors"]) == 3 and found["faults"]
+    assert any("they could not run" in n for n in found["notes"])
