@@ -32,13 +32,17 @@ same type, onset within ``--slack`` seconds) is left out of the verdict, which i
   the findings are printed).
 
 The table also counts the cases whose faulty sensor is **named** beyond the background,
-whatever the type (isolation apart from classification).
+whatever the type (isolation apart from classification), and those **flagged**: with any
+finding at all, background included, which is what ``--screen`` passes on to every
+detector. ``--detectors A,B`` runs only those (a screening's sensitivity on a real
+record).
 
 A script, not a timed test (about 3 s a case)::
 
     python benchmarks/sweep_real_background.py [--corpus DIR] [--onset 0.5]
                                                [--train 0.2] [--offset 1] [--gain 1.2]
                                                [--drift 1] [--channels A,B]
+                                               [--detectors A,B]
 """
 
 from __future__ import annotations
@@ -80,11 +84,14 @@ def load(corpus: Path) -> tuple[pd.DataFrame, np.ndarray]:
     return frame, seconds
 
 
-def run_case(frame: pd.DataFrame, workdir: Path, train: str) -> list[Finding]:
-    """The findings of ``analyze`` on ``frame`` written as a CSV."""
+def run_case(
+    frame: pd.DataFrame, workdir: Path, train: str, detectors: list[str] | None = None
+) -> list[Finding]:
+    """The findings of ``analyze`` on ``frame`` written as a CSV (``detectors``: only
+    those run, ``--detectors``)."""
     path = workdir / "record.csv"
     frame.to_csv(path, index=False)
-    analysis = analyze([path], RunOptions(train=train))
+    analysis = analyze([path], RunOptions(train=train, detectors=detectors))
     return [
         (f.channel, f.type.value, float(f.onset_s), f.end_s, dict(f.magnitude))
         for f in analysis.findings
@@ -145,7 +152,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--drift", type=float, default=1.0, help="training std per hour")
     parser.add_argument("--slack", type=float, default=300.0, help="background match, s")
     parser.add_argument("--channels", default=None, help="sensors to fault (default: all)")
+    parser.add_argument(
+        "--detectors", default=None, metavar="A,B", help="run only these (default: the defaults)"
+    )
     args = parser.parse_args(argv)
+    detectors = args.detectors.split(",") if args.detectors else None
     if not 0.0 < args.train < args.onset < 1.0:
         parser.error("need 0 < --train < --onset < 1")
     frame, seconds = load(args.corpus)
@@ -163,12 +174,12 @@ def main(argv: list[str] | None = None) -> int:
         f"sweep_real_background: {RECORD} ({len(frame)} rows, {duration:.0f} s, "
         f"{len(sensors)} sensors), training 0-{train_end:.0f} s, faults from {onset:.0f} s "
         f"to the end: offset {args.offset:g} std, gain {args.gain:g}, drift {args.drift:g} "
-        "std per hour"
+        "std per hour" + (f", detectors {args.detectors}" if args.detectors else "")
     )
     tally: dict[str, Counter[str]] = {k: Counter() for k in KINDS}
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
-        background = run_case(frame, work, train)
+        background = run_case(frame, work, train, detectors)
         print(f"  background (no fault injected): {short(background) or 'no finding'}")
         for channel in chosen:
             std = float(np.nanstd(frame[channel].to_numpy(dtype=np.float64)[healthy]))
@@ -179,7 +190,9 @@ def main(argv: list[str] | None = None) -> int:
             }
             for kind in KINDS:
                 case = faulty(frame, seconds, channel, kind, onset, sizes[kind])
-                found = beyond(run_case(case, work, train), background, args.slack)
+                everything = run_case(case, work, train, detectors)
+                tally[kind]["flagged"] += bool(everything)  # what a --screen would pass on
+                found = beyond(everything, background, args.slack)
                 v = verdict(found, channel, kind)
                 tally[kind][v] += 1
                 tally[kind]["named"] += any(f[0] == channel for f in found)
@@ -188,12 +201,16 @@ def main(argv: list[str] | None = None) -> int:
                     f"{v:6s} {short(found)}"
                 )
     print()
-    print(f"{'fault':15s} {'cases':>5s} {'right':>5s} {'extra':>5s} {'wrong':>5s} {'named':>5s}")
+    print(
+        f"{'fault':15s} {'cases':>5s} {'right':>5s} {'extra':>5s} {'wrong':>5s} {'named':>5s}"
+        f" {'flagged':>7s}"
+    )
     for kind in KINDS:
         t = tally[kind]
         cases = t["right"] + t["extra"] + t["wrong"]
         print(
             f"{kind:15s} {cases:5d} {t['right']:5d} {t['extra']:5d} {t['wrong']:5d} {t['named']:5d}"
+            f" {t['flagged']:7d}"
         )
     return 0
 
