@@ -596,6 +596,7 @@ class _Runner:
                 ]
                 rec.start = doc.get("start")
                 rec.duration_s = doc.get("duration_s")
+                rec.screen = doc.get("screen")
                 rec.verdict = Verdict.FAULT if faults else Verdict.NO_FAULT
                 rec.report = f"{dirname}/report.html"
                 return rec

@@ -90,6 +90,9 @@ class Record:
     """Each fault of the archive: ``channel``, ``type``, ``onset`` and ``end`` (ISO-8601
     UTC; ``end`` None while it lasts to the archive's end) and ``from_start`` (present
     from the first sample searched: it may have begun before the archive)."""
+    screen: dict[str, Any] | None = None
+    """With ``--screen``: ``findings.json``'s ``screen`` (the screening's detectors and
+    whether they found a fault, so whether every detector analyzed the archive)."""
 
     def as_json(self) -> dict[str, Any]:
         """The record as a JSON object: a new dict, whose lists are the record's own (to
@@ -440,6 +443,16 @@ def index_view(index: dict[str, Any]) -> IndexView:
     for r in index["archives"]:
         verdict = str(r["verdict"])
         details = r["error"] or "report"
+        screen = r.get("screen")
+        if screen:
+            by = ", ".join(screen["detectors"])
+            details += (
+                f"; screened by {by} alone"
+                if screen.get("fault") is False
+                else f"; flagged by {by}, analyzed by every detector"
+                if screen.get("fault")
+                else f"; {by} could not screen it, analyzed by every detector"
+            )
         if r["moved_to"]:
             details += f"; moved to {', '.join(r['moved_to'])}"
         duration = r["duration_s"]

@@ -273,6 +273,36 @@ def test_ledger_round_trip_and_index_newest_first(tmp_path: Path) -> None:
     assert page.index("new &lt;b&gt;.mcap") < page.index("old.csv")
 
 
+def test_the_index_says_how_a_screened_archive_was_analyzed(tmp_path: Path) -> None:
+    """``watch --screen``: each record keeps findings.json's ``screen``, and the index's
+    details say whether the screening alone analyzed the archive; a state file written
+    before the field existed still loads (no screen)."""
+    ledger = Ledger(tmp_path)
+    cases = {
+        "a.csv": {"detectors": ["equivalent_model"], "fault": False},
+        "b.csv": {"detectors": ["equivalent_model"], "fault": True},
+        "c.csv": {"detectors": ["equivalent_model"], "fault": None, "error": "no detector"},
+        "d.csv": None,
+    }
+    for k, (name, screen) in enumerate(cases.items()):
+        rec = _record(name, f"2026-01-01T0{k}:00:00.000Z")
+        rec.screen = screen
+        ledger.record(rec)
+    ledger.refresh_views(force=True)
+    index = json.loads((tmp_path / "index.json").read_text())
+    assert {a["name"]: a["screen"] for a in index["archives"]} == cases
+    details = {row.name: row.details for row in watch_index.index_view(index).rows}
+    assert details["a.csv"] == "report; screened by equivalent_model alone"
+    assert details["b.csv"] == "report; flagged by equivalent_model, analyzed by every detector"
+    assert "could not screen it" in details["c.csv"]
+    assert details["d.csv"] == "report"
+    assert "screened by equivalent_model alone" in (tmp_path / "index.html").read_text()
+    old = Record.from_json(
+        {k: v for k, v in ledger.records["a.csv"].as_json().items() if k != "screen"}
+    )
+    assert old.screen is None
+
+
 def test_the_state_is_written_at_every_record_and_the_views_at_most_every_interval(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -573,3 +573,30 @@ def test_bad_folders_and_patterns_are_usage_errors(
         assert main(["watch", *argv, "--once"]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and re.search(message, err), err
+
+
+def test_a_screened_watcher_records_how_each_archive_was_analyzed(
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+) -> None:
+    """``watch --screen``: a healthy archive is analyzed by the screening's detector
+    alone, a faulty one by every detector after it, and the state and the index say so."""
+    inbox, reports = folders
+    w = start_watcher(
+        WatchSettings(inbox, reports, settle=SETTLE, jobs=1),
+        replace(OPTIONS, screen=["equivalent_model"]),
+    )
+    wait_until(lambda: (reports / "index.html").exists(), "the watcher to start")
+    write(inbox / "healthy.csv", "csv", seed=1)
+    write(inbox / "faulty.csv", "csv", seed=2, fault=True)
+    wait_until(lambda: {"healthy.csv", "faulty.csv"} <= state(reports).keys(), "both archives")
+    records = state(reports)
+    assert records["healthy.csv"]["verdict"] == "no fault"
+    assert records["healthy.csv"]["screen"] == {"detectors": ["equivalent_model"], "fault": False}
+    assert records["faulty.csv"]["verdict"] == "fault"
+    assert records["faulty.csv"]["screen"] == {"detectors": ["equivalent_model"], "fault": True}
+    found = json.loads((reports / "faulty.csv" / "findings.json").read_text())
+    assert len(found["detectors"]) == 3
+    w.stop.set()
+    assert w.join(timeout=TIMEOUT) == 0
+    assert "screened by equivalent_model alone" in (reports / "index.html").read_text()
