@@ -437,22 +437,24 @@ class IndexView:
     episodes: list[EpisodeRow] = field(default_factory=list)
 
 
+def _screening(screen: dict[str, Any]) -> str:
+    """How a screened archive was analyzed (``watch --screen``), for its index line."""
+    by = ", ".join(screen["detectors"])
+    if screen.get("fault") is False:
+        return f"screened by {by} alone"
+    if screen.get("fault"):
+        return f"flagged by {by}, analyzed by every detector"
+    return f"{by} could not screen it, analyzed by every detector"
+
+
 def index_view(index: dict[str, Any]) -> IndexView:
     """The display strings of ``index.html`` from the ``index.json`` document."""
     rows = []
     for r in index["archives"]:
         verdict = str(r["verdict"])
         details = r["error"] or "report"
-        screen = r.get("screen")
-        if screen:
-            by = ", ".join(screen["detectors"])
-            details += (
-                f"; screened by {by} alone"
-                if screen.get("fault") is False
-                else f"; flagged by {by}, analyzed by every detector"
-                if screen.get("fault")
-                else f"; {by} could not screen it, analyzed by every detector"
-            )
+        if r.get("screen"):
+            details += f"; {_screening(r['screen'])}"
         if r["moved_to"]:
             details += f"; moved to {', '.join(r['moved_to'])}"
         duration = r["duration_s"]
