@@ -311,12 +311,22 @@ def write_rows(out: npt.NDArray[Any], a: int, block: npt.ArrayLike) -> None:
     fd, file_at = writer
     base = out[a:].__array_interface__["data"][0] - found[1] + file_at
     if out.ndim == 1:
-        os.pwrite(fd, np.ascontiguousarray(block, dtype=out.dtype).data, base)
+        pwrite_all(fd, np.ascontiguousarray(block, dtype=out.dtype).data, base)
         return
     # channel-major, as the file is (no copy when the block already is, in its dtype)
     cols = np.ascontiguousarray(block.T, dtype=out.dtype)
     for k in range(out.shape[1]):
-        os.pwrite(fd, cols[k].data, base + k * out.strides[1])
+        pwrite_all(fd, cols[k].data, base + k * out.strides[1])
+
+
+def pwrite_all(fd: int, data: memoryview, at: int) -> None:
+    """``os.pwrite`` of the C-contiguous buffer ``data`` at offset ``at`` until every byte
+    is written: one call may write fewer (Linux writes at most 2 GiB per call, a month of
+    one channel at 100 Hz), and the rest would be silently lost."""
+    rest = data.cast("B")
+    while rest:
+        done = os.pwrite(fd, rest, at)
+        rest, at = rest[done:], at + done
 
 
 MEMORY_ROW_BYTES = 32 << 20

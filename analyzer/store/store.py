@@ -31,7 +31,7 @@ import numpy as np
 import numpy.typing as npt
 
 from analyzer.errors import StoreError
-from analyzer.paging import is_mapped, mapped_file, release
+from analyzer.paging import is_mapped, mapped_file, pwrite_all, release
 from analyzer.readers.base import ChannelChunk
 from analyzer.scratch import make_scratch, remove_scratch
 from analyzer.types import NS_PER_S
@@ -487,7 +487,7 @@ class AlignedSeries:
             if fd is not None:
                 assert isinstance(out, np.memmap)
                 at = int(out.offset) + a * shape[1] * rows.itemsize
-                _pwrite_all(fd, rows.data.cast("B"), at)
+                pwrite_all(fd, rows.data, at)
 
         # the blocks are independent and their copies (and page faults) run without the
         # GIL: on threads they overlap
@@ -504,13 +504,6 @@ class AlignedSeries:
             if fd is not None:
                 os.close(fd)
         return out
-
-
-def _pwrite_all(fd: int, data: memoryview, at: int) -> None:
-    """``os.pwrite`` until every byte of ``data`` is written at offset ``at``."""
-    while data:
-        done = os.pwrite(fd, data, at)
-        data, at = data[done:], at + done
 
 
 class _Finder:

@@ -253,6 +253,31 @@ def test_scratch_rows_are_reused_and_go_with_the_pool(tmp_path, monkeypatch, in_
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/self/statm")
+def test_write_rows_writes_every_byte_when_pwrite_writes_fewer(tmp_path, monkeypatch):
+    """``os.pwrite`` may write fewer bytes than asked (Linux: at most 2 GiB a call): the
+    rest is written by further calls, not lost."""
+    import os
+
+    from analyzer.paging import buffer, write_rows
+
+    real = os.pwrite
+    calls = []
+
+    def short(fd, data, offset):
+        calls.append(len(memoryview(data).cast("B")))
+        return real(fd, memoryview(data).cast("B")[:1000], offset)  # 1000 bytes at most
+
+    a = buffer(tmp_path, "w", (5000, 3))
+    block = np.random.default_rng(1).standard_normal((4000, 3))
+    monkeypatch.setattr(os, "pwrite", short)
+    write_rows(a, 500, block)
+    write_rows(a[:, 1], 4600, np.arange(300.0))  # one channel's column
+    monkeypatch.undo()
+    np.testing.assert_array_equal(a[500:4500], block)
+    np.testing.assert_array_equal(a[4600:4900, 1], np.arange(300.0))
+    assert max(calls) == 32_000 and len(calls) == 3 * 32 + 3  # 32 calls a column, 3 for one
+
+
 def test_write_rows_writes_a_buffer_s_file_without_mapping_its_pages(tmp_path):
     """Rows written into a memory-mapped buffer go to its file (the map sees them at
     once, in its own precision), and none of the written pages joins the resident set;
