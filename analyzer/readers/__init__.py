@@ -22,7 +22,13 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from analyzer.errors import ReaderError
-from analyzer.readers._common import bag_files, file_digest, monotonic, one_line
+from analyzer.readers._common import (
+    bag_files,
+    file_digest,
+    lfs_pointer,
+    monotonic,
+    one_line,
+)
 from analyzer.readers.base import ChannelChunk, InputInfo, Reader, TimeSource
 from analyzer.types import Format
 
@@ -91,6 +97,8 @@ def detect_format(path: str | Path) -> Format:
     for magic, fmt in _MAGICS:
         if head.startswith(magic):
             return fmt
+    if head.startswith(b"version ") and (pointer := lfs_pointer(path)):
+        raise ReaderError(pointer)
     suffix = _suffix(path)
     if suffix:
         return SUFFIXES[suffix]

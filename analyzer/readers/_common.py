@@ -340,6 +340,35 @@ def file_digest(paths: Sequence[Path]) -> tuple[int, str]:
     return total, digest.hexdigest()
 
 
+LFS_MAGIC = b"version https://git-lfs.github.com/spec/"
+
+
+def lfs_pointer(path: Path) -> str | None:
+    """What to say about ``path`` when it is a Git LFS pointer (a repository cloned
+    without ``git lfs``: a ~130-byte text naming the real file's hash and size) instead of
+    the data, else None. Every reader's own error would only say the bytes are wrong."""
+    try:
+        with path.open("rb") as handle:
+            head = handle.read(512)
+    except OSError:
+        return None  # the reader says why it cannot be read
+    if not head.startswith(LFS_MAGIC):
+        return None
+    size = next(
+        (
+            line.split()[1].decode("ascii", "replace")
+            for line in head.splitlines()
+            if line.startswith(b"size ") and len(line.split()) == 2
+        ),
+        None,
+    )
+    target = f" (to a {size}-byte file)" if size is not None and size.isdigit() else ""
+    return (
+        f"{path}: a Git LFS pointer{target}, not the data itself (fetch it with `git lfs pull` "
+        "in its repository)"
+    )
+
+
 SIDECARS = ("-shm", "-wal", "-journal")
 
 

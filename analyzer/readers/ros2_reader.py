@@ -37,6 +37,7 @@ from analyzer.readers._common import (  # noqa: F401 - bag_files re-exported
     bag_files,
     concat_payloads,
     file_digest,
+    lfs_pointer,
     monotonic,
     one_line,
     sample_times,
@@ -65,6 +66,9 @@ class Ros2BagReader:
         self.bulk = bulk
         if self.path.is_file() and self.path.stat().st_size == 0:
             raise ReaderError(f"{self.path}: empty file (0 bytes)")
+        for member in bag_files(self.path):
+            if pointer := lfs_pointer(member):
+                raise ReaderError(pointer)
         try:
             with _open_bag(self.path) as bag:
                 connections = list(bag.connections)

@@ -52,6 +52,44 @@ def test_zero_byte_file(tmp_path: Path, name: str) -> None:
     one_line(err, path)
 
 
+def lfs_pointer_text(size: int) -> str:
+    """What a repository cloned without ``git lfs`` holds in place of a tracked file."""
+    oid = "f720b819f6ca73301cd793d7c19e686c4779ca0daa1754ab58c086e435c55a32"
+    return f"version https://git-lfs.github.com/spec/v1\noid sha256:{oid}\nsize {size}\n"
+
+
+@pytest.mark.parametrize("name", ["a.mcap", "a.bag", "a.db3", "a.csv", "a.csv.gz", "a"])
+def test_git_lfs_pointer_is_named(tmp_path: Path, name: str) -> None:
+    # each reader's own error ("bad magic", "not a database", "no numeric column") would
+    # not tell the user that the file was never fetched
+    path = tmp_path / name
+    path.write_text(lfs_pointer_text(53987758))
+    with pytest.raises(ReaderError, match=r"Git LFS pointer \(to a 53987758-byte file\)") as err:
+        open_input(path)
+    assert "git lfs pull" in one_line(err, path)
+
+
+def test_git_lfs_pointer_in_a_ros2_bag_and_in_an_archive(tmp_path: Path) -> None:
+    t, data = synthetic(200)
+    bag = tmp_path / "bag"
+    write_ros2_bag(bag, t, data)
+    (storage,) = bag.glob("*.db3")
+    storage.write_text(lfs_pointer_text(4096))
+    with pytest.raises(ReaderError, match="Git LFS pointer") as err:
+        open_input(bag)
+    assert str(storage) in one_line(err, bag)
+    # a pointer among an archive's files is reported and skipped, the rest is read
+    folder = tmp_path / "hours"
+    folder.mkdir()
+    write_archive(folder / "h0.mcap", "mcap", t, data)
+    (folder / "h1.mcap").write_text(lfs_pointer_text(4096))
+    archive = open_archive(folder)
+    failed = [info for info in archive.inputs if info.errors]
+    assert [info.path.name for info in failed] == ["h1.mcap"]
+    assert "Git LFS pointer" in failed[0].errors[0]
+    assert collect(archive.chunks())
+
+
 def test_crlf_mangled_mcap(tmp_path: Path) -> None:
     t, data = synthetic(200)
     good = tmp_path / "good.mcap"

@@ -151,3 +151,16 @@ def test_every_real_file_reads_or_raises_cleanly(corpus: Path) -> None:
             continue
         collect(archive.chunks())
         collect(archive.chunks("header"))
+
+
+def test_the_conformance_suites_lfs_pointers_are_named_as_such(corpus: Path) -> None:
+    # foxglove/mcap's conformance files are in the corpus as Git LFS pointers only: each
+    # is "a Git LFS pointer (to an N-byte file)", N its own recorded size
+    pointers = sorted((corpus / "mcap/foxglove_conformance/data").rglob("*.mcap"))
+    assert len(pointers) > 100
+    for path in pointers[::40]:
+        size = next(
+            line.split()[1] for line in path.read_text().splitlines() if line.startswith("size ")
+        )
+        with pytest.raises(ReaderError, match=rf"Git LFS pointer \(to a {size}-byte file\)"):
+            open_input(path)
