@@ -238,7 +238,7 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 
 def _run_options(args: argparse.Namespace) -> Any:
-    from analyzer.pipeline import load_options
+    from analyzer.options import load_options
 
     return load_options(
         args.config,

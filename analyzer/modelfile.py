@@ -28,6 +28,7 @@ from typing import Any
 
 from analyzer import __version__
 from analyzer.errors import UsageError
+from analyzer.outdir import write_atomic
 
 MAGIC = b"analyzer.model/2\n"
 """Format 2: an impulse-response bank holds its Markov parameters, not their spectrum
@@ -141,8 +142,6 @@ class _Restricted(pickle.Unpickler):
 
 def save_model(path: Path, model: SavedModel) -> None:
     """Write ``model`` to ``path`` atomically (a reader never sees half a file)."""
-    from analyzer.pipeline import write_atomic
-
     write_atomic(path, MAGIC + pickle.dumps(model, protocol=5))
 
 

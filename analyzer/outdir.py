@@ -32,3 +32,19 @@ def remove_if_empty(path: Path) -> None:
     """Remove the directory ``path`` if nothing was written to it."""
     with contextlib.suppress(OSError):
         path.rmdir()
+
+
+def write_atomic(path: Path, data: bytes | str) -> None:
+    """Write ``path`` via a temporary file and rename, so readers never see half a file."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data.encode("utf-8") if isinstance(data, str) else data)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the usual file mode
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise

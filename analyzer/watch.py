@@ -109,15 +109,12 @@ from types import FrameType
 from typing import Any
 
 from analyzer.errors import AnalyzerError, UsageError, one_line
+from analyzer.findings import sha256_of, write_outputs
+from analyzer.options import RunOptions
+from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
 from analyzer.parallel import DaskExecutor
-from analyzer.pipeline import (
-    RunOptions,
-    analyze_screened,
-    sha256_of,
-    write_atomic,
-    write_outputs,
-)
+from analyzer.pipeline import analyze_screened
 from analyzer.report.jobs import PRELOAD_MODULE
 from analyzer.scratch import hold, make_scratch, remove_scratch
 from analyzer.watch_cluster import ClusterTask, warm_worker

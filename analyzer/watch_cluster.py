@@ -31,9 +31,10 @@ from pathlib import Path
 from typing import Any
 
 from analyzer.errors import one_line
+from analyzer.options import RunOptions
+from analyzer.outdir import write_atomic
 from analyzer.paging import heap_tuned
 from analyzer.parallel import DaskExecutor
-from analyzer.pipeline import RunOptions, write_atomic
 
 CANCELLED = -15
 """The exit code a cancelled task reports (as a process ended by SIGTERM would)."""

@@ -36,7 +36,7 @@ from urllib.parse import quote
 
 from analyzer import __version__
 from analyzer.errors import UsageError
-from analyzer.pipeline import write_atomic
+from analyzer.outdir import write_atomic
 from analyzer.timeutil import iso_utc, parse_time
 from analyzer.types import NS_PER_S
 

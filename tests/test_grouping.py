@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from analyzer import grouping, pipeline
+from analyzer.detector_runs import skip_reasons
 from analyzer.grouping import GROUP_SIZE, partition
 from analyzer.pipeline import RunOptions, analyze
 from analyzer.simulate import simulate_building
@@ -153,7 +154,7 @@ def test_skip_reasons_over_many_groups_make_one_readable_line():
         "ar_kalman_bank (s32..s47)": "too little healthy data: 36 samples",
         "equivalent_model (s0..s15)": "equivalent_model needs 3 channels",
     }
-    assert pipeline._skip_reasons(skipped) == [
+    assert skip_reasons(skipped) == [
         "error_function: needs [[group]] reference/uncertain sensors",
         "ar_kalman_bank (s0..s15): too little healthy data: 36 samples "
         "(and on 2 more channel groups)",

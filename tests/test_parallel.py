@@ -362,7 +362,7 @@ class FastFail(_Timed):
 
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_runs_start_as_fits_finish_and_results_keep_registry_order(monkeypatch, jobs):
-    from analyzer import pipeline
+    from analyzer.detector_runs import run_detectors
 
     monkeypatch.setitem(REGISTRY, "slow", f"{__name__}:SlowFit")
     monkeypatch.setitem(REGISTRY, "fast", f"{__name__}:FastFit")
@@ -371,9 +371,7 @@ def test_runs_start_as_fits_finish_and_results_keep_registry_order(monkeypatch, 
     ex = make_executor(jobs)
     try:
         ctx = RunContext(executor=ex if jobs > 1 else None)
-        results, skipped = pipeline._run_detectors(
-            ["slow", "fast"], RunOptions(jobs=jobs), data, ctx, ex
-        )
+        results, skipped = run_detectors(["slow", "fast"], RunOptions(jobs=jobs), data, ctx, ex)
     finally:
         ex.close()
     assert [r.detector for r in results] == ["slow", "fast"] and not skipped
@@ -383,7 +381,7 @@ def test_runs_start_as_fits_finish_and_results_keep_registry_order(monkeypatch, 
 
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_the_first_explicit_error_in_registry_order_is_raised(monkeypatch, jobs):
-    from analyzer import pipeline
+    from analyzer.detector_runs import run_detectors
 
     monkeypatch.setitem(REGISTRY, "slow", f"{__name__}:SlowFail")
     monkeypatch.setitem(REGISTRY, "fast", f"{__name__}:FastFail")
@@ -392,11 +390,9 @@ def test_the_first_explicit_error_in_registry_order_is_raised(monkeypatch, jobs)
     try:
         ctx = RunContext(executor=ex if jobs > 1 else None, explicit=True)
         with pytest.raises(DetectorError, match="^slow cannot fit"):
-            pipeline._run_detectors(["slow", "fast"], RunOptions(jobs=jobs), data, ctx, ex)
+            run_detectors(["slow", "fast"], RunOptions(jobs=jobs), data, ctx, ex)
         ctx = RunContext(executor=ex if jobs > 1 else None)  # not named: both skipped
-        results, skipped = pipeline._run_detectors(
-            ["slow", "fast"], RunOptions(jobs=jobs), data, ctx, ex
-        )
+        results, skipped = run_detectors(["slow", "fast"], RunOptions(jobs=jobs), data, ctx, ex)
         assert results == [] and list(skipped) == ["slow", "fast"]
     finally:
         ex.close()
@@ -471,13 +467,14 @@ def test_long_archive_signals_go_to_files_while_the_next_detector_runs(tmp_path,
     pool while the next detector runs (not in between, with a core idle), and its
     residual tests start only once they are there: every detector's tests are in the
     results, computed on the spilled (file-backed) residuals."""
+    import analyzer.detector_runs as runs
     import analyzer.pipeline as pl
 
     monkeypatch.setattr(pl, "MATERIALIZE_IN_MEMORY", 1000)
     main = threading.main_thread()
     spilled_on: list[bool] = []
     tested: list[bool] = []
-    real_spill, real_tests = pl._spill, pl._residual_tests
+    real_spill, real_tests = runs._spill, pl._residual_tests
 
     def spill(result, spill_dir, tag=""):
         spilled_on.append(threading.current_thread() is main)
@@ -490,7 +487,7 @@ def test_long_archive_signals_go_to_files_while_the_next_detector_runs(tmp_path,
         tested.append(res.dtype == np.float32 and not res.flags.writeable)
         return real_tests(task)
 
-    monkeypatch.setattr(pl, "_spill", spill)
+    monkeypatch.setattr(runs, "_spill", spill)
     monkeypatch.setattr(pl, "_residual_tests", residual_tests)
     analysis = analyze([SAMPLE], RunOptions(jobs=2), workdir=tmp_path)
     assert spilled_on == [False, False, False]  # on the pool, one per detector

@@ -69,7 +69,7 @@ def render_report(
     analysis: Any, doc: Mapping[str, Any], workers: FigureWorkers | None = None
 ) -> str:
     """The self-contained ``report.html`` for one analysis and its ``findings.json``
-    document (:func:`analyzer.pipeline.findings_document`); figures drawn by
+    document (:func:`analyzer.findings.findings_document`); figures drawn by
     ``workers`` (by default those of the enclosing :func:`figure_workers` context, if
     any), else in-process."""
     return render_view(build_view(analysis, doc, workers))

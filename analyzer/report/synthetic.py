@@ -1,4 +1,4 @@
-"""A synthetic :class:`~analyzer.pipeline.Analysis` of any size, for the report's
+"""A synthetic :class:`~analyzer.findings.Analysis` of any size, for the report's
 benchmark and tests: what the pipeline would hand the report for a long archive, built
 in seconds instead of running the detectors.
 
@@ -27,7 +27,7 @@ from analyzer.detectors.base import DetectorResult, Event
 from analyzer.diagnosis import merge_events
 from analyzer.diagnosis.changes import calibrate, default_window
 from analyzer.diagnosis.evidence import attach_evidence, training_tests
-from analyzer.pipeline import Analysis
+from analyzer.findings import Analysis
 from analyzer.readers.base import InputInfo
 from analyzer.store import ChannelInfo
 from analyzer.types import NS_PER_S, FaultType, Format

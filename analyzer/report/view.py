@@ -4,7 +4,7 @@ here from the analysis and its ``findings.json`` document.
 Numbers shown as text come from ``doc`` (what ``findings.json`` holds) wherever it has
 them; figures slice the arrays behind them out of the analysis (aligned values,
 residuals, fault-free estimates). The analysis is read by duck typing (attribute
-access with defaults), so any object with the :class:`analyzer.pipeline.Analysis`
+access with defaults), so any object with the :class:`analyzer.findings.Analysis`
 fields renders, including a synthetic one in the benchmark.
 
 Cost stays bounded on long archives: at most :data:`MAX_DETAILED` findings get figures

@@ -14,7 +14,7 @@ enters :func:`figure_workers` first thing in ``run``:
   workers forked from that server, matplotlib already imported); the main process
   never imports matplotlib and builds the rest of the page meanwhile.
 
-Without the context (library callers of :func:`analyzer.pipeline.write_outputs`, the
+Without the context (library callers of :func:`analyzer.findings.write_outputs`, the
 tests that call the CLI in-process, the watcher's analysis processes) figures are drawn
 in-process, in the same order; a figure does not depend on where it is drawn, so the
 page is byte-identical either way.

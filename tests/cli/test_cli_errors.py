@@ -355,13 +355,14 @@ def test_a_full_disk_while_signals_go_to_files_is_a_one_line_error(
     with one line naming the file (exit 2), whichever thread met it."""
     import errno
 
+    import analyzer.detector_runs as runs
     import analyzer.pipeline as pl
 
     def full(result, spill_dir, tag=""):
         raise OSError(errno.ENOSPC, "No space left on device", str(spill_dir / "x.npy"))
 
     monkeypatch.setattr(pl, "MATERIALIZE_IN_MEMORY", 1000)  # any archive is "long"
-    monkeypatch.setattr(pl, "_spill", full)
+    monkeypatch.setattr(runs, "_spill", full)
     code, _, err = run_cli(
         ["run", SAMPLES / "building_additive.mcap", "--out", tmp_path / "o", "--jobs", jobs],
         capsys,

@@ -32,7 +32,8 @@ import pytest
 
 from analyzer.cli import main
 from analyzer.errors import UsageError
-from analyzer.pipeline import RunOptions, sha256_of
+from analyzer.findings import sha256_of
+from analyzer.options import RunOptions
 from analyzer.simulate import inject_fault, simulate_building
 from analyzer.watch import WatchSettings, watch
 from analyzer.writers import write_archive

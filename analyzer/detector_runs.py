@@ -1,0 +1,504 @@
+"""Fitting and running the detectors over the aligned channels: each detector a task of
+the executor (threads, a Dask cluster or serial: the same results), once per channel
+group, a long archive's per-sample signals moved to files as each detector finishes,
+and the groups' results joined back into one per detector."""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, wait
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from analyzer.detectors import REGISTRY, Dataset, DetectorResult, RunContext, detector_class
+from analyzer.detectors.base import SIGNAL_DTYPE
+from analyzer.errors import AnalyzerError, ConfigError, DetectorError
+from analyzer.options import RunOptions
+from analyzer.paging import is_mapped, mapped_file, release, spill, trim_heap
+from analyzer.parallel import DaskExecutor, Executor, TaskHandle, ThreadExecutor
+
+
+def detector_names(options: RunOptions) -> tuple[list[str], bool]:
+    """The detectors a run fits (``--detectors``, else every registered one), and whether
+    the user named them: a named detector that cannot run fails the run with its reason
+    (``RunContext.explicit``), a default one is skipped with it."""
+    if options.detectors:
+        for d in options.detectors:
+            if d not in REGISTRY:
+                detector_class(d)  # raises the UsageError naming the known ones
+        return list(options.detectors), True
+    return list(REGISTRY), False
+
+
+def _fit_and_run(
+    det: Any, data: Dataset, ctx: RunContext, model: Any = None, keep: bool = False
+) -> tuple[Any, DetectorResult]:
+    """One detector's task: fit on the healthy window (unless ``model``, a fitted model
+    of ``--model``, is given), run over the archive; its per-sample signals are kept as
+    float32 (see :data:`SIGNAL_DTYPE`). Returns the fitted model when ``keep``
+    (``--save-model``), else None, with the result."""
+    if model is None:
+        model = det.fit(data, ctx)
+    return (model if keep else None), _compact(det.run(model, data, ctx))
+
+
+def _compact(result: DetectorResult) -> DetectorResult:
+    """``result`` with its per-sample signals in :data:`SIGNAL_DTYPE` (the float64 arrays
+    of the detector are released as soon as its task ends)."""
+    result.residuals = {c: _compacted(a) for c, a in result.residuals.items()}
+    result.reference = {c: _compacted(a) for c, a in result.reference.items()}
+    return result
+
+
+def _compacted(a: Any) -> Any:
+    """One signal in :data:`SIGNAL_DTYPE`; a memory-mapped one (a long archive's, see
+    :meth:`RunContext.buffer`) is left for :func:`_spill` to convert, one channel at a
+    time, rather than copied into memory here."""
+    return a if is_mapped(a) else np.asarray(a, dtype=SIGNAL_DTYPE)
+
+
+def _spill(result: DetectorResult, spill_dir: Path | None, tag: str = "") -> DetectorResult:
+    """``result`` with its per-sample signals moved to memory-mapped files in
+    ``spill_dir`` (a long archive; :func:`analyzer.paging.spill`), so the signals of the
+    detectors that have finished stop counting against memory; unchanged without it.
+    ``tag`` tells apart the files of one detector's runs on several channel groups."""
+    if spill_dir is None:
+        return result
+    spill_dir.mkdir(exist_ok=True)
+    base = spill_dir / f"{result.detector}{tag}"
+    result.residuals = spill(
+        result.residuals, base.with_name(base.name + "-residuals.npy"), SIGNAL_DTYPE
+    )
+    result.reference = spill(
+        result.reference, base.with_name(base.name + "-reference.npy"), SIGNAL_DTYPE
+    )
+    return result
+
+
+def _fit(det: Any, data: Dataset, ctx: RunContext, model: Any = None) -> tuple[Any, Any, float]:
+    """A detector's fit on the healthy window, as a task: ``(detector, fitted model,
+    seconds)``; ``model`` (``--model``) is returned as it is."""
+    t0 = time.perf_counter()
+    if model is None:
+        model = det.fit(data, ctx)
+    return det, model, time.perf_counter() - t0
+
+
+def run_detectors(
+    names: list[str],
+    options: RunOptions,
+    data: Dataset,
+    ctx: RunContext,
+    executor: Executor,
+    *rest: Any,
+) -> tuple[list[DetectorResult], dict[str, str]]:
+    """:func:`_run_planned` with ``executor``; on a Dask cluster the detectors' own steps
+    run in this process (threads for the fits, as with ``--jobs``; ``ctx.map_shared`` on
+    ``ctx.local``), over its memory-mapped archive and scratch space, and only the pieces
+    they split off (time blocks, folds, estimators: ``ctx.map``/``ctx.imap``) go to the
+    workers, a few at a time. Neither side then holds the archive: each task carries its
+    block's rows, each result is written here as it comes back."""
+    if not isinstance(executor, DaskExecutor):
+        return _run_planned(names, options, data, ctx, executor, *rest)
+    local = ThreadExecutor(max(1, len(names)))
+    done = False
+    try:
+        outcome = _run_planned(names, options, data, ctx, local, *rest)
+        done = True
+        return outcome
+    finally:
+        local.close(wait=done)
+
+
+def _run_planned(
+    names: list[str],
+    options: RunOptions,
+    data: Dataset,
+    ctx: RunContext,
+    executor: Executor,
+    timings: dict[str, float] | None = None,
+    spill_dir: Path | None = None,
+    finished: Callable[[DetectorResult], None] | None = None,
+    tag: str = "",
+    fits: dict[str, tuple[Any, Any]] | None = None,
+    kept: dict[str, tuple[Any, Any]] | None = None,
+) -> tuple[list[DetectorResult], dict[str, str]]:
+    """Fit and run the detectors ``names``, each as a task of ``executor``; results and
+    skip reasons in registry order, so any executor gives the serial run's output.
+    ``finished`` is called with each result as soon as it is final (in that order);
+    ``tag`` names the channel group in spilled files' names (:func:`_spill`).
+    ``fits`` (``--model``) gives ``(detector, fitted model)`` by name: those run without
+    a fit; ``kept`` (``--save-model``) receives each detector's ``(detector, fitted
+    model)``.
+
+    A detector whose needs are not met, or that raises :class:`DetectorError`, is skipped
+    with its reason; when the user named the detectors (``ctx.explicit``) the first such
+    error in registry order is raised instead, as the plain loop would."""
+    if fits is not None:  # --model: only what it fitted (on this channel group) runs
+        names = [n for n in names if n in fits]
+    # Local threads: the fits (training window only, memory independent of the archive's
+    # length) run concurrently; the runs over the archive then follow one at a time in
+    # this thread, each splitting its own work over the pool (time blocks, chunks,
+    # sensors), or over the cluster's workers (ctx.executor). Running two detectors over
+    # the archive at once would hold both their per-sample arrays: peak memory would
+    # grow twice as fast with the archive.
+    staged = isinstance(executor, ThreadExecutor)
+    task = _fit if staged else _fit_and_run
+    # (name, handle) for a submitted task, (name, error) for one settled up front
+    planned: list[tuple[str, Any]] = []
+    keep = kept is not None
+    dets: dict[str, Any] = {}  # the detector object of each task (saved with its model)
+    for name in names:
+        given = None if fits is None else fits.get(name)
+        if given is not None:  # --model: fitted on another archive, nothing to check here
+            det, model = given
+            dets[name] = det
+            extra: tuple[Any, ...] = (model,) if staged else (model, keep)
+            planned.append((name, executor.submit(task, det, data, ctx, *extra)))
+            continue
+        cls = detector_class(name)
+        try:
+            det = cls(**options.config.detectors.get(name, {}))
+        except TypeError as err:
+            bad = ConfigError(f"[detectors.{name}]: {err}")
+            bad.__cause__ = err
+            planned.append((name, bad))
+            break  # the plain loop stops here at the latest: start nothing after it
+        reason = det.applicable(data, ctx)
+        if reason is not None:
+            planned.append((name, _NotApplicable(reason)))
+            if ctx.explicit:
+                break
+            continue
+        dets[name] = det
+        extra = () if staged else (None, keep)
+        planned.append((name, executor.submit(task, det, data, ctx, *extra)))
+    # settled[i]: the result of planned[i], or the error its fit or run raised. On threads
+    # each run starts as soon as its fit is done (whichever detector that is: a fast fit
+    # need not wait for a slow one), one run at a time; results are then taken in
+    # registry order, the first error raised as the plain loop would
+    settled: dict[int, DetectorResult | BaseException] = {}
+    # on threads, a long archive's signals go to files (_spill, then ``finished``) on the
+    # pool while the next detector runs, not in between (where one core waited)
+    spilling: dict[int, TaskHandle] = {}
+
+    def spill_and_finish(result: DetectorResult) -> DetectorResult:
+        out = _spill(result, spill_dir, tag)
+        if finished is not None:
+            finished(out)
+        return out
+
+    # progress: on threads each detector's fit, then its run; else each fit-and-run
+    stage = "detect" + (f" group {tag[2:]}" if tag.startswith("-g") else "")
+    per = 2 if staged else 1
+    total = per * sum(1 for _, p in planned if not isinstance(p, _NotApplicable | AnalyzerError))
+    ended = 0
+
+    def show(extra: int = 0) -> None:
+        if total:
+            ctx.report(stage, min(1.0, (per * ended + extra) / total))
+
+    try:
+        for i in _fit_order(planned, staged):
+            name, plan = planned[i]
+            if isinstance(plan, _NotApplicable | AnalyzerError):
+                continue
+            if ctx.explicit and any(
+                k < i and isinstance(v, BaseException) for k, v in settled.items()
+            ):
+                continue  # an earlier detector's error will be raised: no need to run this
+            try:
+                if staged:
+                    det, model, fit_s = plan.result()
+                    show(1)  # fitted
+                    if kept is not None:
+                        kept[name] = (det, model)
+                    t0 = time.perf_counter()
+                    trim_heap()  # what the fits freed
+                    ran = _compact(det.run(model, data, ctx))
+                    if spill_dir is None:
+                        settled[i] = ran
+                    else:
+                        spilling[i] = executor.submit(spill_and_finish, ran)
+                    del ran
+                    release(data.values)  # what the run read of a memory-mapped archive
+                    trim_heap()  # the run's per-sample arrays
+                    if timings is not None:  # the fits overlap: their sum exceeds the wall time
+                        # (summed over channel groups)
+                        run_s = time.perf_counter() - t0
+                        timings[f"fit {name}"] = timings.get(f"fit {name}", 0.0) + fit_s
+                        timings[f"run {name}"] = timings.get(f"run {name}", 0.0) + run_s
+                else:
+                    model, result = plan.result()
+                    if kept is not None:
+                        kept[name] = (dets[name], model)
+                    settled[i] = _spill(result, spill_dir, tag)
+                    del result
+                    trim_heap()
+            except DetectorError as err:
+                settled[i] = err
+                ended += 1
+                show()
+                continue
+            ended += 1
+            show()
+            if i in spilling:
+                continue  # finished once its signals are in their files
+            result = settled[i]
+            if finished is not None and isinstance(result, DetectorResult):
+                finished(result)
+        for i, handle in spilling.items():
+            settled[i] = handle.result()
+    except BaseException:
+        for plan in [p for _, p in planned] + list(spilling.values()):
+            if hasattr(plan, "cancel"):
+                plan.cancel()
+        raise
+    if total and per * ended < total:  # detectors left out after an earlier one's error
+        ctx.report(stage, 1.0)
+    results: list[DetectorResult] = []
+    skipped: dict[str, str] = {}
+    for i, (name, plan) in enumerate(planned):
+        if isinstance(plan, _NotApplicable):
+            if ctx.explicit:
+                raise DetectorError(f"{name}: {plan.reason}")
+            skipped[name] = plan.reason
+            continue
+        if isinstance(plan, AnalyzerError):
+            raise plan
+        outcome = settled.get(i)
+        if isinstance(outcome, DetectorError):
+            if ctx.explicit:
+                raise outcome
+            skipped[name] = str(outcome)
+        elif isinstance(outcome, DetectorResult):
+            results.append(outcome)
+    return results, skipped
+
+
+def run_groups(
+    groups: list[tuple[str, ...]],
+    names: list[str],
+    options: RunOptions,
+    data: Dataset,
+    ctx: RunContext,
+    executor: Executor,
+    timings: dict[str, float],
+    spill_dir: Path | None,
+    finished: Callable[[DetectorResult], None],
+    fits: dict[str, dict[str, tuple[Any, Any]]] | None = None,
+    kept: dict[str, dict[str, tuple[Any, Any]]] | None = None,
+) -> tuple[list[DetectorResult], dict[str, str]]:
+    """:func:`run_detectors` once per channel group (:mod:`analyzer.grouping`), one
+    group after the other, each on a copy of its columns (memory-mapped for a long
+    archive). The error functions, which pair sensors by the config's own groups, run
+    once on every channel. Each group's detectors share the run's false-alarm rate in
+    proportion to its channels, so the rate per sample of the archive stays the one
+    asked for. Results in group order; skip reasons name the group."""
+    results: list[DetectorResult] = []
+    skipped: dict[str, str] = {}
+    whole = [n for n in names if n == "error_function"]
+    if whole:
+        results, skipped = run_detectors(
+            whole,
+            options,
+            data,
+            ctx,
+            executor,
+            timings,
+            spill_dir,
+            finished,
+            "",
+            *fits_of("", fits, kept),
+        )
+    per_group = [n for n in names if n not in whole]
+    total = sum(len(g) for g in groups)
+    big = is_mapped(data.values)
+    for k, group in enumerate(groups):
+        columns = [data.channels.index(c) for c in group]
+        path = ctx.workdir / f"group{k}.npy" if big and ctx.workdir is not None else None
+        values = _columns(data.values, columns, path)
+        part = Dataset(values, group, data.rate_hz, data.train)
+        share = replace(ctx, false_alarm_rate=ctx.false_alarm_rate * len(group) / total)
+        tag = f"-g{k}"
+        got, why = run_detectors(
+            per_group,
+            options,
+            part,
+            share,
+            executor,
+            timings,
+            spill_dir,
+            finished,
+            tag,
+            *fits_of(tag, fits, kept),
+        )
+        results.extend(got)
+        for name, reason in why.items():
+            skipped[f"{name} ({group[0]}..{group[-1]})"] = reason
+        del values, part
+        trim_heap()
+    order = {n: i for i, n in enumerate(names)}
+    results.sort(key=lambda r: order.get(r.detector, len(order)))  # stable: groups in order
+    return results, skipped
+
+
+def fits_of(
+    tag: str,
+    fits: dict[str, dict[str, tuple[Any, Any]]] | None,
+    kept: dict[str, dict[str, tuple[Any, Any]]] | None,
+) -> tuple[dict[str, tuple[Any, Any]] | None, dict[str, tuple[Any, Any]] | None]:
+    """The ``fits`` and ``kept`` of :func:`run_detectors` for the channel group ``tag``:
+    ``--model``'s fitted detectors of that group (none when the model has no such group),
+    and a dict of ``kept`` to receive the group's fits (``--save-model``)."""
+    return (
+        None if fits is None else fits.get(tag, {}),
+        None if kept is None else kept.setdefault(tag, {}),
+    )
+
+
+def _columns(values: Any, columns: list[int], path: Path | None) -> npt.NDArray[np.float64]:
+    """``values[:, columns]`` as a contiguous array: in memory, or written block by block
+    to a memory-mapped ``path``, unlinked at once (a long archive's matrix is not read
+    whole, and the copy's space goes with its mapping)."""
+    if path is None:
+        return np.ascontiguousarray(np.asarray(values)[:, columns], dtype=np.float64)
+    n = values.shape[0]
+    out = mapped_file(path, (n, len(columns)), np.float64)
+    with contextlib.suppress(OSError):
+        path.unlink()
+    step = 1 << 16
+    for a in range(0, n, step):
+        out[a : a + step] = values[a : a + step][:, columns]
+        release(values[a : a + step])
+        release(out[a : a + step])
+    return out
+
+
+def skip_reasons(skipped: dict[str, str]) -> list[str]:
+    """Why each detector did not run, for the one-line error: a detector skipped on
+    several channel groups (keys ``"name (first..last)"``, :func:`run_groups`) gives its
+    first group's reason and how many more groups it failed on, so hundreds of channels
+    still make a readable line."""
+    by_name: dict[str, list[tuple[str, str]]] = {}
+    for key, reason in skipped.items():
+        by_name.setdefault(key.split(" (", 1)[0], []).append((key, reason))
+    out = []
+    for name, items in by_name.items():
+        key, reason = items[0]
+        if reason.startswith((f"{key}:", f"{key} ")):
+            text = reason
+        elif reason.startswith((f"{name}:", f"{name} ")):  # "name (group)" for "name"
+            text = key + reason[len(name) :]
+        else:
+            text = f"{key}: {reason}"
+        if len(items) > 1:
+            text += f" (and on {len(items) - 1} more channel groups)"
+        out.append(text)
+    return out
+
+
+def merge_groups(results: list[DetectorResult], order: Sequence[str]) -> list[DetectorResult]:
+    """One result per detector: the runs of a detector on several channel groups joined
+    (channels in the archive's ``order``, events and per-channel signals; the model of
+    each group under ``model["group_models"]``). Results of a detector that ran once are
+    returned as they are."""
+    rank = {c: i for i, c in enumerate(order)}
+    by_name: dict[str, list[DetectorResult]] = {}
+    for r in results:
+        by_name.setdefault(r.detector, []).append(r)
+    out = []
+    for name, parts in by_name.items():
+        if len(parts) == 1:
+            out.append(parts[0])
+            continue
+        merged = DetectorResult(
+            name,
+            tuple(sorted({c for p in parts for c in p.channels}, key=lambda c: rank.get(c, -1))),
+            _joined_params([p.params for p in parts]),
+            [ev for p in parts for ev in p.events],
+            {},
+            notes=[n for p in parts for n in p.notes],
+        )
+        for p in parts:  # a channel in two configured groups: its first group's signals
+            for c, v in p.residuals.items():
+                merged.residuals.setdefault(c, v)
+            for c, v in p.reference.items():
+                merged.reference.setdefault(c, v)
+            for c, x in p.sigma.items():
+                merged.sigma.setdefault(c, x)
+            for c, t in p.thresholds.items():
+                merged.thresholds.setdefault(c, t)
+        merged.model = {
+            "groups": len(parts),
+            "group_models": [{"channels": list(p.channels), **p.model} for p in parts],
+        }
+        out.append(merged)
+    return out
+
+
+def _joined_params(params: list[dict[str, Any]]) -> dict[str, Any]:
+    """A detector's settings over its channel groups: a setting the groups share as it is,
+    one that differs (an order chosen by BIC per group) as the list of the groups'
+    values, and the false-alarm rate as the run's (the sum of the groups' shares)."""
+    out: dict[str, Any] = {}
+    for key in dict.fromkeys(k for p in params for k in p):
+        values = [p.get(key) for p in params]
+        out[key] = values[0] if all(repr(v) == repr(values[0]) for v in values) else values
+    rates = [p.get("false_alarm_rate") for p in params]
+    if all(isinstance(r, int | float) for r in rates):
+        out["false_alarm_rate"] = float(sum(rates))  # type: ignore[arg-type]
+    return out
+
+
+def merge_tests(results: list[DetectorResult], parts: list[DetectorResult]) -> None:
+    """The residual tests of each group's run (kept in the group's model by the
+    pipeline) copied to the joined result of :func:`merge_groups`."""
+    for r in results:
+        if "group_models" not in r.model:
+            continue
+        r.model["training_tests"], r.model["windowed_tests"] = {}, {}
+        for p in parts:
+            if p.detector != r.detector:
+                continue
+            for key in ("training_tests", "windowed_tests"):
+                for c, v in p.model.get(key, {}).items():
+                    r.model[key].setdefault(c, v)
+        for g in r.model["group_models"]:
+            g.pop("training_tests", None)
+            g.pop("windowed_tests", None)
+
+
+def coupled(results: Sequence[DetectorResult]) -> Callable[[str, str, str], bool]:
+    """Whether a detector modelled two channels together: both in one of its results
+    (one per channel group)."""
+    groups: dict[str, list[frozenset[str]]] = {}
+    for r in results:
+        groups.setdefault(r.detector, []).append(frozenset(r.channels))
+    return lambda detector, a, b: any(a in g and b in g for g in groups.get(detector, ()))
+
+
+def _fit_order(planned: list[tuple[str, Any]], staged: bool) -> Iterator[int]:
+    """Indices of ``planned`` in the order their runs start: registry order, or on threads
+    (``staged``) as their fits finish (the earliest-registered of those done first)."""
+    if not staged:
+        yield from range(len(planned))
+        return
+    waiting = {i: plan for i, (_, plan) in enumerate(planned) if isinstance(plan, Future)}
+    yield from (i for i in range(len(planned)) if i not in waiting)
+    while waiting:
+        wait(list(waiting.values()), return_when=FIRST_COMPLETED)
+        first = min(i for i, plan in waiting.items() if plan.done())
+        del waiting[first]
+        yield first
+
+
+@dataclass(frozen=True, slots=True)
+class _NotApplicable:
+    reason: str

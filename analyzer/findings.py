@@ -1,0 +1,200 @@
+"""One run's result (:class:`Analysis`) and its outputs: ``findings.json`` exactly as in
+CONTRACT.md (plus extension fields), ``report.html`` and, with ``--corrected``,
+``corrected.csv``."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from analyzer import __version__
+from analyzer.detectors import DetectorResult
+from analyzer.diagnosis import Finding
+from analyzer.modelfile import SavedModel
+from analyzer.outdir import write_atomic
+from analyzer.readers.base import InputInfo
+from analyzer.regenerate import write_corrected_csv
+from analyzer.store import ChannelInfo
+from analyzer.timeutil import iso_utc
+from analyzer.types import NS_PER_S
+
+SCHEMA = "analyzer.findings/1"
+
+
+@dataclass(slots=True)
+class Analysis:
+    """Everything one run found; ``findings.json`` and the report are views of it."""
+
+    inputs: list[InputInfo]
+    channels: list[ChannelInfo]
+    analyzed: tuple[str, ...]
+    rate_hz: float
+    start_ns: int
+    absolute_time: bool
+    n: int
+    train: tuple[int, int]
+    results: list[DetectorResult]
+    findings: list[Finding]
+    values: np.ndarray
+    notes: list[str] = field(default_factory=list)
+    timings: dict[str, float] = field(default_factory=dict)
+    skipped: dict[str, str] = field(default_factory=dict)
+    corrected: np.ndarray | None = None
+    """With ``--corrected``: the analyzed channels with every fault removed (Wang & Song
+    2014, Section 6.3), same shape as ``values``."""
+    corrections: list[dict[str, Any]] = field(default_factory=list)
+    saved: SavedModel | None = None
+    """The fitted models of this run (with ``--save-model``), or those it ran (``--model``)."""
+    model_info: dict[str, Any] | None = None
+    """With ``--model``: the model file and what it was trained on (``findings.json``)."""
+    screen: dict[str, Any] | None = None
+    """With ``--screen``: the screening's detectors and whether they found a fault
+    (``findings.json``), from :func:`analyzer.pipeline.analyze_screened`."""
+
+    @property
+    def duration_s(self) -> float:
+        """``n / rate``: the time ``n`` samples cover (one sample period each)."""
+        return self.n / self.rate_hz
+
+    @property
+    def faulty(self) -> bool:
+        return bool(self.findings)
+
+    def times_s(self) -> np.ndarray:
+        return np.arange(self.n) / self.rate_hz
+
+    def times_between(self, a: int, b: int) -> np.ndarray:
+        """Rows ``a .. b - 1`` of :meth:`times_s`."""
+        return np.arange(a, b) / self.rate_hz
+
+    def onset_iso(self, seconds: float | None) -> str | None:
+        if seconds is None or not self.absolute_time:
+            return None
+        return iso_utc(self.start_ns + int(round(seconds * NS_PER_S)))
+
+
+def sha256_of(path: Path) -> str:
+    h = hashlib.sha256()
+    if path.is_dir():
+        for p in sorted(path.rglob("*")):
+            if p.is_file():
+                h.update(p.relative_to(path).as_posix().encode())
+                _hash_file(h, p)
+        return h.hexdigest()
+    _hash_file(h, path)
+    return h.hexdigest()
+
+
+def _hash_file(h: Any, path: Path) -> None:
+    with path.open("rb") as f:
+        while blk := f.read(1 << 20):
+            h.update(blk)
+
+
+def input_digest(path: Path) -> str:
+    """An input's SHA-256, or "" when it is gone."""
+    return sha256_of(path) if path.exists() else ""
+
+
+def findings_document(analysis: Analysis) -> dict[str, Any]:
+    """``findings.json`` exactly as in CONTRACT.md (plus extension fields)."""
+    a = analysis
+    train0, train1 = a.train
+    return {
+        "schema": SCHEMA,
+        "analyzer_version": __version__,
+        "inputs": [
+            {
+                "path": str(i.path),
+                "format": str(i.format),
+                "sha256": i.sha256 or input_digest(Path(i.path)),
+                "errors": list(i.errors),
+            }
+            for i in a.inputs
+        ],
+        "start": iso_utc(a.start_ns) if a.absolute_time else None,
+        "duration_s": round(a.duration_s, 6),
+        "rate_hz": a.rate_hz,
+        "train": {"start_s": train0 / a.rate_hz, "end_s": (train1 - 1) / a.rate_hz},
+        "channels": [
+            {
+                "name": c.name,
+                "samples": c.samples,
+                "rate_hz": round(c.rate_hz, 6),
+                "gaps": c.gaps,
+                "analyzed": c.name in a.analyzed,
+            }
+            for c in a.channels
+        ],
+        "faults": [
+            {
+                "channel": f.channel,
+                "type": str(f.type),
+                "onset_s": round(f.onset_s, 4),
+                "end_s": None if f.end_s is None else round(f.end_s, 4),
+                "onset": a.onset_iso(f.onset_s),
+                "end": a.onset_iso(f.end_s),
+                "magnitude": {k: float(v) for k, v in f.magnitude.items()},
+                "confidence": round(float(f.confidence), 4),
+                "detector": f.detector,
+                "evidence": _jsonable(f.evidence),
+            }
+            for f in a.findings
+        ],
+        "detectors": [
+            {
+                "name": r.detector,
+                "channels": list(r.channels),
+                "params": _jsonable(r.params),
+                "model": _jsonable(r.model),
+                "notes": list(r.notes),
+            }
+            for r in a.results
+        ],
+        "model": a.model_info,
+        "screen": a.screen,
+        "skipped_detectors": a.skipped,
+        "notes": a.notes,
+        "corrections": _jsonable(a.corrections),
+    }
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, (np.floating, float)):
+        v = float(x)
+        return v if np.isfinite(v) else None
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (np.bool_,)):
+        return bool(x)
+    if isinstance(x, (str, int, bool)) or x is None:
+        return x
+    return str(x)
+
+
+def write_outputs(analysis: Analysis, out_dir: Path) -> dict[str, Any]:
+    """``out_dir/findings.json`` and ``out_dir/report.html`` (atomically). The report's
+    figures are drawn by the worker processes of an enclosing
+    :func:`analyzer.report.workers.figure_workers` context (``analyzer run`` enters one),
+    else in this process; the page is the same either way."""
+    from analyzer.report import render_report
+
+    doc = findings_document(analysis)
+    write_atomic(out_dir / "findings.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
+    write_atomic(out_dir / "report.html", render_report(analysis, doc))
+    if analysis.corrected is not None:
+        write_corrected_csv(
+            out_dir / "corrected.csv", analysis.times_between, analysis.analyzed, analysis.corrected
+        )
+    return doc

@@ -1,0 +1,202 @@
+"""Options of ``analyzer run`` and ``watch`` (:class:`RunOptions`), checked before any
+reading: the healthy window (``--train``), ``--screen``, each ``[detectors.NAME]`` section
+of the config, ``--model`` and ``--save-model``."""
+
+from __future__ import annotations
+
+import contextlib
+import inspect
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from analyzer.config import Config, load_config
+from analyzer.detectors import REGISTRY, detector_class
+from analyzer.errors import AnalyzerError, ConfigError, UsageError
+from analyzer.findings import sha256_of
+from analyzer.modelfile import SavedModel, check_model_path, load_model
+from analyzer.readers.base import TimeSource
+from analyzer.timeutil import parse_time
+from analyzer.types import NS_PER_S
+
+Progress = Callable[[str, float], None]
+
+
+@dataclass(slots=True)
+class RunOptions:
+    """Options of ``analyzer run`` (and ``watch``); None means the contract's default."""
+
+    channels: list[str] | None = None
+    train: str | None = None
+    config: Config = field(default_factory=Config)
+    detectors: list[str] | None = None
+    rate: float | None = None
+    jobs: int | None = None
+    scheduler: str | None = None
+    time_source: TimeSource = "log"
+    corrected: bool = False
+    progress: Progress | None = None
+    model: SavedModel | None = None
+    """``--model``: fitted models to run instead of fitting on this archive."""
+    model_path: str | None = None
+    model_sha256: str | None = None
+    """The SHA-256 of the model file as it was read (``findings.json``'s ``model``): taken
+    when the file is loaded, so a watcher that runs for weeks names the model it uses,
+    not a file replaced since, and a cluster worker need not see the file."""
+    save_model: Path | None = None
+    """``--save-model``: where to write this run's fitted models."""
+    screen: list[str] | None = None
+    """``--screen``: these detectors first, the others only when they find a fault
+    (:func:`analyzer.pipeline.analyze_screened`)."""
+
+
+DEFAULT_TRAIN_FRACTION = 0.2
+
+
+DEFAULT_TRAIN_MAX_S = 600.0
+
+
+MIN_TRAIN_ROWS = 16
+"""Fewer training samples than this cannot calibrate anything: a usage error naming
+``--train`` (the detectors ask for more, each with its own reason)."""
+
+
+def parse_train(text: str, start_ns: int, duration_s: float, absolute: bool) -> tuple[float, float]:
+    """``--train START:END`` in seconds from the first sample or ISO-8601 times."""
+    parts = _train_parts(text)
+    secs = []
+    for kind, val in parts:
+        if kind == "ns":
+            if not absolute:
+                raise UsageError(
+                    f"--train: {text!r} uses absolute times but the input has relative timestamps"
+                )
+            secs.append((int(val) - start_ns) / NS_PER_S)
+        else:
+            secs.append(float(val))
+    lo, hi = secs
+    if not (0.0 <= lo < hi):
+        raise UsageError(f"--train: the window {text!r} must satisfy 0 <= START < END")
+    if lo >= duration_s:
+        raise UsageError(
+            f"--train: the window {text!r} starts after the data ends ({duration_s:.3f} s)"
+        )
+    return lo, min(hi, duration_s)
+
+
+def _train_parts(text: str) -> tuple[tuple[str, Any], tuple[str, Any]]:
+    """The two halves of ``--train START:END`` as :func:`parse_time` reads them."""
+    if text.count(":") < 1:
+        raise UsageError(f"--train: expected START:END, got {text!r}")
+    # ISO times contain colons: split on the separating colon between two parseable halves
+    for i, ch in enumerate(text):
+        if ch != ":":
+            continue
+        try:
+            return parse_time(text[:i]), parse_time(text[i + 1 :])
+        except ValueError:
+            continue
+    raise UsageError(f"--train: cannot read {text!r} as START:END (seconds or ISO-8601 times)")
+
+
+def check_train(text: str) -> None:
+    """What can be checked of ``--train`` before the data is read (its syntax and order),
+    so a bad window is a usage error up front (the watcher checks it once, not per
+    archive)."""
+    (ka, a), (kb, b) = _train_parts(text)
+    if ka == kb and not (float(a) < float(b) and (ka == "ns" or float(a) >= 0.0)):
+        raise UsageError(f"--train: the window {text!r} must satisfy 0 <= START < END")
+
+
+def default_train(duration_s: float) -> tuple[float, float]:
+    """The first 20 % of the data, at most 10 minutes (CONTRACT.md)."""
+    return 0.0, min(DEFAULT_TRAIN_FRACTION * duration_s, DEFAULT_TRAIN_MAX_S)
+
+
+def load_options(config_path: str | None, **kw: Any) -> RunOptions:
+    """RunOptions with the config file loaded and validated (every detector section,
+    whether or not that detector runs: a typo never passes silently)."""
+    model_path = kw.pop("model", None)
+    save = kw.pop("save_model", None)
+    if model_path is not None:
+        for option, key in (("--train", "train"), ("--channels", "channels")):
+            if kw.get(key) is not None:
+                raise UsageError(
+                    f"{option}: not used with --model (the model was fitted on its own "
+                    "channels and healthy window)"
+                )
+        if config_path is not None:
+            raise UsageError(
+                f"--config {config_path}: not used with --model (the model holds the "
+                "configuration it was fitted with)"
+            )
+        if save is not None:
+            raise UsageError("--save-model: not used with --model (nothing is fitted)")
+        kw["model"] = load_model(model_path)
+        kw["model_path"] = str(model_path)
+        with contextlib.suppress(OSError):  # (read a moment ago: gone only in a race)
+            kw["model_sha256"] = sha256_of(Path(model_path))
+    if save is not None:
+        kw["save_model"] = Path(save)
+        check_model_path(kw["save_model"])
+    cfg = load_config(config_path, set(REGISTRY))
+    _check_detector_options(cfg)
+    if kw.get("train") is not None:
+        check_train(kw["train"])
+    if kw.get("detectors"):
+        kw["detectors"] = list(dict.fromkeys(kw["detectors"]))  # each detector runs once
+        for name in kw["detectors"]:
+            detector_class(name)  # an unknown name is a usage error before any reading
+    if kw.get("screen"):
+        kw["screen"] = _check_screen(list(dict.fromkeys(kw["screen"])), kw)
+    return RunOptions(config=cfg, **kw)
+
+
+def _check_screen(screen: list[str], kw: dict[str, Any]) -> list[str]:
+    """``--screen``'s detectors, checked before any reading: known, among those the run
+    would run (``--detectors``, a ``--model``'s), not all of them, and not with
+    ``--save-model`` (a screened run may fit only some of the detectors)."""
+    for name in screen:
+        if name not in REGISTRY:
+            known = ", ".join(REGISTRY)
+            raise UsageError(f"--screen {name}: no such detector (known: {known})")
+    if kw.get("save_model") is not None:
+        raise UsageError(
+            "--screen: not used with --save-model (a screened run fits only the screening's "
+            "detectors when they find nothing)"
+        )
+    model = kw.get("model")
+    held = list(model.detectors()) if model is not None else None
+    full = kw.get("detectors") or held or list(REGISTRY)
+    absent = [d for d in screen if d not in full]
+    if absent:
+        where = "--detectors" if kw.get("detectors") else "the model" if held else "the run"
+        raise UsageError(f"--screen {absent[0]}: not among the detectors of {where}")
+    if set(screen) >= set(full):
+        raise UsageError(
+            f"--screen {','.join(screen)}: every detector of the run; screen with fewer"
+        )
+    return screen
+
+
+def _check_detector_options(cfg: Config) -> None:
+    """Each ``[detectors.NAME]`` section's settings: known to the detector and accepted by
+    it (:class:`ConfigError` naming the file, the section and the setting)."""
+    for name, opts in cfg.detectors.items():
+        cls = detector_class(name)
+        params = inspect.signature(cls.__init__).parameters
+        known = [k for k, p in params.items() if k != "self" and p.kind is p.POSITIONAL_OR_KEYWORD]
+        if not any(p.kind is p.VAR_KEYWORD for p in params.values()):
+            for key in opts:
+                if key not in known:
+                    raise ConfigError(
+                        f"{cfg.path}: [detectors.{name}] unknown setting {key!r} "
+                        f"(known: {', '.join(known)})"
+                    )
+        try:
+            cls(**opts)
+        except (AnalyzerError, TypeError, ValueError) as err:
+            msg = str(err)
+            where = "" if msg.startswith(f"[detectors.{name}]") else f"[detectors.{name}] "
+            raise ConfigError(f"{cfg.path}: {where}{msg}") from err

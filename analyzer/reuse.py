@@ -1,0 +1,151 @@
+"""``--model``: the fitted models of ``--save-model`` run on a new archive: its channels
+checked against the model's, the warm-up in which no fault is searched while the filters
+settle, and what the notes and ``findings.json`` say about the model."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from analyzer.detectors import REGISTRY
+from analyzer.diagnosis.changes import Calibration
+from analyzer.errors import UsageError
+from analyzer.findings import sha256_of
+from analyzer.modelfile import SavedModel
+from analyzer.options import RunOptions
+from analyzer.store import ChannelStore
+
+WARMUP_S = 1.0
+"""With ``--model``: the least time at a record's start in which no fault is searched."""
+
+
+def model_channels(
+    store: ChannelStore, model: SavedModel, options: RunOptions, notes: list[str]
+) -> list[str]:
+    """``--model``'s channels, all of which this archive must have (:class:`UsageError`
+    naming the option and the missing ones), in the model's order; a note names the
+    archive's other channels (not analyzed) and a time source other than the model's."""
+    infos = store.infos()
+    have = {i.name for i in infos}
+    missing = [c for c in model.channels if c not in have]
+    where = options.model_path or "the model"
+    if missing:
+        more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
+        raise UsageError(
+            f"--model {where}: this archive has no channel {', '.join(missing[:3])}{more} "
+            f"(the model was fitted on {len(model.channels)} channels)"
+        )
+    if options.rate is not None and abs(options.rate - model.rate_hz) > 1e-9 * model.rate_hz:
+        raise UsageError(
+            f"--rate {options.rate:g}: the model {where} was fitted at {model.rate_hz:.6g} Hz; "
+            "leave --rate out or fit a model at that rate"
+        )
+    fitted = set(model.channels)
+    others = [i.name for i in infos if i.name not in fitted and not i.constant]
+    if others:
+        more = f" and {len(others) - 5} more" if len(others) > 5 else ""
+        notes.append(
+            f"{len(others)} channel(s) of this archive are not in the model and were not "
+            f"analyzed: {', '.join(others[:5])}{more} (a model fitted with them includes them)"
+        )
+    if options.time_source != model.time_source:
+        notes.append(
+            f"timestamps: --time {options.time_source} here, the model was fitted on "
+            f"--time {model.time_source} ones"
+        )
+    return list(model.channels)
+
+
+def warmup(model: SavedModel) -> int:
+    """Samples at the start of a record analyzed with ``--model`` in which no fault is
+    searched: the filters start from a zero state there, so each fitted model's settling
+    time (:func:`_settling`) plus its longest alarm window (the windowed
+    statistics at the first searched sample must not reach back into the settling); at
+    least :data:`WARMUP_S`. (The caller keeps it to at most half the record.)"""
+    warm = int(np.ceil(WARMUP_S * model.rate_hz))
+    for fits in model.fits.values():
+        for _, fitted in fits.values():
+            warm = max(warm, _settling(fitted) + _longest_window(fitted))
+    return warm
+
+
+def _settling(fitted: Any) -> int:
+    """Samples a fitted model's filters take to forget their start state to 1e-6 (its
+    ``settle``; a bank's slowest estimator's, not the bank's 1e-12 block warm-up)."""
+    own = getattr(fitted, "settle", 0) or 0
+    bank = getattr(fitted, "bank", None)
+    per_estimator = getattr(bank, "settle", ()) or ()
+    return int(max([int(own), *(int(x) for x in per_estimator)]))
+
+
+def _longest_window(obj: Any, depth: int = 0) -> int:
+    """The longest window of the alarm calibrations (:class:`Calibration`) held in a
+    fitted model's fields (their tuples and nested dataclasses, a few levels deep)."""
+    if isinstance(obj, Calibration):
+        return max(obj.windows, default=obj.window)
+    if depth > 3:
+        return 0
+    if isinstance(obj, tuple | list):
+        return max((_longest_window(x, depth + 1) for x in obj), default=0)
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return max(
+            (_longest_window(getattr(obj, f.name), depth + 1) for f in dataclasses.fields(obj)),
+            default=0,
+        )
+    return 0
+
+
+def in_registry_order(
+    kept: dict[str, dict[str, tuple[Any, Any]]],
+) -> dict[str, dict[str, tuple[Any, Any]]]:
+    """Each channel group's fits in registry order (threads keep them as they finish)."""
+    rank = {n: i for i, n in enumerate(REGISTRY)}
+    return {
+        tag: {n: fits[n] for n in sorted(fits, key=lambda n: rank.get(n, len(rank)))}
+        for tag, fits in kept.items()
+    }
+
+
+def model_detectors(model: SavedModel, options: RunOptions) -> list[str]:
+    """The detectors ``--model`` runs: all it holds, or those of ``--detectors`` (each
+    of which it must hold)."""
+    # registry order, as a run that fits them (the fits themselves may have been kept in
+    # the order they finished): the results, and so the findings' merge, follow it
+    rank = {n: i for i, n in enumerate(REGISTRY)}
+    held = sorted(model.detectors(), key=lambda n: rank.get(n, len(rank)))
+    if not options.detectors:
+        return held
+    absent = [d for d in options.detectors if d not in held]
+    if absent:
+        raise UsageError(
+            f"--detectors {absent[0]}: not in the model {options.model_path or ''} "
+            f"(it holds {', '.join(held)})"
+        )
+    return [d for d in held if d in options.detectors]
+
+
+def reuse_note(model: SavedModel, options: RunOptions, warm_s: float) -> str:
+    trained = ", ".join(Path(p).name for p, _ in model.inputs[:3])
+    if len(model.inputs) > 3:
+        trained += f" and {len(model.inputs) - 3} more files"
+    return (
+        f"fitted models from {options.model_path or 'a model file'} (trained on {trained}, "
+        f"healthy window {model.train_s[0]:.3f}-{model.train_s[1]:.3f} s); nothing was "
+        f"fitted on this archive, and no fault is searched in its first {warm_s:.3f} s "
+        "while the filters settle"
+    )
+
+
+def model_info(model: SavedModel, options: RunOptions) -> dict[str, Any]:
+    path = Path(options.model_path) if options.model_path else None
+    digest = options.model_sha256
+    if digest is None and path is not None and path.is_file():
+        digest = sha256_of(path)
+    return {
+        "path": str(path) if path else None,
+        "sha256": digest,
+        **model.describe(),
+    }
