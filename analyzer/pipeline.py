@@ -277,66 +277,10 @@ def _analyze(
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
             aligned.start_ns
         )
-        duration = aligned.duration_s
-        if reused is not None:
-            # no fit here: the first samples only let the filters settle (no fault is
-            # searched there), the rest is tested whole
-            wanted = warmup(reused)
-            warm = max(1, min(wanted, aligned.n // 2))
-            tr = (0.0, (warm - 1) / aligned.rate_hz)
-            if warm < wanted:
-                notes.append(
-                    f"the model's filters need {wanted / aligned.rate_hz:.6g} s to settle from "
-                    f"their zero start state, longer than half this record: the fault search "
-                    f"starts at {warm / aligned.rate_hz:.6g} s, and a finding there may be "
-                    "the filters still settling (a longer file, or one that follows on, "
-                    "tells)"
-                )
-        elif options.train is not None:
-            tr = parse_train(options.train, aligned.start_ns, duration, absolute)
-        elif options.config.train is not None:
-            tr = options.config.train
-            if tr[0] >= duration:
-                raise ConfigError(
-                    f"{options.config.path}: [train] the window {tr[0]:g}-{tr[1]:g} s starts "
-                    f"after the data ends ({duration:.3f} s)"
-                )
-            tr = (tr[0], min(tr[1], duration))
-        else:
-            tr = default_train(duration)
-        train = (int(round(tr[0] * aligned.rate_hz)), int(round(tr[1] * aligned.rate_hz)) + 1)
-        train = (train[0], min(train[1], aligned.n))
-        # a channel that does not vary in the healthy window cannot be modelled from it
-        tv = np.asarray(values[train[0] : train[1]])
-        if reused is not None:
-            pass  # the model's channels were modelled on its own training window
-        elif tv.shape[0] < MIN_TRAIN_ROWS:
-            raise UsageError(
-                f"the training window {tr[0]:.3f}-{tr[1]:.3f} s holds {tv.shape[0]} sample(s) "
-                f"at {aligned.rate_hz:.6g} Hz, need at least {MIN_TRAIN_ROWS}: give a longer "
-                "one with --train (the default is the first 20 % of the data, at most 10 min)"
-            )
-        flat = flat_channels(tv) if tv.shape[0] else np.ones(len(chosen), bool)
-        if reused is None and flat.any():
-            dropped = [c for c, f in zip(chosen, flat, strict=True) if f]
-            notes.append(
-                "constant or empty in the training window, not analyzed: " + ", ".join(dropped)
-            )
-            keep = np.flatnonzero(~flat)
-            if keep.size == 0:
-                how = (
-                    "--train"
-                    if options.train is not None
-                    else "[train] in the config"
-                    if options.config.train is not None
-                    else "--train (default: the first 20 % of the data)"
-                )
-                raise UsageError(
-                    "every selected channel is constant or empty in the training window "
-                    f"({tr[0]:.3f}-{tr[1]:.3f} s): choose another window with {how}"
-                )
-            chosen = [chosen[k] for k in keep]
-            values = np.asarray(values)[:, keep]
+        tr, train = _training_window(options, aligned, absolute, notes)
+        values, chosen = _varying_in_training(
+            values, chosen, train, tr, aligned.rate_hz, options, notes
+        )
         data = Dataset(values, tuple(chosen), aligned.rate_hz, train)
         names, explicit = detector_names(options)
         if reused is not None:
@@ -403,19 +347,7 @@ def _analyze(
             raise
         timings["detect"] = time.perf_counter() - t0
         if not results:
-            why = "; ".join(skip_reasons(skipped))
-            hint = ""
-            if "too little healthy data" in why:
-                hint = (
-                    f"; the training window {tr[0]:.3f}-{tr[1]:.3f} s is too short for these "
-                    "detectors: give a longer healthy stretch with --train START:END"
-                    + (
-                        " (the default is the first 20 % of the data, at most 10 min)"
-                        if options.train is None and options.config.train is None
-                        else ""
-                    )
-                )
-            raise DetectorError(f"no detector could run ({why}){hint}")
+            raise _no_detector_error(skipped, tr, options)
         findings = merge_events(ev for r in results for ev in r.events)
         # the seed methods isolate one fault at a time among the sensors modelled together
         findings, conflicts = one_fault_at_a_time(findings, coupled(results))
@@ -488,6 +420,108 @@ def _analyze(
             ),
             model_info=None if reused is None else model_info(reused, options),
         )
+
+
+def _training_window(
+    options: RunOptions, aligned: AlignedSeries, absolute: bool, notes: list[str]
+) -> tuple[tuple[float, float], tuple[int, int]]:
+    """The healthy window, in seconds and as rows ``[a, b)`` of the aligned matrix: with
+    ``--model`` the warm-up in which the filters settle (no fault is searched there, the
+    rest is tested whole; nothing is fitted), else ``--train``, the config's ``[train]``,
+    or the default (the first 20 % of the data, at most 10 minutes)."""
+    reused = options.model
+    duration = aligned.duration_s
+    if reused is not None:
+        # no fit here: the first samples only let the filters settle (no fault is
+        # searched there), the rest is tested whole
+        wanted = warmup(reused)
+        warm = max(1, min(wanted, aligned.n // 2))
+        tr = (0.0, (warm - 1) / aligned.rate_hz)
+        if warm < wanted:
+            notes.append(
+                f"the model's filters need {wanted / aligned.rate_hz:.6g} s to settle from "
+                f"their zero start state, longer than half this record: the fault search "
+                f"starts at {warm / aligned.rate_hz:.6g} s, and a finding there may be "
+                "the filters still settling (a longer file, or one that follows on, "
+                "tells)"
+            )
+    elif options.train is not None:
+        tr = parse_train(options.train, aligned.start_ns, duration, absolute)
+    elif options.config.train is not None:
+        tr = options.config.train
+        if tr[0] >= duration:
+            raise ConfigError(
+                f"{options.config.path}: [train] the window {tr[0]:g}-{tr[1]:g} s starts "
+                f"after the data ends ({duration:.3f} s)"
+            )
+        tr = (tr[0], min(tr[1], duration))
+    else:
+        tr = default_train(duration)
+    train = (int(round(tr[0] * aligned.rate_hz)), int(round(tr[1] * aligned.rate_hz)) + 1)
+    return tr, (train[0], min(train[1], aligned.n))
+
+
+def _varying_in_training(
+    values: Any,
+    chosen: list[str],
+    train: tuple[int, int],
+    tr: tuple[float, float],
+    rate_hz: float,
+    options: RunOptions,
+    notes: list[str],
+) -> tuple[Any, list[str]]:
+    """``values`` and ``chosen`` without the channels that do not vary in the healthy
+    window (they cannot be modelled from it; a note names them). A usage error when the
+    window is too short to calibrate anything or no channel is left. With ``--model``
+    every channel stays: the model's channels were modelled on its own window."""
+    if options.model is not None:
+        return values, chosen
+    tv = np.asarray(values[train[0] : train[1]])
+    if tv.shape[0] < MIN_TRAIN_ROWS:
+        raise UsageError(
+            f"the training window {tr[0]:.3f}-{tr[1]:.3f} s holds {tv.shape[0]} sample(s) "
+            f"at {rate_hz:.6g} Hz, need at least {MIN_TRAIN_ROWS}: give a longer "
+            "one with --train (the default is the first 20 % of the data, at most 10 min)"
+        )
+    flat = flat_channels(tv)
+    if not flat.any():
+        return values, chosen
+    dropped = [c for c, f in zip(chosen, flat, strict=True) if f]
+    notes.append("constant or empty in the training window, not analyzed: " + ", ".join(dropped))
+    keep = np.flatnonzero(~flat)
+    if keep.size == 0:
+        how = (
+            "--train"
+            if options.train is not None
+            else "[train] in the config"
+            if options.config.train is not None
+            else "--train (default: the first 20 % of the data)"
+        )
+        raise UsageError(
+            "every selected channel is constant or empty in the training window "
+            f"({tr[0]:.3f}-{tr[1]:.3f} s): choose another window with {how}"
+        )
+    return np.asarray(values)[:, keep], [chosen[k] for k in keep]
+
+
+def _no_detector_error(
+    skipped: dict[str, str], tr: tuple[float, float], options: RunOptions
+) -> DetectorError:
+    """The error when no detector could run: each one's reason, and a hint when the
+    healthy window is too short for them."""
+    why = "; ".join(skip_reasons(skipped))
+    hint = ""
+    if "too little healthy data" in why:
+        hint = (
+            f"; the training window {tr[0]:.3f}-{tr[1]:.3f} s is too short for these "
+            "detectors: give a longer healthy stretch with --train START:END"
+            + (
+                " (the default is the first 20 % of the data, at most 10 min)"
+                if options.train is None and options.config.train is None
+                else ""
+            )
+        )
+    return DetectorError(f"no detector could run ({why}){hint}")
 
 
 def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) -> int:
