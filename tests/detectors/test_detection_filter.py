@@ -8,15 +8,10 @@ import pytest
 
 from analyzer.detectors.ar_model import fit_ar
 from analyzer.detectors.base import Dataset, RunContext
-from analyzer.detectors.detection_filter import (
-    DetectionFilter,
-    ar_observer_form,
-    augment,
-    direction_angles,
-    park_filter,
-    unobservable_modes,
-)
+from analyzer.detectors.beard_jones import augment, park_filter, unobservable_modes
+from analyzer.detectors.detection_filter import DetectionFilter, direction_angles
 from analyzer.detectors.lti import simulate_reference
+from analyzer.detectors.state_space import ar_observer_form
 from analyzer.errors import DetectorError
 from analyzer.simulate import inject_fault, shear_building, simulate_building
 

@@ -12,17 +12,14 @@ from scipy import signal
 
 import analyzer.detectors.lti as lti
 from analyzer import paging
+from analyzer.detectors import beard_jones as bjm
 from analyzer.detectors import detection_filter as dfm
+from analyzer.detectors import state_space as ssm
 from analyzer.detectors.base import Dataset, RunContext
-from analyzer.detectors.detection_filter import (
-    DetectionFilter,
-    ImpulseResponseBank,
-    filter_bank,
-    park_filter,
-    unobservable_modes,
-)
+from analyzer.detectors.beard_jones import filter_bank, park_filter, unobservable_modes
+from analyzer.detectors.detection_filter import DetectionFilter
 from analyzer.detectors.equivalent_model import fit_relation
-from analyzer.detectors.lti import StackedLiftedSystem, bank_segment
+from analyzer.detectors.lti import ImpulseResponseBank, StackedLiftedSystem, bank_segment
 from analyzer.simulate import simulate_building
 
 RATE = 200.0
@@ -178,7 +175,7 @@ def test_conjugate_eigenvalues_share_their_pbh_test():
         pbh = np.vstack([A - lam * np.eye(5), C.astype(np.complex128)])
         smin = np.linalg.svd(pbh, compute_uv=False)[-1]
         scale = max(1.0, np.linalg.norm(A, 2) + np.linalg.norm(C, 2))
-        if smin <= dfm.PBH_RTOL * scale:
+        if smin <= bjm.PBH_RTOL * scale:
             brute.append(complex(lam))
     assert found == brute
     assert sorted(np.round(np.abs(found), 6)) == [0.3, 0.640312, 0.640312]
@@ -260,10 +257,10 @@ def _ar_innovations(seed, m=4, p=3, radius=0.9):
     noise covariances :func:`model_from_ar` gives it (``Q = K R K'``, ``S = K R``)."""
     rng = np.random.default_rng(seed)
     coefs = rng.standard_normal((p, m, m)) / (m * p)
-    A, C, K = dfm.ar_observer_form(SimpleNamespace(order=p, m=m, coefs=coefs))
+    A, C, K = ssm.ar_observer_form(SimpleNamespace(order=p, m=m, coefs=coefs))
     rho = np.max(np.abs(np.linalg.eigvals(A)))
     coefs = coefs * np.array([(radius / rho) ** (j + 1) for j in range(p)])[:, None, None]
-    A, C, K = dfm.ar_observer_form(SimpleNamespace(order=p, m=m, coefs=coefs))
+    A, C, K = ssm.ar_observer_form(SimpleNamespace(order=p, m=m, coefs=coefs))
     L = rng.standard_normal((m, m))
     R = L @ L.T + 0.5 * np.eye(m)  # correlated innovations
     return A, C, K, K @ R @ K.T, R, K @ R
@@ -276,25 +273,25 @@ def test_observer_pbh_bound_is_below_the_smallest_singular_value(seed):
     included) and, for the augmented pair, at the fault pole (also at a mode of A)."""
     A, C, _, _, _, _ = _ar_innovations(seed, m=3, p=4)
     n, m = A.shape[0], C.shape[0]
-    blocks = dfm.observer_blocks(A, C)
+    blocks = bjm.observer_blocks(A, C)
     assert blocks is not None and blocks.shape == (4, 3, 3)
     rng = np.random.default_rng(seed + 20)
     lams = np.concatenate(
         [np.linalg.eigvals(A), rng.standard_normal(20) + 1j * rng.standard_normal(20), [3.0, -7.5j]]
     )
-    bound = dfm.observer_pbh_bound(blocks, lams)
+    bound = bjm.observer_pbh_bound(blocks, lams)
     for lam, b in zip(lams, bound, strict=True):
         smin = np.linalg.svd(np.vstack([A - lam * np.eye(n), C]), compute_uv=False)[-1]
         assert 0.0 <= b <= smin * (1 + 1e-12)
     assert np.all(bound[:n] > 1e-3)  # informative at the modes of a stable model
     for alpha in (1.0, 0.5, float(np.real(lams[np.argmin(np.abs(lams[:n].imag))]))):
         for i in range(m):
-            Ab, _, Cb, _ = dfm.augment(A, np.zeros((n, 0)), C, i, alpha)
+            Ab, _, Cb, _ = bjm.augment(A, np.zeros((n, 0)), C, i, alpha)
             smin = np.linalg.svd(np.vstack([Ab - alpha * np.eye(n + 1), Cb]), compute_uv=False)[-1]
-            b = dfm.observer_pbh_bound(blocks, [alpha], i)[0]
+            b = bjm.observer_pbh_bound(blocks, [alpha], i)[0]
             assert 0.0 <= b <= smin * (1 + 1e-12)
-    assert dfm.observer_blocks(A + 1e-3 * np.eye(n), C) is None  # not the structure
-    assert dfm.observer_blocks(A, C[::-1]) is None
+    assert bjm.observer_blocks(A + 1e-3 * np.eye(n), C) is None  # not the structure
+    assert bjm.observer_blocks(A, C[::-1]) is None
 
 
 def test_observer_form_pbh_test_equals_the_svd_test():
@@ -307,7 +304,7 @@ def test_observer_form_pbh_test_equals_the_svd_test():
     smins = np.array(
         [np.linalg.svd(np.vstack([A - lam * np.eye(n), C]), compute_uv=False)[-1] for lam in modes]
     )
-    for rtol in (dfm.PBH_RTOL, float(np.median(smins)) / scale, 2.0 * smins.max() / scale):
+    for rtol in (bjm.PBH_RTOL, float(np.median(smins)) / scale, 2.0 * smins.max() / scale):
         brute = [complex(lam) for lam, s in zip(modes, smins, strict=True) if s <= rtol * scale]
         assert unobservable_modes(A, C, rtol=rtol) == brute
     assert unobservable_modes(A, C) == []
@@ -317,7 +314,7 @@ def _general_design(monkeypatch, *args, **kwargs):
     """``park_filter`` without the observer-form shortcuts (dense Riccati, eigenvalues
     and SVDs): the straightforward design."""
     with monkeypatch.context() as mp:
-        mp.setattr(dfm, "observer_blocks", lambda A, C: None)
+        mp.setattr(bjm, "observer_blocks", lambda A, C: None)
         return park_filter(*args, **kwargs)
 
 
@@ -338,12 +335,12 @@ def test_ar_reduced_design_equals_the_general_design(seed, m, p, sigma, drop, mo
         K = A[:, :m].copy()
         Q, S = K @ R @ K.T, K @ R
     B, D = np.zeros((n, 0)), np.zeros((m, 0))
-    assert dfm._innovations_form(A, Q, R, S)
-    assert not dfm._innovations_form(A, Q + 1e-6 * np.eye(n), R, S)
+    assert bjm._innovations_form(A, Q, R, S)
+    assert not bjm._innovations_form(A, Q + 1e-6 * np.eye(n), R, S)
     floor = 4.0 * 1e-12 ** (1.0 / p)  # below it the dense eigenvalues are taken
-    blocks = dfm.observer_blocks(A, C)
+    blocks = bjm.observer_blocks(A, C)
     for i in range(m):
-        rho_x = dfm._ar_state_gain(A, blocks, R, i)[2]
+        rho_x = bjm._ar_state_gain(A, blocks, R, i)[2]
         assert (max(rho_x, sigma) < floor) == (sigma < 0.1)  # each branch is exercised
         fast = park_filter(A, B, C, D, i, Q, R, S, sigma=sigma)
         ref = _general_design(monkeypatch, A, B, C, D, i, Q, R, S, sigma=sigma)
@@ -359,7 +356,7 @@ def test_ar_detector_fit_equals_the_general_design(monkeypatch):
     """The detector's fit on an AR model (bank and held-out calibration) with the
     observer-form shortcuts gives the filters and thresholds of the general design."""
     det, fast, Y = _fitted_filter(40.0, seed=11)
-    monkeypatch.setattr(dfm, "observer_blocks", lambda A, C: None)
+    monkeypatch.setattr(bjm, "observer_blocks", lambda A, C: None)
     ref = det.fit(Dataset(Y, tuple(fast.model.summary["outputs"]), RATE, TRAIN), RunContext())
     for a, b in zip(fast.filters, ref.filters, strict=True):
         np.testing.assert_allclose(a.F, b.F, rtol=1e-9, atol=1e-11)
