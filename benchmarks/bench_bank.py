@@ -61,15 +61,10 @@ import numpy.typing as npt  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from analyzer.detectors.ar_kalman import (  # noqa: E402
-    ARKalmanBank,
-    BankFilter,
-    FittedBank,
-    LeaveOneOut,
-    bank_block,
-)
+from analyzer.detectors.ar_kalman import ARKalmanBank, FittedBank  # noqa: E402
 from analyzer.detectors.ar_model import ARModel  # noqa: E402
 from analyzer.detectors.base import Dataset, RunContext  # noqa: E402
+from analyzer.detectors.kalman_bank import BankFilter, LeaveOneOut, bank_block  # noqa: E402
 from analyzer.detectors.lti import simulate_reference  # noqa: E402
 from analyzer.simulate import simulate_building  # noqa: E402
 

@@ -7,15 +7,10 @@ import numpy as np
 import pytest
 from scipy import linalg
 
-from analyzer.detectors import ar_kalman
-from analyzer.detectors.ar_kalman import (
-    ARKalmanBank,
-    BankFilter,
-    _forgets_within,
-    bank_block,
-    leave_one_out,
-)
+from analyzer.detectors import ar_kalman, kalman_bank
+from analyzer.detectors.ar_kalman import ARKalmanBank
 from analyzer.detectors.base import Dataset, RunContext
+from analyzer.detectors.kalman_bank import BankFilter, bank_block, forgets_within, leave_one_out
 from analyzer.detectors.lti import StackedLiftedSystem, simulate_reference
 from analyzer.detectors.riccati import solve_dare
 from analyzer.errors import DetectorError
@@ -108,11 +103,11 @@ def test_forgetting_within_a_horizon_is_proven_and_only_then(radius):
     rng = np.random.default_rng(int(radius * 1000))
     F = rng.normal(size=(40, 40))
     F *= radius / np.max(np.abs(np.linalg.eigvals(F)))
-    assert _forgets_within(F, 1 << 14)
-    assert not _forgets_within(F, 8)  # radius^8 is far above the decay asked for
-    assert not _forgets_within(F * (1.001 / radius), 1 << 14)  # just outside the circle
-    assert not _forgets_within(F * (1.0 / radius), 1 << 14)  # on it
-    assert not _forgets_within(np.diag([0.5, 1.0]), 1 << 14)
+    assert forgets_within(F, 1 << 14)
+    assert not forgets_within(F, 8)  # radius^8 is far above the decay asked for
+    assert not forgets_within(F * (1.001 / radius), 1 << 14)  # just outside the circle
+    assert not forgets_within(F * (1.0 / radius), 1 << 14)  # on it
+    assert not forgets_within(np.diag([0.5, 1.0]), 1 << 14)
 
 
 def test_fold_estimators_with_given_times_equal_the_full_design(fitted):
@@ -206,7 +201,7 @@ def test_chunked_bank_block_equals_one_chunk(fitted, monkeypatch):
     """Chunks of the record (each with the impulse responses' history before it) and the
     in-place output give the outputs of one pass."""
     import analyzer.detectors.lti as lti
-    from analyzer.detectors.ar_kalman import BankOutputs
+    from analyzer.detectors.kalman_bank import BankOutputs
 
     _, model, data = fitted
     ar, bank = model.ar, model.bank
@@ -416,9 +411,9 @@ def test_innovation_moments_taken_chunk_by_chunk_equal_the_stored_innovations(
     w, start = 300, 1234
     stored = bank_block(ar.mean, ar.scale, bank, Y, w, None)
     assert stored.innov is not None
-    expect = ar_kalman._Moments(ar.m)
+    expect = kalman_bank.InnovationMoments(ar.m)
     expect.add(stored.innov[start:])
-    got = ar_kalman._Moments(ar.m)
+    got = kalman_bank.InnovationMoments(ar.m)
     chunked = bank_block(ar.mean, ar.scale, bank, Y, w, None, innov_moments=got, moments_from=start)
     assert chunked.innov is None
     np.testing.assert_array_equal(chunked.resid, stored.resid)

@@ -12,8 +12,8 @@ from scipy import linalg
 
 import analyzer.detectors.ar_model as arm
 from analyzer.detectors import riccati
-from analyzer.detectors.ar_kalman import _solved_leave_one_out
 from analyzer.detectors.ar_model import fit_ar
+from analyzer.detectors.kalman_bank import solved_leave_one_out
 from analyzer.detectors.riccati import solve_dare
 from analyzer.simulate import simulate_building
 
@@ -263,9 +263,9 @@ def test_fold_estimators_one_step_from_the_whole_model(building):
     held[1000:2000] = np.nan
     fold = fit_ar(held, 4)
     for j in range(ar.m):
-        whole, P = _solved_leave_one_out(ar, j, 16)
-        fast, P1 = _solved_leave_one_out(fold, j, 16, (whole.settle, whole.warmup), P)
-        full, Pf = _solved_leave_one_out(fold, j, 16, (whole.settle, whole.warmup))
+        whole, P = solved_leave_one_out(ar, j, 16)
+        fast, P1 = solved_leave_one_out(fold, j, 16, (whole.settle, whole.warmup), P)
+        full, Pf = solved_leave_one_out(fold, j, 16, (whole.settle, whole.warmup))
         size = np.abs(Pf).max()
         e0, e1 = np.abs(P - Pf).max() / size, np.abs(P1 - Pf).max() / size
         assert 1e-3 < e0 < 0.3  # a fold of this short record moves the solution by ~10 %
@@ -283,7 +283,7 @@ def test_calibration_from_one_step_folds_equals_converged_folds(monkeypatch):
     their own sampling error (~1e-2) when the folds' gains come from one Newton step
     instead of the converged solutions (a 10-minute window, as by default; measured
     ~1e-4 at most here, ~1e-5 at 16 channels)."""
-    from analyzer.detectors import ar_kalman
+    from analyzer.detectors import kalman_bank
     from analyzer.detectors.ar_kalman import ARKalmanBank
     from analyzer.detectors.base import Dataset, RunContext
 
@@ -291,7 +291,7 @@ def test_calibration_from_one_step_folds_equals_converged_folds(monkeypatch):
     data = Dataset(Y, tuple(names), 100.0, (0, Y.shape[0]))
     fast = ARKalmanBank(order=4).fit(data, RunContext())
     converged = partial(solve_dare, check_stable=False)
-    monkeypatch.setattr(ar_kalman, "newton_step", lambda a, b, q, r, start: converged(a, b, q, r))
+    monkeypatch.setattr(kalman_bank, "newton_step", lambda a, b, q, r, start: converged(a, b, q, r))
     ref = ARKalmanBank(order=4).fit(data, RunContext())
     assert fast.calibration == ref.calibration == "5-fold out-of-sample"
     for name in ("residual_cal", "consistency_cal"):
