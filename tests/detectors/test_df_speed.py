@@ -15,10 +15,10 @@ from analyzer import paging
 from analyzer.detectors import beard_jones as bjm
 from analyzer.detectors import detection_filter as dfm
 from analyzer.detectors import state_space as ssm
+from analyzer.detectors.assistant_observer import fit_relation
 from analyzer.detectors.base import Dataset, RunContext
 from analyzer.detectors.beard_jones import filter_bank, park_filter, unobservable_modes
 from analyzer.detectors.detection_filter import DetectionFilter
-from analyzer.detectors.equivalent_model import fit_relation
 from analyzer.detectors.lti import ImpulseResponseBank, StackedLiftedSystem, bank_segment
 from analyzer.simulate import simulate_building
 

@@ -10,19 +10,18 @@ import pytest
 from scipy import signal
 from scipy.integrate import cumulative_trapezoid, solve_ivp
 
-from analyzer.detectors.base import Dataset, Event, FaultType, RunContext
-from analyzer.detectors.equivalent_model import (
+from analyzer.detectors.assistant_observer import (
     AssistantObserver,
-    EquivalentModel,
     Relation,
     _diag_states,
-    _fault_estimate_numpy,
     _lagged_gram,
     _rows_gram,
     _zoh,
     fit_relation,
     pretreat,
 )
+from analyzer.detectors.base import Dataset, Event, FaultType, RunContext
+from analyzer.detectors.equivalent_model import EquivalentModel, _fault_estimate_numpy
 from analyzer.detectors.lti import simulate_reference
 from analyzer.detectors.network import network_from_config
 from analyzer.diagnosis.changes import calibrate, default_window, detect
@@ -596,7 +595,7 @@ def test_compiled_fault_estimate_into_memory_mapped_rows(tmp_path, monkeypatch):
 def _whole_pretreat(y, u, dt, lambda2, table=None):
     """The pretreatment on the whole window at once (what it computed before it ran a
     block at a time): three observer runs, ``np.linalg.lstsq`` on their columns."""
-    from analyzer.detectors.equivalent_model import AssistantObserver, _diag_states
+    from analyzer.detectors.assistant_observer import AssistantObserver, _diag_states
 
     def error(a, b):
         F, G, _, _ = AssistantObserver(a, b, 1.0, lambda2, dt).discrete("rate")
@@ -619,10 +618,10 @@ def test_pretreatment_block_by_block_equals_the_whole_window(rows, monkeypatch):
     """The observers run a block at a time with their states carried, the normal
     equations summed: the whole-window least squares and table scores, to rounding;
     with a gap, only the longest run without one counts."""
-    import analyzer.detectors.equivalent_model as em
+    import analyzer.detectors.assistant_observer as ao
 
     if rows is not None:
-        monkeypatch.setattr(em, "PRETREAT_ROWS", rows)
+        monkeypatch.setattr(ao, "PRETREAT_ROWS", rows)
     h = 0.01
     rng = np.random.default_rng(3)
     t = np.arange(6000) * h

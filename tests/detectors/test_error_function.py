@@ -15,21 +15,23 @@ from scipy import signal
 
 from analyzer.detectors import error_function
 from analyzer.detectors.base import Dataset, DetectorResult, RunContext
+from analyzer.detectors.decoupling import (
+    decoupling_basis,
+    decoupling_system,
+    inverse_model,
+    model_matrices,
+    paper_coefficients,
+)
 from analyzer.detectors.error_function import (
     WEAK_SENSITIVITY,
     ErrorFunction,
     ErrorFunctionModel,
     Group,
-    _decoupling_system,
     _select,
     _unit_fit,
     apply_taps,
     check_conditions,
-    decoupling_basis,
-    inverse_model,
     minimal_p,
-    model_matrices,
-    paper_coefficients,
     resolve_groups,
 )
 from analyzer.diagnosis.changes import detect
@@ -182,7 +184,7 @@ def test_decoupling_basis_solves_eq_17_and_21() -> None:
     inv = inverse_model(A, B, C, D, [0, 1], [2, 3])
     for i in (0, 1):
         basis, F, info = decoupling_basis(inv, 28, i, np.ones(2))
-        Z, _, _ = _decoupling_system(inv, 28, i)
+        Z, _, _ = decoupling_system(inv, 28, i)
         norms = np.linalg.norm(Z, axis=0)
         zn = Z[:, norms > 0] / norms[norms > 0]
         assert info["null_dim"] == basis.shape[1] > 0
