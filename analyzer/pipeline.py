@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 import shutil
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
@@ -26,7 +26,7 @@ from analyzer.detector_runs import (
 )
 from analyzer.detectors import Dataset, DetectorResult, RunContext
 from analyzer.detectors.ar_model import flat_channels
-from analyzer.diagnosis import merge_events, one_fault_at_a_time
+from analyzer.diagnosis import Finding, merge_events, one_fault_at_a_time
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.stuck import healthy_stats, relabel_frozen
@@ -170,57 +170,16 @@ def analyze(
 
 
 def analyze_screened(inputs: Sequence[str | Path], options: RunOptions, workdir: Path) -> Analysis:
-    """:func:`analyze` with ``--screen``: the archive analyzed with the screening's
-    detectors alone first; when they find no fault that is the analysis (a note and
-    ``findings.json``'s ``screen`` say the others did not run), else the archive is
-    analyzed again with every detector of the run (``--detectors``, or the defaults)
-    and that is the analysis, the same as without ``--screen``. A faster pass over a
-    long run of mostly healthy archives (one detector alone analyzes 4 hours of MCAP
-    1.2-2.6x as fast as all three, the equivalent model fastest), at the price of what
-    the screening's detectors miss and the others would have found; a faulty archive
-    costs the screening more than a plain run. Screening detectors that cannot run on
-    the archive (a :class:`DetectorError`, such as too little healthy data for them)
-    leave it to every detector, with their error in ``screen``. Without ``--screen``:
-    :func:`analyze`.
-
-    The screening works in a directory of its own in ``workdir``, removed before the
-    second analysis (a long archive's aligned matrix and signals are files there)."""
-    if not options.screen:
-        return analyze(inputs, options, workdir)
-    names = ", ".join(options.screen)
-    screen_dir = workdir / "screen"
-    screen_dir.mkdir()
-    shown = options.progress
-    screening = replace(
-        options,
-        detectors=list(options.screen),
-        screen=None,
-        # its stages shown as the screening's ("screen read", ...): a fault's full
-        # analysis shows the plain ones after them
-        progress=None if shown is None else lambda stage, done: shown(f"screen {stage}", done),
-    )
-    try:
-        first: Analysis | None = analyze(inputs, screening, screen_dir)
-    except DetectorError as err:  # say, too little healthy data for them: the others decide
-        first, failed = None, one_line(err)
-    if first is not None and not first.faulty:
-        first.screen = {"detectors": list(options.screen), "fault": False}
-        first.notes.append(
-            f"screened with {names} alone (--screen): no fault, so the other detectors did not run"
-        )
-        return first
-    screen: dict[str, Any] = {"detectors": list(options.screen), "fault": True}
-    if first is None:  # no verdict of theirs: what stopped them instead
-        screen["fault"], screen["error"] = None, failed
-        why = f"they could not run ({failed}), so analyzed with every detector"
-    else:
-        why = "a fault, so analyzed again with every detector; these findings are that analysis's"
-    del first
-    shutil.rmtree(screen_dir, ignore_errors=True)
-    analysis = analyze(inputs, replace(options, screen=None), workdir)
-    analysis.screen = screen
-    analysis.notes.append(f"screened with {names} alone (--screen): {why}")
-    return analysis
+    """:func:`analyze`, whose ``--screen`` (``options.screen``) runs the screening's
+    detectors first: when they find no fault their analysis is the analysis (a note and
+    ``findings.json``'s ``screen`` say the others did not run), else every other detector
+    of the run (``--detectors``, or the defaults) runs too on the same aligned archive,
+    and the analysis is the plain run's. A faster pass over a long run of mostly healthy
+    archives (one detector alone analyzes 4 hours of MCAP 1.2-2.6x as fast as all three,
+    the equivalent model fastest), at the price of what the screening's detectors miss
+    and the others would have found; a faulty archive costs about what a plain run does
+    (read, aligned and screened once: :func:`_screened`)."""
+    return analyze(inputs, options, workdir)
 
 
 def _analyze(
@@ -304,8 +263,6 @@ def _analyze(
             local=local,
         )
         t0 = time.perf_counter()
-        # a long archive's kept signals go to files as each detector finishes
-        spill_dir = work / "signals" if big else None
         # the tests of each residual are independent: local threads share the residuals
         # without copies (a cluster would need them shipped: there they run on this
         # process's own threads), one task per detector and channel so the threads stay
@@ -334,12 +291,33 @@ def _analyze(
         kept: dict[str, dict[str, tuple[Any, Any]]] | None = (
             {} if options.save_model is not None else None
         )
-        shared = (options, data, ctx, executor, timings, spill_dir, start_tests)
+        single = len(groups) == 1 and len(groups[0]) == len(chosen)
+
+        def detect(which: list[str], label: str, signals: str) -> _Outcome:
+            """Fit and run the detectors ``which`` (in ``names``' order) on every channel
+            group; their progress shown as ``label + "detect"``, a long archive's signals
+            kept in ``work / signals``."""
+            run_ctx = ctx
+            if label and ctx.progress is not None:
+                shown = ctx.progress
+                run_ctx = replace(ctx, progress=lambda stage, done: shown(label + stage, done))
+            into = work / signals if big else None
+            shared = (options, data, run_ctx, executor, timings, into, start_tests)
+            if single:
+                return run_detectors(which, *shared, "", *fits_of("", fits, kept))
+            return run_groups(groups, which, *shared, fits, kept)
+
+        def diagnose(found: list[DetectorResult]) -> tuple[list[Finding], list[str]]:
+            return _diagnose(found, values, chosen, aligned.rate_hz, healthy, train, reused)
+
+        screen = None
         try:
-            if len(groups) == 1 and len(groups[0]) == len(chosen):
-                results, skipped = run_detectors(names, *shared, "", *fits_of("", fits, kept))
+            if options.screen:
+                results, skipped, screen = _screened(
+                    options.screen, names, groups, detect, diagnose, tests
+                )
             else:
-                results, skipped = run_groups(groups, names, *shared, fits, kept)
+                results, skipped = detect(names, "", "signals")
         except BaseException:
             for _, handle in tests:
                 if handle is not None:
@@ -348,16 +326,10 @@ def _analyze(
         timings["detect"] = time.perf_counter() - t0
         if not results:
             raise _no_detector_error(skipped, tr, options)
-        findings = merge_events(ev for r in results for ev in r.events)
-        # the seed methods isolate one fault at a time among the sensors modelled together
-        findings, conflicts = one_fault_at_a_time(findings, coupled(results))
-        notes.extend(conflicts)
-        # a frozen sensor is told by its readings, not by the residual's shape
-        notes.extend(relabel_frozen(findings, values, chosen, aligned.rate_hz, healthy))
-        notes.extend(traced_into_training(findings, reused is not None))
-        if reused is not None:
-            search_s = train[1] / aligned.rate_hz
-            notes.extend(present_at_search_start(findings, search_s, aligned.rate_hz))
+        findings, found_notes = diagnose(results)
+        notes.extend(found_notes)
+        if screen is not None:
+            notes.append(screen.pop("note"))
         t0 = time.perf_counter()
         parts = results
         results = merge_groups(parts, chosen)  # one result per detector (channel groups)
@@ -419,7 +391,97 @@ def _analyze(
                 created=iso_utc(time.time_ns()) or "",
             ),
             model_info=None if reused is None else model_info(reused, options),
+            screen=screen,
         )
+
+
+_Outcome = tuple[list[DetectorResult], dict[str, str]]
+"""Detectors' results and why the others were skipped (:func:`run_detectors`)."""
+
+
+def _diagnose(
+    results: list[DetectorResult],
+    values: Any,
+    chosen: list[str],
+    rate_hz: float,
+    healthy: dict[str, Any],
+    train: tuple[int, int],
+    reused: SavedModel | None,
+) -> tuple[list[Finding], list[str]]:
+    """The findings of the detectors' results and the notes that go with them: one finding
+    per fault, one fault at a time among the sensors a detector models together (as the
+    seed methods isolate them), a frozen sensor told by its readings rather than by the
+    residual's shape, and (``--model``) the faults already there when the search began.
+    Reads the results' events without changing them."""
+    notes: list[str] = []
+    findings = merge_events(ev for r in results for ev in r.events)
+    findings, conflicts = one_fault_at_a_time(findings, coupled(results))
+    notes.extend(conflicts)
+    notes.extend(relabel_frozen(findings, values, chosen, rate_hz, healthy))
+    notes.extend(traced_into_training(findings, reused is not None))
+    if reused is not None:
+        notes.extend(present_at_search_start(findings, train[1] / rate_hz, rate_hz))
+    return findings, notes
+
+
+def _screened(
+    screen: list[str],
+    names: list[str],
+    groups: Sequence[tuple[str, ...]],
+    detect: Callable[[list[str], str, str], _Outcome],
+    diagnose: Callable[[list[DetectorResult]], tuple[list[Finding], list[str]]],
+    tests: list[Any],
+) -> tuple[list[DetectorResult], dict[str, str], dict[str, Any]]:
+    """``--screen``: the screening's detectors run first on the archive; when their
+    results hold no finding they are the analysis, else the other detectors run too and
+    the analysis is every detector's, the plain run's (each detector's fit and run do not
+    depend on which others run: the screening's results are kept, not computed again).
+    Screening detectors that cannot run (skipped, or a :class:`DetectorError` when the
+    user named the detectors) leave the archive to every detector, with their reason.
+    Returns the results and skip reasons in the plain run's order, and ``findings.json``'s
+    ``screen`` with the note that says what happened (``"note"``)."""
+    first = [n for n in names if n in screen]
+    listed = ", ".join(screen)
+    verdict: dict[str, Any] = {"detectors": list(screen), "fault": True}
+    try:
+        results, skipped = detect(first, "screen ", "signals")
+    except DetectorError as err:  # a named detector's error: the plain run's decides
+        verdict.update(fault=None, error=one_line(err))
+        # the screening's tests and signals go with its results (its files are left to
+        # any test still reading them: the full run's go elsewhere)
+        for _, handle in tests:
+            if handle is not None:
+                handle.cancel()
+        tests.clear()
+        results, skipped = detect(names, "", "signals-all")
+        why = f"they could not run ({verdict['error']}), so analyzed with every detector"
+        verdict["note"] = f"screened with {listed} alone (--screen): {why}"
+        return results, skipped, verdict
+    failed = {k: v for k, v in skipped.items() if k.split(" (", 1)[0] in first}
+    if failed:
+        verdict.update(fault=None, error="; ".join(skip_reasons(failed)))
+        why = f"they could not run ({verdict['error']}), so analyzed with every detector"
+    elif not diagnose(results)[0]:
+        verdict["fault"] = False
+        verdict["note"] = (
+            f"screened with {listed} alone (--screen): no fault, so the other detectors did not run"
+        )
+        return results, skipped, verdict
+    else:
+        why = "a fault, so every other detector ran too; these findings are every detector's"
+    verdict["note"] = f"screened with {listed} alone (--screen): {why}"
+    more, more_skipped = detect([n for n in names if n not in screen], "", "signals")
+    rank = {n: i for i, n in enumerate(names)}
+    results = sorted(results + more, key=lambda r: rank[r.detector])
+    # skip reasons as the plain run lists them: the whole-archive ones, then group by group
+    where = {f"{g[0]}..{g[-1]}": k for k, g in enumerate(groups)}
+
+    def order(key: str) -> tuple[int, int]:
+        name, _, group = key.partition(" (")
+        return where.get(group.rstrip(")"), -1), rank.get(name, len(rank))
+
+    skipped = dict(sorted({**skipped, **more_skipped}.items(), key=lambda kv: order(kv[0])))
+    return results, skipped, verdict
 
 
 def _training_window(

@@ -1,5 +1,5 @@
-"""``--screen NAME[,NAME...]``: the screening's detectors first, every detector only when
-they find a fault (``analyze_screened``)."""
+"""``--screen NAME[,NAME...]``: the screening's detectors first, every other detector only
+when they find a fault, on the same aligned archive (``pipeline._screened``)."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import pytest
 from cli_helpers import one_line_error, run_cli
 
 from analyzer import pipeline
+from analyzer.detectors import REGISTRY
 from analyzer.pipeline import RunOptions
 from analyzer.watch import analysis_into
 
@@ -22,12 +23,42 @@ def _findings(out: Path) -> dict:
     return json.loads((out / "findings.json").read_text())
 
 
-def test_a_screen_that_finds_a_fault_gives_the_full_analysis(tmp_path, capsys):
-    """The screening's fault sends the archive through every detector: the faults are
-    those of a run without ``--screen``, the detectors all three, and findings.json and
-    a note say the screening found it."""
+def _recorded(monkeypatch) -> list[list[str]]:
+    """The detectors of each detection pass of the pipeline, and (``"read"``) each time an
+    archive is opened."""
+    calls: list[list[str]] = []
+    run_detectors, run_groups, open_archive = (
+        pipeline.run_detectors,
+        pipeline.run_groups,
+        pipeline.open_archive,
+    )
+
+    def detectors(names, *args):
+        calls.append(list(names))
+        return run_detectors(names, *args)
+
+    def groups(group_list, names, *args):
+        calls.append(list(names))
+        return run_groups(group_list, names, *args)
+
+    def opened(inputs):
+        calls.append(["read"])
+        return open_archive(inputs)
+
+    monkeypatch.setattr(pipeline, "run_detectors", detectors)
+    monkeypatch.setattr(pipeline, "run_groups", groups)
+    monkeypatch.setattr(pipeline, "open_archive", opened)
+    return calls
+
+
+def test_a_screen_that_finds_a_fault_gives_the_full_analysis(tmp_path, capsys, monkeypatch):
+    """The screening's fault sends the archive through every other detector: the archive
+    read once, the screening's detector run once (its results kept), the faults and
+    detectors those of a run without ``--screen``, and findings.json and a note say the
+    screening found it."""
     code, _, _ = run_cli(["run", FAULTY, "--out", tmp_path / "plain", "--no-progress"], capsys)
     assert code == 1
+    calls = _recorded(monkeypatch)
     code, _, _ = run_cli(
         [
             *("run", FAULTY, "--out", tmp_path / "screened", "--no-progress"),
@@ -36,8 +67,16 @@ def test_a_screen_that_finds_a_fault_gives_the_full_analysis(tmp_path, capsys):
         capsys,
     )
     assert code == 1
+    assert calls == [
+        ["read"],
+        ["equivalent_model"],
+        [n for n in REGISTRY if n != "equivalent_model"],
+    ]
     plain, screened = _findings(tmp_path / "plain"), _findings(tmp_path / "screened")
     assert screened["faults"] == plain["faults"]
+    assert screened["detectors"] == plain["detectors"]  # models, tests, notes: all equal
+    assert screened["skipped_detectors"] == plain["skipped_detectors"]
+    assert screened["notes"][:-1] == plain["notes"]
     assert [d["name"] for d in screened["detectors"]] == [d["name"] for d in plain["detectors"]]
     assert len(screened["detectors"]) == 3
     assert screened["screen"] == {"detectors": ["equivalent_model"], "fault": True}
@@ -48,20 +87,13 @@ def test_a_screen_that_finds_a_fault_gives_the_full_analysis(tmp_path, capsys):
 def test_a_screen_that_finds_nothing_is_the_analysis(tmp_path, capsys, monkeypatch):
     """No fault in the screening: one analysis, by its detectors alone (the others never
     run), exit 0, and findings.json says so."""
-    runs: list[list[str] | None] = []
-    real = pipeline.analyze
-
-    def counted(inputs, options, workdir=None):
-        runs.append(options.detectors)
-        return real(inputs, options, workdir)
-
-    monkeypatch.setattr(pipeline, "analyze", counted)
+    calls = _recorded(monkeypatch)
     code, _, _ = run_cli(
         ["run", HEALTHY, "--out", tmp_path, "--no-progress", "--screen", "equivalent_model"],
         capsys,
     )
     assert code == 0
-    assert runs == [["equivalent_model"]]
+    assert calls == [["read"], ["equivalent_model"]]
     found = _findings(tmp_path)
     assert found["faults"] == []
     assert [d["name"] for d in found["detectors"]] == ["equivalent_model"]
@@ -102,8 +134,8 @@ def test_a_screen_that_cannot_work_is_a_usage_error(extra, needle, tmp_path, cap
 
 
 def test_the_screenings_progress_stages_are_named_as_its_own(tmp_path):
-    """On a terminal the screening's stages show as ``screen read``, ``screen detect``...;
-    after a fault the full analysis's show under their plain names."""
+    """On a terminal the archive is read and aligned once; the screening's detectors show
+    as ``screen detect``, and after a fault the other detectors' as ``detect``."""
     stages: list[str] = []
 
     def progress(stage: str, done: float) -> None:
@@ -112,31 +144,29 @@ def test_the_screenings_progress_stages_are_named_as_its_own(tmp_path):
 
     options = RunOptions(screen=["equivalent_model"], progress=progress)
     assert pipeline.run([FAULTY], tmp_path, options) == 1
-    first_plain = next(i for i, s in enumerate(stages) if not s.startswith("screen "))
-    assert stages[0] == "screen read" and "screen detect" in stages[:first_plain]
-    assert all(s.startswith("screen ") for s in stages[:first_plain])
-    assert "read" in stages[first_plain:] and "report" in stages[first_plain:]
-    assert not any(s.startswith("screen ") for s in stages[first_plain:])
+    assert stages[:2] == ["read", "align"] and stages.count("read") == 1
+    assert stages.index("screen detect") < stages.index("detect") < stages.index("report")
 
 
 def test_a_screening_that_cannot_run_leaves_the_archive_to_every_detector(tmp_path, monkeypatch):
-    """When the screening's detectors cannot run on an archive (a ``DetectorError``: too
-    little healthy data for them, say) the full analysis decides, and says why."""
+    """When the screening's detectors raise a ``DetectorError`` (too little healthy data
+    for them, say, with ``--detectors``) every detector analyzes the archive, and
+    findings.json says why."""
     from analyzer.errors import DetectorError
 
-    real = pipeline.analyze
-    calls: list[list[str] | None] = []
+    calls = _recorded(monkeypatch)
+    recorded = pipeline.run_detectors
 
-    def first_fails(inputs, options, workdir=None):
-        calls.append(options.detectors)
-        if len(calls) == 1:
+    def first_fails(names, *args):
+        if calls == [["read"]]:
+            calls.append(list(names))
             raise DetectorError("no detector could run (equivalent_model: too little data)")
-        return real(inputs, options, workdir)
+        return recorded(names, *args)
 
-    monkeypatch.setattr(pipeline, "analyze", first_fails)
+    monkeypatch.setattr(pipeline, "run_detectors", first_fails)
     options = RunOptions(screen=["equivalent_model"])
     assert pipeline.run([FAULTY], tmp_path, options) == 1
-    assert calls == [["equivalent_model"], None]
+    assert calls == [["read"], ["equivalent_model"], list(REGISTRY)]
     found = _findings(tmp_path)
     assert found["screen"] == {
         "detectors": ["equivalent_model"],
@@ -145,3 +175,26 @@ def test_a_screening_that_cannot_run_leaves_the_archive_to_every_detector(tmp_pa
     }
     assert len(found["detectors"]) == 3 and found["faults"]
     assert any("they could not run" in n for n in found["notes"])
+
+
+def test_a_screening_detector_that_does_not_apply_leaves_the_archive_to_the_others(
+    tmp_path, capsys
+):
+    """On two channels the equivalent model does not apply (it needs three): the
+    screening has no verdict, the other detectors analyze the archive, and the findings
+    are the plain run's, the equivalent model skipped with its reason."""
+    two = ["--channels", "/s3.data,/s4.data", "--no-progress"]
+    code, _, _ = run_cli(["run", FAULTY, "--out", tmp_path / "plain", *two], capsys)
+    assert code == 1
+    code, _, _ = run_cli(
+        ["run", FAULTY, "--out", tmp_path / "s", *two, "--screen", "equivalent_model"], capsys
+    )
+    assert code == 1
+    plain, screened = _findings(tmp_path / "plain"), _findings(tmp_path / "s")
+    assert screened["faults"] == plain["faults"] and screened["faults"]
+    assert screened["detectors"] == plain["detectors"]
+    assert screened["skipped_detectors"] == plain["skipped_detectors"]
+    assert list(screened["skipped_detectors"]) == list(plain["skipped_detectors"])
+    assert "equivalent_model" in screened["skipped_detectors"]
+    assert screened["screen"]["fault"] is None
+    assert screened["screen"]["error"].startswith("equivalent_model")
