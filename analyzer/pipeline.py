@@ -134,6 +134,10 @@ def _residual_tests(
     )
 
 
+_Outcome = tuple[list[DetectorResult], dict[str, str]]
+"""Detectors' results and why the others were skipped (:func:`run_detectors`)."""
+
+
 def analyze(
     inputs: Sequence[str | Path], options: RunOptions, workdir: Path | None = None
 ) -> Analysis:
@@ -310,10 +314,10 @@ def _analyze(
         def diagnose(found: list[DetectorResult]) -> tuple[list[Finding], list[str]]:
             return _diagnose(found, values, chosen, aligned.rate_hz, healthy, train, reused)
 
-        screen = None
+        screen, screen_note = None, ""
         try:
             if options.screen:
-                results, skipped, screen = _screened(
+                results, skipped, screen, screen_note = _screened(
                     options.screen, names, groups, detect, diagnose, tests
                 )
             else:
@@ -329,7 +333,7 @@ def _analyze(
         findings, found_notes = diagnose(results)
         notes.extend(found_notes)
         if screen is not None:
-            notes.append(screen.pop("note"))
+            notes.append(screen_note)
         t0 = time.perf_counter()
         parts = results
         results = merge_groups(parts, chosen)  # one result per detector (channel groups)
@@ -395,10 +399,6 @@ def _analyze(
         )
 
 
-_Outcome = tuple[list[DetectorResult], dict[str, str]]
-"""Detectors' results and why the others were skipped (:func:`run_detectors`)."""
-
-
 def _diagnose(
     results: list[DetectorResult],
     values: Any,
@@ -431,17 +431,20 @@ def _screened(
     detect: Callable[[list[str], str, str], _Outcome],
     diagnose: Callable[[list[DetectorResult]], tuple[list[Finding], list[str]]],
     tests: list[Any],
-) -> tuple[list[DetectorResult], dict[str, str], dict[str, Any]]:
+) -> tuple[list[DetectorResult], dict[str, str], dict[str, Any], str]:
     """``--screen``: the screening's detectors run first on the archive; when their
     results hold no finding they are the analysis, else the other detectors run too and
     the analysis is every detector's, the plain run's (each detector's fit and run do not
     depend on which others run: the screening's results are kept, not computed again).
     Screening detectors that cannot run (skipped, or a :class:`DetectorError` when the
     user named the detectors) leave the archive to every detector, with their reason.
-    Returns the results and skip reasons in the plain run's order, and ``findings.json``'s
-    ``screen`` with the note that says what happened (``"note"``)."""
+    Returns the results and skip reasons in the plain run's order, ``findings.json``'s
+    ``screen``, and the note that says what happened."""
+
+    def note(why: str) -> str:
+        return f"screened with {', '.join(screen)} alone (--screen): {why}"
+
     first = [n for n in names if n in screen]
-    listed = ", ".join(screen)
     verdict: dict[str, Any] = {"detectors": list(screen), "fault": True}
     try:
         results, skipped = detect(first, "screen ", "signals")
@@ -455,21 +458,16 @@ def _screened(
         tests.clear()
         results, skipped = detect(names, "", "signals-all")
         why = f"they could not run ({verdict['error']}), so analyzed with every detector"
-        verdict["note"] = f"screened with {listed} alone (--screen): {why}"
-        return results, skipped, verdict
+        return results, skipped, verdict, note(why)
     failed = {k: v for k, v in skipped.items() if k.split(" (", 1)[0] in first}
     if failed:
         verdict.update(fault=None, error="; ".join(skip_reasons(failed)))
         why = f"they could not run ({verdict['error']}), so analyzed with every detector"
     elif not diagnose(results)[0]:
         verdict["fault"] = False
-        verdict["note"] = (
-            f"screened with {listed} alone (--screen): no fault, so the other detectors did not run"
-        )
-        return results, skipped, verdict
+        return results, skipped, verdict, note("no fault, so the other detectors did not run")
     else:
         why = "a fault, so every other detector ran too; these findings are every detector's"
-    verdict["note"] = f"screened with {listed} alone (--screen): {why}"
     more, more_skipped = detect([n for n in names if n not in screen], "", "signals")
     rank = {n: i for i, n in enumerate(names)}
     results = sorted(results + more, key=lambda r: rank[r.detector])
@@ -481,7 +479,7 @@ def _screened(
         return where.get(group.rstrip(")"), -1), rank.get(name, len(rank))
 
     skipped = dict(sorted({**skipped, **more_skipped}.items(), key=lambda kv: order(kv[0])))
-    return results, skipped, verdict
+    return results, skipped, verdict, note(why)
 
 
 def _training_window(
