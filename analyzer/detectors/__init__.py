@@ -1,6 +1,11 @@
 """Detectors: each turns the aligned archive into residuals and events.
 
-Adding a detector is adding one module and one line in :data:`REGISTRY`.
+Adding a detector is adding its module and one line in :data:`REGISTRY` (the method
+it builds on may have modules of its own: the bank's estimators in
+:mod:`~analyzer.detectors.kalman_bank`, the detection filter's design in
+:mod:`~analyzer.detectors.beard_jones`, the equivalent model's observers in
+:mod:`~analyzer.detectors.assistant_observer`, the error functions' inverse model in
+:mod:`~analyzer.detectors.decoupling`).
 """
 
 from __future__ import annotations
