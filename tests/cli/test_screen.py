@@ -198,3 +198,32 @@ def test_a_screening_detector_that_does_not_apply_leaves_the_archive_to_the_othe
     assert "equivalent_model" in screened["skipped_detectors"]
     assert screened["screen"]["fault"] is None
     assert screened["screen"]["error"].startswith("equivalent_model")
+
+
+def test_a_screened_archive_of_several_channel_groups_is_the_plain_runs(tmp_path, capsys):
+    """18 channels are two channel groups: the screening's results of each group are kept
+    and joined with the other detectors' as a plain run joins them (detectors, their
+    groups' models and tests, skip reasons in order, notes)."""
+    import numpy as np
+
+    from analyzer.simulate import inject_fault, simulate_building
+
+    t, Y, names = simulate_building(9, 120.0, 100.0, seed=3, sensors_per_floor=2)
+    Y[:, 9] = inject_fault(Y[:, 9], 100.0, "additive", 80.0, float(Y[:, 9].std()))
+    archive = tmp_path / "g18.csv"
+    np.savetxt(archive, np.c_[t, Y], delimiter=",", header="time," + ",".join(names), comments="")
+    outs = {}
+    for label, extra in (("plain", []), ("screened", ["--screen", "equivalent_model"])):
+        outs[label] = tmp_path / label
+        code, _, _ = run_cli(
+            ["run", archive, "--out", outs[label], "--no-progress", *extra], capsys
+        )
+        assert code == 1
+    plain, screened = _findings(outs["plain"]), _findings(outs["screened"])
+    assert [f["channel"] for f in plain["faults"]] == [names[9]]
+    assert screened["faults"] == plain["faults"]
+    assert screened["detectors"] == plain["detectors"]
+    assert all(d["model"]["groups"] == 2 for d in screened["detectors"])
+    assert list(screened["skipped_detectors"]) == list(plain["skipped_detectors"])
+    assert screened["notes"][:-1] == plain["notes"]
+    assert screened["screen"] == {"detectors": ["equivalent_model"], "fault": True}
