@@ -65,8 +65,18 @@ def _csv_list(text: str) -> list[str]:
     return items
 
 
+def add_msg_path(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--msg-path",
+        metavar=f"DIR[{os.pathsep}DIR...]",
+        help="directories of <package>/msg/<Type>.msg files, for message types a file does "
+        "not define (a ROS 2 bag recorded before Iron, say); also ANALYZER_MSG_PATH",
+    )
+
+
 def add_run_options(p: argparse.ArgumentParser) -> None:
     """Options shared by ``run`` and ``watch``."""
+    add_msg_path(p)
     p.add_argument(
         "--channels",
         type=_csv_list,
@@ -145,6 +155,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("inputs", nargs="+", metavar="INPUT")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.add_argument("--time", choices=("log", "header"), default="log")
+    add_msg_path(p)
 
     p = sub.add_parser("export", help="the time-aligned channels as .csv or .parquet")
     p.add_argument("inputs", nargs="+", metavar="INPUT")
@@ -152,6 +163,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--channels", type=_csv_list, metavar="GLOB[,GLOB...]")
     p.add_argument("--rate", type=_positive_float, metavar="HZ")
     p.add_argument("--time", choices=("log", "header"), default="log")
+    add_msg_path(p)
 
     p = sub.add_parser("run", help="analyze; write DIR/report.html and DIR/findings.json")
     p.add_argument("inputs", nargs="+", metavar="INPUT")
@@ -390,6 +402,26 @@ def _multiprocessing_exit() -> None:
             exit_function()
 
 
+def _use_msg_path(option: str | None) -> None:
+    """``--msg-path`` into the environment (the readers, and the watcher's analyses, read
+    it there), and the path checked before any reading: a missing directory or an
+    unparsable ``.msg`` is a usage error naming the option (or the variable)."""
+    from analyzer.readers.rostypes import MSG_PATH_ENV
+
+    if option is not None:
+        os.environ[MSG_PATH_ENV] = option
+    spec = os.environ.get(MSG_PATH_ENV, "")
+    if not spec:
+        return
+    from analyzer.readers.rostypes import MessagePathError, user_store
+
+    user_store.cache_clear()  # read when the command starts (a test may run several)
+    try:
+        user_store(spec)
+    except MessagePathError as err:
+        raise UsageError(f"{'--msg-path' if option is not None else MSG_PATH_ENV}: {err}") from None
+
+
 def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -> int:
     """``analyzer ARGV``: the exit code. ``figure_processes`` (the real entry point only)
     lets ``run`` draw the report's figures in worker processes of its own."""
@@ -403,6 +435,7 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
         # what runs killed outright (kill -9, the OOM killer) left in TMPDIR: their
         # scratch directories, gigabytes for a long archive (see analyzer.scratch)
         sweep_stale()
+        _use_msg_path(getattr(args, "msg_path", None))
         if args.command != "watch" and threading.current_thread() is threading.main_thread():
             # SIGTERM (timeout, kill) unwinds as Ctrl-C does, so nothing is left behind;
             # the watcher handles its own signals

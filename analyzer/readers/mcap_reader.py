@@ -54,8 +54,8 @@ from analyzer.readers.rosdecode import Encoding, RosBatchDecoder
 from analyzer.readers.rostypes import (
     EmptyMessageType,
     TypeResolutionError,
+    candidate_stores,
     normalize_msgtype,
-    standard_candidates,
     store_from_definition,
 )
 from analyzer.types import Format
@@ -486,11 +486,14 @@ class McapReader:
                 f"schema encoding {schema.encoding!r} is not a ROS message definition "
                 f"(expected {' or '.join(expected)})"
             )
-        stores = standard_candidates(msgtype) if wire == "cdr" else []
+        stores = candidate_stores(msgtype) if wire == "cdr" else []
         if not stores:
             if schema.encoding in expected:  # a definition, and it is empty
                 raise EmptyMessageType(msgtype)
-            raise TypeResolutionError(f"unknown message type {msgtype!r} without definitions")
+            raise TypeResolutionError(
+                f"unknown message type {msgtype!r} without definitions (--msg-path: "
+                "the directories of its package's msg/ files)"
+            )
         return RosBatchDecoder(stores, msgtype, wire, bulk=self.bulk)
 
     def _error(self, line: str) -> None:

@@ -48,8 +48,8 @@ from analyzer.readers.rosdecode import RosBatchDecoder
 from analyzer.readers.rostypes import (
     EmptyMessageType,
     TypeResolutionError,
+    candidate_stores,
     normalize_msgtype,
-    standard_candidates,
     store_from_definition,
 )
 from analyzer.types import Format
@@ -146,11 +146,14 @@ class Ros2BagReader:
             kind = "idl" if fmt == MessageDefinitionFormat.IDL else "msg"
             stores = [store_from_definition(msgtype, conn.msgdef.data, kind)]
         else:
-            stores = standard_candidates(msgtype)
+            stores = candidate_stores(msgtype)
             if not stores:
                 if fmt in (MessageDefinitionFormat.MSG, MessageDefinitionFormat.IDL):
                     raise EmptyMessageType(msgtype)  # a definition, and it is empty
-                raise TypeResolutionError(f"unknown message type {msgtype!r} without definitions")
+                raise TypeResolutionError(
+                    f"unknown message type {msgtype!r} without definitions (give the folder "
+                    "that holds its package's msg/ folder with --msg-path)"
+                )
         return RosBatchDecoder(stores, msgtype, "cdr", bulk=self.bulk)
 
     # ------------------------------------------------------------------ sqlite3

@@ -4,12 +4,17 @@ Types come from the definitions a file embeds (ROS 1 connection headers, MCAP ``
 / ``ros2msg`` / ``ros2idl`` schemas, rosbag2 ``message_definitions``), parsed by rosbags
 into a typestore per definition text (definitions of two files, or two topics, may
 differ under the same type name). ROS 2 bags that embed no definitions fall back to the
-standard typestores shipped with rosbags, newest distributions first.
+user's message path (``--msg-path``, :data:`MSG_PATH_ENV`: the ``.msg`` files of their
+own packages), then to the standard typestores shipped with rosbags, newest
+distributions first.
 """
 
 from __future__ import annotations
 
+import os
 from functools import cache
+from pathlib import Path
+from typing import Any
 
 from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
@@ -29,9 +34,19 @@ FALLBACK_STORES: tuple[Stores, ...] = (
 
 IDL_SEPARATOR = "=" * 80 + "\n"
 
+MSG_PATH_ENV = "ANALYZER_MSG_PATH"
+"""Environment variable holding the message path (``--msg-path`` sets it, so the
+watcher's analyses inherit it): directories, separated by ``os.pathsep``, below which
+each ``<package>/msg/<Type>.msg`` defines ``package/msg/Type`` for the files that embed
+no definition of it (ROS 2 sqlite bags recorded before Iron, say)."""
+
 
 class TypeResolutionError(Exception):
     """A message type cannot be resolved (unparsable or missing definition)."""
+
+
+class MessagePathError(ValueError):
+    """The message path cannot be read (a missing directory, an unparsable ``.msg``)."""
 
 
 class EmptyMessageType(TypeResolutionError):
@@ -83,14 +98,52 @@ def standard_store(store: Stores) -> Typestore:
     return get_typestore(store)
 
 
-def standard_candidates(msgtype: str) -> list[Typestore]:
-    """Standard typestores that define ``msgtype``, in :data:`FALLBACK_STORES` order,
-    without duplicates of an identical definition."""
+@cache
+def user_store(spec: str) -> Typestore | None:
+    """The typestore of the message path ``spec`` (see :data:`MSG_PATH_ENV`): the newest
+    standard types (which the user's may use) and every ``<package>/msg/<Type>.msg``
+    below its directories; None for an empty path. :class:`MessagePathError` naming the
+    directory or file that cannot be read."""
+    dirs = [Path(part) for part in spec.split(os.pathsep) if part]
+    if not dirs:
+        return None
+    types: dict[str, Any] = {}
+    for directory in dirs:
+        if not directory.is_dir():
+            raise MessagePathError(f"{directory}: no such directory")
+        for path in sorted(directory.rglob("*.msg")):
+            if path.parent.name != "msg":
+                continue  # not a package's msg/ folder
+            name = f"{path.parent.parent.name}/msg/{path.stem}"
+            try:
+                types.update(get_types_from_msg(path.read_text(encoding="utf-8"), name))
+            except (OSError, UnicodeDecodeError) as err:
+                raise MessagePathError(f"{path}: cannot read ({_short(err)})") from err
+            except Exception as err:  # rosbags raises several parser error types
+                raise MessagePathError(f"{path}: cannot parse ({_short(err)})") from err
+    if not types:
+        raise MessagePathError(f"{spec}: no <package>/msg/<Type>.msg file below it")
+    store = get_typestore(FALLBACK_STORES[0])
+    try:
+        store.register(types)
+    except Exception as err:  # a type the standard store defines differently
+        raise MessagePathError(f"{spec}: {_short(err)}") from err
+    return store
+
+
+def candidate_stores(msgtype: str) -> list[Typestore]:
+    """Typestores that define ``msgtype`` for a file that does not: the user's message
+    path first (:data:`MSG_PATH_ENV`), then the standard ones in :data:`FALLBACK_STORES`
+    order, without duplicates of an identical definition."""
     name = normalize_msgtype(msgtype)
     found: list[Typestore] = []
     seen: list[object] = []
-    for which in FALLBACK_STORES:
-        store = standard_store(which)
+    try:
+        user = user_store(os.environ.get(MSG_PATH_ENV, ""))
+    except MessagePathError as err:  # the CLI checks it up front; a library caller may not
+        raise TypeResolutionError(f"{MSG_PATH_ENV}: {err}") from err
+    stores = ([user] if user is not None else []) + [standard_store(w) for w in FALLBACK_STORES]
+    for store in stores:
         if name in store.fielddefs:
             definition = _closure(store, name)
             if definition not in seen:

@@ -477,3 +477,55 @@ def test_progress_bar_on_a_terminal_shows_each_stage_and_the_time(tmp_path, monk
         capsys,
     )
     assert code == 1 and "100.0%" not in err
+
+
+def test_msg_path_reads_a_bag_without_definitions(tmp_path, capsys, monkeypatch):
+    """``--msg-path`` (inspect, export, run, watch): the user's ``.msg`` files define the
+    types a ROS 2 bag recorded without definitions uses; a missing directory or an
+    unparsable file is a one-line usage error naming the option, before any reading."""
+    import sqlite3
+
+    from rosbags.rosbag2 import Writer
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from analyzer.readers.rostypes import MSG_PATH_ENV
+
+    monkeypatch.setenv(MSG_PATH_ENV, "")  # main() sets it: restored after the test
+    definition = "float64 value\nstd_msgs/Header header\n"
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    store.register(get_types_from_msg(definition, "plant_msgs/msg/Strain"))
+    strain, header = store.types["plant_msgs/msg/Strain"], store.types["std_msgs/msg/Header"]
+    stamp = store.types["builtin_interfaces/msg/Time"]
+    bag = tmp_path / "bag"
+    with Writer(bag, version=9) as writer:
+        conn = writer.add_connection("/strain", "plant_msgs/msg/Strain", typestore=store)
+        for i in range(40):
+            msg = strain(value=0.5 * i, header=header(stamp=stamp(sec=i, nanosec=0), frame_id=""))
+            writer.write(conn, 10**9 + i * 10**7, store.serialize_cdr(msg, msg.__msgtype__))
+    for db in bag.glob("*.db3"):
+        with sqlite3.connect(db) as sql:
+            sql.execute("DELETE FROM message_definitions")  # as a pre-Iron recorder left it
+    code, _, err = run_cli(["inspect", bag, "--json"], capsys)
+    assert code == 2
+    one_line_error(err, "plant_msgs/msg/Strain", "--msg-path")
+    msgs = tmp_path / "msgs" / "plant_msgs" / "msg"
+    msgs.mkdir(parents=True)
+    (msgs / "Strain.msg").write_text(definition)
+    code, out, _ = run_cli(["inspect", bag, "--json", "--msg-path", tmp_path / "msgs"], capsys)
+    assert code == 0
+    channels = {c["name"]: c["samples"] for c in json.loads(out)["channels"]}
+    assert channels == {"/strain.value": 40}
+    csv = tmp_path / "x.csv"
+    code, _, _ = run_cli(["export", bag, "--out", csv, "--msg-path", tmp_path / "msgs"], capsys)
+    assert code == 0
+    np.testing.assert_allclose(pd.read_csv(csv)["/strain.value"], 0.5 * np.arange(40))
+    code, _, err = run_cli(["inspect", bag, "--msg-path", tmp_path / "nowhere"], capsys)
+    assert code == 2
+    one_line_error(err, "--msg-path", "nowhere: no such directory")
+    (msgs / "Broken.msg").write_text("int32 A=\n")
+    code, _, err = run_cli(
+        ["run", bag, "--out", tmp_path / "o", "--msg-path", msgs.parents[1]], capsys
+    )
+    assert code == 2
+    one_line_error(err, "--msg-path", "Broken.msg: cannot parse")
+    assert not (tmp_path / "o").exists()

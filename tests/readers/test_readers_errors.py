@@ -3,6 +3,7 @@ is readable, an entry in ``info.errors`` after reading what can be read."""
 
 from __future__ import annotations
 
+import os
 import sqlite3
 import struct
 from pathlib import Path
@@ -208,6 +209,31 @@ def test_unknown_type_without_definitions(tmp_path: Path) -> None:
     ) as err:
         open_input(bag)
     one_line(err, bag)
+
+
+def test_a_message_path_defines_what_the_bag_does_not(tmp_path: Path, monkeypatch) -> None:
+    """``--msg-path`` (``ANALYZER_MSG_PATH``): the ``.msg`` files of the user's packages
+    define the types a bag without definitions uses; the bag then reads as if it
+    embedded them."""
+    from analyzer.readers.rostypes import MSG_PATH_ENV
+
+    bag = tmp_path / "custom"
+    _custom_type_bag(bag)
+    _strip_definitions(bag)
+    with pytest.raises(ReaderError, match=r"give the folder .* with --msg-path"):
+        open_input(bag)
+    msg = tmp_path / "msgs" / "my_pkg" / "msg"
+    msg.mkdir(parents=True)
+    (msg / "Reading.msg").write_text("float64 value\nstring label\n")
+    (tmp_path / "msgs" / "my_pkg" / "README.msg").write_text("not in a msg/ folder: ignored")
+    monkeypatch.setenv(
+        MSG_PATH_ENV, str(tmp_path / "nowhere") + os.pathsep + str(tmp_path / "msgs")
+    )
+    with pytest.raises(ReaderError, match="nowhere: no such directory"):
+        open_input(bag)
+    monkeypatch.setenv(MSG_PATH_ENV, str(tmp_path / "msgs"))
+    got = collect(open_input(bag).chunks())
+    np.testing.assert_array_equal(got["/reading.value"][1], np.arange(5.0))
 
 
 def test_standard_type_without_definitions_falls_back(tmp_path: Path) -> None:
