@@ -115,6 +115,7 @@ from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
 from analyzer.parallel import DaskExecutor
 from analyzer.pipeline import analyze_screened
+from analyzer.readers.rostypes import MSG_PATH_ENV
 from analyzer.report.jobs import PRELOAD_MODULE
 from analyzer.scratch import hold, make_scratch, remove_scratch
 from analyzer.watch_cluster import ClusterTask, warm_worker
@@ -472,7 +473,13 @@ class _Runner:
         process: BaseProcess | ClusterTask
         work = None
         if self.cluster is not None:
-            process = ClusterTask(self.cluster, inputs, self.cluster_options, scratch)
+            process = ClusterTask(
+                self.cluster,
+                inputs,
+                self.cluster_options,
+                scratch,
+                os.environ.get(MSG_PATH_ENV, ""),
+            )
         else:
             work = make_scratch("analyzer-watch-")
             process = self.ctx.Process(

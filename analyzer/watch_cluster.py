@@ -40,22 +40,37 @@ CANCELLED = -15
 """The exit code a cancelled task reports (as a process ended by SIGTERM would)."""
 
 
-def analyze_on_worker(inputs: list[str], options: RunOptions) -> tuple[int, dict[str, bytes]]:
+def analyze_on_worker(
+    inputs: list[str], options: RunOptions, msg_path: str = ""
+) -> tuple[int, dict[str, bytes]]:
     """Body of a cluster task: the analysis of ``inputs`` (paths as the watcher sees them)
     in a scratch directory of this worker; returns the exit code (0/1 analyzed, 2 input
-    error, 3 internal error) and the output files by name."""
+    error, 3 internal error) and the output files by name. ``msg_path``: the watcher's
+    ``--msg-path`` (:data:`~analyzer.readers.rostypes.MSG_PATH_ENV`), read here too."""
+    from analyzer.readers.rostypes import MSG_PATH_ENV, MessagePathError, user_store
     from analyzer.scratch import scratch
     from analyzer.watch import analysis_into
 
+    host = socket.gethostname()
     missing = [p for p in inputs if not os.path.exists(p)]
     if missing:
         return 2, {
             "error.txt": (
-                f"{missing[0]}: not found on the cluster worker {socket.gethostname()} (the "
-                "workers read the archives themselves: INBOX must be at the same path on "
-                "every worker)\n"
+                f"{missing[0]}: not found on the cluster worker {host} (the workers read "
+                "the archives themselves: INBOX must be at the same path on every worker)\n"
             ).encode()
         }
+    if msg_path:
+        try:
+            user_store(msg_path)
+        except MessagePathError as err:
+            return 2, {
+                "error.txt": (
+                    f"--msg-path: {err} on the cluster worker {host} (the workers read the "
+                    "message definitions themselves: the same path on every worker)\n"
+                ).encode()
+            }
+        os.environ[MSG_PATH_ENV] = msg_path
     # (a worker's heap as Dask leaves it would make the analysis take twice the CPU)
     with heap_tuned(), scratch("analyzer-worker-") as tmp:
         out, work = tmp / "out", tmp / "work"
@@ -83,13 +98,17 @@ class ClusterTask:
     ``join``, ``is_alive``, ``terminate``/``kill`` (cancel). ``join`` writes the task's
     files into ``out``, the archive's report folder under its temporary name."""
 
-    def __init__(self, executor: DaskExecutor, inputs: list[str], options: Any, out: Path) -> None:
+    def __init__(
+        self, executor: DaskExecutor, inputs: list[str], options: Any, out: Path, msg_path: str = ""
+    ) -> None:
         self.out = out
         self.exitcode: int | None = None
         self._abandoned = False  # cancelled by the watcher (not by the cluster)
         self._read, self._write = os.pipe()
         self._lock = threading.Lock()
-        self.future = executor.client.submit(analyze_on_worker, inputs, options, pure=False)
+        self.future = executor.client.submit(
+            analyze_on_worker, inputs, options, msg_path, pure=False
+        )
         self.future.add_done_callback(self._ended)
 
     @property

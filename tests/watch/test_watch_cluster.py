@@ -117,6 +117,27 @@ def test_a_worker_that_cannot_see_the_archive_says_so(tmp_path: Path) -> None:
     assert "same path on every worker" in text
 
 
+def test_a_worker_reads_the_watchers_msg_path(tmp_path: Path, monkeypatch) -> None:
+    """``watch --msg-path`` goes with each task: the worker reads the definitions itself
+    (and says so when it cannot see them); the archive is then analyzed as it is
+    locally."""
+    from analyzer.readers.rostypes import MSG_PATH_ENV
+
+    monkeypatch.setenv(MSG_PATH_ENV, "")  # the task sets it on the worker: restored after
+    archive = write(tmp_path / "a.mcap", "mcap", seed=2, fault=True)
+    nowhere = str(tmp_path / "msgs")
+    code, files = analyze_on_worker([str(archive)], OPTIONS, nowhere)
+    assert code == 2 and list(files) == ["error.txt"]
+    text = files["error.txt"].decode()
+    assert text.startswith(f"--msg-path: {nowhere}: no such directory on the cluster worker")
+    msg = tmp_path / "msgs" / "plant_msgs" / "msg"
+    msg.mkdir(parents=True)
+    (msg / "Strain.msg").write_text("float64 value\n")
+    code, files = analyze_on_worker([str(archive)], OPTIONS, nowhere)
+    assert code == 1 and sorted(files) == ["findings.json", "report.html"]
+    assert os.environ[MSG_PATH_ENV] == nowhere
+
+
 def test_analyze_on_worker_returns_the_report_files(tmp_path: Path) -> None:
     archive = write(tmp_path / "a.mcap", "mcap", seed=2, fault=True)
     code, files = analyze_on_worker([str(archive)], OPTIONS)
@@ -148,7 +169,7 @@ def _task(tmp_path: Path) -> tuple[ClusterTask, _FakeExecutor]:
 
 def test_cluster_task_writes_the_returned_files_when_it_ends(tmp_path: Path) -> None:
     task, ex = _task(tmp_path)
-    assert ex.client.calls == [(analyze_on_worker, ["x.mcap"], "options")]
+    assert ex.client.calls == [(analyze_on_worker, ["x.mcap"], "options", "")]
     assert task.is_alive() and task.exitcode is None
     assert wait_for([task.sentinel], timeout=0.05) == []  # not ended: not readable
     threading.Timer(0.1, ex.client.future.set_result, ((1, {"findings.json": b"{}"}),)).start()
