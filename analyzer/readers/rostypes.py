@@ -100,10 +100,10 @@ def standard_store(store: Stores) -> Typestore:
 
 @cache
 def user_store(spec: str) -> Typestore | None:
-    """The typestore of the message path ``spec`` (see :data:`MSG_PATH_ENV`): the newest
-    standard types (which the user's may use) and every ``<package>/msg/<Type>.msg``
-    below its directories; None for an empty path. :class:`MessagePathError` naming the
-    directory or file that cannot be read."""
+    """The typestore of the message path ``spec`` (see :data:`MSG_PATH_ENV`): every
+    ``<package>/msg/<Type>.msg`` below its directories, and the newest standard types
+    they do not redefine (which they may use); None for an empty path.
+    :class:`MessagePathError` naming the directory or file that cannot be read."""
     dirs = [Path(part) for part in spec.split(os.pathsep) if part]
     if not dirs:
         return None
@@ -123,10 +123,14 @@ def user_store(spec: str) -> Typestore | None:
                 raise MessagePathError(f"{path}: cannot parse ({_short(err)})") from err
     if not types:
         raise MessagePathError(f"{spec}: no <package>/msg/<Type>.msg file below it")
-    store = get_typestore(FALLBACK_STORES[0])
+    # the newest standard types the user's may use; where the user defines one of them
+    # too (a workspace of another distribution), the user's definition is the one kept
+    base = standard_store(FALLBACK_STORES[0])
+    standard = {name: base.fielddefs[name] for name in base.fielddefs if name not in types}
+    store = get_typestore(Stores.EMPTY)
     try:
-        store.register(types)
-    except Exception as err:  # a type the standard store defines differently
+        store.register({**standard, **types})
+    except Exception as err:  # rosbags raises several error types
         raise MessagePathError(f"{spec}: {_short(err)}") from err
     return store
 

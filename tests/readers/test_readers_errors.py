@@ -231,9 +231,18 @@ def test_a_message_path_defines_what_the_bag_does_not(tmp_path: Path, monkeypatc
     )
     with pytest.raises(ReaderError, match="nowhere: no such directory"):
         open_input(bag)
+    # a workspace of another distribution may define a standard type differently: its
+    # definition is the one kept, not an error
+    other = tmp_path / "msgs" / "std_msgs" / "msg"
+    other.mkdir(parents=True)
+    (other / "String.msg").write_text("string data\nint32 revision\n")
     monkeypatch.setenv(MSG_PATH_ENV, str(tmp_path / "msgs"))
     got = collect(open_input(bag).chunks())
     np.testing.assert_array_equal(got["/reading.value"][1], np.arange(5.0))
+    from analyzer.readers.rostypes import user_store
+
+    store = user_store(str(tmp_path / "msgs"))
+    assert store is not None and len(store.fielddefs["std_msgs/msg/String"][1]) == 2
 
 
 def test_standard_type_without_definitions_falls_back(tmp_path: Path) -> None:
