@@ -29,6 +29,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 from analyzer import __version__  # noqa: E402
 from analyzer.errors import AnalyzerError, ReaderError, UsageError, one_line  # noqa: E402
 from analyzer.scratch import sweep_stale  # noqa: E402
+from analyzer.types import MSG_PATH_ENV  # noqa: E402
 
 
 class _Parser(argparse.ArgumentParser):
@@ -406,8 +407,6 @@ def _use_msg_path(option: str | None) -> None:
     """``--msg-path`` into the environment (the readers, and the watcher's analyses, read
     it there), and the path checked before any reading: a missing directory or an
     unparsable ``.msg`` is a usage error naming the option (or the variable)."""
-    from analyzer.readers.rostypes import MSG_PATH_ENV
-
     if option is not None:
         os.environ[MSG_PATH_ENV] = option
     spec = os.environ.get(MSG_PATH_ENV, "")

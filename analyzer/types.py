@@ -24,3 +24,10 @@ class FaultType(StrEnum):
 
 
 NS_PER_S = 1_000_000_000
+
+MSG_PATH_ENV = "ANALYZER_MSG_PATH"
+"""Environment variable holding the message path (``--msg-path`` sets it, so the
+watcher's analyses inherit it): directories, separated by ``os.pathsep``, below which
+each ``<package>/msg/<Type>.msg`` defines ``package/msg/Type`` for the files that embed
+no definition of it (ROS 2 sqlite bags recorded before Iron, say; see
+:func:`analyzer.readers.rostypes.user_store`)."""

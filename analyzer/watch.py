@@ -115,9 +115,9 @@ from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
 from analyzer.parallel import DaskExecutor
 from analyzer.pipeline import analyze_screened
-from analyzer.readers.rostypes import MSG_PATH_ENV
 from analyzer.report.jobs import PRELOAD_MODULE
 from analyzer.scratch import hold, make_scratch, remove_scratch
+from analyzer.types import MSG_PATH_ENV
 from analyzer.watch_cluster import ClusterTask, warm_worker
 from analyzer.watch_inbox import (
     INCOMPLETE_TIMEOUT_S,

@@ -20,6 +20,8 @@ from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
+from analyzer.types import MSG_PATH_ENV
+
 FALLBACK_STORES: tuple[Stores, ...] = (
     Stores.ROS2_HUMBLE,
     Stores.ROS2_JAZZY,
@@ -33,12 +35,6 @@ FALLBACK_STORES: tuple[Stores, ...] = (
 """Standard typestores tried, in order, for a type a ROS 2 bag does not define."""
 
 IDL_SEPARATOR = "=" * 80 + "\n"
-
-MSG_PATH_ENV = "ANALYZER_MSG_PATH"
-"""Environment variable holding the message path (``--msg-path`` sets it, so the
-watcher's analyses inherit it): directories, separated by ``os.pathsep``, below which
-each ``<package>/msg/<Type>.msg`` defines ``package/msg/Type`` for the files that embed
-no definition of it (ROS 2 sqlite bags recorded before Iron, say)."""
 
 
 class TypeResolutionError(Exception):

@@ -488,7 +488,7 @@ def test_msg_path_reads_a_bag_without_definitions(tmp_path, capsys, monkeypatch)
     from rosbags.rosbag2 import Writer
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-    from analyzer.readers.rostypes import MSG_PATH_ENV
+    from analyzer.types import MSG_PATH_ENV
 
     monkeypatch.setenv(MSG_PATH_ENV, "")  # main() sets it: restored after the test
     definition = "float64 value\nstd_msgs/Header header\n"

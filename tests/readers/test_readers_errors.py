@@ -215,7 +215,7 @@ def test_a_message_path_defines_what_the_bag_does_not(tmp_path: Path, monkeypatc
     """``--msg-path`` (``ANALYZER_MSG_PATH``): the ``.msg`` files of the user's packages
     define the types a bag without definitions uses; the bag then reads as if it
     embedded them."""
-    from analyzer.readers.rostypes import MSG_PATH_ENV
+    from analyzer.types import MSG_PATH_ENV
 
     bag = tmp_path / "custom"
     _custom_type_bag(bag)

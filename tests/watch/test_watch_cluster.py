@@ -121,7 +121,7 @@ def test_a_worker_reads_the_watchers_msg_path(tmp_path: Path, monkeypatch) -> No
     """``watch --msg-path`` goes with each task: the worker reads the definitions itself
     (and says so when it cannot see them); the archive is then analyzed as it is
     locally."""
-    from analyzer.readers.rostypes import MSG_PATH_ENV
+    from analyzer.types import MSG_PATH_ENV
 
     monkeypatch.setenv(MSG_PATH_ENV, "")  # the task sets it on the worker: restored after
     archive = write(tmp_path / "a.mcap", "mcap", seed=2, fault=True)
