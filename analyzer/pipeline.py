@@ -323,9 +323,7 @@ def _analyze(
             else:
                 results, skipped = detect(names, "", "signals")
         except BaseException:
-            for _, handle in tests:
-                if handle is not None:
-                    handle.cancel()
+            _cancel(tests)
             raise
         timings["detect"] = time.perf_counter() - t0
         if not results:
@@ -399,6 +397,14 @@ def _analyze(
         )
 
 
+def _cancel(tests: list[Any]) -> None:
+    """Cancel the residual tests not yet started (``(task, handle)`` pairs; a test already
+    running finishes, its result unread)."""
+    for _, handle in tests:
+        if handle is not None:
+            handle.cancel()
+
+
 def _diagnose(
     results: list[DetectorResult],
     values: Any,
@@ -452,9 +458,7 @@ def _screened(
         verdict.update(fault=None, error=one_line(err))
         # the screening's tests and signals go with its results (its files are left to
         # any test still reading them: the full run's go elsewhere)
-        for _, handle in tests:
-            if handle is not None:
-                handle.cancel()
+        _cancel(tests)
         tests.clear()
         results, skipped = detect(names, "", "signals-all")
         why = f"they could not run ({verdict['error']}), so analyzed with every detector"
