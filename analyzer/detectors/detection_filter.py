@@ -85,6 +85,12 @@ outputs over it are a few tens of MB."""
 CALIBRATION_ROWS = 1 << 16
 """Rows of the training window a calibration pass reads at once to find its gaps."""
 
+KEPT_RESIDUALS_BYTES = 160 << 20
+"""Memory the calibration may hold in its filters' residual vectors (each without its own
+direction) between its two passes (~115 MB for 16 channels and a 10-minute window at
+100 Hz); beyond it, pass 2 runs the bank over the stretches again (~0.45 s of CPU at 16
+channels)."""
+
 
 def direction_angles(q: FloatArray, scale: FloatArray | None = None) -> FloatArray:
     """Angles (radians) between residual vectors ``q`` (N, m) and every output direction
@@ -206,23 +212,37 @@ class DetectionFilter:
             n = seg.values.shape[0] - seg.start
             return context.buffer(f"{self.name}-{name}", (n, k)) if context.shares_memory else None
 
-        parts = map_in(context, _moments_task, [(seg, kept("zeta", seg)) for seg in segments])
+        # pass 2 needs every filter's residual vectors off its own direction again: kept
+        # from pass 1 when they fit in KEPT_RESIDUALS_BYTES, else the bank runs again
+        m = filters[0].n_outputs
+        rows = sum(seg.values.shape[0] - seg.start for seg in segments)
+        keep = rows * k * (m - 1) * 8 <= KEPT_RESIDUALS_BYTES
+        parts = map_in(context, _moments_task, [(seg, kept("zeta", seg), keep) for seg in segments])
         alpha_far = context.false_alarm_rate / len(data.channels)  # per channel
         zcal, dcal, dinv, qscale, taus = [], [], [], [], []
         for i in range(k):
             # the stretches' series read one after the other (no concatenated copy)
-            z = [zetas[:, i] for zetas, _ in parts]
+            z = [zetas[:, i] for zetas, _, _ in parts]
             zcal.append(calibrate(z, window, alpha_far))
             taus.append(long_run_time(z, window))
-            moments = RowMoments.merged([each[i] for _, each in parts])
+            moments = RowMoments.merged([each[i] for _, each, _ in parts])
             # np.cov of the residual vectors without the filter's own direction
             cov = np.atleast_2d(np.delete(np.delete(moments.m2, i, 0), i, 1) / (moments.n - 1))
             dinv.append(np.asarray(np.linalg.pinv(cov), dtype=np.float64))
             qs = np.sqrt(np.diag(moments.m2) / moments.n)  # np.std of each component
             qscale.append(np.where(qs > 0, qs, 1.0))
         inv_covs = tuple(dinv)
+        offs = [off for _, _, off in parts]
         del parts
-        nis = map_in(context, _nis_task, [(seg, inv_covs, kept("nis", seg)) for seg in segments])
+        nis = map_in(
+            context,
+            _nis_task,
+            [
+                (seg, inv_covs, kept("nis", seg), off)
+                for seg, off in zip(segments, offs, strict=True)
+            ],
+        )
+        del offs
         for i in range(k):
             dcal.append(calibrate([part[:, i] for part in nis], window, alpha_far))
         del nis
@@ -888,34 +908,47 @@ def _series_out(seg: _Segment, into: npt.NDArray[Any] | None) -> npt.NDArray[Any
 
 
 def _moments_task(
-    task: tuple[_Segment, npt.NDArray[Any] | None],
-) -> tuple[npt.NDArray[Any], list[RowMoments]]:
+    task: tuple[_Segment, npt.NDArray[Any] | None, bool],
+) -> tuple[npt.NDArray[Any], list[RowMoments], FloatArray | None]:
     """Per filter over a calibration stretch: its fault estimates (column ``i`` of the
     ``(n, k)`` array returned: ``into`` when given, a :func:`~analyzer.paging.buffer`
     written by :func:`~analyzer.paging.write_rows`, so a memory-mapped one's pages are
-    not held), and the moments of its residual vectors over the rows where none is
-    missing (what an executor maps)."""
-    seg, into = task
+    not held), the moments of its residual vectors over the rows where none is missing,
+    and, when ``keep``, its residual vectors without its own direction (``(k, n, m -
+    1)``, NaN rows as they came: what :func:`_nis_task` would run the bank again for;
+    else None). What an executor maps."""
+    seg, into, keep = task
     zetas = _series_out(seg, into)
     k, m = len(seg.filters), seg.filters[0].n_outputs
     moments = [RowMoments(m) for _ in range(k)]
+    offs = np.empty((k, seg.values.shape[0] - seg.start, m - 1)) if keep else None
     for at, q, zeta in _segment_chunks(seg):
         write_rows(zetas, at, zeta.T)
         for i in range(k):
             good = np.isfinite(q[i]).all(axis=1)
             moments[i].add(q[i] if good.all() else q[i][good])
-    return zetas, moments
+            if offs is not None:  # np.delete(q[i], i, axis=1), without its copy
+                offs[i, at : at + q.shape[1], :i] = q[i, :, :i]
+                offs[i, at : at + q.shape[1], i:] = q[i, :, i + 1 :]
+    return zetas, moments, offs
 
 
 def _nis_task(
-    task: tuple[_Segment, tuple[FloatArray, ...], npt.NDArray[Any] | None],
+    task: tuple[_Segment, tuple[FloatArray, ...], npt.NDArray[Any] | None, FloatArray | None],
 ) -> npt.NDArray[Any]:
     """Per filter over a calibration stretch: the normalized squared residual vector
-    off its own direction, under the inverse covariances ``inv_covs`` (a second run of
-    the bank: the covariances needed the whole window first), as column ``i`` of the
-    ``(n, k)`` array returned (``into`` when given, as in :func:`_moments_task`)."""
-    seg, inv_covs, into = task
+    off its own direction, under the inverse covariances ``inv_covs`` (the covariances
+    needed the whole window first), as column ``i`` of the ``(n, k)`` array returned
+    (``into`` when given, as in :func:`_moments_task`). From the vectors ``offs`` pass 1
+    kept, or (None: too many to keep) a second run of the bank, chunk by chunk."""
+    seg, inv_covs, into, offs = task
     out = _series_out(seg, into)
+    if offs is not None:
+        nis = np.empty((offs.shape[1], len(inv_covs)))
+        for i, inv in enumerate(inv_covs):
+            nis[:, i] = _nis(offs[i], inv)
+        write_rows(out, 0, nis)
+        return out
     for at, q, _ in _segment_chunks(seg):
         nis = np.empty((q.shape[1], len(inv_covs)))
         for i, inv in enumerate(inv_covs):

@@ -371,14 +371,26 @@ def test_ar_detector_fit_equals_the_general_design(monkeypatch):
             np.testing.assert_allclose(np.asarray(da[key]), np.asarray(db[key]), rtol=1e-6)
 
 
-@pytest.mark.parametrize(("gap", "mapped"), [(False, False), (True, False), (True, True)])
-def test_streamed_calibration_equals_the_kept_residual_vectors(gap, mapped, monkeypatch, tmp_path):
+@pytest.mark.parametrize(
+    ("gap", "mapped", "keep"),
+    [
+        (False, False, False),
+        (True, False, False),
+        (True, True, False),
+        (False, False, True),
+        (True, False, True),
+        (True, True, True),
+    ],
+)
+def test_streamed_calibration_equals_the_kept_residual_vectors(
+    gap, mapped, keep, monkeypatch, tmp_path
+):
     """The calibration streams each healthy stretch's outputs (fault estimates kept,
-    residual vectors reduced to their moments, then run again for their normalized
-    squares) instead of holding every filter's residual vectors: the same numbers as
-    ``_outputs`` and ``np.cov`` / ``np.std`` / the squares of the kept vectors, across
-    chunk edges and a gap; written into a memory-mapped buffer (``mapped``: a long
-    archive's) or into a new array."""
+    residual vectors reduced to their moments, then either kept off their own directions
+    (``keep``) or run again for their normalized squares) instead of holding every
+    filter's outputs: the same numbers as ``_outputs`` and ``np.cov`` / ``np.std`` / the
+    squares of the kept vectors, across chunk edges and a gap; written into a
+    memory-mapped buffer (``mapped``: a long archive's) or into a new array."""
     det, model, Y = _fitted_filter(40.0, seed=7)
     Yg = Y[:7000].copy()
     if gap:
@@ -392,8 +404,9 @@ def test_streamed_calibration_equals_the_kept_residual_vectors(gap, mapped, monk
     def into(name):
         return paging.buffer(tmp_path, name, (Yg.shape[0] - start, k)) if mapped else None
 
-    zetas, moments = dfm._moments_task((seg, into("z")))
+    zetas, moments, offs = dfm._moments_task((seg, into("z"), keep))
     assert paging.is_mapped(zetas) == mapped
+    assert (offs is not None) == keep
     zetas = zetas.T  # filter i's series: row i
     full = det._outputs(model.model, model.filters, Yg, start=start)
     inv_covs = []
@@ -411,7 +424,12 @@ def test_streamed_calibration_equals_the_kept_residual_vectors(gap, mapped, monk
         inv_covs.append(np.linalg.pinv(cov))
     if gap:
         assert moments[0].n < Yg.shape[0] - start
-    nis = dfm._nis_task((seg, tuple(inv_covs), into("nis"))).T
+    if keep:
+        for i, (q, _, _) in enumerate(full):
+            off = np.delete(q, i, axis=1)
+            assert np.array_equal(np.isnan(offs[i]), np.isnan(off))
+            np.testing.assert_allclose(offs[i], off, rtol=1e-10, atol=1e-12)
+    nis = dfm._nis_task((seg, tuple(inv_covs), into("nis"), offs)).T
     for i, (q, _, _) in enumerate(full):
         expect = dfm._nis(np.delete(q, i, axis=1), inv_covs[i])
         assert np.array_equal(np.isnan(nis[i]), np.isnan(expect))
@@ -421,3 +439,35 @@ def test_streamed_calibration_equals_the_kept_residual_vectors(gap, mapped, monk
     assert both.n == 2 * moments[0].n
     np.testing.assert_allclose(both.mean, moments[0].mean, rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(both.m2, 2 * moments[0].m2, rtol=1e-12, atol=0)
+
+
+def test_fit_from_kept_residual_vectors_equals_running_the_bank_again(monkeypatch):
+    """Pass 2 of the calibration from the residual vectors pass 1 kept (the default for a
+    10-minute window) against running the bank over the held-out halves again (what a
+    training window too long for KEPT_RESIDUALS_BYTES does): the same thresholds."""
+    _, Y, names = simulate_building(n_floors=4, duration_s=40.0, rate_hz=RATE, seed=11)
+    data = Dataset(Y, tuple(names), RATE, TRAIN)
+    calls = []
+    real = dfm._segment_chunks
+
+    def counted(seg):
+        calls.append(seg.start)
+        return real(seg)
+
+    monkeypatch.setattr(dfm, "_segment_chunks", counted)
+    kept = DetectionFilter().fit(data, RunContext())
+    assert len(calls) == 2  # pass 1 over each held-out half, no pass 2
+    monkeypatch.setattr(dfm, "KEPT_RESIDUALS_BYTES", 0)
+    again = DetectionFilter().fit(data, RunContext())
+    assert len(calls) == 6  # both passes over each half
+    assert kept.zeta_cal == again.zeta_cal
+    for a, b in zip(kept.direction_cal, again.direction_cal, strict=True):
+        assert (a.window, a.windows) == (b.window, b.windows)
+        for x, y in (
+            (a.mean, b.mean),
+            (a.std, b.std),
+            (a.mean_sd, b.mean_sd),
+            (a.logq_mean, b.logq_mean),
+            (a.logq_sd, b.logq_sd),
+        ):
+            np.testing.assert_allclose(x, y, rtol=1e-12, atol=0)
