@@ -1,0 +1,389 @@
+"""The figures of the report's view: each finding's signal, residual, innovation-test
+and corrected-signal figures, and the channel coverage timeline.
+
+:class:`FigureParts` is the figure-building part of the view's access object
+(:class:`analyzer.report.view._Access` inherits it): it slices the arrays behind each
+figure out of the analysis (aligned values, residuals, fault-free estimates), decimates
+what is long, describes the figure as a job (:mod:`analyzer.report.jobs`) and hands it to
+the view's :class:`~analyzer.report.workers.FigureBatch`; :meth:`FigureParts.draw_figures`
+fills the SVGs in at the end. It is apart from the text and the tables because it is the
+part that handles arrays (numpy, the decimation, the figure jobs); like the rest of the
+view it does not import matplotlib.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+from markupsafe import Markup
+
+from analyzer.report import format as fmt
+from analyzer.report import jobs as fg
+from analyzer.report.decimate import Clock, binned_nan_fraction, envelope, runs
+from analyzer.report.view_records import FigureView, FindingView
+from analyzer.report.workers import FigureBatch
+from analyzer.types import NS_PER_S
+
+FloatArray = npt.NDArray[np.float64]
+
+MAX_PANELS = 4
+"""Detector panels in a finding's residual figure."""
+MAX_TIMELINE_ROWS = 60
+"""Channels drawn in the coverage timeline (analyzed channels first)."""
+CLOSE_SAMPLES, CLOSE_MIN_S, CLOSE_MAX_S = 200, 1.0, 30.0
+"""Close-up of the onset in the signal figure: this many samples, within bounds (s)."""
+GAP_BINS = 2000
+"""Time bins of the gap map of the analyzed channels."""
+ZOOM_MIN_S, ZOOM_MAX_S, ZOOM_FRACTION = 5.0, 120.0, 0.15
+"""Half-width of the window around an onset: this fraction of the record, within bounds."""
+
+
+class FigureParts:
+    """The figures of a view (see the module doc), a base of
+    :class:`analyzer.report.view._Access`, whose ``__init__`` sets the state declared
+    here."""
+
+    an: Any
+    batch: FigureBatch
+    pending: list[tuple[FigureView, int]]
+    rate: float
+    duration: float
+    analyzed: tuple[str, ...]
+    values: Any
+    n: int
+    results: dict[Any, Any]
+    train_s: tuple[float, float]
+    train_label: str
+
+    if TYPE_CHECKING:  # in TableParts (analyzer.report.view_tables)
+
+        def _start_ns(self) -> int: ...
+
+    # -- figures of one finding -----------------------------------------------------------
+    def figure(self, kind: str, title: str, caption: str, job: fg.FigureJob) -> FigureView:
+        """A figure whose SVG :meth:`draw_figures` fills in (its job is drawing meanwhile
+        when there are workers)."""
+        fv = FigureView(kind, title, caption, Markup(""))
+        self.pending.append((fv, self.batch.add(job)))
+        return fv
+
+    def draw_figures(self) -> None:
+        svgs = self.batch.results()
+        for fv, i in self.pending:
+            fv.svg = svgs[i]
+        self.pending.clear()
+
+    def add_figures(self, view: FindingView, f: Mapping[str, Any]) -> None:
+        ch = str(f["channel"])
+        onset = float(f["onset_s"])
+        end = None if f.get("end_s") is None else float(f["end_s"])
+        dets = [d for d in view.detectors if self._residual(d, ch) is not None]
+        lead = view.lead if view.lead in dets else (dets[0] if dets else None)
+        k0, k1 = self._zoom(onset, end, lead, ch)
+        t = np.arange(k0, k1, dtype=np.float64) / self.rate
+        key = view.anchor
+        measured = self._measured(ch, k0, k1)
+        if measured is not None:
+            est_det = next(
+                (d for d in [lead, *dets] if d and self._reference(d, ch) is not None), None
+            )
+            est = None if est_det is None else self._reference(est_det, ch)
+            job = fg.FigureJob(
+                "signal_figure",
+                (
+                    t,
+                    measured,
+                    None if est is None else _f64(est[k0:k1]),
+                    est_det or "",
+                    onset,
+                    end,
+                    ch,
+                    f"{key}-signal",
+                ),
+                {"close_s": self._close_s()},
+            )
+            view.figures.append(
+                self.figure(
+                    "signal",
+                    "Measured signal and fault-free estimate",
+                    f"{ch} around the onset ({fmt.seconds(t[0] if t.size else 0)} to "
+                    f"{fmt.seconds(t[-1] if t.size else 0)}): measured (blue) and the fault-free "
+                    f"estimate of {est_det or 'no detector'} (orange); their difference is the "
+                    "estimated fault. Dashed red line: identified onset"
+                    + ("; dash-dot purple: end" if end is not None else "")
+                    + f". Below: close-up of the onset (± {self._close_s():g} s, shaded above); "
+                    "where a panel holds more samples than it has pixels, the band shows each "
+                    "pixel's minimum and maximum.",
+                    job,
+                )
+            )
+        else:
+            view.remarks.append(f"{ch} is not among the analyzed channels: no signal figure.")
+        if lead is not None:
+            view.figures.append(self._residual_figure(view, ch, onset, end, dets, lead, k0, k1))
+            seg_fig = self._tests_figure(view, ch, f, lead)
+            if seg_fig is not None:
+                view.figures.append(seg_fig)
+        else:
+            view.remarks.append("No detector residual is available for this channel.")
+        corrected = getattr(self.an, "corrected", None)
+        if corrected is not None and measured is not None and ch in self.analyzed:
+            j = self.analyzed.index(ch)
+            job = fg.FigureJob(
+                "corrected_figure",
+                (t, measured, _f64(corrected[k0:k1, j]), onset, end, ch, f"{key}-corrected"),
+            )
+            view.figures.append(
+                self.figure(
+                    "corrected",
+                    "Corrected signal",
+                    f"{ch} with the regenerated fault removed over the fault period (green), "
+                    "against the measured signal (blue); see the correction record below.",
+                    job,
+                )
+            )
+        elif corrected is None:
+            view.remarks.append(
+                "Corrected signal not computed (run with --corrected to include it)."
+            )
+
+    def _residual_figure(
+        self,
+        view: FindingView,
+        ch: str,
+        onset: float,
+        end: float | None,
+        dets: list[str],
+        lead: str,
+        k0: int,
+        k1: int,
+    ) -> FigureView:
+        # lead is in dets: it has a residual on ch (as kept: the envelope reads a long
+        # archive's a chunk at a time, no float64 copy of it, nor an array of its times)
+        full = np.asarray(self._residual(lead, ch))
+        panels = []
+        for d in [lead, *[x for x in dets if x != lead]][:MAX_PANELS]:
+            r = self._residual(d, ch)
+            if r is None:
+                continue
+            th = self._threshold(d, ch)
+            panels.append(fg.ResidualPanel(d, np.arange(k0, k1) / self.rate, _f64(r[k0:k1]), *th))
+        job = fg.FigureJob(
+            "residual_figure",
+            (
+                envelope(Clock(full.shape[0], self.rate), full, fg.MAX_POINTS),  # drawn of it
+                lead,
+                panels,
+                onset,
+                end,
+                self.train_s,
+                self.duration,
+                f"{view.anchor}-residual",
+                self.train_label,
+            ),
+        )
+        bands = "; ".join(
+            f"{p.detector}: {p.window}-sample mean outside {fmt.num(p.center)} ± "
+            f"{fmt.num(p.half_band)}"
+            for p in panels
+            if p.half_band is not None
+        )
+        return self.figure(
+            "residual",
+            "Residual time history",
+            "Residual (measured minus fault-free estimate, channel units). Top: the whole "
+            f"record for {lead}, {self.train_label} shaded green. Below: each detector that saw "
+            "the fault, around the onset, with the trailing moving mean (black) and the band "
+            "it must leave to raise an alarm (red; set from the training residual and the "
+            f"false-alarm rate: {bands or 'not available'}). The log-mean-square statistic, "
+            "which alarms on gain changes, is not drawn.",
+            job,
+        )
+
+    def _tests_figure(
+        self, view: FindingView, ch: str, f: Mapping[str, Any], lead: str
+    ) -> FigureView | None:
+        tests = (f.get("evidence") or {}).get("tests") or {}
+        det = lead if lead in tests else next(iter(tests), None)
+        if det is None:
+            view.remarks.append("No innovation test results (segments too short).")
+            return None
+        t = tests[det]
+        segs = []
+        for name, span_key, test_key in (
+            ("before onset", "before_span_s", "before"),
+            ("after onset", "after_span_s", "after"),
+        ):
+            span = t.get(span_key)
+            if not span:
+                continue
+            a = max(0, int(round(float(span[0]) * self.rate)))
+            b = min(self.n, int(round(float(span[1]) * self.rate)))
+            z = self._standardized(det, ch, a, b)
+            if z is None or b <= a:
+                continue
+            segs.append(fg.Segment(name, np.arange(a, b) / self.rate, z, t.get(test_key)))
+        if not segs:
+            return None
+        job = fg.FigureJob("tests_figure", (segs, det, f"{view.anchor}-tests"))
+        return self.figure(
+            "tests",
+            "Innovation tests before and after the onset",
+            f"Standardized residual of {det} (training mean and deviation removed), on "
+            f"{' and '.join(_span(t.get(k)) for k in SPAN_KEYS if t.get(k))}."
+            " Left: Shewhart chart with the ±3 limits (shaded: beyond). Middle: normal "
+            "probability plot; a healthy residual follows the red N(0, 1) line. Right: "
+            "autocorrelation at lags 1-20 with the ±1.96/√N band of white noise.",
+            job,
+        )
+
+    # -- array access -------------------------------------------------------------------
+    def _residual(self, det: str | None, ch: str) -> Any:
+        r = self.results.get(det) if det else None
+        return None if r is None else r.residuals.get(ch)
+
+    def _reference(self, det: str, ch: str) -> Any:
+        r = self.results.get(det)
+        return None if r is None else r.reference.get(ch)
+
+    def _threshold(self, det: str, ch: str) -> tuple[float | None, float | None, int | None]:
+        """(center, half-band, window) of the short-window mean test in channel units:
+        the alarm fires when the window mean of the residual leaves
+        ``mean +- mean_threshold[0] * std`` (analyzer.diagnosis.changes)."""
+        r = self.results.get(det)
+        th = None if r is None else r.thresholds.get(ch)
+        if not isinstance(th, dict):
+            return None, None, None
+        try:
+            mean, std = float(th["mean"]), float(th["std"])
+            half = float(th["mean_threshold"][0]) * std
+            window = int(th["windows"][0])
+        except (KeyError, IndexError, TypeError, ValueError):
+            return None, None, None
+        return mean, half, window
+
+    def _standardized(self, det: str, ch: str, a: int, b: int) -> FloatArray | None:
+        """``(r - mean) / std`` on ``[a, b)``, as analyzer.diagnosis.evidence.standardized
+        (the same normalization the tests ran on)."""
+        r = self.results.get(det)
+        if r is None or r.residuals.get(ch) is None:
+            return None
+        res = r.residuals[ch]
+        th = r.thresholds.get(ch, {}) if isinstance(r.thresholds.get(ch), dict) else {}
+        mean = float(th.get("mean", 0.0))
+        std = float(th.get("std", r.sigma.get(ch, 0.0)))
+        if not std > 0:
+            std = float(r.sigma.get(ch, 0.0))
+        if not std > 0:
+            return None
+        return (_f64(res[a:b]) - mean) / std
+
+    def _measured(self, ch: str, k0: int, k1: int) -> FloatArray | None:
+        if self.values is None or ch not in self.analyzed:
+            return None
+        return _f64(self.values[k0:k1, self.analyzed.index(ch)])
+
+    def _close_s(self) -> float:
+        """Half-width of the close-up of the onset: a couple of hundred samples, at
+        least a second (a few cycles of a structure's first modes), at most half a minute."""
+        return float(min(max(CLOSE_SAMPLES / self.rate, CLOSE_MIN_S), CLOSE_MAX_S))
+
+    def _zoom(self, onset: float, end: float | None, det: str | None, ch: str) -> tuple[int, int]:
+        half = min(max(ZOOM_FRACTION * self.duration, ZOOM_MIN_S), ZOOM_MAX_S)
+        th = None
+        if det and det in self.results:
+            th = self.results[det].thresholds.get(ch)
+        if isinstance(th, dict) and th.get("windows"):
+            half = max(half, 3.0 * float(th["windows"][-1]) / self.rate)
+        right = onset + half
+        if end is not None and end < onset + 3 * half:
+            right = max(right, end + 0.5 * half)
+        k0 = max(0, int(math.floor((onset - half) * self.rate)))
+        k1 = min(self.n, int(math.ceil(right * self.rate)) + 1)
+        return k0, max(k1, min(self.n, k0 + 2))
+
+    # -- archive overview -------------------------------------------------------------------
+    def coverage(self, faults: Sequence[Mapping[str, Any]]) -> tuple[FigureView | None, str]:
+        chans = list(getattr(self.an, "channels", []) or [])
+        if not chans:
+            return None, ""
+        start = self._start_ns()
+        chans.sort(key=lambda c: c.name not in self.analyzed)
+        shown = chans[:MAX_TIMELINE_ROWS]
+        gaps = self._gap_map()
+        rows = []
+        for c in shown:
+            a, b = (c.start_ns - start) / NS_PER_S, (c.end_ns - start) / NS_PER_S
+            gl = [(max(x, a), min(y, b)) for x, y in gaps.get(c.name, []) if min(y, b) > max(x, a)]
+            fl = [
+                (
+                    float(f["onset_s"]),
+                    float(f["end_s"]) if f.get("end_s") is not None else self.duration,
+                )
+                for f in faults
+                if f["channel"] == c.name
+            ]
+            rows.append(fg.CoverageRow(c.name, a, b, c.name in self.analyzed, gl, fl))
+        span = max([self.duration, *[r.end_s for r in rows]])
+        job = fg.FigureJob(
+            "coverage_figure", (rows, span, self.train_s, "coverage", self.train_label)
+        )
+        note = ""
+        if len(chans) > len(shown):
+            note = (
+                f"{len(chans) - len(shown)} more channels are not drawn; the channel table "
+                "lists them all."
+            )
+        caption = (
+            "Coverage of every channel from its first to its last raw sample (blue: "
+            "analyzed, grey: not analyzed), gaps in red (for analyzed channels located "
+            f"on the common clock, to within {fmt.duration(self.duration / GAP_BINS)}; "
+            "for the others only counted in the table), fault periods in orange, the "
+            f"{self.train_label} shaded green."
+        )
+        return self.figure("coverage", "Channel coverage", caption, job), note
+
+    def _gap_map(self) -> dict[str, list[tuple[float, float]]]:
+        if self.values is None or not self.analyzed or self.n == 0:
+            return {}
+        frac = binned_nan_fraction(self.values, GAP_BINS)
+        bins = frac.shape[0]
+        edges = (np.arange(bins + 1) * self.n) // bins / self.rate
+        out: dict[str, list[tuple[float, float]]] = {}
+        for j, ch in enumerate(self.analyzed[: frac.shape[1]]):
+            out[ch] = [(float(edges[a]), float(edges[b])) for a, b in runs(frac[:, j] > 0)]
+        return out
+
+
+# -- helpers ------------------------------------------------------------------------------
+
+
+def _f64(x: Any) -> FloatArray:
+    return np.asarray(x, dtype=np.float64)
+
+
+SPAN_KEYS = ("before_span_s", "after_span_s")
+
+
+def _span(s: Sequence[float] | None) -> str:
+    if not s:
+        return fmt.MISSING
+    return f"{float(s[0]):.3f}-{float(s[1]):.3f} s"
+
+
+__all__ = [
+    "CLOSE_MAX_S",
+    "CLOSE_MIN_S",
+    "CLOSE_SAMPLES",
+    "GAP_BINS",
+    "MAX_PANELS",
+    "MAX_TIMELINE_ROWS",
+    "ZOOM_FRACTION",
+    "ZOOM_MAX_S",
+    "ZOOM_MIN_S",
+    "FigureParts",
+]

@@ -1,0 +1,191 @@
+"""The records the report's templates display: plain dataclasses of display strings,
+figures and nested records, one per part of the report (a finding, its figures and test
+tables, an input, a channel, a detector's model, a method, the whole report).
+
+:mod:`analyzer.report.view` builds them from the analysis with its figure and table parts
+(:mod:`analyzer.report.view_figures`, :mod:`analyzer.report.view_tables`). All three
+construct these records and the first imports the other two, so the records are a module
+of their own, below all of them, rather than part of :mod:`analyzer.report.view`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from markupsafe import Markup
+
+from analyzer.report import format as fmt
+from analyzer.report.methods import Method
+
+# -- records the templates display ------------------------------------------------------
+
+
+@dataclass(slots=True)
+class FigureView:
+    kind: str
+    title: str
+    caption: str
+    svg: Markup
+
+
+@dataclass(slots=True)
+class Fact:
+    label: str
+    value: str
+
+
+@dataclass(slots=True)
+class TestCell:
+    statistic: str
+    critical: str
+    reject: bool | None
+
+    @property
+    def verdict(self) -> str:
+        return {True: "reject", False: "pass", None: fmt.MISSING}[self.reject]
+
+
+@dataclass(slots=True)
+class TestRow:
+    name: str
+    what: str
+    before: TestCell
+    after: TestCell
+
+    @property
+    def changed(self) -> bool:
+        return self.before.reject is False and self.after.reject is True
+
+
+@dataclass(slots=True)
+class DetectorTests:
+    detector: str
+    before_span: str
+    after_span: str
+    rows: list[TestRow]
+    consistent_with: str
+    lead: bool
+
+
+@dataclass(slots=True)
+class FindingView:
+    number: int
+    anchor: str
+    channel: str
+    type: str
+    onset_s: str
+    onset_utc: str
+    end_s: str
+    end_utc: str
+    onset_clock: str
+    end_clock: str
+    magnitude: str
+    confidence: str
+    detectors: list[str]
+    lead: str
+    tests_agree: str = ""
+    detailed: bool = False
+    figures: list[FigureView] = field(default_factory=list)
+    tests: list[DetectorTests] = field(default_factory=list)
+    evidence: list[tuple[str, list[Fact]]] = field(default_factory=list)
+    corrections: list[list[Fact]] = field(default_factory=list)
+    remarks: list[str] = field(default_factory=list)
+
+
+@dataclass(slots=True)
+class InputView:
+    path: str
+    format: str
+    size: str
+    sha256: str
+    errors: list[str]
+
+
+@dataclass(slots=True)
+class ChannelView:
+    name: str
+    analyzed: bool
+    samples: str
+    rate: str
+    start_s: str
+    end_s: str
+    gaps: str
+    range: str
+
+
+@dataclass(slots=True)
+class ChannelTable:
+    """A per-channel table of one detector's model: header and rows of strings."""
+
+    header: list[str]
+    rows: list[list[str]]
+
+
+@dataclass(slots=True)
+class ModelView:
+    detector: str
+    channels: str
+    params: list[Fact]
+    summary: list[Fact]
+    per_channel: ChannelTable
+    training_tests: ChannelTable
+    training_rejects: str
+    windowed: ChannelTable
+    windowed_note: str
+    notes: list[str]
+
+
+@dataclass(slots=True)
+class MethodView:
+    method: Method
+    status: str
+    ran: bool
+
+
+@dataclass(slots=True)
+class ReportView:
+    title: str
+    version: str
+    faulty: bool
+    headline: str
+    verdict_facts: list[Fact]
+    findings: list[FindingView]
+    summarized: int
+    checked: list[Fact]
+    skipped: list[Fact]
+    notes: list[str]
+    input_errors: list[str]
+    inputs: list[InputView]
+    channels: list[ChannelView]
+    coverage: FigureView | None
+    coverage_note: str
+    train: str
+    models_heading: str
+    reused: bool
+    models: list[ModelView]
+    methods: list[MethodView]
+    tests_method: Method
+    decision: str
+    thresholds: list[Fact]
+    timings: list[Fact]
+
+    @property
+    def figure_count(self) -> int:
+        own = sum(len(f.figures) for f in self.findings)
+        return own + (1 if self.coverage is not None else 0)
+
+
+__all__ = [
+    "ChannelTable",
+    "ChannelView",
+    "DetectorTests",
+    "Fact",
+    "FigureView",
+    "FindingView",
+    "InputView",
+    "MethodView",
+    "ModelView",
+    "ReportView",
+    "TestCell",
+    "TestRow",
+]
