@@ -52,6 +52,7 @@ from analyzer.readers._common import (
 from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
 from analyzer.readers.rosdecode import Encoding, RosBatchDecoder
 from analyzer.readers.rostypes import (
+    EMPTY_MESSAGE_BYTES,
     EmptyMessageType,
     TypeResolutionError,
     candidate_stores,
@@ -410,7 +411,7 @@ class McapReader:
         reorder: Reorderer,
         time: TimeSource,
     ) -> None:
-        entry = self._decoder(cid)
+        entry = self._decoder(cid, int(sizes.max(initial=0)))
         if entry is None:
             return
         topic, decoder = entry
@@ -421,7 +422,9 @@ class McapReader:
         reorder.push_decoded(topic, decoded, sample_times(decoded, log_ns, time))
 
     # ------------------------------------------------------------------ decoders
-    def _decoder(self, cid: int) -> tuple[str, BatchDecoder] | None:
+    def _decoder(self, cid: int, largest: int) -> tuple[str, BatchDecoder] | None:
+        """The channel's topic and decoder, made for its first batch of messages (the
+        largest ``largest`` bytes long), or None: no channel (reported where wrong)."""
         if cid in self._decoders:
             return self._decoders[cid]
         channel = self._channels.get(cid)
@@ -431,7 +434,7 @@ class McapReader:
         else:
             schema = self._schemas.get(channel.schema_id) if channel.schema_id else None
             try:
-                entry = (channel.topic, self._make_decoder(channel, schema))
+                entry = (channel.topic, self._make_decoder(channel, schema, largest))
             except EmptyMessageType:
                 pass  # no field, no channel: nothing is wrong
             except TypeResolutionError as err:
@@ -440,10 +443,10 @@ class McapReader:
         self._decoders[cid] = entry
         return entry
 
-    def _make_decoder(self, channel: Channel, schema: Schema | None) -> BatchDecoder:
+    def _make_decoder(self, channel: Channel, schema: Schema | None, largest: int) -> BatchDecoder:
         encoding = channel.message_encoding
         if encoding in ("cdr", "ros1"):
-            return self._ros_decoder(channel, schema)
+            return self._ros_decoder(channel, schema, largest)
         if encoding == "json":
             from analyzer.readers.decoders import JsonBatchDecoder
 
@@ -466,7 +469,7 @@ class McapReader:
             return ObjectDecoder(decode)
         raise TypeResolutionError(f"unsupported message encoding {encoding!r}")
 
-    def _ros_decoder(self, channel: Channel, schema: Schema | None) -> BatchDecoder:
+    def _ros_decoder(self, channel: Channel, schema: Schema | None, largest: int) -> BatchDecoder:
         wire: Encoding = "cdr" if channel.message_encoding == "cdr" else "ros1"
         expected = ("ros2msg", "ros2idl") if wire == "cdr" else ("ros1msg",)
         if schema is None:
@@ -488,8 +491,17 @@ class McapReader:
             )
         stores = candidate_stores(msgtype) if wire == "cdr" else []
         if not stores:
-            if schema.encoding in expected:  # a definition, and it is empty
+            # a definition, and it is empty: a type without fields (a marker topic), or
+            # a recorder that did not find the type's definition (rosbag2 then writes an
+            # empty one); the messages tell which
+            if schema.encoding in expected and largest <= EMPTY_MESSAGE_BYTES[wire]:
                 raise EmptyMessageType(msgtype)
+            if schema.encoding in expected:
+                raise TypeResolutionError(
+                    f"message type {msgtype!r} has an empty definition in the file but "
+                    f"{largest}-byte messages: unknown without definitions (--msg-path: the "
+                    "directories of its package's msg/ files)"
+                )
             raise TypeResolutionError(
                 f"unknown message type {msgtype!r} without definitions (--msg-path: "
                 "the directories of its package's msg/ files)"

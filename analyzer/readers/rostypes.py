@@ -50,6 +50,16 @@ class EmptyMessageType(TypeResolutionError):
     has no field, so no channel; its topic is passed over without an error."""
 
 
+EMPTY_MESSAGE_BYTES = {"cdr": 8, "ros1": 0}
+"""Longest message of a type without fields, by wire format: CDR's 4-byte encapsulation
+header and the one-byte member ROS 2 gives an empty structure, padded to 8 at most; ROS 1
+serializes nothing. A type whose definition in a file is empty, and that no typestore
+defines, is taken for such a type when its messages are no longer (a marker topic: no
+channel, nothing wrong), and for a type the recorder did not find a definition for when
+they are (an error naming ``--msg-path``). A type whose one field fits in 4 bytes
+(``uint8 mode``, say) looks empty this way; its ``.msg`` on the message path reads it."""
+
+
 def normalize_msgtype(name: str) -> str:
     """``pkg/Type`` -> ``pkg/msg/Type`` (ROS 1 and old rosbag2 spell types without ``msg``)."""
     parts = name.strip().split("/")

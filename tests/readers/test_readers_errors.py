@@ -245,6 +245,53 @@ def test_a_message_path_defines_what_the_bag_does_not(tmp_path: Path, monkeypatc
     assert store is not None and len(store.fielddefs["std_msgs/msg/String"][1]) == 2
 
 
+def _custom_type_mcap(path: Path) -> None:
+    """An MCAP file whose schema names a custom type but carries no definition (empty
+    ``ros2msg`` data, as some recorders write it)."""
+    from mcap.writer import Writer as McapWriter
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    store.register(get_types_from_msg("float64 value\nstring label\n", "my_pkg/msg/Reading"))
+    cls = store.types["my_pkg/msg/Reading"]
+    with path.open("wb") as f:
+        writer = McapWriter(f)
+        writer.start(profile="ros2")
+        schema = writer.register_schema("my_pkg/msg/Reading", "ros2msg", b"")
+        channel = writer.register_channel("/reading", "cdr", schema)
+        for i in range(5):
+            data = store.serialize_cdr(cls(value=float(i), label="a"), "my_pkg/msg/Reading")
+            writer.add_message(channel, 1_000 + i, bytes(data), 1_000 + i)
+        writer.finish()
+
+
+def test_an_mcap_schema_without_definition_reads_with_a_message_path(
+    tmp_path: Path, monkeypatch
+) -> None:
+    """An MCAP schema that names a custom type but holds no definition: the channel is
+    reported and skipped, naming --msg-path (not taken for a type without fields: its
+    messages are longer than an empty one's); with the package's ``.msg`` files on the
+    message path it reads."""
+    from analyzer.types import MSG_PATH_ENV
+
+    path = tmp_path / "custom.mcap"
+    _custom_type_mcap(path)
+    monkeypatch.delenv(MSG_PATH_ENV, raising=False)
+    reader = open_input(path)
+    assert collect(reader.chunks()) == {}
+    assert reader.info.errors == [
+        "/reading: message type 'my_pkg/msg/Reading' has an empty definition in the file but "
+        "18-byte messages: unknown without definitions (--msg-path: the directories of its "
+        "package's msg/ files); skipped"
+    ]
+    msg = tmp_path / "msgs" / "my_pkg" / "msg"
+    msg.mkdir(parents=True)
+    (msg / "Reading.msg").write_text("float64 value\nstring label\n")
+    monkeypatch.setenv(MSG_PATH_ENV, str(tmp_path / "msgs"))
+    got = collect(open_input(path).chunks())
+    np.testing.assert_array_equal(got["/reading.value"][1], np.arange(5.0))
+    assert "/reading.label" not in got
+
+
 def test_standard_type_without_definitions_falls_back(tmp_path: Path) -> None:
     t, data = synthetic(500, channels=3)
     bag = tmp_path / "imu"
