@@ -48,7 +48,7 @@ from analyzer.detectors.base import (
     map_in,
 )
 from analyzer.detectors.beard_jones import ParkFilter, check_observable, filter_bank, park_filter
-from analyzer.detectors.lowpass import lowpass
+from analyzer.detectors.lowpass import LowpassPieces
 from analyzer.detectors.lti import ImpulseResponseBank, LiftedBank, run_chunked, time_blocks
 from analyzer.detectors.state_space import StateSpaceModel, model_from_ar, model_from_config
 from analyzer.diagnosis.changes import Calibration, alarm_statistic, calibrate, default_window
@@ -771,24 +771,32 @@ def _sensor_units(
     i: int,
     out: npt.NDArray[Any] | None = None,
 ) -> npt.NDArray[Any]:
+    """Filter ``i``'s fault-free estimate in sensor units (:func:`_sensor_unit_pieces`)
+    into ``out`` (the row itself, say, or a memory-mapped float64 array: written by
+    ``pwrite``, :func:`~analyzer.paging.write_rows`), else a new float64 array."""
+    target = np.empty(refs[i].shape[0]) if out is None else out
+    for a, part in _sensor_unit_pieces(model, refs, i):
+        write_rows(target, a, part)  # a mapped row's file by pwrite, not its mapping
+    return target
+
+
+def _sensor_unit_pieces(
+    model: FittedDetectionFilter, refs: npt.NDArray[Any], i: int
+) -> Iterator[tuple[int, FloatArray]]:
     """Filter ``i``'s fault-free estimate in sensor units from its centred, scaled
-    single-precision row, computed in float64 :data:`RELEASE_ROWS` samples at a time
-    (a memory-mapped source row is given back behind, a memory-mapped ``out`` written
-    by ``pwrite``, :func:`~analyzer.paging.write_rows`): into ``out`` (the row itself,
-    say, or a memory-mapped float64 array), else a new float64 array."""
+    single-precision row, in float64 :data:`RELEASE_ROWS` samples at a time (``(first
+    sample, piece)``; a memory-mapped source row is given back behind)."""
     ssm = model.model
     row = refs[i]
     n = row.shape[0]
-    target = np.empty(n) if out is None else out
     scale, mean = float(ssm.y_scale[i]), float(ssm.y_mean[i])
     for a in range(0, n, RELEASE_ROWS):
         b = min(n, a + RELEASE_ROWS)
         part = row[a:b].astype(np.float64)
         part *= scale
         part += mean
-        write_rows(target, a, part)  # a mapped row's file by pwrite, not its mapping
+        yield a, part
         release(row[a:b])  # no-op in memory
-    return target
 
 
 def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
@@ -796,11 +804,14 @@ def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
     model, i, name, zetas, refs, rate, detector, train_stop, scratch = task
     n = refs[i].shape[0]
     with scratch.row(f"units{i}", n) as into:
-        units = _sensor_units(model, refs, i, into)  # float64, every row: low-passed in place
+        # float64, low-passed as each piece comes: a long archive's row is written once
+        smooth = LowpassPieces(model.filters[i].sigma, np.empty(n) if into is None else into)
+        for a, part in _sensor_unit_pieces(model, refs, i):
+            smooth.push(a, part)
         found = events_from_residual(
             name,
             zetas[i],
-            lowpass(units, model.filters[i].sigma, out=units),
+            smooth.finish(),
             model.zeta_cal[i],
             rate,
             detector,

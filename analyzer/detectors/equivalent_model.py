@@ -45,7 +45,7 @@ from analyzer.detectors.base import (
     dilate_forward,
 )
 from analyzer.detectors.detection_filter import UNCONFIRMED_FACTOR, long_run_time
-from analyzer.detectors.lowpass import lowpass
+from analyzer.detectors.lowpass import LowpassPieces
 from analyzer.detectors.network import NetworkDiagnosis, Propagation, SensorNetwork
 from analyzer.diagnosis.changes import Calibration, calibrate, default_window
 from analyzer.diagnosis.events import events_from_residual
@@ -537,24 +537,26 @@ def _observer_task(
         zeta, z = EquivalentModel._fault_estimate(ob.observer, ob.relation, values, ob.target, out)
         release(values)  # a memory-mapped archive: its columns were read whole, give them back
         kept = (np.empty(n, SIGNAL_DTYPE), np.empty(n, SIGNAL_DTYPE)) if into is None else into
+        # the estimate, once kept, is low-passed in place a piece at a time (a long
+        # archive's row: written once more, not written and read back whole)
+        smooth = LowpassPieces(float(np.exp(-ob.observer.lambda1 * ob.observer.dt)), z)
         for a in range(0, n, RELEASE_ROWS):
             b = min(n, a + RELEASE_ROWS)
             zp, zz = zeta[a:b], z[a:b]
             bad = ~np.isfinite(zp)
-            if bad.any():  # around gaps only: written back where needed
+            if bad.any():  # around gaps only
                 zz = np.array(zz)
                 zz[bad] = np.nan
-                write_rows(z, a, zz)
             # kept in the pipeline's signal precision; a long archive's by pwrite
             write_rows(kept[0], a, zp)
             write_rows(kept[1], a, zz)
-            for part in (zp, zz, kept[0][a:b], kept[1][a:b]):
+            smooth.push(a, zz)
+            for part in (zp, z[a:b], kept[0][a:b], kept[1][a:b]):
                 release(part)  # no-ops in memory
-        phi = float(np.exp(-ob.observer.lambda1 * ob.observer.dt))
         found = events_from_residual(
             name,
             zeta,
-            lowpass(z, phi, out=z),  # the estimate is kept already: low-passed in place
+            smooth.finish(),
             ob.cal,
             rate,
             detector,

@@ -76,6 +76,63 @@ def lowpass(x: FloatArray, phi: float, out: FloatArray | None = None) -> FloatAr
     return target
 
 
+class LowpassPieces:
+    """:func:`lowpass` over a record handed in piece by piece (``push``, from its first
+    sample on, in order), each piece's output written into ``out`` at its place (by
+    ``pwrite`` where ``out`` is memory-mapped, :func:`~analyzer.paging.write_rows`) as it
+    comes: the same output bit for bit, without the record being written whole first and
+    read back (a long archive's scratch row: one pass of writes instead of two, and no
+    read). ``finish`` returns ``out`` once every piece is in.
+
+    The filter starts at steady state at the record's first finite sample, and its state
+    decays through the non-finite samples before it (:func:`lowpass` runs from the first
+    sample): pieces before it are written as they are and, once a finite sample comes,
+    run through the filter as the non-finite samples they are (NaN out); a record with no
+    finite sample stays as it is, as there."""
+
+    def __init__(self, phi: float, out: FloatArray) -> None:
+        self.phi = phi
+        self.out = out
+        self._state: FloatArray | None = None
+        self._next = 0
+        self._piece: FloatArray | None = None
+
+    def push(self, at: int, x: FloatArray) -> None:
+        """Filter ``x``, the record's samples ``at .. at + len(x) - 1``."""
+        if at != self._next:
+            raise ValueError(f"LowpassPieces: piece at {at}, expected the one at {self._next}")
+        xx = np.asarray(x, dtype=np.float64)
+        n = xx.shape[0]
+        self._next = at + n
+        if n == 0:
+            return
+        if _lowpass_kernel is None:  # pragma: no cover - numba is a dependency
+            raise RuntimeError("LowpassPieces needs numba; use lowpass on the whole record")
+        if self._state is None:
+            first = _first_finite_kernel(xx)
+            if first < 0:
+                write_rows(self.out, at, xx)  # as it is, unless a finite sample comes
+                return
+            self._state = np.array([steady_state_zi(self.phi) * xx[first]])
+            for a in range(0, at, RELEASE_ROWS):  # the samples before: non-finite all
+                gap = np.full(min(RELEASE_ROWS, at - a), np.nan)
+                self._filter(a, gap)
+        self._filter(at, xx)
+
+    def _filter(self, at: int, xx: FloatArray) -> None:
+        n = xx.shape[0]
+        if self._piece is None or self._piece.shape[0] < n:
+            self._piece = np.empty(n)
+        into = self._piece[:n]
+        assert _lowpass_kernel is not None and self._state is not None
+        _lowpass_kernel(xx, 1.0 - self.phi, self.phi, self._state, into)
+        write_rows(self.out, at, into)
+
+    def finish(self) -> FloatArray:
+        """``out``, every piece in."""
+        return self.out
+
+
 def lowpass_reference(x: FloatArray, phi: float) -> FloatArray:
     """:func:`lowpass` with ``scipy.signal.lfilter`` started by ``lfilter_zi`` at the first
     finite sample (the reference form of :func:`_lowpass_loop`)."""

@@ -139,3 +139,44 @@ def test_lowpass_of_a_memory_mapped_record_in_pieces(tmp_path, monkeypatch):
     gone = paging.buffer(tmp_path, "nan", (n, 1))[:, 0]
     gone[:] = np.nan
     assert np.isnan(lowpass(gone, 0.5)).all()
+
+
+def test_lowpass_of_pieces_handed_in_equals_the_whole_record(tmp_path):
+    """:class:`LowpassPieces` (the detectors low-pass their fault-free estimates as each
+    piece is computed, without writing the record whole first): the same bits as
+    :func:`lowpass` over the whole record, with pieces of uneven lengths, a leading run
+    of non-finite samples (NaN and infinities) that spans several pieces, gaps across
+    pieces' edges, into memory and into a memory-mapped row; a record with no finite
+    sample stays as it is."""
+    from analyzer import paging
+    from analyzer.detectors.lowpass import LowpassPieces
+
+    rng = np.random.default_rng(5)
+    n = 5000
+    x = np.cumsum(rng.standard_normal(n))
+    x[:700] = np.nan
+    x[[3, 450, 650]] = [np.inf, -np.inf, np.inf]  # before the first finite sample
+    x[1990:2030] = np.nan
+    x[3000] = np.inf
+    cuts = [0, 200, 450, 699, 700, 1000, 2000, 2001, 4096, n]
+    allbad = np.full(n, np.nan)
+    allbad[[10, 4000]] = np.inf
+    for record in (x, allbad):
+        for phi in (0.3, 0.999):
+            want = lowpass(record, phi)
+            for mapped in (False, True):
+                out = (
+                    paging.buffer(tmp_path, f"o{phi}{mapped}", (n, 1))[:, 0]
+                    if mapped
+                    else (np.empty(n))
+                )
+                smooth = LowpassPieces(phi, out)
+                for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+                    smooth.push(a, record[a:b].copy())
+                got = smooth.finish()
+                assert got is out
+                assert_array_equal(np.isnan(got), np.isnan(want))
+                assert_array_equal(
+                    got.view(np.uint64)[~np.isnan(want)], want.view(np.uint64)[~np.isnan(want)]
+                )
+    assert np.isinf(lowpass(allbad, 0.3)).sum() == 2  # as it is
