@@ -22,7 +22,7 @@ alarms are isolated by the network's laws (Section 6.2).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -52,9 +52,7 @@ from analyzer.diagnosis.events import events_from_residual
 from analyzer.diagnosis.streamed import row_moments
 from analyzer.errors import DetectorError
 from analyzer.paging import (
-    RELEASE_ROWS,
     ScratchRows,
-    is_mapped,
     release,
     write_rows,
 )
@@ -276,16 +274,29 @@ class EquivalentModel:
         :func:`~analyzer.paging.write_rows`: a store through their mapping faults every
         page in: with the low-pass and the gap mask written the same way, the run on 4
         hours of 16 channels went from 140 k minor faults to 13 k)."""
+        n = np.asarray(values).shape[0]
+        zeta, z = (np.empty(n), np.empty(n)) if out is None else out
+        for a, zp, zz in EquivalentModel._fault_estimate_pieces(obs, rel, values, i):
+            # into memory-mapped outputs by pwrite from the piece: a store through their
+            # mapping faults every page in
+            write_rows(zeta, a, zp)
+            write_rows(z, a, zz)
+        return zeta, z
+
+    @staticmethod
+    def _fault_estimate_pieces(
+        obs: AssistantObserver, rel: Relation, values: FloatArray, i: int
+    ) -> Iterator[tuple[int, FloatArray, FloatArray]]:
+        """:meth:`_fault_estimate` a piece of rows at a time, ``(first row, zeta, z)``:
+        the pieces are the pass's own buffers, valid until the next one is asked for (a
+        caller that keeps only some of it, or keeps it low-passed, writes no more)."""
         arr = np.asarray(values)
         if _observer_kernel is None or arr.ndim != 2 or arr.dtype.kind != "f":
             zeta, z = _fault_estimate_numpy(obs, rel, values, i)
-            if out is None:
-                return zeta, z
-            out[0][:], out[1][:] = zeta, z
-            return out
+            yield 0, zeta, z
+            return
         phi = float(np.exp(-obs.lambda1 * obs.dt))
         n = arr.shape[0]
-        zeta, z = (np.empty(n), np.empty(n)) if out is None else out
         cols = np.asarray(rel.assistants, dtype=np.int64)
         coef = np.ascontiguousarray(rel.coef, dtype=np.float64).reshape(len(rel.assistants), -1)
         settle = _settle_samples(rel, phi)
@@ -293,16 +304,11 @@ class EquivalentModel:
         # piece, so a memory-mapped record is read and given back a piece at a time
         hist = np.zeros((len(cols), coef.shape[1] - 1))
         state = np.array([0.0, float(-settle - 2)])
-        # memory-mapped outputs are written a piece at a time from memory (pwrite), not
-        # stored through their mapping, which faults every page in
-        mapped = is_mapped(zeta) or is_mapped(z)
-        pieces = (np.empty(min(n, _PIECE)), np.empty(min(n, _PIECE))) if mapped else None
+        pieces = (np.empty(min(n, _PIECE)), np.empty(min(n, _PIECE)))
         for a in range(0, n, _PIECE):
             b = min(n, a + _PIECE)
             rows = arr[a:b]
-            into = (
-                (zeta[a:b], z[a:b]) if pieces is None else (pieces[0][: b - a], pieces[1][: b - a])
-            )
+            into = (pieces[0][: b - a], pieces[1][: b - a])
             _observer_kernel(
                 rows,
                 a,
@@ -320,10 +326,7 @@ class EquivalentModel:
                 into[1],
             )
             release(rows)
-            if pieces is not None:
-                write_rows(zeta, a, into[0])
-                write_rows(z, a, into[1])
-        return zeta, z
+            yield a, into[0], into[1]
 
     # -- running -----------------------------------------------------------------------------
     def run(
@@ -532,27 +535,26 @@ def _observer_task(
     ob, values, name, rate, detector, train_stop, into, scratch = task
     n = values.shape[0]
     with scratch.row("observer-zeta", n) as zeta_row, scratch.row("observer-z", n) as z_row:
-        out = None if zeta_row is None or z_row is None else (zeta_row, z_row)
-        # writes every row of both (the pass's own arrays without scratch)
-        zeta, z = EquivalentModel._fault_estimate(ob.observer, ob.relation, values, ob.target, out)
-        release(values)  # a memory-mapped archive: its columns were read whole, give them back
+        # the fault estimate is searched whole, in float64 (the pass's own array without
+        # scratch); of the estimate from the assistants the search reads only its
+        # low-passed form: neither is written whole and read back to be kept or filtered
+        zeta = np.empty(n) if zeta_row is None else zeta_row
         kept = (np.empty(n, SIGNAL_DTYPE), np.empty(n, SIGNAL_DTYPE)) if into is None else into
-        # the estimate, once kept, is low-passed in place a piece at a time (a long
-        # archive's row: written once more, not written and read back whole)
-        smooth = LowpassPieces(float(np.exp(-ob.observer.lambda1 * ob.observer.dt)), z)
-        for a in range(0, n, RELEASE_ROWS):
-            b = min(n, a + RELEASE_ROWS)
-            zp, zz = zeta[a:b], z[a:b]
+        phi = float(np.exp(-ob.observer.lambda1 * ob.observer.dt))
+        smooth = LowpassPieces(phi, np.empty(n) if z_row is None else z_row)
+        pieces = EquivalentModel._fault_estimate_pieces(ob.observer, ob.relation, values, ob.target)
+        for a, zp, zz in pieces:
             bad = ~np.isfinite(zp)
-            if bad.any():  # around gaps only
-                zz = np.array(zz)
+            if bad.any():  # around gaps only (the piece is the pass's own buffer)
                 zz[bad] = np.nan
-            # kept in the pipeline's signal precision; a long archive's by pwrite
+            # a long archive's rows by pwrite; kept in the pipeline's signal precision
+            write_rows(zeta, a, zp)
             write_rows(kept[0], a, zp)
             write_rows(kept[1], a, zz)
             smooth.push(a, zz)
-            for part in (zp, z[a:b], kept[0][a:b], kept[1][a:b]):
+            for part in (kept[0][a : a + zp.shape[0]], kept[1][a : a + zp.shape[0]]):
                 release(part)  # no-ops in memory
+        release(values)  # a memory-mapped archive: its columns were read whole, give them back
         found = events_from_residual(
             name,
             zeta,
