@@ -3,24 +3,32 @@
 Layout detection, from the first lines: the separator (``,`` ``;`` tab ``|``: the one that
 splits every sample line into the same number of fields, tab and ``;`` preferred since
 they rule out a decimal comma), the decimal mark (``1,5`` under a ``;`` or tab separator),
-the header (first line) and the time column: the first column named ``time``,
-``timestamp``, ``t``, ``__time``, ``%time`` or ``datetime`` (any case), else the first
-column.
+the header (first line; a repeated name gets ``_2``, ``_3``, ... so that two columns never
+share a channel) and the time column: the first column named ``time``, ``timestamp``,
+``t``, ``__time``, ``%time`` or ``datetime`` (any case), else the first column.
 
 The body is read by Arrow's streaming CSV reader in blocks, every column as text; each
 block is then converted column-wise (trim, numeric test by regular expression, cast): no
 Python per row. A column is a channel when its non-blank cells are numbers (``true`` /
 ``false`` count as 1 / 0); blank cells are gaps, i.e. no sample of that channel on that
 row, and so are the odd non-numeric cells of a column that is at least 90 % numbers
-(counted in ``info.errors``). Fast path, same result: the columns whose first block holds
-only plain finite numbers are parsed by Arrow straight to float64 (no text, no cast); from
-the first block where one of them does not parse that way (a blank, ``ERR``, ``nan``), the
-file is read again as text (see :meth:`CsvReader._stream`).
+(counted in ``info.errors``). The first block where a column has non-blank cells decides;
+a column skipped as text although more than half of its cells are numbers is named in
+``info.errors`` (a sensor writing many error codes, or one whose first cells were all
+text). Fast path, same result: the columns whose first block holds only plain finite
+numbers are parsed by Arrow straight to float64 (no text, no cast); from the first block
+where one of them does not parse that way (a blank, ``ERR``, ``nan``), the file is read
+again as text (see :meth:`CsvReader._stream`).
 
 The time column holds seconds (decimal text is converted to integer nanoseconds exactly),
-integer nanoseconds (integers above 1e15) or date-time strings (ISO 8601 or any format
-pandas recognises; UTC where no zone is given). Seconds below 1e8 (before 1973) are taken
-as relative time: ``InputInfo.absolute_time`` is False.
+integer nanoseconds (integers above 1e15), times of day or elapsed times without a date
+(``hh:mm:ss[.f]``: relative times, a step back of more than half a day being the next
+day) or date-time strings (ISO 8601 or any format pandas recognises; UTC where no zone is
+given). Its kind is that of at least 90 % of the first block's non-blank cells, so that a
+units line, a repeated header or a run of zero bytes under the header costs its rows
+(counted in ``info.errors``), not the file. Seconds below 1e8 (before 1973) are taken as
+relative time: ``InputInfo.absolute_time`` is False. Seconds after the year 2262 (epoch
+milliseconds, say) are not times: int64 nanoseconds cannot hold them.
 """
 
 from __future__ import annotations
@@ -66,9 +74,17 @@ NUMERIC_SHARE = 0.9
 """A column is numeric when at least this share of its non-blank cells are numbers (a
 logger writing the odd ``ERR`` does not turn a sensor channel into text)."""
 
-NUMBER = r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^(?i:[-+]?(inf|infinity|nan))$"
+FINITE = r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$"
+NUMBER = FINITE + r"|^(?i:[-+]?(inf|infinity|nan))$"
 INTEGER = r"^[-+]?\d+$"
 BOOLEAN = r"^(?i:true|false)$"
+NUMBER_OR_BOOLEAN = f"(?:{NUMBER})|(?:{BOOLEAN})"
+"""Both in one pass: text columns are counted in every block (see :meth:`CsvReader._counts`)."""
+TIME_OF_DAY = r"^\d+:\d{2}:\d{2}(?:\.\d{1,9})?$"
+"""A time of day or an elapsed time without a date (``hh:mm:ss[.f]``)."""
+DAY_NS = 86_400_000_000_000
+"""Nanoseconds in a day: a time of day that steps back by more than half of it is the
+next day's."""
 FORMAT_SAMPLE = 200
 """Leading time cells from which the date-time format of a file is chosen."""
 PLAIN_ISO = (
@@ -81,6 +97,7 @@ _NS_MAX = 9223372036854775807
 """``pd.Timestamp.max`` in ns."""
 """Dates outside what int64 nanoseconds can hold (years 1677-2262) are not times."""
 _DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+\s*$")
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,17 +124,23 @@ class CsvReader:
         self._size = size
         self.fraction_read = 0.0
         """The share of the file :meth:`chunks` has got through (see ``Reader``)."""
+        self._notes: list[str] = []
+        """What the row handler of :meth:`_batches` found, for ``info.errors``."""
         self._layout = self._detect()
         self._numeric: dict[int, bool] = {}
         self._fast: tuple[int, ...] = ()
         self._time_kind = ""
         self._time_format: str | None = None
         self._iso_type: pa.DataType = pa.timestamp("ns", "UTC")
+        self._clock = (0, 0)
+        """Of a time-of-day column: (days passed, last time of day read), for midnight."""
         first_time = self._inspect_first_block()
         total, sha = file_digest([self.path])
         self.info = InputInfo(self.path, Format.CSV, size_bytes=total, sha256=sha)
-        self.info.absolute_time = self._time_kind != "seconds" or (
-            first_time is not None and first_time >= EPOCH_THRESHOLD_S * 1e9
+        self.info.absolute_time = self._time_kind in ("ns", "datetime") or (
+            self._time_kind == "seconds"
+            and first_time is not None
+            and first_time >= EPOCH_THRESHOLD_S * 1e9
         )
         self._first_time = first_time
 
@@ -131,6 +154,8 @@ class CsvReader:
         reorder = Reorderer()
         skipped = 0
         bad_cells: dict[str, int] = {}
+        text_cells: dict[str, tuple[int, int]] = {}  # skipped columns: (non-blank, numbers)
+        self._clock = (0, 0)
         try:
             for batch, invalid in self._stream():
                 skipped += invalid
@@ -154,6 +179,9 @@ class CsvReader:
                             continue
                         self._numeric[index] = decision
                     if not self._numeric[index]:
+                        nonblank, numbers = self._counts(column)
+                        seen = text_cells.get(name, (0, 0))
+                        text_cells[name] = (seen[0] + nonblank, seen[1] + numbers)
                         continue
                     present, values, bad = self._values(column)
                     if bad:
@@ -166,12 +194,20 @@ class CsvReader:
                 f"unreadable from some point on ({one_line(err)}); the rows before it were read"
             )
         yield from reorder.flush()
+        for note in self._notes:
+            self._error(note)
         if skipped:
             self._error(
                 f"{skipped} rows without a readable time or with the wrong number of fields skipped"
             )
         for name, count in bad_cells.items():
             self._error(f"{name}: {count} non-numeric cells treated as gaps")
+        for name, (nonblank, numbers) in text_cells.items():
+            if 2 * numbers > nonblank:  # at most half numbers: a text column by any reading
+                self._error(
+                    f"{name}: skipped as a text column, though {numbers} of its {nonblank} "
+                    "non-blank cells are numbers"
+                )
         for line in reorder.drop_report():
             self._error(line)
 
@@ -185,6 +221,11 @@ class CsvReader:
                 head = stream.read(SAMPLE_BYTES)
         except (OSError, EOFError) as err:
             raise ReaderError(f"{self.path}: cannot read as text ({one_line(err)})") from err
+        if head.startswith((b"\xff\xfe", b"\xfe\xff")):  # its zero bytes are not binary data
+            raise ReaderError(
+                f'{self.path}: UTF-16 text (a spreadsheet\'s "Unicode text" export?), which '
+                "is not read: save it as UTF-8 CSV"
+            )
         try:
             sample = head.decode("utf-8-sig")
             encoding = "utf8"
@@ -203,6 +244,8 @@ class CsvReader:
             raise ReaderError(f"{self.path}: no header line")
         if "\x00" in sample:
             raise ReaderError(f"{self.path}: not a text file (binary data)")
+        if len(lines) == 1 and len(head) < SAMPLE_BYTES:  # the whole file: a header alone
+            raise ReaderError(f"{self.path}: no data rows (a header line only)")
         separator = self._separator(lines)
         header = next(csv.reader([lines[0]], delimiter=separator))
         names = _unique([h.strip() or f"column{i}" for i, h in enumerate(header)])
@@ -286,8 +329,17 @@ class CsvReader:
         column_types.update(types or {})
         invalid = [0]
 
-        def skip_row(_row: object) -> str:
-            invalid[0] += 1
+        def skip_row(row: Any) -> str:
+            # a cell opening a quote that is never closed joins the lines up to the next
+            # quote (or the end of the file) into this one bad row: count them all
+            lines = len(_LINE_BREAK.split(str(getattr(row, "text", "") or "").rstrip("\r\n")))
+            invalid[0] += lines
+            if lines > 1:
+                number = getattr(row, "number", None)
+                at = f" at line {number}" if isinstance(number, int) and number > 0 else ""
+                note = f"a quote opened{at} is never closed: {lines} lines read as one row, skipped"
+                if note not in self._notes:
+                    self._notes.append(note)
             return "skip"
 
         # how far the reader has got: a block is BLOCK_BYTES of the text (Arrow reads
@@ -344,7 +396,13 @@ class CsvReader:
         except (pa.ArrowException, OSError, EOFError, ValueError) as err:
             raise ReaderError(f"{self.path}: cannot parse as CSV ({one_line(err)})") from err
         if batch is None:
-            raise ReaderError(f"{self.path}: no data rows")
+            # the rows are there (a header alone is found by _detect) but Arrow skipped
+            # them all for their number of fields: lines above the header (a logger's
+            # metadata, a TOA5 file's first line, Excel's "sep=;") or a damaged header
+            raise ReaderError(
+                f"{self.path}: no data rows: no line under the first has its "
+                f"{len(self._layout.names)} fields (is the first line the header?)"
+            )
         numeric = []
         fast = []
         for index in range(len(self._layout.names)):
@@ -366,12 +424,22 @@ class CsvReader:
                 f"{self.path}: no numeric column besides the time column "
                 f"{self._layout.names[self._layout.time_column]!r}"
             )
-        t_ns, keep = self._times(batch.column(self._layout.time_column), first=True)
+        time_column = batch.column(self._layout.time_column)
+        t_ns, keep = self._times(time_column, first=True)
         if not bool(keep.any()):
-            raise ReaderError(
-                f"{self.path}: time column {self._layout.names[self._layout.time_column]!r} "
-                "holds neither numbers nor dates"
-            )
+            name = self._layout.names[self._layout.time_column]
+            text = self._clean(time_column)
+            numbers = text.filter(pc.match_substring_regex(text, FINITE))
+            if self._time_kind in ("seconds", "ns") and len(numbers):
+                # numbers that int64 nanoseconds cannot hold, such as epoch milliseconds
+                # read as seconds: say so, not that there are no numbers
+                unit = "nanoseconds" if self._time_kind == "ns" else "seconds"
+                raise ReaderError(
+                    f"{self.path}: time column {name!r}: {numbers[0].as_py()!r} is no time: "
+                    f"as {unit} it lies outside the years 1677-2262"
+                    + (" (milliseconds and microseconds are not read)" if unit == "seconds" else "")
+                )
+            raise ReaderError(f"{self.path}: time column {name!r} holds neither numbers nor dates")
         return int(t_ns[keep].min())
 
     # ------------------------------------------------------------------ conversion
@@ -383,13 +451,19 @@ class CsvReader:
 
     def _classify(self, column: pa.Array) -> bool | None:
         """True: numeric, False: text, None: only blanks so far."""
+        nonblank, numeric = self._counts(column)
+        if nonblank == 0:
+            return None
+        return numeric >= NUMERIC_SHARE * nonblank
+
+    def _counts(self, column: pa.Array) -> tuple[int, int]:
+        """(non-blank cells, cells that are numbers or booleans) of a text column."""
         text = self._clean(column)
         nonblank = int(pc.sum(pc.not_equal(text, "")).as_py() or 0)
         if nonblank == 0:
-            return None
-        ok = pc.or_(pc.match_substring_regex(text, NUMBER), pc.match_substring_regex(text, BOOLEAN))
-        numeric = int(pc.sum(ok).as_py() or 0)
-        return numeric >= NUMERIC_SHARE * nonblank
+            return 0, 0
+        ok = pc.match_substring_regex(text, NUMBER_OR_BOOLEAN)
+        return nonblank, int(pc.sum(ok).as_py() or 0)
 
     def _values(self, column: pa.Array) -> tuple[np.ndarray, FloatArray, int]:
         """(present mask, values, count of non-numeric non-blank cells)."""
@@ -416,9 +490,12 @@ class CsvReader:
             text = pc.replace_substring(text, ",", ".")
         if first or not self._time_kind:
             self._time_kind = self._time_kind_of(text)
+            self._clock = (0, 0)
         n = len(text)
         if self._time_kind == "datetime":
             return self._datetimes(text)
+        if self._time_kind == "timeofday":
+            return self._times_of_day(text)
         number = pc.match_substring_regex(text, NUMBER)
         keep = np.asarray(pc.fill_null(number, False).to_numpy(zero_copy_only=False), dtype=bool)
         out = np.zeros(n, dtype=np.int64)
@@ -426,39 +503,73 @@ class CsvReader:
             return out, keep
         idx = np.nonzero(keep)[0]
         selected = text.take(pa.array(idx))
-        if self._time_kind == "ns" and bool(
+        nanoseconds = self._time_kind == "ns" and bool(
             pc.all(pc.match_substring_regex(selected, INTEGER)).as_py()
-        ):
-            out[idx] = _numpy(pc.cast(selected, pa.int64()))
-            return out, keep
-        try:
-            exact = pc.cast(selected, pa.decimal128(38, 9))
-            words = np.frombuffer(exact.buffers()[1], dtype="<i8")
-            start = exact.offset * 2
-            out[idx] = words[start : start + 2 * len(exact) : 2]
-        except pa.ArrowException:
-            seconds = _numpy(pc.cast(selected, pa.float64()))
-            finite = np.isfinite(seconds)
-            keep[idx[~finite]] = False
-            out[idx[finite]] = np.round(seconds[finite] * 1e9).astype(np.int64)
+        )
+        if nanoseconds:
+            with contextlib.suppress(pa.ArrowInvalid):  # beyond int64: the exact path's
+                out[idx] = _numpy(pc.cast(selected, pa.int64()))
+                return out, keep
+        exact = _exact_ns(selected, 0 if nanoseconds else 9)
+        if exact is not None:
+            ns, fits = exact
+        else:  # exponent notation, more than 9 decimals or 38 digits: via float64
+            with np.errstate(invalid="ignore", over="ignore"):
+                scaled = np.round(
+                    _numpy(pc.cast(selected, pa.float64())) * (1 if nanoseconds else 1e9)
+                )
+            fits = np.abs(scaled) < 2.0**63  # False for nan and inf too
+            ns = np.where(fits, scaled, 0).astype(np.int64)
+        keep[idx[~fits]] = False
+        out[idx[fits]] = ns[fits]
         return out, keep
 
     @staticmethod
     def _time_kind_of(text: pa.Array) -> str:
+        """The kind of at least :data:`NUMERIC_SHARE` of the non-blank cells: one units
+        line, repeated header or run of zero bytes from a power loss in the first block
+        is a row without a time (skipped and counted), not a file of date-time text."""
         # a cell's length as a boolean: no Python value passes into Arrow, which would
         # import pandas (pyarrow checks every such value for a pandas type)
         nonblank = text.filter(pc.cast(pc.utf8_length(text), pa.bool_()))
         if len(nonblank) == 0:
             return "seconds"
+        least = NUMERIC_SHARE * len(nonblank)
         numbers = pc.match_substring_regex(nonblank, NUMBER)
-        if not pc.all(numbers).as_py():
-            return "datetime"
-        integers = pc.match_substring_regex(nonblank, INTEGER)
+        if int(pc.sum(numbers).as_py() or 0) < least:
+            clock = pc.match_substring_regex(nonblank, TIME_OF_DAY)
+            return "timeofday" if int(pc.sum(clock).as_py() or 0) >= least else "datetime"
+        numeric = nonblank.filter(numbers)
+        integers = pc.match_substring_regex(numeric, INTEGER)
         if pc.all(integers).as_py():
-            largest = pc.max(pc.abs(pc.cast(nonblank, pa.float64()))).as_py()
+            largest = pc.max(pc.abs(pc.cast(numeric, pa.float64()))).as_py()
             if largest is not None and largest > NS_THRESHOLD:
                 return "ns"
         return "seconds"
+
+    def _times_of_day(self, text: pa.Array) -> tuple[IntArray, np.ndarray]:
+        """Nanoseconds of ``hh:mm:ss[.f]`` cells from the midnight before the first one.
+
+        pandas would give such a cell today's date (a different absolute time on every
+        run); it is a relative time instead, and a step back of more than half a day
+        (23:59:59 to 00:00:00) starts the next day rather than sorting the rows after
+        midnight before those of the evening."""
+        import pandas as pd
+
+        series = pd.Series(text.to_numpy(zero_copy_only=False), dtype=object)
+        clock = pc.match_substring_regex(text, TIME_OF_DAY).to_numpy(zero_copy_only=False)
+        parsed = pd.to_timedelta(series.where(clock, None), errors="coerce")
+        keep = np.asarray(parsed.notna().to_numpy(), dtype=bool)
+        out = np.zeros(len(series), dtype=np.int64)
+        if not keep.any():
+            return out, keep
+        ns = parsed[keep].to_numpy().astype("timedelta64[ns]").astype(np.int64)
+        days, last = self._clock
+        back = np.diff(ns, prepend=last) < -DAY_NS // 2
+        passed = days + np.cumsum(back)
+        out[keep] = ns + passed * DAY_NS
+        self._clock = (int(passed[-1]), int(ns[-1]))
+        return out, keep
 
     def _datetimes(self, text: pa.Array) -> tuple[IntArray, np.ndarray]:
         if self._time_format is None and _plain_iso(text):
@@ -536,6 +647,24 @@ def _all_numbers(column: pa.Array) -> FloatArray | None:
 _NUMPY_TYPES = {pa.float64(): np.dtype(np.float64), pa.int64(): np.dtype(np.int64)}
 
 
+def _exact_ns(text: pa.Array, scale: int) -> tuple[IntArray, np.ndarray] | None:
+    """The decimal numbers of ``text`` times ``10**scale``, exactly (Arrow's decimal
+    cast, no float rounding), as int64 with the mask of those that int64 holds; None when
+    the cast fails (exponent notation, more than ``scale`` decimals or 38 digits).
+
+    The mask matters: of a number beyond int64 (seconds after the year 2262, such as
+    epoch milliseconds read as seconds), the low 64 bits alone are a wrong time."""
+    try:
+        exact = pc.cast(text, pa.decimal128(38, scale))
+    except pa.ArrowException:
+        return None
+    words = np.frombuffer(exact.buffers()[1], dtype="<i8")
+    start = exact.offset * 2
+    low = words[start : start + 2 * len(exact) : 2]
+    high = words[start + 1 : start + 2 * len(exact) : 2]
+    return low, high == (low >> 63)  # the high word only extends the sign: it fits
+
+
 def _numpy(array: pa.Array) -> np.ndarray:
     """A float64 or int64 Arrow array without nulls as a read-only numpy view of its
     buffer (what ``to_numpy()`` returns), any other as ``to_numpy(zero_copy_only=False)``.
@@ -595,13 +724,19 @@ def _datetime_format(series: pd.Series) -> str:
 
 
 def _unique(names: list[str]) -> list[str]:
-    seen: dict[str, int] = {}
+    """``names`` with each repeat of a name suffixed ``_2``, ``_3``, ..., skipping the
+    suffixed names the header has itself (``a,a,a_2``: ``a``, ``a_3``, ``a_2``): two
+    columns under one name would be read as one channel, their samples mixed."""
+    taken = set(names)
+    seen: set[str] = set()
     out = []
     for name in names:
-        if name in seen:
-            seen[name] += 1
-            out.append(f"{name}_{seen[name]}")
-        else:
-            seen[name] = 1
-            out.append(name)
+        unique = name
+        count = 1
+        while unique in seen or (unique != name and unique in taken):
+            count += 1
+            unique = f"{name}_{count}"
+        seen.add(unique)
+        taken.add(unique)
+        out.append(unique)
     return out
