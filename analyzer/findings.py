@@ -139,8 +139,9 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
                 "end_s": None if f.end_s is None else round(f.end_s, 4),
                 "onset": a.onset_iso(f.onset_s),
                 "end": a.onset_iso(f.end_s),
-                "magnitude": {k: float(v) for k, v in f.magnitude.items()},
-                "confidence": round(float(f.confidence), 4),
+                # (null, not a findings.json that cannot be written, should one not be finite)
+                "magnitude": _jsonable({k: float(v) for k, v in f.magnitude.items()}),
+                "confidence": _jsonable(round(float(f.confidence), 4)),
                 "detector": f.detector,
                 "evidence": _jsonable(f.evidence),
             }

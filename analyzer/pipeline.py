@@ -223,7 +223,15 @@ def _analyze(
         n_values = aligned.n * len(chosen)
         big = n_values > MATERIALIZE_IN_MEMORY and not in_memory
         path = work / "aligned.npy" if big else None
-        values = aligned.materialize(path)
+        infinite = np.zeros(len(chosen), dtype=np.int64)
+        values = aligned.materialize(path, infinite=infinite)
+        if infinite.any():
+            notes.append(
+                "infinite values (an overrange or error code?) taken as gaps: "
+                + ", ".join(
+                    f"{c} ({n})" for c, n in zip(chosen, infinite.tolist(), strict=True) if n
+                )
+            )
         release(values)  # written: its pages go back to the page cache (see analyzer.paging)
         timings["align"] = time.perf_counter() - t0
         if progress:

@@ -451,8 +451,18 @@ class AlignedSeries:
         for a in range(0, self.n, size):
             yield a, self.block(a, a + size)
 
-    def materialize(self, path: Path | None = None, block: int = 1 << 16) -> FloatArray:
+    def materialize(
+        self,
+        path: Path | None = None,
+        block: int = 1 << 16,
+        infinite: IntArray | None = None,
+    ) -> FloatArray:
         """The whole aligned matrix, in memory or memory-mapped at ``path`` (.npy).
+
+        ``infinite``: an int64 array with an entry per channel, to which the count of
+        each channel's infinite aligned values is added, and they are then NaN (gaps):
+        what an analysis takes, since a sensor's ``inf`` is an overrange or error code,
+        not a reading, and one of them would otherwise swamp every estimate it enters.
 
         A file-backed matrix is filled a block of rows at a time in memory and each block
         written to the file by ``pwrite``: stored through the mapping (a channel's column
@@ -467,6 +477,7 @@ class AlignedSeries:
         raws = [self.store.raw(name) for name in self.channels]
         finders = [_Finder(t) for t, _ in raws]
         fd = None if path is None else os.open(path, os.O_WRONLY)
+        found: list[IntArray] = []  # per block with an infinite value: counts per channel
 
         def fill(a: int) -> None:
             b = min(self.n, a + block)
@@ -484,6 +495,11 @@ class AlignedSeries:
                     release(v[s : s + grid.shape[0]])
                 else:
                     rows[:, j] = _resample(t, v, grid, info.rate_hz, self.rate_hz, find)
+            if infinite is not None:
+                bad = np.isinf(rows)
+                if bad.any():
+                    rows[bad] = np.nan
+                    found.append(np.count_nonzero(bad, axis=0))
             if fd is not None:
                 assert isinstance(out, np.memmap)
                 at = int(out.offset) + a * shape[1] * rows.itemsize
@@ -503,6 +519,9 @@ class AlignedSeries:
         finally:
             if fd is not None:
                 os.close(fd)
+        if infinite is not None:
+            for counts in found:
+                infinite += counts
         return out
 
 
