@@ -223,13 +223,14 @@ def _analyze(
         n_values = aligned.n * len(chosen)
         big = n_values > MATERIALIZE_IN_MEMORY and not in_memory
         path = work / "aligned.npy" if big else None
-        infinite = np.zeros(len(chosen), dtype=np.int64)
-        values = aligned.materialize(path, infinite=infinite)
-        if infinite.any():
+        unreadable = np.zeros(len(chosen), dtype=np.int64)
+        values = aligned.materialize(path, unreadable=unreadable)
+        if unreadable.any():
             notes.append(
-                "infinite values (an overrange or error code?) taken as gaps: "
+                "infinite or absurd values (beyond 1e100: an overrange or error code?) "
+                "taken as gaps: "
                 + ", ".join(
-                    f"{c} ({n})" for c, n in zip(chosen, infinite.tolist(), strict=True) if n
+                    f"{c} ({n})" for c, n in zip(chosen, unreadable.tolist(), strict=True) if n
                 )
             )
         release(values)  # written: its pages go back to the page cache (see analyzer.paging)

@@ -39,6 +39,12 @@ from analyzer.types import NS_PER_S
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
+UNREADABLE = 1e100
+"""Magnitude beyond which an aligned value is no sensor's reading in any unit (an
+infinity, an overrange code, a corrupt cell) and is taken as a gap: its square, and a
+sum of a few of those, would overflow, and with them every variance and test statistic
+of its stretch."""
+
 GAP_FACTOR = 2.5
 """A step between raw samples longer than this many nominal periods is a gap (so one
 dropped sample is bridged, two or more are not)."""
@@ -455,19 +461,16 @@ class AlignedSeries:
         self,
         path: Path | None = None,
         block: int = 1 << 16,
-        infinite: IntArray | None = None,
+        unreadable: IntArray | None = None,
     ) -> FloatArray:
         """The whole aligned matrix, in memory or memory-mapped at ``path`` (.npy).
 
-        ``infinite``: an int64 array with an entry per channel, to which the count of
-        each channel's infinite aligned values is added, and they are then NaN (gaps):
-        what an analysis takes, since a sensor's ``inf`` is an overrange or error code,
-        not a reading, and one of them would otherwise swamp every estimate it enters.
-
-        A file-backed matrix is filled a block of rows at a time in memory and each block
-        written to the file by ``pwrite``: stored through the mapping (a channel's column
-        at a time), every page of the new file was faulted in and zeroed by the kernel
-        before being overwritten (2 % of a 4-hour run's CPU)."""
+        ``unreadable``: an int64 array with an entry per channel, to which the count of
+        each channel's aligned values beyond :data:`UNREADABLE` in magnitude (infinities
+        included) is added, and they are then NaN (gaps): what an analysis takes, since
+        such a value is an overrange or error code, or a corrupt cell, not a reading, and
+        one of them would otherwise swamp every estimate it enters.
+        """
         shape = (self.n, len(self.channels))
         if path is None:
             out: FloatArray = np.empty(shape)
@@ -477,7 +480,7 @@ class AlignedSeries:
         raws = [self.store.raw(name) for name in self.channels]
         finders = [_Finder(t) for t, _ in raws]
         fd = None if path is None else os.open(path, os.O_WRONLY)
-        found: list[IntArray] = []  # per block with an infinite value: counts per channel
+        found: list[IntArray] = []  # per block with unreadable values: counts per channel
 
         def fill(a: int) -> None:
             b = min(self.n, a + block)
@@ -495,8 +498,8 @@ class AlignedSeries:
                     release(v[s : s + grid.shape[0]])
                 else:
                     rows[:, j] = _resample(t, v, grid, info.rate_hz, self.rate_hz, find)
-            if infinite is not None:
-                bad = np.isinf(rows)
+            if unreadable is not None:
+                bad = np.abs(rows) > UNREADABLE  # NaN is not: a gap already
                 if bad.any():
                     rows[bad] = np.nan
                     found.append(np.count_nonzero(bad, axis=0))
@@ -519,9 +522,9 @@ class AlignedSeries:
         finally:
             if fd is not None:
                 os.close(fd)
-        if infinite is not None:
+        if unreadable is not None:
             for counts in found:
-                infinite += counts
+                unreadable += counts
         return out
 
 

@@ -372,28 +372,31 @@ def test_a_full_disk_while_signals_go_to_files_is_a_one_line_error(
     assert not (tmp_path / "o").exists()
 
 
-def test_an_infinite_value_is_a_gap_not_a_fault(tmp_path, capsys):
+@pytest.mark.parametrize("code", ["inf", "-1e300"])
+def test_an_infinite_value_is_a_gap_not_a_fault(code, tmp_path, capsys):
     """One ``inf`` cell (a logger's overrange code) entered the equivalent model's
     observers as the largest float: a "drift" of 1e296 per second on another channel,
-    a NaN confidence, and findings.json could not be written (an internal error). Now
-    the aligned value is a gap, named in the notes: the findings of the same file with
-    ``nan`` in that cell."""
+    a NaN confidence, and findings.json could not be written (an internal error); a
+    ``1e300`` was a "drift" too. Now the aligned value is a gap, named in the notes: the
+    findings of the same file with ``nan`` in that cell."""
     t, Y, names = simulate_building(n_floors=3, duration_s=60.0, seed=0)
     t_ns = np.round(t * 1e9).astype(np.int64)
     Y[len(t) // 2, 0] = np.inf
     write_archive(tmp_path / "inf.csv", "csv", t_ns, {n: Y[:, j] for j, n in enumerate(names)})
     text = (tmp_path / "inf.csv").read_text()
     assert text.count(",inf") == 1
+    (tmp_path / "bad.csv").write_text(text.replace(",inf", f",{code}"))
     (tmp_path / "nan.csv").write_text(text.replace(",inf", ",nan"))
     docs, codes = [], []
-    for name in ("inf", "nan"):
+    for name in ("bad", "nan"):
         out = tmp_path / f"o{name}"
         code, _, err = run_cli(["run", tmp_path / f"{name}.csv", "--out", out], capsys)
         assert code in (0, 1), err
         codes.append(code)
         docs.append(json.loads((out / "findings.json").read_text()))
     assert docs[0]["notes"] == [
-        f"infinite values (an overrange or error code?) taken as gaps: {names[0]} (1)",
+        "infinite or absurd values (beyond 1e100: an overrange or error code?) taken as "
+        f"gaps: {names[0]} (1)",
         *docs[1]["notes"],
     ]
     assert codes[0] == codes[1]
