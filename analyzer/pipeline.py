@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import shutil
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from functools import partial
@@ -13,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from analyzer.detector_runs import (
     coupled,
@@ -534,6 +536,25 @@ def _training_window(
     return tr, (train[0], min(train[1], aligned.n))
 
 
+MOSTLY_ONE_VALUE = 0.99
+"""Share of a channel's finite training samples at one value (its median) from which it
+is taken as constant there: a sensor stuck, or at rest, through the healthy window but
+for a few samples carries nothing to model, and those few make the detectors' regressions
+singular (the whole detector was then skipped, and a fault on another sensor missed)."""
+
+
+def _mostly_one_value(tv: Any) -> npt.NDArray[np.bool_]:
+    """Columns of the training rows ``tv`` whose finite samples sit at their median in at
+    least :data:`MOSTLY_ONE_VALUE` of the rows."""
+    finite = np.isfinite(tv)
+    count = finite.sum(axis=0)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # an empty column's median: NaN
+        median = np.nanmedian(np.where(finite, tv, np.nan), axis=0)
+    at = (tv == median).sum(axis=0)
+    return np.asarray((count > 0) & (at >= MOSTLY_ONE_VALUE * count), dtype=bool)
+
+
 def _varying_in_training(
     values: Any,
     chosen: list[str],
@@ -556,11 +577,14 @@ def _varying_in_training(
             f"at {rate_hz:.6g} Hz, need at least {MIN_TRAIN_ROWS}: give a longer "
             "one with --train (the default is the first 20 % of the data, at most 10 min)"
         )
-    flat = flat_channels(tv)
+    flat = flat_channels(tv) | _mostly_one_value(tv)
     if not flat.any():
         return values, chosen
     dropped = [c for c, f in zip(chosen, flat, strict=True) if f]
-    notes.append("constant or empty in the training window, not analyzed: " + ", ".join(dropped))
+    notes.append(
+        "constant (or one value in 99 % of the samples) or empty in the training window, "
+        "not analyzed: " + ", ".join(dropped)
+    )
     keep = np.flatnonzero(~flat)
     if keep.size == 0:
         how = (

@@ -403,3 +403,27 @@ def test_an_infinite_value_is_a_gap_not_a_fault(code, tmp_path, capsys):
     assert docs[0]["faults"] == docs[1]["faults"]
     assert docs[0]["detectors"] == docs[1]["detectors"]
     assert not any(f["channel"] == names[0] for f in docs[0]["faults"])
+
+
+def test_a_channel_at_one_value_through_the_training_window_is_left_out(tmp_path, capsys):
+    """A sensor at rest at one value through the healthy window but for one sample (the
+    window's last row) is no flat channel by its spread, yet it made the bank's and the
+    detection filter's regressions singular: both were skipped and an offset on another
+    sensor went unreported. Now it is left out with a note, and the offset is found."""
+    t, Y, names = simulate_building(n_floors=3, duration_s=60.0, seed=1)
+    n = len(t)
+    train_rows = int(0.2 * n)
+    Y[:train_rows, 2] = 0.5  # the first 20 %: the default window, but for its last row
+    Y[n // 2 :, 0] += 3.0 * Y[:train_rows, 0].std()
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    src = tmp_path / "rest.csv"
+    write_archive(src, "csv", t_ns, {c: Y[:, j] for j, c in enumerate(names)})
+    code, _, err = run_cli(["run", src, "--out", tmp_path / "o"], capsys)
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    assert code == 1, err
+    assert (
+        "constant (or one value in 99 % of the samples) or empty in the training window, "
+        f"not analyzed: {names[2]}" in doc["notes"]
+    )
+    assert "ar_kalman_bank" not in doc["skipped_detectors"]
+    assert [f["channel"] for f in doc["faults"]][:1] == [names[0]]
