@@ -533,6 +533,16 @@ def _training_window(
     else:
         tr = default_train(duration)
     train = (int(round(tr[0] * aligned.rate_hz)), int(round(tr[1] * aligned.rate_hz)) + 1)
+    if reused is None and train[0] > 0:
+        notes.append(
+            f"the {tr[0]:.6g} s before the training window are not searched for faults (the "
+            "search runs from the window's end): a window at the start covers them"
+        )
+    if reused is None and train[1] >= aligned.n:
+        notes.append(
+            "the training window reaches the end of the data: nothing is left to search "
+            "for faults (give a shorter one with --train)"
+        )
     return tr, (train[0], min(train[1], aligned.n))
 
 

@@ -427,3 +427,28 @@ def test_a_channel_at_one_value_through_the_training_window_is_left_out(tmp_path
     )
     assert "ar_kalman_bank" not in doc["skipped_detectors"]
     assert [f["channel"] for f in doc["faults"]][:1] == [names[0]]
+
+
+def test_what_a_training_window_leaves_unsearched_is_noted(tmp_path, capsys):
+    """Faults are searched from the training window's end on: an offset before a window
+    that starts later went unreported without a word, and so did everything when the
+    window reached the end of the data."""
+    t, Y, names = simulate_building(n_floors=3, duration_s=60.0, seed=1)
+    Y[(t > 10) & (t < 20), 0] += 5.0 * Y[:, 0].std()
+    src = tmp_path / "early.csv"
+    write_archive(
+        src, "csv", np.round(t * 1e9).astype(np.int64), {c: Y[:, j] for j, c in enumerate(names)}
+    )
+    notes = {}
+    for train in ("40:50", "0:60"):
+        code, _, err = run_cli(["run", src, "--out", tmp_path / train, "--train", train], capsys)
+        assert code in (0, 1), err
+        notes[train] = json.loads((tmp_path / train / "findings.json").read_text())["notes"]
+    assert (
+        "the 40 s before the training window are not searched for faults (the search runs "
+        "from the window's end): a window at the start covers them" in notes["40:50"]
+    )
+    assert (
+        "the training window reaches the end of the data: nothing is left to search for "
+        "faults (give a shorter one with --train)" in notes["0:60"]
+    )
