@@ -192,6 +192,14 @@ def write_outputs(analysis: Analysis, out_dir: Path) -> dict[str, Any]:
     from analyzer.report import render_report
 
     doc = findings_document(analysis)
+    if analysis.corrected is None and (out_dir / "corrected.csv").exists():
+        # an earlier run's, which this one does not replace (the folder may be the
+        # user's: nothing in it is deleted), so it is not read as this run's
+        doc["notes"] = [
+            *doc["notes"],
+            f"{out_dir / 'corrected.csv'} is not this run's (it was not asked for corrected "
+            "signals, --corrected): an earlier run's output",
+        ]
     write_atomic(out_dir / "findings.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
     write_atomic(out_dir / "report.html", render_report(analysis, doc))
     if analysis.corrected is not None:

@@ -201,6 +201,7 @@ def _analyze(
     progress = options.progress
     t_start = time.perf_counter()
     archive = open_archive(inputs)
+    notes.extend(archive.notes)
     reading = None if progress is None else partial(progress, "read")
     chunks = archive.chunks(options.time_source, reading)
     with ChannelStore.from_chunks(chunks, work / "store") as store:

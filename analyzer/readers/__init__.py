@@ -188,11 +188,18 @@ class Archive:
     and counted in the later file's errors.
     """
 
-    def __init__(self, readers: Sequence[Reader], failed: Sequence[InputInfo] = ()) -> None:
+    def __init__(
+        self,
+        readers: Sequence[Reader],
+        failed: Sequence[InputInfo] = (),
+        notes: Sequence[str] = (),
+    ) -> None:
         starts = [(_safe_start(r), str(r.info.path), r) for r in readers]
         starts.sort(key=lambda s: (s[0] is None, s[0] or 0, s[1]))
         self.readers: list[Reader] = [s[2] for s in starts]
         self.inputs: list[InputInfo] = [r.info for r in self.readers] + list(failed)
+        self.notes: list[str] = list(notes)
+        """What the archive's folders held that is not read (the analyzer's own outputs)."""
 
     def start_ns(self) -> int | None:
         """Start time of the first readable input."""
@@ -358,11 +365,27 @@ class _ReadAhead(Iterator[ChannelChunk]):
         self._thread.join()
 
 
-def _members(directory: Path) -> list[Path]:
-    """The inputs of a directory archive: files with a known suffix, and ROS 2 bags."""
+OWN_OUTPUTS = ("corrected.csv",)
+"""Files an analysis writes into its ``--out`` folder that a reader would take for data:
+in a folder that also holds a ``findings.json`` (the analysis was written into the
+archive's own folder) they are the analyzer's, not inputs (a ``corrected.csv`` read
+back spans the time from 0 beside the archive's epoch times: the archive became
+unreadable)."""
+
+
+def _members(directory: Path, skipped: list[str] | None = None) -> list[Path]:
+    """The inputs of a directory archive: files with a known suffix, and ROS 2 bags; not
+    the analyzer's own outputs (:data:`OWN_OUTPUTS`), which are named in ``skipped``."""
     found = []
+    ours = (directory / "findings.json").is_file()
     for entry in sorted(directory.iterdir()):
         if entry.name.startswith("."):
+            continue
+        if ours and entry.name in OWN_OUTPUTS:
+            if skipped is not None:
+                skipped.append(
+                    f"{entry} not read: the analyzer's output beside {directory / 'findings.json'}"
+                )
             continue
         if entry.is_dir():
             if is_ros2_bag(entry):
@@ -398,12 +421,13 @@ def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
     if not paths:
         raise ReaderError("no input given")
     members: list[Path] = []
+    skipped: list[str] = []
     for raw in paths:
         path = Path(raw)
         if not path.exists():
             raise ReaderError(f"{path}: no such file or directory")
         if path.is_dir() and not is_ros2_bag(path):
-            found = _members(path)
+            found = _members(path, skipped)
             if not found:
                 raise ReaderError(
                     f"{path}: the directory holds no input (.mcap, .bag, .db3, .csv, .tsv, "
@@ -415,7 +439,7 @@ def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
                 detect_format(path)  # an explicit file of unknown format is a usage error
             members.append(path)
     if len(members) == 1:
-        return Archive([open_input(members[0])])
+        return Archive([open_input(members[0])], notes=skipped)
     readers: list[Reader] = []
     failed: list[InputInfo] = []
     for member, opened in zip(members, _open_members(members), strict=True):
@@ -428,4 +452,4 @@ def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
             f"none of the {len(members)} inputs can be read; first: {failed[0].path}: "
             f"{failed[0].errors[0]}"
         )
-    return Archive(readers, failed)
+    return Archive(readers, failed, skipped)

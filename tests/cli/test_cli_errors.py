@@ -452,3 +452,38 @@ def test_what_a_training_window_leaves_unsearched_is_noted(tmp_path, capsys):
         "the training window reaches the end of the data: nothing is left to search for "
         "faults (give a shorter one with --train)" in notes["0:60"]
     )
+
+
+def test_an_analysis_written_into_its_archive_folder_is_not_read_back(tmp_path, capsys):
+    """``--out`` the archive's own folder with ``--corrected``: the next run of that
+    folder read ``corrected.csv`` as data (its times from 0 beside the archive's epoch
+    times: a clock of 20 000 days, exit 2). Now the analyzer's output beside its
+    ``findings.json`` is not an input, and a run that writes no ``corrected.csv`` says
+    that the one in its folder is an earlier run's."""
+    t, Y, names = simulate_building(n_floors=3, duration_s=60.0, seed=1)
+    Y[len(t) // 2 :, 0] += 5.0 * Y[:, 0].std()
+    folder = tmp_path / "archive"
+    folder.mkdir()
+    write_archive(
+        folder / "part.mcap",
+        "mcap",
+        np.round(t * 1e9).astype(np.int64),
+        {c: Y[:, j] for j, c in enumerate(names)},
+        start_iso="2026-03-01T12:00:00Z",
+    )
+    code, _, err = run_cli(["run", folder, "--out", folder, "--corrected"], capsys)
+    assert code == 1, err
+    assert (folder / "corrected.csv").is_file()
+    first = json.loads((folder / "findings.json").read_text())
+    code, _, err = run_cli(["run", folder, "--out", tmp_path / "again"], capsys)
+    assert code == 1, err
+    again = json.loads((tmp_path / "again" / "findings.json").read_text())
+    assert [i["path"] for i in again["inputs"]] == [str(folder / "part.mcap")]
+    assert f"{folder / 'corrected.csv'} not read: the analyzer's output beside " in " ".join(
+        again["notes"]
+    )
+    assert [f["channel"] for f in again["faults"]] == [f["channel"] for f in first["faults"]]
+    code, _, err = run_cli(["run", folder, "--out", folder], capsys)
+    assert code == 1, err
+    notes = json.loads((folder / "findings.json").read_text())["notes"]
+    assert any("corrected.csv is not this run's" in n for n in notes)
