@@ -124,6 +124,50 @@ def _crowded_channels(
     return notes
 
 
+PARTIAL_SHARE = 0.05
+"""Share of the record (and at least :data:`PARTIAL_MIN_S`) a channel may miss at its
+start or end before a note says so."""
+PARTIAL_MIN_S = 10.0
+
+
+def _partial_channels(infos: Sequence[ChannelInfo], chosen: Sequence[str]) -> list[str]:
+    """Notes on the analyzed channels that start late or stop early (a sensor that died,
+    a file of another channel set): while one is missing, the detectors that model the
+    channels together lose their view of the others (the bank keeps only its estimator
+    that leaves it out), which a user would not guess from "no fault found"."""
+    by = {i.name: i for i in infos}
+    kept = [by[c] for c in chosen if c in by]
+    if len(kept) < 2:
+        return []
+    t0 = min(i.start_ns for i in kept)
+    t1 = max(i.end_ns for i in kept)
+    span_s = (t1 - t0) / NS_PER_S
+    least = max(PARTIAL_SHARE * span_s, PARTIAL_MIN_S)
+    notes = []
+    for i in kept:
+        late = (i.start_ns - t0) / NS_PER_S
+        early = (t1 - i.end_ns) / NS_PER_S
+        if late < least and early < least:
+            continue
+        what = " and ".join(
+            part
+            for part, on in (
+                (f"its first {late:.6g} s", late >= least),
+                (
+                    f"its last {early:.6g} s (after {(i.end_ns - t0) / NS_PER_S:.6g} s)",
+                    early >= least,
+                ),
+            )
+            if on
+        )
+        notes.append(
+            f"{i.name} has no sample in {what} of the record: where it is missing, the "
+            "detectors that model it with the others (ar_kalman_bank, detection_filter) "
+            f"lose their view of them too; --channels '!{i.name}' searches the others there"
+        )
+    return notes
+
+
 def _residual_tests(
     task: tuple[DetectorResult, tuple[str, ...], tuple[int, int], float],
 ) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -249,6 +293,7 @@ def _analyze(
         shutil.rmtree(work / "store", ignore_errors=True)
         trim_heap()  # and what reading freed (the CSV reader's Arrow buffers, say)
         notes.extend(_crowded_channels(infos, chosen, aligned.rate_hz))
+        notes.extend(_partial_channels(infos, chosen))
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
             aligned.start_ns
         )

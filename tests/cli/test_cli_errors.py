@@ -487,3 +487,30 @@ def test_an_analysis_written_into_its_archive_folder_is_not_read_back(tmp_path, 
     assert code == 1, err
     notes = json.loads((folder / "findings.json").read_text())["notes"]
     assert any("corrected.csv is not this run's" in n for n in notes)
+
+
+def test_a_channel_that_stops_early_is_noted(tmp_path, capsys):
+    """A sensor that stops reporting halfway (its samples cut from the file) left the
+    detectors that model it with the others blind there without a word."""
+    t, Y, names = simulate_building(n_floors=3, duration_s=60.0, seed=2)
+    channels = {c: Y[:, j] for j, c in enumerate(names)}
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(tmp_path / "whole.csv", "csv", t_ns, channels)
+    text = (tmp_path / "whole.csv").read_text().splitlines()
+    header, rows = text[0], text[1:]
+    cut = [
+        r if k < len(rows) // 2 else ",".join(r.split(",")[:-1] + [""]) for k, r in enumerate(rows)
+    ]
+    (tmp_path / "cut.csv").write_text("\n".join([header, *cut]) + "\n")
+    for name in ("whole", "cut"):
+        code, _, err = run_cli(["run", tmp_path / f"{name}.csv", "--out", tmp_path / name], capsys)
+        assert code in (0, 1), err
+    whole = json.loads((tmp_path / "whole" / "findings.json").read_text())["notes"]
+    cut_notes = json.loads((tmp_path / "cut" / "findings.json").read_text())["notes"]
+    assert not any("has no sample in" in n for n in whole)
+    last = names[-1]
+    assert any(
+        n.startswith(f"{last} has no sample in its last 30 s (after 29.995 s) of the record")
+        and f"--channels '!{last}'" in n
+        for n in cut_notes
+    ), cut_notes
