@@ -49,6 +49,17 @@ def _server_pid() -> int | None:
     return getattr(server, "_forkserver_pid", None)
 
 
+@pytest.fixture(autouse=True)
+def _no_server_left_by_other_tests():
+    """These tests check that a figure pool stops the fork server it started; one left
+    running by an earlier test in this process (the watcher's forked analyses) is
+    stopped first, so that the check is about the pool (it failed when tests/watch ran
+    before this file)."""
+    if _server_pid() is not None:
+        multiprocessing.forkserver._forkserver._stop()
+    yield
+
+
 def test_pool_draws_the_same_page_as_in_process(sample, monkeypatch):
     analysis, doc, in_process = sample
     kinds = _kinds(in_process)
