@@ -205,6 +205,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _warn(line: str) -> None:
+    """One line on stderr about an input of a run that went on (exit 0 or 1)."""
+    sys.stderr.write(f"analyzer: warning: {line}\n")
+
+
 def _progress_printer(enabled: bool) -> Any:
     """A progress bar on stderr (a terminal only): the stage, its share done and the
     seconds since the run began."""
@@ -264,6 +269,7 @@ def _run_options(args: argparse.Namespace) -> Any:
         time_source=args.time,
         corrected=args.corrected,
         progress=_progress_printer(not args.no_progress),
+        warn=_warn,
         model=args.model,
         save_model=getattr(args, "save_model", None),
         screen=args.screen,

@@ -49,6 +49,9 @@ class RunOptions:
     screen: list[str] | None = None
     """``--screen``: these detectors first, the others only when they find a fault
     (:func:`analyzer.pipeline.analyze_screened`)."""
+    warn: Callable[[str], None] | None = None
+    """Where :func:`analyzer.pipeline.run` says, once the outputs are written, what went
+    wrong with the inputs (a truncated file, samples dropped): the CLI's stderr."""
 
 
 DEFAULT_TRAIN_FRACTION = 0.2

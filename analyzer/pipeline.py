@@ -692,6 +692,8 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         write_outputs(analysis, out)
         if options.progress:
             options.progress("report", 1.0)
+        if options.warn is not None:
+            _warn_inputs(analysis, out, options.warn)
         if options.save_model is not None and analysis.saved is not None:
             save_model(options.save_model, analysis.saved)
         return 1 if analysis.faulty else 0
@@ -701,6 +703,20 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         raise
     finally:
         remove_scratch(work)
+
+
+WARNED_LINES = 5
+"""Lines of input errors :func:`run` repeats on stderr; findings.json has them all."""
+
+
+def _warn_inputs(analysis: Analysis, out: Path, warn: Callable[[str], None]) -> None:
+    """The inputs' errors (a truncated or unreadable file, samples dropped), which a run
+    that still exits 0 or 1 would otherwise keep to findings.json and the report."""
+    lines = [f"{i.path}: {e}" for i in analysis.inputs for e in i.errors]
+    for line in lines[:WARNED_LINES]:
+        warn(line)
+    if len(lines) > WARNED_LINES:
+        warn(f"{len(lines) - WARNED_LINES} more input errors in {out / 'findings.json'}")
 
 
 def _not_into_inputs(path: Path, inputs: Sequence[str | Path]) -> None:

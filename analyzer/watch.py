@@ -358,7 +358,10 @@ class _Runner:
         self.stopping = stopping
         self.ledger = ledger
         self.options = replace(
-            options, progress=None, jobs=1 if settings.jobs > 1 else options.jobs
+            options,
+            progress=None,
+            warn=None,  # an archive's input errors go to its own record
+            jobs=1 if settings.jobs > 1 else options.jobs,
         )
         self.queue: dict[str, ReadyArchive] = {}
         self.running: dict[str, _Job] = {}

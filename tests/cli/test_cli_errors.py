@@ -514,3 +514,22 @@ def test_a_channel_that_stops_early_is_noted(tmp_path, capsys):
         and f"--channels '!{last}'" in n
         for n in cut_notes
     ), cut_notes
+
+
+def test_a_run_that_goes_on_says_what_went_wrong_with_its_inputs(tmp_path, capsys):
+    """A truncated file is analyzed up to the damage (exit 0 or 1), and what was lost
+    was only in findings.json and the report: a run from a terminal said nothing."""
+    t, Y, names = simulate_building(n_floors=3, duration_s=240.0, seed=1)
+    src = tmp_path / "whole.mcap"
+    write_archive(
+        src, "mcap", np.round(t * 1e9).astype(np.int64), {c: Y[:, j] for j, c in enumerate(names)}
+    )
+    data = src.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: 3 * len(data) // 4])
+    code, _, err = run_cli(["run", src, "--out", tmp_path / "a"], capsys)
+    assert code in (0, 1) and err == ""
+    code, _, err = run_cli(["run", cut, "--out", tmp_path / "b"], capsys)
+    assert code in (0, 1), err
+    errors = json.loads((tmp_path / "b" / "findings.json").read_text())["inputs"][0]["errors"]
+    assert errors and err.splitlines() == [f"analyzer: warning: {cut}: {e}" for e in errors]
