@@ -438,6 +438,14 @@ def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
             if path.is_file() and not _suffix(path):
                 detect_format(path)  # an explicit file of unknown format is a usage error
             members.append(path)
+    # an input given twice (a file and its folder, a shell glob and the file again) is
+    # read once: its second copy would be dropped sample by sample as overlapping
+    once: dict[Path, Path] = {}
+    for member in members:
+        first = once.setdefault(member.resolve(), member)
+        if first is not member:
+            skipped.append(f"{member} given twice: read once")
+    members = list(once.values())
     if len(members) == 1:
         return Archive([open_input(members[0])], notes=skipped)
     readers: list[Reader] = []

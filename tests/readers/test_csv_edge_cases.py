@@ -220,3 +220,23 @@ def test_utf16_text_is_named_as_such(tmp_path: Path) -> None:
     path = tmp_path / "excel.csv"
     path.write_bytes(("time\ta\n" + "".join(f"{i}\t{i}\n" for i in range(5))).encode("utf-16"))
     raises(path, "UTF-16 text")
+
+
+def test_an_input_given_twice_is_read_once(tmp_path: Path) -> None:
+    """The same file twice on the command line (or a file and its folder) was read
+    twice, the second copy's samples each dropped as overlapping the first: noted as
+    an input error of 'overlapping' files. Now it is read once, and a note says so."""
+    from analyzer.readers import open_archive
+
+    folder = tmp_path / "logs"
+    folder.mkdir()
+    path = folder / "a.csv"
+    path.write_text("time,a,b\n" + rows(50))
+    archive = open_archive([path, folder, str(folder / "." / "a.csv")])
+    assert [str(i.path) for i in archive.inputs] == [str(path)]
+    assert archive.notes == [
+        f"{folder / 'a.csv'} given twice: read once",
+        f"{folder / '.' / 'a.csv'} given twice: read once",
+    ]
+    got = collect(archive.chunks())
+    assert len(got["a"][1]) == 50 and archive.inputs[0].errors == []
