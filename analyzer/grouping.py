@@ -60,6 +60,12 @@ def partition(
     groups: list[list[int]] = []
     notes: list[str] = []
     for g in configured:
+        absent = [c for c in dict.fromkeys(g.get("channels", [])) if c not in index]
+        if absent:
+            notes.append(
+                f"[[group]] {g.get('name', '?')}: {', '.join(absent)} not analyzed (not in "
+                "the archive, left out by --channels, or constant in the training window)"
+            )
         members = [index[c] for c in g.get("channels", []) if c in index]
         members = sorted(set(members))
         if len(members) >= 2:

@@ -160,3 +160,18 @@ def test_skip_reasons_over_many_groups_make_one_readable_line():
         "(and on 2 more channel groups)",
         "equivalent_model (s0..s15) needs 3 channels",
     ]
+
+
+def test_a_group_channel_not_analyzed_is_named():
+    """A [[group]] naming a channel the archive does not have (a typo, say) was taken
+    without a word."""
+    rng = np.random.default_rng(0)
+    train = rng.standard_normal((500, 3))
+    groups, notes = partition(
+        ["a", "b", "c"], train, [{"name": "g", "channels": ["a", "b", "/nosuch", "/nosuch"]}]
+    )
+    assert any({"a", "b"} <= set(g) for g in groups)
+    assert notes[0] == (
+        "[[group]] g: /nosuch not analyzed (not in the archive, left out by --channels, or "
+        "constant in the training window)"
+    )
