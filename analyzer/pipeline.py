@@ -65,7 +65,7 @@ from analyzer.reuse import (
     warmup,
 )
 from analyzer.scratch import make_scratch, remove_scratch, scratch
-from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore
+from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, dominant_rate
 from analyzer.timeutil import iso_utc, plausible_epoch
 from analyzer.types import NS_PER_S
 
@@ -294,6 +294,14 @@ def _analyze(
         trim_heap()  # and what reading freed (the CSV reader's Arrow buffers, say)
         notes.extend(_crowded_channels(infos, chosen, aligned.rate_hz))
         notes.extend(_partial_channels(infos, chosen))
+        if reused is not None:
+            own = dominant_rate([i.rate_hz for i in infos if i.name in set(chosen)])
+            if own > 0 and abs(own - reused.rate_hz) > 0.01 * reused.rate_hz:
+                notes.append(
+                    f"the channels run at {own:.6g} Hz and the model at {reused.rate_hz:.6g} "
+                    "Hz: they are resampled onto the model's clock (a model fitted at their "
+                    "own rate fits them best)"
+                )
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
             aligned.start_ns
         )

@@ -225,6 +225,20 @@ def test_channels_beyond_the_model_are_named_in_a_note(model, record, tmp_path):
     assert [c["name"] for c in doc["channels"] if c["analyzed"]] == record[2]
 
 
+def test_channels_at_another_rate_than_the_model_are_noted(model, record, tmp_path):
+    """A model fitted at 100 Hz run on a 50 Hz file: resampled onto the model's clock
+    without a word; the rate the file itself was recorded at says so now."""
+    t, y = _piece(record, 0)
+    src = _write(tmp_path / "half.csv", t[::2], y[::2], record[2])
+    assert _main(["run", src, "--out", tmp_path / "o", "--model", model]) in (0, 1)
+    notes = json.loads((tmp_path / "o" / "findings.json").read_text())["notes"]
+    assert any(n.startswith("the channels run at 50 Hz and the model at 100 Hz") for n in notes)
+    same = _write(tmp_path / "same.csv", t, y, record[2])
+    assert _main(["run", same, "--out", tmp_path / "s", "--model", model]) == 0
+    notes = json.loads((tmp_path / "s" / "findings.json").read_text())["notes"]
+    assert not any("the channels run at" in n for n in notes)
+
+
 def test_an_archive_without_a_model_channel_is_refused(model, record, tmp_path, capsys):
     t, y = _piece(record, 0)
     src = _write(tmp_path / "p.csv", t, y[:, :4], record[2][:4])
