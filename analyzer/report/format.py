@@ -51,11 +51,14 @@ def duration(x: float) -> str:
         return MISSING
     if s < 120:
         return f"{s:.3f} s"
-    h, rem = divmod(s, 3600.0)
-    m, sec = divmod(rem, 60.0)
-    if h >= 1:
-        return f"{int(h)} h {int(m)} min {sec:.0f} s"
-    return f"{int(m)} min {sec:.1f} s"
+    # rounded to what is shown before it is split: 599.99 s is 10 min 0.0 s, not 9 min 60.0 s
+    tenths = round(s * 10)
+    if tenths < 36000:
+        m, rest = divmod(tenths, 600)
+        return f"{m} min {rest / 10:.1f} s"
+    h, rem = divmod(round(s), 3600)
+    m, sec = divmod(rem, 60)
+    return f"{h} h {m} min {sec} s"
 
 
 def size(n_bytes: int | None) -> str:

@@ -195,3 +195,15 @@ def test_compact_path_matches_the_group_form():
     out = clean_svg(raw, "k")
     assert f'd="{" ".join((want_d + " z").split())}"' in out
     assert 'x="1.2"' in out and 'y="-0.9"' in out
+
+
+def test_durations_are_rounded_before_they_are_split():
+    """599.99 s read "9 min 60.0 s" in the report."""
+    from analyzer.report.format import duration
+
+    assert duration(59.995) == "59.995 s"
+    assert duration(599.99) == "10 min 0.0 s"
+    assert duration(725.0) == "12 min 5.0 s"
+    assert duration(3599.96) == "1 h 0 min 0 s"
+    assert duration(86399.4) == "23 h 59 min 59 s"
+    assert duration(86399.6) == "24 h 0 min 0 s"
