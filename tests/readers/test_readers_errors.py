@@ -184,6 +184,13 @@ def _custom_type_bag(path: Path) -> None:
             )
 
 
+def _msg_file(root: Path, msgtype: str, text: str) -> None:
+    """``root/<package>/msg/<Type>.msg`` holding ``text``: a message path's definition."""
+    path = root / f"{msgtype}.msg"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+
+
 def _strip_definitions(bag: Path) -> None:
     for db in bag.glob("*.db3"):
         with sqlite3.connect(db) as conn:
@@ -222,9 +229,7 @@ def test_a_message_path_defines_what_the_bag_does_not(tmp_path: Path, monkeypatc
     _strip_definitions(bag)
     with pytest.raises(ReaderError, match=r"give the folder .* with --msg-path"):
         open_input(bag)
-    msg = tmp_path / "msgs" / "my_pkg" / "msg"
-    msg.mkdir(parents=True)
-    (msg / "Reading.msg").write_text("float64 value\nstring label\n")
+    _msg_file(tmp_path / "msgs", "my_pkg/msg/Reading", "float64 value\nstring label\n")
     (tmp_path / "msgs" / "my_pkg" / "README.msg").write_text("not in a msg/ folder: ignored")
     monkeypatch.setenv(
         MSG_PATH_ENV, str(tmp_path / "nowhere") + os.pathsep + str(tmp_path / "msgs")
@@ -233,9 +238,7 @@ def test_a_message_path_defines_what_the_bag_does_not(tmp_path: Path, monkeypatc
         open_input(bag)
     # a workspace of another distribution may define a standard type differently: its
     # definition is the one kept, not an error
-    other = tmp_path / "msgs" / "std_msgs" / "msg"
-    other.mkdir(parents=True)
-    (other / "String.msg").write_text("string data\nint32 revision\n")
+    _msg_file(tmp_path / "msgs", "std_msgs/msg/String", "string data\nint32 revision\n")
     monkeypatch.setenv(MSG_PATH_ENV, str(tmp_path / "msgs"))
     got = collect(open_input(bag).chunks())
     np.testing.assert_array_equal(got["/reading.value"][1], np.arange(5.0))
@@ -283,9 +286,7 @@ def test_an_mcap_schema_without_definition_reads_with_a_message_path(
         "18-byte messages: unknown without definitions (--msg-path: the directories of its "
         "package's msg/ files); skipped"
     ]
-    msg = tmp_path / "msgs" / "my_pkg" / "msg"
-    msg.mkdir(parents=True)
-    (msg / "Reading.msg").write_text("float64 value\nstring label\n")
+    _msg_file(tmp_path / "msgs", "my_pkg/msg/Reading", "float64 value\nstring label\n")
     monkeypatch.setenv(MSG_PATH_ENV, str(tmp_path / "msgs"))
     got = collect(open_input(path).chunks())
     np.testing.assert_array_equal(got["/reading.value"][1], np.arange(5.0))
