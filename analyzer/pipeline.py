@@ -45,7 +45,7 @@ from analyzer.grouping import partition
 from analyzer.modelfile import SavedModel, check_model_path, save_model
 from analyzer.options import MIN_TRAIN_ROWS, RunOptions, default_train, load_options, parse_train
 from analyzer.outdir import prepare_dir, remove_if_empty
-from analyzer.paging import release, trim_heap
+from analyzer.paging import release, row_blocks, trim_heap
 from analyzer.parallel import (
     DaskExecutor,
     Executor,
@@ -607,15 +607,26 @@ for a few samples carries nothing to model, and those few make the detectors' re
 singular (the whole detector was then skipped, and a fault on another sensor missed)."""
 
 
+MEDIAN_ROWS = 1 << 16
+"""Rows, evenly spaced, whose median stands for a long training window's (a value held in
+99 % of the window is the median of any such sample of it)."""
+
+
 def _mostly_one_value(tv: Any) -> npt.NDArray[np.bool_]:
-    """Columns of the training rows ``tv`` whose finite samples sit at their median in at
-    least :data:`MOSTLY_ONE_VALUE` of the rows."""
-    finite = np.isfinite(tv)
-    count = finite.sum(axis=0)
+    """Columns of the training rows ``tv`` whose finite samples sit at one value (their
+    median) in at least :data:`MOSTLY_ONE_VALUE` of the rows; counted a block of rows at
+    a time (a day-long window is not copied)."""
+    n = tv.shape[0]
+    sample = np.asarray(tv[:: max(1, n // MEDIAN_ROWS)], dtype=np.float64)
     with np.errstate(all="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # an empty column's median: NaN
-        median = np.nanmedian(np.where(finite, tv, np.nan), axis=0)
-    at = (tv == median).sum(axis=0)
+        median = np.nanmedian(sample, axis=0)
+    count = np.zeros(tv.shape[1], dtype=np.int64)
+    at = np.zeros(tv.shape[1], dtype=np.int64)
+    for _, block in row_blocks(tv):
+        rows = np.asarray(block)
+        count += np.isfinite(rows).sum(axis=0)
+        at += (rows == median).sum(axis=0)
     return np.asarray((count > 0) & (at >= MOSTLY_ONE_VALUE * count), dtype=bool)
 
 
