@@ -470,7 +470,11 @@ class AlignedSeries:
         included) is added, and they are then NaN (gaps): what an analysis takes, since
         such a value is an overrange or error code, or a corrupt cell, not a reading, and
         one of them would otherwise swamp every estimate it enters.
-        """
+
+        A file-backed matrix is filled a block of rows at a time in memory and each block
+        written to the file by ``pwrite``: stored through the mapping (a channel's column
+        at a time), every page of the new file was faulted in and zeroed by the kernel
+        before being overwritten (2 % of a 4-hour run's CPU)."""
         shape = (self.n, len(self.channels))
         if path is None:
             out: FloatArray = np.empty(shape)
