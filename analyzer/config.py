@@ -164,6 +164,15 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
         }
         if not group["channels"]:
             group["channels"] = [*group["reference"], *group["uncertain"]]
+        for earlier in cfg.groups:
+            shared = [c for c in group["channels"] if c in earlier["channels"]]
+            if shared:
+                # each detector models a group on its own: a channel in two would be
+                # analyzed (and reported) twice, under two different models
+                raise ConfigError(
+                    f"{p}: [[group]] {group['name']!r} and [[group]] {earlier['name']!r} "
+                    f"share {', '.join(shared)}: a channel belongs to one group"
+                )
         cfg.groups.append(group)
     if "model" in raw:
         cfg.model = load_model(raw["model"], p)

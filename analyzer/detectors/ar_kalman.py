@@ -63,7 +63,13 @@ from analyzer.diagnosis.changes import (
     detect,
     detection_confidence,
 )
-from analyzer.diagnosis.classify import MIN_GAIN, Classification, correlation_time
+from analyzer.diagnosis.classify import (
+    MIN_GAIN,
+    Classification,
+    ReferenceSlope,
+    correlation_time,
+    reference_slope,
+)
 from analyzer.diagnosis.events import bounded_onset, diagnose_interval
 from analyzer.errors import DetectorError
 from analyzer.paging import (
@@ -84,6 +90,12 @@ every estimator alike (a burst of excitation) must not mask a sensor fault."""
 MAX_CHANNELS = 64
 """A bank of m estimators with p m states each costs O(m^3 p^2) per sample: beyond this,
 the user should choose the sensors to analyze."""
+MAX_STATES = 640
+"""Most states (AR order times channels) an estimator of the bank may have: the largest
+the defaults give (64 channels at the criteria's highest order, 10). Each estimator's
+Riccati solution costs the cube of it: 4 channels of 10 minutes fitted and ran in 7 s at
+order 10 (40 states), 11 s at 80, 69 s at 160 (640 states); an order of 500 (2000
+states) ran for 13 minutes without a word before this limit."""
 
 
 AUTO_BLOCK = {2: 64, 6: 32}
@@ -151,6 +163,15 @@ class ARKalmanBank:
             return (
                 f"{len(data.channels)} channels are too many for one bank (at most "
                 f"{MAX_CHANNELS}): select the sensors with --channels"
+            )
+        fixed = isinstance(self.order, int)
+        highest = self.order if isinstance(self.order, int) else self.max_order
+        if highest * len(data.channels) > MAX_STATES:
+            setting = "order" if fixed else "max_order"
+            return (
+                f"{setting} {highest} with {len(data.channels)} channels makes estimators of "
+                f"{highest * len(data.channels)} states (at most {MAX_STATES}: the fit's cost "
+                f"grows with their cube); set a lower [detectors.{self.name}] {setting}"
             )
         return None
 
@@ -347,6 +368,10 @@ class ARKalmanBank:
         resid0: npt.NDArray[Any] = out.resid
         est0: npt.NDArray[Any] = out.est
         fixes: list[tuple[int, int, int, FloatArray]] = []  # (channel, a, b, corrected)
+        # each residual's healthy share of its estimate, left out of fault shapes
+        # (over the healthy window's second half, as events_from_residual measures it)
+        healthy = slice((data.train[0] + train_stop) // 2, train_stop)
+        slopes = [reference_slope(resid0[healthy, j], est0[healthy, j]) for j in range(m)]
 
         def consistency(lo: int, hi: int) -> FloatArray:
             return self._consistency(model, Y, fixes, lo, hi, context)
@@ -368,6 +393,7 @@ class ARKalmanBank:
                 lambda j, lo, hi: self._longest_violation(model, Y, fixes, j, lo, hi),
                 context.workdir if context.map_outputs else None,
                 names=data.channels,
+                slopes=slopes,
             )
             release(out.resid)  # what the search read of memory-mapped outputs
             release(out.est)
@@ -588,6 +614,7 @@ class ARKalmanBank:
         scratch: Path | None = None,
         *,
         names: Sequence[str],
+        slopes: Sequence[ReferenceSlope | None] | None = None,
     ) -> tuple[Event | None, list[tuple[int, int, int]], Classification | None] | None:
         """The earliest not-yet-explained fault, isolated to one sensor, or None
         (``names``: the channels, which the evidence names the candidates and estimators by).
@@ -677,7 +704,15 @@ class ARKalmanBank:
                 limit = max(iv.onset + span, t2 - span)
                 break
         cls, end = diagnose_interval(
-            resid[:, j], est[:, j], cal, iv, rate, model.tau[j], limit, scratch=scratch
+            resid[:, j],
+            est[:, j],
+            cal,
+            iv,
+            rate,
+            model.tau[j],
+            limit,
+            scratch=scratch,
+            slope=None if slopes is None else slopes[j],
         )
         stop = N if end is None else end
         if not isolated:

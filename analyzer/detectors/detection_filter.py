@@ -620,7 +620,7 @@ class DetectionFilter:
         # reused by the next task of the same thread
         scratch = ScratchRows(context.workdir if context.map_outputs else None)
         tasks = [
-            (model, i, names[i], zetas, refs, rate, self.name, train_stop, scratch)
+            (model, i, names[i], zetas, refs, rate, self.name, data.train, scratch)
             for i in range(m)
         ]
         found = context.map_shared(_filter_events_task, tasks)
@@ -801,7 +801,7 @@ def _sensor_unit_pieces(
 
 def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
     """Filter ``i``: the candidate events of its fault estimate ``zetas[i]``."""
-    model, i, name, zetas, refs, rate, detector, train_stop, scratch = task
+    model, i, name, zetas, refs, rate, detector, (train_start, train_stop), scratch = task
     n = refs[i].shape[0]
     with scratch.row(f"units{i}", n) as into:
         # float64, low-passed as each piece comes: a long archive's row is written once
@@ -816,6 +816,7 @@ def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
             rate,
             detector,
             search_start=train_stop,
+            healthy_start=train_start,
             tau_corr=model.tau[i],
             scratch=scratch.workdir,
         )

@@ -335,7 +335,6 @@ class EquivalentModel:
         values = np.asarray(data.values)
         rate = data.rate_hz
         net = model.network
-        train_stop = data.train[1]
         residuals: dict[str, FloatArray] = {}
         reference: dict[str, FloatArray] = {}
         cands: dict[str, list[Event]] = {}
@@ -359,7 +358,7 @@ class EquivalentModel:
                 data.channels[ob.target],
                 rate,
                 self.name,
-                train_stop,
+                data.train,
                 None if kept is None else (kept[0][:, k], kept[1][:, k]),
                 scratch,
             )
@@ -523,7 +522,14 @@ def _fit_observer_task(task: tuple[Any, ...]) -> tuple[TargetObserver, int]:
 
 def _observer_task(
     task: tuple[
-        TargetObserver, FloatArray, str, float, str, int, tuple[Any, Any] | None, ScratchRows
+        TargetObserver,
+        FloatArray,
+        str,
+        float,
+        str,
+        tuple[int, int],
+        tuple[Any, Any] | None,
+        ScratchRows,
     ],
 ) -> tuple[npt.NDArray[Any], npt.NDArray[Any], list[Event]]:
     """One observer over the archive: its fault estimate (residual), the estimate from
@@ -532,7 +538,7 @@ def _observer_task(
     (rows of memory-mapped buffers) when there are. For a long archive the two float64
     signals the event search reads are scratch rows (memory-mapped, reused by the next
     observer), and every pass gives back what it is done with."""
-    ob, values, name, rate, detector, train_stop, into, scratch = task
+    ob, values, name, rate, detector, (train_start, train_stop), into, scratch = task
     n = values.shape[0]
     with scratch.row("observer-zeta", n) as zeta_row, scratch.row("observer-z", n) as z_row:
         # the fault estimate is searched whole, in float64 (the pass's own array without
@@ -563,6 +569,7 @@ def _observer_task(
             rate,
             detector,
             search_start=train_stop,
+            healthy_start=train_start,
             tau_corr=ob.tau,
             scratch=scratch.workdir,
         )

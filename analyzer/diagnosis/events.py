@@ -22,7 +22,12 @@ from analyzer.diagnosis.changes import (
     detection_confidence,
     intervals,
 )
-from analyzer.diagnosis.classify import Classification, classify
+from analyzer.diagnosis.classify import (
+    Classification,
+    ReferenceSlope,
+    classify,
+    reference_slope,
+)
 from analyzer.paging import buffer, release
 
 FloatArray = npt.NDArray[np.float64]
@@ -37,15 +42,25 @@ def events_from_residual(
     detector: str,
     *,
     search_start: int = 0,
+    healthy_start: int | None = None,
     tau_corr: float = 1.0,
     evidence: dict[str, Any] | None = None,
     scratch: Path | None = None,
 ) -> list[Event]:
     """Events on ``channel`` from its residual (measured - estimated). ``scratch``: a
     directory for the memory-mapped buffer of a long fault's corrected residual
-    (:func:`diagnose_interval`)."""
+    (:func:`diagnose_interval`). ``healthy_start``: where the healthy window that ends at
+    ``search_start`` begins; given, the residual's healthy share of the reference
+    (:class:`~analyzer.diagnosis.classify.ReferenceSlope`) is measured over the window's
+    second half and left out of each fault's shape."""
     out: list[Event] = []
     n = residual.shape[0]
+    slope = None
+    if reference is not None and healthy_start is not None and healthy_start < search_start:
+        # its second half: the filters settle from their initial state in the first (an
+        # observer starting at zero under a level of 1000 gave a slope of -0.98)
+        settled = (healthy_start + search_start) // 2
+        slope = reference_slope(residual[settled:search_start], reference[settled:search_start])
     covered = search_start
     # the search computes the alarm statistic a piece at a time (its memory does not grow
     # with the record); each fault's end is searched on the statistic of a stretch from
@@ -57,7 +72,15 @@ def events_from_residual(
         if iv.onset < covered:
             continue  # inside a fault already extended over this stretch
         cls, end = diagnose_interval(
-            residual, reference, cal, iv, rate_hz, tau_corr, scratch=scratch, index=index
+            residual,
+            reference,
+            cal,
+            iv,
+            rate_hz,
+            tau_corr,
+            scratch=scratch,
+            index=index,
+            slope=slope,
         )
         covered = n if end is None else end
         onset_s, factor, extra = bounded_onset(iv.onset, cls, rate_hz, search_start)
@@ -120,6 +143,7 @@ def diagnose_interval(
     statistic: FloatArray | None = None,
     scratch: Path | None = None,
     index: SumsIndex | None = None,
+    slope: ReferenceSlope | None = None,
 ) -> tuple[Classification, int | None]:
     """Classify the fault that starts at ``iv`` and find where it really ends.
 
@@ -142,7 +166,8 @@ def diagnose_interval(
     when given (a fault that lasts to the end of a long archive). ``index``: the running
     sums of a pass of :func:`~analyzer.diagnosis.changes.detect` over the same residual
     with the same ``cal``, from which both searches start (instead of summing the
-    residual from its first sample; the same sums bit for bit)."""
+    residual from its first sample; the same sums bit for bit). ``slope``: the healthy
+    residual's share of the reference, left out of the shape's fit (:func:`classify`)."""
     n = residual.shape[0]
     limit = n if classify_until is None else max(iv.onset + 3, classify_until)
     stop = min(n if iv.end is None else iv.end, limit)
@@ -152,7 +177,9 @@ def diagnose_interval(
     def fit(stop: int) -> Classification:
         seg_ref = None if ref is None else ref[iv.onset : stop]
         # the stretch as it lies (a view): classify reads it a piece at a time
-        return classify(r[iv.onset : stop], seg_ref, cal.std, rate_hz, tau_corr, shift=cal.mean)
+        return classify(
+            r[iv.onset : stop], seg_ref, cal.std, rate_hz, tau_corr, shift=cal.mean, slope=slope
+        )
 
     def has_shape(cls: Classification) -> bool:
         # the shape is elementwise in tau and the reference: a stretch of it is the whole

@@ -150,6 +150,59 @@ def test_config_typos_in_any_detector_section_are_errors(section, text, needle, 
     assert "__init__" not in line and "keyword argument" not in line
 
 
+def test_config_groups_sharing_a_channel_are_an_error(tmp_path, capsys):
+    """Each detector models a [[group]] on its own: a channel in two would be analyzed
+    (and reported) twice, under two models. The error names both groups and the channel."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(
+        '[[group]]\nname = "east"\nchannels = ["s0", "s1"]\n'
+        '[[group]]\nname = "west"\nreference = ["s2"]\nuncertain = ["s1"]\n'
+    )
+    argv = ["run", _csv(tmp_path / "a.csv"), "--out", tmp_path / "o", "--config", cfg]
+    code, _, err = run_cli(argv, capsys)
+    assert code == 2
+    one_line_error(err, str(cfg), "'west'", "'east'", "s1")
+    assert not (tmp_path / "o" / "findings.json").exists()
+
+
+def test_an_ar_order_the_bank_cannot_afford_is_refused(tmp_path, capsys):
+    """order 500 on 3 channels (1500 states) ran for minutes without a word: asked for
+    explicitly, the bank is an error naming the setting; by default it is skipped with the
+    reason and the other detectors run."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[detectors.ar_kalman_bank]\norder = 500\n")
+    src = _csv(tmp_path / "a.csv")
+    argv = ["run", src, "--out", tmp_path / "o", "--config", cfg]
+    code, _, err = run_cli([*argv, "--detectors", "ar_kalman_bank"], capsys)
+    assert code == 2
+    one_line_error(err, "ar_kalman_bank", "order 500", "1500 states", "lower")
+    code, _, err = run_cli(argv, capsys)
+    assert code in (0, 1)
+    skipped = json.loads((tmp_path / "o" / "findings.json").read_text())["skipped_detectors"]
+    assert "order 500" in skipped["ar_kalman_bank"]
+
+
+def test_weak_findings_of_a_lenient_false_alarm_rate_are_named(tmp_path, capsys):
+    """A false-alarm rate of 1e-2 per sample reports chance peaks of healthy data, with
+    confidences of 0.0: a note names those below 0.05 and the rate, and only those."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[thresholds]\nfalse_alarm_rate = 1e-2\n")
+    src = _csv(tmp_path / "a.csv", seconds=600.0, seed=1)
+    code, _, _ = run_cli(["run", src, "--out", tmp_path / "o", "--config", cfg], capsys)
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    weak = [f for f in doc["faults"] if f["confidence"] < 0.05]
+    assert code == 1 and weak  # the healthy record's chance peaks
+    notes = [n for n in doc["notes"] if "confidence below 0.05" in n]
+    assert len(notes) == 1 and notes[0].startswith(f"{len(weak)} of {len(doc['faults'])} ")
+    assert "false-alarm rate of 0.01" in notes[0]
+    for f in weak[:5]:
+        assert f"{f['channel']} at {f['onset_s']:.1f} s" in notes[0]
+    cfg.write_text("[thresholds]\nfalse_alarm_rate = 1e-6\n")  # the default: no such note
+    run_cli(["run", src, "--out", tmp_path / "o2", "--config", cfg], capsys)
+    doc = json.loads((tmp_path / "o2" / "findings.json").read_text())
+    assert not [n for n in doc["notes"] if "confidence below" in n]
+
+
 def test_config_train_window_after_the_data(tmp_path, capsys):
     cfg = tmp_path / "c.toml"
     cfg.write_text("[train]\nstart = 100.0\nend = 200.0\n")

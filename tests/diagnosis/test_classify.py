@@ -233,3 +233,54 @@ def test_a_noisier_stretch_is_not_taken_for_a_gain():
     offset = classify(1.5 + noisy, y, sigma, rate)
     assert drift.type is FaultType.DRIFT and drift.noise_scale == pytest.approx(2.0, rel=0.02)
     assert offset.type is FaultType.ADDITIVE and offset.noise_scale == pytest.approx(2.0, rel=0.02)
+
+
+def test_reference_slope_is_the_least_squares_slope_in_pieces(monkeypatch):
+    """The healthy residual's slope on its reference equals numpy's least-squares line,
+    taken a piece at a time about the first piece's means (NaNs in either left out)."""
+    import importlib
+
+    mod = importlib.import_module("analyzer.diagnosis.classify")  # the module, not the function
+    monkeypatch.setattr(mod, "CLASSIFY_PIECE", 1000)
+    rng = np.random.default_rng(5)
+    y = 1000.0 + 2.0 * rng.standard_normal(5500)
+    r = 0.3 + 0.012 * (y - 1000.0) + 0.2 * rng.standard_normal(5500)
+    r[[3, 2000]] = np.nan
+    y[[10, 4999]] = np.nan
+    ok = np.isfinite(r) & np.isfinite(y)
+    expected, _ = np.polyfit(y[ok], r[ok], 1)
+    got = mod.reference_slope(r, y)
+    assert got is not None
+    assert got.slope == pytest.approx(expected, rel=1e-9)
+    assert got.level == pytest.approx(np.mean(y[ok]), rel=1e-12)
+    assert mod.reference_slope(r, np.full(5500, 7.0)) is None  # a reference that never varies
+    assert mod.reference_slope(r[:5], y[:5]) is None
+
+
+def test_an_offset_on_a_large_level_is_not_the_healthy_slope_read_as_a_gain():
+    """An estimator's healthy residual follows its estimate a little (slope 0.01 here, as
+    measured on the simulated building). On a reading at 1000, an offset of 2 implies a
+    gain of 1.002, which takes that slope for evidence: without the healthy slope the
+    offset is classified as a gain; with it, as the offset it is. A true gain of 1.002
+    on the same reading stays a gain (its noise scales and its variation grows beyond the
+    healthy slope), and with a healthy slope of 0 nothing changes."""
+    from analyzer.diagnosis.classify import ReferenceSlope
+
+    rng = np.random.default_rng(21)
+    rate, n, sigma = 100.0, 30_000, 0.24
+    y = 1000.0 + 2.3 * np.sin(2 * np.pi * 0.7 * np.arange(n) / rate + rng.uniform(0, 6))
+    healthy = ReferenceSlope(0.01, 1000.0)
+    e = 0.01 * (y - 1000.0) + sigma * rng.standard_normal(n)  # residual with the slope
+    offset = 2.16 + e
+    assert classify(offset, y, sigma, rate).type is FaultType.MULTIPLICATIVE  # the confusion
+    fixed = classify(offset, y, sigma, rate, slope=healthy)
+    assert fixed.type is FaultType.ADDITIVE and fixed.confidence > 0.9
+    assert fixed.magnitude["offset"] == pytest.approx(2.16, abs=0.01)
+    gain = 1.05  # on the healthy reading y + e
+    faulty = classify((gain - 1.0) * y + gain * e, y, sigma, rate, slope=healthy)
+    assert faulty.type is FaultType.MULTIPLICATIVE
+    assert faulty.magnitude["gain"] == pytest.approx(gain, abs=1e-3)
+    plain = 2.16 + sigma * rng.standard_normal(n)  # no healthy slope: the same either way
+    unsloped = classify(plain, y, sigma, rate)
+    zero = classify(plain, y, sigma, rate, slope=ReferenceSlope(0.0, 1000.0))
+    assert unsloped.type is FaultType.ADDITIVE and zero.weights == unsloped.weights
