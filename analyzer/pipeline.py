@@ -395,6 +395,7 @@ def _analyze(
             raise _no_detector_error(skipped, tr, options)
         findings, found_notes = diagnose(results)
         notes.extend(found_notes)
+        notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
         if screen is not None:
             notes.append(screen_note)
         t0 = time.perf_counter()
@@ -468,6 +469,35 @@ def _cancel(tests: list[Any]) -> None:
     for _, handle in tests:
         if handle is not None:
             handle.cancel()
+
+
+WEAK_CONFIDENCE = 0.05
+"""A finding below this confidence is named in a note: its alarm is about as likely a
+chance peak of healthy data as a fault."""
+LENIENT_RATE = 1e-4
+"""A false-alarm rate above this (per sample) is named as the likely cause of weak findings."""
+
+
+def _weak_findings_note(findings: Sequence[Finding], false_alarm_rate: float) -> list[str]:
+    """A note naming the findings of confidence below :data:`WEAK_CONFIDENCE`: a fault
+    shape that explains little, or an alarm no larger than healthy data of the record's
+    length shows by chance (at a ``false_alarm_rate`` of 1e-2 per sample: findings of
+    confidence 0.0, reported without a word before this note)."""
+    weak = [f for f in findings if f.confidence < WEAK_CONFIDENCE]
+    if not weak:
+        return []
+    named = ", ".join(f"{f.channel} at {f.onset_s:.1f} s" for f in weak[:5])
+    more = f" and {len(weak) - 5} more" if len(weak) > 5 else ""
+    why = (
+        f"; a false-alarm rate of {false_alarm_rate:g} per sample reports healthy data's "
+        "chance peaks too"
+        if false_alarm_rate > LENIENT_RATE
+        else ""
+    )
+    return [
+        f"{len(weak)} of {len(findings)} findings have a confidence below {WEAK_CONFIDENCE} "
+        f"({named}{more}): weak evidence, each about as likely no fault{why}"
+    ]
 
 
 def _diagnose(
