@@ -61,7 +61,12 @@ _MAGICS: tuple[tuple[bytes, Format], ...] = (
     (b"\x89MCAP0\r\n", Format.MCAP),
     (b"#ROSBAG V", Format.ROS1BAG),
     (b"SQLite format 3\x00", Format.ROS2BAG),
+    (b'"TOA5",', Format.CSV),  # a Campbell Scientific logger's table, mostly named .dat
 )
+
+TOA5_SUFFIX = ".dat"
+"""Files of a directory archive with this suffix are inputs when they are TOA5 tables (a
+Campbell logger's CardConvert output): ``.dat`` names many other kinds of file."""
 
 
 def _suffix(path: Path) -> str:
@@ -107,8 +112,8 @@ def detect_format(path: str | Path) -> Format:
     if head.startswith(b"\x89MCAP"):
         return Format.MCAP  # damaged magic: the MCAP reader says how
     raise ReaderError(
-        f"{path}: unknown format (expected .mcap, .bag, .db3, .csv, .tsv, .csv.gz or a "
-        "ROS 2 bag directory)"
+        f"{path}: unknown format (expected .mcap, .bag, .db3, .csv, .tsv, .csv.gz, a TOA5 "
+        "table or a ROS 2 bag directory)"
     )
 
 
@@ -390,9 +395,20 @@ def _members(directory: Path, skipped: list[str] | None = None) -> list[Path]:
         if entry.is_dir():
             if is_ros2_bag(entry):
                 found.append(entry)
-        elif _suffix(entry):
+        elif _suffix(entry) or _is_toa5(entry):
             found.append(entry)
     return found
+
+
+def _is_toa5(path: Path) -> bool:
+    """A ``.dat`` file that starts as a TOA5 table does."""
+    if not path.name.lower().endswith(TOA5_SUFFIX):
+        return False
+    try:
+        with path.open("rb") as handle:
+            return handle.read(7) == b'"TOA5",'
+    except OSError:
+        return False
 
 
 def _failed(path: Path, err: ReaderError) -> InputInfo:
@@ -431,7 +447,7 @@ def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
             if not found:
                 raise ReaderError(
                     f"{path}: the directory holds no input (.mcap, .bag, .db3, .csv, .tsv, "
-                    ".csv.gz or ROS 2 bag directories)"
+                    ".csv.gz, TOA5 .dat or ROS 2 bag directories)"
                 )
             members.extend(found)
         else:

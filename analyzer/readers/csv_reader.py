@@ -1,11 +1,30 @@
 """CSV / TSV reader (optionally gzip-compressed).
 
-Layout detection, from the first lines: the separator (``,`` ``;`` tab ``|``: the one that
-splits every sample line into the same number of fields, tab and ``;`` preferred since
-they rule out a decimal comma), the decimal mark (``1,5`` under a ``;`` or tab separator),
-the header (first line; a repeated name gets ``_2``, ``_3``, ... so that two columns never
-share a channel) and the time column: the first column named ``time``, ``timestamp``,
-``t``, ``__time``, ``%time`` or ``datetime`` (any case), else the first column.
+Layout detection, from the first 64 KiB: the separator (``,`` ``;`` tab ``|``: the one that
+splits every one of the first 50 non-blank lines into the same number of fields, tab and
+``;`` preferred since they rule out a decimal comma; failing that, the one that splits
+the longest run of lines at their end alike), the decimal mark (``1,5`` anywhere in the
+64 KiB under a ``;``, tab or ``|`` separator; a number with a decimal comma later in such
+a file is read as one all the same), the header and the time column.
+
+The header is the first line unless lines above it have another field count than the
+rows or are ``#`` comments (a logger's metadata such as ``Sample rate: 100 Hz``, Excel's
+``sep=;``, blank lines): then it is the first line after them with the rows' field count,
+provided none of its fields is a number (else the first line stays the header, and a
+header with a field count no row has is refused by name). Lines above the header are
+skipped without a note. A Campbell Scientific TOA5 file (first line ``"TOA5",...``, the
+station) has its header on line 2, then a units line and a processing line, which are
+skipped; its ``RECORD`` column (units ``RN``) is a row counter, not a channel. A repeated
+name gets ``_2``, ``_3``, ... so that two columns never share a channel.
+
+The time column is the first column named ``time``, ``timestamp``, ``t``, ``__time``,
+``%time`` or ``datetime`` (any case); else the first whose name, lowercased and less a
+unit, zone or format in brackets (``Time (s)``, ``time [ms]``, ``Timestamp (UTC)``) or a
+unit or zone word at its end (``time_s``, ``elapsed_ms``, ``time_utc``), is one of
+:data:`TIME_PHRASES` (``time``, ``t``, ``Date/Time``, ``Elapsed Time``, ``Zeit``,
+``temps``, ``tiempo``...), or that is ``seconds``; else the first column. ``timer_count``
+or ``time_offset_sensor`` is a channel. A unit in the name scales numeric times:
+``ms``, ``us``, ``ns`` and, in brackets only, ``min`` and ``h``.
 
 The body is read by Arrow's streaming CSV reader in blocks, every column as text; each
 block is then converted column-wise (trim, numeric test by regular expression, cast): no
@@ -20,15 +39,17 @@ numbers are parsed by Arrow straight to float64 (no text, no cast); from the fir
 where one of them does not parse that way (a blank, ``ERR``, ``nan``), the file is read
 again as text (see :meth:`CsvReader._stream`).
 
-The time column holds seconds (decimal text is converted to integer nanoseconds exactly),
-integer nanoseconds (integers above 1e15), times of day or elapsed times without a date
+The time column holds seconds or the unit its name gives (decimal text is converted to
+integer nanoseconds exactly), integer nanoseconds (integers above 1e15, unless its name
+gives a unit other than seconds), times of day or elapsed times without a date
 (``hh:mm:ss[.f]``: relative times, a step back of more than half a day being the next
 day) or date-time strings (ISO 8601 or any format pandas recognises; UTC where no zone is
 given). Its kind is that of at least 90 % of the first block's non-blank cells, so that a
 units line, a repeated header or a run of zero bytes under the header costs its rows
-(counted in ``info.errors``), not the file. Seconds below 1e8 (before 1973) are taken as
-relative time: ``InputInfo.absolute_time`` is False. Seconds after the year 2262 (epoch
-milliseconds, say) are not times: int64 nanoseconds cannot hold them.
+(counted in ``info.errors``), not the file. Times below 1e8 s (before 1973) are taken as
+relative time: ``InputInfo.absolute_time`` is False. Times after the year 2262 (epoch
+milliseconds in a column whose name does not say ``ms``, say) are not times: int64
+nanoseconds cannot hold them.
 """
 
 from __future__ import annotations
@@ -57,6 +78,47 @@ if TYPE_CHECKING:  # pandas is imported where a time column needs it: MCAP and b
 from analyzer.types import Format
 
 TIME_NAMES = ("time", "timestamp", "t", "__time", "%time", "datetime")
+"""Names of a time column (any case), preferred to the names :func:`_time_unit` accepts."""
+TIME_PHRASES = frozenset(
+    {
+        *("time", "timestamp", "time stamp", "t", "datetime", "date time"),
+        *("elapsed", "elapsed time", "time elapsed"),
+        *("zeit", "zeitstempel", "datum zeit", "uhrzeit"),  # German
+        *("horodatage", "date heure"),  # French ("temps" is English temperatures too)
+        *("tiempo", "tempo"),  # Spanish, Italian, Portuguese
+    }
+)
+"""Words of a time column's name once its unit and case are gone (see :func:`_time_unit`)."""
+TIME_UNITS = {"s": (9, 1), "ms": (6, 1), "us": (3, 1), "ns": (0, 1), "min": (9, 60), "h": (9, 3600)}
+"""Of a time column's unit: (decimal digits, integer factor), a value in that unit being
+``value * 10**digits * factor`` nanoseconds (exact decimal scaling, see :func:`_exact_ns`)."""
+_UNIT_NAMES = {"s": "seconds", "ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
+_UNIT_NAMES |= {"min": "minutes", "h": "hours"}
+_SUFFIX_UNITS = {
+    **dict.fromkeys(("s", "sec", "secs", "second", "seconds"), "s"),
+    **dict.fromkeys(("ms", "msec", "msecs", "millisecond", "milliseconds"), "ms"),
+    **dict.fromkeys(("us", "µs", "μs", "usec", "usecs", "microsecond", "microseconds"), "us"),
+    **dict.fromkeys(("ns", "nsec", "nsecs", "nanosecond", "nanoseconds"), "ns"),
+}
+"""Units a time column's name may end with (``time_ms``, ``Time [ms]``)."""
+_BRACKET_UNITS = {
+    **_SUFFIX_UNITS,
+    **dict.fromkeys(("min", "mins", "minute", "minutes"), "min"),
+    **dict.fromkeys(("h", "hr", "hrs", "hour", "hours"), "h"),
+}
+"""Units in brackets only: ``time_min`` might be the least time, ``time (min)`` is not."""
+_BARE_UNITS = {"seconds": "s", "secs": "s", "sec": "s", "milliseconds": "ms"}
+"""Units that name a time column by themselves (``h`` or ``min`` alone would not)."""
+_ZONE_WORDS = frozenset({"utc", "gmt", "local", "lt"})
+_BRACKETED = re.compile(r"(.*?)[\s_]*[(\[{]\s*(.*?)\s*[)\]}]")
+"""A name ending in brackets (its unit, zone or format)."""
+_TIME_NOTE = re.compile(
+    r"utc|gmt|local|lt|z|(?:utc|gmt)?\s*[-+]\d{1,2}(?::?\d{2})?"
+    r"|[ymdhsfzt]+(?:[-:./ ]+[ymdhsfzt]+)+"
+)
+"""Bracketed words of a time column that are no unit: a zone (``UTC``, ``+01:00``) or a
+format (``hh:mm:ss``, ``yyyy-mm-dd hh:mm:ss``)."""
+_WORD_BREAK = re.compile(r"[\W_]+")
 SEPARATORS = ("\t", ";", ",", "|")
 SAMPLE_BYTES = 1 << 16
 BLOCK_BYTES = 1 << 20
@@ -97,6 +159,17 @@ _NS_MAX = 9223372036854775807
 """``pd.Timestamp.max`` in ns."""
 """Dates outside what int64 nanoseconds can hold (years 1677-2262) are not times."""
 _DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+\s*$")
+DECIMAL_COMMA_CELL = r"^([-+]?\d*),(\d+(?:[eE][-+]?\d+)?)$"
+"""A trimmed cell that is a number with a decimal comma (the digits before the comma in
+group 1, those after it in group 2): in a ``;``, tab or ``|`` file whose 64 KiB sample
+shows none, a later one is still a number (see :meth:`CsvReader._clean`)."""
+_DIGIT_COMMA = re.compile(r",\d")
+_FINITE = re.compile(FINITE)
+LAYOUT_LINES = 50
+"""Non-blank lines from which the separator and the header are found."""
+TOA5 = '"TOA5",'
+"""How a Campbell Scientific TOA5 file starts: its station line, then the header, a
+units line and a processing line (``Smp``, ``Avg``...) above the rows."""
 _LINE_BREAK = re.compile(r"\r\n|\r|\n")
 
 
@@ -108,6 +181,12 @@ class _Layout:
     time_column: int
     compressed: bool
     encoding: str
+    skip_rows: int = 1
+    """Lines above the first row (header, preamble, units lines, blank lines)."""
+    time_unit: str = "s"
+    """The time column's unit when its values are numbers (a key of :data:`TIME_UNITS`)."""
+    ignored: tuple[int, ...] = ()
+    """Columns that are no channel (a TOA5 file's ``RECORD`` row counter)."""
 
 
 class CsvReader:
@@ -166,7 +245,7 @@ class CsvReader:
                 # order of shared times once); the values are Arrow's, viewed
                 t_kept = t_ns[keep] if dropped else t_ns
                 for index, name in enumerate(self._layout.names):
-                    if index == self._layout.time_column:
+                    if index == self._layout.time_column or index in self._layout.ignored:
                         continue
                     column = batch.column(index)
                     if column.type == pa.float64():  # parsed by Arrow: all finite numbers
@@ -236,28 +315,59 @@ class CsvReader:
             else:
                 encoding = "utf8"
                 sample = head[: err.start].decode("utf-8-sig")
-        lines = sample.splitlines()
-        if len(sample) == SAMPLE_BYTES and len(lines) > 1:
-            lines = lines[:-1]  # the last line may be cut
-        lines = [line for line in lines if line.strip()][:50]
-        if not lines:
+        # the lines as Arrow counts them (blank ones too: see _Layout.skip_rows)
+        physical = sample.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+        cut = len(head) == SAMPLE_BYTES
+        if cut and len(physical) > 1:
+            physical = physical[:-1]  # the last line may be cut
+        numbered = [(index, line) for index, line in enumerate(physical) if line.strip()]
+        if not numbered:
             raise ReaderError(f"{self.path}: no header line")
         if "\x00" in sample:
             raise ReaderError(f"{self.path}: not a text file (binary data)")
-        if len(lines) == 1 and len(head) < SAMPLE_BYTES:  # the whole file: a header alone
+        lines = [line for _, line in numbered]
+        toa5 = lines[0].startswith(TOA5)
+        if toa5:
+            separator, header, first_row = ",", 1, 4
+        else:
+            separator = self._separator(lines[:LAYOUT_LINES])
+            open_end = not cut and len(lines) <= LAYOUT_LINES and bool(physical[-1].strip())
+            header = _header_line(lines[:LAYOUT_LINES], separator, open_end)
+            first_row = header + 1
+        if first_row >= len(lines) and (toa5 or not cut):  # a header alone
             raise ReaderError(f"{self.path}: no data rows (a header line only)")
-        separator = self._separator(lines)
-        header = next(csv.reader([lines[0]], delimiter=separator))
-        names = _unique([h.strip() or f"column{i}" for i, h in enumerate(header)])
+        names = _unique(
+            [h.strip() or f"column{i}" for i, h in enumerate(_fields(lines[header], separator))]
+        )
         if len(names) < 2:
             raise ReaderError(f"{self.path}: no numeric column (a single column {names[0]!r})")
-        lowered = [n.lower() for n in names]
-        time_column = next((lowered.index(n) for n in TIME_NAMES if n in lowered), 0)
-        body = [row for row in csv.reader(lines[1:], delimiter=separator)]
-        decimal_comma = separator != "," and any(
-            _DECIMAL_COMMA.match(cell) for row in body for cell in row
+        time_column, time_unit = _time_column(names)
+        ignored: tuple[int, ...] = ()
+        if toa5:  # the units line names the row counter RN
+            units = _fields(lines[2], separator)
+            ignored = tuple(i for i, u in enumerate(units[: len(names)]) if u.strip() == "RN")
+        # the whole sample decides: a logger's first rows may all be integers
+        body = lines[first_row:]
+        decimal_comma = (
+            separator != ","
+            and _DIGIT_COMMA.search("\n".join(body)) is not None
+            and any(
+                _DECIMAL_COMMA.match(cell)
+                for row in csv.reader(body, delimiter=separator)
+                for cell in row
+            )
         )
-        return _Layout(separator, decimal_comma, tuple(names), time_column, compressed, encoding)
+        return _Layout(
+            separator,
+            decimal_comma,
+            tuple(names),
+            time_column,
+            compressed,
+            encoding,
+            skip_rows=numbered[min(first_row, len(numbered)) - 1][0] + 1,
+            time_unit=time_unit,
+            ignored=ignored,
+        )
 
     def _separator(self, lines: list[str]) -> str:
         name = self.path.name.lower().removesuffix(".gz")
@@ -271,6 +381,14 @@ class CsvReader:
             mean = sum(counts) / len(counts)
             if mean > best_fields:
                 best, best_fields = separator, mean
+        # lines above the header (a logger's metadata, Excel's "sep=;"): the separator
+        # that splits the longest run of lines at the end alike, in two fields or more
+        longest = 1
+        for separator in SEPARATORS:
+            counts = [len(_fields(line, separator)) for line in lines]
+            run = next((i for i, c in enumerate(reversed(counts)) if c != counts[-1]), len(counts))
+            if counts[-1] >= 2 and run > longest:
+                best, longest = separator, run
         return best
 
     # ------------------------------------------------------------------ blocks
@@ -373,7 +491,7 @@ class CsvReader:
             stream,
             read_options=pacsv.ReadOptions(
                 column_names=list(layout.names),
-                skip_rows=1,
+                skip_rows=layout.skip_rows,
                 block_size=BLOCK_BYTES,
                 encoding=layout.encoding,
                 use_threads=False,
@@ -397,8 +515,8 @@ class CsvReader:
             raise ReaderError(f"{self.path}: cannot parse as CSV ({one_line(err)})") from err
         if batch is None:
             # the rows are there (a header alone is found by _detect) but Arrow skipped
-            # them all for their number of fields: lines above the header (a logger's
-            # metadata, a TOA5 file's first line, Excel's "sep=;") or a damaged header
+            # them all for their number of fields: a damaged header, or lines above it
+            # that _header_line did not tell from the header
             raise ReaderError(
                 f"{self.path}: no data rows: no line under the first has its "
                 f"{len(self._layout.names)} fields (is the first line the header?)"
@@ -406,7 +524,7 @@ class CsvReader:
         numeric = []
         fast = []
         for index in range(len(self._layout.names)):
-            if index == self._layout.time_column:
+            if index == self._layout.time_column or index in self._layout.ignored:
                 continue
             column = batch.column(index)
             if not self._layout.decimal_comma and _all_numbers(_trimmed(column)) is not None:
@@ -433,20 +551,30 @@ class CsvReader:
             if self._time_kind in ("seconds", "ns") and len(numbers):
                 # numbers that int64 nanoseconds cannot hold, such as epoch milliseconds
                 # read as seconds: say so, not that there are no numbers
-                unit = "nanoseconds" if self._time_kind == "ns" else "seconds"
+                unit = "ns" if self._time_kind == "ns" else self._layout.time_unit
                 raise ReaderError(
                     f"{self.path}: time column {name!r}: {numbers[0].as_py()!r} is no time: "
-                    f"as {unit} it lies outside the years 1677-2262"
-                    + (" (milliseconds and microseconds are not read)" if unit == "seconds" else "")
+                    f"as {_UNIT_NAMES[unit]} it lies outside the years 1677-2262"
+                    + (
+                        " (epoch milliseconds? a name such as 'time [ms]' says so)"
+                        if unit == "s"
+                        else ""
+                    )
                 )
             raise ReaderError(f"{self.path}: time column {name!r} holds neither numbers nor dates")
         return int(t_ns[keep].min())
 
     # ------------------------------------------------------------------ conversion
     def _clean(self, column: pa.Array) -> pa.Array:
+        """The cells trimmed, with a decimal point for a decimal comma: every comma in a
+        file whose sample shows decimal commas; else, under a ``;``, tab or ``|``
+        separator, that of a cell that is a number but for it (a logger whose first
+        64 KiB of values happened to be integers, ``12;0;3``, then ``12,5;0,25``)."""
         text = pc.utf8_trim_whitespace(column)
         if self._layout.decimal_comma:
-            text = pc.replace_substring(text, ",", ".")
+            return pc.replace_substring(text, ",", ".")
+        if self._layout.separator != "," and pc.any(pc.match_substring(text, ",")).as_py():
+            return pc.replace_substring_regex(text, DECIMAL_COMMA_CELL, r"\1.\2")
         return text
 
     def _classify(self, column: pa.Array) -> bool | None:
@@ -484,12 +612,15 @@ class CsvReader:
         return present, out, bad
 
     def _times(self, column: pa.Array, *, first: bool = False) -> tuple[IntArray, np.ndarray]:
-        """Integer nanoseconds of the time column and the mask of rows that have one."""
-        text = pc.utf8_trim_whitespace(column)
-        if self._layout.decimal_comma:
-            text = pc.replace_substring(text, ",", ".")
+        """Integer nanoseconds of the time column and the mask of rows that have one.
+        Numbers are in the column's unit (:attr:`_Layout.time_unit`); in seconds,
+        integers above :data:`NS_THRESHOLD` are nanoseconds, in a unit its name gives
+        they are not."""
+        text = self._clean(column)
         if first or not self._time_kind:
             self._time_kind = self._time_kind_of(text)
+            if self._time_kind == "ns" and self._layout.time_unit != "s":
+                self._time_kind = "seconds"  # numbers in the named unit
             self._clock = (0, 0)
         n = len(text)
         if self._time_kind == "datetime":
@@ -510,14 +641,16 @@ class CsvReader:
             with contextlib.suppress(pa.ArrowInvalid):  # beyond int64: the exact path's
                 out[idx] = _numpy(pc.cast(selected, pa.int64()))
                 return out, keep
-        exact = _exact_ns(selected, 0 if nanoseconds else 9)
+        digits, factor = (0, 1) if nanoseconds else TIME_UNITS[self._layout.time_unit]
+        exact = _exact_ns(selected, digits)
         if exact is not None:
             ns, fits = exact
-        else:  # exponent notation, more than 9 decimals or 38 digits: via float64
+            if factor != 1:  # minutes, hours: whole multiples of 1e9 ns
+                fits &= np.abs(ns) <= _NS_MAX // factor
+                ns = np.where(fits, ns, 0) * factor
+        else:  # exponent notation, more decimals than digits or 38 digits: via float64
             with np.errstate(invalid="ignore", over="ignore"):
-                scaled = np.round(
-                    _numpy(pc.cast(selected, pa.float64())) * (1 if nanoseconds else 1e9)
-                )
+                scaled = np.round(_numpy(pc.cast(selected, pa.float64())) * (10.0**digits * factor))
             fits = np.abs(scaled) < 2.0**63  # False for nan and inf too
             ns = np.where(fits, scaled, 0).astype(np.int64)
         keep[idx[~fits]] = False
@@ -740,3 +873,83 @@ def _unique(names: list[str]) -> list[str]:
         taken.add(unique)
         out.append(unique)
     return out
+
+
+def _fields(line: str, separator: str) -> list[str]:
+    """The fields of one line (a quote left open takes the rest of the line)."""
+    return next(csv.reader([line], delimiter=separator), [])
+
+
+def _header_line(lines: list[str], separator: str, open_end: bool) -> int:
+    """The index of the header among the first non-blank ``lines``: the first line with
+    the field count of the last line (two or more) that is not a ``#`` comment, when it
+    is no row itself (none of its fields is a number); else the first line, and a header
+    with a field count no row has is refused by name (see
+    :meth:`CsvReader._inspect_first_block`). The lines above it are a logger's metadata
+    (``Sample rate: 100 Hz``), Excel's ``sep=;``, comments or blank lines.
+
+    ``open_end``: the last line is the file's and has no line break, so it may be a row
+    cut short (a power loss); with fewer fields than the line before, it is not counted.
+    """
+    counts = [len(_fields(line, separator)) for line in lines]
+    rows = counts[-1]
+    if open_end and len(counts) > 1 and counts[-1] < counts[-2]:
+        rows = counts[-2]
+    if rows < 2:
+        return 0
+    index = next(
+        (
+            i
+            for i, (line, count) in enumerate(zip(lines, counts, strict=True))
+            if count == rows and not line.lstrip().startswith("#")
+        ),
+        0,
+    )
+    if any(_FINITE.match(field.strip()) for field in _fields(lines[index], separator)):
+        return 0
+    return index
+
+
+def _time_column(names: list[str]) -> tuple[int, str]:
+    """The index of the time column and its unit: the first of :data:`TIME_NAMES` among
+    ``names`` (any case), else the first name :func:`_time_unit` accepts, else the first
+    column (in seconds)."""
+    lowered = [n.lower() for n in names]
+    exact = next((lowered.index(n) for n in TIME_NAMES if n in lowered), None)
+    if exact is not None:
+        return exact, "s"
+    for index, name in enumerate(names):
+        unit = _time_unit(name)
+        if unit is not None:
+            return index, unit
+    return 0, "s"
+
+
+def _time_unit(name: str) -> str | None:
+    """The unit (a key of :data:`TIME_UNITS`) of a column whose name says it is the time,
+    else None. Lowercased, less a bracketed unit (``Time (s)``, ``time [ms]``), zone or
+    format (``Timestamp (UTC)``, ``Zeit [hh:mm:ss]``), or else a trailing unit or zone
+    word (``time_s``, ``t_msec``, ``time_utc``), its words must be one of
+    :data:`TIME_PHRASES` (``Date/Time``: ``date time``); or the name is a unit by itself
+    (``seconds``). Conservative: ``time_offset_sensor``, ``timer_count``, ``runtime``,
+    ``time (sensor a)`` and ``time_min`` (minutes, or the least time?) are channels."""
+    text = name.strip().lower()
+    unit = "s"
+    bracketed = _BRACKETED.fullmatch(text)
+    if bracketed:
+        text, note = bracketed.groups()
+        if note in _BRACKET_UNITS:
+            unit = _BRACKET_UNITS[note]
+        elif not _TIME_NOTE.fullmatch(note):
+            return None
+    words = [w for w in _WORD_BREAK.split(text) if w]
+    if not bracketed and len(words) > 1 and words[-1] in _SUFFIX_UNITS:
+        unit = _SUFFIX_UNITS[words.pop()]
+    elif len(words) > 1 and words[-1] in _ZONE_WORDS:
+        words.pop()
+    phrase = " ".join(words)
+    if phrase in TIME_PHRASES:
+        return unit
+    if not bracketed and phrase in _BARE_UNITS:
+        return _BARE_UNITS[phrase]
+    return None
