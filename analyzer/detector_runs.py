@@ -324,7 +324,7 @@ def run_groups(
         columns = [data.channels.index(c) for c in group]
         path = ctx.workdir / f"group{k}.npy" if big and ctx.workdir is not None else None
         values = _columns(data.values, columns, path)
-        part = Dataset(values, group, data.rate_hz, data.train)
+        part = Dataset(values, group, data.rate_hz, data.train, data.healthy)
         share = replace(ctx, false_alarm_rate=ctx.false_alarm_rate * len(group) / total)
         tag = f"-g{k}"
         got, why = run_detectors(

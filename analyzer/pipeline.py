@@ -309,7 +309,7 @@ def _analyze(
         values, chosen = _varying_in_training(
             values, chosen, train, tr, aligned.rate_hz, options, notes
         )
-        data = Dataset(values, tuple(chosen), aligned.rate_hz, train)
+        data = Dataset(values, tuple(chosen), aligned.rate_hz, train, healthy=reused is None)
         names, explicit = detector_names(options)
         if reused is not None:
             names = model_detectors(reused, options)

@@ -371,7 +371,10 @@ class ARKalmanBank:
         # each residual's healthy share of its estimate, left out of fault shapes
         # (over the healthy window's second half, as events_from_residual measures it)
         healthy = slice((data.train[0] + train_stop) // 2, train_stop)
-        slopes = [reference_slope(resid0[healthy, j], est0[healthy, j]) for j in range(m)]
+        slopes = [
+            reference_slope(resid0[healthy, j], est0[healthy, j]) if data.healthy else None
+            for j in range(m)
+        ]
 
         def consistency(lo: int, hi: int) -> FloatArray:
             return self._consistency(model, Y, fixes, lo, hi, context)

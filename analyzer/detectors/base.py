@@ -55,12 +55,20 @@ signals over in this precision itself where it can release each float64 array fi
 class Dataset:
     """The aligned data a detector sees: ``values[k, j]`` is channel ``channels[j]`` at
     time ``k / rate_hz`` seconds from the first sample; ``train`` is the healthy window
-    as a half-open index range ``[start, stop)``."""
+    as a half-open index range ``[start, stop)``, or with a model fitted on another
+    archive (``--model``) the filters' warm-up, which ``healthy`` False says may hold a
+    fault already (nothing is measured on it as health)."""
 
     values: FloatArray
     channels: tuple[str, ...]
     rate_hz: float
     train: tuple[int, int]
+    healthy: bool = True
+
+    @property
+    def healthy_start(self) -> int | None:
+        """Where the healthy window starts, None when ``train`` is no healthy window."""
+        return self.train[0] if self.healthy else None
 
     @property
     def n(self) -> int:

@@ -620,8 +620,7 @@ class DetectionFilter:
         # reused by the next task of the same thread
         scratch = ScratchRows(context.workdir if context.map_outputs else None)
         tasks = [
-            (model, i, names[i], zetas, refs, rate, self.name, data.train, scratch)
-            for i in range(m)
+            (model, i, names[i], zetas, refs, rate, self.name, data, scratch) for i in range(m)
         ]
         found = context.map_shared(_filter_events_task, tasks)
         w = model.window
@@ -801,7 +800,7 @@ def _sensor_unit_pieces(
 
 def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
     """Filter ``i``: the candidate events of its fault estimate ``zetas[i]``."""
-    model, i, name, zetas, refs, rate, detector, (train_start, train_stop), scratch = task
+    model, i, name, zetas, refs, rate, detector, data, scratch = task
     n = refs[i].shape[0]
     with scratch.row(f"units{i}", n) as into:
         # float64, low-passed as each piece comes: a long archive's row is written once
@@ -815,8 +814,8 @@ def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
             model.zeta_cal[i],
             rate,
             detector,
-            search_start=train_stop,
-            healthy_start=train_start,
+            search_start=data.train[1],
+            healthy_start=data.healthy_start,
             tau_corr=model.tau[i],
             scratch=scratch.workdir,
         )

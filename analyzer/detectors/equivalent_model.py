@@ -358,7 +358,7 @@ class EquivalentModel:
                 data.channels[ob.target],
                 rate,
                 self.name,
-                data.train,
+                (data.healthy_start, data.train[1]),
                 None if kept is None else (kept[0][:, k], kept[1][:, k]),
                 scratch,
             )
@@ -527,7 +527,7 @@ def _observer_task(
         str,
         float,
         str,
-        tuple[int, int],
+        tuple[int | None, int],
         tuple[Any, Any] | None,
         ScratchRows,
     ],

@@ -756,7 +756,7 @@ class ErrorFunction:
                     data.rate_hz,
                     self.name,
                     search_start=data.train[1],
-                    healthy_start=data.train[0],
+                    healthy_start=data.healthy_start,
                     tau_corr=f.tau_corr,
                     evidence={"group": f.group, "references": list(f.channels[1:])},
                     scratch=context.workdir if context.map_outputs else None,
