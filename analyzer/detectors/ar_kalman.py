@@ -410,7 +410,8 @@ class ARKalmanBank:
                 notes.append(
                     f"residual anomaly at {t:.3f} s on "
                     f"{', '.join(data.channels[c] for c, _, _ in spans)} not attributed to a "
-                    "sensor (no estimator isolates it, or no fault shape and no confirmation)"
+                    "sensor (no estimator isolates it: several sensors at once, or a change "
+                    "of the structure or excitation; or no fault shape and no confirmation)"
                 )
                 continue
             ((j, a, b),) = spans

@@ -669,8 +669,8 @@ class DetectionFilter:
             if viol[j] >= 1.0 and viol[j] > DIRECTION_RELATIVE * typical:
                 notes.append(
                     f"anomaly at {when} on {', '.join(names[c] for c in chans)} not attributed: "
-                    "the residual of every filter left its sensor's direction (a change of the "
-                    "structure or excitation, not one sensor)"
+                    "the residual of every filter left its sensor's direction (not one "
+                    "sensor: several at once, or a change of the structure or excitation)"
                 )
                 continue
             if not confirmed:
