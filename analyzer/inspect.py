@@ -26,7 +26,12 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(t0)
         return {
             "inputs": [
-                {"path": str(i.path), "format": str(i.format), "errors": list(i.errors)}
+                {
+                    "path": str(i.path),
+                    "format": str(i.format),
+                    "errors": list(i.errors),
+                    **({"time": i.time} if i.time else {}),
+                }
                 for i in archive.inputs
             ],
             "start": iso_utc(t0) if absolute and infos else None,
@@ -49,6 +54,8 @@ def render_table(doc: dict[str, Any]) -> str:
     lines = []
     for i in doc["inputs"]:
         lines.append(f"{i['path']}  [{i['format']}]")
+        if i.get("time"):
+            lines.append(f"  time: {i['time']}")
         for e in i["errors"]:
             lines.append(f"  ! {e}")
     if doc.get("start"):

@@ -45,6 +45,9 @@ class InputInfo:
     errors: list[str] = field(default_factory=list)
     absolute_time: bool = True
     """True when timestamps are nanoseconds since the Unix epoch (UTC)."""
+    time: str = ""
+    """Where its times come from, for people, where the reader chose (a CSV's time column
+    and how its cells were read); ``inspect`` shows it."""
 
 
 class Reader(Protocol):

@@ -222,6 +222,23 @@ class CsvReader:
             and first_time >= EPOCH_THRESHOLD_S * 1e9
         )
         self._first_time = first_time
+        self.info.time = self._time_text()
+
+    def _time_text(self) -> str:
+        """Which column holds the time and how its cells are read (``InputInfo.time``)."""
+        name = self._layout.names[self._layout.time_column]
+        kind = self._time_kind
+        if kind == "ns":
+            how = "integer nanoseconds since 1970 (UTC)"
+        elif kind == "datetime":
+            how = "date-times (UTC where no zone is given)"
+        elif kind == "timeofday":
+            how = "times of day, relative"
+        else:
+            how = _UNIT_NAMES[self._layout.time_unit] + (
+                " since 1970 (UTC)" if self.info.absolute_time else ", relative"
+            )
+        return f"column {name!r}: {how}"
 
     # ------------------------------------------------------------------ protocol
     def start_ns(self) -> int | None:

@@ -314,3 +314,32 @@ def test_decimal_commas_after_the_sample_in_a_later_block(
     np.testing.assert_array_equal(got["a"][1], a)
     np.testing.assert_array_equal(got["b"][1], b)
     assert info.errors == []
+
+
+@pytest.mark.parametrize(
+    "header, cell, expected",
+    [
+        ("a,Time (ms),b", lambda i: str(10 * i), "column 'Time (ms)': milliseconds, relative"),
+        ("time,a,b", lambda i: f"{1.7e9 + i / 100:.2f}", "column 'time': seconds since 1970 (UTC)"),
+        ("a,Zeit,b", iso, "column 'Zeit': date-times (UTC where no zone is given)"),
+    ],
+)
+def test_inspect_says_which_column_is_the_time_and_how_it_is_read(
+    tmp_path: Path, header: str, cell, expected: str
+) -> None:
+    """With time columns found by name and scaled by their unit, the user sees which one
+    was taken and how (``inspect``, text and JSON)."""
+    from analyzer.inspect import inspect_archive, render_table
+
+    path = tmp_path / "t.csv"
+    time = header.split(",").index(next(h for h in header.split(",") if h not in ("a", "b")))
+    rows = []
+    for i in range(N):
+        cells = [str(i), str(i), str(-i)]
+        cells[time] = cell(i)
+        rows.append(",".join(cells) + "\n")
+    path.write_text(header + "\n" + "".join(rows))
+    assert open_input(path).info.time == expected
+    doc = inspect_archive([path])
+    assert doc["inputs"][0]["time"] == expected
+    assert f"  time: {expected}" in render_table(doc).splitlines()
