@@ -1,29 +1,30 @@
 """CSV / TSV reader (optionally gzip-compressed).
 
 Layout detection, from the first 64 KiB: the separator (``,`` ``;`` tab ``|``: the one that
-splits every one of the first 50 non-blank lines into the same number of fields, tab and
+splits every one of the first 200 non-blank lines into the same number of fields, tab and
 ``;`` preferred since they rule out a decimal comma; failing that, the one that splits
 the longest run of lines at their end alike), the decimal mark (``1,5`` anywhere in the
 64 KiB under a ``;``, tab or ``|`` separator; a number with a decimal comma later in such
 a file is read as one all the same), the header and the time column.
 
-The header is the first line unless lines above it have another field count than the
-rows or are ``#`` comments (a logger's metadata such as ``Sample rate: 100 Hz``, Excel's
-``sep=;``, blank lines): then it is the first line after them with the rows' field count,
-provided none of its fields is a number (else the first line stays the header, and a
-header with a field count no row has is refused by name). Lines above the header are
-skipped without a note. A Campbell Scientific TOA5 file (first line ``"TOA5",...``, the
+The header is the line just above the rows (the first lines with the rows' field count
+that are as numeric as rows are), when it is less numeric than they are; lines above it
+(a logger's metadata such as ``Sample rate: 100 Hz`` or ``station,ABC``, Excel's
+``sep=;``, ``#`` comments, blank lines) are skipped without a note (see
+:func:`_header_line`). Else the first line is the header, and a header with a field count
+no row has is refused by name. A Campbell Scientific TOA5 file (first line ``"TOA5",...``, the
 station) has its header on line 2, then a units line and a processing line, which are
 skipped; its ``RECORD`` column (units ``RN``) is a row counter, not a channel. A repeated
 name gets ``_2``, ``_3``, ... so that two columns never share a channel.
 
-The time column is the first column named ``time``, ``timestamp``, ``t``, ``__time``,
-``%time`` or ``datetime`` (any case); else the first whose name, lowercased and less a
+The time column is the first column named ``time``, ``timestamp``, ``__time``, ``%time``
+or ``datetime`` (any case); else the first whose name, lowercased and less a
 unit, zone or format in brackets (``Time (s)``, ``time [ms]``, ``Timestamp (UTC)``) or a
 unit or zone word at its end (``time_s``, ``elapsed_ms``, ``time_utc``), is one of
-:data:`TIME_PHRASES` (``time``, ``t``, ``Date/Time``, ``Elapsed Time``, ``Zeit``,
-``temps``, ``tiempo``...), or that is ``seconds``; else the first column. ``timer_count``
-or ``time_offset_sensor`` is a channel. A unit in the name scales numeric times:
+:data:`TIME_PHRASES` (``time``, ``t [s]``, ``Date/Time``, ``Elapsed Time``, ``Zeit``,
+``tiempo``...), or that is ``seconds``; else a column named ``t`` (in ``Time (s),T,RH``
+it is a temperature); else the first column. ``timer_count``, ``time_offset_sensor`` or
+``temps`` (temperatures, in English) is a channel. A unit in the name scales numeric times:
 ``ms``, ``us``, ``ns`` and, in brackets only, ``min`` and ``h``.
 
 The body is read by Arrow's streaming CSV reader in blocks, every column as text; each
@@ -165,8 +166,9 @@ group 1, those after it in group 2): in a ``;``, tab or ``|`` file whose 64 KiB 
 shows none, a later one is still a number (see :meth:`CsvReader._clean`)."""
 _DIGIT_COMMA = re.compile(r",\d")
 _FINITE = re.compile(FINITE)
-LAYOUT_LINES = 50
-"""Non-blank lines from which the separator and the header are found."""
+LAYOUT_LINES = 200
+"""Non-blank lines (of the 64 KiB sample) from which the separator and the header are
+found: a logger's preamble may be tens of lines long."""
 TOA5 = '"TOA5",'
 """How a Campbell Scientific TOA5 file starts: its station line, then the header, a
 units line and a processing line (``Smp``, ``Avg``...) above the rows."""
@@ -898,48 +900,68 @@ def _fields(line: str, separator: str) -> list[str]:
 
 
 def _header_line(lines: list[str], separator: str, open_end: bool) -> int:
-    """The index of the header among the first non-blank ``lines``: the first line with
-    the field count of the last line (two or more) that is not a ``#`` comment, when it
-    is no row itself (none of its fields is a number); else the first line, and a header
-    with a field count no row has is refused by name (see
-    :meth:`CsvReader._inspect_first_block`). The lines above it are a logger's metadata
-    (``Sample rate: 100 Hz``), Excel's ``sep=;``, comments or blank lines.
+    """The index of the header among the first non-blank ``lines``.
+
+    The rows' field count is the most common one in the second half of ``lines`` (a
+    closing remark such as ``end of log,done`` does not set it). Of the lines with that
+    count (``#`` comments aside), the data are those at least as numeric (numbers and
+    blank cells among their fields) as the last ten such lines are at the median; the
+    header is the line just before the first of them, when it has that count too and
+    is less numeric. Else the first line is the header (a header with a field count
+    no row has is then refused by name: :meth:`CsvReader._inspect_first_block`). So
+    the lines above it, a logger's metadata (``Sample rate: 100 Hz``, ``station,ABC``
+    even with the rows' field count), Excel's ``sep=;``, comments or blank lines, are
+    skipped, and a header may name columns by numbers (``time,100,200``).
 
     ``open_end``: the last line is the file's and has no line break, so it may be a row
     cut short (a power loss); with fewer fields than the line before, it is not counted.
     """
     counts = [len(_fields(line, separator)) for line in lines]
-    rows = counts[-1]
     if open_end and len(counts) > 1 and counts[-1] < counts[-2]:
-        rows = counts[-2]
+        counts, lines = counts[:-1], lines[:-1]
+    tail = counts[len(counts) // 2 :] or counts
+    rows = max(set(tail), key=lambda c: (tail.count(c), -tail[::-1].index(c)))
     if rows < 2:
         return 0
-    index = next(
-        (
-            i
-            for i, (line, count) in enumerate(zip(lines, counts, strict=True))
-            if count == rows and not line.lstrip().startswith("#")
-        ),
-        0,
-    )
-    if any(_FINITE.match(field.strip()) for field in _fields(lines[index], separator)):
+    same = [
+        i
+        for i, (line, count) in enumerate(zip(lines, counts, strict=True))
+        if count == rows and not line.lstrip().startswith("#")
+    ]
+
+    def numeric(i: int) -> float:
+        fields = [f.strip() for f in _fields(lines[i], separator)]
+        return sum(1 for f in fields if not f or _FINITE.match(f)) / len(fields)
+
+    scores = {i: numeric(i) for i in same}
+    typical = float(np.median([scores[i] for i in same[-10:]]))
+    first = next((i for i in same if scores[i] >= typical), None)
+    if first is None or first == 0:
         return 0
-    return index
+    before = first - 1
+    if before in scores and scores[before] < typical:
+        return before
+    if first == same[0] and not any(
+        _FINITE.match(f.strip()) for f in _fields(lines[first], separator)
+    ):
+        return first  # a header under a preamble, and no row (a header alone)
+    return 0
 
 
 def _time_column(names: list[str]) -> tuple[int, str]:
     """The index of the time column and its unit: the first of :data:`TIME_NAMES` among
-    ``names`` (any case), else the first name :func:`_time_unit` accepts, else the first
-    column (in seconds)."""
-    lowered = [n.lower() for n in names]
-    exact = next((lowered.index(n) for n in TIME_NAMES if n in lowered), None)
+    ``names`` (any case) but ``t``, else the first name :func:`_time_unit` accepts, else
+    a column named ``t``, else the first column (in seconds). A bare ``t`` comes last: in
+    ``Time (s),T,RH`` it is a temperature."""
+    lowered = [n.strip().lower() for n in names]
+    exact = next((lowered.index(n) for n in TIME_NAMES if n != "t" and n in lowered), None)
     if exact is not None:
         return exact, "s"
     for index, name in enumerate(names):
-        unit = _time_unit(name)
+        unit = None if lowered[index] == "t" else _time_unit(name)
         if unit is not None:
             return index, unit
-    return 0, "s"
+    return (lowered.index("t") if "t" in lowered else 0), "s"
 
 
 def _time_unit(name: str) -> str | None:

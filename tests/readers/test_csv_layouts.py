@@ -343,3 +343,51 @@ def test_inspect_says_which_column_is_the_time_and_how_it_is_read(
     doc = inspect_archive([path])
     assert doc["inputs"][0]["time"] == expected
     assert f"  time: {expected}" in render_table(doc).splitlines()
+
+
+@pytest.mark.parametrize(
+    "text, channels",
+    [
+        # a closing remark with fewer fields does not set the rows' field count
+        ("time,a,b\n0,1,2\n1,2,3\n2,3,4\nend of log,done\n", {"a", "b"}),
+        # a header that names columns by numbers, under a preamble
+        ("Device: X\ntime,100,200\n0,1,2\n1,2,3\n2,3,4\n", {"100", "200"}),
+        # metadata lines with the rows' field count above the header
+        ("station,ABC\nsite,north\ntime,value\n0,1\n1,2\n2,3\n", {"value"}),
+        # rows with a text column: the header is still the less numeric line above them
+        ("Logger X\ntime,a,status\n0,1,OK\n1,2,OK\n2,3,ERR\n", {"a"}),
+    ],
+    ids=["closing-remark", "numeric-names", "key-value-metadata", "text-column"],
+)
+def test_the_header_is_the_line_above_the_rows(tmp_path: Path, text: str, channels) -> None:
+    """Review findings: the first two were refused (``no data rows``, ``no numeric
+    column``), the third took ``station`` for the time and ``ABC`` for a channel."""
+    path = tmp_path / "h.csv"
+    path.write_text(text)
+    got, _ = read(path)
+    assert set(got) == channels
+    for name in channels:
+        np.testing.assert_array_equal(got[name][0], np.arange(3) * 1_000_000_000)
+
+
+def test_a_long_preamble_is_skipped(tmp_path: Path) -> None:
+    """60 lines of metadata (more than the 50 lines the layout was found from)."""
+    path = tmp_path / "long.csv"
+    meta = "".join(f"Parameter {k}: value {k}\n" for k in range(60))
+    path.write_text(meta + "time,a,b\n" + "".join(f"{i / 100:.2f},{i},{-i}\n" for i in range(N)))
+    got, _ = read(path)
+    assert_rows(got)
+
+
+def test_a_bare_t_is_the_time_only_where_no_other_name_says_so(tmp_path: Path) -> None:
+    """``Time (s),T,RH``: ``T`` is a temperature; ``a,t,b``: ``t`` is the time."""
+    path = tmp_path / "weather.csv"
+    path.write_text(
+        "Time (s),T,RH\n" + "".join(f"{i / 100:.2f},{20 + i % 3},{50 + i % 5}\n" for i in range(N))
+    )
+    got, _ = read(path)
+    assert set(got) == {"T", "RH"}
+    np.testing.assert_array_equal(got["T"][0], TEN_MS * np.arange(N))
+    path.write_text("a,t,b\n" + "".join(f"{i},{i / 100:.2f},{-i}\n" for i in range(N)))
+    got, _ = read(path)
+    assert_rows(got)
