@@ -29,6 +29,7 @@ from analyzer.detector_runs import (
 from analyzer.detectors import Dataset, DetectorResult, RunContext
 from analyzer.detectors.ar_model import flat_channels
 from analyzer.diagnosis import Finding, merge_events, one_fault_at_a_time
+from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.stuck import healthy_stats, relabel_frozen
@@ -396,6 +397,7 @@ def _analyze(
         findings, found_notes = diagnose(results)
         notes.extend(found_notes)
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
+        notes.extend(_unattributed_notes(results, findings, aligned.rate_hz))
         if screen is not None:
             notes.append(screen_note)
         t0 = time.perf_counter()
@@ -469,6 +471,67 @@ def _cancel(tests: list[Any]) -> None:
     for _, handle in tests:
         if handle is not None:
             handle.cancel()
+
+
+UNATTRIBUTED_LISTED = 3
+"""Unattributed anomalies named one by one in the run's notes; the rest are counted."""
+
+
+def _unattributed_notes(
+    results: Sequence[DetectorResult], findings: Sequence[Finding], rate_hz: float
+) -> list[str]:
+    """The run's notes on anomalies the detectors saw and attributed to no sensor
+    (``DetectorResult.unattributed``), which only their own notes told before: two
+    sensors faulty from the same instant on a 6-channel building gave no finding and
+    exit 0, while all three detectors noted an anomaly they could not attribute.
+
+    * a second fault beside a found one (the equivalent model's network: a fault on one
+      of some sensors, with the one it named, explains the alarms);
+    * an anomaly that two or more detectors left unattributed within one long alarm
+      window of each other, with no finding under way then: several sensors at once,
+      or a change of the structure or excitation."""
+    slack = LONG_FACTOR * default_window(rate_hz) / rate_hz
+    out: list[str] = []
+    seen: set[tuple[tuple[str, ...], tuple[str, ...]]] = set()
+    plain: list[tuple[float, str, tuple[str, ...]]] = []
+    for r in results:
+        for onset, channels, beside in r.unattributed:
+            if not beside:
+                plain.append((onset, r.detector, channels))
+            elif (beside, channels) not in seen:
+                seen.add((beside, channels))
+                out.append(
+                    f"{r.detector}: beside the fault on {', '.join(beside)} at {onset:.1f} s, "
+                    f"a fault on one of {', '.join(channels)} explains its alarms (not "
+                    "reported: its sensor network cannot tell which)"
+                )
+    plain.sort()
+    clusters: list[list[tuple[float, str, tuple[str, ...]]]] = []
+    for item in plain:
+        if clusters and item[0] - clusters[-1][-1][0] <= slack:
+            clusters[-1].append(item)
+        else:
+            clusters.append([item])
+
+    def under_way(t0: float, t1: float) -> bool:
+        return any(
+            f.onset_s <= t1 + slack and (f.end_s is None or f.end_s >= t0 - slack) for f in findings
+        )
+
+    missed = [
+        c for c in clusters if len({d for _, d, _ in c}) >= 2 and not under_way(c[0][0], c[-1][0])
+    ]
+    for c in missed[:UNATTRIBUTED_LISTED]:
+        names = sorted({ch for _, _, chs in c for ch in chs})
+        detectors = sorted({d for _, d, _ in c})
+        out.append(
+            f"anomaly at {c[0][0]:.1f} s on {', '.join(names)} attributed to no sensor by "
+            f"{', '.join(detectors)}: several sensors at once, or a change of the structure "
+            "or excitation (the detectors' notes say more)"
+        )
+    if len(missed) > UNATTRIBUTED_LISTED:
+        out.append(f"{len(missed) - UNATTRIBUTED_LISTED} more such anomalies (detectors' notes)")
+    return out
 
 
 WEAK_CONFIDENCE = 0.05

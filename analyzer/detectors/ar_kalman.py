@@ -70,7 +70,7 @@ from analyzer.diagnosis.classify import (
     correlation_time,
     reference_slope,
 )
-from analyzer.diagnosis.events import bounded_onset, diagnose_interval
+from analyzer.diagnosis.events import bounded_onset, diagnose_interval, slope_before
 from analyzer.errors import DetectorError
 from analyzer.paging import (
     RELEASE_ROWS,
@@ -360,6 +360,7 @@ class ARKalmanBank:
         train_stop = data.train[1]
         events: list[Event] = []
         notes: list[str] = []
+        unattributed: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = []
         explained: list[tuple[int, int, int]] = []  # (channel, start, stop) already isolated
         # the residuals and estimates over the whole record; the estimators' consistency
         # only where a fault is isolated (recomputed there with the corrections so far)
@@ -371,10 +372,12 @@ class ARKalmanBank:
         # each residual's healthy share of its estimate, left out of fault shapes
         # (over the healthy window's second half, as events_from_residual measures it)
         healthy = slice((data.train[0] + train_stop) // 2, train_stop)
-        slopes = [
-            reference_slope(resid0[healthy, j], est0[healthy, j]) if data.healthy else None
-            for j in range(m)
-        ]
+        # (without one in the record, --model: each fault's before its onset)
+        slopes = (
+            [reference_slope(resid0[healthy, j], est0[healthy, j]) for j in range(m)]
+            if data.healthy
+            else None
+        )
 
         def consistency(lo: int, hi: int) -> FloatArray:
             return self._consistency(model, Y, fixes, lo, hi, context)
@@ -407,6 +410,7 @@ class ARKalmanBank:
                 # nothing is corrected, so the bank's outputs stay as they are
                 explained.extend(spans)
                 t = min(a for _, a, _ in spans) / rate
+                unattributed.append((t, tuple(data.channels[c] for c, _, _ in spans), ()))
                 notes.append(
                     f"residual anomaly at {t:.3f} s on "
                     f"{', '.join(data.channels[c] for c, _, _ in spans)} not attributed to a "
@@ -483,6 +487,7 @@ class ARKalmanBank:
                 "threshold_calibration": model.calibration,
             },
             notes=notes,
+            unattributed=unattributed,
         )
 
     def _consistency(
@@ -627,7 +632,10 @@ class ARKalmanBank:
         consistency over each window in turn; ``longest(j, lo, hi)``: the largest alarm
         statistic of estimator ``j``'s consistency over ``lo .. hi - 1`` (both from
         ``consistency`` when not given). ``scratch``: where a long fault's corrected
-        residual is mapped (:func:`~analyzer.diagnosis.events.diagnose_interval`)."""
+        residual is mapped (:func:`~analyzer.diagnosis.events.diagnose_interval`).
+        ``slopes``: each channel's :class:`~analyzer.diagnosis.classify.ReferenceSlope`
+        over the healthy window; without them each fault's is measured before its onset
+        (:func:`~analyzer.diagnosis.events.slope_before`)."""
         if estimator is None:
 
             def estimator(j: int, windows: list[tuple[int, int]]) -> Iterator[npt.NDArray[Any]]:
@@ -716,7 +724,11 @@ class ARKalmanBank:
             model.tau[j],
             limit,
             scratch=scratch,
-            slope=None if slopes is None else slopes[j],
+            slope=(
+                slopes[j]
+                if slopes is not None
+                else slope_before(resid[:, j], est[:, j], train_stop, iv.onset, cal, rate)
+            ),
         )
         stop = N if end is None else end
         if not isolated:

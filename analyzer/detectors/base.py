@@ -206,6 +206,11 @@ class DetectorResult:
     model: dict[str, Any] = field(default_factory=dict)
     """JSON-friendly summary of the fitted model (order, fit quality, training tests...)."""
     notes: list[str] = field(default_factory=list)
+    unattributed: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = field(default_factory=list)
+    """Anomalies the detector saw and attributed to no sensor (its notes say why): their
+    onset in seconds, the channels whose residuals alarmed (or that may be faulty), and
+    the sensors it found faulty beside them at that time (the equivalent model: a second
+    fault on one of the channels), if any."""
 
 
 class Detector(Protocol):

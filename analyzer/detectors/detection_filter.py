@@ -610,6 +610,7 @@ class DetectionFilter:
         train_stop = data.train[1]
         events: list[Event] = []
         notes: list[str] = []
+        unattributed: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = []
         residuals: dict[str, FloatArray] = {}
         reference: dict[str, FloatArray] = {}
         n = data.n
@@ -667,6 +668,7 @@ class DetectionFilter:
             )
             when = f"{ev.onset_s:.3f} s"
             if viol[j] >= 1.0 and viol[j] > DIRECTION_RELATIVE * typical:
+                unattributed.append((ev.onset_s, tuple(names[c] for c in chans), ()))
                 notes.append(
                     f"anomaly at {when} on {', '.join(names[c] for c in chans)} not attributed: "
                     "the residual of every filter left its sensor's direction (not one "
@@ -726,6 +728,7 @@ class DetectionFilter:
                 },
             },
             notes=notes,
+            unattributed=unattributed,
         )
 
 
@@ -816,6 +819,7 @@ def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
             detector,
             search_start=data.train[1],
             healthy_start=data.healthy_start,
+            before_onset=not data.healthy,
             tau_corr=model.tau[i],
             scratch=scratch.workdir,
         )

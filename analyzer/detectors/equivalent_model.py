@@ -371,6 +371,12 @@ class EquivalentModel:
             reference[task[2]] = z
             cands[task[2]] = found
         events, notes, decisions = self._isolate(net, cands, model.window * 8 / rate)
+        # alarms the network's laws left ambiguous: no sensor named
+        unattributed = [
+            (float(d["onset_s"]), tuple(d["ambiguous"]), tuple(d["faulty"]))
+            for d in decisions
+            if d["sensor"] in d["ambiguous"]
+        ]
         for s, why in net.undiagnosable().items():
             notes.append(f"{s} cannot be diagnosed by the observers alone ({why})")
         l1 = model.observers[0].observer.lambda1 if model.observers else self.lambda1
@@ -407,6 +413,7 @@ class EquivalentModel:
                 "decisions": decisions,
             },
             notes=notes,
+            unattributed=unattributed,
         )
 
     @staticmethod
@@ -474,6 +481,12 @@ class EquivalentModel:
                     f"alarm on {s} at {t0:.3f} s explained by the alarm on its assistant "
                     f"sensor(s) {', '.join(diag.propagated[s])} (law 0)"
                 )
+            elif diag.faulty:  # a second fault beside those, on one of the ambiguous
+                notes.append(
+                    f"alarm on {s} at {t0:.3f} s not attributed: beside the fault on "
+                    f"{', '.join(diag.faulty)}, a fault on any one of "
+                    f"{', '.join(diag.ambiguous)} explains the alarms (law 0 for two faults)"
+                )
             else:
                 notes.append(
                     f"alarm on {s} at {t0:.3f} s not attributed: no law isolates one sensor "
@@ -539,6 +552,7 @@ def _observer_task(
     signals the event search reads are scratch rows (memory-mapped, reused by the next
     observer), and every pass gives back what it is done with."""
     ob, values, name, rate, detector, (train_start, train_stop), into, scratch = task
+    # without a healthy window in the record (--model): each fault's slope before its onset
     n = values.shape[0]
     with scratch.row("observer-zeta", n) as zeta_row, scratch.row("observer-z", n) as z_row:
         # the fault estimate is searched whole, in float64 (the pass's own array without
@@ -570,6 +584,7 @@ def _observer_task(
             detector,
             search_start=train_stop,
             healthy_start=train_start,
+            before_onset=train_start is None,
             tau_corr=ob.tau,
             scratch=scratch.workdir,
         )

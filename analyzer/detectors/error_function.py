@@ -757,6 +757,7 @@ class ErrorFunction:
                     self.name,
                     search_start=data.train[1],
                     healthy_start=data.healthy_start,
+                    before_onset=not data.healthy,
                     tau_corr=f.tau_corr,
                     evidence={"group": f.group, "references": list(f.channels[1:])},
                     scratch=context.workdir if context.map_outputs else None,

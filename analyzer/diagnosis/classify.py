@@ -232,7 +232,9 @@ def reference_slope(residual: FloatArray, reference: FloatArray) -> ReferenceSlo
     my = sy / n
     vyy = syy - n * my * my
     level = y0 + my
-    if not vyy > 1e-12 * n * (level * level + 1.0):
+    # a reference that varies by less than 1e-9 of its level is constant but for rounding
+    # (a relative test: the same data in other units has the same slope)
+    if not vyy > n * (1e-9 * level) ** 2 or not vyy > 0.0:
         return None
     return ReferenceSlope((syr - n * my * (sr / n)) / vyy, level)
 

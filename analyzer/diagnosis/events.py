@@ -43,6 +43,7 @@ def events_from_residual(
     *,
     search_start: int = 0,
     healthy_start: int | None = None,
+    before_onset: bool = False,
     tau_corr: float = 1.0,
     evidence: dict[str, Any] | None = None,
     scratch: Path | None = None,
@@ -52,7 +53,9 @@ def events_from_residual(
     (:func:`diagnose_interval`). ``healthy_start``: where the healthy window that ends at
     ``search_start`` begins; given, the residual's healthy share of the reference
     (:class:`~analyzer.diagnosis.classify.ReferenceSlope`) is measured over the window's
-    second half and left out of each fault's shape."""
+    second half and left out of each fault's shape. ``before_onset``: without a healthy
+    window in the record (a model fitted on another archive), that share is measured on
+    the residual before each fault's onset instead (:func:`slope_before`)."""
     out: list[Event] = []
     n = residual.shape[0]
     slope = None
@@ -71,6 +74,10 @@ def events_from_residual(
     for iv in detect(residual, cal, search_start=search_start, index=index):
         if iv.onset < covered:
             continue  # inside a fault already extended over this stretch
+        if before_onset and slope is None and reference is not None:
+            shape_slope = slope_before(residual, reference, search_start, iv.onset, cal, rate_hz)
+        else:
+            shape_slope = slope
         cls, end = diagnose_interval(
             residual,
             reference,
@@ -80,7 +87,7 @@ def events_from_residual(
             tau_corr,
             scratch=scratch,
             index=index,
-            slope=slope,
+            slope=shape_slope,
         )
         covered = n if end is None else end
         onset_s, factor, extra = bounded_onset(iv.onset, cls, rate_hz, search_start)
@@ -129,6 +136,34 @@ def bounded_onset(
     if traced >= bound:
         return float(max(0.0, traced)), 1.0, {}
     return bound, EARLY_ONSET_FACTOR, {"traced_onset_s": float(traced), "starts_in_training": True}
+
+
+SLOPE_WINDOWS = 4
+"""Long alarm windows of searched residual a fault's onset needs before it for its
+healthy slope to be measured there (:func:`slope_before`)."""
+SLOPE_SECONDS = 600.0
+"""At most this much of the residual before a fault's onset is read for its slope."""
+
+
+def slope_before(
+    residual: FloatArray,
+    reference: FloatArray,
+    search_start: int,
+    onset: int,
+    cal: Calibration,
+    rate_hz: float,
+) -> ReferenceSlope | None:
+    """The residual's share of its reference (:func:`~analyzer.diagnosis.classify.
+    reference_slope`) over the searched stretch before ``onset``, where no alarm rang: its
+    last :data:`SLOPE_SECONDS` at most, none when it is shorter than
+    :data:`SLOPE_WINDOWS` long alarm windows. With a model fitted on another archive
+    (``--model``) the record has no healthy window of its own: an offset on a reading at
+    1000 was a gain of 1.002 there still."""
+    need = SLOPE_WINDOWS * cal.long_window
+    if onset - search_start < need:
+        return None
+    lo = max(search_start, onset - max(need, int(SLOPE_SECONDS * rate_hz)))
+    return reference_slope(residual[lo:onset], reference[lo:onset])
 
 
 def diagnose_interval(

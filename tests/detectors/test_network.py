@@ -126,6 +126,45 @@ def test_mutual_assistants_are_reported_and_ambiguous():
     assert d.faulty == () and d.ambiguous == ("a", "b")
 
 
+def test_the_smallest_explanation_isolates_where_law_0_alone_does_not():
+    """Where every alarming residual depends on an alarming sensor, the smallest sets of
+    alarming sensors whose faults explain every alarm decide: a sensor in all of them is
+    faulty. Mutual assistants a and b: a fault on b reaches a and b, not c, so c's alarm
+    names a; without it each of a and b explains both alarms and both stay ambiguous."""
+    net = network_from_config(["a", "b", "c"], {"a": ["b"], "b": ["a"], "c": ["a"]})
+    d = net.diagnose({"a", "b", "c"})
+    assert d.faulty == ("a",) and d.propagated == {"b": ("a",), "c": ("a",)}
+    assert "explains every alarm" in d.laws["a"]
+    assert net.diagnose({"a", "b"}).faulty == ()
+
+
+def test_two_faults_at_once_in_the_network_of_a_three_floor_building():
+    """The network the equivalent model built for a 3-floor building (6 sensors, two
+    assistants each) and the alarms of an offset on s1 and a gain on s3 from the same
+    instant (sweep_isolation.py --floors 3 --onset 0.6 --second 0.6001, seed 0): no one
+    sensor explains s0 s1 s3 s4 s5; the pairs {s0, s3} and {s1, s3} do, so s3 is faulty
+    and s0, s1 stay ambiguous (a fault on s1 shows in s0's residual). Two faults whose
+    pair is the only explanation are both isolated."""
+    ass = {
+        "s0": ["s1", "s2"],
+        "s1": ["s2", "s3"],
+        "s2": ["s4", "s5"],
+        "s3": ["s2", "s0"],
+        "s4": ["s3", "s0"],
+        "s5": ["s4", "s3"],
+    }
+    net = network_from_config([f"s{i}" for i in range(6)], ass)
+    d = net.diagnose({"s0", "s1", "s3", "s4", "s5"})
+    assert d.faulty == ("s3",) and set(d.ambiguous) == {"s0", "s1"}
+    assert d.propagated == {"s4": ("s3",), "s5": ("s3",)}
+    assert "two faults" in d.laws["s3"]
+    ring = SensorNetwork.ring(["a", "b", "c", "d", "e", "f"], k=1)  # x assists the next
+    both = ring.diagnose({"a", "b", "d", "e"})  # faults on a and d, each seen by its target
+    assert both.faulty == ("a", "d")  # law 0 alone: b and e depend on an alarm, a and d not
+    pair = network_from_config(["a", "b", "c"], {"a": ["b"], "b": ["a"], "c": ["a", "b"]})
+    assert pair.diagnose({"a", "b", "c"}).faulty == ()  # {a} and {b} each explain all
+
+
 def test_alarm_on_a_sensor_without_residual_is_ignored(fig11):
     d = fig11.diagnose({"s1"})
     assert d.faulty == () and d.ignored == ("s1",)

@@ -255,6 +255,11 @@ def test_reference_slope_is_the_least_squares_slope_in_pieces(monkeypatch):
     assert got.level == pytest.approx(np.mean(y[ok]), rel=1e-12)
     assert mod.reference_slope(r, np.full(5500, 7.0)) is None  # a reference that never varies
     assert mod.reference_slope(r[:5], y[:5]) is None
+    # the same data in other units (a strain in m/m): the same slope, not None
+    small = mod.reference_slope(3e-7 * r, 3e-7 * y)
+    assert small is not None and small.slope == pytest.approx(expected, rel=1e-6)
+    big = mod.reference_slope(r, 1e6 + (y - 1000.0) / 2.0)  # level 1e6, spread 1
+    assert big is not None and big.slope == pytest.approx(2.0 * expected, rel=1e-6)
 
 
 def test_an_offset_on_a_large_level_is_not_the_healthy_slope_read_as_a_gain():
