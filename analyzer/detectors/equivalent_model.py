@@ -437,6 +437,9 @@ class EquivalentModel:
         # events attributed to their own sensor: (sensor, event, first alarm, diagnosis,
         # index of the decision)
         accepted: list[tuple[str, Event, float, NetworkDiagnosis, int]] = []
+        # what each event's alarm was put down to when it began (by id): its sensor's own
+        # fault, confirmed or not, or the faults of the sensors its residual depends on
+        put_down: dict[int, tuple[str, tuple[str, ...]]] = {}
         for s, ev in sorted(allev, key=lambda p: first(p[1])):
             t0 = first(ev)
             alarming = {
@@ -447,7 +450,40 @@ class EquivalentModel:
             }
             diag: NetworkDiagnosis = net.diagnose(alarming)
             decisions.append({"onset_s": t0, "sensor": s, **diag.as_dict()})
-            confirmed = [t for t in net.targets(s) if t in diag.propagated]
+
+            # A target whose alarm has lasted since before s's and was put down to another
+            # fault then (a confirmed fault of its own, or another assistant's) does not
+            # confirm s: a gain on s10 from 480 s, and s14's alarms that it explained,
+            # "confirmed" an alarm on s12 (which assists both) at 849 s (16 channels, seed
+            # 16 of sweep_isolation.py --onset 0.4 --second 0.7). An earlier alarm of the
+            # target's own, unconfirmed, may be s's fault seen first there, and does.
+            def stale(target: str, s: str = s, t0: float = t0) -> bool:
+                return any(
+                    o == target
+                    and first(e) < t0 - slack_s
+                    and (e.end_s is None or e.end_s >= t0)
+                    and (
+                        put_down.get(id(e), ("", ()))[0] == "confirmed"
+                        or (
+                            put_down.get(id(e), ("", ()))[0] == "propagated"
+                            and s not in put_down[id(e)][1]
+                        )
+                    )
+                    for o, e in allev
+                )
+
+            # (nor one whose alarm another such sensor explains: s14, assisted by s10)
+            confirmed = [
+                t
+                for t in net.targets(s)
+                if t in diag.propagated
+                and not stale(t)
+                and not any(d != s and stale(d) for d in diag.propagated[t])
+            ]
+            if s in diag.faulty:
+                put_down[id(ev)] = ("confirmed" if confirmed else "own", ())
+            elif s in diag.propagated:
+                put_down[id(ev)] = ("propagated", diag.propagated[s])
             unconfirmed = s in diag.faulty and not confirmed
             if unconfirmed and ev.type is FaultType.OTHER:
                 notes.append(

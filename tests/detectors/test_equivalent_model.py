@@ -639,3 +639,47 @@ def test_pretreatment_block_by_block_equals_the_whole_window(rows, monkeypatch):
     assert (tab.a, tab.b, tab.ey_rms) == pytest.approx(
         _whole_pretreat(x[901:], u[901:], h, 2.0, table), rel=1e-12
     )
+
+
+def test_a_target_with_its_own_fault_under_way_does_not_confirm():
+    """A target confirms an alarm when its residual begins to alarm with it: s10, whose
+    own gain had alarmed since 480 s, "confirmed" an alarm on s12 (which assists s10) at
+    849 s, and s12 was reported beside the real second fault on s11 (16 channels,
+    ``sweep_isolation.py --onset 0.4 --second 0.7``, seed 16). A target alarming with it
+    still confirms, and so does an earlier unconfirmed alarm of a target (the fault seen
+    first in the residual it assists: the test above)."""
+    net = network_from_config(
+        ["s10", "s11", "s12", "s13"],
+        {"s10": ["s12", "s13"], "s11": ["s10", "s13"], "s12": ["s13", "s11"]},
+    )
+    # s10's own gain from 480 s, confirmed by s11 (which it assists)
+    cands = {
+        "s10": [_event("s10", 480.0)],
+        "s11": [_event("s11", 480.3, 490.0)],
+        "s12": [_event("s12", 849.0)],
+    }
+    events, _, _ = EquivalentModel._isolate(net, cands, 2.0)
+    assert [e.channel for e in events] == ["s10", "s12"]
+    assert events[0].evidence["confirmed_by"] == ["s11"]
+    assert events[1].evidence["confirmed_by"] == []
+    # nor does a target whose fresh alarm the lasting fault on s10 explains as well
+    net = network_from_config(
+        ["s10", "s11", "s12", "s13", "s14"],
+        {
+            "s10": ["s12", "s13"],
+            "s11": ["s10", "s13"],
+            "s12": ["s13", "s11"],
+            "s14": ["s10", "s12"],
+        },
+    )
+    events, _, _ = EquivalentModel._isolate(
+        net, {**cands, "s14": [_event("s14", 849.3, 860.0)]}, 2.0
+    )
+    assert [(e.channel, e.evidence["confirmed_by"]) for e in events] == [
+        ("s10", ["s11"]),
+        ("s12", []),
+    ]
+    cands = {"s10": [_event("s10", 849.5)], "s12": [_event("s12", 849.0)]}
+    events, _, _ = EquivalentModel._isolate(net, cands, 2.0)
+    assert [e.channel for e in events if e.channel == "s12"] == ["s12"]
+    assert events[0].evidence["confirmed_by"] == ["s10"]
