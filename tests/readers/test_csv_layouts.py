@@ -285,17 +285,22 @@ def decimal_expected(n: int, first_decimal: int) -> tuple[np.ndarray, np.ndarray
     return np.where(late, i + 0.5, i), np.where(late, -i - 0.25, -i)
 
 
-def test_decimal_commas_after_the_first_fifty_lines(tmp_path: Path) -> None:
-    """The decimal mark was decided from the first 50 lines: the later ``12,5`` cells
-    were non-numeric, the columns skipped as text."""
-    path = tmp_path / "late_comma.csv"
-    path.write_text("time;a;b\n" + decimal_rows(N, 100))
+def assert_decimal_file(path: Path, n: int, first: int) -> None:
+    """``path`` holds :func:`decimal_rows` (``n`` rows, commas from row ``first``): read
+    whole, with every value and no error."""
+    path.write_text("time;a;b\n" + decimal_rows(n, first))
     got, info = read(path)
-    a, b = decimal_expected(N, 100)
-    np.testing.assert_array_equal(got["a"][0], 1_000_000_000 * np.arange(N))
+    a, b = decimal_expected(n, first)
+    np.testing.assert_array_equal(got["a"][0], 1_000_000_000 * np.arange(n))
     np.testing.assert_array_equal(got["a"][1], a)
     np.testing.assert_array_equal(got["b"][1], b)
     assert info.errors == []
+
+
+def test_decimal_commas_after_the_first_fifty_lines(tmp_path: Path) -> None:
+    """The decimal mark was decided from the first 50 lines: the later ``12,5`` cells
+    were non-numeric, the columns skipped as text."""
+    assert_decimal_file(tmp_path / "late_comma.csv", N, 100)
 
 
 def test_decimal_commas_after_the_sample_in_a_later_block(
@@ -305,15 +310,7 @@ def test_decimal_commas_after_the_sample_in_a_later_block(
     4 KiB), in a later block: still numbers, time column included."""
     monkeypatch.setattr(csv_reader, "SAMPLE_BYTES", 4096)
     monkeypatch.setattr(csv_reader, "BLOCK_BYTES", 4096)
-    n = 2000
-    path = tmp_path / "later_comma.csv"
-    path.write_text("time;a;b\n" + decimal_rows(n, 1500))
-    got, info = read(path)
-    a, b = decimal_expected(n, 1500)
-    np.testing.assert_array_equal(got["a"][0], 1_000_000_000 * np.arange(n))
-    np.testing.assert_array_equal(got["a"][1], a)
-    np.testing.assert_array_equal(got["b"][1], b)
-    assert info.errors == []
+    assert_decimal_file(tmp_path / "later_comma.csv", 2000, 1500)
 
 
 @pytest.mark.parametrize(
