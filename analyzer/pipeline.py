@@ -723,6 +723,42 @@ def _mostly_one_value(tv: Any) -> npt.NDArray[np.bool_]:
     return np.asarray((count > 0) & (at >= MOSTLY_ONE_VALUE * count), dtype=bool)
 
 
+COUNTER_SPREAD = 0.05
+"""A channel whose every step between consecutive training samples lies within this share
+of its mean step (non-zero) is a counter or a clock, not a sensor: a sensor's noise makes
+its steps differ by far more."""
+
+
+def _counters(tv: Any) -> npt.NDArray[np.bool_]:
+    """Columns of the training rows ``tv`` that step by the same non-zero amount from
+    each sample to the next (within :data:`COUNTER_SPREAD`; steps across a gap are not
+    counted): a row counter, a second clock (``Elapsed Time`` beside ``time``), a pandas
+    index written as a column. Taken a block of rows at a time."""
+    m = tv.shape[1]
+    lo = np.full(m, np.inf)
+    hi = np.full(m, -np.inf)
+    last: npt.NDArray[np.float64] | None = None
+    with np.errstate(all="ignore"):
+        for _, block in row_blocks(tv):
+            rows = np.asarray(block, dtype=np.float64)
+            if last is not None:
+                rows = np.vstack([last, rows])
+            steps = np.diff(rows, axis=0)
+            if steps.shape[0]:
+                lo = np.fmin(lo, np.nanmin(np.where(np.isfinite(steps), steps, np.inf), axis=0))
+                hi = np.fmax(hi, np.nanmax(np.where(np.isfinite(steps), steps, -np.inf), axis=0))
+            last = rows[-1:]
+        mean = 0.5 * (lo + hi)
+        counter = (
+            np.isfinite(lo)
+            & np.isfinite(hi)
+            & (np.sign(lo) == np.sign(hi))
+            & (lo != 0.0)
+            & (hi - lo <= COUNTER_SPREAD * np.abs(mean))
+        )
+    return np.asarray(counter, dtype=bool)
+
+
 def _varying_in_training(
     values: Any,
     chosen: list[str],
@@ -746,13 +782,24 @@ def _varying_in_training(
             "one with --train (the default is the first 20 % of the data, at most 10 min)"
         )
     flat = flat_channels(tv) | _mostly_one_value(tv)
-    if not flat.any():
+    counters = _counters(tv) & ~flat
+    if not flat.any() and not counters.any():
         return values, chosen
     dropped = [c for c, f in zip(chosen, flat, strict=True) if f]
-    notes.append(
-        "constant (or one value in 99 % of the samples) or empty in the training window, "
-        "not analyzed: " + ", ".join(dropped)
-    )
+    if dropped:
+        notes.append(
+            "constant (or one value in 99 % of the samples) or empty in the training "
+            "window, not analyzed: " + ", ".join(dropped)
+        )
+    if counters.any():
+        # a ramp made the bank's and the detection filter's regressions singular (both
+        # skipped) and the equivalent model reported it as a drift
+        notes.append(
+            "a counter or clock in the training window (the same step from each sample to "
+            "the next), not analyzed: "
+            + ", ".join(c for c, f in zip(chosen, counters, strict=True) if f)
+        )
+    flat = flat | counters
     keep = np.flatnonzero(~flat)
     if keep.size == 0:
         how = (

@@ -482,6 +482,31 @@ def test_a_channel_at_one_value_through_the_training_window_is_left_out(tmp_path
     assert [f["channel"] for f in doc["faults"]][:1] == [names[0]]
 
 
+@pytest.mark.parametrize("kind", ["elapsed", "row counter"])
+def test_a_counter_or_second_clock_is_left_out(tmp_path, capsys, kind):
+    """A column that steps by the same amount every sample (``Elapsed Time`` beside
+    ``time``, a row counter, a pandas index written as a column) made the bank's and the
+    detection filter's regressions singular (both skipped) and the equivalent model
+    reported it as a drift: it is left out with a note, and an offset on a sensor is
+    found by all three."""
+    t, Y, names = simulate_building(n_floors=3, duration_s=120.0, seed=1)
+    n = len(t)
+    Y[n // 2 :, 0] += 3.0 * Y[: n // 5, 0].std()
+    ramp = t + 5.0 if kind == "elapsed" else np.arange(n, dtype=np.float64)
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    src = tmp_path / "ramp.csv"
+    write_archive(src, "csv", t_ns, {"ramp": ramp, **{c: Y[:, j] for j, c in enumerate(names)}})
+    code, _, err = run_cli(["run", src, "--out", tmp_path / "o"], capsys)
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    assert code == 1, err
+    assert (
+        "a counter or clock in the training window (the same step from each sample to the "
+        "next), not analyzed: ramp" in doc["notes"]
+    )
+    assert set(doc["skipped_detectors"]) <= {"error_function"}
+    assert [(f["channel"], f["type"]) for f in doc["faults"]] == [(names[0], "additive")]
+
+
 def test_what_a_training_window_leaves_unsearched_is_noted(tmp_path, capsys):
     """Faults are searched from the training window's end on: an offset before a window
     that starts later went unreported without a word, and so did everything when the
