@@ -8,14 +8,18 @@ What is an archive, and when is it ready
     directory of files forming one archive; with ``--group-by REGEX`` the entries whose
     names give the same value for the regex's first group are one archive named by that
     value (``(\\d{8}T\\d{2})``: one archive per hour), analyzed as a multi-file input. Hidden
-    and temporary names (``.x``, ``x.tmp``, ``x.part``, ``x~``, ``x.active``) are ignored.
-    An archive is ready when its files' sizes and mtimes have not changed for ``--settle``
-    seconds and it is structurally complete where the format allows: MCAP magic at both
-    ends, a ROS 1 bag with its index, a ROS 2 bag directory with its ``metadata.yaml``
-    (see :mod:`analyzer.watch_inbox`). Changes are seen through file-system events
-    (inotify and the like, via ``watchdog``), or by polling every ``--poll`` seconds,
-    which is also the fallback where events are unavailable (some network file systems:
-    there, pass ``--poll``).
+    and temporary names (``.x``, ``x.tmp``, ``x.part``, ``x~``, ``x.active``) are ignored,
+    and so are FIFOs, sockets and devices (never opened: said once). An archive is ready
+    when its files' sizes and mtimes have not changed for ``--settle`` seconds and it is
+    structurally complete where the format allows: MCAP magic at both ends, a ROS 1 bag
+    with its index, a ROS 2 bag directory with its ``metadata.yaml`` (see
+    :mod:`analyzer.watch_inbox`). An archive that changes soon after it was taken as
+    ready (a writer pausing longer than ``--settle``) has to be stable twice as long the
+    next time, up to 2 minutes. Changes are seen through file-system events (inotify and
+    the like, via ``watchdog``), or by polling every ``--poll`` seconds, which is also
+    the fallback where events are unavailable (some network file systems: there, pass
+    ``--poll``). An archive that cannot be read (a dangling symbolic link, permission
+    denied) is skipped with one warning, and looked at again when it changes.
 
 Exactly once
     ``REPORTS/.watch-state.json`` records the sha256 of each archive's content (of the
@@ -23,10 +27,23 @@ Exactly once
     restarted watcher skips what it has done, and analyzes again an archive whose content
     changed (the hash is reused without reading the files again while every file has
     the size and mtime it had when recorded). The result of an archive that changed
-    while it was analyzed is discarded; it is analyzed again once it has settled.
-    Options (``--train``, ``--config``...) are not part of the record: changing them
-    does not re-analyze archives already done. A report folder deleted by hand makes its
-    archive be analyzed again on the next start.
+    while it was analyzed is discarded, and it is not moved; it is analyzed again once
+    it has settled. Options (``--train``, ``--config``...) are not part of a result's
+    record: changing them does not re-analyze archives found with or without a fault.
+    An error is recorded with a fingerprint of the analysis options and the analyzer
+    version (:func:`options_fingerprint`), and the archive is analyzed again by a
+    watcher whose fingerprint differs (an error recorded by an older watcher, without
+    the fingerprint, is analyzed again once). An error that is not the archive's (an
+    internal error, a report that cannot be written, a full disk, an analysis process
+    killed) is shown in the index but is no verdict: the archive is analyzed again on
+    the next start. A report folder deleted by hand makes its archive be analyzed again
+    on the next start. An archive that arrives under the name of a recorded one with
+    other content (the earlier file replaced, or moved away by ``--done``) does not
+    replace the earlier result: that record, its report folder and its fault episodes
+    are kept under a free name (that of the file ``--done`` moved it to when it
+    differs, else ``name-1.ext``, ``name-2.ext``...), with ``dropped_as`` the name it
+    came under. An archive that still looks unfinished but is recorded already with
+    this content is not waited for.
 
 One watcher per REPORTS
     ``REPORTS/.lock`` is ``flock``-ed for the watcher's lifetime. A second watcher on the
@@ -40,13 +57,19 @@ Outputs
     and ``REPORTS/index.json`` list every archive (verdict ``fault``, ``no fault`` or
     ``error``, faulty sensors, link to the report), newest first, and every fault once
     across the archives: one that goes on from an archive into the next is one episode
-    (:func:`analyzer.watch_index.episodes`).
+    (:func:`analyzer.watch_index.episodes`). An archive named ``index.html``,
+    ``index.json``, or starting with ``.`` or ``_``, has its folder named ``_`` + its
+    name.
 
 Inputs
     Archives are only read, never modified. ``--done DIR`` moves each analyzed archive
     (fault or no fault) to DIR after its report is written, ``--failed DIR`` each archive
     that could not be analyzed; an archive dropped again with the same content is moved
     without being analyzed again. A name taken in DIR gets a ``-1``, ``-2``... suffix.
+    An archive whose error depends on the options (``--channels`` matching none of its
+    channels, ``--train`` beyond its end) or is not its own (above) stays in INBOX, and
+    so does one that changed since it was found complete. DIR must be outside INBOX's
+    own archives and outside REPORTS (exit 2 otherwise).
 
 Running
     ``--jobs N`` analyses run at a time (default: one per core), each on one thread, or
@@ -61,7 +84,8 @@ Running
     (the model file is read once, at start-up). ``--once`` processes what is in INBOX
     (waiting for it to be complete) and exits. An archive that stays stable but
     structurally unfinished for 10 minutes (a recorder that died, a truncated copy) is
-    analyzed anyway, and gets its error record.
+    analyzed anyway, and gets its error record; the watcher says once, as a warning,
+    that it waits up to 10 minutes for it.
 
 On a cluster
     With ``--scheduler ADDRESS`` each archive's analysis is a task of that Dask cluster,
@@ -72,14 +96,18 @@ On a cluster
 
 Stopping
     SIGINT or SIGTERM: no new analysis starts; the running ones finish and are recorded,
-    then the watcher exits with code 0. A second signal abandons the running analyses
+    then the watcher exits. A second signal abandons the running analyses
     (their processes are killed, their scratch folders removed, nothing recorded: they
     are analyzed on the next start). Analysis processes ignore SIGINT, so Ctrl-C in a
     terminal behaves the same; under systemd use ``KillMode=mixed`` so that SIGTERM
     reaches only the watcher.
 
-Exit codes: 0 after a clean shutdown (or ``--once`` completed), 2 on a usage error
-(INBOX missing, REPORTS locked by another watcher, bad ``--group-by``...).
+Exit codes: 0 after a clean shutdown; with ``--once``, 1 when an archive analyzed by this
+run has a fault, else 2 when an archive of this run could not be analyzed (an error
+record, an archive that cannot be read, a report that cannot be written), else 0
+(archives found analyzed already do not count), and 130 when a signal stopped it first;
+2 on a usage error (INBOX missing, REPORTS locked by another watcher, ``--done`` inside
+REPORTS, bad ``--group-by``...).
 """
 
 from __future__ import annotations
@@ -108,7 +136,8 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
-from analyzer.errors import AnalyzerError, UsageError, one_line
+from analyzer import __version__
+from analyzer.errors import AnalyzerError, ConfigError, UsageError, one_line
 from analyzer.findings import sha256_of, write_outputs
 from analyzer.options import RunOptions
 from analyzer.outdir import write_atomic
@@ -122,11 +151,13 @@ from analyzer.watch_cluster import ClusterTask, warm_worker
 from analyzer.watch_inbox import (
     INCOMPLETE_TIMEOUT_S,
     ReadyArchive,
+    Signature,
     archive_names,
     ready_batches,
     signature,
 )
 from analyzer.watch_index import (
+    ErrorKind,
     Ledger,
     Record,
     ReportsLock,
@@ -141,6 +172,8 @@ log = logging.getLogger("analyzer.watch")
 
 TICK_S = 0.1
 """How often the loop wakes up while it waits for analyses to end."""
+EXIT_INTERRUPTED = 130
+"""``--once`` stopped by a signal before it was through (as ``analyzer run``)."""
 KILL_GRACE_S = 2.0
 """When abandoning, how long an analysis process gets after SIGTERM before SIGKILL."""
 
@@ -188,6 +221,29 @@ class WatchSettings:
         )
 
 
+def options_fingerprint(options: RunOptions) -> str:
+    """What the findings depend on, as 16 hex digits of a sha256: the analyzer version
+    and the analysis options (not ``--jobs``, ``--scheduler`` or the progress display,
+    which never change them; the saved model by its file's sha256). An error recorded
+    with another fingerprint is analyzed again (:meth:`Record.redo_reason`)."""
+    config = options.config
+    doc = {
+        "version": __version__,
+        "channels": options.channels,
+        "train": options.train,
+        "config": {**config.as_context(), "train": config.train},
+        "detectors": options.detectors,
+        "rate": options.rate,
+        "time": options.time_source,
+        "corrected": options.corrected,
+        "model": options.model_sha256 or options.model_path,
+        "screen": options.screen,
+        "msg_path": os.environ.get(MSG_PATH_ENV, ""),
+    }
+    text = json.dumps(doc, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
 def _prepare(settings: WatchSettings) -> set[str]:
     """Check the folders, create the output ones; return the INBOX entries that are
     output folders (never archives)."""
@@ -195,6 +251,7 @@ def _prepare(settings: WatchSettings) -> set[str]:
     if not inbox.is_dir():
         raise UsageError(f"INBOX: {inbox} is not a directory")
     root = inbox.resolve()
+    reports = settings.reports.resolve()
     exclude: set[str] = set()
     for option, folder in (
         ("--out", settings.reports),
@@ -207,6 +264,15 @@ def _prepare(settings: WatchSettings) -> set[str]:
             raise UsageError(f"{option}: {folder} exists and is not a directory")
         if folder.resolve() == root:
             raise UsageError(f"{option}: {folder} is INBOX itself; use another folder")
+        if option != "--out" and folder.resolve().is_relative_to(reports):
+            # archives among the report folders: a report could take a moved file's name
+            raise UsageError(
+                f"{option}: {folder} is inside REPORTS (--out {settings.reports}); "
+                "use a folder outside it"
+            )
+    for folder in (settings.reports, settings.done, settings.failed):
+        if folder is None:
+            continue
         folder.mkdir(parents=True, exist_ok=True)
         resolved = folder.resolve()
         if resolved.is_relative_to(root):
@@ -217,14 +283,31 @@ def _prepare(settings: WatchSettings) -> set[str]:
 # --------------------------------------------------------------------------- analysis process
 
 
+EXIT_INPUT_ERROR = 2
+EXIT_INTERNAL_ERROR = 3
+EXIT_OPTION_ERROR = 4
+ERROR_KINDS = {
+    EXIT_INPUT_ERROR: ErrorKind.INPUT,
+    EXIT_INTERNAL_ERROR: ErrorKind.INTERNAL,
+    EXIT_OPTION_ERROR: ErrorKind.OPTIONS,
+}
+"""An analysis's exit code (:func:`analysis_into`) and whose fault its error is."""
+
+
 def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: Path) -> int:
     """One archive's analysis: the outputs of ``analyzer run`` into ``out_dir``, or
     ``out_dir/error.txt``, with ``work`` as its scratch space. Returns the exit code: 0/1
-    analyzed (no fault/fault), 2 input error, 3 bug."""
+    analyzed (no fault/fault), 2 input error, 3 bug or an error of the output side (a
+    full disk), 4 an option that does not fit this archive (``--channels`` matching
+    none of its channels, ``--train`` beyond its end: :class:`UsageError`,
+    :class:`ConfigError`)."""
     try:
         analysis = analyze_screened(inputs, options, work)
         write_outputs(analysis, out_dir)
         return 1 if analysis.faulty else 0
+    except (UsageError, ConfigError) as err:
+        write_atomic(out_dir / "error.txt", one_line(err) + "\n")
+        return EXIT_OPTION_ERROR
     except AnalyzerError as err:
         write_atomic(out_dir / "error.txt", one_line(err) + "\n")
         return 2
@@ -373,6 +456,13 @@ class _Runner:
         """``time.monotonic()`` when the first analysis started."""
         self.verdicts: dict[Verdict, int] = dict.fromkeys(Verdict, 0)
         """The verdicts recorded since the start (:meth:`summary`)."""
+        self.unreadable: set[str] = set()
+        """Archives skipped since the start because they cannot be read."""
+        self.unwritten = 0
+        """Analyses since the start whose outputs could not be written (a full disk)."""
+        self.fingerprint = options_fingerprint(options)
+        self._hashed: dict[str, tuple[Signature, str]] = {}
+        """The last content hash of each archive not recorded with its signature."""
         self.cluster = cluster
         self.slots = settings.jobs
         self.ctx = _context()
@@ -390,7 +480,21 @@ class _Runner:
 
     def offer(self, archive: ReadyArchive) -> None:
         self.queue.pop(archive.name, None)  # the newest state of an archive wins
+        if archive.unreadable is not None:  # (said by the tracker; counted, not analyzed)
+            self.unreadable.add(archive.name)
+            return
+        self.unreadable.discard(archive.name)
         self.queue[archive.name] = archive
+
+    def exit_code(self) -> int:
+        """``--once``'s exit code: 1 when an archive analyzed by this run has a fault,
+        else 2 when an archive of this run could not be analyzed (an error, unreadable,
+        its report not written), else 0. Archives found analyzed already do not count."""
+        if self.verdicts[Verdict.FAULT]:
+            return 1
+        if self.verdicts[Verdict.ERROR] or self.unreadable or self.unwritten:
+            return 2
+        return 0
 
     def busy(self) -> bool:
         return bool(self.queue or self.running)
@@ -410,16 +514,32 @@ class _Runner:
     # ------------------------------------------------------------------ start
     def _digest(self, archive: ReadyArchive) -> str:
         """sha256 of the archive's content; reused from the state when the archive has
-        the same (path, size, mtime) signature as when it was recorded."""
+        the same (path, size, mtime) signature as when it was recorded, or as when it
+        was last hashed."""
         rec = self.ledger.get(archive.name)
         if rec is not None and rec.signature == [list(s) for s in archive.signature]:
             return rec.sha256
+        hashed = self._hashed.get(archive.name)
+        if hashed is not None and hashed[0] == archive.signature:
+            return hashed[1]
         if len(archive.paths) == 1:
-            return sha256_of(archive.paths[0])
-        h = hashlib.sha256()
-        for path in archive.paths:
-            h.update(f"{path.name}\0{sha256_of(path)}\n".encode())
-        return h.hexdigest()
+            digest = sha256_of(archive.paths[0])
+        else:
+            h = hashlib.sha256()
+            for path in archive.paths:
+                h.update(f"{path.name}\0{sha256_of(path)}\n".encode())
+            digest = h.hexdigest()
+        self._hashed[archive.name] = (archive.signature, digest)
+        return digest
+
+    def recorded(self, archive: ReadyArchive) -> bool:
+        """Whether ``archive`` is recorded already with its present content (and would
+        not be analyzed again): :attr:`analyzer.watch_inbox.InboxTracker.known`. Only
+        an archive whose name has a record is hashed."""
+        rec = self.ledger.get(archive.name)
+        if rec is None:
+            return False
+        return rec.sha256 == self._digest(archive) and rec.redo_reason(self.fingerprint) is None
 
     @property
     def counted(self) -> int:
@@ -442,7 +562,7 @@ class _Runner:
         """What this watcher did, for its last lines: ``24 archives analyzed in 39.5 s: 22
         no fault, 1 fault, 1 error (3 found analyzed already)``; None if nothing."""
         analyzed = sum(self.verdicts.values())
-        if not analyzed and not self.skipped:
+        if not analyzed and not self.skipped and not self.unreadable and not self.unwritten:
             return None
         took = "" if self.begun is None else f" in {_duration(time.monotonic() - self.begun)}"
         parts = ", ".join(f"{n} {v}" for v, n in self.verdicts.items() if n)
@@ -450,6 +570,10 @@ class _Runner:
         text += f": {parts}" if parts else ""
         if self.skipped:
             text += f" ({self.skipped} found analyzed already)"
+        if self.unreadable:
+            text += f"; {len(self.unreadable)} skipped (cannot be read)"
+        if self.unwritten:
+            text += f"; {self.unwritten} whose report could not be written"
         return text
 
     def _start(self, archive: ReadyArchive) -> None:
@@ -461,10 +585,13 @@ class _Runner:
             return
         rec = self.ledger.get(name)
         if rec is not None and rec.sha256 == digest:
-            self.skipped += 1
-            log.debug("%s: already analyzed (same content): %s", name, rec.verdict)
-            self._move(archive, rec)
-            return
+            again = rec.redo_reason(self.fingerprint)
+            if again is None:
+                self.skipped += 1
+                log.debug("%s: already analyzed (same content): %s", name, rec.verdict)
+                self._move(archive, rec)
+                return
+            log.info("%s: analyzed again: %s", name, again)
         if archive.incomplete:
             log.warning(
                 "%s: analyzing although it still looks unfinished: %s", name, archive.incomplete
@@ -533,7 +660,7 @@ class _Runner:
         del self.running[name]
         elapsed = time.monotonic() - job.started
         code = job.process.exitcode
-        if self.stopping.is_set() and code not in (0, 1, 2, 3):
+        if self.stopping.is_set() and code not in (0, 1, *ERROR_KINDS):
             # killed by the stop signal itself (a terminal's Ctrl-C reaching a process
             # before it ignores SIGINT, systemd signalling the whole group): abandoned
             shutil.rmtree(job.scratch, ignore_errors=True)
@@ -553,12 +680,42 @@ class _Runner:
                 name,
             )
             return
-        rec = self._result(job, elapsed)
-        publish(job.scratch, self.settings.reports, name)
-        self.ledger.record(rec)
+        try:
+            rec = self._result(job, elapsed)
+            earlier = self.ledger.get(name)
+            if (
+                earlier is not None
+                and earlier.sha256 != rec.sha256
+                and earlier.error_kind is not ErrorKind.INTERNAL  # (not a result)
+            ):
+                kept = self.ledger.keep_aside(name)
+                log.info("%s: new content; the earlier one's result is kept as %s", name, kept)
+            publish(job.scratch, self.settings.reports, name)
+            self.ledger.record(rec)
+        except OSError as err:  # REPORTS full or gone: not the archive's fault
+            shutil.rmtree(job.scratch, ignore_errors=True)
+            self.unwritten += 1
+            where = f"{os.fsdecode(err.filename)}: " if err.filename else ""
+            log.error(
+                "%s: cannot write its report: %s%s; it is analyzed again on the next start",
+                name,
+                where,
+                one_line(err.strerror or err),
+            )
+            return
+        self._hashed.pop(name, None)
         self.verdicts[rec.verdict] += 1
         at = self.progress()
-        if rec.verdict is Verdict.ERROR:
+        if rec.error_kind is ErrorKind.INTERNAL:
+            log.error(
+                "%s: error in %.1f s%s: %s (not the archive's fault: it is analyzed again "
+                "on the next start)",
+                name,
+                elapsed,
+                at,
+                rec.error,
+            )
+        elif rec.verdict is Verdict.ERROR:
             log.info("%s: error in %.1f s%s: %s", name, elapsed, at, rec.error)
         elif rec.verdict is Verdict.FAULT:
             faulty = ", ".join(rec.faulty_sensors)
@@ -581,10 +738,12 @@ class _Runner:
             processed=now_iso(),
             analysis_s=round(elapsed, 3),
             signature=[list(s) for s in job.archive.signature],
+            options=self.fingerprint,
         )
         findings = job.scratch / "findings.json"
         error = job.scratch / "error.txt"
         details = ""  # what follows the one-line message in error.txt (a traceback)
+        rec.error_kind = ErrorKind.INTERNAL
         if code in (0, 1) and findings.is_file():
             try:
                 doc = json.loads(findings.read_text(encoding="utf-8"))
@@ -606,11 +765,13 @@ class _Runner:
                 rec.screen = doc.get("screen")
                 rec.verdict = Verdict.FAULT if faults else Verdict.NO_FAULT
                 rec.report = f"{dirname}/report.html"
+                rec.error_kind = None
                 return rec
             except (OSError, ValueError, KeyError, TypeError) as err:
                 message = f"internal error: unreadable findings.json ({one_line(err)})"
-        elif code in (2, 3) and error.is_file():
+        elif code in ERROR_KINDS and error.is_file():
             message, _, details = error.read_text(encoding="utf-8").partition("\n")
+            rec.error_kind = ERROR_KINDS[code]
         elif code is not None and code < 0:
             message = f"analysis process killed by signal {-code}"
             with contextlib.suppress(ValueError):
@@ -626,9 +787,22 @@ class _Runner:
         return rec
 
     def _move(self, archive: ReadyArchive, rec: Record) -> None:
-        """``--done`` / ``--failed``: move the archive's files out of INBOX."""
+        """``--done`` / ``--failed``: move the archive's files out of INBOX. An archive
+        whose error is an option's or not its own (:class:`ErrorKind`) stays."""
         folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
-        if folder is None:
+        if rec.error_kind in (ErrorKind.OPTIONS, ErrorKind.INTERNAL) or folder is None:
+            return
+        try:
+            current = signature(archive.paths, self.settings.inbox)
+        except OSError:
+            current = None
+        if current != archive.signature:  # a writer still at it: moving would split it
+            log.warning(
+                "%s: not moved to %s: it changed since it was found complete (still being "
+                "written?)",
+                archive.name,
+                folder,
+            )
             return
         moved = []
         for path in archive.paths:
@@ -679,8 +853,9 @@ def watch(
 ) -> int:
     """Watch ``settings.inbox`` until ``stop`` is set (or, with ``once``, until what was
     there is done). After ``stop``, running analyses finish unless ``abandon`` is set.
-    Returns 0; raises :class:`UsageError` for bad folders or a REPORTS folder locked by
-    another watcher."""
+    Returns the exit code (0; with ``once``: see :meth:`_Runner.exit_code`, 130 when
+    stopped first); raises :class:`UsageError` for bad folders or a REPORTS folder
+    locked by another watcher."""
     stop = stop or threading.Event()
     abandon = abandon or threading.Event()
     settings = replace(
@@ -697,8 +872,7 @@ def watch(
         if cluster is not None:
             stack.callback(cluster.close)
         stack.enter_context(ReportsLock(settings.reports))
-        _watch_locked(settings, options, stop, abandon, exclude, cluster)
-    return 0
+        return _watch_locked(settings, options, stop, abandon, exclude, cluster)
 
 
 def _watch_locked(
@@ -708,8 +882,9 @@ def _watch_locked(
     abandon: threading.Event,
     exclude: set[str],
     cluster: DaskExecutor | None,
-) -> None:
-    """:func:`watch` once REPORTS is locked (and the cluster, if any, connected)."""
+) -> int:
+    """:func:`watch` once REPORTS is locked (and the cluster, if any, connected); returns
+    its exit code."""
     ledger = Ledger.load(settings.reports)
     for name in ledger.tidy():
         log.info("%s: its report folder is gone; it will be analyzed again", name)
@@ -742,6 +917,7 @@ def _watch_locked(
         once=settings.once,
         incomplete_timeout=settings.incomplete_timeout,
         yield_on_timeout=True,
+        known=runner.recorded,
     )
     try:
         with contextlib.closing(batches):
@@ -771,6 +947,9 @@ def _watch_locked(
     if summary is not None:
         log.info("%s; index: %s", summary, settings.reports / "index.html")
     log.info("stopped")
+    if not settings.once:
+        return 0  # a long-running watcher ends by a signal: its clean shutdown
+    return EXIT_INTERRUPTED if stop.is_set() else runner.exit_code()
 
 
 class _StderrFormatter(logging.Formatter):
@@ -807,4 +986,4 @@ def watch_main(args: argparse.Namespace, options: RunOptions) -> int:
         log.propagate = propagate
 
 
-__all__ = ["WatchSettings", "watch", "watch_main"]
+__all__ = ["WatchSettings", "options_fingerprint", "watch", "watch_main"]

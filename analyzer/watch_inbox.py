@@ -23,6 +23,16 @@ batches. Each batch lists the archives that became *ready* since the previous on
   (a recorder that died, a truncated copy) is yielded anyway with the reason, so that it
   ends up with an error record instead of waiting forever.
 
+Not archives, and not readable: FIFOs, sockets and devices (or links to them) are
+ignored and never opened (opening a FIFO blocks until a writer comes, deaf to signals),
+said once. An archive that cannot be read (a dangling symbolic link, permission denied)
+is handed on once per reason with :attr:`ReadyArchive.unreadable` set (to be counted and
+skipped, so that ``once`` ends) and looked at again whenever it is listed or changes.
+An archive that looks unfinished is not waited for when the caller knows it already
+(``known``: recorded with this content). One that changes soon after it was handed on as
+complete (a writer pausing longer than ``settle``) gets twice the settle time, up to
+:data:`MAX_SETTLE_S` (:meth:`InboxTracker.settle_of`).
+
 Changes are noticed through file-system events (``watchdog``: inotify, FSEvents, kqueue,
 with a full rescan every :data:`RESCAN_S` seconds in case events were dropped) or, with
 ``poll`` or where events are unavailable, by rescanning the folder every ``poll``
@@ -31,14 +41,16 @@ seconds. An archive is yielded again when its content changes after it was yield
 
 from __future__ import annotations
 
+import errno
 import logging
 import os
 import queue
 import re
+import stat
 import struct
 import threading
 import time
-from collections.abc import Generator, Iterable, Sequence
+from collections.abc import Callable, Generator, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -55,6 +67,10 @@ ROS1_MAGIC = b"#ROSBAG V2.0\n"
 SQLITE_MAGIC = b"SQLite format 3\x00"
 INCOMPLETE_TIMEOUT_S = 600.0
 """An archive stable this long but still structurally unfinished is handed on anyway."""
+MAX_SETTLE_S = 120.0
+"""The longest an archive's settle time grows to (or ``settle``, if that is longer):
+each time it changes soon after it was taken as complete, it doubles
+(:meth:`InboxTracker.settle_of`)."""
 RESCAN_S = 30.0
 """With file events, the whole folder is still rescanned this often (dropped events)."""
 FALLBACK_POLL_S = 1.0
@@ -71,6 +87,10 @@ class ReadyArchive:
     signature: Signature
     incomplete: str | None = None
     """Why it still looks unfinished, when handed on after ``incomplete_timeout``."""
+    unreadable: str | None = None
+    """Why it cannot be read (a dangling symbolic link, permission denied): such an
+    archive is handed on once per reason, to be counted and skipped, not analyzed; the
+    tracker looks at it again when it changes (:func:`unreadable_reason`)."""
 
 
 def ignored(name: str) -> bool:
@@ -100,9 +120,36 @@ def signature(paths: Iterable[Path], root: Path) -> Signature:
 # --------------------------------------------------------------------------- completeness
 
 
+SPECIAL_KINDS = (
+    (stat.S_ISFIFO, "a FIFO"),
+    (stat.S_ISSOCK, "a socket"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+)
+
+
+def special_kind(path: Path) -> str | None:
+    """What ``path`` is when it is neither a regular file nor a directory (``a FIFO``,
+    ``a socket``...), from ``os.stat`` alone (opening a FIFO blocks until a writer comes);
+    None for a file, a directory, or a path that cannot be stat-ed (a dangling link)."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return None
+    return next((kind for test, kind in SPECIAL_KINDS if test(mode)), "a special file")
+
+
 def _read_ends(path: Path, n: int) -> tuple[bytes, bytes, int]:
-    with path.open("rb") as f:
-        size = os.fstat(f.fileno()).st_size
+    # O_NONBLOCK: a FIFO that took a file's place opens at once instead of waiting for a
+    # writer (forever, deaf to signals); it is then refused as not a regular file
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    with os.fdopen(fd, "rb") as f:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise OSError(errno.EINVAL, "not a regular file", str(path))
+        size = st.st_size
         head = f.read(n)
         if size > n:
             f.seek(max(0, size - n))
@@ -197,13 +244,31 @@ def incomplete_reason(path: Path) -> str | None:
                 return f"{f.name}: {reason}"
         return None
     if not files:
-        return "empty directory"
+        # sub-folders only (ROS 2 bags, or nested folders): the analysis says what it
+        # makes of them; a folder with nothing at all is still being filled
+        return None if any(p.is_dir() for p in path.iterdir()) else "empty directory"
     if _looks_like_bag(path, files):
         return "ROS 2 bag without metadata.yaml (still recording?)"
     for f in files:
         if not ignored(f.name) and (reason := _file_incomplete(f)):
             return f"{f.name}: {reason}"
     return None
+
+
+def unreadable_reason(paths: Iterable[Path], err: OSError, root: Path) -> str | None:
+    """Why an archive whose ``signature`` or structure check raised ``err`` cannot be
+    read (``dangling symbolic link (to X)``, ``x.mcap: Permission denied``), or None
+    when a member merely vanished meanwhile (look again)."""
+    for path in paths:
+        if os.path.islink(path) and not os.path.exists(path):
+            return f"dangling symbolic link (to {os.readlink(path)})"
+    if isinstance(err, FileNotFoundError):
+        return None
+    where = ""
+    if err.filename:
+        name = Path(os.fsdecode(err.filename))
+        where = f"{name.relative_to(root) if name.is_relative_to(root) else name}: "
+    return f"{where}{err.strerror or err}"
 
 
 # --------------------------------------------------------------------------- tracking
@@ -216,6 +281,13 @@ class _Track:
     yielded: Signature | None = None
     checked: Signature | None = None
     reason: str | None = None
+    problem: str | None = None
+    """Why it cannot be read, once said (:func:`unreadable_reason`); it is then handled
+    (for ``once``) and looked at again whenever it is listed or changes."""
+    known: bool = False
+    """Unfinished-looking but recorded already with this content: not waited for."""
+    told: str | None = None
+    """The unfinished reason last said (each is said once)."""
 
 
 @dataclass(slots=True)
@@ -229,9 +301,22 @@ class InboxTracker:
     group_by: re.Pattern[str] | None = None
     exclude: frozenset[str] = frozenset()
     incomplete_timeout: float = INCOMPLETE_TIMEOUT_S
+    quiet: bool = False
+    """Say nothing (a tracker that only lists the archives: :func:`archive_names`)."""
+    known: Callable[[ReadyArchive], bool] | None = None
+    """Whether an archive is recorded already with its present content (the watcher's
+    ledger, looked up by content hash): one that looks unfinished is then handed on at
+    once instead of being waited for (it will not be analyzed again anyway)."""
     _members: dict[str, set[str]] = field(default_factory=dict)
     _tracks: dict[str, _Track] = field(default_factory=dict)
     _dirty: set[str] = field(default_factory=set)
+    _special: set[str] = field(default_factory=set)
+    """Entries ignored as FIFOs, sockets or devices, each said once."""
+    _settles: dict[str, float] = field(default_factory=dict)
+    """Archives whose settle time grew beyond ``settle`` (:meth:`settle_of`)."""
+    _taken: dict[str, float] = field(default_factory=dict)
+    """When each archive was last handed on as complete (kept when it goes away, as
+    ``--done`` moves it: a writer still at it then makes a new file of that name)."""
 
     def key(self, name: str) -> str | None:
         """The archive an INBOX entry belongs to, or None if the entry is ignored."""
@@ -243,10 +328,28 @@ class InboxTracker:
                 return m.group(1)
         return name
 
+    def _is_special(self, name: str) -> bool:
+        """Whether INBOX entry ``name`` is a FIFO, socket or device (or a link to one):
+        never an archive, never opened (opening a FIFO blocks); said once."""
+        kind = special_kind(self.inbox / name)
+        if kind is None:
+            self._special.discard(name)
+            return False
+        if name not in self._special and not self.quiet:
+            log.warning("%s: ignored: not a regular file or a directory (%s)", name, kind)
+        self._special.add(name)
+        return True
+
     def rescan(self) -> None:
         """Re-list INBOX (start, polling, and the periodic safety rescan)."""
         try:
-            names = {e.name for e in os.scandir(self.inbox)}
+            with os.scandir(self.inbox) as entries:
+                names = {
+                    e.name
+                    for e in entries
+                    # (d_type: a stat only for links and special files)
+                    if e.is_file() or e.is_dir() or not self._is_special(e.name)
+                }
         except FileNotFoundError:
             names = set()
         members: dict[str, set[str]] = {}
@@ -263,7 +366,7 @@ class InboxTracker:
         k = self.key(name)
         if k is None:
             return
-        if os.path.lexists(self.inbox / name):
+        if os.path.lexists(self.inbox / name) and not self._is_special(name):
             self._members.setdefault(k, set()).add(name)
         else:
             self._members.get(k, set()).discard(name)
@@ -283,9 +386,42 @@ class InboxTracker:
             if not self._members.get(k):
                 continue
             track = self._tracks.get(k)
-            if track is None or track.yielded != track.signature:
+            if track is None or (track.yielded != track.signature and track.problem is None):
                 return False
         return True
+
+    def settle_of(self, key: str) -> float:
+        """How long archive ``key`` must be stable: ``settle``, doubled each time it
+        changed soon (within 4 settle times) after it was handed on as complete (a
+        writer that pauses longer than the settle time: a logger flushing every few
+        seconds, a stalled copy), up to :data:`MAX_SETTLE_S`."""
+        return self._settles.get(key, self.settle)
+
+    def _changed(self, key: str, now: float) -> None:
+        """Archive ``key`` appeared or changed at ``now``: if that is soon after it was
+        handed on as complete, it was not complete; it gets a longer settle time."""
+        taken = self._taken.pop(key, None)
+        settle = self.settle_of(key)
+        if taken is None or now - taken >= 4 * settle:
+            return
+        longer = min(2 * settle, max(self.settle, MAX_SETTLE_S))
+        if longer > settle:
+            self._settles[key] = longer
+            log.info(
+                "%s: changed %.1f s after it was taken as complete (a writer pausing longer "
+                "than the settle time?); it now has to be stable for %g s",
+                key,
+                now - taken,
+                longer,
+            )
+
+    def _known(self, archive: ReadyArchive) -> bool:
+        if self.known is None:
+            return False
+        try:
+            return self.known(archive)
+        except OSError:  # (it is being rewritten, or gone: look again when it settles)
+            return False
 
     def step(self, now: float) -> list[ReadyArchive]:
         check = self._dirty | self.pending()
@@ -298,19 +434,27 @@ class InboxTracker:
                 self._tracks.pop(k, None)
                 continue
             paths = tuple(self.inbox / n for n in names)
+            problem = None
             try:
                 sig = signature(paths, self.inbox)
-            except OSError:  # a member vanished or changed type under us: look again
-                self._dirty.add(k)
-                continue
+            except OSError as err:
+                problem = unreadable_reason(paths, err, self.inbox)
+                if problem is None:  # a member vanished or changed type under us: look again
+                    self._dirty.add(k)
+                    continue
+                sig = ()
             track = self._tracks.get(k)
             if track is None:
                 track = self._tracks[k] = _Track(sig, now)
+                self._changed(k, now)
             elif sig != track.signature:
                 track.signature, track.since, track.checked = sig, now, None
-            if track.yielded == sig or now - track.since < self.settle:
+                self._changed(k, now)
+            if now - track.since < self.settle_of(k):
                 continue
-            if track.checked != sig:
+            if track.yielded == sig and track.problem is None:
+                continue
+            if problem is None and track.checked != sig:
                 track.checked = sig
                 try:
                     track.reason = next(
@@ -322,24 +466,51 @@ class InboxTracker:
                         None,
                     )
                 except OSError as err:
-                    self._dirty.add(k)
                     track.checked = None
-                    log.debug("%s: cannot check yet: %s", k, err)
-                    continue
-                if track.reason:
-                    log.info("%s: waiting: %s", k, track.reason)
+                    problem = unreadable_reason(paths, err, self.inbox)
+                    if problem is None:
+                        self._dirty.add(k)
+                        continue
+                track.known = bool(track.reason) and self._known(
+                    ReadyArchive(k, paths, sig, track.reason)
+                )
+                if track.reason and not track.known and track.reason != track.told:
+                    track.told = track.reason
+                    if not self.quiet:
+                        log.warning(
+                            "waiting up to %s for %s to be complete: %s",
+                            _span(self.incomplete_timeout),
+                            k,
+                            track.reason,
+                        )
+            if problem is not None:
+                # said once; looked at again whenever listed (rescans) or changed (events)
+                track.yielded, track.checked = sig, None
+                if problem != track.problem:
+                    track.problem = problem
+                    log.warning("%s: skipped, cannot read it: %s", k, problem)
+                    ready.append(ReadyArchive(k, paths, sig, unreadable=problem))
+                continue
+            if track.problem is not None:
+                track.problem, track.yielded = None, None
             gave_up = now - track.since >= self.incomplete_timeout
-            if track.reason is None or gave_up:
+            if track.reason is None or track.known or gave_up:
                 track.yielded = sig
+                self._taken[k] = now
                 ready.append(ReadyArchive(k, paths, sig, track.reason))
         return ready
+
+
+def _span(seconds: float) -> str:
+    """``10 min``, ``90 s``."""
+    return f"{seconds / 60:.0f} min" if seconds >= 120 else f"{seconds:.0f} s"
 
 
 def archive_names(
     inbox: Path, group_by: re.Pattern[str] | None = None, exclude: Iterable[str] = ()
 ) -> set[str]:
     """The archives INBOX holds now, as :func:`ready_batches` groups its entries."""
-    tracker = InboxTracker(inbox, 0.0, group_by, frozenset(exclude))
+    tracker = InboxTracker(inbox, 0.0, group_by, frozenset(exclude), quiet=True)
     tracker.rescan()
     return tracker.keys
 
@@ -386,6 +557,7 @@ def ready_batches(
     once: bool = False,
     incomplete_timeout: float = INCOMPLETE_TIMEOUT_S,
     yield_on_timeout: bool = False,
+    known: Callable[[ReadyArchive], bool] | None = None,
 ) -> Generator[list[ReadyArchive], None, None]:
     """Batches of archives of ``inbox`` that became ready (see the module doc).
 
@@ -394,9 +566,12 @@ def ready_batches(
     the generator returns soon after it is set. ``once``: return when every archive
     present at the start has been yielded (or has gone). ``yield_on_timeout``: yield an
     empty batch after every idle tick (about 0.1 s) so the consumer can do other work.
+    ``known``: :attr:`InboxTracker.known`.
     """
     stop = stop or threading.Event()
-    tracker = InboxTracker(inbox, settle, group_by, frozenset(exclude), incomplete_timeout)
+    tracker = InboxTracker(
+        inbox, settle, group_by, frozenset(exclude), incomplete_timeout, known=known
+    )
     tick = min(0.25, max(0.02, settle / 4))
     sink: queue.SimpleQueue[str] = queue.SimpleQueue()
     observer = None
@@ -439,6 +614,7 @@ def ready_batches(
 
 __all__ = [
     "INCOMPLETE_TIMEOUT_S",
+    "MAX_SETTLE_S",
     "InboxTracker",
     "ReadyArchive",
     "archive_names",
@@ -448,4 +624,6 @@ __all__ = [
     "ready_batches",
     "ros1_index_pos",
     "signature",
+    "special_kind",
+    "unreadable_reason",
 ]

@@ -6,7 +6,8 @@
 * ``REPORTS/.watch-state.json``: one record per archive name: the sha256 of its content,
   the (path, size, mtime) signature it had, and the result. Written atomically after
   every archive (before its files are moved); this is what makes the watcher process
-  each content once across restarts.
+  each content once across restarts. An earlier content of a name keeps its record and
+  report folder under another name (:meth:`Ledger.keep_aside`).
 * ``REPORTS/index.json`` and ``REPORTS/index.html``: every archive with its verdict,
   faulty sensors and a link to its report (or error), newest first. Views of the state,
   rewritten (atomically) after an archive, or, while archives end in quick succession,
@@ -21,13 +22,14 @@ from __future__ import annotations
 
 import fcntl
 import json
+import logging
 import math
 import os
 import shutil
 import time
 import uuid
 from collections.abc import Iterable
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from enum import StrEnum
 from pathlib import Path
 from types import TracebackType
@@ -39,6 +41,8 @@ from analyzer.errors import UsageError
 from analyzer.outdir import write_atomic
 from analyzer.timeutil import iso_utc, parse_time
 from analyzer.types import NS_PER_S
+
+log = logging.getLogger("analyzer.watch")
 
 STATE_SCHEMA = "analyzer.watch-state/1"
 INDEX_SCHEMA = "analyzer.watch-index/1"
@@ -63,6 +67,21 @@ class Verdict(StrEnum):
     FAULT = "fault"
     NO_FAULT = "no fault"
     ERROR = "error"
+
+
+class ErrorKind(StrEnum):
+    """Why an archive could not be analyzed, which says what happens to it next."""
+
+    INPUT = "input"
+    """The archive itself (corrupt, unreadable, too short): a verdict on the content,
+    kept while the options stay the same; moved to ``--failed``."""
+    OPTIONS = "options"
+    """An option does not fit this archive (``--channels`` matching nothing, ``--train``
+    beyond its end): kept while the options stay the same, and the archive stays in
+    INBOX (with other options it may be fine)."""
+    INTERNAL = "internal"
+    """Not the archive's fault (an internal error, a full disk, a killed analysis): shown
+    in the index, but analyzed again on the next start; the archive stays in INBOX."""
 
 
 @dataclass(slots=True)
@@ -93,6 +112,39 @@ class Record:
     screen: dict[str, Any] | None = None
     """With ``--screen``: ``findings.json``'s ``screen`` (the screening's detectors and
     whether they found a fault, so whether every detector analyzed the archive)."""
+    error_kind: ErrorKind | None = None
+    """Of an ``error``: whose fault it is (None in the records of older watchers)."""
+    options: str | None = None
+    """Fingerprint of the analysis options and analyzer version the result was made with
+    (:func:`analyzer.watch.options_fingerprint`; None in the records of older watchers)."""
+    dropped_as: str | None = None
+    """The name it arrived under, when a later archive of that name took it
+    (:meth:`Ledger.keep_aside`); None while it has its own name."""
+
+    @property
+    def folder(self) -> str:
+        """Its folder of REPORTS (that of :attr:`report`)."""
+        return self.report.split("/", 1)[0]
+
+    def redo_reason(self, options: str) -> str | None:
+        """Why this archive, recorded already with this content, is analyzed again by a
+        watcher whose options have the fingerprint ``options``; None when it is not.
+
+        A result (fault, no fault) is kept whatever the options. An error is redone when
+        it was not the archive's (:attr:`ErrorKind.INTERNAL`) or when it was made with
+        other options or another analyzer version; an error recorded by an older
+        watcher (no fingerprint: possibly an internal error) is redone once."""
+        if self.verdict is not Verdict.ERROR:
+            return None
+        if self.error_kind is ErrorKind.INTERNAL:
+            return "its last analysis ended in an internal error (not the archive's fault)"
+        if self.options is None:
+            return (
+                "its error was recorded by an older watcher, without the options it was made with"
+            )
+        if self.options != options:
+            return "its error was recorded with other analysis options or another analyzer version"
+        return None
 
     def as_json(self) -> dict[str, Any]:
         """The record as a JSON object: a new dict, whose lists are the record's own (to
@@ -100,6 +152,8 @@ class Record:
         most of the cost of writing the state of a year of files)."""
         doc = {name: getattr(self, name) for name in _RECORD_FIELDS}
         doc["verdict"] = str(self.verdict)
+        if self.error_kind is not None:
+            doc["error_kind"] = str(self.error_kind)
         return doc
 
     @classmethod
@@ -107,6 +161,8 @@ class Record:
         known = {f.name for f in fields(cls)}
         doc = {k: v for k, v in doc.items() if k in known}  # fields of later versions
         doc["verdict"] = Verdict(doc["verdict"])
+        if doc.get("error_kind") is not None:
+            doc["error_kind"] = ErrorKind(doc["error_kind"])
         return cls(**doc)
 
 
@@ -115,8 +171,11 @@ _RECORD_FIELDS = tuple(f.name for f in fields(Record))
 
 def report_dirname(name: str) -> str:
     """The folder of REPORTS that holds an archive's report: its name, unless that
-    would collide with the index or be hidden."""
-    return f"_{name}" if name in RESERVED or name.startswith(".") else name
+    would collide with the index or be hidden, or starts with ``_``: then ``_`` + the
+    name. One to one (``index.html`` is ``_index.html``, ``_index.html`` is
+    ``__index.html``). A record links to its own folder (:attr:`Record.folder`), so the
+    records of watchers that named ``_x`` folder ``_x`` stay valid."""
+    return f"_{name}" if name in RESERVED or name.startswith((".", "_")) else name
 
 
 def now_iso() -> str:
@@ -236,7 +295,9 @@ class Ledger:
                 shutil.rmtree(entry, ignore_errors=True)
             elif entry.is_file() and entry.name.startswith(own_temp):
                 entry.unlink()  # a write_atomic interrupted by a crash
-        gone = [name for name in self.records if not (self.reports / report_dirname(name)).is_dir()]
+        gone = [
+            name for name, rec in self.records.items() if not (self.reports / rec.folder).is_dir()
+        ]
         for name in gone:
             del self.records[name]
         if gone:
@@ -245,6 +306,43 @@ class Ledger:
 
     def get(self, name: str) -> Record | None:
         return self.records.get(name)
+
+    def keep_aside(self, name: str) -> str:
+        """Make room for a new archive under ``name`` without losing the record of the
+        earlier one (another content that arrived under that name: replaced in INBOX,
+        or moved away by ``--done``/``--failed`` and dropped again): its record and its
+        report folder take a free name (that of the file ``--done`` moved it to when
+        that differs, else ``stem-N.suffixes``), with ``dropped_as`` the name it came
+        under. Nothing published is deleted. Returns the new name."""
+        rec = self.records[name]
+        new = self._free_name(rec)
+        folder = report_dirname(new)
+        if (self.reports / rec.folder).is_dir():
+            os.replace(self.reports / rec.folder, self.reports / folder)
+        _, _, leaf = rec.report.partition("/")
+        del self.records[name]
+        self.records[new] = replace(
+            rec, name=new, report=f"{folder}/{leaf}", dropped_as=rec.dropped_as or name
+        )
+        self.save_state()
+        self._views_stale = True
+        return new
+
+    def _free_name(self, rec: Record) -> str:
+        def free(candidate: str) -> bool:
+            return candidate not in self.records and not os.path.lexists(
+                self.reports / report_dirname(candidate)
+            )
+
+        if len(rec.moved_to) == 1:
+            moved = Path(rec.moved_to[0]).name
+            if moved != rec.name and free(moved):
+                return moved
+        stem, dot, suffixes = rec.name.partition(".")
+        n = 1
+        while not free(candidate := f"{stem}-{n}{dot}{suffixes}"):
+            n += 1
+        return candidate
 
     def record(self, rec: Record) -> None:
         """Keep ``rec``: the state file at once, the views when due
@@ -284,8 +382,13 @@ class Ledger:
         if not force and begin - self._views_written < self._views_interval:
             return False
         index = self.index_document()
-        write_atomic(self.reports / "index.json", index_json(index))
-        write_atomic(self.reports / "index.html", render_index(index))
+        try:
+            write_atomic(self.reports / "index.json", index_json(index))
+            write_atomic(self.reports / "index.html", render_index(index))
+        except OSError as err:  # a full disk: the state is what counts; try again later
+            log.warning("cannot write the index in %s: %s", self.reports, err)
+            self._views_written = time.monotonic()
+            return False
         self._views_stale = False
         self._views_written = time.monotonic()
         cost = self._views_written - begin
@@ -455,6 +558,8 @@ def index_view(index: dict[str, Any]) -> IndexView:
         details = r["error"] or "report"
         if r.get("screen"):
             details += f"; {_screening(r['screen'])}"
+        if r.get("dropped_as"):
+            details += f"; dropped as {r['dropped_as']} (a later archive took the name)"
         if r["moved_to"]:
             details += f"; moved to {', '.join(r['moved_to'])}"
         duration = r["duration_s"]
@@ -511,6 +616,7 @@ def render_index(index: dict[str, Any]) -> str:
 
 
 __all__ = [
+    "ErrorKind",
     "EpisodeRow",
     "IndexRow",
     "IndexView",

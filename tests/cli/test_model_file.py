@@ -164,7 +164,7 @@ def test_the_watcher_runs_each_archive_with_the_model(model, record, tmp_path):
     done = subprocess.run(
         [sys.executable, "-m", "analyzer", *map(str, argv)], capture_output=True, text=True
     )
-    assert done.returncode == 0, done.stderr
+    assert done.returncode == 1, done.stderr  # --once: an archive with a fault
     (doc,) = [json.loads(p.read_text()) for p in reports.rglob("findings.json")]
     assert doc["model"]["path"] == str(model)
     assert [(f["channel"], f["type"]) for f in doc["faults"]] == [("s0", "additive")]

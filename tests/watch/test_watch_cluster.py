@@ -62,9 +62,10 @@ def test_cluster_watcher_gives_the_local_watcher_s_records_and_reports(
     caplog.set_level(logging.INFO, logger="analyzer.watch")
 
     local, remote = tmp_path / "local", tmp_path / "remote"
-    assert watch(WatchSettings(inbox, local, settle=0.2, once=True, jobs=2), OPTIONS) == 0
+    # exit code 1: a fault was found (before the error of broken.mcap)
+    assert watch(WatchSettings(inbox, local, settle=0.2, once=True, jobs=2), OPTIONS) == 1
     on_cluster = RunOptions(train=OPTIONS.train, scheduler=cluster.scheduler_address)
-    assert watch(WatchSettings(inbox, remote, settle=0.2, once=True, jobs=1), on_cluster) == 0
+    assert watch(WatchSettings(inbox, remote, settle=0.2, once=True, jobs=1), on_cluster) == 1
     # each archive was one task of the cluster, computed by a worker
     tasks = cluster.scheduler.task_prefixes["analyze_on_worker"].state_counts
     assert tasks["memory"] == 4
@@ -228,9 +229,9 @@ def test_cluster_watcher_with_a_saved_model_gives_the_local_records(
     os.replace(model, moved)  # the workers need not see the file, nor the watcher after
     local, remote = tmp_path / "local", tmp_path / "remote"
     settings = WatchSettings(inbox, local, settle=0.2, once=True, jobs=2)
-    assert watch(settings, saved) == 0
+    assert watch(settings, saved) == 1  # b.mcap's fault
     on_cluster = replace(saved, scheduler=cluster.scheduler_address)
-    assert watch(WatchSettings(inbox, remote, settle=0.2, once=True), on_cluster) == 0
+    assert watch(WatchSettings(inbox, remote, settle=0.2, once=True), on_cluster) == 1
     records = _records(remote)
     assert records == _records(local)
     assert records["b.mcap"]["verdict"] == "fault" and records["b.mcap"]["faulty_sensors"]

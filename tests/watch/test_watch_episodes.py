@@ -125,7 +125,7 @@ def test_watcher_joins_a_fault_across_two_consecutive_files(tmp_path: Path):
     assert main([*fit, "--train", "0:30", "--save-model", str(model), "--no-progress"]) == 0
     reports = tmp_path / "reports"
     options = load_options(None, model=str(model))
-    assert watch(WatchSettings(inbox, reports, settle=0.2, once=True, jobs=2), options) == 0
+    assert watch(WatchSettings(inbox, reports, settle=0.2, once=True, jobs=2), options) == 1
 
     index = json.loads((reports / "index.json").read_text())
     faulty = [e for e in index["episodes"] if e["channel"] == "/s1.data"]

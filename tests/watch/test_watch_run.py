@@ -220,7 +220,8 @@ def test_drop_folder_end_to_end(
     assert {"slow.mcap", "mission"}.isdisjoint(started(caplog))
     assert not (reports / "slow.mcap").exists() and not (reports / "mission").exists()
     assert any(
-        "slow.mcap: waiting: MCAP file without its closing magic" in r.getMessage()
+        "waiting up to 10 min for slow.mcap to be complete: MCAP file without its closing "
+        "magic" in r.getMessage()
         for r in caplog.records
     )
 
@@ -281,7 +282,7 @@ def test_drop_folder_end_to_end(
     write(tmp_path / "new.csv", "csv", seed=4, fault=True)
     os.replace(tmp_path / "new.csv", inbox / "good.csv")
     third = start_watcher(replace(settings, once=True))
-    assert third.join() == 0
+    assert third.join() == 1  # --once: a fault found
     assert started(caplog) == ["good.csv"]
     changed = state(reports)["good.csv"]
     assert changed["verdict"] == "fault" and changed["sha256"] == sha256_of(inbox / "good.csv")
@@ -302,7 +303,7 @@ def test_done_and_failed_folders_receive_the_archives(
     settings = WatchSettings(
         inbox, reports, settle=SETTLE, poll=0.1, done=done, failed=failed, once=True
     )
-    assert start_watcher(settings).join() == 0
+    assert start_watcher(settings).join() == 2  # --once: an archive could not be analyzed
     assert sorted(p.name for p in inbox.iterdir()) == ["partial.csv.part"]
     assert sha256_of(done / "good-1.csv") == before["good.csv"]
     assert sha256_of(failed / "broken.mcap") == before["broken.mcap"]
@@ -322,7 +323,7 @@ def test_once_says_how_far_it_is_and_how_long_is_left(
         write(inbox / f"hour{seed}.csv", "csv", seed=10 + seed)
     (inbox / "notes.txt.part").write_text("not an archive")  # ignored: not counted
     settings = WatchSettings(inbox, reports, settle=SETTLE, jobs=1, once=True)
-    assert start_watcher(settings).join() == 0
+    assert start_watcher(settings).join() in (0, 1)  # (1 if a fault was found)
     ends = [
         r.getMessage()
         for r in caplog.records
@@ -341,7 +342,7 @@ def test_once_says_how_far_it_is_and_how_long_is_left(
     # that of the one analysis (here: nothing left after it)
     write(inbox / "hour3.csv", "csv", seed=13)
     caplog.clear()
-    assert start_watcher(settings).join() == 0
+    assert start_watcher(settings).join() in (0, 1)
     lines = [r.getMessage() for r in caplog.records if " [" in r.getMessage()]
     assert len(lines) == 1 and lines[0].startswith("hour3.csv: "), lines
     assert lines[0].endswith(" [4/4]"), lines
@@ -407,7 +408,7 @@ def test_group_by_analyzes_an_hour_as_one_archive(
     settings = WatchSettings(
         inbox, reports, settle=SETTLE, group_by=re.compile(r"_(\d{8}T\d{2})_"), once=True
     )
-    assert start_watcher(settings).join() == 0
+    assert start_watcher(settings).join() in (0, 1)
     (record,) = state(reports).values()
     assert record["name"] == "20260101T10" and record["verdict"] in ("fault", "no fault")
     assert [Path(p).name for p in record["inputs"]] == [
