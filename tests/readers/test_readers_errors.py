@@ -403,3 +403,21 @@ def test_an_empty_message_type_is_no_channel_and_no_error(tmp_path):
     doc = inspect_archive([str(path)])
     assert doc["inputs"][0]["errors"] == []
     assert [c["name"] for c in doc["channels"]] == ["/value.data"]
+
+
+def test_a_fifo_is_refused_or_skipped_never_opened(tmp_path: Path) -> None:
+    """Opening a FIFO waits for a writer, forever: ``analyzer inspect x.csv`` and a run
+    on a folder holding one hung. Given, it is refused by name; in a folder, skipped
+    with a note, the rest read."""
+    fifo = tmp_path / "pipe.csv"
+    os.mkfifo(fifo)
+    with pytest.raises(ReaderError, match=r"pipe\.csv: not a regular file \(a FIFO\)"):
+        open_input(fifo)
+    folder = tmp_path / "archive"
+    folder.mkdir()
+    os.mkfifo(folder / "pipe.csv")
+    t_ns = np.arange(50, dtype=np.int64) * 10_000_000
+    write_archive(folder / "a.csv", "csv", t_ns, {"x": np.arange(50.0), "y": -np.arange(50.0)})
+    archive = open_archive(folder)
+    assert [i.path.name for i in archive.inputs] == ["a.csv"]
+    assert archive.notes == [f"{folder / 'pipe.csv'} not read: not a regular file (a FIFO)"]
