@@ -15,6 +15,7 @@ import signal
 import sys
 import threading
 import time
+import traceback
 import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -465,7 +466,7 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
         return _error("out of memory (choose fewer channels with --channels, or a lower --rate)")
     except Exception as err:  # a bug: still one line and exit 2, never 1 ("fault found")
         if os.environ.get("ANALYZER_DEBUG"):
-            raise
+            traceback.print_exc()  # the traceback, and still exit 2 (raising gave 1)
         return _error(
             f"internal error: {type(err).__name__}: {err} (please report it; set "
             "ANALYZER_DEBUG=1 for the traceback)"

@@ -153,10 +153,15 @@ def _scaled_gain(
     szy = cross + den
     if not szz > 0.0 or not noise > 0.0:
         return None
-    root = float(np.sqrt(szy * szy + 4.0 * n * noise * szz))
+    with np.errstate(over="ignore", invalid="ignore"):
+        root = float(np.sqrt(szy * szy + 4.0 * n * noise * szz))
+    if not np.isfinite(root) or not np.isfinite(szz):
+        # readings near 1e90 (accepted: only values beyond 1e100 are gaps) overflow the
+        # squared sums: no scaled fit (it divided by a gain of 0 and crashed the run)
+        return None
     best: tuple[float, float] | None = None
     for u in ((szy + root) / (2.0 * szz), (szy - root) / (2.0 * szz)):
-        if u == 0.0:
+        if u == 0.0 or not np.isfinite(u) or not 0.0 < 1.0 / (u * u) < np.inf:
             continue
         a = 1.0 / u
         shape = max(0.0, energy - 2.0 * (a - 1.0) * cross + (a - 1.0) ** 2 * den)

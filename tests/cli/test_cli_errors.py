@@ -611,3 +611,53 @@ def test_a_run_that_goes_on_says_what_went_wrong_with_its_inputs(tmp_path, capsy
     assert code in (0, 1), err
     errors = json.loads((tmp_path / "b" / "findings.json").read_text())["inputs"][0]["errors"]
     assert errors and err.splitlines() == [f"analyzer: warning: {cut}: {e}" for e in errors]
+
+
+@pytest.mark.parametrize("debug", ["", "1"])
+def test_an_internal_error_exits_2_with_or_without_its_traceback(
+    tmp_path, capsys, monkeypatch, debug
+):
+    """A bug is one line and exit 2, never 1 ("fault found"); ANALYZER_DEBUG=1 adds the
+    traceback, and the exit code stays 2 (re-raising it made Python exit 1)."""
+    import analyzer.pipeline as pipeline
+
+    def bug(*args, **kwargs):
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(pipeline, "analyze", bug)
+    monkeypatch.setenv("ANALYZER_DEBUG", debug)
+    code, _, err = run_cli(["run", _csv(tmp_path / "a.csv"), "--out", tmp_path / "o"], capsys)
+    assert code == 2
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("analyzer: error: internal error: ZeroDivisionError")
+    assert ("Traceback (most recent call last)" in err) == bool(debug)
+
+
+def test_readings_near_1e90_do_not_crash_the_classifier():
+    """Readings of about 1e90 (accepted: only values beyond 1e100 are gaps) overflowed the
+    gain's squared sums, and the scaled gain divided by zero: an internal error at the end
+    of a run that had found a fault."""
+    from analyzer.diagnosis import classify
+
+    rng = np.random.default_rng(3)
+    y = 1e90 * (1.0 + 0.01 * rng.standard_normal(4000))
+    f = 5.0 + 0.3 * rng.standard_normal(4000)
+    c = classify(f, y, 0.3, 100.0)
+    assert c.type.value == "additive" and c.magnitude["offset"] == pytest.approx(5.0, abs=0.05)
+
+
+def test_export_never_writes_over_or_into_its_inputs(tmp_path, capsys):
+    """``export x.csv --out x.csv`` read the file, then replaced it by its export (absolute
+    times turned relative), without a word; an export into an archive's folder is read
+    with the archive the next time."""
+    src = _csv(tmp_path / "a.csv", epoch=True)
+    before = src.read_bytes()
+    code, _, err = run_cli(["export", src, "--out", src], capsys)
+    assert code == 2 and src.read_bytes() == before
+    one_line_error(err, f"--out: {src} is an input", "never modified")
+    folder = tmp_path / "archive"
+    folder.mkdir()
+    _csv(folder / "part.csv")
+    code, _, err = run_cli(["export", folder, "--out", folder / "all.csv"], capsys)
+    assert code == 2 and sorted(p.name for p in folder.iterdir()) == ["part.csv"]
+    one_line_error(err, "inside the input", "never modified")
