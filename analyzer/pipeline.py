@@ -398,6 +398,7 @@ def _analyze(
         notes.extend(found_notes)
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
         notes.extend(_unattributed_notes(results, findings, aligned.rate_hz))
+        notes.extend(_after_gap_notes(findings, values, chosen, aligned.rate_hz))
         if screen is not None:
             notes.append(screen_note)
         t0 = time.perf_counter()
@@ -471,6 +472,47 @@ def _cancel(tests: list[Any]) -> None:
     for _, handle in tests:
         if handle is not None:
             handle.cancel()
+
+
+GAP_SEARCH_ROWS = 1 << 16
+"""Rows read at a time when a gap before a fault's onset is traced back to its start."""
+
+
+def _after_gap_notes(
+    findings: Sequence[Finding], values: Any, chosen: Sequence[str], rate_hz: float
+) -> list[str]:
+    """A note for each fault whose onset follows a gap in its channel's data within two
+    long alarm windows: it may have begun in the gap, and its onset is where the data
+    resumed (an offset from 205 s on a record missing 200-260 s was reported from
+    260.78 s without a word; a folder of hourly files with one hour missing alike). A
+    sensor that comes back from an outage with an offset is a common fault."""
+    near = 2 * LONG_FACTOR * default_window(rate_hz)
+    index = {c: j for j, c in enumerate(chosen)}
+    out: list[str] = []
+    for f in findings:
+        j = index.get(f.channel)
+        k = int(round(f.onset_s * rate_hz))
+        if j is None or k <= 0:
+            continue
+        lo = max(0, k - near)
+        missing = np.flatnonzero(~np.isfinite(np.asarray(values[lo:k, j], dtype=np.float64)))
+        if not missing.size:
+            continue
+        end = lo + int(missing[-1]) + 1  # the first sample after the gap
+        start = end - 1
+        while start > 0:  # back to the gap's first sample, a block at a time
+            a = max(0, start - GAP_SEARCH_ROWS)
+            seen = np.flatnonzero(np.isfinite(np.asarray(values[a:start, j], dtype=np.float64)))
+            if seen.size:
+                start = a + int(seen[-1]) + 1
+                break
+            start = a
+        out.append(
+            f"the {f.type.value} fault on {f.channel} found from {f.onset_s:.1f} s follows a "
+            f"gap in its data ({start / rate_hz:.1f}-{end / rate_hz:.1f} s): it may have "
+            "begun during the gap (its onset is where the data resumed)"
+        )
+    return out
 
 
 UNATTRIBUTED_LISTED = 3

@@ -661,3 +661,24 @@ def test_export_never_writes_over_or_into_its_inputs(tmp_path, capsys):
     code, _, err = run_cli(["export", folder, "--out", folder / "all.csv"], capsys)
     assert code == 2 and sorted(p.name for p in folder.iterdir()) == ["part.csv"]
     one_line_error(err, "inside the input", "never modified")
+
+
+def test_a_fault_after_a_gap_in_the_data_says_it_may_have_begun_in_the_gap(tmp_path, capsys):
+    """An offset from 205 s on a record missing 200-260 s was reported from 260.78 s
+    without a word (a sensor that comes back from an outage with an offset)."""
+    t, Y, names = simulate_building(n_floors=4, duration_s=600.0, seed=2)
+    Y[t >= 205.0, 1] += 4.0 * Y[:, 1].std()
+    keep = (t < 200.0) | (t >= 260.0)
+    src = tmp_path / "outage.csv"
+    t_ns = np.round(t[keep] * 1e9).astype(np.int64)
+    write_archive(src, "csv", t_ns, {c: Y[keep, j] for j, c in enumerate(names)})
+    code, _, err = run_cli(["run", src, "--out", tmp_path / "o"], capsys)
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    assert code == 1, err
+    (fault,) = doc["faults"]
+    assert fault["channel"] == names[1] and fault["onset_s"] >= 260.0
+    assert (
+        f"the additive fault on {names[1]} found from {fault['onset_s']:.1f} s follows a gap "
+        "in its data (200.0-260.0 s): it may have begun during the gap (its onset is where "
+        "the data resumed)" in doc["notes"]
+    )
