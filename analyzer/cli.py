@@ -148,19 +148,27 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     )
 
 
+INPUT_HELP = (
+    "an .mcap, a ROS 1 .bag, a ROS 2 bag (folder or .db3), a CSV/TSV (.gz) or a TOA5 "
+    "table, or a folder of such files; several INPUTs (or a folder's files) are one "
+    "archive, stitched in time order (samples of a later input that overlap an earlier "
+    "one's time are dropped, with a warning)"
+)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="analyzer", description="Audit sensor logs for faulty sensors.")
     parser.add_argument("--version", action="version", version=f"analyzer {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     p = sub.add_parser("inspect", help="what is in an archive: channels, counts, rates, gaps")
-    p.add_argument("inputs", nargs="+", metavar="INPUT")
+    p.add_argument("inputs", nargs="+", metavar="INPUT", help=INPUT_HELP)
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.add_argument("--time", choices=("log", "header"), default="log")
     add_msg_path(p)
 
     p = sub.add_parser("export", help="the time-aligned channels as .csv or .parquet")
-    p.add_argument("inputs", nargs="+", metavar="INPUT")
+    p.add_argument("inputs", nargs="+", metavar="INPUT", help=INPUT_HELP)
     p.add_argument("--out", required=True, metavar="FILE", help="output .csv or .parquet")
     p.add_argument("--channels", type=_csv_list, metavar="GLOB[,GLOB...]")
     p.add_argument("--rate", type=_positive_float, metavar="HZ")
@@ -168,7 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_msg_path(p)
 
     p = sub.add_parser("run", help="analyze; write DIR/report.html and DIR/findings.json")
-    p.add_argument("inputs", nargs="+", metavar="INPUT")
+    p.add_argument("inputs", nargs="+", metavar="INPUT", help=INPUT_HELP)
     p.add_argument("--out", required=True, metavar="DIR")
     add_run_options(p)
     p.add_argument(

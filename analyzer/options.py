@@ -17,7 +17,7 @@ from analyzer.errors import AnalyzerError, ConfigError, UsageError
 from analyzer.findings import sha256_of
 from analyzer.modelfile import SavedModel, check_model_path, load_model
 from analyzer.readers.base import TimeSource
-from analyzer.timeutil import parse_time
+from analyzer.timeutil import iso_utc, parse_time
 from analyzer.types import NS_PER_S
 
 Progress = Callable[[str, float], None]
@@ -79,6 +79,12 @@ def parse_train(text: str, start_ns: int, duration_s: float, absolute: bool) -> 
         else:
             secs.append(float(val))
     lo, hi = secs
+    if lo < 0.0 and parts[0][0] == "ns" and lo < hi:
+        # an ISO start before the data: say where the data starts, not "0 <= START"
+        raise UsageError(
+            f"--train: the window {text!r} starts {-lo:.3f} s before the data "
+            f"(which starts at {iso_utc(start_ns)}); start it there or later"
+        )
     if not (0.0 <= lo < hi):
         raise UsageError(f"--train: the window {text!r} must satisfy 0 <= START < END")
     if lo >= duration_s:

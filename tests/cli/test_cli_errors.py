@@ -682,3 +682,12 @@ def test_a_fault_after_a_gap_in_the_data_says_it_may_have_begun_in_the_gap(tmp_p
         "in its data (200.0-260.0 s): it may have begun during the gap (its onset is where "
         "the data resumed)" in doc["notes"]
     )
+
+
+def test_an_iso_train_window_before_the_data_says_where_the_data_starts(tmp_path, capsys):
+    """It said "must satisfy 0 <= START < END" to a user who gave no seconds."""
+    src = _csv(tmp_path / "a.csv", epoch=True)  # from 2026-03-01T12:00:00Z
+    train = "2026-03-01T11:00:00Z:2026-03-01T12:00:10Z"
+    code, _, err = run_cli(["run", src, "--out", tmp_path / "o", "--train", train], capsys)
+    assert code == 2
+    one_line_error(err, "--train", "3600.000 s before the data", "2026-03-01T12:00:00.000Z")
