@@ -498,4 +498,27 @@ def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
             f"none of the {len(members)} inputs can be read; first: {failed[0].path}: "
             f"{failed[0].errors[0]}"
         )
+    _one_clock(readers)
     return Archive(readers, failed, skipped)
+
+
+EPOCH_NS = 100_000_000 * 1_000_000_000
+"""Timestamps at or above this (1973) are Unix times (as the CSV reader takes them)."""
+
+
+def _one_clock(readers: Sequence[Reader]) -> None:
+    """Inputs with relative times (seconds from their start: a CSV without dates) and
+    inputs with Unix times cannot be stitched on one clock: the error said "a timestamp
+    lies far from the others (an outlier, or a wrong unit)"."""
+    relative = next((r for r in readers if not r.info.absolute_time), None)
+    if relative is None:
+        return
+    for r in readers:
+        if r.info.absolute_time:
+            start = r.start_ns()
+            if start is not None and start >= EPOCH_NS:
+                raise ReaderError(
+                    f"{relative.info.path} has relative times (seconds from its start) and "
+                    f"{r.info.path} Unix times (UTC): one archive needs one clock; analyze "
+                    "them apart"
+                )

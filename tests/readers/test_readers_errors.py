@@ -421,3 +421,17 @@ def test_a_fifo_is_refused_or_skipped_never_opened(tmp_path: Path) -> None:
     archive = open_archive(folder)
     assert [i.path.name for i in archive.inputs] == ["a.csv"]
     assert archive.notes == [f"{folder / 'pipe.csv'} not read: not a regular file (a FIFO)"]
+
+
+def test_relative_and_unix_times_are_not_one_archive(tmp_path: Path) -> None:
+    """A CSV of seconds from its start beside an MCAP of Unix times failed with "a
+    timestamp lies far from the others (an outlier, or a wrong unit)"."""
+    t_ns = np.arange(100, dtype=np.int64) * 10_000_000
+    data = {"x": np.arange(100.0), "y": -np.arange(100.0)}
+    write_archive(tmp_path / "rel.csv", "csv", t_ns, data)
+    write_archive(tmp_path / "abs.mcap", "mcap", t_ns, data, start_iso="2026-01-01T00:00:00Z")
+    with pytest.raises(ReaderError, match=r"rel\.csv has relative times .*abs\.mcap Unix"):
+        open_archive([tmp_path / "rel.csv", tmp_path / "abs.mcap"])
+    write_archive(tmp_path / "rel2.csv", "csv", t_ns + 2_000_000_000, data)
+    archive = open_archive([tmp_path / "rel.csv", tmp_path / "rel2.csv"])  # one clock: fine
+    assert len(archive.inputs) == 2
