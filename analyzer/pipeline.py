@@ -393,7 +393,9 @@ def _analyze(
             raise
         timings["detect"] = time.perf_counter() - t0
         if not results:
-            raise _no_detector_error(skipped, tr, options)
+            raise _no_detector_error(
+                skipped, tr, options, _apart_in_training(values, chosen, train, aligned.rate_hz)
+            )
         findings, found_notes = diagnose(results)
         notes.extend(found_notes)
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
@@ -858,12 +860,48 @@ def _varying_in_training(
     return np.asarray(values)[:, keep], [chosen[k] for k in keep]
 
 
+def _apart_in_training(
+    values: Any, chosen: Sequence[str], train: tuple[int, int], rate_hz: float
+) -> str:
+    """A hint when the channels are each present in the training window but hardly ever
+    together (fewer than :data:`MIN_TRAIN_ROWS` rows hold them all): a channel that
+    stops before the others start. Empty otherwise."""
+    m = len(chosen)
+    present = np.zeros(m, dtype=np.int64)
+    first = np.full(m, -1, dtype=np.int64)
+    last = np.full(m, -1, dtype=np.int64)
+    together = 0
+    for a, block in row_blocks(values[train[0] : train[1]]):
+        ok = np.isfinite(np.asarray(block, dtype=np.float64))
+        present += ok.sum(axis=0)
+        together += int(ok.all(axis=1).sum())
+        for j in np.flatnonzero(ok.any(axis=0)):
+            rows = np.flatnonzero(ok[:, j])
+            if first[j] < 0:
+                first[j] = a + rows[0]
+            last[j] = a + rows[-1]
+    if together >= MIN_TRAIN_ROWS or (present < MIN_TRAIN_ROWS).any():
+        return ""
+    t0 = train[0]
+    spans = ", ".join(
+        f"{c} {(t0 + first[j]) / rate_hz:.1f}-{(t0 + last[j] + 1) / rate_hz:.1f} s"
+        for j, c in enumerate(chosen)
+    )
+    return (
+        f"; in the training window only {together} row(s) hold every channel ({spans}): "
+        "choose channels recorded at the same time (--channels) or a --train where they are"
+    )
+
+
 def _no_detector_error(
-    skipped: dict[str, str], tr: tuple[float, float], options: RunOptions
+    skipped: dict[str, str], tr: tuple[float, float], options: RunOptions, apart: str = ""
 ) -> DetectorError:
     """The error when no detector could run: each one's reason, and a hint when the
-    healthy window is too short for them."""
+    healthy window is too short for them, or when its channels are hardly ever present
+    together (``apart``: :func:`_apart_in_training`)."""
     why = "; ".join(skip_reasons(skipped))
+    if apart:
+        return DetectorError(f"no detector could run ({why}){apart}")
     hint = ""
     if "too little healthy data" in why:
         hint = (

@@ -691,3 +691,30 @@ def test_an_iso_train_window_before_the_data_says_where_the_data_starts(tmp_path
     code, _, err = run_cli(["run", src, "--out", tmp_path / "o", "--train", train], capsys)
     assert code == 2
     one_line_error(err, "--train", "3600.000 s before the data", "2026-03-01T12:00:00.000Z")
+
+
+def test_channels_never_present_together_are_named_when_nothing_can_run(tmp_path, capsys):
+    """A channel recorded 0-100 s and four others from 100 s: the error advised a longer
+    --train, though the channels are simply never present at the same time."""
+    t, Y, names = simulate_building(n_floors=4, duration_s=700.0, seed=1)
+    early, late = t < 100.0, t >= 100.0
+    folder = tmp_path / "apart"
+    folder.mkdir()
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(
+        folder / "a.mcap",
+        "mcap",
+        t_ns[early],
+        {"early": Y[early, 0]},
+        start_iso="2026-01-01T00:00:00Z",
+    )
+    write_archive(
+        folder / "b.mcap",
+        "mcap",
+        t_ns[late],
+        {c: Y[late, j] for j, c in enumerate(names)},
+        start_iso="2026-01-01T00:01:40Z",  # 100 s later, as its first sample
+    )
+    code, _, err = run_cli(["run", folder, "--out", tmp_path / "o"], capsys)
+    assert code == 2
+    one_line_error(err, "row(s) hold every channel", "0.0-100.0 s", "--channels")
