@@ -55,6 +55,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from analyzer.readers._common import special_kind
+
 log = logging.getLogger("analyzer.watch")
 
 Signature = tuple[tuple[str, int, int], ...]
@@ -118,27 +120,6 @@ def signature(paths: Iterable[Path], root: Path) -> Signature:
 
 
 # --------------------------------------------------------------------------- completeness
-
-
-SPECIAL_KINDS = (
-    (stat.S_ISFIFO, "a FIFO"),
-    (stat.S_ISSOCK, "a socket"),
-    (stat.S_ISCHR, "a character device"),
-    (stat.S_ISBLK, "a block device"),
-)
-
-
-def special_kind(path: Path) -> str | None:
-    """What ``path`` is when it is neither a regular file nor a directory (``a FIFO``,
-    ``a socket``...), from ``os.stat`` alone (opening a FIFO blocks until a writer comes);
-    None for a file, a directory, or a path that cannot be stat-ed (a dangling link)."""
-    try:
-        mode = os.stat(path).st_mode
-    except OSError:
-        return None
-    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
-        return None
-    return next((kind for test, kind in SPECIAL_KINDS if test(mode)), "a special file")
 
 
 def _read_ends(path: Path, n: int) -> tuple[bytes, bytes, int]:

@@ -14,9 +14,7 @@ a multi-file archive a damaged file does not stop the others: it is listed in
 from __future__ import annotations
 
 import contextlib
-import os
 import queue
-import stat
 import threading
 import time as time_module
 from collections.abc import Callable, Iterator, Sequence
@@ -30,6 +28,7 @@ from analyzer.readers._common import (
     lfs_pointer,
     monotonic,
     one_line,
+    special_kind,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, Reader, TimeSource
 from analyzer.types import Format
@@ -96,7 +95,7 @@ def detect_format(path: str | Path) -> Format:
             f"{path}: a directory without metadata.yaml is not a ROS 2 bag "
             "(open it as a multi-file archive)"
         )
-    special = _special_kind(path)
+    special = special_kind(path)
     if special:  # opening a FIFO would wait for a writer, forever
         raise ReaderError(f"{path}: not a regular file ({special}): not read")
     try:
@@ -400,26 +399,12 @@ def _members(directory: Path, skipped: list[str] | None = None) -> list[Path]:
         if entry.is_dir():
             if is_ros2_bag(entry):
                 found.append(entry)
-        elif (special := _special_kind(entry)) is not None:
+        elif (special := special_kind(entry)) is not None:
             if skipped is not None and _suffix(entry):
                 skipped.append(f"{entry} not read: not a regular file ({special})")
         elif _suffix(entry) or _is_toa5(entry):
             found.append(entry)
     return found
-
-
-def _special_kind(path: Path) -> str | None:
-    """What ``path`` is when it exists but is neither a regular file nor a directory (``a
-    FIFO``, ``a socket``, ``a device``), from ``os.stat`` alone; else None."""
-    try:
-        mode = os.stat(path).st_mode
-    except OSError:
-        return None
-    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
-        return None
-    if stat.S_ISFIFO(mode):
-        return "a FIFO"
-    return "a socket" if stat.S_ISSOCK(mode) else "a device"
 
 
 def _is_toa5(path: Path) -> bool:
