@@ -379,6 +379,13 @@ def _summarize(name: str, t: IntArray, v: FloatArray, block: int = 1 << 22) -> C
         if stride > 1:
             dt = dt / stride  # spread steps estimate the period on average
         period = float(np.median(dt)) if dt.size else 0.0
+        # the mean of the steps near the median (gaps and doubled stamps left out): the
+        # median alone of jittered steps is off by its sampling noise (+-2 ms of uniform
+        # jitter at 100 Hz gave 99.86 Hz, and a common clock 0.14 % slow); of regular
+        # steps it is the median itself
+        core = dt[(dt > 0.5 * period) & (dt < 1.5 * period)]
+        if core.size:
+            period = float(np.mean(core))
     else:
         period = 0.0
     gaps = 0
