@@ -95,7 +95,9 @@ MAX_STATES = 640
 the defaults give (64 channels at the criteria's highest order, 10). Each estimator's
 Riccati solution costs the cube of it: 4 channels of 10 minutes fitted and ran in 7 s at
 order 10 (40 states), 11 s at 80, 69 s at 160 (640 states); an order of 500 (2000
-states) ran for 13 minutes without a word before this limit."""
+states) ran for 13 minutes without a word before this limit. A set ``order`` beyond it
+makes the bank not applicable; ``"aic"``/``"bic"`` search up to the order it allows
+(``max_order`` or less)."""
 
 
 AUTO_BLOCK = {2: 64, 6: 32}
@@ -164,14 +166,12 @@ class ARKalmanBank:
                 f"{len(data.channels)} channels are too many for one bank (at most "
                 f"{MAX_CHANNELS}): select the sensors with --channels"
             )
-        fixed = isinstance(self.order, int)
-        highest = self.order if isinstance(self.order, int) else self.max_order
-        if highest * len(data.channels) > MAX_STATES:
-            setting = "order" if fixed else "max_order"
+        # (a criterion searches orders up to what the limit allows: fit())
+        if isinstance(self.order, int) and self.order * len(data.channels) > MAX_STATES:
             return (
-                f"{setting} {highest} with {len(data.channels)} channels makes estimators of "
-                f"{highest * len(data.channels)} states (at most {MAX_STATES}: the fit's cost "
-                f"grows with their cube); set a lower [detectors.{self.name}] {setting}"
+                f"order {self.order} with {len(data.channels)} channels makes estimators of "
+                f"{self.order * len(data.channels)} states (at most {MAX_STATES}: the fit's "
+                f"cost grows with their cube); set a lower [detectors.{self.name}] order"
             )
         return None
 
@@ -181,10 +181,10 @@ class ARKalmanBank:
         if reason:
             raise DetectorError(f"ar_kalman_bank {reason}")
         train = np.asarray(data.train_values(), dtype=np.float64)
+        # a criterion's search stops at the order the state limit allows
+        highest = min(self.max_order, max(1, MAX_STATES // len(data.channels)))
         order = (
-            select_order(train, self.order, self.max_order)
-            if isinstance(self.order, str)
-            else self.order
+            select_order(train, self.order, highest) if isinstance(self.order, str) else self.order
         )
         ar = fit_ar(train, order, data.channels)
         block = self._block(ar.m)

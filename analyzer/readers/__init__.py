@@ -63,6 +63,7 @@ _MAGICS: tuple[tuple[bytes, Format], ...] = (
     (b"#ROSBAG V", Format.ROS1BAG),
     (b"SQLite format 3\x00", Format.ROS2BAG),
     (b'"TOA5",', Format.CSV),  # a Campbell Scientific logger's table, mostly named .dat
+    (b'\xef\xbb\xbf"TOA5",', Format.CSV),  # the same saved with a UTF-8 byte order mark
 )
 
 TOA5_SUFFIX = ".dat"
@@ -413,7 +414,7 @@ def _is_toa5(path: Path) -> bool:
         return False
     try:
         with path.open("rb") as handle:
-            return handle.read(7) == b'"TOA5",'
+            return handle.read(10).removeprefix(b"\xef\xbb\xbf").startswith(b'"TOA5",')
     except OSError:
         return False
 

@@ -180,6 +180,12 @@ def test_an_ar_order_the_bank_cannot_afford_is_refused(tmp_path, capsys):
     assert code in (0, 1)
     skipped = json.loads((tmp_path / "o" / "findings.json").read_text())["skipped_detectors"]
     assert "order 500" in skipped["ar_kalman_bank"]
+    # a criterion's search is bounded by the limit instead: the bank runs
+    cfg.write_text('[detectors.ar_kalman_bank]\norder = "bic"\nmax_order = 500\n')
+    code, _, err = run_cli([*argv[:-2], "--out", tmp_path / "o2", "--config", cfg], capsys)
+    assert code in (0, 1), err
+    doc = json.loads((tmp_path / "o2" / "findings.json").read_text())
+    assert "ar_kalman_bank" not in doc["skipped_detectors"]
 
 
 def test_weak_findings_of_a_lenient_false_alarm_rate_are_named(tmp_path, capsys):

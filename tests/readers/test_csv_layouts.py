@@ -388,3 +388,15 @@ def test_a_bare_t_is_the_time_only_where_no_other_name_says_so(tmp_path: Path) -
     path.write_text("a,t,b\n" + "".join(f"{i},{i / 100:.2f},{-i}\n" for i in range(N)))
     got, _ = read(path)
     assert_rows(got)
+
+
+def test_a_toa5_table_saved_with_a_byte_order_mark_is_read(tmp_path: Path) -> None:
+    """A ``.dat`` with a UTF-8 BOM before ``"TOA5",`` was "unknown format"."""
+    path = tmp_path / "CR1000X_Strain.dat"
+    body = TOA5_HEAD + "".join(f'"{iso(i)}",{i},{i / 4},{-i},{20 + i % 7}\n' for i in range(N))
+    path.write_bytes(b"\xef\xbb\xbf" + body.encode())
+    got, info = read(path)
+    assert set(got) == {"Strain_1", "Strain_2", "Temp_C"} and info.errors == []
+    from analyzer.readers import open_archive
+
+    assert [i.path.name for i in open_archive(tmp_path).inputs] == [path.name]
