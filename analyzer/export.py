@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from analyzer.errors import UsageError
-from analyzer.outdir import prepare_dir, remove_if_empty
+from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
 from analyzer.readers import open_archive
 from analyzer.readers.base import TimeSource
 from analyzer.scratch import scratch
@@ -30,16 +30,8 @@ def export_archive(
         raise UsageError(f"--out: {out} must end in .csv or .parquet")
     if out.is_dir():
         raise UsageError(f"--out: {out} is a directory")
-    target = out.resolve()
-    for i in inputs:
-        src = Path(i).resolve()
-        if target == src or (src.is_dir() and src in target.parents):
-            # the input was read, then replaced by its export (its absolute times lost);
-            # a file added to an archive's folder is read with it the next time
-            where = "an input" if target == src else "inside the input"
-            raise UsageError(
-                f"--out: {out} is {where} {i}: inputs are never modified; export elsewhere"
-            )
+    # (the input was read, then replaced by its export, its absolute times lost)
+    not_into_inputs(out, inputs, "--out", "export elsewhere")
     created = prepare_dir(out.parent, "--out")  # before reading: not at the end
     try:
         return _export(inputs, out, suffix, channels, rate, time)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 from analyzer.errors import UsageError
@@ -26,6 +27,20 @@ def prepare_dir(path: Path, option: str = "--out") -> bool:
     except OSError as err:
         raise UsageError(f"{option}: cannot write to {path}: {err.strerror or err}") from None
     return created
+
+
+def not_into_inputs(path: Path, inputs: Sequence[str | Path], option: str, advice: str) -> None:
+    """``option``'s ``path`` must not overwrite an input file nor add a file to an input
+    directory (an archive of several files, which would read it back): inputs are never
+    modified. ``advice`` ends the error (``write the model elsewhere``)."""
+    target = path.resolve()
+    for i in inputs:
+        src = Path(i).resolve()
+        if target == src or (src.is_dir() and src in target.parents):
+            raise UsageError(
+                f"{option}: {path} is {'an input' if target == src else 'inside the input'}"
+                f" {i}: inputs are never modified; {advice}"
+            )
 
 
 def remove_if_empty(path: Path) -> None:

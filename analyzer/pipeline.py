@@ -45,7 +45,7 @@ from analyzer.findings import Analysis, findings_document, input_digest, write_o
 from analyzer.grouping import partition
 from analyzer.modelfile import SavedModel, check_model_path, save_model
 from analyzer.options import MIN_TRAIN_ROWS, RunOptions, default_train, load_options, parse_train
-from analyzer.outdir import prepare_dir, remove_if_empty
+from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
 from analyzer.paging import release, row_blocks, trim_heap
 from analyzer.parallel import (
     DaskExecutor,
@@ -921,7 +921,7 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
     out = Path(out_dir)
     if options.save_model is not None:
         check_model_path(options.save_model)
-        _not_into_inputs(options.save_model, inputs)
+        not_into_inputs(options.save_model, inputs, "--save-model", "write the model elsewhere")
     created = prepare_dir(out, "--out")  # before the work: it must not fail at the end
     work = make_scratch()
     try:
@@ -956,19 +956,6 @@ def _warn_inputs(analysis: Analysis, out: Path, warn: Callable[[str], None]) -> 
         warn(line)
     if len(lines) > WARNED_LINES:
         warn(f"{len(lines) - WARNED_LINES} more input errors in {out / 'findings.json'}")
-
-
-def _not_into_inputs(path: Path, inputs: Sequence[str | Path]) -> None:
-    """``--save-model`` must not overwrite an input file nor add a file to an input
-    directory (an archive of several files): inputs are never modified."""
-    target = path.resolve()
-    for i in inputs:
-        src = Path(i).resolve()
-        if target == src or (src.is_dir() and src in target.parents):
-            raise UsageError(
-                f"--save-model: {path} is {'an input' if target == src else 'inside the input'}"
-                f" {i}: inputs are never modified; write the model elsewhere"
-            )
 
 
 __all__ = [

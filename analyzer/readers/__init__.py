@@ -58,12 +58,15 @@ SUFFIXES: dict[str, Format] = {
 }
 """Suffixes of the files taken from a directory archive, and their format."""
 
+TOA5_MAGICS = (b'"TOA5",', b'\xef\xbb\xbf"TOA5",')
+"""How a Campbell Scientific logger's table (mostly named .dat) starts, with or without a
+UTF-8 byte order mark."""
+
 _MAGICS: tuple[tuple[bytes, Format], ...] = (
     (b"\x89MCAP0\r\n", Format.MCAP),
     (b"#ROSBAG V", Format.ROS1BAG),
     (b"SQLite format 3\x00", Format.ROS2BAG),
-    (b'"TOA5",', Format.CSV),  # a Campbell Scientific logger's table, mostly named .dat
-    (b'\xef\xbb\xbf"TOA5",', Format.CSV),  # the same saved with a UTF-8 byte order mark
+    *((magic, Format.CSV) for magic in TOA5_MAGICS),
 )
 
 TOA5_SUFFIX = ".dat"
@@ -414,7 +417,7 @@ def _is_toa5(path: Path) -> bool:
         return False
     try:
         with path.open("rb") as handle:
-            return handle.read(10).removeprefix(b"\xef\xbb\xbf").startswith(b'"TOA5",')
+            return handle.read(10).startswith(TOA5_MAGICS)
     except OSError:
         return False
 
