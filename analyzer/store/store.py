@@ -650,11 +650,7 @@ def _resampled(
             return out
     vv = np.asarray(v[i0:i1], dtype=np.float64)
     if taps is not None and vv.shape[0] > taps.shape[0]:
-        from scipy import signal
-
-        fin = np.isfinite(vv)
-        vv = signal.oaconvolve(np.where(fin, vv, 0.0), taps, mode="same")
-        vv[~fin] = np.nan
+        vv = _low_passed(tt, vv, taps, period)
     base = tt[0]
     x = (tt - base).astype(np.float64)
     g = (grid - base).astype(np.float64)
@@ -673,6 +669,52 @@ def _resampled(
     # outside the channel's first/last sample by up to half a period: hold the edge value
     out[ok] = y[ok]
     return out
+
+
+def _low_passed(tt: IntArray, vv: FloatArray, taps: FloatArray, period: float) -> FloatArray:
+    """``vv`` (raw samples at times ``tt``) through the anti-aliasing FIR ``taps``, from
+    the samples that exist only: a normalized convolution.
+
+    Where a tap would reach past the channel's first or last sample, onto a NaN (a gap
+    in the reading) or across a gap in time (a step of more than :data:`GAP_FACTOR`
+    periods), that tap is left out and the others are scaled up to the filter's DC
+    gain. A plain convolution took the missing samples for zeros: a 100 Hz IMU's
+    9.81 m/s^2 of gravity, decimated to 20 Hz, began at 5.79 and swung to 10.54 at the
+    record's ends and beside each NaN, and samples on both sides of an outage were
+    mixed. Away from them every tap has its sample and the result is the plain
+    convolution's, unchanged."""
+    from scipy import signal
+
+    fin = np.isfinite(vv)
+    steps = np.diff(tt)
+    gaps = np.flatnonzero(steps > GAP_FACTOR * period)
+    if gaps.size:
+        # a gap becomes half a filter's length of missing samples, so no tap reaches
+        # across it (vectorized: each sample moves on by the padding of the gaps before it)
+        pad = taps.shape[0] // 2 + 1
+        at = np.arange(vv.shape[0]) + pad * np.searchsorted(gaps, np.arange(vv.shape[0]), "left")
+        spread = np.zeros(int(at[-1]) + 1)
+        present = np.zeros(spread.shape[0], dtype=bool)
+        spread[at] = np.where(fin, vv, 0.0)
+        present[at] = fin
+    else:
+        at = None
+        spread = np.where(fin, vv, 0.0)
+        present = fin
+    num = signal.oaconvolve(spread, taps, mode="same")
+    den = signal.oaconvolve(present.astype(np.float64), taps, mode="same")
+    if at is not None:
+        num, den = num[at], den[at]
+    full = float(np.sum(taps))
+    # where every tap has its sample, den is the DC gain but for rounding: left as is
+    partial = np.abs(den - full) > 1e-9 * abs(full)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        num[partial] = num[partial] * (full / den[partial])
+    # fewer than half the filter's weight present (the edge of a lone sample's reach):
+    # too little to stand for the low-passed value
+    num[partial & (den < 0.5 * full)] = np.nan
+    num[~fin] = np.nan
+    return num
 
 
 def _span_text(seconds: float) -> str:

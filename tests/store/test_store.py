@@ -105,6 +105,55 @@ def test_faster_channel_is_low_passed_before_decimation():
     assert np.max(np.abs(err)) < 1e-3
 
 
+def _decimated(t, v, rate_hz):
+    with ChannelStore.from_chunks([ChannelChunk("fast", t, v)]) as store:
+        return store.align(["fast"], rate_hz=rate_hz).materialize()[:, 0]
+
+
+def test_decimation_keeps_a_level_at_the_ends_and_beside_nans():
+    """The anti-aliasing filter leaves out samples it has not, rather than reading them
+    as zeros: gravity at 100 Hz on a 20 Hz clock began at 5.79 and swung to 10.54 at
+    the record's ends and beside a NaN (probe of the thirtieth session)."""
+    rng = np.random.default_rng(0)
+    t = np.arange(4000, dtype=np.int64) * 10_000_000  # 100 Hz, 40 s
+    v = 9.81 + 0.001 * rng.standard_normal(t.shape[0])
+    v[1000] = np.nan
+    x = _decimated(t, v, 20.0)
+    assert np.isnan(x[200])  # the NaN's tick stays a gap
+    near = np.r_[x[:10], x[190:200], x[201:211], x[-10:]]
+    assert np.all(np.isfinite(near))
+    assert np.max(np.abs(near - 9.81)) < 0.005
+
+
+def test_decimation_does_not_mix_the_two_sides_of_a_gap():
+    """Samples before and after an outage are filtered apart: a level of 0 before a
+    10-second gap and of 10 after it stay 0 and 10 up to the gap's edges."""
+    t = np.r_[np.arange(2000), np.arange(3000, 5000)].astype(np.int64) * 10_000_000
+    v = np.r_[np.zeros(2000), np.full(2000, 10.0)]
+    x = _decimated(t, v, 20.0)
+    grid = np.arange(x.shape[0]) / 20.0
+    before = grid < 19.9
+    after = grid > 30.05
+    np.testing.assert_allclose(x[before], 0.0, atol=1e-9)
+    np.testing.assert_allclose(x[after], 10.0, atol=1e-9)
+    assert np.all(np.isnan(x[(grid > 20.05) & (grid < 29.95)]))
+
+
+def test_decimation_away_from_edges_is_the_plain_convolution():
+    """Where every tap has its sample the result is the plain FIR's, to the last bit."""
+    from scipy import signal
+
+    from analyzer.store.store import _low_passed
+
+    rng = np.random.default_rng(1)
+    t = np.arange(5000, dtype=np.int64) * 10_000_000
+    v = rng.standard_normal(5000)
+    taps = signal.firwin(41, 9.0, fs=100.0)
+    plain = signal.oaconvolve(v, taps, mode="same")
+    ours = _low_passed(t, v, taps, 1e7)
+    np.testing.assert_array_equal(ours[25:-25], plain[25:-25])
+
+
 def test_out_of_order_chunks_are_sorted():
     t = np.arange(1000, dtype=np.int64) * 10_000_000
     v = t.astype(float)
