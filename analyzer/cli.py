@@ -259,7 +259,12 @@ def cmd_export(args: argparse.Namespace) -> int:
     from analyzer.export import export_archive
 
     export_archive(
-        args.inputs, Path(args.out), channels=args.channels, rate=args.rate, time=args.time
+        args.inputs,
+        Path(args.out),
+        channels=args.channels,
+        rate=args.rate,
+        time=args.time,
+        warn=_warn,
     )
     return 0
 

@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +17,9 @@ from analyzer.store import AlignedSeries, ChannelStore
 
 BLOCK = 1 << 16
 
+WARNED_LINES = 5
+"""Lines of input errors an export repeats through ``warn`` (as ``run`` does)."""
+
 
 def export_archive(
     inputs: Sequence[str | Path],
@@ -24,7 +27,11 @@ def export_archive(
     channels: list[str] | None = None,
     rate: float | None = None,
     time: TimeSource = "log",
+    warn: Callable[[str], None] | None = None,
 ) -> Path:
+    """Write the aligned channels of ``inputs`` to ``out``; what went wrong with the
+    inputs while they were read (a truncated file, samples dropped: ``inputs[].errors``
+    of ``inspect``) is told to ``warn``, a line each, once the file is written."""
     suffix = "".join(out.suffixes[-1:]).lower()
     if suffix not in (".csv", ".parquet"):
         raise UsageError(f"--out: {out} must end in .csv or .parquet")
@@ -34,7 +41,7 @@ def export_archive(
     not_into_inputs(out, inputs, "--out", "export elsewhere")
     created = prepare_dir(out.parent, "--out")  # before reading: not at the end
     try:
-        return _export(inputs, out, suffix, channels, rate, time)
+        return _export(inputs, out, suffix, channels, rate, time, warn)
     except BaseException:
         if created:
             remove_if_empty(out.parent)
@@ -48,6 +55,7 @@ def _export(
     channels: list[str] | None,
     rate: float | None,
     time: TimeSource,
+    warn: Callable[[str], None] | None = None,
 ) -> Path:
     archive = open_archive(inputs)
     with (
@@ -73,6 +81,12 @@ def _export(
             tmp_out.replace(out)
         finally:
             tmp_out.unlink(missing_ok=True)
+    if warn is not None:
+        lines = [f"{i.path}: {e}" for i in archive.inputs for e in i.errors]
+        for line in lines[:WARNED_LINES]:
+            warn(line)
+        if len(lines) > WARNED_LINES:
+            warn(f"{len(lines) - WARNED_LINES} more input errors (`analyzer inspect` lists them)")
     return out
 
 

@@ -28,6 +28,7 @@ from analyzer.readers._common import (
     lfs_pointer,
     monotonic,
     one_line,
+    per_topic,
     special_kind,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, Reader, TimeSource
@@ -272,10 +273,13 @@ class Archive:
         finally:
             if isinstance(source, _ReadAhead):
                 source.close()
-        for name, count in dropped.items():
-            reader.info.errors.append(
-                f"{name}: {count} samples overlap the previous input in time; dropped"
-            )
+        topics: dict[str, str] = getattr(reader, "topics", {})
+        for name, unit, count in per_topic(dropped, topics):
+            if single:  # (the readers order their own samples: not expected)
+                line = f"{name}: {count} {unit} not after an earlier one of the input; dropped"
+            else:
+                line = f"{name}: {count} {unit} overlap the previous input in time; dropped"
+            reader.info.errors.append(line)
 
 
 class _ReadProgress:

@@ -105,6 +105,21 @@ def concat_payloads(payloads: Sequence[bytes]) -> tuple[ByteArray, IntArray, Int
 # --------------------------------------------------------------------------- decoded batches
 
 
+@dataclass(frozen=True, slots=True)
+class Relabel:
+    """A change of a string array (``name`` of a ``JointState``) between two messages of
+    a batch, or between a batch's first message and the message before it: the numeric
+    arrays beside it (``siblings``) keep their index, so ``position[0]`` now belongs to
+    another name. ``count`` is the number of such changes in the batch."""
+
+    field: str
+    row: int
+    before: tuple[str, ...]
+    after: tuple[str, ...]
+    count: int
+    siblings: tuple[str, ...] = ()
+
+
 @dataclass(slots=True)
 class Decoded:
     """Numeric fields of a batch of ``n`` messages of one topic.
@@ -120,12 +135,29 @@ class Decoded:
     stamps: IntArray | None = None
     failed: int = 0
     first_error: str = ""
+    relabels: list[Relabel] = field(default_factory=list)
+    """Where a string array beside numeric arrays (``JointState.name``) changed content."""
 
     def note_failure(self, err: BaseException | str, count: int = 1) -> None:
         """Count ``count`` undecodable messages, keeping the first reason."""
         self.failed += count
         if not self.first_error:
             self.first_error = str(err).splitlines()[0] if str(err) else type(err).__name__
+
+    def subset(self, keep: npt.NDArray[np.bool_]) -> Decoded:
+        """The messages (rows) where ``keep`` is true, their columns renumbered."""
+        new_row = np.cumsum(keep) - 1
+        columns: dict[str, tuple[IntArray | None, FloatArray]] = {}
+        for name, (rows, values) in self.columns.items():
+            if rows is None:
+                columns[name] = (None, values[keep])
+                continue
+            inside = keep[rows]
+            if bool(inside.any()):
+                columns[name] = (new_row[rows[inside]], values[inside])
+        n = int(np.count_nonzero(keep))
+        stamps = None if self.stamps is None else self.stamps[keep]
+        return Decoded(n, columns, stamps, self.failed, self.first_error, self.relabels)
 
 
 class ColumnAccumulator:
@@ -172,11 +204,182 @@ def merge_parts(
     return merged
 
 
-def sample_times(decoded: Decoded, log_ns: IntArray, time: str) -> IntArray:
-    """Per-message timestamps: log time, or the header stamp where there is one."""
-    if time == "header" and decoded.stamps is not None:
-        return np.where(decoded.stamps == NO_STAMP, log_ns, decoded.stamps)
-    return log_ns
+# --------------------------------------------------------------------------- per-topic notes
+
+
+@dataclass(slots=True)
+class _Jumps:
+    """Header clock jumps of one topic: how many, messages dropped, the first one."""
+
+    events: int = 0
+    dropped: int = 0
+    index: int = 0
+    log_ns: int = 0
+    back_ns: int = 0
+
+
+@dataclass(slots=True)
+class _Relabels:
+    """Changes of one string array of one topic: how many, and the first one."""
+
+    count: int
+    log_ns: int
+    first: Relabel
+
+
+class TopicTracker:
+    """What one pass of a ROS or MCAP reader notes per topic beside the samples, and the
+    time each message gets; :meth:`push` hands the samples on to a :class:`Reorderer`.
+
+    * messages that could not be decoded (counted, the first reason kept);
+    * with ``--time header``: a ``header.stamp`` of 0 (a driver that does not set it) is
+      no stamp: the message's log time is used, and counted;
+    * with ``--time header``: a header clock that goes back by more than the reorder
+      window (a clock step, a restarted simulator). Sorting would interleave the stretch
+      after the step with the one before it (the aligner then keeps one of two samples
+      per tick, silently). The rule: in log-time order, a message stamped more than the
+      window before the newest stamp of its topic so far, and the messages after it that
+      stay at or below that newest stamp, are dropped and counted; the stamps within the
+      window behind are reordered, as before. Vectorized: a running maximum per batch,
+      carried across batches;
+    * string arrays beside numeric arrays (``JointState.name``) that change content
+      (:class:`Relabel`, found by the decoders): ``position[i]`` follows the index.
+    """
+
+    def __init__(self, time: str, window_ns: int = REORDER_WINDOW_NS) -> None:
+        self.time = time
+        self._window = window_ns
+        self._t0: int | None = None
+        self._seen: dict[str, int] = {}
+        self._high: dict[str, int] = {}
+        self._behind: dict[str, bool] = {}
+        self._jumps: dict[str, _Jumps] = {}
+        self._zero: dict[str, int] = {}
+        self._failures: dict[str, list[Any]] = {}
+        self._relabels: dict[tuple[str, str], _Relabels] = {}
+
+    def push(self, reorder: Reorderer, topic: str, decoded: Decoded, log_ns: IntArray) -> None:
+        """Note what ``decoded`` (messages of ``topic`` logged at ``log_ns``) holds beside
+        its samples, and push them with their times."""
+        if decoded.failed:
+            seen = self._failures.setdefault(topic, [0, decoded.first_error])
+            seen[0] += decoded.failed
+        if decoded.n == 0:
+            return
+        if self._t0 is None:
+            self._t0 = int(log_ns.min())
+        for change in decoded.relabels:
+            key = (topic, change.field)
+            known = self._relabels.get(key)
+            if known is None:
+                self._relabels[key] = _Relabels(change.count, int(log_ns[change.row]), change)
+            else:
+                known.count += change.count
+        times = log_ns
+        if self.time == "header" and decoded.stamps is not None:
+            stamps = decoded.stamps
+            unset = stamps == 0
+            zeros = int(np.count_nonzero(unset))
+            if zeros:
+                self._zero[topic] = self._zero.get(topic, 0) + zeros
+            unset |= stamps == NO_STAMP
+            times = np.where(unset, log_ns, stamps) if bool(unset.any()) else stamps
+            keep = self._clock(topic, times, log_ns)
+            if keep is not None:
+                decoded = decoded.subset(keep)
+                times = times[keep]
+        self._seen[topic] = self._seen.get(topic, 0) + int(log_ns.shape[0])
+        reorder.push_decoded(topic, decoded, times)
+
+    def _clock(self, topic: str, t: IntArray, log_ns: IntArray) -> npt.NDArray[np.bool_] | None:
+        """Which messages to keep (None: all) by the header-clock rule of the class."""
+        n = int(t.shape[0])
+        order = None
+        if n > 1 and bool(np.any(log_ns[1:] < log_ns[:-1])):
+            order = np.argsort(log_ns, kind="stable")
+            t = t[order]
+        high = self._high.get(topic)
+        runmax = np.maximum.accumulate(t)
+        prev = np.empty_like(t)
+        prev[1:] = runmax[:-1]
+        prev[0] = int(t[0]) - 1 if high is None else high
+        if high is not None:
+            np.maximum(prev, high, out=prev)
+        self._high[topic] = int(runmax[-1]) if high is None else max(high, int(runmax[-1]))
+        advancing = t > prev
+        carry = self._behind.get(topic, False)
+        if bool(advancing.all()):
+            self._behind[topic] = False
+            return None
+        far = ~advancing & (t < prev - self._window)
+        if not carry and not bool(far.any()):
+            self._behind[topic] = False
+            return None
+        index = np.arange(n)
+        run_start = np.maximum.accumulate(np.where(advancing, index, -1))
+        last_far = np.maximum.accumulate(np.where(far, index, -1))
+        drop = ~advancing & (last_far > run_start)
+        if carry:
+            drop |= run_start < 0
+        before = np.empty(n, dtype=bool)
+        before[0] = carry
+        before[1:] = drop[:-1]
+        events = np.nonzero(far & ~before)[0]
+        jumps = self._jumps.setdefault(topic, _Jumps())
+        if events.size:
+            if jumps.events == 0:
+                first = int(events[0])
+                at = first if order is None else int(order[first])
+                jumps.index = self._seen.get(topic, 0) + first
+                jumps.log_ns = int(log_ns[at])
+                jumps.back_ns = int(prev[first]) - int(t[first])
+            jumps.events += int(events.size)
+        jumps.dropped += int(np.count_nonzero(drop))
+        self._behind[topic] = bool(drop[-1])
+        if order is None:
+            return ~drop
+        keep = np.empty(n, dtype=bool)
+        keep[order] = ~drop
+        return keep
+
+    def _at(self, log_ns: int) -> str:
+        return f"t={(log_ns - (self._t0 or 0)) / 1e9:.2f} s"
+
+    def lines(self) -> list[str]:
+        """The error lines, one per topic and kind."""
+        out = [
+            f"{topic}: {count} messages could not be decoded ({reason})"
+            for topic, (count, reason) in self._failures.items()
+        ]
+        out += [
+            f"{topic}: {count} messages have header.stamp 0 (not set); their log time is used"
+            for topic, count in self._zero.items()
+        ]
+        for topic, jumps in self._jumps.items():
+            if not jumps.events:
+                continue
+            more = f"; {jumps.events} such jumps" if jumps.events > 1 else ""
+            out.append(
+                f"{topic}: header.stamp goes back by {jumps.back_ns / 1e9:.1f} s at message "
+                f"{jumps.index} ({self._at(jumps.log_ns)}); {jumps.dropped} messages stamped "
+                f"before the newest stamp so far dropped{more} (--time log keeps them)"
+            )
+        for (topic, _), change in self._relabels.items():
+            first = change.first
+            arrays = ", ".join(f"{name}[i]" for name in first.siblings) or "the arrays"
+            verb = "follows" if len(first.siblings) == 1 else "follow"
+            more = f"; {change.count} changes" if change.count > 1 else ""
+            out.append(
+                f"{topic}: {first.field}[] changed at {self._at(change.log_ns)} "
+                f"({_names(first.before)} -> {_names(first.after)}); {arrays} {verb} the "
+                f"index, not the name{more}"
+            )
+        return out
+
+
+def _names(names: tuple[str, ...], most: int = 8) -> str:
+    shown = ", ".join(names[:most]) + (f", ... ({len(names)})" if len(names) > most else "")
+    return f"[{shown}]"
 
 
 # --------------------------------------------------------------------------- time order
@@ -192,6 +395,8 @@ class _Times:
     order: IntArray | None
     cut: int
     rest: IntArray
+    repeats: bool | None = None
+    """Whether two of the released times are equal (worked out once, on demand)."""
 
 
 class Reorderer:
@@ -202,18 +407,32 @@ class Reorderer:
     until they are :data:`REORDER_WINDOW_NS` older than the newest sample of their
     channel. A sample that still arrives later than an already released one cannot be
     placed; it is dropped and counted in :attr:`dropped`.
+
+    With ``repeats`` (the ROS and MCAP readers), samples at the same time as the one
+    before them on their channel are counted in :attr:`duplicates` (and kept: they are
+    raw samples of the input, which ``inspect`` counts; the aligned channels can hold
+    one value per time, which :meth:`drop_report` says). ``topics`` (filled by
+    :meth:`push_decoded`) maps channels to their topic, for reports per topic.
     """
 
     def __init__(
-        self, window_ns: int = REORDER_WINDOW_NS, batch_samples: int = RELEASE_SAMPLES
+        self,
+        window_ns: int = REORDER_WINDOW_NS,
+        batch_samples: int = RELEASE_SAMPLES,
+        *,
+        repeats: bool = False,
+        topics: dict[str, str] | None = None,
     ) -> None:
         self._window = window_ns
         self._batch = batch_samples
+        self._repeats = repeats
         self._held = 0
         self._t: dict[str, list[IntArray]] = {}
         self._v: dict[str, list[FloatArray]] = {}
         self._last: dict[str, int] = {}
         self.dropped: dict[str, int] = {}
+        self.duplicates: dict[str, int] = {}
+        self.topics: dict[str, str] = {} if topics is None else topics
 
     def push(self, name: str, t: IntArray, values: FloatArray) -> None:
         if t.size == 0:
@@ -231,7 +450,9 @@ class Reorderer:
         """Push every column of ``decoded`` under ``{topic}{separator}{field}``."""
         for fieldname, (rows, values) in decoded.columns.items():
             t = times if rows is None else times[rows]
-            self.push(f"{topic}{separator}{fieldname}" if topic else fieldname, t, values)
+            name = f"{topic}{separator}{fieldname}" if topic else fieldname
+            self.topics[name] = topic or name
+            self.push(name, t, values)
 
     def release(self, bound: int | None, *, final: bool = False) -> Iterator[ChannelChunk]:
         """Yield what is known to be complete: samples before ``bound``, or, with
@@ -269,6 +490,11 @@ class Reorderer:
                 out_t, out_v = out_t[keep], out_v[keep]
                 if out_t.size == 0:
                     continue
+            if self._repeats:
+                if times.repeats is None:
+                    times.repeats = bool(np.any(t[1:cut] == t[: cut - 1]))
+                if times.repeats or (last is not None and int(out_t[0]) == last):
+                    self._count_repeats(name, out_t, last)
             self._last[name] = int(out_t[-1])
             yield ChannelChunk(name, np.ascontiguousarray(out_t), np.ascontiguousarray(out_v))
 
@@ -287,17 +513,45 @@ class Reorderer:
             cut = int(np.searchsorted(t, limit, side="left"))
         return _Times(parts_t, t, order, cut, t[cut:])
 
+    def _count_repeats(self, name: str, t: IntArray, last: int | None) -> None:
+        """Count the samples of ``t`` (sorted) at the time of the one before."""
+        count = int(np.count_nonzero(t[1:] == t[:-1]))
+        count += int(last is not None and int(t[0]) == last)
+        if count:
+            self.duplicates[name] = self.duplicates.get(name, 0) + count
+
     def flush(self) -> Iterator[ChannelChunk]:
         """Release everything still held."""
         yield from self.release(None, final=True)
 
     def drop_report(self) -> list[str]:
-        """One error line per channel that lost out-of-order samples."""
-        return [
-            f"{name}: {count} samples dropped because their timestamps went back in time "
-            "by more than the reorder window"
-            for name, count in self.dropped.items()
+        """One error line per topic (per channel without one) that lost samples: out of
+        order by more than the reorder window, or repeating a time."""
+        lines = [
+            f"{label}: {count} {unit} dropped because their timestamps went back in time "
+            f"by more than the reorder window ({self._window / 1e9:g} s)"
+            for label, unit, count in per_topic(self.dropped, self.topics)
         ]
+        lines += [
+            f"{label}: {count} {unit} repeat the timestamp of the one before (two "
+            "publishers, or a recorder's coarse clock); the aligned channels keep one "
+            "value per time"
+            for label, unit, count in per_topic(self.duplicates, self.topics)
+        ]
+        return lines
+
+
+def per_topic(counts: dict[str, int], topics: dict[str, str]) -> list[tuple[str, str, int]]:
+    """Per-channel counts summed up per topic: ``(topic, "messages", count)`` with the
+    largest count among the topic's channels (a message holds one sample of each), or
+    ``(channel, "samples", count)`` for a channel without a topic (a CSV column)."""
+    out: dict[str, tuple[str, int]] = {}
+    for name, count in counts.items():
+        topic = topics.get(name, name)
+        unit = "samples" if topic == name else "messages"
+        seen = out.get(topic)
+        out[topic] = (unit, count if seen is None else max(seen[1], count))
+    return [(topic, unit, count) for topic, (unit, count) in out.items()]
 
 
 def monotonic(

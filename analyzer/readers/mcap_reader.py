@@ -41,13 +41,13 @@ from analyzer.readers._common import (
     Decoded,
     IntArray,
     Reorderer,
+    TopicTracker,
     as_bytes_array,
     concat_payloads,
     field_view,
     file_digest,
     gather_rows,
     one_line,
-    sample_times,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
 from analyzer.readers.rosdecode import Encoding, RosBatchDecoder
@@ -145,7 +145,9 @@ class McapReader:
             self._schemas.update(self._summary.schemas)
             self._channels.update(self._summary.channels)
         self._decoders: dict[int, tuple[str, BatchDecoder] | None] = {}
-        self._failures: dict[str, list[Any]] = {}
+        self._tracker = TopicTracker("log")
+        self.topics: dict[str, str] = {}
+        """The topic of every channel read (for reports per topic)."""
         self._protobuf: Any = None  # one mcap_protobuf factory: it caches per schema
         self.fraction_read = 0.0
         """The share of the file :meth:`chunks` has got through (see ``Reader``)."""
@@ -163,9 +165,9 @@ class McapReader:
         return self._scan_first_time()
 
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
-        self._failures.clear()
+        self._tracker = TopicTracker(time)
         self.fraction_read = 0.0
-        reorder = Reorderer()
+        reorder = Reorderer(repeats=True, topics=self.topics)
         with self.path.open("rb") as handle:
             if self._summary is not None and self._summary.chunk_indexes:
                 yield from self._indexed(handle, reorder, time)
@@ -173,10 +175,29 @@ class McapReader:
                 if self._summary_error:
                     self._error(self._summary_error)
                 yield from self._streaming(handle, reorder, time)
-        for line in reorder.drop_report():
+        for line in self._shared_topics():
             self._error(line)
-        for topic, (count, reason) in self._failures.items():
-            self._error(f"{topic}: {count} messages could not be decoded ({reason})")
+        for line in self._tracker.lines() + reorder.drop_report():
+            self._error(line)
+
+    def _shared_topics(self) -> list[str]:
+        """One line per topic that several channels of one message type (publishers)
+        wrote to: their samples are merged into one set of channels. Channels of one
+        topic with different types give channels of different names (no line)."""
+        channels: dict[tuple[str, str], int] = {}
+        for cid, entry in self._decoders.items():
+            channel = self._channels.get(cid)
+            if entry is None or channel is None:
+                continue
+            schema = self._schemas.get(channel.schema_id) if channel.schema_id else None
+            kind = schema.name if schema is not None else channel.message_encoding
+            key = (channel.topic, kind)
+            channels[key] = channels.get(key, 0) + 1
+        return [
+            f"{topic}: {count} MCAP channels (publishers) share this topic; merged"
+            for (topic, _), count in channels.items()
+            if count > 1
+        ]
 
     # ------------------------------------------------------------------ summary
     def _read_summary(self, size: int) -> Any:
@@ -416,10 +437,7 @@ class McapReader:
             return
         topic, decoder = entry
         decoded: Decoded = decoder.decode(buf, starts, sizes)
-        if decoded.failed:
-            seen = self._failures.setdefault(topic, [0, decoded.first_error])
-            seen[0] += decoded.failed
-        reorder.push_decoded(topic, decoded, sample_times(decoded, log_ns, time))
+        self._tracker.push(reorder, topic, decoded, log_ns)
 
     # ------------------------------------------------------------------ decoders
     def _decoder(self, cid: int, largest: int) -> tuple[str, BatchDecoder] | None:

@@ -29,11 +29,11 @@ from analyzer.readers._common import (
     ByteArray,
     IntArray,
     Reorderer,
+    TopicTracker,
     as_bytes_array,
     file_digest,
     gather_uint,
     one_line,
-    sample_times,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
 from analyzer.readers.rosdecode import RosBatchDecoder
@@ -184,7 +184,9 @@ class Ros1BagReader:
                 self._chunk_infos.clear()
                 self._index_error = f"bag index damaged ({one_line(err)}); read sequentially"
         self._decoders: dict[int, RosBatchDecoder | None] = {}
-        self._failures: dict[str, list[object]] = {}
+        self._tracker = TopicTracker("log")
+        self.topics: dict[str, str] = {}
+        """The topic of every channel read (for reports per topic)."""
 
     # ------------------------------------------------------------------ protocol
     def start_ns(self) -> int | None:
@@ -198,8 +200,8 @@ class Ros1BagReader:
         return None
 
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
-        self._failures.clear()
-        reorder = Reorderer()
+        self._tracker = TopicTracker(time)
+        reorder = Reorderer(repeats=True, topics=self.topics)
         if self._index_error:
             self._error(self._index_error)
             for records, conns, times, offsets in self._scan(errors=True):
@@ -208,10 +210,8 @@ class Ros1BagReader:
         else:
             yield from self._indexed(reorder, time)
         yield from reorder.flush()
-        for line in reorder.drop_report():
+        for line in self._tracker.lines() + reorder.drop_report():
             self._error(line)
-        for topic, (count, reason) in self._failures.items():
-            self._error(f"{topic}: {count} messages could not be decoded ({reason})")
 
     # ------------------------------------------------------------------ index
     def _read_index(self, index_pos: int, conn_count: int, chunk_count: int) -> None:
@@ -383,10 +383,7 @@ class Ros1BagReader:
                 continue
             topic = self._connections[int(conn)].topic
             decoded = decoder.decode(records, starts, sizes)
-            if decoded.failed:
-                seen = self._failures.setdefault(topic, [0, decoded.first_error])
-                seen[0] = int(seen[0]) + decoded.failed  # type: ignore[call-overload]
-            reorder.push_decoded(topic, decoded, sample_times(decoded, times[sel], time))
+            self._tracker.push(reorder, topic, decoded, times[sel])
 
     @staticmethod
     def _locate(records: ByteArray, offsets: IntArray, conn: int) -> tuple[IntArray, IntArray]:

@@ -23,7 +23,7 @@ from __future__ import annotations
 import sqlite3
 from collections.abc import Iterator
 from contextlib import closing
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import Any
 
 import numpy as np
@@ -34,13 +34,15 @@ from rosbags.rosbag2 import ReaderError as BagReaderError
 from analyzer.errors import ReaderError
 from analyzer.readers._common import (  # noqa: F401 - bag_files re-exported
     Reorderer,
+    TopicTracker,
     bag_files,
     concat_payloads,
     file_digest,
     lfs_pointer,
     monotonic,
     one_line,
-    sample_times,
+    per_topic,
+    special_kind,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
 from analyzer.readers.mcap_reader import McapReader
@@ -57,6 +59,9 @@ from analyzer.types import Format
 SQL_BATCH = 50_000
 """Rows fetched from a sqlite3 storage file per batch."""
 
+STORAGE_SUFFIXES = (".db3", ".mcap", ".db3.zstd", ".mcap.zstd")
+"""Names of the storage files of a bag folder (``.zstd``: rosbag2's file compression)."""
+
 
 class Ros2BagReader:
     """One ROS 2 bag."""
@@ -66,6 +71,11 @@ class Ros2BagReader:
         self.bulk = bulk
         if self.path.is_file() and self.path.stat().st_size == 0:
             raise ReaderError(f"{self.path}: empty file (0 bytes)")
+        listed = _listed_files(self.path) if self.path.is_dir() else None
+        for name in listed or ():
+            # rosbags would open it: a FIFO blocks until a writer comes, forever
+            if (kind := special_kind(self.path / name)) is not None:
+                raise ReaderError(f"{self.path}: {name}: not a regular file ({kind}): not read")
         for member in bag_files(self.path):
             if pointer := lfs_pointer(member):
                 raise ReaderError(pointer)
@@ -99,39 +109,57 @@ class Ros2BagReader:
         self.info = InputInfo(self.path, Format.ROS2BAG, size_bytes=total, sha256=sha)
         for line in problems:
             self._error(f"{line}; skipped")
-        self._failures: dict[str, list[Any]] = {}
+        for line in _unlisted(self.path, listed):
+            self._error(line)
+        self._tracker = TopicTracker("log")
+        self.topics: dict[str, str] = {}
+        """The topic of every channel read (for reports per topic)."""
 
     # ------------------------------------------------------------------ protocol
     def start_ns(self) -> int | None:
         return self._start
 
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
-        self._failures.clear()
+        """The storage files are read one after the other in the time order of their
+        data (not in the order metadata.yaml lists them); a later file's samples at or
+        before the last one read of their channel (split files that overlap) are
+        dropped, counted per topic and file."""
+        self._tracker = TopicTracker(time)
         last: dict[str, int] = {}
-        dropped: dict[str, int] = {}
         with _open_bag(self.path) as bag:
             storages = _storages(bag)
+            if storages is not None and len(storages) > 1:
+                storages = _in_time_order(bag, storages)
             if self._message_compressed or storages is None:
-                yield from monotonic(self._generic(bag, time), last, dropped)
+                dropped: dict[str, int] = {}
+                yield from monotonic(self._generic(bag, time), last, dropped, strict=True)
+                self._overlap(self.path.name, dropped)
             else:
                 for storage in storages:
                     storage_path = Path(storage.path)
+                    dropped = {}
                     if storage_path.suffix == ".mcap":
                         try:
                             reader = McapReader(storage_path, info=self.info, bulk=self.bulk)
                         except ReaderError as err:
                             self._error(f"{storage_path.name}: {one_line(err)}; skipped")
                             continue
-                        yield from monotonic(reader.chunks(time), last, dropped)
+                        reader.topics = self.topics
+                        source = reader.chunks(time)
                     else:
-                        yield from monotonic(self._sqlite(storage, time), last, dropped)
-        for name, count in dropped.items():
+                        label = storage_path.name if len(storages) > 1 else ""
+                        source = self._sqlite(storage, time, label)
+                    yield from monotonic(source, last, dropped, strict=True)
+                    self._overlap(storage_path.name, dropped)
+        for line in self._tracker.lines():
+            self._error(line)
+
+    def _overlap(self, name: str, dropped: dict[str, int]) -> None:
+        for topic, unit, count in per_topic(dropped, self.topics):
             self._error(
-                f"{name}: {count} samples of a later split file overlap earlier ones "
+                f"{name}: {topic}: {count} {unit} overlap an earlier split file of the bag "
                 "in time; dropped"
             )
-        for topic, (count, reason) in self._failures.items():
-            self._error(f"{topic}: {count} messages could not be decoded ({reason})")
 
     # ------------------------------------------------------------------ types
     def _make_decoder(self, conn: Any) -> RosBatchDecoder:
@@ -157,9 +185,9 @@ class Ros2BagReader:
         return RosBatchDecoder(stores, msgtype, "cdr", bulk=self.bulk)
 
     # ------------------------------------------------------------------ sqlite3
-    def _sqlite(self, storage: Any, time: TimeSource) -> Iterator[ChannelChunk]:
+    def _sqlite(self, storage: Any, time: TimeSource, label: str = "") -> Iterator[ChannelChunk]:
         topics = {c.id: (c.topic, c.msgtype) for c in storage.connections}
-        reorder = Reorderer()
+        reorder = Reorderer(repeats=True, topics=self.topics)
         uri = Path(storage.path).resolve().as_uri() + "?immutable=1"
         try:
             with closing(sqlite3.connect(uri, uri=True)) as db:
@@ -177,9 +205,8 @@ class Ros2BagReader:
                         if decoder is None or key is None:
                             continue
                         sel = np.nonzero(ids == tid)[0]
-                        self._push(
-                            reorder, key[0], decoder, buf, starts[sel], sizes[sel], times[sel], time
-                        )
+                        decoded = decoder.decode(buf, starts[sel], sizes[sel])
+                        self._tracker.push(reorder, key[0], decoded, times[sel])
                     yield from reorder.release(int(times[-1]) if time == "log" else None)
         except sqlite3.Error as err:
             self._error(
@@ -188,12 +215,12 @@ class Ros2BagReader:
             )
         yield from reorder.flush()
         for line in reorder.drop_report():
-            self._error(line)
+            self._error(f"{label}: {line}" if label else line)
 
     # ------------------------------------------------------------------ fallback
     def _generic(self, bag: Any, time: TimeSource) -> Iterator[ChannelChunk]:
         """rosbags' message iterator (per-message compressed bags), decoded in batches."""
-        reorder = Reorderer()
+        reorder = Reorderer(repeats=True, topics=self.topics)
         batch: list[tuple[Any, int, bytes]] = []
 
         def flush() -> None:
@@ -205,7 +232,8 @@ class Ros2BagReader:
                 if decoder is None:
                     continue
                 sel = np.asarray([i for i, k in enumerate(keys) if k == key], dtype=np.int64)
-                self._push(reorder, key[0], decoder, buf, starts[sel], sizes[sel], times[sel], time)
+                decoded = decoder.decode(buf, starts[sel], sizes[sel])
+                self._tracker.push(reorder, key[0], decoded, times[sel])
 
         for conn, timestamp, data in bag.messages(connections=bag.connections):
             batch.append((conn, timestamp, data))
@@ -216,23 +244,8 @@ class Ros2BagReader:
         if batch:
             flush()
         yield from reorder.flush()
-
-    def _push(
-        self,
-        reorder: Reorderer,
-        topic: str,
-        decoder: RosBatchDecoder,
-        buf: Any,
-        starts: Any,
-        sizes: Any,
-        log_ns: Any,
-        time: TimeSource,
-    ) -> None:
-        decoded = decoder.decode(buf, starts, sizes)
-        if decoded.failed:
-            seen = self._failures.setdefault(topic, [0, decoded.first_error])
-            seen[0] += decoded.failed
-        reorder.push_decoded(topic, decoded, sample_times(decoded, log_ns, time))
+        for line in reorder.drop_report():
+            self._error(line)
 
     def _error(self, line: str) -> None:
         if line not in self.info.errors:
@@ -258,6 +271,64 @@ def _storages(bag: BagReader) -> list[Any] | None:
     if all(hasattr(s, "path") and hasattr(s, "connections") for s in items):
         return items
     return None
+
+
+def _listed_files(path: Path) -> list[str] | None:
+    """The storage file names metadata.yaml lists, or None where it cannot be read
+    (rosbags then says why, when it opens the bag)."""
+    from ruamel.yaml import YAML
+
+    try:
+        doc = YAML(typ="safe").load((path / "metadata.yaml").read_text())
+        names = doc["rosbag2_bagfile_information"]["relative_file_paths"]
+        return [PurePath(str(name)).name for name in names]
+    except Exception:  # noqa: BLE001 - any malformed metadata: rosbags reports it
+        return None
+
+
+def _unlisted(path: Path, listed: list[str] | None) -> list[str]:
+    """A line per storage file in a bag folder that metadata.yaml does not list (a
+    recorder stopped before it rewrote metadata.yaml, a file copied in): not read, for
+    it may as well belong to another recording; given as an input of its own, it is."""
+    if listed is None:
+        return []
+    names = set(listed)
+    out = []
+    for entry in sorted(path.iterdir()):
+        if entry.name in names or not entry.name.lower().endswith(STORAGE_SUFFIXES):
+            continue
+        kind = special_kind(entry)
+        what = f"not a regular file ({kind}) " if kind else ""
+        hint = "" if kind else " (give it as an input of its own to read it)"
+        out.append(
+            f"{entry.name}: {what}in the bag folder but not in metadata.yaml; not read{hint}"
+        )
+    return out
+
+
+def _storage_start(storage: Any) -> int | None:
+    """The first log time of a storage file's data (None: none, or unreadable)."""
+    path = Path(storage.path)
+    try:
+        if path.suffix == ".mcap":
+            return McapReader(path, info=InputInfo(path, Format.MCAP)).start_ns()
+        uri = path.resolve().as_uri() + "?immutable=1"
+        with closing(sqlite3.connect(uri, uri=True)) as db:
+            row = db.execute("SELECT MIN(timestamp) FROM messages").fetchone()
+    except (ReaderError, sqlite3.Error, OSError):
+        return None
+    return None if row is None or row[0] is None else int(row[0])
+
+
+def _in_time_order(bag: BagReader, storages: list[Any]) -> list[Any]:
+    """``storages`` sorted by the first time of their data (a file without data last),
+    and rosbags' own list too (its message iterator reads in that order)."""
+    starts = {id(s): _storage_start(s) for s in storages}
+    ordered = sorted(storages, key=lambda s: (starts[id(s)] is None, starts[id(s)] or 0))
+    inner = getattr(getattr(bag, "storage", None), "storages", None)
+    if isinstance(inner, list) and len(inner) == len(ordered):
+        inner[:] = ordered
+    return ordered
 
 
 def _bag_error(err: BaseException) -> str:

@@ -45,6 +45,7 @@ from analyzer.readers._common import (
     Decoded,
     FloatArray,
     IntArray,
+    Relabel,
     field_view,
     gather_rows,
     merge_parts,
@@ -100,6 +101,19 @@ class _Run:
 
 
 @dataclass(frozen=True, slots=True)
+class _Label:
+    """A string array beside numeric arrays (``JointState.name`` beside ``position``):
+    its bytes ``[start, end)`` in the message, its length and the numeric arrays of the
+    same message level (``siblings``), whose index follows it."""
+
+    field: str
+    start: int
+    end: int
+    count: int
+    siblings: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True)
 class Layout:
     """Byte layout of the messages of one topic that share a template's lengths."""
 
@@ -110,6 +124,8 @@ class Layout:
     check_values: IntArray
     stamp: tuple[int, int] | None
     endian: str
+    labels: tuple[_Label, ...] = ()
+    cdr: bool = True
 
     def matches(self, rows: ByteArray) -> npt.NDArray[np.bool_]:
         """Which rows (messages of ``size`` bytes) have the template's length prefixes."""
@@ -156,6 +172,49 @@ class Layout:
         sec = field_view(rows, sec_off, self.endian + "i4").astype(np.int64)
         return sec * 1_000_000_000 + field_view(rows, nsec_off, self.endian + "u4")
 
+    def label_hashes(self, rows: ByteArray, label: _Label) -> npt.NDArray[np.uint64]:
+        """A 64-bit hash of the bytes of ``label`` in every row (equal bytes, equal hash):
+        the rows viewed as 8-byte words, a polynomial in a large odd constant mod 2**64."""
+        width = label.end - label.start
+        words = (width + 7) // 8
+        block = np.zeros((rows.shape[0], words * 8), dtype=np.uint8)
+        block[:, :width] = rows[:, label.start : label.end]
+        hashes: npt.NDArray[np.uint64] = block.view("<u8") @ _powers(words)  # (wraps)
+        return hashes ^ np.uint64(width)
+
+    def label_names(self, data: bytes, label: _Label) -> tuple[str, ...]:
+        """The strings of ``label`` in one message's bytes ``data`` (Python: called at
+        the few messages where the label changes)."""
+        u32 = struct.Struct(self.endian + "I").unpack_from
+        out: list[str] = []
+        pos = label.start
+        for _ in range(label.count):
+            if self.cdr:
+                pos = (pos + 3) & -4  # (the label starts aligned, relative and absolute)
+            size = int(u32(data, pos)[0])
+            text = data[pos + 4 : pos + 4 + size]
+            pos += 4 + size
+            if self.cdr and text.endswith(b"\0"):
+                text = text[:-1]
+            out.append(text.decode("utf-8", "replace"))
+        return tuple(out)
+
+
+_HASH_BASE = 0x9E3779B97F4A7C15
+_POWERS: dict[int, npt.NDArray[np.uint64]] = {}
+
+
+def _powers(words: int) -> npt.NDArray[np.uint64]:
+    """``_HASH_BASE ** (j + 1) mod 2**64`` for ``j < words`` (cached)."""
+    found = _POWERS.get(words)
+    if found is None:
+        values, power = [], 1
+        for _ in range(words):
+            power = (power * _HASH_BASE) % (1 << 64)
+            values.append(power)
+        found = _POWERS[words] = np.asarray(values, dtype=np.uint64)
+    return found
+
 
 class _Walker:
     """Walks a message definition over one serialized message, collecting the layout."""
@@ -178,6 +237,7 @@ class _Walker:
         self.kinds: list[str] = []
         self.checks: list[tuple[int, int]] = []
         self.stamp: tuple[int, int] | None = None
+        self.labels: list[tuple[str, int, int, int]] = []
 
     def layout(self, msgtype: str) -> Layout:
         self.message(msgtype, "", skip=False, top=True)
@@ -209,7 +269,25 @@ class _Walker:
             check_values=np.asarray([c[1] for c in checks], dtype=np.int64),
             stamp=self.stamp,
             endian=self.endian,
+            labels=self._labels(),
+            cdr=self.cdr,
         )
+
+    def _labels(self) -> tuple[_Label, ...]:
+        """The string arrays that have numeric arrays beside them (same message level)."""
+        out = []
+        for field, start, end, count in self.labels:
+            prefix = field.rpartition(".")[0]
+            prefix = f"{prefix}." if prefix else ""
+            siblings: dict[str, None] = {}
+            for name in self.names:
+                if name.startswith(prefix):
+                    head = name[len(prefix) :].split(".", 1)[0]
+                    if "[" in head:
+                        siblings[prefix + head.split("[", 1)[0]] = None
+            if siblings:
+                out.append(_Label(field, start, end, count, tuple(siblings)))
+        return tuple(out)
 
     # -- primitives
     def align(self, width: int) -> None:
@@ -286,8 +364,13 @@ class _Walker:
         if sub[0] == Nodetype.BASE:
             kind = sub[1][0]
             if kind in STRING_TYPES:
+                if count:
+                    self.align(4)
+                start = self.pos
                 for _ in range(count):
                     self.base_value(name, kind, skip=True)
+                if not skip:
+                    self.labels.append((name, start, self.pos, count))
                 return
             code = NUMERIC.get(kind)
             if code is None:
@@ -371,6 +454,19 @@ def _flatten_field(
 # --------------------------------------------------------------------------- batch decoder
 
 
+@dataclass(slots=True)
+class _LabelRows:
+    """One string array over a batch: its hash per message and the index of the layout
+    that decoded it (-1: not decoded in bulk)."""
+
+    hashes: npt.NDArray[np.uint64]
+    layout: IntArray
+
+    @classmethod
+    def empty(cls, n: int) -> _LabelRows:
+        return cls(np.zeros(n, dtype=np.uint64), np.full(n, -1, dtype=np.int64))
+
+
 class RosBatchDecoder:
     """Decodes batches of serialized messages of one ROS type into numeric columns.
 
@@ -399,6 +495,8 @@ class RosBatchDecoder:
         self._store: Typestore | None = stores[0] if len(stores) == 1 else None
         self._layouts: list[Layout] = []
         self._layout_failed = False
+        self._last_labels: dict[str, tuple[int, tuple[str, ...]]] = {}
+        """Per string array: the hash and strings of the last message decoded in bulk."""
 
     # -- public
     def decode(self, buf: ByteArray, starts: IntArray, sizes: IntArray) -> Decoded:
@@ -412,12 +510,15 @@ class RosBatchDecoder:
         stamps = np.full(n, NO_STAMP, dtype=np.int64)
         any_stamp = False
         remaining = np.arange(n, dtype=np.int64)
+        labels: dict[str, _LabelRows] = {}
         if self.bulk:
-            remaining, any_stamp = self._bulk(buf, starts, sizes, remaining, parts, stamps)
+            remaining, any_stamp = self._bulk(buf, starts, sizes, remaining, parts, stamps, labels)
         if remaining.size:
             any_stamp |= self._reference(buf, starts, sizes, remaining, parts, stamps, decoded)
         decoded.columns = merge_parts(parts, n)
         decoded.stamps = stamps if any_stamp else None
+        if labels:
+            decoded.relabels = self._relabels(buf, starts, labels)
         return decoded
 
     def deserialize(self, data: bytes) -> object:
@@ -452,6 +553,7 @@ class RosBatchDecoder:
         remaining: IntArray,
         parts: dict[str, list[tuple[IntArray | None, FloatArray]]],
         stamps: IntArray,
+        labels: dict[str, _LabelRows],
     ) -> tuple[IntArray, bool]:
         assert self._store is not None
         any_stamp = False
@@ -491,11 +593,53 @@ class RosBatchDecoder:
             if group_stamps is not None:
                 stamps[candidates] = group_stamps
                 any_stamp = True
+            for label in layout.labels:
+                found = labels.get(label.field)
+                if found is None:
+                    found = labels[label.field] = _LabelRows.empty(starts.shape[0])
+                found.hashes[candidates] = layout.label_hashes(rows, label)
+                found.layout[candidates] = tried - 1  # (its index in self._layouts)
             if candidates.size == remaining.size:
                 remaining = remaining[:0]
             else:
                 remaining = np.setdiff1d(remaining, candidates, assume_unique=True)
         return remaining, any_stamp
+
+    def _relabels(
+        self, buf: ByteArray, starts: IntArray, labels: dict[str, _LabelRows]
+    ) -> list[Relabel]:
+        """Where each string array's content changed in the batch (compared in bulk by
+        hash; the strings are read only at the first change and at the batch's end)."""
+
+        def names(row: int, field: str) -> tuple[str, ...]:
+            layout = self._layouts[int(found.layout[row])]
+            label = next(x for x in layout.labels if x.field == field)
+            start = int(starts[row])
+            return layout.label_names(buf[start : start + layout.size].tobytes(), label)
+
+        out: list[Relabel] = []
+        for field, found in labels.items():
+            rows = np.nonzero(found.layout >= 0)[0]
+            if rows.size == 0:
+                continue
+            hashes = found.hashes[rows]
+            last = self._last_labels.get(field)
+            changed = np.empty(rows.size, dtype=bool)
+            changed[0] = last is not None and last[0] != int(hashes[0])
+            np.not_equal(hashes[1:], hashes[:-1], out=changed[1:])
+            where = np.nonzero(changed)[0]
+            if where.size:
+                k = int(where[0])
+                before = last[1] if k == 0 and last is not None else names(int(rows[k - 1]), field)
+                row = int(rows[k])
+                layout = self._layouts[int(found.layout[row])]
+                siblings = next(x.siblings for x in layout.labels if x.field == field)
+                out.append(
+                    Relabel(field, row, before, names(row, field), int(where.size), siblings)
+                )
+            if where.size or last is None:
+                self._last_labels[field] = (int(hashes[-1]), names(int(rows[-1]), field))
+        return out
 
     def _reference(
         self,

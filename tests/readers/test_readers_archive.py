@@ -110,7 +110,7 @@ def test_overlapping_inputs_drop_the_overlap(tmp_path: Path) -> None:
     got = collect(archive.chunks())
     np.testing.assert_array_equal(got["/s0.data"][0], np.concatenate([t[:600], t[600:]]))
     assert archive.inputs[1].errors == [
-        "/s0.data: 100 samples overlap the previous input in time; dropped"
+        "/s0: 100 messages overlap the previous input in time; dropped"
     ]
 
 

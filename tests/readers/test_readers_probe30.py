@@ -1,0 +1,409 @@
+"""The readers against the 30th probe's findings: header clocks that jump back or are
+unset, repeated timestamps, ``name[]`` arrays that change order, ROS 2 bag folders
+(unlisted, misordered, overlapping or FIFO storage files), several MCAP channels on one
+topic, and the warnings of ``export``. Logs are built with the real writers."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import threading
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+from mcap.writer import Writer as McapWriter
+from readers_helpers import T0, collect
+from rosbags.rosbag1 import Writer as Ros1Writer
+from rosbags.rosbag2 import Writer as Ros2Writer
+from rosbags.typesys import Stores, get_typestore
+
+from analyzer.cli import main
+from analyzer.errors import ReaderError
+from analyzer.readers import open_archive, open_input
+from analyzer.readers._common import concat_payloads
+from analyzer.readers.rosdecode import RosBatchDecoder
+
+ROS2 = get_typestore(Stores.ROS2_HUMBLE)
+ROS1 = get_typestore(Stores.ROS1_NOETIC)
+V3S = "geometry_msgs/msg/Vector3Stamped"
+JS = "sensor_msgs/msg/JointState"
+MS = 10_000_000  # 10 ms: 100 Hz
+
+Message = tuple[str, str, int, Any]
+"""(topic, type, log time ns, a function of the typestore giving the message)"""
+
+
+def _header(store: Any, ns: int) -> Any:
+    stamp = store.types["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
+    header = store.types["std_msgs/msg/Header"]
+    if "seq" in header.__dataclass_fields__:
+        return header(seq=0, stamp=stamp, frame_id="f")
+    return header(stamp=stamp, frame_id="f")
+
+
+def v3s(stamp_ns: int, x: float) -> Callable[[Any], Any]:
+    def make(store: Any) -> Any:
+        vector = store.types["geometry_msgs/msg/Vector3"](x=float(x), y=0.0, z=0.0)
+        return store.types[V3S](header=_header(store, stamp_ns), vector=vector)
+
+    return make
+
+
+def joint_state(stamp_ns: int, names: Sequence[str], pos: Sequence[float]) -> Callable[[Any], Any]:
+    def make(store: Any) -> Any:
+        p = np.asarray(pos, dtype=np.float64)
+        return store.types[JS](
+            header=_header(store, stamp_ns),
+            name=list(names),
+            position=p,
+            velocity=p * 0.1,
+            effort=np.zeros(0),
+        )
+
+    return make
+
+
+def write(path: Path, fmt: str, messages: Sequence[Message]) -> Path:
+    """``messages`` as an MCAP (ROS 2 profile), a ROS 1 bag or a ROS 2 sqlite3 bag."""
+    if fmt == "mcap":
+        with path.open("wb") as handle:
+            writer = McapWriter(handle)
+            writer.start(profile="ros2", library="test")
+            channels: dict[str, int] = {}
+            for topic, msgtype, t, make in messages:
+                if topic not in channels:
+                    text = ROS2.generate_msgdef(msgtype, ros_version=2)[0]
+                    schema = writer.register_schema(msgtype, "ros2msg", text.encode())
+                    channels[topic] = writer.register_channel(topic, "cdr", schema)
+                data = bytes(ROS2.serialize_cdr(make(ROS2), msgtype))
+                writer.add_message(channels[topic], log_time=t, data=data, publish_time=t)
+            writer.finish()
+    elif fmt == "ros1":
+        with Ros1Writer(path) as bag:
+            conns: dict[str, Any] = {}
+            for topic, msgtype, t, make in messages:
+                if topic not in conns:
+                    conns[topic] = bag.add_connection(topic, msgtype, typestore=ROS1)
+                bag.write(conns[topic], t, bytes(ROS1.serialize_ros1(make(ROS1), msgtype)))
+    else:
+        with Ros2Writer(path, version=9) as bag:
+            conns = {}
+            for topic, msgtype, t, make in messages:
+                if topic not in conns:
+                    conns[topic] = bag.add_connection(topic, msgtype, typestore=ROS2)
+                bag.write(conns[topic], t, bytes(ROS2.serialize_cdr(make(ROS2), msgtype)))
+    return path
+
+
+NAMES = {"mcap": "x.mcap", "ros1": "x.bag", "ros2": "x_bag"}
+
+
+# --------------------------------------------------------------------------- #2, #8
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "ros1", "ros2"])
+def test_header_clock_jump_back_drops_the_stretch_behind(tmp_path: Path, fmt: str) -> None:
+    """The header clock steps back 3 s at message 200: messages 200..499 are stamped
+    before the newest stamp (1.99 s) and would interleave with 0..199; they are dropped
+    and reported, 500..599 (past 1.99 s again) are kept."""
+    messages = [
+        ("/back", V3S, T0 + i * MS, v3s(T0 + i * MS - (3 * 10**9 if i >= 200 else 0), i))
+        for i in range(600)
+    ]
+    reader = open_input(write(tmp_path / NAMES[fmt], fmt, messages))
+    t, v = collect(reader.chunks("header"))["/back.vector.x"]
+    assert v.tolist() == list(range(200)) + list(range(500, 600))
+    assert bool(np.all(np.diff(t) > 0))
+    assert reader.info.errors == [
+        "/back: header.stamp goes back by 3.0 s at message 200 (t=2.00 s); 300 messages "
+        "stamped before the newest stamp so far dropped (--time log keeps them)"
+    ]
+    # the log clock has no jump: everything, nothing to say
+    reader = open_input(reader.info.path)
+    assert collect(reader.chunks("log"))["/back.vector.x"][1].size == 600
+    assert reader.info.errors == []
+
+
+def test_header_jitter_within_the_window_is_reordered_not_dropped(tmp_path: Path) -> None:
+    """Stamps that go back by less than the reorder window (two stamps swapped) are
+    sorted, as before: nothing dropped, nothing to say."""
+    stamps = [T0 + i * MS for i in range(300)]
+    stamps[100], stamps[101] = stamps[101], stamps[100]
+    messages = [("/j", V3S, T0 + i * MS, v3s(stamps[i], i)) for i in range(300)]
+    reader = open_input(write(tmp_path / "j.mcap", "mcap", messages))
+    t, v = collect(reader.chunks("header"))["/j.vector.x"]
+    assert t.tolist() == sorted(stamps) and v[100:102].tolist() == [101.0, 100.0]
+    assert reader.info.errors == []
+
+
+def test_header_jump_across_batches(tmp_path: Path) -> None:
+    """The stretch behind the newest stamp is followed from one batch (MCAP chunk) to the
+    next: the same samples are dropped as in one batch."""
+    messages = [
+        ("/back", V3S, T0 + i * MS, v3s(T0 + i * MS - (3 * 10**9 if i >= 200 else 0), i))
+        for i in range(600)
+    ]
+    path = tmp_path / "small_chunks.mcap"
+    with path.open("wb") as handle:
+        writer = McapWriter(handle, chunk_size=2000)
+        writer.start(profile="ros2", library="test")
+        text = ROS2.generate_msgdef(V3S, ros_version=2)[0]
+        channel = writer.register_channel(
+            "/back", "cdr", writer.register_schema(V3S, "ros2msg", text.encode())
+        )
+        for _, msgtype, t, make in messages:
+            writer.add_message(
+                channel,
+                log_time=t,
+                data=bytes(ROS2.serialize_cdr(make(ROS2), msgtype)),
+                publish_time=t,
+            )
+        writer.finish()
+    reader = open_input(path)
+    v = collect(reader.chunks("header"))["/back.vector.x"][1]
+    assert v.tolist() == list(range(200)) + list(range(500, 600))
+    assert len(reader.info.errors) == 1 and "300 messages" in reader.info.errors[0]
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "ros1", "ros2"])
+def test_zero_header_stamp_is_no_stamp(tmp_path: Path, fmt: str) -> None:
+    """header.stamp 0 (a driver not yet synced): the log time is used, and counted."""
+    messages = [
+        ("/z", V3S, T0 + i * MS, v3s(0 if 50 <= i < 60 else T0 + i * MS - MS // 2, i))
+        for i in range(200)
+    ]
+    reader = open_input(write(tmp_path / NAMES[fmt], fmt, messages))
+    t, _ = collect(reader.chunks("header"))["/z.vector.x"]
+    expected = [T0 + i * MS - (0 if 50 <= i < 60 else MS // 2) for i in range(200)]
+    assert t.tolist() == sorted(expected)
+    assert reader.info.errors == [
+        "/z: 10 messages have header.stamp 0 (not set); their log time is used"
+    ]
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "ros1", "ros2"])
+def test_repeated_timestamps_are_counted(tmp_path: Path, fmt: str) -> None:
+    """Every message twice at the same time (values i and i + 0.5): both are raw samples
+    (inspect counts them), but one value per time is what aligned channels hold: said."""
+    messages = [
+        ("/dup", V3S, T0 + i * MS, v3s(T0 + i * MS, i + half))
+        for i in range(100)
+        for half in (0, 0.5)
+    ]
+    reader = open_input(write(tmp_path / NAMES[fmt], fmt, messages))
+    t, _ = collect(reader.chunks("log"))["/dup.vector.x"]
+    assert t.size == 200
+    assert reader.info.errors == [
+        "/dup: 100 messages repeat the timestamp of the one before (two publishers, or a "
+        "recorder's coarse clock); the aligned channels keep one value per time"
+    ]
+
+
+# --------------------------------------------------------------------------- #3
+
+
+def _joint_messages() -> list[Message]:
+    out = []
+    for i in range(1000):
+        t = T0 + i * MS
+        if i < 300:
+            names, pos = ["a", "b", "c"], [1000.0 + i, -1000.0 - i, 5000.0]
+        elif i < 600:
+            names, pos = ["b", "a", "c"], [-1000.0 - i, 1000.0 + i, 5000.0]
+        else:
+            names, pos = ["a", "b"], [1000.0 + i, -1000.0 - i]
+        out.append(("/joint_states", JS, t, joint_state(t, names, pos)))
+    return out
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "ros1", "ros2"])
+def test_joint_name_order_change_is_reported(tmp_path: Path, fmt: str) -> None:
+    reader = open_input(write(tmp_path / NAMES[fmt], fmt, _joint_messages()))
+    got = collect(reader.chunks())
+    assert got["/joint_states.position[0]"][1].size == 1000  # (named by index: the contract)
+    assert reader.info.errors == [
+        "/joint_states: name[] changed at t=3.00 s ([a, b, c] -> [b, a, c]); position[i], "
+        "velocity[i] follow the index, not the name; 2 changes"
+    ]
+
+
+def test_joint_names_that_stay_say_nothing(tmp_path: Path) -> None:
+    messages = [
+        ("/js", JS, T0 + i * MS, joint_state(T0 + i * MS, ["a", "b"], [i, -i])) for i in range(300)
+    ]
+    reader = open_input(write(tmp_path / "same.mcap", "mcap", messages))
+    collect(reader.chunks())
+    assert reader.info.errors == []
+
+
+def test_joint_name_change_between_batches() -> None:
+    """The first message of a batch is compared with the last of the batch before."""
+    decoder = RosBatchDecoder([ROS2], JS, "cdr")
+
+    def batch(names: list[str]) -> Any:
+        payloads = [
+            bytes(ROS2.serialize_cdr(joint_state(T0 + i, names, [1.0, 2.0])(ROS2), JS))
+            for i in range(5)
+        ]
+        return decoder.decode(*concat_payloads(payloads))
+
+    assert batch(["left", "right"]).relabels == []
+    assert batch(["left", "right"]).relabels == []
+    (change,) = batch(["right", "left"]).relabels
+    assert (change.field, change.row, change.count) == ("name", 0, 1)
+    assert (change.before, change.after) == (("left", "right"), ("right", "left"))
+    assert change.siblings == ("position", "velocity")
+
+
+# --------------------------------------------------------------------------- #4, #5, #9, FIFO
+
+
+def _imu_like(start: int, stop: int) -> list[Message]:
+    return [("/v", V3S, T0 + i * MS, v3s(T0 + i * MS, i)) for i in range(start, stop)]
+
+
+def _split_bag(tmp_path: Path, parts: Sequence[tuple[int, int]], listed: Sequence[int]) -> Path:
+    """A bag folder with one storage file per part (``b_{k}.db3``); metadata.yaml lists
+    the files ``listed`` in that order."""
+    bag = tmp_path / "split"
+    bag.mkdir()
+    meta: dict[str, Any] = {}
+    for k, (start, stop) in enumerate(parts):
+        one = write(tmp_path / f"part{k}", "ros2", _imu_like(start, stop))
+        shutil.move(next(one.glob("*.db3")), bag / f"b_{k}.db3")
+        meta = yaml.safe_load((one / "metadata.yaml").read_text())
+    info = meta["rosbag2_bagfile_information"]
+    info["relative_file_paths"] = [f"b_{k}.db3" for k in listed]
+    info["files"] = []
+    (bag / "metadata.yaml").write_text(yaml.safe_dump(meta))
+    return bag
+
+
+def test_ros2_split_files_are_read_in_time_order(tmp_path: Path) -> None:
+    bag = _split_bag(tmp_path, [(0, 100), (100, 200), (200, 300)], listed=[2, 0, 1])
+    reader = open_input(bag)
+    v = collect(reader.chunks())["/v.vector.x"][1]
+    assert v.tolist() == list(range(300))
+    assert reader.info.errors == []
+
+
+def test_ros2_unlisted_storage_file_is_reported(tmp_path: Path) -> None:
+    bag = _split_bag(tmp_path, [(0, 100), (100, 200)], listed=[0])
+    reader = open_input(bag)
+    assert collect(reader.chunks())["/v.vector.x"][1].size == 100
+    assert reader.info.errors == [
+        "b_1.db3: in the bag folder but not in metadata.yaml; not read (give it as an input "
+        "of its own to read it)"
+    ]
+    # given as an input of its own, it is read, after the bag
+    archive = open_archive([bag, bag / "b_1.db3"])
+    assert collect(archive.chunks())["/v.vector.x"][1].size == 200
+
+
+def test_ros2_overlapping_split_files_one_line_per_topic_and_file(tmp_path: Path) -> None:
+    bag = _split_bag(tmp_path, [(0, 150), (100, 200)], listed=[0, 1])
+    archive = open_archive(bag)
+    v = collect(archive.chunks())["/v.vector.x"][1]
+    assert v.tolist() == list(range(200))
+    assert archive.inputs[0].errors == [
+        "b_1.db3: /v: 50 messages overlap an earlier split file of the bag in time; dropped"
+    ]
+
+
+def test_archive_overlap_one_line_per_topic(tmp_path: Path) -> None:
+    write(tmp_path / "a.mcap", "mcap", _imu_like(0, 150))
+    write(tmp_path / "b.mcap", "mcap", _imu_like(100, 200))
+    archive = open_archive(tmp_path)
+    assert collect(archive.chunks())["/v.vector.z"][1].size == 200
+    assert archive.inputs[1].errors == [
+        "/v: 50 messages overlap the previous input in time; dropped"
+    ]
+
+
+def test_ros2_fifo_storage_file_is_refused(tmp_path: Path) -> None:
+    """rosbags would open the listed storage file: a FIFO would block it forever."""
+    bag = write(tmp_path / "bag", "ros2", _imu_like(0, 10))
+    storage = next(bag.glob("*.db3"))
+    storage.unlink()
+    os.mkfifo(storage)
+    outcome: list[BaseException | None] = []
+
+    def attempt() -> None:
+        try:
+            open_input(bag)
+            outcome.append(None)
+        except BaseException as err:  # noqa: BLE001 - checked below
+            outcome.append(err)
+
+    thread = threading.Thread(target=attempt, daemon=True)
+    thread.start()
+    thread.join(20)
+    if thread.is_alive():  # let the blocked open go (a writer comes), then fail
+        fd = os.open(storage, os.O_WRONLY | os.O_NONBLOCK)
+        os.close(fd)
+        pytest.fail("opening a bag whose storage file is a FIFO blocked")
+    (err,) = outcome
+    assert isinstance(err, ReaderError)
+    assert re.fullmatch(
+        rf"{re.escape(str(bag))}: {storage.name}: not a regular file \(a FIFO\): not read",
+        str(err),
+    )
+
+
+# --------------------------------------------------------------------------- #6
+
+
+def _two_channels(path: Path, second_type: str) -> Path:
+    with path.open("wb") as handle:
+        writer = McapWriter(handle)
+        writer.start(profile="ros2", library="test")
+        ids = []
+        for msgtype in (V3S, second_type):
+            text = ROS2.generate_msgdef(msgtype, ros_version=2)[0]
+            schema = writer.register_schema(msgtype, "ros2msg", text.encode())
+            ids.append((writer.register_channel("/imu", "cdr", schema), msgtype))
+        for i in range(100):
+            t = T0 + i * MS
+            for k, (cid, msgtype) in enumerate(ids):
+                if msgtype == V3S:
+                    msg = v3s(t + k * 1000, k)(ROS2)
+                else:
+                    msg = ROS2.types[msgtype](data=float(i))
+                data = bytes(ROS2.serialize_cdr(msg, msgtype))
+                writer.add_message(cid, log_time=t + k * 1000, data=data, publish_time=t)
+        writer.finish()
+    return path
+
+
+def test_mcap_publishers_sharing_a_topic_are_reported(tmp_path: Path) -> None:
+    reader = open_input(_two_channels(tmp_path / "two.mcap", V3S))
+    assert collect(reader.chunks())["/imu.vector.x"][1].size == 200
+    assert reader.info.errors == ["/imu: 2 MCAP channels (publishers) share this topic; merged"]
+    # two types on one topic give channels of different names: nothing merged
+    reader = open_input(_two_channels(tmp_path / "types.mcap", "std_msgs/msg/Float64"))
+    got = collect(reader.chunks())
+    assert got["/imu.vector.x"][1].size == 100 and got["/imu.data"][1].size == 100
+    assert reader.info.errors == []
+
+
+# --------------------------------------------------------------------------- #7
+
+
+def test_export_warns_about_its_inputs(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    folder = tmp_path / "in"
+    folder.mkdir()
+    write(folder / "a.mcap", "mcap", _imu_like(0, 300))
+    write(folder / "b.mcap", "mcap", _imu_like(200, 400))
+    out = tmp_path / "out.csv"
+    assert main(["export", str(folder), "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert err == (
+        f"analyzer: warning: {folder / 'b.mcap'}: /v: 100 messages overlap the previous "
+        "input in time; dropped\n"
+    )
+    assert out.is_file()
