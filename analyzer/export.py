@@ -13,7 +13,7 @@ from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
 from analyzer.readers import open_archive
 from analyzer.readers.base import TimeSource
 from analyzer.scratch import scratch
-from analyzer.store import AlignedSeries, ChannelStore
+from analyzer.store import AlignedSeries, ChannelStore, dominant_rate
 
 BLOCK = 1 << 16
 
@@ -71,7 +71,7 @@ def _export(
             names = store.select(None, numeric_only=False)
         if not names:
             raise UsageError(f"{', '.join(map(str, inputs))}: no numeric channel to export")
-        aligned = store.align(names, rate)
+        aligned = store.align(names, _default_rate(store, names) if rate is None else rate)
         tmp_out = out.with_name(f".{out.name}.part")
         try:
             if suffix == ".csv":
@@ -88,6 +88,17 @@ def _export(
         if len(lines) > WARNED_LINES:
             warn(f"{len(lines) - WARNED_LINES} more input errors (`analyzer inspect` lists them)")
     return out
+
+
+def _default_rate(store: ChannelStore, names: Sequence[str]) -> float:
+    """The dominant rate of the channels that vary (of all when none does).
+
+    An export keeps the constant channels (``run`` leaves them out), but they do not
+    set its clock: a ROS ``Odometry`` at 20 Hz brings 72 constant covariance fields,
+    which outnumbered an IMU's varying channels at 100 Hz and made the clock 20 Hz."""
+    infos = {i.name: i for i in store.infos()}
+    varying = [n for n in names if not infos[n].constant]
+    return dominant_rate([infos[n].rate_hz for n in varying or names])
 
 
 def _table(aligned: AlignedSeries, a: int, blk: np.ndarray, schema: object) -> object:

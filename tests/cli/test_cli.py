@@ -191,6 +191,27 @@ def test_export_keeps_gaps(tmp_path, capsys):
     assert {c["name"]: c["gaps"] for c in json.loads(o)["channels"]} == {"a": 1, "b": 0}
 
 
+def test_export_clock_is_set_by_the_channels_that_vary(tmp_path):
+    """Constant channels at a slower rate (an Odometry's covariance fields) are exported
+    but do not set the clock: three of them at 20 Hz beside one varying channel at
+    100 Hz made the clock 20 Hz (and decimated the varying one)."""
+    t = np.arange(2000) / 100.0
+    a = 9.81 + np.sin(3.0 * t)
+    rows = [
+        f"{t[i]:.2f},{a[i]:.6f}" + (",1.0,2.0,3.0" if i % 5 == 0 else ",,,")
+        for i in range(t.shape[0])
+    ]
+    src = tmp_path / "mixed.csv"
+    src.write_text("time,a,c1,c2,c3\n" + "\n".join(rows) + "\n")
+    out = tmp_path / "mixed_out.csv"
+    assert main(["export", str(src), "--out", str(out)]) == 0
+    got = pd.read_csv(out)
+    assert got.shape[0] == 2000
+    np.testing.assert_allclose(got["a"], np.round(a, 6), atol=1e-9)
+    # held to half its own period past its last sample (19.95 s), as on any clock
+    assert (got["c2"].iloc[:1998] == 2.0).all() and got["c2"].iloc[1998:].isna().all()
+
+
 # ----------------------------------------------------------------------------- bad input
 def test_missing_file(tmp_path, capsys):
     code, _, err = run_cli(
