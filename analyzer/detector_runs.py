@@ -479,8 +479,18 @@ def merge_tests(results: list[DetectorResult], parts: list[DetectorResult]) -> N
 def coupled(results: Sequence[DetectorResult]) -> Callable[[str, str, str], bool]:
     """``coupled(detector, a, b)``: whether a fault on channel ``b`` can show in what
     ``detector`` reports of channel ``a``: both in one of its results (one per channel
-    group), and, where the result says which sensors' faults reach each residual (the
-    equivalent model's sensor network, ``model["network"]``), ``b`` among those of ``a``.
+    group), and, where the result says which sensors' faults reach each residual, ``b``
+    among those of ``a``. A result says so by the equivalent model's sensor network
+    (``model["network"]``), or by ``model["reach"]``, the channels whose readings enter
+    each residual, which may lie outside the result's ``channels``: the error functions
+    report their uncertain sensors only, but each reads its references (and measured
+    inputs) too, so a fault on a reference reaches the error function of every uncertain
+    sensor it is a reference of, and of no other (Li et al. 2007: a reference that fails
+    raises the error functions it feeds; the decoupling holds against the *uncertain*
+    sensors only). A drift on reference s4 of a 3-floor building, named by the bank, the
+    detection filter and the equivalent model, raised the error functions of the healthy
+    uncertain s2 and s3 too; as these were not coupled to s4, their false drifts were
+    kept, and ``--corrected`` then altered both healthy channels.
 
     The bank and the detection filter estimate every sensor from all the others, so a
     fault anywhere in a group spreads everywhere in it; the equivalent model's residual
@@ -493,10 +503,17 @@ def coupled(results: Sequence[DetectorResult]) -> Callable[[str, str, str], bool
     groups: dict[str, list[frozenset[str]]] = {}
     reach: dict[str, dict[str, set[str]]] = {}
     for r in results:
-        groups.setdefault(r.detector, []).append(frozenset(r.channels))
-        network = r.model.get("network") if isinstance(r.model, dict) else None
+        model = r.model if isinstance(r.model, dict) else {}
+        members = set(r.channels)
+        network = model.get("network")
+        feeds = model.get("reach")
         if isinstance(network, dict) and "assistants" in network:
             reach.setdefault(r.detector, {}).update(_network_reach(network))
+        elif isinstance(feeds, dict):
+            fed = {str(a): {str(b) for b in bs} for a, bs in feeds.items()}
+            reach.setdefault(r.detector, {}).update(fed)
+            members.update(b for bs in fed.values() for b in bs)
+        groups.setdefault(r.detector, []).append(frozenset(members))
 
     def test(detector: str, a: str, b: str) -> bool:
         if not any(a in g and b in g for g in groups.get(detector, ())):

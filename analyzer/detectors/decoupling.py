@@ -82,6 +82,13 @@ def model_matrices(
     return A, B, C, D, outputs, inputs or [""] * r
 
 
+def unmeasured_inputs(r: int, measured_cols: Sequence[int]) -> list[int]:
+    """The columns of ``B`` (of ``r``) that are not measured: the inputs the inverse
+    model eliminates (Eq. 3)."""
+    measured = set(measured_cols)
+    return [c for c in range(r) if c not in measured]
+
+
 def inverse_model(
     A: FloatArray,
     B: FloatArray,
@@ -94,29 +101,36 @@ def inverse_model(
     """Inverse model of Eq. 3-9: the unmeasured inputs ``u = D_d^+ (y_d - C_d x - ...)``
     (Eq. 3) are substituted into the state and reference equations (Eq. 4-8). Unlike
     Eq. 9, a direct term ``Db = D_s D_d^+`` is kept (it is zero when the references are
-    not collocated with an input, as in the paper)."""
+    not collocated with an input, as in the paper).
+
+    The uncertain sensors enter the inverse model only through that substitution: they
+    stand in for the inputs it eliminates (Eq. 5, "the inputs and outputs have been
+    switched"). With every input measured there is nothing to eliminate, ``y_d`` drops
+    out of Eq. 4-8 and no error function could respond to its sensor: refused
+    (:func:`unmeasured_inputs`)."""
     r = B.shape[1]
     mcols = list(measured_cols)
-    ucols = [c for c in range(r) if c not in mcols]
+    ucols = unmeasured_inputs(r, mcols)
+    if not ucols:
+        raise DetectorError(
+            f"the inverse model (Li et al. 2007, Eq. 3-8) needs at least one unmeasured "
+            f"input to eliminate through the uncertain sensors; all {r} input(s) are measured"
+        )
     Cd, Cs = C[list(uncertain_rows)], C[list(reference_rows)]
     Ddu, Dsu = D[np.ix_(uncertain_rows, ucols)], D[np.ix_(reference_rows, ucols)]
     Ddm, Dsm = D[np.ix_(uncertain_rows, mcols)], D[np.ix_(reference_rows, mcols)]
     Bu, Bm = B[:, ucols], B[:, mcols]
     n_d = len(uncertain_rows)
-    if ucols:
-        sv = np.linalg.svd(Ddu, compute_uv=False)
-        cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
-        if len(sv) < len(ucols) or not cond < MAX_COND:
-            raise DetectorError(
-                f"D_d (uncertain sensors x unmeasured inputs, {Ddu.shape}) is singular or "
-                f"ill-conditioned (condition number {cond:.3g}): the inverse model "
-                f"(Li et al. 2007, Eq. 3) needs every unmeasured input to reach the "
-                f"uncertain sensors directly"
-            )
-        Ddp = np.linalg.pinv(Ddu)
-    else:
-        cond = 1.0
-        Ddp = np.zeros((0, n_d))
+    sv = np.linalg.svd(Ddu, compute_uv=False)
+    cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
+    if len(sv) < len(ucols) or not cond < MAX_COND:
+        raise DetectorError(
+            f"D_d (uncertain sensors x unmeasured inputs, {Ddu.shape}) is singular or "
+            f"ill-conditioned (condition number {cond:.3g}): the inverse model "
+            f"(Li et al. 2007, Eq. 3) needs every unmeasured input to reach the "
+            f"uncertain sensors directly"
+        )
+    Ddp = np.linalg.pinv(Ddu)
     Ab = A - Bu @ Ddp @ Cd
     Bb = np.hstack([Bu @ Ddp, Bm - Bu @ Ddp @ Ddm])
     Cb = Cs - Dsu @ Ddp @ Cd

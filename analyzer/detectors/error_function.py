@@ -64,8 +64,21 @@ is the view minus the residual, i.e. what the references predict of it: a gain c
 gain (0 for a dead sensor) even where the view differs from the raw sensor.
 
 An error function passes a constant offset of its sensor with the gain ``dc_gain``
-(reported). For accelerometers that is close to 0: the relations among accelerations
-involve their differences in time, so offsets are nearly invisible to this detector.
+(reported), not 1: the unit fit matches the sensor's band, not its level. Offsets and
+drift rates are therefore reported divided by it (:func:`_in_sensor_units`), so they read
+in the sensor's units like every detector's. For accelerometers ``dc_gain`` is close to 0
+(the relations among accelerations involve their differences in time): offsets move the
+residual little, and are seen late or not at all.
+
+The window also smears a fault's edges: the residual moves from ``p - s_cur`` samples
+before a fault's onset to ``s_cur`` after it. The first alarm is dated by the newest
+sample it read, and the onset and end of an offset or a gain by the fault whose response
+through the taps fits the residual best (:func:`_in_sensor_time`), not by the first
+samples the smear moved.
+
+Each examined sensor's residual reads its references and inputs too: a fault on one of
+them reaches it (``model["reach"]``, read by :func:`analyzer.detector_runs.coupled`, so
+that one fault at a time holds for the findings).
 
 Applying an error function is a sliding dot product, i.e. an FIR filter: it runs by
 overlap-add convolution per channel (``scipy.signal.oaconvolve``), with windows that touch
@@ -96,12 +109,14 @@ from analyzer.detectors.decoupling import (
     inverse_model,
     model_matrices,
     paper_coefficients,
+    unmeasured_inputs,
 )
 from analyzer.diagnosis.changes import Calibration, calibrate, default_window
-from analyzer.diagnosis.classify import correlation_time
+from analyzer.diagnosis.classify import MIN_GAIN, correlation_time
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.errors import ConfigError, DetectorError
 from analyzer.stats.results import json_float
+from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -244,6 +259,32 @@ def check_conditions(
         )
 
 
+def _sees_unmeasured(
+    g: Group, rows: Sequence[int], D: FloatArray, free: Sequence[int], inputs: Sequence[str]
+) -> None:
+    """Refuses an uncertain sensor that no unmeasured input reaches directly (its row of
+    ``D_d``, the rows of the uncertain sensors and the columns of the unmeasured inputs,
+    zero): the inverse model takes the uncertain sensors in only through ``D_d^+`` (Li et
+    al. 2007, Eq. 3), whose column for that sensor is then zero, so no error function of
+    the indirect approach could respond to it. The paper's square, invertible ``D_d``
+    has no such row; it takes more uncertain sensors than unmeasured inputs (the chain
+    with one of its two forces measured). A ``D_d`` without full column rank is left to
+    :func:`~analyzer.detectors.decoupling.inverse_model`, which refuses it whole."""
+    Dd = D[np.ix_(list(rows), list(free))]
+    scale = float(np.max(np.abs(Dd))) if Dd.size else 0.0
+    if not scale > 0.0 or np.linalg.matrix_rank(Dd / scale) < len(free):
+        return
+    for c, row in zip(g.uncertain, Dd, strict=True):
+        if not np.any(np.abs(row) > 1e-12 * scale):
+            names = ", ".join(inputs[k] or f"input {k + 1}" for k in free)
+            raise DetectorError(
+                f'[detectors.error_function] approach = "indirect": uncertain sensor {c!r} '
+                f"of group {g.name!r} sees no unmeasured input of [model] directly ({names}: "
+                f"zero in its row of D), so it does not enter the inverse model (Li et al. "
+                f'2007, Eq. 3); use approach = "direct"'
+            )
+
+
 # ----------------------------------------------------------------- data windows
 
 
@@ -351,13 +392,20 @@ class SensorFunction:
         """The error function over ``values`` (N, len(channels)), in sensor units."""
         return apply_taps(values, self.taps, self.means, self.s_cur)
 
+    @property
+    def dc_gain(self) -> float:
+        """What the residual reads for a unit offset of the examined sensor: the sum of
+        its taps on that sensor (an offset ``D`` reads ``D * dc_gain``, a drift of rate
+        ``b`` as a slope ``b * dc_gain``)."""
+        return float(np.sum(self.taps[0]))
+
     def sensor_view(self, y: FloatArray) -> FloatArray:
         """The examined sensor as its error function sees it: its own taps applied to
         ``y`` (plus the DC they pass). For a gain change ``y -> g y`` the residual is
         ``(g - 1)`` times the fault-free value of this view, so ``view - residual`` is the
         fault-free estimate handed to the classifier (``reference``); ``unit_fit_r2``
         says how close the view is to the raw sensor."""
-        dc = float(np.sum(self.taps[0]))
+        dc = self.dc_gain
         view = apply_taps(
             np.asarray(y, dtype=np.float64)[:, None], self.taps[:1], self.means[:1], self.s_cur
         )
@@ -466,9 +514,23 @@ class ErrorFunction:
             raise DetectorError("approach 'indirect' needs a [model] (A, B, C, D) in the config")
         groups = resolve_groups(data.channels, context.config)
         if self.approach == "indirect":
-            A, B, _, _, outputs, inputs = model_matrices(context.config["model"])
+            A, B, _, D, outputs, inputs = model_matrices(context.config["model"])
             for g in groups:
-                _, _, meas = self._model_rows(g, outputs, inputs)
+                unc, _, meas = self._model_rows(g, outputs, inputs)
+                free = unmeasured_inputs(B.shape[1], meas)
+                if not free:
+                    # the uncertain sensors would not enter the inverse model (Eq. 3-8)
+                    measured = ", ".join(inputs[c] for c in meas)
+                    why = (
+                        f"group {g.name!r} measures every input: {measured}"
+                        if meas
+                        else "the model has no input"
+                    )
+                    raise ConfigError(
+                        f'[detectors.error_function] approach = "indirect" needs at least '
+                        f"one unmeasured input in [model] ({why}); use approach = "
+                        f'"direct"'
+                    )
                 check_conditions(
                     n=A.shape[0],
                     n_s=len(g.reference),
@@ -478,6 +540,7 @@ class ErrorFunction:
                     approach="indirect",
                     group=g.name,
                 )
+                _sees_unmeasured(g, unc, D, free, inputs)
         return groups
 
     def _p_for(self, g: Group, n: int | None) -> int:
@@ -747,22 +810,25 @@ class ErrorFunction:
             sigma[f.channel] = f.calibration.std
             thresholds[f.channel] = f.calibration.as_dict()
             sensors[f.channel] = dict(f.summary)
-            events.extend(
-                events_from_residual(
-                    f.channel,
-                    r,
-                    ref,
-                    f.calibration,
-                    data.rate_hz,
-                    self.name,
-                    search_start=data.train[1],
-                    healthy_start=data.healthy_start,
-                    before_onset=not data.healthy,
-                    tau_corr=f.tau_corr,
-                    evidence={"group": f.group, "references": list(f.channels[1:])},
-                    scratch=context.workdir if context.map_outputs else None,
-                )
+            found = events_from_residual(
+                f.channel,
+                r,
+                ref,
+                f.calibration,
+                data.rate_hz,
+                self.name,
+                search_start=data.train[1],
+                healthy_start=data.healthy_start,
+                before_onset=not data.healthy,
+                tau_corr=f.tau_corr,
+                evidence={"group": f.group, "references": list(f.channels[1:])},
+                scratch=context.workdir if context.map_outputs else None,
             )
+            y = data.values[:, data.index(f.channel)]
+            for ev in found:
+                _in_sensor_time(ev, f, r, y, data.rate_hz, data.train[1])
+                _in_sensor_units(ev, f)
+            events.extend(found)
             context.report(self.name, (k + 1) / len(model.functions))
         notes = list(model.notes)
         if not model.isolating and model.functions:
@@ -784,7 +850,14 @@ class ErrorFunction:
             reference=reference,
             sigma=sigma,
             thresholds=thresholds,
-            model={"approach": model.approach, "p": model.p, "sensors": sensors},
+            model={
+                "approach": model.approach,
+                "p": model.p,
+                "sensors": sensors,
+                # the channels whose readings enter each error function: a fault on any
+                # of them reaches it (detector_runs.coupled)
+                "reach": {f.channel: list(f.channels) for f in model.functions},
+            },
             notes=notes,
         )
 
@@ -832,6 +905,160 @@ def _one_per_fault(events: list[Event], span_s: float, notes: list[str]) -> list
             )
         out.append(best)
     return out
+
+
+DC_VISIBLE = 1e-6
+"""An error function whose taps on its sensor sum to less than this share of their
+absolute sum passes no offset (a pure difference in time): its offsets and drift rates
+are left as its residual reads them, not divided by that sum (:func:`_in_sensor_units`)."""
+
+
+def _in_sensor_units(ev: Event, f: SensorFunction) -> None:
+    """``ev``'s offset and drift rate in the sensor's units: the residual reads an offset
+    ``D`` of the sensor as ``D * dc_gain`` and a drift ``b t`` as ``b * dc_gain * t`` (the
+    taps' response at frequency 0), where the unit fit (:func:`_unit_fit`) made the taps
+    read the sensor's *band* in its units, not its level. An offset of 2.427 on a floor
+    sensor of a 3-floor building read 3.136 at p = 50 (taps summing to 1.30) and 0.0146
+    for 0.802 on an accelerometer of the paper's chain (taps summing to 0.018). A gain
+    (the residual over the reference, both seen through the same taps) and the ``rms``
+    of an ``other`` fault are left as they are. The residual's own reading is kept in
+    the evidence (``residual_magnitude``)."""
+    dc = f.dc_gain
+    if not abs(dc) > DC_VISIBLE * float(np.sum(np.abs(f.taps[0]))):
+        return
+    scaled = {k: v / dc for k, v in ev.magnitude.items() if k in ("offset", "rate_per_s")}
+    if scaled:
+        ev.evidence["residual_magnitude"] = dict(ev.magnitude)
+        ev.evidence["dc_gain"] = dc
+        ev.magnitude = {**ev.magnitude, **scaled}
+
+
+EDGE_BLOCK = 256
+"""Candidate onsets (or ends) fitted at a time by :func:`_edge_fit`."""
+
+
+def _in_sensor_time(
+    ev: Event, f: SensorFunction, r: FloatArray, y: FloatArray, rate_hz: float, start: int
+) -> None:
+    """``ev``'s first alarm, onset and end as the sensor saw them, not as the error
+    function's window smears them.
+
+    The residual at ``t`` reads the sensor from ``t - s_cur`` to ``t + p - s_cur``: a
+    fault from ``t0`` moves it from ``t0 - (p - s_cur)`` on, and reaches its full size
+    only at ``t0 + s_cur``. The shared change-point search (:func:`~analyzer.diagnosis.
+    changes.change_point`) takes the first samples that moved: a strong fault's onset
+    came out up to ``p - s_cur`` samples early (an offset from 100.00 s on a building's
+    floor sensor at 99.82 s with p = 50), and it then led the merged finding for alarming
+    first. So:
+
+    * the first alarm is moved to when its newest sample was read (``+ p - s_cur``);
+    * the onset and end of an offset or a gain are those whose response through the
+      sensor's taps fits the residual best (:func:`_edge_fit`): the fault signal is
+      known up to its size (a constant; the reading ``y`` times ``1 - 1/g``), so its
+      response to a fault from each candidate ``t0`` is too;
+    * a drift keeps the onset its line was traced back to (the taps delay a slope by
+      their centroid less ``s_cur``, a fraction of a sample), as do faults without a
+      shape (``other``) and dead sensors (gain near 0: the reading no longer carries the
+      fault signal); an onset in the healthy window's end (traced into it, or present
+      when the search began) stays where it is."""
+    p, s_cur = f.p, f.s_cur
+    ahead = p - s_cur
+    alarm = int(round(float(ev.evidence.get("first_alarm_s", ev.onset_s)) * rate_hz)) + ahead
+    if "first_alarm_s" in ev.evidence:
+        ev.evidence["first_alarm_s"] = alarm / rate_hz
+    if ev.type is FaultType.ADDITIVE:
+        x = None  # a constant
+    elif ev.type is FaultType.MULTIPLICATIVE and abs(ev.magnitude.get("gain", 0.0)) >= MIN_GAIN:
+        x = y  # the reading, times 1 - 1/g
+    else:
+        return
+    n = r.shape[0]
+    onset = int(round(ev.onset_s * rate_hz))
+    end = None if ev.end_s is None else int(round(ev.end_s * rate_hz))
+    stop = n if end is None else end
+    taps = f.taps[0]
+    mean = f.calibration.mean
+    new_onset = onset
+    if onset > start and not ev.evidence.get("starts_in_training"):
+        lo = max(start + 1, onset - p, s_cur)
+        hi = min(alarm, onset + p, stop - 1)
+        # up to p samples of the full response after the latest candidate, none of the end's
+        span = (max(lo - ahead, s_cur), min(hi + s_cur + p, stop - ahead, n - ahead))
+        got = _edge_fit(r, x, taps, s_cur, mean, range(lo, hi + 1), span, rising=True)
+        if got is not None:
+            new_onset = got
+            ev.evidence["change_point_onset_s"] = ev.onset_s
+            ev.onset_s = got / rate_hz
+    if end is not None:
+        lo = max(new_onset + 1, end - p)
+        hi = min(n - ahead - 1, end + p)
+        span = (max(lo - ahead - p, new_onset + s_cur, s_cur), min(hi + s_cur, n - ahead))
+        got = _edge_fit(r, x, taps, s_cur, mean, range(lo, hi + 1), span, rising=False)
+        if got is not None:
+            ev.evidence["change_point_end_s"] = ev.end_s
+            ev.end_s = got / rate_hz
+
+
+def _edge_fit(
+    r: FloatArray,
+    x: FloatArray | None,
+    taps: FloatArray,
+    s_cur: int,
+    mean: float,
+    candidates: range,
+    span: tuple[int, int],
+    *,
+    rising: bool,
+) -> int | None:
+    """The candidate edge whose response best fits ``r - mean`` over ``span`` (least
+    squares, the size fitted for each, beside the whole of ``x`` through the taps): with
+    ``rising`` the first faulty sample ``t0``, whose response is ``sum_s taps[s]
+    x(t - s_cur + s) [t - s_cur + s >= t0]``, else the first healthy one ``t1``
+    (``[... < t1]``); ``x`` None is a constant (an offset). None when the span or
+    candidates are empty, or a sample it reads is missing."""
+    a, b = span
+    p = taps.shape[0] - 1
+    n = r.shape[0] if x is None else x.shape[0]
+    cands = np.array([c for c in candidates if a - p + s_cur <= c <= b + s_cur], dtype=np.int64)
+    if b - a < 2 or cands.size == 0 or a - s_cur < 0 or b - s_cur + p > n:
+        return None
+    rr = np.asarray(r[a:b], dtype=np.float64) - mean
+    read = np.ones(b - a + p) if x is None else x[a - s_cur : b - s_cur + p]
+    xw = sliding_window_view(np.asarray(read, dtype=np.float64), p + 1)
+    if not (np.all(np.isfinite(rr)) and np.all(np.isfinite(xw))):
+        return None
+    terms = xw * taps  # terms[t, s]: sample t - s_cur + s of x through tap s
+    # tail[t, k]: the response at t to the fault signal from sample t - s_cur + k on
+    tail = np.zeros((b - a, p + 2))
+    tail[:, : p + 1] = np.cumsum(terms[:, ::-1], axis=1)[:, ::-1]
+    rows = np.arange(b - a)[:, None]
+    # the whole signal through the taps, fitted beside each edge's response: it takes up
+    # what the healthy residual shares with the signal (the sensor's own noise through
+    # its taps, for a gain's reading; the level left of the healthy mean, for an
+    # offset), which would otherwise pull the edge to wherever the span is longest
+    whole = tail[:, 0]
+    ww, wr = float(whole @ whole), float(whole @ rr)
+    best, best_score = None, -np.inf
+    for c0 in range(0, cands.size, EDGE_BLOCK):
+        block = cands[c0 : c0 + EDGE_BLOCK]
+        k = np.clip(block[None, :] - (np.arange(a, b)[:, None] - s_cur), 0, p + 1)
+        u = tail[rows, k]
+        if not rising:
+            u = whole[:, None] - u  # the fault signal before t1
+        uu = np.einsum("ij,ij->j", u, u)
+        uw = whole @ u
+        ur = rr @ u
+        det = uu * ww - uw * uw
+        # what the least-squares fit of r on (u, whole) explains, for each candidate
+        solvable = det > 1e-12 * np.maximum(uu * ww, np.finfo(np.float64).tiny)
+        safe = np.where(solvable, det, 1.0)
+        both = (ur * ur * ww - 2.0 * ur * uw * wr + wr * wr * uu) / safe
+        alone = wr * wr / ww if ww > 0.0 else 0.0
+        score = np.where(solvable, both, alone)
+        j = int(np.argmax(score))
+        if score[j] > best_score:
+            best, best_score = int(block[j]), float(score[j])
+    return best
 
 
 def _residual_and_reference(
