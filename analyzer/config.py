@@ -4,7 +4,9 @@ names the key, so a typo never passes silently (CONTRACT.md, "The config file").
 
 from __future__ import annotations
 
+import math
 import tomllib
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -22,12 +24,16 @@ _THRESHOLDS = {"false_alarm_rate"}
 
 @dataclass(slots=True)
 class Config:
+    """The parsed ``--config`` file (:func:`load_config`)."""
+
     train: tuple[float, float] | None = None
     groups: list[dict[str, Any]] = field(default_factory=list)
     model: dict[str, Any] | None = None
     detectors: dict[str, dict[str, Any]] = field(default_factory=dict)
     false_alarm_rate: float = 1e-6
     path: Path | None = None
+    model_file: Path | None = None
+    """The resolved ``[model] file`` (an input of the run: never overwritten)."""
 
     def as_context(self) -> dict[str, Any]:
         """The parsed config as handed to detectors (``RunContext.config``)."""
@@ -48,55 +54,142 @@ def _unknown(where: str, got: dict[str, Any], allowed: set[str], path: Path) -> 
 
 
 def _names(value: Any, key: str, path: Path) -> list[str]:
+    """A list of channel names, each named once (a name given twice is a typo for
+    another: the channel it stands for would silently be left out)."""
     if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
         raise ConfigError(f"{path}: {key} must be a list of channel names, got {value!r}")
+    twice = [v for i, v in enumerate(value) if v in value[:i]]
+    if twice:
+        raise ConfigError(f"{path}: {key} names {twice[0]!r} twice")
     return list(value)
 
 
-def _matrix(value: Any, key: str, path: Path) -> np.ndarray:
+def _number(value: Any) -> bool:
+    """A TOML integer or float (a boolean is neither)."""
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _matrix(value: Any, key: str, path: Path, source: str | None = None) -> np.ndarray:
+    """The matrix ``key`` of ``[model]`` (``source``: the .npz it was read from, if any),
+    real, finite and 2-D."""
+    what = f"model.{key}" if source is None else f"model.file {source!r}: {key}"
     try:
-        arr = np.atleast_2d(np.asarray(value, dtype=np.float64))
+        raw = np.asarray(value)
     except (TypeError, ValueError) as err:
-        raise ConfigError(f"{path}: model.{key} is not a numeric matrix ({err})") from err
+        raise ConfigError(f"{path}: {what} is not a numeric matrix ({err})") from err
+    if raw.dtype.kind == "c":
+        # np.asarray(..., float64) would drop the imaginary part without a word
+        raise ConfigError(
+            f"{path}: {what} is complex-valued: expected a real matrix (the discrete "
+            "state-space model x+ = A x + B u, y = C x + D u has real matrices)"
+        )
+    if raw.dtype.kind not in "iuf":
+        raise ConfigError(
+            f"{path}: {what} is not a numeric matrix (got {raw.dtype.kind!r} values: "
+            f"{str(value)[:60]})"
+        )
+    arr = np.atleast_2d(np.asarray(raw, dtype=np.float64))
     if arr.ndim != 2 or not np.isfinite(arr).all():
-        raise ConfigError(f"{path}: model.{key} must be a finite 2-D matrix, got shape {arr.shape}")
+        raise ConfigError(f"{path}: {what} must be a finite 2-D matrix, got shape {arr.shape}")
     return arr
 
 
-def load_model(raw: dict[str, Any], path: Path) -> dict[str, Any]:
-    """``[model]``: A, B, C, D from ``file`` (.npz, relative to the config) or inline,
-    with dimension checks that quote the shapes."""
+NPZ_MAGIC = b"PK\x03\x04"
+"""The first bytes of an .npz (a zip archive, as ``np.savez`` writes it)."""
+
+
+def _npz_arrays(mfile: Path, path: Path) -> dict[str, Any]:
+    """A, B, C, D and dt of the .npz ``mfile`` (``[model] file``): :class:`ConfigError`
+    naming the config and the file when it is missing, not an .npz of numeric arrays
+    (a CSV, a pickle, a single .npy) or damaged."""
+    where = f"{path}: model.file {str(mfile)!r}"
+    try:
+        with mfile.open("rb") as f:
+            head = f.read(len(NPZ_MAGIC))
+    except OSError as err:
+        raise ConfigError(f"{where} cannot be read ({err.strerror or err})") from None
+    if head != NPZ_MAGIC:
+        raise ConfigError(
+            f"{where} is not an .npz of arrays (np.savez(file, A=..., B=..., C=..., D=...))"
+        )
+    mats: dict[str, Any] = {}
+    try:
+        with np.load(mfile, allow_pickle=False) as npz:
+            for k in ("A", "B", "C", "D", "dt"):
+                if k in npz:
+                    mats[k] = npz[k]
+    except (OSError, EOFError, zipfile.BadZipFile) as err:
+        raise ConfigError(f"{where} is damaged (a truncated .npz?): {err}") from None
+    except ValueError as err:
+        # object arrays (a pickle inside): never loaded (allow_pickle would run code)
+        raise ConfigError(f"{where} holds object arrays, not numeric ones ({err})") from None
+    return mats
+
+
+def _dt(value: Any, where: str, path: Path) -> float | None:
+    """``[model] dt`` (inline or in the .npz): a positive number of seconds, or None."""
+    if value is None:
+        return None
+    if isinstance(value, np.ndarray):
+        if value.size != 1 or value.dtype.kind not in "iuf":
+            raise ConfigError(
+                f"{path}: {where} must be one number of seconds, got an array of "
+                f"shape {value.shape} ({value.dtype})"
+            )
+        value = value.reshape(()).item()
+    if not _number(value) or not math.isfinite(value) or value <= 0:
+        raise ConfigError(f"{path}: {where} must be a number of seconds > 0, got {value!r}")
+    return float(value)
+
+
+def load_model(raw: Any, path: Path) -> dict[str, Any]:
+    """``[model]``: A, B, C, D from ``file`` (.npz, relative to the config) or inline
+    (not both: which would win?), with dimension checks that quote the shapes, and the
+    channel names of the outputs and inputs checked for repeats and overlap."""
+    if not isinstance(raw, dict):
+        raise ConfigError(
+            f'{path}: [model] must be a table (file = "model.npz", outputs = [...]), got {raw!r}'
+        )
     _unknown("model.", raw, _MODEL, path)
     mats: dict[str, Any] = {}
     if "file" in raw:
-        mfile = (path.parent / str(raw["file"])).resolve()
-        try:
-            with np.load(mfile) as npz:
-                for k in ("A", "B", "C", "D", "dt"):
-                    if k in npz:
-                        mats[k] = np.asarray(npz[k], dtype=np.float64)
-        except (OSError, ValueError) as err:
-            raise ConfigError(f"{path}: model.file {str(mfile)!r} cannot be read ({err})") from err
+        if not isinstance(raw["file"], str):
+            raise ConfigError(f"{path}: model.file must be a file name, got {raw['file']!r}")
+        inline = [k for k in ("A", "B", "C", "D", "dt") if k in raw]
+        if [k for k in inline if k != "dt"]:
+            raise ConfigError(
+                f"{path}: [model] gives both file and inline {', '.join(inline)}: give the "
+                "matrices in one place"
+            )
+        mats = _npz_arrays((path.parent / raw["file"]).resolve(), path)
     for k in ("A", "B", "C", "D"):
         if k in raw:
             mats[k] = raw[k]
     if "A" not in mats or "C" not in mats:
         raise ConfigError(f"{path}: [model] needs at least A and C (inline or in file)")
-    A = _matrix(mats["A"], "A", path)
+
+    def src(key: str) -> str | None:
+        return None if key in raw else raw.get("file")
+
+    A = _matrix(mats["A"], "A", path, src("A"))
     n = A.shape[0]
     if A.shape != (n, n):
         raise ConfigError(f"{path}: expected a square matrix for model.A, got {A.shape}")
-    C = _matrix(mats["C"], "C", path)
+    C = _matrix(mats["C"], "C", path, src("C"))
     if C.shape[1] != n:
         raise ConfigError(
             f"{path}: expected a ({C.shape[0]}, {n}) matrix for model.C, got {C.shape}"
         )
-    B = _matrix(mats["B"], "B", path) if "B" in mats else np.zeros((n, 0))
+    B = _matrix(mats["B"], "B", path, src("B")) if "B" in mats else np.zeros((n, 0))
     if B.shape[0] != n:
         raise ConfigError(
             f"{path}: expected a ({n}, {B.shape[1]}) matrix for model.B, got {B.shape}"
         )
-    D = _matrix(mats["D"], "D", path) if "D" in mats else np.zeros((C.shape[0], B.shape[1]))
+    D = (
+        _matrix(mats["D"], "D", path, src("D"))
+        if "D" in mats
+        else np.zeros((C.shape[0], B.shape[1]))
+    )
     if D.shape != (C.shape[0], B.shape[1]):
         raise ConfigError(
             f"{path}: expected a ({C.shape[0]}, {B.shape[1]}) matrix for model.D, got {D.shape}"
@@ -111,16 +204,54 @@ def load_model(raw: dict[str, Any], path: Path) -> dict[str, Any]:
         raise ConfigError(
             f"{path}: model.inputs names {len(inputs)} channels but B has {B.shape[1]} columns"
         )
-    dt = raw.get("dt", mats.get("dt"))
+    both = [c for c in inputs if c in outputs]
+    if both:
+        raise ConfigError(
+            f"{path}: model.outputs and model.inputs both name {both[0]!r}: a channel is "
+            "an output (a row of C) or an input (a column of B)"
+        )
+    dt = _dt(raw.get("dt"), "model.dt", path)
+    stored = _dt(mats.get("dt"), f"model.file {raw.get('file')!r}: dt", path)
+    if dt is not None and stored is not None and dt != stored:
+        raise ConfigError(
+            f"{path}: model.dt = {dt:g} s but model.file {raw.get('file')!r} has dt = "
+            f"{stored:g} s: give it in one place"
+        )
+    dt = stored if dt is None else dt
     return {
         "A": A,
         "B": B,
         "C": C,
         "D": D,
-        "dt": None if dt is None else float(dt),
+        "dt": dt,
         "outputs": outputs,
         "inputs": inputs,
     }
+
+
+def model_file(raw: Any, path: Path) -> Path | None:
+    """The resolved ``[model] file`` of the config ``path``, if it names one."""
+    if isinstance(raw, dict) and isinstance(raw.get("file"), str):
+        return (path.parent / raw["file"]).resolve()
+    return None
+
+
+def members(group: dict[str, Any]) -> list[str]:
+    """Every channel of a ``[[group]]``: its ``channels``, then any reference, uncertain
+    sensor or input they leave out (each belongs to the group: the measured excitation
+    of a structure is analyzed with the structure it excites)."""
+    names = [
+        *group.get("channels", []),
+        *group.get("reference", []),
+        *group.get("uncertain", []),
+        *group.get("inputs", []),
+    ]
+    return list(dict.fromkeys(names))
+
+
+def group_inputs(groups: list[dict[str, Any]]) -> set[str]:
+    """The channels the ``[[group]]`` tables name as measured inputs (excitation)."""
+    return {c for g in groups for c in g.get("inputs", [])}
 
 
 def load_config(path: str | Path | None, known_detectors: set[str] | None = None) -> Config:
@@ -139,33 +270,18 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
     _unknown("", raw, _TOP, p)
     cfg = Config(path=p)
     if "train" in raw:
-        t = raw["train"]
-        if not isinstance(t, dict):
-            raise ConfigError(f"{p}: [train] must be a table with start and end")
-        _unknown("train.", t, _TRAIN, p)
-        try:
-            start = float(t.get("start", 0.0))
-            end = float(t["end"])
-        except (KeyError, TypeError, ValueError) as err:
-            raise ConfigError(f"{p}: [train] needs numeric start and end seconds ({err})") from err
-        if not end > start >= 0:
-            raise ConfigError(f"{p}: [train] end ({end}) must be after start ({start}) >= 0")
-        cfg.train = (start, end)
-    for i, g in enumerate(raw.get("group", [])):
-        if not isinstance(g, dict):
-            raise ConfigError(f"{p}: [[group]] #{i + 1} must be a table")
-        _unknown(f"group[{i}].", g, _GROUP, p)
-        group: dict[str, Any] = {
-            "name": str(g.get("name", f"group{i + 1}")),
-            "channels": _names(g.get("channels", []), f"group[{i}].channels", p),
-            "reference": _names(g.get("reference", []), f"group[{i}].reference", p),
-            "uncertain": _names(g.get("uncertain", []), f"group[{i}].uncertain", p),
-            "inputs": _names(g.get("inputs", []), f"group[{i}].inputs", p),
-        }
-        if not group["channels"]:
-            group["channels"] = [*group["reference"], *group["uncertain"]]
+        cfg.train = _train(raw["train"], p)
+    groups = raw.get("group", [])
+    if isinstance(groups, dict):
+        raise ConfigError(
+            f"{p}: [group] is one table: use [[group]] (an array of tables, one per group)"
+        )
+    if not isinstance(groups, list):
+        raise ConfigError(f"{p}: group must be [[group]] tables, got {groups!r}")
+    for i, g in enumerate(groups):
+        group = _group(g, i, p)
         for earlier in cfg.groups:
-            shared = [c for c in group["channels"] if c in earlier["channels"]]
+            shared = [c for c in members(group) if c in members(earlier)]
             if shared:
                 # each detector models a group on its own: a channel in two would be
                 # analyzed (and reported) twice, under two different models
@@ -176,6 +292,7 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
         cfg.groups.append(group)
     if "model" in raw:
         cfg.model = load_model(raw["model"], p)
+        cfg.model_file = model_file(raw["model"], p)
     dets = raw.get("detectors", {})
     if not isinstance(dets, dict):
         raise ConfigError(f"{p}: [detectors] must be a table of detector tables")
@@ -189,10 +306,60 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
             raise ConfigError(f"{p}: [detectors.{name}] must be a table of options")
         cfg.detectors[name] = dict(opts)
     th = raw.get("thresholds", {})
+    if not isinstance(th, dict):
+        raise ConfigError(f"{p}: [thresholds] must be a table (false_alarm_rate = ...), got {th!r}")
     _unknown("thresholds.", th, _THRESHOLDS, p)
     if "false_alarm_rate" in th:
         far = th["false_alarm_rate"]
-        if not isinstance(far, (int, float)) or not 0.0 < float(far) < 0.5:
+        if not _number(far) or not 0.0 < float(far) < 0.5:
             raise ConfigError(f"{p}: thresholds.false_alarm_rate must be in (0, 0.5), got {far!r}")
         cfg.false_alarm_rate = float(far)
     return cfg
+
+
+def _train(t: Any, p: Path) -> tuple[float, float]:
+    """``[train]``: start (default 0) and end, seconds from the first sample."""
+    if not isinstance(t, dict):
+        raise ConfigError(f"{p}: [train] must be a table with start and end")
+    _unknown("train.", t, _TRAIN, p)
+    if "end" not in t:
+        raise ConfigError(f"{p}: [train] needs numeric start and end seconds (no end)")
+    start, end = t.get("start", 0.0), t["end"]
+    for key, val in (("start", start), ("end", end)):
+        if not _number(val) or not math.isfinite(val):
+            raise ConfigError(f"{p}: [train] {key} must be a number of seconds, got {val!r}")
+    if not end > start >= 0:
+        raise ConfigError(f"{p}: [train] end ({end}) must be after start ({start}) >= 0")
+    return float(start), float(end)
+
+
+def _group(g: Any, i: int, p: Path) -> dict[str, Any]:
+    """The ``i``-th ``[[group]]`` table, its channel lists checked: a sensor is a
+    reference (trusted) or uncertain (under test), and a measured input is neither."""
+    if not isinstance(g, dict):
+        raise ConfigError(f"{p}: [[group]] #{i + 1} must be a table, got {g!r}")
+    _unknown(f"group[{i}].", g, _GROUP, p)
+    name = g.get("name", f"group{i + 1}")
+    if not isinstance(name, str):
+        raise ConfigError(f"{p}: group[{i}].name must be a string, got {name!r}")
+    group: dict[str, Any] = {
+        "name": name,
+        "channels": _names(g.get("channels", []), f"group[{i}].channels", p),
+        "reference": _names(g.get("reference", []), f"group[{i}].reference", p),
+        "uncertain": _names(g.get("uncertain", []), f"group[{i}].uncertain", p),
+        "inputs": _names(g.get("inputs", []), f"group[{i}].inputs", p),
+    }
+    for a, b in (("reference", "uncertain"), ("inputs", "reference"), ("inputs", "uncertain")):
+        both = [c for c in group[a] if c in group[b]]
+        if both:
+            raise ConfigError(
+                f"{p}: [[group]] {name!r} lists {both[0]!r} as both {a} and {b}: "
+                + (
+                    "a sensor is trusted (reference) or under test (uncertain)"
+                    if a == "reference"
+                    else "a measured input (excitation) is not a sensor of the group"
+                )
+            )
+    if not group["channels"]:
+        group["channels"] = [*group["reference"], *group["uncertain"], *group["inputs"]]
+    return group

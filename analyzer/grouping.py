@@ -8,7 +8,10 @@ fit in ~5 s; 48 took 83 s and 9.7 GB for the bank alone (measured, see the READM
 structure with hundreds of sensors is therefore analyzed in groups of sensors that see
 the same structure (the contract's ``[[group]]``):
 
-* the groups of the config file, as given (restricted to the analyzed channels);
+* the groups of the config file, as given (restricted to the analyzed channels): a
+  group's ``channels`` with its reference and uncertain sensors and its measured
+  ``inputs`` (the excitation belongs with the structure it excites: the detection
+  filter of a ``[model]`` with measured inputs needs them beside its outputs);
 * the analyzed channels in no configured group, when there are more than
   :data:`GROUP_SIZE` of them, cut into ``ceil(n / GROUP_SIZE)`` groups of near-equal
   size by their correlation in the training window: average-linkage clustering on
@@ -35,6 +38,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.config import members as group_members
+
 FloatArray = npt.NDArray[np.float64]
 
 GROUP_SIZE = 16
@@ -47,12 +52,16 @@ def partition(
     train: FloatArray,
     configured: Sequence[dict[str, Any]] = (),
     size: int = GROUP_SIZE,
+    model: dict[str, Any] | None = None,
 ) -> tuple[list[tuple[str, ...]], list[str]]:
     """The channel groups of ``channels`` (in their order within each group) and notes.
 
     ``train``: the training window's values, one column per channel. ``configured``:
-    the config's ``[[group]]`` tables (their ``channels``). One group holding every
-    channel means the detectors run on all of them at once, as without grouping."""
+    the config's ``[[group]]`` tables (their channels, reference and uncertain sensors
+    and inputs: :func:`analyzer.config.members`). One group holding every
+    channel means the detectors run on all of them at once, as without grouping.
+    ``model``: the config's ``[model]``; its measured inputs that no group names join
+    the group of its outputs (the detection filter needs them together)."""
     if size < 2:
         raise ValueError(f"group size must be at least 2, got {size}")
     names = list(channels)
@@ -60,14 +69,14 @@ def partition(
     groups: list[list[int]] = []
     notes: list[str] = []
     for g in configured:
-        absent = [c for c in dict.fromkeys(g.get("channels", [])) if c not in index]
+        declared = group_members(g)
+        absent = [c for c in declared if c not in index]
         if absent:
             notes.append(
                 f"[[group]] {g.get('name', '?')}: {', '.join(absent)} not analyzed (not in "
                 "the archive, left out by --channels, or constant in the training window)"
             )
-        members = [index[c] for c in g.get("channels", []) if c in index]
-        members = sorted(set(members))
+        members = sorted({index[c] for c in declared if c in index})
         if len(members) >= 2:
             groups.append(members)
         elif members:
@@ -75,6 +84,7 @@ def partition(
                 f"[[group]] {g.get('name', '?')}: only {names[members[0]]} of its channels "
                 "is analyzed; a group needs two, so it is grouped as a channel in no [[group]]"
             )
+    _join_model_inputs(groups, index, model)
     grouped = {i for g in groups for i in g}
     rest = [i for i in range(len(names)) if i not in grouped]
     if not groups and len(rest) <= size:
@@ -97,6 +107,22 @@ def partition(
                 + "; ".join(", ".join(names[i] for i in g) for g in auto)
             )
     return [tuple(names[i] for i in g) for g in groups], notes
+
+
+def _join_model_inputs(
+    groups: list[list[int]], index: dict[str, int], model: dict[str, Any] | None
+) -> None:
+    """The ``[model]``'s measured inputs that are in no configured group join the group
+    holding all of its analyzed outputs (in place), where there is one."""
+    if not model or not groups or not model.get("inputs"):
+        return
+    outputs = {index[c] for c in model.get("outputs", []) if c in index}
+    home = next((g for g in groups if outputs and outputs <= set(g)), None)
+    if home is None:
+        return
+    grouped = {i for g in groups for i in g}
+    extra = {index[c] for c in model["inputs"] if c in index and index[c] not in grouped}
+    home[:] = sorted({*home, *extra})
 
 
 def _cut(members: list[int], corr: FloatArray, size: int) -> list[list[int]]:

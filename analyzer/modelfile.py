@@ -145,13 +145,17 @@ def save_model(path: Path, model: SavedModel) -> None:
     write_atomic(path, MAGIC + pickle.dumps(model, protocol=5))
 
 
-def check_model_path(path: Path) -> None:
-    """Before any work: ``--save-model``'s directory must exist and ``path`` must not be
-    a directory (:class:`UsageError` naming the option), so a long analysis does not
-    fail at its end for want of a place to write its model."""
+def check_model_path(path: Path, out: Path | None = None) -> None:
+    """Before any work: ``--save-model``'s ``path`` must not be a directory, and its
+    directory must exist or be ``out`` (the run's ``--out``, created before the work):
+    :class:`UsageError` naming the option, so a long analysis does not fail at its end
+    for want of a place to write its model. Without ``out`` (the options are checked
+    before the run knows it) only the first."""
     if path.is_dir():
         raise UsageError(f"--save-model: {path} is a directory, expected a file name")
-    if not path.parent.is_dir():
+    if out is None or path.parent.is_dir():
+        return
+    if path.parent.resolve() != out.resolve():
         raise UsageError(f"--save-model: directory {path.parent} does not exist")
 
 

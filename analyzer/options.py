@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import contextlib
 import inspect
-from collections.abc import Callable
+import types
+import typing
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -190,8 +192,10 @@ def _check_screen(screen: list[str], kw: dict[str, Any]) -> list[str]:
 
 
 def _check_detector_options(cfg: Config) -> None:
-    """Each ``[detectors.NAME]`` section's settings: known to the detector and accepted by
-    it (:class:`ConfigError` naming the file, the section and the setting)."""
+    """Each ``[detectors.NAME]`` section's settings: known to the detector, of the type
+    its constructor declares (a float or a boolean is not an integer, a string not a list:
+    :func:`_type_error`), and accepted by it (:class:`ConfigError` naming the file, the
+    section and the setting)."""
     for name, opts in cfg.detectors.items():
         cls = detector_class(name)
         params = inspect.signature(cls.__init__).parameters
@@ -203,9 +207,84 @@ def _check_detector_options(cfg: Config) -> None:
                         f"{cfg.path}: [detectors.{name}] unknown setting {key!r} "
                         f"(known: {', '.join(known)})"
                     )
+        failed: Exception | None = None
         try:
-            cls(**opts)
-        except (AnalyzerError, TypeError, ValueError) as err:
-            msg = str(err)
+            cls(**opts)  # its own checks first: they say what each setting means
+        except AnalyzerError as err:
+            failed = err
+        except (TypeError, ValueError, AttributeError) as err:
+            failed = err  # (a value of the wrong type: the check below names it)
+        try:
+            hints = typing.get_type_hints(cls.__init__)
+        except (NameError, TypeError):  # an annotation only a type checker resolves
+            hints = {}
+        for key, value in opts.items():
+            expected = _type_error(value, hints.get(key, Any))
+            if expected and not isinstance(failed, AnalyzerError):
+                raise ConfigError(
+                    f"{cfg.path}: [detectors.{name}] {key}: expected {expected}, got {value!r}"
+                ) from failed
+        if failed is not None:
+            msg = str(failed)
             where = "" if msg.startswith(f"[detectors.{name}]") else f"[detectors.{name}] "
-            raise ConfigError(f"{cfg.path}: {where}{msg}") from err
+            raise ConfigError(f"{cfg.path}: {where}{msg}") from failed
+
+
+_KINDS: dict[Any, str] = {
+    int: "an integer",
+    float: "a number",
+    str: "a string",
+    bool: "true or false",
+}
+
+
+def _type_error(value: Any, hint: Any) -> str:
+    """What a detector setting of the type ``hint`` (its constructor's annotation) should
+    be, when the TOML value ``value`` is not that; empty when it is. TOML's types are
+    checked strictly where Python would convert silently: ``int`` takes no float (2.5
+    was truncated to 2) nor boolean (``true`` is 1), ``bool`` no string (``bool("false")``
+    is True), a list no string (its characters)."""
+    if hint is Any or hint is None or hint is type(None):
+        return ""
+    origin = typing.get_origin(hint)
+    if origin in (typing.Union, types.UnionType):
+        options = [h for h in typing.get_args(hint) if h is not type(None)]
+        if all(_type_error(value, h) for h in options):
+            return " or ".join(_type_error(value, h) for h in options)
+        return ""
+    if hint is bool:
+        return "" if isinstance(value, bool) else _KINDS[bool]
+    if hint is int:
+        return "" if isinstance(value, int) and not isinstance(value, bool) else _KINDS[int]
+    if hint is float:
+        ok = isinstance(value, int | float) and not isinstance(value, bool)
+        return "" if ok else _KINDS[float]
+    if hint is str:
+        return "" if isinstance(value, str) else _KINDS[str]
+    args = typing.get_args(hint)
+    if origin in (Mapping, dict):
+        if not isinstance(value, dict):
+            return "a table"
+        bad = [
+            _type_error(k, args[0]) or _type_error(v, args[1])
+            for k, v in value.items()
+            if args and (_type_error(k, args[0]) or _type_error(v, args[1]))
+        ]
+        return f"a table of {_describe(args[1])}" if bad else ""
+    if origin in (Sequence, list, tuple):
+        if not isinstance(value, list):
+            return "a list"
+        if args and any(_type_error(v, args[0]) for v in value):
+            return f"a list of {_describe(args[0])}"
+        return ""
+    return ""
+
+
+def _describe(hint: Any) -> str:
+    """``hint`` in words (the element type of a list or table)."""
+    if hint in _KINDS:
+        return {int: "integers", float: "numbers", str: "strings", bool: "booleans"}[hint]
+    if typing.get_origin(hint) in (Sequence, list, tuple):
+        args = typing.get_args(hint)
+        return "lists" + (f" of {_describe(args[0])}" if args else "")
+    return str(hint)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from analyzer.errors import UsageError
@@ -29,10 +29,18 @@ def prepare_dir(path: Path, option: str = "--out") -> bool:
     return created
 
 
-def not_into_inputs(path: Path, inputs: Sequence[str | Path], option: str, advice: str) -> None:
+def not_into_inputs(
+    path: Path,
+    inputs: Sequence[str | Path],
+    option: str,
+    advice: str,
+    files: Mapping[str, Path | None] | None = None,
+) -> None:
     """``option``'s ``path`` must not overwrite an input file nor add a file to an input
-    directory (an archive of several files, which would read it back): inputs are never
-    modified. ``advice`` ends the error (``write the model elsewhere``)."""
+    directory (an archive of several files, which would read it back), nor overwrite one
+    of the other files the run reads (``files``: what each is, ``"the --config file"``,
+    and its path): inputs are never modified. ``advice`` ends the error (``write the
+    model elsewhere``)."""
     target = path.resolve()
     for i in inputs:
         src = Path(i).resolve()
@@ -41,6 +49,9 @@ def not_into_inputs(path: Path, inputs: Sequence[str | Path], option: str, advic
                 f"{option}: {path} is {'an input' if target == src else 'inside the input'}"
                 f" {i}: inputs are never modified; {advice}"
             )
+    for what, f in (files or {}).items():
+        if f is not None and target == Path(f).resolve():
+            raise UsageError(f"{option}: {path} is {what}: inputs are never modified; {advice}")
 
 
 def remove_if_empty(path: Path) -> None:

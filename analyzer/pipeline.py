@@ -7,7 +7,7 @@ import os
 import shutil
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.config import Config, group_inputs
 from analyzer.detector_runs import (
     coupled,
     detector_names,
@@ -352,7 +353,10 @@ def _analyze(
 
         if reused is None:
             groups, group_notes = partition(
-                chosen, np.asarray(values[train[0] : train[1]]), options.config.groups
+                chosen,
+                np.asarray(values[train[0] : train[1]]),
+                options.config.groups,
+                model=options.config.model,
             )
             notes.extend(group_notes)
         else:
@@ -377,8 +381,12 @@ def _analyze(
                 return run_detectors(which, *shared, "", *fits_of("", fits, kept))
             return run_groups(groups, which, *shared, fits, kept)
 
+        excitation = measured_inputs(ctx.config)
+
         def diagnose(found: list[DetectorResult]) -> tuple[list[Finding], list[str]]:
-            return _diagnose(found, values, chosen, aligned.rate_hz, healthy, train, reused)
+            return _diagnose(
+                found, values, chosen, aligned.rate_hz, healthy, train, reused, excitation
+            )
 
         screen, screen_note = None, ""
         try:
@@ -615,14 +623,28 @@ def _diagnose(
     healthy: dict[str, Any],
     train: tuple[int, int],
     reused: SavedModel | None,
+    excitation: frozenset[str] = frozenset(),
 ) -> tuple[list[Finding], list[str]]:
     """The findings of the detectors' results and the notes that go with them: one finding
     per fault, one fault at a time among the sensors a detector models together (as the
     seed methods isolate them), a frozen sensor told by its readings rather than by the
     residual's shape, and (``--model``) the faults already there when the search began.
+    The channels the config names as measured inputs (``excitation``: a force, a ground
+    acceleration) are not sensors under test: what a detector that models them as
+    channels (the bank, an AR detection filter) saw on them is a note, not a finding.
     Reads the results' events without changing them."""
     notes: list[str] = []
-    findings = merge_events(ev for r in results for ev in r.events)
+    on_inputs = [ev for r in results for ev in r.events if ev.channel in excitation]
+    for channel in dict.fromkeys(ev.channel for ev in on_inputs):
+        seen = sorted((ev for ev in on_inputs if ev.channel == channel), key=lambda e: e.onset_s)
+        notes.append(
+            f"{channel} is a measured input (excitation) in the config, not a sensor under "
+            f"test: the {seen[0].type.value} anomaly {seen[0].detector} saw on it from "
+            f"{seen[0].onset_s:.1f} s"
+            + (f" ({len(seen) - 1} more)" if len(seen) > 1 else "")
+            + " is not reported as a sensor fault"
+        )
+    findings = merge_events(ev for r in results for ev in r.events if ev.channel not in excitation)
     findings, conflicts = one_fault_at_a_time(findings, coupled(results))
     notes.extend(conflicts)
     notes.extend(relabel_frozen(findings, values, chosen, rate_hz, healthy))
@@ -630,6 +652,13 @@ def _diagnose(
     if reused is not None:
         notes.extend(present_at_search_start(findings, train[1] / rate_hz, rate_hz))
     return findings, notes
+
+
+def measured_inputs(config: Mapping[str, Any]) -> frozenset[str]:
+    """The channels a run's config (``RunContext.config``) names as measured inputs:
+    ``[[group]] inputs`` and ``[model] inputs``."""
+    model = config.get("model") or {}
+    return frozenset([*group_inputs(config.get("group") or []), *(model.get("inputs") or [])])
 
 
 def _screened(
@@ -730,9 +759,16 @@ def _training_window(
             "search runs from the window's end): a window at the start covers them"
         )
     if reused is None and train[1] >= aligned.n:
-        notes.append(
-            "the training window reaches the end of the data: nothing is left to search "
-            "for faults (give a shorter one with --train)"
+        # the search runs from the window's end: a window over all the data leaves
+        # nothing to search, and "no fault found" (exit 0) would be a claim not made
+        covers = f"covers all the data (which ends at {duration:.3f} s): nothing is left to search"
+        if options.train is not None:
+            raise UsageError(
+                f"--train: the window {options.train!r} {covers} for faults; end it earlier"
+            )
+        raise ConfigError(
+            f"{options.config.path}: [train] the window {tr[0]:g}-"
+            f"{(options.config.train or tr)[1]:g} s {covers} for faults; end it earlier"
         )
     return tr, (train[0], min(train[1], aligned.n))
 
@@ -920,8 +956,7 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
     """``analyzer run``: analyze, write the outputs, return the exit code (0 or 1)."""
     out = Path(out_dir)
     if options.save_model is not None:
-        check_model_path(options.save_model)
-        not_into_inputs(options.save_model, inputs, "--save-model", "write the model elsewhere")
+        _check_save_model(options.save_model, out, inputs, options)
     created = prepare_dir(out, "--out")  # before the work: it must not fail at the end
     work = make_scratch()
     try:
@@ -933,6 +968,8 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
             options.progress("report", 1.0)
         if options.warn is not None:
             _warn_inputs(analysis, out, options.warn)
+            for line in config_warnings(options.config, analysis):
+                options.warn(line)
         if options.save_model is not None and analysis.saved is not None:
             save_model(options.save_model, analysis.saved)
         return 1 if analysis.faulty else 0
@@ -942,6 +979,62 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         raise
     finally:
         remove_scratch(work)
+
+
+OUTPUT_FILES = ("findings.json", "report.html", "corrected.csv")
+"""What :func:`run` writes into ``--out``."""
+
+
+def _check_save_model(
+    path: Path, out: Path, inputs: Sequence[str | Path], options: RunOptions
+) -> None:
+    """``--save-model``'s file, before any work: a file name in an existing directory or
+    in ``--out`` (created next), not one of the run's outputs, and none of its inputs:
+    the archive, the ``--config`` file or the config's ``[model] file``."""
+    check_model_path(path, out)
+    target = path.resolve()
+    if target == out.resolve():
+        raise UsageError(f"--save-model: {path} is the --out directory, expected a file name")
+    if target.parent == out.resolve() and target.name in OUTPUT_FILES:
+        raise UsageError(
+            f"--save-model: {path} is the run's own {target.name} in --out; name the model "
+            "otherwise"
+        )
+    config = options.config
+    not_into_inputs(
+        path,
+        inputs,
+        "--save-model",
+        "write the model elsewhere",
+        {"the --config file": config.path, "the config's [model] file": config.model_file},
+    )
+
+
+def config_warnings(config: Config, analysis: Analysis) -> list[str]:
+    """Lines for stderr on what the user wrote in the config and the run could not use
+    (a ``[model]`` naming a channel the archive does not have, a ``dt`` that does not
+    match its rate, a ``[[group]]`` input that is not there...): known only once the
+    data is read, so the run goes on with the other detectors, but a detector the config
+    configures (its ``[detectors.NAME]`` section; ``[model]`` for the detection filter,
+    ``[[group]]`` for the error functions) that ran on no channel says why."""
+    if config.path is None:
+        return []
+    configured = {name: f"[detectors.{name}]" for name in config.detectors}
+    uses_model = config.detectors.get("detection_filter", {}).get("use_config_model", True)
+    if config.model is not None and uses_model is not False:
+        configured["detection_filter"] = "[model]"
+    if config.groups:
+        configured["error_function"] = "[[group]]"
+    ran = {r.detector for r in analysis.results}
+    lines = []
+    for name, what in configured.items():
+        why = {k: v for k, v in analysis.skipped.items() if k.split(" (", 1)[0] == name}
+        if name in ran or not why:
+            continue
+        lines.append(
+            f"{config.path}: the config's {what} is not used, {'; '.join(skip_reasons(why))}"
+        )
+    return lines
 
 
 WARNED_LINES = 5

@@ -20,6 +20,7 @@ Residual convention: ``measured - estimated`` (the paper plots ``estimated - mea
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -122,6 +123,11 @@ UNCONFIRMED_FACTOR = 0.75
 uses the sensor became inconsistent (a small fault: located, but not confirmed)."""
 
 
+def _is_integer(value: Any) -> bool:
+    """An integer setting (a boolean is not one, nor is a float with no fraction)."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_)
+
+
 @dataclass(frozen=True, slots=True)
 class FittedBank:
     ar: ARModel
@@ -145,17 +151,25 @@ class ARKalmanBank:
     def __init__(
         self, order: int | str = "bic", max_order: int = 10, block: int | None = None
     ) -> None:
-        if isinstance(order, str) and order not in ("aic", "bic"):
+        where = "[detectors.ar_kalman_bank]"
+        if isinstance(order, str):
+            if order not in ("aic", "bic"):
+                raise DetectorError(
+                    f"{where} order: expected an integer, 'aic' or 'bic', got {order!r}"
+                )
+        elif not _is_integer(order):  # 7.5 was truncated by the fit, true read as 1
             raise DetectorError(
-                "[detectors.ar_kalman_bank] order: expected an integer, 'aic' or 'bic', "
-                f"got {order!r}"
+                f"{where} order: expected an integer, 'aic' or 'bic', got {order!r}"
             )
-        if isinstance(order, int) and order < 1:
-            raise DetectorError(f"[detectors.ar_kalman_bank] order must be >= 1, got {order}")
-        self.order = order
+        elif order < 1:
+            raise DetectorError(f"{where} order must be >= 1, got {order}")
+        if not _is_integer(max_order) or max_order < 1:
+            # (0 gave "too little healthy data for any AR model")
+            raise DetectorError(f"{where} max_order: expected an integer >= 1, got {max_order!r}")
+        if block is not None and (not _is_integer(block) or block < 1):
+            raise DetectorError(f"{where} block: expected an integer >= 1, got {block!r}")
+        self.order: int | str = order if isinstance(order, str) else int(order)
         self.max_order = int(max_order)
-        if block is not None and int(block) < 1:
-            raise DetectorError(f"[detectors.ar_kalman_bank] block must be >= 1, got {block}")
         self.block = None if block is None else int(block)
 
     def applicable(self, data: Dataset, context: RunContext) -> str | None:

@@ -31,6 +31,7 @@ identified on the healthy window, in block observer-canonical form (:func:`ar_ob
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, ClassVar
@@ -108,6 +109,21 @@ def direction_angles(q: FloatArray, scale: FloatArray | None = None) -> FloatArr
 # -- the detector -----------------------------------------------------------------------------
 
 
+def _is_integer(value: Any) -> bool:
+    """An integer setting (a boolean is not one, nor is a float with no fraction)."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_)
+
+
+def _span(channels: Sequence[str]) -> str:
+    """Channels in a few words: all of a few, else the first and last."""
+    return ", ".join(channels) if len(channels) <= 4 else f"{channels[0]}..{channels[-1]}"
+
+
+def _is_real(value: Any) -> bool:
+    """A numeric setting (a boolean or a string is not one)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
+
+
 @dataclass(frozen=True, slots=True)
 class FittedDetectionFilter:
     model: StateSpaceModel
@@ -143,17 +159,32 @@ class DetectionFilter:
         block: int = 64,
     ) -> None:
         where = "[detectors.detection_filter]"
-        if isinstance(order, str) and order not in ("aic", "bic"):
+        if isinstance(order, str):
+            if order not in ("aic", "bic"):
+                raise DetectorError(
+                    f"{where} order: expected an integer, 'aic' or 'bic', got {order!r}"
+                )
+        elif not _is_integer(order):  # 2.5 ran as order 2
             raise DetectorError(
                 f"{where} order: expected an integer, 'aic' or 'bic', got {order!r}"
             )
-        if isinstance(order, int) and order < 1:
+        elif order < 1:
             raise DetectorError(f"{where} order must be >= 1, got {order}")
-        if not 0.0 < float(fault_pole) <= 1.0:
+        for key, count in (("max_order", max_order), ("block", block)):
+            if not _is_integer(count) or count < 1:
+                raise DetectorError(f"{where} {key}: expected an integer >= 1, got {count!r}")
+        if not _is_real(fault_pole) or not 0.0 < float(fault_pole) <= 1.0:
             raise DetectorError(f"{where} fault_pole must be in (0, 1], got {fault_pole!r}")
-        if time_constant_s is not None and not float(time_constant_s) > 0.0:
+        if time_constant_s is not None and (
+            not _is_real(time_constant_s) or not 0.0 < float(time_constant_s) < np.inf
+        ):
             raise DetectorError(f"{where} time_constant_s must be > 0, got {time_constant_s!r}")
-        self.order = order
+        if not isinstance(use_config_model, bool | np.bool_):
+            # bool("false") is True: the model was used
+            raise DetectorError(
+                f"{where} use_config_model: expected true or false, got {use_config_model!r}"
+            )
+        self.order: int | str = order if isinstance(order, str) else int(order)
         self.max_order = int(max_order)
         self.fault_pole = float(fault_pole)
         self.time_constant_s = None if time_constant_s is None else float(time_constant_s)
@@ -168,8 +199,12 @@ class DetectionFilter:
         model = self._config_model(context)
         if model is not None:
             outs = list(model.get("outputs") or [])
-            if outs and any(c not in data.channels for c in outs + list(model.get("inputs") or [])):
-                return "the [model] names channels that are not analyzed"
+            absent = [c for c in outs + list(model.get("inputs") or []) if c not in data.channels]
+            if outs and absent:
+                return (
+                    f"the [model] names channels not analyzed here: {', '.join(absent)} "
+                    f"(analyzed: {_span(data.channels)})"
+                )
             n_out = len(outs) or np.asarray(model["C"]).shape[0]
             if n_out < 2:
                 return "needs a model with at least 2 outputs (one fault direction per sensor)"

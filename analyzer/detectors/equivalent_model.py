@@ -22,6 +22,7 @@ alarms are isolated by the network's laws (Section 6.2).
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -59,6 +60,26 @@ from analyzer.paging import (
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
+
+
+def _is_integer(value: Any) -> bool:
+    """An integer setting (a boolean is not one, nor is a float with no fraction)."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_)
+
+
+def _is_real(value: Any) -> bool:
+    """A numeric setting (a boolean or a string is not one)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
+
+
+def _sequence(value: Any) -> bool:
+    """A list-like setting (a string is not a list of its characters)."""
+    return isinstance(value, Sequence | np.ndarray) and not isinstance(value, str)
+
+
+def _names(value: Any) -> bool:
+    """A list of channel names."""
+    return _sequence(value) and all(isinstance(v, str) for v in value)
 
 
 # -- the detector --------------------------------------------------------------------------
@@ -110,18 +131,53 @@ class EquivalentModel:
     ) -> None:
         where = "[detectors.equivalent_model]"
         for key, val in (("lambda1", lambda1), ("lambda2", lambda2)):
-            if val is not None and not float(val) > 0.0:
+            if val is not None and (not _is_real(val) or not 0.0 < float(val) < np.inf):
                 raise DetectorError(f"{where} {key} must be > 0 (Theorem 6), got {val!r}")
-        if int(n_assistants) < 1:
-            raise DetectorError(f"{where} n_assistants must be >= 1, got {n_assistants!r}")
+        if not _is_integer(n_assistants) or n_assistants < 1:
+            raise DetectorError(
+                f"{where} n_assistants: expected an integer >= 1, got {n_assistants!r}"
+            )
         if propagation not in ("direct", "chained"):
             raise DetectorError(
                 f"{where} propagation must be 'direct' or 'chained', got {propagation!r}"
             )
-        if isinstance(lags, str) and lags != "bic":
+        if isinstance(lags, str):
+            if lags != "bic":
+                raise DetectorError(f"{where} lags: expected an integer or 'bic', got {lags!r}")
+        elif not _is_integer(lags):  # 2.5 was accepted
             raise DetectorError(f"{where} lags: expected an integer or 'bic', got {lags!r}")
-        if isinstance(lags, int) and lags < 0:
+        elif lags < 0:
             raise DetectorError(f"{where} lags must be >= 0, got {lags}")
+        if not _is_integer(max_lags) or max_lags < 0:
+            # (-1 left the BIC no length to choose from: "max() arg is an empty sequence")
+            raise DetectorError(f"{where} max_lags: expected an integer >= 0, got {max_lags!r}")
+        if assistants is not None and not (
+            isinstance(assistants, Mapping)
+            and all(_names(v) for v in assistants.values())
+            and all(isinstance(k, str) for k in assistants)
+        ):
+            raise DetectorError(
+                f"{where} assistants: expected a table of sensor lists ({{target = "
+                f"[sensor, ...]}}), got {assistants!r}"
+            )
+        if not _names(quasi_heads):
+            raise DetectorError(
+                f"{where} quasi_heads: expected a list of sensors, got {quasi_heads!r}"
+            )
+        if inputs is not None and not (
+            isinstance(inputs, Mapping)
+            and all(isinstance(k, str) and isinstance(v, str) for k, v in inputs.items())
+        ):
+            raise DetectorError(
+                f"{where} inputs: expected a table {{target = input_channel}}, got {inputs!r}"
+            )
+        if table is not None and not (
+            _sequence(table)
+            and all(_sequence(r) and len(r) == 2 and all(map(_is_real, r)) for r in table)
+        ):
+            raise DetectorError(
+                f"{where} table: expected a list of [a, b] number pairs, got {table!r}"
+            )
         self.lambda1 = None if lambda1 is None else float(lambda1)
         self.lambda2 = None if lambda2 is None else float(lambda2)
         self.assistants = (
@@ -130,7 +186,7 @@ class EquivalentModel:
         self.n_assistants = int(n_assistants)
         self.quasi_heads = tuple(quasi_heads)
         self.propagation = Propagation(propagation)
-        self.lags = lags
+        self.lags: int | str = lags if isinstance(lags, str) else int(lags)
         self.max_lags = int(max_lags)
         self.inputs = dict(inputs or {})
         self.table = None if table is None else [list(map(float, r)) for r in table]

@@ -1,0 +1,320 @@
+"""The config file's values are checked where it is loaded (one line naming the file and
+the key, exit 2), config that can only be judged against the data says so on stderr, and
+``--save-model`` never overwrites what the run reads (CONTRACT.md, "The config file")."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from analyzer.config import load_config
+from analyzer.detectors.ar_kalman import ARKalmanBank
+from analyzer.detectors.detection_filter import DetectionFilter
+from analyzer.detectors.equivalent_model import EquivalentModel
+from analyzer.errors import ConfigError, DetectorError
+from analyzer.options import load_options
+from analyzer.simulate import band_limited_noise, inject_fault, shear_building, simulate_response
+from analyzer.writers import write_archive
+from tests.cli.cli_helpers import one_line_error, run_cli
+
+RATE = 50.0
+MODEL = 'file = "m.npz"\noutputs = ["s0", "s1", "s2", "s3", "s4", "s5"]\n'
+
+
+@pytest.fixture(scope="module")
+def building(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 3-floor building, two sensors a floor (s0..s5), its ground acceleration measured
+    by two accelerometers (a1, a2), an offset on s3 from 40 s; its ZOH model in m.npz
+    (B's column split between a1 and a2). 60 s at 50 Hz."""
+    root = tmp_path_factory.mktemp("building")
+    rng = np.random.default_rng(4)
+    b = shear_building(3)
+    n = int(60 * RATE)
+    u = band_limited_noise(n, RATE, 2 * b.frequencies_hz[-1], rng)
+    clean = np.repeat(simulate_response(b, u, RATE), 2, axis=1)
+    Y = clean + rng.standard_normal(clean.shape) * np.sqrt(np.mean(clean**2, axis=0)) / 10
+    Y[:, 3] = inject_fault(Y[:, 3], RATE, "additive", 40.0, 3 * float(np.std(Y[:, 3])))
+    A, B, C, D = b.discrete(RATE)
+    np.savez(
+        root / "m.npz",
+        A=A,
+        B=np.hstack([B / 2, B / 2]),
+        C=np.repeat(C, 2, axis=0),
+        D=np.repeat(np.hstack([D / 2, D / 2]), 2, axis=0),
+        dt=1 / RATE,
+    )
+    data = {f"s{j}": Y[:, j] for j in range(6)}
+    data["a1"] = u + 0.01 * rng.standard_normal(n)
+    data["a2"] = u + 0.01 * rng.standard_normal(n)
+    t_ns = np.round(np.arange(n) / RATE * 1e9).astype(np.int64)
+    write_archive(root / "d.csv", "csv", t_ns, data)
+    return root
+
+
+def _config(where: Path, text: str, name: str = "c.toml") -> Path:
+    path = where / name
+    path.write_text(text)
+    return path
+
+
+# ------------------------------------------------------------- group inputs, end to end
+
+
+def test_a_groups_measured_inputs_feed_the_models_detection_filter(building, tmp_path, capsys):
+    """``[[group]] inputs`` (the contract's measured excitation) split off into a group of
+    their own: the detection filter's group then lacked the [model]'s inputs and it was
+    skipped on both."""
+    cfg = _config(
+        building,
+        '[train]\nend = 30.0\n[[group]]\nname = "b"\nreference = ["s0", "s1", "s4", "s5"]\n'
+        'uncertain = ["s2", "s3"]\ninputs = ["a1", "a2"]\n'
+        f'[model]\n{MODEL}inputs = ["a1", "a2"]\n',
+        "inputs.toml",
+    )
+    out = tmp_path / "o"
+    code, _, err = run_cli(["run", building / "d.csv", "--config", cfg, "--out", out], capsys)
+    assert code == 1, err
+    assert err == ""
+    doc = json.loads((out / "findings.json").read_text())
+    assert doc["skipped_detectors"] == {}
+    ran = {d["name"]: d for d in doc["detectors"]}
+    assert ran["detection_filter"]["model"]["source"] == "config [model]"
+    assert set(ran["ar_kalman_bank"]["channels"]) >= {"a1", "a2", "s3"}  # one group
+    assert [(f["channel"], f["type"]) for f in doc["faults"]] == [("s3", "additive")]
+    assert "detection_filter" in doc["faults"][0]["evidence"]["detectors"]
+    assert not any("in no [[group]]" in n for n in doc["notes"]), doc["notes"]
+
+
+# ------------------------------------------------------------- values refused on loading
+
+
+@pytest.mark.parametrize(
+    "text, needle",
+    [
+        ('[group]\nname = "g"\nchannels = ["s0", "s1"]\n', "use [[group]] (an array of tables"),
+        ('model = "m.npz"\n', "[model] must be a table"),
+        ("thresholds = 3\n", "[thresholds] must be a table"),
+        ("[train]\nend = true\n", "[train] end must be a number of seconds"),
+        (
+            '[[group]]\nreference = ["s0", "s2"]\nuncertain = ["s2", "s3"]\n',
+            "lists 's2' as both reference and uncertain",
+        ),
+        (
+            '[[group]]\nreference = ["s0", "a1"]\nuncertain = ["s2"]\ninputs = ["a1"]\n',
+            "lists 'a1' as both inputs and reference",
+        ),
+        ('[[group]]\nreference = ["s0", "s0"]\nuncertain = ["s2"]\n', "names 's0' twice"),
+        (
+            '[[group]]\nname = "a"\nreference = ["s0"]\nuncertain = ["s1"]\ninputs = ["a1"]\n'
+            '[[group]]\nname = "b"\nreference = ["s2"]\nuncertain = ["s3"]\ninputs = ["a1"]\n',
+            "share a1",
+        ),
+        ('[model]\nfile = "m.npz"\noutputs = ["s0", "s0", "s2", "s3", "s4", "s5"]\n', "twice"),
+        (
+            '[model]\nfile = "m.npz"\noutputs = ["s0", "s1", "s2", "s3", "s4", "a1"]\n'
+            'inputs = ["a1", "a2"]\n',
+            "both name 'a1'",
+        ),
+        (f"[model]\n{MODEL}dt = -1.0\n", "model.dt must be a number of seconds > 0"),
+        (f"[model]\n{MODEL}dt = 0.0\n", "model.dt must be a number of seconds > 0"),
+        (f"[model]\n{MODEL}dt = 0.005\n", "give it in one place"),
+        (f"[model]\n{MODEL}A = [[1.0]]\n", "both file and inline A"),
+    ],
+)
+def test_config_values_that_cannot_work_are_refused_on_loading(building, text, needle):
+    with pytest.raises(ConfigError, match="c.toml: .*" + _re(needle)):
+        load_config(_config(building, text))
+
+
+def _re(text: str) -> str:
+    import re
+
+    return re.escape(text)
+
+
+def test_model_files_that_are_not_npz_arrays_are_named(building, tmp_path):
+    m = np.load(building / "m.npz")
+    arrays = {k: m[k] for k in m.files}
+    cases = {
+        "csv.npz": None,
+        "trunc.npz": (building / "m.npz").read_bytes()[:300],
+        "dtarr.npz": {**arrays, "dt": np.array([0.02, 0.04])},
+        "complex.npz": {**arrays, "A": arrays["A"] * (1 + 1e-3j)},
+        "object.npz": {**arrays, "C": np.array([["s0"]], dtype=object)},
+    }
+    expected = {
+        "csv.npz": "is not an .npz of arrays",
+        "trunc.npz": "is damaged (a truncated .npz?)",
+        "dtarr.npz": "dt must be one number of seconds, got an array of shape (2,)",
+        "complex.npz": "A is complex-valued: expected a real matrix",
+        "object.npz": "holds object arrays, not numeric ones",
+    }
+    for name, content in cases.items():
+        path = tmp_path / name
+        if content is None:
+            path.write_text("time,s0\n0,1\n")
+        elif isinstance(content, bytes):
+            path.write_bytes(content)
+        else:
+            np.savez(path, **content)
+        cfg = _config(tmp_path, f'[model]\nfile = "{name}"\n')
+        with pytest.raises(ConfigError, match=f"c.toml: model.file .*{_re(name)}.*"):
+            load_config(cfg)
+        with pytest.raises(ConfigError, match=_re(expected[name])):
+            load_config(cfg)
+
+
+@pytest.mark.parametrize(
+    "section, setting, needle",
+    [
+        ("ar_kalman_bank", "order = 7.5", "order: expected an integer, 'aic' or 'bic', got 7.5"),
+        ("ar_kalman_bank", "order = true", "order: expected an integer, 'aic' or 'bic', got True"),
+        ("ar_kalman_bank", "max_order = 0", "max_order: expected an integer >= 1, got 0"),
+        ("ar_kalman_bank", "max_order = -2", "max_order: expected an integer >= 1, got -2"),
+        ("ar_kalman_bank", "block = 2.5", "block: expected an integer >= 1, got 2.5"),
+        ("detection_filter", "order = 2.5", "order: expected an integer, 'aic' or 'bic', got 2.5"),
+        ("detection_filter", 'use_config_model = "false"', "use_config_model: expected true"),
+        ("detection_filter", "block = 0", "block: expected an integer >= 1, got 0"),
+        ("detection_filter", 'fault_pole = "0.5"', "fault_pole must be in (0, 1]"),
+        ("equivalent_model", "max_lags = -1", "max_lags: expected an integer >= 0, got -1"),
+        ("equivalent_model", "lags = 2.5", "lags: expected an integer or 'bic', got 2.5"),
+        ("equivalent_model", "n_assistants = true", "n_assistants: expected an integer >= 1"),
+        ("equivalent_model", 'quasi_heads = "s0"', "quasi_heads: expected a list of sensors"),
+        ("equivalent_model", 'assistants = {s0 = "s1"}', "assistants: expected a table of"),
+        ("equivalent_model", "inputs = {s0 = 3}", "inputs: expected a table {target"),
+        ("equivalent_model", "table = [[1.0]]", "table: expected a list of [a, b] number pairs"),
+    ],
+)
+def test_detector_settings_of_the_wrong_type_are_refused(tmp_path, section, setting, needle):
+    """They crashed as "internal error" after reading and fitting (a float order, a
+    negative max_lags), were truncated (order 2.5 ran as 2), or read wrongly
+    (``bool("false")`` is True)."""
+    cfg = _config(tmp_path, f"[detectors.{section}]\n{setting}\n")
+    with pytest.raises(
+        ConfigError, match=_re(f"c.toml: [detectors.{section}] ") + ".*" + _re(needle)
+    ):
+        load_options(str(cfg))
+
+
+def test_constructors_take_numpy_integers_and_refuse_floats_and_booleans():
+    assert ARKalmanBank(order=np.int64(3), block=np.int32(8)).order == 3
+    assert DetectionFilter(order=np.int64(2), use_config_model=np.bool_(False)).order == 2
+    assert EquivalentModel(lags=np.int64(4), max_lags=np.int64(8)).lags == 4
+    with pytest.raises(DetectorError, match="order: expected an integer"):
+        ARKalmanBank(order=3.0)  # type: ignore[arg-type]
+    with pytest.raises(DetectorError, match="use_config_model: expected true or false"):
+        DetectionFilter(use_config_model=1)  # type: ignore[arg-type]
+    with pytest.raises(DetectorError, match="max_lags: expected an integer >= 0"):
+        EquivalentModel(max_lags=True)
+
+
+# ------------------------------------------------------ known only once the data is read
+
+
+@pytest.mark.parametrize(
+    "model, needles",
+    [
+        (
+            '[model]\nfile = "m.npz"\noutputs = ["s0", "s1", "s2", "s3", "s4", "x5"]\n',
+            ["[model] is not used", "detection_filter", "not analyzed here: x5"],
+        ),
+        (
+            "[model]\nA = [[0.5, 0.1], [0.0, 0.4]]\nC = [[1.0, 0.0], [0.0, 1.0]]\n"
+            'outputs = ["s0", "s1"]\ndt = 0.005\n',
+            ["[model] is not used", "dt = 0.005 s does not match the analysis rate 50.0 Hz"],
+        ),
+    ],
+)
+def test_a_model_the_data_cannot_use_is_a_warning(building, tmp_path, capsys, model, needles):
+    """The run goes on with the other detectors (exit 0 or 1), but a [model] the user
+    wrote is not dropped into ``skipped_detectors`` without a word on stderr."""
+    cfg = _config(building, "[train]\nend = 30.0\n" + model, "warn.toml")
+    argv = ["run", building / "d.csv", "--config", cfg, "--out", tmp_path / "o"]
+    code, _, err = run_cli([*argv, "--detectors", "ar_kalman_bank,detection_filter"], capsys)
+    assert code == 2  # a detector the user named still fails the run
+    code, _, err = run_cli([*argv, "--channels", "s*"], capsys)
+    assert code == 1, err
+    line = one_line_error(err, "analyzer: warning:", "warn.toml", *needles)
+    skipped = json.loads((tmp_path / "o" / "findings.json").read_text())["skipped_detectors"]
+    assert needles[-1] in skipped["detection_filter"]
+    assert "error:" not in line
+
+
+def test_a_group_input_missing_from_the_archive_is_a_warning(building, tmp_path, capsys):
+    cfg = _config(
+        building,
+        '[train]\nend = 30.0\n[[group]]\nreference = ["s0", "s1", "s4", "s5"]\n'
+        'uncertain = ["s2", "s3"]\ninputs = ["ground"]\n',
+        "ground.toml",
+    )
+    argv = ["run", building / "d.csv", "--config", cfg, "--out", tmp_path / "o"]
+    code, _, err = run_cli([*argv, "--channels", "s*"], capsys)
+    assert code == 1, err
+    one_line_error(err, "warning", "ground.toml", "[[group]] is not used", "'ground'")
+
+
+# ------------------------------------------------------------------------ --train
+
+
+def test_a_training_window_over_all_the_data_is_a_usage_error(building, tmp_path, capsys):
+    """Nothing is left to search: exit 0 ("no fault found") with an empty stderr misled
+    (an offset from 40 s on this record)."""
+    out = tmp_path / "o"
+    code, _, err = run_cli(["run", building / "d.csv", "--out", out, "--train", "0:100000"], capsys)
+    assert code == 2
+    one_line_error(err, "--train", "'0:100000'", "covers all the data", "ends at 60.000 s")
+    assert not out.exists()
+    cfg = _config(building, "[train]\nend = 1000.0\n", "long.toml")
+    code, _, err = run_cli(["run", building / "d.csv", "--out", out, "--config", cfg], capsys)
+    assert code == 2
+    one_line_error(err, "long.toml", "[train]", "covers all the data")
+
+
+# ------------------------------------------------------------------------ --save-model
+
+
+def test_save_model_never_overwrites_the_config_or_its_model_file(building, tmp_path, capsys):
+    cfg = _config(
+        tmp_path,
+        f'[model]\nfile = "{building / "m.npz"}"\noutputs = ["s0", "s1", "s2", "s3", "s4", "s5"]\n',
+    )
+    before = {p: p.read_bytes() for p in (cfg, building / "m.npz")}
+    out = tmp_path / "o"
+    for target, needle in ((cfg, "is the --config file"), (building / "m.npz", "[model] file")):
+        argv = ["run", building / "d.csv", "--config", cfg, "--out", out, "--save-model", target]
+        code, _, err = run_cli(argv, capsys)
+        assert code == 2
+        one_line_error(err, "--save-model", needle, "inputs are never modified")
+        assert not out.exists()
+    assert {p: p.read_bytes() for p in before} == before
+    code, _, err = run_cli(
+        ["run", building / "d.csv", "--out", out, "--save-model", out / "findings.json"], capsys
+    )
+    assert code == 2
+    one_line_error(err, "--save-model", "findings.json")
+
+
+def test_save_model_may_go_into_the_out_directory_it_creates(building, tmp_path, capsys):
+    out = tmp_path / "new" / "o"
+    argv = [
+        "run",
+        building / "d.csv",
+        "--out",
+        out,
+        "--save-model",
+        out / "b.model",
+        "--train",
+        "0:30",
+    ]
+    code, _, err = run_cli([*argv, "--detectors", "equivalent_model"], capsys)
+    assert code == 1, err
+    assert (out / "b.model").read_bytes().startswith(b"analyzer.model/")
+    code, _, err = run_cli(
+        ["run", building / "d.csv", "--out", tmp_path / "p", "--save-model", out / "x" / "m"],
+        capsys,
+    )
+    assert code == 2
+    one_line_error(err, "--save-model", "does not exist")
