@@ -281,7 +281,10 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
     for i, g in enumerate(groups):
         group = _group(g, i, p)
         for earlier in cfg.groups:
-            shared = [c for c in members(group) if c in members(earlier)]
+            # a measured input may excite two groups (one ground accelerometer under two
+            # substructures): it is analyzed with the first (grouping.partition)
+            inputs = {*group.get("inputs", []), *earlier.get("inputs", [])}
+            shared = [c for c in members(group) if c in members(earlier) and c not in inputs]
             if shared:
                 # each detector models a group on its own: a channel in two would be
                 # analyzed (and reported) twice, under two different models
@@ -305,6 +308,13 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
         if not isinstance(opts, dict):
             raise ConfigError(f"{p}: [detectors.{name}] must be a table of options")
         cfg.detectors[name] = dict(opts)
+    if cfg.detectors.get("error_function", {}).get("approach") == "indirect" and cfg.model is None:
+        # the indirect error functions come from the state-space model (Li et al. 2007,
+        # Eq. 3-9): without one the detector could only be skipped
+        raise ConfigError(
+            f'{p}: [detectors.error_function] approach = "indirect" needs a [model] '
+            '(A, B, C, D); or use approach = "direct"'
+        )
     th = raw.get("thresholds", {})
     if not isinstance(th, dict):
         raise ConfigError(f"{p}: [thresholds] must be a table (false_alarm_rate = ...), got {th!r}")

@@ -68,8 +68,17 @@ def partition(
     index = {c: i for i, c in enumerate(names)}
     groups: list[list[int]] = []
     notes: list[str] = []
+    placed: dict[str, str] = {}  # a shared measured input stays with its first group
     for g in configured:
         declared = group_members(g)
+        for c in g.get("inputs", []):
+            if c in placed and c in index:
+                notes.append(
+                    f"[[group]] {g.get('name', '?')}: its input {c} is analyzed with "
+                    f"[[group]] {placed[c]} (a channel is modelled in one group)"
+                )
+        declared = [c for c in declared if c not in placed]
+        placed.update({c: str(g.get("name", "?")) for c in g.get("inputs", []) if c not in placed})
         absent = [c for c in declared if c not in index]
         if absent:
             notes.append(

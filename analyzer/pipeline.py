@@ -634,19 +634,22 @@ def _diagnose(
     channels (the bank, an AR detection filter) saw on them is a note, not a finding.
     Reads the results' events without changing them."""
     notes: list[str] = []
-    on_inputs = [ev for r in results for ev in r.events if ev.channel in excitation]
-    for channel in dict.fromkeys(ev.channel for ev in on_inputs):
-        seen = sorted((ev for ev in on_inputs if ev.channel == channel), key=lambda e: e.onset_s)
-        notes.append(
-            f"{channel} is a measured input (excitation) in the config, not a sensor under "
-            f"test: the {seen[0].type.value} anomaly {seen[0].detector} saw on it from "
-            f"{seen[0].onset_s:.1f} s"
-            + (f" ({len(seen) - 1} more)" if len(seen) > 1 else "")
-            + " is not reported as a sensor fault"
-        )
-    findings = merge_events(ev for r in results for ev in r.events if ev.channel not in excitation)
+    findings = merge_events(ev for r in results for ev in r.events)
+    # one fault at a time with the inputs' findings in: an anomaly of the excitation
+    # shows in the sensors that see it, and is put down to it there (with the inputs'
+    # findings left out first, a lasting offset on a measured ground acceleration was
+    # reported as an offset on a healthy sensor)
     findings, conflicts = one_fault_at_a_time(findings, coupled(results))
     notes.extend(conflicts)
+    for f in (f for f in findings if f.channel in excitation):
+        more = len({e.detector for e in f.events}) - 1
+        notes.append(
+            f"{f.channel} is a measured input (excitation) in the config, not a sensor under "
+            f"test: the {f.type.value} anomaly {f.detector} saw on it from {f.onset_s:.1f} s"
+            + (f" (with {more} more detector(s))" if more > 0 else "")
+            + " is not reported as a sensor fault"
+        )
+    findings = [f for f in findings if f.channel not in excitation]
     notes.extend(relabel_frozen(findings, values, chosen, rate_hz, healthy))
     notes.extend(traced_into_training(findings, reused is not None))
     if reused is not None:
@@ -758,9 +761,16 @@ def _training_window(
             f"the {tr[0]:.6g} s before the training window are not searched for faults (the "
             "search runs from the window's end): a window at the start covers them"
         )
-    if reused is None and train[1] >= aligned.n:
+    if reused is None and train[1] >= aligned.n and options.save_model is not None:
+        # fitting a model on a healthy record, whole, for later archives (--model)
+        notes.append(
+            "the training window reaches the end of the data: nothing is left to search "
+            "for faults (the models fitted on it are saved with --save-model)"
+        )
+    elif reused is None and train[1] >= aligned.n:
         # the search runs from the window's end: a window over all the data leaves
         # nothing to search, and "no fault found" (exit 0) would be a claim not made
+        # (unless the run is there to save the models fitted on it, above)
         covers = f"covers all the data (which ends at {duration:.3f} s): nothing is left to search"
         if options.train is not None:
             raise UsageError(
@@ -1023,7 +1033,8 @@ def config_warnings(config: Config, analysis: Analysis) -> list[str]:
     uses_model = config.detectors.get("detection_filter", {}).get("use_config_model", True)
     if config.model is not None and uses_model is not False:
         configured["detection_filter"] = "[model]"
-    if config.groups:
+    if any(g.get("reference") or g.get("uncertain") for g in config.groups):
+        # (groups without reference or uncertain sensors only group the channels)
         configured["error_function"] = "[[group]]"
     ran = {r.detector for r in analysis.results}
     lines = []

@@ -108,9 +108,13 @@ def test_a_groups_measured_inputs_feed_the_models_detection_filter(building, tmp
         ),
         ('[[group]]\nreference = ["s0", "s0"]\nuncertain = ["s2"]\n', "names 's0' twice"),
         (
-            '[[group]]\nname = "a"\nreference = ["s0"]\nuncertain = ["s1"]\ninputs = ["a1"]\n'
-            '[[group]]\nname = "b"\nreference = ["s2"]\nuncertain = ["s3"]\ninputs = ["a1"]\n',
+            '[[group]]\nname = "a"\nchannels = ["s0", "s1", "a1"]\n'
+            '[[group]]\nname = "b"\nchannels = ["s2", "a1"]\n',
             "share a1",
+        ),
+        (
+            '[detectors.error_function]\napproach = "indirect"\n',
+            'approach = "indirect" needs a [model]',
         ),
         ('[model]\nfile = "m.npz"\noutputs = ["s0", "s0", "s2", "s3", "s4", "s5"]\n', "twice"),
         (
@@ -318,3 +322,40 @@ def test_save_model_may_go_into_the_out_directory_it_creates(building, tmp_path,
     )
     assert code == 2
     one_line_error(err, "--save-model", "does not exist")
+
+
+def test_two_groups_may_share_a_measured_input(building, tmp_path, capsys):
+    """One ground accelerometer under two substructures: both groups name it as an input
+    (refused as a channel in two groups for a while). It is modelled with the first; the
+    second says so; a grouping without reference/uncertain sensors does not warn that the
+    error functions are not used."""
+    cfg = _config(
+        building,
+        '[train]\nend = 30.0\n[[group]]\nname = "low"\nchannels = ["s0", "s1", "s2"]\n'
+        'inputs = ["a1"]\n[[group]]\nname = "high"\nchannels = ["s3", "s4", "s5"]\n'
+        'inputs = ["a1"]\n',
+        "shared.toml",
+    )
+    out = tmp_path / "o"
+    code, _, err = run_cli(
+        ["run", building / "d.csv", "--config", cfg, "--out", out, "--channels", "s*,a1"], capsys
+    )
+    assert code == 1, err
+    assert "error_function" not in err
+    doc = json.loads((out / "findings.json").read_text())
+    assert "[[group]] high: its input a1 is analyzed with [[group]] low" in " ".join(doc["notes"])
+    assert [(f["channel"], f["type"]) for f in doc["faults"]] == [("s3", "additive")]
+
+
+def test_a_training_window_over_all_the_data_may_fit_a_model_to_save(building, tmp_path, capsys):
+    """A healthy record fitted whole, to save its models for later archives, is no
+    refusal: nothing is searched, and the note says so."""
+    out, model = tmp_path / "o", tmp_path / "m.model"
+    code, _, err = run_cli(
+        ["run", building / "d.csv", "--train", "0:60", "--out", out, "--save-model", model],
+        capsys,
+    )
+    assert code == 0, err
+    assert model.is_file()
+    notes = json.loads((out / "findings.json").read_text())["notes"]
+    assert any("nothing is left to search" in n for n in notes), notes
