@@ -673,34 +673,31 @@ def _resampled(
 
 def _low_passed(tt: IntArray, vv: FloatArray, taps: FloatArray, period: float) -> FloatArray:
     """``vv`` (raw samples at times ``tt``) through the anti-aliasing FIR ``taps``, from
-    the samples that exist only: a normalized convolution.
+    the samples that exist only: a normalized convolution on the channel's own clock.
 
-    Where a tap would reach past the channel's first or last sample, onto a NaN (a gap
-    in the reading) or across a gap in time (a step of more than :data:`GAP_FACTOR`
-    periods), that tap is left out and the others are scaled up to the filter's DC
-    gain. A plain convolution took the missing samples for zeros: a 100 Hz IMU's
-    9.81 m/s^2 of gravity, decimated to 20 Hz, began at 5.79 and swung to 10.54 at the
-    record's ends and beside each NaN, and samples on both sides of an outage were
-    mixed. Away from them every tap has its sample and the result is the plain
-    convolution's, unchanged."""
+    Each missing sample (a NaN, a step of several periods: a dropped message) is a slot
+    with no value, and the taps that fall on such slots or past the channel's first or
+    last sample are left out, the others scaled up to the filter's DC gain. A plain
+    convolution took them for zeros: a 100 Hz IMU's 9.81 m/s^2 of gravity, decimated to
+    20 Hz, began at 5.79 and swung to 10.54 at the record's ends and beside each NaN.
+    A step of ``k`` periods has ``k - 1`` empty slots, at most half a filter's length
+    (:func:`_slots`): a long outage keeps the two sides apart, and a channel that loses
+    a few samples now and then is filtered through its losses (3 of every 53 samples of
+    a 1 kHz channel lost: every value is there, not NaN). A value is NaN where less than
+    half the filter's weight has its sample. Away from missing samples every tap has its
+    sample and the result is the plain convolution's, unchanged."""
     from scipy import signal
 
     fin = np.isfinite(vv)
-    steps = np.diff(tt)
-    gaps = np.flatnonzero(steps > GAP_FACTOR * period)
-    if gaps.size:
-        # a gap becomes half a filter's length of missing samples, so no tap reaches
-        # across it (vectorized: each sample moves on by the padding of the gaps before it)
-        pad = taps.shape[0] // 2 + 1
-        at = np.arange(vv.shape[0]) + pad * np.searchsorted(gaps, np.arange(vv.shape[0]), "left")
+    at = _slots(tt, period, taps.shape[0] // 2 + 1)
+    if at is None:
+        spread = np.where(fin, vv, 0.0)
+        present = fin
+    else:
         spread = np.zeros(int(at[-1]) + 1)
         present = np.zeros(spread.shape[0], dtype=bool)
         spread[at] = np.where(fin, vv, 0.0)
         present[at] = fin
-    else:
-        at = None
-        spread = np.where(fin, vv, 0.0)
-        present = fin
     num = signal.oaconvolve(spread, taps, mode="same")
     den = signal.oaconvolve(present.astype(np.float64), taps, mode="same")
     if at is not None:
@@ -710,11 +707,24 @@ def _low_passed(tt: IntArray, vv: FloatArray, taps: FloatArray, period: float) -
     partial = np.abs(den - full) > 1e-9 * abs(full)
     with np.errstate(divide="ignore", invalid="ignore"):
         num[partial] = num[partial] * (full / den[partial])
-    # fewer than half the filter's weight present (the edge of a lone sample's reach):
-    # too little to stand for the low-passed value
     num[partial & (den < 0.5 * full)] = np.nan
     num[~fin] = np.nan
     return num
+
+
+def _slots(tt: IntArray, period: float, most: int) -> IntArray | None:
+    """The slot of each sample on the channel's own clock (None: one each, in a row):
+    a step of ``k`` nominal periods (rounded) moves the next sample ``k`` slots on, at
+    most ``most + 1`` (past the filter's reach, a longer outage is all the same). Steps
+    of less than :data:`GAP_FACTOR` periods are one slot (jitter, one bridged sample)."""
+    steps = np.diff(tt) / period
+    jump = steps > GAP_FACTOR
+    if not jump.any():
+        return None
+    advance = np.ones(tt.shape[0], dtype=np.int64)
+    advance[0] = 0
+    advance[1:][jump] = np.minimum(np.rint(steps[jump]).astype(np.int64), most + 1)
+    return np.cumsum(advance)
 
 
 def _span_text(seconds: float) -> str:
