@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import tomllib
 import zipfile
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -252,6 +253,13 @@ def members(group: dict[str, Any]) -> list[str]:
 def group_inputs(groups: list[dict[str, Any]]) -> set[str]:
     """The channels the ``[[group]]`` tables name as measured inputs (excitation)."""
     return {c for g in groups for c in g.get("inputs", [])}
+
+
+def measured_inputs(config: Mapping[str, Any]) -> frozenset[str]:
+    """The channels a run's config (``RunContext.config``) names as measured inputs
+    (excitation, not sensors under test): ``[[group]] inputs`` and ``[model] inputs``."""
+    model = config.get("model") or {}
+    return frozenset([*group_inputs(config.get("group") or []), *(model.get("inputs") or [])])
 
 
 def load_config(path: str | Path | None, known_detectors: set[str] | None = None) -> Config:

@@ -7,7 +7,7 @@ import os
 import shutil
 import time
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from analyzer.config import Config, group_inputs
+from analyzer.config import Config, measured_inputs
 from analyzer.detector_runs import (
     coupled,
     detector_names,
@@ -639,7 +639,15 @@ def _diagnose(
     # shows in the sensors that see it, and is put down to it there (with the inputs'
     # findings left out first, a lasting offset on a measured ground acceleration was
     # reported as an offset on a healthy sensor)
-    findings, conflicts = one_fault_at_a_time(findings, coupled(results))
+    models = coupled(results)
+
+    def reaches(detector: str, a: str, b: str) -> bool:
+        # a measured input is a regressor of every model that has it (the bank's AR, the
+        # detection filter's B u, the equivalent model's relations, the error functions):
+        # its fault reaches every residual, whatever the detector's own coupling says
+        return models(detector, a, b) or b in excitation
+
+    findings, conflicts = one_fault_at_a_time(findings, reaches)
     notes.extend(conflicts)
     for f in (f for f in findings if f.channel in excitation):
         more = len({e.detector for e in f.events}) - 1
@@ -655,13 +663,6 @@ def _diagnose(
     if reused is not None:
         notes.extend(present_at_search_start(findings, train[1] / rate_hz, rate_hz))
     return findings, notes
-
-
-def measured_inputs(config: Mapping[str, Any]) -> frozenset[str]:
-    """The channels a run's config (``RunContext.config``) names as measured inputs:
-    ``[[group]] inputs`` and ``[model] inputs``."""
-    model = config.get("model") or {}
-    return frozenset([*group_inputs(config.get("group") or []), *(model.get("inputs") or [])])
 
 
 def _screened(

@@ -85,7 +85,9 @@ Running
     (waiting for it to be complete) and exits. An archive that stays stable but
     structurally unfinished for 10 minutes (a recorder that died, a truncated copy) is
     analyzed anyway, and gets its error record; the watcher says once, as a warning,
-    that it waits up to 10 minutes for it.
+    that it waits up to 10 minutes for it. What ``analyzer run`` would warn about the
+    ``--config`` on that archive (a ``[model]`` or ``[[group]]`` it could not use, the
+    reason) is a warning line of the watcher's too, after the archive's analysis.
 
 On a cluster
     With ``--scheduler ADDRESS`` each archive's analysis is a task of that Dask cluster,
@@ -143,7 +145,7 @@ from analyzer.options import RunOptions
 from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
 from analyzer.parallel import DaskExecutor
-from analyzer.pipeline import analyze_screened
+from analyzer.pipeline import analyze_screened, config_warnings
 from analyzer.report.jobs import PRELOAD_MODULE
 from analyzer.scratch import hold, make_scratch, remove_scratch
 from analyzer.types import MSG_PATH_ENV
@@ -294,16 +296,26 @@ ERROR_KINDS = {
 """An analysis's exit code (:func:`analysis_into`) and whose fault its error is."""
 
 
+CONFIG_WARNINGS = ".config-warnings"
+"""The file an analysis leaves beside its outputs with the lines ``analyzer run`` prints
+about the config (:func:`~analyzer.pipeline.config_warnings`), one a line; the watcher
+logs them and removes the file before it publishes the report folder."""
+
+
 def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: Path) -> int:
     """One archive's analysis: the outputs of ``analyzer run`` into ``out_dir``, or
-    ``out_dir/error.txt``, with ``work`` as its scratch space. Returns the exit code: 0/1
-    analyzed (no fault/fault), 2 input error, 3 bug or an error of the output side (a
-    full disk), 4 an option that does not fit this archive (``--channels`` matching
-    none of its channels, ``--train`` beyond its end: :class:`UsageError`,
-    :class:`ConfigError`)."""
+    ``out_dir/error.txt``, with ``work`` as its scratch space; the config warnings ``run``
+    would print, if any, into ``out_dir/`` :data:`CONFIG_WARNINGS` (the watcher logs
+    them). Returns the exit code: 0/1 analyzed (no fault/fault), 2 input error, 3 bug or
+    an error of the output side (a full disk), 4 an option that does not fit this archive
+    (``--channels`` matching none of its channels, ``--train`` beyond its end:
+    :class:`UsageError`, :class:`ConfigError`)."""
     try:
         analysis = analyze_screened(inputs, options, work)
         write_outputs(analysis, out_dir)
+        lines = config_warnings(options.config, analysis)
+        if lines:
+            write_atomic(out_dir / CONFIG_WARNINGS, "".join(f"{line}\n" for line in lines))
         return 1 if analysis.faulty else 0
     except (UsageError, ConfigError) as err:
         write_atomic(out_dir / "error.txt", one_line(err) + "\n")
@@ -744,6 +756,8 @@ class _Runner:
         error = job.scratch / "error.txt"
         details = ""  # what follows the one-line message in error.txt (a traceback)
         rec.error_kind = ErrorKind.INTERNAL
+        if code in (0, 1):
+            self._log_config_warnings(job)
         if code in (0, 1) and findings.is_file():
             try:
                 doc = json.loads(findings.read_text(encoding="utf-8"))
@@ -785,6 +799,23 @@ class _Runner:
         write_atomic(error, f"{message}\n{details}")
         rec.error = message
         return rec
+
+    @staticmethod
+    def _log_config_warnings(job: _Job) -> None:
+        """Log, as ``analyzer run`` prints them, the config warnings the analysis left
+        (:data:`CONFIG_WARNINGS`), and remove their file: it is not part of the report."""
+        path = job.scratch / CONFIG_WARNINGS
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            return
+        except (OSError, ValueError) as err:
+            text = f"its config warnings cannot be read ({one_line(err)})\n"
+        for line in text.splitlines():
+            if line.strip():
+                log.warning("%s: %s", job.archive.name, line)
+        with contextlib.suppress(OSError):  # (left in the folder, it harms nothing)
+            path.unlink()
 
     def _move(self, archive: ReadyArchive, rec: Record) -> None:
         """``--done`` / ``--failed``: move the archive's files out of INBOX. An archive

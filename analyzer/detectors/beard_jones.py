@@ -46,7 +46,27 @@ shows they are exactly the unobservable modes of ``(A, C_{-i})``. The paper does
 discuss them; they must lie inside the unit circle for a stable filter, which is checked
 too. Lemma 3.2's proof assumes ``alpha`` is not an eigenvalue of ``A``; away from
 ``lambda = alpha`` the PBH matrix of ``(Abar, Cbar)`` has full rank iff that of ``(A, C)``
-has (eliminate the ``zeta`` column), so ``(Abar, Cbar)`` is tested at ``alpha`` only.
+has (eliminate the ``zeta`` column), so ``(Abar, Cbar)`` is tested at ``alpha`` only. There,
+``[Abar - alpha I; Cbar] [v; z] = 0`` reads ``(A - alpha I) v = 0``, ``C_{-i} v = 0`` and
+``z = -C_i v``: it loses rank iff ``[A - alpha I; C_{-i}]`` does, i.e. iff ``alpha`` is a
+mode of ``A`` that the other sensors do not see. That equivalent test is the one made: it
+needs no scale for the fault state ``zeta`` (in sensor units, unlike ``x``).
+
+Numerical rank and scaling
+--------------------------
+Observability does not depend on the units of the outputs (``C -> S C``, ``S`` diagonal) or
+of the states (``A -> T^-1 A T``, ``C -> C T``), but the smallest singular value of a PBH
+matrix does: a model whose ``C`` holds entries around ``1e5`` (a stiffness over a mass in
+SI units) had every mode flagged as unobservable against a threshold relative to
+``|A| + |C|``. The rank tests therefore run on a balanced form (:func:`pbh_scaling`): each
+row of ``C`` scaled to unit norm (exactly invariant to the output units), and the states
+scaled by the diagonal similarity that balances the rows and columns of ``[A; C]``
+(LAPACK ``gebal`` by powers of 2, as SLICOT ``TB01ID`` and MATLAB's ``ssbal`` balance a
+system before structural computations; invariant to the state units up to those powers of
+2). A similarity leaves the eigenvalues and the PBH rank unchanged, and being independent
+of ``lambda`` it cannot lift the rounding of an exactly unobservable mode (normalizing the
+columns or rows of each ``[A - lambda I; C]`` separately could). The threshold is then
+relative to the balanced ``|A| + |C|``.
 """
 
 from __future__ import annotations
@@ -67,8 +87,16 @@ Modes = Sequence[complex] | npt.NDArray[Any]
 
 
 PBH_RTOL = 1e-9
-"""Relative size of the smallest singular value of ``[A - lambda I; C]`` below which the
-mode ``lambda`` counts as unobservable (Lemma 3.1)."""
+"""Relative size of the smallest singular value of ``[A - lambda I; C]`` (in the balanced
+form of :func:`pbh_scaling`) below which the mode ``lambda`` counts as unobservable
+(Lemma 3.1)."""
+
+BALANCE_SWEEPS = 4
+"""At most this many rounds of (normalize the rows of ``C``, balance the states) in
+:func:`pbh_scaling`; it stops as soon as a round leaves the state scaling unchanged."""
+
+Scaling = tuple[FloatArray, FloatArray]
+"""``(t, s)``: state and output scalings, :func:`pbh_scaling`."""
 
 
 # -- linear-algebra checks ------------------------------------------------------------------
@@ -140,23 +168,85 @@ def _pbh_scale_bound(A: FloatArray, C: FloatArray) -> float:
     return max(1.0, float(np.linalg.norm(A)) + float(np.linalg.norm(C)))
 
 
+def _unit_rows(C: FloatArray) -> FloatArray:
+    """``1 / |row|`` for each row of ``C``, 1 for a zero row (it stays zero)."""
+    norms = np.linalg.norm(C, axis=1) if C.size else np.ones(C.shape[0])
+    return np.asarray(1.0 / np.where(norms > 0.0, norms, 1.0), dtype=np.float64)
+
+
+def pbh_scaling(A: FloatArray, C: FloatArray) -> Scaling:
+    """The state and output scalings ``(t, s)`` under which the PBH tests of
+    :func:`unobservable_modes` run on ``(T^-1 A T, S C T)``, ``T = diag(t)``,
+    ``S = diag(s)`` (module docstring, "Numerical rank and scaling").
+
+    ``s`` scales each row of ``S C T`` to unit norm, which makes the test exactly
+    invariant to the units of the outputs. ``t`` (powers of 2) balances the states: LAPACK
+    ``gebal`` (:func:`scipy.linalg.matrix_balance`, no permutation) of the square
+    ``[[A, 0], [S C, 0]]``, whose output rows have zero columns and are left alone, so that
+    each state's row of ``A`` and its column of ``[A; S C]`` have comparable norms (the
+    balancing of SLICOT ``TB01ID`` with ``B = 0``); rows of ``C`` and states alternate until
+    the state scaling settles (at most :data:`BALANCE_SWEEPS` rounds). A pair in block
+    observer form (:func:`observer_blocks`, the detectors' AR models of standardized
+    channels) is its own balanced form: its states are outputs and sums of outputs in the
+    same units and ``C = [I, 0]`` has unit rows; it is left unscaled, which keeps the exact
+    structure its cheap bounds (:func:`observer_pbh_bound`) rely on."""
+    A = np.asarray(A, dtype=np.float64)
+    n = A.shape[0]
+    C = np.asarray(C, dtype=np.float64).reshape(-1, n)
+    m = C.shape[0]
+    t = np.ones(n)
+    if observer_blocks(A, C) is not None:
+        return t, np.ones(m)
+    s = _unit_rows(C)
+    if n == 0 or not (np.all(np.isfinite(A)) and np.all(np.isfinite(C))):
+        return t, s
+    M = np.zeros((n + m, n + m))
+    for _ in range(BALANCE_SWEEPS):
+        M[:n, :n] = A * t[None, :] / t[:, None]
+        M[n:, :n] = s[:, None] * C * t[None, :]
+        _, (d, _) = linalg.matrix_balance(M, permute=False, separate=True)
+        step = np.asarray(d[:n], dtype=np.float64)
+        t = t * step
+        s = _unit_rows(C * t[None, :])
+        if np.all(step == 1.0):
+            break
+    return t, s
+
+
+def _is_identity(scaling: Scaling) -> bool:
+    return bool(np.all(scaling[0] == 1.0) and np.all(scaling[1] == 1.0))
+
+
 def unobservable_modes(
     A: FloatArray,
     C: FloatArray,
     rtol: float = PBH_RTOL,
     at: Modes | None = None,
+    scaling: Scaling | None = None,
 ) -> list[complex]:
     """Eigenvalues of ``A`` whose eigenvectors ``C`` does not see (PBH test, Lemma 3.1:
     ``(A, C)`` is observable iff ``C v != 0`` for every eigenvector ``v``). Uses the smallest
     singular value of ``[A - lambda I; C]`` so repeated eigenvalues are handled too; ``at``
-    restricts the test to the given eigenvalues. A pair in block observer form
-    (:func:`observer_blocks`) skips the SVD of every mode whose cheap lower bound
-    (:func:`observer_pbh_bound`) already clears the threshold twice over (far above the
-    SVD's rounding): the same answer."""
+    restricts the test to the given eigenvalues. The test runs on the balanced pair of
+    :func:`pbh_scaling` (``scaling`` may pass the ``(t, s)`` of a larger pair, with ``s``
+    restricted to the rows of ``C``), so the units of the outputs and states do not change
+    the answer. A pair in block observer form (:func:`observer_blocks`) skips the SVD of
+    every mode whose cheap lower bound (:func:`observer_pbh_bound`) already clears the
+    threshold twice over (far above the SVD's rounding): the same answer."""
     A = np.asarray(A, dtype=np.float64)
     C = np.asarray(C, dtype=np.float64).reshape(-1, A.shape[0])
     n = A.shape[0]
-    modes = list(np.linalg.eigvals(A) if at is None else at)
+    if scaling is None:
+        scaling = pbh_scaling(A, C)
+    t, s = (np.asarray(v, dtype=np.float64).reshape(-1) for v in scaling)
+    if t.shape != (n,) or s.shape != (C.shape[0],):
+        raise DetectorError(
+            f"expected scalings of {n} states and {C.shape[0]} outputs, got {t.size} and {s.size}"
+        )
+    modes = list(np.linalg.eigvals(A) if at is None else at)  # a similarity keeps them
+    if not _is_identity((t, s)):
+        A = A * t[None, :] / t[:, None]
+        C = s[:, None] * C * t[None, :]
     blocks = observer_blocks(A, C)
     sure = np.zeros(len(modes), dtype=bool)
     if blocks is not None and modes:
@@ -384,21 +474,27 @@ def park_filter(
         check_observable(A, C, eig)
     Ab, Bb, Cb, fb = augment(A, B, C, sensor, alpha)
     blocks = observer_blocks(A, C)
+    others = [j for j in range(m) if j != sensor]
+    Co = C[others]
+    t, s = pbh_scaling(A, C)  # the balanced form of the whole pair, for both tests below
     # Lemma 3.2: away from lambda = alpha the PBH matrix of (Abar, Cbar) has full rank iff
-    # that of (A, C) has (eliminate the zeta column), so only alpha needs a test; in block
-    # observer form a lower bound of its smallest singular value usually settles it
+    # that of (A, C) has (eliminate the zeta column), and at alpha iff that of (A, C_{-i})
+    # has (module docstring), so only (A, C_{-i}) at alpha needs a test; in block observer
+    # form a lower bound of the augmented matrix's smallest singular value usually settles
+    # it (it bounds that of [A - alpha I; C_{-i}] too: take z = -C_i v; and the threshold
+    # bound of (Abar, Cbar) exceeds the threshold of (A, C_{-i}))
     certain = blocks is not None and bool(
         observer_pbh_bound(blocks, [alpha], sensor)[0] > 2.0 * PBH_RTOL * _pbh_scale_bound(Ab, Cb)
     )
-    if not certain and unobservable_modes(Ab, Cb, at=[alpha]):
+    if not certain and unobservable_modes(A, Co, at=[alpha], scaling=(t, s[others])):
         raise DetectorError(
             f"the augmented pair (Abar, Cbar) for {label} is not observable: the fault pole "
             f"alpha={alpha} is a mode of A seen only by {label} (Lemma 3.2); choose another "
             "fault_pole"
         )
-    others = [j for j in range(m) if j != sensor]
-    Co = C[others]
-    fixed = unobservable_modes(A, Co, at=[lam for lam in eig if abs(lam) >= 1.0 - 1e-9])
+    fixed = unobservable_modes(
+        A, Co, at=[lam for lam in eig if abs(lam) >= 1.0 - 1e-9], scaling=(t, s[others])
+    )
     if fixed:
         raise DetectorError(
             f"no stable detection filter for {label}: the invariant zero(s) "

@@ -30,6 +30,7 @@ from typing import Any, ClassVar
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.config import measured_inputs
 from analyzer.detectors.assistant_observer import (
     AssistantObserver,
     Pretreatment,
@@ -112,7 +113,20 @@ class EquivalentModel:
     target assisted by ``n_assistants`` sensors), ``quasi_heads``, ``propagation``
     (``"direct"``/``"chained"``), ``lags`` (FIR length of the relations, or ``"bic"``),
     ``max_lags``, ``inputs`` (``{target = input_channel}``, the ``u`` of Eq. 8),
-    ``table`` (candidate ``[a, b]`` pairs for Algorithm 1; default least squares)."""
+    ``table`` (candidate ``[a, b]`` pairs for Algorithm 1; default least squares).
+
+    Measured inputs are not sensors under test: the channels of the ``inputs`` setting and
+    those the config names as measured excitation (``[[group]] inputs``, ``[model] inputs``:
+    :func:`measured_inputs`) are left out of the automatic network, so no observer targets
+    them (the pipeline reports no fault on them either). The config's measured inputs are
+    known excitation, as the ``u`` of Eq. 8 is (and as Park's ``B u`` and Li's measured
+    inputs are to the other model-based detectors): each target's relation takes them as
+    regressors beside its assistant sensors (the forces that drive a chain explain much of
+    its accelerations: without them a gain of 0.5 on one sensor of Li et al.'s chain was
+    missed). Like any known input, a fault on one is not isolated: it reaches every
+    residual. A configured ``assistants`` table may name a measured input as an assistant
+    sensor: it then enters the network as a head (no observer of its own), not as a
+    target."""
 
     name: ClassVar[str] = "equivalent_model"
 
@@ -193,6 +207,7 @@ class EquivalentModel:
 
     def applicable(self, data: Dataset, context: RunContext) -> str | None:
         names = set(data.channels)
+        excitation = measured_inputs(context.config)
         if self.assistants is not None:
             used = set(self.assistants) | {a for v in self.assistants.values() for a in v}
             missing = sorted(used - names)
@@ -203,7 +218,14 @@ class EquivalentModel:
                 )
             if not any(self.assistants.values()):
                 return "the configured sensor network has no assistant sensors"
-        elif len(data.channels) - len(set(self.inputs.values())) < 3:
+            tested = sorted(t for t, a in self.assistants.items() if a and t in excitation)
+            if tested:
+                return (
+                    f"[detectors.equivalent_model] assistants makes {tested[0]!r} a target "
+                    "sensor, but the config names it a measured input ([[group]] inputs or "
+                    "[model] inputs), which is not a sensor under test"
+                )
+        elif len(self._sensors(data.channels, excitation)) < 3:
             return (
                 "needs at least 3 channels for an automatic sensor network (two sensors that "
                 "assist each other cannot be told apart); configure assistants otherwise"
@@ -216,9 +238,24 @@ class EquivalentModel:
             )
         return None
 
-    def _network(self, data: Dataset) -> SensorNetwork:
-        input_ch = set(self.inputs.values())
-        sensors = [c for c in data.channels if c not in input_ch]
+    def _sensors(
+        self,
+        channels: Sequence[str],
+        excitation: frozenset[str],
+        keep: frozenset[str] = frozenset(),
+    ) -> list[str]:
+        """The channels that are sensors of the network: not an ``inputs`` channel and not
+        a measured input of the config (``excitation``), unless in ``keep`` (measured inputs
+        a configured ``assistants`` table names as assistant sensors)."""
+        skip = (set(self.inputs.values()) | excitation) - keep
+        return [c for c in channels if c not in skip]
+
+    def _network(self, data: Dataset, context: RunContext | None = None) -> SensorNetwork:
+        excitation = measured_inputs({} if context is None else context.config)
+        keep: frozenset[str] = frozenset()
+        if self.assistants is not None:
+            keep = frozenset(a for v in self.assistants.values() for a in v) & excitation
+        sensors = self._sensors(data.channels, excitation, keep)
         if self.assistants is not None:
             try:
                 return SensorNetwork(
@@ -245,10 +282,13 @@ class EquivalentModel:
         dt = 1.0 / data.rate_hz
         l1 = self.lambda1 if self.lambda1 is not None else data.rate_hz
         l2 = self.lambda2 if self.lambda2 is not None else l1
-        net = self._network(data)
+        net = self._network(data, context)
         train = np.asarray(data.train_values(), dtype=np.float64)
         window = default_window(data.rate_hz)
         targets = [s for s in net.sensors if net.assistant_sensors(s)]
+        # the config's measured inputs outside the network: regressors of every relation
+        excitation = measured_inputs(context.config)
+        known = [c for c in data.channels if c in excitation and c not in net.sensors]
         far = context.false_alarm_rate / len(data.channels)  # per channel
         tasks = []
         shared = context.scatter(train)  # on a cluster, sent to each worker once
@@ -256,6 +296,7 @@ class EquivalentModel:
             uch = self.inputs.get(s)
             ui = None if uch is None else data.index(uch)
             ass = [data.index(a) for a in net.assistant_sensors(s)]
+            ass += [data.index(c) for c in known if c != uch]
             tasks.append((self, shared, data.index(s), ass, ui, (dt, l1, l2), window, far))
         fitted = context.map(_fit_observer_task, tasks)
         observers = tuple(ob for ob, _ in fitted)
@@ -433,8 +474,10 @@ class EquivalentModel:
             for d in decisions
             if d["sensor"] in d["ambiguous"]
         ]
+        excitation = measured_inputs(context.config)
         for s, why in net.undiagnosable().items():
-            notes.append(f"{s} cannot be diagnosed by the observers alone ({why})")
+            if s not in excitation:  # a measured input in the network assists only
+                notes.append(f"{s} cannot be diagnosed by the observers alone ({why})")
         l1 = model.observers[0].observer.lambda1 if model.observers else self.lambda1
         l2 = model.observers[0].observer.lambda2 if model.observers else self.lambda2
         return DetectorResult(

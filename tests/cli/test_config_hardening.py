@@ -359,3 +359,24 @@ def test_a_training_window_over_all_the_data_may_fit_a_model_to_save(building, t
     assert model.is_file()
     notes = json.loads((out / "findings.json").read_text())["notes"]
     assert any("nothing is left to search" in n for n in notes), notes
+
+
+def test_a_fault_on_a_measured_input_is_no_sensors_fault(tmp_path, capsys):
+    """An offset on a measured input (an excitation channel the config names) is a note,
+    and so is its echo in a sensor's residual: the equivalent model, which takes the input
+    as a regressor of every relation, saw it on s2 and that was reported as s2's fault
+    once the input's own finding was left out before one fault at a time."""
+    from analyzer.simulate import simulate_building
+
+    t, Y, names = simulate_building(3, 90.0, 100.0, seed=8)
+    u = inject_fault(np.random.default_rng(1).normal(size=t.size), 100.0, "additive", 50.0, 3.0)
+    data = {n: Y[:, i] for i, n in enumerate(names)}
+    data["u"] = u
+    write_archive(tmp_path / "a.csv", "csv", np.round(t * 1e9).astype(np.int64), data)
+    cfg = _config(tmp_path, '[[group]]\nname = "exc"\ninputs = ["u"]\n')
+    out = tmp_path / "o"
+    code, _, err = run_cli(["run", tmp_path / "a.csv", "--config", cfg, "--out", out], capsys)
+    assert code == 0, err
+    doc = json.loads((out / "findings.json").read_text())
+    assert doc["faults"] == []
+    assert any("u is a measured input" in n for n in doc["notes"]), doc["notes"]
