@@ -206,6 +206,20 @@ def merge_parts(
 
 # --------------------------------------------------------------------------- per-topic notes
 
+BoolArray = npt.NDArray[np.bool_]
+
+EPOCH_NS = 10**18
+"""Header stamps at or above this (1e9 s, 2001-09-09T01:46:40Z) are wall-clock (Unix
+epoch) times; a topic whose nonzero stamps are mostly below it runs on a simulation clock
+(Gazebo's ``/clock`` starts at 0; 1e9 s is 31.7 years of simulated time), on which a
+stamp of 0 is a real time, not "unset"."""
+
+
+LEAD_GLITCH_MESSAGES = 4
+"""The longest run of messages at the start of a topic that :func:`forward_outliers` may
+take for a glitch (with nothing before it, only its length tells it from a clock that
+steps back after a while)."""
+
 
 @dataclass(slots=True)
 class _Jumps:
@@ -219,6 +233,39 @@ class _Jumps:
 
 
 @dataclass(slots=True)
+class _Glitches:
+    """Messages of one topic stamped ahead of the messages around them: how many were
+    dropped, how many had been passed on before the next message showed it (at a batch
+    boundary), the first one and by how much it was ahead."""
+
+    dropped: int = 0
+    kept: int = 0
+    index: int = 0
+    log_ns: int = 0
+    ahead_ns: int = 0
+
+
+@dataclass(slots=True)
+class _Clock:
+    """The header-clock state of one topic, carried from batch to batch.
+
+    ``high`` and ``behind`` are the running maximum of the stamps and whether the last
+    message was dropped (a stretch behind ``high``), ``ref`` the header-minus-log offset
+    of the last message, all three over the *settled* messages. The ``open_*`` arrays
+    (stamps, log times, message numbers) hold a trailing stretch that is ahead of ``ref``
+    by more than the window and could still be a glitch: it was passed on, but it sets
+    neither ``high`` nor ``ref`` until the next batch shows what follows it.
+    """
+
+    high: int | None = None
+    behind: bool = False
+    ref: int | None = None
+    open_t: IntArray = field(default_factory=lambda: EMPTY_T)
+    open_log: IntArray = field(default_factory=lambda: EMPTY_T)
+    open_idx: IntArray = field(default_factory=lambda: EMPTY_T)
+
+
+@dataclass(slots=True)
 class _Relabels:
     """Changes of one string array of one topic: how many, and the first one."""
 
@@ -227,13 +274,142 @@ class _Relabels:
     first: Relabel
 
 
+def forward_outliers(
+    t: IntArray, log_ns: IntArray, ref: int | None, window: int
+) -> tuple[BoolArray, BoolArray, IntArray, BoolArray]:
+    """Short stretches of messages stamped ahead of the messages around them.
+
+    ``t`` and ``log_ns`` are the header stamps and log times of messages in log-time
+    order; ``ref`` is the header-minus-log offset of the message before them (None at the
+    start of a topic). On a healthy topic the offset ``o_i = t_i - log_i`` is nearly
+    constant whatever the rate. The offsets are cut into stretches where two consecutive
+    ones differ by more than ``window``; a stretch is a *glitch* (a GPS/PTP hiccup, a bit
+    flip in the stamp) when
+
+    * its offsets all exceed those of the message before it and the message after it by
+      more than ``window``, and those two agree within ``window``;
+    * it lasts at most ``window`` in log time (one message, or a short run);
+    * at the start of a topic, where no message before it tells which clock is right, it
+      is at most :data:`LEAD_GLITCH_MESSAGES` long and the two messages after it agree (a
+      longer first stretch sets the clock: a clock that steps back after it is a step);
+    * the stamp goes back by more than ``window`` after it (the running-maximum rule of
+      :class:`TopicTracker` would otherwise take the glitch for the newest stamp and drop
+      what follows: a monotonic clock never has a glitch).
+
+    Returns ``(glitch, open, ahead, aside)``: the messages of a glitch; the trailing
+    stretch that could still be one once the next message is known (ahead of ``ref``, or
+    the start of a topic, and lasting at most ``window`` so far; at the start of a topic
+    also a first stretch followed by a single message, which could be the glitch as well);
+    by how much each message's offset exceeds that of its neighbours (meaningful where
+    ``glitch``); and the messages the running maximum must leave out (the glitches, and
+    that undecided first stretch).
+    """
+    m = int(t.shape[0])
+    glitch = np.zeros(m, dtype=bool)
+    pending = np.zeros(m, dtype=bool)
+    ahead = np.zeros(m, dtype=np.int64)
+    if m == 0:
+        return glitch, pending, ahead, glitch
+    o = t - log_ns
+    lead = 0 if ref is None else 1
+    full = o if ref is None else np.concatenate((np.array([ref], dtype=np.int64), o))
+    cuts = np.flatnonzero(np.abs(np.diff(full)) > window) + 1
+    if cuts.size == 0 and ref is not None:
+        return glitch, pending, ahead, glitch  # one stretch, continuing the settled one
+    size = int(full.shape[0])
+    starts = np.concatenate((np.zeros(1, dtype=np.int64), cuts))
+    ends = np.concatenate((cuts, np.array([size], dtype=np.int64)))
+    # per stretch; with ``ref`` the first stretch holds ``ref`` and is never a candidate
+    ft = t if ref is None else np.concatenate((t[:1], t))
+    fl = log_ns if ref is None else np.concatenate((log_ns[:1], log_ns))
+    low = np.minimum.reduceat(full, starts)
+    top = np.maximum.reduceat(ft, starts)
+    span = fl[ends - 1] - fl[starts]
+    has_prev = starts > 0
+    has_next = ends < size
+    before = full[np.maximum(starts - 1, 0)]  # meaningful where has_prev
+    nxt = np.minimum(ends, size - 1)
+    after = full[nxt]
+    counts = ends - starts
+    first = (starts == 0) & (ref is None) & (counts <= LEAD_GLITCH_MESSAGES)
+    # the two messages after a topic's first stretch agree: the second is in the same
+    # stretch as the first
+    after2 = np.minimum(ends + 1, size - 1)
+    agree = np.where(
+        has_prev,
+        np.abs(after - before) <= window,
+        (ends + 1 < size) & (np.abs(full[after2] - after) <= window),
+    )
+    around = np.where(has_prev, np.maximum(before, after), after)
+    ahead_of_next = has_next & (low - around > window) & (span <= window) & (top - ft[nxt] > window)
+    closed = (has_prev | first) & agree & ahead_of_next
+    last = int(starts.shape[0]) - 1
+    opened = (span[last] <= window) and (
+        bool(first[last]) or (bool(has_prev[last]) and int(low[last]) - int(before[last]) > window)
+    )
+    glitch = np.repeat(closed, counts)[lead:]
+    ahead = (full - np.repeat(around, counts))[lead:]
+    aside = glitch.copy()
+    if bool(first[0]) and bool(ahead_of_next[0]) and int(ends[0]) + 1 == size:
+        # a topic's first stretch and one message after it: which of the two is right is
+        # not known yet; both wait, the first stretch out of the running maximum
+        pending[:] = True
+        aside[: int(ends[0])] = True
+    elif opened:
+        pending[int(starts[last]) - lead :] = True
+    return glitch, pending, ahead, aside
+
+
+def _running_max(
+    t: IntArray, high: int | None, behind: bool, window: int
+) -> tuple[BoolArray, BoolArray, IntArray, IntArray]:
+    """The running-maximum rule of :class:`TopicTracker` over stamps ``t`` (log-time
+    order) following a topic's state ``high``/``behind``: returns which messages to drop,
+    where a jump back starts (``events``), the newest stamp before each message and the
+    running maximum after it."""
+    n = int(t.shape[0])
+    runmax = np.maximum.accumulate(t)
+    if high is not None:
+        np.maximum(runmax, high, out=runmax)
+    prev = np.empty_like(t)
+    prev[1:] = runmax[:-1]
+    prev[0] = int(t[0]) - 1 if high is None else high
+    advancing = t > prev
+    if not behind and bool(advancing.all()):
+        nothing = np.zeros(n, dtype=bool)
+        return nothing, nothing, prev, runmax
+    far = ~advancing & (t < prev - window)
+    index = np.arange(n)
+    run_start = np.maximum.accumulate(np.where(advancing, index, -1))
+    last_far = np.maximum.accumulate(np.where(far, index, -1))
+    drop = ~advancing & (last_far > run_start)
+    if behind:
+        drop |= run_start < 0
+    dropped_before = np.empty(n, dtype=bool)
+    dropped_before[0] = behind
+    dropped_before[1:] = drop[:-1]
+    return drop, far & ~dropped_before, prev, runmax
+
+
 class TopicTracker:
     """What one pass of a ROS or MCAP reader notes per topic beside the samples, and the
     time each message gets; :meth:`push` hands the samples on to a :class:`Reorderer`.
 
     * messages that could not be decoded (counted, the first reason kept);
     * with ``--time header``: a ``header.stamp`` of 0 (a driver that does not set it) is
-      no stamp: the message's log time is used, and counted;
+      no stamp where the topic's stamps are wall-clock times (:data:`EPOCH_NS`): the
+      message's log time is used, and counted. On a simulation clock (stamps mostly below
+      :data:`EPOCH_NS`) 0 is a real time (Gazebo starts at 0). Each topic is decided by
+      the nonzero stamps of its first batch that has any, and keeps that decision; a
+      batch of only zeros before that is taken as unset. Messages given their log time
+      (or without a header) take no part in the two rules below;
+    * with ``--time header``: a short stretch stamped ahead of the messages around it
+      (:func:`forward_outliers`: one message stamped 100 s in the future) is dropped and
+      counted. Otherwise it would be the newest stamp, and everything after it "behind".
+      A stretch at the end of a batch is decided by the next batch of its topic: it has
+      been passed on by then, so such a glitch is kept (counted apart), but it does not
+      set the newest stamp. A topic's first few messages (:data:`LEAD_GLITCH_MESSAGES`)
+      are taken as a glitch only when the two messages after them agree;
     * with ``--time header``: a header clock that goes back by more than the reorder
       window (a clock step, a restarted simulator). Sorting would interleave the stretch
       after the step with the one before it (the aligner then keeps one of two samples
@@ -251,9 +427,10 @@ class TopicTracker:
         self._window = window_ns
         self._t0: int | None = None
         self._seen: dict[str, int] = {}
-        self._high: dict[str, int] = {}
-        self._behind: dict[str, bool] = {}
+        self._clocks: dict[str, _Clock] = {}
+        self._epoch: dict[str, bool] = {}
         self._jumps: dict[str, _Jumps] = {}
+        self._glitches: dict[str, _Glitches] = {}
         self._zero: dict[str, int] = {}
         self._failures: dict[str, list[Any]] = {}
         self._relabels: dict[tuple[str, str], _Relabels] = {}
@@ -278,69 +455,134 @@ class TopicTracker:
         times = log_ns
         if self.time == "header" and decoded.stamps is not None:
             stamps = decoded.stamps
-            unset = stamps == 0
-            zeros = int(np.count_nonzero(unset))
-            if zeros:
-                self._zero[topic] = self._zero.get(topic, 0) + zeros
-            unset |= stamps == NO_STAMP
+            unset = stamps == NO_STAMP
+            zero = stamps == 0
+            if self._zero_is_unset(topic, stamps, unset, zero):
+                zeros = int(np.count_nonzero(zero))
+                if zeros:
+                    self._zero[topic] = self._zero.get(topic, 0) + zeros
+                    unset |= zero
             times = np.where(unset, log_ns, stamps) if bool(unset.any()) else stamps
-            keep = self._clock(topic, times, log_ns)
+            real = None if not bool(unset.any()) else np.flatnonzero(~unset)
+            keep = self._clock(topic, times, log_ns, real)
             if keep is not None:
                 decoded = decoded.subset(keep)
                 times = times[keep]
         self._seen[topic] = self._seen.get(topic, 0) + int(log_ns.shape[0])
         reorder.push_decoded(topic, decoded, times)
 
-    def _clock(self, topic: str, t: IntArray, log_ns: IntArray) -> npt.NDArray[np.bool_] | None:
-        """Which messages to keep (None: all) by the header-clock rule of the class."""
+    def _zero_is_unset(
+        self, topic: str, stamps: IntArray, unset: BoolArray, zero: BoolArray
+    ) -> bool:
+        """Whether a stamp of 0 means "not set" on ``topic`` (see the class): decided by
+        the first batch with nonzero stamps, and kept."""
+        epoch = self._epoch.get(topic)
+        if epoch is None:
+            valid = stamps[~(unset | zero)]
+            if valid.size:
+                epoch = 2 * int(np.count_nonzero(valid >= EPOCH_NS)) >= int(valid.size)
+                self._epoch[topic] = epoch
+        return epoch is None or epoch
+
+    def _clock(
+        self, topic: str, t: IntArray, log_ns: IntArray, real: IntArray | None
+    ) -> BoolArray | None:
+        """Which messages to keep (None: all) by the header-clock rules of the class;
+        ``real`` (None: all) are the messages whose time is their own header stamp."""
         n = int(t.shape[0])
+        idx = self._seen.get(topic, 0) + (np.arange(n) if real is None else real)
+        if real is not None:
+            t, log_ns = t[real], log_ns[real]
+            if t.size == 0:
+                return None
+        clock = self._clocks.setdefault(topic, _Clock())
+        carried = int(clock.open_t.shape[0])
+        if carried:
+            t = np.concatenate((clock.open_t, t))
+            log_ns = np.concatenate((clock.open_log, log_ns))
+            idx = np.concatenate((clock.open_idx, idx))
+        m = int(t.shape[0])
         order = None
-        if n > 1 and bool(np.any(log_ns[1:] < log_ns[:-1])):
+        if m > 1 and bool(np.any(log_ns[1:] < log_ns[:-1])):
             order = np.argsort(log_ns, kind="stable")
-            t = t[order]
-        high = self._high.get(topic)
-        runmax = np.maximum.accumulate(t)
-        prev = np.empty_like(t)
-        prev[1:] = runmax[:-1]
-        prev[0] = int(t[0]) - 1 if high is None else high
-        if high is not None:
-            np.maximum(prev, high, out=prev)
-        self._high[topic] = int(runmax[-1]) if high is None else max(high, int(runmax[-1]))
-        advancing = t > prev
-        carry = self._behind.get(topic, False)
-        if bool(advancing.all()):
-            self._behind[topic] = False
+            t, log_ns, idx = t[order], log_ns[order], idx[order]
+        new = np.ones(m, dtype=bool)
+        if carried:
+            new = (np.arange(m) if order is None else order) >= carried
+        glitch, pending, ahead, aside = forward_outliers(t, log_ns, clock.ref, self._window)
+        use = ~aside
+        used = np.flatnonzero(use) if bool(aside.any()) else np.arange(m)
+        drop_u, events_u, prev_u, runmax_u = _running_max(
+            t[used] if used.size < m else t, clock.high, clock.behind, self._window
+        )
+        drop = drop_u
+        if used.size < m:
+            drop = np.zeros(m, dtype=bool)
+            drop[used] = drop_u
+        if bool(pending.any()) and bool(drop[pending].any()):
+            pending[:] = False  # behind the newest stamp: dropped by that rule, settled
+        # the settled messages used by the running maximum come first in ``used``
+        settled = int(np.count_nonzero(use & ~pending))
+        if settled:
+            clock.high = int(runmax_u[settled - 1])
+            clock.behind = bool(drop_u[settled - 1])
+        last = np.flatnonzero(use & ~pending)
+        if last.size:
+            at = int(last[-1])
+            clock.ref = int(t[at]) - int(log_ns[at])
+        clock.open_t, clock.open_log, clock.open_idx = t[pending], log_ns[pending], idx[pending]
+        self._note(topic, glitch, new, drop, events_u, used, prev_u, t, log_ns, idx, ahead)
+        if not bool((glitch | drop)[new].any()):
             return None
-        far = ~advancing & (t < prev - self._window)
-        if not carry and not bool(far.any()):
-            self._behind[topic] = False
-            return None
-        index = np.arange(n)
-        run_start = np.maximum.accumulate(np.where(advancing, index, -1))
-        last_far = np.maximum.accumulate(np.where(far, index, -1))
-        drop = ~advancing & (last_far > run_start)
-        if carry:
-            drop |= run_start < 0
-        before = np.empty(n, dtype=bool)
-        before[0] = carry
-        before[1:] = drop[:-1]
-        events = np.nonzero(far & ~before)[0]
+        keep_sorted = ~(glitch | drop)
+        keep_all = keep_sorted
+        if order is not None:
+            keep_all = np.empty(m, dtype=bool)
+            keep_all[order] = keep_sorted
+        keep_real = keep_all[carried:]
+        if real is None:
+            return keep_real
+        keep = np.ones(n, dtype=bool)
+        keep[real] = keep_real
+        return keep
+
+    def _note(
+        self,
+        topic: str,
+        glitch: BoolArray,
+        new: BoolArray,
+        drop: BoolArray,
+        events_u: BoolArray,
+        used: IntArray,
+        prev_u: IntArray,
+        t: IntArray,
+        log_ns: IntArray,
+        idx: IntArray,
+        ahead: IntArray,
+    ) -> None:
+        """Count what :meth:`_clock` dropped among the new messages, and glitches found
+        among those passed on before (``~new``)."""
+        if bool(glitch.any()):
+            found = self._glitches.setdefault(topic, _Glitches())
+            dropped = glitch & new
+            if not (found.dropped or found.kept):
+                first = int(np.flatnonzero(glitch)[0])
+                found.index, found.log_ns = int(idx[first]), int(log_ns[first])
+                found.ahead_ns = int(ahead[first])
+            found.dropped += int(np.count_nonzero(dropped))
+            found.kept += int(np.count_nonzero(glitch & ~new))
+        if not bool(drop.any()):
+            return
         jumps = self._jumps.setdefault(topic, _Jumps())
+        events = np.flatnonzero(events_u & new[used])
         if events.size:
             if jumps.events == 0:
                 first = int(events[0])
-                at = first if order is None else int(order[first])
-                jumps.index = self._seen.get(topic, 0) + first
-                jumps.log_ns = int(log_ns[at])
-                jumps.back_ns = int(prev[first]) - int(t[first])
+                at = int(used[first])
+                jumps.index, jumps.log_ns = int(idx[at]), int(log_ns[at])
+                jumps.back_ns = int(prev_u[first]) - int(t[at])
             jumps.events += int(events.size)
-        jumps.dropped += int(np.count_nonzero(drop))
-        self._behind[topic] = bool(drop[-1])
-        if order is None:
-            return ~drop
-        keep = np.empty(n, dtype=bool)
-        keep[order] = ~drop
-        return keep
+        jumps.dropped += int(np.count_nonzero(drop & new))
 
     def _at(self, log_ns: int) -> str:
         return f"t={(log_ns - (self._t0 or 0)) / 1e9:.2f} s"
@@ -355,6 +597,20 @@ class TopicTracker:
             f"{topic}: {count} messages have header.stamp 0 (not set); their log time is used"
             for topic, count in self._zero.items()
         ]
+        window = f"{self._window / 1e9:g} s"
+        for topic, found in self._glitches.items():
+            kept = (
+                f", {found.kept} kept (passed on at the end of a batch, before the next "
+                "message showed them; they no longer count as the newest stamp)"
+                if found.kept
+                else ""
+            )
+            out.append(
+                f"{topic}: {found.dropped + found.kept} messages stamped more than {window} "
+                f"ahead of the messages around them (the first: message {found.index}, "
+                f"{self._at(found.log_ns)}, {found.ahead_ns / 1e9:.1f} s ahead): "
+                f"{found.dropped} dropped{kept} (--time log keeps them)"
+            )
         for topic, jumps in self._jumps.items():
             if not jumps.events:
                 continue

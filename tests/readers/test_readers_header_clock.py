@@ -1,0 +1,275 @@
+"""``--time header`` on clocks the reorder rules of ``TopicTracker`` must not misread: a
+simulation clock that starts at 0 (0 is a real time there, not "unset") and stamps
+glitched far ahead of the messages around them (the glitch is dropped, not what follows
+it). Logs are built with the real writers; the batch boundary is driven in code."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from mcap.writer import Writer as McapWriter
+from readers_helpers import T0, collect
+from test_readers_probe30 import MS, NAMES, ROS2, V3S, Message, v3s, write
+
+from analyzer.readers import open_input
+from analyzer.readers._common import Decoded, Reorderer, TopicTracker, forward_outliers
+
+S = 10**9
+
+
+def _read(path: Path, topic: str) -> tuple[np.ndarray, np.ndarray, list[str], Any]:
+    reader = open_input(path)
+    t, v = collect(reader.chunks("header"))[f"{topic}.vector.x"]
+    return t, v, reader.info.errors, reader
+
+
+def _small_chunks(path: Path, messages: list[Message]) -> Path:
+    """``messages`` (one topic) in an MCAP of ~2 kB chunks: a batch every ~20 messages."""
+    with path.open("wb") as handle:
+        writer = McapWriter(handle, chunk_size=2000)
+        writer.start(profile="ros2", library="test")
+        text = ROS2.generate_msgdef(V3S, ros_version=2)[0]
+        schema = writer.register_schema(V3S, "ros2msg", text.encode())
+        channel = writer.register_channel(messages[0][0], "cdr", schema)
+        for _, msgtype, t, make in messages:
+            data = bytes(ROS2.serialize_cdr(make(ROS2), msgtype))
+            writer.add_message(channel, log_time=t, data=data, publish_time=t)
+        writer.finish()
+    return path
+
+
+# --------------------------------------------------------------------------- sim time
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "ros1", "ros2"])
+def test_sim_time_from_zero_keeps_every_message(tmp_path: Path, fmt: str) -> None:
+    """Gazebo's clock starts at 0: the first stamp is 0.00 s, then 0.01, 0.02 ... s,
+    logged at wall-clock times. 0 is a real time on that clock: every message is kept at
+    its stamp, nothing to say (it was given its log time, ~1.7e9 s, and the 999 messages
+    after it were dropped as behind it)."""
+    messages = [("/sim", V3S, T0 + i * MS, v3s(i * MS, i)) for i in range(1000)]
+    t, v, errors, _ = _read(write(tmp_path / NAMES[fmt], fmt, messages), "/sim")
+    assert t.tolist() == [i * MS for i in range(1000)]
+    assert v.tolist() == list(range(1000))
+    assert errors == []
+
+
+def test_sim_time_decision_is_kept_across_batches(tmp_path: Path) -> None:
+    """The topic is found to run on sim time in its first batch (0.00 s, 0.01 s ...); the
+    simulator is then reset and paused at 0 for 60 messages (whole batches of stamps 0),
+    and runs again from 0.01 s. The zeros stay real times: the reset is a clock that goes
+    back by 3 s (dropped until the stamps pass 2.99 s again), not 60 messages at their
+    wall-clock log times."""
+    stamps = [i * MS for i in range(300)] + [0] * 60 + [(i - 359) * MS for i in range(360, 900)]
+    messages = [("/sim", V3S, T0 + i * MS, v3s(stamps[i], i)) for i in range(900)]
+    t, v, errors, _ = _read(_small_chunks(tmp_path / "reset.mcap", messages), "/sim")
+    assert v.tolist() == list(range(300)) + list(range(659, 900))
+    assert int(t.max()) < 10 * S
+    assert errors == [
+        "/sim: header.stamp goes back by 3.0 s at message 300 (t=3.00 s); 359 messages "
+        "stamped before the newest stamp so far dropped (--time log keeps them)"
+    ]
+
+
+def test_wall_clock_topic_starting_with_zero_stamps_uses_log_time(tmp_path: Path) -> None:
+    """A driver not yet synced at start: the first 5 stamps are 0, the rest wall-clock
+    times (in the same batch). Those zeros are "unset": the log time is used, and said."""
+    messages = [
+        ("/z", V3S, T0 + i * MS, v3s(0 if i < 5 else T0 + i * MS - MS // 2, i)) for i in range(200)
+    ]
+    t, _, errors, _ = _read(write(tmp_path / "z.mcap", "mcap", messages), "/z")
+    assert t.tolist() == sorted(T0 + i * MS - (0 if i < 5 else MS // 2) for i in range(200))
+    assert errors == ["/z: 5 messages have header.stamp 0 (not set); their log time is used"]
+
+
+# --------------------------------------------------------------------------- glitches
+
+
+def _glitched(ahead: dict[int, int], n: int = 1000) -> list[Message]:
+    return [("/imu", V3S, T0 + i * MS, v3s(T0 + i * MS + ahead.get(i, 0), i)) for i in range(n)]
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "ros1", "ros2"])
+def test_forward_glitch_drops_the_glitch_not_what_follows(tmp_path: Path, fmt: str) -> None:
+    """One stamp of 1000 is 100 s in the future (a GPS/PTP glitch): that message is
+    dropped and named; the 899 messages after it were dropped as "behind" it before."""
+    messages = _glitched({100: 100 * S})
+    t, v, errors, reader = _read(write(tmp_path / NAMES[fmt], fmt, messages), "/imu")
+    assert v.tolist() == [i for i in range(1000) if i != 100]
+    assert t.tolist() == [T0 + i * MS for i in range(1000) if i != 100]
+    assert errors == [
+        "/imu: 1 messages stamped more than 2 s ahead of the messages around them (the "
+        "first: message 100, t=1.00 s, 100.0 s ahead): 1 dropped (--time log keeps them)"
+    ]
+    # the log clock keeps it, nothing to say
+    reader = open_input(reader.info.path)
+    assert collect(reader.chunks("log"))["/imu.vector.x"][1].size == 1000
+    assert reader.info.errors == []
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "ros2"])
+def test_forward_glitch_at_the_first_message(tmp_path: Path, fmt: str) -> None:
+    """The topic's very first stamp is 100 s ahead: with nothing before it, the two
+    messages after it agree with each other and not with it: it is the glitch."""
+    t, v, errors, _ = _read(write(tmp_path / NAMES[fmt], fmt, _glitched({0: 100 * S})), "/imu")
+    assert v.tolist() == list(range(1, 1000))
+    assert errors == [
+        "/imu: 1 messages stamped more than 2 s ahead of the messages around them (the "
+        "first: message 0, t=0.00 s, 100.0 s ahead): 1 dropped (--time log keeps them)"
+    ]
+
+
+def test_short_run_of_glitched_stamps(tmp_path: Path) -> None:
+    """Five messages in a row 100 s ahead (and a second such run later): both runs are
+    dropped, nothing else."""
+    ahead = {i: 100 * S for i in (*range(100, 105), *range(600, 603))}
+    _, v, errors, _ = _read(write(tmp_path / "run.bag", "ros1", _glitched(ahead)), "/imu")
+    assert v.tolist() == [i for i in range(1000) if i not in ahead]
+    assert errors == [
+        "/imu: 8 messages stamped more than 2 s ahead of the messages around them (the "
+        "first: message 100, t=1.00 s, 100.0 s ahead): 8 dropped (--time log keeps them)"
+    ]
+
+
+def test_glitch_in_small_batches(tmp_path: Path) -> None:
+    """Every 11th message 50 s ahead, in a file of ~20-message batches: some glitches are
+    the last message of their batch. None drops the messages after it; those at a batch's
+    end were passed on before the next batch showed them: kept, and counted apart."""
+    ahead = {i: 50 * S for i in range(3, 1000, 11)}
+    t, v, errors, _ = _read(_small_chunks(tmp_path / "small.mcap", _glitched(ahead)), "/imu")
+    normal = [i for i in range(1000) if i not in ahead]
+    kept = sorted(set(v.tolist()) - set(normal))
+    assert v.tolist() == normal + kept and 0 < len(kept) < len(ahead)
+    assert bool(np.all(t[len(normal) :] > T0 + 50 * S))
+    assert errors == [
+        f"/imu: {len(ahead)} messages stamped more than 2 s ahead of the messages around them "
+        f"(the first: message 3, t=0.03 s, 50.0 s ahead): {len(ahead) - len(kept)} dropped, "
+        f"{len(kept)} kept (passed on at the end of a batch, before the next message showed "
+        "them; they no longer count as the newest stamp) (--time log keeps them)"
+    ]
+
+
+def test_clock_that_steps_forward_and_stays_is_kept(tmp_path: Path) -> None:
+    """A clock corrected forward by 100 s (and staying there) is no glitch: all kept."""
+    ahead = {i: 100 * S for i in range(100, 1000)}
+    _, v, errors, _ = _read(write(tmp_path / "fwd.mcap", "mcap", _glitched(ahead)), "/imu")
+    assert v.size == 1000 and errors == []
+
+
+def test_long_forward_excursion_is_a_clock_step(tmp_path: Path) -> None:
+    """100 s ahead for 3 s of messages (longer than the window), then back: not a glitch
+    but two clock steps; the stretch after the step back is behind the newest stamp and
+    dropped by the running-maximum rule, as for any clock that goes back."""
+    ahead = {i: 100 * S for i in range(100, 400)}
+    _, v, errors, _ = _read(write(tmp_path / "long.mcap", "mcap", _glitched(ahead)), "/imu")
+    assert v.tolist() == list(range(400))
+    assert len(errors) == 1 and "goes back by 100.0 s at message 400" in errors[0]
+
+
+def _decoded(x: np.ndarray, stamps: np.ndarray) -> Decoded:
+    return Decoded(int(x.size), {"x": (None, x.astype(np.float64))}, stamps.astype(np.int64))
+
+
+def test_glitch_at_a_batch_boundary_does_not_drop_what_follows() -> None:
+    """The glitch is the last message of its batch: it has been passed on when the next
+    batch shows it was one. It is kept (and said), but it no longer counts as the newest
+    stamp: the next batch is kept whole."""
+    n = 400
+    i = np.arange(n)
+    log = T0 + i * MS
+    stamps = log.copy()
+    stamps[199] += 100 * S
+    tracker = TopicTracker("header")
+    reorder = Reorderer(repeats=True)
+    tracker.push(reorder, "/b", _decoded(i[:200], stamps[:200]), log[:200])
+    tracker.push(reorder, "/b", _decoded(i[200:], stamps[200:]), log[200:])
+    t, v = collect(reorder.flush())["/b.x"]
+    assert v.tolist() == [k for k in range(n) if k != 199] + [199]  # in time order
+    assert int(t[-1]) == int(stamps[199])
+    assert tracker.lines() == [
+        "/b: 1 messages stamped more than 2 s ahead of the messages around them (the first: "
+        "message 199, t=1.99 s, 100.0 s ahead): 0 dropped, 1 kept (passed on at the end of "
+        "a batch, before the next message showed them; they no longer count as the newest "
+        "stamp) (--time log keeps them)"
+    ]
+
+
+@pytest.mark.parametrize("batch", [1, 2, 3])
+def test_glitch_at_the_first_message_in_tiny_batches(batch: int) -> None:
+    """The topic's first stamp is 100 s ahead and its batches hold 1 to 3 messages: the
+    first message waits (out of the running maximum) until two messages after it show
+    which clock is right. In batches of 1 or 2 it was passed on by then (kept, said);
+    in a batch of 3 it is dropped."""
+    n = 300
+    i = np.arange(n)
+    log = T0 + i * MS
+    stamps = log.copy()
+    stamps[0] += 100 * S
+    tracker = TopicTracker("header")
+    reorder = Reorderer(repeats=True)
+    for a in range(0, n, batch):
+        part = slice(a, a + batch)
+        tracker.push(reorder, "/b", _decoded(i[part], stamps[part]), log[part])
+    v = collect(reorder.flush())["/b.x"][1]
+    kept = batch < 3
+    assert v.tolist() == list(range(1, n)) + [0] * kept
+    head = (
+        "/b: 1 messages stamped more than 2 s ahead of the messages around them (the "
+        "first: message 0, t=0.00 s, 100.0 s ahead): "
+    )
+    tail = (
+        "0 dropped, 1 kept (passed on at the end of a batch, before the next message "
+        "showed them; they no longer count as the newest stamp)"
+        if kept
+        else "1 dropped"
+    )
+    assert tracker.lines() == [head + tail + " (--time log keeps them)"]
+
+
+def test_glitch_run_across_a_batch_boundary() -> None:
+    """A run of 4 glitched stamps, 2 at the end of a batch and 2 at the start of the
+    next: the 2 not yet passed on are dropped, the rest of the topic is kept."""
+    n = 400
+    i = np.arange(n)
+    log = T0 + i * MS
+    stamps = log.copy()
+    stamps[198:202] += 100 * S
+    tracker = TopicTracker("header")
+    reorder = Reorderer(repeats=True)
+    tracker.push(reorder, "/b", _decoded(i[:200], stamps[:200]), log[:200])
+    tracker.push(reorder, "/b", _decoded(i[200:], stamps[200:]), log[200:])
+    v = collect(reorder.flush())["/b.x"][1]
+    assert v.tolist() == [k for k in range(n) if k not in range(198, 202)] + [198, 199]
+    assert ": 2 dropped, 2 kept" in tracker.lines()[0]
+
+
+def test_forward_outliers_rules() -> None:
+    """The rule on offsets alone: a lone forward outlier and a short run are glitches;
+    a backward outlier, a step that stays and a monotonic clock with uneven log times
+    are not; the stretch at the end is open only when it is ahead of what came before."""
+    w = 2 * S
+    log = np.arange(10, dtype=np.int64) * S
+    flat = log.copy()
+    one = flat.copy()
+    one[4] += 100 * S
+    glitch, pending, ahead, _ = forward_outliers(one, log, 0, w)
+    assert np.flatnonzero(glitch).tolist() == [4] and not pending.any()
+    assert int(ahead[4]) == 100 * S
+    back = flat.copy()
+    back[4] -= 100 * S
+    assert not forward_outliers(back, log, 0, w)[0].any()
+    step = flat + np.where(np.arange(10) >= 4, 100 * S, 0)
+    assert not forward_outliers(step, log, 0, w)[0].any()
+    # a slow topic on a clock that runs 4x faster than the log clock: offsets grow by 3 s
+    # and more per message, but the stamps never go back
+    fast = log * 4
+    glitch, pending, _, _ = forward_outliers(fast, log, 0, w)
+    assert not glitch.any() and np.flatnonzero(pending).tolist() == [9]
+    tail = flat.copy()
+    tail[9] += 100 * S
+    glitch, pending, _, _ = forward_outliers(tail, log, 0, w)
+    assert not glitch.any() and np.flatnonzero(pending).tolist() == [9]
+    assert not forward_outliers(flat, log, 0, w)[1].any()
