@@ -291,7 +291,8 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
         for earlier in cfg.groups:
             # a measured input may excite two groups (one ground accelerometer under two
             # substructures): it is analyzed with the first (grouping.partition)
-            inputs = {*group.get("inputs", []), *earlier.get("inputs", [])}
+            # (an input of both: a sensor of one group is not the other's input)
+            inputs = set(group.get("inputs", [])) & set(earlier.get("inputs", []))
             shared = [c for c in members(group) if c in members(earlier) and c not in inputs]
             if shared:
                 # each detector models a group on its own: a channel in two would be

@@ -635,21 +635,10 @@ def _diagnose(
     Reads the results' events without changing them."""
     notes: list[str] = []
     findings = merge_events(ev for r in results for ev in r.events)
-    # one fault at a time with the inputs' findings in: an anomaly of the excitation
-    # shows in the sensors that see it, and is put down to it there (with the inputs'
-    # findings left out first, a lasting offset on a measured ground acceleration was
-    # reported as an offset on a healthy sensor)
-    models = coupled(results)
-
-    def reaches(detector: str, a: str, b: str) -> bool:
-        # a measured input is a regressor of every model that has it (the bank's AR, the
-        # detection filter's B u, the equivalent model's relations, the error functions):
-        # its fault reaches every residual, whatever the detector's own coupling says
-        return models(detector, a, b) or b in excitation
-
-    findings, conflicts = one_fault_at_a_time(findings, reaches)
-    notes.extend(conflicts)
-    for f in (f for f in findings if f.channel in excitation):
+    # the measured inputs' findings are notes; what they explain is their echo in the
+    # sensors (below), not the sensors' faults for as long as they last
+    on_inputs = [f for f in findings if f.channel in excitation]
+    for f in on_inputs:
         more = len({e.detector for e in f.events}) - 1
         notes.append(
             f"{f.channel} is a measured input (excitation) in the config, not a sensor under "
@@ -657,12 +646,54 @@ def _diagnose(
             + (f" (with {more} more detector(s))" if more > 0 else "")
             + " is not reported as a sensor fault"
         )
-    findings = [f for f in findings if f.channel not in excitation]
+    findings, echoes = _input_echoes(
+        [f for f in findings if f.channel not in excitation], on_inputs, rate_hz
+    )
+    notes.extend(echoes)
+    findings, conflicts = one_fault_at_a_time(findings, coupled(results))
+    notes.extend(conflicts)
     notes.extend(relabel_frozen(findings, values, chosen, rate_hz, healthy))
     notes.extend(traced_into_training(findings, reused is not None))
     if reused is not None:
         notes.extend(present_at_search_start(findings, train[1] / rate_hz, rate_hz))
     return findings, notes
+
+
+ECHO_WINDOWS = 4
+"""How soon after a measured input's anomaly (in long alarm windows: 8 s at 100 Hz) a
+sensor's finding begins for :func:`_input_echoes` to take it for its echo."""
+
+
+def _input_echoes(
+    findings: list[Finding], on_inputs: list[Finding], rate_hz: float
+) -> tuple[list[Finding], list[str]]:
+    """``findings`` less those that begin with an anomaly of a measured input (within
+    :data:`ECHO_WINDOWS` long alarm windows after its onset), and a note for each.
+
+    A measured input is a regressor of every model that has it (the bank's AR, the
+    detection filter's ``B u``, the equivalent model's relations, the error functions):
+    an offset on it moves every residual that takes it in, from its own onset (an offset
+    on a measured ground acceleration was reported as an offset on a healthy sensor 3.4 s
+    later). A sensor's fault that begins later, while the input's anomaly lasts, is its
+    own: taking every such fault for the input's hid a drift and a gain that began 30 s
+    into an input's offset (exit 0)."""
+    if not on_inputs:
+        return findings, []
+    near = ECHO_WINDOWS * LONG_FACTOR * default_window(rate_hz) / rate_hz
+    kept: list[Finding] = []
+    notes: list[str] = []
+    for f in findings:
+        cause = next((g for g in on_inputs if 0.0 <= f.onset_s - g.onset_s <= near), None)
+        if cause is None:
+            kept.append(f)
+            continue
+        notes.append(
+            f"{f.detector}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
+            f"reported: it began {f.onset_s - cause.onset_s:.1f} s after the {cause.type.value} "
+            f"anomaly on the measured input {cause.channel} ({cause.onset_s:.3f} s), which "
+            "reaches every residual that takes the input in: taken for its echo"
+        )
+    return kept, notes
 
 
 def _screened(

@@ -690,25 +690,45 @@ def _low_passed(tt: IntArray, vv: FloatArray, taps: FloatArray, period: float) -
 
     fin = np.isfinite(vv)
     at = _slots(tt, period, taps.shape[0] // 2 + 1)
+    full = float(np.sum(taps))
+    if at is None and bool(fin.all()):
+        # every sample there: only the taps past the ends are missing (no second pass)
+        num = signal.oaconvolve(vv, taps, mode="same")
+        return _edges_scaled(num, taps, full)
     if at is None:
-        spread = np.where(fin, vv, 0.0)
-        present = fin
+        spread, present = np.where(fin, vv, 0.0), fin.astype(np.float64)
     else:
         spread = np.zeros(int(at[-1]) + 1)
-        present = np.zeros(spread.shape[0], dtype=bool)
+        present = np.zeros(spread.shape[0])
         spread[at] = np.where(fin, vv, 0.0)
         present[at] = fin
     num = signal.oaconvolve(spread, taps, mode="same")
-    den = signal.oaconvolve(present.astype(np.float64), taps, mode="same")
+    den = signal.oaconvolve(present, taps, mode="same")
+    weight = signal.oaconvolve(present, np.abs(taps), mode="same")
     if at is not None:
-        num, den = num[at], den[at]
-    full = float(np.sum(taps))
+        num, den, weight = num[at], den[at], weight[at]
     # where every tap has its sample, den is the DC gain but for rounding: left as is
     partial = np.abs(den - full) > 1e-9 * abs(full)
     with np.errstate(divide="ignore", invalid="ignore"):
         num[partial] = num[partial] * (full / den[partial])
-    num[partial & (den < 0.5 * full)] = np.nan
+    # the samples present cancel more than half their weight (mostly the filter's
+    # negative side lobes): no low-passed value to stand for the tick
+    num[partial & ~(den > 0.5 * weight)] = np.nan
     num[~fin] = np.nan
+    return num
+
+
+def _edges_scaled(num: FloatArray, taps: FloatArray, full: float) -> FloatArray:
+    """``num`` (``oaconvolve(v, taps, "same")`` of a channel with every sample) with the
+    outputs near its ends scaled to the DC gain ``full`` by the taps that had a sample
+    (their sums from the taps' running sum, no second convolution)."""
+    n, size = num.shape[0], taps.shape[0]
+    h = (size - 1) // 2  # "same" output j is the full convolution's j + h
+    c = np.concatenate(([0.0], np.cumsum(taps)))
+    j = np.unique(np.r_[np.arange(min(h, n)), np.arange(max(0, n - (size - h)), n)])
+    den = c[np.minimum(size - 1, j + h) + 1] - c[np.maximum(0, j + h - n + 1)]
+    fix = (np.abs(den - full) > 1e-9 * abs(full)) & (den > 0.0)
+    num[j[fix]] *= full / den[fix]
     return num
 
 

@@ -113,6 +113,11 @@ def test_a_groups_measured_inputs_feed_the_models_detection_filter(building, tmp
             "share a1",
         ),
         (
+            '[[group]]\nname = "a"\nchannels = ["s0", "s1", "a1"]\n'
+            '[[group]]\nname = "b"\nchannels = ["s2", "s3"]\ninputs = ["a1"]\n',
+            "share a1",
+        ),
+        (
             '[detectors.error_function]\napproach = "indirect"\n',
             'approach = "indirect" needs a [model]',
         ),
@@ -380,3 +385,31 @@ def test_a_fault_on_a_measured_input_is_no_sensors_fault(tmp_path, capsys):
     doc = json.loads((out / "findings.json").read_text())
     assert doc["faults"] == []
     assert any("u is a measured input" in n for n in doc["notes"]), doc["notes"]
+
+
+def test_a_sensors_fault_during_an_inputs_anomaly_is_reported(tmp_path, capsys):
+    """A sensor's own fault that begins while a measured input's anomaly lasts is not
+    taken for its echo (a measured input reaching every residual hid it, exit 0): only
+    what begins with the input's anomaly is."""
+    rate, n = 100.0, 12_000
+    rng = np.random.default_rng(3)
+    b = shear_building(4)
+    u = band_limited_noise(n, rate, 15.0, rng)
+    Y = simulate_response(b, u, rate)
+    Y += rng.standard_normal(Y.shape) * Y.std(0) * 0.1
+    data = {f"s{i}": Y[:, i] for i in range(4)}
+    data["s2"] = inject_fault(data["s2"], rate, "additive", 70.0, 3.0 * float(data["s2"].std()))
+    data["u"] = inject_fault(u + 0.05 * rng.standard_normal(n), rate, "additive", 40.0, 3.0)
+    t_ns = np.round(np.arange(n) / rate * 1e9).astype(np.int64)
+    write_archive(tmp_path / "a.csv", "csv", t_ns, data)
+    cfg = _config(
+        tmp_path, '[[group]]\nname = "b"\nchannels = ["s0", "s1", "s2", "s3"]\ninputs = ["u"]\n'
+    )
+    out = tmp_path / "o"
+    code, _, err = run_cli(
+        ["run", tmp_path / "a.csv", "--config", cfg, "--train", "0:30", "--out", out], capsys
+    )
+    assert code == 1, err
+    doc = json.loads((out / "findings.json").read_text())
+    assert [(f["channel"], f["type"]) for f in doc["faults"]] == [("s2", "additive")]
+    assert abs(doc["faults"][0]["onset_s"] - 70.0) < 0.5
