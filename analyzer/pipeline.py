@@ -276,7 +276,7 @@ def _analyze(
         values = aligned.materialize(path, unreadable=unreadable)
         if unreadable.any():
             notes.append(
-                "infinite or absurd values (beyond 1e100: an overrange or error code?) "
+                "infinite or absurd values (beyond 1e30: an overrange or error code?) "
                 "taken as gaps: "
                 + ", ".join(
                     f"{c} ({n})" for c, n in zip(chosen, unreadable.tolist(), strict=True) if n

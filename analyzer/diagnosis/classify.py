@@ -156,7 +156,7 @@ def _scaled_gain(
     with np.errstate(over="ignore", invalid="ignore"):
         root = float(np.sqrt(szy * szy + 4.0 * n * noise * szz))
     if not np.isfinite(root) or not np.isfinite(szz):
-        # readings near 1e90 (accepted: only values beyond 1e100 are gaps) overflow the
+        # readings near 1e90 (values beyond 1e30 are gaps, but classify takes any) overflow the
         # squared sums: no scaled fit (it divided by a gain of 0 and crashed the run)
         return None
     best: tuple[float, float] | None = None

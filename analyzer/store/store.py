@@ -39,11 +39,13 @@ from analyzer.types import NS_PER_S
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
-UNREADABLE = 1e100
+UNREADABLE = 1e30
 """Magnitude beyond which an aligned value is no sensor's reading in any unit (an
 infinity, an overrange code, a corrupt cell) and is taken as a gap: its square, and a
 sum of a few of those, would overflow, and with them every variance and test statistic
-of its stretch."""
+of its stretch; and the detectors keep their residuals and estimates in float32, whose
+range ends at 3.4e38 (readings of 1e90, accepted when the bound was 1e100, left every
+residual figure blank and the innovation tests empty, without a word)."""
 
 GAP_FACTOR = 2.5
 """A step between raw samples longer than this many nominal periods is a gap (so one

@@ -431,13 +431,15 @@ def test_a_full_disk_while_signals_go_to_files_is_a_one_line_error(
     assert not (tmp_path / "o").exists()
 
 
-@pytest.mark.parametrize("code", ["inf", "-1e300"])
+@pytest.mark.parametrize("code", ["inf", "-1e300", "1e90", "-5e38"])
 def test_an_infinite_value_is_a_gap_not_a_fault(code, tmp_path, capsys):
     """One ``inf`` cell (a logger's overrange code) entered the equivalent model's
     observers as the largest float: a "drift" of 1e296 per second on another channel,
     a NaN confidence, and findings.json could not be written (an internal error); a
     ``1e300`` was a "drift" too. Now the aligned value is a gap, named in the notes: the
-    findings of the same file with ``nan`` in that cell."""
+    findings of the same file with ``nan`` in that cell. So is a reading beyond float32's
+    range, where the detectors keep their residuals (1e90 left every residual figure
+    blank and the innovation tests empty)."""
     t, Y, names = simulate_building(n_floors=3, duration_s=60.0, seed=0)
     t_ns = np.round(t * 1e9).astype(np.int64)
     Y[len(t) // 2, 0] = np.inf
@@ -454,7 +456,7 @@ def test_an_infinite_value_is_a_gap_not_a_fault(code, tmp_path, capsys):
         codes.append(code)
         docs.append(json.loads((out / "findings.json").read_text()))
     assert docs[0]["notes"] == [
-        "infinite or absurd values (beyond 1e100: an overrange or error code?) taken as "
+        "infinite or absurd values (beyond 1e30: an overrange or error code?) taken as "
         f"gaps: {names[0]} (1)",
         *docs[1]["notes"],
     ]
@@ -639,7 +641,7 @@ def test_an_internal_error_exits_2_with_or_without_its_traceback(
 
 
 def test_readings_near_1e90_do_not_crash_the_classifier():
-    """Readings of about 1e90 (accepted: only values beyond 1e100 are gaps) overflowed the
+    """Readings of about 1e90 (given to the classifier: the store takes them as gaps) overflowed the
     gain's squared sums, and the scaled gain divided by zero: an internal error at the end
     of a run that had found a fault."""
     from analyzer.diagnosis import classify
