@@ -252,9 +252,10 @@ class _Clock:
     ``high`` and ``behind`` are the running maximum of the stamps and whether the last
     message was dropped (a stretch behind ``high``), ``ref`` the header-minus-log offset
     of the last message, all three over the *settled* messages. The ``open_*`` arrays
-    (stamps, log times, message numbers) hold a trailing stretch that is ahead of ``ref``
+    (stamps, log times, message numbers) hold a trailing run that is ahead of ``ref``
     by more than the window and could still be a glitch: it was passed on, but it sets
-    neither ``high`` nor ``ref`` until the next batch shows what follows it.
+    neither ``high`` nor ``ref`` until the next batch shows what follows it (what is left
+    at the end of the topic is said by :meth:`TopicTracker.lines`).
     """
 
     high: int | None = None
@@ -277,32 +278,41 @@ class _Relabels:
 def forward_outliers(
     t: IntArray, log_ns: IntArray, ref: int | None, window: int
 ) -> tuple[BoolArray, BoolArray, IntArray, BoolArray]:
-    """Short stretches of messages stamped ahead of the messages around them.
+    """Short runs of messages stamped ahead of the messages around them.
 
     ``t`` and ``log_ns`` are the header stamps and log times of messages in log-time
     order; ``ref`` is the header-minus-log offset of the message before them (None at the
     start of a topic). On a healthy topic the offset ``o_i = t_i - log_i`` is nearly
-    constant whatever the rate. The offsets are cut into stretches where two consecutive
-    ones differ by more than ``window``; a stretch is a *glitch* (a GPS/PTP hiccup, a bit
-    flip in the stamp) when
+    constant whatever the rate. A run of messages ``a .. b-1`` is a *glitch* (a GPS/PTP
+    hiccup, bit flips in the stamps) when
 
-    * its offsets all exceed those of the message before it and the message after it by
-      more than ``window``, and those two agree within ``window``;
+    * its offsets *all* exceed those of the message before it (``o_{a-1}``) and the
+      message after it (``o_b``) by more than ``window``, and those two agree within
+      ``window``. The run's own offsets need not agree with each other: two garbage
+      stamps in a row (+100 s, +37 s) are one run. For a given start the run is the
+      messages up to the first one back within ``window`` above ``o_{a-1}``; it starts
+      where the offset jumps up by more than ``window``;
     * it lasts at most ``window`` in log time (one message, or a short run);
     * at the start of a topic, where no message before it tells which clock is right, it
-      is at most :data:`LEAD_GLITCH_MESSAGES` long and the two messages after it agree (a
-      longer first stretch sets the clock: a clock that steps back after it is a step);
+      is at most :data:`LEAD_GLITCH_MESSAGES` long and the two messages after it agree
+      (the longest such first run is taken; a longer one sets the clock: a clock that
+      steps back after it is a step);
     * the stamp goes back by more than ``window`` after it (the running-maximum rule of
       :class:`TopicTracker` would otherwise take the glitch for the newest stamp and drop
       what follows: a monotonic clock never has a glitch).
 
-    Returns ``(glitch, open, ahead, aside)``: the messages of a glitch; the trailing
-    stretch that could still be one once the next message is known (ahead of ``ref``, or
-    the start of a topic, and lasting at most ``window`` so far; at the start of a topic
-    also a first stretch followed by a single message, which could be the glitch as well);
-    by how much each message's offset exceeds that of its neighbours (meaningful where
-    ``glitch``); and the messages the running maximum must leave out (the glitches, and
-    that undecided first stretch).
+    Runs found from different starts nest (0, +50, +100, +50, 0: the +100 s message and
+    the three); a message is a glitch when it is in any of them.
+
+    Returns ``(glitch, open, ahead, aside)``: the messages of a glitch; the trailing run
+    that could still be one once the next messages are known (ahead of the message before
+    it by more than ``window`` throughout and lasting at most ``window`` so far, the
+    earliest such start; at the start of a topic the whole batch while it may still be
+    the first run: at most :data:`LEAD_GLITCH_MESSAGES` messages within ``window``, or a
+    first run followed by a single message); by how much each message's offset exceeds
+    those around its outermost run (meaningful where ``glitch``); and the messages the
+    running maximum must leave out (the glitches, and an undecided start of a topic but
+    for its last message).
     """
     m = int(t.shape[0])
     glitch = np.zeros(m, dtype=bool)
@@ -313,51 +323,112 @@ def forward_outliers(
     o = t - log_ns
     lead = 0 if ref is None else 1
     full = o if ref is None else np.concatenate((np.array([ref], dtype=np.int64), o))
-    cuts = np.flatnonzero(np.abs(np.diff(full)) > window) + 1
-    if cuts.size == 0 and ref is not None:
+    steps = np.diff(full)
+    if ref is not None and not bool(np.any(np.abs(steps) > window)):
         return glitch, pending, ahead, glitch  # one stretch, continuing the settled one
     size = int(full.shape[0])
-    starts = np.concatenate((np.zeros(1, dtype=np.int64), cuts))
-    ends = np.concatenate((cuts, np.array([size], dtype=np.int64)))
-    # per stretch; with ``ref`` the first stretch holds ``ref`` and is never a candidate
+    # with ``ref`` position 0 is the settled message before: never in a run
     ft = t if ref is None else np.concatenate((t[:1], t))
     fl = log_ns if ref is None else np.concatenate((log_ns[:1], log_ns))
-    low = np.minimum.reduceat(full, starts)
-    top = np.maximum.reduceat(ft, starts)
-    span = fl[ends - 1] - fl[starts]
-    has_prev = starts > 0
-    has_next = ends < size
-    before = full[np.maximum(starts - 1, 0)]  # meaningful where has_prev
-    nxt = np.minimum(ends, size - 1)
-    after = full[nxt]
-    counts = ends - starts
-    first = (starts == 0) & (ref is None) & (counts <= LEAD_GLITCH_MESSAGES)
-    # the two messages after a topic's first stretch agree: the second is in the same
-    # stretch as the first
-    after2 = np.minimum(ends + 1, size - 1)
-    agree = np.where(
-        has_prev,
-        np.abs(after - before) <= window,
-        (ends + 1 < size) & (np.abs(full[after2] - after) <= window),
+    # candidate starts: the offset jumps up; the run ends at the first message whose
+    # offset is back within ``window`` above the one before the start (``size``: not yet)
+    starts = np.flatnonzero(steps > window) + 1
+    before = full[starts - 1]
+    ends = _first_at_most(full, starts, before + window)
+    found = ends < size
+    s, e, b = starts[found], ends[found], before[found]
+    after = full[e]
+    low = np.minimum.reduceat(full, np.column_stack((s, e)).ravel())[::2]
+    top = np.maximum.reduceat(ft, np.column_stack((s, e)).ravel())[::2]
+    closed = (
+        (after >= b - window)
+        & (low - after > window)
+        & (fl[e - 1] - fl[s] <= window)
+        & (top - ft[e] > window)
     )
-    around = np.where(has_prev, np.maximum(before, after), after)
-    ahead_of_next = has_next & (low - around > window) & (span <= window) & (top - ft[nxt] > window)
-    closed = (has_prev | first) & agree & ahead_of_next
-    last = int(starts.shape[0]) - 1
-    opened = (span[last] <= window) and (
-        bool(first[last]) or (bool(has_prev[last]) and int(low[last]) - int(before[last]) > window)
-    )
-    glitch = np.repeat(closed, counts)[lead:]
-    ahead = (full - np.repeat(around, counts))[lead:]
+    run_s, run_e = s[closed], e[closed]
+    around = np.maximum(b[closed], after[closed])
+    waiting = False
+    if ref is None:
+        waiting, first = _lead_run(full, ft, fl, window)
+        if first:
+            run_s = np.concatenate((np.zeros(1, dtype=np.int64), run_s))
+            run_e = np.concatenate((np.array([first], dtype=np.int64), run_e))
+            around = np.concatenate((full[first : first + 1], around))
+    inside = np.zeros(size, dtype=bool)
+    if run_s.size:
+        depth = np.cumsum(
+            np.bincount(run_s, minlength=size + 1) - np.bincount(run_e, minlength=size + 1)
+        )[:size]
+        inside = depth > 0
+        # the runs nest; each message is measured against its outermost run, the one
+        # that starts where the depth rises from 0
+        outer = (run_s == 0) | (depth[np.maximum(run_s - 1, 0)] == 0)
+        label = np.full(size, -1, dtype=np.int64)
+        label[run_s[outer]] = np.arange(int(np.count_nonzero(outer)))
+        label = np.maximum.accumulate(label)
+        base = np.where(label >= 0, around[outer][np.maximum(label, 0)], full)
+        ahead = (full - base)[lead:]
+        glitch = inside[lead:]
     aside = glitch.copy()
-    if bool(first[0]) and bool(ahead_of_next[0]) and int(ends[0]) + 1 == size:
-        # a topic's first stretch and one message after it: which of the two is right is
-        # not known yet; both wait, the first stretch out of the running maximum
+    if waiting:
+        # a topic's first messages, which may still be a glitch: all wait, all but the
+        # last out of the running maximum
         pending[:] = True
-        aside[: int(ends[0])] = True
-    elif opened:
-        pending[int(starts[last]) - lead :] = True
+        aside[: m - 1] = True
+    else:
+        open_ = ~found & (fl[size - 1] - fl[starts] <= window)
+        if bool(open_.any()):
+            pending[int(starts[np.argmax(open_)]) - lead :] = True
+    pending &= ~glitch  # a glitch inside it is dropped now, not carried
     return glitch, pending, ahead, aside
+
+
+def _lead_run(full: IntArray, ft: IntArray, fl: IntArray, window: int) -> tuple[bool, int]:
+    """The first run of a topic (:func:`forward_outliers`, no message before it): whether
+    the batch must wait for more messages, and the length of the first run that is a
+    glitch (0: none). A first run of ``j`` messages must be at most
+    :data:`LEAD_GLITCH_MESSAGES` long and ``window`` in log time, its offsets all more
+    than ``window`` above the message after it, its stamps more than ``window`` after
+    that message's, and the two messages after it must agree; the longest such run is
+    taken. With none, the batch waits while it ends with a candidate run and one message,
+    or is itself short enough to be one."""
+    size = int(full.shape[0])
+    cap = min(LEAD_GLITCH_MESSAGES, size - 1)
+    if cap >= 1:
+        j = np.arange(1, cap + 1)
+        low = np.minimum.accumulate(full[:cap])
+        top = np.maximum.accumulate(ft[:cap])
+        fits = (low - full[j] > window) & (fl[j - 1] - fl[0] <= window) & (top - ft[j] > window)
+        nxt = np.minimum(j + 1, size - 1)
+        agree = (j + 1 < size) & (np.abs(full[nxt] - full[j]) <= window)
+        valid = np.flatnonzero(fits & agree)
+        if valid.size:
+            return False, int(j[valid[-1]])
+        if bool(fits[-1]) and cap == size - 1:
+            return True, 0  # the run and one message after it: which is right is not known
+    short = size <= LEAD_GLITCH_MESSAGES and int(fl[size - 1]) - int(fl[0]) <= window
+    return short, 0
+
+
+def _first_at_most(values: IntArray, begin: IntArray, limit: IntArray) -> IntArray:
+    """For each query ``q``, the first index ``i >= begin[q]`` with ``values[i] <=
+    limit[q]`` (``len(values)`` where there is none): a greedy descent over a sparse table
+    of minima, ``log2(len(values))`` vectorized steps for all queries at once."""
+    n = int(values.shape[0])
+    pos = begin.astype(np.int64, copy=True)
+    if pos.size == 0:
+        return pos
+    tables = [values]  # tables[k][i] = min(values[i : i + 2**k])
+    while (1 << len(tables)) <= n:
+        prev, half = tables[-1], 1 << (len(tables) - 1)
+        tables.append(np.minimum(prev[:-half], prev[half:]))
+    for k in range(len(tables) - 1, -1, -1):
+        table = tables[k]
+        fits = pos < table.shape[0]
+        skip = fits & (table[np.minimum(pos, table.shape[0] - 1)] > limit)
+        pos += skip.astype(np.int64) << k
+    return pos
 
 
 def _running_max(
@@ -391,6 +462,26 @@ def _running_max(
     return drop, far & ~dropped_before, prev, runmax
 
 
+def _newest(
+    t: IntArray, out: BoolArray, high: int | None, behind: bool, window: int
+) -> tuple[BoolArray, BoolArray, IntArray, IntArray, IntArray]:
+    """:func:`_running_max` over the messages of ``t`` not ``out``: which of all the
+    messages to drop, where a jump back starts (over those used), the messages used, the
+    newest stamp before each of them and the running maximum after it."""
+    m = int(t.shape[0])
+    used = np.flatnonzero(~out) if bool(out.any()) else np.arange(m)
+    if used.size == 0:
+        return np.zeros(m, dtype=bool), np.zeros(0, dtype=bool), used, EMPTY_T, EMPTY_T
+    drop_u, events_u, prev_u, runmax_u = _running_max(
+        t[used] if used.size < m else t, high, behind, window
+    )
+    drop = drop_u
+    if used.size < m:
+        drop = np.zeros(m, dtype=bool)
+        drop[used] = drop_u
+    return drop, events_u, used, prev_u, runmax_u
+
+
 class TopicTracker:
     """What one pass of a ROS or MCAP reader notes per topic beside the samples, and the
     time each message gets; :meth:`push` hands the samples on to a :class:`Reorderer`.
@@ -406,10 +497,14 @@ class TopicTracker:
     * with ``--time header``: a short stretch stamped ahead of the messages around it
       (:func:`forward_outliers`: one message stamped 100 s in the future) is dropped and
       counted. Otherwise it would be the newest stamp, and everything after it "behind".
-      A stretch at the end of a batch is decided by the next batch of its topic: it has
-      been passed on by then, so such a glitch is kept (counted apart), but it does not
-      set the newest stamp. A topic's first few messages (:data:`LEAD_GLITCH_MESSAGES`)
-      are taken as a glitch only when the two messages after them agree;
+      A run of bad stamps need not agree with itself (+100 s, +37 s): it is tested as a
+      whole against the messages around it. A run at the end of a batch is decided by
+      the next batch of its topic: it has been passed on by then, so such a glitch is
+      kept (counted apart), but it does not set the newest stamp. One still open at the
+      end of the topic is kept and said (with nothing after it, a glitch cannot be told
+      from a clock that stepped forward). A topic's first few messages
+      (:data:`LEAD_GLITCH_MESSAGES`) are taken as a glitch only when the two messages
+      after them agree;
     * with ``--time header``: a header clock that goes back by more than the reorder
       window (a clock step, a restarted simulator). Sorting would interleave the stretch
       after the step with the one before it (the aligner then keeps one of two samples
@@ -510,25 +605,28 @@ class TopicTracker:
         if carried:
             new = (np.arange(m) if order is None else order) >= carried
         glitch, pending, ahead, aside = forward_outliers(t, log_ns, clock.ref, self._window)
-        use = ~aside
-        used = np.flatnonzero(use) if bool(aside.any()) else np.arange(m)
-        drop_u, events_u, prev_u, runmax_u = _running_max(
-            t[used] if used.size < m else t, clock.high, clock.behind, self._window
+        # the open run is left out of the running maximum (its stamps need not agree with
+        # each other), unless that rule drops some of it against the settled newest stamp:
+        # then it is behind, not a glitch, and settled with the rest as before
+        drop, events_u, used, prev_u, runmax_u = _newest(
+            t, aside | pending, clock.high, clock.behind, self._window
         )
-        drop = drop_u
-        if used.size < m:
-            drop = np.zeros(m, dtype=bool)
-            drop[used] = drop_u
-        if bool(pending.any()) and bool(drop[pending].any()):
-            pending[:] = False  # behind the newest stamp: dropped by that rule, settled
-        # the settled messages used by the running maximum come first in ``used``
-        settled = int(np.count_nonzero(use & ~pending))
-        if settled:
-            clock.high = int(runmax_u[settled - 1])
-            clock.behind = bool(drop_u[settled - 1])
-        last = np.flatnonzero(use & ~pending)
-        if last.size:
-            at = int(last[-1])
+        if bool(pending.any()):
+            high = int(runmax_u[-1]) if used.size else clock.high
+            behind = bool(drop[used[-1]]) if used.size else clock.behind
+            if high is not None:
+                later = t[pending]
+                if bool(np.any(later < high - self._window)) or (
+                    behind and bool(np.any(later <= high))
+                ):
+                    pending[:] = False
+                    drop, events_u, used, prev_u, runmax_u = _newest(
+                        t, aside, clock.high, clock.behind, self._window
+                    )
+        if used.size:
+            clock.high = int(runmax_u[-1])
+            clock.behind = bool(drop[used[-1]])
+            at = int(used[-1])
             clock.ref = int(t[at]) - int(log_ns[at])
         clock.open_t, clock.open_log, clock.open_idx = t[pending], log_ns[pending], idx[pending]
         self._note(topic, glitch, new, drop, events_u, used, prev_u, t, log_ns, idx, ahead)
@@ -610,6 +708,18 @@ class TopicTracker:
                 f"ahead of the messages around them (the first: message {found.index}, "
                 f"{self._at(found.log_ns)}, {found.ahead_ns / 1e9:.1f} s ahead): "
                 f"{found.dropped} dropped{kept} (--time log keeps them)"
+            )
+        for topic, clock in self._clocks.items():
+            if clock.ref is None or not clock.open_t.size:
+                continue
+            k = int(clock.open_t.size)
+            lead = int(clock.open_t[0]) - int(clock.open_log[0]) - clock.ref
+            out.append(
+                f"{topic}: the last {k} messages read are stamped more than {window} ahead "
+                f"of the message before them (the first: message {int(clock.open_idx[0])}, "
+                f"{self._at(int(clock.open_log[0]))}, {lead / 1e9:.1f} s ahead): kept (with "
+                "no message after them, a glitch cannot be told from a clock that stepped "
+                "forward) (--time log keeps them)"
             )
         for topic, jumps in self._jumps.items():
             if not jumps.events:

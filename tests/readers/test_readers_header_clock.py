@@ -264,12 +264,135 @@ def test_forward_outliers_rules() -> None:
     step = flat + np.where(np.arange(10) >= 4, 100 * S, 0)
     assert not forward_outliers(step, log, 0, w)[0].any()
     # a slow topic on a clock that runs 4x faster than the log clock: offsets grow by 3 s
-    # and more per message, but the stamps never go back
+    # and more per message, but the stamps never go back. The last 2 s (messages 7-9, all
+    # more than 2 s above message 6) stay open: a run's offsets need not agree, so the
+    # three could still be one glitch if the next message went back to message 6's
     fast = log * 4
     glitch, pending, _, _ = forward_outliers(fast, log, 0, w)
-    assert not glitch.any() and np.flatnonzero(pending).tolist() == [9]
+    assert not glitch.any() and np.flatnonzero(pending).tolist() == [7, 8, 9]
     tail = flat.copy()
     tail[9] += 100 * S
     glitch, pending, _, _ = forward_outliers(tail, log, 0, w)
     assert not glitch.any() and np.flatnonzero(pending).tolist() == [9]
     assert not forward_outliers(flat, log, 0, w)[1].any()
+
+
+# --------------------------------------------------------------------------- runs of glitches
+# bad stamps in a row seldom agree with each other: the run is tested as a whole against
+# the messages around it
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "ros1", "ros2"])
+def test_adjacent_glitches_that_disagree_are_one_run(tmp_path: Path, fmt: str) -> None:
+    """Messages 100 and 101 are stamped 100 s and 37 s ahead: one run of two, both above
+    the messages around it, dropped. Before, each was a stretch of its own and neither
+    had agreeing neighbours: message 100 became the newest stamp and the 899 messages
+    from 101 on were dropped as behind it (101 of 1000 kept)."""
+    ahead = {100: 100 * S, 101: 37 * S}
+    t, v, errors, _ = _read(write(tmp_path / NAMES[fmt], fmt, _glitched(ahead)), "/imu")
+    assert v.tolist() == [i for i in range(1000) if i not in ahead]
+    assert t.tolist() == [T0 + i * MS for i in range(1000) if i not in ahead]
+    assert errors == [
+        "/imu: 2 messages stamped more than 2 s ahead of the messages around them (the "
+        "first: message 100, t=1.00 s, 100.0 s ahead): 2 dropped (--time log keeps them)"
+    ]
+
+
+def test_disagreeing_glitches_at_the_first_messages(tmp_path: Path) -> None:
+    """The topic's first two stamps are 100 s and 50 s ahead: the first run is both (at
+    most 4 messages, the two after it agree). Before, the 999 messages after the first
+    were dropped as behind it (1 of 1000 kept)."""
+    path = write(tmp_path / "lead.mcap", "mcap", _glitched({0: 100 * S, 1: 50 * S}))
+    _, v, errors, _ = _read(path, "/imu")
+    assert v.tolist() == list(range(2, 1000))
+    assert errors == [
+        "/imu: 2 messages stamped more than 2 s ahead of the messages around them (the "
+        "first: message 0, t=0.00 s, 100.0 s ahead): 2 dropped (--time log keeps them)"
+    ]
+
+
+def test_a_lone_glitch_then_a_disagreeing_pair(tmp_path: Path) -> None:
+    """One glitch (+100 s at message 100), then a pair (+50 s, +20 s at 300 and 301):
+    three dropped, the rest kept (300 of 1000 before)."""
+    ahead = {100: 100 * S, 300: 50 * S, 301: 20 * S}
+    _, v, errors, _ = _read(write(tmp_path / "three.mcap", "mcap", _glitched(ahead)), "/imu")
+    assert v.tolist() == [i for i in range(1000) if i not in ahead]
+    assert errors == [
+        "/imu: 3 messages stamped more than 2 s ahead of the messages around them (the "
+        "first: message 100, t=1.00 s, 100.0 s ahead): 3 dropped (--time log keeps them)"
+    ]
+
+
+def test_disagreeing_run_across_a_batch_boundary() -> None:
+    """A batch ends with stamps 50 s and 100 s ahead, the next starts back on time: the
+    two stay open together (the earliest start that is still ahead), so the next batch
+    shows them as one run; they were passed on (kept, said) and set no newest stamp.
+    Before, only the last was held open: the first set the newest stamp and the 200
+    messages of the next batch were dropped as behind it."""
+    n = 400
+    i = np.arange(n)
+    log = T0 + i * MS
+    stamps = log.copy()
+    stamps[198] += 50 * S
+    stamps[199] += 100 * S
+    tracker = TopicTracker("header")
+    reorder = Reorderer(repeats=True)
+    tracker.push(reorder, "/b", _decoded(i[:200], stamps[:200]), log[:200])
+    tracker.push(reorder, "/b", _decoded(i[200:], stamps[200:]), log[200:])
+    v = collect(reorder.flush())["/b.x"][1]
+    assert v.tolist() == [k for k in range(n) if k not in (198, 199)] + [198, 199]
+    assert tracker.lines() == [
+        "/b: 2 messages stamped more than 2 s ahead of the messages around them (the first: "
+        "message 198, t=1.98 s, 50.0 s ahead): 0 dropped, 2 kept (passed on at the end of "
+        "a batch, before the next message showed them; they no longer count as the newest "
+        "stamp) (--time log keeps them)"
+    ]
+
+
+def test_glitch_on_the_last_message_is_said(tmp_path: Path) -> None:
+    """The topic's last stamp is 100 s ahead: nothing after it tells a glitch from a
+    clock that stepped forward, and it was passed on before the end was known. It is
+    kept, as before, but said (nothing was said before); a clock that steps forward and
+    stays, earlier in the file, is still not said
+    (:func:`test_clock_that_steps_forward_and_stays_is_kept`)."""
+    t, v, errors, _ = _read(
+        write(tmp_path / "last.mcap", "mcap", _glitched({999: 100 * S})), "/imu"
+    )
+    assert v.size == 1000 and int(t[-1]) == T0 + 999 * MS + 100 * S
+    assert errors == [
+        "/imu: the last 1 messages read are stamped more than 2 s ahead of the message "
+        "before them (the first: message 999, t=9.99 s, 100.0 s ahead): kept (with no "
+        "message after them, a glitch cannot be told from a clock that stepped forward) "
+        "(--time log keeps them)"
+    ]
+
+
+def test_forward_outliers_runs() -> None:
+    """The run rule on offsets alone: a run whose offsets disagree (+100, +37) is one
+    glitch; runs nest (0, +50, +100, +50, 0: the outer run is the three, each measured
+    against the messages around it); a step back of 3 or 5 s that stays, or that comes
+    back up after a while, has no run above its neighbours; a run longer than the window
+    is a step."""
+    w = 2 * S
+    log = np.arange(12, dtype=np.int64) * S // 10  # 10 Hz
+    pair = log.copy()
+    pair[4] += 100 * S
+    pair[5] += 37 * S
+    glitch, pending, ahead, aside = forward_outliers(pair, log, 0, w)
+    assert np.flatnonzero(glitch).tolist() == [4, 5] and not pending.any()
+    assert (aside == glitch).all() and ahead[[4, 5]].tolist() == [100 * S, 37 * S]
+    nest = log.copy()
+    nest[4:7] += np.array([50, 100, 50]) * S
+    glitch, _, ahead, _ = forward_outliers(nest, log, 0, w)
+    assert np.flatnonzero(glitch).tolist() == [4, 5, 6]
+    assert ahead[[4, 5, 6]].tolist() == [50 * S, 100 * S, 50 * S]
+    for back in (3 * S, 5 * S):
+        step = log - np.where(np.arange(12) >= 4, back, 0)
+        assert not forward_outliers(step, log, 0, w)[0].any()
+        dip = log - np.where((np.arange(12) >= 4) & (np.arange(12) < 8), back, 0)
+        glitch, pending, _, _ = forward_outliers(dip, log, 0, w)
+        assert not glitch.any() and np.flatnonzero(pending).tolist() == [8, 9, 10, 11]
+    slow = np.arange(12, dtype=np.int64) * S  # 1 Hz: a 3 s run is a step, not a glitch
+    long = slow.copy()
+    long[4:8] += np.array([100, 37, 60, 80]) * S
+    assert not forward_outliers(long, slow, 0, w)[0].any()
