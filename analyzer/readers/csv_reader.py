@@ -253,11 +253,14 @@ class CsvReader:
         skipped = 0
         bad_cells: dict[str, int] = {}
         text_cells: dict[str, tuple[int, int]] = {}  # skipped columns: (non-blank, numbers)
+        filled: set[int] = set()  # columns Arrow parsed as numbers in some block
+        rows = 0
         self._clock = (0, 0)
         try:
             for batch, invalid in self._stream():
                 skipped += invalid
                 t_ns, keep = self._times(batch.column(self._layout.time_column))
+                rows += batch.num_rows
                 dropped = int(np.count_nonzero(~keep))
                 skipped += dropped
                 # one time array for every float64 column (the reorderer works out the
@@ -268,6 +271,7 @@ class CsvReader:
                         continue
                     column = batch.column(index)
                     if column.type == pa.float64():  # parsed by Arrow: all finite numbers
+                        filled.add(index)
                         values = _numpy(column)
                         reorder.push(name, t_kept, values[keep] if dropped else values)
                         continue
@@ -306,6 +310,17 @@ class CsvReader:
                     f"{name}: skipped as a text column, though {numbers} of its {nonblank} "
                     "non-blank cells are numbers"
                 )
+        blank = [
+            name
+            for index, name in enumerate(self._layout.names)
+            if index != self._layout.time_column
+            and index not in self._layout.ignored
+            and index not in self._numeric
+            and index not in filled
+        ]
+        if rows and blank:
+            # (a column blank in every row had no note: it vanished from inspect)
+            self._error(f"{', '.join(blank)}: blank in every row; no channel")
         for line in reorder.drop_report():
             self._error(line)
 

@@ -50,6 +50,17 @@ def test_duplicate_names_never_share_a_channel(tmp_path: Path) -> None:
     assert info.errors == []
 
 
+def test_a_column_blank_in_every_row_is_named(tmp_path: Path) -> None:
+    """A column with a header and no value in any row (a sensor not connected) vanished
+    from ``inspect`` without a word; a column blank in the first block only is read."""
+    path = tmp_path / "blank.csv"
+    late = "".join(f"{i * 0.01:.2f},{i},,{'' if i < 50 else i}\n" for i in range(100))
+    path.write_text("time,a,empty,late\n" + late)
+    got, info = read(path)
+    assert set(got) == {"a", "late"}
+    assert info.errors == ["empty: blank in every row; no channel"]
+
+
 @pytest.mark.parametrize(
     "odd",
     [
