@@ -185,7 +185,8 @@ def _jsonable(x: Any) -> Any:
 
 
 def write_outputs(analysis: Analysis, out_dir: Path) -> dict[str, Any]:
-    """``out_dir/findings.json`` and ``out_dir/report.html`` (atomically). The report's
+    """``out_dir/findings.json`` and ``out_dir/report.html`` (each atomically; both are
+    built before either is replaced, so an error leaves both as they were). The report's
     figures are drawn by the worker processes of an enclosing
     :func:`analyzer.report.workers.figure_workers` context (``analyzer run`` enters one),
     else in this process; the page is the same either way."""
@@ -200,8 +201,13 @@ def write_outputs(analysis: Analysis, out_dir: Path) -> dict[str, Any]:
             f"{out_dir / 'corrected.csv'} is not this run's (it was not asked for corrected "
             "signals, --corrected): an earlier run's output",
         ]
-    write_atomic(out_dir / "findings.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
-    write_atomic(out_dir / "report.html", render_report(analysis, doc))
+    # the page is rendered before either file is replaced: if rendering fails, the
+    # folder keeps the previous run's findings.json and report.html, a matching pair,
+    # rather than a new findings.json beside an old report
+    text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
+    html = render_report(analysis, doc)
+    write_atomic(out_dir / "findings.json", text)
+    write_atomic(out_dir / "report.html", html)
     if analysis.corrected is not None:
         write_corrected_csv(
             out_dir / "corrected.csv", analysis.times_between, analysis.analyzed, analysis.corrected

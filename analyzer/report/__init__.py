@@ -25,8 +25,10 @@ from jinja2 import (
     StrictUndefined,
     select_autoescape,
 )
+from markupsafe import Markup
 
 from analyzer.report.decimate import Envelope, envelope
+from analyzer.report.format import visible_controls
 from analyzer.report.view import MAX_DETAILED, ReportView, build_view
 from analyzer.report.workers import FigureWorkers, figure_workers
 
@@ -46,13 +48,24 @@ def _loader() -> BaseLoader:
     return FileSystemLoader(SOURCE_TEMPLATES)
 
 
+def _finalize(value: Any) -> Any:
+    """Every printed text (not the SVG figures, already :class:`Markup`) with its control
+    and bidi formatting characters made visible (:func:`~analyzer.report.format.visible_controls`):
+    escaping stops markup, this stops a channel name from reversing the text after it."""
+    if isinstance(value, str) and not isinstance(value, Markup):
+        return visible_controls(value)
+    return value
+
+
 def environment() -> Environment:
-    """The report's Jinja2 environment (autoescaped HTML, undefined names are errors)."""
+    """The report's Jinja2 environment (autoescaped HTML, undefined names are errors,
+    control characters in printed text made visible)."""
     global _env
     if _env is None:
         _env = Environment(
             loader=_loader(),
             autoescape=select_autoescape(["html"]),
+            finalize=_finalize,
             undefined=StrictUndefined,
             trim_blocks=False,
             lstrip_blocks=False,

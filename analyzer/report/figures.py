@@ -26,9 +26,10 @@ from matplotlib.axes import Axes
 from matplotlib.patches import Patch
 from scipy import special
 
+from analyzer.report import format as fmt
 from analyzer.report.decimate import Envelope, envelope, moving_mean
-from analyzer.report.jobs import MAX_POINTS, CoverageRow, ResidualPanel, Segment
-from analyzer.report.svg import grid, label, new_figure, style, text_width_in, to_svg
+from analyzer.report.jobs import MAX_POINTS, CoverageRow, ResidualPanel, Segment, close_up
+from analyzer.report.svg import grid, label, new_figure, shown_name, style, text_width_in, to_svg
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -61,11 +62,13 @@ class TimeAxis:
 
     @classmethod
     def for_span(cls, span_s: float) -> TimeAxis:
-        if span_s >= 3 * 3600:
-            return cls("h", 3600.0)
-        if span_s >= 15 * 60:
-            return cls("min", 60.0)
-        return cls("s", 1.0)
+        """The axis for a plotted span of ``span_s`` seconds (:func:`format.time_unit`)."""
+        return cls(*fmt.time_unit(span_s))
+
+    @classmethod
+    def for_times(cls, t: FloatArray) -> TimeAxis:
+        """The axis for the times ``t`` (seconds, sorted)."""
+        return cls.for_span(float(t[-1] - t[0])) if t.size else cls("s", 1.0)
 
     def label(self) -> str:
         return f"time from start ({self.unit})"
@@ -141,7 +144,7 @@ def coverage_figure(
     training window (``train_label``: with ``--model``, the filters' warm-up) shaded."""
     axis = TimeAxis.for_span(duration_s)
     n = len(rows)
-    names = [label(r.name) for r in reversed(rows)]
+    names = [label(shown_name(r.name)) for r in reversed(rows)]
     with style():
         fig = new_figure(WIDTH_IN, 0.9 + 0.24 * max(n, 1), constrained=False)
         # fixed margins instead of a constrained layout (which draws the figure twice):
@@ -219,12 +222,8 @@ def signal_figure(
     """The measured signal around the onset with the detector's fault-free estimate (the
     gap between them is the estimated fault). With ``close_s``, a second panel shows
     ``onset +- close_s`` closely enough to see the waveforms (shaded grey above)."""
-    axis = TimeAxis("s", 1.0)
-    close = None
-    if close_s is not None and t.size:
-        near = (t >= onset_s - close_s) & (t <= onset_s + close_s)
-        if np.count_nonzero(near) >= 4:
-            close = near
+    axis = TimeAxis.for_times(t)
+    close = close_up(t, onset_s, close_s)
     with style():
         fig = new_figure(WIDTH_IN, 3.0 if close is None else 5.6, constrained=False)
         axes = grid(fig, 1 if close is None else 2, top=0.3, hgap=0.55)[:, 0]
@@ -233,7 +232,7 @@ def signal_figure(
             views.append((axes[1], close))
         for i, (ax, sel) in enumerate(views):
             tt = t[sel]
-            _plot_series(ax, tt, measured[sel], axis, C_MEASURED, f"measured {channel}")
+            _plot_series(ax, tt, measured[sel], axis, C_MEASURED, f"measured {shown_name(channel)}")
             if estimate is not None:
                 _plot_series(
                     ax,
@@ -241,17 +240,21 @@ def signal_figure(
                     estimate[sel],
                     axis,
                     C_ESTIMATE,
-                    f"fault-free estimate ({estimate_name})",
+                    f"fault-free estimate ({shown_name(estimate_name)})",
                 )
             _mark_onset(ax, onset_s, end_s, axis)
             if tt.size:
-                ax.set_xlim(tt[0], tt[-1])
+                ax.set_xlim(tt[0] / axis.scale, tt[-1] / axis.scale)
             ax.set_ylabel("channel units")
             if i == 0:
                 _legend(ax)
                 if close is not None and close_s is not None:
                     ax.axvspan(
-                        onset_s - close_s, onset_s + close_s, color="#000000", alpha=0.06, lw=0
+                        (onset_s - close_s) / axis.scale,
+                        (onset_s + close_s) / axis.scale,
+                        color="#000000",
+                        alpha=0.06,
+                        lw=0,
                     )
             else:
                 ax.set_title(f"close-up: onset ± {close_s:g} s", loc="left")
@@ -269,15 +272,15 @@ def corrected_figure(
     key: str,
 ) -> Markup:
     """Measured and corrected signal (fault removed, Wang & Song 2014, Section 6.3)."""
-    axis = TimeAxis("s", 1.0)
+    axis = TimeAxis.for_times(t)
     with style():
         fig = new_figure(WIDTH_IN, 2.6, constrained=False)
         ax = grid(fig, 1, top=0.3)[0, 0]
-        _plot_series(ax, t, measured, axis, C_MEASURED, f"measured {channel}")
+        _plot_series(ax, t, measured, axis, C_MEASURED, f"measured {shown_name(channel)}")
         _plot_series(ax, t, corrected, axis, C_CORRECTED, "corrected")
         _mark_onset(ax, onset_s, end_s, axis)
         if t.size:
-            ax.set_xlim(t[0], t[-1])
+            ax.set_xlim(t[0] / axis.scale, t[-1] / axis.scale)
         ax.set_xlabel(axis.label())
         ax.set_ylabel("channel units")
         _legend(ax)
@@ -302,7 +305,7 @@ def residual_figure(
     process in 24 kB). Below, per detector that saw the fault: its residual around the
     onset, its moving mean and the threshold band that mean must leave."""
     axis = TimeAxis.for_span(duration_s)
-    sec = TimeAxis("s", 1.0)
+    sec = TimeAxis.for_times(panels[0].t) if panels else TimeAxis("s", 1.0)
     with style():
         fig = new_figure(WIDTH_IN, 2.3 + 1.9 * len(panels), constrained=False)
         axes = grid(fig, 1 + len(panels), top=0.3, hgap=0.75)[:, 0]
@@ -315,7 +318,7 @@ def residual_figure(
             lw=0,
             label=train_label,
         )
-        _plot_envelope(ax, overview, axis, C_RESIDUAL, f"residual ({overview_name})")
+        _plot_envelope(ax, overview, axis, C_RESIDUAL, f"residual ({shown_name(overview_name)})")
         _mark_onset(ax, onset_s, end_s, axis)
         ax.set_xlim(0, max(duration_s, 1e-9) / axis.scale)
         ax.set_title("whole record", loc="left")
@@ -328,7 +331,7 @@ def residual_figure(
                 mm = moving_mean(p.residual, p.window)
                 env = envelope(p.t, mm, MAX_POINTS)
                 ax.plot(
-                    env.t,
+                    env.t / sec.scale,
                     0.5 * (env.lo + env.hi),
                     color=C_MEAN,
                     lw=1.0,
@@ -347,8 +350,8 @@ def residual_figure(
                     ax.axhline(p.center + s * p.half_band, color=C_BAND, lw=0.8, ls=":")
             _mark_onset(ax, onset_s, end_s, sec)
             if p.t.size:
-                ax.set_xlim(p.t[0], p.t[-1])
-            ax.set_title(label(f"{p.detector}: around the onset"), loc="left")
+                ax.set_xlim(p.t[0] / sec.scale, p.t[-1] / sec.scale)
+            ax.set_title(label(f"{shown_name(p.detector)}: around the onset"), loc="left")
             ax.set_ylabel("channel units")
             _legend(ax)
         axes[-1].set_xlabel(sec.label() if panels else axis.label())
@@ -358,7 +361,7 @@ def residual_figure(
 def _shewhart(ax: Axes, seg: Segment) -> None:
     sh = (seg.tests or {}).get("shewhart", {})
     k = float(sh.get("k") or 3.0)
-    sec = TimeAxis("s", 1.0)
+    sec = TimeAxis.for_times(seg.t)
     _plot_series(ax, seg.t, seg.z, sec, C_MEASURED, "z", lw=0.5)
     for s in (-k, k):
         ax.axhline(s, color=C_BAND, lw=0.9, ls="--")
@@ -370,8 +373,8 @@ def _shewhart(ax: Axes, seg: Segment) -> None:
     ax.axhline(0.0, color="#555555", lw=0.6)
     count, n = sh.get("count"), sh.get("n")
     sub = f"{count} of {n} beyond ±{k:g}" if count is not None and n else ""
-    ax.set_title(label(f"{seg.name}: Shewhart chart\n{sub}"), loc="left")
-    ax.set_xlabel("time from start (s)")
+    ax.set_title(label(f"{shown_name(seg.name)}: Shewhart chart\n{sub}"), loc="left")
+    ax.set_xlabel(sec.label())
     ax.set_ylabel("standardized residual z")
 
 
@@ -433,7 +436,12 @@ def tests_figure(segments: Sequence[Segment], detector: str, key: str) -> Markup
             _shewhart(row[0], seg)
             _probability(row[1], seg)
             _acf(row[2], seg)
-        fig.suptitle(label(f"standardized residual of {detector}"), x=0.01, ha="left", fontsize=9.5)
+        fig.suptitle(
+            label(f"standardized residual of {shown_name(detector)}"),
+            x=0.01,
+            ha="left",
+            fontsize=9.5,
+        )
         return to_svg(fig, key)
 
 

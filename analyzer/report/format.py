@@ -4,10 +4,33 @@ rounding decision lives here, next to the code that computed the number."""
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from typing import Any
 
 MISSING = "n/a"
+
+_CONTROLS = re.compile("[\x00-\x08\x0a-\x1f\x7f-\x9f\u061c\u200e\u200f\u202a-\u202e\u2066-\u2069]")
+"""C0 and C1 control characters but the tab, and the bidi formatting characters (marks,
+embeddings, overrides, isolates): in a channel name they would garble or reverse the
+display of whatever follows them on the page (a time ``30.000 s`` shown as
+``s 000.03``), and XML does not allow most C0 characters in an SVG text."""
+
+
+def visible_controls(text: str) -> str:
+    """``text`` with each control or bidi formatting character (:data:`_CONTROLS`)
+    replaced by its visible escape (``\\u202e``): data from a recorder is shown as it
+    is, but cannot reorder or hide the text around it."""
+    return _CONTROLS.sub(lambda m: f"\\u{ord(m.group()):04x}", text)
+
+
+def shorten(text: str, limit: int = 48) -> str:
+    """``text`` cut to ``limit`` characters with an ellipsis in the middle (a deep ROS
+    path keeps its root and its leaf), for figure labels; tables show the full name."""
+    if len(text) <= limit:
+        return text
+    head = (limit - 1) // 2
+    return text[:head] + "…" + text[len(text) - (limit - 1 - head) :]
 
 
 def num(x: Any, digits: int = 4) -> str:
@@ -30,6 +53,30 @@ def seconds(x: float | None, decimals: int = 3) -> str:
     if x is None or not math.isfinite(float(x)):
         return MISSING
     return f"{float(x):.{decimals}f} s"
+
+
+TIME_UNITS = (("d", 86400.0, 3 * 86400.0), ("h", 3600.0, 3 * 3600.0), ("min", 60.0, 15 * 60.0))
+"""(unit, seconds per unit, shortest span shown in it): a span below the last is shown
+in seconds."""
+
+
+def time_unit(span_s: float) -> tuple[str, float]:
+    """The unit a span of ``span_s`` seconds reads best in and its length in seconds:
+    ``("s", 1.0)`` below a quarter of an hour, then minutes, hours, days (findings.json
+    keeps seconds; figures and captions of long records use these)."""
+    for unit, scale, shortest in TIME_UNITS:
+        if span_s >= shortest:
+            return unit, scale
+    return "s", 1.0
+
+
+def at(x: float | None, span_s: float) -> str:
+    """A time from the start in the unit of :func:`time_unit` for ``span_s``:
+    ``16.000 s`` (as :func:`seconds`), ``137.60 h``, ``5.733 d``."""
+    unit, scale = time_unit(span_s)
+    if unit == "s" or x is None or not math.isfinite(float(x)):
+        return seconds(x)
+    return f"{float(x) / scale:.{3 if unit == 'd' else 2}f} {unit}"
 
 
 def clock(x: float | None) -> str:
@@ -129,6 +176,8 @@ def is_short_list(v: Any, limit: int = 8) -> bool:
 
 __all__ = [
     "MISSING",
+    "TIME_UNITS",
+    "at",
     "clock",
     "duration",
     "is_scalar",
@@ -139,5 +188,8 @@ __all__ = [
     "rate",
     "scalar",
     "seconds",
+    "shorten",
     "size",
+    "time_unit",
+    "visible_controls",
 ]

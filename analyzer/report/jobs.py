@@ -79,6 +79,21 @@ class FigureJob:
     kwargs: dict[str, Any] = field(default_factory=dict)
 
 
+CLOSE_MIN_POINTS = 4
+"""Fewest samples for the signal figure's close-up panel of the onset (a slow record
+has none within the close-up's half-minute: the panel is then not drawn)."""
+
+
+def close_up(t: FloatArray, onset_s: float, close_s: float | None) -> npt.NDArray[np.bool_] | None:
+    """Which samples at times ``t`` the signal figure's close-up of ``onset_s +- close_s``
+    shows, or None when that panel is not drawn: the figure and its caption (the view
+    layer) decide alike."""
+    if close_s is None or not t.size:
+        return None
+    near = (t >= onset_s - close_s) & (t <= onset_s + close_s)
+    return near if int(np.count_nonzero(near)) >= CLOSE_MIN_POINTS else None
+
+
 def draw(job: FigureJob) -> str:
     """The SVG of ``job``, drawn in this process (the function worker processes run)."""
     figures = importlib.import_module(FIGURES_MODULE)
@@ -86,6 +101,7 @@ def draw(job: FigureJob) -> str:
 
 
 __all__ = [
+    "CLOSE_MIN_POINTS",
     "FIGURES_MODULE",
     "PRELOAD_MODULE",
     "MAX_POINTS",
@@ -93,5 +109,6 @@ __all__ = [
     "FigureJob",
     "ResidualPanel",
     "Segment",
+    "close_up",
     "draw",
 ]

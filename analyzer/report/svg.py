@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import io
 import re
+import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
@@ -29,6 +30,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.font_manager import FontProperties
 from matplotlib.textpath import TextToPath
+
+from analyzer.report.format import shorten, visible_controls
 
 RC: dict[str, Any] = {
     "svg.fonttype": "none",
@@ -60,13 +63,18 @@ _DECIMALS = re.compile(r"(?<=\d\.\d)\d+")
 """The digits after a number's first decimal (dropped with a literal, empty replacement:
 the substitution then runs in C, without a Python template expansion per number)."""
 _XY = re.compile(r'\b(x|y)="(-?\d+\.\d)\d*"')
+_TAG = re.compile(r"<[^>]*>")
 _ROOT_SIZE = re.compile(r'(<svg\b[^>]*?)\s(?:width|height)="[^"]*"')
 
 
 @contextmanager
 def style() -> Iterator[None]:
-    """The report's matplotlib style for the duration of a block."""
-    with mpl.rc_context(RC):  # type: ignore[arg-type]  # keys are checked by matplotlib
+    """The report's matplotlib style for the duration of a block, without matplotlib's
+    missing-glyph warnings (a character of a channel name the font lacks is drawn as a
+    box in the figure and shown whole in the tables: nothing for the user's terminal)."""
+    rc = mpl.rc_context(RC)  # type: ignore[arg-type]  # keys are checked by matplotlib
+    with rc, warnings.catch_warnings():
+        warnings.filterwarnings("ignore", r"Glyph \d+ .*missing from", UserWarning)
         yield
 
 
@@ -95,6 +103,8 @@ def grid(
     """A ``rows x cols`` array of axes with fixed margins and gaps in inches (room for
     tick labels, axis labels and a title or legend line above each axes)."""
     w_in, h_in = fig.get_size_inches()
+    # the axes keep at least half the width, whatever the labels claim
+    left = min(left, max(0.0, 0.5 * w_in - right))
     ax_h = (h_in - top - bottom - (rows - 1) * hgap) / rows
     ax_w = (w_in - left - right - (cols - 1) * wgap) / cols
     fig.subplots_adjust(
@@ -108,9 +118,23 @@ def grid(
     return fig.subplots(rows, cols, squeeze=False, width_ratios=width_ratios)
 
 
+NAME_CHARS = 48
+"""Longest channel or detector name drawn in a figure (longer ones lose their middle to
+an ellipsis; the tables show them whole): a deep ROS path must not squeeze the axes out
+of the figure."""
+
+
 def label(text: str) -> str:
-    """``text`` safe for a matplotlib label: a ``$`` would start mathtext."""
-    return text.replace("$", r"\$")
+    """``text`` safe for a matplotlib label: a ``$`` would start mathtext, and control or
+    bidi formatting characters are shown as escapes (line breaks stay line breaks)."""
+    return "\n".join(visible_controls(line) for line in text.split("\n")).replace("$", r"\$")
+
+
+def shown_name(text: str) -> str:
+    """A channel or detector name as a figure shows it: controls (line breaks too) made
+    visible, then cut to :data:`NAME_CHARS` in the middle; pass the result to
+    :func:`label` (or embed it in a text that is)."""
+    return shorten(visible_controls(text), NAME_CHARS)
 
 
 _TEXT = TextToPath()
@@ -146,11 +170,16 @@ def clean_svg(svg: str, key: str) -> str:
     out = _METADATA.sub("", out)
     for _ in range(2):
         out = _ROOT_SIZE.sub(r"\1", out, count=1)
-    out = _PATH_DATA.sub(_compact_path, out)
-    out = _XY.sub(r'\1="\2"', out)
-    out = out.replace(' id="', f' id="{prefix}')
-    out = out.replace('href="#', f'href="#{prefix}').replace("url(#", f"url(#{prefix}")
-    return out.strip()
+
+    def tag(m: re.Match[str]) -> str:
+        t = _PATH_DATA.sub(_compact_path, m.group())
+        t = _XY.sub(r'\1="\2"', t)
+        t = t.replace(' id="', f' id="{prefix}')
+        return t.replace('href="#', f'href="#{prefix}').replace("url(#", f"url(#{prefix}")
+
+    # inside tags only: a text node (a channel name drawn in a figure) may hold the same
+    # characters, and matplotlib escapes only & < > there, so no tag ends inside one
+    return _TAG.sub(tag, out).strip()
 
 
 def _compact_path(m: re.Match[str]) -> str:
@@ -160,4 +189,15 @@ def _compact_path(m: re.Match[str]) -> str:
     return 'd="' + " ".join(d.split()) + '"'
 
 
-__all__ = ["RC", "clean_svg", "grid", "label", "new_figure", "style", "text_width_in", "to_svg"]
+__all__ = [
+    "NAME_CHARS",
+    "RC",
+    "clean_svg",
+    "grid",
+    "label",
+    "shown_name",
+    "new_figure",
+    "style",
+    "text_width_in",
+    "to_svg",
+]

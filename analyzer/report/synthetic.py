@@ -125,7 +125,10 @@ def synthetic_analysis(
             residual[d][:, a:b] = r.T
             for j in faulty:
                 reference[d][j][a:b] = block[:, j] - r[:, j]
-    train = (0, min(n, int(round(min(0.2 * duration_s, 600.0) * rate_hz)) + 1))
+    # a fifth of the record, at most ten minutes, or a thousand samples for a slow record
+    # (the thresholds' calibration needs a few hundred)
+    train_s = min(0.2 * duration_s, max(600.0, 1000.0 / rate_hz))
+    train = (0, min(n, int(round(train_s * rate_hz)) + 1))
     window = default_window(rate_hz)
     results = []
     for k, d in enumerate(DETECTORS):

@@ -186,7 +186,7 @@ class _Access(FigureParts, TableParts):
                 "let the filters settle, and no fault is searched there"
             )
         return (
-            f"Training (healthy reference) window: {fmt.seconds(a)} to {fmt.seconds(b)} from "
+            f"Training (healthy reference) window: {fmt.at(a, b)} to {fmt.at(b, b)} from "
             f"the start ({fmt.duration(b - a)})"
         )
 
@@ -222,9 +222,10 @@ class _Access(FigureParts, TableParts):
             channel=str(f["channel"]),
             type=str(f["type"]),
             onset_s=fmt.seconds(f.get("onset_s")),
-            onset_utc=str(f.get("onset") or fmt.MISSING),
+            # empty without absolute time (relative timestamps): the page then omits them
+            onset_utc=str(f.get("onset") or ""),
             end_s=fmt.seconds(f["end_s"]) if f.get("end_s") is not None else "to the end",
-            end_utc=str(f.get("end") or ("" if f.get("end_s") is None else fmt.MISSING)),
+            end_utc=str(f.get("end") or ""),
             onset_clock=str(f.get("onset") or fmt.clock(f.get("onset_s"))),
             end_clock=str(f.get("end") or fmt.clock(f.get("end_s"))),
             magnitude=fmt.magnitude(f.get("magnitude") or {}),

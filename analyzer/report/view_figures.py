@@ -87,6 +87,7 @@ class FigureParts:
         t = np.arange(k0, k1, dtype=np.float64) / self.rate
         key = view.anchor
         measured = self._measured(ch, k0, k1)
+        span = float(t[-1] - t[0]) if t.size else 0.0
         if measured is not None:
             est_det = next(
                 (d for d in [lead, *dets] if d and self._reference(d, ch) is not None), None
@@ -110,14 +111,18 @@ class FigureParts:
                 self.figure(
                     "signal",
                     "Measured signal and fault-free estimate",
-                    f"{ch} around the onset ({fmt.seconds(t[0] if t.size else 0)} to "
-                    f"{fmt.seconds(t[-1] if t.size else 0)}): measured (blue) and the fault-free "
+                    f"{ch} around the onset ({fmt.at(t[0] if t.size else 0, span)} to "
+                    f"{fmt.at(t[-1] if t.size else 0, span)}): measured (blue) and the fault-free "
                     f"estimate of {est_det or 'no detector'} (orange); their difference is the "
                     "estimated fault. Dashed red line: identified onset"
                     + ("; dash-dot purple: end" if end is not None else "")
-                    + f". Below: close-up of the onset (± {self._close_s():g} s, shaded above); "
-                    "where a panel holds more samples than it has pixels, the band shows each "
-                    "pixel's minimum and maximum.",
+                    + (
+                        f". Below: close-up of the onset (± {self._close_s():g} s, shaded above)"
+                        if fg.close_up(t, onset, self._close_s()) is not None
+                        else ""
+                    )
+                    + "; where a panel holds more samples than it has pixels, the band shows "
+                    "each pixel's minimum and maximum.",
                     job,
                 )
             )
@@ -370,9 +375,13 @@ SPAN_KEYS = ("before_span_s", "after_span_s")
 
 
 def _span(s: Sequence[float] | None) -> str:
+    """``10.000-20.000 s`` (in minutes, hours or days for a long span)."""
     if not s:
         return fmt.MISSING
-    return f"{float(s[0]):.3f}-{float(s[1]):.3f} s"
+    a, b = float(s[0]), float(s[1])
+    if fmt.time_unit(b - a)[0] == "s":
+        return f"{a:.3f}-{b:.3f} s"
+    return f"{fmt.at(a, b - a).split()[0]}-{fmt.at(b, b - a)}"
 
 
 __all__ = [
