@@ -401,9 +401,13 @@ def _analyze(
             raise
         timings["detect"] = time.perf_counter() - t0
         if not results:
-            raise _no_detector_error(
+            error = _no_detector_error(
                 skipped, tr, options, _apart_in_training(values, chosen, train, aligned.rate_hz)
             )
+            absurd = next((n for n in notes if n.startswith("infinite or absurd values")), None)
+            if absurd is not None:  # (a channel whose every value is beyond 1e30, say)
+                raise DetectorError(f"{error}; {absurd}") from None
+            raise error
         findings, found_notes = diagnose(results)
         notes.extend(found_notes)
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
@@ -668,7 +672,7 @@ def _input_echoes(
     findings: list[Finding], on_inputs: list[Finding], rate_hz: float
 ) -> tuple[list[Finding], list[str]]:
     """``findings`` less those that begin with an anomaly of a measured input (within
-    :data:`ECHO_WINDOWS` long alarm windows after its onset), and a note for each.
+    :data:`ECHO_WINDOWS` long alarm windows of its onset), and a note for each.
 
     A measured input is a regressor of every model that has it (the bank's AR, the
     detection filter's ``B u``, the equivalent model's relations, the error functions):
@@ -683,13 +687,15 @@ def _input_echoes(
     kept: list[Finding] = []
     notes: list[str] = []
     for f in findings:
-        cause = next((g for g in on_inputs if 0.0 <= f.onset_s - g.onset_s <= near), None)
+        # (either side: a drift's onset is traced back from its line, an echo's a little
+        # further or less far than the input's own: 0.6 s before it at 0.05 per s)
+        cause = next((g for g in on_inputs if abs(f.onset_s - g.onset_s) <= near), None)
         if cause is None:
             kept.append(f)
             continue
         notes.append(
             f"{f.detector}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
-            f"reported: it began {f.onset_s - cause.onset_s:.1f} s after the {cause.type.value} "
+            f"reported: it began {f.onset_s - cause.onset_s:+.1f} s from the {cause.type.value} "
             f"anomaly on the measured input {cause.channel} ({cause.onset_s:.3f} s), which "
             "reaches every residual that takes the input in: taken for its echo"
         )

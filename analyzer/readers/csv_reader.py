@@ -317,6 +317,7 @@ class CsvReader:
             and index not in self._layout.ignored
             and index not in self._numeric
             and index not in filled
+            and name != f"column{index}"  # no header either: a trailing separator
         ]
         if rows and blank:
             # (a column blank in every row had no note: it vanished from inspect)

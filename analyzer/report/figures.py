@@ -29,7 +29,16 @@ from scipy import special
 from analyzer.report import format as fmt
 from analyzer.report.decimate import Envelope, envelope, moving_mean
 from analyzer.report.jobs import MAX_POINTS, CoverageRow, ResidualPanel, Segment, close_up
-from analyzer.report.svg import grid, label, new_figure, shown_name, style, text_width_in, to_svg
+from analyzer.report.svg import (
+    grid,
+    label,
+    new_figure,
+    shown_name,
+    shown_names,
+    style,
+    text_width_in,
+    to_svg,
+)
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -144,7 +153,7 @@ def coverage_figure(
     training window (``train_label``: with ``--model``, the filters' warm-up) shaded."""
     axis = TimeAxis.for_span(duration_s)
     n = len(rows)
-    names = [label(shown_name(r.name)) for r in reversed(rows)]
+    names = [label(n) for n in shown_names([r.name for r in reversed(rows)])]
     with style():
         fig = new_figure(WIDTH_IN, 0.9 + 0.24 * max(n, 1), constrained=False)
         # fixed margins instead of a constrained layout (which draws the figure twice):

@@ -137,6 +137,18 @@ def shown_name(text: str) -> str:
     return shorten(visible_controls(text), NAME_CHARS)
 
 
+def shown_names(texts: Sequence[str]) -> list[str]:
+    """Names drawn side by side (a figure's rows), as :func:`shown_name` shows each,
+    unless two of them then read alike (deep paths that differ in the middle: three
+    wings' ``.../floor_accelerometer_raw_x`` all read ``building_A/structural_h...``):
+    then whole, controls made visible (the grid keeps the axes at half the width
+    whatever the labels' length)."""
+    shown = [shown_name(t) for t in texts]
+    if len(set(shown)) == len(set(texts)):
+        return shown
+    return [visible_controls(t) for t in texts]
+
+
 _TEXT = TextToPath()
 
 
@@ -196,6 +208,7 @@ __all__ = [
     "grid",
     "label",
     "shown_name",
+    "shown_names",
     "new_figure",
     "style",
     "text_width_in",

@@ -59,6 +59,11 @@ def test_a_column_blank_in_every_row_is_named(tmp_path: Path) -> None:
     got, info = read(path)
     assert set(got) == {"a", "late"}
     assert info.errors == ["empty: blank in every row; no channel"]
+    # a separator ending every line (header too) is no column left blank
+    trailing = tmp_path / "trailing.csv"
+    trailing.write_text("time,a,\n" + "".join(f"{i * 0.01:.2f},{i},\n" for i in range(100)))
+    got, info = read(trailing)
+    assert set(got) == {"a"} and info.errors == []
 
 
 @pytest.mark.parametrize(

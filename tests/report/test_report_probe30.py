@@ -172,3 +172,16 @@ def test_missing_glyphs_do_not_warn(monkeypatch):
         warnings.simplefilter("always")
         _faulty(["s0", "温度\u2603"], monkeypatch)
     assert not [w for w in caught if "Glyph" in str(w.message)]
+
+
+def test_names_that_differ_in_the_middle_stay_apart_in_a_figure():
+    """Three wings' deep paths, cut in the middle, all read alike: drawn whole instead."""
+    from analyzer.report.svg import shown_names
+
+    names = [
+        f"building_A/structural_health/{wing}_wing/floor_accelerometer_raw_x"
+        for wing in ("north", "south", "east_")
+    ]
+    shown = shown_names(names)
+    assert len(set(shown)) == 3 and shown == names
+    assert shown_names(["a" * 60, "b" * 60]) == [shorten("a" * 60), shorten("b" * 60)]
