@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -184,13 +185,17 @@ def _jsonable(x: Any) -> Any:
     return str(x)
 
 
-def write_outputs(analysis: Analysis, out_dir: Path) -> dict[str, Any]:
+def write_outputs(
+    analysis: Analysis, out_dir: Path, warn: Callable[[str], None] | None = None
+) -> dict[str, Any]:
     """``out_dir/findings.json`` and ``out_dir/report.html`` (each atomically; both are
     built before either is replaced, so an error leaves both as they were). The report's
     figures are drawn by the worker processes of an enclosing
     :func:`analyzer.report.workers.figure_workers` context (``analyzer run`` enters one),
-    else in this process; the page is the same either way."""
-    from analyzer.report import render_report
+    else in this process; the page is the same either way. A figure that cannot be drawn
+    leaves a line in its place, a note in both files and a ``warn`` line."""
+    from analyzer.report import render_view
+    from analyzer.report.view import build_view
 
     doc = findings_document(analysis)
     if analysis.corrected is None and (out_dir / "corrected.csv").exists():
@@ -204,8 +209,14 @@ def write_outputs(analysis: Analysis, out_dir: Path) -> dict[str, Any]:
     # the page is rendered before either file is replaced: if rendering fails, the
     # folder keeps the previous run's findings.json and report.html, a matching pair,
     # rather than a new findings.json beside an old report
+    view = build_view(analysis, doc)
+    html = render_view(view)
+    if view.figure_failures:
+        doc["notes"] = [*doc["notes"], *view.figure_failures]
+        if warn is not None:
+            for line in view.figure_failures:
+                warn(line)
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
-    html = render_report(analysis, doc)
     write_atomic(out_dir / "findings.json", text)
     write_atomic(out_dir / "report.html", html)
     if analysis.corrected is not None:

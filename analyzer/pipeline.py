@@ -1011,7 +1011,7 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         analysis = analyze_screened(inputs, options, work)
         if options.progress:
             options.progress("report", 0.0)
-        write_outputs(analysis, out)
+        write_outputs(analysis, out, options.warn)
         if options.progress:
             options.progress("report", 1.0)
         if options.warn is not None:

@@ -104,7 +104,8 @@ def build_view(
             Fact(k, fmt.seconds(v, 2)) for k, v in (getattr(analysis, "timings", {}) or {}).items()
         ],
     )
-    a.draw_figures()
+    view.figure_failures = a.draw_figures()
+    view.notes.extend(view.figure_failures)
     return view
 
 

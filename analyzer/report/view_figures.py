@@ -71,11 +71,19 @@ class FigureParts:
         self.pending.append((fv, self.batch.add(job)))
         return fv
 
-    def draw_figures(self) -> None:
+    def draw_figures(self) -> list[str]:
+        """Fill in every pending figure; one line for each that could not be drawn."""
         svgs = self.batch.results()
+        failed = []
         for fv, i in self.pending:
             fv.svg = svgs[i]
+            if i in self.batch.failures:
+                failed.append(
+                    f"report: the figure '{fv.title}' could not be drawn "
+                    f"({self.batch.failures[i]}); the page shows that line in its place"
+                )
         self.pending.clear()
+        return failed
 
     def add_figures(self, view: FindingView, f: Mapping[str, Any]) -> None:
         ch = str(f["channel"])

@@ -168,6 +168,8 @@ class ReportView:
     decision: str
     thresholds: list[Fact]
     timings: list[Fact]
+    figure_failures: list[str] = field(default_factory=list)
+    """One line per figure that could not be drawn (also among :attr:`notes`)."""
 
     @property
     def figure_count(self) -> int:

@@ -233,6 +233,8 @@ class FigureBatch:
         self.workers = workers if workers is not None and workers.usable else None
         self.jobs: list[FigureJob] = []
         self.futures: list[Future[str] | None] = []
+        self.failures: dict[int, str] = {}
+        """Index of each job that could not be drawn (by a worker nor here) -> why."""
 
     def add(self, job: FigureJob) -> int:
         """Add ``job``; its index in :meth:`results`."""
@@ -241,8 +243,11 @@ class FigureBatch:
         return len(self.jobs) - 1
 
     def results(self) -> list[Markup]:
+        """Every SVG in the order added. A figure that cannot be drawn in-process either
+        (its data breaks the plotting library) becomes a line saying so, and its reason is
+        kept in :attr:`failures`: one figure does not cost the page."""
         out = []
-        for job, future in zip(self.jobs, self.futures, strict=True):
+        for i, (job, future) in enumerate(zip(self.jobs, self.futures, strict=True)):
             svg = None
             if future is not None:
                 try:
@@ -250,7 +255,18 @@ class FigureBatch:
                 except Exception as err:  # noqa: BLE001 - drawn in-process below
                     if self.workers is not None:
                         self.workers.failed(err)
-            out.append(Markup(draw(job) if svg is None else svg))
+            if svg is None:
+                try:
+                    svg = draw(job)
+                except Exception as err:  # noqa: BLE001 - one figure, not the page
+                    why = f"{type(err).__name__}: {' '.join(str(err).split())}"[:300]
+                    self.failures[i] = why
+                    svg = str(
+                        Markup(
+                            '<p class="figure-failed">This figure could not be drawn ({}).</p>'
+                        ).format(why)
+                    )
+            out.append(Markup(svg))
         return out
 
 

@@ -93,7 +93,7 @@ def test_a_failed_report_leaves_the_previous_outputs_as_a_pair(monkeypatch, tmp_
     def broken(*args, **kwargs):
         raise ValueError("left cannot be >= right")
 
-    monkeypatch.setattr(report, "render_report", broken)
+    monkeypatch.setattr(report, "render_view", broken)
     with pytest.raises(ValueError, match="left cannot be"):
         write_outputs(a, tmp_path)
     assert json.loads((tmp_path / "findings.json").read_text()) == {"faults": []}
