@@ -467,7 +467,24 @@ class EquivalentModel:
             residuals[task[2]] = zeta
             reference[task[2]] = z
             cands[task[2]] = found
-        events, notes, decisions = self._isolate(net, cands, model.window * 8 / rate)
+        slack_s = model.window * 8 / rate
+
+        def blind(t0: float) -> set[str]:
+            """Sensors that read over the long window from ``t0`` while their residual
+            is mostly empty there (an assistant of theirs has no data)."""
+            a = max(0, int(round(t0 * rate)))
+            b = min(values.shape[0], a + max(1, int(round(slack_s * rate))))
+            out = set()
+            for name, zeta in residuals.items():
+                k = data.channels.index(name)
+                if (
+                    np.isfinite(np.asarray(zeta[a:b])).mean() < 0.5
+                    and np.isfinite(values[a:b, k]).mean() >= 0.5
+                ):
+                    out.add(name)
+            return out
+
+        events, notes, decisions = self._isolate(net, cands, slack_s, blind)
         # alarms the network's laws left ambiguous: no sensor named
         unattributed = [
             (float(d["onset_s"]), tuple(d["ambiguous"]), tuple(d["faulty"]))
@@ -517,7 +534,10 @@ class EquivalentModel:
 
     @staticmethod
     def _isolate(
-        net: SensorNetwork, cands: Mapping[str, list[Event]], slack_s: float
+        net: SensorNetwork,
+        cands: Mapping[str, list[Event]],
+        slack_s: float,
+        blind: Callable[[float], set[str]] | None = None,
     ) -> tuple[list[Event], list[str], list[dict[str, Any]]]:
         """Keep the events the network's laws attribute to their own sensor: for each
         event, the alarming set is every sensor whose residual alarms at (or first alarms
@@ -547,7 +567,8 @@ class EquivalentModel:
                 if abs(first(e) - t0) <= slack_s
                 or (first(e) <= t0 and (e.end_s is None or e.end_s >= t0))
             }
-            diag: NetworkDiagnosis = net.diagnose(alarming)
+            dark = (blind(t0) if blind is not None else set()) - alarming
+            diag: NetworkDiagnosis = net.diagnose(alarming, dark)
             decisions.append({"onset_s": t0, "sensor": s, **diag.as_dict()})
 
             # A target whose alarm has lasted since before s's and was put down to another
@@ -615,6 +636,12 @@ class EquivalentModel:
                 notes.append(
                     f"alarm on {s} at {t0:.3f} s explained by the alarm on its assistant "
                     f"sensor(s) {', '.join(diag.propagated[s])} (law 0)"
+                )
+            elif diag.laws.get(s, "").startswith("undecided"):
+                notes.append(
+                    f"alarm on {s} at {t0:.3f} s not attributed: {diag.laws[s]} (missing "
+                    "samples of its assistants), so a fault there explains it as well as one "
+                    f"on {s} (law 0 cannot decide)"
                 )
             elif diag.faulty:  # a second fault beside those, on one of the ambiguous
                 notes.append(

@@ -438,27 +438,41 @@ class SensorNetwork:
                 out[s] = f"{why} ({', '.join(twins)}): a fault on either alarms both"
         return out
 
-    def diagnose(self, alarming: Iterable[str]) -> NetworkDiagnosis:
+    def diagnose(self, alarming: Iterable[str], blind: Iterable[str] = ()) -> NetworkDiagnosis:
         """Apply Laws 0-4 to the set of sensors whose residuals alarm (one fault at a time):
         an alarming sensor is faulty when no sensor its residual depends on alarms (Law 0;
         in a line that is Law 2, in a branch Law 4, in a circle with direct propagation or
         after choosing a quasi-head Law 3); otherwise its alarm is propagated. Where that
-        isolates none, the smallest explanations decide (:meth:`_smallest_explanations`)."""
+        isolates none, the smallest explanations decide (:meth:`_smallest_explanations`).
+
+        ``blind``: sensors whose residual cannot alarm at that time, though the sensor
+        itself reads (an assistant of theirs has no data): their silence is not that of a
+        healthy sensor. An alarming sensor whose residual depends on one of them is not
+        faulty by law 0 (the blind one may be), and the smallest explanations may hold
+        them: the decision stays ambiguous unless an alarming sensor is in every one. (A
+        column missing from 200 s, s4, left s3's residual empty; s3's offset at 400 s
+        alarmed s0, which s3 assists, and law 0 named s0.)"""
         wanted = set(alarming)
         alarms = [s for s in self.sensors if s in wanted]
-        unknown = wanted - set(self.sensors)
+        unknown = (wanted | set(blind)) - set(self.sensors)
         if unknown:
             raise ValueError(f"diagnose: unknown sensor(s) {sorted(unknown)}")
+        dark = [s for s in self.sensors if s in set(blind) and s not in wanted]
         ignored = tuple(s for s in alarms if not self.has_residual(s))
         live = [s for s in alarms if self.has_residual(s)]
         faulty: list[str] = []
         propagated: dict[str, tuple[str, ...]] = {}
         laws: dict[str, str] = {}
+        undecided: dict[str, tuple[str, ...]] = {}
         kinds = {s: st for st in self.structures() for s in st.sensors}
         for s in live:
             reasons = tuple(d for d in sorted(self.dependencies(s)) if d in live)
             if reasons:
                 propagated[s] = reasons
+                continue
+            hidden = tuple(d for d in sorted(self.dependencies(s)) if d in dark)
+            if hidden:
+                undecided[s] = hidden
                 continue
             faulty.append(s)
             st = kinds.get(s)
@@ -468,6 +482,8 @@ class SensorNetwork:
                 laws[s] = "law 0"
             else:
                 laws[s] = f"law 0; {LAW_TEXT.get(st.kind, st.kind.value)}"
+        if undecided:
+            return self._smallest_explanations(live, ignored, dark, undecided)
         if not faulty and len(live) > 1:
             return self._smallest_explanations(live, ignored)
         ambiguous = tuple(live) if not faulty else ()
@@ -476,7 +492,11 @@ class SensorNetwork:
         return NetworkDiagnosis(tuple(faulty), propagated, ambiguous, laws, ignored)
 
     def _smallest_explanations(
-        self, live: Sequence[str], ignored: tuple[str, ...]
+        self,
+        live: Sequence[str],
+        ignored: tuple[str, ...],
+        dark: Sequence[str] = (),
+        undecided: Mapping[str, tuple[str, ...]] | None = None,
     ) -> NetworkDiagnosis:
         """Law 0 where it isolates nothing alone (every alarming residual depends on an
         alarming sensor): the smallest sets of alarming sensors, one or two, whose faults
@@ -494,17 +514,24 @@ class SensorNetwork:
         {s1, s3} do: s3 is faulty, s1 and s0 stay ambiguous, as a fault on s1 shows in
         s0's residual.)"""
         deps = {s: self.dependencies(s) for s in live}
+        # blind sensors (``dark``) may explain alarms but have none to explain
+        pool = [*live, *dark]
 
         def explains(group: set[str]) -> bool:
             return all(s in group or deps[s] & group for s in live)
 
-        sets = [{a} for a in live if explains({a})]
+        sets = [{a} for a in pool if explains({a})]
         if not sets:
-            sets = [{a, b} for i, a in enumerate(live) for b in live[i + 1 :] if explains({a, b})]
+            sets = [{a, b} for i, a in enumerate(pool) for b in pool[i + 1 :] if explains({a, b})]
         certain = set.intersection(*sets) if sets else set()
         faulty = tuple(s for s in live if s in certain)
         if not faulty:
-            return NetworkDiagnosis((), {}, tuple(live), {}, ignored)
+            why = {
+                s: f"undecided: its residual depends on {', '.join(hidden)}, whose own "
+                "residual has no data then"
+                for s, hidden in (undecided or {}).items()
+            }
+            return NetworkDiagnosis((), {}, tuple(live), why, ignored)
         # a sensor in some smallest explanation but not all may be the other fault
         maybe = set().union(*sets) - certain
         propagated = {
