@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
 import struct
 import zlib
 from collections.abc import Iterator
@@ -215,8 +216,11 @@ class McapReader:
                 return None
 
     def _scan_first_time(self) -> int | None:
-        """First message time of an unindexed file, from the first Chunk or Message record."""
+        """First message time of an unindexed file, from the first Chunk or Message record
+        (None where no record before the damage has one: a record length past the file's
+        end is damage, not a seek to make)."""
         with self.path.open("rb") as handle:
+            size = os.fstat(handle.fileno()).st_size
             handle.seek(8)
             while True:
                 head = handle.read(9)
@@ -229,7 +233,7 @@ class McapReader:
                 if opcode == OP_MESSAGE:
                     body = handle.read(14)
                     return _U64.unpack_from(body, 6)[0] if len(body) == 14 else None
-                if opcode in (OP_DATA_END, OP_FOOTER):
+                if opcode in (OP_DATA_END, OP_FOOTER) or length > size - handle.tell():
                     return None
                 handle.seek(length, io.SEEK_CUR)
 
