@@ -1,0 +1,382 @@
+"""``findings.json`` against its published JSON Schema (``analyzer/schema/
+findings.schema.json``, draft 2020-12).
+
+The documents of real runs validate (each bundled sample, ``--corrected``,
+``--save-model`` then ``--model``, ``--screen``, a damaged member of a multi-file
+archive, a skipped detector), as does a synthetic analysis with every fault type;
+documents that break the contract do not (so the schema is not vacuous); and every field
+the code writes is declared in the schema, so none is added without being documented.
+
+The runs are made in this process, once per module, each when a test first needs it.
+"""
+
+from __future__ import annotations
+
+import copy
+import importlib.resources
+import json
+import math
+import subprocess
+import sys
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from jsonschema import Draft202012Validator
+
+from analyzer.cli import main
+from analyzer.findings import SCHEMA, Analysis, findings_document
+from analyzer.report.synthetic import SyntheticFault, synthetic_analysis
+from analyzer.schema import findings_schema
+from analyzer.simulate import inject_fault, simulate_building
+from analyzer.types import FaultType, Format
+from analyzer.writers import write_archive
+
+REPO = Path(__file__).resolve().parents[2]
+SAMPLES = REPO / "samples"
+RATE = 200.0
+
+SCHEMA_DOC = findings_schema()
+VALIDATOR = Draft202012Validator(SCHEMA_DOC)
+
+CORE = {
+    (): ["schema", "analyzer_version", "inputs", "start", "duration_s", "rate_hz", "train"]
+    + ["channels", "faults", "detectors"],
+    ("train",): ["start_s", "end_s"],
+    ("inputs", 0): ["path", "format", "sha256", "errors"],
+    ("channels", 0): ["name", "samples", "rate_hz", "gaps"],
+    ("faults", 0): ["channel", "type", "onset_s", "end_s", "onset", "magnitude"]
+    + ["confidence", "detector", "evidence"],
+    ("detectors", 0): ["name", "channels", "params"],
+}
+"""The fields of CONTRACT.md's findings.json, by the path of the object holding them:
+each must be required by the schema."""
+
+
+def problems(doc: dict[str, Any]) -> list[str]:
+    """Each validation error of ``doc``: where, and what is wrong."""
+    errors = sorted(VALIDATOR.iter_errors(doc), key=lambda e: [str(p) for p in e.absolute_path])
+    return [f"/{'/'.join(map(str, e.absolute_path))}: {e.message[:300]}" for e in errors]
+
+
+def as_written(doc: dict[str, Any]) -> dict[str, Any]:
+    """``doc`` as ``findings.json`` holds it (JSON types only, no NaN)."""
+    parsed: dict[str, Any] = json.loads(json.dumps(doc, allow_nan=False))
+    return parsed
+
+
+# ---------------------------------------------------------------------------- the runs
+
+
+def _damaged_archive(folder: Path) -> Path:
+    """A folder archive: a CSV of relative seconds (no absolute time, so ``start`` is
+    null) whose sensor s1 sticks at 30 s, and a CSV member that is binary garbage (an
+    input error; the analysis of the rest goes on)."""
+    folder.mkdir()
+    t, Y, names = simulate_building(n_floors=4, duration_s=60.0, rate_hz=RATE, seed=3)
+    Y[:, 1] = inject_fault(Y[:, 1], RATE, "other", 30.0, 0.0)
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(folder / "a.csv", "csv", t_ns, {n: Y[:, j] for j, n in enumerate(names)})
+    (folder / "b.csv").write_bytes(b"time,s0\n0.0,1.0\n0.005,\x00\x00\x00\xff\n")
+    return folder
+
+
+CASES: dict[str, Callable[[Path], list[Any]]] = {
+    # each bundled sample, by its format; --corrected and --save-model ride along
+    "additive_mcap_corrected": lambda root: [SAMPLES / "building_additive.mcap", "--corrected"],
+    "drift_ros1bag_save_model": lambda root: [
+        SAMPLES / "building_drift.bag",
+        "--save-model",
+        root / "drift.model",
+    ],
+    # error_function (no [[group]] in a config) is skipped: skipped_detectors
+    "multiplicative_csv": lambda root: [SAMPLES / "building_multiplicative.csv.gz"],
+    "healthy_ros2bag": lambda root: [SAMPLES / "building_healthy_ros2"],
+    # the drift bag's model on the ROS 2 sample (the same channel names)
+    "model": lambda root: [SAMPLES / "building_healthy_ros2", "--model", root / "drift.model"],
+    "screen": lambda root: [SAMPLES / "building_healthy_ros2", "--screen", "equivalent_model"],
+    "damaged_member": lambda root: [_damaged_archive(root / "archive")],
+}
+"""The arguments of each ``analyzer run`` (before ``--out``), given the runs' folder."""
+
+NEEDS = {"model": "drift_ros1bag_save_model"}
+"""Runs that need another's output (``--model`` the file ``--save-model`` wrote)."""
+
+
+class Runs:
+    """``analyzer run`` of each of :data:`CASES`, made when first asked for, kept for the
+    module."""
+
+    def __init__(self, root: Path) -> None:
+        self.root = root
+        self.docs: dict[str, dict[str, Any]] = {}
+
+    def doc(self, case: str) -> dict[str, Any]:
+        if case not in self.docs:
+            if case in NEEDS:
+                self.doc(NEEDS[case])
+            out = self.root / case
+            argv = ["run", *CASES[case](self.root), "--out", out, "--no-progress"]
+            code = main([str(a) for a in argv])
+            assert code in (0, 1), f"{case}: exit {code}"
+            self.docs[case] = json.loads((out / "findings.json").read_text(encoding="utf-8"))
+        return self.docs[case]
+
+    def all(self) -> Iterator[tuple[str, dict[str, Any]]]:
+        for case in CASES:
+            yield case, self.doc(case)
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory: pytest.TempPathFactory) -> Runs:
+    return Runs(tmp_path_factory.mktemp("runs"))
+
+
+def _synthetic(**kwargs: Any) -> Analysis:
+    """A synthetic analysis with a fault of every type (two of them ending)."""
+    faults = [
+        SyntheticFault(0, FaultType.ADDITIVE, 40.0, None, 2.0),
+        SyntheticFault(1, FaultType.MULTIPLICATIVE, 50.0, None, 1.5),
+        SyntheticFault(2, FaultType.DRIFT, 60.0, 100.0, 0.05),
+        SyntheticFault(3, FaultType.OTHER, 70.0, 90.0, 0.0),
+    ]
+    return synthetic_analysis(faults=faults, **kwargs)
+
+
+@pytest.fixture(scope="module")
+def synthetic_doc() -> dict[str, Any]:
+    return as_written(findings_document(_synthetic()))
+
+
+# ---------------------------------------------------------------------------- the schema
+
+
+def test_the_schema_is_a_draft_2020_12_schema_of_analyzer_findings_1():
+    Draft202012Validator.check_schema(SCHEMA_DOC)
+    assert SCHEMA_DOC["$schema"] == "https://json-schema.org/draft/2020-12/schema"
+    assert SCHEMA_DOC["$id"].endswith(SCHEMA) and SCHEMA == "analyzer.findings/1"
+    assert SCHEMA_DOC["properties"]["schema"] == {
+        "const": SCHEMA,
+        "description": SCHEMA_DOC["properties"]["schema"]["description"],
+    }
+
+
+def test_the_schema_is_package_data_and_each_call_gives_a_new_dict():
+    path = importlib.resources.files("analyzer").joinpath("schema/findings.schema.json")
+    assert path.is_file()
+    assert findings_schema() == json.loads(path.read_text(encoding="utf-8"))
+    findings_schema()["properties"].clear()
+    assert findings_schema()["properties"]
+
+
+def test_loading_the_schema_does_not_import_jsonschema():
+    """jsonschema is a test-only dependency: the accessor only reads the file."""
+    code = (
+        "import sys; from analyzer.schema import findings_schema; findings_schema(); "
+        "print('jsonschema' in sys.modules)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=REPO
+    )
+    assert out.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize(("where", "key"), [(w, k) for w, keys in CORE.items() for k in keys])
+def test_the_contract_fields_are_required(synthetic_doc, where, key):
+    """Leaving out any field of CONTRACT.md's findings.json fails validation, where it
+    was left out."""
+    doc = copy.deepcopy(synthetic_doc)
+    holder = doc
+    for step in where:
+        holder = holder[step]
+    del holder[key]
+    errors = [e for e in VALIDATOR.iter_errors(doc) if e.validator == "required"]
+    assert [tuple(e.absolute_path) for e in errors] == [where], problems(doc)
+
+
+# ---------------------------------------------------------------------------- real runs
+
+
+def _has_format(fmt: Format) -> Callable[[dict[str, Any]], bool]:
+    return lambda doc: [i["format"] for i in doc["inputs"]] == [str(fmt)]
+
+
+EXERCISES: dict[str, Callable[[dict[str, Any]], bool]] = {
+    "additive_mcap_corrected": lambda doc: (
+        _has_format(Format.MCAP)(doc) and bool(doc["faults"]) and bool(doc["corrections"])
+    ),
+    "drift_ros1bag_save_model": _has_format(Format.ROS1BAG),
+    "multiplicative_csv": lambda doc: (
+        _has_format(Format.CSV)(doc) and bool(doc["skipped_detectors"])
+    ),
+    "healthy_ros2bag": _has_format(Format.ROS2BAG),
+    "model": lambda doc: doc["model"] is not None and doc["model"]["path"].endswith("drift.model"),
+    "screen": lambda doc: (
+        doc["screen"] is not None and doc["screen"]["detectors"] == ["equivalent_model"]
+    ),
+    "damaged_member": lambda doc: (
+        doc["start"] is None and any(i["errors"] for i in doc["inputs"]) and bool(doc["faults"])
+    ),
+}
+"""What each run must show for its document to test what it is there for (a sample's
+format, corrections, a model, a screening, an input error, a skipped detector...)."""
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_a_run_writes_a_valid_findings_json(runs, case):
+    doc = runs.doc(case)
+    assert EXERCISES[case](doc), f"{case} does not show what it is there for"
+    assert problems(doc) == []
+
+
+def test_a_synthetic_analysis_with_every_fault_type_is_valid(synthetic_doc):
+    types = {f["type"] for f in synthetic_doc["faults"]}
+    assert types == {str(t) for t in FaultType}
+    assert any(f["end_s"] is not None for f in synthetic_doc["faults"])
+    assert problems(synthetic_doc) == []
+
+
+def test_numbers_that_are_not_finite_are_written_as_null_and_valid():
+    """``_jsonable`` writes a NaN or infinite magnitude, confidence or test number as
+    null; the schema allows null there."""
+    analysis = _synthetic()
+    f = analysis.findings[0]
+    f.magnitude = {"offset": math.nan}
+    f.confidence = math.inf
+    f.evidence["tests"][f.detector]["after"]["mean"]["statistic"] = math.nan
+    doc = as_written(findings_document(analysis))
+    fault = doc["faults"][0]
+    assert fault["magnitude"] == {"offset": None} and fault["confidence"] is None
+    assert fault["evidence"]["tests"][f.detector]["after"]["mean"]["statistic"] is None
+    assert problems(doc) == []
+
+
+# ---------------------------------------------------------------------------- broken documents
+
+
+def _set(path: tuple[Any, ...], value: Any) -> Callable[[dict[str, Any]], None]:
+    def apply(doc: dict[str, Any]) -> None:
+        holder = doc
+        for step in path[:-1]:
+            holder = holder[step]
+        holder[path[-1]] = value
+
+    return apply
+
+
+AK_TESTS = ("faults", 0, "evidence", "tests", "ar_kalman_bank")
+
+BROKEN: dict[str, tuple[Callable[[dict[str, Any]], None], tuple[Any, ...]]] = {
+    "fault type bogus": (_set(("faults", 0, "type"), "bogus"), ("faults", 0, "type")),
+    "confidence 1.5": (_set(("faults", 0, "confidence"), 1.5), ("faults", 0, "confidence")),
+    "confidence -0.1": (_set(("faults", 0, "confidence"), -0.1), ("faults", 0, "confidence")),
+    "onset_s a string": (_set(("faults", 0, "onset_s"), "40.0"), ("faults", 0, "onset_s")),
+    "end_s a string": (_set(("faults", 0, "end_s"), "end"), ("faults", 0, "end_s")),
+    "onset without Z": (
+        _set(("faults", 0, "onset"), "2026-01-01T00:00:40.000"),
+        ("faults", 0, "onset"),
+    ),
+    "offset a string": (
+        _set(("faults", 0, "magnitude", "offset"), "2 m/s2"),
+        ("faults", 0, "magnitude", "offset"),
+    ),
+    "no detectors in evidence": (
+        _set(("faults", 0, "evidence", "detectors"), []),
+        ("faults", 0, "evidence", "detectors"),
+    ),
+    "consistent_with bogus": (
+        _set((*AK_TESTS, "consistent_with"), ["bogus"]),
+        (*AK_TESTS, "consistent_with", 0),
+    ),
+    "whiteness without acf": (
+        lambda doc: doc["faults"][0]["evidence"]["tests"]["ar_kalman_bank"]["after"][
+            "whiteness"
+        ].pop("acf"),
+        (*AK_TESTS, "after", "whiteness"),
+    ),
+    "input format zip": (_set(("inputs", 0, "format"), "zip"), ("inputs", 0, "format")),
+    "sha256 not hex": (_set(("inputs", 0, "sha256"), "x" * 64), ("inputs", 0, "sha256")),
+    "another schema": (_set(("schema",), "analyzer.findings/2"), ("schema",)),
+    "start in local time": (_set(("start",), "2026-01-01 00:00:00"), ("start",)),
+    "negative samples": (_set(("channels", 0, "samples"), -1), ("channels", 0, "samples")),
+    "rate_hz 0": (_set(("rate_hz",), 0.0), ("rate_hz",)),
+    "params not an object": (_set(("detectors", 0, "params"), []), ("detectors", 0, "params")),
+}
+"""Documents that break the contract, each with where the schema must say so."""
+
+
+@pytest.mark.parametrize("case", list(BROKEN))
+def test_a_broken_document_is_invalid(synthetic_doc, case):
+    assert problems(synthetic_doc) == []
+    doc = copy.deepcopy(synthetic_doc)
+    breaks, where = BROKEN[case]
+    breaks(doc)
+    assert where in [tuple(e.absolute_path) for e in VALIDATOR.iter_errors(doc)], problems(doc)
+
+
+# ---------------------------------------------------------------------------- nothing undocumented
+
+
+def _declared(definition: dict[str, Any]) -> set[str]:
+    """The properties a schema object declares (itself and through its ``$ref``)."""
+    names = set(definition.get("properties", {}))
+    ref = definition.get("$ref")
+    if ref:
+        names |= _declared(DEFS[ref.rsplit("/", 1)[1]])
+    return names
+
+
+DEFS: dict[str, Any] = SCHEMA_DOC["$defs"]
+TEST_DEFS = {"anderson_darling": "normality", "cramer_von_mises": "normality"}
+TEST_DEFS |= {"mean": "meanTest", "covariance": "covarianceTest"}
+"""The definition of each innovation test's result (the others are named as the test)."""
+
+
+def _objects(doc: dict[str, Any]) -> Iterator[tuple[str, dict[str, Any], dict[str, Any]]]:
+    """``(where, its schema, object)`` of each object the analyzer builds itself (not the
+    detectors' own ``params``, ``model`` and ``by_detector``)."""
+    top = SCHEMA_DOC["properties"]
+    yield "train", top["train"], doc["train"]
+    for item in doc["inputs"]:
+        yield "inputs[]", DEFS["input"], item
+    for item in doc["channels"]:
+        yield "channels[]", DEFS["channel"], item
+    for item in doc["faults"]:
+        evidence = item["evidence"]
+        yield "faults[]", DEFS["fault"], item
+        yield "faults[].magnitude", DEFS["magnitude"], item["magnitude"]
+        yield "faults[].evidence", DEFS["evidence"], evidence
+        if "frozen" in evidence:
+            frozen = DEFS["evidence"]["properties"]["frozen"]
+            yield "faults[].evidence.frozen", frozen, evidence["frozen"]
+        for tests in evidence["tests"].values():
+            yield "faults[].evidence.tests.*", DEFS["detectorTests"], tests
+            for side in ("before", "after"):
+                for name, result in (tests[side] or {}).items():
+                    where = f"faults[].evidence.tests.*.{side}.{name}"
+                    yield where, DEFS[TEST_DEFS.get(name, name)], result
+    for item in doc["detectors"]:
+        yield "detectors[]", DEFS["detector"], item
+    for item in doc["corrections"]:
+        yield "corrections[]", DEFS["correction"], item
+    if doc["model"] is not None:
+        yield "model", DEFS["model"], doc["model"]
+    if doc["screen"] is not None:
+        yield "screen", DEFS["screen"], doc["screen"]
+
+
+def test_every_top_level_field_findings_document_writes_is_declared(synthetic_doc):
+    assert set(synthetic_doc) - set(SCHEMA_DOC["properties"]) == set()
+
+
+def test_every_field_the_analyzer_writes_is_declared(runs, synthetic_doc):
+    """Each key of each object the analyzer builds (not a detector's own) in every run's
+    document is one the schema describes: a new field cannot go out undocumented."""
+    undeclared = set()
+    for case, doc in [("synthetic", synthetic_doc), *runs.all()]:
+        assert set(doc) <= set(SCHEMA_DOC["properties"]), case
+        for where, definition, obj in _objects(doc):
+            undeclared |= {f"{case}: {where}.{key}" for key in set(obj) - _declared(definition)}
+    assert sorted(undeclared) == []
