@@ -56,7 +56,7 @@ from analyzer.parallel import (
     locked,
     make_executor,
 )
-from analyzer.readers import open_archive
+from analyzer.readers import ArchiveNote, open_archive
 from analyzer.regenerate import corrected_values, result_signals
 from analyzer.reuse import (
     in_registry_order,
@@ -521,10 +521,18 @@ def _after_gap_notes(
                 start = a + int(seen[-1]) + 1
                 break
             start = a
+        late = f.onset_s - end / rate_hz
+        f.evidence["after_gap_s"] = [round(start / rate_hz, 4), round(end / rate_hz, 4)]
+        where = (
+            "its onset is where the data resumed"
+            if late <= 1.5 / rate_hz
+            else f"found {late:.2f} s after the data resumed, while the detectors settle "
+            "again after a gap: it may have been there from the resumption"
+        )
         out.append(
             f"the {f.type.value} fault on {f.channel} found from {f.onset_s:.1f} s follows a "
             f"gap in its data ({start / rate_hz:.1f}-{end / rate_hz:.1f} s): it may have "
-            "begun during the gap (its onset is where the data resumed)"
+            f"begun during the gap ({where})"
         )
     return out
 
@@ -1091,13 +1099,22 @@ WARNED_LINES = 5
 
 
 def _warn_inputs(analysis: Analysis, out: Path, warn: Callable[[str], None]) -> None:
-    """The inputs' errors (a truncated or unreadable file, samples dropped), which a run
-    that still exits 0 or 1 would otherwise keep to findings.json and the report."""
+    """The inputs' errors (a truncated or unreadable file, samples dropped) and the
+    archive's assembly notes (:func:`_archive_notes`), which a run that still exits 0 or 1
+    would otherwise keep to findings.json and the report."""
     lines = [f"{i.path}: {e}" for i in analysis.inputs for e in i.errors]
+    lines.extend(_archive_notes(analysis))
     for line in lines[:WARNED_LINES]:
         warn(line)
     if len(lines) > WARNED_LINES:
         warn(f"{len(lines) - WARNED_LINES} more input errors in {out / 'findings.json'}")
+
+
+def _archive_notes(analysis: Analysis) -> list[str]:
+    """The notes on how the archive was put together (a file in its folders not read, an
+    input given twice: :class:`~analyzer.readers.ArchiveNote`): each names its file, and
+    what was left out of the archive is said where the inputs' errors are."""
+    return [str(n) for n in analysis.notes if isinstance(n, ArchiveNote)]
 
 
 __all__ = [

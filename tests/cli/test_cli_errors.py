@@ -684,11 +684,16 @@ def test_a_fault_after_a_gap_in_the_data_says_it_may_have_begun_in_the_gap(tmp_p
     assert code == 1, err
     (fault,) = doc["faults"]
     assert fault["channel"] == names[1] and fault["onset_s"] >= 260.0
+    late = fault["onset_s"] - 260.0
+    assert late > 0.1  # the detectors settle again after the gap
+    # (the note said "its onset is where the data resumed" of an onset 0.78 s later)
     assert (
         f"the additive fault on {names[1]} found from {fault['onset_s']:.1f} s follows a gap "
-        "in its data (200.0-260.0 s): it may have begun during the gap (its onset is where "
-        "the data resumed)" in doc["notes"]
+        "in its data (200.0-260.0 s): it may have begun during the gap (found "
+        f"{late:.2f} s after the data resumed, while the detectors settle again after a gap: "
+        "it may have been there from the resumption)" in doc["notes"]
     )
+    assert fault["evidence"]["after_gap_s"] == [200.0, 260.0]
 
 
 def test_an_iso_train_window_before_the_data_says_where_the_data_starts(tmp_path, capsys):
