@@ -235,30 +235,31 @@ def one_fault_at_a_time(
     the finding's own (:func:`_assistants_faults`): a finding that rests on such
     detectors alone is taken for the assistant's fault, with a note, and one that rests
     on them and a single other detector is taken for another finding as above."""
-    kept: list[Finding] = []
-    notes: list[str] = []
+    # each finding taken for others: (the findings it is taken for, the note)
+    drops: dict[int, tuple[list[Finding], str]] = {}
     explains = [_assistants_faults(f, findings, slack_s) for f in findings]
     support = _support(findings, explains)
     for f, explained in zip(findings, explains, strict=True):
         if explained and len(explained) == len(_detectors(f)):
-            notes.append(
+            drops[id(f)] = (
+                list(explained.values()),
                 f"{f.detector}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
                 f"reported: {_explained_text(explained)}: taken for that fault (law 0), one "
-                "fault at a time"
+                "fault at a time",
             )
             continue
         taken = _taken_for(f, findings, coupled, slack_s, set(explained), support)
         if taken is None:
             within = _ended_with(f, findings, coupled, slack_s)
             if within is None:
-                kept.append(f)
                 continue
-            notes.append(
+            drops[id(f)] = (
+                [within],
                 f"{f.detector}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
                 f"reported: it began while {f.detector} had the {within.type.value} fault "
                 f"on {within.channel} (from {within.onset_s:.3f} s) under way and ended "
                 f"when that one did, on sensors {f.detector} models together: taken for "
-                "that fault, one fault at a time"
+                "that fault, one fault at a time",
             )
             continue
         cause, single, followers = taken
@@ -283,8 +284,44 @@ def one_fault_at_a_time(
             )
         if explained:
             note += f" ({_explained_text(explained)})"
-        notes.append(note)
-    return kept, notes
+        drops[id(f)] = ([cause], note)
+    return _resolve_drops(findings, drops, support)
+
+
+def _resolve_drops(
+    findings: list[Finding],
+    drops: dict[int, tuple[list[Finding], str]],
+    support: dict[int, set[str]],
+) -> tuple[list[Finding], list[str]]:
+    """The findings :func:`one_fault_at_a_time` keeps and its notes: a finding is left out
+    only for a finding that stays. Where every finding one is taken for is left out too
+    (two findings each taken for the other), the best supported of those is kept (more
+    detectors agreeing, then more of its own, then the higher confidence, then the
+    earlier): a drift on s4 of a 6-channel building that the bank reported and one on
+    s5 that the detection filter reported were each taken for the other, and neither
+    was reported (exit 0; 4 of 24 drifts on healthy simulated records)."""
+    by_id = {id(f): f for f in findings}
+    dropped = set(drops)
+    restored: list[Finding] = []
+    while True:
+        orphans = [by_id[k] for k in dropped if all(id(c) in dropped for c in drops[k][0])]
+        if not orphans:
+            break
+        best = max(
+            orphans,
+            key=lambda f: (len(support[id(f)]), len(_detectors(f)), f.confidence, -f.onset_s),
+        )
+        dropped.discard(id(best))
+        restored.append(best)
+    notes = [drops[id(f)][1] for f in findings if id(f) in dropped]
+    for f in restored:
+        causes = ", ".join(f"{c.channel} (from {c.onset_s:.3f} s)" for c in drops[id(f)][0])
+        notes.append(
+            f"the {f.type.value} fault on {f.channel} from {f.onset_s:.3f} s is reported "
+            f"although it could be taken for the fault on {causes}: that one was taken for "
+            "it in turn, and of the two this one has the more support"
+        )
+    return [f for f in findings if id(f) not in dropped], notes
 
 
 def _taken_for(
