@@ -83,6 +83,12 @@ def _names(value: Any) -> bool:
     return _sequence(value) and all(isinstance(v, str) for v in value)
 
 
+COPY_TOLERANCE = 1e-10
+"""Two sensors whose healthy correlation is within this of +-1 are copies of each other
+(the same signal, up to a scale and offset, and rounding): the network never makes one
+the other's assistant."""
+
+
 # -- the detector --------------------------------------------------------------------------
 @dataclass(frozen=True, slots=True)
 class TargetObserver:
@@ -269,7 +275,13 @@ class EquivalentModel:
         # the correlations of the rows without a gap, a block of rows at a time (a
         # long training window is not copied)
         corr = row_moments(data.train_values(), [data.index(c) for c in sensors]).correlation()
-        net = SensorNetwork.design(sensors, np.nan_to_num(corr), self.n_assistants)
+        corr = np.nan_to_num(corr)
+        # a copy of a sensor (the same signal logged twice, or scaled) is no assistant: its
+        # residual would be the difference of the two, zero but for rounding, and any
+        # fault on either a change of a billion noise levels (a step on s2 at 40 s, with
+        # s6 a copy of s2, was typed a drift from 15 s)
+        corr[(1.0 - np.abs(corr) < COPY_TOLERANCE) & ~np.eye(len(sensors), dtype=bool)] = 0.0
+        net = SensorNetwork.design(sensors, corr, self.n_assistants)
         if self.quasi_heads or self.propagation is not Propagation.DIRECT:
             net = SensorNetwork(net.sensors, net.assistants, self.quasi_heads, self.propagation)
         return net
