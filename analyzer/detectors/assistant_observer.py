@@ -441,6 +441,14 @@ def fit_relation(
         G, h_all, t, X = _rows_gram(Y, target, assistants, Lmax)
         n = t.shape[0]
         every = False
+    if n < need:
+        # rows with a gap anywhere in a lag history are left out: scattered losses
+        # (dropped packets) leave few complete ones
+        raise DetectorError(
+            f"too little healthy data for a {Lmax}-lag relation of {len(assistants)} "
+            f"sensor(s): {n} of {N} training rows have every lagged value (gaps in "
+            "these sensors' data)"
+        )
     var_t = float(np.var(t))
     if not var_t > 0.0:
         raise DetectorError("the target sensor is constant in the training window")
