@@ -236,6 +236,16 @@ def fit_ar(
         E = T - X @ B
         EE = E.T @ E
     N = usable
+    d = np.sqrt(np.diag(EE))
+    if d.all() and m > 1:
+        w = np.linalg.eigvalsh(EE / np.outer(d, d))
+        if w[0] < NEAR_SINGULAR * w[-1]:
+            if whole is None:
+                whole = _scaled_rows(Y, mean, scale, exclude)
+            raise DetectorError(
+                "singular AR residual covariance: "
+                + _dependence(whole, None, k, names, NEAR_SINGULAR_RANK)
+            )
     sigma = EE / max(N - k, 1)
     coefs = B.T.reshape(m, order, m).transpose(1, 0, 2)  # coefs[i] = A_{i+1}
     sign, logdet = np.linalg.slogdet(EE / N)
@@ -247,12 +257,19 @@ def fit_ar(
     return ARModel(np.ascontiguousarray(coefs, dtype=np.float64), sigma, mean, scale, N, aic, bic)
 
 
-def _dependence(Z: FloatArray, X: FloatArray, rank: int, names: Sequence[str] | None) -> str:
+def _dependence(
+    Z: FloatArray,
+    X: FloatArray | None,
+    rank: int,
+    names: Sequence[str] | None,
+    relative: float | None = None,
+) -> str:
     """Which channels make the regression singular, for its error. A pivoted QR puts the
     columns that are combinations of others last: of the channels themselves when they
     are dependent at one instant (a duplicated sensor, a sum of others), else of the
     lagged design (a channel that is a delayed copy, a difference or a running sum of
-    another)."""
+    another). ``relative``: the tolerance on QR's diagonal relative to its largest
+    (default: rounding of the regression's size); ``X`` None: the channels only."""
     m = Z.shape[1]
     label = list(names) if names is not None and len(names) == m else [str(i) for i in range(m)]
     rows = Z[np.isfinite(Z).all(axis=1)]
@@ -260,9 +277,22 @@ def _dependence(Z: FloatArray, X: FloatArray, rank: int, names: Sequence[str] | 
     def pivoted(M: FloatArray) -> tuple[npt.NDArray[np.intp], int]:
         R, piv = linalg.qr(M, mode="r", pivoting=True, check_finite=False)
         d = np.abs(np.diag(R))
-        tol = d.max(initial=0.0) * max(M.shape) * np.finfo(float).eps * 1e3
+        scale = relative if relative is not None else max(M.shape) * np.finfo(float).eps * 1e3
+        tol = d.max(initial=0.0) * scale
         return np.asarray(piv), int(np.count_nonzero(d > tol))
 
+    if relative is not None and rows.shape[0] >= m:
+        # the combination itself: the channels with a weight in the correlation
+        # matrix's least eigenvector (all of them are in it; leaving any one out helps)
+        w, v = np.linalg.eigh(np.corrcoef(rows, rowvar=False))
+        if w[0] < relative * w[-1]:
+            weight = np.abs(v[:, 0])
+            found = [label[j] for j in np.flatnonzero(weight > 0.05 * weight.max())]
+            return (
+                f"{', '.join(found)} are linearly dependent in the training window (one of "
+                "them computed from the others, up to rounding?): leave one of them out, "
+                f"for example with --channels '!{found[-1]}'"
+            )
     if rows.shape[0] >= m:
         piv, r = pivoted(rows)
         if r < m:
@@ -272,6 +302,11 @@ def _dependence(Z: FloatArray, X: FloatArray, rank: int, names: Sequence[str] | 
                 f"{', '.join(found)} {what} of the other channels in the training window "
                 f"(duplicated or perfectly correlated sensors): {_leave_out(found)}"
             )
+    if X is None:
+        return (
+            "a channel is a linear combination of the others, up to rounding, in the training "
+            "window (a channel computed from the others?)"
+        )
     piv, _ = pivoted(X)
     found = [label[j] for j in sorted({int(c) % m for c in piv[rank:]})]
     verb = "follows" if len(found) == 1 else "follow"
@@ -393,6 +428,15 @@ def _ar_residuals(
         parts.append(E)
     return parts[0] if len(parts) == 1 else np.concatenate(parts)
 
+
+NEAR_SINGULAR = 1e-10
+"""Smallest eigenvalue of the AR residuals' correlation matrix, relative to its largest,
+below which one channel's innovation is a combination of the others' (a channel computed
+from others and written with 9 digits: ~1e-16; two sensors on one floor with independent
+noise: ~1e-3)."""
+NEAR_SINGULAR_RANK = 1e-6
+"""The QR tolerance (relative) that names the channels of such a combination: their
+rounding leaves ~1e-9 of the combined channel."""
 
 NORMAL_EQUATIONS_COND = 1e8
 """Largest condition number of ``X' X`` solved by Cholesky (about 8 of 16 digits kept);
