@@ -294,8 +294,9 @@ def _resolve_drops(
     support: dict[int, set[str]],
 ) -> tuple[list[Finding], list[str]]:
     """The findings :func:`one_fault_at_a_time` keeps and its notes: a finding is left out
-    only for a finding that stays. Where every finding one is taken for is left out too
-    (two findings each taken for the other), the best supported of those is kept (more
+    only for a finding that stays, directly or through findings left out for it. Where
+    none of its chains ends at one that stays (two findings each taken for the other),
+    the best supported of those is kept (more
     detectors agreeing, then more of its own, then the higher confidence, then the
     earlier): a drift on s4 of a 6-channel building that the bank reported and one on
     s5 that the detection filter reported were each taken for the other, and neither
@@ -304,11 +305,34 @@ def _resolve_drops(
     dropped = set(drops)
     restored: list[Finding] = []
     while True:
-        orphans = [by_id[k] for k in dropped if all(id(c) in dropped for c in drops[k][0])]
+        # left out for good: taken for a finding that stays, or for one left out for good
+        # (a lone drift on a floor partner taken for the fault, and an offset taken for
+        # that drift, are both that fault's doing)
+        settled: set[int] = set()
+        grew = True
+        while grew:
+            grew = False
+            for k in dropped - settled:
+                if any(id(c) not in dropped or id(c) in settled for c in drops[k][0]):
+                    settled.add(k)
+                    grew = True
+        orphans = dropped - settled
         if not orphans:
             break
+
+        def in_cycle(k: int, orphans: set[int] = orphans) -> bool:
+            seen, todo = set(), [id(c) for c in drops[k][0]]
+            while todo:
+                j = todo.pop()
+                if j == k:
+                    return True
+                if j in orphans and j not in seen:
+                    seen.add(j)
+                    todo.extend(id(c) for c in drops[j][0])
+            return False
+
         best = max(
-            orphans,
+            (by_id[k] for k in orphans if in_cycle(k)),
             key=lambda f: (len(support[id(f)]), len(_detectors(f)), f.confidence, -f.onset_s),
         )
         dropped.discard(id(best))
