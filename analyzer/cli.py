@@ -150,9 +150,10 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
 
 INPUT_HELP = (
     "an .mcap, a ROS 1 .bag, a ROS 2 bag (folder or .db3), a CSV/TSV (.gz) or a TOA5 "
-    "table, or a folder of such files; several INPUTs (or a folder's files) are one "
-    "archive, stitched in time order (samples of a later input that overlap an earlier "
-    "one's time are dropped, with a warning)"
+    "table, or a folder of such files (its subfolders included); several INPUTs (or a "
+    "folder's files) are one archive, stitched in time order (samples of a later input "
+    "that overlap an earlier one's time are dropped, with a warning; files with relative "
+    "times that overlap cannot be stitched and are refused)"
 )
 
 

@@ -15,7 +15,9 @@ from analyzer.types import NS_PER_S
 
 
 def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> dict[str, Any]:
-    """The contract's ``inspect --json`` object (plus ``start``, absolute UTC, where known)."""
+    """The contract's ``inspect --json`` object, plus ``start`` (absolute UTC, where known)
+    and ``notes``: how the archive was put together (a file not read, one given twice:
+    :attr:`~analyzer.readers.Archive.notes`), as ``run`` puts them in findings.json."""
     archive = open_archive(inputs)
     with (
         scratch("analyzer-inspect-") as tmp,
@@ -34,6 +36,7 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
                 }
                 for i in archive.inputs
             ],
+            "notes": [str(n) for n in archive.notes],
             "start": iso_utc(t0) if absolute and infos else None,
             "channels": [
                 {
@@ -58,6 +61,8 @@ def render_table(doc: dict[str, Any]) -> str:
             lines.append(f"  time: {i['time']}")
         for e in i["errors"]:
             lines.append(f"  ! {e}")
+    for note in doc.get("notes", ()):
+        lines.append(f"note: {note}")
     if doc.get("start"):
         lines.append(f"start {doc['start']}")
     rows = [("channel", "samples", "start_s", "end_s", "rate_hz", "gaps")]

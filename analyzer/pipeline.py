@@ -56,7 +56,7 @@ from analyzer.parallel import (
     locked,
     make_executor,
 )
-from analyzer.readers import open_archive
+from analyzer.readers import ArchiveNote, open_archive
 from analyzer.regenerate import corrected_values, result_signals
 from analyzer.reuse import (
     in_registry_order,
@@ -1099,13 +1099,24 @@ WARNED_LINES = 5
 
 
 def _warn_inputs(analysis: Analysis, out: Path, warn: Callable[[str], None]) -> None:
-    """The inputs' errors (a truncated or unreadable file, samples dropped), which a run
-    that still exits 0 or 1 would otherwise keep to findings.json and the report."""
+    """The inputs' errors (a truncated or unreadable file, samples dropped) and the
+    archive's assembly notes (:func:`_archive_notes`), which a run that still exits 0 or 1
+    would otherwise keep to findings.json and the report."""
     lines = [f"{i.path}: {e}" for i in analysis.inputs for e in i.errors]
+    notes = _archive_notes(analysis)
+    lines.extend(notes)
     for line in lines[:WARNED_LINES]:
         warn(line)
     if len(lines) > WARNED_LINES:
-        warn(f"{len(lines) - WARNED_LINES} more input errors in {out / 'findings.json'}")
+        what = "input errors and notes" if notes else "input errors"
+        warn(f"{len(lines) - WARNED_LINES} more {what} in {out / 'findings.json'}")
+
+
+def _archive_notes(analysis: Analysis) -> list[str]:
+    """The notes on how the archive was put together (a file in its folders not read, an
+    input given twice: :class:`~analyzer.readers.ArchiveNote`): each names its file, and
+    what was left out of the archive is said where the inputs' errors are."""
+    return [str(n) for n in analysis.notes if isinstance(n, ArchiveNote)]
 
 
 __all__ = [

@@ -3,7 +3,8 @@
 * :func:`open_input` opens one input (MCAP file, ROS 1 bag, ROS 2 bag directory or bare
   ``.db3``, CSV/TSV optionally gzipped), detected by magic bytes first, then by suffix.
 * :func:`open_archive` opens the inputs that together form one archive (several paths,
-  and/or a directory of files such as one file per hour) and streams them in time order.
+  and/or a directory of files such as one file per hour, its subfolders included) and
+  streams them in time order.
 
 Errors: a missing path, an unknown format or a file that cannot be opened raises
 :class:`~analyzer.errors.ReaderError` with one line naming the file and the problem. Inside
@@ -40,9 +41,11 @@ from analyzer.types import Format
 
 __all__ = [
     "Archive",
+    "ArchiveNote",
     "ChannelChunk",
     "InputInfo",
     "Reader",
+    "Unstitchable",
     "detect_format",
     "open_archive",
     "open_input",
@@ -193,13 +196,30 @@ def _safe_start(reader: Reader) -> int | None:
         return None
 
 
+class ArchiveNote(str):
+    """A note on how an archive was put together (a file not read, one given twice):
+    a plain string to every reader of ``notes``, recognisable among a run's other notes
+    so that ``run`` can repeat it on stderr (:attr:`Archive.notes`)."""
+
+    __slots__ = ()
+
+
+class Unstitchable(ReaderError):
+    """Inputs of one archive that cannot be placed in time against each other (relative
+    times that overlap): a refusal of the whole archive, not one input's damage."""
+
+
 class Archive:
     """The inputs of one archive, stitched in time order (by each reader's start time).
 
     ``inputs`` lists every input, readable or not (in stitching order, unreadable ones
     last). :meth:`chunks` streams the readable ones one after the other; a sample not later
     than one already streamed for the same channel (files overlapping in time) is dropped
-    and counted in the later file's errors.
+    and counted in the later file's errors. Two inputs with relative times (seconds from
+    their own start) whose spans of one channel overlap cannot be stitched: each starts
+    at 0 s, so dropping the overlap would keep the first file alone; :meth:`chunks`
+    raises :class:`Unstitchable` instead. Relative-time inputs holding different channels
+    over the same span (one file per sensor node) are merged.
     """
 
     def __init__(
@@ -212,8 +232,10 @@ class Archive:
         starts.sort(key=lambda s: (s[0] is None, s[0] or 0, s[1]))
         self.readers: list[Reader] = [s[2] for s in starts]
         self.inputs: list[InputInfo] = [r.info for r in self.readers] + list(failed)
-        self.notes: list[str] = list(notes)
-        """What the archive's folders held that is not read (the analyzer's own outputs)."""
+        self.notes: list[str] = [ArchiveNote(n) for n in notes]
+        """What the archive's folders held that is not read (the analyzer's own outputs, a
+        FIFO, a folder reached twice through a link) and inputs given twice, as
+        :class:`ArchiveNote`."""
 
     def start_ns(self) -> int | None:
         """Start time of the first readable input."""
@@ -231,6 +253,7 @@ class Archive:
         if time not in ("log", "header"):
             raise ValueError(f"time must be 'log' or 'header', not {time!r}")
         last: dict[str, int] = {}
+        owner: dict[str, Reader] = {}
         single = len(self.inputs) == 1
         report = None if progress is None else _ReadProgress(progress, self.readers)
         # the next input is read ahead on a thread while this one is consumed: decoding
@@ -243,7 +266,7 @@ class Archive:
                 if nxt < len(self.readers) and _threadable(self.readers[nxt]):
                     ahead[nxt] = _ReadAhead(self.readers[nxt].chunks, time)
                 source = ahead.pop(i) if i in ahead else reader.chunks(time)
-                for chunk in self._stream(reader, source, last, single):
+                for chunk in self._stream(reader, source, last, owner, single):
                     if report is not None:
                         report.inside(i)
                     yield chunk
@@ -255,13 +278,19 @@ class Archive:
 
     @staticmethod
     def _stream(
-        reader: Reader, source: Iterator[ChannelChunk], last: dict[str, int], single: bool
+        reader: Reader,
+        source: Iterator[ChannelChunk],
+        last: dict[str, int],
+        owner: dict[str, Reader],
+        single: bool,
     ) -> Iterator[ChannelChunk]:
         """One input's chunks, time-ordered against the inputs before it; its errors
         recorded (several inputs) or raised (one input)."""
         dropped: dict[str, int] = {}
         try:
-            yield from monotonic(source, last, dropped, strict=True)
+            yield from monotonic(_one_span(reader, source, last, owner), last, dropped, strict=True)
+        except Unstitchable:
+            raise
         except ReaderError as err:
             if single:
                 raise
@@ -280,6 +309,43 @@ class Archive:
             else:
                 line = f"{name}: {count} {unit} overlap the previous input in time; dropped"
             reader.info.errors.append(line)
+
+
+def _one_span(
+    reader: Reader,
+    source: Iterator[ChannelChunk],
+    last: dict[str, int],
+    owner: dict[str, Reader],
+) -> Iterator[ChannelChunk]:
+    """``source`` (the chunks of ``reader``) passed through, after checking that where it
+    and an earlier input both have relative times, its first sample of each channel does
+    not lie before that channel's last sample of the earlier input (``last``; ``owner``
+    says which input that was; a sample repeated at the seam is dropped as before).
+    Raises :class:`Unstitchable` before yielding a chunk that does: files that each count
+    seconds from their own start overlap by construction, and their overlap, dropped as a
+    repeat, was every sample of the later files."""
+    relative = not reader.info.absolute_time
+    seen: set[str] = set()
+    for chunk in source:
+        name = chunk.name
+        if name not in seen and len(chunk):
+            seen.add(name)
+            before = owner.get(name)
+            if (
+                relative
+                and before is not None
+                and before is not reader
+                and not before.info.absolute_time
+                and int(chunk.t_ns[0]) < last.get(name, int(chunk.t_ns[0]))
+            ):
+                raise Unstitchable(
+                    f"{before.info.path} and {reader.info.path} have relative times (seconds "
+                    f"from their own start) and both hold {one_line(name)} over the same "
+                    "span: they cannot be stitched in time; give them absolute times "
+                    "(dates), or analyze them one at a time"
+                )
+            owner[name] = reader
+        yield chunk
 
 
 class _ReadProgress:
@@ -390,29 +456,79 @@ back spans the time from 0 beside the archive's epoch times: the archive became
 unreadable)."""
 
 
+SKIPPED_FOLDER_ENDINGS = ("~", ".bak", ".orig", ".old", ".tmp", ".part")
+"""Folders of a directory archive that are not descended into, by how their name ends:
+backups and copies in progress, whose files would repeat (or half repeat) the archive's
+own. They are named in the archive's notes; hidden folders are skipped without a word,
+as hidden files are."""
+
+
 def _members(directory: Path, skipped: list[str] | None = None) -> list[Path]:
-    """The inputs of a directory archive: files with a known suffix, and ROS 2 bags; not
-    the analyzer's own outputs (:data:`OWN_OUTPUTS`), which are named in ``skipped``."""
-    found = []
+    """The inputs of a directory archive: files with a known suffix, and ROS 2 bags
+    (each one input), in it and in its subfolders at any depth, in sorted order.
+
+    Not read, and named in ``skipped``: the analyzer's own outputs beside a
+    ``findings.json`` (:data:`OWN_OUTPUTS`), FIFOs and other special files with a known
+    suffix, backup folders (:data:`SKIPPED_FOLDER_ENDINGS`), a folder that cannot be
+    listed, and a folder reached a second time through a symbolic link (a link to a
+    folder above it would loop). Hidden files and folders are skipped without a word."""
+    try:
+        entries = sorted(directory.iterdir())
+    except OSError as err:
+        raise ReaderError(
+            f"{directory}: cannot list the folder: {one_line(err.strerror or err)}"
+        ) from err
+    found: list[Path] = []
+    _walk(directory, entries, {directory.resolve()}, found, [] if skipped is None else skipped)
+    return found
+
+
+def _walk(
+    directory: Path, entries: list[Path], seen: set[Path], found: list[Path], skipped: list[str]
+) -> None:
+    """:func:`_members` of ``directory``, whose ``entries`` are listed already; ``seen``
+    holds the real paths of the folders read so far."""
     ours = (directory / "findings.json").is_file()
-    for entry in sorted(directory.iterdir()):
+    for entry in entries:
         if entry.name.startswith("."):
             continue
         if ours and entry.name in OWN_OUTPUTS:
-            if skipped is not None:
-                skipped.append(
-                    f"{entry} not read: the analyzer's output beside {directory / 'findings.json'}"
-                )
+            skipped.append(
+                f"{entry} not read: the analyzer's output beside {directory / 'findings.json'}"
+            )
             continue
         if entry.is_dir():
             if is_ros2_bag(entry):
                 found.append(entry)
+                continue
+            ending = next(
+                (e for e in SKIPPED_FOLDER_ENDINGS if entry.name.lower().endswith(e)), None
+            )
+            if ending is not None:
+                skipped.append(f"{entry} not read: a backup or temporary folder (ends in {ending})")
+                continue
+            real = entry.resolve()
+            if real in seen:
+                skipped.append(
+                    f"{entry} not read: a link to {real}, a folder read already"
+                    if entry.is_symlink()
+                    else f"{entry} not read: read already through a symbolic link to it"
+                )
+                continue
+            seen.add(real)
+            try:
+                inner = sorted(entry.iterdir())
+            except OSError as err:
+                skipped.append(
+                    f"{entry} not read: cannot list the folder: {one_line(err.strerror or err)}"
+                )
+                continue
+            _walk(entry, inner, seen, found, skipped)
         elif (special := special_kind(entry)) is not None:
-            if skipped is not None and _suffix(entry):
+            if _suffix(entry):
                 skipped.append(f"{entry} not read: not a regular file ({special})")
         elif _suffix(entry) or _is_toa5(entry):
             found.append(entry)
-    return found
 
 
 def _is_toa5(path: Path) -> bool:
@@ -442,11 +558,11 @@ def _failed(path: Path, err: ReaderError) -> InputInfo:
 def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
     """Open the inputs of one archive.
 
-    A directory that is not a ROS 2 bag stands for the files in it (see :data:`SUFFIXES`)
-    and the ROS 2 bags under it. With one input in total, any problem raises
-    ReaderError; with several, an input that cannot be opened is recorded (and skipped)
-    unless none can be opened.
-    """
+    A directory that is not a ROS 2 bag stands for the files in it and in its subfolders
+    (see :data:`SUFFIXES`) and the ROS 2 bags under it (:func:`_members`). With one
+    input in total, any problem raises ReaderError; with several, an input that cannot be
+    opened is recorded (and skipped) unless none can be opened. Inputs with relative
+    times that overlap are refused while they are read (:class:`Unstitchable`)."""
     if isinstance(paths, str | Path):
         paths = [paths]
     if not paths:
@@ -462,7 +578,7 @@ def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
             if not found:
                 raise ReaderError(
                     f"{path}: the directory holds no input (.mcap, .bag, .db3, .csv, .tsv, "
-                    ".csv.gz, TOA5 .dat or ROS 2 bag directories)"
+                    ".csv.gz, TOA5 .dat or ROS 2 bag directories), nor do its subfolders"
                 )
             members.extend(found)
         else:

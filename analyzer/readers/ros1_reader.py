@@ -9,7 +9,11 @@ from the connection's embedded ``message_definition``.
 
 A bag without a usable index (recording killed: ``index_pos`` 0; truncated file) is
 scanned record by record from the start; what is readable is read and the problem is
-recorded in ``info.errors``.
+recorded in ``info.errors``, with how many messages were read and up to when. A file
+that ends inside a chunk (a power loss mid-write) keeps that chunk's complete messages,
+as ``rosbag reindex`` does: an uncompressed chunk's records are walked up to the cut; an
+lz4 chunk's complete frame blocks are decompressed and walked the same way; a cut bz2
+chunk (one block, in practice) does not decompress, which the error says.
 """
 
 from __future__ import annotations
@@ -90,6 +94,19 @@ def _time(value: bytes) -> int:
 
 def _read_record(handle: BinaryIO) -> tuple[dict[str, bytes], bytes] | None:
     """One record at the current position; None at a clean end of file."""
+    record = _read_cut_record(handle)
+    if record is None:
+        return None
+    fields, data, data_len = record
+    if len(data) < data_len:
+        raise _BagError("truncated record")
+    return fields, data
+
+
+def _read_cut_record(handle: BinaryIO) -> tuple[dict[str, bytes], bytes, int] | None:
+    """One record at the current position, with the length its header gives its data:
+    ``data`` is shorter where the file ends inside it. None at a clean end of file;
+    raises where the file ends before the data starts."""
     raw = handle.read(4)
     if not raw:
         return None
@@ -101,10 +118,72 @@ def _read_record(handle: BinaryIO) -> tuple[dict[str, bytes], bytes] | None:
     if len(header) < header_len or len(raw) < 4:
         raise _BagError("truncated record")
     data_len = _U32.unpack(raw)[0]
-    data = handle.read(data_len)
-    if len(data) < data_len:
-        raise _BagError("truncated record")
-    return _fields(header), data
+    return _fields(header), handle.read(data_len), data_len
+
+
+def _cut_chunk(compression: str, data: bytes) -> tuple[ByteArray, str]:
+    """The record bytes that can be had from a chunk the file ends inside (``data``, the
+    part of its compressed data before the cut), and why none can where that is so."""
+    if compression == "none":
+        return as_bytes_array(data), ""
+    out = b""
+    try:
+        if compression == "lz4":  # an LZ4 frame's blocks decompress one by one
+            out = lz4.frame.LZ4FrameDecompressor().decompress(data)
+        elif compression == "bz2":  # a bz2 stream's blocks (up to 900 kB, a whole chunk)
+            out = bz2.BZ2Decompressor().decompress(data)
+        else:
+            return as_bytes_array(b""), f"unsupported chunk compression {compression!r}"
+    except (OSError, ValueError, RuntimeError, EOFError) as err:
+        return as_bytes_array(b""), f"its {compression} data does not decompress ({one_line(err)})"
+    if not out:
+        return as_bytes_array(b""), (
+            f"its {compression}-compressed data holds no complete block before the cut, so "
+            "none of its messages can be recovered"
+        )
+    return as_bytes_array(out), ""
+
+
+class _ScanCount:
+    """How many messages a sequential scan has found, and their first and last log
+    times; ``str`` says so for the line that tells where the scan stopped."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.first: int | None = None
+        self.last: int | None = None
+
+    def taken(
+        self, chunks: list[tuple[ByteArray, IntArray, IntArray, IntArray]]
+    ) -> Iterator[tuple[ByteArray, IntArray, IntArray, IntArray]]:
+        """``chunks`` (of the scan) counted and passed on; those without a message are
+        dropped."""
+        for chunk in chunks:
+            times = chunk[2]
+            if not times.size:
+                continue
+            self.count += int(times.size)
+            low, high = int(times.min()), int(times.max())
+            self.first = low if self.first is None else min(self.first, low)
+            self.last = high if self.last is None else max(self.last, high)
+            yield chunk
+
+    def __str__(self) -> str:
+        if self.first is None or self.last is None:
+            return "no message before it could be read"
+        plural, were = ("s", "were") if self.count != 1 else ("", "was")
+        until = (self.last - self.first) / 1e9
+        return (
+            f"the {self.count} message{plural} before it {were} read, up to {until:.3f} s "
+            "after the first"
+        )
+
+    def in_all(self) -> str:
+        """How much was read, said where the file ends."""
+        if self.first is None or self.last is None:
+            return "no message read in all"
+        until = (self.last - self.first) / 1e9
+        return f"{self.count} message(s) read in all, up to {until:.3f} s after the first"
 
 
 def _op(fields: dict[str, bytes]) -> int:
@@ -300,7 +379,16 @@ class Ros1BagReader:
 
     # ------------------------------------------------------------------ sequential scan
     def _scan(self, *, errors: bool) -> Iterator[tuple[ByteArray, IntArray, IntArray, IntArray]]:
-        """Chunks read from the start of the file: (records, conn, time, offset) per chunk."""
+        """Chunks read from the start of the file: (records, conn, time, offset) per chunk.
+
+        Where the file ends inside a chunk, the complete records before the cut are
+        yielded (:func:`_cut_chunk`). Message records outside any chunk (rosbag writes a
+        chunk's header with sizes of 0 and completes it when the chunk closes: a
+        recording killed meanwhile leaves its records loose after an empty chunk) are
+        yielded as one chunk per run. With ``errors``, where and why the scan stopped is
+        recorded, with how many messages were read and up to when."""
+        read = _ScanCount()
+        loose = bytearray()
         with self.path.open("rb") as handle:
             handle.seek(len(MAGIC))
             position = handle.tell()
@@ -308,32 +396,76 @@ class Ros1BagReader:
                 _read_record(handle)  # bag header
                 while True:
                     position = handle.tell()
-                    record = _read_record(handle)
+                    record = _read_cut_record(handle)
                     if record is None:
+                        yield from read.taken(self._loose(loose))
                         if errors:
-                            self._error(f"file ends at byte {position} without an index section")
+                            self._error(
+                                f"file ends at byte {position} without an index section; {read}"
+                            )
                         return
-                    fields, data = record
+                    fields, data, data_len = record
                     op = _op(fields)
+                    if len(data) < data_len and op != OP_CHUNK:
+                        raise _BagError("truncated record")
+                    if op == OP_MSG_DATA:
+                        end = handle.tell()
+                        handle.seek(position)
+                        loose += handle.read(end - position)
+                        continue
                     if op == OP_CONNECTION:
-                        self._add_connection(record)
-                    elif op == OP_CHUNK:
-                        records = _decompress(
-                            fields["compression"].decode("ascii", "replace"),
-                            data,
-                            _U32.unpack(fields["size"])[0],
-                        )
-                        yield (records, *self._scan_chunk(records))
+                        self._add_connection((fields, data))
+                        continue
+                    yield from read.taken(self._loose(loose))
+                    if op == OP_CHUNK:
+                        if data_len == 0:
+                            continue  # (a chunk never completed: its records follow loose)
+                        compression = fields["compression"].decode("ascii", "replace")
+                        if len(data) < data_len:  # the file ends inside this chunk
+                            records, why = _cut_chunk(compression, data)
+                            found = self._scan_chunk(records, cut=True)
+                            yield from read.taken([(records, *found)])
+                            if errors:
+                                kind = (
+                                    "uncompressed"
+                                    if compression == "none"
+                                    else f"{compression}-compressed"
+                                )
+                                what = why or (
+                                    f"its {found[1].size} complete message(s) before the cut "
+                                    "were recovered"
+                                )
+                                self._error(
+                                    f"truncated inside the {kind} chunk at byte {position} "
+                                    f"(the file ends at byte {handle.tell()}): {what}; "
+                                    f"{read.in_all()}"
+                                )
+                            return
+                        records = _decompress(compression, data, _U32.unpack(fields["size"])[0])
+                        yield from read.taken([(records, *self._scan_chunk(records))])
                     elif op == OP_CHUNK_INFO:
                         return  # the index section starts: all data was read
             except (_BagError, struct.error, KeyError, OverflowError, MemoryError) as err:
+                yield from read.taken(self._loose(loose))
                 if errors:
                     self._error(
-                        f"truncated or damaged at byte {position} ({one_line(err)}); "
-                        "the messages before it were read"
+                        f"truncated or damaged at byte {position} ({one_line(err)}); {read}"
                     )
 
-    def _scan_chunk(self, records: ByteArray) -> tuple[IntArray, IntArray, IntArray]:
+    def _loose(self, loose: bytearray) -> list[tuple[ByteArray, IntArray, IntArray, IntArray]]:
+        """The message records gathered outside any chunk, as one chunk (emptied)."""
+        if not loose:
+            return []
+        records = as_bytes_array(bytes(loose))
+        loose.clear()
+        return [(records, *self._scan_chunk(records))]
+
+    def _scan_chunk(
+        self, records: ByteArray, *, cut: bool = False
+    ) -> tuple[IntArray, IntArray, IntArray]:
+        """(conn, time, offset) of the message data records of a chunk's ``records``,
+        connection records taken in. With ``cut`` (the part of a chunk before the file
+        ended), the walk stops at the first record that is not whole."""
         data = records.tobytes()
         end = len(data)
         conns: list[int] = []
@@ -344,8 +476,12 @@ class Ros1BagReader:
             header_len = _U32.unpack_from(data, pos)[0]
             hdr_end = pos + 4 + header_len
             if hdr_end + 4 > end:
+                if cut:
+                    break
                 raise _BagError(f"record at chunk offset {pos} runs past the chunk")
             data_len = _U32.unpack_from(data, hdr_end)[0]
+            if cut and hdr_end + 4 + data_len > end:
+                break
             fields = _fields(data[pos + 4 : hdr_end])
             op = _op(fields)
             if op == OP_CONNECTION:
