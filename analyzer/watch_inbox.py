@@ -224,15 +224,20 @@ def incomplete_reason(path: Path) -> str | None:
             if f.name != "metadata.yaml" and (reason := _file_incomplete(f)):
                 return f"{f.name}: {reason}"
         return None
-    if not files:
-        # sub-folders only (ROS 2 bags, or nested folders): the analysis says what it
-        # makes of them; a folder with nothing at all is still being filled
-        return None if any(p.is_dir() for p in path.iterdir()) else "empty directory"
-    if _looks_like_bag(path, files):
+    subfolders = [p for p in sorted(path.iterdir()) if p.is_dir() and not p.name.startswith(".")]
+    if not files and not subfolders:
+        return "empty directory"  # still being filled
+    if files and _looks_like_bag(path, files):
         return "ROS 2 bag without metadata.yaml (still recording?)"
     for f in files:
         if not ignored(f.name) and (reason := _file_incomplete(f)):
             return f"{f.name}: {reason}"
+    # the analysis reads the subfolders too (a folder of day folders): their files are
+    # checked alike, an empty one is no sign of a copy under way
+    for sub in subfolders:
+        reason = incomplete_reason(sub)
+        if reason is not None and reason != "empty directory":
+            return f"{sub.name}/{reason}" if ":" in reason else f"{sub.name}: {reason}"
     return None
 
 
