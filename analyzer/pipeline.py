@@ -577,21 +577,42 @@ def _unattributed_notes(
         else:
             clusters.append([item])
 
-    def under_way(t0: float, t1: float) -> bool:
+    def echo(t0: float, t1: float) -> bool:
+        """A finding begins or ends with the anomaly: the anomaly is its doing."""
         return any(
-            f.onset_s <= t1 + slack and (f.end_s is None or f.end_s >= t0 - slack) for f in findings
+            t0 - slack <= f.onset_s <= t1 + slack
+            or (f.end_s is not None and t0 - slack <= f.end_s <= t1 + slack)
+            for f in findings
         )
 
-    missed = [
-        c for c in clusters if len({d for _, d, _ in c}) >= 2 and not under_way(c[0][0], c[-1][0])
-    ]
+    def lasting(t0: float, t1: float) -> list[Finding]:
+        """Findings under way since well before the anomaly and past it: it may be their
+        doing, or a fault of its own (a stuck s1 from 30 s, lasting to the end, kept an
+        offset on s4 from 45 s, which every detector noted, out of the run's notes)."""
+        return [
+            f
+            for f in findings
+            if f.onset_s < t0 - slack and (f.end_s is None or f.end_s > t1 + slack)
+        ]
+
+    missed = [c for c in clusters if len({d for _, d, _ in c}) >= 2 and not echo(c[0][0], c[-1][0])]
     for c in missed[:UNATTRIBUTED_LISTED]:
         names = sorted({ch for _, _, chs in c for ch in chs})
         detectors = sorted({d for _, d, _ in c})
+        during = lasting(c[0][0], c[-1][0])
+        beside = (
+            " (while the "
+            + ", ".join(
+                f"{f.type.value} fault on {f.channel} from {f.onset_s:.1f} s" for f in during
+            )
+            + " lasted: it may be a second fault, or that one's doing)"
+            if during
+            else ""
+        )
         out.append(
             f"anomaly at {c[0][0]:.1f} s on {', '.join(names)} attributed to no sensor by "
             f"{', '.join(detectors)}: several sensors at once, or a change of the structure "
-            "or excitation (the detectors' notes say more)"
+            f"or excitation{beside} (the detectors' notes say more)"
         )
     if len(missed) > UNATTRIBUTED_LISTED:
         out.append(f"{len(missed) - UNATTRIBUTED_LISTED} more such anomalies (detectors' notes)")
@@ -952,12 +973,20 @@ def _varying_in_training(
     return np.asarray(values)[:, keep], [chosen[k] for k in keep]
 
 
+GAPPY_SHARE = 0.05
+"""A channel missing more than this share of the training window's samples, beside
+channels missing hardly any, is named when no detector could run."""
+
+
 def _apart_in_training(
     values: Any, chosen: Sequence[str], train: tuple[int, int], rate_hz: float
 ) -> str:
     """A hint when the channels are each present in the training window but hardly ever
     together (fewer than :data:`MIN_TRAIN_ROWS` rows hold them all): a channel that
-    stops before the others start. Empty otherwise."""
+    stops before the others start; or when some channels miss samples there (more than
+    :data:`GAPPY_SHARE`) and others hardly any: scattered losses (a wireless sensor's
+    dropped packets, 20 % of s2's) left too few complete stretches, and the run said the
+    window was too short (a longer one left fewer). Empty otherwise."""
     m = len(chosen)
     present = np.zeros(m, dtype=np.int64)
     first = np.full(m, -1, dtype=np.int64)
@@ -972,6 +1001,20 @@ def _apart_in_training(
             if first[j] < 0:
                 first[j] = a + rows[0]
             last[j] = a + rows[-1]
+    rows = max(1, train[1] - train[0])
+    missing = 1.0 - present / rows
+    gappy = [c for j, c in enumerate(chosen) if missing[j] > GAPPY_SHARE]
+    if gappy and missing.min() <= GAPPY_SHARE / 5 and len(gappy) < m:
+        # scattered losses: rows hold the channel, but few stretches hold its lags
+        shares = ", ".join(
+            f"{c} {100 * missing[j]:.0f} %" for j, c in enumerate(chosen) if c in gappy
+        )
+        return (
+            f"; channels with samples missing in the training window ({shares}) leave the "
+            "models too few complete stretches: leave them out with --channels '"
+            + ",".join(f"!{c}" for c in gappy)
+            + "' or choose a --train where they are complete"
+        )
     if together >= MIN_TRAIN_ROWS or (present < MIN_TRAIN_ROWS).any():
         return ""
     t0 = train[0]

@@ -60,3 +60,16 @@ def test_many_anomalies_are_counted_past_the_first_three():
     ]
     notes = _unattributed_notes(results, [], RATE)
     assert len(notes) == 4 and notes[-1].startswith("2 more such anomalies")
+
+
+def test_a_fault_lasting_since_long_before_does_not_silence_a_new_anomaly():
+    """A stuck s1 from 30 s to the end kept an anomaly at 45 s out of the run's notes (an
+    offset on s4 that every detector noted, none attributed; signal-pathology probe)."""
+    both = [
+        result("ar_kalman_bank", [(300.0, ("a", "b"), ())]),
+        result("detection_filter", [(300.5, ("b",), ())]),
+    ]
+    (note,) = _unattributed_notes(both, [finding(200.0)], RATE)
+    assert note.startswith("anomaly at 300.0 s on a, b attributed to no sensor")
+    assert "(while the additive fault on a from 200.0 s lasted: it may be a second" in note
+    assert _unattributed_notes(both, [finding(200.0, 300.5)], RATE) == []  # it ended there
