@@ -600,7 +600,7 @@ def _unattributed_notes(
         names = sorted({ch for _, _, chs in c for ch in chs})
         detectors = sorted({d for _, d, _ in c})
         during = lasting(c[0][0], c[-1][0])
-        beside = (
+        lasted = (
             " (while the "
             + ", ".join(
                 f"{f.type.value} fault on {f.channel} from {f.onset_s:.1f} s" for f in during
@@ -612,7 +612,7 @@ def _unattributed_notes(
         out.append(
             f"anomaly at {c[0][0]:.1f} s on {', '.join(names)} attributed to no sensor by "
             f"{', '.join(detectors)}: several sensors at once, or a change of the structure "
-            f"or excitation{beside} (the detectors' notes say more)"
+            f"or excitation{lasted} (the detectors' notes say more)"
         )
     if len(missed) > UNATTRIBUTED_LISTED:
         out.append(f"{len(missed) - UNATTRIBUTED_LISTED} more such anomalies (detectors' notes)")
@@ -1001,8 +1001,7 @@ def _apart_in_training(
             if first[j] < 0:
                 first[j] = a + rows[0]
             last[j] = a + rows[-1]
-    rows = max(1, train[1] - train[0])
-    missing = 1.0 - present / rows
+    missing = 1.0 - present / max(1, train[1] - train[0])
     gappy = [c for j, c in enumerate(chosen) if missing[j] > GAPPY_SHARE]
     if gappy and missing.min() <= GAPPY_SHARE / 5 and len(gappy) < m:
         # scattered losses: rows hold the channel, but few stretches hold its lags
