@@ -308,9 +308,22 @@ def _analyze(
             aligned.start_ns
         )
         tr, train = _training_window(options, aligned, absolute, notes)
-        values, chosen = _varying_in_training(
-            values, chosen, train, tr, aligned.rate_hz, options, notes
-        )
+        try:
+            values, chosen = _varying_in_training(
+                values, chosen, train, tr, aligned.rate_hz, options, notes
+            )
+        except UsageError as err:
+            # (times cut to whole seconds under 100 rows a second: "1 Hz", and nothing
+            # said why; the input's warning is not printed when the run stops)
+            coarse = [
+                f"{i.path}: {e}"
+                for i in archive.inputs
+                for e in i.errors
+                if "repeat the time of the row before" in e
+            ]
+            if coarse:
+                raise UsageError(f"{err}; {coarse[0]}") from None
+            raise
         data = Dataset(values, tuple(chosen), aligned.rate_hz, train, healthy=reused is None)
         names, explicit = detector_names(options)
         if reused is not None:

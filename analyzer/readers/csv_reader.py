@@ -187,6 +187,9 @@ group 1, those after it in group 2): in a ``;``, tab or ``|`` file whose 64 KiB 
 shows none, a later one is still a number (see :meth:`CsvReader._clean`)."""
 _DIGIT_COMMA = re.compile(r",\d")
 _FINITE = re.compile(FINITE)
+_NOT_A_NUMBER = re.compile(r"^(?i:[-+]?(nan|inf|infinity)|na|n/a|#n/a|null|none)$")
+"""How writers spell a missing or infinite value in a numeric column (numpy's ``nan``,
+R's ``NA``, Excel's ``#N/A``): as numeric as a number where the header is sought."""
 LAYOUT_LINES = 200
 """Non-blank lines (of the 64 KiB sample) from which the separator and the header are
 found: a logger's preamble may be tens of lines long."""
@@ -556,6 +559,7 @@ class CsvReader:
         filled: set[int] = set()  # columns Arrow parsed as numbers in some block
         rows = 0
         steps = _Steps()
+        repeats, previous = 0, None  # rows at the time of the row before
         self._clock = (0, 0)
         try:
             for batch, invalid in self._stream():
@@ -566,6 +570,10 @@ class CsvReader:
                 # one time array for every float64 column (the reorderer works out the
                 # order of shared times once); the values are Arrow's, viewed
                 t_kept = t_ns[keep] if dropped else t_ns
+                if t_kept.size:
+                    repeats += int(np.count_nonzero(t_kept[1:] == t_kept[:-1]))
+                    repeats += int(previous is not None and int(t_kept[0]) == previous)
+                    previous = int(t_kept[-1])
                 first = steps.push(t_kept)
                 if first is not None:  # the first step back: where, and its cells
                     row = int(np.flatnonzero(keep)[first])
@@ -612,6 +620,14 @@ class CsvReader:
             )
         if steps.count:
             self._error(self._step_note(steps, bool(reorder.dropped)))
+        if repeats:
+            # (collapsed without a word: a time column cut to whole seconds under 100 rows
+            # a second became one sample a second)
+            self._error(
+                f"{repeats} of {rows} rows repeat the time of the row before (a clock too "
+                "coarse for the rows, or rows written twice); the aligned channels keep one "
+                "value per time"
+            )
         for note in self._notes:
             self._error(note)
         if skipped:
@@ -1128,6 +1144,9 @@ class CsvReader:
         blank = np.asarray(pc.equal(text, "").to_numpy(zero_copy_only=False), dtype=bool)
         bad = int(np.count_nonzero(~present & ~blank))
         out = values.to_numpy(zero_copy_only=False).astype(np.float64)
+        # a "nan" cell is no reading, as a blank one is (numpy.savetxt writes missing
+        # values so: counted as samples, its channel showed no gap)
+        present &= ~np.isnan(out)
         return present, out, bad
 
     def _times(self, column: pa.Array, *, first: bool = False) -> tuple[IntArray, np.ndarray]:
@@ -1450,7 +1469,10 @@ def _header_line(lines: list[str], separator: str, open_end: bool) -> int:
 
     def numeric(i: int) -> float:
         fields = [f.strip() for f in _fields(lines[i], separator)]
-        return sum(1 for f in fields if not f or _FINITE.match(f)) / len(fields)
+        # (a first row with a "nan" cell was taken for the header: numpy.savetxt)
+        return sum(1 for f in fields if not f or _FINITE.match(f) or _NOT_A_NUMBER.match(f)) / len(
+            fields
+        )
 
     scores = {i: numeric(i) for i in same}
     typical = float(np.median([scores[i] for i in same[-10:]]))
