@@ -893,6 +893,25 @@ def _mostly_one_value(tv: Any) -> npt.NDArray[np.bool_]:
     return np.asarray((count > 0) & (at >= MOSTLY_ONE_VALUE * count), dtype=bool)
 
 
+FEW_VALUES = 4
+"""A varying channel with at most this many distinct values among its training samples
+is named in a note (a healthy sensor quantized to 3 levels got findings)."""
+
+
+def _few_values(tv: Any) -> npt.NDArray[np.bool_]:
+    """Columns of the training rows ``tv`` with at most :data:`FEW_VALUES` distinct
+    finite values, from at most :data:`MEDIAN_ROWS` rows spread over the window (a
+    sample: a value the sample misses does not change a coarse channel's verdict)."""
+    n = tv.shape[0]
+    sample = np.asarray(tv[:: max(1, n // MEDIAN_ROWS)], dtype=np.float64)
+    out = np.zeros(sample.shape[1], dtype=bool)
+    for j in range(sample.shape[1]):  # per channel, on a bounded sample
+        col = sample[:, j]
+        col = col[np.isfinite(col)]
+        out[j] = col.size >= 100 and np.unique(col).size <= FEW_VALUES
+    return out
+
+
 COUNTER_SPREAD = 0.05
 """A channel whose every step between consecutive training samples lies within this share
 of its mean step (non-zero) is a counter or a clock, not a sensor: a sensor's noise makes
@@ -953,6 +972,14 @@ def _varying_in_training(
         )
     flat = flat_channels(tv) | _mostly_one_value(tv)
     counters = _counters(tv) & ~flat
+    coarse = _few_values(tv) & ~flat & ~counters
+    if coarse.any():
+        notes.append(
+            f"at most {FEW_VALUES} distinct values in the training window (a coarse "
+            "quantization step, larger than the noise): the models see mostly its "
+            "rounding, and a finding on it may be rounding: "
+            + ", ".join(c for c, f in zip(chosen, coarse, strict=True) if f)
+        )
     if not flat.any() and not counters.any():
         return values, chosen
     dropped = [c for c, f in zip(chosen, flat, strict=True) if f]
