@@ -55,6 +55,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from analyzer.readers import SKIPPED_FOLDER_ENDINGS
 from analyzer.readers._common import special_kind
 
 log = logging.getLogger("analyzer.watch")
@@ -203,7 +204,7 @@ def _looks_like_bag(directory: Path, files: Sequence[Path]) -> bool:
     return any(f.suffix == ".db3" or pattern.fullmatch(f.name) for f in files)
 
 
-def incomplete_reason(path: Path) -> str | None:
+def incomplete_reason(path: Path, _seen: set[Path] | None = None) -> str | None:
     """Why the archive member ``path`` looks unfinished, or None when it looks complete.
 
     Only the structure is checked here (a few bytes at each end); stability is the
@@ -233,9 +234,16 @@ def incomplete_reason(path: Path) -> str | None:
         if not ignored(f.name) and (reason := _file_incomplete(f)):
             return f"{f.name}: {reason}"
     # the analysis reads the subfolders too (a folder of day folders): their files are
-    # checked alike, an empty one is no sign of a copy under way
+    # checked alike, an empty one is no sign of a copy under way; as the readers walk
+    # them (analyzer.readers._members): a folder once, however many links lead to it
+    # (two links to a parent made this walk exponential), backup folders not at all
+    seen = {path.resolve()} if _seen is None else _seen
     for sub in subfolders:
-        reason = incomplete_reason(sub)
+        real = sub.resolve()
+        if real in seen or sub.name.lower().endswith(SKIPPED_FOLDER_ENDINGS):
+            continue
+        seen.add(real)
+        reason = incomplete_reason(sub, seen)
         if reason is not None and reason != "empty directory":
             return f"{sub.name}/{reason}" if ":" in reason else f"{sub.name}: {reason}"
     return None

@@ -27,3 +27,16 @@ def test_a_folder_with_nothing_in_it_is_still_being_filled(tmp_path: Path) -> No
     (tmp_path / "d" / "sub").mkdir(parents=True)
     assert incomplete_reason(tmp_path / "d" / "sub") == "empty directory"
     assert incomplete_reason(tmp_path / "d") is None  # a folder with an empty folder
+
+
+def test_links_to_a_parent_folder_are_walked_once(tmp_path: Path) -> None:
+    """Two links to a parent made the walk exponential: `watch` hung, deaf to SIGTERM
+    (review of this change)."""
+    day = tmp_path / "drop" / "day1"
+    day.mkdir(parents=True)
+    small_archive(day / "h00.mcap", "mcap")
+    (day / "up").symlink_to("..")
+    (day / "up2").symlink_to("..")
+    (tmp_path / "drop" / "old.bak").mkdir()
+    (tmp_path / "drop" / "old.bak" / "half.mcap").write_bytes(b"\x89MCAP0\r\n")
+    assert incomplete_reason(tmp_path / "drop") is None
