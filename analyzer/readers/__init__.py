@@ -253,7 +253,7 @@ class Archive:
         if time not in ("log", "header"):
             raise ValueError(f"time must be 'log' or 'header', not {time!r}")
         last: dict[str, int] = {}
-        owner: dict[str, Reader] = {}
+        owner: dict[str, tuple[Reader, int]] = {}
         single = len(self.inputs) == 1
         report = None if progress is None else _ReadProgress(progress, self.readers)
         # the next input is read ahead on a thread while this one is consumed: decoding
@@ -281,7 +281,7 @@ class Archive:
         reader: Reader,
         source: Iterator[ChannelChunk],
         last: dict[str, int],
-        owner: dict[str, Reader],
+        owner: dict[str, tuple[Reader, int]],
         single: bool,
     ) -> Iterator[ChannelChunk]:
         """One input's chunks, time-ordered against the inputs before it; its errors
@@ -315,15 +315,16 @@ def _one_span(
     reader: Reader,
     source: Iterator[ChannelChunk],
     last: dict[str, int],
-    owner: dict[str, Reader],
+    owner: dict[str, tuple[Reader, int]],
 ) -> Iterator[ChannelChunk]:
     """``source`` (the chunks of ``reader``) passed through, after checking that where it
     and an earlier input both have relative times, its first sample of each channel does
-    not lie before that channel's last sample of the earlier input (``last``; ``owner``
-    says which input that was; a sample repeated at the seam is dropped as before).
-    Raises :class:`Unstitchable` before yielding a chunk that does: files that each count
+    not lie in the first half of that channel's span in the earlier input (``owner``:
+    which input that was and its first sample's time; ``last``: its last). Raises
+    :class:`Unstitchable` before yielding a chunk that does: files that each count
     seconds from their own start overlap by construction, and their overlap, dropped as a
-    repeat, was every sample of the later files."""
+    repeat, was every sample of the later files. A few samples of overlap at a seam
+    (pieces that repeat the previous one's last rows) are dropped as before."""
     relative = not reader.info.absolute_time
     seen: set[str] = set()
     for chunk in source:
@@ -331,20 +332,21 @@ def _one_span(
         if name not in seen and len(chunk):
             seen.add(name)
             before = owner.get(name)
+            start = int(chunk.t_ns[0])
             if (
                 relative
                 and before is not None
-                and before is not reader
-                and not before.info.absolute_time
-                and int(chunk.t_ns[0]) < last.get(name, int(chunk.t_ns[0]))
+                and before[0] is not reader
+                and not before[0].info.absolute_time
+                and start <= before[1] + (last.get(name, start) - before[1]) // 2
             ):
                 raise Unstitchable(
-                    f"{before.info.path} and {reader.info.path} have relative times (seconds "
-                    f"from their own start) and both hold {one_line(name)} over the same "
-                    "span: they cannot be stitched in time; give them absolute times "
+                    f"{before[0].info.path} and {reader.info.path} have relative times "
+                    f"(seconds from their own start) and both hold {one_line(name)} over the "
+                    "same span: they cannot be stitched in time; give them absolute times "
                     "(dates), or analyze them one at a time"
                 )
-            owner[name] = reader
+            owner[name] = (reader, start)
         yield chunk
 
 

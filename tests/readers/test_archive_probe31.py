@@ -243,3 +243,16 @@ def test_run_repeats_the_archives_notes_on_stderr(tmp_path: Path, capsys) -> Non
     ]
     notes = json.loads((out / "findings.json").read_text())["notes"]
     assert f"{folder / 'live.csv'} not read: not a regular file (a FIFO)" in notes
+
+
+def test_relative_pieces_that_overlap_by_a_few_samples_still_stitch(tmp_path: Path) -> None:
+    """Pieces that repeat the previous one's last rows (3 of 300) were refused as files
+    that each count from their own start (review): only an overlap of half the earlier
+    piece's span is that."""
+    t_s = np.arange(300) / RATE_HZ
+    data = {"x": np.arange(300.0)}
+    _csv(tmp_path / "a.csv", t_s, data)
+    _csv(tmp_path / "b.csv", t_s + t_s[-3], data)  # its first 3 samples repeat a's last
+    archive = open_archive(tmp_path)
+    assert collect(archive.chunks())["x"][0].size == 597
+    assert archive.inputs[1].errors == ["x: 3 samples overlap the previous input in time; dropped"]
