@@ -343,7 +343,8 @@ def _resolve_drops(
         notes.append(
             f"the {f.type.value} fault on {f.channel} from {f.onset_s:.3f} s is reported "
             f"although it could be taken for the fault on {causes}: that one was taken for "
-            "it in turn, and of the two this one has the more support"
+            "it in turn (directly or through others), and of them this one has the most "
+            "support"
         )
     return [f for f in findings if id(f) not in dropped], notes
 

@@ -83,6 +83,18 @@ def _damaged_archive(folder: Path) -> Path:
     return folder
 
 
+def _after_gap(folder: Path) -> Path:
+    """A CSV of Unix times missing 60-70 s, s1 offset from 65 s: found after the gap
+    (``evidence.after_gap_s``)."""
+    folder.mkdir()
+    t, Y, names = simulate_building(n_floors=4, duration_s=150.0, rate_hz=RATE, seed=2)
+    Y[t >= 65.0, 1] += 4.0 * Y[:, 1].std()
+    keep = (t < 60.0) | (t >= 70.0)
+    t_ns = 1_767_225_600_000_000_000 + np.round(t[keep] * 1e9).astype(np.int64)
+    write_archive(folder / "gap.csv", "csv", t_ns, {n: Y[keep, j] for j, n in enumerate(names)})
+    return folder / "gap.csv"
+
+
 CASES: dict[str, Callable[[Path], list[Any]]] = {
     # each bundled sample, by its format; --corrected and --save-model ride along
     "additive_mcap_corrected": lambda root: [SAMPLES / "building_additive.mcap", "--corrected"],
@@ -98,6 +110,7 @@ CASES: dict[str, Callable[[Path], list[Any]]] = {
     "model": lambda root: [SAMPLES / "building_healthy_ros2", "--model", root / "drift.model"],
     "screen": lambda root: [SAMPLES / "building_healthy_ros2", "--screen", "equivalent_model"],
     "damaged_member": lambda root: [_damaged_archive(root / "archive")],
+    "after_gap": lambda root: [_after_gap(root / "gap")],
 }
 """The arguments of each ``analyzer run`` (before ``--out``), given the runs' folder."""
 
@@ -219,6 +232,7 @@ EXERCISES: dict[str, Callable[[dict[str, Any]], bool]] = {
     "damaged_member": lambda doc: (
         doc["start"] is None and any(i["errors"] for i in doc["inputs"]) and bool(doc["faults"])
     ),
+    "after_gap": lambda doc: any("after_gap_s" in f["evidence"] for f in doc["faults"]),
 }
 """What each run must show for its document to test what it is there for (a sample's
 format, corrections, a model, a screening, an input error, a skipped detector...)."""
