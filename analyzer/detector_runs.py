@@ -426,6 +426,7 @@ def merge_groups(results: list[DetectorResult], order: Sequence[str]) -> list[De
             {},
             notes=[n for p in parts for n in p.notes],
             unattributed=[u for p in parts for u in p.unattributed],
+            undecided=[u for p in parts for u in p.undecided],
         )
         for p in parts:  # a channel in two configured groups: its first group's signals
             for c, v in p.residuals.items():

@@ -629,6 +629,27 @@ def _unattributed_notes(
         )
     if len(missed) > UNATTRIBUTED_LISTED:
         out.append(f"{len(missed) - UNATTRIBUTED_LISTED} more such anomalies (detectors' notes)")
+    # alarms a blind residual leaves undecided: one detector's, but its peers had lost
+    # their view too (a channel gone missing): said at the run's level, once per sensors
+    # (a 5 sd offset on s0 beside a channel missing from 200 s: exit 0, nothing said)
+    said: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = []
+    for r in results:
+        for onset, alarming, blind in r.undecided:
+            if echo(onset, onset) or any(
+                a == alarming and b == blind and abs(onset - t) <= slack for t, a, b in said
+            ):
+                continue
+            said.append((onset, alarming, blind))
+            if len(said) <= UNATTRIBUTED_LISTED:
+                out.append(
+                    f"anomaly at {onset:.1f} s on {', '.join(alarming)} attributed to no sensor "
+                    f"by {r.detector}: a fault on {', '.join(alarming)} or on "
+                    f"{' or '.join(blind)} explains it, and the residuals of "
+                    f"{', '.join(blind)} have no data there (a channel they are modelled from "
+                    "is missing)"
+                )
+    if len(said) > UNATTRIBUTED_LISTED:
+        out.append(f"{len(said) - UNATTRIBUTED_LISTED} more such anomalies (detectors' notes)")
     return out
 
 

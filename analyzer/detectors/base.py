@@ -211,6 +211,10 @@ class DetectorResult:
     onset in seconds, the channels whose residuals alarmed (or that may be faulty), and
     the sensors it found faulty beside them at that time (the equivalent model: a second
     fault on one of the channels), if any."""
+    undecided: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = field(default_factory=list)
+    """Alarms whose sensor's fault and that of another sensor, whose own residual had no
+    data then, explain alike (the equivalent model's law 0 with blind residuals): their
+    onset in seconds, the alarming sensor(s) and those blind sensors."""
 
 
 class Detector(Protocol):

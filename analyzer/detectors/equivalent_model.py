@@ -501,7 +501,12 @@ class EquivalentModel:
         unattributed = [
             (float(d["onset_s"]), tuple(d["ambiguous"]), tuple(d["faulty"]))
             for d in decisions
-            if d["sensor"] in d["ambiguous"]
+            if d["sensor"] in d["ambiguous"] and not d.get("blind")
+        ]
+        undecided: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = [
+            (float(d["onset_s"]), (str(d["sensor"]),), tuple(str(b) for b in d["blind"]))
+            for d in decisions
+            if d.get("blind")
         ]
         excitation = measured_inputs(context.config)
         for s, why in net.undiagnosable().items():
@@ -542,6 +547,7 @@ class EquivalentModel:
             },
             notes=notes,
             unattributed=unattributed,
+            undecided=undecided,
         )
 
     @staticmethod
@@ -650,6 +656,7 @@ class EquivalentModel:
                     f"sensor(s) {', '.join(diag.propagated[s])} (law 0)"
                 )
             elif diag.laws.get(s, "").startswith("undecided"):
+                decisions[-1]["blind"] = sorted(net.dependencies(s) & dark)
                 notes.append(
                     f"alarm on {s} at {t0:.3f} s not attributed: {diag.laws[s]} (missing "
                     "samples of its assistants), so a fault there explains it as well as one "

@@ -66,3 +66,11 @@ def test_the_equivalent_model_names_no_wrong_sensor_when_an_assistant_goes_missi
     assert [f["channel"] for f in doc["faults"]] in ([], ["s3"]), doc["faults"]
     (em,) = doc["detectors"]
     assert any("undecided" in n and "s3" in n for n in em["notes"]), em["notes"]
+    # and at the run's level: an anomaly nobody else could see there (review: a 5 sd
+    # offset beside a missing channel gave exit 0 and nothing in the run's notes)
+    assert any(
+        n.startswith("anomaly at 400.")
+        and "attributed to no sensor by equivalent_model" in n
+        and "have no data there" in n
+        for n in doc["notes"]
+    ), doc["notes"]
