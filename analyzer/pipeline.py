@@ -4,6 +4,7 @@ backend): readers -> store -> detectors -> diagnosis -> report."""
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import time
 import warnings
@@ -314,14 +315,15 @@ def _analyze(
             )
         except UsageError as err:
             # (times cut to whole seconds under 100 rows a second: "1 Hz", and nothing
-            # said why; the input's warning is not printed when the run stops)
+            # said why; the input's warning is not printed when the run stops). Only for
+            # a window short of samples, and a clock that collapsed most rows
             coarse = [
                 f"{i.path}: {e}"
                 for i in archive.inputs
                 for e in i.errors
-                if "repeat the time of the row before" in e
+                if (m := COARSE_CLOCK.match(e)) and 2 * int(m[1]) >= int(m[2])
             ]
-            if coarse:
+            if coarse and str(err).startswith("the training window") and "sample(s) at" in str(err):
                 raise UsageError(f"{err}; {coarse[0]}") from None
             raise
         data = Dataset(values, tuple(chosen), aligned.rate_hz, train, healthy=reused is None)
@@ -1033,6 +1035,9 @@ def _varying_in_training(
         )
     return np.asarray(values)[:, keep], [chosen[k] for k in keep]
 
+
+COARSE_CLOCK = re.compile(r"(\d+) of (\d+) rows give a channel a second value at the same time")
+"""The CSV reader's line on rows collapsed onto one time (how many, of how many)."""
 
 GAPPY_SHARE = 0.05
 """A channel missing more than this share of the training window's samples, beside

@@ -41,9 +41,11 @@ where one of them does not parse that way (a blank, ``ERR``, ``nan``), the file 
 again as text (see :meth:`CsvReader._stream`).
 
 The time column holds seconds or the unit its name gives (decimal text is converted to
-integer nanoseconds exactly), integer nanoseconds (integers above 1e15 that as
-nanoseconds are dates after 1990, unless its name gives a unit other than seconds: epoch
-microseconds are refused by name, as epoch milliseconds are), times of day or elapsed
+integer nanoseconds exactly), integer nanoseconds (integers above 1e15, unless its name
+gives a unit other than seconds: since 1970 where as nanoseconds they are dates after
+1990; where they are no such date as nanoseconds but are as microseconds, refused
+naming both readings, epoch microseconds or nanoseconds since boot; else nanoseconds
+from another start, relative; epoch milliseconds are refused by name), times of day or elapsed
 times without a date (``hh:mm:ss[.f]``: relative times, a step back of more than half a
 day being the next day) or date-time strings (ISO 8601 or any format pandas recognises;
 UTC where no zone is given). Its kind is that of at least 90 % of the first block's
@@ -59,14 +61,18 @@ the rows behind.
 Damage: a ``.gz`` whose stream Arrow cannot inflate to its end (cut short, corrupt) is
 read again by :class:`_Gunzip`, which stops at the last whole line before the damage, so
 that every row before it is read (and the note says how many, up to which time; see
-:meth:`CsvReader._blocks`). A file that ends without a line break in a row whose last
-cell looks cut (see :meth:`CsvReader._cut_row`) loses that row, as a row cut in an
-earlier field does. A first line that is a row (every field a number or a time: a piece
-of a file without its header) is refused by name, not taken for channel names.
+:meth:`CsvReader._blocks`). Of a corrupt stream (not merely cut short), what zlib
+inflated between the damage and its error is garbage: the rows are read up to the first
+sign of it, the rest of the file dropped (see :class:`_Garbage`). A file that ends
+without a line break in a row whose last cell looks cut (see :meth:`CsvReader._cut_row`)
+loses that row, as a row cut in an earlier field does. A first line that is a row (every
+field a number or a time: a piece of a file without its header) is refused by name, not
+taken for channel names.
 """
 
 from __future__ import annotations
 
+import bisect
 import contextlib
 import csv
 import re
@@ -149,8 +155,10 @@ the same time): reading the 4-hour, 16-channel CSV archive peaked at 548-572 MB 
 MiB blocks and at 378-398 MB with 1 MiB, in 2.73-2.80 s of CPU instead of 3.14-3.83 (512
 KiB: 354 MB but slower again, 256 KiB slower still)."""
 NS_THRESHOLD = 1e15
-"""Integer times above this are nanoseconds, when as such they are dates after 1990
-(:func:`~analyzer.timeutil.plausible_epoch`): epoch microseconds (1.77e15) are not."""
+"""Integer times above this are nanoseconds, since 1970 when as such they are dates after
+1990 (:func:`~analyzer.timeutil.plausible_epoch`), from another start when they are no
+such date as microseconds either; epoch microseconds (1.77e15), which nanoseconds since
+boot may be too, are refused naming both (see :meth:`CsvReader._time_kind_of`)."""
 EPOCH_THRESHOLD_S = 1e8
 """Times in seconds at or above this are Unix times; below, relative times."""
 
@@ -187,6 +195,7 @@ group 1, those after it in group 2): in a ``;``, tab or ``|`` file whose 64 KiB 
 shows none, a later one is still a number (see :meth:`CsvReader._clean`)."""
 _DIGIT_COMMA = re.compile(r",\d")
 _FINITE = re.compile(FINITE)
+_INTEGER = re.compile(INTEGER)
 _NOT_A_NUMBER = re.compile(r"^(?i:[-+]?(nan|inf|infinity)|na|n/a|#n/a|null|none)$")
 """How writers spell a missing or infinite value in a numeric column (numpy's ``nan``,
 R's ``NA``, Excel's ``#N/A``): as numeric as a number where the header is sought."""
@@ -298,6 +307,97 @@ class _Steps:
         return first
 
 
+GARBAGE_BACK_STEPS = 3.0
+"""In the text of a corrupt ``.gz``: a time more than this many median steps behind the
+row before is garbage (see :class:`_Garbage`)."""
+GARBAGE_AHEAD_STEPS = 1000.0
+"""... and so is one more than this many median steps ahead of it."""
+
+
+@dataclass(slots=True)
+class _Garbage:
+    """Where the rows of a corrupt ``.gz`` turn to garbage.
+
+    zlib notices damage only at the next invalid block or at the member's checksum: the
+    text it inflates between the damage and its error is garbage, mostly copies of
+    earlier text run together (a 4 KiB sector of zeros: times stepping back seconds at
+    once, rows of five fields, times on to 6.6e9 s). Such text is kept up to the first
+    sign of garbage: a row without a readable time, a time more than
+    :data:`GARBAGE_BACK_STEPS` median steps behind the row before (and that row too
+    where it had itself jumped more than that ahead), or more than
+    :data:`GARBAGE_AHEAD_STEPS` ahead of it, or a cell of a numeric column that is no
+    number. The median step is that of the file's first block (of its readable times
+    up to the first such row where the first block is the garbled one)."""
+
+    step_ns: float | None = None
+    """The median of the first block's steps forward (None: not known yet)."""
+    last_ns: int | None = None
+    """The time of the last row passed on."""
+
+    def learn(self, t: IntArray) -> None:
+        """Take the times of the rows passed on (in file order)."""
+        if t.size == 0:
+            return
+        if self.step_ns is None:
+            self.step_ns = _median_step(t)
+        self.last_ns = int(t[-1])
+
+    def start(
+        self,
+        t: IntArray,
+        keep: np.ndarray,
+        bad: np.ndarray | None = None,
+        broken: int | None = None,
+    ) -> tuple[int, str] | None:
+        """The index in this block of the first row that is garbage and why, or None.
+        ``t``: the block's times, ``keep``: the rows with a readable time, ``bad``: the
+        rows with a cell of a numeric column that is no number, ``broken``: the index of
+        the first row before which a line was skipped for its number of fields. Rows
+        without a readable time above the file's first readable time (a units line) are
+        no sign."""
+        end, why = t.size, ""
+        if broken is not None and broken < end:
+            end, why = broken, "a line with the wrong number of fields"
+        unread = np.flatnonzero(~keep)
+        if self.last_ns is None and unread.size:
+            unread = unread[unread > int(np.argmax(keep))]
+        if unread.size and int(unread[0]) < end:
+            end, why = int(unread[0]), "a row without a readable time"
+        if bad is not None:
+            wrong = np.flatnonzero(bad[:end])
+            if wrong.size:
+                end, why = int(wrong[0]), "a cell of a numeric column that is no number"
+        rows = np.flatnonzero(keep[:end])
+        times = t[rows]
+        step = (self.step_ns if self.step_ns is not None else _median_step(times)) or 0.0
+        if self.last_ns is not None:
+            rows = np.concatenate(([-1], rows))
+            times = np.concatenate(([self.last_ns], times))
+        if times.size > 1:
+            d = np.diff(times)  # d[i]: the step into the row rows[i + 1]
+            back = d < -GARBAGE_BACK_STEPS * step
+            ahead = d > GARBAGE_AHEAD_STEPS * step if step > 0 else np.zeros(d.size, bool)
+            odd = np.flatnonzero(back | ahead)
+            if odd.size:
+                i = int(odd[0])
+                way = "behind" if back[i] else "ahead of"
+                end, why = (
+                    int(rows[i + 1]),
+                    f"a time {abs(int(d[i])) / 1e9:.6g} s {way} the row before",
+                )
+                if back[i] and i > 0 and d[i - 1] > GARBAGE_BACK_STEPS * step:
+                    end = int(rows[i])  # the row before had jumped ahead: garbage too
+                    why = f"a time {d[i - 1] / 1e9:.6g} s ahead of the row before, then back"
+        return (end, why) if end < t.size else None
+
+
+def _median_step(t: IntArray) -> float | None:
+    """The median of the steps forward of ``t`` (None: no step forward)."""
+    d = np.diff(t)
+    d = d[d > 0]
+    return float(np.median(d)) if d.size else None
+
+
 class _Gunzip:
     """The text of a gzip file (one member or several), inflated as it is read, up to
     the damage. ``read`` hands out whole lines only (but at a clean end, or a line
@@ -317,6 +417,9 @@ class _Gunzip:
         self.closed = False
         self.damage: str | None = None
         """What stopped the text before the end of the file (None: it ended cleanly)."""
+        self.corrupt = False
+        """Whether the damage is corrupt data (zlib's error), not a stream cut short: then
+        the text zlib inflated between the damage and its error is garbage."""
         self.text_bytes = 0
         """Bytes of text handed out."""
         self.cut_bytes = 0
@@ -402,12 +505,11 @@ class _Gunzip:
                 out = self._zlib.decompress(data, most)
             except zlib.error as err:
                 self._end = True
+                self.corrupt = True
                 self.damage = f"corrupt compressed data ({one_line(err)})"
                 if str(err).endswith(("incorrect data check", "incorrect length check")):
                     # the CRC or the length at a member's end: the damage is before it
-                    self.damage += (
-                        ": a stretch of it is damaged, and the rows from there on may be garbage"
-                    )
+                    self.damage += ": a stretch of it is damaged, and what follows it is garbage"
                 return _inflate_up_to_error(before, data, most)
             if out:
                 return out
@@ -467,6 +569,15 @@ class CsvReader:
         """What stopped a ``.gz`` before its end (see :class:`_Gunzip`)."""
         self._damage_cut = 0
         """Bytes of the line the damage cut (not read)."""
+        self._corrupt = False
+        """Whether the damage is corrupt data, not a stream cut short (see :class:`_Garbage`)."""
+        self._invalid_at: list[int] = []
+        """Of a corrupt ``.gz``: before which data row (0: the first) each line skipped
+        for its number of fields came, as Arrow's reader met them."""
+        self._lines_skipped = 0
+        """Lines skipped for their number of fields by the reader of the file so far."""
+        self._gzip_state: tuple[str | None, bool] | None = None
+        """Of a ``.gz`` inflated to its end once: its damage and whether it is corrupt."""
         self._gzip_tail: bytes | memoryview = b""
         """The end of a ``.gz``'s text where :class:`_Gunzip` read it (see :meth:`_blocks`)."""
         self._layout = self._detect()
@@ -480,10 +591,14 @@ class CsvReader:
         first_time = self._inspect_first_block()
         total, sha = file_digest([self.path])
         self.info = InputInfo(self.path, Format.CSV, size_bytes=total, sha256=sha)
-        self.info.absolute_time = self._time_kind in ("ns", "datetime") or (
-            self._time_kind == "seconds"
-            and first_time is not None
-            and first_time >= EPOCH_THRESHOLD_S * 1e9
+        self.info.absolute_time = (
+            self._time_kind == "datetime"
+            or (self._time_kind == "ns" and first_time is not None and plausible_epoch(first_time))
+            or (
+                self._time_kind == "seconds"
+                and first_time is not None
+                and first_time >= EPOCH_THRESHOLD_S * 1e9
+            )
         )
         self._first_time = first_time
         self.info.time = self._time_text()
@@ -497,6 +612,78 @@ class CsvReader:
     def _so_far(self, rows: int, newest: int | None) -> str:
         """How much was read: rows, up to which time."""
         return f"{rows} rows" + (f", up to {self._when(newest)}" if newest is not None else "")
+
+    def _damage_note(self, so_far: str, garbled: tuple[int, str] | None) -> str:
+        """What :meth:`chunks` says of a damaged ``.gz``: a stream cut short is read up
+        to its last whole line; of a corrupt one (see :class:`_Garbage`) the rows are
+        read up to the first that looks like garbage, and the rest of the file is
+        dropped."""
+        if not self._corrupt:
+            cut = f"; the {self._damage_cut} bytes of the line it cut dropped"
+            cut = cut if self._damage_cut else ""
+            return (
+                f"unreadable from some point on ({self._damage}); the rows before it were "
+                f"read ({so_far}){cut}"
+            )
+        where = (
+            f" (the rows turn to garbage at data row {garbled[0]}: {garbled[1]})"
+            if garbled is not None
+            else ""
+        )
+        return (
+            f"unreadable from some point on ({self._damage}); the rows before the damage "
+            f"were read ({so_far}), the rest of the file from the damage on dropped{where}"
+        )
+
+    def _garbage_at(
+        self, garbage: _Garbage, batch: pa.RecordBatch, t_ns: IntArray, keep: np.ndarray, rows: int
+    ) -> tuple[int, str] | None:
+        """Of a ``.gz`` whose stream is corrupt: where the rows of ``batch`` (after
+        ``rows`` rows) turn to garbage and why (see :class:`_Garbage`), else None.
+
+        zlib may notice the damage only at the member's checksum, after Arrow has passed
+        on many blocks inflated from garbage: so the blocks of every ``.gz`` are checked
+        as they come (a comparison of times, a few ms a block), and where one shows a
+        sign of garbage while the stream is not known to be corrupt, the stream is
+        inflated once to its end (:meth:`_gzip_check`, at C speed: only such a file pays
+        it). A sign in a sound stream (a clock set back, a line with a field too many),
+        or in one merely cut short, is no garbage: then nothing is cut."""
+        if not self._layout.compressed:
+            return None
+        at = bisect.bisect_left(self._invalid_at, rows)
+        broken = self._invalid_at[at] - rows if at < len(self._invalid_at) else None
+        found = garbage.start(t_ns, keep, self._bad_rows(batch) if self._corrupt else None, broken)
+        if found is None or self._corrupt:
+            return found
+        damage, corrupt = self._gzip_check()
+        if not corrupt:
+            return None
+        self._damage, self._corrupt = damage, True
+        return garbage.start(t_ns, keep, self._bad_rows(batch), broken)
+
+    def _gzip_check(self) -> tuple[str | None, bool]:
+        """What damages the ``.gz`` (None: nothing) and whether it is corrupt data (not
+        a stream cut short): the whole stream inflated once, the answer kept."""
+        if self._gzip_state is None:
+            with contextlib.closing(_Gunzip(self.path)) as probe:
+                probe.skip(1 << 62)
+            self._gzip_state = (probe.damage, probe.corrupt)
+        return self._gzip_state
+
+    def _bad_rows(self, batch: pa.RecordBatch) -> np.ndarray:
+        """The rows of ``batch`` with a cell of a numeric column that is neither blank
+        nor a number (see :class:`_Garbage`)."""
+        bad = np.zeros(batch.num_rows, dtype=bool)
+        for index, numeric in self._numeric.items():
+            column = batch.column(index)
+            if not numeric or column.type == pa.float64():
+                continue
+            text = self._clean(column)
+            wrong = pc.and_(
+                pc.not_equal(text, ""), pc.invert(pc.match_substring_regex(text, NUMBER_OR_BOOLEAN))
+            )
+            bad |= np.asarray(wrong.to_numpy(zero_copy_only=False), dtype=bool)
+        return bad
 
     def _step_note(self, steps: _Steps, dropped: bool) -> str:
         """What :meth:`chunks` says of times that step back (see :class:`_Steps`): where,
@@ -534,7 +721,9 @@ class CsvReader:
         name = self._layout.names[self._layout.time_column]
         kind = self._time_kind
         if kind == "ns":
-            how = "integer nanoseconds since 1970 (UTC)"
+            how = "integer nanoseconds " + (
+                "since 1970 (UTC)" if self.info.absolute_time else "from another start, relative"
+            )
         elif kind == "datetime":
             how = "date-times (UTC where no zone is given)"
         elif kind == "timeofday":
@@ -553,27 +742,49 @@ class CsvReader:
         del time  # CSV rows have one time only
         self.fraction_read = 0.0
         reorder = Reorderer()
-        skipped = 0
+        skipped = 0  # rows without a readable time
+        broken = 0  # lines with the wrong number of fields
         bad_cells: dict[str, int] = {}
         text_cells: dict[str, tuple[int, int]] = {}  # skipped columns: (non-blank, numbers)
         filled: set[int] = set()  # columns Arrow parsed as numbers in some block
         rows = 0
         steps = _Steps()
-        repeats, previous = 0, None  # rows at the time of the row before
+        # of each channel: values at the time of its value before, and its last time
+        repeats: dict[str, int] = {}
+        latest: dict[str, int] = {}
+        garbage = _Garbage()
+        garbled: tuple[int, str] | None = None  # of a corrupt .gz: (data row, why)
         self._clock = (0, 0)
+        blocks = self._stream()
         try:
-            for batch, invalid in self._stream():
-                skipped += invalid
+            for batch, invalid in blocks:
+                clock = self._clock
                 t_ns, keep = self._times(batch.column(self._layout.time_column))
+                found = self._garbage_at(garbage, batch, t_ns, keep, rows)
+                if found is not None:  # a corrupt .gz: the rest is not read
+                    cut, why = found
+                    garbled = (rows + cut + 1, why)
+                    batch = batch.slice(0, cut)
+                    # again without the garbage (a cell of it sends the times through
+                    # float64, a midnight in it moves a time of day's clock)
+                    self._clock = clock
+                    t_ns, keep = self._times(batch.column(self._layout.time_column))
+                    # lines skipped in the garbage are not counted (Arrow counts them as
+                    # it parses, which it may do ahead of the block it passes on)
+                    broken = bisect.bisect_left(self._invalid_at, rows + cut)
+                    invalid = 0
+                broken += invalid
                 dropped = int(np.count_nonzero(~keep))
                 skipped += dropped
                 # one time array for every float64 column (the reorderer works out the
                 # order of shared times once); the values are Arrow's, viewed
                 t_kept = t_ns[keep] if dropped else t_ns
-                if t_kept.size:
-                    repeats += int(np.count_nonzero(t_kept[1:] == t_kept[:-1]))
-                    repeats += int(previous is not None and int(t_kept[0]) == previous)
-                    previous = int(t_kept[-1])
+                if self._layout.compressed:
+                    garbage.learn(t_kept)
+                # values at the time of the value before, of the float64 columns (which
+                # have a value on every row kept): the same count for each but at the
+                # block's start
+                inside = int(np.count_nonzero(t_kept[1:] == t_kept[:-1]))
                 first = steps.push(t_kept)
                 if first is not None:  # the first step back: where, and its cells
                     row = int(np.flatnonzero(keep)[first])
@@ -588,6 +799,10 @@ class CsvReader:
                         filled.add(index)
                         values = _numpy(column)
                         reorder.push(name, t_kept, values[keep] if dropped else values)
+                        if t_kept.size:
+                            again = inside + int(latest.get(name) == int(t_kept[0]))
+                            repeats[name] = repeats.get(name, 0) + again
+                            latest[name] = int(t_kept[-1])
                         continue
                     if index not in self._numeric:
                         decision = self._classify(column)
@@ -603,36 +818,44 @@ class CsvReader:
                     if bad:
                         bad_cells[name] = bad_cells.get(name, 0) + bad
                     present &= keep
-                    reorder.push(name, t_ns[present], values[present])
+                    times = t_ns[present]
+                    reorder.push(name, times, values[present])
+                    if times.size:
+                        again = int(np.count_nonzero(times[1:] == times[:-1]))
+                        again += int(latest.get(name) == int(times[0]))
+                        repeats[name] = repeats.get(name, 0) + again
+                        latest[name] = int(times[-1])
                 yield from reorder.release(None)
+                if garbled is not None:
+                    break  # the rest of the file, from the damage on, is not read
         except (pa.ArrowException, OSError, EOFError, ValueError) as err:
             self._error(
                 f"unreadable from some point on ({one_line(err)}); the rows before it were read"
                 f" ({self._so_far(rows, steps.newest)})"
             )
+        finally:
+            blocks.close()
         yield from reorder.flush()
         if self._damage is not None:
-            cut = f"; the {self._damage_cut} bytes of the line it cut dropped"
-            cut = cut if self._damage_cut else ""
-            self._error(
-                f"unreadable from some point on ({self._damage}); the rows before it were "
-                f"read ({self._so_far(rows, steps.newest)}){cut}"
-            )
+            self._error(self._damage_note(self._so_far(rows, steps.newest), garbled))
         if steps.count:
             self._error(self._step_note(steps, bool(reorder.dropped)))
-        if repeats:
+        most = max(repeats.values(), default=0)
+        if most:
             # (collapsed without a word: a time column cut to whole seconds under 100 rows
-            # a second became one sample a second)
+            # a second became one sample a second; rows of a sparse table, one channel a
+            # row, repeat the time with no channel collapsed)
             self._error(
-                f"{repeats} of {rows} rows repeat the time of the row before (a clock too "
-                "coarse for the rows, or rows written twice); the aligned channels keep one "
-                "value per time"
+                f"{most} of {rows} rows give a channel a second value at the same time (a "
+                "clock too coarse for the rows, or rows written twice); the aligned channels "
+                "keep one value per time"
             )
         for note in self._notes:
             self._error(note)
-        if skipped:
+        if skipped + broken:
             self._error(
-                f"{skipped} rows without a readable time or with the wrong number of fields skipped"
+                f"{skipped + broken} rows without a readable time or with the wrong number of "
+                "fields skipped"
             )
         for name, count in bad_cells.items():
             self._error(f"{name}: {count} non-numeric cells treated as gaps")
@@ -778,7 +1001,7 @@ class CsvReader:
         return best
 
     # ------------------------------------------------------------------ blocks
-    def _stream(self) -> Iterator[tuple[pa.RecordBatch, int]]:
+    def _stream(self) -> Generator[tuple[pa.RecordBatch, int], None, None]:
         """The blocks of the body with the count of rows skipped for a wrong number of
         fields since the previous block; the columns of :attr:`_fast` as float64 as long
         as every cell of theirs parses as a finite number, else (from the first block
@@ -835,14 +1058,19 @@ class CsvReader:
         column_types = {name: pa.string() for name in layout.names}
         column_types.update(types or {})
         invalid = [0]
+        self._invalid_at, self._lines_skipped = [], 0
 
         def skip_row(row: Any) -> str:
             # a cell opening a quote that is never closed joins the lines up to the next
             # quote (or the end of the file) into this one bad row: count them all
             lines = len(_LINE_BREAK.split(str(getattr(row, "text", "") or "").rstrip("\r\n")))
+            number = getattr(row, "number", None)
+            if layout.compressed and isinstance(number, int) and number > 0:
+                # Arrow's number counts the lines skip_rows skips, then non-blank lines
+                self._invalid_at.append(number - layout.skip_rows - 1 - self._lines_skipped)
+            self._lines_skipped += lines
             invalid[0] += lines
             if lines > 1:
-                number = getattr(row, "number", None)
                 at = f" at line {number}" if isinstance(number, int) and number > 0 else ""
                 note = f"a quote opened{at} is never closed: {lines} lines read as one row, skipped"
                 if note not in self._notes:
@@ -892,6 +1120,7 @@ class CsvReader:
         Python file cost 5 % more time on a 57 MB file, which this way only a damaged
         file pays.)"""
         self._damage, self._damage_cut, self._gzip_tail = None, 0, b""
+        self._corrupt = False
         passed = 0  # rows passed on
         counted = 0  # rows skipped while they were parsed
         arrow = self._arrow_blocks(column_types, skip_row, invalid)
@@ -940,7 +1169,12 @@ class CsvReader:
         counted: int,
     ) -> Generator[tuple[pa.RecordBatch, int], None, None]:
         """The blocks of a ``.gz`` inflated by :class:`_Gunzip` after the first
-        ``passed`` rows (and ``counted`` rows skipped): see :meth:`_blocks`."""
+        ``passed`` rows (and ``counted`` rows skipped): see :meth:`_blocks`. The stream is
+        inflated once to its damage first (at C speed, only a damaged file pays it): what
+        the damage is must be known before the first block (:attr:`_corrupt`: the rows
+        read are then checked for garbage, see :class:`_Garbage`)."""
+        self._damage, self._corrupt = self._gzip_check()
+        self._invalid_at, self._lines_skipped = [], 0  # a new reader from the file's start
         invalid[0] = 0
         gunzip = _Gunzip(self.path)
         source = pa.PythonFile(gunzip, mode="r")
@@ -968,9 +1202,10 @@ class CsvReader:
             if last is not None and total > counted:  # rows skipped after the last row
                 yield last.slice(0, 0), total - counted
         finally:
-            self._damage = gunzip.damage
-            self._damage_cut = gunzip.cut_bytes
-            self._gzip_tail = gunzip.tail
+            if gunzip.damage is not None:  # (None: closed before the end)
+                self._damage = gunzip.damage
+                self._damage_cut = gunzip.cut_bytes
+                self._gzip_tail = gunzip.tail
             source.close()
             gunzip.close()
 
@@ -1059,6 +1294,15 @@ class CsvReader:
                 f"{self.path}: no data rows: no line under the first has its "
                 f"{len(self._layout.names)} fields (is the first line the header?)"
             )
+        if self._layout.compressed:
+            # the rows inflated after a damage may be garbage: the rows before it alone
+            # say what the columns and the times are (whether they are absolute, above all)
+            t_ns, keep = self._times(batch.column(self._layout.time_column), first=True)
+            found = self._garbage_at(_Garbage(), batch, t_ns, keep, 0)
+            if found is not None:
+                batch = batch.slice(0, found[0])
+            if batch.num_rows == 0:
+                raise ReaderError(f"{self.path}: no data rows before the damage ({self._damage})")
         numeric = []
         fast = []
         for index in range(len(self._layout.names)):
@@ -1215,8 +1459,14 @@ class CsvReader:
         if pc.all(integers).as_py():
             largest = pc.max(pc.abs(pc.cast(numeric, pa.float64()))).as_py()
             # as nanoseconds, epoch microseconds (1.77e15) are 1970: seconds then, which
-            # int64 nanoseconds cannot hold, and the file is refused by name
-            if largest is not None and largest > NS_THRESHOLD and plausible_epoch(int(largest)):
+            # int64 nanoseconds cannot hold, and the file is refused by name (naming
+            # both readings: nanoseconds since boot are such integers too); integers
+            # that are no date either way are nanoseconds from another start
+            if (
+                largest is not None
+                and largest > NS_THRESHOLD
+                and (plausible_epoch(int(largest)) or not _epoch_microseconds(largest))
+            ):
                 return "ns"
         return "seconds"
 
@@ -1303,6 +1553,11 @@ class CsvReader:
             self.info.errors.append(line)
 
 
+def _epoch_microseconds(value: float) -> bool:
+    """Whether ``value`` as microseconds is a date after 1990 that int64 nanoseconds hold."""
+    return value * 1e3 < _NS_MAX and plausible_epoch(int(value * 1e3))
+
+
 def _epoch_unit_hint(cell: str) -> str:
     """What a number that is no time in seconds may be: epoch milliseconds or
     microseconds (the unit that gives a date after 1990, where one does), and how to say
@@ -1311,9 +1566,14 @@ def _epoch_unit_hint(cell: str) -> str:
         value = abs(float(cell))
     except ValueError:
         value = 0.0
+    boot = (
+        "; 'time [ns]' if they are nanoseconds counted from another start, such as since boot"
+        if _INTEGER.match(cell.strip())
+        else ""
+    )
     for unit, digits, name in (("ms", 3, "milliseconds"), ("us", 6, "microseconds")):
         if plausible_epoch(int(value * 10.0 ** (9 - digits))) and value < 10.0 ** (10 + digits):
-            return f" (epoch {name}? a name such as 'time [{unit}]' says so)"
+            return f" (epoch {name}? a name such as 'time [{unit}]' says so{boot})"
     return (
         " (epoch milliseconds or microseconds? a name such as 'time [ms]' or 'time [us]' "
         "says so; 'time [ns]' for nanoseconds from a start other than 1970)"
@@ -1493,8 +1753,10 @@ def _is_data(fields: list[str], separator: str) -> bool:
     """Whether the fields of a would-be header are those of a row: the time column's
     (:func:`_time_column` of them) a number, date-time or time of day, every other one a
     number or blank, at least one of them a number. A header may name some columns by
-    numbers (``time,100,200``) or all of them (``0,1,2,3``, ``1,2,3``: the columns
-    counted, which no row is)."""
+    numbers (``time,100,200``) or all of them: fields that are all distinct integers in
+    increasing order (``0,1,2,3``, ``1,2,3``, ``101,102,103``, ``2024,2025,2026``,
+    ``-1,0,1``) number the columns, which a row's values, its time among them,
+    practically never do (``0.0,1,2`` is a row)."""
     cells = [f.strip() for f in fields]
     if len(cells) < 2:
         return False
@@ -1505,8 +1767,10 @@ def _is_data(fields: list[str], separator: str) -> bool:
     when = cells[time_column]
     if _decimals(when, separator) is None and not _DATA_TIME.match(when):
         return False
-    counted = [str(i) for i in range(len(cells))]
-    return cells not in (counted, [str(i + 1) for i in range(len(cells))])
+    if all(_INTEGER.match(c) for c in cells):
+        numbers = [int(c) for c in cells]
+        return not all(a < b for a, b in zip(numbers, numbers[1:], strict=False))
+    return True
 
 
 def _shorten(text: str, most: int = 60) -> str:

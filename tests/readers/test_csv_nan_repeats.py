@@ -44,8 +44,39 @@ def test_repeated_times_are_counted_once_per_file(tmp_path):
     doc = inspect_archive([_write(tmp_path / "r.csv", t, y)])
     (errors,) = [i["errors"] for i in doc["inputs"]]
     assert errors == [
-        "59 of 600 rows repeat the time of the row before (a clock too coarse for the rows, "
-        "or rows written twice); the aligned channels keep one value per time"
+        "59 of 600 rows give a channel a second value at the same time (a clock too coarse "
+        "for the rows, or rows written twice); the aligned channels keep one value per time"
+    ]
+
+
+def test_a_sparse_wide_table_repeats_no_channel_value(tmp_path):
+    """One row per channel per time, blanks elsewhere (a long table pivoted): 3000 of
+    6000 rows were said to repeat the time of the row before, though no channel had two
+    values at one time and nothing was collapsed."""
+    rng = np.random.default_rng(1)
+    rows = "".join(
+        f"{i / 50:.2f},{rng.standard_normal():.5f},\n{i / 50:.2f},,{rng.standard_normal():.5f}\n"
+        for i in range(3000)
+    )
+    path = tmp_path / "sparse.csv"
+    path.write_text("time,a,b\n" + rows)
+    doc = inspect_archive([path])
+    assert doc["inputs"][0]["errors"] == []
+    assert {c["name"]: c["samples"] for c in doc["channels"]} == {"a": 3000, "b": 3000}
+
+
+def test_a_sparse_table_counts_the_channel_with_most_repeats(tmp_path):
+    """Per channel, among its own cells: b's second value at a time is counted, a's
+    cells (one a time) are not; the largest count is said."""
+    lines = []
+    for i in range(100):
+        lines += [f"{i},{i},", f"{i},,{i}"] + ([f"{i},,{-i}"] if i % 4 == 0 else [])
+    path = tmp_path / "sparse.csv"
+    path.write_text("time,a,b\n" + "\n".join(lines) + "\n")
+    (errors,) = [i["errors"] for i in inspect_archive([path])["inputs"]]
+    assert errors == [
+        "25 of 225 rows give a channel a second value at the same time (a clock too coarse "
+        "for the rows, or rows written twice); the aligned channels keep one value per time"
     ]
 
 
@@ -55,4 +86,4 @@ def test_times_cut_to_whole_seconds_say_why_the_window_is_short(tmp_path, capsys
     assert main(["run", str(path), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "at 1 Hz" in err
-    assert "5940 of 6000 rows repeat the time of the row before" in err
+    assert "5940 of 6000 rows give a channel a second value at the same time" in err
