@@ -442,6 +442,22 @@ def _use_msg_path(option: str | None) -> None:
         raise UsageError(f"{'--msg-path' if option is not None else MSG_PATH_ENV}: {err}") from None
 
 
+def _cluster_failure(err: BaseException, args: argparse.Namespace | None) -> str | None:
+    """One line naming ``--scheduler`` for an error of the Dask cluster itself (a
+    connection closed, a task the scheduler cancelled, a worker's stream gone) that the
+    executor could not work around; None for anything else. A task's own exception keeps
+    its type, which is never one of Dask's (nor tornado's, whose streams Dask uses)."""
+    address = getattr(args, "scheduler", None)
+    module = type(err).__module__ or ""
+    if not address or not module.startswith(("distributed.", "tornado.")):
+        return None
+    text = " ".join(str(err).split())[:200]
+    return (
+        f"--scheduler {address}: the cluster failed during the run "
+        f"({type(err).__name__}{': ' + text if text else ''})"
+    )
+
+
 def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -> int:
     """``analyzer ARGV``: the exit code. ``figure_processes`` (the real entry point only)
     lets ``run`` draw the report's figures in worker processes of its own."""
@@ -474,11 +490,17 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
         _UNWOUND = args is not None and args.command != "watch"
         return 130
     except OSError as err:  # the file system refused (disk full, permissions...)
+        lost = _cluster_failure(err, args)  # (or the cluster's connection closed)
+        if lost is not None:
+            return _error(lost)
         where = f"{err.filename}: " if getattr(err, "filename", None) else ""
         return _error(f"{where}{err.strerror or err}")
     except MemoryError:
         return _error("out of memory (choose fewer channels with --channels, or a lower --rate)")
     except Exception as err:  # a bug: still one line and exit 2, never 1 ("fault found")
+        lost = _cluster_failure(err, args)
+        if lost is not None:
+            return _error(lost)
         if os.environ.get("ANALYZER_DEBUG"):
             traceback.print_exc()  # the traceback, and still exit 2 (raising gave 1)
         return _error(

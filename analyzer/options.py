@@ -128,6 +128,9 @@ def default_train(duration_s: float) -> tuple[float, float]:
 def load_options(config_path: str | None, **kw: Any) -> RunOptions:
     """RunOptions with the config file loaded and validated (every detector section,
     whether or not that detector runs: a typo never passes silently)."""
+    scheduler = kw.get("scheduler")
+    if scheduler is not None and not scheduler.strip():  # (else it silently ran locally)
+        raise UsageError("--scheduler: an empty address; expected one like tcp://HOST:PORT")
     model_path = kw.pop("model", None)
     save = kw.pop("save_model", None)
     if model_path is not None:

@@ -332,8 +332,6 @@ def _analyze(
             names = model_detectors(reused, options)
             notes.append(reuse_note(reused, options, tr[1] + 1 / aligned.rate_hz))
         healthy = healthy_stats(values, chosen, train) if reused is None else dict(reused.healthy)
-        if isinstance(executor, DaskExecutor):
-            notes.append(executor.describe())
         parallel = not isinstance(executor, SerialExecutor)
         ctx = RunContext(
             false_alarm_rate=options.config.false_alarm_rate
@@ -428,6 +426,8 @@ def _analyze(
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
         notes.extend(_unattributed_notes(results, findings, aligned.rate_hz))
         notes.extend(_after_gap_notes(findings, values, chosen, aligned.rate_hz))
+        if isinstance(executor, DaskExecutor):  # after the work: tasks sent again, say
+            notes.append(executor.describe())
         if screen is not None:
             notes.append(screen_note)
         t0 = time.perf_counter()

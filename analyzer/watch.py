@@ -897,8 +897,15 @@ def watch(
         failed=settings.failed.absolute() if settings.failed else None,
     )
     exclude = _prepare(settings)
-    # the scheduler is contacted before REPORTS is locked: an unreachable one is exit 2 at once
-    cluster = DaskExecutor(options.scheduler) if options.scheduler else None
+    # the scheduler is contacted before REPORTS is locked: an unreachable one is exit 2 at
+    # once, and a signal ends the wait for one that does not answer
+    try:
+        cluster = DaskExecutor(options.scheduler, stop=stop) if options.scheduler else None
+    except KeyboardInterrupt:
+        if not stop.is_set():
+            raise
+        log.info("stopped while connecting to the scheduler")
+        return EXIT_INTERRUPTED if settings.once else 0
     with contextlib.ExitStack() as stack:
         if cluster is not None:
             stack.callback(cluster.close)
