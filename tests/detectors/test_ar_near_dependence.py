@@ -31,3 +31,11 @@ def test_near_duplicates_with_their_own_noise_are_fitted():
     rng = np.random.default_rng(0)
     twin = y[:, 2] + 1e-4 * y[:, 2].std() * rng.standard_normal(y.shape[0])
     fit_ar(np.column_stack([y, twin]), 4, [*names, "s6"])
+
+
+def test_a_copy_rounded_to_float32_is_named_as_dependent():
+    """The same signal logged twice, once as float32 (relative noise ~6e-8): a copy."""
+    y, names = _building()
+    copy = y[:, 2].astype(np.float32).astype(np.float64)
+    with pytest.raises(DetectorError, match=r"s2, s6 are linearly dependent"):
+        fit_ar(np.column_stack([y, copy]), 4, [*names, "s6"])

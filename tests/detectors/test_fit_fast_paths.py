@@ -120,7 +120,9 @@ def test_nearly_perfect_fit_takes_its_residuals_by_rows(building, monkeypatch):
 def test_ill_conditioned_fit_takes_pivoted_qr(building):
     rng = np.random.default_rng(8)
     Y = np.array(building, copy=True)
-    Y[:, 0] = Y[:, 1] + 1e-7 * np.std(Y[:, 1]) * rng.normal(size=Y.shape[0])
+    # (1e-5 of its own noise: ill-conditioned for the normal equations, but not a copy;
+    # at 1e-7 the fit refuses it as one, ar_model.NEAR_SINGULAR)
+    Y[:, 0] = Y[:, 1] + 1e-5 * np.std(Y[:, 1]) * rng.normal(size=Y.shape[0])
     Z = (Y - Y.mean(axis=0)) / Y.std(axis=0)
     G = arm._lagged_gram(Z, 3, arm._finite_segments(Z, 3))
     m = Y.shape[1]
