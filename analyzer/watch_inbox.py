@@ -55,7 +55,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from analyzer.readers import SKIPPED_FOLDER_ENDINGS
+from analyzer.readers import skipped_folder
 from analyzer.readers._common import special_kind
 
 log = logging.getLogger("analyzer.watch")
@@ -239,10 +239,8 @@ def incomplete_reason(path: Path, _seen: set[Path] | None = None) -> str | None:
     # (two links to a parent made this walk exponential), backup folders not at all
     seen = {path.resolve()} if _seen is None else _seen
     for sub in subfolders:
-        real = sub.resolve()
-        if real in seen or sub.name.lower().endswith(SKIPPED_FOLDER_ENDINGS):
+        if skipped_folder(sub, seen) is not None:
             continue
-        seen.add(real)
         reason = incomplete_reason(sub, seen)
         if reason is not None and reason != "empty directory":
             return f"{sub.name}/{reason}" if ":" in reason else f"{sub.name}: {reason}"

@@ -49,6 +49,7 @@ __all__ = [
     "detect_format",
     "open_archive",
     "open_input",
+    "skipped_folder",
 ]
 
 SUFFIXES: dict[str, Format] = {
@@ -485,6 +486,26 @@ def _members(directory: Path, skipped: list[str] | None = None) -> list[Path]:
     return found
 
 
+def skipped_folder(entry: Path, seen: set[Path]) -> str | None:
+    """Why the walk of a directory archive does not go into the folder ``entry`` (a
+    backup folder, :data:`SKIPPED_FOLDER_ENDINGS`; one whose real path is in ``seen``,
+    reached again through a link), as a note; None when it does, its real path then
+    added to ``seen``. The readers (:func:`_members`) and the watcher's completeness
+    check walk alike."""
+    ending = next((e for e in SKIPPED_FOLDER_ENDINGS if entry.name.lower().endswith(e)), None)
+    if ending is not None:
+        return f"{entry} not read: a backup or temporary folder (ends in {ending})"
+    real = entry.resolve()
+    if real in seen:
+        return (
+            f"{entry} not read: a link to {real}, a folder read already"
+            if entry.is_symlink()
+            else f"{entry} not read: read already through a symbolic link to it"
+        )
+    seen.add(real)
+    return None
+
+
 def _walk(
     directory: Path, entries: list[Path], seen: set[Path], found: list[Path], skipped: list[str]
 ) -> None:
@@ -503,21 +524,10 @@ def _walk(
             if is_ros2_bag(entry):
                 found.append(entry)
                 continue
-            ending = next(
-                (e for e in SKIPPED_FOLDER_ENDINGS if entry.name.lower().endswith(e)), None
-            )
-            if ending is not None:
-                skipped.append(f"{entry} not read: a backup or temporary folder (ends in {ending})")
+            why = skipped_folder(entry, seen)
+            if why is not None:
+                skipped.append(why)
                 continue
-            real = entry.resolve()
-            if real in seen:
-                skipped.append(
-                    f"{entry} not read: a link to {real}, a folder read already"
-                    if entry.is_symlink()
-                    else f"{entry} not read: read already through a symbolic link to it"
-                )
-                continue
-            seen.add(real)
             try:
                 inner = sorted(entry.iterdir())
             except OSError as err:
