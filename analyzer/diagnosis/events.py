@@ -5,6 +5,7 @@ about one channel uses this, so thresholds and fault types mean the same everywh
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -117,6 +118,49 @@ def events_from_residual(
             )
         )
     return out
+
+
+def _confined(
+    r: FloatArray, cls: Classification, cal: Calibration, iv: Interval
+) -> tuple[Classification, int | None]:
+    """An ``other`` fault's end where its residual last left the healthy band, when it
+    is quiet after that (the fault ended there): the alarms' end otherwise.
+
+    The alarm statistic averages over windows (a quarter of a second and eight times
+    that): a single-sample spike keeps the long window's mean square over its threshold
+    long after the spike, so a 50-sd spike at 15.23 s was a fault to 16.54 s, its rms
+    (5.4) that of 1.3 s of mostly healthy residual. The last sample past the per-sample
+    threshold (the statistics' own z quantile) ends the fault when no short window of
+    the residual after it alarms; an erratic stretch whose last large sample comes before
+    its end (a noise burst) keeps the alarms' end. The magnitude is then the confined
+    stretch's, from its first sample past the band: its mean offset and rms."""
+    if iv.end is None or iv.end - iv.onset < 2:
+        return cls, iv.end
+    z = cal.standardize(r[iv.onset : iv.end])
+    over = np.flatnonzero(np.abs(z) > cal.z_crit)
+    if over.shape[0] == 0:
+        return cls, iv.end
+    end = int(over[-1]) + 1
+    tail = z[end:]
+    w = cal.window
+    if tail.shape[0] >= w:
+        # the short window's statistics over the rest, as the search computes them
+        c1 = np.cumsum(np.concatenate(([0.0], np.nan_to_num(tail))))
+        c2 = np.cumsum(np.concatenate(([0.0], np.nan_to_num(tail * tail))))
+        m = (c1[w:] - c1[:-w]) / w
+        q = np.log(np.maximum((c2[w:] - c2[:-w]) / w, 1e-300))
+        if np.max(np.abs(m)) > cal.mean_threshold(0) or np.max(q) > cal.logq_threshold(0):
+            return cls, iv.end
+    elif tail.shape[0] > 0 and float(np.mean(tail * tail)) > np.exp(cal.logq_threshold(0)):
+        return cls, iv.end
+    if iv.onset + end == iv.end:
+        return cls, iv.end
+    # from its first sample past the band (the change point may precede it by a sample
+    # or two of healthy residual, which would dilute a spike's size)
+    seg = r[iv.onset + int(over[0]) : iv.onset + end] - cal.mean
+    seg = seg[np.isfinite(seg)]
+    magnitude = {"offset": float(np.mean(seg)), "rms": float(np.sqrt(np.mean(seg * seg)))}
+    return replace(cls, magnitude=magnitude), iv.onset + end
 
 
 EARLY_ONSET_FACTOR = 0.5
@@ -236,7 +280,7 @@ def diagnose_interval(
         # no refit past the stretch it was found on
         cls, limit = lead
     if not has_shape(cls):
-        return cls, iv.end
+        return _confined(r, cls, cal, iv)
     end: int | None = None
     raw_alarms = _Intervals(r, n, cal, iv.onset, statistic, index)
     corrected_alarms = corrected(cls)

@@ -27,6 +27,7 @@ from analyzer.diagnosis.classify import Classification, classify
 from analyzer.diagnosis.events import (
     MAX_REFITS,
     REFIT_GROWTH,
+    _confined,
     _Intervals,
     diagnose_interval,
     events_from_residual,
@@ -63,7 +64,7 @@ def _whole_record_diagnosis(
     tau = np.arange(n - iv.onset) / rate_hz
     shape = cls.fault_signal(tau, None if ref is None else ref[iv.onset :])
     if shape is None:
-        return cls, iv.end
+        return _confined(r, cls, cal, iv)  # no shape: nothing grows past the alarms
     corrected = r.copy()
     corrected[iv.onset :] -= shape
     corrected[iv.onset :] /= cls.reading_gain
