@@ -63,9 +63,10 @@ SUFFIXES: dict[str, Format] = {
 }
 """Suffixes of the files taken from a directory archive, and their format."""
 
-TOA5_MAGICS = (b'"TOA5",', b'\xef\xbb\xbf"TOA5",')
+TOA5_MAGICS = (b'"TOA5",', b'\xef\xbb\xbf"TOA5",', b"TOA5,", b"\xef\xbb\xbfTOA5,")
 """How a Campbell Scientific logger's table (mostly named .dat) starts, with or without a
-UTF-8 byte order mark."""
+UTF-8 byte order mark, quoted as the logger writes it or not (opened in a spreadsheet and
+saved again)."""
 
 _MAGICS: tuple[tuple[bytes, Format], ...] = (
     (b"\x89MCAP0\r\n", Format.MCAP),

@@ -12,10 +12,17 @@ that are as numeric as rows are), when it is less numeric than they are; lines a
 (a logger's metadata such as ``Sample rate: 100 Hz`` or ``station,ABC``, Excel's
 ``sep=;``, ``#`` comments, blank lines) are skipped without a note (see
 :func:`_header_line`). Else the first line is the header, and a header with a field count
-no row has is refused by name. A Campbell Scientific TOA5 file (first line ``"TOA5",...``, the
-station) has its header on line 2, then a units line and a processing line, which are
-skipped; its ``RECORD`` column (units ``RN``) is a row counter, not a channel. A repeated
-name gets ``_2``, ``_3``, ... so that two columns never share a channel.
+no row has is refused by name. A units line right under the header (``s,m/s^2,mm``,
+``[s];[V]``; catman, DEWESoft, LabVIEW exports) is skipped and named in ``info.errors``
+with each column's unit (there is no other place for units): under the time column a
+time unit, zone or format or nothing, elsewhere short unit-shaped cells, none a number
+or ``nan``, and known units among them (all of them where the time column's cell is
+blank: see :func:`_is_units`); its time unit scales numeric times as one in the
+column's name does. A Campbell Scientific TOA5 file (first line ``"TOA5",...``, the
+station, quoted or not) has its header on line 2, then a units line and a processing
+line, which are skipped without a note (the format places them); its ``RECORD`` column
+(units ``RN``) is a row counter, not a channel. A repeated name gets ``_2``, ``_3``, ...
+so that two columns never share a channel.
 
 The time column is the first column named ``time``, ``timestamp``, ``__time``, ``%time``
 or ``datetime`` (any case); else the first whose name, lowercased and less a
@@ -202,9 +209,51 @@ R's ``NA``, Excel's ``#N/A``): as numeric as a number where the header is sought
 LAYOUT_LINES = 200
 """Non-blank lines (of the 64 KiB sample) from which the separator and the header are
 found: a logger's preamble may be tens of lines long."""
-TOA5 = '"TOA5",'
+TOA5 = ('"TOA5",', "TOA5,")
 """How a Campbell Scientific TOA5 file starts: its station line, then the header, a
-units line and a processing line (``Smp``, ``Avg``...) above the rows."""
+units line and a processing line (``Smp``, ``Avg``...) above the rows. Unquoted: the
+same table opened in a spreadsheet and saved as CSV again."""
+UNIT_CELL_CHARS = 20
+"""The longest cell of a units line (``m/s^2``, ``[mV/V]``, ``Deg C``, ``microstrain``)."""
+_UNIT_POWER = r"(?:\^\(?[-+]?\d{1,2}\)?|[-+]?[1-9]|[⁻⁺]?[⁰¹²³⁴⁵⁶⁷⁸⁹]+)?"
+_UNIT_ATOM = r"(?:[°º]?[^\W\d_]+|[%‰°])" + _UNIT_POWER
+_UNIT_SHAPE = re.compile(rf"(?:1\s*/\s*)?{_UNIT_ATOM}(?:(?:\s*[/*·.]\s*|\s+){_UNIT_ATOM})*")
+"""A cell shaped as a unit: symbols or words, with powers (``m/s^2``, ``m s-2``, ``m/s²``,
+``kN*m``, ``1/s``, ``°C``, ``%``), no number, no underscore."""
+_UNIT_WORD = re.compile(r"[°º]?[^\W\d_]+|[%‰°]")
+_UNIT_LETTERS = frozenset("mgsAKNJWCVFΩSTHLlh%‰°ε")
+"""Units of one character, in their case: a lone ``a`` or ``b`` names a channel."""
+_UNIT_PREFIXES = ("", "da", *"kmgthdcuµμnp")
+"""SI prefixes (the common ones), lowercased: a unit of several characters is read
+without regard to case (``kPa``, ``kpa``, ``MV``, ``mv``)."""
+_UNIT_SYMBOLS = frozenset(
+    {
+        *("m", "g", "s", "a", "k", "mol", "cd", "hz", "n", "pa", "j", "w", "c", "v", "f"),
+        *("ω", "ohm", "ohms", "wb", "t", "h", "lm", "lx", "bq", "gy", "sv", "rad", "sr"),
+        *("l", "bar", "ev", "var", "va", "wh", "ah", "bit", "bits", "strain"),
+    }
+)
+"""Units that take an SI prefix (``mm``, ``kN``, ``MPa``, ``mV``, ``µstrain``), lowercased."""
+_UNIT_NAMES_ALONE = frozenset(
+    {
+        *("°", "°c", "°f", "ºc", "ºf", "deg", "degc", "degf", "degk", "celsius", "kelvin"),
+        *("%", "‰", "percent", "pct", "ppm", "ppb", "rpm", "db", "dba", "dbv", "dbm"),
+        *("ue", "µe", "μe", "µε", "με", "uε", "ε", "microstrain"),
+        *("psi", "psia", "psig", "ksi", "atm", "mmhg", "inhg", "mmh2o", "inh2o"),
+        *("in", "inch", "ft", "yd", "mi", "mph", "kph", "kmh", "knot", "knots", "kt"),
+        *("lb", "lbs", "lbf", "kip", "kips", "oz", "gal", "gn", "gauss", "lux"),
+        *("sec", "secs", "min", "mins", "hr", "hrs", "d", "day", "days"),
+        *("count", "counts", "cnt", "cts", "lsb", "digit", "digits", "dps"),
+        *("volt", "volts", "amp", "amps", "watt", "watts", "hertz", "meter", "metre"),
+        *("meters", "metres", "newton", "newtons", "pascal", "degree", "degrees"),
+    }
+)
+"""Units without a prefix, lowercased."""
+UNIT_LABELS = ("unit", "units", "einheit", "einheiten", "unité", "unités", "unidad", "unidades")
+"""What a units line may hold under the time column to say what it is (``Unit,g,g``)."""
+UNITS_NOTE_CHARS = 200
+"""Of the columns' units, as many as fit in this many characters are named in the note
+on a units line (the rest counted)."""
 _LINE_BREAK = re.compile(r"\r\n|\r|\n")
 _DATA_TIME = re.compile(
     r"^(?:\d{1,4}[-/.]\d{1,2}[-/.]\d{1,4}(?:[T ]+\d{1,2}:\d{2}.*)?|\d{1,2}:\d{2}(?::\d{2}.*)?)$"
@@ -243,6 +292,11 @@ class _Layout:
     """The time column's unit when its values are numbers (a key of :data:`TIME_UNITS`)."""
     ignored: tuple[int, ...] = ()
     """Columns that are no channel (a TOA5 file's ``RECORD`` row counter)."""
+    units: tuple[str, ...] = ()
+    """The unit of each column from a units line under the header (``""``: none given)."""
+    units_line: int = 0
+    """The line (from 1) read as units under the header, which ``info.errors`` names so
+    that a wrong guess shows (0: none, or a TOA5 table's, which its format places)."""
 
 
 @dataclass(slots=True)
@@ -591,6 +645,8 @@ class CsvReader:
         first_time = self._inspect_first_block()
         total, sha = file_digest([self.path])
         self.info = InputInfo(self.path, Format.CSV, size_bytes=total, sha256=sha)
+        if self._layout.units_line:  # a guess (a units line has no readable time): said
+            self._error(_units_note(self._layout))
         self.info.absolute_time = (
             self._time_kind == "datetime"
             or (self._time_kind == "ns" and first_time is not None and plausible_epoch(first_time))
@@ -929,13 +985,16 @@ class CsvReader:
             raise ReaderError(f"{self.path}: not a text file (binary data)")
         lines = [line for _, line in numbered]
         toa5 = lines[0].startswith(TOA5)
+        units_at: int | None = None  # the index in lines of a units line under the header
         if toa5:
             separator, header, first_row = ",", 1, 4
+            units_at = 2
         else:
             separator = self._separator(lines[:LAYOUT_LINES])
             open_end = not cut and len(lines) <= LAYOUT_LINES and bool(physical[-1].strip())
             header = _header_line(lines[:LAYOUT_LINES], separator, open_end)
-            first_row = header + 1
+            header, units_at = _units_under(lines, header, separator)
+            first_row = header + 1 if units_at is None else units_at + 1
         if not toa5 and _is_data(_fields(lines[header], separator), separator):
             raise ReaderError(
                 f"{self.path}: no header line: the first line is data "
@@ -944,17 +1003,26 @@ class CsvReader:
             )
         if first_row >= len(lines) and (toa5 or not cut):  # a header alone
             damaged = f", before the damage ({damage})" if damage is not None else ""
-            raise ReaderError(f"{self.path}: no data rows (a header line only{damaged})")
+            what = "a header line" if toa5 or units_at is None else "a header and a units line"
+            raise ReaderError(f"{self.path}: no data rows ({what} only{damaged})")
         names = _unique(
             [h.strip() or f"column{i}" for i, h in enumerate(_fields(lines[header], separator))]
         )
         if len(names) < 2:
             raise ReaderError(f"{self.path}: no numeric column (a single column {names[0]!r})")
         time_column, time_unit = _time_column(names)
+        units: tuple[str, ...] = ()
+        if units_at is not None:
+            cells = _fields(lines[units_at], separator)[: len(names)]
+            units = tuple(
+                "" if i == time_column and c.strip().lower() in UNIT_LABELS else _unbracketed(c)
+                for i, c in enumerate(cells + [""] * (len(names) - len(cells)))
+            )
         ignored: tuple[int, ...] = ()
-        if toa5:  # the units line names the row counter RN
-            units = _fields(lines[2], separator)
-            ignored = tuple(i for i, u in enumerate(units[: len(names)]) if u.strip() == "RN")
+        if toa5:  # the row counter: RECORD, its units RN
+            ignored = tuple(i for i, u in enumerate(units) if u == "RN" or names[i] == "RECORD")
+        elif units and time_unit == "s":  # a unit there scales numeric times as one in the name
+            time_unit = _time_unit_cell(units[time_column]) or time_unit
         # the whole sample decides: a logger's first rows may all be integers
         body = lines[first_row:]
         decimal_comma = (
@@ -976,6 +1044,8 @@ class CsvReader:
             skip_rows=numbered[min(first_row, len(numbered)) - 1][0] + 1,
             time_unit=time_unit,
             ignored=ignored,
+            units=units,
+            units_line=numbered[units_at][0] + 1 if units_at is not None and not toa5 else 0,
         )
 
     def _separator(self, lines: list[str]) -> str:
@@ -1771,6 +1841,114 @@ def _is_data(fields: list[str], separator: str) -> bool:
         numbers = [int(c) for c in cells]
         return not all(a < b for a, b in zip(numbers, numbers[1:], strict=False))
     return True
+
+
+def _units_under(lines: list[str], header: int, separator: str) -> tuple[int, int | None]:
+    """The index of the header among ``lines`` and that of a units line right under it
+    (None: none), from the header :func:`_header_line` found. A units line has no
+    number, so that function takes it for the header where it has the rows' field
+    count (the header above it for a line of a preamble), and for the first row where
+    the rows have many blank cells: both are looked at (see :func:`_is_units`)."""
+    if header > 0 and not lines[header - 1].lstrip().startswith("#"):
+        names = _fields(lines[header - 1], separator)
+        if _is_units(names, _fields(lines[header], separator)) and not _is_data(names, separator):
+            return header - 1, header
+    if header + 1 < len(lines):
+        below = _fields(lines[header + 1], separator)
+        if _is_units(_fields(lines[header], separator), below):
+            return header, header + 1
+    return header, None
+
+
+def _is_units(names: list[str], cells: list[str]) -> bool:
+    """Whether ``cells``, the fields of the line under a header of ``names``, are units:
+    as many fields; under the time column (:func:`_time_column` of ``names``) a time unit
+    (``s``, ``[ms]``), zone, format (``UTC``, ``hh:mm:ss``) or nothing; in the other
+    columns a blank or a short cell shaped as a unit (:data:`_UNIT_SHAPE`, at most
+    :data:`UNIT_CELL_CHARS` characters; no number, no ``nan``), one at least not blank.
+    Where the time column's cell is blank, every other cell must be a known unit
+    (:func:`_known_unit`), else one of them. A row has a number somewhere; a preamble
+    line above the header puts a name under the time column (``time,s0,s1`` is no units
+    line), as a second header line naming the channels does (``Time,north,south``)."""
+    if len(cells) != len(names) or len(cells) < 2:
+        return False
+    units = [_unbracketed(cell) for cell in cells]
+    when = units.pop(_time_column(names)[0])
+    if _time_unit_cell(when) is None:
+        return False
+    values = [unit for unit in units if unit]
+    if not values or not all(_unit_like(unit) for unit in values):
+        return False
+    known = [_known_unit(unit) for unit in values]
+    return any(known) if when else all(known)
+
+
+def _unbracketed(cell: str) -> str:
+    """A units line's cell without blanks and brackets around it (``[m/s2]``: ``m/s2``)."""
+    text = cell.strip()
+    if len(text) > 1 and text[0] + text[-1] in ("[]", "()", "{}"):
+        return text[1:-1].strip()
+    return text
+
+
+def _time_unit_cell(cell: str) -> str | None:
+    """Of a units line's cell under the time column: the unit of numeric times (a key of
+    :data:`TIME_UNITS`), ``""`` where it gives none (blank; a zone or format such as
+    ``UTC`` or ``yyyy-mm-dd hh:mm:ss``; Campbell's ``TS``; a ``Unit`` label), None where
+    it is no such cell."""
+    text = cell.strip().lower()
+    if text in _BRACKET_UNITS:
+        return _BRACKET_UNITS[text]
+    if not text or text == "ts" or text in UNIT_LABELS or _TIME_NOTE.fullmatch(text):
+        return ""
+    return None
+
+
+def _unit_like(cell: str) -> bool:
+    """Whether a units line's cell (unbracketed, not blank) is shaped as a unit: short,
+    symbols or words with powers (:data:`_UNIT_SHAPE`), or a dash (dimensionless); not
+    ``nan``, ``NA``, ``true``."""
+    if cell in ("-", "--", "–", "—"):
+        return True
+    return (
+        len(cell) <= UNIT_CELL_CHARS
+        and _UNIT_SHAPE.fullmatch(cell) is not None
+        and not _NOT_A_NUMBER.match(cell)
+        and cell.lower() not in ("true", "false")
+    )
+
+
+def _known_unit(cell: str) -> bool:
+    """Whether every word of ``cell`` (powers aside) is a unit: one of
+    :data:`_UNIT_LETTERS` in its case, or, any case, an SI prefix and one of
+    :data:`_UNIT_SYMBOLS` (``mm``, ``kN``, ``mV/V``) or one of :data:`_UNIT_NAMES_ALONE`
+    (``°C``, ``Deg C``, ``ue``, ``psi``, ``counts``)."""
+    words = [word.rstrip("⁰¹²³⁴⁵⁶⁷⁸⁹⁻⁺") for word in _UNIT_WORD.findall(cell)]
+    return bool(words) and all(_known_word(word) for word in words)
+
+
+def _known_word(word: str) -> bool:
+    """Whether one word of a unit is a unit (see :func:`_known_unit`)."""
+    if len(word) == 1:
+        return word in _UNIT_LETTERS
+    word = word.lower()
+    return word in _UNIT_NAMES_ALONE or any(
+        word.startswith(p) and word[len(p) :] in _UNIT_SYMBOLS for p in _UNIT_PREFIXES
+    )
+
+
+def _units_note(layout: _Layout) -> str:
+    """What ``info.errors`` says of a units line: which line, and each column's unit."""
+    named = [f"{n} [{u}]" for n, u in zip(layout.names, layout.units, strict=True) if u]
+    shown, size = 0, 0
+    while shown < len(named) and size + len(named[shown]) <= UNITS_NOTE_CHARS:
+        size += len(named[shown]) + 2
+        shown += 1
+    shown = max(shown, 1)
+    text = ", ".join(named[:shown])
+    if shown < len(named):
+        text += f", ... ({len(named) - shown} more)"
+    return f"line {layout.units_line} read as units, not as data: {text}"
 
 
 def _shorten(text: str, most: int = 60) -> str:
