@@ -58,6 +58,8 @@ from analyzer.parallel import (
     make_executor,
 )
 from analyzer.readers import ArchiveNote, open_archive
+from analyzer.reconfigure import LOST_MIN_S, LOST_SHARE, columns, found_again, lost_stretches
+from analyzer.reconfigure import note as reconfigure_note
 from analyzer.regenerate import corrected_values, result_signals
 from analyzer.reuse import (
     in_registry_order,
@@ -127,17 +129,15 @@ def _crowded_channels(
     return notes
 
 
-PARTIAL_SHARE = 0.05
-"""Share of the record (and at least :data:`PARTIAL_MIN_S`) a channel may miss at its
-start or end before a note says so."""
-PARTIAL_MIN_S = 10.0
-
-
-def _partial_channels(infos: Sequence[ChannelInfo], chosen: Sequence[str]) -> list[str]:
+def _partial_channels(
+    infos: Sequence[ChannelInfo], chosen: Sequence[str], again: bool = False
+) -> list[str]:
     """Notes on the analyzed channels that start late or stop early (a sensor that died,
     a file of another channel set): while one is missing, the detectors that model the
     channels together lose their view of the others (the bank keeps only its estimator
-    that leaves it out), which a user would not guess from "no fault found"."""
+    that leaves it out), which a user would not guess from "no fault found". ``again``:
+    the others are searched again without them (:mod:`analyzer.reconfigure`), which a
+    note of its own reports; else the note names the ``--channels`` that does it."""
     by = {i.name: i for i in infos}
     kept = [by[c] for c in chosen if c in by]
     if len(kept) < 2:
@@ -145,7 +145,7 @@ def _partial_channels(infos: Sequence[ChannelInfo], chosen: Sequence[str]) -> li
     t0 = min(i.start_ns for i in kept)
     t1 = max(i.end_ns for i in kept)
     span_s = (t1 - t0) / NS_PER_S
-    least = max(PARTIAL_SHARE * span_s, PARTIAL_MIN_S)
+    least = max(LOST_SHARE * span_s, LOST_MIN_S)
     notes = []
     for i in kept:
         late = (i.start_ns - t0) / NS_PER_S
@@ -166,7 +166,12 @@ def _partial_channels(infos: Sequence[ChannelInfo], chosen: Sequence[str]) -> li
         notes.append(
             f"{i.name} has no sample in {what} of the record: where it is missing, the "
             "detectors that model it with the others (ar_kalman_bank, detection_filter) "
-            f"lose their view of them too; --channels '!{i.name}' searches the others there"
+            "lose their view of them too; "
+            + (
+                "the others are searched again without it there (below)"
+                if again
+                else f"--channels '!{i.name}' searches the others there"
+            )
         )
     return notes
 
@@ -296,7 +301,16 @@ def _analyze(
         shutil.rmtree(work / "store", ignore_errors=True)
         trim_heap()  # and what reading freed (the CSV reader's Arrow buffers, say)
         notes.extend(_crowded_channels(infos, chosen, aligned.rate_hz))
-        notes.extend(_partial_channels(infos, chosen))
+        # channels missing for long: the others are searched again without them, unless
+        # the channel set is fixed (a saved model, or one kept, or the config's groups)
+        lost = (
+            lost_stretches(infos, chosen, aligned.start_ns, aligned.n, aligned.rate_hz)
+            if reused is None and options.save_model is None and not options.config.groups
+            else {}
+        )
+        if len(chosen) - len(lost) < 2:
+            lost = {}
+        notes.extend(_partial_channels(infos, chosen, again=bool(lost)))
         if reused is not None:
             own = dominant_rate([i.rate_hz for i in infos if i.name in set(chosen)])
             if own > 0 and abs(own - reused.rate_hz) > 0.01 * reused.rate_hz:
@@ -423,6 +437,23 @@ def _analyze(
             raise error
         findings, found_notes = diagnose(results)
         notes.extend(found_notes)
+        again: list[Finding] = []
+        if lost:
+            t_again = time.perf_counter()
+            again, again_notes = _searched_without(
+                lost,
+                findings,
+                [r.detector for r in results],
+                options,
+                (values, chosen, train, aligned.rate_hz),
+                ctx,
+                executor,
+                work if big else None,
+                excitation,
+            )
+            findings = sorted([*findings, *again], key=lambda f: (f.onset_s, f.channel))
+            notes.extend(again_notes)
+            timings["search again"] = time.perf_counter() - t_again
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
         notes.extend(_unattributed_notes(results, findings, aligned.rate_hz))
         notes.extend(_after_gap_notes(findings, values, chosen, aligned.rate_hz))
@@ -433,7 +464,11 @@ def _analyze(
         t0 = time.perf_counter()
         parts = results
         results = merge_groups(parts, chosen)  # one result per detector (channel groups)
-        attach_evidence(findings, results, aligned.rate_hz, train)
+        # (the second search's findings carry the evidence of its own residuals)
+        added = {id(f) for f in again}
+        attach_evidence(
+            [f for f in findings if id(f) not in added], results, aligned.rate_hz, train
+        )
         for r in parts:
             r.model["training_tests"], r.model["windowed_tests"] = {}, {}
         for k, (task, handle) in enumerate(tests):
@@ -501,6 +536,49 @@ def _cancel(tests: list[Any]) -> None:
     for _, handle in tests:
         if handle is not None:
             handle.cancel()
+
+
+def _searched_without(
+    lost: dict[str, list[tuple[int, int]]],
+    findings: list[Finding],
+    ran: list[str],
+    options: RunOptions,
+    matrix: tuple[Any, list[str], tuple[int, int], float],
+    ctx: RunContext,
+    executor: Executor,
+    work: Path | None,
+    excitation: frozenset[str],
+) -> tuple[list[Finding], list[str]]:
+    """The detectors that ran (``ran``, one name per result) fitted again on the healthy
+    window without the channels ``lost`` misses for long (:mod:`analyzer.reconfigure`),
+    over the whole record, and the findings of theirs that begin where a left-out channel
+    was missing and that ``findings`` lack, with their evidence (the tests of the second
+    search's residuals); and the run's note on it. ``matrix``: the aligned values, their
+    channels, the healthy window's rows and the rate."""
+    values, chosen, train, rate_hz = matrix
+    keep = [c for c in chosen if c not in lost]
+    names = list(dict.fromkeys(ran))
+    sub = columns(values, chosen, keep, None if work is None else work / "aligned-without.npy")
+    data = Dataset(sub, tuple(keep), rate_hz, train, healthy=True)
+    groups, _ = partition(keep, np.asarray(sub[train[0] : train[1]]), model=options.config.model)
+    into = None if work is None else work / "signals-without"
+    run_ctx = ctx
+    if ctx.progress is not None:
+        shown = ctx.progress
+        run_ctx = replace(ctx, progress=lambda stage, done: shown("again " + stage, done))
+    shared: tuple[Any, ...] = (options, data, run_ctx, executor, {}, into, lambda _: None)
+    if len(groups) == 1 and len(groups[0]) == len(keep):
+        results, _ = run_detectors(names, *shared, "", None, None)
+    else:
+        results, _ = run_groups(groups, names, *shared)
+    if not results:
+        return [], []
+    healthy = healthy_stats(sub, keep, train)
+    found, _ = _diagnose(results, sub, keep, rate_hz, healthy, train, None, excitation)
+    slack = LONG_FACTOR * default_window(rate_hz) / rate_hz
+    added = found_again(found, findings, lost, rate_hz, slack)
+    attach_evidence(added, merge_groups(results, keep), rate_hz, train)
+    return added, [reconfigure_note(lost, added, rate_hz)]
 
 
 GAP_SEARCH_ROWS = 1 << 16

@@ -1,0 +1,118 @@
+"""A channel missing for a long stretch: the other channels are searched again without it
+(``analyzer.reconfigure``), so a fault on another sensor while it is missing is found.
+
+Before, the bank and the detection filter lost their view of every channel where one was
+missing: a 2-sd offset on s3 24 s after s4 died went unreported (exit 0, a note)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_helpers import run_cli
+
+from analyzer.simulate import inject_fault, simulate_building
+from analyzer.writers import write_archive
+
+RATE = 100.0
+
+
+def _archive(path: Path, seed: int, dead: int, faulty: int | None, kind: str = "additive") -> str:
+    """A 6-channel building of 120 s whose channel ``dead`` has no sample from 48 s on
+    (empty cells), with a fault on ``faulty`` from 72 s (none when None)."""
+    t, Y, names = simulate_building(
+        n_floors=3, duration_s=120.0, rate_hz=RATE, seed=seed, sensors_per_floor=2
+    )
+    sd = Y[: int(24 * RATE)].std(axis=0)
+    if faulty is not None:
+        size = {"additive": 2 * sd[faulty], "multiplicative": 1.5, "drift": sd[faulty] / 10}[kind]
+        Y[:, faulty] = inject_fault(Y[:, faulty], RATE, kind, 72.0, size)
+    Y[int(48 * RATE) :, dead] = np.nan
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(path, "csv", t_ns, {c: Y[:, j] for j, c in enumerate(names)})
+    return names[dead]
+
+
+def _run(capsys, path: Path, out: Path, *extra: str) -> tuple[int, dict]:
+    code, _, err = run_cli(["run", path, "--out", out, "--no-progress", *extra], capsys)
+    assert code in (0, 1), err
+    return code, json.loads((out / "findings.json").read_text())
+
+
+@pytest.mark.parametrize(
+    ("seed", "dead", "faulty", "kind"),
+    [(0, 4, 3, "additive"), (1, 2, 3, "multiplicative"), (2, 1, 4, "drift")],
+)
+def test_a_fault_while_a_channel_is_missing_is_found(tmp_path, capsys, seed, dead, faulty, kind):
+    lost = _archive(tmp_path / "a.csv", seed, dead, faulty, kind)
+    code, doc = _run(capsys, tmp_path / "a.csv", tmp_path / "out")
+    assert code == 1
+    (f,) = doc["faults"]
+    assert (f["channel"], f["type"]) == (f"s{faulty}", kind)
+    assert abs(f["onset_s"] - 72.0) < 1.0
+    assert f["evidence"]["searched_without"] == [lost]
+    assert f["evidence"]["tests"], "the second search's residual tests are its evidence"
+    assert any(
+        n.startswith(f"the other channels were searched again without {lost} ({lost} missing 48")
+        and f"1 finding(s) added from it: {kind} on s{faulty}" in n
+        for n in doc["notes"]
+    ), doc["notes"]
+
+
+@pytest.mark.parametrize("seed", [3, 4, 5])
+def test_a_healthy_record_with_a_missing_channel_stays_healthy(tmp_path, capsys, seed):
+    lost = _archive(tmp_path / "a.csv", seed, seed % 6, None)
+    code, doc = _run(capsys, tmp_path / "a.csv", tmp_path / "out")
+    assert code == 0, doc["faults"]
+    assert any(
+        n.startswith(f"the other channels were searched again without {lost}")
+        and "nothing more was found there" in n
+        for n in doc["notes"]
+    ), doc["notes"]
+
+
+def test_the_second_search_is_the_same_on_threads(tmp_path, capsys):
+    _archive(tmp_path / "a.csv", 0, 4, 3)
+    _, serial = _run(capsys, tmp_path / "a.csv", tmp_path / "one", "--jobs", "1")
+    _, threads = _run(capsys, tmp_path / "a.csv", tmp_path / "two", "--jobs", "2")
+    assert json.dumps(serial["faults"], sort_keys=True) == json.dumps(
+        threads["faults"], sort_keys=True
+    )
+
+
+def test_a_saved_model_keeps_its_channel_set(tmp_path, capsys):
+    """With --save-model the model is the run's channels: no second search, and the note
+    names the --channels that searches the others (as before)."""
+    lost = _archive(tmp_path / "a.csv", 0, 4, 3)
+    _, doc = _run(
+        capsys, tmp_path / "a.csv", tmp_path / "out", "--save-model", str(tmp_path / "m.model")
+    )
+    assert not any(n.startswith("the other channels were searched again") for n in doc["notes"])
+    assert any(f"--channels '!{lost}' searches the others there" in n for n in doc["notes"])
+    assert all("searched_without" not in f["evidence"] for f in doc["faults"])
+
+
+def test_the_second_search_on_a_mapped_matrix_and_in_groups(tmp_path, monkeypatch):
+    """A long archive's path (the matrix memory-mapped, the left-out copy written a block
+    at a time) and channel groups give the in-memory run's findings."""
+    from analyzer import grouping, pipeline
+    from analyzer.options import RunOptions
+
+    _archive(tmp_path / "a.csv", 0, 4, 3)
+    memory = pipeline.analyze([tmp_path / "a.csv"], RunOptions(jobs=2))
+    monkeypatch.setattr(pipeline, "MATERIALIZE_IN_MEMORY", 1000)
+    work = tmp_path / "work"
+    work.mkdir()
+    mapped = pipeline.analyze([tmp_path / "a.csv"], RunOptions(jobs=2), work)
+    assert (work / "aligned-without.npy").exists()
+    monkeypatch.setattr(pipeline, "partition", lambda *a, **k: grouping.partition(*a, **k, size=3))
+    grouped = pipeline.analyze([tmp_path / "a.csv"], RunOptions(jobs=2))
+    for run in (memory, mapped, grouped):
+        assert [(f.channel, f.type.value) for f in run.findings] == [("s3", "additive")]
+        assert run.findings[0].evidence["searched_without"] == ["s4"]
+    assert mapped.findings[0].onset_s == memory.findings[0].onset_s
+    assert mapped.findings[0].magnitude["offset"] == pytest.approx(
+        memory.findings[0].magnitude["offset"], rel=1e-6
+    )
