@@ -47,6 +47,7 @@ from analyzer.findings import Analysis, findings_document, input_digest, write_o
 from analyzer.grouping import partition
 from analyzer.modelfile import SavedModel, check_model_path, save_model
 from analyzer.options import MIN_TRAIN_ROWS, RunOptions, default_train, load_options, parse_train
+from analyzer.outage import treat_outages
 from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
 from analyzer.paging import release, row_blocks, trim_heap
 from analyzer.parallel import (
@@ -340,6 +341,9 @@ def _analyze(
             if coarse and str(err).startswith("the training window") and "sample(s) at" in str(err):
                 raise UsageError(f"{err}; {coarse[0]}") from None
             raise
+        # logger outages (every analyzed channel at one value, or repeating its values,
+        # at once): missing data, not a sensor's fault, and a note (analyzer.outage)
+        treat_outages(values, chosen, aligned.rate_hz, notes)
         data = Dataset(values, tuple(chosen), aligned.rate_hz, train, healthy=reused is None)
         names, explicit = detector_names(options)
         if reused is not None:
