@@ -15,6 +15,11 @@ limit, so ingesting a long archive needs memory for the buffers only; after
   assuming an exact integer rate ratio;
 * where two consecutive raw samples are more than ``GAP_FACTOR`` nominal periods apart,
   the clock ticks between them are NaN: gaps are kept, never interpolated across.
+  A channel sampled at irregular times (event-driven, Poisson-like: see
+  :func:`_irregular`) has the mean of its steps as its period, and its gaps are the
+  steps more than ``GAP_FACTOR`` times its longest ordinary step (the 99th percentile
+  of its steps): the regular rule, with the one period replaced by the spread of periods
+  the channel really has.
 """
 
 from __future__ import annotations
@@ -49,7 +54,22 @@ residual figure blank and the innovation tests empty, without a word)."""
 
 GAP_FACTOR = 2.5
 """A step between raw samples longer than this many nominal periods is a gap (so one
-dropped sample is bridged, two or more are not)."""
+dropped sample is bridged, two or more are not); of an irregularly sampled channel, a
+step longer than this many times its longest ordinary step (:func:`_irregular`)."""
+
+RARE_STEPS = 0.01
+"""Share of a channel's steps that outages may take: while no more than this share of
+its steps are gaps by the regular rule, they are taken as outages (and losses) of a
+regular clock; beyond it, the channel is tested for irregular sampling
+(:func:`_irregular`), whose longest ordinary step is the ``1 - RARE_STEPS`` quantile of
+its steps (which outages, as rare, do not reach)."""
+
+OFF_CLOCK_SHARE = 0.25
+"""Share of a channel's steps off every whole number of nominal periods (by more than a
+quarter period) above which it is irregularly sampled: a regular clock, however many
+samples it loses, steps by whole periods (0 % off, but for jitter); steps spread
+continuously over the periods are off half the time (50 %, more for exponential steps,
+whose many short steps are off too). The threshold lies halfway."""
 
 SPILL_SAMPLES = 1 << 22
 """Buffered samples (all channels) before the buffers are written to the work dir."""
@@ -83,6 +103,12 @@ class ChannelInfo:
     finite: int
     minimum: float
     maximum: float
+    irregular: bool = False
+    """Sampled at irregular times (:func:`_irregular`): ``rate_hz`` is its mean rate."""
+    bridge: float = GAP_FACTOR
+    """The longest step between two samples that the alignment interpolates across, in
+    nominal periods (``1 / rate_hz``): a longer one is a gap. :data:`GAP_FACTOR` for a
+    regular channel."""
 
     @property
     def constant(self) -> bool:
@@ -407,7 +433,95 @@ def _summarize(name: str, t: IntArray, v: FloatArray, block: int = 1 << 22) -> C
             gaps += int(np.count_nonzero(np.diff(tt) > GAP_FACTOR * period))
             release(t[max(0, s - 1) : e])
     rate = NS_PER_S / period if period > 0 else 0.0
+    if period > 0 and n - 1 >= 1 / RARE_STEPS and gaps > RARE_STEPS * (n - 1):
+        # more gaps than a regular clock's outages: the steps may vary by nature
+        irregular = _irregular(t, period)
+        if irregular is not None:
+            mean, longest = irregular
+            return ChannelInfo(
+                name,
+                n,
+                int(t[0]),
+                int(t[-1]),
+                NS_PER_S / mean,
+                _steps_over(t, longest, block),
+                finite,
+                lo,
+                hi,
+                irregular=True,
+                bridge=longest / mean,
+            )
     return ChannelInfo(name, n, int(t[0]), int(t[-1]), rate, gaps, finite, lo, hi)
+
+
+def _irregular(t: IntArray, period: float) -> tuple[float, float] | None:
+    """Of a channel whose steps between samples often exceed :data:`GAP_FACTOR` times
+    its (median-based) ``period``: its mean step and its longest bridged step (ns) when
+    it is sampled at irregular times, else None (a regular clock that loses samples:
+    left as it is).
+
+    Irregular: more than :data:`OFF_CLOCK_SHARE` of its steps are off every whole
+    number (at least one) of periods by more than a quarter period, which no regular
+    clock does, whatever it loses (a lost sample is a step of two periods), but steps
+    spread over a range do: of exponential intervals (Poisson sampling) 64 % are off,
+    of gamma-distributed ones of shape 4 53 %, of uniform ones 50 %. A regular clock
+    whose stamps jitter by more than about +-25 % of a period (uniformly: its steps then
+    vary by +-50 %) is off as often; if it also loses runs of samples (more than
+    :data:`RARE_STEPS` of its steps are gaps by the regular rule), it is taken as
+    irregular too, and its rate is the mean rate of the samples it delivers.
+
+    Such a channel's steps below the median are as ordinary as those above it: its
+    period is the mean step (one raw sample per tick of a clock at its rate, on average;
+    the median of exponential steps is ln 2 = 0.69 of their mean, and a clock at its
+    rate ticked 1.44 times per sample) and, as the regular rule bridges steps of up to
+    :data:`GAP_FACTOR` periods, it bridges steps of up to :data:`GAP_FACTOR` times the
+    longest ordinary step, its ``1 - RARE_STEPS`` quantile (a regular clock's is its
+    period). Exponential steps: 2.5 x 4.6 = 11.5 mean steps, which one step in 1e5
+    exceeds by chance; a stretch without samples longer than that is a gap. Outages
+    take under :data:`RARE_STEPS` of the steps, or they would move that quantile."""
+    steps = _step_sample(t)
+    if steps.shape[0] < 1 / RARE_STEPS:
+        return None
+    r = steps / period
+    off = np.abs(r - np.maximum(1.0, np.rint(r))) > 0.25
+    if np.count_nonzero(off) <= OFF_CLOCK_SHARE * steps.shape[0]:
+        return None
+    longest = GAP_FACTOR * float(np.quantile(steps, 1 - RARE_STEPS))
+    mean = float(np.mean(steps[steps <= longest]))
+    return mean, longest
+
+
+def _step_sample(t: IntArray, most: int = 1 << 20, runs: int = 64) -> FloatArray:
+    """The positive steps between consecutive samples of ``t``: all of them for up to
+    ``most`` steps, else those of ``runs`` contiguous stretches spread evenly over it
+    (steps of samples ``k`` apart, as :func:`_summarize` takes for the median, are sums
+    of ``k`` steps: their spread is not the steps')."""
+    n = t.shape[0]
+    if n - 1 <= most:
+        steps = np.diff(np.asarray(t))
+        release(t)
+    else:
+        size = most // runs
+        parts = []
+        for s in np.linspace(0, n - size - 1, runs).astype(np.int64):
+            parts.append(np.diff(np.asarray(t[s : s + size + 1])))
+            release(t[s : s + size + 1])
+        steps = np.concatenate(parts)
+    steps = steps[steps > 0]
+    return steps.astype(np.float64)
+
+
+def _steps_over(t: IntArray, limit: float, block: int = 1 << 22) -> int:
+    """How many steps between consecutive samples of ``t`` are longer than ``limit``
+    (ns), read a block at a time (each block's pages given back)."""
+    n = t.shape[0]
+    whole = int(limit)  # an integer step exceeds limit when it exceeds its floor
+    count = 0
+    for s in range(0, n, block):
+        tt = t[max(0, s - 1) : min(n, s + block)]
+        count += int(np.count_nonzero(np.diff(np.asarray(tt)) > whole))
+        release(tt)
+    return count
 
 
 def dominant_rate(rates: Sequence[float]) -> float:
@@ -459,7 +573,7 @@ class AlignedSeries:
             t, v = self.store.raw(name)
             info = self.store.info(name)
             assert isinstance(info, ChannelInfo)
-            out[:, j] = _resample(t, v, grid, info.rate_hz, self.rate_hz)
+            out[:, j] = _resample(t, v, grid, info.rate_hz, self.rate_hz, bridge=info.bridge)
         return out
 
     def blocks(self, size: int = 1 << 16) -> Iterator[tuple[int, FloatArray]]:
@@ -510,7 +624,9 @@ class AlignedSeries:
                     release(t[s : s + grid.shape[0]])
                     release(v[s : s + grid.shape[0]])
                 else:
-                    rows[:, j] = _resample(t, v, grid, info.rate_hz, self.rate_hz, find)
+                    rows[:, j] = _resample(
+                        t, v, grid, info.rate_hz, self.rate_hz, find, info.bridge
+                    )
             if unreadable is not None:
                 bad = np.abs(rows) > UNREADABLE  # NaN is not: a gap already
                 if bad.any():
@@ -598,10 +714,12 @@ def _resample(
     rate: float,
     target: float,
     find: _Finder | None = None,
+    bridge: float = GAP_FACTOR,
 ) -> FloatArray:
     """One channel's raw samples onto ``grid`` (see the module docstring); ``find``
     searches ``t`` (:class:`_Finder`); the pages it reads of ``t`` and ``v`` are
-    released (a spilled channel's)."""
+    released (a spilled channel's); steps of more than ``bridge`` periods (``1 /
+    rate``) are gaps (:attr:`ChannelInfo.bridge`)."""
     out = np.full(grid.shape[0], np.nan)
     if t.shape[0] == 0 or rate <= 0:
         if t.shape[0] == 1:
@@ -623,7 +741,7 @@ def _resample(
     else:
         i0, i1 = find(grid[0], "left"), find(grid[-1], "right")
     i0, i1 = max(0, i0 - margin), min(t.shape[0], i1 + margin)
-    out = _resampled(t, v, grid, period, taps, i0, i1, out)
+    out = _resampled(t, v, grid, period, taps, i0, i1, out, bridge)
     release(t[i0:i1])
     release(v[i0:i1])
     return out
@@ -638,6 +756,7 @@ def _resampled(
     i0: int,
     i1: int,
     out: FloatArray,
+    bridge: float = GAP_FACTOR,
 ) -> FloatArray:
     """:func:`_resample` from the samples ``i0 .. i1 - 1`` of the channel on."""
     if i1 - i0 < 1:
@@ -652,7 +771,7 @@ def _resampled(
             return out
     vv = np.asarray(v[i0:i1], dtype=np.float64)
     if taps is not None and vv.shape[0] > taps.shape[0]:
-        vv = _low_passed(tt, vv, taps, period)
+        vv = _low_passed(tt, vv, taps, period, bridge)
     base = tt[0]
     x = (tt - base).astype(np.float64)
     g = (grid - base).astype(np.float64)
@@ -667,13 +786,15 @@ def _resampled(
     right = np.clip(right, 1, x.shape[0] - 1)
     step = x[right] - x[right - 1]
     inside = (g >= x[0] - 0.5 * period) & (g <= x[-1] + 0.5 * period)
-    ok = inside & ((step <= GAP_FACTOR * period) | exact)
+    ok = inside & ((step <= bridge * period) | exact)
     # outside the channel's first/last sample by up to half a period: hold the edge value
     out[ok] = y[ok]
     return out
 
 
-def _low_passed(tt: IntArray, vv: FloatArray, taps: FloatArray, period: float) -> FloatArray:
+def _low_passed(
+    tt: IntArray, vv: FloatArray, taps: FloatArray, period: float, bridge: float = GAP_FACTOR
+) -> FloatArray:
     """``vv`` (raw samples at times ``tt``) through the anti-aliasing FIR ``taps``, from
     the samples that exist only: a normalized convolution on the channel's own clock.
 
@@ -687,11 +808,16 @@ def _low_passed(tt: IntArray, vv: FloatArray, taps: FloatArray, period: float) -
     a few samples now and then is filtered through its losses (3 of every 53 samples of
     a 1 kHz channel lost: every value is there, not NaN). A value is NaN where less than
     half the filter's weight has its sample. Away from missing samples every tap has its
-    sample and the result is the plain convolution's, unchanged."""
+    sample and the result is the plain convolution's, unchanged.
+
+    Steps of up to ``bridge`` periods are one slot: :data:`GAP_FACTOR` of a regular
+    channel; of an irregularly sampled one (:func:`_irregular`), every step short of
+    a gap, so its samples are filtered in their order as if evenly spaced at its mean
+    step (in time, the cutoff rises in dense stretches and falls in sparse ones)."""
     from scipy import signal
 
     fin = np.isfinite(vv)
-    at = _slots(tt, period, taps.shape[0] // 2 + 1)
+    at = _slots(tt, period, taps.shape[0] // 2 + 1, bridge)
     full = float(np.sum(taps))
     if at is None and bool(fin.all()):
         # every sample there: only the taps past the ends are missing (no second pass)
@@ -734,13 +860,14 @@ def _edges_scaled(num: FloatArray, taps: FloatArray, full: float) -> FloatArray:
     return num
 
 
-def _slots(tt: IntArray, period: float, most: int) -> IntArray | None:
+def _slots(tt: IntArray, period: float, most: int, bridge: float = GAP_FACTOR) -> IntArray | None:
     """The slot of each sample on the channel's own clock (None: one each, in a row):
     a step of ``k`` nominal periods (rounded) moves the next sample ``k`` slots on, at
     most ``most + 1`` (past the filter's reach, a longer outage is all the same). Steps
-    of less than :data:`GAP_FACTOR` periods are one slot (jitter, one bridged sample)."""
+    of up to ``bridge`` periods (:data:`GAP_FACTOR` of a regular channel) are one slot
+    (jitter, one bridged sample)."""
     steps = np.diff(tt) / period
-    jump = steps > GAP_FACTOR
+    jump = steps > bridge
     if not jump.any():
         return None
     advance = np.ones(tt.shape[0], dtype=np.int64)
