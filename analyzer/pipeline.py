@@ -130,6 +130,27 @@ def _crowded_channels(
     return notes
 
 
+def _irregular_channels(infos: Sequence[ChannelInfo], chosen: Sequence[str]) -> list[str]:
+    """A note on the analyzed channels sampled at irregular times (event-driven, Poisson
+    timestamps: :func:`analyzer.store.store._irregular`), those of one rate and bridge
+    together: they are aligned at their mean rate and interpolated across their ordinary
+    silences, which a regular clock's rule took for gaps (half the ticks were NaN and the
+    run refused the training window)."""
+    by: dict[tuple[float, float, int], list[str]] = {}
+    infos_by = {i.name: i for i in infos}
+    for c in chosen:
+        i = infos_by.get(c)
+        if i is not None and i.irregular:
+            by.setdefault((i.rate_hz, i.bridge, i.gaps), []).append(c)
+    return [
+        f"{', '.join(names)}: sampled at irregular times (the intervals vary widely): "
+        f"aligned at their mean rate {rate:.6g} Hz and interpolated across silences of up "
+        f"to {1e3 * bridge / rate:.3g} ms ({bridge:.3g} mean intervals); longer ones are "
+        f"gaps ({gaps or 'none'} in each)"
+        for (rate, bridge, gaps), names in by.items()
+    ]
+
+
 def _partial_channels(
     infos: Sequence[ChannelInfo], chosen: Sequence[str], again: bool = False
 ) -> list[str]:
@@ -302,6 +323,7 @@ def _analyze(
         shutil.rmtree(work / "store", ignore_errors=True)
         trim_heap()  # and what reading freed (the CSV reader's Arrow buffers, say)
         notes.extend(_crowded_channels(infos, chosen, aligned.rate_hz))
+        notes.extend(_irregular_channels(infos, chosen))
         # channels missing for long: the others are searched again without them, unless
         # the channel set is fixed (a saved model, or one kept, or the config's groups)
         lost = (
