@@ -46,6 +46,8 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
                     "end_s": (i.end_ns - t0) / NS_PER_S,
                     "rate_hz": round(i.rate_hz, 6),
                     "gaps": i.gaps,
+                    # (only when so: a regular channel's entry is as it always was)
+                    **({"irregular": True} if i.irregular else {}),
                 }
                 for i in infos
             ],
@@ -73,7 +75,7 @@ def render_table(doc: dict[str, Any]) -> str:
                 str(c["samples"]),
                 f"{c['start_s']:.3f}",
                 f"{c['end_s']:.3f}",
-                f"{c['rate_hz']:.3f}",
+                f"{c['rate_hz']:.3f}" + ("*" if c.get("irregular") else ""),
                 str(c["gaps"]),
             )
         )
@@ -84,4 +86,6 @@ def render_table(doc: dict[str, Any]) -> str:
         if n == 0:
             lines.append("  ".join("-" * w for w in widths))
     lines.append(f"{len(doc['channels'])} channel(s)")
+    if any(c.get("irregular") for c in doc["channels"]):
+        lines.append("* sampled at irregular times: the mean rate (intervals vary widely)")
     return "\n".join(lines)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from analyzer.inspect import inspect_archive, render_table
 from analyzer.options import RunOptions
 from analyzer.pipeline import analyze
 from analyzer.simulate import simulate_building
@@ -31,3 +32,22 @@ def test_poisson_timestamps_are_analyzed_and_noted(tmp_path):
     (note,) = [n for n in analysis.notes if "sampled at irregular times" in n]
     assert note.startswith(", ".join(names) + ": sampled at irregular times")
     assert 90.0 < analysis.rate_hz < 110.0  # the mean rate, not the median step's (~144 Hz)
+
+
+def test_inspect_marks_irregular_channels_only(tmp_path):
+    rng = np.random.default_rng(3)
+    for name, times in (
+        ("poisson", np.cumsum(rng.exponential(0.01, 3000))),
+        ("regular", np.arange(3000) * 0.01),
+    ):
+        rows = [
+            f"{t:.6f},{a:.6f},{b:.6f}"
+            for t, (a, b) in zip(times, rng.standard_normal((3000, 2)), strict=True)
+        ]
+        (tmp_path / f"{name}.csv").write_text("time,a,b\n" + "\n".join(rows) + "\n")
+    doc = inspect_archive([tmp_path / "poisson.csv"])
+    assert [c.get("irregular") for c in doc["channels"]] == [True, True]
+    assert "* sampled at irregular times" in render_table(doc)
+    doc = inspect_archive([tmp_path / "regular.csv"])
+    assert all("irregular" not in c for c in doc["channels"])
+    assert "sampled at irregular times" not in render_table(doc)
