@@ -16,36 +16,43 @@ Three back ends, all with the same results as the serial run:
 Tasks are module-level (picklable) functions. An exception raised in a task comes back
 from ``map``/``result()`` as the same type with the same message (Dask pickles it back),
 so a :class:`~analyzer.errors.DetectorError` in a worker is still a skipped detector.
+
+This module holds the protocol, the two local executors and :func:`make_executor`; the
+cluster's side is in its own modules, whose public names (and tunables) are importable
+from here too:
+
+* :mod:`analyzer.parallel_dask` -- :class:`DaskExecutor`: tasks streamed to the cluster,
+  a lost one sent again or computed here;
+* :mod:`analyzer.parallel_connect` -- connecting to the scheduler, with deadlines;
+* :mod:`analyzer.parallel_tasks` -- what a cluster task is made of;
+* :mod:`analyzer.parallel_logs` -- Dask's own log lines kept off stderr meanwhile.
 """
 
 from __future__ import annotations
 
-import contextlib
-import itertools
-import os
-import pickle
-import socket
 import threading
-import time
-import weakref
-from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Protocol, TypeVar
 
-import numpy as np
-
-from analyzer.errors import UsageError, one_line
-from analyzer.paging import heap_tuned, release
+from analyzer.errors import UsageError
+from analyzer.parallel_connect import CONNECT_MARGIN_S, blas_threads_setting
+from analyzer.parallel_dask import (
+    CONNECT_TIMEOUT_S,
+    IN_FLIGHT_PER_THREAD,
+    INLINE_BYTES,
+    RESEND_LIMIT,
+    SEND_TIMEOUT_S,
+    WAIT_POLL_S,
+    DaskExecutor,
+)
+from analyzer.parallel_tasks import _pickled_nbytes as _pickled_nbytes
 
 T = TypeVar("T")
 R = TypeVar("R")
 
 _THREAD_PREFIX = "analyzer-pool"
 """Names of the ThreadExecutor's threads (how a nested map knows it runs in one)."""
-
-CONNECT_TIMEOUT_S = 10.0
-"""How long ``--scheduler`` waits for the scheduler to answer before giving up."""
 
 
 class TaskHandle(Protocol):
@@ -200,565 +207,6 @@ class ThreadExecutor:
         return f"ThreadExecutor({self.workers})"
 
 
-class DaskExecutor:
-    """A client of the Dask distributed scheduler at ``address`` (``tcp://HOST:PORT``).
-
-    Raises :class:`UsageError` naming ``--scheduler`` when ``distributed`` is missing,
-    the scheduler does not answer within ``timeout`` seconds, or no worker is connected
-    to it within that time (before anything is read, not when the first task waits).
-    The connection is made on a thread of its own, so that a scheduler which accepts it
-    and then says nothing (Dask's client would wait for its handshake forever) is given
-    up after ``timeout`` seconds too, and ``stop`` (the watcher's signal) or an interrupt
-    ends the wait at once. ``workers`` is the cluster's total worker threads when
-    connected (at least 1).
-
-    A task the cluster loses (a worker gone with its rows, its inputs or its connection)
-    is sent again, up to :data:`RESEND_LIMIT` times, and computed in this process when
-    the cluster cannot take it (no worker left, the scheduler gone): its item is kept
-    until its result is handed over (:func:`_stream_on`). An exception raised by the
-    task itself is never retried: it comes back unchanged. ``resent`` and ``here``
-    count those tasks, and :meth:`describe` says so."""
-
-    shares_memory = False
-
-    def __init__(
-        self, address: str, timeout: float | None = None, stop: threading.Event | None = None
-    ) -> None:
-        try:
-            import distributed
-        except ImportError as err:
-            raise UsageError(
-                f"--scheduler {address}: needs the 'distributed' package "
-                "(pip install 'analyzer[distributed]')"
-            ) from err
-        if not address.strip():
-            raise UsageError("--scheduler: an empty address; expected one like tcp://HOST:PORT")
-        self.address = address
-        wait = CONNECT_TIMEOUT_S if timeout is None else timeout
-        self.timeout = wait
-        _probe(address, wait)
-        self.client, info, self.blas_threads = _connect(address, wait, stop)
-        workers = info.get("workers", {})
-        self.n_workers = len(workers)
-        self.workers = max(1, sum(int(w.get("nthreads", 1)) for w in workers.values()))
-        self.resent = 0
-        """Tasks sent to the cluster again after it lost them (a worker gone)."""
-        self.here = 0
-        """Tasks computed in this process because the cluster could not take them."""
-        self.gone: str | None = None
-        """Why the cluster no longer gets tasks (none of them is sent once this is set)."""
-        self._future = distributed.Future
-        self._shared: dict[Any, Any] = {}  # what each live handle of scatter() stands for
-        self._renewed: dict[Any, Any] = {}  # a lost handle's replacement
-        self._unusable_since: float | None = None
-        self._lock = threading.Lock()
-
-    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
-        return list(self.imap(fn, items))
-
-    def imap(self, fn: Callable[[T], R], items: Iterable[T]) -> Iterator[R]:
-        return _stream_on(self, fn, items, IN_FLIGHT_PER_THREAD * self.workers)
-
-    def submit(self, fn: Callable[..., R], *args: Any) -> TaskHandle:
-        return self.client.submit(_on_worker, fn, *args, pure=False)
-
-    def scatter(self, obj: T) -> Any:
-        """A future of ``obj``, on one worker: each other worker fetches it from there (or
-        from one that has it by then) for its first task that needs it, and keeps it, so
-        it is sent to each worker once. ``obj`` itself when the cluster cannot take it (it
-        then goes with each item, scattered beside its task: :func:`_stream_on`).
-
-        Not Dask's ``broadcast``: its scheduler copies the data to every worker in a loop
-        that never ends when one of them dies meanwhile (``Scheduler.replicate``), which
-        held a run whose worker was killed forever."""
-        for _ in range(RESEND_LIMIT + 1):
-            if self.gone is not None:
-                break
-            try:
-                [future] = _scatter(self.client, [obj], self.timeout)
-            except Exception as err:
-                _raise_unless_from_the_cluster(err)
-                self._stranded()
-                continue
-            self._shared[future.key] = obj  # sent again from here if the cluster loses it
-            weakref.finalize(future, self._shared.pop, future.key, None)
-            return future
-        return obj
-
-    def close(self, wait: bool = True) -> None:
-        # a cluster that failed during the run does not fail the run's end
-        with contextlib.suppress(Exception):
-            self.client.close(timeout=self.timeout)
-
-    def describe(self) -> str:
-        """For the findings' notes: where the run happened (and what the cluster lost)."""
-        n = self.n_workers
-        text = (
-            f"ran on Dask scheduler {self.address}: {n} worker{'s' if n != 1 else ''}, "
-            f"{self.workers} thread{'s' if self.workers != 1 else ''}"
-        )
-        loose = sorted(w for w, v in self.blas_threads.items() if v != "1")
-        if loose:
-            text += (
-                f"; {len(loose)} worker{'s' if len(loose) != 1 else ''} without "
-                "OPENBLAS_NUM_THREADS=1 (threaded BLAS slows the filters down)"
-            )
-        if self.resent:
-            text += f"; {_tasks(self.resent)} sent again after a worker was lost"
-        if self.here:
-            why = f": {self.gone}" if self.gone else ""
-            text += f"; {_tasks(self.here)} computed here (the cluster could not take them{why})"
-        return text
-
-    # -- a task the cluster lost -------------------------------------------------------------
-    def _send(self, fn: Callable[[Any], Any], entry: _Sent) -> None:
-        """Send ``entry``'s item as a task, trying again (at most :data:`RESEND_LIMIT`
-        times in all for the item) when the cluster refuses it; else leave it to be
-        computed here (``entry.future`` None)."""
-        entry.future = None
-        while self.gone is None and entry.tries <= RESEND_LIMIT:
-            try:
-                entry.future = self._submit(fn, entry.item)
-            except Exception as err:
-                _raise_unless_from_the_cluster(err)
-                entry.tries += 1
-                self._stranded()
-                continue
-            if entry.tries:
-                with self._lock:
-                    self.resent += 1
-            return
-
-    def _submit(self, fn: Callable[[Any], Any], item: Any) -> Any:
-        """The task of ``item``: its large parts scattered beside it (so the task graph
-        stays small however large they are), the rest packed into it."""
-        client = self.client
-        if not isinstance(item, tuple):
-            [handle] = _scatter(client, [item], self.timeout)
-            return client.submit(_on_worker, fn, handle, pure=False)
-        # (a view of a memory-mapped array goes as a plain array)
-        parts = [np.asarray(x) if isinstance(x, np.ndarray) else self._live(x) for x in item]
-        big = [k for k, x in enumerate(parts) if self._heavy(x)]
-        if big:
-            sent = _scatter(client, [parts[k] for k in big], self.timeout)
-            for k, handle in zip(big, sent, strict=True):
-                if isinstance(parts[k], np.ndarray):
-                    release(parts[k])  # rows of a memory-mapped archive: sent, let go
-                parts[k] = handle
-        # futures among the arguments are replaced by their values on the worker
-        return client.submit(_apply, fn, *parts, pure=False)
-
-    def _heavy(self, x: Any) -> bool:
-        """True for a part of an item that should travel beside its task, not in it:
-        an array, or any object (a dataclass holding a stretch of rows, a tuple of
-        filters...) that takes :data:`INLINE_BYTES` or more pickled; never a part that
-        holds futures (Dask replaces them by their values only in the task itself)."""
-        if isinstance(x, np.ndarray):
-            return x.nbytes >= INLINE_BYTES
-        if x is None or isinstance(x, bool | int | float | complex | str | bytes):
-            return False
-        if self._holds_future(x):
-            return False
-        return _pickled_nbytes(x) >= INLINE_BYTES
-
-    def _holds_future(self, x: Any) -> bool:
-        if isinstance(x, self._future):
-            return True
-        if isinstance(x, list | tuple | set | frozenset):
-            return any(self._holds_future(y) for y in x)
-        if isinstance(x, dict):
-            return any(self._holds_future(y) for y in x.values())
-        return False
-
-    def _live(self, x: Any) -> Any:
-        """``x``, or for a handle of :meth:`scatter` whose data the cluster lost (every
-        worker that held it gone) a new handle of the same object."""
-        if not isinstance(x, self._future) or x.status == "finished":
-            return x
-        with self._lock:
-            renewed = self._renewed.get(x.key)
-            if renewed is not None and (
-                not isinstance(renewed, self._future) or renewed.status == "finished"
-            ):
-                return renewed
-            if x.key not in self._shared:
-                return x  # not one of ours: as it is (computed here if lost for good)
-            obj = self._shared[x.key]
-        fresh = self.scatter(obj)
-        with self._lock:
-            self._renewed[x.key] = fresh
-        return fresh
-
-    def _outcome(self, fn: Callable[[Any], Any], entry: _Sent, pending: deque[_Sent]) -> Any:
-        """The result of ``entry``'s task (the item computed here when the cluster cannot
-        take it); the task's own exception raised unchanged."""
-        while True:
-            future = entry.future
-            if future is None:
-                return self._here(fn, entry.item)
-            try:
-                return future.result(timeout=WAIT_POLL_S)
-            except Exception as err:
-                if not future.done():
-                    # still on its way (or the connection is down): while the cluster has a
-                    # worker it will come; without one for a while it never will
-                    if self._stranded():
-                        self._lost(fn, entry)
-                    elif not isinstance(err, TimeoutError):  # (failed at once: not so often)
-                        time.sleep(WAIT_POLL_S / 4)
-                    continue
-                if future.status == "error":
-                    if _killed_worker(err):
-                        raise UsageError(
-                            f"--scheduler {self.address}: the workers that ran a task died "
-                            f"({_said(err)})"
-                        ) from err
-                    raise  # the task's own exception: unchanged
-                # cancelled (its inputs lost with a worker), or its result lost in transit
-                self._lost(fn, entry)
-                for other in pending:  # the others the same loss cancelled: at once
-                    if other is not entry and other.future is not None and other.future.cancelled():
-                        self._lost(fn, other)
-
-    def _lost(self, fn: Callable[[Any], Any], entry: _Sent) -> None:
-        if entry.future is not None:
-            with contextlib.suppress(Exception):
-                entry.future.release()
-        entry.tries += 1
-        self._send(fn, entry)
-
-    def _stranded(self) -> bool:
-        """True once the cluster has had no worker, or the scheduler no connection, for
-        the connection timeout: its tasks are then computed here (``gone`` says why)."""
-        if self.gone is not None:
-            return True
-        why = self._unusable()
-        now = time.monotonic()
-        with self._lock:
-            if why is None:
-                self._unusable_since = None
-                return False
-            if self._unusable_since is None:
-                self._unusable_since = now
-            # (a closed client gave up reconnecting after the timeout already)
-            closed = self.client.status in ("closing", "closed")
-            if now - self._unusable_since < self.timeout and not closed:
-                return False
-            self.gone = why
-            return True
-
-    def _unusable(self) -> str | None:
-        """Why no task can run on the cluster now, or None when one can."""
-        client = self.client
-        if client.status != "running":
-            return "the scheduler is gone"
-        try:
-            threads = client.nthreads(callback_timeout=self.timeout)
-        except Exception:  # noqa: BLE001 - whatever broke, the scheduler did not answer
-            return "the scheduler is gone"
-        return None if threads else "no worker left"
-
-    def _here(self, fn: Callable[[Any], Any], item: Any) -> Any:
-        """``fn`` on ``item`` in this process, on a copy of what a worker would get (a
-        task may write into its arguments, which are the caller's here)."""
-        from distributed.protocol.pickle import dumps, loads
-
-        if isinstance(item, tuple):
-            value: Any = tuple(self._value(x) for x in item)
-        else:
-            value = self._value(item)
-        own = loads(dumps(value))
-        del value
-        with self._lock:
-            self.here += 1
-        return fn(own)
-
-    def _value(self, x: Any) -> Any:
-        """What a part of an item stands for (a handle's object), in this process."""
-        if isinstance(x, np.ndarray):
-            return np.asarray(x)
-        if not isinstance(x, self._future):
-            return x
-        if x.key in self._shared:
-            return self._shared[x.key]
-        try:
-            return x.result(timeout=self.timeout)
-        except Exception as err:  # noqa: BLE001 - lost, in whatever way
-            raise UsageError(
-                f"--scheduler {self.address}: the cluster lost what a task needs and it cannot "
-                f"be computed here ({type(err).__name__})"
-            ) from err
-
-    def __repr__(self) -> str:
-        return f"DaskExecutor({self.address!r})"
-
-
-IN_FLIGHT_PER_THREAD = 2
-"""Items of :meth:`DaskExecutor.imap` on the cluster at once, per worker thread: enough
-to keep every thread busy while the results of the others travel."""
-
-
-INLINE_BYTES = 1 << 16
-"""An item's parts smaller than this (pickled) go with its task; larger ones are
-scattered beside it."""
-
-RESEND_LIMIT = 3
-"""How many times an item whose task the cluster lost is sent again before it is
-computed in this process."""
-
-WAIT_POLL_S = 2.0
-"""How often a wait for a task's result checks that the cluster can still run it."""
-
-SEND_TIMEOUT_S = 120.0
-"""How long sending an item's data (or a shared object) to the cluster may take before it
-counts as refused (and is tried again): the largest block (4 M values, 32 MB) takes
-about 0.3 s over gigabit Ethernet, 30 s at 10 Mbit/s."""
-
-CONNECT_MARGIN_S = 2.0
-"""Beyond the connection timeout, how long the connecting thread is given to say so."""
-
-
-class _Sent:
-    """An item of :func:`_stream_on` and its task. The item itself is kept (for a time
-    block, a view of its memory-mapped rows: read again if it must be sent again), not
-    the arrays that went."""
-
-    __slots__ = ("future", "item", "tries")
-
-    def __init__(self, item: Any) -> None:
-        self.item = item
-        self.future: Any = None
-        self.tries = 0
-
-
-def _stream_on(
-    executor: DaskExecutor, fn: Callable[[T], R], items: Iterable[T], window: int
-) -> Iterator[R]:
-    """``fn`` over ``items`` as tasks of ``executor``'s cluster, results in order, with at
-    most ``window`` items sent and not yet handed over: an item is taken from ``items``
-    (and its rows read, for a view of a memory-mapped archive) only when one of those is
-    handed over, so the caller and the workers hold a few items each, not the archive.
-    An item's large parts are scattered rather than packed into the task graph, which
-    stays small however large they are; its futures (:meth:`DaskExecutor.scatter`) are
-    passed on, so what they stand for is sent to a worker once, not with every item.
-    A task the cluster loses is sent again, or computed here (:meth:`DaskExecutor._outcome`).
-    Tasks still pending are cancelled when the caller stops early (an error, or a
-    result it did not need)."""
-    source = iter(items)
-    pending: deque[_Sent] = deque()
-
-    def send(count: int) -> None:
-        for item in itertools.islice(source, count):
-            entry = _Sent(item)
-            executor._send(fn, entry)
-            pending.append(entry)
-
-    try:
-        send(max(1, window))
-        while pending:
-            value = executor._outcome(fn, pending[0], pending)
-            pending.popleft()
-            send(1)
-            yield value
-    finally:
-        for entry in pending:
-            if entry.future is not None:
-                with contextlib.suppress(Exception):  # (a cluster already gone)
-                    entry.future.cancel()
-
-
-def _scatter(client: Any, data: list[Any], timeout: float) -> list[Any]:
-    """``client.scatter(data, hash=False)`` (one worker each, waiting at most ``timeout``
-    for one), given up with :class:`TimeoutError` after :data:`SEND_TIMEOUT_S`: Dask's
-    own call waits without limit for the scheduler's answer."""
-    out: list[Any] = client.sync(
-        client._scatter, data, hash=False, timeout=timeout, callback_timeout=SEND_TIMEOUT_S
-    )
-    return out
-
-
-def _tasks(n: int) -> str:
-    return f"{n} task{'s' if n != 1 else ''}"
-
-
-class _Sizer(pickle.Pickler):
-    """Pickles into nothing, counting bytes: an array (a memory-mapped one too) counts
-    its ``nbytes`` without its data being read or copied."""
-
-    def __init__(self) -> None:
-        self.size = 0
-        super().__init__(self, protocol=pickle.HIGHEST_PROTOCOL)
-
-    def write(self, data: bytes) -> int:  # the file pickled into: itself
-        self.size += len(data)
-        return len(data)
-
-    def reducer_override(self, obj: Any) -> Any:
-        if isinstance(obj, np.ndarray):
-            self.size += obj.nbytes
-            return np.empty, (0,)
-        return NotImplemented
-
-
-def _pickled_nbytes(x: Any) -> int:
-    """About the bytes ``x`` takes pickled, its arrays counted, not read; 0 when plain
-    pickle cannot take it (Dask's cloudpickle packs it with the task)."""
-    sizer = _Sizer()
-    try:
-        sizer.dump(x)
-    except Exception:  # noqa: BLE001 - whatever plain pickle refuses
-        return 0
-    return sizer.size
-
-
-def _said(err: BaseException) -> str:
-    """``err``'s message on one line (at most 200 characters), else its type's name."""
-    try:
-        return one_line(str(err))[:200] or type(err).__name__
-    except Exception:  # noqa: BLE001 - a message that cannot be formatted
-        return type(err).__name__
-
-
-def _killed_worker(err: BaseException) -> bool:
-    return type(err).__name__ == "KilledWorker" and type(err).__module__.startswith("distributed")
-
-
-def _raise_unless_from_the_cluster(err: Exception) -> None:
-    """Re-raise ``err`` (from sending a task or its data) unless it is the cluster's
-    trouble: what cannot be pickled is a bug here, not a lost worker."""
-    if isinstance(err, TypeError | pickle.PicklingError):
-        raise err
-
-
-def _apply(fn: Callable[[tuple[Any, ...]], R], *parts: Any) -> R:
-    """``fn`` on the tuple of ``parts`` (a task of :func:`_stream_on`)."""
-    with heap_tuned():
-        return fn(parts)
-
-
-def _on_worker(fn: Callable[..., R], *args: Any) -> R:
-    """``fn(*args)`` as a task on a worker, whose heap Dask leaves set to give every freed
-    block back to the kernel (:func:`~analyzer.paging.heap_tuned`: twice the CPU)."""
-    with heap_tuned():
-        return fn(*args)
-
-
-def _quiet_close(client: Any) -> None:
-    """Close a client whose start failed, so its finalizer has nothing left to report."""
-    with contextlib.suppress(Exception):  # best effort on an already broken client
-        client.close(timeout=2)
-
-
-def _close_later(client: Any) -> None:
-    """:func:`_quiet_close` on a thread of its own: a client stuck in its start is not
-    waited for (it is closed so that the process's end does not wait for it either)."""
-    threading.Thread(
-        target=_quiet_close, args=(client,), name="analyzer-dask-close", daemon=True
-    ).start()
-
-
-def _connect(
-    address: str, wait: float, stop: threading.Event | None
-) -> tuple[Any, dict[str, Any], dict[str, str | None]]:
-    """A client of the scheduler at ``address``, its ``scheduler_info()`` and each
-    worker's BLAS setting, or :class:`UsageError` naming ``--scheduler``.
-
-    Dask's client waits for the scheduler's handshake without a limit whatever its
-    ``timeout`` (a server that accepts the connection and says nothing held ``run``
-    forever), so the client starts on a thread of its own that this one waits for at
-    most ``wait`` seconds (and a margin) for the connection, as long again for a worker;
-    ``stop`` set (the watcher's signal handler) or an interrupt (``run``'s) ends the
-    wait at once with :class:`KeyboardInterrupt`."""
-    from distributed import Client
-
-    client = Client.__new__(Client)
-    outcome: list[Any] = []
-    connected: list[float] = []
-    done = threading.Event()
-
-    def start() -> None:
-        try:
-            try:
-                client.__init__(address, timeout=wait, set_as_default=False)  # type: ignore[misc]
-            except Exception as err:  # whatever answered there, it is not a usable scheduler
-                why = " ".join(str(err).split())[:200] or type(err).__name__
-                if not isinstance(err, OSError | TimeoutError):
-                    why = f"no Dask scheduler answered there: {why}"
-                raise UsageError(f"--scheduler {address}: cannot connect ({why})") from err
-            connected.append(time.monotonic())
-            info = client.scheduler_info()
-            if not info.get("workers"):  # workers may still be starting: wait for one
-                try:
-                    client.wait_for_workers(1, timeout=wait)
-                except Exception as err:  # noqa: BLE001 - Dask's timeout types vary by version
-                    raise UsageError(
-                        f"--scheduler {address}: no worker is connected to the scheduler "
-                        f"(waited {wait:g} s); start some with 'dask worker {address}'"
-                    ) from err
-                info = client.scheduler_info()
-            blas = dict(client.run(blas_threads_setting)) if info.get("workers") else {}
-            outcome.append((info, blas))
-        except BaseException as err:  # handed to the waiting thread
-            outcome.append(err)
-        finally:
-            done.set()
-
-    thread = threading.Thread(target=start, name="analyzer-dask-connect", daemon=True)
-    began = time.monotonic()
-    try:
-        thread.start()
-        while not done.wait(0.1):
-            if stop is not None and stop.is_set():
-                raise KeyboardInterrupt
-            now = time.monotonic()
-            if not connected and now - began > wait + CONNECT_MARGIN_S:
-                raise UsageError(
-                    f"--scheduler {address}: cannot connect (no answer within {wait:g} s)"
-                )
-            if connected and now - connected[0] > wait + 2 * CONNECT_MARGIN_S:
-                raise UsageError(
-                    f"--scheduler {address}: the scheduler stopped answering "
-                    f"(waited {now - began:.0f} s)"
-                )
-    except BaseException:
-        _close_later(client)
-        raise
-    result = outcome[0]
-    if isinstance(result, BaseException):
-        _close_later(client)
-        raise result
-    info, blas = result
-    return client, info, blas
-
-
-def _probe(address: str, timeout: float) -> None:
-    """Check ``address`` is a scheduler address and, over TCP, that something listens
-    there: an unreachable scheduler fails at once with a clear message (rather than
-    after the client's retries)."""
-    from distributed.comm.addressing import parse_address, parse_host_port
-
-    try:
-        scheme, location = parse_address(address)
-        if scheme not in ("tcp", "tls"):
-            return
-        host, port = parse_host_port(location)
-    except ValueError as err:
-        raise UsageError(
-            f"--scheduler {address}: expected an address like tcp://HOST:PORT ({err})"
-        ) from err
-    try:
-        with socket.create_connection((host, port), timeout=timeout):
-            pass
-    except OSError as err:
-        why = err.strerror or " ".join(str(err).split()) or type(err).__name__
-        raise UsageError(f"--scheduler {address}: cannot connect ({why})") from err
-
-
-def blas_threads_setting() -> str | None:
-    """``OPENBLAS_NUM_THREADS`` of the process that runs this (asked of each worker)."""
-    return os.environ.get("OPENBLAS_NUM_THREADS")
-
-
 def make_executor(jobs: int | None = None, scheduler: str | None = None) -> Executor:
     """The executor for ``--jobs``/``--scheduler``: Dask when a scheduler is given,
     threads for ``jobs > 1``, else serial."""
@@ -783,7 +231,13 @@ def locked(progress: Callable[[str, float], None] | None) -> Callable[[str, floa
 
 
 __all__ = [
+    "CONNECT_MARGIN_S",
     "CONNECT_TIMEOUT_S",
+    "IN_FLIGHT_PER_THREAD",
+    "INLINE_BYTES",
+    "RESEND_LIMIT",
+    "SEND_TIMEOUT_S",
+    "WAIT_POLL_S",
     "DaskExecutor",
     "Executor",
     "SerialExecutor",

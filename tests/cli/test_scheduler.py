@@ -19,6 +19,7 @@ distributed = pytest.importorskip("distributed")
 cloudpickle = pytest.importorskip("cloudpickle")
 
 import analyzer.parallel  # noqa: E402
+import analyzer.parallel_dask  # noqa: E402
 from analyzer.cli import main  # noqa: E402
 from analyzer.errors import DetectorError, UsageError  # noqa: E402
 from analyzer.parallel import (  # noqa: E402
@@ -258,7 +259,7 @@ def test_explicit_detector_error_on_the_cluster(cluster):
 
 
 def test_unreachable_scheduler_is_exit_2_in_one_line(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(analyzer.parallel, "CONNECT_TIMEOUT_S", 2.0)
+    monkeypatch.setattr(analyzer.parallel_dask, "CONNECT_TIMEOUT_S", 2.0)
     address = f"tcp://127.0.0.1:{_free_port()}"
     code = main(["run", str(SAMPLE), "--out", str(tmp_path / "o"), "--scheduler", address])
     _, err = capsys.readouterr()
@@ -273,7 +274,7 @@ def test_scheduler_without_workers_is_exit_2_before_reading(tmp_path, capsys, mo
     """A scheduler with no worker connected: one line naming --scheduler, after waiting
     CONNECT_TIMEOUT_S for one, and nothing read or written (rather than Dask's "No valid
     workers found" once the archive has been read)."""
-    monkeypatch.setattr(analyzer.parallel, "CONNECT_TIMEOUT_S", 1.0)
+    monkeypatch.setattr(analyzer.parallel_dask, "CONNECT_TIMEOUT_S", 1.0)
     read = []
     monkeypatch.setattr("analyzer.pipeline.open_archive", lambda *a: read.append(a))
     with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as c:

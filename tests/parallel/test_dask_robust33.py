@@ -32,6 +32,7 @@ distributed = pytest.importorskip("distributed")
 cloudpickle = pytest.importorskip("cloudpickle")
 
 import analyzer.parallel  # noqa: E402
+import analyzer.parallel_dask  # noqa: E402
 from analyzer.cli import main  # noqa: E402
 from analyzer.errors import DetectorError, UsageError  # noqa: E402
 from analyzer.parallel import INLINE_BYTES, DaskExecutor  # noqa: E402
@@ -185,7 +186,7 @@ def test_items_are_computed_here_when_no_worker_is_left(
 ) -> None:
     """Every worker gone (before: the tasks waited for one forever): after the
     connection timeout the items are computed in this process, with the same results."""
-    monkeypatch.setattr(analyzer.parallel, "WAIT_POLL_S", 0.2, raising=False)
+    monkeypatch.setattr(analyzer.parallel_dask, "WAIT_POLL_S", 0.2, raising=False)
     ex = DaskExecutor(in_process.scheduler_address, timeout=1.0)
     try:
         in_process.scale(0)
@@ -206,7 +207,7 @@ def test_items_are_computed_here_when_no_worker_is_left(
 def test_items_are_computed_here_when_the_scheduler_is_gone(
     in_process: Any, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(analyzer.parallel, "WAIT_POLL_S", 0.2, raising=False)
+    monkeypatch.setattr(analyzer.parallel_dask, "WAIT_POLL_S", 0.2, raising=False)
     ex = DaskExecutor(in_process.scheduler_address, timeout=1.0)
     try:
         in_process.close()
@@ -226,7 +227,7 @@ def test_a_task_computed_here_gets_its_own_copy(
 ) -> None:
     """As on a worker, a task computed here may write into its arguments: the caller's
     arrays (a memory-mapped archive's rows) and the shared model stay as they were."""
-    monkeypatch.setattr(analyzer.parallel, "WAIT_POLL_S", 0.2, raising=False)
+    monkeypatch.setattr(analyzer.parallel_dask, "WAIT_POLL_S", 0.2, raising=False)
     ex = DaskExecutor(in_process.scheduler_address, timeout=1.0)
     try:
         shared = np.ones(20_000)
@@ -391,7 +392,7 @@ def test_a_silent_scheduler_is_exit_2_in_one_line(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """It accepts the connection and never answers (before: run waited forever)."""
-    monkeypatch.setattr(analyzer.parallel, "CONNECT_TIMEOUT_S", 1.0)
+    monkeypatch.setattr(analyzer.parallel_dask, "CONNECT_TIMEOUT_S", 1.0)
     out = tmp_path / "o"
     began = time.monotonic()
     argv = ["run", str(SAMPLE), "--out", str(out), "--scheduler", silent.address]
