@@ -35,6 +35,7 @@ from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.stuck import healthy_stats, relabel_frozen
+from analyzer.diagnosis.training_check import window_notes, window_warnings
 from analyzer.errors import (
     AnalyzerError,
     ConfigError,
@@ -463,6 +464,12 @@ def _analyze(
             raise error
         findings, found_notes = diagnose(results)
         notes.extend(found_notes)
+        if reused is None:  # a step or a gain change inside the healthy window itself
+            notes.extend(
+                window_notes(
+                    values, chosen, groups, train, tr, aligned.duration_s, aligned.rate_hz, findings
+                )
+            )
         again: list[Finding] = []
         if lost:
             t_again = time.perf_counter()
@@ -1237,6 +1244,8 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         if options.warn is not None:
             _warn_inputs(analysis, out, options.warn)
             for line in config_warnings(options.config, analysis):
+                options.warn(line)
+            for line in window_warnings(analysis.notes):  # a training window not healthy
                 options.warn(line)
         if options.save_model is not None and analysis.saved is not None:
             save_model(options.save_model, analysis.saved)
