@@ -60,7 +60,14 @@ from analyzer.parallel import (
     make_executor,
 )
 from analyzer.readers import ArchiveNote, open_archive
-from analyzer.reconfigure import LOST_MIN_S, LOST_SHARE, columns, found_again, lost_stretches
+from analyzer.reconfigure import (
+    LOST_MIN_S,
+    LOST_SHARE,
+    beside_faults,
+    columns,
+    found_again,
+    lost_stretches,
+)
 from analyzer.reconfigure import note as reconfigure_note
 from analyzer.regenerate import corrected_values, result_signals
 from analyzer.reuse import (
@@ -470,11 +477,21 @@ def _analyze(
                     values, chosen, groups, train, tr, aligned.duration_s, aligned.rate_hz, findings
                 )
             )
+        # and without the sensors found faulty while anomalies no sensor explained came
+        # beside their faults (a second fault from the same instant: one at a time)
+        slack = LONG_FACTOR * default_window(aligned.rate_hz) / aligned.rate_hz
+        suspects = (
+            beside_faults(findings, results, aligned.n, aligned.rate_hz, slack)
+            if reused is None and options.save_model is None and not options.config.groups
+            else {}
+        )
+        if len(chosen) - len({*lost, *suspects}) < 2:
+            suspects = {}
         again: list[Finding] = []
-        if lost:
+        if lost or suspects:
             t_again = time.perf_counter()
             again, again_notes = _searched_without(
-                lost,
+                (lost, suspects),
                 findings,
                 [r.detector for r in results],
                 options,
@@ -572,7 +589,7 @@ def _cancel(tests: list[Any]) -> None:
 
 
 def _searched_without(
-    lost: dict[str, list[tuple[int, int]]],
+    left_out: tuple[dict[str, list[tuple[int, int]]], dict[str, list[tuple[int, int]]]],
     findings: list[Finding],
     ran: list[str],
     options: RunOptions,
@@ -583,13 +600,16 @@ def _searched_without(
     excitation: frozenset[str],
 ) -> tuple[list[Finding], list[str]]:
     """The detectors that ran (``ran``, one name per result) fitted again on the healthy
-    window without the channels ``lost`` misses for long (:mod:`analyzer.reconfigure`),
-    over the whole record, and the findings of theirs that begin where a left-out channel
-    was missing and that ``findings`` lack, with their evidence (the tests of the second
+    window without the channels ``left_out`` names (:mod:`analyzer.reconfigure`: those
+    missing for long, and the sensors found faulty with anomalies beside their faults,
+    each with its rows), over the whole record, and the findings of theirs that begin in
+    those rows and that ``findings`` lack, with their evidence (the tests of the second
     search's residuals); and the run's note on it. ``matrix``: the aligned values, their
     channels, the healthy window's rows and the rate."""
     values, chosen, train, rate_hz = matrix
-    keep = [c for c in chosen if c not in lost]
+    lost, suspects = left_out
+    rows = {c: [*lost.get(c, []), *suspects.get(c, [])] for c in {*lost, *suspects}}
+    keep = [c for c in chosen if c not in rows]
     names = list(dict.fromkeys(ran))
     sub = columns(values, chosen, keep, None if work is None else work / "aligned-without.npy")
     data = Dataset(sub, tuple(keep), rate_hz, train, healthy=True)
@@ -609,9 +629,9 @@ def _searched_without(
     healthy = healthy_stats(sub, keep, train)
     found, _ = _diagnose(results, sub, keep, rate_hz, healthy, train, None, excitation)
     slack = LONG_FACTOR * default_window(rate_hz) / rate_hz
-    added = found_again(found, findings, lost, rate_hz, slack)
+    added = found_again(found, findings, lost, rate_hz, slack, suspects, len(names))
     attach_evidence(added, merge_groups(results, keep), rate_hz, train)
-    return added, [reconfigure_note(lost, added, rate_hz)]
+    return added, [reconfigure_note(lost, suspects, added, rate_hz)]
 
 
 GAP_SEARCH_ROWS = 1 << 16

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.detectors import DetectorResult
 from analyzer.diagnosis.merge import Finding
 from analyzer.paging import release, row_blocks
 from analyzer.store import ChannelInfo
@@ -99,14 +100,32 @@ def found_again(
     lost: dict[str, list[tuple[int, int]]],
     rate_hz: float,
     slack_s: float,
+    suspects: dict[str, list[tuple[int, int]]] | None = None,
+    detectors: int = 1,
 ) -> list[Finding]:
-    """The second search's findings ``again`` that begin while a left-out channel was
-    missing and that the first search has no finding for on the same channel then (within
-    ``slack_s``): those its blindness cost. Their evidence names the channels left out."""
-    spans = [(a / rate_hz, b / rate_hz) for rows in lost.values() for a, b in rows]
+    """The second search's findings ``again`` that begin where a left-out channel was
+    missing (``lost``) or found faulty (``suspects``, :func:`beside_faults`) and that the
+    first search has no finding for on the same channel then (within ``slack_s``): those
+    its blindness or its one fault at a time cost. Their evidence names the channels left
+    out.
+
+    Beside a fault found, the second search's finding needs two of its ``detectors`` (all
+    it ran, if fewer): anomalies no sensor explained may be the monitored system's own
+    (on SKAB's pump, a real record, the second search added findings that one detector
+    alone saw, beside the fault injected), while a second sensor fault stands out in the
+    reconfigured models of each (all three, in the simulated pairs)."""
+    suspects = suspects or {}
+    blind = [(a / rate_hz, b / rate_hz) for rows in lost.values() for a, b in rows]
+    beside = [(a / rate_hz, b / rate_hz) for rows in suspects.values() for a, b in rows]
+    left = sorted({*lost, *suspects})
+    need = min(2, detectors)
     out = []
     for f in again:
-        if not any(a <= f.onset_s < b for a, b in spans):
+        seen_by = len(f.evidence.get("detectors", ())) or 1
+        if not (
+            any(a <= f.onset_s < b for a, b in blind)
+            or (seen_by >= need and any(a <= f.onset_s < b for a, b in beside))
+        ):
             continue
         end = float("inf") if f.end_s is None else f.end_s
         if any(
@@ -116,25 +135,83 @@ def found_again(
             for g in findings
         ):
             continue
-        f.evidence["searched_without"] = sorted(lost)
+        f.evidence["searched_without"] = left
         out.append(f)
     return out
 
 
-def note(lost: dict[str, list[tuple[int, int]]], added: Sequence[Finding], rate_hz: float) -> str:
-    """The run's note on the second search."""
-    where = "; ".join(
+def beside_faults(
+    findings: Sequence[Finding],
+    results: Sequence[DetectorResult],
+    n: int,
+    rate_hz: float,
+    slack_s: float,
+) -> dict[str, list[tuple[int, int]]]:
+    """The findings that lasted at least :data:`LOST_MIN_S` while anomalies no sensor
+    explained came and went beside them: their channels, each with the rows from its
+    onset (less ``slack_s``) to its end.
+
+    The bank and the detection filter isolate one faulty sensor at a time, and the
+    equivalent model's network names one of several only when the alarms single it out:
+    two sensors faulty from one instant gave one finding in 5 of 9 six-channel buildings,
+    the other fault's alarms left "attributed to no sensor". Searched again without the
+    sensor found faulty, the others' model is healthy again, and the second fault stands
+    out. Beside means: the equivalent model's network named the finding's sensor with
+    another fault it could not place, or two detectors left an anomaly unattributed within
+    ``slack_s`` of each other while the finding lasted (one detector alone is not enough:
+    the detection filter leaves single-channel alarms unattributed beside most single
+    faults)."""
+    out: dict[str, list[tuple[int, int]]] = {}
+    for f in findings:
+        end = float("inf") if f.end_s is None else f.end_s
+        if end - f.onset_s < LOST_MIN_S:
+            continue
+        near = [
+            (onset, r.detector, beside)
+            for r in results
+            for onset, _, beside in r.unattributed
+            if f.onset_s - slack_s <= onset <= end + slack_s
+        ]
+        named = any(f.channel in beside for _, _, beside in near)
+        plain = sorted((onset, d) for onset, d, beside in near if not beside)
+        paired = any(
+            d1 != d2 and t2 - t1 <= slack_s
+            for i, (t1, d1) in enumerate(plain)
+            for t2, d2 in plain[i + 1 :]
+        )
+        if named or paired:
+            a = max(0, int(round((f.onset_s - slack_s) * rate_hz)))
+            b = n if f.end_s is None else min(n, int(round(f.end_s * rate_hz)))
+            out.setdefault(f.channel, []).append((a, b))
+    return out
+
+
+def note(
+    lost: dict[str, list[tuple[int, int]]],
+    suspects: dict[str, list[tuple[int, int]]],
+    added: Sequence[Finding],
+    rate_hz: float,
+) -> str:
+    """The run's note on the second search: ``lost``, the channels missing for long,
+    ``suspects``, those found faulty with anomalies beside (:func:`beside_faults`)."""
+    parts = [
         f"{name} missing " + ", ".join(f"{a / rate_hz:.6g}-{b / rate_hz:.6g} s" for a, b in rows)
         for name, rows in sorted(lost.items())
-    )
-    left = ", ".join(sorted(lost))
+    ] + [
+        f"{name} faulty from "
+        + ", ".join(f"{a / rate_hz:.1f} s" for a, _ in rows)
+        + " with anomalies beside its fault that no sensor explained"
+        for name, rows in sorted(suspects.items())
+    ]
+    left = ", ".join(sorted({*lost, *suspects}))
     if not added:
         found = "nothing more was found there"
     else:
         found = f"{len(added)} finding(s) added from it: " + ", ".join(
             f"{f.type.value} on {f.channel} from {f.onset_s:.1f} s" for f in added
         )
+    why = "lost its view of them" + (" or isolated one fault at a time" if suspects else "")
     return (
-        f"the other channels were searched again without {left} ({where}), fitted on the "
-        f"same healthy window, where the first search had lost its view of them: {found}"
+        f"the other channels were searched again without {left} ({'; '.join(parts)}), "
+        f"fitted on the same healthy window, where the first search had {why}: {found}"
     )
