@@ -61,8 +61,7 @@ from analyzer.parallel import (
 )
 from analyzer.readers import ArchiveNote, open_archive
 from analyzer.reconfigure import (
-    LOST_MIN_S,
-    LOST_SHARE,
+    SEARCH_AGAIN_MIN,
     beside_faults,
     columns,
     found_again,
@@ -160,47 +159,37 @@ def _irregular_channels(infos: Sequence[ChannelInfo], chosen: Sequence[str]) -> 
 
 
 def _partial_channels(
-    infos: Sequence[ChannelInfo], chosen: Sequence[str], again: bool = False
+    stretches: Sequence[Sequence[tuple[int, int]]],
+    chosen: Sequence[str],
+    rate_hz: float,
+    again: bool = False,
 ) -> list[str]:
-    """Notes on the analyzed channels that start late or stop early (a sensor that died,
-    a file of another channel set): while one is missing, the detectors that model the
-    channels together lose their view of the others (the bank keeps only its estimator
-    that leaves it out), which a user would not guess from "no fault found". ``again``:
-    the others are searched again without them (:mod:`analyzer.reconfigure`), which a
-    note of its own reports; else the note names the ``--channels`` that does it."""
-    by = {i.name: i for i in infos}
-    kept = [by[c] for c in chosen if c in by]
-    if len(kept) < 2:
-        return []
-    t0 = min(i.start_ns for i in kept)
-    t1 = max(i.end_ns for i in kept)
-    span_s = (t1 - t0) / NS_PER_S
-    least = max(LOST_SHARE * span_s, LOST_MIN_S)
+    """Notes on the analyzed channels without a reading for long at the record's start or
+    end (``stretches``: :func:`analyzer.reconfigure.lost_stretches`; a sensor that died,
+    silent or publishing NaN, a file of another channel set): while one is missing, the
+    detectors that model the channels together lose their view of the others (the bank
+    keeps only its estimator that leaves it out), which a user would not guess from "no
+    fault found". ``again``: the others are searched again without them
+    (:mod:`analyzer.reconfigure`), which a note of its own reports; else the note names
+    the ``--channels`` that does it."""
     notes = []
-    for i in kept:
-        late = (i.start_ns - t0) / NS_PER_S
-        early = (t1 - i.end_ns) / NS_PER_S
-        if late < least and early < least:
+    for name, rows in zip(chosen, stretches, strict=True):
+        if not rows:
             continue
         what = " and ".join(
-            part
-            for part, on in (
-                (f"its first {late:.6g} s", late >= least),
-                (
-                    f"its last {early:.6g} s (after {(i.end_ns - t0) / NS_PER_S:.6g} s)",
-                    early >= least,
-                ),
-            )
-            if on
+            f"its first {b / rate_hz:.6g} s"
+            if a == 0
+            else f"its last {(b - a) / rate_hz:.6g} s (after {a / rate_hz:.6g} s)"
+            for a, b in rows
         )
         notes.append(
-            f"{i.name} has no sample in {what} of the record: where it is missing, the "
+            f"{name} has no reading in {what} of the record: where it is missing, the "
             "detectors that model it with the others (ar_kalman_bank, detection_filter) "
             "lose their view of them too; "
             + (
                 "the others are searched again without it there (below)"
                 if again
-                else f"--channels '!{i.name}' searches the others there"
+                else f"--channels '!{name}' searches the others there"
             )
         )
     return notes
@@ -332,16 +321,6 @@ def _analyze(
         trim_heap()  # and what reading freed (the CSV reader's Arrow buffers, say)
         notes.extend(_crowded_channels(infos, chosen, aligned.rate_hz))
         notes.extend(_irregular_channels(infos, chosen))
-        # channels missing for long: the others are searched again without them, unless
-        # the channel set is fixed (a saved model, or one kept, or the config's groups)
-        lost = (
-            lost_stretches(infos, chosen, aligned.start_ns, aligned.n, aligned.rate_hz)
-            if reused is None and options.save_model is None and not options.config.groups
-            else {}
-        )
-        if len(chosen) - len(lost) < 2:
-            lost = {}
-        notes.extend(_partial_channels(infos, chosen, again=bool(lost)))
         if reused is not None:
             own = dominant_rate([i.rate_hz for i in infos if i.name in set(chosen)])
             if own > 0 and abs(own - reused.rate_hz) > 0.01 * reused.rate_hz:
@@ -374,6 +353,18 @@ def _analyze(
         # logger outages (every analyzed channel at one value, or repeating its values,
         # at once): missing data, not a sensor's fault, and a note (analyzer.outage)
         treat_outages(values, chosen, aligned.rate_hz, notes)
+        # channels missing for long: the others are searched again without them, unless
+        # the channel set is fixed (a saved model, or one kept, or the config's groups)
+        stretches = lost_stretches(values, aligned.rate_hz)
+        lost = {c: rows for c, rows in zip(chosen, stretches, strict=True) if rows}
+        if (
+            reused is not None
+            or options.save_model is not None
+            or options.config.groups
+            or len(chosen) - len(lost) < SEARCH_AGAIN_MIN
+        ):
+            lost = {}
+        notes.extend(_partial_channels(stretches, chosen, aligned.rate_hz, again=bool(lost)))
         data = Dataset(values, tuple(chosen), aligned.rate_hz, train, healthy=reused is None)
         names, explicit = detector_names(options)
         if reused is not None:
@@ -485,7 +476,7 @@ def _analyze(
             if reused is None and options.save_model is None and not options.config.groups
             else {}
         )
-        if len(chosen) - len({*lost, *suspects}) < 2:
+        if len(chosen) - len({*lost, *suspects}) < SEARCH_AGAIN_MIN:
             suspects = {}
         again: list[Finding] = []
         if lost or suspects:

@@ -28,51 +28,78 @@ import numpy.typing as npt
 
 from analyzer.detectors import DetectorResult
 from analyzer.diagnosis.merge import Finding
-from analyzer.paging import release, row_blocks
-from analyzer.store import ChannelInfo
-from analyzer.timeutil import NS_PER_S
+from analyzer.paging import RELEASE_ROWS, release, row_blocks
 
 LOST_SHARE = 0.05
 """Share of the record (and at least :data:`LOST_MIN_S`) a channel may miss at its start
 or end before the run's notes say so and the others are searched again without it."""
 LOST_MIN_S = 10.0
+SEARCH_AGAIN_MIN = 3
+"""Channels the second search needs left: with two, the bank's estimators each see one
+other sensor and isolate nothing (a healthy 3-channel building whose s2 stopped halfway
+got a false gain on s1 from the two left), and the equivalent model's network needs
+three."""
 
 
-def lost_stretches(
-    infos: Sequence[ChannelInfo],
-    chosen: Sequence[str],
-    start_ns: int,
-    n: int,
-    rate_hz: float,
-) -> dict[str, list[tuple[int, int]]]:
-    """The analyzed channels that start late or stop early by at least :data:`LOST_SHARE`
-    of the record and :data:`LOST_MIN_S`, each with its missing rows of the aligned
-    matrix (``n`` rows at ``rate_hz`` from ``start_ns``): ``[(0, first), (last, n)]``,
-    either or both. Empty when fewer than two channels have data."""
-    by = {i.name: i for i in infos}
-    kept = [by[c] for c in chosen if c in by]
-    if len(kept) < 2 or n <= 0 or not rate_hz > 0:
-        return {}
-    t0 = min(i.start_ns for i in kept)
-    t1 = max(i.end_ns for i in kept)
-    least = max(LOST_SHARE * (t1 - t0) / NS_PER_S, LOST_MIN_S)
-    out: dict[str, list[tuple[int, int]]] = {}
-    for i in kept:
-        late = (i.start_ns - t0) / NS_PER_S
-        early = (t1 - i.end_ns) / NS_PER_S
+def lost_stretches(values: npt.NDArray[Any], rate_hz: float) -> list[list[tuple[int, int]]]:
+    """For each column of the aligned matrix ``values``, its rows without a reading at
+    the record's start or end when they last at least :data:`LOST_SHARE` of the record
+    and :data:`LOST_MIN_S`: ``[(0, first)]``, ``[(last, n)]``, both or none. The record
+    runs from the first row any column has a reading in to the last.
+
+    From the values, not the channels' first and last samples: a sensor that died may
+    stop publishing, or go on publishing NaN (a 100 Hz MCAP topic of NaN from 30 s had
+    its last sample at the record's end, and the run said nothing). A pass from each end
+    a block of rows at a time until every column has met a finite value (a block, for a
+    channel that ends with the others)."""
+    n, m = values.shape
+    first = _first_finite(values, range(0, n, RELEASE_ROWS), n)
+    last = _first_finite(
+        values, range(((n - 1) // RELEASE_ROWS) * RELEASE_ROWS, -1, -RELEASE_ROWS), n, True
+    )
+    seen = first < n
+    if seen.sum() < 2 or not rate_hz > 0:
+        return [[] for _ in range(m)]
+    t0, t1 = int(first[seen].min()), int(last[seen].max()) + 1
+    least = max(LOST_SHARE * (t1 - t0), LOST_MIN_S * rate_hz)
+    out: list[list[tuple[int, int]]] = []
+    for j in range(m):
         rows = []
-        if late >= least:
-            rows.append((0, _row(i.start_ns, start_ns, rate_hz, n)))
-        if early >= least:
-            rows.append((min(n, _row(i.end_ns, start_ns, rate_hz, n) + 1), n))
-        rows = [(a, b) for a, b in rows if b > a]
-        if rows:
-            out[i.name] = rows
+        if seen[j] and first[j] - t0 >= least:
+            rows.append((0, int(first[j])))
+        if seen[j] and t1 - (last[j] + 1) >= least:
+            rows.append((int(last[j]) + 1, n))
+        out.append(rows)
     return out
 
 
-def _row(t_ns: int, start_ns: int, rate_hz: float, n: int) -> int:
-    return int(np.clip(round((t_ns - start_ns) / NS_PER_S * rate_hz), 0, n))
+def _first_finite(
+    values: npt.NDArray[Any], starts: range, n: int, backwards: bool = False
+) -> npt.NDArray[np.int64]:
+    """Each column's first row with a finite value (``n``: none), the blocks of rows
+    from ``starts`` read in that order; ``backwards``: its last such row (-1: none),
+    the blocks read from the end."""
+    m = values.shape[1]
+    found = np.full(m, -1 if backwards else n, dtype=np.int64)
+    todo = np.ones(m, dtype=bool)
+    for lo in starts:
+        block = np.asarray(values[lo : lo + RELEASE_ROWS])
+        fin = np.isfinite(block)
+        release(values[lo : lo + RELEASE_ROWS])
+        has = todo & fin.any(axis=0)
+        if has.any():
+            cols = np.flatnonzero(has)
+            sub = fin[:, cols]
+            at = (
+                (sub.shape[0] - 1 - np.argmax(sub[::-1], axis=0))
+                if backwards
+                else np.argmax(sub, axis=0)
+            )
+            found[cols] = lo + at
+            todo[cols] = False
+        if not todo.any():
+            break
+    return found
 
 
 def columns(

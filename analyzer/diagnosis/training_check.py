@@ -75,7 +75,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy import stats
+from scipy import special
 
 from analyzer.diagnosis.merge import Finding
 from analyzer.types import FaultType
@@ -355,7 +355,9 @@ class _System:
 
     def critical(self, tests: int, alpha: float) -> float:
         """The two-sided Bonferroni bound of ``tests`` t statistics at ``alpha``."""
-        return float(stats.t.isf(alpha / tests / 2.0, self.n_batches - 2))
+        # Student's t inverse survival function, as scipy.stats.t.isf computes it (without
+        # importing scipy.stats: ~0.3 s a default run does not otherwise pay)
+        return float(-special.stdtrit(self.n_batches - 2, alpha / tests / 2.0))
 
     def _gram(self) -> FloatArray:
         """The lagged samples' Gram matrix, lag-major: block ``(a, b)`` is

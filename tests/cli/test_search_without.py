@@ -141,3 +141,40 @@ def test_two_faults_from_one_instant_are_both_found(tmp_path, seed, first, secon
     again = [f for f in analysis.findings if "searched_without" in f.evidence]
     assert len(again) == 1
     assert any("isolated one fault at a time" in n for n in analysis.notes)
+
+
+def test_a_sensor_that_publishes_nan_after_it_died(tmp_path, capsys):
+    """A dead sensor may go on publishing NaN rather than stop: its last sample is at the
+    record's end, its values are missing. The same note and second search."""
+    t, Y, names = simulate_building(
+        n_floors=3, duration_s=120.0, rate_hz=RATE, seed=0, sensors_per_floor=2
+    )
+    sd = Y[: int(24 * RATE)].std(axis=0)
+    Y[:, 3] = inject_fault(Y[:, 3], RATE, "additive", 72.0, 2 * sd[3])
+    Y[int(48 * RATE) :, 4] = np.nan
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(tmp_path / "a.mcap", "mcap", t_ns, {c: Y[:, j] for j, c in enumerate(names)})
+    code, doc = _run(capsys, tmp_path / "a.mcap", tmp_path / "out")
+    assert code == 1
+    assert [(f["channel"], f["type"]) for f in doc["faults"]] == [("/s3.data", "additive")]
+    assert doc["faults"][0]["evidence"]["searched_without"] == ["/s4.data"]
+    assert any(
+        n.startswith("/s4.data has no reading in its last 72 s (after 48 s) of the record")
+        for n in doc["notes"]
+    ), doc["notes"]
+
+
+def test_lost_stretches_read_from_both_ends_of_a_long_matrix():
+    from analyzer.reconfigure import lost_stretches
+
+    n = 3 * 65_536 + 17  # several blocks of rows
+    values = np.random.default_rng(0).standard_normal((n, 4))
+    values[: n // 3, 1] = np.nan  # started late
+    values[n // 2 :, 2] = np.nan  # stopped early
+    values[100:200, 3] = np.nan  # a short gap: no stretch
+    got = lost_stretches(values, 100.0)
+    assert got == [[], [(0, n // 3)], [(n // 2, n)], []]
+    short = values[: 2 * 100 * 5]  # 10 s of 100 Hz: nothing lasts 10 s
+    assert lost_stretches(short, 100.0) == [[], [], [], []] or all(
+        b - a >= 1000 for rows in lost_stretches(short, 100.0) for a, b in rows
+    )
