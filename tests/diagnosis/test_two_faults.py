@@ -110,7 +110,8 @@ def test_two_faults_from_one_instant_on_six_sensors_the_network_isolates_one(tmp
     of the bank and no filter isolates either, and law 0 alone names no sensor of the
     five that alarm, which gave no finding and exit 0. The smallest explanations of
     the alarms, {s0, s3} and {s1, s3}, name s3; the run's notes say that one of s0, s1
-    is faulty beside it."""
+    is faulty beside it, and the search again without s3 (analyzer.reconfigure) finds
+    the offset on s1."""
     duration, onset = 1200.0, 720.0
     t, Y, names = simulate_building(3, duration, RATE, seed=0, sensors_per_floor=2)
     Y[:, 1] = inject_fault(Y[:, 1], RATE, "additive", onset, 0.5 * float(np.std(Y[:, 1])))
@@ -122,8 +123,15 @@ def test_two_faults_from_one_instant_on_six_sensors_the_network_isolates_one(tmp
     )
     analysis = analyze([str(path)], RunOptions())
     assert [(f.channel, f.type.value) for f in analysis.findings] == [
-        ("/data.data[3]", "multiplicative")
+        ("/data.data[1]", "additive"),
+        ("/data.data[3]", "multiplicative"),
     ]
-    assert abs(analysis.findings[0].magnitude["gain"] - 1.3) < 0.01
+    s1, s3 = analysis.findings
+    assert abs(s3.magnitude["gain"] - 1.3) < 0.01
+    assert "searched_without" not in s3.evidence
+    assert s1.evidence["searched_without"] == ["/data.data[3]"]
+    offset = 0.5 * float(np.std(Y[: int(onset * RATE), 1]))
+    assert abs(s1.magnitude["offset"] / offset - 1.0) < 0.1
+    assert abs(s1.onset_s - onset) < 1.0
     (note,) = [n for n in analysis.notes if "beside the fault on /data.data[3]" in n]
     assert "one of /data.data[0], /data.data[1]" in note
