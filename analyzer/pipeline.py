@@ -162,16 +162,19 @@ def _partial_channels(
     stretches: Sequence[Sequence[tuple[int, int]]],
     chosen: Sequence[str],
     rate_hz: float,
-    again: bool = False,
+    searched: set[str],
+    not_again: bool,
 ) -> list[str]:
     """Notes on the analyzed channels without a reading for long at the record's start or
     end (``stretches``: :func:`analyzer.reconfigure.lost_stretches`; a sensor that died,
     silent or publishing NaN, a file of another channel set): while one is missing, the
     detectors that model the channels together lose their view of the others (the bank
     keeps only its estimator that leaves it out), which a user would not guess from "no
-    fault found". ``again``: the others are searched again without them
-    (:mod:`analyzer.reconfigure`), which a note of its own reports; else the note names
-    the ``--channels`` that does it."""
+    fault found". The channels ``searched`` are missing where faults are searched (after
+    the healthy window): the others are searched again without them
+    (:mod:`analyzer.reconfigure`), which a note of its own reports, unless ``not_again``
+    (a fixed channel set, or too few channels left), when the note names the
+    ``--channels`` that does it, if enough channels would be left."""
     notes = []
     for name, rows in zip(chosen, stretches, strict=True):
         if not rows:
@@ -182,15 +185,23 @@ def _partial_channels(
             else f"its last {(b - a) / rate_hz:.6g} s (after {a / rate_hz:.6g} s)"
             for a, b in rows
         )
+        if name not in searched:
+            then = "inside the healthy window, before the faults are searched"
+            notes.append(f"{name} has no reading in {what} of the record ({then})")
+            continue
+        if not not_again:
+            advice = "the others are searched again without it there (below)"
+        elif len(chosen) - 1 >= SEARCH_AGAIN_MIN:
+            advice = f"--channels '!{name}' searches the others there"
+        else:
+            advice = (
+                f"too few channels would be left to search the others without it (at least "
+                f"{SEARCH_AGAIN_MIN}: with two, each is estimated from the other alone)"
+            )
         notes.append(
             f"{name} has no reading in {what} of the record: where it is missing, the "
             "detectors that model it with the others (ar_kalman_bank, detection_filter) "
-            "lose their view of them too; "
-            + (
-                "the others are searched again without it there (below)"
-                if again
-                else f"--channels '!{name}' searches the others there"
-            )
+            f"lose their view of them too; {advice}"
         )
     return notes
 
@@ -356,15 +367,23 @@ def _analyze(
         # channels missing for long: the others are searched again without them, unless
         # the channel set is fixed (a saved model, or one kept, or the config's groups)
         stretches = lost_stretches(values, aligned.rate_hz)
-        lost = {c: rows for c, rows in zip(chosen, stretches, strict=True) if rows}
-        if (
+        # where the faults are searched: after the healthy window (a channel that starts
+        # late has its data there, and no search to lose before)
+        lost = {
+            c: clipped
+            for c, rows in zip(chosen, stretches, strict=True)
+            if (clipped := [(max(a, train[1]), b) for a, b in rows if b > train[1]])
+        }
+        fixed = (
             reused is not None
             or options.save_model is not None
-            or options.config.groups
-            or len(chosen) - len(lost) < SEARCH_AGAIN_MIN
-        ):
+            or bool(options.config.groups)
+            or bool(options.screen)
+        )
+        few = len(chosen) - len(lost) < SEARCH_AGAIN_MIN
+        notes.extend(_partial_channels(stretches, chosen, aligned.rate_hz, set(lost), fixed or few))
+        if fixed or few:
             lost = {}
-        notes.extend(_partial_channels(stretches, chosen, aligned.rate_hz, again=bool(lost)))
         data = Dataset(values, tuple(chosen), aligned.rate_hz, train, healthy=reused is None)
         names, explicit = detector_names(options)
         if reused is not None:
@@ -473,7 +492,10 @@ def _analyze(
         slack = LONG_FACTOR * default_window(aligned.rate_hz) / aligned.rate_hz
         suspects = (
             beside_faults(findings, results, aligned.n, aligned.rate_hz, slack)
-            if reused is None and options.save_model is None and not options.config.groups
+            if reused is None
+            and options.save_model is None
+            and not options.config.groups
+            and not options.screen
             else {}
         )
         if len(chosen) - len({*lost, *suspects}) < SEARCH_AGAIN_MIN:
@@ -605,11 +627,17 @@ def _searched_without(
     sub = columns(values, chosen, keep, None if work is None else work / "aligned-without.npy")
     data = Dataset(sub, tuple(keep), rate_hz, train, healthy=True)
     groups, _ = partition(keep, np.asarray(sub[train[0] : train[1]]), model=options.config.model)
-    into = None if work is None else work / "signals-without"
-    run_ctx = ctx
+    into = None if work is None else work / "signals-again"
+    # its own scratch (the detectors' long results have fixed names: the first search's
+    # are still read) and the detectors that cannot run on fewer channels skipped, not
+    # an error (--detectors, a config [model] naming a left-out channel)
+    again_dir = None if ctx.workdir is None else ctx.workdir / "again"
+    if again_dir is not None:
+        again_dir.mkdir(exist_ok=True)
+    run_ctx = replace(ctx, workdir=again_dir, explicit=False)
     if ctx.progress is not None:
         shown = ctx.progress
-        run_ctx = replace(ctx, progress=lambda stage, done: shown("again " + stage, done))
+        run_ctx = replace(run_ctx, progress=lambda stage, done: shown("again " + stage, done))
     shared: tuple[Any, ...] = (options, data, run_ctx, executor, {}, into, lambda _: None)
     if len(groups) == 1 and len(groups[0]) == len(keep):
         results, _ = run_detectors(names, *shared, "", None, None)

@@ -178,3 +178,70 @@ def test_lost_stretches_read_from_both_ends_of_a_long_matrix():
     assert lost_stretches(short, 100.0) == [[], [], [], []] or all(
         b - a >= 1000 for rows in lost_stretches(short, 100.0) for a, b in rows
     )
+
+
+def test_the_second_search_keeps_the_first_searchs_results_and_the_schema(tmp_path, capsys):
+    """Its long results in a scratch directory of their own: the first search's residual
+    files were overwritten (the serial run's tests of error_function's s4 read another
+    sensor's values, --jobs 2's did not); and its evidence is in the published schema."""
+    from jsonschema import Draft202012Validator
+
+    from analyzer.schema import findings_schema
+
+    _archive(tmp_path / "a.csv", 0, 4, 3)
+    docs = []
+    for jobs in ("1", "2"):
+        _, doc = _run(
+            capsys,
+            tmp_path / "a.csv",
+            tmp_path / f"j{jobs}",
+            "--jobs",
+            jobs,
+            "--detectors",
+            "ar_kalman_bank,error_function",
+        )
+        docs.append(doc)
+        errors = list(Draft202012Validator(findings_schema()).iter_errors(doc))
+        assert not errors, [e.message for e in errors]
+    serial, threads = docs
+    for a, b in zip(serial["detectors"], threads["detectors"], strict=True):
+        for key in ("training_tests", "windowed_tests"):
+            assert json.dumps(a["model"][key], sort_keys=True) == json.dumps(
+                b["model"][key], sort_keys=True
+            )
+    assert serial["faults"][0]["evidence"]["searched_without"] == ["s4"]
+
+
+def test_no_second_search_for_a_channel_missing_only_in_the_healthy_window(tmp_path, monkeypatch):
+    """A channel that starts 15 s late in a 120 s record is missing only inside the
+    healthy window (0-24 s), where no fault is searched: noted, not searched again."""
+    from analyzer import pipeline
+    from analyzer.options import RunOptions
+
+    t, Y, names = simulate_building(
+        n_floors=3, duration_s=120.0, rate_hz=RATE, seed=3, sensors_per_floor=2
+    )
+    Y[: int(15 * RATE), 2] = np.nan
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(tmp_path / "a.csv", "csv", t_ns, {c: Y[:, j] for j, c in enumerate(names)})
+    calls = []
+    real = pipeline._searched_without
+    monkeypatch.setattr(
+        pipeline, "_searched_without", lambda *a, **k: calls.append(a) or real(*a, **k)
+    )
+    analysis = pipeline.analyze([tmp_path / "a.csv"], RunOptions(jobs=1))
+    assert not calls
+    assert "s2 has no reading in its first 15 s of the record (inside the healthy window" in (
+        "\n".join(analysis.notes)
+    )
+
+
+def test_a_screened_run_is_not_searched_again(tmp_path, capsys):
+    """--screen's verdict is given before any second search: a screen that finds nothing
+    stays the analysis (the second search would have added a fault the verdict missed),
+    and the note names the --channels that searches the others."""
+    lost = _archive(tmp_path / "a.csv", 0, 4, 3)
+    _, doc = _run(capsys, tmp_path / "a.csv", tmp_path / "out", "--screen", "equivalent_model")
+    assert not any(n.startswith("the other channels were searched again") for n in doc["notes"])
+    assert any(f"--channels '!{lost}' searches the others there" in n for n in doc["notes"])
+    assert all("searched_without" not in f["evidence"] for f in doc["faults"])
