@@ -138,3 +138,85 @@ def test_a_healthy_building_with_a_constant_temperature_channel_gives_no_note(tm
     assert find_outages(np.asarray(a.values)) == []
     assert not any("logger outage" in n for n in a.notes), a.notes
     assert np.isfinite(np.asarray(a.values)).all()
+
+
+@pytest.fixture(scope="module")
+def building() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A healthy simulated 6-channel building, 120 s at 100 Hz: times, accelerations and
+    the count of a quantized record (0.1 of each channel's healthy sd)."""
+    from analyzer.simulate import simulate_building
+
+    t, y, _ = simulate_building(3, 120.0, 100.0, seed=0, sensors_per_floor=2)
+    return t, y, 0.1 * y[:2400].std(axis=0)
+
+
+@pytest.mark.parametrize(
+    "quiet",
+    [
+        0.02,
+        0.03,
+        0.04,
+        0.05,
+        pytest.param(
+            0.01,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="every channel reads exactly 0.0 from 80 s to the end: the values "
+                "are those of a logger writing zeros, which must be found",
+            ),
+        ),
+    ],
+)
+@pytest.mark.parametrize("block", [None, 997])
+def test_a_quiet_spell_of_quantized_channels_is_no_outage(monkeypatch, building, quiet, block):
+    """The building quiet (amplitude x ``quiet``) for its last 40 s reads 0 counts on
+    every channel at once for stretches of every length there, the longest of them its
+    channels' longest runs: they were once taken out of the runs a stretch must beat,
+    and 7.8 s of valid quiet data (at x0.03) became outages. Cut in blocks too."""
+    t, y, count = building
+    values = np.round(y * np.where(t < 80.0, 1.0, quiet)[:, None] / count) * count
+    assert outage._held_stretches(values, len(t))[0].size > 0  # the channels do hold
+    if block is not None:
+        monkeypatch.setattr(outage, "SCAN_VALUES", block * values.shape[1])
+    assert find_outages(values) == []
+
+
+@pytest.mark.parametrize("kind", ["zeros", "frozen"])
+def test_an_outage_in_a_quantized_record_without_a_quiet_spell_is_found(building, kind):
+    t, y, count = building
+    values = np.round(y / count) * count
+    values[4000:4200] = 0.0 if kind == "zeros" else values[3999]
+    value = 0.0 if kind == "zeros" else None
+    assert find_outages(values) == [Outage(4000, 4200, value)]
+
+
+def test_the_runs_a_stretch_must_beat_leave_out_only_it_and_the_other_outages():
+    """Per stretch and channel, the longest run of repeats with the rows of the stretch
+    and of the stretches taken as outages taken out, against a plain count, for blocks
+    that cut runs and stretches; one channel's run holds two stretches."""
+    rng = np.random.default_rng(5)
+    v = np.round(rng.standard_normal((600, 5)) * 0.4)
+    v[100:400, 0] = v[99, 0]
+    v[100:200, 1:] = v[99, 1:]
+    v[201:380, 1:] = v[200, 1:]
+    v[450:480] = 0.0
+    v[-25:] = v[-26]
+    starts, ends = outage._held_stretches(v, len(v))
+    assert list(starts) == [100, 201, 451, 575] and list(ends) == [200, 380, 480, 600]
+    every = np.arange(starts.size)
+    for out in (every < 0, every % 2 == 0):
+        want = np.empty((starts.size, v.shape[1]), dtype=np.int64)
+        for i in every:
+            eq = np.r_[np.zeros((1, v.shape[1]), bool), v[1:] == v[:-1]]
+            for s, e in zip(starts[out | (every == i)], ends[out | (every == i)], strict=True):
+                eq[s:e] = False
+            for j in range(v.shape[1]):
+                want[i, j] = (np.diff(np.flatnonzero(np.r_[True, ~eq[:, j], True])) - 1).max()
+        for rows in (7, 64, 201, len(v)):
+            _, longest = outage._repeats(v, starts, ends, rows, out)
+            assert np.array_equal(longest, want), (rows, out)
+
+
+def test_a_zero_that_rounds_from_below_is_noted_as_0_0():
+    note = outage_note([Outage(10, 30, -0.0)], list("abc"), 100.0)
+    assert "read exactly 0.0 from" in note and "-0" not in note
