@@ -275,5 +275,9 @@ def test_the_cli_run_on_a_cluster_prints_no_dask_line(
     out = tmp_path / "o"
     argv = ["run", str(SAMPLE), "--out", str(out), "--scheduler", lone.scheduler_address]
     assert main(argv) == 1 and (out / "findings.json").exists()
-    assert stderr_stand_in.lines == []
+    # but the in-process scheduler's own note of the client leaving, which it may log on
+    # its thread after the run closed its executor (a cluster runs in processes of its
+    # own, whose log is the cluster's: CI saw one such line)
+    late = ("distributed.scheduler - INFO - Remove client", "distributed.scheduler - INFO - Close")
+    assert [line for line in stderr_stand_in.lines if not line.startswith(late)] == []
     assert capsys.readouterr().err == ""
