@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 from collections.abc import Iterable
+from pathlib import Path
 
 import numpy as np
 
-from analyzer.readers.base import ChannelChunk
+from analyzer.readers import open_input
+from analyzer.readers.base import ChannelChunk, InputInfo
 
 Samples = dict[str, tuple[np.ndarray, np.ndarray]]
 
@@ -29,6 +31,12 @@ def collect(chunks: Iterable[ChannelChunk]) -> Samples:
         assert np.all(np.diff(t) >= 0), f"{name}: time goes back"
         out[name] = (t, v)
     return out
+
+
+def read(path: Path) -> tuple[Samples, InputInfo]:
+    """One input file's samples (:func:`collect`) and what its reader said of it."""
+    reader = open_input(path)
+    return collect(reader.chunks()), reader.info
 
 
 def synthetic(

@@ -7,18 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from readers_helpers import collect
+from readers_helpers import collect, read
 
 from analyzer.errors import ReaderError
 from analyzer.readers import csv_reader, open_input
-from analyzer.readers.base import InputInfo
-
-Read = tuple[dict[str, tuple[np.ndarray, np.ndarray]], InputInfo]
-
-
-def read(path: Path) -> Read:
-    reader = open_input(path)
-    return collect(reader.chunks()), reader.info
 
 
 def rows(n: int, start: int = 0) -> str:

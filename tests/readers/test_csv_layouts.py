@@ -8,22 +8,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from readers_helpers import T0, collect
+from readers_helpers import T0, read
 
 from analyzer.errors import ReaderError
 from analyzer.readers import csv_reader, open_input
-from analyzer.readers.base import InputInfo
-
-Read = tuple[dict[str, tuple[np.ndarray, np.ndarray]], InputInfo]
 
 N = 500
 TEN_MS = 10_000_000
 """The rows' time step (100 Hz) in nanoseconds."""
-
-
-def read(path: Path) -> Read:
-    reader = open_input(path)
-    return collect(reader.chunks()), reader.info
 
 
 def iso(i: int) -> str:

@@ -12,20 +12,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from readers_helpers import T0, collect
+from readers_helpers import T0, collect, read
 
 from analyzer import cli
 from analyzer.errors import ReaderError
 from analyzer.readers import _common, csv_reader, open_archive, open_input
-from analyzer.readers.base import InputInfo
 
 Samples = dict[str, tuple[np.ndarray, np.ndarray]]
 TEN_MS = 10_000_000
-
-
-def read(path: Path) -> tuple[Samples, InputInfo]:
-    reader = open_input(path)
-    return collect(reader.chunks()), reader.info
 
 
 def table(n: int, time: list[str] | None = None, header: str = "time,a,b") -> str:

@@ -15,21 +15,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from readers_helpers import T0, collect
+from readers_helpers import T0, read
 
 from analyzer import cli
 from analyzer.errors import ReaderError
 from analyzer.readers import csv_reader, open_input
-from analyzer.readers.base import InputInfo
 
 Samples = dict[str, tuple[np.ndarray, np.ndarray]]
 TEN_MS = 10_000_000
 SECTOR = 4096
-
-
-def read(path: Path) -> tuple[Samples, InputInfo]:
-    reader = open_input(path)
-    return collect(reader.chunks()), reader.info
 
 
 def table(n: int, start_s: float = T0 / 1e9, seed: int = 2) -> bytes:

@@ -10,21 +10,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from readers_helpers import collect
+from readers_helpers import read
 
 from analyzer.errors import ReaderError
 from analyzer.inspect import inspect_archive
 from analyzer.readers import open_input
-from analyzer.readers.base import InputInfo
 
-Read = tuple[dict[str, tuple[np.ndarray, np.ndarray]], InputInfo]
 N = 500
 TEN_MS = 10_000_000
-
-
-def read(path: Path) -> Read:
-    reader = open_input(path)
-    return collect(reader.chunks()), reader.info
 
 
 def values(n: int = N) -> np.ndarray:

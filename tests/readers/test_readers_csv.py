@@ -7,15 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from readers_helpers import collect, synthetic
+from readers_helpers import collect, read, synthetic
 
 from analyzer.readers import open_input
 from analyzer.writers import write_archive
-
-
-def read(path: Path) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], object]:
-    reader = open_input(path)
-    return collect(reader.chunks()), reader.info
 
 
 @pytest.mark.parametrize("name", ["data.csv", "data.tsv", "data.csv.gz"])
