@@ -203,6 +203,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SECONDS",
         help="a file is ready when unchanged for this long (default 2)",
     )
+    p.add_argument(
+        "--wait-unfinished",
+        type=_positive_float,
+        default=600.0,
+        metavar="SECONDS",
+        help="analyze an archive that stays stable but still looks unfinished (a truncated "
+        "MCAP, an empty file) after this long anyway, with its error record (default 600)",
+    )
     p.add_argument("--done", metavar="DIR", help="move each analyzed archive here")
     p.add_argument("--failed", metavar="DIR", help="move each archive that could not be read here")
     p.add_argument(

@@ -83,11 +83,12 @@ Running
     whole against that one fitted model instead of being fitted on its own first minutes
     (the model file is read once, at start-up). ``--once`` processes what is in INBOX
     (waiting for it to be complete) and exits. An archive that stays stable but
-    structurally unfinished for 10 minutes (a recorder that died, a truncated copy) is
-    analyzed anyway, and gets its error record; the watcher says once, as a warning,
-    that it waits up to 10 minutes for it. What ``analyzer run`` would warn about the
-    ``--config`` on that archive (a ``[model]`` or ``[[group]]`` it could not use, the
-    reason) is a warning line of the watcher's too, after the archive's analysis.
+    structurally unfinished for 10 minutes (``--wait-unfinished SECONDS``: a recorder
+    that died, a truncated copy) is analyzed anyway, and gets its error record; the
+    watcher says once, as a warning, how long it waits for it. What ``analyzer run``
+    would warn about the ``--config`` on that archive (a ``[model]`` or ``[[group]]`` it
+    could not use, the reason) is a warning line of the watcher's too, after the
+    archive's analysis.
 
 On a cluster
     With ``--scheduler ADDRESS`` each archive's analysis is a task of that Dask cluster,
@@ -220,6 +221,7 @@ class WatchSettings:
             group_by=group_by,
             once=bool(args.once),
             jobs=args.jobs or os.cpu_count() or 1,
+            incomplete_timeout=args.wait_unfinished,
         )
 
 

@@ -470,7 +470,7 @@ class InboxTracker:
                     track.told = track.reason
                     if not self.quiet:
                         log.warning(
-                            "waiting up to %s for %s to be complete: %s",
+                            "waiting up to %s (--wait-unfinished) for %s to be complete: %s",
                             _span(self.incomplete_timeout),
                             k,
                             track.reason,

@@ -224,7 +224,9 @@ def test_an_incomplete_archive_says_once_how_long_it_may_be_waited_for(
         tracker.rescan()
         assert tracker.step(now) == []
     said = [m for m in messages(caplog) if "zero.csv" in m]
-    assert said == ["waiting up to 10 min for zero.csv to be complete: empty file"]
+    assert said == [
+        "waiting up to 10 min (--wait-unfinished) for zero.csv to be complete: empty file"
+    ]
     assert [r.levelno for r in caplog.records if "zero.csv" in r.getMessage()] == [logging.WARNING]
 
 

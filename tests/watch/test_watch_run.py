@@ -220,8 +220,8 @@ def test_drop_folder_end_to_end(
     assert {"slow.mcap", "mission"}.isdisjoint(started(caplog))
     assert not (reports / "slow.mcap").exists() and not (reports / "mission").exists()
     assert any(
-        "waiting up to 10 min for slow.mcap to be complete: MCAP file without its closing "
-        "magic" in r.getMessage()
+        "waiting up to 10 min (--wait-unfinished) for slow.mcap to be complete: MCAP file "
+        "without its closing magic" in r.getMessage()
         for r in caplog.records
     )
 
@@ -602,3 +602,37 @@ def test_a_screened_watcher_records_how_each_archive_was_analyzed(
     w.stop.set()
     assert w.join(timeout=TIMEOUT) == 0
     assert "screened by equivalent_model alone" in (reports / "index.html").read_text()
+
+
+def test_wait_unfinished_hands_a_truncated_file_on_after_its_seconds(
+    folders: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``watch --once`` over a folder of finished copies, one of them a damaged MCAP:
+    waited for 10 minutes by default; ``--wait-unfinished 1`` hands it on after a second,
+    with its error record, and the run ends (exit 2: an archive could not be analyzed)."""
+    inbox, reports = folders
+    cut = corrupt_mcap(tmp_path / "src.mcap").read_bytes()[:-8]  # no closing magic
+    (inbox / "cut.mcap").write_bytes(cut)
+    write(inbox / "good.csv", "csv", seed=1)
+    argv = ["watch", str(inbox), "--out", str(reports), "--once", "--train", "0:12"]
+    began = time.monotonic()
+    code = main([*argv, "--settle", str(SETTLE), "--wait-unfinished", "1", "--no-progress"])
+    assert code == 2, capsys.readouterr().err
+    assert time.monotonic() - began < TIMEOUT
+    records = state(reports)
+    assert records["cut.mcap"]["verdict"] == "error"
+    assert records["good.csv"]["verdict"] == "no fault"
+    err = capsys.readouterr().err
+    assert "waiting up to 1 s (--wait-unfinished) for cut.mcap to be complete" in err, err
+    assert (inbox / "cut.mcap").read_bytes() == cut  # never modified
+
+
+def test_wait_unfinished_must_be_a_positive_number(
+    folders: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    inbox, reports = folders
+    for value in ("0", "-3", "soon"):
+        argv = ["watch", str(inbox), "--out", str(reports), "--once", "--wait-unfinished", value]
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "--wait-unfinished" in err, err
