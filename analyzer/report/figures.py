@@ -214,6 +214,81 @@ def coverage_figure(
         return to_svg(fig, key)
 
 
+LEVEL_RANGE = 8.0
+"""The level figure's colours run from 1/8 to 8 times the reference level (log scale)."""
+
+
+def level_figure(
+    names: Sequence[str],
+    edges_s: FloatArray,
+    ratio: FloatArray,
+    train: tuple[float, float],
+    faults: Sequence[Sequence[tuple[float, float]]],
+    key: str,
+) -> Markup:
+    """Each channel's response level over time as a colour map: ``ratio`` (bins x
+    channels) is a bin's RMS over the channel's reference RMS, drawn on a log scale from
+    1/:data:`LEVEL_RANGE` (blue) through 1 (white) to :data:`LEVEL_RANGE` (red), empty
+    bins grey; ``faults`` (per channel) outlined in black, the training window marked
+    above the map."""
+    m = len(names)
+    axis = TimeAxis.for_span(float(edges_s[-1]))
+    shown = [label(n) for n in shown_names(list(names))]
+    with style():
+        fig = new_figure(WIDTH_IN, 1.1 + 0.22 * max(m, 1), constrained=False)
+        size = float(mpl.rcParams["ytick.labelsize"])
+        widest = max((text_width_in(t, size) for t in shown), default=0.0)
+        ax = grid(fig, 1, left=widest + 11.0 / 72.0, right=1.1, top=0.32, bottom=0.45)[0, 0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            logs = np.log2(np.asarray(ratio, dtype=np.float64).T)
+        image = ax.imshow(
+            np.ma.masked_invalid(logs),
+            aspect="auto",
+            interpolation="nearest",
+            cmap=mpl.colormaps["RdBu_r"].with_extremes(bad="#b0b0b0"),
+            vmin=-np.log2(LEVEL_RANGE),
+            vmax=np.log2(LEVEL_RANGE),
+            extent=(edges_s[0] / axis.scale, edges_s[-1] / axis.scale, m - 0.5, -0.5),
+        )
+        for i, spans in enumerate(faults):
+            for a, b in spans:
+                ax.add_patch(
+                    mpl.patches.Rectangle(
+                        (a / axis.scale, i - 0.45),
+                        max(b - a, MIN_MARK * float(edges_s[-1])) / axis.scale,
+                        0.9,
+                        fill=False,
+                        ec="black",
+                        lw=1.0,
+                    )
+                )
+        ax.plot(
+            [train[0] / axis.scale, train[1] / axis.scale],
+            [-0.5, -0.5],
+            color=C_TRAIN,
+            lw=4,
+            solid_capstyle="butt",
+            clip_on=False,
+            label="training window",
+        )
+        ax.set_yticks(range(m), shown)
+        ax.set_xlabel(axis.label())
+        ax.grid(visible=False)
+        bar = fig.colorbar(image, ax=ax, fraction=0.04, pad=0.02)
+        top = int(round(np.log2(LEVEL_RANGE)))
+        ticks = [float(t) for t in range(-top, top + 1)]
+        bar.set_ticks(ticks, labels=[f"{2.0**t:g}" if t >= 0 else f"1/{2.0**-t:g}" for t in ticks])
+        bar.set_label("level / reference")
+        handles = [
+            Patch(color=C_TRAIN, label="training window"),
+            Patch(fill=False, ec="black", label="fault period"),
+        ]
+        ax.legend(
+            handles=handles, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncols=2, frameon=False
+        )
+        return to_svg(fig, key)
+
+
 # -- per finding ------------------------------------------------------------------------
 
 
@@ -462,6 +537,7 @@ __all__ = [
     "TimeAxis",
     "corrected_figure",
     "coverage_figure",
+    "level_figure",
     "residual_figure",
     "signal_figure",
     "tests_figure",

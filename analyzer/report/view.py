@@ -74,6 +74,7 @@ def build_view(
         findings[i].detailed = True
         a.add_figures(findings[i], faults[i])
     coverage, coverage_note = a.coverage(faults)
+    levels, levels_note = a.levels(faults)
     view = ReportView(
         title=a.title(),
         version=str(doc.get("analyzer_version", __version__)),
@@ -92,6 +93,8 @@ def build_view(
         channels=a.channels(),
         coverage=coverage,
         coverage_note=coverage_note,
+        levels=levels,
+        levels_note=levels_note,
         train=a.train_text(),
         models_heading=a.models_heading(),
         reused=bool(doc.get("model")),
@@ -128,6 +131,7 @@ class _Access(FigureParts, TableParts):
         self.train_s = (float(tr.get("start_s", 0.0)), float(tr.get("end_s", 0.0)))
         # with --model the shaded start is the filters' warm-up, not a training window
         self.train_label = "filters' warm-up" if doc.get("model") else "training window"
+        self.reused = bool(doc.get("model"))
 
     # -- verdict ----------------------------------------------------------------------
     def title(self) -> str:

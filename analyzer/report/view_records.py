@@ -170,11 +170,15 @@ class ReportView:
     timings: list[Fact]
     figure_failures: list[str] = field(default_factory=list)
     """One line per figure that could not be drawn (also among :attr:`notes`)."""
+    levels: FigureView | None = None
+    """Every analyzed channel's response level over time (:func:`figures.level_figure`)."""
+    levels_note: str = ""
+    """The stretches where most channels' level changed at once, as one sentence."""
 
     @property
     def figure_count(self) -> int:
         own = sum(len(f.figures) for f in self.findings)
-        return own + (1 if self.coverage is not None else 0)
+        return own + sum(f is not None for f in (self.coverage, self.levels))
 
 
 __all__ = [

@@ -96,12 +96,12 @@ def test_verdict_lists_every_finding(faulty):
 def test_each_detailed_finding_has_its_figures_and_tests(faulty):
     analysis, doc, html = faulty
     kinds = _figures(html)
-    # coverage + per finding: signal, residual, innovation tests, corrected (--corrected)
+    # coverage, levels + per finding: signal, residual, innovation tests, corrected
     n = min(len(doc["faults"]), report_view.MAX_DETAILED)
-    assert kinds.count("coverage") == 1
+    assert kinds.count("coverage") == 1 and kinds.count("levels") == 1
     for k in ("signal", "residual", "tests", "corrected"):
         assert kinds.count(k) == n, k
-    assert len(kinds) == 1 + 4 * n
+    assert len(kinds) == 2 + 4 * n
     f = doc["faults"][0]
     section = html[html.index('id="finding-1"') :]
     for det in f["evidence"]["tests"]:
@@ -157,7 +157,7 @@ def test_healthy_report_says_what_was_checked(healthy):
     assert "0.000 s to 15.000 s" in checked and "1e-06 per sample" in checked
     for name, why in doc["skipped_detectors"].items():
         assert name in checked and why.split("(")[0].strip() in checked
-    assert _figures(html) == ["coverage"] and 'class="finding"' not in html
+    assert _figures(html) == ["coverage", "levels"] and 'class="finding"' not in html
 
 
 def test_archive_and_models_sections(faulty):
@@ -216,7 +216,7 @@ def test_only_the_most_confident_findings_get_figures(monkeypatch):
     doc = findings_document(a)
     html = render_report(a, doc)
     assert len(doc["faults"]) == 3
-    assert len(_figures(html)) == 1 + 3  # coverage + one finding's signal, residual, tests
+    assert len(_figures(html)) == 2 + 3  # coverage, levels + one finding's signal, residual, tests
     assert html.count('<section class="finding"') == 1
     assert "the other 2 are listed in the verdict table" in html
     for f in doc["faults"]:
@@ -253,7 +253,7 @@ def test_relative_timestamps_show_time_into_the_record(monkeypatch):
     html = render_report(a, doc)
     assert doc["faults"][0]["onset"] is None
     assert "+00:01:15.500" in html and "relative timestamps" in html
-    assert _figures(html) == ["coverage"] and build_view(a, doc).figure_count == 1
+    assert _figures(html) == ["coverage", "levels"] and build_view(a, doc).figure_count == 2
 
 
 def test_input_errors_skipped_detectors_and_notes_are_listed(monkeypatch):
