@@ -56,6 +56,9 @@ class Analysis:
     screen: dict[str, Any] | None = None
     """With ``--screen``: the screening's detectors and whether they found a fault
     (``findings.json``), from :func:`analyzer.pipeline.analyze_screened`."""
+    levels: Any = None
+    """Each analyzed channel's response level over time
+    (:class:`analyzer.diagnosis.levels.Levels`): the report's level map."""
 
     @property
     def duration_s(self) -> float:

@@ -33,6 +33,7 @@ from analyzer.detectors.ar_model import flat_channels
 from analyzer.diagnosis import Finding, merge_events, one_fault_at_a_time
 from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
+from analyzer.diagnosis.levels import level_note, response_levels
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.stuck import healthy_stats, relabel_frozen
 from analyzer.diagnosis.training_check import window_notes, window_warnings
@@ -520,6 +521,9 @@ def _analyze(
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
         notes.extend(_unattributed_notes(results, findings, aligned.rate_hz))
         notes.extend(_after_gap_notes(findings, values, chosen, aligned.rate_hz))
+        # the load or the structure beyond anything the training window held
+        levels = response_levels(values, aligned.rate_hz, train if reused is None else None)
+        notes.extend(n for n in [level_note(levels)] if n)
         if isinstance(executor, DaskExecutor):  # after the work: tasks sent again, say
             notes.append(executor.describe())
         if screen is not None:
@@ -568,6 +572,7 @@ def _analyze(
             notes=notes,
             timings=timings,
             skipped=skipped,
+            levels=levels,
             corrected=corrected,
             corrections=corrections,
             saved=reused

@@ -27,8 +27,6 @@ CHUNK_VALUES = 1 << 21
 ROW_BLOCK = 1 << 18
 """Rows of the aligned matrix read at a time by :func:`binned_nan_fraction` (bounded
 memory on memory-mapped archives)."""
-RMS_ROWS = 16_384
-"""Rows :func:`binned_rms` reads at a time (their deviations stay in the cache)."""
 
 
 class Envelope(NamedTuple):
@@ -148,41 +146,6 @@ def binned_nan_fraction(values: npt.ArrayLike, bins: int) -> FloatArray:
     return counts / sizes[:, None]
 
 
-def binned_rms(values: npt.ArrayLike, bins: int, center: npt.ArrayLike) -> FloatArray:
-    """Root mean square about ``center`` (one value per column) per time bin and column
-    of an (N, m) array, NaN samples left out: a ``(min(bins, N), m)`` array, NaN where a
-    bin of a column holds no sample. Reads ``values`` in pieces of at most
-    :data:`RMS_ROWS` rows (cache-sized: four hours of 16 channels in ~0.2 s), so a
-    memory-mapped archive is streamed once instead of loaded."""
-    v = values if isinstance(values, np.ndarray) else np.asarray(values)
-    if v.ndim != 2:
-        raise ValueError(f"expected an (N, m) array, got shape {v.shape}")
-    n, m = v.shape
-    c = np.broadcast_to(np.asarray(center, dtype=np.float64), (m,))
-    if n == 0 or m == 0:
-        return np.zeros((0, m), dtype=np.float64)
-    bins = max(1, min(int(bins), n))
-    edges = (np.arange(bins + 1) * n) // bins
-    squares = np.zeros((bins, m), dtype=np.float64)
-    counts = np.zeros((bins, m), dtype=np.int64)
-    for b in range(bins):
-        for start in range(int(edges[b]), int(edges[b + 1]), RMS_ROWS):
-            stop = min(int(edges[b + 1]), start + RMS_ROWS)
-            piece = np.asarray(v[start:stop], dtype=np.float64) - c
-            q = np.einsum("ij,ij->j", piece, piece)
-            bad = np.flatnonzero(np.isnan(q))
-            if bad.size:  # the columns with NaN samples, counted one by one
-                sub = piece[:, bad]
-                ok = ~np.isnan(sub)
-                q[bad] = np.einsum("ij,ij->j", np.where(ok, sub, 0.0), np.where(ok, sub, 0.0))
-                counts[b, bad] -= (stop - start) - ok.sum(axis=0)
-            squares[b] += q
-            counts[b] += stop - start
-            release(v[start:stop])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.sqrt(squares / counts)
-
-
 def runs(mask: npt.ArrayLike) -> list[tuple[int, int]]:
     """Half-open ``[start, stop)`` index runs where ``mask`` is True."""
     b = np.asarray(mask, dtype=bool)
@@ -211,4 +174,4 @@ def moving_mean(x: npt.ArrayLike, window: int) -> FloatArray:
     return out
 
 
-__all__ = ["Envelope", "binned_nan_fraction", "binned_rms", "envelope", "moving_mean", "runs"]
+__all__ = ["Envelope", "binned_nan_fraction", "envelope", "moving_mean", "runs"]

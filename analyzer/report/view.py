@@ -74,7 +74,7 @@ def build_view(
         findings[i].detailed = True
         a.add_figures(findings[i], faults[i])
     coverage, coverage_note = a.coverage(faults)
-    levels, levels_note = a.levels(faults)
+    levels = a.levels(faults)
     view = ReportView(
         title=a.title(),
         version=str(doc.get("analyzer_version", __version__)),
@@ -94,7 +94,6 @@ def build_view(
         coverage=coverage,
         coverage_note=coverage_note,
         levels=levels,
-        levels_note=levels_note,
         train=a.train_text(),
         models_heading=a.models_heading(),
         reused=bool(doc.get("model")),

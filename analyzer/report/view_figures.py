@@ -14,7 +14,6 @@ view it does not import matplotlib.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -22,9 +21,10 @@ import numpy as np
 import numpy.typing as npt
 from markupsafe import Markup
 
+from analyzer.diagnosis.levels import response_levels
 from analyzer.report import format as fmt
 from analyzer.report import jobs as fg
-from analyzer.report.decimate import Clock, binned_nan_fraction, binned_rms, envelope, runs
+from analyzer.report.decimate import Clock, binned_nan_fraction, envelope, runs
 from analyzer.report.view_records import FigureView, FindingView
 from analyzer.report.workers import FigureBatch
 from analyzer.types import NS_PER_S
@@ -39,15 +39,6 @@ CLOSE_SAMPLES, CLOSE_MIN_S, CLOSE_MAX_S = 200, 1.0, 30.0
 """Close-up of the onset in the signal figure: this many samples, within bounds (s)."""
 GAP_BINS = 2000
 """Time bins of the gap map of the analyzed channels."""
-LEVEL_BINS, LEVEL_MIN_BIN_S = 300, 10.0
-"""Time bins of the response-level map, each at least this long (s): a lightly damped
-1 Hz structure under broadband load varies 0.6-2.6x in 10 s bins of a steady record."""
-LEVEL_CHANGE, LEVEL_TRAIN_BINS = 2.0, 6
-"""The channels' median level this many times above the highest of the training window's
-bins, or under its lowest by as much, is named under the level map (the load or the
-structure outside anything the models were fitted on), when the training window holds at
-least this many bins: fewer do not show the level's own spread (a steady 2-minute record
-with 3 training bins reached 2.1x their highest)."""
 ZOOM_MIN_S, ZOOM_MAX_S, ZOOM_FRACTION = 5.0, 120.0, 0.15
 """Half-width of the window around an onset: this fraction of the record, within bounds."""
 
@@ -371,35 +362,20 @@ class FigureParts:
         )
         return self.figure("coverage", "Channel coverage", caption, job), note
 
-    def levels(self, faults: Sequence[Mapping[str, Any]]) -> tuple[FigureView | None, str]:
-        """The response-level map of the analyzed channels (:func:`figures.level_figure`)
-        and a sentence naming the stretches where most channels' level changed at once:
-        a burst of traffic, a storm, a machine started, a change of the structure; what
-        looks like one sensor's fault there may be that change."""
+    def levels(self, faults: Sequence[Mapping[str, Any]]) -> FigureView | None:
+        """The response-level map of the analyzed channels (:func:`figures.level_figure`,
+        :mod:`analyzer.diagnosis.levels`): the run's, else measured here."""
         if self.values is None or not self.analyzed or self.n < 2:
-            return None, ""
+            return None
+        lv = getattr(self.an, "levels", None)
+        if lv is None:
+            k0, k1 = (int(round(x * self.rate)) for x in self.train_s)
+            lv = response_levels(self.values, self.rate, None if self.reused else (k0, k1))
+        if lv is None:
+            return None
         names = list(self.analyzed[:MAX_TIMELINE_ROWS])
-        m = len(names)
-        bins = int(min(LEVEL_BINS, max(1, self.duration // LEVEL_MIN_BIN_S), self.n))
-        k0, k1 = (int(round(x * self.rate)) for x in self.train_s)
-        k0, k1 = max(0, k0), min(self.n, k1)
-        own = not self.reused and k1 - k0 >= 2
-        with np.errstate(invalid="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN column: NaN
-            center = (
-                np.nanmean(_f64(self.values[k0:k1, :m]), axis=0)
-                if own
-                else np.nanmedian(_f64(self.values[:: max(1, self.n // 100_000), :m]), axis=0)
-            )
-            rms = binned_rms(
-                self.values[:, :m] if m < self.values.shape[1] else self.values, bins, center
-            )
-            if own:
-                ref = binned_rms(self.values[k0:k1, :m], 1, center)[0]
-            else:
-                ref = np.nanmedian(rms, axis=0)
-            ratio = rms / np.where(ref > 0, ref, np.nan)
-        edges = (np.arange(rms.shape[0] + 1) * self.n) // rms.shape[0] / self.rate
+        ratio = lv.ratio[:, : len(names)]
+        edges = lv.edges_s
         spans = [
             [
                 (
@@ -412,6 +388,7 @@ class FigureParts:
             for ch in names
         ]
         job = fg.FigureJob("level_figure", (names, edges, ratio, self.train_s, spans, "levels"))
+        own = lv.train is not None
         reference = (
             f"its RMS in the {self.train_label}" if own else "its median level over the record"
         )
@@ -423,9 +400,7 @@ class FigureParts:
             "A change on every channel at once is a change of the load or of the structure, "
             "not of one sensor."
         )
-        fv = self.figure("levels", "Response level over time", caption, job)
-        inside = (edges[:-1] >= self.train_s[0] - 1e-9) & (edges[1:] <= self.train_s[1] + 1e-9)
-        return fv, _level_changes(ratio, edges, inside if own else None)
+        return self.figure("levels", "Response level over time", caption, job)
 
     def _gap_map(self) -> dict[str, list[tuple[float, float]]]:
         if self.values is None or not self.analyzed or self.n == 0:
@@ -440,49 +415,6 @@ class FigureParts:
 
 
 # -- helpers ------------------------------------------------------------------------------
-
-
-def _level_changes(
-    ratio: FloatArray, edges: FloatArray, train: npt.NDArray[np.bool_] | None, listed: int = 3
-) -> str:
-    """The stretches where the channels' median level (``ratio``: bins x channels, over
-    the training RMS) left the range of the training window's bins (``train`` marks
-    them; at least :data:`LEVEL_TRAIN_BINS`) by :data:`LEVEL_CHANGE` or more, as one
-    sentence."""
-    if train is None or int(train.sum()) < LEVEL_TRAIN_BINS or ratio.shape[1] < 2:
-        return ""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # a bin without data: NaN
-        level = np.nanmedian(ratio, axis=1)
-    low, high = float(np.nanmin(level[train])), float(np.nanmax(level[train]))
-    span = float(edges[-1])
-    parts = []
-    for word, mask in (
-        ("over", level > LEVEL_CHANGE * high),
-        ("under", level < low / LEVEL_CHANGE),
-    ):
-        for a, b in runs(mask):
-            x = level[a:b]
-            extreme = float(np.nanmax(x) if word == "over" else np.nanmin(x))
-            parts.append(
-                (
-                    float(edges[a]),
-                    f"{fmt.at(float(edges[a]), span)} to {fmt.at(float(edges[b]), span)} "
-                    f"({fmt.num(extreme, 2)}x its training level)",
-                )
-            )
-    if not parts:
-        return ""
-    parts.sort()
-    shown = "; ".join(p for _, p in parts[:listed])
-    more = f", and {len(parts) - listed} more stretches" if len(parts) > listed else ""
-    return (
-        f"The channels' median response level left the range of the training window "
-        f"({fmt.num(low, 2)}-{fmt.num(high, 2)}x) by {fmt.num(LEVEL_CHANGE, 2)}x or more at "
-        f"{shown}{more}: the load or the structure changed beyond anything the models were "
-        "fitted on. A finding there may be that change rather than a sensor's fault: see "
-        "whether its sensor stands out from the others in the map."
-    )
 
 
 def _f64(x: Any) -> FloatArray:

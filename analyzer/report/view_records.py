@@ -172,8 +172,6 @@ class ReportView:
     """One line per figure that could not be drawn (also among :attr:`notes`)."""
     levels: FigureView | None = None
     """Every analyzed channel's response level over time (:func:`figures.level_figure`)."""
-    levels_note: str = ""
-    """The stretches where most channels' level changed at once, as one sentence."""
 
     @property
     def figure_count(self) -> int:
