@@ -42,7 +42,15 @@ the installed package maps them to ``analyzer.templates``."""
 
 
 def _loader() -> BaseLoader:
-    """The installed templates, else the source checkout's."""
+    """The templates of the checkout ``analyzer`` was imported from, else the installed
+    ones. The checkout's first: an editable install maps ``analyzer.templates`` to its
+    own checkout whatever ``analyzer`` was imported from, so a second checkout run with
+    ``PYTHONPATH`` (a git worktree at another commit) rendered the first one's
+    templates, which need other fields of the view."""
+    if (SOURCE_TEMPLATES / "report.html").is_file() and (
+        SOURCE_TEMPLATES.parents[1] / "pyproject.toml"
+    ).is_file():
+        return FileSystemLoader(SOURCE_TEMPLATES)
     if importlib.util.find_spec("analyzer.templates") is not None:
         return PackageLoader("analyzer.templates", "")
     return FileSystemLoader(SOURCE_TEMPLATES)

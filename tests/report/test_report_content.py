@@ -209,6 +209,27 @@ def test_a_source_checkout_renders_the_same_report(faulty, monkeypatch):
     assert render_report(analysis, doc) == html
 
 
+def test_the_checkout_analyzer_comes_from_renders_with_its_own_templates(tmp_path, monkeypatch):
+    """An editable install maps ``analyzer.templates`` to its own checkout; a second
+    checkout imported with ``PYTHONPATH`` (a git worktree at another commit) must render
+    with its own templates, not the installed checkout's (which need other view fields)."""
+    import analyzer.report as report
+
+    checkout = tmp_path / "wt"
+    (checkout / "reports" / "templates").mkdir(parents=True)
+    (checkout / "pyproject.toml").write_text("[project]\n")
+    (checkout / "reports" / "templates" / "report.html").write_text("own {{ report }}")
+    monkeypatch.setattr(report, "SOURCE_TEMPLATES", checkout / "reports" / "templates")
+    loader = report._loader()
+    assert type(loader).__name__ == "FileSystemLoader"
+    assert loader.get_source(report.environment(), "report.html")[0] == "own {{ report }}"
+    # without a checkout around it (an installed wheel): the package's templates
+    (checkout / "pyproject.toml").unlink()
+    installed = report.importlib.util.find_spec("analyzer.templates") is not None
+    want = "PackageLoader" if installed else "FileSystemLoader"
+    assert type(report._loader()).__name__ == want
+
+
 def test_only_the_most_confident_findings_get_figures(monkeypatch):
     monkeypatch.setattr(report_view, "MAX_DETAILED", 1)
     faults = [SyntheticFault(j, FaultType.ADDITIVE, 60.0 + 10 * j, None, 1.0) for j in range(3)]
