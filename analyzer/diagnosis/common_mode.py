@@ -32,19 +32,23 @@ The test, for each drift or offset finding on channel ``j`` (:func:`common_chang
    the change. It is **common** to the group when they are at least :data:`MIN_SHARED`
    and more than half of the group's channels (``j`` among them).
 3. But a sensor's own fault on top of a common change must stay (an offset of 2 sd on
-   one sensor of a drifting building): ``y_j`` is regressed on a constant, a line, the
-   others' common trace ``g`` (the median of the sharing channels' ``y_c``, ``j`` left
-   out) and ``h``. When ``h``'s coefficient is significant in ``j``'s direction at the
-   same level (its t statistic about the regression's residual scatter, corrected by
-   the residuals' AR(1) factor), ``j`` changed beyond the common trend and the finding
-   stays; otherwise the common trend explains ``j``'s change, and the finding is not
-   reported: a note says so. The line is there because ``g`` carries two common parts
-   in other proportions: the structure's slow vibration, the same on every floor, and
-   the trend, in each sensor's own units (on the simulated building a drift of one
-   standard deviation of every channel, read on the others' trace with the vibration's
-   proportion, left a line of ``j``'s own that a drift from 120 s took up at ``t`` 7.4).
-   A drift of ``j`` from its own onset is no line from the record's start: half the
-   common rate, from the window's end, stayed on every simulated record tried.
+   one sensor of a drifting building). Each other sharing channel ``c`` is asked
+   whether it **explains** ``j``: ``y_j`` is regressed on a constant, a line and ``y_c``,
+   and then on each of the shapes ``j`` may have of its own (Frisch-Waugh-Lovell): the
+   finding's ``h`` (one-sided, in ``j``'s direction, at the same level) and a step and a
+   kink from every block inside the finding's span (two-sided, Bonferroni over them;
+   a lasting offset from 365 s on a drifting channel was reported as a drift from
+   208 s, a shape the common trend explains). The t statistics are about the
+   regression's residual scatter, corrected by its AR(1) factor. ``c`` explains ``j``
+   when none passes. The finding is a common change, not reported (a note says so),
+   when more than half of the others explain it; a single trace (their median) stepped
+   with another sensor's real fault and kept every false finding beside it. The line is
+   there because ``y_c`` carries two common parts in other proportions: the structure's
+   slow vibration, the same on every floor, and the trend, in each sensor's own units
+   (read with the vibration's proportion, a common drift of one standard deviation
+   left a line of ``j``'s own that a drift from 120 s took up at ``t`` 7.4). A drift of
+   ``j`` from its own onset is no line from the record's start: half the common rate,
+   from the window's end, stayed on every simulated record tried.
 
 The findings are judged as the detectors report them, before one fault at a time
 (:func:`~analyzer.diagnosis.merge.one_fault_at_a_time`) takes the faults of the sensors
@@ -175,10 +179,23 @@ class SlowLevels:
         covered = np.clip(np.minimum(hi, t1) - np.maximum(lo, t0), 0.0, None)
         return covered / (hi - lo)
 
+    def scan(self, f: Finding) -> FloatArray:
+        """A step and a line (a kink) from each block that begins inside the finding's
+        span, the last two blocks apart: the changes of its own that ``j`` may have
+        there, whatever the detectors' onset and shape (a lasting offset from 365 s on
+        a channel that drifts with the others was reported as a drift from 208 s)."""
+        t1 = np.inf if f.end_s is None else f.end_s
+        start = self.centre_s - 0.5 * self.rows / self.rate_hz
+        at = np.flatnonzero((start >= f.onset_s) & (start < t1))
+        at = at[at < start.size - 2]
+        step = (np.arange(start.size)[:, None] >= at[None, :]).astype(np.float64)
+        kink = np.clip(self.centre_s[:, None] - start[None, at], 0.0, None)
+        return np.concatenate([step, kink], axis=1)
+
     def critical(self, alpha: float = COMMON_ALPHA) -> float:
         """The two-sided bound at ``alpha`` of a t statistic with the training blocks'
         degrees of freedom."""
-        return float(-special.stdtrit(self.trained - 2, alpha / 2.0))
+        return _t_bound(self.trained - 2, alpha)
 
     def matched(self, h: FloatArray) -> FloatArray:
         """Each channel's statistic ``T_c`` of the shape ``h`` (module docstring, step 2)."""
@@ -189,39 +206,59 @@ class SlowLevels:
         se = np.sqrt(self.inflation * (hh + sh * sh / self.trained))
         return np.divide(hy, se, out=np.zeros_like(hy), where=se > 0)
 
-    def beyond(self, j: int, shared: Sequence[int], h: FloatArray) -> float:
-        """The t statistic of ``h``'s coefficient when ``y_j`` is regressed on a constant,
-        the median ``y`` of the channels ``shared`` and ``h`` (step 3)."""
+    def beyond(self, j: int, shared: Sequence[int], shapes: FloatArray) -> tuple[FloatArray, int]:
+        """The t statistics of each column of ``shapes`` (blocks x K), added alone to the
+        regression of ``y_j`` on a constant, a line and the median ``y`` of the channels
+        ``shared`` (step 3; Frisch-Waugh-Lovell: each shape and ``y_j`` made orthogonal
+        to those three once), and their degrees of freedom."""
         g = np.nanmedian(self.y[:, list(shared)], axis=1)
         y = self.y[:, j]
         ok = np.isfinite(y) & np.isfinite(g)
         t = self.centre_s[ok] - self.centre_s[ok].mean()
-        design = np.stack([np.ones(int(ok.sum())), t, g[ok], h[ok]], axis=1)
-        coef, *_ = np.linalg.lstsq(design, y[ok], rcond=None)
-        res = y[ok] - design @ coef
-        dof = res.size - design.shape[1]
+        base = np.stack([np.ones(t.size), t, g[ok]], axis=1)
+        q, _ = np.linalg.qr(base)
+        ry = y[ok] - q @ (q.T @ y[ok])
+        rh = shapes[ok] - q @ (q.T @ shapes[ok])
+        hh = np.einsum("bk,bk->k", rh, rh)
+        dof = t.size - base.shape[1] - 1
         if dof < 2:
-            return np.inf
-        s2 = float(res @ res) / dof
-        rho = float(np.clip(res[1:] @ res[:-1] / max(float(res @ res), 1e-300), 0.0, MAX_RHO))
-        cov = np.linalg.pinv(design.T @ design) * s2 * (1.0 + rho) / (1.0 - rho)
-        se = float(np.sqrt(max(cov[-1, -1], 0.0)))
-        return float(coef[-1] / se) if se > 0 else np.inf
+            return np.full(shapes.shape[1], np.inf), 1
+        hh = np.maximum(hh, np.finfo(np.float64).tiny)
+        coef = rh.T @ ry / hh
+        s2 = np.maximum(float(ry @ ry) - coef * coef * hh, 0.0) / dof
+        # the residuals' lag-1 correlation (without any shape: the common trend's misfit)
+        rho = float(np.clip(ry[1:] @ ry[:-1] / max(float(ry @ ry), 1e-300), 0.0, MAX_RHO))
+        se = np.sqrt(s2 / hh * (1.0 + rho) / (1.0 - rho))
+        return np.divide(coef, se, out=np.full_like(coef, np.inf), where=se > 0), dof
+
+    def explains(
+        self, c: int, j: int, h: FloatArray, sign: float, alpha: float, scan: FloatArray
+    ) -> bool:
+        """Whether channel ``c``'s slow level explains ``j``'s (a constant, a line and
+        ``c``'s level times a factor) with no change of ``j``'s own: neither along the
+        shape ``h`` in the direction ``sign`` (bound at ``alpha``) nor a step or kink of
+        ``scan`` (Bonferroni over them)."""
+        stats, dof = self.beyond(j, [c], np.column_stack([h, scan]))
+        own = float(np.max(np.abs(stats[1:]), initial=0.0))
+        return bool(
+            sign * stats[0] < _t_bound(dof, alpha)
+            and own < _t_bound(dof, alpha / max(scan.shape[1], 1))
+        )
 
 
 @dataclass(frozen=True, slots=True)
 class CommonChange:
     """A finding judged a common change: ``shared`` the channels whose slow level follows
     its shape (``j``'s among them) out of ``group``; ``spread`` the smallest and largest
-    ``|T_c|`` of those, over ``critical``; ``beyond`` the t statistic of ``j``'s shape
-    beyond the others' common trend, positive in the direction of ``j``'s change."""
+    ``|T_c|`` of those, over ``critical``; ``explained``: how many of the other sharing
+    channels explain ``j``'s slow level with no change of ``j``'s own."""
 
     finding: Finding
     shared: tuple[str, ...]
     group: tuple[str, ...]
     spread: tuple[float, float]
     critical: float
-    beyond: float
+    explained: int
     block_s: float
 
 
@@ -242,19 +279,24 @@ def judge(
     shared = [c for c in range(t.size) if sign * t[c] >= crit]
     if len(shared) < MIN_SHARED or 2 * len(shared) <= t.size:
         return None
-    # j's change beyond the common trend, in j's direction: one sensor's fault stays
-    beyond = float(sign * levels.beyond(j, [c for c in shared if c != j], h))
-    if beyond >= crit:
-        return None
+    others = [c for c in shared if c != j]
+    explained = sum(levels.explains(c, j, h, sign, alpha, levels.scan(f)) for c in others)
+    if 2 * explained <= len(others):
+        return None  # j changed beyond the others': one sensor's fault stays
     return CommonChange(
         finding=f,
         shared=tuple(names[c] for c in shared),
         group=tuple(names),
         spread=(float(np.min(np.abs(t[shared]))), float(np.max(np.abs(t[shared])))),
         critical=crit,
-        beyond=beyond,
+        explained=explained,
         block_s=levels.rows / levels.rate_hz,
     )
+
+
+def _t_bound(dof: int, alpha: float) -> float:
+    """The two-sided bound at ``alpha`` of a t statistic with ``dof`` degrees of freedom."""
+    return float(-special.stdtrit(dof, alpha / 2.0))
 
 
 JUDGED = (FaultType.ADDITIVE, FaultType.DRIFT)
@@ -325,7 +367,6 @@ def common_note(changes: Sequence[CommonChange]) -> CommonNote:
         what += f" and {len(ordered) - LISTED} more"
     lo = min(c.spread[0] for c in changes)
     hi = max(c.spread[1] for c in changes)
-    beyond = max(c.beyond for c in changes)
     head = (
         f"a slow change common to {n} of {m} sensors ({', '.join(widest.shared)}) from "
         f"{first.finding.onset_s:.6g} s: temperature or a shared supply, not one sensor's fault"
@@ -334,7 +375,8 @@ def common_note(changes: Sequence[CommonChange]) -> CommonNote:
         f"{head}; not reported: {what}. Each such sensor's slow level ({first.block_s:.3g} s "
         "means, in units of its scatter in the healthy window) follows the fault's shape "
         f"(|t| {lo:.3g} to {hi:.3g}, bound {first.critical:.3g}), and the faulty sensor's "
-        f"no more than the others' common trend explains (t at most {beyond:.3g} beyond it)",
+        "is explained by most of the others' (a factor and a line) with no step, kink or "
+        "shape of its own beyond chance",
         f"{head} ({len(ordered)} drift or offset finding(s) not reported)",
     )
 

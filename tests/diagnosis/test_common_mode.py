@@ -96,6 +96,30 @@ def test_one_sensors_offset_on_top_of_a_common_drift_stays(seed):
     assert run(y, names, f) == ([f], [])
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_an_offset_on_a_drifting_building_reported_as_an_earlier_drift_stays(seed):
+    # sweep_eov --fault --cases thermal, 6 ch seed 2: the offset of s5 from 365 s was
+    # reported as a drift from 220 s, a shape the common trend explains; its step does not
+    y, names = building(3, seed)
+    y = common_drift(y, 1.0)
+    k = (seed + 2) % len(names)
+    y[int(0.6 * y.shape[0]) :, k] += 2.0 * y[TRAIN[0] : TRAIN[1], k].std()
+    f = finding(names[k], FaultType.DRIFT, 0.35 * SECONDS)
+    assert run(y, names, f) == ([f], [])
+
+
+def test_another_sensors_fault_does_not_hide_a_common_change():
+    # thermalgain --fault, 4 ch seed 4: s1's offset from 365 s made the others' median
+    # trace step, and the false drift of s2 stayed; most single channels explain s2
+    y, names = building(2, 4)
+    y = common_drift(y, 2.0, np.random.default_rng(4).uniform(0.5, 1.5, len(names)))
+    y[int(0.6 * y.shape[0]) :, 1] += 2.0 * y[TRAIN[0] : TRAIN[1], 1].std()
+    false = finding("s2", FaultType.DRIFT, 0.2 * SECONDS)
+    real = finding("s1", FaultType.ADDITIVE, 0.6 * SECONDS)
+    kept, notes = run(y, names, false, real)
+    assert kept == [real] and len(notes) == 1
+
+
 def test_two_sensors_offsets_at_once_are_not_most_of_the_group():
     y, names = building(3, 7)
     at = int(0.6 * y.shape[0])
@@ -161,7 +185,7 @@ def test_judge_names_the_sharing_channels_and_the_bound():
     assert verdict is not None
     assert verdict.shared == tuple(names)
     assert verdict.spread[0] >= verdict.critical
-    assert verdict.beyond < verdict.critical
+    assert verdict.explained > (len(names) - 1) / 2  # most others explain s5's level
 
 
 def test_a_run_on_a_building_that_warms_reports_no_fault_but_the_change(tmp_path):
