@@ -320,7 +320,8 @@ def common_changes(
     channels only); ``train``: the healthy window's rows. The slow levels are computed
     only for groups with a drift or offset finding.
 
-    Measured (CPU time, one BLAS thread): 16 channels, one hour at 100 Hz: 9 ms."""
+    Measured (CPU time, one BLAS thread): 16 channels, one hour at 100 Hz: 17 ms with
+    one finding judged, 30 ms with two."""
     index = {c: k for k, c in enumerate(channels)}
     judged: dict[tuple[str, ...], list[CommonChange]] = {}
     levels: dict[tuple[str, ...], SlowLevels | None] = {}
