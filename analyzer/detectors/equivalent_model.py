@@ -23,14 +23,15 @@ alarms are isolated by the network's laws (Section 6.2).
 from __future__ import annotations
 
 import numbers
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass
-from typing import Any, ClassVar
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
 from analyzer.config import measured_inputs
+from analyzer.detectors.ar_kalman import RELATIVE_CONSISTENCY
 from analyzer.detectors.assistant_observer import (
     AssistantObserver,
     Pretreatment,
@@ -49,7 +50,13 @@ from analyzer.detectors.base import (
 from analyzer.detectors.detection_filter import UNCONFIRMED_FACTOR, long_run_time
 from analyzer.detectors.lowpass import LowpassPieces
 from analyzer.detectors.network import NetworkDiagnosis, Propagation, SensorNetwork
-from analyzer.diagnosis.changes import Calibration, calibrate, default_window
+from analyzer.diagnosis.changes import (
+    LONG_FACTOR,
+    Calibration,
+    alarm_statistic,
+    calibrate,
+    default_window,
+)
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.diagnosis.streamed import row_moments
 from analyzer.errors import DetectorError
@@ -107,6 +114,10 @@ class FittedEquivalentModel:
     observers: tuple[TargetObserver, ...]
     window: int
     settle: int
+    chained: Mapping[tuple[str, str], Calibration] = field(default_factory=dict)
+    """``(t, s)``: the healthy calibration of target ``t``'s residual with assistant ``s``'s
+    fault estimate taken out (:func:`chain`), for every edge ``s -> t`` of two sensors with
+    an observer (an edge whose calibration failed, for too little data, has none)."""
 
 
 class EquivalentModel:
@@ -311,9 +322,12 @@ class EquivalentModel:
             ass += [data.index(c) for c in known if c != uch]
             tasks.append((self, shared, data.index(s), ass, ui, (dt, l1, l2), window, far))
         fitted = context.map(_fit_observer_task, tasks)
-        observers = tuple(ob for ob, _ in fitted)
-        settle = max((lag for _, lag in fitted), default=0)
-        return FittedEquivalentModel(net, observers, window, settle)
+        observers = tuple(ob for ob, _, _ in fitted)
+        settle = max((lag for _, lag, _ in fitted), default=0)
+        held = {data.channels[ob.target]: halves for ob, _, halves in fitted}
+        del fitted
+        chained = _chained_calibrations(net, observers, held, data.channels, window, far)
+        return FittedEquivalentModel(net, observers, window, settle, chained)
 
     def _fit_observer(
         self,
@@ -324,26 +338,30 @@ class EquivalentModel:
         rates: tuple[float, float, float],
         window: int,
         far: float,
-    ) -> tuple[TargetObserver, int]:
+    ) -> tuple[TargetObserver, int, list[FloatArray]]:
         """The observer of sensor ``i`` from its assistants ``ass`` (input ``ui``), its
-        healthy calibration, and the samples it needs to settle."""
+        healthy calibration, the samples it needs to settle, and its held-out healthy fault
+        estimate (:meth:`_held_out_estimate`, whole halves: the chained residuals of its
+        edges are calibrated on them)."""
         dt, l1, l2 = rates
         rel = fit_relation(train, i, ass, self.lags, self.max_lags)
         pre = pretreat(train[:, i], None if ui is None else train[:, ui], dt, l2, self.table)
         obs = AssistantObserver(pre.a, pre.b, l1, l2, dt)
         phi = float(np.exp(-l1 * dt))
         lag = _settle_samples(rel, phi)
-        z = self._held_out_estimate(obs, rel, train, i, lag)
+        halves = self._held_out_estimate(obs, rel, train, i)
+        z = [h[_head(lag, h.shape[0]) :] for h in halves]
         cal = calibrate(z, window, far)
-        return TargetObserver(i, rel, obs, pre, ui, cal, long_run_time(z, window)), lag
+        return TargetObserver(i, rel, obs, pre, ui, cal, long_run_time(z, window)), lag, halves
 
     def _held_out_estimate(
-        self, obs: AssistantObserver, rel: Relation, train: FloatArray, i: int, skip: int
+        self, obs: AssistantObserver, rel: Relation, train: FloatArray, i: int
     ) -> list[FloatArray]:
         """The healthy fault estimate for calibration, out of sample: the relation is
         refitted on each half of the training window (same lags) and evaluated on the
         other half, so the thresholds reflect how well it predicts data it has not seen.
-        The two halves in time order, to be read as one series (not concatenated)."""
+        The two halves in time order, to be read as one series (not concatenated), each
+        from its first row (the observer settles over its head: :func:`_head`)."""
         n = train.shape[0]
         half = n // 2
         parts = []
@@ -356,10 +374,9 @@ class EquivalentModel:
             except DetectorError:
                 r_half = rel  # too little data for halves: fall back to in-sample
             zeta, _ = self._fault_estimate(obs, r_half, train, i)
-            seg = zeta[eval_rows]
             # a copy of the half it evaluates: the estimate over the whole window is freed
-            parts.append(seg[min(skip, seg.shape[0] // 4) :].copy())
-            del zeta, seg
+            parts.append(zeta[eval_rows].copy())
+            del zeta
         return parts[::-1]
 
     @staticmethod
@@ -496,13 +513,42 @@ class EquivalentModel:
                     out.add(name)
             return out
 
-        events, notes, decisions = self._isolate(net, cands, slack_s, blind)
-        # alarms the network's laws left ambiguous: no sensor named
+        chains = {
+            (t, a): (ob.relation.coef[ob.relation.assistants.index(data.index(a))], cal)
+            for ob in model.observers
+            for (t, a), cal in model.chained.items()
+            if data.channels[ob.target] == t
+        }
+        cals = {data.channels[ob.target]: ob.cal for ob in model.observers}
+        long = LONG_FACTOR * model.window
+
+        def grade(s: str, t0: float) -> Grade:
+            """Every residual's violation over the bank's window at an alarm of ``s``
+            from ``t0`` (from ``window`` before it to two long windows after), and those
+            of the chained residuals of ``s``'s targets (:func:`chain`)."""
+            k0 = int(round(t0 * rate))
+            lo = max(data.train[1], k0 - model.window)
+            hi = min(values.shape[0], k0 + 2 * long)
+            a = max(0, lo - long)  # the samples that fill the windows at ``lo``
+            own = {n: _violation(residuals[n][a:hi], cals[n], lo - a) for n in residuals}
+            chained = {}
+            for t in net.targets(s):
+                if (t, s) not in chains:
+                    continue
+                h, cal = chains[t, s]
+                b = max(0, a - h.shape[0] + 1)  # and the FIR's memory
+                c = chain(residuals[t][b:hi], residuals[s][b:hi], h)
+                chained[t] = _violation(c, cal, lo - b)
+            return Grade(own, chained)
+
+        events, notes, decisions = self._isolate(net, cands, slack_s, blind, grade)
+        # alarms the network's laws left ambiguous: no sensor named; and alarms of data
+        # that changed as a whole (:func:`_judge`)
         unattributed = [
             (float(d["onset_s"]), tuple(d["ambiguous"]), tuple(d["faulty"]))
             for d in decisions
             if d["sensor"] in d["ambiguous"] and not d.get("blind")
-        ]
+        ] + [(float(d["onset_s"]), tuple(d["changed"]), ()) for d in decisions if "changed" in d]
         undecided: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = [
             (float(d["onset_s"]), (str(d["sensor"]),), tuple(str(b) for b in d["blind"]))
             for d in decisions
@@ -556,13 +602,20 @@ class EquivalentModel:
         cands: Mapping[str, list[Event]],
         slack_s: float,
         blind: Callable[[float], set[str]] | None = None,
+        grade: Callable[[str, float], Grade] | None = None,
     ) -> tuple[list[Event], list[str], list[dict[str, Any]]]:
         """Keep the events the network's laws attribute to their own sensor: for each
         event, the alarming set is every sensor whose residual alarms at (or first alarms
         within ``slack_s`` of) the event's first alarm; :meth:`SensorNetwork.diagnose`
         decides. First alarms are used, not fitted onsets, which a drift fit may move.
         An event that no target sensor's residual confirms is noted, not reported, when it
-        has no fault shape or is over within ``slack_s`` (the long window)."""
+        has no fault shape or is over within ``slack_s`` (the long window).
+
+        ``grade(s, t0)``: the residuals' violations at an alarm of ``s`` (:class:`Grade`).
+        With it, law 0's verdict is weighed (:func:`_judge`): an alarming target confirms
+        ``s`` only when ``s``'s fault estimate explains its alarm, and an alarm that the
+        residuals blind to ``s`` share is attributed to no sensor (the data changed as a
+        whole). Without it, every alarming target confirms (the alarms alone)."""
 
         def first(e: Event) -> float:
             return float(e.evidence.get("first_alarm_s", e.onset_s))
@@ -618,6 +671,18 @@ class EquivalentModel:
                 and not stale(t)
                 and not any(d != s and stale(d) for d in diag.propagated[t])
             ]
+            if s in diag.faulty and grade is not None:
+                lasting = {
+                    r for r, e, _, _, _ in accepted if r != s and (e.end_s is None or e.end_s >= t0)
+                }
+                judged = _judge(net, s, confirmed, grade(s, t0), lasting)
+                decisions[-1]["grade"] = judged.evidence
+                confirmed = judged.confirmed
+                if judged.changed is not None:
+                    decisions[-1]["changed"] = sorted(alarming)
+                    put_down[id(ev)] = ("changed", ())
+                    notes.append(f"alarm on {s} at {t0:.3f} s not attributed: {judged.changed}")
+                    continue
             if s in diag.faulty:
                 put_down[id(ev)] = ("confirmed" if confirmed else "own", ())
             elif s in diag.propagated:
@@ -646,6 +711,8 @@ class EquivalentModel:
                         "confirmed_by": confirmed,
                     }
                 )
+                if "grade" in decisions[-1]:
+                    ev.evidence["grade"] = decisions[-1]["grade"]
                 if not confirmed:
                     ev.confidence *= UNCONFIRMED_FACTOR
                 events.append(ev)
@@ -707,11 +774,207 @@ class EquivalentModel:
         return events, notes, decisions
 
 
-def _fit_observer_task(task: tuple[Any, ...]) -> tuple[TargetObserver, int]:
+def _fit_observer_task(task: tuple[Any, ...]) -> tuple[TargetObserver, int, list[FloatArray]]:
     """:meth:`EquivalentModel._fit_observer` on one tuple (what an executor maps)."""
     det, *args = task
-    out: tuple[TargetObserver, int] = det._fit_observer(*args)
+    out: tuple[TargetObserver, int, list[FloatArray]] = det._fit_observer(*args)
     return out
+
+
+def _head(skip: int, n: int) -> int:
+    """Samples left out at the head of a held-out half of ``n`` samples while the observer
+    settles from its start: ``skip``, at most a quarter of the half."""
+    return min(skip, n // 4)
+
+
+def chain(zeta_t: FloatArray, zeta_s: FloatArray, h_ts: FloatArray) -> FloatArray:
+    """Target ``t``'s residual with assistant ``s``'s fault estimate taken out,
+    ``zeta_t + h_ts * zeta_s`` (``h_ts``: the FIR that ``t``'s relation applies to ``s``).
+
+    The observers are linear and time-invariant: a fault ``f`` on ``s`` gives ``s``'s
+    residual ``L f`` and ``t``'s ``-h_ts * L f`` (``L`` the observer's low-pass, Eq. 30),
+    so the sum holds none of it, whatever its shape. It is ``t``'s relation with ``s``'s
+    reading replaced by ``s``'s estimate from its own assistants: a residual that cannot
+    see ``s``. NaN where either residual is NaN within the FIR's memory."""
+    zt = np.asarray(zeta_t, dtype=np.float64)
+    zs = np.asarray(zeta_s, dtype=np.float64)
+    gap = ~np.isfinite(zs)
+    out = zt + _fir(h_ts, np.where(gap, 0.0, zs))
+    out[dilate_forward(gap, h_ts.shape[0] - 1)] = np.nan
+    return out
+
+
+def _fir(h: FloatArray, x: FloatArray) -> FloatArray:
+    """``sum_l h[l] x[k - l]`` (zero before the first sample)."""
+    return np.convolve(x, h)[: x.shape[0]]
+
+
+def _chained_calibrations(
+    net: SensorNetwork,
+    observers: Sequence[TargetObserver],
+    held: Mapping[str, list[FloatArray]],
+    names: Sequence[str],
+    window: int,
+    far: float,
+) -> dict[tuple[str, str], Calibration]:
+    """The healthy calibration of :func:`chain` for every edge ``s -> t`` between two
+    sensors with an observer, on their held-out fault estimates (``held``: each target's
+    two halves, :meth:`EquivalentModel._held_out_estimate`), as each observer's own is
+    calibrated: the chained residual predicts data its relations were not fitted on. An
+    edge with too little data for it has none (its target confirms as before)."""
+    by_name = {names[ob.target]: ob for ob in observers}
+    out: dict[tuple[str, str], Calibration] = {}
+    for t, ob in by_name.items():
+        for s in net.assistant_sensors(t):
+            if s not in by_name:
+                continue
+            h = ob.relation.coef[ob.relation.assistants.index(by_name[s].target)]
+            skip = (
+                max(
+                    _settle_samples(ob.relation, _phi(ob.observer)),
+                    _settle_samples(by_name[s].relation, _phi(by_name[s].observer)),
+                )
+                + h.shape[0]
+            )
+            parts = []
+            for zt, zs in zip(held[t], held[s], strict=True):
+                c = chain(zt, zs, h)
+                parts.append(c[_head(skip, c.shape[0]) :])
+            try:
+                out[t, s] = calibrate(parts, window, far)
+            except DetectorError:
+                continue
+    return out
+
+
+MOSTLY = 0.5
+"""A target's alarm confirms a fault on its assistant ``s`` when ``s``'s fault estimate
+accounts for most of it: with the estimate taken out (:func:`chain`) the target's residual
+is back under its threshold and at most this fraction of its violation."""
+
+
+@dataclass(frozen=True, slots=True)
+class Grade:
+    """The residuals' violations at an alarm: each residual's largest alarm statistic in
+    units of its threshold (below 1 while it is consistent) over a window at the alarm,
+    ``own`` by sensor, ``chained`` by target of the alarming sensor (:func:`chain`)."""
+
+    own: dict[str, float]
+    chained: dict[str, float]
+
+
+class Judgement(NamedTuple):
+    """:func:`_judge`'s verdict: the targets that confirm, why no sensor is blamed
+    (``changed``, None when law 0's verdict stands) and the numbers behind it."""
+
+    confirmed: list[str]
+    changed: str | None
+    evidence: dict[str, Any]
+
+
+def _judge(
+    net: SensorNetwork,
+    s: str,
+    alarmed: Sequence[str],
+    grade: Grade,
+    lasting: Collection[str] = (),
+) -> Judgement:
+    """Law 0 weighed by the residuals' violations, for an alarm of ``s`` that law 0 names
+    (no assistant of ``s`` alarms) while its targets ``alarmed`` alarm with it.
+
+    Law 0 reads "not over its threshold" as "no fault there": a change of the response's
+    level or colour alarms the residuals with a large share of model error together, and
+    law 0 then names a sensor whose assistants' residuals happen to be noise-dominated,
+    while its targets' coincident alarms looked like its fault reaching them (Probe P1,
+    burst3 on 4 channels: s1 named, "confirmed" by s2, both residuals mostly model error).
+    As the bank decides between its leave-out estimators (``RELATIVE_CONSISTENCY``):
+
+    * the residuals that cannot see ``s`` (those of the sensors whose relation does not
+      use it, and its targets' chained residuals) are about as far over their thresholds
+      as ``s``'s own: their median violation is over 1 and more than
+      ``RELATIVE_CONSISTENCY`` times ``s``'s. The data changed as a whole (excitation or
+      structure), which no single sensor fault explains;
+    * a target confirms ``s`` when its residual alarms (over 1) and its chained residual,
+      which holds no fault of ``s``'s, is quiet: under 1 and at most :data:`MOSTLY` of
+      its own violation. A target whose chained residual alarms (over 1 and more than
+      ``RELATIVE_CONSISTENCY`` times its own) contradicts ``s``'s fault, which would leave
+      it healthy; when only such targets speak, the alarm is not ``s``'s doing either.
+
+    The targets are weighed whether or not their alarm began with ``s``'s (a target
+    whose alarm began with a burst and lasted into a fault of ``s``'s confirms it by its
+    chained residual); ``alarmed`` (the alarming ones) confirm by their alarm alone when
+    the edge has no chained calibration. Residuals that see a sensor with a fault found
+    earlier and still under way (``lasting``) say nothing of this one and are left out.
+    A real fault of ``s`` leaves the residuals that cannot see it healthy, so neither
+    rule refuses it."""
+    own = grade.own.get(s, 0.0)
+
+    def sees_lasting(n: str, without: str | None = None) -> bool:
+        seen = {n} | net.dependencies(n)
+        if without is not None:  # a chained residual: s's reading replaced by s's estimate
+            seen = (seen - {without}) | net.dependencies(without)
+        return bool(seen & set(lasting))
+
+    blind = [
+        v
+        for n, v in grade.own.items()
+        if n != s and s not in net.dependencies(n) and not sees_lasting(n)
+    ] + [v for t, v in grade.chained.items() if not sees_lasting(t, s)]
+    typical = float(np.median(blind)) if blind else 0.0
+    evidence: dict[str, Any] = {
+        "violation": own,
+        "blind_median": typical,
+        "targets": {t: [grade.own.get(t, 0.0), grade.chained[t]] for t in grade.chained},
+    }
+    if typical >= 1.0 and typical > RELATIVE_CONSISTENCY * own:
+        return Judgement(
+            [],
+            f"the residuals that cannot see {s} are about as far over their thresholds "
+            f"(median {typical:.2f} of threshold) as its own ({own:.2f}): the data changed "
+            "as a whole (a change of the structure or excitation), which no single sensor "
+            "fault explains",
+            evidence,
+        )
+    confirmed, refuted = [], []
+    for t in net.targets(s):
+        if t not in grade.chained:
+            if t in alarmed:  # no chained residual to weigh it by: its alarm alone
+                confirmed.append(t)
+            continue
+        if sees_lasting(t, s):
+            continue
+        v, c = grade.own.get(t, 0.0), grade.chained[t]
+        if v >= 1.0 and c < 1.0 and c <= MOSTLY * v:
+            confirmed.append(t)
+        elif c >= 1.0 and c > RELATIVE_CONSISTENCY * v:
+            refuted.append(t)
+    if refuted and not confirmed:
+        worst = max(refuted, key=lambda t: grade.chained[t])
+        return Judgement(
+            [],
+            f"its fault estimate explains none of its target sensors' residuals: without "
+            f"it, the residual of {', '.join(refuted)} still alarms ({worst}'s at "
+            f"{grade.chained[worst]:.2f} of its threshold), so the residuals changed beyond "
+            "one sensor's fault (a change of the structure or excitation)",
+            evidence,
+        )
+    return Judgement(confirmed, None, evidence)
+
+
+def _violation(x: npt.NDArray[Any], cal: Calibration, history: int) -> float:
+    """Largest alarm statistic of the residual ``x`` (channel units) from sample
+    ``history`` on, the samples before filling its windows: below 1 while the residual
+    is consistent (NaNs count as gaps). 0 for no sample."""
+    arr = np.asarray(x, dtype=np.float64)
+    if arr.shape[0] <= history:
+        return 0.0
+    stat = alarm_statistic(arr, cal, raw=True, start=history, base=history)
+    return float(np.max(stat, initial=0.0))
+
+
+def _phi(obs: AssistantObserver) -> float:
+    """The observer's pole per sample, ``exp(-lambda1 dt)``."""
+    return float(np.exp(-obs.lambda1 * obs.dt))
 
 
 def _observer_task(
