@@ -522,10 +522,13 @@ class EquivalentModel:
         cals = {data.channels[ob.target]: ob.cal for ob in model.observers}
         long = LONG_FACTOR * model.window
 
-        def grade(s: str, t0: float) -> Grade:
+        def grade(s: str, t0: float, also: Collection[str] = ()) -> Grade:
             """Every residual's violation over the bank's window at an alarm of ``s``
             from ``t0`` (from ``window`` before it to two long windows after), and those
-            of the chained residuals of ``s``'s targets (:func:`chain`)."""
+            of the chained residuals of ``s``'s targets (:func:`chain`), with the fault
+            estimates of the sensors ``also`` taken out too where ``s``'s relation or a
+            target's uses them (calibrated as the edge ``s -> t`` alone: each estimate
+            taken out adds its noise, which makes such a residual quiet less readily)."""
             k0 = int(round(t0 * rate))
             lo = max(data.train[1], k0 - model.window)
             hi = min(values.shape[0], k0 + 2 * long)
@@ -536,8 +539,17 @@ class EquivalentModel:
                 if (t, s) not in chains:
                     continue
                 h, cal = chains[t, s]
-                b = max(0, a - h.shape[0] + 1)  # and the FIR's memory
-                c = chain(residuals[t][b:hi], residuals[s][b:hi], h)
+                # s's fault estimate, and t's residual, clear of those of ``also``
+                into_s = [o for o in also if (s, o) in chains]
+                into_t = [o for o in also if o not in (s, t) and (t, o) in chains]
+                firs = [chains[s, o][0] for o in into_s] + [chains[t, o][0] for o in into_t]
+                b = max(0, a - sum(f.shape[0] - 1 for f in [h, *firs]))  # the FIRs' memory
+                zs = residuals[s][b:hi]
+                for o in into_s:
+                    zs = chain(zs, residuals[o][b:hi], chains[s, o][0])
+                c = chain(residuals[t][b:hi], zs, h)
+                for o in into_t:
+                    c = chain(c, residuals[o][b:hi], chains[t, o][0])
                 chained[t] = _violation(c, cal, lo - b)
             return Grade(own, chained)
 
@@ -602,7 +614,7 @@ class EquivalentModel:
         cands: Mapping[str, list[Event]],
         slack_s: float,
         blind: Callable[[float], set[str]] | None = None,
-        grade: Callable[[str, float], Grade] | None = None,
+        grade: Callable[..., Grade] | None = None,
     ) -> tuple[list[Event], list[str], list[dict[str, Any]]]:
         """Keep the events the network's laws attribute to their own sensor: for each
         event, the alarming set is every sensor whose residual alarms at (or first alarms
@@ -675,7 +687,21 @@ class EquivalentModel:
                 lasting = {
                     r for r, e, _, _, _ in accepted if r != s and (e.end_s is None or e.end_s >= t0)
                 }
-                judged = _judge(net, s, confirmed, grade(s, t0), lasting)
+                judged = _judge(
+                    net,
+                    s,
+                    confirmed,
+                    grade(s, t0),
+                    lasting,
+                    lambda other, out, t0=t0: grade(other, t0, out),  # type: ignore[misc]
+                )
+                if judged.second is not None:
+                    notes.append(
+                        f"alarm on {s} at {t0:.3f} s: the residuals that cannot see it alarm "
+                        f"with a second fault, on {judged.second}, which its own target "
+                        "sensors' residuals confirm (two faults at once, not a change of the "
+                        "data as a whole)"
+                    )
                 decisions[-1]["grade"] = judged.evidence
                 confirmed = judged.confirmed
                 if judged.changed is not None:
@@ -870,6 +896,9 @@ class Judgement(NamedTuple):
     confirmed: list[str]
     changed: str | None
     evidence: dict[str, Any]
+    second: str | None = None
+    """The sensor of a second fault from the same instant that explains the alarms of the
+    residuals blind to ``s`` (:func:`_second_fault`), or None."""
 
 
 def _judge(
@@ -878,6 +907,7 @@ def _judge(
     alarmed: Sequence[str],
     grade: Grade,
     lasting: Collection[str] = (),
+    regrade: Callable[[str, Collection[str]], Grade] | None = None,
 ) -> Judgement:
     """Law 0 weighed by the residuals' violations, for an alarm of ``s`` that law 0 names
     (no assistant of ``s`` alarms) while its targets ``alarmed`` alarm with it.
@@ -906,7 +936,14 @@ def _judge(
     the edge has no chained calibration. Residuals that see a sensor with a fault found
     earlier and still under way (``lasting``) say nothing of this one and are left out.
     A real fault of ``s`` leaves the residuals that cannot see it healthy, so neither
-    rule refuses it."""
+    rule refuses it.
+
+    Two faults from the same instant alarm the residuals blind to ``s`` too, those that
+    see the other. Before refusing, the second fault is tried (``regrade(s2, out)``: the
+    violations at an alarm of ``s2`` with the fault estimates of ``out`` taken out,
+    :func:`_second_fault`): when one sensor explains every alarm of the residuals blind
+    to ``s`` and its own target sensors confirm it, it is left out as a fault under way
+    is, and ``s`` is judged by the rest."""
     own = grade.own.get(s, 0.0)
 
     def sees_lasting(n: str, without: str | None = None) -> bool:
@@ -927,6 +964,12 @@ def _judge(
         "targets": {t: [grade.own.get(t, 0.0), grade.chained[t]] for t in grade.chained},
     }
     if typical >= 1.0 and typical > RELATIVE_CONSISTENCY * own:
+        second = None if regrade is None else _second_fault(net, s, grade, set(lasting), regrade)
+        if second is not None:
+            judged = _judge(net, s, alarmed, grade, {*lasting, second})
+            if judged.changed is None:
+                judged.evidence["second"] = second
+                return judged._replace(second=second)
         return Judgement(
             [],
             f"the residuals that cannot see {s} are about as far over their thresholds "
@@ -959,6 +1002,58 @@ def _judge(
             evidence,
         )
     return Judgement(confirmed, None, evidence)
+
+
+def _second_fault(
+    net: SensorNetwork,
+    s: str,
+    grade: Grade,
+    lasting: set[str],
+    regrade: Callable[[str, Collection[str]], Grade],
+) -> str | None:
+    """The one sensor ``s2`` whose fault, with ``s``'s, explains the alarms of the
+    residuals blind to ``s`` (:func:`_judge`), and which passes the confirmation ``s``
+    would: ``s2``'s residual alarms, and one of its target sensors ``t`` alarms, both with
+    ``s``'s fault estimate taken out (where their relations use ``s``), and is quiet with
+    ``s2``'s taken out too (under 1 and at most :data:`MOSTLY` of it; ``s2``'s estimate
+    clear of ``s``'s). None when no sensor does.
+
+    The network's law 0 for two faults at once (:meth:`SensorNetwork._smallest_explanations`)
+    on the residuals that cannot see ``s``: each alarming one must depend on ``s2`` (be its
+    residual, or use it). A change of the whole response alarms residuals that no one
+    sensor links, and a sensor they happen to share is not confirmed: its targets'
+    residuals, its fault estimate taken out, alarm on."""
+
+    def seen(n: str, without: str | None = None) -> set[str]:
+        out = {n} | net.dependencies(n)
+        if without is not None:  # a chained residual: s's reading replaced by s's estimate
+            out = (out - {without}) | net.dependencies(without)
+        return out
+
+    alarms = [
+        seen(n)
+        for n, v in grade.own.items()
+        if v >= 1.0 and n != s and s not in net.dependencies(n) and not seen(n) & lasting
+    ] + [seen(t, s) for t, v in grade.chained.items() if v >= 1.0 and not seen(t, s) & lasting]
+    if not alarms:
+        return None
+    shared = set.intersection(*alarms) - {s} - lasting
+
+    def alarm(n: str) -> float:  # n's violation with s's fault estimate taken out
+        return grade.chained.get(n, grade.own.get(n, 0.0))
+
+    for s2 in sorted(shared, key=lambda n: -alarm(n)):
+        if alarm(s2) < 1.0:
+            continue
+        g2 = regrade(s2, {s, *lasting})
+        for t in net.targets(s2):
+            if t == s or t not in g2.chained or seen(t) & lasting:
+                continue
+            # t's alarm once s's fault estimate is taken out, then s2's too
+            v, c = alarm(t), g2.chained[t]
+            if v >= 1.0 and c < 1.0 and c <= MOSTLY * v:
+                return s2
+    return None
 
 
 def _violation(x: npt.NDArray[Any], cal: Calibration, history: int) -> float:
