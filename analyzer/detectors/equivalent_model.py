@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numbers
 from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
@@ -118,6 +118,17 @@ class FittedEquivalentModel:
     """``(t, s)``: the healthy calibration of target ``t``'s residual with assistant ``s``'s
     fault estimate taken out (:func:`chain`), for every edge ``s -> t`` of two sensors with
     an observer (an edge whose calibration failed, for too little data, has none)."""
+
+    def __setstate__(self, state: tuple[Any, ...]) -> None:
+        """Unpickled (a model file): one saved before the chained calibrations existed
+        holds four fields; its edges then have none, and a target confirms an alarm by
+        its own alarm, as before (its model file used to end ``--model`` with an internal
+        error)."""
+        names = [f.name for f in fields(self)]
+        for name, value in zip(names, state, strict=False):
+            object.__setattr__(self, name, value)
+        if len(state) < len(names):
+            object.__setattr__(self, "chained", {})
 
 
 class EquivalentModel:

@@ -236,3 +236,20 @@ def test_two_simultaneous_offsets_are_not_refused_as_a_whole_change():
     assert [(e.channel, e.type) for e in res.events] == [(names[1], FaultType.ADDITIVE)]
     assert res.events[0].evidence["grade"]["second"] == names[3]
     assert not any("changed as a whole" in n for n in res.notes)
+
+
+def test_a_model_pickled_before_the_chained_calibrations_loads_without_them():
+    """A model file saved before the chained calibrations holds four fields: unpickled,
+    its edges have none (a target confirms by its own alarm), not an AttributeError
+    that ended ``--model`` with an internal error."""
+    import pickle
+
+    from analyzer.detectors.equivalent_model import FittedEquivalentModel
+    from analyzer.detectors.network import SensorNetwork
+
+    net = SensorNetwork.ring(["s0", "s1", "s2"])
+    new = FittedEquivalentModel(net, (), 25, 3, {("s1", "s0"): None})  # type: ignore[dict-item]
+    assert pickle.loads(pickle.dumps(new)).chained == {("s1", "s0"): None}
+    old = object.__new__(FittedEquivalentModel)
+    old.__setstate__((net, (), 25, 3))  # what a four-field pickle hands over
+    assert old.chained == {} and old.window == 25 and old.settle == 3
