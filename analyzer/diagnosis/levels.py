@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.diagnosis.changes import _runs
 from analyzer.paging import release
 
 FloatArray = npt.NDArray[np.float64]
@@ -164,12 +165,6 @@ def level_note(levels: Levels | None) -> str:
         "fitted on; a finding there may be that change rather than a sensor's fault (the "
         "report's response-level map shows whether its sensor stands out)"
     )
-
-
-def _runs(mask: BoolArray) -> list[tuple[int, int]]:
-    """Half-open ``[start, stop)`` index runs where ``mask`` is True."""
-    d = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
-    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist(), strict=True))
 
 
 __all__ = [
