@@ -118,6 +118,15 @@ CONSISTENCY_PIECE = 1 << 17
 """Rows of consistency recomputed at once around a fault (each piece after its own
 warm-up): bounds the memory of a window that spans a long fault."""
 
+SPREAD_SIGMAS = 3.0
+"""A gain that no estimator confirmed is refused when the other sensors' residuals move
+against its spread (:meth:`ARKalmanBank._spread`: ratio below zero) by more than this
+many standard errors: a sensor's fault shows there with ratio 1. Gains only: a gain's
+correction follows the sensor's own reading, so the ratio's error is what the residuals'
+correlation time says; an offset's or a drift's is a slow step or ramp, against which a
+real record's residuals wander in ways that time does not capture (an injected drift on
+SKAB's pump, taken for an offset, came out at -24.6 +- 1.3)."""
+
 UNCONFIRMED_FACTOR = 0.75
 """Confidence factor for a fault seen on its sensor's residual while no estimator that
 uses the sensor became inconsistent (a small fault: located, but not confirmed)."""
@@ -433,6 +442,28 @@ class ARKalmanBank:
                 )
                 continue
             ((j, a, b),) = spans
+            # a gain says how far the other residuals carry its spread, and one that no
+            # estimator confirmed is refused when they move against it
+            ratio, se = (
+                self._spread(model, Y, fixes, out, j, a, b, cls, rate)
+                if cls.type is FaultType.MULTIPLICATIVE
+                else (float("nan"), float("inf"))
+            )
+            if np.isfinite(ratio):
+                ev.evidence["spread"] = {"ratio": ratio, "se": se}
+            if ev.evidence.get("isolated") is False and ratio + SPREAD_SIGMAS * se < 0.0:
+                explained.append((j, a, b))
+                t = a / rate
+                unattributed.append((t, (data.channels[j],), ()))
+                notes.append(
+                    f"gain-like change of residual at {t:.3f} s on {data.channels[j]} "
+                    "not attributed to the sensor: no estimator confirmed it, and the "
+                    f"estimators that take {data.channels[j]} in move against the change "
+                    f"its correction would take out of them ({ratio:+.2f} times it, "
+                    f"+- {se:.2f}; a sensor's fault shows there 1 time): the structure's "
+                    "response changed (a load of another colour, say), not the sensor"
+                )
+                continue
             ev.channel = data.channels[j]
             events.append(ev)
             explained.append((j, a, b))
@@ -503,6 +534,57 @@ class ARKalmanBank:
             notes=notes,
             unattributed=unattributed,
         )
+
+    def _spread(
+        self,
+        model: FittedBank,
+        Y: FloatArray,
+        fixes: list[tuple[int, int, int, FloatArray]],
+        out: BankOutputs,
+        j: int,
+        a: int,
+        b: int,
+        cls: Classification,
+        rate: float,
+    ) -> tuple[float, float]:
+        """How much of its own spread a fault on sensor ``j`` over rows ``a .. b - 1``
+        leaves in the other sensors' residuals: the least-squares ratio of those
+        residuals (with ``fixes``) to the change the fault's correction makes to them,
+        and its standard error, over the fault's first :data:`CONSISTENCY_PIECE` rows.
+
+        Every estimator but ``j``'s takes sensor ``j``'s reading in, so a fault on it
+        reaches their residuals through their gains on it; correcting the reading
+        (:func:`_undo_fault`) changes them by ``d_i``. Where the fault is real they
+        carry ``d_i`` (ratio 1); where sensor ``j``'s residual changed for another
+        reason (the model's error under a load of another colour) they do not, and
+        correcting it adds ``-d_i`` to them. Residuals and changes are scaled by each
+        residual's healthy deviation; the error takes the residuals' median correlation
+        time as the samples per independent one. ``(nan, inf)`` when the correction
+        changes nothing (no estimator takes the sensor in)."""
+        assert model.bank is not None
+        N, m = Y.shape
+        q = min(b, a + CONSISTENCY_PIECE, N)
+        s = max(0, a - model.bank.warmup)
+        seg = _corrected_rows(Y, fixes, s, q)
+        seg[a - s :, j] = _undo_fault(
+            seg[a - s :, j].copy(), np.asarray(out.est[a:q, j]), cls, rate
+        )
+        rows = BankOutputs(np.empty((q - s, m)), np.empty((q - s, m)), None)
+        self._bank_outputs(model, seg, None, start=a - s, stop=q - s, into=rows, consistency=False)
+        del seg
+        others = [i for i in range(m) if i != j]
+        sig = np.array([model.residual_cal[i].std for i in others])
+        r = np.asarray(out.resid[a:q][:, others], dtype=np.float64)
+        release(out.resid)
+        z = r / sig
+        d = (r - rows.resid[a - s :, others]) / sig
+        ok = np.isfinite(z) & np.isfinite(d)
+        z, d = np.where(ok, z, 0.0), np.where(ok, d, 0.0)
+        dd = float(np.sum(d * d))
+        if not dd > 0.0:
+            return float("nan"), float("inf")
+        tau = float(np.median([model.tau[i] for i in others]))
+        return float(np.sum(z * d) / dd), float(np.sqrt(tau / dd))
 
     def _consistency(
         self,
