@@ -32,6 +32,7 @@ from analyzer.detectors import Dataset, DetectorResult, RunContext
 from analyzer.detectors.ar_model import flat_channels
 from analyzer.diagnosis import Finding, merge_events, one_fault_at_a_time
 from analyzer.diagnosis.changes import LONG_FACTOR, default_window
+from analyzer.diagnosis.clipping import merge_clipped
 from analyzer.diagnosis.common_mode import common_changes
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
 from analyzer.diagnosis.levels import level_note, response_levels
@@ -875,8 +876,11 @@ def _diagnose(
         [f for f in findings if f.channel not in excitation], on_inputs, rate_hz
     )
     notes.extend(echoes)
+    # a sensor that clips: its swarm of short faults is one, before one fault at a time
+    groups = [r.channels for r in results]
+    findings, clipped = merge_clipped(findings, values, chosen, rate_hz, train, groups)
+    notes.extend(clipped)
     if reused is None:  # a slow change of most sensors at once: no one sensor's fault
-        groups = [r.channels for r in results]
         findings, common = common_changes(findings, values, chosen, groups, train, rate_hz)
         notes.extend(common)
     findings, conflicts = one_fault_at_a_time(findings, coupled(results))

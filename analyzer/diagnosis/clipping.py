@@ -1,0 +1,259 @@
+"""A sensor that clips: its reading held at a limit while the quantity goes beyond it.
+
+A saturating sensor (an accelerometer past its range, an amplifier or ADC at full scale)
+reads the true signal until it crosses the limit and the limit while it is beyond. The
+residuals see a burst each time the structure's response peaks: the detectors report a
+swarm of short faults on that sensor (gains below 1 where the peaks are cut, ``other``
+where no shape fits), and some of them on the sensors modelled with it (a 6-channel
+building whose s0 clipped at half its peak from 60 % of the record had 23 findings, two
+of them on s1). The readings tell it at once: a healthy signal's tail thins out towards
+its extremes, a clipped one piles up at them. Where a channel with findings reads its
+highest (or lowest) value after the healthy window :data:`MIN_CLIPPED` times or more,
+at least :data:`PILE_UP` times as often as the next value inside it (continuous readings
+take each value once; quantized ones still thin out at the tail), on fewer than half of
+its readings (more is a frozen sensor, :mod:`analyzer.diagnosis.stuck`) and not as
+often in the healthy window (a limit reached in health is the sensor's normal), its
+findings from the first clipped reading on are one fault: type ``other``, magnitude
+``clipped_high`` / ``clipped_low`` (the limits, channel units) and
+``clipped_fraction``, merged before one fault at a time so that what the clipping did
+to the sensors modelled with it is taken for it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from analyzer.diagnosis.changes import LONG_FACTOR, default_window
+from analyzer.diagnosis.merge import Finding
+from analyzer.paging import read_column
+from analyzer.types import FaultType
+
+MIN_CLIPPED = 10
+"""Readings at a limit, fewer than which say nothing about clipping."""
+
+PILE_UP = 3.0
+"""A limit is read at least this many times as often as the next value inside it."""
+
+ECHO_WINDOWS = 2
+"""How near a clipped reading (in long alarm windows: 4 s at 100 Hz) a short finding on a
+sensor modelled with the clipping one lies for it to be taken for the clipping."""
+
+MAX_FRACTION = 0.5
+"""Readings at the limits from the first on: at or beyond this share, frozen, not clipped."""
+
+
+@dataclass(frozen=True, slots=True)
+class Clip:
+    """A channel's clipping over the rows searched: the limits it piles up at (None: not
+    that side), its first and last clipped rows (absolute), the readings at the limits
+    and their share of the finite readings from the first to the last."""
+
+    high: float | None
+    low: float | None
+    first: int
+    last: int
+    count: int
+    fraction: float
+    rows: npt.NDArray[np.int64]
+    """The clipped readings' rows (absolute)."""
+
+
+def _limit(seg: npt.NDArray[np.float64], value: float) -> tuple[str, int] | None:
+    """Whether the finite readings ``seg`` clip at ``value`` from its first reading on:
+    ``("high", first)`` when none is above it from there, ``("low", first)`` when none is
+    below, and it is read :data:`PILE_UP` times as often as the next distinct value
+    inside; else None."""
+    first = int(np.argmax(seg == value))
+    after = seg[first:]
+    at = after == value
+    if float(np.max(after)) == value:
+        side, inside = "high", after[~at]
+        nxt = float(np.max(inside)) if inside.size else None
+    elif float(np.min(after)) == value:
+        side, inside = "low", after[~at]
+        nxt = float(np.min(inside)) if inside.size else None
+    else:
+        return None  # a value read often inside the range (quantized readings' mode)
+    if nxt is not None and np.count_nonzero(at) < PILE_UP * np.count_nonzero(after == nxt):
+        return None
+    return side, first
+
+
+def find_clipping(
+    values: npt.NDArray[Any], j: int, start: int, train: tuple[int, int]
+) -> Clip | None:
+    """Column ``j``'s clipping over rows ``start ..`` of ``values`` (the search), or None.
+    The candidates are the two values read most often there (:data:`MIN_CLIPPED` times
+    or more); each clips when no reading from its first on goes beyond it and it piles up
+    (:func:`_limit`). A limit the healthy window ``train`` reads :data:`MIN_CLIPPED` times
+    or more is the sensor's normal, not a fault."""
+    n = values.shape[0]
+    col = read_column(values, j, start, n)
+    finite = np.isfinite(col)
+    seg = col[finite]
+    if seg.size < MIN_CLIPPED:
+        return None
+    rows = np.flatnonzero(finite) + start
+    uniq, counts = np.unique(seg, return_counts=True)
+    often = np.argsort(counts)[::-1][:2]
+    healthy = read_column(values, j, train[0], train[1]) if train[1] > train[0] else col[:0]
+    limits: dict[str, float] = {}
+    firsts: list[int] = []
+    for k in often:
+        if counts[k] < MIN_CLIPPED:
+            break
+        value = float(uniq[k])
+        found = _limit(seg, value)
+        if found is None or found[0] in limits:
+            continue
+        if int(np.count_nonzero(healthy == value)) >= MIN_CLIPPED:
+            continue  # the healthy window piles up there too
+        limits[found[0]] = value
+        firsts.append(found[1])
+    if not limits:
+        return None
+    clipped = np.isin(seg, list(limits.values()))
+    clipped[: min(firsts)] = False
+    where = np.flatnonzero(clipped)
+    span = seg[where[0] : where[-1] + 1]
+    fraction = where.size / span.size
+    if fraction >= MAX_FRACTION:
+        return None  # frozen at a value rather than cut at it
+    return Clip(
+        limits.get("high"),
+        limits.get("low"),
+        int(rows[where[0]]),
+        int(rows[where[-1]]),
+        int(where.size),
+        float(fraction),
+        rows[where],
+    )
+
+
+def merge_clipped(
+    findings: list[Finding],
+    values: npt.NDArray[Any],
+    channels: Sequence[str],
+    rate_hz: float,
+    train: tuple[int, int],
+    groups: Sequence[Sequence[str]] = (),
+    slack_s: float = 1.0,
+) -> tuple[list[Finding], list[str]]:
+    """``findings`` with each clipping channel's findings from its first clipped reading on
+    (less ``slack_s``) merged into one (:class:`Clip`: type ``other``, the limits as
+    magnitude, evidence ``clipped``), and a note for each. Channels without findings are
+    not read.
+
+    A clipped burst also reaches the residuals of every sensor modelled with the clipping
+    one (``groups``: the channels each detector models together): a finding on such a
+    sensor that begins and ends while it clips, with a clipped reading within
+    :data:`ECHO_WINDOWS` long alarm windows of it, is taken for the clipping (a note
+    says so). One that lasts beyond the clipping's last reading is its own."""
+    index = {c: j for j, c in enumerate(channels)}
+    start = train[1]
+    out = list(findings)
+    notes: list[str] = []
+    for channel in sorted({f.channel for f in findings}):
+        j = index.get(channel)
+        if j is None:
+            continue
+        clip = find_clipping(values, j, start, train)
+        if clip is None:
+            continue
+        t0 = clip.first / rate_hz
+        mine = [
+            f for f in out if f.channel == channel and (f.end_s is None or f.end_s >= t0 - slack_s)
+        ]
+        if not mine:
+            continue
+        mine.sort(key=lambda f: f.onset_s)
+        ends = [f.end_s for f in mine]
+        last_s = clip.last / rate_hz
+        # it clipped to the end unless the record went on, unclipped, for longer than its
+        # longest pause between clipped readings
+        pause = int(np.max(np.diff(clip.rows))) if clip.rows.size > 1 else 0
+        to_end = any(e is None for e in ends) or values.shape[0] - 1 - clip.last <= pause
+        end = None if to_end else max(last_s, *(e for e in ends if e is not None))
+        evidence: dict[str, Any] = {
+            "detectors": sorted(
+                {d for f in mine for d in f.evidence.get("detectors", [f.detector])}
+            ),
+            "tests": dict(mine[0].evidence.get("tests", {})),
+        }
+        by_detector: dict[str, Any] = {}
+        for f in mine:
+            for d, said in f.evidence.get("by_detector", {}).items():
+                by_detector.setdefault(d, said)
+        if by_detector:
+            evidence["by_detector"] = by_detector
+        magnitude: dict[str, float] = {}
+        if clip.high is not None:
+            magnitude["clipped_high"] = clip.high
+        if clip.low is not None:
+            magnitude["clipped_low"] = clip.low
+        magnitude["clipped_fraction"] = clip.fraction
+        evidence["clipped"] = {
+            **{k: v for k, v in magnitude.items() if k != "clipped_fraction"},
+            "readings": clip.count,
+            "fraction": clip.fraction,
+            "first_s": t0,
+            "last_s": last_s,
+            "findings_merged": len(mine),
+            "types_merged": sorted({str(f.type) for f in mine}),
+        }
+        merged = Finding(
+            channel=channel,
+            type=FaultType.OTHER,
+            onset_s=min(t0, mine[0].onset_s),
+            end_s=end,
+            magnitude=magnitude,
+            confidence=max(f.confidence for f in mine),
+            detector=mine[0].detector,
+            evidence=evidence,
+            events=[e for f in mine for e in f.events],
+        )
+        gone = {id(f) for f in mine}
+        near = ECHO_WINDOWS * LONG_FACTOR * default_window(rate_hz) / rate_hz
+        partners = {c for g in groups if channel in g for c in g} - {channel}
+        echoes = [
+            g
+            for g in out
+            if g.channel in partners
+            and g.end_s is not None
+            and g.onset_s >= t0 - slack_s
+            and g.end_s <= last_s + slack_s
+            and _clipped_near(clip.rows / rate_hz, g.onset_s - near, g.end_s + near)
+        ]
+        for g in echoes:
+            gone.add(id(g))
+            notes.append(
+                f"{g.detector}'s {g.type} fault on {g.channel} at {g.onset_s:.3f} s not "
+                f"reported: it began and ended while {channel} clipped, with a clipped "
+                f"reading within {near:.0f} s of it, and the models that take {channel} in "
+                f"see {g.channel} through it: taken for that fault"
+            )
+        out = [f for f in out if id(f) not in gone] + [merged]
+        limits = " and ".join(f"{v:.6g}" for v in (clip.high, clip.low) if v is not None)
+        notes.append(
+            f"{channel} clips at {limits} from {t0:.3f} s: {clip.count} readings "
+            f"({clip.fraction:.1%} of those from the first to the last) sit at its extremes, "
+            "a pile-up a healthy signal's tail does not make (the sensor saturates: past its "
+            f"range, or its amplifier's); its {len(mine)} finding(s) from then on "
+            f"({', '.join(sorted({str(f.type) for f in mine}))}) are reported as one"
+        )
+    out.sort(key=lambda f: (f.onset_s, f.channel))
+    return out, notes
+
+
+def _clipped_near(times: npt.NDArray[np.float64], lo: float, hi: float) -> bool:
+    """Whether a clipped reading's time (sorted ``times``) lies in ``lo .. hi``."""
+    k = int(np.searchsorted(times, lo))
+    return k < times.size and float(times[k]) <= hi
+
+
+__all__ = ["Clip", "find_clipping", "merge_clipped"]

@@ -1,0 +1,114 @@
+"""A sensor that clips (saturates): told by the pile-up of its readings at its limits,
+its swarm of short findings reported as one (:mod:`analyzer.diagnosis.clipping`)."""
+
+import numpy as np
+import pytest
+
+from analyzer.diagnosis.clipping import find_clipping, merge_clipped
+from analyzer.diagnosis.merge import Finding
+from analyzer.pipeline import RunOptions, analyze
+from analyzer.simulate import simulate_building
+from analyzer.types import FaultType
+from analyzer.writers import write_archive
+
+RATE = 100.0
+N = 60_000
+TRAIN = (0, 12_000)
+ONSET = 36_000
+
+
+def _signal(seed: int = 0) -> np.ndarray:
+    """A continuous reading: two sines and noise, one column of a 2-column record."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(N) / RATE
+    y = np.sin(2 * np.pi * 1.0 * t) + 0.5 * np.sin(2 * np.pi * 2.7 * t)
+    return np.column_stack([y + 0.2 * rng.standard_normal(N), rng.standard_normal(N)])
+
+
+def test_a_clipped_reading_piles_up_at_its_limits():
+    Y = _signal()
+    lim = 1.0
+    Y[ONSET:, 0] = np.clip(Y[ONSET:, 0], -lim, lim)
+    clip = find_clipping(Y, 0, TRAIN[1], TRAIN)
+    assert clip is not None
+    assert clip.high == lim and clip.low == -lim
+    first = ONSET + int(np.argmax(np.abs(Y[ONSET:, 0]) >= lim))
+    assert clip.first == first
+    at = np.abs(Y[ONSET:, 0]) >= lim
+    assert clip.count == int(at.sum())
+    assert 0.0 < clip.fraction < 0.5
+
+
+def test_one_side_only():
+    Y = _signal()
+    Y[ONSET:, 0] = np.minimum(Y[ONSET:, 0], 1.2)
+    clip = find_clipping(Y, 0, TRAIN[1], TRAIN)
+    assert clip is not None and clip.high == 1.2 and clip.low is None
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda y: y,  # continuous: every value read once
+        lambda y: np.round(y, 1),  # quantized: its tail thins out at the extremes
+        lambda y: np.where(np.arange(N) >= ONSET, 0.7, y),  # frozen: the stuck sensor's
+    ],
+    ids=["continuous", "quantized", "frozen"],
+)
+def test_no_clipping(make):
+    Y = _signal()
+    Y[:, 0] = make(Y[:, 0])
+    assert find_clipping(Y, 0, TRAIN[1], TRAIN) is None
+
+
+def test_a_limit_the_healthy_window_reaches_is_the_sensors_normal():
+    Y = _signal()
+    Y[:, 0] = np.clip(Y[:, 0], -1.0, 1.0)  # clipped from the first reading
+    assert find_clipping(Y, 0, TRAIN[1], TRAIN) is None
+
+
+def _finding(channel, onset, end, detector="detection_filter", kind=FaultType.MULTIPLICATIVE):
+    return Finding(
+        channel, kind, onset, end, {"gain": 0.8}, 0.9, detector, {"detectors": [detector]}
+    )
+
+
+def test_the_swarm_is_one_finding_and_its_echo_on_a_partner_is_taken_for_it():
+    Y = _signal()
+    Y[ONSET:, 0] = np.clip(Y[ONSET:, 0], -1.0, 1.0)
+    t0 = ONSET / RATE
+    swarm = [_finding("s0", t0 + 1.0 + 10 * k, t0 + 1.5 + 10 * k) for k in range(5)]
+    partner = _finding("s1", t0 + 11.0, t0 + 11.4, "ar_kalman_bank")
+    lasting = _finding("s1", t0 + 20.0, None, "ar_kalman_bank", FaultType.ADDITIVE)
+    out, notes = merge_clipped(
+        [*swarm, partner, lasting], Y, ["s0", "s1"], RATE, TRAIN, [("s0", "s1")]
+    )
+    (merged,) = [f for f in out if f.channel == "s0"]
+    assert merged.type is FaultType.OTHER
+    assert merged.magnitude["clipped_high"] == 1.0 and merged.magnitude["clipped_low"] == -1.0
+    assert merged.onset_s <= t0 + 1.0 and merged.end_s is None
+    assert merged.evidence["clipped"]["findings_merged"] == 5
+    assert [f for f in out if f.channel == "s1"] == [lasting]  # its own fault stays
+    assert any("clips at 1 and -1" in n for n in notes)
+    assert any("taken for that fault" in n and "s1" in n for n in notes)
+
+
+def test_a_clipping_sensor_of_a_building_is_one_finding(tmp_path):
+    """A 6-channel building whose s2 clips at half its peak from 60 % of a 20-minute
+    record: before, 18 findings on s2 (gains below 1 where the peaks were cut, ``other``);
+    now one, with its limits."""
+    t, Y, names = simulate_building(3, 1200.0, RATE, seed=2, sensors_per_floor=2)
+    on = int(0.6 * len(t))
+    lim = 0.5 * float(np.max(np.abs(Y[:, 2])))
+    Y[on:, 2] = np.clip(Y[on:, 2], -lim, lim)
+    path = tmp_path / "clipped.csv"
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(path, "csv", t_ns, {f"s{i}": Y[:, i] for i in range(Y.shape[1])})
+    analysis = analyze([str(path)], RunOptions())
+    assert [(f.channel, f.type) for f in analysis.findings] == [("s2", FaultType.OTHER)]
+    (f,) = analysis.findings
+    assert f.magnitude["clipped_high"] == pytest.approx(lim)
+    assert f.magnitude["clipped_low"] == pytest.approx(-lim)
+    first = (on + int(np.argmax(np.abs(Y[on:, 2]) >= lim))) / RATE
+    assert abs(f.onset_s - first) < 0.05
+    assert f.end_s is None
