@@ -7,16 +7,18 @@ swarm of short faults on that sensor (gains below 1 where the peaks are cut, ``o
 where no shape fits), and some of them on the sensors modelled with it (a 6-channel
 building whose s0 clipped at half its peak from 60 % of the record had 23 findings, two
 of them on s1). The readings tell it at once: a healthy signal's tail thins out towards
-its extremes, a clipped one piles up at them. Where a channel with findings reads its
-highest (or lowest) value after the healthy window :data:`MIN_CLIPPED` times or more,
-at least :data:`PILE_UP` times as often as the next value inside it (continuous readings
-take each value once; quantized ones still thin out at the tail), on fewer than half of
-its readings (more is a frozen sensor, :mod:`analyzer.diagnosis.stuck`) and not as
-often in the healthy window (a limit reached in health is the sensor's normal), its
-findings from the first clipped reading on are one fault: type ``other``, magnitude
-``clipped_high`` / ``clipped_low`` (the limits, channel units) and
-``clipped_fraction``, merged before one fault at a time so that what the clipping did
-to the sensors modelled with it is taken for it.
+its extremes, a clipped one piles up at them. Where a channel with findings has, after
+the healthy window, a value that no reading goes beyond from some row on and that is
+read :data:`MIN_CLIPPED` times or more from there, at least :data:`PILE_UP` times as
+often as the next value inside it (continuous readings take each value once; quantized
+ones still thin out at the tail), on fewer than half of its readings (more is a frozen
+sensor, :mod:`analyzer.diagnosis.stuck`) and not as often in the healthy window (a limit
+reached in health is the sensor's normal), its findings from the first clipped reading
+on are one fault: type ``other``, magnitude ``clipped_high`` / ``clipped_low`` (the
+limits, channel units) and ``clipped_fraction``, merged before one fault at a time so
+that what the clipping did to the sensors modelled with it is taken for it. (A quantity
+that itself sits at a bound it never reached in the healthy window, a valve fully open,
+reads the same way: the note says so.)
 """
 
 from __future__ import annotations
@@ -43,6 +45,9 @@ ECHO_WINDOWS = 2
 """How near a clipped reading (in long alarm windows: 4 s at 100 Hz) a short finding on a
 sensor modelled with the clipping one lies for it to be taken for the clipping."""
 
+CANDIDATES = 3
+"""Limits tried on each side (those read most often)."""
+
 MAX_FRACTION = 0.5
 """Readings at the limits from the first on: at or beyond this share, frozen, not clipped."""
 
@@ -63,35 +68,39 @@ class Clip:
     """The clipped readings' rows (absolute)."""
 
 
-def _limit(seg: npt.NDArray[np.float64], value: float) -> tuple[str, int] | None:
-    """Whether the finite readings ``seg`` clip at ``value`` from its first reading on:
-    ``("high", first)`` when none is above it from there, ``("low", first)`` when none is
-    below, and it is read :data:`PILE_UP` times as often as the next distinct value
-    inside; else None."""
-    first = int(np.argmax(seg == value))
-    after = seg[first:]
+def _candidates(seg: npt.NDArray[np.float64], top: bool) -> list[tuple[float, int]]:
+    """The values ``seg`` may clip at on one side, with the row from which no reading
+    goes beyond each: the values of its running extreme from the end (``max(seg[i:])``)
+    read :data:`MIN_CLIPPED` times or more from there, the :data:`CANDIDATES` read most
+    often. (A quantized reading passes through its limit before it clips: the limit's
+    first reading is not where the clipping starts.)"""
+    back = seg[::-1]
+    ext = (np.maximum if top else np.minimum).accumulate(back)[::-1]
+    eq = seg == ext
+    vals, counts = np.unique(seg[eq], return_counts=True)
+    keep = np.flatnonzero(counts >= MIN_CLIPPED)
+    keep = keep[np.argsort(-counts[keep], kind="stable")][:CANDIDATES]
+    return [(float(vals[k]), int(np.argmax(ext == vals[k]))) for k in keep]
+
+
+def _piles_up(after: npt.NDArray[np.float64], value: float, top: bool) -> bool:
+    """``value`` is read in ``after`` at least :data:`PILE_UP` times as often as the next
+    distinct value inside it."""
     at = after == value
-    if float(np.max(after)) == value:
-        side, inside = "high", after[~at]
-        nxt = float(np.max(inside)) if inside.size else None
-    elif float(np.min(after)) == value:
-        side, inside = "low", after[~at]
-        nxt = float(np.min(inside)) if inside.size else None
-    else:
-        return None  # a value read often inside the range (quantized readings' mode)
-    if nxt is not None and np.count_nonzero(at) < PILE_UP * np.count_nonzero(after == nxt):
-        return None
-    return side, first
+    inside = after[~at]
+    if not inside.size:
+        return True
+    nxt = float(np.max(inside) if top else np.min(inside))
+    return bool(np.count_nonzero(at) >= PILE_UP * np.count_nonzero(after == nxt))
 
 
 def find_clipping(
     values: npt.NDArray[Any], j: int, start: int, train: tuple[int, int]
 ) -> Clip | None:
     """Column ``j``'s clipping over rows ``start ..`` of ``values`` (the search), or None.
-    The candidates are the two values read most often there (:data:`MIN_CLIPPED` times
-    or more); each clips when no reading from its first on goes beyond it and it piles up
-    (:func:`_limit`). A limit the healthy window ``train`` reads :data:`MIN_CLIPPED` times
-    or more is the sensor's normal, not a fault."""
+    A limit (:func:`_candidates`) clips when it piles up from the row no reading goes
+    beyond it (:func:`_piles_up`). A limit the healthy window ``train`` reads
+    :data:`MIN_CLIPPED` times or more is the sensor's normal, not a fault."""
     n = values.shape[0]
     col = read_column(values, j, start, n)
     finite = np.isfinite(col)
@@ -99,26 +108,22 @@ def find_clipping(
     if seg.size < MIN_CLIPPED:
         return None
     rows = np.flatnonzero(finite) + start
-    uniq, counts = np.unique(seg, return_counts=True)
-    often = np.argsort(counts)[::-1][:2]
     healthy = read_column(values, j, train[0], train[1]) if train[1] > train[0] else col[:0]
     limits: dict[str, float] = {}
-    firsts: list[int] = []
-    for k in often:
-        if counts[k] < MIN_CLIPPED:
+    froms: list[int] = []
+    for name, top in (("high", True), ("low", False)):
+        for value, since in _candidates(seg, top):
+            if not _piles_up(seg[since:], value, top):
+                continue
+            if int(np.count_nonzero(healthy == value)) >= MIN_CLIPPED:
+                continue  # the healthy window piles up there too
+            limits[name] = value
+            froms.append(since)
             break
-        value = float(uniq[k])
-        found = _limit(seg, value)
-        if found is None or found[0] in limits:
-            continue
-        if int(np.count_nonzero(healthy == value)) >= MIN_CLIPPED:
-            continue  # the healthy window piles up there too
-        limits[found[0]] = value
-        firsts.append(found[1])
     if not limits:
         return None
     clipped = np.isin(seg, list(limits.values()))
-    clipped[: min(firsts)] = False
+    clipped[: min(froms)] = False
     where = np.flatnonzero(clipped)
     span = seg[where[0] : where[-1] + 1]
     fraction = where.size / span.size
@@ -243,7 +248,8 @@ def merge_clipped(
             f"{channel} clips at {limits} from {t0:.3f} s: {clip.count} readings "
             f"({clip.fraction:.1%} of those from the first to the last) sit at its extremes, "
             "a pile-up a healthy signal's tail does not make (the sensor saturates: past its "
-            f"range, or its amplifier's); its {len(mine)} finding(s) from then on "
+            "range, or its amplifier's; or the quantity sits at a bound it did not reach in "
+            f"the healthy window); its {len(mine)} finding(s) from then on "
             f"({', '.join(sorted({str(f.type) for f in mine}))}) are reported as one"
         )
     out.sort(key=lambda f: (f.onset_s, f.channel))

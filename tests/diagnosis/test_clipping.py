@@ -112,3 +112,15 @@ def test_a_clipping_sensor_of_a_building_is_one_finding(tmp_path):
     first = (on + int(np.argmax(np.abs(Y[on:, 2]) >= lim))) / RATE
     assert abs(f.onset_s - first) < 0.05
     assert f.end_s is None
+
+
+def test_a_quantized_reading_that_clips():
+    """Readings in steps of 0.01 (an ADC's counts, say) clipped at 1.7: the limit is read
+    less often than values near the middle of the range, and still found."""
+    Y = _signal()
+    Y[:, 0] = np.round(Y[:, 0], 2)
+    Y[ONSET:, 0] = np.minimum(Y[ONSET:, 0], 1.7)
+    uniq, counts = np.unique(Y[TRAIN[1] :, 0], return_counts=True)
+    assert counts[uniq == 1.7][0] < np.sort(counts)[-2]  # not among the two most frequent
+    clip = find_clipping(Y, 0, TRAIN[1], TRAIN)
+    assert clip is not None and clip.high == 1.7 and clip.low is None
