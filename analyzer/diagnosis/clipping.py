@@ -13,7 +13,8 @@ read :data:`MIN_CLIPPED` times or more from there, at least :data:`PILE_UP` time
 often as the next value inside it (continuous readings take each value once; quantized
 ones still thin out at the tail), on fewer than half of its readings (more is a frozen
 sensor, :mod:`analyzer.diagnosis.stuck`) and not as often in the healthy window (a limit
-reached in health is the sensor's normal), its findings from the first clipped reading
+reached in health is the sensor's normal), and the readings are finely resolved
+(:func:`_coarse`), its findings from the first clipped reading
 on are one fault: type ``other``, magnitude ``clipped_high`` / ``clipped_low`` (the
 limits, channel units) and ``clipped_fraction``, merged before one fault at a time so
 that what the clipping did to the sensors modelled with it is taken for it. (A quantity
@@ -24,7 +25,7 @@ reads the same way: the note says so.)
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -45,6 +46,10 @@ ECHO_WINDOWS = 2
 """How near a clipped reading (in long alarm windows: 4 s at 100 Hz) a short finding on a
 sensor modelled with the clipping one lies for it to be taken for the clipping."""
 
+COARSE = 0.1
+"""Readings whose values are spaced by more than this fraction of their standard deviation
+are not judged (:func:`_coarse`)."""
+
 CANDIDATES = 3
 """Limits tried on each side (those read most often)."""
 
@@ -64,7 +69,7 @@ class Clip:
     last: int
     count: int
     fraction: float
-    rows: npt.NDArray[np.int64]
+    rows: npt.NDArray[np.int64] = field(repr=False)
     """The clipped readings' rows (absolute)."""
 
 
@@ -94,6 +99,18 @@ def _piles_up(after: npt.NDArray[np.float64], value: float, top: bool) -> bool:
     return bool(np.count_nonzero(at) >= PILE_UP * np.count_nonzero(after == nxt))
 
 
+def _coarse(x: npt.NDArray[np.float64]) -> bool:
+    """Readings too coarsely quantized to tell a limit from a level: fewer than three
+    distinct values, or a median step between them over :data:`COARSE` of their standard
+    deviation (SKAB's pump pressure reads 7 levels 1.1 sd apart: an offset on it moved
+    its top level above all the readings before, and the next level inside was the
+    unshifted one, read far less often, which looked like a pile-up)."""
+    levels = np.unique(x)
+    if levels.size < 3:
+        return True
+    return bool(float(np.median(np.diff(levels))) > COARSE * float(np.std(x)))
+
+
 def find_clipping(
     values: npt.NDArray[Any], j: int, start: int, train: tuple[int, int]
 ) -> Clip | None:
@@ -109,6 +126,8 @@ def find_clipping(
         return None
     rows = np.flatnonzero(finite) + start
     healthy = read_column(values, j, train[0], train[1]) if train[1] > train[0] else col[:0]
+    if _coarse(healthy[np.isfinite(healthy)] if healthy.size else seg):
+        return None
     limits: dict[str, float] = {}
     froms: list[int] = []
     for name, top in (("high", True), ("low", False)):

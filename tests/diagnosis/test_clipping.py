@@ -124,3 +124,15 @@ def test_a_quantized_reading_that_clips():
     assert counts[uniq == 1.7][0] < np.sort(counts)[-2]  # not among the two most frequent
     clip = find_clipping(Y, 0, TRAIN[1], TRAIN)
     assert clip is not None and clip.high == 1.7 and clip.low is None
+
+
+def test_coarse_readings_are_not_judged():
+    """Seven levels a standard deviation apart (SKAB's pump pressure), an offset moving
+    them up after the healthy window: the shifted top level is read more often than the
+    unshifted level below it, but that is no clipping."""
+    rng = np.random.default_rng(3)
+    levels = np.array([-0.6, -0.27, 0.05, 0.38, 0.71, 1.04])
+    y = rng.choice(levels, N, p=[0.02, 0.12, 0.5, 0.3, 0.055, 0.005])
+    y[ONSET:] += 0.25
+    Y = np.column_stack([y, rng.standard_normal(N)])
+    assert find_clipping(Y, 0, TRAIN[1], TRAIN) is None
