@@ -168,8 +168,8 @@ def merge_clipped(
     groups: Sequence[Sequence[str]] = (),
     slack_s: float = 1.0,
 ) -> tuple[list[Finding], list[str]]:
-    """``findings`` with each clipping channel's findings from its first clipped reading on
-    (less ``slack_s``) merged into one (:class:`Clip`: type ``other``, the limits as
+    """``findings`` with each clipping channel's findings that begin from its first clipped
+    reading on (less ``slack_s``) merged into one (:class:`Clip`: type ``other``, the limits as
     magnitude, evidence ``clipped``), and a note for each. Channels without findings are
     not read.
 
@@ -190,9 +190,8 @@ def merge_clipped(
         if clip is None:
             continue
         t0 = clip.first / rate_hz
-        mine = [
-            f for f in out if f.channel == channel and (f.end_s is None or f.end_s >= t0 - slack_s)
-        ]
+        # (a finding that began before the clipping is a fault of its own: kept as it is)
+        mine = [f for f in out if f.channel == channel and f.onset_s >= t0 - slack_s]
         if not mine:
             continue
         mine.sort(key=lambda f: f.onset_s)

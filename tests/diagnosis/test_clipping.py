@@ -136,3 +136,15 @@ def test_coarse_readings_are_not_judged():
     y[ONSET:] += 0.25
     Y = np.column_stack([y, rng.standard_normal(N)])
     assert find_clipping(Y, 0, TRAIN[1], TRAIN) is None
+
+
+def test_a_fault_that_began_before_the_clipping_is_its_own():
+    Y = _signal()
+    Y[ONSET:, 0] = np.clip(Y[ONSET:, 0], -1.0, 1.0)
+    t0 = ONSET / RATE
+    earlier = _finding("s0", t0 - 100.0, None, "ar_kalman_bank", FaultType.ADDITIVE)
+    swarm = [_finding("s0", t0 + 1.0 + 10 * k, t0 + 1.5 + 10 * k) for k in range(3)]
+    out, _ = merge_clipped([earlier, *swarm], Y, ["s0", "s1"], RATE, TRAIN, [("s0", "s1")])
+    assert earlier in out
+    (merged,) = [f for f in out if "clipped" in f.evidence]
+    assert merged.evidence["clipped"]["findings_merged"] == 3
