@@ -177,7 +177,8 @@ def merge_clipped(
     one (``groups``: the channels each detector models together): a finding on such a
     sensor that begins and ends while it clips, with a clipped reading within
     :data:`ECHO_WINDOWS` long alarm windows of it, is taken for the clipping (a note
-    says so). One that lasts beyond the clipping's last reading is its own."""
+    says so); so is one that begins that near the record's end and lasts to it. One
+    that lasts beyond the clipping's last reading is its own."""
     index = {c: j for j, c in enumerate(channels)}
     start = train[1]
     out = list(findings)
@@ -243,15 +244,21 @@ def merge_clipped(
         gone = {id(f) for f in mine}
         near = ECHO_WINDOWS * LONG_FACTOR * default_window(rate_hz) / rate_hz
         partners = {c for g in groups if channel in g for c in g} - {channel}
-        echoes = [
-            g
-            for g in out
-            if g.channel in partners
-            and g.end_s is not None
-            and g.onset_s >= t0 - slack_s
-            and g.end_s <= last_s + slack_s
-            and _clipped_near(clip.rows / rate_hz, g.onset_s - near, g.end_s + near)
-        ]
+        record_end = values.shape[0] / rate_hz
+        echoes = []
+        for g in out:
+            if g.channel not in partners or g.onset_s < t0 - slack_s:
+                continue
+            # one cut short by the record's end, within the window it takes to tell, ends
+            # there (it may outlast the clipping; no one can say)
+            if g.end_s is None and record_end - g.onset_s <= near:
+                stop = record_end
+            elif g.end_s is None or g.end_s > last_s + slack_s:
+                continue
+            else:
+                stop = g.end_s
+            if _clipped_near(clip.rows / rate_hz, g.onset_s - near, stop + near):
+                echoes.append(g)
         for g in echoes:
             gone.add(id(g))
             notes.append(

@@ -148,3 +148,20 @@ def test_a_fault_that_began_before_the_clipping_is_its_own():
     assert earlier in out
     (merged,) = [f for f in out if "clipped" in f.evidence]
     assert merged.evidence["clipped"]["findings_merged"] == 3
+
+
+def test_a_partner_finding_cut_short_by_the_records_end_is_taken_for_it():
+    """A 4-channel building whose s1 clipped: the bank and the detection filter put an
+    ``other`` on s0 from 2 s before the record's end, open (``sweep_clipping.py --floors
+    2``, seed 7). Within the window it takes to tell, it is the clipping's echo; one
+    that began earlier and lasts to the end is its own."""
+    Y = _signal()
+    Y[ONSET:, 0] = np.clip(Y[ONSET:, 0], -1.0, 1.0)
+    end = N / RATE
+    swarm = [_finding("s0", ONSET / RATE + 1.0, ONSET / RATE + 1.5)]
+    late = _finding("s1", end - 2.0, None, "ar_kalman_bank", FaultType.OTHER)
+    lasting = _finding("s1", end - 60.0, None, "ar_kalman_bank", FaultType.ADDITIVE)
+    out, notes = merge_clipped(
+        [*swarm, late, lasting], Y, ["s0", "s1"], RATE, TRAIN, [("s0", "s1")]
+    )
+    assert late not in out and lasting in out
