@@ -169,9 +169,9 @@ def merge_clipped(
     slack_s: float = 1.0,
 ) -> tuple[list[Finding], list[str]]:
     """``findings`` with each clipping channel's findings that begin from its first clipped
-    reading on (less ``slack_s``) merged into one (:class:`Clip`: type ``other``, the limits as
-    magnitude, evidence ``clipped``), and a note for each. Channels without findings are
-    not read.
+    reading (less ``slack_s``) to its last (plus ``slack_s``) merged into one
+    (:class:`Clip`: type ``other``, the limits as magnitude, evidence ``clipped``), and a
+    note for each. Channels without findings are not read.
 
     A clipped burst also reaches the residuals of every sensor modelled with the clipping
     one (``groups``: the channels each detector models together): a finding on such a
@@ -191,13 +191,16 @@ def merge_clipped(
         if clip is None:
             continue
         t0 = clip.first / rate_hz
-        # (a finding that began before the clipping is a fault of its own: kept as it is)
-        mine = [f for f in out if f.channel == channel and f.onset_s >= t0 - slack_s]
+        last_s = clip.last / rate_hz
+        # (a finding that began before the clipping, or after its last clipped reading, is
+        # a fault of its own: kept as it is)
+        mine = [
+            f for f in out if f.channel == channel and t0 - slack_s <= f.onset_s <= last_s + slack_s
+        ]
         if not mine:
             continue
         mine.sort(key=lambda f: f.onset_s)
         ends = [f.end_s for f in mine]
-        last_s = clip.last / rate_hz
         # it clipped to the end unless the record went on, unclipped, for longer than its
         # longest pause between clipped readings
         pause = int(np.max(np.diff(clip.rows))) if clip.rows.size > 1 else 0
