@@ -178,18 +178,28 @@ def merge_clipped(
     sensor that begins and ends while it clips, with a clipped reading within
     :data:`ECHO_WINDOWS` long alarm windows of it, is taken for the clipping (a note
     says so); so is one that begins that near the record's end and lasts to it. One
-    that lasts beyond the clipping's last reading is its own."""
+    that lasts beyond the clipping's last reading is its own, and so is one that its own
+    sensor's clipping takes in (two sensors that clip at once), and one that two or more
+    detectors report for longer than :data:`ECHO_WINDOWS` long alarm windows twice over
+    (a burst's echo is short; an offset of 300 s on a partner, which all three detectors
+    found, was taken for the clipping before this)."""
     index = {c: j for j, c in enumerate(channels)}
     start = train[1]
     out = list(findings)
     notes: list[str] = []
-    for channel in sorted({f.channel for f in findings}):
-        j = index.get(channel)
-        if j is None:
-            continue
-        clip = find_clipping(values, j, start, train)
-        if clip is None:
-            continue
+    clips = {
+        c: clip
+        for c in sorted({f.channel for f in findings} & index.keys())
+        if (clip := find_clipping(values, index[c], start, train)) is not None
+    }
+
+    def clipping_own(g: Finding) -> bool:
+        own = clips.get(g.channel)
+        return own is not None and (
+            own.first / rate_hz - slack_s <= g.onset_s <= own.last / rate_hz + slack_s
+        )
+
+    for channel, clip in clips.items():
         t0 = clip.first / rate_hz
         last_s = clip.last / rate_hz
         # (a finding that began before the clipping, or after its last clipped reading, is
@@ -250,7 +260,7 @@ def merge_clipped(
         record_end = values.shape[0] / rate_hz
         echoes = []
         for g in out:
-            if g.channel not in partners or g.onset_s < t0 - slack_s:
+            if g.channel not in partners or g.onset_s < t0 - slack_s or clipping_own(g):
                 continue
             # one cut short by the record's end, within the window it takes to tell, ends
             # there (it may outlast the clipping; no one can say)
@@ -260,6 +270,9 @@ def merge_clipped(
                 continue
             else:
                 stop = g.end_s
+            several = len(g.evidence.get("detectors", [g.detector])) > 1
+            if several and stop - g.onset_s > 2 * near:
+                continue  # longer than a burst's echo, and more than one detector's
             if _clipped_near(clip.rows / rate_hz, g.onset_s - near, stop + near):
                 echoes.append(g)
         for g in echoes:
