@@ -179,10 +179,11 @@ def merge_clipped(
     :data:`ECHO_WINDOWS` long alarm windows of it, is taken for the clipping (a note
     says so); so is one that begins that near the record's end and lasts to it. One
     that lasts beyond the clipping's last reading is its own, and so is one that its own
-    sensor's clipping takes in (two sensors that clip at once), and one that two or more
-    detectors report for longer than :data:`ECHO_WINDOWS` long alarm windows twice over
-    (a burst's echo is short; an offset of 300 s on a partner, which all three detectors
-    found, was taken for the clipping before this)."""
+    sensor's clipping takes in (two sensors that clip at once), and an offset or a drift:
+    a cut peak leaves a burst in the partners' residuals (a gain or ``other``), not a
+    level or a trend (an offset of 300 s on a partner, which all three detectors found,
+    was taken for the clipping before this: a clipped reading lies within 4 s of almost
+    any moment of a sensor that clips 5 % of the time)."""
     index = {c: j for j, c in enumerate(channels)}
     start = train[1]
     out = list(findings)
@@ -270,9 +271,8 @@ def merge_clipped(
                 continue
             else:
                 stop = g.end_s
-            several = len(g.evidence.get("detectors", [g.detector])) > 1
-            if several and stop - g.onset_s > 2 * near:
-                continue  # longer than a burst's echo, and more than one detector's
+            if g.type in (FaultType.ADDITIVE, FaultType.DRIFT):
+                continue  # a level or a trend: not what a cut peak leaves behind
             if _clipped_near(clip.rows / rate_hz, g.onset_s - near, stop + near):
                 echoes.append(g)
         for g in echoes:

@@ -57,10 +57,11 @@ def test_two_sensors_that_clip_at_once_are_two_findings():
     assert not any("taken for that fault" in n for n in notes)
 
 
-def test_a_long_fault_on_a_partner_that_several_detectors_report_is_its_own():
-    """s0 clips from 360 s to the end; s1 has an offset from 400 s to 700 s that all three
+def test_an_offset_on_a_partner_is_its_own():
+    """s0 clips from 360 s to the end; s1 has an offset from 400 s to 550 s that all three
     detectors report: before, it was taken for the clipping's echo (a clipped reading is
-    within 4 s of almost any moment). A short one, or one detector's, still is."""
+    within 4 s of almost any moment). A gain or an ``other`` there, short or long, one
+    detector's or two, still is: what a cut peak leaves in a partner's residual."""
     Y = _two_channels()
     Y[ONSET:, 0] = np.clip(Y[ONSET:, 0], -1.0, 1.0)
     swarm = [_finding("s0", 361.0 + 10 * k, 361.5 + 10 * k) for k in range(5)]
