@@ -653,11 +653,15 @@ def _searched_without(
     if not results:
         return [], []
     healthy = healthy_stats(sub, keep, train)
-    found, _ = _diagnose(results, sub, keep, rate_hz, healthy, train, None, excitation)
+    found, said = _diagnose(results, sub, keep, rate_hz, healthy, train, None, excitation)
     slack = LONG_FACTOR * default_window(rate_hz) / rate_hz
     added = found_again(found, findings, lost, rate_hz, slack, suspects, len(names))
     attach_evidence(added, merge_groups(results, keep), rate_hz, train)
-    return added, [reconfigure_note(lost, suspects, added, rate_hz)]
+    # what the second search says of its own findings' clipping goes with them (its other
+    # notes are about the second search's view, not the record's)
+    clipped = {f.channel for f in added if "clipped" in f.evidence}
+    own = [n for n in said if any(n.startswith(f"{c} clips at ") for c in clipped)]
+    return added, [reconfigure_note(lost, suspects, added, rate_hz), *own]
 
 
 GAP_SEARCH_ROWS = 1 << 16
