@@ -302,10 +302,12 @@ def signal_figure(
     channel: str,
     key: str,
     close_s: float | None = None,
+    limits: Sequence[float] = (),
 ) -> Markup:
     """The measured signal around the onset with the detector's fault-free estimate (the
     gap between them is the estimated fault). With ``close_s``, a second panel shows
-    ``onset +- close_s`` closely enough to see the waveforms (shaded grey above)."""
+    ``onset +- close_s`` closely enough to see the waveforms (shaded grey above).
+    ``limits``: the values a clipping sensor's readings pile up at, drawn as dotted lines."""
     axis = TimeAxis.for_times(t)
     close = close_up(t, onset_s, close_s)
     with style():
@@ -327,6 +329,14 @@ def signal_figure(
                     f"fault-free estimate ({shown_name(estimate_name)})",
                 )
             _mark_onset(ax, onset_s, end_s, axis)
+            for k, level in enumerate(limits):
+                ax.axhline(
+                    level,
+                    color="#555555",
+                    lw=0.9,
+                    ls=":",
+                    label="clipping limit" if k == 0 else None,
+                )
             if tt.size:
                 ax.set_xlim(tt[0] / axis.scale, tt[-1] / axis.scale)
             ax.set_ylabel("channel units")

@@ -103,6 +103,12 @@ class FigureParts:
                 (d for d in [lead, *dets] if d and self._reference(d, ch) is not None), None
             )
             est = None if est_det is None else self._reference(est_det, ch)
+            magnitude = f.get("magnitude") or {}
+            limits = [
+                float(magnitude[k])
+                for k in ("clipped_high", "clipped_low")
+                if isinstance(magnitude.get(k), int | float)
+            ]
             job = fg.FigureJob(
                 "signal_figure",
                 (
@@ -115,7 +121,7 @@ class FigureParts:
                     ch,
                     f"{key}-signal",
                 ),
-                {"close_s": self._close_s()},
+                {"close_s": self._close_s(), "limits": limits},
             )
             view.figures.append(
                 self.figure(
@@ -126,6 +132,7 @@ class FigureParts:
                     f"estimate of {est_det or 'no detector'} (orange); their difference is the "
                     "estimated fault. Dashed red line: identified onset"
                     + ("; dash-dot purple: end" if end is not None else "")
+                    + ("; dotted grey: the limits its readings pile up at" if limits else "")
                     + (
                         f". Below: close-up of the onset (± {self._close_s():g} s, shaded above)"
                         if fg.close_up(t, onset, self._close_s()) is not None

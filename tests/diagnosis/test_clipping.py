@@ -6,7 +6,8 @@ import pytest
 
 from analyzer.diagnosis.clipping import find_clipping, merge_clipped
 from analyzer.diagnosis.merge import Finding
-from analyzer.pipeline import RunOptions, analyze
+from analyzer.pipeline import RunOptions, analyze, findings_document
+from analyzer.report import render_report
 from analyzer.simulate import simulate_building
 from analyzer.types import FaultType
 from analyzer.writers import write_archive
@@ -112,6 +113,10 @@ def test_a_clipping_sensor_of_a_building_is_one_finding(tmp_path):
     first = (on + int(np.argmax(np.abs(Y[on:, 2]) >= lim))) / RATE
     assert abs(f.onset_s - first) < 0.05
     assert f.end_s is None
+    # the report draws the limits on the finding's signal (text stays text in its SVGs)
+    html = render_report(analysis, findings_document(analysis))
+    assert html.count("clipping limit") == 1
+    assert "dotted grey: the limits its readings pile up at" in html
 
 
 def test_a_quantized_reading_that_clips():
