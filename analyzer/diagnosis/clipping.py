@@ -12,14 +12,15 @@ the healthy window, a value that no reading goes beyond from some row on and tha
 read :data:`MIN_CLIPPED` times or more from there, at least :data:`PILE_UP` times as
 often as the next value inside it (continuous readings take each value once; quantized
 ones still thin out at the tail), on fewer than half of its readings (more is a frozen
-sensor, :mod:`analyzer.diagnosis.stuck`) and not as often in the healthy window (a limit
-reached in health is the sensor's normal), and the readings are finely resolved
-(:func:`_coarse`), its findings from the first clipped reading
-on are one fault: type ``other``, magnitude ``clipped_high`` / ``clipped_low`` (the
-limits, channel units) and ``clipped_fraction``, merged before one fault at a time so
+sensor, :mod:`analyzer.diagnosis.stuck`), and the readings are finely resolved
+(:func:`_coarse`), its findings that begin between its first and last clipped readings
+are one fault (where the healthy window piles up at the limit too, the sensor clipped
+there already, and the note says so): type ``other``, magnitude ``clipped_high`` /
+``clipped_low`` (the limits, channel units) and ``clipped_fraction``, merged before one
+fault at a time so
 that what the clipping did to the sensors modelled with it is taken for it. (A quantity
-that itself sits at a bound it never reached in the healthy window, a valve fully open,
-reads the same way: the note says so.)
+that itself sits at a bound, a valve fully open, reads the same way: the note says
+so.)
 """
 
 from __future__ import annotations
@@ -71,6 +72,10 @@ class Clip:
     fraction: float
     rows: npt.NDArray[np.int64] = field(repr=False)
     """The clipped readings' rows (absolute)."""
+    healthy_from: int | None = None
+    """The first row of the healthy window that reads a limit, where that window piles up
+    at it too (the sensor clipped already there: its range too small for the response);
+    None where it does not."""
 
 
 def _candidates(seg: npt.NDArray[np.float64], top: bool) -> list[tuple[float, int]]:
@@ -116,8 +121,10 @@ def find_clipping(
 ) -> Clip | None:
     """Column ``j``'s clipping over rows ``start ..`` of ``values`` (the search), or None.
     A limit (:func:`_candidates`) clips when it piles up from the row no reading goes
-    beyond it (:func:`_piles_up`). A limit the healthy window ``train`` reads
-    :data:`MIN_CLIPPED` times or more is the sensor's normal, not a fault."""
+    beyond it (:func:`_piles_up`). Where the healthy window ``train`` reads a limit
+    :data:`MIN_CLIPPED` times or more, the sensor clipped there already (``healthy_from``:
+    a sensor whose range is too small for the response clips from the record's start,
+    and the detectors fitted on its clipped readings still reported 21 faults on it)."""
     n = values.shape[0]
     col = read_column(values, j, start, n)
     finite = np.isfinite(col)
@@ -130,12 +137,14 @@ def find_clipping(
         return None
     limits: dict[str, float] = {}
     froms: list[int] = []
+    before: list[int] = []
     for name, top in (("high", True), ("low", False)):
         for value, since in _candidates(seg, top):
             if not _piles_up(seg[since:], value, top):
                 continue
-            if int(np.count_nonzero(healthy == value)) >= MIN_CLIPPED:
-                continue  # the healthy window piles up there too
+            there = healthy == value
+            if int(np.count_nonzero(there)) >= MIN_CLIPPED:
+                before.append(train[0] + int(np.argmax(there)))
             limits[name] = value
             froms.append(since)
             break
@@ -156,6 +165,7 @@ def find_clipping(
         int(where.size),
         float(fraction),
         rows[where],
+        min(before) if before else None,
     )
 
 
@@ -241,6 +251,9 @@ def merge_clipped(
             "fraction": clip.fraction,
             "first_s": t0,
             "last_s": last_s,
+            "in_healthy_window_from_s": (
+                None if clip.healthy_from is None else clip.healthy_from / rate_hz
+            ),
             "findings_merged": len(mine),
             "types_merged": sorted({str(f.type) for f in mine}),
         }
@@ -292,6 +305,14 @@ def merge_clipped(
             "range, or its amplifier's; or the quantity sits at a bound it did not reach in "
             f"the healthy window); its {len(mine)} finding(s) from then on "
             f"({', '.join(sorted({str(f.type) for f in mine}))}) are reported as one"
+            + (
+                ""
+                if clip.healthy_from is None
+                else f". It clipped at that limit in the healthy window already, from "
+                f"{clip.healthy_from / rate_hz:.3f} s: its range is too small for this "
+                "response (or the quantity sits at a bound), and the detectors were fitted "
+                "on its clipped readings"
+            )
         )
     out.sort(key=lambda f: (f.onset_s, f.channel))
     return out, notes

@@ -62,10 +62,18 @@ def test_no_clipping(make):
     assert find_clipping(Y, 0, TRAIN[1], TRAIN) is None
 
 
-def test_a_limit_the_healthy_window_reaches_is_the_sensors_normal():
+def test_a_limit_the_healthy_window_piles_up_at_too_is_clipping_from_there():
+    """Clipped from the first reading (a range too small for the response): found, and
+    where it began in the healthy window said."""
     Y = _signal()
-    Y[:, 0] = np.clip(Y[:, 0], -1.0, 1.0)  # clipped from the first reading
-    assert find_clipping(Y, 0, TRAIN[1], TRAIN) is None
+    Y[3000:, 0] = np.clip(Y[3000:, 0], -1.0, 1.0)
+    clip = find_clipping(Y, 0, TRAIN[1], TRAIN)
+    assert clip is not None and clip.high == 1.0 and clip.low == -1.0
+    assert clip.healthy_from == 3000 + int(np.argmax(np.abs(Y[3000:, 0]) >= 1.0))
+    Y = _signal()
+    Y[ONSET:, 0] = np.clip(Y[ONSET:, 0], -1.0, 1.0)
+    found = find_clipping(Y, 0, TRAIN[1], TRAIN)
+    assert found is not None and found.healthy_from is None
 
 
 def _finding(channel, onset, end, detector="detection_filter", kind=FaultType.MULTIPLICATIVE):
@@ -92,6 +100,27 @@ def test_the_swarm_is_one_finding_and_its_echo_on_a_partner_is_taken_for_it():
     assert [f for f in out if f.channel == "s1"] == [lasting]  # its own fault stays
     assert any("clips at 1 and -1" in n for n in notes)
     assert any("taken for that fault" in n and "s1" in n for n in notes)
+
+
+@pytest.mark.parametrize("start_s", [0.0, 120.0])
+def test_a_sensor_that_clips_from_inside_the_healthy_window_is_one_finding(tmp_path, start_s):
+    """s2 of a 6-channel building clipped at half its peak from the record's start or
+    from 120 s (inside the default healthy window, 0-240 s): before, 22 and 37 findings
+    (21 and 37 on s2); now one, whose evidence and note say it clipped in the healthy
+    window already."""
+    t, Y, _ = simulate_building(3, 1200.0, RATE, seed=2, sensors_per_floor=2)
+    on = int(start_s * RATE)
+    lim = 0.5 * float(np.max(np.abs(Y[:, 2])))
+    Y[on:, 2] = np.clip(Y[on:, 2], -lim, lim)
+    path = tmp_path / "clipped.csv"
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(path, "csv", t_ns, {f"s{i}": Y[:, i] for i in range(Y.shape[1])})
+    analysis = analyze([str(path)], RunOptions())
+    assert [(f.channel, f.type) for f in analysis.findings] == [("s2", FaultType.OTHER)]
+    clipped = analysis.findings[0].evidence["clipped"]
+    first = (on + int(np.argmax(np.abs(Y[on:, 2]) >= lim))) / RATE
+    assert clipped["in_healthy_window_from_s"] == pytest.approx(first)
+    assert any("in the healthy window already" in n for n in analysis.notes)
 
 
 def test_a_clipping_sensor_of_a_building_is_one_finding(tmp_path):
