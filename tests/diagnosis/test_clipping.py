@@ -102,20 +102,26 @@ def test_the_swarm_is_one_finding_and_its_echo_on_a_partner_is_taken_for_it():
     assert any("taken for that fault" in n and "s1" in n for n in notes)
 
 
+def _clipped_building(tmp_path, on: int):
+    """A 6-channel building (20 minutes, seed 2) whose s2 clips at half its peak from row
+    ``on``, written as CSV and analyzed with the defaults: ``(Y, limit, analysis)``."""
+    t, Y, _ = simulate_building(3, 1200.0, RATE, seed=2, sensors_per_floor=2)
+    lim = 0.5 * float(np.max(np.abs(Y[:, 2])))
+    Y[on:, 2] = np.clip(Y[on:, 2], -lim, lim)
+    path = tmp_path / "clipped.csv"
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(path, "csv", t_ns, {f"s{i}": Y[:, i] for i in range(Y.shape[1])})
+    return Y, lim, analyze([str(path)], RunOptions())
+
+
 @pytest.mark.parametrize("start_s", [0.0, 120.0])
 def test_a_sensor_that_clips_from_inside_the_healthy_window_is_one_finding(tmp_path, start_s):
     """s2 of a 6-channel building clipped at half its peak from the record's start or
     from 120 s (inside the default healthy window, 0-240 s): before, 22 and 37 findings
     (21 and 37 on s2); now one, whose evidence and note say it clipped in the healthy
     window already."""
-    t, Y, _ = simulate_building(3, 1200.0, RATE, seed=2, sensors_per_floor=2)
     on = int(start_s * RATE)
-    lim = 0.5 * float(np.max(np.abs(Y[:, 2])))
-    Y[on:, 2] = np.clip(Y[on:, 2], -lim, lim)
-    path = tmp_path / "clipped.csv"
-    t_ns = np.round(t * 1e9).astype(np.int64)
-    write_archive(path, "csv", t_ns, {f"s{i}": Y[:, i] for i in range(Y.shape[1])})
-    analysis = analyze([str(path)], RunOptions())
+    Y, lim, analysis = _clipped_building(tmp_path, on)
     assert [(f.channel, f.type) for f in analysis.findings] == [("s2", FaultType.OTHER)]
     clipped = analysis.findings[0].evidence["clipped"]
     first = (on + int(np.argmax(np.abs(Y[on:, 2]) >= lim))) / RATE
@@ -127,14 +133,8 @@ def test_a_clipping_sensor_of_a_building_is_one_finding(tmp_path):
     """A 6-channel building whose s2 clips at half its peak from 60 % of a 20-minute
     record: before, 18 findings on s2 (gains below 1 where the peaks were cut, ``other``);
     now one, with its limits."""
-    t, Y, names = simulate_building(3, 1200.0, RATE, seed=2, sensors_per_floor=2)
-    on = int(0.6 * len(t))
-    lim = 0.5 * float(np.max(np.abs(Y[:, 2])))
-    Y[on:, 2] = np.clip(Y[on:, 2], -lim, lim)
-    path = tmp_path / "clipped.csv"
-    t_ns = np.round(t * 1e9).astype(np.int64)
-    write_archive(path, "csv", t_ns, {f"s{i}": Y[:, i] for i in range(Y.shape[1])})
-    analysis = analyze([str(path)], RunOptions())
+    on = int(0.6 * 1200.0 * RATE)
+    Y, lim, analysis = _clipped_building(tmp_path, on)
     assert [(f.channel, f.type) for f in analysis.findings] == [("s2", FaultType.OTHER)]
     (f,) = analysis.findings
     assert f.magnitude["clipped_high"] == pytest.approx(lim)
