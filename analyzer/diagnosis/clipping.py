@@ -17,10 +17,9 @@ sensor, :mod:`analyzer.diagnosis.stuck`), and the readings are finely resolved
 are one fault (where the healthy window piles up at the limit too, the sensor clipped
 there already, and the note says so): type ``other``, magnitude ``clipped_high`` /
 ``clipped_low`` (the limits, channel units) and ``clipped_fraction``, merged before one
-fault at a time so
-that what the clipping did to the sensors modelled with it is taken for it. (A quantity
-that itself sits at a bound, a valve fully open, reads the same way: the note says
-so.)
+fault at a time so that what the clipping did to the sensors modelled with it is taken
+for it. (A quantity that itself sits at a bound, a valve fully open, reads the same way:
+the note says so.)
 """
 
 from __future__ import annotations
@@ -204,6 +203,9 @@ def merge_clipped(
         if (clip := find_clipping(values, index[c], start, train)) is not None
     }
 
+    near = ECHO_WINDOWS * LONG_FACTOR * default_window(rate_hz) / rate_hz
+    record_end = values.shape[0] / rate_hz
+
     def clipping_own(g: Finding) -> bool:
         own = clips.get(g.channel)
         return own is not None and (
@@ -269,13 +271,13 @@ def merge_clipped(
             events=[e for f in mine for e in f.events],
         )
         gone = {id(f) for f in mine}
-        near = ECHO_WINDOWS * LONG_FACTOR * default_window(rate_hz) / rate_hz
         partners = {c for g in groups if channel in g for c in g} - {channel}
-        record_end = values.shape[0] / rate_hz
         echoes = []
         for g in out:
             if g.channel not in partners or g.onset_s < t0 - slack_s or clipping_own(g):
                 continue
+            if g.type in (FaultType.ADDITIVE, FaultType.DRIFT):
+                continue  # a level or a trend: not what a cut peak leaves behind
             # one cut short by the record's end, within the window it takes to tell, ends
             # there (it may outlast the clipping; no one can say)
             if g.end_s is None and record_end - g.onset_s <= near:
@@ -284,8 +286,6 @@ def merge_clipped(
                 continue
             else:
                 stop = g.end_s
-            if g.type in (FaultType.ADDITIVE, FaultType.DRIFT):
-                continue  # a level or a trend: not what a cut peak leaves behind
             if _clipped_near(clip.rows / rate_hz, g.onset_s - near, stop + near):
                 echoes.append(g)
         for g in echoes:
@@ -302,8 +302,8 @@ def merge_clipped(
             f"{channel} clips at {limits} from {t0:.3f} s: {clip.count} readings "
             f"({clip.fraction:.1%} of those from the first to the last) sit at its extremes, "
             "a pile-up a healthy signal's tail does not make (the sensor saturates: past its "
-            "range, or its amplifier's; or the quantity sits at a bound it did not reach in "
-            f"the healthy window); its {len(mine)} finding(s) from then on "
+            "range, or its amplifier's; or the quantity sits at a bound); its "
+            f"{len(mine)} finding(s) from then on "
             f"({', '.join(sorted({str(f.type) for f in mine}))}) are reported as one"
             + (
                 ""
