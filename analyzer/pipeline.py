@@ -35,7 +35,7 @@ from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.clipping import merge_clipped
 from analyzer.diagnosis.common_mode import common_changes
 from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
-from analyzer.diagnosis.levels import level_note, response_levels
+from analyzer.diagnosis.levels import excursions, level_note, response_levels
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.stuck import healthy_stats, relabel_frozen
 from analyzer.diagnosis.training_check import window_notes, window_warnings
@@ -81,6 +81,9 @@ from analyzer.reuse import (
     warmup,
 )
 from analyzer.scratch import make_scratch, remove_scratch, scratch
+from analyzer.search_after import Stretch, found_after
+from analyzer.search_after import note as after_note
+from analyzer.search_after import stretches as after_stretches
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, dominant_rate
 from analyzer.timeutil import iso_utc, plausible_epoch
 from analyzer.types import NS_PER_S
@@ -436,9 +439,10 @@ def _analyze(
         else:
             groups = [tuple(g) for g in reused.groups]
         fits = None if reused is None else reused.fits
-        kept: dict[str, dict[str, tuple[Any, Any]]] | None = (
-            {} if options.save_model is not None else None
-        )
+        # every group's fitted detectors, for a search again with the same models
+        # (analyzer.search_after), and saved with --save-model
+        collected: dict[str, dict[str, tuple[Any, Any]]] = {}
+        kept = collected if options.save_model is not None else None
         single = len(groups) == 1 and len(groups[0]) == len(chosen)
 
         def detect(which: list[str], label: str, signals: str) -> _Outcome:
@@ -452,8 +456,8 @@ def _analyze(
             into = work / signals if big else None
             shared = (options, data, run_ctx, executor, timings, into, start_tests)
             if single:
-                return run_detectors(which, *shared, "", *fits_of("", fits, kept))
-            return run_groups(groups, which, *shared, fits, kept)
+                return run_detectors(which, *shared, "", *fits_of("", fits, collected))
+            return run_groups(groups, which, *shared, fits, collected)
 
         excitation = measured_inputs(ctx.config)
 
@@ -520,11 +524,38 @@ def _analyze(
             findings = sorted([*findings, *again], key=lambda f: (f.onset_s, f.channel))
             notes.extend(again_notes)
             timings["search again"] = time.perf_counter() - t_again
+        # the load or the structure beyond anything the training window held
+        levels = response_levels(values, aligned.rate_hz, train if reused is None else None)
+        # and searched again after such a stretch, where an anomaly no sensor explained
+        # began: a fault that began there and outlasted it was left in that anomaly
+        todo, more = (
+            after_stretches(excursions(levels)[0], results, aligned.n, aligned.rate_hz, slack)
+            if reused is None and not options.screen
+            else ([], 0)
+        )
+        if todo:
+            t_after = time.perf_counter()
+            searched: list[tuple[Stretch, list[Finding]]] = []
+            for k, stretch in enumerate(todo):
+                new = _searched_after(
+                    stretch,
+                    k,
+                    findings,
+                    [r.detector for r in results],
+                    (options, data, groups, collected),
+                    ctx,
+                    executor,
+                    work if big else None,
+                    diagnose,
+                )
+                searched.append((stretch, new))
+                again.extend(new)
+                findings = sorted([*findings, *new], key=lambda f: (f.onset_s, f.channel))
+            notes.append(after_note(searched, more))
+            timings["search after"] = time.perf_counter() - t_after
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
         notes.extend(_unattributed_notes(results, findings, aligned.rate_hz))
         notes.extend(_after_gap_notes(findings, values, chosen, aligned.rate_hz))
-        # the load or the structure beyond anything the training window held
-        levels = response_levels(values, aligned.rate_hz, train if reused is None else None)
         notes.extend(n for n in [level_note(levels)] if n)
         if isinstance(executor, DaskExecutor):  # after the work: tasks sent again, say
             notes.append(executor.describe())
@@ -662,6 +693,51 @@ def _searched_without(
     clipped = {f.channel for f in added if "clipped" in f.evidence}
     own = [n for n in said if any(n.startswith(f"{c} clips at ") for c in clipped)]
     return added, [reconfigure_note(lost, suspects, added, rate_hz), *own]
+
+
+def _searched_after(
+    stretch: Stretch,
+    k: int,
+    findings: list[Finding],
+    ran: list[str],
+    setup: tuple[RunOptions, Dataset, list[tuple[str, ...]], dict[str, Any]],
+    ctx: RunContext,
+    executor: Executor,
+    work: Path | None,
+    diagnose: Callable[[list[DetectorResult]], tuple[list[Finding], list[str]]],
+) -> list[Finding]:
+    """The detectors that ran (``ran``, one name per result) run again over the record
+    with the models they fitted (``setup``: the options, the data, the channel groups and
+    the fits by group), searching from ``stretch.search_row`` (the healthy window the
+    same), and the findings of theirs that ``findings`` lack there
+    (:func:`analyzer.search_after.found_after`), with their evidence (the tests of this
+    search's residuals). ``k`` numbers the search (its scratch space)."""
+    options, data, groups, fits = setup
+    names = list(dict.fromkeys(ran))
+    after = replace(data, search_from=stretch.search_row)
+    # its own scratch: the first search's long results (fixed names) are still read
+    own = None if ctx.workdir is None else ctx.workdir / f"after{k}"
+    if own is not None:
+        own.mkdir(exist_ok=True)
+    run_ctx = replace(ctx, workdir=own, explicit=False)
+    if ctx.progress is not None:
+        shown = ctx.progress
+        run_ctx = replace(run_ctx, progress=lambda stage, done: shown("after " + stage, done))
+    into = None if work is None else work / f"signals-after{k}"
+    shared: tuple[Any, ...] = (options, after, run_ctx, executor, {}, into, lambda _: None)
+    if len(groups) == 1 and len(groups[0]) == len(data.channels):
+        results, _ = run_detectors(names, *shared, "", fits.get("", {}), None)
+    else:
+        results, _ = run_groups(
+            groups, names, options, after, run_ctx, executor, {}, into, lambda _: None, fits
+        )
+    if not results:
+        return []
+    found, _ = diagnose(results)
+    slack = LONG_FACTOR * default_window(data.rate_hz) / data.rate_hz
+    added = found_after(found, findings, stretch, data.rate_hz, slack)
+    attach_evidence(added, merge_groups(results, list(data.channels)), data.rate_hz, data.train)
+    return added
 
 
 GAP_SEARCH_ROWS = 1 << 16

@@ -380,7 +380,7 @@ class ARKalmanBank:
         rate = data.rate_hz
         Y = np.asarray(data.values, dtype=np.float64)
         N, m = Y.shape
-        train_stop = data.train[1]
+        train_stop = data.search_start  # (the healthy window's end, unless searched again)
         events: list[Event] = []
         notes: list[str] = []
         unattributed: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = []
@@ -394,7 +394,7 @@ class ARKalmanBank:
         fixes: list[tuple[int, int, int, FloatArray]] = []  # (channel, a, b, corrected)
         # each residual's healthy share of its estimate, left out of fault shapes
         # (over the healthy window's second half, as events_from_residual measures it)
-        healthy = slice((data.train[0] + train_stop) // 2, train_stop)
+        healthy = slice((data.train[0] + data.train[1]) // 2, data.train[1])
         # (without one in the record, --model: each fault's before its onset)
         slopes = (
             [reference_slope(resid0[healthy, j], est0[healthy, j]) for j in range(m)]

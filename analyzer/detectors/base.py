@@ -64,11 +64,21 @@ class Dataset:
     rate_hz: float
     train: tuple[int, int]
     healthy: bool = True
+    search_from: int | None = None
+    """Where the fault search starts when not at ``train``'s end: a search again after a
+    stretch whose anomaly no sensor explained (:mod:`analyzer.search_after`); the healthy
+    window is still ``train``."""
 
     @property
     def healthy_start(self) -> int | None:
         """Where the healthy window starts, None when ``train`` is no healthy window."""
         return self.train[0] if self.healthy else None
+
+    @property
+    def search_start(self) -> int:
+        """The first row searched for faults: ``search_from``, else the training window's
+        end."""
+        return self.train[1] if self.search_from is None else max(self.train[1], self.search_from)
 
     @property
     def n(self) -> int:

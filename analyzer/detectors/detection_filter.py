@@ -642,7 +642,7 @@ class DetectionFilter:
         zetas, refs, _, bad = self._run_outputs(
             model, data.values, context, directions=False, bank=bank
         )
-        train_stop = data.train[1]
+        train_stop = data.search_start
         events: list[Event] = []
         notes: list[str] = []
         unattributed: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = []
@@ -852,8 +852,9 @@ def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
             model.zeta_cal[i],
             rate,
             detector,
-            search_start=data.train[1],
+            search_start=data.search_start,
             healthy_start=data.healthy_start,
+            healthy_stop=data.train[1],
             before_onset=not data.healthy,
             tau_corr=model.tau[i],
             scratch=scratch.workdir,

@@ -495,7 +495,7 @@ class EquivalentModel:
                 data.channels[ob.target],
                 rate,
                 self.name,
-                (data.healthy_start, data.train[1]),
+                (data.healthy_start, data.train[1], data.search_start),
                 None if kept is None else (kept[0][:, k], kept[1][:, k]),
                 scratch,
             )
@@ -541,7 +541,7 @@ class EquivalentModel:
             target's uses them (calibrated as the edge ``s -> t`` alone: each estimate
             taken out adds its noise, which makes such a residual quiet less readily)."""
             k0 = int(round(t0 * rate))
-            lo = max(data.train[1], k0 - model.window)
+            lo = max(data.search_start, k0 - model.window)
             hi = min(values.shape[0], k0 + 2 * long)
             a = max(0, lo - long)  # the samples that fill the windows at ``lo``
             own = {n: _violation(residuals[n][a:hi], cals[n], lo - a) for n in residuals}
@@ -1090,7 +1090,7 @@ def _observer_task(
         str,
         float,
         str,
-        tuple[int | None, int],
+        tuple[int | None, int, int],
         tuple[Any, Any] | None,
         ScratchRows,
     ],
@@ -1101,7 +1101,7 @@ def _observer_task(
     (rows of memory-mapped buffers) when there are. For a long archive the two float64
     signals the event search reads are scratch rows (memory-mapped, reused by the next
     observer), and every pass gives back what it is done with."""
-    ob, values, name, rate, detector, (train_start, train_stop), into, scratch = task
+    ob, values, name, rate, detector, (train_start, train_stop, search), into, scratch = task
     # without a healthy window in the record (--model): each fault's slope before its onset
     n = values.shape[0]
     with scratch.row("observer-zeta", n) as zeta_row, scratch.row("observer-z", n) as z_row:
@@ -1132,8 +1132,9 @@ def _observer_task(
             ob.cal,
             rate,
             detector,
-            search_start=train_stop,
+            search_start=search,
             healthy_start=train_start,
+            healthy_stop=train_stop,
             before_onset=train_start is None,
             tau_corr=ob.tau,
             scratch=scratch.workdir,

@@ -817,8 +817,9 @@ class ErrorFunction:
                 f.calibration,
                 data.rate_hz,
                 self.name,
-                search_start=data.train[1],
+                search_start=data.search_start,
                 healthy_start=data.healthy_start,
+                healthy_stop=data.train[1],
                 before_onset=not data.healthy,
                 tau_corr=f.tau_corr,
                 evidence={"group": f.group, "references": list(f.channels[1:])},
@@ -826,7 +827,7 @@ class ErrorFunction:
             )
             y = data.values[:, data.index(f.channel)]
             for ev in found:
-                _in_sensor_time(ev, f, r, y, data.rate_hz, data.train[1])
+                _in_sensor_time(ev, f, r, y, data.rate_hz, data.search_start)
                 _in_sensor_units(ev, f)
             events.extend(found)
             context.report(self.name, (k + 1) / len(model.functions))

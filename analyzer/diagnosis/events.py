@@ -46,6 +46,7 @@ def events_from_residual(
     *,
     search_start: int = 0,
     healthy_start: int | None = None,
+    healthy_stop: int | None = None,
     before_onset: bool = False,
     tau_corr: float = 1.0,
     evidence: dict[str, Any] | None = None,
@@ -58,15 +59,17 @@ def events_from_residual(
     (:class:`~analyzer.diagnosis.classify.ReferenceSlope`) is measured over the window's
     second half and left out of each fault's shape. ``before_onset``: without a healthy
     window in the record (a model fitted on another archive), that share is measured on
-    the residual before each fault's onset instead (:func:`slope_before`)."""
+    the residual before each fault's onset instead (:func:`slope_before`). ``healthy_stop``:
+    the healthy window's end where the search starts later (default ``search_start``)."""
     out: list[Event] = []
     n = residual.shape[0]
     slope = None
-    if reference is not None and healthy_start is not None and healthy_start < search_start:
+    stop = search_start if healthy_stop is None else min(healthy_stop, search_start)
+    if reference is not None and healthy_start is not None and healthy_start < stop:
         # its second half: the filters settle from their initial state in the first (an
         # observer starting at zero under a level of 1000 gave a slope of -0.98)
-        settled = (healthy_start + search_start) // 2
-        slope = reference_slope(residual[settled:search_start], reference[settled:search_start])
+        settled = (healthy_start + stop) // 2
+        slope = reference_slope(residual[settled:stop], reference[settled:stop])
     covered = search_start
     # the search computes the alarm statistic a piece at a time (its memory does not grow
     # with the record); each fault's end is searched on the statistic of a stretch from

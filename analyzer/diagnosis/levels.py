@@ -124,39 +124,51 @@ def binned_rms(values: npt.ArrayLike, bins: int, center: npt.ArrayLike) -> Float
         return np.sqrt(squares / counts)
 
 
-def level_note(levels: Levels | None) -> str:
-    """The stretches where the channels' median level left the range of the training
-    window's bins (at least :data:`LEVEL_TRAIN_BINS`) by :data:`LEVEL_CHANGE` or more, as
-    one sentence; "" when none did, or without a training window of the record's own."""
+@dataclass(frozen=True, slots=True)
+class Excursion:
+    """A stretch where the channels' median level left the training window's range."""
+
+    start_s: float
+    end_s: float
+    extreme: float
+    """The median level's highest (over) or lowest (under) value there, in training RMS."""
+
+
+def excursions(levels: Levels | None) -> tuple[list[Excursion], tuple[float, float]]:
+    """The stretches (in time order) where the channels' median level left the range of
+    the training window's bins (at least :data:`LEVEL_TRAIN_BINS`) by :data:`LEVEL_CHANGE`
+    or more, and that range; none without a training window of the record's own."""
     if levels is None or levels.train is None or levels.ratio.shape[1] < 2:
-        return ""
+        return [], (0.0, 0.0)
     train = levels.train
     if int(train.sum()) < LEVEL_TRAIN_BINS:
-        return ""
+        return [], (0.0, 0.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # a bin without data: NaN
         level = np.nanmedian(levels.ratio, axis=1)
     low, high = float(np.nanmin(level[train])), float(np.nanmax(level[train]))
     edges = levels.edges_s
-    parts = []
-    for word, mask in (
-        ("over", level > LEVEL_CHANGE * high),
-        ("under", level < low / LEVEL_CHANGE),
-    ):
+    out = []
+    for over, mask in ((True, level > LEVEL_CHANGE * high), (False, level < low / LEVEL_CHANGE)):
         for a, b in _runs(mask):
             x = level[a:b]
-            extreme = float(np.nanmax(x) if word == "over" else np.nanmin(x))
-            parts.append(
-                (
-                    float(edges[a]),
-                    f"{float(edges[a]):.1f}-{float(edges[b]):.1f} s ({extreme:.2g}x its "
-                    "training level)",
-                )
-            )
-    if not parts:
+            extreme = float(np.nanmax(x) if over else np.nanmin(x))
+            out.append(Excursion(float(edges[a]), float(edges[b]), extreme))
+    out.sort(key=lambda e: e.start_s)
+    return out, (low, high)
+
+
+def level_note(levels: Levels | None) -> str:
+    """The stretches where the channels' median level left the range of the training
+    window's bins (:func:`excursions`) as one sentence; "" when none did, or without a
+    training window of the record's own."""
+    found, (low, high) = excursions(levels)
+    if not found:
         return ""
-    parts.sort()
-    shown = "; ".join(p for _, p in parts[:LISTED])
+    parts = [
+        f"{e.start_s:.1f}-{e.end_s:.1f} s ({e.extreme:.2g}x its training level)" for e in found
+    ]
+    shown = "; ".join(parts[:LISTED])
     more = f", and {len(parts) - LISTED} more stretches" if len(parts) > LISTED else ""
     return (
         "the channels' median response level left the range of the training window "
@@ -168,10 +180,12 @@ def level_note(levels: Levels | None) -> str:
 
 
 __all__ = [
+    "Excursion",
     "LEVEL_CHANGE",
     "LEVEL_MIN_BIN_S",
     "Levels",
     "binned_rms",
+    "excursions",
     "level_note",
     "response_levels",
 ]
