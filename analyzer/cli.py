@@ -11,6 +11,7 @@ import contextlib
 import json
 import math
 import os
+import select
 import signal
 import sys
 import threading
@@ -37,7 +38,10 @@ class _Parser(argparse.ArgumentParser):
     """argparse that reports a usage error on one line (exit 2), as the contract asks."""
 
     def error(self, message: str) -> NoReturn:
-        raise UsageError(f"{self.prog}: {message}")
+        # "analyzer: error: " comes first: the top parser's message stands alone, a
+        # command's is named by it ("run: --jobs: ...")
+        command = self.prog.removeprefix("analyzer").strip()
+        raise UsageError(f"{command}: {message}" if command else message)
 
 
 def _positive_float(text: str) -> float:
@@ -371,6 +375,17 @@ def _naming_inputs(message: str, inputs: Sequence[str]) -> str:
     return f"{', '.join(inputs)}: {message}"
 
 
+def _stdout_gone() -> bool:
+    """Whether stdout is a pipe whose reader has closed it (poll reports an error on
+    its write end)."""
+    try:
+        poller = select.poll()
+        poller.register(sys.stdout.fileno(), select.POLLOUT)
+        return any(ev & (select.POLLERR | select.POLLHUP) for _, ev in poller.poll(0))
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
 def _error(message: str) -> int:
     print(f"analyzer: error: {one_line(message)}", file=sys.stderr)
     return 2
@@ -472,7 +487,11 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
     args = None
     previous = None
     try:
-        args = build_parser().parse_args(argv)
+        parsed, extra = build_parser().parse_known_args(argv)
+        if extra:  # named by the command they were given to, not the top parser
+            command = f"{parsed.command}: " if getattr(parsed, "command", None) else ""
+            raise UsageError(f"{command}unrecognized arguments: {' '.join(extra)}")
+        args = parsed
         args.figure_processes = figure_processes
         global _ONE_SHOT
         _ONE_SHOT = args.command != "watch"
@@ -497,6 +516,14 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
         global _UNWOUND
         _UNWOUND = args is not None and args.command != "watch"
         return 130
+    except BrokenPipeError as err:
+        if not _stdout_gone():  # another pipe's (a worker process's): an error
+            return _error(f"internal error: BrokenPipeError: {err} (please report it)")
+        # stdout closed by its reader (``analyzer inspect X | head``): nothing more to
+        # say, and nothing to say it to; the status a process killed by SIGPIPE gives
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 128 + signal.SIGPIPE
     except OSError as err:  # the file system refused (disk full, permissions...)
         lost = _cluster_failure(err, args)  # (or the cluster's connection closed)
         if lost is not None:

@@ -995,7 +995,10 @@ class CsvReader:
             header = _header_line(lines[:LAYOUT_LINES], separator, open_end)
             header, units_at = _units_under(lines, header, separator)
             first_row = header + 1 if units_at is None else units_at + 1
-        if not toa5 and _is_data(_fields(lines[header], separator), separator):
+        if not toa5 and (
+            _is_data(_fields(lines[header], separator), separator)
+            or _counted_on(lines[header : header + 3], separator)
+        ):
             raise ReaderError(
                 f"{self.path}: no header line: the first line is data "
                 f"({_shorten(lines[header])!r}: every field a number or a time): add a line "
@@ -1841,6 +1844,25 @@ def _is_data(fields: list[str], separator: str) -> bool:
         numbers = [int(c) for c in cells]
         return not all(a < b for a, b in zip(numbers, numbers[1:], strict=False))
     return True
+
+
+def _counted_on(lines: list[str], separator: str) -> bool:
+    """Whether a would-be header of increasing integers, which :func:`_is_data` takes
+    for column numbers, is the first row of a header-less integer export: the two
+    lines under it all integers as well, with as many fields, and its first field and
+    theirs equally spaced (a sample counter: ``0,500,514`` over ``1,496,494`` and
+    ``2,503,511``; a header ``0,1,2`` over rows of readings does not continue that
+    way). Such a file was read with its first row for a header, the channels named by
+    two readings and that row lost, without a word."""
+    if len(lines) < 3:
+        return False
+    rows = [[c.strip() for c in _fields(line, separator)] for line in lines]
+    if len(rows[0]) < 2 or any(len(r) != len(rows[0]) for r in rows):
+        return False
+    if not all(_INTEGER.match(c) for r in rows for c in r):
+        return False
+    a, b, c = (int(r[0]) for r in rows)
+    return b - a == c - b != 0
 
 
 def _units_under(lines: list[str], header: int, separator: str) -> tuple[int, int | None]:

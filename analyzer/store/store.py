@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import fnmatch
 import os
+import sys
 from collections.abc import Iterable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -291,7 +292,10 @@ class ChannelStore:
         t1 = max(i.end_ns for i in infos) if end_ns is None else int(end_ns)  # type: ignore[union-attr]
         if t1 < t0:
             raise StoreError("empty time range")
-        n = int(np.floor((t1 - t0) * rate / NS_PER_S + 1e-9)) + 1
+        rows = np.floor((t1 - t0) * rate / NS_PER_S + 1e-9) + 1
+        # (a rate near the float's limit gives no finite count: as many as it can hold,
+        # for the check below to refuse by name)
+        n = int(rows) if np.isfinite(rows) else sys.maxsize
         span = (t1 - t0) / NS_PER_S
         if n < 2 and rate_hz is not None and span > 0:
             raise StoreError(
@@ -301,7 +305,8 @@ class ChannelStore:
         most = max(i.samples for i in infos)  # type: ignore[union-attr]
         if n > MAX_ROWS_PER_SAMPLE * most + MIN_ROWS_ALLOWED:
             raise StoreError(
-                f"the common clock at {rate:g} Hz would need {n:,} rows over {span:.6g} s for "
+                f"the common clock at {rate:g} Hz would need "
+                f"{f'{n:,}' if np.isfinite(rows) else 'countless'} rows over {span:.6g} s for "
                 f"at most {most:,} samples per channel: a timestamp lies far from the others "
                 "(an outlier, or a wrong unit), or --rate is far above the data's rate"
                 + self._largest_gap(channels, span)

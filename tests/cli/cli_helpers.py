@@ -25,3 +25,16 @@ def one_line_error(err: str, *needles: str) -> str:
     for n in needles:
         assert n in lines[0], (n, lines[0])
     return lines[0]
+
+
+def rounded(doc: Any, digits: int = 9) -> Any:
+    """A JSON document with every float to ``digits`` significant digits: runs on
+    threads split the filters' work into time blocks, whose sums differ from the serial
+    run's in the last bits."""
+    if isinstance(doc, dict):
+        return {k: rounded(v, digits) for k, v in doc.items()}
+    if isinstance(doc, list):
+        return [rounded(v, digits) for v in doc]
+    if isinstance(doc, float):
+        return float(f"{doc:.{digits}g}")
+    return doc

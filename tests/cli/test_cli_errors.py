@@ -51,6 +51,11 @@ def test_rate_too_low_or_too_high_is_refused_before_aligning(tmp_path, capsys):
     assert code == 2
     one_line_error(err, "rows")
     assert not (tmp_path / "x.csv").exists()
+    # one whose row count is no finite number (an OverflowError, "internal error", before)
+    for cmd, out in (("export", tmp_path / "x.csv"), ("run", tmp_path / "o")):
+        code, _, err = run_cli([cmd, src, "--out", out, "--rate", "1e308"], capsys)
+        assert code == 2
+        one_line_error(err, str(src), "countless rows", "--rate")
 
 
 def test_an_outlier_timestamp_is_an_error_not_a_disk_full_of_gaps(tmp_path, capsys):
@@ -734,3 +739,41 @@ def test_channels_never_present_together_are_named_when_nothing_can_run(tmp_path
     code, _, err = run_cli(["run", folder, "--out", tmp_path / "o"], capsys)
     assert code == 2
     one_line_error(err, "row(s) hold every channel", "0.0-100.0 s", "--channels")
+
+
+def test_usage_errors_say_analyzer_once_and_name_the_command(tmp_path, capsys):
+    """'analyzer: error: analyzer: argument command: ...' and '... analyzer:
+    unrecognized arguments: --bogus' (for an option of ``run``) before."""
+    code, _, err = run_cli(["demo"], capsys)
+    assert code == 2
+    line = one_line_error(err, "invalid choice: 'demo'")
+    assert line.startswith("analyzer: error: argument command")
+    src = _csv(tmp_path / "a.csv", seconds=5.0)
+    code, _, err = run_cli(["run", src, "--out", tmp_path / "o", "--bogus"], capsys)
+    assert code == 2
+    assert one_line_error(err) == "analyzer: error: run: unrecognized arguments: --bogus"
+    code, _, err = run_cli(["run", src, "--out", tmp_path / "o", "--jobs", "0"], capsys)
+    assert one_line_error(err).startswith("analyzer: error: run: argument --jobs: must be >= 1")
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_reader_that_closes_stdout_ends_the_listing_quietly(tmp_path):
+    """``analyzer inspect X | head -1``: 'analyzer: error: Broken pipe', exit 2, before;
+    now nothing on stderr and the status of a process SIGPIPE ended (128 + 13)."""
+    wide = tmp_path / "wide.csv"
+    names = [f"c{k}" for k in range(3000)]  # a listing far beyond a pipe's buffer
+    rows = ["time," + ",".join(names)] + [
+        f"{i}," + ",".join(str((i * k) % 7) for k in range(3000)) for i in range(5)
+    ]
+    wide.write_text("\n".join(rows) + "\n")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "analyzer", "inspect", str(wide)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    proc.stdout.readline()
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 141, err
+    assert err == ""

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from cli_helpers import run_cli
+from cli_helpers import rounded, run_cli
 
 from analyzer.simulate import inject_fault, simulate_building
 from analyzer.writers import write_archive
@@ -77,9 +77,10 @@ def test_the_second_search_is_the_same_on_threads(tmp_path, capsys):
     _archive(tmp_path / "a.csv", 0, 4, 3)
     _, serial = _run(capsys, tmp_path / "a.csv", tmp_path / "one", "--jobs", "1")
     _, threads = _run(capsys, tmp_path / "a.csv", tmp_path / "two", "--jobs", "2")
-    assert json.dumps(serial["faults"], sort_keys=True) == json.dumps(
-        threads["faults"], sort_keys=True
-    )
+    # the same document, its numbers to rounding: threads split the filters' work into
+    # time blocks whose sums differ in the last bits (a peak of 32.24675235349832 on
+    # one machine's BLAS was 32.246752353498294 on threads)
+    assert rounded(serial["faults"]) == rounded(threads["faults"])
 
 
 def test_a_saved_model_keeps_its_channel_set(tmp_path, capsys):

@@ -306,6 +306,29 @@ def test_first_lines_of_numbers_and_times_are_data(tmp_path: Path, first: str) -
         open_input(path)
 
 
+@pytest.mark.parametrize(("start", "step"), [(0, 1), (1, 1), (1000, 10)])
+def test_an_integer_export_without_header_is_refused(tmp_path: Path, start: int, step: int) -> None:
+    """A sample counter and ADC counts, no header line: its first row (``0,500,514``,
+    increasing integers) was taken for column numbers, the channels named 500 and 514
+    and that row lost, without a word."""
+    rng = np.random.default_rng(1)
+    path = tmp_path / "adc.csv"
+    rows = [(start + step * i, 500 + i % 7, 514 + int(rng.integers(9))) for i in range(300)]
+    path.write_text("".join(f"{a},{b},{c}\n" for a, b, c in rows))
+    with pytest.raises(ReaderError, match="no header line: the first line is data"):
+        open_input(path)
+
+
+@pytest.mark.parametrize("header", ["0,1,2", "1,2,3", "time,1,2"])
+def test_numbered_columns_over_integer_rows_are_a_header(tmp_path: Path, header: str) -> None:
+    """The rows' first column does not go on from the header's first field."""
+    path = tmp_path / "numbered.csv"
+    path.write_text(header + "\n" + "".join(f"{100 + i},{i % 5},{-i}\n" for i in range(50)))
+    got, _ = read(path)
+    assert set(got) == set(header.split(",")[1:])
+    assert len(got[header.split(",")[1]][1]) == 50
+
+
 @pytest.mark.parametrize(
     "header", ["time,1,2", "t,100,200", "0,1,2", "1,2,3", ",1,2", "time [s],1e3,2e3"]
 )
