@@ -169,20 +169,45 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("inspect", help="what is in an archive: channels, counts, rates, gaps")
     p.add_argument("inputs", nargs="+", metavar="INPUT", help=INPUT_HELP)
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
-    p.add_argument("--time", choices=("log", "header"), default="log")
+    p.add_argument(
+        "--time",
+        choices=("log", "header"),
+        default="log",
+        help="timestamps: log time (default) or header.stamp where messages have one",
+    )
     add_msg_path(p)
 
     p = sub.add_parser("export", help="the time-aligned channels as .csv or .parquet")
     p.add_argument("inputs", nargs="+", metavar="INPUT", help=INPUT_HELP)
     p.add_argument("--out", required=True, metavar="FILE", help="output .csv or .parquet")
-    p.add_argument("--channels", type=_csv_list, metavar="GLOB[,GLOB...]")
-    p.add_argument("--rate", type=_positive_float, metavar="HZ")
-    p.add_argument("--time", choices=("log", "header"), default="log")
+    p.add_argument(
+        "--channels",
+        type=_csv_list,
+        metavar="GLOB[,GLOB...]",
+        help="channels to export (shell patterns; !GLOB leaves channels out); default: all",
+    )
+    p.add_argument(
+        "--rate",
+        type=_positive_float,
+        metavar="HZ",
+        help="the common clock's rate; default: the channels' dominant rate",
+    )
+    p.add_argument(
+        "--time",
+        choices=("log", "header"),
+        default="log",
+        help="timestamps: log time (default) or header.stamp where messages have one",
+    )
     add_msg_path(p)
 
     p = sub.add_parser("run", help="analyze; write DIR/report.html and DIR/findings.json")
     p.add_argument("inputs", nargs="+", metavar="INPUT", help=INPUT_HELP)
-    p.add_argument("--out", required=True, metavar="DIR")
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="folder for report.html and findings.json (made if missing)",
+    )
     add_run_options(p)
     p.add_argument(
         "--save-model",
@@ -191,8 +216,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
 
     p = sub.add_parser("watch", help="analyze every archive that lands in INBOX")
-    p.add_argument("inbox", metavar="INBOX")
-    p.add_argument("--out", required=True, metavar="REPORTS")
+    p.add_argument("inbox", metavar="INBOX", help="the folder archives are dropped into")
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="REPORTS",
+        help="folder of the reports: one sub-folder per archive, and index.html",
+    )
     add_run_options(p)
     p.add_argument(
         "--poll",
