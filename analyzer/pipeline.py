@@ -567,7 +567,11 @@ def _analyze(
         # (the second search's findings carry the evidence of its own residuals)
         added = {id(f) for f in again}
         attach_evidence(
-            [f for f in findings if id(f) not in added], results, aligned.rate_hz, train
+            [f for f in findings if id(f) not in added],
+            results,
+            aligned.rate_hz,
+            train,
+            whiten=reused is None,
         )
         for r in parts:
             r.model["training_tests"], r.model["windowed_tests"] = {}, {}

@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 from markupsafe import Markup
 
+from analyzer.diagnosis.evidence import Whitening, standardized, whitened_part
 from analyzer.diagnosis.levels import response_levels
 from analyzer.report import format as fmt
 from analyzer.report import jobs as fg
@@ -245,17 +246,25 @@ class FigureParts:
                 continue
             a = max(0, int(round(float(span[0]) * self.rate)))
             b = min(self.n, int(round(float(span[1]) * self.rate)))
-            z = self._standardized(det, ch, a, b)
+            z = self._standardized(det, ch, a, b, t.get("whitening"))
             if z is None or b <= a:
                 continue
             segs.append(fg.Segment(name, np.arange(a, b) / self.rate, z, t.get(test_key)))
         if not segs:
             return None
         job = fg.FigureJob("tests_figure", (segs, det, f"{view.anchor}-tests"))
+        spec = t.get("whitening")
+        what = (
+            f"Whitened residual of {det} (training mean and deviation removed, then the "
+            f"one-step error of its AR({spec.get('order')}) model of the training window, "
+            "in units of its healthy deviation: what the tests ran on)"
+            if isinstance(spec, dict)
+            else f"Standardized residual of {det} (training mean and deviation removed)"
+        )
         return self.figure(
             "tests",
             "Innovation tests before and after the onset",
-            f"Standardized residual of {det} (training mean and deviation removed), on "
+            f"{what}, on "
             f"{' and '.join(_span(t.get(k)) for k in SPAN_KEYS if t.get(k))}."
             " Left: Shewhart chart with the ±3 limits (shaded: beyond). Middle: normal "
             "probability plot; a healthy residual follows the red N(0, 1) line. Right: "
@@ -288,12 +297,18 @@ class FigureParts:
             return None, None, None
         return mean, half, window
 
-    def _standardized(self, det: str, ch: str, a: int, b: int) -> FloatArray | None:
+    def _standardized(
+        self, det: str, ch: str, a: int, b: int, whitening: Any = None
+    ) -> FloatArray | None:
         """``(r - mean) / std`` on ``[a, b)``, as analyzer.diagnosis.evidence.standardized
-        (the same normalization the tests ran on)."""
+        (the same normalization the tests ran on), whitened by the evidence's
+        ``whitening`` when it has one (:func:`analyzer.diagnosis.evidence.whitened_part`)."""
         r = self.results.get(det)
         if r is None or r.residuals.get(ch) is None:
             return None
+        w = Whitening.from_dict(whitening)
+        if w is not None and b > a and standardized(r, ch, slice(a, a + 1)) is not None:
+            return whitened_part(r, ch, slice(a, b), w)
         res = r.residuals[ch]
         th = r.thresholds.get(ch, {}) if isinstance(r.thresholds.get(ch), dict) else {}
         mean = float(th.get("mean", 0.0))

@@ -1,5 +1,6 @@
 """training_tests standardizes only the training samples it tests; it must give what
-standardizing the whole residual and then cutting the training window out gives."""
+standardizing the whole residual, whitening it and then cutting the training window's
+end out gives (and the same for a finding's stretches)."""
 
 from __future__ import annotations
 
@@ -11,12 +12,19 @@ import pytest
 from analyzer import stats
 from analyzer.detectors.base import DetectorResult
 from analyzer.diagnosis import evidence
-from analyzer.diagnosis.evidence import MAX_SEGMENT, standardized, training_tests
+from analyzer.diagnosis.evidence import (
+    MAX_SEGMENT,
+    WHITEN_FIT,
+    fit_whitening,
+    settled,
+    standardized,
+    training_tests,
+)
 
 
 def _result(dtype: type) -> DetectorResult:
     rng = np.random.default_rng(7)
-    n = 3 * MAX_SEGMENT
+    n = 3 * MAX_SEGMENT + 2 * WHITEN_FIT  # longer than anything the evidence reads at once
     a = (0.02 + 0.4 * rng.standard_normal(n)).astype(dtype)
     b = (0.3 * rng.standard_normal(n) + np.linspace(0.0, 1.0, n)).astype(dtype)
     b[MAX_SEGMENT // 3 : MAX_SEGMENT // 3 + 50] = np.nan  # a gap inside the training window
@@ -31,8 +39,24 @@ def _result(dtype: type) -> DetectorResult:
     )
 
 
+def _whitened_whole(z: np.ndarray, train: tuple[int, int]) -> np.ndarray:
+    """The straightforward form of the whitening: the model fitted on the training
+    window's end of the whole standardized residual, applied to all of it by the
+    definition ``e[t] = (z[t] - sum_k a[k] z[t - k]) / scale`` (NaN where the window
+    holds a gap or reaches before the start)."""
+    a = max(settled(train), train[1] - WHITEN_FIT)
+    w = fit_whitening(z[a : train[1]]) if train[1] - a >= evidence.MIN_SEGMENT else None
+    if w is None:
+        return z
+    e = np.full(z.shape[0], np.nan)
+    for t in range(w.order, z.shape[0]):
+        past = z[t - w.order : t][::-1]
+        e[t] = (z[t] - float(np.dot(w.coefficients, past))) / w.scale
+    return e
+
+
 def _reference(result: DetectorResult, train: tuple[int, int]) -> dict[str, Any]:
-    """The straightforward form: the whole residual standardized, then cut."""
+    """The straightforward form: the whole residual standardized, whitened, then cut."""
     out: dict[str, Any] = {}
     for ch, r in result.residuals.items():
         th = result.thresholds.get(ch, {})
@@ -43,7 +67,10 @@ def _reference(result: DetectorResult, train: tuple[int, int]) -> dict[str, Any]
         if not std > 0:
             continue
         z = (np.asarray(r, dtype=np.float64) - mean) / std
-        seg = z[train[0] : train[1]][:MAX_SEGMENT]
+        lo = max(settled(train), train[1] - MAX_SEGMENT)
+        if train[1] - lo < evidence.MIN_SEGMENT:
+            continue
+        seg = _whitened_whole(z, train)[lo : train[1]]
         seg = seg[np.isfinite(seg)]
         if seg.shape[0] < evidence.MIN_SEGMENT:
             continue
@@ -69,7 +96,12 @@ def _reference(result: DetectorResult, train: tuple[int, int]) -> dict[str, Any]
 def test_training_tests_equal_whole_residual_cut(dtype: type, train: tuple[int, int]) -> None:
     result = _result(dtype)
     got = training_tests(result, train)
-    assert got == _reference(result, train)
+    want = _reference(result, train)
+    assert got.keys() == want.keys()
+    for ch in got:  # the same tests; the statistics to rounding (convolution vs loop)
+        for k, v in got[ch].items():
+            assert v["reject"] == want[ch][k]["reject"], (ch, k)
+            assert v["statistic"] == pytest.approx(want[ch][k]["statistic"], rel=1e-9, abs=1e-12)
     assert "c" not in got  # no healthy deviation: not tested
 
 
@@ -119,9 +151,10 @@ def test_finding_evidence_standardizes_only_the_stretches_it_tests(dtype, end_s,
     z = standardized(result, "a")
     n = z.shape[0]
     end = n if end_s is None else int(round(end_s * rate))
-    lo = max(train[0], onset - MAX_SEGMENT)
-    want_before = evidence._tests(z[lo:onset])
-    want_after = evidence._tests(z[onset : min(end, onset + MAX_SEGMENT)])
+    lo = max(settled(train), onset - MAX_SEGMENT)
+    e = _whitened_whole(z, train)
+    want_before = evidence._tests(e[lo:onset])
+    want_after = evidence._tests(e[onset : min(end, onset + MAX_SEGMENT)])
     finding = Finding(
         "a",
         FaultType.ADDITIVE,
@@ -143,5 +176,11 @@ def test_finding_evidence_standardizes_only_the_stretches_it_tests(dtype, end_s,
     monkeypatch.setattr(evidence, "standardized", spy)
     evidence.attach_evidence([finding], [result], rate, train)
     got = finding.evidence["tests"]["d"]
-    assert got["before"] == want_before and got["after"] == want_after
-    assert max(whole) <= MAX_SEGMENT < n  # never the whole residual
+    for side, want in (("before", want_before), ("after", want_after)):
+        assert want is not None and got[side] is not None
+        for k, v in got[side].items():
+            assert v["reject"] == want[k]["reject"], (side, k)
+            assert v["statistic"] == pytest.approx(want[k]["statistic"], rel=1e-9, abs=1e-12)
+    assert got["whitening"]["order"] >= 0
+    # the stretches and the whitening fit, never the whole residual
+    assert max(whole) <= max(MAX_SEGMENT, WHITEN_FIT) < n
