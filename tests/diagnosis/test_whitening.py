@@ -115,3 +115,23 @@ def test_the_before_stretch_starts_after_the_filters_settle():
     g = _finding(2_400, rate)
     attach_evidence([g], [res], rate, train)
     assert g.evidence["tests"]["d"]["before_span_s"][0] == evidence.settled(train) / rate
+
+
+def test_a_gain_s_larger_noise_is_not_read_as_an_offset():
+    """The mean test holds the mean against the healthy deviation: 2 000 samples of a
+    gain of 1.5 whose mean wandered 0.05 moved it past 1.96 / sqrt(N) and the tests
+    pointed to an offset; against the stretch's own spread they point to the gain. An
+    offset leaves the spread as it was and still points to an offset."""
+    from analyzer.stats import test_segment
+
+    rng = np.random.default_rng(5)
+    noise = rng.standard_normal(2000)
+    gain = test_segment(1.5 * (noise - noise.mean()) + 0.05)
+    assert gain["mean"]["reject"] and gain["covariance"]["reject"]
+    kinds = evidence.consistent_types(gain)
+    assert "multiplicative" in kinds and "additive" not in kinds
+    offset = test_segment(noise - noise.mean() + 0.5)
+    assert offset["mean"]["reject"] and offset["covariance"]["reject"]
+    assert evidence.consistent_types(offset)[:2] == ["additive", "drift"]
+    both = test_segment(1.5 * (noise - noise.mean()) + 0.5)  # a gain and an offset
+    assert evidence.consistent_types(both)[:2] == ["additive", "drift"]
