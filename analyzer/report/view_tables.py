@@ -194,8 +194,11 @@ class TableParts:
             note = (
                 f"Consecutive windows of {w} samples ({fmt.seconds(w / self.rate, 2)}), "
                 f"{layout.get('valid', layout.get('count'))} per channel, over the whole record "
-                "(faulty stretches included). A healthy, well-modelled residual rejects in "
-                "about 5 % of the windows."
+                "(faulty stretches included), on the residual as it is: unlike the tests "
+                "around each finding's onset, not whitened, so a residual that is coloured "
+                "even when healthy (a leave-one-out estimate's error, say) fails whiteness, "
+                "and often the mean and normality, in most windows; only a white one "
+                "rejects in about 5 %. Read it across channels and detectors."
             )
         return ChannelTable(header, rows), note
 
