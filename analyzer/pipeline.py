@@ -220,7 +220,10 @@ def _residual_tests(
     result, channels, train, rate_hz = task
     return (
         training_tests(result, train, channels),
-        windowed_summary(result, rate_hz, channels=channels),
+        # whitened by the training window's model, where the record has one (not --model)
+        windowed_summary(
+            result, rate_hz, channels=channels, train=train if train[1] > train[0] else None
+        ),
     )
 
 

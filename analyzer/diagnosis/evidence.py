@@ -37,6 +37,7 @@ from analyzer.errors import DetectorError
 from analyzer.paging import release
 from analyzer.stats import summarize, test_segment, windowed_tests
 from analyzer.stats._checks import standardize
+from analyzer.stats.whiten import whiten
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -73,21 +74,8 @@ class Whitening:
 
     def apply(self, z: FloatArray, history: int) -> FloatArray:
         """The whitened ``z[history:]``, where ``z`` starts ``history`` samples (at most
-        :attr:`order`) before the stretch wanted; a sample whose window holds a gap (NaN)
-        or reaches before ``z``'s start is NaN (dropped by the tests)."""
-        p = self.order
-        if z.shape[0] <= history:
-            return np.zeros(0)
-        kernel = np.concatenate(([1.0], -np.asarray(self.coefficients)))
-        bad = ~np.isfinite(z)
-        x = np.where(bad, 0.0, z)
-        e = np.convolve(x, kernel)[: x.shape[0]] / self.scale
-        # NaN where the window [t - p, t] holds a gap, or reaches before the data
-        reach = np.convolve(np.concatenate((np.ones(p, bool), bad)), np.ones(p + 1))[
-            p : p + x.shape[0]
-        ]
-        e[reach > 0.5] = np.nan
-        return e[history:]
+        :attr:`order`) before the stretch wanted (:func:`analyzer.stats.whiten.whiten`)."""
+        return whiten(z, self.coefficients, self.scale, history)
 
     def as_dict(self) -> dict[str, Any]:
         return {"order": self.order, "coefficients": list(self.coefficients), "scale": self.scale}
@@ -345,11 +333,13 @@ def windowed_summary(
     rate_hz: float,
     window_s: float = 1.0,
     channels: Sequence[str] | None = None,
+    train: tuple[int, int] | None = None,
 ) -> dict[str, Any]:
     """Per channel (of ``channels`` only, when given): the innovation tests on consecutive
     windows over the whole archive (vectorized, :func:`analyzer.stats.windowed_tests`),
     summarized as the share of windows each test rejects (about 5 % for a healthy,
-    well-modelled residual)."""
+    well-modelled residual), on the residual whitened by its model of the training
+    window ``train`` (as the tests around an onset; not whitened without one)."""
     window = max(100, int(round(window_s * rate_hz)))
     out: dict[str, Any] = {}
     for ch in result.residuals if channels is None else channels:
@@ -360,7 +350,11 @@ def windowed_summary(
         try:
             # standardized a batch at a time, as standardized() does it whole: a long
             # archive's residual is read in pieces, not copied whole to float64
-            out[ch] = summarize(windowed_tests(r, window, standardize=scaling))
+            w = None if train is None else _whitening(result, ch, train)
+            white = None if w is None else (w.coefficients, w.scale)
+            out[ch] = summarize(windowed_tests(r, window, standardize=scaling, whitening=white))
+            if w is not None:
+                out[ch]["whitening_order"] = w.order
         except DetectorError:
             continue
         finally:

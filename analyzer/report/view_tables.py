@@ -173,11 +173,12 @@ class TableParts:
         """The windowed tests over the whole record (``model["windowed_tests"]``): per
         channel and test, the share of windows that reject."""
         header = ["channel", *[TEST_LABELS[k][0] for k in TEST_LABELS]]
-        rows, layout = [], None
+        rows, layout, whitened = [], None, False
         for ch, tests in wt.items():
             if not isinstance(tests, Mapping):
                 continue
             layout = layout or tests.get("windows")
+            whitened = whitened or tests.get("whitening_order") is not None
             cells = [str(ch)]
             for k in TEST_LABELS:
                 t = tests.get(k) or {}
@@ -194,11 +195,18 @@ class TableParts:
             note = (
                 f"Consecutive windows of {w} samples ({fmt.seconds(w / self.rate, 2)}), "
                 f"{layout.get('valid', layout.get('count'))} per channel, over the whole record "
-                "(faulty stretches included), on the residual as it is: unlike the tests "
-                "around each finding's onset, not whitened, so a residual that is coloured "
-                "even when healthy (a leave-one-out estimate's error, say) fails whiteness, "
-                "and often the mean and normality, in most windows; only a white one "
-                "rejects in about 5 %. Read it across channels and detectors."
+                "(faulty stretches included), "
+                + (
+                    "on the residual whitened by its AR model of the training window, as "
+                    "around each finding's onset. A healthy, well-modelled residual rejects "
+                    "in about 5 % of the windows."
+                    if whitened
+                    else "on the residual as it is (no training window of the record's own "
+                    "to whiten it by): a residual that is coloured even when healthy (a "
+                    "leave-one-out estimate's error, say) fails whiteness, and often the "
+                    "mean and normality, in most windows. Read it across channels and "
+                    "detectors."
+                )
             )
         return ChannelTable(header, rows), note
 

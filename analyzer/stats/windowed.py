@@ -36,6 +36,7 @@ a trailing partial window is dropped. Seed 003 (IST Advanced Control Systems
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -75,6 +76,7 @@ from analyzer.stats.normality import (
     standardize_sorted,
 )
 from analyzer.stats.outliers import expected_fraction
+from analyzer.stats.whiten import whiten
 from analyzer.stats.whiteness import band, ljung_box
 
 DEFAULT_BATCH_VALUES = 1 << 16
@@ -158,6 +160,7 @@ def windowed_tests(
     keep_acf: bool = False,
     batch_values: int = DEFAULT_BATCH_VALUES,
     standardize: tuple[float, float] | None = None,
+    whitening: tuple[Sequence[float], float] | None = None,
 ) -> WindowedTests:
     """Run every innovation test on each window of a 1-D standardized residual ``z``.
 
@@ -172,7 +175,14 @@ def windowed_tests(
     mapped or not), standardized as ``(z - mean) / std`` in float64 a batch at a time
     (the same two operations per sample as standardizing it whole, so the same bits)
     and its pages given back behind: no float64 copy of a long archive's residual.
+    ``whitening=(coefficients, scale)`` (with ``standardize``): the standardized residual
+    is whitened by that AR model's one-step error (:func:`analyzer.stats.whiten.whiten`)
+    a batch at a time, each batch reading the samples before it the filter needs; the
+    first ``p`` samples of the record, and those a gap reaches, leave their windows
+    untested.
     """
+    if whitening is not None and standardize is None:
+        raise DetectorError("whitening is applied to a raw residual with standardize=")
     if standardize is not None:
         arr = np.asarray(z)
         if arr.dtype.kind != "f":
@@ -200,9 +210,15 @@ def windowed_tests(
             _run_batch(arr, starts[rows], settings, out, rows)
             continue
         lo = int(starts[rows][0])
-        raw = arr[lo : int(starts[rows][-1]) + window]
+        a = lo if whitening is None else max(0, lo - len(whitening[0]))
+        raw = arr[a : int(starts[rows][-1]) + window]
         seg = standardized_values(raw, *standardize)
         release(raw)  # no-op in memory
+        if whitening is not None:
+            p = len(whitening[0])
+            if lo - a < p:  # the record begins inside the filter's reach
+                seg = np.concatenate((np.full(p - (lo - a), np.nan), seg))
+            seg = whiten(seg, whitening[0], whitening[1], p)
         _run_batch(seg, starts[rows] - lo, settings, out, rows)
     return out.finish(starts, settings)
 

@@ -184,3 +184,22 @@ def test_finding_evidence_standardizes_only_the_stretches_it_tests(dtype, end_s,
     assert got["whitening"]["order"] >= 0
     # the stretches and the whitening fit, never the whole residual
     assert max(whole) <= max(MAX_SEGMENT, WHITEN_FIT) < n
+
+
+def test_windowed_summary_whitens_by_the_training_window_s_model():
+    """With the training window, each residual's windows are tested whitened by its
+    model of that window (the model the tests around an onset use): a strongly
+    coloured healthy residual (AR(1) 0.9) rejected whiteness in every 1 s window."""
+    from scipy.signal import lfilter
+
+    rng = np.random.default_rng(3)
+    r = lfilter([1.0], [1.0, -0.9], rng.standard_normal(60_000))
+    std = float(np.std(r[:20_000]))
+    result = DetectorResult(
+        "d", ("a",), {}, [], {"a": r}, sigma={"a": std}, thresholds={"a": {"std": std}}
+    )
+    plain = evidence.windowed_summary(result, 100.0)["a"]
+    white = evidence.windowed_summary(result, 100.0, train=(0, 20_000))["a"]
+    assert "whitening_order" not in plain and white["whitening_order"] >= 1
+    assert plain["whiteness"]["fraction"] > 0.9
+    assert white["whiteness"]["fraction"] < 0.15

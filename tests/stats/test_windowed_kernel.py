@@ -16,6 +16,7 @@ from scipy.special import log_ndtr, ndtr
 from scipy.stats import chi2
 
 import analyzer.stats.windowed as windowed
+from analyzer.errors import DetectorError
 from analyzer.stats import _windowed_kernel
 from analyzer.stats._checks import ALPHA
 from analyzer.stats.normality import (
@@ -203,6 +204,41 @@ def test_standardized_a_batch_at_a_time_equals_standardized_whole(tmp_path, batc
             np.testing.assert_array_equal(a.reject, b.reject)
         np.testing.assert_array_equal(got.acf, want.acf)
         np.testing.assert_array_equal(got.valid, want.valid)
+
+
+@pytest.mark.parametrize("batch_values", [1, 1000, 1 << 20])
+def test_whitened_a_batch_at_a_time_equals_whitened_whole(batch_values):
+    """``whitening=(coefficients, scale)``: each batch reads the samples before it the
+    filter needs, so the windows' tests are those of the residual standardized and
+    whitened whole by the filter's definition (to rounding: a convolution), a gap and
+    the record's first ``p`` samples leaving their windows untested."""
+    rng = np.random.default_rng(12)
+    raw = (0.3 + 2.5 * rng.standard_normal(20_017)).astype(np.float32)
+    raw[5000:5040] = np.nan
+    mean, std = 0.25, 2.4
+    coefficients, scale = (0.6, -0.25, 0.1), 0.9
+    z = (raw.astype(np.float64) - mean) / std
+    e = np.full(z.shape[0], np.nan)
+    for t in range(3, z.shape[0]):
+        e[t] = (z[t] - 0.6 * z[t - 1] + 0.25 * z[t - 2] - 0.1 * z[t - 3]) / scale
+    want = windowed_tests(e, 200, 70, keep_acf=True)
+    got = windowed_tests(
+        raw,
+        200,
+        70,
+        keep_acf=True,
+        batch_values=batch_values,
+        standardize=(mean, std),
+        whitening=(coefficients, scale),
+    )
+    np.testing.assert_array_equal(got.valid, want.valid)
+    assert not got.valid[0]  # the first window holds the first p samples
+    for name in WindowedTests.TESTS:
+        a, b = getattr(want, name), getattr(got, name)
+        np.testing.assert_allclose(a.statistic, b.statistic, rtol=1e-9, atol=1e-12)
+        np.testing.assert_array_equal(a.reject, b.reject)
+    with pytest.raises(DetectorError, match="standardize"):
+        windowed_tests(raw, 200, whitening=(coefficients, scale))
 
 
 def test_normal_logs_match_scipy() -> None:
