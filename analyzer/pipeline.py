@@ -29,6 +29,7 @@ from analyzer.detector_runs import (
     skip_reasons,
 )
 from analyzer.detectors import Dataset, DetectorResult, RunContext
+from analyzer.detectors.ar_kalman import ORDER_NOTE
 from analyzer.detectors.ar_model import flat_channels
 from analyzer.diagnosis import Finding, merge_events, one_fault_at_a_time
 from analyzer.diagnosis.changes import LONG_FACTOR, default_window
@@ -1451,6 +1452,12 @@ def config_warnings(config: Config, analysis: Analysis) -> list[str]:
             continue
         lines.append(
             f"{config.path}: the config's {what} is not used, {'; '.join(skip_reasons(why))}"
+        )
+    # a fixed AR order below what the training window supports (the bank's own note)
+    stem = ORDER_NOTE.split("{order}")[0]
+    for r in analysis.results:
+        lines.extend(
+            f"{config.path}: [detectors.{r.detector}] {n}" for n in r.notes if n.startswith(stem)
         )
     return lines
 

@@ -434,3 +434,36 @@ def test_a_drift_on_a_measured_input_is_no_sensors_fault(tmp_path, capsys):
     code, err, doc = _driven_run(tmp_path, capsys, ("drift", 40.0, 0.05))
     assert code == 0, err
     assert doc["faults"] == []
+
+
+def test_a_fixed_ar_order_below_bic_s_is_said(tmp_path, capsys):
+    """order = 3 on the bundled gain sample: the bank alone found nothing (exit 0) and
+    said nothing; BIC selects 10 on its training window."""
+    sample = Path(__file__).resolve().parents[2] / "samples" / "building_multiplicative.csv.gz"
+    low = _config(tmp_path, "[detectors.ar_kalman_bank]\norder = 3\n")
+    code, _, err = run_cli(
+        ["run", sample, "--out", tmp_path / "o", "--config", low, "--detectors", "ar_kalman_bank"],
+        capsys,
+    )
+    assert code in (0, 1)
+    (line,) = [ln for ln in err.splitlines() if "BIC selects" in ln]
+    assert line.startswith(f"analyzer: warning: {low}: [detectors.ar_kalman_bank] the AR order 3")
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    assert any("BIC selects" in n for n in doc["detectors"][0]["notes"])
+    # an order at or above BIC's, or the criterion itself: nothing said
+    for text in ("order = 12\n", 'order = "bic"\n'):
+        cfg = _config(tmp_path, f"[detectors.ar_kalman_bank]\n{text}", "d.toml")
+        code, _, err = run_cli(
+            [
+                "run",
+                sample,
+                "--out",
+                tmp_path / "p",
+                "--config",
+                cfg,
+                "--detectors",
+                "ar_kalman_bank",
+            ],
+            capsys,
+        )
+        assert code in (0, 1) and "BIC selects" not in err
