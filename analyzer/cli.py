@@ -405,6 +405,18 @@ def _naming_inputs(message: str, inputs: Sequence[str]) -> str:
     return f"{', '.join(inputs)}: {message}"
 
 
+def _raised_here(err: BaseException) -> bool:
+    """Whether ``err`` was raised in the analyzer's own code (a ``print`` to stdout is
+    C, so its innermost Python frame is the analyzer's caller), not in a library's pipe
+    (multiprocessing's connection to a worker, say)."""
+    tb = err.__traceback__
+    last = None
+    while tb is not None:
+        last = tb.tb_frame.f_code.co_filename
+        tb = tb.tb_next
+    return last is not None and Path(last).resolve().is_relative_to(Path(__file__).parent)
+
+
 def _stdout_gone() -> bool:
     """Whether stdout is a pipe whose reader has closed it (poll reports an error on
     its write end)."""
@@ -519,7 +531,11 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
     try:
         parsed, extra = build_parser().parse_known_args(argv)
         if extra:  # named by the command they were given to, not the top parser
-            command = f"{parsed.command}: " if getattr(parsed, "command", None) else ""
+            given = list(argv if argv is not None else sys.argv[1:])
+            after = getattr(parsed, "command", None) in given and given.index(
+                parsed.command
+            ) < given.index(extra[0])
+            command = f"{parsed.command}: " if after else ""
             raise UsageError(f"{command}unrecognized arguments: {' '.join(extra)}")
         args = parsed
         args.figure_processes = figure_processes
@@ -547,7 +563,7 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
         _UNWOUND = args is not None and args.command != "watch"
         return 130
     except BrokenPipeError as err:
-        if not _stdout_gone():  # another pipe's (a worker process's): an error
+        if not (_stdout_gone() and _raised_here(err)):  # another pipe's (a worker's)
             return _error(f"internal error: BrokenPipeError: {err} (please report it)")
         # stdout closed by its reader (``analyzer inspect X | head``): nothing more to
         # say, and nothing to say it to; the status a process killed by SIGPIPE gives

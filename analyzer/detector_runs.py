@@ -324,7 +324,9 @@ def run_groups(
         columns = [data.channels.index(c) for c in group]
         path = ctx.workdir / f"group{k}.npy" if big and ctx.workdir is not None else None
         values = _columns(data.values, columns, path)
-        part = Dataset(values, group, data.rate_hz, data.train, data.healthy)
+        # the group's columns, and everything else of the run's data (where the search
+        # starts: a search again after a stretch of another load)
+        part = replace(data, values=values, channels=group)
         share = replace(ctx, false_alarm_rate=ctx.false_alarm_rate * len(group) / total)
         tag = f"-g{k}"
         got, why = run_detectors(

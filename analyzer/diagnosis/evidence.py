@@ -243,6 +243,18 @@ def _mean_beyond_spread(after: dict[str, Any]) -> bool:
     return float(m.get("statistic", 0.0)) / float(np.sqrt(spread)) > float(m.get("critical", 0.0))
 
 
+def _healthy_until(f: Finding, onset: int, rate_hz: float) -> int:
+    """Where the stretch tested as healthy before ``f``'s onset ends: the onset, or for a
+    fault a search again after a stretch of another load found already there
+    (``searched_after``), that stretch's start: the fault may have begun anywhere in it,
+    and the stretch itself is no healthy reference (the tests rejected everything on
+    the burst's end and the fault's first seconds)."""
+    after = f.evidence.get("searched_after")
+    if isinstance(after, dict) and after.get("onset_at_or_before"):
+        return min(onset, int(round(float(after["stretch_s"][0]) * rate_hz)))
+    return onset
+
+
 def attach_evidence(
     findings: list[Finding],
     results: list[DetectorResult],
@@ -266,10 +278,11 @@ def attach_evidence(
                 continue
             onset = int(round(f.onset_s * rate_hz))
             end = r.shape[0] if f.end_s is None else int(round(f.end_s * rate_hz))
-            lo = min(onset, max(settled(train), onset - MAX_SEGMENT))
+            healthy_end = _healthy_until(f, onset, rate_hz)
+            lo = min(healthy_end, max(settled(train), healthy_end - MAX_SEGMENT))
             # only the two stretches tested are standardized (not a float64 copy of the
             # whole residual: as long as the archive), the same bits
-            spans = (slice(lo, onset), slice(onset, min(end, onset + MAX_SEGMENT)))
+            spans = (slice(lo, healthy_end), slice(onset, min(end, onset + MAX_SEGMENT)))
             key = (det, f.channel)
             if key not in whitening:
                 whitening[key] = _whitening(res, f.channel, train) if whiten else None
@@ -281,7 +294,7 @@ def attach_evidence(
             tests[det] = {
                 "before": before,
                 "after": after,
-                "before_span_s": [lo / rate_hz, onset / rate_hz],
+                "before_span_s": [lo / rate_hz, healthy_end / rate_hz],
                 "after_span_s": [onset / rate_hz, min(end, onset + MAX_SEGMENT) / rate_hz],
                 "consistent_with": consistent_types(after),
             }
@@ -353,8 +366,8 @@ def windowed_summary(
             w = None if train is None else _whitening(result, ch, train)
             white = None if w is None else (w.coefficients, w.scale)
             out[ch] = summarize(windowed_tests(r, window, standardize=scaling, whitening=white))
-            if w is not None:
-                out[ch]["whitening_order"] = w.order
+            if w is not None:  # in the window layout: the tests' entries are all objects
+                out[ch]["windows"]["whitening_order"] = w.order
         except DetectorError:
             continue
         finally:

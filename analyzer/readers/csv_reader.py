@@ -1848,18 +1848,22 @@ def _is_data(fields: list[str], separator: str) -> bool:
 
 def _counted_on(lines: list[str], separator: str) -> bool:
     """Whether a would-be header of increasing integers, which :func:`_is_data` takes
-    for column numbers, is the first row of a header-less integer export: the two
-    lines under it all integers as well, with as many fields, and its first field and
-    theirs equally spaced (a sample counter: ``0,500,514`` over ``1,496,494`` and
-    ``2,503,511``; a header ``0,1,2`` over rows of readings does not continue that
-    way). Such a file was read with its first row for a header, the channels named by
-    two readings and that row lost, without a word."""
+    for column numbers, is the first row of a header-less integer export: its fields
+    not consecutive (``0,1,2`` and ``1,2,3`` number columns, as pandas writes a frame's
+    default names: a header), the two lines under it all integers as well, with as many
+    fields, and its first field and theirs equally spaced (a sample counter:
+    ``0,500,514`` over ``1,496,494`` and ``2,503,511``). Such a file was read with its
+    first row for a header, the channels named by two readings and that row lost,
+    without a word."""
     if len(lines) < 3:
         return False
     rows = [[c.strip() for c in _fields(line, separator)] for line in lines]
     if len(rows[0]) < 2 or any(len(r) != len(rows[0]) for r in rows):
         return False
     if not all(_INTEGER.match(c) for r in rows for c in r):
+        return False
+    head = [int(c) for c in rows[0]]
+    if all(b - a == 1 for a, b in zip(head, head[1:], strict=False)):
         return False
     a, b, c = (int(r[0]) for r in rows)
     return b - a == c - b != 0

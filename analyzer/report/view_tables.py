@@ -178,7 +178,8 @@ class TableParts:
             if not isinstance(tests, Mapping):
                 continue
             layout = layout or tests.get("windows")
-            whitened = whitened or tests.get("whitening_order") is not None
+            shape = tests.get("windows")
+            whitened = whitened or (isinstance(shape, Mapping) and "whitening_order" in shape)
             cells = [str(ch)]
             for k in TEST_LABELS:
                 t = tests.get(k) or {}

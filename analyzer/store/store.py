@@ -306,7 +306,7 @@ class ChannelStore:
         if n > MAX_ROWS_PER_SAMPLE * most + MIN_ROWS_ALLOWED:
             raise StoreError(
                 f"the common clock at {rate:g} Hz would need "
-                f"{f'{n:,}' if np.isfinite(rows) else 'countless'} rows over {span:.6g} s for "
+                f"{_count(n if np.isfinite(rows) else span * rate)} rows over {span:.6g} s for "
                 f"at most {most:,} samples per channel: a timestamp lies far from the others "
                 "(an outlier, or a wrong unit), or --rate is far above the data's rate"
                 + self._largest_gap(channels, span)
@@ -888,3 +888,10 @@ def _span_text(seconds: float) -> str:
     if seconds >= 2 * 3600:
         return f"{seconds / 3600:.1f} h"
     return f"{seconds:.6g} s"
+
+
+def _count(rows: float) -> str:
+    """A row count for a message: exact while an integer holds it, else its magnitude."""
+    if not np.isfinite(rows):
+        return "countless"
+    return f"{int(rows):,}" if rows < 1e15 else f"{rows:.3g}"

@@ -55,7 +55,7 @@ def test_rate_too_low_or_too_high_is_refused_before_aligning(tmp_path, capsys):
     for cmd, out in (("export", tmp_path / "x.csv"), ("run", tmp_path / "o")):
         code, _, err = run_cli([cmd, src, "--out", out, "--rate", "1e308"], capsys)
         assert code == 2
-        one_line_error(err, str(src), "countless rows", "--rate")
+        one_line_error(err, str(src), "e+30", "rows", "--rate")
 
 
 def test_an_outlier_timestamp_is_an_error_not_a_disk_full_of_gaps(tmp_path, capsys):
@@ -777,3 +777,24 @@ def test_a_reader_that_closes_stdout_ends_the_listing_quietly(tmp_path):
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == 141, err
     assert err == ""
+
+
+def test_an_unknown_option_before_the_command_is_the_top_parser_s(capsys):
+    code, _, err = run_cli(["--bogus", "run", "x", "--out", "o"], capsys)
+    assert code == 2
+    assert one_line_error(err) == "analyzer: error: unrecognized arguments: --bogus"
+
+
+def test_a_broken_pipe_not_stdout_s_is_an_error(monkeypatch, capsys):
+    """Exit 141 in silence only for stdout's own broken pipe: one raised in a library
+    (a worker's pipe) while stdout happened to be closed too is an error, exit 2."""
+    from analyzer import cli
+
+    def worker_pipe(args):
+        raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(cli, "_stdout_gone", lambda: True)
+    monkeypatch.setitem(cli.COMMANDS, "inspect", worker_pipe)  # raised outside analyzer/
+    code, _, err = run_cli(["inspect", str(SAMPLES / "building_additive.mcap")], capsys)
+    assert code == 2
+    one_line_error(err, "BrokenPipeError")

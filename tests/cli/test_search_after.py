@@ -70,6 +70,12 @@ def test_a_fault_that_begins_in_a_burst_and_outlasts_it_is_found(tmp_path, capsy
     assert after["onset_at_or_before"] is True
     assert f["onset_s"] == pytest.approx(after["search_start_s"], abs=0.02)
     assert f["evidence"]["tests"], "the search's own residual tests are its evidence"
+    # the healthy reference is before the stretch (the fault may have begun in it), and
+    # the offset breaks the mean after the search's start
+    for t in f["evidence"]["tests"].values():
+        assert t["before_span_s"][1] == pytest.approx(after["stretch_s"][0])
+        assert t["after_span_s"][0] == pytest.approx(after["search_start_s"], abs=0.02)
+        assert t["after"]["mean"]["reject"]
     assert any(
         n.startswith("the response level left the training window's range")
         and f"1 finding(s) added: additive on {faulty}" in n
@@ -199,3 +205,19 @@ def test_a_later_search_start_finds_a_later_fault_as_the_first_search(cls):
     # and nothing is searched before its start
     early = det.run(model, Dataset(Y, tuple(names), RATE, train, search_from=int(250 * RATE)), ctx)
     assert all(e.onset_s >= 250.0 for e in early.events)
+
+
+def test_channel_groups_search_again_from_the_stretch_s_end_too(tmp_path, capsys):
+    """Each group's data kept where the search starts: with a config's two groups the
+    search again started at the training window's end, like the first, and added
+    nothing (exit 0, a note that it had searched from 420 s)."""
+    faulty = _archive(tmp_path / "a.csv", 2, 0, fault=True)
+    cfg = tmp_path / "g.toml"
+    cfg.write_text(
+        '[[group]]\nname = "a"\nchannels = ["s0", "s1"]\n'
+        '[[group]]\nname = "b"\nchannels = ["s2", "s3"]\n'
+    )
+    code, doc = _run(capsys, tmp_path / "a.csv", tmp_path / "out", "--config", str(cfg))
+    assert code == 1
+    (f,) = doc["faults"]
+    assert f["channel"] == faulty and f["evidence"]["searched_after"]["onset_at_or_before"]

@@ -200,6 +200,6 @@ def test_windowed_summary_whitens_by_the_training_window_s_model():
     )
     plain = evidence.windowed_summary(result, 100.0)["a"]
     white = evidence.windowed_summary(result, 100.0, train=(0, 20_000))["a"]
-    assert "whitening_order" not in plain and white["whitening_order"] >= 1
+    assert "whitening_order" not in plain["windows"] and white["windows"]["whitening_order"] >= 1
     assert plain["whiteness"]["fraction"] > 0.9
     assert white["whiteness"]["fraction"] < 0.15

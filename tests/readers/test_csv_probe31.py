@@ -320,10 +320,18 @@ def test_an_integer_export_without_header_is_refused(tmp_path: Path, start: int,
 
 
 @pytest.mark.parametrize("header", ["0,1,2", "1,2,3", "time,1,2"])
-def test_numbered_columns_over_integer_rows_are_a_header(tmp_path: Path, header: str) -> None:
-    """The rows' first column does not go on from the header's first field."""
+@pytest.mark.parametrize("first", [100, 1, 10])
+def test_numbered_columns_over_integer_rows_are_a_header(
+    tmp_path: Path, header: str, first: int
+) -> None:
+    """Consecutive column numbers (pandas' default names, ``to_csv(index=False)``) over
+    integer rows, even where the rows' first column goes on from the header's first
+    field (a counter from 1 under ``0,1,2``; a time from 10 in steps of 10): a header."""
     path = tmp_path / "numbered.csv"
-    path.write_text(header + "\n" + "".join(f"{100 + i},{i % 5},{-i}\n" for i in range(50)))
+    step = 10 if first == 10 else 1
+    path.write_text(
+        header + "\n" + "".join(f"{first + step * i},{i % 5},{-i}\n" for i in range(50))
+    )
     got, _ = read(path)
     assert set(got) == set(header.split(",")[1:])
     assert len(got[header.split(",")[1]][1]) == 50
