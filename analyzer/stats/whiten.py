@@ -16,18 +16,19 @@ def whiten(z: FloatArray, coefficients: Sequence[float], scale: float, history: 
     wanted, at most p). A sample whose window ``[t - p, t]`` holds a NaN or reaches
     before ``z``'s start is NaN (the tests drop it, or leave its window untested)."""
     p = len(coefficients)
-    if z.shape[0] <= history:
+    n = z.shape[0]
+    if n <= history:
         return np.zeros(0)
     kernel = np.concatenate(([1.0], -np.asarray(coefficients, dtype=np.float64)))
     bad = ~np.isfinite(z)
-    x = np.where(bad, 0.0, z)
-    e: FloatArray = np.convolve(x, kernel)[: x.shape[0]] / scale
-    if p:
-        # NaN where the window [t - p, t] holds a gap, or reaches before the data
-        reach = np.convolve(np.concatenate((np.ones(p), bad)), np.ones(p + 1))[p : p + x.shape[0]]
+    gaps = bool(bad.any())
+    x = np.where(bad, 0.0, z) if gaps else z
+    e: FloatArray = np.convolve(x, kernel)[:n]
+    e /= scale
+    e[: min(p, n)] = np.nan  # the window reaches before the data
+    if gaps:  # and where it holds a gap: the p samples after each
+        reach = np.convolve(bad.astype(np.float64), np.ones(p + 1))[:n]
         e[reach > 0.5] = np.nan
-    else:
-        e[bad] = np.nan
     return e[history:]
 
 
