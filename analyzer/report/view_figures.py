@@ -146,7 +146,19 @@ class FigureParts:
             )
         else:
             view.remarks.append(f"{ch} is not among the analyzed channels: no signal figure.")
-        if lead is not None:
+        without = (f.get("evidence") or {}).get("searched_without")
+        if lead is not None and without:
+            # the second search's residuals are not kept: the first search's, drawn here,
+            # lost their view where it found the fault (NaN there), and are not what the
+            # tests ran on
+            view.figures.append(self._residual_figure(view, ch, onset, end, dets, lead, k0, k1))
+            view.remarks.append(
+                f"Found by the second search, without {', '.join(without)}: its residuals, "
+                "which the innovation tests ran on, are not drawn (the residual figure is "
+                "the first search's, blind where this fault is); the tests' results are "
+                "in findings.json."
+            )
+        elif lead is not None:
             view.figures.append(self._residual_figure(view, ch, onset, end, dets, lead, k0, k1))
             seg_fig = self._tests_figure(view, ch, f, lead)
             if seg_fig is not None:

@@ -246,3 +246,16 @@ def test_a_screened_run_is_not_searched_again(tmp_path, capsys):
     assert not any(n.startswith("the other channels were searched again") for n in doc["notes"])
     assert any(f"--channels '!{lost}' searches the others there" in n for n in doc["notes"])
     assert all("searched_without" not in f["evidence"] for f in doc["faults"])
+
+
+def test_the_report_does_not_draw_the_first_search_s_blind_residual_as_tested(
+    tmp_path, capsys
+):
+    """The tests of a second search's finding ran on that search's residuals, which the
+    report does not keep: it drew the first search's (NaN where the fault is) as what
+    was tested. A remark says so instead, and the tests figure is left out."""
+    _archive(tmp_path / "a.csv", 0, 4, 3)
+    _run(capsys, tmp_path / "a.csv", tmp_path / "out")
+    html = (tmp_path / "out" / "report.html").read_text(encoding="utf-8")
+    assert "Found by the second search, without s4" in html
+    assert 'data-kind="tests"' not in html
