@@ -523,6 +523,31 @@ def select_order(Y: FloatArray, criterion: str = "bic", max_order: int = 12) -> 
 
 
 def _select_order(Y: FloatArray, criterion: str, max_order: int) -> int:
+    logdets, N, m = _order_logdets(Y, max_order)
+    best, best_val = next(iter(logdets)), np.inf
+    for p, logdet in logdets.items():
+        pen = 2.0 if criterion == "aic" else np.log(N)
+        val = logdet + pen * p * m * m / N
+        if val < best_val:
+            best, best_val = p, val
+    return best
+
+
+def error_ratio(Y: FloatArray, order: int, other: int) -> float:
+    """How much larger the one-step prediction error of the AR model of ``order`` is
+    than that of ``other``, both fitted on the training window ``Y``: the geometric mean
+    over the channels of the error variances' ratio (``exp`` of the log-determinants'
+    difference over the channels); NaN where either order is not supported."""
+    logdets, _, m = _order_logdets(Y, max(order, other))
+    if order not in logdets or other not in logdets:
+        return float("nan")
+    return float(np.exp((logdets[order] - logdets[other]) / m))
+
+
+def _order_logdets(Y: FloatArray, max_order: int) -> tuple[dict[int, float], int, int]:
+    """``log det`` of the one-step error covariance of the AR fit of every order from 1
+    to ``max_order`` the window supports (of standardized channels, all on the same
+    rows), the rows fitted and the channels."""
     n, m = Y.shape
     orders = [p for p in range(1, max_order + 1) if required_samples(p, m) <= n]
     if not orders:
@@ -552,14 +577,12 @@ def _select_order(Y: FloatArray, criterion: str, max_order: int) -> int:
         R = _triangular_factor(np.hstack([X_all, T_all]))
     R_xt = R[:k, k:]
     R_tt = R[k : k + m, k:]
-    best, best_val = orders[0], np.inf
+    out: dict[int, float] = {}
     for p in orders:
         rest = R_xt[p * m :]
         sign, logdet = np.linalg.slogdet((rest.T @ rest + R_tt.T @ R_tt) / N)
-        if sign <= 0:
-            continue
-        pen = 2.0 if criterion == "aic" else np.log(N)
-        val = logdet + pen * p * m * m / N
-        if val < best_val:
-            best, best_val = p, val
-    return best
+        if sign > 0:
+            out[p] = float(logdet)
+    if not out:  # every order singular: the first, as the search gave before
+        out[orders[0]] = float("inf")
+    return out, N, m

@@ -450,8 +450,10 @@ def test_a_fixed_ar_order_below_bic_s_is_said(tmp_path, capsys):
     assert line.startswith(f"analyzer: warning: {low}: [detectors.ar_kalman_bank] the AR order 3")
     doc = json.loads((tmp_path / "o" / "findings.json").read_text())
     assert any("BIC selects" in n for n in doc["detectors"][0]["notes"])
-    # an order at or above BIC's, or the criterion itself: nothing said
-    for text in ("order = 12\n", 'order = "bic"\n'):
+    assert "prediction error is 1.6x as large" in line
+    # an order at or above BIC's, the criterion itself, or one whose error is close to
+    # BIC's (the contract's example order 7: 1.13x): nothing said
+    for text in ("order = 12\n", 'order = "bic"\n', "order = 7\n"):
         cfg = _config(tmp_path, f"[detectors.ar_kalman_bank]\n{text}", "d.toml")
         code, _, err = run_cli(
             [

@@ -248,9 +248,7 @@ def test_a_screened_run_is_not_searched_again(tmp_path, capsys):
     assert all("searched_without" not in f["evidence"] for f in doc["faults"])
 
 
-def test_the_report_does_not_draw_the_first_search_s_blind_residual_as_tested(
-    tmp_path, capsys
-):
+def test_the_report_does_not_draw_the_first_search_s_blind_residual_as_tested(tmp_path, capsys):
     """The tests of a second search's finding ran on that search's residuals, which the
     report does not keep: it drew the first search's (NaN where the fault is) as what
     was tested. A remark says so instead, and the tests figure is left out."""
