@@ -14,18 +14,26 @@ stretch and where the search began (an onset there is an upper bound: the fault 
 begun in the stretch), and a note says so.
 
 A stretch is searched again when an anomaly the detectors attributed to no sensor began
-in it (or within one long alarm window before it), and the record goes on for at least
-:data:`MIN_AFTER_S` after the search's start; at most :data:`MAX_SEARCHES` stretches,
-each costing one more run of the detectors over the record (not their fits)."""
+in it (or within one long alarm window before it), the record goes on for at least
+:data:`MIN_AFTER_S` after the search's start, and a residual of the first search still
+alarms after it (within :data:`SCREEN_S` of the search's start and before the next
+stretch; the detectors' own test and thresholds: where none alarms, the search again
+could begin nothing there, and a burst alone costs nothing); at most
+:data:`MAX_SEARCHES` such stretches, the first ones, each costing one more run of the
+detectors over the record (not their fits)."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from analyzer.detectors import DetectorResult
+from analyzer.diagnosis.changes import Calibration, detect
 from analyzer.diagnosis.levels import Excursion
 from analyzer.diagnosis.merge import Finding
+from analyzer.paging import release
 
 SETTLE_S = 10.0
 """Seconds after a stretch's end (a level bin's edge) before the search again begins: the
@@ -34,6 +42,10 @@ MIN_AFTER_S = 30.0
 """The record must go on this long after the search's start for a stretch to be searched."""
 MAX_SEARCHES = 3
 """Stretches searched again at most (the first ones in time); the rest are counted."""
+SCREEN_S = 60.0
+"""Seconds after a stretch's search start in which a residual of the first search must
+alarm for the stretch to be searched again (a fault that began in the stretch and
+outlasts it alarms from the start)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -54,12 +66,12 @@ def stretches(
     slack_s: float,
 ) -> tuple[list[Stretch], int]:
     """The excursions ``found`` in which an anomaly no detector attributed began (plain:
-    no fault found beside it), with the row the search again starts at, at most
+    no fault found beside it) and after which a residual still alarms
+    (:func:`alarms_after`), with the row the search again starts at, at most
     :data:`MAX_SEARCHES` of them; and how many more there were."""
     out: list[Stretch] = []
     onsets = sorted(onset for r in results for onset, _, beside in r.unattributed if not beside)
-    out = []
-    for e in found:
+    for k, e in enumerate(found):
         if not any(e.start_s - slack_s <= t <= e.end_s for t in onsets):
             continue
         row = int(round((e.end_s + SETTLE_S) * rate_hz))
@@ -67,8 +79,58 @@ def stretches(
             continue
         if out and row <= out[-1].search_row:
             continue
+        later = [int(round(x.start_s * rate_hz)) for x in found[k + 1 :]]
+        stop = min([n, row + int(round(SCREEN_S * rate_hz)), *[r for r in later if r > row]])
+        if not alarms_after(results, row, stop):
+            continue
         out.append(Stretch(e.start_s, e.end_s, row, row / rate_hz))
     return out[:MAX_SEARCHES], max(0, len(out) - MAX_SEARCHES)
+
+
+def _calibration(th: object) -> Calibration | None:
+    """A residual's :class:`~analyzer.diagnosis.changes.Calibration` from its
+    ``as_dict`` form (a detector result's ``thresholds``): the same thresholds."""
+    if not isinstance(th, dict):
+        return None
+    try:
+        windows = tuple(int(w) for w in th["windows"])
+        rate = float(th["false_alarm_rate"])
+        ones = (1.0,) * len(windows)
+        zeros = (0.0,) * len(windows)
+        z = Calibration(0.0, 1.0, windows[0], windows, ones, zeros, zeros, rate).z_crit
+        return Calibration(
+            float(th["mean"]),
+            float(th["std"]),
+            windows[0],
+            windows,
+            tuple(float(m) / z for m in th["mean_threshold"]),
+            tuple(float(q) for q in th["logq_threshold"]),
+            zeros,
+            rate,
+        )
+    except (KeyError, TypeError, ValueError, ZeroDivisionError, IndexError):
+        return None
+
+
+def alarms_after(results: Sequence[DetectorResult], row: int, stop: int) -> bool:
+    """Whether any residual of ``results`` alarms in rows ``row .. stop - 1`` by its
+    detector's own test and thresholds (:func:`~analyzer.diagnosis.changes.detect`, its
+    windows reaching back before ``row``); a residual without thresholds counts as
+    alarming (the search is not left out for want of them)."""
+    for r in results:
+        for ch, res in r.residuals.items():
+            cal = _calibration(r.thresholds.get(ch))
+            if cal is None or not cal.std > 0:
+                return True
+            b = min(stop, res.shape[0])
+            if b - row < cal.window:
+                continue
+            lo = max(0, row - cal.long_window)
+            seg = np.asarray(res[lo:b], dtype=np.float64)
+            release(res)
+            if detect(seg, cal, search_start=row - lo):
+                return True
+    return False
 
 
 def found_after(
@@ -140,4 +202,14 @@ def note(searched: Sequence[tuple[Stretch, list[Finding]]], more: int) -> str:
     )
 
 
-__all__ = ["MAX_SEARCHES", "MIN_AFTER_S", "SETTLE_S", "Stretch", "found_after", "note", "stretches"]
+__all__ = [
+    "MAX_SEARCHES",
+    "MIN_AFTER_S",
+    "SCREEN_S",
+    "SETTLE_S",
+    "Stretch",
+    "alarms_after",
+    "found_after",
+    "note",
+    "stretches",
+]
