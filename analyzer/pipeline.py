@@ -677,13 +677,7 @@ def _searched_without(
     # its own scratch (the detectors' long results have fixed names: the first search's
     # are still read) and the detectors that cannot run on fewer channels skipped, not
     # an error (--detectors, a config [model] naming a left-out channel)
-    again_dir = None if ctx.workdir is None else ctx.workdir / "again"
-    if again_dir is not None:
-        again_dir.mkdir(exist_ok=True)
-    run_ctx = replace(ctx, workdir=again_dir, explicit=False)
-    if ctx.progress is not None:
-        shown = ctx.progress
-        run_ctx = replace(run_ctx, progress=lambda stage, done: shown("again " + stage, done))
+    run_ctx = _search_context(ctx, "again")
     shared: tuple[Any, ...] = (options, data, run_ctx, executor, {}, into, lambda _: None)
     if len(groups) == 1 and len(groups[0]) == len(keep):
         results, _ = run_detectors(names, *shared, "", None, None)
@@ -701,6 +695,21 @@ def _searched_without(
     clipped = {f.channel for f in added if "clipped" in f.evidence}
     own = [n for n in said if any(n.startswith(f"{c} clips at ") for c in clipped)]
     return added, [reconfigure_note(lost, suspects, added, rate_hz), *own]
+
+
+def _search_context(ctx: RunContext, scratch: str, label: str | None = None) -> RunContext:
+    """``ctx`` for a second search: its own scratch directory ``scratch`` under the run's
+    (the first search's long results, of fixed names, are still read), the detectors that
+    cannot run skipped rather than an error, and its progress shown as ``label`` (default
+    ``scratch``) before each stage."""
+    own = None if ctx.workdir is None else ctx.workdir / scratch
+    if own is not None:
+        own.mkdir(exist_ok=True)
+    run_ctx = replace(ctx, workdir=own, explicit=False)
+    if ctx.progress is not None:
+        shown, prefix = ctx.progress, f"{label or scratch} "
+        run_ctx = replace(run_ctx, progress=lambda stage, done: shown(prefix + stage, done))
+    return run_ctx
 
 
 def _searched_after(
@@ -724,13 +733,7 @@ def _searched_after(
     names = list(dict.fromkeys(ran))
     after = replace(data, search_from=stretch.search_row)
     # its own scratch: the first search's long results (fixed names) are still read
-    own = None if ctx.workdir is None else ctx.workdir / f"after{k}"
-    if own is not None:
-        own.mkdir(exist_ok=True)
-    run_ctx = replace(ctx, workdir=own, explicit=False)
-    if ctx.progress is not None:
-        shown = ctx.progress
-        run_ctx = replace(run_ctx, progress=lambda stage, done: shown("after " + stage, done))
+    run_ctx = _search_context(ctx, f"after{k}", "after")
     into = None if work is None else work / f"signals-after{k}"
     shared: tuple[Any, ...] = (options, after, run_ctx, executor, {}, into, lambda _: None)
     if len(groups) == 1 and len(groups[0]) == len(data.channels):

@@ -27,7 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from analyzer.detectors import DetectorResult
-from analyzer.diagnosis.merge import Finding
+from analyzer.diagnosis.merge import Finding, found_already
 from analyzer.paging import RELEASE_ROWS, release, row_blocks
 
 LOST_SHARE = 0.05
@@ -154,13 +154,7 @@ def found_again(
             or (seen_by >= need and any(a <= f.onset_s < b for a, b in beside))
         ):
             continue
-        end = float("inf") if f.end_s is None else f.end_s
-        if any(
-            g.channel == f.channel
-            and g.onset_s <= end + slack_s
-            and f.onset_s <= (float("inf") if g.end_s is None else g.end_s) + slack_s
-            for g in findings
-        ):
+        if found_already(f, findings, slack_s):
             continue
         f.evidence["searched_without"] = left
         out.append(f)

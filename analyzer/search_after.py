@@ -32,7 +32,7 @@ import numpy as np
 from analyzer.detectors import DetectorResult
 from analyzer.diagnosis.changes import Calibration, detect
 from analyzer.diagnosis.levels import Excursion
-from analyzer.diagnosis.merge import Finding
+from analyzer.diagnosis.merge import Finding, found_already
 from analyzer.paging import release
 
 SETTLE_S = 10.0
@@ -151,13 +151,7 @@ def found_after(
     for f in again:
         if f.onset_s < start_s - 1.5 / rate_hz:
             continue
-        end = float("inf") if f.end_s is None else f.end_s
-        if any(
-            g.channel == f.channel
-            and g.onset_s <= end + slack_s
-            and f.onset_s <= (float("inf") if g.end_s is None else g.end_s) + slack_s
-            for g in findings
-        ):
+        if found_already(f, findings, slack_s):
             continue
         at_start = f.onset_s <= start_s + 1.5 / rate_hz
         f.evidence["searched_after"] = {

@@ -4,7 +4,7 @@ the most confident event, and ``evidence.detectors`` lists every detector that s
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -29,6 +29,15 @@ def _overlap(a0: float, a1: float | None, b0: float, b1: float | None, slack: fl
     a_end = float("inf") if a1 is None else a1
     b_end = float("inf") if b1 is None else b1
     return a0 <= b_end + slack and b0 <= a_end + slack
+
+
+def found_already(f: Finding, findings: Sequence[Finding], slack_s: float) -> bool:
+    """Whether ``findings`` hold one on ``f``'s channel that overlaps it in time (within
+    ``slack_s``): what a second search found that the first had already."""
+    return any(
+        g.channel == f.channel and _overlap(f.onset_s, f.end_s, g.onset_s, g.end_s, slack_s)
+        for g in findings
+    )
 
 
 def merge_events(events: Iterable[Event], slack_s: float = 1.0) -> list[Finding]:
