@@ -35,7 +35,12 @@ from analyzer.diagnosis import Finding, merge_events, one_fault_at_a_time
 from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.clipping import merge_clipped
 from analyzer.diagnosis.common_mode import common_changes
-from analyzer.diagnosis.evidence import attach_evidence, training_tests, windowed_summary
+from analyzer.diagnosis.evidence import (
+    attach_evidence,
+    training_tests,
+    whitenings,
+    windowed_summary,
+)
 from analyzer.diagnosis.levels import excursions, level_note, response_levels
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.stuck import healthy_stats, relabel_frozen
@@ -219,12 +224,15 @@ def _residual_tests(
     """The residual tests of some of a detector's channels: over the training window, and
     windowed over the whole archive."""
     result, channels, train, rate_hz = task
+    if train[1] <= train[0]:  # --model: no training window of the record's own
+        return training_tests(result, train, channels), windowed_summary(
+            result, rate_hz, channels=channels
+        )
+    # both whitened by each residual's model of the training window, fitted once
+    fitted = whitenings(result, train, channels)
     return (
-        training_tests(result, train, channels),
-        # whitened by the training window's model, where the record has one (not --model)
-        windowed_summary(
-            result, rate_hz, channels=channels, train=train if train[1] > train[0] else None
-        ),
+        training_tests(result, train, channels, fitted),
+        windowed_summary(result, rate_hz, channels=channels, train=train, fitted=fitted),
     )
 
 
@@ -678,11 +686,7 @@ def _searched_without(
     # are still read) and the detectors that cannot run on fewer channels skipped, not
     # an error (--detectors, a config [model] naming a left-out channel)
     run_ctx = _search_context(ctx, "again")
-    shared: tuple[Any, ...] = (options, data, run_ctx, executor, {}, into, lambda _: None)
-    if len(groups) == 1 and len(groups[0]) == len(keep):
-        results, _ = run_detectors(names, *shared, "", None, None)
-    else:
-        results, _ = run_groups(groups, names, *shared)
+    results = _run_again(names, options, data, groups, run_ctx, executor, into, None)
     if not results:
         return [], []
     healthy = healthy_stats(sub, keep, train)
@@ -695,6 +699,29 @@ def _searched_without(
     clipped = {f.channel for f in added if "clipped" in f.evidence}
     own = [n for n in said if any(n.startswith(f"{c} clips at ") for c in clipped)]
     return added, [reconfigure_note(lost, suspects, added, rate_hz), *own]
+
+
+def _run_again(
+    names: list[str],
+    options: RunOptions,
+    data: Dataset,
+    groups: list[tuple[str, ...]],
+    run_ctx: RunContext,
+    executor: Executor,
+    into: Path | None,
+    fits: dict[str, dict[str, tuple[Any, Any]]] | None,
+) -> list[DetectorResult]:
+    """A second search's run of the detectors ``names`` on every channel group of
+    ``data`` (one run when a single group holds every channel), fitted again, or with
+    ``fits`` by group when given; its long signals in ``into``, its results only."""
+    if len(groups) == 1 and len(groups[0]) == len(data.channels):
+        given = None if fits is None else fits.get("", {})
+        return run_detectors(
+            names, options, data, run_ctx, executor, {}, into, lambda _: None, "", given, None
+        )[0]
+    return run_groups(
+        groups, names, options, data, run_ctx, executor, {}, into, lambda _: None, fits
+    )[0]
 
 
 def _search_context(ctx: RunContext, scratch: str, label: str | None = None) -> RunContext:
@@ -735,13 +762,7 @@ def _searched_after(
     # its own scratch: the first search's long results (fixed names) are still read
     run_ctx = _search_context(ctx, f"after{k}", "after")
     into = None if work is None else work / f"signals-after{k}"
-    shared: tuple[Any, ...] = (options, after, run_ctx, executor, {}, into, lambda _: None)
-    if len(groups) == 1 and len(groups[0]) == len(data.channels):
-        results, _ = run_detectors(names, *shared, "", fits.get("", {}), None)
-    else:
-        results, _ = run_groups(
-            groups, names, options, after, run_ctx, executor, {}, into, lambda _: None, fits
-        )
+    results = _run_again(names, options, after, groups, run_ctx, executor, into, fits)
     if not results:
         return []
     found, _ = diagnose(results)

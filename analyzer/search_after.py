@@ -87,31 +87,6 @@ def stretches(
     return out[:MAX_SEARCHES], max(0, len(out) - MAX_SEARCHES)
 
 
-def _calibration(th: object) -> Calibration | None:
-    """A residual's :class:`~analyzer.diagnosis.changes.Calibration` from its
-    ``as_dict`` form (a detector result's ``thresholds``): the same thresholds."""
-    if not isinstance(th, dict):
-        return None
-    try:
-        windows = tuple(int(w) for w in th["windows"])
-        rate = float(th["false_alarm_rate"])
-        ones = (1.0,) * len(windows)
-        zeros = (0.0,) * len(windows)
-        z = Calibration(0.0, 1.0, windows[0], windows, ones, zeros, zeros, rate).z_crit
-        return Calibration(
-            float(th["mean"]),
-            float(th["std"]),
-            windows[0],
-            windows,
-            tuple(float(m) / z for m in th["mean_threshold"]),
-            tuple(float(q) for q in th["logq_threshold"]),
-            zeros,
-            rate,
-        )
-    except (KeyError, TypeError, ValueError, ZeroDivisionError, IndexError):
-        return None
-
-
 def alarms_after(results: Sequence[DetectorResult], row: int, stop: int) -> bool:
     """Whether any residual of ``results`` alarms in rows ``row .. stop - 1`` by its
     detector's own test and thresholds (:func:`~analyzer.diagnosis.changes.detect`, its
@@ -119,7 +94,7 @@ def alarms_after(results: Sequence[DetectorResult], row: int, stop: int) -> bool
     alarming (the search is not left out for want of them)."""
     for r in results:
         for ch, res in r.residuals.items():
-            cal = _calibration(r.thresholds.get(ch))
+            cal = Calibration.from_dict(r.thresholds.get(ch))
             if cal is None or not cal.std > 0:
                 return True
             b = min(stop, res.shape[0])

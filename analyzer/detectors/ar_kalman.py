@@ -220,7 +220,7 @@ class ARKalmanBank:
             raise DetectorError(f"ar_kalman_bank {reason}")
         train = np.asarray(data.train_values(), dtype=np.float64)
         # a criterion's search stops at the order the state limit allows
-        highest = min(self.max_order, max(1, MAX_STATES // len(data.channels)))
+        highest = self._highest_order(len(data.channels))
         order = (
             select_order(train, self.order, highest) if isinstance(self.order, str) else self.order
         )
@@ -550,6 +550,11 @@ class ARKalmanBank:
             unattributed=unattributed,
         )
 
+    def _highest_order(self, m: int) -> int:
+        """The highest order a criterion searches for ``m`` channels: ``max_order``, or
+        less where the state limit allows less."""
+        return min(self.max_order, max(1, MAX_STATES // m))
+
     def _order_note(self, order: int, data: Dataset) -> list[str]:
         """A note when the config fixed an AR order below the one BIC selects on the
         healthy window: the model then leaves dynamics in its residuals, and faults with
@@ -558,7 +563,7 @@ class ARKalmanBank:
         if isinstance(self.order, str) or not data.healthy or data.search_from is not None:
             return []
         train = np.asarray(data.train_values(), dtype=np.float64)
-        highest = min(self.max_order, max(1, MAX_STATES // len(data.channels)))
+        highest = self._highest_order(len(data.channels))
         try:
             best = select_order(train, "bic", max(highest, order))
         except DetectorError:

@@ -98,6 +98,32 @@ class Calibration:
             "false_alarm_rate": self.false_alarm_rate,
         }
 
+    @classmethod
+    def from_dict(cls, d: object) -> Calibration | None:
+        """A calibration with the thresholds of :meth:`as_dict`'s form ``d`` (a detector
+        result's ``thresholds``): the window-mean spreads from the mean thresholds, the
+        log-mean-square thresholds as their centres (spread 0); None when ``d`` is not
+        such a form."""
+        if not isinstance(d, dict):
+            return None
+        try:
+            windows = tuple(int(w) for w in d["windows"])
+            rate = float(d["false_alarm_rate"])
+            zeros = (0.0,) * len(windows)
+            z = cls(0.0, 1.0, windows[0], windows, zeros, zeros, zeros, rate).z_crit
+            return cls(
+                float(d["mean"]),
+                float(d["std"]),
+                windows[0],
+                windows,
+                tuple(float(m) / z for m in d["mean_threshold"]),
+                tuple(float(q) for q in d["logq_threshold"]),
+                zeros,
+                rate,
+            )
+        except (KeyError, TypeError, ValueError, ZeroDivisionError, IndexError):
+            return None
+
 
 LONG_FACTOR = 8
 

@@ -24,7 +24,7 @@ evidence (``whitening``), so the report draws what was tested.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -310,14 +310,31 @@ def attach_evidence(
                 f.confidence *= DISAGREEMENT_FACTOR
 
 
-def training_tests(
+def whitenings(
     result: DetectorResult, train: tuple[int, int], channels: Sequence[str] | None = None
+) -> dict[str, Whitening | None]:
+    """Each channel's (of ``channels`` only, when given) whitening model of the training
+    window (:func:`fit_whitening`), for :func:`training_tests` and
+    :func:`windowed_summary` to share."""
+    return {
+        ch: _whitening(result, ch, train) if _scaling(result, ch) is not None else None
+        for ch in (result.residuals if channels is None else channels)
+        if ch in result.residuals
+    }
+
+
+def training_tests(
+    result: DetectorResult,
+    train: tuple[int, int],
+    channels: Sequence[str] | None = None,
+    fitted: Mapping[str, Whitening | None] | None = None,
 ) -> dict[str, Any]:
     """Tests of each channel's residual (of ``channels`` only, when given) over the
     end of the training window (its last :data:`MAX_SEGMENT` samples after its first
     quarter), whitened as the stretches around an onset are: a residual that fails
     normality even so, or stays coloured beyond its whitening model, is a poor model,
-    and the report says so."""
+    and the report says so. ``fitted``: the channels' whitening models
+    (:func:`whitenings`), else fitted here."""
     out: dict[str, Any] = {}
     for ch in result.residuals if channels is None else channels:
         # MAX_SEGMENT training samples, not the whole (long) residual
@@ -326,7 +343,7 @@ def training_tests(
         lo = max(settled(train), train[1] - MAX_SEGMENT)
         if train[1] - lo < MIN_SEGMENT:
             continue
-        w = _whitening(result, ch, train)
+        w = fitted[ch] if fitted is not None and ch in fitted else _whitening(result, ch, train)
         t = _tests(whitened_part(result, ch, slice(lo, train[1]), w))
         release(result.residuals[ch])  # a long archive's residual: pages back to the cache
         if t is not None:
@@ -347,12 +364,14 @@ def windowed_summary(
     window_s: float = 1.0,
     channels: Sequence[str] | None = None,
     train: tuple[int, int] | None = None,
+    fitted: Mapping[str, Whitening | None] | None = None,
 ) -> dict[str, Any]:
     """Per channel (of ``channels`` only, when given): the innovation tests on consecutive
     windows over the whole archive (vectorized, :func:`analyzer.stats.windowed_tests`),
     summarized as the share of windows each test rejects (about 5 % for a healthy,
     well-modelled residual), on the residual whitened by its model of the training
-    window ``train`` (as the tests around an onset; not whitened without one)."""
+    window ``train`` (as the tests around an onset; not whitened without one;
+    ``fitted``: those models, :func:`whitenings`, else fitted here)."""
     window = max(100, int(round(window_s * rate_hz)))
     out: dict[str, Any] = {}
     for ch in result.residuals if channels is None else channels:
@@ -363,7 +382,12 @@ def windowed_summary(
         try:
             # standardized a batch at a time, as standardized() does it whole: a long
             # archive's residual is read in pieces, not copied whole to float64
-            w = None if train is None else _whitening(result, ch, train)
+            if train is None:
+                w = None
+            elif fitted is not None and ch in fitted:
+                w = fitted[ch]
+            else:
+                w = _whitening(result, ch, train)
             white = None if w is None else (w.coefficients, w.scale)
             out[ch] = summarize(windowed_tests(r, window, standardize=scaling, whitening=white))
             if w is not None:  # in the window layout: the tests' entries are all objects
