@@ -878,9 +878,13 @@ class ErrorFunction:
             events.extend(found)
             context.report(self.name, (k + 1) / len(model.functions))
         notes = list(model.notes)
-        if not model.isolating and model.functions:
+        unattributed: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = []
+        if model.functions:
             span = model.functions[0].calibration.long_window / data.rate_hz
-            events = _one_per_fault(events, span, notes)
+            if not model.isolating:
+                events = _one_per_fault(events, span, notes)
+            else:
+                events = _all_at_once(events, model.functions, span, notes, unattributed)
         params = {
             "approach": model.approach,
             "p": model.p,
@@ -906,7 +910,56 @@ class ErrorFunction:
                 "reach": {f.channel: list(f.channels) for f in model.functions},
             },
             notes=notes,
+            unattributed=unattributed,
         )
+
+
+def _all_at_once(
+    events: list[Event],
+    functions: Sequence[SensorFunction],
+    span_s: float,
+    notes: list[str],
+    unattributed: list[tuple[float, tuple[str, ...], tuple[str, ...]]],
+) -> list[Event]:
+    """With ``[[group]]``: the events of a group's uncertain sensors when every one of
+    them begins to alarm within ``span_s`` of the first. A failure of one uncertain
+    sensor raises its own error function only (the others are decoupled from it: Eq. 17
+    and 21), so every function of the group at once is no uncertain sensor's fault: a
+    reference sensor's, several at once, or a change of the structure or excitation that
+    the training window did not hold. Those events are dropped, and each such anomaly is
+    returned in ``unattributed`` with a note (as the other detectors leave such alarms).
+    A group with one uncertain sensor has nothing to compare: its events stay."""
+
+    def first(e: Event) -> float:
+        return float(e.evidence.get("first_alarm_s", e.onset_s))
+
+    members: dict[str, set[str]] = {}
+    for f in functions:
+        members.setdefault(f.group, set()).add(f.channel)
+    dropped: set[int] = set()
+    for group, sensors in members.items():
+        if len(sensors) < 2:
+            continue
+        mine = sorted((e for e in events if e.channel in sensors), key=first)
+        k = 0
+        while k < len(mine):
+            t0 = first(mine[k])
+            near = [e for e in mine[k:] if first(e) <= t0 + span_s]
+            if {e.channel for e in near} == sensors:
+                dropped.update(id(e) for e in near)
+                names = tuple(sorted(sensors))
+                unattributed.append((t0, names, ()))
+                notes.append(
+                    f"alarms at {t0:.3f} s on every uncertain sensor of group {group!r} "
+                    f"({', '.join(names)}) within {span_s:.3g} s: not attributed (a failure "
+                    "of one uncertain sensor raises its own error function only; all of "
+                    "them at once is a reference sensor, several sensors, or a change of "
+                    "the structure or excitation)"
+                )
+                k += len(near)
+            else:
+                k += 1
+    return [e for e in events if id(e) not in dropped]
 
 
 UNISOLATED_FACTOR = 0.5

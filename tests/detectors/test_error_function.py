@@ -737,3 +737,68 @@ def test_thresholds_calibrated_out_of_sample_leave_the_healthy_sensor_alone(
     assert "error_function" in doc["faults"][0]["evidence"]["detectors"]
     ef = next(d for d in doc["detectors"] if d["name"] == "error_function")
     assert json.dumps(ef["model"]).count('"out-of-sample"') == 2
+
+
+def _sweep_record(seed: int, tmp_path, kind: str | None = None):
+    """``benchmarks/sweep_error_function.py``'s record: 3 floors x 2 sensors, 120 s, the
+    last two uncertain; ``kind`` on s4 from 72 s (1 sd, 1.3, 1 sd per 20 s)."""
+    from pathlib import Path
+
+    from analyzer.config import load_config
+    from analyzer.simulate import inject_fault, simulate_building
+    from analyzer.writers import write_archive
+
+    names = [f"s{i}" for i in range(6)]
+
+    def listed(xs: list[str]) -> str:
+        return ", ".join(f'"{x}"' for x in xs)
+
+    cfg = Path(tmp_path) / "g.toml"
+    cfg.write_text(
+        f'[[group]]\nname = "building"\nchannels = [{listed(names)}]\n'
+        f"reference = [{listed(names[:-2])}]\nuncertain = [{listed(names[-2:])}]\n"
+        "inputs = []\n"
+    )
+    t, Y, cols = simulate_building(
+        n_floors=3, duration_s=120.0, rate_hz=100.0, seed=seed, sensors_per_floor=2
+    )
+    if kind is not None:
+        sd = float(Y[:2400, 4].std())
+        size = {"additive": sd, "multiplicative": 1.3, "drift": sd / 20.0}[kind]
+        Y[:, 4] = inject_fault(Y[:, 4], 100.0, kind, 72.0, size)
+    path = Path(tmp_path) / "record.csv"
+    write_archive(
+        path, "csv", np.round(t * 1e9).astype(np.int64), {c: Y[:, k] for k, c in enumerate(cols)}
+    )
+    return path, load_config(str(cfg))
+
+
+def test_every_uncertain_sensor_at_once_is_attributed_to_none(tmp_path):
+    """Seed 2 of the sweep, healthy: both uncertain sensors' functions alarmed together
+    three times (within 0.7 s), each reported as an `other` on its sensor (six false
+    findings). A failure of one uncertain sensor raises its own function only
+    (decoupling), so all of them at once is no uncertain sensor's fault: none now, each
+    anomaly unattributed, with a note."""
+    from analyzer.pipeline import RunOptions, analyze
+
+    path, config = _sweep_record(2, tmp_path)
+    a = analyze([str(path)], RunOptions(config=config, detectors=["error_function"], jobs=1))
+    assert a.findings == [], [(f.channel, f.onset_s) for f in a.findings]
+    ef = next(r for r in a.results if r.detector == "error_function")
+    assert len(ef.unattributed) == 3
+    assert all(chs == ("s4", "s5") and not beside for _, chs, beside in ef.unattributed)
+    said = [n for n in ef.notes if "on every uncertain sensor of group 'building'" in n]
+    assert len(said) == 3
+
+
+@pytest.mark.parametrize("kind", ["additive", "multiplicative", "drift"])
+def test_one_uncertain_sensor_failing_is_still_found(tmp_path, kind):
+    """The same record with a fault on s4 from 72 s: found on s4 (its function alone
+    rises), and the healthy anomalies before it are no findings."""
+    from analyzer.pipeline import RunOptions, analyze
+
+    path, config = _sweep_record(2, tmp_path, kind)
+    a = analyze([str(path)], RunOptions(config=config, detectors=["error_function"], jobs=1))
+    on_s4 = [f for f in a.findings if f.channel == "s4" and f.onset_s > 70.0]
+    assert on_s4 and on_s4[0].type.value == kind
+    assert not [f for f in a.findings if f.onset_s < 70.0]
