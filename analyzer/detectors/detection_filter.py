@@ -15,9 +15,10 @@ of filter ``i`` leaves the direction ``e_i``: the innovations of its other senso
 inconsistent (their normalized squared size, watched with the same windowed statistics as
 the residuals). Alarms within a long window of each other compete for one fault: the
 sensor is the one whose filter stays closest to its direction, clearly closer than the
-typical other filter (:data:`DIRECTION_SEPARATION`; if over its threshold,
-:data:`DIRECTION_RELATIVE`); it is reported when most other filters -- they measure the
-sensor -- left their directions (confirmation: their median over its threshold).
+typical other filter (:data:`DIRECTION_SEPARATION`, with 6 or more channels; if over
+its threshold, :data:`DIRECTION_RELATIVE`); it is reported when other filters -- they
+measure the sensor -- left their directions (confirmation: with 6 or more channels, most
+of them, their median over its threshold; with fewer, one of them).
 An alarm no filter confirms is model mismatch, noted but not reported. Thresholds of the
 AR-based bank are calibrated out of sample (models refitted on each half of the healthy
 window, run on the other half), since in-sample innovations are too small. The
@@ -85,8 +86,16 @@ isolates its sensor only when it is at most this fraction of the typical other f
 under a load the models were not fitted on (a machine's sine, a walking load at the
 training level) every filter sits near its threshold, and the one a hair below the rest
 (0.74-0.97 of the typical other's, in eight healthy simulated records) named no sensor;
-a sensor's own fault leaves its filter at 0.18-0.52 of the typical other's
-(``sweep_isolation.py``, half- and 0.3x-size faults on 6 and 16 channels)."""
+a sensor's own offset or gain leaves its filter at 0.18-0.52 of the typical other's
+(``sweep_isolation.py``, half- and 0.3x-size faults on 6 and 16 channels). With at least
+:data:`SEPARATION_OTHERS` other filters."""
+
+SEPARATION_OTHERS = 5
+"""Other filters needed for :data:`DIRECTION_SEPARATION` and for a confirmation by most of
+them (their median): with fewer (2 to 5 channels) a median says little, and a slow drift
+of a sensor leaves its own filter at 0.72-0.94 of the typical other's (2- and 4-channel
+buildings, one sensor per floor): there one other filter over its threshold confirms, and
+the sensor's filter needs only to be the closest to its direction, as before."""
 
 DIRECTION_BATCH = 1 << 16
 """Longest stretch of samples whose direction statistics are computed in one pass for the
@@ -695,10 +704,12 @@ class DetectionFilter:
             j = min(chans, key=lambda c: (viol[c], -_strength(zetas[c], model.zeta_cal[c], lo, hi)))
             others = [viol[o] for o in range(m) if o != j]
             typical = float(np.median(others)) if others else 0.0
-            # confirmed: most filters that measure the sensor left their directions (a
-            # sensor's fault moves every other filter's residual off its direction; one
-            # of fifteen over its threshold is what chance and a model's mismatch give)
-            confirmed = bool(others) and typical >= 1.0
+            # confirmed: some other filter left its direction; with enough of them, most
+            # (a sensor's fault moves every other filter's residual off its direction;
+            # one of fifteen over its threshold is what chance and a model's mismatch
+            # give), and the sensor's own filter clearly closer to its direction
+            many = len(others) >= SEPARATION_OTHERS
+            confirmed = bool(others) and (typical if many else max(others)) >= 1.0
             k0, _, ev = next(c for c in group if c[1] == j)
             k_on = int(round(ev.onset_s * rate))
             f = model.filters[j]
@@ -716,27 +727,33 @@ class DetectionFilter:
             )
             when = f"{ev.onset_s:.3f} s"
             if (viol[j] >= 1.0 and viol[j] > DIRECTION_RELATIVE * typical) or (
-                confirmed and viol[j] > DIRECTION_SEPARATION * typical
+                many and confirmed and viol[j] > DIRECTION_SEPARATION * typical
             ):
                 unattributed.append((ev.onset_s, tuple(names[c] for c in chans), ()))
                 how = (
-                    "left its sensor's direction"
+                    "the residual of every filter left its sensor's direction"
                     if viol[j] >= 1.0
-                    else f"left its sensor's direction about as far ({names[j]}'s "
-                    f"{viol[j]:.2f} of its threshold, the others' typical {typical:.2f})"
+                    else f"{names[j]}'s filter stayed within its direction but no closer to "
+                    f"it than the others to theirs ({viol[j]:.2f} of its threshold, their "
+                    f"typical {typical:.2f}; at most {DIRECTION_SEPARATION:g}x isolates)"
                 )
                 notes.append(
                     f"anomaly at {when} on {', '.join(names[c] for c in chans)} not attributed: "
-                    f"the residual of every filter {how} (not one "
+                    f"{how} (not one "
                     "sensor: several at once, or a change of the structure or excitation)"
                 )
                 continue
             if not confirmed:
                 notes.append(
-                    f"anomaly on {names[j]} at {when} not reported: most filters that "
-                    f"measure {names[j]} did not see its signal change (their median "
-                    f"{typical:.2f} of the threshold: model mismatch rather than a sensor "
-                    "fault)"
+                    f"anomaly on {names[j]} at {when} not reported: "
+                    + (
+                        f"most filters that measure {names[j]} did not see its signal "
+                        f"change (their median {typical:.2f} of the threshold"
+                        if many
+                        else f"no filter that measures {names[j]} saw its signal change "
+                        f"(the largest {max(others):.2f} of the threshold"
+                    )
+                    + ": model mismatch rather than a sensor fault)"
                 )
                 continue
             events.append(ev)
