@@ -922,22 +922,36 @@ def _all_at_once(
     unattributed: list[tuple[float, tuple[str, ...], tuple[str, ...]]],
 ) -> list[Event]:
     """With ``[[group]]``: the events of a group's uncertain sensors when every one of
-    them begins to alarm within ``span_s`` of the first. A failure of one uncertain
-    sensor raises its own error function only (the others are decoupled from it: Eq. 17
-    and 21), so every function of the group at once is no uncertain sensor's fault: a
-    reference sensor's, several at once, or a change of the structure or excitation that
-    the training window did not hold. Those events are dropped, and each such anomaly is
-    returned in ``unattributed`` with a note (as the other detectors leave such alarms).
-    A group with one uncertain sensor has nothing to compare: its events stay."""
+    them begins to alarm within ``span_s`` of the first and every one ends within
+    ``span_s`` of the others (or all last to the end). A failure of one uncertain sensor
+    raises its own error function only (the others are decoupled from it: Eq. 17 and
+    21), so every function of the group at once, from start to end, is no single
+    uncertain sensor's fault: a reference sensor's, all the uncertain ones at once (a
+    shared acquisition unit), or a change of the structure or excitation that the
+    training window did not hold. Those events are dropped, and each such anomaly is
+    returned in ``unattributed`` (at its earliest onset) with a note, as the other
+    detectors leave such alarms. An event that outlasts the others (a lasting fault
+    beside another function's transient) keeps the cluster as it was. A group with one
+    uncertain sensor has nothing to compare: its events stay."""
 
     def first(e: Event) -> float:
         return float(e.evidence.get("first_alarm_s", e.onset_s))
 
-    members: dict[str, set[str]] = {}
+    def together(near: list[Event]) -> bool:
+        ends = [e.end_s for e in near]
+        if all(x is None for x in ends):
+            return True
+        if any(x is None for x in ends):
+            return False
+        done = [float(x) for x in ends if x is not None]
+        return max(done) - min(done) <= span_s
+
+    # a group's functions share its references (two groups of one name stay apart)
+    members: dict[tuple[str, tuple[str, ...]], set[str]] = {}
     for f in functions:
-        members.setdefault(f.group, set()).add(f.channel)
+        members.setdefault((f.group, tuple(sorted(f.channels[1:]))), set()).add(f.channel)
     dropped: set[int] = set()
-    for group, sensors in members.items():
+    for (group, _), sensors in members.items():
         if len(sensors) < 2:
             continue
         mine = sorted((e for e in events if e.channel in sensors), key=first)
@@ -945,16 +959,18 @@ def _all_at_once(
         while k < len(mine):
             t0 = first(mine[k])
             near = [e for e in mine[k:] if first(e) <= t0 + span_s]
-            if {e.channel for e in near} == sensors:
+            if {e.channel for e in near} == sensors and together(near):
                 dropped.update(id(e) for e in near)
                 names = tuple(sorted(sensors))
-                unattributed.append((t0, names, ()))
+                onset = min(e.onset_s for e in near)
+                unattributed.append((onset, names, ()))
                 notes.append(
-                    f"alarms at {t0:.3f} s on every uncertain sensor of group {group!r} "
-                    f"({', '.join(names)}) within {span_s:.3g} s: not attributed (a failure "
-                    "of one uncertain sensor raises its own error function only; all of "
-                    "them at once is a reference sensor, several sensors, or a change of "
-                    "the structure or excitation)"
+                    f"alarms from {onset:.3f} s on every uncertain sensor of group {group!r} "
+                    f"({', '.join(names)}), beginning within {span_s:.3g} s and ending "
+                    "together: not attributed (a failure of one uncertain sensor raises its "
+                    "own error function only; all of them at once is a reference sensor, "
+                    "the uncertain sensors failing together, or a change of the structure "
+                    "or excitation)"
                 )
                 k += len(near)
             else:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -739,9 +740,9 @@ def test_thresholds_calibrated_out_of_sample_leave_the_healthy_sensor_alone(
     assert json.dumps(ef["model"]).count('"out-of-sample"') == 2
 
 
-def _sweep_record(seed: int, tmp_path, kind: str | None = None):
+def _sweep_record(seed: int, tmp_path, kind: str | None = None, onset: float = 72.0):
     """``benchmarks/sweep_error_function.py``'s record: 3 floors x 2 sensors, 120 s, the
-    last two uncertain; ``kind`` on s4 from 72 s (1 sd, 1.3, 1 sd per 20 s)."""
+    last two uncertain; ``kind`` on s4 from ``onset`` (1 sd, 1.3, 1 sd per 20 s)."""
     from pathlib import Path
 
     from analyzer.config import load_config
@@ -765,7 +766,7 @@ def _sweep_record(seed: int, tmp_path, kind: str | None = None):
     if kind is not None:
         sd = float(Y[:2400, 4].std())
         size = {"additive": sd, "multiplicative": 1.3, "drift": sd / 20.0}[kind]
-        Y[:, 4] = inject_fault(Y[:, 4], 100.0, kind, 72.0, size)
+        Y[:, 4] = inject_fault(Y[:, 4], 100.0, kind, onset, size)
     path = Path(tmp_path) / "record.csv"
     write_archive(
         path, "csv", np.round(t * 1e9).astype(np.int64), {c: Y[:, k] for k, c in enumerate(cols)}
@@ -802,3 +803,58 @@ def test_one_uncertain_sensor_failing_is_still_found(tmp_path, kind):
     on_s4 = [f for f in a.findings if f.channel == "s4" and f.onset_s > 70.0]
     assert on_s4 and on_s4[0].type.value == kind
     assert not [f for f in a.findings if f.onset_s < 70.0]
+
+
+@pytest.mark.parametrize("onset", [97.5, 98.5])
+def test_a_lasting_fault_beside_the_other_functions_transient_is_kept(tmp_path, onset):
+    """The review's case: seed 2's s5 function alarms from 96.7 to 99.2 s on the healthy
+    record; an offset on s4 from ``onset`` begins within the long window of it. The two
+    do not end together (s4's lasts), so it is no change of the whole: s4 is found (and
+    s5's transient stays an `other`, as before the rule)."""
+    from analyzer.pipeline import RunOptions, analyze
+
+    path, config = _sweep_record(2, tmp_path, "additive", onset)
+    a = analyze([str(path)], RunOptions(config=config, detectors=["error_function"], jobs=1))
+    found = [(f.channel, f.type.value) for f in a.findings if f.onset_s > 90.0]
+    assert ("s4", "additive") in found, found
+    ef = next(r for r in a.results if r.detector == "error_function")
+    assert all(t0 < 90.0 for t0, _, _ in ef.unattributed)
+
+
+def test_all_at_once_keeps_groups_of_one_name_apart_and_dates_the_onset():
+    """Two [[group]] tables of one name (the config allows it) are two groups; an
+    anomaly is dated at its earliest onset, not its first alarm."""
+    from analyzer.detectors.base import Event
+    from analyzer.detectors.error_function import _all_at_once
+
+    def fn(channel, refs):
+        return SimpleNamespace(channel=channel, group="a", channels=(channel, *refs))
+
+    functions = [fn("s2", ["s0", "s1"]), fn("s3", ["s0", "s1"]), fn("s6", ["s4", "s5"])]
+    functions.append(fn("s7", ["s4", "s5"]))
+
+    def ev(channel, onset, first, end):
+        return Event(
+            channel=channel,
+            type=FaultType.ADDITIVE,
+            onset_s=onset,
+            end_s=end,
+            magnitude={},
+            confidence=1.0,
+            detector="error_function",
+            evidence={"first_alarm_s": first},
+        )
+
+    notes: list[str] = []
+    out: list = []
+    # one sensor of each group: no group's every sensor
+    lone = [ev("s2", 70.0, 70.5, None), ev("s6", 70.1, 70.6, None)]
+    assert _all_at_once(lone, functions, 2.0, notes, out) == lone and out == []
+    # the first group's both, lasting; the second's both, ending together; and a lasting
+    # fault on s2 beside s3's transient, which outlasts it: kept
+    kept = [ev("s2", 90.0, 90.1, None), ev("s3", 90.5, 91.0, 92.0)]
+    both = [ev("s2", 70.0, 70.5, None), ev("s3", 70.1, 70.6, None), *kept]
+    both += [ev("s6", 30.0, 30.2, 31.0), ev("s7", 29.9, 30.4, 31.1)]
+    assert _all_at_once(both, functions, 2.0, notes, out) == kept
+    assert sorted(out) == [(29.9, ("s6", "s7"), ()), (70.0, ("s2", "s3"), ())]
+    assert len(notes) == 2
