@@ -914,6 +914,10 @@ class ErrorFunction:
         )
 
 
+def _first_alarm(e: Event) -> float:
+    return float(e.evidence.get("first_alarm_s", e.onset_s))
+
+
 def _all_at_once(
     events: list[Event],
     functions: Sequence[SensorFunction],
@@ -934,17 +938,11 @@ def _all_at_once(
     beside another function's transient) keeps the cluster as it was. A group with one
     uncertain sensor has nothing to compare: its events stay."""
 
-    def first(e: Event) -> float:
-        return float(e.evidence.get("first_alarm_s", e.onset_s))
-
     def together(near: list[Event]) -> bool:
-        ends = [e.end_s for e in near]
-        if all(x is None for x in ends):
-            return True
-        if any(x is None for x in ends):
-            return False
-        done = [float(x) for x in ends if x is not None]
-        return max(done) - min(done) <= span_s
+        ends = [e.end_s for e in near if e.end_s is not None]
+        if len(ends) < len(near):  # all last to the end, or one outlasts the others
+            return not ends
+        return max(ends) - min(ends) <= span_s
 
     # a group's functions share its references (two groups of one name stay apart)
     members: dict[tuple[str, tuple[str, ...]], set[str]] = {}
@@ -954,11 +952,11 @@ def _all_at_once(
     for (group, _), sensors in members.items():
         if len(sensors) < 2:
             continue
-        mine = sorted((e for e in events if e.channel in sensors), key=first)
+        mine = sorted((e for e in events if e.channel in sensors), key=_first_alarm)
         k = 0
         while k < len(mine):
-            t0 = first(mine[k])
-            near = [e for e in mine[k:] if first(e) <= t0 + span_s]
+            t0 = _first_alarm(mine[k])
+            near = [e for e in mine[k:] if _first_alarm(e) <= t0 + span_s]
             if {e.channel for e in near} == sensors and together(near):
                 dropped.update(id(e) for e in near)
                 names = tuple(sorted(sensors))
@@ -989,14 +987,11 @@ def _one_per_fault(events: list[Event], span_s: float, notes: list[str]) -> list
     every other function): one event, on the sensor whose alarm is the strongest, with
     the others as candidates and a lower confidence."""
 
-    def first(e: Event) -> float:
-        return float(e.evidence.get("first_alarm_s", e.onset_s))
-
     out: list[Event] = []
-    pending = sorted(events, key=first)
+    pending = sorted(events, key=_first_alarm)
     while pending:
-        t0 = first(pending[0])
-        group = [e for e in pending if first(e) <= t0 + span_s]
+        t0 = _first_alarm(pending[0])
+        group = [e for e in pending if _first_alarm(e) <= t0 + span_s]
         best = max(group, key=lambda e: float(e.evidence.get("peak_over_threshold", 0.0)))
         if len(group) > 1:
             others = sorted({e.channel for e in group} - {best.channel})
@@ -1011,11 +1006,11 @@ def _one_per_fault(events: list[Event], span_s: float, notes: list[str]) -> list
         # while that fault lasts, every function that uses the sensor may alarm later
         # (a growing disturbance): the same fault, as far as these functions can tell
         until = np.inf if best.end_s is None else best.end_s
-        later = [e for e in pending if t0 + span_s < first(e) < until]
-        pending = [e for e in pending if first(e) > t0 + span_s and first(e) >= until]
+        later = [e for e in pending if t0 + span_s < _first_alarm(e) < until]
+        pending = [e for e in pending if _first_alarm(e) > t0 + span_s and _first_alarm(e) >= until]
         for e in later:
             notes.append(
-                f"alarm on {e.channel} at {first(e):.3f} s, during the fault reported on "
+                f"alarm on {e.channel} at {_first_alarm(e):.3f} s, during the fault reported on "
                 f"{best.channel}: taken as its effect (without [[group]] the error functions "
                 "cannot tell a second failure from it)"
             )
