@@ -274,8 +274,10 @@ def _run_planned(
             raise plan
         outcome = settled.get(i)
         if isinstance(outcome, DetectorError):
-            if ctx.explicit:
-                raise outcome
+            if ctx.explicit:  # the one-line error names the detector that could not run
+                if str(outcome).startswith((f"{name}:", f"{name} ")):
+                    raise outcome
+                raise DetectorError(f"{name}: {outcome}") from outcome
             skipped[name] = str(outcome)
         elif isinstance(outcome, DetectorResult):
             results.append(outcome)

@@ -277,7 +277,10 @@ class DetectionFilter:
         for i in range(k):
             # the stretches' series read one after the other (no concatenated copy)
             z = [zetas[:, i] for zetas, _, _ in parts]
-            zcal.append(calibrate(z, window, alpha_far))
+            try:
+                zcal.append(calibrate(z, window, alpha_far))
+            except DetectorError as err:
+                raise _settling_error(err, filters[i].settle(), data) from None
             taus.append(long_run_time(z, window))
             moments = RowMoments.merged([each[i] for _, each, _ in parts])
             # np.cov of the residual vectors without the filter's own direction
@@ -1123,3 +1126,31 @@ __all__ = [
     "direction_angles",
     "long_run_time",
 ]
+
+
+def _settling_error(err: DetectorError, settle: int, data: Dataset) -> DetectorError:
+    """``err`` (too few healthy samples) saying why where gaps are the reason: a filter's
+    output is left out while it settles after each gap of its inputs, so a training
+    window cut by gaps into stretches shorter than that gives it nothing to calibrate
+    on, however many complete rows it holds."""
+    train = np.asarray(data.train_values(), dtype=np.float64)
+    complete = np.isfinite(train).all(axis=1)
+    if complete.all():
+        return err
+    # the longest stretch of complete rows
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], complete.astype(np.int8), [0]))))
+    longest = int(np.max(edges[1::2] - edges[::2])) if edges.size else 0
+    if longest > 2 * settle:
+        return err
+    missing = (~np.isfinite(train)).mean(axis=0)
+    worst = [
+        f"{data.channels[j]} {100 * missing[j]:.0f} %"
+        for j in np.argsort(-missing, kind="stable")[:3]
+        if missing[j] > 0
+    ]
+    return DetectorError(
+        f"{err} (the training window's longest stretch without a gap is {longest} samples, "
+        f"and a filter's output is left out for up to {settle} samples, "
+        f"{settle / data.rate_hz:.3g} s, while it settles after a gap: a --train with "
+        f"fewer gaps, or leave out the channels with most gaps there: {', '.join(worst)})"
+    )

@@ -345,7 +345,7 @@ class InnovationMoments:
             n = int(self.count[j])
             if n < 2:
                 raise DetectorError(
-                    "ar_kalman_bank: too little finite training data to estimate the "
+                    "too little finite training data to estimate the "
                     f"innovation covariance of the estimator without channel {j}"
                 )
             mu = self.total[j] / n

@@ -188,8 +188,8 @@ def calibrate(train_residual: Series, window: int, false_alarm_rate: float = 1e-
     first = series_moments(train_residual)
     if first.n < need:
         raise DetectorError(
-            f"too little healthy data to calibrate thresholds: {first.n} finite training "
-            f"samples, need at least {need} (4 windows of {windows[-1]})"
+            f"too little healthy data to calibrate thresholds: {first.n} finite samples of "
+            f"the training residual, need at least {need} (4 windows of {windows[-1]})"
         )
     if not 0.0 < false_alarm_rate < 0.5:
         raise DetectorError(f"false_alarm_rate must be in (0, 0.5), got {false_alarm_rate!r}")
