@@ -98,7 +98,15 @@ MATERIALIZE_IN_MEMORY = 1 << 24
 """Aligned matrices up to this many values stay in memory; larger ones are memory-mapped."""
 
 
-def _select(store: ChannelStore, patterns: list[str] | None, notes: list[str]) -> list[str]:
+def _select(
+    store: ChannelStore,
+    patterns: list[str] | None,
+    notes: list[str],
+    relabelled: Sequence[str] = (),
+) -> list[str]:
+    """The channels to analyze: ``--channels``' (``patterns``), else every numeric one
+    that is not constant and whose meaning does not change between messages (names
+    starting with one of ``relabelled``: the readers say why in the inputs' errors)."""
     infos = {i.name: i for i in store.infos()}
     if not infos:
         raise ReaderError("no numeric channel found in the input")
@@ -116,6 +124,20 @@ def _select(store: ChannelStore, patterns: list[str] | None, notes: list[str]) -
         constant = [c for c in infos if infos[c].constant]
         if constant:
             notes.append(f"constant or empty channels not analyzed: {', '.join(constant)}")
+        mixed = [c for c in chosen if c.startswith(tuple(relabelled))] if relabelled else []
+        if mixed:
+            notes.append(
+                f"not analyzed: {', '.join(mixed)}: what they measure changes between "
+                "messages (see the input's errors); --channels naming them analyzes them"
+            )
+            chosen = [c for c in chosen if c not in set(mixed)]
+            if not chosen:
+                raise UsageError(
+                    "no channel left to analyze: every varying channel changes meaning "
+                    f"between messages ({', '.join(mixed[:3])}"
+                    + (", ..." if len(mixed) > 3 else "")
+                    + "); name them with --channels to analyze them anyway"
+                )
     if not chosen:
         raise UsageError("no channel left to analyze (all selected channels are constant or empty)")
     return chosen
@@ -316,7 +338,8 @@ def _analyze(
             )
         reused = options.model
         if reused is None:
-            chosen = _select(store, options.channels, notes)
+            relabelled = [p for i in archive.inputs for p in i.relabelled]
+            chosen = _select(store, options.channels, notes, relabelled)
         else:
             chosen = model_channels(store, reused, options, notes)
         t0 = time.perf_counter()

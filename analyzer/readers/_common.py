@@ -120,6 +120,11 @@ class Relabel:
     siblings: tuple[str, ...] = ()
 
 
+LabelEnds = tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...], tuple[tuple[str, ...], ...]]
+"""A string array in a batch: its first and last message's strings, its siblings and its
+contents (:attr:`Decoded.label_ends`)."""
+
+
 @dataclass(slots=True)
 class Decoded:
     """Numeric fields of a batch of ``n`` messages of one topic.
@@ -137,6 +142,10 @@ class Decoded:
     first_error: str = ""
     relabels: list[Relabel] = field(default_factory=list)
     """Where a string array beside numeric arrays (``JointState.name``) changed content."""
+    label_ends: dict[str, LabelEnds] = field(default_factory=dict)
+    """Per such string array: its strings in the batch's first and last message, its
+    siblings (:class:`Relabel`) and its contents in the batch, for the comparison with
+    the topic's batches before."""
 
     def note_failure(self, err: BaseException | str, count: int = 1) -> None:
         """Count ``count`` undecodable messages, keeping the first reason."""
@@ -157,7 +166,9 @@ class Decoded:
                 columns[name] = (new_row[rows[inside]], values[inside])
         n = int(np.count_nonzero(keep))
         stamps = None if self.stamps is None else self.stamps[keep]
-        return Decoded(n, columns, stamps, self.failed, self.first_error, self.relabels)
+        return Decoded(
+            n, columns, stamps, self.failed, self.first_error, self.relabels, self.label_ends
+        )
 
 
 class ColumnAccumulator:
@@ -529,6 +540,12 @@ class TopicTracker:
         self._zero: dict[str, int] = {}
         self._failures: dict[str, list[Any]] = {}
         self._relabels: dict[tuple[str, str], _Relabels] = {}
+        self._seen_labels: dict[tuple[str, str], dict[tuple[str, ...], None]] = {}
+        """Per topic and string array: the contents seen (at the batches' ends and first
+        changes; at most :data:`SEEN_LABELS`), in order."""
+        self._labels: dict[tuple[str, str], tuple[str, ...]] = {}
+        """Per topic and string array: its strings in the topic's last message so far (of
+        any publisher: two publishing different frames on one topic relabel it too)."""
 
     def push(self, reorder: Reorderer, topic: str, decoded: Decoded, log_ns: IntArray) -> None:
         """Note what ``decoded`` (messages of ``topic`` logged at ``log_ns``) holds beside
@@ -540,7 +557,17 @@ class TopicTracker:
             return
         if self._t0 is None:
             self._t0 = int(log_ns.min())
-        for change in decoded.relabels:
+        changes = list(decoded.relabels)
+        for name, (first, last, siblings, kinds) in decoded.label_ends.items():
+            before = self._labels.get((topic, name))
+            if before is not None and before != first:  # since the topic's last batch
+                changes.insert(0, Relabel(name, 0, before, first, 1, siblings))
+            self._labels[(topic, name)] = last
+            contents = self._seen_labels.setdefault((topic, name), {})
+            for names in kinds:
+                if len(contents) < SEEN_LABELS:
+                    contents[names] = None
+        for change in changes:
             key = (topic, change.field)
             known = self._relabels.get(key)
             if known is None:
@@ -685,6 +712,16 @@ class TopicTracker:
     def _at(self, log_ns: int) -> str:
         return f"t={(log_ns - (self._t0 or 0)) / 1e9:.2f} s"
 
+    def relabelled(self) -> list[str]:
+        """Prefixes of the channels whose meaning changed between messages: an array's
+        element (``/tf.transforms[0].``) or a numeric array beside a string array
+        (``/joint_states.position[``)."""
+        out: dict[str, None] = {}
+        for (topic, _), change in self._relabels.items():
+            for name in change.first.siblings:
+                out[f"{topic}.{name}." if name.endswith("]") else f"{topic}.{name}["] = None
+        return list(out)
+
     def lines(self) -> list[str]:
         """The error lines, one per topic and kind."""
         out = [
@@ -730,17 +767,44 @@ class TopicTracker:
                 f"{jumps.index} ({self._at(jumps.log_ns)}); {jumps.dropped} messages stamped "
                 f"before the newest stamp so far dropped{more} (--time log keeps them)"
             )
+        shown: set[tuple[str, tuple[str, ...]]] = set()
         for (topic, _), change in self._relabels.items():
             first = change.first
+            if first.siblings and first.siblings[0].endswith("]"):
+                # an array's element named by its own strings (a frame): one line per element
+                if (topic, first.siblings) in shown:
+                    continue
+                shown.add((topic, first.siblings))
+                element = first.siblings[0]
+                # of the element's strings that change, the one seen with most contents
+                fields = [
+                    (len(self._seen_labels.get((t, f), {})), -i, f)
+                    for i, ((t, f), c) in enumerate(self._relabels.items())
+                    if t == topic and c.first.siblings == first.siblings
+                ]
+                name = max(fields)[2]
+                seen = self._seen_labels.get((topic, name), {})
+                out.append(
+                    f"{topic}: {name} changes between messages ("
+                    + _names(tuple(", ".join(v) for v in seen))[1:-1]
+                    + f"; first at {self._at(change.log_ns)}): {topic}.{element}.* hold "
+                    "whatever it names, message by message, not one quantity (not "
+                    "analyzed unless --channels names them)"
+                )
+                continue
             arrays = ", ".join(f"{name}[i]" for name in first.siblings) or "the arrays"
             verb = "follows" if len(first.siblings) == 1 else "follow"
             more = f"; {change.count} changes" if change.count > 1 else ""
             out.append(
                 f"{topic}: {first.field}[] changed at {self._at(change.log_ns)} "
                 f"({_names(first.before)} -> {_names(first.after)}); {arrays} {verb} the "
-                f"index, not the name{more}"
+                f"index, not the name{more} (not analyzed unless --channels names them)"
             )
         return out
+
+
+SEEN_LABELS = 9
+"""Contents of a relabelled string array kept for its line (one more than it shows)."""
 
 
 def _names(names: tuple[str, ...], most: int = 8) -> str:

@@ -48,6 +48,10 @@ class InputInfo:
     time: str = ""
     """Where its times come from, for people, where the reader chose (a CSV's time column
     and how its cells were read); ``inspect`` shows it."""
+    relabelled: list[str] = field(default_factory=list)
+    """Prefixes of channel names whose meaning changes between messages (an array's
+    element named by a string that changes, ``/tf.transforms[0].``; a ``JointState``'s
+    ``position[``): said in ``errors``, and not analyzed unless ``--channels`` names them."""
 
 
 class Reader(Protocol):

@@ -180,6 +180,7 @@ class McapReader:
             self._error(line)
         for line in self._tracker.lines() + reorder.drop_report():
             self._error(line)
+        self.info.relabelled = self._tracker.relabelled()
 
     def _shared_topics(self) -> list[str]:
         """One line per topic that several channels of one message type (publishers)

@@ -291,6 +291,7 @@ class Ros1BagReader:
         yield from reorder.flush()
         for line in self._tracker.lines() + reorder.drop_report():
             self._error(line)
+        self.info.relabelled = self._tracker.relabelled()
 
     # ------------------------------------------------------------------ index
     def _read_index(self, index_pos: int, conn_count: int, chunk_count: int) -> None:

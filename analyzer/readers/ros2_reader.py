@@ -153,6 +153,7 @@ class Ros2BagReader:
                     self._overlap(storage_path.name, dropped)
         for line in self._tracker.lines():
             self._error(line)
+        self.info.relabelled = self._tracker.relabelled()
 
     def _overlap(self, name: str, dropped: dict[str, int]) -> None:
         for topic, unit, count in per_topic(dropped, self.topics):

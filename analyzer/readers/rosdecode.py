@@ -45,6 +45,7 @@ from analyzer.readers._common import (
     Decoded,
     FloatArray,
     IntArray,
+    LabelEnds,
     Relabel,
     field_view,
     gather_rows,
@@ -84,6 +85,12 @@ BLOB_TYPES = frozenset({"byte", "char", "int8", "uint8"})
 """Arrays of these types are binary data, not measurements: skipped."""
 
 STRING_TYPES = frozenset({"string"})
+LABEL_KINDS = 9
+"""Contents of a string array a batch reports at most (:attr:`Decoded.label_ends`)."""
+IDENTITY_FIELDS = frozenset({"name", "frame_id", "child_frame_id", "id", "hardware_id"})
+"""Strings of an array's element that say what its numbers measure (a frame, a joint, a
+device), unlike a status text: when one changes between messages, the element's index no
+longer follows one quantity (:class:`_Label`)."""
 
 
 class LayoutError(Exception):
@@ -274,9 +281,17 @@ class _Walker:
         )
 
     def _labels(self) -> tuple[_Label, ...]:
-        """The string arrays that have numeric arrays beside them (same message level)."""
+        """The string arrays that have numeric arrays beside them (same message level),
+        and the strings of an array's elements that have numbers in the same element
+        (``transforms[0].child_frame_id`` beside ``transforms[0].transform...``; their
+        one sibling is the element, ``transforms[0]``)."""
         out = []
         for field, start, end, count in self.labels:
+            if "]." in field:
+                element = field[: field.rindex("].") + 1]
+                if any(name.startswith(element + ".") for name in self.names):
+                    out.append(_Label(field, start, end, count, (element,)))
+                continue
             prefix = field.rpartition(".")[0]
             prefix = f"{prefix}." if prefix else ""
             siblings: dict[str, None] = {}
@@ -344,9 +359,15 @@ class _Walker:
 
     def base_value(self, name: str, kind: str, *, skip: bool) -> None:
         if kind in STRING_TYPES:
+            self.align(4)
+            start = self.pos
             size = self.length()
             self.need(size)
             self.pos += size
+            if not skip and "]." in name and name.rpartition(".")[2] in IDENTITY_FIELDS:
+                # a name of an array's element (TransformStamped.child_frame_id in
+                # TFMessage.transforms[i]): it says what the element's numbers measure
+                self.labels.append((name, start, self.pos, 1))
             return
         code = NUMERIC.get(kind)
         if code is None:
@@ -495,8 +516,6 @@ class RosBatchDecoder:
         self._store: Typestore | None = stores[0] if len(stores) == 1 else None
         self._layouts: list[Layout] = []
         self._layout_failed = False
-        self._last_labels: dict[str, tuple[int, tuple[str, ...]]] = {}
-        """Per string array: the hash and strings of the last message decoded in bulk."""
 
     # -- public
     def decode(self, buf: ByteArray, starts: IntArray, sizes: IntArray) -> Decoded:
@@ -518,7 +537,7 @@ class RosBatchDecoder:
         decoded.columns = merge_parts(parts, n)
         decoded.stamps = stamps if any_stamp else None
         if labels:
-            decoded.relabels = self._relabels(buf, starts, labels)
+            decoded.relabels = self._relabels(buf, starts, labels, decoded.label_ends)
         return decoded
 
     def deserialize(self, data: bytes) -> object:
@@ -606,10 +625,15 @@ class RosBatchDecoder:
         return remaining, any_stamp
 
     def _relabels(
-        self, buf: ByteArray, starts: IntArray, labels: dict[str, _LabelRows]
+        self,
+        buf: ByteArray,
+        starts: IntArray,
+        labels: dict[str, _LabelRows],
+        ends: dict[str, LabelEnds],
     ) -> list[Relabel]:
         """Where each string array's content changed in the batch (compared in bulk by
-        hash; the strings are read only at the first change and at the batch's end)."""
+        hash; the strings are read only at the first change and at the batch's ends,
+        which go into ``ends`` with the siblings and its contents)."""
 
         def names(row: int, field: str) -> tuple[str, ...]:
             layout = self._layouts[int(found.layout[row])]
@@ -623,22 +647,25 @@ class RosBatchDecoder:
             if rows.size == 0:
                 continue
             hashes = found.hashes[rows]
-            last = self._last_labels.get(field)
-            changed = np.empty(rows.size, dtype=bool)
-            changed[0] = last is not None and last[0] != int(hashes[0])
-            np.not_equal(hashes[1:], hashes[:-1], out=changed[1:])
-            where = np.nonzero(changed)[0]
+            layout = self._layouts[int(found.layout[rows[0]])]
+            siblings = next(x.siblings for x in layout.labels if x.field == field)
+            # the batch's first and last strings: the topic's tracker compares them with
+            # the batches before, whichever decoder (publisher) they came from
+            first = names(int(rows[0]), field)
+            changed = np.not_equal(hashes[1:], hashes[:-1])
+            where = np.nonzero(changed)[0] + 1
+            last = names(int(rows[-1]), field) if where.size else first
+            # every content the batch holds (a few: read once each)
+            _, at = np.unique(hashes, return_index=True)
+            kinds = tuple(names(int(rows[k]), field) for k in np.sort(at)[:LABEL_KINDS])
+            ends[field] = (first, last, siblings, kinds)
             if where.size:
                 k = int(where[0])
-                before = last[1] if k == 0 and last is not None else names(int(rows[k - 1]), field)
                 row = int(rows[k])
-                layout = self._layouts[int(found.layout[row])]
-                siblings = next(x.siblings for x in layout.labels if x.field == field)
+                before = names(int(rows[k - 1]), field)
                 out.append(
                     Relabel(field, row, before, names(row, field), int(where.size), siblings)
                 )
-            if where.size or last is None:
-                self._last_labels[field] = (int(hashes[-1]), names(int(rows[-1]), field))
         return out
 
     def _reference(

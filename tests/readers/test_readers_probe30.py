@@ -5,6 +5,7 @@ topic, and the warnings of ``export``. Logs are built with the real writers."""
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -20,12 +21,12 @@ from mcap.writer import Writer as McapWriter
 from readers_helpers import T0, collect
 from rosbags.rosbag1 import Writer as Ros1Writer
 from rosbags.rosbag2 import Writer as Ros2Writer
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from analyzer.cli import main
 from analyzer.errors import ReaderError
 from analyzer.readers import open_archive, open_input
-from analyzer.readers._common import concat_payloads
+from analyzer.readers._common import Reorderer, TopicTracker, concat_payloads
 from analyzer.readers.rosdecode import RosBatchDecoder
 
 ROS2 = get_typestore(Stores.ROS2_HUMBLE)
@@ -228,8 +229,10 @@ def test_joint_name_order_change_is_reported(tmp_path: Path, fmt: str) -> None:
     assert got["/joint_states.position[0]"][1].size == 1000  # (named by index: the contract)
     assert reader.info.errors == [
         "/joint_states: name[] changed at t=3.00 s ([a, b, c] -> [b, a, c]); position[i], "
-        "velocity[i] follow the index, not the name; 2 changes"
+        "velocity[i] follow the index, not the name; 2 changes (not analyzed unless "
+        "--channels names them)"
     ]
+    assert reader.info.relabelled == ["/joint_states.position[", "/joint_states.velocity["]
 
 
 def test_joint_names_that_stay_say_nothing(tmp_path: Path) -> None:
@@ -242,22 +245,29 @@ def test_joint_names_that_stay_say_nothing(tmp_path: Path) -> None:
 
 
 def test_joint_name_change_between_batches() -> None:
-    """The first message of a batch is compared with the last of the batch before."""
-    decoder = RosBatchDecoder([ROS2], JS, "cdr")
+    """The first message of a batch is compared with the last of the topic's batch
+    before (by the topic's tracker: of any decoder, i.e. publisher)."""
+    decoders = [RosBatchDecoder([ROS2], JS, "cdr") for _ in range(2)]
+    tracker = TopicTracker("log")
 
-    def batch(names: list[str]) -> Any:
+    def batch(names: list[str], which: int = 0) -> Any:
         payloads = [
             bytes(ROS2.serialize_cdr(joint_state(T0 + i, names, [1.0, 2.0])(ROS2), JS))
             for i in range(5)
         ]
-        return decoder.decode(*concat_payloads(payloads))
+        decoded = decoders[which].decode(*concat_payloads(payloads))
+        assert decoded.relabels == []  # (no change inside a batch)
+        tracker.push(Reorderer(), "/js", decoded, np.arange(5, dtype=np.int64) + T0)
+        return tracker.lines()
 
-    assert batch(["left", "right"]).relabels == []
-    assert batch(["left", "right"]).relabels == []
-    (change,) = batch(["right", "left"]).relabels
-    assert (change.field, change.row, change.count) == ("name", 0, 1)
-    assert (change.before, change.after) == (("left", "right"), ("right", "left"))
-    assert change.siblings == ("position", "velocity")
+    assert batch(["left", "right"]) == []
+    assert batch(["left", "right"]) == []
+    (line,) = batch(["right", "left"])
+    assert line.startswith("/js: name[] changed at") and "([left, right] -> [right, left])" in line
+    assert "position[i], velocity[i] follow the index" in line
+    # a second publisher whose names differ: the same topic's names change
+    assert "; 2 changes" in batch(["left", "right"], which=1)[0]
+    assert tracker.relabelled() == ["/js.position[", "/js.velocity["]
 
 
 # --------------------------------------------------------------------------- #4, #5, #9, FIFO
@@ -407,3 +417,128 @@ def test_export_warns_about_its_inputs(tmp_path: Path, capsys: pytest.CaptureFix
         "input in time; dropped\n"
     )
     assert out.is_file()
+
+
+# ------------------------------------------------------------ an array's element renamed
+
+TF = "tf2_msgs/msg/TFMessage"
+DIAG = "diagnostic_msgs/msg/DiagnosticArray"
+if TF not in ROS1.types:  # (not in the Noetic store: tf2_msgs is a package of its own)
+    ROS1.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", TF))
+
+
+def tf_message(stamp_ns: int, frames: Sequence[tuple[str, str, float]]) -> Callable[[Any], Any]:
+    """A TFMessage of one transform per (parent, child, x)."""
+
+    def make(store: Any) -> Any:
+        out = []
+        for parent, child, x in frames:
+            header = _header(store, stamp_ns)
+            header.frame_id = parent
+            tr = store.types["geometry_msgs/msg/Vector3"](x=float(x), y=0.0, z=0.0)
+            rot = store.types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)
+            transform = store.types["geometry_msgs/msg/Transform"](translation=tr, rotation=rot)
+            out.append(
+                store.types["geometry_msgs/msg/TransformStamped"](
+                    header=header, child_frame_id=child, transform=transform
+                )
+            )
+        return store.types[TF](transforms=out)
+
+    return make
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "ros1", "ros2"])
+@pytest.mark.parametrize("children", [("a", "b"), ("base_link", "odom")])
+def test_a_transform_whose_frame_changes_is_said_and_marked(
+    tmp_path: Path, fmt: str, children: tuple[str, str]
+) -> None:
+    """Real-data audit: /tf.transforms[0] of the turtlesim bag alternates between
+    world->turtle1 and world->turtle2 (two broadcasters), nav2_turtlebot's between three
+    frames: one channel name for several quantities, silently (and a "drift" found on
+    it). Frames of one length or of several (another message layout) alike."""
+    messages = [
+        ("/tf", TF, T0 + i * MS, tf_message(T0 + i * MS, [("world", children[i % 2], i % 2)]))
+        for i in range(300)
+    ]
+    reader = open_input(write(tmp_path / NAMES[fmt], fmt, messages))
+    got = collect(reader.chunks())
+    assert got["/tf.transforms[0].transform.translation.x"][1].size == 300  # (named by index)
+    (line,) = reader.info.errors
+    assert line.startswith(
+        f"/tf: transforms[0].child_frame_id changes between messages ({children[0]}, "
+        f"{children[1]}; first at t=0.01 s): /tf.transforms[0].* hold whatever it names"
+    )
+    assert reader.info.relabelled == ["/tf.transforms[0]."]
+
+
+def test_two_broadcasters_on_one_topic_are_caught_across_publishers(tmp_path: Path) -> None:
+    """Each publisher's own frames never change (two ROS 1 connections, decoded one
+    after the other): the topic's frames do."""
+    messages = [
+        ("/tf", TF, T0 + i * MS, tf_message(T0 + i * MS, [("world", f"t{i % 2}", i % 2)]))
+        for i in range(200)
+    ]
+    path = tmp_path / "two.bag"
+    with Ros1Writer(path) as bag:
+        conns = [bag.add_connection("/tf", TF, typestore=ROS1, callerid=f"/pub{k}") for k in (0, 1)]
+        for i, (_, msgtype, t, make) in enumerate(messages):
+            bag.write(conns[i % 2], t, bytes(ROS1.serialize_ros1(make(ROS1), msgtype)))
+    reader = open_input(path)
+    collect(reader.chunks())
+    assert reader.info.relabelled == ["/tf.transforms[0]."]
+    assert "transforms[0].child_frame_id changes between messages (t0, t1" in reader.info.errors[0]
+
+
+def test_frames_that_stay_and_status_texts_say_nothing(tmp_path: Path) -> None:
+    """Two transforms whose frames never change, and a diagnostic status whose message
+    text changes while its name stays (a text, not what the numbers measure)."""
+    messages: list[Message] = [
+        ("/tf", TF, T0 + i * MS, tf_message(T0 + i * MS, [("w", "a", i), ("w", "bb", -i)]))
+        for i in range(200)
+    ]
+
+    def status(i: int) -> Callable[[Any], Any]:
+        def make(store: Any) -> Any:
+            one = store.types["diagnostic_msgs/msg/DiagnosticStatus"](
+                level=i % 3,
+                name="motor",
+                message=["OK", "warm", "too hot!"][i % 3],
+                hardware_id="m1",
+                values=[],
+            )
+            return store.types[DIAG](header=_header(store, T0 + i * MS), status=[one])
+
+        return make
+
+    messages += [("/diagnostics", DIAG, T0 + i * MS + 1, status(i)) for i in range(200)]
+    reader = open_input(write(tmp_path / "x.mcap", "mcap", messages))
+    got = collect(reader.chunks())
+    assert "/tf.transforms[1].transform.translation.x" in got
+    assert reader.info.errors == [] and reader.info.relabelled == []
+
+
+def test_a_run_leaves_a_relabelled_transform_out_unless_named(tmp_path: Path) -> None:
+    """The default channels leave /tf.transforms[0].* out (a note names them); named by
+    --channels they are analyzed as before."""
+    from analyzer.simulate import simulate_building
+
+    t, y, _ = simulate_building(2, 60.0, 100.0, seed=2, sensors_per_floor=2)
+    stamps = [T0 + int(round(x * 1e9)) for x in t]
+    messages: list[Message] = []
+    for i, ns in enumerate(stamps):
+        messages += [(f"/s{k}", V3S, ns, v3s(ns, y[i, k])) for k in range(4)]
+        messages.append(("/tf", TF, ns + 1, tf_message(ns, [("w", "ab"[i % 2], y[i, i % 2])])))
+    path = write(tmp_path / "x.mcap", "mcap", messages)
+    out = tmp_path / "o"
+    assert main(["run", str(path), "--out", str(out), "--no-progress"]) in (0, 1)
+    found = json.loads((out / "findings.json").read_text())
+    analyzed = {c for d in found["detectors"] for c in d["channels"]}
+    assert analyzed == {f"/s{k}.vector.x" for k in range(4)}
+    assert any(n.startswith("not analyzed: /tf.transforms[0].transform") for n in found["notes"])
+    out2 = tmp_path / "o2"
+    args = ["run", str(path), "--out", str(out2), "--no-progress", "--channels", "/s*,/tf*"]
+    assert main(args) in (0, 1)
+    found = json.loads((out2 / "findings.json").read_text())
+    analyzed = {c for d in found["detectors"] for c in d["channels"]}
+    assert "/tf.transforms[0].transform.translation.x" in analyzed

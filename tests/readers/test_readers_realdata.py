@@ -49,7 +49,21 @@ def test_turtlesim_bags_in_three_compressions(corpus: Path) -> None:
         assert times.size == 1344, name
         np.testing.assert_array_equal(times, [r[0] for r in reference])
         np.testing.assert_array_equal(values, [r[1] for r in reference])
-        assert bag.info.errors == []
+        # two broadcasters on /tf: transforms[0] is world->turtle1, then world->turtle2
+        (line,) = bag.info.errors
+        assert line.startswith(
+            "/tf: transforms[0].child_frame_id changes between messages (turtle2, turtle1;"
+        )
+        assert bag.info.relabelled == ["/tf.transforms[0]."]
+
+
+def test_nav2_transforms_of_three_frames_are_not_analyzed(corpus: Path, tmp_path: Path) -> None:
+    """Real-data audit: /tf.transforms[0] carries odom->base_link, base_link->wheel and
+    map->odom in turn; its channels are not analyzed by default (a note says so)."""
+    bag = open_input(corpus / "mcap/evo/nav2_turtlebot.mcap")
+    collect(bag.chunks())
+    assert bag.info.relabelled == ["/tf.transforms[0]."]
+    assert any("(odom, map, base_link;" in e for e in bag.info.errors)
 
 
 def test_ros2_bag_without_embedded_types(corpus: Path) -> None:
