@@ -324,14 +324,26 @@ class McapReader:
             damage = f"truncated or damaged at byte {handle.tell()} ({reason})"
             finished = True
         if pending is not None:
-            count += self._stream_chunk(*pending, reorder, time)
+            # cut among the chunk's MessageIndex records, it may hold only some of them:
+            # the chunk's own records say which messages it has (read once, one chunk)
+            indexes = pending[1] if damage is None else []
+            count += self._stream_chunk(pending[0], indexes, reorder, time)
         if loose:
             count += self._decode_loose(loose, reorder, time)
         if damage is not None:  # counted once what was read before the damage is decoded
             self._error(f"{damage}; the {count} messages before it were read")
         if not finished:
             self._error("truncated: the file ends without a DataEnd/Footer record")
+        elif damage is None and not self._ends_with_magic(handle):
+            self._error(
+                "the file ends without its closing magic (its summary or footer is missing "
+                "or cut short); every message of its data section was read"
+            )
         yield from reorder.flush()
+
+    def _ends_with_magic(self, handle: BinaryIO) -> bool:
+        handle.seek(max(self._size - len(MAGIC), 0))
+        return handle.read(len(MAGIC)) == MAGIC
 
     def _stream_chunk(
         self, chunk: Chunk, indexes: list[MessageIndex], reorder: Reorderer, time: TimeSource
