@@ -64,6 +64,14 @@ def _positive_int(text: str) -> int:
     return v
 
 
+def _path_text(text: str) -> str:
+    """A file or folder name: not empty (``Path("")`` is the current folder, which an
+    empty shell variable would silently make an input or the output)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path")
+    return text
+
+
 def _csv_list(text: str) -> list[str]:
     items = [t.strip() for t in text.split(",") if t.strip()]
     if not items:
@@ -97,7 +105,10 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         "default: the first 20%% of the data, at most 10 minutes",
     )
     p.add_argument(
-        "--config", metavar="FILE", help="TOML config (groups, model, detector options, thresholds)"
+        "--config",
+        type=_path_text,
+        metavar="FILE",
+        help="TOML config (groups, model, detector options, thresholds)",
     )
     p.add_argument(
         "--detectors",
@@ -146,6 +157,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     p.add_argument(
         "--model",
+        type=_path_text,
         metavar="FILE",
         help="run the fitted models saved by --save-model instead of fitting on this "
         "archive (a fault present from its first sample is found too)",
@@ -167,7 +179,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     p = sub.add_parser("inspect", help="what is in an archive: channels, counts, rates, gaps")
-    p.add_argument("inputs", nargs="+", metavar="INPUT", help=INPUT_HELP)
+    p.add_argument("inputs", nargs="+", type=_path_text, metavar="INPUT", help=INPUT_HELP)
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.add_argument(
         "--time",
@@ -178,8 +190,10 @@ def build_parser() -> argparse.ArgumentParser:
     add_msg_path(p)
 
     p = sub.add_parser("export", help="the time-aligned channels as .csv or .parquet")
-    p.add_argument("inputs", nargs="+", metavar="INPUT", help=INPUT_HELP)
-    p.add_argument("--out", required=True, metavar="FILE", help="output .csv or .parquet")
+    p.add_argument("inputs", nargs="+", type=_path_text, metavar="INPUT", help=INPUT_HELP)
+    p.add_argument(
+        "--out", required=True, type=_path_text, metavar="FILE", help="output .csv or .parquet"
+    )
     p.add_argument(
         "--channels",
         type=_csv_list,
@@ -201,25 +215,30 @@ def build_parser() -> argparse.ArgumentParser:
     add_msg_path(p)
 
     p = sub.add_parser("run", help="analyze; write DIR/report.html and DIR/findings.json")
-    p.add_argument("inputs", nargs="+", metavar="INPUT", help=INPUT_HELP)
+    p.add_argument("inputs", nargs="+", type=_path_text, metavar="INPUT", help=INPUT_HELP)
     p.add_argument(
         "--out",
         required=True,
+        type=_path_text,
         metavar="DIR",
         help="folder for report.html and findings.json (made if missing)",
     )
     add_run_options(p)
     p.add_argument(
         "--save-model",
+        type=_path_text,
         metavar="FILE",
         help="also write the fitted models to FILE, for --model on later archives",
     )
 
     p = sub.add_parser("watch", help="analyze every archive that lands in INBOX")
-    p.add_argument("inbox", metavar="INBOX", help="the folder archives are dropped into")
+    p.add_argument(
+        "inbox", type=_path_text, metavar="INBOX", help="the folder archives are dropped into"
+    )
     p.add_argument(
         "--out",
         required=True,
+        type=_path_text,
         metavar="REPORTS",
         help="folder of the reports: one sub-folder per archive, and index.html",
     )
@@ -245,8 +264,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="analyze an archive that stays stable but still looks unfinished (a truncated "
         "MCAP, an empty file) after this long anyway, with its error record (default 600)",
     )
-    p.add_argument("--done", metavar="DIR", help="move each analyzed archive here")
-    p.add_argument("--failed", metavar="DIR", help="move each archive that could not be read here")
+    p.add_argument("--done", type=_path_text, metavar="DIR", help="move each analyzed archive here")
+    p.add_argument(
+        "--failed",
+        type=_path_text,
+        metavar="DIR",
+        help="move each archive that could not be read here",
+    )
     p.add_argument(
         "--group-by",
         metavar="PATTERN",

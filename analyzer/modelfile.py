@@ -156,6 +156,8 @@ def check_model_path(path: Path, out: Path | None = None) -> None:
     if out is None or path.parent.is_dir():
         return
     if path.parent.resolve() != out.resolve():
+        if path.parent.exists():
+            raise UsageError(f"--save-model: {path.parent} is not a directory")
         raise UsageError(f"--save-model: directory {path.parent} does not exist")
 
 

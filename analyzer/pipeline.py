@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from analyzer.config import Config, measured_inputs
+from analyzer.config import members as group_members
 from analyzer.detector_runs import (
     coupled,
     detector_names,
@@ -115,6 +116,11 @@ def _select(
         if unmatched:
             raise UsageError(f"--channels: pattern {unmatched[0]!r} matches no channel")
         chosen = store.select(patterns)
+        if not chosen:  # every channel a pattern matches, another leaves out
+            raise UsageError(
+                f"--channels: '{','.join(patterns)}' leaves no channel to analyze (its '!' "
+                "patterns leave out every channel)"
+            )
         constant = [c for c in chosen if infos[c].constant]
         if constant:
             notes.append(f"constant or empty channels not analyzed: {', '.join(constant)}")
@@ -1500,6 +1506,20 @@ def config_warnings(config: Config, analysis: Analysis) -> list[str]:
         lines.append(
             f"{config.path}: the config's {what} is not used, {'; '.join(skip_reasons(why))}"
         )
+    # a [[group]] naming a channel the archive does not have: a typo, or a pattern
+    # (names are exact); the group is analyzed without it, as a note says
+    known = {c.name for c in analysis.channels}
+    for g in config.groups:
+        # (its reference, uncertain sensors and inputs: the error functions' line says)
+        roles = {c for k in ("reference", "uncertain", "inputs") for c in g.get(k, [])}
+        absent = [c for c in group_members(g) if c not in known and c not in roles]
+        if absent and known:
+            patterns = any(ch in c for c in absent for ch in "*?[")
+            lines.append(
+                f"{config.path}: [[group]] {g.get('name', '?')!r}: "
+                f"{', '.join(repr(c) for c in absent)} not in the archive"
+                + (" (channel names, not patterns)" if patterns else "")
+            )
     # a fixed AR order below what the training window supports (the bank's own note)
     stem = ORDER_NOTE.split("{order}")[0]
     for r in analysis.results:

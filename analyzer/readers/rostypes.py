@@ -116,7 +116,8 @@ def user_store(spec: str) -> Typestore | None:
     types: dict[str, Any] = {}
     for directory in dirs:
         if not directory.is_dir():
-            raise MessagePathError(f"{directory}: no such directory")
+            what = "not a directory" if directory.exists() else "no such directory"
+            raise MessagePathError(f"{directory}: {what}")
         for path in sorted(directory.rglob("*.msg")):
             if path.parent.name != "msg":
                 continue  # not a package's msg/ folder

@@ -99,6 +99,30 @@ def test_unwritable_out_is_refused_before_the_work(command, tmp_path, capsys):
     assert time.perf_counter() - t0 < 5.0  # refused up front, not after the analysis
 
 
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["run", "{csv}", "--out", ""], "argument --out: an empty path"),
+        (["run", "", "--out", "{out}"], "argument INPUT: an empty path"),
+        (["run", "{csv}", "--out", "{out}", "--config", ""], "argument --config: an empty"),
+        (["run", "{csv}", "--out", "{out}", "--save-model", ""], "--save-model: an empty"),
+        (["export", "{csv}", "--out", ""], "argument --out: an empty path"),
+        (["inspect", " "], "argument INPUT: an empty path"),
+        (["watch", "", "--out", "{out}", "--once"], "argument INBOX: an empty path"),
+    ],
+)
+def test_an_empty_path_is_refused(argv, needle, tmp_path, capsys, monkeypatch):
+    """CLI audit: ``run --out ''`` wrote report.html and findings.json into the current
+    folder (``Path("")`` is "."), as an empty shell variable would; an empty input
+    analyzed the current folder."""
+    monkeypatch.chdir(tmp_path)
+    csv = _csv(tmp_path / "a.csv", seconds=30.0)
+    argv = [a.format(csv=csv, out=tmp_path / "o") for a in argv]
+    code, _, err = run_cli(argv, capsys)
+    assert code == 2 and needle in err and len(err.strip().splitlines()) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csv"]
+
+
 def test_a_failed_run_leaves_no_empty_out_dir(tmp_path, capsys):
     src = tmp_path / "bad.mcap"
     src.write_bytes(b"\x89MCAP0\r\n" + b"\0" * 50)
@@ -800,3 +824,25 @@ def test_a_broken_pipe_not_stdout_s_is_an_error(monkeypatch, capsys):
     code, _, err = run_cli(["inspect", str(SAMPLES / "building_additive.mcap")], capsys)
     assert code == 2
     one_line_error(err, "BrokenPipeError")
+
+
+@pytest.mark.parametrize(
+    ("extra", "needle"),
+    [
+        (["--channels", "!*"], "--channels: '!*' leaves no channel to analyze"),
+        (["--channels", "s0,!s0"], "--channels: 's0,!s0' leaves no channel to analyze"),
+        (["--save-model", "{afile}/m"], "--save-model: {afile} is not a directory"),
+        (["--msg-path", "{afile}"], "--msg-path: {afile}: not a directory"),
+    ],
+)
+def test_errors_say_what_is_wrong(extra, needle, tmp_path, capsys, monkeypatch):
+    """CLI audit: '!*' said "all selected channels are constant or empty", and a file
+    where a folder was expected "does not exist" / "no such directory"."""
+    # (--msg-path sets ANALYZER_MSG_PATH for the process: put back what it was after)
+    monkeypatch.setenv("ANALYZER_MSG_PATH", os.environ.get("ANALYZER_MSG_PATH", ""))
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    csv = _csv(tmp_path / "a.csv", seconds=30.0)
+    extra = [a.format(afile=afile) for a in extra]
+    code, _, err = run_cli(["run", csv, "--out", tmp_path / "o", *extra], capsys)
+    assert code == 2 and needle.format(afile=afile) in err, err

@@ -265,6 +265,24 @@ def test_a_group_input_missing_from_the_archive_is_a_warning(building, tmp_path,
     one_line_error(err, "warning", "ground.toml", "[[group]] is not used", "'ground'")
 
 
+@pytest.mark.parametrize(
+    ("channels", "needle"),
+    [('"s0", "s1", "s2", "sx"', "'sx' not in the archive"), ('"s*"', "(channel names, not")],
+)
+def test_a_group_channel_missing_from_the_archive_is_a_warning(
+    building, tmp_path, capsys, channels, needle
+):
+    """CLI audit: a mistyped [[group]] channel (or a pattern) was one note in
+    findings.json, nothing on stderr, the group analyzed without it."""
+    cfg = _config(
+        building, f'[train]\nend = 30.0\n[[group]]\nname = "g"\nchannels = [{channels}]\n'
+    )
+    argv = ["run", building / "d.csv", "--config", cfg, "--out", tmp_path / "o"]
+    code, _, err = run_cli([*argv, "--channels", "s*"], capsys)
+    assert code in (0, 1), err
+    assert f"warning: {cfg}: [[group]] 'g': " in err and needle in err
+
+
 # ------------------------------------------------------------------------ --train
 
 
