@@ -178,6 +178,9 @@ class McapReader:
                 yield from self._streaming(handle, reorder, time)
         for line in self._shared_topics():
             self._error(line)
+        for entry in self._decoders.values():
+            if entry is not None and isinstance(entry[1], RosBatchDecoder) and entry[1].notice:
+                self._error(f"{entry[0]}: {entry[1].notice}")
         for line in self._tracker.lines() + reorder.drop_report():
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
@@ -518,7 +521,8 @@ class McapReader:
                 if schema.encoding != "ros2msg":
                     raise TypeResolutionError(one_line(err)) from err
                 return _mcap_ros2_fallback(schema, err)
-            return RosBatchDecoder([store], msgtype, wire, bulk=self.bulk)
+            fallback = (lambda: candidate_stores(msgtype)) if wire == "cdr" else None
+            return RosBatchDecoder([store], msgtype, wire, bulk=self.bulk, fallback=fallback)
         if schema.encoding not in expected and schema.encoding:
             raise TypeResolutionError(
                 f"schema encoding {schema.encoding!r} is not a ROS message definition "

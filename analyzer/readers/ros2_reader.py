@@ -151,6 +151,9 @@ class Ros2BagReader:
                         source = self._sqlite(storage, time, label)
                     yield from monotonic(source, last, dropped, strict=True)
                     self._overlap(storage_path.name, dropped)
+        for (topic, _), decoder in self._decoders.items():
+            if decoder is not None and decoder.notice:
+                self._error(f"{topic}: {decoder.notice}")
         for line in self._tracker.lines():
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
@@ -174,6 +177,9 @@ class Ros2BagReader:
         if fmt in (MessageDefinitionFormat.MSG, MessageDefinitionFormat.IDL) and conn.msgdef.data:
             kind = "idl" if fmt == MessageDefinitionFormat.IDL else "msg"
             stores = [store_from_definition(msgtype, conn.msgdef.data, kind)]
+            return RosBatchDecoder(
+                stores, msgtype, "cdr", bulk=self.bulk, fallback=lambda: candidate_stores(msgtype)
+            )
         else:
             stores = candidate_stores(msgtype)
             if not stores:

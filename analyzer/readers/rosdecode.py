@@ -28,7 +28,7 @@ top-level header's stamp is the message's header time.
 from __future__ import annotations
 
 import struct
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -505,6 +505,7 @@ class RosBatchDecoder:
         *,
         bulk: bool = True,
         max_layouts: int = MAX_LAYOUTS,
+        fallback: Callable[[], Sequence[Typestore]] | None = None,
     ) -> None:
         if not stores:
             raise ValueError("at least one typestore is needed")
@@ -513,7 +514,12 @@ class RosBatchDecoder:
         self.bulk = bulk
         self.max_layouts = max_layouts
         self._candidates = list(stores)
-        self._store: Typestore | None = stores[0] if len(stores) == 1 else None
+        self._fallback = fallback
+        one = len(stores) == 1 and fallback is None
+        self._store: Typestore | None = stores[0] if one else None
+        self.notice = ""
+        """Said once by the reader: the file's own definition did not decode its
+        messages, so another (``fallback``'s) did."""
         self._layouts: list[Layout] = []
         self._layout_failed = False
 
@@ -550,7 +556,21 @@ class RosBatchDecoder:
     # -- internals
     def _choose_store(self, buf: ByteArray, start: int, size: int) -> Typestore:
         data = buf[start : start + size].tobytes()
-        for store in self._candidates:
+        found = self._decoding(data, self._candidates)
+        if found is None and self._fallback is not None:
+            # the file's definition does not fit its messages (a stub written by a test
+            # or a recorder that lacked the type): the standard definition may
+            found = self._decoding(data, self._fallback())
+            if found is not None:
+                self.notice = (
+                    f"the file's definition of {self.msgtype} does not decode its messages; "
+                    "read with the standard definition of that type"
+                )
+        return found if found is not None else self._candidates[0]
+
+    def _decoding(self, data: bytes, stores: Sequence[Typestore]) -> Typestore | None:
+        """The first of ``stores`` that decodes the message ``data``."""
+        for store in stores:
             try:
                 compute_layout(store, self.msgtype, data, self.encoding)
             except LayoutError:
@@ -562,7 +582,7 @@ class RosBatchDecoder:
                 except Exception:  # noqa: BLE001 - any failure means "not this store"
                     continue
             return store
-        return self._candidates[0]
+        return None
 
     def _bulk(
         self,

@@ -542,3 +542,35 @@ def test_a_run_leaves_a_relabelled_transform_out_unless_named(tmp_path: Path) ->
     found = json.loads((out2 / "findings.json").read_text())
     analyzed = {c for d in found["detectors"] for c in d["channels"]}
     assert "/tf.transforms[0].transform.translation.x" in analyzed
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "ros2"])
+def test_a_stub_definition_falls_back_to_the_standard_one(tmp_path: Path, fmt: str) -> None:
+    """Real-data audit: rosbag2's sqlite3 'talker' test bag defines rcl_interfaces/msg/Log
+    as "uint8 level" (a stub), and the /rosout messages were "not decoded" while the
+    standard definition reads them (its MCAP twin was read)."""
+    stub = "uint8 x"  # a Vector3Stamped's messages are far longer
+    messages = [("/v", V3S, T0 + i * MS, v3s(T0 + i * MS, float(i))) for i in range(50)]
+    path = tmp_path / NAMES[fmt]
+    if fmt == "mcap":
+        with path.open("wb") as handle:
+            writer = McapWriter(handle)
+            writer.start(profile="ros2", library="test")
+            schema = writer.register_schema(V3S, "ros2msg", stub.encode())
+            channel = writer.register_channel("/v", "cdr", schema)
+            for _, msgtype, t, make in messages:
+                data = bytes(ROS2.serialize_cdr(make(ROS2), msgtype))
+                writer.add_message(channel, log_time=t, data=data, publish_time=t)
+            writer.finish()
+    else:
+        with Ros2Writer(path, version=9) as bag:
+            conn = bag.add_connection("/v", V3S, msgdef=stub, rihs01="RIHS01_" + "0" * 64)
+            for _, msgtype, t, make in messages:
+                bag.write(conn, t, bytes(ROS2.serialize_cdr(make(ROS2), msgtype)))
+    reader = open_input(path)
+    got = collect(reader.chunks())
+    assert got["/v.vector.x"][1].tolist() == [float(i) for i in range(50)]
+    assert reader.info.errors == [
+        f"/v: the file's definition of {V3S} does not decode its messages; read with the "
+        "standard definition of that type"
+    ]

@@ -178,3 +178,20 @@ def test_the_conformance_suites_lfs_pointers_are_named_as_such(corpus: Path) -> 
         )
         with pytest.raises(ReaderError, match=rf"Git LFS pointer \(to a {size}-byte file\)"):
             open_input(path)
+
+
+def test_the_sqlite_talkers_stub_definition_falls_back(corpus: Path) -> None:
+    """Its message_definitions row for rcl_interfaces/msg/Log is "uint8 level": the
+    standard definition reads the 10 /rosout messages, as from its MCAP twin."""
+    bag = open_input(corpus / "ros2/rosbag2/rosbag2_py/test/resources/sqlite3/talker")
+    got = collect(bag.chunks())
+    twin = collect(
+        open_input(corpus / "ros2/rosbag2/rosbag2_py/test/resources/mcap/talker").chunks()
+    )
+    for name in ("/rosout.level", "/rosout.line"):
+        np.testing.assert_array_equal(got[name][1], twin[name][1])
+    assert got["/rosout.level"][1].size == 10
+    assert bag.info.errors == [
+        "/rosout: the file's definition of rcl_interfaces/msg/Log does not decode its "
+        "messages; read with the standard definition of that type"
+    ]
