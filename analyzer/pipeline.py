@@ -521,7 +521,11 @@ def _analyze(
         timings["detect"] = time.perf_counter() - t0
         if not results:
             error = _no_detector_error(
-                skipped, tr, options, _apart_in_training(values, chosen, train, aligned.rate_hz)
+                skipped,
+                tr,
+                options,
+                _apart_in_training(values, chosen, train, aligned.rate_hz),
+                _slow_clock(infos, chosen, aligned.rate_hz),
             )
             absurd = next((n for n in notes if n.startswith("infinite or absurd values")), None)
             if absurd is not None:  # (a channel whose every value is beyond 1e30, say)
@@ -1399,11 +1403,16 @@ def _apart_in_training(
 
 
 def _no_detector_error(
-    skipped: dict[str, str], tr: tuple[float, float], options: RunOptions, apart: str = ""
+    skipped: dict[str, str],
+    tr: tuple[float, float],
+    options: RunOptions,
+    apart: str = "",
+    slow: str = "",
 ) -> DetectorError:
     """The error when no detector could run: each one's reason, and a hint when the
-    healthy window is too short for them, or when its channels are hardly ever present
-    together (``apart``: :func:`_apart_in_training`)."""
+    healthy window is too short for them (``slow``: the common clock is slower than some
+    channels, :func:`_slow_clock`), or when its channels are hardly ever present together
+    (``apart``: :func:`_apart_in_training`)."""
     why = "; ".join(skip_reasons(skipped))
     if apart:
         return DetectorError(f"no detector could run ({why}){apart}")
@@ -1417,8 +1426,28 @@ def _no_detector_error(
                 if options.train is None and options.config.train is None
                 else ""
             )
+            + slow
         )
     return DetectorError(f"no detector could run ({why}){hint}")
+
+
+def _slow_clock(infos: Sequence[ChannelInfo], chosen: Sequence[str], rate_hz: float) -> str:
+    """A hint when some analyzed channels run at twice the common clock or faster (the
+    clock is the rate most channels share, and 36 entries of a 1.4 Hz covariance matrix
+    outvoted a 27 Hz odometry): analyzing the fast ones alone, or at their rate, gives a
+    window more samples. Empty otherwise."""
+    rates = {i.name: i.rate_hz for i in infos if i.name in set(chosen)}
+    fast = sorted((c for c, r in rates.items() if r >= 2 * rate_hz), key=lambda c: -rates[c])
+    if not fast:
+        return ""
+    at = sum(1 for r in rates.values() if abs(r - rate_hz) <= 0.1 * rate_hz)
+    top = rates[fast[0]]
+    return (
+        f", or analyze faster channels: the common clock runs at {rate_hz:.3g} Hz, the rate "
+        f"of {at} of the {len(rates)} channels, while {len(fast)} run at up to {top:.3g} Hz "
+        f"({', '.join(fast[:3])}{', ...' if len(fast) > 3 else ''}): --channels naming "
+        f"them, or --rate {top:.3g}"
+    )
 
 
 def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) -> int:

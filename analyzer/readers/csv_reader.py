@@ -297,6 +297,9 @@ class _Layout:
     units_line: int = 0
     """The line (from 1) read as units under the header, which ``info.errors`` names so
     that a wrong guess shows (0: none, or a TOA5 table's, which its format places)."""
+    renamed: tuple[tuple[str, str], ...] = ()
+    """Header names given to more than one column, and the name each repeat is read as
+    (:func:`_unique`): said in ``info.errors``."""
 
 
 @dataclass(slots=True)
@@ -647,6 +650,12 @@ class CsvReader:
         self.info = InputInfo(self.path, Format.CSV, size_bytes=total, sha256=sha)
         if self._layout.units_line:  # a guess (a units line has no readable time): said
             self._error(_units_note(self._layout))
+        if self._layout.renamed:
+            self._error(
+                "columns named alike, a repeat read under a name of its own: "
+                + ", ".join(f"{g!r} as {n!r}" for g, n in self._layout.renamed[:8])
+                + (f", ... ({len(self._layout.renamed)})" if len(self._layout.renamed) > 8 else "")
+            )
         self.info.absolute_time = (
             self._time_kind == "datetime"
             or (self._time_kind == "ns" and first_time is not None and plausible_epoch(first_time))
@@ -1008,9 +1017,8 @@ class CsvReader:
             damaged = f", before the damage ({damage})" if damage is not None else ""
             what = "a header line" if toa5 or units_at is None else "a header and a units line"
             raise ReaderError(f"{self.path}: no data rows ({what} only{damaged})")
-        names = _unique(
-            [h.strip() or f"column{i}" for i, h in enumerate(_fields(lines[header], separator))]
-        )
+        given = [h.strip() or f"column{i}" for i, h in enumerate(_fields(lines[header], separator))]
+        names = _unique(given)
         if len(names) < 2:
             raise ReaderError(f"{self.path}: no numeric column (a single column {names[0]!r})")
         time_column, time_unit = _time_column(names)
@@ -1049,6 +1057,7 @@ class CsvReader:
             ignored=ignored,
             units=units,
             units_line=numbered[units_at][0] + 1 if units_at is not None and not toa5 else 0,
+            renamed=tuple((g, n) for g, n in zip(given, names, strict=True) if g != n),
         )
 
     def _separator(self, lines: list[str]) -> str:

@@ -39,7 +39,10 @@ def test_duplicate_names_never_share_a_channel(tmp_path: Path) -> None:
     np.testing.assert_array_equal(got["a"][1], [0, 1, 2, 3, 4])
     np.testing.assert_array_equal(got["a_3"][1], [10, 11, 12, 13, 14])
     np.testing.assert_array_equal(got["a_2"][1], [20, 21, 22, 23, 24])
-    assert info.errors == []
+    # said (CLI audit: the repeat was renamed silently)
+    assert info.errors == [
+        "columns named alike, a repeat read under a name of its own: 'a' as 'a_3'"
+    ]
 
 
 def test_a_column_blank_in_every_row_is_named(tmp_path: Path) -> None:
