@@ -130,6 +130,8 @@ def _select(
         constant = [c for c in infos if infos[c].constant]
         if constant:
             notes.append(f"constant or empty channels not analyzed: {', '.join(constant)}")
+    # '!' patterns alone leave channels out of the default ones, which these are not of
+    if not patterns or all(p.startswith("!") for p in patterns):
         mixed = [c for c in chosen if c.startswith(tuple(relabelled))] if relabelled else []
         if mixed:
             notes.append(
@@ -525,7 +527,7 @@ def _analyze(
                 tr,
                 options,
                 _apart_in_training(values, chosen, train, aligned.rate_hz),
-                _slow_clock(infos, chosen, aligned.rate_hz),
+                _slow_clock(infos, chosen, aligned.rate_hz, options.rate is not None),
             )
             absurd = next((n for n in notes if n.startswith("infinite or absurd values")), None)
             if absurd is not None:  # (a channel whose every value is beyond 1e30, say)
@@ -1431,17 +1433,24 @@ def _no_detector_error(
     return DetectorError(f"no detector could run ({why}){hint}")
 
 
-def _slow_clock(infos: Sequence[ChannelInfo], chosen: Sequence[str], rate_hz: float) -> str:
+def _slow_clock(
+    infos: Sequence[ChannelInfo], chosen: Sequence[str], rate_hz: float, given: bool = False
+) -> str:
     """A hint when some analyzed channels run at twice the common clock or faster (the
     clock is the rate most channels share, and 36 entries of a 1.4 Hz covariance matrix
     outvoted a 27 Hz odometry): analyzing the fast ones alone, or at their rate, gives a
-    window more samples. Empty otherwise."""
+    window more samples. ``given``: the clock is ``--rate``'s. Empty otherwise."""
     rates = {i.name: i.rate_hz for i in infos if i.name in set(chosen)}
     fast = sorted((c for c, r in rates.items() if r >= 2 * rate_hz), key=lambda c: -rates[c])
     if not fast:
         return ""
-    at = sum(1 for r in rates.values() if abs(r - rate_hz) <= 0.1 * rate_hz)
     top = rates[fast[0]]
+    if given or len(fast) == len(rates):
+        return (
+            f", or a faster clock: --rate is {rate_hz:.3g} Hz, and {len(fast)} of the "
+            f"{len(rates)} channels run at up to {top:.3g} Hz"
+        )
+    at = sum(1 for r in rates.values() if abs(r - rate_hz) <= 0.1 * rate_hz)
     return (
         f", or analyze faster channels: the common clock runs at {rate_hz:.3g} Hz, the rate "
         f"of {at} of the {len(rates)} channels, while {len(fast)} run at up to {top:.3g} Hz "
@@ -1538,10 +1547,9 @@ def config_warnings(config: Config, analysis: Analysis) -> list[str]:
     # a [[group]] naming a channel the archive does not have: a typo, or a pattern
     # (names are exact); the group is analyzed without it, as a note says
     known = {c.name for c in analysis.channels}
+    said = " ".join(analysis.skipped.values())  # (the error functions' line names them)
     for g in config.groups:
-        # (its reference, uncertain sensors and inputs: the error functions' line says)
-        roles = {c for k in ("reference", "uncertain", "inputs") for c in g.get(k, [])}
-        absent = [c for c in group_members(g) if c not in known and c not in roles]
+        absent = [c for c in group_members(g) if c not in known and repr(c) not in said]
         if absent and known:
             patterns = any(ch in c for c in absent for ch in "*?[")
             lines.append(

@@ -717,10 +717,23 @@ class TopicTracker:
         element (``/tf.transforms[0].``) or a numeric array beside a string array
         (``/joint_states.position[``)."""
         out: dict[str, None] = {}
-        for (topic, _), change in self._relabels.items():
+        for (topic, name_), change in self._relabels.items():
+            if not self._renamed(topic, name_):
+                continue
             for name in change.first.siblings:
                 out[f"{topic}.{name}." if name.endswith("]") else f"{topic}.{name}["] = None
         return list(out)
+
+    def _renamed(self, topic: str, field: str) -> bool:
+        """Whether two contents seen of a string array name different things at one index
+        (a name list that only grows or shrinks, ``[a, b, c]`` then ``[a, b]``, keeps
+        every index's meaning)."""
+        seen = list(self._seen_labels.get((topic, field), {}))
+        return any(
+            any(x != y for x, y in zip(a, b, strict=False))
+            for i, a in enumerate(seen)
+            for b in seen[i + 1 :]
+        )
 
     def lines(self) -> list[str]:
         """The error lines, one per topic and kind."""
@@ -767,30 +780,13 @@ class TopicTracker:
                 f"{jumps.index} ({self._at(jumps.log_ns)}); {jumps.dropped} messages stamped "
                 f"before the newest stamp so far dropped{more} (--time log keeps them)"
             )
-        shown: set[tuple[str, tuple[str, ...]]] = set()
-        for (topic, _), change in self._relabels.items():
+        elements: dict[str, list[tuple[str, _Relabels]]] = {}
+        for (topic, name_), change in self._relabels.items():
+            if not self._renamed(topic, name_):
+                continue
             first = change.first
             if first.siblings and first.siblings[0].endswith("]"):
-                # an array's element named by its own strings (a frame): one line per element
-                if (topic, first.siblings) in shown:
-                    continue
-                shown.add((topic, first.siblings))
-                element = first.siblings[0]
-                # of the element's strings that change, the one seen with most contents
-                fields = [
-                    (len(self._seen_labels.get((t, f), {})), -i, f)
-                    for i, ((t, f), c) in enumerate(self._relabels.items())
-                    if t == topic and c.first.siblings == first.siblings
-                ]
-                name = max(fields)[2]
-                seen = self._seen_labels.get((topic, name), {})
-                out.append(
-                    f"{topic}: {name} changes between messages ("
-                    + _names(tuple(", ".join(v) for v in seen))[1:-1]
-                    + f"; first at {self._at(change.log_ns)}): {topic}.{element}.* hold "
-                    "whatever it names, message by message, not one quantity (not "
-                    "analyzed unless --channels names them)"
-                )
+                elements.setdefault(topic, []).append((name_, change))
                 continue
             arrays = ", ".join(f"{name}[i]" for name in first.siblings) or "the arrays"
             verb = "follows" if len(first.siblings) == 1 else "follow"
@@ -799,6 +795,26 @@ class TopicTracker:
                 f"{topic}: {first.field}[] changed at {self._at(change.log_ns)} "
                 f"({_names(first.before)} -> {_names(first.after)}); {arrays} {verb} the "
                 f"index, not the name{more} (not analyzed unless --channels names them)"
+            )
+        for topic, changes in elements.items():
+            # an array's elements named by their own strings (frames): one line a topic,
+            # showing the field seen with most contents
+            field, change = max(changes, key=lambda fc: len(self._seen_labels[(topic, fc[0])]))
+            names = list(dict.fromkeys(c.first.siblings[0] for _, c in changes))
+            which = (
+                f"{topic}.{names[0]}.*"
+                if len(names) == 1
+                else f"the channels of {len(names)} elements ({', '.join(names[:2])}, ...)"
+            )
+            seen = [" ".join(v) for v in self._seen_labels[(topic, field)]]
+            shown = ", ".join(seen[: SEEN_LABELS - 1]) + (
+                " and more" if len(seen) >= SEEN_LABELS else ""
+            )
+            at = min(c.log_ns for _, c in changes)
+            out.append(
+                f"{topic}: {field} changes between messages ({shown}; first at "
+                f"{self._at(at)}): {which} hold whatever it names, message by message, not "
+                "one quantity (not analyzed unless --channels names them)"
             )
         return out
 

@@ -121,8 +121,12 @@ class McapReader:
         *,
         info: InputInfo | None = None,
         bulk: bool = True,
+        tracker: TopicTracker | None = None,
     ) -> None:
         self.path = Path(path)
+        self._shared_tracker = tracker
+        """A ROS 2 bag's, shared by its storage files: what it notes across the files
+        (a frame that changes from one file to the next) is the bag's to say."""
         try:
             size = self.path.stat().st_size
             with self.path.open("rb") as handle:
@@ -166,7 +170,8 @@ class McapReader:
         return self._scan_first_time()
 
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
-        self._tracker = TopicTracker(time)
+        own = self._shared_tracker is None
+        self._tracker = TopicTracker(time) if self._shared_tracker is None else self._shared_tracker
         self.fraction_read = 0.0
         reorder = Reorderer(repeats=True, topics=self.topics)
         with self.path.open("rb") as handle:
@@ -181,9 +186,10 @@ class McapReader:
         for entry in self._decoders.values():
             if entry is not None and isinstance(entry[1], RosBatchDecoder) and entry[1].notice:
                 self._error(f"{entry[0]}: {entry[1].notice}")
-        for line in self._tracker.lines() + reorder.drop_report():
+        for line in (self._tracker.lines() if own else []) + reorder.drop_report():
             self._error(line)
-        self.info.relabelled = self._tracker.relabelled()
+        if own:
+            self.info.relabelled = self._tracker.relabelled()
 
     def _shared_topics(self) -> list[str]:
         """One line per topic that several channels of one message type (publishers)

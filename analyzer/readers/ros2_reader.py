@@ -140,7 +140,9 @@ class Ros2BagReader:
                     dropped = {}
                     if storage_path.suffix == ".mcap":
                         try:
-                            reader = McapReader(storage_path, info=self.info, bulk=self.bulk)
+                            reader = McapReader(
+                                storage_path, info=self.info, bulk=self.bulk, tracker=self._tracker
+                            )
                         except ReaderError as err:
                             self._error(f"{storage_path.name}: {one_line(err)}; skipped")
                             continue

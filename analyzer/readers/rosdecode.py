@@ -85,6 +85,20 @@ BLOB_TYPES = frozenset({"byte", "char", "int8", "uint8"})
 """Arrays of these types are binary data, not measurements: skipped."""
 
 STRING_TYPES = frozenset({"string"})
+LABELLED_ELEMENTS = 16
+"""The elements of an array whose names (:data:`IDENTITY_FIELDS`) are compared between
+messages: the first 16 (a TFMessage's transforms, a DiagnosticArray's statuses); the
+names of an array of thousands would cost more to compare than the message to read."""
+
+
+def _early(element: str) -> bool:
+    """Whether every index in ``element`` (``transforms[3]``, ``a[0].b[2]``) is one of
+    the first :data:`LABELLED_ELEMENTS`."""
+    return all(int(part.partition("]")[0]) < LABELLED_ELEMENTS for part in element.split("[")[1:])
+
+
+LABEL_CACHE = 100_000
+"""Label strings a decoder keeps read (by field and hash) before it starts over."""
 LABEL_KINDS = 9
 """Contents of a string array a batch reports at most (:attr:`Decoded.label_ends`)."""
 IDENTITY_FIELDS = frozenset({"name", "frame_id", "child_frame_id", "id", "hardware_id"})
@@ -286,10 +300,20 @@ class _Walker:
         (``transforms[0].child_frame_id`` beside ``transforms[0].transform...``; their
         one sibling is the element, ``transforms[0]``)."""
         out = []
+        elements: set[str] | None = None  # the elements that hold numbers (built once)
         for field, start, end, count in self.labels:
             if "]." in field:
+                if field.rpartition(".")[2] not in IDENTITY_FIELDS:
+                    continue  # (a string array in an element: a text, not a name)
+                if elements is None:
+                    elements = {
+                        name[: k + 1]
+                        for name in self.names
+                        for k in range(len(name))
+                        if name.startswith("].", k)
+                    }
                 element = field[: field.rindex("].") + 1]
-                if any(name.startswith(element + ".") for name in self.names):
+                if element in elements and _early(element):
                     out.append(_Label(field, start, end, count, (element,)))
                 continue
             prefix = field.rpartition(".")[0]
@@ -520,6 +544,10 @@ class RosBatchDecoder:
         self.notice = ""
         """Said once by the reader: the file's own definition did not decode its
         messages, so another (``fallback``'s) did."""
+        self._label_index: list[dict[str, _Label]] = []
+        """Per layout (as ``_layouts``): its labels by field."""
+        self._label_texts: dict[tuple[str, int], tuple[str, ...]] = {}
+        """A label's strings by field and hash, read once (:meth:`_relabels`)."""
         self._layouts: list[Layout] = []
         self._layout_failed = False
 
@@ -613,6 +641,7 @@ class RosBatchDecoder:
                         self._layout_failed = True  # the walker cannot handle this type
                     break
                 self._layouts.append(layout)
+                self._label_index.append({x.field: x for x in layout.labels})
                 layouts.append(layout)
             tried += 1
             candidates = remaining[sizes[remaining] == layout.size]
@@ -655,11 +684,22 @@ class RosBatchDecoder:
         hash; the strings are read only at the first change and at the batch's ends,
         which go into ``ends`` with the siblings and its contents)."""
 
-        def names(row: int, field: str) -> tuple[str, ...]:
-            layout = self._layouts[int(found.layout[row])]
-            label = next(x for x in layout.labels if x.field == field)
-            start = int(starts[row])
-            return layout.label_names(buf[start : start + layout.size].tobytes(), label)
+        cache = self._label_texts
+        if len(cache) > LABEL_CACHE:  # (ids unique to each message: read them again)
+            cache.clear()
+
+        def names(k: int) -> tuple[str, ...]:
+            """The strings of row ``rows[k]``'s label ``field`` (read once per content)."""
+            key = (field, int(hashes[k]))
+            got = cache.get(key)
+            if got is None:
+                row = int(rows[k])
+                at = int(found.layout[row])
+                start = int(starts[row])
+                layout = self._layouts[at]
+                message = buf[start : start + layout.size].tobytes()
+                got = cache[key] = layout.label_names(message, self._label_index[at][field])
+            return got
 
         out: list[Relabel] = []
         for field, found in labels.items():
@@ -667,24 +707,24 @@ class RosBatchDecoder:
             if rows.size == 0:
                 continue
             hashes = found.hashes[rows]
-            layout = self._layouts[int(found.layout[rows[0]])]
-            siblings = next(x.siblings for x in layout.labels if x.field == field)
+            siblings = self._label_index[int(found.layout[rows[0]])][field].siblings
             # the batch's first and last strings: the topic's tracker compares them with
             # the batches before, whichever decoder (publisher) they came from
-            first = names(int(rows[0]), field)
+            first = names(0)
             changed = np.not_equal(hashes[1:], hashes[:-1])
             where = np.nonzero(changed)[0] + 1
-            last = names(int(rows[-1]), field) if where.size else first
+            last = names(rows.size - 1) if where.size else first
             # every content the batch holds (a few: read once each)
-            _, at = np.unique(hashes, return_index=True)
-            kinds = tuple(names(int(rows[k]), field) for k in np.sort(at)[:LABEL_KINDS])
+            if where.size:
+                _, at = np.unique(hashes, return_index=True)
+                kinds = tuple(names(int(k)) for k in np.sort(at)[:LABEL_KINDS])
+            else:
+                kinds = (first,)
             ends[field] = (first, last, siblings, kinds)
             if where.size:
                 k = int(where[0])
-                row = int(rows[k])
-                before = names(int(rows[k - 1]), field)
                 out.append(
-                    Relabel(field, row, before, names(row, field), int(where.size), siblings)
+                    Relabel(field, int(rows[k]), names(k - 1), names(k), int(where.size), siblings)
                 )
         return out
 

@@ -283,6 +283,25 @@ def test_a_group_channel_missing_from_the_archive_is_a_warning(
     assert f"warning: {cfg}: [[group]] 'g': " in err and needle in err
 
 
+def test_a_missing_group_channel_is_said_once_and_a_groups_input_too(building, tmp_path, capsys):
+    """Review: with reference sensors the error functions' line named the channel, and
+    the new line again; an input of a group without reference sensors was a note only."""
+    text = (
+        '[train]\nend = 30.0\n[[group]]\nname = "g"\nchannels = ["s0", "s1", "s2", "s3", "sx"]\n'
+        'reference = ["s0", "s1"]\nuncertain = ["s2", "s3"]\n'
+    )
+    cfg = _config(building, text, "ref.toml")
+    argv = ["run", building / "d.csv", "--config", cfg, "--out", tmp_path / "o"]
+    code, _, err = run_cli([*argv, "--channels", "s*"], capsys)
+    assert err.count("'sx'") == 1, err
+    cfg = _config(
+        building, '[[group]]\nname = "h"\nchannels = ["s0", "s1"]\ninputs = ["u9"]\n', "in.toml"
+    )
+    argv = ["run", building / "d.csv", "--config", cfg, "--out", tmp_path / "o2"]
+    code, _, err = run_cli([*argv, "--channels", "s*"], capsys)
+    assert "[[group]] 'h': 'u9' not in the archive" in err, err
+
+
 # ------------------------------------------------------------------------ --train
 
 

@@ -37,3 +37,14 @@ def test_a_slow_common_clock_is_named_when_the_window_is_too_short(tmp_path, cap
     # and the advice works
     args = ["run", str(path), "--out", str(tmp_path / "o2"), "--no-progress", "--channels", "s*"]
     assert main(args) in (0, 1)
+
+
+def test_a_given_rate_is_named_as_such(tmp_path, capsys):
+    """Review: with --rate 2 it said "the rate of 0 of the 12 channels" and advised
+    --channels naming all of them."""
+    t, y, names = simulate_building(2, 120.0, 100.0, seed=1, sensors_per_floor=2)
+    path = _save(tmp_path / "r.csv", t, y, names)
+    args = ["run", str(path), "--out", str(tmp_path / "o"), "--no-progress", "--rate", "2"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "or a faster clock: --rate is 2 Hz, and 4 of the 4 channels run at up to 100 Hz" in err
