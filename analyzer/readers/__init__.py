@@ -206,6 +206,19 @@ class ArchiveNote(str):
     __slots__ = ()
 
 
+def _one_date_order(readers: Sequence[Reader]) -> None:
+    """CSV files of one archive whose dates could be read either way round (no day above
+    12: ``01/03/2026``) are read day first when the archive's other CSV files with
+    such dates are all day first (one has ``13/03/2026``): a logger writes one order."""
+    from analyzer.readers.csv_reader import CsvReader
+
+    csvs = [r for r in readers if isinstance(r, CsvReader) and r.dates_first]
+    known = {r.dates_first for r in csvs if not r.either_way_dates}
+    if known == {"day"}:
+        for r in csvs:
+            r.read_day_first()
+
+
 class Unstitchable(ReaderError):
     """Inputs of one archive that cannot be placed in time against each other (relative
     times that overlap): a refusal of the whole archive, not one input's damage."""
@@ -230,6 +243,7 @@ class Archive:
         failed: Sequence[InputInfo] = (),
         notes: Sequence[str] = (),
     ) -> None:
+        _one_date_order(readers)
         starts = [(_safe_start(r), str(r.info.path), r) for r in readers]
         starts.sort(key=lambda s: (s[0] is None, s[0] or 0, s[1]))
         self.readers: list[Reader] = [s[2] for s in starts]

@@ -82,10 +82,11 @@ from __future__ import annotations
 import bisect
 import contextlib
 import csv
+import os
 import re
 import warnings
 import zlib
-from collections.abc import Generator, Iterator
+from collections.abc import Callable, Generator, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -185,6 +186,10 @@ DAY_NS = 86_400_000_000_000
 """Nanoseconds in a day: a time of day that steps back by more than half of it is the
 next day's."""
 FORMAT_SAMPLE = 200
+TAIL_BYTES = 65536
+"""The end of a file read for its last time cells (:meth:`CsvReader._tail_cells`)."""
+EITHER_WAY = "dates whose day and month could be either way round (no day above 12):"
+"""How the line on such dates begins (:meth:`CsvReader.read_day_first` replaces it)."""
 """Leading time cells from which the date-time format of a file is chosen."""
 PLAIN_ISO = (
     r"^\d{4}-\d{2}-\d{2}[T ](?:[01]\d|2[0-3]):[0-5]\d:[0-5]\d(?:\.\d{1,9})?"
@@ -642,6 +647,10 @@ class CsvReader:
         self._fast: tuple[int, ...] = ()
         self._time_kind = ""
         self._time_format: str | None = None
+        self._day_first: str | None = None
+        """The day-first format of dates whose day and month could be either way round,
+        read month first (:func:`_datetime_format`); an archive may switch to it
+        (:meth:`read_day_first`)."""
         self._iso_type: pa.DataType = pa.timestamp("ns", "UTC")
         self._clock = (0, 0)
         """Of a time-of-day column: (days passed, last time of day read), for midnight."""
@@ -667,6 +676,11 @@ class CsvReader:
         )
         self._first_time = first_time
         self.info.time = self._time_text()
+        if self._day_first is not None:
+            self._error(
+                f"{EITHER_WAY} read month first, {self._time_format!r}; a file of the same "
+                "archive with a day above 12 there makes them read day first"
+            )
 
     def _when(self, ns: int) -> str:
         """A time read, as it is said in ``info.errors``."""
@@ -791,6 +805,11 @@ class CsvReader:
             )
         elif kind == "datetime":
             how = "date-times (UTC where no zone is given)"
+            order = date_order(self._time_format)
+            if order:
+                how += f", {order} first"
+                if self._day_first:
+                    how += " (either way round: no day above 12)"
         elif kind == "timeofday":
             how = "times of day, relative"
         else:
@@ -798,6 +817,58 @@ class CsvReader:
                 " since 1970 (UTC)" if self.info.absolute_time else ", relative"
             )
         return f"column {name!r}: {how}"
+
+    def _tail_cells(self, most: int = 50) -> list[str]:
+        """The time cells of the file's last lines (up to ``most``, from its last 64 KiB;
+        none of a compressed file): the dates at its end may tell the day from the month
+        where those at its start do not."""
+        if self._layout.compressed:
+            return []
+        try:
+            with self.path.open("rb") as handle:
+                size = handle.seek(0, os.SEEK_END)
+                handle.seek(max(0, size - TAIL_BYTES))
+                text = handle.read().decode(self._layout.encoding, errors="replace")
+        except OSError:
+            return []
+        lines = text.splitlines()[1 if size > TAIL_BYTES else 0 :]
+        lines = [line for line in lines if line.strip()][-most:]
+        width = len(self._layout.names)
+        column = self._layout.time_column
+        return [
+            fields[column].strip()
+            for fields in csv.reader(lines, delimiter=self._layout.separator)
+            if len(fields) == width and fields[column].strip()
+        ]
+
+    @property
+    def dates_first(self) -> str:
+        """``"day"`` or ``"month"``: which its dates are read with first (``""``: not
+        dates of both)."""
+        return date_order(self._time_format)
+
+    @property
+    def either_way_dates(self) -> bool:
+        """Whether its dates, read month first, could be read day first as well."""
+        return self._day_first is not None
+
+    def read_day_first(self) -> None:
+        """Read its dates day first (another file of its archive has a day above 12 in
+        that place, ``13/03/2026``): its first time again, and what ``inspect`` says."""
+        if self._day_first is None:
+            return
+        self._time_format, self._day_first = self._day_first, None
+        with contextlib.closing(self._batches()) as blocks:
+            batch = next((b for b, _ in blocks if b.num_rows), None)
+        if batch is not None:
+            t_ns, keep = self._times(batch.column(self._layout.time_column), first=True)
+            if bool(keep.any()):
+                self._first_time = int(t_ns[keep].min())
+        self.info.errors = [e for e in self.info.errors if not e.startswith(EITHER_WAY)]
+        self.info.errors.append(
+            f"{EITHER_WAY} read day first, as another file of the archive has a day above 12"
+        )
+        self.info.time = self._time_text()
 
     # ------------------------------------------------------------------ protocol
     def start_ns(self) -> int | None:
@@ -1594,7 +1665,7 @@ class CsvReader:
         series = pd.Series(text.to_numpy(zero_copy_only=False), dtype=object)
         series = series.where(series != "", None)
         if self._time_format is None:
-            self._time_format = _datetime_format(series)
+            self._time_format, self._day_first = _datetime_format(series, self._tail_cells)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
             parsed = pd.to_datetime(series, utc=True, format=self._time_format, errors="coerce")
@@ -1734,25 +1805,63 @@ def _plain_iso(text: pa.Array) -> bool:
     return bool(pc.all(pc.match_substring_regex(sample, PLAIN_ISO)).as_py())
 
 
-def _datetime_format(series: pd.Series) -> str:
-    """A format that parses ``series`` (ISO 8601 if it does, else pandas' inference)."""
+def _datetime_format(
+    series: pd.Series, tail: Callable[[], Sequence[str]] = list
+) -> tuple[str, str | None]:
+    """A format that parses ``series`` (ISO 8601 if it does, else pandas' inference),
+    and, where the day and the month of its dates could be either way round
+    (``01/03/2026``) and neither the sample nor ``tail()`` (the file's last time cells,
+    read only then) has a day above 12 to tell, the day-first format, the other reading
+    (the month-first one is returned first, pandas' own default): else None."""
     import pandas as pd
 
     sample = series.dropna().iloc[:FORMAT_SAMPLE]
     for fmt in ("ISO8601", None):
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", UserWarning)  # "could not infer format"
-                pd.to_datetime(sample, utc=True, format=fmt)
-        except (ValueError, TypeError):
+        if not _parses(sample, fmt):
             continue
         if fmt is None:
-            from pandas.tseries.api import guess_datetime_format
+            if not len(sample):
+                return "mixed", None
+            month, day = _date_orders(str(sample.iloc[0]))
+            if month and day and month != day:
+                cells = pd.concat([sample, pd.Series(list(tail()), dtype=object)])
+                fits_month, fits_day = _parses(cells, month), _parses(cells, day)
+                if fits_day and not fits_month:  # a day above 12 somewhere (13/03)
+                    return day, None
+                if fits_month and fits_day:
+                    return month, day
+            return (month or day or "mixed"), None
+        return fmt, None
+    return "mixed", None
 
-            guessed = guess_datetime_format(str(sample.iloc[0])) if len(sample) else None
-            return guessed or "mixed"
-        return fmt
-    return "mixed"
+
+def _parses(cells: pd.Series, fmt: str | None) -> bool:
+    """Whether pandas parses every cell of ``cells`` with ``fmt``."""
+    import pandas as pd
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "could not infer format"
+            pd.to_datetime(cells, utc=True, format=fmt)
+    except (ValueError, TypeError):
+        return False
+    return True
+
+
+def _date_orders(cell: str) -> tuple[str | None, str | None]:
+    """pandas' month-first and day-first formats of the date-time ``cell``."""
+    from pandas.tseries.api import guess_datetime_format
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # (its own "could not infer")
+        return guess_datetime_format(cell), guess_datetime_format(cell, dayfirst=True)
+
+
+def date_order(fmt: str | None) -> str:
+    """``"day"`` or ``"month"`` first in a strptime format with both, else ``""``."""
+    if not fmt or "%d" not in fmt or "%m" not in fmt:
+        return ""
+    return "day" if fmt.index("%d") < fmt.index("%m") else "month"
 
 
 def _unique(names: list[str]) -> list[str]:

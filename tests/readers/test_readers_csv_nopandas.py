@@ -35,6 +35,7 @@ CELLS = [
 def _reader() -> csv_reader.CsvReader:
     reader = csv_reader.CsvReader.__new__(csv_reader.CsvReader)
     reader._time_format = None
+    reader._day_first = None
     reader._iso_type = pa.timestamp("ns", "UTC")
     return reader
 
@@ -59,7 +60,7 @@ def test_plain_iso_cells_are_what_pandas_iso8601_parses(cells: list[str]) -> Non
     text = pa.array(cells)
     if csv_reader._plain_iso(text) and _reader()._iso_datetimes(text) is not None:
         series = pd.Series(cells, dtype=object)
-        assert csv_reader._datetime_format(series) == "ISO8601"
+        assert csv_reader._datetime_format(series) == ("ISO8601", None)
 
 
 def test_numpy_view_equals_to_numpy() -> None:
