@@ -8,7 +8,8 @@ file per hour is audited: train once on a recording known to be healthy, then te
 new file whole, a fault present from a file's first sample included (training on the
 file's own first minutes would take such a fault for the healthy state).
 
-The file is the magic line :data:`MAGIC` followed by a pickle of :class:`SavedModel`.
+The file is the magic line :data:`MAGIC`, a line with the SHA-256 of the rest, and a
+pickle of :class:`SavedModel` (:func:`framed`): a file damaged anywhere is refused.
 Loading never runs arbitrary code: the unpickler only builds the classes a model is
 made of (the analyzer's detectors, diagnosis and statistics), numpy arrays and plain
 builtin values (:class:`_Restricted`, after the pickle
@@ -20,6 +21,7 @@ between versions): another version's model is refused with a message saying so.
 from __future__ import annotations
 
 import builtins
+import hashlib
 import io
 import pickle
 from dataclasses import dataclass, field
@@ -30,7 +32,7 @@ from analyzer import __version__
 from analyzer.errors import UsageError
 from analyzer.outdir import write_atomic
 
-MAGIC = b"analyzer.model/2\n"
+MAGIC = b"analyzer.model/3\n"
 """Format 2: an impulse-response bank holds its Markov parameters, not their spectrum
 (:class:`~analyzer.detectors.lti.ImpulseResponseBank`; the 16-channel benchmark model
 fitted on 10 minutes: 56.7 -> 20.4 MB).
@@ -142,7 +144,13 @@ class _Restricted(pickle.Unpickler):
 
 def save_model(path: Path, model: SavedModel) -> None:
     """Write ``model`` to ``path`` atomically (a reader never sees half a file)."""
-    write_atomic(path, MAGIC + pickle.dumps(model, protocol=5))
+    write_atomic(path, framed(pickle.dumps(model, protocol=5)))
+
+
+def framed(payload: bytes) -> bytes:
+    """A model file's bytes: :data:`MAGIC`, the SHA-256 of ``payload`` (a damaged byte
+    anywhere is refused, not loaded as another model), ``payload``."""
+    return MAGIC + b"sha256 " + hashlib.sha256(payload).hexdigest().encode() + b"\n" + payload
 
 
 def check_model_path(path: Path, out: Path | None = None) -> None:
@@ -178,8 +186,15 @@ def load_model(path: str | Path) -> SavedModel:
                 f" this analyzer reads {MAGIC.decode().strip()}: fit it again with --save-model"
             )
         raise UsageError(f"--model: {p} is not an analyzer model (written by --save-model)")
+    line, _, payload = data[len(MAGIC) :].partition(b"\n")
+    digest = hashlib.sha256(payload).hexdigest().encode()
+    if line != b"sha256 " + digest:
+        raise UsageError(
+            f"--model: {p} is damaged (its content does not match the checksum written "
+            "with it): fit it again with --save-model"
+        )
     try:
-        model = _Restricted(io.BytesIO(data[len(MAGIC) :])).load()
+        model = _Restricted(io.BytesIO(payload)).load()
     except Exception as err:  # noqa: BLE001 - any failure to unpickle is a bad file
         raise UsageError(f"--model: {p} is damaged or not an analyzer model ({err})") from None
     if not isinstance(model, SavedModel):

@@ -20,7 +20,7 @@ from cli_helpers import one_line_error, run_cli
 from analyzer import __version__
 from analyzer.diagnosis.merge import Finding
 from analyzer.diagnosis.stuck import healthy_stats, relabel_frozen
-from analyzer.modelfile import MAGIC, SavedModel, _Restricted, load_model, save_model
+from analyzer.modelfile import MAGIC, SavedModel, _Restricted, framed, load_model, save_model
 from analyzer.simulate import inject_fault, simulate_building
 from analyzer.types import FaultType
 from analyzer.writers import write_archive
@@ -255,7 +255,15 @@ def test_damaged_foreign_and_other_version_models_are_refused(model, tmp_path, c
     save_model(other, replace(load_model(model), analyzer_version="0.0.1"))
     future = tmp_path / "future.model"
     future.write_bytes(b"analyzer.model/9\n" + data[len(MAGIC) :])
+    # audit: 8 bytes flipped at 30 % of a 5.4 MB model were loaded, and the run's
+    # findings changed with nothing said
+    flipped = bytearray(data)
+    at = int(len(data) * 0.3)
+    flipped[at : at + 8] = bytes(b ^ 0x55 for b in flipped[at : at + 8])
+    bad = tmp_path / "flipped.model"
+    bad.write_bytes(bytes(flipped))
     for path, needle in [
+        (bad, "does not match the checksum"),
         (cut, "damaged"),
         (other, "analyzer 0.0.1"),
         (future, "another format"),
@@ -278,7 +286,7 @@ def test_a_model_file_cannot_run_code(tmp_path):
     """Only the analyzer's classes, numpy arrays and builtin values are built: a pickle
     that would call ``os.system`` (or any function) is refused, not run."""
     evil = tmp_path / "evil.model"
-    evil.write_bytes(MAGIC + pickle.dumps(_Boom(), protocol=5))
+    evil.write_bytes(framed(pickle.dumps(_Boom(), protocol=5)))
     with pytest.raises(Exception, match="refused to build posix.system|refused to build os"):
         load_model(evil)
     # what a model is made of goes through
