@@ -45,7 +45,7 @@ from analyzer.diagnosis.evidence import (
 from analyzer.diagnosis.levels import excursions, level_note, response_levels
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.stuck import healthy_stats, relabel_frozen
-from analyzer.diagnosis.training_check import window_notes, window_warnings
+from analyzer.diagnosis.training_check import WindowNote, window_notes, window_warnings
 from analyzer.errors import (
     AnalyzerError,
     ConfigError,
@@ -295,14 +295,72 @@ def analyze(
         if workdir is None:
             with scratch() as tmp:
                 analysis = _analyze(inputs, options, tmp, True, executor, local)
+                analysis = _trained_before(analysis, inputs, options, tmp, True, executor, local)
         else:
             analysis = _analyze(inputs, options, workdir, False, executor, local)
+            analysis = _trained_before(analysis, inputs, options, workdir, False, executor, local)
         done = True
         return analysis
     finally:
         if local is not None:
             local.close(wait=done)
         executor.close(wait=done)
+
+
+RETRAIN_SHARE = 0.25
+"""The default training window is cut before a sensor's change inside it when at least
+this share of it is left (:func:`_trained_before`)."""
+
+
+def _trained_before(
+    analysis: Analysis,
+    inputs: Sequence[str | Path],
+    options: RunOptions,
+    work: Path,
+    in_memory: bool,
+    executor: Executor,
+    local: ThreadExecutor | None,
+) -> Analysis:
+    """``analysis`` again, trained on the default window's part before a sensor's step
+    or gain change inside it (:class:`WindowNote`), when that part holds at least
+    :data:`RETRAIN_SHARE` of it: a fault that began there was fitted into the models as
+    healthy, and the run found nothing (a 3-sd offset from 90 s of a 120-s window, on
+    to the end of a 10-minute record: exit 0), or named a healthy sensor. Only where
+    the window is the default one (no ``--train``, ``[train]`` or ``--model``); a note
+    (repeated on stderr) says so; when the shorter window cannot be analyzed, the first
+    analysis stands, with a note why."""
+    if options.train is not None or options.config.train is not None or options.model:
+        return analysis
+    changes = [n for n in analysis.notes if isinstance(n, WindowNote) and n.before is not None]
+    if not changes:
+        return analysis
+    a, b = analysis.train[0] / analysis.rate_hz, analysis.train[1] / analysis.rate_hz
+    first = min(changes, key=lambda n: n.before[1] if n.before else b)
+    assert first.before is not None
+    lo, hi = first.before
+    if hi - lo < RETRAIN_SHARE * (b - a):
+        return analysis
+    again = work / "trained-before"
+    again.mkdir(exist_ok=True)
+    window = f"{lo:.9g}:{hi:.9g}"
+    try:
+        second = _analyze(inputs, replace(options, train=window), again, in_memory, executor, local)
+    except AnalyzerError as err:
+        analysis.notes.append(
+            f"the default window cut before that change ({window} s) could not be analyzed "
+            f"({one_line(err)}): the analysis on the whole default window stands"
+        )
+        return analysis
+    head = first.short.split(";", 1)[0]
+    second.notes.insert(
+        0,
+        WindowNote(
+            f"trained on {lo:.6g}-{hi:.6g} s instead of the default window: {head}; "
+            "--train chooses the window",
+            f"trained on {lo:.6g}-{hi:.6g} s instead of the default window ({head})",
+        ),
+    )
+    return second
 
 
 def analyze_screened(inputs: Sequence[str | Path], options: RunOptions, workdir: Path) -> Analysis:

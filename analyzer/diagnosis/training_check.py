@@ -189,10 +189,16 @@ class WindowNote(str):
     only the exit code and stderr must hear it too)."""
 
     short: str
+    before: tuple[float, float] | None
+    """The window before the change (seconds), where one is left: what a run on the
+    default window trains on instead (:func:`analyzer.pipeline.analyze`)."""
 
-    def __new__(cls, text: str, short: str = "") -> WindowNote:
+    def __new__(
+        cls, text: str, short: str = "", before: tuple[float, float] | None = None
+    ) -> WindowNote:
         note = super().__new__(cls, text)
         note.short = short or text
+        note.before = before
         return note
 
 
@@ -267,6 +273,7 @@ def training_notes(
                 "that they do not share, was fitted into the models as healthy, so faults may "
                 f"be missed or misplaced; a window that does not cross it tells: {advice}",
                 f"{head} ({' and '.join(what)}): the models were fitted on it; {advice}",
+                (a, c.lo_s) if before is not None else None,
             )
         )
     return notes

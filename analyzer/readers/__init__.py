@@ -210,6 +210,8 @@ def _one_date_order(readers: Sequence[Reader]) -> None:
     """CSV files of one archive whose dates could be read either way round (no day above
     12: ``01/03/2026``) are read day first when the archive's other CSV files with
     such dates are all day first (one has ``13/03/2026``): a logger writes one order."""
+    if not any(r.info.format == Format.CSV for r in readers):
+        return  # (nor its import: pyarrow's, ~0.1 s of an MCAP run's start-up)
     from analyzer.readers.csv_reader import CsvReader
 
     csvs = [r for r in readers if isinstance(r, CsvReader) and r.dates_first]
