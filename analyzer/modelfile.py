@@ -33,11 +33,11 @@ from analyzer.errors import UsageError
 from analyzer.outdir import write_atomic
 
 MAGIC = b"analyzer.model/3\n"
-"""Format 2: an impulse-response bank holds its Markov parameters, not their spectrum
+"""Format 3: a SHA-256 of the content after the magic line (:func:`framed`).
+Format 2: an impulse-response bank holds its Markov parameters, not their spectrum
 (:class:`~analyzer.detectors.lti.ImpulseResponseBank`; the 16-channel benchmark model
 fitted on 10 minutes: 56.7 -> 20.4 MB).
-Format 1 files (the same analyzer version before that change) are refused with the
-remedy: fit again."""
+Files of an earlier format are refused with the remedy: fit again."""
 
 _BUILTINS = frozenset(
     {

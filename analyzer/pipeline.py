@@ -341,23 +341,28 @@ def _trained_before(
     if hi - lo < RETRAIN_SHARE * (b - a):
         return analysis
     again = work / "trained-before"
-    again.mkdir(exist_ok=True)
     window = f"{lo:.9g}:{hi:.9g}"
     try:
+        again.mkdir(exist_ok=True)
         second = _analyze(inputs, replace(options, train=window), again, in_memory, executor, local)
-    except AnalyzerError as err:
+    except (AnalyzerError, OSError, MemoryError) as err:
+        # (a long archive's second pass needs its scratch space again: a full disk too)
         analysis.notes.append(
             f"the default window cut before that change ({window} s) could not be analyzed "
             f"({one_line(err)}): the analysis on the whole default window stands"
         )
         return analysis
-    head = first.short.split(";", 1)[0]
+    what = first.split("; a sensor fault there", 1)[0]
+    lost = sorted({r.detector for r in analysis.results} - {r.detector for r in second.results})
+    fewer = f"; on it {', '.join(lost)} could not run (see skipped_detectors)" if lost else ""
     second.notes.insert(
         0,
         WindowNote(
-            f"trained on {lo:.6g}-{hi:.6g} s instead of the default window: {head}; "
-            "--train chooses the window",
-            f"trained on {lo:.6g}-{hi:.6g} s instead of the default window ({head})",
+            f"trained on {lo:.6g}-{hi:.6g} s instead of the default window, which a change "
+            f"crosses: {what}{fewer}; --train chooses the window",
+            f"trained on {lo:.6g}-{hi:.6g} s instead: "
+            + first.short.split(": the models were fitted on it", 1)[0]
+            + fewer,
         ),
     )
     return second

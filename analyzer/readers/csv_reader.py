@@ -1824,7 +1824,10 @@ def _datetime_format(
                 return "mixed", None
             month, day = _date_orders(str(sample.iloc[0]))
             if month and day and month != day:
-                cells = pd.concat([sample, pd.Series(list(tail()), dtype=object)])
+                # the tail's cells that are dates either way (not a header line of a
+                # short file, nor a last line cut short)
+                ends = [c for c in tail() if _parses_one(c, month) or _parses_one(c, day)]
+                cells = pd.concat([sample, pd.Series(ends, dtype=object)])
                 fits_month, fits_day = _parses(cells, month), _parses(cells, day)
                 if fits_day and not fits_month:  # a day above 12 somewhere (13/03)
                     return day, None
@@ -1844,6 +1847,18 @@ def _parses(cells: pd.Series, fmt: str | None) -> bool:
             warnings.simplefilter("ignore", UserWarning)  # "could not infer format"
             pd.to_datetime(cells, utc=True, format=fmt)
     except (ValueError, TypeError):
+        return False
+    return True
+
+
+def _parses_one(cell: str, fmt: str) -> bool:
+    """Whether ``cell`` is a date-time of ``fmt`` (:func:`datetime.strptime`'s rules, as
+    pandas' for an explicit format)."""
+    import datetime as dt
+
+    try:
+        dt.datetime.strptime(cell, fmt)
+    except ValueError:
         return False
     return True
 

@@ -39,7 +39,9 @@ def test_a_fault_inside_the_default_window_is_found(tmp_path, capsys, fault):
     assert (first["channel"], first["type"]) == ("s2", fault[0])
     assert abs(first["onset_s"] - fault[1]) < 1.0
     assert doc["notes"][0].startswith("trained on 0-")
-    assert "instead of the default window" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "trained on 0-" in err and "s instead: the healthy window (0-60 s) is not steady" in err
+    assert "the models were fitted on it" not in err  # (review: after the retrain they were not)
 
 
 def test_a_healthy_record_and_a_given_window_train_as_asked(tmp_path):

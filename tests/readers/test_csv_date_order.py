@@ -59,3 +59,23 @@ def test_month_first_and_iso_dates_are_read_as_before(tmp_path: Path) -> None:
         _write(tmp_path / "iso.csv", "2026-03-01 00:00:00", 100, "%Y-%m-%d %H:%M:%S.%f")
     )
     assert iso.start_ns() == pd.Timestamp("2026-03-01T00:00:00Z").value and iso.info.errors == []
+
+
+def test_a_short_file_and_a_cut_last_line_do_not_hide_the_day(tmp_path: Path) -> None:
+    """Review: a 40-row file had its header among its last cells, and a file cut short in
+    its last line (time column last) a cell of neither order; either made the tail
+    useless: the short piece of a day-first archive stayed month first, 57 days off,
+    and the cut file lost its rows after day 12."""
+    (tmp_path / "a").mkdir()
+    _write(tmp_path / "a" / "1.csv", "2026-02-28 23:54:00", 3600)
+    _write(tmp_path / "a" / "2.csv", "2026-03-01 00:00:00", 40)
+    archive = open_archive(tmp_path / "a")
+    t, _ = collect(archive.chunks())["a"]
+    assert t.size == 3640 and t[-1] - t[0] < 400 * 10**9  # not 57 days
+    cut = tmp_path / "cut.csv"
+    frame = pd.read_csv(_write(tmp_path / "full.csv", "2026-03-12 23:55:00", 7200))
+    text = frame[["a", "b", "time"]].to_csv(index=False)
+    cut.write_text(text + "0.1,0.2,13/03/20")  # a last line cut short
+    reader = open_input(cut)
+    t, _ = collect(reader.chunks())["a"]
+    assert t.size == 7200 and reader.info.time.endswith("day first")
