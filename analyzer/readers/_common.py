@@ -799,20 +799,20 @@ class TopicTracker:
         for topic, changes in elements.items():
             # an array's elements named by their own strings (frames): one line a topic,
             # showing the field seen with most contents
-            field, change = max(changes, key=lambda fc: len(self._seen_labels[(topic, fc[0])]))
+            label, _ = max(changes, key=lambda fc: len(self._seen_labels[(topic, fc[0])]))
             names = list(dict.fromkeys(c.first.siblings[0] for _, c in changes))
             which = (
                 f"{topic}.{names[0]}.*"
                 if len(names) == 1
                 else f"the channels of {len(names)} elements ({', '.join(names[:2])}, ...)"
             )
-            seen = [" ".join(v) for v in self._seen_labels[(topic, field)]]
+            seen = [" ".join(v) for v in self._seen_labels[(topic, label)]]
             shown = ", ".join(seen[: SEEN_LABELS - 1]) + (
                 " and more" if len(seen) >= SEEN_LABELS else ""
             )
             at = min(c.log_ns for _, c in changes)
             out.append(
-                f"{topic}: {field} changes between messages ({shown}; first at "
+                f"{topic}: {label} changes between messages ({shown}; first at "
                 f"{self._at(at)}): {which} hold whatever it names, message by message, not "
                 "one quantity (not analyzed unless --channels names them)"
             )
