@@ -307,6 +307,38 @@ def analyze(
         executor.close(wait=done)
 
 
+MODEL_SPREAD = 8.0
+"""A channel whose spread over the archive is this many times the model's healthy spread,
+or this many times less, is named with ``--model`` (:func:`_spread_against_model`)."""
+
+
+def _spread_against_model(
+    values: Any, chosen: Sequence[str], healthy: dict[str, tuple[float, float]]
+) -> list[str]:
+    """With ``--model``: a note (repeated on stderr) naming the channels whose spread over
+    the archive is :data:`MODEL_SPREAD` times the model's healthy spread or more, or that
+    much less: another unit (mm/s^2 for m/s^2, g), a sensor's gain, or a load far from
+    the model's window. An archive in other units gave exit 0 and only "an anomaly at 3 s
+    on all 10 channels attributed to no sensor" (audit)."""
+    here = healthy_stats(values, chosen, (0, np.asarray(values).shape[0]))
+    odd = []
+    for c in chosen:
+        if c not in here or c not in healthy or not healthy[c][1] > 0:
+            continue
+        ratio = here[c][1] / healthy[c][1]
+        if not 1 / MODEL_SPREAD < ratio < MODEL_SPREAD:
+            odd.append(f"{c} {ratio:.3g}x")
+    if not odd:
+        return []
+    shown = ", ".join(odd[:6]) + (f", ... ({len(odd)} channels)" if len(odd) > 6 else "")
+    text = (
+        f"the archive's spread against the model's healthy window: {shown} (another unit, "
+        "a sensor's gain, or a load far from the model's window; the model's thresholds "
+        "are in its own units)"
+    )
+    return [WindowNote(text, text)]
+
+
 RETRAIN_SHARE = 0.25
 """The default training window is cut before a sensor's change inside it when at least
 this share of it is left (:func:`_trained_before`)."""
@@ -502,6 +534,8 @@ def _analyze(
             names = model_detectors(reused, options)
             notes.append(reuse_note(reused, options, tr[1] + 1 / aligned.rate_hz))
         healthy = healthy_stats(values, chosen, train) if reused is None else dict(reused.healthy)
+        if reused is not None:
+            notes.extend(_spread_against_model(values, chosen, healthy))
         parallel = not isinstance(executor, SerialExecutor)
         ctx = RunContext(
             false_alarm_rate=options.config.false_alarm_rate

@@ -389,3 +389,26 @@ def test_a_serial_fit_saves_the_model_the_threads_save(model, record, tmp_path):
         found.append(_faults(out))
     assert found[0] == found[1]
     assert [(f["channel"], f["type"]) for f in found[0]] == [("s1", "multiplicative")]
+
+
+def test_an_archive_in_other_units_than_the_model_is_named(tmp_path, capsys):
+    """Audit: every channel 1000x the model's (mm/s^2 for m/s^2) gave exit 0 and only an
+    anomaly attributed to no sensor; the spread against the model's is said now."""
+    t, y, names = simulate_building(n_floors=3, duration_s=120.0, seed=5)
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    fit = tmp_path / "fit.csv"
+    write_archive(fit, "csv", t_ns, {n: y[:, j] for j, n in enumerate(names)})
+    model = tmp_path / "m.model"
+    argv = ["run", fit, "--out", tmp_path / "o0", "--train", "0:100", "--save-model", model]
+    run_cli(argv, capsys)
+    same = tmp_path / "same.csv"
+    write_archive(same, "csv", t_ns, {n: 1.0 * y[:, j] for j, n in enumerate(names)})
+    code, _, err = run_cli(["run", same, "--out", tmp_path / "o1", "--model", model], capsys)
+    assert "spread against the model" not in err
+    milli = tmp_path / "milli.csv"
+    write_archive(milli, "csv", t_ns, {n: 1000.0 * y[:, j] for j, n in enumerate(names)})
+    code, _, err = run_cli(["run", milli, "--out", tmp_path / "o2", "--model", model], capsys)
+    assert "warning: the archive's spread against the model's healthy window: s0 1.0" in err
+    assert err.count("e+03x") == 3  # every channel
+    notes = json.loads((tmp_path / "o2" / "findings.json").read_text())["notes"]
+    assert any(n.startswith("the archive's spread against the model's") for n in notes)
