@@ -138,7 +138,8 @@ def _select(
                 f"not analyzed: {', '.join(mixed)}: what they measure changes between "
                 "messages (see the input's errors); --channels naming them analyzes them"
             )
-            chosen = [c for c in chosen if c not in set(mixed)]
+            left_out = set(mixed)
+            chosen = [c for c in chosen if c not in left_out]
             if not chosen:
                 raise UsageError(
                     "no channel left to analyze: every varying channel changes meaning "
@@ -320,7 +321,7 @@ def _spread_against_model(
     much less: another unit (mm/s^2 for m/s^2, g), a sensor's gain, or a load far from
     the model's window. An archive in other units gave exit 0 and only "an anomaly at 3 s
     on all 10 channels attributed to no sensor" (audit)."""
-    here = healthy_stats(values, chosen, (0, np.asarray(values).shape[0]))
+    here = healthy_stats(values, chosen, (0, len(values)))
     odd = []
     for c in chosen:
         if c not in here or c not in healthy or not healthy[c][1] > 0:
@@ -367,9 +368,7 @@ def _trained_before(
     if not changes:
         return analysis
     a, b = analysis.train[0] / analysis.rate_hz, analysis.train[1] / analysis.rate_hz
-    first = min(changes, key=lambda n: n.before[1] if n.before else b)
-    assert first.before is not None
-    lo, hi = first.before
+    lo, hi, first = min((*n.before, n) for n in changes if n.before is not None)
     if hi - lo < RETRAIN_SHARE * (b - a):
         return analysis
     again = work / "trained-before"
@@ -1537,7 +1536,8 @@ def _slow_clock(
     clock is the rate most channels share, and 36 entries of a 1.4 Hz covariance matrix
     outvoted a 27 Hz odometry): analyzing the fast ones alone, or at their rate, gives a
     window more samples. ``given``: the clock is ``--rate``'s. Empty otherwise."""
-    rates = {i.name: i.rate_hz for i in infos if i.name in set(chosen)}
+    wanted = set(chosen)
+    rates = {i.name: i.rate_hz for i in infos if i.name in wanted}
     fast = sorted((c for c, r in rates.items() if r >= 2 * rate_hz), key=lambda c: -rates[c])
     if not fast:
         return ""

@@ -858,8 +858,7 @@ class CsvReader:
         if self._day_first is None:
             return
         self._time_format, self._day_first = self._day_first, None
-        with contextlib.closing(self._batches()) as blocks:
-            batch = next((b for b, _ in blocks if b.num_rows), None)
+        batch = self._first_batch()
         if batch is not None:
             t_ns, keep = self._times(batch.column(self._layout.time_column), first=True)
             if bool(keep.any()):
@@ -1433,10 +1432,14 @@ class CsvReader:
             ),
         )
 
+    def _first_batch(self) -> pa.RecordBatch | None:
+        """The body's first block with rows, every column as text (None: none has)."""
+        with contextlib.closing(self._batches()) as blocks:
+            return next((b for b, _ in blocks if b.num_rows), None)
+
     def _inspect_first_block(self) -> int | None:
         try:
-            with contextlib.closing(self._batches()) as blocks:
-                batch = next((b for b, _ in blocks if b.num_rows), None)
+            batch = self._first_batch()
         except (pa.ArrowException, OSError, EOFError, ValueError) as err:
             raise ReaderError(f"{self.path}: cannot parse as CSV ({one_line(err)})") from err
         if batch is None:

@@ -171,7 +171,7 @@ class McapReader:
 
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
         own = self._shared_tracker is None
-        self._tracker = TopicTracker(time) if self._shared_tracker is None else self._shared_tracker
+        self._tracker = self._shared_tracker or TopicTracker(time)
         self.fraction_read = 0.0
         reorder = Reorderer(repeats=True, topics=self.topics)
         with self.path.open("rb") as handle:

@@ -27,6 +27,7 @@ top-level header's stamp is the message's header time.
 
 from __future__ import annotations
 
+import re
 import struct
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -85,6 +86,9 @@ BLOB_TYPES = frozenset({"byte", "char", "int8", "uint8"})
 """Arrays of these types are binary data, not measurements: skipped."""
 
 STRING_TYPES = frozenset({"string"})
+_ELEMENT_END = re.compile(r"\]\.")
+"""Where an array's element ends in a leaf's name (``transforms[0].`` in
+``transforms[0].transform.translation.x``)."""
 LABELLED_ELEMENTS = 16
 """The elements of an array whose names (:data:`IDENTITY_FIELDS`) are compared between
 messages: the first 16 (a TFMessage's transforms, a DiagnosticArray's statuses); the
@@ -307,10 +311,9 @@ class _Walker:
                     continue  # (a string array in an element: a text, not a name)
                 if elements is None:
                     elements = {
-                        name[: k + 1]
+                        name[: m.start() + 1]
                         for name in self.names
-                        for k in range(len(name))
-                        if name.startswith("].", k)
+                        for m in _ELEMENT_END.finditer(name)
                     }
                 element = field[: field.rindex("].") + 1]
                 if element in elements and _early(element):
