@@ -452,6 +452,28 @@ def _stdout_gone() -> bool:
         return False
 
 
+def _earlier(args: argparse.Namespace | None, started: float) -> str:
+    """For a ``run`` that failed: the end of its error line when ``--out`` holds an
+    earlier run's outputs, which a failed run leaves as they were (the folder may be the
+    user's; nothing in it is deleted), so that a script reading ``findings.json`` after
+    the exit code 2 is told it is not this run's."""
+    if args is None or getattr(args, "command", None) != "run" or not args.out:
+        return ""
+    out = Path(args.out)
+    earlier = [n for n in ("findings.json", "report.html") if _older(out / n, started)]
+    if not earlier:
+        return ""
+    return f" ({out} keeps an earlier run's {' and '.join(earlier)}, not this run's)"
+
+
+def _older(path: Path, started: float) -> bool:
+    """Whether ``path`` exists and was last written before ``started``."""
+    try:
+        return path.stat().st_mtime < started
+    except OSError:
+        return False
+
+
 def _error(message: str) -> int:
     print(f"analyzer: error: {one_line(message)}", file=sys.stderr)
     return 2
@@ -552,6 +574,7 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
     lets ``run`` draw the report's figures in worker processes of its own."""
     args = None
     previous = None
+    started = time.time()
     try:
         parsed, extra = build_parser().parse_known_args(argv)
         if extra:  # named by the command they were given to, not the top parser
@@ -580,9 +603,9 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
             return COMMANDS[args.command](args)
     except AnalyzerError as err:
         inputs = [str(i) for i in getattr(args, "inputs", None) or []]
-        return _error(_naming_inputs(one_line(str(err)), inputs))
+        return _error(_naming_inputs(one_line(str(err)), inputs) + _earlier(args, started))
     except KeyboardInterrupt:
-        print("analyzer: interrupted", file=sys.stderr)
+        print(f"analyzer: interrupted{_earlier(args, started)}", file=sys.stderr)
         global _UNWOUND
         _UNWOUND = args is not None and args.command != "watch"
         return 130
@@ -597,20 +620,23 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
     except OSError as err:  # the file system refused (disk full, permissions...)
         lost = _cluster_failure(err, args)  # (or the cluster's connection closed)
         if lost is not None:
-            return _error(lost)
+            return _error(lost + _earlier(args, started))
         where = f"{err.filename}: " if getattr(err, "filename", None) else ""
-        return _error(f"{where}{err.strerror or err}")
+        return _error(f"{where}{err.strerror or err}{_earlier(args, started)}")
     except MemoryError:
-        return _error("out of memory (choose fewer channels with --channels, or a lower --rate)")
+        return _error(
+            "out of memory (choose fewer channels with --channels, or a lower --rate)"
+            + _earlier(args, started)
+        )
     except Exception as err:  # a bug: still one line and exit 2, never 1 ("fault found")
         lost = _cluster_failure(err, args)
         if lost is not None:
-            return _error(lost)
+            return _error(lost + _earlier(args, started))
         if os.environ.get("ANALYZER_DEBUG"):
             traceback.print_exc()  # the traceback, and still exit 2 (raising gave 1)
         return _error(
             f"internal error: {type(err).__name__}: {err} (please report it; set "
-            "ANALYZER_DEBUG=1 for the traceback)"
+            f"ANALYZER_DEBUG=1 for the traceback){_earlier(args, started)}"
         )
     finally:
         if previous is not None:

@@ -132,6 +132,22 @@ def test_a_failed_run_leaves_no_empty_out_dir(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+def test_a_failed_run_says_that_out_holds_an_earlier_run_s_findings(tmp_path, capsys):
+    """A failed run leaves ``--out`` as it was (the folder may be the user's): its
+    error line says the findings there are not this run's."""
+    src = _csv(tmp_path / "a.csv")
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "findings.json").write_text("{}\n")
+    os.utime(out / "findings.json", (time.time() - 60, time.time() - 60))
+    code, _, err = run_cli(["run", src, "--out", out, "--train", "0:9999"], capsys)
+    assert code == 2
+    one_line_error(err, "--train", f"{out} keeps an earlier run's findings.json, not this run's")
+    assert (out / "findings.json").read_text() == "{}\n"  # (nothing in it is deleted)
+    code, _, err = run_cli(["run", src, "--out", tmp_path / "new", "--train", "0:9999"], capsys)
+    assert code == 2 and "earlier run" not in err
+
+
 def test_exact_channel_names_with_brackets_select_the_element(tmp_path, capsys):
     """``/data.data[4]`` is the contract's name of an array element: it selects it (as a
     shell pattern ``[4]`` would be a character class and match nothing)."""
