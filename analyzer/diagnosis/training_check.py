@@ -41,7 +41,15 @@ The test, per channel group (the channels modelled together,
    compared with their Bonferroni bound at :data:`ALPHA`: a note on a healthy window
    has probability at most ``ALPHA`` (conservative: the splits are strongly correlated;
    on 300 healthy simulated windows, 4 to 16 channels, 12 s to 10 minutes, the largest
-   ``|t|`` reached 0.84 of the bound).
+   ``|t|`` reached 0.84 of the bound). Where no split passes, the same two-sample
+   statistics compare every stretch of batches that begins and ends inside the window
+   with the rest of it (:func:`_parts`): a sensor that changes and comes back leaves
+   part of its stretch on both sides of every split (an offset of 3 sd from 40 to 80 s
+   of a 120-s window passed every split's bound). Their bound is Bonferroni at
+   ``ALPHA`` over the stretches (253 for 24 batches): a note on a healthy window has
+   probability at most ``2 ALPHA`` in all (on 90 healthy simulated windows, 4 to 16
+   channels, 12 s to 10 minutes, the stretches' largest ``|t|`` reached 0.75 of their
+   bound).
 4. Which sensor: the structured-residual argument of the bank of estimators (Chang et
    al. 2017, Table 1). A fault on ``j`` leaves every relation without ``j`` unchanged,
    so the same statistic at the same splits, on the group without ``j``, passes (its
@@ -121,7 +129,10 @@ class WindowChange:
     (seconds from the first sample), inside ``lo_s .. hi_s`` (the two batches around
     the split); ``offset``: the step in the channel's units; ``gain``: the channel's
     scale against the others after the change over before; ``statistic``: the
-    ``|t|`` of the change, over ``critical``, its bound."""
+    ``|t|`` of the change, over ``critical``, its bound. A change that ends inside the
+    window (the sensor comes back) has its return's time and batches in ``end_s``,
+    ``end_lo_s`` and ``end_hi_s`` (None: it lasts to the window's end, or began before
+    it)."""
 
     channels: tuple[str, ...]
     kinds: tuple[FaultType, ...]
@@ -132,6 +143,9 @@ class WindowChange:
     gain: float | None
     statistic: float
     critical: float
+    end_s: float | None = None
+    end_lo_s: float | None = None
+    end_hi_s: float | None = None
 
 
 def check_training(
@@ -165,7 +179,8 @@ def check_training(
             continue
         change = system.change(alpha / len(tested))
         if change is not None:
-            j, kinds, row, lo, hi, offset, gain, t, crit = change
+            j, kinds, row, lo, hi, offset, gain, t, crit, back = change
+            end = (None,) * 3 if back is None else tuple(start_s + r / rate_hz for r in back)
             changes.append(
                 WindowChange(
                     channels=tuple(channels[g[c]] for c in j),
@@ -177,6 +192,9 @@ def check_training(
                     gain=gain,
                     statistic=t,
                     critical=crit,
+                    end_s=end[0],
+                    end_lo_s=end[1],
+                    end_hi_s=end[2],
                 )
             )
     return changes
@@ -254,8 +272,10 @@ def training_notes(
         if len(c.channels) > 1:
             who += f" (or {' or '.join(c.channels[1:])}: the others cannot tell them apart)"
         before = f"--train {a:.6g}:{c.lo_s:.6g}" if c.lo_s - a > 0 else None
-        after_end = min(duration_s, c.hi_s + (b - a))
-        after = f"--train {c.hi_s:.6g}:{after_end:.6g}" if after_end > c.hi_s else None
+        back = "" if c.end_s is None else f" and back at about {c.end_s:.6g} s"
+        last = c.hi_s if c.end_hi_s is None else c.end_hi_s  # (the change's, or its return's)
+        after_end = min(duration_s, last + (b - a))
+        after = f"--train {last:.6g}:{after_end:.6g}" if after_end > last else None
         advice = " or ".join(
             f"{w} ({s})"
             for w, s in ((before, "before it, if the sensor was right then"), (after, "after it"))
@@ -263,11 +283,14 @@ def training_notes(
         )
         head = (
             f"the healthy window ({a:.6g}-{b:.6g} s) is not steady: {who} changes inside it "
-            f"at about {c.at_s:.6g} s"
+            f"at about {c.at_s:.6g} s{back}"
         )
+        between = f"between {c.lo_s:.6g} and {c.hi_s:.6g} s"
+        if c.end_lo_s is not None and c.end_hi_s is not None:
+            between += f"; back between {c.end_lo_s:.6g} and {c.end_hi_s:.6g} s"
         notes.append(
             WindowNote(
-                f"{head} (between {c.lo_s:.6g} and {c.hi_s:.6g} s): {' and '.join(what)} "
+                f"{head} ({between}): {' and '.join(what)} "
                 f"(|t| {c.statistic:.3g}, bound {c.critical:.3g}), while the channels modelled "
                 "with it do not; a sensor fault there, or a change of the monitored system "
                 "that they do not share, was fitted into the models as healthy, so faults may "
@@ -280,15 +303,41 @@ def training_notes(
 
 
 _Change = tuple[
-    tuple[int, ...], tuple[FaultType, ...], int, int, int, float | None, float | None, float, float
+    tuple[int, ...],
+    tuple[FaultType, ...],
+    int,
+    int,
+    int,
+    float | None,
+    float | None,
+    float,
+    float,
+    tuple[int, int, int] | None,
 ]
+
+
+def _parts(b: int, returns: bool) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.intp]]:
+    """The parts of ``b`` batches a change is tested on: ``inside`` (P, B), the batches
+    after the change, and ``edges`` (P, 2), each part's first batch and the batch after
+    its last (``b``: to the window's end). Without ``returns``: every split, the batches
+    ``g .. b - 1`` against the rest, ``g = 1 .. b - 1``; with it: every stretch ``g0 ..
+    g1 - 1`` that begins and ends inside the window (``1 <= g0 < g1 <= b - 1``), a
+    sensor that changes and comes back."""
+    if returns:
+        g0, g1 = np.triu_indices(b - 1, k=1)
+        edges = np.stack([g0 + 1, g1 + 1], axis=1)
+    else:
+        edges = np.stack([np.arange(1, b), np.full(b - 1, b)], axis=1)
+    batch = np.arange(b)
+    inside = (batch >= edges[:, :1]) & (batch < edges[:, 1:])
+    return inside, edges.astype(np.intp)
 
 
 @dataclass(frozen=True, slots=True)
 class _Split:
-    """The split statistics of one system: ``t_off``/``t_gain`` are ``(B - 1, c)``
-    (row ``k``: the first ``k + 1`` batches against the rest); ``off``/``ratio``: the
-    two parts' mean of ``e`` and slope at each split, ``(B - 1, c, 2)``."""
+    """The split statistics of one system: ``t_off``/``t_gain`` are ``(P, c)`` (row
+    ``k``: part ``k`` of :func:`_parts` against the rest of the window); ``off``/
+    ``ratio``: the rest's and the part's mean of ``e`` and slope, ``(P, c, 2)``."""
 
     t_off: FloatArray
     t_gain: FloatArray
@@ -400,9 +449,11 @@ class _System:
             self._full = h
         return h
 
-    def split(self, cols: list[int]) -> _Split:
+    def split(self, cols: list[int], inside: npt.NDArray[np.bool_] | None = None) -> _Split:
         """The split statistics of the channels ``cols``, each predicted from the others
-        of ``cols``."""
+        of ``cols``, on the parts ``inside`` (:func:`_parts`; None: every split)."""
+        if inside is None:
+            inside = _parts(self.n_batches, returns=False)[0]
         h = self.predict(cols)
         b = self.n_batches
         shape = (b, self.rows.size // b, len(cols))
@@ -426,25 +477,32 @@ class _System:
                 (hh * hh).sum(axis=1),
             ]
         )
-        t_off, off = _split_means(mean_e)
-        t_gain, ratio = _split_slopes(s, q, moments)
+        t_off, off = _split_means(mean_e, inside)
+        t_gain, ratio = _split_slopes(s, q, moments, inside)
         return _Split(t_off, t_gain, off, ratio)
 
     def change(self, alpha: float) -> _Change | None:
-        """The group's change (module docstring, steps 3-5), or None."""
+        """The group's change (module docstring, steps 3-5), or None. The splits are
+        tested first; where none passes its bound, the stretches that begin and end
+        inside the window, a sensor that changes and comes back (at the same ``alpha``:
+        a note on a healthy window has probability at most ``2 alpha``)."""
         m = self.z.shape[1]
-        b = self.n_batches
-        full = self.split(list(range(m)))
-        crit = self.critical(2 * m * (b - 1), alpha)
-        if full.peak() < crit:
+        for returns in (False, True):
+            inside, edges = _parts(self.n_batches, returns)
+            full = self.split(list(range(m)), inside)
+            crit = self.critical(2 * m * len(edges), alpha)
+            if full.peak() >= crit:
+                break
+        else:
             return None
-        # the change: the statistic and split of the group's largest |t|
+        # the change: the statistic and part of the group's largest |t|
         t_off, t_gain = np.abs(full.t_off), np.abs(full.t_gain)
         lead = FaultType.ADDITIVE if t_off.max() >= t_gain.max() else FaultType.MULTIPLICATIVE
         t_lead = t_off if lead is FaultType.ADDITIVE else t_gain
         k = int(np.unravel_index(np.argmax(t_lead), t_lead.shape)[0])
-        near = slice(max(0, k - 1), min(b - 1, k + 2))
-        width = near.stop - near.start
+        # the parts whose edges are within a batch of part k's
+        near = np.flatnonzero(np.all(np.abs(edges - edges[k]) <= 1, axis=1))
+        width = near.size
         if m == 2:
             candidates = sorted(range(m), key=lambda c: -float(t_lead[k, c]))
         else:
@@ -454,7 +512,7 @@ class _System:
             bound = self.critical((m - 1) * width, alpha)
             without = {}
             for j in range(m):
-                red = self.split([i for i in range(m) if i != j])
+                red = self.split([i for i in range(m) if i != j], inside)
                 t_red = red.t_off if lead is FaultType.ADDITIVE else red.t_gain
                 without[j] = float(np.max(np.abs(t_red[near])))
             candidates = sorted(
@@ -462,17 +520,19 @@ class _System:
             )
         if not candidates:
             return None  # no one channel explains it: the structure's relations changed
-        if lead is FaultType.ADDITIVE and self._others_moved(candidates, near):
+        if lead is FaultType.ADDITIVE and self._others_moved(candidates, near, inside):
             return None  # the others' own levels moved with it: the system changed
         j = candidates[0]
-        if not self._step_not_trend(j, k, lead):
+        if not self._step_not_trend(j, inside[k], lead):
             return None  # a slow trend (the process's, or a drift)
         kinds = tuple(
             kind
             for kind, t in ((FaultType.ADDITIVE, t_off), (FaultType.MULTIPLICATIVE, t_gain))
             if t[near, j].max() >= crit
         ) or (lead,)
-        row, lo, hi = self._locate(j, k, lead)
+        g0, g1 = (int(g) for g in edges[k])
+        row, lo, hi = self._locate(j, g0, lead)
+        back = self._locate(j, g1, lead) if g1 < self.n_batches else None
         offset = float(full.off[k, j, 1] - full.off[k, j, 0]) * float(self.scale[j])
         r0, r1 = full.ratio[k, j]
         gain = float(r1 / r0) if r0 > 0 else None
@@ -486,6 +546,7 @@ class _System:
             gain if FaultType.MULTIPLICATIVE in kinds else None,
             float(t_lead[k, j]),
             crit,
+            back,
         )
 
     def _batch_series(self, j: int, kind: FaultType) -> tuple[FloatArray, FloatArray]:
@@ -503,13 +564,12 @@ class _System:
         q = np.maximum(np.add.reduceat(h * h, starts) - sum_h**2 / count, np.finfo(float).tiny)
         return s / q, q
 
-    def _step_not_trend(self, j: int, k: int, kind: FaultType) -> bool:
+    def _step_not_trend(self, j: int, after: npt.NDArray[np.bool_], kind: FaultType) -> bool:
         """Whether channel ``j``'s batch statistic is fitted better (weighted least
-        squares) by a step after batch ``k + 1`` than by a straight line over the window:
-        a sensor that steps leaves both parts flat, a slow trend is a line that any split
-        cuts in two."""
+        squares) by a step on the batches ``after`` (and back, where they end before the
+        window does) than by a straight line over the window: a sensor that steps leaves
+        both parts flat, a slow trend is a line that any split cuts in two."""
         x, w = self._batch_series(j, kind)
-        after = np.arange(x.size) > k
         step = 0.0
         for part in (after, ~after):
             mean = np.sum(w[part] * x[part]) / np.sum(w[part])
@@ -521,24 +581,26 @@ class _System:
         line = float(np.sum((root * x - design @ coef) ** 2))
         return step < line
 
-    def _others_moved(self, candidates: list[int], near: slice) -> bool:
-        """Whether a channel outside ``candidates`` changed its own level at the splits
-        ``near`` (its batch means' t statistic, Bonferroni bound of :data:`COMMON_ALPHA`
-        over those channels and splits)."""
+    def _others_moved(
+        self, candidates: list[int], near: npt.NDArray[np.intp], inside: npt.NDArray[np.bool_]
+    ) -> bool:
+        """Whether a channel outside ``candidates`` changed its own level on the parts
+        ``near`` of ``inside`` (its batch means' t statistic, Bonferroni bound of
+        :data:`COMMON_ALPHA` over those channels and parts)."""
         others = [i for i in range(self.z.shape[1]) if i not in candidates]
         if not others:
             return False
         starts = self.bounds[:-1]
         means = np.add.reduceat(self.z[:, others], starts, axis=0) / np.diff(self.bounds)[:, None]
-        t, _ = _split_means(means)
-        width = near.stop - near.start
-        return bool(np.max(np.abs(t[near])) >= self.critical(len(others) * width, COMMON_ALPHA))
+        t, _ = _split_means(means, inside)
+        bound = self.critical(len(others) * near.size, COMMON_ALPHA)
+        return bool(np.max(np.abs(t[near])) >= bound)
 
-    def _locate(self, j: int, k: int, kind: FaultType) -> tuple[int, int, int]:
-        """The change of channel ``j`` at split ``k``, in window rows: the least-squares
-        change point of ``e_j`` (of ``e_j h_j`` for a gain) within the two batches around
-        the split, and those batches' first and last rows."""
-        lo, hi = int(self.bounds[k]), int(self.bounds[k + 2])
+    def _locate(self, j: int, g: int, kind: FaultType) -> tuple[int, int, int]:
+        """The change of channel ``j`` between batches ``g - 1`` and ``g``, in window
+        rows: the least-squares change point of ``e_j`` (of ``e_j h_j`` for a gain)
+        within those two batches, and their first and last rows."""
+        lo, hi = int(self.bounds[g - 1]), int(self.bounds[g + 1])
         h = self.predict(list(range(self.z.shape[1])))[lo:hi, j]
         e = self.z[lo:hi, j] - h
         u = e if kind is FaultType.ADDITIVE else e * h
@@ -547,46 +609,48 @@ class _System:
         return int(self.rows[at]), int(self.rows[lo]), int(self.rows[hi - 1])
 
 
-def _split_means(x: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """For batch means ``x`` (B, c): at each split (the first ``k`` batches against the
-    rest, ``k = 1 .. B - 1``) the two parts' means and the two-sample t statistic of
-    their difference, with the variance pooled over both parts (and corrected by
-    :func:`_inflation`), ``(B - 1, c)``."""
+def _split_means(
+    x: FloatArray, inside: npt.NDArray[np.bool_] | None = None
+) -> tuple[FloatArray, FloatArray]:
+    """For batch means ``x`` (B, c): on each part (``inside``, (P, B), of
+    :func:`_parts`; None: every split, the first ``k`` batches against the rest, ``k =
+    1 .. B - 1``) the means of the rest and of the part, and the two-sample t statistic
+    of their difference, with the variance pooled over both (and corrected by
+    :func:`_inflation`), ``(P, c)``."""
     b = x.shape[0]
-    k = np.arange(1, b, dtype=np.float64)[:, None]
-    c1 = np.cumsum(x, axis=0)[:-1]
-    c2 = np.cumsum(x * x, axis=0)[:-1]
-    m1 = c1 / k
-    m2 = (x.sum(axis=0) - c1) / (b - k)
-    ss = (c2 - k * m1**2) + ((x * x).sum(axis=0) - c2 - (b - k) * m2**2)
-    part = np.arange(b)[None, :, None] >= k[:, :, None]  # (B - 1, B, 1): after the split
-    dev = x[None] - np.where(part, m2[:, None], m1[:, None])
-    var = np.maximum(ss, 0.0) / (b - 2) * (1.0 / k + 1.0 / (b - k)) * _inflation(dev, part)
+    if inside is None:
+        inside = _parts(b, returns=False)[0]
+    n_in = inside.sum(axis=1, dtype=np.float64)[:, None]
+    m_in = (inside @ x) / n_in
+    m_out = ((~inside) @ x) / (b - n_in)
+    part = inside[:, :, None]
+    dev = x[None] - np.where(part, m_in[:, None], m_out[:, None])
+    ss = np.sum(dev * dev, axis=1)
+    var = ss / (b - 2) * (1.0 / n_in + 1.0 / (b - n_in)) * _inflation(dev, part)
     se = np.sqrt(var)
-    t = np.divide(m2 - m1, se, out=np.zeros_like(se), where=se > 0)
-    return t, np.stack([m1, m2], axis=-1)
+    t = np.divide(m_in - m_out, se, out=np.zeros_like(se), where=se > 0)
+    return t, np.stack([m_out, m_in], axis=-1)
 
 
 def _split_slopes(
-    s: FloatArray, q: FloatArray, moments: FloatArray
+    s: FloatArray, q: FloatArray, moments: FloatArray, inside: npt.NDArray[np.bool_]
 ) -> tuple[FloatArray, FloatArray]:
-    """For batch sums ``s = sum z~ h~`` and ``q = sum h~^2`` (B, c): at each split the two
-    parts' slopes ``r = sum s / sum q`` and the t statistic of their difference. The
-    batches' deviations ``s_b - r q_b`` have variance ``sigma^2 w_b``, with ``w_b = sum
-    (z~ - r h~)^2 h~^2`` (the sandwich of a slope, about the part's own slope, so that
-    the change itself is not taken for noise; from ``moments`` = the batch sums of
-    ``(e~ h~)^2``, ``e~ h~^3``, ``h~^4``, (3, B, c)) and one scale pooled over both
-    parts: ``sigma^2 = sum (s_b - r q_b)^2 / w_b / (B - 2)``, ``Var(r) = sigma^2 sum w /
-    (sum q)^2``, corrected by :func:`_inflation`."""
+    """For batch sums ``s = sum z~ h~`` and ``q = sum h~^2`` (B, c): on each part
+    (``inside``, (P, B)) the slopes ``r = sum s / sum q`` of the rest and of the part, and
+    the t statistic of their difference. The batches' deviations ``s_b - r q_b`` have
+    variance ``sigma^2 w_b``, with ``w_b = sum (z~ - r h~)^2 h~^2`` (the sandwich of a
+    slope, about its own part's slope, so that the change itself is not taken for noise;
+    from ``moments`` = the batch sums of ``(e~ h~)^2``, ``e~ h~^3``, ``h~^4``, (3, B, c))
+    and one scale pooled over both: ``sigma^2 = sum (s_b - r q_b)^2 / w_b / (B - 2)``,
+    ``Var(r) = sigma^2 sum w / (sum q)^2``, corrected by :func:`_inflation`."""
     b = s.shape[0]
     tiny = np.finfo(np.float64).tiny
     q = np.maximum(q, tiny)
-    cs, cq = np.cumsum(s, axis=0), np.cumsum(q, axis=0)
-    s1, q1 = cs[:-1], cq[:-1]
-    s2, q2 = cs[-1] - s1, cq[-1] - q1
+    weight = inside.astype(np.float64)
+    s2, q2 = weight @ s, weight @ q
+    s1, q1 = s.sum(axis=0) - s2, np.maximum(q.sum(axis=0) - q2, tiny)
     r1, r2 = s1 / q1, s2 / q2
-    k = np.arange(1, b)[:, None]
-    part = np.arange(b)[None, :, None] >= k[:, :, None]  # (B - 1, B, 1): after the split
+    part = inside[:, :, None]
     r = np.where(part, r2[:, None], r1[:, None])
     u = 1.0 - r
     w = np.maximum(moments[0] + 2.0 * u * moments[1] + u * u * moments[2], tiny)

@@ -25,6 +25,7 @@ from analyzer.diagnosis.training_check import (
     WindowChange,
     WindowNote,
     _inflation,
+    _parts,
     _split_means,
     _System,
     check_training,
@@ -164,6 +165,58 @@ def test_split_means_are_the_pooled_two_sample_t_corrected_for_batch_correlation
         np.testing.assert_allclose(parts[k - 1, :, 1], b.mean(axis=0))
 
 
+@pytest.mark.parametrize(
+    ("floors", "seed", "channel", "kind"),
+    [(3, 1, 1, "additive"), (3, 4, 4, "multiplicative"), (2, 2, 3, "additive")],
+)
+def test_a_change_that_comes_back_inside_the_window_is_noted_with_both_times(
+    floors, seed, channel, kind
+):
+    # a stretch in the window's middle: each split has part of it on both sides, so no
+    # split passed its bound (an offset of 3 sd from 40 to 80 s of a 120-s window gave
+    # no note at all)
+    y, names = building(floors, 60.0, seed)
+    size = 4.0 * noise_sd(y[:, channel]) if kind == "additive" else 1.5
+    y[:, channel] = inject_fault(y[:, channel], RATE, kind, 20.3, size, 41.7)
+    (change,) = check(y, names)
+    assert change.channels[0] == names[channel]
+    assert change.kinds[0] == FaultType(kind)
+    assert change.lo_s <= 20.3 <= change.hi_s
+    assert change.end_lo_s is not None and change.end_lo_s <= 41.7 <= change.end_hi_s
+    assert abs(change.end_s - 41.7) < 0.5 and abs(change.at_s - 20.3) < 0.5
+    if kind == "additive":
+        assert change.offset == pytest.approx(size, rel=0.25)
+    else:
+        assert change.gain == pytest.approx(size, rel=0.15)
+
+
+@pytest.mark.parametrize("change", ["excitation x1.5", "level +2 sd"])
+@pytest.mark.parametrize(("floors", "seed"), [(2, 0), (3, 3)])
+def test_a_change_of_the_whole_structure_that_comes_back_names_no_sensor(change, floors, seed):
+    y, names = building(floors, 60.0, seed)
+    middle = slice(len(y) // 3, 2 * len(y) // 3)
+    if change.startswith("excitation"):
+        y[middle] *= 1.5
+    else:
+        y[middle] += 2.0 * y.std(axis=0)
+    assert check(y, names) == []
+
+
+def test_stretch_means_are_the_pooled_two_sample_t_of_inside_against_outside():
+    rng = np.random.default_rng(5)
+    x = rng.standard_normal((24, 3)) + np.array([0.0, 1.0, -2.0])
+    inside, edges = _parts(24, returns=True)
+    assert len(edges) == 23 * 22 // 2 and edges.min() >= 1 and edges.max() <= 23
+    t, parts = _split_means(x, inside)
+    for k in (0, 40, len(edges) - 1):
+        part = inside[k]
+        ref = stats.ttest_ind(x[part], x[~part], equal_var=True).statistic
+        dev = np.where(part[:, None], x - x[part].mean(axis=0), x - x[~part].mean(axis=0))
+        factor = _inflation(dev[None], part[None, :, None])[0]
+        np.testing.assert_allclose(t[k] * np.sqrt(factor), ref, rtol=1e-10)
+        np.testing.assert_allclose(parts[k, :, 1], x[part].mean(axis=0))
+
+
 def test_batch_correlation_inflates_the_variance_as_an_ar1_process():
     part = np.zeros((1, 6, 1), dtype=bool)
     smooth = np.array([1.0, 2.0, 3.0, 3.0, 2.0, 1.0])[None, :, None] - 2.0
@@ -217,6 +270,11 @@ def test_the_note_names_the_sensor_the_time_and_the_windows_before_and_after():
     (first,) = training_notes([_change(lo_s=0.0)], (0.0, 12.0), 60.0)
     assert "--train 0:" not in first and "--train 6.5:18.5 (after it)" in first
     assert training_notes([_change()], (0.0, 12.0), 60.0, drifting=["s1"]) == []
+    # a change that comes back: both times, and the window after its return
+    (back,) = training_notes([_change(end_s=9.0, end_lo_s=8.5, end_hi_s=9.5)], (0.0, 12.0), 60.0)
+    assert "s1 changes inside it at about 6 s and back at about 9 s (between 5.5 and 6.5 s; " \
+        "back between 8.5 and 9.5 s)" in back  # fmt: skip
+    assert back.endswith("--train 9.5:21.5 (after it)") and back.before == (0.0, 5.5)
 
 
 def test_a_run_notes_a_step_inside_its_window_in_findings_and_on_stderr(tmp_path, capsys):
