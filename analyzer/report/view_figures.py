@@ -280,7 +280,8 @@ class FigureParts:
             f"{' and '.join(_span(t.get(k)) for k in SPAN_KEYS if t.get(k))}."
             " Left: Shewhart chart with the ±3 limits (shaded: beyond). Middle: normal "
             "probability plot; a healthy residual follows the red N(0, 1) line. Right: "
-            "autocorrelation at lags 1-20 with the ±1.96/√N band of white noise.",
+            "autocorrelation at the lags tested (1-20; N/20 on a short stretch) with the ±1.96/√N "
+            "band of white noise.",
             job,
         )
 

@@ -36,7 +36,7 @@ TEST_LABELS: dict[str, tuple[str, str]] = {
     "shewhart": ("Shewhart chart", "fraction of |z| > 3 vs. expected"),
     "anderson_darling": ("Anderson-Darling", "A²* (normality)"),
     "cramer_von_mises": ("Cramér-von Mises", "W²* (normality)"),
-    "whiteness": ("Whiteness", "Ljung-Box Q, 20 lags"),
+    "whiteness": ("Whiteness", "Ljung-Box Q, 20 lags (N/20 if fewer)"),
     "mean": ("Zero mean", "max |√N · mean|"),
     "covariance": ("Unit covariance", "N · variance, two-sided"),
 }
@@ -200,7 +200,8 @@ class TableParts:
                 + (
                     "on the residual whitened by its AR model of the training window, as "
                     "around each finding's onset. A healthy, well-modelled residual rejects "
-                    "in about 5 % of the windows."
+                    "in about 5 % of the windows (the Shewhart chart, a test of a count, "
+                    "less: its level is in findings.json, 'expected')."
                     if whitened
                     else "on the residual as it is (no training window of the record's own "
                     "to whiten it by): a residual that is coloured even when healthy (a "

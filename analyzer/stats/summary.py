@@ -12,10 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from analyzer.stats._checks import ALPHA, as_series
+from analyzer.stats._checks import ALPHA, as_series, binom_sf
 from analyzer.stats.moments import covariance_test, mean_test
 from analyzer.stats.normality import anderson_darling, cramer_von_mises
-from analyzer.stats.outliers import shewhart
+from analyzer.stats.outliers import expected_fraction, shewhart
 from analyzer.stats.results import JsonValue, StatResult, json_float
 from analyzer.stats.whiteness import whiteness
 from analyzer.stats.windowed import WindowedTests
@@ -60,7 +60,7 @@ def _summarize_windows(results: WindowedTests) -> dict[str, dict[str, JsonValue]
             "rejected": rejected,
             "windows": n_valid,
             "fraction": json_float(rejected / n_valid) if n_valid else None,
-            "expected": ALPHA,
+            "expected": _expected(name, results),
             "critical": json_float(stats.critical),
             "max_statistic": json_float(finite.max()) if finite.size else None,
         }
@@ -69,9 +69,24 @@ def _summarize_windows(results: WindowedTests) -> dict[str, dict[str, JsonValue]
     return out
 
 
-def run_all(z: Any, *, lags: int = 20, k: float = 3.0, case: int = 1) -> dict[str, StatResult]:
+def _expected(name: str, results: WindowedTests) -> float:
+    """The share of a healthy residual's windows test ``name`` rejects: its level, 5 %,
+    except for the Shewhart chart, whose binomial test of a count cannot reach it: the
+    chance of the first count whose p-value falls below 5 % or more (1.7 % for windows
+    of 200 samples at k = 3)."""
+    if name != "shewhart":
+        return ALPHA
+    counts = np.arange(results.window + 1)
+    tail = binom_sf(counts - 1, results.window, expected_fraction(results.k))
+    return json_float(tail[np.argmax(tail < ALPHA)]) or 0.0
+
+
+def run_all(
+    z: Any, *, lags: int | None = None, k: float = 3.0, case: int = 1
+) -> dict[str, StatResult]:
     """Every test on a 1-D standardized residual segment, in the seed's order (outliers,
-    normality, whiteness, then mean and covariance, which assume whiteness)."""
+    normality, whiteness, then mean and covariance, which assume whiteness); ``lags``
+    None: :func:`~analyzer.stats.whiteness.default_lags` of the segment."""
     segment = as_series(z, "z")
     return {
         "shewhart": shewhart(segment, k),
@@ -84,7 +99,7 @@ def run_all(z: Any, *, lags: int = 20, k: float = 3.0, case: int = 1) -> dict[st
 
 
 def test_segment(
-    z: Any, *, lags: int = 20, k: float = 3.0, case: int = 1
+    z: Any, *, lags: int | None = None, k: float = 3.0, case: int = 1
 ) -> dict[str, dict[str, JsonValue]]:
     """``summarize(run_all(z))``: the evidence dict of one segment of a standardized
     residual (e.g. before or after a fault onset). NaN samples are dropped; raises

@@ -17,6 +17,12 @@ built from the same r_k, Ljung and Box (1978):
     Q = N (N + 2) sum_{k=1}^{K} r_k^2 / (N - k)  ~  chi-square(K),
 
 as ``statsmodels.stats.diagnostic.acorr_ljungbox`` computes it.
+
+Its chi-square law is poor where K is a large share of N: with K = 20 a white sample of
+N = 30 was rejected 8.8 % of the time at the 5 % level, 7.2 % at N = 100, 6.3 % at
+N = 200 (6000 replications each; 0.3 % standard error). So K is at most
+:data:`MAX_LAGS` and at most ``N / 20`` (:func:`default_lags`)
+(4.9 %, 5.0 % and 5.6 % at those N; 5.45 % with 20 lags at N = 1000).
 """
 
 from __future__ import annotations
@@ -38,6 +44,16 @@ from analyzer.stats._checks import (
     frozen,
 )
 from analyzer.stats.results import WhitenessResult
+
+MAX_LAGS = 20
+"""The most lags the whiteness test uses by default."""
+
+
+def default_lags(n: int) -> int:
+    """The whiteness test's lag count for ``n`` samples: :data:`MAX_LAGS`, or ``n // 20``
+    where that is fewer (at least 1), so that Q's chi-square law holds (module
+    docstring)."""
+    return max(1, min(MAX_LAGS, int(n) // 20))
 
 
 def band(n: int) -> float:
@@ -87,7 +103,7 @@ def _acf(y: FloatArray, lags: int) -> FloatArray:
     return np.array([d[k:] @ d[:-k] for k in range(1, lags + 1)]) / c0
 
 
-def whiteness(x: Any, lags: int = 20) -> WhitenessResult:
+def whiteness(x: Any, lags: int | None = None) -> WhitenessResult:
     """Whiteness test of a 1-D standardized innovation ``x`` over lags 1..``lags``.
 
     Non-finite samples are dropped (gaps are closed up; keep them rare). ``acf`` holds
@@ -95,10 +111,11 @@ def whiteness(x: Any, lags: int = 20) -> WhitenessResult:
     ``statistic`` (alias ``ljung_box``) is Q with ``pvalue`` from chi-square(K) and
     ``critical`` its 95 % point; ``reject`` when ``pvalue < 0.05``. A constant sample has
     no autocorrelation: acf, Q and p are NaN and the test does not reject (the covariance
-    test flags it). Needs more than ``lags`` samples.
+    test flags it). Needs more than ``lags`` samples; ``lags`` None: :func:`default_lags`
+    of the finite samples.
     """
-    lags = check_int(lags, "lags", 1)
     y = as_series(x, "x")
+    lags = check_int(default_lags(y.shape[0]) if lags is None else lags, "lags", 1)
     if y.shape[0] <= lags:
         raise DetectorError(
             f"whiteness needs more than lags={lags} finite samples, got {y.shape[0]}"

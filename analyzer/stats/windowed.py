@@ -77,7 +77,7 @@ from analyzer.stats.normality import (
 )
 from analyzer.stats.outliers import expected_fraction
 from analyzer.stats.whiten import whiten
-from analyzer.stats.whiteness import band, ljung_box
+from analyzer.stats.whiteness import band, default_lags, ljung_box
 
 DEFAULT_BATCH_VALUES = 1 << 16
 """Samples handled per batch of windows (512 KiB per float64 block); peak memory is a
@@ -154,7 +154,7 @@ def windowed_tests(
     window: int,
     step: int | None = None,
     *,
-    lags: int = 20,
+    lags: int | None = None,
     k: float = 3.0,
     case: int = 1,
     keep_acf: bool = False,
@@ -165,7 +165,8 @@ def windowed_tests(
     """Run every innovation test on each window of a 1-D standardized residual ``z``.
 
     ``window`` samples per window (at least ``max(8, lags + 1)``), a new window every
-    ``step`` samples (default ``window``: non-overlapping). ``lags``, ``k`` and ``case``
+    ``step`` samples (default ``window``: non-overlapping). ``lags`` (None:
+    :func:`~analyzer.stats.whiteness.default_lags` of ``window``), ``k`` and ``case``
     are those of :func:`~analyzer.stats.whiteness.whiteness`,
     :func:`~analyzer.stats.outliers.shewhart` and the normality tests. ``keep_acf``
     stores the (windows, lags) autocorrelations. ``batch_values`` bounds the samples
@@ -191,6 +192,8 @@ def windowed_tests(
         arr = as_float_array(z, "z")
     if arr.ndim != 1:
         raise DetectorError(f"expected a 1-D standardized residual for z, got shape {arr.shape}")
+    if lags is None:
+        lags = default_lags(check_int(window, "window", NORMALITY_MIN_N))
     lags = check_int(lags, "lags", 1)
     window = check_int(window, "window", max(NORMALITY_MIN_N, lags + 1))
     step = window if step is None else check_int(step, "step", 1)

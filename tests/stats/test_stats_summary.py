@@ -105,6 +105,25 @@ def test_segment_bad_input_raises() -> None:
     with pytest.raises(DetectorError, match=r"at least 8 finite samples, got 5"):
         st.test_segment(np.zeros(5), lags=2)
     with pytest.raises(DetectorError, match=r"more than lags=20 finite samples, got 15"):
-        st.test_segment(np.zeros(15))
+        st.test_segment(np.zeros(15), lags=20)
     with pytest.raises(DetectorError, match=r"all 9 values of z are NaN"):
         st.test_segment(np.full(9, np.nan))
+
+
+@pytest.mark.parametrize("window", [100, 200, 1000])
+def test_windowed_shewhart_expects_its_exact_level(window: int) -> None:
+    """Audit: the windowed summary compared the Shewhart chart's share of rejecting
+    windows with 5 %, which its binomial test of a count cannot reach (a healthy
+    residual: 3.1 % at 100 samples, 1.5 % at 200)."""
+    from scipy.stats import binom, norm
+
+    z = np.random.default_rng(window).standard_normal(window * 3000)
+    summary = st.summarize(st.windowed_tests(z, window))
+    p0 = 2.0 * norm.sf(3.0)
+    counts = np.arange(window + 1)
+    first = counts[binom.sf(counts - 1, window, p0) < 0.05][0]
+    level = binom.sf(first - 1, window, p0)
+    assert summary["shewhart"]["expected"] == pytest.approx(level, rel=1e-9)
+    assert level < 0.035
+    assert summary["shewhart"]["fraction"] == pytest.approx(level, abs=0.01)
+    assert summary["whiteness"]["expected"] == 0.05

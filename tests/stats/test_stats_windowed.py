@@ -142,7 +142,7 @@ def test_result_is_read_only() -> None:
     ("kwargs", "match"),
     [
         ({"z": np.zeros((100, 2)), "window": 50}, r"1-D standardized residual .*\(100, 2\)"),
-        ({"z": np.zeros(100), "window": 20}, r"expected window >= 21, got 20"),
+        ({"z": np.zeros(100), "window": 20, "lags": 20}, r"expected window >= 21, got 20"),
         ({"z": np.zeros(100), "window": 7, "lags": 2}, r"expected window >= 8, got 7"),
         ({"z": np.zeros(100), "window": 200}, r"z has 100 samples, fewer than one window of 200"),
         ({"z": np.zeros(100), "window": 50, "step": 0}, r"expected step >= 1, got 0"),
