@@ -41,7 +41,12 @@ def found_already(f: Finding, findings: Sequence[Finding], slack_s: float) -> bo
 
 
 def merge_events(events: Iterable[Event], slack_s: float = 1.0) -> list[Finding]:
-    """Group overlapping events per channel (``slack_s`` tolerates onset disagreement)."""
+    """Group overlapping events per channel (``slack_s`` tolerates onset disagreement).
+    An event does not join a group that holds an earlier event of its own detector,
+    which ended before it began (to within ``slack_s``), unless another detector's event
+    of the group spans the two (:func:`_told_apart`): the detector told them apart (a
+    drift from 100 to 160 s and a new one from 160 s: each detector found both, and the
+    slack joined them into one finding that ended at 160 s, the second lost)."""
     by_channel: dict[str, list[Event]] = {}
     for ev in events:
         by_channel.setdefault(ev.channel, []).append(ev)
@@ -51,7 +56,9 @@ def merge_events(events: Iterable[Event], slack_s: float = 1.0) -> list[Finding]
         groups: list[list[Event]] = []
         for ev in evs:
             for g in groups:
-                if any(_overlap(ev.onset_s, ev.end_s, o.onset_s, o.end_s, slack_s) for o in g):
+                if any(
+                    _overlap(ev.onset_s, ev.end_s, o.onset_s, o.end_s, slack_s) for o in g
+                ) and not _told_apart(ev, g, slack_s):
                     g.append(ev)
                     break
             else:
@@ -86,6 +93,34 @@ def merge_events(events: Iterable[Event], slack_s: float = 1.0) -> list[Finding]
             )
     findings.sort(key=lambda f: (f.onset_s, f.channel))
     return findings
+
+
+def _told_apart(e: Event, group: list[Event], slack_s: float) -> bool:
+    """Whether ``e``'s detector has an earlier event in ``group`` that ended before ``e``
+    began, with no event of another detector in ``group`` spanning the two (from before
+    the first's end to ``slack_s`` past ``e``'s onset): one fault that a detector saw in
+    stretches, while another saw it whole, stays one finding."""
+
+    def spans(x: Event, o: Event) -> bool:
+        return (
+            x.detector != e.detector
+            and x.onset_s <= (o.end_s or 0.0)
+            and (x.end_s is None or x.end_s >= e.onset_s + slack_s)
+        )
+
+    return any(_after(e, o, slack_s) and not any(spans(x, o) for x in group) for o in group)
+
+
+def _after(e: Event, o: Event, slack_s: float) -> bool:
+    """``e`` is a later event of ``o``'s detector on its channel: it begins once ``o``
+    has ended (a detector's events on a channel are disjoint; ``slack_s``: an onset
+    traced back a little before the other's end)."""
+    return (
+        e.detector == o.detector
+        and o.end_s is not None
+        and e.onset_s >= o.onset_s
+        and e.onset_s > o.end_s - slack_s
+    )
 
 
 def _lead(group: list[Event], slack_s: float = 1.0) -> Event:
@@ -346,6 +381,11 @@ def _resolve_drops(
         )
         dropped.discard(id(best))
         restored.append(best)
+    for k in sorted(dropped, key=lambda k: by_id[k].onset_s):
+        f = by_id[k]
+        roots = _roots(k, drops, dropped)
+        if roots and all(_over_before(r, f) for r in (by_id[j] for j in roots)):
+            dropped.discard(k)  # the sensor's own fault again, not the other's doing
     notes = [drops[id(f)][1] for f in findings if id(f) in dropped]
     for f in restored:
         causes = ", ".join(f"{c.channel} (from {c.onset_s:.3f} s)" for c in drops[id(f)][0])
@@ -356,6 +396,30 @@ def _resolve_drops(
             "support"
         )
     return [f for f in findings if id(f) not in dropped], notes
+
+
+def _roots(k: int, drops: dict[int, tuple[list[Finding], str]], dropped: set[int]) -> set[int]:
+    """The findings that stay at the ends of the chains of findings taken for others
+    that start at the dropped finding ``k``."""
+    roots, seen, todo = set(), {k}, [id(c) for c in drops[k][0]]
+    while todo:
+        j = todo.pop()
+        if j in seen:
+            continue
+        seen.add(j)
+        if j in dropped:
+            todo.extend(id(c) for c in drops[j][0])
+        else:
+            roots.add(j)
+    return roots
+
+
+def _over_before(r: Finding, f: Finding) -> bool:
+    """``r`` is an earlier fault of ``f``'s own sensor, over before ``f`` began: ``f``,
+    taken through other sensors' findings for ``r``, is the sensor's fault again (a drift
+    on s0 from 100 to 160 s and a new one from 160 s: the second was taken for an offset
+    the bank put on s1 during the first, which was taken for the first)."""
+    return r.channel == f.channel and r.end_s is not None and r.end_s <= f.onset_s + 1.0
 
 
 def _taken_for(
