@@ -274,6 +274,24 @@ def _prepare(settings: WatchSettings) -> set[str]:
                 f"{option}: {folder} is inside REPORTS (--out {settings.reports}); "
                 "use a folder outside it"
             )
+        inside = (
+            folder.resolve().relative_to(root).parts
+            if folder.resolve().is_relative_to(root)
+            else ()
+        )
+        if len(inside) > 1:
+            # (a folder directly in INBOX is left out of the archives; one deeper is in
+            # an archive folder, which would then be neither analyzed nor left as it was)
+            raise UsageError(
+                f"{option}: {folder} is inside the archive folder {inbox / inside[0]} of "
+                "INBOX: inputs are never modified; use a folder outside it, or directly in "
+                "INBOX"
+            )
+    if root.is_relative_to(reports):
+        # (report folders take archives' names: one named like INBOX replaced it)
+        raise UsageError(
+            f"INBOX: {inbox} is inside REPORTS (--out {settings.reports}); use folders side by side"
+        )
     for folder in (settings.reports, settings.done, settings.failed):
         if folder is None:
             continue
@@ -704,7 +722,11 @@ class _Runner:
             ):
                 kept = self.ledger.keep_aside(name)
                 log.info("%s: new content; the earlier one's result is kept as %s", name, kept)
-            publish(job.scratch, self.settings.reports, name)
+            mine = self.ledger.get(name)  # (its record, unless kept aside just now)
+            folder = publish(
+                job.scratch, self.settings.reports, name, mine.folder if mine else None
+            )
+            rec.report = f"{folder.name}/{rec.report.partition('/')[2]}"
             self.ledger.record(rec)
         except OSError as err:  # REPORTS full or gone: not the archive's fault
             shutil.rmtree(job.scratch, ignore_errors=True)

@@ -237,10 +237,32 @@ def scratch_dir(reports: Path, name: str) -> Path:
     return path
 
 
-def publish(scratch: Path, reports: Path, name: str) -> Path:
+REPORT_FILES = frozenset({"report.html", "findings.json", "error.txt", "corrected.csv"})
+"""What a report folder of the watcher holds (an analysis's outputs, or its error)."""
+
+
+def _report_folder(path: Path) -> bool:
+    """Whether ``path`` is a folder (not a link) holding report files only: one the
+    watcher published, which a new report of its archive may replace."""
+    try:
+        return not path.is_symlink() and all(e.name in REPORT_FILES for e in path.iterdir())
+    except OSError:  # (a file, or a folder that cannot be read: not one of ours)
+        return False
+
+
+def publish(scratch: Path, reports: Path, name: str, previous: str | None = None) -> Path:
     """Rename ``scratch`` to ``REPORTS/<name>``, replacing an older report of the same
-    archive. Readers see the old folder or the new one, never a half-written one."""
-    final = reports / report_dirname(name)
+    archive (``previous``: its record's folder, when it has one). Readers see the old
+    folder or the new one, never a half-written one. A folder there that is no report
+    of the watcher's (a user's folder, or INBOX's archives, which an INBOX inside
+    REPORTS put there: both were deleted) is left alone: the report takes the first
+    free name of ``NAME-report``, ``NAME-report-2``... Returns the report's folder."""
+    base = report_dirname(name)
+    names = [previous] if previous else []
+    names += [base, f"{base}-report", *(f"{base}-report-{k}" for k in range(2, 10_000))]
+    final = next(
+        p for p in (reports / n for n in names) if not os.path.lexists(p) or _report_folder(p)
+    )
     old = None
     if final.exists():
         old = reports / f"{OLD_PREFIX}{final.name}-{uuid.uuid4().hex[:8]}"
