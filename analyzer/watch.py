@@ -338,15 +338,23 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
             write_atomic(out_dir / CONFIG_WARNINGS, "".join(f"{line}\n" for line in lines))
         return 1 if analysis.faulty else 0
     except (UsageError, ConfigError) as err:
-        write_atomic(out_dir / "error.txt", one_line(err) + "\n")
+        _error_file(out_dir, one_line(err) + "\n")
         return EXIT_OPTION_ERROR
     except AnalyzerError as err:
-        write_atomic(out_dir / "error.txt", one_line(err) + "\n")
+        _error_file(out_dir, one_line(err) + "\n")
         return 2
     except Exception as err:  # noqa: BLE001 - recorded as this archive's error
         text = f"internal error: {type(err).__name__}: {one_line(err)}"
-        write_atomic(out_dir / "error.txt", f"{text}\n\n{traceback.format_exc()}")
+        _error_file(out_dir, f"{text}\n\n{traceback.format_exc()}")
         return 3
+
+
+def _error_file(out_dir: Path, text: str) -> None:
+    """``out_dir/error.txt``, where it can be written: on a full disk, where the analysis
+    failed for want of room, it cannot, and the watcher records the process's exit code
+    (a traceback of the second failure went to stderr)."""
+    with contextlib.suppress(OSError):
+        write_atomic(out_dir / "error.txt", text)
 
 
 def _analyze_into(inputs: list[str], options: RunOptions, out: str, work_dir: str) -> None:
@@ -630,7 +638,16 @@ class _Runner:
             )
         if self.begun is None:
             self.begun = time.monotonic()
-        scratch = scratch_dir(self.settings.reports, name)
+        try:
+            scratch = scratch_dir(self.settings.reports, name)
+        except OSError as err:  # REPORTS full or gone: not the archive's fault
+            self.unwritten += 1
+            log.error(
+                "%s: cannot write its report: %s; it is analyzed again on the next start",
+                name,
+                one_line(err.strerror or err),
+            )
+            return
         inputs = [str(p) for p in archive.paths]
         process: BaseProcess | ClusterTask
         work = None

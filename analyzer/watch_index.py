@@ -230,9 +230,23 @@ class ReportsLock:
 # --------------------------------------------------------------------------- report dirs
 
 
+NAME_MAX = 255
+"""Bytes a file name may have (Linux, macOS)."""
+
+
+def _hidden(prefix: str, name: str) -> str:
+    """A new hidden name ``prefix + name + -XXXXXXXX`` (random), ``name`` cut to keep it
+    within :data:`NAME_MAX` bytes: an archive of a 246-byte name, allowed itself, made
+    the scratch folder's name too long, and the watcher died at every start."""
+    tag = f"-{uuid.uuid4().hex[:8]}"
+    room = NAME_MAX - len(os.fsencode(prefix + tag))
+    cut = os.fsdecode(os.fsencode(name)[:room])
+    return f"{prefix}{cut}{tag}"
+
+
 def scratch_dir(reports: Path, name: str) -> Path:
     """A new hidden folder of REPORTS to write an archive's outputs into."""
-    path = reports / f"{TMP_PREFIX}{report_dirname(name)}-{uuid.uuid4().hex[:8]}"
+    path = reports / _hidden(TMP_PREFIX, report_dirname(name))
     path.mkdir()
     return path
 
@@ -265,7 +279,7 @@ def publish(scratch: Path, reports: Path, name: str, previous: str | None = None
     )
     old = None
     if final.exists():
-        old = reports / f"{OLD_PREFIX}{final.name}-{uuid.uuid4().hex[:8]}"
+        old = reports / _hidden(OLD_PREFIX, final.name)
         os.replace(final, old)
     os.replace(scratch, final)
     if old is not None:
@@ -588,7 +602,8 @@ def index_view(index: dict[str, Any]) -> IndexView:
         rows.append(
             IndexRow(
                 name=r["name"],
-                href="/".join(quote(part) for part in str(r["report"]).split("/")),
+                # (a name that is no UTF-8, held with surrogates: its bytes, as on disk)
+                href="/".join(quote(os.fsencode(part)) for part in str(r["report"]).split("/")),
                 verdict=verdict,
                 css={"fault": "reject", "no fault": "pass"}.get(verdict, "tag type"),
                 sensors=", ".join(r["faulty_sensors"]) or "none",
