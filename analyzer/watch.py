@@ -892,7 +892,8 @@ class _Runner:
                 continue
             moved.append(str(target))
         if moved:
-            rec.moved_to = moved
+            # (the same content dropped again and moved: its earlier copy stays listed)
+            rec.moved_to = [*rec.moved_to, *moved]
             self.ledger.record(rec)
             log.info("%s: moved to %s", archive.name, folder)
 
