@@ -130,7 +130,7 @@ import sys
 import threading
 import time
 import traceback
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
 from multiprocessing.connection import wait as wait_for
 from multiprocessing.context import ForkServerContext, SpawnContext
@@ -165,6 +165,7 @@ from analyzer.watch_index import (
     Record,
     ReportsLock,
     Verdict,
+    hidden_name,
     now_iso,
     publish,
     report_dirname,
@@ -464,6 +465,46 @@ def _free_name(folder: Path, name: str) -> Path:
         target = folder / f"{stem}-{n}{dot}{suffixes}"
         n += 1
     return target
+
+
+def _move_all(paths: Sequence[Path], folder: Path) -> list[Path]:
+    """Move ``paths`` into ``folder`` under free names (:func:`_free_name`), all or none.
+    On another file system each is copied first (to a hidden name there), and the
+    sources go only once every copy is whole: a move that failed part-way (``--done`` on
+    a full disk) left a truncated copy in ``folder``, and split an archive of several
+    files, whose rest was then analyzed alone as the archive. Raises the first
+    :class:`OSError`, with the copies made so far removed and INBOX as it was."""
+    same = os.stat(folder).st_dev == os.stat(paths[0]).st_dev if paths else True
+    staged: list[tuple[Path, Path]] = []  # (source, its copy in folder)
+    if not same:
+        try:
+            for path in paths:
+                copy = folder / hidden_name(".partial-", path.name)
+                staged.append((path, copy))
+                if path.is_dir() and not path.is_symlink():
+                    shutil.copytree(path, copy, symlinks=True)
+                else:
+                    shutil.copy2(path, copy, follow_symlinks=False)
+        except OSError:
+            for _, copy in staged:
+                if copy.is_dir() and not copy.is_symlink():
+                    shutil.rmtree(copy, ignore_errors=True)
+                else:
+                    copy.unlink(missing_ok=True)
+            raise
+    targets = []
+    for k, path in enumerate(paths):
+        target = _free_name(folder, path.name)
+        if same:
+            os.rename(path, target)
+        else:
+            os.rename(staged[k][1], target)
+            if path.is_dir() and not path.is_symlink():
+                shutil.rmtree(path)
+            else:
+                path.unlink()
+        targets.append(target)
+    return targets
 
 
 class _Runner:
@@ -876,21 +917,18 @@ class _Runner:
                 folder,
             )
             return
-        moved = []
-        for path in archive.paths:
-            target = _free_name(folder, path.name)
-            try:
-                shutil.move(path, target)
-            except OSError as err:
-                log.warning(
-                    "%s: cannot move %s to %s: %s",
-                    archive.name,
-                    path,
-                    folder,
-                    one_line(err.strerror or err),
-                )
-                continue
-            moved.append(str(target))
+        try:
+            moved = [str(target) for target in _move_all(archive.paths, folder)]
+        except OSError as err:
+            where = f"{os.fsdecode(err.filename)}: " if err.filename else ""
+            log.warning(
+                "%s: not moved to %s (it stays in INBOX): %s%s",
+                archive.name,
+                folder,
+                where,
+                one_line(err.strerror or err),
+            )
+            return
         if moved:
             # (the same content dropped again and moved: its earlier copy stays listed)
             rec.moved_to = [*rec.moved_to, *moved]

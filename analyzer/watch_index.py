@@ -234,7 +234,7 @@ NAME_MAX = 255
 """Bytes a file name may have (Linux, macOS)."""
 
 
-def _hidden(prefix: str, name: str) -> str:
+def hidden_name(prefix: str, name: str) -> str:
     """A new hidden name ``prefix + name + -XXXXXXXX`` (random), ``name`` cut to keep it
     within :data:`NAME_MAX` bytes: an archive of a 246-byte name, allowed itself, made
     the scratch folder's name too long, and the watcher died at every start."""
@@ -246,7 +246,7 @@ def _hidden(prefix: str, name: str) -> str:
 
 def scratch_dir(reports: Path, name: str) -> Path:
     """A new hidden folder of REPORTS to write an archive's outputs into."""
-    path = reports / _hidden(TMP_PREFIX, report_dirname(name))
+    path = reports / hidden_name(TMP_PREFIX, report_dirname(name))
     path.mkdir()
     return path
 
@@ -279,7 +279,7 @@ def publish(scratch: Path, reports: Path, name: str, previous: str | None = None
     )
     old = None
     if final.exists():
-        old = reports / _hidden(OLD_PREFIX, final.name)
+        old = reports / hidden_name(OLD_PREFIX, final.name)
         os.replace(final, old)
     os.replace(scratch, final)
     if old is not None:
@@ -667,5 +667,6 @@ __all__ = [
     "index_view",
     "render_index",
     "report_dirname",
+    "hidden_name",
     "scratch_dir",
 ]

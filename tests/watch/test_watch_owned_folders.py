@@ -5,6 +5,7 @@ an archive folder of INBOX left that archive silently unanalyzed and wrote into 
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
@@ -62,3 +63,43 @@ def test_folders_that_would_take_an_archive_s_place_are_refused(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and re.search(message, err), err
     assert sorted(p.name for p in (inbox / "proj").iterdir()) == ["a.csv"]
+
+
+def test_a_move_to_another_file_system_is_all_or_none(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Audit: ``--done`` on a full file system left a truncated copy of the archive's
+    second file in done/, and split the archive (its first file moved, the second left
+    in INBOX, then analyzed alone as the archive)."""
+    import errno
+    import shutil
+    import tempfile
+
+    from analyzer import watch
+
+    shm = Path("/dev/shm")
+    if not shm.is_dir() or os.stat(shm).st_dev == os.stat(tmp_path).st_dev:
+        pytest.skip("no second file system to move to")
+    inbox = tmp_path / "in"
+    inbox.mkdir()
+    files = [inbox / "day1_h0.csv", inbox / "day1_h1.csv"]
+    for i, f in enumerate(files):
+        f.write_text(f"time,a\n0,{i}\n")
+    with tempfile.TemporaryDirectory(dir=shm) as folder:
+        done = Path(folder)
+        copy2 = shutil.copy2
+
+        def full_on_second(src: object, dst: object, **kw: object) -> object:
+            if Path(str(src)).name == "day1_h1.csv":
+                Path(str(dst)).write_text("time,")  # (what a full disk leaves)
+                raise OSError(errno.ENOSPC, "No space left on device", str(dst))
+            return copy2(src, dst, **kw)  # type: ignore[arg-type]
+
+        monkeypatch.setattr(watch.shutil, "copy2", full_on_second)
+        with pytest.raises(OSError):
+            watch._move_all(files, done)
+        assert list(done.iterdir()) == [] and all(f.is_file() for f in files)
+        monkeypatch.setattr(watch.shutil, "copy2", copy2)
+        moved = watch._move_all(files, done)
+        assert [p.name for p in moved] == ["day1_h0.csv", "day1_h1.csv"]
+        assert not any(f.exists() for f in files) and moved[1].read_text() == "time,a\n0,1\n"
