@@ -18,7 +18,8 @@ batches. Each batch lists the archives that became *ready* since the previous on
 * **Complete**, where the format says so (:func:`incomplete_reason`): an MCAP file has its
   magic at both ends; a ROS 1 bag has an index (``index_pos`` in the bag header is not 0
   and the file extends past it); a ROS 2 bag directory has its ``metadata.yaml``, the
-  storage files it lists and no sqlite journal; a CSV file only needs to be stable. An
+  storage files it lists (by name in the folder, as the reader opens them) and no
+  sqlite journal; a CSV file only needs to be stable. An
   archive that is stable but still looks unfinished after ``incomplete_timeout`` seconds
   (a recorder that died, a truncated copy) is yielded anyway with the reason, so that it
   ends up with an error record instead of waiting forever.
@@ -56,7 +57,7 @@ from pathlib import Path
 from typing import Any
 
 from analyzer.readers import skipped_folder
-from analyzer.readers._common import special_kind
+from analyzer.readers._common import bag_listed_files, special_kind
 
 log = logging.getLogger("analyzer.watch")
 
@@ -185,18 +186,6 @@ def _file_incomplete(path: Path) -> str | None:
     return None
 
 
-def _metadata_files(metadata: Path) -> list[str] | None:
-    """The storage files a rosbag2 ``metadata.yaml`` lists, or None if it is unreadable."""
-    from ruamel.yaml import YAML  # the YAML library rosbags itself uses
-
-    try:
-        doc: Any = YAML(typ="safe").load(metadata.read_text(encoding="utf-8"))
-        info = doc["rosbag2_bagfile_information"]
-        return [str(p) for p in info.get("relative_file_paths") or []]
-    except Exception:  # noqa: BLE001 - any parse problem means "not finished (yet)"
-        return None
-
-
 def _looks_like_bag(directory: Path, files: Sequence[Path]) -> bool:
     """A directory without metadata.yaml that a ROS 2 recorder is filling: storage
     files named ``<dir>.db3`` / ``<dir>_<N>.mcap`` (rosbag2, rosbags) or any ``.db3``."""
@@ -215,12 +204,12 @@ def incomplete_reason(path: Path, _seen: set[Path] | None = None) -> str | None:
     files = [f for f in sorted(path.iterdir()) if f.is_file() and not f.name.startswith(".")]
     metadata = path / "metadata.yaml"
     if metadata.is_file():
-        listed = _metadata_files(metadata)
+        listed = bag_listed_files(path)  # (by name, as the reader opens them)
         if listed is None:
             return "metadata.yaml not readable yet"
-        for rel in listed:
-            if not (path / rel).is_file():
-                return f"storage file {rel} listed in metadata.yaml is missing"
+        for name in listed:
+            if not (path / name).is_file():
+                return f"storage file {name} listed in metadata.yaml is missing"
         for f in files:
             if f.name != "metadata.yaml" and (reason := _file_incomplete(f)):
                 return f"{f.name}: {reason}"

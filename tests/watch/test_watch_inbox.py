@@ -134,6 +134,37 @@ def test_ros2_bag_directory_needs_metadata_and_its_storage(tmp_path: Path) -> No
     assert incomplete_reason(bag) == "metadata.yaml not readable yet"
 
 
+def test_storage_files_listed_with_the_bag_folder_s_name_are_found(tmp_path: Path) -> None:
+    """Old rosbag2 versions list ``bag/bag_0.db3`` in the folder ``bag``; the reader
+    (as rosbags) opens the file of that name in the folder, the watcher looked for
+    ``bag/bag/bag_0.db3`` and waited --wait-unfinished (10 min) for it."""
+    src = small_archive(tmp_path / "src_bag", "ros2bag")
+    storage = next(src.glob("*.db3"))
+    bag = tmp_path / "bag"
+    bag.mkdir()
+    shutil.copy2(storage, bag / "bag_0.db3")
+    meta = (src / "metadata.yaml").read_text().replace(storage.name, "bag/bag_0.db3")
+    assert "- bag/bag_0.db3" in meta
+    (bag / "metadata.yaml").write_text(meta)
+    assert incomplete_reason(bag) is None
+    (bag / "bag_0.db3").unlink()
+    assert incomplete_reason(bag) == "storage file bag_0.db3 listed in metadata.yaml is missing"
+
+
+def test_a_real_bag_of_an_old_rosbag2_is_complete(tmp_path: Path, realdata: Path) -> None:
+    """PlotJuggler's ``rosbag2_test`` lists ``rosbag2_test/rosbag2_test_0.db3``."""
+    from analyzer.readers import open_input
+
+    src = realdata / "ros2" / "plotjuggler" / "rosbag2_test"
+    bag = tmp_path / "rosbag2_test"
+    bag.mkdir()
+    for name in ("metadata.yaml", "rosbag2_test_0.db3"):  # (not the recorder's -wal, -shm)
+        shutil.copyfile(src / name, bag / name)
+    assert "rosbag2_test/rosbag2_test_0.db3" in (bag / "metadata.yaml").read_text()
+    assert incomplete_reason(bag) is None
+    assert open_input(bag).info.errors == []
+
+
 def test_ros2_bag_with_mcap_storage(tmp_path: Path) -> None:
     bag = tmp_path / "mcap_bag"
     t = np.arange(300, dtype=np.int64) * 10_000_000
