@@ -12,14 +12,15 @@ What is an archive, and when is it ready
     and so are FIFOs, sockets and devices (never opened: said once). An archive is ready
     when its files' sizes and mtimes have not changed for ``--settle`` seconds and it is
     structurally complete where the format allows: MCAP magic at both ends, a ROS 1 bag
-    with its index, a ROS 2 bag directory with its ``metadata.yaml`` (see
-    :mod:`analyzer.watch_inbox`). An archive that changes soon after it was taken as
-    ready (a writer pausing longer than ``--settle``) has to be stable twice as long the
-    next time, up to 2 minutes. Changes are seen through file-system events (inotify and
-    the like, via ``watchdog``), or by polling every ``--poll`` seconds, which is also
-    the fallback where events are unavailable (some network file systems: there, pass
-    ``--poll``). An archive that cannot be read (a dangling symbolic link, permission
-    denied) is skipped with one warning, and looked at again when it changes.
+    with its index, a ROS 2 bag directory with its ``metadata.yaml`` and its storage
+    files as long as their sqlite headers say (see :mod:`analyzer.watch_inbox`). An
+    archive that changes soon after it was taken as ready (a writer pausing longer
+    than ``--settle``) has to be stable twice as long the next time, up to 2 minutes.
+    Changes are seen through file-system events (inotify and the like, via
+    ``watchdog``), or by polling every ``--poll`` seconds, which is also the fallback
+    where events are unavailable (some network file systems: there, pass ``--poll``).
+    An archive that cannot be read (a dangling symbolic link, permission denied) is
+    skipped with one warning, and looked at again when it changes.
 
 Exactly once
     ``REPORTS/.watch-state.json`` records the sha256 of each archive's content (of the

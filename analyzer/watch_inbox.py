@@ -18,8 +18,9 @@ batches. Each batch lists the archives that became *ready* since the previous on
 * **Complete**, where the format says so (:func:`incomplete_reason`): an MCAP file has its
   magic at both ends; a ROS 1 bag has an index (``index_pos`` in the bag header is not 0
   and the file extends past it); a ROS 2 bag directory has its ``metadata.yaml``, the
-  storage files it lists (by name in the folder, as the reader opens them) and no
-  sqlite journal; a CSV file only needs to be stable. An
+  storage files it lists (by name in the folder, as the reader opens them), none with a
+  sqlite journal, and a sqlite file is as long as its header says
+  (:func:`sqlite_unfinished`); a CSV file only needs to be stable. An
   archive that is stable but still looks unfinished after ``incomplete_timeout`` seconds
   (a recorder that died, a truncated copy) is yielded anyway with the reason, so that it
   ends up with an error record instead of waiting forever.
@@ -69,6 +70,8 @@ SQLITE_SIDECARS = ("-journal", "-wal", "-shm")
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 ROS1_MAGIC = b"#ROSBAG V2.0\n"
 SQLITE_MAGIC = b"SQLite format 3\x00"
+SQLITE_HEADER = 100
+"""Bytes of a sqlite database's header."""
 INCOMPLETE_TIMEOUT_S = 600.0
 """An archive stable this long but still structurally unfinished is handed on anyway."""
 MAX_SETTLE_S = 120.0
@@ -183,6 +186,32 @@ def _file_incomplete(path: Path) -> str | None:
         busy = [s for s in SQLITE_SIDECARS if path.with_name(path.name + s).exists()]
         if busy:
             return f"sqlite file still open for writing ({path.name}{busy[0]} present)"
+        if head.startswith(SQLITE_MAGIC):
+            return sqlite_unfinished(head, size)
+    return None
+
+
+def sqlite_unfinished(head: bytes, size: int) -> str | None:
+    """Why a sqlite database of ``size`` bytes whose file starts with ``head`` is
+    unfinished (a copy still under way), or None. A complete, checkpointed database is
+    as long as its header says: the in-header database size in pages (big-endian uint32
+    at offset 28) times the page size (uint16 at offset 16, 1 meaning 65536). That size
+    is valid only when it is not 0 and the change counter (offset 24) equals the
+    version-valid-for number (offset 92); else nothing is said (sqlite.org/fileformat2.html,
+    "In-header database size")."""
+    if size < SQLITE_HEADER:
+        return f"sqlite database unfinished: {size} bytes, less than its header"
+    (page_size,) = struct.unpack_from(">H", head, 16)
+    page_size = 65536 if page_size == 1 else page_size
+    counter, pages = struct.unpack_from(">II", head, 24)
+    (valid_for,) = struct.unpack_from(">I", head, 92)
+    if pages == 0 or counter != valid_for or page_size < 512 or page_size & (page_size - 1):
+        return None
+    if size < pages * page_size:
+        return (
+            f"sqlite database unfinished: {size} of the {pages * page_size} bytes its header "
+            "gives (still being copied?)"
+        )
     return None
 
 
@@ -606,5 +635,6 @@ __all__ = [
     "ros1_index_pos",
     "signature",
     "special_kind",
+    "sqlite_unfinished",
     "unreadable_reason",
 ]

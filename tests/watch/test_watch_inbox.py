@@ -134,6 +134,42 @@ def test_ros2_bag_directory_needs_metadata_and_its_storage(tmp_path: Path) -> No
     assert incomplete_reason(bag) == "metadata.yaml not readable yet"
 
 
+def test_a_db3_shorter_than_its_header_says_is_unfinished(tmp_path: Path) -> None:
+    """A bag copied piecewise (metadata.yaml first, the .db3 with pauses longer than
+    --settle) was analyzed half copied ("database disk image is malformed") and, with
+    --failed, moved there whole: the sqlite header gives the size of the database."""
+    src = small_archive(tmp_path / "src_bag", "ros2bag")
+    storage = next(src.glob("*.db3"))
+    data = storage.read_bytes()
+    pages, page_size = struct.unpack_from(">I", data, 28)[0], struct.unpack_from(">H", data, 16)[0]
+    assert pages * page_size == len(data) and len(data) > 3 * 4096
+    bag = tmp_path / "bag"
+    shutil.copytree(src, bag)
+    copied = bag / storage.name
+    assert incomplete_reason(bag) is None
+    copied.write_bytes(data[:4096])  # the copy's first block
+    assert incomplete_reason(bag) == (
+        f"{storage.name}: sqlite database unfinished: 4096 of the {len(data)} bytes its "
+        "header gives (still being copied?)"
+    )
+    assert incomplete_reason(copied) == (
+        f"sqlite database unfinished: 4096 of the {len(data)} bytes its header gives "
+        "(still being copied?)"
+    )
+    copied.write_bytes(data[:50])
+    assert incomplete_reason(copied) == (
+        "sqlite database unfinished: 50 bytes, less than its header"
+    )
+    copied.write_bytes(data + b"\0" * 4096)  # longer: not a copy under way (read as it is)
+    assert incomplete_reason(copied) is None
+    # a header whose database size is not valid (the change counter at 24 differs from
+    # the version-valid-for number at 92: written by an old sqlite) says nothing
+    stale = bytearray(data[:4096])
+    stale[92:96] = (struct.unpack_from(">I", data, 24)[0] + 1).to_bytes(4, "big")
+    copied.write_bytes(bytes(stale))
+    assert incomplete_reason(copied) is None
+
+
 def test_storage_files_listed_with_the_bag_folder_s_name_are_found(tmp_path: Path) -> None:
     """Old rosbag2 versions list ``bag/bag_0.db3`` in the folder ``bag``; the reader
     (as rosbags) opens the file of that name in the folder, the watcher looked for
