@@ -13,7 +13,8 @@ What is an archive, and when is it ready
     when its files' sizes and mtimes have not changed for ``--settle`` seconds and it is
     structurally complete where the format allows: MCAP magic at both ends, a ROS 1 bag
     with its index, a ROS 2 bag directory with its ``metadata.yaml`` and its storage
-    files as long as their sqlite headers say (see :mod:`analyzer.watch_inbox`). An
+    files as long as their sqlite headers say, a CSV file with a data row under its
+    header (see :mod:`analyzer.watch_inbox`). An
     archive that changes soon after it was taken as ready (a writer pausing longer
     than ``--settle``) has to be stable twice as long the next time, up to 2 minutes.
     Changes are seen through file-system events (inotify and the like, via

@@ -20,10 +20,10 @@ batches. Each batch lists the archives that became *ready* since the previous on
   and the file extends past it); a ROS 2 bag directory has its ``metadata.yaml``, the
   storage files it lists (by name in the folder, as the reader opens them), none with a
   sqlite journal, and a sqlite file is as long as its header says
-  (:func:`sqlite_unfinished`); a CSV file only needs to be stable. An
-  archive that is stable but still looks unfinished after ``incomplete_timeout`` seconds
-  (a recorder that died, a truncated copy) is yielded anyway with the reason, so that it
-  ends up with an error record instead of waiting forever.
+  (:func:`sqlite_unfinished`); a CSV file (``.gz`` too) has a data row under its header
+  line. An archive that is stable but still looks unfinished after ``incomplete_timeout``
+  seconds (a recorder that died, a truncated copy) is yielded anyway with the reason, so
+  that it ends up with an error record instead of waiting forever.
 
 Not archives, and not readable: FIFOs, sockets and devices (or links to them) are
 ignored and never opened (opening a FIFO blocks until a writer comes, deaf to signals),
@@ -52,6 +52,7 @@ import stat
 import struct
 import threading
 import time
+import zlib
 from collections.abc import Callable, Generator, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -72,6 +73,9 @@ ROS1_MAGIC = b"#ROSBAG V2.0\n"
 SQLITE_MAGIC = b"SQLite format 3\x00"
 SQLITE_HEADER = 100
 """Bytes of a sqlite database's header."""
+CSV_SUFFIXES = (".csv", ".tsv", ".csv.gz", ".tsv.gz")
+CSV_HEAD = 1 << 16
+"""Bytes at the start of a CSV file (inflated, of a ``.gz``) looked at for a data row."""
 INCOMPLETE_TIMEOUT_S = 600.0
 """An archive stable this long but still structurally unfinished is handed on anyway."""
 MAX_SETTLE_S = 120.0
@@ -166,7 +170,8 @@ def ros1_index_pos(header: bytes) -> int | None:
 
 
 def _file_incomplete(path: Path) -> str | None:
-    head, tail, size = _read_ends(path, 4096 + 64)
+    csv = path.name.lower().endswith(CSV_SUFFIXES)
+    head, tail, size = _read_ends(path, CSV_HEAD if csv else 4096 + 64)
     if size == 0:
         return "empty file"
     if head.startswith(MCAP_MAGIC):
@@ -188,7 +193,40 @@ def _file_incomplete(path: Path) -> str | None:
             return f"sqlite file still open for writing ({path.name}{busy[0]} present)"
         if head.startswith(SQLITE_MAGIC):
             return sqlite_unfinished(head, size)
+    if csv and not _csv_has_row(head, size, gz=path.name.lower().endswith(".gz")):
+        return "a header line only (no data row yet)"
     return None
+
+
+def _csv_has_row(head: bytes, size: int, gz: bool) -> bool:
+    """Whether a CSV/TSV file of ``size`` bytes starting with ``head`` (inflated, of a
+    ``.gz``) has a data row there: a second non-blank line ended by a newline, under
+    the header (a logger writes its header first and its rows later). A file whose start
+    cannot tell (a header longer than ``head``, a damaged ``.gz``) counts as having one:
+    the analysis says what is wrong with it."""
+    try:
+        text = _inflated_start(head) if gz else head
+    except zlib.error:
+        return True
+    return _has_row(text) or size > len(head)
+
+
+def _has_row(text: bytes) -> bool:
+    lines = text.split(b"\n")[:-1]  # (the last piece is not ended by a newline)
+    return sum(1 for line in lines if line.strip()) >= 2
+
+
+def _inflated_start(data: bytes) -> bytes:
+    """The first :data:`CSV_HEAD` bytes inflated from gzip ``data`` (member after
+    member: a logger may append one per flush), or what ``data`` holds of them."""
+    out = b""
+    while data and len(out) < CSV_HEAD:
+        member = zlib.decompressobj(wbits=31)
+        out += member.decompress(data, CSV_HEAD - len(out))
+        if not member.eof:
+            break
+        data = member.unused_data
+    return out
 
 
 def sqlite_unfinished(head: bytes, size: int) -> str | None:

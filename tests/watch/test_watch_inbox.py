@@ -4,6 +4,7 @@ with the writers, a fake clock for the tracker."""
 
 from __future__ import annotations
 
+import gzip
 import json
 import logging
 import re
@@ -228,6 +229,62 @@ def test_directory_of_files_is_one_archive(tmp_path: Path) -> None:
     )
     shutil.copy2(full, folder / "h2.mcap")
     assert incomplete_reason(folder) is None
+
+
+def test_a_csv_with_its_header_line_only_is_unfinished(tmp_path: Path) -> None:
+    """A CSV logger writes its header line, then its rows; taken as complete with the
+    header alone, the file was analyzed ("no data rows") and, with --failed, moved there
+    before its rows came. Unfinished until a data row (ended by a newline) is there, as
+    an empty file is; a .csv.gz alike (gzip members appended one by one included)."""
+    header = "time,a,b\n"
+    for text, reason in (
+        (header, "a header line only (no data row yet)"),
+        ("time,a,b", "a header line only (no data row yet)"),
+        (header + "\n", "a header line only (no data row yet)"),
+        (header + "0.0,1,2", "a header line only (no data row yet)"),  # a row being written
+        (header + "0.0,1,2\n", None),
+        (header + "0.0,1,2\n0.01,1", None),
+        ("t\tx\n", "a header line only (no data row yet)"),
+    ):
+        for name in ("log.csv", "log.tsv", "LOG.CSV"):
+            (tmp_path / name).write_text(text)
+            assert incomplete_reason(tmp_path / name) == reason, (name, text)
+        with gzip.open(tmp_path / "log.csv.gz", "wt") as f:
+            f.write(text)
+        assert incomplete_reason(tmp_path / "log.csv.gz") == reason, text
+    with gzip.open(tmp_path / "log.csv.gz", "wt") as f:
+        f.write(header)
+    with gzip.open(tmp_path / "log.csv.gz", "at") as f:  # a second gzip member
+        f.write("0.0,1,2\n")
+    assert incomplete_reason(tmp_path / "log.csv.gz") is None
+    # a header longer than what is looked at, a damaged .gz: the analysis will say
+    (tmp_path / "wide.csv").write_text(",".join(f"channel_{i}" for i in range(20_000)) + "\n")
+    assert incomplete_reason(tmp_path / "wide.csv") is None
+    (tmp_path / "bad.csv.gz").write_bytes(b"\x1f\x8b\x08\x00" + b"garbage" * 10)
+    assert incomplete_reason(tmp_path / "bad.csv.gz") is None
+    # other formats are not read as text
+    (tmp_path / "notes.txt").write_text(header)
+    assert incomplete_reason(tmp_path / "notes.txt") is None
+
+
+def test_a_header_only_csv_waits_for_its_rows_or_the_timeout(tmp_path: Path) -> None:
+    inbox = tmp_path / "inbox"
+    inbox.mkdir()
+    (inbox / "log.csv").write_text("time,a\n")
+    (inbox / "dead.csv").write_text("time,a\n")
+    tracker = InboxTracker(inbox, settle=1.0, incomplete_timeout=30.0)
+    tracker.rescan()
+    assert tracker.step(0.0) == [] and tracker.step(2.0) == []
+    with (inbox / "log.csv").open("a") as f:
+        f.write("0.0,1\n0.01,2\n")
+    tracker.touch("log.csv")
+    assert tracker.step(2.5) == []
+    (rows,) = tracker.step(3.6)
+    assert rows.name == "log.csv" and rows.incomplete is None
+    assert tracker.step(29.0) == []
+    (dead,) = tracker.step(30.0)  # analyzed anyway after --wait-unfinished
+    assert dead.name == "dead.csv"
+    assert dead.incomplete == "a header line only (no data row yet)"
 
 
 # --------------------------------------------------------------------------- tracker
