@@ -30,8 +30,9 @@ Exactly once
     changed (the hash is reused without reading the files again while every file has
     the size and mtime it had when recorded). The result of an archive that changed
     while it was analyzed is discarded, and it is not moved; it is analyzed again once
-    it has settled. Options (``--train``, ``--config``...) are not part of a result's
-    record: changing them does not re-analyze archives found with or without a fault.
+    it has settled (``--once`` waits for that too). Options (``--train``,
+    ``--config``...) are not part of a result's record: changing them does not
+    re-analyze archives found with or without a fault.
     An error is recorded with a fingerprint of the analysis options and the analyzer
     version (:func:`options_fingerprint`), and the archive is analyzed again by a
     watcher whose fingerprint differs (an error recorded by an older watcher, without
@@ -657,6 +658,14 @@ class _Runner:
             return replace(self.options, jobs=self.settings.jobs)
         return self.options
 
+    def pause(self, seconds: float) -> None:
+        """The inbox loop's wait between looks: up to ``seconds``, less when an analysis
+        ends meanwhile (recorded at once) or the watcher is stopped."""
+        if self.running:
+            wait_for([job.process.sentinel for job in self.running.values()], timeout=seconds)
+        else:
+            self.stopping.wait(seconds)
+
     # ------------------------------------------------------------------ finish
     def _reap(self, wait: float) -> None:
         if not self.running:
@@ -960,6 +969,8 @@ def _watch_locked(
         incomplete_timeout=settings.incomplete_timeout,
         yield_on_timeout=True,
         known=runner.recorded,
+        busy=runner.busy,  # (--once: an archive discarded as it changed is done again)
+        pause=runner.pause,
     )
     try:
         with contextlib.closing(batches):
@@ -967,8 +978,6 @@ def _watch_locked(
                 for archive in batch:
                     runner.offer(archive)
                 runner.pump()
-        while settings.once and runner.busy() and not stop.is_set():
-            runner.pump(wait=TICK_S)
         if runner.running and not abandon.is_set():
             log.info(
                 "stopping: waiting for %d running analysis(es) to finish "

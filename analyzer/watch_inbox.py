@@ -606,15 +606,21 @@ def ready_batches(
     incomplete_timeout: float = INCOMPLETE_TIMEOUT_S,
     yield_on_timeout: bool = False,
     known: Callable[[ReadyArchive], bool] | None = None,
+    busy: Callable[[], bool] | None = None,
+    pause: Callable[[float], object] | None = None,
 ) -> Generator[list[ReadyArchive], None, None]:
     """Batches of archives of ``inbox`` that became ready (see the module doc).
 
     ``poll``: rescan every ``poll`` seconds instead of using file events. ``exclude``:
     entry names of INBOX that are never archives (output folders inside it). ``stop``:
     the generator returns soon after it is set. ``once``: return when every archive
-    present at the start has been yielded (or has gone). ``yield_on_timeout``: yield an
-    empty batch after every idle tick (about 0.1 s) so the consumer can do other work.
-    ``known``: :attr:`InboxTracker.known`.
+    present at the start has been yielded (or has gone) and ``busy()`` says the
+    consumer is through with them, after one more look at INBOX: an archive that
+    changed while the consumer analyzed it (a writer pausing longer than ``settle``)
+    is yielded again once it has settled. ``yield_on_timeout``: yield an empty batch
+    after every idle tick (about 0.1 s) so the consumer can do other work. ``known``:
+    :attr:`InboxTracker.known`. ``pause``: how a tick is waited (default
+    ``stop.wait``; the consumer may return sooner, when its own work ends).
     """
     stop = stop or threading.Event()
     tracker = InboxTracker(
@@ -635,6 +641,7 @@ def ready_batches(
         initial = tracker.keys
         next_scan = time.monotonic() + interval
         next_step = 0.0
+        last_look = False
         while not stop.is_set():
             now = time.monotonic()
             while True:
@@ -651,9 +658,14 @@ def ready_batches(
                 next_step = now + (poll if poll is not None else 0.0)
             if batch or yield_on_timeout:
                 yield batch
-            if once and tracker.done(initial):
-                return
-            stop.wait(tick)
+            if once and tracker.done(initial) and not (busy is not None and busy()):
+                if last_look:
+                    return
+                tracker.rescan()  # (a change its events have not told yet)
+                next_step, last_look = 0.0, True
+                continue
+            last_look = False
+            (pause or stop.wait)(tick)
     finally:
         if observer is not None:
             observer.stop()
