@@ -12,14 +12,16 @@ What is an archive, and when is it ready
     and so are FIFOs, sockets and devices (never opened: said once). An archive is ready
     when its files' sizes and mtimes have not changed for ``--settle`` seconds and it is
     structurally complete where the format allows: MCAP magic at both ends, a ROS 1 bag
-    with its index, a ROS 2 bag directory with its ``metadata.yaml`` (see
-    :mod:`analyzer.watch_inbox`). An archive that changes soon after it was taken as
-    ready (a writer pausing longer than ``--settle``) has to be stable twice as long the
-    next time, up to 2 minutes. Changes are seen through file-system events (inotify and
-    the like, via ``watchdog``), or by polling every ``--poll`` seconds, which is also
-    the fallback where events are unavailable (some network file systems: there, pass
-    ``--poll``). An archive that cannot be read (a dangling symbolic link, permission
-    denied) is skipped with one warning, and looked at again when it changes.
+    with its index, a ROS 2 bag directory with its ``metadata.yaml`` and its storage
+    files as long as their sqlite headers say, a CSV file with a data row under its
+    header (see :mod:`analyzer.watch_inbox`). An
+    archive that changes soon after it was taken as ready (a writer pausing longer
+    than ``--settle``) has to be stable twice as long the next time, up to 2 minutes.
+    Changes are seen through file-system events (inotify and the like, via
+    ``watchdog``), or by polling every ``--poll`` seconds, which is also the fallback
+    where events are unavailable (some network file systems: there, pass ``--poll``).
+    An archive that cannot be read (a dangling symbolic link, permission denied) is
+    skipped with one warning, and looked at again when it changes.
 
 Exactly once
     ``REPORTS/.watch-state.json`` records the sha256 of each archive's content (of the
@@ -28,8 +30,9 @@ Exactly once
     changed (the hash is reused without reading the files again while every file has
     the size and mtime it had when recorded). The result of an archive that changed
     while it was analyzed is discarded, and it is not moved; it is analyzed again once
-    it has settled. Options (``--train``, ``--config``...) are not part of a result's
-    record: changing them does not re-analyze archives found with or without a fault.
+    it has settled (``--once`` waits for that too). Options (``--train``,
+    ``--config``...) are not part of a result's record: changing them does not
+    re-analyze archives found with or without a fault.
     An error is recorded with a fingerprint of the analysis options and the analyzer
     version (:func:`options_fingerprint`), and the archive is analyzed again by a
     watcher whose fingerprint differs (an error recorded by an older watcher, without
@@ -731,6 +734,14 @@ class _Runner:
             return replace(self.options, jobs=self.settings.jobs)
         return self.options
 
+    def pause(self, seconds: float) -> None:
+        """The inbox loop's wait between looks: up to ``seconds``, less when an analysis
+        ends meanwhile (recorded at once) or the watcher is stopped."""
+        if self.running:
+            wait_for([job.process.sentinel for job in self.running.values()], timeout=seconds)
+        else:
+            self.stopping.wait(seconds)
+
     # ------------------------------------------------------------------ finish
     def _reap(self, wait: float) -> None:
         if not self.running:
@@ -1036,6 +1047,8 @@ def _watch_locked(
         incomplete_timeout=settings.incomplete_timeout,
         yield_on_timeout=True,
         known=runner.recorded,
+        busy=runner.busy,  # (--once: an archive discarded as it changed is done again)
+        pause=runner.pause,
     )
     try:
         with contextlib.closing(batches):
@@ -1043,8 +1056,6 @@ def _watch_locked(
                 for archive in batch:
                     runner.offer(archive)
                 runner.pump()
-        while settings.once and runner.busy() and not stop.is_set():
-            runner.pump(wait=TICK_S)
         if runner.running and not abandon.is_set():
             log.info(
                 "stopping: waiting for %d running analysis(es) to finish "
