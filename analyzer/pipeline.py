@@ -111,6 +111,11 @@ def _select(
     infos = {i.name: i for i in store.infos()}
     if not infos:
         raise ReaderError("no numeric channel found in the input")
+    if all(i.constant for i in infos.values()):  # (the archive's own: an input error)
+        raise ReaderError(
+            "no channel to analyze: every numeric channel is constant or empty "
+            f"({', '.join(list(infos)[:3])}{', ...' if len(infos) > 3 else ''})"
+        )
     if patterns:
         unmatched = store.unmatched(patterns)
         if unmatched:
@@ -151,11 +156,8 @@ def _select(
         raise UsageError(
             f"--channels: every channel '{','.join(patterns)}' selects is constant or empty"
         )
-    if not chosen:  # (the archive's own: an input error, which a watcher's --failed takes)
-        raise ReaderError(
-            "no channel to analyze: every numeric channel is constant or empty "
-            f"({', '.join(list(infos)[:3])}{', ...' if len(infos) > 3 else ''})"
-        )
+    if not chosen:
+        raise UsageError("no channel left to analyze (all selected channels are constant or empty)")
     return chosen
 
 

@@ -120,6 +120,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import hashlib
 import json
 import logging
@@ -472,42 +473,71 @@ def _free_name(folder: Path, name: str) -> Path:
 
 def _move_all(paths: Sequence[Path], folder: Path) -> list[Path]:
     """Move ``paths`` into ``folder`` under free names (:func:`_free_name`), all or none.
-    On another file system each is copied first (to a hidden name there), and the
-    sources go only once every copy is whole: a move that failed part-way (``--done`` on
-    a full disk) left a truncated copy in ``folder``, and split an archive of several
-    files, whose rest was then analyzed alone as the archive. Raises the first
-    :class:`OSError`, with the copies made so far removed and INBOX as it was."""
-    same = os.stat(folder).st_dev == os.stat(paths[0]).st_dev if paths else True
-    staged: list[tuple[Path, Path]] = []  # (source, its copy in folder)
-    if not same:
-        try:
-            for path in paths:
-                copy = folder / hidden_name(".partial-", path.name)
-                staged.append((path, copy))
-                if path.is_dir() and not path.is_symlink():
-                    shutil.copytree(path, copy, symlinks=True)
-                else:
-                    shutil.copy2(path, copy, follow_symlinks=False)
-        except OSError:
-            for _, copy in staged:
-                if copy.is_dir() and not copy.is_symlink():
-                    shutil.rmtree(copy, ignore_errors=True)
-                else:
-                    copy.unlink(missing_ok=True)
-            raise
-    targets = []
-    for k, path in enumerate(paths):
-        target = _free_name(folder, path.name)
-        if same:
-            os.rename(path, target)
-        else:
-            os.rename(staged[k][1], target)
+    Where a path is on another file system than ``folder`` (a symbolic link's own, not
+    its target's), the archive's files are copied first (to hidden names there), and
+    the sources go only once every copy is in place: a move that failed part-way
+    (``--done`` on a full disk) left a truncated copy in ``folder``, and split an archive
+    of several files, whose rest was then analyzed alone as the archive. Raises the first
+    :class:`OSError`, with what was made in ``folder`` removed and INBOX as it was."""
+    device = os.lstat(folder).st_dev
+    if all(os.lstat(p).st_dev == device for p in paths):
+        return [_rename(p, folder) for p in paths]  # (a rename: nothing half-done)
+    for path in paths:  # (a source that cannot be removed would be left twice)
+        if not os.access(path.parent, os.W_OK | os.X_OK):
+            raise OSError(errno.EACCES, "cannot remove it from INBOX", str(path))
+    made: list[Path] = []  # in folder: the copies, then the files renamed from them
+    try:
+        staged = []
+        for path in paths:
+            copy = folder / hidden_name(".partial-", path.name)
+            made.append(copy)
             if path.is_dir() and not path.is_symlink():
+                shutil.copytree(path, copy, symlinks=True)
+            else:
+                shutil.copy2(path, copy, follow_symlinks=False)
+            staged.append(copy)
+        targets = []
+        for k, copy in enumerate(staged):
+            target = _free_name(folder, paths[k].name)
+            os.rename(copy, target)
+            made[k] = target
+            targets.append(target)
+    except OSError:
+        for p in made:
+            _remove(p)
+        raise
+    for k, path in enumerate(paths):
+        folder_source = path.is_dir() and not path.is_symlink()
+        try:
+            if folder_source:
                 shutil.rmtree(path)
             else:
                 path.unlink()
-        targets.append(target)
+        except OSError:
+            # (INBOX turned read-only since the check): a file still whole there keeps
+            # its place and loses its copy; a folder partly removed keeps its copy
+            moved = k + 1 if folder_source else k
+            for p in targets[moved:]:
+                _remove(p)
+            if moved == 0:
+                raise
+            return targets[:moved]
     return targets
+
+
+def _rename(path: Path, folder: Path) -> Path:
+    target = _free_name(folder, path.name)
+    os.rename(path, target)
+    return target
+
+
+def _remove(path: Path) -> None:
+    """Remove ``path`` (a folder with what it holds; a link, not its target)."""
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        with contextlib.suppress(FileNotFoundError):
+            path.unlink()
 
 
 class _Runner:

@@ -21,6 +21,7 @@
 from __future__ import annotations
 
 import fcntl
+import hashlib
 import json
 import logging
 import math
@@ -264,6 +265,17 @@ def _report_folder(path: Path) -> bool:
         return False
 
 
+def _fitting(name: str) -> str:
+    """``name``, or where it is longer than :data:`NAME_MAX` bytes (``_`` + a 255-byte
+    name, or ``NAME-report``), its first bytes and a hash of the whole, which keeps
+    names apart."""
+    raw = os.fsencode(name)
+    if len(raw) <= NAME_MAX:
+        return name
+    tag = "-" + hashlib.sha256(raw).hexdigest()[:12]
+    return os.fsdecode(raw[: NAME_MAX - len(tag)]) + tag
+
+
 def publish(scratch: Path, reports: Path, name: str, previous: str | None = None) -> Path:
     """Rename ``scratch`` to ``REPORTS/<name>``, replacing an older report of the same
     archive (``previous``: its record's folder, when it has one). Readers see the old
@@ -275,7 +287,9 @@ def publish(scratch: Path, reports: Path, name: str, previous: str | None = None
     names = [previous] if previous else []
     names += [base, f"{base}-report", *(f"{base}-report-{k}" for k in range(2, 10_000))]
     final = next(
-        p for p in (reports / n for n in names) if not os.path.lexists(p) or _report_folder(p)
+        p
+        for p in (reports / _fitting(n) for n in names)
+        if not os.path.lexists(p) or _report_folder(p)
     )
     old = None
     if final.exists():

@@ -108,3 +108,16 @@ def test_an_analysis_on_a_full_disk_returns_its_code_without_a_traceback(
     out.mkdir()
     code = watch.analysis_into([str(src)], RunOptions(train="0:12"), out, tmp_path)
     assert code == watch.EXIT_INTERNAL_ERROR and not (out / "error.txt").exists()
+
+
+@pytest.mark.parametrize("channels", [[], ["--channels", "!a"], ["--channels", "a"]])
+def test_constant_channels_are_the_archive_s_error_whatever_channels_says(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], channels: list[str]
+) -> None:
+    """Review: with '!' patterns alone, an archive of constant channels was an option's
+    error ("its '!' patterns leave out every channel")."""
+    src = tmp_path / "flat.csv"
+    src.write_text("time,a,b\n" + "".join(f"{i * 0.01:.2f},1.0,2.0\n" for i in range(3000)))
+    assert main(["run", str(src), "--out", str(tmp_path / "o"), *channels]) == 2
+    err = capsys.readouterr().err
+    assert "every numeric channel is constant or empty (a, b)" in err, err

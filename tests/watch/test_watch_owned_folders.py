@@ -103,3 +103,59 @@ def test_a_move_to_another_file_system_is_all_or_none(
         moved = watch._move_all(files, done)
         assert [p.name for p in moved] == ["day1_h0.csv", "day1_h1.csv"]
         assert not any(f.exists() for f in files) and moved[1].read_text() == "time,a\n0,1\n"
+
+
+def test_a_link_is_moved_as_a_link_and_a_source_that_stays_keeps_no_copy(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Review: the file system was told by the link's target (a link in INBOX on another
+    file system than its target failed with EXDEV), and a source that could not be
+    removed left its copy in done/ and the other copies as hidden ``.partial-`` files."""
+    import errno
+    import tempfile
+
+    from analyzer import watch
+
+    shm = Path("/dev/shm")
+    if not shm.is_dir() or os.stat(shm).st_dev == os.stat(tmp_path).st_dev:
+        pytest.skip("no second file system to move to")
+    done = tmp_path / "done"
+    done.mkdir()
+    with tempfile.TemporaryDirectory(dir=shm) as folder:
+        inbox = Path(folder)
+        data = tmp_path / "data.csv"
+        data.write_text("time,a\n0,1\n")
+        (inbox / "a.csv").symlink_to(data)
+        (moved,) = watch._move_all([inbox / "a.csv"], done)
+        assert moved.is_symlink() and moved.read_text() == "time,a\n0,1\n"
+        assert not os.path.lexists(inbox / "a.csv")
+        paths = [inbox / "run_a.csv", inbox / "run_b.csv"]
+        for p in paths:
+            p.write_text("time,a\n0,1\n")
+        unlink = Path.unlink
+
+        def read_only(self: Path, missing_ok: bool = False) -> None:
+            if self.parent == inbox:
+                raise OSError(errno.EROFS, "Read-only file system", str(self))
+            unlink(self, missing_ok=missing_ok)
+
+        monkeypatch.setattr(Path, "unlink", read_only)
+        with pytest.raises(OSError):
+            watch._move_all(paths, done)
+        monkeypatch.setattr(Path, "unlink", unlink)
+        assert sorted(p.name for p in done.iterdir()) == ["a.csv"]
+        assert all(p.is_file() for p in paths)
+
+
+@pytest.mark.parametrize("name", ["_" + "a" * 254, "a" * 250])
+def test_a_report_folder_name_fits_the_file_system(tmp_path: Path, name: str) -> None:
+    """Review: ``_`` + a 255-byte name, or ``NAME-report`` of a 250-byte one, was too
+    long a folder name: the report could not be written, at every start."""
+    reports = tmp_path / "reports"
+    reports.mkdir()
+    if not name.startswith("_"):
+        (reports / name).mkdir()
+        (reports / name / "notes.txt").write_text("a user's")
+    final = publish(_scratch(reports, "x"), reports, name)
+    assert len(os.fsencode(final.name)) <= 255 and (final / "report.html").is_file()
+    assert final.name.lstrip("_").startswith(name.lstrip("_")[:200])
