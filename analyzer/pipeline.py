@@ -147,8 +147,15 @@ def _select(
                     + (", ..." if len(mixed) > 3 else "")
                     + "); name them with --channels to analyze them anyway"
                 )
-    if not chosen:
-        raise UsageError("no channel left to analyze (all selected channels are constant or empty)")
+    if not chosen and patterns:
+        raise UsageError(
+            f"--channels: every channel '{','.join(patterns)}' selects is constant or empty"
+        )
+    if not chosen:  # (the archive's own: an input error, which a watcher's --failed takes)
+        raise ReaderError(
+            "no channel to analyze: every numeric channel is constant or empty "
+            f"({', '.join(list(infos)[:3])}{', ...' if len(infos) > 3 else ''})"
+        )
     return chosen
 
 

@@ -12,14 +12,16 @@ What is an archive, and when is it ready
     and so are FIFOs, sockets and devices (never opened: said once). An archive is ready
     when its files' sizes and mtimes have not changed for ``--settle`` seconds and it is
     structurally complete where the format allows: MCAP magic at both ends, a ROS 1 bag
-    with its index, a ROS 2 bag directory with its ``metadata.yaml`` (see
-    :mod:`analyzer.watch_inbox`). An archive that changes soon after it was taken as
-    ready (a writer pausing longer than ``--settle``) has to be stable twice as long the
-    next time, up to 2 minutes. Changes are seen through file-system events (inotify and
-    the like, via ``watchdog``), or by polling every ``--poll`` seconds, which is also
-    the fallback where events are unavailable (some network file systems: there, pass
-    ``--poll``). An archive that cannot be read (a dangling symbolic link, permission
-    denied) is skipped with one warning, and looked at again when it changes.
+    with its index, a ROS 2 bag directory with its ``metadata.yaml`` and its storage
+    files as long as their sqlite headers say, a CSV file with a data row under its
+    header (see :mod:`analyzer.watch_inbox`). An
+    archive that changes soon after it was taken as ready (a writer pausing longer
+    than ``--settle``) has to be stable twice as long the next time, up to 2 minutes.
+    Changes are seen through file-system events (inotify and the like, via
+    ``watchdog``), or by polling every ``--poll`` seconds, which is also the fallback
+    where events are unavailable (some network file systems: there, pass ``--poll``).
+    An archive that cannot be read (a dangling symbolic link, permission denied) is
+    skipped with one warning, and looked at again when it changes.
 
 Exactly once
     ``REPORTS/.watch-state.json`` records the sha256 of each archive's content (of the
@@ -28,8 +30,9 @@ Exactly once
     changed (the hash is reused without reading the files again while every file has
     the size and mtime it had when recorded). The result of an archive that changed
     while it was analyzed is discarded, and it is not moved; it is analyzed again once
-    it has settled. Options (``--train``, ``--config``...) are not part of a result's
-    record: changing them does not re-analyze archives found with or without a fault.
+    it has settled (``--once`` waits for that too). Options (``--train``,
+    ``--config``...) are not part of a result's record: changing them does not
+    re-analyze archives found with or without a fault.
     An error is recorded with a fingerprint of the analysis options and the analyzer
     version (:func:`options_fingerprint`), and the archive is analyzed again by a
     watcher whose fingerprint differs (an error recorded by an older watcher, without
@@ -130,7 +133,7 @@ import sys
 import threading
 import time
 import traceback
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
 from multiprocessing.connection import wait as wait_for
 from multiprocessing.context import ForkServerContext, SpawnContext
@@ -165,6 +168,7 @@ from analyzer.watch_index import (
     Record,
     ReportsLock,
     Verdict,
+    hidden_name,
     now_iso,
     publish,
     report_dirname,
@@ -274,6 +278,24 @@ def _prepare(settings: WatchSettings) -> set[str]:
                 f"{option}: {folder} is inside REPORTS (--out {settings.reports}); "
                 "use a folder outside it"
             )
+        inside = (
+            folder.resolve().relative_to(root).parts
+            if folder.resolve().is_relative_to(root)
+            else ()
+        )
+        if len(inside) > 1:
+            # (a folder directly in INBOX is left out of the archives; one deeper is in
+            # an archive folder, which would then be neither analyzed nor left as it was)
+            raise UsageError(
+                f"{option}: {folder} is inside the archive folder {inbox / inside[0]} of "
+                "INBOX: inputs are never modified; use a folder outside it, or directly in "
+                "INBOX"
+            )
+    if root.is_relative_to(reports):
+        # (report folders take archives' names: one named like INBOX replaced it)
+        raise UsageError(
+            f"INBOX: {inbox} is inside REPORTS (--out {settings.reports}); use folders side by side"
+        )
     for folder in (settings.reports, settings.done, settings.failed):
         if folder is None:
             continue
@@ -320,15 +342,23 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
             write_atomic(out_dir / CONFIG_WARNINGS, "".join(f"{line}\n" for line in lines))
         return 1 if analysis.faulty else 0
     except (UsageError, ConfigError) as err:
-        write_atomic(out_dir / "error.txt", one_line(err) + "\n")
+        _error_file(out_dir, one_line(err) + "\n")
         return EXIT_OPTION_ERROR
     except AnalyzerError as err:
-        write_atomic(out_dir / "error.txt", one_line(err) + "\n")
+        _error_file(out_dir, one_line(err) + "\n")
         return 2
     except Exception as err:  # noqa: BLE001 - recorded as this archive's error
         text = f"internal error: {type(err).__name__}: {one_line(err)}"
-        write_atomic(out_dir / "error.txt", f"{text}\n\n{traceback.format_exc()}")
+        _error_file(out_dir, f"{text}\n\n{traceback.format_exc()}")
         return 3
+
+
+def _error_file(out_dir: Path, text: str) -> None:
+    """``out_dir/error.txt``, where it can be written: on a full disk, where the analysis
+    failed for want of room, it cannot, and the watcher records the process's exit code
+    (a traceback of the second failure went to stderr)."""
+    with contextlib.suppress(OSError):
+        write_atomic(out_dir / "error.txt", text)
 
 
 def _analyze_into(inputs: list[str], options: RunOptions, out: str, work_dir: str) -> None:
@@ -438,6 +468,46 @@ def _free_name(folder: Path, name: str) -> Path:
         target = folder / f"{stem}-{n}{dot}{suffixes}"
         n += 1
     return target
+
+
+def _move_all(paths: Sequence[Path], folder: Path) -> list[Path]:
+    """Move ``paths`` into ``folder`` under free names (:func:`_free_name`), all or none.
+    On another file system each is copied first (to a hidden name there), and the
+    sources go only once every copy is whole: a move that failed part-way (``--done`` on
+    a full disk) left a truncated copy in ``folder``, and split an archive of several
+    files, whose rest was then analyzed alone as the archive. Raises the first
+    :class:`OSError`, with the copies made so far removed and INBOX as it was."""
+    same = os.stat(folder).st_dev == os.stat(paths[0]).st_dev if paths else True
+    staged: list[tuple[Path, Path]] = []  # (source, its copy in folder)
+    if not same:
+        try:
+            for path in paths:
+                copy = folder / hidden_name(".partial-", path.name)
+                staged.append((path, copy))
+                if path.is_dir() and not path.is_symlink():
+                    shutil.copytree(path, copy, symlinks=True)
+                else:
+                    shutil.copy2(path, copy, follow_symlinks=False)
+        except OSError:
+            for _, copy in staged:
+                if copy.is_dir() and not copy.is_symlink():
+                    shutil.rmtree(copy, ignore_errors=True)
+                else:
+                    copy.unlink(missing_ok=True)
+            raise
+    targets = []
+    for k, path in enumerate(paths):
+        target = _free_name(folder, path.name)
+        if same:
+            os.rename(path, target)
+        else:
+            os.rename(staged[k][1], target)
+            if path.is_dir() and not path.is_symlink():
+                shutil.rmtree(path)
+            else:
+                path.unlink()
+        targets.append(target)
+    return targets
 
 
 class _Runner:
@@ -612,7 +682,16 @@ class _Runner:
             )
         if self.begun is None:
             self.begun = time.monotonic()
-        scratch = scratch_dir(self.settings.reports, name)
+        try:
+            scratch = scratch_dir(self.settings.reports, name)
+        except OSError as err:  # REPORTS full or gone: not the archive's fault
+            self.unwritten += 1
+            log.error(
+                "%s: cannot write its report: %s; it is analyzed again on the next start",
+                name,
+                one_line(err.strerror or err),
+            )
+            return
         inputs = [str(p) for p in archive.paths]
         process: BaseProcess | ClusterTask
         work = None
@@ -654,6 +733,14 @@ class _Runner:
         if self.settings.jobs > 1 and alone:
             return replace(self.options, jobs=self.settings.jobs)
         return self.options
+
+    def pause(self, seconds: float) -> None:
+        """The inbox loop's wait between looks: up to ``seconds``, less when an analysis
+        ends meanwhile (recorded at once) or the watcher is stopped."""
+        if self.running:
+            wait_for([job.process.sentinel for job in self.running.values()], timeout=seconds)
+        else:
+            self.stopping.wait(seconds)
 
     # ------------------------------------------------------------------ finish
     def _reap(self, wait: float) -> None:
@@ -704,7 +791,11 @@ class _Runner:
             ):
                 kept = self.ledger.keep_aside(name)
                 log.info("%s: new content; the earlier one's result is kept as %s", name, kept)
-            publish(job.scratch, self.settings.reports, name)
+            mine = self.ledger.get(name)  # (its record, unless kept aside just now)
+            folder = publish(
+                job.scratch, self.settings.reports, name, mine.folder if mine else None
+            )
+            rec.report = f"{folder.name}/{rec.report.partition('/')[2]}"
             self.ledger.record(rec)
         except OSError as err:  # REPORTS full or gone: not the archive's fault
             shutil.rmtree(job.scratch, ignore_errors=True)
@@ -837,23 +928,21 @@ class _Runner:
                 folder,
             )
             return
-        moved = []
-        for path in archive.paths:
-            target = _free_name(folder, path.name)
-            try:
-                shutil.move(path, target)
-            except OSError as err:
-                log.warning(
-                    "%s: cannot move %s to %s: %s",
-                    archive.name,
-                    path,
-                    folder,
-                    one_line(err.strerror or err),
-                )
-                continue
-            moved.append(str(target))
+        try:
+            moved = [str(target) for target in _move_all(archive.paths, folder)]
+        except OSError as err:
+            where = f"{os.fsdecode(err.filename)}: " if err.filename else ""
+            log.warning(
+                "%s: not moved to %s (it stays in INBOX): %s%s",
+                archive.name,
+                folder,
+                where,
+                one_line(err.strerror or err),
+            )
+            return
         if moved:
-            rec.moved_to = moved
+            # (the same content dropped again and moved: its earlier copy stays listed)
+            rec.moved_to = [*rec.moved_to, *moved]
             self.ledger.record(rec)
             log.info("%s: moved to %s", archive.name, folder)
 
@@ -958,6 +1047,8 @@ def _watch_locked(
         incomplete_timeout=settings.incomplete_timeout,
         yield_on_timeout=True,
         known=runner.recorded,
+        busy=runner.busy,  # (--once: an archive discarded as it changed is done again)
+        pause=runner.pause,
     )
     try:
         with contextlib.closing(batches):
@@ -965,8 +1056,6 @@ def _watch_locked(
                 for archive in batch:
                     runner.offer(archive)
                 runner.pump()
-        while settings.once and runner.busy() and not stop.is_set():
-            runner.pump(wait=TICK_S)
         if runner.running and not abandon.is_set():
             log.info(
                 "stopping: waiting for %d running analysis(es) to finish "

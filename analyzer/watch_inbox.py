@@ -18,10 +18,12 @@ batches. Each batch lists the archives that became *ready* since the previous on
 * **Complete**, where the format says so (:func:`incomplete_reason`): an MCAP file has its
   magic at both ends; a ROS 1 bag has an index (``index_pos`` in the bag header is not 0
   and the file extends past it); a ROS 2 bag directory has its ``metadata.yaml``, the
-  storage files it lists and no sqlite journal; a CSV file only needs to be stable. An
-  archive that is stable but still looks unfinished after ``incomplete_timeout`` seconds
-  (a recorder that died, a truncated copy) is yielded anyway with the reason, so that it
-  ends up with an error record instead of waiting forever.
+  storage files it lists (by name in the folder, as the reader opens them), none with a
+  sqlite journal, and a sqlite file is as long as its header says
+  (:func:`sqlite_unfinished`); a CSV file (``.gz`` too) has a data row under its header
+  line. An archive that is stable but still looks unfinished after ``incomplete_timeout``
+  seconds (a recorder that died, a truncated copy) is yielded anyway with the reason, so
+  that it ends up with an error record instead of waiting forever.
 
 Not archives, and not readable: FIFOs, sockets and devices (or links to them) are
 ignored and never opened (opening a FIFO blocks until a writer comes, deaf to signals),
@@ -50,13 +52,14 @@ import stat
 import struct
 import threading
 import time
+import zlib
 from collections.abc import Callable, Generator, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from analyzer.readers import skipped_folder
-from analyzer.readers._common import special_kind
+from analyzer.readers._common import bag_listed_files, special_kind
 
 log = logging.getLogger("analyzer.watch")
 
@@ -68,6 +71,11 @@ SQLITE_SIDECARS = ("-journal", "-wal", "-shm")
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 ROS1_MAGIC = b"#ROSBAG V2.0\n"
 SQLITE_MAGIC = b"SQLite format 3\x00"
+SQLITE_HEADER = 100
+"""Bytes of a sqlite database's header."""
+CSV_SUFFIXES = (".csv", ".tsv", ".csv.gz", ".tsv.gz")
+CSV_HEAD = 1 << 16
+"""Bytes at the start of a CSV file (inflated, of a ``.gz``) looked at for a data row."""
 INCOMPLETE_TIMEOUT_S = 600.0
 """An archive stable this long but still structurally unfinished is handed on anyway."""
 MAX_SETTLE_S = 120.0
@@ -162,7 +170,8 @@ def ros1_index_pos(header: bytes) -> int | None:
 
 
 def _file_incomplete(path: Path) -> str | None:
-    head, tail, size = _read_ends(path, 4096 + 64)
+    csv = path.name.lower().endswith(CSV_SUFFIXES)
+    head, tail, size = _read_ends(path, CSV_HEAD if csv else 4096 + 64)
     if size == 0:
         return "empty file"
     if head.startswith(MCAP_MAGIC):
@@ -182,19 +191,66 @@ def _file_incomplete(path: Path) -> str | None:
         busy = [s for s in SQLITE_SIDECARS if path.with_name(path.name + s).exists()]
         if busy:
             return f"sqlite file still open for writing ({path.name}{busy[0]} present)"
+        if head.startswith(SQLITE_MAGIC):
+            return sqlite_unfinished(head, size)
+    if csv and not _csv_has_row(head, size, gz=path.name.lower().endswith(".gz")):
+        return "a header line only (no data row yet)"
     return None
 
 
-def _metadata_files(metadata: Path) -> list[str] | None:
-    """The storage files a rosbag2 ``metadata.yaml`` lists, or None if it is unreadable."""
-    from ruamel.yaml import YAML  # the YAML library rosbags itself uses
-
+def _csv_has_row(head: bytes, size: int, gz: bool) -> bool:
+    """Whether a CSV/TSV file of ``size`` bytes starting with ``head`` (inflated, of a
+    ``.gz``) has a data row there: a second non-blank line ended by a newline, under
+    the header (a logger writes its header first and its rows later). A file whose start
+    cannot tell (a header longer than ``head``, a damaged ``.gz``) counts as having one:
+    the analysis says what is wrong with it."""
     try:
-        doc: Any = YAML(typ="safe").load(metadata.read_text(encoding="utf-8"))
-        info = doc["rosbag2_bagfile_information"]
-        return [str(p) for p in info.get("relative_file_paths") or []]
-    except Exception:  # noqa: BLE001 - any parse problem means "not finished (yet)"
+        text = _inflated_start(head) if gz else head
+    except zlib.error:
+        return True
+    return _has_row(text) or size > len(head)
+
+
+def _has_row(text: bytes) -> bool:
+    lines = text.split(b"\n")[:-1]  # (the last piece is not ended by a newline)
+    return sum(1 for line in lines if line.strip()) >= 2
+
+
+def _inflated_start(data: bytes) -> bytes:
+    """The first :data:`CSV_HEAD` bytes inflated from gzip ``data`` (member after
+    member: a logger may append one per flush), or what ``data`` holds of them."""
+    out = b""
+    while data and len(out) < CSV_HEAD:
+        member = zlib.decompressobj(wbits=31)
+        out += member.decompress(data, CSV_HEAD - len(out))
+        if not member.eof:
+            break
+        data = member.unused_data
+    return out
+
+
+def sqlite_unfinished(head: bytes, size: int) -> str | None:
+    """Why a sqlite database of ``size`` bytes whose file starts with ``head`` is
+    unfinished (a copy still under way), or None. A complete, checkpointed database is
+    as long as its header says: the in-header database size in pages (big-endian uint32
+    at offset 28) times the page size (uint16 at offset 16, 1 meaning 65536). That size
+    is valid only when it is not 0 and the change counter (offset 24) equals the
+    version-valid-for number (offset 92); else nothing is said (sqlite.org/fileformat2.html,
+    "In-header database size")."""
+    if size < SQLITE_HEADER:
+        return f"sqlite database unfinished: {size} bytes, less than its header"
+    (page_size,) = struct.unpack_from(">H", head, 16)
+    page_size = 65536 if page_size == 1 else page_size
+    counter, pages = struct.unpack_from(">II", head, 24)
+    (valid_for,) = struct.unpack_from(">I", head, 92)
+    if pages == 0 or counter != valid_for or page_size < 512 or page_size & (page_size - 1):
         return None
+    if size < pages * page_size:
+        return (
+            f"sqlite database unfinished: {size} of the {pages * page_size} bytes its header "
+            "gives (still being copied?)"
+        )
+    return None
 
 
 def _looks_like_bag(directory: Path, files: Sequence[Path]) -> bool:
@@ -215,12 +271,12 @@ def incomplete_reason(path: Path, _seen: set[Path] | None = None) -> str | None:
     files = [f for f in sorted(path.iterdir()) if f.is_file() and not f.name.startswith(".")]
     metadata = path / "metadata.yaml"
     if metadata.is_file():
-        listed = _metadata_files(metadata)
+        listed = bag_listed_files(path)  # (by name, as the reader opens them)
         if listed is None:
             return "metadata.yaml not readable yet"
-        for rel in listed:
-            if not (path / rel).is_file():
-                return f"storage file {rel} listed in metadata.yaml is missing"
+        for name in listed:
+            if not (path / name).is_file():
+                return f"storage file {name} listed in metadata.yaml is missing"
         for f in files:
             if f.name != "metadata.yaml" and (reason := _file_incomplete(f)):
                 return f"{f.name}: {reason}"
@@ -550,15 +606,21 @@ def ready_batches(
     incomplete_timeout: float = INCOMPLETE_TIMEOUT_S,
     yield_on_timeout: bool = False,
     known: Callable[[ReadyArchive], bool] | None = None,
+    busy: Callable[[], bool] | None = None,
+    pause: Callable[[float], object] | None = None,
 ) -> Generator[list[ReadyArchive], None, None]:
     """Batches of archives of ``inbox`` that became ready (see the module doc).
 
     ``poll``: rescan every ``poll`` seconds instead of using file events. ``exclude``:
     entry names of INBOX that are never archives (output folders inside it). ``stop``:
     the generator returns soon after it is set. ``once``: return when every archive
-    present at the start has been yielded (or has gone). ``yield_on_timeout``: yield an
-    empty batch after every idle tick (about 0.1 s) so the consumer can do other work.
-    ``known``: :attr:`InboxTracker.known`.
+    present at the start has been yielded (or has gone) and ``busy()`` says the
+    consumer is through with them, after one more look at INBOX: an archive that
+    changed while the consumer analyzed it (a writer pausing longer than ``settle``)
+    is yielded again once it has settled. ``yield_on_timeout``: yield an empty batch
+    after every idle tick (about 0.1 s) so the consumer can do other work. ``known``:
+    :attr:`InboxTracker.known`. ``pause``: how a tick is waited (default
+    ``stop.wait``; the consumer may return sooner, when its own work ends).
     """
     stop = stop or threading.Event()
     tracker = InboxTracker(
@@ -579,6 +641,7 @@ def ready_batches(
         initial = tracker.keys
         next_scan = time.monotonic() + interval
         next_step = 0.0
+        last_look = False
         while not stop.is_set():
             now = time.monotonic()
             while True:
@@ -595,9 +658,14 @@ def ready_batches(
                 next_step = now + (poll if poll is not None else 0.0)
             if batch or yield_on_timeout:
                 yield batch
-            if once and tracker.done(initial):
-                return
-            stop.wait(tick)
+            if once and tracker.done(initial) and not (busy is not None and busy()):
+                if last_look:
+                    return
+                tracker.rescan()  # (a change its events have not told yet)
+                next_step, last_look = 0.0, True
+                continue
+            last_look = False
+            (pause or stop.wait)(tick)
     finally:
         if observer is not None:
             observer.stop()
@@ -617,5 +685,6 @@ __all__ = [
     "ros1_index_pos",
     "signature",
     "special_kind",
+    "sqlite_unfinished",
     "unreadable_reason",
 ]

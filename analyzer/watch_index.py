@@ -230,20 +230,56 @@ class ReportsLock:
 # --------------------------------------------------------------------------- report dirs
 
 
+NAME_MAX = 255
+"""Bytes a file name may have (Linux, macOS)."""
+
+
+def hidden_name(prefix: str, name: str) -> str:
+    """A new hidden name ``prefix + name + -XXXXXXXX`` (random), ``name`` cut to keep it
+    within :data:`NAME_MAX` bytes: an archive of a 246-byte name, allowed itself, made
+    the scratch folder's name too long, and the watcher died at every start."""
+    tag = f"-{uuid.uuid4().hex[:8]}"
+    room = NAME_MAX - len(os.fsencode(prefix + tag))
+    cut = os.fsdecode(os.fsencode(name)[:room])
+    return f"{prefix}{cut}{tag}"
+
+
 def scratch_dir(reports: Path, name: str) -> Path:
     """A new hidden folder of REPORTS to write an archive's outputs into."""
-    path = reports / f"{TMP_PREFIX}{report_dirname(name)}-{uuid.uuid4().hex[:8]}"
+    path = reports / hidden_name(TMP_PREFIX, report_dirname(name))
     path.mkdir()
     return path
 
 
-def publish(scratch: Path, reports: Path, name: str) -> Path:
+REPORT_FILES = frozenset({"report.html", "findings.json", "error.txt", "corrected.csv"})
+"""What a report folder of the watcher holds (an analysis's outputs, or its error)."""
+
+
+def _report_folder(path: Path) -> bool:
+    """Whether ``path`` is a folder (not a link) holding report files only: one the
+    watcher published, which a new report of its archive may replace."""
+    try:
+        return not path.is_symlink() and all(e.name in REPORT_FILES for e in path.iterdir())
+    except OSError:  # (a file, or a folder that cannot be read: not one of ours)
+        return False
+
+
+def publish(scratch: Path, reports: Path, name: str, previous: str | None = None) -> Path:
     """Rename ``scratch`` to ``REPORTS/<name>``, replacing an older report of the same
-    archive. Readers see the old folder or the new one, never a half-written one."""
-    final = reports / report_dirname(name)
+    archive (``previous``: its record's folder, when it has one). Readers see the old
+    folder or the new one, never a half-written one. A folder there that is no report
+    of the watcher's (a user's folder, or INBOX's archives, which an INBOX inside
+    REPORTS put there: both were deleted) is left alone: the report takes the first
+    free name of ``NAME-report``, ``NAME-report-2``... Returns the report's folder."""
+    base = report_dirname(name)
+    names = [previous] if previous else []
+    names += [base, f"{base}-report", *(f"{base}-report-{k}" for k in range(2, 10_000))]
+    final = next(
+        p for p in (reports / n for n in names) if not os.path.lexists(p) or _report_folder(p)
+    )
     old = None
     if final.exists():
-        old = reports / f"{OLD_PREFIX}{final.name}-{uuid.uuid4().hex[:8]}"
+        old = reports / hidden_name(OLD_PREFIX, final.name)
         os.replace(final, old)
     os.replace(scratch, final)
     if old is not None:
@@ -566,7 +602,8 @@ def index_view(index: dict[str, Any]) -> IndexView:
         rows.append(
             IndexRow(
                 name=r["name"],
-                href="/".join(quote(part) for part in str(r["report"]).split("/")),
+                # (a name that is no UTF-8, held with surrogates: its bytes, as on disk)
+                href="/".join(quote(os.fsencode(part)) for part in str(r["report"]).split("/")),
                 verdict=verdict,
                 css={"fault": "reject", "no fault": "pass"}.get(verdict, "tag type"),
                 sensors=", ".join(r["faulty_sensors"]) or "none",
@@ -630,5 +667,6 @@ __all__ = [
     "index_view",
     "render_index",
     "report_dirname",
+    "hidden_name",
     "scratch_dir",
 ]

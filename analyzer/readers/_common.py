@@ -14,7 +14,7 @@ import os
 import stat
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import Any
 
 import numpy as np
@@ -1080,6 +1080,21 @@ def bag_files(path: Path) -> list[Path]:
     if path.is_dir():
         return sorted(p for p in path.iterdir() if p.is_file() and not p.name.endswith(SIDECARS))
     return [path]
+
+
+def bag_listed_files(path: Path) -> list[str] | None:
+    """The names of the storage files a ROS 2 bag folder's ``metadata.yaml`` lists, or
+    None where it cannot be read. A listed path stands for the file of its name in the
+    bag folder, as rosbags opens it: old rosbag2 versions list
+    ``rosbag2_test/rosbag2_test_0.db3`` in the folder ``rosbag2_test``."""
+    from ruamel.yaml import YAML  # the YAML library rosbags itself uses
+
+    try:
+        doc = YAML(typ="safe").load((path / "metadata.yaml").read_text(encoding="utf-8"))
+        names = doc["rosbag2_bagfile_information"]["relative_file_paths"]
+        return [PurePath(str(name)).name for name in names]
+    except Exception:  # noqa: BLE001 - any malformed metadata: rosbags reports it
+        return None
 
 
 SPECIAL_KINDS = (

@@ -1293,7 +1293,7 @@ class CsvReader:
         self, column_types: dict[str, pa.DataType], skip_row: Any, invalid: list[int]
     ) -> Generator[tuple[pa.RecordBatch, int], None, None]:
         """Arrow's blocks of the file, read (and a ``.gz`` inflated) by Arrow alone."""
-        raw = pa.OSFile(str(self.path))
+        raw = _arrow_file(self.path)
         try:
             stream = pa.CompressedInputStream(raw, "gzip") if self._layout.compressed else raw
             reader = self._open(stream, column_types, skip_row)
@@ -2162,3 +2162,13 @@ def _time_unit(name: str) -> str | None:
     if not bracketed and phrase in _BARE_UNITS:
         return _BARE_UNITS[phrase]
     return None
+
+
+def _arrow_file(path: Path) -> pa.NativeFile:
+    """``path`` opened for Arrow: its own file reader, or, for a name that is no UTF-8
+    (a Latin-1 name from an SMB share, which Python holds with surrogates), Python's
+    (Arrow encodes the name as UTF-8 and refused it: "cannot parse as CSV")."""
+    try:
+        return pa.OSFile(str(path).encode("utf-8").decode("utf-8"))
+    except UnicodeEncodeError:
+        return pa.PythonFile(open(path, "rb"), mode="r")  # noqa: SIM115 - closed by the caller

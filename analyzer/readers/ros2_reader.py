@@ -23,7 +23,7 @@ from __future__ import annotations
 import sqlite3
 from collections.abc import Iterator
 from contextlib import closing
-from pathlib import Path, PurePath
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -36,6 +36,7 @@ from analyzer.readers._common import (  # noqa: F401 - bag_files re-exported
     Reorderer,
     TopicTracker,
     bag_files,
+    bag_listed_files,
     concat_payloads,
     file_digest,
     lfs_pointer,
@@ -71,7 +72,7 @@ class Ros2BagReader:
         self.bulk = bulk
         if self.path.is_file() and self.path.stat().st_size == 0:
             raise ReaderError(f"{self.path}: empty file (0 bytes)")
-        listed = _listed_files(self.path) if self.path.is_dir() else None
+        listed = bag_listed_files(self.path) if self.path.is_dir() else None
         for name in listed or ():
             # rosbags would open it: a FIFO blocks until a writer comes, forever
             if (kind := special_kind(self.path / name)) is not None:
@@ -280,19 +281,6 @@ def _storages(bag: BagReader) -> list[Any] | None:
     if all(hasattr(s, "path") and hasattr(s, "connections") for s in items):
         return items
     return None
-
-
-def _listed_files(path: Path) -> list[str] | None:
-    """The storage file names metadata.yaml lists, or None where it cannot be read
-    (rosbags then says why, when it opens the bag)."""
-    from ruamel.yaml import YAML
-
-    try:
-        doc = YAML(typ="safe").load((path / "metadata.yaml").read_text())
-        names = doc["rosbag2_bagfile_information"]["relative_file_paths"]
-        return [PurePath(str(name)).name for name in names]
-    except Exception:  # noqa: BLE001 - any malformed metadata: rosbags reports it
-        return None
 
 
 def _unlisted(path: Path, listed: list[str] | None) -> list[str]:

@@ -4,6 +4,7 @@ with the writers, a fake clock for the tracker."""
 
 from __future__ import annotations
 
+import gzip
 import json
 import logging
 import re
@@ -134,6 +135,73 @@ def test_ros2_bag_directory_needs_metadata_and_its_storage(tmp_path: Path) -> No
     assert incomplete_reason(bag) == "metadata.yaml not readable yet"
 
 
+def test_a_db3_shorter_than_its_header_says_is_unfinished(tmp_path: Path) -> None:
+    """A bag copied piecewise (metadata.yaml first, the .db3 with pauses longer than
+    --settle) was analyzed half copied ("database disk image is malformed") and, with
+    --failed, moved there whole: the sqlite header gives the size of the database."""
+    src = small_archive(tmp_path / "src_bag", "ros2bag")
+    storage = next(src.glob("*.db3"))
+    data = storage.read_bytes()
+    pages, page_size = struct.unpack_from(">I", data, 28)[0], struct.unpack_from(">H", data, 16)[0]
+    assert pages * page_size == len(data) and len(data) > 3 * 4096
+    bag = tmp_path / "bag"
+    shutil.copytree(src, bag)
+    copied = bag / storage.name
+    assert incomplete_reason(bag) is None
+    copied.write_bytes(data[:4096])  # the copy's first block
+    assert incomplete_reason(bag) == (
+        f"{storage.name}: sqlite database unfinished: 4096 of the {len(data)} bytes its "
+        "header gives (still being copied?)"
+    )
+    assert incomplete_reason(copied) == (
+        f"sqlite database unfinished: 4096 of the {len(data)} bytes its header gives "
+        "(still being copied?)"
+    )
+    copied.write_bytes(data[:50])
+    assert incomplete_reason(copied) == (
+        "sqlite database unfinished: 50 bytes, less than its header"
+    )
+    copied.write_bytes(data + b"\0" * 4096)  # longer: not a copy under way (read as it is)
+    assert incomplete_reason(copied) is None
+    # a header whose database size is not valid (the change counter at 24 differs from
+    # the version-valid-for number at 92: written by an old sqlite) says nothing
+    stale = bytearray(data[:4096])
+    stale[92:96] = (struct.unpack_from(">I", data, 24)[0] + 1).to_bytes(4, "big")
+    copied.write_bytes(bytes(stale))
+    assert incomplete_reason(copied) is None
+
+
+def test_storage_files_listed_with_the_bag_folder_s_name_are_found(tmp_path: Path) -> None:
+    """Old rosbag2 versions list ``bag/bag_0.db3`` in the folder ``bag``; the reader
+    (as rosbags) opens the file of that name in the folder, the watcher looked for
+    ``bag/bag/bag_0.db3`` and waited --wait-unfinished (10 min) for it."""
+    src = small_archive(tmp_path / "src_bag", "ros2bag")
+    storage = next(src.glob("*.db3"))
+    bag = tmp_path / "bag"
+    bag.mkdir()
+    shutil.copy2(storage, bag / "bag_0.db3")
+    meta = (src / "metadata.yaml").read_text().replace(storage.name, "bag/bag_0.db3")
+    assert "- bag/bag_0.db3" in meta
+    (bag / "metadata.yaml").write_text(meta)
+    assert incomplete_reason(bag) is None
+    (bag / "bag_0.db3").unlink()
+    assert incomplete_reason(bag) == "storage file bag_0.db3 listed in metadata.yaml is missing"
+
+
+def test_a_real_bag_of_an_old_rosbag2_is_complete(tmp_path: Path, realdata: Path) -> None:
+    """PlotJuggler's ``rosbag2_test`` lists ``rosbag2_test/rosbag2_test_0.db3``."""
+    from analyzer.readers import open_input
+
+    src = realdata / "ros2" / "plotjuggler" / "rosbag2_test"
+    bag = tmp_path / "rosbag2_test"
+    bag.mkdir()
+    for name in ("metadata.yaml", "rosbag2_test_0.db3"):  # (not the recorder's -wal, -shm)
+        shutil.copyfile(src / name, bag / name)
+    assert "rosbag2_test/rosbag2_test_0.db3" in (bag / "metadata.yaml").read_text()
+    assert incomplete_reason(bag) is None
+    assert open_input(bag).info.errors == []
+
+
 def test_ros2_bag_with_mcap_storage(tmp_path: Path) -> None:
     bag = tmp_path / "mcap_bag"
     t = np.arange(300, dtype=np.int64) * 10_000_000
@@ -161,6 +229,62 @@ def test_directory_of_files_is_one_archive(tmp_path: Path) -> None:
     )
     shutil.copy2(full, folder / "h2.mcap")
     assert incomplete_reason(folder) is None
+
+
+def test_a_csv_with_its_header_line_only_is_unfinished(tmp_path: Path) -> None:
+    """A CSV logger writes its header line, then its rows; taken as complete with the
+    header alone, the file was analyzed ("no data rows") and, with --failed, moved there
+    before its rows came. Unfinished until a data row (ended by a newline) is there, as
+    an empty file is; a .csv.gz alike (gzip members appended one by one included)."""
+    header = "time,a,b\n"
+    for text, reason in (
+        (header, "a header line only (no data row yet)"),
+        ("time,a,b", "a header line only (no data row yet)"),
+        (header + "\n", "a header line only (no data row yet)"),
+        (header + "0.0,1,2", "a header line only (no data row yet)"),  # a row being written
+        (header + "0.0,1,2\n", None),
+        (header + "0.0,1,2\n0.01,1", None),
+        ("t\tx\n", "a header line only (no data row yet)"),
+    ):
+        for name in ("log.csv", "log.tsv", "LOG.CSV"):
+            (tmp_path / name).write_text(text)
+            assert incomplete_reason(tmp_path / name) == reason, (name, text)
+        with gzip.open(tmp_path / "log.csv.gz", "wt") as f:
+            f.write(text)
+        assert incomplete_reason(tmp_path / "log.csv.gz") == reason, text
+    with gzip.open(tmp_path / "log.csv.gz", "wt") as f:
+        f.write(header)
+    with gzip.open(tmp_path / "log.csv.gz", "at") as f:  # a second gzip member
+        f.write("0.0,1,2\n")
+    assert incomplete_reason(tmp_path / "log.csv.gz") is None
+    # a header longer than what is looked at, a damaged .gz: the analysis will say
+    (tmp_path / "wide.csv").write_text(",".join(f"channel_{i}" for i in range(20_000)) + "\n")
+    assert incomplete_reason(tmp_path / "wide.csv") is None
+    (tmp_path / "bad.csv.gz").write_bytes(b"\x1f\x8b\x08\x00" + b"garbage" * 10)
+    assert incomplete_reason(tmp_path / "bad.csv.gz") is None
+    # other formats are not read as text
+    (tmp_path / "notes.txt").write_text(header)
+    assert incomplete_reason(tmp_path / "notes.txt") is None
+
+
+def test_a_header_only_csv_waits_for_its_rows_or_the_timeout(tmp_path: Path) -> None:
+    inbox = tmp_path / "inbox"
+    inbox.mkdir()
+    (inbox / "log.csv").write_text("time,a\n")
+    (inbox / "dead.csv").write_text("time,a\n")
+    tracker = InboxTracker(inbox, settle=1.0, incomplete_timeout=30.0)
+    tracker.rescan()
+    assert tracker.step(0.0) == [] and tracker.step(2.0) == []
+    with (inbox / "log.csv").open("a") as f:
+        f.write("0.0,1\n0.01,2\n")
+    tracker.touch("log.csv")
+    assert tracker.step(2.5) == []
+    (rows,) = tracker.step(3.6)
+    assert rows.name == "log.csv" and rows.incomplete is None
+    assert tracker.step(29.0) == []
+    (dead,) = tracker.step(30.0)  # analyzed anyway after --wait-unfinished
+    assert dead.name == "dead.csv"
+    assert dead.incomplete == "a header line only (no data row yet)"
 
 
 # --------------------------------------------------------------------------- tracker

@@ -334,6 +334,45 @@ def test_an_archive_replaced_in_place_keeps_the_earlier_result(
     assert set(state(reports)) == {"a.csv", "a-2.csv"}
 
 
+def test_an_archive_that_grows_while_it_is_analyzed_is_analyzed_again_not_moved(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    monkeypatch: pytest.MonkeyPatch,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A copy that pauses longer than --settle goes on while its first half is analyzed:
+    that result is discarded, the file is not moved (--done), and it is analyzed again
+    once it has settled, by ``--once`` too (which ended without it: exit 0, the file
+    left in INBOX without a record)."""
+    from analyzer.findings import sha256_of
+
+    inbox, reports = folders
+    done = tmp_path / "done"
+    full = write(tmp_path / "full.csv", "csv", seed=2, fault=True).read_bytes()
+    cut = full.index(b"\n", len(full) // 2) + 1
+    csv = inbox / "a.csv"
+    csv.write_bytes(full[:cut])
+    analyze = watch_module.analyze_screened
+
+    def copy_goes_on(inputs: list[str], options: Any, work: Path) -> Any:
+        if csv.stat().st_size < len(full):  # (the first analysis)
+            with csv.open("ab") as f:
+                f.write(full[cut:])
+        return analyze(inputs, options, work)
+
+    _forked(monkeypatch)
+    monkeypatch.setattr(watch_module, "analyze_screened", copy_goes_on)
+    settings = WatchSettings(inbox, reports, settle=SETTLE, poll=0.1, done=done, once=True)
+    assert start_watcher(settings).join() == 1  # the fault of the whole file
+    assert said(caplog, "a.csv: changed or removed while it was analyzed; result discarded")
+    assert started(caplog) == ["a.csv", "a.csv"]
+    assert not csv.exists() and (done / "a.csv").read_bytes() == full
+    record = state(reports)["a.csv"]
+    assert record["sha256"] == sha256_of(done / "a.csv") and record["verdict"] == "fault"
+    assert record["moved_to"] == [str(done / "a.csv")]
+
+
 def test_an_archive_that_changed_since_it_was_taken_is_not_moved(
     tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:

@@ -331,7 +331,7 @@ def test_a_file_that_changes_after_it_was_taken_as_settled_settles_longer(
 
 def test_the_longer_settle_has_a_cap(inbox: Path) -> None:
     csv = inbox / "slow.csv"
-    csv.write_text("time,a\n")
+    csv.write_text("time,a\n0,1\n")
     tracker = InboxTracker(inbox, settle=100.0)
     tracker.rescan()
     now = 0.0

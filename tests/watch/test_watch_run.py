@@ -315,6 +315,14 @@ def test_done_and_failed_folders_receive_the_archives(
     assert records["good.csv"]["moved_to"] == [str(done / "good-1.csv")]
     assert records["broken.mcap"]["moved_to"] == [str(failed / "broken.mcap")]
     assert records["broken.mcap"]["verdict"] == "error"
+    # the same content dropped again is moved again, and both copies stay listed (audit:
+    # the second move replaced the first's in the record)
+    shutil.copy(done / "good-1.csv", inbox / "good.csv")
+    assert start_watcher(settings).join() == 0
+    assert state(reports)["good.csv"]["moved_to"] == [
+        str(done / "good-1.csv"),
+        str(done / "good-2.csv"),
+    ]
 
 
 def test_once_says_how_far_it_is_and_how_long_is_left(
