@@ -51,8 +51,13 @@ def events_from_residual(
     tau_corr: float = 1.0,
     evidence: dict[str, Any] | None = None,
     scratch: Path | None = None,
+    split: bool = False,
 ) -> list[Event]:
-    """Events on ``channel`` from its residual (measured - estimated). ``scratch``: a
+    """Events on ``channel`` from its residual (measured - estimated). ``split``: a fault
+    that changes inside its stretch (another level, another type) is two events, the
+    second from the change (:func:`diagnose_interval`'s ``changes``; for a residual
+    that follows a sensor's fault at once: the detection filter's, the observers'; not
+    a windowed one, whose ramp at each edge of a fault reads as a change). ``scratch``: a
     directory for the memory-mapped buffer of a long fault's corrected residual
     (:func:`diagnose_interval`). ``healthy_start``: where the healthy window that ends at
     ``search_start`` begins; given, the residual's healthy share of the reference
@@ -102,7 +107,7 @@ def events_from_residual(
                 scratch=scratch,
                 index=index,
                 slope=shape_slope,
-                changes=changes,
+                changes=changes if split else None,
             )
             covered = n if end is None else end
             onset_s, factor, extra = bounded_onset(iv.onset, cls, rate_hz, search_start)
@@ -317,7 +322,7 @@ def diagnose_interval(
         left = r[span] - cal.mean - shape
         if slope is not None and slope.slope and seg_ref is not None:
             left = left - slope.slope * (seg_ref - slope.level)
-        at = _change_point(left, cal)
+        at = _change_point(left, cal, max(cal.long_window, int(CHANGE_MIN_S * rate_hz)))
         if at is None:
             return None
         at += iv.onset
@@ -392,14 +397,20 @@ MAX_CHANGES = 4
 """Changes of one fault found at most (:func:`diagnose_interval`'s ``changes``)."""
 
 
-def _change_point(x: FloatArray, cal: Calibration) -> int | None:
+CHANGE_MIN_S = 10.0
+"""Seconds a fault's part before or after a change must last at least: a detector's
+residual may ring for a few seconds after a fault's onset (the seed's "pulse, then a
+constant offset"), which is no change of the fault (the observers' 2.4-s pulse of a
+0.5-sd offset was reported as its own fault, and led the finding)."""
+
+
+def _change_point(x: FloatArray, cal: Calibration, margin: int) -> int | None:
     """The sample of ``x`` (a stretch of residual less its healthy mean and the fault's
     fitted shape) where its level changes most: the split that
     maximizes the two parts' weighted squared mean difference (the CUSUM change point),
-    at least a long window from either end; None when the stretch is too short, or the
+    at least ``margin`` samples from either end; None when the stretch is too short, or the
     two parts' means differ by less than the long alarm window's threshold (a level
     the detection would not tell from the other: the same offset, read in two pieces)."""
-    margin = cal.long_window
     if x.shape[0] <= 2 * margin:
         return None
     ok = np.isfinite(x)
