@@ -139,7 +139,11 @@ def events_from_residual(
             iv = None
             if len(changes) > found:
                 at = changes[-1]
-                iv = replace(first, onset=at, first_alarm=at, last_alarm=max(at, first.last_alarm))
+                # (a shape refitted past the alarms may change after they ended: the
+                # rest is then searched for its end from the change on)
+                end = first.end if first.end is not None and first.end > at else None
+                last = max(at, first.last_alarm)
+                iv = replace(first, onset=at, end=end, first_alarm=at, last_alarm=last)
     return out
 
 
