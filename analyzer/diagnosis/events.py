@@ -88,14 +88,14 @@ def events_from_residual(
         # the fault, and where it changes, each change the start of a fault of its own
         # (an offset that steps to another level, an offset followed by a gain)
         changes: list[int] = []
+        # (measured before the fault: after a change, before the part is the fault's
+        # own first part)
+        if before_onset and slope is None and reference is not None:
+            shape_slope = slope_before(residual, reference, search_start, first.onset, cal, rate_hz)
+        else:
+            shape_slope = slope
         iv: Interval | None = first
         while iv is not None:
-            if before_onset and slope is None and reference is not None:
-                shape_slope = slope_before(
-                    residual, reference, search_start, iv.onset, cal, rate_hz
-                )
-            else:
-                shape_slope = slope
             found = len(changes)
             cls, end = diagnose_interval(
                 residual,
