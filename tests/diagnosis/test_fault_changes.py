@@ -125,3 +125,25 @@ def test_a_fault_that_changes_is_reported_part_by_part(tmp_path, seed, faults):
         want = size * sd if kind == "additive" else size
         key = "offset" if kind == "additive" else "gain"
         assert f["magnitude"][key] == pytest.approx(want, rel=0.03)
+
+
+def test_the_part_after_a_change_is_sized_with_the_healthy_slope():
+    """Review: without a healthy window of the record (``--model``), each fault's shape
+    leaves out the residual's share of the reference measured before the fault; the part
+    after a change measured it on the fault's own first part (a gain, then an offset of
+    3.0 read 3.357)."""
+    rng = np.random.default_rng(0)
+    n = 40_000
+    reference = lfilter([1.0], [1.0, -0.99], rng.standard_normal(n))
+    r = lfilter([1.0], [1.0, -0.5], rng.standard_normal(n)) * 0.3
+    r[10_000:20_000] += 0.5 * reference[10_000:20_000]
+    r[20_000:] += 3.0
+    cal = calibrate(r[:6000], 25)
+    first, second = events_from_residual(
+        "c", r, reference, cal, RATE, "det", search_start=6000, before_onset=True, split=True
+    )
+    assert first.type is FaultType.MULTIPLICATIVE and first.magnitude["gain"] == pytest.approx(
+        1.5, abs=0.01
+    )
+    assert second.type is FaultType.ADDITIVE and second.onset_s == 200.0
+    assert second.magnitude["offset"] == pytest.approx(3.0, abs=0.05)
