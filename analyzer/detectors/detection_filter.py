@@ -900,6 +900,7 @@ def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
             before_onset=not data.healthy,
             tau_corr=model.tau[i],
             scratch=scratch.workdir,
+            split=True,
         )
     release(zetas[i])  # memory-mapped rows: read again only where an event is
     release(refs[i])

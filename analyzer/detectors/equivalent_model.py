@@ -1138,6 +1138,7 @@ def _observer_task(
             before_onset=train_start is None,
             tau_corr=ob.tau,
             scratch=scratch.workdir,
+            split=True,
         )
     return kept[0], kept[1], found
 

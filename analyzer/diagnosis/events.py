@@ -51,8 +51,13 @@ def events_from_residual(
     tau_corr: float = 1.0,
     evidence: dict[str, Any] | None = None,
     scratch: Path | None = None,
+    split: bool = False,
 ) -> list[Event]:
-    """Events on ``channel`` from its residual (measured - estimated). ``scratch``: a
+    """Events on ``channel`` from its residual (measured - estimated). ``split``: a fault
+    that changes inside its stretch (another level, another type) is two events, the
+    second from the change (:func:`diagnose_interval`'s ``changes``; for a residual
+    that follows a sensor's fault at once: the detection filter's, the observers'; not
+    a windowed one, whose ramp at each edge of a fault reads as a change). ``scratch``: a
     directory for the memory-mapped buffer of a long fault's corrected residual
     (:func:`diagnose_interval`). ``healthy_start``: where the healthy window that ends at
     ``search_start`` begins; given, the residual's healthy share of the reference
@@ -77,49 +82,68 @@ def events_from_residual(
     # the detection's running sums at points along the residual: each end search resumes
     # from them instead of summing the residual from its first sample
     index = SumsIndex()
-    for iv in detect(residual, cal, search_start=search_start, index=index):
-        if iv.onset < covered:
+    for first in detect(residual, cal, search_start=search_start, index=index):
+        if first.onset < covered:
             continue  # inside a fault already extended over this stretch
+        # the fault, and where it changes, each change the start of a fault of its own
+        # (an offset that steps to another level, an offset followed by a gain)
+        changes: list[int] = []
+        # (measured before the fault: after a change, before the part is the fault's
+        # own first part)
         if before_onset and slope is None and reference is not None:
-            shape_slope = slope_before(residual, reference, search_start, iv.onset, cal, rate_hz)
+            shape_slope = slope_before(residual, reference, search_start, first.onset, cal, rate_hz)
         else:
             shape_slope = slope
-        cls, end = diagnose_interval(
-            residual,
-            reference,
-            cal,
-            iv,
-            rate_hz,
-            tau_corr,
-            scratch=scratch,
-            index=index,
-            slope=shape_slope,
-        )
-        covered = n if end is None else end
-        onset_s, factor, extra = bounded_onset(iv.onset, cls, rate_hz, search_start)
-        ev = {
-            "first_alarm_s": iv.first_alarm / rate_hz,
-            "peak_over_threshold": iv.peak,
-            "p_value": iv.p_value,
-            "type_weights": cls.weights,
-            "explained": cls.explained,
-            "noise_scale": cls.noise_scale,
-            **extra,
-        }
-        if evidence:
-            ev.update(evidence)
-        out.append(
-            Event(
-                channel=channel,
-                onset_s=onset_s,
-                end_s=None if end is None else end / rate_hz,
-                type=cls.type,
-                magnitude=cls.magnitude,
-                confidence=float(detection_confidence(iv) * cls.confidence * factor),
-                detector=detector,
-                evidence=ev,
+        iv: Interval | None = first
+        while iv is not None:
+            found = len(changes)
+            cls, end = diagnose_interval(
+                residual,
+                reference,
+                cal,
+                iv,
+                rate_hz,
+                tau_corr,
+                scratch=scratch,
+                index=index,
+                slope=shape_slope,
+                changes=changes if split else None,
             )
-        )
+            covered = n if end is None else end
+            onset_s, factor, extra = bounded_onset(iv.onset, cls, rate_hz, search_start)
+            if iv is not first:  # (its onset is the change's: no earlier)
+                onset_s, extra = iv.onset / rate_hz, {**extra, "changed_at_s": iv.onset / rate_hz}
+            ev = {
+                "first_alarm_s": iv.first_alarm / rate_hz,
+                "peak_over_threshold": iv.peak,
+                "p_value": iv.p_value,
+                "type_weights": cls.weights,
+                "explained": cls.explained,
+                "noise_scale": cls.noise_scale,
+                **extra,
+            }
+            if evidence:
+                ev.update(evidence)
+            out.append(
+                Event(
+                    channel=channel,
+                    onset_s=onset_s,
+                    end_s=None if end is None else end / rate_hz,
+                    type=cls.type,
+                    magnitude=cls.magnitude,
+                    confidence=float(detection_confidence(iv) * cls.confidence * factor),
+                    detector=detector,
+                    evidence=ev,
+                )
+            )
+            iv = None
+            if len(changes) > found:
+                at = changes[-1]
+                # (a shape refitted past the alarms may change after they ended: the
+                # rest is then searched for its end from the change on)
+                end = first.end if first.end is not None and first.end > at else None
+                last = max(at, first.last_alarm)
+                iv = replace(first, onset=at, end=end, first_alarm=at, last_alarm=last)
     return out
 
 
@@ -228,6 +252,7 @@ def diagnose_interval(
     scratch: Path | None = None,
     index: SumsIndex | None = None,
     slope: ReferenceSlope | None = None,
+    changes: list[int] | None = None,
 ) -> tuple[Classification, int | None]:
     """Classify the fault that starts at ``iv`` and find where it really ends.
 
@@ -251,7 +276,14 @@ def diagnose_interval(
     sums of a pass of :func:`~analyzer.diagnosis.changes.detect` over the same residual
     with the same ``cal``, from which both searches start (instead of summing the
     residual from its first sample; the same sums bit for bit). ``slope``: the healthy
-    residual's share of the reference, left out of the shape's fit (:func:`classify`)."""
+    residual's share of the reference, left out of the shape's fit (:func:`classify`).
+
+    ``changes``: where given, a fault that changes inside its stretch (another level, or
+    another type: an offset of 3 sd that drops to 1 sd, an offset followed by a gain) is
+    classified up to the change, which is appended to the list and is the end returned:
+    the caller diagnoses the rest as a fault of its own from there
+    (:func:`_change_point`). Without it, one shape is fitted over the whole stretch (an
+    average level, or a staircase read as a drift)."""
     n = residual.shape[0]
     limit = n if classify_until is None else max(iv.onset + 3, classify_until)
     stop = min(n if iv.end is None else iv.end, limit)
@@ -277,6 +309,33 @@ def diagnose_interval(
         record = _Corrected(r, ref, cls, iv.onset, rate_hz, cal, search, scratch, index)
         return _Intervals(record, n, cal, search)
 
+    def changed(cls: Classification, fitted_to: int) -> tuple[Classification, int] | None:
+        """Where one shape does not hold over the stretch it was fitted on: the fault's
+        change inside it, and the shape before it, where that shape explains its part
+        to at least :data:`LEAD_EXPLAINED` (as a fault's leading part must,
+        :func:`_shaped_lead`)."""
+        if changes is None or len(changes) >= MAX_CHANGES:
+            return None
+        # the level change of what the shape leaves: a gain's residual follows the
+        # reference's own slow swings, which its shape takes in
+        span = slice(iv.onset, fitted_to)
+        seg_ref = None if ref is None else ref[span]
+        shape = cls.fault_signal(np.arange(fitted_to - iv.onset) / rate_hz, seg_ref)
+        if shape is None:
+            return None
+        left = r[span] - cal.mean - shape
+        if slope is not None and slope.slope and seg_ref is not None:
+            left = left - slope.slope * (seg_ref - slope.level)
+        at = _change_point(left, cal, max(cal.long_window, int(CHANGE_MIN_S * rate_hz)))
+        if at is None:
+            return None
+        at += iv.onset
+        before = fit(at)
+        if before.type is FaultType.OTHER or before.explained < LEAD_EXPLAINED:
+            return None  # (no shape that stands for the part before it either)
+        changes.append(at)
+        return before, at
+
     cls = fit(stop)
     if cls.type is FaultType.OTHER and (lead := _shaped_lead(fit, iv.onset, stop, cal)):
         # the fault's beginning has a shape that a later change blurs: that shape, and
@@ -291,9 +350,11 @@ def diagnose_interval(
     # can begin before iv.end
     if iv.end is not None and corrected_alarms.onset(0, iv.end) is not None:
         # the shape does not hold even while the raw residual alarms (random data read as
-        # "dead sensor plus noise", say): it cannot be trusted past the alarms either
-        return cls, iv.end
+        # "dead sensor plus noise", say): it cannot be trusted past the alarms either;
+        # unless the fault changed in between (an offset, then a gain)
+        return changed(cls, stop) or (cls, iv.end)
     fitted_to, refits = stop, 0
+    tried = False  # (a change is looked for once per shape, where it fails inside its stretch)
     i = 0
     while (onset := corrected_alarms.onset(i, n)) is not None:
         lo, hi = onset + cal.window, onset + cal.long_window
@@ -320,13 +381,67 @@ def diagnose_interval(
             else:
                 cls = refit
                 corrected_alarms = corrected(cls)
+                tried = False
                 i = 0
                 continue
+        if not tried and onset < fitted_to - cal.long_window:
+            # the shape, fitted on everything up to fitted_to, fails inside it while the
+            # fault goes on: one shape cannot hold a fault that changed
+            tried = True
+            if (split := changed(cls, fitted_to)) is not None:
+                return split
         i += 1
     if end != iv.end:
         # refit the shape over the whole fault period
         cls = fit(min(n if end is None else end, limit))
     return cls, end
+
+
+MAX_CHANGES = 4
+"""Changes of one fault found at most (:func:`diagnose_interval`'s ``changes``)."""
+
+
+CHANGE_MIN_S = 30.0
+"""Seconds a fault's part before or after a change must last at least: a detector's
+residual may ring after a fault's onset (the seed's "pulse, then a constant offset"),
+which is no change of the fault: the observers' 2.4-s pulse of a 0.5-sd offset was
+reported as its own fault, and led the finding; under a burst of 3 to 10 times the
+excitation the detection filter's rang for 5 to 9 s, and an offset from 365 s was a
+drift to 373.8 s and an offset from there (12 fewer right of 325 in ``sweep_eov.py
+--fault`` with 10 s)."""
+
+
+def _change_point(x: FloatArray, cal: Calibration, margin: int) -> int | None:
+    """The sample of ``x`` (a stretch of residual less its healthy mean and the fault's
+    fitted shape) where its level changes most: the split that
+    maximizes the two parts' weighted squared mean difference (the CUSUM change point),
+    at least ``margin`` samples from either end; None when the stretch is too short, when
+    that split is within a long window of the range's edges (a trend, no step), or the
+    two parts' means differ by less than the long alarm window's threshold (a level
+    the detection would not tell from the other: the same offset, read in two pieces)."""
+    if x.shape[0] <= 2 * margin:
+        return None
+    ok = np.isfinite(x)
+    sums = np.cumsum(np.where(ok, x, 0.0))
+    counts = np.cumsum(ok).astype(np.float64)
+    total, k = sums[-1], counts[-1]
+    a, b = sums[margin - 1 : -margin], counts[margin - 1 : -margin]
+    valid = (b > 0) & (b < k)
+    if not valid.any():
+        return None
+    b_safe = np.where(valid, b, 1.0)
+    rest = np.where(valid, k - b, 1.0)
+    gap = a / b_safe - (total - a) / rest
+    score = np.where(valid, b_safe * rest / k * gap * gap, -1.0)
+    best = int(np.argmax(score))
+    if min(best, score.shape[0] - 1 - best) < cal.long_window:
+        # the largest change at the edge of where one may be: a level that drifts on
+        # through the stretch (a residual ringing down after a burst of load), no step
+        return None
+    # a change the long alarm window sees: its mean moves by the window's threshold
+    if abs(gap[best]) < cal.z_crit * cal.mean_sd[-1] * cal.std:
+        return None
+    return margin + best
 
 
 def _shaped_lead(

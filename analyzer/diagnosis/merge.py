@@ -63,8 +63,14 @@ def merge_events(events: Iterable[Event], slack_s: float = 1.0) -> list[Finding]
                     break
             else:
                 groups.append([ev])
+        changes = {
+            (e.detector, e.evidence["changed_at_s"]) for e in evs if "changed_at_s" in e.evidence
+        }
         for g in groups:
-            lead = _lead(g, slack_s)
+            # the events of detectors that saw this fault change into the next (their
+            # event ends where their next begins) lead: one that did not averaged the two
+            split = [e for e in g if e.end_s is not None and (e.detector, e.end_s) in changes]
+            lead = _lead(split or g, slack_s)
             detectors = sorted({e.detector for e in g})
             # independent detectors agreeing raise the confidence: 1 - prod(1 - c_i)
             miss = 1.0
@@ -99,7 +105,8 @@ def _told_apart(e: Event, group: list[Event], slack_s: float) -> bool:
     """Whether ``e``'s detector has an earlier event in ``group`` that ended before ``e``
     began, with no event of another detector in ``group`` spanning the two (from before
     the first's end to ``slack_s`` past ``e``'s onset): one fault that a detector saw in
-    stretches, while another saw it whole, stays one finding."""
+    stretches, while another saw it whole, stays one finding; not so where ``e`` begins
+    at a change of the fault its detector found (evidence ``changed_at_s``)."""
 
     def spans(x: Event, o: Event) -> bool:
         return (
@@ -108,6 +115,8 @@ def _told_apart(e: Event, group: list[Event], slack_s: float) -> bool:
             and (x.end_s is None or x.end_s >= e.onset_s + slack_s)
         )
 
+    if e.evidence.get("changed_at_s") is not None:  # its detector saw the fault change
+        return any(_after(e, o, slack_s) for o in group)
     return any(_after(e, o, slack_s) and not any(spans(x, o) for x in group) for o in group)
 
 
