@@ -58,7 +58,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from analyzer.readers import skipped_folder
+from analyzer.readers import SUFFIXES, Format, skipped_folder
 from analyzer.readers._common import bag_listed_files, special_kind
 
 log = logging.getLogger("analyzer.watch")
@@ -73,7 +73,7 @@ ROS1_MAGIC = b"#ROSBAG V2.0\n"
 SQLITE_MAGIC = b"SQLite format 3\x00"
 SQLITE_HEADER = 100
 """Bytes of a sqlite database's header."""
-CSV_SUFFIXES = (".csv", ".tsv", ".csv.gz", ".tsv.gz")
+CSV_SUFFIXES = tuple(s for s, f in SUFFIXES.items() if f is Format.CSV)
 CSV_HEAD = 1 << 16
 """Bytes at the start of a CSV file (inflated, of a ``.gz``) looked at for a data row."""
 INCOMPLETE_TIMEOUT_S = 600.0

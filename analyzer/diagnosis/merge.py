@@ -111,7 +111,8 @@ def _told_apart(e: Event, group: list[Event], slack_s: float) -> bool:
     def spans(x: Event, o: Event) -> bool:
         return (
             x.detector != e.detector
-            and x.onset_s <= (o.end_s or 0.0)
+            and o.end_s is not None
+            and x.onset_s <= o.end_s
             and (x.end_s is None or x.end_s >= e.onset_s + slack_s)
         )
 
@@ -338,13 +339,14 @@ def one_fault_at_a_time(
         if explained:
             note += f" ({_explained_text(explained)})"
         drops[id(f)] = ([cause], note)
-    return _resolve_drops(findings, drops, support)
+    return _resolve_drops(findings, drops, support, slack_s)
 
 
 def _resolve_drops(
     findings: list[Finding],
     drops: dict[int, tuple[list[Finding], str]],
     support: dict[int, set[str]],
+    slack_s: float = 1.0,
 ) -> tuple[list[Finding], list[str]]:
     """The findings :func:`one_fault_at_a_time` keeps and its notes: a finding is left out
     only for a finding that stays, directly or through findings left out for it. Where
@@ -393,7 +395,7 @@ def _resolve_drops(
     for k in sorted(dropped, key=lambda k: by_id[k].onset_s):
         f = by_id[k]
         roots = _roots(k, drops, dropped)
-        if roots and all(_over_before(r, f) for r in (by_id[j] for j in roots)):
+        if roots and all(_over_before(r, f, slack_s) for r in (by_id[j] for j in roots)):
             dropped.discard(k)  # the sensor's own fault again, not the other's doing
     notes = [drops[id(f)][1] for f in findings if id(f) in dropped]
     for f in restored:
@@ -423,12 +425,12 @@ def _roots(k: int, drops: dict[int, tuple[list[Finding], str]], dropped: set[int
     return roots
 
 
-def _over_before(r: Finding, f: Finding) -> bool:
+def _over_before(r: Finding, f: Finding, slack_s: float) -> bool:
     """``r`` is an earlier fault of ``f``'s own sensor, over before ``f`` began: ``f``,
     taken through other sensors' findings for ``r``, is the sensor's fault again (a drift
     on s0 from 100 to 160 s and a new one from 160 s: the second was taken for an offset
     the bank put on s1 during the first, which was taken for the first)."""
-    return r.channel == f.channel and r.end_s is not None and r.end_s <= f.onset_s + 1.0
+    return r.channel == f.channel and r.end_s is not None and r.end_s <= f.onset_s + slack_s
 
 
 def _taken_for(

@@ -2168,7 +2168,7 @@ def _arrow_file(path: Path) -> pa.NativeFile:
     """``path`` opened for Arrow: its own file reader, or, for a name that is no UTF-8
     (a Latin-1 name from an SMB share, which Python holds with surrogates), Python's
     (Arrow encodes the name as UTF-8 and refused it: "cannot parse as CSV")."""
-    try:
-        return pa.OSFile(str(path).encode("utf-8").decode("utf-8"))
-    except UnicodeEncodeError:
+    name = str(path)
+    if any("\udc80" <= c <= "\udcff" for c in name):  # (bytes that are no UTF-8)
         return pa.PythonFile(open(path, "rb"), mode="r")  # noqa: SIM115 - closed by the caller
+    return pa.OSFile(name)
