@@ -8,13 +8,11 @@ the rest as a fault of its own from there (``diagnose_interval``'s ``changes``).
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
+from run_helpers import run_csv
 from scipy.signal import lfilter
 
-from analyzer.cli import main
 from analyzer.detectors.base import Event
 from analyzer.diagnosis import merge_events
 from analyzer.diagnosis.changes import calibrate
@@ -112,12 +110,7 @@ def test_a_fault_that_changes_is_reported_part_by_part(tmp_path, seed, faults):
         y[:, 3] = inject_fault(
             y[:, 3], RATE, kind, onset, size * sd if kind == "additive" else size, end
         )
-    path = tmp_path / "b.csv"
-    header = "time," + ",".join(names)
-    np.savetxt(path, np.column_stack([t, y]), delimiter=",", header=header, comments="", fmt="%.9g")
-    out = tmp_path / "o"
-    assert main(["run", str(path), "--out", str(out), "--no-progress"]) == 1
-    got = json.loads((out / "findings.json").read_text())["faults"]
+    got = run_csv(tmp_path, t, y, names)
     assert [(f["channel"], f["type"]) for f in got] == [("s3", k) for k, *_ in faults]
     for f, (kind, onset, end, size) in zip(got, faults, strict=True):
         assert abs(f["onset_s"] - onset) < 0.5

@@ -6,12 +6,9 @@ through a floor partner's finding for the first drift, which was over."""
 
 from __future__ import annotations
 
-import json
-
-import numpy as np
 import pytest
+from run_helpers import run_csv
 
-from analyzer.cli import main
 from analyzer.detectors.base import Event
 from analyzer.diagnosis import merge_events
 from analyzer.simulate import inject_fault, simulate_building
@@ -55,15 +52,10 @@ def test_a_new_drift_where_one_ended_is_found_on_its_own(tmp_path, seed):
     rate = 0.05 * y[:, 0].std()
     y[:, 0] = inject_fault(y[:, 0], 100.0, "drift", 100.0, rate, 160.0)
     y[:, 0] = inject_fault(y[:, 0], 100.0, "drift", 160.0, rate, 220.0)
-    path = tmp_path / "saw.csv"
-    header = "time," + ",".join(names)
-    np.savetxt(path, np.column_stack([t, y]), delimiter=",", header=header, comments="", fmt="%.9g")
-    out = tmp_path / "o"
-    assert main(["run", str(path), "--out", str(out), "--no-progress"]) == 1
-    faults = json.loads((out / "findings.json").read_text())["faults"]
+    faults = run_csv(tmp_path, t, y, names)
     # (seed 1 also gives a drift on s1 from 100 to 160 s, the first drift seen through
     # the detection filter's estimate of s1, with an unconfirmed bank offset there: a
-    # known limit, README "What is left")
+    # known limit, benchmarks/README.md, sweep_changes.py)
     faults = [f for f in faults if f["channel"] == "s0"]
     spans = [(f["channel"], f["type"], f["onset_s"], f["end_s"]) for f in faults]
     assert len(spans) == 2, spans
