@@ -509,10 +509,7 @@ def _move_all(paths: Sequence[Path], folder: Path) -> list[Path]:
     for k, path in enumerate(paths):
         folder_source = path.is_dir() and not path.is_symlink()
         try:
-            if folder_source:
-                shutil.rmtree(path)
-            else:
-                path.unlink()
+            _remove(path, strict=True)
         except OSError:
             # (INBOX turned read-only since the check): a file still whole there keeps
             # its place and loses its copy; a folder partly removed keeps its copy
@@ -531,10 +528,13 @@ def _rename(path: Path, folder: Path) -> Path:
     return target
 
 
-def _remove(path: Path) -> None:
-    """Remove ``path`` (a folder with what it holds; a link, not its target)."""
+def _remove(path: Path, strict: bool = False) -> None:
+    """Remove ``path`` (a folder with what it holds; a link, not its target); ``strict``:
+    raise what goes wrong, else only try."""
     if path.is_dir() and not path.is_symlink():
-        shutil.rmtree(path, ignore_errors=True)
+        shutil.rmtree(path, ignore_errors=not strict)
+    elif strict:
+        path.unlink()
     else:
         with contextlib.suppress(FileNotFoundError):
             path.unlink()

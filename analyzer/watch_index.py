@@ -239,10 +239,13 @@ def hidden_name(prefix: str, name: str) -> str:
     """A new hidden name ``prefix + name + -XXXXXXXX`` (random), ``name`` cut to keep it
     within :data:`NAME_MAX` bytes: an archive of a 246-byte name, allowed itself, made
     the scratch folder's name too long, and the watcher died at every start."""
-    tag = f"-{uuid.uuid4().hex[:8]}"
+    return _within(prefix, name, f"-{uuid.uuid4().hex[:8]}")
+
+
+def _within(prefix: str, name: str, tag: str) -> str:
+    """``prefix + name + tag``, ``name`` cut to keep it within :data:`NAME_MAX` bytes."""
     room = NAME_MAX - len(os.fsencode(prefix + tag))
-    cut = os.fsdecode(os.fsencode(name)[:room])
-    return f"{prefix}{cut}{tag}"
+    return prefix + os.fsdecode(os.fsencode(name)[:room]) + tag
 
 
 def scratch_dir(reports: Path, name: str) -> Path:
@@ -272,8 +275,7 @@ def _fitting(name: str) -> str:
     raw = os.fsencode(name)
     if len(raw) <= NAME_MAX:
         return name
-    tag = "-" + hashlib.sha256(raw).hexdigest()[:12]
-    return os.fsdecode(raw[: NAME_MAX - len(tag)]) + tag
+    return _within("", name, "-" + hashlib.sha256(raw).hexdigest()[:12])
 
 
 def publish(scratch: Path, reports: Path, name: str, previous: str | None = None) -> Path:
