@@ -32,7 +32,7 @@ from analyzer.detector_runs import (
 from analyzer.detectors import Dataset, DetectorResult, RunContext
 from analyzer.detectors.ar_kalman import ORDER_NOTE
 from analyzer.detectors.ar_model import flat_channels
-from analyzer.diagnosis import Finding, merge_events, one_fault_at_a_time
+from analyzer.diagnosis import Finding, ends_of_later_faults, merge_events, one_fault_at_a_time
 from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.clipping import merge_clipped
 from analyzer.diagnosis.common_mode import common_changes
@@ -705,6 +705,8 @@ def _analyze(
                 findings = sorted([*findings, *new], key=lambda f: (f.onset_s, f.channel))
             notes.append(after_note(searched, more))
             timings["search after"] = time.perf_counter() - t_after
+        # (over every search's findings: a later fault may be one a search again found)
+        notes.extend(ends_of_later_faults(findings, coupled(results)))
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
         notes.extend(_unattributed_notes(results, findings, aligned.rate_hz))
         notes.extend(_after_gap_notes(findings, values, chosen, aligned.rate_hz))

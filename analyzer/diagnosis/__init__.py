@@ -11,7 +11,12 @@ from analyzer.diagnosis.changes import (
     detection_confidence,
 )
 from analyzer.diagnosis.classify import Classification, classify, correlation_time
-from analyzer.diagnosis.merge import Finding, merge_events, one_fault_at_a_time
+from analyzer.diagnosis.merge import (
+    Finding,
+    ends_of_later_faults,
+    merge_events,
+    one_fault_at_a_time,
+)
 
 __all__ = [
     "Calibration",
@@ -26,6 +31,7 @@ __all__ = [
     "default_window",
     "detect",
     "detection_confidence",
+    "ends_of_later_faults",
     "merge_events",
     "one_fault_at_a_time",
 ]

@@ -1,0 +1,128 @@
+"""Two faulty sensors whose faults overlap in time: whether each is reported, on its
+sensor, with its type, onset and end (the end of the first not taken for the second's).
+
+For each seed it simulates the 6-floor building of ``sweep_isolation.py`` (one sensor a
+floor, ``--seconds`` at 100 Hz, the default training window: the first 20 %), puts each
+case's faults on the seed's sensor and on another (sizes in standard deviations of each
+sensor), writes it as CSV and runs ``pipeline.analyze`` with the defaults. The cases
+(the first sensor, then the one 3 floors up, or the next floor's for ``neighbour``):
+
+* ``overlap``: an offset of 2 sd from 100 to 200 s, and one from 150 to 250 s;
+* ``abut``: 2 sd from 100 to 200 s, and from 200 to 260 s;
+* ``nested``: 2 sd from 100 to 250 s, and from 150 to 200 s;
+* ``gain-offset``: a gain of 1.5 from 100 to 200 s, an offset of 2 sd from 150 to 250 s;
+* ``drift-offset``: a drift of 0.02 sd/s from 100 to 200 s, the offset from 150 to 250 s;
+* ``neighbour``: ``overlap`` on the next floor's sensor.
+
+A fault is **right** when a finding on its sensor has its type, its onset within 2 s
+and its end within 2 s, and **found** when a finding on its sensor begins within 2 s of
+it; findings that match no fault are **extras**. A script, not a timed test (10 seeds:
+about 6 minutes)::
+
+    python benchmarks/sweep_two_faults.py [--seeds 1:11] [--cases overlap,abut]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from analyzer.pipeline import RunOptions, analyze  # noqa: E402
+from analyzer.simulate import inject_fault, simulate_building  # noqa: E402
+from analyzer.writers import write_archive  # noqa: E402
+
+RATE_HZ = 100.0
+FLOORS = 6
+SECONDS = 300.0
+SLACK_S = 2.0
+
+# (floors up from the seed's sensor, kind, onset s, end s, size: sd, sd per s, or gain)
+CASES: dict[str, list[tuple[int, str, float, float, float]]] = {
+    "overlap": [(0, "additive", 100.0, 200.0, 2.0), (3, "additive", 150.0, 250.0, 2.0)],
+    "abut": [(0, "additive", 100.0, 200.0, 2.0), (3, "additive", 200.0, 260.0, 2.0)],
+    "nested": [(0, "additive", 100.0, 250.0, 2.0), (3, "additive", 150.0, 200.0, 2.0)],
+    "gain-offset": [
+        (0, "multiplicative", 100.0, 200.0, 1.5),
+        (3, "additive", 150.0, 250.0, 2.0),
+    ],
+    "drift-offset": [(0, "drift", 100.0, 200.0, 0.02), (3, "additive", 150.0, 250.0, 2.0)],
+    "neighbour": [(0, "additive", 100.0, 200.0, 2.0), (1, "additive", 150.0, 250.0, 2.0)],
+}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seeds", default="1:11", help="first:stop (default 1:11)")
+    ap.add_argument("--cases", default=",".join(CASES), help="cases to run (default all)")
+    args = ap.parse_args(argv)
+    first, stop = (int(x) for x in args.seeds.split(":"))
+    cases = args.cases.split(",")
+    totals = {c: [0, 0, 0, 0] for c in cases}  # faults, right, found, extras
+    with tempfile.TemporaryDirectory() as tmp:
+        for seed in range(first, stop):
+            t, y0, names = simulate_building(FLOORS, SECONDS, RATE_HZ, seed=seed)
+            t_ns = np.round(t * 1e9).astype(np.int64)
+            for case in cases:
+                faults = [
+                    ((seed + up) % FLOORS, kind, onset, end, size)
+                    for up, kind, onset, end, size in CASES[case]
+                ]
+                y = y0.copy()
+                for j, kind, onset, end, size in faults:
+                    scaled = size if kind == "multiplicative" else size * float(y0[:, j].std())
+                    y[:, j] = inject_fault(y[:, j], RATE_HZ, kind, onset, scaled, end)
+                path = Path(tmp) / f"{case}-{seed}.csv"
+                write_archive(path, "csv", t_ns, {n: y[:, i] for i, n in enumerate(names)})
+                began = time.perf_counter()
+                work = Path(tmp) / f"work-{case}-{seed}"
+                work.mkdir()
+                findings = analyze([str(path)], RunOptions(), work).findings
+                path.unlink()
+                used: set[int] = set()
+                right = found = 0
+                for j, kind, onset, end, _ in faults:
+                    for k, f in enumerate(findings):
+                        if k in used or f.channel != names[j] or abs(f.onset_s - onset) > SLACK_S:
+                            continue
+                        used.add(k)
+                        found += 1
+                        ends = f.end_s is not None and abs(f.end_s - end) <= SLACK_S
+                        right += int(f.type.value == kind and ends)
+                        break
+                extras = len(findings) - len(used)
+                row = totals[case]
+                row[0] += len(faults)
+                row[1] += right
+                row[2] += found
+                row[3] += extras
+                shown = ", ".join(
+                    f"{f.channel} {f.type.value} {f.onset_s:.1f}-"
+                    f"{'end' if f.end_s is None else f'{f.end_s:.1f}'}"
+                    for f in findings
+                )
+                print(
+                    f"  {case:12s} seed {seed:2d} {names[faults[0][0]]}+{names[faults[1][0]]}: "
+                    f"right {right}/{len(faults)}, extras {extras}  "
+                    f"{time.perf_counter() - began:4.1f} s  [{shown}]",
+                    flush=True,
+                )
+    print("\ncase          faults  right  found  extras")
+    for case, (n, right, found, extras) in totals.items():
+        print(f"{case:12s} {n:7d} {right:6d} {found:6d} {extras:7d}")
+    all_ = [sum(v[i] for v in totals.values()) for i in range(4)]
+    print(f"{'all':12s} {all_[0]:7d} {all_[1]:6d} {all_[2]:6d} {all_[3]:7d}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

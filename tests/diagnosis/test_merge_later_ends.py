@@ -1,0 +1,116 @@
+"""A fault whose end some detectors saw only where a later fault of a sensor modelled
+with it ended (:func:`analyzer.diagnosis.merge.ends_of_later_faults`), and a later fault
+one detector isolated while it kept that detector's estimate of the first alarmed
+(:func:`analyzer.diagnosis.merge.one_fault_at_a_time`). The event times are those of a
+6-channel simulated building (``benchmarks/sweep_two_faults.py``)."""
+
+from __future__ import annotations
+
+from analyzer.detectors.base import Event
+from analyzer.diagnosis import ends_of_later_faults, merge_events, one_fault_at_a_time
+from analyzer.types import FaultType
+
+A, M = FaultType.ADDITIVE, FaultType.MULTIPLICATIVE
+BANK, DF, EM = "ar_kalman_bank", "detection_filter", "equivalent_model"
+
+
+def _ev(channel, detector, onset, end, size, kind=A, **evidence):
+    mag = {"offset": size} if kind is A else {"gain": size}
+    return Event(channel, onset, end, kind, mag, 1.0, detector, {"first_alarm_s": onset, **evidence})
+
+
+def _coupled(detector, a, b):
+    return True
+
+
+def _second(onset=150.0, end=250.0, size=3.88):
+    return [_ev("s4", d, onset, end, size) for d in (BANK, DF, EM)]
+
+
+def test_an_end_only_a_later_fault_explains_gives_way_to_the_detectors_that_saw_it():
+    """An offset on s1 from 100 to 200 s and one on s4 from 150 to 250 s: the bank and
+    the observers saw s1's to s4's end (the bank's offset averaged over both, 1.84 for
+    3.22), the detection filter to 200.0 s. The finding takes the filter's end and
+    size, with a note; every detector stays in its evidence."""
+    first = [
+        _ev("s1", BANK, 100.0, 250.09, 1.84),
+        _ev("s1", DF, 100.0, 200.0, 2.82),
+        _ev("s1", EM, 100.01, 250.12, 3.2),
+    ]
+    findings = merge_events([*first, *_second()])
+    s1 = next(f for f in findings if f.channel == "s1")
+    assert s1.end_s == 250.09  # before: the bank's end
+    (note,) = ends_of_later_faults(findings, _coupled)
+    assert (s1.onset_s, s1.end_s, s1.magnitude, s1.detector) == (100.0, 200.0, {"offset": 2.82}, DF)
+    assert s1.evidence["detectors"] == [BANK, DF, EM]
+    assert note.startswith("additive fault on s1: ended at 200.000 s as detection_filter saw it")
+    assert "ar_kalman_bank, equivalent_model saw it to 250.090 s" in note
+    assert "the additive fault on s4 (from 150.000 s) ended" in note
+    s4 = next(f for f in findings if f.channel == "s4")
+    assert (s4.onset_s, s4.end_s) == (150.0, 250.0)
+
+
+def test_the_end_stays_where_nothing_explains_it():
+    first = [_ev("s1", BANK, 100.0, 250.09, 1.84), _ev("s1", DF, 100.0, 200.0, 2.82)]
+    cases = [
+        ([*first, *_second(end=240.0)], _coupled),  # the later fault ended elsewhere
+        ([*first, *_second(onset=100.5)], _coupled),  # it began with this one
+        ([*first, *_second()], lambda d, a, b: False),  # not modelled together
+        # the filter saw s1 faulty again before the bank's end: the fault went on
+        ([*first, _ev("s1", DF, 200.0, 250.0, 0.2, changed_at_s=200.0), *_second()], _coupled),
+        # another detector saw it go on past the later fault's end
+        ([*first, _ev("s1", EM, 100.0, 280.0, 3.2), *_second()], _coupled),
+    ]
+    for events, coupled in cases:
+        findings = merge_events(events)
+        ends = [(f.channel, f.end_s) for f in findings]
+        assert ends_of_later_faults(findings, coupled) == []
+        assert [(f.channel, f.end_s) for f in findings] == ends
+
+
+def test_an_end_where_the_later_fault_began_needs_two_detectors():
+    """A gain on s3 from 100 to 200 s and an offset on s0 from 150 s: the detection
+    filter, which isolates one fault at a time, lost the gain at 150.1 s, the observers
+    saw it to 200.8 s, the bank to s0's end: the observers' end. With only the filter's
+    end at s0's onset the finding keeps its end; with two detectors there (an offset on
+    s1 to 200 s, one on s4 from 200 s) theirs counts."""
+    second = [_ev("s0", BANK, 150.0, 250.0, 2.63), _ev("s0", EM, 150.01, 250.0, 2.63)]
+    gain = [
+        _ev("s3", BANK, 100.03, 250.14, 1.49, M),
+        _ev("s3", DF, 100.03, 150.12, 1.49, M),
+        _ev("s3", EM, 100.04, 200.77, 1.486, M),
+    ]
+    findings = merge_events([*gain, *second])
+    assert len(ends_of_later_faults(findings, _coupled)) == 1
+    assert next(f for f in findings if f.channel == "s3").end_s == 200.77
+    lost = [gain[0], gain[1]]  # the filter alone ended it at s0's onset
+    findings = merge_events([*lost, *second])
+    assert ends_of_later_faults(findings, _coupled) == []
+    assert next(f for f in findings if f.channel == "s3").end_s == 250.14
+    abut = [
+        _ev("s1", BANK, 100.0, 260.08, 3.22),
+        _ev("s1", DF, 100.0, 200.0, 3.22),
+        _ev("s1", EM, 100.01, 200.06, 3.21),
+    ]
+    findings = merge_events([*abut, *_second(onset=200.0, end=260.0)])
+    assert len(ends_of_later_faults(findings, _coupled)) == 1
+    assert next(f for f in findings if f.channel == "s1").end_s == 200.0
+
+
+def test_a_later_fault_one_detector_isolated_is_not_taken_for_the_first():
+    """A gain on s2 from 100 to 200 s that all three detectors named (the observers to
+    199.97 s, the bank to 250.11 s) and an offset on s5 from 150 to 250 s that only the
+    bank reported, isolated: it began while the others still saw the gain under way, so
+    it is a fault of its own, not the gain's end seen on s5. Not isolated, it is taken
+    for the gain, as before."""
+    gain = [
+        _ev("s2", EM, 99.69, 199.97, 1.504, M),
+        _ev("s2", BANK, 100.0, 250.11, 1.504, M, isolated=True),
+        _ev("s2", DF, 100.0, 149.77, 1.502, M),
+    ]
+    s5 = _ev("s5", BANK, 150.0, 250.0, 4.31, isolated=True)
+    kept, notes = one_fault_at_a_time(merge_events([*gain, s5]), _coupled)
+    assert sorted(f.channel for f in kept) == ["s2", "s5"] and notes == []
+    unisolated = _ev("s5", BANK, 150.0, 250.0, 4.31, isolated=False)
+    kept, notes = one_fault_at_a_time(merge_events([*gain, unisolated]), _coupled)
+    assert [f.channel for f in kept] == ["s2"] and len(notes) == 1
