@@ -358,8 +358,8 @@ def ends_of_later_faults(
     150 to 250 s of a 6-channel building: the bank and the observers saw s1's to 250.1 s,
     the detection filter, which tells the two sensors' directions apart, to 200.0 s; the
     finding, led by the bank, ended at 250.1 s with an offset of 1.84 (3.22 injected).
-    An event's end is so explained when it is within ``slack_s`` of the end of a finding
-    on another sensor that began more than ``slack_s`` after this one and before that end,
+    An event's end is so explained when it is within ``slack_s`` of the reported end of a
+    finding on another sensor that began more than ``slack_s`` after this one and before that end,
     and that sensor is ``coupled`` to this one for the event's detector. Its end then
     counts only if no other detector of the finding saw the fault end earlier, no earlier
     than the other fault began (less ``slack_s``), and not again on this sensor before the
@@ -424,11 +424,13 @@ def ends_of_later_faults(
 
 
 def _same_end(end: float | None, g: Finding, slack_s: float) -> bool:
-    """Whether ``end`` is that of ``g`` (its own, or one of its events'), to ``slack_s``."""
-    ends = {g.end_s, *(e.end_s for e in g.events)}
-    if end is None:
-        return None in ends
-    return any(x is not None and abs(x - end) <= slack_s for x in ends)
+    """Whether ``end`` is ``g``'s reported end, to ``slack_s``: not one of its events'
+    (a detector whose event on ``g``'s sensor ended where the first fault did saw the
+    first fault's end there, not ``g``'s: a drift on s1 to 200 s and an offset on s4
+    from 150 to 250 s, the detection filter's part of s4's from 150.0 to 200.1 s)."""
+    if end is None or g.end_s is None:
+        return end is None and g.end_s is None
+    return abs(g.end_s - end) <= slack_s
 
 
 def _again(e: Event, findings: list[Finding], channel: str, until: float, slack_s: float) -> bool:

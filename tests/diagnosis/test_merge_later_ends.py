@@ -10,13 +10,15 @@ from analyzer.detectors.base import Event
 from analyzer.diagnosis import ends_of_later_faults, merge_events, one_fault_at_a_time
 from analyzer.types import FaultType
 
-A, M = FaultType.ADDITIVE, FaultType.MULTIPLICATIVE
+A, D, M = FaultType.ADDITIVE, FaultType.DRIFT, FaultType.MULTIPLICATIVE
 BANK, DF, EM = "ar_kalman_bank", "detection_filter", "equivalent_model"
 
 
 def _ev(channel, detector, onset, end, size, kind=A, **evidence):
-    mag = {"offset": size} if kind is A else {"gain": size}
-    return Event(channel, onset, end, kind, mag, 1.0, detector, {"first_alarm_s": onset, **evidence})
+    mag = {A: {"offset": size}, D: {"rate_per_s": size}}.get(kind, {"gain": size})
+    return Event(
+        channel, onset, end, kind, mag, 1.0, detector, {"first_alarm_s": onset, **evidence}
+    )
 
 
 def _coupled(detector, a, b):
@@ -114,3 +116,33 @@ def test_a_later_fault_one_detector_isolated_is_not_taken_for_the_first():
     unisolated = _ev("s5", BANK, 150.0, 250.0, 4.31, isolated=False)
     kept, notes = one_fault_at_a_time(merge_events([*gain, unisolated]), _coupled)
     assert [f.channel for f in kept] == ["s2"] and len(notes) == 1
+
+
+def test_an_end_the_first_fault_gave_the_later_ones_part_explains_nothing():
+    """A drift on s1 from 100 to 200 s and an offset on s4 from 150 to 250 s: the
+    detection filter saw the drift to 200.0 s and its part of s4's offset end there too
+    (200.1 s: the drift's end, seen on s4); only s4's reported end (250.0 s) explains an
+    end of s1's. The bank's end there gives way to the filter's drift, not to the
+    observers' late, short ``other`` (a tail of the drift, which does not vote)."""
+    s1 = [
+        _ev("s1", DF, 89.36, 200.01, 0.02, D, first_alarm_s=103.63),
+        _ev("s1", BANK, 100.0, 250.09, 0.032, D, first_alarm_s=103.71),
+        Event(
+            "s1",
+            110.69,
+            174.37,
+            FaultType.OTHER,
+            {"offset": 0.31},
+            0.88,
+            EM,
+            {"first_alarm_s": 112.88},
+        ),  # fmt: skip
+    ]
+    s4 = [
+        _ev("s4", BANK, 150.0, 250.0, 3.88),
+        _ev("s4", DF, 150.0, 200.12, 3.36, changed_at_s=150.0),
+    ]
+    findings = merge_events([*s1, *s4])
+    assert len(ends_of_later_faults(findings, _coupled)) == 1
+    f = next(f for f in findings if f.channel == "s1")
+    assert (f.type, f.onset_s, f.end_s, f.detector) == (D, 89.36, 200.01, DF)
