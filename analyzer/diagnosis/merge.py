@@ -358,9 +358,10 @@ def ends_of_later_faults(
     150 to 250 s of a 6-channel building: the bank and the observers saw s1's to 250.1 s,
     the detection filter, which tells the two sensors' directions apart, to 200.0 s; the
     finding, led by the bank, ended at 250.1 s with an offset of 1.84 (3.22 injected).
-    An event's end is so explained when it is within ``slack_s`` of the reported end of a
-    finding on another sensor that began more than ``slack_s`` after this one and before that end,
-    and that sensor is ``coupled`` to this one for the event's detector. Its end then
+    An event's end is so explained when it follows within ``slack_s`` the end of a
+    finding on another sensor (:func:`_same_end`) that began more than ``slack_s`` after
+    this one and before that end, and that sensor is ``coupled`` to this one for the
+    event's detector. Its end then
     counts only if no other detector of the finding saw the fault end earlier, no earlier
     than the other fault began (less ``slack_s``), and not again on this sensor before the
     explained end (a detector whose event ended there and that then saw this sensor
@@ -380,7 +381,7 @@ def ends_of_later_faults(
                 if (
                     g.channel != f.channel
                     and f.onset_s + slack_s < g.onset_s
-                    and _same_end(e.end_s, g, slack_s)
+                    and _same_end(e, g, slack_s)
                     and (e.end_s is None or g.onset_s < e.end_s)
                     and coupled(e.detector, f.channel, g.channel)
                 ):
@@ -423,14 +424,17 @@ def ends_of_later_faults(
     return notes
 
 
-def _same_end(end: float | None, g: Finding, slack_s: float) -> bool:
-    """Whether ``end`` is ``g``'s reported end, to ``slack_s``: not one of its events'
-    (a detector whose event on ``g``'s sensor ended where the first fault did saw the
-    first fault's end there, not ``g``'s: a drift on s1 to 200 s and an offset on s4
-    from 150 to 250 s, the detection filter's part of s4's from 150.0 to 200.1 s)."""
-    if end is None or g.end_s is None:
-        return end is None and g.end_s is None
-    return abs(g.end_s - end) <= slack_s
+def _same_end(e: Event, g: Finding, slack_s: float) -> bool:
+    """Whether ``e`` ended where ``g`` did: ``g``'s reported end, or the end ``e``'s
+    detector saw for ``g``, no later than ``e``'s and at most ``slack_s`` before it (or
+    both none). A detector's event on ``g``'s sensor that ended just after ``e`` saw ``e``'s
+    fault end there, not ``g``'s: a drift on s1 to 200 s and an offset on s4 from 150 to
+    250 s, the detection filter's s1 drift to 200.0 s and its part of s4's offset to
+    200.1 s (and s4's reported end 250.0 s explains the bank's s1 drift to 250.1 s)."""
+    ends = [g.end_s, *(o.end_s for o in g.events if o.detector == e.detector)]
+    if e.end_s is None:
+        return g.end_s is None
+    return any(x is not None and e.end_s - slack_s <= x <= e.end_s for x in ends)
 
 
 def _again(e: Event, findings: list[Finding], channel: str, until: float, slack_s: float) -> bool:
