@@ -1137,9 +1137,12 @@ def _diagnose(
     if reused is None:  # a slow change of most sensors at once: no one sensor's fault
         findings, common = common_changes(findings, values, chosen, groups, train, rate_hz)
         notes.extend(common)
+    # a frozen sensor's fault from where it froze, before one fault at a time weighs
+    # which fault was under way when (a dead sensor's first alarms can come seconds late)
+    notes.extend(relabel_frozen(findings, values, chosen, rate_hz, healthy, train[1]))
+    findings.sort(key=lambda f: (f.onset_s, f.channel))
     findings, conflicts = one_fault_at_a_time(findings, coupled(results))
     notes.extend(conflicts)
-    notes.extend(relabel_frozen(findings, values, chosen, rate_hz, healthy))
     notes.extend(traced_into_training(findings, reused is not None))
     if reused is not None:
         notes.extend(present_at_search_start(findings, train[1] / rate_hz, rate_hz))

@@ -79,3 +79,48 @@ def test_readings_over_a_fault_are_read_in_pieces(tmp_path, monkeypatch):
     np.testing.assert_array_equal(got, values[123:9_876, 1])
     assert sum(released) == 9_876 - 123 and max(released) == 999
     assert paging.read_column(values, 2, 5, 5).shape == (0,)
+
+
+def test_a_frozen_finding_starts_where_its_readings_froze():
+    """The detectors alarm on a dead sensor when the structure moves, seconds after it
+    died: the finding starts where the readings froze, traced back no further than the
+    search's start; gaps inside the frozen stretch do not end it, and a reading that
+    moved does."""
+    rng = np.random.default_rng(1)
+    values = rng.standard_normal((6000, 3))
+    values[3000:, 0] = 0.0  # dead from row 3000, alarmed at row 3500
+    values[3200:3300, 0] = np.nan
+    values[2500:, 1] = 1.75 + 1e-4 * rng.standard_normal(3500)  # stuck, with a little noise
+    values[:, 2] = 0.0  # frozen from the start: traced back to the search's start only
+    found = [
+        _finding("a", FaultType.MULTIPLICATIVE, 3500 / RATE),
+        _finding("b", FaultType.ADDITIVE, 2600 / RATE),
+        _finding("c", FaultType.ADDITIVE, 2000 / RATE),
+    ]
+    values[:1000, 2] = rng.standard_normal(1000)  # (its healthy window moved)
+    notes = relabel_frozen(found, values, ["a", "b", "c"], RATE, (0, 1000), search_start=1200)
+    assert [f.onset_s for f in found] == [3000 / RATE, 2500 / RATE, 1200 / RATE]
+    assert found[0].evidence["frozen"]["since_s"] == 15.0
+    assert found[0].evidence["frozen"]["alarmed_from_s"] == 17.5
+    assert "from 17.500 s: the onset is where its readings froze" in notes[0]
+    # already from where it froze: as before
+    again = [_finding("a", FaultType.MULTIPLICATIVE, 3000 / RATE)]
+    relabel_frozen(again, values, ["a", "b", "c"], RATE, (0, 1000))
+    assert again[0].onset_s == 15.0 and "since_s" not in again[0].evidence["frozen"]
+
+
+def test_a_sensor_dead_while_the_structure_was_quiet_is_reported_from_its_death(tmp_path):
+    """A 4-floor building whose first sensor dies at 70 s (an audit's case): reported
+    from 80.42 s, with an ``other`` on a healthy sensor from 70.11 s that the detection
+    filter alone put there. Now from 70.0 s, and the other one is taken for it."""
+    t, Y, names = simulate_building(4, 120.0, 100.0, seed=19)
+    Y[7000:, 0] = 0.0
+    path = tmp_path / "dead.csv"
+    write_archive(
+        path, "csv", np.round(t * 1e9).astype(np.int64), {n: Y[:, j] for j, n in enumerate(names)}
+    )
+    analysis = analyze([path], RunOptions())
+    (f,) = analysis.findings
+    assert (f.channel, f.type, f.magnitude) == (names[0], FaultType.MULTIPLICATIVE, {"gain": 0.0})
+    assert f.onset_s == pytest.approx(70.0, abs=0.011)
+    assert any("the onset is where its readings froze" in n for n in analysis.notes)
