@@ -358,8 +358,8 @@ def ends_of_later_faults(
     150 to 250 s of a 6-channel building: the bank and the observers saw s1's to 250.1 s,
     the detection filter, which tells the two sensors' directions apart, to 200.0 s; the
     finding, led by the bank, ended at 250.1 s with an offset of 1.84 (3.22 injected).
-    An event's end is so explained when it follows within ``slack_s`` the end of a
-    finding on another sensor (:func:`_same_end`) that began more than ``slack_s`` after
+    An event's end is so explained when it is within ``slack_s`` of where a finding on
+    another sensor was last seen (:func:`_same_end`) that began more than ``slack_s`` after
     this one and before that end, and that sensor is ``coupled`` to this one for the
     event's detector. Its end then
     counts only if no other detector of the finding saw the fault end earlier, no earlier
@@ -425,16 +425,17 @@ def ends_of_later_faults(
 
 
 def _same_end(e: Event, g: Finding, slack_s: float) -> bool:
-    """Whether ``e`` ended where ``g`` did: ``g``'s reported end, or the end ``e``'s
-    detector saw for ``g``, no later than ``e``'s and at most ``slack_s`` before it (or
-    both none). A detector's event on ``g``'s sensor that ended just after ``e`` saw ``e``'s
-    fault end there, not ``g``'s: a drift on s1 to 200 s and an offset on s4 from 150 to
-    250 s, the detection filter's s1 drift to 200.0 s and its part of s4's offset to
-    200.1 s (and s4's reported end 250.0 s explains the bank's s1 drift to 250.1 s)."""
-    ends = [g.end_s, *(o.end_s for o in g.events if o.detector == e.detector)]
-    if e.end_s is None:
-        return g.end_s is None
-    return any(x is not None and e.end_s - slack_s <= x <= e.end_s for x in ends)
+    """Whether ``e`` ended within ``slack_s`` of where ``g`` was last seen: the latest end
+    its detectors saw (or both none). Not the end ``g`` reports, nor any of its events':
+    a detector's event on ``g``'s sensor can end where ``e``'s fault did, having seen that
+    fault's end there (a drift on s1 to 200 s and an offset on s4 from 150 to 250 s: the
+    detection filter saw the drift to 200.0 s and its part of s4's offset to 200.1 s;
+    when that part led s4's finding, the finding ended at 200.1 s, and the observers'
+    and the filter's right ends of the drift were taken for it)."""
+    ends = [o.end_s for o in g.events]
+    if e.end_s is None or any(x is None for x in ends):
+        return e.end_s is None and any(x is None for x in ends)
+    return abs(max(x for x in ends if x is not None) - e.end_s) <= slack_s
 
 
 def _again(e: Event, findings: list[Finding], channel: str, until: float, slack_s: float) -> bool:
