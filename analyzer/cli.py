@@ -29,7 +29,13 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 from analyzer import __version__  # noqa: E402
-from analyzer.errors import AnalyzerError, ReaderError, UsageError, one_line  # noqa: E402
+from analyzer.errors import (  # noqa: E402
+    AnalyzerError,
+    ReaderError,
+    UsageError,
+    one_line,
+    terminal_safe,
+)
 from analyzer.scratch import sweep_stale  # noqa: E402
 from analyzer.types import MSG_PATH_ENV  # noqa: E402
 
@@ -283,7 +289,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _warn(line: str) -> None:
     """One line on stderr about an input of a run that went on (exit 0 or 1)."""
-    sys.stderr.write(f"analyzer: warning: {line}\n")
+    sys.stderr.write(f"analyzer: warning: {terminal_safe(line)}\n")
 
 
 def _progress_printer(enabled: bool) -> Any:
@@ -475,7 +481,7 @@ def _older(path: Path, started: float) -> bool:
 
 
 def _error(message: str) -> int:
-    print(f"analyzer: error: {one_line(message)}", file=sys.stderr)
+    print(f"analyzer: error: {terminal_safe(one_line(message))}", file=sys.stderr)
     return 2
 
 

@@ -14,6 +14,26 @@ def one_line(err: BaseException | str) -> str:
     return " ".join(text.split())
 
 
+def terminal_safe(text: str) -> str:
+    """``text`` with its control and format characters escaped (``\\x01``, ``\\u202e``),
+    for a line on a terminal: a channel or file name may hold any of them (a CSV header,
+    an MCAP topic, a file name from a share), and written as they are they would move
+    the cursor, recolour the terminal or reverse the line (a right-to-left override), or
+    split a log's one-line message in two (a newline)."""
+    if text.isprintable():
+        return text
+    return "".join(
+        ch
+        if ch.isprintable()
+        else f"\\x{ord(ch):02x}"
+        if ord(ch) < 0x100
+        else f"\\u{ord(ch):04x}"
+        if ord(ch) < 0x10000
+        else f"\\U{ord(ch):08x}"
+        for ch in text
+    )
+
+
 class AnalyzerError(Exception):
     """Root of every error the analyzer raises on purpose."""
 

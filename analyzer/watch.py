@@ -120,6 +120,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import copy
 import errno
 import hashlib
 import json
@@ -144,7 +145,7 @@ from types import FrameType
 from typing import Any
 
 from analyzer import __version__
-from analyzer.errors import AnalyzerError, ConfigError, UsageError, one_line
+from analyzer.errors import AnalyzerError, ConfigError, UsageError, one_line, terminal_safe
 from analyzer.findings import sha256_of, write_outputs
 from analyzer.options import RunOptions
 from analyzer.outdir import write_atomic
@@ -1112,8 +1113,17 @@ def _watch_locked(
 
 
 class _StderrFormatter(logging.Formatter):
+    """Local ISO times, and each message one line of printable characters (a file name
+    with a newline or a control character in it: :func:`~analyzer.errors.terminal_safe`)."""
+
     def formatTime(self, record: logging.LogRecord, datefmt: str | None = None) -> str:  # noqa: N802
         return time.strftime("%Y-%m-%dT%H:%M:%S", time.localtime(record.created))
+
+    def format(self, record: logging.LogRecord) -> str:
+        # (the message only: a traceback, with ANALYZER_DEBUG, keeps its lines)
+        safe = copy.copy(record)
+        safe.msg, safe.args = terminal_safe(record.getMessage()), None
+        return super().format(safe)
 
 
 def watch_main(args: argparse.Namespace, options: RunOptions) -> int:
