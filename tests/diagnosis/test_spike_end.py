@@ -55,3 +55,28 @@ def test_a_noise_burst_keeps_the_end_of_its_alarms(seed: int) -> None:
     first, last = events[0], events[-1]
     assert first.onset_s == pytest.approx(100.0, abs=0.3)
     assert last.end_s is not None and last.end_s >= 102.8
+
+
+@pytest.mark.parametrize("seed", [1, 2, 4])
+@pytest.mark.parametrize("size", [7.0, 50.0])
+def test_a_doublet_ends_at_its_last_sample_past_the_per_sample_threshold(
+    seed: int, size: float
+) -> None:
+    """Two samples of ``+size`` and ``-size`` sd on white noise: the fault ends one sample
+    after the second, for a doublet just past the per-sample threshold (7 sd against
+    ``z_crit`` = 5.16, the normal quantile of the false-alarm rate) as for a large one,
+    and its rms is the doublet's, ``size`` sd to the noise's 1 sd. Judged against twice
+    ``z_crit`` (10.3 sd) instead, the 7-sd doublet kept the alarms' end, two samples
+    later, and an rms of 5 sd. (A single 7-sd sample is below what the windowed
+    statistics detect, hence two.)"""
+    r = 0.05 * np.random.default_rng(seed).standard_normal(20_000)
+    cal = calibrate(r[:START], 25)
+    assert 5.0 < cal.z_crit < 7.0 - 1.5  # 7 sd is past it by more than the noise moves it
+    at = 11_234
+    r[at : at + 2] += size * cal.std * np.array([1.0, -1.0])
+    events = events_from_residual("s1", r, None, cal, RATE, "test", search_start=START)
+    (ev,) = events
+    assert ev.type is FaultType.OTHER
+    assert ev.onset_s == pytest.approx(at / RATE)
+    assert ev.end_s == pytest.approx((at + 2) / RATE)
+    assert ev.magnitude["rms"] == pytest.approx(size * cal.std, rel=0.15)

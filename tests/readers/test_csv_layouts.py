@@ -110,6 +110,30 @@ def test_other_units_in_brackets_are_scaled(tmp_path: Path, unit: str, ns: int) 
 
 
 @pytest.mark.parametrize(
+    ("name", "ns"),
+    [
+        ("milliseconds", 1_000_000),
+        ("seconds", 1_000_000_000),
+        ("secs", 1_000_000_000),
+        ("sec", 1_000_000_000),
+    ],
+)
+def test_a_time_column_named_by_its_unit_alone_is_scaled(
+    tmp_path: Path, name: str, ns: int
+) -> None:
+    """A column named only ``milliseconds`` (or ``seconds``, ``secs``, ``sec``) is the time
+    in that unit: ``0.25 * i`` of it is ``i * ns / 4`` nanoseconds by the SI prefix, not a
+    time 1000 times too slow or too fast."""
+    path = tmp_path / "bare.csv"
+    path.write_text(f"{name},a\n" + "".join(f"{i * 0.25},{i}\n" for i in range(N)))
+    got, info = read(path)
+    assert set(got) == {"a"}
+    np.testing.assert_array_equal(got["a"][0], np.arange(N) * ns // 4)
+    np.testing.assert_array_equal(got["a"][1], np.arange(N))
+    assert info.errors == []
+
+
+@pytest.mark.parametrize(
     "header",
     [
         "clock,time_offset_sensor,timer_count",
