@@ -35,7 +35,7 @@ from typing import Any
 from analyzer import __version__
 from analyzer.report import format as fmt
 from analyzer.report.methods import DECISION, TESTS
-from analyzer.report.view_figures import FigureParts, _span
+from analyzer.report.view_figures import FigureParts, _span, open_since
 from analyzer.report.view_records import (
     DetectorTests,
     Fact,
@@ -225,7 +225,10 @@ class _Access(FigureParts, TableParts):
             anchor=f"finding-{i + 1}",
             channel=str(f["channel"]),
             type=str(f["type"]),
-            onset_s=fmt.seconds(f.get("onset_s")),
+            # an upper bound (the fault was there when the search began) says so wherever
+            # it is shown: "at or before 4.310 s", not an exact 4.310 s
+            onset_s=("at or before " if open_since(f) is not None else "")
+            + fmt.seconds(f.get("onset_s")),
             # empty without absolute time (relative timestamps): the page then omits them
             onset_utc=str(f.get("onset") or ""),
             end_s=fmt.seconds(f["end_s"]) if f.get("end_s") is not None else "to the end",

@@ -1,0 +1,86 @@
+"""Report fixes from the audit of report.html against findings.json: an onset that is
+only an upper bound, the warm-up's label, times at high rates, gains near zero, the
+fault evidence beyond the detectors', long names, value ranges, which findings get a
+section, sorting and the tests figure's title.
+
+Analyses come from :mod:`analyzer.report.synthetic` (no detector run: a second or two);
+where a case needs evidence the synthetic run does not produce (``--model``'s
+``onset_at_or_before``, a frozen sensor), it is added to the document as the pipeline
+writes it."""
+
+import copy
+import re
+
+import pytest
+
+import analyzer.report.view as report_view
+from analyzer.findings import findings_document
+from analyzer.report import render_report
+from analyzer.report.synthetic import SyntheticFault, synthetic_analysis
+from analyzer.types import FaultType
+
+RATE = 50.0
+
+
+def _figure(html: str, kind: str) -> str:
+    start = html.index(f'data-kind="{kind}"')
+    return html[start : html.index("</figure>", start)]
+
+
+def _texts(svg: str) -> list[str]:
+    return re.findall(r"<text[^>]*>(.*?)</text>", svg, re.S)
+
+
+def _fact(html: str, label: str) -> str:
+    return re.search(rf"<dt>{label}</dt><dd>([^<]*)</dd>", html).group(1)
+
+
+def _with_model(doc: dict, warm_up_s: float) -> dict:
+    """``doc`` as a ``--model`` run writes it: a ``model`` object, the warm-up as
+    ``train``, the first finding present when the search started."""
+    doc = copy.deepcopy(doc)
+    doc["model"] = {
+        "path": "/models/fit.model",
+        "trained_on": [{"path": "/data/fit.mcap"}],
+        "train": {"start_s": 0.0, "end_s": 24.0},
+    }
+    doc["train"] = {"start_s": 0.0, "end_s": warm_up_s}
+    f = doc["faults"][0]
+    f["onset_s"] = warm_up_s + 1 / RATE
+    f["evidence"]["onset_at_or_before"] = True
+    return doc
+
+
+@pytest.fixture
+def model_run(monkeypatch):
+    """A ``--model`` run whose fault was there from the first sample: found at the end of
+    the filters' warm-up (4.3 s), its onset an upper bound."""
+    monkeypatch.setattr(report_view, "MAX_DETAILED", 1)
+    a = synthetic_analysis(60.0, 3, RATE, [SyntheticFault(1, FaultType.ADDITIVE, 4.32, None, 1.0)])
+    doc = _with_model(findings_document(a), 4.3)
+    return a, doc, render_report(a, doc)
+
+
+# -- an onset that is an upper bound -------------------------------------------------------
+
+
+def test_an_upper_bound_onset_says_at_or_before_wherever_it_is_shown(model_run):
+    _, doc, html = model_run
+    f = doc["faults"][0]
+    verdict = html[html.index('id="verdict"') : html.index('id="findings"')]
+    assert f"at or before {f['onset_s']:.3f} s" in verdict
+    assert _fact(html, "Onset").startswith(f"at or before {f['onset_s']:.3f} s from the start")
+    for kind in ("signal", "residual"):
+        assert "onset: at or before" in _texts(_figure(html, kind)), kind
+    assert "upper bound" in _figure(html, "signal")  # the caption
+    for kind in ("coverage", "levels"):
+        assert "may have begun (onset at or before)" in _texts(_figure(html, kind)), kind
+        assert "upper bound" in _figure(html, kind)
+
+
+def test_an_exact_onset_is_shown_as_it_is(monkeypatch):
+    monkeypatch.setattr(report_view, "MAX_DETAILED", 1)
+    a = synthetic_analysis(60.0, 3, RATE, [SyntheticFault(1, FaultType.ADDITIVE, 30.0, None, 1.0)])
+    html = render_report(a, findings_document(a))
+    assert "at or before" not in html and "may have begun" not in html
+    assert "onset" in _texts(_figure(html, "signal"))
