@@ -185,7 +185,7 @@ def coverage_figure(
             color=C_TRAIN,
             alpha=0.15,
             lw=0,
-            label="training window",
+            label=train_label,
         )
         min_w = MIN_MARK * max(duration_s, 1e-9)  # a one-sample gap must still show
         for i, r in enumerate(rows):
@@ -260,13 +260,15 @@ def level_figure(
     faults: Sequence[Sequence[tuple[float, float]]],
     key: str,
     open_faults: Sequence[Sequence[tuple[float, float]]] = (),
+    train_label: str = "training window",
 ) -> Markup:
     """Each channel's response level over time as a colour map: ``ratio`` (bins x
     channels) is a bin's RMS over the channel's reference RMS, drawn on a log scale from
     1/:data:`LEVEL_RANGE` (blue) through 1 (white) to :data:`LEVEL_RANGE` (red), empty
     bins grey; ``faults`` (per channel) outlined in black, ``open_faults`` (the spans
-    before an onset that is only an upper bound) dashed, the training window marked
-    above the map."""
+    before an onset that is only an upper bound) dashed, the training window
+    (``train_label``: with ``--model``, the filters' warm-up, as the other figures call it)
+    marked above the map."""
     m = len(names)
     axis = TimeAxis.for_span(float(edges_s[-1]))
     shown = [label(n) for n in shown_names(list(names))]
@@ -307,7 +309,7 @@ def level_figure(
             lw=4,
             solid_capstyle="butt",
             clip_on=False,
-            label="training window",
+            label=train_label,
         )
         ax.set_yticks(range(m), shown)
         ax.set_xlabel(axis.label())
@@ -318,7 +320,7 @@ def level_figure(
         bar.set_ticks(ticks, labels=[f"{2.0**t:g}" if t >= 0 else f"1/{2.0**-t:g}" for t in ticks])
         bar.set_label("level / reference")
         handles = [
-            Patch(color=C_TRAIN, label="training window"),
+            Patch(color=C_TRAIN, label=train_label),
             Patch(fill=False, ec="black", label="fault period"),
         ]
         if any(open_faults):

@@ -426,7 +426,7 @@ class FigureParts:
         job = fg.FigureJob(
             "level_figure",
             (names, edges, ratio, self.train_s, spans, "levels"),
-            {"open_faults": since},
+            {"open_faults": since, "train_label": self.train_label},
         )
         own = lv.train is not None
         reference = (

@@ -84,3 +84,15 @@ def test_an_exact_onset_is_shown_as_it_is(monkeypatch):
     html = render_report(a, findings_document(a))
     assert "at or before" not in html and "may have begun" not in html
     assert "onset" in _texts(_figure(html, "signal"))
+
+
+# -- the warm-up's name ---------------------------------------------------------------------
+
+
+def test_with_a_model_every_figure_calls_the_first_seconds_the_filters_warm_up(model_run):
+    """The level map called the span "training window" while the page said nothing was
+    trained on the archive and the other figures called it the filters' warm-up."""
+    _, _, html = model_run
+    for kind in ("coverage", "levels", "residual"):
+        texts = _texts(_figure(html, kind))
+        assert "filters' warm-up" in texts and "training window" not in texts, kind
