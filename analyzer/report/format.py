@@ -55,6 +55,20 @@ def seconds(x: float | None, decimals: int = 3) -> str:
     return f"{float(x):.{decimals}f} s"
 
 
+TIME_DECIMALS = 4
+"""Decimals findings.json keeps of a time in seconds (``onset_s``, ``end_s``)."""
+
+
+def time_decimals(rate_hz: float | None) -> int:
+    """Decimals a time of a record sampled at ``rate_hz`` needs for one sample to read
+    apart from the next: 3 up to 1 kHz, 4 above (as many as findings.json keeps). At
+    2 kHz an onset at 20.0005 s was shown as ``20.000 s`` above its ISO time
+    ``...T00:00:20.001Z``: two times in one cell."""
+    if rate_hz is None or not math.isfinite(float(rate_hz)) or rate_hz <= 0:
+        return 3
+    return min(TIME_DECIMALS, max(3, math.ceil(math.log10(float(rate_hz)) - 1e-9)))
+
+
 TIME_UNITS = (("d", 86400.0, 3 * 86400.0), ("h", 3600.0, 3 * 3600.0), ("min", 60.0, 15 * 60.0))
 """(unit, seconds per unit, shortest span shown in it): a span below the last is shown
 in seconds."""
@@ -79,16 +93,18 @@ def at(x: float | None, span_s: float) -> str:
     return f"{float(x) / scale:.{3 if unit == 'd' else 2}f} {unit}"
 
 
-def clock(x: float | None) -> str:
-    """Seconds from the start as ``+HH:MM:SS.mmm`` (empty for None): a time in a long
-    record without absolute timestamps."""
+def clock(x: float | None, decimals: int = 3) -> str:
+    """Seconds from the start as ``+HH:MM:SS.mmm`` (``decimals`` digits of the second:
+    :func:`time_decimals`; empty for None): a time in a long record without absolute
+    timestamps."""
     if x is None or not math.isfinite(float(x)):
         return ""
-    ms = int(round(float(x) * 1000.0))
-    h, rem = divmod(ms, 3_600_000)
-    m, rem = divmod(rem, 60_000)
-    s, ms = divmod(rem, 1000)
-    return f"+{h:02d}:{m:02d}:{s:02d}.{ms:03d}"
+    unit = 10**decimals
+    ticks = int(round(float(x) * unit))
+    h, rem = divmod(ticks, 3600 * unit)
+    m, rem = divmod(rem, 60 * unit)
+    s, frac = divmod(rem, unit)
+    return f"+{h:02d}:{m:02d}:{s:02d}.{frac:0{decimals}d}"
 
 
 def duration(x: float) -> str:
@@ -176,6 +192,7 @@ def is_short_list(v: Any, limit: int = 8) -> bool:
 
 __all__ = [
     "MISSING",
+    "TIME_DECIMALS",
     "TIME_UNITS",
     "at",
     "clock",
@@ -190,6 +207,7 @@ __all__ = [
     "seconds",
     "shorten",
     "size",
+    "time_decimals",
     "time_unit",
     "visible_controls",
 ]

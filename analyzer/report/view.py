@@ -121,6 +121,8 @@ class _Access(FigureParts, TableParts):
         self.batch = batch
         self.pending: list[tuple[FigureView, int]] = []
         self.rate = float(doc.get("rate_hz") or getattr(analysis, "rate_hz", 1.0) or 1.0)
+        # decimals of an onset or end: one sample apart must read apart (4 above 1 kHz)
+        self.decimals = fmt.time_decimals(self.rate)
         self.duration = float(doc.get("duration_s") or 0.0)
         self.analyzed: tuple[str, ...] = tuple(getattr(analysis, "analyzed", ()) or ())
         self.values = getattr(analysis, "values", None)
@@ -228,13 +230,17 @@ class _Access(FigureParts, TableParts):
             # an upper bound (the fault was there when the search began) says so wherever
             # it is shown: "at or before 4.310 s", not an exact 4.310 s
             onset_s=("at or before " if open_since(f) is not None else "")
-            + fmt.seconds(f.get("onset_s")),
+            + fmt.seconds(f.get("onset_s"), self.decimals),
             # empty without absolute time (relative timestamps): the page then omits them
             onset_utc=str(f.get("onset") or ""),
-            end_s=fmt.seconds(f["end_s"]) if f.get("end_s") is not None else "to the end",
+            end_s=(
+                fmt.seconds(f["end_s"], self.decimals)
+                if f.get("end_s") is not None
+                else "to the end"
+            ),
             end_utc=str(f.get("end") or ""),
-            onset_clock=str(f.get("onset") or fmt.clock(f.get("onset_s"))),
-            end_clock=str(f.get("end") or fmt.clock(f.get("end_s"))),
+            onset_clock=str(f.get("onset") or fmt.clock(f.get("onset_s"), self.decimals)),
+            end_clock=str(f.get("end") or fmt.clock(f.get("end_s"), self.decimals)),
             magnitude=fmt.magnitude(f.get("magnitude") or {}),
             confidence=fmt.percent(f.get("confidence")),
             detectors=[str(d) for d in ev.get("detectors", [f.get("detector")])],
@@ -275,7 +281,7 @@ class _Access(FigureParts, TableParts):
 
     def evidence_facts(self, ev: Mapping[str, Any]) -> list[tuple[str, list[Fact]]]:
         known = {
-            "first_alarm_s": ("first alarm", lambda v: fmt.seconds(v)),
+            "first_alarm_s": ("first alarm", lambda v: fmt.seconds(v, self.decimals)),
             "peak_over_threshold": ("peak / threshold", lambda v: fmt.num(v, 3)),
             "p_value": ("p-value (healthy data this extreme)", _pvalue),
             "explained": ("share of residual explained by the fault model", fmt.percent),
@@ -305,8 +311,12 @@ class _Access(FigureParts, TableParts):
                     Fact("method", str(c.get("method"))),
                     Fact(
                         "period",
-                        f"{fmt.seconds(c.get('start_s'))} to "
-                        + (fmt.seconds(c["end_s"]) if c.get("end_s") is not None else "the end"),
+                        f"{fmt.seconds(c.get('start_s'), self.decimals)} to "
+                        + (
+                            fmt.seconds(c["end_s"], self.decimals)
+                            if c.get("end_s") is not None
+                            else "the end"
+                        ),
                     ),
                     Fact("samples corrected", fmt.num(c.get("samples"), 12)),
                     Fact("mean fault removed", fmt.num(c.get("mean_fault"))),

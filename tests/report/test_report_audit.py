@@ -9,12 +9,14 @@ where a case needs evidence the synthetic run does not produce (``--model``'s
 writes it."""
 
 import copy
+import dataclasses
 import re
 
 import pytest
 
 import analyzer.report.view as report_view
 from analyzer.findings import findings_document
+from analyzer.report import format as fmt
 from analyzer.report import render_report
 from analyzer.report.synthetic import SyntheticFault, synthetic_analysis
 from analyzer.types import FaultType
@@ -96,3 +98,40 @@ def test_with_a_model_every_figure_calls_the_first_seconds_the_filters_warm_up(m
     for kind in ("coverage", "levels", "residual"):
         texts = _texts(_figure(html, kind))
         assert "filters' warm-up" in texts and "training window" not in texts, kind
+
+
+# -- times at high rates --------------------------------------------------------------------
+
+
+def test_time_decimals_follow_the_rate():
+    assert [fmt.time_decimals(r) for r in (1.0, 50.0, 1000.0, 1024.0, 2000.0, 50_000.0)] == [
+        3,
+        3,
+        3,
+        4,
+        4,
+        4,  # findings.json keeps 4
+    ]
+    assert fmt.time_decimals(None) == 3 and fmt.time_decimals(float("nan")) == 3
+    assert fmt.clock(20.0005, 4) == "+00:00:20.0005" and fmt.clock(3725.5) == "+01:02:05.500"
+
+
+@pytest.mark.parametrize("absolute", [True, False])
+def test_an_onset_at_2_khz_reads_as_findings_json_has_it(monkeypatch, absolute):
+    """An offset from 60.0005 s at 2 kHz: the cell showed ``60.000 s`` above
+    ``2026-01-01T00:01:00.001Z`` (or ``+00:01:00.000``)."""
+    monkeypatch.setattr(report_view, "MAX_DETAILED", 1)
+    a = synthetic_analysis(
+        100.0, 2, 2000.0, [SyntheticFault(1, FaultType.ADDITIVE, 60.0005, 80.0, 1.0)]
+    )
+    a = dataclasses.replace(a, absolute_time=absolute)
+    doc = findings_document(a)
+    f = doc["faults"][0]
+    f["onset_s"], f["end_s"] = 60.0005, 80.0
+    f["onset"] = "2026-01-01T00:01:00.001Z" if absolute else None
+    html = render_report(a, doc)
+    verdict = html[html.index('id="verdict"') : html.index('id="findings"')]
+    assert "60.0005 s" in verdict and "80.0000 s" in verdict and "60.000 s" not in verdict
+    assert _fact(html, "Onset").startswith("60.0005 s from the start")
+    if not absolute:
+        assert "+00:01:00.0005" in verdict
