@@ -8,6 +8,8 @@ import re
 from collections.abc import Mapping
 from typing import Any
 
+from analyzer.diagnosis.classify import MIN_GAIN
+
 MISSING = "n/a"
 
 _CONTROLS = re.compile("[\x00-\x08\x0a-\x1f\x7f-\x9f\u061c\u200e\u200f\u202a-\u202e\u2066-\u2069]")
@@ -157,13 +159,29 @@ def magnitude(mag: Mapping[str, Any]) -> str:
         if key == "offset":
             parts.append(f"offset {_signed(v)}")
         elif key == "gain":
-            dead = " (dead sensor)" if v is not None and abs(float(v)) < 0.1 else ""
-            parts.append(f"gain ×{num(v)}{dead}")
+            parts.append(f"gain ×{num(v)}{_gain_note(v)}")
         elif key == "rate_per_s":
             parts.append(f"drift {_signed(v)} per s")
         else:
             parts.append(f"{key} {num(v)}")
     return ", ".join(parts) or MISSING
+
+
+def _gain_note(v: Any) -> str:
+    """What a gain below the classifier's :data:`~analyzer.diagnosis.classify.MIN_GAIN`
+    means: a dead sensor only at 0 (the contract's gain 0, a sensor frozen at zero), else
+    the share of its signal it still reads. A gain of 0.0256 (0.05 injected) was labelled
+    "(dead sensor)" while the sensor read its signal, scaled down."""
+    try:
+        g = float(v)
+    except (TypeError, ValueError):
+        return ""
+    if not math.isfinite(g) or abs(g) >= MIN_GAIN:
+        return ""
+    if num(g) == "0":
+        return " (dead sensor)"
+    inverted = ", inverted" if g < 0 else ""
+    return f" (reads {num(100 * abs(g), 3)} % of its signal{inverted}: nearly dead)"
 
 
 def _signed(v: Any) -> str:

@@ -135,3 +135,18 @@ def test_an_onset_at_2_khz_reads_as_findings_json_has_it(monkeypatch, absolute):
     assert _fact(html, "Onset").startswith("60.0005 s from the start")
     if not absolute:
         assert "+00:01:00.0005" in verdict
+
+
+# -- gains near zero -------------------------------------------------------------------------
+
+
+def test_only_a_gain_of_zero_is_called_a_dead_sensor():
+    """The contract's dead sensor is gain 0; below the classifier's 0.1 the sensor still
+    reads a share of its signal, which the label gives."""
+    assert fmt.magnitude({"gain": 0.0}) == "gain ×0 (dead sensor)"
+    assert fmt.magnitude({"gain": 0.02557}) == (
+        "gain ×0.02557 (reads 2.56 % of its signal: nearly dead)"
+    )
+    assert "inverted" in fmt.magnitude({"gain": -0.05})
+    for g in (0.1, 0.5, 1.5):
+        assert "dead" not in fmt.magnitude({"gain": g})
