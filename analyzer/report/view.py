@@ -247,6 +247,7 @@ class _Access(FigureParts, TableParts):
             lead=str(f.get("detector")),
             tests_agree=_agree(ev.get("tests_agree"), str(f["type"]), str(f.get("detector"))),
             tests=self.tests_views(f),
+            found=self.fault_facts(f),
             evidence=self.evidence_facts(ev),
             corrections=self.corrections(f),
         )
@@ -277,6 +278,68 @@ class _Access(FigureParts, TableParts):
                 )
             )
         out.sort(key=lambda d: not d.lead)
+        return out
+
+    def fault_facts(self, f: Mapping[str, Any]) -> list[Fact]:
+        """The fault's own evidence beyond the detectors' (the README's
+        ``evidence.onset_at_or_before``, ``frozen``, ``clipped``, ``searched_without``,
+        ``searched_after``, ``after_gap_s``) in a line each: findings.json had them and the
+        page did not (a dead sensor's frozen readings, a --model onset's upper bound)."""
+        ev = f.get("evidence") or {}
+        d = self.decimals
+        out = []
+        if ev.get("onset_at_or_before"):
+            out.append(
+                Fact(
+                    "Onset bound",
+                    "the fault was there when the search started at "
+                    f"{fmt.seconds(f.get('onset_s'), d)}, after the {self.train_label}: "
+                    "it began at or before then (perhaps in an earlier record)",
+                )
+            )
+        after = ev.get("searched_after")
+        if isinstance(after, Mapping):
+            stretch = after.get("stretch_s") or []
+            text = (
+                f"found by a search again with the same models from "
+                f"{fmt.seconds(after.get('search_start_s'), d)}, after a stretch "
+                f"({_span(stretch)}) whose anomaly the detectors attributed to no sensor"
+            )
+            if after.get("onset_at_or_before"):
+                text += "; it was there when that search began, so it may have begun in the stretch"
+            out.append(Fact("Searched again", text))
+        without = ev.get("searched_without")
+        if without:
+            out.append(
+                Fact(
+                    "Searched without",
+                    f"{', '.join(str(c) for c in without)}: found by a second search fitted on "
+                    "the healthy window without these channels (missing for long, or found "
+                    "faulty beside anomalies no sensor explained)",
+                )
+            )
+        gap = ev.get("after_gap_s")
+        if isinstance(gap, Sequence) and len(gap) == 2:
+            out.append(
+                Fact(
+                    "After a gap",
+                    f"found soon after a gap in its data from {fmt.seconds(gap[0], d)} to "
+                    f"{fmt.seconds(gap[1], d)}: it may have begun in the gap",
+                )
+            )
+        frozen = ev.get("frozen")
+        if isinstance(frozen, Mapping):
+            out.append(
+                Fact(
+                    "Frozen readings",
+                    f"median reading {fmt.num(frozen.get('level'))}, varying "
+                    f"{fmt.num(frozen.get('std_ratio'), 3)} × their healthy spread"
+                    + (f" (the residual alone gave {frozen['was']})" if frozen.get("was") else ""),
+                )
+            )
+        clipped = ev.get("clipped")
+        if isinstance(clipped, Mapping):
+            out.append(Fact("Clipping", _clipped(clipped, d)))
         return out
 
     def evidence_facts(self, ev: Mapping[str, Any]) -> list[tuple[str, list[Fact]]]:
@@ -340,6 +403,32 @@ def _agree(agree: Any, kind: str, lead: str) -> str:
         f"no: the tests of {lead} do not break the way {art} {kind} fault breaks them "
         "(the confidence was lowered accordingly)"
     )
+
+
+def _clipped(c: Mapping[str, Any], decimals: int) -> str:
+    """A clipping sensor's evidence: ``at +4.2 (high) and -4.2 (low): 812 readings (31.5 %
+    of those from the first to the last) from 720.000 s to 1200.000 s; 21 findings merged
+    (additive, other)``."""
+    limits = [
+        f"{fmt.num(c[k])} ({side})"
+        for k, side in (("clipped_high", "high"), ("clipped_low", "low"))
+        if c.get(k) is not None
+    ]
+    text = (
+        f"at {' and '.join(limits) or fmt.MISSING}: {fmt.num(c.get('readings'), 12)} readings "
+        f"({fmt.percent(c.get('fraction'))} of those from the first to the last) from "
+        f"{fmt.seconds(c.get('first_s'), decimals)} to {fmt.seconds(c.get('last_s'), decimals)}"
+    )
+    merged = c.get("findings_merged")
+    if merged:
+        types = ", ".join(str(t) for t in c.get("types_merged") or [])
+        text += f"; {merged} findings merged" + (f" ({types})" if types else "")
+    if c.get("in_healthy_window_from_s") is not None:
+        text += (
+            "; it clipped in the healthy window too, from "
+            f"{fmt.seconds(c['in_healthy_window_from_s'], decimals)}"
+        )
+    return text
 
 
 def _pvalue(v: Any) -> str:

@@ -87,6 +87,9 @@ class FindingView:
     detailed: bool = False
     figures: list[FigureView] = field(default_factory=list)
     tests: list[DetectorTests] = field(default_factory=list)
+    found: list[Fact] = field(default_factory=list)
+    """The fault's own evidence beyond the detectors' (onset bound, frozen readings,
+    clipping, a second search), a line each."""
     evidence: list[tuple[str, list[Fact]]] = field(default_factory=list)
     corrections: list[list[Fact]] = field(default_factory=list)
     remarks: list[str] = field(default_factory=list)

@@ -150,3 +150,66 @@ def test_only_a_gain_of_zero_is_called_a_dead_sensor():
     assert "inverted" in fmt.magnitude({"gain": -0.05})
     for g in (0.1, 0.5, 1.5):
         assert "dead" not in fmt.magnitude({"gain": g})
+
+
+# -- the fault's own evidence -------------------------------------------------------------
+
+
+def test_the_fault_evidence_findings_json_documents_is_in_the_finding(monkeypatch):
+    """``frozen``, ``clipped``, ``searched_after``, ``searched_without``, ``after_gap_s``
+    and ``onset_at_or_before`` reached findings.json only (a dead sensor's frozen readings:
+    no "frozen" nor "std_ratio" anywhere on its page)."""
+    monkeypatch.setattr(report_view, "MAX_DETAILED", 2)
+    a = synthetic_analysis(
+        120.0,
+        3,
+        RATE,
+        [
+            SyntheticFault(1, FaultType.ADDITIVE, 60.0, None, 1.0),
+            SyntheticFault(2, FaultType.ADDITIVE, 90.0, None, 1.0),
+        ],
+    )
+    doc = findings_document(a)
+    first, second = sorted(doc["faults"], key=lambda f: f["onset_s"])
+    first["evidence"].update(
+        frozen={"level": 0.0, "std_ratio": 0.0, "was": "multiplicative"},
+        clipped={
+            "clipped_high": 4.25,
+            "clipped_low": -4.25,
+            "readings": 812,
+            "fraction": 0.315,
+            "first_s": 60.0,
+            "last_s": 110.0,
+            "in_healthy_window_from_s": None,
+            "findings_merged": 21,
+            "types_merged": ["additive", "other"],
+        },
+        after_gap_s=[50.0, 59.5],
+    )
+    second["evidence"].update(
+        searched_after={
+            "stretch_s": [70.0, 80.0],
+            "search_start_s": 90.0,
+            "onset_at_or_before": True,
+        },
+        searched_without=["/accel.data[0]"],
+    )
+    html = render_report(a, doc)
+    one = html[html.index(f'id="finding-{doc["faults"].index(first) + 1}"') :]
+    two = html[html.index(f'id="finding-{doc["faults"].index(second) + 1}"') :]
+    one, two = one[: one.index("</dl>")], two[: two.index("</dl>")]
+    assert "<dt>Frozen readings</dt><dd>median reading 0, varying 0 × their healthy" in one
+    assert "(the residual alone gave multiplicative)" in one
+    assert "<dt>Clipping</dt><dd>at 4.25 (high) and -4.25 (low): 812 readings (31.5 %" in one
+    assert "from 60.000 s to 110.000 s; 21 findings merged (additive, other)" in one
+    assert "<dt>After a gap</dt><dd>found soon after a gap in its data from 50.000 s" in one
+    assert "from 90.000 s, after a stretch (70.000-80.000 s)" in two
+    assert "so it may have begun in the stretch" in two
+    assert "<dt>Searched without</dt><dd>/accel.data[0]: found by a second search" in two
+    assert _fact(two, "Onset").startswith("at or before 90.")  # searched_after's bound
+
+
+def test_a_model_onset_bound_says_why(model_run):
+    _, _, html = model_run
+    assert "it began at or before then" in _fact(html, "Onset bound")
+    assert "after the filters&#39; warm-up" in _fact(html, "Onset bound")
