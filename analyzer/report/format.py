@@ -50,6 +50,25 @@ def num(x: Any, digits: int = 4) -> str:
     return f"{v:.{digits}g}"
 
 
+def num_range(lo: Any, hi: Any, digits: int = 4) -> str:
+    """``lo to hi`` with at least ``digits`` significant digits and, when they differ
+    but read alike, as many more (up to a double's 17) as make them read apart, and one
+    more for their difference to read too: a barometer at 101321 to 101329 Pa read
+    ``1.013e+05 to 1.013e+05``, a constant channel; now ``101321 to 101329``."""
+    a, b = num(lo, digits), num(hi, digits)
+    try:
+        differ = float(lo) != float(hi)
+    except (TypeError, ValueError):
+        differ = False
+    if not differ or a != b:
+        return f"{a} to {b}"
+    while a == b and digits < 17:
+        digits += 1
+        a, b = num(lo, digits), num(hi, digits)
+    digits = min(digits + 1, 17)
+    return f"{num(lo, digits)} to {num(hi, digits)}"
+
+
 def seconds(x: float | None, decimals: int = 3) -> str:
     """``16.000 s``; ``n/a`` for None."""
     if x is None or not math.isfinite(float(x)):
@@ -219,6 +238,7 @@ __all__ = [
     "is_short_list",
     "magnitude",
     "num",
+    "num_range",
     "percent",
     "rate",
     "scalar",

@@ -213,3 +213,20 @@ def test_a_model_onset_bound_says_why(model_run):
     _, _, html = model_run
     assert "it began at or before then" in _fact(html, "Onset bound")
     assert "after the filters&#39; warm-up" in _fact(html, "Onset bound")
+
+
+# -- value ranges ---------------------------------------------------------------------------
+
+
+def test_a_range_reads_apart_when_its_ends_differ(monkeypatch):
+    """A barometer at 101321-101329 Pa read "1.013e+05 to 1.013e+05": a constant channel."""
+    assert fmt.num_range(101321.0, 101329.0) == "101321 to 101329"
+    assert fmt.num_range(101321.12, 101321.13) == "101321.12 to 101321.13"
+    assert fmt.num_range(-1.234, 2.5) == "-1.234 to 2.5"  # 4 digits where they do
+    assert fmt.num_range(5.0, 5.0) == "5 to 5" and fmt.num_range(None, 1.0) == "n/a to 1"
+    monkeypatch.setattr(report_view, "MAX_DETAILED", 0)
+    a = synthetic_analysis(60.0, 2, RATE, [], names=["baro_Pa", "s1"])
+    a.channels[0].minimum, a.channels[0].maximum = 101321.0, 101329.0
+    html = render_report(a, findings_document(a))
+    archive = html[html.index('id="archive"') : html.index('id="models"')]
+    assert "<td>101321 to 101329</td>" in archive
