@@ -7,8 +7,10 @@ residuals, fault-free estimates). The analysis is read by duck typing (attribute
 access with defaults), so any object with the :class:`analyzer.findings.Analysis`
 fields renders, including a synthetic one in the benchmark.
 
-Cost stays bounded on long archives: at most :data:`MAX_DETAILED` findings get figures
-(the most confident ones; the verdict table lists all), every plotted series is
+Cost stays bounded on long archives: at most :data:`MAX_DETAILED` findings get a section
+with figures, tests and evidence (the most confident ones, the earliest first among
+equally confident ones: with twelve offsets all at 100 %, the first six; the verdict
+table lists all, and the page says which have a section), every plotted series is
 decimated to a min/max envelope, and gaps are located from a binned NaN map streamed
 once over the (possibly memory-mapped) aligned matrix.
 
@@ -48,7 +50,8 @@ from analyzer.report.view_tables import TEST_LABELS, TableParts, _cell
 from analyzer.report.workers import FigureBatch, FigureWorkers, active_workers
 
 MAX_DETAILED = 6
-"""Findings that get full figure sets; the others are summarized in tables."""
+"""Findings that get a section (figures, tests, evidence); the others are rows of the
+verdict table only. The most confident get one, the earliest first among equals."""
 
 
 # -- building the view ------------------------------------------------------------------
@@ -73,6 +76,7 @@ def build_view(
     for i in order[:MAX_DETAILED]:
         findings[i].detailed = True
         a.add_figures(findings[i], faults[i])
+    detailed = sorted(order[:MAX_DETAILED])
     coverage, coverage_note = a.coverage(faults)
     levels = a.levels(faults)
     view = ReportView(
@@ -83,6 +87,7 @@ def build_view(
         verdict_facts=a.verdict_facts(),
         findings=findings,
         summarized=max(0, len(findings) - MAX_DETAILED),
+        sections=_sections(detailed, len(findings)),
         checked=a.checked(),
         skipped=[Fact(k, str(v)) for k, v in (doc.get("skipped_detectors") or {}).items()],
         notes=[str(n) for n in doc.get("notes") or []],
@@ -429,6 +434,23 @@ def _clipped(c: Mapping[str, Any], decimals: int) -> str:
             f"{fmt.seconds(c['in_healthy_window_from_s'], decimals)}"
         )
     return text
+
+
+def _sections(detailed: Sequence[int], total: int) -> str:
+    """Which findings have a section, when not all do: ``findings 1-6`` (indices of
+    ``detailed``, 0-based, shown 1-based), for the page's text; empty when all do."""
+    if len(detailed) >= total:
+        return ""
+    if not detailed:
+        return "none"
+    runs: list[list[int]] = []
+    for i in detailed:
+        if runs and i == runs[-1][-1] + 1:
+            runs[-1].append(i)
+        else:
+            runs.append([i])
+    parts = [f"{r[0] + 1}" if len(r) == 1 else f"{r[0] + 1}-{r[-1] + 1}" for r in runs]
+    return ("finding " if len(detailed) == 1 else "findings ") + ", ".join(parts)
 
 
 def _pvalue(v: Any) -> str:

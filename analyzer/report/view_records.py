@@ -175,6 +175,8 @@ class ReportView:
     """One line per figure that could not be drawn (also among :attr:`notes`)."""
     levels: FigureView | None = None
     """Every analyzed channel's response level over time (:func:`figures.level_figure`)."""
+    sections: str = ""
+    """Which findings have a section (``findings 1-6``) when not all do, else empty."""
 
     @property
     def figure_count(self) -> int:

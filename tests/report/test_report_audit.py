@@ -230,3 +230,45 @@ def test_a_range_reads_apart_when_its_ends_differ(monkeypatch):
     html = render_report(a, findings_document(a))
     archive = html[html.index('id="archive"') : html.index('id="models"')]
     assert "<td>101321 to 101329</td>" in archive
+
+
+# -- which findings have a section ----------------------------------------------------------
+
+
+def _many(monkeypatch, detailed: int, reverse: bool = False):
+    monkeypatch.setattr(report_view, "MAX_DETAILED", detailed)
+    faults = [SyntheticFault(j, FaultType.ADDITIVE, 40.0 + 10 * j, None, 1.0) for j in range(5)]
+    a = synthetic_analysis(120.0, 5, RATE, faults)
+    doc = findings_document(a)
+    for f in doc["faults"]:
+        f["confidence"] = 1.0  # all tied, as twelve clear offsets were
+    if reverse:
+        doc["faults"].reverse()
+    return doc, render_report(a, doc)
+
+
+def test_the_page_says_which_findings_have_a_section(monkeypatch):
+    """The footer said each finding's innovation tests were on the page; findings beyond
+    the detailed ones had a verdict row only."""
+    doc, html = _many(monkeypatch, 2)
+    assert len(doc["faults"]) == 5
+    findings = html[html.index('id="findings"') : html.index('id="archive"')]
+    text = " ".join(findings.split())
+    assert (
+        "The 2 most confident findings (the earliest first among equally confident ones), " in text
+    )
+    assert "findings 1-2, have a section below" in text and "the other 3 are listed in" in text
+    footer = " ".join(html[html.rindex("<footer") :].split())
+    assert "on this page the tests and evidence of findings 1-2 only" in footer
+    doc, html = _many(monkeypatch, 6)  # all have one: no such text
+    assert "most confident findings" not in html and "only, the findings with a section" not in html
+
+
+def test_among_equally_confident_findings_the_earliest_get_a_section(monkeypatch):
+    doc, html = _many(monkeypatch, 2, reverse=True)
+    numbers = [i + 1 for i, f in enumerate(doc["faults"]) if f["onset_s"] < 55.0]
+    assert numbers == [4, 5]
+    assert html.count('<section class="finding"') == 2
+    for n in numbers:
+        assert f'id="finding-{n}"' in html
+    assert "findings 4-5, have a section below" in " ".join(html.split())
