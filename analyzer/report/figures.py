@@ -504,7 +504,7 @@ def residual_figure(
         return to_svg(fig, key)
 
 
-def _shewhart(ax: Axes, seg: Segment) -> None:
+def _shewhart(ax: Axes, seg: Segment, what: str) -> None:
     sh = (seg.tests or {}).get("shewhart", {})
     k = float(sh.get("k") or 3.0)
     sec = TimeAxis.for_times(seg.t)
@@ -521,7 +521,7 @@ def _shewhart(ax: Axes, seg: Segment) -> None:
     sub = f"{count} of {n} beyond ±{k:g}" if count is not None and n else ""
     ax.set_title(label(f"{shown_name(seg.name)}: Shewhart chart\n{sub}"), loc="left")
     ax.set_xlabel(sec.label())
-    ax.set_ylabel("standardized residual z")
+    ax.set_ylabel(f"{what} z")
 
 
 def _probability(ax: Axes, seg: Segment) -> None:
@@ -563,10 +563,14 @@ def _acf(ax: Axes, seg: Segment) -> None:
     _legend(ax, inside="upper right")
 
 
-def tests_figure(segments: Sequence[Segment], detector: str, key: str) -> Markup:
+def tests_figure(
+    segments: Sequence[Segment], detector: str, key: str, what: str = "standardized residual"
+) -> Markup:
     """Seed 003's innovation tests, one row per segment (before / after the onset):
     Shewhart chart with the +-k limits, normal probability plot against N(0, 1), and the
-    autocorrelation with its 95 % white-noise band."""
+    autocorrelation with its 95 % white-noise band. ``what`` the segments are, for the
+    title and the axis: the whitened residual where the evidence has a whitening (the
+    tests ran on it, and it is what the view hands in), else the standardized one."""
     with style():
         fig = new_figure(WIDTH_IN, 2.6 * max(1, len(segments)) + 0.3, constrained=False)
         axes = grid(
@@ -579,11 +583,11 @@ def tests_figure(segments: Sequence[Segment], detector: str, key: str) -> Markup
             width_ratios=[1.6, 1.0, 1.0],
         )
         for row, seg in zip(axes, segments, strict=False):
-            _shewhart(row[0], seg)
+            _shewhart(row[0], seg, what)
             _probability(row[1], seg)
             _acf(row[2], seg)
         fig.suptitle(
-            label(f"standardized residual of {shown_name(detector)}"),
+            label(f"{what} of {shown_name(detector)}"),
             x=0.01,
             ha="left",
             fontsize=9.5,

@@ -35,6 +35,16 @@ def shorten(text: str, limit: int = 48) -> str:
     return text[:head] + "…" + text[len(text) - (limit - 1 - head) :]
 
 
+_DIGITS = re.compile(r"(\d+)")
+
+
+def natural_key(name: str) -> tuple[Any, ...]:
+    """Sort key reading the numbers in a name as numbers: ``s2`` before ``s10`` (the
+    headline listed "s0, s1, s10, s11, s2")."""
+    parts = _DIGITS.split(name)
+    return (*(int(p) if i % 2 else p for i, p in enumerate(parts)), name)
+
+
 def num(x: Any, digits: int = 4) -> str:
     """``x`` with ``digits`` significant digits; ``n/a`` for None, NaN or non-numbers."""
     if isinstance(x, bool):
@@ -237,6 +247,7 @@ __all__ = [
     "is_scalar",
     "is_short_list",
     "magnitude",
+    "natural_key",
     "num",
     "num_range",
     "percent",

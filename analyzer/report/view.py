@@ -148,7 +148,7 @@ class _Access(FigureParts, TableParts):
     def headline(self, faults: Sequence[Mapping[str, Any]]) -> str:
         if not faults:
             return "No sensor fault found."
-        sensors = sorted({str(f["channel"]) for f in faults})
+        sensors = sorted({str(f["channel"]) for f in faults}, key=fmt.natural_key)
         n = len(faults)
         what = "sensor fault" if n == 1 else "sensor faults"
         on = "sensor" if len(sensors) == 1 else "sensors"

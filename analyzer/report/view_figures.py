@@ -259,6 +259,7 @@ class FigureParts:
             return None
         t = tests[det]
         segs = []
+        whitened = []
         for name, span_key, test_key in (
             ("before onset", "before_span_s", "before"),
             ("after onset", "after_span_s", "after"),
@@ -268,19 +269,28 @@ class FigureParts:
                 continue
             a = max(0, int(round(float(span[0]) * self.rate)))
             b = min(self.n, int(round(float(span[1]) * self.rate)))
-            z = self._standardized(det, ch, a, b, t.get("whitening"))
-            if z is None or b <= a:
+            got = self._standardized(det, ch, a, b, t.get("whitening"))
+            if got is None or b <= a:
                 continue
+            z, white = got
+            whitened.append(white)
             segs.append(fg.Segment(name, np.arange(a, b) / self.rate, z, t.get(test_key)))
         if not segs:
             return None
-        job = fg.FigureJob("tests_figure", (segs, det, f"{view.anchor}-tests"))
+        # the figure's title and axis name what it plots: the whitened residual where
+        # there was a whitening (it said "standardized residual" of that too)
+        white = all(whitened)
+        job = fg.FigureJob(
+            "tests_figure",
+            (segs, det, f"{view.anchor}-tests"),
+            {"what": "whitened residual" if white else "standardized residual"},
+        )
         spec = t.get("whitening")
         what = (
             f"Whitened residual of {det} (training mean and deviation removed, then the "
             f"one-step error of its AR({spec.get('order')}) model of the training window, "
             "in units of its healthy deviation: what the tests ran on)"
-            if isinstance(spec, dict)
+            if white and isinstance(spec, dict)
             else f"Standardized residual of {det} (training mean and deviation removed)"
         )
         return self.figure(
@@ -322,16 +332,17 @@ class FigureParts:
 
     def _standardized(
         self, det: str, ch: str, a: int, b: int, whitening: Any = None
-    ) -> FloatArray | None:
+    ) -> tuple[FloatArray, bool] | None:
         """``(r - mean) / std`` on ``[a, b)``, as analyzer.diagnosis.evidence.standardized
         (the same normalization the tests ran on), whitened by the evidence's
-        ``whitening`` when it has one (:func:`analyzer.diagnosis.evidence.whitened_part`)."""
+        ``whitening`` when it has one (:func:`analyzer.diagnosis.evidence.whitened_part`);
+        and whether it was whitened."""
         r = self.results.get(det)
         if r is None or r.residuals.get(ch) is None:
             return None
         w = Whitening.from_dict(whitening)
         if w is not None and b > a and standardized(r, ch, slice(a, a + 1)) is not None:
-            return whitened_part(r, ch, slice(a, b), w)
+            return whitened_part(r, ch, slice(a, b), w), True
         res = r.residuals[ch]
         th = r.thresholds.get(ch, {}) if isinstance(r.thresholds.get(ch), dict) else {}
         mean = float(th.get("mean", 0.0))
@@ -340,7 +351,7 @@ class FigureParts:
             std = float(r.sigma.get(ch, 0.0))
         if not std > 0:
             return None
-        return (_f64(res[a:b]) - mean) / std
+        return (_f64(res[a:b]) - mean) / std, False
 
     def _measured(self, ch: str, k0: int, k1: int) -> FloatArray | None:
         if self.values is None or ch not in self.analyzed:

@@ -272,3 +272,39 @@ def test_among_equally_confident_findings_the_earliest_get_a_section(monkeypatch
     for n in numbers:
         assert f'id="finding-{n}"' in html
     assert "findings 4-5, have a section below" in " ".join(html.split())
+
+
+# -- cosmetics ------------------------------------------------------------------------------
+
+
+def test_the_headline_sorts_sensor_names_by_their_numbers(monkeypatch):
+    assert sorted(["s10", "s2", "s1", "a", "s1b"], key=fmt.natural_key) == [
+        "a",
+        "s1",
+        "s1b",
+        "s2",
+        "s10",
+    ]
+    monkeypatch.setattr(report_view, "MAX_DETAILED", 0)
+    faults = [SyntheticFault(j, FaultType.ADDITIVE, 60.0 + 10 * j, None, 1.0) for j in range(2)]
+    a = synthetic_analysis(120.0, 3, RATE, faults, names=["s10", "s2", "s0"])
+    html = render_report(a, findings_document(a))
+    assert "2 sensor faults found on 2 sensors: s2, s10." in html
+
+
+def test_the_tests_figure_names_the_whitened_residual_it_plots(monkeypatch):
+    """Its title said "standardized residual of ar_kalman_bank" and its axis
+    "standardized residual z", of the whitened residual the tests ran on."""
+    monkeypatch.setattr(report_view, "MAX_DETAILED", 1)
+    a = synthetic_analysis(120.0, 3, RATE, [SyntheticFault(1, FaultType.ADDITIVE, 60.0, None, 1.0)])
+    doc = findings_document(a)
+    f = doc["faults"][0]
+    assert f["evidence"]["tests"][f["detector"]].get("whitening")
+    texts = _texts(_figure(render_report(a, doc), "tests"))
+    assert f"whitened residual of {f['detector']}" in texts and "whitened residual z" in texts
+    assert not [t for t in texts if "standardized" in t]
+    # without a whitening the residual is the standardized one, and the figure says so
+    for t in f["evidence"]["tests"].values():
+        t.pop("whitening", None)
+    texts = _texts(_figure(render_report(a, doc), "tests"))
+    assert f"standardized residual of {f['detector']}" in texts
