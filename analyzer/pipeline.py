@@ -840,7 +840,7 @@ def _searched_without(
     # notes are about the second search's view, not the record's)
     clipped = {f.channel for f in added if "clipped" in f.evidence}
     own = [n for n in said if any(n.startswith(f"{c} clips at ") for c in clipped)]
-    return added, [reconfigure_note(lost, suspects, added, rate_hz), *own]
+    return added, [reconfigure_note(lost, suspects, added, rate_hz, slack), *own]
 
 
 def _run_again(

@@ -212,15 +212,21 @@ def note(
     suspects: dict[str, list[tuple[int, int]]],
     added: Sequence[Finding],
     rate_hz: float,
+    slack_s: float = 0.0,
 ) -> str:
     """The run's note on the second search: ``lost``, the channels missing for long,
-    ``suspects``, those found faulty with anomalies beside (:func:`beside_faults`)."""
+    ``suspects``, those found faulty with anomalies beside (:func:`beside_faults`, whose
+    rows begin ``slack_s`` before the fault's onset).
+
+    A suspect's rows are named by both times: the note said "big_Pa faulty from 28.0 s"
+    of a fault whose finding (and findings.json) has its onset at 30.0 s, 28.0 s being
+    where the rows left out begin, the onset less the 2 s slack."""
     parts = [
         f"{name} missing " + ", ".join(f"{a / rate_hz:.6g}-{b / rate_hz:.6g} s" for a, b in rows)
         for name, rows in sorted(lost.items())
     ] + [
         f"{name} faulty from "
-        + ", ".join(f"{a / rate_hz:.1f} s" for a, _ in rows)
+        + ", ".join(_left_out(a, rate_hz, slack_s) for a, _ in rows)
         + " with anomalies beside its fault that no sensor explained"
         for name, rows in sorted(suspects.items())
     ]
@@ -236,3 +242,15 @@ def note(
         f"the other channels were searched again without {left} ({'; '.join(parts)}), "
         f"fitted on the same healthy window, where the first search had {why}: {found}"
     )
+
+
+def _left_out(a: int, rate_hz: float, slack_s: float) -> str:
+    """A suspect's onset and the first row left out, ``slack_s`` before it
+    (:func:`beside_faults`): ``30.0 s (left out from 28.0 s)``; a fault within
+    ``slack_s`` of the start was left out from the start, its onset unknown here."""
+    start = a / rate_hz
+    if a == 0 and slack_s > 0:
+        return f"within {slack_s:.3g} s of the start (left out from 0.0 s)"
+    if slack_s <= 0:
+        return f"{start:.1f} s"
+    return f"{start + slack_s:.1f} s (left out from {start:.1f} s)"

@@ -111,8 +111,25 @@ def _plot_envelope(
         ax.plot(x, env.lo, color=color, lw=lw, label=label(name))
 
 
-def _mark_onset(ax: Axes, onset_s: float, end_s: float | None, axis: TimeAxis) -> None:
-    ax.axvline(onset_s / axis.scale, color=C_ONSET, ls="--", lw=1.2, label="onset")
+ONSET_BOUND_LABEL = "onset: at or before"
+"""The onset line's legend where the onset is only an upper bound (the fault was there
+when the search began: ``--model``'s offset from the first sample, found at 4.31 s)."""
+OPEN_FAULT_LABEL = "may have begun (onset at or before)"
+"""The legend of the span before such an onset, where the fault may already have been."""
+
+
+def _mark_onset(
+    ax: Axes, onset_s: float, end_s: float | None, axis: TimeAxis, bound: bool = False
+) -> None:
+    """The onset (red, dashed) and the end (purple, dash-dot); ``bound``: the onset is an
+    upper bound, and its legend says so."""
+    ax.axvline(
+        onset_s / axis.scale,
+        color=C_ONSET,
+        ls="--",
+        lw=1.2,
+        label=ONSET_BOUND_LABEL if bound else "onset",
+    )
     if end_s is not None:
         ax.axvline(end_s / axis.scale, color=C_END, ls="-.", lw=1.2, label="end")
 
@@ -168,7 +185,7 @@ def coverage_figure(
             color=C_TRAIN,
             alpha=0.15,
             lw=0,
-            label="training window",
+            label=train_label,
         )
         min_w = MIN_MARK * max(duration_s, 1e-9)  # a one-sample gap must still show
         for i, r in enumerate(rows):
@@ -194,6 +211,15 @@ def coverage_figure(
                     color=C_FAULT,
                     lw=0,
                 )
+            if r.open_faults:
+                ax.broken_barh(
+                    [(a / axis.scale, max(b - a, min_w) / axis.scale) for a, b in r.open_faults],
+                    (y - 0.18, 0.36),
+                    facecolor="none",
+                    edgecolor=C_FAULT,
+                    hatch="////",
+                    lw=0.8,
+                )
         ax.set_yticks(range(n), names)
         ax.set_ylim(-0.7, n - 0.3)
         first = min([0.0, *[r.start_s for r in rows]])  # channels may start before the clock
@@ -208,8 +234,16 @@ def coverage_figure(
             Patch(color=C_FAULT, label="fault period"),
             Patch(color=C_TRAIN, alpha=0.15, label=train_label),
         ]
+        if any(r.open_faults for r in rows):
+            handles.insert(
+                4, Patch(facecolor="none", edgecolor=C_FAULT, hatch="////", label=OPEN_FAULT_LABEL)
+            )
         ax.legend(
-            handles=handles, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncols=5, frameon=False
+            handles=handles,
+            loc="lower center",
+            bbox_to_anchor=(0.5, 1.0),
+            ncols=len(handles),
+            frameon=False,
         )
         return to_svg(fig, key)
 
@@ -225,12 +259,16 @@ def level_figure(
     train: tuple[float, float],
     faults: Sequence[Sequence[tuple[float, float]]],
     key: str,
+    open_faults: Sequence[Sequence[tuple[float, float]]] = (),
+    train_label: str = "training window",
 ) -> Markup:
     """Each channel's response level over time as a colour map: ``ratio`` (bins x
     channels) is a bin's RMS over the channel's reference RMS, drawn on a log scale from
     1/:data:`LEVEL_RANGE` (blue) through 1 (white) to :data:`LEVEL_RANGE` (red), empty
-    bins grey; ``faults`` (per channel) outlined in black, the training window marked
-    above the map."""
+    bins grey; ``faults`` (per channel) outlined in black, ``open_faults`` (the spans
+    before an onset that is only an upper bound) dashed, the training window
+    (``train_label``: with ``--model``, the filters' warm-up, as the other figures call it)
+    marked above the map."""
     m = len(names)
     axis = TimeAxis.for_span(float(edges_s[-1]))
     shown = [label(n) for n in shown_names(list(names))]
@@ -250,18 +288,20 @@ def level_figure(
             vmax=np.log2(LEVEL_RANGE),
             extent=(edges_s[0] / axis.scale, edges_s[-1] / axis.scale, m - 0.5, -0.5),
         )
-        for i, spans in enumerate(faults):
-            for a, b in spans:
-                ax.add_patch(
-                    mpl.patches.Rectangle(
-                        (a / axis.scale, i - 0.45),
-                        max(b - a, MIN_MARK * float(edges_s[-1])) / axis.scale,
-                        0.9,
-                        fill=False,
-                        ec="black",
-                        lw=1.0,
+        for ls, per_channel in (("-", faults), ("--", open_faults)):
+            for i, spans in enumerate(per_channel):
+                for a, b in spans:
+                    ax.add_patch(
+                        mpl.patches.Rectangle(
+                            (a / axis.scale, i - 0.45),
+                            max(b - a, MIN_MARK * float(edges_s[-1])) / axis.scale,
+                            0.9,
+                            fill=False,
+                            ec="black",
+                            ls=ls,
+                            lw=1.0,
+                        )
                     )
-                )
         ax.plot(
             [train[0] / axis.scale, train[1] / axis.scale],
             [-0.5, -0.5],
@@ -269,7 +309,7 @@ def level_figure(
             lw=4,
             solid_capstyle="butt",
             clip_on=False,
-            label="training window",
+            label=train_label,
         )
         ax.set_yticks(range(m), shown)
         ax.set_xlabel(axis.label())
@@ -280,11 +320,17 @@ def level_figure(
         bar.set_ticks(ticks, labels=[f"{2.0**t:g}" if t >= 0 else f"1/{2.0**-t:g}" for t in ticks])
         bar.set_label("level / reference")
         handles = [
-            Patch(color=C_TRAIN, label="training window"),
+            Patch(color=C_TRAIN, label=train_label),
             Patch(fill=False, ec="black", label="fault period"),
         ]
+        if any(open_faults):
+            handles.append(Patch(fill=False, ec="black", ls="--", label=OPEN_FAULT_LABEL))
         ax.legend(
-            handles=handles, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncols=2, frameon=False
+            handles=handles,
+            loc="lower center",
+            bbox_to_anchor=(0.5, 1.0),
+            ncols=len(handles),
+            frameon=False,
         )
         return to_svg(fig, key)
 
@@ -303,11 +349,13 @@ def signal_figure(
     key: str,
     close_s: float | None = None,
     limits: Sequence[float] = (),
+    onset_bound: bool = False,
 ) -> Markup:
     """The measured signal around the onset with the detector's fault-free estimate (the
     gap between them is the estimated fault). With ``close_s``, a second panel shows
     ``onset +- close_s`` closely enough to see the waveforms (shaded grey above).
-    ``limits``: the values a clipping sensor's readings pile up at, drawn as dotted lines."""
+    ``limits``: the values a clipping sensor's readings pile up at, drawn as dotted lines.
+    ``onset_bound``: the onset is an upper bound (:data:`ONSET_BOUND_LABEL`)."""
     axis = TimeAxis.for_times(t)
     close = close_up(t, onset_s, close_s)
     with style():
@@ -328,7 +376,7 @@ def signal_figure(
                     C_ESTIMATE,
                     f"fault-free estimate ({shown_name(estimate_name)})",
                 )
-            _mark_onset(ax, onset_s, end_s, axis)
+            _mark_onset(ax, onset_s, end_s, axis, onset_bound)
             for k, level in enumerate(limits):
                 ax.axhline(
                     level,
@@ -364,15 +412,17 @@ def corrected_figure(
     end_s: float | None,
     channel: str,
     key: str,
+    onset_bound: bool = False,
 ) -> Markup:
-    """Measured and corrected signal (fault removed, Wang & Song 2014, Section 6.3)."""
+    """Measured and corrected signal (fault removed, Wang & Song 2014, Section 6.3);
+    ``onset_bound``: the onset is an upper bound (:data:`ONSET_BOUND_LABEL`)."""
     axis = TimeAxis.for_times(t)
     with style():
         fig = new_figure(WIDTH_IN, 2.6, constrained=False)
         ax = grid(fig, 1, top=0.3)[0, 0]
         _plot_series(ax, t, measured, axis, C_MEASURED, f"measured {shown_name(channel)}")
         _plot_series(ax, t, corrected, axis, C_CORRECTED, "corrected")
-        _mark_onset(ax, onset_s, end_s, axis)
+        _mark_onset(ax, onset_s, end_s, axis, onset_bound)
         if t.size:
             ax.set_xlim(t[0] / axis.scale, t[-1] / axis.scale)
         ax.set_xlabel(axis.label())
@@ -391,13 +441,15 @@ def residual_figure(
     duration_s: float,
     key: str,
     train_label: str = "training window",
+    onset_bound: bool = False,
 ) -> Markup:
     """Top: the leading detector's residual over the whole archive with the training
     window (``train_label``) and the onset; ``overview`` is its ``envelope(t, r,
     MAX_POINTS)``, computed by the caller (a 4-hour record at 100 Hz is 1.44 M samples:
     their envelope is what this figure would draw anyway, and it ships to a worker
     process in 24 kB). Below, per detector that saw the fault: its residual around the
-    onset, its moving mean and the threshold band that mean must leave."""
+    onset, its moving mean and the threshold band that mean must leave. ``onset_bound``:
+    the onset is an upper bound (:data:`ONSET_BOUND_LABEL`)."""
     axis = TimeAxis.for_span(duration_s)
     sec = TimeAxis.for_times(panels[0].t) if panels else TimeAxis("s", 1.0)
     with style():
@@ -413,7 +465,7 @@ def residual_figure(
             label=train_label,
         )
         _plot_envelope(ax, overview, axis, C_RESIDUAL, f"residual ({shown_name(overview_name)})")
-        _mark_onset(ax, onset_s, end_s, axis)
+        _mark_onset(ax, onset_s, end_s, axis, onset_bound)
         ax.set_xlim(0, max(duration_s, 1e-9) / axis.scale)
         ax.set_title("whole record", loc="left")
         ax.set_ylabel("channel units")
@@ -442,7 +494,7 @@ def residual_figure(
                 )
                 for s in (-1.0, 1.0):
                     ax.axhline(p.center + s * p.half_band, color=C_BAND, lw=0.8, ls=":")
-            _mark_onset(ax, onset_s, end_s, sec)
+            _mark_onset(ax, onset_s, end_s, sec, onset_bound)
             if p.t.size:
                 ax.set_xlim(p.t[0] / sec.scale, p.t[-1] / sec.scale)
             ax.set_title(label(f"{shown_name(p.detector)}: around the onset"), loc="left")
@@ -452,7 +504,7 @@ def residual_figure(
         return to_svg(fig, key)
 
 
-def _shewhart(ax: Axes, seg: Segment) -> None:
+def _shewhart(ax: Axes, seg: Segment, what: str) -> None:
     sh = (seg.tests or {}).get("shewhart", {})
     k = float(sh.get("k") or 3.0)
     sec = TimeAxis.for_times(seg.t)
@@ -469,7 +521,7 @@ def _shewhart(ax: Axes, seg: Segment) -> None:
     sub = f"{count} of {n} beyond ±{k:g}" if count is not None and n else ""
     ax.set_title(label(f"{shown_name(seg.name)}: Shewhart chart\n{sub}"), loc="left")
     ax.set_xlabel(sec.label())
-    ax.set_ylabel("standardized residual z")
+    ax.set_ylabel(f"{what} z")
 
 
 def _probability(ax: Axes, seg: Segment) -> None:
@@ -511,10 +563,14 @@ def _acf(ax: Axes, seg: Segment) -> None:
     _legend(ax, inside="upper right")
 
 
-def tests_figure(segments: Sequence[Segment], detector: str, key: str) -> Markup:
+def tests_figure(
+    segments: Sequence[Segment], detector: str, key: str, what: str = "standardized residual"
+) -> Markup:
     """Seed 003's innovation tests, one row per segment (before / after the onset):
     Shewhart chart with the +-k limits, normal probability plot against N(0, 1), and the
-    autocorrelation with its 95 % white-noise band."""
+    autocorrelation with its 95 % white-noise band. ``what`` the segments are, for the
+    title and the axis: the whitened residual where the evidence has a whitening (the
+    tests ran on it, and it is what the view hands in), else the standardized one."""
     with style():
         fig = new_figure(WIDTH_IN, 2.6 * max(1, len(segments)) + 0.3, constrained=False)
         axes = grid(
@@ -527,11 +583,11 @@ def tests_figure(segments: Sequence[Segment], detector: str, key: str) -> Markup
             width_ratios=[1.6, 1.0, 1.0],
         )
         for row, seg in zip(axes, segments, strict=False):
-            _shewhart(row[0], seg)
+            _shewhart(row[0], seg, what)
             _probability(row[1], seg)
             _acf(row[2], seg)
         fig.suptitle(
-            label(f"standardized residual of {shown_name(detector)}"),
+            label(f"{what} of {shown_name(detector)}"),
             x=0.01,
             ha="left",
             fontsize=9.5,

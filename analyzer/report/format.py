@@ -8,6 +8,8 @@ import re
 from collections.abc import Mapping
 from typing import Any
 
+from analyzer.diagnosis.classify import MIN_GAIN
+
 MISSING = "n/a"
 
 _CONTROLS = re.compile("[\x00-\x08\x0a-\x1f\x7f-\x9f\u061c\u200e\u200f\u202a-\u202e\u2066-\u2069]")
@@ -33,6 +35,16 @@ def shorten(text: str, limit: int = 48) -> str:
     return text[:head] + "…" + text[len(text) - (limit - 1 - head) :]
 
 
+_DIGITS = re.compile(r"(\d+)")
+
+
+def natural_key(name: str) -> tuple[Any, ...]:
+    """Sort key reading the numbers in a name as numbers: ``s2`` before ``s10`` (the
+    headline listed "s0, s1, s10, s11, s2")."""
+    parts = _DIGITS.split(name)
+    return (*(int(p) if i % 2 else p for i, p in enumerate(parts)), name)
+
+
 def num(x: Any, digits: int = 4) -> str:
     """``x`` with ``digits`` significant digits; ``n/a`` for None, NaN or non-numbers."""
     if isinstance(x, bool):
@@ -48,11 +60,44 @@ def num(x: Any, digits: int = 4) -> str:
     return f"{v:.{digits}g}"
 
 
+def num_range(lo: Any, hi: Any, digits: int = 4) -> str:
+    """``lo to hi`` with at least ``digits`` significant digits and, when they differ
+    but read alike, as many more (up to a double's 17) as make them read apart, and one
+    more for their difference to read too: a barometer at 101321 to 101329 Pa read
+    ``1.013e+05 to 1.013e+05``, a constant channel; now ``101321 to 101329``."""
+    a, b = num(lo, digits), num(hi, digits)
+    try:
+        differ = float(lo) != float(hi)
+    except (TypeError, ValueError):
+        differ = False
+    if not differ or a != b:
+        return f"{a} to {b}"
+    while a == b and digits < 17:
+        digits += 1
+        a, b = num(lo, digits), num(hi, digits)
+    digits = min(digits + 1, 17)
+    return f"{num(lo, digits)} to {num(hi, digits)}"
+
+
 def seconds(x: float | None, decimals: int = 3) -> str:
     """``16.000 s``; ``n/a`` for None."""
     if x is None or not math.isfinite(float(x)):
         return MISSING
     return f"{float(x):.{decimals}f} s"
+
+
+TIME_DECIMALS = 4
+"""Decimals findings.json keeps of a time in seconds (``onset_s``, ``end_s``)."""
+
+
+def time_decimals(rate_hz: float | None) -> int:
+    """Decimals a time of a record sampled at ``rate_hz`` needs for one sample to read
+    apart from the next: 3 up to 1 kHz, 4 above (as many as findings.json keeps). At
+    2 kHz an onset at 20.0005 s was shown as ``20.000 s`` above its ISO time
+    ``...T00:00:20.001Z``: two times in one cell."""
+    if rate_hz is None or not math.isfinite(float(rate_hz)) or rate_hz <= 0:
+        return 3
+    return min(TIME_DECIMALS, max(3, math.ceil(math.log10(float(rate_hz)) - 1e-9)))
 
 
 TIME_UNITS = (("d", 86400.0, 3 * 86400.0), ("h", 3600.0, 3 * 3600.0), ("min", 60.0, 15 * 60.0))
@@ -79,16 +124,18 @@ def at(x: float | None, span_s: float) -> str:
     return f"{float(x) / scale:.{3 if unit == 'd' else 2}f} {unit}"
 
 
-def clock(x: float | None) -> str:
-    """Seconds from the start as ``+HH:MM:SS.mmm`` (empty for None): a time in a long
-    record without absolute timestamps."""
+def clock(x: float | None, decimals: int = 3) -> str:
+    """Seconds from the start as ``+HH:MM:SS.mmm`` (``decimals`` digits of the second:
+    :func:`time_decimals`; empty for None): a time in a long record without absolute
+    timestamps."""
     if x is None or not math.isfinite(float(x)):
         return ""
-    ms = int(round(float(x) * 1000.0))
-    h, rem = divmod(ms, 3_600_000)
-    m, rem = divmod(rem, 60_000)
-    s, ms = divmod(rem, 1000)
-    return f"+{h:02d}:{m:02d}:{s:02d}.{ms:03d}"
+    unit = 10**decimals
+    ticks = int(round(float(x) * unit))
+    h, rem = divmod(ticks, 3600 * unit)
+    m, rem = divmod(rem, 60 * unit)
+    s, frac = divmod(rem, unit)
+    return f"+{h:02d}:{m:02d}:{s:02d}.{frac:0{decimals}d}"
 
 
 def duration(x: float) -> str:
@@ -141,13 +188,29 @@ def magnitude(mag: Mapping[str, Any]) -> str:
         if key == "offset":
             parts.append(f"offset {_signed(v)}")
         elif key == "gain":
-            dead = " (dead sensor)" if v is not None and abs(float(v)) < 0.1 else ""
-            parts.append(f"gain ×{num(v)}{dead}")
+            parts.append(f"gain ×{num(v)}{_gain_note(v)}")
         elif key == "rate_per_s":
             parts.append(f"drift {_signed(v)} per s")
         else:
             parts.append(f"{key} {num(v)}")
     return ", ".join(parts) or MISSING
+
+
+def _gain_note(v: Any) -> str:
+    """What a gain below the classifier's :data:`~analyzer.diagnosis.classify.MIN_GAIN`
+    means: a dead sensor only at 0 (the contract's gain 0, a sensor frozen at zero), else
+    the share of its signal it still reads. A gain of 0.0256 (0.05 injected) was labelled
+    "(dead sensor)" while the sensor read its signal, scaled down."""
+    try:
+        g = float(v)
+    except (TypeError, ValueError):
+        return ""
+    if not math.isfinite(g) or abs(g) >= MIN_GAIN:
+        return ""
+    if num(g) == "0":
+        return " (dead sensor)"
+    inverted = ", inverted" if g < 0 else ""
+    return f" (reads {num(100 * abs(g), 3)} % of its signal{inverted}: nearly dead)"
 
 
 def _signed(v: Any) -> str:
@@ -176,6 +239,7 @@ def is_short_list(v: Any, limit: int = 8) -> bool:
 
 __all__ = [
     "MISSING",
+    "TIME_DECIMALS",
     "TIME_UNITS",
     "at",
     "clock",
@@ -183,13 +247,16 @@ __all__ = [
     "is_scalar",
     "is_short_list",
     "magnitude",
+    "natural_key",
     "num",
+    "num_range",
     "percent",
     "rate",
     "scalar",
     "seconds",
     "shorten",
     "size",
+    "time_decimals",
     "time_unit",
     "visible_controls",
 ]

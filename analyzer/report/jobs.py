@@ -33,7 +33,9 @@ MAX_POINTS = 1000
 
 @dataclass(slots=True)
 class CoverageRow:
-    """One channel of the timeline: covered span and gaps in seconds from the start."""
+    """One channel of the timeline: covered span and gaps in seconds from the start,
+    fault periods, and ``open_faults``: the spans before an onset that is only an upper
+    bound, where the fault may already have been (drawn hatched)."""
 
     name: str
     start_s: float
@@ -41,6 +43,7 @@ class CoverageRow:
     analyzed: bool
     gaps: list[tuple[float, float]] = field(default_factory=list)
     faults: list[tuple[float, float]] = field(default_factory=list)
+    open_faults: list[tuple[float, float]] = field(default_factory=list)
 
 
 @dataclass(slots=True)

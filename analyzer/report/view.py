@@ -7,8 +7,10 @@ residuals, fault-free estimates). The analysis is read by duck typing (attribute
 access with defaults), so any object with the :class:`analyzer.findings.Analysis`
 fields renders, including a synthetic one in the benchmark.
 
-Cost stays bounded on long archives: at most :data:`MAX_DETAILED` findings get figures
-(the most confident ones; the verdict table lists all), every plotted series is
+Cost stays bounded on long archives: at most :data:`MAX_DETAILED` findings get a section
+with figures, tests and evidence (the most confident ones, the earliest first among
+equally confident ones: with twelve offsets all at 100 %, the first six; the verdict
+table lists all, and the page says which have a section), every plotted series is
 decimated to a min/max envelope, and gaps are located from a binned NaN map streamed
 once over the (possibly memory-mapped) aligned matrix.
 
@@ -35,7 +37,7 @@ from typing import Any
 from analyzer import __version__
 from analyzer.report import format as fmt
 from analyzer.report.methods import DECISION, TESTS
-from analyzer.report.view_figures import FigureParts, _span
+from analyzer.report.view_figures import FigureParts, _span, open_since
 from analyzer.report.view_records import (
     DetectorTests,
     Fact,
@@ -48,7 +50,8 @@ from analyzer.report.view_tables import TEST_LABELS, TableParts, _cell
 from analyzer.report.workers import FigureBatch, FigureWorkers, active_workers
 
 MAX_DETAILED = 6
-"""Findings that get full figure sets; the others are summarized in tables."""
+"""Findings that get a section (figures, tests, evidence); the others are rows of the
+verdict table only. The most confident get one, the earliest first among equals."""
 
 
 # -- building the view ------------------------------------------------------------------
@@ -73,6 +76,7 @@ def build_view(
     for i in order[:MAX_DETAILED]:
         findings[i].detailed = True
         a.add_figures(findings[i], faults[i])
+    detailed = sorted(order[:MAX_DETAILED])
     coverage, coverage_note = a.coverage(faults)
     levels = a.levels(faults)
     view = ReportView(
@@ -83,6 +87,7 @@ def build_view(
         verdict_facts=a.verdict_facts(),
         findings=findings,
         summarized=max(0, len(findings) - MAX_DETAILED),
+        sections=_sections(detailed, len(findings)),
         checked=a.checked(),
         skipped=[Fact(k, str(v)) for k, v in (doc.get("skipped_detectors") or {}).items()],
         notes=[str(n) for n in doc.get("notes") or []],
@@ -121,6 +126,8 @@ class _Access(FigureParts, TableParts):
         self.batch = batch
         self.pending: list[tuple[FigureView, int]] = []
         self.rate = float(doc.get("rate_hz") or getattr(analysis, "rate_hz", 1.0) or 1.0)
+        # decimals of an onset or end: one sample apart must read apart (4 above 1 kHz)
+        self.decimals = fmt.time_decimals(self.rate)
         self.duration = float(doc.get("duration_s") or 0.0)
         self.analyzed: tuple[str, ...] = tuple(getattr(analysis, "analyzed", ()) or ())
         self.values = getattr(analysis, "values", None)
@@ -141,7 +148,7 @@ class _Access(FigureParts, TableParts):
     def headline(self, faults: Sequence[Mapping[str, Any]]) -> str:
         if not faults:
             return "No sensor fault found."
-        sensors = sorted({str(f["channel"]) for f in faults})
+        sensors = sorted({str(f["channel"]) for f in faults}, key=fmt.natural_key)
         n = len(faults)
         what = "sensor fault" if n == 1 else "sensor faults"
         on = "sensor" if len(sensors) == 1 else "sensors"
@@ -225,19 +232,27 @@ class _Access(FigureParts, TableParts):
             anchor=f"finding-{i + 1}",
             channel=str(f["channel"]),
             type=str(f["type"]),
-            onset_s=fmt.seconds(f.get("onset_s")),
+            # an upper bound (the fault was there when the search began) says so wherever
+            # it is shown: "at or before 4.310 s", not an exact 4.310 s
+            onset_s=("at or before " if open_since(f) is not None else "")
+            + fmt.seconds(f.get("onset_s"), self.decimals),
             # empty without absolute time (relative timestamps): the page then omits them
             onset_utc=str(f.get("onset") or ""),
-            end_s=fmt.seconds(f["end_s"]) if f.get("end_s") is not None else "to the end",
+            end_s=(
+                fmt.seconds(f["end_s"], self.decimals)
+                if f.get("end_s") is not None
+                else "to the end"
+            ),
             end_utc=str(f.get("end") or ""),
-            onset_clock=str(f.get("onset") or fmt.clock(f.get("onset_s"))),
-            end_clock=str(f.get("end") or fmt.clock(f.get("end_s"))),
+            onset_clock=str(f.get("onset") or fmt.clock(f.get("onset_s"), self.decimals)),
+            end_clock=str(f.get("end") or fmt.clock(f.get("end_s"), self.decimals)),
             magnitude=fmt.magnitude(f.get("magnitude") or {}),
             confidence=fmt.percent(f.get("confidence")),
             detectors=[str(d) for d in ev.get("detectors", [f.get("detector")])],
             lead=str(f.get("detector")),
             tests_agree=_agree(ev.get("tests_agree"), str(f["type"]), str(f.get("detector"))),
             tests=self.tests_views(f),
+            found=self.fault_facts(f),
             evidence=self.evidence_facts(ev),
             corrections=self.corrections(f),
         )
@@ -270,9 +285,71 @@ class _Access(FigureParts, TableParts):
         out.sort(key=lambda d: not d.lead)
         return out
 
+    def fault_facts(self, f: Mapping[str, Any]) -> list[Fact]:
+        """The fault's own evidence beyond the detectors' (the README's
+        ``evidence.onset_at_or_before``, ``frozen``, ``clipped``, ``searched_without``,
+        ``searched_after``, ``after_gap_s``) in a line each: findings.json had them and the
+        page did not (a dead sensor's frozen readings, a --model onset's upper bound)."""
+        ev = f.get("evidence") or {}
+        d = self.decimals
+        out = []
+        if ev.get("onset_at_or_before"):
+            out.append(
+                Fact(
+                    "Onset bound",
+                    "the fault was there when the search started at "
+                    f"{fmt.seconds(f.get('onset_s'), d)}, after the {self.train_label}: "
+                    "it began at or before then (perhaps in an earlier record)",
+                )
+            )
+        after = ev.get("searched_after")
+        if isinstance(after, Mapping):
+            stretch = after.get("stretch_s") or []
+            text = (
+                f"found by a search again with the same models from "
+                f"{fmt.seconds(after.get('search_start_s'), d)}, after a stretch "
+                f"({_span(stretch)}) whose anomaly the detectors attributed to no sensor"
+            )
+            if after.get("onset_at_or_before"):
+                text += "; it was there when that search began, so it may have begun in the stretch"
+            out.append(Fact("Searched again", text))
+        without = ev.get("searched_without")
+        if without:
+            out.append(
+                Fact(
+                    "Searched without",
+                    f"{', '.join(str(c) for c in without)}: found by a second search fitted on "
+                    "the healthy window without these channels (missing for long, or found "
+                    "faulty beside anomalies no sensor explained)",
+                )
+            )
+        gap = ev.get("after_gap_s")
+        if isinstance(gap, Sequence) and len(gap) == 2:
+            out.append(
+                Fact(
+                    "After a gap",
+                    f"found soon after a gap in its data from {fmt.seconds(gap[0], d)} to "
+                    f"{fmt.seconds(gap[1], d)}: it may have begun in the gap",
+                )
+            )
+        frozen = ev.get("frozen")
+        if isinstance(frozen, Mapping):
+            out.append(
+                Fact(
+                    "Frozen readings",
+                    f"median reading {fmt.num(frozen.get('level'))}, varying "
+                    f"{fmt.num(frozen.get('std_ratio'), 3)} × their healthy spread"
+                    + (f" (the residual alone gave {frozen['was']})" if frozen.get("was") else ""),
+                )
+            )
+        clipped = ev.get("clipped")
+        if isinstance(clipped, Mapping):
+            out.append(Fact("Clipping", _clipped(clipped, d)))
+        return out
+
     def evidence_facts(self, ev: Mapping[str, Any]) -> list[tuple[str, list[Fact]]]:
         known = {
-            "first_alarm_s": ("first alarm", lambda v: fmt.seconds(v)),
+            "first_alarm_s": ("first alarm", lambda v: fmt.seconds(v, self.decimals)),
             "peak_over_threshold": ("peak / threshold", lambda v: fmt.num(v, 3)),
             "p_value": ("p-value (healthy data this extreme)", _pvalue),
             "explained": ("share of residual explained by the fault model", fmt.percent),
@@ -302,8 +379,12 @@ class _Access(FigureParts, TableParts):
                     Fact("method", str(c.get("method"))),
                     Fact(
                         "period",
-                        f"{fmt.seconds(c.get('start_s'))} to "
-                        + (fmt.seconds(c["end_s"]) if c.get("end_s") is not None else "the end"),
+                        f"{fmt.seconds(c.get('start_s'), self.decimals)} to "
+                        + (
+                            fmt.seconds(c["end_s"], self.decimals)
+                            if c.get("end_s") is not None
+                            else "the end"
+                        ),
                     ),
                     Fact("samples corrected", fmt.num(c.get("samples"), 12)),
                     Fact("mean fault removed", fmt.num(c.get("mean_fault"))),
@@ -327,6 +408,49 @@ def _agree(agree: Any, kind: str, lead: str) -> str:
         f"no: the tests of {lead} do not break the way {art} {kind} fault breaks them "
         "(the confidence was lowered accordingly)"
     )
+
+
+def _clipped(c: Mapping[str, Any], decimals: int) -> str:
+    """A clipping sensor's evidence: ``at +4.2 (high) and -4.2 (low): 812 readings (31.5 %
+    of those from the first to the last) from 720.000 s to 1200.000 s; 21 findings merged
+    (additive, other)``."""
+    limits = [
+        f"{fmt.num(c[k])} ({side})"
+        for k, side in (("clipped_high", "high"), ("clipped_low", "low"))
+        if c.get(k) is not None
+    ]
+    text = (
+        f"at {' and '.join(limits) or fmt.MISSING}: {fmt.num(c.get('readings'), 12)} readings "
+        f"({fmt.percent(c.get('fraction'))} of those from the first to the last) from "
+        f"{fmt.seconds(c.get('first_s'), decimals)} to {fmt.seconds(c.get('last_s'), decimals)}"
+    )
+    merged = c.get("findings_merged")
+    if merged:
+        types = ", ".join(str(t) for t in c.get("types_merged") or [])
+        text += f"; {merged} findings merged" + (f" ({types})" if types else "")
+    if c.get("in_healthy_window_from_s") is not None:
+        text += (
+            "; it clipped in the healthy window too, from "
+            f"{fmt.seconds(c['in_healthy_window_from_s'], decimals)}"
+        )
+    return text
+
+
+def _sections(detailed: Sequence[int], total: int) -> str:
+    """Which findings have a section, when not all do: ``findings 1-6`` (indices of
+    ``detailed``, 0-based, shown 1-based), for the page's text; empty when all do."""
+    if len(detailed) >= total:
+        return ""
+    if not detailed:
+        return "none"
+    runs: list[list[int]] = []
+    for i in detailed:
+        if runs and i == runs[-1][-1] + 1:
+            runs[-1].append(i)
+        else:
+            runs.append([i])
+    parts = [f"{r[0] + 1}" if len(r) == 1 else f"{r[0] + 1}-{r[-1] + 1}" for r in runs]
+    return ("finding " if len(detailed) == 1 else "findings ") + ", ".join(parts)
 
 
 def _pvalue(v: Any) -> str:

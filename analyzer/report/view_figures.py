@@ -92,6 +92,7 @@ class FigureParts:
         ch = str(f["channel"])
         onset = float(f["onset_s"])
         end = None if f.get("end_s") is None else float(f["end_s"])
+        bound = open_since(f) is not None  # onset_s an upper bound: the line says so
         dets = [d for d in view.detectors if self._residual(d, ch) is not None]
         lead = view.lead if view.lead in dets else (dets[0] if dets else None)
         k0, k1 = self._zoom(onset, end, lead, ch)
@@ -122,7 +123,7 @@ class FigureParts:
                     ch,
                     f"{key}-signal",
                 ),
-                {"close_s": self._close_s(), "limits": limits},
+                {"close_s": self._close_s(), "limits": limits, "onset_bound": bound},
             )
             view.figures.append(
                 self.figure(
@@ -131,7 +132,13 @@ class FigureParts:
                     f"{ch} around the onset ({fmt.at(t[0] if t.size else 0, span)} to "
                     f"{fmt.at(t[-1] if t.size else 0, span)}): measured (blue) and the fault-free "
                     f"estimate of {est_det or 'no detector'} (orange); their difference is the "
-                    "estimated fault. Dashed red line: identified onset"
+                    "estimated fault. Dashed red line: "
+                    + (
+                        "the onset's upper bound (the fault was there when the search began, "
+                        "so it began at or before then)"
+                        if bound
+                        else "identified onset"
+                    )
                     + ("; dash-dot purple: end" if end is not None else "")
                     + ("; dotted grey: the limits its readings pile up at" if limits else "")
                     + (
@@ -151,7 +158,7 @@ class FigureParts:
             # the second search's residuals are not kept: the first search's, drawn here,
             # lost their view where it found the fault (NaN there), and are not what the
             # tests ran on
-            view.figures.append(self._residual_figure(view, ch, onset, end, dets, lead, k0, k1))
+            view.figures.append(self._residual_figure(view, f, ch, onset, end, dets, lead, k0, k1))
             view.remarks.append(
                 f"Found by the second search, without {', '.join(without)}: its residuals, "
                 "which the innovation tests ran on, are not drawn (the residual figure is "
@@ -159,7 +166,7 @@ class FigureParts:
                 "in findings.json."
             )
         elif lead is not None:
-            view.figures.append(self._residual_figure(view, ch, onset, end, dets, lead, k0, k1))
+            view.figures.append(self._residual_figure(view, f, ch, onset, end, dets, lead, k0, k1))
             seg_fig = self._tests_figure(view, ch, f, lead)
             if seg_fig is not None:
                 view.figures.append(seg_fig)
@@ -171,6 +178,7 @@ class FigureParts:
             job = fg.FigureJob(
                 "corrected_figure",
                 (t, measured, _f64(corrected[k0:k1, j]), onset, end, ch, f"{key}-corrected"),
+                {"onset_bound": bound},
             )
             view.figures.append(
                 self.figure(
@@ -189,6 +197,7 @@ class FigureParts:
     def _residual_figure(
         self,
         view: FindingView,
+        f: Mapping[str, Any],
         ch: str,
         onset: float,
         end: float | None,
@@ -220,6 +229,7 @@ class FigureParts:
                 f"{view.anchor}-residual",
                 self.train_label,
             ),
+            {"onset_bound": open_since(f) is not None},
         )
         bands = "; ".join(
             f"{p.detector}: {p.window}-sample mean outside {fmt.num(p.center)} ± "
@@ -249,6 +259,7 @@ class FigureParts:
             return None
         t = tests[det]
         segs = []
+        whitened = []
         for name, span_key, test_key in (
             ("before onset", "before_span_s", "before"),
             ("after onset", "after_span_s", "after"),
@@ -258,19 +269,28 @@ class FigureParts:
                 continue
             a = max(0, int(round(float(span[0]) * self.rate)))
             b = min(self.n, int(round(float(span[1]) * self.rate)))
-            z = self._standardized(det, ch, a, b, t.get("whitening"))
-            if z is None or b <= a:
+            got = self._standardized(det, ch, a, b, t.get("whitening"))
+            if got is None or b <= a:
                 continue
+            z, white = got
+            whitened.append(white)
             segs.append(fg.Segment(name, np.arange(a, b) / self.rate, z, t.get(test_key)))
         if not segs:
             return None
-        job = fg.FigureJob("tests_figure", (segs, det, f"{view.anchor}-tests"))
+        # the figure's title and axis name what it plots: the whitened residual where
+        # there was a whitening (it said "standardized residual" of that too)
+        white = all(whitened)
+        job = fg.FigureJob(
+            "tests_figure",
+            (segs, det, f"{view.anchor}-tests"),
+            {"what": "whitened residual" if white else "standardized residual"},
+        )
         spec = t.get("whitening")
         what = (
             f"Whitened residual of {det} (training mean and deviation removed, then the "
             f"one-step error of its AR({spec.get('order')}) model of the training window, "
             "in units of its healthy deviation: what the tests ran on)"
-            if isinstance(spec, dict)
+            if white and isinstance(spec, dict)
             else f"Standardized residual of {det} (training mean and deviation removed)"
         )
         return self.figure(
@@ -312,16 +332,17 @@ class FigureParts:
 
     def _standardized(
         self, det: str, ch: str, a: int, b: int, whitening: Any = None
-    ) -> FloatArray | None:
+    ) -> tuple[FloatArray, bool] | None:
         """``(r - mean) / std`` on ``[a, b)``, as analyzer.diagnosis.evidence.standardized
         (the same normalization the tests ran on), whitened by the evidence's
-        ``whitening`` when it has one (:func:`analyzer.diagnosis.evidence.whitened_part`)."""
+        ``whitening`` when it has one (:func:`analyzer.diagnosis.evidence.whitened_part`);
+        and whether it was whitened."""
         r = self.results.get(det)
         if r is None or r.residuals.get(ch) is None:
             return None
         w = Whitening.from_dict(whitening)
         if w is not None and b > a and standardized(r, ch, slice(a, a + 1)) is not None:
-            return whitened_part(r, ch, slice(a, b), w)
+            return whitened_part(r, ch, slice(a, b), w), True
         res = r.residuals[ch]
         th = r.thresholds.get(ch, {}) if isinstance(r.thresholds.get(ch), dict) else {}
         mean = float(th.get("mean", 0.0))
@@ -330,7 +351,7 @@ class FigureParts:
             std = float(r.sigma.get(ch, 0.0))
         if not std > 0:
             return None
-        return (_f64(res[a:b]) - mean) / std
+        return (_f64(res[a:b]) - mean) / std, False
 
     def _measured(self, ch: str, k0: int, k1: int) -> FloatArray | None:
         if self.values is None or ch not in self.analyzed:
@@ -369,15 +390,8 @@ class FigureParts:
         for c in shown:
             a, b = (c.start_ns - start) / NS_PER_S, (c.end_ns - start) / NS_PER_S
             gl = [(max(x, a), min(y, b)) for x, y in gaps.get(c.name, []) if min(y, b) > max(x, a)]
-            fl = [
-                (
-                    float(f["onset_s"]),
-                    float(f["end_s"]) if f.get("end_s") is not None else self.duration,
-                )
-                for f in faults
-                if f["channel"] == c.name
-            ]
-            rows.append(fg.CoverageRow(c.name, a, b, c.name in self.analyzed, gl, fl))
+            fl, since = fault_spans(faults, c.name, self.duration)
+            rows.append(fg.CoverageRow(c.name, a, b, c.name in self.analyzed, gl, fl, since))
         span = max([self.duration, *[r.end_s for r in rows]])
         job = fg.FigureJob(
             "coverage_figure", (rows, span, self.train_s, "coverage", self.train_label)
@@ -393,7 +407,14 @@ class FigureParts:
             "analyzed, grey: not analyzed), gaps in red (for analyzed channels located "
             f"on the common clock, to within {fmt.duration(self.duration / GAP_BINS)}; "
             "for the others only counted in the table), fault periods in orange, the "
-            f"{self.train_label} shaded green."
+            f"{self.train_label} shaded green"
+            + (
+                "; hatched: before an onset that is an upper bound (the fault was there when "
+                "the search began), where it may already have been"
+                if any(r.open_faults for r in rows)
+                else ""
+            )
+            + "."
         )
         return self.figure("coverage", "Channel coverage", caption, job), note
 
@@ -411,18 +432,13 @@ class FigureParts:
         names = list(self.analyzed[:MAX_TIMELINE_ROWS])
         ratio = lv.ratio[:, : len(names)]
         edges = lv.edges_s
-        spans = [
-            [
-                (
-                    float(f["onset_s"]),
-                    float(f["end_s"]) if f.get("end_s") is not None else self.duration,
-                )
-                for f in faults
-                if f["channel"] == ch
-            ]
-            for ch in names
-        ]
-        job = fg.FigureJob("level_figure", (names, edges, ratio, self.train_s, spans, "levels"))
+        both = [fault_spans(faults, ch, self.duration) for ch in names]
+        spans, since = [p for p, _ in both], [o for _, o in both]
+        job = fg.FigureJob(
+            "level_figure",
+            (names, edges, ratio, self.train_s, spans, "levels"),
+            {"open_faults": since, "train_label": self.train_label},
+        )
         own = lv.train is not None
         reference = (
             f"its RMS in the {self.train_label}" if own else "its median level over the record"
@@ -431,7 +447,14 @@ class FigureParts:
             "Response level: each analyzed channel's RMS about its "
             f"{'training' if own else 'median'} mean in "
             f"{fmt.duration(float(edges[1] - edges[0]))} bins, over {reference} "
-            "(log colour scale: blue lower, red higher, grey no data), fault periods outlined. "
+            "(log colour scale: blue lower, red higher, grey no data), fault periods outlined"
+            + (
+                " (dashed: before an onset that is an upper bound, where the fault may "
+                "already have been)"
+                if any(since)
+                else ""
+            )
+            + ". "
             "A change on every channel at once is a change of the load or of the structure, "
             "not of one sensor."
         )
@@ -454,6 +477,43 @@ class FigureParts:
 
 def _f64(x: Any) -> FloatArray:
     return np.asarray(x, dtype=np.float64)
+
+
+def open_since(f: Mapping[str, Any]) -> float | None:
+    """Where a fault whose ``onset_s`` is only an upper bound may have begun, or None
+    when ``onset_s`` is where it began. With ``--model`` a fault present when the search
+    started (evidence ``onset_at_or_before``: an offset on ``/s2.data`` from the first
+    sample, reported at the end of the filters' warm-up, 4.31 s) may have begun anywhere
+    before, this record's start included; one present when a search again began
+    (``searched_after.onset_at_or_before``) may have begun in the stretch before it. The
+    report then says "at or before" and draws the span as open, not as healthy."""
+    ev = f.get("evidence") or {}
+    if ev.get("onset_at_or_before"):
+        return 0.0
+    after = ev.get("searched_after")
+    if isinstance(after, Mapping) and after.get("onset_at_or_before"):
+        stretch = after.get("stretch_s") or [0.0]
+        return min(float(stretch[0]), float(f.get("onset_s") or 0.0))
+    return None
+
+
+def fault_spans(
+    faults: Sequence[Mapping[str, Any]], channel: str, duration_s: float
+) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
+    """The fault periods of ``channel`` (onset to end, or to ``duration_s``) and the spans
+    before an onset that is only an upper bound where the fault may already have been
+    (:func:`open_since` to the onset)."""
+    periods, open_spans = [], []
+    for f in faults:
+        if f["channel"] != channel:
+            continue
+        onset = float(f["onset_s"])
+        end = float(f["end_s"]) if f.get("end_s") is not None else duration_s
+        periods.append((onset, end))
+        since = open_since(f)
+        if since is not None and since < onset:
+            open_spans.append((since, onset))
+    return periods, open_spans
 
 
 SPAN_KEYS = ("before_span_s", "after_span_s")
@@ -480,4 +540,6 @@ __all__ = [
     "ZOOM_MAX_S",
     "ZOOM_MIN_S",
     "FigureParts",
+    "fault_spans",
+    "open_since",
 ]

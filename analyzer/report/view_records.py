@@ -87,6 +87,9 @@ class FindingView:
     detailed: bool = False
     figures: list[FigureView] = field(default_factory=list)
     tests: list[DetectorTests] = field(default_factory=list)
+    found: list[Fact] = field(default_factory=list)
+    """The fault's own evidence beyond the detectors' (onset bound, frozen readings,
+    clipping, a second search), a line each."""
     evidence: list[tuple[str, list[Fact]]] = field(default_factory=list)
     corrections: list[list[Fact]] = field(default_factory=list)
     remarks: list[str] = field(default_factory=list)
@@ -172,6 +175,8 @@ class ReportView:
     """One line per figure that could not be drawn (also among :attr:`notes`)."""
     levels: FigureView | None = None
     """Every analyzed channel's response level over time (:func:`figures.level_figure`)."""
+    sections: str = ""
+    """Which findings have a section (``findings 1-6``) when not all do, else empty."""
 
     @property
     def figure_count(self) -> int:

@@ -92,7 +92,7 @@ class TableParts:
                     start_s=fmt.seconds((c.start_ns - start) / NS_PER_S),
                     end_s=fmt.seconds((c.end_ns - start) / NS_PER_S),
                     gaps=str(c.gaps),
-                    range=f"{fmt.num(c.minimum)} to {fmt.num(c.maximum)}",
+                    range=fmt.num_range(c.minimum, c.maximum),
                 )
             )
         return out

@@ -60,14 +60,29 @@ def test_a_short_finding_is_not_searched_without():
 
 
 def test_the_note_names_why_each_channel_was_left_out():
+    """A suspect is named with its fault's onset, as its finding has it (720.0 s), and
+    where the rows left out begin, the slack before it: the note said "faulty from
+    718.0 s" of the fault found at 720.0 s."""
+    f = _finding("s3", 720.0)
+    suspects = beside_faults(
+        [f], [_result("equivalent_model", (760.0, ("s0", "s1"), ("s3",)))], N, RATE, SLACK
+    )
     added = [_finding("s1", 720.1)]
-    text = note({"s4": [(4800, N)]}, {"s3": [(71_800, N)]}, added, RATE)
+    text = note({"s4": [(4800, N)]}, suspects, added, RATE, SLACK)
     assert text.startswith(
         "the other channels were searched again without s3, s4 (s4 missing 48-1200 s; s3 "
-        "faulty from 718.0 s with anomalies beside its fault that no sensor explained)"
+        "faulty from 720.0 s (left out from 718.0 s) with anomalies beside its fault that no "
+        "sensor explained)"
     )
     assert "lost its view of them or isolated one fault at a time" in text
     assert text.endswith("1 finding(s) added from it: additive on s1 from 720.1 s")
+
+
+def test_a_suspect_left_out_from_the_start_is_not_given_an_onset():
+    """Within the slack of the record's start the rows begin at 0: the onset is not
+    where they begin plus the slack."""
+    text = note({}, {"s3": [(0, N)]}, [], RATE, SLACK)
+    assert "s3 faulty from within 2 s of the start (left out from 0.0 s)" in text
 
 
 def test_beside_a_fault_the_second_search_needs_two_detectors():

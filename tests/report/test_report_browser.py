@@ -2,6 +2,7 @@
 the verdict, and the screenshot is not blank. Skipped, with the reason shown, when
 Chromium is not installed (CI installs it: see .ci/run)."""
 
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -89,3 +90,28 @@ def test_screenshot_is_not_blank(pages, tmp_path):
     top = img[:400]  # the faulty verdict box is tinted red near the top of the page
     reddish = (top[..., 0] > 240) & (top[..., 1] < 240) & (top[..., 2] < 240)
     assert reddish.mean() > 0.02
+
+
+WIDTH = """<script>window.onload = function () {
+  var d = document.documentElement;
+  document.body.setAttribute("data-width", d.scrollWidth + "/" + d.clientWidth);
+};</script>"""
+
+
+def test_a_long_channel_name_does_not_widen_the_page(tmp_path):
+    """A 300-character name without spaces: the models' channel lists (a paragraph) and
+    their notes (a list) made the page 2470 px wide in a 1285 px window."""
+    long = "/robot/" + "x" * 293
+    a = synthetic_analysis(
+        120.0,
+        3,
+        50.0,
+        [SyntheticFault(1, FaultType.ADDITIVE, 70.0, None, 1.0)],
+        names=["s0", long, "s2"],
+    )
+    page = tmp_path / "long.html"
+    html = render_report(a, findings_document(a))
+    page.write_text(html.replace("</body>", WIDTH + "</body>"), encoding="utf-8")
+    dom = _run(page, tmp_path, "--virtual-time-budget=3000", "--dump-dom").stdout.decode()
+    wide, window = (int(x) for x in re.search(r'data-width="(\d+)/(\d+)"', dom).groups())
+    assert wide <= window, f"the page is {wide} px wide in a {window} px window"
