@@ -705,8 +705,12 @@ def _analyze(
                 findings = sorted([*findings, *new], key=lambda f: (f.onset_s, f.channel))
             notes.append(after_note(searched, more))
             timings["search after"] = time.perf_counter() - t_after
-        # (over every search's findings: a later fault may be one a search again found)
+        # (over every search's findings: a later fault may be one a search again found);
+        # a finding given another end may now be frozen over its period
+        periods = {id(f): (f.onset_s, f.end_s) for f in findings}
         notes.extend(ends_of_later_faults(findings, coupled(results)))
+        moved = [f for f in findings if periods[id(f)] != (f.onset_s, f.end_s)]
+        notes.extend(relabel_frozen(moved, values, chosen, aligned.rate_hz, healthy, train[1]))
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
         notes.extend(_unattributed_notes(results, findings, aligned.rate_hz))
         notes.extend(_after_gap_notes(findings, values, chosen, aligned.rate_hz))

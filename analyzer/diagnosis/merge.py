@@ -375,6 +375,8 @@ def ends_of_later_faults(
     and the observers ended s1's at 200 s, the bank at s4's end)."""
     notes: list[str] = []
     for f in findings:
+        if "frozen" in f.evidence:
+            continue  # its readings decided its period (analyzer.diagnosis.stuck)
         explained: dict[int, Finding] = {}
         for e in f.events:
             for g in findings:

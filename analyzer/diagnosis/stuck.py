@@ -47,12 +47,18 @@ def relabel_frozen(
     standard deviation (:func:`healthy_stats`; ``--model`` brings those of its own
     training window).
 
-    A frozen finding starts where its readings froze (:func:`frozen_since`, no earlier
-    than the row ``search_start``): the residual of a sensor that died while the
-    structure was quiet moves little until the structure moves (a 4-floor building's
-    sensor dead from 70.0 s was reported from 80.4 s, the detectors' first alarms at
-    81.8-83.0 s, and the detection filter put an ``other`` on a healthy sensor at
-    70.1 s). Its evidence ``frozen`` then has ``since_s`` and ``alarmed_from_s``."""
+    The readings decide the fault's period too. It starts where they froze
+    (:func:`frozen_since`, no earlier than the row ``search_start``): the residual of a
+    sensor that died while the structure was quiet moves little until the structure
+    moves (a 4-floor building's sensor dead from 70.0 s was reported from 80.4 s, the
+    detectors' first alarms at 81.8-83.0 s, and the detection filter put an ``other`` on
+    a healthy sensor at 70.1 s). And it ends where they move again
+    (:func:`frozen_until`), when that is before the end the detectors saw and the frozen
+    stretch is most of the fault (:data:`FROZEN_SHARE`): a sensor dead from 150 to
+    220 s, whose end the detection filter saw at 227.4 s, was not frozen over that
+    period, kept the filter's gain of 0.174, and ``--corrected`` divided the healthy
+    readings after 220 s by it. Its evidence ``frozen`` then has ``since_s`` and
+    ``alarmed_from_s``, or ``until_s`` and ``alarmed_to_s``."""
     if not isinstance(healthy, Mapping):
         healthy = healthy_stats(values, channels, healthy)
     notes: list[str] = []
@@ -60,21 +66,27 @@ def relabel_frozen(
     n = values.shape[0]
     for f in findings:
         j = index.get(f.channel)
-        if j is None:
-            continue
-        a = max(0, int(round(f.onset_s * rate_hz)))
-        b = n if f.end_s is None else min(n, int(round(f.end_s * rate_hz)))
-        seg = read_column(values, j, a, b)
-        seg = seg[np.isfinite(seg)]
         stats = healthy.get(f.channel)
-        if seg.size < MIN_FLAT_SAMPLES or stats is None:
+        if j is None or stats is None:
             continue
         mean, sd = stats
-        if not sd > 0 or float(np.std(seg)) > FLAT * sd:
+        a = max(0, int(round(f.onset_s * rate_hz)))
+        b = n if f.end_s is None else min(n, int(round(f.end_s * rate_hz)))
+        head = read_column(values, j, a, min(b, a + max(MIN_FLAT_SAMPLES, int(round(rate_hz)))))
+        head = head[np.isfinite(head)]
+        if not sd > 0 or head.size < MIN_FLAT_SAMPLES or float(np.std(head)) > FLAT * sd:
             continue
-        level = float(np.median(seg))
-        before, alarmed = f.type, f.onset_s
-        since = frozen_since(values, j, a, level, float(np.std(seg)), sd, search_start)
+        tol = max(FROZEN_SPREAD * float(np.std(head)), FROZEN_EPS * sd)
+        until = frozen_until(values, j, a, float(np.median(head)), tol, b)
+        if until - a < FROZEN_SHARE * (b - a):
+            continue
+        seg = read_column(values, j, a, until)
+        seg = seg[np.isfinite(seg)]
+        if seg.size < MIN_FLAT_SAMPLES or float(np.std(seg)) > FLAT * sd:
+            continue
+        level, spread = float(np.median(seg)), float(np.std(seg))
+        before, alarmed, alarmed_to = f.type, f.onset_s, f.end_s
+        since = frozen_since(values, j, a, level, spread, sd, search_start)
         if abs(level) <= ZERO * sd:
             f.type = FaultType.MULTIPLICATIVE
             f.magnitude = {"gain": 0.0}
@@ -83,26 +95,31 @@ def relabel_frozen(
             f.type = FaultType.OTHER
             f.magnitude = {"stuck_at": level, "offset": level - mean}
             what = f"stuck at {level:.6g}"
-        f.evidence["frozen"] = {
-            "level": level,
-            "std_ratio": float(np.std(seg)) / sd,
-            "was": str(before),
-        }
+        f.evidence["frozen"] = {"level": level, "std_ratio": spread / sd, "was": str(before)}
+        moved = []
         if since < a:
             f.onset_s = since / rate_hz
             f.evidence["frozen"].update({"since_s": f.onset_s, "alarmed_from_s": alarmed})
-        if f.type is not before or what.startswith("stuck") or since < a:
+            moved.append(f"the detectors saw it from {alarmed:.3f} s: it starts where they froze")
+        if until < b:
+            f.end_s = until / rate_hz
+            f.evidence["frozen"].update({"until_s": f.end_s, "alarmed_to_s": alarmed_to})
+            seen = "the record's end" if alarmed_to is None else f"{alarmed_to:.3f} s"
+            moved.append(f"the detectors saw it to {seen}: it ends where they moved again")
+        if f.type is not before or what.startswith("stuck") or moved:
             notes.append(
-                f"{f.channel} from {f.onset_s:.3f} s: {what}: its readings vary by "
-                f"{float(np.std(seg)) / sd:.2g} of their healthy spread (the residual alone "
-                f"read it as {before}"
-                + (
-                    f", from {alarmed:.3f} s: the onset is where its readings froze)"
-                    if since < a
-                    else ")"
-                )
+                f"{f.channel} from {f.onset_s:.3f} s"
+                + ("" if f.end_s is None else f" to {f.end_s:.3f} s")
+                + f": {what}: its readings vary by {spread / sd:.2g} of their healthy spread "
+                f"(the residual alone read it as {before}" + "".join(f"; {m}" for m in moved) + ")"
             )
     return notes
+
+
+FROZEN_SHARE = 0.9
+"""A finding whose readings stay frozen from its onset over at least this share of its
+period, and then move, is a frozen sensor that recovered before the detectors saw it
+recover: a smaller share is a fault of another kind that read flat for a while."""
 
 
 FROZEN_SPREAD = 4.0
@@ -113,6 +130,29 @@ spread, for a reading frozen exactly)."""
 FROZEN_EPS = 1e-6
 """The least tolerance of :func:`frozen_since`, as a share of the healthy spread: a
 healthy reading comes this close to a frozen level about once in a million samples."""
+
+
+def frozen_until(
+    values: npt.NDArray[Any],
+    j: int,
+    a: int,
+    level: float,
+    tol: float,
+    stop: int,
+    block: int = 1 << 16,
+) -> int:
+    """The first row from ``a`` on (before ``stop``) where column ``j`` reads more than
+    ``tol`` from ``level``, else ``stop``: where a frozen stretch ends. Missing readings
+    do not end it. Read a block of rows at a time."""
+    start = a
+    while start < stop:
+        hi = min(stop, start + block)
+        seg = read_column(values, j, start, hi)
+        moved = np.flatnonzero(np.abs(seg - level) > tol)  # (NaN compares False: kept)
+        if moved.size:
+            return start + int(moved[0])
+        start = hi
+    return stop
 
 
 def frozen_since(

@@ -102,7 +102,7 @@ def test_a_frozen_finding_starts_where_its_readings_froze():
     assert [f.onset_s for f in found] == [3000 / RATE, 2500 / RATE, 1200 / RATE]
     assert found[0].evidence["frozen"]["since_s"] == 15.0
     assert found[0].evidence["frozen"]["alarmed_from_s"] == 17.5
-    assert "from 17.500 s: the onset is where its readings froze" in notes[0]
+    assert "the detectors saw it from 17.500 s: it starts where they froze" in notes[0]
     # already from where it froze: as before
     again = [_finding("a", FaultType.MULTIPLICATIVE, 3000 / RATE)]
     relabel_frozen(again, values, ["a", "b", "c"], RATE, (0, 1000))
@@ -123,4 +123,27 @@ def test_a_sensor_dead_while_the_structure_was_quiet_is_reported_from_its_death(
     (f,) = analysis.findings
     assert (f.channel, f.type, f.magnitude) == (names[0], FaultType.MULTIPLICATIVE, {"gain": 0.0})
     assert f.onset_s == pytest.approx(70.0, abs=0.011)
-    assert any("the onset is where its readings froze" in n for n in analysis.notes)
+    assert any("it starts where they froze" in n for n in analysis.notes)
+
+
+def test_a_frozen_finding_ends_where_its_readings_moved_again():
+    """A sensor dead from row 3000 to 4400 whose end a detector saw 147 rows late: the
+    readings over that period are not frozen, yet they are from the onset for 90 % of
+    it and then move: the finding ends where they moved again, dead, with gain 0 (not
+    the detector's 0.174). A fault that reads flat for less than 90 % of its period keeps
+    its type and end."""
+    rng = np.random.default_rng(2)
+    values = rng.standard_normal((6000, 2))
+    values[3000:4400, 0] = 0.0
+    values[3000:3800, 1] = 0.0  # flat for 800 of 1547 rows: some other fault
+    found = [
+        Finding("a", FaultType.MULTIPLICATIVE, 15.0, 4547 / RATE, {"gain": 0.174}, 1.0, "df"),
+        Finding("b", FaultType.OTHER, 15.0, 4547 / RATE, {"rms": 1.0}, 1.0, "df"),
+    ]
+    (note,) = relabel_frozen(found, values, ["a", "b"], RATE, (0, 1000))
+    assert (found[0].onset_s, found[0].end_s, found[0].magnitude) == (15.0, 22.0, {"gain": 0.0})
+    assert found[0].evidence["frozen"]["until_s"] == 22.0
+    assert found[0].evidence["frozen"]["alarmed_to_s"] == 4547 / RATE
+    assert "the detectors saw it to 22.735 s: it ends where they moved again" in note
+    assert (found[1].type, found[1].end_s) == (FaultType.OTHER, 4547 / RATE)
+    assert "frozen" not in found[1].evidence
