@@ -190,7 +190,12 @@ class DaskExecutor:
                 "OPENBLAS_NUM_THREADS=1 (threaded BLAS slows the filters down)"
             )
         if self.resent:
-            text += f"; {_tasks(self.resent)} sent again after a worker was lost"
+            # (a task cancelled or a result lost in transit: a worker gone with its data,
+            # or, on a loaded machine, a connection that timed out; no worker need die)
+            text += (
+                f"; {_tasks(self.resent)} sent again after the cluster lost them (a worker, "
+                "its data or a connection gone)"
+            )
         if self.here:
             why = f": {self.gone}" if self.gone else ""
             text += f"; {_tasks(self.here)} computed here (the cluster could not take them{why})"

@@ -151,7 +151,7 @@ def test_a_task_lost_with_its_worker_is_sent_again(lone: Any, tmp_path: Path) ->
         assert Path(marker).exists()  # a worker did die
         assert got == pytest.approx(want, rel=1e-12)
         assert ex.resent >= 1 and ex.gone is None
-        assert "sent again after a worker was lost" in ex.describe()
+        assert "sent again after the cluster lost them" in ex.describe()
     finally:
         ex.close()
 
