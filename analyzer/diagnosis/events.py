@@ -337,7 +337,10 @@ def diagnose_interval(
         return before, at
 
     cls = fit(stop)
-    if cls.type is FaultType.OTHER and (lead := _shaped_lead(fit, iv.onset, stop, cal)):
+    if cls.type is FaultType.OTHER and (
+        lead := _shaped_lead(fit, iv.onset, stop, cal)
+        or (changes is not None and _lead_to_change(fit, r, iv.onset, stop, cal, rate_hz))
+    ):
         # the fault's beginning has a shape that a later change blurs: that shape, and
         # no refit past the stretch it was found on
         cls, limit = lead
@@ -468,6 +471,32 @@ def _shaped_lead(
             return cls, onset + length
         length //= 2
     return None
+
+
+def _lead_to_change(
+    fit: Callable[[int], Classification],
+    r: FloatArray,
+    onset: int,
+    stop: int,
+    cal: Calibration,
+    rate_hz: float,
+) -> tuple[Classification, int] | None:
+    """The shape of a fault's part before the level of its residual changes
+    (:func:`_change_point` of the stretch less the healthy mean, each part at least
+    :data:`CHANGE_MIN_S`), where that part is at least :data:`LEAD_WINDOWS` long alarm
+    windows and a shape explains it to :data:`LEAD_EXPLAINED`; None otherwise. For a
+    fault that changes where no half, quarter... of its stretch ends (:func:`_shaped_lead`):
+    an offset of 2 sd from 400 to 450 s followed by a gain of 1.8 to 520 s was one
+    ``other`` from 400 to 520 s (its first 60 s take in 10 s of the gain, its first 30 s
+    are too short), where a change at 450 s leaves an offset's part."""
+    margin = max(cal.long_window, int(CHANGE_MIN_S * rate_hz))
+    at = _change_point(np.asarray(r[onset:stop], dtype=np.float64) - cal.mean, cal, margin)
+    if at is None or at < LEAD_WINDOWS * cal.long_window:
+        return None
+    cls = fit(onset + at)
+    if cls.type is FaultType.OTHER or cls.explained < LEAD_EXPLAINED:
+        return None
+    return cls, onset + at
 
 
 LEAD_WINDOWS = 16

@@ -120,6 +120,29 @@ def test_a_fault_that_changes_is_reported_part_by_part(tmp_path, seed, faults):
         assert f["magnitude"][key] == pytest.approx(want, rel=0.03)
 
 
+def test_an_offset_then_a_gain_that_no_half_of_the_stretch_separates(tmp_path):
+    """An offset of 2 sd from 400 to 450 s and a gain of 1.8 from 450 to 520 s on s2 of
+    an 8-floor building (an audit's case): the stretch 400-520 s fits no shape, its
+    first half takes in 10 s of the gain and its first quarter is too short to stand
+    for the fault, so every detector reported one ``other`` from 400 to 520 s. The
+    level of the residual changes at 450 s: the part before it is the offset, and the
+    rest the gain."""
+    t, y, names = simulate_building(8, 600.0, RATE, seed=1)
+    sd = y[:, 2].std()
+    y[:, 2] = inject_fault(y[:, 2], RATE, "additive", 400.0, 2.0 * sd, 450.0)
+    y[:, 2] = inject_fault(y[:, 2], RATE, "multiplicative", 450.0, 1.8, 520.0)
+    got = run_csv(tmp_path, t, y, names)
+    assert [(f["channel"], f["type"]) for f in got] == [
+        ("s2", "additive"),
+        ("s2", "multiplicative"),
+    ]
+    first, second = got
+    assert abs(first["onset_s"] - 400.0) < 0.5 and abs(first["end_s"] - 450.0) < 0.5
+    assert abs(second["onset_s"] - 450.0) < 0.5 and abs(second["end_s"] - 520.0) < 0.5
+    assert first["magnitude"]["offset"] == pytest.approx(2.0 * sd, rel=0.05)
+    assert second["magnitude"]["gain"] == pytest.approx(1.8, rel=0.03)
+
+
 def test_the_part_after_a_change_is_sized_with_the_healthy_slope():
     """Review: without a healthy window of the record (``--model``), each fault's shape
     leaves out the residual's share of the reference measured before the fault; the part
