@@ -37,6 +37,8 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from sweep_scoring import print_totals, score, shown  # noqa: E402
+
 from analyzer.pipeline import RunOptions, analyze  # noqa: E402
 from analyzer.simulate import inject_fault, simulate_building  # noqa: E402
 from analyzer.writers import write_archive  # noqa: E402
@@ -88,39 +90,20 @@ def main(argv: list[str] | None = None) -> int:
                 work.mkdir()
                 findings = analyze([str(path)], RunOptions(), work).findings
                 path.unlink()
-                used: set[int] = set()
-                right = found = 0
-                for j, kind, onset, end, _ in faults:
-                    for k, f in enumerate(findings):
-                        if k in used or f.channel != names[j] or abs(f.onset_s - onset) > SLACK_S:
-                            continue
-                        used.add(k)
-                        found += 1
-                        ends = f.end_s is not None and abs(f.end_s - end) <= SLACK_S
-                        right += int(f.type.value == kind and ends)
-                        break
-                extras = len(findings) - len(used)
+                truth = [(names[j], kind, onset, end) for j, kind, onset, end, _ in faults]
+                right, found, extras = score(findings, truth, SLACK_S)
                 row = totals[case]
                 row[0] += len(faults)
                 row[1] += right
                 row[2] += found
                 row[3] += extras
-                shown = ", ".join(
-                    f"{f.channel} {f.type.value} {f.onset_s:.1f}-"
-                    f"{'end' if f.end_s is None else f'{f.end_s:.1f}'}"
-                    for f in findings
-                )
                 print(
                     f"  {case:12s} seed {seed:2d} {names[faults[0][0]]}+{names[faults[1][0]]}: "
                     f"right {right}/{len(faults)}, extras {extras}  "
-                    f"{time.perf_counter() - began:4.1f} s  [{shown}]",
+                    f"{time.perf_counter() - began:4.1f} s  [{shown(findings)}]",
                     flush=True,
                 )
-    print("\ncase          faults  right  found  extras")
-    for case, (n, right, found, extras) in totals.items():
-        print(f"{case:12s} {n:7d} {right:6d} {found:6d} {extras:7d}")
-    all_ = [sum(v[i] for v in totals.values()) for i in range(4)]
-    print(f"{'all':12s} {all_[0]:7d} {all_[1]:6d} {all_[2]:6d} {all_[3]:7d}")
+    print_totals(totals, "faults")
     return 0
 
 
