@@ -37,11 +37,9 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from sweep_scoring import print_totals, score, shown  # noqa: E402
+from sweep_scoring import analyzed, print_totals, score, shown, tally  # noqa: E402
 
-from analyzer.pipeline import RunOptions, analyze  # noqa: E402
 from analyzer.simulate import inject_fault, simulate_building  # noqa: E402
-from analyzer.writers import write_archive  # noqa: E402
 
 RATE_HZ = 100.0
 FLOORS = 6
@@ -83,20 +81,11 @@ def main(argv: list[str] | None = None) -> int:
                 for kind, onset, end, size in parts:
                     scaled = size if kind == "multiplicative" else size * sd
                     y[:, channel] = inject_fault(y[:, channel], RATE_HZ, kind, onset, scaled, end)
-                path = Path(tmp) / f"{case}-{seed}.csv"
-                write_archive(path, "csv", t_ns, {n: y[:, i] for i, n in enumerate(names)})
                 began = time.perf_counter()
-                work = Path(tmp) / f"work-{case}-{seed}"
-                work.mkdir()
-                findings = analyze([str(path)], RunOptions(), work).findings
-                path.unlink()
+                findings = analyzed(Path(tmp), f"{case}-{seed}", t_ns, y, names)
                 truth = [(names[channel], kind, onset, end) for kind, onset, end, _ in parts]
                 right, found, extras = score(findings, truth, SLACK_S)
-                row = totals[case]
-                row[0] += len(parts)
-                row[1] += right
-                row[2] += found
-                row[3] += extras
+                tally(totals[case], len(parts), (right, found, extras))
                 print(
                     f"  {case:12s} seed {seed:2d} {names[channel]}: right {right}/{len(parts)}, "
                     f"extras {extras}  {time.perf_counter() - began:4.1f} s  [{shown(findings)}]",

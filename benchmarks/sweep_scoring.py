@@ -4,10 +4,38 @@ against the faults injected in it, and the table of totals. Not a script."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
+
+import numpy as np
+
+from analyzer.pipeline import RunOptions, analyze
+from analyzer.writers import write_archive
 
 Truth = tuple[str, str, float, "float | None"]
 """An injected fault (or part of one): channel, type, onset s, end s (None: to the end)."""
+
+
+def analyzed(
+    tmp: Path, label: str, t_ns: np.ndarray, y: np.ndarray, names: Sequence[str]
+) -> list[Any]:
+    """The findings of ``pipeline.analyze`` with the defaults on the record (times ``t_ns``,
+    one column of ``y`` per channel of ``names``) written as CSV in ``tmp`` under
+    ``label`` (removed after; the run's scratch in a folder of its own there)."""
+    path = tmp / f"{label}.csv"
+    write_archive(path, "csv", t_ns, {n: y[:, i] for i, n in enumerate(names)})
+    work = tmp / f"work-{label}"
+    work.mkdir()
+    findings = analyze([str(path)], RunOptions(), work).findings
+    path.unlink()
+    return findings
+
+
+def tally(row: list[int], count: int, scored: tuple[int, int, int]) -> None:
+    """Add a record's ``count`` faults and its :func:`score` to a case's ``row`` of
+    totals (count, right, found, extras)."""
+    for k, v in enumerate((count, *scored)):
+        row[k] += v
 
 
 def score(findings: Sequence[Any], truth: Sequence[Truth], slack_s: float) -> tuple[int, int, int]:
