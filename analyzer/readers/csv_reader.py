@@ -1074,6 +1074,14 @@ class CsvReader:
             header = _header_line(lines[:LAYOUT_LINES], separator, open_end)
             header, units_at = _units_under(lines, header, separator)
             first_row = header + 1 if units_at is None else units_at + 1
+        if not toa5 and _open_quote(lines[header], separator):
+            # (an RFC 4180 field may hold a line break inside its quotes: the header is
+            # found line by line, and such a name would split the header in two)
+            raise ReaderError(
+                f"{self.path}: the header line {_shorten(lines[header])!r} leaves a quote "
+                "open: a column name with a line break inside its quotes is not read; put "
+                "each name on one line"
+            )
         if not toa5 and (
             _is_data(_fields(lines[header], separator), separator)
             or _counted_on(lines[header : header + 3], separator)
@@ -1904,6 +1912,18 @@ def _unique(names: list[str]) -> list[str]:
 def _fields(line: str, separator: str) -> list[str]:
     """The fields of one line (a quote left open takes the rest of the line)."""
     return next(csv.reader([line], delimiter=separator), [])
+
+
+def _open_quote(line: str, separator: str) -> bool:
+    """Whether a field of ``line`` opens a quote that the line does not close (a literal
+    quote inside an unquoted field, ``Diameter (")``, is no such opening)."""
+    if '"' not in line:
+        return False
+    try:
+        list(csv.reader([line], delimiter=separator, strict=True))
+    except csv.Error:
+        return True
+    return False
 
 
 def _header_line(lines: list[str], separator: str, open_end: bool) -> int:

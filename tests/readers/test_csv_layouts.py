@@ -228,6 +228,24 @@ def test_a_toa5_file_without_rows_is_refused(tmp_path: Path) -> None:
         open_input(path)
 
 
+def test_a_header_name_with_a_line_break_inside_its_quotes_is_refused_so(
+    tmp_path: Path,
+) -> None:
+    """RFC 4180 lets a quoted field hold a line break; the header is found line by line,
+    and such a name split it: an audit's file was refused as having "no data rows: no
+    line under the first has its 2 fields". Now the error says what is wrong. A quote
+    inside an unquoted name (inches) is no opening, and is read."""
+    rows = "".join(f"{k * 0.01:.2f},{k},{2 * k}\n" for k in range(50))
+    path = tmp_path / "newline.csv"
+    path.write_text('time,"line1\nline2",s2\n' + rows)
+    with pytest.raises(ReaderError, match=r"leaves a quote open: a column name with a line"):
+        open_input(path)
+    inches = tmp_path / "inches.csv"
+    inches.write_text('time,Diameter ("),s2\n' + rows)
+    samples, _ = read(inches)
+    assert sorted(samples) == ['Diameter (")', "s2"]
+
+
 # --------------------------------------------------------------------------- preamble
 
 
