@@ -749,7 +749,15 @@ def _analyze(
         if options.corrected:
             res_map, ref_map = result_signals(results)
             corrected, corrections = corrected_values(
-                values, chosen, aligned.rate_hz, findings, res_map, ref_map, ctx.buffer
+                values,
+                chosen,
+                aligned.rate_hz,
+                findings,
+                res_map,
+                ref_map,
+                ctx.buffer,
+                # (--model: the window is the filters' warm-up, not a healthy stretch)
+                train if reused is None else None,
             )
         timings["total"] = time.perf_counter() - t_start
         return Analysis(

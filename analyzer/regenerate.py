@@ -190,9 +190,17 @@ def corrected_values(
     residuals: SignalMap | None = None,
     references: SignalMap | None = None,
     buffer: Callable[[str, tuple[int, int], npt.DTypeLike], npt.NDArray[Any]] | None = None,
+    healthy: tuple[int, int] | None = None,
 ) -> tuple[FloatArray, list[dict[str, Any]]]:
     """``values`` (N, m) with every event's fault removed over its period
     (``S_fault_free = S_fault - f_s``, Section 6.3), and one record per event.
+
+    ``healthy``: the rows of the healthy window. Given, a fault whose reading would be
+    replaced by the detector's estimate (``residual``, or ``reference`` for anything but
+    a dead sensor) is left as measured when the estimate's own error is as large as the
+    fault's (:func:`_worth_replacing`): a gain of 1.25 on a building's ground-floor sensor,
+    read as ``other``, left 0.24 sd of error; its estimate's was 0.43 sd, and the
+    correction nearly doubled the error (``benchmarks/sweep_corrected.py``).
 
     ``residuals`` / ``references`` give the residual (measured - estimated) and fault-free
     estimate of the detector whose event is corrected, keyed by channel or by
@@ -261,6 +269,14 @@ def corrected_values(
         if method == "skipped":
             records.append(record(method, note="no fault model, residual or reference"))
             continue
+        if healthy is not None and (
+            method == "residual"
+            or (method == "reference" and FaultType(ev.type) is not FaultType.MULTIPLICATIVE)
+        ):
+            worth = _worth_replacing(values, j, res, ref, healthy, (start, stop))
+            if worth is not None:
+                records.append(record("skipped", note=worth))
+                continue
         before = ""
         evidence = getattr(ev, "evidence", None) or {}
         if method in ("offset", "gain") and evidence.get("onset_at_or_before") and start > 0:
@@ -298,6 +314,55 @@ def corrected_values(
             )
         )
     return out, records
+
+
+REPLACE_FACTOR = 2.0
+"""A reading is replaced by a detector's estimate only when its residual's mean square
+over the fault is more than this many times the healthy window's: the residual there is
+the estimate's own error (and the noise); over the fault it adds the fault's, and the
+estimate is the better reading only when the fault's share is the larger."""
+
+
+def _worth_replacing(
+    values: npt.NDArray[Any],
+    j: int,
+    res: npt.NDArray[Any] | None,
+    ref: npt.NDArray[Any] | None,
+    healthy: tuple[int, int],
+    period: tuple[int, int],
+) -> str | None:
+    """None when replacing column ``j``'s readings over ``period`` by the estimate
+    (``ref``, or the reading less ``res``) makes them better (:data:`REPLACE_FACTOR`),
+    else why they are left as measured."""
+
+    def mean_square(a: int, b: int) -> tuple[float, int]:
+        total, count = 0.0, 0
+        for p in range(a, b, RELEASE_ROWS):
+            q = min(b, p + RELEASE_ROWS)
+            if res is not None:
+                r = np.asarray(res[p:q], dtype=np.float64)
+            else:
+                assert ref is not None
+                rows = values[p:q]
+                r = np.asarray(rows[:, j], dtype=np.float64) - np.asarray(
+                    ref[p:q], dtype=np.float64
+                )
+                release(rows)
+            r = r[np.isfinite(r)]
+            total += float(np.sum(r * r))
+            count += int(r.size)
+            for whole in (res, ref):
+                release(None if whole is None else whole[p:q])
+        return (total / count if count else float("nan")), count
+
+    base, n_base = mean_square(*healthy)
+    fault, n_fault = mean_square(*period)
+    if n_base < 2 or n_fault < 1 or not base > 0 or fault > REPLACE_FACTOR * base:
+        return None
+    return (
+        f"left as measured: the estimate's own error (RMS {np.sqrt(base):.4g} over the healthy "
+        f"window) is as large as the fault's (the residual's RMS {np.sqrt(fault):.4g} over it)"
+    )
 
 
 def write_corrected_csv(

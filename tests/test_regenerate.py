@@ -109,6 +109,40 @@ def test_gaps_overlaps_and_unknown_channels():
         corrected_values(y, ["a", "b", "c"], 100.0, [])
 
 
+def test_a_reading_is_replaced_only_by_a_better_estimate():
+    """With the healthy window given, an ``other`` fault is corrected by the estimate only
+    where the residual's mean square over it is more than twice the healthy window's (the
+    estimate's own error): a fault as small as that error is left as measured, with a
+    note (a gain of 1.25 read as ``other`` doubled the error: 0.43 sd of the estimate
+    for 0.24 sd of the fault). A dead sensor is always replaced: its reading says nothing."""
+    rng = np.random.default_rng(3)
+    truth = rng.standard_normal(4000)
+    ref = truth + 0.5 * rng.standard_normal(4000)  # an estimate with an error of 0.5
+    y = truth.copy()
+    y[2000:] *= 1.2  # a small gain: 0.2 of the signal, under the estimate's error
+    small = [Event("s", 20.0, None, FaultType.OTHER, {}, 0.9, "d")]
+    out, (rec,) = corrected_values(
+        y[:, None], ["s"], 100.0, small, {"s": y - ref}, {"s": ref}, healthy=(0, 1000)
+    )
+    assert rec["method"] == "skipped" and rec["note"].startswith("left as measured")
+    assert np.array_equal(out[:, 0], y)
+    y[2000:] = truth[2000:] + 3.0 * rng.standard_normal(2000)  # a noise burst of 3
+    out, (rec,) = corrected_values(
+        y[:, None], ["s"], 100.0, small, {"s": y - ref}, {"s": ref}, healthy=(0, 1000)
+    )
+    assert rec["method"] == "residual" and np.allclose(out[2000:, 0], ref[2000:])
+    y[2000:] = 0.1 * truth[2000:]  # nearly dead: replaced whatever the estimate's error
+    dead = [Event("s", 20.0, None, FaultType.MULTIPLICATIVE, {"gain": 0.05}, 0.9, "d")]
+    out, (rec,) = corrected_values(
+        y[:, None], ["s"], 100.0, dead, {"s": y - ref}, {"s": ref}, healthy=(0, 1000)
+    )
+    assert rec["method"] == "reference" and np.allclose(out[2000:, 0], ref[2000:])
+    # without a healthy window (--model), as before
+    y[2000:] = truth[2000:] * 1.2
+    out, (rec,) = corrected_values(y[:, None], ["s"], 100.0, small, {"s": y - ref}, {"s": ref})
+    assert rec["method"] == "residual"
+
+
 def test_write_corrected_csv(tmp_path):
     t = np.arange(4) / 10.0
     data = np.array([[1.0, 2.5], [np.nan, 3.0], [0.1, -1e-9], [4.0, 5.0]])
