@@ -361,55 +361,29 @@ def ends_of_later_faults(
     An event's end is so explained when it is within ``slack_s`` of where a finding on
     another sensor was last seen (:func:`_same_end`) that began more than ``slack_s`` after
     this one and before that end, and that sensor is ``coupled`` to this one for the
-    event's detector. Its end then
-    counts only if no other detector of the finding saw the fault end earlier, no earlier
-    than the other fault began (less ``slack_s``), and not again on this sensor before the
-    explained end (a detector whose event ended there and that then saw this sensor
-    faulty again saw the fault go on), and every event of the finding is either so
-    explained or so ended. An end where the other fault began counts only when no other
-    detector saw the fault go on past it and two detectors saw it: the detection filter,
-    which isolates one fault at a time, can lose a fault where a second begins (a gain on
-    s3 from 100 to 200 s and an offset on s0 from 150 s: it ended the gain at 150.1 s,
-    the observers at 200.8 s, the bank at 250.1 s), while two that agree saw a fault end
-    where the next began (an offset on s1 to 200 s and one on s4 from 200 s: the filter
-    and the observers ended s1's at 200 s, the bank at s4's end)."""
+    event's detector. Its end then counts only if no other detector of the finding saw
+    the fault end earlier, no earlier than the other fault began (less ``slack_s``), and
+    not again on this sensor before the explained end (a detector whose event ended
+    there and that then saw this sensor faulty again saw the fault go on), and every
+    event of the finding is either so explained or so ended. An end where the other
+    fault began counts only when no other detector saw the fault go on past it and two
+    detectors saw it: the detection filter, which isolates one fault at a time, can lose
+    a fault where a second begins (a gain on s3 from 100 to 200 s and an offset on s0
+    from 150 s: it ended the gain at 150.1 s, the observers at 200.8 s, the bank at
+    250.1 s), while two that agree saw a fault end where the next began (an offset on s1
+    to 200 s and one on s4 from 200 s: the filter and the observers ended s1's at 200 s,
+    the bank at s4's end)."""
     notes: list[str] = []
     for f in findings:
         if "frozen" in f.evidence:
             continue  # its readings decided its period (analyzer.diagnosis.stuck)
-        explained: dict[int, Finding] = {}
-        for e in f.events:
-            for g in findings:
-                if (
-                    g.channel != f.channel
-                    and f.onset_s + slack_s < g.onset_s
-                    and _same_end(e, g, slack_s)
-                    and (e.end_s is None or g.onset_s < e.end_s)
-                    and coupled(e.detector, f.channel, g.channel)
-                ):
-                    explained[id(e)] = g
-                    break
+        explained = _explained_by_later(f, findings, coupled, slack_s)
         if not explained:
             continue
         later = min(explained.values(), key=lambda g: g.onset_s)
-        last = min(
-            float("inf") if e.end_s is None else e.end_s for e in f.events if id(e) in explained
-        )
-        ended = [
-            e
-            for e in f.events
-            if id(e) not in explained
-            and e.end_s is not None
-            and later.onset_s - slack_s <= e.end_s < last - slack_s
-            and not _again(e, findings, f.channel, last, slack_s)
-        ]
-        if not ended or len(ended) + len(explained) < len(f.events):
-            continue  # an event that saw the fault go on, beyond explaining
-        past = [e for e in ended if e.end_s is not None and e.end_s > later.onset_s + slack_s]
-        if past:
-            ended = past  # they saw it go on after the other began: not lost there
-        elif len({e.detector for e in ended}) < 2:
-            continue  # one detector that lost the fault when the other began
+        ended = _ended_before(f, explained, later, findings, slack_s)
+        if not ended:
+            continue
         lead = _lead(ended, slack_s)
         was = f.end_s
         f.type, f.onset_s, f.end_s = lead.type, lead.onset_s, lead.end_s
@@ -424,6 +398,58 @@ def ends_of_later_faults(
             f"{later.onset_s:.3f} s) ended, a sensor they model together with {f.channel}"
         )
     return notes
+
+
+def _explained_by_later(
+    f: Finding,
+    findings: list[Finding],
+    coupled: Callable[[str, str, str], bool],
+    slack_s: float,
+) -> dict[int, Finding]:
+    """The events of ``f`` (by ``id``) whose end a later finding on a coupled sensor
+    explains (:func:`ends_of_later_faults`), each with that finding."""
+    explained: dict[int, Finding] = {}
+    for e in f.events:
+        for g in findings:
+            if (
+                g.channel != f.channel
+                and f.onset_s + slack_s < g.onset_s
+                and _same_end(e, g, slack_s)
+                and (e.end_s is None or g.onset_s < e.end_s)
+                and coupled(e.detector, f.channel, g.channel)
+            ):
+                explained[id(e)] = g
+                break
+    return explained
+
+
+def _ended_before(
+    f: Finding,
+    explained: dict[int, Finding],
+    later: Finding,
+    findings: list[Finding],
+    slack_s: float,
+) -> list[Event]:
+    """The events of ``f`` that saw it end before the ``explained`` ends and no earlier
+    than the ``later`` fault began, when they count (:func:`ends_of_later_faults`), else
+    none."""
+    last = min(float("inf") if e.end_s is None else e.end_s for e in f.events if id(e) in explained)
+    ended = [
+        e
+        for e in f.events
+        if id(e) not in explained
+        and e.end_s is not None
+        and later.onset_s - slack_s <= e.end_s < last - slack_s
+        and not _again(e, findings, f.channel, last, slack_s)
+    ]
+    if len(ended) + len(explained) < len(f.events):
+        return []  # an event that saw the fault go on, beyond explaining
+    past = [e for e in ended if e.end_s is not None and e.end_s > later.onset_s + slack_s]
+    if past:
+        return past  # they saw it go on after the other began: not lost there
+    if len({e.detector for e in ended}) < 2:
+        return []  # one detector that lost the fault when the other began
+    return ended
 
 
 def _same_end(e: Event, g: Finding, slack_s: float) -> bool:
