@@ -711,6 +711,7 @@ def _analyze(
         notes.extend(ends_of_later_faults(findings, coupled(results)))
         moved = [f for f in findings if periods[id(f)] != (f.onset_s, f.end_s)]
         notes.extend(relabel_frozen(moved, values, chosen, aligned.rate_hz, healthy, train[1]))
+        findings.sort(key=lambda f: (f.onset_s, f.channel))
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
         notes.extend(_unattributed_notes(results, findings, aligned.rate_hz))
         notes.extend(_after_gap_notes(findings, values, chosen, aligned.rate_hz))
