@@ -95,6 +95,18 @@ def _after_gap(folder: Path) -> Path:
     return folder / "gap.csv"
 
 
+def _clipping(folder: Path) -> Path:
+    """A 3-floor building (two sensors a floor) whose s2 clips at half its peak from 60 %
+    of the record: one finding with ``evidence.clipped``."""
+    folder.mkdir()
+    t, Y, names = simulate_building(3, 120.0, RATE, seed=1, sensors_per_floor=2)
+    on, lim = int(0.6 * len(t)), 0.5 * np.abs(Y[:, 2]).max()
+    Y[on:, 2] = np.clip(Y[on:, 2], -lim, lim)
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(folder / "clip.csv", "csv", t_ns, {n: Y[:, j] for j, n in enumerate(names)})
+    return folder / "clip.csv"
+
+
 CASES: dict[str, Callable[[Path], list[Any]]] = {
     # each bundled sample, by its format; --corrected and --save-model ride along
     "additive_mcap_corrected": lambda root: [SAMPLES / "building_additive.mcap", "--corrected"],
@@ -111,6 +123,7 @@ CASES: dict[str, Callable[[Path], list[Any]]] = {
     "screen": lambda root: [SAMPLES / "building_healthy_ros2", "--screen", "equivalent_model"],
     "damaged_member": lambda root: [_damaged_archive(root / "archive")],
     "after_gap": lambda root: [_after_gap(root / "gap")],
+    "clipping": lambda root: [_clipping(root / "clip")],
 }
 """The arguments of each ``analyzer run`` (before ``--out``), given the runs' folder."""
 
@@ -233,6 +246,7 @@ EXERCISES: dict[str, Callable[[dict[str, Any]], bool]] = {
         doc["start"] is None and any(i["errors"] for i in doc["inputs"]) and bool(doc["faults"])
     ),
     "after_gap": lambda doc: any("after_gap_s" in f["evidence"] for f in doc["faults"]),
+    "clipping": lambda doc: any("clipped" in f["evidence"] for f in doc["faults"]),
 }
 """What each run must show for its document to test what it is there for (a sample's
 format, corrections, a model, a screening, an input error, a skipped detector...)."""
@@ -362,9 +376,10 @@ def _objects(doc: dict[str, Any]) -> Iterator[tuple[str, dict[str, Any], dict[st
         yield "faults[]", DEFS["fault"], item
         yield "faults[].magnitude", DEFS["magnitude"], item["magnitude"]
         yield "faults[].evidence", DEFS["evidence"], evidence
-        if "frozen" in evidence:
-            frozen = DEFS["evidence"]["properties"]["frozen"]
-            yield "faults[].evidence.frozen", frozen, evidence["frozen"]
+        for part in ("frozen", "clipped"):
+            if part in evidence:
+                declared = DEFS["evidence"]["properties"][part]
+                yield f"faults[].evidence.{part}", declared, evidence[part]
         for tests in evidence["tests"].values():
             yield "faults[].evidence.tests.*", DEFS["detectorTests"], tests
             for side in ("before", "after"):
