@@ -6,6 +6,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from analyzer.errors import terminal_safe
 from analyzer.readers import open_archive
 from analyzer.readers.base import TimeSource
 from analyzer.scratch import scratch
@@ -55,23 +56,26 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
 
 
 def render_table(doc: dict[str, Any]) -> str:
-    """A table for people."""
+    """A table for people: file and channel names with their control and format
+    characters escaped (:func:`~analyzer.errors.terminal_safe`; ``--json`` has them as
+    JSON escapes)."""
+    safe = terminal_safe
     lines = []
     for i in doc["inputs"]:
-        lines.append(f"{i['path']}  [{i['format']}]")
+        lines.append(f"{safe(i['path'])}  [{i['format']}]")
         if i.get("time"):
-            lines.append(f"  time: {i['time']}")
+            lines.append(f"  time: {safe(i['time'])}")
         for e in i["errors"]:
-            lines.append(f"  ! {e}")
+            lines.append(f"  ! {safe(e)}")
     for note in doc.get("notes", ()):
-        lines.append(f"note: {note}")
+        lines.append(f"note: {safe(note)}")
     if doc.get("start"):
         lines.append(f"start {doc['start']}")
     rows = [("channel", "samples", "start_s", "end_s", "rate_hz", "gaps")]
     for c in doc["channels"]:
         rows.append(
             (
-                c["name"],
+                safe(c["name"]),
                 str(c["samples"]),
                 f"{c['start_s']:.3f}",
                 f"{c['end_s']:.3f}",

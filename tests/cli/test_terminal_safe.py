@@ -42,3 +42,15 @@ def test_the_watchers_log_lines_stay_one_line():
     )
     line = _StderrFormatter("%(message)s").format(record)
     assert line == "analyzing in\\x0abox\\x07.mcap"
+
+
+def test_inspect_escapes_the_names_in_its_table(tmp_path, capsys):
+    """``inspect``'s table (a README audit: its file and channel names reached the
+    terminal as they were; ``--json`` escapes them as JSON does)."""
+    path = tmp_path / "odd\x1b[31m.csv"
+    rows = "".join(f"{k * 0.01:.2f},{k},{2 * k}\n" for k in range(50))
+    path.write_text("time,nul\x01x,rtl\u202eevil\n" + rows)
+    code, out, _ = run_cli(["inspect", path], capsys)
+    assert code == 0
+    assert "odd\\x1b[31m.csv" in out and "nul\\x01x" in out and "rtl\\u202eevil" in out
+    assert "\x1b" not in out and "\x01" not in out and "\u202e" not in out
