@@ -42,7 +42,9 @@ def natural_key(name: str) -> tuple[Any, ...]:
     """Sort key reading the numbers in a name as numbers: ``s2`` before ``s10`` (the
     headline listed "s0, s1, s10, s11, s2")."""
     parts = _DIGITS.split(name)
-    return (*(int(p) if i % 2 else p for i, p in enumerate(parts)), name)
+    # (kind, value) pairs: a number never meets a string (``acc1_x`` and ``acc1_x2`` once
+    # compared the one's name with the other's 2, and the report was not written)
+    return (tuple((1, int(p)) if i % 2 else (0, p) for i, p in enumerate(parts)), name)
 
 
 def num(x: Any, digits: int = 4) -> str:
