@@ -348,8 +348,10 @@ def ends_of_later_faults(
     slack_s: float = 1.0,
 ) -> list[str]:
     """Each finding whose end some of its detectors saw only where a later fault of
-    another sensor ended takes its end (onset, type, size) from its other detectors, with
-    a note; changes ``findings`` in place and returns the notes.
+    another sensor ended takes its end from its other detectors, and their size where
+    they read the same type, with a note; changes ``findings`` in place and returns the
+    notes. Its onset and type stay (one detector that saw the end does not overrule two
+    that agree on the fault's start and shape).
 
     A detector that estimates a sensor from others sees a fault of one of those others in
     its residual of the sensor too: when that fault began while the sensor's own was under
@@ -385,19 +387,26 @@ def ends_of_later_faults(
         if not ended:
             continue
         lead = _lead(ended, slack_s)
-        was = f.end_s
-        f.type, f.onset_s, f.end_s = lead.type, lead.onset_s, lead.end_s
-        f.magnitude, f.detector = dict(lead.magnitude), lead.detector
+        was, size = f.end_s, ""
+        f.end_s = lead.end_s
+        if lead.type is f.type and lead.magnitude != f.magnitude:
+            # its size over the fault's own stretch (the others' took in the later one)
+            f.magnitude, f.detector = dict(lead.magnitude), lead.detector
+            size = f", and its size is theirs ({_sized(f.magnitude)})"
         others = sorted({e.detector for e in f.events if id(e) in explained})
         notes.append(
             f"{f.type.value} fault on {f.channel}: ended at {lead.end_s:.3f} s as "
-            f"{', '.join(sorted({e.detector for e in ended}))} saw it; "
+            f"{', '.join(sorted({e.detector for e in ended}))} saw it{size}; "
             f"{', '.join(others)} saw it to "
             + ("the record's end" if was is None else f"{was:.3f} s")
             + f", where the {later.type.value} fault on {later.channel} (from "
             f"{later.onset_s:.3f} s) ended, a sensor they model together with {f.channel}"
         )
     return notes
+
+
+def _sized(magnitude: dict[str, float]) -> str:
+    return ", ".join(f"{k} {v:.4g}" for k, v in magnitude.items())
 
 
 def _explained_by_later(
@@ -461,6 +470,8 @@ def _same_end(e: Event, g: Finding, slack_s: float) -> bool:
     when that part led s4's finding, the finding ended at 200.1 s, and the observers'
     and the filter's right ends of the drift were taken for it)."""
     ends = [o.end_s for o in g.events]
+    if not ends:
+        return False
     if e.end_s is None or any(x is None for x in ends):
         return e.end_s is None and any(x is None for x in ends)
     return abs(max(x for x in ends if x is not None) - e.end_s) <= slack_s
@@ -696,9 +707,13 @@ def _ended_with(
 
 def _seen_over(g: Finding, detector: str) -> float:
     """When the detectors of ``g`` other than ``detector`` saw it end (the latest of
-    their ends; infinite when one saw no end, or none but ``detector`` saw ``g``)."""
+    their ends; infinite when one saw no end; minus infinite when none but ``detector``
+    saw ``g``: the bank's isolated gain on s1 during its own gain on s0, which only it
+    reported, is that gain's end seen on s1, as before)."""
     ends = [e.end_s for e in g.events if e.detector != detector]
-    if not ends or any(end is None for end in ends):
+    if not ends:
+        return float("-inf")  # only ``detector`` saw it: nothing says it went on
+    if any(end is None for end in ends):
         return float("inf")
     return max(end for end in ends if end is not None)
 

@@ -146,3 +146,39 @@ def test_an_end_the_first_fault_gave_the_later_ones_part_explains_nothing():
     assert len(ends_of_later_faults(findings, _coupled)) == 1
     f = next(f for f in findings if f.channel == "s1")
     assert (f.type, f.onset_s, f.end_s, f.detector) == (D, 89.36, 200.01, DF)
+
+
+def test_only_the_end_moves_when_the_detector_that_saw_it_reads_another_type():
+    """A review's case: a drift on s1 that the bank and the observers traced from 95 s
+    (to s4's end), caught late by the detection filter at 120 s as an offset ending at
+    200 s: the finding keeps its onset, type and rate, and takes the filter's end."""
+    drift = {"rate_per_s": 0.02}
+    events = [
+        _ev("s1", BANK, 95.0, 250.09, 0.02, D),
+        _ev("s1", EM, 95.2, 250.12, 0.02, D),
+        _ev("s1", DF, 120.0, 200.0, 1.5),
+        *_second(),
+    ]
+    findings = merge_events(events)
+    (note,) = ends_of_later_faults(findings, _coupled)
+    s1 = next(f for f in findings if f.channel == "s1")
+    assert (s1.type, s1.onset_s, s1.end_s, s1.magnitude) == (D, 95.0, 200.0, drift)
+    assert "its size is theirs" not in note
+
+
+def test_a_finding_without_events_explains_no_end():
+    (f,) = merge_events([_ev("s1", BANK, 100.0, 250.0, 1.0)])
+    empty = merge_events([_ev("s4", BANK, 150.0, 250.0, 1.0)])[0]
+    empty.events = []
+    assert ends_of_later_faults([f, empty], _coupled) == []
+
+
+def test_a_single_detectors_isolated_finding_ends_with_that_detectors_own_fault():
+    """The bank's isolated gain on s1 from 963.4 to 968.3 s, during its own gain on s0
+    that only it reported (to 967.7 s): nothing says s0's gain went on, so s1's is its
+    end seen on s1, taken for it (the isolation exception needs another detector that saw
+    s0's fault under way when s1's began)."""
+    s0 = _ev("s0", BANK, 719.93, 967.68, 1.17, M, isolated=True)
+    s1 = _ev("s1", BANK, 963.36, 968.26, 1.17, M, isolated=True)
+    kept, notes = one_fault_at_a_time(merge_events([s0, s1]), _coupled)
+    assert [f.channel for f in kept] == ["s0"] and len(notes) == 1
