@@ -611,7 +611,7 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
         inputs = [str(i) for i in getattr(args, "inputs", None) or []]
         return _error(_naming_inputs(one_line(str(err)), inputs) + _earlier(args, started))
     except KeyboardInterrupt:
-        print(f"analyzer: interrupted{_earlier(args, started)}", file=sys.stderr)
+        print(terminal_safe(f"analyzer: interrupted{_earlier(args, started)}"), file=sys.stderr)
         global _UNWOUND
         _UNWOUND = args is not None and args.command != "watch"
         return 130

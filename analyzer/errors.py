@@ -7,6 +7,8 @@ say what was expected.
 
 from __future__ import annotations
 
+import unicodedata
+
 
 def one_line(err: BaseException | str) -> str:
     """An exception (or text) as a single line, for ``InputInfo.errors`` and messages."""
@@ -24,7 +26,7 @@ def terminal_safe(text: str) -> str:
         return text
     return "".join(
         ch
-        if ch.isprintable()
+        if ch.isprintable() or unicodedata.category(ch) == "Zs"  # (a no-break space: kept)
         else f"\\x{ord(ch):02x}"
         if ord(ch) < 0x100
         else f"\\u{ord(ch):04x}"

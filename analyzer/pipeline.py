@@ -44,7 +44,7 @@ from analyzer.diagnosis.evidence import (
 )
 from analyzer.diagnosis.levels import excursions, level_note, response_levels
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
-from analyzer.diagnosis.stuck import healthy_stats, relabel_frozen
+from analyzer.diagnosis.stuck import frozen_notes, healthy_stats, relabel_frozen
 from analyzer.diagnosis.training_check import WindowNote, window_notes, window_warnings
 from analyzer.errors import (
     AnalyzerError,
@@ -1152,10 +1152,12 @@ def _diagnose(
         notes.extend(common)
     # a frozen sensor's fault from where it froze, before one fault at a time weighs
     # which fault was under way when (a dead sensor's first alarms can come seconds late)
-    notes.extend(relabel_frozen(findings, values, chosen, rate_hz, healthy, train[1]))
+    # (the notes of those it keeps: a finding taken for another's fault has none)
+    frozen = frozen_notes(findings, values, chosen, rate_hz, healthy, train[1])
     findings.sort(key=lambda f: (f.onset_s, f.channel))
     findings, conflicts = one_fault_at_a_time(findings, coupled(results))
     notes.extend(conflicts)
+    notes.extend(frozen[id(f)] for f in findings if id(f) in frozen)
     notes.extend(traced_into_training(findings, reused is not None))
     if reused is not None:
         notes.extend(present_at_search_start(findings, train[1] / rate_hz, rate_hz))

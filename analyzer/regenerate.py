@@ -197,7 +197,8 @@ def corrected_values(
 
     ``healthy``: the rows of the healthy window. Given, a fault whose reading would be
     replaced by the detector's estimate (``residual``, or ``reference`` for anything but
-    a dead sensor) is left as measured when the estimate's own error is as large as the
+    a multiplicative fault: a dead or nearly dead sensor, whose reading says nothing) is
+    left as measured when the estimate's own error is as large as the
     fault's (:func:`_worth_replacing`): a gain of 1.25 on a building's ground-floor sensor,
     read as ``other``, left 0.24 sd of error; its estimate's was 0.43 sd, and the
     correction nearly doubled the error (``benchmarks/sweep_corrected.py``).

@@ -40,28 +40,44 @@ def relabel_frozen(
     healthy: tuple[int, int] | Mapping[str, tuple[float, float]],
     search_start: int = 0,
 ) -> list[str]:
+    """:func:`frozen_notes`' notes, in the findings' order."""
+    return list(frozen_notes(findings, values, channels, rate_hz, healthy, search_start).values())
+
+
+def frozen_notes(
+    findings: Sequence[Finding],
+    values: npt.NDArray[Any],
+    channels: Sequence[str],
+    rate_hz: float,
+    healthy: tuple[int, int] | Mapping[str, tuple[float, float]],
+    search_start: int = 0,
+) -> dict[int, str]:
     """Set the type of each finding whose channel is frozen over the fault: ``other``
     (stuck, magnitude ``stuck_at`` and ``offset`` from the healthy mean) or
-    ``multiplicative`` with gain 0 (dead); returns a note per change. ``healthy`` is the
-    training window (an index range of ``values``) or each channel's healthy mean and
-    standard deviation (:func:`healthy_stats`; ``--model`` brings those of its own
-    training window).
+    ``multiplicative`` with gain 0 (dead); returns a note per change, by the finding's
+    ``id``. ``healthy`` is the training window (an index range of ``values``) or each
+    channel's healthy mean and standard deviation (:func:`healthy_stats`; ``--model``
+    brings those of its own training window).
 
-    The readings decide the fault's period too. It starts where they froze
-    (:func:`frozen_since`, no earlier than the row ``search_start``): the residual of a
-    sensor that died while the structure was quiet moves little until the structure
-    moves (a 4-floor building's sensor dead from 70.0 s was reported from 80.4 s, the
-    detectors' first alarms at 81.8-83.0 s, and the detection filter put an ``other`` on
-    a healthy sensor at 70.1 s). And it ends where they move again
-    (:func:`frozen_until`), when that is before the end the detectors saw and the frozen
-    stretch is most of the fault (:data:`FROZEN_SHARE`): a sensor dead from 150 to
-    220 s, whose end the detection filter saw at 227.4 s, was not frozen over that
-    period, kept the filter's gain of 0.174, and ``--corrected`` divided the healthy
-    readings after 220 s by it. Its evidence ``frozen`` then has ``since_s`` and
-    ``alarmed_from_s``, or ``until_s`` and ``alarmed_to_s``."""
+    Frozen: the readings over the fault vary by at most :data:`FLAT` of their healthy
+    spread, or at least :data:`FROZEN_SHARE` of them lie within that of their median
+    (the fault's period may overrun the frozen stretch). The readings then decide the
+    fault's period too. It starts where they froze (:func:`frozen_since`, no earlier than
+    the row ``search_start``): the residual of a sensor that died while the structure was
+    quiet moves little until the structure moves (a 4-floor building's sensor dead from
+    70.0 s was reported from 80.4 s, the detectors' first alarms at 81.8-83.0 s, and the
+    detection filter put an ``other`` on a healthy sensor at 70.1 s). And it ends where
+    they move again (:func:`frozen_until`), when that is before the end the detectors saw
+    and the frozen stretch is most of the fault: a sensor dead from 150 to 220 s, whose
+    end the detection filter saw at 227.4 s, kept that filter's gain of 0.174, and
+    ``--corrected`` divided the healthy readings after 220 s by it. Its evidence
+    ``frozen`` then has ``since_s`` and ``alarmed_from_s``, or ``until_s`` and
+    ``alarmed_to_s``. A frozen stretch begins and ends with :data:`FROZEN_RUN` readings
+    in a row off its level, so a stuck sensor's noise or a dead one's single flicker does
+    not end it."""
     if not isinstance(healthy, Mapping):
         healthy = healthy_stats(values, channels, healthy)
-    notes: list[str] = []
+    notes: dict[int, str] = {}
     index = {c: j for j, c in enumerate(channels)}
     n = values.shape[0]
     for f in findings:
@@ -72,21 +88,20 @@ def relabel_frozen(
         mean, sd = stats
         a = max(0, int(round(f.onset_s * rate_hz)))
         b = n if f.end_s is None else min(n, int(round(f.end_s * rate_hz)))
-        head = read_column(values, j, a, min(b, a + max(MIN_FLAT_SAMPLES, int(round(rate_hz)))))
-        head = head[np.isfinite(head)]
-        if not sd > 0 or head.size < MIN_FLAT_SAMPLES or float(np.std(head)) > FLAT * sd:
-            continue
-        tol = max(FROZEN_SPREAD * float(np.std(head)), FROZEN_EPS * sd)
-        until = frozen_until(values, j, a, float(np.median(head)), tol, b)
-        if until - a < FROZEN_SHARE * (b - a):
-            continue
-        seg = read_column(values, j, a, until)
+        seg = read_column(values, j, a, b)
         seg = seg[np.isfinite(seg)]
-        if seg.size < MIN_FLAT_SAMPLES or float(np.std(seg)) > FLAT * sd:
+        if not sd > 0 or seg.size < MIN_FLAT_SAMPLES:
             continue
-        level, spread = float(np.median(seg)), float(np.std(seg))
+        level, tol = float(np.median(seg)), FLAT * sd
+        near = np.abs(seg - level) <= tol
+        if float(np.std(seg)) > tol and float(np.mean(near)) < FROZEN_SHARE:
+            continue
+        until = frozen_until(values, j, a, level, tol, b)
+        if until - a < FROZEN_SHARE * (b - a):
+            continue  # frozen for a while only: a fault of another kind
+        spread = float(np.std(seg[near]))
         before, alarmed, alarmed_to = f.type, f.onset_s, f.end_s
-        since = frozen_since(values, j, a, level, spread, sd, search_start)
+        since = frozen_since(values, j, a, level, tol, search_start)
         if abs(level) <= ZERO * sd:
             f.type = FaultType.MULTIPLICATIVE
             f.magnitude = {"gain": 0.0}
@@ -107,7 +122,7 @@ def relabel_frozen(
             seen = "the record's end" if alarmed_to is None else f"{alarmed_to:.3f} s"
             moved.append(f"the detectors saw it to {seen}: it ends where they moved again")
         if f.type is not before or what.startswith("stuck") or moved:
-            notes.append(
+            notes[id(f)] = (
                 f"{f.channel} from {f.onset_s:.3f} s"
                 + ("" if f.end_s is None else f" to {f.end_s:.3f} s")
                 + f": {what}: its readings vary by {spread / sd:.2g} of their healthy spread "
@@ -117,19 +132,23 @@ def relabel_frozen(
 
 
 FROZEN_SHARE = 0.9
-"""A finding whose readings stay frozen from its onset over at least this share of its
-period, and then move, is a frozen sensor that recovered before the detectors saw it
-recover: a smaller share is a fault of another kind that read flat for a while."""
+"""Frozen over a fault: at least this share of its readings within :data:`FLAT` of their
+median, and of its period before they move (:func:`frozen_notes`): a smaller share is a
+fault of another kind that read flat for a while."""
+
+FROZEN_RUN = 5
+"""Readings in a row off a frozen level that end (or, backwards, begin) its stretch
+(:func:`frozen_until`, :func:`frozen_since`): fewer are a stuck sensor's noise or a dead
+one's flicker; a healthy signal leaves a level within a sample."""
 
 
-FROZEN_SPREAD = 4.0
-"""A reading belongs to a frozen stretch when it is within this many times the stretch's
-own spread of its level (:func:`frozen_since`; at least :data:`FROZEN_EPS` of the healthy
-spread, for a reading frozen exactly)."""
-
-FROZEN_EPS = 1e-6
-"""The least tolerance of :func:`frozen_since`, as a share of the healthy spread: a
-healthy reading comes this close to a frozen level about once in a million samples."""
+def _first_run(moved: npt.NDArray[np.bool_], run: int) -> int | None:
+    """The first index that begins ``run`` True values in a row, or None."""
+    if moved.size < run:
+        return None
+    counts = np.cumsum(np.concatenate(([0], moved.astype(np.int64))))
+    full = np.flatnonzero(counts[run:] - counts[:-run] == run)
+    return int(full[0]) if full.size else None
 
 
 def frozen_until(
@@ -141,16 +160,18 @@ def frozen_until(
     stop: int,
     block: int = 1 << 16,
 ) -> int:
-    """The first row from ``a`` on (before ``stop``) where column ``j`` reads more than
-    ``tol`` from ``level``, else ``stop``: where a frozen stretch ends. Missing readings
-    do not end it. Read a block of rows at a time."""
-    start = a
+    """Where the frozen stretch of column ``j`` that goes on at row ``a`` ends: the first
+    of :data:`FROZEN_RUN` readings in a row more than ``tol`` from ``level``, else
+    ``stop``. Missing readings do not end it. Read a block of rows at a time."""
+    start, carry = a, np.zeros(0, dtype=bool)
     while start < stop:
         hi = min(stop, start + block)
         seg = read_column(values, j, start, hi)
-        moved = np.flatnonzero(np.abs(seg - level) > tol)  # (NaN compares False: kept)
-        if moved.size:
-            return start + int(moved[0])
+        moved = np.concatenate((carry, np.abs(seg - level) > tol))  # (NaN: False)
+        first = _first_run(moved, FROZEN_RUN)
+        if first is not None:
+            return start - carry.size + first
+        carry = moved[-(FROZEN_RUN - 1) :]
         start = hi
     return stop
 
@@ -160,26 +181,30 @@ def frozen_since(
     j: int,
     a: int,
     level: float,
-    spread: float,
-    sd: float,
+    tol: float,
     stop: int = 0,
     block: int = 1 << 16,
 ) -> int:
-    """The first row of the frozen stretch of column ``j`` that goes on at row ``a``:
-    back from ``a`` while the readings stay within :data:`FROZEN_SPREAD` times ``spread``
-    (the frozen stretch's own standard deviation; at least :data:`FROZEN_EPS` of the
-    healthy ``sd``) of ``level``, no earlier than ``stop``. Missing readings do not end
-    it (a dead sensor's gaps). Read a block of rows at a time, backwards."""
-    tol = max(FROZEN_SPREAD * spread, FROZEN_EPS * sd)
-    start = a
-    while start > stop:
-        lo = max(stop, start - block)
-        seg = read_column(values, j, lo, start)
-        moved = np.flatnonzero(np.abs(seg - level) > tol)  # (NaN compares False: kept)
-        if moved.size:
-            return lo + int(moved[-1]) + 1
-        start = lo
-    return start
+    """Where the frozen stretch of column ``j`` that goes on at row ``a`` begins: just
+    after the last of :data:`FROZEN_RUN` readings in a row more than ``tol`` from
+    ``level`` before ``a``, no earlier than ``stop``. Missing readings do not end it (a
+    dead sensor's gaps). Read a block of rows at a time, backwards."""
+    end, carry = a, np.zeros(0, dtype=bool)
+    while end > stop:
+        lo = max(stop, end - block)
+        seg = read_column(values, j, lo, end)
+        moved = np.concatenate((np.abs(seg - level) > tol, carry))  # (NaN: False)
+        last = _first_run(moved[::-1], FROZEN_RUN)
+        if last is not None:
+            k = moved.size - last
+            # where :data:`FROZEN_RUN` readings in a row at the level begin: a healthy
+            # reading that passed the level just before it froze is not frozen yet
+            # (past ``a`` it is frozen)
+            after = np.concatenate((moved[k:], np.zeros(FROZEN_RUN, dtype=bool)))
+            return lo + k + (_first_run(np.logical_not(after), FROZEN_RUN) or 0)
+        carry = moved[: FROZEN_RUN - 1]
+        end = lo
+    return end
 
 
 def healthy_stats(

@@ -147,3 +147,35 @@ def test_a_frozen_finding_ends_where_its_readings_moved_again():
     assert "the detectors saw it to 22.735 s: it ends where they moved again" in note
     assert (found[1].type, found[1].end_s) == (FaultType.OTHER, 4547 / RATE)
     assert "frozen" not in found[1].evidence
+
+
+def test_noise_a_flicker_or_an_early_onset_do_not_hide_a_frozen_sensor():
+    """A review's cases: a sensor stuck with noise at 0.3 % of its healthy spread; a dead
+    one whose reading flickers by 0.1 % once, half-way and near the end of its period; a
+    dead one whose finding begins 2 samples before it died. Each is frozen over its
+    fault, from where it froze to where it moved again."""
+    rng = np.random.default_rng(0)
+    values = rng.standard_normal((30000, 4))
+    values[10000:, 0] = 1.75 + 0.003 * rng.standard_normal(20000)
+    values[10000:20000, 1] = 0.0
+    values[15000, 1] = 1e-3
+    values[10000:20000, 2] = 0.0
+    values[19600, 2] = 1e-3
+    values[10000:, 3] = 0.0
+    found = [
+        Finding("a", FaultType.ADDITIVE, 10000 / RATE, None, {"offset": 1.7}, 1.0, "df"),
+        Finding(
+            "b", FaultType.MULTIPLICATIVE, 10000 / RATE, 20000 / RATE, {"gain": 0.2}, 1.0, "df"
+        ),
+        Finding(
+            "c", FaultType.MULTIPLICATIVE, 10000 / RATE, 20000 / RATE, {"gain": 0.2}, 1.0, "df"
+        ),
+        Finding("d", FaultType.MULTIPLICATIVE, 9998 / RATE, None, {"gain": 0.2}, 1.0, "df"),
+    ]
+    relabel_frozen(found, values, ["a", "b", "c", "d"], RATE, (0, 5000))
+    assert found[0].type is FaultType.OTHER
+    assert found[0].magnitude["stuck_at"] == pytest.approx(1.75, abs=1e-3)
+    for f in found[1:]:
+        assert f.type is FaultType.MULTIPLICATIVE and f.magnitude == {"gain": 0.0}, f
+    assert [(f.onset_s, f.end_s) for f in found[1:3]] == [(50.0, 100.0)] * 2
+    assert found[3].onset_s == 9998 / RATE  # (as the detectors saw it: already frozen)
