@@ -1915,15 +1915,27 @@ def _fields(line: str, separator: str) -> list[str]:
 
 
 def _open_quote(line: str, separator: str) -> bool:
-    """Whether a field of ``line`` opens a quote that the line does not close (a literal
-    quote inside an unquoted field, ``Diameter (")``, is no such opening)."""
-    if '"' not in line:
-        return False
-    try:
-        list(csv.reader([line], delimiter=separator, strict=True))
-    except csv.Error:
-        return True
-    return False
+    """Whether a field of ``line`` opens a quote that the line does not close: a field
+    that begins with ``"`` (after blanks) whose closing quote never comes (``""`` inside
+    it is a quote). A literal quote inside an unquoted field (``Diameter (")``), or text
+    after a closing quote (``"Temp"C``, ``"time" ,``), opens nothing."""
+    quoted, at_start, k = False, True, 0
+    while k < len(line):
+        ch = line[k]
+        if quoted:
+            if ch == '"':
+                if k + 1 < len(line) and line[k + 1] == '"':
+                    k += 1  # an escaped quote
+                else:
+                    quoted = False
+        elif ch == separator:
+            at_start = True
+        elif ch == '"' and at_start:
+            quoted, at_start = True, False
+        elif not ch.isspace():
+            at_start = False
+        k += 1
+    return quoted
 
 
 def _header_line(lines: list[str], separator: str, open_end: bool) -> int:

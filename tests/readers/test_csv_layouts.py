@@ -244,6 +244,12 @@ def test_a_header_name_with_a_line_break_inside_its_quotes_is_refused_so(
     inches.write_text('time,Diameter ("),s2\n' + rows)
     samples, _ = read(inches)
     assert sorted(samples) == ['Diameter (")', "s2"]
+    # (a review: text after a closing quote is no open quote either)
+    for header in ('"time" ,"a",s2', '"time","Temp"C,s2'):
+        after = tmp_path / "after.csv"
+        after.write_text(header + "\n" + rows)
+        samples, _ = read(after)
+        assert len(samples) == 2, header
 
 
 # --------------------------------------------------------------------------- preamble
