@@ -44,6 +44,7 @@ from analyzer.diagnosis.evidence import (
 )
 from analyzer.diagnosis.levels import excursions, level_note, response_levels
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
+from analyzer.diagnosis.oversampled import oversampled_note
 from analyzer.diagnosis.stuck import frozen_notes, healthy_stats, relabel_frozen
 from analyzer.diagnosis.training_check import WindowNote, window_notes, window_warnings
 from analyzer.errors import (
@@ -646,6 +647,10 @@ def _analyze(
                     values, chosen, groups, train, tr, aligned.duration_s, aligned.rate_hz, findings
                 )
             )
+            # and a clock far above what the sensors carry (the models' memory too short)
+            fast = oversampled_note(values, chosen, train, aligned.rate_hz)
+            if fast is not None:
+                notes.append(fast)
         # and without the sensors found faulty while anomalies no sensor explained came
         # beside their faults (a second fault from the same instant: one at a time)
         slack = LONG_FACTOR * default_window(aligned.rate_hz) / aligned.rate_hz

@@ -13,6 +13,8 @@ decimation) the same record is found by all three detectors.
 
 from __future__ import annotations
 
+import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -37,10 +39,19 @@ def _gain_on_s2(faults: list[dict]) -> None:
     assert faults[0]["magnitude"]["gain"] == pytest.approx(0.5, abs=0.05)
 
 
-def test_an_oversampled_record_aligned_at_a_lower_rate_shows_the_gain(tmp_path: Path) -> None:
-    # the workaround until the detectors' memory follows the clock: --rate 200
+def test_the_run_names_the_rate_at_which_the_gain_is_found(tmp_path: Path, capsys) -> None:
+    # the workaround until the detectors' memory follows the clock: the run's note
+    # (and stderr) names a --rate, at which the same record shows the gain
     t, y, names = _record()
-    _gain_on_s2(run_csv(tmp_path, t, y, names, options=("--rate", "200")))
+    for part in ("first", "second"):
+        (tmp_path / part).mkdir()
+    run_csv(tmp_path / "first", t, y, names, code=0)
+    doc = json.loads((tmp_path / "first" / "out" / "findings.json").read_text())
+    (note,) = [n for n in doc["notes"] if "sampled at 2000 Hz" in n]
+    rate = re.search(r"--rate (\S+) aligns", note)
+    assert rate is not None and rate.group(1) == "200", note
+    assert "--rate 200" in capsys.readouterr().err
+    _gain_on_s2(run_csv(tmp_path / "second", t, y, names, options=("--rate", rate.group(1))))
 
 
 @pytest.mark.xfail(

@@ -1,0 +1,120 @@
+"""A record sampled far above what its sensors carry: the detectors' memory is too short.
+
+The detectors' models remember a number of samples, not seconds: the AR bank and the
+detection filter an AR order of at most 10, the equivalent model its lags. A building's
+modes of 1-6 Hz logged at 2 kHz give them 5 ms of a 170-1000 ms period: their one-step
+predictions are then mostly measurement noise, a sensor whose readings shrink stays
+consistent with its own recent history, and its estimate from the other sensors is
+poor. A gain of 0.5 on one sensor of a simulated 4-floor building at 2 kHz was missed
+(exit 0, "an anomaly attributed to no sensor"; the bank's healthy residual was 0.45 of a
+sensor's spread against 0.13 at 200 Hz); aligned at 200 Hz (``--rate 200``, the store's
+low-pass and decimation) the same record gave the gain to the right sensor with all three
+detectors (``tests/diagnosis/test_oversampled_gain.py``).
+
+Until the detectors' memory follows the clock, the run says so: :func:`oversampled_note`
+measures, over the healthy window, the frequency below which :data:`CONTENT_SHARE` of
+each channel's power lies, and when the clock runs more than :data:`MAX_RATIO` times
+above it (an AR order of 10 then spans less than a quarter of that frequency's period)
+names a rate ``--rate`` could align the channels at. Only channels that oscillate (their
+power peaks away from the lowest frequencies) count: a robot's positions and other slow
+trends have all their power near zero, and a lower clock would not serve them better.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from scipy.signal import welch
+
+from analyzer.diagnosis.training_check import WindowNote
+
+CONTENT_SHARE = 0.95
+"""The share of a channel's healthy power below its content frequency."""
+
+MEMORY_SAMPLES = 10
+"""The detectors' default memory: the AR bank's and the detection filter's highest order."""
+
+MAX_RATIO = 4 * MEMORY_SAMPLES
+"""Clock rate over content frequency beyond which :data:`MEMORY_SAMPLES` samples span
+less than a quarter of the content frequency's period."""
+
+SUGGESTED_RATIO = 20
+"""The rate suggested is at least this many times the content frequency (ten samples a
+half period), the next round one (:func:`suggested_rate`)."""
+
+MOST_SAMPLES = 1 << 17
+"""Samples of the healthy window a channel's spectrum is estimated from (its first)."""
+
+MOST_CHANNELS = 64
+"""Channels whose spectra are estimated (evenly spread over the analyzed ones): the
+note is decided by their median."""
+
+PEAK_BINS = 4
+"""A channel oscillates when its power peaks at this many frequency bins above zero or
+higher (the spectrum's resolution is the rate over the segment's length)."""
+
+
+def content_frequency(x: npt.NDArray[Any], rate_hz: float) -> tuple[float, float] | None:
+    """``(content, peak)``: the frequency below which :data:`CONTENT_SHARE` of the power
+    of the samples ``x`` lies, and where their power peaks (Welch, linear trend removed
+    per segment); None for fewer than 256 finite samples or no power."""
+    x = np.asarray(x, dtype=np.float64)
+    x = x[np.isfinite(x)][:MOST_SAMPLES]
+    if x.size < 256:
+        return None
+    f, p = welch(x, fs=rate_hz, nperseg=min(x.size, 1 << 15), detrend="linear")
+    total = float(np.sum(p))
+    if not total > 0:
+        return None
+    cumulative = np.cumsum(p) / total
+    content = float(f[min(f.size - 1, int(np.searchsorted(cumulative, CONTENT_SHARE)))])
+    return content, float(f[int(np.argmax(p))])
+
+
+def suggested_rate(content_hz: float) -> float:
+    """The smallest of 1, 2, 2.5 and 5 times a power of ten that is at least
+    :data:`SUGGESTED_RATIO` times ``content_hz``: 5.5 Hz of content, 200 Hz."""
+    need = SUGGESTED_RATIO * content_hz
+    decade = 10.0 ** np.floor(np.log10(need))
+    return float(next(k * decade for k in (1, 2, 2.5, 5, 10) if k * decade >= need))
+
+
+def oversampled_note(
+    values: npt.NDArray[Any],
+    channels: Sequence[str],
+    train: tuple[int, int],
+    rate_hz: float,
+) -> WindowNote | None:
+    """A note when the clock (``rate_hz``) runs more than :data:`MAX_RATIO` times above
+    the content of most channels that oscillate over the healthy window (rows
+    ``train`` of ``values``), with the rate to try; None otherwise."""
+    a, b = train
+    b = min(b, a + MOST_SAMPLES)
+    contents = []
+    picked = np.unique(np.linspace(0, len(channels) - 1, MOST_CHANNELS).astype(int))
+    for j in picked.tolist():
+        got = content_frequency(values[a:b, j], rate_hz)
+        if got is None:
+            continue
+        content, peak = got
+        resolution = rate_hz / min(b - a, 1 << 15)
+        if peak >= PEAK_BINS * resolution and content > 0:
+            contents.append(content)
+    if len(contents) < max(1, picked.size // 2):
+        return None
+    content = float(np.median(contents))
+    if rate_hz <= MAX_RATIO * content:
+        return None
+    suggest = suggested_rate(content)
+    short = (
+        f"the channels are sampled at {rate_hz:g} Hz, {rate_hz / content:.0f} times the "
+        f"frequency below which {CONTENT_SHARE:.0%} of their healthy power lies "
+        f"({content:.3g} Hz): the detectors' models remember about {MEMORY_SAMPLES} "
+        f"samples ({1000 * MEMORY_SAMPLES / rate_hz:.3g} ms of a {1000 / content:.3g}-ms "
+        f"period), so a gain or a slow change may be missed or put on another sensor; "
+        f"--rate {suggest:g} aligns the channels where the models see it"
+    )
+    return WindowNote(short, short)
