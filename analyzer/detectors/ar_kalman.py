@@ -875,11 +875,15 @@ class ARKalmanBank:
             own = longest(j, lo, until)
             order = sorted((i for i in range(m) if i != j), key=lambda i: -violation[i])
             isolated = any(_confirmed(own, longest(i, lo, until)) for i in order)
-        if not isolated and (cls.type is FaultType.OTHER or stop - iv.onset < span):
+        if not cls.weighed or (
+            not isolated and (cls.type is FaultType.OTHER or stop - iv.onset < span)
+        ):
             # A change of residual that no estimator using the sensor confirms and that
             # either no fault shape explains or that is gone within a long window is
             # within the model's own error (it follows the response level): noted, not
-            # reported as a faulty sensor.
+            # reported as a faulty sensor. Nor is one whose residual had too few finite
+            # samples to weigh any shape (a model's archive after a gap: confidence 0, an
+            # offset of 0, and exit 1 for it; the realdata audit).
             return None, [(j, iv.onset, stop)], None
         onset_s, factor, early = bounded_onset(iv.onset, cls, rate, train_stop)
         conf = detection_confidence(iv) * cls.confidence * factor

@@ -64,6 +64,13 @@ class Classification:
     1 (the healthy level), the gain's magnitude (a gain scales the noise) or a level of
     the fit's own."""
 
+    @property
+    def weighed(self) -> bool:
+        """Whether any fault shape was weighed: not over fewer than three finite residual
+        samples (an alarm over a gap, or over the filters' warm-up after one), where the
+        residual says nothing of a sensor's fault."""
+        return bool(self.weights) or self.confidence > 0
+
     def fault_signal(self, tau_s: FloatArray, reference: FloatArray | None) -> FloatArray | None:
         """The fitted fault shape at ``tau_s`` seconds after the detected onset (channel
         units), or None for ``other`` faults (no shape to extend)."""

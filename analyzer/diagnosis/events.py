@@ -124,18 +124,19 @@ def events_from_residual(
             }
             if evidence:
                 ev.update(evidence)
-            out.append(
-                Event(
-                    channel=channel,
-                    onset_s=onset_s,
-                    end_s=None if end is None else end / rate_hz,
-                    type=cls.type,
-                    magnitude=cls.magnitude,
-                    confidence=float(detection_confidence(iv) * cls.confidence * factor),
-                    detector=detector,
-                    evidence=ev,
+            if cls.weighed:  # (else too few finite residual samples to tell any fault)
+                out.append(
+                    Event(
+                        channel=channel,
+                        onset_s=onset_s,
+                        end_s=None if end is None else end / rate_hz,
+                        type=cls.type,
+                        magnitude=cls.magnitude,
+                        confidence=float(detection_confidence(iv) * cls.confidence * factor),
+                        detector=detector,
+                        evidence=ev,
+                    )
                 )
-            )
             iv = None
             if len(changes) > found:
                 at = changes[-1]
