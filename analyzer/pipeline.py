@@ -1453,6 +1453,11 @@ def _varying_in_training(
     every channel stays: the model's channels were modelled on its own window."""
     if options.model is not None:
         return values, chosen
+    if len(chosen) == 1:  # (said first: no training window makes up for it; the audit)
+        raise UsageError(
+            f"one channel to analyze ({chosen[0]}): every detector estimates a sensor "
+            "from the others and needs at least 2 (--channels chooses them)"
+        )
     tv = np.asarray(values[train[0] : train[1]])
     if tv.shape[0] < MIN_TRAIN_ROWS:
         raise UsageError(

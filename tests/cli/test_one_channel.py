@@ -1,0 +1,22 @@
+"""A record with one channel to analyze is refused for that, not for its training window
+(the realdata audit: NAB's one-column files were told to give a longer --train, and with
+one the detectors then said they need 2 channels)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from analyzer.cli import main
+
+
+@pytest.mark.parametrize("rows", [40, 5000])
+def test_one_channel_is_refused_as_one_channel(tmp_path, capsys, rows):
+    path = tmp_path / "one.csv"
+    t = np.arange(rows) / 10.0
+    y = np.random.default_rng(0).standard_normal(rows)
+    np.savetxt(path, np.column_stack([t, y]), delimiter=",", header="time,value", comments="")
+    assert main(["run", str(path), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "one channel to analyze (value)" in err and "--train" not in err
+    assert err.count("\n") == 1
