@@ -77,6 +77,7 @@ from analyzer.reconfigure import (
     columns,
     found_again,
     lost_stretches,
+    seen_late,
 )
 from analyzer.reconfigure import note as reconfigure_note
 from analyzer.regenerate import corrected_values, result_signals
@@ -704,6 +705,9 @@ def _analyze(
                 work if big else None,
                 excitation,
             )
+            # (a fault the first search saw only from later: the second search's onset)
+            late = {id(g) for f in again for g in seen_late(f, findings, slack)}
+            findings = [f for f in findings if id(f) not in late]
             findings = sorted([*findings, *again], key=lambda f: (f.onset_s, f.channel))
             notes.extend(again_notes)
             timings["search again"] = time.perf_counter() - t_again

@@ -154,11 +154,30 @@ def found_again(
             or (seen_by >= need and any(a <= f.onset_s < b for a, b in beside))
         ):
             continue
-        if found_already(f, findings, slack_s):
+        if found_already(f, findings, slack_s) and not seen_late(f, findings, slack_s):
             continue
         f.evidence["searched_without"] = left
         out.append(f)
     return out
+
+
+def seen_late(f: Finding, findings: Sequence[Finding], slack_s: float) -> list[Finding]:
+    """The findings of the first search on ``f``'s channel that overlap ``f`` (a second
+    search's), when each begins more than ``slack_s`` after ``f`` and ends within
+    ``slack_s`` of it (or both last to the end): the same fault, its beginning lost to one
+    fault at a time, which ``f`` replaces; else none. An offset on s1 from 100 to 200 s
+    and one on s4 from 150 to 250 s: every detection filter left its direction while
+    both lasted, and the filter named s4 from 200.1 s, where s1's fault ended; searched
+    again without s1, s4's fault was found from 150.0 s."""
+    over = [g for g in findings if g.channel == f.channel and found_already(f, [g], slack_s)]
+    if not over or f.end_s is None and any(g.end_s is not None for g in over):
+        return []
+    for g in over:
+        if g.onset_s <= f.onset_s + slack_s:
+            return []
+        if f.end_s is not None and (g.end_s is None or abs(g.end_s - f.end_s) > slack_s):
+            return []
+    return over
 
 
 def beside_faults(

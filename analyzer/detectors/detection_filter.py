@@ -689,19 +689,30 @@ class DetectionFilter:
                 cands.append((k0, i, ev))
         cands.sort(key=lambda c: (c[0], c[1]))
         span = model.zeta_cal[0].long_window
+        # what the direction statistics still remember of the stretch before a change
+        after = max(cal.long_window for cal in model.direction_cal) + model.settle
         groups: list[tuple[list[tuple[int, int, Event]], int, int]] = []
+        over: list[tuple[int, int]] = []  # each group's window over its change (if any)
         while cands:
             # every alarm within a long window of the earliest competes for one fault
             t0 = cands[0][0]
             group = [c for c in cands if c[0] <= t0 + span]
             cands = [c for c in cands if c[0] > t0 + span]
             lo = max(train_stop, min(int(round(c[2].onset_s * rate)) for c in group) - w)
-            groups.append((group, lo, min(n, t0 + 2 * span)))
+            over.append((lo, min(n, t0 + 2 * span)))
+            groups.append((group, *_direction_window(group, *over[-1], after, n)))
         # each filter's largest direction statistic over each group's window, every
         # sample computed once (a fault that lasts has hundreds of alarm groups)
         windows = [(lo, hi) for _, lo, hi in groups]
-        violations = self._window_violations(model, bank, data.values, bad, windows, context)
-        for (group, lo, hi), viol in zip(groups, violations, strict=True):
+        moved = [k for k, (_, lo, hi) in enumerate(groups) if (lo, hi) != over[k]]
+        violations = self._window_violations(
+            model, bank, data.values, bad, windows + [over[k] for k in moved], context
+        )
+        changed_viol = dict(zip(moved, violations[len(groups) :], strict=True))
+        last: dict[int, Event] = {}  # each filter's latest reported event
+        for k, ((group, lo, hi), viol) in enumerate(
+            zip(groups, violations[: len(groups)], strict=True)
+        ):
             chans = sorted({c[1] for c in group})
             # the sensor whose filter's residual stays closest to its own direction
             j = min(chans, key=lambda c: (viol[c], -_strength(zetas[c], model.zeta_cal[c], lo, hi)))
@@ -759,7 +770,24 @@ class DetectionFilter:
                     + ": model mismatch rather than a sensor fault)"
                 )
                 continue
+            before = last.get(j)
+            if (
+                k in changed_viol
+                and before is not None
+                and before.end_s == ev.onset_s
+                and before.type is ev.type
+                and not _isolates(changed_viol[k], j, chans)
+            ):
+                # the change was another sensor's (its fault's end, say): the fault of
+                # this one goes on through it
+                before.end_s = ev.end_s
+                notes.append(
+                    f"the fault on {names[j]} from {before.onset_s:.3f} s goes on past "
+                    f"{when}, where its filter's residual changed with another sensor's fault"
+                )
+                continue
             events.append(ev)
+            last[j] = ev
             for c in chans:
                 if c != j:
                     notes.append(
@@ -807,6 +835,48 @@ class DetectionFilter:
             notes=notes,
             unattributed=unattributed,
         )
+
+
+def _direction_window(
+    group: Sequence[tuple[int, int, Event]], lo: int, hi: int, after: int, n: int
+) -> tuple[int, int]:
+    """The samples ``lo .. hi - 1`` whose direction statistics name the sensor of an alarm
+    group (:meth:`DetectionFilter.run`), moved ``after`` samples past the group's earliest
+    change when it holds a fault's part from a change (evidence ``changed_at_s``; the
+    same length, within the record's ``n`` samples).
+
+    Before a change the alarms were already on: the direction statistics over the change
+    hold the part before it for a long window, and the filters' residuals settle after
+    it. Two faults on s3 (100-200 s) and s0 (150-250 s): every filter but s0's stayed 20
+    to 70 times off its direction from 202.5 s, s0's at 0.2-0.6; over 199.75-204 s s0's
+    largest was 300 (both faults, before 200 s) and s3's 65 (s0's fault alone), so the
+    part of s3's residual from 200 s (s0's fault leaking in, -0.19 for s3's 3.75) was
+    reported as a fault of s3, and s0's was lost."""
+    # (a part's first alarm is its change)
+    changes = [k0 for k0, _, ev in group if ev.evidence.get("changed_at_s") is not None]
+    if not changes:
+        return lo, hi
+    start = min(changes) + after
+    stop = min(n, start + (hi - lo))
+    return (start, stop) if start < stop else (lo, hi)
+
+
+def _isolates(viol: Sequence[float], j: int, chans: Sequence[int]) -> bool:
+    """Whether filter ``j`` is the one of the alarmed filters ``chans`` closest to its
+    direction by the statistics ``viol`` (each filter's largest over a window) and
+    clearly closer than the typical other (:data:`DIRECTION_RELATIVE`,
+    :data:`DIRECTION_SEPARATION`), with other filters off theirs: the sensor
+    :meth:`DetectionFilter.run` names for the alarms."""
+    if min(chans, key=lambda c: viol[c]) != j:
+        return False
+    others = [viol[o] for o in range(len(viol)) if o != j]
+    typical = float(np.median(others)) if others else 0.0
+    many = len(others) >= SEPARATION_OTHERS
+    confirmed = bool(others) and (typical if many else max(others)) >= 1.0
+    return confirmed and not (
+        (viol[j] >= 1.0 and viol[j] > DIRECTION_RELATIVE * typical)
+        or (many and viol[j] > DIRECTION_SEPARATION * typical)
+    )
 
 
 def long_run_time(r: Series, window: int) -> float:

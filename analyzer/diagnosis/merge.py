@@ -617,6 +617,7 @@ def _taken_for(
         if (
             min(g.onset_s, _first_alarm(g)) <= t + slack_s
             and _not_over(g, single, t - slack_s)
+            and not _over_until(g, f, single, t, slack_s)
             and coupled(single, f.channel, g.channel)
         ):
             return g, single, followers
@@ -729,6 +730,25 @@ def _not_over(g: Finding, detector: str, t: float) -> bool:
     965.2 s.)"""
     ends = [g.end_s, *(e.end_s for e in g.events if e.detector == detector)]
     return any(end is None or end >= t for end in ends)
+
+
+def _over_until(g: Finding, f: Finding, detector: str, t: float, slack_s: float) -> bool:
+    """Whether ``detector``, which first alarmed on ``f`` at ``t``, saw ``g`` end before:
+    its events on ``g`` all ended by ``t`` (within ``slack_s``), and the other events of
+    ``g`` that went on past ``t`` (one at least) all ended where ``f`` was last seen
+    (:func:`_same_end`): there the other detectors' estimates of ``g``'s sensor took in
+    ``f``'s fault, which began as ``g``'s ended (:func:`ends_of_later_faults` moves such
+    an end). An offset on s3 from 100 to 200 s and one on s0 from 150 to 250 s of a
+    6-channel building: the detection filter and the observers saw s3's end at 200.0 s,
+    the bank at 250.1 s; the filter's offset on s0 from 200.07 s to 250.0 s, reported by
+    it alone, was taken for s3's fault, and s0 had no finding."""
+    mine = [e.end_s for e in g.events if e.detector == detector]
+    if not mine or any(end is None or end > t + slack_s for end in mine):
+        return False
+    on = [
+        e for e in g.events if e.detector != detector and (e.end_s is None or e.end_s > t + slack_s)
+    ]
+    return bool(on) and all(_same_end(e, f, slack_s) for e in on)
 
 
 def _assistants_faults(f: Finding, findings: list[Finding], slack_s: float) -> dict[str, Finding]:

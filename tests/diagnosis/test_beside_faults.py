@@ -106,3 +106,25 @@ def test_beside_a_fault_the_second_search_needs_two_detectors():
     # the first search's finding on the same channel then: not added again
     dup = again("s2", ["ar_kalman_bank", "x"])
     assert found_again([dup], [_finding("s2", 799.0)], {}, RATE, SLACK, suspects, 3) == []
+
+
+def test_a_fault_the_first_search_saw_only_from_later_takes_the_second_searchs_onset():
+    """An offset on s1 from 100 to 200 s and one on s4 from 150 to 250 s: the detection
+    filter named s4 from 200.1 s (every filter off its direction while both lasted),
+    the second search without s1 from 150.0 s. Its finding is added and replaces the
+    first's; one the first search saw from its onset, or to another end, stays."""
+    from analyzer.reconfigure import found_again, seen_late
+
+    def again() -> Finding:
+        f = _finding("s4", 150.0, 250.0)
+        f.evidence["detectors"] = ["ar_kalman_bank", "equivalent_model"]
+        return f
+
+    suspects = {"s1": [(9_800, 20_000)]}
+    late = _finding("s4", 200.1, 250.0)
+    f = again()
+    assert found_again([f], [late], {}, RATE, SLACK, suspects, 3) == [f]
+    assert seen_late(f, [late, _finding("s1", 100.0, 200.0)], SLACK) == [late]
+    for first in (_finding("s4", 151.0, 250.0), _finding("s4", 200.1, 240.0)):
+        assert found_again([again()], [first], {}, RATE, SLACK, suspects, 3) == []
+        assert seen_late(again(), [first], SLACK) == []

@@ -182,3 +182,40 @@ def test_a_single_detectors_isolated_finding_ends_with_that_detectors_own_fault(
     s1 = _ev("s1", BANK, 963.36, 968.26, 1.17, M, isolated=True)
     kept, notes = one_fault_at_a_time(merge_events([s0, s1]), _coupled)
     assert [f.channel for f in kept] == ["s0"] and len(notes) == 1
+
+
+def _s3_then_s0(bank_end=250.14, df_end=200.0):
+    """An offset on s3 from 100 to 200 s and one on s0 from 150 to 250 s (seed 3 of
+    ``sweep_two_faults.py``'s ``overlap``): all three detectors named s3, the bank to
+    s0's end; only the detection filter named s0, from where it saw s3's fault end."""
+    s3 = [
+        _ev("s3", BANK, 100.0, bank_end, 3.62, isolated=True),
+        _ev("s3", DF, 100.0, df_end, 3.75, confirmed=True),
+        _ev("s3", EM, 100.0, 200.0, 3.85),
+    ]
+    s0 = _ev("s0", DF, 200.07, 250.0, 2.63, changed_at_s=200.07, confirmed=True)
+    return merge_events([*s3, s0])
+
+
+def test_a_later_fault_from_where_its_detector_saw_the_first_end_is_its_own():
+    """The filter saw s3's fault end at 200.0 s, then s0's from 200.07 s to 250.0 s; the
+    bank saw s3's to 250.14 s, where s0's ended (s0's fault in its estimate of s3). s0's
+    finding was taken for s3's fault (the bank's end: under way), and s0 had none; it
+    stays, and s3's end is then the filter's and the observers'."""
+    findings = _s3_then_s0()
+    kept, notes = one_fault_at_a_time(findings, _coupled)
+    assert sorted(f.channel for f in kept) == ["s0", "s3"] and notes == []
+    ends_of_later_faults(kept, _coupled)
+    assert {(f.channel, f.onset_s, f.end_s) for f in kept} == {
+        ("s3", 100.0, 200.0),
+        ("s0", 200.07, 250.0),
+    }
+
+
+def test_a_later_fault_is_still_taken_for_one_that_went_on():
+    """As before where the first fault went on past the later one's first alarm as its
+    own detector saw it, or where another detector saw it go on to elsewhere than the
+    later fault's end."""
+    for findings in (_s3_then_s0(df_end=230.0), _s3_then_s0(bank_end=235.0)):
+        kept, notes = one_fault_at_a_time(findings, _coupled)
+        assert [f.channel for f in kept] == ["s3"] and len(notes) == 1
