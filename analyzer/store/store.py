@@ -409,17 +409,27 @@ class ChannelStore:
         return AlignedSeries(self, tuple(channels), rate, t0, n)
 
     def _largest_gap(self, channels: Sequence[str], span_s: float) -> str:
-        """For the error above: the largest gap between two samples of the channel with
-        the most samples, when it holds most of the span, said as what it likely is: a
-        lone sample far from the rest (an outlier timestamp), or two stretches far apart
-        (files of an archive recorded apart in time, which one clock cannot hold)."""
-        name = max(channels, key=lambda c: self.info(c).samples)  # type: ignore[union-attr]
-        t, _ = self.raw(name)
-        if t.shape[0] < 3:
+        """For the error above: the largest stretch that no channel covers
+        (:meth:`_apart`), or the largest gap between two samples of a channel, when it
+        holds most of the span, said as what it likely is: a lone sample far from the
+        rest (an outlier timestamp), or two stretches far apart (files of an archive
+        recorded apart in time, which one clock cannot hold)."""
+        apart = self._apart(channels, span_s)
+        if apart:
+            return apart
+        widest: tuple[float, int, str] | None = None
+        for c in channels:  # (the error's path: each channel's steps once)
+            tc, _ = self.raw(c)
+            if tc.shape[0] >= 3:
+                steps = np.diff(np.asarray(tc))
+                k = int(np.argmax(steps))
+                if widest is None or steps[k] > widest[0]:
+                    widest = (float(steps[k]), k, c)
+        if widest is None:
             return ""
-        steps = np.diff(np.asarray(t))
-        k = int(np.argmax(steps))
-        gap = float(steps[k]) / NS_PER_S
+        _, k, name = widest
+        t, _ = self.raw(name)
+        gap = widest[0] / NS_PER_S
         if gap < 0.5 * span_s:
             return ""
         start = float(self.info(name).start_ns)  # type: ignore[union-attr]
@@ -433,6 +443,31 @@ class ChannelStore:
         return (
             f"; {name} has no sample for {_span_text(gap)} after {where:.6g} s: records that "
             "far apart in time are analyzed one at a time (one clock cannot hold them)"
+        )
+
+    def _apart(self, channels: Sequence[str], span_s: float) -> str:
+        """For :meth:`_largest_gap`: the largest stretch of time that no channel covers
+        (from its first sample to its last), when it holds most of the span: the files of
+        an archive that share no channel, recorded far apart (two ROS 1 bags of 2017 and
+        2024 were said to have "a timestamp far from the others" or too high a --rate)."""
+        spans = sorted(
+            (i.start_ns, i.end_ns, i.name)
+            for i in (self.info(c) for c in channels)
+            if isinstance(i, ChannelInfo)
+        )
+        best, before, after, reach, last = 0, "", "", spans[0][1], spans[0][2]
+        for start, end, name in spans[1:]:
+            if start - reach > best:
+                best, before, after = start - reach, last, name
+            if end > reach:
+                reach, last = end, name
+        gap = best / NS_PER_S
+        if gap < 0.5 * span_s:
+            return ""
+        return (
+            f"; no channel has a sample for {_span_text(gap)} between {before}'s last and "
+            f"{after}'s first: records that far apart in time are analyzed one at a time "
+            "(one clock cannot hold them)"
         )
 
     def _need_final(self) -> None:

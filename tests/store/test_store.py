@@ -268,3 +268,30 @@ def test_summary_of_a_spilled_channel_reads_its_times_a_block_at_a_time(tmp_path
     assert got == st._summarize("c", t, v, block=1 << 19)
     assert got.gaps == 1
     assert max(released) <= (1 << 19) + 1  # never the whole channel at once
+
+
+def test_records_far_apart_that_share_no_channel_are_named_as_such():
+    # two files of an archive, years apart, with no channel in common (the realdata
+    # audit: two ROS 1 bags of 2017 and 2024 got "a timestamp far from the others")
+    day = 86_400 * 10**9
+    t = np.arange(0, 10**10, 10**7, dtype=np.int64)
+    chunks = [
+        ChannelChunk("a", t, np.sin(t / 1e9)),
+        ChannelChunk("b", t, np.cos(t / 1e9)),
+        ChannelChunk("c", t + 2000 * day, np.sin(t / 1e9)),
+        ChannelChunk("d", t + 2000 * day, np.cos(t / 1e9)),
+    ]
+    store = ChannelStore.from_chunks(chunks)
+    with pytest.raises(StoreError, match="no channel has a sample for 2000.0 days between a's"):
+        store.align(["a", "b", "c", "d"])
+    store.close()
+
+
+def test_a_lone_far_sample_of_any_channel_is_named():
+    t = np.arange(0, 10**10, 10**7, dtype=np.int64)
+    far = np.append(t[:500], 5 * 10**17)  # b: fewer samples than a, one far
+    chunks = [ChannelChunk("a", t, np.sin(t / 1e9)), ChannelChunk("b", far, np.cos(far / 1e9))]
+    store = ChannelStore.from_chunks(chunks)
+    with pytest.raises(StoreError, match="the last sample of b lies"):
+        store.align(["a", "b"])
+    store.close()
