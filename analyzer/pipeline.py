@@ -1442,6 +1442,12 @@ def _counters(tv: Any) -> npt.NDArray[np.bool_]:
     return np.asarray(counter, dtype=bool)
 
 
+def _few(names: str, most: int = 5) -> str:
+    """A comma-separated list of names cut to its first ``most``, with the count."""
+    parts = names.split(", ")
+    return names if len(parts) <= most else f"{', '.join(parts[:most])}, ... ({len(parts)})"
+
+
 def _varying_in_training(
     values: Any,
     chosen: list[str],
@@ -1458,9 +1464,11 @@ def _varying_in_training(
     if options.model is not None:
         return values, chosen
     if len(chosen) == 1:  # (said first: no training window makes up for it; the audit)
+        left = [n for n in notes if n.startswith("constant or empty channels not analyzed")]
         raise UsageError(
             f"one channel to analyze ({chosen[0]}): every detector estimates a sensor "
             "from the others and needs at least 2 (--channels chooses them)"
+            + "".join(f"; {n.split(': ', 1)[0]}: {_few(n.split(': ', 1)[1])}" for n in left)
         )
     tv = np.asarray(values[train[0] : train[1]])
     if tv.shape[0] < MIN_TRAIN_ROWS:

@@ -20,3 +20,16 @@ def test_one_channel_is_refused_as_one_channel(tmp_path, capsys, rows):
     err = capsys.readouterr().err
     assert "one channel to analyze (value)" in err and "--train" not in err
     assert err.count("\n") == 1
+
+
+def test_the_constant_channels_left_out_are_named_with_it(tmp_path, capsys):
+    path = tmp_path / "flat.csv"
+    t = np.arange(2000) / 10.0
+    y = np.random.default_rng(0).standard_normal(2000)
+    flat = np.column_stack([t, y] + [np.full(2000, k) for k in range(7)])
+    header = "time,value," + ",".join(f"c{k}" for k in range(7))
+    np.savetxt(path, flat, delimiter=",", header=header, comments="")
+    assert main(["run", str(path), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "one channel to analyze (value)" in err
+    assert "constant or empty channels not analyzed: c0, c1, c2, c3, c4, ... (7)" in err
