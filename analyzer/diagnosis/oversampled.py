@@ -27,9 +27,10 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy.signal import welch
 
 from analyzer.diagnosis.training_check import WindowNote
+
+FloatArray = npt.NDArray[np.float64]
 
 CONTENT_SHARE = 0.95
 """The share of a channel's healthy power below its content frequency."""
@@ -57,6 +58,25 @@ PEAK_BINS = 4
 higher (the spectrum's resolution is the rate over the segment's length)."""
 
 
+def welch(x: npt.NDArray[np.float64], rate_hz: float, size: int) -> tuple[FloatArray, FloatArray]:
+    """Welch's power spectral density of ``x`` (segments of ``size`` samples overlapping
+    by half, each less its least-squares line and Hann-windowed): ``(frequencies,
+    density)``, as ``scipy.signal.welch(x, rate_hz, nperseg=size, detrend="linear")``
+    gives them (a test checks it; scipy.signal is not imported by a run: its start-up)."""
+    step = size // 2
+    count = 1 + (x.size - size) // step
+    segments = np.lib.stride_tricks.sliding_window_view(x, size)[::step][:count]
+    u = np.arange(size, dtype=np.float64) - (size - 1) / 2.0
+    means = segments.mean(axis=1, keepdims=True)
+    slopes = (segments @ u)[:, None] / float(u @ u)
+    window = np.hanning(size + 1)[:-1]  # (periodic, as scipy's "hann")
+    spectra = np.abs(np.fft.rfft((segments - means - slopes * u) * window, axis=1)) ** 2
+    density: FloatArray = spectra.mean(axis=0) / (rate_hz * float(window @ window))
+    density[1 : (size + 1) // 2] *= 2.0  # one-sided: every bin but 0 and Nyquist twice
+    freqs: FloatArray = np.fft.rfftfreq(size, 1.0 / rate_hz).astype(np.float64)
+    return freqs, density
+
+
 def content_frequency(x: npt.NDArray[Any], rate_hz: float) -> tuple[float, float] | None:
     """``(content, peak)``: the frequency below which :data:`CONTENT_SHARE` of the power
     of the samples ``x`` lies, and where their power peaks (Welch, linear trend removed
@@ -65,7 +85,7 @@ def content_frequency(x: npt.NDArray[Any], rate_hz: float) -> tuple[float, float
     x = x[np.isfinite(x)][:MOST_SAMPLES]
     if x.size < 256:
         return None
-    f, p = welch(x, fs=rate_hz, nperseg=min(x.size, 1 << 15), detrend="linear")
+    f, p = welch(x, rate_hz, min(x.size, 1 << 15))
     total = float(np.sum(p))
     if not total > 0:
         return None

@@ -655,7 +655,7 @@ def test_a_channel_that_stops_early_is_noted(tmp_path, capsys):
 def test_a_run_that_goes_on_says_what_went_wrong_with_its_inputs(tmp_path, capsys):
     """A truncated file is analyzed up to the damage (exit 0 or 1), and what was lost
     was only in findings.json and the report: a run from a terminal said nothing."""
-    t, Y, names = simulate_building(n_floors=3, duration_s=240.0, seed=1)
+    t, Y, names = simulate_building(n_floors=6, duration_s=240.0, seed=1)
     src = tmp_path / "whole.mcap"
     write_archive(
         src, "mcap", np.round(t * 1e9).astype(np.int64), {c: Y[:, j] for j, c in enumerate(names)}

@@ -10,6 +10,7 @@ from analyzer.diagnosis.oversampled import (
     content_frequency,
     oversampled_note,
     suggested_rate,
+    welch,
 )
 from analyzer.simulate import simulate_building
 
@@ -68,3 +69,14 @@ def test_the_threshold_is_the_models_memory_against_a_quarter_period():
             [np.sin(2 * np.pi * 7.0 * t + k) + 0.01 * rng.standard_normal(t.size) for k in range(3)]
         )
         assert (oversampled_note(y, ["a", "b", "c"], (0, t.size), rate) is not None) is noted
+
+
+@pytest.mark.parametrize(("n", "size"), [(20_000, 4096), (1000, 1000), (4097, 2048), (1001, 1001)])
+def test_welch_is_scipys(n, size):
+    signal = pytest.importorskip("scipy.signal")
+    rng = np.random.default_rng(n)
+    x = np.cumsum(rng.standard_normal(n)) + np.sin(np.arange(n) / 7.0)
+    f, p = welch(x, 250.0, size)
+    f_ref, p_ref = signal.welch(x, 250.0, nperseg=size, detrend="linear")
+    np.testing.assert_allclose(f, f_ref)
+    np.testing.assert_allclose(p, p_ref, rtol=1e-9, atol=1e-12 * float(np.max(p_ref)))
