@@ -987,6 +987,98 @@ class Reorderer:
         return lines
 
 
+@dataclass(slots=True)
+class _Undecoded:
+    """Messages of one channel from one batch, not decoded yet: their payloads in
+    ``buf`` (``starts``, ``sizes``) and their log times."""
+
+    buf: ByteArray
+    starts: IntArray
+    sizes: IntArray
+    log_ns: IntArray
+
+    def part(self, keep: BoolArray) -> _Undecoded:
+        return _Undecoded(self.buf, self.starts[keep], self.sizes[keep], self.log_ns[keep])
+
+
+class LogOrder:
+    """Undecoded messages held until no message logged before them can still come, so
+    that each channel's messages are decoded, and reach the :class:`TopicTracker`, in
+    log-time order where the chunks of an indexed file overlap in time.
+
+    An indexed file is read chunk by chunk in start-time order; after a chunk, ``bound``
+    is the start time of the next one: no later chunk holds a message logged before it.
+    A chunk may end after the next ones start (a ROS 1 bag with a chunk of 9.5-889 s
+    read before one of 425-814 s): its messages logged at or after ``bound`` wait for
+    the chunks that interleave with them. With ``--time log`` the :class:`Reorderer`
+    would sort them all the same, but the tracker's header-clock rule reads each topic's
+    stamps in log-time order: a late stretch handed to it first made the next chunk's
+    messages a clock stepping back (dropped). Messages of a chunk that overlaps no later
+    one pass through as they came (no copy); where those of several chunks are taken
+    together, the span of each chunk's buffer that holds them is copied into one buffer,
+    and they are sorted by log time (stable)."""
+
+    def __init__(self) -> None:
+        self._held: dict[int, list[_Undecoded]] = {}
+
+    def push(
+        self, key: int, buf: ByteArray, starts: IntArray, sizes: IntArray, log_ns: IntArray
+    ) -> None:
+        """Hold the messages of channel ``key`` of one batch."""
+        if log_ns.size:
+            self._held.setdefault(key, []).append(_Undecoded(buf, starts, sizes, log_ns))
+
+    def take(
+        self, bound: int | None
+    ) -> Iterator[tuple[int, ByteArray, IntArray, IntArray, IntArray]]:
+        """Per channel, ``(key, buf, starts, sizes, log_ns)`` of its messages logged
+        before ``bound`` (None: all of them), in log-time order across batches; the
+        others stay held."""
+        for key in list(self._held):
+            now: list[_Undecoded] = []
+            later: list[_Undecoded] = []
+            for held in self._held[key]:
+                if bound is None:
+                    now.append(held)
+                    continue
+                early = held.log_ns < bound
+                if bool(early.all()):
+                    now.append(held)
+                elif bool(early.any()):
+                    now.append(held.part(early))
+                    later.append(held.part(~early))
+                else:
+                    later.append(held)
+            if later:
+                self._held[key] = later
+            else:
+                del self._held[key]
+            if len(now) == 1:
+                one = now[0]
+                yield key, one.buf, one.starts, one.sizes, one.log_ns
+            elif now:
+                yield (key, *_joined(now))
+
+
+def _joined(parts: Sequence[_Undecoded]) -> tuple[ByteArray, IntArray, IntArray, IntArray]:
+    """The messages of ``parts`` (from different buffers) in one buffer, in log-time order
+    (stable): of each part, the span of its buffer from its first payload to the end of
+    its last is copied."""
+    pieces: list[ByteArray] = []
+    starts: list[IntArray] = []
+    offset = 0
+    for part in parts:
+        low = int(part.starts.min())
+        high = int((part.starts + part.sizes).max())
+        pieces.append(part.buf[low:high])
+        starts.append(part.starts - low + offset)
+        offset += high - low
+    log_ns = np.concatenate([p.log_ns for p in parts])
+    order = np.argsort(log_ns, kind="stable")
+    sizes = np.concatenate([p.sizes for p in parts])
+    return np.concatenate(pieces), np.concatenate(starts)[order], sizes[order], log_ns[order]
+
+
 def per_topic(counts: dict[str, int], topics: dict[str, str]) -> list[tuple[str, str, int]]:
     """Per-channel counts summed up per topic: ``(topic, "messages", count)`` with the
     largest count among the topic's channels (a message holds one sample of each), or
