@@ -12,7 +12,7 @@ from __future__ import annotations
 import hashlib
 import os
 import stat
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path, PurePath
 from typing import Any
@@ -23,6 +23,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from analyzer.errors import one_line  # noqa: F401 - re-exported for the readers
 from analyzer.readers.base import ChannelChunk
+from analyzer.timeutil import plausible_epoch
 
 IntArray = npt.NDArray[np.int64]
 FloatArray = npt.NDArray[np.float64]
@@ -224,6 +225,21 @@ EPOCH_NS = 10**18
 epoch) times; a topic whose nonzero stamps are mostly below it runs on a simulation clock
 (Gazebo's ``/clock`` starts at 0; 1e9 s is 31.7 years of simulated time), on which a
 stamp of 0 is a real time, not "unset"."""
+
+
+def absolute_log_time(start: Callable[[], int | None]) -> bool:
+    """Whether a recording whose first log time ``start()`` gives keeps Unix (wall-clock)
+    times (:attr:`InputInfo.absolute_time`): False where it starts before 1990
+    (:func:`~analyzer.timeutil.plausible_epoch`, the rule by which a report gives
+    ``start: null``): a simulation clock (Gazebo's ``/clock`` from 0, a harness from
+    0.1 s), counted from its own start like a CSV without dates, so that files of several
+    such runs are not stitched as one (:func:`analyzer.readers._one_span`). True where
+    it has no message, or its start cannot be read (the damage is said while reading)."""
+    try:
+        first = start()
+    except Exception:  # noqa: BLE001 - a damaged file: its reader says so when read
+        return True
+    return first is None or plausible_epoch(first)
 
 
 LEAD_GLITCH_MESSAGES = 4

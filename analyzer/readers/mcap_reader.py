@@ -44,6 +44,7 @@ from analyzer.readers._common import (
     LogOrder,
     Reorderer,
     TopicTracker,
+    absolute_log_time,
     as_bytes_array,
     concat_payloads,
     field_view,
@@ -137,6 +138,7 @@ class McapReader:
         if size == 0:
             raise ReaderError(f"{self.path}: empty file (0 bytes)")
         check_magic(self.path, head)
+        own_info = info is None
         if info is None:
             total, sha = file_digest([self.path])
             info = InputInfo(self.path, Format.MCAP, size_bytes=total, sha256=sha)
@@ -157,6 +159,8 @@ class McapReader:
         self._protobuf: Any = None  # one mcap_protobuf factory: it caches per schema
         self.fraction_read = 0.0
         """The share of the file :meth:`chunks` has got through (see ``Reader``)."""
+        if own_info:  # (a ROS 2 bag's storage file: the bag decides)
+            self.info.absolute_time = absolute_log_time(self.start_ns)
 
     # ------------------------------------------------------------------ protocol
     def start_ns(self) -> int | None:

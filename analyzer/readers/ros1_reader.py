@@ -35,6 +35,7 @@ from analyzer.readers._common import (
     LogOrder,
     Reorderer,
     TopicTracker,
+    absolute_log_time,
     as_bytes_array,
     file_digest,
     gather_uint,
@@ -267,6 +268,7 @@ class Ros1BagReader:
         self._tracker = TopicTracker("log")
         self.topics: dict[str, str] = {}
         """The topic of every channel read (for reports per topic)."""
+        self.info.absolute_time = absolute_log_time(self.start_ns)
 
     # ------------------------------------------------------------------ protocol
     def start_ns(self) -> int | None:
