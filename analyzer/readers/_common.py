@@ -1025,7 +1025,7 @@ class LogOrder:
     An indexed file is read chunk by chunk in start-time order; after a chunk, ``bound``
     is the start time of the next one: no later chunk holds a message logged before it.
     A chunk may end after the next ones start (a ROS 1 bag with a chunk of 9.5-889 s
-    read before one of 425-814 s): its messages logged at or after ``bound`` wait for
+    read before one of 425-814 s): its messages logged after ``bound`` wait for
     the chunks that interleave with them. With ``--time log`` the :class:`Reorderer`
     would sort them all the same, but the tracker's header-clock rule reads each topic's
     stamps in log-time order: a late stretch handed to it first made the next chunk's
@@ -1048,8 +1048,9 @@ class LogOrder:
         self, bound: int | None
     ) -> Iterator[tuple[int, ByteArray, IntArray, IntArray, IntArray]]:
         """Per channel, ``(key, buf, starts, sizes, log_ns)`` of its messages logged
-        before ``bound`` (None: all of them), in log-time order across batches; the
-        others stay held."""
+        at or before ``bound`` (None: all of them), in log-time order across batches; the
+        others stay held. (Those logged at ``bound`` itself go: the next batch may hold
+        more at that time, none before it, and equal times keep their order.)"""
         for key in list(self._held):
             now: list[_Undecoded] = []
             later: list[_Undecoded] = []
@@ -1057,7 +1058,7 @@ class LogOrder:
                 if bound is None:
                     now.append(held)
                     continue
-                early = held.log_ns < bound
+                early = held.log_ns <= bound
                 if bool(early.all()):
                     now.append(held)
                 elif bool(early.any()):

@@ -256,7 +256,7 @@ class McapReader:
     def _indexed(
         self, handle: BinaryIO, reorder: Reorderer, time: TimeSource
     ) -> Iterator[ChannelChunk]:
-        """The chunks in start-time order. After each, the messages logged before the
+        """The chunks in start-time order. After each, the messages logged up to the
         next chunk's start are decoded (:class:`LogOrder`: a chunk may reach past the
         next ones' start), and with ``--time log`` the samples before it released."""
         indexes: list[ChunkIndex] = sorted(
@@ -454,7 +454,7 @@ class McapReader:
                 gate.push(cid, records, offs + MESSAGE_PREFIX, sizes, log_ns)
 
     def _decode_held(self, gate: LogOrder, bound: int | None, reorder: Reorderer) -> None:
-        """Decode the messages of ``gate`` logged before ``bound`` (None: all) and push
+        """Decode the messages of ``gate`` logged up to ``bound`` (None: all) and push
         them, in log-time order per channel, through the tracker."""
         for cid, buf, starts, sizes, log_ns in gate.take(bound):
             self._decode_channel(cid, buf, starts, sizes, log_ns, reorder)

@@ -341,7 +341,7 @@ class Ros1BagReader:
 
     # ------------------------------------------------------------------ indexed path
     def _indexed(self, reorder: Reorderer, time: TimeSource) -> Iterator[ChannelChunk]:
-        """The chunks in start-time order. After each, the messages logged before the
+        """The chunks in start-time order. After each, the messages logged up to the
         next chunk's start are decoded (:class:`LogOrder`: a chunk may reach past the
         next ones' start), and with ``--time log`` the samples before it released."""
         infos = sorted(self._chunk_infos, key=lambda c: (c.start_ns, c.pos))
@@ -533,7 +533,7 @@ class Ros1BagReader:
             gate.push(int(conn), records, starts, sizes, times[sel])
 
     def _decode(self, gate: LogOrder, bound: int | None, reorder: Reorderer) -> None:
-        """Decode the messages of ``gate`` logged before ``bound`` (None: all) and
+        """Decode the messages of ``gate`` logged up to ``bound`` (None: all) and
         push them, in log-time order per connection, through the tracker."""
         for conn, buf, starts, sizes, times in gate.take(bound):
             decoder = self._decoders.get(conn)
