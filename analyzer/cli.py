@@ -175,7 +175,8 @@ INPUT_HELP = (
     "table, or a folder of such files (its subfolders included); several INPUTs (or a "
     "folder's files) are one archive, stitched in time order (samples of a later input "
     "that overlap an earlier one's time are dropped, with a warning; files with relative "
-    "times that overlap cannot be stitched and are refused)"
+    "times that overlap (CSVs without dates; MCAP files and bags on a simulation clock, "
+    "log times before 1990) cannot be stitched and are refused)"
 )
 
 

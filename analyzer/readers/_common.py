@@ -12,7 +12,7 @@ from __future__ import annotations
 import hashlib
 import os
 import stat
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path, PurePath
 from typing import Any
@@ -23,6 +23,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from analyzer.errors import one_line  # noqa: F401 - re-exported for the readers
 from analyzer.readers.base import ChannelChunk
+from analyzer.timeutil import plausible_epoch
 
 IntArray = npt.NDArray[np.int64]
 FloatArray = npt.NDArray[np.float64]
@@ -224,6 +225,21 @@ EPOCH_NS = 10**18
 epoch) times; a topic whose nonzero stamps are mostly below it runs on a simulation clock
 (Gazebo's ``/clock`` starts at 0; 1e9 s is 31.7 years of simulated time), on which a
 stamp of 0 is a real time, not "unset"."""
+
+
+def absolute_log_time(start: Callable[[], int | None]) -> bool:
+    """Whether a recording whose first log time ``start()`` gives keeps Unix (wall-clock)
+    times (:attr:`InputInfo.absolute_time`): False where it starts before 1990
+    (:func:`~analyzer.timeutil.plausible_epoch`, the rule by which a report gives
+    ``start: null``): a simulation clock (Gazebo's ``/clock`` from 0, a harness from
+    0.1 s), counted from its own start like a CSV without dates, so that files of several
+    such runs are not stitched as one (:func:`analyzer.readers._one_span`). True where
+    it has no message, or its start cannot be read (the damage is said while reading)."""
+    try:
+        first = start()
+    except Exception:  # noqa: BLE001 - a damaged file: its reader says so when read
+        return True
+    return first is None or plausible_epoch(first)
 
 
 LEAD_GLITCH_MESSAGES = 4
@@ -985,6 +1001,99 @@ class Reorderer:
             for label, unit, count in per_topic(self.duplicates, self.topics)
         ]
         return lines
+
+
+@dataclass(slots=True)
+class _Undecoded:
+    """Messages of one channel from one batch, not decoded yet: their payloads in
+    ``buf`` (``starts``, ``sizes``) and their log times."""
+
+    buf: ByteArray
+    starts: IntArray
+    sizes: IntArray
+    log_ns: IntArray
+
+    def part(self, keep: BoolArray) -> _Undecoded:
+        return _Undecoded(self.buf, self.starts[keep], self.sizes[keep], self.log_ns[keep])
+
+
+class LogOrder:
+    """Undecoded messages held until no message logged before them can still come, so
+    that each channel's messages are decoded, and reach the :class:`TopicTracker`, in
+    log-time order where the chunks of an indexed file overlap in time.
+
+    An indexed file is read chunk by chunk in start-time order; after a chunk, ``bound``
+    is the start time of the next one: no later chunk holds a message logged before it.
+    A chunk may end after the next ones start (a ROS 1 bag with a chunk of 9.5-889 s
+    read before one of 425-814 s): its messages logged after ``bound`` wait for
+    the chunks that interleave with them. With ``--time log`` the :class:`Reorderer`
+    would sort them all the same, but the tracker's header-clock rule reads each topic's
+    stamps in log-time order: a late stretch handed to it first made the next chunk's
+    messages a clock stepping back (dropped). Messages of a chunk that overlaps no later
+    one pass through as they came (no copy); where those of several chunks are taken
+    together, the span of each chunk's buffer that holds them is copied into one buffer,
+    and they are sorted by log time (stable)."""
+
+    def __init__(self) -> None:
+        self._held: dict[int, list[_Undecoded]] = {}
+
+    def push(
+        self, key: int, buf: ByteArray, starts: IntArray, sizes: IntArray, log_ns: IntArray
+    ) -> None:
+        """Hold the messages of channel ``key`` of one batch."""
+        if log_ns.size:
+            self._held.setdefault(key, []).append(_Undecoded(buf, starts, sizes, log_ns))
+
+    def take(
+        self, bound: int | None
+    ) -> Iterator[tuple[int, ByteArray, IntArray, IntArray, IntArray]]:
+        """Per channel, ``(key, buf, starts, sizes, log_ns)`` of its messages logged
+        at or before ``bound`` (None: all of them), in log-time order across batches; the
+        others stay held. (Those logged at ``bound`` itself go: the next batch may hold
+        more at that time, none before it, and equal times keep their order.)"""
+        for key in list(self._held):
+            now: list[_Undecoded] = []
+            later: list[_Undecoded] = []
+            for held in self._held[key]:
+                if bound is None:
+                    now.append(held)
+                    continue
+                early = held.log_ns <= bound
+                if bool(early.all()):
+                    now.append(held)
+                elif bool(early.any()):
+                    now.append(held.part(early))
+                    later.append(held.part(~early))
+                else:
+                    later.append(held)
+            if later:
+                self._held[key] = later
+            else:
+                del self._held[key]
+            if len(now) == 1:
+                one = now[0]
+                yield key, one.buf, one.starts, one.sizes, one.log_ns
+            elif now:
+                yield (key, *_joined(now))
+
+
+def _joined(parts: Sequence[_Undecoded]) -> tuple[ByteArray, IntArray, IntArray, IntArray]:
+    """The messages of ``parts`` (from different buffers) in one buffer, in log-time order
+    (stable): of each part, the span of its buffer from its first payload to the end of
+    its last is copied."""
+    pieces: list[ByteArray] = []
+    starts: list[IntArray] = []
+    offset = 0
+    for part in parts:
+        low = int(part.starts.min())
+        high = int((part.starts + part.sizes).max())
+        pieces.append(part.buf[low:high])
+        starts.append(part.starts - low + offset)
+        offset += high - low
+    log_ns = np.concatenate([p.log_ns for p in parts])
+    order = np.argsort(log_ns, kind="stable")
+    sizes = np.concatenate([p.sizes for p in parts])
+    return np.concatenate(pieces), np.concatenate(starts)[order], sizes[order], log_ns[order]
 
 
 def per_topic(counts: dict[str, int], topics: dict[str, str]) -> list[tuple[str, str, int]]:

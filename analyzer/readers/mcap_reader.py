@@ -41,8 +41,10 @@ from analyzer.readers._common import (
     ByteArray,
     Decoded,
     IntArray,
+    LogOrder,
     Reorderer,
     TopicTracker,
+    absolute_log_time,
     as_bytes_array,
     concat_payloads,
     field_view,
@@ -136,6 +138,7 @@ class McapReader:
         if size == 0:
             raise ReaderError(f"{self.path}: empty file (0 bytes)")
         check_magic(self.path, head)
+        own_info = info is None
         if info is None:
             total, sha = file_digest([self.path])
             info = InputInfo(self.path, Format.MCAP, size_bytes=total, sha256=sha)
@@ -156,6 +159,8 @@ class McapReader:
         self._protobuf: Any = None  # one mcap_protobuf factory: it caches per schema
         self.fraction_read = 0.0
         """The share of the file :meth:`chunks` has got through (see ``Reader``)."""
+        if own_info:  # (a ROS 2 bag's storage file: the bag decides)
+            self.info.absolute_time = absolute_log_time(self.start_ns)
 
     # ------------------------------------------------------------------ protocol
     def start_ns(self) -> int | None:
@@ -251,10 +256,15 @@ class McapReader:
     def _indexed(
         self, handle: BinaryIO, reorder: Reorderer, time: TimeSource
     ) -> Iterator[ChannelChunk]:
+        """The chunks in start-time order. After each, the messages logged up to the
+        next chunk's start are decoded (:class:`LogOrder`: a chunk may reach past the
+        next ones' start), and with ``--time log`` the samples before it released."""
         indexes: list[ChunkIndex] = sorted(
             self._summary.chunk_indexes, key=lambda c: (c.message_start_time, c.chunk_start_offset)
         )
+        gate = LogOrder()
         for k, index in enumerate(indexes):
+            bound = indexes[k + 1].message_start_time if k + 1 < len(indexes) else None
             try:
                 if index.chunk_start_offset + index.chunk_length > self._size:
                     raise _ChunkError("the chunk index points past the end of the file")
@@ -269,17 +279,18 @@ class McapReader:
                         by_channel = None
                 if by_channel is None:
                     by_channel = self._scan_chunk(records)
-                self._decode_chunk(records, by_channel, reorder, time)
+                self._locate_chunk(records, by_channel, gate)
             except _DAMAGE as err:
                 self._error(f"chunk at byte {index.chunk_start_offset}: {one_line(err)}; skipped")
                 continue
             finally:
                 self.fraction_read = (k + 1) / len(indexes)
-            bound = indexes[k + 1].message_start_time if k + 1 < len(indexes) else None
+            self._decode_held(gate, bound, reorder)
             if time == "log" and bound is not None:
                 yield from reorder.release(bound)
             elif time != "log":
                 yield from reorder.release(None)
+        self._decode_held(gate, None, reorder)  # (held back where the last chunk was damaged)
         yield from reorder.flush()
 
     # ------------------------------------------------------------------ streaming path
@@ -371,7 +382,9 @@ class McapReader:
                 }
             if by_channel is None:
                 by_channel = self._scan_chunk(records)
-            self._decode_chunk(records, by_channel, reorder, time)
+            gate = LogOrder()
+            self._locate_chunk(records, by_channel, gate)
+            self._decode_held(gate, None, reorder)
         except _DAMAGE as err:
             self._error(f"chunk starting at t={chunk.message_start_time}: {one_line(err)}; skipped")
             return 0
@@ -386,7 +399,7 @@ class McapReader:
         buf, starts, sizes = concat_payloads([m[2] for m in loose])
         for cid in np.unique(channel_ids).tolist():
             sel = np.nonzero(channel_ids == cid)[0]
-            self._decode_channel(int(cid), buf, starts[sel], sizes[sel], log_ns[sel], reorder, time)
+            self._decode_channel(int(cid), buf, starts[sel], sizes[sel], log_ns[sel], reorder)
         return len(loose)
 
     # ------------------------------------------------------------------ chunk contents
@@ -416,13 +429,11 @@ class McapReader:
             pos = body + length
         return {cid: np.asarray(offs, dtype=np.int64) for cid, offs in offsets.items()}
 
-    def _decode_chunk(
-        self,
-        records: ByteArray,
-        by_channel: dict[int, IntArray],
-        reorder: Reorderer,
-        time: TimeSource,
+    def _locate_chunk(
+        self, records: ByteArray, by_channel: dict[int, IntArray], gate: LogOrder
     ) -> None:
+        """The payloads and log times of a chunk's messages, per channel that can be
+        decoded, handed to ``gate``."""
         end = records.shape[0]
         for cid, offsets in by_channel.items():
             if offsets.size == 0:
@@ -438,15 +449,15 @@ class McapReader:
                 bad = int(offsets.size - np.count_nonzero(ok))
                 self._error(f"channel {cid}: {bad} message index entries do not point at messages")
                 offs, length, log_ns = offs[ok], length[ok], log_ns[ok]
-            self._decode_channel(
-                cid,
-                records,
-                offs + MESSAGE_PREFIX,
-                length - (MESSAGE_PREFIX - 9),
-                log_ns,
-                reorder,
-                time,
-            )
+            sizes = length - (MESSAGE_PREFIX - 9)
+            if self._decoder(cid, int(sizes.max(initial=0))) is not None:
+                gate.push(cid, records, offs + MESSAGE_PREFIX, sizes, log_ns)
+
+    def _decode_held(self, gate: LogOrder, bound: int | None, reorder: Reorderer) -> None:
+        """Decode the messages of ``gate`` logged up to ``bound`` (None: all) and push
+        them, in log-time order per channel, through the tracker."""
+        for cid, buf, starts, sizes, log_ns in gate.take(bound):
+            self._decode_channel(cid, buf, starts, sizes, log_ns, reorder)
 
     def _decode_channel(
         self,
@@ -456,7 +467,6 @@ class McapReader:
         sizes: IntArray,
         log_ns: IntArray,
         reorder: Reorderer,
-        time: TimeSource,
     ) -> None:
         entry = self._decoder(cid, int(sizes.max(initial=0)))
         if entry is None:

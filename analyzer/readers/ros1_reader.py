@@ -32,8 +32,10 @@ from analyzer.errors import ReaderError
 from analyzer.readers._common import (
     ByteArray,
     IntArray,
+    LogOrder,
     Reorderer,
     TopicTracker,
+    absolute_log_time,
     as_bytes_array,
     file_digest,
     gather_uint,
@@ -266,6 +268,7 @@ class Ros1BagReader:
         self._tracker = TopicTracker("log")
         self.topics: dict[str, str] = {}
         """The topic of every channel read (for reports per topic)."""
+        self.info.absolute_time = absolute_log_time(self.start_ns)
 
     # ------------------------------------------------------------------ protocol
     def start_ns(self) -> int | None:
@@ -283,8 +286,10 @@ class Ros1BagReader:
         reorder = Reorderer(repeats=True, topics=self.topics)
         if self._index_error:
             self._error(self._index_error)
+            gate = LogOrder()
             for records, conns, times, offsets in self._scan(errors=True):
-                self._decode(records, conns, times, offsets, reorder, time)
+                self._locate_all(records, conns, times, offsets, gate)
+                self._decode(gate, None, reorder)
                 yield from reorder.release(None)
         else:
             yield from self._indexed(reorder, time)
@@ -336,9 +341,14 @@ class Ros1BagReader:
 
     # ------------------------------------------------------------------ indexed path
     def _indexed(self, reorder: Reorderer, time: TimeSource) -> Iterator[ChannelChunk]:
+        """The chunks in start-time order. After each, the messages logged up to the
+        next chunk's start are decoded (:class:`LogOrder`: a chunk may reach past the
+        next ones' start), and with ``--time log`` the samples before it released."""
         infos = sorted(self._chunk_infos, key=lambda c: (c.start_ns, c.pos))
+        gate = LogOrder()
         with self.path.open("rb") as handle:
             for k, info in enumerate(infos):
+                bound = infos[k + 1].start_ns if k + 1 < len(infos) else None
                 try:
                     handle.seek(info.pos)
                     fields, data = self._expect(handle, OP_CHUNK)
@@ -365,18 +375,19 @@ class Ros1BagReader:
                     self._error(f"chunk at byte {info.pos}: {one_line(err)}; skipped")
                     continue
                 if conns:
-                    self._decode(
+                    self._locate_all(
                         records,
                         np.concatenate(conns),
                         np.concatenate(times),
                         np.concatenate(offsets),
-                        reorder,
-                        time,
+                        gate,
                     )
-                if time == "log" and k + 1 < len(infos):
-                    yield from reorder.release(infos[k + 1].start_ns)
+                self._decode(gate, bound, reorder)
+                if time == "log" and bound is not None:
+                    yield from reorder.release(bound)
                 elif time != "log":
                     yield from reorder.release(None)
+        self._decode(gate, None, reorder)  # (held back where the last chunk was damaged)
 
     # ------------------------------------------------------------------ sequential scan
     def _scan(self, *, errors: bool) -> Iterator[tuple[ByteArray, IntArray, IntArray, IntArray]]:
@@ -499,15 +510,16 @@ class Ros1BagReader:
         )
 
     # ------------------------------------------------------------------ decoding
-    def _decode(
+    def _locate_all(
         self,
         records: ByteArray,
         conns: IntArray,
         times: IntArray,
         offsets: IntArray,
-        reorder: Reorderer,
-        time: TimeSource,
+        gate: LogOrder,
     ) -> None:
+        """The payloads of a chunk's messages, per connection that can be decoded, handed
+        to ``gate``."""
         for conn in np.unique(conns).tolist():
             sel = np.nonzero(conns == conn)[0]
             decoder = self._decoder(int(conn))
@@ -518,9 +530,17 @@ class Ros1BagReader:
             except _BagError as err:
                 self._error(f"{self._connections[int(conn)].topic}: {one_line(err)}")
                 continue
-            topic = self._connections[int(conn)].topic
-            decoded = decoder.decode(records, starts, sizes)
-            self._tracker.push(reorder, topic, decoded, times[sel])
+            gate.push(int(conn), records, starts, sizes, times[sel])
+
+    def _decode(self, gate: LogOrder, bound: int | None, reorder: Reorderer) -> None:
+        """Decode the messages of ``gate`` logged up to ``bound`` (None: all) and
+        push them, in log-time order per connection, through the tracker."""
+        for conn, buf, starts, sizes, times in gate.take(bound):
+            decoder = self._decoders.get(conn)
+            if decoder is None:
+                continue
+            decoded = decoder.decode(buf, starts, sizes)
+            self._tracker.push(reorder, self._connections[conn].topic, decoded, times)
 
     @staticmethod
     def _locate(records: ByteArray, offsets: IntArray, conn: int) -> tuple[IntArray, IntArray]:

@@ -35,6 +35,7 @@ from analyzer.errors import ReaderError
 from analyzer.readers._common import (  # noqa: F401 - bag_files re-exported
     Reorderer,
     TopicTracker,
+    absolute_log_time,
     bag_files,
     bag_listed_files,
     concat_payloads,
@@ -108,6 +109,7 @@ class Ros2BagReader:
             raise ReaderError(f"{self.path}: {problems[0]}")
         total, sha = file_digest(bag_files(self.path))
         self.info = InputInfo(self.path, Format.ROS2BAG, size_bytes=total, sha256=sha)
+        self.info.absolute_time = absolute_log_time(self.start_ns)
         for line in problems:
             self._error(f"{line}; skipped")
         for line in _unlisted(self.path, listed):
