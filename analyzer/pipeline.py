@@ -1463,11 +1463,13 @@ def _varying_in_training(
     every channel stays: the model's channels were modelled on its own window."""
     if options.model is not None:
         return values, chosen
-    if len(chosen) == 1:  # (said first: no training window makes up for it; the audit)
+    if len(chosen) == 1 and not options.detectors:
+        # (said first: no training window makes up for it, the realdata audit; detectors
+        # named with --detectors say it themselves)
         left = [n for n in notes if n.startswith("constant or empty channels not analyzed")]
         raise UsageError(
             f"one channel to analyze ({chosen[0]}): every detector estimates a sensor "
-            "from the others and needs at least 2 (--channels chooses them)"
+            "from the others and needs at least 2 channels (--channels chooses them)"
             + "".join(f"; {n.split(': ', 1)[0]}: {_few(n.split(': ', 1)[1])}" for n in left)
         )
     tv = np.asarray(values[train[0] : train[1]])
