@@ -700,7 +700,7 @@ class DetectionFilter:
             cands = [c for c in cands if c[0] > t0 + span]
             lo = max(train_stop, min(int(round(c[2].onset_s * rate)) for c in group) - w)
             over.append((lo, min(n, t0 + 2 * span)))
-            groups.append((group, *_direction_window(group, *over[-1], after, n)))
+            groups.append((group, *_direction_window(group, *over[-1], after, n, rate)))
         # each filter's largest direction statistic over each group's window, every
         # sample computed once (a fault that lasts has hundreds of alarm groups)
         windows = [(lo, hi) for _, lo, hi in groups]
@@ -838,12 +838,13 @@ class DetectionFilter:
 
 
 def _direction_window(
-    group: Sequence[tuple[int, int, Event]], lo: int, hi: int, after: int, n: int
+    group: Sequence[tuple[int, int, Event]], lo: int, hi: int, after: int, n: int, rate: float
 ) -> tuple[int, int]:
     """The samples ``lo .. hi - 1`` whose direction statistics name the sensor of an alarm
     group (:meth:`DetectionFilter.run`), moved ``after`` samples past the group's earliest
     change when it holds a fault's part from a change (evidence ``changed_at_s``; the
-    same length, within the record's ``n`` samples).
+    same length, within the record's ``n`` samples; ``rate``: samples per second), unless
+    the part ends before that.
 
     Before a change the alarms were already on: the direction statistics over the change
     hold the part before it for a long window, and the filters' residuals settle after
@@ -853,12 +854,16 @@ def _direction_window(
     part of s3's residual from 200 s (s0's fault leaking in, -0.19 for s3's 3.75) was
     reported as a fault of s3, and s0's was lost."""
     # (a part's first alarm is its change)
-    changes = [k0 for k0, _, ev in group if ev.evidence.get("changed_at_s") is not None]
-    if not changes:
+    parts = [(k0, ev) for k0, _, ev in group if ev.evidence.get("changed_at_s") is not None]
+    if not parts:
         return lo, hi
-    start = min(changes) + after
+    k0, ev = min(parts, key=lambda p: p[0])
+    start = k0 + after
     stop = min(n, start + (hi - lo))
-    return (start, stop) if start < stop else (lo, hi)
+    # a part shorter than the statistics' memory is judged over the change, as before:
+    # a window wholly after it would see every filter healthy and drop it (the review)
+    ends = n if ev.end_s is None else int(round(ev.end_s * rate))
+    return (start, stop) if start < min(stop, ends) else (lo, hi)
 
 
 def _isolates(viol: Sequence[float], j: int, chans: Sequence[int]) -> bool:

@@ -63,7 +63,7 @@ def welch(x: npt.NDArray[np.float64], rate_hz: float, size: int) -> tuple[FloatA
     by half, each less its least-squares line and Hann-windowed): ``(frequencies,
     density)``, as ``scipy.signal.welch(x, rate_hz, nperseg=size, detrend="linear")``
     gives them (a test checks it; scipy.signal is not imported by a run: its start-up)."""
-    step = size // 2
+    step = size - size // 2  # (scipy's overlap: size // 2)
     count = 1 + (x.size - size) // step
     segments = np.lib.stride_tricks.sliding_window_view(x, size)[::step][:count]
     u = np.arange(size, dtype=np.float64) - (size - 1) / 2.0

@@ -227,19 +227,26 @@ epoch) times; a topic whose nonzero stamps are mostly below it runs on a simulat
 stamp of 0 is a real time, not "unset"."""
 
 
-def absolute_log_time(start: Callable[[], int | None]) -> bool:
-    """Whether a recording whose first log time ``start()`` gives keeps Unix (wall-clock)
-    times (:attr:`InputInfo.absolute_time`): False where it starts before 1990
-    (:func:`~analyzer.timeutil.plausible_epoch`, the rule by which a report gives
-    ``start: null``): a simulation clock (Gazebo's ``/clock`` from 0, a harness from
-    0.1 s), counted from its own start like a CSV without dates, so that files of several
-    such runs are not stitched as one (:func:`analyzer.readers._one_span`). True where
-    it has no message, or its start cannot be read (the damage is said while reading)."""
+def absolute_log_time(
+    start: Callable[[], int | None], end: Callable[[], int | None] | None = None
+) -> bool:
+    """Whether a recording whose first and last log times ``start()`` and ``end()``
+    give keeps Unix (wall-clock) times (:attr:`InputInfo.absolute_time`): False where it
+    ends before 1990 (:func:`~analyzer.timeutil.plausible_epoch`, the rule by which a
+    report gives ``start: null``): a simulation clock (Gazebo's ``/clock`` from 0, a
+    harness from 0.1 s), counted from its own start like a CSV without dates, so that
+    files of several such runs are not stitched as one (:func:`analyzer.readers._one_span`).
+    The end decides, not the start: a 2023 recording with one message logged at 0 (a
+    constant published before the clock was set) keeps its dates (the review). True
+    where it has no message, or its times cannot be read (the damage is said while
+    reading)."""
     try:
-        first = start()
+        last = end() if end is not None else None
+        if last is None:
+            last = start()
     except Exception:  # noqa: BLE001 - a damaged file: its reader says so when read
         return True
-    return first is None or plausible_epoch(first)
+    return last is None or plausible_epoch(last)
 
 
 LEAD_GLITCH_MESSAGES = 4
@@ -1012,9 +1019,30 @@ class _Undecoded:
     starts: IntArray
     sizes: IntArray
     log_ns: IntArray
+    first: int = 0
+    """The earliest of ``log_ns``."""
+
+    @classmethod
+    def of(cls, buf: ByteArray, starts: IntArray, sizes: IntArray, log_ns: IntArray) -> _Undecoded:
+        return cls(buf, starts, sizes, log_ns, int(log_ns.min()))
 
     def part(self, keep: BoolArray) -> _Undecoded:
-        return _Undecoded(self.buf, self.starts[keep], self.sizes[keep], self.log_ns[keep])
+        return _Undecoded.of(self.buf, self.starts[keep], self.sizes[keep], self.log_ns[keep])
+
+    def compact(self) -> _Undecoded:
+        """The same messages with their payloads alone in a buffer of their own (a part
+        held across chunks keeps no chunk's whole buffer alive)."""
+        buf, starts = _gathered(self.buf, self.starts, self.sizes)
+        return _Undecoded(buf, starts, self.sizes, self.log_ns, self.first)
+
+
+def _gathered(buf: ByteArray, starts: IntArray, sizes: IntArray) -> tuple[ByteArray, IntArray]:
+    """The payloads ``buf[starts[i] : starts[i] + sizes[i]]`` one after the other in a new
+    buffer, and their starts there (one gather: no loop over the messages)."""
+    ends = np.cumsum(sizes)
+    new_starts = ends - sizes
+    index = np.repeat(starts - new_starts, sizes) + np.arange(int(ends[-1]) if ends.size else 0)
+    return buf[index], new_starts.astype(np.int64)
 
 
 class LogOrder:
@@ -1030,9 +1058,12 @@ class LogOrder:
     would sort them all the same, but the tracker's header-clock rule reads each topic's
     stamps in log-time order: a late stretch handed to it first made the next chunk's
     messages a clock stepping back (dropped). Messages of a chunk that overlaps no later
-    one pass through as they came (no copy); where those of several chunks are taken
-    together, the span of each chunk's buffer that holds them is copied into one buffer,
-    and they are sorted by log time (stable)."""
+    one pass through as they came (no copy); those held back are copied into a buffer of
+    their own (no chunk's whole buffer held), and where those of several chunks are
+    taken together, their payloads are gathered into one buffer and sorted by log time
+    (stable). A part whose earliest message is after the bound is passed over with one
+    comparison. Used with ``--time header`` only: with ``--time log`` the
+    :class:`Reorderer` orders the samples by log time anyway."""
 
     def __init__(self) -> None:
         self._held: dict[int, list[_Undecoded]] = {}
@@ -1042,7 +1073,7 @@ class LogOrder:
     ) -> None:
         """Hold the messages of channel ``key`` of one batch."""
         if log_ns.size:
-            self._held.setdefault(key, []).append(_Undecoded(buf, starts, sizes, log_ns))
+            self._held.setdefault(key, []).append(_Undecoded.of(buf, starts, sizes, log_ns))
 
     def take(
         self, bound: int | None
@@ -1058,14 +1089,15 @@ class LogOrder:
                 if bound is None:
                     now.append(held)
                     continue
+                if held.first > bound:  # (a part held from before: one comparison)
+                    later.append(held)
+                    continue
                 early = held.log_ns <= bound
                 if bool(early.all()):
                     now.append(held)
-                elif bool(early.any()):
-                    now.append(held.part(early))
-                    later.append(held.part(~early))
                 else:
-                    later.append(held)
+                    now.append(held.part(early))
+                    later.append(held.part(~early).compact())
             if later:
                 self._held[key] = later
             else:
@@ -1079,17 +1111,17 @@ class LogOrder:
 
 def _joined(parts: Sequence[_Undecoded]) -> tuple[ByteArray, IntArray, IntArray, IntArray]:
     """The messages of ``parts`` (from different buffers) in one buffer, in log-time order
-    (stable): of each part, the span of its buffer from its first payload to the end of
-    its last is copied."""
+    (stable): of each part, its payloads alone are copied (the span from its first to its
+    last payload held the other topics' messages too: 202 MB copied for 6 MB of
+    payloads of 20 topics with a jitter of 50 ms, the review)."""
     pieces: list[ByteArray] = []
     starts: list[IntArray] = []
     offset = 0
     for part in parts:
-        low = int(part.starts.min())
-        high = int((part.starts + part.sizes).max())
-        pieces.append(part.buf[low:high])
-        starts.append(part.starts - low + offset)
-        offset += high - low
+        buf, at = _gathered(part.buf, part.starts, part.sizes)
+        pieces.append(buf)
+        starts.append(at + offset)
+        offset += buf.shape[0]
     log_ns = np.concatenate([p.log_ns for p in parts])
     order = np.argsort(log_ns, kind="stable")
     sizes = np.concatenate([p.sizes for p in parts])

@@ -160,7 +160,7 @@ class McapReader:
         self.fraction_read = 0.0
         """The share of the file :meth:`chunks` has got through (see ``Reader``)."""
         if own_info:  # (a ROS 2 bag's storage file: the bag decides)
-            self.info.absolute_time = absolute_log_time(self.start_ns)
+            self.info.absolute_time = absolute_log_time(self.start_ns, self._end_ns)
 
     # ------------------------------------------------------------------ protocol
     def start_ns(self) -> int | None:
@@ -173,6 +173,17 @@ class McapReader:
             if starts:
                 return int(min(starts))
         return self._scan_first_time()
+
+    def _end_ns(self) -> int | None:
+        """The last log time the summary gives (None without one)."""
+        summary = self._summary
+        if summary is None:
+            return None
+        stats = summary.statistics
+        if stats is not None and stats.message_count:
+            return int(stats.message_end_time)
+        ends = [c.message_end_time for c in summary.chunk_indexes]
+        return int(max(ends)) if ends else None
 
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
         own = self._shared_tracker is None
@@ -256,9 +267,12 @@ class McapReader:
     def _indexed(
         self, handle: BinaryIO, reorder: Reorderer, time: TimeSource
     ) -> Iterator[ChannelChunk]:
-        """The chunks in start-time order. After each, the messages logged up to the
-        next chunk's start are decoded (:class:`LogOrder`: a chunk may reach past the
-        next ones' start), and with ``--time log`` the samples before it released."""
+        """The chunks in start-time order. After each, with ``--time header``, the
+        messages logged up to the next chunk's start are decoded (:class:`LogOrder`: a
+        chunk may reach past the next ones' start, and the header clock's tracker reads
+        each topic in log-time order); with ``--time log`` all of its messages (the
+        :class:`Reorderer` orders log times) and the samples before the next chunk
+        released."""
         indexes: list[ChunkIndex] = sorted(
             self._summary.chunk_indexes, key=lambda c: (c.message_start_time, c.chunk_start_offset)
         )
@@ -285,7 +299,7 @@ class McapReader:
                 continue
             finally:
                 self.fraction_read = (k + 1) / len(indexes)
-            self._decode_held(gate, bound, reorder)
+            self._decode_held(gate, bound if time != "log" else None, reorder)
             if time == "log" and bound is not None:
                 yield from reorder.release(bound)
             elif time != "log":

@@ -268,7 +268,7 @@ class Ros1BagReader:
         self._tracker = TopicTracker("log")
         self.topics: dict[str, str] = {}
         """The topic of every channel read (for reports per topic)."""
-        self.info.absolute_time = absolute_log_time(self.start_ns)
+        self.info.absolute_time = absolute_log_time(self.start_ns, self._end_ns)
 
     # ------------------------------------------------------------------ protocol
     def start_ns(self) -> int | None:
@@ -280,6 +280,11 @@ class Ros1BagReader:
             if times.size:
                 return int(times.min())
         return None
+
+    def _end_ns(self) -> int | None:
+        """The last log time the chunk index gives (None without one)."""
+        ends = [c.end_ns for c in self._chunk_infos if c.connections]
+        return max(ends) if ends and not self._index_error else None
 
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
         self._tracker = TopicTracker(time)
@@ -341,9 +346,12 @@ class Ros1BagReader:
 
     # ------------------------------------------------------------------ indexed path
     def _indexed(self, reorder: Reorderer, time: TimeSource) -> Iterator[ChannelChunk]:
-        """The chunks in start-time order. After each, the messages logged up to the
-        next chunk's start are decoded (:class:`LogOrder`: a chunk may reach past the
-        next ones' start), and with ``--time log`` the samples before it released."""
+        """The chunks in start-time order. After each, with ``--time header``, the
+        messages logged up to the next chunk's start are decoded (:class:`LogOrder`: a
+        chunk may reach past the next ones' start, and the header clock's tracker reads
+        each topic in log-time order); with ``--time log`` all of its messages (the
+        :class:`Reorderer` orders log times) and the samples before the next chunk
+        released."""
         infos = sorted(self._chunk_infos, key=lambda c: (c.start_ns, c.pos))
         gate = LogOrder()
         with self.path.open("rb") as handle:
@@ -382,7 +390,7 @@ class Ros1BagReader:
                         np.concatenate(offsets),
                         gate,
                     )
-                self._decode(gate, bound, reorder)
+                self._decode(gate, bound if time != "log" else None, reorder)
                 if time == "log" and bound is not None:
                     yield from reorder.release(bound)
                 elif time != "log":

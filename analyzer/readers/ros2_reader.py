@@ -85,6 +85,7 @@ class Ros2BagReader:
             with _open_bag(self.path) as bag:
                 connections = list(bag.connections)
                 self._start = bag.start_time if bag.message_count else None
+                self._end = bag.end_time if bag.message_count else None
                 self._message_compressed = bag.compression_mode == "message"
         except ReaderError:
             raise
@@ -109,7 +110,7 @@ class Ros2BagReader:
             raise ReaderError(f"{self.path}: {problems[0]}")
         total, sha = file_digest(bag_files(self.path))
         self.info = InputInfo(self.path, Format.ROS2BAG, size_bytes=total, sha256=sha)
-        self.info.absolute_time = absolute_log_time(self.start_ns)
+        self.info.absolute_time = absolute_log_time(self.start_ns, lambda: self._end)
         for line in problems:
             self._error(f"{line}; skipped")
         for line in _unlisted(self.path, listed):

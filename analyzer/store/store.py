@@ -201,7 +201,7 @@ class ChannelStore:
 
         The fields of one message (a ``Float64MultiArray``'s elements, a CSV's columns)
         come from the readers with one time array (:meth:`~analyzer.readers._common.
-        Reorder.release`): kept once, not once per field, the store writes and maps a
+        Reorderer.release`): kept once, not once per field, the store writes and maps a
         16-field topic's times once instead of 16 times (184 MB less of a 4-hour,
         16-channel archive). A channel shares the times of the channel before it that
         kept its own (or of the one it shares already) while every chunk of it is that
@@ -299,8 +299,10 @@ class ChannelStore:
                     shared,
                 )
             )
-        for name in self._raw:
+        for name, raw in self._raw.items():
             self._info[name] = infos[name]
+            raw.order = raw.last_t = None  # (for the sharing channels, done with)
+        self._recent = None
         self._final = True
 
     # -- reading ---------------------------------------------------------------------------

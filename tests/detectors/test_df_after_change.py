@@ -73,8 +73,17 @@ def test_a_fault_goes_on_through_another_sensors_change():
     assert [(onset, end) for ch, onset, end in found if ch == "s2"] == [(100, 250)]
 
 
-def _cand(k0: int, changed: bool) -> tuple[int, int, Event]:
-    ev = Event("s0", k0 / RATE, None, FaultType.ADDITIVE, {"offset": 1.0}, 1.0, "df", {})
+def _cand(k0: int, changed: bool, end: int | None = None) -> tuple[int, int, Event]:
+    ev = Event(
+        "s0",
+        k0 / RATE,
+        None if end is None else end / RATE,
+        FaultType.ADDITIVE,
+        {"offset": 1.0},
+        1.0,
+        "df",
+        {},
+    )
     if changed:
         ev.evidence["changed_at_s"] = k0 / RATE
     return k0, 0, ev
@@ -85,8 +94,14 @@ def test_the_window_moves_past_a_change_only():
     read from where the statistics no longer see before it, as long, within the
     record."""
     fresh = [_cand(1000, False), _cand(1010, False)]
-    assert _direction_window(fresh, 975, 1400, 347, 5000) == (975, 1400)
+    assert _direction_window(fresh, 975, 1400, 347, 5000, RATE) == (975, 1400)
     mixed = [_cand(1000, False), _cand(1010, True)]
-    assert _direction_window(mixed, 975, 1400, 347, 5000) == (1357, 1782)
-    assert _direction_window(mixed, 975, 1400, 347, 1500) == (1357, 1500)
-    assert _direction_window(mixed, 975, 1400, 347, 1300) == (975, 1400)
+    assert _direction_window(mixed, 975, 1400, 347, 5000, RATE) == (1357, 1782)
+    assert _direction_window(mixed, 975, 1400, 347, 1500, RATE) == (1357, 1500)
+    assert _direction_window(mixed, 975, 1400, 347, 1300, RATE) == (975, 1400)
+    # a part that ends before the statistics forget the change: judged over it (a window
+    # wholly after it saw every filter healthy; the review)
+    short = [_cand(1000, False), _cand(1010, True, end=1200)]
+    assert _direction_window(short, 975, 1400, 347, 5000, RATE) == (975, 1400)
+    long = [_cand(1000, False), _cand(1010, True, end=2000)]
+    assert _direction_window(long, 975, 1400, 347, 5000, RATE) == (1357, 1782)

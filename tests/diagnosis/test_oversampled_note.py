@@ -71,7 +71,9 @@ def test_the_threshold_is_the_models_memory_against_a_quarter_period():
         assert (oversampled_note(y, ["a", "b", "c"], (0, t.size), rate) is not None) is noted
 
 
-@pytest.mark.parametrize(("n", "size"), [(20_000, 4096), (1000, 1000), (4097, 2048), (1001, 1001)])
+@pytest.mark.parametrize(
+    ("n", "size"), [(20_000, 4096), (1000, 1000), (4097, 2048), (1001, 1001), (1001, 333)]
+)
 def test_welch_is_scipys(n, size):
     signal = pytest.importorskip("scipy.signal")
     rng = np.random.default_rng(n)

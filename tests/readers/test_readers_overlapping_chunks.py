@@ -160,3 +160,23 @@ def test_ros_example_header_time_keeps_groundtruth(corpus: Path) -> None:
     reader = open_input(corpus / "ros1/evo/ROS_example.bag")
     t_log, _ = collect(reader.chunks("log"))["groundtruth.pose.position.x"]
     assert np.array_equal(t, t_log)  # (its stamps are its log times)
+
+
+def test_log_order_keeps_held_payloads_in_a_buffer_of_their_own() -> None:
+    """A part held across chunks keeps its payloads, not its chunk's whole buffer (the
+    review: a topic logged 200 s behind the others kept every chunk alive), and a part
+    whose earliest message is after the bound waits as it is."""
+    gate = LogOrder()
+    buf = as_bytes_array(bytes(range(200)))
+    starts = np.array([10, 100, 150], dtype=np.int64)
+    gate.push(3, buf, starts, np.array([2, 3, 4], dtype=np.int64), np.array([5, 50, 60]))
+    assert [log.tolist() for _, _, _, _, log in gate.take(10)] == [[5]]
+    ((_, held_buf, held_starts, sizes, log),) = list(gate.take(None))
+    assert held_buf.shape[0] == 7  # 3 + 4 payload bytes, not 200
+    assert [bytes(held_buf[s : s + n]) for s, n in zip(held_starts, sizes, strict=True)] == [
+        bytes(range(100, 103)),
+        bytes(range(150, 154)),
+    ]
+    gate.push(4, buf, starts[:1], np.array([2]), np.array([90]))
+    assert list(gate.take(80)) == []
+    assert [log.tolist() for _, _, _, _, log in gate.take(None)] == [[90]]

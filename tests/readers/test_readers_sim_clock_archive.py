@@ -114,3 +114,33 @@ def test_cart_pole_runs_are_not_stitched(corpus: Path) -> None:
     assert not reader.info.absolute_time
     assert collect(reader.chunks())["/cartpole/state.cart_position"][0].size == 9989
     assert open_input(folder / "test.mcap").info.absolute_time
+
+
+def test_a_dated_recording_with_one_message_logged_at_zero_keeps_its_dates(tmp_path: Path) -> None:
+    """The end decides: a 2023 recording whose one constant message was logged at 0
+    (published before the clock was set) was taken for a simulation clock (its start
+    and onsets null; beside other dated files, refused as a second clock; the review)."""
+    from mcap.writer import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    kind = "std_msgs/msg/Float64"
+    text = store.generate_msgdef(kind, ros_version=2)[0]
+
+    def payload(x: float) -> bytes:
+        return bytes(store.serialize_cdr(store.types[kind](data=x), kind))
+
+    path = tmp_path / "dated.mcap"
+    with path.open("wb") as handle:
+        writer = Writer(handle)
+        writer.start(profile="ros2", library="test")
+        schema = writer.register_schema(kind, "ros2msg", text.encode())
+        meta = writer.register_channel("/meta", "cdr", schema)
+        data = writer.register_channel("/s0", "cdr", schema)
+        writer.add_message(meta, log_time=0, data=payload(1.0), publish_time=0)
+        for i in range(50):
+            t = T0 + i * STEP
+            writer.add_message(data, log_time=t, data=payload(float(i)), publish_time=t)
+        writer.finish()
+    assert open_input(path).info.absolute_time
+    assert not open_input(_run(tmp_path, "mcap", 0, SIM0)).info.absolute_time
