@@ -101,6 +101,17 @@ MATERIALIZE_IN_MEMORY = 1 << 24
 """Aligned matrices up to this many values stay in memory; larger ones are memory-mapped."""
 
 
+class ConstantNote(str):
+    """The note naming the constant or empty channels left out, with their ``names``."""
+
+    names: tuple[str, ...]
+
+    def __new__(cls, names: Sequence[str]) -> ConstantNote:
+        note = super().__new__(cls, f"constant or empty channels not analyzed: {', '.join(names)}")
+        note.names = tuple(names)
+        return note
+
+
 def _select(
     store: ChannelStore,
     patterns: list[str] | None,
@@ -130,13 +141,13 @@ def _select(
             )
         constant = [c for c in chosen if infos[c].constant]
         if constant:
-            notes.append(f"constant or empty channels not analyzed: {', '.join(constant)}")
+            notes.append(ConstantNote(constant))
         chosen = [c for c in chosen if not infos[c].constant]
     else:
         chosen = store.select(None)
         constant = [c for c in infos if infos[c].constant]
         if constant:
-            notes.append(f"constant or empty channels not analyzed: {', '.join(constant)}")
+            notes.append(ConstantNote(constant))
     # '!' patterns alone leave channels out of the default ones, which these are not of
     if not patterns or all(p.startswith("!") for p in patterns):
         mixed = [c for c in chosen if c.startswith(tuple(relabelled))] if relabelled else []
@@ -1442,10 +1453,10 @@ def _counters(tv: Any) -> npt.NDArray[np.bool_]:
     return np.asarray(counter, dtype=bool)
 
 
-def _few(names: str, most: int = 5) -> str:
-    """A comma-separated list of names cut to its first ``most``, with the count."""
-    parts = names.split(", ")
-    return names if len(parts) <= most else f"{', '.join(parts[:most])}, ... ({len(parts)})"
+def _few(names: Sequence[str], most: int = 5) -> str:
+    """``names`` comma-separated, cut to the first ``most`` with the count."""
+    shown = ", ".join(names[:most])
+    return shown if len(names) <= most else f"{shown}, ... ({len(names)})"
 
 
 def _varying_in_training(
@@ -1466,11 +1477,11 @@ def _varying_in_training(
     if len(chosen) == 1 and not options.detectors:
         # (said first: no training window makes up for it, the realdata audit; detectors
         # named with --detectors say it themselves)
-        left = [n for n in notes if n.startswith("constant or empty channels not analyzed")]
+        left = [c for n in notes if isinstance(n, ConstantNote) for c in n.names]
         raise UsageError(
             f"one channel to analyze ({chosen[0]}): every detector estimates a sensor "
             "from the others and needs at least 2 channels (--channels chooses them)"
-            + "".join(f"; {n.split(': ', 1)[0]}: {_few(n.split(': ', 1)[1])}" for n in left)
+            + (f"; constant or empty channels not analyzed: {_few(left)}" if left else "")
         )
     tv = np.asarray(values[train[0] : train[1]])
     if tv.shape[0] < MIN_TRAIN_ROWS:
