@@ -717,13 +717,7 @@ class DetectionFilter:
             # the sensor whose filter's residual stays closest to its own direction
             j = min(chans, key=lambda c: (viol[c], -_strength(zetas[c], model.zeta_cal[c], lo, hi)))
             others = [viol[o] for o in range(m) if o != j]
-            typical = float(np.median(others)) if others else 0.0
-            # confirmed: some other filter left its direction; with enough of them, most
-            # (a sensor's fault moves every other filter's residual off its direction;
-            # one of fifteen over its threshold is what chance and a model's mismatch
-            # give), and the sensor's own filter clearly closer to its direction
-            many = len(others) >= SEPARATION_OTHERS
-            confirmed = bool(others) and (typical if many else max(others)) >= 1.0
+            typical, many, confirmed, blurred = _separation(viol, j)
             k0, _, ev = next(c for c in group if c[1] == j)
             k_on = int(round(ev.onset_s * rate))
             f = model.filters[j]
@@ -740,9 +734,7 @@ class DetectionFilter:
                 }
             )
             when = f"{ev.onset_s:.3f} s"
-            if (viol[j] >= 1.0 and viol[j] > DIRECTION_RELATIVE * typical) or (
-                many and confirmed and viol[j] > DIRECTION_SEPARATION * typical
-            ):
+            if blurred:
                 unattributed.append((ev.onset_s, tuple(names[c] for c in chans), ()))
                 how = (
                     "the residual of every filter left its sensor's direction"
@@ -874,14 +866,27 @@ def _isolates(viol: Sequence[float], j: int, chans: Sequence[int]) -> bool:
     :meth:`DetectionFilter.run` names for the alarms."""
     if min(chans, key=lambda c: viol[c]) != j:
         return False
+    _, _, confirmed, blurred = _separation(viol, j)
+    return confirmed and not blurred
+
+
+def _separation(viol: Sequence[float], j: int) -> tuple[float, bool, bool, bool]:
+    """``(typical, many, confirmed, blurred)`` of filter ``j`` among all, by their
+    direction statistics ``viol``: the other filters' median; whether they are
+    :data:`SEPARATION_OTHERS` or more; confirmed: some other filter left its direction,
+    with that many of them most (a sensor's fault moves every other filter's residual off
+    its direction; one of fifteen over its threshold is what chance and a model's
+    mismatch give); blurred: ``j``'s own filter is not clearly closer to its direction
+    than the typical other (:data:`DIRECTION_RELATIVE`, :data:`DIRECTION_SEPARATION`):
+    no one sensor."""
     others = [viol[o] for o in range(len(viol)) if o != j]
     typical = float(np.median(others)) if others else 0.0
     many = len(others) >= SEPARATION_OTHERS
     confirmed = bool(others) and (typical if many else max(others)) >= 1.0
-    return confirmed and not (
-        (viol[j] >= 1.0 and viol[j] > DIRECTION_RELATIVE * typical)
-        or (many and viol[j] > DIRECTION_SEPARATION * typical)
+    blurred = (viol[j] >= 1.0 and viol[j] > DIRECTION_RELATIVE * typical) or (
+        many and confirmed and viol[j] > DIRECTION_SEPARATION * typical
     )
+    return typical, many, confirmed, blurred
 
 
 def long_run_time(r: Series, window: int) -> float:
