@@ -45,7 +45,7 @@ class InputInfo:
     errors: list[str] = field(default_factory=list)
     absolute_time: bool = True
     """True when timestamps are nanoseconds since the Unix epoch (UTC); False for relative
-    times (a CSV without dates; an MCAP or bag whose log times start before 1990, a
+    times (a CSV without dates; an MCAP or bag whose log times end before 1990, a
     simulation clock), which an archive does not stitch where they overlap."""
     time: str = ""
     """Where its times come from, for people, where the reader chose (a CSV's time column

@@ -241,7 +241,6 @@ class ChannelStore:
                     out.write(part.data)
         # the buffered samples' times: the leader's from raw.spilled to raw.total, which
         # are in its file (when it spilled more) and in its buffered parts
-        held = np.concatenate(lead.t_parts) if lead.t_parts else np.empty(0, np.int64)
         a, b = raw.spilled, raw.total
         pieces = []
         if a < lead.spilled:
@@ -249,7 +248,7 @@ class ChannelStore:
             pieces.append(np.fromfile(lead_t, dtype=np.int64, count=upto - a, offset=8 * a))
             a = upto
         if a < b:
-            pieces.append(held[a - lead.spilled : b - lead.spilled])
+            pieces.append(np.concatenate(lead.t_parts)[a - lead.spilled : b - lead.spilled])
         raw.t_parts = [np.concatenate(pieces)] if pieces else []
         raw.leader = None
 
@@ -420,8 +419,12 @@ class ChannelStore:
         if apart:
             return apart
         widest: tuple[float, int, str] | None = None
-        for c in channels:  # (the error's path: each channel's steps once)
+        seen: set[int] = set()
+        for c in channels:  # (the error's path: each time array's steps once)
             tc, _ = self.raw(c)
+            if id(tc) in seen:
+                continue  # (a channel that shares another's times)
+            seen.add(id(tc))
             if tc.shape[0] >= 3:
                 steps = np.diff(np.asarray(tc))
                 k = int(np.argmax(steps))
