@@ -684,7 +684,9 @@ class DetectionFilter:
         w = model.window
         cands: list[tuple[int, int, Event]] = []  # (first alarm, filter, event)
         for i in range(m):
-            for ev in found[i]:
+            found_i, unweighed = found[i]
+            notes.extend(unweighed)  # alarms too thin to weigh: no candidates
+            for ev in found_i:
                 k0 = int(round(float(ev.evidence.get("first_alarm_s", ev.onset_s)) * rate))
                 cands.append((k0, i, ev))
         cands.sort(key=lambda c: (c[0], c[1]))
@@ -958,10 +960,12 @@ def _sensor_unit_pieces(
         release(row[a:b])  # no-op in memory
 
 
-def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
-    """Filter ``i``: the candidate events of its fault estimate ``zetas[i]``."""
+def _filter_events_task(task: tuple[Any, ...]) -> tuple[list[Event], list[str]]:
+    """Filter ``i``: the candidate events of its fault estimate ``zetas[i]``, and the note
+    on its alarms too thin to weigh (:func:`~analyzer.diagnosis.events.unweighed_note`)."""
     model, i, name, zetas, refs, rate, detector, data, scratch = task
     n = refs[i].shape[0]
+    notes: list[str] = []
     with scratch.row(f"units{i}", n) as into:
         # float64, low-passed as each piece comes: a long archive's row is written once
         smooth = LowpassPieces(model.filters[i].sigma, np.empty(n) if into is None else into)
@@ -981,10 +985,11 @@ def _filter_events_task(task: tuple[Any, ...]) -> list[Event]:
             tau_corr=model.tau[i],
             scratch=scratch.workdir,
             split=True,
+            notes=notes,
         )
     release(zetas[i])  # memory-mapped rows: read again only where an event is
     release(refs[i])
-    return found
+    return found, notes
 
 
 def _violations_task(task: tuple[Any, ...]) -> list[list[float]]:

@@ -501,12 +501,14 @@ class EquivalentModel:
             )
             for k, ob in enumerate(model.observers)
         ]
-        for task, (zeta, z, found) in zip(
+        unweighed: list[str] = []  # notes on alarms too thin to weigh (no candidates)
+        for task, (zeta, z, found, thin) in zip(
             tasks, context.map_shared(_observer_task, tasks), strict=True
         ):
             residuals[task[2]] = zeta
             reference[task[2]] = z
             cands[task[2]] = found
+            unweighed.extend(thin)
         slack_s = model.window * 8 / rate
 
         def blind(t0: float) -> set[str]:
@@ -565,6 +567,7 @@ class EquivalentModel:
             return Grade(own, chained)
 
         events, notes, decisions = self._isolate(net, cands, slack_s, blind, grade)
+        notes = [*unweighed, *notes]
         # alarms the network's laws left ambiguous: no sensor named; and alarms of data
         # that changed as a whole (:func:`_judge`)
         unattributed = [
@@ -1094,9 +1097,10 @@ def _observer_task(
         tuple[Any, Any] | None,
         ScratchRows,
     ],
-) -> tuple[npt.NDArray[Any], npt.NDArray[Any], list[Event]]:
+) -> tuple[npt.NDArray[Any], npt.NDArray[Any], list[Event], list[str]]:
     """One observer over the archive: its fault estimate (residual), the estimate from
-    the assistants (NaN where the residual is) and its candidate events. The two
+    the assistants (NaN where the residual is), its candidate events and the note on its
+    alarms too thin to weigh (:func:`~analyzer.diagnosis.events.unweighed_note`). The two
     signals are returned in :data:`SIGNAL_DTYPE`, written into the two given arrays
     (rows of memory-mapped buffers) when there are. For a long archive the two float64
     signals the event search reads are scratch rows (memory-mapped, reused by the next
@@ -1104,6 +1108,7 @@ def _observer_task(
     ob, values, name, rate, detector, (train_start, train_stop, search), into, scratch = task
     # without a healthy window in the record (--model): each fault's slope before its onset
     n = values.shape[0]
+    notes: list[str] = []
     with scratch.row("observer-zeta", n) as zeta_row, scratch.row("observer-z", n) as z_row:
         # the fault estimate is searched whole, in float64 (the pass's own array without
         # scratch); of the estimate from the assistants the search reads only its
@@ -1139,8 +1144,9 @@ def _observer_task(
             tau_corr=ob.tau,
             scratch=scratch.workdir,
             split=True,
+            notes=notes,
         )
-    return kept[0], kept[1], found
+    return kept[0], kept[1], found, notes
 
 
 def _settle_samples(rel: Relation, phi: float) -> int:

@@ -843,6 +843,7 @@ class ErrorFunction:
         thresholds: dict[str, Any] = {}
         events: list[Event] = []
         sensors: dict[str, Any] = {}
+        unweighed: list[str] = []  # notes on alarms too thin to weigh (no events)
         for k, f in enumerate(model.functions):
             missing = [c for c in f.channels if c not in data.channels]
             if missing:
@@ -870,6 +871,7 @@ class ErrorFunction:
                 tau_corr=f.tau_corr,
                 evidence={"group": f.group, "references": list(f.channels[1:])},
                 scratch=context.workdir if context.map_outputs else None,
+                notes=unweighed,
             )
             y = data.values[:, data.index(f.channel)]
             for ev in found:
@@ -877,7 +879,7 @@ class ErrorFunction:
                 _in_sensor_units(ev, f)
             events.extend(found)
             context.report(self.name, (k + 1) / len(model.functions))
-        notes = list(model.notes)
+        notes = [*model.notes, *unweighed]
         unattributed: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = []
         if model.functions:
             span = model.functions[0].calibration.long_window / data.rate_hz

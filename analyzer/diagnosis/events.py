@@ -4,7 +4,7 @@ about one channel uses this, so thresholds and fault types mean the same everywh
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -52,6 +52,7 @@ def events_from_residual(
     evidence: dict[str, Any] | None = None,
     scratch: Path | None = None,
     split: bool = False,
+    notes: list[str] | None = None,
 ) -> list[Event]:
     """Events on ``channel`` from its residual (measured - estimated). ``split``: a fault
     that changes inside its stretch (another level, another type) is two events, the
@@ -65,8 +66,15 @@ def events_from_residual(
     second half and left out of each fault's shape. ``before_onset``: without a healthy
     window in the record (a model fitted on another archive), that share is measured on
     the residual before each fault's onset instead (:func:`slope_before`). ``healthy_stop``:
-    the healthy window's end where the search starts later (default ``search_start``)."""
+    the healthy window's end where the search starts later (default ``search_start``).
+
+    An alarm whose residual has fewer than three finite samples (over a gap, or over the
+    filters' warm-up after one) weighs no fault shape
+    (:attr:`~analyzer.diagnosis.classify.Classification.weighed`): it is no event, and
+    where ``notes`` is given :func:`unweighed_note` says so there (one note for the
+    channel's such alarms), as the AR bank notes its own."""
     out: list[Event] = []
+    unweighed: list[float] = []  # onsets (s) of alarms too thin to weigh
     n = residual.shape[0]
     slope = None
     stop = search_start if healthy_stop is None else min(healthy_stop, search_start)
@@ -124,7 +132,9 @@ def events_from_residual(
             }
             if evidence:
                 ev.update(evidence)
-            if cls.weighed:  # (else too few finite residual samples to tell any fault)
+            if not cls.weighed:  # too few finite residual samples to tell any fault
+                unweighed.append(iv.onset / rate_hz)
+            else:
                 out.append(
                     Event(
                         channel=channel,
@@ -145,7 +155,30 @@ def events_from_residual(
                 end = first.end if first.end is not None and first.end > at else None
                 last = max(at, first.last_alarm)
                 iv = replace(first, onset=at, end=end, first_alarm=at, last_alarm=last)
+    if unweighed and notes is not None:
+        notes.append(unweighed_note(channel, unweighed))
     return out
+
+
+UNWEIGHED_LISTED = 5
+"""Onsets of a channel's unweighed alarms named one by one in its note; the rest counted."""
+
+
+def unweighed_note(channel: str, onsets_s: Sequence[float]) -> str:
+    """The note on alarms of ``channel``'s residual that no fault shape was weighed on
+    (:func:`events_from_residual`): where they began, and why they are no finding. An
+    alarm over a gap (or over the filters' warm-up after one) has fewer than three finite
+    residual samples, which say nothing of a sensor's fault (the realdata audit: such an
+    alarm was a finding of confidence 0 and offset 0, and exit 1 for it)."""
+    listed = ", ".join(f"{t:.3f} s" for t in onsets_s[:UNWEIGHED_LISTED])
+    more = len(onsets_s) - UNWEIGHED_LISTED
+    at = f"{listed} and {more} more" if more > 0 else listed
+    alarms = "alarm" if len(onsets_s) == 1 else f"{len(onsets_s)} alarms"
+    return (
+        f"{alarms} on {channel} at {at} not weighed: fewer than 3 finite residual "
+        "samples in the alarm (over a gap in the data, or the filters' warm-up after "
+        "one), too few to fit any fault shape; not reported as a sensor fault"
+    )
 
 
 def _confined(
