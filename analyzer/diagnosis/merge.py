@@ -317,12 +317,11 @@ def one_fault_at_a_time(
             )
             continue
         cause, single, followers = taken
-        through = sorted(support[id(cause)] - set(_detectors(cause)))
-        by_law = f", and by {', '.join(through)} through law 0" if through else ""
         note = (
             f"{single}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
             f"reported: it began while the {cause.type.value} fault on {cause.channel} "
-            f"(from {cause.onset_s:.3f} s, found by {', '.join(_detectors(cause))}{by_law}) "
+            f"(from {cause.onset_s:.3f} s, found by {', '.join(_detectors(cause))}"
+            f"{_through_text(cause, findings, explains)}) "
             f"was under way, and {single} models the two sensors together: taken for that "
             "fault, one fault at a time"
         )
@@ -655,7 +654,10 @@ def _support(findings: list[Finding], explains: list[dict[str, Finding]]) -> dic
     too: a gain of 1.15 on s0 of a 16-channel building that only the bank named, and
     that the equivalent model saw in s1's residual (s1 modelled from s0), is the fault
     two detectors agree on (``sweep_isolation.py --scale 0.5``, seed 7), and the
-    detection filter's lone 2 s ``other`` on s2, 409 s into it, is taken for it."""
+    detection filter's lone 2 s ``other`` on s2, 409 s into it, is taken for it. Agree
+    on, not found: the finding's ``evidence.detectors`` stays the detectors that reported
+    a fault on its sensor, and a note names such a detector apart, with the sensor it
+    alarmed on (:func:`_through_text`)."""
     support = {id(g): set(_detectors(g)) for g in findings}
     for explained in explains:
         for d, g in explained.items():
@@ -789,6 +791,28 @@ def _assistants_faults(f: Finding, findings: list[Finding], slack_s: float) -> d
                 explained[d] = g
                 break
     return explained
+
+
+def _through_text(
+    cause: Finding, findings: list[Finding], explains: list[dict[str, Finding]]
+) -> str:
+    """What else agrees on ``cause`` (:func:`_support`) beside the detectors that found it:
+    each other detector whose alarms on other sensors law 0 takes for ``cause``'s fault,
+    with those sensors (``"; equivalent_model's alarm on s1 taken for it through law
+    0"``), or nothing. Such a detector is not among the finding's own
+    (``evidence.detectors``: it reported no fault on ``cause``'s sensor), so the note
+    names it apart, where its alarm was."""
+    own = set(_detectors(cause))
+    alarms: dict[str, list[str]] = {}
+    for f, explained in zip(findings, explains, strict=True):
+        for d, g in explained.items():
+            if g is cause and d not in own and f.channel not in alarms.get(d, []):
+                alarms.setdefault(d, []).append(f.channel)
+    return "".join(
+        f"; {d}'s {'alarms' if len(chs) > 1 else 'alarm'} on {', '.join(chs)} taken for "
+        "it through law 0"
+        for d, chs in sorted(alarms.items())
+    )
 
 
 def _explained_text(explained: dict[str, Finding]) -> str:

@@ -3,6 +3,8 @@ voted by the detectors."""
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from analyzer.detectors.base import Event
@@ -411,9 +413,37 @@ def test_a_detector_the_assistants_fault_explains_agrees_on_that_fault():
     kept, notes = one_fault_at_a_time(merge_events([bank, em, df]), _all_coupled)
     assert [(f.channel, f.detector) for f in kept] == [("s0", "ar_kalman_bank")]
     assert len(notes) == 2 and "on s2" in notes[1]
-    assert "found by ar_kalman_bank, and by equivalent_model through law 0" in notes[1]
+    assert (
+        "found by ar_kalman_bank; equivalent_model's alarm on s1 taken for it through law 0)"
+        in notes[1]
+    )
     kept, notes = one_fault_at_a_time(merge_events([bank, df]), _all_coupled)
     assert [f.channel for f in kept] == ["s0", "s2"] and not notes
+
+
+def test_a_note_says_found_by_the_detectors_the_findings_evidence_lists():
+    """The realdata audit (SKAB anomaly-free.csv, ``--train 0:2000``): a note said the
+    drift on Thermocouple was "found by ar_kalman_bank, and by equivalent_model through
+    law 0" while the finding's ``evidence.detectors`` was the bank alone. The evidence is
+    right: the equivalent model reported no fault on that sensor; its unconfirmed alarm on
+    another, modelled from it, was taken for it. So the note's "found by" names the
+    finding's own detectors, and the observers' alarm apart, with the sensor it was on."""
+    bank = Event(
+        "s0", 719.93, None, FaultType.MULTIPLICATIVE, {"gain": 1.168}, 0.75,
+        "ar_kalman_bank", {"first_alarm_s": 721.48},
+    )  # fmt: skip
+    em = _observer_event("s1", 719.98, 721.78, ["s0", "s3"], [])
+    em.end_s = None
+    df = Event(
+        "s2", 1128.82, 1130.82, FaultType.OTHER, {"offset": 0.025}, 0.573,
+        "detection_filter", {"first_alarm_s": 1130.81},
+    )  # fmt: skip
+    kept, notes = one_fault_at_a_time(merge_events([bank, em, df]), _all_coupled)
+    (s0,) = kept
+    (note,) = [n for n in notes if "fault on s2" in n]
+    found = re.search(r"found by ([^;)]*)", note)
+    assert found is not None and found.group(1).split(", ") == s0.evidence["detectors"]
+    assert "equivalent_model's alarm on s1 taken for it through law 0" in note
 
 
 def test_an_unconfirmed_observer_does_not_count_as_a_findings_own_detector():
