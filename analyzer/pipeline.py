@@ -8,7 +8,7 @@ import re
 import shutil
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
@@ -29,7 +29,7 @@ from analyzer.detector_runs import (
     run_groups,
     skip_reasons,
 )
-from analyzer.detectors import Dataset, DetectorResult, RunContext
+from analyzer.detectors import Dataset, DetectorResult, RunContext, detector_class
 from analyzer.detectors.ar_kalman import ORDER_NOTE
 from analyzer.detectors.ar_model import flat_channels
 from analyzer.diagnosis import Finding, ends_of_later_faults, merge_events, one_fault_at_a_time
@@ -44,7 +44,7 @@ from analyzer.diagnosis.evidence import (
 )
 from analyzer.diagnosis.levels import excursions, level_note, response_levels
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
-from analyzer.diagnosis.oversampled import oversampled_note
+from analyzer.diagnosis.oversampled import MEMORY_SAMPLES, oversampled_note
 from analyzer.diagnosis.stuck import frozen_notes, healthy_stats, relabel_frozen
 from analyzer.diagnosis.training_check import WindowNote, window_notes, window_warnings
 from analyzer.errors import (
@@ -687,7 +687,8 @@ def _analyze(
                 )
             )
             # and a clock far above what the sensors carry (the models' memory too short)
-            fast = oversampled_note(values, chosen, train, aligned.rate_hz)
+            memory = _models_memory(options.config, {r.detector for r in results})
+            fast = oversampled_note(values, chosen, train, aligned.rate_hz, memory)
             if fast is not None:
                 notes.append(fast)
         # and without the sensors found faulty while anomalies no sensor explained came
@@ -1021,6 +1022,30 @@ def _after_gap_notes(
             f"begun during the gap ({where})"
         )
     return out
+
+
+AR_DETECTORS = ("ar_kalman_bank", "detection_filter")
+"""The detectors whose models remember an AR order's samples (:func:`_models_memory`)."""
+
+
+def _models_memory(config: Config, ran: Collection[str]) -> int:
+    """The most samples the run's AR models remember, for the note on a clock far above
+    the sensors' content (:func:`~analyzer.diagnosis.oversampled.oversampled_note`): of
+    the AR bank and the detection filter among those that ran (``ran``), the order its
+    ``[detectors.NAME]`` section sets, or the highest its criterion searches
+    (``max_order``, 10 unless set); the largest of them. The detection filter on the
+    config's ``[model]`` has no AR order and does not count; without either detector,
+    :data:`~analyzer.diagnosis.oversampled.MEMORY_SAMPLES` (the equivalent model's lags
+    are a relation's FIR, chosen per sensor, not a memory the run sets as a whole)."""
+    sizes = []
+    for name in AR_DETECTORS:
+        if name not in ran:
+            continue
+        det = detector_class(name)(**config.detectors.get(name, {}))
+        if name == "detection_filter" and config.model is not None and det.use_config_model:
+            continue  # a state-space model from the config, not an AR order
+        sizes.append(det.order if isinstance(det.order, int) else det.max_order)
+    return int(max(sizes, default=MEMORY_SAMPLES))
 
 
 UNATTRIBUTED_LISTED = 3

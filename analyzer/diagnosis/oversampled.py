@@ -1,8 +1,9 @@
 """A record sampled far above what its sensors carry: the detectors' memory is too short.
 
 The detectors' models remember a number of samples, not seconds: the AR bank and the
-detection filter an AR order of at most 10, the equivalent model its lags. A building's
-modes of 1-6 Hz logged at 2 kHz give them 5 ms of a 170-1000 ms period: their one-step
+detection filter an AR order (at most 10 by default), the equivalent model its lags. A
+building's modes of 1-6 Hz logged at 2 kHz give them 5 ms of a 170-1000 ms period: their
+one-step
 predictions are then mostly measurement noise, a sensor whose readings shrink stays
 consistent with its own recent history, and its estimate from the other sensors is
 poor. A gain of 0.5 on one sensor of a simulated 4-floor building at 2 kHz was missed
@@ -13,17 +14,19 @@ detectors (``tests/diagnosis/test_oversampled_gain.py``).
 
 Until the detectors' memory follows the clock, the run says so: :func:`oversampled_note`
 measures, over the healthy window, the frequency below which :data:`CONTENT_SHARE` of
-each channel's power lies, and when the clock runs more than :data:`MAX_RATIO` times
-above it (an AR order of 10 then spans less than a quarter of that frequency's period)
-names a rate ``--rate`` could align the channels at. Only channels that oscillate (their
-power peaks away from the lowest frequencies) count: a robot's positions and other slow
-trends have all their power near zero, and a lower clock would not serve them better.
+each channel's power lies, and when the clock runs more than four times the models'
+memory above it (:func:`ratio_limit`: that memory then spans less than a quarter of that
+frequency's period; :data:`MAX_RATIO`, 40, for the default AR order of at most 10; four
+times the order the run's config sets otherwise) names a rate ``--rate`` could align the
+channels at. Only channels that oscillate (their power peaks away from the lowest
+frequencies) count: a robot's positions and other slow trends have all their power near
+zero, and a lower clock would not serve them better.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -36,15 +39,29 @@ CONTENT_SHARE = 0.95
 """The share of a channel's healthy power below its content frequency."""
 
 MEMORY_SAMPLES = 10
-"""The detectors' default memory: the AR bank's and the detection filter's highest order."""
+"""The detectors' default memory: the AR bank's and the detection filter's highest order
+(their ``max_order``, which their criteria search up to). A run whose config sets the
+order (or ``max_order``) passes its own (:func:`oversampled_note`'s ``memory``)."""
 
-MAX_RATIO = 4 * MEMORY_SAMPLES
-"""Clock rate over content frequency beyond which :data:`MEMORY_SAMPLES` samples span
-less than a quarter of the content frequency's period."""
+QUARTERS = 4
+"""The note's ratio limit is this many times the models' memory (:func:`ratio_limit`)."""
+
+MAX_RATIO = QUARTERS * MEMORY_SAMPLES
+"""The ratio limit of the default memory (:data:`MEMORY_SAMPLES`): 40."""
+
+
+def ratio_limit(memory: int) -> float:
+    """Clock rate over content frequency beyond which ``memory`` samples span less than a
+    quarter of the content frequency's period: ``4 memory`` (:data:`MAX_RATIO` for the
+    default memory)."""
+    return float(QUARTERS * memory)
+
 
 SUGGESTED_RATIO = 20
 """The rate suggested is at least this many times the content frequency (ten samples a
-half period), the next round one (:func:`suggested_rate`)."""
+half period), the next round one (:func:`suggested_rate`); at most half the ratio limit
+(:func:`suggested_ratio`), so that a short memory's note does not name a rate it would
+be given again at."""
 
 MOST_SAMPLES = 1 << 17
 """Samples of the healthy window a channel's spectrum is estimated from (its first)."""
@@ -55,7 +72,8 @@ note is decided by their median."""
 
 PEAK_BINS = 4
 """A channel oscillates when its power peaks at this many frequency bins above zero or
-higher (the spectrum's resolution is the rate over the segment's length)."""
+higher (the spectrum's resolution is the rate over its segments' length:
+:attr:`Content.resolution`)."""
 
 
 def welch(x: npt.NDArray[np.float64], rate_hz: float, size: int) -> tuple[FloatArray, FloatArray]:
@@ -77,27 +95,50 @@ def welch(x: npt.NDArray[np.float64], rate_hz: float, size: int) -> tuple[FloatA
     return freqs, density
 
 
-def content_frequency(x: npt.NDArray[Any], rate_hz: float) -> tuple[float, float] | None:
-    """``(content, peak)``: the frequency below which :data:`CONTENT_SHARE` of the power
-    of the samples ``x`` lies, and where their power peaks (Welch, linear trend removed
-    per segment); None for fewer than 256 finite samples or no power."""
+class Content(NamedTuple):
+    """What :func:`content_frequency` reads off a channel's spectrum (Hz)."""
+
+    content: float
+    """The frequency below which :data:`CONTENT_SHARE` of the power lies."""
+    peak: float
+    """Where the power peaks."""
+    resolution: float
+    """The spectrum's bin width: the rate over the length of the segments it was
+    estimated from (of the finite samples: gaps are left out, so a window with gaps has
+    shorter segments and a coarser resolution than its length says)."""
+
+
+def content_frequency(x: npt.NDArray[Any], rate_hz: float) -> Content | None:
+    """The frequency below which :data:`CONTENT_SHARE` of the power of the samples ``x``
+    lies, where their power peaks, and the spectrum's resolution (Welch over the finite
+    samples, at most :data:`MOST_SAMPLES` of them, segments of at most ``2**15``, linear
+    trend removed per segment); None for fewer than 256 finite samples or no power."""
     x = np.asarray(x, dtype=np.float64)
     x = x[np.isfinite(x)][:MOST_SAMPLES]
     if x.size < 256:
         return None
-    f, p = welch(x, rate_hz, min(x.size, 1 << 15))
+    size = min(x.size, 1 << 15)
+    f, p = welch(x, rate_hz, size)
     total = float(np.sum(p))
     if not total > 0:
         return None
     cumulative = np.cumsum(p) / total
     content = float(f[min(f.size - 1, int(np.searchsorted(cumulative, CONTENT_SHARE)))])
-    return content, float(f[int(np.argmax(p))])
+    return Content(content, float(f[int(np.argmax(p))]), rate_hz / size)
 
 
-def suggested_rate(content_hz: float) -> float:
-    """The smallest of 1, 2, 2.5 and 5 times a power of ten that is at least
-    :data:`SUGGESTED_RATIO` times ``content_hz``: 5.5 Hz of content, 200 Hz."""
-    need = SUGGESTED_RATIO * content_hz
+def suggested_ratio(memory: int) -> float:
+    """How many times the content frequency the rate named for ``memory`` samples is at
+    least: :data:`SUGGESTED_RATIO`, or half the ratio limit when that is less (an AR order
+    of 3: 6). Rounded up (:func:`suggested_rate`, by at most twice), the rate is then no
+    more than the limit's."""
+    return min(float(SUGGESTED_RATIO), ratio_limit(memory) / 2.0)
+
+
+def suggested_rate(content_hz: float, ratio: float = SUGGESTED_RATIO) -> float:
+    """The smallest of 1, 2, 2.5 and 5 times a power of ten that is at least ``ratio``
+    (:func:`suggested_ratio`) times ``content_hz``: 5.5 Hz of content, 200 Hz."""
+    need = ratio * content_hz
     decade = 10.0 ** np.floor(np.log10(need))
     return float(next(k * decade for k in (1, 2, 2.5, 5, 10) if k * decade >= need))
 
@@ -107,10 +148,18 @@ def oversampled_note(
     channels: Sequence[str],
     train: tuple[int, int],
     rate_hz: float,
+    memory: int = MEMORY_SAMPLES,
 ) -> WindowNote | None:
-    """A note when the clock (``rate_hz``) runs more than :data:`MAX_RATIO` times above
+    """A note when the clock (``rate_hz``) runs more than :func:`ratio_limit` times above
     the content of most channels that oscillate over the healthy window (rows
-    ``train`` of ``values``), with the rate to try; None otherwise."""
+    ``train`` of ``values``), with the rate to try; None otherwise. ``memory``: the most
+    samples the run's AR models remember (the order its config sets, or the highest its
+    criterion searches), which the note names and its limit is four times of.
+
+    A channel oscillates when its power peaks :data:`PEAK_BINS` bins of its spectrum
+    above zero or higher, the bins those of the finite samples' segments
+    (:attr:`Content.resolution`): a window with gaps has fewer samples to resolve a
+    low peak with than its length."""
     a, b = train
     b = min(b, a + MOST_SAMPLES)
     contents = []
@@ -119,21 +168,19 @@ def oversampled_note(
         got = content_frequency(values[a:b, j], rate_hz)
         if got is None:
             continue
-        content, peak = got
-        resolution = rate_hz / min(b - a, 1 << 15)
-        if peak >= PEAK_BINS * resolution and content > 0:
-            contents.append(content)
+        if got.peak >= PEAK_BINS * got.resolution and got.content > 0:
+            contents.append(got.content)
     if len(contents) < max(1, picked.size // 2):
         return None
     content = float(np.median(contents))
-    if rate_hz <= MAX_RATIO * content:
+    if rate_hz <= ratio_limit(memory) * content:
         return None
-    suggest = suggested_rate(content)
+    suggest = suggested_rate(content, suggested_ratio(memory))
     short = (
         f"the channels are sampled at {rate_hz:g} Hz, {rate_hz / content:.0f} times the "
         f"frequency below which {CONTENT_SHARE:.0%} of their healthy power lies "
-        f"({content:.3g} Hz): the detectors' models remember about {MEMORY_SAMPLES} "
-        f"samples ({1000 * MEMORY_SAMPLES / rate_hz:.3g} ms of a {1000 / content:.3g}-ms "
+        f"({content:.3g} Hz): the detectors' models remember about {memory} "
+        f"samples ({1000 * memory / rate_hz:.3g} ms of a {1000 / content:.3g}-ms "
         f"period), so a gain or a slow change may be missed or put on another sensor; "
         f"--rate {suggest:g} aligns the channels where the models see it"
     )
