@@ -4,7 +4,7 @@ about one channel uses this, so thresholds and fault types mean the same everywh
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -52,6 +52,7 @@ def events_from_residual(
     evidence: dict[str, Any] | None = None,
     scratch: Path | None = None,
     split: bool = False,
+    until: Sequence[int] = (),
 ) -> list[Event]:
     """Events on ``channel`` from its residual (measured - estimated). ``split``: a fault
     that changes inside its stretch (another level, another type) is two events, the
@@ -65,7 +66,12 @@ def events_from_residual(
     second half and left out of each fault's shape. ``before_onset``: without a healthy
     window in the record (a model fitted on another archive), that share is measured on
     the residual before each fault's onset instead (:func:`slope_before`). ``healthy_stop``:
-    the healthy window's end where the search starts later (default ``search_start``)."""
+    the healthy window's end where the search starts later (default ``search_start``).
+    ``until``: where other sensors' faults begin (samples, ascending; a caller that found
+    them on residuals of their own): a fault's shape is fitted up to the first of them at
+    least a part's length after its onset (:func:`first_bound`), whose fault's trace in
+    this residual would bend it (an offset of 2 sd on another floor from 150 s flattened
+    a drift's line from 100 s and traced it back to 89.4 s)."""
     out: list[Event] = []
     n = residual.shape[0]
     slope = None
@@ -110,6 +116,11 @@ def events_from_residual(
                 changes=changes if split else None,
             )
             covered = n if end is None else end
+            bound = first_bound(until, iv.onset, cal, rate_hz)
+            if bound is not None and bound < covered and cls.type is not FaultType.OTHER:
+                cls = _before_other(
+                    residual, reference, cal, iv.onset, bound, cls, rate_hz, tau_corr, shape_slope
+                )
             onset_s, factor, extra = bounded_onset(iv.onset, cls, rate_hz, search_start)
             if iv is not first:  # (its onset is the change's: no earlier)
                 onset_s, extra = iv.onset / rate_hz, {**extra, "changed_at_s": iv.onset / rate_hz}
@@ -146,6 +157,42 @@ def events_from_residual(
                 last = max(at, first.last_alarm)
                 iv = replace(first, onset=at, end=end, first_alarm=at, last_alarm=last)
     return out
+
+
+def _before_other(
+    residual: FloatArray,
+    reference: FloatArray | None,
+    cal: Calibration,
+    onset: int,
+    bound: int,
+    cls: Classification,
+    rate_hz: float,
+    tau_corr: float,
+    slope: ReferenceSlope | None,
+) -> Classification:
+    """``cls`` refitted on its fault's stretch before ``bound``, where another sensor's
+    fault begins (``events_from_residual``'s ``until``): the shape, its size and the
+    onset it traces back to, when that part has a shape (the end stays the one the
+    whole stretch gave: :func:`diagnose_interval`)."""
+    seg_ref = None if reference is None else np.asarray(reference[onset:bound], dtype=np.float64)
+    part = classify(
+        np.asarray(residual[onset:bound], dtype=np.float64),
+        seg_ref,
+        cal.std,
+        rate_hz,
+        tau_corr,
+        shift=cal.mean,
+        slope=slope,
+    )
+    return part if part.type is not FaultType.OTHER and part.weighed else cls
+
+
+def first_bound(until: Sequence[int], onset: int, cal: Calibration, rate_hz: float) -> int | None:
+    """The first of ``until`` (ascending samples) at least a fault's part's length after
+    ``onset`` (as long as a part before a change must be: :data:`CHANGE_MIN_S`, at least a
+    long alarm window): where a fault's shape fit stops; None when there is none."""
+    least = onset + max(cal.long_window, int(CHANGE_MIN_S * rate_hz))
+    return next((int(b) for b in until if b >= least), None)
 
 
 def _confined(
