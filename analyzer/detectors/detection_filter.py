@@ -56,7 +56,7 @@ from analyzer.detectors.lti import ImpulseResponseBank, LiftedBank, run_chunked,
 from analyzer.detectors.state_space import StateSpaceModel, model_from_ar, model_from_config
 from analyzer.diagnosis.changes import Calibration, alarm_statistic, calibrate, default_window
 from analyzer.diagnosis.classify import CORRELATION_LAGS, integrated_time
-from analyzer.diagnosis.events import events_from_residual
+from analyzer.diagnosis.events import events_from_residual, first_bound
 from analyzer.diagnosis.streamed import (
     BlockMeans,
     LaggedSums,
@@ -67,6 +67,7 @@ from analyzer.diagnosis.streamed import (
 )
 from analyzer.errors import DetectorError
 from analyzer.paging import RELEASE_ROWS, Released, ScratchRows, finite_rows, release, write_rows
+from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -652,6 +653,52 @@ class DetectionFilter:
         return q
 
     # -- running -----------------------------------------------------------------------------
+    @staticmethod
+    def _refit_before_others(
+        events: list[Event],
+        owners: list[int],
+        found: Sequence[tuple[Sequence[Event], Sequence[str]]],
+        cals: Sequence[Calibration],
+        tasks: list[tuple[Any, ...]],
+        context: RunContext,
+        n: int,
+        rate: float,
+    ) -> None:
+        """Each reported fault whose stretch holds another filter's candidate onset (in
+        ``found``, reported or not: an alarm taken for this fault's may be another
+        sensor's fault) gets its shape fitted up to the first such onset a part's length
+        or more after its own: the other fault's trace in its filter's residual would
+        bend the shape (an offset of 2 sd on another floor from 150 s flattened a drift's
+        line from 100 s, traced back to 89.4 s). The filter's events are searched again
+        with those onsets (``until``: :func:`~analyzer.diagnosis.events.first_bound`) and
+        each reported event takes the refitted one of its first alarm's shape, onset and
+        magnitude (its end stays the whole stretch's). Only filters with such an event
+        are searched again (two sensors' faults at once: rare)."""
+        onsets = sorted(
+            {(int(round(ev.onset_s * rate)), j) for j, (evs, _) in enumerate(found) for ev in evs}
+        )
+        redo: dict[int, list[int]] = {}
+        for ev, j in zip(events, owners, strict=True):
+            others = [k for k, o in onsets if o != j]
+            b = n if ev.end_s is None else int(round(ev.end_s * rate))
+            bound = first_bound(others, int(round(ev.onset_s * rate)), cals[j], rate)
+            if ev.type is not FaultType.OTHER and bound is not None and bound < b:
+                redo[j] = others
+        if not redo:
+            return
+        again = context.map_shared(_filter_events_task, [(*tasks[j], redo[j]) for j in redo])
+        for j, (refitted, _) in zip(redo, again, strict=True):
+            by_alarm = {e.evidence.get("first_alarm_s"): e for e in refitted}
+            for ev, owner in zip(events, owners, strict=True):
+                new = by_alarm.get(ev.evidence.get("first_alarm_s")) if owner == j else None
+                if new is None:
+                    continue
+                for name in REFITTED:
+                    setattr(ev, name, getattr(new, name))
+                kept = {k: ev.evidence[k] for k in DIRECTION_EVIDENCE if k in ev.evidence}
+                ev.evidence.clear()
+                ev.evidence.update({**new.evidence, **kept})
+
     def run(
         self, model: FittedDetectionFilter, data: Dataset, context: RunContext
     ) -> DetectorResult:
@@ -712,6 +759,7 @@ class DetectionFilter:
         )
         changed_viol = dict(zip(moved, violations[len(groups) :], strict=True))
         last: dict[int, Event] = {}  # each filter's latest reported event
+        owners: list[int] = []  # each reported event's filter
         for k, ((group, lo, hi), viol) in enumerate(
             zip(groups, violations[: len(groups)], strict=True)
         ):
@@ -781,6 +829,7 @@ class DetectionFilter:
                 )
                 continue
             events.append(ev)
+            owners.append(j)
             last[j] = ev
             for c in chans:
                 if c != j:
@@ -788,6 +837,7 @@ class DetectionFilter:
                         f"alarm on {names[c]} near {when} explained by the fault on {names[j]}: "
                         f"the residual of {names[c]}'s filter left its direction"
                     )
+        self._refit_before_others(events, owners, found, model.zeta_cal, tasks, context, n, rate)
         # kept in the pipeline's signal precision, each float64 array let go before the
         # next is copied (memory-mapped ones are converted channel by channel as the
         # pipeline spills them)
@@ -829,6 +879,22 @@ class DetectionFilter:
             notes=notes,
             unattributed=unattributed,
         )
+
+
+REFITTED = ("onset_s", "type", "magnitude", "confidence")
+"""The fields of an event that a shape refitted before another sensor's fault replaces
+(with the evidence of the fit: :meth:`DetectionFilter._refit_before_others`)."""
+
+DIRECTION_EVIDENCE = (
+    "direction",
+    "off_direction_violation",
+    "direction_angle_deg",
+    "other_filters_violation",
+    "confirmed",
+    "candidates",
+)
+"""The evidence a reported event has from the filters' directions (kept when its shape
+is refitted)."""
 
 
 def _direction_window(
@@ -961,9 +1027,12 @@ def _sensor_unit_pieces(
 
 
 def _filter_events_task(task: tuple[Any, ...]) -> tuple[list[Event], list[str]]:
-    """Filter ``i``: the candidate events of its fault estimate ``zetas[i]``, and the note
-    on its alarms too thin to weigh (:func:`~analyzer.diagnosis.events.unweighed_note`)."""
-    model, i, name, zetas, refs, rate, detector, data, scratch = task
+    """Filter ``i``: the candidate events of its fault estimate ``zetas[i]`` (each shape
+    fitted up to the first of ``until``, other sensors' onsets, where given:
+    :func:`~analyzer.diagnosis.events.events_from_residual`), and the note on its alarms
+    too thin to weigh (:func:`~analyzer.diagnosis.events.unweighed_note`)."""
+    model, i, name, zetas, refs, rate, detector, data, scratch, *rest = task
+    until: Sequence[int] = rest[0] if rest else ()
     n = refs[i].shape[0]
     notes: list[str] = []
     with scratch.row(f"units{i}", n) as into:
@@ -986,6 +1055,7 @@ def _filter_events_task(task: tuple[Any, ...]) -> tuple[list[Event], list[str]]:
             scratch=scratch.workdir,
             split=True,
             notes=notes,
+            until=until,
         )
     release(zetas[i])  # memory-mapped rows: read again only where an event is
     release(refs[i])

@@ -53,6 +53,7 @@ def events_from_residual(
     scratch: Path | None = None,
     split: bool = False,
     notes: list[str] | None = None,
+    until: Sequence[int] = (),
 ) -> list[Event]:
     """Events on ``channel`` from its residual (measured - estimated). ``split``: a fault
     that changes inside its stretch (another level, another type) is two events, the
@@ -72,7 +73,13 @@ def events_from_residual(
     filters' warm-up after one) weighs no fault shape
     (:attr:`~analyzer.diagnosis.classify.Classification.weighed`): it is no event, and
     where ``notes`` is given :func:`unweighed_note` says so there (one note for the
-    channel's such alarms), as the AR bank notes its own."""
+    channel's such alarms), as the AR bank notes its own.
+
+    ``until``: where other sensors' faults begin (samples, ascending; a caller that found
+    them on residuals of their own): a fault's shape is fitted up to the first of them at
+    least a part's length after its onset (:func:`first_bound`), whose fault's trace in
+    this residual would bend it (an offset of 2 sd on another floor from 150 s flattened
+    a drift's line from 100 s and traced it back to 89.4 s)."""
     out: list[Event] = []
     unweighed: list[float] = []  # onsets (s) of alarms too thin to weigh
     n = residual.shape[0]
@@ -118,6 +125,11 @@ def events_from_residual(
                 changes=changes if split else None,
             )
             covered = n if end is None else end
+            bound = first_bound(until, iv.onset, cal, rate_hz)
+            if bound is not None and bound < covered and cls.type is not FaultType.OTHER:
+                cls = _before_other(
+                    residual, reference, cal, iv.onset, bound, cls, rate_hz, tau_corr, shape_slope
+                )
             onset_s, factor, extra = bounded_onset(iv.onset, cls, rate_hz, search_start)
             if iv is not first:  # (its onset is the change's: no earlier)
                 onset_s, extra = iv.onset / rate_hz, {**extra, "changed_at_s": iv.onset / rate_hz}
@@ -179,6 +191,42 @@ def unweighed_note(channel: str, onsets_s: Sequence[float]) -> str:
         "samples in the alarm (over a gap in the data, or the filters' warm-up after "
         "one), too few to fit any fault shape; not reported as a sensor fault"
     )
+
+
+def _before_other(
+    residual: FloatArray,
+    reference: FloatArray | None,
+    cal: Calibration,
+    onset: int,
+    bound: int,
+    cls: Classification,
+    rate_hz: float,
+    tau_corr: float,
+    slope: ReferenceSlope | None,
+) -> Classification:
+    """``cls`` refitted on its fault's stretch before ``bound``, where another sensor's
+    fault begins (``events_from_residual``'s ``until``): the shape, its size and the
+    onset it traces back to, when that part has a shape (the end stays the one the
+    whole stretch gave: :func:`diagnose_interval`)."""
+    seg_ref = None if reference is None else np.asarray(reference[onset:bound], dtype=np.float64)
+    part = classify(
+        np.asarray(residual[onset:bound], dtype=np.float64),
+        seg_ref,
+        cal.std,
+        rate_hz,
+        tau_corr,
+        shift=cal.mean,
+        slope=slope,
+    )
+    return part if part.type is not FaultType.OTHER and part.weighed else cls
+
+
+def first_bound(until: Sequence[int], onset: int, cal: Calibration, rate_hz: float) -> int | None:
+    """The first of ``until`` (ascending samples) at least a fault's part's length after
+    ``onset`` (as long as a part before a change must be: :data:`CHANGE_MIN_S`, at least a
+    long alarm window): where a fault's shape fit stops; None when there is none."""
+    least = onset + max(cal.long_window, int(CHANGE_MIN_S * rate_hz))
+    return next((int(b) for b in until if b >= least), None)
 
 
 def _confined(
