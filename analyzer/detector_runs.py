@@ -377,7 +377,9 @@ def fitted_estimates(
     it: tag ``""`` for one group of every channel and for the error functions, ``-g{k}``
     for ``groups[k]``) computes its estimate of the channel again on rows of every
     analyzed channel (``channels``' order), with the model as fitted: ``(warmup,
-    estimate(rows, start))``, or None for a detector without ``estimate``."""
+    estimate(rows, start))`` from the detector's ``estimate_warmup(model, j)`` and
+    ``estimate(model, rows, start, j)`` (``j``: the channel's column in its group), or
+    None for a detector without them or without an estimate of that channel."""
     single = len(groups) == 1 and len(groups[0]) == len(channels)
     where: dict[str, tuple[str, tuple[str, ...]]] = {}
     if not single:
@@ -399,12 +401,15 @@ def fitted_estimates(
             return None
         columns = [list(channels).index(c) for c in group]
         i = group.index(channel)
+        warmup = det.estimate_warmup(model, i)
+        if warmup is None:
+            return None
 
         def estimate(rows: Any, start: int) -> npt.NDArray[np.float64]:
             part = np.ascontiguousarray(np.asarray(rows)[:, columns], dtype=np.float64)
-            return np.asarray(det.estimate(model, part, start)[:, i], dtype=np.float64)
+            return np.asarray(det.estimate(model, part, start, i), dtype=np.float64)
 
-        return int(det.estimate_warmup(model)), estimate
+        return int(warmup), estimate
 
     return estimates
 
