@@ -15,6 +15,11 @@ Here this works for the event of any detector, given the event and the channel's
 * anything else (``other``, or no magnitude): ``f_s`` is the residual itself
   (the regenerated fault of Section 6.3), i.e. the signal becomes the detector's estimate.
 
+The paper's regeneration assumes the assistant sensors healthy (law 0, one fault at a
+time); here an estimate that replaces a reading is computed again, where the detector can,
+with the other channels' fitted faults taken out first, and an offset's correction ends
+where its residual does when the finding says later (:func:`corrected_values`).
+
 :func:`corrected_values` returns the corrected array and one JSON-friendly record per
 correction; :func:`write_corrected_csv` writes the time column and every analyzed channel
 (``analyzer run --corrected``).

@@ -391,3 +391,38 @@ def test_an_offset_ended_late_is_not_subtracted_from_healthy_readings(tmp_path):
     assert rec["method"] == "offset" and abs(rec["end_s"] - 220.0) < 0.2
     inside = out[12000:22000, 1] - y0[12000:22000, 1]
     assert float(np.sqrt(np.mean(inside**2))) < 0.1 * sd
+
+
+def test_fitted_estimates_find_each_channels_group():
+    """The estimates of :func:`~analyzer.detector_runs.fitted_estimates` come from the
+    fitted detector of the channel's group, on that group's columns of the rows; a
+    detector without ``estimate``, or that has none for the channel, gives None."""
+    from analyzer.detector_runs import fitted_estimates
+
+    class Columns:
+        """An "estimate" that is the column itself, times ``scale``."""
+
+        def __init__(self, scale):
+            self.scale = scale
+
+        def estimate_warmup(self, model, j):
+            return None if j == model else 7
+
+        def estimate(self, model, rows, start, j):
+            return self.scale * rows[start:, j]
+
+    collected = {
+        "-g0": {"d": (Columns(1.0), None), "plain": (object(), None)},
+        "-g1": {"d": (Columns(10.0), 0)},  # (no estimate of its column 0, "a")
+        "": {"error_function": (Columns(100.0), None)},
+    }
+    channels = ["a", "b", "c", "e"]
+    est = fitted_estimates(collected, [("b", "c"), ("a", "e")], channels)
+    rows = np.arange(12.0).reshape(3, 4)
+    warm, f = est("d", "c")
+    assert warm == 7 and np.array_equal(f(rows, 1), rows[1:, 2])
+    warm, f = est("d", "e")
+    assert np.array_equal(f(rows, 0), 10.0 * rows[:, 3])
+    assert est("d", "a") is None and est("plain", "b") is None and est("nope", "b") is None
+    warm, f = est("error_function", "a")  # (one run on every channel)
+    assert np.array_equal(f(rows, 2), 100.0 * rows[2:, 0])
