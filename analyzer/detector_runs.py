@@ -367,6 +367,53 @@ def fits_of(
     )
 
 
+def fitted_estimates(
+    collected: dict[str, dict[str, tuple[Any, Any]]],
+    groups: Sequence[Sequence[str]],
+    channels: Sequence[str],
+) -> Callable[[str, str], tuple[int, Callable[[Any, int], npt.NDArray[np.float64]]] | None]:
+    """``estimates(detector, channel)`` for :func:`analyzer.regenerate.corrected_values`:
+    the fitted detector of the channel's group (``collected``, as :func:`fits_of` fills
+    it: tag ``""`` for one group of every channel and for the error functions, ``-g{k}``
+    for ``groups[k]``) computes its estimate of the channel again on rows of every
+    analyzed channel (``channels``' order), with the model as fitted: ``(warmup,
+    estimate(rows, start))`` from the detector's ``estimate_warmup(model, j)`` and
+    ``estimate(model, rows, start, j)`` (``j``: the channel's column in its group), or
+    None for a detector without them or without an estimate of that channel."""
+    single = len(groups) == 1 and len(groups[0]) == len(channels)
+    where: dict[str, tuple[str, tuple[str, ...]]] = {}
+    if not single:
+        for k, group in enumerate(groups):
+            where.update({c: (f"-g{k}", tuple(group)) for c in group})
+
+    def estimates(
+        detector: str, channel: str
+    ) -> tuple[int, Callable[[Any, int], npt.NDArray[np.float64]]] | None:
+        tag, group = where.get(channel, ("", tuple(channels)))
+        fitted = collected.get(tag, {}).get(detector)
+        if fitted is None and tag:  # (the error functions: one run on every channel)
+            tag, group = "", tuple(channels)
+            fitted = collected.get(tag, {}).get(detector)
+        if fitted is None or channel not in group:
+            return None
+        det, model = fitted
+        if not hasattr(det, "estimate") or not hasattr(det, "estimate_warmup"):
+            return None
+        columns = [list(channels).index(c) for c in group]
+        i = group.index(channel)
+        warmup = det.estimate_warmup(model, i)
+        if warmup is None:
+            return None
+
+        def estimate(rows: Any, start: int) -> npt.NDArray[np.float64]:
+            part = np.ascontiguousarray(np.asarray(rows)[:, columns], dtype=np.float64)
+            return np.asarray(det.estimate(model, part, start, i), dtype=np.float64)
+
+        return int(warmup), estimate
+
+    return estimates
+
+
 def _columns(values: Any, columns: list[int], path: Path | None) -> npt.NDArray[np.float64]:
     """``values[:, columns]`` as a contiguous array: in memory, or written block by block
     to a memory-mapped ``path``, unlinked at once (a long archive's matrix is not read

@@ -23,6 +23,7 @@ from analyzer.detector_runs import (
     coupled,
     detector_names,
     fits_of,
+    fitted_estimates,
     merge_groups,
     merge_tests,
     run_detectors,
@@ -807,6 +808,7 @@ def _analyze(
                 ctx.buffer,
                 # (--model: the window is the filters' warm-up, not a healthy stretch)
                 train if reused is None else None,
+                fitted_estimates(collected, groups, chosen),
             )
         timings["total"] = time.perf_counter() - t_start
         return Analysis(

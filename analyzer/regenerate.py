@@ -15,6 +15,11 @@ Here this works for the event of any detector, given the event and the channel's
 * anything else (``other``, or no magnitude): ``f_s`` is the residual itself
   (the regenerated fault of Section 6.3), i.e. the signal becomes the detector's estimate.
 
+The paper's regeneration assumes the assistant sensors healthy (law 0, one fault at a
+time); here an estimate that replaces a reading is computed again, where the detector can,
+with the other channels' fitted faults taken out first, and an offset's correction ends
+where its residual does when the finding says later (:func:`corrected_values`).
+
 :func:`corrected_values` returns the corrected array and one JSON-friendly record per
 correction; :func:`write_corrected_csv` writes the time column and every analyzed channel
 (``analyzer run --corrected``).
@@ -191,6 +196,7 @@ def corrected_values(
     references: SignalMap | None = None,
     buffer: Callable[[str, tuple[int, int], npt.DTypeLike], npt.NDArray[Any]] | None = None,
     healthy: tuple[int, int] | None = None,
+    estimates: Estimates | None = None,
 ) -> tuple[FloatArray, list[dict[str, Any]]]:
     """``values`` (N, m) with every event's fault removed over its period
     (``S_fault_free = S_fault - f_s``, Section 6.3), and one record per event.
@@ -208,6 +214,22 @@ def corrected_values(
     ``(detector, channel)`` (:func:`result_signals`; for merged findings the finding's
     ``detector`` is its leading detector). When two events of a channel overlap, samples
     already corrected are not corrected again (the more confident event first).
+
+    ``estimates(detector, channel)``: the detector's estimate of the channel computed
+    again (:data:`Estimates`). Given, a reading replaced by the estimate (``reference``,
+    ``residual``) is replaced by the estimate computed on the readings with the other
+    channels' fitted faults (offset, gain, drift) taken out over their periods, the
+    models as the run fitted them: the estimate of a sensor from the others carries
+    their faults (Wang & Song's regeneration assumes the assistant sensors healthy,
+    law 0), and a dead sensor beside a neighbour's offset of 2 sd was regenerated with
+    up to 4.9 times its estimator's own error (``benchmarks/sweep_corrected.py``,
+    ``two-dead-neighbour``). Without other faults there, or for a detector that cannot
+    estimate again, the run's estimate is used.
+
+    An offset's correction ends where the residual it comes with says the offset ended
+    (:func:`_trimmed_stop`), when that is before the finding's end: an offset whose
+    end the detectors saw 3-8 s late while another sensor's gain was under way was
+    subtracted from that many seconds of healthy readings.
 
     ``buffer(name, shape, dtype)`` allocates the result and the mask of corrected samples
     (such as :meth:`~analyzer.detectors.base.RunContext.buffer`: memory-mapped for a long
@@ -235,7 +257,21 @@ def corrected_values(
     index = {c: j for j, c in enumerate(channels)}
     records: list[dict[str, Any]] = []
     evs = sorted(events, key=lambda e: -float(getattr(e, "confidence", 0.0)))
+    # every fitted fault's span (offset, drift, gain), in the order they are corrected:
+    # what the estimates computed again take out of the other channels
+    shaped: list[_Shaped] = []
+    spans: dict[int, _Shaped] = {}
     for ev in evs:
+        j = index.get(ev.channel)
+        if j is None:
+            continue
+        res = _lookup(residuals, ev.detector, ev.channel)
+        method = _method(ev, res, _lookup(references, ev.detector, ev.channel))
+        if method in MODEL_METHODS:
+            spans[id(ev)] = _shaped_span(ev, j, method, n, rate_hz, res)
+            shaped.append(spans[id(ev)])
+    for ev in evs:
+        stop_s = spans[id(ev)].end_s if id(ev) in spans else ev.end_s
 
         def record(
             method: str,
@@ -244,8 +280,8 @@ def corrected_values(
             rms: float | None = None,
             note: str = "",
             ev: FaultLike = ev,
+            end: float | None = None if stop_s is None else float(stop_s),
         ) -> dict[str, Any]:
-            end = None if ev.end_s is None else float(ev.end_s)
             return Correction(
                 ev.channel,
                 ev.detector,
@@ -279,17 +315,21 @@ def corrected_values(
                 records.append(record("skipped", note=worth))
                 continue
         before = ""
-        evidence = getattr(ev, "evidence", None) or {}
-        if method in ("offset", "gain") and evidence.get("onset_at_or_before") and start > 0:
-            # --model: the fault was there when the search began, after the filters'
-            # warm-up; a constant offset or gain holds over that warm-up as well
-            before = f"corrected from the record's start (the fault was there at {ev.onset_s:g} s)"
-            start = 0
+        if id(ev) in spans:
+            start, stop, before = spans[id(ev)].start, spans[id(ev)].stop, spans[id(ev)].note
+        again = None
+        if method in ("reference", "residual") and estimates is not None:
+            again = _estimate_again(estimates(ev.detector, ev.channel), j, shaped, start, stop)
+            if again is not None:
+                before = "estimated again with the other channels' faults taken out"
         count, total, squares = 0, 0.0, 0.0
         for a in range(start, stop, RELEASE_ROWS):
             b = min(stop, a + RELEASE_ROWS)
             rows = values[a:b]
-            fs = _fault_piece(method, ev, rate_hz, rows[:, j], res, ref, a, b)
+            if again is None:
+                fs = _fault_piece(method, ev, rate_hz, rows[:, j], res, ref, a, b)
+            else:
+                fs = np.asarray(rows[:, j], dtype=np.float64) - again(values, rate_hz, a, b)
             col = out[a:b, j]
             ok = np.isfinite(fs) & np.isfinite(col) & np.logical_not(done[a:b, j])
             col[ok] = col[ok] - fs[ok]
@@ -315,6 +355,142 @@ def corrected_values(
             )
         )
     return out, records
+
+
+MODEL_METHODS = ("offset", "drift", "gain")
+"""The methods that subtract a fitted fault shape (no estimate involved)."""
+
+Estimates = Callable[[str, str], "tuple[int, Callable[[FloatArray, int], FloatArray]] | None"]
+"""``estimates(detector, channel)``: ``(warmup, estimate)``, where ``estimate(rows,
+start)`` is the detector's fault-free estimate of ``channel`` over ``rows[start:]``
+(``rows``: readings of every analyzed channel, in :func:`corrected_values`'s column
+order), filtered from ``rows[:start]``, at most ``warmup`` rows before (the run's own
+estimate there, to rounding, given the run's readings); None when the detector cannot
+compute it again."""
+
+TRIM_WINDOW_S = 60.0
+"""How far before a finding's end an offset's correction may end instead
+(:func:`_trimmed_stop`)."""
+
+TRIM_MIN_S = 0.5
+"""The shortest tail an offset's correction is cut by: the residual's mean over it is
+then known to a fraction of the offset, for a noisy estimate too."""
+
+TRIM_SHARE = 0.25
+"""A tail is cut only when the residual's mean square over it is under this share of the
+offset's square (its RMS under half the offset): the detector sees no offset there."""
+
+
+@dataclass(frozen=True, slots=True)
+class _Shaped:
+    """A fitted fault's correction: ``event`` on column ``j`` by ``method`` over rows
+    ``[start, stop)``, the end its record gives (seconds, None: the record's end) and
+    what it notes about that period."""
+
+    event: FaultLike
+    j: int
+    method: str
+    start: int
+    stop: int
+    end_s: float | None
+    note: str
+
+
+def _shaped_span(
+    ev: FaultLike,
+    j: int,
+    method: str,
+    n: int,
+    rate_hz: float,
+    res: npt.NDArray[Any] | None,
+) -> _Shaped:
+    """The rows a fitted fault's correction spans: the finding's period, from the
+    record's start for an offset or gain present when a ``--model`` search began, and
+    an offset's ending where its residual does (:func:`_trimmed_stop`)."""
+    start, stop = _period(ev, n, rate_hz)
+    end_s = ev.end_s
+    notes = []
+    evidence = getattr(ev, "evidence", None) or {}
+    if method in ("offset", "gain") and evidence.get("onset_at_or_before") and start > 0:
+        # --model: the fault was there when the search began, after the filters'
+        # warm-up; a constant offset or gain holds over that warm-up as well
+        notes.append(f"corrected from the record's start (the fault was there at {ev.onset_s:g} s)")
+        start = 0
+    if method == "offset" and ev.end_s is not None and res is not None:
+        cut = _trimmed_stop(float(ev.magnitude["offset"]), res, start, stop, rate_hz)
+        if cut < stop:
+            notes.append(
+                f"ended at {cut / rate_hz:.4f} s, where the residual shows no offset (the "
+                f"finding ends at {float(ev.end_s):.4f} s)"
+            )
+            stop, end_s = cut, cut / rate_hz
+    return _Shaped(ev, j, method, start, stop, end_s, "; ".join(notes))
+
+
+def _trimmed_stop(
+    offset: float, res: npt.NDArray[Any], start: int, stop: int, rate_hz: float
+) -> int:
+    """Where an offset's correction over ``[start, stop)`` ends: ``stop``, or an earlier
+    ``k`` (at most :data:`TRIM_WINDOW_S` before it, at least :data:`TRIM_MIN_S`) after
+    which the residual ``res`` fits "no offset" better than the offset: the least of the
+    tail sums ``sum_{t >= k} r_t^2 - (r_t - o)^2 = sum (2 o r_t - o^2)`` (what the offset
+    saves of the residual's sum of squares there), negative, and the residual's mean
+    square over the tail under :data:`TRIM_SHARE` of ``o^2``. Missing residuals count for
+    neither."""
+    least = max(1, int(round(TRIM_MIN_S * rate_hz)))
+    lo = max(start, stop - int(round(TRIM_WINDOW_S * rate_hz)))
+    if stop - lo < least or not np.isfinite(offset) or offset == 0.0:
+        return stop
+    r = np.asarray(res[lo:stop], dtype=np.float64)
+    release(res[lo:stop])
+    ok = np.isfinite(r)
+    d = np.where(ok, 2.0 * offset * np.where(ok, r, 0.0) - offset * offset, 0.0)
+    tails = np.cumsum(d[::-1])[::-1][: stop - lo - least + 1]
+    k = int(np.argmin(tails))
+    if not tails[k] < 0.0:
+        return stop
+    tail = r[k:][ok[k:]]
+    if tail.size < least or float(np.mean(tail * tail)) > TRIM_SHARE * offset * offset:
+        return stop
+    return lo + k
+
+
+def _estimate_again(
+    given: tuple[int, Callable[[FloatArray, int], FloatArray]] | None,
+    j: int,
+    shaped: Sequence[_Shaped],
+    start: int,
+    stop: int,
+) -> Callable[[npt.NDArray[Any], float, int, int], FloatArray] | None:
+    """The estimate of column ``j`` over rows ``a .. b - 1`` computed again on the
+    readings with the other columns' fitted faults (``shaped``) taken out, as a function
+    of ``(values, rate_hz, a, b)``; None when the detector cannot (``given`` None) or no
+    other column's fault touches ``[start, stop)`` or the warm-up before it (the run's
+    own estimate is then that one)."""
+    if given is None:
+        return None
+    warm, estimate = given
+    near = [s for s in shaped if s.j != j and s.start < stop and s.stop > start - warm]
+    if not near:
+        return None
+
+    def again(values: npt.NDArray[Any], rate_hz: float, a: int, b: int) -> FloatArray:
+        lo = max(0, a - warm)
+        rows = np.array(values[lo:b], dtype=np.float64)
+        release(values[lo:b])
+        done = np.zeros(rows.shape, dtype=np.bool_)
+        for s in near:  # (the more confident first; a sample is corrected once)
+            p, q = max(s.start, lo), min(s.stop, b)
+            if p >= q:
+                continue
+            col = rows[p - lo : q - lo, s.j]
+            fs = _fault_piece(s.method, s.event, rate_hz, col, None, None, p, q)
+            ok = np.isfinite(fs) & np.isfinite(col) & np.logical_not(done[p - lo : q - lo, s.j])
+            col[ok] -= fs[ok]
+            done[p - lo : q - lo, s.j] |= ok
+        return np.asarray(estimate(rows, a - lo), dtype=np.float64)
+
+    return again
 
 
 REPLACE_FACTOR = 2.0
@@ -419,6 +595,7 @@ def write_corrected_csv(
 __all__ = [
     "MIN_GAIN",
     "Correction",
+    "Estimates",
     "FaultLike",
     "corrected_values",
     "fault_signal",

@@ -185,6 +185,7 @@ def _long_record(n=20_000, seed=5):
     y[9000:9050, 2] = np.nan
     ref = {"a": y[:, 0] - 0.1 * rng.normal(size=n), "c": y[:, 2] + 0.2}
     res = {"a": (y[:, 0] - ref["a"]).astype(np.float32), "b": 0.5 * y[:, 1]}
+    res["a"][1000:12000] += 0.7  # the offset's residual holds it to its end (120 s)
     res["a"][6000:6100] = np.nan
     evs = [
         Event("a", 10.0, 120.0, FaultType.ADDITIVE, {"offset": 0.7}, 0.9, "d1"),
@@ -266,3 +267,162 @@ def test_corrected_memory_is_set_by_the_piece(tmp_path):
     assert peak < 12e6, peak
     assert recs[0]["samples"] == n - 1000 and recs[1]["samples"] == n - 10_000
     assert out[5000, 0] == pytest.approx(5.0 - 0.7) and out[50_000, 3] == pytest.approx(25.0)
+
+
+def test_an_offset_correction_ends_where_its_residual_does():
+    """An offset finding whose end came late (the detectors' end logic while another
+    sensor's gain was under way) is corrected only up to where its residual shows the
+    offset gone; the record says where and why. A residual that holds the offset to the
+    finding's end, or a tail too noisy to tell, keeps the finding's end."""
+    rng = np.random.default_rng(5)
+    n = 30000
+    y = rng.standard_normal((n, 1))
+    truth = y.copy()
+    y[12000:22000, 0] += 3.0
+    res = 0.2 * rng.standard_normal(n)
+    res[12000:22000] += 3.0
+    late = [Event("s", 120.0, 227.92, FaultType.ADDITIVE, {"offset": 3.0}, 0.9, "d")]
+    out, (rec,) = corrected_values(y, ["s"], 100.0, late, {"s": res})
+    assert rec["method"] == "offset" and rec["samples"] == 10000
+    assert rec["end_s"] == pytest.approx(220.0)
+    assert "227.9200" in rec["note"] and "no offset" in rec["note"]
+    assert np.allclose(out[:, 0], truth[:, 0])
+    # the residual holds the offset to the finding's end: nothing cut
+    held = [Event("s", 120.0, 220.0, FaultType.ADDITIVE, {"offset": 3.0}, 0.9, "d")]
+    out, (rec,) = corrected_values(y, ["s"], 100.0, held, {"s": res})
+    assert rec["samples"] == 10000 and rec["end_s"] == 220.0 and rec["note"] == ""
+    # a residual as noisy as the offset after its end: the finding's end stays
+    noisy = res.copy()
+    noisy[22000:] = 2.0 * rng.standard_normal(n - 22000)
+    out, (rec,) = corrected_values(y, ["s"], 100.0, late, {"s": noisy})
+    assert rec["samples"] == 10792 and rec["end_s"] == 227.92
+    # a finding that lasts to the record's end is not cut
+    lasting = [Event("s", 120.0, None, FaultType.ADDITIVE, {"offset": 3.0}, 0.9, "d")]
+    out, (rec,) = corrected_values(y, ["s"], 100.0, lasting, {"s": res})
+    assert rec["samples"] == n - 12000 and rec["end_s"] is None
+
+
+@pytest.mark.parametrize("detector", ["ar_kalman_bank", "detection_filter", "equivalent_model"])
+def test_a_detector_estimates_again_as_it_ran(building, detector):
+    """A detector's ``estimate`` over a span after its warm-up gives the run's
+    ``reference`` there (to the signals' single precision), from the record's start too;
+    the bank's estimate of a sensor does not read that sensor."""
+    from analyzer.detectors import detector_class
+
+    Y, names = building
+    det = detector_class(detector)()
+    ctx = RunContext()
+    ds = Dataset(Y, tuple(names), RATE, (0, int(15 * RATE)))
+    model = det.fit(ds, ctx)
+    ref = det.run(model, ds, ctx).reference
+    a, b = 3000, 5000
+    for j, c in enumerate(names):
+        warm = det.estimate_warmup(model, j)
+        assert warm is not None and 0 < warm < a
+        est = det.estimate(model, Y[a - warm : b], warm, j)
+        tol = 1e-5 * np.std(Y[:, j])
+        assert np.allclose(est, ref[c][a:b], rtol=1e-4, atol=tol), c
+        assert np.allclose(det.estimate(model, Y[:b], 0, j), ref[c][:b], rtol=1e-4, atol=tol)
+    if detector == "ar_kalman_bank":
+        warm = det.estimate_warmup(model, 2)
+        moved = Y[a - warm : b].copy()
+        moved[:, 2] += 5.0
+        tol = 1e-5 * np.std(Y[:, 2])
+        assert np.allclose(det.estimate(model, moved, warm, 2), ref[names[2]][a:b], atol=tol)
+        assert not np.allclose(det.estimate(model, moved, warm, 1), ref[names[1]][a:b], rtol=1e-2)
+
+
+def _sweep_record(tmp_path, seed, faults):
+    """The 6-floor building of ``benchmarks/sweep_corrected.py`` (300 s at 100 Hz) with
+    ``faults`` ``(channel, kind, onset, end, size in sd or a gain)``, analyzed with
+    ``--corrected``: the truth, the faulty readings and the analysis."""
+    from analyzer.pipeline import RunOptions, analyze
+    from analyzer.writers import write_archive
+
+    t, y0, names = simulate_building(6, 300.0, 100.0, seed=seed)
+    y = y0.copy()
+    for j, kind, onset, end, size in faults:
+        scaled = size if kind == "multiplicative" else size * float(y0[:, j].std())
+        y[:, j] = inject_fault(y[:, j], 100.0, kind, onset, scaled, end)
+    path = tmp_path / "record.csv"
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(path, "csv", t_ns, {c: y[:, i] for i, c in enumerate(names)})
+    (tmp_path / "work").mkdir()
+    analysis = analyze([str(path)], RunOptions(corrected=True), tmp_path / "work")
+    return y0, y, names, analysis
+
+
+def test_a_dead_sensor_is_regenerated_without_its_neighbours_fault(tmp_path):
+    """A dead sensor (120-220 s) beside a neighbour's offset of 2 sd (150-250 s): the
+    regenerated signal comes from the bank's estimate computed again with the offset
+    taken out, so it is as good while the neighbour is faulty as before (the run's own
+    estimate carried the offset: 5.8 times the error; ``sweep_corrected.py``
+    ``two-dead-neighbour``, seed 3). The neighbour and the healthy channels keep their
+    own corrections."""
+    y0, y, names, analysis = _sweep_record(
+        tmp_path, 3, [(3, "multiplicative", 120.0, 220.0, 0.0), (4, "additive", 150.0, 250.0, 2.0)]
+    )
+    out = np.asarray(analysis.corrected)
+    err = out[:, 3] - y0[:, 3]
+    rms = lambda a, b: float(np.sqrt(np.mean(err[int(a * 100) : int(b * 100)] ** 2)))  # noqa: E731
+    before, beside = rms(121.0, 150.0), rms(151.0, 220.0)
+    assert beside < 1.5 * before, (before, beside)
+    (rec,) = [c for c in analysis.corrections if c["channel"] == "s3"]
+    assert rec["method"] == "reference" and "estimated again" in rec["note"]
+    others = [j for j in range(6) if j not in (3, 4)]
+    assert np.array_equal(out[:, others], y[:, others])
+
+
+def test_an_offset_ended_late_is_not_subtracted_from_healthy_readings(tmp_path):
+    """An offset of 2 sd (120-220 s) while another sensor's gain of 1.5 runs 150-250 s:
+    every detector ended the offset near 228 s, yet its residual is back at 0 from
+    220 s; the correction stops there (``sweep_corrected.py`` ``two-offset-gain``,
+    seed 7: 0.40 sd of error over the sensor's healthy readings before)."""
+    y0, y, names, analysis = _sweep_record(
+        tmp_path,
+        7,
+        [(1, "additive", 120.0, 220.0, 2.0), (4, "multiplicative", 150.0, 250.0, 1.5)],
+    )
+    out = np.asarray(analysis.corrected)
+    sd = float(y0[:, 1].std())
+    after = out[22000:, 1] - y0[22000:, 1]
+    assert float(np.sqrt(np.mean(after**2))) < 0.01 * sd
+    (rec,) = [c for c in analysis.corrections if c["channel"] == "s1"]
+    assert rec["method"] == "offset" and abs(rec["end_s"] - 220.0) < 0.2
+    inside = out[12000:22000, 1] - y0[12000:22000, 1]
+    assert float(np.sqrt(np.mean(inside**2))) < 0.1 * sd
+
+
+def test_fitted_estimates_find_each_channels_group():
+    """The estimates of :func:`~analyzer.detector_runs.fitted_estimates` come from the
+    fitted detector of the channel's group, on that group's columns of the rows; a
+    detector without ``estimate``, or that has none for the channel, gives None."""
+    from analyzer.detector_runs import fitted_estimates
+
+    class Columns:
+        """An "estimate" that is the column itself, times ``scale``."""
+
+        def __init__(self, scale):
+            self.scale = scale
+
+        def estimate_warmup(self, model, j):
+            return None if j == model else 7
+
+        def estimate(self, model, rows, start, j):
+            return self.scale * rows[start:, j]
+
+    collected = {
+        "-g0": {"d": (Columns(1.0), None), "plain": (object(), None)},
+        "-g1": {"d": (Columns(10.0), 0)},  # (no estimate of its column 0, "a")
+        "": {"error_function": (Columns(100.0), None)},
+    }
+    channels = ["a", "b", "c", "e"]
+    est = fitted_estimates(collected, [("b", "c"), ("a", "e")], channels)
+    rows = np.arange(12.0).reshape(3, 4)
+    warm, f = est("d", "c")
+    assert warm == 7 and np.array_equal(f(rows, 1), rows[1:, 2])
+    warm, f = est("d", "e")
+    assert np.array_equal(f(rows, 0), 10.0 * rows[:, 3])
+    assert est("d", "a") is None and est("plain", "b") is None and est("nope", "b") is None
+    warm, f = est("error_function", "a")  # (one run on every channel)
+    assert np.array_equal(f(rows, 2), 100.0 * rows[2:, 0])

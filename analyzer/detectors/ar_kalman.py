@@ -389,6 +389,26 @@ class ARKalmanBank:
             context.map(_bank_block_into, tasks)
         return into
 
+    def estimate_warmup(self, model: FittedBank, j: int) -> int | None:
+        """Rows :meth:`estimate` filters before the rows it estimates (sensor ``j``):
+        the bank forgets its state within them, so the estimates equal the run's to
+        rounding."""
+        if model.bank is None:  # pragma: no cover - fitted by fit()
+            raise DetectorError("ar_kalman_bank: the model has no estimator bank")
+        return model.bank.warmup
+
+    def estimate(self, model: FittedBank, rows: FloatArray, start: int, j: int) -> FloatArray:
+        """Sensor ``j``'s estimate from the others (raw units) over ``rows[start:]``,
+        filtered from ``rows[:start]`` (a warm-up of up to :meth:`estimate_warmup` rows;
+        from a zero state when ``start`` is 0, as the run does at the record's start):
+        the run's ``reference``, computed again on other rows, such as the record with
+        other sensors' faults corrected (:func:`analyzer.regenerate.corrected_values`).
+        The bank's estimate outputs alone, without the consistency, with the model as
+        fitted."""
+        Y = np.asarray(rows, dtype=np.float64)
+        out = self._bank_outputs(model, Y, None, start=start, consistency=False)
+        return np.array(out.est[start:, j])
+
     # -- running ---------------------------------------------------------------------------
     def run(self, model: FittedBank, data: Dataset, context: RunContext) -> DetectorResult:
         ar = model.ar

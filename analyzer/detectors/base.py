@@ -228,7 +228,13 @@ class DetectorResult:
 
 
 class Detector(Protocol):
-    """A detector: ``name`` is its registry key (used by ``--detectors``)."""
+    """A detector: ``name`` is its registry key (used by ``--detectors``).
+
+    Optionally also ``estimate_warmup(model, j) -> int | None`` and ``estimate(model,
+    rows, start, j) -> FloatArray``: the run's ``reference`` of column ``j`` computed again
+    over ``rows[start:]`` of other readings (``rows[:start]``, up to the warm-up, as its
+    history), with the model as fitted; ``--corrected`` regenerates a sensor from it with
+    the other sensors' faults taken out (:func:`analyzer.regenerate.corrected_values`)."""
 
     name: ClassVar[str]
 

@@ -652,6 +652,33 @@ class DetectionFilter:
         q[dilate_forward(bad[first:hi], f.settle())[lo - first :]] = np.nan
         return q
 
+    def estimate_warmup(self, model: FittedDetectionFilter, j: int) -> int | None:
+        """Rows :meth:`estimate` filters before the rows it estimates (sensor ``j``): the
+        input history the filters' impulse responses remember, or the settling after a
+        gap if longer; None for sensors without a filter and for filters with a long
+        memory (a lifted bank: an output depends on the whole past)."""
+        outputs = list(model.model.outputs)
+        if j not in outputs:
+            return None
+        hist = filter_bank(model.filters).history
+        if hist is None:
+            return None
+        return max(hist, model.filters[outputs.index(j)].settle())
+
+    def estimate(
+        self, model: FittedDetectionFilter, rows: FloatArray, start: int, j: int
+    ) -> FloatArray:
+        """Sensor ``j``'s fault-free estimate (sensor units; NaN where an input was missing
+        and while the filter settles after it) over ``rows[start:]``, with ``rows[:start]``
+        as the history (up to :meth:`estimate_warmup` rows): the run's ``reference``
+        computed again on other rows, such as the record with other sensors' faults
+        corrected (:func:`analyzer.regenerate.corrected_values`)."""
+        outputs = list(model.model.outputs)
+        if j not in outputs:
+            raise DetectorError(f"{self.name}: no filter estimates sensor {j}")
+        _, refs, _, _ = self._run_outputs(model, np.asarray(rows, dtype=np.float64), None, False)
+        return _sensor_units(model, refs, outputs.index(j))[start:]
+
     # -- running -----------------------------------------------------------------------------
     @staticmethod
     def _refit_before_others(

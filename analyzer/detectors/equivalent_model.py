@@ -465,6 +465,37 @@ class EquivalentModel:
             release(rows)
             yield a, into[0], into[1]
 
+    def estimate_warmup(self, model: FittedEquivalentModel, j: int) -> int | None:
+        """Rows :meth:`estimate` reads before the rows it estimates (sensor ``j``): the
+        relation's FIR memory and the settling after a gap (:func:`_settle_samples`);
+        None when no observer targets sensor ``j``."""
+        ob = next((o for o in model.observers if o.target == j), None)
+        if ob is None:
+            return None
+        return _settle_samples(ob.relation, float(np.exp(-ob.observer.lambda1 * ob.observer.dt)))
+
+    def estimate(
+        self, model: FittedEquivalentModel, rows: FloatArray, start: int, j: int
+    ) -> FloatArray:
+        """Sensor ``j``'s estimate from its assistants (:meth:`Relation.estimate`, NaN
+        where a gap's settling hides it, as the run's ``reference``) over ``rows[start:]``,
+        with ``rows[:start]`` as the history (up to :meth:`estimate_warmup` rows): the run's
+        ``reference`` computed again on other rows, such as the record with other sensors'
+        faults corrected (:func:`analyzer.regenerate.corrected_values`)."""
+        ob = next((o for o in model.observers if o.target == j), None)
+        if ob is None:
+            raise DetectorError(f"{self.name}: no observer estimates sensor {j}")
+        arr = np.asarray(rows, dtype=np.float64)
+        z = ob.relation.estimate(arr)
+        gap = ~np.isfinite(arr[:, j])
+        for c in ob.relation.assistants:
+            gap |= ~np.isfinite(arr[:, c])
+        if gap.any():
+            settle = self.estimate_warmup(model, j)
+            assert settle is not None
+            z[dilate_forward(gap, settle)] = np.nan
+        return z[start:]
+
     # -- running -----------------------------------------------------------------------------
     def run(
         self, model: FittedEquivalentModel, data: Dataset, context: RunContext
