@@ -1363,7 +1363,7 @@ def _training_window(
                 "tells)"
             )
     elif options.train is not None:
-        tr = parse_train(options.train, aligned.start_ns, duration, absolute)
+        tr = parse_train(options.train, aligned.start_ns, duration, absolute, notes)
     elif options.config.train is not None:
         tr = options.config.train
         if tr[0] >= duration:
