@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from analyzer.errors import UsageError
+from analyzer.errors import UsageError, capped
 from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
 from analyzer.readers import open_archive
 from analyzer.readers.base import TimeSource
@@ -70,7 +70,8 @@ def _export(
         else:
             names = store.select(None, numeric_only=False)
         if not names:
-            raise UsageError(f"{', '.join(map(str, inputs))}: no numeric channel to export")
+            where = capped([str(i) for i in inputs], 3, what="inputs")
+            raise UsageError(f"{where}: no numeric channel to export")
         aligned = store.align(names, _default_rate(store, names) if rate is None else rate)
         tmp_out = out.with_name(f".{out.name}.part")
         try:

@@ -48,11 +48,13 @@ from analyzer.diagnosis.oversampled import oversampled_note
 from analyzer.diagnosis.stuck import frozen_notes, healthy_stats, relabel_frozen
 from analyzer.diagnosis.training_check import WindowNote, window_notes, window_warnings
 from analyzer.errors import (
+    LISTED,
     AnalyzerError,
     ConfigError,
     DetectorError,
     ReaderError,
     UsageError,
+    capped,
     one_line,
 )
 from analyzer.findings import Analysis, findings_document, input_digest, write_outputs
@@ -512,10 +514,10 @@ def _analyze(
         if progress:
             progress("read", 1.0)
         if not store.infos():
-            bad = "; ".join(e for i in archive.inputs for e in i.errors)
+            bad = capped([e for i in archive.inputs for e in i.errors], 3, "; ", "input errors")
             raise ReaderError(
-                f"{', '.join(str(i.path) for i in archive.inputs)}: no numeric channel found"
-                + (f" ({bad})" if bad else "")
+                f"{capped([str(i.path) for i in archive.inputs], 3, what='inputs')}: "
+                "no numeric channel found" + (f" ({bad})" if bad else "")
             )
         reused = options.model
         if reused is None:
@@ -1608,21 +1610,25 @@ def _apart_in_training(
     gappy = [c for j, c in enumerate(chosen) if missing[j] > GAPPY_SHARE]
     if gappy and missing.min() <= GAPPY_SHARE / 5 and len(gappy) < m:
         # scattered losses: rows hold the channel, but few stretches hold its lags
-        shares = ", ".join(
-            f"{c} {100 * missing[j]:.0f} %" for j, c in enumerate(chosen) if c in gappy
+        shares = capped(
+            [f"{c} {100 * missing[j]:.0f} %" for j, c in enumerate(chosen) if c in gappy]
         )
+        leave = "'" + ",".join(f"!{c}" for c in gappy[:LISTED]) + "'"
+        if len(gappy) > LISTED:
+            leave = f"({leave} and {len(gappy) - LISTED} more)"
         return (
             f"; channels with samples missing in the training window ({shares}) leave the "
-            "models too few complete stretches: leave them out with --channels '"
-            + ",".join(f"!{c}" for c in gappy)
-            + "' or choose a --train where they are complete"
+            f"models too few complete stretches: leave them out with --channels {leave} "
+            "or choose a --train where they are complete"
         )
     if together >= MIN_TRAIN_ROWS or (present < MIN_TRAIN_ROWS).any():
         return ""
     t0 = train[0]
-    spans = ", ".join(
-        f"{c} {(t0 + first[j]) / rate_hz:.1f}-{(t0 + last[j] + 1) / rate_hz:.1f} s"
-        for j, c in enumerate(chosen)
+    spans = capped(
+        [
+            f"{c} {(t0 + first[j]) / rate_hz:.1f}-{(t0 + last[j] + 1) / rate_hz:.1f} s"
+            for j, c in enumerate(chosen)
+        ]
     )
     return (
         f"; in the training window only {together} row(s) hold every channel ({spans}): "
