@@ -126,7 +126,10 @@ def _copies_in(store: ChannelStore, group: list[ChannelInfo]) -> list[Copy]:
                 # would be 1 + 1e-15 with a shift of 1e-17; flat in the fingerprint: equal
                 lines = [(1.0, 0.0)] if flat[j] else [(1.0, 0.0), (-1.0, 0.0)]
                 if not flat[j]:
-                    lines.append(_line(prints[:, i], prints[:, j], finite[:, i] & finite[:, j]))
+                    fit = _line(prints[:, i], prints[:, j], finite[:, i] & finite[:, j])
+                    if abs(fit[1]) <= _tolerance(group[j]):  # (no shift: not 3e-20 either)
+                        lines.append((fit[0], 0.0))
+                    lines.append(fit)
                 line = next(
                     (
                         (alpha, beta)
