@@ -6,6 +6,7 @@ leaves the copies out with a note; a run whose channels the user named keeps the
 from __future__ import annotations
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -111,3 +112,33 @@ def test_realdata_joints_that_all_copy_one_leave_one_channel(realdata, tmp_path,
     assert err.count("\n") == 1
     assert "one channel to analyze (/fake_joints_state.position[0])" in err
     assert "copies of another channel over the whole record not analyzed" in err
+
+
+def test_find_copies_with_gaps_and_sparse_channels(tmp_path):
+    """Gaps must sit at the same samples; a channel whose fingerprint rows are all gaps
+    (two readings in 5 000 samples) is compared for equality, without a warning."""
+    from analyzer.readers.base import ChannelChunk
+
+    n = 5000
+    t = np.arange(n, dtype=np.int64) * 10**7
+    a = np.random.default_rng(0).standard_normal(n)
+    a[::7] = np.nan
+    other_gaps = a.copy()
+    other_gaps[8] = np.nan
+    sparse = np.full(n, np.nan)
+    sparse[7], sparse[8] = 1.0, 2.0
+    unlike = sparse.copy()
+    unlike[8] = 3.0
+    columns = {
+        "a": a,
+        "b": 3 * a - 1,
+        "gaps": other_gaps,
+        "sparse": sparse,
+        "twin": sparse.copy(),
+        "unlike": unlike,
+    }
+    chunks = [ChannelChunk(k, t, v) for k, v in columns.items()]
+    with ChannelStore.from_chunks(chunks, tmp_path / "st") as store, warnings.catch_warnings():
+        warnings.simplefilter("error")
+        found = [(c.channel, c.relation) for c in find_copies(store, store.names)]
+    assert found == [("b", "= 3 a - 1"), ("twin", "= sparse")]

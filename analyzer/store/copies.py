@@ -106,9 +106,9 @@ def _copies_in(store: ChannelStore, group: list[ChannelInfo]) -> list[Copy]:
     for j, info in enumerate(group):
         prints[:, j] = store.raw(info.name)[1][rows]
     finite = np.isfinite(prints)
-    with np.errstate(invalid="ignore"):
-        centred = prints - np.nanmean(np.where(finite, prints, np.nan), axis=0)
-    centred[~finite] = 0.0
+    held = np.where(finite, prints, 0.0)
+    # (a column without a finite fingerprint sample is flat: its norm is 0)
+    centred = np.where(finite, held - held.sum(axis=0) / np.maximum(finite.sum(axis=0), 1), 0.0)
     norm = np.linalg.norm(centred, axis=0)
     unit = np.divide(centred, norm, out=np.zeros_like(centred), where=norm > 0)
     flat = norm == 0
