@@ -132,6 +132,7 @@ def test_find_copies_with_gaps_and_sparse_channels(tmp_path):
     columns = {
         "a": a,
         "b": 3 * a - 1,
+        "mirror": np.nanmin(a) + np.nanmax(a) - a,  # a's range: not a's equal, a's line
         "gaps": other_gaps,
         "sparse": sparse,
         "twin": sparse.copy(),
@@ -141,4 +142,6 @@ def test_find_copies_with_gaps_and_sparse_channels(tmp_path):
     with ChannelStore.from_chunks(chunks, tmp_path / "st") as store, warnings.catch_warnings():
         warnings.simplefilter("error")
         found = [(c.channel, c.relation) for c in find_copies(store, store.names)]
-    assert found == [("b", "= 3 a - 1"), ("twin", "= sparse")]
+    assert [f[0] for f in found] == ["b", "mirror", "twin"]
+    assert found[0][1] == "= 3 a - 1" and found[2][1] == "= sparse"
+    assert found[1][1].startswith("= -1 a ")
