@@ -33,6 +33,7 @@ from analyzer.errors import (  # noqa: E402
     AnalyzerError,
     ReaderError,
     UsageError,
+    capped,
     one_line,
     terminal_safe,
 )
@@ -321,7 +322,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     doc = inspect_archive(args.inputs, time=args.time)
     errors = [f"{i['path']}: {e}" for i in doc["inputs"] for e in i["errors"]]
     if not doc["channels"] and errors:  # nothing could be read: an input error, as for run
-        raise ReaderError("; ".join(errors))
+        raise ReaderError(capped(errors, 3, "; ", "input errors"))
     if args.json:
         print(json.dumps(doc, indent=2))
     else:

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from analyzer.errors import ConfigError
+from analyzer.errors import ConfigError, capped
 
 _TOP = {"train", "group", "model", "detectors", "thresholds"}
 _TRAIN = {"start", "end"}
@@ -299,7 +299,7 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
                 # analyzed (and reported) twice, under two different models
                 raise ConfigError(
                     f"{p}: [[group]] {group['name']!r} and [[group]] {earlier['name']!r} "
-                    f"share {', '.join(shared)}: a channel belongs to one group"
+                    f"share {capped(shared)}: a channel belongs to one group"
                 )
         cfg.groups.append(group)
     if "model" in raw:

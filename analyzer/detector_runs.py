@@ -440,19 +440,22 @@ def skip_reasons(skipped: dict[str, str]) -> list[str]:
     by_name: dict[str, list[tuple[str, str]]] = {}
     for key, reason in skipped.items():
         by_name.setdefault(key.split(" (", 1)[0], []).append((key, reason))
-    out = []
+    # detectors that fail for the same reason on the same group share one entry
+    # ("ar_kalman_bank, detection_filter (a..b): singular AR regression ..."): the two AR
+    # detectors fit the same model, and their reasons twice made the line 1.6 kB
+    said: dict[tuple[str, str], list[str]] = {}
     for name, items in by_name.items():
         key, reason = items[0]
         if reason.startswith((f"{key}:", f"{key} ")):
-            text = reason
+            text = reason[len(key) :]
         elif reason.startswith((f"{name}:", f"{name} ")):  # "name (group)" for "name"
-            text = key + reason[len(name) :]
+            text = reason[len(name) :]
         else:
-            text = f"{key}: {reason}"
+            text = f": {reason}"
         if len(items) > 1:
             text += f" (and on {len(items) - 1} more channel groups)"
-        out.append(text)
-    return out
+        said.setdefault((key[len(name) :], text), []).append(name)
+    return [", ".join(names) + group + text for (group, text), names in said.items()]
 
 
 def merge_groups(results: list[DetectorResult], order: Sequence[str]) -> list[DetectorResult]:

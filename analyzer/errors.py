@@ -8,12 +8,26 @@ say what was expected.
 from __future__ import annotations
 
 import unicodedata
+from collections.abc import Sequence
 
 
 def one_line(err: BaseException | str) -> str:
     """An exception (or text) as a single line, for ``InputInfo.errors`` and messages."""
     text = str(err).strip() or type(err).__name__
     return " ".join(text.split())
+
+
+LISTED = 4
+"""Items of a list an error message names before it counts the rest (:func:`capped`)."""
+
+
+def capped(items: Sequence[str], most: int = LISTED, sep: str = ", ", what: str = "") -> str:
+    """``items`` joined by ``sep``, the first ``most`` of them and ``and N more`` (``and N
+    more WHAT``) after: the contract's error is one line, and a list of every channel of
+    a 1 000-channel laser scan, or every topic of a bag, made it kilobytes long."""
+    if len(items) <= most:
+        return sep.join(items)
+    return sep.join(items[:most]) + f" and {len(items) - most} more" + (f" {what}" if what else "")
 
 
 def terminal_safe(text: str) -> str:

@@ -8,12 +8,12 @@ from pathlib import Path
 
 import numpy as np
 
-from analyzer.errors import UsageError
+from analyzer.errors import UsageError, capped
 from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
 from analyzer.readers import open_archive
 from analyzer.readers.base import TimeSource
 from analyzer.scratch import scratch
-from analyzer.store import AlignedSeries, ChannelStore, dominant_rate
+from analyzer.store import AlignedSeries, ChannelStore, clock_rate
 
 BLOCK = 1 << 16
 
@@ -70,7 +70,8 @@ def _export(
         else:
             names = store.select(None, numeric_only=False)
         if not names:
-            raise UsageError(f"{', '.join(map(str, inputs))}: no numeric channel to export")
+            where = capped([str(i) for i in inputs], 3, what="inputs")
+            raise UsageError(f"{where}: no numeric channel to export")
         aligned = store.align(names, _default_rate(store, names) if rate is None else rate)
         tmp_out = out.with_name(f".{out.name}.part")
         try:
@@ -95,10 +96,11 @@ def _default_rate(store: ChannelStore, names: Sequence[str]) -> float:
 
     An export keeps the constant channels (``run`` leaves them out), but they do not
     set its clock: a ROS ``Odometry`` at 20 Hz brings 72 constant covariance fields,
-    which outnumbered an IMU's varying channels at 100 Hz and made the clock 20 Hz."""
+    which outnumbered an IMU's varying channels at 100 Hz and made the clock 20 Hz. Nor
+    do the entries of covariance arrays (:func:`analyzer.store.clock_rate`)."""
     infos = {i.name: i for i in store.infos()}
     varying = [n for n in names if not infos[n].constant]
-    return dominant_rate([infos[n].rate_hz for n in varying or names])
+    return clock_rate([infos[n] for n in varying or names])
 
 
 def _table(aligned: AlignedSeries, a: int, blk: np.ndarray, schema: object) -> object:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import inspect
+import re
 import types
 import typing
 from collections.abc import Callable, Mapping, Sequence
@@ -67,8 +68,38 @@ MIN_TRAIN_ROWS = 16
 ``--train`` (the detectors ask for more, each with its own reason)."""
 
 
-def parse_train(text: str, start_ns: int, duration_s: float, absolute: bool) -> tuple[float, float]:
-    """``--train START:END`` in seconds from the first sample or ISO-8601 times."""
+TRAIN_START_SLACK_S = 1.0
+"""An ISO ``--train`` start at most this far before the data's first sample (or the
+resolution it is written to, when coarser: :func:`_resolution_s`) is the data's start:
+people type times to the second (``inspect`` prints them to the millisecond), and a
+recorder's first sample falls anywhere inside the second they name."""
+
+
+def _resolution_s(text: str) -> float:
+    """The unit of the last field an ISO-8601 time ``text`` writes, in seconds: a day for
+    a date alone, an hour for ``T09``, a minute for ``T09:59``, a second for
+    ``T09:59:13``, 1 ms for ``T09:59:13.383``."""
+    clock = re.search(r"[T ](\d{2}(?::?\d{2}){0,2})(?:[.,](\d+))?", text.strip())
+    if clock is None:
+        return 86400.0
+    if clock[2]:
+        return 10.0 ** -len(clock[2])
+    return {1: 3600.0, 2: 60.0}.get(len(re.findall(r"\d{2}", clock[1])), 1.0)
+
+
+def parse_train(
+    text: str,
+    start_ns: int,
+    duration_s: float,
+    absolute: bool,
+    notes: list[str] | None = None,
+) -> tuple[float, float]:
+    """``--train START:END`` in seconds from the first sample or ISO-8601 times. An ISO
+    start before the first sample by at most :data:`TRAIN_START_SLACK_S` (or its own
+    written resolution, when coarser: the minute of ``T09:59``), with its end after it,
+    is taken as the first sample, and a line in ``notes`` says so; a start before the
+    data by more, or a window wholly before it, is refused, naming where the data
+    starts. An end after the data's end is its end (as before)."""
     parts = _train_parts(text)
     secs = []
     for kind, val in parts:
@@ -81,6 +112,16 @@ def parse_train(text: str, start_ns: int, duration_s: float, absolute: bool) -> 
         else:
             secs.append(float(val))
     lo, hi = secs
+    if lo < 0.0 and parts[0][0] == "ns" and hi > 0.0:
+        slack = max(TRAIN_START_SLACK_S, _resolution_s(_split_train(text)[0]))
+        if -lo <= slack:
+            if notes is not None:
+                notes.append(
+                    f"--train: the window {text!r} starts {-lo:.3f} s before the data's first "
+                    f"sample ({iso_utc(start_ns)}): it starts at that sample (a start "
+                    f"{_SLACK_WORDS.get(slack, 'up to 1 s before the data')} is its start)"
+                )
+            lo = 0.0
     if lo < 0.0 and parts[0][0] == "ns" and lo < hi:
         # an ISO start before the data: say where the data starts, not "0 <= START"
         raise UsageError(
@@ -96,8 +137,17 @@ def parse_train(text: str, start_ns: int, duration_s: float, absolute: bool) -> 
     return lo, min(hi, duration_s)
 
 
-def _train_parts(text: str) -> tuple[tuple[str, Any], tuple[str, Any]]:
-    """The two halves of ``--train START:END`` as :func:`parse_time` reads them."""
+_SLACK_WORDS = {
+    86400.0: "a date alone, up to a day before the data,",
+    3600.0: "written to the hour, up to an hour before the data,",
+    60.0: "written to the minute, up to a minute before the data,",
+}
+"""How :func:`parse_train`'s note names a start's slack (``up to 1 s before the data``
+otherwise)."""
+
+
+def _split_train(text: str) -> tuple[str, str]:
+    """``--train START:END``'s two halves as written."""
     if text.count(":") < 1:
         raise UsageError(f"--train: expected START:END, got {text!r}")
     # ISO times contain colons: split on the separating colon between two parseable halves
@@ -105,10 +155,18 @@ def _train_parts(text: str) -> tuple[tuple[str, Any], tuple[str, Any]]:
         if ch != ":":
             continue
         try:
-            return parse_time(text[:i]), parse_time(text[i + 1 :])
+            parse_time(text[:i])
+            parse_time(text[i + 1 :])
         except ValueError:
             continue
+        return text[:i], text[i + 1 :]
     raise UsageError(f"--train: cannot read {text!r} as START:END (seconds or ISO-8601 times)")
+
+
+def _train_parts(text: str) -> tuple[tuple[str, Any], tuple[str, Any]]:
+    """The two halves of ``--train START:END`` as :func:`parse_time` reads them."""
+    start, end = _split_train(text)
+    return parse_time(start), parse_time(end)
 
 
 def check_train(text: str) -> None:

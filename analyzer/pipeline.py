@@ -49,11 +49,13 @@ from analyzer.diagnosis.oversampled import MEMORY_SAMPLES, oversampled_note
 from analyzer.diagnosis.stuck import frozen_notes, healthy_stats, relabel_frozen
 from analyzer.diagnosis.training_check import WindowNote, window_notes, window_warnings
 from analyzer.errors import (
+    LISTED,
     AnalyzerError,
     ConfigError,
     DetectorError,
     ReaderError,
     UsageError,
+    capped,
     one_line,
 )
 from analyzer.findings import Analysis, findings_document, input_digest, write_outputs
@@ -94,7 +96,8 @@ from analyzer.scratch import make_scratch, remove_scratch, scratch
 from analyzer.search_after import Stretch, found_after
 from analyzer.search_after import note as after_note
 from analyzer.search_after import stretches as after_stretches
-from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, dominant_rate
+from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
+from analyzer.store.copies import Copy, find_copies
 from analyzer.timeutil import iso_utc, plausible_epoch
 from analyzer.types import NS_PER_S
 
@@ -113,15 +116,39 @@ class ConstantNote(str):
         return note
 
 
+class CopyNote(str):
+    """The note naming the channels left out as copies of others (:mod:`analyzer.store.
+    copies`), with their ``names``."""
+
+    names: tuple[str, ...]
+
+    def __new__(cls, copies: Sequence[Copy]) -> CopyNote:
+        note = super().__new__(
+            cls,
+            "copies of another channel over the whole record (equal on every sample, or "
+            "an exact linear function of it: nothing the other does not carry, and "
+            "together they make the models singular), not analyzed: "
+            + ", ".join(f"{c.channel} {c.relation}" for c in copies)
+            + "; --channels naming them analyzes them",
+        )
+        note.names = tuple(c.channel for c in copies)
+        return note
+
+
 def _select(
     store: ChannelStore,
     patterns: list[str] | None,
     notes: list[str],
     relabelled: Sequence[str] = (),
+    drop_copies: bool = True,
 ) -> list[str]:
     """The channels to analyze: ``--channels``' (``patterns``), else every numeric one
-    that is not constant and whose meaning does not change between messages (names
-    starting with one of ``relabelled``: the readers say why in the inputs' errors)."""
+    that is not constant, whose meaning does not change between messages (names
+    starting with one of ``relabelled``: the readers say why in the inputs' errors) and,
+    with ``drop_copies``, that does not copy an earlier one over the whole record
+    (:func:`analyzer.store.copies.find_copies`: a note names them). Channels that
+    ``--channels`` names are all kept, copies too (a choice the user made; where the
+    copies make every detector's model singular the run is refused, naming them)."""
     infos = {i.name: i for i in store.infos()}
     if not infos:
         raise ReaderError("no numeric channel found in the input")
@@ -166,6 +193,12 @@ def _select(
                     + (", ..." if len(mixed) > 3 else "")
                     + "); name them with --channels to analyze them anyway"
                 )
+        if drop_copies and chosen:
+            copies = find_copies(store, chosen)
+            if copies:
+                notes.append(CopyNote(copies))
+                copied = {c.channel for c in copies}
+                chosen = [c for c in chosen if c not in copied]
     if not chosen and patterns:
         raise UsageError(
             f"--channels: every channel '{','.join(patterns)}' selects is constant or empty"
@@ -482,15 +515,17 @@ def _analyze(
         if progress:
             progress("read", 1.0)
         if not store.infos():
-            bad = "; ".join(e for i in archive.inputs for e in i.errors)
+            bad = capped([e for i in archive.inputs for e in i.errors], 3, "; ", "input errors")
             raise ReaderError(
-                f"{', '.join(str(i.path) for i in archive.inputs)}: no numeric channel found"
-                + (f" ({bad})" if bad else "")
+                f"{capped([str(i.path) for i in archive.inputs], 3, what='inputs')}: "
+                "no numeric channel found" + (f" ({bad})" if bad else "")
             )
         reused = options.model
         if reused is None:
             relabelled = [p for i in archive.inputs for p in i.relabelled]
-            chosen = _select(store, options.channels, notes, relabelled)
+            # (the config's groups and [model] name their channels: all are kept)
+            named = bool(options.config.groups) or options.config.model is not None
+            chosen = _select(store, options.channels, notes, relabelled, not named)
         else:
             chosen = model_channels(store, reused, options, notes)
         t0 = time.perf_counter()
@@ -526,7 +561,7 @@ def _analyze(
         notes.extend(_irregular_channels(infos, chosen))
         notes.extend(_upsampled(infos, chosen, aligned.rate_hz, options.rate))
         if reused is not None:
-            own = dominant_rate([i.rate_hz for i in infos if i.name in set(chosen)])
+            own = clock_rate([i for i in infos if i.name in set(chosen)])
             if own > 0 and abs(own - reused.rate_hz) > 0.01 * reused.rate_hz:
                 notes.append(
                     f"the channels run at {own:.6g} Hz and the model at {reused.rate_hz:.6g} "
@@ -1357,7 +1392,7 @@ def _training_window(
                 "tells)"
             )
     elif options.train is not None:
-        tr = parse_train(options.train, aligned.start_ns, duration, absolute)
+        tr = parse_train(options.train, aligned.start_ns, duration, absolute, notes)
     elif options.config.train is not None:
         tr = options.config.train
         if tr[0] >= duration:
@@ -1506,9 +1541,15 @@ def _varying_in_training(
         # (said first: no training window makes up for it, the realdata audit; detectors
         # named with --detectors say it themselves)
         left = [c for n in notes if isinstance(n, ConstantNote) for c in n.names]
+        copied = [c for n in notes if isinstance(n, CopyNote) for c in n.names]
         raise UsageError(
             f"one channel to analyze ({chosen[0]}): every detector estimates a sensor "
             "from the others and needs at least 2 channels (--channels chooses them)"
+            + (
+                f"; copies of another channel over the whole record not analyzed: {_few(copied)}"
+                if copied
+                else ""
+            )
             + (f"; constant or empty channels not analyzed: {_few(left)}" if left else "")
         )
     tv = np.asarray(values[train[0] : train[1]])
@@ -1596,21 +1637,25 @@ def _apart_in_training(
     gappy = [c for j, c in enumerate(chosen) if missing[j] > GAPPY_SHARE]
     if gappy and missing.min() <= GAPPY_SHARE / 5 and len(gappy) < m:
         # scattered losses: rows hold the channel, but few stretches hold its lags
-        shares = ", ".join(
-            f"{c} {100 * missing[j]:.0f} %" for j, c in enumerate(chosen) if c in gappy
+        shares = capped(
+            [f"{c} {100 * missing[j]:.0f} %" for j, c in enumerate(chosen) if c in gappy]
         )
+        leave = "'" + ",".join(f"!{c}" for c in gappy[:LISTED]) + "'"
+        if len(gappy) > LISTED:
+            leave = f"({leave} and {len(gappy) - LISTED} more)"
         return (
             f"; channels with samples missing in the training window ({shares}) leave the "
-            "models too few complete stretches: leave them out with --channels '"
-            + ",".join(f"!{c}" for c in gappy)
-            + "' or choose a --train where they are complete"
+            f"models too few complete stretches: leave them out with --channels {leave} "
+            "or choose a --train where they are complete"
         )
     if together >= MIN_TRAIN_ROWS or (present < MIN_TRAIN_ROWS).any():
         return ""
     t0 = train[0]
-    spans = ", ".join(
-        f"{c} {(t0 + first[j]) / rate_hz:.1f}-{(t0 + last[j] + 1) / rate_hz:.1f} s"
-        for j, c in enumerate(chosen)
+    spans = capped(
+        [
+            f"{c} {(t0 + first[j]) / rate_hz:.1f}-{(t0 + last[j] + 1) / rate_hz:.1f} s"
+            for j, c in enumerate(chosen)
+        ]
     )
     return (
         f"; in the training window only {together} row(s) hold every channel ({spans}): "
@@ -1652,7 +1697,8 @@ def _slow_clock(
 ) -> str:
     """A hint when some analyzed channels run at twice the common clock or faster (the
     clock is the rate most channels share, and 36 entries of a 1.4 Hz covariance matrix
-    outvoted a 27 Hz odometry): analyzing the fast ones alone, or at their rate, gives a
+    outvoted a 27 Hz odometry, before they lost their vote: :func:`analyzer.store.
+    clock_rate`): analyzing the fast ones alone, or at their rate, gives a
     window more samples. ``given``: the clock is ``--rate``'s. Empty otherwise."""
     wanted = set(chosen)
     rates = {i.name: i.rate_hz for i in infos if i.name in wanted}

@@ -15,7 +15,7 @@ import numpy.typing as npt
 from scipy import linalg
 
 from analyzer.diagnosis.streamed import ColumnMoments
-from analyzer.errors import DetectorError
+from analyzer.errors import LISTED, DetectorError, capped
 from analyzer.paging import finite_rows, release, row_blocks
 
 FloatArray = npt.NDArray[np.float64]
@@ -289,7 +289,7 @@ def _dependence(
             weight = np.abs(v[:, 0])
             found = [label[j] for j in np.flatnonzero(weight > 0.05 * weight.max())]
             return (
-                f"{', '.join(found)} are linearly dependent in the training window (one of "
+                f"{capped(found)} are linearly dependent in the training window (one of "
                 "them computed from the others, up to rounding?): leave one of them out, "
                 f"for example with --channels '!{found[-1]}'"
             )
@@ -299,7 +299,7 @@ def _dependence(
             found = [label[j] for j in sorted(piv[r:])]
             what = "is a linear combination" if m - r == 1 else "are linear combinations"
             return (
-                f"{', '.join(found)} {what} of the other channels in the training window "
+                f"{capped(found)} {what} of the other channels in the training window "
                 f"(duplicated or perfectly correlated sensors): {_leave_out(found)}"
             )
     if X is None:
@@ -311,15 +311,19 @@ def _dependence(
     found = [label[j] for j in sorted({int(c) % m for c in piv[rank:]})]
     verb = "follows" if len(found) == 1 else "follow"
     return (
-        f"{', '.join(found)} {verb} the other channels' past exactly in the training "
+        f"{capped(found)} {verb} the other channels' past exactly in the training "
         "window (a delayed copy, a difference or a running sum of another channel, or a "
         f"step signal): {_leave_out(found)}"
     )
 
 
 def _leave_out(names: list[str]) -> str:
-    """How to analyze without ``names``: the ``--channels`` exclusions that do it."""
-    return "leave them out with --channels '" + ",".join(f"!{n}" for n in names) + "'"
+    """How to analyze without ``names``: the ``--channels`` exclusions that do it (the
+    first :data:`~analyzer.errors.LISTED` of them and how many more, for a long list)."""
+    shown = "'" + ",".join(f"!{n}" for n in names[:LISTED]) + "'"
+    if len(names) > LISTED:
+        shown = f"({shown} and {len(names) - LISTED} more)"
+    return f"leave them out with --channels {shown}"
 
 
 MAX_SEGMENTS = 64

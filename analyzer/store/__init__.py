@@ -5,7 +5,15 @@ from analyzer.store.store import (
     AlignedSeries,
     ChannelInfo,
     ChannelStore,
+    clock_rate,
     dominant_rate,
 )
 
-__all__ = ["GAP_FACTOR", "AlignedSeries", "ChannelInfo", "ChannelStore", "dominant_rate"]
+__all__ = [
+    "GAP_FACTOR",
+    "AlignedSeries",
+    "ChannelInfo",
+    "ChannelStore",
+    "clock_rate",
+    "dominant_rate",
+]
