@@ -417,7 +417,7 @@ def _shaped_span(
         notes.append(f"corrected from the record's start (the fault was there at {ev.onset_s:g} s)")
         start = 0
     if method == "offset" and ev.end_s is not None and res is not None:
-        cut = _trimmed_stop(float(ev.magnitude["offset"]), res, start, stop, rate_hz)
+        cut = _trimmed_stop(_residual_offset(ev), res, start, stop, rate_hz)
         if cut < stop:
             notes.append(
                 f"ended at {cut / rate_hz:.4f} s, where the residual shows no offset (the "
@@ -427,12 +427,32 @@ def _shaped_span(
     return _Shaped(ev, j, method, start, stop, end_s, "; ".join(notes))
 
 
+def _residual_offset(ev: FaultLike) -> float:
+    """``ev``'s offset as its detector's residual reads it: the error functions' residual
+    reads an offset ``D`` of the sensor as ``D * dc_gain`` (the taps' sum, 0.0146 on an
+    accelerometer of Li et al.'s chain), while their event's offset is in the sensor's
+    units (:func:`analyzer.detectors.error_function._in_sensor_units`, which keeps
+    ``dc_gain`` in the event's evidence; a finding's leading event among its
+    ``events``); the other detectors' residuals read ``D``."""
+    offset = float(ev.magnitude["offset"])
+    for e in (ev, *getattr(ev, "events", ())):
+        evidence = getattr(e, "evidence", None) or {}
+        if (
+            "dc_gain" in evidence
+            and getattr(e, "detector", None) == ev.detector
+            and (getattr(e, "magnitude", None) or {}).get("offset") == offset
+        ):
+            return offset * float(evidence["dc_gain"])
+    return offset
+
+
 def _trimmed_stop(
     offset: float, res: npt.NDArray[Any], start: int, stop: int, rate_hz: float
 ) -> int:
     """Where an offset's correction over ``[start, stop)`` ends: ``stop``, or an earlier
     ``k`` (at most :data:`TRIM_WINDOW_S` before it, at least :data:`TRIM_MIN_S`) after
-    which the residual ``res`` fits "no offset" better than the offset: the least of the
+    which the residual ``res`` fits "no offset" better than the offset ``o`` (as ``res``
+    reads it: :func:`_residual_offset`): the least of the
     tail sums ``sum_{t >= k} r_t^2 - (r_t - o)^2 = sum (2 o r_t - o^2)`` (what the offset
     saves of the residual's sum of squares there), negative, and the residual's mean
     square over the tail under :data:`TRIM_SHARE` of ``o^2``. Missing residuals count for

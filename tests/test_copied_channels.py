@@ -145,3 +145,36 @@ def test_find_copies_with_gaps_and_sparse_channels(tmp_path):
     assert [f[0] for f in found] == ["b", "mirror", "twin"]
     assert found[0][1] == "= 3 a - 1" and found[2][1] == "= sparse"
     assert found[1][1].startswith("= -1 a ")
+
+
+def test_channels_flat_in_their_fingerprints_are_matched_by_their_sums(tmp_path, monkeypatch):
+    """Channels of rare events on one level, none a copy: each is looked up among the
+    earlier ones by its sums, not compared with every one of them (3000 such channels
+    took 16 s pair by pair, the square of their number); a twin is still found."""
+    from analyzer.readers.base import ChannelChunk
+    from analyzer.store import copies
+
+    compared = [0]
+
+    class Counted(tuple):
+        __hash__ = tuple.__hash__
+
+        def __eq__(self, other):
+            compared[0] += 1
+            return tuple.__eq__(self, other)
+
+    real = copies._sums
+    monkeypatch.setattr(copies, "_sums", lambda store, info: Counted(real(store, info)))
+    n, k = 2000, 200
+    t = np.arange(n, dtype=np.int64) * 10**7
+    columns = {}
+    for c in range(k):
+        v = np.zeros(n)
+        v[1 + c] = 1.0  # (off the fingerprint's rows)
+        columns[f"e{c:03d}"] = v
+    columns["twin"] = columns["e007"].copy()
+    chunks = [ChannelChunk(name, t, v) for name, v in columns.items()]
+    with ChannelStore.from_chunks(chunks, tmp_path / "st") as store:
+        found = find_copies(store, store.names)
+    assert [(c.channel, c.of) for c in found] == [("twin", "e007")]
+    assert compared[0] < 2 * k, compared[0]

@@ -302,6 +302,41 @@ def test_an_offset_correction_ends_where_its_residual_does():
     assert rec["samples"] == n - 12000 and rec["end_s"] is None
 
 
+def test_an_error_function_offset_is_trimmed_on_its_residuals_reading():
+    """The error functions' residual reads an offset ``D`` as ``D * dc_gain`` (the taps'
+    sum: 0.0146 on an accelerometer of the paper's chain), and their event's offset is in
+    the sensor's units (``evidence["dc_gain"]``): the residual, which holds the fault to
+    its end, is weighed against what it reads, not against the sensor's offset (which
+    "no offset" fit better: the whole correction was cut, ``samples`` 0). Merged into a
+    finding, the leading event's evidence says the same."""
+    from analyzer.diagnosis.merge import merge_events
+
+    rng = np.random.default_rng(0)
+    n, rate, dc, off = 12000, 100.0, 0.0146, 0.8
+    y = rng.standard_normal((n, 1))
+    y[3000:9000, 0] += off
+    res = 0.001 * rng.standard_normal(n)
+    res[3000:9000] += dc * off
+    ev = Event(
+        "s",
+        30.0,
+        90.0,
+        FaultType.ADDITIVE,
+        {"offset": off},
+        0.9,
+        "error_function",
+        evidence={"residual_magnitude": {"offset": dc * off}, "dc_gain": dc},
+    )
+    for given in ([ev], merge_events([ev])):
+        out, (rec,) = corrected_values(y, ["s"], rate, given, {("error_function", "s"): res})
+        assert rec["samples"] == 6000 and rec["end_s"] == 90.0 and rec["note"] == ""
+        assert np.allclose(out[3000:9000, 0], y[3000:9000, 0] - off)
+    # its residual gone 2 s before the finding's end: the correction ends there
+    res[8800:9000] -= dc * off
+    out, (rec,) = corrected_values(y, ["s"], rate, [ev], {("error_function", "s"): res})
+    assert rec["end_s"] == pytest.approx(88.0) and rec["samples"] == 5800
+
+
 @pytest.mark.parametrize("detector", ["ar_kalman_bank", "detection_filter", "equivalent_model"])
 def test_a_detector_estimates_again_as_it_ran(building, detector):
     """A detector's ``estimate`` over a span after its warm-up gives the run's

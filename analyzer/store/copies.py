@@ -116,26 +116,35 @@ def _copies_in(store: ChannelStore, group: list[ChannelInfo]) -> list[Copy]:
     unit = np.divide(centred, norm, out=np.zeros_like(centred), where=norm > 0)
     flat = norm == 0
     is_kept = np.zeros(len(group), dtype=bool)
-    summed: dict[int, Sums] = {}
-
-    def sums(k: int) -> Sums:
-        if k not in summed:
-            summed[k] = _sums(store, group[k])
-        return summed[k]
+    # the kept channels flat in their fingerprints, by their sums: a flat channel is looked
+    # up by its own, not compared with every earlier one (3000 such channels took 16 s
+    # pair by pair); the first one's sums are computed when a second one comes
+    flat_kept: dict[Sums, list[int]] = {}
+    unsummed: list[int] = []
 
     copies: list[Copy] = []
     for j0 in range(0, len(group), COSINE_BLOCK):
         j1 = min(len(group), j0 + COSINE_BLOCK)
         cosine = np.abs(unit[:, :j1].T @ unit[:, j0:j1])  # (j1, j1 - j0): earlier x these
         for j in range(j0, j1):
-            near = (cosine[:j, j - j0] >= CANDIDATE_COSINE) & ~flat[:j] & ~flat[j]
-            both_flat = flat[:j] & flat[j]
+            key: Sums | None = None
+            candidates: list[int] = []
+            if flat[j]:
+                # flat in the fingerprint (rare events on one level): a copy only to the
+                # bit, of a kept flat channel whose sums are the same to the bit
+                if flat_kept or unsummed:
+                    for i in unsummed:
+                        flat_kept.setdefault(_sums(store, group[i]), []).append(i)
+                    unsummed.clear()
+                    key = _sums(store, group[j])
+                    candidates = list(flat_kept.get(key, ()))
+            else:
+                near = (cosine[:j, j - j0] >= CANDIDATE_COSINE) & ~flat[:j]
+                candidates = [int(i) for i in np.flatnonzero(near & is_kept[:j])]
             match = None
-            for i in map(int, np.flatnonzero((near | both_flat) & is_kept[:j])):
+            for i in candidates:
                 if flat[j]:
-                    # flat in the fingerprint (rare events on one level): a copy to the bit,
-                    # whose sums are the same to the bit, before any sample-by-sample check
-                    lines = [(1.0, 0.0)] if sums(i) == sums(j) else []
+                    lines = [(1.0, 0.0)]
                 else:
                     # equal (or of opposite sign) up to rounding before a fitted line, which
                     # would be 1 + 1e-15 with a shift of 1e-17
@@ -156,10 +165,15 @@ def _copies_in(store: ChannelStore, group: list[ChannelInfo]) -> list[Copy]:
                 if line is not None:
                     match = Copy(group[j].name, group[i].name, *line)
                     break
-            if match is None:
-                is_kept[j] = True
-            else:
+            if match is not None:
                 copies.append(match)
+                continue
+            is_kept[j] = True
+            if flat[j]:
+                if key is None:
+                    unsummed.append(j)
+                else:
+                    flat_kept.setdefault(key, []).append(j)
     return copies
 
 
