@@ -116,6 +116,11 @@ class ConstantNote(str):
         return note
 
 
+COPIES_LISTED = 20
+"""Copies the note names one by one (the rest counted: a 1000-channel record of copies
+made a note of 37 kB; the review)."""
+
+
 class CopyNote(str):
     """The note naming the channels left out as copies of others (:mod:`analyzer.store.
     copies`), with their ``names``."""
@@ -128,7 +133,7 @@ class CopyNote(str):
             "copies of another channel over the whole record (equal on every sample, or "
             "an exact linear function of it: nothing the other does not carry, and "
             "together they make the models singular), not analyzed: "
-            + ", ".join(f"{c.channel} {c.relation}" for c in copies)
+            + capped([f"{c.channel} {c.relation}" for c in copies], COPIES_LISTED, what="copies")
             + "; --channels naming them analyzes them",
         )
         note.names = tuple(c.channel for c in copies)

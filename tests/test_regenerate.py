@@ -461,3 +461,32 @@ def test_fitted_estimates_find_each_channels_group():
     assert est("d", "a") is None and est("plain", "b") is None and est("nope", "b") is None
     warm, f = est("error_function", "a")  # (one run on every channel)
     assert np.array_equal(f(rows, 2), 100.0 * rows[2:, 0])
+
+
+def test_an_other_fault_of_the_detection_filter_keeps_its_residual_beside_a_neighbour():
+    """The detection filter's residual is a fault estimate of its own, not the reading
+    less its estimate: its ``other`` fault is corrected by the residual whether or not
+    another channel's fault is near (the review: a neighbour's offset of size 0 nearby
+    switched the correction to the estimate computed again, up to 0.17 sd apart)."""
+    from analyzer.detector_runs import fitted_estimates
+    from analyzer.detectors import detector_class
+    from analyzer.detectors.base import Dataset, Event, RunContext
+    from analyzer.regenerate import result_signals
+    from analyzer.simulate import simulate_building
+    from analyzer.types import FaultType
+
+    t, Y, names = simulate_building(4, 120.0, 100.0, seed=1)
+    det = detector_class("detection_filter")()
+    ctx = RunContext()
+    ds = Dataset(Y, tuple(names), 100.0, (0, 2000))
+    model = det.fit(ds, ctx)
+    res, ref = result_signals([det.run(model, ds, ctx)])
+    est = fitted_estimates({"": {"detection_filter": (det, model)}}, [tuple(names)], names)
+    other = Event("s1", 60.0, 80.0, FaultType.OTHER, {}, 0.9, "detection_filter")
+    outs = []
+    for onset, end in ((100.0, 110.0), (70.0, 90.0)):  # the neighbour far, then near
+        near = Event("s2", onset, end, FaultType.ADDITIVE, {"offset": 0.0}, 0.5, "detection_filter")
+        out, records = corrected_values(Y, names, 100.0, [other, near], res, ref, None, None, est)
+        assert records[0]["method"] == "residual" and "again" not in records[0]["note"]
+        outs.append(out[6000:8000, 1])
+    assert np.array_equal(outs[0], outs[1])

@@ -700,7 +700,10 @@ class DetectionFilter:
         with those onsets (``until``: :func:`~analyzer.diagnosis.events.first_bound`) and
         each reported event takes the refitted one of its first alarm's shape, onset and
         magnitude (its end stays the whole stretch's). Only filters with such an event
-        are searched again (two sensors' faults at once: rare)."""
+        are searched again: two sensors' faults at once, but also one fault whose own
+        trace alarmed another filter a part's length into it (a gain of 1.5 alone is
+        then fitted on its first part: 1.4991 -> 1.4999; the second search cost 0.02 s
+        against the first's 0.3 s in the review's runs)."""
         onsets = sorted(
             {(int(round(ev.onset_s * rate)), j) for j, (evs, _) in enumerate(found) for ev in evs}
         )
