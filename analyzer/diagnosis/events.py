@@ -128,7 +128,14 @@ def events_from_residual(
             bound = first_bound(until, iv.onset, cal, rate_hz)
             if bound is not None and bound < covered and cls.type is not FaultType.OTHER:
                 cls = _before_other(
-                    residual, reference, cal, iv.onset, bound, cls, rate_hz, tau_corr, shape_slope
+                    residual,
+                    reference,
+                    cal,
+                    (iv.onset, bound, covered),
+                    cls,
+                    rate_hz,
+                    tau_corr,
+                    shape_slope,
                 )
             onset_s, factor, extra = bounded_onset(iv.onset, cls, rate_hz, search_start)
             if iv is not first:  # (its onset is the change's: no earlier)
@@ -197,17 +204,22 @@ def _before_other(
     residual: FloatArray,
     reference: FloatArray | None,
     cal: Calibration,
-    onset: int,
-    bound: int,
+    span: tuple[int, int, int],
     cls: Classification,
     rate_hz: float,
     tau_corr: float,
     slope: ReferenceSlope | None,
 ) -> Classification:
-    """``cls`` refitted on its fault's stretch before ``bound``, where another sensor's
-    fault begins (``events_from_residual``'s ``until``): the shape, its size and the
-    onset it traces back to, when that part has a shape (the end stays the one the
-    whole stretch gave: :func:`diagnose_interval`)."""
+    """``cls``, the shape fitted on a fault's stretch ``onset .. stop`` (``span``: onset,
+    bound, stop), or the shape fitted before ``bound``, where another sensor's fault
+    begins (``events_from_residual``'s ``until``), when that part has a shape and what
+    it leaves steps at the bound: the other fault's trace, a level the long alarm window
+    tells (:func:`_stepped`). Without a step there the bound was no other fault's (a
+    fault's own trace in another filter's residual, say) and the whole stretch's fit,
+    the longer one, stands (a single drift fitted on its first part only was traced
+    4.9 s early). The end stays the one the whole stretch gave
+    (:func:`diagnose_interval`)."""
+    onset, bound, _ = span
     seg_ref = None if reference is None else np.asarray(reference[onset:bound], dtype=np.float64)
     part = classify(
         np.asarray(residual[onset:bound], dtype=np.float64),
@@ -218,7 +230,41 @@ def _before_other(
         shift=cal.mean,
         slope=slope,
     )
-    return part if part.type is not FaultType.OTHER and part.weighed else cls
+    if part.type is FaultType.OTHER or not part.weighed:
+        return cls
+    return part if _stepped(residual, reference, cal, span, part, rate_hz, slope) else cls
+
+
+def _stepped(
+    residual: FloatArray,
+    reference: FloatArray | None,
+    cal: Calibration,
+    span: tuple[int, int, int],
+    part: Classification,
+    rate_hz: float,
+    slope: ReferenceSlope | None,
+) -> bool:
+    """Whether what ``part``'s shape (fitted on ``onset .. bound``) leaves of the residual
+    steps at ``bound``: its mean over as long a stretch after the bound as before it
+    (at most to ``stop``) differs from its mean before by the long alarm window's
+    threshold (the change :func:`_change_point` tells)."""
+    onset, bound, stop = span
+    length = min(bound - onset, stop - bound)
+    if length < cal.long_window:
+        return False
+    hi = bound + length
+    ref = None if reference is None else np.asarray(reference[onset:hi], dtype=np.float64)
+    shape = part.fault_signal(np.arange(hi - onset) / rate_hz, ref)
+    if shape is None:
+        return False
+    left = np.asarray(residual[onset:hi], dtype=np.float64) - cal.mean - shape
+    if slope is not None and slope.slope and ref is not None:
+        left = left - slope.slope * (ref - slope.level)
+    before, after = left[: bound - onset], left[bound - onset :]
+    if not (np.isfinite(before).any() and np.isfinite(after).any()):
+        return False
+    gap = float(np.nanmean(after) - np.nanmean(before))
+    return abs(gap) >= cal.z_crit * cal.mean_sd[-1] * cal.std
 
 
 def first_bound(until: Sequence[int], onset: int, cal: Calibration, rate_hz: float) -> int | None:

@@ -23,12 +23,13 @@ N = 30_000
 
 def _drift_under_a_step(seed: int) -> tuple[np.ndarray, np.ndarray]:
     """A coloured residual with a drift of 0.02 a second from 100 to 200 s, and another
-    fault's trace (-0.3) from 150 to 250 s."""
+    fault's trace (-0.45, above the long window's threshold of about 0.23) from 150 to
+    250 s."""
     rng = np.random.default_rng(seed)
     reference = lfilter([1.0], [1.0, -0.99], rng.standard_normal(N))
     r = lfilter([1.0], [1.0, -0.5], rng.standard_normal(N)) * 0.3
     r[10_000:20_000] += 0.02 * np.arange(10_000) / RATE
-    r[15_000:25_000] -= 0.3
+    r[15_000:25_000] -= 0.45
     return r, reference
 
 
@@ -60,6 +61,35 @@ def test_a_drift_is_fitted_before_the_other_fault_begins(seed):
     assert fitted.type.value == "drift" and abs(fitted.onset_s - 100.0) < 2.5
     assert fitted.magnitude["rate_per_s"] == pytest.approx(0.02, rel=0.1)
     assert fitted.end_s == bent.end_s == pytest.approx(200.0, abs=0.5)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_a_bound_without_a_step_leaves_the_whole_fit(seed):
+    """A bound where the residual does not step (a fault's own trace in another filter's
+    residual) leaves the fit over the whole stretch, the longer one: a single drift's
+    onset fitted on its first part only was 4.9 s early (``sweep_corrected.py``,
+    ``drift-half-ends`` seed 6)."""
+    r, reference = _drift_under_a_step(seed)
+    r[15_000:25_000] += 0.45  # the drift alone
+    cal = calibrate(r[:6000], 25)
+    found = [
+        events_from_residual(
+            "c",
+            r,
+            reference,
+            cal,
+            RATE,
+            "d",
+            search_start=6000,
+            healthy_start=0,
+            split=True,
+            until=until,
+        )
+        for until in ((), (15_000,))
+    ]
+    assert [(e.type, e.onset_s, e.magnitude) for e in found[0]] == [
+        (e.type, e.onset_s, e.magnitude) for e in found[1]
+    ]
 
 
 def test_an_onset_too_close_after_does_not_bound_the_fit():
