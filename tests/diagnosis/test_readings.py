@@ -203,3 +203,13 @@ def test_a_real_fault_the_equivalent_model_alone_reports_stays(tmp_path, case, f
     assert f.evidence["detectors"] == ["equivalent_model"]
     for c in f.evidence["readings"].values():
         assert c["beta"] > 0.8
+    # findings.json's schema describes the evidence
+    from jsonschema import Draft202012Validator
+
+    from analyzer.schema import findings_schema
+
+    schema = findings_schema()
+    evidence = {"$defs": schema["$defs"], "$ref": "#/$defs/evidence"}
+    Draft202012Validator(evidence).validate(
+        {k: v for k, v in f.evidence.items() if k in ("detectors", "tests", "readings")}
+    )
