@@ -46,6 +46,7 @@ from analyzer.diagnosis.evidence import (
 from analyzer.diagnosis.levels import excursions, level_note, response_levels
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.oversampled import MEMORY_SAMPLES, oversampled_note
+from analyzer.diagnosis.readings import refuted_by_readings
 from analyzer.diagnosis.stuck import frozen_notes, healthy_stats, relabel_frozen
 from analyzer.diagnosis.training_check import WindowNote, window_notes, window_warnings
 from analyzer.errors import (
@@ -1235,7 +1236,9 @@ def _diagnose(
     """The findings of the detectors' results and the notes that go with them: one finding
     per fault, one fault at a time among the sensors a detector models together (as the
     seed methods isolate them), a frozen sensor told by its readings rather than by the
-    residual's shape, and (``--model``) the faults already there when the search began.
+    residual's shape, a lone equivalent-model fault that the sensor's reading residuals
+    do not carry refused (:mod:`analyzer.diagnosis.readings`), and (``--model``) the
+    faults already there when the search began.
     The channels the config names as measured inputs (``excitation``: a force, a ground
     acceleration) are not sensors under test: what a detector that models them as
     channels (the bank, an AR detection filter) saw on them is a note, not a finding.
@@ -1268,6 +1271,11 @@ def _diagnose(
     # which fault was under way when (a dead sensor's first alarms can come seconds late)
     # (the notes of those it keeps: a finding taken for another's fault has none)
     frozen = frozen_notes(findings, values, chosen, rate_hz, healthy, train[1])
+    # a lone equivalent-model fault that the residuals taking its sensor's reading in do
+    # not carry: the relation's error under a change of the response, not the reading's
+    if reused is None:
+        findings, refuted = refuted_by_readings(findings, results, values, chosen, train, rate_hz)
+        notes.extend(refuted)
     findings.sort(key=lambda f: (f.onset_s, f.channel))
     findings, conflicts = one_fault_at_a_time(findings, coupled(results))
     notes.extend(conflicts)

@@ -1,0 +1,252 @@
+"""Is a lone equivalent-model fault in the sensor's reading? The other detectors' residuals
+of the same sensor say.
+
+A sensor's fault is in its reading, and a fault in a reading reaches, in full, every
+residual that compares that reading with an estimate made without it: the AR bank's
+residual of sensor ``c`` is ``y_c`` minus the estimate of the Kalman estimator that leaves
+``c`` out (Chang et al. 2017), and the detection filter's is its estimate of a fault in
+``c``'s output direction (Park et al. 1994), both in ``c``'s units. The equivalent
+model's residual of ``c`` is the error of ``c``'s relation to its assistant sensors
+(Wang & Song 2014, Eq. 30), which grows with the structure's response wherever that
+relation is not exact: when the excitation changes level or colour (a machine's sine at a
+mode, narrowband load) it grows on one sensor more than on the others, and the network's
+law 0 names that sensor. The fitted shape is then mostly a small gain (the relation's
+error is proportional to the response), a fault the sensor's reading does not hold: on
+``benchmarks/sweep_eov.py`` (healthy sensors, the load changing from 60 % of the record)
+the five false findings, all the equivalent model's alone (gains of 0.87-0.98 and one
+``other``), had the bank's residual of the same sensor over the same stretch carry
+-0.92 to +0.01 of the fitted fault (standard errors 0.001-0.08), the detection filter's
+-0.48 to +0.01, while the equivalent model's own lone findings of a real fault (a 2-sd
+offset, a drift: ``--fault``) were carried at 0.95-1.07 and 0.92-1.06.
+
+The test (:func:`refuted_by_readings`), for each finding that rests on the equivalent
+model alone: its fault signal ``x`` over its stretch (the fitted shape, from the
+equivalent model's magnitude: an offset ``D``, a drift ``r (t - t0)``, a gain ``a`` as
+``(1 - 1/a) y`` of the reading ``y``, since ``y = a y_true``; for an ``other`` fault,
+the equivalent model's residual itself less its healthy mean, whose healthy noise energy
+is taken out of the fit's denominator: errors in the regressor would otherwise pull the
+ratio towards zero), and each reading residual ``z`` less its healthy mean, regressed on
+it through the origin: ``beta = sum x z / sum x^2``, with its standard error from the
+stretch's scatter about the fit and the residual's healthy correlation time
+(:func:`~analyzer.diagnosis.classify.correlation_time`). A sensor's fault gives
+``beta`` near 1. The finding is refused (a note says why) when every reading residual
+of the sensor that the run has (the bank's and the detection filter's, at least one)
+carries less than :data:`CARRIED` of it at :data:`SIGMAS` standard errors: ``beta +
+SIGMAS se < CARRIED``.
+
+Another fault under way reaches the bank's and the filter's residuals of ``c`` through
+the estimates (they take that sensor in): a finding that begins while another detector's
+finding lasts is not judged, and one judged is judged up to the onset of the next such
+finding. A frozen or clipped sensor is told by its readings (``stuck.py``,
+``clipping.py``): not judged here either.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from analyzer.detectors.base import DetectorResult
+from analyzer.diagnosis.changes import default_window
+from analyzer.diagnosis.classify import correlation_time
+from analyzer.diagnosis.evidence import settled
+from analyzer.diagnosis.merge import Finding
+from analyzer.types import FaultType
+
+FloatArray = npt.NDArray[np.float64]
+
+JUDGED_DETECTOR = "equivalent_model"
+"""The detector whose lone findings are judged."""
+
+READING_RESIDUALS = ("ar_kalman_bank", "detection_filter")
+"""The detectors whose residual of a sensor carries a fault of its reading in full (module
+docstring)."""
+
+CARRIED = 0.5
+"""A reading residual refutes a fault when it carries less than this share of it."""
+
+SIGMAS = 3.0
+"""Standard errors the share must lie below :data:`CARRIED` by."""
+
+PIECE = 1 << 20
+"""Rows read at a time from the residuals (a lone fault may last for days)."""
+
+READ_BY_READINGS = ("frozen", "clipped")
+"""Evidence keys of findings told from the readings themselves (not judged here)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Carried:
+    """What one reading residual carries of a fault: ``beta`` (1 for the sensor's fault)
+    and its standard error ``se``, over ``samples`` rows."""
+
+    detector: str
+    beta: float
+    se: float
+    samples: int
+
+    @property
+    def refutes(self) -> bool:
+        return self.beta + SIGMAS * self.se < CARRIED
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"beta": self.beta, "se": self.se, "samples": self.samples}
+
+
+def _lone(f: Finding) -> bool:
+    return list(f.evidence.get("detectors") or [f.detector]) == [JUDGED_DETECTOR]
+
+
+def _read_by_readings(f: Finding) -> bool:
+    return any(k in f.evidence for k in READ_BY_READINGS) or any(
+        k.startswith("clipped") or k == "stuck_at" for k in f.magnitude
+    )
+
+
+def _stretch(f: Finding, others: Sequence[Finding], n: int, rate_hz: float) -> tuple[int, int]:
+    """The rows of ``f`` clear of the other findings (empty when one is under way at its
+    onset)."""
+    a = max(0, int(round(f.onset_s * rate_hz)))
+    b = n if f.end_s is None else min(n, int(round(f.end_s * rate_hz)) + 1)
+    for g in others:
+        if g.onset_s <= f.onset_s and (g.end_s is None or g.end_s > f.onset_s):
+            return a, a
+        if f.onset_s < g.onset_s:
+            b = min(b, int(round(g.onset_s * rate_hz)))
+    return a, max(a, b)
+
+
+def _healthy(z: npt.NDArray[Any], train: tuple[int, int]) -> tuple[float, float, float] | None:
+    """Mean, standard deviation and correlation time of the healthy residual ``z``."""
+    h = np.asarray(z[settled(train) : train[1]], dtype=np.float64)
+    h = h[np.isfinite(h)]
+    if h.size < 8:
+        return None
+    mean = float(h.mean())
+    return mean, float(h.std()), correlation_time(h - mean)
+
+
+def _signal(
+    f: Finding,
+    a: int,
+    b: int,
+    reading: npt.NDArray[Any],
+    own: npt.NDArray[Any],
+    own_mean: float,
+    rate_hz: float,
+) -> FloatArray | None:
+    """The fault signal of ``f`` on rows ``a:b`` (module docstring), or None when its
+    fitted shape lacks the magnitude it needs."""
+    m = f.magnitude
+    if f.type is FaultType.ADDITIVE and "offset" in m:
+        return np.full(b - a, float(m["offset"]))
+    if f.type is FaultType.DRIFT and "rate_per_s" in m:
+        return float(m["rate_per_s"]) * (np.arange(a, b) / rate_hz - f.onset_s)
+    if f.type is FaultType.MULTIPLICATIVE and m.get("gain"):
+        return (1.0 - 1.0 / float(m["gain"])) * np.asarray(reading[a:b], dtype=np.float64)
+    if f.type is FaultType.OTHER:
+        return np.asarray(own[a:b], dtype=np.float64) - own_mean
+    return None
+
+
+def carried(
+    f: Finding,
+    results: Sequence[DetectorResult],
+    values: npt.NDArray[Any],
+    column: int,
+    rows: tuple[int, int],
+    train: tuple[int, int],
+    rate_hz: float,
+) -> list[Carried]:
+    """How much of ``f``'s fault signal each reading residual of its sensor carries over
+    ``rows`` (module docstring); empty when no reading residual can say."""
+    a, b = rows
+    by = {r.detector: r for r in results if f.channel in r.residuals}
+    own = by.get(JUDGED_DETECTOR)
+    if own is None or b - a < default_window(rate_hz):
+        return []
+    own_healthy = _healthy(own.residuals[f.channel], train)
+    if own_healthy is None:
+        return []
+    out: list[Carried] = []
+    for name in READING_RESIDUALS:
+        r = by.get(name)
+        if r is None:
+            continue
+        z = r.residuals[f.channel]
+        healthy = _healthy(z, train)
+        if healthy is None:
+            continue
+        mean, _, tau = healthy
+        sxx = sxz = szz = 0.0
+        count = 0
+        for p in range(a, b, PIECE):
+            q = min(b, p + PIECE)
+            x = _signal(
+                f, p, q, values[:, column], own.residuals[f.channel], own_healthy[0], rate_hz
+            )
+            if x is None:
+                return []
+            zz = np.asarray(z[p:q], dtype=np.float64) - mean
+            ok = np.isfinite(x) & np.isfinite(zz)
+            x, zz = x[ok], zz[ok]
+            sxx += float(x @ x)
+            sxz += float(x @ zz)
+            szz += float(zz @ zz)
+            count += int(ok.sum())
+        signal = sxx
+        if f.type is FaultType.OTHER:  # the regressor's own healthy noise (errors in x)
+            signal -= count * own_healthy[1] ** 2
+        if count < default_window(rate_hz) or not signal > 0.0:
+            continue
+        beta = sxz / signal
+        # the stretch's scatter about the fit
+        scatter = max(0.0, szz - 2.0 * beta * sxz + beta * beta * sxx) / max(1, count - 1)
+        se = float(np.sqrt(scatter * tau / signal))
+        out.append(Carried(name, float(beta), se, count))
+    return out
+
+
+def refuted_by_readings(
+    findings: Sequence[Finding],
+    results: Sequence[DetectorResult],
+    values: npt.NDArray[Any],
+    channels: Sequence[str],
+    train: tuple[int, int],
+    rate_hz: float,
+) -> tuple[list[Finding], list[str]]:
+    """``findings`` less those that rest on the equivalent model alone and whose fault
+    the reading residuals of their sensor do not carry (module docstring), and a note for
+    each. Judged findings keep what each reading residual carried in their evidence
+    (``readings``). ``values``: the aligned matrix (rows x ``channels``); ``train``: the
+    healthy window's rows."""
+    index = {c: k for k, c in enumerate(channels)}
+    n = int(values.shape[0])
+    kept: list[Finding] = []
+    notes: list[str] = []
+    others = [f for f in findings if not _lone(f)]
+    for f in findings:
+        if not _lone(f) or _read_by_readings(f) or f.channel not in index:
+            kept.append(f)
+            continue
+        rows = _stretch(f, [g for g in others if g.channel != f.channel], n, rate_hz)
+        said = carried(f, results, values, index[f.channel], rows, train, rate_hz)
+        if said:
+            f.evidence["readings"] = {c.detector: c.as_dict() for c in said}
+        if not said or not all(c.refutes for c in said):
+            kept.append(f)
+            continue
+        shares = ", ".join(f"{c.detector}'s {c.beta:+.2f} +- {c.se:.2f}" for c in said)
+        notes.append(
+            f"{JUDGED_DETECTOR}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
+            f"reported: the residuals of {f.channel} that take its reading in against an "
+            f"estimate made without it carry too little of it ({shares} of the fault, "
+            f"{rows[0] / rate_hz:.1f}-{rows[1] / rate_hz:.1f} s; a fault of the reading "
+            "gives 1): its equivalent model's relation changed with the response (a change "
+            "of the excitation or the structure), not the sensor"
+        )
+    return kept, notes

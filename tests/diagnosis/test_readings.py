@@ -1,0 +1,215 @@
+"""A lone equivalent-model fault that the sensor's reading does not hold
+(``analyzer.diagnosis.readings``).
+
+``benchmarks/sweep_eov.py`` (healthy sensors, the load changing from 60 % of the record)
+had five runs with a finding, each a lone equivalent-model fault (gains of 0.87-0.98 from
+near the record's end, one ``other`` from the change): the relation's error under the new
+response, while the bank's and the detection filter's residuals of the same sensor, which
+take its reading in against an estimate made without it, carried none of it."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from analyzer.detectors.base import DetectorResult
+from analyzer.diagnosis.merge import Finding
+from analyzer.diagnosis.readings import CARRIED, SIGMAS, carried, refuted_by_readings
+from analyzer.pipeline import RunOptions, analyze
+from analyzer.types import FaultType
+from analyzer.writers import write_archive
+
+SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "sweep_eov.py"
+if "sweep_eov" not in sys.modules:  # (its dataclasses look their module up there)
+    _spec = importlib.util.spec_from_file_location("sweep_eov", SCRIPT)
+    assert _spec is not None and _spec.loader is not None
+    _module = importlib.util.module_from_spec(_spec)
+    sys.modules["sweep_eov"] = _module
+    _spec.loader.exec_module(_module)
+sweep = sys.modules["sweep_eov"]
+
+RATE = 100.0
+N = 60_000
+TRAIN = (0, 12_000)
+ONSET = 40_000
+
+
+def _reading(seed: int) -> np.ndarray:
+    """A vibrating reading: a 1.5 Hz oscillation with random phase drift."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(N) / RATE
+    return np.sin(2 * np.pi * 1.5 * t + np.cumsum(rng.normal(0, 0.02, N))) * 3.0
+
+
+def _results(
+    y: np.ndarray, gain: float, carries: dict[str, bool], seed: int = 0
+) -> list[DetectorResult]:
+    """Each detector's residual of s0: healthy noise, plus the gain's fault signal from
+    ONSET in the equivalent model's and in those ``carries`` says carry it."""
+    rng = np.random.default_rng(seed + 1)
+    fault = np.zeros(N)
+    fault[ONSET:] = (1.0 - 1.0 / gain) * y[ONSET:]
+    out = []
+    for name, carry in {"equivalent_model": True, **carries}.items():
+        z = rng.normal(0.0, 0.1, N) + (fault if carry else 0.0)
+        out.append(DetectorResult(name, ("s0",), {}, [], {"s0": z}, {"s0": y}))
+    return out
+
+
+def _lone(kind: FaultType, magnitude: dict[str, float], detectors=("equivalent_model",)):
+    return Finding(
+        "s0",
+        kind,
+        ONSET / RATE,
+        None,
+        magnitude,
+        0.75,
+        detectors[0],
+        {"detectors": list(detectors), "tests": {}},
+    )
+
+
+def test_a_gain_no_reading_residual_carries_is_refused():
+    y = _reading(0)
+    results = _results(y, 0.95, {"ar_kalman_bank": False, "detection_filter": False})
+    f = _lone(FaultType.MULTIPLICATIVE, {"gain": 0.95})
+    kept, notes = refuted_by_readings([f], results, y[:, None], ["s0"], TRAIN, RATE)
+    assert kept == []
+    (note,) = notes
+    assert note.startswith("equivalent_model's multiplicative fault on s0 at 400.000 s not")
+    assert "ar_kalman_bank's" in note and "detection_filter's" in note
+    said = carried(f, results, y[:, None], 0, (ONSET, N), TRAIN, RATE)
+    assert [c.detector for c in said] == ["ar_kalman_bank", "detection_filter"]
+    for c in said:
+        assert abs(c.beta) < 0.1 and c.refutes
+        assert c.beta + SIGMAS * c.se < CARRIED
+
+
+def test_a_gain_the_bank_carries_stays():
+    y = _reading(1)
+    results = _results(y, 0.95, {"ar_kalman_bank": True, "detection_filter": True})
+    f = _lone(FaultType.MULTIPLICATIVE, {"gain": 0.95})
+    kept, notes = refuted_by_readings([f], results, y[:, None], ["s0"], TRAIN, RATE)
+    assert kept == [f] and notes == []
+    for c in f.evidence["readings"].values():
+        assert c["beta"] == pytest.approx(1.0, abs=0.1)
+
+
+def test_one_reading_residual_that_carries_it_keeps_it():
+    y = _reading(2)
+    results = _results(y, 0.95, {"ar_kalman_bank": True, "detection_filter": False})
+    f = _lone(FaultType.MULTIPLICATIVE, {"gain": 0.95})
+    kept, _ = refuted_by_readings([f], results, y[:, None], ["s0"], TRAIN, RATE)
+    assert kept == [f]
+    assert f.evidence["readings"]["detection_filter"]["beta"] == pytest.approx(0.0, abs=0.1)
+
+
+@pytest.mark.parametrize("carry", [False, True])
+def test_an_offset_and_a_drift_and_an_other_fault(carry):
+    y = _reading(3)
+    rng = np.random.default_rng(7)
+    t = np.arange(N) / RATE
+    shapes = {
+        FaultType.ADDITIVE: ({"offset": 0.5}, np.where(t >= ONSET / RATE, 0.5, 0.0)),
+        FaultType.DRIFT: ({"rate_per_s": 0.01}, np.maximum(0.0, t - ONSET / RATE) * 0.01),
+        # a burst of noise: the equivalent model's residual is its only trace
+        FaultType.OTHER: (
+            {"rms": 1.0},
+            np.where(t >= ONSET / RATE, 1.0, 0.0) * rng.normal(0, 1, N),
+        ),
+    }
+    for kind, (magnitude, signal) in shapes.items():
+        em = rng.normal(0, 0.1, N) + signal
+        bank = rng.normal(0, 0.1, N) + (signal if carry else 0.0)
+        results = [
+            DetectorResult("equivalent_model", ("s0",), {}, [], {"s0": em}),
+            DetectorResult("ar_kalman_bank", ("s0",), {}, [], {"s0": bank}),
+        ]
+        f = _lone(kind, magnitude)
+        kept, notes = refuted_by_readings([f], results, y[:, None], ["s0"], TRAIN, RATE)
+        assert (kept == [f]) is carry, kind
+        beta = f.evidence["readings"]["ar_kalman_bank"]["beta"]
+        assert beta == pytest.approx(1.0 if carry else 0.0, abs=0.1), kind
+
+
+def test_findings_of_other_detectors_and_those_beside_another_fault_are_not_judged():
+    y = _reading(4)
+    results = _results(y, 0.95, {"ar_kalman_bank": False, "detection_filter": False})
+    both = _lone(FaultType.MULTIPLICATIVE, {"gain": 0.95}, ("ar_kalman_bank", "equivalent_model"))
+    kept, notes = refuted_by_readings([both], results, y[:, None], ["s0"], TRAIN, RATE)
+    assert kept == [both] and notes == []
+    # another sensor's fault under way at the onset reaches the bank's residual of s0
+    other = Finding(
+        "s1",
+        FaultType.ADDITIVE,
+        300.0,
+        None,
+        {"offset": 1.0},
+        0.9,
+        "ar_kalman_bank",
+        {"detectors": ["ar_kalman_bank", "detection_filter"]},
+    )
+    lone = _lone(FaultType.MULTIPLICATIVE, {"gain": 0.95})
+    Y = np.column_stack([y, y])
+    kept, notes = refuted_by_readings([other, lone], results, Y, ["s0", "s1"], TRAIN, RATE)
+    assert kept == [other, lone] and notes == []
+    # a frozen sensor is told by its readings
+    frozen = _lone(FaultType.MULTIPLICATIVE, {"gain": 0.95})
+    frozen.evidence["frozen"] = {"level": 0.0}
+    assert refuted_by_readings([frozen], results, y[:, None], ["s0"], TRAIN, RATE)[0] == [frozen]
+    # without a reading residual, nothing to say
+    alone = [r for r in results if r.detector == "equivalent_model"]
+    lone = _lone(FaultType.MULTIPLICATIVE, {"gain": 0.95})
+    assert refuted_by_readings([lone], alone, y[:, None], ["s0"], TRAIN, RATE)[0] == [lone]
+
+
+def _analyzed(tmp_path: Path, case: str, floors: int, seed: int, fault: bool):
+    t, Y, faulty = sweep.record(case, floors, seed, 10.0, fault)
+    path = tmp_path / f"{case}.csv"
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(path, "csv", t_ns, {f"s{i}": Y[:, i] for i in range(Y.shape[1])})
+    return analyze([str(path)], RunOptions()), faulty
+
+
+@pytest.mark.parametrize(
+    ("case", "floors", "seed", "channel"),
+    [("harmonic_res", 2, 1, "s2"), ("narrowband", 3, 3, "s5"), ("harmonic_eq", 3, 1, "s4")],
+)
+def test_a_change_of_the_excitation_is_no_sensors_fault(tmp_path, case, floors, seed, channel):
+    """sweep_eov's false findings: a gain of 0.97 on s2 from 588 s (a sine at mode 2), a
+    gain of 0.95 on s5 (band noise), an ``other`` on s4 from the change (a machine's
+    sine at the training level), each the equivalent model's alone."""
+    analysis, _ = _analyzed(tmp_path, case, floors, seed, fault=False)
+    assert analysis.findings == []
+    assert any(
+        n.startswith("equivalent_model's ")
+        and f" fault on {channel} at " in n
+        and "carry too little of it" in n
+        for n in analysis.notes
+    ), analysis.notes
+
+
+@pytest.mark.parametrize(("case", "floors", "seed"), [("thermalgain", 2, 2), ("thermalgain", 3, 2)])
+def test_a_real_fault_the_equivalent_model_alone_reports_stays(tmp_path, case, floors, seed):
+    """sweep_eov --fault: the 2-sd offset that the equivalent model alone reported (the
+    other detectors' findings taken for a change common to the channels): the bank's
+    residual of the sensor carries it in full."""
+    analysis, faulty = _analyzed(tmp_path, case, floors, seed, fault=True)
+    (f,) = [f for f in analysis.findings if f.channel == faulty]
+    assert f.evidence["detectors"] == ["equivalent_model"]
+    for c in f.evidence["readings"].values():
+        assert c["beta"] > 0.8
+    # findings.json's schema describes the evidence
+    from jsonschema import Draft202012Validator
+
+    from analyzer.schema import findings_schema
+
+    schema = findings_schema()
+    evidence = {"$defs": schema["$defs"], "$ref": "#/$defs/evidence"}
+    Draft202012Validator(evidence).validate(
+        {k: v for k, v in f.evidence.items() if k in ("detectors", "tests", "readings")}
+    )
