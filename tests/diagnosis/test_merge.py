@@ -393,13 +393,10 @@ def test_an_unconfirmed_observer_finding_is_taken_for_its_assistants_fault():
     assert len(kept) == 2 and not notes
 
 
-def test_a_detector_the_assistants_fault_explains_agrees_on_that_fault():
-    """A half-size gain (1.15) on s0 lasting to the end (sweep seed 7, ``--scale 0.5``):
-    the bank names s0; the equivalent model's unconfirmed gain on s1 (modelled from s0)
-    is taken for it (law 0), so two detectors saw s0's fault. The detection filter's lone
-    2 s ``other`` on s2, 409 s into it, is then taken for it too, with a note naming both.
-    Without the model's alarm, s0's fault rests on the bank alone, and a single detector's
-    finding does not outweigh another's: both stay."""
+def _gain_seen_through_law_0() -> tuple[Event, Event, Event]:
+    """The bank's gain on s0, the equivalent model's unconfirmed alarm on s1 (modelled
+    from s0) and the detection filter's lone ``other`` on s2 409 s into it (sweep seed 7,
+    ``--scale 0.5``)."""
     bank = Event(
         "s0", 719.93, None, FaultType.MULTIPLICATIVE, {"gain": 1.168}, 0.75,
         "ar_kalman_bank", {"first_alarm_s": 721.48},
@@ -410,6 +407,17 @@ def test_a_detector_the_assistants_fault_explains_agrees_on_that_fault():
         "s2", 1128.82, 1130.82, FaultType.OTHER, {"offset": 0.025}, 0.573,
         "detection_filter", {"first_alarm_s": 1130.81},
     )  # fmt: skip
+    return bank, em, df
+
+
+def test_a_detector_the_assistants_fault_explains_agrees_on_that_fault():
+    """A half-size gain (1.15) on s0 lasting to the end (sweep seed 7, ``--scale 0.5``):
+    the bank names s0; the equivalent model's unconfirmed gain on s1 (modelled from s0)
+    is taken for it (law 0), so two detectors saw s0's fault. The detection filter's lone
+    2 s ``other`` on s2, 409 s into it, is then taken for it too, with a note naming both.
+    Without the model's alarm, s0's fault rests on the bank alone, and a single detector's
+    finding does not outweigh another's: both stay."""
+    bank, em, df = _gain_seen_through_law_0()
     kept, notes = one_fault_at_a_time(merge_events([bank, em, df]), _all_coupled)
     assert [(f.channel, f.detector) for f in kept] == [("s0", "ar_kalman_bank")]
     assert len(notes) == 2 and "on s2" in notes[1]
@@ -428,16 +436,7 @@ def test_a_note_says_found_by_the_detectors_the_findings_evidence_lists():
     right: the equivalent model reported no fault on that sensor; its unconfirmed alarm on
     another, modelled from it, was taken for it. So the note's "found by" names the
     finding's own detectors, and the observers' alarm apart, with the sensor it was on."""
-    bank = Event(
-        "s0", 719.93, None, FaultType.MULTIPLICATIVE, {"gain": 1.168}, 0.75,
-        "ar_kalman_bank", {"first_alarm_s": 721.48},
-    )  # fmt: skip
-    em = _observer_event("s1", 719.98, 721.78, ["s0", "s3"], [])
-    em.end_s = None
-    df = Event(
-        "s2", 1128.82, 1130.82, FaultType.OTHER, {"offset": 0.025}, 0.573,
-        "detection_filter", {"first_alarm_s": 1130.81},
-    )  # fmt: skip
+    bank, em, df = _gain_seen_through_law_0()
     kept, notes = one_fault_at_a_time(merge_events([bank, em, df]), _all_coupled)
     (s0,) = kept
     (note,) = [n for n in notes if "fault on s2" in n]

@@ -33,27 +33,20 @@ def _drift_under_a_step(seed: int) -> tuple[np.ndarray, np.ndarray]:
     return r, reference
 
 
+def _events(r: np.ndarray, reference: np.ndarray, until: tuple[int, ...]) -> list:
+    """The events of the residual ``r`` (healthy over its first minute), each shape fitted
+    up to the first of ``until``."""
+    cal = calibrate(r[:6000], 25)
+    return events_from_residual(
+        "c", r, reference, cal, RATE, "d", search_start=6000, healthy_start=0, split=True,
+        until=until,
+    )  # fmt: skip
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_a_drift_is_fitted_before_the_other_fault_begins(seed):
     r, reference = _drift_under_a_step(seed)
-    cal = calibrate(r[:6000], 25)
-
-    def first(until: tuple[int, ...]):
-        found = events_from_residual(
-            "c",
-            r,
-            reference,
-            cal,
-            RATE,
-            "d",
-            search_start=6000,
-            healthy_start=0,
-            split=True,
-            until=until,
-        )
-        return found[0]
-
-    bent, fitted = first(()), first((15_000,))
+    bent, fitted = _events(r, reference, ())[0], _events(r, reference, (15_000,))[0]
     # the whole stretch: the trace flattens the line, traced back too early
     assert bent.type.value == "drift" and bent.onset_s < 96.0
     assert bent.magnitude["rate_per_s"] < 0.017
@@ -71,22 +64,7 @@ def test_a_bound_without_a_step_leaves_the_whole_fit(seed):
     ``drift-half-ends`` seed 6)."""
     r, reference = _drift_under_a_step(seed)
     r[15_000:25_000] += 0.45  # the drift alone
-    cal = calibrate(r[:6000], 25)
-    found = [
-        events_from_residual(
-            "c",
-            r,
-            reference,
-            cal,
-            RATE,
-            "d",
-            search_start=6000,
-            healthy_start=0,
-            split=True,
-            until=until,
-        )
-        for until in ((), (15_000,))
-    ]
+    found = [_events(r, reference, until) for until in ((), (15_000,))]
     assert [(e.type, e.onset_s, e.magnitude) for e in found[0]] == [
         (e.type, e.onset_s, e.magnitude) for e in found[1]
     ]
