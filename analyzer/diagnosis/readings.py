@@ -37,8 +37,9 @@ SIGMAS se < CARRIED``.
 Another fault under way reaches the bank's and the filter's residuals of ``c`` through
 the estimates (they take that sensor in): a finding that begins while another detector's
 finding lasts is not judged, and one judged is judged up to the onset of the next such
-finding. A frozen or clipped sensor is told by its readings (``stuck.py``,
-``clipping.py``): not judged here either.
+finding, when that leaves at least the long alarm window (:func:`shortest`). A frozen or
+clipped sensor is told by its readings (``stuck.py``, ``clipping.py``): not judged here
+either.
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ import numpy as np
 import numpy.typing as npt
 
 from analyzer.detectors.base import DetectorResult
-from analyzer.diagnosis.changes import default_window
+from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.classify import correlation_time
 from analyzer.diagnosis.evidence import settled
 from analyzer.diagnosis.merge import Finding
@@ -77,6 +78,16 @@ PIECE = 1 << 20
 
 READ_BY_READINGS = ("frozen", "clipped")
 """Evidence keys of findings told from the readings themselves (not judged here)."""
+
+
+def shortest(rate_hz: float) -> int:
+    """The fewest rows a finding is judged on: the long alarm window (2 s at 100 Hz). A
+    lone fault's onset may be traced a few tenths of a second before the fault (an
+    offset of 0.2 sd from 360.0 s was named from 359.6 s), and another sensor's finding
+    from the fault's onset ends the stretch there: judged on a quarter of a second,
+    mostly before the fault, a real offset that the bank's residual carried in full
+    from its onset was refused (the bank's +0.20 +- 0.06)."""
+    return LONG_FACTOR * default_window(rate_hz)
 
 
 @dataclass(frozen=True, slots=True)
@@ -167,7 +178,7 @@ def carried(
     a, b = rows
     by = {r.detector: r for r in results if f.channel in r.residuals}
     own = by.get(JUDGED_DETECTOR)
-    if own is None or b - a < default_window(rate_hz):
+    if own is None or b - a < shortest(rate_hz):
         return []
     own_healthy = _healthy(own.residuals[f.channel], train)
     if own_healthy is None:
@@ -201,7 +212,7 @@ def carried(
         signal = sxx
         if f.type is FaultType.OTHER:  # the regressor's own healthy noise (errors in x)
             signal -= count * own_healthy[1] ** 2
-        if count < default_window(rate_hz) or not signal > 0.0:
+        if count < shortest(rate_hz) or not signal > 0.0:
             continue
         beta = sxz / signal
         # the stretch's scatter about the fit

@@ -213,3 +213,38 @@ def test_a_real_fault_the_equivalent_model_alone_reports_stays(tmp_path, case, f
     Draft202012Validator(evidence).validate(
         {k: v for k, v in f.evidence.items() if k in ("detectors", "tests", "readings")}
     )
+
+
+def test_a_stretch_shorter_than_the_long_window_is_not_judged():
+    """A real offset from 400.40 s that the equivalent model alone names from 400.00 s (its
+    onset traced early), another sensor's finding from 400.50 s: the half second judged
+    is mostly before the fault, where no residual carries it (the bank's +0.20 +- 0.06
+    refused it)."""
+    rng = np.random.default_rng(0)
+    Y = rng.normal(0, 1, (N, 2))
+    fault = np.zeros(N)
+    fault[40_040:] = 0.5
+    results = [
+        DetectorResult("equivalent_model", ("s0",), {}, [], {"s0": rng.normal(0, 0.1, N) + fault}),
+        DetectorResult(
+            "ar_kalman_bank",
+            ("s0", "s1"),
+            {},
+            [],
+            {"s0": rng.normal(0, 0.1, N) + fault, "s1": rng.normal(0, 0.1, N)},
+        ),
+    ]
+    lone = _lone(FaultType.ADDITIVE, {"offset": 0.5})
+    other = Finding(
+        "s1",
+        FaultType.ADDITIVE,
+        400.5,
+        None,
+        {"offset": 0.3},
+        0.9,
+        "ar_kalman_bank",
+        {"detectors": ["ar_kalman_bank", "detection_filter"]},
+    )
+    kept, notes = refuted_by_readings([lone, other], results, Y, ["s0", "s1"], TRAIN, RATE)
+    assert kept == [lone, other] and notes == []
+    assert "readings" not in lone.evidence
