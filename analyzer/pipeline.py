@@ -1237,8 +1237,8 @@ def _diagnose(
     per fault, one fault at a time among the sensors a detector models together (as the
     seed methods isolate them), a frozen sensor told by its readings rather than by the
     residual's shape, a lone equivalent-model fault that the sensor's reading residuals
-    do not carry refused (:mod:`analyzer.diagnosis.readings`), and (``--model``) the
-    faults already there when the search began.
+    do not carry refused (:mod:`analyzer.diagnosis.readings`; not with ``--model``), and
+    (``--model``) the faults already there when the search began.
     The channels the config names as measured inputs (``excitation``: a force, a ground
     acceleration) are not sensors under test: what a detector that models them as
     channels (the bank, an AR detection filter) saw on them is a note, not a finding.

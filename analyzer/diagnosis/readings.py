@@ -39,7 +39,10 @@ the estimates (they take that sensor in): a finding that begins while another de
 finding lasts is not judged, and one judged is judged up to the onset of the next such
 finding, when that leaves at least the long alarm window (:func:`shortest`). A frozen or
 clipped sensor is told by its readings (``stuck.py``, ``clipping.py``): not judged here
-either.
+either. Nor is a run with a saved model (``--model``, and so ``watch --model``): its
+record has no healthy window of its own, only the filters' warm-up, to measure the
+residuals' healthy means and correlation times on, and its lone equivalent-model
+findings stand as the detector reported them.
 """
 
 from __future__ import annotations

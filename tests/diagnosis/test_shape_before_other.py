@@ -70,6 +70,23 @@ def test_a_bound_without_a_step_leaves_the_whole_fit(seed):
     ]
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_a_gain_is_fitted_before_another_sensors_gain(seed):
+    """Another sensor's gain leaves a trace that follows the response, with no step of
+    the residual's mean (the review): a gain of 1.5 beside it was fitted 1.60 over the
+    whole stretch; the step of the reference's share tells the bound."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(N) / RATE
+    reference = np.sin(2 * np.pi * t + np.cumsum(rng.normal(0, 0.02, N)))
+    r = lfilter([1.0], [1.0, -0.5], rng.standard_normal(N)) * 0.05
+    r[10_000:20_000] += 0.5 * reference[10_000:20_000]
+    r[15_000:25_000] += 0.4 * reference[15_000:25_000]
+    bent, fitted = _events(r, reference, ())[0], _events(r, reference, (15_000,))[0]
+    assert bent.type.value == fitted.type.value == "multiplicative"
+    assert bent.magnitude["gain"] > 1.55
+    assert fitted.magnitude["gain"] == pytest.approx(1.5, abs=0.01)
+
+
 def test_an_onset_too_close_after_does_not_bound_the_fit():
     cal = calibrate(np.random.default_rng(0).standard_normal(6000), 25)
     least = int(CHANGE_MIN_S * RATE)  # (longer than the calibration's long window)
