@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import hashlib
 import threading
+import warnings
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -88,9 +89,13 @@ def _column_stats(Y: FloatArray) -> tuple[FloatArray, FloatArray, npt.NDArray[np
             std = Y.std(axis=0)
             level = np.abs(Y).max(axis=0, initial=0.0)
         else:
-            mean = np.nanmean(Y, axis=0)
-            std = np.nanstd(Y, axis=0)
-            level = np.nanmax(np.abs(Y), axis=0)
+            # (a column with no finite sample gives NaN, flat: numpy warns of it, a
+            # channel missing from the healthy window is no news here)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                mean = np.nanmean(Y, axis=0)
+                std = np.nanstd(Y, axis=0)
+                level = np.nanmax(np.abs(Y), axis=0)
         flat = ~(std > 1e-9 * np.where(np.isfinite(level), level, 0.0) + 1e-300)
     return mean, std, np.asarray(flat)
 
