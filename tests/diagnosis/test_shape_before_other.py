@@ -110,3 +110,16 @@ def test_the_detection_filter_traces_a_drift_from_its_onset_beside_an_offset(tmp
     assert [f["type"] for f in drift] == ["drift"], faults
     assert abs(drift[0]["onset_s"] - 100.0) < 1.0
     assert drift[0]["end_s"] == pytest.approx(200.0, abs=1.0)
+
+
+@pytest.mark.parametrize(("case", "floors", "seed"), [("pedestrian_eq", 3, 3)])
+def test_a_part_of_another_type_is_not_taken(tmp_path, case, floors, seed):
+    """``sweep_eov.py --fault``: a lasting 2-sd offset from 365 s that the detection filter
+    alone reported, with a walking load from 360 s. Fitted on its stretch before another
+    filter's alarm, it read as a drift traced back to 330.4 s; a part whose type is not
+    the whole stretch's is not taken (a fault that changes type is split, not bounded)."""
+    from test_readings import _analyzed
+
+    analysis, faulty = _analyzed(tmp_path, case, floors, seed, fault=True)
+    (f,) = [f for f in analysis.findings if f.channel == faulty]
+    assert f.type.value == "additive" and abs(f.onset_s - 362.0) < 3.0, f
