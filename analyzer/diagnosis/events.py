@@ -250,22 +250,24 @@ def _stepped(
 ) -> bool:
     """Whether what ``part``'s shape (fitted on ``onset .. bound``) leaves of the residual
     steps at ``bound``: its mean over as long a stretch after the bound as before it
-    (at most to ``stop``) differs from its mean before by the long alarm window's
-    threshold (the change :func:`_change_point` tells), or its share of the reference
-    does, times the reference's RMS after the bound (another sensor's gain)."""
+    (at most to ``stop``, and :data:`STEP_S` each side: the step is the bound's, and a
+    fault that lasts for days is not read whole) differs from its mean before by the long
+    alarm window's threshold (the change :func:`_change_point` tells), or its share of
+    the reference does, times the reference's RMS after the bound (another sensor's
+    gain)."""
     onset, bound, stop = span
-    length = min(bound - onset, stop - bound)
+    length = min(bound - onset, stop - bound, max(cal.long_window, int(STEP_S * rate_hz)))
     if length < cal.long_window:
         return False
-    hi = bound + length
-    ref = None if reference is None else np.asarray(reference[onset:hi], dtype=np.float64)
-    shape = part.fault_signal(np.arange(hi - onset) / rate_hz, ref)
+    lo, hi = bound - length, bound + length
+    ref = None if reference is None else np.asarray(reference[lo:hi], dtype=np.float64)
+    shape = part.fault_signal((np.arange(lo, hi) - onset) / rate_hz, ref)
     if shape is None:
         return False
-    left = np.asarray(residual[onset:hi], dtype=np.float64) - cal.mean - shape
+    left = np.asarray(residual[lo:hi], dtype=np.float64) - cal.mean - shape
     if slope is not None and slope.slope and ref is not None:
         left = left - slope.slope * (ref - slope.level)
-    before, after = left[: bound - onset], left[bound - onset :]
+    before, after = left[:length], left[length:]
     if not (np.isfinite(before).any() and np.isfinite(after).any()):
         return False
     threshold = cal.z_crit * cal.mean_sd[-1] * cal.std
@@ -277,12 +279,10 @@ def _stepped(
     # step of what the leftover carries of the reference, times the reference's size
     # after the bound (the review: a gain beside another sensor's gain was fitted 1.60
     # for 1.50 over the whole stretch)
-    share = [
-        _share(x, y) for x, y in ((before, ref[: bound - onset]), (after, ref[bound - onset :]))
-    ]
+    share = [_share(x, y) for x, y in ((before, ref[:length]), (after, ref[length:]))]
     if share[0] is None or share[1] is None:
         return False
-    after_ref = ref[bound - onset :]
+    after_ref = ref[length:]
     size = float(np.sqrt(np.nanmean(after_ref * after_ref)))
     return abs(share[1] - share[0]) * size >= threshold
 
@@ -568,6 +568,10 @@ reported as its own fault, and led the finding; under a burst of 3 to 10 times t
 excitation the detection filter's rang for 5 to 9 s, and an offset from 365 s was a
 drift to 373.8 s and an offset from there (12 fewer right of 325 in ``sweep_eov.py
 --fault`` with 10 s)."""
+
+STEP_S = 2 * CHANGE_MIN_S
+"""Seconds each side of a bound over which :func:`_stepped` compares what a part's shape
+leaves (at most: the part's length and the stretch's rest bound it too)."""
 
 
 def _change_point(x: FloatArray, cal: Calibration, margin: int) -> int | None:
