@@ -469,10 +469,8 @@ class EquivalentModel:
         """Rows :meth:`estimate` reads before the rows it estimates (sensor ``j``): the
         relation's FIR memory and the settling after a gap (:func:`_settle_samples`);
         None when no observer targets sensor ``j``."""
-        ob = next((o for o in model.observers if o.target == j), None)
-        if ob is None:
-            return None
-        return _settle_samples(ob.relation, float(np.exp(-ob.observer.lambda1 * ob.observer.dt)))
+        ob = _observer_of(model, j)
+        return None if ob is None else _settle_samples(ob.relation, _phi(ob.observer))
 
     def estimate(
         self, model: FittedEquivalentModel, rows: FloatArray, start: int, j: int
@@ -482,7 +480,7 @@ class EquivalentModel:
         with ``rows[:start]`` as the history (up to :meth:`estimate_warmup` rows): the run's
         ``reference`` computed again on other rows, such as the record with other sensors'
         faults corrected (:func:`analyzer.regenerate.corrected_values`)."""
-        ob = next((o for o in model.observers if o.target == j), None)
+        ob = _observer_of(model, j)
         if ob is None:
             raise DetectorError(f"{self.name}: no observer estimates sensor {j}")
         arr = np.asarray(rows, dtype=np.float64)
@@ -491,9 +489,7 @@ class EquivalentModel:
         for c in ob.relation.assistants:
             gap |= ~np.isfinite(arr[:, c])
         if gap.any():
-            settle = self.estimate_warmup(model, j)
-            assert settle is not None
-            z[dilate_forward(gap, settle)] = np.nan
+            z[dilate_forward(gap, _settle_samples(ob.relation, _phi(ob.observer)))] = np.nan
         return z[start:]
 
     # -- running -----------------------------------------------------------------------------
@@ -1110,6 +1106,11 @@ def _violation(x: npt.NDArray[Any], cal: Calibration, history: int) -> float:
         return 0.0
     stat = alarm_statistic(arr, cal, raw=True, start=history, base=history)
     return float(np.max(stat, initial=0.0))
+
+
+def _observer_of(model: FittedEquivalentModel, j: int) -> TargetObserver | None:
+    """The fitted observer whose target is sensor ``j``, or None."""
+    return next((o for o in model.observers if o.target == j), None)
 
 
 def _phi(obs: AssistantObserver) -> float:
