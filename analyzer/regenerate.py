@@ -270,8 +270,49 @@ def corrected_values(
         if method in MODEL_METHODS:
             spans[id(ev)] = _shaped_span(ev, j, method, n, rate_hz, res)
             shaped.append(spans[id(ev)])
+    # the readings replaced by an estimate (a dead sensor, ``other``): their periods and
+    # how each estimate is computed again, planned first so that each can take the
+    # others' regenerated readings in place of theirs (:func:`_regenerated_inputs`)
+    plans: dict[int, _Regen] = {}
     for ev in evs:
+        j = index.get(ev.channel)
+        if j is None or id(ev) in spans:
+            continue
+        res = _lookup(residuals, ev.detector, ev.channel)
+        ref = _lookup(references, ev.detector, ev.channel)
+        method = _method(ev, res, ref)
+        if method == "skipped":
+            continue
+        start, stop = _period(ev, n, rate_hz)
+        worth = None
+        if healthy is not None and (
+            method == "residual"
+            or (method == "reference" and FaultType(ev.type) is not FaultType.MULTIPLICATIVE)
+        ):
+            worth = _worth_replacing(values, j, res, ref, healthy, (start, stop))
+        given = None
+        if estimates is not None and (
+            method == "reference" or method == "residual" and ev.detector in RESIDUAL_IS_ERROR
+        ):
+            given = estimates(ev.detector, ev.channel)
+        plans[id(ev)] = _Regen(ev, j, method, start, stop, res, ref, given, worth)
+    regen = [p for p in plans.values() if p.skip is None]
+    subs = _regenerated_inputs(regen, values, rate_hz, shaped)
+    for p in regen:  # each regenerated reading ends where the readings are alive again
+        again = _estimate_again(p.given, p.j, shaped, p.start, p.stop, subs)
+        p.again = again
+        if healthy is not None:
+            p.stop_trimmed = _alive_stop(_residual_rows(p, values, rate_hz), p, healthy, rate_hz)
+    for sub in subs:  # a revived channel's own readings are its input again
+        for p in regen:
+            if p.j == sub.j and p.stop_trimmed < sub.hi:
+                cut = max(p.stop_trimmed, sub.lo)
+                sub.values[cut - sub.lo :] = np.nan
+    for ev in evs:
+        plan = plans.get(id(ev))
         stop_s = spans[id(ev)].end_s if id(ev) in spans else ev.end_s
+        if plan is not None and plan.stop_trimmed < plan.stop:
+            stop_s = plan.stop_trimmed / rate_hz
 
         def record(
             method: str,
@@ -306,24 +347,25 @@ def corrected_values(
         if method == "skipped":
             records.append(record(method, note="no fault model, residual or reference"))
             continue
-        if healthy is not None and (
-            method == "residual"
-            or (method == "reference" and FaultType(ev.type) is not FaultType.MULTIPLICATIVE)
-        ):
-            worth = _worth_replacing(values, j, res, ref, healthy, (start, stop))
-            if worth is not None:
-                records.append(record("skipped", note=worth))
-                continue
-        before = ""
-        if id(ev) in spans:
-            start, stop, before = spans[id(ev)].start, spans[id(ev)].stop, spans[id(ev)].note
+        if plan is not None and plan.skip is not None:
+            records.append(record("skipped", note=plan.skip))
+            continue
+        notes = []
         again = None
-        if estimates is not None and (
-            method == "reference" or method == "residual" and ev.detector in RESIDUAL_IS_ERROR
-        ):
-            again = _estimate_again(estimates(ev.detector, ev.channel), j, shaped, start, stop)
+        if id(ev) in spans:
+            start, stop = spans[id(ev)].start, spans[id(ev)].stop
+            notes.append(spans[id(ev)].note)
+        elif plan is not None:
+            again = plan.again
             if again is not None:
-                before = "estimated again with the other channels' faults taken out"
+                notes.append("estimated again with the other channels' faults taken out")
+            if plan.stop_trimmed < stop:
+                ended = "the record's end" if ev.end_s is None else f"{float(ev.end_s):.4f} s"
+                notes.append(
+                    f"ended at {plan.stop_trimmed / rate_hz:.4f} s, where the readings are "
+                    f"alive again (the finding ends at {ended})"
+                )
+                stop = plan.stop_trimmed
         count, total, squares = 0, 0.0, 0.0
         for a in range(start, stop, RELEASE_ROWS):
             b = min(stop, a + RELEASE_ROWS)
@@ -343,7 +385,7 @@ def corrected_values(
             release(rows)
             for whole in (out, done, res, ref):
                 release(None if whole is None else whole[a:b])
-        note = before
+        note = "; ".join(x for x in notes if x)
         if count < stop - start:
             left = f"{stop - start - count} samples left as measured (gap or already corrected)"
             note = f"{note}; {left}" if note else left
@@ -492,17 +534,21 @@ def _estimate_again(
     shaped: Sequence[_Shaped],
     start: int,
     stop: int,
+    subs: Sequence[_Sub] = (),
 ) -> Callable[[npt.NDArray[Any], float, int, int], FloatArray] | None:
     """The estimate of column ``j`` over rows ``a .. b - 1`` computed again on the
-    readings with the other columns' fitted faults (``shaped``) taken out, as a function
-    of ``(values, rate_hz, a, b)``; None when the detector cannot (``given`` None) or no
-    other column's fault touches ``[start, stop)`` or the warm-up before it (the run's
-    own estimate is then that one)."""
+    readings with the other columns' fitted faults (``shaped``) taken out and the other
+    columns' regenerated readings (``subs``, where finite) in place of theirs, as a
+    function of ``(values, rate_hz, a, b)``; None when the detector cannot (``given``
+    None) or no other column's fault touches ``[start, stop)`` or the warm-up before it
+    (the run's own estimate is then that one). ``subs`` are read when the function is
+    called: :func:`_regenerated_inputs` refines them in place."""
     if given is None:
         return None
     warm, estimate = given
     near = [s for s in shaped if s.j != j and s.start < stop and s.stop > start - warm]
-    if not near:
+    nearby = [s for s in subs if s.j != j and s.lo < stop and s.hi > start - warm]
+    if not near and not nearby:
         return None
 
     def again(values: npt.NDArray[Any], rate_hz: float, a: int, b: int) -> FloatArray:
@@ -519,9 +565,203 @@ def _estimate_again(
             ok = np.isfinite(fs) & np.isfinite(col) & np.logical_not(done[p - lo : q - lo, s.j])
             col[ok] -= fs[ok]
             done[p - lo : q - lo, s.j] |= ok
+        for r in nearby:
+            p, q = max(r.lo, lo), min(r.hi, b)
+            if p < q:
+                col = rows[p - lo : q - lo, r.j]
+                put = r.values[p - r.lo : q - r.lo]
+                np.copyto(col, put, where=np.isfinite(put))
         return np.asarray(estimate(rows, a - lo), dtype=np.float64)
 
     return again
+
+
+REGEN_PASSES = 3
+"""Rounds of :func:`_regenerated_inputs`: two sensors replaced by estimates at once each
+feed the other's; each round the error one passes to the other shrinks by the product of
+their estimators' weights on each other (under 1: a sensor's estimate is not more
+sensitive to one input than the sensor is to itself), so a few rounds reach what the
+estimators would give with both inputs healthy to a small share of their own error."""
+
+
+class _Regen:
+    """A reading replaced by an estimate (method ``reference`` or ``residual``): ``event``
+    on column ``j`` over rows ``[start, stop)``, its detector's signals and estimate
+    computed again (``given``: :data:`Estimates`), why it is left as measured (``skip``,
+    :func:`_worth_replacing`), and, once planned, the estimate with the other faults
+    taken out (``again``) and where the readings are alive again (``stop_trimmed``)."""
+
+    __slots__ = (
+        "again",
+        "event",
+        "given",
+        "j",
+        "method",
+        "ref",
+        "res",
+        "skip",
+        "start",
+        "stop",
+        "stop_trimmed",
+    )
+
+    def __init__(
+        self,
+        event: FaultLike,
+        j: int,
+        method: str,
+        start: int,
+        stop: int,
+        res: npt.NDArray[Any] | None,
+        ref: npt.NDArray[Any] | None,
+        given: tuple[int, Callable[[FloatArray, int], FloatArray]] | None,
+        skip: str | None,
+    ) -> None:
+        self.event, self.j, self.method, self.start, self.stop = event, j, method, start, stop
+        self.res, self.ref, self.given, self.skip = res, ref, given, skip
+        self.again: Callable[[npt.NDArray[Any], float, int, int], FloatArray] | None = None
+        self.stop_trimmed = stop
+
+
+@dataclass(frozen=True, slots=True)
+class _Sub:
+    """Column ``j``'s regenerated readings over rows ``[lo, hi)`` (``values``; NaN: the
+    reading itself), the input the other regenerated columns' estimates take instead of
+    its readings."""
+
+    j: int
+    lo: int
+    hi: int
+    values: FloatArray
+
+
+def _regenerated_inputs(
+    regen: Sequence[_Regen],
+    values: npt.NDArray[Any],
+    rate_hz: float,
+    shaped: Sequence[_Shaped],
+) -> list[_Sub]:
+    """What each regenerated column is to its fellows' estimates, over the rows where one
+    of them is estimated (its period and warm-up) while it is replaced too: two dead
+    sensors each feed the other's estimate a dead reading (the estimators assume their
+    inputs healthy, Wang & Song's law 0). None of the detectors' estimators can leave out
+    a second input with the model as fitted (the AR-Kalman bank's estimator of a sensor
+    measures every other one; the detection filter and the equivalent model weigh fixed
+    inputs), so the dead input is replaced by its own estimate instead: first the run's,
+    then :data:`REGEN_PASSES` rounds of each computed again with the others' latest in
+    place of their readings (Gauss-Seidel), the fitted faults taken out as well. The
+    rows kept are those of the overlaps (and warm-ups) only."""
+    subs: list[_Sub] = []
+    owners: list[_Regen] = []
+    for k in regen:
+        spans = [
+            (max(k.start, p.start - p.given[0]), min(k.stop, p.stop))
+            for p in regen
+            if p.j != k.j and p.given is not None
+        ]
+        spans = [(a, b) for a, b in spans if a < b]
+        if not spans:
+            continue
+        lo, hi = min(a for a, _ in spans), max(b for _, b in spans)
+        first = np.empty(hi - lo)
+        for a in range(lo, hi, RELEASE_ROWS):
+            b = min(hi, a + RELEASE_ROWS)
+            y = np.asarray(values[a:b, k.j], dtype=np.float64)
+            fs = _fault_piece(k.method, k.event, rate_hz, y, k.res, k.ref, a, b)
+            first[a - lo : b - lo] = y - fs
+        subs.append(_Sub(k.j, lo, hi, first))
+        owners.append(k)
+    for _ in range(REGEN_PASSES if len(subs) > 1 else 0):
+        for sub, k in zip(subs, owners, strict=True):
+            again = _estimate_again(k.given, k.j, shaped, sub.lo, sub.hi, subs)
+            if again is None:
+                continue
+            for a in range(sub.lo, sub.hi, RELEASE_ROWS):
+                b = min(sub.hi, a + RELEASE_ROWS)
+                sub.values[a - sub.lo : b - sub.lo] = again(values, rate_hz, a, b)
+    return subs
+
+
+def _residual_rows(
+    plan: _Regen, values: npt.NDArray[Any], rate_hz: float
+) -> Callable[[int, int], FloatArray]:
+    """Rows ``a .. b - 1`` of the fault ``f_s`` that the regeneration of ``plan`` removes:
+    the reading less the estimate that replaces it (computed again when it is), or the
+    detector's residual for a ``residual`` correction of a detector whose residual is its
+    own fault estimate."""
+
+    def rows(a: int, b: int) -> FloatArray:
+        y = values[a:b]
+        if plan.again is None:
+            out = _fault_piece(
+                plan.method, plan.event, rate_hz, y[:, plan.j], plan.res, plan.ref, a, b
+            )
+        else:
+            out = np.asarray(y[:, plan.j], dtype=np.float64) - plan.again(values, rate_hz, a, b)
+        release(y)
+        return out
+
+    return rows
+
+
+def _alive_stop(
+    residual: Callable[[int, int], FloatArray],
+    plan: _Regen,
+    healthy: tuple[int, int],
+    rate_hz: float,
+) -> int:
+    """Where the regeneration of ``plan`` over ``[start, stop)`` ends: ``stop``, or an
+    earlier ``k`` (a tail of at least :data:`TRIM_MIN_S`) from which the residual it
+    removes (``residual(a, b)``) reads as the healthy window's and not as the fault's:
+    the readings are alive again. The analogue of :func:`_trimmed_stop` for a reading
+    whose fault has no shape: the two hypotheses are zero-mean Gaussian residuals with
+    the healthy window's mean square ``s0`` (alive: the estimate's own error) and the
+    period's ``s1`` (dead, stuck: the reading carries nothing); ``k`` minimizes the tail
+    sum of the log-likelihood ratio ``d_t = (r_t^2 (1/s0 - 1/s1) - ln(s1/s0)) / 2``
+    (negative where "alive" explains ``r_t`` better), which must be negative, and the
+    tail's mean square must be at most :data:`REPLACE_FACTOR` ``s0``: by
+    :func:`_worth_replacing`'s rule, the tail is not worth replacing. Only when
+    ``s1 > REPLACE_FACTOR s0``. Read :data:`RELEASE_ROWS` rows at a time from the end;
+    missing residuals count for neither."""
+    start, stop = plan.start, plan.stop
+    least = max(1, int(round(TRIM_MIN_S * rate_hz)))
+    if stop - start < least:
+        return stop
+
+    def mean_square(a: int, b: int) -> float:
+        total, count = 0.0, 0
+        for p in range(a, b, RELEASE_ROWS):
+            r = residual(p, min(b, p + RELEASE_ROWS))
+            r = r[np.isfinite(r)]
+            total, count = total + float(np.sum(r * r)), count + int(r.size)
+        return total / count if count else float("nan")
+
+    s0, s1 = mean_square(*healthy), mean_square(start, stop)
+    if not (s0 > 0.0 and s1 > REPLACE_FACTOR * s0):
+        return stop
+    weight, bias = 0.5 * (1.0 / s0 - 1.0 / s1), 0.5 * float(np.log(s1 / s0))
+    best, best_k, best_ms = 0.0, stop, float("nan")
+    carry, squares, count = 0.0, 0.0, 0  # over the rows after the piece
+    last = stop - least  # the latest tail's first row
+    for b in range(stop, start, -RELEASE_ROWS):
+        a = max(start, b - RELEASE_ROWS)
+        r = np.asarray(residual(a, b), dtype=np.float64)
+        ok = np.isfinite(r)
+        r2 = np.where(ok, r, 0.0) ** 2
+        d = np.where(ok, weight * r2 - bias, 0.0)
+        tails = np.cumsum(d[::-1])[::-1] + carry
+        sq = np.cumsum(r2[::-1])[::-1] + squares
+        cnt = np.cumsum(ok[::-1])[::-1] + count
+        if a <= last:
+            valid = tails[: last - a + 1]
+            i = int(np.argmin(valid))
+            if valid[i] < best:
+                best, best_k = float(valid[i]), a + i
+                best_ms = float(sq[i] / cnt[i]) if cnt[i] else float("nan")
+        carry, squares, count = float(tails[0]), float(sq[0]), int(cnt[0])
+    if best_k == stop or not best_ms <= REPLACE_FACTOR * s0:
+        return stop
+    return best_k
 
 
 REPLACE_FACTOR = 2.0

@@ -17,7 +17,8 @@ record's end or ending at 220 s (``-ends``):
 * two faults, the seed's sensor and the one 3 floors up (the next floor's for
   ``two-dead-neighbour``): ``two-offset-gain`` (2 sd 120-220 s, gain 1.5 150-250 s),
   ``two-dead-drift`` (dead 120-220 s, 0.02 sd/s from 150 s to the end),
-  ``two-dead-neighbour`` (dead 120-220 s, 2 sd 150-250 s);
+  ``two-dead-neighbour`` (dead 120-220 s, 2 sd 150-250 s), ``two-dead`` (both dead,
+  120-220 s and 150-250 s);
 * ``healthy``: no fault (every corrected sample is a damaged one).
 
 Metrics, per injected fault (truth: the record before injection):
@@ -103,6 +104,10 @@ def _cases() -> dict[str, list[Fault]]:
     cases["two-dead-neighbour"] = [
         (0, "multiplicative", ONSET_S, END_S, 0.0),
         (1, "additive", 150.0, 250.0, 2.0),
+    ]
+    cases["two-dead"] = [
+        (0, "multiplicative", ONSET_S, END_S, 0.0),
+        (3, "multiplicative", 150.0, 250.0, 0.0),
     ]
     cases["healthy"] = []
     return cases

@@ -490,3 +490,79 @@ def test_an_other_fault_of_the_detection_filter_keeps_its_residual_beside_a_neig
         assert records[0]["method"] == "residual" and "again" not in records[0]["note"]
         outs.append(out[6000:8000, 1])
     assert np.array_equal(outs[0], outs[1])
+
+
+def _dead_record(rate=100.0, seconds=30.0, seed=5):
+    """Three sensors of one smooth signal (sd about 1) with noise of 0.05, and an
+    estimate of each with an error of that size."""
+    rng = np.random.default_rng(seed)
+    n = int(seconds * rate)
+    t = np.arange(n) / rate
+    s = np.sin(2 * np.pi * 0.7 * t) + 0.6 * np.sin(2 * np.pi * 1.9 * t + 1.0)
+    s = s / s.std()
+    Y = s[:, None] + 0.05 * rng.standard_normal((n, 3))
+    return s, Y, ["c0", "c1", "c2"], rng
+
+
+def test_a_dead_reading_is_regenerated_only_until_the_sensor_is_alive_again():
+    """A finding of a dead sensor (10-20 s) that runs to the record's end: the readings
+    after 20 s, alive again, are kept, and the correction says where it ended; a
+    sensor dead to the end is regenerated to the end (``sweep_corrected.py``
+    ``two-dead-neighbour`` seed 6: 0.27 sd of error over healthy readings before)."""
+    rate = 100.0
+    s, Y, names, rng = _dead_record(rate)
+    Yf = Y.copy()
+    Yf[1000:2000, 0] = 0.0  # dead from 10 s, back at 20 s
+    Yf[1500:, 1] = 0.0  # dead from 15 s to the end
+    refs = {c: s + 0.05 * rng.standard_normal(s.size) for c in names}
+    events = [
+        Event("c0", 10.0, None, FaultType.MULTIPLICATIVE, {"gain": 0.0}, 0.9, "test"),
+        Event("c1", 15.0, None, FaultType.MULTIPLICATIVE, {"gain": 0.0}, 0.8, "test"),
+    ]
+    out, records = corrected_values(Yf, names, rate, events, None, refs, healthy=(0, 500))
+    assert np.array_equal(out[2050:, 0], Yf[2050:, 0])  # alive again: as measured
+    assert np.allclose(out[1000:1990, 0], refs["c0"][1000:1990])  # dead: the estimate
+    assert np.allclose(out[1500:, 1], refs["c1"][1500:])
+    first, second = records
+    assert first["end_s"] == pytest.approx(20.0, abs=0.2)
+    assert "alive again" in first["note"] and "the record's end" in first["note"]
+    assert first["samples"] == pytest.approx(1000, abs=20)
+    assert second["end_s"] is None and "alive" not in second["note"]
+
+
+def test_two_dead_sensors_are_each_regenerated_from_the_others_estimate():
+    """Two sensors dead at once (c0 10-20 s, c1 15-25 s), each estimated by the mean of
+    the other two: where both are dead, the run's estimate of each carries the other's
+    dead reading (half the signal missing); the dead input is replaced by its own
+    estimate, refined in turns, so the regenerated signal there is as good as where one
+    alone is dead."""
+    rate = 100.0
+    s, Y, names, _ = _dead_record(rate)
+    Yf = Y.copy()
+    Yf[1000:2000, 0] = 0.0
+    Yf[1500:2500, 1] = 0.0
+    n = Y.shape[0]
+
+    def mean_of_others(rows, j):
+        rows = np.asarray(rows)
+        return np.mean(np.delete(rows, j, axis=1), axis=1)
+
+    refs = {c: mean_of_others(Yf, j) for j, c in enumerate(names)}
+
+    def estimates(detector, channel):
+        j = names.index(channel)
+        return 0, lambda rows, start: mean_of_others(rows, j)[start:]
+
+    events = [
+        Event("c0", 10.0, 20.0, FaultType.MULTIPLICATIVE, {"gain": 0.0}, 0.9, "test"),
+        Event("c1", 15.0, 25.0, FaultType.MULTIPLICATIVE, {"gain": 0.0}, 0.8, "test"),
+    ]
+    out, records = corrected_values(
+        Yf, names, rate, events, None, refs, healthy=(0, 500), estimates=estimates
+    )
+    rms = lambda j, a, b: float(np.sqrt(np.mean((out[a:b, j] - Y[a:b, j]) ** 2)))  # noqa: E731
+    for j, (alone, both) in enumerate([((1000, 1500), (1500, 2000)), ((2000, 2500), (1500, 2000))]):
+        assert rms(j, *both) < 1.5 * rms(j, *alone) < 0.1, (j, rms(j, *both), rms(j, *alone))
+    assert np.array_equal(out[:, 2], Yf[:, 2])
+    assert np.array_equal(out[:1000], Yf[:1000]) and np.array_equal(out[2500:n], Yf[2500:])
+    assert all(r["method"] == "reference" and "estimated again" in r["note"] for r in records)
