@@ -17,8 +17,10 @@ Here this works for the event of any detector, given the event and the channel's
 
 The paper's regeneration assumes the assistant sensors healthy (law 0, one fault at a
 time); here an estimate that replaces a reading is computed again, where the detector can,
-with the other channels' fitted faults taken out first, and an offset's correction ends
-where its residual does when the finding says later (:func:`corrected_values`).
+with the other channels' fitted faults taken out first and the other regenerated channels'
+estimates in place of their readings; an offset's correction ends where its residual does,
+and a regenerated reading where the readings are alive again, when the finding says later
+(:func:`corrected_values`).
 
 :func:`corrected_values` returns the corrected array and one JSON-friendly record per
 correction; :func:`write_corrected_csv` writes the time column and every analyzed channel
@@ -230,6 +232,16 @@ def corrected_values(
     (:func:`_trimmed_stop`), when that is before the finding's end: an offset whose
     end the detectors saw 3-8 s late while another sensor's gain was under way was
     subtracted from that many seconds of healthy readings.
+
+    A reading replaced by an estimate ends, given ``healthy``, where the readings are
+    alive again (:func:`_alive_stop`: from there the residual reads as the healthy
+    window's, not as the fault period's), when that is before the finding's end: a dead
+    sensor that came back at 220 s while its finding ran to the record's end had its
+    healthy readings replaced by the estimate (0.27 sd of error; ``sweep_corrected.py``
+    ``two-dead-neighbour``, seed 6). Two channels replaced by estimates at once each
+    take the other's estimate in place of its dead reading as an input
+    (:func:`_regenerated_inputs`): the estimate of a dead sensor from one that is dead
+    too was up to 1.9 times its estimator's own error (``two-dead``).
 
     ``buffer(name, shape, dtype)`` allocates the result and the mask of corrected samples
     (such as :meth:`~analyzer.detectors.base.RunContext.buffer`: memory-mapped for a long
