@@ -1692,8 +1692,9 @@ def _no_detector_error(
     """The error when no detector could run: each one's reason, after a hint when the
     healthy window is too short for them (``slow``: the common clock is slower than some
     channels, :func:`_slow_clock`), or when its channels are hardly ever present together
-    (``apart``: :func:`_apart_in_training`). The hint comes first, and reasons a config
-    answers (:data:`CONFIG_NEED`) last: the CLI cuts a long line
+    (``apart``: :func:`_apart_in_training`, after the reasons: a singular regression
+    among them says more). The too-short hint comes first, and reasons a config answers
+    (:data:`CONFIG_NEED`) last: the CLI cuts a long line
     (:func:`analyzer.errors.clipped_line`), and ``tilt_laser.bag``'s 1.1-kB line put the
     error function's wish for a ``[[group]]`` first and the hint that fixes the run
     (``--rate 43.2``) last."""
@@ -1701,7 +1702,7 @@ def _no_detector_error(
     # is cut at errors.LINE_MOST: the cut takes the least useful)
     why = "; ".join(sorted(skip_reasons(skipped), key=lambda r: CONFIG_NEED in r))
     if apart:
-        return DetectorError(f"no detector could run: {apart.removeprefix('; ')} ({why})")
+        return DetectorError(f"no detector could run ({why}){apart}")
     if "too little healthy data" in why:
         hint = (
             f"the training window {tr[0]:.3f}-{tr[1]:.3f} s is too short for these "
