@@ -1692,17 +1692,19 @@ def _no_detector_error(
     """The error when no detector could run: each one's reason, after a hint when the
     healthy window is too short for them (``slow``: the common clock is slower than some
     channels, :func:`_slow_clock`), or when its channels are hardly ever present together
-    (``apart``: :func:`_apart_in_training`, after the reasons: a singular regression
-    among them says more). The too-short hint comes first, and reasons a config answers
-    (:data:`CONFIG_NEED`) last: the CLI cuts a long line
+    (``apart``: :func:`_apart_in_training`; after the reasons when one of them is a
+    singular regression, whose dependence says more). The hint comes first, and reasons
+    a config answers (:data:`CONFIG_NEED`) last: the CLI cuts a long line
     (:func:`analyzer.errors.clipped_line`), and ``tilt_laser.bag``'s 1.1-kB line put the
     error function's wish for a ``[[group]]`` first and the hint that fixes the run
     (``--rate 43.2``) last."""
     # the reasons the data can change first, those that need a config last (the line
     # is cut at errors.LINE_MOST: the cut takes the least useful)
     why = "; ".join(sorted(skip_reasons(skipped), key=lambda r: CONFIG_NEED in r))
-    if apart:
+    if apart and "singular" in why:  # (the dependence it names says more)
         return DetectorError(f"no detector could run ({why}){apart}")
+    if apart:
+        return DetectorError(f"no detector could run: {apart.removeprefix('; ')} ({why})")
     if "too little healthy data" in why:
         hint = (
             f"the training window {tr[0]:.3f}-{tr[1]:.3f} s is too short for these "

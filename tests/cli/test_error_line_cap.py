@@ -65,3 +65,23 @@ def test_realdata_tilt_laser_line(realdata, tmp_path, capsys):
     assert code == 2
     line = one_line_error(err, str(path), "--train START:END", "--rate 43.2")
     assert len(line) <= len("analyzer: error: ") + LINE_MOST
+
+
+def test_the_refusal_orders_its_parts_by_use():
+    """The hint first, reasons a config answers last; a singular regression before a
+    gappy-channel hint (its dependence is the cause: turtlesim ``example.bag`` trained on
+    0-12 s, whose cmd_vel misses 43 % of the window and whose two components sum to 2)."""
+    from analyzer.pipeline import RunOptions, _no_detector_error
+
+    wish = "needs [[group]] reference/uncertain sensors in the config"
+    gappy = "; channels with samples missing in the training window (s2 20 %)"
+    short = {"error_function": wish, "ar_kalman_bank": "too little healthy data: 9 rows"}
+    text = str(_no_detector_error(short, (0.0, 1.0), RunOptions()))
+    assert text.startswith("no detector could run: the training window 0.000-1.000 s")
+    assert text.index("too little healthy data: 9 rows") < text.index(wish)
+    text = str(_no_detector_error(short, (0.0, 1.0), RunOptions(), gappy))
+    assert text.startswith("no detector could run: channels with samples missing")
+    singular = {"error_function": wish, "ar_kalman_bank": "singular AR regression: x = -y + 2"}
+    text = str(_no_detector_error(singular, (0.0, 1.0), RunOptions(), gappy))
+    assert text.startswith("no detector could run (ar_kalman_bank: singular AR regression")
+    assert text.endswith(gappy)
