@@ -34,6 +34,7 @@ from analyzer.errors import (  # noqa: E402
     ReaderError,
     UsageError,
     capped,
+    clipped_line,
     one_line,
     terminal_safe,
 )
@@ -434,7 +435,7 @@ def _naming_inputs(message: str, inputs: Sequence[str]) -> str:
     for i in inputs:
         if i in message or Path(i).name in message:
             return message
-    return f"{', '.join(inputs)}: {message}"
+    return f"{capped(list(inputs), what='inputs')}: {message}"
 
 
 def _raised_here(err: BaseException) -> bool:
@@ -611,7 +612,9 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
             return COMMANDS[args.command](args)
     except AnalyzerError as err:
         inputs = [str(i) for i in getattr(args, "inputs", None) or []]
-        return _error(_naming_inputs(one_line(str(err)), inputs) + _earlier(args, started))
+        # (cut to errors.LINE_MOST after the inputs it names: one readable line)
+        line = clipped_line(_naming_inputs(one_line(str(err)), inputs))
+        return _error(line + _earlier(args, started))
     except KeyboardInterrupt:
         print(terminal_safe(f"analyzer: interrupted{_earlier(args, started)}"), file=sys.stderr)
         global _UNWOUND

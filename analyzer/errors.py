@@ -30,6 +30,32 @@ def capped(items: Sequence[str], most: int = LISTED, sep: str = ", ", what: str 
     return sep.join(items[:most]) + f" and {len(items) - most} more" + (f" {what}" if what else "")
 
 
+LINE_MOST = 640
+"""Characters of the one-line error :func:`clipped_line` keeps: two or three reasons with
+their advice (a line of 1.1 kB, ``tilt_laser.bag``'s four detectors' reasons and two
+hints, wrapped to a screenful and buried the hint that fixed it)."""
+
+
+def clipped_line(text: str, most: int = LINE_MOST) -> str:
+    """``text`` cut to at most ``most`` characters at the last clause boundary in the
+    second half of them (``; ``, else before a parenthesis, else ``, ``, else a space),
+    ended with `` ...``, the parentheses it left open closed, and ``[N characters in
+    all]``: the contract's error is one readable line, and its head (the file it names,
+    the first reason) is what it keeps. Shorter text is returned as it is."""
+    if len(text) <= most:
+        return text
+    tail = f" [{len(text):,} characters in all]"
+    room = max(1, most - len(tail) - 8)  # (" ..." and up to 4 closing parentheses)
+    cut = -1
+    for sep in ("; ", " (", ", ", " "):
+        cut = text.rfind(sep, 0, room)
+        if cut > room // 2:
+            break
+    head = text[: cut if cut > 0 else room].rstrip(" ;,(")
+    still_open = max(0, head.count("(") - head.count(")"))
+    return head + " ..." + ")" * min(still_open, 4) + tail
+
+
 def terminal_safe(text: str) -> str:
     """``text`` with its control and format characters escaped (``\\x01``, ``\\u202e``),
     for a line on a terminal: a channel or file name may hold any of them (a CSV header,

@@ -1676,6 +1676,12 @@ def _apart_in_training(
     )
 
 
+CONFIG_NEED = "in the config"
+"""Words of a detector's reason for not running that a config file answers (the error
+function's ``needs [[group]] reference/uncertain sensors in the config``), not the data:
+such reasons come last in :func:`_no_detector_error`'s line."""
+
+
 def _no_detector_error(
     skipped: dict[str, str],
     tr: tuple[float, float],
@@ -1683,17 +1689,25 @@ def _no_detector_error(
     apart: str = "",
     slow: str = "",
 ) -> DetectorError:
-    """The error when no detector could run: each one's reason, and a hint when the
+    """The error when no detector could run: each one's reason, after a hint when the
     healthy window is too short for them (``slow``: the common clock is slower than some
     channels, :func:`_slow_clock`), or when its channels are hardly ever present together
-    (``apart``: :func:`_apart_in_training`)."""
-    why = "; ".join(skip_reasons(skipped))
-    if apart:
+    (``apart``: :func:`_apart_in_training`; after the reasons when one of them is a
+    singular regression, whose dependence says more). The hint comes first, and reasons
+    a config answers (:data:`CONFIG_NEED`) last: the CLI cuts a long line
+    (:func:`analyzer.errors.clipped_line`), and ``tilt_laser.bag``'s 1.1-kB line put the
+    error function's wish for a ``[[group]]`` first and the hint that fixes the run
+    (``--rate 43.2``) last."""
+    # the reasons the data can change first, those that need a config last (the line
+    # is cut at errors.LINE_MOST: the cut takes the least useful)
+    why = "; ".join(sorted(skip_reasons(skipped), key=lambda r: CONFIG_NEED in r))
+    if apart and "singular" in why:  # (the dependence it names says more)
         return DetectorError(f"no detector could run ({why}){apart}")
-    hint = ""
+    if apart:
+        return DetectorError(f"no detector could run: {apart.removeprefix('; ')} ({why})")
     if "too little healthy data" in why:
         hint = (
-            f"; the training window {tr[0]:.3f}-{tr[1]:.3f} s is too short for these "
+            f"the training window {tr[0]:.3f}-{tr[1]:.3f} s is too short for these "
             "detectors: give a longer healthy stretch with --train START:END"
             + (
                 " (the default is the first 20 % of the data, at most 10 min)"
@@ -1702,7 +1716,8 @@ def _no_detector_error(
             )
             + slow
         )
-    return DetectorError(f"no detector could run ({why}){hint}")
+        return DetectorError(f"no detector could run: {hint} ({why})")
+    return DetectorError(f"no detector could run ({why})")
 
 
 def _slow_clock(
@@ -1712,7 +1727,8 @@ def _slow_clock(
     clock is the rate most channels share, and 36 entries of a 1.4 Hz covariance matrix
     outvoted a 27 Hz odometry, before they lost their vote: :func:`analyzer.store.
     clock_rate`): analyzing the fast ones alone, or at their rate, gives a
-    window more samples. ``given``: the clock is ``--rate``'s. Empty otherwise."""
+    window more samples. ``given``: the clock is ``--rate``'s. Empty otherwise. The fix
+    (``--rate R``) comes before the list of channels: a cut line keeps it."""
     wanted = set(chosen)
     rates = {i.name: i.rate_hz for i in infos if i.name in wanted}
     fast = sorted((c for c, r in rates.items() if r >= 2 * rate_hz), key=lambda c: -rates[c])
@@ -1727,9 +1743,9 @@ def _slow_clock(
     at = sum(1 for r in rates.values() if abs(r - rate_hz) <= 0.1 * rate_hz)
     return (
         f", or analyze faster channels: the common clock runs at {rate_hz:.3g} Hz, the rate "
-        f"of {at} of the {len(rates)} channels, while {len(fast)} run at up to {top:.3g} Hz "
-        f"({', '.join(fast[:3])}{', ...' if len(fast) > 3 else ''}): --channels naming "
-        f"them, or --rate {top:.3g}"
+        f"of {at} of the {len(rates)} channels, while {len(fast)} run at up to {top:.3g} Hz: "
+        f"--rate {top:.3g}, or --channels naming them ({', '.join(fast[:3])}"
+        f"{', ...' if len(fast) > 3 else ''})"
     )
 
 

@@ -191,3 +191,21 @@ def test_the_note_names_the_first_copies_and_counts_the_rest():
     assert "c0 = a" in note and f"c{COPIES_LISTED - 1} = a" in note
     assert f"c{COPIES_LISTED} " not in note and "and 5 more copies" in note
     assert len(note.names) == COPIES_LISTED + 5
+
+
+def test_realdata_turtlesim_command_echo_is_no_copy(realdata, tmp_path, capsys):
+    """example.bag (turtlesim): each turtle's pose velocity holds its last cmd_vel, but at
+    62.5 Hz against the commands' 10 Hz or key repeats (and as float32), so it copies
+    nothing sample by sample: only the colour sensors' g = 0.890909 r + 24.5273 are left
+    out. Trained on 0-12 s the run is refused because the teleop's two components sum to
+    2 on every complete row there (only the up and left keys were pressed), and the line
+    now says so, with the relation, instead of "a linear combination" alone."""
+    path = realdata / "ros1" / "rosbag.js" / "example.bag"
+    with ChannelStore.from_chunks(open_archive([path]).chunks(), tmp_path / "st") as store:
+        copies = [c.channel for c in find_copies(store, store.select(None))]
+    assert copies == ["/turtle1/color_sensor.g", "/turtle2/color_sensor.g"]
+    args = ["run", str(path), "--out", str(tmp_path / "o"), "--no-progress", "--train", "0:12"]
+    assert main(args) == 2
+    (line,) = [ln for ln in capsys.readouterr().err.splitlines() if "error:" in ln]
+    assert "/turtle1/cmd_vel.angular.z = -/turtle1/cmd_vel.linear.x + 2" in line
+    assert "--channels '!/turtle1/cmd_vel.angular.z'" in line

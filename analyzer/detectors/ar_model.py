@@ -236,7 +236,8 @@ def fit_ar(
         B, rank = _least_squares(X, T)
         if rank < k:
             raise DetectorError(
-                f"singular AR regression (rank {rank} < {k}): " + _dependence(whole, X, rank, names)
+                f"singular AR regression (rank {rank} < {k}): "
+                + _dependence(whole, X, rank, names, units=(mean, scale))
             )
         E = T - X @ B
         EE = E.T @ E
@@ -268,13 +269,16 @@ def _dependence(
     rank: int,
     names: Sequence[str] | None,
     relative: float | None = None,
+    units: tuple[FloatArray, FloatArray] | None = None,
 ) -> str:
     """Which channels make the regression singular, for its error. A pivoted QR puts the
     columns that are combinations of others last: of the channels themselves when they
     are dependent at one instant (a duplicated sensor, a sum of others), else of the
     lagged design (a channel that is a delayed copy, a difference or a running sum of
     another). ``relative``: the tolerance on QR's diagonal relative to its largest
-    (default: rounding of the regression's size); ``X`` None: the channels only."""
+    (default: rounding of the regression's size); ``X`` None: the channels only.
+    ``units``: the mean and scale that standardized ``Z``, for the relation of the first
+    dependent channel to the others in the channels' own units (:func:`_relation`)."""
     m = Z.shape[1]
     label = list(names) if names is not None and len(names) == m else [str(i) for i in range(m)]
     rows = Z[np.isfinite(Z).all(axis=1)]
@@ -303,9 +307,12 @@ def _dependence(
         if r < m:
             found = [label[j] for j in sorted(piv[r:])]
             what = "is a linear combination" if m - r == 1 else "are linear combinations"
+            first = min(int(j) for j in piv[r:])
+            relation = "" if units is None else _relation(rows, first, piv[:r], label, *units)
             return (
                 f"{capped(found)} {what} of the other channels in the training window "
-                f"(duplicated or perfectly correlated sensors): {_leave_out(found)}"
+                f"({relation}duplicated or perfectly correlated sensors, or ones that move "
+                f"together in that window): {_leave_out(found)}"
             )
     if X is None:
         return (
@@ -320,6 +327,42 @@ def _dependence(
         "window (a delayed copy, a difference or a running sum of another channel, or a "
         f"step signal): {_leave_out(found)}"
     )
+
+
+def _relation(
+    rows: FloatArray,
+    j: int,
+    others: npt.NDArray[np.intp],
+    label: Sequence[str],
+    mean: FloatArray,
+    scale: FloatArray,
+) -> str:
+    """``"X = a A + b B + c: "``, channel ``j`` as the others of ``others`` give it on the
+    standardized ``rows`` (least squares), in the channels' units: what the dependence
+    is, which "a linear combination" alone did not say (the turtlesim teleop's
+    ``cmd_vel.angular.z = -cmd_vel.linear.x + 2`` in a window where only the up and left
+    keys were pressed, each message one of them at 2). Empty when the weights do not
+    give the channel to within rounding (a dependence the pivoting did not isolate), or
+    name more than :data:`~analyzer.errors.LISTED` channels."""
+    design = np.column_stack([rows[:, others], np.ones(rows.shape[0])])
+    w, *_ = np.linalg.lstsq(design, rows[:, j], rcond=None)
+    misfit = np.abs(design @ w - rows[:, j]).max(initial=0.0)
+    if not misfit <= 1e-6 * max(1.0, float(np.abs(rows[:, j]).max(initial=0.0))):
+        return ""
+    big = np.abs(w[:-1]) > 1e-9 * max(1.0, float(np.abs(w[:-1]).max(initial=0.0)))
+    if not 0 < big.sum() <= LISTED:
+        return ""
+    gains = w[:-1][big] * scale[j] / scale[others[big]]
+    shift = mean[j] + scale[j] * w[-1] - float(gains @ mean[others[big]])
+    terms = [
+        ("-" if g < 0 else "+", "" if abs(abs(g) - 1) < 1e-9 else f"{abs(g):.6g} ", label[i])
+        for g, i in zip(gains, others[big], strict=True)
+    ]
+    text = " ".join(f"{sign} {gain}{name}" for sign, gain, name in terms)
+    text = text[2:] if text.startswith("+ ") else "-" + text[2:]
+    if abs(shift) > 1e-9 * max(1.0, abs(float(mean[j]))):
+        text += f" {'-' if shift < 0 else '+'} {abs(shift):.6g}"
+    return f"{label[j]} = {text}: "
 
 
 def _leave_out(names: list[str]) -> str:

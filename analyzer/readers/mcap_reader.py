@@ -60,6 +60,7 @@ from analyzer.readers.rostypes import (
     TypeResolutionError,
     candidate_stores,
     normalize_msgtype,
+    refuse_service_event,
     store_from_definition,
 )
 from analyzer.types import Format
@@ -543,6 +544,8 @@ class McapReader:
         if schema is None:
             raise TypeResolutionError(f"{wire} messages without a schema: unknown message type")
         msgtype = normalize_msgtype(schema.name)
+        if wire == "cdr":
+            refuse_service_event(msgtype)
         if schema.data and schema.encoding in expected:
             fmt = "idl" if schema.encoding == "ros2idl" else "msg"
             try:

@@ -54,6 +54,7 @@ from analyzer.readers.rostypes import (
     TypeResolutionError,
     candidate_stores,
     normalize_msgtype,
+    refuse_service_event,
     store_from_definition,
 )
 from analyzer.types import Format
@@ -179,6 +180,7 @@ class Ros2BagReader:
                 f"unsupported serialization_format {serialization!r} (only cdr)"
             )
         msgtype = normalize_msgtype(conn.msgtype)
+        refuse_service_event(msgtype)
         fmt = conn.msgdef.format
         if fmt in (MessageDefinitionFormat.MSG, MessageDefinitionFormat.IDL) and conn.msgdef.data:
             kind = "idl" if fmt == MessageDefinitionFormat.IDL else "msg"

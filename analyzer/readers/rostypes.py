@@ -60,6 +60,33 @@ they are (an error naming ``--msg-path``). A type whose one field fits in 4 byte
 (``uint8 mode``, say) looks empty this way; its ``.msg`` on the message path reads it."""
 
 
+class ServiceEventType(TypeResolutionError):
+    """A ROS 2 service event type (``pkg/srv/Name_Event``, on a ``<service>/_service_event``
+    topic: service introspection, recorded by rosbag2 since Iron): each message is one
+    request or response of a call to the service (who called, when, the call's
+    arguments or results), not a measurement. Its topic is skipped with a note that says
+    so (:func:`refuse_service_event`), not decoded: recorders store the service's
+    ``.srv`` text as its definition (request ``---`` response, not the ``_Event``
+    message on the wire), which the parsers took for a syntax error, and a ROS 2 bag
+    without embedded definitions named ``--msg-path``, as if the fix were a missing
+    definition."""
+
+
+SERVICE_EVENT_SUFFIX = "_Event"
+"""The end of a service event type's name (``example_interfaces/srv/AddTwoInts_Event``)."""
+
+
+def refuse_service_event(msgtype: str) -> None:
+    """Raise :class:`ServiceEventType` for a ROS 2 service event type (``pkg/srv/
+    Name_Event``); return for any other."""
+    parts = msgtype.strip().split("/")
+    if len(parts) == 3 and parts[1] == "srv" and parts[2].endswith(SERVICE_EVENT_SUFFIX):
+        raise ServiceEventType(
+            f"ROS 2 service events ({msgtype.strip()}: the requests and responses of calls "
+            "to a service), not sensor data"
+        )
+
+
 def normalize_msgtype(name: str) -> str:
     """``pkg/Type`` -> ``pkg/msg/Type`` (ROS 1 and old rosbag2 spell types without ``msg``)."""
     parts = name.strip().split("/")

@@ -31,8 +31,8 @@ def test_a_slow_common_clock_is_named_when_the_window_is_too_short(tmp_path, cap
     assert len(err.splitlines()) == 1
     assert (
         "or analyze faster channels: the common clock runs at 5 Hz, the rate of 8 of the 12 "
-        "channels, while 4 run at up to 100 Hz (s0, s1, s2, ...): --channels naming them, or "
-        "--rate 100"
+        "channels, while 4 run at up to 100 Hz: --rate 100, or --channels naming them (s0, "
+        "s1, s2, ...)"
     ) in err
     # and the advice works
     args = ["run", str(path), "--out", str(tmp_path / "o2"), "--no-progress", "--channels", "s*"]

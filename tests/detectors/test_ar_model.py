@@ -132,3 +132,24 @@ def test_triangular_factor_equals_qr_up_to_row_signs(ill):
     np.testing.assert_allclose(
         np.abs(R[:12]), np.abs(ref), rtol=1e-8, atol=1e-8 * np.abs(ref).max()
     )
+
+
+def test_singular_regression_says_what_the_dependence_is(building):
+    """The realdata audit (turtlesim ``example.bag`` trained on its first 12 s): only the
+    up and left keys were pressed there, each teleop message one of them at 2, so
+    ``cmd_vel.angular.z = 2 - cmd_vel.linear.x`` on every complete row; "a linear
+    combination of the other channels" did not say of which, nor how. The error now
+    gives the relation in the channels' own units."""
+    m = building.shape[1]
+    names = [f"floor{i}" for i in range(m)] + ["x"]
+    Y = np.column_stack([building, 3.0 - 0.5 * building[:, 1]])
+    with pytest.raises(DetectorError) as err:
+        fit_ar(Y, 3, names)
+    text = str(err.value)
+    assert "is a linear combination of the other channels" in text
+    assert "x = -0.5 floor1 + 3:" in text or "floor1 = -2 x + 6:" in text, text
+    # an equal copy reads as one
+    Y = np.column_stack([building, building[:, 2]])
+    with pytest.raises(DetectorError) as err:
+        fit_ar(Y, 3, names)
+    assert "x = floor2:" in str(err.value) or "floor2 = x:" in str(err.value)
