@@ -844,11 +844,13 @@ class DetectionFilter:
                 continue
             before = last.get(j)
             if (
-                k in changed_viol
-                and before is not None
+                before is not None
                 and before.end_s == ev.onset_s
                 and before.type is ev.type
-                and not _isolates(changed_viol[k], j, chans)
+                and (
+                    (k in changed_viol and not _isolates(changed_viol[k], j, chans))
+                    or _another_ended(events, owners, j, ev.onset_s, span / rate)
+                )
             ):
                 # the change was another sensor's (its fault's end, say): the fault of
                 # this one goes on through it
@@ -954,6 +956,27 @@ def _direction_window(
     # a window wholly after it would see every filter healthy and drop it (the review)
     ends = n if ev.end_s is None else int(round(ev.end_s * rate))
     return (start, stop) if start < min(stop, ends) else (lo, hi)
+
+
+def _another_ended(
+    events: Sequence[Event], owners: Sequence[int], j: int, t: float, within_s: float
+) -> bool:
+    """Whether a reported event of a filter other than ``j`` (``owners``: each event's
+    filter) ended within ``within_s`` (a long alarm window) of ``t``, where filter ``j``'s
+    residual changed: that sensor's fault ended there, and the change in ``j``'s
+    residual is its fault's trace leaving it, not a change of ``j``'s fault.
+
+    After the other fault's end only ``j``'s fault is left, so the direction statistics
+    from after the change name ``j`` (:func:`_isolates`) whether or not its fault changed.
+    Two offsets, s0 from 100 to 200 s and s3 from 150 to 250 s: s3's filter changed at
+    200.12 s, s0's fault ending at 200.0 s; s3's part after it isolated s3 (0.53 of its
+    threshold, the others 286-349) and s3's fault was reported as two, 150-200.1 s and
+    200.1-250 s (on the next floor, s1's second part was then taken for s0's fault, which
+    the bank saw to 225.8 s)."""
+    return any(
+        o != j and e.end_s is not None and abs(e.end_s - t) <= within_s
+        for e, o in zip(events, owners, strict=True)
+    )
 
 
 def _isolates(viol: Sequence[float], j: int, chans: Sequence[int]) -> bool:

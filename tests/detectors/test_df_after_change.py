@@ -73,6 +73,17 @@ def test_a_fault_goes_on_through_another_sensors_change():
     assert [(onset, end) for ch, onset, end in found if ch == "s2"] == [(100, 250)]
 
 
+def test_a_fault_goes_on_where_another_sensors_fault_ended():
+    """An offset on s0 from 100 to 200 s and one on s3 from 150 to 250 s (seed 6): s3's
+    filter changed at 200.12 s, where s0's fault ended (its filter's event to 200.0 s),
+    and from there only s3's fault is left, so the statistics after the change isolate
+    s3 whether or not its fault changed. s3's fault is one, from 150 s to 250 s (before:
+    150-200.1 s and 200.1-250 s)."""
+    found = _found(6, (150.0, 250.0))
+    assert ("s0", 100, 200) in found
+    assert [(onset, end) for ch, onset, end in found if ch == "s3"] == [(150, 250)]
+
+
 def _cand(k0: int, changed: bool, end: int | None = None) -> tuple[int, int, Event]:
     ev = Event(
         "s0",
