@@ -404,6 +404,33 @@ def ends_of_later_faults(
     return notes
 
 
+def ends_hidden_by_later(
+    findings: list[Finding],
+    coupled: Callable[[str, str, str], bool],
+    slack_s: float = 1.0,
+) -> list[tuple[Finding, Finding]]:
+    """The findings whose end no detector saw, each with the later fault that hid it: the
+    finding ends where a later fault of a coupled sensor was last seen, as one of its
+    events did (:func:`ends_of_later_faults`' explained ends), and no other end of its
+    events counted there (one detector that lost the fault where the later one began,
+    say). Run after :func:`ends_of_later_faults`; a frozen sensor's period is its
+    readings'.
+
+    A gain on s1 from 100 to 200 s and an offset on s4 from 150 to 250 s: the bank and
+    the observers saw the gain to 250.1 s, the detection filter lost it at 150.1 s, where
+    the offset began (both faults at once: every filter off its direction); no detector
+    that models s1 with s4 sees s1's fault end while s4's goes on."""
+    hidden: list[tuple[Finding, Finding]] = []
+    for f in findings:
+        if "frozen" in f.evidence:
+            continue
+        explained = _explained_by_later(f, findings, coupled, slack_s)
+        ends = [e for e in f.events if id(e) in explained and e.end_s == f.end_s]
+        if ends:
+            hidden.append((f, explained[id(ends[0])]))
+    return hidden
+
+
 def _sized(magnitude: dict[str, float]) -> str:
     return ", ".join(f"{k} {v:.4g}" for k, v in magnitude.items())
 
