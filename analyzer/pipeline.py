@@ -985,15 +985,14 @@ def _ends_without(
     work: Path | None,
     excitation: frozenset[str],
 ) -> list[str]:
-    """The ends of the ``hidden`` findings (each with the later fault on another sensor
-    where every detector that saw its end saw it:
-    :func:`~analyzer.diagnosis.merge.ends_hidden_by_later`) from the detectors that ran
-    (``ran``) fitted again without that fault's sensor, over the whole record: a finding
-    of theirs on the same sensor that begins within a long alarm window of its onset and
-    ends after the later fault began and before the hidden end gives its end (and its
-    size, when of its type); changes the findings in place and returns a note for each.
-    One search per sensor left out. ``matrix``: the aligned values, their channels, the
-    healthy window's rows and the rate.
+    """The ends of the ``hidden`` findings, each with the later fault on another sensor
+    that hid its end (:func:`~analyzer.diagnosis.merge.ends_hidden_by_later`), from the
+    detectors that ran (``ran``) fitted again without that fault's sensor, over the whole
+    record: a finding of theirs on the same sensor that begins within a long alarm
+    window of its onset and ends after the later fault began and before the hidden end
+    gives its end (and its size, when of its type); changes the findings in place and
+    returns a note for each. One search per sensor left out. ``matrix``: the aligned
+    values, their channels, the healthy window's rows and the rate.
 
     A detector that estimates a sensor from another sees that one's fault in its
     residual of the sensor: from where it began the two faults are one alarm to it,
@@ -1002,7 +1001,8 @@ def _ends_without(
     direction). Without the later fault's sensor the first fault is alone: a gain on s1
     from 100 to 200 s with an offset on s4 from 150 to 250 s (seed 1 of
     ``sweep_two_faults.py``) was reported to 250.1 s, the bank's and the observers'
-    end, the filter's lost at 150.1 s."""
+    end, the filter's lost at 150.1 s; an offset on s0 from 100 to 200 s with one on s1
+    from 150 to 250 s (seed 6) to 225.8 s, the bank's end, the filter's at 200.0 s."""
     values, chosen, train, rate_hz = matrix
     slack = LONG_FACTOR * default_window(rate_hz) / rate_hz
     names = list(dict.fromkeys(ran))
@@ -1049,10 +1049,11 @@ def _ends_without(
                 )
             notes.append(
                 f"{f.type.value} fault on {f.channel}: ended at {h.end_s:.3f} s as "
-                f"{h.detector} saw it with {left} left out{size}; with {left} the detectors "
-                "saw it to "
+                f"{h.detector} saw it with {left} left out{size}; with {left} it was "
+                "reported to "
                 + ("the record's end" if was is None else f"{was:.3f} s")
-                + f", where the {g.type.value} fault on {left} (from {g.onset_s:.3f} s) ended"
+                + f", the {g.type.value} fault on {left} (from {g.onset_s:.3f} s) in the "
+                "residuals of the detectors that model the two sensors together"
             )
     return notes
 

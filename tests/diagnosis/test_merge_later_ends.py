@@ -255,3 +255,31 @@ def test_an_end_a_detector_saw_is_not_hidden():
     alone = [_ev("s1", BANK, 100.0, 250.09, 1.84)]
     assert ends_hidden_by_later(merge_events([*alone, *_second()]), lambda d, a, b: False) == []
     assert ends_hidden_by_later(merge_events([*alone, *_second(end=240.0)]), _coupled) == []
+
+
+def test_an_end_inside_a_later_fault_the_detectors_disagree_on_is_hidden():
+    """An offset on s0 from 100 to 200 s and one on s1, the next floor's, from 150 to
+    250 s (seed 6): the bank, leading, saw s0's end at 225.76 s, inside s1's fault, the
+    detection filter at 200.0 s. The end is hidden by s1's fault; not when the
+    detectors agree, nor when the end is not inside a later fault (it began after the
+    end, or with the first)."""
+
+    def first(bank_end, df_end):
+        return [_ev("s0", BANK, 100.0, bank_end, 1.77), _ev("s0", DF, 100.0, df_end, 1.0)]
+
+    def s1(onset=150.0, end=250.0):
+        return [_ev("s1", d, onset, end, 3.09) for d in (DF, EM)]
+
+    findings = merge_events([*first(225.76, 200.0), *s1()])
+    s0, later = (next(f for f in findings if f.channel == c) for c in ("s0", "s1"))
+    assert (s0.end_s, s0.detector) == (225.76, BANK)
+    assert ends_of_later_faults(findings, _coupled) == []
+    assert ends_hidden_by_later(findings, _coupled) == [(s0, later)]
+    for events in (
+        [*first(225.76, 225.76), *s1()],  # they agree
+        [*first(225.76, 200.0), *s1(onset=230.0, end=280.0)],  # it ended before
+        [*first(225.76, 200.0), *s1(onset=100.5)],  # it began with this one
+    ):
+        assert ends_hidden_by_later(merge_events(events), _coupled) == []
+    apart = merge_events([*first(225.76, 200.0), *s1()])
+    assert ends_hidden_by_later(apart, lambda d, a, b: False) == []
