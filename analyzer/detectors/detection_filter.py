@@ -815,6 +815,21 @@ class DetectionFilter:
             )
             when = f"{ev.onset_s:.3f} s"
             if blurred:
+                # several sensors at once: a filter's alarm that began inside its own
+                # reported fault, of its type, is that fault going on beside another
+                went_on = _went_on(group, last, w / rate)
+                for c, cand in went_on:
+                    notes.append(
+                        f"the {cand.type.value} fault on {names[c]} from "
+                        f"{last[c].onset_s:.3f} s goes on past {last[c].end_s:.3f} s to "
+                        + ("the record's end" if cand.end_s is None else f"{cand.end_s:.3f} s")
+                        + f": its filter alarmed again from {cand.onset_s:.3f} s, inside it, "
+                        "beside another sensor's fault"
+                    )
+                    last[c].end_s = cand.end_s
+                chans = [c for c in chans if c not in {c for c, _ in went_on}]
+                if not chans:
+                    continue
                 unattributed.append((ev.onset_s, tuple(names[c] for c in chans), ()))
                 how = (
                     "the residual of every filter left its sensor's direction"
@@ -956,6 +971,35 @@ def _direction_window(
     # a window wholly after it would see every filter healthy and drop it (the review)
     ends = n if ev.end_s is None else int(round(ev.end_s * rate))
     return (start, stop) if start < min(stop, ends) else (lo, hi)
+
+
+def _went_on(
+    group: Sequence[tuple[int, int, Event]], last: Mapping[int, Event], margin_s: float
+) -> list[tuple[int, Event]]:
+    """The alarms of ``group`` (first alarm, filter, event) that continue their filter's
+    latest reported fault (``last``, by filter): of its type, beginning more than
+    ``margin_s`` (a short alarm window) before it ended and ending after it, each with
+    its filter.
+
+    Where the direction statistics name no one sensor (every filter off its direction:
+    several faults at once), a filter that alarms again inside the fault it reported
+    sees that fault go on beside the other. A drift on s0 from 100 to 200 s and an
+    offset on s3 from 150 to 250 s (seed 6 of ``sweep_two_faults.py``): s0's filter
+    ended the drift at 150.08 s, where s3's offset began, and alarmed again on a drift
+    from 143.7 to 200.0 s that no sensor was named for; the drift was reported to
+    150.1 s, and s3's fault split at 200.1 s, where s0's ended."""
+    went_on: list[tuple[int, Event]] = []
+    for _, c, cand in group:
+        before = last.get(c)
+        if (
+            before is not None
+            and before.end_s is not None
+            and cand.type is before.type
+            and cand.onset_s < before.end_s - margin_s
+            and (cand.end_s is None or cand.end_s > before.end_s)
+        ):
+            went_on.append((c, cand))
+    return went_on
 
 
 def _another_ended(

@@ -84,6 +84,26 @@ def test_a_fault_goes_on_where_another_sensors_fault_ended():
     assert [(onset, end) for ch, onset, end in found if ch == "s3"] == [(150, 250)]
 
 
+def test_a_drift_goes_on_where_its_filter_alarms_again_beside_another_fault():
+    """A drift of 0.02 sd/s on s0 from 100 to 200 s and an offset of 2 sd on s3 from 150
+    to 250 s (seed 6): s0's filter ended the drift at 150.08 s, where s3's began, and
+    alarmed again on a drift from 143.7 s that, both faults on, no sensor was named for.
+    The drift goes on to 200 s (before: to 150.1 s), and s3's offset, whose filter
+    changed where the drift ended, is one from 150 s to 250 s (before: two, split at
+    200.1 s)."""
+    t, y0, names = simulate_building(6, 300.0, RATE, seed=6)
+    y = y0.copy()
+    y[:, 0] = inject_fault(y[:, 0], RATE, "drift", 100.0, 0.02 * float(y0[:, 0].std()), 200.0)
+    y[:, 3] = inject_fault(y[:, 3], RATE, "additive", 150.0, 2.0 * float(y0[:, 3].std()), 250.0)
+    data = Dataset(y, tuple(names), RATE, (0, int(0.2 * len(y))))
+    det, ctx = DetectionFilter(), RunContext()
+    result = det.run(det.fit(data, ctx), data, ctx)
+    found = [(e.channel, e.type.value, round(e.end_s)) for e in result.events if e.end_s]
+    assert [f for f in found if f[0] == "s0"] == [("s0", "drift", 200)]
+    assert [f for f in found if f[0] == "s3"] == [("s3", "additive", 250)]
+    assert any("goes on past 150.080 s to 200.010 s" in n for n in result.notes)
+
+
 def _cand(k0: int, changed: bool, end: int | None = None) -> tuple[int, int, Event]:
     ev = Event(
         "s0",
