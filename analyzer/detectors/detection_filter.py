@@ -789,6 +789,9 @@ class DetectionFilter:
         )
         changed_viol = dict(zip(moved, violations[len(groups) :], strict=True))
         last: dict[int, Event] = {}  # each filter's latest reported event
+        # each filter's latest alarm that no sensor was named for (several at once)
+        unnamed: dict[int, Event] = {}
+        began_at: list[tuple[Event, float]] = []  # reported parts that began unnamed
         owners: list[int] = []  # each reported event's filter
         for k, ((group, lo, hi), viol) in enumerate(
             zip(groups, violations[: len(groups)], strict=True)
@@ -828,6 +831,7 @@ class DetectionFilter:
                     )
                     last[c].end_s = cand.end_s
                 chans = [c for c in chans if c not in {c for c, _ in went_on}]
+                unnamed.update((c, cand) for k_c, c, cand in group if c in chans)
                 if not chans:
                     continue
                 unattributed.append((ev.onset_s, tuple(names[c] for c in chans), ()))
@@ -875,6 +879,14 @@ class DetectionFilter:
                     f"{when}, where its filter's residual changed with another sensor's fault"
                 )
                 continue
+            began = _began_unnamed(ev, unnamed.get(j), before)
+            if began is not None:
+                notes.append(
+                    f"the fault on {names[j]} from {when} began at {began.onset_s:.3f} s, "
+                    "where its filter's residual changed and no sensor was named (several "
+                    "faults at once)"
+                )
+                began_at.append((ev, began.onset_s))
             events.append(ev)
             owners.append(j)
             last[j] = ev
@@ -885,6 +897,10 @@ class DetectionFilter:
                         f"the residual of {names[c]}'s filter left its direction"
                     )
         self._refit_before_others(events, owners, found, model.zeta_cal, tasks, context, n, rate)
+        for ev, onset_s in began_at:
+            # after the refit, which searches from the part's first alarm (that stays the
+            # one that named the sensor)
+            ev.onset_s = onset_s
         # kept in the pipeline's signal precision, each float64 array let go before the
         # next is copied (memory-mapped ones are converted channel by channel as the
         # pipeline spills them)
@@ -971,6 +987,30 @@ def _direction_window(
     # a window wholly after it would see every filter healthy and drop it (the review)
     ends = n if ev.end_s is None else int(round(ev.end_s * rate))
     return (start, stop) if start < min(stop, ends) else (lo, hi)
+
+
+def _began_unnamed(ev: Event, part: Event | None, before: Event | None) -> Event | None:
+    """``part``, the latest alarm of ``ev``'s filter that no sensor was named for, when
+    ``ev``'s fault began with it: ``ev`` is a part from a change (evidence
+    ``changed_at_s``) that ``part`` ends at, both of one type, ``part`` a part from a
+    change as well, and no reported fault of the filter (``before``) ends there.
+
+    Two faults at once leave every filter off its direction, so a fault that began
+    beside another is named only once the other ends. An offset on s3 from 100 to
+    200 s and one on s0 from 150 to 250 s (seed 3 of ``sweep_two_faults.py``): s0's
+    filter changed at 150.0 s (no sensor named) and at 200.07 s, where s3's fault
+    ended; s0's fault was reported from 200.07 s."""
+    if (
+        part is None
+        or part.end_s is None
+        or ev.evidence.get("changed_at_s") is None
+        or part.evidence.get("changed_at_s") is None
+        or part.type is not ev.type
+        or part.end_s != ev.onset_s
+        or (before is not None and before.end_s == ev.onset_s)
+    ):
+        return None
+    return part
 
 
 def _went_on(
