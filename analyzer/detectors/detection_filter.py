@@ -19,9 +19,17 @@ typical other filter (:data:`DIRECTION_SEPARATION`, with 6 or more channels; if 
 its threshold, :data:`DIRECTION_RELATIVE`); it is reported when other filters -- they
 measure the sensor -- left their directions (confirmation: with 6 or more channels, most
 of them, their median over its threshold; with fewer, one of them).
-An alarm no filter confirms is model mismatch, noted but not reported. Thresholds of the
-AR-based bank are calibrated out of sample (models refitted on each half of the healthy
-window, run on the other half), since in-sample innovations are too small. The
+An alarm no filter confirms is model mismatch, noted but not reported.
+Two faults at once leave every filter off its direction (no sensor named), and a
+filter's residual changes where another sensor's fault begins or ends: a fault goes on
+through a change of its filter where another reported fault ended (:func:`_another_ended`)
+and where its filter alarms again inside it with no sensor named (:func:`_went_on`), and
+one named only after the other ended begins at its filter's unnamed change before
+(:func:`_began_unnamed`).
+
+Thresholds of the AR-based bank are calibrated out of sample (models refitted on each
+half of the healthy window, run on the other half), since in-sample innovations are too
+small. The
 calibration streams the bank's outputs over the window (fault estimates kept, residual
 vectors reduced to running moments, then filtered again for their normalized squares),
 so fitting on an hour holds a few values per filter and sample, not every residual
