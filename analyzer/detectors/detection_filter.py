@@ -19,9 +19,17 @@ typical other filter (:data:`DIRECTION_SEPARATION`, with 6 or more channels; if 
 its threshold, :data:`DIRECTION_RELATIVE`); it is reported when other filters -- they
 measure the sensor -- left their directions (confirmation: with 6 or more channels, most
 of them, their median over its threshold; with fewer, one of them).
-An alarm no filter confirms is model mismatch, noted but not reported. Thresholds of the
-AR-based bank are calibrated out of sample (models refitted on each half of the healthy
-window, run on the other half), since in-sample innovations are too small. The
+An alarm no filter confirms is model mismatch, noted but not reported.
+Two faults at once leave every filter off its direction (no sensor named), and a
+filter's residual changes where another sensor's fault begins or ends: a fault goes on
+through a change of its filter where another reported fault ended (:func:`_another_ended`)
+and where its filter alarms again inside it with no sensor named (:func:`_went_on`), and
+one named only after the other ended begins at its filter's unnamed change before
+(:func:`_began_unnamed`).
+
+Thresholds of the AR-based bank are calibrated out of sample (models refitted on each
+half of the healthy window, run on the other half), since in-sample innovations are too
+small. The
 calibration streams the bank's outputs over the window (fault estimates kept, residual
 vectors reduced to running moments, then filtered again for their normalized squares),
 so fitting on an hour holds a few values per filter and sample, not every residual
@@ -789,6 +797,9 @@ class DetectionFilter:
         )
         changed_viol = dict(zip(moved, violations[len(groups) :], strict=True))
         last: dict[int, Event] = {}  # each filter's latest reported event
+        # each filter's latest alarm that no sensor was named for (several at once)
+        unnamed: dict[int, Event] = {}
+        began_at: list[tuple[Event, float]] = []  # reported parts that began unnamed
         owners: list[int] = []  # each reported event's filter
         for k, ((group, lo, hi), viol) in enumerate(
             zip(groups, violations[: len(groups)], strict=True)
@@ -815,6 +826,22 @@ class DetectionFilter:
             )
             when = f"{ev.onset_s:.3f} s"
             if blurred:
+                # several sensors at once: a filter's alarm that began inside its own
+                # reported fault, of its type, is that fault going on beside another
+                went_on = _went_on(group, last, w / rate)
+                for c, cand in went_on:
+                    notes.append(
+                        f"the {cand.type.value} fault on {names[c]} from "
+                        f"{last[c].onset_s:.3f} s goes on past {last[c].end_s:.3f} s to "
+                        + ("the record's end" if cand.end_s is None else f"{cand.end_s:.3f} s")
+                        + f": its filter alarmed again from {cand.onset_s:.3f} s, inside it, "
+                        "beside another sensor's fault"
+                    )
+                    last[c].end_s = cand.end_s
+                chans = [c for c in chans if c not in {c for c, _ in went_on}]
+                unnamed.update((c, cand) for k_c, c, cand in group if c in chans)
+                if not chans:
+                    continue
                 unattributed.append((ev.onset_s, tuple(names[c] for c in chans), ()))
                 how = (
                     "the residual of every filter left its sensor's direction"
@@ -844,11 +871,13 @@ class DetectionFilter:
                 continue
             before = last.get(j)
             if (
-                k in changed_viol
-                and before is not None
+                before is not None
                 and before.end_s == ev.onset_s
                 and before.type is ev.type
-                and not _isolates(changed_viol[k], j, chans)
+                and (
+                    (k in changed_viol and not _isolates(changed_viol[k], j, chans))
+                    or _another_ended(events, owners, j, ev.onset_s, span / rate)
+                )
             ):
                 # the change was another sensor's (its fault's end, say): the fault of
                 # this one goes on through it
@@ -858,6 +887,14 @@ class DetectionFilter:
                     f"{when}, where its filter's residual changed with another sensor's fault"
                 )
                 continue
+            began = _began_unnamed(ev, unnamed.get(j), before)
+            if began is not None:
+                notes.append(
+                    f"the fault on {names[j]} from {when} began at {began.onset_s:.3f} s, "
+                    "where its filter's residual changed and no sensor was named (several "
+                    "faults at once)"
+                )
+                began_at.append((ev, began.onset_s))
             events.append(ev)
             owners.append(j)
             last[j] = ev
@@ -868,6 +905,10 @@ class DetectionFilter:
                         f"the residual of {names[c]}'s filter left its direction"
                     )
         self._refit_before_others(events, owners, found, model.zeta_cal, tasks, context, n, rate)
+        for ev, onset_s in began_at:
+            # after the refit, which searches from the part's first alarm (that stays the
+            # one that named the sensor)
+            ev.onset_s = onset_s
         # kept in the pipeline's signal precision, each float64 array let go before the
         # next is copied (memory-mapped ones are converted channel by channel as the
         # pipeline spills them)
@@ -954,6 +995,80 @@ def _direction_window(
     # a window wholly after it would see every filter healthy and drop it (the review)
     ends = n if ev.end_s is None else int(round(ev.end_s * rate))
     return (start, stop) if start < min(stop, ends) else (lo, hi)
+
+
+def _began_unnamed(ev: Event, part: Event | None, before: Event | None) -> Event | None:
+    """``part``, the latest alarm of ``ev``'s filter that no sensor was named for, when
+    ``ev``'s fault began with it: ``ev`` is a part from a change (evidence
+    ``changed_at_s``) that ``part`` ends at, both of one type, ``part`` a part from a
+    change as well, and no reported fault of the filter (``before``) ends there.
+
+    Two faults at once leave every filter off its direction, so a fault that began
+    beside another is named only once the other ends. An offset on s3 from 100 to
+    200 s and one on s0 from 150 to 250 s (seed 3 of ``sweep_two_faults.py``): s0's
+    filter changed at 150.0 s (no sensor named) and at 200.07 s, where s3's fault
+    ended; s0's fault was reported from 200.07 s."""
+    if (
+        part is None
+        or part.end_s is None
+        or ev.evidence.get("changed_at_s") is None
+        or part.evidence.get("changed_at_s") is None
+        or part.type is not ev.type
+        or part.end_s != ev.onset_s
+        or (before is not None and before.end_s == ev.onset_s)
+    ):
+        return None
+    return part
+
+
+def _went_on(
+    group: Sequence[tuple[int, int, Event]], last: Mapping[int, Event], margin_s: float
+) -> list[tuple[int, Event]]:
+    """The alarms of ``group`` (first alarm, filter, event) that continue their filter's
+    latest reported fault (``last``, by filter): of its type, beginning more than
+    ``margin_s`` (a short alarm window) before it ended and ending after it, each with
+    its filter.
+
+    Where the direction statistics name no one sensor (every filter off its direction:
+    several faults at once), a filter that alarms again inside the fault it reported
+    sees that fault go on beside the other. A drift on s0 from 100 to 200 s and an
+    offset on s3 from 150 to 250 s (seed 6 of ``sweep_two_faults.py``): s0's filter
+    ended the drift at 150.08 s, where s3's offset began, and alarmed again on a drift
+    from 143.7 to 200.0 s that no sensor was named for; the drift was reported to
+    150.1 s, and s3's fault split at 200.1 s, where s0's ended."""
+    went_on: list[tuple[int, Event]] = []
+    for _, c, cand in group:
+        before = last.get(c)
+        if (
+            before is not None
+            and before.end_s is not None
+            and cand.type is before.type
+            and cand.onset_s < before.end_s - margin_s
+            and (cand.end_s is None or cand.end_s > before.end_s)
+        ):
+            went_on.append((c, cand))
+    return went_on
+
+
+def _another_ended(
+    events: Sequence[Event], owners: Sequence[int], j: int, t: float, within_s: float
+) -> bool:
+    """Whether a reported event of a filter other than ``j`` (``owners``: each event's
+    filter) ended within ``within_s`` (a long alarm window) of ``t``, where filter ``j``'s
+    residual changed: that sensor's fault ended there, and the change in ``j``'s
+    residual is its fault's trace leaving it, not a change of ``j``'s fault.
+
+    After the other fault's end only ``j``'s fault is left, so the direction statistics
+    from after the change name ``j`` (:func:`_isolates`) whether or not its fault changed.
+    Two offsets, s0 from 100 to 200 s and s3 from 150 to 250 s: s3's filter changed at
+    200.12 s, s0's fault ending at 200.0 s; s3's part after it isolated s3 (0.53 of its
+    threshold, the others 286-349) and s3's fault was reported as two, 150-200.1 s and
+    200.1-250 s (on the next floor, s1's second part was then taken for s0's fault, which
+    the bank saw to 225.8 s)."""
+    return any(
+        o != j and e.end_s is not None and abs(e.end_s - t) <= within_s
+        for e, o in zip(events, owners, strict=True)
+    )
 
 
 def _isolates(viol: Sequence[float], j: int, chans: Sequence[int]) -> bool:

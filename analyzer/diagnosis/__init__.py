@@ -13,6 +13,7 @@ from analyzer.diagnosis.changes import (
 from analyzer.diagnosis.classify import Classification, classify, correlation_time
 from analyzer.diagnosis.merge import (
     Finding,
+    ends_hidden_by_later,
     ends_of_later_faults,
     merge_events,
     one_fault_at_a_time,
@@ -31,6 +32,7 @@ __all__ = [
     "default_window",
     "detect",
     "detection_confidence",
+    "ends_hidden_by_later",
     "ends_of_later_faults",
     "merge_events",
     "one_fault_at_a_time",

@@ -404,6 +404,63 @@ def ends_of_later_faults(
     return notes
 
 
+def ends_hidden_by_later(
+    findings: list[Finding],
+    coupled: Callable[[str, str, str], bool],
+    slack_s: float = 1.0,
+) -> list[tuple[Finding, Finding]]:
+    """The findings whose end no detector saw, each with the later fault that hid it: the
+    finding ends where a later fault of a coupled sensor was last seen, as one of its
+    events did (:func:`ends_of_later_faults`' explained ends), and no other end of its
+    events counted there (one detector that lost the fault where the later one began,
+    say). Run after :func:`ends_of_later_faults`; a frozen sensor's period is its
+    readings'.
+
+    A gain on s1 from 100 to 200 s and an offset on s4 from 150 to 250 s: the bank and
+    the observers saw the gain to 250.1 s, the detection filter lost it at 150.1 s, where
+    the offset began (both faults at once: every filter off its direction); no detector
+    that models s1 with s4 sees s1's fault end while s4's goes on.
+
+    So too a finding that ends inside such a later fault (more than ``slack_s`` after it
+    began and before it was last seen) where another of its detectors saw it end
+    elsewhere (not where the later fault was last seen): the detectors disagree on an
+    end the later fault blurs for each of them.
+    An offset on s0 from 100 to 200 s and one on s1, the next floor's, from 150 to 250 s
+    (seed 6): the detection filter saw s0's end at 200.0 s, the bank, leading, at
+    225.8 s, where its residual of s0 with s1's fault in it fell under its threshold."""
+    hidden: list[tuple[Finding, Finding]] = []
+    for f in findings:
+        if "frozen" in f.evidence:
+            continue
+        explained = _explained_by_later(f, findings, coupled, slack_s)
+        ends = [e for e in f.events if id(e) in explained and e.end_s == f.end_s]
+        if ends:
+            hidden.append((f, explained[id(ends[0])]))
+            continue
+        inside = [g for g in findings if _ends_inside(f, g, coupled, slack_s)]
+        if inside and any(e.end_s != f.end_s and id(e) not in explained for e in f.events):
+            hidden.append((f, min(inside, key=lambda g: g.onset_s)))
+    return hidden
+
+
+def _ends_inside(
+    f: Finding, g: Finding, coupled: Callable[[str, str, str], bool], slack_s: float
+) -> bool:
+    """Whether ``f`` ends inside ``g``, a later fault of another sensor (begun more than
+    ``slack_s`` after ``f``), more than ``slack_s`` after ``g`` began and before ``g``
+    was last seen (the latest end of its events, open when one is), with a detector of
+    ``f``'s event that gives that end modelling the two sensors together."""
+    if g.channel == f.channel or f.end_s is None or not g.events:
+        return False
+    if not f.onset_s + slack_s < g.onset_s < f.end_s - slack_s:
+        return False
+    ends = [e.end_s for e in g.events]
+    last = None if any(x is None for x in ends) else max(x for x in ends if x is not None)
+    if last is not None and f.end_s >= last - slack_s:
+        return False
+    return any(e.end_s == f.end_s and coupled(e.detector, f.channel, g.channel) for e in f.events)
+
+
 def _sized(magnitude: dict[str, float]) -> str:
     return ", ".join(f"{k} {v:.4g}" for k, v in magnitude.items())
 

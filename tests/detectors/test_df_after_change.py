@@ -49,11 +49,13 @@ def test_the_part_after_the_first_faults_end_is_the_second_sensors(seed, second)
     """s3's fault alone from 100 to 200 s; from 200 s the part is s0's (its fault's
     end), not a second fault of s3 (before: s3 from 200 s, a level near zero, and
     nothing on s0). s0's fault from 150 s, beside s3's, left every filter off its
-    direction: its finding begins at 200 s."""
+    direction, so no sensor was named for s0's filter's part from its change at 150 s:
+    the part from 200 s began with it (:func:`~analyzer.detectors.detection_filter.
+    _began_unnamed`; before, s0's fault was reported from 200 s)."""
     found = _found(seed, second)
     assert ("s3", 100, 200) in found
     assert not any(ch == "s3" and onset >= 199 for ch, onset, _ in found)
-    assert [(onset, end) for ch, onset, end in found if ch == "s0"] == [(200, round(second[1]))]
+    assert [(onset, end) for ch, onset, end in found if ch == "s0"] == [second]
 
 
 def test_a_part_no_filter_isolates_after_a_change_is_no_fault():
@@ -71,6 +73,37 @@ def test_a_fault_goes_on_through_another_sensors_change():
     fault is one, from 100 s to 250 s (before: to 200.14 s, the rest no sensor's)."""
     found = _found(2, (150.0, 200.0), first=(100.0, 250.0))
     assert [(onset, end) for ch, onset, end in found if ch == "s2"] == [(100, 250)]
+
+
+def test_a_fault_goes_on_where_another_sensors_fault_ended():
+    """An offset on s0 from 100 to 200 s and one on s3 from 150 to 250 s (seed 6): s3's
+    filter changed at 200.12 s, where s0's fault ended (its filter's event to 200.0 s),
+    and from there only s3's fault is left, so the statistics after the change isolate
+    s3 whether or not its fault changed. s3's fault is one, from 150 s to 250 s (before:
+    150-200.1 s and 200.1-250 s)."""
+    found = _found(6, (150.0, 250.0))
+    assert ("s0", 100, 200) in found
+    assert [(onset, end) for ch, onset, end in found if ch == "s3"] == [(150, 250)]
+
+
+def test_a_drift_goes_on_where_its_filter_alarms_again_beside_another_fault():
+    """A drift of 0.02 sd/s on s0 from 100 to 200 s and an offset of 2 sd on s3 from 150
+    to 250 s (seed 6): s0's filter ended the drift at 150.08 s, where s3's began, and
+    alarmed again on a drift from 143.7 s that, both faults on, no sensor was named for.
+    The drift goes on to 200 s (before: to 150.1 s), and s3's offset, whose filter
+    changed where the drift ended, is one from 150 s to 250 s (before: two, split at
+    200.1 s)."""
+    t, y0, names = simulate_building(6, 300.0, RATE, seed=6)
+    y = y0.copy()
+    y[:, 0] = inject_fault(y[:, 0], RATE, "drift", 100.0, 0.02 * float(y0[:, 0].std()), 200.0)
+    y[:, 3] = inject_fault(y[:, 3], RATE, "additive", 150.0, 2.0 * float(y0[:, 3].std()), 250.0)
+    data = Dataset(y, tuple(names), RATE, (0, int(0.2 * len(y))))
+    det, ctx = DetectionFilter(), RunContext()
+    result = det.run(det.fit(data, ctx), data, ctx)
+    found = [(e.channel, e.type.value, round(e.end_s)) for e in result.events if e.end_s]
+    assert [f for f in found if f[0] == "s0"] == [("s0", "drift", 200)]
+    assert [f for f in found if f[0] == "s3"] == [("s3", "additive", 250)]
+    assert any("goes on past 150.080 s to 200.010 s" in n for n in result.notes)
 
 
 def _cand(k0: int, changed: bool, end: int | None = None) -> tuple[int, int, Event]:

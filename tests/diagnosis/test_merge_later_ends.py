@@ -7,7 +7,12 @@ one detector isolated while it kept that detector's estimate of the first alarme
 from __future__ import annotations
 
 from analyzer.detectors.base import Event
-from analyzer.diagnosis import ends_of_later_faults, merge_events, one_fault_at_a_time
+from analyzer.diagnosis import (
+    ends_hidden_by_later,
+    ends_of_later_faults,
+    merge_events,
+    one_fault_at_a_time,
+)
 from analyzer.types import FaultType
 
 A, D, M = FaultType.ADDITIVE, FaultType.DRIFT, FaultType.MULTIPLICATIVE
@@ -219,3 +224,62 @@ def test_a_later_fault_is_still_taken_for_one_that_went_on():
     for findings in (_s3_then_s0(df_end=230.0), _s3_then_s0(bank_end=235.0)):
         kept, notes = one_fault_at_a_time(findings, _coupled)
         assert [f.channel for f in kept] == ["s3"] and len(notes) == 1
+
+
+def test_an_end_no_detector_saw_is_hidden_by_the_later_fault():
+    """A gain on s1 from 100 to 200 s and an offset on s4 from 150 to 250 s (seed 1): the
+    bank and the observers saw the gain to s4's end, the detection filter lost it at
+    150.06 s, where s4's began. No end counts (one detector lost it where the other
+    began): the finding stays at 250.09 s, its end hidden by s4's fault, which the
+    pipeline then searches without."""
+    first = [
+        _ev("s1", BANK, 100.0, 250.09, 1.503, M),
+        _ev("s1", DF, 100.0, 150.06, 1.502, M),
+        _ev("s1", EM, 99.35, 250.12, -0.024, D),
+    ]
+    findings = merge_events([*first, *_second()])
+    assert ends_of_later_faults(findings, _coupled) == []
+    s1, s4 = (next(f for f in findings if f.channel == c) for c in ("s1", "s4"))
+    assert s1.end_s == 250.09
+    assert ends_hidden_by_later(findings, _coupled) == [(s1, s4)]
+
+
+def test_an_end_a_detector_saw_is_not_hidden():
+    """The same faults with the filter's end at 200.0 s: the finding takes it
+    (:func:`ends_of_later_faults`) and nothing is hidden; nor where the sensors are not
+    modelled together, nor where the later fault ended elsewhere."""
+    first = [_ev("s1", BANK, 100.0, 250.09, 1.84), _ev("s1", DF, 100.0, 200.0, 2.82)]
+    findings = merge_events([*first, *_second()])
+    ends_of_later_faults(findings, _coupled)
+    assert ends_hidden_by_later(findings, _coupled) == []
+    alone = [_ev("s1", BANK, 100.0, 250.09, 1.84)]
+    assert ends_hidden_by_later(merge_events([*alone, *_second()]), lambda d, a, b: False) == []
+    assert ends_hidden_by_later(merge_events([*alone, *_second(end=240.0)]), _coupled) == []
+
+
+def test_an_end_inside_a_later_fault_the_detectors_disagree_on_is_hidden():
+    """An offset on s0 from 100 to 200 s and one on s1, the next floor's, from 150 to
+    250 s (seed 6): the bank, leading, saw s0's end at 225.76 s, inside s1's fault, the
+    detection filter at 200.0 s. The end is hidden by s1's fault; not when the
+    detectors agree, nor when the end is not inside a later fault (it began after the
+    end, or with the first)."""
+
+    def first(bank_end, df_end):
+        return [_ev("s0", BANK, 100.0, bank_end, 1.77), _ev("s0", DF, 100.0, df_end, 1.0)]
+
+    def s1(onset=150.0, end=250.0):
+        return [_ev("s1", d, onset, end, 3.09) for d in (DF, EM)]
+
+    findings = merge_events([*first(225.76, 200.0), *s1()])
+    s0, later = (next(f for f in findings if f.channel == c) for c in ("s0", "s1"))
+    assert (s0.end_s, s0.detector) == (225.76, BANK)
+    assert ends_of_later_faults(findings, _coupled) == []
+    assert ends_hidden_by_later(findings, _coupled) == [(s0, later)]
+    for events in (
+        [*first(225.76, 225.76), *s1()],  # they agree
+        [*first(225.76, 200.0), *s1(onset=230.0, end=280.0)],  # it ended before
+        [*first(225.76, 200.0), *s1(onset=100.5)],  # it began with this one
+    ):
+        assert ends_hidden_by_later(merge_events(events), _coupled) == []
+    apart = merge_events([*first(225.76, 200.0), *s1()])
+    assert ends_hidden_by_later(apart, lambda d, a, b: False) == []
