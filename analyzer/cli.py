@@ -438,6 +438,21 @@ def _naming_inputs(message: str, inputs: Sequence[str]) -> str:
     return f"{capped(list(inputs), what='inputs')}: {message}"
 
 
+def _named_end(line: str, inputs: Sequence[str]) -> int:
+    """Where the first file or option ``line`` names ends (0: none): what
+    :func:`~analyzer.errors.clipped_line` keeps whole, however long the path."""
+    head = line.split(":", 1)[0].strip()
+    if head.startswith(("--", "[")) or (head and os.path.exists(head)):
+        return line.index(head) + len(head)
+    ends = [
+        at + len(name)
+        for i in inputs
+        for name in (i, Path(i).name)
+        if name and (at := line.find(name)) >= 0
+    ]
+    return min(ends, default=0)
+
+
 def _raised_here(err: BaseException) -> bool:
     """Whether ``err`` was raised in the analyzer's own code (a ``print`` to stdout is
     C, so its innermost Python frame is the analyzer's caller), not in a library's pipe
@@ -613,7 +628,8 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
     except AnalyzerError as err:
         inputs = [str(i) for i in getattr(args, "inputs", None) or []]
         # (cut to errors.LINE_MOST after the inputs it names: one readable line)
-        line = clipped_line(_naming_inputs(one_line(str(err)), inputs))
+        line = _naming_inputs(one_line(str(err)), inputs)
+        line = clipped_line(line, keep=_named_end(line, inputs))
         return _error(line + _earlier(args, started))
     except KeyboardInterrupt:
         print(terminal_safe(f"analyzer: interrupted{_earlier(args, started)}"), file=sys.stderr)

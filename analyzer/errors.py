@@ -36,24 +36,30 @@ their advice (a line of 1.1 kB, ``tilt_laser.bag``'s four detectors' reasons and
 hints, wrapped to a screenful and buried the hint that fixed it)."""
 
 
-def clipped_line(text: str, most: int = LINE_MOST) -> str:
+def clipped_line(text: str, most: int = LINE_MOST, keep: int = 0) -> str:
     """``text`` cut to at most ``most`` characters at the last clause boundary in the
     second half of them (``; ``, else before a parenthesis, else ``, ``, else a space),
     ended with `` ...``, the parentheses it left open closed, and ``[N characters in
     all]``: the contract's error is one readable line, and its head (the file it names,
-    the first reason) is what it keeps. Shorter text is returned as it is."""
+    the first reason) is what it keeps. Shorter text is returned as it is. The first
+    ``keep`` characters are never cut (the file or option the line names, however long
+    its path), nor the quarter of ``most`` after them (the first reason): a line whose
+    path is that long is longer than ``most``."""
     if len(text) <= most:
         return text
     tail = f" [{len(text):,} characters in all]"
-    room = max(1, most - len(tail) - 8)  # (" ..." and up to 4 closing parentheses)
+    # (" ..." and up to 4 closing parentheses)
+    room = max(1, most - len(tail) - 8, keep + (most // 4 if keep else 0))
     cut = -1
     for sep in ("; ", " (", ", ", " "):
-        cut = text.rfind(sep, 0, room)
-        if cut > room // 2:
+        cut = text.rfind(sep, keep, room)
+        if cut > max(keep, room // 2):
             break
-    head = text[: cut if cut > 0 else room].rstrip(" ;,(")
+    head = text[: cut if cut > keep else room]
+    head = head[:keep] + head[keep:].rstrip(" ;,(")
     still_open = max(0, head.count("(") - head.count(")"))
-    return head + " ..." + ")" * min(still_open, 4) + tail
+    line = head + " ..." + ")" * min(still_open, 4) + tail
+    return line if len(line) < len(text) else text
 
 
 def terminal_safe(text: str) -> str:

@@ -76,11 +76,23 @@ SERVICE_EVENT_SUFFIX = "_Event"
 """The end of a service event type's name (``example_interfaces/srv/AddTwoInts_Event``)."""
 
 
+SERVICE_EVENT_KINDS = ("srv", "action")
+"""The interface kinds whose types end in :data:`SERVICE_EVENT_SUFFIX` only as service
+events: a service's (``pkg/srv/Name_Event``) and an action's two services'
+(``pkg/action/Name_SendGoal_Event``, ``pkg/action/Name_GetResult_Event``, on
+``<action>/_action/send_goal/_service_event``); a message type of that name
+(``pkg/msg/Door_Event``) is read as any other."""
+
+
 def refuse_service_event(msgtype: str) -> None:
-    """Raise :class:`ServiceEventType` for a ROS 2 service event type (``pkg/srv/
-    Name_Event``); return for any other."""
+    """Raise :class:`ServiceEventType` for a ROS 2 service event type (of
+    :data:`SERVICE_EVENT_KINDS`); return for any other."""
     parts = msgtype.strip().split("/")
-    if len(parts) == 3 and parts[1] == "srv" and parts[2].endswith(SERVICE_EVENT_SUFFIX):
+    if (
+        len(parts) == 3
+        and parts[1] in SERVICE_EVENT_KINDS
+        and parts[2].endswith(SERVICE_EVENT_SUFFIX)
+    ):
         raise ServiceEventType(
             f"ROS 2 service events ({msgtype.strip()}: the requests and responses of calls "
             "to a service), not sensor data"

@@ -85,3 +85,28 @@ def test_the_refusal_orders_its_parts_by_use():
     text = str(_no_detector_error(singular, (0.0, 1.0), RunOptions(), gappy))
     assert text.startswith("no detector could run (ar_kalman_bank: singular AR regression")
     assert text.endswith(gappy)
+
+
+def test_the_cut_keeps_the_file_it_names_whatever_its_length():
+    path = "/data/" + "/".join(["a rather long folder name"] * 30) + "/rec.mcap"
+    text = f"{path}: " + "; ".join(f"reason {k} " + "x" * 30 for k in range(40))
+    cut = clipped_line(text, keep=len(path))
+    assert cut.startswith(f"{path}: reason 0 ") and len(cut) < len(text)
+    # a cut that would not shorten the line leaves it whole
+    assert clipped_line("y" * 700, keep=690) == "y" * 700
+
+
+def test_a_long_refusal_of_a_deep_file_names_it(tmp_path, capsys):
+    """A path longer than the line's limit (folders of 200 characters): the cut was made
+    inside it, and the line named no file (the contract: it names the file)."""
+    t, y, _ = simulate_building(2, 120.0, 100.0, seed=1, sensors_per_floor=2)
+    slow = np.full((t.size, 8), np.nan)
+    slow[::20] = np.random.default_rng(0).standard_normal((t[::20].size, 8)).cumsum(axis=0)
+    names = [*(f"fast_{k}" for k in range(4)), *(f"slow_{k}" for k in range(8))]
+    deep = tmp_path / ("d" * 200) / ("e" * 200) / ("f" * 200)
+    deep.mkdir(parents=True)
+    path = _save(deep / "s.csv", t, np.column_stack([y, slow]), names)
+    code, _, err = run_cli(["run", path, "--out", tmp_path / "o", "--no-progress"], capsys)
+    assert code == 2
+    line = one_line_error(err, str(path), "no detector could run")
+    assert "characters in all]" in line

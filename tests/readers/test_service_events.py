@@ -101,3 +101,45 @@ def test_rosbag2_service_event_bag(corpus: Path, storage: str) -> None:
     for topic in ("/test_service1/_service_event", "/test_service2/_service_event"):
         assert f"{topic}: ROS 2 service events (test_msgs/srv/BasicTypes_Event" in text
     assert "syntax error" not in text and "--msg-path" not in text
+
+
+ACTION_EVENT = "example_interfaces/action/Fibonacci_SendGoal_Event"
+"""An action's goal service's event type (action introspection): a service event too."""
+
+
+@pytest.mark.parametrize(
+    ("msgtype", "skipped"),
+    [(ACTION_EVENT, True), ("door_msgs/msg/Door_Event", False), ("door_msgs/Door_Event", False)],
+)
+def test_which_event_types_are_service_events(msgtype: str, skipped: bool) -> None:
+    from analyzer.readers.rostypes import ServiceEventType, refuse_service_event
+
+    if skipped:
+        with pytest.raises(ServiceEventType, match=f"ROS 2 service events \\({msgtype}:"):
+            refuse_service_event(msgtype)
+    else:
+        refuse_service_event(msgtype)  # a message type that merely ends in _Event
+
+
+def test_an_action_goal_event_topic_is_skipped_with_the_note(tmp_path: Path) -> None:
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    path = tmp_path / "goals.mcap"
+    with path.open("wb") as handle:
+        writer = McapWriter(handle)
+        writer.start(profile="ros2", library="test")
+        goal = "int32 order\n---\nbool accepted\nbuiltin_interfaces/Time stamp\n"
+        event = writer.register_schema(ACTION_EVENT, "ros2msg", goal.encode())
+        calls = writer.register_channel("/fibonacci/_action/send_goal/_service_event", "cdr", event)
+        data = writer.register_schema("std_msgs/msg/Float64", "ros2msg", b"float64 data\n")
+        level = writer.register_channel("/level", "cdr", data)
+        for i in range(20):
+            stamp = 1_000_000_000 + i * 10_000_000
+            writer.add_message(calls, stamp, b"\x00\x01\x00\x00" + bytes(60), stamp)
+            writer.add_message(level, stamp, _float64(store, float(i)), stamp)
+        writer.finish()
+    reader = open_input(path)
+    assert list(collect(reader.chunks())) == ["/level.data"]
+    (note,) = reader.info.errors
+    assert note.startswith(
+        f"/fibonacci/_action/send_goal/_service_event: ROS 2 service events ({ACTION_EVENT}:"
+    )
