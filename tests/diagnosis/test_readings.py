@@ -18,7 +18,13 @@ import pytest
 
 from analyzer.detectors.base import DetectorResult
 from analyzer.diagnosis.merge import Finding
-from analyzer.diagnosis.readings import CARRIED, SIGMAS, carried, refuted_by_readings
+from analyzer.diagnosis.readings import (
+    CARRIED,
+    SIGMAS,
+    carried,
+    refuted_by_readings,
+    residual_health,
+)
 from analyzer.pipeline import RunOptions, analyze
 from analyzer.types import FaultType
 from analyzer.writers import write_archive
@@ -317,3 +323,30 @@ def test_a_stretch_shorter_than_the_long_window_is_not_judged():
     kept, notes = refuted_by_readings([lone, other], results, Y, ["s0", "s1"], TRAIN, RATE)
     assert kept == [lone, other] and notes == []
     assert "readings" not in lone.evidence
+
+
+def test_a_model_run_judges_by_the_healthy_statistics_saved_with_the_model():
+    """``--model``: the record has no healthy window of its own (``train`` is the filters'
+    warm-up, here empty); the residuals' healthy statistics measured on the training
+    run's window (:func:`residual_health`) judge the finding as they would there."""
+    y = _reading(0)
+    results = _results(y, 0.95, {"ar_kalman_bank": False, "detection_filter": True})
+    health = residual_health(results, TRAIN)
+    assert set(health) == {"equivalent_model", "ar_kalman_bank", "detection_filter"}
+    mean, sd, tau = health["ar_kalman_bank"]["s0"]
+    assert mean == pytest.approx(0.0, abs=0.01) and sd == pytest.approx(0.1, rel=0.05)
+    assert tau == pytest.approx(1.0, abs=0.2)  # white
+    measured = carried(_lone(FaultType.MULTIPLICATIVE, {"gain": 0.95}), results, y[:, None],
+                       {"s0": 0}, (ONSET, N), TRAIN, RATE)  # fmt: skip
+    saved = carried(_lone(FaultType.MULTIPLICATIVE, {"gain": 0.95}), results, y[:, None],
+                    {"s0": 0}, (ONSET, N), (0, 0), RATE, health=health)  # fmt: skip
+    assert saved == measured
+    # refused when neither carries it, by the saved statistics alone
+    results = _results(y, 0.95, {"ar_kalman_bank": False, "detection_filter": False})
+    f = _lone(FaultType.MULTIPLICATIVE, {"gain": 0.95})
+    args = (results, y[:, None], ["s0"], (0, 0), RATE)
+    kept, notes = refuted_by_readings([f], *args, residual_health(results, TRAIN))
+    assert kept == [] and len(notes) == 1
+    # a model saved without them (or a channel they lack): not judged
+    f = _lone(FaultType.MULTIPLICATIVE, {"gain": 0.95})
+    assert refuted_by_readings([f], *args, {"ar_kalman_bank": {}}) == ([f], [])
