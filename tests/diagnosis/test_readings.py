@@ -193,7 +193,8 @@ def test_a_finding_beside_another_fault_is_judged_with_it(carry):
     s0's reading residuals (0.6 of it, through the estimates), s1's reading is much like
     s0's (one structure's response). Fitted jointly with s1's fault signal, the share of
     s0's gain they carry is s0's own: 0 for a change of the relation (refused), 1 for the
-    sensor's fault (kept). Before, such a finding was not judged at all."""
+    sensor's fault (kept). Before, such a finding was not judged at all; beside a fault
+    without a fitted shape (``other``) it still is not."""
     y = _reading(4)
     y1 = 0.8 * y + 0.3 * _reading(5)
     t = np.arange(N) / RATE
@@ -210,15 +211,10 @@ def test_a_finding_beside_another_fault_is_judged_with_it(carry):
     for c in lone.evidence["readings"].values():
         assert c["beta"] == pytest.approx(1.0 if carry else 0.0, abs=0.1)
         assert c["samples"] == N - ONSET
-
-
-def test_a_finding_beside_a_fault_whose_shape_is_not_known_is_not_judged():
-    """Another sensor's ``other`` fault has no fitted shape to take its share out with."""
-    y = _reading(4)
-    results = _results(y, 0.95, {"ar_kalman_bank": False, "detection_filter": False})
+    # beside another sensor's ``other`` fault, whose share there is no fitted shape to
+    # take out with: not judged
     other = _beside(FaultType.OTHER, {"rms": 1.0})
     lone = _lone(FaultType.MULTIPLICATIVE, {"gain": 0.95})
-    Y = np.column_stack([y, y])
     kept, notes = refuted_by_readings([other, lone], results, Y, ["s0", "s1"], TRAIN, RATE)
     assert kept == [other, lone] and notes == []
     assert "readings" not in lone.evidence
