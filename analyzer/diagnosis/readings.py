@@ -290,7 +290,7 @@ def carried(
         signal = xx.copy()
         if f.type is FaultType.OTHER:  # the regressor's own healthy noise (errors in x)
             signal[0, 0] -= count * own_healthy[1] ** 2
-        if count < shortest(rate_hz) + k or not signal[0, 0] > 0.0:
+        if count < shortest(rate_hz) or not signal[0, 0] > 0.0:
             continue
         try:
             inverse = np.linalg.inv(signal)
