@@ -24,7 +24,7 @@ import builtins
 import hashlib
 import io
 import pickle
-from dataclasses import dataclass, field
+from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -88,7 +88,9 @@ class SavedModel:
     channels into, in ``groups``). ``healthy[channel]`` is the channel's mean and
     standard deviation over the training window (a frozen sensor is told by them);
     ``training_tests[detector][channel]`` are the residual tests of that window, shown
-    again in the reports of the archives the model analyzes."""
+    again in the reports of the archives the model analyzes. A field added later goes
+    last, with a default: an older file's pickle leaves it unset and :func:`load_model`
+    gives it its default."""
 
     channels: tuple[str, ...]
     rate_hz: float
@@ -105,6 +107,13 @@ class SavedModel:
     time_source: str = "log"
     analyzer_version: str = __version__
     created: str = ""
+    reading_health: dict[str, dict[str, tuple[float, float, float]]] = field(default_factory=dict)
+    """``reading_health[detector][channel]``: the healthy mean, standard deviation and
+    correlation time of the residuals the readings rule reads (the equivalent model's, the
+    bank's, the detection filter's: :func:`~analyzer.diagnosis.readings.residual_health`)
+    over the training window, for the rule to judge the lone equivalent-model findings of
+    a ``--model`` run by. Empty in a model saved before it was kept (the last field, so
+    such a file still loads: :func:`load_model`): the rule is not applied then."""
 
     def detectors(self) -> list[str]:
         """The detectors fitted in this model, in the order they ran."""
@@ -169,6 +178,15 @@ def check_model_path(path: Path, out: Path | None = None) -> None:
         raise UsageError(f"--save-model: directory {path.parent} does not exist")
 
 
+def _later_fields(model: SavedModel) -> None:
+    """Give the fields a file saved before they existed left unset (a slotted dataclass's
+    pickle holds its fields' values in order, and an older one stops short) their
+    defaults: ``reading_health`` (no saved health: the readings rule not applied)."""
+    for f in fields(SavedModel):
+        if not hasattr(model, f.name) and f.default_factory is not MISSING:
+            object.__setattr__(model, f.name, f.default_factory())
+
+
 def load_model(path: str | Path) -> SavedModel:
     """The model saved in ``path`` by ``--save-model``; :class:`UsageError` naming the
     option and the file when it is missing, damaged, not a model, or of another analyzer
@@ -199,6 +217,7 @@ def load_model(path: str | Path) -> SavedModel:
         raise UsageError(f"--model: {p} is damaged or not an analyzer model ({err})") from None
     if not isinstance(model, SavedModel):
         raise UsageError(f"--model: {p} does not hold an analyzer model")
+    _later_fields(model)
     if model.analyzer_version != __version__:
         raise UsageError(
             f"--model: {p} was written by analyzer {model.analyzer_version}, this is "

@@ -52,7 +52,7 @@ from analyzer.diagnosis.evidence import (
 from analyzer.diagnosis.levels import excursions, level_note, response_levels
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.oversampled import MEMORY_SAMPLES, oversampled_note
-from analyzer.diagnosis.readings import refuted_by_readings
+from analyzer.diagnosis.readings import refuted_by_readings, residual_health
 from analyzer.diagnosis.stuck import frozen_notes, healthy_stats, relabel_frozen
 from analyzer.diagnosis.training_check import WindowNote, window_notes, window_warnings
 from analyzer.errors import (
@@ -915,6 +915,7 @@ def _analyze(
                 config=dict(ctx.config),
                 time_source=options.time_source,
                 created=iso_utc(time.time_ns()) or "",
+                reading_health=residual_health(results, train),
             ),
             model_info=None if reused is None else model_info(reused, options),
             screen=screen,
@@ -1348,7 +1349,8 @@ def _diagnose(
     per fault, one fault at a time among the sensors a detector models together (as the
     seed methods isolate them), a frozen sensor told by its readings rather than by the
     residual's shape, a lone equivalent-model fault that the sensor's reading residuals
-    do not carry refused (:mod:`analyzer.diagnosis.readings`; not with ``--model``), and
+    do not carry refused (:mod:`analyzer.diagnosis.readings`; with ``--model``, by the
+    residuals' healthy statistics saved with the model), and
     (``--model``) the faults already there when the search began.
     The channels the config names as measured inputs (``excitation``: a force, a ground
     acceleration) are not sensors under test: what a detector that models them as
@@ -1384,8 +1386,13 @@ def _diagnose(
     frozen = frozen_notes(findings, values, chosen, rate_hz, healthy, train[1])
     # a lone equivalent-model fault that the residuals taking its sensor's reading in do
     # not carry: the relation's error under a change of the response, not the reading's
-    if reused is None:
-        findings, refuted = refuted_by_readings(findings, results, values, chosen, train, rate_hz)
+    # (--model: with the residuals' healthy statistics saved with the model; none in a
+    # model saved before they were, and then not judged)
+    health = None if reused is None else reused.reading_health
+    if health is None or health:
+        findings, refuted = refuted_by_readings(
+            findings, results, values, chosen, train, rate_hz, health
+        )
         notes.extend(refuted)
     findings.sort(key=lambda f: (f.onset_s, f.channel))
     findings, conflicts = one_fault_at_a_time(findings, coupled(results))

@@ -412,3 +412,40 @@ def test_an_archive_in_other_units_than_the_model_is_named(tmp_path, capsys):
     assert err.count("e+03x") == 3  # every channel
     notes = json.loads((tmp_path / "o2" / "findings.json").read_text())["notes"]
     assert any(n.startswith("the archive's spread against the model's") for n in notes)
+
+
+# ------------------------------------------------------------------ the readings rule
+
+
+def test_a_saved_model_holds_the_residuals_healthy_statistics(model):
+    """What the readings rule needs to judge a lone equivalent-model finding of a
+    ``--model`` run: each residual's healthy mean, spread and correlation time on the
+    training window, for the equivalent model, the bank and the detection filter."""
+    m = load_model(model)
+    assert set(m.reading_health) == {"equivalent_model", "ar_kalman_bank", "detection_filter"}
+    for per_channel in m.reading_health.values():
+        assert set(per_channel) == set(m.channels)
+        for mean, sd, tau in per_channel.values():
+            assert np.isfinite(mean) and sd > 0.0 and tau >= 1.0
+
+
+def test_a_model_saved_before_the_residuals_health_loads_and_runs(
+    model, record, tmp_path, monkeypatch
+):
+    """Its lone equivalent-model findings stand as the detector reported them (the
+    rule has no healthy statistics to judge them by), as before."""
+    m = load_model(model)
+    # pickled as an analyzer that did not yet keep reading_health did: its field values
+    # in order, the last one missing
+    state = SavedModel.__getstate__
+    monkeypatch.setattr(SavedModel, "__getstate__", lambda self: state(self)[:-1])
+    older = tmp_path / "older.model"
+    older.write_bytes(framed(pickle.dumps(m, protocol=5)))
+    monkeypatch.undo()
+    loaded = load_model(older)
+    assert loaded.reading_health == {} and loaded.healthy == m.healthy
+    t, y = _piece(record, 1)
+    y[:, 4] = inject_fault(y[:, 4], RATE, "additive", 10.0, 2.0 * y[:, 4].std())
+    src = _write(tmp_path / "f.csv", t, y, record[2])
+    assert _main(["run", src, "--out", tmp_path / "o", "--model", older]) == 1
+    assert [(f["channel"], f["type"]) for f in _faults(tmp_path / "o")] == [("s4", "additive")]
