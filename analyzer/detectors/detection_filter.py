@@ -25,7 +25,8 @@ filter's residual changes where another sensor's fault begins or ends: a fault g
 through a change of its filter where another reported fault ended (:func:`_another_ended`)
 and where its filter alarms again inside it with no sensor named (:func:`_went_on`), and
 one named only after the other ended begins at its filter's unnamed change before
-(:func:`_began_unnamed`).
+(:func:`_began_unnamed`), unless that change was where the filter's own reported fault
+was lost: then it is that fault going on (:func:`_resumes`).
 
 Thresholds of the AR-based bank are calibrated out of sample (models refitted on each
 half of the healthy window, run on the other half), since in-sample innovations are too
