@@ -990,7 +990,8 @@ def _ends_without(
     detectors that ran (``ran``) fitted again without that fault's sensor, over the whole
     record: a finding of theirs on the same sensor that begins within a long alarm
     window of its onset and ends after the later fault began and before the hidden end
-    gives its end (and its size, when of its type); changes the findings in place and
+    gives its end (and its size, when of its type); changes the findings in place (their
+    evidence ``end_without``: the sensor left out, the detector and the end before) and
     returns a note for each. One search per sensor left out. ``matrix``: the aligned
     values, their channels, the healthy window's rows and the rate.
 
@@ -1039,6 +1040,8 @@ def _ends_without(
                 continue
             h = alone[0]
             was, f.end_s = f.end_s, h.end_s
+            # (findings.json: where the end came from, beside the detectors' own events)
+            f.evidence["end_without"] = {"left_out": left, "detector": h.detector, "was_s": was}
             size = ""
             if h.type is f.type:
                 f.magnitude = dict(h.magnitude)

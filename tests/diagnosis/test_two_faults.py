@@ -169,3 +169,25 @@ def test_a_first_faults_end_hidden_by_a_later_one_is_found_without_its_sensor(
     assert one.end_s is not None and abs(one.end_s - 200.0) < 2.0
     assert abs(later.onset_s - 150.0) < 2.0 and abs(later.end_s - 250.0) < 2.0
     assert any(n.startswith(f"{kind} fault on {names[first]}: ended at") for n in analysis.notes)
+
+
+def test_an_end_found_without_the_later_faults_sensor_says_so_in_its_evidence(tmp_path):
+    """A gain of 1.5 on s1 from 100 to 200 s and an offset of 2 sd on s4 from 150 to
+    250 s (seed 1): the gain's end, 200.4 s, is the bank's without s4, not an end any of
+    the finding's own events saw (250.1 s, 150.1 s); its evidence says where it came
+    from (before, only a note did)."""
+    t, y0, names = simulate_building(6, 300.0, RATE, seed=1)
+    y = y0.copy()
+    y[:, 1] = inject_fault(y[:, 1], RATE, "multiplicative", 100.0, 1.5, 200.0)
+    y[:, 4] = inject_fault(y[:, 4], RATE, "additive", 150.0, 2.0 * float(y0[:, 4].std()), 250.0)
+    path = tmp_path / "two.csv"
+    write_archive(
+        path, "csv", np.round(t * 1e9).astype(np.int64), {n: y[:, i] for i, n in enumerate(names)}
+    )
+    (tmp_path / "work").mkdir()
+    s1 = next(f for f in analyze([str(path)], RunOptions(), tmp_path / "work").findings)
+    assert s1.channel == "s1" and abs(s1.end_s - 200.0) < 2.0
+    assert all(abs(e.end_s - s1.end_s) > 2.0 for e in s1.events)
+    said = s1.evidence["end_without"]
+    assert said["left_out"] == "s4" and said["detector"] in s1.evidence["detectors"]
+    assert abs(said["was_s"] - 250.0) < 2.0
