@@ -991,7 +991,10 @@ def _ends_without(
     detectors that ran (``ran``) fitted again without that fault's sensor, over the whole
     record: a finding of theirs on the same sensor that begins within a long alarm
     window of its onset and ends after the later fault began and before the hidden end
-    gives its end (and its size, when of its type); changes the findings in place and
+    gives its end (and its size, when of its type), or the latest end of its events
+    that saw the sensor faulty again after it (none: the fault went on to the hidden end
+    or the record's, and the finding stays); changes the findings in place (their
+    evidence ``end_without``: the sensor left out, the detector and the end before) and
     returns a note for each. One search per sensor left out. ``matrix``: the aligned
     values, their channels, the healthy window's rows and the rate.
 
@@ -1039,7 +1042,17 @@ def _ends_without(
             if not alone:
                 continue
             h = alone[0]
-            was, f.end_s = f.end_s, h.end_s
+            # events of its own that saw the sensor faulty again after its end (a fault
+            # that stopped and began again, its parts one finding): the fault went on
+            again = [e.end_s for e in h.events if h.end_s is not None and e.onset_s > h.end_s]
+            end = h.end_s
+            if again:
+                end = None if None in again else max(e for e in again if e is not None)
+                if end is None or end >= until:
+                    continue
+            was, f.end_s = f.end_s, end
+            # (findings.json: where the end came from, beside the detectors' own events)
+            f.evidence["end_without"] = {"left_out": left, "detector": h.detector, "was_s": was}
             size = ""
             if h.type is f.type:
                 f.magnitude = dict(h.magnitude)
@@ -1049,7 +1062,7 @@ def _ends_without(
                     + ")"
                 )
             notes.append(
-                f"{f.type.value} fault on {f.channel}: ended at {h.end_s:.3f} s as "
+                f"{f.type.value} fault on {f.channel}: ended at {end:.3f} s as "
                 f"{h.detector} saw it with {left} left out{size}; with {left} it was "
                 "reported to "
                 + ("the record's end" if was is None else f"{was:.3f} s")

@@ -25,7 +25,8 @@ filter's residual changes where another sensor's fault begins or ends: a fault g
 through a change of its filter where another reported fault ended (:func:`_another_ended`)
 and where its filter alarms again inside it with no sensor named (:func:`_went_on`), and
 one named only after the other ended begins at its filter's unnamed change before
-(:func:`_began_unnamed`).
+(:func:`_began_unnamed`), unless that change was where the filter's own reported fault
+was lost: then it is that fault going on (:func:`_resumes`).
 
 Thresholds of the AR-based bank are calibrated out of sample (models refitted on each
 half of the healthy window, run on the other half), since in-sample innovations are too
@@ -888,6 +889,16 @@ class DetectionFilter:
                 )
                 continue
             began = _began_unnamed(ev, unnamed.get(j), before)
+            if began is not None and before is not None and _resumes(began, before):
+                # the unnamed part began where the filter's own fault was lost (another
+                # sensor's fault began): that fault went on beside it, not a second one
+                before.end_s = ev.end_s
+                notes.append(
+                    f"the fault on {names[j]} from {before.onset_s:.3f} s goes on past "
+                    f"{began.onset_s:.3f} s and {when}: its filter's residual changed where "
+                    "another sensor's fault began and ended, no sensor named between"
+                )
+                continue
             if began is not None:
                 notes.append(
                     f"the fault on {names[j]} from {when} began at {began.onset_s:.3f} s, "
@@ -1019,6 +1030,20 @@ def _began_unnamed(ev: Event, part: Event | None, before: Event | None) -> Event
     ):
         return None
     return part
+
+
+def _resumes(part: Event, before: Event) -> bool:
+    """Whether ``part``, a filter's alarm that no sensor was named for and that a later
+    part of its fault began with (:func:`_began_unnamed`), began where the filter's
+    latest reported fault (``before``), of its type, was lost: that fault went on
+    through it, beside another sensor's, and what follows is still that fault.
+
+    An offset on s2 from 100 to 250 s and one on s5 from 150 to 200 s (seed 26 of
+    ``sweep_two_faults.py``, ``nested``): s2's filter reported the offset to 150.04 s,
+    where s5's began, alarmed on from there with no sensor named, and named s2 again
+    from 200.05 s, where s5's ended; that part taken back to 150.04 s was a second
+    finding on s2, 150.0-250.0 s, inside the first (100.0-250.0 s)."""
+    return before.end_s is not None and before.type is part.type and before.end_s == part.onset_s
 
 
 def _went_on(

@@ -106,6 +106,20 @@ def test_a_drift_goes_on_where_its_filter_alarms_again_beside_another_fault():
     assert any("goes on past 150.080 s to 200.010 s" in n for n in result.notes)
 
 
+@pytest.mark.parametrize("seed", [26, 28])
+def test_a_fault_lost_where_another_began_goes_on_through_it(seed):
+    """An offset on s2 from 100 to 250 s and one on s5 from 150 to 200 s, inside it
+    (seed 26; seed 28: s4 and s1), ``nested`` in ``sweep_two_faults.py``. The first
+    sensor's filter reported its offset to 150.0 s, where the second began, alarmed on
+    with no sensor named, and named the first sensor again from 200.0 s, where the
+    second ended. Its fault is one part, 100-250 s (before: a second part taken back to
+    150.0 s by :func:`~analyzer.detectors.detection_filter._began_unnamed`, a finding
+    inside the first)."""
+    first = f"s{seed % 6}"
+    found = _found(seed, (150.0, 200.0), first=(100.0, 250.0))
+    assert [(onset, end) for ch, onset, end in found if ch == first] == [(100, 250)]
+
+
 def _cand(k0: int, changed: bool, end: int | None = None) -> tuple[int, int, Event]:
     ev = Event(
         "s0",

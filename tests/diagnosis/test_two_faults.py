@@ -169,3 +169,46 @@ def test_a_first_faults_end_hidden_by_a_later_one_is_found_without_its_sensor(
     assert one.end_s is not None and abs(one.end_s - 200.0) < 2.0
     assert abs(later.onset_s - 150.0) < 2.0 and abs(later.end_s - 250.0) < 2.0
     assert any(n.startswith(f"{kind} fault on {names[first]}: ended at") for n in analysis.notes)
+
+
+def test_an_end_found_without_the_later_faults_sensor_says_so_in_its_evidence(tmp_path):
+    """A gain of 1.5 on s1 from 100 to 200 s and an offset of 2 sd on s4 from 150 to
+    250 s (seed 1): the gain's end, 200.4 s, is the bank's without s4, not an end any of
+    the finding's own events saw (250.1 s, 150.1 s); its evidence says where it came
+    from (before, only a note did)."""
+    t, y0, names = simulate_building(6, 300.0, RATE, seed=1)
+    y = y0.copy()
+    y[:, 1] = inject_fault(y[:, 1], RATE, "multiplicative", 100.0, 1.5, 200.0)
+    y[:, 4] = inject_fault(y[:, 4], RATE, "additive", 150.0, 2.0 * float(y0[:, 4].std()), 250.0)
+    path = tmp_path / "two.csv"
+    write_archive(
+        path, "csv", np.round(t * 1e9).astype(np.int64), {n: y[:, i] for i, n in enumerate(names)}
+    )
+    (tmp_path / "work").mkdir()
+    s1 = next(f for f in analyze([str(path)], RunOptions(), tmp_path / "work").findings)
+    assert s1.channel == "s1" and abs(s1.end_s - 200.0) < 2.0
+    assert all(abs(e.end_s - s1.end_s) > 2.0 for e in s1.events)
+    said = s1.evidence["end_without"]
+    assert said["left_out"] == "s4" and said["detector"] in s1.evidence["detectors"]
+    assert abs(said["was_s"] - 250.0) < 2.0
+
+
+@pytest.mark.parametrize("seed", [1, 3])
+def test_a_fault_that_began_again_beside_a_later_one_is_not_cut_at_its_first_part(tmp_path, seed):
+    """A gain of 1.5 on s1 from 100 to 160 s and again from 170 s to the record's end,
+    beside an offset of 2 sd on s4 from 150 s to the end. Searched without s4, the
+    finding on s1 ended at 160.2 s, but its own events saw s1 faulty again from 170 s to
+    the end (one finding: the observers saw the gain throughout): the fault goes on to
+    the end (before: cut at 160.2 s, s1 reported healthy from there)."""
+    t, y0, names = simulate_building(6, 300.0, RATE, seed=seed)
+    y = y0.copy()
+    for onset, end in ((100.0, 160.0), (170.0, None)):
+        y[:, 1] = inject_fault(y[:, 1], RATE, "multiplicative", onset, 1.5, end)
+    y[:, 4] = inject_fault(y[:, 4], RATE, "additive", 150.0, 2.0 * float(y0[:, 4].std()), None)
+    path = tmp_path / "two.csv"
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(path, "csv", t_ns, {n: y[:, i] for i, n in enumerate(names)})
+    (tmp_path / "work").mkdir()
+    found = analyze([str(path)], RunOptions(), tmp_path / "work").findings
+    s1 = [(f.type.value, round(f.onset_s), f.end_s) for f in found if f.channel == "s1"]
+    assert s1 == [("multiplicative", 100, None)]
