@@ -76,6 +76,7 @@ from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.classify import correlation_time
 from analyzer.diagnosis.evidence import settled
 from analyzer.diagnosis.merge import Finding
+from analyzer.diagnosis.streamed import series_moments
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -175,13 +176,14 @@ correlation time (samples), as :func:`residual_health` measures them."""
 
 
 def _healthy(z: npt.NDArray[Any], train: tuple[int, int]) -> tuple[float, float, float] | None:
-    """Mean, standard deviation and correlation time of the healthy residual ``z``."""
-    h = np.asarray(z[settled(train) : train[1]], dtype=np.float64)
-    h = h[np.isfinite(h)]
-    if h.size < 8:
+    """Mean, standard deviation and correlation time of the healthy residual ``z``, read
+    a block at a time (no float64 copy of a long, memory-mapped training window: a
+    saved model measures every residual of every channel)."""
+    h = z[settled(train) : train[1]]
+    moments = series_moments(h)
+    if moments.n < 8:
         return None
-    mean = float(h.mean())
-    return mean, float(h.std()), correlation_time(h - mean)
+    return moments.mean, moments.std(), correlation_time(h)
 
 
 def residual_health(results: Sequence[DetectorResult], train: tuple[int, int]) -> Health:
