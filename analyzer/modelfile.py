@@ -181,9 +181,14 @@ def check_model_path(path: Path, out: Path | None = None) -> None:
 def _later_fields(model: SavedModel) -> None:
     """Give the fields a file saved before they existed left unset (a slotted dataclass's
     pickle holds its fields' values in order, and an older one stops short) their
-    defaults: ``reading_health`` (no saved health: the readings rule not applied)."""
+    defaults: ``reading_health`` (no saved health: the readings rule not applied). A
+    plain default too (a slotted class keeps no class attribute to fall back on)."""
     for f in fields(SavedModel):
-        if not hasattr(model, f.name) and f.default_factory is not MISSING:
+        if hasattr(model, f.name):
+            continue
+        if f.default is not MISSING:
+            object.__setattr__(model, f.name, f.default)
+        elif f.default_factory is not MISSING:
             object.__setattr__(model, f.name, f.default_factory())
 
 

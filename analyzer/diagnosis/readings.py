@@ -37,15 +37,18 @@ SIGMAS se < CARRIED``.
 Another sensor's fault under way reaches the bank's and the filter's residuals of ``c``
 through the estimates (they take that sensor in), in a share the regression cannot
 know: a finding that begins while other findings last is judged with their fault
-signals as further regressors (their fitted shapes, zero after their ends), ``z = beta
-x + sum_g gamma_g x_g``, ``beta`` and its standard error (the ``(1, 1)`` element of the
-inverse normal matrix, the same scatter and correlation time) read as above, so that the
-other faults' share is not taken for this one's. On ``sweep_eov.py --fault`` the two
-lone gains beside the control's offset (harmonic_res 4 ch seed 4, narrowband 6 ch seed
-3), not judged before, had the bank's residual carry -0.92 +- 0.04 and -0.08 +- 0.04 of
-them. A finding beside one whose shape has no magnitude to build its signal from (an
-``other``, a frozen sensor) is still not judged. One judged is judged up to the onset of
-the next other finding, when that leaves at least the long alarm window
+signals as further regressors (their fitted shapes), ``z = beta x + sum_g gamma_g
+x_g``, ``beta`` and its standard error (the ``(1, 1)`` element of the inverse normal
+matrix, the same scatter and correlation time) read as above, so that the other faults'
+share is not taken for this one's. The stretch ends at the first of their reported ends
+(past it their share is not known: :func:`_stretch`), and a finding whose signal is, to
+rounding, a sum of theirs (an offset beside a lasting offset) is not judged
+(:data:`COLLINEAR`). On ``sweep_eov.py --fault`` the two lone gains beside the control's
+offset (harmonic_res 4 ch seed 4, narrowband 6 ch seed 3), not judged before, had the
+bank's residual carry -0.92 +- 0.04 and -0.08 +- 0.04 of them. A finding beside one
+whose shape has no magnitude to build its signal from (an ``other``, a frozen sensor) is
+still not judged. One judged is judged up to the onset of the next other finding (or
+the end of one beside it), when that leaves at least the long alarm window
 (:func:`shortest`). A frozen or clipped sensor is told by its readings (``stuck.py``,
 ``clipping.py``): not judged here either.
 
@@ -73,6 +76,7 @@ from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.classify import correlation_time
 from analyzer.diagnosis.evidence import settled
 from analyzer.diagnosis.merge import Finding
+from analyzer.diagnosis.streamed import series_moments
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -89,6 +93,14 @@ CARRIED = 0.5
 
 SIGMAS = 3.0
 """Standard errors the share must lie below :data:`CARRIED` by."""
+
+COLLINEAR = 1.0 / np.sqrt(np.finfo(np.float64).eps)
+"""The variance inflation of the fault's share (``(X'X)^-1_00 (X'X)_00``, 1 when its
+signal is orthogonal to the other faults') beyond which its signal is, to rounding, a
+sum of theirs (an offset beside another sensor's lasting offset: two constants) and
+there is no share to read: half the digits of the solve are lost there. Without it,
+such a finding got ``beta`` from the rounding (+2.41, +1.13, +0.69) with a standard error
+of about 20 000."""
 
 PIECE = 1 << 20
 """Rows read at a time from the residuals (a lone fault may last for days)."""
@@ -138,14 +150,21 @@ def _read_by_readings(f: Finding) -> bool:
 def _stretch(
     f: Finding, others: Sequence[Finding], n: int, rate_hz: float
 ) -> tuple[tuple[int, int], list[Finding]]:
-    """The rows ``f`` is judged on, up to the onset of the next other finding, and the
-    other findings under way at its onset (their faults are fitted with it)."""
+    """The rows ``f`` is judged on, up to the onset of the next other finding or the end
+    of one under way at its onset, and the other findings under way at its onset (their
+    faults are fitted with it). Past a reported end the other fault's share is not known:
+    an end reported early while that fault lasts would leave its share, constant, to be
+    taken for an offset's or a drift's (a real offset of 0.3 beside another sensor's
+    offset of 1.0 reaching the residuals at -0.6, its end reported 180 s early, was
+    refused at -1.0 +- 0.002)."""
     a = max(0, int(round(f.onset_s * rate_hz)))
     b = n if f.end_s is None else min(n, int(round(f.end_s * rate_hz)) + 1)
     under_way = []
     for g in others:
         if g.onset_s <= f.onset_s and (g.end_s is None or g.end_s > f.onset_s):
             under_way.append(g)
+            if g.end_s is not None:
+                b = min(b, int(round(g.end_s * rate_hz)) + 1)
         elif f.onset_s < g.onset_s:
             b = min(b, int(round(g.onset_s * rate_hz)))
     return (a, max(a, b)), under_way
@@ -157,13 +176,14 @@ correlation time (samples), as :func:`residual_health` measures them."""
 
 
 def _healthy(z: npt.NDArray[Any], train: tuple[int, int]) -> tuple[float, float, float] | None:
-    """Mean, standard deviation and correlation time of the healthy residual ``z``."""
-    h = np.asarray(z[settled(train) : train[1]], dtype=np.float64)
-    h = h[np.isfinite(h)]
-    if h.size < 8:
+    """Mean, standard deviation and correlation time of the healthy residual ``z``, read
+    a block at a time (no float64 copy of a long, memory-mapped training window: a
+    saved model measures every residual of every channel)."""
+    h = z[settled(train) : train[1]]
+    moments = series_moments(h)
+    if moments.n < 8:
         return None
-    mean = float(h.mean())
-    return mean, float(h.std()), correlation_time(h - mean)
+    return moments.mean, moments.std(), correlation_time(h)
 
 
 def residual_health(results: Sequence[DetectorResult], train: tuple[int, int]) -> Health:
@@ -217,17 +237,6 @@ def _signal(
     return None
 
 
-def _beside(
-    g: Finding, a: int, b: int, reading: npt.NDArray[Any], rate_hz: float
-) -> FloatArray | None:
-    """The fault signal of another sensor's finding ``g`` on rows ``a:b``, zero after its
-    end (it began before them)."""
-    x = _signal(g, a, b, reading, None, 0.0, rate_hz)
-    if x is None or g.end_s is None:
-        return x
-    return np.where(np.arange(a, b) / rate_hz <= g.end_s, x, 0.0)
-
-
 def carried(
     f: Finding,
     results: Sequence[DetectorResult],
@@ -275,7 +284,10 @@ def carried(
                     f, p, q, values[:, index[f.channel]], own.residuals[f.channel],
                     own_healthy[0], rate_hz,
                 ),
-                *(_beside(g, p, q, values[:, index[g.channel]], rate_hz) for g in beside),
+                *(
+                    _signal(g, p, q, values[:, index[g.channel]], None, 0.0, rate_hz)
+                    for g in beside
+                ),
             ]  # fmt: skip
             if any(x is None for x in signals):
                 return []
@@ -296,6 +308,8 @@ def carried(
             inverse = np.linalg.inv(signal)
         except np.linalg.LinAlgError:  # the faults' signals one and the same: no share
             continue
+        if float(inverse[0, 0]) * float(signal[0, 0]) > COLLINEAR:
+            continue  # this fault's signal is the others' (an offset beside an offset)
         beta = inverse @ xz
         # the stretch's scatter about the fit
         scatter = max(0.0, szz - 2.0 * float(beta @ xz) + float(beta @ xx @ beta)) / max(

@@ -449,3 +449,20 @@ def test_a_model_saved_before_the_residuals_health_loads_and_runs(
     src = _write(tmp_path / "f.csv", t, y, record[2])
     assert _main(["run", src, "--out", tmp_path / "o", "--model", older]) == 1
     assert [(f["channel"], f["type"]) for f in _faults(tmp_path / "o")] == [("s4", "additive")]
+
+
+def test_a_model_saved_before_its_last_two_fields_loads_with_their_defaults(
+    model, tmp_path, monkeypatch
+):
+    """A slotted dataclass keeps no class attribute for a plain default: a file whose
+    pickle stops short of a field with one (``created``, ``""``) as well as of one with a
+    factory (``reading_health``) loads with both defaults, not an object missing one."""
+    m = load_model(model)
+    state = SavedModel.__getstate__
+    monkeypatch.setattr(SavedModel, "__getstate__", lambda self: state(self)[:-2])
+    older = tmp_path / "older.model"
+    older.write_bytes(framed(pickle.dumps(m, protocol=5)))
+    monkeypatch.undo()
+    loaded = load_model(older)
+    assert loaded.created == "" and loaded.reading_health == {}
+    assert loaded.describe()["trained_on"] == m.describe()["trained_on"]

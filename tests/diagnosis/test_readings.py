@@ -378,3 +378,48 @@ def test_a_model_run_judges_by_the_healthy_statistics_saved_with_the_model():
     # a model saved without them (or a channel they lack): not judged
     f = _lone(FaultType.MULTIPLICATIVE, {"gain": 0.95})
     assert refuted_by_readings([f], *args, {"ar_kalman_bank": {}}) == ([f], [])
+
+
+def _offset_beside(
+    share: float, end_s: float | None, seed: int
+) -> tuple[Finding, list[DetectorResult], np.ndarray]:
+    """A real offset of 0.3 on s0 from 400 s (the equivalent model's alone), beside s1's
+    offset of 1.0 from 300 s that lasts to the end and reaches s0's reading residuals at
+    ``share``; s1's finding reported ending at ``end_s``."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(N) / RATE
+    own = np.where(t >= ONSET / RATE, 0.3, 0.0)
+    theirs = np.where(t >= 300.0, 1.0, 0.0)
+    results = [
+        DetectorResult("equivalent_model", ("s0",), {}, [], {"s0": own + rng.normal(0, 0.1, N)})
+    ]
+    for name in ("ar_kalman_bank", "detection_filter"):
+        z = own + share * theirs + rng.normal(0, 0.1, N)
+        results.append(DetectorResult(name, ("s0",), {}, [], {"s0": z}))
+    other = _beside(FaultType.ADDITIVE, {"offset": 1.0})
+    other.end_s = end_s
+    return other, results, np.column_stack([_reading(4), _reading(5)])
+
+
+@pytest.mark.parametrize("share", [-0.6, 0.6])
+def test_a_real_offset_beside_a_fault_whose_end_is_reported_early_stays(share):
+    """s1's finding reported ending at 420 s while its fault (and its share of s0's
+    residuals) lasts: judged past 420 s with s1's signal zeroed there, the lasting share
+    was taken for s0's (-1.0 +- 0.002 at -0.6: refused). Judged up to that end, the two
+    offsets are one constant there: not judged, kept."""
+    other, results, Y = _offset_beside(share, 420.0, seed=3)
+    lone = _lone(FaultType.ADDITIVE, {"offset": 0.3})
+    kept, notes = refuted_by_readings([other, lone], results, Y, ["s0", "s1"], TRAIN, RATE)
+    assert kept == [other, lone] and notes == []
+    assert "readings" not in lone.evidence
+
+
+def test_an_offset_beside_a_lasting_offset_is_not_judged():
+    """Two constants over the stretch: the normal matrix is singular up to rounding, and
+    the share read from it was rounding (+2.41 +- 20 000 in the evidence): no share is
+    read, the finding is kept without ``readings``."""
+    for seed in range(5):
+        other, results, Y = _offset_beside(0.6, None, seed)
+        lone = _lone(FaultType.ADDITIVE, {"offset": 0.3})
+        kept, _ = refuted_by_readings([other, lone], results, Y, ["s0", "s1"], TRAIN, RATE)
+        assert lone in kept and "readings" not in lone.evidence, lone.evidence
