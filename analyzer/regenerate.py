@@ -234,11 +234,16 @@ def corrected_values(
     subtracted from that many seconds of healthy readings.
 
     A reading replaced by an estimate ends, given ``healthy``, where the readings are
-    alive again (:func:`_alive_stop`: from there the residual reads as the healthy
-    window's, not as the fault period's), when that is before the finding's end: a dead
-    sensor that came back at 220 s while its finding ran to the record's end had its
-    healthy readings replaced by the estimate (0.27 sd of error; ``sweep_corrected.py``
-    ``two-dead-neighbour``, seed 6). Two channels replaced by estimates at once each
+    alive again, when that is before the finding's end: a dead sensor that came back at
+    220 s while its finding ran to the record's end had its healthy readings replaced
+    by the estimate (0.27 sd of error; ``sweep_corrected.py`` ``two-dead-neighbour``,
+    seed 6). Where the readings' own spread goes from dead to alive and stays alive
+    (:func:`_revived_stop`), that is the end whatever the estimate carries: an estimate
+    with another sensor's undetected drift in it kept the regeneration running over
+    healthy readings (``two-dead-drift``: 0.13 sd of error there). Otherwise (readings
+    that cannot tell: an ``other`` fault that moves as much as live readings) the
+    residual decides (:func:`_alive_stop`: from where it reads as the healthy window's,
+    not as the fault period's). Two channels replaced by estimates at once each
     take the other's estimate in place of its dead reading as an input
     (:func:`_regenerated_inputs`): the estimate of a dead sensor from one that is dead
     too was up to 1.9 times its estimator's own error (``two-dead``).
@@ -318,8 +323,11 @@ def corrected_values(
         again = _estimate_again(p.given, p.j, shaped, p.start, p.stop, subs)
         p.again = again
         if healthy is not None:
-            p.stop_trimmed = _alive_stop(
-                _residual_rows(p, values, rate_hz), values, p, healthy, rate_hz
+            revived = _revived_stop(values, p, healthy, rate_hz)
+            p.stop_trimmed = (
+                _alive_stop(_residual_rows(p, values, rate_hz), values, p, healthy, rate_hz)
+                if revived is None
+                else revived
             )
     for sub in subs:  # a revived reading is its fellows' input again (its own period's)
         for a in range(max(sub.plan.stop_trimmed, sub.lo), sub.hi, RELEASE_ROWS):
@@ -838,6 +846,162 @@ def _spread(values: npt.NDArray[Any], j: int, a: int, b: int) -> float:
         return float("nan")
     mean = total / count
     return sum(float(np.sum(np.square(y - mean))) for y in pieces()) / count
+
+
+def _revived_stop(
+    values: npt.NDArray[Any], plan: _Regen, healthy: tuple[int, int], rate_hz: float
+) -> int | None:
+    """Where the regeneration of ``plan`` over ``[start, stop)`` ends by the readings
+    alone: the row ``k`` where column ``plan.j``'s readings go from dead to alive and
+    stay alive to ``stop``, or None when they do not say so. :func:`_alive_stop` reads
+    the reading less the estimate, and an estimate that carries another sensor's fault
+    which no finding took out (a drift missed, or found 79 s late) leaves that residual
+    above the healthy window's after the sensor came back, so the regeneration ran on
+    over healthy readings (``sweep_corrected.py`` ``two-dead-drift`` seeds 3 and 7:
+    0.124 and 0.133 sd of error there). The readings' own spread does not depend on the
+    estimate: a dead reading varies by its gain (below ``MIN_GAIN``) times the live one,
+    a stuck one not at all, and alive again the readings vary as in the healthy window.
+
+    The period is split where its readings' spread changes most (:func:`_spread_split`);
+    the split is a revival when the tail's readings vary by at least ``1 /``
+    :data:`REPLACE_FACTOR` of the healthy window's variance ``v0`` (alive: a gain of
+    0.71 or more) and the head's by at most ``MIN_GAIN`` times the tail's (dead: a gain
+    under 0.32 of the tail's, or a dead reading whose finding began up to a tenth of its
+    samples early). One split sees one change: a sensor dead at 10-20 s and 30-40 s
+    and alive after was split at 20 s, and its second dead stretch kept as measured. So
+    the tail is searched for a dead stretch, in blocks of :data:`TRIM_MIN_S` whose
+    readings vary about their own mean by at most ``MIN_GAIN ** 2`` times the healthy
+    window's blocks on average (a gain under ``MIN_GAIN``; a block's, as a block's
+    variance depends on the signal's band, not only on its level), and the search
+    starts again at the last one found. Of the 28 800 half-second blocks of the sweep's
+    healthy records (8 seeds, 6 sensors) none was that quiet, the quietest at 0.021
+    (``MIN_GAIN`` instead: 240 were, and a revived sensor's regeneration of
+    ``two-dead-drift`` seed 3 went on to the finding's end). Readings
+    that never vary by half the healthy spread again (a structure at rest) or die
+    again to the period's end are not called alive here (:func:`_alive_stop` decides).
+    At most :data:`REVIVAL_SPLITS` splits, each three passes over what is left of the
+    period."""
+    start, stop = plan.start, plan.stop
+    least = max(1, int(round(TRIM_MIN_S * rate_hz)))
+    count, total, squares = _finite_sums(values, plan.j, *healthy)
+    if count < 2:
+        return None
+    shift = total / count  # (sums about the healthy mean: no cancellation near it)
+    v0 = squares / count - shift * shift
+    if not v0 > 0.0:
+        return None
+    quiet = MIN_GAIN**2 * _block_variance(values, plan.j, *healthy, least)[1]
+    a = start
+    for _ in range(REVIVAL_SPLITS):
+        split = _spread_split(values, plan.j, a, stop, shift, least)
+        if split is None:
+            return None
+        k, head, tail = split
+        if not (tail >= v0 / REPLACE_FACTOR and head <= MIN_GAIN * tail):
+            return None
+        last, _ = _block_variance(values, plan.j, k, stop, least, quiet)
+        if last is None:
+            return k  # alive from k to the period's end
+        a = last  # dead again there: alive (if ever) only after it
+    return None
+
+
+REVIVAL_SPLITS = 8
+"""The most splits :func:`_revived_stop` makes of one period (a sensor that dies and
+comes back eight times within one finding); past that the period is left to
+:func:`_alive_stop` (a bound on the passes over a long archive, not a tuned number)."""
+
+
+def _block_variance(
+    values: npt.NDArray[Any], j: int, a: int, b: int, size: int, quiet: float = -1.0
+) -> tuple[int | None, float]:
+    """Column ``j``'s readings over rows ``[a, b)`` in blocks of ``size`` rows from
+    ``a``, each block's variance about its own mean: the first row of the last block
+    whose variance is at most ``quiet`` (None: none is), and the blocks' mean
+    variance (NaN: no block with two finite readings). :data:`RELEASE_ROWS` rows at a
+    time (whole blocks)."""
+    step = max(size, RELEASE_ROWS // size * size)
+    last, total, blocks = None, 0.0, 0
+    for p in range(a, b, step):
+        q = min(b, p + step)
+        rows = values[p:q]
+        y = np.asarray(rows[:, j], dtype=np.float64)
+        release(rows)
+        pad = -y.size % size
+        y = np.concatenate((y, np.full(pad, np.nan))).reshape(-1, size)
+        ok = np.isfinite(y)
+        count = ok.sum(axis=1)
+        z = np.where(ok, y, 0.0)
+        mean = z.sum(axis=1) / np.maximum(count, 1)
+        var = np.where(ok, z - mean[:, None], 0.0) ** 2
+        var = var.sum(axis=1) / np.maximum(count, 1)
+        full = count >= 2
+        total, blocks = total + float(np.sum(var[full])), blocks + int(np.sum(full))
+        hits = np.flatnonzero(full & (var <= quiet))
+        if hits.size:
+            last = p + int(hits[-1]) * size
+    return last, (total / blocks if blocks else float("nan"))
+
+
+def _finite_sums(
+    values: npt.NDArray[Any], j: int, a: int, b: int, shift: float = 0.0
+) -> tuple[int, float, float]:
+    """Count, sum and sum of squares of column ``j``'s finite readings less ``shift``
+    over rows ``[a, b)``, :data:`RELEASE_ROWS` rows at a time."""
+    count, total, squares = 0, 0.0, 0.0
+    for p in range(a, b, RELEASE_ROWS):
+        rows = values[p : min(b, p + RELEASE_ROWS)]
+        y = np.asarray(rows[:, j], dtype=np.float64)
+        release(rows)
+        y = y[np.isfinite(y)] - shift
+        count, total = count + int(y.size), total + float(np.sum(y))
+        squares += float(np.sum(y * y))
+    return count, total, squares
+
+
+def _spread_split(
+    values: npt.NDArray[Any], j: int, start: int, stop: int, shift: float, least: int
+) -> tuple[int, float, float] | None:
+    """The maximum-likelihood split of column ``j``'s readings over ``[start, stop)``
+    into two Gaussian segments, each with its own mean and variance (a change of the
+    variance with the mean free, so that a reading stuck at any value reads as quiet):
+    the row ``k`` (a head and a tail of at least ``least`` rows) that minimizes
+    ``n1 ln v1 + n2 ln v2`` over the head's and the tail's ``n`` finite readings and
+    variances, with the two variances; None when the period is too short. ``shift``:
+    a value near the readings (the sums are taken about it). Two passes,
+    :data:`RELEASE_ROWS` rows at a time: the totals, then the running sums."""
+    if stop - start < 2 * least:
+        return None
+    n, total, squares = _finite_sums(values, j, start, stop, shift)
+    if n < 4:
+        return None
+    floor = 1e-12 * max(squares / n, 1e-300)  # (a reading stuck exactly: 0 to rounding)
+    best, got = float("inf"), None
+    count, head, head_sq = 0, 0.0, 0.0  # over the rows before the piece
+    for p in range(start, stop, RELEASE_ROWS):
+        rows = values[p : min(stop, p + RELEASE_ROWS)]
+        y = np.asarray(rows[:, j], dtype=np.float64)
+        release(rows)
+        ok = np.isfinite(y)
+        z = np.where(ok, y - shift, 0.0)
+        # the head before row p + i: the rows before the piece and the piece's first i
+        c1 = count + np.concatenate(([0], np.cumsum(ok)[:-1]))
+        s1 = head + np.concatenate(([0.0], np.cumsum(z)[:-1]))
+        q1 = head_sq + np.concatenate(([0.0], np.cumsum(z * z)[:-1]))
+        c2, s2, q2 = n - c1, total - s1, squares - q1
+        at = np.arange(p, p + y.size)
+        valid = (at >= start + least) & (at <= stop - least) & (c1 >= 2) & (c2 >= 2)
+        if np.any(valid):
+            c1, s1, q1, c2, s2, q2 = (x[valid] for x in (c1, s1, q1, c2, s2, q2))
+            v1 = np.maximum(q1 / c1 - (s1 / c1) ** 2, floor)
+            v2 = np.maximum(q2 / c2 - (s2 / c2) ** 2, floor)
+            cost = c1 * np.log(v1) + c2 * np.log(v2)
+            i = int(np.argmin(cost))
+            if cost[i] < best:
+                best, got = float(cost[i]), (int(at[valid][i]), float(v1[i]), float(v2[i]))
+        count, head = count + int(np.sum(ok)), head + float(np.sum(z))
+        head_sq += float(np.sum(z * z))
+    return got
 
 
 REPLACE_FACTOR = 2.0

@@ -692,3 +692,93 @@ def test_two_dead_sensors_are_regenerated_in_memory_set_by_the_piece(tmp_path):
     were arrays in memory, 8 bytes a row each: 11 MB more for 700 000 more rows)."""
     small, large = (_peak_of_two_dead(tmp_path, n) for n in (500_000, 1_200_000))
     assert large < 1.2 * small, (small, large)
+
+
+@pytest.mark.parametrize("seed, dead, drifting", [(7, 1, 4), (3, 3, 0)])
+def test_a_dead_sensor_beside_a_drift_found_late_ends_where_it_came_back(
+    tmp_path, seed, dead, drifting
+):
+    """A dead sensor (120-220 s) while the sensor 3 floors up drifts by 0.02 sd/s from
+    150 s, a drift the detectors found only at 229 s (seed 7) or not at all (seed 3):
+    the estimate that regenerates the dead sensor carries the drift, so the reading
+    less the estimate stayed above the healthy spread after the sensor came back, and
+    the regeneration ran on to 265.31 s or to the record's end (0.133 and 0.124 sd of
+    error over its healthy readings; ``sweep_corrected.py`` ``two-dead-drift``). The
+    readings' own spread says where they are alive."""
+    y0, y, names, analysis = _sweep_record(
+        tmp_path,
+        seed,
+        [(dead, "multiplicative", 120.0, 220.0, 0.0), (drifting, "drift", 150.0, None, 0.02)],
+    )
+    out = np.asarray(analysis.corrected)
+    (rec,) = [c for c in analysis.corrections if c["channel"] == names[dead]]
+    assert rec["method"] == "reference"
+    assert rec["end_s"] == pytest.approx(220.0, abs=0.05)
+    assert np.array_equal(out[22005:, dead], y[22005:, dead])  # alive again: as measured
+    sd = float(y0[:, dead].std())
+    inside = out[12000:22000, dead] - y0[12000:22000, dead]
+    assert float(np.sqrt(np.mean(inside**2))) < 0.5 * sd  # (the dead readings' error: 1 sd)
+
+
+def _drifting_estimate(s, rng, n, since):
+    """An estimate of ``s`` with an error of 0.05 that carries, from row ``since``, a
+    drift of 0.01 a row-second at 100 Hz (another sensor's fault no finding took out)."""
+    drift = 0.01 * np.maximum(np.arange(n) - since, 0) / 100.0
+    return s + 0.05 * rng.standard_normal(n) + drift
+
+
+def test_a_revival_is_read_from_the_readings_when_the_estimate_carries_a_fault():
+    """c0 dead at 10-20 s (its finding to the end), stuck at 3.0 at 40-50 s of c1's (its
+    finding 40-60 s); each estimate carries a drift from 15 s (35 s for c1) that the
+    residual test reads as the fault going on: both regenerations end where the
+    readings move again, whatever the value a reading was stuck at."""
+    rate = 100.0
+    s, Y, names, rng = _dead_record(rate, seconds=60.0)
+    n = s.size
+    Yf = Y.copy()
+    Yf[1000:2000, 0] = 0.0
+    Yf[4000:5000, 1] = 3.0
+    refs = {
+        "c0": _drifting_estimate(s, rng, n, 1500),
+        "c1": _drifting_estimate(s, rng, n, 3500),
+        "c2": s,
+    }
+    events = [
+        _dead("c0", 10.0, None, 0.9),
+        Event("c1", 40.0, 60.0, FaultType.OTHER, {}, 0.8, "test"),
+    ]
+    out, records = corrected_values(Yf, names, rate, events, None, refs, healthy=(0, 500))
+    assert records[0]["end_s"] == pytest.approx(20.0, abs=0.02), records[0]
+    assert records[1]["end_s"] == pytest.approx(50.0, abs=0.02), records[1]
+    assert "alive again" in records[0]["note"] and "alive again" in records[1]["note"]
+    assert np.array_equal(out[2002:, 0], Yf[2002:, 0])
+    assert np.array_equal(out[5002:, 1], Yf[5002:, 1])
+    assert np.allclose(out[1000:1998, 0], refs["c0"][1000:1998])
+
+
+def test_a_sensor_that_dies_again_is_regenerated_to_its_findings_end():
+    """c0 dead at 10-20 s, alive 20-35 s, dead again from 35 s to the end, under one
+    finding from 10 s: alive in between is not alive to the end, so the period's end
+    is left to the residual (the readings never say the tail is alive) and the second
+    dead stretch is regenerated; a sensor dead at 10-20, 30-40 and alive after is
+    regenerated to 40 s."""
+    rate = 100.0
+    s, Y, names, rng = _dead_record(rate, seconds=60.0)
+    refs = {c: s + 0.05 * rng.standard_normal(s.size) for c in names}
+    Yf = Y.copy()
+    Yf[1000:2000, 0] = 0.0
+    Yf[3500:, 0] = 0.0
+    out, records = corrected_values(
+        Yf, names, rate, [_dead("c0", 10.0, None, 0.9)], None, refs, healthy=(0, 500)
+    )
+    assert records[0]["end_s"] is None
+    assert np.array_equal(out[3500:, 0], refs["c0"][3500:])
+    Yf = Y.copy()
+    Yf[1000:2000, 0] = 0.0
+    Yf[3000:4000, 0] = 0.0
+    out, records = corrected_values(
+        Yf, names, rate, [_dead("c0", 10.0, None, 0.9)], None, refs, healthy=(0, 500)
+    )
+    assert records[0]["end_s"] == pytest.approx(40.0, abs=0.02), records[0]
+    assert np.array_equal(out[3000:3998, 0], refs["c0"][3000:3998])
+    assert np.array_equal(out[4002:, 0], Yf[4002:, 0])
