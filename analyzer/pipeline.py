@@ -997,10 +997,15 @@ def _ends_without(
     window of its onset and ends after the later fault began and before the hidden end
     gives its end (and its size, when of its type), or the latest end of its events
     that saw the sensor faulty again after it (none: the fault went on to the hidden end
-    or the record's, and the finding stays); changes the findings in place (their
-    evidence ``end_without``: the sensor left out, the detector and the end before) and
-    returns a note for each. One search per sensor left out. ``matrix``: the aligned
-    values, their channels, the healthy window's rows and the rate.
+    or the record's, and the finding stays). A hidden end where the later fault began
+    (within a long alarm window: the first fault ended there, or was lost there) takes
+    an end of theirs more than that window after it, or the record's end. Then the
+    onsets of the ``early`` findings, each with the earlier fault under way where its
+    lead began (:func:`_onset_without`), from the same search without that fault's
+    sensor. Changes the findings in place (their evidence ``end_without``: the sensor
+    left out, the detector and the end before) and returns a note for each. One search
+    per sensor left out. ``matrix``: the aligned values, their channels, the healthy
+    window's rows and the rate.
 
     A detector that estimates a sensor from another sees that one's fault in its
     residual of the sensor: from where it began the two faults are one alarm to it,
