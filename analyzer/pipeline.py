@@ -39,6 +39,7 @@ from analyzer.diagnosis import (
     ends_of_later_faults,
     merge_events,
     one_fault_at_a_time,
+    onsets_hidden_by_earlier,
 )
 from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.clipping import merge_clipped
@@ -806,8 +807,9 @@ def _analyze(
         periods = {id(f): (f.onset_s, f.end_s) for f in findings}
         notes.extend(ends_of_later_faults(findings, coupled(results)))
         hidden = ends_hidden_by_later(findings, coupled(results))
+        early = onsets_hidden_by_earlier(findings, coupled(results))
         if (
-            hidden
+            (hidden or early)
             and reused is None
             and not options.screen
             and not options.config.groups
@@ -824,6 +826,7 @@ def _analyze(
                     executor,
                     work if big else None,
                     excitation,
+                    early,
                 )
             )
             timings["ends without"] = time.perf_counter() - t_ends
@@ -985,6 +988,7 @@ def _ends_without(
     executor: Executor,
     work: Path | None,
     excitation: frozenset[str],
+    early: Sequence[tuple[Finding, Finding]] = (),
 ) -> list[str]:
     """The ends of the ``hidden`` findings, each with the later fault on another sensor
     that hid its end (:func:`~analyzer.diagnosis.merge.ends_hidden_by_later`), from the
@@ -993,10 +997,15 @@ def _ends_without(
     window of its onset and ends after the later fault began and before the hidden end
     gives its end (and its size, when of its type), or the latest end of its events
     that saw the sensor faulty again after it (none: the fault went on to the hidden end
-    or the record's, and the finding stays); changes the findings in place (their
-    evidence ``end_without``: the sensor left out, the detector and the end before) and
-    returns a note for each. One search per sensor left out. ``matrix``: the aligned
-    values, their channels, the healthy window's rows and the rate.
+    or the record's, and the finding stays). A hidden end where the later fault began
+    (within a long alarm window: the first fault ended there, or was lost there) takes
+    an end of theirs more than that window after it, or the record's end. Then the
+    onsets of the ``early`` findings, each with the earlier fault under way where its
+    lead began (:func:`_onset_without`), from the same search without that fault's
+    sensor. Changes the findings in place (their evidence ``end_without``: the sensor
+    left out, the detector and the end before) and returns a note for each. One search
+    per sensor left out. ``matrix``: the aligned values, their channels, the healthy
+    window's rows and the rate.
 
     A detector that estimates a sensor from another sees that one's fault in its
     residual of the sensor: from where it began the two faults are one alarm to it,
@@ -1011,7 +1020,7 @@ def _ends_without(
     slack = LONG_FACTOR * default_window(rate_hz) / rate_hz
     names = list(dict.fromkeys(ran))
     notes: list[str] = []
-    for left in sorted({g.channel for _, g in hidden}):
+    for left in sorted({g.channel for _, g in [*hidden, *early]}):
         keep = [c for c in chosen if c != left]
         path = None if work is None else work / f"aligned-ends-{chosen.index(left)}.npy"
         sub = columns(values, chosen, keep, path)
@@ -1030,14 +1039,19 @@ def _ends_without(
         for f, g in hidden:
             if g.channel != left:
                 continue
-            until = float("inf") if f.end_s is None else f.end_s - slack
+            # ended where the later fault began (lost there, or ended): an end after it
+            lost = f.end_s is not None and f.end_s <= g.onset_s + slack
+            until = float("inf") if f.end_s is None or lost else f.end_s - slack
             alone = [
                 h
                 for h in found
                 if h.channel == f.channel
                 and abs(h.onset_s - f.onset_s) <= slack
-                and h.end_s is not None
-                and g.onset_s - slack <= h.end_s < until
+                and (
+                    (h.end_s is None or h.end_s > f.end_s + slack)
+                    if lost and f.end_s is not None
+                    else h.end_s is not None and g.onset_s - slack <= h.end_s < until
+                )
             ]
             if not alone:
                 continue
@@ -1048,7 +1062,7 @@ def _ends_without(
             end = h.end_s
             if again:
                 end = None if None in again else max(e for e in again if e is not None)
-                if end is None or end >= until:
+                if not lost and (end is None or end >= until):
                     continue
             was, f.end_s = f.end_s, end
             # (findings.json: where the end came from, beside the detectors' own events)
@@ -1062,14 +1076,66 @@ def _ends_without(
                     + ")"
                 )
             notes.append(
-                f"{f.type.value} fault on {f.channel}: ended at {end:.3f} s as "
-                f"{h.detector} saw it with {left} left out{size}; with {left} it was "
+                f"{f.type.value} fault on {f.channel}: ended at "
+                + ("the record's end" if end is None else f"{end:.3f} s")
+                + f" as {h.detector} saw it with {left} left out{size}; with {left} it was "
                 "reported to "
                 + ("the record's end" if was is None else f"{was:.3f} s")
                 + f", the {g.type.value} fault on {left} (from {g.onset_s:.3f} s) in the "
                 "residuals of the detectors that model the two sensors together"
             )
-    return notes
+        notes.extend(_onset_without(f, g, found, slack) for f, g in early if g.channel == left)
+    return [n for n in notes if n]
+
+
+def _onset_without(f: Finding, g: Finding, found: Sequence[Finding], slack: float) -> str:
+    """The period and shape of ``f``, a finding whose lead began while ``g``, an earlier
+    fault of another sensor, was under way (:func:`~analyzer.diagnosis.merge.
+    onsets_hidden_by_earlier`), from ``found``, the findings of the detectors fitted
+    again without ``g``'s sensor: one on ``f``'s sensor that begins more than ``slack``
+    (a long alarm window) after ``f`` did and within ``slack`` of one of ``f``'s events
+    (another detector saw it begin there), before ``f`` ended, gives its onset, end,
+    type and size; ``f`` changes in place (evidence ``onset_without``: the sensor left
+    out, the detector, the period before). Returns a note, or ``""`` when no such
+    finding.
+
+    The type too: the lead's shape was fitted from its early onset, over the earlier
+    fault's trace. An offset on s2 from 150 to 250 s beside a drift on s5 from 100 s
+    (seed 17 of ``sweep_two_faults.py``, ``drift-offset``) was the bank's drift from
+    142.15 s to 294.52 s (the observers' offset from 150.0 s outvoted one to one), and
+    the bank's offset from 150.0 s to 250.0 s without s5 (3.43 for 3.43 injected)."""
+    alone = [
+        h
+        for h in found
+        if h.channel == f.channel
+        and h.onset_s > f.onset_s + slack
+        and (f.end_s is None or h.onset_s < f.end_s)
+        and any(abs(h.onset_s - e.onset_s) <= slack for e in f.events)
+    ]
+    if not alone:
+        return ""
+    h = min(alone, key=lambda x: x.onset_s)
+    was = (f.onset_s, f.end_s)
+    f.onset_s, f.end_s = h.onset_s, h.end_s
+    f.evidence["onset_without"] = {
+        "left_out": g.channel,
+        "detector": h.detector,
+        "was_s": list(was),
+    }
+    # its shape too: the lead's was fitted from its early onset, over the other's trace
+    kind = "" if h.type is f.type else f" (with {g.channel}: a {f.type.value} fault)"
+    f.type, f.magnitude = h.type, dict(h.magnitude)
+    size = ", ".join(f"{k} {v:.4g}" for k, v in f.magnitude.items())
+    span = "the record's end" if was[1] is None else f"{was[1]:.3f} s"
+    return (
+        f"{f.type.value} fault on {f.channel}: from {h.onset_s:.3f} s to "
+        + ("the record's end" if h.end_s is None else f"{h.end_s:.3f} s")
+        + f" ({size}) as {h.detector} saw it with {g.channel} left out{kind}; with "
+        f"{g.channel} {f.detector} saw it from {was[0]:.3f} s to {span}, while the "
+        f"{g.type.value} fault "
+        f"on {g.channel} (from {g.onset_s:.3f} s) was under way, in the residuals of the "
+        "detectors that model the two sensors together"
+    )
 
 
 def _run_again(

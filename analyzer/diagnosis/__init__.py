@@ -17,6 +17,7 @@ from analyzer.diagnosis.merge import (
     ends_of_later_faults,
     merge_events,
     one_fault_at_a_time,
+    onsets_hidden_by_earlier,
 )
 
 __all__ = [
@@ -36,4 +37,5 @@ __all__ = [
     "ends_of_later_faults",
     "merge_events",
     "one_fault_at_a_time",
+    "onsets_hidden_by_earlier",
 ]

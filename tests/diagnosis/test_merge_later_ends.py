@@ -12,6 +12,7 @@ from analyzer.diagnosis import (
     ends_of_later_faults,
     merge_events,
     one_fault_at_a_time,
+    onsets_hidden_by_earlier,
 )
 from analyzer.types import FaultType
 
@@ -283,3 +284,65 @@ def test_an_end_inside_a_later_fault_the_detectors_disagree_on_is_hidden():
         assert ends_hidden_by_later(merge_events(events), _coupled) == []
     apart = merge_events([*first(225.76, 200.0), *s1()])
     assert ends_hidden_by_later(apart, lambda d, a, b: False) == []
+
+
+def test_an_end_where_a_later_fault_began_is_hidden_when_another_detector_saw_it_go_on():
+    """The event times of seed 12 and seed 17 (``sweep_two_faults.py``): a drift on s0
+    from 100 s whose end the bank and the detection filter saw at 150.08 s, where s3's
+    offset began, the observers at 200.01 s; a gain on s5 whose end the filter and the
+    observers saw at 150.14 s, where s2's began, the bank at 250.13 s, s2's end. Either
+    fault may have ended where the later began, or been lost there: the end is hidden by
+    the later fault (the pipeline searches without its sensor). Not when every detector
+    saw it end there, nor when the sensors are not modelled together."""
+    drift = [
+        _ev("s0", BANK, 95.61, 150.08, 0.026, D),
+        _ev("s0", DF, 98.22, 150.08, 0.026, D),
+        _ev("s0", EM, 99.68, 200.01, 0.027, D),
+    ]
+    s3 = [_ev("s3", d, 150.0, 250.0, 4.57) for d in (DF, EM)]
+    findings = merge_events([*drift, *s3])
+    assert ends_of_later_faults(findings, _coupled) == []
+    s0, later = (next(f for f in findings if f.channel == c) for c in ("s0", "s3"))
+    assert s0.end_s == 150.08
+    assert ends_hidden_by_later(findings, _coupled) == [(s0, later)]
+    gain = [
+        _ev("s5", BANK, 100.0, 250.13, 1.5, M),
+        _ev("s5", DF, 100.0, 150.14, 1.51, M),
+        _ev("s5", EM, 100.0, 150.13, 1.5, M),
+    ]
+    s2 = [_ev("s2", d, 150.0, 250.0, 3.43) for d in (BANK, DF, EM)]
+    findings = merge_events([*gain, *s2])
+    ends_of_later_faults(findings, _coupled)
+    s5, later = (next(f for f in findings if f.channel == c) for c in ("s5", "s2"))
+    assert s5.end_s == 150.14
+    assert ends_hidden_by_later(findings, _coupled) == [(s5, later)]
+    ended = [_ev("s0", d, 100.0, 150.08, 0.026, D) for d in (BANK, DF, EM)]
+    assert ends_hidden_by_later(merge_events([*ended, *s3]), _coupled) == []
+    assert ends_hidden_by_later(merge_events([*drift, *s3]), lambda d, a, b: False) == []
+
+
+def test_an_onset_inside_an_earlier_fault_another_detector_saw_later_is_hidden():
+    """The event times of seed 17 (``nested``) and seed 15 (``neighbour``): the bank saw
+    s2's offset from 142.89 s to 215.04 s, inside s5's fault from 100 s, the observers
+    from 150.0 s to 200.0 s; the bank saw s4's from 111.56 s (offset -0.08), inside s3's
+    from 100 s, the detection filter from 150.0 s. The bank's onset leads (one detector
+    against one) and may be the earlier fault's trace: hidden by it. Not when the
+    detectors agree on the onset, nor when the earlier fault had ended, nor when the
+    sensors are not modelled together."""
+    s5 = [_ev("s5", d, 100.0, 250.0, 4.55) for d in (BANK, DF)]
+    s2 = [_ev("s2", BANK, 142.89, 215.04, 2.33), _ev("s2", EM, 150.0, 200.0, 3.43)]
+    findings = merge_events([*s5, *s2])
+    ends_of_later_faults(findings, _coupled)
+    earlier, f = (next(x for x in findings if x.channel == c) for c in ("s5", "s2"))
+    assert (f.onset_s, f.detector) == (142.89, BANK)
+    assert onsets_hidden_by_earlier(findings, _coupled) == [(f, earlier)]
+    s3 = [_ev("s3", d, 100.0, 200.0, 3.7) for d in (BANK, DF, EM)]
+    s4 = [_ev("s4", BANK, 111.56, 257.57, -0.08), _ev("s4", DF, 150.0, 250.0, 4.03)]
+    findings = merge_events([*s3, *s4])
+    earlier, f = (next(x for x in findings if x.channel == c) for c in ("s3", "s4"))
+    assert onsets_hidden_by_earlier(findings, _coupled) == [(f, earlier)]
+    agreed = [_ev("s2", d, 150.0, 200.0, 3.43) for d in (BANK, EM)]
+    assert onsets_hidden_by_earlier(merge_events([*s5, *agreed]), _coupled) == []
+    over = [_ev("s5", d, 100.0, 140.0, 4.55) for d in (BANK, DF)]
+    assert onsets_hidden_by_earlier(merge_events([*over, *s2]), _coupled) == []
+    assert onsets_hidden_by_earlier(merge_events([*s5, *s2]), lambda d, a, b: False) == []

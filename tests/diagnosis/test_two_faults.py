@@ -139,7 +139,12 @@ def test_two_faults_from_one_instant_on_six_sensors_the_network_isolates_one(tmp
 
 @pytest.mark.parametrize(
     "seed, first, second, kind, size",
-    [(1, 1, 4, "multiplicative", 1.5), (6, 0, 1, "additive", 2.0)],
+    [
+        (1, 1, 4, "multiplicative", 1.5),
+        (6, 0, 1, "additive", 2.0),
+        (12, 0, 3, "drift", 0.02),
+        (17, 5, 2, "multiplicative", 1.5),
+    ],
 )
 def test_a_first_faults_end_hidden_by_a_later_one_is_found_without_its_sensor(
     tmp_path, seed, first, second, kind, size
@@ -149,8 +154,12 @@ def test_a_first_faults_end_hidden_by_a_later_one_is_found_without_its_sensor(
     of 1.5 on s1 and the offset on s4: the bank and the observers saw the gain to
     250.1 s, s4's end, and the detection filter lost it at 150.1 s, where both faults
     were on. Seed 6, an offset of 2 sd on s0 and the offset on s1: the bank saw s0's to
-    225.8 s, the filter to 200.0 s. Searched again without the later fault's sensor,
-    the first ends at 200 s (before: 250.1 s, 225.8 s); the later keeps its stretch."""
+    225.8 s, the filter to 200.0 s. Seed 12, a drift of 0.02 sd/s on s0 and the offset
+    on s3: the bank and the filter lost the drift at 150.08 s, where s3's offset began,
+    the observers saw it to 200.01 s. Seed 17, a gain of 1.5 on s5 and the offset on s2:
+    the filter and the observers lost the gain at 150.14 s, the bank saw it to 250.13 s,
+    s2's end. Searched again without the later fault's sensor, the first ends at 200 s
+    (before: 250.1 s, 225.8 s, 150.1 s, 150.1 s); the later keeps its stretch."""
     t, y0, names = simulate_building(6, 300.0, RATE, seed=seed)
     y = y0.copy()
     scaled = size if kind == "multiplicative" else size * float(y0[:, first].std())
@@ -212,3 +221,37 @@ def test_a_fault_that_began_again_beside_a_later_one_is_not_cut_at_its_first_par
     found = analyze([str(path)], RunOptions(), tmp_path / "work").findings
     s1 = [(f.type.value, round(f.onset_s), f.end_s) for f in found if f.channel == "s1"]
     assert s1 == [("multiplicative", 100, None)]
+
+
+@pytest.mark.parametrize(
+    "seed, first, second, period",
+    [(17, 5, 2, (150.0, 200.0)), (15, 3, 4, (150.0, 250.0))],
+)
+def test_a_later_faults_onset_inside_an_earlier_one_is_found_without_its_sensor(
+    tmp_path, seed, first, second, period
+):
+    """An offset of 2 sd on one sensor from 100 s and one of 2 sd on another over
+    ``period`` (``benchmarks/sweep_two_faults.py``). Seed 17 (``nested``), s5 to 250 s
+    and s2 from 150 to 200 s: the bank saw s2's from 142.89 s to 215.04 s, the observers
+    from 150.0 to 200.0 s. Seed 15 (``neighbour``), s3 to 200 s and s4 from 150 to
+    250 s: the bank saw s4's from 111.56 s to 257.57 s (offset -0.08), the filter from
+    150.0 to 250.0 s. The bank's onset led (before: each reported from the bank's);
+    searched again without the earlier fault's sensor, the later one has its period, as
+    every detector saw it there, and its size."""
+    t, y0, names = simulate_building(6, 300.0, RATE, seed=seed)
+    y = y0.copy()
+    end = 250.0 if period[1] < 250.0 else 200.0
+    y[:, first] = inject_fault(y[:, first], RATE, "additive", 100.0, 2.0 * y0[:, first].std(), end)
+    offset = 2.0 * float(y0[:, second].std())
+    y[:, second] = inject_fault(y[:, second], RATE, "additive", period[0], offset, period[1])
+    path = tmp_path / "two.csv"
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(path, "csv", t_ns, {n: y[:, i] for i, n in enumerate(names)})
+    (tmp_path / "work").mkdir()
+    found = {f.channel: f for f in analyze([str(path)], RunOptions(), tmp_path / "work").findings}
+    assert sorted(found) == sorted([names[first], names[second]])
+    one, later = found[names[first]], found[names[second]]
+    assert abs(one.onset_s - 100.0) < 2.0 and abs(one.end_s - end) < 2.0
+    assert abs(later.onset_s - period[0]) < 2.0 and abs(later.end_s - period[1]) < 2.0
+    assert abs(later.magnitude["offset"] / offset - 1.0) < 0.1
+    assert later.evidence["onset_without"]["left_out"] == names[first]
