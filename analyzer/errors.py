@@ -104,3 +104,10 @@ class StoreError(AnalyzerError):
 
 class DetectorError(AnalyzerError):
     """A detector cannot be fitted or run (too little healthy data, singular model...)."""
+
+
+class IntegrityError(AnalyzerError):
+    """An internal consistency check failed: samples changed between two stages of the
+    analyzer itself (:class:`~analyzer.readers.tally.Tally`), not a fault of the input.
+    The pipeline reads the input again once; a second failure stops the run (exit 2)
+    rather than report a result computed from corrupted samples."""

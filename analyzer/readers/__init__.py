@@ -22,7 +22,7 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from analyzer.errors import ReaderError
+from analyzer.errors import IntegrityError, ReaderError
 from analyzer.readers._common import (
     bag_files,
     file_digest,
@@ -307,7 +307,7 @@ class Archive:
         dropped: dict[str, int] = {}
         try:
             yield from monotonic(_one_span(reader, source, last, owner), last, dropped, strict=True)
-        except Unstitchable:
+        except (Unstitchable, IntegrityError):  # (an internal check's: the pipeline's)
             raise
         except ReaderError as err:
             if single:

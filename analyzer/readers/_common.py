@@ -21,8 +21,13 @@ import numpy as np
 import numpy.typing as npt
 from numpy.lib.stride_tricks import sliding_window_view
 
-from analyzer.errors import one_line  # noqa: F401 - re-exported for the readers
+from analyzer.errors import (
+    IntegrityError,
+    capped,
+    one_line,  # noqa: F401 - re-exported for the readers
+)
 from analyzer.readers.base import ChannelChunk
+from analyzer.readers.tally import Tally
 from analyzer.timeutil import plausible_epoch
 
 IntArray = npt.NDArray[np.int64]
@@ -882,6 +887,11 @@ class Reorderer:
     raw samples of the input, which ``inspect`` counts; the aligned channels can hold
     one value per time, which :meth:`drop_report` says). ``topics`` (filled by
     :meth:`push_decoded`) maps channels to their topic, for reports per topic.
+
+    What it is given and what it releases or drops are tallied (:class:`~analyzer.
+    readers.tally.Tally`); :meth:`flush` checks that they agree and raises
+    :class:`~analyzer.errors.IntegrityError` where they do not: samples changed while
+    held (a CSV's values are views of Arrow's buffers until the final release).
     """
 
     def __init__(
@@ -902,10 +912,15 @@ class Reorderer:
         self.dropped: dict[str, int] = {}
         self.duplicates: dict[str, int] = {}
         self.topics: dict[str, str] = {} if topics is None else topics
+        self.pushed = Tally()
+        """What :meth:`push` was given."""
+        self.passed = Tally()
+        """What :meth:`release` released, and what it dropped."""
 
     def push(self, name: str, t: IntArray, values: FloatArray) -> None:
         if t.size == 0:
             return
+        self.pushed.add(name, t, values)
         if name not in self._t:
             self._t[name] = []
             self._v[name] = []
@@ -956,6 +971,7 @@ class Reorderer:
             if last is not None and int(out_t[0]) < last:
                 keep = out_t >= last
                 self.dropped[name] = self.dropped.get(name, 0) + int(np.count_nonzero(~keep))
+                self.passed.add(name, out_t[~keep], out_v[~keep])
                 out_t, out_v = out_t[keep], out_v[keep]
                 if out_t.size == 0:
                     continue
@@ -965,7 +981,9 @@ class Reorderer:
                 if times.repeats or (last is not None and int(out_t[0]) == last):
                     self._count_repeats(name, out_t, last)
             self._last[name] = int(out_t[-1])
-            yield ChannelChunk(name, np.ascontiguousarray(out_t), np.ascontiguousarray(out_v))
+            chunk = ChannelChunk(name, np.ascontiguousarray(out_t), np.ascontiguousarray(out_v))
+            self.passed.add(name, chunk.t_ns, chunk.values)
+            yield chunk
 
     def _order(self, parts_t: list[IntArray], bound: int | None, final: bool) -> _Times:
         """The held times of a channel in order, their sorting order (None when they are
@@ -990,8 +1008,13 @@ class Reorderer:
             self.duplicates[name] = self.duplicates.get(name, 0) + count
 
     def flush(self) -> Iterator[ChannelChunk]:
-        """Release everything still held."""
+        """Release everything still held, then check that every sample pushed was
+        released or dropped, unchanged (:class:`IntegrityError` naming the channel)."""
         yield from self.release(None, final=True)
+        lost = self.pushed.differences(self.passed, "pushed", "released or dropped")
+        if lost:
+            said = capped(lost, 2, "; ", "channels")
+            raise IntegrityError(f"internal check failed in the reader's reordering: {said}")
 
     def drop_report(self) -> list[str]:
         """One error line per topic (per channel without one) that lost samples: out of

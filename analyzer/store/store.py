@@ -39,9 +39,10 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from analyzer.errors import StoreError
+from analyzer.errors import IntegrityError, StoreError
 from analyzer.paging import is_mapped, mapped_file, pwrite_all, release
 from analyzer.readers.base import ChannelChunk
+from analyzer.readers.tally import Tally
 from analyzer.scratch import make_scratch, remove_scratch
 from analyzer.types import NS_PER_S
 
@@ -304,6 +305,37 @@ class ChannelStore:
             raw.order = raw.last_t = None  # (for the sharing channels, done with)
         self._recent = None
         self._final = True
+
+    def tally(self, block: int = 1 << 22) -> Tally:
+        """What the finalized store holds (:class:`~analyzer.readers.tally.Tally`), for
+        the comparison with what the readers handed over: a block at a time, each block's
+        pages of a spilled channel given back after it (:func:`~analyzer.paging.release`).
+        Each channel's summary is checked against its arrays too (sample count, first and
+        last time), so that the aligned clock, which starts at the earliest of them, starts
+        at a sample the store holds."""
+        self._need_final()
+        out = Tally()
+        for name, raw in self._raw.items():
+            t, v = raw.t, raw.v
+            info = self._info[name]
+            assert t is not None and v is not None
+            n = int(t.shape[0])
+            if v.shape[0] != n or info.samples != n or n == 0:
+                raise IntegrityError(
+                    f"internal check failed in the store: {name!r} holds {n} times and "
+                    f"{v.shape[0]} values, its summary {info.samples} samples"
+                )
+            if info.start_ns != int(t[0]) or info.end_ns != int(t[-1]):
+                raise IntegrityError(
+                    f"internal check failed in the store: {name!r} spans {int(t[0])}-"
+                    f"{int(t[-1])} ns, its summary {info.start_ns}-{info.end_ns} ns"
+                )
+            for s in range(0, n, block):
+                e = min(n, s + block)
+                out.add(name, np.asarray(t[s:e]), np.asarray(v[s:e]))
+                release(t[s:e])
+                release(v[s:e])
+        return out
 
     # -- reading ---------------------------------------------------------------------------
     @property
