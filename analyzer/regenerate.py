@@ -323,11 +323,10 @@ def corrected_values(
         again = _estimate_again(p.given, p.j, shaped, p.start, p.stop, subs)
         p.again = again
         if healthy is not None:
-            revived = _revived_stop(values, p, healthy, rate_hz)
+            residual = _residual_rows(p, values, rate_hz)
+            revived = _revived_stop(values, p, healthy, rate_hz, residual)
             p.stop_trimmed = (
-                _alive_stop(_residual_rows(p, values, rate_hz), values, p, healthy, rate_hz)
-                if revived is None
-                else revived
+                _alive_stop(residual, values, p, healthy, rate_hz) if revived is None else revived
             )
     for sub in subs:  # a revived reading is its fellows' input again (its own period's)
         for a in range(max(sub.plan.stop_trimmed, sub.lo), sub.hi, RELEASE_ROWS):
@@ -849,7 +848,11 @@ def _spread(values: npt.NDArray[Any], j: int, a: int, b: int) -> float:
 
 
 def _revived_stop(
-    values: npt.NDArray[Any], plan: _Regen, healthy: tuple[int, int], rate_hz: float
+    values: npt.NDArray[Any],
+    plan: _Regen,
+    healthy: tuple[int, int],
+    rate_hz: float,
+    residual: Callable[[int, int], FloatArray],
 ) -> int | None:
     """Where the regeneration of ``plan`` over ``[start, stop)`` ends by the readings
     alone: the row ``k`` where column ``plan.j``'s readings go from dead to alive and
@@ -886,8 +889,15 @@ def _revived_stop(
     12 at 32233bd, where :func:`_alive_stop` alone decided, 6 now, all where it still
     does), so the period is then regenerated to its end (the estimate in place of at
     most that many live readings).
+    A tail alive by the healthy window may be a weak reading of a structure that moves
+    more than it did then: a gain of 0.2 (read as ``other``) whose structure's motion
+    grew 3.5 times at the split was called alive and kept as measured (2.8 sd of error
+    after it, 0.05 by the estimate), so the tail's readings must also vary, in blocks
+    of :data:`TRIM_MIN_S` (a drift the estimate carries adds little to a half-second
+    block), by at least ``1 /`` :data:`REPLACE_FACTOR` of the estimate's (the reading
+    less ``residual(a, b)``: :func:`_residual_rows`) there, as the healthy window's.
     At most :data:`REVIVAL_SPLITS` splits, each four passes over what is left of the
-    period."""
+    period, and one over the tail's estimate."""
     start, stop = plan.start, plan.stop
     least = max(1, int(round(TRIM_MIN_S * rate_hz)))
     v0 = _spread(values, plan.j, *healthy)
@@ -904,9 +914,10 @@ def _revived_stop(
             return None
         if k == stop - least:  # (the change may lie in the last block: dead rows in it)
             return stop
-        last, _ = _block_variance(values, plan.j, k, stop, least, quiet)
-        if last is None:
-            return k  # alive from k to the period's end
+        last, live = _block_variance(values, plan.j, k, stop, least, quiet)
+        if last is None:  # alive from k to the period's end, if it moves as the estimate
+            moves = _block_variance(values, plan.j, k, stop, least, less=residual)[1]
+            return k if live >= moves / REPLACE_FACTOR else None
         a = last  # dead again there: alive (if ever) only after it
     return None
 
@@ -918,9 +929,16 @@ comes back eight times within one finding); past that the period is left to
 
 
 def _block_variance(
-    values: npt.NDArray[Any], j: int, a: int, b: int, size: int, quiet: float = -1.0
+    values: npt.NDArray[Any],
+    j: int,
+    a: int,
+    b: int,
+    size: int,
+    quiet: float = -1.0,
+    less: Callable[[int, int], FloatArray] | None = None,
 ) -> tuple[int | None, float]:
-    """Column ``j``'s readings over rows ``[a, b)`` in blocks of ``size`` rows from
+    """Column ``j``'s readings (less ``less(p, q)``, rows ``p .. q - 1`` of what is
+    taken out, when given) over rows ``[a, b)`` in blocks of ``size`` rows from
     ``a``, each block's variance about its own mean: the first row of the last block
     whose variance is at most ``quiet`` (None: none is), and the blocks' mean
     variance (NaN: no whole block). Only blocks of ``size`` finite readings count: the
@@ -936,6 +954,8 @@ def _block_variance(
         rows = values[p:q]
         y = np.asarray(rows[:, j], dtype=np.float64)
         release(rows)
+        if less is not None:
+            y = y - less(p, q)
         pad = -y.size % size
         y = np.concatenate((y, np.full(pad, np.nan))).reshape(-1, size)
         ok = np.isfinite(y)

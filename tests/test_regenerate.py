@@ -884,3 +884,22 @@ def test_a_finding_that_ends_just_after_the_revival_leaves_no_dead_reading():
         Yf[1000:1791, 0] = 0.0
         end, out = _revival(Yf, names, s, rng, end_s=(1791 + late) / 100.0, drifting=False)
         assert not np.any(out[1000:1791] == 0.0), end
+
+
+@pytest.mark.parametrize("louder", [3.5, 4.0])
+def test_a_weak_reading_of_a_structure_that_moves_more_is_not_called_alive(louder):
+    """c0 at a gain of 0.2 from 10 s to the end (read as ``other``) while the structure
+    moves 3.5 or 4 times as much from 20 s: the readings' spread goes from 0.04 of the
+    healthy window's to 0.5 or more, which the readings alone call alive, and the weak
+    readings were kept as measured from 20 s (2.8 and 3.2 sd of error there); they move
+    by 0.04 of the estimate, so the estimate stays."""
+    s, Y, names, rng = _dead_record(100.0, seconds=60.0)
+    s = s * np.where(np.arange(s.size) < 2000, 1.0, louder)
+    Y = s[:, None] + 0.05 * rng.standard_normal(Y.shape)
+    Yf = Y.copy()
+    Yf[1000:, 0] *= 0.2
+    refs = {c: s + 0.05 * rng.standard_normal(s.size) for c in names}
+    event = Event("c0", 10.0, None, FaultType.OTHER, {}, 0.9, "test")
+    out, records = corrected_values(Yf, names, 100.0, [event], None, refs, healthy=(0, 500))
+    assert records[0]["end_s"] is None, records[0]
+    assert np.allclose(out[1000:, 0], refs["c0"][1000:])
