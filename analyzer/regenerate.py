@@ -323,11 +323,10 @@ def corrected_values(
         again = _estimate_again(p.given, p.j, shaped, p.start, p.stop, subs)
         p.again = again
         if healthy is not None:
-            revived = _revived_stop(values, p, healthy, rate_hz)
+            residual = _residual_rows(p, values, rate_hz)
+            revived = _revived_stop(values, p, healthy, rate_hz, residual)
             p.stop_trimmed = (
-                _alive_stop(_residual_rows(p, values, rate_hz), values, p, healthy, rate_hz)
-                if revived is None
-                else revived
+                _alive_stop(residual, values, p, healthy, rate_hz) if revived is None else revived
             )
     for sub in subs:  # a revived reading is its fellows' input again (its own period's)
         for a in range(max(sub.plan.stop_trimmed, sub.lo), sub.hi, RELEASE_ROWS):
@@ -849,7 +848,11 @@ def _spread(values: npt.NDArray[Any], j: int, a: int, b: int) -> float:
 
 
 def _revived_stop(
-    values: npt.NDArray[Any], plan: _Regen, healthy: tuple[int, int], rate_hz: float
+    values: npt.NDArray[Any],
+    plan: _Regen,
+    healthy: tuple[int, int],
+    rate_hz: float,
+    residual: Callable[[int, int], FloatArray],
 ) -> int | None:
     """Where the regeneration of ``plan`` over ``[start, stop)`` ends by the readings
     alone: the row ``k`` where column ``plan.j``'s readings go from dead to alive and
@@ -879,29 +882,42 @@ def _revived_stop(
     ``two-dead-drift`` seed 3 went on to the finding's end). Readings
     that never vary by half the healthy spread again (a structure at rest) or die
     again to the period's end are not called alive here (:func:`_alive_stop` decides).
-    At most :data:`REVIVAL_SPLITS` splits, each three passes over what is left of the
-    period."""
+    A split at the latest row allowed (a tail of :data:`TRIM_MIN_S`) places a change
+    that may lie later, with dead readings in the tail: a dead sensor whose finding
+    ended 0.05-0.49 s after it came back kept up to 0.3 s of its dead readings as
+    measured (54 of 222 such periods of the 3-sensor record of ``test_regenerate.py``;
+    12 at 32233bd, where :func:`_alive_stop` alone decided, 6 now, all where it still
+    does), so the period is then regenerated to its end (the estimate in place of at
+    most that many live readings).
+    A tail alive by the healthy window may be a weak reading of a structure that moves
+    more than it did then: a gain of 0.2 (read as ``other``) whose structure's motion
+    grew 3.5 times at the split was called alive and kept as measured (2.8 sd of error
+    after it, 0.05 by the estimate), so the tail's readings must also vary, in blocks
+    of :data:`TRIM_MIN_S` (a drift the estimate carries adds little to a half-second
+    block), by at least ``1 /`` :data:`REPLACE_FACTOR` of the estimate's (the reading
+    less ``residual(a, b)``: :func:`_residual_rows`) there, as the healthy window's.
+    At most :data:`REVIVAL_SPLITS` splits, each four passes over what is left of the
+    period, and one over the tail's estimate."""
     start, stop = plan.start, plan.stop
     least = max(1, int(round(TRIM_MIN_S * rate_hz)))
-    count, total, squares = _finite_sums(values, plan.j, *healthy)
-    if count < 2:
-        return None
-    shift = total / count  # (sums about the healthy mean: no cancellation near it)
-    v0 = squares / count - shift * shift
+    v0 = _spread(values, plan.j, *healthy)
     if not v0 > 0.0:
         return None
     quiet = MIN_GAIN**2 * _block_variance(values, plan.j, *healthy, least)[1]
     a = start
     for _ in range(REVIVAL_SPLITS):
-        split = _spread_split(values, plan.j, a, stop, shift, least)
+        split = _spread_split(values, plan.j, a, stop, v0, least)
         if split is None:
             return None
         k, head, tail = split
         if not (tail >= v0 / REPLACE_FACTOR and head <= MIN_GAIN * tail):
             return None
-        last, _ = _block_variance(values, plan.j, k, stop, least, quiet)
-        if last is None:
-            return k  # alive from k to the period's end
+        if k == stop - least:  # (the change may lie in the last block: dead rows in it)
+            return stop
+        last, live = _block_variance(values, plan.j, k, stop, least, quiet)
+        if last is None:  # alive from k to the period's end, if it moves as the estimate
+            moves = _block_variance(values, plan.j, k, stop, least, less=residual)[1]
+            return k if live >= moves / REPLACE_FACTOR else None
         a = last  # dead again there: alive (if ever) only after it
     return None
 
@@ -913,13 +929,24 @@ comes back eight times within one finding); past that the period is left to
 
 
 def _block_variance(
-    values: npt.NDArray[Any], j: int, a: int, b: int, size: int, quiet: float = -1.0
+    values: npt.NDArray[Any],
+    j: int,
+    a: int,
+    b: int,
+    size: int,
+    quiet: float = -1.0,
+    less: Callable[[int, int], FloatArray] | None = None,
 ) -> tuple[int | None, float]:
-    """Column ``j``'s readings over rows ``[a, b)`` in blocks of ``size`` rows from
+    """Column ``j``'s readings (less ``less(p, q)``, rows ``p .. q - 1`` of what is
+    taken out, when given) over rows ``[a, b)`` in blocks of ``size`` rows from
     ``a``, each block's variance about its own mean: the first row of the last block
     whose variance is at most ``quiet`` (None: none is), and the blocks' mean
-    variance (NaN: no block with two finite readings). :data:`RELEASE_ROWS` rows at a
-    time (whole blocks)."""
+    variance (NaN: no whole block). Only blocks of ``size`` finite readings count: the
+    variance of a few consecutive readings of a live signal is that of a higher band
+    (two readings 0.01 s apart of the 3-sensor record of ``test_regenerate.py``: 0.0027
+    and 0.0038, under ``quiet``, 0.0052), so a period that ended 2 or 3 rows past a
+    block, or a gap that left 2 or 3 readings in one, read as a dead stretch at its
+    end and the revival was lost. :data:`RELEASE_ROWS` rows at a time (whole blocks)."""
     step = max(size, RELEASE_ROWS // size * size)
     last, total, blocks = None, 0.0, 0
     for p in range(a, b, step):
@@ -927,6 +954,8 @@ def _block_variance(
         rows = values[p:q]
         y = np.asarray(rows[:, j], dtype=np.float64)
         release(rows)
+        if less is not None:
+            y = y - less(p, q)
         pad = -y.size % size
         y = np.concatenate((y, np.full(pad, np.nan))).reshape(-1, size)
         ok = np.isfinite(y)
@@ -935,7 +964,7 @@ def _block_variance(
         mean = z.sum(axis=1) / np.maximum(count, 1)
         var = np.where(ok, z - mean[:, None], 0.0) ** 2
         var = var.sum(axis=1) / np.maximum(count, 1)
-        full = count >= 2
+        full = count == size  # (a short block of a live signal varies by its band)
         total, blocks = total + float(np.sum(var[full])), blocks + int(np.sum(full))
         hits = np.flatnonzero(full & (var <= quiet))
         if hits.size:
@@ -943,52 +972,74 @@ def _block_variance(
     return last, (total / blocks if blocks else float("nan"))
 
 
-def _finite_sums(
-    values: npt.NDArray[Any], j: int, a: int, b: int, shift: float = 0.0
-) -> tuple[int, float, float]:
-    """Count, sum and sum of squares of column ``j``'s finite readings less ``shift``
-    over rows ``[a, b)``, :data:`RELEASE_ROWS` rows at a time."""
-    count, total, squares = 0, 0.0, 0.0
-    for p in range(a, b, RELEASE_ROWS):
-        rows = values[p : min(b, p + RELEASE_ROWS)]
-        y = np.asarray(rows[:, j], dtype=np.float64)
-        release(rows)
-        y = y[np.isfinite(y)] - shift
-        count, total = count + int(y.size), total + float(np.sum(y))
-        squares += float(np.sum(y * y))
-    return count, total, squares
-
-
 def _spread_split(
-    values: npt.NDArray[Any], j: int, start: int, stop: int, shift: float, least: int
+    values: npt.NDArray[Any], j: int, start: int, stop: int, scale: float, least: int
 ) -> tuple[int, float, float] | None:
     """The maximum-likelihood split of column ``j``'s readings over ``[start, stop)``
     into two Gaussian segments, each with its own mean and variance (a change of the
     variance with the mean free, so that a reading stuck at any value reads as quiet):
     the row ``k`` (a head and a tail of at least ``least`` rows) that minimizes
     ``n1 ln v1 + n2 ln v2`` over the head's and the tail's ``n`` finite readings and
-    variances, with the two variances; None when the period is too short. ``shift``:
-    a value near the readings (the sums are taken about it). Two passes,
-    :data:`RELEASE_ROWS` rows at a time: the totals, then the running sums."""
+    variances, with the two variances (at least ``1e-12 * scale``: a reading stuck
+    exactly has none); None when the period is too short.
+
+    The head's sums are taken about the period's first finite reading and the tail's
+    about its last, each added up from its own end of the period, never one total less
+    the other: with a single shift (the healthy mean), a head stuck at 1e6 beside live
+    readings of sd 1 near 0 left the tail's variance as the difference of sums of
+    1e15, and the floor that kept ``ln 0`` out (relative to the period's mean square,
+    2e11) read the stuck head as varying by 0.2: the revival was lost and the
+    regeneration ran to the finding's end. :data:`RELEASE_ROWS` rows at a time: the
+    two shifts (a piece at each end, unless all missing), each piece's tail sums, then
+    the running sums from both ends."""
     if stop - start < 2 * least:
         return None
-    n, total, squares = _finite_sums(values, j, start, stop, shift)
-    if n < 4:
-        return None
-    floor = 1e-12 * max(squares / n, 1e-300)  # (a reading stuck exactly: 0 to rounding)
-    best, got = float("inf"), None
-    count, head, head_sq = 0, 0.0, 0.0  # over the rows before the piece
-    for p in range(start, stop, RELEASE_ROWS):
+    pieces = range(start, stop, RELEASE_ROWS)
+
+    def column(p: int) -> FloatArray:
         rows = values[p : min(stop, p + RELEASE_ROWS)]
         y = np.asarray(rows[:, j], dtype=np.float64)
         release(rows)
+        return y
+
+    ends = []  # the first finite reading from the period's start, the last before its end
+    for order, end in ((pieces, 0), (reversed(pieces), -1)):
+        for p in order:
+            y = column(p)
+            y = y[np.isfinite(y)]
+            if y.size:
+                ends.append(float(y[end]))
+                break
+    if len(ends) < 2:
+        return None
+    head_shift, tail_shift = ends
+    sums = []  # per piece: count, sum and squares of its finite readings less tail_shift
+    for p in pieces:
+        y = column(p)
+        t = y[np.isfinite(y)] - tail_shift
+        sums.append((int(t.size), float(np.sum(t)), float(np.sum(t * t))))
+    if sum(s[0] for s in sums) < 4:
+        return None
+    after = [(0, 0.0, 0.0)]  # per piece: the same over the rows after it
+    for piece in sums[:0:-1]:
+        after.append((after[-1][0] + piece[0], after[-1][1] + piece[1], after[-1][2] + piece[2]))
+    after.reverse()
+    floor = 1e-12 * scale
+    best, got = float("inf"), None
+    count, head, head_sq = 0, 0.0, 0.0  # over the rows before the piece
+    for p, rest in zip(pieces, after, strict=True):
+        y = column(p)
         ok = np.isfinite(y)
-        z = np.where(ok, y - shift, 0.0)
-        # the head before row p + i: the rows before the piece and the piece's first i
+        h = np.where(ok, y - head_shift, 0.0)
+        t = np.where(ok, y - tail_shift, 0.0)
+        # the head before row p + i: the rows before the piece and the piece's first i;
+        # the tail from row p + i: the piece's rows from i and the rows after the piece
         c1 = count + np.concatenate(([0], np.cumsum(ok)[:-1]))
-        s1 = head + np.concatenate(([0.0], np.cumsum(z)[:-1]))
-        q1 = head_sq + np.concatenate(([0.0], np.cumsum(z * z)[:-1]))
-        c2, s2, q2 = n - c1, total - s1, squares - q1
+        s1 = head + np.concatenate(([0.0], np.cumsum(h)[:-1]))
+        q1 = head_sq + np.concatenate(([0.0], np.cumsum(h * h)[:-1]))
+        c2 = rest[0] + np.cumsum(ok[::-1])[::-1]
+        s2 = rest[1] + np.cumsum(t[::-1])[::-1]
+        q2 = rest[2] + np.cumsum((t * t)[::-1])[::-1]
         at = np.arange(p, p + y.size)
         valid = (at >= start + least) & (at <= stop - least) & (c1 >= 2) & (c2 >= 2)
         if np.any(valid):
@@ -996,11 +1047,11 @@ def _spread_split(
             v1 = np.maximum(q1 / c1 - (s1 / c1) ** 2, floor)
             v2 = np.maximum(q2 / c2 - (s2 / c2) ** 2, floor)
             cost = c1 * np.log(v1) + c2 * np.log(v2)
-            i = int(np.argmin(cost))
-            if cost[i] < best:
-                best, got = float(cost[i]), (int(at[valid][i]), float(v1[i]), float(v2[i]))
-        count, head = count + int(np.sum(ok)), head + float(np.sum(z))
-        head_sq += float(np.sum(z * z))
+            k = int(np.argmin(cost))
+            if cost[k] < best:
+                best, got = float(cost[k]), (int(at[valid][k]), float(v1[k]), float(v2[k]))
+        count, head = count + int(np.sum(ok)), head + float(np.sum(h))
+        head_sq += float(np.sum(h * h))
     return got
 
 

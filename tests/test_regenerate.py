@@ -782,3 +782,124 @@ def test_a_sensor_that_dies_again_is_regenerated_to_its_findings_end():
     assert records[0]["end_s"] == pytest.approx(40.0, abs=0.02), records[0]
     assert np.array_equal(out[3000:3998, 0], refs["c0"][3000:3998])
     assert np.array_equal(out[4002:, 0], Yf[4002:, 0])
+
+
+def _split_by_brute_force(y, start, stop, scale, least):
+    """``_spread_split`` by the definition: every head and tail's variance with numpy."""
+    best, got = np.inf, None
+    for k in range(start + least, stop - least + 1):
+        head, tail = y[start:k], y[k:stop]
+        head, tail = head[np.isfinite(head)], tail[np.isfinite(tail)]
+        if head.size < 2 or tail.size < 2:
+            continue
+        v1, v2 = max(head.var(), 1e-12 * scale), max(tail.var(), 1e-12 * scale)
+        cost = head.size * np.log(v1) + tail.size * np.log(v2)
+        if cost < best:
+            best, got = cost, (k, v1, v2)
+    return got
+
+
+def test_the_spread_split_is_the_brute_force_one_across_pieces(monkeypatch):
+    """The running sums carried from piece to piece (a long archive, memory-mapped) give
+    the split of the definition, with gaps, heads stuck at 0 or far from the tail, and
+    pieces of 1 to 8 rows."""
+    import analyzer.regenerate as regenerate
+
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        n = int(rng.integers(10, 80))
+        y = rng.standard_normal(n)
+        k0 = int(rng.integers(0, n))
+        y[:k0] = rng.choice([0.05 * y[:k0], np.zeros(k0), np.full(k0, 1e6)])
+        if rng.random() < 0.5:
+            y[rng.random(n) < 0.2] = np.nan
+        start, stop = int(rng.integers(0, 5)), n - int(rng.integers(0, 5))
+        least = int(rng.integers(1, 6))
+        monkeypatch.setattr(regenerate, "RELEASE_ROWS", int(rng.integers(1, 9)))
+        got = regenerate._spread_split(y[:, None], 0, start, stop, 1.0, least)
+        want = _split_by_brute_force(y, start, stop, 1.0, least)
+        assert (got is None) == (want is None), (got, want)
+        if got is not None:  # (rows apart across missing readings split them alike)
+            finite = np.cumsum(np.isfinite(np.concatenate(([0.0], y))))
+            assert finite[got[0]] == finite[want[0]], (got, want)
+            assert np.allclose(got[1:], want[1:], rtol=1e-6, atol=1e-9), (got, want)
+
+
+def _revival(Yf, names, s, rng, end_s=None, drifting=True):
+    """The end of c0's regeneration (finding from 10 s to ``end_s``) with an estimate
+    that carries a drift from 15 s (the residual test reads it as the fault going on)
+    or not, and the corrected c0."""
+    n = s.size
+    refs = {c: s + 0.05 * rng.standard_normal(n) for c in names}
+    if drifting:
+        refs["c0"] = _drifting_estimate(s, rng, n, 1500)
+    out, records = corrected_values(
+        Yf, names, 100.0, [_dead("c0", 10.0, end_s, 0.9)], None, refs, healthy=(0, 500)
+    )
+    return records[0]["end_s"], out[:, 0]
+
+
+@pytest.mark.parametrize("rows_past_a_block", [2, 3])
+def test_a_revival_is_kept_when_the_record_ends_just_past_a_block(rows_past_a_block):
+    """c0 dead at 10-20 s of a record 2 or 3 rows longer than 60 s: the last half-second
+    block of the tail held 2 or 3 live readings, whose variance (0.0027, 0.0038) was
+    under the dead-stretch bound (0.0052), so the tail was read as dead again at its
+    end and the regeneration ran on to the record's end (5 002 rows instead of 1 000)."""
+    s, Y, names, rng = _dead_record(100.0, seconds=60.0 + rows_past_a_block / 100.0)
+    Yf = Y.copy()
+    Yf[1000:2000, 0] = 0.0
+    end, out = _revival(Yf, names, s, rng)
+    assert end == pytest.approx(20.0, abs=0.02)
+    assert np.array_equal(out[2002:], Yf[2002:, 0])
+
+
+@pytest.mark.parametrize("stuck, scale", [(1e6, 1.0), (1e4, 0.01), (1e8, 1.0)])
+def test_a_revival_is_read_from_a_reading_stuck_far_from_its_healthy_level(stuck, scale):
+    """c0 stuck at 1e6 (or 1e8) at 10-20 s, its healthy readings of sd 1 near 0 (or at
+    1e4 beside sd 0.01: a logger's error value): the split's floor on a variance was
+    relative to the period's mean square about the healthy mean (2e11), so the stuck
+    head read as varying by 0.2 of the live tail and the revival was lost."""
+    s, Y, names, rng = _dead_record(100.0, seconds=60.0)
+    s, Y = s * scale, Y * scale
+    Yf = Y.copy()
+    Yf[1000:2000, 0] = stuck
+    n = s.size
+    refs = {c: s + 0.05 * scale * rng.standard_normal(n) for c in names}
+    refs["c0"] = s + scale * (_drifting_estimate(s, rng, n, 1500) - s)
+    out, records = corrected_values(
+        Yf, names, 100.0, [_dead("c0", 10.0, None, 0.9)], None, refs, healthy=(0, 500)
+    )
+    assert records[0]["end_s"] == pytest.approx(20.0, abs=0.02), records[0]
+    assert np.array_equal(out[2002:, 0], Yf[2002:, 0])
+
+
+def test_a_finding_that_ends_just_after_the_revival_leaves_no_dead_reading():
+    """c0 dead from 10 s to 17.91 s, its finding ending 0.2-0.3 s later: the split can
+    put the tail's start no later than half a second before the finding's end, so the
+    tail began with dead readings and they were kept as measured (20 and 10 zeros);
+    the period is then regenerated to the finding's end instead."""
+    s, Y, names, rng = _dead_record(100.0, seconds=60.0)
+    for late in (20, 30):
+        Yf = Y.copy()
+        Yf[1000:1791, 0] = 0.0
+        end, out = _revival(Yf, names, s, rng, end_s=(1791 + late) / 100.0, drifting=False)
+        assert not np.any(out[1000:1791] == 0.0), end
+
+
+@pytest.mark.parametrize("louder", [3.5, 4.0])
+def test_a_weak_reading_of_a_structure_that_moves_more_is_not_called_alive(louder):
+    """c0 at a gain of 0.2 from 10 s to the end (read as ``other``) while the structure
+    moves 3.5 or 4 times as much from 20 s: the readings' spread goes from 0.04 of the
+    healthy window's to 0.5 or more, which the readings alone call alive, and the weak
+    readings were kept as measured from 20 s (2.8 and 3.2 sd of error there); they move
+    by 0.04 of the estimate, so the estimate stays."""
+    s, Y, names, rng = _dead_record(100.0, seconds=60.0)
+    s = s * np.where(np.arange(s.size) < 2000, 1.0, louder)
+    Y = s[:, None] + 0.05 * rng.standard_normal(Y.shape)
+    Yf = Y.copy()
+    Yf[1000:, 0] *= 0.2
+    refs = {c: s + 0.05 * rng.standard_normal(s.size) for c in names}
+    event = Event("c0", 10.0, None, FaultType.OTHER, {}, 0.9, "test")
+    out, records = corrected_values(Yf, names, 100.0, [event], None, refs, healthy=(0, 500))
+    assert records[0]["end_s"] is None, records[0]
+    assert np.allclose(out[1000:, 0], refs["c0"][1000:])
