@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import gzip
 from pathlib import Path
 
@@ -314,3 +315,50 @@ def test_time_bounds_are_pandas_and_pandas_loads_only_when_needed():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def _open_fds(path) -> int:
+    import os
+
+    target = os.path.realpath(path)
+    count = 0
+    for fd in os.listdir("/proc/self/fd"):
+        with contextlib.suppress(OSError):
+            count += os.readlink(f"/proc/self/fd/{fd}") == target
+    return count
+
+
+@pytest.mark.skipif(not Path("/proc/self/fd").is_dir(), reason="needs /proc")
+def test_arrows_file_is_left_to_arrow_to_close(tmp_path, monkeypatch):
+    """The reader never closes the file it gave Arrow by hand: Arrow's streaming reader
+    reads ahead on its I/O threads, and a read still in flight when the descriptor was
+    closed (the first block's reader, given up after one block) asked the number for
+    the rest of its block after the next reader of the file had it: that reader lost
+    ``BLOCK_BYTES - size % BLOCK_BYTES`` bytes of rows (benchmarks/README.md,
+    ``stress_repeat.py``). The file closes once Arrow lets go of it: no descriptor is
+    left open."""
+    import time
+
+    from analyzer.readers import csv_reader
+
+    path = tmp_path / "rec.csv"
+    rows = "\n".join(f"{i / 100:.2f},{i % 7},{i % 5}" for i in range(20000))
+    path.write_text("time,a,b\n" + rows + "\n")
+    given = []
+    first = csv_reader._arrow_file
+
+    def kept(p):
+        given.append(first(p))
+        return given[-1]
+
+    monkeypatch.setattr(csv_reader, "_arrow_file", kept)
+    reader = csv_reader.CsvReader(path)
+    samples = sum(len(c) for c in reader.chunks())
+    assert samples == 2 * 20000
+    assert len(given) >= 2  # the first block's reader, then the whole read
+    assert not any(f.closed for f in given)
+    given.clear()
+    deadline = time.monotonic() + 5.0
+    while _open_fds(path) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert _open_fds(path) == 0
