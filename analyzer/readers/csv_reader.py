@@ -2249,7 +2249,7 @@ def _arrow_file(path: Path) -> pa.NativeFile:
     (Arrow encodes the name as UTF-8 and refused it: "cannot parse as CSV")."""
     name = str(path)
     if any("\udc80" <= c <= "\udcff" for c in name):  # (bytes that are no UTF-8)
-        return pa.PythonFile(open(path, "rb"), mode="r")  # noqa: SIM115 - closed by the caller
+        return pa.PythonFile(open(path, "rb"), mode="r")  # noqa: SIM115 - closed as Arrow lets go
     return pa.OSFile(name)
 
 
