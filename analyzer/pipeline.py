@@ -1142,7 +1142,8 @@ def _onset_without(f: Finding, g: Finding, found: Sequence[Finding], slack: floa
     h = min(alone, key=lambda x: x.onset_s)
     was = (f.onset_s, f.end_s)
     f.onset_s = h.onset_s
-    if "end_without" not in f.evidence:
+    ended = f.evidence.get("end_without")
+    if ended is None:
         f.end_s = h.end_s
     f.evidence["onset_without"] = {
         "left_out": g.channel,
@@ -1157,6 +1158,7 @@ def _onset_without(f: Finding, g: Finding, found: Sequence[Finding], slack: floa
     return (
         f"{f.type.value} fault on {f.channel}: from {h.onset_s:.3f} s to "
         + ("the record's end" if f.end_s is None else f"{f.end_s:.3f} s")
+        + ("" if ended is None else f" (its end as seen with {ended['left_out']} left out)")
         + f" ({size}) as {h.detector} saw it with {g.channel} left out{kind}; with "
         f"{g.channel} {f.detector} saw it from {was[0]:.3f} s to {span}, while the "
         f"{g.type.value} fault "

@@ -85,7 +85,9 @@ def test_a_finding_with_an_earlier_and_a_later_fault_takes_the_onset_and_the_end
     assert f.evidence["end_without"]["left_out"] == later
     assert f.evidence["onset_without"]["left_out"] == earlier
     assert len(notes) == 2
-    assert notes[-1].startswith("additive fault on s2: from 150.000 s to 200.000 s")
+    assert notes[-1].startswith(
+        f"additive fault on s2: from 150.000 s to 200.000 s (its end as seen with {later} left"
+    )
 
 
 def test_an_onset_seen_again_without_the_earlier_sensor_stays(monkeypatch):
