@@ -1075,10 +1075,14 @@ def _ends_without(
     that saw the sensor faulty again after it (none: the fault went on to the hidden end
     or the record's, and the finding stays). A hidden end where the later fault began
     (within a long alarm window: the first fault ended there, or was lost there) takes
-    an end of theirs more than that window after it, or the record's end. Then the
-    onsets of the ``early`` findings, each with the earlier fault under way where its
-    lead began (:func:`_onset_without`), from the same search without that fault's
-    sensor. Changes the findings in place (their evidence ``end_without``: the sensor
+    an end of theirs more than that window after it, or the record's end, but none more
+    than that window after the latest end of its events (with the later fault's trace in
+    their residuals they saw it no longer: an end past that is something else, and the
+    finding stays). Then, every end done, the onsets of the ``early`` findings, each
+    with the earlier fault under way where its lead began (:func:`_onset_without`),
+    from the same search without that fault's sensor (a finding with an earlier and a
+    later fault keeps the end found without the later one's, whichever sensor's name
+    comes first). Changes the findings in place (their evidence ``end_without``: the sensor
     left out, the detector and the end before) and returns a note for each. One search
     per sensor left out. ``matrix``: the aligned values, their channels, the healthy
     window's rows and the rate.
@@ -1096,6 +1100,7 @@ def _ends_without(
     slack = LONG_FACTOR * default_window(rate_hz) / rate_hz
     names = list(dict.fromkeys(ran))
     notes: list[str] = []
+    founds: dict[str, list[Finding]] = {}
     for left in sorted({g.channel for _, g in [*hidden, *early]}):
         keep = [c for c in chosen if c != left]
         path = None if work is None else work / f"aligned-ends-{chosen.index(left)}.npy"
@@ -1112,12 +1117,16 @@ def _ends_without(
         found, _ = _diagnose(
             results, sub, keep, rate_hz, healthy_stats(sub, keep, train), train, None, excitation
         )
+        founds[left] = found
         for f, g in hidden:
             if g.channel != left:
                 continue
             # ended where the later fault began (lost there, or ended): an end after it
             lost = f.end_s is not None and f.end_s <= g.onset_s + slack
             until = float("inf") if f.end_s is None or lost else f.end_s - slack
+            # (lost there: no later than its events saw it, the later fault's trace in)
+            ends = [e.end_s for e in f.events]
+            past = float("inf") if None in ends else max(e for e in ends if e is not None)
             alone = [
                 h
                 for h in found
@@ -1140,6 +1149,8 @@ def _ends_without(
                 end = None if None in again else max(e for e in again if e is not None)
                 if not lost and (end is None or end >= until):
                     continue
+            if lost and (float("inf") if end is None else end) > past + slack:
+                continue
             was, f.end_s = f.end_s, end
             # (findings.json: where the end came from, beside the detectors' own events)
             f.evidence["end_without"] = {"left_out": left, "detector": h.detector, "was_s": was}
@@ -1160,7 +1171,13 @@ def _ends_without(
                 + f", the {g.type.value} fault on {left} (from {g.onset_s:.3f} s) in the "
                 "residuals of the detectors that model the two sensors together"
             )
-        notes.extend(_onset_without(f, g, found, slack) for f, g in early if g.channel == left)
+    # the onsets after every end: a finding with an earlier fault under way where it began
+    # and a later one that hid its end keeps the end found without the later one's sensor
+    # (without the earlier one's, the later fault is still in its residuals), whichever
+    # sensor's name comes first
+    notes.extend(
+        _onset_without(f, g, founds[g.channel], slack) for f, g in early if g.channel in founds
+    )
     return [n for n in notes if n]
 
 
@@ -1173,18 +1190,26 @@ def _onset_without(f: Finding, g: Finding, found: Sequence[Finding], slack: floa
     (another detector saw it begin there), before ``f`` ended, gives its onset, end,
     type and size; ``f`` changes in place (evidence ``onset_without``: the sensor left
     out, the detector, the period before). Returns a note, or ``""`` when no such
-    finding.
+    finding, or when one of ``found`` on ``f``'s sensor begins within ``slack`` of
+    ``f``'s onset: without ``g``'s sensor the sensor was seen faulty from there, so the
+    onset is its own, not ``g``'s trace (a fault on s2 from 150 to 170 s and again from
+    180 s, inside one on s5, that the bank saw as one from 150 s and the observers only
+    from 180 s, keeps its 150 s). An end found without a later fault's sensor
+    (evidence ``end_without``, :func:`_ends_without`) stays: this search still has that
+    fault in its residuals.
 
     The type too: the lead's shape was fitted from its early onset, over the earlier
     fault's trace. An offset on s2 from 150 to 250 s beside a drift on s5 from 100 s
     (seed 17 of ``sweep_two_faults.py``, ``drift-offset``) was the bank's drift from
     142.15 s to 294.52 s (the observers' offset from 150.0 s outvoted one to one), and
     the bank's offset from 150.0 s to 250.0 s without s5 (3.43 for 3.43 injected)."""
+    own = [h for h in found if h.channel == f.channel]
+    if any(abs(h.onset_s - f.onset_s) <= slack for h in own):
+        return ""
     alone = [
         h
-        for h in found
-        if h.channel == f.channel
-        and h.onset_s > f.onset_s + slack
+        for h in own
+        if h.onset_s > f.onset_s + slack
         and (f.end_s is None or h.onset_s < f.end_s)
         and any(abs(h.onset_s - e.onset_s) <= slack for e in f.events)
     ]
@@ -1192,7 +1217,10 @@ def _onset_without(f: Finding, g: Finding, found: Sequence[Finding], slack: floa
         return ""
     h = min(alone, key=lambda x: x.onset_s)
     was = (f.onset_s, f.end_s)
-    f.onset_s, f.end_s = h.onset_s, h.end_s
+    f.onset_s = h.onset_s
+    ended = f.evidence.get("end_without")
+    if ended is None:
+        f.end_s = h.end_s
     f.evidence["onset_without"] = {
         "left_out": g.channel,
         "detector": h.detector,
@@ -1205,7 +1233,8 @@ def _onset_without(f: Finding, g: Finding, found: Sequence[Finding], slack: floa
     span = "the record's end" if was[1] is None else f"{was[1]:.3f} s"
     return (
         f"{f.type.value} fault on {f.channel}: from {h.onset_s:.3f} s to "
-        + ("the record's end" if h.end_s is None else f"{h.end_s:.3f} s")
+        + ("the record's end" if f.end_s is None else f"{f.end_s:.3f} s")
+        + ("" if ended is None else f" (its end as seen with {ended['left_out']} left out)")
         + f" ({size}) as {h.detector} saw it with {g.channel} left out{kind}; with "
         f"{g.channel} {f.detector} saw it from {was[0]:.3f} s to {span}, while the "
         f"{g.type.value} fault "

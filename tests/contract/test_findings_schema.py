@@ -335,6 +335,39 @@ BROKEN: dict[str, tuple[Callable[[dict[str, Any]], None], tuple[Any, ...]]] = {
 """Documents that break the contract, each with where the schema must say so."""
 
 
+def test_a_period_from_a_search_without_a_sensor_is_declared_and_valid():
+    """``evidence.end_without`` and ``evidence.onset_without`` as the pipeline writes
+    them (``pipeline._ends_without``, ``pipeline._onset_without``; no bundled run has two
+    faults on coupled sensors): an end moved from the record's end, and a finding whose
+    onset and end both moved. Before, neither was in the schema."""
+    a = _synthetic()
+    a.findings[0].evidence["end_without"] = {
+        "left_out": "s3",
+        "detector": "detection_filter",
+        "was_s": None,
+    }
+    drift = a.findings[2]
+    drift.evidence["end_without"] = {
+        "left_out": "s3",
+        "detector": "ar_kalman_bank",
+        "was_s": 130.0,
+    }
+    drift.evidence["onset_without"] = {
+        "left_out": "s1",
+        "detector": "equivalent_model",
+        "was_s": [55.5, 100.0],
+    }
+    doc = as_written(findings_document(a))
+    assert problems(doc) == []
+    parts = [(f["evidence"], p) for f in doc["faults"] for p in ("end_without", "onset_without")]
+    shown = [(ev[p], DEFS["evidence"]["properties"].get(p)) for ev, p in parts if p in ev]
+    assert len(shown) == 3
+    assert all(d is not None and set(v) <= _declared(d) for v, d in shown)
+    broken = copy.deepcopy(doc)
+    broken["faults"][2]["evidence"]["onset_without"]["was_s"] = [55.5]
+    assert problems(broken)
+
+
 @pytest.mark.parametrize("case", list(BROKEN))
 def test_a_broken_document_is_invalid(synthetic_doc, case):
     assert problems(synthetic_doc) == []
@@ -376,7 +409,7 @@ def _objects(doc: dict[str, Any]) -> Iterator[tuple[str, dict[str, Any], dict[st
         yield "faults[]", DEFS["fault"], item
         yield "faults[].magnitude", DEFS["magnitude"], item["magnitude"]
         yield "faults[].evidence", DEFS["evidence"], evidence
-        for part in ("frozen", "clipped"):
+        for part in ("frozen", "clipped", "end_without", "onset_without"):
             if part in evidence:
                 declared = DEFS["evidence"]["properties"][part]
                 yield f"faults[].evidence.{part}", declared, evidence[part]

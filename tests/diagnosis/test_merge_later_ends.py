@@ -346,3 +346,22 @@ def test_an_onset_inside_an_earlier_fault_another_detector_saw_later_is_hidden()
     over = [_ev("s5", d, 100.0, 140.0, 4.55) for d in (BANK, DF)]
     assert onsets_hidden_by_earlier(merge_events([*over, *s2]), _coupled) == []
     assert onsets_hidden_by_earlier(merge_events([*s5, *s2]), lambda d, a, b: False) == []
+
+
+def test_an_onset_inside_an_earlier_fault_is_asked_about_after_its_end_moved():
+    """Three offsets, s5 from 100 to 250 s, s2 from 150 to 200 s and s3 from 190 to
+    290 s (seed 17, a third fault beside ``nested``): the bank saw s3's from 120.57 s (s5's
+    trace) to the record's end, where the bank's drift on s2 ended, the detection filter
+    from 190.0 s to 290.01 s. The end is the filter's, and so is the finding's
+    ``detector``, but the onset is still the bank's, inside s5's fault, the filter seeing
+    it begin 69 s later: its onset is asked about (before, the filter, now named, began
+    where the finding did not, and it was not)."""
+    events = [_ev("s5", d, 100.0, 250.0, 4.7) for d in (BANK, DF, EM)]
+    events += [_ev("s3", BANK, 120.57, None, 2.1), _ev("s3", DF, 190.0, 290.01, 3.8)]
+    events += [_ev("s2", BANK, 128.27, None, 0.02, D), _ev("s2", EM, 150.0, 200.0, 3.4)]
+    findings = merge_events(events)
+    ends_of_later_faults(findings, _coupled)
+    s3 = next(f for f in findings if f.channel == "s3")
+    assert (s3.onset_s, s3.end_s, s3.detector) == (120.57, 290.01, DF)
+    s5 = next(f for f in findings if f.channel == "s5")
+    assert (s3, s5) in onsets_hidden_by_earlier(findings, _coupled)

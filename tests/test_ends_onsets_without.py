@@ -1,0 +1,166 @@
+"""The ends and onsets a search without one sensor gives (``pipeline._ends_without``,
+``pipeline._onset_without``): what the searches without each sensor found is given here
+(the detectors' runs are not what is tested), the rules that take from it are. The
+event times are those of a 6-channel simulated building at 100 Hz (a long alarm window:
+2 s), as in ``benchmarks/sweep_two_faults.py``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from analyzer import pipeline
+from analyzer.detectors.base import Event, RunContext
+from analyzer.diagnosis import merge_events, onsets_hidden_by_earlier
+from analyzer.options import RunOptions
+from analyzer.types import FaultType
+
+A = FaultType.ADDITIVE
+BANK, DF, EM = "ar_kalman_bank", "detection_filter", "equivalent_model"
+CHOSEN = [f"s{k}" for k in range(6)]
+RATE = 100.0
+
+
+def _ev(channel, detector, onset, end, size=3.4):
+    return Event(channel, onset, end, A, {"offset": size}, 1.0, detector, {})
+
+
+def _finding(*events):
+    (f,) = merge_events(events)
+    return f
+
+
+def _fault(channel, onset, end):
+    return _finding(*[_ev(channel, d, onset, end) for d in (BANK, DF, EM)])
+
+
+def _searched(monkeypatch, found_without):
+    """``_ends_without`` with ``found_without[sensor]`` as the findings of the search
+    without that sensor."""
+    monkeypatch.setattr(pipeline, "_run_again", lambda *a, **k: ["ran"])
+
+    def diagnose(results, sub, keep, *rest):
+        (left,) = set(CHOSEN) - set(keep)
+        return found_without[left], []
+
+    monkeypatch.setattr(pipeline, "_diagnose", diagnose)
+
+    def run(hidden, early):
+        values = np.random.default_rng(0).normal(size=(4000, len(CHOSEN)))
+        matrix = (values, CHOSEN, (0, 2000), RATE)
+        return pipeline._ends_without(
+            hidden,
+            [BANK, DF, EM],
+            RunOptions(),
+            matrix,
+            RunContext(),
+            None,  # type: ignore[arg-type]
+            None,
+            frozenset(),
+            early,
+        )
+
+    return run
+
+
+@pytest.mark.parametrize("earlier, later", [("s5", "s3"), ("s1", "s3")])
+def test_a_finding_with_an_earlier_and_a_later_fault_takes_the_onset_and_the_end(
+    monkeypatch, earlier, later
+):
+    """An offset on s2 from 150 to 200 s, inside one on ``earlier`` from 100 to 250 s
+    and beside one on ``later`` from 190 to 300 s: the bank saw s2's from 142.89 s (the
+    earlier fault's trace) to 300.0 s (the later one's end), the observers from 150.0 s.
+    Without ``later`` s2's ends at 200.0 s (still from 142.89 s); without ``earlier`` it
+    begins at 150.0 s (still to 300.0 s). The finding is 150.0-200.0 s whichever sensor's
+    name comes first: before, the onset search undid the end (``s5``) or the moved onset
+    kept the end search from matching (``s1``)."""
+    f = _finding(_ev("s2", BANK, 142.89, 300.0), _ev("s2", EM, 150.0, 200.0))
+    g_early, g_late = _fault(earlier, 100.0, 250.0), _fault(later, 190.0, 300.0)
+    found = {
+        later: [_finding(_ev("s2", BANK, 142.89, 200.0))],
+        earlier: [_finding(_ev("s2", BANK, 150.0, 300.0), _ev("s2", EM, 150.0, 300.0))],
+    }
+    notes = _searched(monkeypatch, found)([(f, g_late)], [(f, g_early)])
+    assert (f.onset_s, f.end_s) == (150.0, 200.0), notes
+    assert f.evidence["end_without"]["left_out"] == later
+    assert f.evidence["onset_without"]["left_out"] == earlier
+    assert len(notes) == 2
+    assert notes[-1].startswith(
+        f"additive fault on s2: from 150.000 s to 200.000 s (its end as seen with {later} left"
+    )
+
+
+def test_an_onset_seen_again_without_the_earlier_sensor_stays(monkeypatch):
+    """An offset on s2 from 150 to 170 s and again from 180 to 200 s, inside one on s5
+    from 100 to 250 s: the bank saw one fault from 150.0 s, the observers only the second
+    part, from 180.0 s (late, so the onset rule asks). Without s5 the bank still sees s2
+    faulty from 150.0 s: the onset is s2's own, and the finding keeps it (before, it was
+    moved to 180.0 s, the first part lost)."""
+    f = _finding(_ev("s2", BANK, 150.0, 200.0), _ev("s2", EM, 180.0, 200.0))
+    g = _fault("s5", 100.0, 250.0)
+    early = onsets_hidden_by_earlier([f, g], lambda *_: True)
+    assert early == [(f, g)]
+    found = {
+        "s5": [
+            _finding(_ev("s2", BANK, 150.0, 170.0), _ev("s2", DF, 150.0, 170.0)),
+            _finding(_ev("s2", BANK, 180.0, 200.0), _ev("s2", EM, 180.0, 200.0)),
+        ]
+    }
+    notes = _searched(monkeypatch, found)([], early)
+    assert (f.onset_s, f.end_s) == (150.0, 200.0)
+    assert "onset_without" not in f.evidence
+    assert notes == []
+
+
+def test_an_early_onset_without_the_earlier_sensor_moves(monkeypatch):
+    """The rule still does its work: seed 17 of ``nested``, s2's offset from 150 to
+    200 s inside s5's, the bank's 142.89-215.04 s (offset 2.33), the observers'
+    150.0-200.0 s; without s5, 150.0-200.0 s (offset 3.43)."""
+    f = _finding(_ev("s2", BANK, 142.89, 215.04, 2.33), _ev("s2", EM, 150.0, 200.0))
+    g = _fault("s5", 100.0, 250.0)
+    early = onsets_hidden_by_earlier([f, g], lambda *_: True)
+    found = {"s5": [_finding(_ev("s2", BANK, 150.0, 200.0, 3.43), _ev("s2", EM, 150.0, 200.0))]}
+    (note,) = _searched(monkeypatch, found)([], early)
+    assert (f.onset_s, f.end_s, f.magnitude) == (150.0, 200.0, {"offset": 3.43})
+    assert f.evidence["onset_without"] == {
+        "left_out": "s5",
+        "detector": BANK,
+        "was_s": [142.89, 215.04],
+    }
+    assert note.startswith("additive fault on s2: from 150.000 s to 200.000 s (offset 3.43)")
+
+
+def test_an_end_lost_where_a_later_fault_began_is_not_taken_past_every_detector_s_end(
+    monkeypatch,
+):
+    """A drift on s0 from 100 to 200 s and an offset on s3 from 150 to 250 s (seed 12 of
+    ``drift-offset``): the bank and the detection filter ended the drift at 150.08 s,
+    where s3's began, the observers at 200.01 s. Without s3 the bank saw s0 to 200.0 s,
+    and then again from 262.0 s to the record's end (another alarm on s0, after every
+    end the detectors gave with s3 in). That is not this fault going on: before, the
+    finding was taken to the record's end; now no end beyond 202.01 s (the observers'
+    end and a long alarm window) is taken, and the finding stays as it was."""
+    f = _finding(_ev("s0", BANK, 100.0, 150.08), _ev("s0", DF, 100.0, 150.08))
+    f.events.append(_ev("s0", EM, 100.0, 200.01))
+    g = _fault("s3", 150.0, 250.0)
+    (pair,) = pipeline.ends_hidden_by_later([f, g], lambda *_: True)
+    assert pair == (f, g)
+    h = _finding(_ev("s0", BANK, 100.0, 200.0))
+    h.events.append(_ev("s0", BANK, 262.0, None))
+    notes = _searched(monkeypatch, {"s3": [h]})([pair], [])
+    assert (f.end_s, notes) == (150.08, [])
+    assert "end_without" not in f.evidence
+
+
+def test_an_end_lost_where_a_later_fault_began_takes_the_end_seen_without_it(monkeypatch):
+    """The same drift, without s3 seen to 200.0 s: the finding ends there, the end
+    before in its evidence."""
+    f = _finding(_ev("s0", BANK, 100.0, 150.08), _ev("s0", DF, 100.0, 150.08))
+    f.events.append(_ev("s0", EM, 100.0, 200.01))
+    g = _fault("s3", 150.0, 250.0)
+    hidden = pipeline.ends_hidden_by_later([f, g], lambda *_: True)
+    found = {"s3": [_finding(_ev("s0", BANK, 100.0, 200.0), _ev("s0", EM, 100.0, 200.0))]}
+    (note,) = _searched(monkeypatch, found)(hidden, [])
+    assert f.end_s == 200.0
+    assert f.evidence["end_without"] == {"left_out": "s3", "detector": BANK, "was_s": 150.08}
+    assert note.startswith("additive fault on s0: ended at 200.000 s as ar_kalman_bank saw")
