@@ -558,9 +558,11 @@ def _checked(run: Callable[[], Analysis], work: Path) -> Analysis:
     :class:`IntegrityError` stops the run (exit 2) rather than report a result of
     corrupted samples.
 
-    Under heavy load an analysis of a 30 000-row CSV once in about 600 lost the first
-    2 359 rows of every channel, or changed 11 830 aligned values, without a word, and a
-    second read was right (benchmarks/README.md, ``stress_repeat.py``). The checks run
+    Under heavy load an analysis of a 30 000-row CSV once in about 600 lost about 2 350
+    rows of every channel without a word, and a second read was right: a file closed by
+    hand while Arrow's read-ahead still read it (fixed in
+    :meth:`~analyzer.readers.csv_reader.CsvReader._arrow_blocks`; benchmarks/README.md,
+    ``arrow_close_race.py``). The checks stay as guards of the stages. They run
     while reading and aligning, before any detector, so a second run costs a second
     read; the first one's scratch files (the store's spill files, which a new store
     would append to, and the aligned matrix) are removed first."""
