@@ -48,33 +48,20 @@ class Tally:
         self._last_t: npt.NDArray[np.int64] | None = None
         self._last_tsum = 0
 
-    def add(
-        self, name: str, t: npt.NDArray[np.int64], values: npt.NDArray[np.float64], sign: int = 1
-    ) -> None:
-        """Count the samples ``(t, values)`` of channel ``name`` (``sign=-1``: take them
-        away). The fields of one message (a CSV's columns) come with one time array: its
-        sum is taken once (the array is held until the next one, so that its identity
-        cannot be another array's)."""
+    def add(self, name: str, t: npt.NDArray[np.int64], values: npt.NDArray[np.float64]) -> None:
+        """Count the samples ``(t, values)`` of channel ``name``. The fields of one
+        message (a CSV's columns) come with one time array: its sum is taken once (the
+        array is held until the next one, so that its identity cannot be another
+        array's)."""
         if t is self._last_t:
             tsum = self._last_tsum
         else:
             tsum = bitsum(t)
             self._last_t, self._last_tsum = t, tsum
         row = self.sums.setdefault(name, [0, 0, 0])
-        row[0] += sign * int(t.shape[0])
-        row[1] = (row[1] + sign * tsum) % MOD
-        row[2] = (row[2] + sign * bitsum(values)) % MOD
-
-    def merged(self, other: Tally) -> Tally:
-        """The samples of both tallies."""
-        out = Tally()
-        for tally in (self, other):
-            for name, (n, ts, vs) in tally.sums.items():
-                row = out.sums.setdefault(name, [0, 0, 0])
-                row[0] += n
-                row[1] = (row[1] + ts) % MOD
-                row[2] = (row[2] + vs) % MOD
-        return out
+        row[0] += int(t.shape[0])
+        row[1] = (row[1] + tsum) % MOD
+        row[2] = (row[2] + bitsum(values)) % MOD
 
     def counted(self, chunks: Iterable[ChannelChunk]) -> Iterator[ChannelChunk]:
         """``chunks`` passed through, each counted as it passes."""
