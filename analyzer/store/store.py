@@ -312,9 +312,14 @@ class ChannelStore:
         pages of a spilled channel given back after it (:func:`~analyzer.paging.release`).
         Each channel's summary is checked against its arrays too (sample count, first and
         last time), so that the aligned clock, which starts at the earliest of them, starts
-        at a sample the store holds."""
+        at a sample the store holds. The channels that share one time array (the fields
+        of one message, :meth:`_sharing`: the very same array object after
+        :meth:`finalize`) are tallied together, a block of the times at a time: its sum
+        is taken once for all of them (:meth:`Tally.add` sees the same block again) and
+        its pages read once, not once per channel; the sums are the same integers."""
         self._need_final()
         out = Tally()
+        groups: dict[int, list[tuple[str, IntArray, FloatArray]]] = {}
         for name, raw in self._raw.items():
             t, v = raw.t, raw.v
             info = self._info[name]
@@ -330,11 +335,18 @@ class ChannelStore:
                     f"internal check failed in the store: {name!r} spans {int(t[0])}-"
                     f"{int(t[-1])} ns, its summary {info.start_ns}-{info.end_ns} ns"
                 )
+            out.sums[name] = [0, 0, 0]  # (the store's order of channels)
+            groups.setdefault(id(t), []).append((name, t, v))  # (t is held: ids are unique)
+        for members in groups.values():
+            t = members[0][1]
+            n = int(t.shape[0])
             for s in range(0, n, block):
                 e = min(n, s + block)
-                out.add(name, np.asarray(t[s:e]), np.asarray(v[s:e]))
+                times = np.asarray(t[s:e])
+                for name, _, v in members:
+                    out.add(name, times, np.asarray(v[s:e]))
+                    release(v[s:e])
                 release(t[s:e])
-                release(v[s:e])
         return out
 
     # -- reading ---------------------------------------------------------------------------

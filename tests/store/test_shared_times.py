@@ -117,3 +117,58 @@ def test_a_field_that_diverges_after_its_leader_spilled_alone(tmp_path):
     shared, plain = _stores(chunks, tmp_path, 5)
     _same(shared, plain)
     np.testing.assert_array_equal(shared.raw("y")[0], [0, 1, 3, 4])
+
+
+def _mixed_chunks(seed):
+    """Two topics of several fields (the last field of each with its own times from
+    some chunk on, some chunks unsorted) and a channel of its own: groups of shared
+    times and not."""
+    rng = np.random.default_rng(seed)
+    chunks, start = [], 0
+    for _ in range(5):
+        n = int(rng.integers(20, 40))
+        for topic, fields in (("a", 4), ("b", 3)):
+            t = _topic(rng, start, n, unsorted=bool(rng.random() < 0.3))
+            for k in range(fields):
+                own = k == fields - 1 and rng.random() < 0.4
+                times = t + int(rng.integers(0, 3)) if own else t
+                chunks.append(ChannelChunk(f"{topic}{k}", times, rng.standard_normal(n)))
+        alone = start + np.sort(rng.integers(0, 10_000_000 * n, n))
+        chunks.append(ChannelChunk("alone", alone, rng.standard_normal(n)))
+        start += 10_000_000 * n
+    return chunks
+
+
+@pytest.mark.parametrize("block", [16, 1 << 22])
+@pytest.mark.parametrize("spill", [50, 1 << 22])
+@pytest.mark.parametrize("seed", range(4))
+def test_shared_times_tally_as_a_copy_per_channel(tmp_path, spill, seed, block):
+    """The store's tally sums a shared time array once per block for all the channels
+    that share it: the same sums, bit for bit, as a store with a copy of the times per
+    channel (summed per channel), in the same order of channels."""
+    from analyzer.readers.tally import Tally
+
+    chunks = _mixed_chunks(seed)
+    shared, plain = _stores(chunks, tmp_path, spill)
+    assert shared.raw("a1")[0] is shared.raw("a0")[0] is shared.raw("a2")[0]
+    assert shared.raw("b1")[0] is shared.raw("b0")[0]
+    fed = Tally()
+    for c in chunks:
+        fed.add(c.name, c.t_ns.copy(), c.values)
+    got, want = shared.tally(block), plain.tally(block)
+    assert list(got.sums.items()) == list(want.sums.items())
+    assert fed.differences(got, "fed", "stored") == []
+
+
+def test_a_shared_time_array_is_summed_once_per_block(tmp_path, monkeypatch):
+    """Four fields with one time array, read in 4 blocks: 4 sums of times, not 16."""
+    from analyzer.readers import tally
+
+    t = np.arange(60, dtype=np.int64) * 10_000_000
+    chunks = [ChannelChunk(f"f{k}", t, np.full(60, float(k))) for k in range(4)]
+    store = ChannelStore.from_chunks(chunks, tmp_path / "store")
+    summed = []
+    monkeypatch.setattr(tally, "bitsum", lambda a: summed.append(a.dtype) or 0)
+    store.tally(16)
+    assert summed.count(np.dtype(np.int64)) == 4
+    assert summed.count(np.dtype(np.float64)) == 16
