@@ -16,7 +16,7 @@ that end after its close, and how: with text of its own stream (a read already i
 progress; a buffered file's close waits for it) or ``ValueError: read of closed file``.
 Arrow's ``PythonFile`` refuses later reads before they reach Python ("operation on
 closed Python file"), and a closed Python file holds no descriptor number. Forty-fourth
-session: no row lost in 381 reads closed by hand (benchmarks/README.md). Several at
+session: no row lost in 1 110 reads closed by hand (benchmarks/README.md). Several at
 once on a loaded machine::
 
     for i in 1 2; do python benchmarks/gunzip_close_race.py --close & \\

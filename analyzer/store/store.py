@@ -315,8 +315,9 @@ class ChannelStore:
         at a sample the store holds. The channels that share one time array (the fields
         of one message, :meth:`_sharing`: the very same array object after
         :meth:`finalize`) are tallied together, a block of the times at a time: its sum
-        is taken once for all of them (:meth:`Tally.add` sees the same block again) and
-        its pages read once, not once per channel; the sums are the same integers."""
+        is taken once for all of them (:meth:`~analyzer.readers.tally.Tally.add` sees the
+        same block again) and its pages read once, not once per channel; the sums are the
+        same integers."""
         self._need_final()
         out = Tally()
         groups: dict[int, list[tuple[str, IntArray, FloatArray]]] = {}
