@@ -1104,6 +1104,38 @@ def _worth_replacing(
     )
 
 
+def healthy_stretch(
+    events: Iterable[FaultLike],
+    n: int,
+    rate_hz: float,
+    start: int,
+    margin: int,
+    least: int,
+) -> tuple[int, int] | None:
+    """The rows ``[a, b)`` of a record of ``n`` that :func:`corrected_values` may take as
+    its ``healthy`` window where the run has none (``--model``: its window is the
+    filters' warm-up): the longest stretch from row ``start`` on where no event is
+    active, each event's period (:func:`_period`; to the record's end when it has no
+    end) widened by ``margin`` rows either side, when it holds at least ``least`` rows;
+    None otherwise (the earliest of equally long ones).
+
+    What :func:`corrected_values` reads there is the estimate's own error (the residual's
+    mean square) and the readings' spread, each a sensor's under the record's own
+    excitation; a fault, or the filters carrying one after its end (or an onset found a
+    little late), would pass for healthy spread there, hence the margin."""
+    busy = sorted(
+        (max(0, a - margin), min(n, b + margin))
+        for a, b in (_period(ev, n, rate_hz) for ev in events)
+    )
+    best: tuple[int, int] | None = None
+    at = max(0, start)
+    for a, b in [*busy, (n, n)]:
+        if a > at and (best is None or a - at > best[1] - best[0]):
+            best = (at, a)
+        at = max(at, b)
+    return best if best is not None and best[1] - best[0] >= max(1, least) else None
+
+
 def write_corrected_csv(
     path: str | Path,
     t_s: FloatArray | Callable[[int, int], FloatArray],
@@ -1161,6 +1193,7 @@ __all__ = [
     "FaultLike",
     "corrected_values",
     "fault_signal",
+    "healthy_stretch",
     "result_signals",
     "write_corrected_csv",
 ]
