@@ -1032,11 +1032,12 @@ def _model_stretch(
     longest alarm window; a record shorter than twice that starts its search earlier)
     and that far from every finding's onset and end: the filters carry a fault for
     as long after it ends, and the detectors place an onset or an end within an alarm
-    window. It must be as long as that warm-up, and at least :data:`MIN_TRAIN_ROWS`
-    (what any training window needs): shorter, it holds no more than one alarm window
-    of readings, less than the detectors' own tests judge a residual's spread by. None
-    without such a stretch: a reading replaced by an estimate is then replaced to its
-    finding's end, whatever its estimate's error (the note says so)."""
+    window. It must be at least as long as that warm-up, the span a ``--model`` run
+    itself sets aside before it trusts a residual (its filters' settling, then one
+    alarm window: what the detectors' own tests judge a residual's spread by), and
+    at least :data:`MIN_TRAIN_ROWS` (what any training window needs). None without
+    such a stretch: a reading replaced by an estimate is then replaced to its finding's
+    end, whatever its estimate's error (the note says so)."""
     wanted = warmup(model)
     least = max(MIN_TRAIN_ROWS, wanted)
     got = healthy_stretch(findings, n, rate_hz, max(train[1], wanted), wanted, least)

@@ -203,7 +203,9 @@ def corrected_values(
     """``values`` (N, m) with every event's fault removed over its period
     (``S_fault_free = S_fault - f_s``, Section 6.3), and one record per event.
 
-    ``healthy``: the rows of the healthy window. Given, a fault whose reading would be
+    ``healthy``: the rows of the healthy window (``--model``, whose window is the
+    filters' warm-up: a stretch of the record clear of every finding,
+    :func:`healthy_stretch`). Given, a fault whose reading would be
     replaced by the detector's estimate (``residual``, or ``reference`` for anything but
     a multiplicative fault: a dead or nearly dead sensor, whose reading says nothing) is
     left as measured when the estimate's own error is as large as the
@@ -1116,8 +1118,8 @@ def healthy_stretch(
     its ``healthy`` window where the run has none (``--model``: its window is the
     filters' warm-up): the longest stretch from row ``start`` on where no event is
     active, each event's period (:func:`_period`; to the record's end when it has no
-    end) widened by ``margin`` rows either side, when it holds at least ``least`` rows;
-    None otherwise (the earliest of equally long ones).
+    end) widened by ``margin`` rows either side (of equally long ones the earliest),
+    when it holds at least ``least`` rows; None otherwise.
 
     What :func:`corrected_values` reads there is the estimate's own error (the residual's
     mean square) and the readings' spread, each a sensor's under the record's own

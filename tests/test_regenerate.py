@@ -925,3 +925,22 @@ def test_the_healthy_stretch_is_the_longest_clear_of_every_finding():
     )
     assert healthy_stretch([], 10_000, rate, 500, 300, 16) == (500, 10_000)
     assert healthy_stretch([_event("other", 1.0, None)], 10_000, rate, 500, 300, 16) is None
+
+
+def test_the_model_runs_stretch_is_named_or_its_absence_said():
+    """``--model --corrected``: the stretch clears every finding by the model's warm-up
+    (here its least, 1 s at 100 Hz: no fitted filters), starts after it and is at least
+    that long; the note names it, or says that none calibrates the regeneration."""
+    from types import SimpleNamespace
+
+    from analyzer.pipeline import _model_stretch
+
+    model = SimpleNamespace(rate_hz=100.0, fits={})
+    found = [_event("other", 5.0, 8.0), _event("other", 9.5, 12.0)]
+    got, said = _model_stretch(found, 2000, 100.0, (0, 100), model)
+    assert got == (1300, 2000)
+    assert "healthy stretch is 13-20 s of this record" in said
+    got, said = _model_stretch(found, 1400, 100.0, (0, 100), model)  # 1-4 s beats 13-14 s
+    assert got == (100, 400)
+    got, said = _model_stretch([_event("other", 1.5, None)], 2000, 100.0, (0, 100), model)
+    assert got is None and "no stretch of at least 1 s" in said
