@@ -93,7 +93,7 @@ from analyzer.reconfigure import (
     seen_late,
 )
 from analyzer.reconfigure import note as reconfigure_note
-from analyzer.regenerate import corrected_values, result_signals
+from analyzer.regenerate import corrected_values, healthy_stretch, result_signals
 from analyzer.reuse import (
     in_registry_order,
     model_channels,
@@ -948,6 +948,13 @@ def _analyze(
         corrections: list[dict[str, Any]] = []
         if options.corrected:
             res_map, ref_map = result_signals(results)
+            # (--model: the window is the filters' warm-up, not a healthy stretch; one of
+            # the record's own that the analysis found free of faults instead)
+            healthy_rows, said = (
+                (train, "")
+                if reused is None
+                else _model_stretch(findings, aligned.n, aligned.rate_hz, train, reused)
+            )
             corrected, corrections = corrected_values(
                 values,
                 chosen,
@@ -956,10 +963,14 @@ def _analyze(
                 res_map,
                 ref_map,
                 ctx.buffer,
-                # (--model: the window is the filters' warm-up, not a healthy stretch)
-                train if reused is None else None,
+                healthy_rows,
                 fitted_estimates(collected, groups, chosen),
             )
+            if said and any(
+                c["method"] in ESTIMATED or c["note"].startswith("left as measured")
+                for c in corrections
+            ):
+                notes.append(said)
         timings["total"] = time.perf_counter() - t_start
         return Analysis(
             inputs=archive.inputs,
@@ -1001,6 +1012,51 @@ def _analyze(
             model_info=None if reused is None else model_info(reused, options),
             screen=screen,
         )
+
+
+ESTIMATED = ("reference", "residual")
+"""The corrections that replace a reading by an estimate, those that read the healthy
+window (as does a reading left as measured for its estimate's error: ``skipped``, its
+note ``left as measured...``)."""
+
+
+def _model_stretch(
+    findings: Sequence[Finding], n: int, rate_hz: float, train: tuple[int, int], model: SavedModel
+) -> tuple[tuple[int, int] | None, str]:
+    """``--model --corrected``: the rows of the record that the regeneration takes as its
+    healthy window (:func:`~analyzer.regenerate.corrected_values`' ``healthy``), and a
+    note that says which. The run's window is the filters' warm-up (their zero start
+    state), so the stretch is the record's longest with no finding of any channel active
+    (:func:`~analyzer.regenerate.healthy_stretch`), from the end of the warm-up the
+    model asks for (:func:`~analyzer.reuse.warmup`: its filters' settling and its
+    longest alarm window; a record shorter than twice that starts its search earlier)
+    and that far from every finding's onset and end: the filters carry a fault for
+    as long after it ends, and the detectors place an onset or an end within an alarm
+    window. It must be at least as long as that warm-up, the span a ``--model`` run
+    itself sets aside before it trusts a residual (its filters' settling, then one
+    alarm window: what the detectors' own tests judge a residual's spread by), and
+    at least :data:`MIN_TRAIN_ROWS` (what any training window needs). None without
+    such a stretch: a reading replaced by an estimate is then replaced to its finding's
+    end, whatever its estimate's error (the note says so)."""
+    wanted = warmup(model)
+    least = max(MIN_TRAIN_ROWS, wanted)
+    got = healthy_stretch(findings, n, rate_hz, max(train[1], wanted), wanted, least)
+    if got is None:
+        return None, (
+            f"--corrected with --model: no stretch of at least {least / rate_hz:.6g} s of this "
+            f"record is free of findings ({wanted / rate_hz:.6g} s from each, after the "
+            "filters' warm-up), so no healthy stretch calibrates the regeneration: a reading "
+            "replaced by an estimate is replaced to its finding's end, even where the sensor "
+            "is alive again or the estimate is no better than the reading"
+        )
+    return got, (
+        f"--corrected with --model: the regeneration's healthy stretch is "
+        f"{got[0] / rate_hz:.6g}-{got[1] / rate_hz:.6g} s of this record (the longest with no "
+        f"finding active, after the filters' warm-up and {wanted / rate_hz:.6g} s from each "
+        "finding): a reading replaced by an estimate ends where the readings are alive "
+        "again, and is left as measured where the estimate's error there is as large as "
+        "the fault's"
+    )
 
 
 def _cancel(tests: list[Any]) -> None:

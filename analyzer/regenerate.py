@@ -203,7 +203,9 @@ def corrected_values(
     """``values`` (N, m) with every event's fault removed over its period
     (``S_fault_free = S_fault - f_s``, Section 6.3), and one record per event.
 
-    ``healthy``: the rows of the healthy window. Given, a fault whose reading would be
+    ``healthy``: the rows of the healthy window (``--model``, whose window is the
+    filters' warm-up: a stretch of the record clear of every finding,
+    :func:`healthy_stretch`). Given, a fault whose reading would be
     replaced by the detector's estimate (``residual``, or ``reference`` for anything but
     a multiplicative fault: a dead or nearly dead sensor, whose reading says nothing) is
     left as measured when the estimate's own error is as large as the
@@ -1104,6 +1106,38 @@ def _worth_replacing(
     )
 
 
+def healthy_stretch(
+    events: Iterable[FaultLike],
+    n: int,
+    rate_hz: float,
+    start: int,
+    margin: int,
+    least: int,
+) -> tuple[int, int] | None:
+    """The rows ``[a, b)`` of a record of ``n`` that :func:`corrected_values` may take as
+    its ``healthy`` window where the run has none (``--model``: its window is the
+    filters' warm-up): the longest stretch from row ``start`` on where no event is
+    active, each event's period (:func:`_period`; to the record's end when it has no
+    end) widened by ``margin`` rows either side (of equally long ones the earliest),
+    when it holds at least ``least`` rows; None otherwise.
+
+    What :func:`corrected_values` reads there is the estimate's own error (the residual's
+    mean square) and the readings' spread, each a sensor's under the record's own
+    excitation; a fault, or the filters carrying one after its end (or an onset found a
+    little late), would pass for healthy spread there, hence the margin."""
+    busy = sorted(
+        (max(0, a - margin), min(n, b + margin))
+        for a, b in (_period(ev, n, rate_hz) for ev in events)
+    )
+    best: tuple[int, int] | None = None
+    at = max(0, start)
+    for a, b in [*busy, (n, n)]:
+        if a > at and (best is None or a - at > best[1] - best[0]):
+            best = (at, a)
+        at = max(at, b)
+    return best if best is not None and best[1] - best[0] >= max(1, least) else None
+
+
 def write_corrected_csv(
     path: str | Path,
     t_s: FloatArray | Callable[[int, int], FloatArray],
@@ -1161,6 +1195,7 @@ __all__ = [
     "FaultLike",
     "corrected_values",
     "fault_signal",
+    "healthy_stretch",
     "result_signals",
     "write_corrected_csv",
 ]

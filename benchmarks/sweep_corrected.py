@@ -34,10 +34,18 @@ Metrics, per injected fault (truth: the record before injection):
   that detector's prediction error ``RMS(estimate - truth)`` for the channel over the same
   period of the healthy record (the floor a regenerated signal can reach; 1 = at it).
 
+``--model``: each seed's records are analyzed with a model fitted once (``--save-model``,
+not timed) on a healthy record of the same building simulated with seed ``seed +``
+:data:`MODEL_SEED` (another excitation and noise, the whole record as its training
+window), as ``analyzer run RECORD --model FILE --corrected`` (README "Fit once, audit
+every file"); regen/floor's floor is then the model's estimate on the seed's healthy
+record, run with the model too.
+
 The table gives the median and the worst over the seeds. A script, not a timed test
 (8 seeds: about 3 minutes)::
 
     python benchmarks/sweep_corrected.py [--seeds 1:9] [--cases dead,offset] [--json F]
+    python benchmarks/sweep_corrected.py --model [--seeds 1:9] ...
 """
 
 from __future__ import annotations
@@ -49,6 +57,7 @@ import shutil
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -58,6 +67,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from analyzer.modelfile import SavedModel, load_model, save_model  # noqa: E402
 from analyzer.pipeline import RunOptions, analyze  # noqa: E402
 from analyzer.simulate import inject_fault, simulate_building  # noqa: E402
 from analyzer.writers import write_archive  # noqa: E402
@@ -66,6 +76,9 @@ RATE_HZ = 100.0
 FLOORS = 6
 ONSET_S = 120.0
 END_S = 220.0
+MODEL_SEED = 1000
+"""``--model``: the model of seed ``s`` is fitted on the healthy record of seed
+``s + MODEL_SEED`` (the same building, another excitation and noise)."""
 
 Fault = tuple[int, str, float, float | None, float]
 """(floors up from the seed's sensor, kind, onset s, end s or None, size: sd, sd per s
@@ -120,10 +133,27 @@ def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(x)))) if x.size else float("nan")
 
 
-def _floors(work: Path) -> dict[tuple[str, str], np.ndarray]:
+def _floors(work: Path, options: RunOptions) -> dict[tuple[str, str], np.ndarray]:
     """Each detector's fault-free estimate of each channel on the healthy record."""
-    run = analyze([str(work / "floors.csv")], RunOptions(), work / "floors")
+    run = analyze([str(work / "floors.csv")], options, work / "floors")
     return {(r.detector, c): np.array(v) for r in run.results for c, v in r.reference.items()}
+
+
+def _fitted(seed: int, seconds: float, work: Path) -> SavedModel:
+    """``--model``: the models fitted on the whole healthy record of seed ``seed +
+    MODEL_SEED`` (``run --train 0:END --save-model``), loaded as ``--model`` loads them."""
+    t, y, names = simulate_building(FLOORS, seconds, RATE_HZ, seed=seed + MODEL_SEED)
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    path = work / "fit.csv"
+    write_archive(path, "csv", t_ns, {n: y[:, i] for i, n in enumerate(names)})
+    (work / "fit").mkdir()
+    saved = work / "building.model"
+    run = analyze([str(path)], RunOptions(train=f"0:{seconds:g}", save_model=saved), work / "fit")
+    assert run.saved is not None
+    save_model(saved, run.saved)  # (as ``run --save-model`` writes it)
+    shutil.rmtree(work / "fit")
+    path.unlink()
+    return load_model(saved)
 
 
 def _score(
@@ -180,6 +210,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seconds", type=float, default=300.0, help="record length (default 300)")
     ap.add_argument("--cases", default=",".join(CASES), help="cases to run (default all)")
     ap.add_argument("--json", type=Path, help="also write every run's scores here")
+    ap.add_argument(
+        "--model",
+        action="store_true",
+        help="analyze with a model fitted on another seed's healthy record (--model)",
+    )
     args = ap.parse_args(argv)
     first, stop = (int(x) for x in args.seeds.split(":"))
     cases = args.cases.split(",")
@@ -198,7 +233,11 @@ def main(argv: list[str] | None = None) -> int:
             write_archive(
                 work / "floors.csv", "csv", t_ns, {n: y0[:, i] for i, n in enumerate(names)}
             )
-            refs = _floors(work)
+            plain = RunOptions()
+            if args.model:
+                saved = work / "building.model"
+                plain = RunOptions(model=_fitted(seed, args.seconds, work), model_path=str(saved))
+            refs = _floors(work, plain)
             for case in cases:
                 faults = [
                     ((seed + up) % FLOORS, kind, onset, end, size)
@@ -213,7 +252,7 @@ def main(argv: list[str] | None = None) -> int:
                 began = time.perf_counter()
                 out = work / case
                 out.mkdir()
-                analysis = analyze([str(path)], RunOptions(corrected=True), out)
+                analysis = analyze([str(path)], replace(plain, corrected=True), out)
                 corrected = np.array(analysis.corrected, dtype=np.float64)
                 rows, changed = _score(faults, y0, y, corrected, analysis.corrections, names, refs)
                 scores[case].extend(rows)

@@ -11,6 +11,7 @@ from analyzer.detectors.equivalent_model import EquivalentModel
 from analyzer.regenerate import (
     corrected_values,
     fault_signal,
+    healthy_stretch,
     result_signals,
     write_corrected_csv,
 )
@@ -903,3 +904,43 @@ def test_a_weak_reading_of_a_structure_that_moves_more_is_not_called_alive(loude
     out, records = corrected_values(Yf, names, 100.0, [event], None, refs, healthy=(0, 500))
     assert records[0]["end_s"] is None, records[0]
     assert np.allclose(out[1000:, 0], refs["c0"][1000:])
+
+
+def test_the_healthy_stretch_is_the_longest_clear_of_every_finding():
+    """``--model``'s stand-in for a healthy window: the longest stretch from ``start``
+    on, each finding's period widened by ``margin`` rows either side (a finding to the
+    record's end closes it), of at least ``least`` rows; else None."""
+    rate = 100.0
+    events = [_event("additive", 20.0, 30.0, offset=1.0), _event("other", 60.0, 62.0)]
+    # clear: 5-17 s, 33-57 s, 65-100 s (3 s either side of each finding)
+    assert healthy_stretch(events, 10_000, rate, 500, 300, 16) == (6500, 10_000)
+    late = [*events, _event("drift", 90.0, None, rate_per_s=0.1)]  # to the end: 65-87 s
+    assert healthy_stretch(late, 10_000, rate, 500, 300, 16) == (3300, 5700)
+    assert healthy_stretch(late, 10_000, rate, 500, 300, 2401) is None
+    assert healthy_stretch(late, 10_000, rate, 3400, 300, 16) == (3400, 5700)
+    # a finding over the start, and none at all
+    assert healthy_stretch([_event("other", 0.0, 50.0)], 10_000, rate, 500, 300, 16) == (
+        5300,
+        10_000,
+    )
+    assert healthy_stretch([], 10_000, rate, 500, 300, 16) == (500, 10_000)
+    assert healthy_stretch([_event("other", 1.0, None)], 10_000, rate, 500, 300, 16) is None
+
+
+def test_the_model_runs_stretch_is_named_or_its_absence_said():
+    """``--model --corrected``: the stretch clears every finding by the model's warm-up
+    (here its least, 1 s at 100 Hz: no fitted filters), starts after it and is at least
+    that long; the note names it, or says that none calibrates the regeneration."""
+    from types import SimpleNamespace
+
+    from analyzer.pipeline import _model_stretch
+
+    model = SimpleNamespace(rate_hz=100.0, fits={})
+    found = [_event("other", 5.0, 8.0), _event("other", 9.5, 12.0)]
+    got, said = _model_stretch(found, 2000, 100.0, (0, 100), model)
+    assert got == (1300, 2000)
+    assert "healthy stretch is 13-20 s of this record" in said
+    got, said = _model_stretch(found, 1400, 100.0, (0, 100), model)  # 1-4 s beats 13-14 s
+    assert got == (100, 400)
+    got, said = _model_stretch([_event("other", 1.5, None)], 2000, 100.0, (0, 100), model)
+    assert got is None and "no stretch of at least 1 s" in said

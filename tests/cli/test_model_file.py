@@ -125,6 +125,40 @@ def test_a_fault_present_from_the_first_sample_is_found_with_the_model(
         assert _main(["run", src, "--out", tmp_path / "own", "--train", "0:20"]) == 0
 
 
+def test_a_dead_sensor_alive_again_is_kept_as_measured_with_the_model(model, record, tmp_path):
+    """--model --corrected: s1 dead at 10-22 s and s3 at 16-30 s; s1's finding runs on
+    to about 30 s (its estimate leans on the dead s3), yet its readings after 22 s are
+    alive and kept as measured: the regeneration takes a stretch of the record that no
+    finding touches as its healthy window (the run's own window is the filters'
+    warm-up). Without one, s1 was regenerated to its finding's end (``sweep_corrected.py
+    --model``, ``two-dead-drift``: 0.10-0.19 sd of error over the healthy readings)."""
+    t, y = _piece(record, 1)
+    truth = y.copy()
+    y[:, 1] = inject_fault(y[:, 1], RATE, "multiplicative", 10.0, 0.0, 22.0)
+    y[:, 3] = inject_fault(y[:, 3], RATE, "multiplicative", 16.0, 0.0, 30.0)
+    src = _write(tmp_path / "dead.csv", t, y, record[2])
+    out = tmp_path / "c"
+    assert _main(["run", src, "--out", out, "--model", model, "--corrected"]) == 1
+    doc = json.loads((out / "findings.json").read_text())
+    (s1,) = [f for f in doc["faults"] if f["channel"] == "s1"]
+    assert s1["end_s"] is None or s1["end_s"] > 23.0  # the finding runs on past 22 s
+    (fix,) = [c for c in doc["corrections"] if c["channel"] == "s1"]
+    assert fix["method"] == "reference"
+    assert 22.0 <= fix["end_s"] <= 22.5 and "alive again" in fix["note"]
+    fixed = np.loadtxt(out / "corrected.csv", delimiter=",", skiprows=1)[:, 1:]
+    back = int(22.5 * RATE)
+    assert np.array_equal(fixed[back:, 1], y[back:, 1])  # alive again: as measured
+    dead = slice(int(10 * RATE), int(22 * RATE))
+    sd = float(truth[:, 1].std())
+    assert float(np.sqrt(np.mean((fixed[dead, 1] - truth[dead, 1]) ** 2))) < 0.5 * sd
+    # the note names the stretch, clear of every finding and after the warm-up
+    (said,) = [n for n in doc["notes"] if "the regeneration's healthy stretch is" in n]
+    a, b = (float(x) for x in said.split(" is ")[1].split(" s ")[0].split("-"))
+    assert doc["train"]["end_s"] < a < b
+    for f in doc["faults"]:
+        assert b <= f["onset_s"] or (f["end_s"] is not None and a >= f["end_s"])
+
+
 def test_healthy_pieces_give_no_finding_and_name_the_model(model, record, tmp_path):
     for k in (0, 2, 3):
         t, y = _piece(record, k)
