@@ -324,11 +324,22 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     errors = [f"{i['path']}: {e}" for i in doc["inputs"] for e in i["errors"]]
     if not doc["channels"] and errors:  # nothing could be read: an input error, as for run
         raise ReaderError(capped(errors, 3, "; ", "input errors"))
-    if args.json:
-        print(json.dumps(doc, indent=2))
-    else:
-        print(render_table(doc))
+    _emit(json.dumps(doc, indent=2) if args.json else render_table(doc))
     return 0
+
+
+def _emit(text: str) -> None:
+    """``text`` and a newline on stdout, flushed here: a stdout that cannot take it
+    (``> FILE`` on a full disk, ``> /dev/full``) is an error line naming stdout, not a
+    bare ``No space left on device`` naming nothing (a closed pipe stays the
+    BrokenPipeError that :func:`main` ends quietly on)."""
+    try:
+        print(text)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except OSError as err:
+        raise OSError(err.errno, err.strerror, "stdout") from err
 
 
 def cmd_export(args: argparse.Namespace) -> int:

@@ -862,3 +862,24 @@ def test_errors_say_what_is_wrong(extra, needle, tmp_path, capsys, monkeypatch):
     extra = [a.format(afile=afile) for a in extra]
     code, _, err = run_cli(["run", csv, "--out", tmp_path / "o", *extra], capsys)
     assert code == 2 and needle.format(afile=afile) in err, err
+
+
+@pytest.mark.parametrize("as_json", [True, False])
+def test_a_stdout_that_cannot_be_written_is_named(as_json, tmp_path, capsys, monkeypatch):
+    """``analyzer inspect X --json > FILE`` on a full disk (or ``> /dev/full``) ended
+    with ``analyzer: error: No space left on device``, naming nothing: the contract's
+    error line names the file, here stdout."""
+    import errno
+
+    class Full:
+        def write(self, text: str) -> int:
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+        def flush(self) -> None:
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(sys, "stdout", Full())
+    argv = ["inspect", _csv(tmp_path / "a.csv", seconds=5.0)] + (["--json"] if as_json else [])
+    code, _, err = run_cli(argv, capsys)
+    assert code == 2
+    one_line_error(err, "stdout: No space left on device")
