@@ -51,6 +51,45 @@ class _Parser(argparse.ArgumentParser):
         command = self.prog.removeprefix("analyzer").strip()
         raise UsageError(f"{command}: {message}" if command else message)
 
+    def parse_known_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> tuple[argparse.Namespace, list[str]]:
+        """As argparse's, but an option's value that starts with ``-`` (``--train
+        -5:10``, ``--rate -1e3``, ``--channels -x``) is its value: argparse reads only
+        negative numbers of its own pattern so (``-5``, not ``-5:10``, ``-1e3`` nor
+        ``-inf``) and said ``argument --train: expected one argument``, which is not
+        what is wrong; now the value is checked as any other (``--train: the window
+        '-5:10' must satisfy 0 <= START < END``)."""
+        given = list(sys.argv[1:] if args is None else args)
+        return super().parse_known_args(_attached(given, self._option_string_actions), namespace)
+
+
+def _attached(args: list[str], actions: dict[str, argparse.Action]) -> list[str]:
+    """``args`` with each option that takes one value and is followed by a word that
+    starts with a single ``-`` and is no option of the parser written ``--opt=word``
+    (up to a ``--``, after which everything is an INPUT)."""
+    out: list[str] = []
+    i = 0
+    while i < len(args):
+        word = args[i]
+        if word == "--":
+            return out + args[i:]
+        action = actions.get(word)
+        after = args[i + 1] if i + 1 < len(args) else ""
+        if (
+            action is not None
+            and action.nargs is None
+            and after.startswith("-")
+            and not after.startswith("--")
+            and after not in actions
+        ):
+            out.append(f"{word}={after}")
+            i += 2
+            continue
+        out.append(word)
+        i += 1
+    return out
+
 
 def _positive_float(text: str) -> float:
     try:
@@ -324,11 +363,22 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     errors = [f"{i['path']}: {e}" for i in doc["inputs"] for e in i["errors"]]
     if not doc["channels"] and errors:  # nothing could be read: an input error, as for run
         raise ReaderError(capped(errors, 3, "; ", "input errors"))
-    if args.json:
-        print(json.dumps(doc, indent=2))
-    else:
-        print(render_table(doc))
+    _emit(json.dumps(doc, indent=2) if args.json else render_table(doc))
     return 0
+
+
+def _emit(text: str) -> None:
+    """``text`` and a newline on stdout, flushed here: a stdout that cannot take it
+    (``> FILE`` on a full disk, ``> /dev/full``) is an error line naming stdout, not a
+    bare ``No space left on device`` naming nothing (a closed pipe stays the
+    BrokenPipeError that :func:`main` ends quietly on)."""
+    try:
+        print(text)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except OSError as err:
+        raise OSError(err.errno, err.strerror, "stdout") from err
 
 
 def cmd_export(args: argparse.Namespace) -> int:

@@ -862,3 +862,56 @@ def test_errors_say_what_is_wrong(extra, needle, tmp_path, capsys, monkeypatch):
     extra = [a.format(afile=afile) for a in extra]
     code, _, err = run_cli(["run", csv, "--out", tmp_path / "o", *extra], capsys)
     assert code == 2 and needle.format(afile=afile) in err, err
+
+
+@pytest.mark.parametrize("as_json", [True, False])
+def test_a_stdout_that_cannot_be_written_is_named(as_json, tmp_path, capsys, monkeypatch):
+    """``analyzer inspect X --json > FILE`` on a full disk (or ``> /dev/full``) ended
+    with ``analyzer: error: No space left on device``, naming nothing: the contract's
+    error line names the file, here stdout."""
+    import errno
+
+    class Full:
+        def write(self, text: str) -> int:
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+        def flush(self) -> None:
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(sys, "stdout", Full())
+    argv = ["inspect", _csv(tmp_path / "a.csv", seconds=5.0)] + (["--json"] if as_json else [])
+    code, _, err = run_cli(argv, capsys)
+    assert code == 2
+    one_line_error(err, "stdout: No space left on device")
+
+
+@pytest.mark.parametrize(
+    "option, value, said",
+    [
+        ("--train", "-5:10", "--train: the window '-5:10' must satisfy 0 <= START < END"),
+        ("--train", "-0.5:-0.1", "must satisfy 0 <= START < END"),
+        ("--rate", "-1e3", "--rate: must be a finite number > 0, got '-1e3'"),
+        ("--rate", "-inf", "--rate: must be a finite number > 0, got '-inf'"),
+        ("--channels", "-x", "--channels: pattern '-x' matches no channel"),
+    ],
+)
+def test_a_value_starting_with_a_dash_is_the_options_value(option, value, said, tmp_path, capsys):
+    """argparse takes a word starting with ``-`` for an option unless it is a negative
+    number of its own pattern (``-5``, not ``-5:10`` or ``-1e3``): ``--train -5:10``
+    said ``argument --train: expected one argument``, which is not what is wrong. The
+    value is now checked as any other, and the line says what is wrong with it."""
+    a = _csv(tmp_path / "a.csv", seconds=5.0)
+    code, _, err = run_cli(["run", a, "--out", tmp_path / "o", option, value], capsys)
+    assert code == 2
+    one_line_error(err, said)
+    assert not (tmp_path / "o").exists()
+
+
+def test_an_option_without_its_value_is_still_named(tmp_path, capsys):
+    """The option a value starting with ``-`` is given to must take a value, and the
+    word must be no option of the command (``-h``): those are errors as before."""
+    a = _csv(tmp_path / "a.csv", seconds=5.0)
+    for argv in (["--train", "-h"], ["--channels", "--rate", "5"], ["--train"]):
+        code, _, err = run_cli(["run", a, "--out", tmp_path / "o", *argv], capsys)
+        assert code == 2
+        one_line_error(err, f"argument {argv[0]}: expected one argument")
