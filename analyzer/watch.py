@@ -45,8 +45,10 @@ Exactly once
     replace the earlier result: that record, its report folder and its fault episodes
     are kept under a free name (that of the file ``--done`` moved it to when it
     differs, else ``name-1.ext``, ``name-2.ext``...), with ``dropped_as`` the name it
-    came under. An archive that still looks unfinished but is recorded already with
-    this content is not waited for.
+    came under. An archive that grew after its analysis (the earlier content is the
+    file's beginning; a folder or group with files added, none changed) is the same
+    archive: its record is replaced (:meth:`_Runner._grew`). An archive that still
+    looks unfinished but is recorded already with this content is not waited for.
 
 One watcher per REPORTS
     ``REPORTS/.lock`` is ``flock``-ed for the watcher's lifetime. A second watcher on the
@@ -69,6 +71,10 @@ Inputs
     (fault or no fault) to DIR after its report is written, ``--failed DIR`` each archive
     that could not be analyzed; an archive dropped again with the same content is moved
     without being analyzed again. A name taken in DIR gets a ``-1``, ``-2``... suffix.
+    An archive is moved only once :data:`~analyzer.watch_inbox.SOON_SETTLES` settle
+    times have passed since it was found complete (a change until then shows a writer
+    that was only pausing: it is analyzed again instead; ``--once`` waits for these
+    moves).
     An archive whose error depends on the options (``--channels`` matching none of its
     channels, ``--train`` beyond its end) or is not its own (above) stays in INBOX, and
     so does one that changed since it was found complete. DIR must be outside INBOX's
@@ -523,6 +529,16 @@ def _move_all(paths: Sequence[Path], folder: Path) -> list[Path]:
     return targets
 
 
+def _sha256_head(path: Path, size: int) -> str:
+    """sha256 of the first ``size`` bytes of the file ``path``."""
+    h = hashlib.sha256()
+    with path.open("rb") as f:
+        while size > 0 and (block := f.read(min(size, 1 << 20))):
+            h.update(block)
+            size -= len(block)
+    return h.hexdigest()
+
+
 def _rename(path: Path, folder: Path) -> Path:
     target = _free_name(folder, path.name)
     os.rename(path, target)
@@ -576,6 +592,9 @@ class _Runner:
         self.unwritten = 0
         """Analyses since the start whose outputs could not be written (a full disk)."""
         self.fingerprint = options_fingerprint(options)
+        self.moves: dict[str, tuple[ReadyArchive, Record]] = {}
+        """Archives recorded whose move by ``--done``/``--failed`` waits for the end of
+        their hold (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`)."""
         self._hashed: dict[str, tuple[Signature, str]] = {}
         """The last content hash of each archive not recorded with its signature."""
         self.cluster = cluster
@@ -595,6 +614,7 @@ class _Runner:
 
     def offer(self, archive: ReadyArchive) -> None:
         self.queue.pop(archive.name, None)  # the newest state of an archive wins
+        self.moves.pop(archive.name, None)  # (it changed: moved after its next analysis)
         if archive.unreadable is not None:  # (said by the tracker; counted, not analyzed)
             self.unreadable.add(archive.name)
             return
@@ -612,12 +632,13 @@ class _Runner:
         return 0
 
     def busy(self) -> bool:
-        return bool(self.queue or self.running)
+        return bool(self.queue or self.running or self.moves)
 
     def pump(self, wait: float = 0.0, start: bool = True) -> None:
         """Record the analyses that ended (waiting up to ``wait`` seconds for one), then
         start queued ones while there are free slots."""
         self._reap(wait)
+        self._held_moves()
         while start and len(self.running) < self.slots:
             name = next((n for n in self.queue if n not in self.running), None)
             if name is None:
@@ -820,8 +841,15 @@ class _Runner:
                 and earlier.sha256 != rec.sha256
                 and earlier.error_kind is not ErrorKind.INTERNAL  # (not a result)
             ):
-                kept = self.ledger.keep_aside(name)
-                log.info("%s: new content; the earlier one's result is kept as %s", name, kept)
+                if self._grew(earlier, job.archive):
+                    log.info(
+                        "%s: grew since its last analysis (a writer pausing longer than the "
+                        "settle time?); that analysis's result is replaced",
+                        name,
+                    )
+                else:
+                    kept = self.ledger.keep_aside(name)
+                    log.info("%s: new content; the earlier one's result is kept as %s", name, kept)
             mine = self.ledger.get(name)  # (its record, unless kept aside just now)
             folder = publish(
                 job.scratch, self.settings.reports, name, mine.folder if mine else None
@@ -942,10 +970,16 @@ class _Runner:
             path.unlink()
 
     def _move(self, archive: ReadyArchive, rec: Record) -> None:
-        """``--done`` / ``--failed``: move the archive's files out of INBOX. An archive
-        whose error is an option's or not its own (:class:`ErrorKind`) stays."""
+        """``--done`` / ``--failed``: move the archive's files out of INBOX, once its hold
+        is over (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`: until then, a
+        change shows that a writer was only pausing, and the archive is analyzed again
+        instead). An archive whose error is an option's or not its own
+        (:class:`ErrorKind`) stays."""
         folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
         if rec.error_kind in (ErrorKind.OPTIONS, ErrorKind.INTERNAL) or folder is None:
+            return
+        if time.monotonic() < archive.hold_until:
+            self.moves[archive.name] = (archive, rec)
             return
         try:
             current = signature(archive.paths, self.settings.inbox)
@@ -976,6 +1010,36 @@ class _Runner:
             rec.moved_to = [*rec.moved_to, *moved]
             self.ledger.record(rec)
             log.info("%s: moved to %s", archive.name, folder)
+
+    def _held_moves(self) -> None:
+        """The moves whose hold is over (:meth:`_move`)."""
+        now = time.monotonic()
+        for name, (archive, rec) in list(self.moves.items()):
+            if now >= archive.hold_until:
+                del self.moves[name]
+                self._move(archive, rec)
+
+    def _grew(self, earlier: Record, archive: ReadyArchive) -> bool:
+        """Whether ``archive`` is what ``earlier`` recorded, grown since (a writer that
+        paused longer than the settle time, or a folder still being filled): the same
+        single file with the earlier content as its first bytes, or the earlier files of
+        a folder or group all there unchanged, with more beside them. Never once the
+        earlier one was moved out of INBOX (what came after it is another archive)."""
+        if earlier.moved_to or not earlier.signature:
+            return False
+        old = {(str(p), int(n), int(t)) for p, n, t in earlier.signature}
+        new = set(archive.signature)
+        path = archive.paths[0]
+        if len(archive.paths) == 1 and len(old) == len(new) == 1 and not path.is_dir():
+            ((old_name, old_size, _),) = old
+            ((new_name, new_size, _),) = new
+            if old_name != new_name or new_size < old_size:
+                return False
+            try:
+                return _sha256_head(path, old_size) == earlier.sha256
+            except OSError:
+                return False
+        return old < new
 
     # ------------------------------------------------------------------ stop
     def abandon_all(self) -> None:
@@ -1102,6 +1166,12 @@ def _watch_locked(
             log.info(
                 "%d ready archive(s) not started; they are analyzed on the next start",
                 len(runner.queue),
+            )
+        if runner.moves:
+            log.info(
+                "%d analyzed archive(s) not moved yet (stopped before the end of their hold); "
+                "they are moved on the next start",
+                len(runner.moves),
             )
     summary = runner.summary()
     if summary is not None:

@@ -86,6 +86,11 @@ RESCAN_S = 30.0
 """With file events, the whole folder is still rescanned this often (dropped events)."""
 FALLBACK_POLL_S = 1.0
 """Polling interval where file events are unavailable and ``poll`` was not given."""
+SOON_SETTLES = 4
+"""A change within this many settle times of an archive being handed on as complete
+means it was not complete (a writer pausing): its settle time doubles
+(:meth:`InboxTracker.settle_of`), and ``--done``/``--failed`` do not move it before that
+window is over (:attr:`ReadyArchive.hold_until`)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -102,6 +107,12 @@ class ReadyArchive:
     """Why it cannot be read (a dangling symbolic link, permission denied): such an
     archive is handed on once per reason, to be counted and skipped, not analyzed; the
     tracker looks at it again when it changes (:func:`unreadable_reason`)."""
+    hold_until: float = 0.0
+    """``time.monotonic()`` until which a change would still show that the archive was
+    not complete (:data:`SOON_SETTLES` settle times after it was handed on): it is not
+    moved out of INBOX before then. A writer that paused longer than the settle time
+    and goes on writing through an open descriptor wrote the rest into the moved file,
+    whose first part alone was analyzed and recorded."""
 
 
 def ignored(name: str) -> bool:
@@ -450,7 +461,7 @@ class InboxTracker:
         handed on as complete, it was not complete; it gets a longer settle time."""
         taken = self._taken.pop(key, None)
         settle = self.settle_of(key)
-        if taken is None or now - taken >= 4 * settle:
+        if taken is None or now - taken >= SOON_SETTLES * settle:
             return
         longer = min(2 * settle, max(self.settle, MAX_SETTLE_S))
         if longer > settle:
@@ -545,7 +556,8 @@ class InboxTracker:
             if track.reason is None or track.known or gave_up:
                 track.yielded = sig
                 self._taken[k] = now
-                ready.append(ReadyArchive(k, paths, sig, track.reason))
+                hold = now + SOON_SETTLES * self.settle_of(k)
+                ready.append(ReadyArchive(k, paths, sig, track.reason, hold_until=hold))
         return ready
 
 
@@ -675,6 +687,7 @@ def ready_batches(
 __all__ = [
     "INCOMPLETE_TIMEOUT_S",
     "MAX_SETTLE_S",
+    "SOON_SETTLES",
     "InboxTracker",
     "ReadyArchive",
     "archive_names",
