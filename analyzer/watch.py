@@ -62,7 +62,10 @@ Outputs
     and ``REPORTS/index.json`` list every archive (verdict ``fault``, ``no fault`` or
     ``error``, faulty sensors, link to the report), newest first, and every fault once
     across the archives: one that goes on from an archive into the next is one episode
-    (:func:`analyzer.watch_index.episodes`). An archive named ``index.html``,
+    (:func:`analyzer.watch_index.episodes`). An archive analyzed past input errors (a
+    truncated file, a damaged member of a folder) keeps its verdict, as with ``analyzer
+    run``; the lines ``run`` warns of are logged and kept in its record
+    (``input_errors``, :data:`INPUT_WARNINGS`). An archive named ``index.html``,
     ``index.json``, or starting with ``.`` or ``_``, has its folder named ``_`` + its
     name.
 
@@ -157,7 +160,7 @@ from analyzer.options import RunOptions
 from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
 from analyzer.parallel import DaskExecutor
-from analyzer.pipeline import analyze_screened, config_warnings
+from analyzer.pipeline import WARNED_LINES, analyze_screened, config_warnings, input_warnings
 from analyzer.report.jobs import PRELOAD_MODULE
 from analyzer.scratch import hold, make_scratch, remove_scratch
 from analyzer.types import MSG_PATH_ENV
@@ -333,6 +336,13 @@ CONFIG_WARNINGS = ".config-warnings"
 about the config (:func:`~analyzer.pipeline.config_warnings`), one a line; the watcher
 logs them and removes the file before it publishes the report folder."""
 
+INPUT_WARNINGS = ".input-warnings"
+"""The file an analysis that went on past input errors (a truncated file, a damaged
+member of a folder: :func:`~analyzer.pipeline.input_warnings`) leaves beside its
+outputs, a JSON list of the lines ``analyzer run`` warns of; the watcher logs them,
+keeps them in the archive's record (:attr:`Record.input_errors`) and removes the file
+before it publishes the report folder."""
+
 
 def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: Path) -> int:
     """One archive's analysis: the outputs of ``analyzer run`` into ``out_dir``, or
@@ -348,6 +358,8 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
         lines = config_warnings(options.config, analysis)
         if lines:
             write_atomic(out_dir / CONFIG_WARNINGS, "".join(f"{line}\n" for line in lines))
+        if damage := input_warnings(analysis):
+            write_atomic(out_dir / INPUT_WARNINGS, json.dumps(damage))
         return 1 if analysis.faulty else 0
     except (UsageError, ConfigError) as err:
         _error_file(out_dir, one_line(err) + "\n")
@@ -886,6 +898,8 @@ class _Runner:
             log.info("%s: fault (%s) in %.1f s%s", name, faulty, elapsed, at)
         else:
             log.info("%s: no fault in %.1f s%s", name, elapsed, at)
+        for line in rec.input_errors:  # (what analyzer run warns of: it went on past them)
+            log.warning("%s: %s", name, line)
         self._move(job.archive, rec)
 
     def _result(self, job: _Job, elapsed: float) -> Record:
@@ -930,6 +944,7 @@ class _Runner:
                 rec.duration_s = doc.get("duration_s")
                 rec.screen = doc.get("screen")
                 rec.verdict = Verdict.FAULT if faults else Verdict.NO_FAULT
+                rec.input_errors = self._input_warnings(job)
                 rec.report = f"{dirname}/report.html"
                 rec.error_kind = None
                 return rec
@@ -951,6 +966,26 @@ class _Runner:
         write_atomic(error, f"{message}\n{details}")
         rec.error = message
         return rec
+
+    @staticmethod
+    def _input_warnings(job: _Job) -> list[str]:
+        """The input errors and notes an analysis that went on past them left
+        (:data:`INPUT_WARNINGS`), the first :data:`~analyzer.pipeline.WARNED_LINES` and a
+        count of the rest, as ``analyzer run`` prints them; the file is removed (it is not
+        part of the report, whose findings.json has them all)."""
+        path = job.scratch / INPUT_WARNINGS
+        try:
+            lines = [str(line) for line in json.loads(path.read_text(encoding="utf-8"))]
+        except FileNotFoundError:
+            return []
+        except (OSError, ValueError, TypeError) as err:
+            lines = [f"its input errors cannot be read ({one_line(err)}): see findings.json"]
+        with contextlib.suppress(OSError):
+            path.unlink()
+        if len(lines) > WARNED_LINES:
+            more = len(lines) - WARNED_LINES
+            lines = [*lines[:WARNED_LINES], f"{more} more input errors and notes in findings.json"]
+        return lines
 
     @staticmethod
     def _log_config_warnings(job: _Job) -> None:
@@ -1027,7 +1062,10 @@ class _Runner:
         earlier one was moved out of INBOX (what came after it is another archive)."""
         if earlier.moved_to or not earlier.signature:
             return False
-        old = {(str(p), int(n), int(t)) for p, n, t in earlier.signature}
+        try:
+            old = {(str(p), int(n), int(t)) for p, n, t in earlier.signature}
+        except (TypeError, ValueError):  # (a state file edited by hand)
+            return False
         new = set(archive.signature)
         path = archive.paths[0]
         if len(archive.paths) == 1 and len(old) == len(new) == 1 and not path.is_dir():
