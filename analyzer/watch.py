@@ -8,7 +8,9 @@ What is an archive, and when is it ready
     directory of files forming one archive; with ``--group-by REGEX`` the entries whose
     names give the same value for the regex's first group are one archive named by that
     value (``(\\d{8}T\\d{2})``: one archive per hour), analyzed as a multi-file input. Hidden
-    and temporary names (``.x``, ``x.tmp``, ``x.part``, ``x~``, ``x.active``) are ignored,
+    and temporary names (``.x``, ``x.tmp``, ``x.part``, ``x~``, ``x.active``, an upload's
+    ``x.filepart``, ``x.crdownload``...: :data:`~analyzer.watch_inbox.IGNORED_SUFFIXES`)
+    are ignored,
     and so are FIFOs, sockets and devices (never opened: said once). An archive is ready
     when its files' sizes and mtimes have not changed for ``--settle`` seconds and it is
     structurally complete where the format allows: MCAP magic at both ends, a ROS 1 bag

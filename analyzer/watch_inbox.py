@@ -9,9 +9,11 @@ batches. Each batch lists the archives that became *ready* since the previous on
   several such files"). With ``group_by`` the entries whose names give the same value for
   the regex's first group form one archive named by that value (for example
   ``(\\d{8}T\\d{2})``: one archive per hour). Hidden and temporary names are ignored: a
-  leading ``.``, or a trailing ``.tmp``, ``.part``, ``~`` or ``.active`` (``rosbag record``
-  writes ``NAME.bag.active`` and renames it when the bag is closed), as are sqlite sidecars
-  (``-journal``, ``-wal``, ``-shm``).
+  leading ``.``, or a trailing ``.tmp``, ``.part``, ``~``, ``.active`` (``rosbag record``
+  writes ``NAME.bag.active`` and renames it when the bag is closed), ``.filepart``,
+  ``.partial``, ``.crdownload``, ``.download``, ``.swp`` or ``.swx``
+  (:data:`IGNORED_SUFFIXES`, any case), as are sqlite sidecars (``-journal``, ``-wal``,
+  ``-shm``).
 * **Stable.** The (relative path, size, mtime) of every file of the archive has not
   changed for ``settle`` seconds, measured on the monotonic clock by observing it (an old
   mtime alone is not trusted: network file systems and copies that preserve times lie).
@@ -66,7 +68,22 @@ log = logging.getLogger("analyzer.watch")
 Signature = tuple[tuple[str, int, int], ...]
 """(path relative to INBOX, size, mtime_ns) of every file of an archive, sorted."""
 
-IGNORED_SUFFIXES = (".tmp", ".part", "~", ".active")
+IGNORED_SUFFIXES = (
+    ".tmp",
+    ".part",
+    "~",
+    ".active",
+    ".filepart",  # WinSCP's upload, renamed when complete
+    ".partial",
+    ".crdownload",  # Chrome's download
+    ".download",  # Safari's download (a folder)
+    ".swp",  # vim's swap file, where 'directory' puts it outside the file's folder
+    ".swx",
+)
+"""Endings of names of files still being written under a temporary name (compared
+ignoring case: a Windows share's ``X.TMP``). None is a format the analyzer reads, and an
+upload that stalled longer than ``--settle`` was analyzed as an unknown format, and
+moved to ``--failed`` under the uploader's hands."""
 SQLITE_SIDECARS = ("-journal", "-wal", "-shm")
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 ROS1_MAGIC = b"#ROSBAG V2.0\n"
@@ -117,7 +134,8 @@ class ReadyArchive:
 
 def ignored(name: str) -> bool:
     """Hidden, temporary and sidecar names, never archives on their own."""
-    return name.startswith(".") or name.endswith(IGNORED_SUFFIXES) or name.endswith(SQLITE_SIDECARS)
+    folded = name.lower()
+    return name.startswith(".") or folded.endswith(IGNORED_SUFFIXES + SQLITE_SIDECARS)
 
 
 # --------------------------------------------------------------------------- signatures
