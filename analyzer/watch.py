@@ -1045,8 +1045,18 @@ class _Runner:
         if moved:
             # (the same content dropped again and moved: its earlier copy stays listed)
             rec.moved_to = [*rec.moved_to, *moved]
-            self.ledger.record(rec)
             log.info("%s: moved to %s", archive.name, folder)
+            try:
+                self.ledger.record(rec)
+            except OSError as err:  # REPORTS full: the watcher goes on (it died here)
+                where = f"{os.fsdecode(err.filename)}: " if err.filename else ""
+                log.warning(
+                    "%s: its move is not in the state file yet (%s%s); it is with the next "
+                    "record written",
+                    archive.name,
+                    where,
+                    one_line(err.strerror or err),
+                )
 
     def _held_moves(self) -> None:
         """The moves whose hold is over (:meth:`_move`)."""
