@@ -309,10 +309,19 @@ def _prepare(settings: WatchSettings) -> set[str]:
         raise UsageError(
             f"INBOX: {inbox} is inside REPORTS (--out {settings.reports}); use folders side by side"
         )
-    for folder in (settings.reports, settings.done, settings.failed):
+    for option, folder in (
+        ("--out", settings.reports),
+        ("--done", settings.done),
+        ("--failed", settings.failed),
+    ):
         if folder is None:
             continue
-        folder.mkdir(parents=True, exist_ok=True)
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as err:  # (as run's --out: the option named, one line)
+            raise UsageError(
+                f"{option}: cannot write to {folder}: {one_line(err.strerror or err)}"
+            ) from None
         resolved = folder.resolve()
         if resolved.is_relative_to(root):
             exclude.add(resolved.relative_to(root).parts[0])

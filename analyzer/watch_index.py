@@ -199,7 +199,13 @@ class ReportsLock:
         self._fd: int | None = None
 
     def acquire(self) -> None:
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as err:  # (a read-only REPORTS: the option named, as run's --out)
+            raise UsageError(
+                f"--out: cannot write to {self.path.parent}: {err.strerror or err} (the "
+                f"watcher keeps its lock, state and reports there)"
+            ) from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
