@@ -48,7 +48,8 @@ Exactly once
     are kept under a free name (that of the file ``--done`` moved it to when it
     differs, else ``name-1.ext``, ``name-2.ext``...), with ``dropped_as`` the name it
     came under. An archive that grew after its analysis (the earlier content is the
-    file's beginning; a folder or group with files added, none changed) is the same
+    file's beginning; a folder or group whose earlier files are all there, none shorter
+    or older) is the same
     archive: its record is replaced (:meth:`_Runner._grew`). An archive that still
     looks unfinished but is recorded already with this content is not waited for.
 
@@ -1079,8 +1080,10 @@ class _Runner:
         """Whether ``archive`` is what ``earlier`` recorded, grown since (a writer that
         paused longer than the settle time, or a folder still being filled): the same
         single file with the earlier content as its first bytes, or the earlier files of
-        a folder or group all there unchanged, with more beside them. Never once the
-        earlier one was moved out of INBOX (what came after it is another archive)."""
+        a folder or group all there, none shorter or older (the hour being written grown,
+        more hours beside it: a folder's earlier files have no hash of their own to
+        compare their beginnings with). Never once the earlier one was moved out of INBOX
+        (what came after it is another archive)."""
         if earlier.moved_to or not earlier.signature:
             return False
         try:
@@ -1098,7 +1101,11 @@ class _Runner:
                 return _sha256_head(path, old_size) == earlier.sha256
             except OSError:
                 return False
-        return old < new
+        now = {name: (size, mtime) for name, size, mtime in new}
+        return all(
+            name in now and now[name][0] >= size and now[name][1] >= mtime
+            for name, size, mtime in old
+        )
 
     # ------------------------------------------------------------------ stop
     def abandon_all(self) -> None:

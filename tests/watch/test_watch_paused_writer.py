@@ -66,36 +66,40 @@ def test_an_archive_that_grew_after_its_analysis_replaces_its_record(
     quick: None,
     caplog: pytest.LogCaptureFixture,
 ) -> None:
-    """A file appended to, and a folder that gets another file, after their analysis:
-    analyzed again, and the record of the first part is replaced, not kept as another
-    archive (``a-1.csv``, ``day-1``: archives that never existed). A file of that name
-    with other content is still another archive (kept aside)."""
+    """A file appended to, and a folder whose last file grew and that got another one,
+    after their analysis: analyzed again, and the record of the first part is replaced,
+    not kept as another archive (``a-1.csv``, ``day-1``: archives that never existed). A
+    file of that name with other content is still another archive (kept aside)."""
     inbox, reports = folders
     full = write(tmp_path / "full.csv", "csv", seed=2).read_bytes()
     cut = full.index(b"\n", len(full) // 2) + 1
     csv = inbox / "a.csv"
     csv.write_bytes(full[:cut])
-    day = inbox / "day"
+    day = inbox / "day"  # a folder of hourly files: the second hour being written
     day.mkdir()
     write(day / "h0.csv", "csv", seed=3)
+    hour = write(tmp_path / "h1.csv", "csv", seed=4).read_bytes()
+    (day / "h1.csv").write_bytes(hour[: hour.index(b"\n", len(hour) // 2) + 1])
     w = start_watcher(WatchSettings(inbox, reports, settle=0.3, poll=0.1))
     wait_until(lambda: {"a.csv", "day"} <= state(reports).keys(), "the first analyses")
     with csv.open("ab") as f:
         f.write(full[cut:])
-    write(day / "h1.csv", "csv", seed=4)
+    (day / "h1.csv").write_bytes(hour)
+    write(day / "h2.csv", "csv", seed=5)
     wait_until(
         lambda: (
             state(reports).get("a.csv", {}).get("sha256") == sha256_of(csv)
-            and len(state(reports).get("day", {}).get("signature", [])) == 2
+            and len(state(reports).get("day", {}).get("signature", [])) == 3
         ),
         "the grown archives to be analyzed again",
     )
     assert set(state(reports)) == {"a.csv", "day"}
-    assert len(_said(caplog, "grew since its last analysis")) == 2
+    assert _said(caplog, "a.csv: grew since its last analysis")
+    assert _said(caplog, "day: grew since its last analysis")
     assert not _said(caplog, "the earlier one's result is kept as")
 
     # other content under the name (not the earlier one grown): another archive
-    other = write(tmp_path / "other.csv", "csv", seed=5).read_bytes()
+    other = write(tmp_path / "other.csv", "csv", seed=6).read_bytes()
     csv.write_bytes(other)
     wait_until(lambda: "a-1.csv" in state(reports), "the earlier content to be kept aside")
     wait_until(
