@@ -364,7 +364,8 @@ class _Track:
     known: bool = False
     """Unfinished-looking but recorded already with this content: not waited for."""
     told: str | None = None
-    """The unfinished reason last said (each is said once)."""
+    """The unfinished reason last said, without its numbers (:func:`_gist`): each is said
+    once, not again at every pause of a slow copy whose byte counts moved on."""
 
 
 @dataclass(slots=True)
@@ -551,8 +552,8 @@ class InboxTracker:
                 track.known = bool(track.reason) and self._known(
                     ReadyArchive(k, paths, sig, track.reason)
                 )
-                if track.reason and not track.known and track.reason != track.told:
-                    track.told = track.reason
+                if track.reason and not track.known and _gist(track.reason) != track.told:
+                    track.told = _gist(track.reason)
                     if not self.quiet:
                         log.warning(
                             "waiting up to %s (--wait-unfinished) for %s to be complete: %s",
@@ -577,6 +578,12 @@ class InboxTracker:
                 hold = now + SOON_SETTLES * self.settle_of(k)
                 ready.append(ReadyArchive(k, paths, sig, track.reason, hold_until=hold))
         return ready
+
+
+def _gist(reason: str) -> str:
+    """An unfinished reason without its numbers (``sqlite database unfinished: # of the #
+    bytes...``): a copy that pauses again and again gives the same gist."""
+    return re.sub(r"\d+", "#", reason)
 
 
 def _span(seconds: float) -> str:
