@@ -10,10 +10,10 @@ What is an archive, and when is it ready
     value (``(\\d{8}T\\d{2})``: one archive per hour), analyzed as a multi-file input. Hidden
     and temporary names (``.x``, ``x.tmp``, ``x.part``, ``x~``, ``x.active``, an upload's
     ``x.filepart``, ``x.crdownload``...: :data:`~analyzer.watch_inbox.IGNORED_SUFFIXES`)
-    are ignored,
-    and so are FIFOs, sockets and devices (never opened: said once). An archive is ready
-    when its files' sizes and mtimes have not changed for ``--settle`` seconds and it is
-    structurally complete where the format allows: MCAP magic at both ends, a ROS 1 bag
+    are ignored, and so are FIFOs, sockets and devices (never opened: said once). An
+    archive is ready when its files' sizes and mtimes have not changed for ``--settle``
+    seconds and it is structurally complete where the format allows: MCAP magic at both
+    ends, a ROS 1 bag
     with its index, a ROS 2 bag directory with its ``metadata.yaml`` and its storage
     files as long as their sqlite headers say, a CSV file with a data row under its
     header (see :mod:`analyzer.watch_inbox`). An
@@ -49,9 +49,9 @@ Exactly once
     differs, else ``name-1.ext``, ``name-2.ext``...), with ``dropped_as`` the name it
     came under. An archive that grew after its analysis (the earlier content is the
     file's beginning; a folder or group whose earlier files are all there, none shorter
-    or older) is the same
-    archive: its record is replaced (:meth:`_Runner._grew`). An archive that still
-    looks unfinished but is recorded already with this content is not waited for.
+    or older) is the same archive: its record is replaced (:meth:`_Runner._grew`). An
+    archive that still looks unfinished but is recorded already with this content is
+    not waited for.
 
 One watcher per REPORTS
     ``REPORTS/.lock`` is ``flock``-ed for the watcher's lifetime. A second watcher on the
