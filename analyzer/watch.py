@@ -173,6 +173,7 @@ from analyzer.watch_inbox import (
     ReadyArchive,
     Signature,
     archive_names,
+    ignored,
     ready_batches,
     signature,
 )
@@ -1082,8 +1083,9 @@ class _Runner:
         single file with the earlier content as its first bytes, or the earlier files of
         a folder or group all there, none shorter or older (the hour being written grown,
         more hours beside it: a folder's earlier files have no hash of their own to
-        compare their beginnings with). Never once the earlier one was moved out of INBOX
-        (what came after it is another archive)."""
+        compare their beginnings with), but for hidden and temporary ones, which a copy
+        renames when done (:func:`~analyzer.watch_inbox.ignored`). Never once the earlier
+        one was moved out of INBOX (what came after it is another archive)."""
         if earlier.moved_to or not earlier.signature:
             return False
         try:
@@ -1105,6 +1107,7 @@ class _Runner:
         return all(
             name in now and now[name][0] >= size and now[name][1] >= mtime
             for name, size, mtime in old
+            if not ignored(name.rpartition("/")[2])  # (rsync's .x.csv.AbC12z, x.csv.part)
         )
 
     # ------------------------------------------------------------------ stop
