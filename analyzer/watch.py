@@ -102,8 +102,9 @@ Running
     that died, a truncated copy) is analyzed anyway, and gets its error record; the
     watcher says once, as a warning, how long it waits for it. What ``analyzer run``
     would warn about the ``--config`` on that archive (a ``[model]`` or ``[[group]]`` it
-    could not use, the reason) is a warning line of the watcher's too, after the
-    archive's analysis.
+    could not use, the reason), about its training window (not steady: trained on its
+    part before the change) or a figure it could not draw is a warning line of the
+    watcher's too, after the archive's analysis.
 
 On a cluster
     With ``--scheduler ADDRESS`` each archive's analysis is a task of that Dask cluster,
@@ -157,6 +158,7 @@ from types import FrameType
 from typing import Any
 
 from analyzer import __version__
+from analyzer.diagnosis.training_check import window_warnings
 from analyzer.errors import AnalyzerError, ConfigError, UsageError, one_line, terminal_safe
 from analyzer.findings import sha256_of, write_outputs
 from analyzer.options import RunOptions
@@ -346,7 +348,9 @@ ERROR_KINDS = {
 
 CONFIG_WARNINGS = ".config-warnings"
 """The file an analysis leaves beside its outputs with the lines ``analyzer run`` prints
-about the config (:func:`~analyzer.pipeline.config_warnings`), one a line; the watcher
+about the config (:func:`~analyzer.pipeline.config_warnings`), the training window
+(:func:`~analyzer.diagnosis.training_check.window_warnings`: a fault inside the default
+window, trained around) and figures that could not be drawn, one a line; the watcher
 logs them and removes the file before it publishes the report folder."""
 
 INPUT_WARNINGS = ".input-warnings"
@@ -367,8 +371,13 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
     :class:`UsageError`, :class:`ConfigError`)."""
     try:
         analysis = analyze_screened(inputs, options, work)
-        write_outputs(analysis, out_dir)
-        lines = config_warnings(options.config, analysis)
+        figures: list[str] = []  # (figures that could not be drawn)
+        write_outputs(analysis, out_dir, figures.append)
+        lines = [
+            *config_warnings(options.config, analysis),
+            *window_warnings(analysis.notes),
+            *figures,
+        ]
         if lines:
             write_atomic(out_dir / CONFIG_WARNINGS, "".join(f"{line}\n" for line in lines))
         if damage := input_warnings(analysis):
