@@ -2224,14 +2224,21 @@ def _warn_inputs(analysis: Analysis, out: Path, warn: Callable[[str], None]) -> 
     """The inputs' errors (a truncated or unreadable file, samples dropped) and the
     archive's assembly notes (:func:`_archive_notes`), which a run that still exits 0 or 1
     would otherwise keep to findings.json and the report."""
-    lines = [f"{i.path}: {e}" for i in analysis.inputs for e in i.errors]
+    lines = input_warnings(analysis)
     notes = _archive_notes(analysis)
-    lines.extend(notes)
     for line in lines[:WARNED_LINES]:
         warn(line)
     if len(lines) > WARNED_LINES:
         what = "input errors and notes" if notes else "input errors"
         warn(f"{len(lines) - WARNED_LINES} more {what} in {out / 'findings.json'}")
+
+
+def input_warnings(analysis: Analysis) -> list[str]:
+    """The lines ``analyzer run`` warns of about the inputs of a run that went on: each
+    input error (``FILE: error``), then the archive's assembly notes
+    (:func:`_archive_notes`)."""
+    lines = [f"{i.path}: {e}" for i in analysis.inputs for e in i.errors]
+    return lines + _archive_notes(analysis)
 
 
 def _archive_notes(analysis: Analysis) -> list[str]:
@@ -2247,6 +2254,7 @@ __all__ = [
     "RunOptions",
     "analyze",
     "findings_document",
+    "input_warnings",
     "load_options",
     "run",
     "write_outputs",

@@ -8,10 +8,12 @@ What is an archive, and when is it ready
     directory of files forming one archive; with ``--group-by REGEX`` the entries whose
     names give the same value for the regex's first group are one archive named by that
     value (``(\\d{8}T\\d{2})``: one archive per hour), analyzed as a multi-file input. Hidden
-    and temporary names (``.x``, ``x.tmp``, ``x.part``, ``x~``, ``x.active``) are ignored,
-    and so are FIFOs, sockets and devices (never opened: said once). An archive is ready
-    when its files' sizes and mtimes have not changed for ``--settle`` seconds and it is
-    structurally complete where the format allows: MCAP magic at both ends, a ROS 1 bag
+    and temporary names (``.x``, ``x.tmp``, ``x.part``, ``x~``, ``x.active``, an upload's
+    ``x.filepart``, ``x.crdownload``...: :data:`~analyzer.watch_inbox.IGNORED_SUFFIXES`)
+    are ignored, and so are FIFOs, sockets and devices (never opened: said once). An
+    archive is ready when its files' sizes and mtimes have not changed for ``--settle``
+    seconds and it is structurally complete where the format allows: MCAP magic at both
+    ends, a ROS 1 bag
     with its index, a ROS 2 bag directory with its ``metadata.yaml`` and its storage
     files as long as their sqlite headers say, a CSV file with a data row under its
     header (see :mod:`analyzer.watch_inbox`). An
@@ -45,8 +47,11 @@ Exactly once
     replace the earlier result: that record, its report folder and its fault episodes
     are kept under a free name (that of the file ``--done`` moved it to when it
     differs, else ``name-1.ext``, ``name-2.ext``...), with ``dropped_as`` the name it
-    came under. An archive that still looks unfinished but is recorded already with
-    this content is not waited for.
+    came under. An archive that grew after its analysis (the earlier content is the
+    file's beginning; a folder or group whose earlier files are all there, none shorter
+    or older) is the same archive: its record is replaced (:meth:`_Runner._grew`). An
+    archive that still looks unfinished but is recorded already with this content is
+    not waited for.
 
 One watcher per REPORTS
     ``REPORTS/.lock`` is ``flock``-ed for the watcher's lifetime. A second watcher on the
@@ -60,7 +65,10 @@ Outputs
     and ``REPORTS/index.json`` list every archive (verdict ``fault``, ``no fault`` or
     ``error``, faulty sensors, link to the report), newest first, and every fault once
     across the archives: one that goes on from an archive into the next is one episode
-    (:func:`analyzer.watch_index.episodes`). An archive named ``index.html``,
+    (:func:`analyzer.watch_index.episodes`). An archive analyzed past input errors (a
+    truncated file, a damaged member of a folder) keeps its verdict, as with ``analyzer
+    run``; the lines ``run`` warns of are logged and kept in its record
+    (``input_errors``, :data:`INPUT_WARNINGS`). An archive named ``index.html``,
     ``index.json``, or starting with ``.`` or ``_``, has its folder named ``_`` + its
     name.
 
@@ -69,6 +77,10 @@ Inputs
     (fault or no fault) to DIR after its report is written, ``--failed DIR`` each archive
     that could not be analyzed; an archive dropped again with the same content is moved
     without being analyzed again. A name taken in DIR gets a ``-1``, ``-2``... suffix.
+    An archive is moved only once :data:`~analyzer.watch_inbox.SOON_SETTLES` settle
+    times have passed since it was found complete (a change until then shows a writer
+    that was only pausing: it is analyzed again instead; ``--once`` waits for these
+    moves).
     An archive whose error depends on the options (``--channels`` matching none of its
     channels, ``--train`` beyond its end) or is not its own (above) stays in INBOX, and
     so does one that changed since it was found complete. DIR must be outside INBOX's
@@ -90,8 +102,9 @@ Running
     that died, a truncated copy) is analyzed anyway, and gets its error record; the
     watcher says once, as a warning, how long it waits for it. What ``analyzer run``
     would warn about the ``--config`` on that archive (a ``[model]`` or ``[[group]]`` it
-    could not use, the reason) is a warning line of the watcher's too, after the
-    archive's analysis.
+    could not use, the reason), about its training window (not steady: trained on its
+    part before the change) or a figure it could not draw is a warning line of the
+    watcher's too, after the archive's analysis.
 
 On a cluster
     With ``--scheduler ADDRESS`` each archive's analysis is a task of that Dask cluster,
@@ -145,13 +158,14 @@ from types import FrameType
 from typing import Any
 
 from analyzer import __version__
+from analyzer.diagnosis.training_check import window_warnings
 from analyzer.errors import AnalyzerError, ConfigError, UsageError, one_line, terminal_safe
 from analyzer.findings import sha256_of, write_outputs
 from analyzer.options import RunOptions
 from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
 from analyzer.parallel import DaskExecutor
-from analyzer.pipeline import analyze_screened, config_warnings
+from analyzer.pipeline import WARNED_LINES, analyze_screened, config_warnings, input_warnings
 from analyzer.report.jobs import PRELOAD_MODULE
 from analyzer.scratch import hold, make_scratch, remove_scratch
 from analyzer.types import MSG_PATH_ENV
@@ -161,6 +175,7 @@ from analyzer.watch_inbox import (
     ReadyArchive,
     Signature,
     archive_names,
+    ignored,
     ready_batches,
     signature,
 )
@@ -298,10 +313,19 @@ def _prepare(settings: WatchSettings) -> set[str]:
         raise UsageError(
             f"INBOX: {inbox} is inside REPORTS (--out {settings.reports}); use folders side by side"
         )
-    for folder in (settings.reports, settings.done, settings.failed):
+    for option, folder in (
+        ("--out", settings.reports),
+        ("--done", settings.done),
+        ("--failed", settings.failed),
+    ):
         if folder is None:
             continue
-        folder.mkdir(parents=True, exist_ok=True)
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as err:  # (as run's --out: the option named, one line)
+            raise UsageError(
+                f"{option}: cannot write to {folder}: {one_line(err.strerror or err)}"
+            ) from None
         resolved = folder.resolve()
         if resolved.is_relative_to(root):
             exclude.add(resolved.relative_to(root).parts[0])
@@ -324,8 +348,17 @@ ERROR_KINDS = {
 
 CONFIG_WARNINGS = ".config-warnings"
 """The file an analysis leaves beside its outputs with the lines ``analyzer run`` prints
-about the config (:func:`~analyzer.pipeline.config_warnings`), one a line; the watcher
+about the config (:func:`~analyzer.pipeline.config_warnings`), the training window
+(:func:`~analyzer.diagnosis.training_check.window_warnings`: a fault inside the default
+window, trained around) and figures that could not be drawn, one a line; the watcher
 logs them and removes the file before it publishes the report folder."""
+
+INPUT_WARNINGS = ".input-warnings"
+"""The file an analysis that went on past input errors (a truncated file, a damaged
+member of a folder: :func:`~analyzer.pipeline.input_warnings`) leaves beside its
+outputs, a JSON list of the lines ``analyzer run`` warns of; the watcher logs them,
+keeps them in the archive's record (:attr:`Record.input_errors`) and removes the file
+before it publishes the report folder."""
 
 
 def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: Path) -> int:
@@ -338,10 +371,17 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
     :class:`UsageError`, :class:`ConfigError`)."""
     try:
         analysis = analyze_screened(inputs, options, work)
-        write_outputs(analysis, out_dir)
-        lines = config_warnings(options.config, analysis)
+        figures: list[str] = []  # (figures that could not be drawn)
+        write_outputs(analysis, out_dir, figures.append)
+        lines = [
+            *config_warnings(options.config, analysis),
+            *window_warnings(analysis.notes),
+            *figures,
+        ]
         if lines:
             write_atomic(out_dir / CONFIG_WARNINGS, "".join(f"{line}\n" for line in lines))
+        if damage := input_warnings(analysis):
+            write_atomic(out_dir / INPUT_WARNINGS, json.dumps(damage))
         return 1 if analysis.faulty else 0
     except (UsageError, ConfigError) as err:
         _error_file(out_dir, one_line(err) + "\n")
@@ -523,6 +563,16 @@ def _move_all(paths: Sequence[Path], folder: Path) -> list[Path]:
     return targets
 
 
+def _sha256_head(path: Path, size: int) -> str:
+    """sha256 of the first ``size`` bytes of the file ``path``."""
+    h = hashlib.sha256()
+    with path.open("rb") as f:
+        while size > 0 and (block := f.read(min(size, 1 << 20))):
+            h.update(block)
+            size -= len(block)
+    return h.hexdigest()
+
+
 def _rename(path: Path, folder: Path) -> Path:
     target = _free_name(folder, path.name)
     os.rename(path, target)
@@ -576,6 +626,9 @@ class _Runner:
         self.unwritten = 0
         """Analyses since the start whose outputs could not be written (a full disk)."""
         self.fingerprint = options_fingerprint(options)
+        self.moves: dict[str, tuple[ReadyArchive, Record]] = {}
+        """Archives recorded whose move by ``--done``/``--failed`` waits for the end of
+        their hold (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`)."""
         self._hashed: dict[str, tuple[Signature, str]] = {}
         """The last content hash of each archive not recorded with its signature."""
         self.cluster = cluster
@@ -595,6 +648,7 @@ class _Runner:
 
     def offer(self, archive: ReadyArchive) -> None:
         self.queue.pop(archive.name, None)  # the newest state of an archive wins
+        self.moves.pop(archive.name, None)  # (it changed: moved after its next analysis)
         if archive.unreadable is not None:  # (said by the tracker; counted, not analyzed)
             self.unreadable.add(archive.name)
             return
@@ -612,12 +666,13 @@ class _Runner:
         return 0
 
     def busy(self) -> bool:
-        return bool(self.queue or self.running)
+        return bool(self.queue or self.running or self.moves)
 
     def pump(self, wait: float = 0.0, start: bool = True) -> None:
         """Record the analyses that ended (waiting up to ``wait`` seconds for one), then
         start queued ones while there are free slots."""
         self._reap(wait)
+        self._held_moves()
         while start and len(self.running) < self.slots:
             name = next((n for n in self.queue if n not in self.running), None)
             if name is None:
@@ -820,8 +875,15 @@ class _Runner:
                 and earlier.sha256 != rec.sha256
                 and earlier.error_kind is not ErrorKind.INTERNAL  # (not a result)
             ):
-                kept = self.ledger.keep_aside(name)
-                log.info("%s: new content; the earlier one's result is kept as %s", name, kept)
+                if self._grew(earlier, job.archive):
+                    log.info(
+                        "%s: grew since its last analysis (a writer pausing longer than the "
+                        "settle time?); that analysis's result is replaced",
+                        name,
+                    )
+                else:
+                    kept = self.ledger.keep_aside(name)
+                    log.info("%s: new content; the earlier one's result is kept as %s", name, kept)
             mine = self.ledger.get(name)  # (its record, unless kept aside just now)
             folder = publish(
                 job.scratch, self.settings.reports, name, mine.folder if mine else None
@@ -858,6 +920,8 @@ class _Runner:
             log.info("%s: fault (%s) in %.1f s%s", name, faulty, elapsed, at)
         else:
             log.info("%s: no fault in %.1f s%s", name, elapsed, at)
+        for line in rec.input_errors:  # (what analyzer run warns of: it went on past them)
+            log.warning("%s: %s", name, line)
         self._move(job.archive, rec)
 
     def _result(self, job: _Job, elapsed: float) -> Record:
@@ -902,6 +966,7 @@ class _Runner:
                 rec.duration_s = doc.get("duration_s")
                 rec.screen = doc.get("screen")
                 rec.verdict = Verdict.FAULT if faults else Verdict.NO_FAULT
+                rec.input_errors = self._input_warnings(job)
                 rec.report = f"{dirname}/report.html"
                 rec.error_kind = None
                 return rec
@@ -925,6 +990,26 @@ class _Runner:
         return rec
 
     @staticmethod
+    def _input_warnings(job: _Job) -> list[str]:
+        """The input errors and notes an analysis that went on past them left
+        (:data:`INPUT_WARNINGS`), the first :data:`~analyzer.pipeline.WARNED_LINES` and a
+        count of the rest, as ``analyzer run`` prints them; the file is removed (it is not
+        part of the report, whose findings.json has them all)."""
+        path = job.scratch / INPUT_WARNINGS
+        try:
+            lines = [str(line) for line in json.loads(path.read_text(encoding="utf-8"))]
+        except FileNotFoundError:
+            return []
+        except (OSError, ValueError, TypeError) as err:
+            lines = [f"its input errors cannot be read ({one_line(err)}): see findings.json"]
+        with contextlib.suppress(OSError):
+            path.unlink()
+        if len(lines) > WARNED_LINES:
+            more = len(lines) - WARNED_LINES
+            lines = [*lines[:WARNED_LINES], f"{more} more input errors and notes in findings.json"]
+        return lines
+
+    @staticmethod
     def _log_config_warnings(job: _Job) -> None:
         """Log, as ``analyzer run`` prints them, the config warnings the analysis left
         (:data:`CONFIG_WARNINGS`), and remove their file: it is not part of the report."""
@@ -942,10 +1027,16 @@ class _Runner:
             path.unlink()
 
     def _move(self, archive: ReadyArchive, rec: Record) -> None:
-        """``--done`` / ``--failed``: move the archive's files out of INBOX. An archive
-        whose error is an option's or not its own (:class:`ErrorKind`) stays."""
+        """``--done`` / ``--failed``: move the archive's files out of INBOX, once its hold
+        is over (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`: until then, a
+        change shows that a writer was only pausing, and the archive is analyzed again
+        instead). An archive whose error is an option's or not its own
+        (:class:`ErrorKind`) stays."""
         folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
         if rec.error_kind in (ErrorKind.OPTIONS, ErrorKind.INTERNAL) or folder is None:
+            return
+        if time.monotonic() < archive.hold_until:
+            self.moves[archive.name] = (archive, rec)
             return
         try:
             current = signature(archive.paths, self.settings.inbox)
@@ -974,8 +1065,59 @@ class _Runner:
         if moved:
             # (the same content dropped again and moved: its earlier copy stays listed)
             rec.moved_to = [*rec.moved_to, *moved]
-            self.ledger.record(rec)
             log.info("%s: moved to %s", archive.name, folder)
+            try:
+                self.ledger.record(rec)
+            except OSError as err:  # REPORTS full: the watcher goes on (it died here)
+                where = f"{os.fsdecode(err.filename)}: " if err.filename else ""
+                log.warning(
+                    "%s: its move is not in the state file yet (%s%s); it is with the next "
+                    "record written",
+                    archive.name,
+                    where,
+                    one_line(err.strerror or err),
+                )
+
+    def _held_moves(self) -> None:
+        """The moves whose hold is over (:meth:`_move`)."""
+        now = time.monotonic()
+        for name, (archive, rec) in list(self.moves.items()):
+            if now >= archive.hold_until:
+                del self.moves[name]
+                self._move(archive, rec)
+
+    def _grew(self, earlier: Record, archive: ReadyArchive) -> bool:
+        """Whether ``archive`` is what ``earlier`` recorded, grown since (a writer that
+        paused longer than the settle time, or a folder still being filled): the same
+        single file with the earlier content as its first bytes, or the earlier files of
+        a folder or group all there, none shorter or older (the hour being written grown,
+        more hours beside it: a folder's earlier files have no hash of their own to
+        compare their beginnings with), but for hidden and temporary ones, which a copy
+        renames when done (:func:`~analyzer.watch_inbox.ignored`). Never once the earlier
+        one was moved out of INBOX (what came after it is another archive)."""
+        if earlier.moved_to or not earlier.signature:
+            return False
+        try:
+            old = {(str(p), int(n), int(t)) for p, n, t in earlier.signature}
+        except (TypeError, ValueError):  # (a state file edited by hand)
+            return False
+        new = set(archive.signature)
+        path = archive.paths[0]
+        if len(archive.paths) == 1 and len(old) == len(new) == 1 and not path.is_dir():
+            ((old_name, old_size, _),) = old
+            ((new_name, new_size, _),) = new
+            if old_name != new_name or new_size < old_size:
+                return False
+            try:
+                return _sha256_head(path, old_size) == earlier.sha256
+            except OSError:
+                return False
+        now = {name: (size, mtime) for name, size, mtime in new}
+        return all(
+            name in now and now[name][0] >= size and now[name][1] >= mtime
+            for name, size, mtime in old
+            if not ignored(name.rpartition("/")[2])  # (rsync's .x.csv.AbC12z, x.csv.part)
+        )
 
     # ------------------------------------------------------------------ stop
     def abandon_all(self) -> None:
@@ -1102,6 +1244,12 @@ def _watch_locked(
             log.info(
                 "%d ready archive(s) not started; they are analyzed on the next start",
                 len(runner.queue),
+            )
+        if runner.moves:
+            log.info(
+                "%d analyzed archive(s) not moved yet (stopped before the end of their hold); "
+                "they are moved on the next start",
+                len(runner.moves),
             )
     summary = runner.summary()
     if summary is not None:

@@ -9,9 +9,11 @@ batches. Each batch lists the archives that became *ready* since the previous on
   several such files"). With ``group_by`` the entries whose names give the same value for
   the regex's first group form one archive named by that value (for example
   ``(\\d{8}T\\d{2})``: one archive per hour). Hidden and temporary names are ignored: a
-  leading ``.``, or a trailing ``.tmp``, ``.part``, ``~`` or ``.active`` (``rosbag record``
-  writes ``NAME.bag.active`` and renames it when the bag is closed), as are sqlite sidecars
-  (``-journal``, ``-wal``, ``-shm``).
+  leading ``.``, or a trailing ``.tmp``, ``.part``, ``~``, ``.active`` (``rosbag record``
+  writes ``NAME.bag.active`` and renames it when the bag is closed), ``.filepart``,
+  ``.partial``, ``.crdownload``, ``.download``, ``.swp`` or ``.swx``
+  (:data:`IGNORED_SUFFIXES`, any case), as are sqlite sidecars (``-journal``, ``-wal``,
+  ``-shm``).
 * **Stable.** The (relative path, size, mtime) of every file of the archive has not
   changed for ``settle`` seconds, measured on the monotonic clock by observing it (an old
   mtime alone is not trusted: network file systems and copies that preserve times lie).
@@ -66,7 +68,22 @@ log = logging.getLogger("analyzer.watch")
 Signature = tuple[tuple[str, int, int], ...]
 """(path relative to INBOX, size, mtime_ns) of every file of an archive, sorted."""
 
-IGNORED_SUFFIXES = (".tmp", ".part", "~", ".active")
+IGNORED_SUFFIXES = (
+    ".tmp",
+    ".part",
+    "~",
+    ".active",
+    ".filepart",  # WinSCP's upload, renamed when complete
+    ".partial",
+    ".crdownload",  # Chrome's download
+    ".download",  # Safari's download (a folder)
+    ".swp",  # vim's swap file, where 'directory' puts it outside the file's folder
+    ".swx",
+)
+"""Endings of names of files still being written under a temporary name (compared
+ignoring case: a Windows share's ``X.TMP``). None is a format the analyzer reads, and an
+upload that stalled longer than ``--settle`` was analyzed as an unknown format, and
+moved to ``--failed`` under the uploader's hands."""
 SQLITE_SIDECARS = ("-journal", "-wal", "-shm")
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 ROS1_MAGIC = b"#ROSBAG V2.0\n"
@@ -86,6 +103,11 @@ RESCAN_S = 30.0
 """With file events, the whole folder is still rescanned this often (dropped events)."""
 FALLBACK_POLL_S = 1.0
 """Polling interval where file events are unavailable and ``poll`` was not given."""
+SOON_SETTLES = 4
+"""A change within this many settle times of an archive being handed on as complete
+means it was not complete (a writer pausing): its settle time doubles
+(:meth:`InboxTracker.settle_of`), and ``--done``/``--failed`` do not move it before that
+window is over (:attr:`ReadyArchive.hold_until`)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -102,11 +124,18 @@ class ReadyArchive:
     """Why it cannot be read (a dangling symbolic link, permission denied): such an
     archive is handed on once per reason, to be counted and skipped, not analyzed; the
     tracker looks at it again when it changes (:func:`unreadable_reason`)."""
+    hold_until: float = 0.0
+    """``time.monotonic()`` until which a change would still show that the archive was
+    not complete (:data:`SOON_SETTLES` settle times after it was handed on): it is not
+    moved out of INBOX before then. A writer that paused longer than the settle time
+    and goes on writing through an open descriptor wrote the rest into the moved file,
+    whose first part alone was analyzed and recorded."""
 
 
 def ignored(name: str) -> bool:
     """Hidden, temporary and sidecar names, never archives on their own."""
-    return name.startswith(".") or name.endswith(IGNORED_SUFFIXES) or name.endswith(SQLITE_SIDECARS)
+    folded = name.lower()
+    return name.startswith(".") or folded.endswith(IGNORED_SUFFIXES + SQLITE_SIDECARS)
 
 
 # --------------------------------------------------------------------------- signatures
@@ -335,7 +364,8 @@ class _Track:
     known: bool = False
     """Unfinished-looking but recorded already with this content: not waited for."""
     told: str | None = None
-    """The unfinished reason last said (each is said once)."""
+    """The unfinished reason last said, without its numbers (:func:`_gist`): each is said
+    once, not again at every pause of a slow copy whose byte counts moved on."""
 
 
 @dataclass(slots=True)
@@ -450,7 +480,7 @@ class InboxTracker:
         handed on as complete, it was not complete; it gets a longer settle time."""
         taken = self._taken.pop(key, None)
         settle = self.settle_of(key)
-        if taken is None or now - taken >= 4 * settle:
+        if taken is None or now - taken >= SOON_SETTLES * settle:
             return
         longer = min(2 * settle, max(self.settle, MAX_SETTLE_S))
         if longer > settle:
@@ -522,8 +552,8 @@ class InboxTracker:
                 track.known = bool(track.reason) and self._known(
                     ReadyArchive(k, paths, sig, track.reason)
                 )
-                if track.reason and not track.known and track.reason != track.told:
-                    track.told = track.reason
+                if track.reason and not track.known and _gist(track.reason) != track.told:
+                    track.told = _gist(track.reason)
                     if not self.quiet:
                         log.warning(
                             "waiting up to %s (--wait-unfinished) for %s to be complete: %s",
@@ -545,8 +575,15 @@ class InboxTracker:
             if track.reason is None or track.known or gave_up:
                 track.yielded = sig
                 self._taken[k] = now
-                ready.append(ReadyArchive(k, paths, sig, track.reason))
+                hold = now + SOON_SETTLES * self.settle_of(k)
+                ready.append(ReadyArchive(k, paths, sig, track.reason, hold_until=hold))
         return ready
+
+
+def _gist(reason: str) -> str:
+    """An unfinished reason without its numbers (``sqlite database unfinished: # of the #
+    bytes...``): a copy that pauses again and again gives the same gist."""
+    return re.sub(r"\d+", "#", reason)
 
 
 def _span(seconds: float) -> str:
@@ -675,6 +712,7 @@ def ready_batches(
 __all__ = [
     "INCOMPLETE_TIMEOUT_S",
     "MAX_SETTLE_S",
+    "SOON_SETTLES",
     "InboxTracker",
     "ReadyArchive",
     "archive_names",

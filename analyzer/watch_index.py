@@ -121,6 +121,10 @@ class Record:
     dropped_as: str | None = None
     """The name it arrived under, when a later archive of that name took it
     (:meth:`Ledger.keep_aside`); None while it has its own name."""
+    input_errors: list[str] = field(default_factory=list)
+    """Of an archive analyzed past input errors (a truncated file, a damaged member of a
+    folder: ``findings.json``'s ``inputs[].errors`` and the archive's notes), the lines
+    ``analyzer run`` warns of: the first five, and a count of the rest."""
 
     @property
     def folder(self) -> str:
@@ -195,7 +199,13 @@ class ReportsLock:
         self._fd: int | None = None
 
     def acquire(self) -> None:
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as err:  # (a read-only REPORTS: the option named, as run's --out)
+            raise UsageError(
+                f"--out: cannot write to {self.path.parent}: {err.strerror or err} (the "
+                f"watcher keeps its lock, state and reports there)"
+            ) from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -610,6 +620,10 @@ def index_view(index: dict[str, Any]) -> IndexView:
         details = r["error"] or "report"
         if r.get("screen"):
             details += f"; {_screening(r['screen'])}"
+        if r.get("input_errors"):
+            damage = r["input_errors"]
+            more = f" (and {len(damage) - 1} more lines)" if len(damage) > 1 else ""
+            details += f"; analyzed past input errors: {damage[0]}{more}"
         if r.get("dropped_as"):
             details += f"; dropped as {r['dropped_as']} (a later archive took the name)"
         if r["moved_to"]:

@@ -111,7 +111,8 @@ def test_watch_logs_the_config_warnings_of_each_archive(
         if r.name == "analyzer.watch" and r.levelno == logging.WARNING
     ]
     for name in ("hour1.csv", "hour2.csv"):
-        (line,) = [w for w in warned if w.startswith(f"{name}: ")]
+        # (the config's line; a training window run would warn of is the watcher's too)
+        (line,) = [w for w in warned if w.startswith(f"{name}: {tmp_path / 'cfg.toml'}: ")]
         assert line == f"{name}: {tmp_path / 'cfg.toml'}: {line.split(': ', 2)[2]}"
         assert WARNING in line and "nope" in line
         folder = next(p for p in reports.iterdir() if p.is_dir() and name in p.name)
@@ -138,3 +139,31 @@ def test_analysis_into_leaves_the_lines_for_the_watcher(tmp_path: Path) -> None:
     work2.mkdir()
     assert analysis_into([str(archive)], RunOptions(train="0:12"), clean, work2) in (0, 1)
     assert not (clean / CONFIG_WARNINGS).exists()
+
+
+def test_the_training_window_warning_of_run_is_left_for_the_watcher_too(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A fault inside the default training window: ``run`` warns that it trained on the
+    window's part before the change; the watcher, which logs the lines the analysis
+    leaves, said nothing (the note was in findings.json alone)."""
+    from analyzer.simulate import inject_fault
+
+    t, y, names = simulate_building(4, 300.0, 100.0, seed=14, sensors_per_floor=2)
+    sd = y[: int(0.2 * t.size), 2].std()
+    y[:, 2] = inject_fault(y[:, 2], 100.0, "additive", 45.0, 3.0 * sd)
+    archive = tmp_path / "b.csv"
+    header = "time," + ",".join(names)
+    np.savetxt(archive, np.column_stack([t, y]), delimiter=",", header=header, comments="")
+    assert main(["run", str(archive), "--out", str(tmp_path / "run"), "--no-progress"]) == 1
+    printed = [
+        line.removeprefix("analyzer: warning: ")
+        for line in capsys.readouterr().err.splitlines()
+        if "trained on 0-" in line
+    ]
+    assert printed
+    out, work = tmp_path / "out", tmp_path / "work"
+    out.mkdir()
+    work.mkdir()
+    assert analysis_into([str(archive)], RunOptions(), out, work) == 1
+    assert (out / CONFIG_WARNINGS).read_text().splitlines() == printed

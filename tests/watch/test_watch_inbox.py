@@ -60,6 +60,13 @@ def small_archive(path: Path, fmt: str, n: int = 400) -> Path:
         ("x.csv~", True),
         ("mission.bag.active", True),
         ("x.db3-journal", True),
+        ("x.csv.filepart", True),  # WinSCP: renamed when the upload is complete
+        ("x.mcap.crdownload", True),
+        ("x.bag.partial", True),
+        ("x.mcap.download", True),
+        ("x.csv.swp", True),
+        ("X.CSV.TMP", True),  # (a Windows share)
+        ("x.mcap.PART", True),
         ("x.mcap", False),
         ("hour_20260101T10.csv.gz", False),
         ("bag_dir", False),

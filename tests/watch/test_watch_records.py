@@ -398,3 +398,42 @@ def test_an_archive_that_changed_since_it_was_taken_is_not_moved(
     watch_module._Runner._move(runner, archive, record)  # type: ignore[arg-type]
     assert csv.is_file() and not list(done.iterdir())
     assert said(caplog, "a.csv: not moved to ")
+
+
+def test_a_state_file_that_cannot_be_written_after_a_move_does_not_stop_the_watcher(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """REPORTS full when the move by --done is recorded: the archive is in --done, the
+    record holds it (written with the next one) and the watcher goes on, where the
+    OSError ended it (a one-line exit 2 in the middle of a service's life)."""
+    from types import SimpleNamespace
+
+    from analyzer.watch_inbox import ReadyArchive, signature
+    from analyzer.watch_index import Ledger, Verdict
+
+    inbox, done, reports = tmp_path / "inbox", tmp_path / "done", tmp_path / "reports"
+    for folder in (inbox, done, reports):
+        folder.mkdir()
+    csv = inbox / "a.csv"
+    csv.write_text("time,a\n0,1\n1,2\n")
+    archive = ReadyArchive("a.csv", (csv,), signature([csv], inbox))
+    ledger = Ledger(reports)
+    record = Record("a.csv", "0" * 64, Verdict.NO_FAULT, "a.csv/report.html", [], "t", 1.0)
+    ledger.records["a.csv"] = record
+
+    def full(self: Ledger) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device", str(self.path))
+
+    monkeypatch.setattr(Ledger, "save_state", full)
+    runner = SimpleNamespace(
+        settings=WatchSettings(inbox, reports, done=done), ledger=ledger, moves={}
+    )
+    watch_module._Runner._move(runner, archive, record)  # type: ignore[arg-type]
+    assert not csv.exists() and (done / "a.csv").is_file()
+    assert ledger.get("a.csv") is record and record.moved_to == [str(done / "a.csv")]
+    assert said(caplog, "a.csv: its move is not in the state file yet (")[0].endswith(
+        "No space left on device); it is with the next record written"
+    )
+    monkeypatch.undo()
+    ledger.save_state()
+    assert state(reports)["a.csv"]["moved_to"] == [str(done / "a.csv")]

@@ -230,6 +230,33 @@ def test_an_incomplete_archive_says_once_how_long_it_may_be_waited_for(
     assert [r.levelno for r in caplog.records if "zero.csv" in r.getMessage()] == [logging.WARNING]
 
 
+def test_a_slow_copy_says_how_long_it_may_be_waited_for_once_not_at_every_pause(
+    inbox: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A .db3 copied with pauses longer than the settle time: its reason's byte count
+    moves on at every pause (``206166 of the 618496 bytes``, then ``412332 of...``); the
+    warning is the same one, said once (it was said again at each pause)."""
+    import struct
+
+    head = bytearray(b"SQLite format 3\x00".ljust(100, b"\x00"))
+    struct.pack_into(">H", head, 16, 4096)  # page size
+    struct.pack_into(">II", head, 24, 7, 40)  # change counter, 40 pages
+    struct.pack_into(">I", head, 92, 7)  # valid for that counter
+    db3 = inbox / "mission.db3"
+    tracker = InboxTracker(inbox, settle=0.5, incomplete_timeout=600.0)
+    for now, size in ((0.0, 8192), (1.0, 8192), (2.0, 65536), (3.0, 65536), (4.0, 131072)):
+        if not db3.exists() or db3.stat().st_size != size:
+            db3.write_bytes(bytes(head).ljust(size, b"\x00"))
+        tracker.rescan()
+        tracker.step(now)
+    tracker.step(5.0)
+    said = [m for m in messages(caplog) if "mission.db3" in m]
+    assert said == [
+        "waiting up to 10 min (--wait-unfinished) for mission.db3 to be complete: sqlite "
+        "database unfinished: 8192 of the 163840 bytes its header gives (still being copied?)"
+    ]
+
+
 def test_an_incomplete_archive_recorded_already_is_not_waited_for(
     inbox: Path, caplog: pytest.LogCaptureFixture
 ) -> None:

@@ -577,8 +577,15 @@ def test_bad_folders_and_patterns_are_usage_errors(
     folders: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
 ) -> None:
     inbox, reports = folders
+    file = inbox.parent / "file.txt"
+    file.write_text("not a folder")
     cases = [
         ([str(inbox / "missing"), "--out", str(reports)], "is not a directory"),
+        ([str(inbox), "--out", str(file / "r")], "^analyzer: error: --out: cannot write to "),
+        (
+            [str(inbox), "--out", str(reports), "--done", str(file / "d")],
+            "^analyzer: error: --done: cannot write to .*: Not a directory$",
+        ),
         ([str(inbox), "--out", str(inbox)], "--out: .* is INBOX itself"),
         ([str(inbox), "--out", str(reports), "--group-by", "("], "--group-by: '\\(' is not a"),
         ([str(inbox), "--out", str(reports), "--group-by", r"\d+"], "has no group"),

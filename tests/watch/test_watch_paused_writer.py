@@ -1,0 +1,154 @@
+"""A writer that pauses longer than ``--settle`` and then goes on: the archive was taken
+as complete too early and analyzed on its first part. The watcher must end with one
+record, of the whole content, and ``--done`` must not move the file while the writer
+may still be at it (a writer holding its file open writes the rest into the moved file,
+whose first part alone was then recorded).
+
+The analyses are a stand-in that writes a small ``findings.json`` at once (forked from
+this process, which has the replacement), so that every analysis ends well inside the
+hold of ``--done``, however loaded the machine is."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import threading
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+import test_watch_run
+from test_watch_run import Watcher, state, wait_until, write
+
+from analyzer import watch as watch_module
+from analyzer.findings import sha256_of
+from analyzer.options import RunOptions
+from analyzer.watch import WatchSettings
+
+folders = test_watch_run.folders
+start_watcher = test_watch_run.start_watcher
+_info_logs = test_watch_run._info_logs
+_stop_fork_server = test_watch_run._stop_fork_server
+
+
+def _quick_analysis(inputs: list[str], options: RunOptions, out_dir: Path, work: Path) -> int:
+    """``analysis_into`` without the analysis: no fault, the duration read from the
+    number of rows of the CSV files (so that each version of an archive has its own)."""
+    rows = sum(len(Path(p).read_bytes().splitlines()) - 1 for p in _csv_files(inputs))
+    (out_dir / "findings.json").write_text(
+        json.dumps({"faults": [], "start": None, "duration_s": rows / 100.0, "screen": None})
+    )
+    (out_dir / "report.html").write_text("<html></html>")
+    return 0
+
+
+def _csv_files(inputs: list[str]) -> list[Path]:
+    files: list[Path] = []
+    for p in map(Path, inputs):
+        files += sorted(p.glob("*.csv")) if p.is_dir() else [p]
+    return files
+
+
+@pytest.fixture
+def quick(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(watch_module, "_context", lambda: multiprocessing.get_context("fork"))
+    monkeypatch.setattr(watch_module, "analysis_into", _quick_analysis)
+
+
+def _said(caplog: pytest.LogCaptureFixture, text: str) -> list[str]:
+    return [r.getMessage() for r in caplog.records if text in r.getMessage()]
+
+
+def test_an_archive_that_grew_after_its_analysis_replaces_its_record(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    quick: None,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A file appended to, and a folder whose last file grew and that got another one,
+    after their analysis: analyzed again, and the record of the first part is replaced,
+    not kept as another archive (``a-1.csv``, ``day-1``: archives that never existed). A
+    file of that name with other content is still another archive (kept aside)."""
+    inbox, reports = folders
+    full = write(tmp_path / "full.csv", "csv", seed=2).read_bytes()
+    cut = full.index(b"\n", len(full) // 2) + 1
+    csv = inbox / "a.csv"
+    csv.write_bytes(full[:cut])
+    day = inbox / "day"  # a folder of hourly files: the second hour being written
+    day.mkdir()
+    write(day / "h0.csv", "csv", seed=3)
+    hour = write(tmp_path / "h1.csv", "csv", seed=4).read_bytes()
+    (day / "h1.csv").write_bytes(hour[: hour.index(b"\n", len(hour) // 2) + 1])
+    rsync = day / ".h2.csv.Xq81Zb"  # (rsync's temporary name, renamed when complete)
+    write(rsync, "csv", seed=5)
+    w = start_watcher(WatchSettings(inbox, reports, settle=0.3, poll=0.1))
+    wait_until(lambda: {"a.csv", "day"} <= state(reports).keys(), "the first analyses")
+    with csv.open("ab") as f:
+        f.write(full[cut:])
+    (day / "h1.csv").write_bytes(hour)
+    rsync.rename(day / "h2.csv")
+    wait_until(
+        lambda: (
+            state(reports).get("a.csv", {}).get("sha256") == sha256_of(csv)
+            and [s[0] for s in state(reports).get("day", {}).get("signature", []) if "h2" in s[0]]
+            == ["day/h2.csv"]
+        ),
+        "the grown archives to be analyzed again",
+    )
+    assert set(state(reports)) == {"a.csv", "day"}
+    assert _said(caplog, "a.csv: grew since its last analysis")
+    assert _said(caplog, "day: grew since its last analysis")
+    assert not _said(caplog, "the earlier one's result is kept as")
+
+    # other content under the name (not the earlier one grown): another archive
+    other = write(tmp_path / "other.csv", "csv", seed=6).read_bytes()
+    csv.write_bytes(other)
+    wait_until(lambda: "a-1.csv" in state(reports), "the earlier content to be kept aside")
+    wait_until(
+        lambda: state(reports).get("a.csv", {}).get("sha256") == sha256_of(csv),
+        "the new content's record",
+    )
+    assert state(reports)["a-1.csv"]["sha256"] == sha256_of(tmp_path / "full.csv")
+    w.stop.set()
+    assert w.join() == 0
+
+
+def test_done_waits_for_a_paused_writer_before_moving(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    quick: None,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A writer holding its file open pauses longer than --settle, and goes on right after
+    the first part's analysis: the file is not moved meanwhile, it is analyzed again
+    whole, and what --done receives is what was recorded (``--once`` included: it waits
+    for the hold before it ends)."""
+    inbox, reports = folders
+    done = tmp_path / "done"
+    full = write(tmp_path / "full.csv", "csv", seed=2).read_bytes()
+    cut = full.index(b"\n", len(full) // 2) + 1
+    f = (inbox / "a.csv").open("wb")
+    f.write(full[:cut])
+    f.flush()
+    settings = WatchSettings(inbox, reports, settle=0.5, poll=0.1, done=done, once=True)
+    w = start_watcher(settings)
+
+    def writer() -> None:
+        try:
+            wait_until(lambda: "a.csv" in state(reports), "the first part's record")
+            f.write(full[cut:])  # (through the open file, wherever it now is)
+        finally:
+            f.close()
+
+    thread = threading.Thread(target=writer, daemon=True)
+    thread.start()
+    assert w.join() == 0
+    thread.join(5)
+    assert not (inbox / "a.csv").exists() and (done / "a.csv").read_bytes() == full
+    record = state(reports)["a.csv"]
+    assert record["sha256"] == sha256_of(done / "a.csv")
+    assert record["moved_to"] == [str(done / "a.csv")]
+    assert set(state(reports)) == {"a.csv"}
+    assert _said(caplog, "a.csv: grew since its last analysis")
