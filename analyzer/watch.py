@@ -49,7 +49,8 @@ Exactly once
     differs, else ``name-1.ext``, ``name-2.ext``...), with ``dropped_as`` the name it
     came under. An archive that grew after its analysis (the earlier content is the
     file's beginning; a folder or group whose earlier files are all there, none shorter
-    or older) is the same archive: its record is replaced (:meth:`_Runner._grew`). An
+    or older, each that changed beginning with its earlier content) is the same
+    archive: its record is replaced (:meth:`_Runner._grew`). An
     archive that still looks unfinished but is recorded already with this content is
     not waited for.
 
@@ -160,7 +161,7 @@ from typing import Any
 from analyzer import __version__
 from analyzer.diagnosis.training_check import window_warnings
 from analyzer.errors import AnalyzerError, ConfigError, UsageError, one_line, terminal_safe
-from analyzer.findings import sha256_of, write_outputs
+from analyzer.findings import write_outputs
 from analyzer.options import RunOptions
 from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
@@ -471,6 +472,8 @@ def _warm_up() -> None:
 class _Job:
     archive: ReadyArchive
     sha256: str
+    hashes: ArchiveHashes
+    """Its files' own sha256 and those of the beginnings :meth:`_Runner._grew` asks for."""
     scratch: Path
     process: BaseProcess | ClusterTask
     started: float
@@ -573,6 +576,70 @@ def _sha256_head(path: Path, size: int) -> str:
     return h.hexdigest()
 
 
+BLOCK = 1 << 20
+"""Bytes read at a time to hash a file."""
+
+
+@dataclass(frozen=True, slots=True)
+class ArchiveHashes:
+    """What one read of an archive's files gives (:func:`hash_archive`)."""
+
+    sha256: str
+    """The archive's: a single file's own, a folder's
+    :func:`~analyzer.findings.sha256_of`, of several entries each one's, named."""
+    files: dict[str, str]
+    """Each file's own sha256, by its path relative to INBOX (as in a signature)."""
+    heads: dict[str, str]
+    """sha256 of the first bytes of the files asked for, by path (a file shorter than
+    asked: none)."""
+
+
+def hash_archive(paths: Sequence[Path], root: Path, heads: dict[str, int]) -> ArchiveHashes:
+    """The archive's sha256 (the same as the watcher has always recorded), each file's,
+    and that of the first ``heads[path]`` bytes of each file named there (an earlier
+    size: did it grow from that content?), in one read of each file, not one more for
+    the beginnings of a large file that grew."""
+    files: dict[str, str] = {}
+    got: dict[str, str] = {}
+
+    def one(path: Path, outer: Any) -> str:
+        rel = path.relative_to(root).as_posix()
+        cut = heads.get(rel)
+        own, pos = hashlib.sha256(), 0
+        with path.open("rb") as f:
+            while True:
+                if pos == cut:
+                    got[rel] = own.hexdigest()
+                want = BLOCK if cut is None or pos >= cut else min(BLOCK, cut - pos)
+                if not (block := f.read(want)):
+                    break
+                own.update(block)
+                if outer is not None:
+                    outer.update(block)
+                pos += len(block)
+        files[rel] = own.hexdigest()
+        return files[rel]
+
+    def entry(path: Path) -> str:
+        if not path.is_dir():
+            return one(path, None)
+        outer = hashlib.sha256()  # (as sha256_of: each file's path in it, then its bytes)
+        for p in sorted(path.rglob("*")):
+            if p.is_file():
+                outer.update(p.relative_to(path).as_posix().encode())
+                one(p, outer)
+        return outer.hexdigest()
+
+    if len(paths) == 1:
+        digest = entry(paths[0])
+    else:
+        h = hashlib.sha256()
+        for path in paths:
+            h.update(f"{path.name}\0{entry(path)}\n".encode())
+        digest = h.hexdigest()
+    return ArchiveHashes(digest, files, got)
+
+
 def _rename(path: Path, folder: Path) -> Path:
     target = _free_name(folder, path.name)
     os.rename(path, target)
@@ -589,6 +656,12 @@ def _remove(path: Path, strict: bool = False) -> None:
     else:
         with contextlib.suppress(FileNotFoundError):
             path.unlink()
+
+
+def _earlier_files(rec: Record) -> set[tuple[str, int, int]]:
+    """The (path, size, mtime) of the files of a record's signature; raises TypeError or
+    ValueError for one edited by hand."""
+    return {(str(p), int(n), int(t)) for p, n, t in rec.signature}
 
 
 class _Runner:
@@ -629,7 +702,7 @@ class _Runner:
         self.moves: dict[str, tuple[ReadyArchive, Record]] = {}
         """Archives recorded whose move by ``--done``/``--failed`` waits for the end of
         their hold (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`)."""
-        self._hashed: dict[str, tuple[Signature, str]] = {}
+        self._hashed: dict[str, tuple[Signature, ArchiveHashes]] = {}
         """The last content hash of each archive not recorded with its signature."""
         self.cluster = cluster
         self.slots = settings.jobs
@@ -683,24 +756,30 @@ class _Runner:
 
     # ------------------------------------------------------------------ start
     def _digest(self, archive: ReadyArchive) -> str:
-        """sha256 of the archive's content; reused from the state when the archive has
-        the same (path, size, mtime) signature as when it was recorded, or as when it
-        was last hashed."""
+        """sha256 of the archive's content (:meth:`_hashes`)."""
+        return self._hashes(archive).sha256
+
+    def _hashes(self, archive: ReadyArchive) -> ArchiveHashes:
+        """The archive's hashes (:func:`hash_archive`), with those of the beginnings of
+        its files that changed since its record (:meth:`_grew`); reused from the state
+        when the archive has the same (path, size, mtime) signature as when it was
+        recorded, or as when it was last hashed."""
         rec = self.ledger.get(archive.name)
         if rec is not None and rec.signature == [list(s) for s in archive.signature]:
-            return rec.sha256
+            return ArchiveHashes(rec.sha256, rec.file_sha256, {})
         hashed = self._hashed.get(archive.name)
         if hashed is not None and hashed[0] == archive.signature:
             return hashed[1]
-        if len(archive.paths) == 1:
-            digest = sha256_of(archive.paths[0])
-        else:
-            h = hashlib.sha256()
-            for path in archive.paths:
-                h.update(f"{path.name}\0{sha256_of(path)}\n".encode())
-            digest = h.hexdigest()
-        self._hashed[archive.name] = (archive.signature, digest)
-        return digest
+        heads: dict[str, int] = {}
+        if rec is not None and not rec.moved_to:
+            now = {name: (size, mtime) for name, size, mtime in archive.signature}
+            with contextlib.suppress(TypeError, ValueError):  # (a state file edited by hand)
+                for name, size, mtime in _earlier_files(rec):
+                    if name in now and now[name] != (size, mtime) and now[name][0] >= size:
+                        heads[name] = size
+        hashes = hash_archive(archive.paths, self.settings.inbox, heads)
+        self._hashed[archive.name] = (archive.signature, hashes)
+        return hashes
 
     def recorded(self, archive: ReadyArchive) -> bool:
         """Whether ``archive`` is recorded already with its present content (and would
@@ -749,10 +828,11 @@ class _Runner:
     def _start(self, archive: ReadyArchive) -> None:
         name = archive.name
         try:
-            digest = self._digest(archive)
+            hashes = self._hashes(archive)
         except OSError as err:
             log.info("%s: gone before its analysis (%s)", name, one_line(err.strerror or err))
             return
+        digest = hashes.sha256
         rec = self.ledger.get(name)
         if rec is not None and rec.sha256 == digest:
             again = rec.redo_reason(self.fingerprint)
@@ -799,7 +879,7 @@ class _Runner:
             )
             with _one_blas_thread():
                 process.start()
-        self.running[name] = _Job(archive, digest, scratch, process, time.monotonic(), work)
+        self.running[name] = _Job(archive, digest, hashes, scratch, process, time.monotonic(), work)
         size = sum(s[1] for s in archive.signature)
         log.info(
             "%s: start (%d input%s, %.1f MB)",
@@ -875,7 +955,7 @@ class _Runner:
                 and earlier.sha256 != rec.sha256
                 and earlier.error_kind is not ErrorKind.INTERNAL  # (not a result)
             ):
-                if self._grew(earlier, job.archive):
+                if self._grew(earlier, job):
                     log.info(
                         "%s: grew since its last analysis (a writer pausing longer than the "
                         "settle time?); that analysis's result is replaced",
@@ -939,6 +1019,10 @@ class _Runner:
             analysis_s=round(elapsed, 3),
             signature=[list(s) for s in job.archive.signature],
             options=self.fingerprint,
+            # (a single file's own is its sha256)
+            file_sha256=job.hashes.files
+            if len(job.hashes.files) > 1 or job.archive.paths[0].is_dir()
+            else {},
         )
         findings = job.scratch / "findings.json"
         error = job.scratch / "error.txt"
@@ -1086,37 +1170,48 @@ class _Runner:
                 del self.moves[name]
                 self._move(archive, rec)
 
-    def _grew(self, earlier: Record, archive: ReadyArchive) -> bool:
-        """Whether ``archive`` is what ``earlier`` recorded, grown since (a writer that
-        paused longer than the settle time, or a folder still being filled): the same
-        single file with the earlier content as its first bytes, or the earlier files of
-        a folder or group all there, none shorter or older (the hour being written grown,
-        more hours beside it: a folder's earlier files have no hash of their own to
-        compare their beginnings with), but for hidden and temporary ones, which a copy
-        renames when done (:func:`~analyzer.watch_inbox.ignored`). Never once the earlier
-        one was moved out of INBOX (what came after it is another archive)."""
+    def _grew(self, earlier: Record, job: _Job) -> bool:
+        """Whether the archive of ``job`` is what ``earlier`` recorded, grown since (a
+        writer that paused longer than the settle time, or a folder still being filled):
+        the same single file with the earlier content as its first bytes, or the earlier
+        files of a folder or group all there, none shorter or older, each one that
+        changed beginning with its earlier content (the hour being written grown, more
+        hours beside it; a record of an older watcher has no hash of a folder's files:
+        their sizes and mtimes alone then), but for hidden and temporary ones, which a
+        copy renames when done (:func:`~analyzer.watch_inbox.ignored`). Never once the
+        earlier one was moved out of INBOX (what came after it is another archive)."""
+        archive = job.archive
         if earlier.moved_to or not earlier.signature:
             return False
         try:
-            old = {(str(p), int(n), int(t)) for p, n, t in earlier.signature}
+            old = _earlier_files(earlier)
         except (TypeError, ValueError):  # (a state file edited by hand)
             return False
-        new = set(archive.signature)
-        path = archive.paths[0]
-        if len(archive.paths) == 1 and len(old) == len(new) == 1 and not path.is_dir():
-            ((old_name, old_size, _),) = old
-            ((new_name, new_size, _),) = new
-            if old_name != new_name or new_size < old_size:
-                return False
-            try:
-                return _sha256_head(path, old_size) == earlier.sha256
-            except OSError:
-                return False
-        now = {name: (size, mtime) for name, size, mtime in new}
+        single = len(archive.paths) == 1 and not archive.paths[0].is_dir()
+        if single and not (len(old) == len(archive.signature) == 1):
+            return False
+        now = {name: (size, mtime) for name, size, mtime in archive.signature}
+
+        def begins_as(name: str, size: int) -> bool:
+            was = earlier.sha256 if single else earlier.file_sha256.get(name)
+            if was is None:  # (an older watcher's record: sizes and mtimes alone)
+                return True
+            head = job.hashes.heads.get(name)
+            if head is None:  # (hashed before, without it: read again)
+                try:
+                    head = _sha256_head(self.settings.inbox / name, size)
+                except OSError:
+                    return False
+            return head == was
+
         return all(
-            name in now and now[name][0] >= size and now[name][1] >= mtime
+            name in now
+            and now[name][0] >= size
+            and (single or now[name][1] >= mtime)
+            # (a folder's file with its size and mtime: unchanged, as for the hash's reuse)
+            and ((not single and now[name] == (size, mtime)) or begins_as(name, size))
             for name, size, mtime in old
-            if not ignored(name.rpartition("/")[2])  # (rsync's .x.csv.AbC12z, x.csv.part)
+            if single or not ignored(name.rpartition("/")[2])  # (rsync's .x.csv.AbC12z)
         )
 
     # ------------------------------------------------------------------ stop

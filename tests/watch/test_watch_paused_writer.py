@@ -10,6 +10,7 @@ hold of ``--done``, however loaded the machine is."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import multiprocessing
 import threading
@@ -152,3 +153,98 @@ def test_done_waits_for_a_paused_writer_before_moving(
     assert record["moved_to"] == [str(done / "a.csv")]
     assert set(state(reports)) == {"a.csv"}
     assert _said(caplog, "a.csv: grew since its last analysis")
+
+
+def test_a_folder_whose_file_was_replaced_by_a_larger_one_is_another_archive(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    quick: None,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A folder whose file was replaced by another recording, longer (so larger and
+    newer: size and mtime alone read it as grown): other content under the name, so
+    the earlier record and report are kept aside (``site-1``), as for a single file;
+    only a file that begins with its earlier content grew."""
+    inbox, reports = folders
+    site = inbox / "site"
+    site.mkdir()
+    write(site / "data.csv", "csv", seed=3)
+    w = start_watcher(WatchSettings(inbox, reports, settle=0.3, poll=0.1))
+    wait_until(lambda: "site" in state(reports), "the first analysis")
+    first = state(reports)["site"]["sha256"]
+    write(site / "data.csv", "csv", seed=4, seconds=80.0)  # (another day's, twice as long)
+    wait_until(lambda: "site-1" in state(reports), "the earlier result to be kept aside")
+    wait_until(
+        lambda: state(reports).get("site", {}).get("sha256") not in (None, first),
+        "the new content's record",
+    )
+    assert state(reports)["site-1"]["sha256"] == first
+    assert (reports / "site-1" / "report.html").is_file()
+    assert not _said(caplog, "site: grew since its last analysis")
+    w.stop.set()
+    assert w.join() == 0
+
+
+def test_the_beginning_of_a_grown_file_is_hashed_in_the_same_read(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    quick: None,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The hash of a grown file's earlier part is taken in the read that hashes the
+    whole file (on the watcher's loop: a multi-GB file was read twice), not by reading
+    its beginning again."""
+    inbox, reports = folders
+    full = write(tmp_path / "full.csv", "csv", seed=2).read_bytes()
+    cut = full.index(b"\n", len(full) // 2) + 1
+    csv = inbox / "a.csv"
+    csv.write_bytes(full[:cut])
+    reread: list[Path] = []
+
+    def head(path: Path, size: int) -> str:
+        reread.append(path)
+        raise OSError(f"{path}: read again")
+
+    monkeypatch.setattr(watch_module, "_sha256_head", head)
+    w = start_watcher(WatchSettings(inbox, reports, settle=0.3, poll=0.1))
+    wait_until(lambda: "a.csv" in state(reports), "the first analysis")
+    with csv.open("ab") as f:
+        f.write(full[cut:])
+    wait_until(
+        lambda: state(reports).get("a.csv", {}).get("sha256") == sha256_of(csv),
+        "the grown file to be analyzed again",
+    )
+    assert set(state(reports)) == {"a.csv"} and reread == []
+    w.stop.set()
+    assert w.join() == 0
+
+
+@pytest.mark.parametrize("layout", ["file", "folder", "group"])
+def test_archive_hashes_are_those_recorded_before(tmp_path: Path, layout: str) -> None:
+    """:func:`~analyzer.watch.hash_archive` gives the archive's sha256 as the records of
+    earlier watchers hold it (a file's own, a folder's ``sha256_of``, a group's named
+    lines: else every archive would be analyzed again after an upgrade), each file's own,
+    and the beginnings asked for (none of a file shorter than asked)."""
+    inbox = tmp_path / "inbox"
+    inbox.mkdir()
+    if layout == "folder":
+        (inbox / "day").mkdir()
+        paths = [inbox / "day"]
+        files = [write(inbox / "day" / "h0.csv", "csv"), write(inbox / "day" / "h1.csv", "csv")]
+        expected = sha256_of(inbox / "day")
+    else:
+        files = [write(inbox / f"A_part{i}.csv", "csv", seed=i) for i in range(2)]
+        paths = files if layout == "group" else files[:1]
+        files = paths
+        lines = "".join(f"{p.name}\0{sha256_of(p)}\n" for p in paths)
+        expected = hashlib.sha256(lines.encode()).hexdigest() if layout == "group" else ""
+        expected = expected or sha256_of(paths[0])
+    rel = [f.relative_to(inbox).as_posix() for f in files]
+    asked = {rel[0]: 1000} | ({rel[1]: 10**9} if len(rel) > 1 else {})  # (longer than it)
+    got = watch_module.hash_archive(paths, inbox, asked)
+    assert got.sha256 == expected
+    assert got.files == {r: sha256_of(f) for r, f in zip(rel, files, strict=True)}
+    head = hashlib.sha256(files[0].read_bytes()[:1000]).hexdigest()
+    assert got.heads == {rel[0]: head}
