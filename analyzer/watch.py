@@ -578,6 +578,24 @@ def _sha256_head(path: Path, size: int) -> str:
 
 BLOCK = 1 << 20
 """Bytes read at a time to hash a file."""
+MARK_BYTES = 1 << 16
+"""The bytes at each end of a file that its mark hashes (:func:`file_mark`)."""
+
+
+def file_mark(path: Path, size: int) -> str:
+    """sha256 of the first and the last :data:`MARK_BYTES` of the first ``size`` bytes
+    of the file ``path`` (all of them when there are fewer): a folder's file that grew
+    from what it was keeps the mark of its earlier size, another recording put in its
+    place does not. Two small reads, where a second hash of every byte of a folder
+    would double the cost of hashing it on the watcher's loop."""
+    h = hashlib.sha256()
+    with path.open("rb") as f:
+        h.update(f.read(min(size, MARK_BYTES)))
+        if size > MARK_BYTES:
+            at = max(MARK_BYTES, size - MARK_BYTES)
+            f.seek(at)
+            h.update(f.read(size - at))
+    return h.hexdigest()
 
 
 @dataclass(frozen=True, slots=True)
@@ -587,57 +605,56 @@ class ArchiveHashes:
     sha256: str
     """The archive's: a single file's own, a folder's
     :func:`~analyzer.findings.sha256_of`, of several entries each one's, named."""
-    files: dict[str, str]
-    """Each file's own sha256, by its path relative to INBOX (as in a signature)."""
+    marks: dict[str, str]
+    """Of a folder or group, each file's :func:`file_mark` at its size, by its path
+    relative to INBOX (as in a signature); empty for a single file."""
     heads: dict[str, str]
-    """sha256 of the first bytes of the files asked for, by path (a file shorter than
-    asked: none)."""
+    """Of a single file, the sha256 of its first bytes as asked for (none when it is
+    shorter than asked)."""
 
 
-def hash_archive(paths: Sequence[Path], root: Path, heads: dict[str, int]) -> ArchiveHashes:
-    """The archive's sha256 (the same as the watcher has always recorded), each file's,
-    and that of the first ``heads[path]`` bytes of each file named there (an earlier
-    size: did it grow from that content?), in one read of each file, not one more for
-    the beginnings of a large file that grew."""
-    files: dict[str, str] = {}
-    got: dict[str, str] = {}
+def hash_archive(paths: Sequence[Path], root: Path, head: int | None = None) -> ArchiveHashes:
+    """The archive's sha256 (the same as the watcher has always recorded) and, of a
+    folder or group, each file's :func:`file_mark`; of a single file, with ``head``
+    (its earlier size), the sha256 of its first ``head`` bytes too, in the same read
+    (not a second read of a large file that grew, on the watcher's loop)."""
+    heads: dict[str, str] = {}
 
-    def one(path: Path, outer: Any) -> str:
-        rel = path.relative_to(root).as_posix()
-        cut = heads.get(rel)
-        own, pos = hashlib.sha256(), 0
+    def one(path: Path, h: Any, cut: int | None = None) -> None:
+        pos = 0
         with path.open("rb") as f:
             while True:
                 if pos == cut:
-                    got[rel] = own.hexdigest()
+                    heads[path.relative_to(root).as_posix()] = h.hexdigest()
                 want = BLOCK if cut is None or pos >= cut else min(BLOCK, cut - pos)
                 if not (block := f.read(want)):
                     break
-                own.update(block)
-                if outer is not None:
-                    outer.update(block)
+                h.update(block)
                 pos += len(block)
-        files[rel] = own.hexdigest()
-        return files[rel]
+
+    single = len(paths) == 1 and not paths[0].is_dir()
+    if single:
+        h = hashlib.sha256()
+        one(paths[0], h, head)
+        return ArchiveHashes(h.hexdigest(), {}, heads)
+    marks: dict[str, str] = {}
 
     def entry(path: Path) -> str:
-        if not path.is_dir():
-            return one(path, None)
-        outer = hashlib.sha256()  # (as sha256_of: each file's path in it, then its bytes)
-        for p in sorted(path.rglob("*")):
-            if p.is_file():
-                outer.update(p.relative_to(path).as_posix().encode())
-                one(p, outer)
-        return outer.hexdigest()
+        h = hashlib.sha256()
+        files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+        for p in files:
+            if path.is_dir():  # (as sha256_of: each file's path in it, then its bytes)
+                h.update(p.relative_to(path).as_posix().encode())
+            one(p, h)
+            marks[p.relative_to(root).as_posix()] = file_mark(p, p.stat().st_size)
+        return h.hexdigest()
 
     if len(paths) == 1:
-        digest = entry(paths[0])
-    else:
-        h = hashlib.sha256()
-        for path in paths:
-            h.update(f"{path.name}\0{entry(path)}\n".encode())
-        digest = h.hexdigest()
-    return ArchiveHashes(digest, files, got)
+        return ArchiveHashes(entry(paths[0]), marks, heads)
+    outer = hashlib.sha256()
+    for path in paths:
+        outer.update(f"{path.name}\0{entry(path)}\n".encode())
+    return ArchiveHashes(outer.hexdigest(), marks, heads)
 
 
 def _rename(path: Path, folder: Path) -> Path:
@@ -760,24 +777,23 @@ class _Runner:
         return self._hashes(archive).sha256
 
     def _hashes(self, archive: ReadyArchive) -> ArchiveHashes:
-        """The archive's hashes (:func:`hash_archive`), with those of the beginnings of
-        its files that changed since its record (:meth:`_grew`); reused from the state
+        """The archive's hashes (:func:`hash_archive`), with that of the earlier part of a
+        single file that grew since its record (:meth:`_grew`); reused from the state
         when the archive has the same (path, size, mtime) signature as when it was
         recorded, or as when it was last hashed."""
         rec = self.ledger.get(archive.name)
         if rec is not None and rec.signature == [list(s) for s in archive.signature]:
-            return ArchiveHashes(rec.sha256, rec.file_sha256, {})
+            return ArchiveHashes(rec.sha256, rec.file_marks, {})
         hashed = self._hashed.get(archive.name)
         if hashed is not None and hashed[0] == archive.signature:
             return hashed[1]
-        heads: dict[str, int] = {}
-        if rec is not None and not rec.moved_to:
-            now = {name: (size, mtime) for name, size, mtime in archive.signature}
+        head = None  # (a single file that grew since its record: its earlier size)
+        if rec is not None and not rec.moved_to and len(archive.signature) == 1:
             with contextlib.suppress(TypeError, ValueError):  # (a state file edited by hand)
-                for name, size, mtime in _earlier_files(rec):
-                    if name in now and now[name] != (size, mtime) and now[name][0] >= size:
-                        heads[name] = size
-        hashes = hash_archive(archive.paths, self.settings.inbox, heads)
+                ((name, size, _),) = _earlier_files(rec)
+                if archive.signature[0][0] == name and archive.signature[0][1] >= size:
+                    head = size
+        hashes = hash_archive(archive.paths, self.settings.inbox, head)
         self._hashed[archive.name] = (archive.signature, hashes)
         return hashes
 
@@ -1019,10 +1035,7 @@ class _Runner:
             analysis_s=round(elapsed, 3),
             signature=[list(s) for s in job.archive.signature],
             options=self.fingerprint,
-            # (a single file's own is its sha256)
-            file_sha256=job.hashes.files
-            if len(job.hashes.files) > 1 or job.archive.paths[0].is_dir()
-            else {},
+            file_marks=job.hashes.marks,
         )
         findings = job.scratch / "findings.json"
         error = job.scratch / "error.txt"
@@ -1175,9 +1188,10 @@ class _Runner:
         writer that paused longer than the settle time, or a folder still being filled):
         the same single file with the earlier content as its first bytes, or the earlier
         files of a folder or group all there, none shorter or older, each one that
-        changed beginning with its earlier content (the hour being written grown, more
-        hours beside it; a record of an older watcher has no hash of a folder's files:
-        their sizes and mtimes alone then), but for hidden and temporary ones, which a
+        changed with the ends of its earlier content where they were (its
+        :func:`file_mark`: another recording put in its place is not the archive grown;
+        a record of an older watcher has no marks: sizes and mtimes alone then), but
+        for hidden and temporary ones, which a
         copy renames when done (:func:`~analyzer.watch_inbox.ignored`). Never once the
         earlier one was moved out of INBOX (what came after it is another archive)."""
         archive = job.archive
@@ -1193,16 +1207,16 @@ class _Runner:
         now = {name: (size, mtime) for name, size, mtime in archive.signature}
 
         def begins_as(name: str, size: int) -> bool:
-            was = earlier.sha256 if single else earlier.file_sha256.get(name)
-            if was is None:  # (an older watcher's record: sizes and mtimes alone)
-                return True
-            head = job.hashes.heads.get(name)
-            if head is None:  # (hashed before, without it: read again)
-                try:
+            try:
+                if not single:  # (the ends of its earlier size: see file_mark)
+                    was = earlier.file_marks.get(name)
+                    return was is None or file_mark(self.settings.inbox / name, size) == was
+                head = job.hashes.heads.get(name)
+                if head is None:  # (hashed before, without it: read again)
                     head = _sha256_head(self.settings.inbox / name, size)
-                except OSError:
-                    return False
-            return head == was
+            except OSError:
+                return False
+            return head == earlier.sha256
 
         return all(
             name in now

@@ -17,6 +17,7 @@ import threading
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 import pytest
 import test_watch_run
 from test_watch_run import Watcher, state, wait_until, write
@@ -225,26 +226,52 @@ def test_the_beginning_of_a_grown_file_is_hashed_in_the_same_read(
 def test_archive_hashes_are_those_recorded_before(tmp_path: Path, layout: str) -> None:
     """:func:`~analyzer.watch.hash_archive` gives the archive's sha256 as the records of
     earlier watchers hold it (a file's own, a folder's ``sha256_of``, a group's named
-    lines: else every archive would be analyzed again after an upgrade), each file's own,
-    and the beginnings asked for (none of a file shorter than asked)."""
+    lines: else every archive would be analyzed again after an upgrade); of a single
+    file the beginning asked for (none when it is shorter), of a folder's or group's
+    files their marks: the hash of their first and last 64 KiB."""
     inbox = tmp_path / "inbox"
     inbox.mkdir()
     if layout == "folder":
         (inbox / "day").mkdir()
         paths = [inbox / "day"]
-        files = [write(inbox / "day" / "h0.csv", "csv"), write(inbox / "day" / "h1.csv", "csv")]
+        files = [write(inbox / "day" / f"h{i}.csv", "csv", seed=i) for i in range(2)]
         expected = sha256_of(inbox / "day")
     else:
-        files = [write(inbox / f"A_part{i}.csv", "csv", seed=i) for i in range(2)]
-        paths = files if layout == "group" else files[:1]
-        files = paths
+        files = paths = [write(inbox / f"A_part{i}.csv", "csv", seed=i) for i in range(2)]
         lines = "".join(f"{p.name}\0{sha256_of(p)}\n" for p in paths)
-        expected = hashlib.sha256(lines.encode()).hexdigest() if layout == "group" else ""
-        expected = expected or sha256_of(paths[0])
-    rel = [f.relative_to(inbox).as_posix() for f in files]
-    asked = {rel[0]: 1000} | ({rel[1]: 10**9} if len(rel) > 1 else {})  # (longer than it)
-    got = watch_module.hash_archive(paths, inbox, asked)
+        expected = hashlib.sha256(lines.encode()).hexdigest()
+        if layout == "file":
+            files = paths = paths[:1]
+            expected = sha256_of(paths[0])
+    got = watch_module.hash_archive(paths, inbox, 1000)
     assert got.sha256 == expected
-    assert got.files == {r: sha256_of(f) for r, f in zip(rel, files, strict=True)}
-    head = hashlib.sha256(files[0].read_bytes()[:1000]).hexdigest()
-    assert got.heads == {rel[0]: head}
+    data = files[0].read_bytes()
+    if layout == "file":
+        assert got.heads == {"A_part0.csv": hashlib.sha256(data[:1000]).hexdigest()}
+        assert got.marks == {}
+        assert watch_module.hash_archive(paths, inbox, len(data) + 1).heads == {}
+        return
+    rel = [f.relative_to(inbox).as_posix() for f in files]
+    ends = data[: 1 << 16] + data[-(1 << 16) :]
+    assert len(data) > 1 << 17 and got.heads == {}
+    assert got.marks == {
+        r: watch_module.file_mark(f, f.stat().st_size) for r, f in zip(rel, files, strict=True)
+    }
+    assert got.marks[rel[0]] == hashlib.sha256(ends).hexdigest()
+
+
+def test_a_file_mark_is_of_the_ends_of_its_earlier_size(tmp_path: Path) -> None:
+    """A file that grew has the mark of its earlier size at that size; another content
+    as long or longer does not, even with the same first bytes (a CSV header)."""
+    path = tmp_path / "h1.csv"
+    rng = np.random.default_rng(0)
+    first = b"time,a,b\n" + rng.bytes(300_000)
+    path.write_bytes(first)
+    mark = watch_module.file_mark(path, len(first))
+    path.write_bytes(first + rng.bytes(50_000))
+    assert watch_module.file_mark(path, len(first)) == mark
+    path.write_bytes(first[:-10] + rng.bytes(60_000))
+    assert watch_module.file_mark(path, len(first)) != mark
+    small = b"time,a\n1,2\n"
+    path.write_bytes(small)
+    assert watch_module.file_mark(path, len(small)) == hashlib.sha256(small).hexdigest()
