@@ -719,6 +719,9 @@ class _Runner:
         self.moves: dict[str, tuple[ReadyArchive, Record]] = {}
         """Archives recorded whose move by ``--done``/``--failed`` waits for the end of
         their hold (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`)."""
+        self.unsaved = False
+        """A move not written to the state file (REPORTS full): written at the latest
+        when the watcher stops (:meth:`save_unsaved`)."""
         self._hashed: dict[str, tuple[Signature, ArchiveHashes]] = {}
         """The last content hash of each archive not recorded with its signature."""
         self.cluster = cluster
@@ -1166,6 +1169,7 @@ class _Runner:
             try:
                 self.ledger.record(rec)
             except OSError as err:  # REPORTS full: the watcher goes on (it died here)
+                self.unsaved = True
                 where = f"{os.fsdecode(err.filename)}: " if err.filename else ""
                 log.warning(
                     "%s: its move is not in the state file yet (%s%s); it is with the next "
@@ -1174,6 +1178,21 @@ class _Runner:
                     where,
                     one_line(err.strerror or err),
                 )
+
+    def save_unsaved(self) -> None:
+        """At the stop: the state file with the moves it could not be written with
+        (:attr:`unsaved`), so that the next start does not take an archive moved to
+        ``--done`` for one still in INBOX (its record without ``moved_to``)."""
+        if not self.unsaved:
+            return
+        try:
+            self.ledger.save_state()
+            self.unsaved = False
+        except OSError as err:
+            log.warning(
+                "the state file cannot be written (%s): the last moves are not in it",
+                one_line(err.strerror or err),
+            )
 
     def _held_moves(self) -> None:
         """The moves whose hold is over (:meth:`_move`)."""
@@ -1348,6 +1367,7 @@ def _watch_locked(
                 runner.pump(wait=TICK_S, start=False)
     finally:
         runner.abandon_all()
+        runner.save_unsaved()
         ledger.refresh_views(force=True)
         if runner.queue:
             log.info(

@@ -275,3 +275,36 @@ def test_a_file_mark_is_of_the_ends_of_its_earlier_size(tmp_path: Path) -> None:
     small = b"time,a\n1,2\n"
     path.write_bytes(small)
     assert watch_module.file_mark(path, len(small)) == hashlib.sha256(small).hexdigest()
+
+
+def test_a_move_not_written_to_the_state_is_written_at_the_stop(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    quick: None,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """REPORTS full when a move by --done is recorded, and no other record after it
+    before the watcher stops: the state file holds the move once written at the stop
+    (it was lost: the next start read the archive as never moved out of INBOX)."""
+    from analyzer.watch_index import Ledger
+
+    inbox, reports = folders
+    done = tmp_path / "done"
+    write(inbox / "a.csv", "csv", seed=2)
+    save = Ledger.save_state
+    failed: list[bool] = []
+
+    def full_once(self: Ledger) -> None:
+        if not failed and any(r.moved_to for r in self.records.values()):
+            failed.append(True)
+            raise OSError(28, "No space left on device", str(self.path))
+        save(self)
+
+    monkeypatch.setattr(Ledger, "save_state", full_once)
+    w = start_watcher(WatchSettings(inbox, reports, settle=0.3, poll=0.1, done=done))
+    wait_until(lambda: failed and (done / "a.csv").is_file(), "the move")
+    assert state(reports)["a.csv"]["moved_to"] == []
+    w.stop.set()
+    assert w.join() == 0
+    assert state(reports)["a.csv"]["moved_to"] == [str(done / "a.csv")]
