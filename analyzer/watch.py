@@ -580,6 +580,11 @@ BLOCK = 1 << 20
 """Bytes read at a time to hash a file."""
 MARK_BYTES = 1 << 16
 """The bytes at each end of a file that its mark hashes (:func:`file_mark`)."""
+REWRITTEN_IN_PLACE = (".db3", ".bag", "metadata.yaml")
+"""Endings of the names of files that their writer rewrites in place as they grow (a
+ROS 2 bag's sqlite storage, whose header and index pages change with every row, and
+its ``metadata.yaml``; a ROS 1 bag's header, given its index on close): such a file
+that changed is judged by its size and mtime alone (:meth:`_Runner._grew`)."""
 
 
 def file_mark(path: Path, size: int) -> str:
@@ -1209,7 +1214,9 @@ class _Runner:
         files of a folder or group all there, none shorter or older, each one that
         changed with the ends of its earlier content where they were (its
         :func:`file_mark`: another recording put in its place is not the archive grown;
-        a record of an older watcher has no marks: sizes and mtimes alone then), but
+        a record of an older watcher has no marks, and a file its writer rewrites in
+        place has none to compare, :data:`REWRITTEN_IN_PLACE`: sizes and mtimes alone
+        then), but
         for hidden and temporary ones, which a
         copy renames when done (:func:`~analyzer.watch_inbox.ignored`). Never once the
         earlier one was moved out of INBOX (what came after it is another archive)."""
@@ -1229,7 +1236,9 @@ class _Runner:
             try:
                 if not single:  # (the ends of its earlier size: see file_mark)
                     was = earlier.file_marks.get(name)
-                    return was is None or file_mark(self.settings.inbox / name, size) == was
+                    if was is None or name.lower().endswith(REWRITTEN_IN_PLACE):
+                        return True
+                    return file_mark(self.settings.inbox / name, size) == was
                 head = job.hashes.heads.get(name)
                 if head is None:  # (hashed before, without it: read again)
                     head = _sha256_head(self.settings.inbox / name, size)

@@ -308,3 +308,39 @@ def test_a_move_not_written_to_the_state_is_written_at_the_stop(
     w.stop.set()
     assert w.join() == 0
     assert state(reports)["a.csv"]["moved_to"] == [str(done / "a.csv")]
+
+
+def test_a_bag_folder_whose_metadata_was_rewritten_as_it_grew_grew(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    quick: None,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A ROS 2 bag folder being recorded: its ``metadata.yaml`` is rewritten (other first
+    bytes, longer) as the storage grows, so no mark of it can match; a file its writer
+    rewrites in place is judged by size and mtime (the bag grew, one record), while its
+    storage that grew by appending keeps its mark."""
+    inbox, reports = folders
+    bag = inbox / "bag"
+    bag.mkdir()
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information:\n  message_count: 9\n")
+    full = write(tmp_path / "full.csv", "csv", seed=2).read_bytes()
+    cut = full.index(b"\n", len(full) // 2) + 1
+    (bag / "bag_0.csv").write_bytes(full[:cut])
+    # (not a bag the tracker can read as complete: analyzed once it gives up waiting)
+    settings = WatchSettings(inbox, reports, settle=0.3, poll=0.1, incomplete_timeout=0.6)
+    w = start_watcher(settings)
+    wait_until(lambda: "bag" in state(reports), "the first analysis")
+    first = state(reports)["bag"]["sha256"]
+    with (bag / "bag_0.csv").open("ab") as f:
+        f.write(full[cut:])
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information:\n  message_count: 1800\n")
+    wait_until(
+        lambda: state(reports).get("bag", {}).get("sha256") not in (None, first),
+        "the grown bag's record",
+    )
+    assert set(state(reports)) == {"bag"}
+    assert _said(caplog, "bag: grew since its last analysis")
+    w.stop.set()
+    assert w.join() == 0
