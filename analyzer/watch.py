@@ -49,7 +49,8 @@ Exactly once
     differs, else ``name-1.ext``, ``name-2.ext``...), with ``dropped_as`` the name it
     came under. An archive that grew after its analysis (the earlier content is the
     file's beginning; a folder or group whose earlier files are all there, none shorter
-    or older) is the same archive: its record is replaced (:meth:`_Runner._grew`). An
+    or older, each that changed beginning with its earlier content) is the same
+    archive: its record is replaced (:meth:`_Runner._grew`). An
     archive that still looks unfinished but is recorded already with this content is
     not waited for.
 
@@ -160,7 +161,7 @@ from typing import Any
 from analyzer import __version__
 from analyzer.diagnosis.training_check import window_warnings
 from analyzer.errors import AnalyzerError, ConfigError, UsageError, one_line, terminal_safe
-from analyzer.findings import sha256_of, write_outputs
+from analyzer.findings import write_outputs
 from analyzer.options import RunOptions
 from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
@@ -471,6 +472,8 @@ def _warm_up() -> None:
 class _Job:
     archive: ReadyArchive
     sha256: str
+    hashes: ArchiveHashes
+    """Its files' own sha256 and those of the beginnings :meth:`_Runner._grew` asks for."""
     scratch: Path
     process: BaseProcess | ClusterTask
     started: float
@@ -573,6 +576,92 @@ def _sha256_head(path: Path, size: int) -> str:
     return h.hexdigest()
 
 
+BLOCK = 1 << 20
+"""Bytes read at a time to hash a file."""
+MARK_BYTES = 1 << 16
+"""The bytes at each end of a file that its mark hashes (:func:`file_mark`)."""
+REWRITTEN_IN_PLACE = (".db3", ".bag", "metadata.yaml")
+"""Endings of the names of files that their writer rewrites in place as they grow (a
+ROS 2 bag's sqlite storage, whose header and index pages change with every row, and
+its ``metadata.yaml``; a ROS 1 bag's header, given its index on close): such a file
+that changed is judged by its size and mtime alone (:meth:`_Runner._grew`)."""
+
+
+def file_mark(path: Path, size: int) -> str:
+    """sha256 of the first and the last :data:`MARK_BYTES` of the first ``size`` bytes
+    of the file ``path`` (all of them when there are fewer): a folder's file that grew
+    from what it was keeps the mark of its earlier size, another recording put in its
+    place does not. Two small reads, where a second hash of every byte of a folder
+    would double the cost of hashing it on the watcher's loop."""
+    h = hashlib.sha256()
+    with path.open("rb") as f:
+        h.update(f.read(min(size, MARK_BYTES)))
+        if size > MARK_BYTES:
+            at = max(MARK_BYTES, size - MARK_BYTES)
+            f.seek(at)
+            h.update(f.read(size - at))
+    return h.hexdigest()
+
+
+@dataclass(frozen=True, slots=True)
+class ArchiveHashes:
+    """What one read of an archive's files gives (:func:`hash_archive`)."""
+
+    sha256: str
+    """The archive's: a single file's own, a folder's
+    :func:`~analyzer.findings.sha256_of`, of several entries each one's, named."""
+    marks: dict[str, str]
+    """Of a folder or group, each file's :func:`file_mark` at its size, by its path
+    relative to INBOX (as in a signature); empty for a single file."""
+    heads: dict[str, str]
+    """Of a single file, the sha256 of its first bytes as asked for (none when it is
+    shorter than asked)."""
+
+
+def hash_archive(paths: Sequence[Path], root: Path, head: int | None = None) -> ArchiveHashes:
+    """The archive's sha256 (the same as the watcher has always recorded) and, of a
+    folder or group, each file's :func:`file_mark`; of a single file, with ``head``
+    (its earlier size), the sha256 of its first ``head`` bytes too, in the same read
+    (not a second read of a large file that grew, on the watcher's loop)."""
+    heads: dict[str, str] = {}
+
+    def one(path: Path, h: Any, cut: int | None = None) -> None:
+        pos = 0
+        with path.open("rb") as f:
+            while True:
+                if pos == cut:
+                    heads[path.relative_to(root).as_posix()] = h.hexdigest()
+                want = BLOCK if cut is None or pos >= cut else min(BLOCK, cut - pos)
+                if not (block := f.read(want)):
+                    break
+                h.update(block)
+                pos += len(block)
+
+    single = len(paths) == 1 and not paths[0].is_dir()
+    if single:
+        h = hashlib.sha256()
+        one(paths[0], h, head)
+        return ArchiveHashes(h.hexdigest(), {}, heads)
+    marks: dict[str, str] = {}
+
+    def entry(path: Path) -> str:
+        h = hashlib.sha256()
+        files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+        for p in files:
+            if path.is_dir():  # (as sha256_of: each file's path in it, then its bytes)
+                h.update(p.relative_to(path).as_posix().encode())
+            one(p, h)
+            marks[p.relative_to(root).as_posix()] = file_mark(p, p.stat().st_size)
+        return h.hexdigest()
+
+    if len(paths) == 1:
+        return ArchiveHashes(entry(paths[0]), marks, heads)
+    outer = hashlib.sha256()
+    for path in paths:
+        outer.update(f"{path.name}\0{entry(path)}\n".encode())
+    return ArchiveHashes(outer.hexdigest(), marks, heads)
+
+
 def _rename(path: Path, folder: Path) -> Path:
     target = _free_name(folder, path.name)
     os.rename(path, target)
@@ -589,6 +678,12 @@ def _remove(path: Path, strict: bool = False) -> None:
     else:
         with contextlib.suppress(FileNotFoundError):
             path.unlink()
+
+
+def _earlier_files(rec: Record) -> set[tuple[str, int, int]]:
+    """The (path, size, mtime) of the files of a record's signature; raises TypeError or
+    ValueError for one edited by hand."""
+    return {(str(p), int(n), int(t)) for p, n, t in rec.signature}
 
 
 class _Runner:
@@ -629,7 +724,10 @@ class _Runner:
         self.moves: dict[str, tuple[ReadyArchive, Record]] = {}
         """Archives recorded whose move by ``--done``/``--failed`` waits for the end of
         their hold (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`)."""
-        self._hashed: dict[str, tuple[Signature, str]] = {}
+        self.unsaved = False
+        """A move not written to the state file (REPORTS full): written at the latest
+        when the watcher stops (:meth:`save_unsaved`)."""
+        self._hashed: dict[str, tuple[Signature, ArchiveHashes]] = {}
         """The last content hash of each archive not recorded with its signature."""
         self.cluster = cluster
         self.slots = settings.jobs
@@ -683,24 +781,29 @@ class _Runner:
 
     # ------------------------------------------------------------------ start
     def _digest(self, archive: ReadyArchive) -> str:
-        """sha256 of the archive's content; reused from the state when the archive has
-        the same (path, size, mtime) signature as when it was recorded, or as when it
-        was last hashed."""
+        """sha256 of the archive's content (:meth:`_hashes`)."""
+        return self._hashes(archive).sha256
+
+    def _hashes(self, archive: ReadyArchive) -> ArchiveHashes:
+        """The archive's hashes (:func:`hash_archive`), with that of the earlier part of a
+        single file that grew since its record (:meth:`_grew`); reused from the state
+        when the archive has the same (path, size, mtime) signature as when it was
+        recorded, or as when it was last hashed."""
         rec = self.ledger.get(archive.name)
         if rec is not None and rec.signature == [list(s) for s in archive.signature]:
-            return rec.sha256
+            return ArchiveHashes(rec.sha256, rec.file_marks, {})
         hashed = self._hashed.get(archive.name)
         if hashed is not None and hashed[0] == archive.signature:
             return hashed[1]
-        if len(archive.paths) == 1:
-            digest = sha256_of(archive.paths[0])
-        else:
-            h = hashlib.sha256()
-            for path in archive.paths:
-                h.update(f"{path.name}\0{sha256_of(path)}\n".encode())
-            digest = h.hexdigest()
-        self._hashed[archive.name] = (archive.signature, digest)
-        return digest
+        head = None  # (a single file that grew since its record: its earlier size)
+        if rec is not None and not rec.moved_to and len(archive.signature) == 1:
+            with contextlib.suppress(TypeError, ValueError):  # (a state file edited by hand)
+                ((name, size, _),) = _earlier_files(rec)
+                if archive.signature[0][0] == name and archive.signature[0][1] >= size:
+                    head = size
+        hashes = hash_archive(archive.paths, self.settings.inbox, head)
+        self._hashed[archive.name] = (archive.signature, hashes)
+        return hashes
 
     def recorded(self, archive: ReadyArchive) -> bool:
         """Whether ``archive`` is recorded already with its present content (and would
@@ -749,10 +852,11 @@ class _Runner:
     def _start(self, archive: ReadyArchive) -> None:
         name = archive.name
         try:
-            digest = self._digest(archive)
+            hashes = self._hashes(archive)
         except OSError as err:
             log.info("%s: gone before its analysis (%s)", name, one_line(err.strerror or err))
             return
+        digest = hashes.sha256
         rec = self.ledger.get(name)
         if rec is not None and rec.sha256 == digest:
             again = rec.redo_reason(self.fingerprint)
@@ -799,7 +903,7 @@ class _Runner:
             )
             with _one_blas_thread():
                 process.start()
-        self.running[name] = _Job(archive, digest, scratch, process, time.monotonic(), work)
+        self.running[name] = _Job(archive, digest, hashes, scratch, process, time.monotonic(), work)
         size = sum(s[1] for s in archive.signature)
         log.info(
             "%s: start (%d input%s, %.1f MB)",
@@ -875,7 +979,7 @@ class _Runner:
                 and earlier.sha256 != rec.sha256
                 and earlier.error_kind is not ErrorKind.INTERNAL  # (not a result)
             ):
-                if self._grew(earlier, job.archive):
+                if self._grew(earlier, job):
                     log.info(
                         "%s: grew since its last analysis (a writer pausing longer than the "
                         "settle time?); that analysis's result is replaced",
@@ -939,6 +1043,7 @@ class _Runner:
             analysis_s=round(elapsed, 3),
             signature=[list(s) for s in job.archive.signature],
             options=self.fingerprint,
+            file_marks=job.hashes.marks,
         )
         findings = job.scratch / "findings.json"
         error = job.scratch / "error.txt"
@@ -1069,6 +1174,7 @@ class _Runner:
             try:
                 self.ledger.record(rec)
             except OSError as err:  # REPORTS full: the watcher goes on (it died here)
+                self.unsaved = True
                 where = f"{os.fsdecode(err.filename)}: " if err.filename else ""
                 log.warning(
                     "%s: its move is not in the state file yet (%s%s); it is with the next "
@@ -1078,6 +1184,21 @@ class _Runner:
                     one_line(err.strerror or err),
                 )
 
+    def save_unsaved(self) -> None:
+        """At the stop: the state file with the moves it could not be written with
+        (:attr:`unsaved`), so that the next start does not take an archive moved to
+        ``--done`` for one still in INBOX (its record without ``moved_to``)."""
+        if not self.unsaved:
+            return
+        try:
+            self.ledger.save_state()
+            self.unsaved = False
+        except OSError as err:
+            log.warning(
+                "the state file cannot be written (%s): the last moves are not in it",
+                one_line(err.strerror or err),
+            )
+
     def _held_moves(self) -> None:
         """The moves whose hold is over (:meth:`_move`)."""
         now = time.monotonic()
@@ -1086,37 +1207,53 @@ class _Runner:
                 del self.moves[name]
                 self._move(archive, rec)
 
-    def _grew(self, earlier: Record, archive: ReadyArchive) -> bool:
-        """Whether ``archive`` is what ``earlier`` recorded, grown since (a writer that
-        paused longer than the settle time, or a folder still being filled): the same
-        single file with the earlier content as its first bytes, or the earlier files of
-        a folder or group all there, none shorter or older (the hour being written grown,
-        more hours beside it: a folder's earlier files have no hash of their own to
-        compare their beginnings with), but for hidden and temporary ones, which a copy
-        renames when done (:func:`~analyzer.watch_inbox.ignored`). Never once the earlier
-        one was moved out of INBOX (what came after it is another archive)."""
+    def _grew(self, earlier: Record, job: _Job) -> bool:
+        """Whether the archive of ``job`` is what ``earlier`` recorded, grown since (a
+        writer that paused longer than the settle time, or a folder still being filled):
+        the same single file with the earlier content as its first bytes, or the earlier
+        files of a folder or group all there, none shorter or older, each one that
+        changed with the ends of its earlier content where they were (its
+        :func:`file_mark`: another recording put in its place is not the archive grown;
+        a record of an older watcher has no marks, and a file its writer rewrites in
+        place has none to compare, :data:`REWRITTEN_IN_PLACE`: sizes and mtimes alone
+        then), but
+        for hidden and temporary ones, which a
+        copy renames when done (:func:`~analyzer.watch_inbox.ignored`). Never once the
+        earlier one was moved out of INBOX (what came after it is another archive)."""
+        archive = job.archive
         if earlier.moved_to or not earlier.signature:
             return False
         try:
-            old = {(str(p), int(n), int(t)) for p, n, t in earlier.signature}
+            old = _earlier_files(earlier)
         except (TypeError, ValueError):  # (a state file edited by hand)
             return False
-        new = set(archive.signature)
-        path = archive.paths[0]
-        if len(archive.paths) == 1 and len(old) == len(new) == 1 and not path.is_dir():
-            ((old_name, old_size, _),) = old
-            ((new_name, new_size, _),) = new
-            if old_name != new_name or new_size < old_size:
-                return False
+        single = len(archive.paths) == 1 and not archive.paths[0].is_dir()
+        if single and not (len(old) == len(archive.signature) == 1):
+            return False
+        now = {name: (size, mtime) for name, size, mtime in archive.signature}
+
+        def begins_as(name: str, size: int) -> bool:
             try:
-                return _sha256_head(path, old_size) == earlier.sha256
+                if not single:  # (the ends of its earlier size: see file_mark)
+                    was = earlier.file_marks.get(name)
+                    if was is None or name.lower().endswith(REWRITTEN_IN_PLACE):
+                        return True
+                    return file_mark(self.settings.inbox / name, size) == was
+                head = job.hashes.heads.get(name)
+                if head is None:  # (hashed before, without it: read again)
+                    head = _sha256_head(self.settings.inbox / name, size)
             except OSError:
                 return False
-        now = {name: (size, mtime) for name, size, mtime in new}
+            return head == earlier.sha256
+
         return all(
-            name in now and now[name][0] >= size and now[name][1] >= mtime
+            name in now
+            and now[name][0] >= size
+            and (single or now[name][1] >= mtime)
+            # (a folder's file with its size and mtime: unchanged, as for the hash's reuse)
+            and ((not single and now[name] == (size, mtime)) or begins_as(name, size))
             for name, size, mtime in old
-            if not ignored(name.rpartition("/")[2])  # (rsync's .x.csv.AbC12z, x.csv.part)
+            if single or not ignored(name.rpartition("/")[2])  # (rsync's .x.csv.AbC12z)
         )
 
     # ------------------------------------------------------------------ stop
@@ -1239,6 +1376,7 @@ def _watch_locked(
                 runner.pump(wait=TICK_S, start=False)
     finally:
         runner.abandon_all()
+        runner.save_unsaved()
         ledger.refresh_views(force=True)
         if runner.queue:
             log.info(

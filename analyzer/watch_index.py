@@ -125,6 +125,12 @@ class Record:
     """Of an archive analyzed past input errors (a truncated file, a damaged member of a
     folder: ``findings.json``'s ``inputs[].errors`` and the archive's notes), the lines
     ``analyzer run`` warns of: the first five, and a count of the rest."""
+    file_marks: dict[str, str] = field(default_factory=dict)
+    """Of a folder or group, each file's mark (:func:`analyzer.watch.file_mark`: the
+    sha256 of its first and last 64 KiB) by its path relative to INBOX (as in
+    ``signature``), to tell a file that grew from one replaced by another recording
+    (:meth:`analyzer.watch._Runner._grew`); empty for a single file (``sha256`` is its
+    own) and in the records of older watchers. Not in ``index.json``."""
 
     @property
     def folder(self) -> str:
@@ -462,6 +468,7 @@ class Ledger:
         for rec in self.newest_first():
             doc = rec.as_json()
             del doc["signature"]
+            del doc["file_marks"]
             rows.append(doc)
         counts = {str(v): sum(r["verdict"] == v for r in rows) for v in Verdict}
         return {

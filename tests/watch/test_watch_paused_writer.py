@@ -10,12 +10,14 @@ hold of ``--done``, however loaded the machine is."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import multiprocessing
 import threading
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 import pytest
 import test_watch_run
 from test_watch_run import Watcher, state, wait_until, write
@@ -152,3 +154,193 @@ def test_done_waits_for_a_paused_writer_before_moving(
     assert record["moved_to"] == [str(done / "a.csv")]
     assert set(state(reports)) == {"a.csv"}
     assert _said(caplog, "a.csv: grew since its last analysis")
+
+
+def test_a_folder_whose_file_was_replaced_by_a_larger_one_is_another_archive(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    quick: None,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A folder whose file was replaced by another recording, longer (so larger and
+    newer: size and mtime alone read it as grown): other content under the name, so
+    the earlier record and report are kept aside (``site-1``), as for a single file;
+    only a file that begins with its earlier content grew."""
+    inbox, reports = folders
+    site = inbox / "site"
+    site.mkdir()
+    write(site / "data.csv", "csv", seed=3)
+    w = start_watcher(WatchSettings(inbox, reports, settle=0.3, poll=0.1))
+    wait_until(lambda: "site" in state(reports), "the first analysis")
+    first = state(reports)["site"]["sha256"]
+    write(site / "data.csv", "csv", seed=4, seconds=80.0)  # (another day's, twice as long)
+    wait_until(lambda: "site-1" in state(reports), "the earlier result to be kept aside")
+    wait_until(
+        lambda: state(reports).get("site", {}).get("sha256") not in (None, first),
+        "the new content's record",
+    )
+    assert state(reports)["site-1"]["sha256"] == first
+    assert (reports / "site-1" / "report.html").is_file()
+    assert not _said(caplog, "site: grew since its last analysis")
+    w.stop.set()
+    assert w.join() == 0
+
+
+def test_the_beginning_of_a_grown_file_is_hashed_in_the_same_read(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    quick: None,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The hash of a grown file's earlier part is taken in the read that hashes the
+    whole file (on the watcher's loop: a multi-GB file was read twice), not by reading
+    its beginning again."""
+    inbox, reports = folders
+    full = write(tmp_path / "full.csv", "csv", seed=2).read_bytes()
+    cut = full.index(b"\n", len(full) // 2) + 1
+    csv = inbox / "a.csv"
+    csv.write_bytes(full[:cut])
+    reread: list[Path] = []
+
+    def head(path: Path, size: int) -> str:
+        reread.append(path)
+        raise OSError(f"{path}: read again")
+
+    monkeypatch.setattr(watch_module, "_sha256_head", head)
+    w = start_watcher(WatchSettings(inbox, reports, settle=0.3, poll=0.1))
+    wait_until(lambda: "a.csv" in state(reports), "the first analysis")
+    with csv.open("ab") as f:
+        f.write(full[cut:])
+    wait_until(
+        lambda: state(reports).get("a.csv", {}).get("sha256") == sha256_of(csv),
+        "the grown file to be analyzed again",
+    )
+    assert set(state(reports)) == {"a.csv"} and reread == []
+    w.stop.set()
+    assert w.join() == 0
+
+
+@pytest.mark.parametrize("layout", ["file", "folder", "group"])
+def test_archive_hashes_are_those_recorded_before(tmp_path: Path, layout: str) -> None:
+    """:func:`~analyzer.watch.hash_archive` gives the archive's sha256 as the records of
+    earlier watchers hold it (a file's own, a folder's ``sha256_of``, a group's named
+    lines: else every archive would be analyzed again after an upgrade); of a single
+    file the beginning asked for (none when it is shorter), of a folder's or group's
+    files their marks: the hash of their first and last 64 KiB."""
+    inbox = tmp_path / "inbox"
+    inbox.mkdir()
+    if layout == "folder":
+        (inbox / "day").mkdir()
+        paths = [inbox / "day"]
+        files = [write(inbox / "day" / f"h{i}.csv", "csv", seed=i) for i in range(2)]
+        expected = sha256_of(inbox / "day")
+    else:
+        files = paths = [write(inbox / f"A_part{i}.csv", "csv", seed=i) for i in range(2)]
+        lines = "".join(f"{p.name}\0{sha256_of(p)}\n" for p in paths)
+        expected = hashlib.sha256(lines.encode()).hexdigest()
+        if layout == "file":
+            files = paths = paths[:1]
+            expected = sha256_of(paths[0])
+    got = watch_module.hash_archive(paths, inbox, 1000)
+    assert got.sha256 == expected
+    data = files[0].read_bytes()
+    if layout == "file":
+        assert got.heads == {"A_part0.csv": hashlib.sha256(data[:1000]).hexdigest()}
+        assert got.marks == {}
+        assert watch_module.hash_archive(paths, inbox, len(data) + 1).heads == {}
+        return
+    rel = [f.relative_to(inbox).as_posix() for f in files]
+    ends = data[: 1 << 16] + data[-(1 << 16) :]
+    assert len(data) > 1 << 17 and got.heads == {}
+    assert got.marks == {
+        r: watch_module.file_mark(f, f.stat().st_size) for r, f in zip(rel, files, strict=True)
+    }
+    assert got.marks[rel[0]] == hashlib.sha256(ends).hexdigest()
+
+
+def test_a_file_mark_is_of_the_ends_of_its_earlier_size(tmp_path: Path) -> None:
+    """A file that grew has the mark of its earlier size at that size; another content
+    as long or longer does not, even with the same first bytes (a CSV header)."""
+    path = tmp_path / "h1.csv"
+    rng = np.random.default_rng(0)
+    first = b"time,a,b\n" + rng.bytes(300_000)
+    path.write_bytes(first)
+    mark = watch_module.file_mark(path, len(first))
+    path.write_bytes(first + rng.bytes(50_000))
+    assert watch_module.file_mark(path, len(first)) == mark
+    path.write_bytes(first[:-10] + rng.bytes(60_000))
+    assert watch_module.file_mark(path, len(first)) != mark
+    small = b"time,a\n1,2\n"
+    path.write_bytes(small)
+    assert watch_module.file_mark(path, len(small)) == hashlib.sha256(small).hexdigest()
+
+
+def test_a_move_not_written_to_the_state_is_written_at_the_stop(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    quick: None,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """REPORTS full when a move by --done is recorded, and no other record after it
+    before the watcher stops: the state file holds the move once written at the stop
+    (it was lost: the next start read the archive as never moved out of INBOX)."""
+    from analyzer.watch_index import Ledger
+
+    inbox, reports = folders
+    done = tmp_path / "done"
+    write(inbox / "a.csv", "csv", seed=2)
+    save = Ledger.save_state
+    failed: list[bool] = []
+
+    def full_once(self: Ledger) -> None:
+        if not failed and any(r.moved_to for r in self.records.values()):
+            failed.append(True)
+            raise OSError(28, "No space left on device", str(self.path))
+        save(self)
+
+    monkeypatch.setattr(Ledger, "save_state", full_once)
+    w = start_watcher(WatchSettings(inbox, reports, settle=0.3, poll=0.1, done=done))
+    wait_until(lambda: failed and (done / "a.csv").is_file(), "the move")
+    assert state(reports)["a.csv"]["moved_to"] == []
+    w.stop.set()
+    assert w.join() == 0
+    assert state(reports)["a.csv"]["moved_to"] == [str(done / "a.csv")]
+
+
+def test_a_bag_folder_whose_metadata_was_rewritten_as_it_grew_grew(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    quick: None,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A ROS 2 bag folder being recorded: its ``metadata.yaml`` is rewritten (other first
+    bytes, longer) as the storage grows, so no mark of it can match; a file its writer
+    rewrites in place is judged by size and mtime (the bag grew, one record), while its
+    storage that grew by appending keeps its mark."""
+    inbox, reports = folders
+    bag = inbox / "bag"
+    bag.mkdir()
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information:\n  message_count: 9\n")
+    full = write(tmp_path / "full.csv", "csv", seed=2).read_bytes()
+    cut = full.index(b"\n", len(full) // 2) + 1
+    (bag / "bag_0.csv").write_bytes(full[:cut])
+    # (not a bag the tracker can read as complete: analyzed once it gives up waiting)
+    settings = WatchSettings(inbox, reports, settle=0.3, poll=0.1, incomplete_timeout=0.6)
+    w = start_watcher(settings)
+    wait_until(lambda: "bag" in state(reports), "the first analysis")
+    first = state(reports)["bag"]["sha256"]
+    with (bag / "bag_0.csv").open("ab") as f:
+        f.write(full[cut:])
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information:\n  message_count: 1800\n")
+    wait_until(
+        lambda: state(reports).get("bag", {}).get("sha256") not in (None, first),
+        "the grown bag's record",
+    )
+    assert set(state(reports)) == {"bag"}
+    assert _said(caplog, "bag: grew since its last analysis")
+    w.stop.set()
+    assert w.join() == 0
