@@ -1209,17 +1209,16 @@ class _Runner:
 
     def _grew(self, earlier: Record, job: _Job) -> bool:
         """Whether the archive of ``job`` is what ``earlier`` recorded, grown since (a
-        writer that paused longer than the settle time, or a folder still being filled):
-        the same single file with the earlier content as its first bytes, or the earlier
-        files of a folder or group all there, none shorter or older, each one that
-        changed with the ends of its earlier content where they were (its
+        writer that paused longer than the settle time, or a folder still being filled).
+        A single file: the same file, with the earlier content as its first bytes. A
+        folder or group: the earlier files all there, none shorter or older, each one
+        that changed with the ends of its earlier content where they were (its
         :func:`file_mark`: another recording put in its place is not the archive grown;
         a record of an older watcher has no marks, and a file its writer rewrites in
         place has none to compare, :data:`REWRITTEN_IN_PLACE`: sizes and mtimes alone
-        then), but
-        for hidden and temporary ones, which a
-        copy renames when done (:func:`~analyzer.watch_inbox.ignored`). Never once the
-        earlier one was moved out of INBOX (what came after it is another archive)."""
+        then), but for hidden and temporary ones, which a copy renames when done
+        (:func:`~analyzer.watch_inbox.ignored`). Never once the earlier one was moved out
+        of INBOX (what came after it is another archive)."""
         archive = job.archive
         if earlier.moved_to or not earlier.signature:
             return False
@@ -1227,34 +1226,36 @@ class _Runner:
             old = _earlier_files(earlier)
         except (TypeError, ValueError):  # (a state file edited by hand)
             return False
-        single = len(archive.paths) == 1 and not archive.paths[0].is_dir()
-        if single and not (len(old) == len(archive.signature) == 1):
-            return False
         now = {name: (size, mtime) for name, size, mtime in archive.signature}
-
-        def begins_as(name: str, size: int) -> bool:
-            try:
-                if not single:  # (the ends of its earlier size: see file_mark)
-                    was = earlier.file_marks.get(name)
-                    if was is None or name.lower().endswith(REWRITTEN_IN_PLACE):
-                        return True
-                    return file_mark(self.settings.inbox / name, size) == was
+        inbox = self.settings.inbox
+        try:
+            if len(archive.paths) == 1 and not archive.paths[0].is_dir():
+                if not len(old) == len(now) == 1:
+                    return False
+                ((name, size, _),) = old
+                if name not in now or now[name][0] < size:
+                    return False
                 head = job.hashes.heads.get(name)
                 if head is None:  # (hashed before, without it: read again)
-                    head = _sha256_head(self.settings.inbox / name, size)
-            except OSError:
-                return False
-            return head == earlier.sha256
-
-        return all(
-            name in now
-            and now[name][0] >= size
-            and (single or now[name][1] >= mtime)
-            # (a folder's file with its size and mtime: unchanged, as for the hash's reuse)
-            and ((not single and now[name] == (size, mtime)) or begins_as(name, size))
-            for name, size, mtime in old
-            if single or not ignored(name.rpartition("/")[2])  # (rsync's .x.csv.AbC12z)
-        )
+                    head = _sha256_head(inbox / name, size)
+                return head == earlier.sha256
+            for name, size, mtime in old:
+                if ignored(name.rpartition("/")[2]):  # (rsync's .x.csv.AbC12z)
+                    continue
+                if name not in now or now[name][0] < size or now[name][1] < mtime:
+                    return False
+                # (a file with its size and mtime: unchanged, as for the hash's reuse)
+                was = earlier.file_marks.get(name)
+                if (
+                    now[name] != (size, mtime)
+                    and was is not None
+                    and not name.lower().endswith(REWRITTEN_IN_PLACE)
+                    and file_mark(inbox / name, size) != was
+                ):
+                    return False
+        except OSError:
+            return False
+        return True
 
     # ------------------------------------------------------------------ stop
     def abandon_all(self) -> None:
