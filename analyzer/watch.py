@@ -142,7 +142,9 @@ import logging
 import multiprocessing
 import multiprocessing.forkserver
 import os
+import queue
 import re
+import select
 import shutil
 import signal
 import sys
@@ -150,6 +152,7 @@ import threading
 import time
 import traceback
 from collections.abc import Iterator, Sequence
+from concurrent.futures import Future
 from dataclasses import dataclass, replace
 from multiprocessing.connection import wait as wait_for
 from multiprocessing.context import ForkServerContext, SpawnContext
@@ -404,11 +407,16 @@ def _error_file(out_dir: Path, text: str) -> None:
         write_atomic(out_dir / "error.txt", text)
 
 
-def _analyze_into(inputs: list[str], options: RunOptions, out: str, work_dir: str) -> None:
-    """Body of an analysis process: :func:`analysis_into`, its code the exit code."""
+def _analyze_into(
+    inputs: list[str], options: RunOptions, out: str, work_dir: str, watcher: int | None = None
+) -> None:
+    """Body of an analysis process: :func:`analysis_into`, its code the exit code; it
+    ends with the watcher of pid ``watcher`` (:func:`_end_with`)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is for the watcher to handle
     work = Path(work_dir)  # the watcher's: it removes it however this process ends
     hold(work)  # and if the watcher is killed, it stays while this process uses it
+    if watcher is not None:
+        _end_with(watcher, (Path(out), work))
     tune_heap()  # this process is the analysis's own (see analyzer.paging.tune_heap)
     code = 3
     try:
@@ -416,6 +424,55 @@ def _analyze_into(inputs: list[str], options: RunOptions, out: str, work_dir: st
     finally:
         remove_scratch(work)
     sys.exit(code)
+
+
+WATCHER_CHECK_S = 1.0
+"""Where a process cannot be waited for (no ``pidfd``), how often an analysis process
+looks whether its watcher is still there (:func:`_end_with`)."""
+
+
+def _end_with(watcher: int, leftovers: Sequence[Path]) -> None:
+    """End this analysis process, removing ``leftovers`` (its hidden folder in REPORTS,
+    its scratch space), as soon as the watcher process ``watcher`` is gone. A watcher
+    killed outright (``kill -9``, the OOM killer) cannot stop its analyses, whose
+    processes are the fork server's children: they went on analyzing (the archive
+    analyzed twice at once after a restart, on cores the new watcher's analyses need)
+    and wrote their outputs into a ``.tmp-`` folder of REPORTS after the new watcher had
+    cleared the old ones, which then stayed there until its next start. A daemon thread
+    waits on a ``pidfd`` of the watcher (Linux), else looks every
+    :data:`WATCHER_CHECK_S` seconds."""
+
+    def gone() -> None:
+        for path in leftovers:
+            shutil.rmtree(path, ignore_errors=True)
+        os._exit(EXIT_INTERNAL_ERROR)  # (nobody is left to read the exit code)
+
+    try:
+        fd = os.pidfd_open(watcher)
+    except ProcessLookupError:
+        gone()
+    except (AttributeError, OSError):  # (not Linux, or a kernel before 5.3)
+        fd = None
+
+    def wait() -> None:
+        if fd is not None:
+            select.select([fd], [], [])  # (readable once the process has ended)
+        else:
+            while _alive(watcher):
+                time.sleep(WATCHER_CHECK_S)
+        gone()
+
+    threading.Thread(target=wait, name="analyzer-watch-watcher", daemon=True).start()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # (there, but another user's: a reused pid)
+        return False
+    return True
 
 
 def _context() -> ForkServerContext | SpawnContext:
@@ -618,11 +675,21 @@ class ArchiveHashes:
     shorter than asked)."""
 
 
-def hash_archive(paths: Sequence[Path], root: Path, head: int | None = None) -> ArchiveHashes:
+class HashCancelled(Exception):
+    """:func:`hash_archive` stopped by its ``cancel`` event (the watcher stopping)."""
+
+
+def hash_archive(
+    paths: Sequence[Path],
+    root: Path,
+    head: int | None = None,
+    cancel: threading.Event | None = None,
+) -> ArchiveHashes:
     """The archive's sha256 (the same as the watcher has always recorded) and, of a
     folder or group, each file's :func:`file_mark`; of a single file, with ``head``
     (its earlier size), the sha256 of its first ``head`` bytes too, in the same read
-    (not a second read of a large file that grew, on the watcher's loop)."""
+    (not a second read of a large file that grew). Raises :class:`HashCancelled` soon
+    after ``cancel`` is set."""
     heads: dict[str, str] = {}
 
     def one(path: Path, h: Any, cut: int | None = None) -> None:
@@ -634,6 +701,8 @@ def hash_archive(paths: Sequence[Path], root: Path, head: int | None = None) -> 
                 want = BLOCK if cut is None or pos >= cut else min(BLOCK, cut - pos)
                 if not (block := f.read(want)):
                     break
+                if cancel is not None and cancel.is_set():
+                    raise HashCancelled(str(path))
                 h.update(block)
                 pos += len(block)
 
@@ -660,6 +729,50 @@ def hash_archive(paths: Sequence[Path], root: Path, head: int | None = None) -> 
     for path in paths:
         outer.update(f"{path.name}\0{entry(path)}\n".encode())
     return ArchiveHashes(outer.hexdigest(), marks, heads)
+
+
+INLINE_HASH_BYTES = 64 << 20
+"""An archive of at most this many bytes is hashed on the watcher's loop (tens of
+milliseconds); a larger one by :class:`_Hasher`'s thread, while the loop goes on."""
+
+
+class _Hasher:
+    """One daemon thread that hashes the big archives (:func:`hash_archive`), one at a
+    time, off the watcher's loop: hashing reads every byte (~1 s per GB when the file is
+    cached; measured 10 s for a 2 GB file just written, on a loaded machine), and on the
+    loop it held up every other archive (a small one dropped with it waited as long), the
+    end of the analyses and the stop signal. :meth:`close` makes a running hash stop at
+    its next block."""
+
+    def __init__(self) -> None:
+        self._jobs: queue.SimpleQueue[tuple[Future[ArchiveHashes], Any]] = queue.SimpleQueue()
+        self._thread: threading.Thread | None = None
+        self.cancel = threading.Event()
+
+    def submit(self, paths: Sequence[Path], root: Path, head: int | None) -> Future[ArchiveHashes]:
+        future: Future[ArchiveHashes] = Future()
+        self._jobs.put((future, (paths, root, head)))
+        if self._thread is None:
+            self._thread = threading.Thread(
+                target=self._run, name="analyzer-watch-hash", daemon=True
+            )
+            self._thread.start()
+        return future
+
+    def _run(self) -> None:
+        while True:
+            future, (paths, root, head) = self._jobs.get()
+            if not future.set_running_or_notify_cancel():
+                continue
+            try:
+                future.set_result(hash_archive(paths, root, head, self.cancel))
+            except BaseException as err:  # noqa: BLE001 - handed to the loop
+                future.set_exception(err)
+
+    def close(self) -> None:
+        """Stop: the running hash ends at its next block, the waiting ones are dropped
+        (the thread, a daemon, never holds up the watcher's exit)."""
+        self.cancel.set()
 
 
 def _rename(path: Path, folder: Path) -> Path:
@@ -729,6 +842,10 @@ class _Runner:
         when the watcher stops (:meth:`save_unsaved`)."""
         self._hashed: dict[str, tuple[Signature, ArchiveHashes]] = {}
         """The last content hash of each archive not recorded with its signature."""
+        self.hasher = _Hasher()
+        self.hashing: dict[str, tuple[ReadyArchive, Future[ArchiveHashes]]] = {}
+        """Ready archives being hashed by :attr:`hasher` (too big to hash on the loop),
+        started once hashed, in the order they were ready."""
         self.cluster = cluster
         self.slots = settings.jobs
         self.ctx = _context()
@@ -746,6 +863,7 @@ class _Runner:
 
     def offer(self, archive: ReadyArchive) -> None:
         self.queue.pop(archive.name, None)  # the newest state of an archive wins
+        self.hashing.pop(archive.name, None)  # (its hash, when it comes, is of the old one)
         self.moves.pop(archive.name, None)  # (it changed: moved after its next analysis)
         if archive.unreadable is not None:  # (said by the tracker; counted, not analyzed)
             self.unreadable.add(archive.name)
@@ -764,7 +882,7 @@ class _Runner:
         return 0
 
     def busy(self) -> bool:
-        return bool(self.queue or self.running or self.moves)
+        return bool(self.queue or self.hashing or self.running or self.moves)
 
     def pump(self, wait: float = 0.0, start: bool = True) -> None:
         """Record the analyses that ended (waiting up to ``wait`` seconds for one), then
@@ -772,12 +890,41 @@ class _Runner:
         self._reap(wait)
         self._held_moves()
         while start and len(self.running) < self.slots:
-            name = next((n for n in self.queue if n not in self.running), None)
-            if name is None:
+            archive = self._next()
+            if archive is None:
                 break
-            self._start(self.queue.pop(name))
+            self._start(archive)
         # the index: when due while archives end in quick succession, at once when idle
         self.ledger.refresh_views(force=not self.busy())
+
+    def _next(self) -> ReadyArchive | None:
+        """The next archive to start, its hashes at hand (:meth:`_hashes` will not read
+        it): one that :attr:`hasher` has hashed, else the first of the queue whose name
+        is not running, hashed here if it is small, else handed to :attr:`hasher` (and
+        the next one looked at)."""
+        for name, (archive, future) in list(self.hashing.items()):
+            if not future.done():
+                continue
+            del self.hashing[name]
+            try:
+                hashes = future.result()
+            except OSError as err:
+                log.info("%s: gone before its analysis (%s)", name, one_line(err.strerror or err))
+                continue
+            except HashCancelled:
+                continue
+            self._hashed[name] = (archive.signature, hashes)
+            return archive
+        for name, archive in list(self.queue.items()):
+            if name in self.running:
+                continue
+            del self.queue[name]
+            size = sum(s[1] for s in archive.signature)
+            if size <= INLINE_HASH_BYTES or self._known_hashes(archive) is not None:
+                return archive
+            future = self.hasher.submit(archive.paths, self.settings.inbox, self._head(archive))
+            self.hashing[name] = (archive, future)
+        return None
 
     # ------------------------------------------------------------------ start
     def _digest(self, archive: ReadyArchive) -> str:
@@ -789,21 +936,34 @@ class _Runner:
         single file that grew since its record (:meth:`_grew`); reused from the state
         when the archive has the same (path, size, mtime) signature as when it was
         recorded, or as when it was last hashed."""
+        known = self._known_hashes(archive)
+        if known is not None:
+            return known
+        hashes = hash_archive(archive.paths, self.settings.inbox, self._head(archive))
+        self._hashed[archive.name] = (archive.signature, hashes)
+        return hashes
+
+    def _known_hashes(self, archive: ReadyArchive) -> ArchiveHashes | None:
+        """The archive's hashes without reading it: those of its record or of its last
+        hash, when it has the signature it had then; else None."""
         rec = self.ledger.get(archive.name)
         if rec is not None and rec.signature == [list(s) for s in archive.signature]:
             return ArchiveHashes(rec.sha256, rec.file_marks, {})
         hashed = self._hashed.get(archive.name)
         if hashed is not None and hashed[0] == archive.signature:
             return hashed[1]
-        head = None  # (a single file that grew since its record: its earlier size)
+        return None
+
+    def _head(self, archive: ReadyArchive) -> int | None:
+        """Of a single file that grew since its record, its earlier size (whose
+        beginning's hash :meth:`_grew` asks for); else None."""
+        rec = self.ledger.get(archive.name)
         if rec is not None and not rec.moved_to and len(archive.signature) == 1:
             with contextlib.suppress(TypeError, ValueError):  # (a state file edited by hand)
                 ((name, size, _),) = _earlier_files(rec)
                 if archive.signature[0][0] == name and archive.signature[0][1] >= size:
-                    head = size
-        hashes = hash_archive(archive.paths, self.settings.inbox, head)
-        self._hashed[archive.name] = (archive.signature, hashes)
-        return hashes
+                    return size
+        return None
 
     def recorded(self, archive: ReadyArchive) -> bool:
         """Whether ``archive`` is recorded already with its present content (and would
@@ -897,7 +1057,7 @@ class _Runner:
             work = make_scratch("analyzer-watch-")
             process = self.ctx.Process(
                 target=_analyze_into,
-                args=(inputs, self._options(), str(scratch), str(work)),
+                args=(inputs, self._options(), str(scratch), str(work), os.getpid()),
                 name=f"analyzer-watch {name}",
                 daemon=True,
             )
@@ -919,7 +1079,7 @@ class _Runner:
         else running or waiting: the usual file an hour), which then takes about half
         the time on two cores. The findings are the same either way (``--jobs`` never
         changes them)."""
-        alone = not self.running and not self.queue
+        alone = not self.running and not self.queue and not self.hashing
         if self.settings.jobs > 1 and alone:
             return replace(self.options, jobs=self.settings.jobs)
         return self.options
@@ -1376,13 +1536,14 @@ def _watch_locked(
             while runner.running and not abandon.is_set():
                 runner.pump(wait=TICK_S, start=False)
     finally:
+        runner.hasher.close()
         runner.abandon_all()
         runner.save_unsaved()
         ledger.refresh_views(force=True)
-        if runner.queue:
+        if runner.queue or runner.hashing:
             log.info(
                 "%d ready archive(s) not started; they are analyzed on the next start",
-                len(runner.queue),
+                len(runner.queue) + len(runner.hashing),
             )
         if runner.moves:
             log.info(

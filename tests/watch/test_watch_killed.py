@@ -1,0 +1,185 @@
+"""A watcher killed outright (``kill -9``, the OOM killer), and a watcher whose loop must
+not wait for a big archive's hash (:mod:`analyzer.watch`).
+
+Every wait has a hard timeout; processes and threads started here are ended in
+``finally`` blocks."""
+
+from __future__ import annotations
+
+import inspect
+import json
+import multiprocessing
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from analyzer import watch as watch_module
+from analyzer.options import RunOptions
+from analyzer.watch import WatchSettings, watch
+from analyzer.writers import write_archive
+
+START = "2026-01-01T00:00:00Z"
+LIMIT_S = 20.0
+"""Hard limit of a wait in these tests."""
+
+
+def _sleeping_analysis(inputs: list[str], options: RunOptions, out: Path, work: Path) -> int:
+    """An analysis that takes a minute (its outputs half written)."""
+    (out / "findings.json").write_text("{")
+    time.sleep(60)
+    return 0
+
+
+def _analysis_process(out: Path, work: Path, watcher: int) -> None:
+    """The body of an analysis process of the watcher of pid ``watcher``, with an
+    analysis that would take a minute."""
+    watch_module.analysis_into = _sleeping_analysis  # type: ignore[assignment]
+    args: list[Any] = [["x.csv"], RunOptions(), str(out), str(work)]
+    if "watcher" in inspect.signature(watch_module._analyze_into).parameters:
+        args.append(watcher)
+    watch_module._analyze_into(*args)
+
+
+def test_an_analysis_ends_with_its_watcher_killed_outright(tmp_path: Path) -> None:
+    """A watcher killed by SIGKILL cannot stop its analyses (fork server children): each
+    one ends by itself once the watcher is gone, and removes its hidden folder of REPORTS
+    and its scratch space. Before, it went on for the whole analysis and then wrote its
+    report into a ``.tmp-`` folder that a restarted watcher had already cleared away."""
+    out, work = tmp_path / ".tmp-x.csv-0000", tmp_path / "work"
+    out.mkdir()
+    work.mkdir()
+    watcher = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    ctx = multiprocessing.get_context("fork")
+    analysis = ctx.Process(target=_analysis_process, args=(out, work, watcher.pid), daemon=True)
+    try:
+        analysis.start()
+        time.sleep(0.5)  # (its watch begun)
+        assert analysis.is_alive()
+        watcher.kill()
+        watcher.wait()
+        analysis.join(LIMIT_S / 2)
+        assert not analysis.is_alive(), "the analysis went on after its watcher was killed"
+        assert not out.exists() and not work.exists()
+    finally:
+        watcher.kill()
+        watcher.wait()
+        if analysis.is_alive():
+            analysis.kill()
+        analysis.join()
+
+
+# --------------------------------------------------------------------------- big archives
+
+
+def _archive(path: Path, n: int) -> Path:
+    t = np.arange(n, dtype=np.int64) * 10_000_000
+    rng = np.random.default_rng(n)
+    write_archive(
+        path, "csv", t, {"a": rng.normal(size=n), "b": rng.normal(size=n)}, start_iso=START
+    )
+    return path
+
+
+def _recorded(reports: Path) -> set[str]:
+    try:
+        return set(json.loads((reports / ".watch-state.json").read_text())["archives"])
+    except (OSError, ValueError, KeyError):
+        return set()
+
+
+@pytest.fixture
+def big_and_small(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[Path, Path]:
+    """INBOX with ``a_big.csv`` (first in order) and ``b_small.csv``, the big one above
+    the size hashed on the loop."""
+    inbox, reports = tmp_path / "inbox", tmp_path / "reports"
+    inbox.mkdir()
+    big, small = _archive(inbox / "a_big.csv", 4000), _archive(inbox / "b_small.csv", 400)
+    assert small.stat().st_size < big.stat().st_size
+    monkeypatch.setattr(watch_module, "INLINE_HASH_BYTES", small.stat().st_size, raising=False)
+    return inbox, reports
+
+
+def _slow_hash_of(name: str, until: threading.Event, monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Make the hash of archive ``name`` last until ``until`` is set (at most
+    :data:`LIMIT_S` / 2); returns the list the hashed archives' first paths go to, as
+    each hash begins."""
+    real = watch_module.hash_archive
+    begun: list[str] = []
+
+    def slow(paths: Sequence[Path], *args: Any, **kw: Any) -> Any:
+        begun.append(paths[0].name)
+        if paths[0].name == name:
+            until.wait(LIMIT_S / 2)
+        return real(paths, *args, **kw)
+
+    monkeypatch.setattr(watch_module, "hash_archive", slow)
+    return begun
+
+
+def _run(inbox: Path, reports: Path, stop: threading.Event) -> threading.Thread:
+    settings = WatchSettings(inbox=inbox, reports=reports, settle=0.2, poll=0.05, once=True)
+    thread = threading.Thread(target=watch, args=(settings, RunOptions()), kwargs={"stop": stop})
+    thread.start()
+    return thread
+
+
+def test_a_small_archive_is_not_held_up_by_a_big_ones_hash(
+    big_and_small: tuple[Path, Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A big archive is hashed off the watcher's loop: a small one dropped with it is
+    analyzed and recorded while the big one is still being hashed (before, the loop
+    was in the big one's hash, and every other archive waited for it: a 2 GB file held
+    a small one up 10-16 s)."""
+    inbox, reports = big_and_small
+    small_done = threading.Event()
+    begun = _slow_hash_of("a_big.csv", small_done, monkeypatch)
+    stop = threading.Event()
+    thread = _run(inbox, reports, stop)
+    try:
+        deadline = time.monotonic() + LIMIT_S / 2
+        while "b_small.csv" not in _recorded(reports) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert "a_big.csv" in begun
+        assert "b_small.csv" in _recorded(reports), "the small archive waited for the big hash"
+        assert "a_big.csv" not in _recorded(reports)
+        small_done.set()
+        thread.join(LIMIT_S)
+        assert not thread.is_alive()
+        assert _recorded(reports) == {"a_big.csv", "b_small.csv"}  # (the same results)
+    finally:
+        small_done.set()
+        stop.set()
+        thread.join(LIMIT_S)
+
+
+def test_the_stop_signal_does_not_wait_for_a_big_archives_hash(
+    big_and_small: tuple[Path, Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Stopping while a big archive is hashed: the watcher stops at once (the hash is
+    abandoned, the archive analyzed on the next start), where it waited for the hash."""
+    inbox, reports = big_and_small
+    (inbox / "b_small.csv").unlink()
+    never = threading.Event()
+    begun = _slow_hash_of("a_big.csv", never, monkeypatch)
+    stop = threading.Event()
+    thread = _run(inbox, reports, stop)
+    try:
+        deadline = time.monotonic() + LIMIT_S / 2
+        while "a_big.csv" not in begun and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert "a_big.csv" in begun
+        stop.set()
+        thread.join(3.0)
+        assert not thread.is_alive(), "the stop waited for the hash"
+        assert "a_big.csv" not in _recorded(reports)
+    finally:
+        never.set()
+        stop.set()
+        thread.join(LIMIT_S)
