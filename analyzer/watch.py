@@ -330,9 +330,21 @@ def _prepare(settings: WatchSettings) -> set[str]:
             raise UsageError(
                 f"{option}: cannot write to {folder}: {one_line(err.strerror or err)}"
             ) from None
+        if option != "--out" and not os.access(folder, os.W_OK | os.X_OK):
+            # (found at once, not as a warning per archive, each left in INBOX)
+            raise UsageError(f"{option}: cannot write to {folder}: permission denied")
         resolved = folder.resolve()
         if resolved.is_relative_to(root):
             exclude.add(resolved.relative_to(root).parts[0])
+    moving = [
+        option for option, f in (("--done", settings.done), ("--failed", settings.failed)) if f
+    ]
+    if moving and not os.access(inbox, os.W_OK | os.X_OK):
+        raise UsageError(
+            f"{' and '.join(moving)}: archives cannot be moved out of INBOX {inbox}: it is "
+            "not writable (permission denied); leave the option out, or let the watcher "
+            "write to INBOX"
+        )
     return exclude
 
 
@@ -621,6 +633,20 @@ def _move_all(paths: Sequence[Path], folder: Path) -> list[Path]:
                 raise
             return targets[:moved]
     return targets
+
+
+def _move_error(err: OSError, paths: Sequence[Path], folder: Path) -> str:
+    """Why :func:`_move_all` failed, for its log line: a refused rename names its
+    source only, where the folder that refused may be the target (``--done`` made
+    read-only while the watcher runs) or INBOX (a file it may not remove)."""
+    if err.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        if not os.access(folder, os.W_OK | os.X_OK):
+            return f"cannot write to {folder}: {one_line(err.strerror or err)}"
+        for path in paths:
+            if not os.access(path.parent, os.W_OK | os.X_OK):
+                return f"cannot remove {path} from {path.parent}: {one_line(err.strerror or err)}"
+    where = f"{os.fsdecode(err.filename)}: " if err.filename else ""
+    return f"{where}{one_line(err.strerror or err)}"
 
 
 def _sha256_head(path: Path, size: int) -> str:
@@ -1036,9 +1062,11 @@ class _Runner:
             scratch = scratch_dir(self.settings.reports, name)
         except OSError as err:  # REPORTS full or gone: not the archive's fault
             self.unwritten += 1
+            where = f"{os.fsdecode(err.filename)}: " if err.filename else ""
             log.error(
-                "%s: cannot write its report: %s; it is analyzed again on the next start",
+                "%s: cannot write its report: %s%s; it is analyzed again on the next start",
                 name,
+                where,
                 one_line(err.strerror or err),
             )
             return
@@ -1318,13 +1346,11 @@ class _Runner:
         try:
             moved = [str(target) for target in _move_all(archive.paths, folder)]
         except OSError as err:
-            where = f"{os.fsdecode(err.filename)}: " if err.filename else ""
             log.warning(
-                "%s: not moved to %s (it stays in INBOX): %s%s",
+                "%s: not moved to %s (it stays in INBOX): %s",
                 archive.name,
                 folder,
-                where,
-                one_line(err.strerror or err),
+                _move_error(err, archive.paths, folder),
             )
             return
         if moved:

@@ -208,9 +208,11 @@ class ReportsLock:
         try:
             fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         except OSError as err:  # (a read-only REPORTS: the option named, as run's --out)
+            # (the lock file named when it is there: another user's, say)
+            what = self.path if os.path.lexists(self.path) else self.path.parent
             raise UsageError(
-                f"--out: cannot write to {self.path.parent}: {err.strerror or err} (the "
-                f"watcher keeps its lock, state and reports there)"
+                f"--out: cannot write to {what}: {err.strerror or err} (the watcher keeps "
+                f"its lock, state and reports there)"
             ) from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -342,7 +344,14 @@ class Ledger:
         if not ledger.path.exists():
             return ledger
         try:
-            doc = json.loads(ledger.path.read_text(encoding="utf-8"))
+            text = ledger.path.read_text(encoding="utf-8")
+        except OSError as err:  # (not a damaged state: moving it away would lose it)
+            raise UsageError(
+                f"{ledger.path}: cannot read the watcher state: {err.strerror or err}; let "
+                "the watcher's user read and write it"
+            ) from None
+        try:
+            doc = json.loads(text)
             if doc.get("schema") != STATE_SCHEMA:
                 raise ValueError(f"schema {doc.get('schema')!r}, expected {STATE_SCHEMA!r}")
             ledger.records = {name: Record.from_json(rec) for name, rec in doc["archives"].items()}
