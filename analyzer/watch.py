@@ -85,7 +85,9 @@ Inputs
     An archive whose error depends on the options (``--channels`` matching none of its
     channels, ``--train`` beyond its end) or is not its own (above) stays in INBOX, and
     so does one that changed since it was found complete. DIR must be outside INBOX's
-    own archives and outside REPORTS (exit 2 otherwise).
+    own archives and outside REPORTS (exit 2 otherwise), and writable, as INBOX then must
+    be (exit 2 at start otherwise; a move refused later is a warning naming the folder
+    that refused it, and the archive stays in INBOX, recorded).
 
 Running
     ``--jobs N`` analyses run at a time (default: one per core), each on one thread, or
@@ -116,11 +118,15 @@ On a cluster
 
 Stopping
     SIGINT or SIGTERM: no new analysis starts; the running ones finish and are recorded,
-    then the watcher exits. A second signal abandons the running analyses
-    (their processes are killed, their scratch folders removed, nothing recorded: they
-    are analyzed on the next start). Analysis processes ignore SIGINT, so Ctrl-C in a
-    terminal behaves the same; under systemd use ``KillMode=mixed`` so that SIGTERM
-    reaches only the watcher.
+    then the watcher exits (an archive being hashed is not waited for: archives over
+    :data:`INLINE_HASH_BYTES` are hashed by a thread of their own, off the loop). A second
+    signal abandons the running analyses (their processes are killed, their scratch folders
+    removed, nothing recorded: they are analyzed on the next start). Analysis processes
+    ignore SIGINT, so Ctrl-C in a terminal behaves the same; under systemd use
+    ``KillMode=mixed`` so that SIGTERM reaches only the watcher. A watcher killed outright
+    (SIGKILL) takes its analyses with it (:func:`_end_with`); what it left in REPORTS
+    (hidden ``.tmp-``/``.old-`` folders, half-written state) is removed by the next start,
+    and what it had not recorded is analyzed again then.
 
 Exit codes: 0 after a clean shutdown; with ``--once``, 1 when an archive analyzed by this
 run has a fault, else 2 when an archive of this run could not be analyzed (an error
