@@ -1184,7 +1184,11 @@ class _Runner:
                     log.info("%s: new content; the earlier one's result is kept as %s", name, kept)
             mine = self.ledger.get(name)  # (its record, unless kept aside just now)
             folder = publish(
-                job.scratch, self.settings.reports, name, mine.folder if mine else None
+                job.scratch,
+                self.settings.reports,
+                name,
+                mine.folder if mine else None,
+                self.ledger.folders_except(name),
             )
             rec.report = f"{folder.name}/{rec.report.partition('/')[2]}"
             self.ledger.record(rec)

@@ -29,7 +29,7 @@ import os
 import shutil
 import time
 import uuid
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from dataclasses import dataclass, field, fields, replace
 from enum import StrEnum
 from pathlib import Path
@@ -296,20 +296,28 @@ def _fitting(name: str) -> str:
     return _within("", name, "-" + hashlib.sha256(raw).hexdigest()[:12])
 
 
-def publish(scratch: Path, reports: Path, name: str, previous: str | None = None) -> Path:
+def publish(
+    scratch: Path,
+    reports: Path,
+    name: str,
+    previous: str | None = None,
+    keep: Collection[str] = (),
+) -> Path:
     """Rename ``scratch`` to ``REPORTS/<name>``, replacing an older report of the same
     archive (``previous``: its record's folder, when it has one). Readers see the old
     folder or the new one, never a half-written one. A folder there that is no report
     of the watcher's (a user's folder, or INBOX's archives, which an INBOX inside
-    REPORTS put there: both were deleted) is left alone: the report takes the first
-    free name of ``NAME-report``, ``NAME-report-2``... Returns the report's folder."""
+    REPORTS put there: both were deleted), or that is in ``keep`` (the folders of the
+    other records: one kept aside by :meth:`Ledger.keep_aside`, its folder not renamed
+    yet when a watcher was killed), is left alone: the report takes the first free name
+    of ``NAME-report``, ``NAME-report-2``... Returns the report's folder."""
     base = report_dirname(name)
     names = [previous] if previous else []
     names += [base, f"{base}-report", *(f"{base}-report-{k}" for k in range(2, 10_000))]
     final = next(
         p
         for p in (reports / _fitting(n) for n in names)
-        if not os.path.lexists(p) or _report_folder(p)
+        if not os.path.lexists(p) or (_report_folder(p) and p.name not in keep)
     )
     old = None
     if final.exists():
@@ -372,14 +380,33 @@ class Ledger:
                 shutil.rmtree(entry, ignore_errors=True)
             elif entry.is_file() and entry.name.startswith(own_temp):
                 entry.unlink()  # a write_atomic interrupted by a crash
+        repaired = False
+        folders = {rec.folder for rec in self.records.values()}
+        for rec in self.records.values():
+            # (kept aside by a watcher killed between the rename of its folder and the
+            # state's second write: the folder is at its new name)
+            moved = report_dirname(rec.name)
+            if (
+                rec.dropped_as is not None
+                and not (self.reports / rec.folder).is_dir()
+                and _report_folder(self.reports / moved)
+                and moved not in folders
+            ):
+                rec.report = f"{moved}/{rec.report.partition('/')[2]}"
+                repaired = True
         gone = [
             name for name, rec in self.records.items() if not (self.reports / rec.folder).is_dir()
         ]
         for name in gone:
             del self.records[name]
-        if gone:
+        if gone or repaired:
             self.save()
         return gone
+
+    def folders_except(self, name: str) -> set[str]:
+        """The report folders of the records other than ``name``'s (:func:`publish`'s
+        ``keep``)."""
+        return {rec.folder for n, rec in self.records.items() if n != name}
 
     def get(self, name: str) -> Record | None:
         return self.records.get(name)
@@ -394,13 +421,18 @@ class Ledger:
         rec = self.records[name]
         new = self._free_name(rec)
         folder = report_dirname(new)
-        if (self.reports / rec.folder).is_dir():
-            os.replace(self.reports / rec.folder, self.reports / folder)
         _, _, leaf = rec.report.partition("/")
+        # the record under its new name first, its folder still where it is, then the
+        # folder renamed, then the record with it: a watcher killed between two of these
+        # steps leaves a record whose folder is there (the next archive's report does not
+        # take it: :func:`publish`'s ``keep``), or at its new name (:meth:`tidy` finds
+        # it), where a kill between the rename and the state's write lost the record
         del self.records[name]
-        self.records[new] = replace(
-            rec, name=new, report=f"{folder}/{leaf}", dropped_as=rec.dropped_as or name
-        )
+        kept = self.records[new] = replace(rec, name=new, dropped_as=rec.dropped_as or name)
+        if (self.reports / rec.folder).is_dir():
+            self.save_state()
+            os.replace(self.reports / rec.folder, self.reports / folder)
+        kept.report = f"{folder}/{leaf}"
         self.save_state()
         self._views_stale = True
         return new

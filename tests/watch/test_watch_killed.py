@@ -9,6 +9,7 @@ from __future__ import annotations
 import inspect
 import json
 import multiprocessing
+import os
 import subprocess
 import sys
 import threading
@@ -23,6 +24,7 @@ import pytest
 from analyzer import watch as watch_module
 from analyzer.options import RunOptions
 from analyzer.watch import WatchSettings, watch
+from analyzer.watch_index import Ledger, Record, Verdict, publish
 from analyzer.writers import write_archive
 
 START = "2026-01-01T00:00:00Z"
@@ -184,3 +186,93 @@ def test_the_stop_signal_does_not_wait_for_a_big_archives_hash(
         never.set()
         stop.set()
         thread.join(LIMIT_S)
+
+
+# --------------------------------------------------------------------------- kept aside
+
+
+class _Killed(BaseException):
+    """The watcher killed at this point (nothing after it runs)."""
+
+
+def _recorded_once(reports: Path) -> Ledger:
+    """REPORTS with one published record, ``a.csv``."""
+    (reports / "a.csv").mkdir(parents=True)
+    (reports / "a.csv" / "report.html").write_text("first")
+    ledger = Ledger(reports)
+    ledger.records["a.csv"] = Record(
+        name="a.csv",
+        sha256="1" * 64,
+        verdict=Verdict.NO_FAULT,
+        report="a.csv/report.html",
+        inputs=["a.csv"],
+        processed="2026-01-01T00:00:00Z",
+        analysis_s=1.0,
+    )
+    ledger.save_state()
+    return ledger
+
+
+def _killed_at_folder_rename(monkeypatch: pytest.MonkeyPatch, after: bool) -> None:
+    """Kill the watcher at the rename of a report folder (``after``: at the first state
+    write after it)."""
+    real_replace, real_save = os.replace, Ledger.save_state
+    renamed: list[str] = []
+
+    def rename(src: Any, dst: Any) -> None:
+        if Path(src).is_dir():
+            if not after:
+                raise _Killed
+            renamed.append(str(dst))
+        real_replace(src, dst)
+
+    def save(self: Ledger) -> None:
+        if renamed:
+            raise _Killed
+        real_save(self)
+
+    monkeypatch.setattr(os, "replace", rename)
+    monkeypatch.setattr(Ledger, "save_state", save)
+
+
+def test_a_record_kept_aside_survives_a_kill_after_its_folder_moved(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """New content under a recorded name: the earlier record and its folder are kept
+    aside (``a-1.csv``). A watcher killed once the folder was renamed, before the state
+    said so: the next start finds the record with its folder (before, the state still
+    pointed at ``a.csv/``, gone, so the start forgot that result)."""
+    reports = tmp_path / "reports"
+    ledger = _recorded_once(reports)
+    _killed_at_folder_rename(monkeypatch, after=True)
+    with pytest.raises(_Killed):
+        ledger.keep_aside("a.csv")
+    monkeypatch.undo()
+    again = Ledger.load(reports)
+    assert again.tidy() == []
+    (rec,) = again.records.values()
+    assert rec.dropped_as == "a.csv"
+    assert (reports / rec.report).read_text() == "first"
+
+
+def test_a_record_kept_aside_survives_a_kill_before_its_folder_moved(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Killed at the folder's rename (the record under its new name, its folder not
+    moved yet): the next start keeps that record, and the new content's report does
+    not replace its folder."""
+    reports = tmp_path / "reports"
+    ledger = _recorded_once(reports)
+    _killed_at_folder_rename(monkeypatch, after=False)
+    with pytest.raises(_Killed):
+        ledger.keep_aside("a.csv")
+    monkeypatch.undo()
+    again = Ledger.load(reports)
+    assert again.tidy() == []
+    (rec,) = again.records.values()
+    scratch = reports / ".tmp-new"
+    scratch.mkdir()
+    (scratch / "report.html").write_text("second")
+    final = publish(scratch, reports, "a.csv", None, again.folders_except("a.csv"))
+    assert (reports / rec.report).read_text() == "first"
+    assert (final / "report.html").read_text() == "second"
