@@ -378,6 +378,14 @@ class Ledger:
         for entry in self.reports.iterdir():
             if entry.is_dir() and entry.name.startswith((TMP_PREFIX, OLD_PREFIX)):
                 shutil.rmtree(entry, ignore_errors=True)
+                # (said: a watcher killed outright leaves these, and nothing else tells)
+                log.info(
+                    "%s: removed: left by a watcher stopped by force (%s)",
+                    entry.name,
+                    "an analysis it had not recorded: its archive is analyzed again"
+                    if entry.name.startswith(TMP_PREFIX)
+                    else "a report it was replacing",
+                )
             elif entry.is_file() and entry.name.startswith(own_temp):
                 entry.unlink()  # a write_atomic interrupted by a crash
         repaired = False

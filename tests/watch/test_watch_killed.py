@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import inspect
 import json
+import logging
 import multiprocessing
 import os
 import subprocess
@@ -276,3 +277,25 @@ def test_a_record_kept_aside_survives_a_kill_before_its_folder_moved(
     final = publish(scratch, reports, "a.csv", None, again.folders_except("a.csv"))
     assert (reports / rec.report).read_text() == "first"
     assert (final / "report.html").read_text() == "second"
+
+
+def test_the_next_start_says_what_it_removed_of_a_killed_watcher(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The hidden folders a killed watcher left in REPORTS are removed at the next start,
+    each with a line saying so (it was silent: a report folder seemingly vanished)."""
+    reports = tmp_path / "reports"
+    ledger = _recorded_once(reports)
+    (reports / ".tmp-b.csv-0123abcd").mkdir()
+    (reports / ".tmp-b.csv-0123abcd" / "findings.json").write_text("{}")
+    (reports / ".old-a.csv-4567cdef").mkdir()
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    assert ledger.tidy() == []
+    assert sorted(p.name for p in reports.iterdir()) == [".watch-state.json", "a.csv"]
+    said = sorted(r.getMessage() for r in caplog.records)
+    assert said == [
+        ".old-a.csv-4567cdef: removed: left by a watcher stopped by force (a report it was "
+        "replacing)",
+        ".tmp-b.csv-0123abcd: removed: left by a watcher stopped by force (an analysis it "
+        "had not recorded: its archive is analyzed again)",
+    ]
