@@ -13,6 +13,11 @@ from analyzer.errors import (
     StoreError,
     UsageError,
 )
+from analyzer.numba_cache import ensure_cache_dir
+
+# before any kernel is compiled: a read-only install run by a user with no writable
+# cache folder (a service account) gets a private one instead of an import error
+ensure_cache_dir()
 
 __all__ = [
     "AnalyzerError",
