@@ -32,7 +32,11 @@ unit or zone word at its end (``time_s``, ``elapsed_ms``, ``time_utc``), is one 
 ``tiempo``...), or that is ``seconds``; else a column named ``t`` (in ``Time (s),T,RH``
 it is a temperature); else the first column. ``timer_count``, ``time_offset_sensor`` or
 ``temps`` (temperatures, in English) is a channel. A unit in the name scales numeric times:
-``ms``, ``us``, ``ns`` and, in brackets only, ``min`` and ``h``.
+``ms``, ``us``, ``ns`` and, in brackets only, ``min`` and ``h``. Relative times there
+beside another column named as a time that holds date-times (``time,timestamp``) take
+their absolute start from it where the two agree (see :meth:`CsvReader._anchor`).
+A file whose columns besides the time are all text opens (``InputInfo.no_numeric``
+says so) and yields no channel: ``inspect`` lists it, ``run`` and ``export`` refuse it.
 
 The body is read by Arrow's streaming CSV reader in blocks, every column as text; each
 block is then converted column-wise (trim, numeric test by regular expression, cast): no
@@ -683,9 +687,9 @@ class CsvReader:
                 and first_time >= EPOCH_THRESHOLD_S * 1e9
             )
         )
-        if not self.info.absolute_time and first_time is not None:
+        if self._time_kind in ("seconds", "ns") and not self.info.absolute_time:
             self._anchor()
-            if self._offset:
+            if self._offset and first_time is not None:
                 first_time += self._offset
                 self.info.absolute_time = True
         self._first_time = first_time
@@ -868,11 +872,14 @@ class CsvReader:
         :func:`_time_column`) that holds date-times: where the two agree on the first
         block's rows (every row's date-time less its time the same, to within the
         coarser of the two columns' resolutions: ``12:00:01`` beside ``1.25`` agrees to
-        the second), the date-time of the first row less its time is added to every
-        time (:attr:`_offset`), which makes the times absolute and the findings' ISO
-        times exist; where they do not agree, the time column's times are kept, relative,
-        and a line in ``info.errors`` says which column gave the time and that the other
-        was ignored. Before, the other column was dropped as a text column, unsaid."""
+        the second), the largest of those differences (date-times are written cut to
+        their resolution, as ``strftime`` and ``isoformat`` do: the largest is the least
+        cut) is added to every time (:attr:`_offset`), which makes the times absolute
+        and the findings' ISO times exist; where they do not agree, the time column's
+        times are kept, relative, and a line in ``info.errors`` says which column gave
+        the time and that the other was ignored. Before, the other column was dropped
+        as a text column, unsaid. Only the first block is compared (date-times that
+        drift apart later in the file are not told)."""
         names = self._layout.names
         column = self._layout.time_column
         others = [
