@@ -364,6 +364,8 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     if not doc["channels"] and errors:  # nothing could be read: an input error, as for run
         raise ReaderError(capped(errors, 3, "; ", "input errors"))
     _emit(json.dumps(doc, indent=2) if args.json else render_table(doc))
+    if not doc["channels"]:  # read, and nothing numeric: listed (exit 0), and said
+        _warn(doc["notes"][-1])
     return 0
 
 

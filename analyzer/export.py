@@ -11,7 +11,7 @@ import numpy as np
 from analyzer.errors import UsageError, capped
 from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
 from analyzer.readers import open_archive
-from analyzer.readers.base import TimeSource
+from analyzer.readers.base import TimeSource, one_clock
 from analyzer.scratch import scratch
 from analyzer.store import AlignedSeries, ChannelStore, clock_rate
 
@@ -71,7 +71,13 @@ def _export(
             names = store.select(None, numeric_only=False)
         if not names:
             where = capped([str(i) for i in inputs], 3, what="inputs")
-            raise UsageError(f"{where}: no numeric channel to export")
+            why = [i.no_numeric for i in archive.inputs if i.no_numeric]
+            why += [e for i in archive.inputs for e in i.errors]
+            bad = capped(why, 3, "; ", "input errors")
+            raise UsageError(
+                f"{where}: no numeric channel to export" + (f" ({bad})" if bad else "")
+            )
+        one_clock(names, archive.inputs)
         aligned = store.align(names, _default_rate(store, names) if rate is None else rate)
         tmp_out = out.with_name(f".{out.name}.part")
         try:

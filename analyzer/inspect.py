@@ -6,9 +6,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from analyzer.errors import terminal_safe
+from analyzer.errors import capped, terminal_safe
 from analyzer.readers import open_archive
-from analyzer.readers.base import TimeSource
+from analyzer.readers.base import InputInfo, TimeSource
 from analyzer.scratch import scratch
 from analyzer.store import ChannelStore
 from analyzer.timeutil import iso_utc, plausible_epoch
@@ -18,7 +18,10 @@ from analyzer.types import NS_PER_S
 def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> dict[str, Any]:
     """The contract's ``inspect --json`` object, plus ``start`` (absolute UTC, where known)
     and ``notes``: how the archive was put together (a file not read, one given twice:
-    :attr:`~analyzer.readers.Archive.notes`), as ``run`` puts them in findings.json."""
+    :attr:`~analyzer.readers.Archive.notes`), as ``run`` puts them in findings.json, and,
+    for an archive read without an error that holds no numeric channel (a bag of
+    strings, an empty bag), :func:`nothing_numeric`'s line: listing it is no error, but
+    ``run`` and ``export`` refuse it."""
     archive = open_archive(inputs)
     with (
         scratch("analyzer-inspect-") as tmp,
@@ -27,6 +30,9 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
         infos = store.infos()
         t0 = min((i.start_ns for i in infos), default=0)
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(t0)
+        notes = [str(n) for n in archive.notes]
+        if not infos:
+            notes.append(nothing_numeric(archive.inputs))
         return {
             "inputs": [
                 {
@@ -37,7 +43,7 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
                 }
                 for i in archive.inputs
             ],
-            "notes": [str(n) for n in archive.notes],
+            "notes": notes,
             "start": iso_utc(t0) if absolute and infos else None,
             "channels": [
                 {
@@ -53,6 +59,27 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
                 for i in infos
             ],
         }
+
+
+def nothing_numeric(inputs: Sequence[InputInfo]) -> str:
+    """The note on an archive read without an error that holds no numeric channel: why,
+    where a reader could tell (:attr:`~analyzer.readers.InputInfo.no_numeric`)."""
+    why = [
+        f"{i.path}: {i.no_numeric}" if len(inputs) > 1 else i.no_numeric
+        for i in inputs
+        if i.no_numeric
+    ]
+    return (
+        f"nothing to analyze: {capped([str(i.path) for i in inputs], 3, what='inputs')} "
+        "holds no numeric channel ("
+        + (
+            capped(why, 3, "; ")
+            if why
+            else "no message has a number the readers decode: only text, images or other "
+            "non-numeric fields, or no messages at all"
+        )
+        + "); run and export refuse it"
+    )
 
 
 def render_table(doc: dict[str, Any]) -> str:

@@ -83,6 +83,7 @@ from analyzer.parallel import (
     make_executor,
 )
 from analyzer.readers import Archive, ArchiveNote, open_archive
+from analyzer.readers.base import one_clock
 from analyzer.readers.tally import Tally
 from analyzer.reconfigure import (
     SEARCH_AGAIN_MIN,
@@ -604,7 +605,9 @@ def _analyze(
         if progress:
             progress("read", 1.0)
         if not store.infos():
-            bad = capped([e for i in archive.inputs for e in i.errors], 3, "; ", "input errors")
+            why = [i.no_numeric for i in archive.inputs if i.no_numeric]  # (a CSV's: all text)
+            why += [e for i in archive.inputs for e in i.errors]
+            bad = capped(why, 3, "; ", "input errors")
             raise ReaderError(
                 f"{capped([str(i.path) for i in archive.inputs], 3, what='inputs')}: "
                 "no numeric channel found" + (f" ({bad})" if bad else "")
@@ -617,6 +620,7 @@ def _analyze(
             chosen = _select(store, options.channels, notes, relabelled, not named)
         else:
             chosen = model_channels(store, reused, options, notes)
+        one_clock(chosen, archive.inputs)  # (else: "a timestamp lies far from the others")
         t0 = time.perf_counter()
         aligned: AlignedSeries = store.align(
             chosen, options.rate if reused is None else reused.rate_hz

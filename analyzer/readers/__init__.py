@@ -629,6 +629,9 @@ def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
     for member, opened in zip(members, _open_members(members), strict=True):
         if isinstance(opened, ReaderError):
             failed.append(_failed(member, opened))
+        elif opened.info.no_numeric:  # (a member with nothing to analyze: not read, said)
+            opened.info.errors.insert(0, opened.info.no_numeric)
+            failed.append(opened.info)
         else:
             readers.append(opened)
     if not readers:

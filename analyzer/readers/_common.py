@@ -28,7 +28,7 @@ from analyzer.errors import (
 )
 from analyzer.readers.base import ChannelChunk
 from analyzer.readers.tally import Tally
-from analyzer.timeutil import plausible_epoch
+from analyzer.timeutil import iso_utc, plausible_epoch
 
 IntArray = npt.NDArray[np.int64]
 FloatArray = npt.NDArray[np.float64]
@@ -252,6 +252,35 @@ def absolute_log_time(
     except Exception:  # noqa: BLE001 - a damaged file: its reader says so when read
         return True
     return last is None or plausible_epoch(last)
+
+
+def two_clocks(clocks: dict[str, str], spans: dict[str, tuple[int, int]]) -> str:
+    """What ``--time header`` did where the topics' times come from two clocks
+    (:meth:`TopicTracker.clocks`: topic to ``"header"`` or ``"log"``), each side's
+    topics with the span of their times (``spans``: first and last, nanoseconds), and
+    what to do."""
+
+    def side(source: str) -> tuple[list[str], str]:
+        topics = [t for t, s in clocks.items() if s == source]
+        lo = min(spans[t][0] for t in topics if t in spans)
+        hi = max(spans[t][1] for t in topics if t in spans)
+        if hi >= EPOCH_NS:
+            when = f"Unix times, {iso_utc(lo)} to {iso_utc(hi)}"
+        else:
+            when = f"{lo / 1e9:.3f} to {hi / 1e9:.3f} s, not Unix times: a simulation clock?"
+        return topics, when
+
+    stamped, stamped_when = side("header")
+    logged, logged_when = side("log")
+    names = ", ".join(stamped[:4]) + (f" and {len(stamped) - 4} more" if len(stamped) > 4 else "")
+    others = ", ".join(logged[:4]) + (f" and {len(logged) - 4} more" if len(logged) > 4 else "")
+    pick = ",".join(f"{t}.*" for t in stamped[:4])
+    return (
+        f"--time header: two clocks: {names} timed by their header.stamp ({stamped_when}), "
+        f"{others} by their log times (no header.stamp, or 0; {logged_when}); one analysis "
+        f"needs one clock: use --time log, or --channels to choose topics of one clock "
+        f"(such as '{pick}')"
+    )
 
 
 LEAD_GLITCH_MESSAGES = 4
@@ -574,6 +603,10 @@ class TopicTracker:
         self._labels: dict[tuple[str, str], tuple[str, ...]] = {}
         """Per topic and string array: its strings in the topic's last message so far (of
         any publisher: two publishing different frames on one topic relabel it too)."""
+        self._spans: dict[tuple[str, str], tuple[int, int]] = {}
+        """With ``--time header``, per topic and source (``"header"``: its own stamps,
+        ``"log"``: log times, for messages without a header or with a stamp of 0 taken
+        as unset): the first and last time so given (see :meth:`clocks`)."""
 
     def push(self, reorder: Reorderer, topic: str, decoded: Decoded, log_ns: IntArray) -> None:
         """Note what ``decoded`` (messages of ``topic`` logged at ``log_ns``) holds beside
@@ -614,12 +647,61 @@ class TopicTracker:
                     unset |= zero
             times = np.where(unset, log_ns, stamps) if bool(unset.any()) else stamps
             real = None if not bool(unset.any()) else np.flatnonzero(~unset)
+            self._span(topic, "header", stamps if real is None else stamps[real])
+            if real is not None:
+                self._span(topic, "log", log_ns[unset])
             keep = self._clock(topic, times, log_ns, real)
             if keep is not None:
                 decoded = decoded.subset(keep)
                 times = times[keep]
+        elif self.time == "header":
+            self._span(topic, "log", log_ns)
         self._seen[topic] = self._seen.get(topic, 0) + int(log_ns.shape[0])
         reorder.push_decoded(topic, decoded, times)
+
+    def _span(self, topic: str, source: str, t: IntArray) -> None:
+        """Widen the span of the times ``source`` gave ``topic`` by ``t``."""
+        if t.size == 0:
+            return
+        lo, hi = int(t.min()), int(t.max())
+        seen = self._spans.get((topic, source))
+        self._spans[(topic, source)] = (
+            (lo, hi) if seen is None else (min(seen[0], lo), max(seen[1], hi))
+        )
+
+    def clocks(self) -> dict[str, str]:
+        """With ``--time header``, where the topics' times come from two clocks: each
+        topic's clock, ``"header"`` (its own stamps) or ``"log"`` (its log times: no
+        header, or stamps of 0 taken as unset), else ``{}``. Two clocks: the stamps of
+        the topics timed by their headers are Unix times (:data:`EPOCH_NS`) and the log
+        times of the others are not, or the other way round (a simulation clock in the
+        headers, as Gazebo's ``use_sim_time`` gives, beside a recorder's wall clock).
+        Their samples lie years apart, which one common clock cannot hold. A topic with
+        messages of both sources counts as ``"header"`` (its unset stamps are on the
+        header clock's epoch, see :meth:`_zero_is_unset`)."""
+        by_topic: dict[str, str] = {}
+        for topic, source in self._spans:
+            if by_topic.get(topic) != "header":
+                by_topic[topic] = source
+        epoch = {
+            topic: self._spans[(topic, source)][1] >= EPOCH_NS for topic, source in by_topic.items()
+        }
+        header = {epoch[t] for t, s in by_topic.items() if s == "header"}
+        log = {epoch[t] for t, s in by_topic.items() if s == "log"}
+        if len(header) == 1 and len(log) == 1 and header != log:
+            return by_topic
+        return {}
+
+    def clock_spans(self) -> dict[str, tuple[int, int]]:
+        """Of each topic of :meth:`clocks`: the first and last time its clock gave it."""
+        return {t: self._spans[(t, s)] for t, s in self.clocks().items()}
+
+    def clock_line(self) -> str | None:
+        """The line :meth:`lines` says of two clocks (see :meth:`clocks`), else None."""
+        clocks = self.clocks()
+        if not clocks:
+            return None
+        return two_clocks(clocks, self.clock_spans())
 
     def _zero_is_unset(
         self, topic: str, stamps: IntArray, unset: BoolArray, zero: BoolArray
@@ -765,7 +847,9 @@ class TopicTracker:
 
     def lines(self) -> list[str]:
         """The error lines, one per topic and kind."""
-        out = [
+        two = self.clock_line()
+        out = [two] if two else []
+        out += [
             f"{topic}: {count} messages could not be decoded ({reason})"
             for topic, (count, reason) in self._failures.items()
         ]

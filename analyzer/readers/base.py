@@ -9,7 +9,7 @@ one Python object per sample on the hot path.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal, Protocol
@@ -17,6 +17,7 @@ from typing import Literal, Protocol
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.errors import ReaderError
 from analyzer.types import Format
 
 TimeSource = Literal["log", "header"]
@@ -54,6 +55,17 @@ class InputInfo:
     """Prefixes of channel names whose meaning changes between messages (an array's
     element named by a string that changes, ``/tf.transforms[0].``; a ``JointState``'s
     ``position[``): said in ``errors``, and not analyzed unless ``--channels`` names them."""
+    no_numeric: str = ""
+    """Why the input holds no numeric channel, where its reader can tell while opening
+    it (a CSV whose columns besides the time are all text): listing it is no error
+    (``inspect`` says this in its note), analyzing or exporting it is."""
+    clocks: dict[str, str] = field(default_factory=dict)
+    """With ``--time header``, where its topics' times come from two clocks (header
+    stamps on a simulation clock beside log times on the wall clock, or the other way
+    round): each topic's, ``"header"`` or ``"log"``; else empty. Said in ``errors``; an
+    analysis or export of channels of both is refused (:func:`one_clock`)."""
+    clock_spans: dict[str, tuple[int, int]] = field(default_factory=dict)
+    """Of each topic of :attr:`clocks`: the first and last time its clock gave it (ns)."""
 
 
 class Reader(Protocol):
@@ -75,3 +87,22 @@ class Reader(Protocol):
         """First timestamp, cheaply (from a summary or index) where possible; used to
         stitch the files of a directory archive in time order."""
         ...
+
+
+def one_clock(channels: Sequence[str], inputs: Sequence[InputInfo]) -> None:
+    """Raise :class:`~analyzer.errors.ReaderError` when ``channels`` (message-path
+    names, ``{topic}.{field}``) hold topics of an input timed by two clocks
+    (:attr:`InputInfo.clocks`), naming both sides and what to do."""
+    from analyzer.readers._common import two_clocks
+
+    for info in inputs:
+        if not info.clocks:
+            continue
+        used = {
+            topic: source
+            for topic, source in info.clocks.items()
+            if any(c.startswith(f"{topic}.") or c.startswith(f"{topic}[") for c in channels)
+        }
+        if len(set(used.values())) > 1:
+            spans = info.clock_spans
+            raise ReaderError(f"{info.path}: {two_clocks(used, spans)}")

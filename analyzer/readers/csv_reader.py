@@ -32,7 +32,11 @@ unit or zone word at its end (``time_s``, ``elapsed_ms``, ``time_utc``), is one 
 ``tiempo``...), or that is ``seconds``; else a column named ``t`` (in ``Time (s),T,RH``
 it is a temperature); else the first column. ``timer_count``, ``time_offset_sensor`` or
 ``temps`` (temperatures, in English) is a channel. A unit in the name scales numeric times:
-``ms``, ``us``, ``ns`` and, in brackets only, ``min`` and ``h``.
+``ms``, ``us``, ``ns`` and, in brackets only, ``min`` and ``h``. Relative times there
+beside another column named as a time that holds date-times (``time,timestamp``) take
+their absolute start from it where the two agree (see :meth:`CsvReader._anchor`).
+A file whose columns besides the time are all text opens (``InputInfo.no_numeric``
+says so) and yields no channel: ``inspect`` lists it, ``run`` and ``export`` refuse it.
 
 The body is read by Arrow's streaming CSV reader in blocks, every column as text; each
 block is then converted column-wise (trim, numeric test by regular expression, cast): no
@@ -97,7 +101,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 
-from analyzer.errors import IntegrityError, ReaderError
+from analyzer.errors import IntegrityError, ReaderError, capped
 from analyzer.readers._common import (
     HASH_BLOCK,
     REORDER_WINDOW_NS,
@@ -655,9 +659,17 @@ class CsvReader:
         self._iso_type: pa.DataType = pa.timestamp("ns", "UTC")
         self._clock = (0, 0)
         """Of a time-of-day column: (days passed, last time of day read), for midnight."""
+        self._offset = 0
+        """Nanoseconds added to every time of the time column: the absolute start that
+        another time column, of date-times that agree with it, gives (:meth:`_anchor`)."""
+        self._anchor_text = ""
+        """What :meth:`_time_text` adds of that column."""
+        self._no_numeric = ""
+        """Why no column is a channel (:attr:`InputInfo.no_numeric`), else ""."""
         first_time = self._inspect_first_block()
         total, sha, self._lines = _digest_and_lines(self.path, self._layout.compressed)
         self.info = InputInfo(self.path, Format.CSV, size_bytes=total, sha256=sha)
+        self.info.no_numeric = self._no_numeric
         if self._layout.units_line:  # a guess (a units line has no readable time): said
             self._error(_units_note(self._layout))
         if self._layout.renamed:
@@ -675,6 +687,11 @@ class CsvReader:
                 and first_time >= EPOCH_THRESHOLD_S * 1e9
             )
         )
+        if self._time_kind in ("seconds", "ns") and not self.info.absolute_time:
+            self._anchor()
+            if self._offset and first_time is not None:
+                first_time += self._offset
+                self.info.absolute_time = True
         self._first_time = first_time
         self.info.time = self._time_text()
         if self._day_first is not None:
@@ -829,7 +846,9 @@ class CsvReader:
         kind = self._time_kind
         if kind == "ns":
             how = "integer nanoseconds " + (
-                "since 1970 (UTC)" if self.info.absolute_time else "from another start, relative"
+                "since 1970 (UTC)"
+                if self.info.absolute_time and not self._offset
+                else "from another start" + ("" if self._offset else ", relative")
             )
         elif kind == "datetime":
             how = "date-times (UTC where no zone is given)"
@@ -842,9 +861,69 @@ class CsvReader:
             how = "times of day, relative"
         else:
             how = _UNIT_NAMES[self._layout.time_unit] + (
-                " since 1970 (UTC)" if self.info.absolute_time else ", relative"
+                " since 1970 (UTC)" if self.info.absolute_time and not self._offset else ""
             )
-        return f"column {name!r}: {how}"
+            how += ", relative" if not self.info.absolute_time else ""
+        return f"column {name!r}: {how}{self._anchor_text}"
+
+    def _anchor(self) -> None:
+        """Of a file whose time column holds relative times (``time``: seconds from the
+        start) beside another column named as a time (``timestamp``, ``datetime``, see
+        :func:`_time_column`) that holds date-times: where the two agree on the first
+        block's rows (every row's date-time less its time the same, to within the
+        coarser of the two columns' resolutions: ``12:00:01`` beside ``1.25`` agrees to
+        the second), the largest of those differences (date-times are written cut to
+        their resolution, as ``strftime`` and ``isoformat`` do: the largest is the least
+        cut) is added to every time (:attr:`_offset`), which makes the times absolute
+        and the findings' ISO times exist; where they do not agree, the time column's
+        times are kept, relative, and a line in ``info.errors`` says which column gave
+        the time and that the other was ignored. Before, the other column was dropped
+        as a text column, unsaid. Only the first block is compared (date-times that
+        drift apart later in the file are not told)."""
+        names = self._layout.names
+        column = self._layout.time_column
+        others = [
+            i
+            for i, name in enumerate(names)
+            if i != column
+            and self._numeric.get(i) is False
+            and (name.strip().lower() in TIME_NAMES or _time_unit(name) is not None)
+        ]
+        if not others:
+            return
+        batch = self._first_batch()
+        if batch is None:
+            return
+        kind, clock = self._time_kind, self._clock
+        t_ns, keep = self._times(batch.column(column))
+        self._time_kind, self._clock = kind, clock
+        for other in others:
+            absolute, present = _date_times(self._clean(batch.column(other)))
+            both = keep & present
+            if not bool(both.any()):
+                continue
+            diff = absolute[both] - t_ns[both]
+            spread = int(diff.max()) - int(diff.min())
+            allowed = max(_resolution(absolute[both]), _resolution(t_ns[both]))
+            mine, theirs = names[column], names[other]
+            if spread <= allowed:
+                # (the date-times cut to their resolution, as strftime and isoformat
+                # write them: the largest difference is the one least cut)
+                self._offset = int(diff.max())
+                self._anchor_text = (
+                    f"; absolute times from column {theirs!r}, whose date-times agree with "
+                    f"it (to {allowed / 1e9:g} s): {int(t_ns[both][0]) / 1e9:g} s is "
+                    f"{iso_utc(int(t_ns[both][0]) + self._offset)}"
+                )
+                return
+            self._error(
+                f"two time columns: {mine!r} gave the time "
+                f"({self._time_text().removeprefix(f'column {mine!r}: ')}); {theirs!r} "
+                f"(date-times) was ignored: its date-times less the times of {mine!r} vary by "
+                f"{spread / 1e9:.3f} s over the first {int(both.sum())} rows (more than the "
+                f"{allowed / 1e9:g} s resolution of the two), so they do not agree"
+            )
+            return
 
     def _tail_cells(self, most: int = 50) -> list[str]:
         """The time cells of the file's last lines (up to ``most``, from its last 64 KiB;
@@ -904,6 +983,8 @@ class CsvReader:
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
         del time  # CSV rows have one time only
         self.fraction_read = 0.0
+        if self._no_numeric:
+            return
         reorder = Reorderer()
         skipped = 0  # rows without a readable time
         broken = 0  # lines with the wrong number of fields
@@ -1546,10 +1627,16 @@ class CsvReader:
                 if decision:
                     numeric.append(index)
         self._fast = tuple(fast)
-        if not numeric:
-            raise ReaderError(
-                f"{self.path}: no numeric column besides the time column "
+        if not numeric:  # readable, nothing to analyze: said where it is listed or used
+            text = [
+                name
+                for index, name in enumerate(self._layout.names)
+                if self._numeric.get(index) is False
+            ]
+            self._no_numeric = (
+                "no numeric column besides the time column "
                 f"{self._layout.names[self._layout.time_column]!r}"
+                + (f" (text: {capped(text, 4, what='columns')})" if text else "")
             )
         time_column = batch.column(self._layout.time_column)
         t_ns, keep = self._times(time_column, first=True)
@@ -1621,6 +1708,13 @@ class CsvReader:
         return present, out, bad
 
     def _times(self, column: pa.Array, *, first: bool = False) -> tuple[IntArray, np.ndarray]:
+        """:meth:`_own_times` plus the absolute start another column gave (:meth:`_anchor`)."""
+        out, keep = self._own_times(column, first=first)
+        if self._offset:
+            out[keep] += self._offset
+        return out, keep
+
+    def _own_times(self, column: pa.Array, *, first: bool = False) -> tuple[IntArray, np.ndarray]:
         """Integer nanoseconds of the time column and the mask of rows that have one.
         Numbers are in the column's unit (:attr:`_Layout.time_unit`); in seconds,
         integers above :data:`NS_THRESHOLD` are nanoseconds, in a unit its name gives
@@ -1805,6 +1899,36 @@ def _epoch_unit_hint(cell: str) -> str:
         " (epoch milliseconds or microseconds? a name such as 'time [ms]' or 'time [us]' "
         "says so; 'time [ns]' for nanoseconds from a start other than 1970)"
     )
+
+
+def _date_times(text: pa.Array) -> tuple[IntArray, np.ndarray]:
+    """Nanoseconds of the cells of ``text`` that are ISO 8601 date-times (UTC where no
+    zone is given) and the mask of those that are; none when fewer than
+    :data:`NUMERIC_SHARE` of the non-blank cells are (not a column of date-times)."""
+    import pandas as pd
+
+    series = pd.Series(text.to_numpy(zero_copy_only=False), dtype=object)
+    series = series.where(series != "", None)
+    out = np.zeros(len(series), dtype=np.int64)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        parsed = pd.to_datetime(series, utc=True, format="ISO8601", errors="coerce")
+    lo, hi = pd.Timestamp(_NS_MIN, tz="UTC"), pd.Timestamp(_NS_MAX, tz="UTC")
+    keep = np.asarray((parsed.notna() & (parsed >= lo) & (parsed <= hi)).to_numpy(), dtype=bool)
+    if int(keep.sum()) < NUMERIC_SHARE * int(series.notna().sum()) or not keep.any():
+        return out, np.zeros(len(series), dtype=bool)
+    out[keep] = parsed[keep].dt.as_unit("ns").astype("int64").to_numpy()
+    return out, keep
+
+
+def _resolution(ns: IntArray) -> int:
+    """The largest power of ten nanoseconds, up to a second, that every time of ``ns``
+    is a multiple of: the resolution the times were written with (``12:00:01.250``:
+    10 ms)."""
+    for digits in range(9, 0, -1):
+        if not bool(np.any(ns % 10**digits)):
+            return 10**digits
+    return 1
 
 
 def _all_numbers(column: pa.Array) -> FloatArray | None:

@@ -207,6 +207,8 @@ class McapReader:
             self._error(line)
         if own:
             self.info.relabelled = self._tracker.relabelled()
+            self.info.clocks = self._tracker.clocks()
+            self.info.clock_spans = self._tracker.clock_spans()
 
     def _shared_topics(self) -> list[str]:
         """One line per topic that several channels of one message type (publishers)

@@ -302,6 +302,8 @@ class Ros1BagReader:
         for line in self._tracker.lines() + reorder.drop_report():
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
+        self.info.clocks = self._tracker.clocks()
+        self.info.clock_spans = self._tracker.clock_spans()
 
     # ------------------------------------------------------------------ index
     def _read_index(self, index_pos: int, conn_count: int, chunk_count: int) -> None:

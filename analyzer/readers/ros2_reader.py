@@ -164,6 +164,8 @@ class Ros2BagReader:
         for line in self._tracker.lines():
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
+        self.info.clocks = self._tracker.clocks()
+        self.info.clock_spans = self._tracker.clock_spans()
 
     def _overlap(self, name: str, dropped: dict[str, int]) -> None:
         for topic, unit, count in per_topic(dropped, self.topics):

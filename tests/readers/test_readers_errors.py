@@ -358,11 +358,21 @@ def test_unsupported_serialization_format(tmp_path: Path) -> None:
 
 
 def test_csv_without_numeric_column(tmp_path: Path) -> None:
+    """A readable CSV whose columns are all text opens (``inspect`` lists it, with a
+    note: ``tests/cli/test_nothing_numeric.py``) and yields nothing, saying why; in a
+    folder it is a member not read, with that reason, as when it was refused on opening."""
     path = tmp_path / "labels.csv"
     path.write_text("time,label\n0.0,a\n0.1,b\n")
-    with pytest.raises(ReaderError, match="no numeric column") as err:
-        open_input(path)
-    one_line(err, path)
+    reader = open_input(path)
+    assert reader.info.no_numeric == (
+        "no numeric column besides the time column 'time' (text: label)"
+    )
+    assert list(reader.chunks()) == []
+    (tmp_path / "data.csv").write_text("time,x\n0.0,1\n0.1,2\n")
+    archive = open_archive(tmp_path)
+    assert [i.path.name for i in archive.inputs] == ["data.csv", "labels.csv"]
+    assert archive.inputs[1].errors == [reader.info.no_numeric]
+    assert {c.name for c in archive.chunks()} == {"x"}
 
 
 def test_csv_with_unparseable_time(tmp_path: Path) -> None:
