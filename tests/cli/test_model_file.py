@@ -165,7 +165,7 @@ def test_a_dead_sensor_alive_again_is_kept_as_measured_with_the_model(model, rec
 def test_a_dead_sensor_whose_finding_ran_on_is_not_a_gain_with_the_model(model, record, tmp_path):
     """--model --corrected: s1 dead at 10-22 s and s3 at 16-30 s of another piece; the
     detectors see s1 faulty to about 30 s (s3's fault in their residuals of s1), and the
-    residual over 10-30 s, dead then alive, fitted a gain of 0.44 (at bd303ba), which
+    residual over 10-30 s, dead then alive, fitted a gain of 0.435 (at bd303ba), which
     ``--corrected`` divided s1's alive readings after 22 s by. Its readings read zero
     from the onset, as no gain does: s1 is dead, to 22 s, where they move again, and
     its readings after are kept as measured (``sweep_corrected.py --model``: gains of
