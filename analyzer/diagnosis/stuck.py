@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.merge import Finding
 from analyzer.diagnosis.streamed import ColumnMoments
 from analyzer.paging import read_column, row_blocks
@@ -74,7 +75,9 @@ def frozen_notes(
     ``frozen`` then has ``since_s`` and ``alarmed_from_s``, or ``until_s`` and
     ``alarmed_to_s``. A frozen stretch begins and ends with :data:`FROZEN_RUN` readings
     in a row off its level, so a stuck sensor's noise or a dead one's single flicker does
-    not end it."""
+    not end it. A finding frozen for less of its period is a fault of another kind,
+    unless a gain that read dead from its onset (:func:`_dead_gain`): a dead sensor,
+    to where its readings moved again."""
     if not isinstance(healthy, Mapping):
         healthy = healthy_stats(values, channels, healthy)
     notes: dict[int, str] = {}
@@ -94,11 +97,18 @@ def frozen_notes(
             continue
         level, tol = float(np.median(seg)), FLAT * sd
         near = np.abs(seg - level) <= tol
-        if float(np.std(seg)) > tol and float(np.mean(near)) < FROZEN_SHARE:
-            continue
-        until = frozen_until(values, j, a, level, tol, b)
+        frozen = float(np.std(seg)) <= tol or float(np.mean(near)) >= FROZEN_SHARE
+        until = frozen_until(values, j, a, level, tol, b) if frozen else a
         if until - a < FROZEN_SHARE * (b - a):
-            continue  # frozen for a while only: a fault of another kind
+            # frozen for a while only: a fault of another kind, unless a gain that read
+            # dead from its onset (a gain cannot read flat at zero)
+            dead = _dead_gain(f, values, j, a, b, sd, rate_hz)
+            if dead is None:
+                continue
+            level, until = dead
+            seg = read_column(values, j, a, until)
+            seg = seg[np.isfinite(seg)]
+            near = np.abs(seg - level) <= tol
         spread = float(np.std(seg[near]))
         before, alarmed, alarmed_to = f.type, f.onset_s, f.end_s
         since = frozen_since(values, j, a, level, tol, search_start)
@@ -129,6 +139,48 @@ def frozen_notes(
                 f"(the residual alone read it as {before}" + "".join(f"; {m}" for m in moved) + ")"
             )
     return notes
+
+
+def _dead_gain(
+    f: Finding,
+    values: npt.NDArray[Any],
+    j: int,
+    a: int,
+    b: int,
+    sd: float,
+    rate_hz: float,
+) -> tuple[float, int] | None:
+    """A gain fault (``f`` multiplicative) whose readings are dead from its onset row
+    ``a``: frozen at the sensor's zero (within :data:`ZERO` of the healthy ``sd``) for at
+    least a long alarm window (:data:`~analyzer.diagnosis.changes.LONG_FACTOR`
+    windows of :func:`~analyzer.diagnosis.changes.default_window`, the span the
+    detectors judge a change by) before its end row ``b``: their level and the row
+    where they move again (:func:`frozen_until`); None otherwise.
+
+    A gain ``a`` makes a reading ``a y``, which varies with the structure: one of at
+    least :data:`~analyzer.diagnosis.classify.MIN_GAIN` (below it the gain is read as a
+    dead sensor anyway) varies by about a tenth of the healthy spread or more, ten
+    times :data:`FLAT`, and does not read flat at zero for that long. A gain fitted
+    over such a stretch is the dead readings and the alive ones after them taken for
+    one fault: a sensor dead from 120 to 220 s whose finding ran on to 248 s (another
+    sensor's fault, which the detectors model it with, in its residual until 250 s) or
+    to the record's end was fitted gains of 0.11-0.38 with ``--model``
+    (``sweep_corrected.py``), and ``--corrected`` divided the alive readings after 220 s
+    by them. The dead stretch is the fault; the readings after it are alive."""
+    if f.type is not FaultType.MULTIPLICATIVE:
+        return None
+    least = max(MIN_FLAT_SAMPLES, LONG_FACTOR * default_window(rate_hz))
+    if b - a <= least:
+        return None
+    head = read_column(values, j, a, a + least)
+    head = head[np.isfinite(head)]
+    if head.size < MIN_FLAT_SAMPLES:
+        return None
+    level, tol = float(np.median(head)), FLAT * sd
+    if abs(level) > ZERO * sd:
+        return None
+    until = frozen_until(values, j, a, level, tol, b)
+    return (level, until) if until - a >= least else None
 
 
 FROZEN_SHARE = 0.9

@@ -126,12 +126,14 @@ def test_a_fault_present_from_the_first_sample_is_found_with_the_model(
 
 
 def test_a_dead_sensor_alive_again_is_kept_as_measured_with_the_model(model, record, tmp_path):
-    """--model --corrected: s1 dead at 10-22 s and s3 at 16-30 s; s1's finding runs on
-    to about 30 s (its estimate leans on the dead s3), yet its readings after 22 s are
-    alive and kept as measured: the regeneration takes a stretch of the record that no
-    finding touches as its healthy window (the run's own window is the filters'
+    """--model --corrected: s1 dead at 10-22 s and s3 at 16-30 s; the detectors see s1
+    faulty to about 30 s (its estimate leans on the dead s3), yet its readings after
+    22 s are alive and kept as measured: the regeneration takes a stretch of the record
+    that no finding touches as its healthy window (the run's own window is the filters'
     warm-up). Without one, s1 was regenerated to its finding's end (``sweep_corrected.py
-    --model``, ``two-dead-drift``: 0.10-0.19 sd of error over the healthy readings)."""
+    --model``, ``two-dead-drift``: 0.10-0.19 sd of error over the healthy readings).
+    (Its readings read zero from the onset: the finding itself ends at 22 s, where they
+    move again, the detectors' end kept in its evidence; it ran on to 30.2 s before.)"""
     t, y = _piece(record, 1)
     truth = y.copy()
     y[:, 1] = inject_fault(y[:, 1], RATE, "multiplicative", 10.0, 0.0, 22.0)
@@ -141,10 +143,11 @@ def test_a_dead_sensor_alive_again_is_kept_as_measured_with_the_model(model, rec
     assert _main(["run", src, "--out", out, "--model", model, "--corrected"]) == 1
     doc = json.loads((out / "findings.json").read_text())
     (s1,) = [f for f in doc["faults"] if f["channel"] == "s1"]
-    assert s1["end_s"] is None or s1["end_s"] > 23.0  # the finding runs on past 22 s
+    assert s1["end_s"] == pytest.approx(22.0, abs=0.02)  # where the readings moved again
+    assert s1["evidence"]["frozen"]["alarmed_to_s"] > 23.0  # the detectors saw it past 22 s
     (fix,) = [c for c in doc["corrections"] if c["channel"] == "s1"]
     assert fix["method"] == "reference"
-    assert 22.0 <= fix["end_s"] <= 22.5 and "alive again" in fix["note"]
+    assert 22.0 <= fix["end_s"] <= 22.5
     fixed = np.loadtxt(out / "corrected.csv", delimiter=",", skiprows=1)[:, 1:]
     back = int(22.5 * RATE)
     assert np.array_equal(fixed[back:, 1], y[back:, 1])  # alive again: as measured
@@ -157,6 +160,36 @@ def test_a_dead_sensor_alive_again_is_kept_as_measured_with_the_model(model, rec
     assert doc["train"]["end_s"] < a < b
     for f in doc["faults"]:
         assert b <= f["onset_s"] or (f["end_s"] is not None and a >= f["end_s"])
+
+
+def test_a_dead_sensor_whose_finding_ran_on_is_not_a_gain_with_the_model(model, record, tmp_path):
+    """--model --corrected: s1 dead at 10-22 s and s3 at 16-30 s of another piece; the
+    detectors see s1 faulty to about 30 s (s3's fault in their residuals of s1), and the
+    residual over 10-30 s, dead then alive, fitted a gain of 0.435 (at bd303ba), which
+    ``--corrected`` divided s1's alive readings after 22 s by. Its readings read zero
+    from the onset, as no gain does: s1 is dead, to 22 s, where they move again, and
+    its readings after are kept as measured (``sweep_corrected.py --model``: gains of
+    0.11-0.38, 1.0-1.9 sd of error over the healthy readings)."""
+    t, y = _piece(record, 0)
+    truth = y.copy()
+    y[:, 1] = inject_fault(y[:, 1], RATE, "multiplicative", 10.0, 0.0, 22.0)
+    y[:, 3] = inject_fault(y[:, 3], RATE, "multiplicative", 16.0, 0.0, 30.0)
+    src = _write(tmp_path / "dead.csv", t, y, record[2])
+    out = tmp_path / "c"
+    assert _main(["run", src, "--out", out, "--model", model, "--corrected"]) == 1
+    doc = json.loads((out / "findings.json").read_text())
+    (s1,) = [f for f in doc["faults"] if f["channel"] == "s1"]
+    assert (s1["type"], s1["magnitude"]) == ("multiplicative", {"gain": 0.0})
+    assert s1["end_s"] == pytest.approx(22.0, abs=0.02)
+    assert s1["evidence"]["frozen"]["alarmed_to_s"] > 25.0  # the detectors' end
+    (fix,) = [c for c in doc["corrections"] if c["channel"] == "s1"]
+    assert fix["method"] == "reference" and fix["end_s"] <= 22.05
+    fixed = np.loadtxt(out / "corrected.csv", delimiter=",", skiprows=1)[:, 1:]
+    back = int(22.05 * RATE)
+    assert np.array_equal(fixed[back:, 1], y[back:, 1])  # alive again: as measured
+    dead = slice(int(10 * RATE), int(22 * RATE))
+    sd = float(truth[:, 1].std())
+    assert float(np.sqrt(np.mean((fixed[dead, 1] - truth[dead, 1]) ** 2))) < 0.5 * sd
 
 
 def test_healthy_pieces_give_no_finding_and_name_the_model(model, record, tmp_path):

@@ -179,3 +179,38 @@ def test_noise_a_flicker_or_an_early_onset_do_not_hide_a_frozen_sensor():
         assert f.type is FaultType.MULTIPLICATIVE and f.magnitude == {"gain": 0.0}, f
     assert [(f.onset_s, f.end_s) for f in found[1:3]] == [(50.0, 100.0)] * 2
     assert found[3].onset_s == 9998 / RATE  # (as the detectors saw it: already frozen)
+
+
+def test_a_gain_that_read_dead_from_its_onset_is_a_dead_sensor_to_its_revival():
+    """A sensor dead from row 3000 to 4400 whose finding ran on to row 6000 (another
+    fault in its residual, or the record's end): frozen at zero for 1400 of 3000 rows,
+    less than 90 %, yet a gain of at least 0.1 varies with the structure and never reads
+    flat at zero for a long alarm window: the gain the residual fitted (0.21) is the
+    dead readings and the alive ones after taken for one fault. Dead, to where the
+    readings moved again. A real gain of 0.2, a fault of another type on the same
+    readings, and a gain flat at zero for less than a long alarm window (2 s at 200 Hz
+    is 400 rows) keep their type and end."""
+    rng = np.random.default_rng(3)
+    values = rng.standard_normal((9000, 4))
+    values[3000:4400, 0] = 0.0
+    values[3000:, 1] *= 0.2  # a real gain
+    values[3000:4400, 2] = 0.0
+    values[3000:3300, 3] = 0.0  # flat at zero for 1.5 s only
+    found = [
+        Finding("a", FaultType.MULTIPLICATIVE, 15.0, 30.0, {"gain": 0.21}, 1.0, "df"),
+        Finding("b", FaultType.MULTIPLICATIVE, 15.0, 30.0, {"gain": 0.2}, 1.0, "df"),
+        Finding("c", FaultType.DRIFT, 15.0, 30.0, {"rate_per_s": 0.1}, 1.0, "df"),
+        Finding("d", FaultType.MULTIPLICATIVE, 15.0, None, {"gain": 0.5}, 1.0, "df"),
+    ]
+    (note,) = relabel_frozen(found, values, ["a", "b", "c", "d"], RATE, (0, 2000))
+    assert (found[0].onset_s, found[0].end_s, found[0].magnitude) == (15.0, 22.0, {"gain": 0.0})
+    assert found[0].evidence["frozen"]["alarmed_to_s"] == 30.0
+    assert note.startswith("a from 15.000 s to 22.000 s: dead (reads 0)")
+    assert "the detectors saw it to 30.000 s: it ends where they moved again" in note
+    assert [(f.type, f.end_s) for f in found[1:]] == [
+        (FaultType.MULTIPLICATIVE, 30.0),
+        (FaultType.DRIFT, 30.0),
+        (FaultType.MULTIPLICATIVE, None),
+    ]
+    assert found[1].magnitude == {"gain": 0.2} and found[3].magnitude == {"gain": 0.5}
+    assert not any("frozen" in f.evidence for f in found[1:])
