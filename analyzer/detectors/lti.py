@@ -242,22 +242,37 @@ class StackedLiftedSystem:
         return y, x
 
 
-class _Squares:
+class Squares:
     """``A^(2^t)`` for ``t = 0, 1, ...``, each computed once (by squaring) and on demand;
     a power ``A^e`` is the product of the squares of the bits of ``e``: about ``log2 e``
-    matrix products instead of ``e - 1``."""
+    matrix products instead of ``e - 1``.
 
-    __slots__ = ("_items",)
+    The squares of ``A^(2^s)`` are those of ``A`` from ``s`` on, the same products of the
+    same matrices: :meth:`after` gives them as a view that shares (and extends) this
+    list, so a caller that squared ``A`` already (``kalman_bank.forgets_within``) and a
+    bank built from ``A`` afterwards (:meth:`ImpulseResponseBank.build`) compute each
+    square once, to the same bits."""
+
+    __slots__ = ("_items", "_offset")
 
     def __init__(self, A: FloatArray) -> None:
         self._items = [A]
+        self._offset = 0
 
     def __getitem__(self, t: int) -> FloatArray:
         """``A^(2^t)``."""
         items = self._items
+        t += self._offset
         while len(items) <= t:
             items.append(items[-1] @ items[-1])
         return items[t]
+
+    def after(self, s: int) -> Squares:
+        """The squares of ``A^(2^s)`` (``self[s]``), sharing this list."""
+        view = Squares.__new__(Squares)
+        view._items = self._items
+        view._offset = self._offset + s
+        return view
 
     def power(self, e: int) -> FloatArray:
         """``A^e`` for ``e >= 1``."""
@@ -269,7 +284,7 @@ class _Squares:
         return out
 
 
-def _decay_steps(powers: _Squares, tol: float, most: int, least: int) -> int | None:
+def _decay_steps(powers: Squares, tol: float, most: int, least: int) -> int | None:
     """``max(least, m)`` for the smallest ``m >= 1`` with ``||P^m||_F <= tol``
     (``powers``: the squares of ``P``), or None when ``m > most``; ``||P^m||_F`` must be
     non-increasing in ``m``.
@@ -395,9 +410,12 @@ class ImpulseResponseBank:
         systems: Sequence[tuple[FloatArray, FloatArray, FloatArray, FloatArray]],
         tol: float = MEMORY_TOL,
         max_taps: int = MAX_TAPS,
+        squares: Sequence[Squares | None] | None = None,
     ) -> ImpulseResponseBank | None:
         """The bank of ``systems``, or None when a filter remembers its input longer than
         ``max_taps`` samples (``||F^L||_F`` above ``tol`` at ``L = max_taps``).
+        ``squares``: per system, the squares of its ``F`` where a caller has computed
+        some already (:class:`Squares`; None: computed here), reused to the same bits.
 
         The Markov parameters of each system are computed in blocks of
         :data:`~ImpulseResponseBank.STEP` taps (:meth:`_markov`) in the layout the FFT
@@ -409,7 +427,13 @@ class ImpulseResponseBank:
         whole bank over its first axis (1.21 -> 0.63 s), with the same taps and a spectrum
         equal to rounding (4e-16 of its largest value)."""
         k = len(systems)
-        powers = [_Squares(F) for F, _, _, _ in systems]
+        given = [None] * k if squares is None else list(squares)
+        if len(given) != k:
+            raise ValueError(f"impulse-response bank: {len(given)} squares for {k} systems")
+        powers = [
+            Squares(F) if sq is None else sq
+            for (F, _, _, _), sq in zip(systems, given, strict=True)
+        ]
         taps = cls._memory(powers, tol, max_taps, cls.STEP)
         if taps is None:
             return None
@@ -443,7 +467,7 @@ class ImpulseResponseBank:
 
     @staticmethod
     def _markov(
-        powers: _Squares,
+        powers: Squares,
         G: FloatArray,
         H: FloatArray,
         J: FloatArray,
@@ -512,11 +536,11 @@ class ImpulseResponseBank:
         None when that is above ``max_taps`` rounded up to a multiple of ``step`` (see
         :meth:`_memory`)."""
         return ImpulseResponseBank._memory(
-            [_Squares(F) for F, _, _, _ in systems], tol, max_taps, step
+            [Squares(F) for F, _, _, _ in systems], tol, max_taps, step
         )
 
     @staticmethod
-    def _memory(powers: Sequence[_Squares], tol: float, max_taps: int, step: int) -> int | None:
+    def _memory(powers: Sequence[Squares], tol: float, max_taps: int, step: int) -> int | None:
         """:meth:`_taps` for systems given by the squares of their ``F``.
 
         The same integer as the linear search ``L = step, 2 step, ...`` (one ``n^3``
@@ -537,8 +561,11 @@ class ImpulseResponseBank:
                 float(np.linalg.norm(P)),
                 float(np.sqrt(np.linalg.norm(P, 1) * np.linalg.norm(P, np.inf))),
             )
+            # P = F^step is a square of F when step is a power of two: its own squares
+            # are F's later ones (shared with whoever squared F before)
+            of_p = power.after(step.bit_length() - 1) if step & (step - 1) == 0 else Squares(P)
             found = (
-                _decay_steps(_Squares(P), tol, most, steps)
+                _decay_steps(of_p, tol, most, steps)
                 if bound <= 1.0
                 else _decay_steps_linear(P, tol, most)
             )
@@ -653,12 +680,14 @@ def warm_spans(start: int, stop: int, size: int, warmup: int) -> list[tuple[int,
 
 
 def system_bank(
-    systems: Sequence[tuple[FloatArray, FloatArray, FloatArray, FloatArray]], block: int = 16
+    systems: Sequence[tuple[FloatArray, FloatArray, FloatArray, FloatArray]],
+    block: int = 16,
+    squares: Sequence[Squares | None] | None = None,
 ) -> ImpulseResponseBank | LiftedBank:
     """``systems`` run together over one input: as impulse responses when they all forget
     their past within :data:`MAX_TAPS` samples, else as a stacked lifted system of block
-    length ``block``."""
-    fir = ImpulseResponseBank.build(systems)
+    length ``block``. ``squares``: see :meth:`ImpulseResponseBank.build`."""
+    fir = ImpulseResponseBank.build(systems, squares=squares)
     return fir if fir is not None else LiftedBank(StackedLiftedSystem.build(list(systems), block))
 
 

@@ -343,3 +343,70 @@ def test_lagged_gram_taken_in_pieces_equals_the_whole(building, monkeypatch):
     again = fit_ar(Y, p)
     np.testing.assert_allclose(again.coefs, whole.coefs, rtol=0, atol=1e-10)
     _assert_fit_equals_reference(again, Y, p)
+
+
+def test_fold_bank_from_the_memory_test_squares_equals_its_own(building):
+    """A fold's bank built with the squares of each ``F`` that the test of its memory
+    computed (:func:`~analyzer.detectors.kalman_bank.forgets_within`) is the bank built
+    from scratch, to the last bit: the same products of the same matrices."""
+    from analyzer.detectors.kalman_bank import BankFilter, squared_leave_one_out
+
+    ar = fit_ar(building, 4)
+    held = np.array(building, copy=True)
+    held[1000:2000] = np.nan
+    fold = fit_ar(held, 4)
+    solved = []
+    for j in range(ar.m):
+        whole, P = solved_leave_one_out(ar, j, 16)
+        solved.append(squared_leave_one_out(fold, j, 16, (whole.settle, whole.warmup), P))
+    squares = [sq for _, _, sq in solved]
+    assert all(sq is not None and len(sq._items) > 1 for sq in squares)  # squared already
+    estimators = tuple(e for e, _, _ in solved)
+    shared = BankFilter.build(estimators, 16, squares=squares).system
+    alone = BankFilter.build(estimators, 16).system
+    assert (shared.taps, shared.nfft) == (alone.taps, alone.nfft)
+    assert np.array_equal(shared.markov, alone.markov)
+    assert np.array_equal(shared.spectrum, alone.spectrum)
+
+
+def test_squares_after_are_the_squares_of_the_power():
+    """``Squares(F).after(s)`` gives the squares (and powers) of ``F^(2^s)`` bit for bit,
+    extending the list it shares with ``Squares(F)``."""
+    from analyzer.detectors.lti import Squares
+
+    rng = np.random.default_rng(3)
+    F = rng.standard_normal((12, 12)) * 0.2
+    squares = Squares(F)
+    view = squares.after(2)
+    own = Squares(squares[2])
+    for t in range(4):
+        assert np.array_equal(view[t], own[t])
+    for e in (1, 3, 6, 11):
+        assert np.array_equal(view.power(e), own.power(e))
+    assert np.array_equal(squares[5], own[3])  # the view's squares went into the list
+
+
+def test_innovation_moments_equal_the_masked_sums():
+    """:class:`~analyzer.detectors.kalman_bank.InnovationMoments` adds, per estimator,
+    the count, sum and cross-products of its rows without a missing value: the sums of
+    the masked rows to the last bit, with and without missing rows."""
+    from analyzer.detectors.kalman_bank import InnovationMoments
+
+    rng = np.random.default_rng(4)
+    innov = rng.standard_normal((3000, 6, 5)) * rng.random((1, 6, 5))
+    innov[10, 2, 3] = np.nan
+    innov[40:45, 4] = np.nan
+    moments = InnovationMoments(6)
+    moments.add(innov)
+    moments.add(innov[:700])
+    for j in range(6):
+        counts, totals, outers = [], [], []
+        for block in (innov, innov[:700]):
+            nu = block[:, j]
+            nu = nu[np.isfinite(nu).all(axis=1)]
+            counts.append(nu.shape[0])
+            totals.append(nu.sum(axis=0))
+            outers.append(nu.T @ nu)
+        assert moments.count[j] == sum(counts)
+        assert np.array_equal(moments.total[j], np.zeros(5) + totals[0] + totals[1])
+        assert np.array_equal(moments.outer[j], np.zeros((5, 5)) + outers[0] + outers[1])
