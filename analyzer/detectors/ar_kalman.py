@@ -47,6 +47,7 @@ from analyzer.detectors.kalman_bank import (
     LeaveOneOut,
     bank_block,
     estimator_consistency,
+    leave_one_out,
     solved_leave_one_out_task,
     squared_leave_one_out,
 )
@@ -1208,4 +1209,5 @@ __all__ = [
     "FittedBank",
     "BankFilter",  # (its home is kalman_bank; here too for models saved before the move)
     "LeaveOneOut",  # (likewise)
+    "leave_one_out",  # (its home is kalman_bank; the folds now call squared_leave_one_out)
 ]
