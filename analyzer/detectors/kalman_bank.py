@@ -23,6 +23,7 @@ from analyzer.detectors.base import (
     dilate_forward,
 )
 from analyzer.detectors.lti import (
+    BUILD_SQUARES,
     ImpulseResponseBank,
     LiftedBank,
     LiftedSystem,
@@ -202,7 +203,9 @@ def _filter_gain(
     F = A - (A @ M) @ Cb  # A (I - M Cb) without an n x n x n product
     if horizon is not None:
         squares = Squares(F)
-        return M, F, 0.0 if forgets_within(F, horizon, squares) else np.nan, P, squares
+        forgets = forgets_within(F, horizon, squares)
+        squares.keep(BUILD_SQUARES)  # the bank's build needs these, not the later ones
+        return M, F, 0.0 if forgets else np.nan, P, squares
     return M, F, _spectral_radius(F), P, None
 
 

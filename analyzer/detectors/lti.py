@@ -242,37 +242,39 @@ class StackedLiftedSystem:
         return y, x
 
 
+BUILD_SQUARES = 4
+"""The squares ``F^(2^t)``, ``t <= 4``, that :meth:`ImpulseResponseBank.build` takes of each
+system's ``F`` with its default :data:`~ImpulseResponseBank.STEP` of 16 (the Markov
+parameters' blocks and ``F^16``): what a caller that squared ``F`` before keeps for it
+(:meth:`Squares.keep`; more would stay held through the build for nothing)."""
+
+
 class Squares:
     """``A^(2^t)`` for ``t = 0, 1, ...``, each computed once (by squaring) and on demand;
     a power ``A^e`` is the product of the squares of the bits of ``e``: about ``log2 e``
     matrix products instead of ``e - 1``.
 
-    The squares of ``A^(2^s)`` are those of ``A`` from ``s`` on, the same products of the
-    same matrices: :meth:`after` gives them as a view that shares (and extends) this
-    list, so a caller that squared ``A`` already (``kalman_bank.forgets_within``) and a
-    bank built from ``A`` afterwards (:meth:`ImpulseResponseBank.build`) compute each
-    square once, to the same bits."""
+    A caller that squared ``A`` already (``kalman_bank.forgets_within``) hands its
+    squares to the bank built from ``A`` (:meth:`ImpulseResponseBank.build`), which then
+    takes them instead of computing them again: the same products of the same matrices,
+    the same bits."""
 
-    __slots__ = ("_items", "_offset")
+    __slots__ = ("_items",)
 
     def __init__(self, A: FloatArray) -> None:
         self._items = [A]
-        self._offset = 0
 
     def __getitem__(self, t: int) -> FloatArray:
         """``A^(2^t)``."""
         items = self._items
-        t += self._offset
         while len(items) <= t:
             items.append(items[-1] @ items[-1])
         return items[t]
 
-    def after(self, s: int) -> Squares:
-        """The squares of ``A^(2^s)`` (``self[s]``), sharing this list."""
-        view = Squares.__new__(Squares)
-        view._items = self._items
-        view._offset = self._offset + s
-        return view
+    def keep(self, t: int) -> None:
+        """Forget the squares after ``A^(2^t)`` (computed again if asked for): what a
+        holder keeps for a bank's build (:data:`BUILD_SQUARES`), not the whole list."""
+        del self._items[t + 1 :]
 
     def power(self, e: int) -> FloatArray:
         """``A^e`` for ``e >= 1``."""
@@ -561,11 +563,8 @@ class ImpulseResponseBank:
                 float(np.linalg.norm(P)),
                 float(np.sqrt(np.linalg.norm(P, 1) * np.linalg.norm(P, np.inf))),
             )
-            # P = F^step is a square of F when step is a power of two: its own squares
-            # are F's later ones (shared with whoever squared F before)
-            of_p = power.after(step.bit_length() - 1) if step & (step - 1) == 0 else Squares(P)
             found = (
-                _decay_steps(of_p, tol, most, steps)
+                _decay_steps(Squares(P), tol, most, steps)
                 if bound <= 1.0
                 else _decay_steps_linear(P, tol, most)
             )

@@ -369,21 +369,23 @@ def test_fold_bank_from_the_memory_test_squares_equals_its_own(building):
     assert np.array_equal(shared.spectrum, alone.spectrum)
 
 
-def test_squares_after_are_the_squares_of_the_power():
-    """``Squares(F).after(s)`` gives the squares (and powers) of ``F^(2^s)`` bit for bit,
-    extending the list it shares with ``Squares(F)``."""
-    from analyzer.detectors.lti import Squares
+def test_squares_kept_for_a_build_are_computed_again_to_the_same_bits():
+    """``Squares.keep(t)`` forgets the squares after ``A^(2^t)``; asked for again, they
+    are the same products (bit for bit). The squares a fold keeps for its bank's build
+    are the ones the build takes with its step."""
+    from analyzer.detectors.lti import BUILD_SQUARES, ImpulseResponseBank, Squares
 
+    assert 1 << BUILD_SQUARES == ImpulseResponseBank.STEP
     rng = np.random.default_rng(3)
     F = rng.standard_normal((12, 12)) * 0.2
-    squares = Squares(F)
-    view = squares.after(2)
-    own = Squares(squares[2])
-    for t in range(4):
-        assert np.array_equal(view[t], own[t])
-    for e in (1, 3, 6, 11):
-        assert np.array_equal(view.power(e), own.power(e))
-    assert np.array_equal(squares[5], own[3])  # the view's squares went into the list
+    whole = Squares(F)
+    first = [whole[t] for t in range(7)]
+    whole.keep(2)
+    assert len(whole._items) == 3
+    for t in range(7):
+        assert np.array_equal(whole[t], first[t])
+    for e in (1, 3, 6, 11, 100):
+        assert np.array_equal(whole.power(e), Squares(F).power(e))
 
 
 def test_innovation_moments_equal_the_masked_sums():
