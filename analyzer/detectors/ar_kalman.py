@@ -49,11 +49,9 @@ from analyzer.detectors.kalman_bank import (
     estimator_consistency,
     leave_one_out,
     solved_leave_one_out_task,
-    squared_leave_one_out,
 )
 from analyzer.detectors.lti import (
     ImpulseResponseBank,
-    Squares,
     time_blocks,
     warm_spans,
 )
@@ -1019,13 +1017,12 @@ def _cv_fold_task(
     are written into rows ``a .. b - 1`` of ``into`` when given (the fold's ``resid`` is
     then None), else kept in the fold."""
     train, a, b, order, block, skip, times, solutions, into = item
-    squares: list[Squares | None] | None = None
     if ar is None or estimators is None:
         assert order is not None
         # the block's rows, and the rows whose lags touch it, drop out of the fit
         ar = fit_ar(train, order, exclude=(a, b))
-        solved = [
-            squared_leave_one_out(
+        estimators = tuple(
+            leave_one_out(
                 ar,
                 j,
                 block,
@@ -1033,14 +1030,8 @@ def _cv_fold_task(
                 None if solutions is None else solutions[j],
             )
             for j in range(ar.m)
-        ]
-        estimators = tuple(e for e, _, _ in solved)
-        # the squares of each F that the test of its memory took: the bank's impulse
-        # responses reuse them (not kept in the fold: pass 2 builds its bank again)
-        squares = [sq for _, _, sq in solved]
-        del solved
-    bank = BankFilter.build(estimators, block, squares=squares)
-    del squares
+        )
+    bank = BankFilter.build(estimators, block)
     moments = InnovationMoments(ar.m)
     # the innovations are kept for pass 2 when they fit in KEPT_INNOVATIONS_BYTES; else
     # (a long window) only their moments are taken, chunk by chunk, and pass 2 filters
@@ -1209,5 +1200,4 @@ __all__ = [
     "FittedBank",
     "BankFilter",  # (its home is kalman_bank; here too for models saved before the move)
     "LeaveOneOut",  # (likewise)
-    "leave_one_out",  # (its home is kalman_bank; the folds now call squared_leave_one_out)
 ]

@@ -9,7 +9,7 @@ The detector that fits and reads the bank is
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 from typing import Any
@@ -23,11 +23,9 @@ from analyzer.detectors.base import (
     dilate_forward,
 )
 from analyzer.detectors.lti import (
-    BUILD_SQUARES,
     ImpulseResponseBank,
     LiftedBank,
     LiftedSystem,
-    Squares,
     StackedLiftedSystem,
     run_chunked,
     system_bank,
@@ -120,13 +118,10 @@ class BankFilter:
         block: int,
         inv_covs: list[FloatArray] | tuple[FloatArray, ...] | None = None,
         lifted: bool = False,
-        squares: Sequence[Squares | None] | None = None,
     ) -> BankFilter:
         """The bank; with ``inv_covs`` (one inverse innovation covariance per estimator)
         its innovation outputs are whitened; ``lifted`` forces the stacked lifted form
-        (benchmarks and tests compare the two forms). ``squares``: per estimator, the
-        squares of its ``F`` computed already (:func:`forgets_within`), which the
-        impulse responses' build reuses (the same products: the same bank)."""
+        (benchmarks and tests compare the two forms)."""
         m = len(estimators)
         systems = []
         for j, e in enumerate(estimators):
@@ -144,7 +139,7 @@ class BankFilter:
         system = (
             LiftedBank(StackedLiftedSystem.build(systems, block))
             if lifted
-            else system_bank(systems, block, squares)
+            else system_bank(systems, block)
         )
         estimates = None
         if isinstance(system, ImpulseResponseBank):  # the estimate: each one's last output
@@ -186,15 +181,14 @@ def _filter_gain(
     R: FloatArray,
     horizon: int | None = None,
     start: FloatArray | None = None,
-) -> tuple[FloatArray, FloatArray, float, FloatArray, Squares | None]:
+) -> tuple[FloatArray, FloatArray, float, FloatArray]:
     """Steady-state filter gain ``M = P Cb' S^-1`` from the DARE solved by ``solver``, the
     closed loop ``F = A (I - M Cb)``, its spectral radius and the DARE's solution ``P``.
     With a ``horizon`` the radius is not computed: 0 when ``F`` is shown to forget its
     state within it (:func:`forgets_within`), else NaN. ``start``: the solution of a
     nearby equation (the whole window's, for a cross-validation fold); ``P`` is then one
     Newton step from it (:func:`~analyzer.detectors.riccati.newton_step`), or the
-    ``solver``'s where that step fails. Last, with a ``horizon``: the squares of ``F``
-    the test computed (:class:`~analyzer.detectors.lti.Squares`; None without one)."""
+    ``solver``'s where that step fails."""
     P = None if start is None else newton_step(A.T, Cb.T, Q, R, start)
     if P is None:
         P = solver(A.T, Cb.T, Q, R)
@@ -202,37 +196,32 @@ def _filter_gain(
     M = np.asarray(np.linalg.solve(S, Cb @ P).T, dtype=np.float64)
     F = A - (A @ M) @ Cb  # A (I - M Cb) without an n x n x n product
     if horizon is not None:
-        squares = Squares(F)
-        forgets = forgets_within(F, horizon, squares)
-        squares.keep(BUILD_SQUARES)  # the bank's build needs these, not the later ones
-        return M, F, 0.0 if forgets else np.nan, P, squares
-    return M, F, _spectral_radius(F), P, None
+        return M, F, 0.0 if forgets_within(F, horizon) else np.nan, P
+    return M, F, _spectral_radius(F), P
 
 
 def _spectral_radius(F: FloatArray) -> float:
     return float(np.max(np.abs(np.linalg.eigvals(F))))
 
 
-def forgets_within(F: FloatArray, horizon: int, squares: Squares | None = None) -> bool:
+def forgets_within(F: FloatArray, horizon: int) -> bool:
     """Whether some power ``F^(2^k)`` with ``2^k <= horizon`` has Frobenius norm at most
     :data:`FOLD_DECAY`. That proves every eigenvalue of ``F`` inside the unit circle and
     ``rho(F)^horizon <= FOLD_DECAY`` (``rho(F)^L <= |F^L|``): a fold's estimator that is
     no slower than this forgets its state within the whole model's warm-up, and a few
     small products stand in for an eigenvalue problem that costs ~15x more at 160
     states. An estimator that forgets more slowly (a fold that changed the model) fails
-    the test and gets its own radius. ``squares``: :class:`~analyzer.detectors.lti.Squares`
-    of ``F``, which keeps the squares computed here for the estimator's bank (its impulse
-    responses need the same ones)."""
-    powers = Squares(F) if squares is None else squares
-    length, t = 1, 0
+    the test and gets its own radius."""
+    P = F
+    length = 1
     with np.errstate(all="ignore"):
         while length <= horizon:
-            norm = float(np.linalg.norm(powers[t]))
+            norm = float(np.linalg.norm(P))
             if norm <= FOLD_DECAY:
                 return True
             if not np.isfinite(norm):
                 return False
-            t += 1
+            P = P @ P
             length *= 2
     return False
 
@@ -268,21 +257,6 @@ def solved_leave_one_out(
     the cross-validation folds starts from: their models differ little from the whole
     window's, so one Newton step from ``P`` lands within ~1e-4 of the fold's solution,
     for a third of the products that converging from it takes)."""
-    estimator, P, _ = squared_leave_one_out(ar, j, block, times, start)
-    return estimator, P
-
-
-def squared_leave_one_out(
-    ar: ARModel,
-    j: int,
-    block: int = 64,
-    times: tuple[int, int] | None = None,
-    start: FloatArray | None = None,
-) -> tuple[LeaveOneOut, FloatArray, Squares | None]:
-    """:func:`solved_leave_one_out` and, where the estimator took over ``times``, the
-    squares of its ``F`` that :func:`forgets_within` computed (None otherwise): a
-    cross-validation fold builds its bank right away, and the bank's impulse responses
-    need the same squares (:meth:`BankFilter.build`'s ``squares``)."""
     A, C = ar.companion()
     m = ar.m
     measured = tuple(i for i in range(m) if i != j)
@@ -294,12 +268,12 @@ def squared_leave_one_out(
     horizon = None if times is None else times[1]
     dare = partial(solve_dare, check_stable=False)
     try:
-        M, F, rho, P, squares = _filter_gain(dare, A, Cb, Q, R, horizon, start)
+        M, F, rho, P = _filter_gain(dare, A, Cb, Q, R, horizon, start)
         if horizon is not None and not rho < 1.0:  # not shown to forget in time: measure
-            horizon, squares = None, None
+            horizon = None
             rho = _spectral_radius(F)
         if not rho < 1.0:  # the iterations gave a non-stabilizing solution: QZ decides
-            M, F, rho, P, squares = _filter_gain(solve_dare_scipy, A, Cb, Q, R)
+            M, F, rho, P = _filter_gain(solve_dare_scipy, A, Cb, Q, R)
     except (linalg.LinAlgError, ValueError) as err:
         raise DetectorError(
             f"the Kalman estimator without channel {j} has no stabilizing solution "
@@ -315,10 +289,10 @@ def squared_leave_one_out(
             f"the Kalman estimator without channel {j} is unstable (spectral radius {rho:.4f})"
         )
     if times is not None and horizon is not None:
-        return LeaveOneOut(j, measured, F, G, H, J, times[0], block, times[1]), P, squares
+        return LeaveOneOut(j, measured, F, G, H, J, times[0], block, times[1]), P
     settle = int(np.ceil(np.log(1e-6) / np.log(max(rho, 1e-3))))
     warmup = int(np.ceil(np.log(WARMUP_DECAY) / np.log(max(rho, 1e-3))))
-    return LeaveOneOut(j, measured, F, G, H, J, settle, block, warmup), P, None
+    return LeaveOneOut(j, measured, F, G, H, J, settle, block, warmup), P
 
 
 def solved_leave_one_out_task(item: tuple[ARModel, int, int]) -> tuple[LeaveOneOut, FloatArray]:

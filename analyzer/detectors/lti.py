@@ -242,22 +242,10 @@ class StackedLiftedSystem:
         return y, x
 
 
-BUILD_SQUARES = 4
-"""The squares ``F^(2^t)``, ``t <= 4``, that :meth:`ImpulseResponseBank.build` takes of each
-system's ``F`` with its default :data:`~ImpulseResponseBank.STEP` of 16 (the Markov
-parameters' blocks and ``F^16``): what a caller that squared ``F`` before keeps for it
-(:meth:`Squares.keep`; more would stay held through the build for nothing)."""
-
-
-class Squares:
+class _Squares:
     """``A^(2^t)`` for ``t = 0, 1, ...``, each computed once (by squaring) and on demand;
     a power ``A^e`` is the product of the squares of the bits of ``e``: about ``log2 e``
-    matrix products instead of ``e - 1``.
-
-    A caller that squared ``A`` already (``kalman_bank.forgets_within``) hands its
-    squares to the bank built from ``A`` (:meth:`ImpulseResponseBank.build`), which then
-    takes them instead of computing them again: the same products of the same matrices,
-    the same bits."""
+    matrix products instead of ``e - 1``."""
 
     __slots__ = ("_items",)
 
@@ -271,11 +259,6 @@ class Squares:
             items.append(items[-1] @ items[-1])
         return items[t]
 
-    def keep(self, t: int) -> None:
-        """Forget the squares after ``A^(2^t)`` (computed again if asked for): what a
-        holder keeps for a bank's build (:data:`BUILD_SQUARES`), not the whole list."""
-        del self._items[t + 1 :]
-
     def power(self, e: int) -> FloatArray:
         """``A^e`` for ``e >= 1``."""
         t = (e & -e).bit_length() - 1  # the lowest set bit
@@ -286,7 +269,7 @@ class Squares:
         return out
 
 
-def _decay_steps(powers: Squares, tol: float, most: int, least: int) -> int | None:
+def _decay_steps(powers: _Squares, tol: float, most: int, least: int) -> int | None:
     """``max(least, m)`` for the smallest ``m >= 1`` with ``||P^m||_F <= tol``
     (``powers``: the squares of ``P``), or None when ``m > most``; ``||P^m||_F`` must be
     non-increasing in ``m``.
@@ -412,12 +395,9 @@ class ImpulseResponseBank:
         systems: Sequence[tuple[FloatArray, FloatArray, FloatArray, FloatArray]],
         tol: float = MEMORY_TOL,
         max_taps: int = MAX_TAPS,
-        squares: Sequence[Squares | None] | None = None,
     ) -> ImpulseResponseBank | None:
         """The bank of ``systems``, or None when a filter remembers its input longer than
         ``max_taps`` samples (``||F^L||_F`` above ``tol`` at ``L = max_taps``).
-        ``squares``: per system, the squares of its ``F`` where a caller has computed
-        some already (:class:`Squares`; None: computed here), reused to the same bits.
 
         The Markov parameters of each system are computed in blocks of
         :data:`~ImpulseResponseBank.STEP` taps (:meth:`_markov`) in the layout the FFT
@@ -429,13 +409,7 @@ class ImpulseResponseBank:
         whole bank over its first axis (1.21 -> 0.63 s), with the same taps and a spectrum
         equal to rounding (4e-16 of its largest value)."""
         k = len(systems)
-        given = [None] * k if squares is None else list(squares)
-        if len(given) != k:
-            raise ValueError(f"impulse-response bank: {len(given)} squares for {k} systems")
-        powers = [
-            Squares(F) if sq is None else sq
-            for (F, _, _, _), sq in zip(systems, given, strict=True)
-        ]
+        powers = [_Squares(F) for F, _, _, _ in systems]
         taps = cls._memory(powers, tol, max_taps, cls.STEP)
         if taps is None:
             return None
@@ -469,7 +443,7 @@ class ImpulseResponseBank:
 
     @staticmethod
     def _markov(
-        powers: Squares,
+        powers: _Squares,
         G: FloatArray,
         H: FloatArray,
         J: FloatArray,
@@ -538,11 +512,11 @@ class ImpulseResponseBank:
         None when that is above ``max_taps`` rounded up to a multiple of ``step`` (see
         :meth:`_memory`)."""
         return ImpulseResponseBank._memory(
-            [Squares(F) for F, _, _, _ in systems], tol, max_taps, step
+            [_Squares(F) for F, _, _, _ in systems], tol, max_taps, step
         )
 
     @staticmethod
-    def _memory(powers: Sequence[Squares], tol: float, max_taps: int, step: int) -> int | None:
+    def _memory(powers: Sequence[_Squares], tol: float, max_taps: int, step: int) -> int | None:
         """:meth:`_taps` for systems given by the squares of their ``F``.
 
         The same integer as the linear search ``L = step, 2 step, ...`` (one ``n^3``
@@ -564,7 +538,7 @@ class ImpulseResponseBank:
                 float(np.sqrt(np.linalg.norm(P, 1) * np.linalg.norm(P, np.inf))),
             )
             found = (
-                _decay_steps(Squares(P), tol, most, steps)
+                _decay_steps(_Squares(P), tol, most, steps)
                 if bound <= 1.0
                 else _decay_steps_linear(P, tol, most)
             )
@@ -679,14 +653,12 @@ def warm_spans(start: int, stop: int, size: int, warmup: int) -> list[tuple[int,
 
 
 def system_bank(
-    systems: Sequence[tuple[FloatArray, FloatArray, FloatArray, FloatArray]],
-    block: int = 16,
-    squares: Sequence[Squares | None] | None = None,
+    systems: Sequence[tuple[FloatArray, FloatArray, FloatArray, FloatArray]], block: int = 16
 ) -> ImpulseResponseBank | LiftedBank:
     """``systems`` run together over one input: as impulse responses when they all forget
     their past within :data:`MAX_TAPS` samples, else as a stacked lifted system of block
-    length ``block``. ``squares``: see :meth:`ImpulseResponseBank.build`."""
-    fir = ImpulseResponseBank.build(systems, squares=squares)
+    length ``block``."""
+    fir = ImpulseResponseBank.build(systems)
     return fir if fir is not None else LiftedBank(StackedLiftedSystem.build(list(systems), block))
 
 

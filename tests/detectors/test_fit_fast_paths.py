@@ -345,49 +345,6 @@ def test_lagged_gram_taken_in_pieces_equals_the_whole(building, monkeypatch):
     _assert_fit_equals_reference(again, Y, p)
 
 
-def test_fold_bank_from_the_memory_test_squares_equals_its_own(building):
-    """A fold's bank built with the squares of each ``F`` that the test of its memory
-    computed (:func:`~analyzer.detectors.kalman_bank.forgets_within`) is the bank built
-    from scratch, to the last bit: the same products of the same matrices."""
-    from analyzer.detectors.kalman_bank import BankFilter, squared_leave_one_out
-
-    ar = fit_ar(building, 4)
-    held = np.array(building, copy=True)
-    held[1000:2000] = np.nan
-    fold = fit_ar(held, 4)
-    solved = []
-    for j in range(ar.m):
-        whole, P = solved_leave_one_out(ar, j, 16)
-        solved.append(squared_leave_one_out(fold, j, 16, (whole.settle, whole.warmup), P))
-    squares = [sq for _, _, sq in solved]
-    assert all(sq is not None and len(sq._items) > 1 for sq in squares)  # squared already
-    estimators = tuple(e for e, _, _ in solved)
-    shared = BankFilter.build(estimators, 16, squares=squares).system
-    alone = BankFilter.build(estimators, 16).system
-    assert (shared.taps, shared.nfft) == (alone.taps, alone.nfft)
-    assert np.array_equal(shared.markov, alone.markov)
-    assert np.array_equal(shared.spectrum, alone.spectrum)
-
-
-def test_squares_kept_for_a_build_are_computed_again_to_the_same_bits():
-    """``Squares.keep(t)`` forgets the squares after ``A^(2^t)``; asked for again, they
-    are the same products (bit for bit). The squares a fold keeps for its bank's build
-    are the ones the build takes with its step."""
-    from analyzer.detectors.lti import BUILD_SQUARES, ImpulseResponseBank, Squares
-
-    assert 1 << BUILD_SQUARES == ImpulseResponseBank.STEP
-    rng = np.random.default_rng(3)
-    F = rng.standard_normal((12, 12)) * 0.2
-    whole = Squares(F)
-    first = [whole[t] for t in range(7)]
-    whole.keep(2)
-    assert len(whole._items) == 3
-    for t in range(7):
-        assert np.array_equal(whole[t], first[t])
-    for e in (1, 3, 6, 11, 100):
-        assert np.array_equal(whole.power(e), Squares(F).power(e))
-
-
 def test_innovation_moments_equal_the_masked_sums():
     """:class:`~analyzer.detectors.kalman_bank.InnovationMoments` adds, per estimator,
     the count, sum and cross-products of its rows without a missing value: the sums of

@@ -9,8 +9,8 @@ from analyzer.detectors.lti import (
     MAX_TAPS,
     MEMORY_TOL,
     ImpulseResponseBank,
-    Squares,
     _decay_steps,
+    _Squares,
 )
 
 
@@ -146,7 +146,7 @@ def test_markov_parameters_equal_the_recursion(taps):
     rng = np.random.default_rng(taps)
     F, G, H, J = random_system(rng, 9, 3, 2, 0.9)
     out = np.full((3, 2, taps + 40), 7.0)
-    ImpulseResponseBank._markov(Squares(F), G, H, J, taps, 16, out)
+    ImpulseResponseBank._markov(_Squares(F), G, H, J, taps, 16, out)
     want = np.empty((3, 2, taps))
     want[:, :, 0] = J
     x = G
@@ -163,7 +163,7 @@ def test_markov_parameters_equal_the_recursion(taps):
 def test_decay_steps_against_exact_norms(first):
     """``P = I / 2`` (2 x 2): ``||P^m||_F = 2^(1/2 - m)`` exactly, so the smallest ``m``
     under ``tol`` is known; every lower bound ``least`` and cut ``most``."""
-    powers = Squares(0.5 * np.eye(2))
+    powers = _Squares(0.5 * np.eye(2))
     tol = 1.5 * np.sqrt(2) * 0.5**first  # between the norms at first - 1 and first
     for most in range(1, 25):
         for least in range(most + 1):
@@ -175,7 +175,7 @@ def test_powers_from_squares_equal_matrix_power():
     rng = np.random.default_rng(3)
     A = rng.normal(size=(5, 5))
     A /= np.max(np.abs(np.linalg.eigvals(A)))
-    squares = Squares(A)
+    squares = _Squares(A)
     for e in range(1, 70):
         want = np.linalg.matrix_power(A, e)
         np.testing.assert_allclose(squares.power(e), want, rtol=0, atol=1e-12 * np.abs(want).max())
