@@ -318,8 +318,12 @@ class InnovationMoments:
             self.outer = np.zeros((self.m, d, d))
         assert self.total is not None and self.outer is not None
         for j in range(self.m):
-            nu = innov[:, j]
-            nu = nu[np.isfinite(nu).all(axis=1)]
+            # one contiguous copy of the estimator's rows (a strided test of them and a
+            # masked copy took ~1.4x as long), masked only where a row is missing
+            nu = np.ascontiguousarray(innov[:, j])
+            ok = np.isfinite(nu).all(axis=1)
+            if not ok.all():
+                nu = nu[ok]
             self.count[j] += nu.shape[0]
             self.total[j] += nu.sum(axis=0)
             self.outer[j] += nu.T @ nu

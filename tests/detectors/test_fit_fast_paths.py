@@ -343,3 +343,29 @@ def test_lagged_gram_taken_in_pieces_equals_the_whole(building, monkeypatch):
     again = fit_ar(Y, p)
     np.testing.assert_allclose(again.coefs, whole.coefs, rtol=0, atol=1e-10)
     _assert_fit_equals_reference(again, Y, p)
+
+
+def test_innovation_moments_equal_the_masked_sums():
+    """:class:`~analyzer.detectors.kalman_bank.InnovationMoments` adds, per estimator,
+    the count, sum and cross-products of its rows without a missing value: the sums of
+    the masked rows to the last bit, with and without missing rows."""
+    from analyzer.detectors.kalman_bank import InnovationMoments
+
+    rng = np.random.default_rng(4)
+    innov = rng.standard_normal((3000, 6, 5)) * rng.random((1, 6, 5))
+    innov[10, 2, 3] = np.nan
+    innov[40:45, 4] = np.nan
+    moments = InnovationMoments(6)
+    moments.add(innov)
+    moments.add(innov[:700])
+    for j in range(6):
+        counts, totals, outers = [], [], []
+        for block in (innov, innov[:700]):
+            nu = block[:, j]
+            nu = nu[np.isfinite(nu).all(axis=1)]
+            counts.append(nu.shape[0])
+            totals.append(nu.sum(axis=0))
+            outers.append(nu.T @ nu)
+        assert moments.count[j] == sum(counts)
+        assert np.array_equal(moments.total[j], np.zeros(5) + totals[0] + totals[1])
+        assert np.array_equal(moments.outer[j], np.zeros((5, 5)) + outers[0] + outers[1])
