@@ -164,3 +164,33 @@ def test_an_end_lost_where_a_later_fault_began_takes_the_end_seen_without_it(mon
     assert f.end_s == 200.0
     assert f.evidence["end_without"] == {"left_out": "s3", "detector": BANK, "was_s": 150.08}
     assert note.startswith("additive fault on s0: ended at 200.000 s as ar_kalman_bank saw")
+
+
+def test_an_end_lost_where_a_later_fault_began_takes_the_end_both_searches_allow(monkeypatch):
+    """A gain on s1 from 100 to 200 s and an offset on s4 from 150 to 250 s (seed 7 of
+    ``gain-offset``): the observers and the detection filter lost the gain at 150.13 s,
+    where s4's began, the bank saw it to 250.04 s. Without s4 the three saw it alone: the
+    bank and the filter to 200.0 s, the observers, whose event leads (it alarmed first,
+    the confidences all 1), to 272.68 s, past every end of the first search. Before, the
+    lead's end was refused and nothing taken (the finding ended at 150.13 s); now the
+    latest end of the search's other events within the first search's (200.01 s, the
+    filter's) is."""
+    g = Event("s1", 100.01, 250.04, FaultType.MULTIPLICATIVE, {"gain": 1.51}, 1.0, BANK, {})
+    f = _finding(
+        Event("s1", 99.88, 150.13, FaultType.MULTIPLICATIVE, {"gain": 1.50}, 1.0, EM, {}),
+        Event("s1", 100.01, 150.07, FaultType.MULTIPLICATIVE, {"gain": 1.51}, 1.0, DF, {}),
+    )
+    f.events.append(g)
+    later = _fault("s4", 150.0, 250.0)
+    hidden = pipeline.ends_hidden_by_later([f, later], lambda *_: True)
+    assert hidden == [(f, later)]
+    h = _finding(
+        Event("s1", 99.88, 272.68, FaultType.MULTIPLICATIVE, {"gain": 1.49}, 1.0, EM, {}),
+        Event("s1", 100.01, 200.0, FaultType.MULTIPLICATIVE, {"gain": 1.51}, 1.0, BANK, {}),
+        Event("s1", 100.01, 200.01, FaultType.MULTIPLICATIVE, {"gain": 1.508}, 1.0, DF, {}),
+    )
+    assert (h.detector, h.end_s) == (EM, 272.68)
+    (note,) = _searched(monkeypatch, {"s4": [h]})(hidden, [])
+    assert f.end_s == 200.01 and f.magnitude == {"gain": 1.508}
+    assert f.evidence["end_without"] == {"left_out": "s4", "detector": DF, "was_s": 150.13}
+    assert note.startswith("multiplicative fault on s1: ended at 200.010 s as detection_filter")
