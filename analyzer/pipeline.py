@@ -1180,8 +1180,14 @@ def _ends_without(
         for f, g in hidden:
             if g.channel != left:
                 continue
-            # ended where the later fault began (lost there, or ended): an end after it
-            lost = f.end_s is not None and f.end_s <= g.onset_s + slack
+            # ended where the later fault began (lost there, or ended): an end after it;
+            # or within a long window after one of its detectors saw it begin (its
+            # finding's onset may be another's early one, which the onset search moves
+            # only after the ends)
+            lost = f.end_s is not None and (
+                f.end_s <= g.onset_s + slack
+                or any(e.onset_s <= f.end_s <= e.onset_s + slack for e in g.events)
+            )
             until = float("inf") if f.end_s is None or lost else f.end_s - slack
             # (lost there: no later than its events saw it, the later fault's trace in)
             ends = [e.end_s for e in f.events]

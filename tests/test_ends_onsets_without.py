@@ -194,3 +194,31 @@ def test_an_end_lost_where_a_later_fault_began_takes_the_end_both_searches_allow
     assert f.end_s == 200.01 and f.magnitude == {"gain": 1.508}
     assert f.evidence["end_without"] == {"left_out": "s4", "detector": DF, "was_s": 150.13}
     assert note.startswith("multiplicative fault on s1: ended at 200.010 s as detection_filter")
+
+
+def test_an_end_lost_where_one_detector_saw_the_later_fault_begin_is_lost_there(monkeypatch):
+    """A gain on s1 from 100 to 200 s and an offset on s4 from 150 to 250 s (seed 25 of
+    ``gain-offset``): the filter and the observers lost the gain at 150.08 s, the bank
+    saw it to 250.04 s; s4's finding began at the filter's 147.73 s (its trace of s1's
+    gain; the onset search moves it to 150.0 s, after the ends), the bank saw it begin at
+    150.0 s. Without s4 the gain ends at 200.08 s. Before, 150.08 s was no end lost
+    where s4's fault began (more than a long window after 147.73 s), and no end of the
+    search without s4 was before it: the finding stayed at 150.08 s."""
+    gain = FaultType.MULTIPLICATIVE
+    f = _finding(
+        Event("s1", 99.99, 150.08, gain, {"gain": 1.497}, 1.0, EM, {}),
+        Event("s1", 100.0, 150.09, gain, {"gain": 1.494}, 1.0, DF, {}),
+    )
+    f.events.append(Event("s1", 99.99, 250.04, gain, {"gain": 1.496}, 1.0, BANK, {}))
+    later = _finding(_ev("s4", DF, 147.73, 250.01), _ev("s4", BANK, 150.0, 250.0))
+    assert later.onset_s == 147.73
+    hidden = pipeline.ends_hidden_by_later([f, later], lambda *_: True)
+    assert hidden == [(f, later)]
+    h = _finding(
+        Event("s1", 99.99, 200.08, gain, {"gain": 1.497}, 1.0, BANK, {}),
+        Event("s1", 100.0, 200.08, gain, {"gain": 1.494}, 1.0, DF, {}),
+    )
+    (note,) = _searched(monkeypatch, {"s4": [h]})(hidden, [])
+    assert f.end_s == 200.08
+    assert f.evidence["end_without"]["was_s"] == 150.08
+    assert note.startswith("multiplicative fault on s1: ended at 200.080 s")
