@@ -222,3 +222,28 @@ def test_an_end_lost_where_one_detector_saw_the_later_fault_begin_is_lost_there(
     assert f.end_s == 200.08
     assert f.evidence["end_without"]["was_s"] == 150.08
     assert note.startswith("multiplicative fault on s1: ended at 200.080 s")
+
+
+def test_a_fault_that_began_again_as_a_finding_of_its_own_without_the_later_sensor_goes_on(
+    monkeypatch,
+):
+    """A gain on s1 from 100 to 160 s and again from 170 s to the record's end, beside an
+    offset on s4 from 150 s to the end (seed 1): the filter and the observers lost the
+    gain at 150.1 s, the bank saw it to the end. Without s4 the bank sees the gain end at
+    160.0 s (the gain's end test) and begin again at 170.1 s, a finding of its own. Before,
+    only the events of the finding that ended counted as the fault seen again, and the
+    finding ended at 160.0 s with s1 reported healthy after it; the fault goes on."""
+    gain = FaultType.MULTIPLICATIVE
+    f = _finding(
+        Event("s1", 100.0, 150.06, gain, {"gain": 1.50}, 1.0, DF, {}),
+        Event("s1", 100.03, 150.11, gain, {"gain": 1.53}, 1.0, EM, {}),
+    )
+    f.events.append(Event("s1", 100.0, None, gain, {"gain": 1.50}, 1.0, BANK, {}))
+    later = _fault("s4", 150.0, None)
+    hidden = pipeline.ends_hidden_by_later([f, later], lambda *_: True)
+    assert hidden == [(f, later)]
+    h = _finding(Event("s1", 100.0, 160.0, gain, {"gain": 1.50}, 1.0, BANK, {}))
+    k = _finding(Event("s1", 170.1, None, gain, {"gain": 1.50}, 1.0, BANK, {}))
+    (note,) = _searched(monkeypatch, {"s4": [h, k]})(hidden, [])
+    assert f.end_s is None
+    assert note.startswith("multiplicative fault on s1: ended at the record's end")

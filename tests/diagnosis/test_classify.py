@@ -311,3 +311,19 @@ def test_a_gain_is_not_other_where_the_estimate_carries_less_than_its_noise(gain
     assert c.explained == pytest.approx(1.0, abs=0.05)
     burst = classify(gain * e, y, sigma, rate)
     assert burst.type is FaultType.OTHER
+
+
+@pytest.mark.parametrize("seed", range(5))
+@pytest.mark.parametrize("level", [0.01, 0.1])
+def test_a_noise_burst_on_a_quiet_reference_is_not_a_gain(seed, level):
+    """Three times the healthy noise over a reference near zero: the scaled gain's fit
+    takes its gain from the noise alone (about 3, or -3), and with a gain's noise credit
+    (its floor times ``a^2``) it explained 1.0 and was a gain. The signal does not follow
+    the reference (its slope on it is no better than none, by BIC), so the noise is not
+    the gain's: ``other``."""
+    rng = np.random.default_rng(seed)
+    rate, n = 100.0, 2000
+    y = level * np.sin(2 * np.pi * 1.3 * np.arange(n) / rate)
+    c = classify(3.0 * rng.standard_normal(n), y, 1.0, rate)
+    assert c.type is FaultType.OTHER
+    assert c.explained < 0.1
