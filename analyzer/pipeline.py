@@ -1131,9 +1131,11 @@ def _ends_without(
     record: a finding of theirs on the same sensor that begins within a long alarm
     window of its onset and ends after the later fault began and before the hidden end
     gives its end (and its size, when of its type), or the latest end of its events
-    that saw the sensor faulty again after it (none: the fault went on to the hidden end
-    or the record's, and the finding stays). A hidden end where the later fault began
-    (within a long alarm window: the first fault ended there, or was lost there) takes
+    that saw the sensor faulty again after it, or of the search's later findings on the
+    sensor that began before the latest end of the finding's own events (none: the fault
+    went on to the hidden end or the record's, and the finding stays). A hidden end
+    where the later fault began (within a long alarm window: the first fault ended
+    there, or was lost there) takes
     an end of theirs more than that window after it, or the record's end, but none more
     than that window after the latest end of its events (with the later fault's trace in
     their residuals they saw it no longer: an end past that is something else, and the
