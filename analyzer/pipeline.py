@@ -1135,9 +1135,9 @@ def _ends_without(
     sensor that began before the latest end of the finding's own events (none: the fault
     went on to the hidden end or the record's, and the finding stays). A hidden end
     where the later fault began (within a long alarm window: the first fault ended
-    there, or was lost there) takes
-    an end of theirs more than that window after it, or the record's end, but none more
-    than that window after the latest end of its events (with the later fault's trace in
+    there, or was lost there) takes an end of theirs more than that window after it, or
+    the record's end, but none more than that window after the latest end of its
+    events (with the later fault's trace in
     their residuals they saw it no longer: an end past that is something else, and the
     finding stays). Then, every end done, the onsets of the ``early`` findings, each
     with the earlier fault under way where its lead began (:func:`_onset_without`),
