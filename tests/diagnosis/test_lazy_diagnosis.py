@@ -105,7 +105,7 @@ def _whole_record_diagnosis(
                 continue
         k += 1
     gain = cls.type is FaultType.MULTIPLICATIVE and ref is not None
-    if gain and iv.end is not None and (end is None or end > iv.end):
+    if gain and iv.end is not None and end is None:
         # (the gain's end test past the raw alarms, on the whole arrays)
         stop_at = n if end is None else end
         ended = _gain_ended(r, ref, cls, cal, None, iv.end, stop_at, tau_corr)
