@@ -33,6 +33,7 @@ from analyzer.detector_runs import (
 from analyzer.detectors import Dataset, DetectorResult, RunContext, detector_class
 from analyzer.detectors.ar_kalman import ORDER_NOTE
 from analyzer.detectors.ar_model import flat_channels
+from analyzer.detectors.base import Event
 from analyzer.diagnosis import (
     Finding,
     ends_hidden_by_later,
@@ -1134,11 +1135,13 @@ def _ends_without(
     record: a finding of theirs on the same sensor that begins within a long alarm
     window of its onset and ends after the later fault began and before the hidden end
     gives its end (and its size, when of its type), or the latest end of its events
-    that saw the sensor faulty again after it (none: the fault went on to the hidden end
-    or the record's, and the finding stays). A hidden end where the later fault began
-    (within a long alarm window: the first fault ended there, or was lost there) takes
-    an end of theirs more than that window after it, or the record's end, but none more
-    than that window after the latest end of its events (with the later fault's trace in
+    that saw the sensor faulty again after it, or of the search's later findings on the
+    sensor that began before the latest end of the finding's own events (none: the fault
+    went on to the hidden end or the record's, and the finding stays). A hidden end
+    where the later fault began (within a long alarm window: the first fault ended
+    there, or was lost there) takes an end of theirs more than that window after it, or
+    the record's end, but none more than that window after the latest end of its
+    events (with the later fault's trace in
     their residuals they saw it no longer: an end past that is something else, and the
     finding stays). Then, every end done, the onsets of the ``early`` findings, each
     with the earlier fault under way where its lead began (:func:`_onset_without`),
@@ -1183,8 +1186,14 @@ def _ends_without(
         for f, g in hidden:
             if g.channel != left:
                 continue
-            # ended where the later fault began (lost there, or ended): an end after it
-            lost = f.end_s is not None and f.end_s <= g.onset_s + slack
+            # ended where the later fault began (lost there, or ended): an end after it;
+            # or within a long window after one of its detectors saw it begin (its
+            # finding's onset may be another's early one, which the onset search moves
+            # only after the ends)
+            lost = f.end_s is not None and (
+                f.end_s <= g.onset_s + slack
+                or any(e.onset_s <= f.end_s <= e.onset_s + slack for e in g.events)
+            )
             until = float("inf") if f.end_s is None or lost else f.end_s - slack
             # (lost there: no later than its events saw it, the later fault's trace in)
             ends = [e.end_s for e in f.events]
@@ -1206,19 +1215,41 @@ def _ends_without(
             # events of its own that saw the sensor faulty again after its end (a fault
             # that stopped and began again, its parts one finding): the fault went on
             again = [e.end_s for e in h.events if h.end_s is not None and e.onset_s > h.end_s]
+            # or a later finding of the search on the sensor that began where the first
+            # search's events still saw it faulty (its parts two findings there: a gain
+            # whose end the search sees, :func:`~analyzer.diagnosis.events._gain_ended`)
+            again += [
+                k.end_s
+                for k in found
+                if k is not h
+                and k.channel == f.channel
+                and h.end_s is not None
+                and h.end_s < k.onset_s < past
+            ]
             end = h.end_s
             if again:
                 end = None if None in again else max(e for e in again if e is not None)
                 if not lost and (end is None or end >= until):
                     continue
+            source: Finding | Event = h
             if lost and (float("inf") if end is None else end) > past + slack:
-                continue
+                # its lead saw it end past what the first search saw (not seen faulty
+                # again after its end: then it went on): the latest end of its other
+                # events that both searches allow, if any
+                within = None if again else _within_both(h, f.end_s, past, slack)
+                if within is None:
+                    continue
+                source, end = within, within.end_s
             was, f.end_s = f.end_s, end
             # (findings.json: where the end came from, beside the detectors' own events)
-            f.evidence["end_without"] = {"left_out": left, "detector": h.detector, "was_s": was}
+            f.evidence["end_without"] = {
+                "left_out": left,
+                "detector": source.detector,
+                "was_s": was,
+            }
             size = ""
-            if h.type is f.type:
-                f.magnitude = dict(h.magnitude)
+            if source.type is f.type:
+                f.magnitude = dict(source.magnitude)
                 size = (
                     ", with its size then ("
                     + ", ".join(f"{k} {v:.4g}" for k, v in f.magnitude.items())
@@ -1227,7 +1258,7 @@ def _ends_without(
             notes.append(
                 f"{f.type.value} fault on {f.channel}: ended at "
                 + ("the record's end" if end is None else f"{end:.3f} s")
-                + f" as {h.detector} saw it with {left} left out{size}; with {left} it was "
+                + f" as {source.detector} saw it with {left} left out{size}; with {left} it was "
                 "reported to "
                 + ("the record's end" if was is None else f"{was:.3f} s")
                 + f", the {g.type.value} fault on {left} (from {g.onset_s:.3f} s) in the "
@@ -1241,6 +1272,31 @@ def _ends_without(
         _onset_without(f, g, founds[g.channel], slack) for f, g in early if g.channel in founds
     )
     return [n for n in notes if n]
+
+
+def _within_both(h: Finding, lost_at: float | None, past: float, slack: float) -> Event | None:
+    """The event of ``h`` (a finding of the search without a later fault's sensor, whose
+    lead ended past what the first search saw) of ``h``'s type with the latest end that
+    both searches allow: more than ``slack`` after ``lost_at``, where the first search
+    lost the fault (where the later fault began), and no more than ``slack`` after
+    ``past``, the latest end of the first search's events; None when no event of ``h``
+    has one.
+
+    The detectors of ``h`` saw the fault alone and may disagree on its end: the lead,
+    the event that alarmed first, is one of them (their confidences saturate at 1), and
+    its end past ``past`` is no end the first search confirms, while another's within
+    it is. A gain of 1.5 on s1 from 100 to 200 s beside an offset on s4 from 150 to
+    250 s (seeds 7 and 13 of ``sweep_two_faults.py``, ``gain-offset``): with s4 the
+    detection filter and the observers lost it at 150.1 s, the bank saw it to 250.0 s;
+    without s4 the bank and the filter saw it to 200.0 s, the observers, whose gain led,
+    to 272.7 s and 279.5 s."""
+    lo = float("-inf") if lost_at is None else lost_at + slack
+    ends = [
+        e
+        for e in h.events
+        if e.type is h.type and e.end_s is not None and lo < e.end_s <= past + slack
+    ]
+    return max(ends, key=lambda e: float(e.end_s or 0.0)) if ends else None
 
 
 def _onset_without(f: Finding, g: Finding, found: Sequence[Finding], slack: float) -> str:

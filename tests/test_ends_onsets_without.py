@@ -164,3 +164,86 @@ def test_an_end_lost_where_a_later_fault_began_takes_the_end_seen_without_it(mon
     assert f.end_s == 200.0
     assert f.evidence["end_without"] == {"left_out": "s3", "detector": BANK, "was_s": 150.08}
     assert note.startswith("additive fault on s0: ended at 200.000 s as ar_kalman_bank saw")
+
+
+def test_an_end_lost_where_a_later_fault_began_takes_the_end_both_searches_allow(monkeypatch):
+    """A gain on s1 from 100 to 200 s and an offset on s4 from 150 to 250 s (seed 7 of
+    ``gain-offset``): the observers and the detection filter lost the gain at 150.13 s,
+    where s4's began, the bank saw it to 250.04 s. Without s4 the three saw it alone: the
+    bank and the filter to 200.0 s, the observers, whose event leads (it alarmed first,
+    the confidences all 1), to 272.68 s, past every end of the first search. Before, the
+    lead's end was refused and nothing taken (the finding ended at 150.13 s); now the
+    latest end of the search's other events within the first search's (200.01 s, the
+    filter's) is."""
+    g = Event("s1", 100.01, 250.04, FaultType.MULTIPLICATIVE, {"gain": 1.51}, 1.0, BANK, {})
+    f = _finding(
+        Event("s1", 99.88, 150.13, FaultType.MULTIPLICATIVE, {"gain": 1.50}, 1.0, EM, {}),
+        Event("s1", 100.01, 150.07, FaultType.MULTIPLICATIVE, {"gain": 1.51}, 1.0, DF, {}),
+    )
+    f.events.append(g)
+    later = _fault("s4", 150.0, 250.0)
+    hidden = pipeline.ends_hidden_by_later([f, later], lambda *_: True)
+    assert hidden == [(f, later)]
+    h = _finding(
+        Event("s1", 99.88, 272.68, FaultType.MULTIPLICATIVE, {"gain": 1.49}, 1.0, EM, {}),
+        Event("s1", 100.01, 200.0, FaultType.MULTIPLICATIVE, {"gain": 1.51}, 1.0, BANK, {}),
+        Event("s1", 100.01, 200.01, FaultType.MULTIPLICATIVE, {"gain": 1.508}, 1.0, DF, {}),
+    )
+    assert (h.detector, h.end_s) == (EM, 272.68)
+    (note,) = _searched(monkeypatch, {"s4": [h]})(hidden, [])
+    assert f.end_s == 200.01 and f.magnitude == {"gain": 1.508}
+    assert f.evidence["end_without"] == {"left_out": "s4", "detector": DF, "was_s": 150.13}
+    assert note.startswith("multiplicative fault on s1: ended at 200.010 s as detection_filter")
+
+
+def test_an_end_lost_where_one_detector_saw_the_later_fault_begin_is_lost_there(monkeypatch):
+    """A gain on s1 from 100 to 200 s and an offset on s4 from 150 to 250 s (seed 25 of
+    ``gain-offset``): the filter and the observers lost the gain at 150.08 s, the bank
+    saw it to 250.04 s; s4's finding began at the filter's 147.73 s (its trace of s1's
+    gain; the onset search moves it to 150.0 s, after the ends), the bank saw it begin at
+    150.0 s. Without s4 the gain ends at 200.08 s. Before, 150.08 s was no end lost
+    where s4's fault began (more than a long window after 147.73 s), and no end of the
+    search without s4 was before it: the finding stayed at 150.08 s."""
+    gain = FaultType.MULTIPLICATIVE
+    f = _finding(
+        Event("s1", 99.99, 150.08, gain, {"gain": 1.497}, 1.0, EM, {}),
+        Event("s1", 100.0, 150.09, gain, {"gain": 1.494}, 1.0, DF, {}),
+    )
+    f.events.append(Event("s1", 99.99, 250.04, gain, {"gain": 1.496}, 1.0, BANK, {}))
+    later = _finding(_ev("s4", DF, 147.73, 250.01), _ev("s4", BANK, 150.0, 250.0))
+    assert later.onset_s == 147.73
+    hidden = pipeline.ends_hidden_by_later([f, later], lambda *_: True)
+    assert hidden == [(f, later)]
+    h = _finding(
+        Event("s1", 99.99, 200.08, gain, {"gain": 1.497}, 1.0, BANK, {}),
+        Event("s1", 100.0, 200.08, gain, {"gain": 1.494}, 1.0, DF, {}),
+    )
+    (note,) = _searched(monkeypatch, {"s4": [h]})(hidden, [])
+    assert f.end_s == 200.08
+    assert f.evidence["end_without"]["was_s"] == 150.08
+    assert note.startswith("multiplicative fault on s1: ended at 200.080 s")
+
+
+def test_a_fault_that_began_again_as_a_finding_of_its_own_without_the_later_sensor_goes_on(
+    monkeypatch,
+):
+    """A gain on s1 from 100 to 160 s and again from 170 s to the record's end, beside an
+    offset on s4 from 150 s to the end (seed 1): the filter and the observers lost the
+    gain at 150.1 s, the bank saw it to the end. Without s4 the bank sees the gain end at
+    160.0 s (the gain's end test) and begin again at 170.1 s, a finding of its own. Before,
+    only the events of the finding that ended counted as the fault seen again, and the
+    finding ended at 160.0 s with s1 reported healthy after it; the fault goes on."""
+    gain = FaultType.MULTIPLICATIVE
+    f = _finding(
+        Event("s1", 100.0, 150.06, gain, {"gain": 1.50}, 1.0, DF, {}),
+        Event("s1", 100.03, 150.11, gain, {"gain": 1.53}, 1.0, EM, {}),
+    )
+    f.events.append(Event("s1", 100.0, None, gain, {"gain": 1.50}, 1.0, BANK, {}))
+    later = _fault("s4", 150.0, None)
+    hidden = pipeline.ends_hidden_by_later([f, later], lambda *_: True)
+    assert hidden == [(f, later)]
+    h = _finding(Event("s1", 100.0, 160.0, gain, {"gain": 1.50}, 1.0, BANK, {}))
+    k = _finding(Event("s1", 170.1, None, gain, {"gain": 1.50}, 1.0, BANK, {}))
+    (note,) = _searched(monkeypatch, {"s4": [h, k]})(hidden, [])
+    assert f.end_s is None
+    assert note.startswith("multiplicative fault on s1: ended at the record's end")

@@ -21,7 +21,8 @@ varies, where ``(a - 1) y_ref`` is all but constant, that is what tells a gain f
 offset. Every shape may also have a noise level of its own, one parameter more
 (:func:`_free_noise`), so a stretch noisier than health is not the gain's by default.
 The posterior weights of the three shapes give the classification's confidence. When even
-the best shape leaves most of the fault's energy unexplained, the fault is ``other``
+the best shape leaves most of the fault's energy above the noise unexplained (the noise
+its own model implies: a gain's scaled, :func:`_explained_floor`), the fault is ``other``
 (erratic, stuck, noise burst).
 """
 
@@ -195,6 +196,50 @@ def _free_noise(rss: float, k: int, floor: float) -> list[tuple[float, int, floa
         return []
     lam2 = rss / floor
     return [(floor * (float(np.log(lam2)) + 1.0), k + 1, float(np.sqrt(lam2)), 1.0)]
+
+
+def _explained_floor(kind: FaultType, gain: float, floor: float, evident: bool = True) -> float:
+    """The residual energy a fault of ``kind`` leaves about its fitted shape by its own
+    model, against which the shape's explained share is measured: the healthy ``floor``
+    (``n s2``), or for a gain ``a`` above 1, ``a^2`` times it.
+
+    A gain multiplies the reading's noise with it (:func:`_scaled_gain`): its fault
+    signal is ``(a - 1) y + a e``, of energy ``(a - 1)^2 Syy + a^2 n s2``, and its shape
+    ``(a - 1) y`` leaves ``a^2 n s2``. Measured against the healthy floor, the part
+    ``(a^2 - 1) n s2`` above it, the gain's own doing, counted as unexplained: the share
+    fell below :data:`UNEXPLAINED_LIMIT` wherever ``(a - 1)^2 Syy < (a^2 - 1) n s2``
+    (for a gain of 1.5, a fault-free estimate whose spread is under ``sqrt(5)`` times
+    the residual's), and the gain was ``other``. A 1.5 gain on the ground-floor sensor of
+    ``sweep_two_faults.py`` (seed 6) was ``other`` to all three detectors, explained
+    0.23-0.49, its weights all the gain's. A gain below 1 takes noise away, which the
+    healthy floor already credits (its shape leaves less than the floor), so its floor
+    stays the healthy one, as does a dead sensor's (below :data:`MIN_GAIN`).
+
+    ``evident``: whether the fault signal follows the reference as that gain has it
+    (:func:`_slope_evident`); only then is the noise the gain's. Where the reference is
+    quiet, the scaled fit's gain comes from the noise alone: a noise burst of 3 times
+    health on a reference near zero fitted a gain of 3.0 (or -3.0), and the credit
+    made it explained to 1.0, a gain instead of ``other``. Without that evidence the
+    floor stays the healthy one."""
+    if evident and kind is FaultType.MULTIPLICATIVE and abs(gain) > 1.0:
+        return floor * gain * gain
+    return floor
+
+
+def _slope_evident(
+    energy: float, rss_slope: float, n_eff: float, slope: float, gain: float
+) -> bool:
+    """Whether the fault signal follows the reference, with the sign of the fitted gain's
+    ``gain - 1``: its least-squares ``slope`` on the reference, with a noise level of its
+    own, beats no shape with a noise level of its own by BIC (one parameter more,
+    ``n_eff log(energy / rss_slope) > log n_eff``, ``rss_slope`` what that slope leaves
+    of the signal's ``energy``; ``n_eff`` the stretch's independent samples). What a
+    gain's noise credit needs (:func:`_explained_floor`): a noise level above health's is
+    anything's (a burst, an erratic sensor), a share that follows the reference is the
+    gain's."""
+    if not (energy > 0.0 and rss_slope > 0.0) or slope * (gain - 1.0) <= 0.0:
+        return False
+    return bool(n_eff * np.log(energy / rss_slope) > np.log(n_eff))
 
 
 @dataclass(frozen=True, slots=True)
@@ -400,7 +445,13 @@ def classify(
     floor = n * noise
     rss_best = fits[best][0]
     excess = energy - floor
-    explained = float((energy - rss_best) / excess) if excess > 0 else 0.0
+    # what the best shape leaves beyond the noise its own model implies: a gain's is its
+    # reading's noise times the gain, so the energy above the healthy floor is partly its
+    # doing (:func:`_explained_floor`)
+    gain = params.get("gain", 1.0)
+    evident = g is not None and _slope_evident(energy, rss_mult, n_eff, g, gain)
+    own = _explained_floor(best, gain, floor, evident)
+    explained = float((energy - rss_best + own - floor) / excess) if excess > 0 else 0.0
     if explained < UNEXPLAINED_LIMIT:
         # the more of the fault energy the shapes leave unexplained, the surer "other" is
         return Classification(

@@ -289,3 +289,41 @@ def test_an_offset_on_a_large_level_is_not_the_healthy_slope_read_as_a_gain():
     unsloped = classify(plain, y, sigma, rate)
     zero = classify(plain, y, sigma, rate, slope=ReferenceSlope(0.0, 1000.0))
     assert unsloped.type is FaultType.ADDITIVE and zero.weights == unsloped.weights
+
+
+@pytest.mark.parametrize("gain", [1.5, 1.3])
+def test_a_gain_is_not_other_where_the_estimate_carries_less_than_its_noise(gain):
+    """A gain ``a`` makes the residual ``(a - 1) y + a e``: its shape leaves ``a^2`` times
+    the healthy noise, its own model's. Where the fault-free estimate ``y`` varies little
+    against the residual's noise (twice its variance here; a ground-floor sensor that
+    the others estimate poorly), ``(a^2 - 1)`` times the noise is most of the energy above
+    the healthy floor. Measured against that floor the gain explained 0.27 (1.5) and
+    0.19 (1.3) and was ``other``, its weights all the gain's; against its own it is a
+    gain. A stretch noisier than health by the same factors, no gain of the reading (the
+    noise not following ``y``), stays ``other``."""
+    rng = np.random.default_rng(5)
+    rate, n, sigma = 100.0, 20_000, 1.0
+    y = 2.0 * np.sin(2 * np.pi * 1.3 * np.arange(n) / rate + 0.3)  # variance 2
+    e = sigma * rng.standard_normal(n)
+    c = classify((gain - 1.0) * y + gain * e, y, sigma, rate)
+    assert c.type is FaultType.MULTIPLICATIVE
+    assert c.magnitude["gain"] == pytest.approx(gain, abs=0.02)
+    assert c.explained == pytest.approx(1.0, abs=0.05)
+    burst = classify(gain * e, y, sigma, rate)
+    assert burst.type is FaultType.OTHER
+
+
+@pytest.mark.parametrize("seed", range(5))
+@pytest.mark.parametrize("level", [0.01, 0.1])
+def test_a_noise_burst_on_a_quiet_reference_is_not_a_gain(seed, level):
+    """Three times the healthy noise over a reference near zero: the scaled gain's fit
+    takes its gain from the noise alone (about 3, or -3), and with a gain's noise credit
+    (its floor times ``a^2``) it explained 1.0 and was a gain. The signal does not follow
+    the reference (its slope on it is no better than none, by BIC), so the noise is not
+    the gain's: ``other``."""
+    rng = np.random.default_rng(seed)
+    rate, n = 100.0, 2000
+    y = level * np.sin(2 * np.pi * 1.3 * np.arange(n) / rate)
+    c = classify(3.0 * rng.standard_normal(n), y, 1.0, rate)
+    assert c.type is FaultType.OTHER
+    assert c.explained < 0.1

@@ -28,10 +28,12 @@ from analyzer.diagnosis.events import (
     MAX_REFITS,
     REFIT_GROWTH,
     _confined,
+    _gain_ended,
     _Intervals,
     diagnose_interval,
     events_from_residual,
 )
+from analyzer.types import FaultType
 
 RATE = 100.0
 
@@ -102,6 +104,12 @@ def _whole_record_diagnosis(
                 k = 0
                 continue
         k += 1
+    gain = cls.type is FaultType.MULTIPLICATIVE and ref is not None
+    if gain and iv.end is not None and end is None:
+        # (the gain's end test past the raw alarms, on the whole arrays)
+        stop_at = n if end is None else end
+        ended = _gain_ended(r, ref, cls, cal, None, iv.end, stop_at, tau_corr)
+        end = end if ended is None else ended
     if end != iv.end:
         cls = fit(min(n if end is None else end, limit))
     return cls, end
@@ -585,6 +593,9 @@ def test_a_shape_fitted_on_a_short_first_interval_is_refitted(
     assert all(end == 30_000 for _, end in got), [end for _, end in got]
     assert all(c.magnitude[magnitude] == pytest.approx(truth, rel=0.02) for c, _ in got)
     monkeypatch.setattr("analyzer.diagnosis.events.MAX_REFITS", 0)
+    # (a gain's end is also found past the raw alarms by _gain_ended, whatever its shape
+    # was fitted on: without it too)
+    monkeypatch.setattr("analyzer.diagnosis.events._gain_ended", lambda *_: None)
     assert any(end != 30_000 for _, end in diagnoses())
 
 

@@ -1,0 +1,87 @@
+"""A gain's end where the residual after it is no noisier than health: undoing the gain
+there leaves ``(e - (a - 1) y) / a``, of variance ``(1 + (a - 1)^2 V / s2) / a^2`` times
+health's, which the corrected residual's alarm windows do not tell from health (below 1
+for a gain of 1.5 where ``V < 5 s2``); the end is where the residual is health's rather
+than the gain's (:func:`~analyzer.diagnosis.events._gain_ended`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from analyzer.diagnosis.changes import calibrate
+from analyzer.diagnosis.events import events_from_residual
+from analyzer.types import FaultType
+
+RATE = 100.0
+START = 6000  # the healthy window: the first 60 s
+N = 30_000
+
+
+def _record(seed: int, v: float) -> tuple[np.ndarray, np.ndarray]:
+    """A coloured healthy residual of variance ~1 and a reference of variance ``v``: a
+    lightly damped 1.3-Hz response to white noise (a floor's motion)."""
+    rng = np.random.default_rng(seed)
+    e = lfilter([1.0], [1.0, -0.6], rng.standard_normal(N)) * 0.8
+    w = 2 * np.pi * 1.3 / RATE
+    y = lfilter([1.0], [1.0, -2 * 0.995 * np.cos(w), 0.995**2], rng.standard_normal(N))
+    y *= np.sqrt(v) / y.std()
+    return e, y
+
+
+LATE = pytest.mark.xfail(
+    strict=True,
+    reason="the corrected residual's alarms found a late end (270.8 s, 212.4 s), which "
+    "the gain's end test does not overrule: it runs only where no end was found (run "
+    "past a found end, it cut a gain beside another sensor's offset at 180.9 s, "
+    "sweep_two_faults gain-offset seed 14)",
+)
+
+
+@pytest.mark.parametrize(
+    "seed, v",
+    [
+        (1, 2.0),
+        (2, 2.0),
+        (3, 2.0),
+        (1, 4.0),
+        pytest.param(2, 4.0, marks=LATE),
+        pytest.param(3, 4.0, marks=LATE),
+    ],
+)
+def test_a_gain_whose_corrected_residual_is_quieter_after_it_ends_where_it_ended(seed, v):
+    """A gain of 1.5 from 100 to 200 s: after 200 s the corrected residual has 0.67 (``V =
+    2``) or 0.89 (``V = 4``) of health's variance. It ran to the record's end (the two44
+    classifier, which makes it a gain); at bd303ba it was ``other``."""
+    e, y = _record(seed, v)
+    a = 1.5
+    r = e.copy()
+    fault = slice(10_000, 20_000)
+    r[fault] = (a - 1.0) * y[fault] + a * e[fault]
+    s2 = float(np.var(e[:START]))
+    assert (1 + (a - 1) ** 2 * v / s2) / a**2 < 1.0
+    cal = calibrate(r[:START], 25)
+    events = events_from_residual("s0", r, y, cal, RATE, "t", search_start=START, healthy_start=0)
+    gains = [ev for ev in events if ev.type is FaultType.MULTIPLICATIVE]
+    assert gains and gains[0].onset_s == pytest.approx(100.0, abs=1.0)
+    assert gains[-1].end_s is not None and gains[-1].end_s == pytest.approx(200.0, abs=1.0)
+    assert gains[-1].magnitude["gain"] == pytest.approx(a, abs=0.1)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_gain_that_goes_on_through_a_lull_is_not_ended_there(seed):
+    """A gain of 1.5 from 100 s to the record's end whose structure falls quiet from 150 s
+    (the reference 1 % of its size): the raw residual's alarms stop there (its noise,
+    2.25 times health's, is under the long window's threshold), the gain's scaled noise
+    still tells it from health, and the fault goes on to the end."""
+    e, y = _record(seed, 4.0)
+    y[15_000:] *= 0.01
+    a = 1.5
+    r = e.copy()
+    r[10_000:] = (a - 1.0) * y[10_000:] + a * e[10_000:]
+    cal = calibrate(r[:START], 25)
+    events = events_from_residual("s0", r, y, cal, RATE, "t", search_start=START, healthy_start=0)
+    assert events and events[0].type is FaultType.MULTIPLICATIVE
+    assert events[0].onset_s == pytest.approx(100.0, abs=1.0)
+    assert events[-1].end_s is None
