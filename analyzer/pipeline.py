@@ -1215,14 +1215,16 @@ def _ends_without(
             # events of its own that saw the sensor faulty again after its end (a fault
             # that stopped and began again, its parts one finding): the fault went on
             again = [e.end_s for e in h.events if h.end_s is not None and e.onset_s > h.end_s]
-            # or a later finding of the search on the sensor that began where the first
-            # search's events still saw it faulty (its parts two findings there: a gain
-            # whose end the search sees, :func:`~analyzer.diagnosis.events._gain_ended`)
+            # or a later finding of the search on the sensor, of the same type, that began
+            # where the first search's events still saw it faulty (its parts two findings
+            # there: a gain whose end the search sees, :func:`~analyzer.diagnosis.events.
+            # _gain_ended`)
             again += [
                 k.end_s
                 for k in found
                 if k is not h
                 and k.channel == f.channel
+                and k.type is h.type
                 and h.end_s is not None
                 and h.end_s < k.onset_s < past
             ]

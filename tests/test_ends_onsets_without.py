@@ -247,3 +247,24 @@ def test_a_fault_that_began_again_as_a_finding_of_its_own_without_the_later_sens
     (note,) = _searched(monkeypatch, {"s4": [h, k]})(hidden, [])
     assert f.end_s is None
     assert note.startswith("multiplicative fault on s1: ended at the record's end")
+
+
+def test_a_later_finding_of_another_type_on_the_sensor_does_not_extend_its_end(monkeypatch):
+    """A gain on s1 lost where s4's offset began (the bank saw it to 250 s, s4's fault in
+    its residual); without s4 the gain ends at 160 s, and an offset on s1 from 170 to
+    190 s is another fault, not the gain seen again: the gain ends at 160 s (it took
+    the offset's 190 s when the search's later findings on the sensor counted whatever
+    their type)."""
+    gain = FaultType.MULTIPLICATIVE
+    f = _finding(
+        Event("s1", 100.0, 150.06, gain, {"gain": 1.50}, 1.0, DF, {}),
+        Event("s1", 100.03, 150.11, gain, {"gain": 1.53}, 1.0, EM, {}),
+    )
+    f.events.append(Event("s1", 100.0, 250.0, gain, {"gain": 1.50}, 1.0, BANK, {}))
+    later = _fault("s4", 150.0, 250.0)
+    hidden = pipeline.ends_hidden_by_later([f, later], lambda *_: True)
+    assert hidden == [(f, later)]
+    h = _finding(Event("s1", 100.0, 160.0, gain, {"gain": 1.50}, 1.0, BANK, {}))
+    k = _finding(_ev("s1", BANK, 170.0, 190.0))
+    _searched(monkeypatch, {"s4": [h, k]})(hidden, [])
+    assert f.end_s == 160.0

@@ -561,7 +561,7 @@ def diagnose_interval(
         # was found: run past a found one, it cut a gain on s2 at 180.9 s beside an
         # offset on s5 from 150 s in the observers' residual (sweep_two_faults
         # gain-offset seed 14), whose end the other rules had right
-        ended = _gain_ended(r, ref, cls, cal, slope, iv.end, n if end is None else end, tau_corr)
+        ended = _gain_ended(r, ref, cls, cal, slope, iv.end, n, tau_corr)
         if ended is not None:
             end = ended
     if end != iv.end:
@@ -600,9 +600,15 @@ def _gain_ended(
     health, ``f ~ N(0, s2)``, against the gain's model, ``f ~ N((a - 1) y, k^2 s2)``,
     ``f`` the residual less its healthy mean and healthy share of the reference and ``k``
     the fit's noise scale (:attr:`~analyzer.diagnosis.classify.Classification.
-    noise_scale`); each sample's log-likelihood ratio counts as ``1 / tau`` of one
-    (coloured residuals; ``tau`` the longer of ``tau_corr`` and the correlation time the
-    calibration's window-mean spreads imply, ``w sd_w^2``). Its cumulative sum from
+    noise_scale`), for a gain above 1 at most the gain (its own model: a fit with a
+    noise level of its own, fitted on a short first stretch, took 1.5-2.5 for a gain of
+    1.5, and with 2.5 the sum fell inside the fault, in a lull of the structure, where
+    the gain's scaled noise alone tells it: a true gain ended at 150-193 s of 100-300 s
+    in 6 of 6 seeds; capped, its expected step there is ``(a^2 - 1) / 2 - log a > 0``
+    whatever the noise above ``a^2``); each sample's log-likelihood ratio counts as
+    ``1 / tau`` of one (coloured residuals; ``tau`` the longer of ``tau_corr`` and the
+    correlation time the calibration's window-mean spreads imply, ``w sd_w^2``). Its
+    cumulative sum from
     ``start`` rises while the gain goes on (in a lull too: the gain's scaled noise) and
     falls once the sensor reads right; the end is the sample after its maximum, taken
     when the sum has fallen from it by ``log(1 / false_alarm_rate)`` (Page's CUSUM, with
@@ -610,7 +616,8 @@ def _gain_ended(
     :data:`~analyzer.diagnosis.changes.STAT_PIECE` samples at a time, and only as far as
     the answer needs."""
     gain = float(cls.params.get("gain", 1.0))
-    k2 = cls.noise_scale**2
+    k = min(cls.noise_scale, abs(gain)) if abs(gain) > 1.0 else cls.noise_scale
+    k2 = k * k
     s2 = cal.std**2
     if not (k2 > 0.0 and s2 > 0.0 and np.isfinite(gain)):
         return None

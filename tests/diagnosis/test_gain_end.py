@@ -85,3 +85,31 @@ def test_a_gain_that_goes_on_through_a_lull_is_not_ended_there(seed):
     assert events and events[0].type is FaultType.MULTIPLICATIVE
     assert events[0].onset_s == pytest.approx(100.0, abs=1.0)
     assert events[-1].end_s is None
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3, 4, 5, 6])
+@pytest.mark.parametrize("noise", [2.0, 2.5])
+def test_a_gain_fitted_with_a_larger_noise_of_its_own_goes_on_through_a_lull(seed, noise):
+    """The end test's gain model with the noise level of the classification's fit: a fit
+    with a noise of its own, on a short first stretch, may take 2-2.5 times health's for
+    a gain of 1.5. With that noise the sum fell inside the fault, in a quiet stretch of
+    the structure (the gain's scaled noise the only evidence there: an expected step of
+    ``a^2 (1 - 1 / k^2) / 2 - log k``, 0.03 for ``k`` 2.5), and ended a gain that went
+    on (3 and 6 of 6 seeds, at 150-193 s); the model's noise is at most the gain's."""
+    from analyzer.diagnosis.classify import Classification
+    from analyzer.diagnosis.events import _gain_ended
+
+    e, y = _record(seed, 4.0)
+    y[15_000:] *= 0.01
+    a = 1.5
+    r = e.copy()
+    r[10_000:] = (a - 1.0) * y[10_000:] + a * e[10_000:]
+    cal = calibrate(r[:START], 25)
+    cls = Classification(
+        FaultType.MULTIPLICATIVE, {"gain": a}, 1.0, params={"gain": a}, noise_scale=noise
+    )
+    assert _gain_ended(r, y, cls, cal, None, 15_000, N) is None
+    ended = e.copy()  # the same gain ending at 150 s, in the lull: ended there
+    ended[10_000:15_000] = (a - 1.0) * y[10_000:15_000] + a * e[10_000:15_000]
+    got = _gain_ended(ended, y, cls, cal, None, 15_000, N)
+    assert got is not None and 150.0 <= got / RATE <= 160.0
