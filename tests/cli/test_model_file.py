@@ -125,6 +125,19 @@ def test_a_fault_present_from_the_first_sample_is_found_with_the_model(
         assert _main(["run", src, "--out", tmp_path / "own", "--train", "0:20"]) == 0
 
 
+def _two_dead(model, record, piece: int, tmp_path: Path):
+    """``--model --corrected`` on a piece of the record with s1 dead at 10-22 s and s3
+    at 16-30 s: ``(findings, readings, truth, out folder)``."""
+    t, y = _piece(record, piece)
+    truth = y.copy()
+    y[:, 1] = inject_fault(y[:, 1], RATE, "multiplicative", 10.0, 0.0, 22.0)
+    y[:, 3] = inject_fault(y[:, 3], RATE, "multiplicative", 16.0, 0.0, 30.0)
+    src = _write(tmp_path / "dead.csv", t, y, record[2])
+    out = tmp_path / "c"
+    assert _main(["run", src, "--out", out, "--model", model, "--corrected"]) == 1
+    return json.loads((out / "findings.json").read_text()), y, truth, out
+
+
 def test_a_dead_sensor_alive_again_is_kept_as_measured_with_the_model(model, record, tmp_path):
     """--model --corrected: s1 dead at 10-22 s and s3 at 16-30 s; the detectors see s1
     faulty to about 30 s (its estimate leans on the dead s3), yet its readings after
@@ -134,14 +147,7 @@ def test_a_dead_sensor_alive_again_is_kept_as_measured_with_the_model(model, rec
     --model``, ``two-dead-drift``: 0.10-0.19 sd of error over the healthy readings).
     (Its readings read zero from the onset: the finding itself ends at 22 s, where they
     move again, the detectors' end kept in its evidence; it ran on to 30.2 s before.)"""
-    t, y = _piece(record, 1)
-    truth = y.copy()
-    y[:, 1] = inject_fault(y[:, 1], RATE, "multiplicative", 10.0, 0.0, 22.0)
-    y[:, 3] = inject_fault(y[:, 3], RATE, "multiplicative", 16.0, 0.0, 30.0)
-    src = _write(tmp_path / "dead.csv", t, y, record[2])
-    out = tmp_path / "c"
-    assert _main(["run", src, "--out", out, "--model", model, "--corrected"]) == 1
-    doc = json.loads((out / "findings.json").read_text())
+    doc, y, truth, out = _two_dead(model, record, 1, tmp_path)
     (s1,) = [f for f in doc["faults"] if f["channel"] == "s1"]
     assert s1["end_s"] == pytest.approx(22.0, abs=0.02)  # where the readings moved again
     assert s1["evidence"]["frozen"]["alarmed_to_s"] > 23.0  # the detectors saw it past 22 s
@@ -170,14 +176,7 @@ def test_a_dead_sensor_whose_finding_ran_on_is_not_a_gain_with_the_model(model, 
     from the onset, as no gain does: s1 is dead, to 22 s, where they move again, and
     its readings after are kept as measured (``sweep_corrected.py --model``: gains of
     0.11-0.38, 1.0-1.9 sd of error over the healthy readings)."""
-    t, y = _piece(record, 0)
-    truth = y.copy()
-    y[:, 1] = inject_fault(y[:, 1], RATE, "multiplicative", 10.0, 0.0, 22.0)
-    y[:, 3] = inject_fault(y[:, 3], RATE, "multiplicative", 16.0, 0.0, 30.0)
-    src = _write(tmp_path / "dead.csv", t, y, record[2])
-    out = tmp_path / "c"
-    assert _main(["run", src, "--out", out, "--model", model, "--corrected"]) == 1
-    doc = json.loads((out / "findings.json").read_text())
+    doc, y, truth, out = _two_dead(model, record, 0, tmp_path)
     (s1,) = [f for f in doc["faults"] if f["channel"] == "s1"]
     assert (s1["type"], s1["magnitude"]) == ("multiplicative", {"gain": 0.0})
     assert s1["end_s"] == pytest.approx(22.0, abs=0.02)

@@ -69,17 +69,23 @@ def test_a_gain_whose_corrected_residual_is_quieter_after_it_ends_where_it_ended
     assert gains[-1].magnitude["gain"] == pytest.approx(a, abs=0.1)
 
 
+def _gain_through_a_lull(seed: int, a: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A record's healthy residual, its reference quiet from 150 s (1 % of its size),
+    and the residual of a gain ``a`` from 100 s to the end: ``(e, y, r)``."""
+    e, y = _record(seed, 4.0)
+    y[15_000:] *= 0.01
+    r = e.copy()
+    r[10_000:] = (a - 1.0) * y[10_000:] + a * e[10_000:]
+    return e, y, r
+
+
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_a_gain_that_goes_on_through_a_lull_is_not_ended_there(seed):
     """A gain of 1.5 from 100 s to the record's end whose structure falls quiet from 150 s
     (the reference 1 % of its size): the raw residual's alarms stop there (its noise,
     2.25 times health's, is under the long window's threshold), the gain's scaled noise
     still tells it from health, and the fault goes on to the end."""
-    e, y = _record(seed, 4.0)
-    y[15_000:] *= 0.01
-    a = 1.5
-    r = e.copy()
-    r[10_000:] = (a - 1.0) * y[10_000:] + a * e[10_000:]
+    e, y, r = _gain_through_a_lull(seed, 1.5)
     cal = calibrate(r[:START], 25)
     events = events_from_residual("s0", r, y, cal, RATE, "t", search_start=START, healthy_start=0)
     assert events and events[0].type is FaultType.MULTIPLICATIVE
@@ -99,11 +105,8 @@ def test_a_gain_fitted_with_a_larger_noise_of_its_own_goes_on_through_a_lull(see
     from analyzer.diagnosis.classify import Classification
     from analyzer.diagnosis.events import _gain_ended
 
-    e, y = _record(seed, 4.0)
-    y[15_000:] *= 0.01
     a = 1.5
-    r = e.copy()
-    r[10_000:] = (a - 1.0) * y[10_000:] + a * e[10_000:]
+    e, y, r = _gain_through_a_lull(seed, a)
     cal = calibrate(r[:START], 25)
     cls = Classification(
         FaultType.MULTIPLICATIVE, {"gain": a}, 1.0, params={"gain": a}, noise_scale=noise
