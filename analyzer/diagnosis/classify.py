@@ -450,13 +450,15 @@ def classify(
     # doing (:func:`_explained_floor`)
     gain = params.get("gain", 1.0)
     evident = g is not None and _slope_evident(energy, rss_mult, n_eff, g, gain)
-    if best is FaultType.MULTIPLICATIVE and chosen[best][2] != abs(gain):
-        # the gain's fit with a noise level of its own, lambda: the credit only where the
-        # gain's own noise is most of the excess over health (a^2 - 1 >= lambda^2 - a^2).
-        # Without this a gain of 1.042 whose free noise was 1.121 times health's, on a
-        # healthy sensor beside a gain of 0.75 on s0 (seed 6), explained 0.538 with the
-        # credit (0.31 without) and was a false gain
-        lam2 = chosen[best][2] ** 2
+    if best is FaultType.MULTIPLICATIVE and floor > 0.0:
+        # the credit only where the gain's own noise is most of what its shape leaves
+        # over health (a^2 - 1 >= lambda^2 - a^2, lambda^2 = rss / floor: the noise left,
+        # a free-noise fit's own lambda). Without this a gain of 1.042 whose free noise
+        # was 1.121 times health's, on a healthy sensor beside a gain of 0.75 on s0
+        # (seed 6), explained 0.538 with the credit (0.31 without), and a scaled gain of
+        # 1.030 over 7 s of a healthy sensor whose shape left 1.157 times the floor
+        # (sweep_eov rise2, 4 channels, seed 4) explained 0.620 (0.387): false gains
+        lam2 = rss_best / floor
         evident = evident and gain * gain - 1.0 >= lam2 - gain * gain
     own = _explained_floor(best, gain, floor, evident)
     explained = float((energy - rss_best + own - floor) / excess) if excess > 0 else 0.0
