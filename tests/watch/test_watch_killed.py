@@ -236,6 +236,23 @@ def _killed_at_folder_rename(monkeypatch: pytest.MonkeyPatch, after: bool) -> No
     monkeypatch.setattr(Ledger, "save_state", save)
 
 
+def _restarted_after_kept_aside(
+    reports: Path, monkeypatch: pytest.MonkeyPatch, *, after: bool
+) -> tuple[Ledger, Record]:
+    """A record kept aside by a watcher killed at its folder's rename (``after``: once
+    the folder moved), then the next start's ledger, tidied (nothing forgotten), and
+    its one record."""
+    ledger = _recorded_once(reports)
+    _killed_at_folder_rename(monkeypatch, after=after)
+    with pytest.raises(_Killed):
+        ledger.keep_aside("a.csv")
+    monkeypatch.undo()
+    again = Ledger.load(reports)
+    assert again.tidy() == []
+    (rec,) = again.records.values()
+    return again, rec
+
+
 def test_a_record_kept_aside_survives_a_kill_after_its_folder_moved(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -244,14 +261,7 @@ def test_a_record_kept_aside_survives_a_kill_after_its_folder_moved(
     said so: the next start finds the record with its folder (before, the state still
     pointed at ``a.csv/``, gone, so the start forgot that result)."""
     reports = tmp_path / "reports"
-    ledger = _recorded_once(reports)
-    _killed_at_folder_rename(monkeypatch, after=True)
-    with pytest.raises(_Killed):
-        ledger.keep_aside("a.csv")
-    monkeypatch.undo()
-    again = Ledger.load(reports)
-    assert again.tidy() == []
-    (rec,) = again.records.values()
+    again, rec = _restarted_after_kept_aside(reports, monkeypatch, after=True)
     assert rec.dropped_as == "a.csv"
     assert (reports / rec.report).read_text() == "first"
 
@@ -263,14 +273,7 @@ def test_a_record_kept_aside_survives_a_kill_before_its_folder_moved(
     moved yet): the next start keeps that record, and the new content's report does
     not replace its folder."""
     reports = tmp_path / "reports"
-    ledger = _recorded_once(reports)
-    _killed_at_folder_rename(monkeypatch, after=False)
-    with pytest.raises(_Killed):
-        ledger.keep_aside("a.csv")
-    monkeypatch.undo()
-    again = Ledger.load(reports)
-    assert again.tidy() == []
-    (rec,) = again.records.values()
+    again, rec = _restarted_after_kept_aside(reports, monkeypatch, after=False)
     scratch = reports / ".tmp-new"
     scratch.mkdir()
     (scratch / "report.html").write_text("second")
