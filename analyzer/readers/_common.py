@@ -710,7 +710,8 @@ class TopicTracker:
         headers, as Gazebo's ``use_sim_time`` gives, beside a recorder's wall clock).
         Their samples lie years apart, which one common clock cannot hold. A topic with
         messages of both sources counts as ``"header"`` (its unset stamps are on the
-        header clock's epoch, see :meth:`_zero_is_unset`)."""
+        header clock's epoch, see :meth:`_zero_is_unset`). Else, two clocks that lie far
+        apart, both giving Unix times or not (:meth:`_apart`)."""
         by_topic: dict[str, str] = {}
         for topic, source in self._spans:
             if by_topic.get(topic) != "header":
