@@ -231,6 +231,13 @@ epoch) times; a topic whose nonzero stamps are mostly below it runs on a simulat
 (Gazebo's ``/clock`` starts at 0; 1e9 s is 31.7 years of simulated time), on which a
 stamp of 0 is a real time, not "unset"."""
 
+CLOCKS_APART_NS = 3600 * 10**9
+"""Header stamps that lie this far (an hour) and more from the other topics' times, and
+further than the recording lasts, are on a second clock (:meth:`TopicTracker._apart`):
+far beyond any delay from stamp to log; a message latched that long before the
+recording (a map stamped when its server started) cannot be aligned with the rest
+either, its one sample stretching the common clock over the empty hour."""
+
 
 def absolute_log_time(
     start: Callable[[], int | None], end: Callable[[], int | None] | None = None
@@ -256,30 +263,48 @@ def absolute_log_time(
 
 def two_clocks(clocks: dict[str, str], spans: dict[str, tuple[int, int]]) -> str:
     """What ``--time header`` did where the topics' times come from two clocks
-    (:meth:`TopicTracker.clocks`: topic to ``"header"`` or ``"log"``), each side's
-    topics with the span of their times (``spans``: first and last, nanoseconds), and
-    what to do."""
+    (:meth:`TopicTracker.clocks`: topic to ``"header"``, the side timed by header
+    stamps on a clock of their own, or ``"log"``/``"stamped"``, the other side's topics
+    timed by their log times or their header stamps), each side's topics with the span
+    of their times (``spans``: first and last, nanoseconds), and what to do."""
 
-    def side(source: str) -> tuple[list[str], str]:
-        topics = [t for t, s in clocks.items() if s == source]
+    def listed(topics: list[str]) -> str:
+        return ", ".join(topics[:4]) + (f" and {len(topics) - 4} more" if len(topics) > 4 else "")
+
+    def side(*sources: str) -> tuple[list[str], int, int]:
+        topics = [t for t, s in clocks.items() if s in sources]
         lo = min(spans[t][0] for t in topics if t in spans)
         hi = max(spans[t][1] for t in topics if t in spans)
-        if hi >= EPOCH_NS:
-            when = f"Unix times, {iso_utc(lo)} to {iso_utc(hi)}"
-        else:
-            when = f"{lo / 1e9:.3f} to {hi / 1e9:.3f} s, not Unix times: a simulation clock?"
-        return topics, when
+        return topics, lo, hi
 
-    stamped, stamped_when = side("header")
-    logged, logged_when = side("log")
-    names = ", ".join(stamped[:4]) + (f" and {len(stamped) - 4} more" if len(stamped) > 4 else "")
-    others = ", ".join(logged[:4]) + (f" and {len(logged) - 4} more" if len(logged) > 4 else "")
+    def when(lo: int, hi: int) -> str:
+        if hi >= EPOCH_NS:
+            return f"Unix times, {iso_utc(lo)} to {iso_utc(hi)}"
+        return f"{lo / 1e9:.3f} to {hi / 1e9:.3f} s, not Unix times: a simulation clock?"
+
+    stamped, lo, hi = side("header")
+    others, other_lo, other_hi = side("log", "stamped")
+    stamped_when = when(lo, hi)
+    if min(hi, other_hi) >= EPOCH_NS:  # (both Unix times: how far apart)
+        days = max(lo - other_hi, other_lo - hi) / 86400e9
+        apart = f"{days:.1f} days" if days >= 2 else f"{days * 24:.1f} h"
+        stamped_when += f", {apart} {'before' if hi < other_lo else 'after'} the others"
+    logged = [t for t in others if clocks[t] == "log"]
+    also = [t for t in others if clocks[t] == "stamped"]
+    if not also:
+        rest = f"{listed(logged)} by their log times (no header.stamp, or 0; "
+    elif not logged:
+        rest = f"{listed(also)} by theirs ("
+    else:
+        rest = (
+            f"{listed(also)} by their header.stamp and {listed(logged)} by their log times "
+            "(no header.stamp, or 0; together "
+        )
     pick = ",".join(f"{t}.*" for t in stamped[:4])
     return (
-        f"--time header: two clocks: {names} timed by their header.stamp ({stamped_when}), "
-        f"{others} by their log times (no header.stamp, or 0; {logged_when}); one analysis "
-        f"needs one clock: use --time log, or --channels to choose topics of one clock "
-        f"(such as '{pick}')"
+        f"--time header: two clocks: {listed(stamped)} timed by their header.stamp "
+        f"({stamped_when}), {rest}{when(other_lo, other_hi)}); one analysis needs one clock: "
+        f"use --time log, or --channels to choose topics of one clock (such as '{pick}')"
     )
 
 
@@ -607,6 +632,9 @@ class TopicTracker:
         """With ``--time header``, per topic and source (``"header"``: its own stamps,
         ``"log"``: log times, for messages without a header or with a stamp of 0 taken
         as unset): the first and last time so given (see :meth:`clocks`)."""
+        self._logged: tuple[int, int] | None = None
+        """With ``--time header``: the first and last log time of any message, the span
+        of the recording on the recorder's clock (see :meth:`_apart`)."""
 
     def push(self, reorder: Reorderer, topic: str, decoded: Decoded, log_ns: IntArray) -> None:
         """Note what ``decoded`` (messages of ``topic`` logged at ``log_ns``) holds beside
@@ -636,6 +664,10 @@ class TopicTracker:
             else:
                 known.count += change.count
         times = log_ns
+        if self.time == "header":
+            lo, hi = int(log_ns.min()), int(log_ns.max())
+            was = self._logged
+            self._logged = (lo, hi) if was is None else (min(was[0], lo), max(was[1], hi))
         if self.time == "header" and decoded.stamps is not None:
             stamps = decoded.stamps
             unset = stamps == NO_STAMP
@@ -678,7 +710,8 @@ class TopicTracker:
         headers, as Gazebo's ``use_sim_time`` gives, beside a recorder's wall clock).
         Their samples lie years apart, which one common clock cannot hold. A topic with
         messages of both sources counts as ``"header"`` (its unset stamps are on the
-        header clock's epoch, see :meth:`_zero_is_unset`)."""
+        header clock's epoch, see :meth:`_zero_is_unset`). Else, two clocks that lie far
+        apart, both giving Unix times or not (:meth:`_apart`)."""
         by_topic: dict[str, str] = {}
         for topic, source in self._spans:
             if by_topic.get(topic) != "header":
@@ -690,11 +723,48 @@ class TopicTracker:
         log = {epoch[t] for t, s in by_topic.items() if s == "log"}
         if len(header) == 1 and len(log) == 1 and header != log:
             return by_topic
-        return {}
+        return self._apart(by_topic)
+
+    def _apart(self, by_topic: dict[str, str]) -> dict[str, str]:
+        """For :meth:`clocks`: two clocks that both give Unix times, far apart (a robot
+        whose unsynchronised clock stamps its headers in 2021 beside topics without a
+        header at the recorder's 2026 log times; one topic stamped years off): the
+        topics split at the widest stretch that none of their spans covers, where that
+        stretch is longer than the recording itself (its log times, all topics) and than
+        :data:`CLOCKS_APART_NS`. Every message was logged within the recording's span,
+        so the times of one clock and one recording cannot lie further apart than that
+        plus the delay from stamp to log; the floor keeps a short recording's late or
+        latched messages (a map stamped when its server started) on one clock. The side
+        farther from the log times is the one apart (``"header"``: only header stamps
+        lie outside the log times); the other side's topics are ``"log"`` or, stamped
+        on its clock, ``"stamped"``. Else ``{}``."""
+        if len(by_topic) < 2 or self._logged is None:
+            return {}
+        spans = sorted((*self._spans[(t, s)], t) for t, s in by_topic.items())
+        gap, split, reach = 0, 0, spans[0][1]
+        for k, (start, end, _) in enumerate(spans[1:], 1):
+            if start - reach > gap:
+                gap, split = start - reach, k
+            reach = max(reach, end)
+        logged = self._logged
+        if gap <= max(logged[1] - logged[0], CLOCKS_APART_NS):
+            return {}
+        early, late = [t for *_, t in spans[:split]], [t for *_, t in spans[split:]]
+
+        def distance(topics: list[str]) -> int:
+            lo = min(self._spans[(t, by_topic[t])][0] for t in topics)
+            hi = max(self._spans[(t, by_topic[t])][1] for t in topics)
+            return max(logged[0] - hi, lo - logged[1], 0)
+
+        apart, near = (early, late) if distance(early) > distance(late) else (late, early)
+        out = {t: "header" for t in apart}
+        out.update({t: "stamped" if by_topic[t] == "header" else "log" for t in near})
+        return {t: out[t] for t in by_topic}
 
     def clock_spans(self) -> dict[str, tuple[int, int]]:
         """Of each topic of :meth:`clocks`: the first and last time its clock gave it."""
-        return {t: self._spans[(t, s)] for t, s in self.clocks().items()}
+        clocks = self.clocks()
+        return {t: self._spans[(t, "log" if s == "log" else "header")] for t, s in clocks.items()}
 
     def clock_line(self) -> str | None:
         """The line :meth:`lines` says of two clocks (see :meth:`clocks`), else None."""

@@ -62,8 +62,10 @@ class InputInfo:
     clocks: dict[str, str] = field(default_factory=dict)
     """With ``--time header``, where its topics' times come from two clocks (header
     stamps on a simulation clock beside log times on the wall clock, or the other way
-    round): each topic's, ``"header"`` or ``"log"``; else empty. Said in ``errors``; an
-    analysis or export of channels of both is refused (:func:`one_clock`)."""
+    round; or header stamps that are Unix times far from the others'): each topic's,
+    ``"header"`` (timed by header stamps on a clock of their own) or the other clock's
+    ``"log"`` (log times) or ``"stamped"`` (header stamps); else empty. Said in
+    ``errors``; an analysis or export of channels of both is refused (:func:`one_clock`)."""
     clock_spans: dict[str, tuple[int, int]] = field(default_factory=dict)
     """Of each topic of :attr:`clocks`: the first and last time its clock gave it (ns)."""
 
@@ -103,6 +105,6 @@ def one_clock(channels: Sequence[str], inputs: Sequence[InputInfo]) -> None:
             for topic, source in info.clocks.items()
             if any(c.startswith(f"{topic}.") or c.startswith(f"{topic}[") for c in channels)
         }
-        if len(set(used.values())) > 1:
+        if len({source == "header" for source in used.values()}) > 1:
             spans = info.clock_spans
             raise ReaderError(f"{info.path}: {two_clocks(used, spans)}")

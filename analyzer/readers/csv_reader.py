@@ -664,6 +664,11 @@ class CsvReader:
         another time column, of date-times that agree with it, gives (:meth:`_anchor`)."""
         self._anchor_text = ""
         """What :meth:`_time_text` adds of that column."""
+        self._anchored: tuple[int, int, int] | None = None
+        """Of that column: its index, the resolution to which the two agreed (ns) and the
+        rows compared on the first block, for :meth:`_check_anchor` on every block."""
+        self._parted = (0, 0)
+        """The least and largest date-time less time (ns) of the blocks read so far."""
         self._no_numeric = ""
         """Why no column is a channel (:attr:`InputInfo.no_numeric`), else ""."""
         first_time = self._inspect_first_block()
@@ -878,8 +883,8 @@ class CsvReader:
         and the findings' ISO times exist; where they do not agree, the time column's
         times are kept, relative, and a line in ``info.errors`` says which column gave
         the time and that the other was ignored. Before, the other column was dropped
-        as a text column, unsaid. Only the first block is compared (date-times that
-        drift apart later in the file are not told)."""
+        as a text column, unsaid. Where they agree, every later block is compared too
+        (:meth:`_check_anchor`)."""
         names = self._layout.names
         column = self._layout.time_column
         others = [
@@ -910,6 +915,7 @@ class CsvReader:
                 # (the date-times cut to their resolution, as strftime and isoformat
                 # write them: the largest difference is the one least cut)
                 self._offset = int(diff.max())
+                self._anchored = (other, allowed, int(both.sum()))
                 self._anchor_text = (
                     f"; absolute times from column {theirs!r}, whose date-times agree with "
                     f"it (to {allowed / 1e9:g} s): {int(t_ns[both][0]) / 1e9:g} s is "
@@ -924,6 +930,51 @@ class CsvReader:
                 f"{allowed / 1e9:g} s resolution of the two), so they do not agree"
             )
             return
+
+    def _check_anchor(
+        self,
+        other: int,
+        allowed: int,
+        compared: int,
+        batch: pa.RecordBatch,
+        t_ns: IntArray,
+        keep: np.ndarray,
+        rows: int,
+    ) -> None:
+        """Raise :class:`ReaderError` where the two time columns that agreed on the first
+        block (:meth:`_anchor`) part later in the file (the date-times jump by an hour,
+        the seconds restart), at the first row whose date-time less its time lies
+        further than the two columns' resolution from those of every row before: which
+        of the two is right cannot be told, and the times read so far hold the first
+        block's offset. ``other``, ``allowed`` and ``compared`` are :attr:`_anchored`;
+        ``t_ns`` the block's times (with the offset), ``rows`` the data rows before it.
+        Before, only the first block was compared, and the findings' ISO times were off
+        by the jump from there on, unsaid."""
+        absolute, present = _iso_date_times(self._clean(batch.column(other)))
+        both = np.flatnonzero(keep & present)
+        if not both.size:
+            return
+        diff = absolute[both] - t_ns[both]
+        lo = np.minimum(np.minimum.accumulate(diff), self._parted[0])
+        hi = np.maximum(np.maximum.accumulate(diff), self._parted[1])
+        apart = hi - lo > allowed
+        if not bool(apart[-1]):  # (the spread only grows: the last row tells)
+            self._parted = (int(lo[-1]), int(hi[-1]))
+            return
+        first = int(np.argmax(apart))
+        row = int(both[first])
+        names = self._layout.names
+        mine, theirs = names[self._layout.time_column], names[other]
+        cell = str(batch.column(self._layout.time_column)[row].as_py()).strip()
+        stamp = str(batch.column(other)[row].as_py()).strip()
+        raise ReaderError(
+            f"{self.path}: two time columns part at data row {rows + row + 1}: {theirs!r} "
+            f"{stamp!r} lies {int(diff[first]) / 1e9:+.3f} s from {mine!r} {cell!r} "
+            f"({iso_utc(int(t_ns[row]))}), after they agreed (to {allowed / 1e9:g} s) over "
+            f"the first {compared} rows, which made the times absolute: one of the two jumps "
+            f"there; correct the file, or leave {theirs!r} out of it for relative times from "
+            f"{mine!r}"
+        )
 
     def _tail_cells(self, most: int = 50) -> list[str]:
         """The time cells of the file's last lines (up to ``most``, from its last 64 KiB;
@@ -1000,6 +1051,7 @@ class CsvReader:
         garbled: tuple[int, str] | None = None  # of a corrupt .gz: (data row, why)
         self._clock = (0, 0)
         self._rows_cut = 0
+        self._parted = (0, 0)
         whole = False  # read to the end without an error
         blocks = self._stream()
         try:
@@ -1020,6 +1072,8 @@ class CsvReader:
                     broken = bisect.bisect_left(self._invalid_at, rows + cut)
                     invalid = 0
                 broken += invalid
+                if self._anchored is not None:
+                    self._check_anchor(*self._anchored, batch, t_ns, keep, rows)
                 dropped = int(np.count_nonzero(~keep))
                 skipped += dropped
                 # one time array for every float64 column (the reorderer works out the
@@ -1919,6 +1973,21 @@ def _date_times(text: pa.Array) -> tuple[IntArray, np.ndarray]:
         return out, np.zeros(len(series), dtype=bool)
     out[keep] = parsed[keep].dt.as_unit("ns").astype("int64").to_numpy()
     return out, keep
+
+
+def _iso_date_times(text: pa.Array) -> tuple[IntArray, np.ndarray]:
+    """:func:`_date_times`, by Arrow's own cast where every cell is an ISO 8601
+    date-time of one kind (all with a zone, or all without: UTC), else by pandas: every
+    block of a file that :meth:`CsvReader._anchor` made absolute is compared, and Arrow
+    parses 60 000 cells in 1.6 ms, pandas in 54 ms (the same nanoseconds)."""
+    for kind in (pa.timestamp("ns", "UTC"), pa.timestamp("ns")):
+        try:
+            ns = pc.cast(pc.cast(text, kind), pa.int64())
+        except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+            continue
+        if not ns.null_count:
+            return np.asarray(_numpy(ns), dtype=np.int64), np.ones(len(ns), dtype=bool)
+    return _date_times(text)
 
 
 def _resolution(ns: IntArray) -> int:

@@ -11,11 +11,13 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 from readers_helpers import T0, collect
 
 from analyzer.cli import main
+from analyzer.errors import ReaderError
 from analyzer.inspect import inspect_archive
-from analyzer.readers import open_input
+from analyzer.readers import csv_reader, open_input
 
 N = 400
 START = dt.datetime(2026, 1, 1, tzinfo=dt.UTC)  # T0
@@ -118,3 +120,71 @@ def test_findings_have_iso_times(tmp_path: Path) -> None:
     (fault,) = doc["faults"]
     assert (fault["channel"], fault["onset_s"]) == ("s3", 80.0)
     assert fault["onset"] == "2026-01-01T00:01:20.000Z"
+
+
+# ------------------------------------ compared on every block, not the first only (contract46)
+
+MANY = 6_000  # rows: with blocks of 16 KiB, about 20 blocks
+
+
+def _blocks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Blocks of 16 KiB (1 MiB in use), for files of several blocks in a small test."""
+    monkeypatch.setattr(csv_reader, "BLOCK_BYTES", 1 << 14)
+
+
+@pytest.mark.parametrize(
+    "part, row",
+    [
+        ("iso_hour", 4_000),  # the date-times jump an hour ahead (a clock reset to local time)
+        ("time_restart", 5_000),  # the seconds restart from 0 (a logger restarted)
+        ("blank_cells", 4_000),  # the hour, in blocks with a blank date-time (read by pandas)
+    ],
+)
+def test_time_columns_that_part_after_the_first_block_are_refused(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    part: str,
+    row: int,
+) -> None:
+    _blocks(monkeypatch)
+    seconds = np.arange(MANY) * 0.05
+    stamps = seconds.copy()
+    if part == "time_restart":
+        seconds[row:] -= seconds[row]
+    else:
+        stamps[row:] += 3600.0
+    cells = _iso(stamps)
+    if part == "blank_cells":
+        cells[row - 1] = cells[row + 1] = ""
+    path = _write(tmp_path / "p.csv", seconds, cells)
+    reader = open_input(path)
+    assert reader.info.absolute_time  # (agreed on the first block)
+    with pytest.raises(ReaderError) as caught:
+        collect(reader.chunks())
+    first_block = int(caught.value.args[0].split("over the first ")[1].split(" rows")[0])
+    assert first_block < row  # (the parting lies beyond the first block)
+    offset = row * 0.05 if part == "time_restart" else 3600.0
+    assert str(caught.value).startswith(
+        f"{path}: two time columns part at data row {row + 1}: 'timestamp' "
+        f"{_iso(stamps[row : row + 1])[0]!r} lies {offset:+.3f} s from 'time' "
+        f"'{seconds[row]:.2f}' ({_iso(seconds[row : row + 1])[0]}), after they agreed (to "
+        "0.01 s) over the first"
+    )
+    for command in (["run", path, "--out", tmp_path / "o", "--no-progress"], ["inspect", path]):
+        assert main([str(a) for a in command]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "two time columns part at data row" in err
+
+
+def test_time_columns_that_agree_throughout_read_as_before(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Many blocks that agree, the date-times cut to the second (each block's differences
+    lie anywhere within the second): absolute times, nothing said."""
+    _blocks(monkeypatch)
+    seconds = 3.3 + np.arange(MANY) * 0.05
+    reader = open_input(_write(tmp_path / "a.csv", seconds, _iso(np.floor(seconds), "seconds")))
+    t, _ = collect(reader.chunks())["s0"]
+    np.testing.assert_array_equal(t, T0 + 3_300_000_000 + np.arange(MANY) * 50_000_000)
+    assert reader.info.errors == []
