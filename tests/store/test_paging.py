@@ -1,5 +1,6 @@
 """Releasing the resident pages of memory-mapped arrays (analyzer.paging)."""
 
+import os
 import sys
 
 import numpy as np
@@ -73,28 +74,79 @@ def test_spilled_rows_are_released_like_any_mapping(tmp_path):
 
 def test_spill_keeps_rows_already_mapped_in_its_precision(tmp_path):
     """A float32 row of a memory-mapped buffer is returned as a read-only view of its own
-    map (no second copy); the others go to the file, which holds only them."""
+    map (no second copy), a whole float64 buffer is narrowed over its own file; the
+    others go to the file, which holds only them."""
     from analyzer.paging import buffer, is_mapped
 
     n = 5000
     mapped = buffer(tmp_path, "kept", (n, 2), np.float32)
     mapped[:, 0] = np.arange(n)
     mapped[:, 1] = -1.0
-    wide = buffer(tmp_path, "wide", (n, 1))  # float64: converted, so written
+    wide = buffer(tmp_path, "wide", (n, 1))  # float64: narrowed where it is
     wide[:, 0] = 0.25
     signals = {"a": mapped[:, 0], "w": wide[:, 0], "b": mapped[:, 1], "m": np.full(n, 3.0)}
+    expected = {name: np.array(a, dtype=np.float32) for name, a in signals.items()}
     rows = spill(signals, tmp_path / "s.npy", np.float32)
     assert list(rows) == ["a", "w", "b", "m"]
     for name in ("a", "b"):
         assert np.shares_memory(rows[name], signals[name])
+    for name in ("a", "b", "w"):
         assert is_mapped(rows[name])
     for name, row in rows.items():
         assert row.dtype == np.float32 and not row.flags.writeable
-        np.testing.assert_array_equal(row, np.asarray(signals[name], dtype=np.float32))
-    assert np.load(tmp_path / "s.npy").shape == (2, n)  # only w and m
+        np.testing.assert_array_equal(row, expected[name])
+    assert np.load(tmp_path / "s.npy").shape == (1, n)  # only m
     only_kept = spill({"a": mapped[:, 0]}, tmp_path / "none.npy", np.float32)
     assert not (tmp_path / "none.npy").exists()
     np.testing.assert_array_equal(only_kept["a"], np.arange(n, dtype=np.float32))
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fallocate, st_blocks")
+def test_spill_narrows_a_whole_float64_buffer_over_its_own_file(tmp_path):
+    """Every row of a float64 buffer handed over (in any order) is narrowed to float32
+    over the buffer's own file: no new file, each value rounded once as a copy would
+    have it (NaN, infinities and values beyond float32 too), and the wide values'
+    second half given back to the kernel (the file's blocks halved)."""
+    from analyzer import paging
+
+    n, m = 3 * paging.RELEASE_ROWS + 77, 3
+    values = np.random.default_rng(4).standard_normal((n, m)) * 1e3
+    values[5, 1], values[6, 1], values[7, 2], values[8, 0] = np.nan, np.inf, -np.inf, 1e300
+    src = paging.buffer(tmp_path, "src", (n, m))
+    paging.write_rows(src, 0, values)
+    found = paging._mapping(src)
+    assert found is not None
+    fd = paging._WRITERS[id(found[0])][0]
+    blocks = os.fstat(fd).st_blocks
+    with np.errstate(over="ignore"):
+        expected = values.astype(np.float32)
+        rows = spill(
+            {"c": src[:, 2], "a": src[:, 0], "b": src[:, 1]}, tmp_path / "s.npy", np.float32
+        )
+    assert list(rows) == ["c", "a", "b"]
+    assert not (tmp_path / "s.npy").exists()
+    for k, name in enumerate("abc"):
+        row = rows[name]
+        assert row.dtype == np.float32 and not row.flags.writeable and paging.is_mapped(row)
+        np.testing.assert_array_equal(row, expected[:, k])
+    assert os.fstat(fd).st_blocks < 0.55 * blocks
+
+
+def test_spill_copies_part_of_a_buffer_and_leaves_the_buffer_alone(tmp_path):
+    """Rows of a float64 buffer that are not all of its rows, each once, are copied to
+    the file as before: the buffer keeps its values."""
+    from analyzer import paging
+
+    n = 2 * paging.RELEASE_ROWS + 5
+    values = np.random.default_rng(5).standard_normal((n, 2))
+    src = paging.buffer(tmp_path, "src", (n, 2))
+    paging.write_rows(src, 0, values)
+    for k, signals in enumerate(({"x": src[:, 1]}, {"x": src[:, 0], "y": src[:, 0]})):
+        rows = spill(signals, tmp_path / f"s{k}.npy", np.float32)
+        assert (tmp_path / f"s{k}.npy").exists()
+        for name, row in rows.items():
+            np.testing.assert_array_equal(row, np.asarray(signals[name], dtype=np.float32))
+        np.testing.assert_array_equal(src, values)
 
 
 def test_spill_refuses_rows_of_unequal_length(tmp_path):
