@@ -157,7 +157,7 @@ import sys
 import threading
 import time
 import traceback
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future
 from dataclasses import dataclass, replace
 from multiprocessing.connection import wait as wait_for
@@ -590,37 +590,59 @@ def _free_name(folder: Path, name: str) -> Path:
     return target
 
 
-def _move_all(paths: Sequence[Path], folder: Path) -> list[Path]:
+def _move_all(
+    paths: Sequence[Path],
+    folder: Path,
+    intent: Callable[[list[list[str]]], None] | None = None,
+) -> list[Path]:
     """Move ``paths`` into ``folder`` under free names (:func:`_free_name`), all or none.
     Where a path is on another file system than ``folder`` (a symbolic link's own, not
     its target's), the archive's files are copied first (to hidden names there), and
     the sources go only once every copy is in place: a move that failed part-way
     (``--done`` on a full disk) left a truncated copy in ``folder``, and split an archive
     of several files, whose rest was then analyzed alone as the archive. Raises the first
-    :class:`OSError`, with what was made in ``folder`` removed and INBOX as it was."""
+    :class:`OSError`, with what was made in ``folder`` removed and INBOX as it was.
+
+    A move that can be stopped half-done (copies, or several renames) is handed to
+    ``intent`` first, as ``[source, copy, target]`` lines (``copy`` "" for a rename),
+    for the state file: a watcher killed during it is finished or undone by the next
+    start (:func:`_end_moves`)."""
     device = os.lstat(folder).st_dev
-    if all(os.lstat(p).st_dev == device for p in paths):
-        return [_rename(p, folder) for p in paths]  # (a rename: nothing half-done)
-    for path in paths:  # (a source that cannot be removed would be left twice)
-        if not os.access(path.parent, os.W_OK | os.X_OK):
-            raise OSError(errno.EACCES, "cannot remove it from INBOX", str(path))
+    copies = not all(os.lstat(p).st_dev == device for p in paths)
+    if not copies and len(paths) == 1:
+        return [_rename(paths[0], folder)]  # (a rename: nothing half-done)
+    if copies:
+        for path in paths:  # (a source that cannot be removed would be left twice)
+            if not os.access(path.parent, os.W_OK | os.X_OK):
+                raise OSError(errno.EACCES, "cannot remove it from INBOX", str(path))
+    targets: list[Path] = []
+    for path in paths:  # (free of each other's too)
+        target = _free_name(folder, path.name)
+        n = 1
+        while target in targets:
+            stem, dot, suffixes = path.name.partition(".")
+            target = _free_name(folder, f"{stem}-{n}{dot}{suffixes}")
+            n += 1
+        targets.append(target)
+    staged = [folder / hidden_name(".partial-", t.name) if copies else None for t in targets]
+    if intent is not None:
+        lines = zip(paths, staged, targets, strict=True)
+        intent([[str(p), str(c) if c else "", str(t)] for p, c, t in lines])
+    if not copies:  # (several renames: one stopped between them is finished next start)
+        return [_rename_to(p, t, folder) for p, t in zip(paths, targets, strict=True)]
     made: list[Path] = []  # in folder: the copies, then the files renamed from them
     try:
-        staged = []
-        for path in paths:
-            copy = folder / hidden_name(".partial-", path.name)
+        for path, copy in zip(paths, staged, strict=True):
+            assert copy is not None
             made.append(copy)
             if path.is_dir() and not path.is_symlink():
                 shutil.copytree(path, copy, symlinks=True)
             else:
                 shutil.copy2(path, copy, follow_symlinks=False)
-            staged.append(copy)
-        targets = []
         for k, copy in enumerate(staged):
-            target = _free_name(folder, paths[k].name)
-            os.rename(copy, target)
-            made[k] = target
-            targets.append(target)
+            assert copy is not None
+            targets[k] = _rename_to(copy, targets[k], folder)
+            made[k] = targets[k]
     except OSError:
         for p in made:
             _remove(p)
@@ -639,6 +661,90 @@ def _move_all(paths: Sequence[Path], folder: Path) -> list[Path]:
                 raise
             return targets[:moved]
     return targets
+
+
+def _rename_to(path: Path, target: Path, folder: Path) -> Path:
+    """Rename ``path`` to ``target``, or to a free name of ``folder`` if that was taken
+    since it was chosen."""
+    if os.path.lexists(target):
+        target = _free_name(folder, target.name)
+    os.rename(path, target)
+    return target
+
+
+def _end_moves(ledger: Ledger, inbox: Path) -> None:
+    """At the start: the moves of a watcher killed outright during them, finished or
+    undone (:func:`_end_move`), each said in a line."""
+    for rec in ledger.records.values():
+        if not rec.moving:
+            continue
+        folder = Path(rec.moving[0][2]).parent
+        try:
+            moved = _end_move(rec, inbox)
+        except OSError as err:
+            log.warning(
+                "%s: its move to %s, stopped by force, cannot be ended: %s",
+                rec.name,
+                folder,
+                _move_error(err, [Path(line[0]) for line in rec.moving], folder),
+            )
+            moved = []
+        rec.moving = []
+        if moved:
+            rec.moved_to = [*rec.moved_to, *moved]
+            log.info("%s: its move to %s, stopped by force, finished", rec.name, folder)
+        else:
+            log.info(
+                "%s: its move to %s, stopped by force, undone (what it had copied removed)",
+                rec.name,
+                folder,
+            )
+
+
+def _end_move(rec: Record, inbox: Path) -> list[str]:
+    """Finish or undo the move of ``rec`` that a watcher killed outright left half-done
+    (its :attr:`~analyzer.watch_index.Record.moving`); returns the targets it is in,
+    none when it was undone (the archive is then in INBOX, recorded, and moved again).
+
+    Copies to another file system: none renamed into place yet, they are removed (the
+    one being written may be truncated; before, every ``.partial-`` copy stayed in the
+    folder for good). Once one is, all were whole: the rest are renamed and the sources
+    removed (before, the next start moved the archive again, beside its first copy, as
+    ``x-1.csv``; and an archive of several files with some removed had its rest
+    analyzed as the archive). Renames: the rest are done. A source is removed or renamed
+    only while it has the size and mtime the record has for it (not a file dropped
+    under its name since), and only where its target is there."""
+    recorded = {tuple(x) for x in rec.signature}
+
+    def as_recorded(path: Path) -> bool:
+        try:
+            return set(signature([path], inbox)) <= recorded
+        except OSError:
+            return False
+
+    lines = [(Path(s), Path(c) if c else None, Path(t)) for s, c, t in rec.moving]
+    if not lines:
+        return []
+    _, first_copy, first_target = lines[0]
+    if first_copy is not None:
+        if os.path.lexists(first_copy) or not os.path.lexists(first_target):
+            for _, copy, _ in lines:  # (none renamed into place: undone)
+                if copy is not None and os.path.lexists(copy):
+                    _remove(copy, strict=True)
+            return []
+    elif not os.path.lexists(first_target):
+        return []  # (no rename made yet)
+    for source, copy, target in lines:
+        if os.path.lexists(target):
+            continue
+        if copy is not None and os.path.lexists(copy):
+            os.rename(copy, target)
+        elif copy is None and os.path.lexists(source) and as_recorded(source):
+            os.rename(source, target)
+    for source, copy, target in lines:
+        if copy is not None and os.path.lexists(target) and as_recorded(source):
+            _remove(source, strict=True)
+    return [str(t) for _, _, t in lines if os.path.lexists(t)]
 
 
 def _move_error(err: OSError, paths: Sequence[Path], folder: Path) -> str:
@@ -872,12 +978,16 @@ class _Runner:
         self.unsaved = False
         """A move not written to the state file (REPORTS full): written at the latest
         when the watcher stops (:meth:`save_unsaved`)."""
-        self._hashed: dict[str, tuple[Signature, ArchiveHashes]] = {}
-        """The last content hash of each archive not recorded with its signature."""
+        self._hashed: dict[str, tuple[Signature, int | None, ArchiveHashes]] = {}
+        """The last hashes of each archive not recorded with its signature: the signature
+        and the earlier size whose beginning was hashed (:meth:`_head`) they are of."""
         self.hasher = _Hasher()
-        self.hashing: dict[str, tuple[ReadyArchive, Future[ArchiveHashes]]] = {}
+        self.hashing: dict[str, tuple[ReadyArchive, int | None, Future[ArchiveHashes]]] = {}
         """Ready archives being hashed by :attr:`hasher` (too big to hash on the loop),
         started once hashed, in the order they were ready."""
+        self.asked: dict[str, tuple[Signature, int | None, Future[ArchiveHashes]]] = {}
+        """Archives too big to hash on the loop that the inbox tracker asked about
+        (:meth:`recorded`), being hashed by :attr:`hasher`."""
         self.cluster = cluster
         self.slots = settings.jobs
         self.ctx = _context()
@@ -934,7 +1044,7 @@ class _Runner:
         it): one that :attr:`hasher` has hashed, else the first of the queue whose name
         is not running, hashed here if it is small, else handed to :attr:`hasher` (and
         the next one looked at)."""
-        for name, (archive, future) in list(self.hashing.items()):
+        for name, (archive, head, future) in list(self.hashing.items()):
             if not future.done():
                 continue
             del self.hashing[name]
@@ -945,7 +1055,7 @@ class _Runner:
                 continue
             except HashCancelled:
                 continue
-            self._hashed[name] = (archive.signature, hashes)
+            self._hashed[name] = (archive.signature, head, hashes)
             return archive
         for name, archive in list(self.queue.items()):
             if name in self.running:
@@ -954,8 +1064,13 @@ class _Runner:
             size = sum(s[1] for s in archive.signature)
             if size <= INLINE_HASH_BYTES or self._known_hashes(archive) is not None:
                 return archive
-            future = self.hasher.submit(archive.paths, self.settings.inbox, self._head(archive))
-            self.hashing[name] = (archive, future)
+            head = self._head(archive)
+            asked = self.asked.pop(name, None)  # (hashed already for the tracker's question)
+            if asked is not None and asked[:2] == (archive.signature, head):
+                future = asked[2]
+            else:
+                future = self.hasher.submit(archive.paths, self.settings.inbox, head)
+            self.hashing[name] = (archive, head, future)
         return None
 
     # ------------------------------------------------------------------ start
@@ -971,19 +1086,22 @@ class _Runner:
         known = self._known_hashes(archive)
         if known is not None:
             return known
-        hashes = hash_archive(archive.paths, self.settings.inbox, self._head(archive))
-        self._hashed[archive.name] = (archive.signature, hashes)
+        head = self._head(archive)
+        hashes = hash_archive(archive.paths, self.settings.inbox, head)
+        self._hashed[archive.name] = (archive.signature, head, hashes)
         return hashes
 
     def _known_hashes(self, archive: ReadyArchive) -> ArchiveHashes | None:
         """The archive's hashes without reading it: those of its record or of its last
-        hash, when it has the signature it had then; else None."""
+        hash, when it has the signature it had then (and, of the last hash, the beginning
+        :meth:`_head` asks for now: one taken against the record an analysis replaced
+        since has the wrong one, and :meth:`_grew` would read it again); else None."""
         rec = self.ledger.get(archive.name)
         if rec is not None and rec.signature == [list(s) for s in archive.signature]:
             return ArchiveHashes(rec.sha256, rec.file_marks, {})
         hashed = self._hashed.get(archive.name)
-        if hashed is not None and hashed[0] == archive.signature:
-            return hashed[1]
+        if hashed is not None and hashed[:2] == (archive.signature, self._head(archive)):
+            return hashed[2]
         return None
 
     def _head(self, archive: ReadyArchive) -> int | None:
@@ -997,14 +1115,46 @@ class _Runner:
                     return size
         return None
 
-    def recorded(self, archive: ReadyArchive) -> bool:
+    def recorded(self, archive: ReadyArchive) -> bool | None:
         """Whether ``archive`` is recorded already with its present content (and would
         not be analyzed again): :attr:`analyzer.watch_inbox.InboxTracker.known`. Only
-        an archive whose name has a record is hashed."""
+        an archive whose name has a record is hashed; one over :data:`INLINE_HASH_BYTES`
+        by :attr:`hasher`, and None until its hash is there (asked again at the
+        tracker's next step: a 2 GB recording that looked unfinished, under the name of
+        a recorded one, held the loop 20-30 s, every other archive and the stop signal
+        with it)."""
         rec = self.ledger.get(archive.name)
         if rec is None:
             return False
-        return rec.sha256 == self._digest(archive) and rec.redo_reason(self.fingerprint) is None
+        hashes = self._known_hashes(archive)
+        if hashes is None and sum(s[1] for s in archive.signature) > INLINE_HASH_BYTES:
+            hashes = self._asked_hashes(archive)
+            if hashes is None:
+                return None
+        digest = hashes.sha256 if hashes is not None else self._digest(archive)
+        return rec.sha256 == digest and rec.redo_reason(self.fingerprint) is None
+
+    def _asked_hashes(self, archive: ReadyArchive) -> ArchiveHashes | None:
+        """For :meth:`recorded`: the hashes of ``archive`` from :attr:`hasher`, asked
+        for now if they are not (or were of other content), None until they are done;
+        raises what the hash raised (OSError: the tracker looks again when it settles)."""
+        name, head = archive.name, self._head(archive)
+        asked = self.asked.get(name)
+        if asked is None or asked[:2] != (archive.signature, head):
+            if asked is not None:
+                asked[2].cancel()  # (of content that has changed since: not started)
+            future = self.hasher.submit(archive.paths, self.settings.inbox, head)
+            self.asked[name] = (archive.signature, head, future)
+            return None
+        if not asked[2].done():
+            return None
+        del self.asked[name]
+        try:
+            hashes = asked[2].result()
+        except HashCancelled:  # (the watcher is stopping)
+            return None
+        self._hashed[name] = (archive.signature, head, hashes)
+        return hashes
 
     @property
     def counted(self) -> int:
@@ -1354,8 +1504,11 @@ class _Runner:
             )
             return
         try:
-            moved = [str(target) for target in _move_all(archive.paths, folder)]
+            moved = [str(t) for t in _move_all(archive.paths, folder, self._intent(rec))]
         except OSError as err:
+            if rec.moving:  # (undone: nothing of it left to finish)
+                rec.moving = []
+                self._save_state()
             log.warning(
                 "%s: not moved to %s (it stays in INBOX): %s",
                 archive.name,
@@ -1363,6 +1516,7 @@ class _Runner:
                 _move_error(err, archive.paths, folder),
             )
             return
+        rec.moving = []
         if moved:
             # (the same content dropped again and moved: its earlier copy stays listed)
             rec.moved_to = [*rec.moved_to, *moved]
@@ -1379,6 +1533,23 @@ class _Runner:
                     where,
                     one_line(err.strerror or err),
                 )
+
+    def _intent(self, rec: Record) -> Callable[[list[list[str]]], None]:
+        """What :func:`_move_all` calls before a move that could be stopped half-done:
+        the record with its :attr:`~analyzer.watch_index.Record.moving` in the state
+        file (when REPORTS is full, the move goes on without it, as before)."""
+
+        def write(lines: list[list[str]]) -> None:
+            rec.moving = lines
+            self._save_state()
+
+        return write
+
+    def _save_state(self) -> None:
+        try:
+            self.ledger.save_state()
+        except OSError:  # REPORTS full: written with the next record, or at the stop
+            self.unsaved = True
 
     def save_unsaved(self) -> None:
         """At the stop: the state file with the moves it could not be written with
@@ -1524,6 +1695,7 @@ def _watch_locked(
     ledger = Ledger.load(settings.reports)
     for name in ledger.tidy():
         log.info("%s: its report folder is gone; it will be analyzed again", name)
+    _end_moves(ledger, settings.inbox)
     ledger.save()
     runner = _Runner(settings, options, ledger, stop, cluster)
     if settings.once:  # what --once will go through: the progress's total

@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 from analyzer import watch as watch_module
+from analyzer.findings import sha256_of
 from analyzer.options import RunOptions
 from analyzer.watch import WatchSettings, watch
 from analyzer.watch_index import Ledger, Record, Verdict, publish
@@ -187,6 +188,116 @@ def test_the_stop_signal_does_not_wait_for_a_big_archives_hash(
         never.set()
         stop.set()
         thread.join(LIMIT_S)
+
+
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+@pytest.fixture
+def recorded_and_unfinished(
+    big_and_small: tuple[Path, Path],
+) -> tuple[Path, Path, Path]:
+    """INBOX with ``a_big.csv`` replaced by ``a_big.mcap``: an MCAP recording still being
+    written (no closing magic), big, under the name of an archive recorded with other
+    content, so that the inbox tracker asks whether it is recorded already; and
+    ``b_small.csv``."""
+    inbox, reports = big_and_small
+    big = inbox / "a_big.mcap"
+    big.write_bytes(MCAP_MAGIC + (inbox / "a_big.csv").read_bytes())
+    (inbox / "a_big.csv").unlink()
+    ledger = Ledger(reports)
+    ledger.records[big.name] = Record(
+        name=big.name,
+        sha256="1" * 64,
+        verdict=Verdict.ERROR,
+        report=f"{big.name}/error.txt",
+        inputs=[str(big)],
+        processed="2026-01-01T00:00:00Z",
+        analysis_s=1.0,
+        signature=[[big.name, 100, 0]],
+        options=watch_module.options_fingerprint(RunOptions()),
+    )
+    (reports / big.name).mkdir(parents=True)
+    (reports / big.name / "error.txt").write_text("truncated")
+    ledger.save_state()
+    return inbox, reports, big
+
+
+def test_a_small_archive_is_not_held_up_by_the_hash_of_an_unfinished_big_one(
+    recorded_and_unfinished: tuple[Path, Path, Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A big archive that looks unfinished under a recorded name is hashed to learn
+    whether it is that record's content (then it is not waited for): off the loop, so a
+    small archive dropped with it is analyzed meanwhile (before, the loop hashed it: a
+    2 GB recording held a small one up 29 s, and a SIGTERM 20 s). Its record stays."""
+    inbox, reports, big = recorded_and_unfinished
+    small_done = threading.Event()
+    begun = _slow_hash_of(big.name, small_done, monkeypatch)
+    stop = threading.Event()
+    thread = _run(inbox, reports, stop)
+    try:
+        deadline = time.monotonic() + LIMIT_S
+        while "b_small.csv" not in _recorded(reports) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert big.name in begun
+        assert "b_small.csv" in _recorded(reports), "the small archive waited for the big hash"
+        small_done.set()
+        stop.set()
+        thread.join(5.0)
+        assert not thread.is_alive()
+        state = json.loads((reports / ".watch-state.json").read_text())["archives"]
+        assert state[big.name]["sha256"] == "1" * 64  # (other content, still unfinished)
+    finally:
+        small_done.set()
+        stop.set()
+        thread.join(LIMIT_S)
+
+
+def test_the_stop_signal_does_not_wait_for_the_hash_of_an_unfinished_big_archive(
+    recorded_and_unfinished: tuple[Path, Path, Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Stopping while the tracker's question about a big unfinished archive is being
+    hashed: the watcher stops at once, where it waited for the hash."""
+    inbox, reports, big = recorded_and_unfinished
+    (inbox / "b_small.csv").unlink()
+    never = threading.Event()
+    begun = _slow_hash_of(big.name, never, monkeypatch)
+    stop = threading.Event()
+    thread = _run(inbox, reports, stop)
+    try:
+        deadline = time.monotonic() + LIMIT_S / 2
+        while big.name not in begun and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert big.name in begun
+        stop.set()
+        thread.join(5.0)
+        assert not thread.is_alive(), "the stop waited for the hash"
+    finally:
+        never.set()
+        stop.set()
+        thread.join(LIMIT_S)
+
+
+def test_a_big_unfinished_archive_recorded_with_its_content_is_not_waited_for(
+    recorded_and_unfinished: tuple[Path, Path, Path], caplog: pytest.LogCaptureFixture
+) -> None:
+    """The same decision as when it was hashed on the loop: a big archive that looks
+    unfinished but is recorded with this content (touched since: its signature differs)
+    is found analyzed already once its hash is there, and ``--once`` ends without waiting
+    ``--wait-unfinished`` for it, or analyzing it again."""
+    inbox, reports, big = recorded_and_unfinished
+    (inbox / "b_small.csv").unlink()
+    state_file = reports / ".watch-state.json"
+    doc = json.loads(state_file.read_text())
+    doc["archives"][big.name]["sha256"] = sha256_of(big)
+    state_file.write_text(json.dumps(doc))
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    settings = WatchSettings(inbox=inbox, reports=reports, settle=0.2, poll=0.05, once=True)
+    assert watch(settings, RunOptions()) == 0
+    said = [r.getMessage() for r in caplog.records]
+    assert not [line for line in said if "waiting up to" in line]
+    assert any("1 found analyzed already" in line for line in said)
+    assert json.loads(state_file.read_text())["archives"][big.name]["sha256"] == sha256_of(big)
 
 
 # --------------------------------------------------------------------------- kept aside
