@@ -126,7 +126,8 @@ Stopping
     ``KillMode=mixed`` so that SIGTERM reaches only the watcher. A watcher killed outright
     (SIGKILL) takes its analyses with it (:func:`_end_with`); what it left in REPORTS
     (hidden ``.tmp-``/``.old-`` folders, half-written state) is removed by the next start,
-    and what it had not recorded is analyzed again then.
+    a move it left half-done is finished or undone then (:func:`_end_move`), and what it
+    had not recorded is analyzed again.
 
 Exit codes: 0 after a clean shutdown; with ``--once``, 1 when an archive analyzed by this
 run has a fault, else 2 when an archive of this run could not be analyzed (an error
@@ -719,7 +720,7 @@ def _end_move(rec: Record, inbox: Path) -> list[str]:
     def as_recorded(path: Path) -> bool:
         try:
             return set(signature([path], inbox)) <= recorded
-        except OSError:
+        except (OSError, ValueError):  # (gone; or INBOX is another folder now)
             return False
 
     lines = [(Path(s), Path(c) if c else None, Path(t)) for s, c, t in rec.moving]
@@ -1503,12 +1504,21 @@ class _Runner:
                 folder,
             )
             return
+
+        def moving(lines: list[list[str]]) -> None:
+            """Before a move that can stop half-done: its lines in the state file (where
+            REPORTS is full, the move goes on without them, as before)."""
+            rec.moving = lines
+            try:
+                self.ledger.save_state()
+            except OSError:  # (written with the next record, or at the stop)
+                self.unsaved = True
+
         try:
-            moved = [str(t) for t in _move_all(archive.paths, folder, self._intent(rec))]
+            moved = [str(t) for t in _move_all(archive.paths, folder, moving)]
         except OSError as err:
-            if rec.moving:  # (undone: nothing of it left to finish)
-                rec.moving = []
-                self._save_state()
+            if rec.moving:  # (undone: nothing of it left to end)
+                moving([])
             log.warning(
                 "%s: not moved to %s (it stays in INBOX): %s",
                 archive.name,
@@ -1533,23 +1543,6 @@ class _Runner:
                     where,
                     one_line(err.strerror or err),
                 )
-
-    def _intent(self, rec: Record) -> Callable[[list[list[str]]], None]:
-        """What :func:`_move_all` calls before a move that could be stopped half-done:
-        the record with its :attr:`~analyzer.watch_index.Record.moving` in the state
-        file (when REPORTS is full, the move goes on without it, as before)."""
-
-        def write(lines: list[list[str]]) -> None:
-            rec.moving = lines
-            self._save_state()
-
-        return write
-
-    def _save_state(self) -> None:
-        try:
-            self.ledger.save_state()
-        except OSError:  # REPORTS full: written with the next record, or at the stop
-            self.unsaved = True
 
     def save_unsaved(self) -> None:
         """At the stop: the state file with the moves it could not be written with

@@ -11,6 +11,7 @@ import json
 import logging
 import multiprocessing
 import os
+import re
 import subprocess
 import sys
 import threading
@@ -413,3 +414,144 @@ def test_the_next_start_says_what_it_removed_of_a_killed_watcher(
         ".tmp-b.csv-0123abcd: removed: left by a watcher stopped by force (an analysis it "
         "had not recorded: its archive is analyzed again)",
     ]
+
+
+# --------------------------------------------------------------------------- moves
+
+
+def _quick_analysis(inputs: list[str], options: RunOptions, out_dir: Path, work: Path) -> int:
+    """``analysis_into`` without the analysis: no fault, at once; each call counted in
+    ``analyses.txt`` beside REPORTS."""
+    with (out_dir.parent.parent / "analyses.txt").open("a") as f:
+        f.write(f"{sorted(Path(p).name for p in inputs)}\n")
+    (out_dir / "findings.json").write_text(
+        json.dumps({"faults": [], "start": None, "duration_s": 1.0, "screen": None})
+    )
+    (out_dir / "report.html").write_text("<html></html>")
+    return 0
+
+
+def _killed_in_move(stage: str, inbox: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Kill the watcher (:class:`_Killed`) in its move of INBOX's files: ``copying``, in
+    the second file's copy to the other file system (half written); ``renamed``, once
+    every copy is in place, before INBOX changes; ``removed``, once the first source is
+    removed; ``between``, between two renames on the same file system."""
+    import shutil
+
+    calls: list[str] = []
+    if stage == "copying":
+        real_copy = shutil.copy2
+
+        def copy2(src: Any, dst: Any, **kw: Any) -> Any:
+            calls.append(str(src))
+            if len(calls) == 2:
+                Path(dst).write_bytes(Path(src).read_bytes()[:100])
+                raise _Killed
+            return real_copy(src, dst, **kw)
+
+        monkeypatch.setattr(watch_module.shutil, "copy2", copy2)
+    elif stage == "between":
+        real_rename = os.rename
+
+        def rename(src: Any, dst: Any) -> None:
+            if Path(src).parent == inbox:
+                calls.append(str(src))
+                if len(calls) == 2:
+                    raise _Killed
+            real_rename(src, dst)
+
+        monkeypatch.setattr(os, "rename", rename)
+    else:
+        real_unlink = Path.unlink
+
+        def unlink(self: Path, missing_ok: bool = False) -> None:
+            if self.parent == inbox:
+                calls.append(str(self))
+                if stage == "renamed" or len(calls) == 2:
+                    raise _Killed
+            real_unlink(self, missing_ok=missing_ok)
+
+        monkeypatch.setattr(Path, "unlink", unlink)
+
+
+@pytest.mark.parametrize("stage", ["copying", "renamed", "removed", "between"])
+def test_a_move_stopped_by_a_kill_is_ended_by_the_next_start(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, stage: str
+) -> None:
+    """A watcher killed in the middle of a ``--done`` move of an archive of two files:
+    the next start ends the move, with the archive once in ``--done``, under its own
+    names, nothing left in INBOX or hidden in ``--done``, the record pointing at the
+    files and the archive not analyzed again. Before: a kill in the copies left them in
+    ``--done`` for good (hidden ``.partial-`` names, one truncated); once they were in
+    place, the archive was moved again beside them (``A_part0-1.csv``); with a source
+    removed, or between two renames on one file system, the other file was analyzed
+    alone as the archive."""
+    import tempfile
+
+    shm = Path("/dev/shm")
+    other = stage != "between"
+    if other and (not shm.is_dir() or os.stat(shm).st_dev == os.stat(tmp_path).st_dev):
+        pytest.skip("no second file system to move to")
+    monkeypatch.setattr(watch_module, "_context", lambda: multiprocessing.get_context("fork"))
+    monkeypatch.setattr(watch_module, "analysis_into", _quick_analysis)
+    inbox, reports = tmp_path / "in" / "inbox", tmp_path / "in" / "reports"
+    inbox.mkdir(parents=True)
+    files = [_archive(inbox / f"A_part{i}.csv", 300 + i) for i in range(2)]
+    content = {f.name: f.read_bytes() for f in files}
+    with tempfile.TemporaryDirectory(dir=shm if other else tmp_path) as folder:
+        done = Path(folder)
+        settings = WatchSettings(
+            inbox=inbox,
+            reports=reports,
+            settle=0.2,
+            poll=0.05,
+            once=True,
+            done=done,
+            group_by=re.compile(r"^(.*)_part[0-9]+\.csv$"),
+        )
+        undo = pytest.MonkeyPatch()
+        _killed_in_move(stage, inbox, undo)
+        try:
+            with pytest.raises(_Killed):
+                watch(settings, RunOptions())
+        finally:
+            undo.undo()
+        assert watch(settings, RunOptions()) == 0
+        assert not any(inbox.iterdir())
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == content
+        (rec,) = json.loads((reports / ".watch-state.json").read_text())["archives"].values()
+        assert sorted(rec["moved_to"]) == [str(done / name) for name in sorted(content)]
+        assert "moving" not in rec
+        analyses = (tmp_path / "in" / "analyses.txt").read_text().splitlines()
+        assert analyses == [str(sorted(content))]
+
+
+def test_a_kill_before_the_move_began_leaves_nothing_to_end(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A move written to the state and killed before its first copy: nothing to finish
+    or remove; a source that is no longer what the record says (dropped again under its
+    name since) is left in INBOX, never removed."""
+    done = tmp_path / "done"
+    done.mkdir()
+    inbox = tmp_path / "inbox"
+    inbox.mkdir()
+    source = _archive(inbox / "a.csv", 300)
+    rec = Record(
+        name="a.csv",
+        sha256="1" * 64,
+        verdict=Verdict.NO_FAULT,
+        report="a.csv/report.html",
+        inputs=[str(source)],
+        processed="2026-01-01T00:00:00Z",
+        analysis_s=1.0,
+        signature=[["a.csv", source.stat().st_size + 1, source.stat().st_mtime_ns]],
+    )
+    copy, target = done / ".partial-a.csv-0123abcd", done / "a.csv"
+    rec.moving = [[str(source), str(copy), str(target)]]
+    assert watch_module._end_move(rec, inbox) == []
+    assert source.is_file() and not any(done.iterdir())
+    copy.write_bytes(source.read_bytes())
+    copy.rename(target)  # (in place: finished, but the source is not the recorded one)
+    assert watch_module._end_move(rec, inbox) == [str(target)]
+    assert source.is_file()
