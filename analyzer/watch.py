@@ -689,7 +689,8 @@ def _end_moves(ledger: Ledger, inbox: Path) -> None:
                 folder,
                 _move_error(err, [Path(line[0]) for line in rec.moving], folder),
             )
-            moved = []
+            rec.moving = []  # (an archive still in INBOX is moved again)
+            continue
         rec.moving = []
         if moved:
             rec.moved_to = [*rec.moved_to, *moved]
@@ -1686,9 +1687,9 @@ def _watch_locked(
     """:func:`watch` once REPORTS is locked (and the cluster, if any, connected); returns
     its exit code."""
     ledger = Ledger.load(settings.reports)
+    _end_moves(ledger, settings.inbox)  # (first: a record tidied away keeps no copies)
     for name in ledger.tidy():
         log.info("%s: its report folder is gone; it will be analyzed again", name)
-    _end_moves(ledger, settings.inbox)
     ledger.save()
     runner = _Runner(settings, options, ledger, stop, cluster)
     if settings.once:  # what --once will go through: the progress's total
