@@ -591,6 +591,24 @@ def _free_name(folder: Path, name: str) -> Path:
     return target
 
 
+def _other_fs(paths: Sequence[Path], folder: Path) -> bool:
+    """Whether a path of ``paths`` is on another file system than ``folder`` (a symbolic
+    link's own, not its target's): moved by copies, not renames."""
+    device = os.lstat(folder).st_dev
+    return not all(os.lstat(p).st_dev == device for p in paths)
+
+
+def _free_of(folder: Path, name: str, taken: Sequence[Path]) -> Path:
+    """:func:`_free_name`, free of ``taken`` too (the other files of a move)."""
+    target = _free_name(folder, name)
+    stem, dot, suffixes = name.partition(".")
+    n = 1
+    while target in taken:
+        target = _free_name(folder, f"{stem}-{n}{dot}{suffixes}")
+        n += 1
+    return target
+
+
 def _move_all(
     paths: Sequence[Path],
     folder: Path,
@@ -606,10 +624,10 @@ def _move_all(
 
     A move that can be stopped half-done (copies, or several renames) is handed to
     ``intent`` first, as ``[source, copy, target]`` lines (``copy`` "" for a rename),
-    for the state file: a watcher killed during it is finished or undone by the next
-    start (:func:`_end_moves`)."""
-    device = os.lstat(folder).st_dev
-    copies = not all(os.lstat(p).st_dev == device for p in paths)
+    for the state file, and again before a file goes to another name than planned (taken
+    since): a watcher killed during it is finished or undone by the next start
+    (:func:`_end_moves`), and the record names the archive's own files."""
+    copies = _other_fs(paths, folder)
     if not copies and len(paths) == 1:
         return [_rename(paths[0], folder)]  # (a rename: nothing half-done)
     if copies:
@@ -618,19 +636,26 @@ def _move_all(
                 raise OSError(errno.EACCES, "cannot remove it from INBOX", str(path))
     targets: list[Path] = []
     for path in paths:  # (free of each other's too)
-        target = _free_name(folder, path.name)
-        n = 1
-        while target in targets:
-            stem, dot, suffixes = path.name.partition(".")
-            target = _free_name(folder, f"{stem}-{n}{dot}{suffixes}")
-            n += 1
-        targets.append(target)
+        targets.append(_free_of(folder, path.name, targets))
     staged = [folder / hidden_name(".partial-", t.name) if copies else None for t in targets]
-    if intent is not None:
-        lines = zip(paths, staged, targets, strict=True)
-        intent([[str(p), str(c) if c else "", str(t)] for p, c, t in lines])
+
+    def tell() -> None:
+        if intent is not None:
+            lines = zip(paths, staged, targets, strict=True)
+            intent([[str(p), str(c) if c else "", str(t)] for p, c, t in lines])
+
+    def place(k: int, path: Path) -> Path:
+        """``path`` renamed to ``targets[k]``, or to a free name told first if that
+        was taken since it was planned."""
+        if os.path.lexists(targets[k]):
+            targets[k] = _free_of(folder, targets[k].name, targets)
+            tell()
+        os.rename(path, targets[k])
+        return targets[k]
+
+    tell()
     if not copies:  # (several renames: one stopped between them is finished next start)
-        return [_rename_to(p, t, folder) for p, t in zip(paths, targets, strict=True)]
+        return [place(k, p) for k, p in enumerate(paths)]
     made: list[Path] = []  # in folder: the copies, then the files renamed from them
     try:
         for path, copy in zip(paths, staged, strict=True):
@@ -642,8 +667,7 @@ def _move_all(
                 shutil.copy2(path, copy, follow_symlinks=False)
         for k, copy in enumerate(staged):
             assert copy is not None
-            targets[k] = _rename_to(copy, targets[k], folder)
-            made[k] = targets[k]
+            made[k] = place(k, copy)
     except OSError:
         for p in made:
             _remove(p)
@@ -664,89 +688,185 @@ def _move_all(
     return targets
 
 
-def _rename_to(path: Path, target: Path, folder: Path) -> Path:
-    """Rename ``path`` to ``target``, or to a free name of ``folder`` if that was taken
-    since it was chosen."""
-    if os.path.lexists(target):
-        target = _free_name(folder, target.name)
-    os.rename(path, target)
-    return target
+_Line = tuple[Path, Path | None, Path]
+"""A line of :attr:`~analyzer.watch_index.Record.moving`: source, copy (None for a
+rename), target."""
+
+
+def _moving_lines(rec: Record) -> list[_Line]:
+    """The lines of ``rec``'s move; raises ValueError for lines that are not as written
+    (a state file edited by hand): a copy, removed to undo the move, must be a hidden
+    ``.partial-`` file beside its target."""
+    lines: list[_Line] = []
+    if not isinstance(rec.moving, list):
+        raise ValueError("not a list")
+    for line in rec.moving:
+        if not (
+            isinstance(line, list) and len(line) == 3 and all(isinstance(x, str) for x in line)
+        ):
+            raise ValueError(f"{line!r}: not [source, copy, target]")
+        source, copy, target = line
+        if not source or not target:
+            raise ValueError(f"{line!r}: no source or target")
+        if copy and (
+            not Path(copy).name.startswith(".partial-") or Path(copy).parent != Path(target).parent
+        ):
+            raise ValueError(f"{line!r}: not a copy of the watcher's")
+        lines.append((Path(source), Path(copy) if copy else None, Path(target)))
+    if not lines:
+        raise ValueError("no lines")
+    return lines
 
 
 def _end_moves(ledger: Ledger, inbox: Path) -> None:
     """At the start: the moves of a watcher killed outright during them, finished or
-    undone (:func:`_end_move`), each said in a line."""
+    undone (:func:`_end_move`), each said in a line. A move that cannot be ended yet
+    keeps its lines (tried again at the next start), and what is left of its archive in
+    INBOX is not analyzed meanwhile (:meth:`_Runner.offer`)."""
     for rec in ledger.records.values():
         if not rec.moving:
             continue
-        folder = Path(rec.moving[0][2]).parent
         try:
-            moved = _end_move(rec, inbox)
+            lines = _moving_lines(rec)
+        except ValueError as err:
+            log.warning(
+                "%s: its move in the state file cannot be read (%s): ignored", rec.name, err
+            )
+            rec.moving = []
+            continue
+        folder = lines[0][2].parent
+
+        def intent(moving: list[list[str]], rec: Record = rec) -> None:
+            rec.moving = moving
+            with contextlib.suppress(OSError):  # (REPORTS full: saved at the start's end)
+                ledger.save_state()
+
+        try:
+            how, moved = _end_move(rec, inbox, lines, intent)
         except OSError as err:
             log.warning(
-                "%s: its move to %s, stopped by force, cannot be ended: %s",
+                "%s: its move to %s, stopped by force, cannot be ended: %s; what is left of "
+                "it in INBOX is not analyzed, and the next start tries again",
                 rec.name,
                 folder,
-                _move_error(err, [Path(line[0]) for line in rec.moving], folder),
+                _move_error(err, [line[0] for line in lines], folder),
             )
-            rec.moving = []  # (an archive still in INBOX is moved again)
+            continue
+        if how == "kept":
+            log.warning(
+                "%s: its move to %s, stopped by force, cannot be ended: part of it is "
+                "neither in INBOX nor in %s (not mounted? taken from there?); what is left "
+                "of it in INBOX is not analyzed, and the next start tries again (ended once "
+                "the part is back there, or what is left is removed from INBOX)",
+                rec.name,
+                folder,
+                folder,
+            )
             continue
         rec.moving = []
         if moved:
             rec.moved_to = [*rec.moved_to, *moved]
-            log.info("%s: its move to %s, stopped by force, finished", rec.name, folder)
-        else:
-            log.info(
-                "%s: its move to %s, stopped by force, undone (what it had copied removed)",
-                rec.name,
-                folder,
-            )
+        said = {
+            "undone": "undone (its copies there removed); it is moved again",
+            "not begun": "had not begun; it is moved again",
+            "finished": "finished",
+            "gone": "finished as far as can be told (part of it, gone from INBOX, is not in "
+            "it: taken from there since?)",
+        }[how]
+        log.info("%s: its move to %s, stopped by force, %s", rec.name, folder, said)
 
 
-def _end_move(rec: Record, inbox: Path) -> list[str]:
+def _end_move(
+    rec: Record,
+    inbox: Path,
+    lines: list[_Line],
+    intent: Callable[[list[list[str]]], None],
+) -> tuple[str, list[str]]:
     """Finish or undo the move of ``rec`` that a watcher killed outright left half-done
-    (its :attr:`~analyzer.watch_index.Record.moving`); returns the targets it is in,
-    none when it was undone (the archive is then in INBOX, recorded, and moved again).
+    (its :attr:`~analyzer.watch_index.Record.moving`, as ``lines``); returns how (below)
+    and the targets the archive is in now. Decided from the sources and from what is
+    the archive's own: a file is the archive's (a source as recorded, or a copy or
+    target of it) only where it has the size and mtime the record has for the source
+    (a rename and ``copy2`` keep both), never by its name alone (another process may
+    have put a file of that name in the folder since).
 
-    Copies to another file system: none renamed into place yet, they are removed (the
-    one being written may be truncated; before, every ``.partial-`` copy stayed in the
-    folder for good). Once one is, all were whole: the rest are renamed and the sources
-    removed (before, the next start moved the archive again, beside its first copy, as
-    ``x-1.csv``; and an archive of several files with some removed had its rest
-    analyzed as the archive). Renames: the rest are done. A source is removed or renamed
-    only while it has the size and mtime the record has for it (not a file dropped
-    under its name since), and only where its target is there."""
-    recorded = {tuple(x) for x in rec.signature}
+    - ``"undone"``/``"not begun"``: every source still in INBOX as recorded and none of
+      the archive's files in place: its ``.partial-`` copies removed (if any); the
+      archive, recorded, is moved again.
+    - ``"finished"``: past the point of no return (a file in place, or a source gone),
+      and every file of the archive in place or able to be (a whole copy, or a source to
+      rename): the rest renamed (a target taken since: another free name, told to
+      ``intent`` first), the sources left in INBOX removed.
+    - ``"gone"``: as finished, but a part neither in INBOX nor identifiable in the folder
+      (taken from there since): the move is over with what is there.
+    - ``"kept"``: such a part, and the rest still in INBOX: nothing touched (the folder
+      may be a mount not mounted yet); the move stays, for the next start.
 
-    def as_recorded(path: Path) -> bool:
+    Before, an archive whose first planned name was taken by another file was taken for
+    moved: a source was removed with no copy of it anywhere, or left alone in INBOX and
+    analyzed as the archive; and a source gone from INBOX with --done emptied since
+    made the move "undone", the rest analyzed alone."""
+    entries: dict[Path, set[tuple[str, int, int]]] = {}
+    for source, _, _ in lines:  # (each source's recorded files, by their path in it)
         try:
-            return set(signature([path], inbox)) <= recorded
-        except (OSError, ValueError):  # (gone; or INBOX is another folder now)
-            return False
+            rel = source.relative_to(inbox).as_posix()
+            entries[source] = {
+                (n[len(rel) :], int(size), int(mtime))
+                for n, size, mtime in rec.signature
+                if n == rel or str(n).startswith(rel + "/")
+            }
+        except (ValueError, TypeError):  # (INBOX another folder now; a hand-edited state)
+            entries[source] = set()
 
-    lines = [(Path(s), Path(c) if c else None, Path(t)) for s, c, t in rec.moving]
-    if not lines:
-        return []
-    _, first_copy, first_target = lines[0]
-    if first_copy is not None:
-        if os.path.lexists(first_copy) or not os.path.lexists(first_target):
-            for _, copy, _ in lines:  # (none renamed into place: undone)
-                if copy is not None and os.path.lexists(copy):
-                    _remove(copy, strict=True)
-            return []
-    elif not os.path.lexists(first_target):
-        return []  # (no rename made yet)
-    for source, copy, target in lines:
-        if os.path.lexists(target):
+    def files(path: Path) -> set[tuple[str, int, int]] | None:
+        try:
+            sig = signature([path], path.parent) if os.path.lexists(path) else None
+        except (OSError, ValueError):
+            return None
+        if sig is None:
+            return None
+        return {(n[len(path.name) :], size, mtime) for n, size, mtime in sig}
+
+    def is_of(path: Path | None, source: Path, whole: bool = True) -> bool:
+        """Whether ``path`` is ``source`` as recorded (``whole``: all of it; else what is
+        left of it, a folder partly removed)."""
+        if path is None or not entries[source]:
+            return False
+        found = files(path)
+        if found is None:
+            return False
+        return found == entries[source] if whole else found <= entries[source]
+
+    in_place = [is_of(t, s) for s, _, t in lines]
+    if all(is_of(s, s) for s, _, _ in lines) and not any(in_place):
+        removed = False
+        for _, copy, _ in lines:
+            if copy is not None and os.path.lexists(copy):
+                _remove(copy, strict=True)
+                removed = True
+        return ("undone" if removed else "not begun"), []
+    placeable = [
+        placed or is_of(c, s) if c is not None else placed or is_of(s, s)
+        for (s, c, _), placed in zip(lines, in_place, strict=True)
+    ]
+    if not all(placeable) and any(is_of(s, s, whole=False) for s, _, _ in lines):
+        return "kept", []
+    targets = [t for _, _, t in lines]
+    for k, (source, copy, target) in enumerate(lines):
+        if in_place[k] or not placeable[k]:
+            if copy is not None and not in_place[k] and os.path.lexists(copy):
+                _remove(copy, strict=True)  # (truncated: its source is gone)
             continue
-        if copy is not None and os.path.lexists(copy):
-            os.rename(copy, target)
-        elif copy is None and os.path.lexists(source) and as_recorded(source):
-            os.rename(source, target)
-    for source, copy, target in lines:
-        if copy is not None and os.path.lexists(target) and as_recorded(source):
+        if os.path.lexists(target):  # (another file's: told before the rename)
+            targets[k] = _free_of(target.parent, target.name, targets)
+            told = zip(lines, targets, strict=True)
+            intent([[str(s), str(c) if c else "", str(t)] for (s, c, _), t in told])
+        os.rename(copy if copy is not None else source, targets[k])
+    for (source, copy, _), placed in zip(lines, placeable, strict=True):
+        if placed and copy is not None and is_of(source, source, whole=False):
             _remove(source, strict=True)
-    return [str(t) for _, _, t in lines if os.path.lexists(t)]
+    moved = [str(t) for t, placed in zip(targets, placeable, strict=True) if placed]
+    return ("finished" if all(placeable) else "gone"), moved
 
 
 def _move_error(err: OSError, paths: Sequence[Path], folder: Path) -> str:
@@ -987,6 +1107,9 @@ class _Runner:
         self.hashing: dict[str, tuple[ReadyArchive, int | None, Future[ArchiveHashes]]] = {}
         """Ready archives being hashed by :attr:`hasher` (too big to hash on the loop),
         started once hashed, in the order they were ready."""
+        self.held: set[str] = set()
+        """Archives not analyzed: what is left in INBOX of a move that the start could
+        not end (:func:`_end_moves`)."""
         self.asked: dict[str, tuple[Signature, int | None, Future[ArchiveHashes]]] = {}
         """Archives too big to hash on the loop that the inbox tracker asked about
         (:meth:`recorded`), being hashed by :attr:`hasher`."""
@@ -1013,6 +1136,16 @@ class _Runner:
             self.unreadable.add(archive.name)
             return
         self.unreadable.discard(archive.name)
+        rec = self.ledger.get(archive.name)
+        if rec is not None and rec.moving:  # (what is left of it: not the archive)
+            if archive.name not in self.held:
+                self.held.add(archive.name)
+                log.warning(
+                    "%s: not analyzed: part of the archive whose move was stopped by force "
+                    "and could not be ended (said at the start)",
+                    archive.name,
+                )
+            return
         self.queue[archive.name] = archive
 
     def exit_code(self) -> int:
@@ -1506,14 +1639,25 @@ class _Runner:
             )
             return
 
+        said: list[bool] = []
+
         def moving(lines: list[list[str]]) -> None:
             """Before a move that can stop half-done: its lines in the state file (where
-            REPORTS is full, the move goes on without them, as before)."""
+            REPORTS is full, the move goes on without them, as before, said once)."""
             rec.moving = lines
             try:
                 self.ledger.save_state()
-            except OSError:  # (written with the next record, or at the stop)
+            except OSError as err:  # (written with the next record, or at the stop)
                 self.unsaved = True
+                if lines and not said:
+                    said.append(True)
+                    log.warning(
+                        "%s: its move to %s is not in the state file (%s): a kill during it "
+                        "would leave it half-done",
+                        archive.name,
+                        folder,
+                        one_line(err.strerror or err),
+                    )
 
         try:
             moved = [str(t) for t in _move_all(archive.paths, folder, moving)]
