@@ -126,8 +126,9 @@ Stopping
     ``KillMode=mixed`` so that SIGTERM reaches only the watcher. A watcher killed outright
     (SIGKILL) takes its analyses with it (:func:`_end_with`); what it left in REPORTS
     (hidden ``.tmp-``/``.old-`` folders, half-written state) is removed by the next start,
-    a move it left half-done is finished or undone then (:func:`_end_move`), and what it
-    had not recorded is analyzed again.
+    a move it left half-done is finished or undone then (:func:`_end_move`; one that
+    cannot be told yet is kept, and what is left of its archive not analyzed), and what
+    it had not recorded is analyzed again.
 
 Exit codes: 0 after a clean shutdown; with ``--once``, 1 when an archive analyzed by this
 run has a fault, else 2 when an archive of this run could not be analyzed (an error
@@ -755,9 +756,10 @@ def _end_moves(ledger: Ledger, inbox: Path) -> None:
         if how == "kept":
             log.warning(
                 "%s: its move to %s, stopped by force, cannot be ended: part of it is "
-                "neither in INBOX nor in %s (not mounted? taken from there?); what is left "
-                "of it in INBOX is not analyzed, and the next start tries again (ended once "
-                "the part is back there, or what is left is removed from INBOX)",
+                "neither in INBOX as it was nor found in %s (not mounted? taken from "
+                "there?); what is left of it in INBOX is not analyzed, and the next start "
+                "tries again (ended once the part is back there, or what is left is removed "
+                "from INBOX)",
                 rec.name,
                 folder,
                 folder,
