@@ -126,7 +126,9 @@ Stopping
     ``KillMode=mixed`` so that SIGTERM reaches only the watcher. A watcher killed outright
     (SIGKILL) takes its analyses with it (:func:`_end_with`); what it left in REPORTS
     (hidden ``.tmp-``/``.old-`` folders, half-written state) is removed by the next start,
-    and what it had not recorded is analyzed again then.
+    a move it left half-done is finished or undone then (:func:`_end_move`; one that
+    cannot be told yet is kept, and what is left of its archive not analyzed), and what
+    it had not recorded is analyzed again.
 
 Exit codes: 0 after a clean shutdown; with ``--once``, 1 when an archive analyzed by this
 run has a fault, else 2 when an archive of this run could not be analyzed (an error
@@ -157,7 +159,7 @@ import sys
 import threading
 import time
 import traceback
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future
 from dataclasses import dataclass, replace
 from multiprocessing.connection import wait as wait_for
@@ -590,37 +592,83 @@ def _free_name(folder: Path, name: str) -> Path:
     return target
 
 
-def _move_all(paths: Sequence[Path], folder: Path) -> list[Path]:
+def _other_fs(paths: Sequence[Path], folder: Path) -> bool:
+    """Whether a path of ``paths`` is on another file system than ``folder`` (a symbolic
+    link's own, not its target's): moved by copies, not renames."""
+    device = os.lstat(folder).st_dev
+    return not all(os.lstat(p).st_dev == device for p in paths)
+
+
+def _free_of(folder: Path, name: str, taken: Sequence[Path]) -> Path:
+    """:func:`_free_name`, free of ``taken`` too (the other files of a move)."""
+    target = _free_name(folder, name)
+    stem, dot, suffixes = name.partition(".")
+    n = 1
+    while target in taken:
+        target = _free_name(folder, f"{stem}-{n}{dot}{suffixes}")
+        n += 1
+    return target
+
+
+def _move_all(
+    paths: Sequence[Path],
+    folder: Path,
+    intent: Callable[[list[list[str]]], None] | None = None,
+) -> list[Path]:
     """Move ``paths`` into ``folder`` under free names (:func:`_free_name`), all or none.
     Where a path is on another file system than ``folder`` (a symbolic link's own, not
     its target's), the archive's files are copied first (to hidden names there), and
     the sources go only once every copy is in place: a move that failed part-way
     (``--done`` on a full disk) left a truncated copy in ``folder``, and split an archive
     of several files, whose rest was then analyzed alone as the archive. Raises the first
-    :class:`OSError`, with what was made in ``folder`` removed and INBOX as it was."""
-    device = os.lstat(folder).st_dev
-    if all(os.lstat(p).st_dev == device for p in paths):
-        return [_rename(p, folder) for p in paths]  # (a rename: nothing half-done)
-    for path in paths:  # (a source that cannot be removed would be left twice)
-        if not os.access(path.parent, os.W_OK | os.X_OK):
-            raise OSError(errno.EACCES, "cannot remove it from INBOX", str(path))
+    :class:`OSError`, with what was made in ``folder`` removed and INBOX as it was.
+
+    A move that can be stopped half-done (copies, or several renames) is handed to
+    ``intent`` first, as ``[source, copy, target]`` lines (``copy`` "" for a rename),
+    for the state file, and again before a file goes to another name than planned (taken
+    since): a watcher killed during it is finished or undone by the next start
+    (:func:`_end_moves`), and the record names the archive's own files."""
+    copies = _other_fs(paths, folder)
+    if not copies and len(paths) == 1:
+        return [_rename(paths[0], folder)]  # (a rename: nothing half-done)
+    if copies:
+        for path in paths:  # (a source that cannot be removed would be left twice)
+            if not os.access(path.parent, os.W_OK | os.X_OK):
+                raise OSError(errno.EACCES, "cannot remove it from INBOX", str(path))
+    targets: list[Path] = []
+    for path in paths:  # (free of each other's too)
+        targets.append(_free_of(folder, path.name, targets))
+    staged = [folder / hidden_name(".partial-", t.name) if copies else None for t in targets]
+
+    def tell() -> None:
+        if intent is not None:
+            lines = zip(paths, staged, targets, strict=True)
+            intent([[str(p), str(c) if c else "", str(t)] for p, c, t in lines])
+
+    def place(k: int, path: Path) -> Path:
+        """``path`` renamed to ``targets[k]``, or to a free name told first if that
+        was taken since it was planned."""
+        if os.path.lexists(targets[k]):
+            targets[k] = _free_of(folder, targets[k].name, targets)
+            tell()
+        os.rename(path, targets[k])
+        return targets[k]
+
+    tell()
+    if not copies:  # (several renames: one stopped between them is finished next start)
+        return [place(k, p) for k, p in enumerate(paths)]
     made: list[Path] = []  # in folder: the copies, then the files renamed from them
     try:
-        staged = []
-        for path in paths:
-            copy = folder / hidden_name(".partial-", path.name)
+        for path, copy in zip(paths, staged, strict=True):
+            assert copy is not None
             made.append(copy)
             if path.is_dir() and not path.is_symlink():
                 shutil.copytree(path, copy, symlinks=True)
             else:
                 shutil.copy2(path, copy, follow_symlinks=False)
-            staged.append(copy)
-        targets = []
         for k, copy in enumerate(staged):
-            target = _free_name(folder, paths[k].name)
-            os.rename(copy, target)
-            made[k] = target
-            targets.append(target)
+            assert copy is not None
+            made[k] = place(k, copy)
     except OSError:
         for p in made:
             _remove(p)
@@ -639,6 +687,188 @@ def _move_all(paths: Sequence[Path], folder: Path) -> list[Path]:
                 raise
             return targets[:moved]
     return targets
+
+
+_Line = tuple[Path, Path | None, Path]
+"""A line of :attr:`~analyzer.watch_index.Record.moving`: source, copy (None for a
+rename), target."""
+
+
+def _moving_lines(rec: Record) -> list[_Line]:
+    """The lines of ``rec``'s move; raises ValueError for lines that are not as written
+    (a state file edited by hand): a copy, removed to undo the move, must be a hidden
+    ``.partial-`` file beside its target."""
+    lines: list[_Line] = []
+    if not isinstance(rec.moving, list):
+        raise ValueError("not a list")
+    for line in rec.moving:
+        if not (
+            isinstance(line, list) and len(line) == 3 and all(isinstance(x, str) for x in line)
+        ):
+            raise ValueError(f"{line!r}: not [source, copy, target]")
+        source, copy, target = line
+        if not source or not target:
+            raise ValueError(f"{line!r}: no source or target")
+        if copy and (
+            not Path(copy).name.startswith(".partial-") or Path(copy).parent != Path(target).parent
+        ):
+            raise ValueError(f"{line!r}: not a copy of the watcher's")
+        lines.append((Path(source), Path(copy) if copy else None, Path(target)))
+    if not lines:
+        raise ValueError("no lines")
+    return lines
+
+
+def _end_moves(ledger: Ledger, inbox: Path) -> None:
+    """At the start: the moves of a watcher killed outright during them, finished or
+    undone (:func:`_end_move`), each said in a line. A move that cannot be ended yet
+    keeps its lines (tried again at the next start), and what is left of its archive in
+    INBOX is not analyzed meanwhile (:meth:`_Runner.offer`)."""
+    for rec in ledger.records.values():
+        if not rec.moving:
+            continue
+        try:
+            lines = _moving_lines(rec)
+        except ValueError as err:
+            log.warning(
+                "%s: its move in the state file cannot be read (%s): ignored", rec.name, err
+            )
+            rec.moving = []
+            continue
+        folder = lines[0][2].parent
+
+        def intent(moving: list[list[str]], rec: Record = rec) -> None:
+            rec.moving = moving
+            with contextlib.suppress(OSError):  # (REPORTS full: saved at the start's end)
+                ledger.save_state()
+
+        try:
+            how, moved = _end_move(rec, inbox, lines, intent)
+        except OSError as err:
+            log.warning(
+                "%s: its move to %s, stopped by force, cannot be ended: %s; what is left of "
+                "it in INBOX is not analyzed, and the next start tries again",
+                rec.name,
+                folder,
+                _move_error(err, [line[0] for line in lines], folder),
+            )
+            continue
+        if how == "kept":
+            log.warning(
+                "%s: its move to %s, stopped by force, cannot be ended: part of it is "
+                "neither in INBOX as it was nor found in %s (not mounted? taken from "
+                "there?); what is left of it in INBOX is not analyzed, and the next start "
+                "tries again (ended once the part is back there, or what is left is removed "
+                "from INBOX)",
+                rec.name,
+                folder,
+                folder,
+            )
+            continue
+        rec.moving = []
+        if moved:
+            rec.moved_to = [*rec.moved_to, *moved]
+        said = {
+            "undone": "undone (its copies there removed); it is moved again",
+            "not begun": "had not begun; it is moved again",
+            "finished": "finished",
+            "gone": "finished as far as can be told (part of it, gone from INBOX, is not in "
+            "it: taken from there since?)",
+        }[how]
+        log.info("%s: its move to %s, stopped by force, %s", rec.name, folder, said)
+
+
+def _end_move(
+    rec: Record,
+    inbox: Path,
+    lines: list[_Line],
+    intent: Callable[[list[list[str]]], None],
+) -> tuple[str, list[str]]:
+    """Finish or undo the move of ``rec`` that a watcher killed outright left half-done
+    (its :attr:`~analyzer.watch_index.Record.moving`, as ``lines``); returns how (below)
+    and the targets the archive is in now. Decided from the sources and from what is
+    the archive's own: a file is the archive's (a source as recorded, or a copy or
+    target of it) only where it has the size and mtime the record has for the source
+    (a rename and ``copy2`` keep both), never by its name alone (another process may
+    have put a file of that name in the folder since).
+
+    - ``"undone"``/``"not begun"``: every source still in INBOX as recorded and none of
+      the archive's files in place: its ``.partial-`` copies removed (if any); the
+      archive, recorded, is moved again.
+    - ``"finished"``: past the point of no return (a file in place, or a source gone),
+      and every file of the archive in place or able to be (a whole copy, or a source to
+      rename): the rest renamed (a target taken since: another free name, told to
+      ``intent`` first), the sources left in INBOX removed.
+    - ``"gone"``: as finished, but a part neither in INBOX nor identifiable in the folder
+      (taken from there since): the move is over with what is there.
+    - ``"kept"``: such a part, and the rest still in INBOX: nothing touched (the folder
+      may be a mount not mounted yet); the move stays, for the next start.
+
+    Before, an archive whose first planned name was taken by another file was taken for
+    moved: a source was removed with no copy of it anywhere, or left alone in INBOX and
+    analyzed as the archive; and a source gone from INBOX with --done emptied since
+    made the move "undone", the rest analyzed alone."""
+    entries: dict[Path, set[tuple[str, int, int]]] = {}
+    for source, _, _ in lines:  # (each source's recorded files, by their path in it)
+        try:
+            rel = source.relative_to(inbox).as_posix()
+            entries[source] = {
+                (n[len(rel) :], int(size), int(mtime))
+                for n, size, mtime in rec.signature
+                if n == rel or str(n).startswith(rel + "/")
+            }
+        except (ValueError, TypeError):  # (INBOX another folder now; a hand-edited state)
+            entries[source] = set()
+
+    def files(path: Path) -> set[tuple[str, int, int]] | None:
+        try:
+            sig = signature([path], path.parent) if os.path.lexists(path) else None
+        except (OSError, ValueError):
+            return None
+        if sig is None:
+            return None
+        return {(n[len(path.name) :], size, mtime) for n, size, mtime in sig}
+
+    def is_of(path: Path | None, source: Path, whole: bool = True) -> bool:
+        """Whether ``path`` is ``source`` as recorded (``whole``: all of it; else what is
+        left of it, a folder partly removed)."""
+        if path is None or not entries[source]:
+            return False
+        found = files(path)
+        if found is None:
+            return False
+        return found == entries[source] if whole else found <= entries[source]
+
+    in_place = [is_of(t, s) for s, _, t in lines]
+    if all(is_of(s, s) for s, _, _ in lines) and not any(in_place):
+        removed = False
+        for _, copy, _ in lines:
+            if copy is not None and os.path.lexists(copy):
+                _remove(copy, strict=True)
+                removed = True
+        return ("undone" if removed else "not begun"), []
+    placeable = [
+        placed or is_of(c, s) if c is not None else placed or is_of(s, s)
+        for (s, c, _), placed in zip(lines, in_place, strict=True)
+    ]
+    if not all(placeable) and any(is_of(s, s, whole=False) for s, _, _ in lines):
+        return "kept", []
+    targets = [t for _, _, t in lines]
+    for k, (source, copy, target) in enumerate(lines):
+        if in_place[k] or not placeable[k]:
+            if copy is not None and not in_place[k] and os.path.lexists(copy):
+                _remove(copy, strict=True)  # (truncated: its source is gone)
+            continue
+        if os.path.lexists(target):  # (another file's: told before the rename)
+            targets[k] = _free_of(target.parent, target.name, targets)
+            told = zip(lines, targets, strict=True)
+            intent([[str(s), str(c) if c else "", str(t)] for (s, c, _), t in told])
+        os.rename(copy if copy is not None else source, targets[k])
+    for (source, copy, _), placed in zip(lines, placeable, strict=True):
+        if placed and copy is not None and is_of(source, source, whole=False):
+            _remove(source, strict=True)
+    moved = [str(t) for t, placed in zip(targets, placeable, strict=True) if placed]
+    return ("finished" if all(placeable) else "gone"), moved
 
 
 def _move_error(err: OSError, paths: Sequence[Path], folder: Path) -> str:
@@ -872,12 +1102,19 @@ class _Runner:
         self.unsaved = False
         """A move not written to the state file (REPORTS full): written at the latest
         when the watcher stops (:meth:`save_unsaved`)."""
-        self._hashed: dict[str, tuple[Signature, ArchiveHashes]] = {}
-        """The last content hash of each archive not recorded with its signature."""
+        self._hashed: dict[str, tuple[Signature, int | None, ArchiveHashes]] = {}
+        """The last hashes of each archive not recorded with its signature: the signature
+        and the earlier size whose beginning was hashed (:meth:`_head`) they are of."""
         self.hasher = _Hasher()
-        self.hashing: dict[str, tuple[ReadyArchive, Future[ArchiveHashes]]] = {}
+        self.hashing: dict[str, tuple[ReadyArchive, int | None, Future[ArchiveHashes]]] = {}
         """Ready archives being hashed by :attr:`hasher` (too big to hash on the loop),
         started once hashed, in the order they were ready."""
+        self.held: set[str] = set()
+        """Archives not analyzed: what is left in INBOX of a move that the start could
+        not end (:func:`_end_moves`)."""
+        self.asked: dict[str, tuple[Signature, int | None, Future[ArchiveHashes]]] = {}
+        """Archives too big to hash on the loop that the inbox tracker asked about
+        (:meth:`recorded`), being hashed by :attr:`hasher`."""
         self.cluster = cluster
         self.slots = settings.jobs
         self.ctx = _context()
@@ -901,6 +1138,16 @@ class _Runner:
             self.unreadable.add(archive.name)
             return
         self.unreadable.discard(archive.name)
+        rec = self.ledger.get(archive.name)
+        if rec is not None and rec.moving:  # (what is left of it: not the archive)
+            if archive.name not in self.held:
+                self.held.add(archive.name)
+                log.warning(
+                    "%s: not analyzed: part of the archive whose move was stopped by force "
+                    "and could not be ended (said at the start)",
+                    archive.name,
+                )
+            return
         self.queue[archive.name] = archive
 
     def exit_code(self) -> int:
@@ -934,7 +1181,7 @@ class _Runner:
         it): one that :attr:`hasher` has hashed, else the first of the queue whose name
         is not running, hashed here if it is small, else handed to :attr:`hasher` (and
         the next one looked at)."""
-        for name, (archive, future) in list(self.hashing.items()):
+        for name, (archive, head, future) in list(self.hashing.items()):
             if not future.done():
                 continue
             del self.hashing[name]
@@ -945,7 +1192,7 @@ class _Runner:
                 continue
             except HashCancelled:
                 continue
-            self._hashed[name] = (archive.signature, hashes)
+            self._hashed[name] = (archive.signature, head, hashes)
             return archive
         for name, archive in list(self.queue.items()):
             if name in self.running:
@@ -954,8 +1201,13 @@ class _Runner:
             size = sum(s[1] for s in archive.signature)
             if size <= INLINE_HASH_BYTES or self._known_hashes(archive) is not None:
                 return archive
-            future = self.hasher.submit(archive.paths, self.settings.inbox, self._head(archive))
-            self.hashing[name] = (archive, future)
+            head = self._head(archive)
+            asked = self.asked.pop(name, None)  # (hashed already for the tracker's question)
+            if asked is not None and asked[:2] == (archive.signature, head):
+                future = asked[2]
+            else:
+                future = self.hasher.submit(archive.paths, self.settings.inbox, head)
+            self.hashing[name] = (archive, head, future)
         return None
 
     # ------------------------------------------------------------------ start
@@ -971,19 +1223,22 @@ class _Runner:
         known = self._known_hashes(archive)
         if known is not None:
             return known
-        hashes = hash_archive(archive.paths, self.settings.inbox, self._head(archive))
-        self._hashed[archive.name] = (archive.signature, hashes)
+        head = self._head(archive)
+        hashes = hash_archive(archive.paths, self.settings.inbox, head)
+        self._hashed[archive.name] = (archive.signature, head, hashes)
         return hashes
 
     def _known_hashes(self, archive: ReadyArchive) -> ArchiveHashes | None:
         """The archive's hashes without reading it: those of its record or of its last
-        hash, when it has the signature it had then; else None."""
+        hash, when it has the signature it had then (and, of the last hash, the beginning
+        :meth:`_head` asks for now: one taken against the record an analysis replaced
+        since has the wrong one, and :meth:`_grew` would read it again); else None."""
         rec = self.ledger.get(archive.name)
         if rec is not None and rec.signature == [list(s) for s in archive.signature]:
             return ArchiveHashes(rec.sha256, rec.file_marks, {})
         hashed = self._hashed.get(archive.name)
-        if hashed is not None and hashed[0] == archive.signature:
-            return hashed[1]
+        if hashed is not None and hashed[:2] == (archive.signature, self._head(archive)):
+            return hashed[2]
         return None
 
     def _head(self, archive: ReadyArchive) -> int | None:
@@ -997,14 +1252,46 @@ class _Runner:
                     return size
         return None
 
-    def recorded(self, archive: ReadyArchive) -> bool:
+    def recorded(self, archive: ReadyArchive) -> bool | None:
         """Whether ``archive`` is recorded already with its present content (and would
         not be analyzed again): :attr:`analyzer.watch_inbox.InboxTracker.known`. Only
-        an archive whose name has a record is hashed."""
+        an archive whose name has a record is hashed; one over :data:`INLINE_HASH_BYTES`
+        by :attr:`hasher`, and None until its hash is there (asked again at the
+        tracker's next step: a 2 GB recording that looked unfinished, under the name of
+        a recorded one, held the loop 20-30 s, every other archive and the stop signal
+        with it)."""
         rec = self.ledger.get(archive.name)
         if rec is None:
             return False
-        return rec.sha256 == self._digest(archive) and rec.redo_reason(self.fingerprint) is None
+        hashes = self._known_hashes(archive)
+        if hashes is None and sum(s[1] for s in archive.signature) > INLINE_HASH_BYTES:
+            hashes = self._asked_hashes(archive)
+            if hashes is None:
+                return None
+        digest = hashes.sha256 if hashes is not None else self._digest(archive)
+        return rec.sha256 == digest and rec.redo_reason(self.fingerprint) is None
+
+    def _asked_hashes(self, archive: ReadyArchive) -> ArchiveHashes | None:
+        """For :meth:`recorded`: the hashes of ``archive`` from :attr:`hasher`, asked
+        for now if they are not (or were of other content), None until they are done;
+        raises what the hash raised (OSError: the tracker looks again when it settles)."""
+        name, head = archive.name, self._head(archive)
+        asked = self.asked.get(name)
+        if asked is None or asked[:2] != (archive.signature, head):
+            if asked is not None:
+                asked[2].cancel()  # (of content that has changed since: not started)
+            future = self.hasher.submit(archive.paths, self.settings.inbox, head)
+            self.asked[name] = (archive.signature, head, future)
+            return None
+        if not asked[2].done():
+            return None
+        del self.asked[name]
+        try:
+            hashes = asked[2].result()
+        except HashCancelled:  # (the watcher is stopping)
+            return None
+        self._hashed[name] = (archive.signature, head, hashes)
+        return hashes
 
     @property
     def counted(self) -> int:
@@ -1353,9 +1640,32 @@ class _Runner:
                 folder,
             )
             return
+
+        said: list[bool] = []
+
+        def moving(lines: list[list[str]]) -> None:
+            """Before a move that can stop half-done: its lines in the state file (where
+            REPORTS is full, the move goes on without them, as before, said once)."""
+            rec.moving = lines
+            try:
+                self.ledger.save_state()
+            except OSError as err:  # (written with the next record, or at the stop)
+                self.unsaved = True
+                if lines and not said:
+                    said.append(True)
+                    log.warning(
+                        "%s: its move to %s is not in the state file (%s): a kill during it "
+                        "would leave it half-done",
+                        archive.name,
+                        folder,
+                        one_line(err.strerror or err),
+                    )
+
         try:
-            moved = [str(target) for target in _move_all(archive.paths, folder)]
+            moved = [str(t) for t in _move_all(archive.paths, folder, moving)]
         except OSError as err:
+            if rec.moving:  # (undone: nothing of it left to end)
+                moving([])
             log.warning(
                 "%s: not moved to %s (it stays in INBOX): %s",
                 archive.name,
@@ -1363,6 +1673,7 @@ class _Runner:
                 _move_error(err, archive.paths, folder),
             )
             return
+        rec.moving = []
         if moved:
             # (the same content dropped again and moved: its earlier copy stays listed)
             rec.moved_to = [*rec.moved_to, *moved]
@@ -1522,6 +1833,7 @@ def _watch_locked(
     """:func:`watch` once REPORTS is locked (and the cluster, if any, connected); returns
     its exit code."""
     ledger = Ledger.load(settings.reports)
+    _end_moves(ledger, settings.inbox)  # (first: a record tidied away keeps no copies)
     for name in ledger.tidy():
         log.info("%s: its report folder is gone; it will be analyzed again", name)
     ledger.save()

@@ -361,8 +361,9 @@ class _Track:
     problem: str | None = None
     """Why it cannot be read, once said (:func:`unreadable_reason`); it is then handled
     (for ``once``) and looked at again whenever it is listed or changes."""
-    known: bool = False
-    """Unfinished-looking but recorded already with this content: not waited for."""
+    known: bool | None = False
+    """Unfinished-looking but recorded already with this content: not waited for (None:
+    not known yet, asked again at the next step)."""
     told: str | None = None
     """The unfinished reason last said, without its numbers (:func:`_gist`): each is said
     once, not again at every pause of a slow copy whose byte counts moved on."""
@@ -381,10 +382,11 @@ class InboxTracker:
     incomplete_timeout: float = INCOMPLETE_TIMEOUT_S
     quiet: bool = False
     """Say nothing (a tracker that only lists the archives: :func:`archive_names`)."""
-    known: Callable[[ReadyArchive], bool] | None = None
+    known: Callable[[ReadyArchive], bool | None] | None = None
     """Whether an archive is recorded already with its present content (the watcher's
     ledger, looked up by content hash): one that looks unfinished is then handed on at
-    once instead of being waited for (it will not be analyzed again anyway)."""
+    once instead of being waited for (it will not be analyzed again anyway). None: not
+    known yet (a big archive being hashed off the loop), asked again at the next step."""
     _members: dict[str, set[str]] = field(default_factory=dict)
     _tracks: dict[str, _Track] = field(default_factory=dict)
     _dirty: set[str] = field(default_factory=set)
@@ -493,7 +495,7 @@ class InboxTracker:
                 longer,
             )
 
-    def _known(self, archive: ReadyArchive) -> bool:
+    def _known(self, archive: ReadyArchive) -> bool | None:
         if self.known is None:
             return False
         try:
@@ -549,10 +551,10 @@ class InboxTracker:
                     if problem is None:
                         self._dirty.add(k)
                         continue
-                track.known = bool(track.reason) and self._known(
-                    ReadyArchive(k, paths, sig, track.reason)
-                )
-                if track.reason and not track.known and _gist(track.reason) != track.told:
+                track.known = None if track.reason else False
+            if problem is None and track.reason and track.known is None:
+                track.known = self._known(ReadyArchive(k, paths, sig, track.reason))
+                if track.known is False and _gist(track.reason) != track.told:
                     track.told = _gist(track.reason)
                     if not self.quiet:
                         log.warning(
@@ -642,7 +644,7 @@ def ready_batches(
     once: bool = False,
     incomplete_timeout: float = INCOMPLETE_TIMEOUT_S,
     yield_on_timeout: bool = False,
-    known: Callable[[ReadyArchive], bool] | None = None,
+    known: Callable[[ReadyArchive], bool | None] | None = None,
     busy: Callable[[], bool] | None = None,
     pause: Callable[[float], object] | None = None,
 ) -> Generator[list[ReadyArchive], None, None]:

@@ -131,6 +131,13 @@ class Record:
     ``signature``), to tell a file that grew from one replaced by another recording
     (:meth:`analyzer.watch._Runner._grew`); empty for a single file (``sha256`` is its
     own) and in the records of older watchers. Not in ``index.json``."""
+    moving: list[list[str]] = field(default_factory=list)
+    """A move by ``--done``/``--failed`` under way that could be stopped half-done
+    (copies to another file system, several renames): ``[source, copy, target]``
+    lines, ``copy`` "" for a rename. Written before the move begins, emptied when it
+    ends; the start after a watcher killed during it finishes or undoes it
+    (:func:`analyzer.watch._end_move`). In the state file only while not empty; not in
+    ``index.json``."""
 
     @property
     def folder(self) -> str:
@@ -162,6 +169,8 @@ class Record:
         be serialized, not changed; ``dataclasses.asdict`` deep-copied them, which was
         most of the cost of writing the state of a year of files)."""
         doc = {name: getattr(self, name) for name in _RECORD_FIELDS}
+        if not self.moving:
+            del doc["moving"]  # (the state of a watcher between moves, as before)
         doc["verdict"] = str(self.verdict)
         if self.error_kind is not None:
             doc["error_kind"] = str(self.error_kind)
@@ -518,6 +527,7 @@ class Ledger:
             doc = rec.as_json()
             del doc["signature"]
             del doc["file_marks"]
+            doc.pop("moving", None)
             rows.append(doc)
         counts = {str(v): sum(r["verdict"] == v for r in rows) for v in Verdict}
         return {

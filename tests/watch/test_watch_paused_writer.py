@@ -26,6 +26,8 @@ from analyzer import watch as watch_module
 from analyzer.findings import sha256_of
 from analyzer.options import RunOptions
 from analyzer.watch import WatchSettings
+from analyzer.watch_inbox import ReadyArchive, signature
+from analyzer.watch_index import Ledger, Record, Verdict
 
 folders = test_watch_run.folders
 start_watcher = test_watch_run.start_watcher
@@ -344,3 +346,41 @@ def test_a_bag_folder_whose_metadata_was_rewritten_as_it_grew_grew(
     assert _said(caplog, "bag: grew since its last analysis")
     w.stop.set()
     assert w.join() == 0
+
+
+def test_a_hash_taken_against_an_earlier_record_is_not_reused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A file's hashes (with the beginning of its record's size) are kept for its start,
+    but not once another record of it replaced that one (an analysis ended while the
+    hasher thread was answering the tracker): :meth:`_grew` would be given the beginning
+    of the earlier record's size, and keep the grown file aside as new content."""
+    monkeypatch.setattr(watch_module, "_context", lambda: multiprocessing.get_context("fork"))
+    inbox, reports = tmp_path / "inbox", tmp_path / "out"
+    inbox.mkdir()
+    reports.mkdir()
+    data = write(tmp_path / "full.csv", "csv", seed=2).read_bytes()
+    csv = inbox / "a.csv"
+    csv.write_bytes(data)
+
+    def record(size: int) -> Record:
+        return Record(
+            name="a.csv",
+            sha256=hashlib.sha256(data[:size]).hexdigest(),
+            verdict=Verdict.NO_FAULT,
+            report="a.csv/report.html",
+            inputs=[str(csv)],
+            processed="2026-01-01T00:00:00Z",
+            analysis_s=1.0,
+            signature=[["a.csv", size, 0]],
+        )
+
+    ledger = Ledger(reports)
+    ledger.records["a.csv"] = record(len(data) // 4)
+    runner = watch_module._Runner(
+        WatchSettings(inbox, reports), RunOptions(), ledger, threading.Event()
+    )
+    archive = ReadyArchive("a.csv", (csv,), signature([csv], inbox))
+    assert runner._hashes(archive).heads == {"a.csv": record(len(data) // 4).sha256}
+    ledger.records["a.csv"] = record(len(data) // 2)
+    assert runner._hashes(archive).heads == {"a.csv": record(len(data) // 2).sha256}

@@ -124,7 +124,7 @@ def test_a_move_refused_while_running_names_the_folder_that_refused_it(
     refused: set[Path] = set()
     refuse_writes_to(monkeypatch, refused)
 
-    def rename_refused(paths: Sequence[Path], folder: Path) -> list[Path]:
+    def rename_refused(paths: Sequence[Path], folder: Path, *_: object) -> list[Path]:
         refused.add(folder.absolute())  # (made read-only since the start)
         src = paths[0]
         raise PermissionError(errno.EACCES, "Permission denied", str(src), str(folder / src.name))
