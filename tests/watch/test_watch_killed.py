@@ -103,6 +103,13 @@ def _recorded(reports: Path) -> set[str]:
         return set()
 
 
+def _wait_recorded(reports: Path, name: str) -> None:
+    """Wait (up to :data:`LIMIT_S`) until ``name`` has a record in REPORTS' state file."""
+    deadline = time.monotonic() + LIMIT_S
+    while name not in _recorded(reports) and time.monotonic() < deadline:
+        time.sleep(0.05)
+
+
 @pytest.fixture
 def big_and_small(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[Path, Path]:
     """INBOX with ``a_big.csv`` (first in order) and ``b_small.csv``, the big one above
@@ -152,9 +159,7 @@ def test_a_small_archive_is_not_held_up_by_a_big_ones_hash(
     stop = threading.Event()
     thread = _run(inbox, reports, stop)
     try:
-        deadline = time.monotonic() + LIMIT_S
-        while "b_small.csv" not in _recorded(reports) and time.monotonic() < deadline:
-            time.sleep(0.05)
+        _wait_recorded(reports, "b_small.csv")
         assert "a_big.csv" in begun
         assert "b_small.csv" in _recorded(reports), "the small archive waited for the big hash"
         assert "a_big.csv" not in _recorded(reports)
@@ -240,9 +245,7 @@ def test_a_small_archive_is_not_held_up_by_the_hash_of_an_unfinished_big_one(
     stop = threading.Event()
     thread = _run(inbox, reports, stop)
     try:
-        deadline = time.monotonic() + LIMIT_S
-        while "b_small.csv" not in _recorded(reports) and time.monotonic() < deadline:
-            time.sleep(0.05)
+        _wait_recorded(reports, "b_small.csv")
         assert big.name in begun
         assert "b_small.csv" in _recorded(reports), "the small archive waited for the big hash"
         small_done.set()
