@@ -76,8 +76,8 @@ def frozen_notes(
     ``alarmed_to_s``. A frozen stretch begins and ends with :data:`FROZEN_RUN` readings
     in a row off its level, so a stuck sensor's noise or a dead one's single flicker does
     not end it. A finding frozen for less of its period is a fault of another kind,
-    unless a gain that read dead from its onset (:func:`_dead_gain`): a dead sensor,
-    to where its readings moved again."""
+    unless it read dead from its onset (:func:`_dead_from_onset`): a dead sensor, to
+    where its readings moved again, whatever shape the residual gave it."""
     if not isinstance(healthy, Mapping):
         healthy = healthy_stats(values, channels, healthy)
     notes: dict[int, str] = {}
@@ -100,9 +100,9 @@ def frozen_notes(
         frozen = float(np.std(seg)) <= tol or float(np.mean(near)) >= FROZEN_SHARE
         until = frozen_until(values, j, a, level, tol, b) if frozen else a
         if until - a < FROZEN_SHARE * (b - a):
-            # frozen for a while only: a fault of another kind, unless a gain that read
-            # dead from its onset (a gain cannot read flat at zero)
-            dead = _dead_gain(f, values, j, a, b, sd, rate_hz)
+            # frozen for a while only: a fault of another kind, unless it read dead
+            # from its onset (no fault of an alive sensor reads flat at zero)
+            dead = _dead_from_onset(values, j, a, b, sd, rate_hz)
             if dead is None:
                 continue
             level, until = dead
@@ -141,8 +141,7 @@ def frozen_notes(
     return notes
 
 
-def _dead_gain(
-    f: Finding,
+def _dead_from_onset(
     values: npt.NDArray[Any],
     j: int,
     a: int,
@@ -150,25 +149,28 @@ def _dead_gain(
     sd: float,
     rate_hz: float,
 ) -> tuple[float, int] | None:
-    """A gain fault (``f`` multiplicative) whose readings are dead from its onset row
-    ``a``: frozen at the sensor's zero (within :data:`ZERO` of the healthy ``sd``) for at
-    least a long alarm window (:data:`~analyzer.diagnosis.changes.LONG_FACTOR`
-    windows of :func:`~analyzer.diagnosis.changes.default_window`, the span the
-    detectors judge a change by) before its end row ``b``: their level and the row
-    where they move again (:func:`frozen_until`); None otherwise.
+    """A fault whose readings (column ``j``) are dead from its onset row ``a``: frozen
+    at the sensor's zero (within :data:`ZERO` of the healthy ``sd``) for at least a long
+    alarm window (:data:`~analyzer.diagnosis.changes.LONG_FACTOR` windows of
+    :func:`~analyzer.diagnosis.changes.default_window`, the span the detectors judge a
+    change by) before its end row ``b``: their level and the row where they move again
+    (:func:`frozen_until`); None otherwise.
 
-    A gain ``a`` makes a reading ``a y``, which varies with the structure: one of at
-    least :data:`~analyzer.diagnosis.classify.MIN_GAIN` (below it the gain is read as a
-    dead sensor anyway) varies by about a tenth of the healthy spread or more, ten
-    times :data:`FLAT`, and does not read flat at zero for that long. A gain fitted
-    over such a stretch is the dead readings and the alive ones after them taken for
-    one fault: a sensor dead from 120 to 220 s whose finding ran on to 248 s (another
-    sensor's fault, which the detectors model it with, in its residual until 250 s) or
-    to the record's end was fitted gains of 0.11-0.38 with ``--model``
-    (``sweep_corrected.py``), and ``--corrected`` divided the alive readings after 220 s
-    by them. The dead stretch is the fault; the readings after it are alive."""
-    if f.type is not FaultType.MULTIPLICATIVE:
-        return None
+    No fault of an alive sensor reads flat at zero that long: an offset ``c`` or a drift
+    adds to the reading ``y``, which varies with the structure, and a gain ``a`` makes it
+    ``a y``, which for one of at least :data:`~analyzer.diagnosis.classify.MIN_GAIN`
+    (below it a gain is read as a dead sensor anyway) varies by about a tenth of the
+    healthy spread or more, ten times :data:`FLAT`. A shape fitted over such a stretch
+    is the dead readings and the alive ones after them taken for one fault, whatever
+    shape the residual made of them: a sensor dead from 120 to 220 s whose finding ran
+    on to 248 s (another sensor's fault, which the detectors model it with, in its
+    residual until 250 s) or to the record's end was fitted gains of 0.11-0.38 with
+    ``--model`` (``sweep_corrected.py``), and ``--corrected`` divided the alive readings
+    after 220 s by them; one dead from 10 to 22 s whose finding ran on to the second
+    dead sensor's revival or the record's end was ``other`` (offset about 0) in 28 of
+    160 runs of ``sweep_dead_pairs.py``, regenerated past its revival (0.5 sd of error
+    there). The dead stretch is the fault; the readings after it are alive. (A stuck
+    sensor reads flat away from zero; a healthy one reads zero only at rest.)"""
     least = max(MIN_FLAT_SAMPLES, LONG_FACTOR * default_window(rate_hz))
     if b - a <= least:
         return None
