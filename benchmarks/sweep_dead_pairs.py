@@ -20,7 +20,7 @@ Per run, of the first sensor (truth: the piece before injection, in sd of the se
   alive again there: 0 when ``--corrected`` keeps them as measured).
 
 The summary counts the findings by type and by whether they end at the revival (within
-0.1 s of 22 s). A script, not a timed test (about 10 minutes)::
+0.1 s of 22 s). A script, not a timed test (about 2 minutes)::
 
     python benchmarks/sweep_dead_pairs.py [--pieces 0:4] [--json F]
 """
