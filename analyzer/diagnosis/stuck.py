@@ -76,13 +76,27 @@ def frozen_notes(
     ``alarmed_to_s``. A frozen stretch begins and ends with :data:`FROZEN_RUN` readings
     in a row off its level, so a stuck sensor's noise or a dead one's single flicker does
     not end it. A finding frozen for less of its period is a fault of another kind,
-    unless a gain that read dead from its onset (:func:`_dead_gain`): a dead sensor,
-    to where its readings moved again."""
+    unless it read dead from its onset (:func:`_dead_from_onset`): a dead sensor, to
+    where its readings moved again, whatever shape the residual gave it; but a finding
+    of another shape than a gain only when its readings after the revival sit at the
+    healthy mean (:func:`_alive_after`: else it is a dead spell then a lasting fault,
+    which the finding is) and its channel's healthy readings never read zero for long
+    (:func:`reads_zero_for_long`: a quiet channel on a coarse converter; not known with
+    ``--model``, which brings no training readings)."""
+    train = None if isinstance(healthy, Mapping) else healthy
     if not isinstance(healthy, Mapping):
         healthy = healthy_stats(values, channels, healthy)
     notes: dict[int, str] = {}
     index = {c: j for j, c in enumerate(channels)}
     n = values.shape[0]
+    # channels whose healthy readings read zero for long (no evidence of death there);
+    # unknown with ``--model`` (no training readings: the guard after the revival holds)
+    shaped = {f.channel for f in findings if f.type is not FaultType.MULTIPLICATIVE}
+    zero_at_rest = {
+        j: reads_zero_for_long(values, j, train, healthy[c][1], rate_hz)
+        for c, j in index.items()
+        if train is not None and c in shaped and c in healthy
+    }
     for f in findings:
         j = index.get(f.channel)
         stats = healthy.get(f.channel)
@@ -100,9 +114,18 @@ def frozen_notes(
         frozen = float(np.std(seg)) <= tol or float(np.mean(near)) >= FROZEN_SHARE
         until = frozen_until(values, j, a, level, tol, b) if frozen else a
         if until - a < FROZEN_SHARE * (b - a):
-            # frozen for a while only: a fault of another kind, unless a gain that read
-            # dead from its onset (a gain cannot read flat at zero)
-            dead = _dead_gain(f, values, j, a, b, sd, rate_hz)
+            # frozen for a while only: a fault of another kind, unless it read dead
+            # from its onset (no fault of an alive sensor reads flat at zero)
+            dead = _dead_from_onset(values, j, a, b, sd, rate_hz)
+            if (
+                dead is not None
+                and f.type is not FaultType.MULTIPLICATIVE
+                and (zero_at_rest.get(j) or not _alive_after(values, j, dead[1], b, mean, sd))
+            ):
+                # a shape of its own: dead only if it was the dead readings and alive
+                # ones taken for one fault, not a fault that went on after them, and
+                # only on a channel that does not read zero when healthy
+                dead = None
             if dead is None:
                 continue
             level, until = dead
@@ -141,8 +164,7 @@ def frozen_notes(
     return notes
 
 
-def _dead_gain(
-    f: Finding,
+def _dead_from_onset(
     values: npt.NDArray[Any],
     j: int,
     a: int,
@@ -150,25 +172,28 @@ def _dead_gain(
     sd: float,
     rate_hz: float,
 ) -> tuple[float, int] | None:
-    """A gain fault (``f`` multiplicative) whose readings are dead from its onset row
-    ``a``: frozen at the sensor's zero (within :data:`ZERO` of the healthy ``sd``) for at
-    least a long alarm window (:data:`~analyzer.diagnosis.changes.LONG_FACTOR`
-    windows of :func:`~analyzer.diagnosis.changes.default_window`, the span the
-    detectors judge a change by) before its end row ``b``: their level and the row
-    where they move again (:func:`frozen_until`); None otherwise.
+    """A fault whose readings (column ``j``) are dead from its onset row ``a``: frozen
+    at the sensor's zero (within :data:`ZERO` of the healthy ``sd``) for at least a long
+    alarm window (:data:`~analyzer.diagnosis.changes.LONG_FACTOR` windows of
+    :func:`~analyzer.diagnosis.changes.default_window`, the span the detectors judge a
+    change by) before its end row ``b``: their level and the row where they move again
+    (:func:`frozen_until`); None otherwise.
 
-    A gain ``a`` makes a reading ``a y``, which varies with the structure: one of at
-    least :data:`~analyzer.diagnosis.classify.MIN_GAIN` (below it the gain is read as a
-    dead sensor anyway) varies by about a tenth of the healthy spread or more, ten
-    times :data:`FLAT`, and does not read flat at zero for that long. A gain fitted
-    over such a stretch is the dead readings and the alive ones after them taken for
-    one fault: a sensor dead from 120 to 220 s whose finding ran on to 248 s (another
-    sensor's fault, which the detectors model it with, in its residual until 250 s) or
-    to the record's end was fitted gains of 0.11-0.38 with ``--model``
-    (``sweep_corrected.py``), and ``--corrected`` divided the alive readings after 220 s
-    by them. The dead stretch is the fault; the readings after it are alive."""
-    if f.type is not FaultType.MULTIPLICATIVE:
-        return None
+    No fault of an alive sensor reads flat at zero that long: an offset ``c`` or a drift
+    adds to the reading ``y``, which varies with the structure, and a gain ``a`` makes it
+    ``a y``, which for one of at least :data:`~analyzer.diagnosis.classify.MIN_GAIN`
+    (below it a gain is read as a dead sensor anyway) varies by about a tenth of the
+    healthy spread or more, ten times :data:`FLAT`. A shape fitted over such a stretch
+    is the dead readings and the alive ones after them taken for one fault, whatever
+    shape the residual made of them: a sensor dead from 120 to 220 s whose finding ran
+    on to 248 s (another sensor's fault, which the detectors model it with, in its
+    residual until 250 s) or to the record's end was fitted gains of 0.11-0.38 with
+    ``--model`` (``sweep_corrected.py``), and ``--corrected`` divided the alive readings
+    after 220 s by them; one dead from 10 to 22 s whose finding ran on to the second
+    dead sensor's revival or the record's end was ``other`` (offset about 0) in 28 of
+    160 runs of ``sweep_dead_pairs.py``, regenerated past its revival (0.5 sd of error
+    there). The dead stretch is the fault; the readings after it are alive. (A stuck
+    sensor reads flat away from zero; a healthy one reads zero only at rest.)"""
     least = max(MIN_FLAT_SAMPLES, LONG_FACTOR * default_window(rate_hz))
     if b - a <= least:
         return None
@@ -180,7 +205,73 @@ def _dead_gain(
     if abs(level) > ZERO * sd:
         return None
     until = frozen_until(values, j, a, level, tol, b)
-    return (level, until) if until - a >= least else None
+    if until - a < least:
+        return None
+    # missing readings do not end a frozen stretch, nor do they read zero: the window's
+    # count of finite ones (a few zeros before an outage are no dead sensor)
+    finite = int(np.count_nonzero(np.isfinite(read_column(values, j, a, until))))
+    return (level, until) if finite >= least else None
+
+
+ALIVE_MEAN = 0.15
+"""The readings after a dead stretch, to the end of its finding, are alive and healthy
+when their mean is within this fraction of the healthy standard deviation of the healthy
+mean (:func:`_alive_after`)."""
+
+
+def _alive_after(
+    values: npt.NDArray[Any], j: int, until: int, b: int, mean: float, sd: float
+) -> bool:
+    """Whether the readings of column ``j`` from the revival row ``until`` to the
+    finding's end row ``b`` sit at the healthy ``mean``: within :data:`ALIVE_MEAN` of
+    ``sd`` (fewer than :data:`MIN_FLAT_SAMPLES` finite ones say nothing against it).
+
+    A finding that read dead from its onset and is an offset, a drift or ``other`` is
+    either the dead readings and the healthy ones after them taken for one fault (the
+    residual's shape is an artefact: the detectors' estimate leant on another faulty
+    sensor) or a dead spell followed by a lasting fault of that shape (an offset,
+    a drift, a sensor stuck away from zero), which the finding is about. The readings
+    after the revival tell them apart: a healthy sensor's average at its healthy mean,
+    a lasting offset or stuck level off it by its size, a drift by half its rise. The
+    bound lies between the two: the revived readings of the 35 such findings of
+    ``sweep_dead_pairs.py`` (8 to 18 s of them) strayed from the mean by at most 0.075
+    of the spread, half the bound, and the smallest offsets the project's sweeps inject
+    (``sweep_isolation.py --scale 0.5``) are 0.25 of it, 0.1 above it (a 1-sd offset
+    after a 4-s dead spell was otherwise lost to a dead finding). Where a short or
+    unsettled revival strays further, the finding keeps the residual's shape: a
+    revived sensor's readings regenerated, the lesser harm than a real fault lost. A
+    gain is not asked: a dead sensor's residual fitted as one is the case the rule was
+    made for, and a gain keeps the mean."""
+    rest = read_column(values, j, until, b)
+    rest = rest[np.isfinite(rest)]
+    if rest.size < MIN_FLAT_SAMPLES:
+        return True
+    return abs(float(np.mean(rest)) - mean) <= ALIVE_MEAN * sd
+
+
+def reads_zero_for_long(
+    values: npt.NDArray[Any], j: int, train: tuple[int, int], sd: float, rate_hz: float
+) -> bool:
+    """Whether the healthy readings of column ``j`` over the training rows ``train`` read
+    frozen at zero (within :data:`FLAT` of ``sd``, no :data:`FROZEN_RUN` readings in a
+    row off it) for a long alarm window somewhere: exact zeros are then a healthy state
+    of that channel (a coarse converter on a quiet channel, a structure at rest), and
+    reading zero from a finding's onset says nothing of its being dead. Vectorised over
+    the window (its rows are read once)."""
+    least = max(MIN_FLAT_SAMPLES, LONG_FACTOR * default_window(rate_hz))
+    seg = read_column(values, j, train[0], train[1])
+    if seg.size < least:
+        return False
+    moved = np.abs(seg) > FLAT * sd  # (NaN: False, as in :func:`frozen_until`)
+    counts = np.cumsum(np.concatenate(([0], moved.astype(np.int64))))
+    starts = np.flatnonzero(counts[FROZEN_RUN:] - counts[:-FROZEN_RUN] == FROZEN_RUN)
+    # the stretches between runs off zero (and before the first, after the last), by
+    # their finite readings (an outage in training is not zero)
+    begins = np.concatenate(([0], starts + FROZEN_RUN))
+    ends = np.concatenate((starts, [seg.size]))
+    finite = np.cumsum(np.concatenate(([0], np.isfinite(seg).astype(np.int64))))
+    keep = ends > begins
+    return bool(np.any(finite[ends[keep]] - finite[begins[keep]] >= least))
 
 
 FROZEN_SHARE = 0.9

@@ -125,13 +125,13 @@ def test_a_fault_present_from_the_first_sample_is_found_with_the_model(
         assert _main(["run", src, "--out", tmp_path / "own", "--train", "0:20"]) == 0
 
 
-def _two_dead(model, record, piece: int, tmp_path: Path):
-    """``--model --corrected`` on a piece of the record with s1 dead at 10-22 s and s3
-    at 16-30 s: ``(findings, readings, truth, out folder)``."""
+def _two_dead(model, record, piece: int, tmp_path: Path, first: int = 1, second: int = 3):
+    """``--model --corrected`` on a piece of the record with s1 (``first``) dead at
+    10-22 s and s3 (``second``) at 16-30 s: ``(findings, readings, truth, out folder)``."""
     t, y = _piece(record, piece)
     truth = y.copy()
-    y[:, 1] = inject_fault(y[:, 1], RATE, "multiplicative", 10.0, 0.0, 22.0)
-    y[:, 3] = inject_fault(y[:, 3], RATE, "multiplicative", 16.0, 0.0, 30.0)
+    y[:, first] = inject_fault(y[:, first], RATE, "multiplicative", 10.0, 0.0, 22.0)
+    y[:, second] = inject_fault(y[:, second], RATE, "multiplicative", 16.0, 0.0, 30.0)
     src = _write(tmp_path / "dead.csv", t, y, record[2])
     out = tmp_path / "c"
     assert _main(["run", src, "--out", out, "--model", model, "--corrected"]) == 1
@@ -189,6 +189,29 @@ def test_a_dead_sensor_whose_finding_ran_on_is_not_a_gain_with_the_model(model, 
     dead = slice(int(10 * RATE), int(22 * RATE))
     sd = float(truth[:, 1].std())
     assert float(np.sqrt(np.mean((fixed[dead, 1] - truth[dead, 1]) ** 2))) < 0.5 * sd
+
+
+def test_a_dead_sensor_read_as_neither_shape_is_dead_to_its_revival_with_the_model(
+    model, record, tmp_path
+):
+    """--model --corrected: s3 dead at 10-22 s and s2 at 16-30 s of the second piece; the
+    detectors see s3 faulty to about 30 s, and the residual over 10-30 s, dead then
+    alive, is neither shape: ``other`` (offset about 0) at edb23a8, regenerated past
+    22 s (0.62 sd of error over its alive readings). Its readings read zero from the
+    onset, as no fault of an alive sensor does, whatever its type: dead, to 22 s, and
+    its readings after are kept as measured (``sweep_dead_pairs.py``: 28 of 160 runs)."""
+    doc, y, truth, out = _two_dead(model, record, 1, tmp_path, first=3, second=2)
+    (s3,) = [f for f in doc["faults"] if f["channel"] == "s3"]
+    assert (s3["type"], s3["magnitude"]) == ("multiplicative", {"gain": 0.0})
+    assert s3["end_s"] == pytest.approx(22.0, abs=0.02)
+    assert s3["evidence"]["frozen"]["was"] == "other"
+    assert s3["evidence"]["frozen"]["alarmed_to_s"] > 25.0  # the detectors' end
+    fixed = np.loadtxt(out / "corrected.csv", delimiter=",", skiprows=1)[:, 1:]
+    back = int(22.05 * RATE)
+    assert np.array_equal(fixed[back:, 3], y[back:, 3])  # alive again: as measured
+    dead = slice(int(10 * RATE), int(22 * RATE))
+    sd = float(truth[:, 3].std())
+    assert float(np.sqrt(np.mean((fixed[dead, 3] - truth[dead, 3]) ** 2))) < 0.5 * sd
 
 
 def test_healthy_pieces_give_no_finding_and_name_the_model(model, record, tmp_path):

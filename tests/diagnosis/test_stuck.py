@@ -130,12 +130,12 @@ def test_a_frozen_finding_ends_where_its_readings_moved_again():
     """A sensor dead from row 3000 to 4400 whose end a detector saw 147 rows late: the
     readings over that period are not frozen, yet they are from the onset for 90 % of
     it and then move: the finding ends where they moved again, dead, with gain 0 (not
-    the detector's 0.174). A fault that reads flat for less than 90 % of its period keeps
-    its type and end."""
+    the detector's 0.174). A fault that reads flat away from zero for less than 90 % of
+    its period keeps its type and end."""
     rng = np.random.default_rng(2)
     values = rng.standard_normal((6000, 2))
     values[3000:4400, 0] = 0.0
-    values[3000:3800, 1] = 0.0  # flat for 800 of 1547 rows: some other fault
+    values[3000:3800, 1] = 1.5  # flat for 800 of 1547 rows: some other fault
     found = [
         Finding("a", FaultType.MULTIPLICATIVE, 15.0, 4547 / RATE, {"gain": 0.174}, 1.0, "df"),
         Finding("b", FaultType.OTHER, 15.0, 4547 / RATE, {"rms": 1.0}, 1.0, "df"),
@@ -187,19 +187,21 @@ def test_a_gain_that_read_dead_from_its_onset_is_a_dead_sensor_to_its_revival():
     less than 90 %, yet a gain of at least 0.1 varies with the structure and never reads
     flat at zero for a long alarm window: the gain the residual fitted (0.21) is the
     dead readings and the alive ones after taken for one fault. Dead, to where the
-    readings moved again. A real gain of 0.2, a fault of another type on the same
-    readings, and a gain flat at zero for less than a long alarm window (2 s at 200 Hz
-    is 400 rows) keep their type and end."""
+    readings moved again. A real gain of 0.2, a sensor dead for 7 s then offset by
+    1 sd to the finding's end (the same finding: the offset is what lasts), and a gain
+    flat at zero for less than a long alarm window (2 s at 200 Hz is 400 rows) keep
+    their type and end."""
     rng = np.random.default_rng(3)
     values = rng.standard_normal((9000, 4))
     values[3000:4400, 0] = 0.0
     values[3000:, 1] *= 0.2  # a real gain
-    values[3000:4400, 2] = 0.0
+    values[3000:4400, 2] = 0.0  # dead, then a lasting offset
+    values[4400:, 2] += 1.0
     values[3000:3300, 3] = 0.0  # flat at zero for 1.5 s only
     found = [
         Finding("a", FaultType.MULTIPLICATIVE, 15.0, 30.0, {"gain": 0.21}, 1.0, "df"),
         Finding("b", FaultType.MULTIPLICATIVE, 15.0, 30.0, {"gain": 0.2}, 1.0, "df"),
-        Finding("c", FaultType.DRIFT, 15.0, 30.0, {"rate_per_s": 0.1}, 1.0, "df"),
+        Finding("c", FaultType.ADDITIVE, 15.0, 30.0, {"offset": 0.6}, 1.0, "df"),
         Finding("d", FaultType.MULTIPLICATIVE, 15.0, None, {"gain": 0.5}, 1.0, "df"),
     ]
     (note,) = relabel_frozen(found, values, ["a", "b", "c", "d"], RATE, (0, 2000))
@@ -209,8 +211,125 @@ def test_a_gain_that_read_dead_from_its_onset_is_a_dead_sensor_to_its_revival():
     assert "the detectors saw it to 30.000 s: it ends where they moved again" in note
     assert [(f.type, f.end_s) for f in found[1:]] == [
         (FaultType.MULTIPLICATIVE, 30.0),
-        (FaultType.DRIFT, 30.0),
+        (FaultType.ADDITIVE, 30.0),
         (FaultType.MULTIPLICATIVE, None),
     ]
     assert found[1].magnitude == {"gain": 0.2} and found[3].magnitude == {"gain": 0.5}
     assert not any("frozen" in f.evidence for f in found[1:])
+
+
+def test_a_fault_of_any_type_that_read_dead_from_its_onset_is_a_dead_sensor():
+    """A dead sensor whose finding ran on past its revival is not always fitted as a gain:
+    over the dead readings and the alive ones after, the residual is often neither shape
+    (``other``, offset about 0: 28 of 160 runs of ``sweep_dead_pairs.py``, regenerated
+    past the revival at edb23a8). No fault of an alive sensor reads flat at zero for a
+    long alarm window, whatever its type: each is dead, to where its readings moved
+    again. Not a sensor stuck away from zero for part of its finding, one that merely
+    reads small (a gain of 0.1, the structure at 2 % of its healthy amplitude), nor one
+    that read zero for less than a long alarm window: those keep their type and end."""
+    rng = np.random.default_rng(5)
+    values = rng.standard_normal((9000, 7))
+    values[3000:4400, :3] = 0.0  # dead, then alive again
+    values[3000:4400, 3] = 1.5  # stuck away from zero, then alive again
+    values[3000:, 4] *= 0.1  # reads small: the least gain
+    values[3000:, 5] *= 0.02  # the structure nearly at rest
+    values[3000:3300, 6] = 0.0  # flat at zero for 1.5 s only
+    kinds = [FaultType.OTHER, FaultType.ADDITIVE, FaultType.DRIFT, FaultType.OTHER]
+    kinds += [FaultType.OTHER, FaultType.ADDITIVE, FaultType.OTHER]
+    found = [
+        Finding(c, k, 15.0, 30.0, {"offset": 0.01}, 1.0, "df")
+        for c, k in zip("abcdefg", kinds, strict=True)
+    ]
+    notes = relabel_frozen(found, values, list("abcdefg"), RATE, (0, 2000))
+    for f in found[:3]:
+        assert (f.type, f.magnitude, f.onset_s, f.end_s) == (
+            FaultType.MULTIPLICATIVE,
+            {"gain": 0.0},
+            15.0,
+            22.0,
+        )
+        assert f.evidence["frozen"]["alarmed_to_s"] == 30.0
+    assert [n.split(": ")[0] for n in notes] == [f"{c} from 15.000 s to 22.000 s" for c in "abc"]
+    assert "(the residual alone read it as other;" in notes[0]
+    for f, k in zip(found[3:], kinds[3:], strict=True):
+        assert (f.type, f.magnitude, f.end_s) == (k, {"offset": 0.01}, 30.0)
+        assert "frozen" not in f.evidence
+
+
+def test_a_dead_spell_then_a_lasting_fault_keeps_the_fault():
+    """Dead from row 3000 to 4400, then a lasting fault to the finding's end: an offset of
+    1 sd, a drift of 0.1 sd/s, stuck at 1.5 sd. The finding is that fault (the dead spell
+    its first seconds): its readings after the revival are off the healthy mean, as a
+    dead sensor's alive ones are not. Each keeps its type, magnitude and end (made dead
+    to row 4400 at the commit before this guard, the lasting fault lost). A healthy
+    sensor after its dead spell is dead to its revival, as before."""
+    rng = np.random.default_rng(6)
+    values = rng.standard_normal((9000, 4))
+    values[3000:4400, :] = 0.0
+    values[4400:, 0] += 1.0
+    values[4400:, 1] += 0.1 * np.arange(4600) / RATE
+    values[4400:, 2] = 1.5
+    kinds = [FaultType.ADDITIVE, FaultType.DRIFT, FaultType.OTHER, FaultType.OTHER]
+    found = [
+        Finding(c, k, 15.0, None, {"offset": 0.5}, 1.0, "df")
+        for c, k in zip("abcd", kinds, strict=True)
+    ]
+    (note,) = relabel_frozen(found, values, list("abcd"), RATE, (0, 2000))
+    for f, k in zip(found[:3], kinds, strict=False):
+        assert (f.type, f.magnitude, f.onset_s, f.end_s) == (k, {"offset": 0.5}, 15.0, None)
+        assert "frozen" not in f.evidence
+    assert (found[3].type, found[3].end_s) == (FaultType.MULTIPLICATIVE, 22.0)
+    assert note.startswith("d from 15.000 s to 22.000 s: dead (reads 0)")
+
+
+def test_missing_readings_do_not_count_towards_a_dead_stretch():
+    """0.3 s of zeros (60 rows), 3 s of missing readings, then alive readings to the
+    finding's end: the frozen stretch runs over the gap (missing readings do not end
+    it), yet only 60 finite readings read zero, fewer than a long alarm window's 400:
+    no evidence of a dead sensor, and the finding keeps its type (made dead to the gap's
+    end at the commit before). 400 zeros then the gap are dead, to the gap's end."""
+    rng = np.random.default_rng(8)
+    values = rng.standard_normal((9000, 2))
+    values[3000:3060, 0] = 0.0
+    values[3060:3660, 0] = np.nan
+    values[3000:3400, 1] = 0.0
+    values[3400:4000, 1] = np.nan
+    found = [Finding(c, FaultType.OTHER, 15.0, None, {"rms": 1.0}, 1.0, "df") for c in "ab"]
+    relabel_frozen(found, values, ["a", "b"], RATE, (0, 2000))
+    assert (found[0].type, found[0].end_s) == (FaultType.OTHER, None)
+    assert "frozen" not in found[0].evidence
+    assert (found[1].type, found[1].end_s) == (FaultType.MULTIPLICATIVE, 20.0)
+
+
+def test_a_channel_that_reads_zero_when_healthy_is_not_dead_from_its_onset():
+    """A quiet channel on a coarse converter: its healthy readings (sd 0.39 of a quantum)
+    are exactly 0 85 % of the time, and read frozen at zero (no 5 readings in a row off
+    it) for far longer than a long alarm window. A real drift from row 3000, and an
+    oscillation about the healthy mean growing from row 3000 (``other``: its readings
+    after the first seconds average the healthy mean, as a revived sensor's do), read
+    zero for their first seconds as the healthy channel did: no evidence of a dead
+    sensor, and each keeps its type and end. A channel whose healthy readings do not sit
+    at zero and that reads zero 3000-3800, then its healthy readings to the finding's
+    end, is dead to row 3800."""
+    rng = np.random.default_rng(7)
+    x = 0.35 * rng.standard_normal((9000, 3))
+    k = np.arange(6000) / RATE
+    x[3000:, 0] += 0.15 * k
+    x[3000:, 1] += 0.15 * k * np.sin(2 * np.pi * 5.0 * k)
+    values = np.round(x)
+    values[:, 2] = rng.standard_normal(9000)
+    values[3000:3800, 2] = 0.0
+    assert np.mean(values[:2000, 0] == 0) > 0.8
+    found = [
+        Finding("a", FaultType.DRIFT, 15.0, None, {"rate_per_s": 0.15}, 1.0, "df"),
+        Finding("b", FaultType.OTHER, 15.0, None, {"rms": 1.0}, 1.0, "df"),
+        Finding("c", FaultType.OTHER, 15.0, 30.0, {"rms": 1.0}, 1.0, "df"),
+    ]
+    (note,) = relabel_frozen(found, values, list("abc"), RATE, (0, 2000))
+    assert [(f.type, f.onset_s, f.end_s) for f in found[:2]] == [
+        (FaultType.DRIFT, 15.0, None),
+        (FaultType.OTHER, 15.0, None),
+    ]
+    assert not any("frozen" in f.evidence for f in found[:2])
+    assert (found[2].type, found[2].end_s) == (FaultType.MULTIPLICATIVE, 19.0)
+    assert note.startswith("c from 15.000 s to 19.000 s: dead (reads 0)")
