@@ -610,6 +610,26 @@ def _free_of(folder: Path, name: str, taken: Sequence[Path]) -> Path:
     return target
 
 
+def _moving_of(
+    sources: Sequence[Path], copies: Sequence[Path | None], targets: Sequence[Path]
+) -> list[list[str]]:
+    """A move's :attr:`~analyzer.watch_index.Record.moving` lines, ``[source, copy,
+    target]`` (``copy`` "" for a rename): what :func:`_moving_lines` reads back."""
+    lines = zip(sources, copies, targets, strict=True)
+    return [[str(s), str(c) if c else "", str(t)] for s, c, t in lines]
+
+
+def _place(path: Path, targets: list[Path], k: int, tell: Callable[[], None]) -> Path:
+    """``path`` renamed to ``targets[k]``, or, where that name was taken since it was
+    planned, to a free one (``targets[k]`` updated) told first (``tell``: the state
+    file), so that the record names the archive's own file."""
+    if os.path.lexists(targets[k]):
+        targets[k] = _free_of(targets[k].parent, targets[k].name, targets)
+        tell()
+    os.rename(path, targets[k])
+    return targets[k]
+
+
 def _move_all(
     paths: Sequence[Path],
     folder: Path,
@@ -642,21 +662,11 @@ def _move_all(
 
     def tell() -> None:
         if intent is not None:
-            lines = zip(paths, staged, targets, strict=True)
-            intent([[str(p), str(c) if c else "", str(t)] for p, c, t in lines])
-
-    def place(k: int, path: Path) -> Path:
-        """``path`` renamed to ``targets[k]``, or to a free name told first if that
-        was taken since it was planned."""
-        if os.path.lexists(targets[k]):
-            targets[k] = _free_of(folder, targets[k].name, targets)
-            tell()
-        os.rename(path, targets[k])
-        return targets[k]
+            intent(_moving_of(paths, staged, targets))
 
     tell()
     if not copies:  # (several renames: one stopped between them is finished next start)
-        return [place(k, p) for k, p in enumerate(paths)]
+        return [_place(p, targets, k, tell) for k, p in enumerate(paths)]
     made: list[Path] = []  # in folder: the copies, then the files renamed from them
     try:
         for path, copy in zip(paths, staged, strict=True):
@@ -668,7 +678,7 @@ def _move_all(
                 shutil.copy2(path, copy, follow_symlinks=False)
         for k, copy in enumerate(staged):
             assert copy is not None
-            made[k] = place(k, copy)
+            made[k] = _place(copy, targets, k, tell)
     except OSError:
         for p in made:
             _remove(p)
@@ -853,17 +863,19 @@ def _end_move(
     ]
     if not all(placeable) and any(is_of(s, s, whole=False) for s, _, _ in lines):
         return "kept", []
+    sources = [s for s, _, _ in lines]
+    copies = [c for _, c, _ in lines]
     targets = [t for _, _, t in lines]
-    for k, (source, copy, target) in enumerate(lines):
+
+    def tell() -> None:
+        intent(_moving_of(sources, copies, targets))
+
+    for k, (source, copy, _) in enumerate(lines):
         if in_place[k] or not placeable[k]:
             if copy is not None and not in_place[k] and os.path.lexists(copy):
                 _remove(copy, strict=True)  # (truncated: its source is gone)
             continue
-        if os.path.lexists(target):  # (another file's: told before the rename)
-            targets[k] = _free_of(target.parent, target.name, targets)
-            told = zip(lines, targets, strict=True)
-            intent([[str(s), str(c) if c else "", str(t)] for (s, c, _), t in told])
-        os.rename(copy if copy is not None else source, targets[k])
+        _place(copy if copy is not None else source, targets, k, tell)
     for (source, copy, _), placed in zip(lines, placeable, strict=True):
         if placed and copy is not None and is_of(source, source, whole=False):
             _remove(source, strict=True)
