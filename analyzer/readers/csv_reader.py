@@ -103,11 +103,13 @@ import pyarrow.csv as pacsv
 
 from analyzer.errors import IntegrityError, ReaderError, capped
 from analyzer.readers._common import (
+    CLOCKS_APART_NS,
     HASH_BLOCK,
     REORDER_WINDOW_NS,
     FloatArray,
     IntArray,
     Reorderer,
+    long_time,
     one_line,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
@@ -272,6 +274,13 @@ _DATA_TIME = re.compile(
 DST_STEP_NS = (1_800_000_000_000, 3_600_000_000_000 + REORDER_WINDOW_NS)
 """A step back in this range (more than half an hour, at most an hour) in times without
 a zone is named as the change from summer to winter time."""
+CLOCK_SET_BACK_NS = CLOCKS_APART_NS + REORDER_WINDOW_NS
+"""A time that steps back further than this (an hour, as a header clock's step in a
+recording, :data:`~analyzer.readers._common.CLOCKS_APART_NS`, and the reorder window:
+beyond any change from summer to winter time, :data:`DST_STEP_NS`) is a clock set back
+during the recording: the rows after it cannot be sorted in among those before (they
+would interleave with them, or lie before them in reverse order), so the file is refused
+(:meth:`CsvReader._set_back`). A shorter step is sorted in and said, as before."""
 _CLOCK_TAIL = re.compile(r"\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d*)?)?\s*(?:[AaPp]\.?[Mm]\.?)?\s*(\S.*)?$")
 """A time of day and what follows it in a cell: a zone (``Z``, ``+01:00``, ``CET``) or nothing."""
 CUT_ROW_LINES = 100
@@ -333,6 +342,10 @@ class _Steps:
     """The time of the row of the first step."""
     row: int = 0
     """The data row of the first step (1: the first row under the header)."""
+    set_back: tuple[int, int] | None = None
+    """Of the times last pushed: the index of the first more than
+    :data:`CLOCK_SET_BACK_NS` before a time read earlier, and the latest time before it
+    (None: none)."""
     text: str = ""
     """Its time cell."""
     _was_behind: bool = False
@@ -340,6 +353,7 @@ class _Steps:
     def push(self, t: IntArray) -> int | None:
         """Take the next times read; the index in ``t`` of the file's first step back
         when it is there, else None."""
+        self.set_back = None
         if t.size == 0:
             return None
         last = int(t[-1])
@@ -356,6 +370,9 @@ class _Steps:
         before[0] = t[0] if self.newest is None else self.newest
         before[1:] = newest[:-1]
         behind = (before - t) > REORDER_WINDOW_NS
+        far = np.flatnonzero(before - t > CLOCK_SET_BACK_NS)
+        if far.size:
+            self.set_back = (int(far[0]), int(before[far[0]]))
         self.newest = int(newest[-1])
         if not bool(behind.any()):
             self._was_behind = False
@@ -814,6 +831,30 @@ class CsvReader:
             bad |= np.asarray(wrong.to_numpy(zero_copy_only=False), dtype=bool)
         return bad
 
+    def _set_back(
+        self,
+        at: int,
+        newest: int,
+        batch: pa.RecordBatch,
+        t_kept: IntArray,
+        keep: np.ndarray,
+        rows: int,
+    ) -> None:
+        """Raise :class:`ReaderError` for a time column that steps back further than
+        :data:`CLOCK_SET_BACK_NS` (:class:`_Steps`): row ``at`` of the times kept of
+        ``batch`` (after ``rows`` rows), ``newest`` the latest time before it. Before,
+        its rows were sorted in among those before, said in a line, and analyzed."""
+        row = int(np.flatnonzero(keep)[at])
+        name = self._layout.names[self._layout.time_column]
+        cell = str(batch.column(self._layout.time_column)[row].as_py()).strip()
+        raise ReaderError(
+            f"{self.path}: the time column {name!r} steps back by "
+            f"{long_time(newest - int(t_kept[at]))} at data row {rows + row + 1} ({cell!r}: "
+            f"from {self._when(newest)} to {self._when(int(t_kept[at]))}): a clock set back "
+            "during the recording? Its rows cannot be placed among those before it; correct "
+            "the times, or split the file at that row"
+        )
+
     def _step_note(self, steps: _Steps, dropped: bool) -> str:
         """What :meth:`chunks` says of times that step back (see :class:`_Steps`): where,
         by how much, and what became of the rows behind (the reorderer sorts them in
@@ -1086,6 +1127,8 @@ class CsvReader:
                 # block's start
                 inside = int(np.count_nonzero(t_kept[1:] == t_kept[:-1]))
                 first = steps.push(t_kept)
+                if steps.set_back is not None:
+                    self._set_back(*steps.set_back, batch, t_kept, keep, rows)
                 if first is not None:  # the first step back: where, and its cells
                     row = int(np.flatnonzero(keep)[first])
                     steps.row = rows + row + 1
