@@ -891,10 +891,10 @@ class TopicTracker:
         levels.closed = True
         keys = np.flatnonzero(_lasting(first, last, self._window, edge))
         # consecutive lasting stretches (the anchor first), and the step between them
-        ends_ = last[keys] if levels.anchor is None else np.vstack((levels.anchor, last[keys]))
-        pairs = max(min(keys.size, ends_.shape[0] - 1), 0)
+        tails = last[keys] if levels.anchor is None else np.vstack((levels.anchor, last[keys]))
+        pairs = max(min(keys.size, tails.shape[0] - 1), 0)
         later = keys[keys.size - pairs :]
-        step = np.abs(first[later, 0] - ends_[:pairs, 0]) > CLOCKS_APART_NS
+        step = np.abs(first[later, 0] - tails[:pairs, 0]) > CLOCKS_APART_NS
         levels.steps += int(np.count_nonzero(step))
         if levels.before is None:
             k = int(np.argmax(step)) if bool(step.any()) else -1
@@ -908,7 +908,7 @@ class TopicTracker:
                 np.concatenate((kept[1], last[since:after_key])),
             )
             if k >= 0:
-                levels.before, levels.after = _placed(ends_[k], first[after_key], between)
+                levels.before, levels.after = _placed(tails[k], first[after_key], between)
             else:
                 levels.between = (
                     between[0][:BETWEEN_STRETCHES],
