@@ -23,7 +23,7 @@ from test_two_clocks import _refused
 
 from analyzer.cli import main
 from analyzer.errors import ReaderError
-from analyzer.readers import open_input
+from analyzer.readers import csv_reader, open_input
 from analyzer.readers._common import Decoded, Reorderer, TopicTracker
 
 V3 = "geometry_msgs/msg/Vector3"
@@ -293,3 +293,32 @@ def test_a_csv_step_back_under_the_hour_is_sorted_in_as_before(tmp_path: Path) -
     assert collect(reader.chunks())["a"][0].size == 6000
     (note,) = reader.info.errors
     assert note.startswith("the time steps back by 2999.990 s at data row 4001")
+
+
+def test_a_csv_set_back_across_blocks_names_its_first_row(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Blocks of ~30 rows and the step moved over 40 rows: wherever a block ends (the
+    run of rows set back starting in one block and reaching its fifth row in the next),
+    the first row set back is named."""
+    monkeypatch.setattr(csv_reader, "BLOCK_BYTES", 1 << 10)
+    for step in range(500, 540):
+        seconds = np.arange(1000) * 0.01 + 10_000.0
+        seconds[step:] -= 7200.0
+        path = _csv(tmp_path / f"back{step}.csv", [f"{s:.2f}" for s in seconds])
+        cell = f"{seconds[step]:.2f}"
+        with pytest.raises(ReaderError, match=rf"2\.0 h at data row {step + 1} \('{cell}': "):
+            collect(open_input(path).chunks())
+
+
+@pytest.mark.parametrize("bad", [1, 4])
+def test_a_few_csv_rows_far_back_are_outliers_as_before(tmp_path: Path, bad: int) -> None:
+    """Up to 4 rows in a row stamped far back (a row stamped 0): no clock set back, the
+    rows are sorted in and said, as before."""
+    seconds = np.arange(3000) * 0.01 + 10_000.0
+    seconds[2000 : 2000 + bad] = np.arange(bad) * 0.01
+    path = _csv(tmp_path / "zero.csv", [f"{s:.2f}" for s in seconds])
+    reader = open_input(path)
+    assert collect(reader.chunks())["a"][0].size == 3000
+    (note,) = reader.info.errors
+    assert note.startswith("the time steps back by 10019.990 s at data row 2001 ('0.00': ")
