@@ -261,6 +261,13 @@ def absolute_log_time(
     return last is None or plausible_epoch(last)
 
 
+def long_time(ns: int) -> str:
+    """A stretch of an hour or more between two clocks, as the lines say it: in hours
+    below two days, else in days."""
+    days = abs(ns) / 86400e9
+    return f"{days:.1f} days" if days >= 2 else f"{days * 24:.1f} h"
+
+
 def two_clocks(clocks: dict[str, str], spans: dict[str, tuple[int, int]]) -> str:
     """What ``--time header`` did where the topics' times come from two clocks
     (:meth:`TopicTracker.clocks`: topic to ``"header"``, the side timed by header
@@ -286,8 +293,7 @@ def two_clocks(clocks: dict[str, str], spans: dict[str, tuple[int, int]]) -> str
     others, other_lo, other_hi = side("log", "stamped")
     stamped_when = when(lo, hi)
     if min(hi, other_hi) >= EPOCH_NS:  # (both Unix times: how far apart)
-        days = max(lo - other_hi, other_lo - hi) / 86400e9
-        apart = f"{days:.1f} days" if days >= 2 else f"{days * 24:.1f} h"
+        apart = long_time(max(lo - other_hi, other_lo - hi))
         stamped_when += f", {apart} {'before' if hi < other_lo else 'after'} the others"
     logged = [t for t in others if clocks[t] == "log"]
     also = [t for t in others if clocks[t] == "stamped"]
@@ -306,6 +312,88 @@ def two_clocks(clocks: dict[str, str], spans: dict[str, tuple[int, int]]) -> str
         f"({stamped_when}), {rest}{when(other_lo, other_hi)}); one analysis needs one clock: "
         f"use --time log, or --channels to choose topics of one clock (such as '{pick}')"
     )
+
+
+def clock_step_refusal(steps: dict[str, str]) -> str:
+    """What ``--time header`` did where a topic's header clock was set during the
+    recording (:meth:`TopicTracker.clock_steps`: topic to what its clock did, the
+    earliest step first), and what to do: the reason ``run`` and ``export`` of its
+    channels stop."""
+    topics = list(steps)
+    first = topics[0]
+    also = f" (also {', '.join(topics[1:4])}{', ...' if len(topics) > 4 else ''})"
+    out = ",".join(f"!{t}.*" for t in topics[:4]) + (",..." if len(topics) > 4 else "")
+    return (
+        f"--time header: {first}: {steps[first]}{also if len(topics) > 1 else ''}; one "
+        f"analysis needs one clock: use --time log, or leave "
+        f"{'it' if len(topics) == 1 else 'them'} out with --channels '{out}'"
+    )
+
+
+def _stamp_text(ns: int) -> str:
+    if ns >= EPOCH_NS:
+        return str(iso_utc(ns))
+    return f"{ns / 1e9:.3f} s (not a Unix time)"
+
+
+BETWEEN_STRETCHES = 16
+"""Short stretches (glitches) after a topic's last lasting one that :class:`_Levels`
+keeps, to place a step at its first message (:func:`_placed`)."""
+
+
+@dataclass(slots=True)
+class _Levels:
+    """The stretches of one topic's header-minus-log offsets (:meth:`TopicTracker._steps`),
+    carried from batch to batch. A message is a row ``(offset, log time, number,
+    stamp)``, a stretch its first and last message. ``anchor`` is the last message of
+    the last stretch that was a clock (:func:`_lasting`), ``between`` the shorter
+    stretches after it (the first :data:`BETWEEN_STRETCHES`; first and last messages,
+    two arrays of rows), ``open`` the stretch still open (rows 0 and 1), ``closed``
+    whether a stretch was closed before it; ``before`` and ``after`` the two messages
+    of the first step found, ``steps`` how many."""
+
+    anchor: IntArray | None = None
+    between: tuple[IntArray, IntArray] = (
+        np.zeros((0, 4), dtype=np.int64),
+        np.zeros((0, 4), dtype=np.int64),
+    )
+    closed: bool = False
+    open: IntArray | None = None
+    before: IntArray | None = None
+    after: IntArray | None = None
+    steps: int = 0
+
+
+def _lasting(first: IntArray, last: IntArray, window: int, edge: BoolArray) -> BoolArray:
+    """Which stretches of a topic's header-minus-log offsets (first and last messages,
+    rows of ``(offset, log time, number, stamp)``) are a clock, not a glitch: those
+    lasting longer than ``window`` in log time (a shorter one between two others is a
+    glitch: a stamp with a flipped bit, or two publishers on two clocks, message by
+    message, which the rules of :class:`TopicTracker` drop); at the topic's start or
+    end (``edge``), with nothing on one side, also one of more than
+    :data:`LEAD_GLITCH_MESSAGES` messages (as :func:`forward_outliers` takes a longer
+    first run for the clock)."""
+    lasting = last[:, 1] - first[:, 1] > window
+    return lasting | (edge & (last[:, 2] - first[:, 2] >= LEAD_GLITCH_MESSAGES))
+
+
+def _placed(
+    before: IntArray, after: IntArray, between: tuple[IntArray, IntArray]
+) -> tuple[IntArray, IntArray]:
+    """Where a step between the lasting stretches ending at ``before`` and starting at
+    ``after`` is: at the first message of the short stretches ``between`` them that is
+    already on the new clock (within :data:`CLOCKS_APART_NS` of ``after``'s offset),
+    from the last one before it still on the old clock. A glitch right after a clock
+    was set would otherwise move the step past it."""
+    first, last = between
+    new = np.flatnonzero(np.abs(first[:, 0] - after[0]) <= CLOCKS_APART_NS)
+    if new.size:
+        after = first[new[0]]
+        first, last = first[: new[0]], last[: new[0]]
+    old = np.flatnonzero(np.abs(last[:, 0] - before[0]) <= CLOCKS_APART_NS)
+    if old.size:
+        before = last[old[-1]]
+    return before, after
 
 
 LEAD_GLITCH_MESSAGES = 4
@@ -618,6 +706,7 @@ class TopicTracker:
         self._clocks: dict[str, _Clock] = {}
         self._epoch: dict[str, bool] = {}
         self._jumps: dict[str, _Jumps] = {}
+        self._levels: dict[str, _Levels] = {}
         self._glitches: dict[str, _Glitches] = {}
         self._zero: dict[str, int] = {}
         self._failures: dict[str, list[Any]] = {}
@@ -761,6 +850,105 @@ class TopicTracker:
         out.update({t: "stamped" if by_topic[t] == "header" else "log" for t in near})
         return {t: out[t] for t in by_topic}
 
+    def _steps(self, topic: str, t: IntArray, log_ns: IntArray, idx: IntArray) -> None:
+        """Follow the header clock of ``topic`` against its log times (messages stamped
+        ``t``, logged at ``log_ns``, numbered ``idx``, in log-time order) for a step: the
+        clock set during the recording (by NTP or PTP, from 1970 plus the uptime, or a
+        day off), which moves the header-minus-log offset by more than
+        :data:`CLOCKS_APART_NS` and keeps it there. The topic's span then covers the
+        jump, so the two-clock rule (:meth:`_apart`, which compares the topics' spans)
+        cannot see it, and one clock for all topics would stretch over the jump. A
+        pause of the recorder moves both times, and not the offset; jitter, a latency
+        and a short stretch off (:func:`_lasting`) are no step. Vectorized: the
+        messages split into stretches where the offset moves by more than the floor
+        from one message to the next; only each stretch's first and last message are
+        compared, and the open stretch is carried to the next batch."""
+        if t.size == 0:
+            return
+        levels = self._levels.setdefault(topic, _Levels())
+        o = t - log_ns
+        split = np.flatnonzero(np.abs(np.diff(o)) > CLOCKS_APART_NS) + 1
+        starts = np.concatenate((np.zeros(1, dtype=np.int64), split))
+        ends = np.concatenate((split - 1, np.array([o.shape[0] - 1], dtype=np.int64)))
+
+        def rows(at: IntArray) -> IntArray:
+            return np.column_stack((o[at], log_ns[at], idx[at], t[at]))
+
+        first, last = rows(starts), rows(ends)
+        held = levels.open
+        if held is not None:
+            if abs(int(o[0]) - int(held[1, 0])) <= CLOCKS_APART_NS:
+                first[0] = held[0]  # (the open stretch goes on)
+            else:
+                first = np.concatenate((held[:1], first))
+                last = np.concatenate((held[1:], last))
+        levels.open = np.stack((first[-1], last[-1]))
+        first, last = first[:-1], last[:-1]
+        if first.shape[0] == 0:
+            return
+        edge = np.zeros(first.shape[0], dtype=bool)
+        edge[0] = not levels.closed
+        levels.closed = True
+        keys = np.flatnonzero(_lasting(first, last, self._window, edge))
+        # consecutive lasting stretches (the anchor first), and the step between them
+        tails = last[keys] if levels.anchor is None else np.vstack((levels.anchor, last[keys]))
+        pairs = max(min(keys.size, tails.shape[0] - 1), 0)
+        later = keys[keys.size - pairs :]
+        step = np.abs(first[later, 0] - tails[:pairs, 0]) > CLOCKS_APART_NS
+        levels.steps += int(np.count_nonzero(step))
+        if levels.before is None:
+            k = int(np.argmax(step)) if bool(step.any()) else -1
+            # the short stretches after the last lasting one before the step (or all)
+            after_key = int(later[k]) if k >= 0 else first.shape[0]
+            lasting_before = keys[keys < after_key]
+            since = int(lasting_before[-1]) + 1 if lasting_before.size else 0
+            kept = levels.between if not lasting_before.size else (first[:0], last[:0])
+            between = (
+                np.concatenate((kept[0], first[since:after_key])),
+                np.concatenate((kept[1], last[since:after_key])),
+            )
+            if k >= 0:
+                levels.before, levels.after = _placed(tails[k], first[after_key], between)
+            else:
+                levels.between = (
+                    between[0][:BETWEEN_STRETCHES],
+                    between[1][:BETWEEN_STRETCHES],
+                )
+        if keys.size:
+            levels.anchor = last[keys[-1]]
+
+    def clock_steps(self) -> dict[str, str]:
+        """With ``--time header``: the topics whose header clock was set during the
+        recording (:meth:`_steps`, the stretch still open at the end counted as it
+        stands), each with what its clock did, the earliest step first; else ``{}``."""
+        found: list[tuple[int, str, str]] = []
+        for topic, levels in self._levels.items():
+            before, after, count = levels.before, levels.after, levels.steps
+            held, anchor = levels.open, levels.anchor
+            if held is not None and anchor is not None:
+                edge = np.ones(1, dtype=bool)
+                lasting = bool(_lasting(held[:1], held[1:], self._window, edge)[0])
+                if lasting and abs(int(held[0, 0]) - int(anchor[0])) > CLOCKS_APART_NS:
+                    count += 1
+                    if before is None:
+                        before, after = _placed(anchor, held[0], levels.between)
+            if before is None or after is None:
+                continue
+            moved = int(after[0]) - int(before[0])
+            more = f"; {count} such jumps" if count > 1 else ""
+            way = "forward" if moved > 0 else "back"
+            found.append(
+                (
+                    int(after[1]),
+                    topic,
+                    f"header.stamp jumps {long_time(moved)} {way} at "
+                    f"message {int(after[2])} ({self._at(int(after[1]))}), from "
+                    f"{_stamp_text(int(before[3]))} to {_stamp_text(int(after[3]))}, while "
+                    f"its log times go on (a clock set during the recording?){more}",
+                )
+            )
+        return {topic: text for _, topic, text in sorted(found)}
+
     def clock_spans(self) -> dict[str, tuple[int, int]]:
         """Of each topic of :meth:`clocks`: the first and last time its clock gave it."""
         clocks = self.clocks()
@@ -811,6 +999,9 @@ class TopicTracker:
         new = np.ones(m, dtype=bool)
         if carried:
             new = (np.arange(m) if order is None else order) >= carried
+            self._steps(topic, t[new], log_ns[new], idx[new])
+        else:
+            self._steps(topic, t, log_ns, idx)
         glitch, pending, ahead, aside = forward_outliers(t, log_ns, clock.ref, self._window)
         # the open run is left out of the running maximum (its stamps need not agree with
         # each other), unless that rule drops some of it against the settled newest stamp:
@@ -919,6 +1110,10 @@ class TopicTracker:
         """The error lines, one per topic and kind."""
         two = self.clock_line()
         out = [two] if two else []
+        out += [
+            f"{topic}: {text}; use --time log, or leave it out with --channels '!{topic}.*'"
+            for topic, text in self.clock_steps().items()
+        ]
         out += [
             f"{topic}: {count} messages could not be decoded ({reason})"
             for topic, (count, reason) in self._failures.items()

@@ -68,6 +68,11 @@ class InputInfo:
     ``errors``; an analysis or export of channels of both is refused (:func:`one_clock`)."""
     clock_spans: dict[str, tuple[int, int]] = field(default_factory=dict)
     """Of each topic of :attr:`clocks`: the first and last time its clock gave it (ns)."""
+    clock_steps: dict[str, str] = field(default_factory=dict)
+    """With ``--time header``, the topics whose header clock was set during the recording
+    (their stamps jump by more than an hour where their log times do not): each with
+    what its clock did. Said in ``errors``; an analysis or export of their channels is
+    refused (:func:`one_clock`)."""
 
 
 class Reader(Protocol):
@@ -94,17 +99,20 @@ class Reader(Protocol):
 def one_clock(channels: Sequence[str], inputs: Sequence[InputInfo]) -> None:
     """Raise :class:`~analyzer.errors.ReaderError` when ``channels`` (message-path
     names, ``{topic}.{field}``) hold topics of an input timed by two clocks
-    (:attr:`InputInfo.clocks`), naming both sides and what to do."""
-    from analyzer.readers._common import two_clocks
+    (:attr:`InputInfo.clocks`), naming both sides and what to do, or a topic whose
+    header clock was set during the recording (:attr:`InputInfo.clock_steps`)."""
+    from analyzer.readers._common import clock_step_refusal, two_clocks
+
+    def holds(topic: str) -> bool:
+        return any(c.startswith(f"{topic}.") or c.startswith(f"{topic}[") for c in channels)
 
     for info in inputs:
+        stepped = {topic: text for topic, text in info.clock_steps.items() if holds(topic)}
+        if stepped:
+            raise ReaderError(f"{info.path}: {clock_step_refusal(stepped)}")
         if not info.clocks:
             continue
-        used = {
-            topic: source
-            for topic, source in info.clocks.items()
-            if any(c.startswith(f"{topic}.") or c.startswith(f"{topic}[") for c in channels)
-        }
+        used = {topic: source for topic, source in info.clocks.items() if holds(topic)}
         if len({source == "header" for source in used.values()}) > 1:
             spans = info.clock_spans
             raise ReaderError(f"{info.path}: {two_clocks(used, spans)}")

@@ -103,11 +103,14 @@ import pyarrow.csv as pacsv
 
 from analyzer.errors import IntegrityError, ReaderError, capped
 from analyzer.readers._common import (
+    CLOCKS_APART_NS,
     HASH_BLOCK,
+    LEAD_GLITCH_MESSAGES,
     REORDER_WINDOW_NS,
     FloatArray,
     IntArray,
     Reorderer,
+    long_time,
     one_line,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
@@ -272,6 +275,16 @@ _DATA_TIME = re.compile(
 DST_STEP_NS = (1_800_000_000_000, 3_600_000_000_000 + REORDER_WINDOW_NS)
 """A step back in this range (more than half an hour, at most an hour) in times without
 a zone is named as the change from summer to winter time."""
+CLOCK_SET_BACK_NS = CLOCKS_APART_NS + REORDER_WINDOW_NS
+"""A time that steps back further than this (an hour, as a header clock's step in a
+recording, :data:`~analyzer.readers._common.CLOCKS_APART_NS`, and the reorder window:
+beyond any change from summer to winter time, :data:`DST_STEP_NS`) is a clock set back
+during the recording: the rows after it cannot be sorted in among those before (they
+would interleave with them, or lie before them in reverse order), so the file is refused
+(:meth:`CsvReader._set_back`) once more than
+:data:`~analyzer.readers._common.LEAD_GLITCH_MESSAGES` rows in a row lie that far back
+(fewer are outliers, a row stamped 0, as before). A shorter step is sorted in and said,
+as before."""
 _CLOCK_TAIL = re.compile(r"\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d*)?)?\s*(?:[AaPp]\.?[Mm]\.?)?\s*(\S.*)?$")
 """A time of day and what follows it in a cell: a zone (``Z``, ``+01:00``, ``CET``) or nothing."""
 CUT_ROW_LINES = 100
@@ -333,6 +346,20 @@ class _Steps:
     """The time of the row of the first step."""
     row: int = 0
     """The data row of the first step (1: the first row under the header)."""
+    set_back: tuple[int, int] | None = None
+    """Of the times last pushed: where the first run of more than
+    :data:`~analyzer.readers._common.LEAD_GLITCH_MESSAGES` rows in a row that lie more
+    than :data:`CLOCK_SET_BACK_NS` before a time read earlier starts (its index, -1: in
+    an earlier push, see :attr:`far_start`), and the latest time before it (None: none)."""
+    far_open: tuple[int, int] | None = None
+    """Of the times last pushed: where a run of rows that far back that is still open at
+    their end starts (its index, and the latest time before it), for the caller to keep
+    in :attr:`far_start`."""
+    far_start: tuple[int, str, int, int] | None = None
+    """The open run's first row: its data row, time cell, the latest time before it and
+    its time (kept by the caller)."""
+    far_rows: int = 0
+    """Rows of the run still open at the end of the times pushed so far."""
     text: str = ""
     """Its time cell."""
     _was_behind: bool = False
@@ -340,6 +367,7 @@ class _Steps:
     def push(self, t: IntArray) -> int | None:
         """Take the next times read; the index in ``t`` of the file's first step back
         when it is there, else None."""
+        self.set_back = self.far_open = None
         if t.size == 0:
             return None
         last = int(t[-1])
@@ -348,6 +376,7 @@ class _Steps:
         ):  # in order (the common case, a single pass)
             self.newest = last if self.newest is None else max(self.newest, last)
             self._was_behind = False
+            self.far_rows = 0
             return None
         newest = np.maximum.accumulate(t)
         if self.newest is not None:
@@ -356,6 +385,7 @@ class _Steps:
         before[0] = t[0] if self.newest is None else self.newest
         before[1:] = newest[:-1]
         behind = (before - t) > REORDER_WINDOW_NS
+        self._far(before, t)
         self.newest = int(newest[-1])
         if not bool(behind.any()):
             self._was_behind = False
@@ -372,6 +402,30 @@ class _Steps:
         self.before_ns, self.after_ns = int(before[first]), int(t[first])
         self.size_ns = self.before_ns - self.after_ns
         return first
+
+    def _far(self, before: IntArray, t: IntArray) -> None:
+        """Runs of rows more than :data:`CLOCK_SET_BACK_NS` before the latest time read
+        before each (``before``): :attr:`set_back`, :attr:`far_open` and
+        :attr:`far_rows` for the times ``t`` of a push, the run open before counted on."""
+        far = before - t > CLOCK_SET_BACK_NS
+        if not bool(far.any()):
+            self.far_rows = 0
+            return
+        rise = far & ~np.concatenate(([self.far_rows > 0], far[:-1]))
+        run = np.cumsum(rise)  # each row's run: 0 the one open before this push
+        lengths = np.bincount(run[far], minlength=int(run[-1]) + 1)
+        lengths[0] += self.far_rows
+        starts = np.flatnonzero(rise)
+        long = np.flatnonzero(lengths > LEAD_GLITCH_MESSAGES)
+        if long.size:
+            k = int(long[0])
+            at = int(starts[k - 1]) if k else -1
+            self.set_back = (at, int(before[at]) if k else 0)
+        last = int(run[-1]) if bool(far[-1]) else -1
+        self.far_rows = int(lengths[last]) if last >= 0 else 0
+        if last > 0:
+            at = int(starts[last - 1])
+            self.far_open = (at, int(before[at]))
 
 
 GARBAGE_BACK_STEPS = 3.0
@@ -814,6 +868,28 @@ class CsvReader:
             bad |= np.asarray(wrong.to_numpy(zero_copy_only=False), dtype=bool)
         return bad
 
+    def _row_cell(
+        self, batch: pa.RecordBatch, keep: np.ndarray, rows: int, at: int
+    ) -> tuple[int, str]:
+        """The data row and time cell of the ``at``-th row kept of ``batch`` (after
+        ``rows`` rows)."""
+        row = int(np.flatnonzero(keep)[at])
+        return rows + row + 1, str(batch.column(self._layout.time_column)[row].as_py()).strip()
+
+    def _set_back(self, row: int, cell: str, newest: int, time: int) -> None:
+        """Raise :class:`ReaderError` for a time column set back by more than
+        :data:`CLOCK_SET_BACK_NS` (:attr:`_Steps.set_back`) at data row ``row`` (time
+        cell ``cell``, read as ``time``; ``newest`` the latest time before it): the file,
+        the column, the row. Before, its rows were sorted in among those before, said in
+        a line, and analyzed."""
+        name = self._layout.names[self._layout.time_column]
+        raise ReaderError(
+            f"{self.path}: the time column {name!r} steps back by {long_time(newest - time)} "
+            f"at data row {row} ({cell!r}: from {self._when(newest)} to {self._when(time)}): "
+            "a clock set back during the recording? Its rows cannot be placed among those "
+            "before it; correct the times, or split the file at that row"
+        )
+
     def _step_note(self, steps: _Steps, dropped: bool) -> str:
         """What :meth:`chunks` says of times that step back (see :class:`_Steps`): where,
         by how much, and what became of the rows behind (the reorderer sorts them in
@@ -1086,6 +1162,17 @@ class CsvReader:
                 # block's start
                 inside = int(np.count_nonzero(t_kept[1:] == t_kept[:-1]))
                 first = steps.push(t_kept)
+                if steps.set_back is not None:
+                    at, newest = steps.set_back
+                    if at >= 0:
+                        where = self._row_cell(batch, keep, rows, at)
+                        self._set_back(*where, newest, int(t_kept[at]))
+                    elif steps.far_start is not None:  # (the run began in an earlier block)
+                        self._set_back(*steps.far_start)
+                if steps.far_open is not None:  # (such a run, open at the block's end)
+                    at, newest = steps.far_open
+                    where = self._row_cell(batch, keep, rows, at)
+                    steps.far_start = (*where, newest, int(t_kept[at]))
                 if first is not None:  # the first step back: where, and its cells
                     row = int(np.flatnonzero(keep)[first])
                     steps.row = rows + row + 1

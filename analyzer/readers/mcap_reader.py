@@ -209,6 +209,7 @@ class McapReader:
             self.info.relabelled = self._tracker.relabelled()
             self.info.clocks = self._tracker.clocks()
             self.info.clock_spans = self._tracker.clock_spans()
+            self.info.clock_steps = self._tracker.clock_steps()
 
     def _shared_topics(self) -> list[str]:
         """One line per topic that several channels of one message type (publishers)

@@ -304,6 +304,7 @@ class Ros1BagReader:
         self.info.relabelled = self._tracker.relabelled()
         self.info.clocks = self._tracker.clocks()
         self.info.clock_spans = self._tracker.clock_spans()
+        self.info.clock_steps = self._tracker.clock_steps()
 
     # ------------------------------------------------------------------ index
     def _read_index(self, index_pos: int, conn_count: int, chunk_count: int) -> None:

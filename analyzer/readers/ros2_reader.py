@@ -166,6 +166,7 @@ class Ros2BagReader:
         self.info.relabelled = self._tracker.relabelled()
         self.info.clocks = self._tracker.clocks()
         self.info.clock_spans = self._tracker.clock_spans()
+        self.info.clock_steps = self._tracker.clock_steps()
 
     def _overlap(self, name: str, dropped: dict[str, int]) -> None:
         for topic, unit, count in per_topic(dropped, self.topics):

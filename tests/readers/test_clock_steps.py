@@ -1,0 +1,324 @@
+"""``--time header`` where one topic's header clock is set during the recording: a robot
+clock that ran on its own (from 1970 plus the uptime, or a day off) and was set by NTP
+or PTP at message N, so that the topic's stamps jump by years or hours there while its
+log times go on. The topic's span covers the jump, so the two-clock rule (which compares
+the topics' spans) did not apply and ``run`` said "a timestamp lies far from the others";
+a clock set back by a day dropped every message after it and said the same. Now the
+reader names the topic, the message, the times on both sides and what to do; ``run`` and
+``export`` of its channels stop with that line (exit 2). A pause of the recorder (both
+times jump), a smaller step and a stamp or two off stay as they were. Also a CSV's time
+column set back by more than an hour. Logs are built with the real writers."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from mcap.writer import Writer as McapWriter
+from readers_helpers import T0, collect
+from test_readers_probe30 import MS, NAMES, ROS2, V3S, Message, v3s, write
+from test_two_clocks import _refused
+
+from analyzer.cli import main
+from analyzer.errors import ReaderError
+from analyzer.readers import csv_reader, open_input
+from analyzer.readers._common import Decoded, Reorderer, TopicTracker
+
+V3 = "geometry_msgs/msg/Vector3"
+HOUR = 3600 * 10**9
+DAY = 24 * HOUR
+UPTIME = 1000 * 10**9  # the robot clock before NTP: 1970 plus the time since boot
+
+
+def _vector(x: float) -> Any:
+    def make(store: Any) -> Any:
+        return store.types[V3](x=float(x), y=0.0, z=0.0)
+
+    return make
+
+
+def _stepped(
+    stamp: Any, n: int = 800, at: int = 300, pause: int = 0, odom: Any = None
+) -> list[Message]:
+    """``/imu`` stamped ``stamp(i, t)`` for message ``i`` logged at ``t`` (its header
+    clock), ``/odom`` stamped ``odom(i, t)`` (default: at its log times), ``/tf`` without
+    a header: all logged at 100 Hz; with ``pause``, the recorder stops for that long
+    before message ``at`` (log times and every clock move on together)."""
+    rng = np.random.default_rng(7)
+    odom = odom or (lambda i, t: t)
+    out: list[Message] = []
+    for i in range(n):
+        t = T0 + i * MS + (pause if i >= at else 0)
+        out.append(("/imu", V3S, t, v3s(stamp(i, t), rng.normal())))
+        out.append(("/odom", V3S, t + MS // 4, v3s(odom(i, t), rng.normal())))
+        out.append(("/tf", V3, t + MS // 2, _vector(rng.normal())))
+    return out
+
+
+def synced_from_uptime(i: int, t: int) -> int:
+    """Stamps from 1970 plus the uptime until NTP sets the clock at message 300."""
+    return UPTIME + i * MS if i < 300 else t
+
+
+def set_back_a_day(i: int, t: int) -> int:
+    """A clock a day ahead, set back at message 300."""
+    return t + DAY if i < 300 else t
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "ros1", "ros2"])
+@pytest.mark.parametrize(
+    "stamp, said",
+    [
+        (
+            synced_from_uptime,
+            "header.stamp jumps 20454.0 days forward at message 300 (t=3.00 s), from "
+            "1002.990 s (not a Unix time) to 2026-01-01T00:00:03.000Z, while its log "
+            "times go on (a clock set during the recording?)",
+        ),
+        (
+            set_back_a_day,
+            "header.stamp jumps 24.0 h back at message 300 (t=3.00 s), from "
+            "2026-01-02T00:00:02.990Z to 2026-01-01T00:00:03.000Z, while its log times go "
+            "on (a clock set during the recording?)",
+        ),
+    ],
+)
+def test_a_header_clock_set_during_the_recording_is_named(
+    tmp_path: Path, fmt: str, stamp: Any, said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``inspect`` says it (exit 0); ``run`` and ``export`` stop on it (exit 2, one
+    line: before, "a timestamp lies far from the others")."""
+    path = write(tmp_path / NAMES[fmt], fmt, _stepped(stamp))
+    reader = open_input(path)
+    collect(reader.chunks("header"))
+    assert reader.info.clock_steps == {"/imu": said}
+    assert reader.info.clocks == {}
+    assert f"/imu: {said}; use --time log, or leave it out with --channels '!/imu.*'" in (
+        reader.info.errors
+    )
+    assert main(["inspect", str(path), "--time", "header"]) == 0
+    assert said in capsys.readouterr().out
+    for err in _refused(path, tmp_path, capsys):
+        assert err == (
+            f"analyzer: error: {path}: --time header: /imu: {said}; one analysis needs one "
+            "clock: use --time log, or leave it out with --channels '!/imu.*'\n"
+        )
+
+
+def test_the_remedies_pass(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The topic left out (its line stays a warning), or the log times (nothing to
+    say): the export goes through."""
+    path = write(tmp_path / "x.mcap", "mcap", _stepped(synced_from_uptime))
+    for extra, warned in (
+        (["--time", "header", "--channels", "!/imu.*"], True),
+        (["--time", "log"], False),
+    ):
+        command = ["export", str(path), "--out", str(tmp_path / "o.csv"), *extra]
+        assert main(command) == 0
+        assert ("warning" in capsys.readouterr().err) == warned
+    header = (tmp_path / "o.csv").read_text().splitlines()[0]
+    assert "/imu.vector.x" in header
+
+
+def test_every_topic_set_at_once_names_the_first_and_the_others(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The robot's clock set for all its topics: each topic said; the refusal names the
+    first to jump and the others, and leaves them all out."""
+    messages = _stepped(synced_from_uptime, odom=synced_from_uptime)
+    path = write(tmp_path / "x.mcap", "mcap", messages)
+    reader = open_input(path)
+    collect(reader.chunks("header"))
+    assert list(reader.info.clock_steps) == ["/imu", "/odom"]
+    (err,) = _refused(path, tmp_path, capsys)[:1]
+    assert "--time header: /imu: header.stamp jumps 20454.0 days forward" in err
+    assert err.endswith(
+        "(a clock set during the recording?) (also /odom); one analysis needs one clock: "
+        "use --time log, or leave them out with --channels '!/imu.*,!/odom.*'\n"
+    )
+
+
+def test_a_step_across_batches_is_the_same_step(tmp_path: Path) -> None:
+    """Small MCAP chunks (batches of a few messages): the stretches are carried from
+    batch to batch, and the step is found once, at the same message."""
+    path = tmp_path / "small_chunks.mcap"
+    with path.open("wb") as handle:
+        writer = McapWriter(handle, chunk_size=1500)
+        writer.start(profile="ros2", library="test")
+        channels: dict[str, int] = {}
+        for topic, msgtype, t, make in _stepped(set_back_a_day):
+            if topic not in channels:
+                text = ROS2.generate_msgdef(msgtype, ros_version=2)[0]
+                schema = writer.register_schema(msgtype, "ros2msg", text.encode())
+                channels[topic] = writer.register_channel(topic, "cdr", schema)
+            data = bytes(ROS2.serialize_cdr(make(ROS2), msgtype))
+            writer.add_message(channels[topic], log_time=t, data=data, publish_time=t)
+        writer.finish()
+    reader = open_input(path)
+    collect(reader.chunks("header"))
+    (said,) = reader.info.clock_steps.values()
+    assert said.startswith("header.stamp jumps 24.0 h back at message 300 (t=3.00 s)")
+    assert "such jumps" not in said
+
+
+def test_a_clock_set_early_or_at_the_end_is_a_step(tmp_path: Path) -> None:
+    """Set 0.05 s into the recording (5 messages on the old clock), or 0.05 s before its
+    end: still a step (more than :data:`LEAD_GLITCH_MESSAGES` messages at an edge)."""
+    for at in (5, 795):
+        messages = _stepped(lambda i, t, at=at: t - DAY if i < at else t, at=at)
+        reader = open_input(write(tmp_path / f"{at}.mcap", "mcap", messages))
+        collect(reader.chunks("header"))
+        (said,) = reader.info.clock_steps.values()
+        assert said.startswith(f"header.stamp jumps 24.0 h forward at message {at} ")
+
+
+def _decoded(stamps: np.ndarray) -> Decoded:
+    x = np.arange(stamps.size, dtype=np.float64)
+    return Decoded(int(stamps.size), {"x": (None, x)}, stamps.astype(np.int64))
+
+
+@pytest.mark.parametrize("batch", [1, 2, 3, 5, 7, 64, 300, 1000])
+def test_the_step_is_the_same_in_batches_of_any_size(batch: int) -> None:
+    """The tracker alone, the same 1000 messages in batches of 1 to 1000: glitches of a
+    few messages 10 years back at 100-102, just before the step (495-496) and just after
+    it (600-601), and the step (a day forward) at 500: one step, from message 499 to 500,
+    however they are cut."""
+    i = np.arange(1000)
+    log = T0 + i * MS
+    stamps = np.where(i < 500, log - DAY, log)
+    stamps[100:103] -= 3650 * DAY
+    stamps[495:497] -= 3650 * DAY
+    stamps[600:602] -= 3650 * DAY
+    tracker = TopicTracker("header")
+    for a in range(0, i.size, batch):
+        part = slice(a, a + batch)
+        tracker.push(Reorderer(repeats=True), "/b", _decoded(stamps[part]), log[part])
+    assert tracker.clock_steps() == {
+        "/b": "header.stamp jumps 24.0 h forward at message 500 (t=5.00 s), from "
+        "2025-12-31T00:00:04.990Z to 2026-01-01T00:00:05.000Z, while its log times go on "
+        "(a clock set during the recording?)"
+    }
+
+
+def _said(tmp_path: Path, messages: list[Message]) -> list[str]:
+    """What the reader says of ``messages`` with ``--time header``: no step (these
+    tests pass on the code before the rule too)."""
+    reader = open_input(write(tmp_path / "x.mcap", "mcap", messages))
+    collect(reader.chunks("header"))
+    assert not getattr(reader.info, "clock_steps", {})
+    assert not any("jumps" in e for e in reader.info.errors)
+    return reader.info.errors
+
+
+def test_a_pause_of_the_recorder_is_no_step(tmp_path: Path) -> None:
+    """The recorder stops for two hours: header stamps and log times jump together (the
+    offset stays): nothing said, as before."""
+    assert _said(tmp_path, _stepped(lambda i, t: t, pause=2 * HOUR)) == []
+
+
+def test_a_step_under_the_hour_is_as_before(tmp_path: Path) -> None:
+    """A clock set forward by 50 minutes, or back by 50 minutes: the floor is an hour
+    (:data:`CLOCKS_APART_NS`, as for two clocks): no new line (the step back keeps its
+    line on the messages dropped)."""
+    assert _said(tmp_path, _stepped(lambda i, t: t - 50 * 60 * 10**9 if i < 300 else t)) == []
+    (line,) = _said(tmp_path, _stepped(lambda i, t: t + 50 * 60 * 10**9 if i < 300 else t))
+    assert line.startswith("/imu: header.stamp goes back by 3000.0 s at message 300")
+
+
+@pytest.mark.parametrize("off", [-20 * 365 * DAY, 10 * 365 * DAY])
+def test_a_few_stamps_years_off_are_glitches_not_steps(tmp_path: Path, off: int) -> None:
+    """Two messages stamped years off (a flipped bit) in the middle, and three at the
+    start: dropped by the rules for glitches, no step."""
+    bad = {0, 1, 2, 400, 401}
+    assert _said(tmp_path, _stepped(lambda i, t: t + off if i in bad else t))
+
+
+def test_two_publishers_on_two_clocks_take_turns_without_a_step(tmp_path: Path) -> None:
+    """Messages of one topic alternately stamped on two clocks a day apart (two
+    publishers): every stretch is one message, none a clock of its own."""
+    errors = _said(tmp_path, _stepped(lambda i, t: t - DAY * (i % 2)))
+    assert any(e.startswith("/imu: header.stamp goes back by 86400.0 s") for e in errors)
+
+
+# ------------------------------------------------------------------ a CSV's clock set back
+
+
+def _csv(path: Path, cells: list[str], header: str = "time") -> Path:
+    rng = np.random.default_rng(3)
+    values = np.cumsum(rng.normal(size=(len(cells), 2)), axis=0)
+    rows = [f"{c},{a:.4f},{b:.4f}" for c, (a, b) in zip(cells, values, strict=True)]
+    path.write_text("\n".join([f"{header},a,b", *rows]) + "\n")
+    return path
+
+
+def test_a_csv_time_column_set_back_by_hours_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Seconds that step back by two hours at row 4001: before, the rows after it were
+    sorted in among those before (interleaved), said in a line, and analyzed."""
+    seconds = np.arange(6000) * 0.01 + 10_000.0
+    seconds[4000:] -= 7200.0
+    path = _csv(tmp_path / "back.csv", [f"{s:.2f}" for s in seconds])
+    said = (
+        f"{path}: the time column 'time' steps back by 2.0 h at data row 4001 ('2840.00': "
+        "from 10039.990 s to 2840.000 s): a clock set back during the recording? Its rows "
+        "cannot be placed among those before it; correct the times, or split the file at "
+        "that row"
+    )
+    with pytest.raises(ReaderError) as err:
+        collect(open_input(path).chunks())
+    assert str(err.value) == said
+    assert main(["inspect", str(path)]) == 2
+    assert capsys.readouterr().err == f"analyzer: error: {said}\n"
+
+
+def test_a_csv_date_time_column_set_back_a_day_is_refused(tmp_path: Path) -> None:
+    start = np.datetime64("2026-03-02T10:00:00.000")
+    times = start + np.arange(3000) * np.timedelta64(10, "ms")
+    times[2000:] -= np.timedelta64(1, "D")
+    path = _csv(tmp_path / "iso.csv", [f"{t}Z" for t in times], header="timestamp")
+    with pytest.raises(ReaderError, match=r"the time column 'timestamp' steps back by 24\.0 h "):
+        collect(open_input(path).chunks())
+    with pytest.raises(ReaderError, match=r"at data row 2001 \('2026-03-01T10:00:20.000Z': "):
+        collect(open_input(path).chunks())
+
+
+def test_a_csv_step_back_under_the_hour_is_sorted_in_as_before(tmp_path: Path) -> None:
+    seconds = np.arange(6000) * 0.01
+    seconds[4000:] -= 3000.0  # 50 minutes back
+    path = _csv(tmp_path / "back.csv", [f"{s:.2f}" for s in seconds])
+    reader = open_input(path)
+    assert collect(reader.chunks())["a"][0].size == 6000
+    (note,) = reader.info.errors
+    assert note.startswith("the time steps back by 2999.990 s at data row 4001")
+
+
+def test_a_csv_set_back_across_blocks_names_its_first_row(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Blocks of ~30 rows and the step moved over 40 rows: wherever a block ends (the
+    run of rows set back starting in one block and reaching its fifth row in the next),
+    the first row set back is named."""
+    monkeypatch.setattr(csv_reader, "BLOCK_BYTES", 1 << 10)
+    for step in range(500, 540):
+        seconds = np.arange(1000) * 0.01 + 10_000.0
+        seconds[step:] -= 7200.0
+        path = _csv(tmp_path / f"back{step}.csv", [f"{s:.2f}" for s in seconds])
+        cell = f"{seconds[step]:.2f}"
+        with pytest.raises(ReaderError, match=rf"2\.0 h at data row {step + 1} \('{cell}': "):
+            collect(open_input(path).chunks())
+
+
+@pytest.mark.parametrize("bad", [1, 4])
+def test_a_few_csv_rows_far_back_are_outliers_as_before(tmp_path: Path, bad: int) -> None:
+    """Up to 4 rows in a row stamped far back (a row stamped 0): no clock set back, the
+    rows are sorted in and said, as before."""
+    seconds = np.arange(3000) * 0.01 + 10_000.0
+    seconds[2000 : 2000 + bad] = np.arange(bad) * 0.01
+    path = _csv(tmp_path / "zero.csv", [f"{s:.2f}" for s in seconds])
+    reader = open_input(path)
+    assert collect(reader.chunks())["a"][0].size == 3000
+    (note,) = reader.info.errors
+    assert note.startswith("the time steps back by 10019.990 s at data row 2001 ('0.00': ")
