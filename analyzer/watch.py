@@ -161,13 +161,15 @@ import time
 import traceback
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future
+from concurrent.futures import wait as wait_futures
 from dataclasses import dataclass, replace
+from functools import partial
 from multiprocessing.connection import wait as wait_for
 from multiprocessing.context import ForkServerContext, SpawnContext
 from multiprocessing.process import BaseProcess
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import Any, TypeVar
 
 from analyzer import __version__
 from analyzer.diagnosis.training_check import window_warnings
@@ -630,6 +632,140 @@ def _place(path: Path, targets: list[Path], k: int, tell: Callable[[], None]) ->
     return targets[k]
 
 
+class MoveCancelled(Exception):
+    """:func:`_copy_all` stopped by its ``cancel`` event (the watcher stopping, or the
+    archive changed since its copies began)."""
+
+
+class _CopyFailed(Exception):
+    """An :class:`OSError` of a file's copy in a folder's, out of :func:`shutil.copytree`
+    at once (which would go on with the other files and raise them all as one)."""
+
+    def __init__(self, err: OSError) -> None:
+        super().__init__(err)
+        self.err = err
+
+
+COPY_BLOCK = 8 << 20
+"""Bytes copied at a time to another file system (:func:`_copy_file`: a stop is seen
+between two blocks)."""
+
+
+def _copy_file(source: Path, copy: Path, cancel: threading.Event) -> None:
+    """:func:`shutil.copy2` of ``source`` (a link as a link), in blocks of
+    :data:`COPY_BLOCK` by ``sendfile`` (read and write where it is refused), raising
+    :class:`MoveCancelled` at the next block once ``cancel`` is set: one call of
+    ``copy2`` copied a 1.5 GB file in one piece, and nothing could stop it. Its bytes,
+    then its mode and times (the size and mtime by which the next start knows the copy as
+    the archive's: :func:`_end_move`)."""
+    if source.is_symlink():
+        shutil.copy2(source, copy, follow_symlinks=False)
+        return
+    with source.open("rb") as fin, copy.open("wb") as fout:
+        sendfile, offset = hasattr(os, "sendfile"), 0
+        while not cancel.is_set():
+            try:
+                if sendfile:
+                    n = os.sendfile(fout.fileno(), fin.fileno(), offset, COPY_BLOCK)
+                else:
+                    block = fin.read(COPY_BLOCK)
+                    n = fout.write(block)
+            except OSError as err:
+                if sendfile and offset == 0 and err.errno not in (errno.ENOSPC, errno.EDQUOT):
+                    sendfile = False  # (a file system that refuses it: as shutil does)
+                    continue
+                if err.filename is None:  # (a full disk is the folder's, else the source's)
+                    full = err.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+                    err.filename = str(copy.parent if full else source)
+                raise
+            if n == 0:
+                break
+            offset += n
+        else:
+            raise MoveCancelled(str(source))
+    shutil.copystat(source, copy)
+
+
+def _copy_all(
+    paths: Sequence[Path], copies: Sequence[Path], cancel: threading.Event | None = None
+) -> None:
+    """Copy each of ``paths`` (a file, a link, a folder with what it holds) to its
+    ``copies`` (hidden names in the folder of a move), stopping at the next block once
+    ``cancel`` is set (:class:`MoveCancelled`). Raises the first :class:`OSError`; on
+    either, what it made is removed first."""
+    cancel = cancel or threading.Event()
+
+    def one(source: str, copy: str) -> None:
+        try:
+            _copy_file(Path(source), Path(copy), cancel)
+        except OSError as err:
+            raise _CopyFailed(err) from err
+
+    made: list[Path] = []
+    try:
+        for path, copy in zip(paths, copies, strict=True):
+            made.append(copy)
+            if path.is_dir() and not path.is_symlink():
+                shutil.copytree(path, copy, symlinks=True, copy_function=one)
+            else:
+                _copy_file(path, copy, cancel)
+    except (OSError, MoveCancelled, _CopyFailed) as err:
+        for p in made:
+            _remove(p)
+        if isinstance(err, _CopyFailed):
+            raise err.err from None
+        raise
+
+
+def _plan_move(
+    paths: Sequence[Path], folder: Path, copies: bool
+) -> tuple[list[Path], list[Path | None]]:
+    """The targets of a move of ``paths`` into ``folder`` (free names, free of each
+    other's too) and, for a move by copies, the hidden names the copies are made under
+    (else None). Raises :class:`OSError` for a source that could not be removed after
+    its copy (it would be left twice)."""
+    if copies:
+        for path in paths:
+            if not os.access(path.parent, os.W_OK | os.X_OK):
+                raise OSError(errno.EACCES, "cannot remove it from INBOX", str(path))
+    targets: list[Path] = []
+    for path in paths:
+        targets.append(_free_of(folder, path.name, targets))
+    staged = [folder / hidden_name(".partial-", t.name) if copies else None for t in targets]
+    return targets, staged
+
+
+def _place_all(
+    paths: Sequence[Path], copies: Sequence[Path], targets: list[Path], tell: Callable[[], None]
+) -> list[Path]:
+    """The end of a move by copies, once every copy is made: each renamed to its target
+    (:func:`_place`), then the sources removed. Raises the first :class:`OSError` with
+    what was made in the folder removed and INBOX as it was; a source that cannot be
+    removed (INBOX turned read-only since) keeps its place and loses its copy."""
+    made = list(copies)  # in the folder: the copies, then the files renamed from them
+    try:
+        for k, copy in enumerate(copies):
+            made[k] = _place(copy, targets, k, tell)
+    except OSError:
+        for p in made:
+            _remove(p)
+        raise
+    for k, path in enumerate(paths):
+        folder_source = path.is_dir() and not path.is_symlink()
+        try:
+            _remove(path, strict=True)
+        except OSError:
+            # a file still whole in INBOX keeps its place and loses its copy; a folder
+            # partly removed keeps its copy
+            moved = k + 1 if folder_source else k
+            for p in targets[moved:]:
+                _remove(p)
+            if moved == 0:
+                raise
+            return targets[:moved]
+    return targets
+
+
 def _move_all(
     paths: Sequence[Path],
     folder: Path,
@@ -641,7 +777,8 @@ def _move_all(
     the sources go only once every copy is in place: a move that failed part-way
     (``--done`` on a full disk) left a truncated copy in ``folder``, and split an archive
     of several files, whose rest was then analyzed alone as the archive. Raises the first
-    :class:`OSError`, with what was made in ``folder`` removed and INBOX as it was.
+    :class:`OSError`, with what was made in ``folder`` removed and INBOX as it was. (The
+    watcher makes the copies on a thread of their own: :meth:`_Runner._move`.)
 
     A move that can be stopped half-done (copies, or several renames) is handed to
     ``intent`` first, as ``[source, copy, target]`` lines (``copy`` "" for a rename),
@@ -651,14 +788,7 @@ def _move_all(
     copies = _other_fs(paths, folder)
     if not copies and len(paths) == 1:
         return [_rename(paths[0], folder)]  # (a rename: nothing half-done)
-    if copies:
-        for path in paths:  # (a source that cannot be removed would be left twice)
-            if not os.access(path.parent, os.W_OK | os.X_OK):
-                raise OSError(errno.EACCES, "cannot remove it from INBOX", str(path))
-    targets: list[Path] = []
-    for path in paths:  # (free of each other's too)
-        targets.append(_free_of(folder, path.name, targets))
-    staged = [folder / hidden_name(".partial-", t.name) if copies else None for t in targets]
+    targets, staged = _plan_move(paths, folder, copies)
 
     def tell() -> None:
         if intent is not None:
@@ -667,36 +797,9 @@ def _move_all(
     tell()
     if not copies:  # (several renames: one stopped between them is finished next start)
         return [_place(p, targets, k, tell) for k, p in enumerate(paths)]
-    made: list[Path] = []  # in folder: the copies, then the files renamed from them
-    try:
-        for path, copy in zip(paths, staged, strict=True):
-            assert copy is not None
-            made.append(copy)
-            if path.is_dir() and not path.is_symlink():
-                shutil.copytree(path, copy, symlinks=True)
-            else:
-                shutil.copy2(path, copy, follow_symlinks=False)
-        for k, copy in enumerate(staged):
-            assert copy is not None
-            made[k] = _place(copy, targets, k, tell)
-    except OSError:
-        for p in made:
-            _remove(p)
-        raise
-    for k, path in enumerate(paths):
-        folder_source = path.is_dir() and not path.is_symlink()
-        try:
-            _remove(path, strict=True)
-        except OSError:
-            # (INBOX turned read-only since the check): a file still whole there keeps
-            # its place and loses its copy; a folder partly removed keeps its copy
-            moved = k + 1 if folder_source else k
-            for p in targets[moved:]:
-                _remove(p)
-            if moved == 0:
-                raise
-            return targets[:moved]
-    return targets
+    made = [c for c in staged if c is not None]
+    _copy_all(paths, made)
+    return _place_all(paths, made, targets, tell)
 
 
 _Line = tuple[Path, Path | None, Path]
@@ -1010,43 +1113,96 @@ INLINE_HASH_BYTES = 64 << 20
 milliseconds); a larger one by :class:`_Hasher`'s thread, while the loop goes on."""
 
 
-class _Hasher:
-    """One daemon thread that hashes the big archives (:func:`hash_archive`), one at a
-    time, off the watcher's loop: hashing reads every byte (~1 s per GB when the file is
-    cached; measured 10 s for a 2 GB file just written, on a loaded machine), and on the
-    loop it held up every other archive (a small one dropped with it waited as long), the
-    end of the analyses and the stop signal. :meth:`close` makes a running hash stop at
-    its next block."""
+_T = TypeVar("_T")
 
-    def __init__(self) -> None:
-        self._jobs: queue.SimpleQueue[tuple[Future[ArchiveHashes], Any]] = queue.SimpleQueue()
+
+class _Worker:
+    """One daemon thread that runs jobs one at a time, off the watcher's loop, each
+    job's outcome (or exception) in its :class:`Future`: the thread never touches the
+    watcher's state, which the loop alone reads and writes."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self._jobs: queue.SimpleQueue[tuple[Future[Any], Callable[[], Any]]] = queue.SimpleQueue()
         self._thread: threading.Thread | None = None
-        self.cancel = threading.Event()
 
-    def submit(self, paths: Sequence[Path], root: Path, head: int | None) -> Future[ArchiveHashes]:
-        future: Future[ArchiveHashes] = Future()
-        self._jobs.put((future, (paths, root, head)))
+    def run_later(self, job: Callable[[], _T]) -> Future[_T]:
+        future: Future[_T] = Future()
+        self._jobs.put((future, job))
         if self._thread is None:
-            self._thread = threading.Thread(
-                target=self._run, name="analyzer-watch-hash", daemon=True
-            )
+            self._thread = threading.Thread(target=self._run, name=self.name, daemon=True)
             self._thread.start()
         return future
 
     def _run(self) -> None:
         while True:
-            future, (paths, root, head) = self._jobs.get()
+            future, job = self._jobs.get()
             if not future.set_running_or_notify_cancel():
                 continue
             try:
-                future.set_result(hash_archive(paths, root, head, self.cancel))
+                future.set_result(job())
             except BaseException as err:  # noqa: BLE001 - handed to the loop
                 future.set_exception(err)
 
+
+class _Hasher(_Worker):
+    """The thread that hashes the big archives (:func:`hash_archive`), one at a time, off
+    the watcher's loop: hashing reads every byte (~1 s per GB when the file is cached;
+    measured 10 s for a 2 GB file just written, on a loaded machine), and on the loop it
+    held up every other archive (a small one dropped with it waited as long), the end of
+    the analyses and the stop signal. :meth:`drop` and :meth:`close` make a running hash
+    stop at its next block."""
+
+    def __init__(self) -> None:
+        super().__init__("analyzer-watch-hash")
+        self._stops: dict[Future[ArchiveHashes], threading.Event] = {}
+
+    def submit(self, paths: Sequence[Path], root: Path, head: int | None) -> Future[ArchiveHashes]:
+        stop = threading.Event()
+        future = self.run_later(lambda: hash_archive(paths, root, head, stop))
+        self._stops[future] = stop
+        future.add_done_callback(lambda done: self._stops.pop(done, None))
+        return future
+
+    def drop(self, future: Future[ArchiveHashes]) -> None:
+        """A hash no longer wanted (of content that changed since, of an archive gone):
+        not begun, or stopped at its next block."""
+        stop = self._stops.get(future)
+        future.cancel()
+        if stop is not None:
+            stop.set()
+
     def close(self) -> None:
-        """Stop: the running hash ends at its next block, the waiting ones are dropped
+        """Stop: the running hash ends at its next block, the waiting ones at their first
         (the thread, a daemon, never holds up the watcher's exit)."""
-        self.cancel.set()
+        for stop in tuple(self._stops.values()):
+            stop.set()
+
+
+MOVE_GRACE_S = 2.0
+"""At the stop, how long the copies of a move under way get to stop (at their next
+block: milliseconds) and remove what they made; after it, the move is left in the state
+file for the next start to end."""
+
+
+@dataclass(slots=True)
+class _Copying:
+    """A move by ``--done``/``--failed`` to another file system under way: its copies
+    made by :attr:`_Runner.copier`'s thread, the rest (renames into place, INBOX's
+    sources removed, the record) done by the loop once they are (:meth:`_Runner._copied`)."""
+
+    archive: ReadyArchive
+    rec: Record
+    folder: Path
+    copies: list[Path]
+    targets: list[Path]
+    tell: Callable[[list[list[str]]], None]
+    """The move's lines to the state file (:attr:`~analyzer.watch_index.Record.moving`)."""
+    future: Future[None]
+    cancel: threading.Event
+    again: ReadyArchive | None = None
+    """The archive offered again meanwhile (changed: the move is cancelled), offered once
+    the move is over."""
 
 
 def _rename(path: Path, folder: Path) -> Path:
@@ -1118,6 +1274,10 @@ class _Runner:
         """The last hashes of each archive not recorded with its signature: the signature
         and the earlier size whose beginning was hashed (:meth:`_head`) they are of."""
         self.hasher = _Hasher()
+        self.copier = _Worker("analyzer-watch-copy")
+        self.copying: dict[str, _Copying] = {}
+        """Moves to another file system whose copies :attr:`copier` is making, by archive,
+        in the order they began."""
         self.hashing: dict[str, tuple[ReadyArchive, int | None, Future[ArchiveHashes]]] = {}
         """Ready archives being hashed by :attr:`hasher` (too big to hash on the loop),
         started once hashed, in the order they were ready."""
@@ -1143,8 +1303,16 @@ class _Runner:
             threading.Thread(target=_warm_up, name="analyzer-watch-warm-up", daemon=True).start()
 
     def offer(self, archive: ReadyArchive) -> None:
+        copying = self.copying.get(archive.name)
+        if copying is not None:  # (its move under way: offered again once it is over)
+            if archive.signature != copying.archive.signature:
+                copying.cancel.set()  # (changed: its copies are not what INBOX holds)
+                copying.again = archive
+            return
         self.queue.pop(archive.name, None)  # the newest state of an archive wins
-        self.hashing.pop(archive.name, None)  # (its hash, when it comes, is of the old one)
+        hashing = self.hashing.pop(archive.name, None)
+        if hashing is not None and hashing[0].signature != archive.signature:
+            self.hasher.drop(hashing[2])  # (of the old content)
         self.moves.pop(archive.name, None)  # (it changed: moved after its next analysis)
         if archive.unreadable is not None:  # (said by the tracker; counted, not analyzed)
             self.unreadable.add(archive.name)
@@ -1173,13 +1341,15 @@ class _Runner:
         return 0
 
     def busy(self) -> bool:
-        return bool(self.queue or self.hashing or self.running or self.moves)
+        return bool(self.queue or self.hashing or self.running or self.moves or self.copying)
 
     def pump(self, wait: float = 0.0, start: bool = True) -> None:
         """Record the analyses that ended (waiting up to ``wait`` seconds for one), then
         start queued ones while there are free slots."""
         self._reap(wait)
+        self._copied()
         self._held_moves()
+        self._forget_gone()
         while start and len(self.running) < self.slots:
             archive = self._next()
             if archive is None:
@@ -1218,6 +1388,8 @@ class _Runner:
             if asked is not None and asked[:2] == (archive.signature, head):
                 future = asked[2]
             else:
+                if asked is not None:
+                    self.hasher.drop(asked[2])  # (of content that has changed since)
                 future = self.hasher.submit(archive.paths, self.settings.inbox, head)
             self.hashing[name] = (archive, head, future)
         return None
@@ -1291,7 +1463,7 @@ class _Runner:
         asked = self.asked.get(name)
         if asked is None or asked[:2] != (archive.signature, head):
             if asked is not None:
-                asked[2].cancel()  # (of content that has changed since: not started)
+                self.hasher.drop(asked[2])  # (of content that has changed since)
             future = self.hasher.submit(archive.paths, self.settings.inbox, head)
             self.asked[name] = (archive.signature, head, future)
             return None
@@ -1304,6 +1476,26 @@ class _Runner:
             return None
         self._hashed[name] = (archive.signature, head, hashes)
         return hashes
+
+    def _forget_gone(self) -> None:
+        """Drop the hashes kept of archives gone from INBOX (the first file of their
+        signature gone: no later state of theirs can have that signature), and stop
+        those still being made for the tracker's question: the tracker asks no more about
+        an archive deleted from INBOX, and its entry stayed for the watcher's life."""
+        if not self.asked and not self._hashed:
+            return
+        inbox = self.settings.inbox
+
+        def gone(sig: Signature) -> bool:
+            return not sig or not os.path.lexists(inbox / sig[0][0])
+
+        for name, (sig, _, future) in list(self.asked.items()):
+            if gone(sig):
+                del self.asked[name]
+                self.hasher.drop(future)
+        for name, (sig, _, _) in list(self._hashed.items()):
+            if gone(sig):
+                del self._hashed[name]
 
     @property
     def counted(self) -> int:
@@ -1353,6 +1545,7 @@ class _Runner:
             again = rec.redo_reason(self.fingerprint)
             if again is None:
                 self.skipped += 1
+                self._hashed.pop(name, None)  # (another hash only if it changes)
                 log.debug("%s: already analyzed (same content): %s", name, rec.verdict)
                 self._move(archive, rec)
                 return
@@ -1633,7 +1826,9 @@ class _Runner:
         is over (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`: until then, a
         change shows that a writer was only pausing, and the archive is analyzed again
         instead). An archive whose error is an option's or not its own
-        (:class:`ErrorKind`) stays."""
+        (:class:`ErrorKind`) stays. A move to another file system is copies, made by
+        :attr:`copier`'s thread and ended by the loop once they are (:meth:`_copied`):
+        made here, they held up every other archive and the stop signal (5.2 s per GB)."""
         folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
         if rec.error_kind in (ErrorKind.OPTIONS, ErrorKind.INTERNAL) or folder is None:
             return
@@ -1652,12 +1847,33 @@ class _Runner:
                 folder,
             )
             return
+        tell = self._teller(archive, rec, folder)
+        try:
+            if _other_fs(archive.paths, folder):
+                targets, staged = _plan_move(archive.paths, folder, copies=True)
+                copies = [c for c in staged if c is not None]
+                tell(_moving_of(archive.paths, copies, targets))
+                cancel = threading.Event()
+                future = self.copier.run_later(partial(_copy_all, archive.paths, copies, cancel))
+                self.copying[archive.name] = _Copying(
+                    archive, rec, folder, copies, targets, tell, future, cancel
+                )
+                return
+            moved = [str(t) for t in _move_all(archive.paths, folder, tell)]
+        except OSError as err:
+            self._not_moved(archive, rec, folder, tell, err)
+            return
+        self._moved(archive, rec, folder, moved)
 
+    def _teller(
+        self, archive: ReadyArchive, rec: Record, folder: Path
+    ) -> Callable[[list[list[str]]], None]:
+        """What writes the lines of ``rec``'s move to the state file before a move that
+        can stop half-done (where REPORTS is full, the move goes on without them, as
+        before, said once), and ``[]`` once it is over or undone."""
         said: list[bool] = []
 
         def moving(lines: list[list[str]]) -> None:
-            """Before a move that can stop half-done: its lines in the state file (where
-            REPORTS is full, the move goes on without them, as before, said once)."""
             rec.moving = lines
             try:
                 self.ledger.save_state()
@@ -1673,18 +1889,29 @@ class _Runner:
                         one_line(err.strerror or err),
                     )
 
-        try:
-            moved = [str(t) for t in _move_all(archive.paths, folder, moving)]
-        except OSError as err:
-            if rec.moving:  # (undone: nothing of it left to end)
-                moving([])
-            log.warning(
-                "%s: not moved to %s (it stays in INBOX): %s",
-                archive.name,
-                folder,
-                _move_error(err, archive.paths, folder),
-            )
-            return
+        return moving
+
+    def _not_moved(
+        self,
+        archive: ReadyArchive,
+        rec: Record,
+        folder: Path,
+        tell: Callable[[list[list[str]]], None],
+        err: OSError,
+    ) -> None:
+        """A move that failed (undone: nothing of it left to end): one line naming the
+        cause; the archive stays in INBOX, recorded."""
+        if rec.moving:
+            tell([])
+        log.warning(
+            "%s: not moved to %s (it stays in INBOX): %s",
+            archive.name,
+            folder,
+            _move_error(err, archive.paths, folder),
+        )
+
+    def _moved(self, archive: ReadyArchive, rec: Record, folder: Path, moved: list[str]) -> None:
+        """A move that is over: its record with where the archive went."""
         rec.moving = []
         if moved:
             # (the same content dropped again and moved: its earlier copy stays listed)
@@ -1702,6 +1929,78 @@ class _Runner:
                     where,
                     one_line(err.strerror or err),
                 )
+
+    def _copied(self) -> None:
+        """The moves to another file system whose copies are made (or failed, or were
+        stopped), ended (:meth:`_end_copied`)."""
+        for name, c in list(self.copying.items()):
+            if c.future.done():
+                del self.copying[name]
+                self._end_copied(c)
+
+    def _end_copied(self, c: _Copying) -> None:
+        """A move whose copies are made: renamed into place and INBOX's sources removed,
+        where INBOX still holds the archive as it was found (else the copies are removed:
+        it changed while it was copied, and is analyzed again once it has settled). One
+        whose copies failed or were stopped (their copies removed by the thread): over.
+        The archive offered again meanwhile is offered now."""
+        archive, name = c.archive, c.archive.name
+
+        def tell() -> None:
+            c.tell(_moving_of(archive.paths, c.copies, c.targets))
+
+        try:
+            c.future.result()
+            try:
+                current = signature(archive.paths, self.settings.inbox)
+            except OSError:
+                current = None
+            if current != archive.signature:
+                for copy in c.copies:
+                    _remove(copy)
+                c.tell([])
+                log.warning(
+                    "%s: not moved to %s: it changed while it was copied there (still being "
+                    "written?)",
+                    name,
+                    c.folder,
+                )
+            else:
+                targets = _place_all(archive.paths, c.copies, c.targets, tell)
+                self._moved(archive, c.rec, c.folder, [str(t) for t in targets])
+        except MoveCancelled:
+            c.tell([])
+            log.info(
+                "%s: its move to %s stopped (%s); its copies there removed, it stays in INBOX",
+                name,
+                c.folder,
+                "it changed"
+                if c.again is not None
+                else "the watcher stopping: it is moved on the next start",
+            )
+        except OSError as err:
+            self._not_moved(archive, c.rec, c.folder, c.tell, err)
+        if c.again is not None:
+            self.offer(c.again)
+
+    def stop_moves(self) -> None:
+        """At the stop: the moves whose copies are under way stop at their next block
+        (:data:`COPY_BLOCK`) and remove what they made; the archive stays in INBOX,
+        recorded, and is moved on the next start. A copy that does not stop within
+        :data:`MOVE_GRACE_S` (a hung network file system) is left: its move stays in the
+        state file, and the next start ends it as that of a watcher killed during it."""
+        for c in self.copying.values():
+            c.cancel.set()
+        wait_futures([c.future for c in self.copying.values()], timeout=MOVE_GRACE_S)
+        self._copied()
+        for name, c in self.copying.items():
+            log.warning(
+                "%s: its move to %s did not stop within %g s; it is ended on the next start",
+                name,
+                c.folder,
+                MOVE_GRACE_S,
+            )
+        self.copying.clear()
 
     def save_unsaved(self) -> None:
         """At the stop: the state file with the moves it could not be written with
@@ -1897,6 +2196,7 @@ def _watch_locked(
                 runner.pump(wait=TICK_S, start=False)
     finally:
         runner.hasher.close()
+        runner.stop_moves()
         runner.abandon_all()
         runner.save_unsaved()
         ledger.refresh_views(force=True)

@@ -444,16 +444,16 @@ def _killed_in_move(stage: str, inbox: Path, monkeypatch: pytest.MonkeyPatch) ->
     removed; ``between``, between two renames on the same file system."""
     calls: list[str] = []
     if stage == "copying":
-        real_copy = shutil.copy2
+        real_copy = watch_module._copy_file
 
-        def copy2(src: Any, dst: Any, **kw: Any) -> Any:
+        def copy(src: Path, dst: Path, cancel: threading.Event) -> None:
             calls.append(str(src))
             if len(calls) == 2:
-                Path(dst).write_bytes(Path(src).read_bytes()[:100])
+                dst.write_bytes(src.read_bytes()[:100])
                 raise _Killed
-            return real_copy(src, dst, **kw)
+            real_copy(src, dst, cancel)
 
-        monkeypatch.setattr(watch_module.shutil, "copy2", copy2)
+        monkeypatch.setattr(watch_module, "_copy_file", copy)
     elif stage == "between":
         real_rename = os.rename
 
@@ -684,15 +684,15 @@ def test_a_file_renamed_past_a_name_taken_since_is_the_one_recorded(
         settings = _settings(tmp_path, done)
 
         def kill(undo: pytest.MonkeyPatch) -> None:
-            real_copy, calls = shutil.copy2, []
+            real_copy, calls = watch_module._copy_file, []
 
-            def copy2(src: Any, dst: Any, **kw: Any) -> Any:
+            def copy(src: Path, dst: Path, cancel: threading.Event) -> None:
                 calls.append(src)
                 if len(calls) == 2:
                     (done / "A_part0.csv").write_bytes(OTHER)
-                return real_copy(src, dst, **kw)
+                real_copy(src, dst, cancel)
 
-            undo.setattr(watch_module.shutil, "copy2", copy2)
+            undo.setattr(watch_module, "_copy_file", copy)
             _killed_at_an_inbox_unlink(1, undo)
 
         _run_killed(settings, kill)

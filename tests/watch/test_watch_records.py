@@ -406,8 +406,6 @@ def test_a_state_file_that_cannot_be_written_after_a_move_does_not_stop_the_watc
     """REPORTS full when the move by --done is recorded: the archive is in --done, the
     record holds it (written with the next one) and the watcher goes on, where the
     OSError ended it (a one-line exit 2 in the middle of a service's life)."""
-    from types import SimpleNamespace
-
     from analyzer.watch_inbox import ReadyArchive, signature
     from analyzer.watch_index import Ledger, Verdict
 
@@ -425,9 +423,8 @@ def test_a_state_file_that_cannot_be_written_after_a_move_does_not_stop_the_watc
         raise OSError(errno.ENOSPC, "No space left on device", str(self.path))
 
     monkeypatch.setattr(Ledger, "save_state", full)
-    runner = SimpleNamespace(
-        settings=WatchSettings(inbox, reports, done=done), ledger=ledger, moves={}
-    )
+    runner = object.__new__(watch_module._Runner)  # (no processes, no threads)
+    vars(runner).update(settings=WatchSettings(inbox, reports, done=done), ledger=ledger, moves={})
     watch_module._Runner._move(runner, archive, record)  # type: ignore[arg-type]
     assert not csv.exists() and (done / "a.csv").is_file()
     assert ledger.get("a.csv") is record and record.moved_to == [str(done / "a.csv")]

@@ -1,0 +1,247 @@
+"""A move by ``--done`` to another file system: copies made off the watcher's loop
+(:mod:`analyzer.watch`).
+
+The copy is made slow where it reads and writes (``os.sendfile``, which ``shutil.copy2``
+called too), so that these tests hold on any machine: the ``--done`` folder is on
+``/dev/shm`` or, where that is missing or the same file system, copied to as if it were
+another. Every wait has a hard timeout; threads started here are ended in ``finally``."""
+
+from __future__ import annotations
+
+import errno
+import logging
+import os
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from test_watch_killed import (
+    LIMIT_S,
+    _analyses,
+    _archive,
+    _done_folder,
+    _settings,
+    _state_record,
+    _two_parts,
+)
+
+from analyzer.options import RunOptions
+from analyzer.watch import WatchSettings, watch
+
+
+class _SlowCopy:
+    """``os.sendfile`` whose first call waits for ``release`` (for the test to set it, or
+    ``until``), each call after it as it was, or, ``crawl``, a byte every 10 ms (a copy
+    that takes minutes)."""
+
+    def __init__(
+        self,
+        monkeypatch: pytest.MonkeyPatch,
+        until: threading.Event | None = None,
+        crawl: bool = False,
+    ) -> None:
+        self.began, self.release = threading.Event(), until or threading.Event()
+        real = os.sendfile
+
+        def sendfile(out_fd: int, in_fd: int, offset: Any, count: int) -> int:
+            if not self.began.is_set():
+                self.began.set()
+                self.release.wait(LIMIT_S)
+            if crawl:
+                time.sleep(0.01)
+                count = 1
+            return real(out_fd, in_fd, offset, count)
+
+        monkeypatch.setattr(os, "sendfile", sendfile)
+
+
+class _Watcher:
+    """:func:`watch` on a thread of its own (``stop`` ends it)."""
+
+    def __init__(self, settings: WatchSettings, stop: threading.Event | None = None) -> None:
+        self.stop = stop or threading.Event()
+        self.code: list[int] = []
+        self.thread = threading.Thread(
+            target=lambda: self.code.append(watch(settings, RunOptions(), stop=self.stop)),
+            daemon=True,
+        )
+        self.thread.start()
+
+    def join(self) -> bool:
+        """Whether it ended (within :data:`LIMIT_S`)."""
+        self.thread.join(LIMIT_S)
+        return not self.thread.is_alive()
+
+    def end(self) -> None:
+        """Wait for it to end, else stop it."""
+        if not self.join():
+            self.stop.set()
+            self.join()
+
+
+def _wait(what: Callable[[], object], limit: float = LIMIT_S) -> bool:
+    deadline = time.monotonic() + limit
+    while not what() and time.monotonic() < deadline:
+        time.sleep(0.02)
+    return bool(what())
+
+
+@pytest.fixture
+def copies(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[Path, Path, dict]]:
+    """INBOX with the archive ``A`` of two files (analyses quick and counted), and a
+    ``--done`` folder on another file system."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    with _done_folder(tmp_path, monkeypatch, other=True) as done:
+        yield inbox, done, content
+
+
+def _partial(done: Path) -> list[str]:
+    return [p.name for p in done.iterdir() if p.name.startswith(".partial-")]
+
+
+def test_another_archive_is_started_while_one_is_copied(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, copies: tuple[Path, Path, dict]
+) -> None:
+    """An archive dropped while another one's copies to ``--done`` are made is analyzed
+    meanwhile, and ``--once`` ends once both are moved, with its exit code. Before, the
+    copies were made on the watcher's loop (5.2 s per GB): nothing else was started or
+    recorded until they were done."""
+    inbox, done, content = copies
+    slow = _SlowCopy(monkeypatch)
+    w = _Watcher(_settings(tmp_path, done))
+    try:
+        assert slow.began.wait(LIMIT_S)
+        b = _archive(tmp_path / "B.csv", 350)
+        b.rename(inbox / "B.csv")
+        started = _wait(lambda: "['B.csv']" in _analyses(tmp_path))
+        assert not slow.release.is_set()
+        assert started, "B was not analyzed while A's copies were being made"
+    finally:
+        slow.release.set()
+        w.end()
+    assert w.code == [0]
+    assert not any(inbox.iterdir())
+    assert sorted(p.name for p in done.iterdir()) == ["A_part0.csv", "A_part1.csv", "B.csv"]
+    assert {n: (done / n).read_bytes() for n in content} == content
+
+
+def test_a_stop_during_a_copy_ends_it_at_its_next_block(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    copies: tuple[Path, Path, dict],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """SIGTERM while an archive is copied to ``--done``: the copy stops at its next
+    block, what it made is removed, the archive stays in INBOX, recorded, its move not
+    in the state file; the next start moves it (not analyzed again). Before, the copies
+    went on to the end (the stop waited for them) and the archive was moved."""
+    inbox, done, content = copies
+    settings = _settings(tmp_path, done)
+    stop = threading.Event()
+    slow = _SlowCopy(monkeypatch, until=stop, crawl=True)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    w = _Watcher(settings, stop)
+    try:
+        assert slow.began.wait(LIMIT_S)
+    finally:
+        stop.set()
+        assert w.join()
+    assert w.code == [130]
+    assert {p.name: p.read_bytes() for p in inbox.iterdir()} == content
+    assert not any(done.iterdir())
+    assert "moving" not in _state_record(tmp_path)
+    said = [r.getMessage() for r in caplog.records if "its move to" in r.getMessage()]
+    assert len(said) == 1 and "stopped (the watcher stopping" in said[0], said
+    monkeypatch.undo()
+    assert watch(settings, RunOptions()) == 0
+    assert not any(inbox.iterdir())
+    assert {p.name: p.read_bytes() for p in done.iterdir()} == content
+    assert _analyses(tmp_path) == [str(sorted(content))]
+
+
+def test_a_copy_that_does_not_stop_is_ended_by_the_next_start(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, copies: tuple[Path, Path, dict]
+) -> None:
+    """A stop while a copy hangs (a network file system that does not answer): the
+    watcher ends anyway, its move left in the state file, and the next start ends it as
+    that of a watcher killed during it. Before, the watcher waited for the copy."""
+    inbox, done, content = copies
+    settings = _settings(tmp_path, done)
+    slow = _SlowCopy(monkeypatch)
+    w = _Watcher(settings)
+    try:
+        assert slow.began.wait(LIMIT_S)
+        w.stop.set()
+        ended = w.join()
+        assert not slow.release.is_set()
+        assert ended, "the watcher waited for the copy"
+        assert _state_record(tmp_path)["moving"]
+    finally:
+        slow.release.set()
+        w.join()
+    assert _wait(lambda: not _partial(done))  # (the thread, stopped at last, cleans up)
+    monkeypatch.undo()
+    assert watch(settings, RunOptions()) == 0
+    assert not any(inbox.iterdir())
+    assert {p.name: p.read_bytes() for p in done.iterdir()} == content
+    rec = _state_record(tmp_path)
+    assert "moving" not in rec
+    assert sorted(rec["moved_to"]) == [str(done / name) for name in sorted(content)]
+    assert _analyses(tmp_path) == [str(sorted(content))]
+
+
+def test_an_archive_that_changes_while_it_is_copied_is_not_moved(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, copies: tuple[Path, Path, dict]
+) -> None:
+    """A writer still at it appends to the archive while it is copied to ``--done``:
+    the move is not ended (copies removed), the archive is analyzed again once it has
+    settled, and moved with what was appended. Before, it was moved with the appended
+    rows that its record had never seen."""
+    inbox, done, content = copies
+    slow = _SlowCopy(monkeypatch)
+    w = _Watcher(_settings(tmp_path, done))
+    more = b"9.99,1.0,1.0\n"
+    try:
+        assert slow.began.wait(LIMIT_S)
+        with (inbox / "A_part1.csv").open("ab") as f:
+            f.write(more)
+    finally:
+        slow.release.set()
+        w.end()
+    assert w.code == [0]
+    assert _analyses(tmp_path) == [str(sorted(content))] * 2
+    assert not any(inbox.iterdir())
+    found = {p.name: p.read_bytes() for p in done.iterdir()}
+    assert found == {**content, "A_part1.csv": content["A_part1.csv"] + more}
+
+
+def test_a_full_disk_in_a_copy_leaves_the_archive_in_inbox_with_one_line(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    copies: tuple[Path, Path, dict],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """``--done`` full in the second file's copy: nothing of the archive is left in it,
+    the archive stays in INBOX, recorded, its move not in the state file, and one line
+    names the full folder (it named the INBOX file being copied)."""
+    inbox, done, content = copies
+    real = os.sendfile
+    calls: list[int] = []
+
+    def full(out_fd: int, in_fd: int, offset: Any, count: int) -> int:
+        calls.append(offset)
+        if calls.count(0) == 2:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(out_fd, in_fd, offset, count)
+
+    monkeypatch.setattr(os, "sendfile", full)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    assert watch(_settings(tmp_path, done), RunOptions()) == 0
+    assert {p.name: p.read_bytes() for p in inbox.iterdir()} == content
+    assert not any(done.iterdir())
+    assert "moving" not in _state_record(tmp_path)
+    said = [r.getMessage() for r in caplog.records if "not moved" in r.getMessage()]
+    assert said == [f"A: not moved to {done} (it stays in INBOX): {done}: No space left on device"]
