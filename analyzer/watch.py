@@ -822,6 +822,8 @@ def _moving_lines(rec: Record) -> list[_Line]:
         source, copy, target = line
         if not source or not target:
             raise ValueError(f"{line!r}: no source or target")
+        if not all(Path(x).is_absolute() and "\0" not in x for x in line if x):
+            raise ValueError(f"{line!r}: not absolute paths")  # (else: the start's folder's)
         if copy and (
             not Path(copy).name.startswith(".partial-") or Path(copy).parent != Path(target).parent
         ):

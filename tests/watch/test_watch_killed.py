@@ -30,6 +30,7 @@ from analyzer import watch as watch_module
 from analyzer.findings import sha256_of
 from analyzer.options import RunOptions
 from analyzer.watch import WatchSettings, watch
+from analyzer.watch_inbox import ReadyArchive, signature
 from analyzer.watch_index import Ledger, Record, Verdict, publish
 from analyzer.writers import write_archive
 
@@ -305,6 +306,60 @@ def test_a_big_unfinished_archive_recorded_with_its_content_is_not_waited_for(
     assert not [line for line in said if "waiting up to" in line]
     assert any("1 found analyzed already" in line for line in said)
     assert json.loads(state_file.read_text())["archives"][big.name]["sha256"] == sha256_of(big)
+
+
+def _runner(inbox: Path, reports: Path, monkeypatch: pytest.MonkeyPatch) -> Any:
+    """A watcher's runner over INBOX and REPORTS, its loop driven by the test."""
+    monkeypatch.setattr(watch_module, "_context", lambda: multiprocessing.get_context("fork"))
+    settings = WatchSettings(inbox=inbox, reports=reports, settle=0.2, poll=0.05)
+    return watch_module._Runner(settings, RunOptions(), Ledger.load(reports), threading.Event())
+
+
+def _stoppable_hashes(monkeypatch: pytest.MonkeyPatch) -> list[threading.Event]:
+    """Make every hash wait (at most :data:`LIMIT_S`) until it is told to stop; returns
+    an event per hash begun, set once it is told."""
+    told: list[threading.Event] = []
+
+    def held(paths: Sequence[Path], root: Path, head: Any = None, cancel: Any = None) -> Any:
+        told.append(threading.Event())
+        if cancel is not None and cancel.wait(LIMIT_S):
+            told[-1].set()
+        raise watch_module.HashCancelled(str(paths[0]))
+
+    monkeypatch.setattr(watch_module, "hash_archive", held)
+    return told
+
+
+@pytest.mark.parametrize("then", ["deleted", "changed"])
+def test_the_hash_of_an_archive_deleted_or_changed_since_it_was_asked_about_is_dropped(
+    recorded_and_unfinished: tuple[Path, Path, Path],
+    monkeypatch: pytest.MonkeyPatch,
+    then: str,
+) -> None:
+    """The tracker's question about a big unfinished archive is being hashed, and the
+    archive is deleted from INBOX (or changed, and ready): its hash is stopped, and the
+    watcher keeps nothing of it. Before, a deleted archive's entry stayed for the
+    watcher's life (a slow leak), and the hash of content changed since went on to its
+    end (seconds per GB of a thread's reads, for nothing)."""
+    inbox, reports, big = recorded_and_unfinished
+    (inbox / "b_small.csv").unlink()
+    told = _stoppable_hashes(monkeypatch)
+    runner = _runner(inbox, reports, monkeypatch)
+    try:
+        archive = ReadyArchive(big.name, (big,), signature([big], inbox), "unfinished")
+        assert runner.recorded(archive) is None  # (asked: being hashed)
+        if then == "deleted":
+            big.unlink()
+            runner.pump()
+            assert big.name not in runner.asked
+        else:
+            with big.open("ab") as f:
+                f.write(MCAP_MAGIC)
+            runner.offer(ReadyArchive(big.name, (big,), signature([big], inbox)))
+            runner.pump()
+        assert told and told[0].wait(LIMIT_S / 4), "the hash went on"
+    finally:
+        runner.hasher.close()
 
 
 # --------------------------------------------------------------------------- kept aside
@@ -758,6 +813,58 @@ def test_a_move_edited_by_hand_in_the_state_is_ignored(
     assert watch(settings, RunOptions()) == 0
     assert [r for r in caplog.records if "cannot be read" in r.getMessage()]
     assert "moving" not in json.loads(state.read_text())["archives"]["a.csv"]
+
+
+def test_a_move_of_relative_paths_in_the_state_is_ignored(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A hand-edited move of relative paths: ignored with a warning, nothing of the
+    watcher's folder touched. Before, it was read as paths in the watcher's working
+    folder: a ``.partial-`` file there was removed as the move's copy."""
+    reports, inbox = tmp_path / "reports", tmp_path / "inbox"
+    inbox.mkdir()
+    _recorded_once(reports)
+    state = reports / ".watch-state.json"
+    doc = json.loads(state.read_text())
+    doc["archives"]["a.csv"]["moving"] = [["a.csv", ".partial-a.csv-0123abcd", "a.csv"]]
+    state.write_text(json.dumps(doc))
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / ".partial-a.csv-0123abcd").write_text("someone's")
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    settings = WatchSettings(inbox=inbox, reports=reports, settle=0.2, poll=0.05, once=True)
+    assert watch(settings, RunOptions()) == 0
+    assert [r for r in caplog.records if "cannot be read" in r.getMessage()]
+    assert (tmp_path / ".partial-a.csv-0123abcd").read_text() == "someone's"
+    assert "moving" not in json.loads(state.read_text())["archives"]["a.csv"]
+
+
+def test_a_move_kept_for_the_next_start_outlives_its_report_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A move the start could not end (a part gone from INBOX, not in ``--done``), and
+    the record's report folder deleted by hand: the record and its move are kept, what
+    is left in INBOX is not analyzed alone; once the part is back, the move is ended.
+    Before, the start forgot the record with its move, and analyzed ``A_part1.csv``
+    alone as the archive ``A``."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    away = tmp_path / "away"
+    away.mkdir()
+    with _done_folder(tmp_path, monkeypatch, other=True) as done:
+        settings = _settings(tmp_path, done)
+        _run_killed(settings, lambda undo: _killed_at_an_inbox_unlink(2, undo))
+        for p in done.iterdir():
+            shutil.move(p, away / p.name)
+        shutil.rmtree(tmp_path / "in" / "reports" / "A")
+        watch(settings, RunOptions())
+        assert [p.name for p in inbox.iterdir()] == ["A_part1.csv"]
+        assert _analyses(tmp_path) == [str(sorted(content))]
+        assert _state_record(tmp_path)["moving"]
+        for p in away.iterdir():  # (mounted)
+            shutil.move(p, done / p.name)
+        assert watch(settings, RunOptions()) == 0
+        assert not any(inbox.iterdir())
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == content
+        assert _analyses(tmp_path) == [str(sorted(content))]
 
 
 def test_a_move_that_cannot_be_ended_is_kept_for_the_next_start(
