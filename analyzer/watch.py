@@ -87,7 +87,10 @@ Inputs
     so does one that changed since it was found complete. DIR must be outside INBOX's
     own archives and outside REPORTS (exit 2 otherwise), and writable, as INBOX then must
     be (exit 2 at start otherwise; a move refused later is a warning naming the folder
-    that refused it, and the archive stays in INBOX, recorded).
+    that refused it, and the archive stays in INBOX, recorded). A move to another file
+    system is copies, made off the loop (other archives are started and recorded
+    meanwhile), renamed into place, then the sources removed, only while INBOX holds the
+    archive as it was found (one that changed while it was copied is analyzed again).
 
 Running
     ``--jobs N`` analyses run at a time (default: one per core), each on one thread, or
@@ -119,7 +122,11 @@ On a cluster
 Stopping
     SIGINT or SIGTERM: no new analysis starts; the running ones finish and are recorded,
     then the watcher exits (an archive being hashed is not waited for: archives over
-    :data:`INLINE_HASH_BYTES` are hashed by a thread of their own, off the loop). A second
+    :data:`INLINE_HASH_BYTES` are hashed by a thread of their own, off the loop; nor is a
+    move's copy to another file system, made by a thread of its own too: it stops at its
+    next block, what it made is removed, and the archive, recorded, is moved on the next
+    start; a copy that does not stop within :data:`MOVE_GRACE_S` is left to the next
+    start, as that of a watcher killed during it). A second
     signal abandons the running analyses (their processes are killed, their scratch folders
     removed, nothing recorded: they are analyzed on the next start). Analysis processes
     ignore SIGINT, so Ctrl-C in a terminal behaves the same; under systemd use
@@ -155,6 +162,7 @@ import re
 import select
 import shutil
 import signal
+import stat
 import sys
 import threading
 import time
@@ -661,6 +669,8 @@ def _copy_file(source: Path, copy: Path, cancel: threading.Event) -> None:
     if source.is_symlink():
         shutil.copy2(source, copy, follow_symlinks=False)
         return
+    if not stat.S_ISREG(source.stat().st_mode):  # (a FIFO in a folder: open would block)
+        raise shutil.SpecialFileError(errno.EINVAL, "not a regular file", str(source))
     with source.open("rb") as fin, copy.open("wb") as fout:
         sendfile, offset = hasattr(os, "sendfile"), 0
         while not cancel.is_set():

@@ -245,3 +245,20 @@ def test_a_full_disk_in_a_copy_leaves_the_archive_in_inbox_with_one_line(
     assert "moving" not in _state_record(tmp_path)
     said = [r.getMessage() for r in caplog.records if "not moved" in r.getMessage()]
     assert said == [f"A: not moved to {done} (it stays in INBOX): {done}: No space left on device"]
+
+
+def test_a_fifo_in_a_folder_archive_fails_its_copy_without_blocking(tmp_path: Path) -> None:
+    """A FIFO inside a folder archive (never opened by the watcher): its copy is
+    refused at once, as ``shutil.copy2`` refused it, and what was made is removed; a
+    copy in blocks that opened it would wait for a writer for good."""
+    from analyzer import watch as watch_module
+
+    folder = tmp_path / "mission"
+    folder.mkdir()
+    (folder / "a.csv").write_text("time,a\n0,1\n")
+    os.mkfifo(folder / "pipe")
+    done = tmp_path / "done"
+    done.mkdir()
+    with pytest.raises(OSError, match="not a regular file"):
+        watch_module._copy_all([folder], [done / ".partial-mission-0123abcd"])
+    assert not any(done.iterdir())
