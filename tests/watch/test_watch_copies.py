@@ -218,6 +218,48 @@ def test_an_archive_that_changes_while_it_is_copied_is_not_moved(
     assert found == {**content, "A_part1.csv": content["A_part1.csv"] + more}
 
 
+def test_an_archive_offered_again_during_its_copy_stops_it(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    copies: tuple[Path, Path, dict],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """The archive changes while it is copied, and the watcher is offered it again
+    before the copy ends: the copy stops at its next block (what it made removed), and
+    the archive is analyzed again, then moved with what was appended."""
+    from analyzer import watch as watch_module
+
+    inbox, done, content = copies
+    slow = _SlowCopy(monkeypatch)
+    offers: list[str] = []
+    real_offer = watch_module._Runner.offer
+
+    def offer(self: Any, archive: Any) -> None:
+        real_offer(self, archive)
+        offers.append(archive.name)
+        if offers.count("A") == 2:  # (the copy goes on once the watcher knows)
+            slow.release.set()
+
+    monkeypatch.setattr(watch_module._Runner, "offer", offer)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    w = _Watcher(_settings(tmp_path, done))
+    more = b"9.99,1.0,1.0\n"
+    try:
+        assert slow.began.wait(LIMIT_S)
+        with (inbox / "A_part1.csv").open("ab") as f:
+            f.write(more)
+    finally:
+        w.end()
+        slow.release.set()
+    assert w.code == [0]
+    said = [r.getMessage() for r in caplog.records if "its move to" in r.getMessage()]
+    assert len(said) == 1 and "stopped (it changed)" in said[0], said
+    assert _analyses(tmp_path) == [str(sorted(content))] * 2
+    assert not any(inbox.iterdir())
+    found = {p.name: p.read_bytes() for p in done.iterdir()}
+    assert found == {**content, "A_part1.csv": content["A_part1.csv"] + more}
+
+
 def test_a_full_disk_in_a_copy_leaves_the_archive_in_inbox_with_one_line(
     tmp_path: Path,
     monkeypatch: pytest.MonkeyPatch,
