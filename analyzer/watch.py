@@ -895,6 +895,8 @@ def _end_moves(ledger: Ledger, inbox: Path) -> None:
             rec.moved_to = [*rec.moved_to, *moved]
         said = {
             "undone": "undone (its copies there removed); it is moved again",
+            "changed": "undone (its copies there removed): part of it changed since it "
+            "was analyzed; it is analyzed again (if its content changed), then moved",
             "not begun": "had not begun; it is moved again",
             "finished": "finished",
             "gone": "finished as far as can be told (part of it, gone from INBOX, is not in "
@@ -920,6 +922,12 @@ def _end_move(
     - ``"undone"``/``"not begun"``: every source still in INBOX as recorded and none of
       the archive's files in place: its ``.partial-`` copies removed (if any); the
       archive, recorded, is moved again.
+    - ``"changed"``: as undone, but a source changed since it was recorded (a writer
+      appending while it was copied): still before the point of no return, since the
+      sources go only once every copy is in place (:func:`_place_all`, and below), and
+      neither a target in place nor a source gone or part-removed says otherwise; the
+      archive is analyzed again (if its content changed), then moved. Before, its
+      truncated copy made the move "kept" for good, the archive held in INBOX.
     - ``"finished"``: past the point of no return (a file in place, or a source gone),
       and every file of the archive in place or able to be (a whole copy, or a source to
       rename): the rest renamed (a target taken since: another free name, told to
@@ -965,12 +973,19 @@ def _end_move(
         return found == entries[source] if whole else found <= entries[source]
 
     in_place = [is_of(t, s) for s, _, t in lines]
-    if all(is_of(s, s) for s, _, _ in lines) and not any(in_place):
+    # a source in INBOX: there, as recorded or changed since, but not a folder with only
+    # some of its files, as recorded (the move's removal of it stopped part-way)
+    there = [
+        os.path.lexists(s) and (is_of(s, s) or not is_of(s, s, whole=False)) for s, _, _ in lines
+    ]
+    if all(there) and not any(in_place):
         removed = False
         for _, copy, _ in lines:
             if copy is not None and os.path.lexists(copy):
                 _remove(copy, strict=True)
                 removed = True
+        if not all(is_of(s, s) for s, _, _ in lines):
+            return "changed", []
         return ("undone" if removed else "not begun"), []
     placeable = [
         placed or is_of(c, s) if c is not None else placed or is_of(s, s)

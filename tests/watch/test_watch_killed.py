@@ -648,7 +648,7 @@ def test_a_kill_before_the_move_began_leaves_nothing_to_end(tmp_path: Path) -> N
     target.unlink()
     shutil.copy2(source, target)  # (its copy in place: finished)
     rec.signature = [["a.csv", st.st_size + 1, st.st_mtime_ns]]  # (not the recorded one)
-    assert _end(rec, inbox) == ("gone", [])
+    assert _end(rec, inbox) == ("changed", [])
     assert source.is_file() and target.is_file()
     rec.signature = [["a.csv", st.st_size, st.st_mtime_ns]]
     assert _end(rec, inbox) == ("finished", [str(target)])
@@ -916,3 +916,99 @@ def test_a_move_not_written_to_the_state_first_is_said(
         assert {p.name: p.read_bytes() for p in done.iterdir()} == content
     said = [r.getMessage() for r in caplog.records if "not in the state file" in r.getMessage()]
     assert len(said) == 1, said
+
+
+MORE = b"9.99,1.0,1.0\n"
+"""A row the writer appends to ``A_part1.csv`` while its copy is made."""
+
+
+def _killed_in_a_changing_copy(stage: str, inbox: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The writer appends to ``A_part1.csv`` as it is copied, and the watcher is killed:
+    ``copying``, in that copy (half written); ``removed``, once the loop saw the change
+    and removed the copies, before the move's end was written to the state file."""
+    real_copy = watch_module._copy_file
+    calls: list[Path] = []
+
+    def copy(src: Path, dst: Path, cancel: threading.Event) -> None:
+        calls.append(src)
+        if len(calls) == 2:
+            with (inbox / "A_part1.csv").open("ab") as f:
+                f.write(MORE)
+            if stage == "copying":
+                dst.write_bytes(src.read_bytes()[:100])
+                raise _Killed
+        real_copy(src, dst, cancel)
+
+    monkeypatch.setattr(watch_module, "_copy_file", copy)
+    if stage == "removed":
+        real_save = Ledger.save_state
+        moved: list[bool] = []
+
+        def save(self: Ledger) -> None:
+            rec = self.records.get("A")
+            if rec is not None and rec.moving:
+                moved.append(True)
+            elif moved:  # (the move cleared: killed before it is written)
+                raise _Killed
+            real_save(self)
+
+        monkeypatch.setattr(Ledger, "save_state", save)
+
+
+@pytest.mark.parametrize("stage", ["copying", "removed"])
+def test_a_move_killed_while_the_archive_changed_is_undone(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    caplog: pytest.LogCaptureFixture,
+    stage: str,
+) -> None:
+    """Killed while a writer appended to the archive during its copy to ``--done``: the
+    next start undoes the move (nothing in place, every source still in INBOX: before
+    the point of no return), says so, and the archive is analyzed again and moved with
+    what was appended. Before, the move was kept for good ("cannot be ended": a copy
+    truncated or gone, its source not as recorded), the archive held in INBOX, never
+    analyzed again, until a file of it was removed by hand."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    with _done_folder(tmp_path, monkeypatch, other=True) as done:
+        settings = _settings(tmp_path, done)
+        _run_killed(settings, lambda undo: _killed_in_a_changing_copy(stage, inbox, undo))
+        assert _state_record(tmp_path)["moving"]
+        caplog.set_level(logging.INFO, logger="analyzer.watch")
+        assert watch(settings, RunOptions()) == 0
+        said = [r.getMessage() for r in caplog.records if "stopped by force" in r.getMessage()]
+        assert len(said) == 1 and "undone" in said[0] and "changed" in said[0], said
+        assert not any(inbox.iterdir())
+        found = {p.name: p.read_bytes() for p in done.iterdir()}
+        assert found == {**content, "A_part1.csv": content["A_part1.csv"] + MORE}
+        assert _analyses(tmp_path) == [str(sorted(content))] * 2
+        rec = _state_record(tmp_path)
+        assert "moving" not in rec
+        assert sorted(rec["moved_to"]) == [str(done / name) for name in sorted(content)]
+
+
+def test_a_folder_part_removed_by_its_move_is_not_taken_for_a_changed_one(
+    tmp_path: Path,
+) -> None:
+    """A folder archive's move killed part-way through the removal of its source, its
+    copy no longer found in ``--done`` (a mount not mounted yet): what is left of the
+    folder (some of its files, as recorded) is not the archive changed, so the move is
+    kept, not undone (which would analyze the rest alone as the archive)."""
+    inbox, done = tmp_path / "inbox", tmp_path / "done"
+    source = inbox / "m"
+    source.mkdir(parents=True)
+    for name in ("a.csv", "b.csv"):
+        _archive(source / name, 300)
+    rec = Record(
+        name="m",
+        sha256="1" * 64,
+        verdict=Verdict.NO_FAULT,
+        report="m/report.html",
+        inputs=[str(source)],
+        processed=START,
+        analysis_s=1.0,
+        signature=[list(s) for s in signature([source], inbox)],
+    )
+    rec.moving = [[str(source), str(done / ".partial-m-0123abcd"), str(done / "m")]]
+    (source / "a.csv").unlink()
+    assert _end(rec, inbox) == ("kept", [])
+    assert [p.name for p in source.iterdir()] == ["b.csv"]
