@@ -197,6 +197,7 @@ from analyzer.watch_inbox import (
     ReadyArchive,
     Signature,
     archive_names,
+    archive_paths,
     ignored,
     ready_batches,
     signature,
@@ -1266,8 +1267,11 @@ class _Runner:
         ledger: Ledger,
         stopping: threading.Event,
         cluster: DaskExecutor | None = None,
+        exclude: frozenset[str] = frozenset(),
     ) -> None:
         self.settings = settings
+        self.exclude = exclude
+        """INBOX's entries that are output folders (never archives' members)."""
         self.stopping = stopping
         self.ledger = ledger
         self.options = replace(
@@ -1968,8 +1972,9 @@ class _Runner:
 
     def _end_copied(self, c: _Copying) -> None:
         """A move whose copies are made: renamed into place and INBOX's sources removed,
-        where INBOX still holds the archive as it was found (else the copies are removed:
-        it changed while it was copied, and is analyzed again once it has settled). One
+        where INBOX still holds the archive as it was found, its members too (else the
+        copies are removed: it changed while it was copied, and is analyzed again once it
+        has settled). One
         whose copies failed or were stopped (their copies removed by the thread): over.
         The archive offered again meanwhile is offered now."""
         archive, name = c.archive, c.archive.name
@@ -1979,8 +1984,10 @@ class _Runner:
 
         try:
             c.future.result()
-            try:
-                current = signature(archive.paths, self.settings.inbox)
+            inbox, group_by = self.settings.inbox, self.settings.group_by
+            try:  # (a member dropped meanwhile: moved without it, it was analyzed alone)
+                paths = archive_paths(inbox, name, group_by, self.exclude)
+                current = signature(paths, inbox) if paths == archive.paths else None
             except OSError:
                 current = None
             if current != archive.signature:
@@ -2176,7 +2183,7 @@ def _watch_locked(
     for name in ledger.tidy():
         log.info("%s: its report folder is gone; it will be analyzed again", name)
     ledger.save()
-    runner = _Runner(settings, options, ledger, stop, cluster)
+    runner = _Runner(settings, options, ledger, stop, cluster, frozenset(exclude))
     if settings.once:  # what --once will go through: the progress's total
         runner.expected = len(archive_names(settings.inbox, settings.group_by, exclude))
     how = f"polling every {settings.poll:g} s" if settings.poll else "file events"

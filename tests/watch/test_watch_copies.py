@@ -304,3 +304,37 @@ def test_a_fifo_in_a_folder_archive_fails_its_copy_without_blocking(tmp_path: Pa
     with pytest.raises(OSError, match="not a regular file"):
         watch_module._copy_all([folder], [done / ".partial-mission-0123abcd"])
     assert not any(done.iterdir())
+
+
+def test_a_member_dropped_during_a_copy_is_not_left_behind(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    copies: tuple[Path, Path, dict],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A third file of ``--group-by`` archive ``A`` dropped while A's copies are made,
+    seen by the watcher only once they are (its tracker not yet settled on it): the move
+    is not ended (copies removed), and the archive of three files is analyzed again and
+    moved. Before, only the files found at the start were checked: the two were moved,
+    and the third was analyzed alone as the archive."""
+    from analyzer import watch as watch_module
+
+    inbox, done, content = copies
+    real_end = watch_module._Runner._end_copied
+
+    def end_copied(self: Any, c: Any) -> None:
+        if not (inbox / "A_part2.csv").exists():
+            _archive(tmp_path / "A_part2.csv", 302).rename(inbox / "A_part2.csv")
+        real_end(self, c)
+
+    monkeypatch.setattr(watch_module._Runner, "_end_copied", end_copied)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    assert watch(_settings(tmp_path, done), RunOptions()) == 0
+    three = sorted([*content, "A_part2.csv"])
+    assert _analyses(tmp_path) == [str(sorted(content)), str(three)]
+    assert not any(inbox.iterdir())
+    assert sorted(p.name for p in done.iterdir()) == three
+    said = [
+        r.getMessage() for r in caplog.records if "changed while it was copied" in r.getMessage()
+    ]
+    assert len(said) == 1, said
