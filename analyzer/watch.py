@@ -177,7 +177,7 @@ from multiprocessing.context import ForkServerContext, SpawnContext
 from multiprocessing.process import BaseProcess
 from pathlib import Path
 from types import FrameType
-from typing import Any, TypeVar
+from typing import Any, BinaryIO, TypeVar
 
 from analyzer import __version__
 from analyzer.diagnosis.training_check import window_warnings
@@ -670,31 +670,46 @@ def _copy_file(source: Path, copy: Path, cancel: threading.Event) -> None:
     if source.is_symlink():
         shutil.copy2(source, copy, follow_symlinks=False)
         return
-    if not stat.S_ISREG(source.stat().st_mode):  # (a FIFO in a folder: open would block)
-        raise shutil.SpecialFileError(errno.EINVAL, "not a regular file", str(source))
-    with source.open("rb") as fin, copy.open("wb") as fout:
-        sendfile, offset = hasattr(os, "sendfile"), 0
-        while not cancel.is_set():
-            try:
-                if sendfile:
-                    n = os.sendfile(fout.fileno(), fin.fileno(), offset, COPY_BLOCK)
-                else:
-                    block = fin.read(COPY_BLOCK)
-                    n = fout.write(block)
-            except OSError as err:
-                if sendfile and offset == 0 and err.errno not in (errno.ENOSPC, errno.EDQUOT):
-                    sendfile = False  # (a file system that refuses it: as shutil does)
-                    continue
-                if err.filename is None:  # (a full disk is the folder's, else the source's)
-                    full = err.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
-                    err.filename = str(copy.parent if full else source)
-                raise
-            if n == 0:
-                break
-            offset += n
-        else:
-            raise MoveCancelled(str(source))
+    # O_NONBLOCK: a FIFO (in a folder, or put in a file's place since it was listed)
+    # opens at once instead of waiting for a writer, and is refused by its fstat
+    fd = os.open(source, os.O_RDONLY | os.O_NONBLOCK)
+    with os.fdopen(fd, "rb") as fin:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise shutil.SpecialFileError(errno.EINVAL, "not a regular file", str(source))
+        _copy_blocks(source, fin, copy, cancel)
     shutil.copystat(source, copy)
+
+
+def _copy_blocks(source: Path, fin: BinaryIO, copy: Path, cancel: threading.Event) -> None:
+    """The bytes of :func:`_copy_file`, from ``fin`` (``source`` opened) to ``copy``. An
+    error names ``copy``'s folder where it is full (also at the close, where the read and
+    write path writes its last buffered bytes), else ``source``."""
+    try:
+        with copy.open("wb") as fout:
+            sendfile, offset = hasattr(os, "sendfile"), 0
+            while not cancel.is_set():
+                try:
+                    if sendfile:
+                        n = os.sendfile(fout.fileno(), fin.fileno(), offset, COPY_BLOCK)
+                    else:
+                        block = fin.read(COPY_BLOCK)
+                        n = fout.write(block)
+                except OSError as err:
+                    full = err.errno in (errno.ENOSPC, errno.EDQUOT)
+                    if sendfile and offset == 0 and not full:
+                        sendfile = False  # (a file system that refuses it: as shutil does)
+                        continue
+                    raise
+                if n == 0:
+                    break
+                offset += n
+            else:
+                raise MoveCancelled(str(source))
+    except OSError as err:
+        if err.filename is None:  # (a full disk is the folder's, else the source's)
+            full = err.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+            err.filename = str(copy.parent if full else source)
+        raise
 
 
 def _copy_all(
@@ -1864,6 +1879,8 @@ class _Runner:
         folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
         if rec.error_kind in (ErrorKind.OPTIONS, ErrorKind.INTERNAL) or folder is None:
             return
+        if archive.name in self.copying:  # (the move under way moves it, or, changed, it
+            return  # is offered again; a second move took its place, its copies left)
         if time.monotonic() < archive.hold_until:
             self.moves[archive.name] = (archive, rec)
             return

@@ -338,3 +338,131 @@ def test_a_member_dropped_during_a_copy_is_not_left_behind(
         r.getMessage() for r in caplog.records if "changed while it was copied" in r.getMessage()
     ]
     assert len(said) == 1, said
+
+
+def test_a_fifo_put_in_a_files_place_fails_its_copy_without_blocking(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A file that was regular when looked at and is a FIFO when its copy opens it (put
+    in its place meanwhile): the copy is refused at once. Before, it was looked at, then
+    opened, and the open waited for a writer for good (the copying thread stuck)."""
+    from analyzer import watch as watch_module
+
+    fifo, regular = tmp_path / "a.csv", _archive(tmp_path / "b.csv", 300)
+    os.mkfifo(fifo)
+    real_stat = Path.stat
+
+    def looked_at(self: Path, *, follow_symlinks: bool = True) -> os.stat_result:
+        if self == fifo and follow_symlinks:  # (a regular file when looked at)
+            return real_stat(regular)
+        return real_stat(self, follow_symlinks=follow_symlinks)
+
+    monkeypatch.setattr(Path, "stat", looked_at)
+    outcome: list[BaseException | None] = []
+
+    def copy() -> None:
+        try:
+            watch_module._copy_file(fifo, tmp_path / ".partial-a.csv-0123abcd", threading.Event())
+            outcome.append(None)
+        except BaseException as err:  # noqa: BLE001 - asserted below
+            outcome.append(err)
+
+    thread = threading.Thread(target=copy, daemon=True)
+    thread.start()
+    thread.join(LIMIT_S / 4)
+    if thread.is_alive():  # (the open waits for a writer: give it one, then fail)
+        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+        thread.join(LIMIT_S / 4)
+        pytest.fail("the copy's open of a FIFO waited for a writer")
+    assert isinstance(outcome[0], OSError) and "not a regular file" in str(outcome[0])
+
+
+class _FullAtClose:
+    """A file whose close fails for a full disk (its last buffered bytes)."""
+
+    def __init__(self, f: Any) -> None:
+        self.f = f
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.f, name)
+
+    def __enter__(self) -> _FullAtClose:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self.f.close()
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+
+def test_a_full_disk_at_the_close_of_a_read_and_write_copy_names_the_folder(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    copies: tuple[Path, Path, dict],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Where ``sendfile`` is refused, the copy reads and writes, and a full ``--done``
+    may show only when the copy is closed (its last bytes, buffered): the line names the
+    full folder, as a full disk in ``sendfile`` does. Before, it named no file at all."""
+    inbox, done, content = copies
+    monkeypatch.delattr(os, "sendfile")
+    real_open = Path.open
+
+    def open_(self: Path, mode: str = "r", *args: Any, **kwargs: Any) -> Any:
+        f = real_open(self, mode, *args, **kwargs)
+        return _FullAtClose(f) if self.name.startswith(".partial-") and "w" in mode else f
+
+    monkeypatch.setattr(Path, "open", open_)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    assert watch(_settings(tmp_path, done), RunOptions()) == 0
+    assert {p.name: p.read_bytes() for p in inbox.iterdir()} == content
+    assert not any(done.iterdir())
+    said = [r.getMessage() for r in caplog.records if "not moved" in r.getMessage()]
+    assert said == [f"A: not moved to {done} (it stays in INBOX): {done}: No space left on device"]
+
+
+def test_a_move_asked_again_while_its_copies_are_made_is_not_begun_twice(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, copies: tuple[Path, Path, dict]
+) -> None:
+    """An archive's move asked for again while its copies are being made (its record
+    found again, the same content): the move under way ends it, once. Before, a second
+    move began beside it and took its place: the first one's copies, never ended, stayed
+    hidden in ``--done`` for good."""
+    from analyzer import watch as watch_module
+    from analyzer.watch_inbox import ReadyArchive, signature
+    from analyzer.watch_index import Ledger, Record, Verdict
+
+    inbox, done, content = copies
+    settings = _settings(tmp_path, done)
+    settings.reports.mkdir()
+    runner = watch_module._Runner(
+        settings, RunOptions(), Ledger.load(settings.reports), threading.Event()
+    )
+    paths = tuple(sorted(inbox.iterdir()))
+    sig = signature(paths, inbox)
+    archive = ReadyArchive("A", paths, sig)
+    rec = Record(
+        name="A",
+        sha256="1" * 64,
+        verdict=Verdict.NO_FAULT,
+        report="A/report.html",
+        inputs=[str(p) for p in paths],
+        processed="2026-01-01T00:00:00Z",
+        analysis_s=1.0,
+        signature=[list(s) for s in sig],
+    )
+    slow = _SlowCopy(monkeypatch)
+    try:
+        runner._move(archive, rec)
+        assert slow.began.wait(LIMIT_S)
+        runner._move(archive, rec)
+        slow.release.set()
+        assert _wait(lambda: (runner.pump(), not runner.copying)[1])
+    finally:
+        slow.release.set()
+        runner.stop_moves()
+        runner.hasher.close()
+    assert not any(inbox.iterdir())
+    assert {p.name: p.read_bytes() for p in done.iterdir()} == content
