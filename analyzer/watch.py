@@ -87,7 +87,10 @@ Inputs
     so does one that changed since it was found complete. DIR must be outside INBOX's
     own archives and outside REPORTS (exit 2 otherwise), and writable, as INBOX then must
     be (exit 2 at start otherwise; a move refused later is a warning naming the folder
-    that refused it, and the archive stays in INBOX, recorded).
+    that refused it, and the archive stays in INBOX, recorded). A move to another file
+    system is copies, made off the loop (other archives are started and recorded
+    meanwhile), renamed into place, then the sources removed, only while INBOX holds the
+    archive as it was found (one that changed while it was copied is analyzed again).
 
 Running
     ``--jobs N`` analyses run at a time (default: one per core), each on one thread, or
@@ -119,7 +122,11 @@ On a cluster
 Stopping
     SIGINT or SIGTERM: no new analysis starts; the running ones finish and are recorded,
     then the watcher exits (an archive being hashed is not waited for: archives over
-    :data:`INLINE_HASH_BYTES` are hashed by a thread of their own, off the loop). A second
+    :data:`INLINE_HASH_BYTES` are hashed by a thread of their own, off the loop; nor is a
+    move's copy to another file system, made by a thread of its own too: it stops at its
+    next block, what it made is removed, and the archive, recorded, is moved on the next
+    start; a copy that does not stop within :data:`MOVE_GRACE_S` is left to the next
+    start, as that of a watcher killed during it). A second
     signal abandons the running analyses (their processes are killed, their scratch folders
     removed, nothing recorded: they are analyzed on the next start). Analysis processes
     ignore SIGINT, so Ctrl-C in a terminal behaves the same; under systemd use
@@ -155,19 +162,22 @@ import re
 import select
 import shutil
 import signal
+import stat
 import sys
 import threading
 import time
 import traceback
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future
+from concurrent.futures import wait as wait_futures
 from dataclasses import dataclass, replace
+from functools import partial
 from multiprocessing.connection import wait as wait_for
 from multiprocessing.context import ForkServerContext, SpawnContext
 from multiprocessing.process import BaseProcess
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import Any, BinaryIO, TypeVar
 
 from analyzer import __version__
 from analyzer.diagnosis.training_check import window_warnings
@@ -187,6 +197,7 @@ from analyzer.watch_inbox import (
     ReadyArchive,
     Signature,
     archive_names,
+    archive_paths,
     ignored,
     ready_batches,
     signature,
@@ -630,6 +641,157 @@ def _place(path: Path, targets: list[Path], k: int, tell: Callable[[], None]) ->
     return targets[k]
 
 
+class MoveCancelled(Exception):
+    """:func:`_copy_all` stopped by its ``cancel`` event (the watcher stopping, or the
+    archive changed since its copies began)."""
+
+
+class _CopyFailed(Exception):
+    """An :class:`OSError` of a file's copy in a folder's, out of :func:`shutil.copytree`
+    at once (which would go on with the other files and raise them all as one)."""
+
+    def __init__(self, err: OSError) -> None:
+        super().__init__(err)
+        self.err = err
+
+
+COPY_BLOCK = 8 << 20
+"""Bytes copied at a time to another file system (:func:`_copy_file`: a stop is seen
+between two blocks)."""
+
+
+def _copy_file(source: Path, copy: Path, cancel: threading.Event) -> None:
+    """:func:`shutil.copy2` of ``source`` (a link as a link), in blocks of
+    :data:`COPY_BLOCK` by ``sendfile`` (read and write where it is refused), raising
+    :class:`MoveCancelled` at the next block once ``cancel`` is set: one call of
+    ``copy2`` copied a 1.5 GB file in one piece, and nothing could stop it. Its bytes,
+    then its mode and times (the size and mtime by which the next start knows the copy as
+    the archive's: :func:`_end_move`)."""
+    if source.is_symlink():
+        shutil.copy2(source, copy, follow_symlinks=False)
+        return
+    # O_NONBLOCK: a FIFO (in a folder, or put in a file's place since it was listed)
+    # opens at once instead of waiting for a writer, and is refused by its fstat
+    fd = os.open(source, os.O_RDONLY | os.O_NONBLOCK)
+    with os.fdopen(fd, "rb") as fin:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise shutil.SpecialFileError(errno.EINVAL, "not a regular file", str(source))
+        _copy_blocks(source, fin, copy, cancel)
+    shutil.copystat(source, copy)
+
+
+def _copy_blocks(source: Path, fin: BinaryIO, copy: Path, cancel: threading.Event) -> None:
+    """The bytes of :func:`_copy_file`, from ``fin`` (``source`` opened) to ``copy``. An
+    error names ``copy``'s folder where it is full (also at the close, where the read and
+    write path writes its last buffered bytes), else ``source``."""
+    try:
+        with copy.open("wb") as fout:
+            sendfile, offset = hasattr(os, "sendfile"), 0
+            while not cancel.is_set():
+                try:
+                    if sendfile:
+                        n = os.sendfile(fout.fileno(), fin.fileno(), offset, COPY_BLOCK)
+                    else:
+                        block = fin.read(COPY_BLOCK)
+                        n = fout.write(block)
+                except OSError as err:
+                    full = err.errno in (errno.ENOSPC, errno.EDQUOT)
+                    if sendfile and offset == 0 and not full:
+                        sendfile = False  # (a file system that refuses it: as shutil does)
+                        continue
+                    raise
+                if n == 0:
+                    break
+                offset += n
+            else:
+                raise MoveCancelled(str(source))
+    except OSError as err:
+        if err.filename is None:  # (a full disk is the folder's, else the source's)
+            full = err.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+            err.filename = str(copy.parent if full else source)
+        raise
+
+
+def _copy_all(
+    paths: Sequence[Path], copies: Sequence[Path], cancel: threading.Event | None = None
+) -> None:
+    """Copy each of ``paths`` (a file, a link, a folder with what it holds) to its
+    ``copies`` (hidden names in the folder of a move), stopping at the next block once
+    ``cancel`` is set (:class:`MoveCancelled`). Raises the first :class:`OSError`; on
+    either, what it made is removed first."""
+    cancel = cancel or threading.Event()
+
+    def one(source: str, copy: str) -> None:
+        try:
+            _copy_file(Path(source), Path(copy), cancel)
+        except OSError as err:
+            raise _CopyFailed(err) from err
+
+    made: list[Path] = []
+    try:
+        for path, copy in zip(paths, copies, strict=True):
+            made.append(copy)
+            if path.is_dir() and not path.is_symlink():
+                shutil.copytree(path, copy, symlinks=True, copy_function=one)
+            else:
+                _copy_file(path, copy, cancel)
+    except (OSError, MoveCancelled, _CopyFailed) as err:
+        for p in made:
+            _remove(p)
+        if isinstance(err, _CopyFailed):
+            raise err.err from None
+        raise
+
+
+def _plan_move(
+    paths: Sequence[Path], folder: Path, copies: bool
+) -> tuple[list[Path], list[Path | None]]:
+    """The targets of a move of ``paths`` into ``folder`` (free names, free of each
+    other's too) and, for a move by copies, the hidden names the copies are made under
+    (else None). Raises :class:`OSError` for a source that could not be removed after
+    its copy (it would be left twice)."""
+    if copies:
+        for path in paths:
+            if not os.access(path.parent, os.W_OK | os.X_OK):
+                raise OSError(errno.EACCES, "cannot remove it from INBOX", str(path))
+    targets: list[Path] = []
+    for path in paths:
+        targets.append(_free_of(folder, path.name, targets))
+    staged = [folder / hidden_name(".partial-", t.name) if copies else None for t in targets]
+    return targets, staged
+
+
+def _place_all(
+    paths: Sequence[Path], copies: Sequence[Path], targets: list[Path], tell: Callable[[], None]
+) -> list[Path]:
+    """The end of a move by copies, once every copy is made: each renamed to its target
+    (:func:`_place`), then the sources removed. Raises the first :class:`OSError` with
+    what was made in the folder removed and INBOX as it was; a source that cannot be
+    removed (INBOX turned read-only since) keeps its place and loses its copy."""
+    made = list(copies)  # in the folder: the copies, then the files renamed from them
+    try:
+        for k, copy in enumerate(copies):
+            made[k] = _place(copy, targets, k, tell)
+    except OSError:
+        for p in made:
+            _remove(p)
+        raise
+    for k, path in enumerate(paths):
+        folder_source = path.is_dir() and not path.is_symlink()
+        try:
+            _remove(path, strict=True)
+        except OSError:
+            # a file still whole in INBOX keeps its place and loses its copy; a folder
+            # partly removed keeps its copy
+            moved = k + 1 if folder_source else k
+            for p in targets[moved:]:
+                _remove(p)
+            if moved == 0:
+                raise
+            return targets[:moved]
+    return targets
+
+
 def _move_all(
     paths: Sequence[Path],
     folder: Path,
@@ -641,7 +803,8 @@ def _move_all(
     the sources go only once every copy is in place: a move that failed part-way
     (``--done`` on a full disk) left a truncated copy in ``folder``, and split an archive
     of several files, whose rest was then analyzed alone as the archive. Raises the first
-    :class:`OSError`, with what was made in ``folder`` removed and INBOX as it was.
+    :class:`OSError`, with what was made in ``folder`` removed and INBOX as it was. (The
+    watcher makes the copies on a thread of their own: :meth:`_Runner._move`.)
 
     A move that can be stopped half-done (copies, or several renames) is handed to
     ``intent`` first, as ``[source, copy, target]`` lines (``copy`` "" for a rename),
@@ -651,14 +814,7 @@ def _move_all(
     copies = _other_fs(paths, folder)
     if not copies and len(paths) == 1:
         return [_rename(paths[0], folder)]  # (a rename: nothing half-done)
-    if copies:
-        for path in paths:  # (a source that cannot be removed would be left twice)
-            if not os.access(path.parent, os.W_OK | os.X_OK):
-                raise OSError(errno.EACCES, "cannot remove it from INBOX", str(path))
-    targets: list[Path] = []
-    for path in paths:  # (free of each other's too)
-        targets.append(_free_of(folder, path.name, targets))
-    staged = [folder / hidden_name(".partial-", t.name) if copies else None for t in targets]
+    targets, staged = _plan_move(paths, folder, copies)
 
     def tell() -> None:
         if intent is not None:
@@ -667,36 +823,9 @@ def _move_all(
     tell()
     if not copies:  # (several renames: one stopped between them is finished next start)
         return [_place(p, targets, k, tell) for k, p in enumerate(paths)]
-    made: list[Path] = []  # in folder: the copies, then the files renamed from them
-    try:
-        for path, copy in zip(paths, staged, strict=True):
-            assert copy is not None
-            made.append(copy)
-            if path.is_dir() and not path.is_symlink():
-                shutil.copytree(path, copy, symlinks=True)
-            else:
-                shutil.copy2(path, copy, follow_symlinks=False)
-        for k, copy in enumerate(staged):
-            assert copy is not None
-            made[k] = _place(copy, targets, k, tell)
-    except OSError:
-        for p in made:
-            _remove(p)
-        raise
-    for k, path in enumerate(paths):
-        folder_source = path.is_dir() and not path.is_symlink()
-        try:
-            _remove(path, strict=True)
-        except OSError:
-            # (INBOX turned read-only since the check): a file still whole there keeps
-            # its place and loses its copy; a folder partly removed keeps its copy
-            moved = k + 1 if folder_source else k
-            for p in targets[moved:]:
-                _remove(p)
-            if moved == 0:
-                raise
-            return targets[:moved]
-    return targets
+    made = [c for c in staged if c is not None]
+    _copy_all(paths, made)
+    return _place_all(paths, made, targets, tell)
 
 
 _Line = tuple[Path, Path | None, Path]
@@ -719,6 +848,8 @@ def _moving_lines(rec: Record) -> list[_Line]:
         source, copy, target = line
         if not source or not target:
             raise ValueError(f"{line!r}: no source or target")
+        if not all(Path(x).is_absolute() and "\0" not in x for x in line if x):
+            raise ValueError(f"{line!r}: not absolute paths")  # (else: the start's folder's)
         if copy and (
             not Path(copy).name.startswith(".partial-") or Path(copy).parent != Path(target).parent
         ):
@@ -780,6 +911,8 @@ def _end_moves(ledger: Ledger, inbox: Path) -> None:
             rec.moved_to = [*rec.moved_to, *moved]
         said = {
             "undone": "undone (its copies there removed); it is moved again",
+            "changed": "undone (its copies there removed): part of it changed since it "
+            "was analyzed; it is analyzed again (if its content changed), then moved",
             "not begun": "had not begun; it is moved again",
             "finished": "finished",
             "gone": "finished as far as can be told (part of it, gone from INBOX, is not in "
@@ -805,6 +938,12 @@ def _end_move(
     - ``"undone"``/``"not begun"``: every source still in INBOX as recorded and none of
       the archive's files in place: its ``.partial-`` copies removed (if any); the
       archive, recorded, is moved again.
+    - ``"changed"``: as undone, but a source changed since it was recorded (a writer
+      appending while it was copied): still before the point of no return, since the
+      sources go only once every copy is in place (:func:`_place_all`, and below), and
+      neither a target in place nor a source gone or part-removed says otherwise; the
+      archive is analyzed again (if its content changed), then moved. Before, its
+      truncated copy made the move "kept" for good, the archive held in INBOX.
     - ``"finished"``: past the point of no return (a file in place, or a source gone),
       and every file of the archive in place or able to be (a whole copy, or a source to
       rename): the rest renamed (a target taken since: another free name, told to
@@ -850,12 +989,19 @@ def _end_move(
         return found == entries[source] if whole else found <= entries[source]
 
     in_place = [is_of(t, s) for s, _, t in lines]
-    if all(is_of(s, s) for s, _, _ in lines) and not any(in_place):
+    # a source in INBOX: there, as recorded or changed since, but not a folder with only
+    # some of its files, as recorded (the move's removal of it stopped part-way)
+    there = [
+        os.path.lexists(s) and (is_of(s, s) or not is_of(s, s, whole=False)) for s, _, _ in lines
+    ]
+    if all(there) and not any(in_place):
         removed = False
         for _, copy, _ in lines:
             if copy is not None and os.path.lexists(copy):
                 _remove(copy, strict=True)
                 removed = True
+        if not all(is_of(s, s) for s, _, _ in lines):
+            return "changed", []
         return ("undone" if removed else "not begun"), []
     placeable = [
         placed or is_of(c, s) if c is not None else placed or is_of(s, s)
@@ -1010,43 +1156,96 @@ INLINE_HASH_BYTES = 64 << 20
 milliseconds); a larger one by :class:`_Hasher`'s thread, while the loop goes on."""
 
 
-class _Hasher:
-    """One daemon thread that hashes the big archives (:func:`hash_archive`), one at a
-    time, off the watcher's loop: hashing reads every byte (~1 s per GB when the file is
-    cached; measured 10 s for a 2 GB file just written, on a loaded machine), and on the
-    loop it held up every other archive (a small one dropped with it waited as long), the
-    end of the analyses and the stop signal. :meth:`close` makes a running hash stop at
-    its next block."""
+_T = TypeVar("_T")
 
-    def __init__(self) -> None:
-        self._jobs: queue.SimpleQueue[tuple[Future[ArchiveHashes], Any]] = queue.SimpleQueue()
+
+class _Worker:
+    """One daemon thread that runs jobs one at a time, off the watcher's loop, each
+    job's outcome (or exception) in its :class:`Future`: the thread never touches the
+    watcher's state, which the loop alone reads and writes."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self._jobs: queue.SimpleQueue[tuple[Future[Any], Callable[[], Any]]] = queue.SimpleQueue()
         self._thread: threading.Thread | None = None
-        self.cancel = threading.Event()
 
-    def submit(self, paths: Sequence[Path], root: Path, head: int | None) -> Future[ArchiveHashes]:
-        future: Future[ArchiveHashes] = Future()
-        self._jobs.put((future, (paths, root, head)))
+    def run_later(self, job: Callable[[], _T]) -> Future[_T]:
+        future: Future[_T] = Future()
+        self._jobs.put((future, job))
         if self._thread is None:
-            self._thread = threading.Thread(
-                target=self._run, name="analyzer-watch-hash", daemon=True
-            )
+            self._thread = threading.Thread(target=self._run, name=self.name, daemon=True)
             self._thread.start()
         return future
 
     def _run(self) -> None:
         while True:
-            future, (paths, root, head) = self._jobs.get()
+            future, job = self._jobs.get()
             if not future.set_running_or_notify_cancel():
                 continue
             try:
-                future.set_result(hash_archive(paths, root, head, self.cancel))
+                future.set_result(job())
             except BaseException as err:  # noqa: BLE001 - handed to the loop
                 future.set_exception(err)
 
+
+class _Hasher(_Worker):
+    """The thread that hashes the big archives (:func:`hash_archive`), one at a time, off
+    the watcher's loop: hashing reads every byte (~1 s per GB when the file is cached;
+    measured 10 s for a 2 GB file just written, on a loaded machine), and on the loop it
+    held up every other archive (a small one dropped with it waited as long), the end of
+    the analyses and the stop signal. :meth:`drop` and :meth:`close` make a running hash
+    stop at its next block."""
+
+    def __init__(self) -> None:
+        super().__init__("analyzer-watch-hash")
+        self._stops: dict[Future[ArchiveHashes], threading.Event] = {}
+
+    def submit(self, paths: Sequence[Path], root: Path, head: int | None) -> Future[ArchiveHashes]:
+        stop = threading.Event()
+        future = self.run_later(lambda: hash_archive(paths, root, head, stop))
+        self._stops[future] = stop
+        future.add_done_callback(lambda done: self._stops.pop(done, None))
+        return future
+
+    def drop(self, future: Future[ArchiveHashes]) -> None:
+        """A hash no longer wanted (of content that changed since, of an archive gone):
+        not begun, or stopped at its next block."""
+        stop = self._stops.get(future)
+        future.cancel()
+        if stop is not None:
+            stop.set()
+
     def close(self) -> None:
-        """Stop: the running hash ends at its next block, the waiting ones are dropped
+        """Stop: the running hash ends at its next block, the waiting ones at their first
         (the thread, a daemon, never holds up the watcher's exit)."""
-        self.cancel.set()
+        for stop in tuple(self._stops.values()):
+            stop.set()
+
+
+MOVE_GRACE_S = 2.0
+"""At the stop, how long the copies of a move under way get to stop (at their next
+block: milliseconds) and remove what they made; after it, the move is left in the state
+file for the next start to end."""
+
+
+@dataclass(slots=True)
+class _Copying:
+    """A move by ``--done``/``--failed`` to another file system under way: its copies
+    made by :attr:`_Runner.copier`'s thread, the rest (renames into place, INBOX's
+    sources removed, the record) done by the loop once they are (:meth:`_Runner._copied`)."""
+
+    archive: ReadyArchive
+    rec: Record
+    folder: Path
+    copies: list[Path]
+    targets: list[Path]
+    tell: Callable[[list[list[str]]], None]
+    """The move's lines to the state file (:attr:`~analyzer.watch_index.Record.moving`)."""
+    future: Future[None]
+    cancel: threading.Event
+    again: ReadyArchive | None = None
+    """The archive offered again meanwhile (changed: the move is cancelled), offered once
+    the move is over."""
 
 
 def _rename(path: Path, folder: Path) -> Path:
@@ -1083,8 +1282,11 @@ class _Runner:
         ledger: Ledger,
         stopping: threading.Event,
         cluster: DaskExecutor | None = None,
+        exclude: frozenset[str] = frozenset(),
     ) -> None:
         self.settings = settings
+        self.exclude = exclude
+        """INBOX's entries that are output folders (never archives' members)."""
         self.stopping = stopping
         self.ledger = ledger
         self.options = replace(
@@ -1118,6 +1320,10 @@ class _Runner:
         """The last hashes of each archive not recorded with its signature: the signature
         and the earlier size whose beginning was hashed (:meth:`_head`) they are of."""
         self.hasher = _Hasher()
+        self.copier = _Worker("analyzer-watch-copy")
+        self.copying: dict[str, _Copying] = {}
+        """Moves to another file system whose copies :attr:`copier` is making, by archive,
+        in the order they began."""
         self.hashing: dict[str, tuple[ReadyArchive, int | None, Future[ArchiveHashes]]] = {}
         """Ready archives being hashed by :attr:`hasher` (too big to hash on the loop),
         started once hashed, in the order they were ready."""
@@ -1143,8 +1349,16 @@ class _Runner:
             threading.Thread(target=_warm_up, name="analyzer-watch-warm-up", daemon=True).start()
 
     def offer(self, archive: ReadyArchive) -> None:
+        copying = self.copying.get(archive.name)
+        if copying is not None:  # (its move under way: offered again once it is over)
+            if archive.signature != copying.archive.signature:
+                copying.cancel.set()  # (changed: its copies are not what INBOX holds)
+                copying.again = archive
+            return
         self.queue.pop(archive.name, None)  # the newest state of an archive wins
-        self.hashing.pop(archive.name, None)  # (its hash, when it comes, is of the old one)
+        hashing = self.hashing.pop(archive.name, None)
+        if hashing is not None and hashing[0].signature != archive.signature:
+            self.hasher.drop(hashing[2])  # (of the old content)
         self.moves.pop(archive.name, None)  # (it changed: moved after its next analysis)
         if archive.unreadable is not None:  # (said by the tracker; counted, not analyzed)
             self.unreadable.add(archive.name)
@@ -1173,13 +1387,15 @@ class _Runner:
         return 0
 
     def busy(self) -> bool:
-        return bool(self.queue or self.hashing or self.running or self.moves)
+        return bool(self.queue or self.hashing or self.running or self.moves or self.copying)
 
     def pump(self, wait: float = 0.0, start: bool = True) -> None:
         """Record the analyses that ended (waiting up to ``wait`` seconds for one), then
         start queued ones while there are free slots."""
         self._reap(wait)
+        self._copied()
         self._held_moves()
+        self._forget_gone()
         while start and len(self.running) < self.slots:
             archive = self._next()
             if archive is None:
@@ -1218,6 +1434,8 @@ class _Runner:
             if asked is not None and asked[:2] == (archive.signature, head):
                 future = asked[2]
             else:
+                if asked is not None:
+                    self.hasher.drop(asked[2])  # (of content that has changed since)
                 future = self.hasher.submit(archive.paths, self.settings.inbox, head)
             self.hashing[name] = (archive, head, future)
         return None
@@ -1291,7 +1509,7 @@ class _Runner:
         asked = self.asked.get(name)
         if asked is None or asked[:2] != (archive.signature, head):
             if asked is not None:
-                asked[2].cancel()  # (of content that has changed since: not started)
+                self.hasher.drop(asked[2])  # (of content that has changed since)
             future = self.hasher.submit(archive.paths, self.settings.inbox, head)
             self.asked[name] = (archive.signature, head, future)
             return None
@@ -1304,6 +1522,26 @@ class _Runner:
             return None
         self._hashed[name] = (archive.signature, head, hashes)
         return hashes
+
+    def _forget_gone(self) -> None:
+        """Drop the hashes kept of archives gone from INBOX (the first file of their
+        signature gone: no later state of theirs can have that signature), and stop
+        those still being made for the tracker's question: the tracker asks no more about
+        an archive deleted from INBOX, and its entry stayed for the watcher's life."""
+        if not self.asked and not self._hashed:
+            return
+        inbox = self.settings.inbox
+
+        def gone(sig: Signature) -> bool:
+            return not sig or not os.path.lexists(inbox / sig[0][0])
+
+        for name, (sig, _, future) in list(self.asked.items()):
+            if gone(sig):
+                del self.asked[name]
+                self.hasher.drop(future)
+        for name, (sig, _, _) in list(self._hashed.items()):
+            if gone(sig):
+                del self._hashed[name]
 
     @property
     def counted(self) -> int:
@@ -1353,6 +1591,7 @@ class _Runner:
             again = rec.redo_reason(self.fingerprint)
             if again is None:
                 self.skipped += 1
+                self._hashed.pop(name, None)  # (another hash only if it changes)
                 log.debug("%s: already analyzed (same content): %s", name, rec.verdict)
                 self._move(archive, rec)
                 return
@@ -1633,10 +1872,15 @@ class _Runner:
         is over (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`: until then, a
         change shows that a writer was only pausing, and the archive is analyzed again
         instead). An archive whose error is an option's or not its own
-        (:class:`ErrorKind`) stays."""
+        (:class:`ErrorKind`) stays. A move to another file system is copies, made by
+        :attr:`copier`'s thread and ended by the loop once they are (:meth:`_copied`):
+        made here, they held up every other archive and the stop signal (a 1.5 GB archive
+        to tmpfs: 1.2-6.2 s)."""
         folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
         if rec.error_kind in (ErrorKind.OPTIONS, ErrorKind.INTERNAL) or folder is None:
             return
+        if archive.name in self.copying:  # (the move under way moves it, or, changed, it
+            return  # is offered again; a second move took its place, its copies left)
         if time.monotonic() < archive.hold_until:
             self.moves[archive.name] = (archive, rec)
             return
@@ -1652,12 +1896,33 @@ class _Runner:
                 folder,
             )
             return
+        tell = self._teller(archive, rec, folder)
+        try:
+            if _other_fs(archive.paths, folder):
+                targets, staged = _plan_move(archive.paths, folder, copies=True)
+                copies = [c for c in staged if c is not None]
+                tell(_moving_of(archive.paths, copies, targets))
+                cancel = threading.Event()
+                future = self.copier.run_later(partial(_copy_all, archive.paths, copies, cancel))
+                self.copying[archive.name] = _Copying(
+                    archive, rec, folder, copies, targets, tell, future, cancel
+                )
+                return
+            moved = [str(t) for t in _move_all(archive.paths, folder, tell)]
+        except OSError as err:
+            self._not_moved(archive, rec, folder, tell, err)
+            return
+        self._moved(archive, rec, folder, moved)
 
+    def _teller(
+        self, archive: ReadyArchive, rec: Record, folder: Path
+    ) -> Callable[[list[list[str]]], None]:
+        """What writes the lines of ``rec``'s move to the state file before a move that
+        can stop half-done (where REPORTS is full, the move goes on without them, as
+        before, said once), and ``[]`` once it is over or undone."""
         said: list[bool] = []
 
         def moving(lines: list[list[str]]) -> None:
-            """Before a move that can stop half-done: its lines in the state file (where
-            REPORTS is full, the move goes on without them, as before, said once)."""
             rec.moving = lines
             try:
                 self.ledger.save_state()
@@ -1673,18 +1938,29 @@ class _Runner:
                         one_line(err.strerror or err),
                     )
 
-        try:
-            moved = [str(t) for t in _move_all(archive.paths, folder, moving)]
-        except OSError as err:
-            if rec.moving:  # (undone: nothing of it left to end)
-                moving([])
-            log.warning(
-                "%s: not moved to %s (it stays in INBOX): %s",
-                archive.name,
-                folder,
-                _move_error(err, archive.paths, folder),
-            )
-            return
+        return moving
+
+    def _not_moved(
+        self,
+        archive: ReadyArchive,
+        rec: Record,
+        folder: Path,
+        tell: Callable[[list[list[str]]], None],
+        err: OSError,
+    ) -> None:
+        """A move that failed (undone: nothing of it left to end): one line naming the
+        cause; the archive stays in INBOX, recorded."""
+        if rec.moving:
+            tell([])
+        log.warning(
+            "%s: not moved to %s (it stays in INBOX): %s",
+            archive.name,
+            folder,
+            _move_error(err, archive.paths, folder),
+        )
+
+    def _moved(self, archive: ReadyArchive, rec: Record, folder: Path, moved: list[str]) -> None:
+        """A move that is over: its record with where the archive went."""
         rec.moving = []
         if moved:
             # (the same content dropped again and moved: its earlier copy stays listed)
@@ -1702,6 +1978,81 @@ class _Runner:
                     where,
                     one_line(err.strerror or err),
                 )
+
+    def _copied(self) -> None:
+        """The moves to another file system whose copies are made (or failed, or were
+        stopped), ended (:meth:`_end_copied`)."""
+        for name, c in list(self.copying.items()):
+            if c.future.done():
+                del self.copying[name]
+                self._end_copied(c)
+
+    def _end_copied(self, c: _Copying) -> None:
+        """A move whose copies are made: renamed into place and INBOX's sources removed,
+        where INBOX still holds the archive as it was found, its members too (else the
+        copies are removed: it changed while it was copied, and is analyzed again once it
+        has settled). One
+        whose copies failed or were stopped (their copies removed by the thread): over.
+        The archive offered again meanwhile is offered now."""
+        archive, name = c.archive, c.archive.name
+
+        def tell() -> None:
+            c.tell(_moving_of(archive.paths, c.copies, c.targets))
+
+        try:
+            c.future.result()
+            inbox, group_by = self.settings.inbox, self.settings.group_by
+            try:  # (a member dropped meanwhile: moved without it, it was analyzed alone)
+                paths = archive_paths(inbox, name, group_by, self.exclude)
+                current = signature(paths, inbox) if paths == archive.paths else None
+            except OSError:
+                current = None
+            if current != archive.signature:
+                for copy in c.copies:
+                    _remove(copy)
+                c.tell([])
+                log.warning(
+                    "%s: not moved to %s: it changed while it was copied there (still being "
+                    "written?)",
+                    name,
+                    c.folder,
+                )
+            else:
+                targets = _place_all(archive.paths, c.copies, c.targets, tell)
+                self._moved(archive, c.rec, c.folder, [str(t) for t in targets])
+        except MoveCancelled:
+            c.tell([])
+            log.info(
+                "%s: its move to %s stopped (%s); its copies there removed, it stays in INBOX",
+                name,
+                c.folder,
+                "it changed"
+                if c.again is not None
+                else "the watcher stopping: it is moved on the next start",
+            )
+        except OSError as err:
+            self._not_moved(archive, c.rec, c.folder, c.tell, err)
+        if c.again is not None:
+            self.offer(c.again)
+
+    def stop_moves(self) -> None:
+        """At the stop: the moves whose copies are under way stop at their next block
+        (:data:`COPY_BLOCK`) and remove what they made; the archive stays in INBOX,
+        recorded, and is moved on the next start. A copy that does not stop within
+        :data:`MOVE_GRACE_S` (a hung network file system) is left: its move stays in the
+        state file, and the next start ends it as that of a watcher killed during it."""
+        for c in self.copying.values():
+            c.cancel.set()
+        wait_futures([c.future for c in self.copying.values()], timeout=MOVE_GRACE_S)
+        self._copied()
+        for name, c in self.copying.items():
+            log.warning(
+                "%s: its move to %s did not stop within %g s; it is ended on the next start",
+                name,
+                c.folder,
+                MOVE_GRACE_S,
+            )
+        self.copying.clear()
 
     def save_unsaved(self) -> None:
         """At the stop: the state file with the moves it could not be written with
@@ -1849,7 +2200,7 @@ def _watch_locked(
     for name in ledger.tidy():
         log.info("%s: its report folder is gone; it will be analyzed again", name)
     ledger.save()
-    runner = _Runner(settings, options, ledger, stop, cluster)
+    runner = _Runner(settings, options, ledger, stop, cluster, frozenset(exclude))
     if settings.once:  # what --once will go through: the progress's total
         runner.expected = len(archive_names(settings.inbox, settings.group_by, exclude))
     how = f"polling every {settings.poll:g} s" if settings.poll else "file events"
@@ -1897,6 +2248,7 @@ def _watch_locked(
                 runner.pump(wait=TICK_S, start=False)
     finally:
         runner.hasher.close()
+        runner.stop_moves()
         runner.abandon_all()
         runner.save_unsaved()
         ledger.refresh_views(force=True)

@@ -602,6 +602,17 @@ def archive_names(
     return tracker.keys
 
 
+def archive_paths(
+    inbox: Path, name: str, group_by: re.Pattern[str] | None = None, exclude: Iterable[str] = ()
+) -> tuple[Path, ...]:
+    """The member paths INBOX holds now of archive ``name``, as :func:`ready_batches`
+    groups its entries (sorted, as :attr:`ReadyArchive.paths`): with ``group_by``, a
+    member dropped since the archive was found is among them."""
+    tracker = InboxTracker(inbox, 0.0, group_by, frozenset(exclude), quiet=True)
+    tracker.rescan()
+    return tuple(inbox / n for n in sorted(tracker._members.get(name, ())))
+
+
 # --------------------------------------------------------------------------- events
 
 

@@ -381,8 +381,10 @@ class Ledger:
 
     def tidy(self) -> list[str]:
         """Remove what an interrupted watcher left (scratch and replaced folders) and
-        forget archives whose report folder is gone, so that they are analyzed again.
-        Returns the names forgotten."""
+        forget archives whose report folder is gone, so that they are analyzed again, but
+        for one whose move a start could not end (:attr:`Record.moving`: forgotten, what
+        was left of it in INBOX was analyzed alone as the archive, and its ``.partial-``
+        copies stayed), kept until its move is ended. Returns the names forgotten."""
         own_temp = tuple(f".{name}." for name in (STATE_FILE, "index.json", "index.html"))
         for entry in self.reports.iterdir():
             if entry.is_dir() and entry.name.startswith((TMP_PREFIX, OLD_PREFIX)):
@@ -411,8 +413,12 @@ class Ledger:
             ):
                 rec.report = f"{moved}/{rec.report.partition('/')[2]}"
                 repaired = True
+        # (not one whose move could not be ended: its lines are all that tells what is
+        # left of its archive in INBOX from an archive of its own)
         gone = [
-            name for name, rec in self.records.items() if not (self.reports / rec.folder).is_dir()
+            name
+            for name, rec in self.records.items()
+            if not (self.reports / rec.folder).is_dir() and not rec.moving
         ]
         for name in gone:
             del self.records[name]

@@ -30,6 +30,7 @@ from analyzer import watch as watch_module
 from analyzer.findings import sha256_of
 from analyzer.options import RunOptions
 from analyzer.watch import WatchSettings, watch
+from analyzer.watch_inbox import ReadyArchive, signature
 from analyzer.watch_index import Ledger, Record, Verdict, publish
 from analyzer.writers import write_archive
 
@@ -307,6 +308,60 @@ def test_a_big_unfinished_archive_recorded_with_its_content_is_not_waited_for(
     assert json.loads(state_file.read_text())["archives"][big.name]["sha256"] == sha256_of(big)
 
 
+def _runner(inbox: Path, reports: Path, monkeypatch: pytest.MonkeyPatch) -> Any:
+    """A watcher's runner over INBOX and REPORTS, its loop driven by the test."""
+    monkeypatch.setattr(watch_module, "_context", lambda: multiprocessing.get_context("fork"))
+    settings = WatchSettings(inbox=inbox, reports=reports, settle=0.2, poll=0.05)
+    return watch_module._Runner(settings, RunOptions(), Ledger.load(reports), threading.Event())
+
+
+def _stoppable_hashes(monkeypatch: pytest.MonkeyPatch) -> list[threading.Event]:
+    """Make every hash wait (at most :data:`LIMIT_S`) until it is told to stop; returns
+    an event per hash begun, set once it is told."""
+    told: list[threading.Event] = []
+
+    def held(paths: Sequence[Path], root: Path, head: Any = None, cancel: Any = None) -> Any:
+        told.append(threading.Event())
+        if cancel is not None and cancel.wait(LIMIT_S):
+            told[-1].set()
+        raise watch_module.HashCancelled(str(paths[0]))
+
+    monkeypatch.setattr(watch_module, "hash_archive", held)
+    return told
+
+
+@pytest.mark.parametrize("then", ["deleted", "changed"])
+def test_the_hash_of_an_archive_deleted_or_changed_since_it_was_asked_about_is_dropped(
+    recorded_and_unfinished: tuple[Path, Path, Path],
+    monkeypatch: pytest.MonkeyPatch,
+    then: str,
+) -> None:
+    """The tracker's question about a big unfinished archive is being hashed, and the
+    archive is deleted from INBOX (or changed, and ready): its hash is stopped, and the
+    watcher keeps nothing of it. Before, a deleted archive's entry stayed for the
+    watcher's life (a slow leak), and the hash of content changed since went on to its
+    end (seconds per GB of a thread's reads, for nothing)."""
+    inbox, reports, big = recorded_and_unfinished
+    (inbox / "b_small.csv").unlink()
+    told = _stoppable_hashes(monkeypatch)
+    runner = _runner(inbox, reports, monkeypatch)
+    try:
+        archive = ReadyArchive(big.name, (big,), signature([big], inbox), "unfinished")
+        assert runner.recorded(archive) is None  # (asked: being hashed)
+        if then == "deleted":
+            big.unlink()
+            runner.pump()
+            assert big.name not in runner.asked
+        else:
+            with big.open("ab") as f:
+                f.write(MCAP_MAGIC)
+            runner.offer(ReadyArchive(big.name, (big,), signature([big], inbox)))
+            runner.pump()
+        assert told and told[0].wait(LIMIT_S / 4), "the hash went on"
+    finally:
+        runner.hasher.close()
+
+
 # --------------------------------------------------------------------------- kept aside
 
 
@@ -444,16 +499,16 @@ def _killed_in_move(stage: str, inbox: Path, monkeypatch: pytest.MonkeyPatch) ->
     removed; ``between``, between two renames on the same file system."""
     calls: list[str] = []
     if stage == "copying":
-        real_copy = shutil.copy2
+        real_copy = watch_module._copy_file
 
-        def copy2(src: Any, dst: Any, **kw: Any) -> Any:
+        def copy(src: Path, dst: Path, cancel: threading.Event) -> None:
             calls.append(str(src))
             if len(calls) == 2:
-                Path(dst).write_bytes(Path(src).read_bytes()[:100])
+                dst.write_bytes(src.read_bytes()[:100])
                 raise _Killed
-            return real_copy(src, dst, **kw)
+            real_copy(src, dst, cancel)
 
-        monkeypatch.setattr(watch_module.shutil, "copy2", copy2)
+        monkeypatch.setattr(watch_module, "_copy_file", copy)
     elif stage == "between":
         real_rename = os.rename
 
@@ -593,7 +648,7 @@ def test_a_kill_before_the_move_began_leaves_nothing_to_end(tmp_path: Path) -> N
     target.unlink()
     shutil.copy2(source, target)  # (its copy in place: finished)
     rec.signature = [["a.csv", st.st_size + 1, st.st_mtime_ns]]  # (not the recorded one)
-    assert _end(rec, inbox) == ("gone", [])
+    assert _end(rec, inbox) == ("changed", [])
     assert source.is_file() and target.is_file()
     rec.signature = [["a.csv", st.st_size, st.st_mtime_ns]]
     assert _end(rec, inbox) == ("finished", [str(target)])
@@ -684,15 +739,15 @@ def test_a_file_renamed_past_a_name_taken_since_is_the_one_recorded(
         settings = _settings(tmp_path, done)
 
         def kill(undo: pytest.MonkeyPatch) -> None:
-            real_copy, calls = shutil.copy2, []
+            real_copy, calls = watch_module._copy_file, []
 
-            def copy2(src: Any, dst: Any, **kw: Any) -> Any:
+            def copy(src: Path, dst: Path, cancel: threading.Event) -> None:
                 calls.append(src)
                 if len(calls) == 2:
                     (done / "A_part0.csv").write_bytes(OTHER)
-                return real_copy(src, dst, **kw)
+                real_copy(src, dst, cancel)
 
-            undo.setattr(watch_module.shutil, "copy2", copy2)
+            undo.setattr(watch_module, "_copy_file", copy)
             _killed_at_an_inbox_unlink(1, undo)
 
         _run_killed(settings, kill)
@@ -760,6 +815,58 @@ def test_a_move_edited_by_hand_in_the_state_is_ignored(
     assert "moving" not in json.loads(state.read_text())["archives"]["a.csv"]
 
 
+def test_a_move_of_relative_paths_in_the_state_is_ignored(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A hand-edited move of relative paths: ignored with a warning, nothing of the
+    watcher's folder touched. Before, it was read as paths in the watcher's working
+    folder: a ``.partial-`` file there was removed as the move's copy."""
+    reports, inbox = tmp_path / "reports", tmp_path / "inbox"
+    inbox.mkdir()
+    _recorded_once(reports)
+    state = reports / ".watch-state.json"
+    doc = json.loads(state.read_text())
+    doc["archives"]["a.csv"]["moving"] = [["a.csv", ".partial-a.csv-0123abcd", "a.csv"]]
+    state.write_text(json.dumps(doc))
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / ".partial-a.csv-0123abcd").write_text("someone's")
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    settings = WatchSettings(inbox=inbox, reports=reports, settle=0.2, poll=0.05, once=True)
+    assert watch(settings, RunOptions()) == 0
+    assert [r for r in caplog.records if "cannot be read" in r.getMessage()]
+    assert (tmp_path / ".partial-a.csv-0123abcd").read_text() == "someone's"
+    assert "moving" not in json.loads(state.read_text())["archives"]["a.csv"]
+
+
+def test_a_move_kept_for_the_next_start_outlives_its_report_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A move the start could not end (a part gone from INBOX, not in ``--done``), and
+    the record's report folder deleted by hand: the record and its move are kept, what
+    is left in INBOX is not analyzed alone; once the part is back, the move is ended.
+    Before, the start forgot the record with its move, and analyzed ``A_part1.csv``
+    alone as the archive ``A``."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    away = tmp_path / "away"
+    away.mkdir()
+    with _done_folder(tmp_path, monkeypatch, other=True) as done:
+        settings = _settings(tmp_path, done)
+        _run_killed(settings, lambda undo: _killed_at_an_inbox_unlink(2, undo))
+        for p in done.iterdir():
+            shutil.move(p, away / p.name)
+        shutil.rmtree(tmp_path / "in" / "reports" / "A")
+        watch(settings, RunOptions())
+        assert [p.name for p in inbox.iterdir()] == ["A_part1.csv"]
+        assert _analyses(tmp_path) == [str(sorted(content))]
+        assert _state_record(tmp_path)["moving"]
+        for p in away.iterdir():  # (mounted)
+            shutil.move(p, done / p.name)
+        assert watch(settings, RunOptions()) == 0
+        assert not any(inbox.iterdir())
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == content
+        assert _analyses(tmp_path) == [str(sorted(content))]
+
+
 def test_a_move_that_cannot_be_ended_is_kept_for_the_next_start(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -809,3 +916,99 @@ def test_a_move_not_written_to_the_state_first_is_said(
         assert {p.name: p.read_bytes() for p in done.iterdir()} == content
     said = [r.getMessage() for r in caplog.records if "not in the state file" in r.getMessage()]
     assert len(said) == 1, said
+
+
+MORE = b"9.99,1.0,1.0\n"
+"""A row the writer appends to ``A_part1.csv`` while its copy is made."""
+
+
+def _killed_in_a_changing_copy(stage: str, inbox: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The writer appends to ``A_part1.csv`` as it is copied, and the watcher is killed:
+    ``copying``, in that copy (half written); ``removed``, once the loop saw the change
+    and removed the copies, before the move's end was written to the state file."""
+    real_copy = watch_module._copy_file
+    calls: list[Path] = []
+
+    def copy(src: Path, dst: Path, cancel: threading.Event) -> None:
+        calls.append(src)
+        if len(calls) == 2:
+            with (inbox / "A_part1.csv").open("ab") as f:
+                f.write(MORE)
+            if stage == "copying":
+                dst.write_bytes(src.read_bytes()[:100])
+                raise _Killed
+        real_copy(src, dst, cancel)
+
+    monkeypatch.setattr(watch_module, "_copy_file", copy)
+    if stage == "removed":
+        real_save = Ledger.save_state
+        moved: list[bool] = []
+
+        def save(self: Ledger) -> None:
+            rec = self.records.get("A")
+            if rec is not None and rec.moving:
+                moved.append(True)
+            elif moved:  # (the move cleared: killed before it is written)
+                raise _Killed
+            real_save(self)
+
+        monkeypatch.setattr(Ledger, "save_state", save)
+
+
+@pytest.mark.parametrize("stage", ["copying", "removed"])
+def test_a_move_killed_while_the_archive_changed_is_undone(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    caplog: pytest.LogCaptureFixture,
+    stage: str,
+) -> None:
+    """Killed while a writer appended to the archive during its copy to ``--done``: the
+    next start undoes the move (nothing in place, every source still in INBOX: before
+    the point of no return), says so, and the archive is analyzed again and moved with
+    what was appended. Before, the move was kept for good ("cannot be ended": a copy
+    truncated or gone, its source not as recorded), the archive held in INBOX, never
+    analyzed again, until a file of it was removed by hand."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    with _done_folder(tmp_path, monkeypatch, other=True) as done:
+        settings = _settings(tmp_path, done)
+        _run_killed(settings, lambda undo: _killed_in_a_changing_copy(stage, inbox, undo))
+        assert _state_record(tmp_path)["moving"]
+        caplog.set_level(logging.INFO, logger="analyzer.watch")
+        assert watch(settings, RunOptions()) == 0
+        said = [r.getMessage() for r in caplog.records if "stopped by force" in r.getMessage()]
+        assert len(said) == 1 and "undone" in said[0] and "changed" in said[0], said
+        assert not any(inbox.iterdir())
+        found = {p.name: p.read_bytes() for p in done.iterdir()}
+        assert found == {**content, "A_part1.csv": content["A_part1.csv"] + MORE}
+        assert _analyses(tmp_path) == [str(sorted(content))] * 2
+        rec = _state_record(tmp_path)
+        assert "moving" not in rec
+        assert sorted(rec["moved_to"]) == [str(done / name) for name in sorted(content)]
+
+
+def test_a_folder_part_removed_by_its_move_is_not_taken_for_a_changed_one(
+    tmp_path: Path,
+) -> None:
+    """A folder archive's move killed part-way through the removal of its source, its
+    copy no longer found in ``--done`` (a mount not mounted yet): what is left of the
+    folder (some of its files, as recorded) is not the archive changed, so the move is
+    kept, not undone (which would analyze the rest alone as the archive)."""
+    inbox, done = tmp_path / "inbox", tmp_path / "done"
+    source = inbox / "m"
+    source.mkdir(parents=True)
+    for name in ("a.csv", "b.csv"):
+        _archive(source / name, 300)
+    rec = Record(
+        name="m",
+        sha256="1" * 64,
+        verdict=Verdict.NO_FAULT,
+        report="m/report.html",
+        inputs=[str(source)],
+        processed=START,
+        analysis_s=1.0,
+        signature=[list(s) for s in signature([source], inbox)],
+    )
+    rec.moving = [[str(source), str(done / ".partial-m-0123abcd"), str(done / "m")]]
+    (source / "a.csv").unlink()
+    assert _end(rec, inbox) == ("kept", [])
+    assert [p.name for p in source.iterdir()] == ["b.csv"]

@@ -72,14 +72,14 @@ def test_a_move_to_another_file_system_is_all_or_none(
     second file in done/, and split the archive (its first file moved, the second left
     in INBOX, then analyzed alone as the archive)."""
     import errno
-    import shutil
     import tempfile
 
     from analyzer import watch
 
     shm = Path("/dev/shm")
     if not shm.is_dir() or os.stat(shm).st_dev == os.stat(tmp_path).st_dev:
-        pytest.skip("no second file system to move to")
+        monkeypatch.setattr(watch, "_other_fs", lambda paths, folder: True)  # (as if)
+        shm = tmp_path
     inbox = tmp_path / "in"
     inbox.mkdir()
     files = [inbox / "day1_h0.csv", inbox / "day1_h1.csv"]
@@ -87,19 +87,19 @@ def test_a_move_to_another_file_system_is_all_or_none(
         f.write_text(f"time,a\n0,{i}\n")
     with tempfile.TemporaryDirectory(dir=shm) as folder:
         done = Path(folder)
-        copy2 = shutil.copy2
+        copy = watch._copy_file
 
-        def full_on_second(src: object, dst: object, **kw: object) -> object:
-            if Path(str(src)).name == "day1_h1.csv":
-                Path(str(dst)).write_text("time,")  # (what a full disk leaves)
+        def full_on_second(src: Path, dst: Path, cancel: object) -> None:
+            if src.name == "day1_h1.csv":
+                dst.write_text("time,")  # (what a full disk leaves)
                 raise OSError(errno.ENOSPC, "No space left on device", str(dst))
-            return copy2(src, dst, **kw)  # type: ignore[arg-type]
+            copy(src, dst, cancel)  # type: ignore[arg-type]
 
-        monkeypatch.setattr(watch.shutil, "copy2", full_on_second)
+        monkeypatch.setattr(watch, "_copy_file", full_on_second)
         with pytest.raises(OSError):
             watch._move_all(files, done)
         assert list(done.iterdir()) == [] and all(f.is_file() for f in files)
-        monkeypatch.setattr(watch.shutil, "copy2", copy2)
+        monkeypatch.setattr(watch, "_copy_file", copy)
         moved = watch._move_all(files, done)
         assert [p.name for p in moved] == ["day1_h0.csv", "day1_h1.csv"]
         assert not any(f.exists() for f in files) and moved[1].read_text() == "time,a\n0,1\n"

@@ -392,7 +392,9 @@ def test_an_archive_that_changed_since_it_was_taken_is_not_moved(
     with csv.open("a") as f:
         f.write("1,2\n")
     runner = SimpleNamespace(
-        settings=WatchSettings(inbox, tmp_path / "reports", done=done), ledger=Ledger(tmp_path)
+        settings=WatchSettings(inbox, tmp_path / "reports", done=done),
+        ledger=Ledger(tmp_path),
+        copying={},
     )
     record = Record("a.csv", "0" * 64, Verdict.NO_FAULT, "a.csv/report.html", [], "t", 1.0)
     watch_module._Runner._move(runner, archive, record)  # type: ignore[arg-type]
@@ -406,8 +408,6 @@ def test_a_state_file_that_cannot_be_written_after_a_move_does_not_stop_the_watc
     """REPORTS full when the move by --done is recorded: the archive is in --done, the
     record holds it (written with the next one) and the watcher goes on, where the
     OSError ended it (a one-line exit 2 in the middle of a service's life)."""
-    from types import SimpleNamespace
-
     from analyzer.watch_inbox import ReadyArchive, signature
     from analyzer.watch_index import Ledger, Verdict
 
@@ -425,8 +425,9 @@ def test_a_state_file_that_cannot_be_written_after_a_move_does_not_stop_the_watc
         raise OSError(errno.ENOSPC, "No space left on device", str(self.path))
 
     monkeypatch.setattr(Ledger, "save_state", full)
-    runner = SimpleNamespace(
-        settings=WatchSettings(inbox, reports, done=done), ledger=ledger, moves={}
+    runner = object.__new__(watch_module._Runner)  # (no processes, no threads)
+    vars(runner).update(
+        settings=WatchSettings(inbox, reports, done=done), ledger=ledger, moves={}, copying={}
     )
     watch_module._Runner._move(runner, archive, record)  # type: ignore[arg-type]
     assert not csv.exists() and (done / "a.csv").is_file()
