@@ -55,7 +55,13 @@ from analyzer.diagnosis.levels import excursions, level_note, response_levels
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.oversampled import MEMORY_SAMPLES, oversampled_note
 from analyzer.diagnosis.readings import refuted_by_readings, residual_health
-from analyzer.diagnosis.stuck import frozen_notes, healthy_stats, relabel_frozen
+from analyzer.diagnosis.stuck import (
+    dead_unattributed,
+    frozen_notes,
+    healthy_stats,
+    relabel_frozen,
+    revived_gains,
+)
 from analyzer.diagnosis.training_check import WindowNote, window_notes, window_warnings
 from analyzer.errors import (
     LISTED,
@@ -915,6 +921,21 @@ def _analyze(
             timings["ends without"] = time.perf_counter() - t_ends
         moved = [f for f in findings if periods[id(f)] != (f.onset_s, f.end_s)]
         notes.extend(relabel_frozen(moved, values, chosen, aligned.rate_hz, healthy, train[1]))
+        # and a dead sensor in an anomaly the detectors attributed to no sensor: its
+        # readings tell what their residuals could not isolate
+        dead, told = dead_unattributed(
+            results,
+            findings,
+            values,
+            chosen,
+            aligned.rate_hz,
+            healthy,
+            train if train[1] > train[0] else None,
+            train[1],
+            excitation,
+        )
+        findings = [*findings, *dead]
+        notes.extend(told)
         findings.sort(key=lambda f: (f.onset_s, f.channel))
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
         notes.extend(_unattributed_notes(results, findings, aligned.rate_hz))
@@ -1702,6 +1723,10 @@ def _diagnose(
     findings, conflicts = one_fault_at_a_time(findings, coupled(results))
     notes.extend(conflicts)
     notes.extend(frozen[id(f)] for f in findings if id(f) in frozen)
+    # a gain after a dead spell: the finding the dead sensor's cut short goes on
+    revived, said = revived_gains(findings, results, rate_hz, np.shape(values)[0])
+    findings = sorted([*findings, *revived], key=lambda f: (f.onset_s, f.channel))
+    notes.extend(said)
     notes.extend(traced_into_training(findings, reused is not None))
     if reused is not None:
         notes.extend(present_at_search_start(findings, train[1] / rate_hz, rate_hz))

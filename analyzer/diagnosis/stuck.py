@@ -10,12 +10,13 @@ else it is stuck (the contract's ``other``).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.detectors.base import DetectorResult
 from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.merge import Finding
 from analyzer.diagnosis.streamed import ColumnMoments
@@ -262,16 +263,139 @@ def reads_zero_for_long(
     seg = read_column(values, j, train[0], train[1])
     if seg.size < least:
         return False
-    moved = np.abs(seg) > FLAT * sd  # (NaN: False, as in :func:`frozen_until`)
+    return _zero_stretches(seg, FLAT * sd, least).size > 0
+
+
+def _zero_stretches(seg: npt.NDArray[Any], tol: float, least: int) -> npt.NDArray[np.int64]:
+    """Where the stretches of ``seg`` frozen at zero (within ``tol``, no
+    :data:`FROZEN_RUN` readings in a row off it) that hold at least ``least`` finite
+    readings begin (indices into ``seg``; the first may go on from before it)."""
+    moved = np.abs(seg) > tol  # (NaN: False, as in :func:`frozen_until`)
     counts = np.cumsum(np.concatenate(([0], moved.astype(np.int64))))
     starts = np.flatnonzero(counts[FROZEN_RUN:] - counts[:-FROZEN_RUN] == FROZEN_RUN)
     # the stretches between runs off zero (and before the first, after the last), by
-    # their finite readings (an outage in training is not zero)
+    # their finite readings (an outage is not zero)
     begins = np.concatenate(([0], starts + FROZEN_RUN))
     ends = np.concatenate((starts, [seg.size]))
     finite = np.cumsum(np.concatenate(([0], np.isfinite(seg).astype(np.int64))))
     keep = ends > begins
-    return bool(np.any(finite[ends[keep]] - finite[begins[keep]] >= least))
+    return begins[keep][finite[ends[keep]] - finite[begins[keep]] >= least]
+
+
+def dead_unattributed(
+    results: Sequence[DetectorResult],
+    findings: Sequence[Finding],
+    values: npt.NDArray[Any],
+    channels: Sequence[str],
+    rate_hz: float,
+    healthy: Mapping[str, tuple[float, float]],
+    train: tuple[int, int] | None = None,
+    search_start: int = 0,
+    inputs: Collection[str] = (),
+) -> tuple[list[Finding], list[str]]:
+    """Dead sensors in anomalies the detectors attributed to no sensor
+    (``DetectorResult.unattributed``): a finding, and a note, for each channel whose
+    readings went dead (:func:`_dead_from_onset`: frozen at its zero for a long alarm
+    window) within a long alarm window of such an anomaly's onset, with no finding of
+    its own over that stretch. ``healthy`` is each channel's healthy mean and standard
+    deviation; ``train`` the training rows when the record has them (a channel whose
+    healthy readings read zero for long, :func:`reads_zero_for_long`, is left alone:
+    its zeros are no evidence); ``search_start`` the first row searched; ``inputs`` the
+    measured inputs (excitation), no sensors under test.
+
+    A dead sensor is found by the residuals it leaves, and they can fail to isolate it:
+    on a quiet stretch (the structure at 0.6-0.7 of its healthy spread), a sensor dead
+    from 10 to 22 s beside another dead from 16 s left all three detectors an anomaly
+    at 9.7-10.2 s they attributed to no sensor ("several sensors at once, or a change of
+    the structure"), and no finding of either (8 of the 160 runs of
+    ``sweep_dead_pairs.py``, exit 0, its readings left as zeros by ``--corrected``).
+    The readings tell what the residuals could not: no alive sensor reads flat at zero
+    for that long (the argument of :func:`_dead_from_onset`), and an anomaly began
+    with it. The finding is the dead sensor's (multiplicative, gain 0) from where its
+    readings froze to where they moved again; its evidence names the detectors whose
+    anomalies it explains (``unattributed_s``: their onsets) and its lead is the one of
+    them nearest its onset that estimates the channel, whose estimate ``--corrected``
+    puts in place of the dead readings. Its confidence is 1: exact zeros for a long
+    alarm window are no chance peak of healthy data."""
+    window = LONG_FACTOR * default_window(rate_hz)
+    least = max(MIN_FLAT_SAMPLES, window)
+    n = values.shape[0]
+    anomalies = sorted((onset, r.detector) for r in results for onset, _, _ in r.unattributed)
+    if not anomalies:
+        return [], []
+    estimated = {r.detector: {*r.reference, *r.residuals} for r in results}
+    found: list[Finding] = []
+    notes: list[str] = []
+    for j, c in enumerate(channels):
+        stats = healthy.get(c)
+        if c in inputs or stats is None or not stats[1] > 0:
+            continue
+        sd = stats[1]
+        tol = FLAT * sd
+        tried: set[int] = set()
+        for onset, _ in anomalies:
+            row = int(round(onset * rate_hz))
+            lo, hi = max(search_start, row - window), min(n, row + window)
+            if lo >= hi:
+                continue
+            seg = read_column(values, j, lo, min(n, hi + least))
+            begins = _zero_stretches(seg, tol, least)
+            begins = begins[begins < hi - lo]
+            if not begins.size:
+                continue
+            first = lo + int(begins[0])
+            head = read_column(values, j, first, first + least)
+            level = float(np.median(head[np.isfinite(head)]))
+            since = frozen_since(values, j, first, level, tol, search_start)
+            if since < row - window or since in tried:
+                continue  # dead before this anomaly began (or judged already)
+            tried.add(since)
+            dead = _dead_from_onset(values, j, since, n, sd, rate_hz)
+            if dead is None:
+                continue
+            level, until = dead
+            t0, t1 = since / rate_hz, (None if until >= n else until / rate_hz)
+            if any(
+                g.channel == c
+                and g.onset_s <= (n / rate_hz if t1 is None else t1)
+                and (g.end_s is None or g.end_s >= t0)
+                for g in [*findings, *found]
+            ):
+                continue
+            if train is not None and reads_zero_for_long(values, j, train, sd, rate_hz):
+                break
+            # the anomalies it explains: those within a long alarm window of its onset
+            near = [(t, d) for t, d in anomalies if abs(t - t0) <= window / rate_hz] or [
+                (onset, d) for t, d in anomalies if t == onset
+            ]
+            lead = min(near, key=lambda a: (c not in estimated.get(a[1], ()), abs(a[0] - t0)))[1]
+            seg = read_column(values, j, since, until)
+            seg = seg[np.isfinite(seg)]
+            spread = float(np.std(seg[np.abs(seg - level) <= tol]))
+            f = Finding(
+                c,
+                FaultType.MULTIPLICATIVE,
+                t0,
+                t1,
+                {"gain": 0.0},
+                1.0,
+                lead,
+                evidence={
+                    "detectors": sorted({d for _, d in near}),
+                    "tests": {},
+                    "frozen": {"level": level, "std_ratio": spread / sd, "was": "unattributed"},
+                    "unattributed_s": [t for t, _ in near],
+                },
+            )
+            found.append(f)
+            notes.append(
+                f"{c} from {t0:.3f} s"
+                + ("" if t1 is None else f" to {t1:.3f} s")
+                + f": dead (reads 0): its readings vary by {spread / sd:.2g} of their healthy "
+                f"spread (the anomaly {', '.join(sorted({d for _, d in near}))} attributed to "
+                f"no sensor at {near[0][0]:.3f} s began with it)"
+            )
+    return found, notes
 
 
 FROZEN_SHARE = 0.9
@@ -361,3 +485,70 @@ def healthy_stats(
         moments.add(np.asarray(block, dtype=np.float64))
     mean, std, _ = moments.stats()
     return {c: (float(mean[j]), float(std[j])) for j, c in enumerate(channels) if moments.n[j] >= 2}
+
+
+def revived_gains(
+    findings: Sequence[Finding], results: Sequence[DetectorResult], rate_hz: float, n: int
+) -> tuple[list[Finding], list[str]]:
+    """The gains that go on after a dead spell: a finding each, and a note, for each gain
+    that :func:`frozen_notes` made a dead sensor to where its readings moved again
+    (evidence ``frozen`` with ``until_s``, ``was`` multiplicative) whose lead detector's
+    residual from there to the end it saw is a gain fault of its own.
+
+    A sensor dead from its fault's onset and alive again before the fault's end is a
+    dead sensor to its revival (:func:`_dead_from_onset`); the readings after are the
+    healthy ones the detectors took for the same fault, or a lasting fault that follows
+    the dead spell. An offset, drift or stuck level after it keeps the whole finding
+    (:func:`_alive_after`: its readings leave the healthy mean), a gain does not (a gain
+    keeps the mean): a sensor dead from 120 to 124 s, then at a gain of 0.5 to the
+    record's end, was reported dead to 124.03 s only, its gain lost (0.62 sd of error in
+    its corrected readings after 124 s), while all three detectors had seen a gain of
+    0.45-0.49 from 120 s to the end. The residual over the revived readings, against the
+    detector's fault-free estimate, tells them apart as the detectors classify every
+    fault (:func:`~analyzer.diagnosis.classify.classify`, with the channel's healthy
+    residual spread): a gain explains it, or, over healthy readings, nothing does. The
+    gain's finding begins at the revival and ends where the detectors saw the fault
+    end; it keeps the detectors' events (the same fault, seen from its onset)."""
+    from analyzer.diagnosis.classify import MIN_GAIN, classify
+
+    found: list[Finding] = []
+    notes: list[str] = []
+    for f in findings:
+        frozen = f.evidence.get("frozen", {})
+        if frozen.get("was") != str(FaultType.MULTIPLICATIVE) or "until_s" not in frozen:
+            continue
+        lead = next((r for r in results if r.detector == f.detector), None)
+        if lead is None or f.channel not in lead.residuals or f.channel not in lead.reference:
+            continue
+        sigma = lead.sigma.get(f.channel)
+        a = int(round(frozen["until_s"] * rate_hz))
+        end = frozen.get("alarmed_to_s")
+        b = n if end is None else min(n, int(round(end * rate_hz)))
+        if b - a < MIN_FLAT_SAMPLES or sigma is None or not sigma > 0:
+            continue
+        residual = np.asarray(lead.residuals[f.channel][a:b], dtype=np.float64)
+        reference = np.asarray(lead.reference[f.channel][a:b], dtype=np.float64)
+        got = classify(residual, reference, sigma, rate_hz)
+        gain = got.magnitude.get("gain")
+        if got.type is not FaultType.MULTIPLICATIVE or gain is None or abs(gain) < MIN_GAIN:
+            continue
+        g = Finding(
+            f.channel,
+            FaultType.MULTIPLICATIVE,
+            a / rate_hz,
+            None if b >= n else b / rate_hz,
+            {"gain": float(gain)},
+            f.confidence,
+            f.detector,
+            evidence={k: v for k, v in f.evidence.items() if k not in ("frozen",)}
+            | {"revived_s": [f.onset_s, a / rate_hz]},
+            events=list(f.events),
+        )
+        found.append(g)
+        notes.append(
+            f"{f.channel} from {g.onset_s:.3f} s"
+            + ("" if g.end_s is None else f" to {g.end_s:.3f} s")
+            + f": a gain of {gain:.3g} after its dead spell from {f.onset_s:.3f} s (the "
+            f"residual of {f.detector} over its readings alive again)"
+        )
+    return found, notes

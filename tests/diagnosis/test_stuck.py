@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from analyzer.detectors.base import DetectorResult
 from analyzer.diagnosis.merge import Finding
-from analyzer.diagnosis.stuck import relabel_frozen
+from analyzer.diagnosis.stuck import dead_unattributed, relabel_frozen, revived_gains
 from analyzer.pipeline import RunOptions, analyze
 from analyzer.simulate import simulate_building
 from analyzer.types import FaultType
@@ -333,3 +334,114 @@ def test_a_channel_that_reads_zero_when_healthy_is_not_dead_from_its_onset():
     assert not any("frozen" in f.evidence for f in found[:2])
     assert (found[2].type, found[2].end_s) == (FaultType.MULTIPLICATIVE, 19.0)
     assert note.startswith("c from 15.000 s to 19.000 s: dead (reads 0)")
+
+
+def test_a_dead_sensor_in_an_anomaly_no_detector_attributed_is_found_by_its_readings():
+    """Anomalies the detectors attributed to no sensor at 14.7 s (``df``, which estimates
+    every channel), 15.0 s (``em``, which estimates none) and 38.0 s. Channel a reads 0
+    from 15 to 27 s: a dead sensor, found (gain 0, from where it froze to where it moved
+    again), its lead the detector nearest that estimates it. Not found: b, zero for 1 s
+    only (less than a long alarm window); c, dead 30-35 s, long before the anomaly at
+    38 s; d, dead 15-27 s but with a finding of its own then; e, a measured input; and a
+    itself when its healthy readings read zero for long in the training window."""
+    rng = np.random.default_rng(9)
+    values = rng.standard_normal((9000, 5))
+    values[3000:5400, 0] = 0.0
+    values[3000:3200, 1] = 0.0
+    values[6000:7000, 2] = 0.0
+    values[3000:5400, 3:] = 0.0
+    names = list("abcde")
+
+    def result(name: str, at: list[float], estimates: bool) -> DetectorResult:
+        residuals = {c: np.zeros(9000) for c in names} if estimates else {}
+        return DetectorResult(
+            name, tuple(names), {}, [], residuals, unattributed=[(t, ("b",), ()) for t in at]
+        )
+
+    results = [result("df", [14.7, 38.0], True), result("em", [15.0], False)]
+    own = [Finding("d", FaultType.OTHER, 16.0, 26.0, {"rms": 1.0}, 1.0, "df")]
+    healthy = {c: (0.0, 1.0) for c in names}
+    found, notes = dead_unattributed(
+        results, own, values, names, RATE, healthy, (0, 2000), 0, ("e",)
+    )
+    assert [(f.channel, f.type, f.onset_s, f.end_s, f.magnitude, f.detector) for f in found] == [
+        ("a", FaultType.MULTIPLICATIVE, 15.0, 27.0, {"gain": 0.0}, "df")
+    ]
+    (f,) = found
+    assert f.evidence["detectors"] == ["df", "em"] and f.evidence["unattributed_s"] == [14.7, 15.0]
+    assert f.evidence["frozen"]["was"] == "unattributed"
+    (note,) = notes
+    assert note.startswith("a from 15.000 s to 27.000 s: dead (reads 0)")
+    values[500:1000, 0] = 0.0  # zero for long in training: its zeros say nothing
+    assert (
+        dead_unattributed(results, own, values, names, RATE, healthy, (0, 2000), 0, ("e",))[0] == []
+    )
+    assert (
+        len(dead_unattributed(results, own, values, names, RATE, healthy, None, 0, ("e",))[0]) == 1
+    )
+
+
+def test_a_dead_spell_then_a_gain_keeps_the_gain_from_the_revival(tmp_path):
+    """The 5-floor building (seed 11, 100 Hz, 200 s, trained on 0-80 s): s2 dead from 120
+    to 124 s, then at a gain of 0.5 to the end. Every detector saw one gain of 0.45-0.49
+    from 120 s to the end; its readings read zero from the onset, so it was a dead sensor
+    to 124.03 s only, the gain lost (``--corrected``: 0.62 sd of error after 124 s). Now
+    the dead spell and, from the revival, the gain, which ``--corrected`` divides out.
+    The same sensor dead 120-124 s only keeps its one finding (the control)."""
+    t, y0, names = simulate_building(5, 200.0, 100.0, seed=11)
+    for gain in (0.5, None):
+        y = y0.copy()
+        y[12000:12400, 2] = 0.0
+        if gain is not None:
+            y[12400:, 2] *= gain
+        path = tmp_path / f"gain{gain}.csv"
+        write_archive(
+            path,
+            "csv",
+            np.round(t * 1e9).astype(np.int64),
+            {n: y[:, j] for j, n in enumerate(names)},
+        )
+        analysis = analyze([path], RunOptions(train="0:80", corrected=True))
+        got = [(f.type, f.onset_s, f.end_s, f.magnitude) for f in analysis.findings]
+        dead = (FaultType.MULTIPLICATIVE, 120.0, pytest.approx(124.0, abs=0.05), {"gain": 0.0})
+        if gain is None:
+            assert got == [dead]
+            continue
+        assert got[0] == dead and len(got) == 2
+        kind, onset, end, magnitude = got[1]
+        assert (kind, end) == (FaultType.MULTIPLICATIVE, None)
+        assert onset == pytest.approx(124.0, abs=0.05)
+        assert magnitude["gain"] == pytest.approx(0.5, abs=0.02)
+        fixed = np.asarray(analysis.corrected)[12500:, 2]
+        err = np.sqrt(np.mean((fixed - y0[12500:, 2]) ** 2)) / y0[:8000, 2].std()
+        assert err < 0.05
+
+
+def test_only_a_revived_gain_of_its_own_goes_on_after_a_dead_spell():
+    """Two gains made dead from 15 to 20 s, the detectors' fault running on to 40 s: the
+    lead detector's residual over a's revived readings is half its estimate (a gain of
+    0.5 there), over b's healthy noise. a's gain goes on from the revival to 40 s, with
+    the finding's events; b, healthy after its dead spell, gets none."""
+    rng = np.random.default_rng(10)
+    n = 9000
+    k = np.arange(n) / RATE
+    reference = {c: np.sin(2 * np.pi * 1.3 * k + p) for c, p in (("a", 0.0), ("b", 1.0))}
+    residuals = {c: 0.05 * rng.standard_normal(n) for c in "ab"}
+    residuals["a"][4000:8000] -= 0.5 * reference["a"][4000:8000]
+    lead = DetectorResult(
+        "df", ("a", "b"), {}, [], residuals, reference, sigma={"a": 0.05, "b": 0.05}
+    )
+    found = []
+    for c in "ab":
+        f = Finding(c, FaultType.MULTIPLICATIVE, 15.0, 20.0, {"gain": 0.0}, 0.9, "df")
+        f.evidence = {
+            "detectors": ["df"],
+            "frozen": {"was": "multiplicative", "until_s": 20.0, "alarmed_to_s": 40.0},
+        }
+        found.append(f)
+    more, notes = revived_gains(found, [lead], RATE, n)
+    (g,) = more
+    assert (g.channel, g.type, g.onset_s, g.end_s) == ("a", FaultType.MULTIPLICATIVE, 20.0, 40.0)
+    assert g.magnitude["gain"] == pytest.approx(0.5, abs=0.01)
+    assert g.evidence["revived_s"] == [15.0, 20.0] and "frozen" not in g.evidence
+    assert notes[0].startswith("a from 20.000 s to 40.000 s: a gain of 0.5")
