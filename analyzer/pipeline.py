@@ -920,7 +920,10 @@ def _analyze(
             )
             timings["ends without"] = time.perf_counter() - t_ends
         moved = [f for f in findings if periods[id(f)] != (f.onset_s, f.end_s)]
-        notes.extend(relabel_frozen(moved, values, chosen, aligned.rate_hz, healthy, train[1]))
+        rows = train if reused is None else None  # (--model: no training rows of its own)
+        notes.extend(
+            relabel_frozen(moved, values, chosen, aligned.rate_hz, healthy, train[1], rows)
+        )
         # and a dead sensor in an anomaly the detectors attributed to no sensor: its
         # readings tell what their residuals could not isolate
         dead, told = dead_unattributed(
@@ -930,7 +933,7 @@ def _analyze(
             chosen,
             aligned.rate_hz,
             healthy,
-            train if train[1] > train[0] else None,
+            rows,
             train[1],
             excitation,
         )
@@ -1708,7 +1711,8 @@ def _diagnose(
     # a frozen sensor's fault from where it froze, before one fault at a time weighs
     # which fault was under way when (a dead sensor's first alarms can come seconds late)
     # (the notes of those it keeps: a finding taken for another's fault has none)
-    frozen = frozen_notes(findings, values, chosen, rate_hz, healthy, train[1])
+    own = train if reused is None else None  # (--model: no training rows of its own)
+    frozen = frozen_notes(findings, values, chosen, rate_hz, healthy, train[1], own)
     # a lone equivalent-model fault that the residuals taking its sensor's reading in do
     # not carry: the relation's error under a change of the response, not the reading's
     # (--model: with the residuals' healthy statistics saved with the model; none in a

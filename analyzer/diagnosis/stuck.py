@@ -41,9 +41,12 @@ def relabel_frozen(
     rate_hz: float,
     healthy: tuple[int, int] | Mapping[str, tuple[float, float]],
     search_start: int = 0,
+    train: tuple[int, int] | None = None,
 ) -> list[str]:
     """:func:`frozen_notes`' notes, in the findings' order."""
-    return list(frozen_notes(findings, values, channels, rate_hz, healthy, search_start).values())
+    return list(
+        frozen_notes(findings, values, channels, rate_hz, healthy, search_start, train).values()
+    )
 
 
 def frozen_notes(
@@ -53,13 +56,16 @@ def frozen_notes(
     rate_hz: float,
     healthy: tuple[int, int] | Mapping[str, tuple[float, float]],
     search_start: int = 0,
+    train: tuple[int, int] | None = None,
 ) -> dict[int, str]:
     """Set the type of each finding whose channel is frozen over the fault: ``other``
     (stuck, magnitude ``stuck_at`` and ``offset`` from the healthy mean) or
     ``multiplicative`` with gain 0 (dead); returns a note per change, by the finding's
     ``id``. ``healthy`` is the training window (an index range of ``values``) or each
     channel's healthy mean and standard deviation (:func:`healthy_stats`; ``--model``
-    brings those of its own training window).
+    brings those of its own training window), the training window then given as
+    ``train`` where the record has one (the pipeline's case: without it, the channels
+    that read zero when healthy are not known).
 
     Frozen: the readings over the fault vary by at most :data:`FLAT` of their healthy
     spread, or at least :data:`FROZEN_SHARE` of them lie within that of their median
@@ -84,8 +90,8 @@ def frozen_notes(
     which the finding is) and its channel's healthy readings never read zero for long
     (:func:`reads_zero_for_long`: a quiet channel on a coarse converter; not known with
     ``--model``, which brings no training readings)."""
-    train = None if isinstance(healthy, Mapping) else healthy
     if not isinstance(healthy, Mapping):
+        train = healthy
         healthy = healthy_stats(values, channels, healthy)
     notes: dict[int, str] = {}
     index = {c: j for j, c in enumerate(channels)}

@@ -8,7 +8,12 @@ import pytest
 
 from analyzer.detectors.base import DetectorResult
 from analyzer.diagnosis.merge import Finding
-from analyzer.diagnosis.stuck import dead_unattributed, relabel_frozen, revived_gains
+from analyzer.diagnosis.stuck import (
+    dead_unattributed,
+    healthy_stats,
+    relabel_frozen,
+    revived_gains,
+)
 from analyzer.pipeline import RunOptions, analyze
 from analyzer.simulate import simulate_building
 from analyzer.types import FaultType
@@ -445,3 +450,22 @@ def test_only_a_revived_gain_of_its_own_goes_on_after_a_dead_spell():
     assert g.magnitude["gain"] == pytest.approx(0.5, abs=0.01)
     assert g.evidence["revived_s"] == [15.0, 20.0] and "frozen" not in g.evidence
     assert notes[0].startswith("a from 20.000 s to 40.000 s: a gain of 0.5")
+
+
+def test_the_channels_that_read_zero_when_healthy_are_known_from_the_statistics_too():
+    """The pipeline hands the channels' healthy statistics, not the training window, to
+    the frozen check, which then knew no channel that reads zero when healthy (at
+    8419bb2: the guard held only for callers that gave the window). Given the window
+    beside the statistics, the coarse channel's oscillation growing about its healthy
+    mean (``other``), which reads zero for its first seconds, keeps its type; given none
+    (``--model``), it reads dead from its onset (its revived readings sit at the mean)."""
+    rng = np.random.default_rng(7)
+    x = 0.35 * rng.standard_normal((9000, 1))
+    k = np.arange(6000) / RATE
+    x[3000:, 0] += 0.15 * k * np.sin(2 * np.pi * 5.0 * k)
+    values = np.round(x)
+    stats = healthy_stats(values, ["a"], (0, 2000))
+    for train, kind in (((0, 2000), FaultType.OTHER), (None, FaultType.MULTIPLICATIVE)):
+        f = Finding("a", FaultType.OTHER, 15.0, None, {"rms": 1.0}, 1.0, "df")
+        relabel_frozen([f], values, ["a"], RATE, stats, 0, train)
+        assert f.type is kind
