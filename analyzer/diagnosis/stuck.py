@@ -512,11 +512,14 @@ def revived_gains(
     0.45-0.49 from 120 s to the end. The residual over the revived readings, against the
     detector's fault-free estimate, tells them apart as the detectors classify every
     fault (:func:`~analyzer.diagnosis.classify.classify`, with the channel's healthy
-    residual spread): a gain explains it, or, over healthy readings, nothing does. The
-    gain's finding begins at the revival and ends where the detectors saw the fault
-    end; it keeps the detectors' events (the same fault, seen from its onset)."""
+    residual spread) from a long alarm window after the revival (the filters fed the
+    dead readings settle first), over at least one more: a gain explains it, or, over
+    healthy readings, nothing does. The gain's finding begins at the revival and ends
+    where the detectors saw the fault end; it keeps the detectors' events (the same
+    fault, seen from its onset)."""
     from analyzer.diagnosis.classify import MIN_GAIN, classify
 
+    window = max(MIN_FLAT_SAMPLES, LONG_FACTOR * default_window(rate_hz))
     found: list[Finding] = []
     notes: list[str] = []
     for f in findings:
@@ -530,10 +533,14 @@ def revived_gains(
         a = int(round(frozen["until_s"] * rate_hz))
         end = frozen.get("alarmed_to_s")
         b = n if end is None else min(n, int(round(end * rate_hz)))
-        if b - a < MIN_FLAT_SAMPLES or sigma is None or not sigma > 0:
+        # judged from a long alarm window after the revival, over one at least: the
+        # filters fed the dead readings settle first (gains of 1.05-1.16 over the first
+        # 0.4-3 s of healthy revived readings, where the detectors' fault ran on)
+        c = a + window
+        if b - c < window or sigma is None or not sigma > 0:
             continue
-        residual = np.asarray(lead.residuals[f.channel][a:b], dtype=np.float64)
-        reference = np.asarray(lead.reference[f.channel][a:b], dtype=np.float64)
+        residual = np.asarray(lead.residuals[f.channel][c:b], dtype=np.float64)
+        reference = np.asarray(lead.reference[f.channel][c:b], dtype=np.float64)
         got = classify(residual, reference, sigma, rate_hz)
         gain = got.magnitude.get("gain")
         if got.type is not FaultType.MULTIPLICATIVE or gain is None or abs(gain) < MIN_GAIN:

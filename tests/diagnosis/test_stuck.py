@@ -423,25 +423,30 @@ def test_a_dead_spell_then_a_gain_keeps_the_gain_from_the_revival(tmp_path):
 
 
 def test_only_a_revived_gain_of_its_own_goes_on_after_a_dead_spell():
-    """Two gains made dead from 15 to 20 s, the detectors' fault running on to 40 s: the
+    """Gains made dead from 15 to 20 s, the detectors' fault running on to 40 s: the
     lead detector's residual over a's revived readings is half its estimate (a gain of
     0.5 there), over b's healthy noise. a's gain goes on from the revival to 40 s, with
-    the finding's events; b, healthy after its dead spell, gets none."""
+    the finding's events; b, healthy after its dead spell, gets none; nor does c, whose
+    fault the detectors saw to 23 s, its residual a gain of 1.16 over the 3 s after
+    the revival (the filters settling: judged only from a long alarm window after)."""
     rng = np.random.default_rng(10)
     n = 9000
     k = np.arange(n) / RATE
     reference = {c: np.sin(2 * np.pi * 1.3 * k + p) for c, p in (("a", 0.0), ("b", 1.0))}
     residuals = {c: 0.05 * rng.standard_normal(n) for c in "ab"}
     residuals["a"][4000:8000] -= 0.5 * reference["a"][4000:8000]
+    reference["c"] = reference["a"]
+    residuals["c"] = 0.05 * rng.standard_normal(n)
+    residuals["c"][4000:4600] += 0.16 * reference["c"][4000:4600]
     lead = DetectorResult(
-        "df", ("a", "b"), {}, [], residuals, reference, sigma={"a": 0.05, "b": 0.05}
+        "df", ("a", "b", "c"), {}, [], residuals, reference, sigma=dict.fromkeys("abc", 0.05)
     )
     found = []
-    for c in "ab":
+    for c, to in (("a", 40.0), ("b", 40.0), ("c", 23.0)):
         f = Finding(c, FaultType.MULTIPLICATIVE, 15.0, 20.0, {"gain": 0.0}, 0.9, "df")
         f.evidence = {
             "detectors": ["df"],
-            "frozen": {"was": "multiplicative", "until_s": 20.0, "alarmed_to_s": 40.0},
+            "frozen": {"was": "multiplicative", "until_s": 20.0, "alarmed_to_s": to},
         }
         found.append(f)
     more, notes = revived_gains(found, [lead], RATE, n)
