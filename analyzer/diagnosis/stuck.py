@@ -316,9 +316,10 @@ def dead_unattributed(
     the structure"), and no finding of either (8 of the 160 runs of
     ``sweep_dead_pairs.py``, exit 0, its readings left as zeros by ``--corrected``).
     The readings tell what the residuals could not: no alive sensor reads flat at zero
-    for that long (the argument of :func:`_dead_from_onset`), and an anomaly began
-    with it. The finding is the dead sensor's (multiplicative, gain 0) from where its
-    readings froze to where they moved again; its evidence names the detectors whose
+    for that long (the argument of :func:`_dead_from_onset`) while the structure moves
+    (:func:`_structure_moves`: at rest a coarse channel reads exact zeros, alive), and
+    an anomaly began with it. The finding is the dead sensor's (multiplicative, gain 0)
+    from where its readings froze to where they moved again; its evidence names the detectors whose
     anomalies it explains (``unattributed_s``: their onsets) and its lead is the one of
     them nearest its onset that estimates the channel, whose estimate ``--corrected``
     puts in place of the dead readings. Its confidence is 1: exact zeros for a long
@@ -370,6 +371,8 @@ def dead_unattributed(
                 continue
             if train is not None and reads_zero_for_long(values, j, train, sd, rate_hz):
                 break
+            if not _structure_moves(results, values, channels, j, (since, until), inputs):
+                continue  # at rest: an alive sensor reads zero too (a coarse converter)
             # the anomalies it explains: those within a long alarm window of its onset
             near = [(t, d) for t, d in anomalies if abs(t - t0) <= window / rate_hz] or [
                 (onset, d) for t, d in anomalies if t == onset
@@ -402,6 +405,41 @@ def dead_unattributed(
                 f"no sensor at {near[0][0]:.3f} s began with it)"
             )
     return found, notes
+
+
+def _structure_moves(
+    results: Sequence[DetectorResult],
+    values: npt.NDArray[Any],
+    channels: Sequence[str],
+    j: int,
+    rows: tuple[int, int],
+    inputs: Collection[str] = (),
+) -> bool:
+    """Whether most of the other channels (not column ``j``, nor the measured
+    ``inputs``) move over the rows ``rows``: their readings vary by more than their noise
+    there, taken as the largest healthy residual spread a detector has for them (what no
+    estimate of them explains: a sensor's noise and more). More than their noise: the
+    variance of the readings is at least twice the noise's, the structure's share of it
+    at least the noise's own.
+
+    A dead sensor reads zero while the structure moves; at rest, every sensor reads its
+    noise alone, and one whose noise lies below its converter's step reads exactly zero,
+    alive: the 5-floor building at rest for 30 s, its s2 quantized to exact zeros there,
+    was a dead sensor to :func:`dead_unattributed` (its neighbours varied by 0.24-1.27 of
+    their residuals' healthy spread there; beside two sensors dead on a quiet stretch of
+    ``sweep_dead_pairs.py``, by 5.3-10)."""
+    judged = moving = 0
+    for k, c in enumerate(channels):
+        noise = max((r.sigma[c] for r in results if c in r.sigma), default=0.0)
+        if k == j or c in inputs or not noise > 0:
+            continue
+        seg = read_column(values, k, rows[0], rows[1])
+        seg = seg[np.isfinite(seg)]
+        if seg.size < MIN_FLAT_SAMPLES:
+            continue
+        judged += 1
+        moving += float(np.var(seg)) > 2.0 * noise * noise
+    return moving * 2 > judged
 
 
 FROZEN_SHARE = 0.9

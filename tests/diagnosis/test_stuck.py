@@ -348,7 +348,8 @@ def test_a_dead_sensor_in_an_anomaly_no_detector_attributed_is_found_by_its_read
     again), its lead the detector nearest that estimates it. Not found: b, zero for 1 s
     only (less than a long alarm window); c, dead 30-35 s, long before the anomaly at
     38 s; d, dead 15-27 s but with a finding of its own then; e, a measured input; and a
-    itself when its healthy readings read zero for long in the training window."""
+    itself when the other channels read their noise alone then (the structure at rest),
+    or when its healthy readings read zero for long in the training window."""
     rng = np.random.default_rng(9)
     values = rng.standard_normal((9000, 5))
     values[3000:5400, 0] = 0.0
@@ -359,8 +360,10 @@ def test_a_dead_sensor_in_an_anomaly_no_detector_attributed_is_found_by_its_read
 
     def result(name: str, at: list[float], estimates: bool) -> DetectorResult:
         residuals = {c: np.zeros(9000) for c in names} if estimates else {}
+        unattributed = [(t, ("b",), ()) for t in at]
+        sigma = dict.fromkeys(residuals, 0.1)  # (the channels' noise)
         return DetectorResult(
-            name, tuple(names), {}, [], residuals, unattributed=[(t, ("b",), ()) for t in at]
+            name, tuple(names), {}, [], residuals, sigma=sigma, unattributed=unattributed
         )
 
     results = [result("df", [14.7, 38.0], True), result("em", [15.0], False)]
@@ -377,6 +380,11 @@ def test_a_dead_sensor_in_an_anomaly_no_detector_attributed_is_found_by_its_read
     assert f.evidence["frozen"]["was"] == "unattributed"
     (note,) = notes
     assert note.startswith("a from 15.000 s to 27.000 s: dead (reads 0)")
+    rest = values.copy()  # the structure at rest: every other channel reads its noise
+    rest[3000:5400, 1:] *= 0.1
+    assert (
+        dead_unattributed(results, own, rest, names, RATE, healthy, (0, 2000), 0, ("e",))[0] == []
+    )
     values[500:1000, 0] = 0.0  # zero for long in training: its zeros say nothing
     assert (
         dead_unattributed(results, own, values, names, RATE, healthy, (0, 2000), 0, ("e",))[0] == []
