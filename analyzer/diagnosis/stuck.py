@@ -551,8 +551,11 @@ def revived_gains(
     detector's fault-free estimate, tells them apart as the detectors classify every
     fault (:func:`~analyzer.diagnosis.classify.classify`, with the channel's healthy
     residual spread) from a long alarm window after the revival (the filters fed the
-    dead readings settle first), over at least one more: a gain explains it, or, over
-    healthy readings, nothing does. The gain's finding begins at the revival and ends
+    dead readings settle first), over at least one more, up to the first finding of
+    another sensor under way (the estimate takes the other sensors in: a sensor dead
+    120-220 s beside one dead 150-250 s, its finding run on to 249.9 s, read a gain of
+    1.13 over its healthy revived readings): a gain explains it, or, over healthy
+    readings, nothing does. The gain's finding begins at the revival and ends
     where the detectors saw the fault end; it keeps the detectors' events (the same
     fault, seen from its onset)."""
     from analyzer.diagnosis.classify import MIN_GAIN, classify
@@ -575,10 +578,16 @@ def revived_gains(
         # filters fed the dead readings settle first (gains of 1.05-1.16 over the first
         # 0.4-3 s of healthy revived readings, where the detectors' fault ran on)
         c = a + window
-        if b - c < window or sigma is None or not sigma > 0:
+        # and only while no other sensor's finding is under way: the estimate takes the
+        # other sensors in (a dead one's estimate of a healthy one is off; law 0)
+        stop = b
+        for g in findings:
+            if g.channel != f.channel and (g.end_s is None or g.end_s * rate_hz > c):
+                stop = min(stop, max(a, int(round(g.onset_s * rate_hz))))
+        if stop - c < window or sigma is None or not sigma > 0:
             continue
-        residual = np.asarray(lead.residuals[f.channel][c:b], dtype=np.float64)
-        reference = np.asarray(lead.reference[f.channel][c:b], dtype=np.float64)
+        residual = np.asarray(lead.residuals[f.channel][c:stop], dtype=np.float64)
+        reference = np.asarray(lead.reference[f.channel][c:stop], dtype=np.float64)
         got = classify(residual, reference, sigma, rate_hz)
         gain = got.magnitude.get("gain")
         if got.type is not FaultType.MULTIPLICATIVE or gain is None or abs(gain) < MIN_GAIN:

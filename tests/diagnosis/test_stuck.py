@@ -436,7 +436,8 @@ def test_only_a_revived_gain_of_its_own_goes_on_after_a_dead_spell():
     0.5 there), over b's healthy noise. a's gain goes on from the revival to 40 s, with
     the finding's events; b, healthy after its dead spell, gets none; nor does c, whose
     fault the detectors saw to 23 s, its residual a gain of 1.16 over the 3 s after
-    the revival (the filters settling: judged only from a long alarm window after)."""
+    the revival (the filters settling: judged only from a long alarm window after);
+    nor does a while another sensor's finding is under way from before that."""
     rng = np.random.default_rng(10)
     n = 9000
     k = np.arange(n) / RATE
@@ -463,6 +464,12 @@ def test_only_a_revived_gain_of_its_own_goes_on_after_a_dead_spell():
     assert g.magnitude["gain"] == pytest.approx(0.5, abs=0.01)
     assert g.evidence["revived_s"] == [15.0, 20.0] and "frozen" not in g.evidence
     assert notes[0].startswith("a from 20.000 s to 40.000 s: a gain of 0.5")
+    # another sensor's fault under way from before the judged stretch: its estimate is off
+    beside = Finding("x", FaultType.MULTIPLICATIVE, 18.0, 45.0, {"gain": 0.0}, 0.9, "df")
+    assert revived_gains([found[0], beside], [lead], RATE, n) == ([], [])
+    beside.onset_s = 30.0  # from later: judged before it, and the gain goes on to 40 s
+    (g,) = revived_gains([found[0], beside], [lead], RATE, n)[0]
+    assert (g.onset_s, g.end_s) == (20.0, 40.0)
 
 
 def test_the_channels_that_read_zero_when_healthy_are_known_from_the_statistics_too():
