@@ -319,11 +319,11 @@ def dead_unattributed(
     for that long (the argument of :func:`_dead_from_onset`) while the structure moves
     (:func:`_structure_moves`: at rest a coarse channel reads exact zeros, alive), and
     an anomaly began with it. The finding is the dead sensor's (multiplicative, gain 0)
-    from where its readings froze to where they moved again; its evidence names the detectors whose
-    anomalies it explains (``unattributed_s``: their onsets) and its lead is the one of
-    them nearest its onset that estimates the channel, whose estimate ``--corrected``
-    puts in place of the dead readings. Its confidence is 1: exact zeros for a long
-    alarm window are no chance peak of healthy data."""
+    from where its readings froze to where they moved again; its evidence names the
+    detectors whose anomalies it explains (``unattributed_s``: their onsets) and its
+    lead is the one of them nearest its onset that estimates the channel, whose
+    estimate ``--corrected`` puts in place of the dead readings. Its confidence is 1:
+    exact zeros for a long alarm window are no chance peak of healthy data."""
     window = LONG_FACTOR * default_window(rate_hz)
     least = max(MIN_FLAT_SAMPLES, window)
     n = values.shape[0]
@@ -331,6 +331,7 @@ def dead_unattributed(
     if not anomalies:
         return [], []
     estimated = {r.detector: {*r.reference, *r.residuals} for r in results}
+    zero_at_rest: dict[int, bool] = {}
     found: list[Finding] = []
     notes: list[str] = []
     for j, c in enumerate(channels):
@@ -369,7 +370,9 @@ def dead_unattributed(
                 for g in [*findings, *found]
             ):
                 continue
-            if train is not None and reads_zero_for_long(values, j, train, sd, rate_hz):
+            if train is not None and j not in zero_at_rest:
+                zero_at_rest[j] = reads_zero_for_long(values, j, train, sd, rate_hz)
+            if zero_at_rest.get(j):
                 break
             if not _structure_moves(results, values, channels, j, (since, until), inputs):
                 continue  # at rest: an alive sensor reads zero too (a coarse converter)
@@ -425,9 +428,9 @@ def _structure_moves(
     A dead sensor reads zero while the structure moves; at rest, every sensor reads its
     noise alone, and one whose noise lies below its converter's step reads exactly zero,
     alive: the 5-floor building at rest for 30 s, its s2 quantized to exact zeros there,
-    was a dead sensor to :func:`dead_unattributed` (its neighbours varied by 0.24-1.27 of
-    their residuals' healthy spread there; beside two sensors dead on a quiet stretch of
-    ``sweep_dead_pairs.py``, by 5.3-10)."""
+    was a dead sensor to :func:`dead_unattributed` (its neighbours' readings varied by
+    0.24-1.27 of each detector's healthy residual spread of them there; beside two
+    sensors dead on a quiet stretch of ``sweep_dead_pairs.py``, by 5.3-10)."""
     judged = moving = 0
     for k, c in enumerate(channels):
         noise = max((r.sigma[c] for r in results if c in r.sigma), default=0.0)
@@ -586,9 +589,10 @@ def revived_gains(
                 stop = min(stop, max(a, int(round(g.onset_s * rate_hz))))
         if stop - c < window or sigma is None or not sigma > 0:
             continue
-        residual = np.asarray(lead.residuals[f.channel][c:stop], dtype=np.float64)
-        reference = np.asarray(lead.reference[f.channel][c:stop], dtype=np.float64)
-        got = classify(residual, reference, sigma, rate_hz)
+        # (views: the classification reads them a piece at a time)
+        got = classify(
+            lead.residuals[f.channel][c:stop], lead.reference[f.channel][c:stop], sigma, rate_hz
+        )
         gain = got.magnitude.get("gain")
         if got.type is not FaultType.MULTIPLICATIVE or gain is None or abs(gain) < MIN_GAIN:
             continue
