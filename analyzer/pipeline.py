@@ -61,6 +61,7 @@ from analyzer.diagnosis.stuck import (
     healthy_stats,
     relabel_frozen,
     revived_gains,
+    zero_channels,
 )
 from analyzer.diagnosis.training_check import WindowNote, window_notes, window_warnings
 from analyzer.errors import (
@@ -920,9 +921,11 @@ def _analyze(
             )
             timings["ends without"] = time.perf_counter() - t_ends
         moved = [f for f in findings if periods[id(f)] != (f.onset_s, f.end_s)]
-        rows = train if reused is None else None  # (--model: no training rows of its own)
+        # (--model: no training rows of its own, the channels reading zero at rest saved)
+        rows = train if reused is None else None
+        zeros = None if reused is None else reused.zero_at_rest
         notes.extend(
-            relabel_frozen(moved, values, chosen, aligned.rate_hz, healthy, train[1], rows)
+            relabel_frozen(moved, values, chosen, aligned.rate_hz, healthy, train[1], rows, zeros)
         )
         # and a dead sensor in an anomaly the detectors attributed to no sensor: its
         # readings tell what their residuals could not isolate
@@ -936,6 +939,7 @@ def _analyze(
             rows,
             train[1],
             excitation,
+            zeros,
         )
         findings = [*findings, *dead]
         notes.extend(told)
@@ -1037,6 +1041,7 @@ def _analyze(
                 time_source=options.time_source,
                 created=iso_utc(time.time_ns()) or "",
                 reading_health=residual_health(results, train),
+                zero_at_rest=zero_channels(values, chosen, train, healthy, aligned.rate_hz),
             ),
             model_info=None if reused is None else model_info(reused, options),
             screen=screen,
@@ -1711,8 +1716,10 @@ def _diagnose(
     # a frozen sensor's fault from where it froze, before one fault at a time weighs
     # which fault was under way when (a dead sensor's first alarms can come seconds late)
     # (the notes of those it keeps: a finding taken for another's fault has none)
-    own = train if reused is None else None  # (--model: no training rows of its own)
-    frozen = frozen_notes(findings, values, chosen, rate_hz, healthy, train[1], own)
+    # (--model: no training rows of its own, the channels reading zero at rest saved)
+    own = train if reused is None else None
+    zeros = None if reused is None else reused.zero_at_rest
+    frozen = frozen_notes(findings, values, chosen, rate_hz, healthy, train[1], own, zeros)
     # a lone equivalent-model fault that the residuals taking its sensor's reading in do
     # not carry: the relation's error under a change of the response, not the reading's
     # (--model: with the residuals' healthy statistics saved with the model; none in a

@@ -42,10 +42,13 @@ def relabel_frozen(
     healthy: tuple[int, int] | Mapping[str, tuple[float, float]],
     search_start: int = 0,
     train: tuple[int, int] | None = None,
+    zero_at_rest: Collection[str] | None = None,
 ) -> list[str]:
     """:func:`frozen_notes`' notes, in the findings' order."""
     return list(
-        frozen_notes(findings, values, channels, rate_hz, healthy, search_start, train).values()
+        frozen_notes(
+            findings, values, channels, rate_hz, healthy, search_start, train, zero_at_rest
+        ).values()
     )
 
 
@@ -57,6 +60,7 @@ def frozen_notes(
     healthy: tuple[int, int] | Mapping[str, tuple[float, float]],
     search_start: int = 0,
     train: tuple[int, int] | None = None,
+    zero_at_rest: Collection[str] | None = None,
 ) -> dict[int, str]:
     """Set the type of each finding whose channel is frozen over the fault: ``other``
     (stuck, magnitude ``stuck_at`` and ``offset`` from the healthy mean) or
@@ -64,8 +68,9 @@ def frozen_notes(
     ``id``. ``healthy`` is the training window (an index range of ``values``) or each
     channel's healthy mean and standard deviation (:func:`healthy_stats`; ``--model``
     brings those of its own training window), the training window then given as
-    ``train`` where the record has one (the pipeline's case: without it, the channels
-    that read zero when healthy are not known).
+    ``train`` where the record has one (the pipeline's case), or else the channels that
+    read zero when healthy given as ``zero_at_rest`` (:func:`zero_channels`, saved with a
+    ``--model``'s model; with neither, they are not known).
 
     Frozen: the readings over the fault vary by at most :data:`FLAT` of their healthy
     spread, or at least :data:`FROZEN_SHARE` of them lie within that of their median
@@ -88,8 +93,8 @@ def frozen_notes(
     of another shape than a gain only when its readings after the revival sit at the
     healthy mean (:func:`_alive_after`: else it is a dead spell then a lasting fault,
     which the finding is) and its channel's healthy readings never read zero for long
-    (:func:`reads_zero_for_long`: a quiet channel on a coarse converter; not known with
-    ``--model``, which brings no training readings)."""
+    (:func:`reads_zero_for_long`: a quiet channel on a coarse converter; with
+    ``--model``, as its model saved them, not known in a model saved before)."""
     if not isinstance(healthy, Mapping):
         train = healthy
         healthy = healthy_stats(values, channels, healthy)
@@ -97,12 +102,15 @@ def frozen_notes(
     index = {c: j for j, c in enumerate(channels)}
     n = values.shape[0]
     # channels whose healthy readings read zero for long (no evidence of death there);
-    # unknown with ``--model`` (no training readings: the guard after the revival holds)
+    # with ``--model`` as saved, unknown in an older model (the guard after the revival
+    # holds)
     shaped = {f.channel for f in findings if f.type is not FaultType.MULTIPLICATIVE}
-    zero_at_rest = {
+    zeros = {
         j: reads_zero_for_long(values, j, train, healthy[c][1], rate_hz)
+        if train is not None
+        else c in (zero_at_rest or ())
         for c, j in index.items()
-        if train is not None and c in shaped and c in healthy
+        if (train is not None or zero_at_rest is not None) and c in shaped and c in healthy
     }
     for f in findings:
         j = index.get(f.channel)
@@ -127,7 +135,7 @@ def frozen_notes(
             if (
                 dead is not None
                 and f.type is not FaultType.MULTIPLICATIVE
-                and (zero_at_rest.get(j) or not _alive_after(values, j, dead[1], b, mean, sd))
+                and (zeros.get(j) or not _alive_after(values, j, dead[1], b, mean, sd))
             ):
                 # a shape of its own: dead only if it was the dead readings and alive
                 # ones taken for one fault, not a fault that went on after them, and
@@ -272,6 +280,25 @@ def reads_zero_for_long(
     return _zero_stretches(seg, FLAT * sd, least).size > 0
 
 
+def zero_channels(
+    values: npt.NDArray[Any],
+    channels: Sequence[str],
+    train: tuple[int, int],
+    healthy: Mapping[str, tuple[float, float]],
+    rate_hz: float,
+) -> tuple[str, ...]:
+    """The channels whose healthy readings over the training rows ``train`` read zero for
+    long (:func:`reads_zero_for_long`), saved with a model (``SavedModel.zero_at_rest``)
+    for the frozen checks of a ``--model`` run, which has no training readings."""
+    return tuple(
+        c
+        for j, c in enumerate(channels)
+        if c in healthy
+        and healthy[c][1] > 0
+        and reads_zero_for_long(values, j, train, healthy[c][1], rate_hz)
+    )
+
+
 def _zero_stretches(seg: npt.NDArray[Any], tol: float, least: int) -> npt.NDArray[np.int64]:
     """Where the stretches of ``seg`` frozen at zero (within ``tol``, no
     :data:`FROZEN_RUN` readings in a row off it) that hold at least ``least`` finite
@@ -298,6 +325,7 @@ def dead_unattributed(
     train: tuple[int, int] | None = None,
     search_start: int = 0,
     inputs: Collection[str] = (),
+    zero_at_rest: Collection[str] | None = None,
 ) -> tuple[list[Finding], list[str]]:
     """Dead sensors in anomalies the detectors attributed to no sensor
     (``DetectorResult.unattributed``): a finding, and a note, for each channel whose
@@ -306,8 +334,10 @@ def dead_unattributed(
     its own over that stretch. ``healthy`` is each channel's healthy mean and standard
     deviation; ``train`` the training rows when the record has them (a channel whose
     healthy readings read zero for long, :func:`reads_zero_for_long`, is left alone:
-    its zeros are no evidence); ``search_start`` the first row searched; ``inputs`` the
-    measured inputs (excitation), no sensors under test.
+    its zeros are no evidence), else ``zero_at_rest`` those channels (:func:`zero_channels`,
+    saved with a ``--model``'s model); with neither, no channel is judged (a flow meter
+    behind a valve closed for long reads exact zeros, healthy); ``search_start`` the first
+    row searched; ``inputs`` the measured inputs (excitation), no sensors under test.
 
     A dead sensor is found by the residuals it leaves, and they can fail to isolate it:
     on a quiet stretch (the structure at 0.6-0.7 of its healthy spread), a sensor dead
@@ -328,10 +358,10 @@ def dead_unattributed(
     least = max(MIN_FLAT_SAMPLES, window)
     n = values.shape[0]
     anomalies = sorted((onset, r.detector) for r in results for onset, _, _ in r.unattributed)
-    if not anomalies:
+    if not anomalies or (train is None and zero_at_rest is None):
         return [], []
     estimated = {r.detector: {*r.reference, *r.residuals} for r in results}
-    zero_at_rest: dict[int, bool] = {}
+    zeros: dict[int, bool] = {}
     found: list[Finding] = []
     notes: list[str] = []
     for j, c in enumerate(channels):
@@ -354,8 +384,8 @@ def dead_unattributed(
             first = lo + int(begins[0])
             head = read_column(values, j, first, first + least)
             level = float(np.median(head[np.isfinite(head)]))
-            since = frozen_since(values, j, first, level, tol, search_start)
-            if since < row - window or since in tried:
+            since = _frozen_since_from(values, j, first, level, tol, search_start, row - window)
+            if since is None or since in tried:
                 continue  # dead before this anomaly began (or judged already)
             tried.add(since)
             dead = _dead_from_onset(values, j, since, n, sd, rate_hz)
@@ -370,9 +400,13 @@ def dead_unattributed(
                 for g in [*findings, *found]
             ):
                 continue
-            if train is not None and j not in zero_at_rest:
-                zero_at_rest[j] = reads_zero_for_long(values, j, train, sd, rate_hz)
-            if zero_at_rest.get(j):
+            if j not in zeros:
+                zeros[j] = (
+                    reads_zero_for_long(values, j, train, sd, rate_hz)
+                    if train is not None
+                    else c in (zero_at_rest or ())
+                )
+            if zeros[j]:
                 break
             if not _structure_moves(results, values, channels, j, (since, until), inputs):
                 continue  # at rest: an alive sensor reads zero too (a coarse converter)
@@ -408,6 +442,27 @@ def dead_unattributed(
                 f"no sensor at {near[0][0]:.3f} s began with it)"
             )
     return found, notes
+
+
+def _frozen_since_from(
+    values: npt.NDArray[Any], j: int, a: int, level: float, tol: float, stop: int, cut: int
+) -> int | None:
+    """``frozen_since(values, j, a, level, tol, stop)`` when it is at row ``cut`` or later,
+    else None, read back no further than that takes: a channel zero for hours was read back
+    to its first zero once per anomaly in it (400 anomalies in a 4 h stretch: 7.2 s).
+    Searched back to ``cut - 2 * FROZEN_RUN``: a run off the level found there is the one
+    the whole search finds; none found, the stretch began before ``cut`` when
+    :data:`FROZEN_RUN` readings at the level follow ``FROZEN_RUN - 1`` rows after that
+    bound (the stretch then begins there at the latest); else the whole search."""
+    bound = max(stop, cut - 2 * FROZEN_RUN)
+    since = frozen_since(values, j, a, level, tol, bound)
+    if since == bound and bound > stop:
+        head = read_column(values, j, bound + FROZEN_RUN - 1, bound + 2 * FROZEN_RUN - 1)
+        if np.any(np.abs(head - level) > tol):  # (NaN: at the level, as in frozen_since)
+            since = frozen_since(values, j, a, level, tol, stop)
+        else:
+            return None
+    return since if since >= cut else None
 
 
 def _structure_moves(
