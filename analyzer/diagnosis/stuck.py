@@ -350,10 +350,12 @@ def dead_unattributed(
     (:func:`_structure_moves`: at rest a coarse channel reads exact zeros, alive), and
     an anomaly began with it. The finding is the dead sensor's (multiplicative, gain 0)
     from where its readings froze to where they moved again; its evidence names the
-    detectors whose anomalies it explains (``unattributed_s``: their onsets) and its
-    lead is the one of them nearest its onset that estimates the channel, whose
-    estimate ``--corrected`` puts in place of the dead readings. Its confidence is 1:
-    exact zeros for a long alarm window are no chance peak of healthy data."""
+    detectors whose anomalies it explains (``unattributed_s``: their onsets, each once)
+    and its lead is the one of them nearest its onset that estimates the channel (none
+    does: the first detector that ran that does), whose estimate ``--corrected`` puts in
+    place of the dead readings. Its confidence here is 1: exact zeros for a long alarm
+    window are no chance peak of healthy data (the pipeline then attaches the lead's
+    tests, and lowers it as for any finding whose tests point to another type)."""
     window = LONG_FACTOR * default_window(rate_hz)
     least = max(MIN_FLAT_SAMPLES, window)
     n = values.shape[0]
@@ -415,6 +417,10 @@ def dead_unattributed(
                 (onset, d) for t, d in anomalies if t == onset
             ]
             lead = min(near, key=lambda a: (c not in estimated.get(a[1], ()), abs(a[0] - t0)))[1]
+            if c not in estimated.get(lead, ()):
+                # none of them estimates it: a detector that does leads (its estimate is
+                # what ``--corrected`` puts in place of the dead readings), if one ran
+                lead = next((r.detector for r in results if c in estimated[r.detector]), lead)
             seg = read_column(values, j, since, until)
             seg = seg[np.isfinite(seg)]
             spread = float(np.std(seg[np.abs(seg - level) <= tol]))
@@ -430,7 +436,7 @@ def dead_unattributed(
                     "detectors": sorted({d for _, d in near}),
                     "tests": {},
                     "frozen": {"level": level, "std_ratio": spread / sd, "was": "unattributed"},
-                    "unattributed_s": [t for t, _ in near],
+                    "unattributed_s": sorted({t for t, _ in near}),
                 },
             )
             found.append(f)

@@ -396,6 +396,16 @@ def test_a_dead_sensor_in_an_anomaly_no_detector_attributed_is_found_by_its_read
             results, own, values, names, RATE, healthy, None, 0, ("e",), zeros
         )
         assert len(found[0]) == count
+    # no anomaly near it of a detector that estimates it (em's at 15.0 s, twice: one per
+    # channel group): df, which estimates it, leads (--corrected takes its estimate), and
+    # the onset is given once
+    late = [result("df", [38.0], True), result("em", [15.0, 15.0], False)]
+    (f,) = dead_unattributed(late, own, values, names, RATE, healthy, None, 0, ("e",), ())[0]
+    assert (f.detector, f.evidence["detectors"], f.evidence["unattributed_s"]) == (
+        "df",
+        ["em"],
+        [15.0],
+    )
 
 
 def test_a_dead_spell_then_a_gain_keeps_the_gain_from_the_revival(tmp_path):
