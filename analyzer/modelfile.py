@@ -114,6 +114,13 @@ class SavedModel:
     over the training window, for the rule to judge the lone equivalent-model findings of
     a ``--model`` run by. Empty in a model saved before it was kept (the last field, so
     such a file still loads: :func:`load_model`): the rule is not applied then."""
+    zero_at_rest: tuple[str, ...] | None = None
+    """The channels whose healthy readings read zero for long over the training window
+    (:func:`~analyzer.diagnosis.stuck.reads_zero_for_long`: exact zeros are a healthy
+    state of theirs, a valve's flow meter, a coarse converter at rest), for the frozen
+    checks of a ``--model`` run, which has no training readings. ``None`` in a model saved
+    before it was kept: not known, and a dead sensor in an anomaly attributed to no sensor
+    is then not looked for (:func:`~analyzer.diagnosis.stuck.dead_unattributed`)."""
 
     def detectors(self) -> list[str]:
         """The detectors fitted in this model, in the order they ran."""
@@ -181,7 +188,8 @@ def check_model_path(path: Path, out: Path | None = None) -> None:
 def _later_fields(model: SavedModel) -> None:
     """Give the fields a file saved before they existed left unset (a slotted dataclass's
     pickle holds its fields' values in order, and an older one stops short) their
-    defaults: ``reading_health`` (no saved health: the readings rule not applied). A
+    defaults: ``reading_health`` (no saved health: the readings rule not applied),
+    ``zero_at_rest`` (``None``: not known). A
     plain default too (a slotted class keeps no class attribute to fall back on)."""
     for f in fields(SavedModel):
         if hasattr(model, f.name):

@@ -55,7 +55,14 @@ from analyzer.diagnosis.levels import excursions, level_note, response_levels
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.oversampled import MEMORY_SAMPLES, oversampled_note
 from analyzer.diagnosis.readings import refuted_by_readings, residual_health
-from analyzer.diagnosis.stuck import frozen_notes, healthy_stats, relabel_frozen
+from analyzer.diagnosis.stuck import (
+    dead_unattributed,
+    frozen_notes,
+    healthy_stats,
+    relabel_frozen,
+    revived_gains,
+    zero_channels,
+)
 from analyzer.diagnosis.training_check import WindowNote, window_notes, window_warnings
 from analyzer.errors import (
     LISTED,
@@ -914,7 +921,28 @@ def _analyze(
             )
             timings["ends without"] = time.perf_counter() - t_ends
         moved = [f for f in findings if periods[id(f)] != (f.onset_s, f.end_s)]
-        notes.extend(relabel_frozen(moved, values, chosen, aligned.rate_hz, healthy, train[1]))
+        # (--model: no training rows of its own, the channels reading zero at rest saved)
+        rows = train if reused is None else None
+        zeros = None if reused is None else reused.zero_at_rest
+        notes.extend(
+            relabel_frozen(moved, values, chosen, aligned.rate_hz, healthy, train[1], rows, zeros)
+        )
+        # and a dead sensor in an anomaly the detectors attributed to no sensor: its
+        # readings tell what their residuals could not isolate
+        dead, told = dead_unattributed(
+            results,
+            findings,
+            values,
+            chosen,
+            aligned.rate_hz,
+            healthy,
+            rows,
+            train[1],
+            excitation,
+            zeros,
+        )
+        findings = [*findings, *dead]
+        notes.extend(told)
         findings.sort(key=lambda f: (f.onset_s, f.channel))
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
         notes.extend(_unattributed_notes(results, findings, aligned.rate_hz))
@@ -1013,6 +1041,7 @@ def _analyze(
                 time_source=options.time_source,
                 created=iso_utc(time.time_ns()) or "",
                 reading_health=residual_health(results, train),
+                zero_at_rest=zero_channels(values, chosen, train, healthy, aligned.rate_hz),
             ),
             model_info=None if reused is None else model_info(reused, options),
             screen=screen,
@@ -1687,7 +1716,10 @@ def _diagnose(
     # a frozen sensor's fault from where it froze, before one fault at a time weighs
     # which fault was under way when (a dead sensor's first alarms can come seconds late)
     # (the notes of those it keeps: a finding taken for another's fault has none)
-    frozen = frozen_notes(findings, values, chosen, rate_hz, healthy, train[1])
+    # (--model: no training rows of its own, the channels reading zero at rest saved)
+    own = train if reused is None else None
+    zeros = None if reused is None else reused.zero_at_rest
+    frozen = frozen_notes(findings, values, chosen, rate_hz, healthy, train[1], own, zeros)
     # a lone equivalent-model fault that the residuals taking its sensor's reading in do
     # not carry: the relation's error under a change of the response, not the reading's
     # (--model: with the residuals' healthy statistics saved with the model; none in a
@@ -1702,6 +1734,10 @@ def _diagnose(
     findings, conflicts = one_fault_at_a_time(findings, coupled(results))
     notes.extend(conflicts)
     notes.extend(frozen[id(f)] for f in findings if id(f) in frozen)
+    # a gain after a dead spell: the finding the dead sensor's cut short goes on
+    revived, said = revived_gains(findings, results, rate_hz, np.shape(values)[0])
+    findings = sorted([*findings, *revived], key=lambda f: (f.onset_s, f.channel))
+    notes.extend(said)
     notes.extend(traced_into_training(findings, reused is not None))
     if reused is not None:
         notes.extend(present_at_search_start(findings, train[1] / rate_hz, rate_hz))

@@ -20,7 +20,9 @@ Per run, of the first sensor (truth: the piece before injection, in sd of the se
   alive again there: 0 when ``--corrected`` keeps them as measured).
 
 The summary counts the findings by type and by whether they end at the revival (within
-0.1 s of 22 s). A script, not a timed test (about 2 minutes)::
+0.1 s of 22 s), then the runs with a finding of the second sensor (and those dead from
+16 s to its revival), and the findings on healthy sensors. A script, not a timed test
+(about 2 minutes)::
 
     python benchmarks/sweep_dead_pairs.py [--pieces 0:4] [--json F]
 """
@@ -154,6 +156,26 @@ def main(argv: list[str] | None = None) -> int:
             f"{kind:16s} {kinds[kind]:5d} {at[kind]:13d} {np.median(dead):8.3f} / {dead.max():5.3f}"
             f" {np.median(alive):9.3f} / {alive.max():5.3f}"
         )
+    # the second sensor: found at all, and dead from its death to its revival
+    seconds = [next((g for g in r["all"] if g[0] == r["second"]), None) for r in runs]
+    dead = sum(
+        1
+        for r, g in zip(runs, seconds, strict=True)
+        if g is not None
+        and (g[1], g[4]) == ("multiplicative", {"gain": 0.0})
+        and abs(g[2] - SECOND_FROM) <= 0.1
+        and (
+            g[3] is None
+            if r["second_to"] is None
+            else g[3] is not None and abs(g[3] - r["second_to"]) <= 0.1
+        )
+    )
+    others = sum(1 for r in runs for g in r["all"] if g[0] not in (r["first"], r["second"]))
+    print(
+        f"the second dead sensor: found in {sum(g is not None for g in seconds)} runs, dead from "
+        f"{SECOND_FROM:g} s to its revival (within 0.1 s) in {dead}; findings on healthy sensors: "
+        f"{others}"
+    )
     return 0
 
 

@@ -10,12 +10,13 @@ else it is stuck (the contract's ``other``).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.detectors.base import DetectorResult
 from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.merge import Finding
 from analyzer.diagnosis.streamed import ColumnMoments
@@ -40,9 +41,15 @@ def relabel_frozen(
     rate_hz: float,
     healthy: tuple[int, int] | Mapping[str, tuple[float, float]],
     search_start: int = 0,
+    train: tuple[int, int] | None = None,
+    zero_at_rest: Collection[str] | None = None,
 ) -> list[str]:
     """:func:`frozen_notes`' notes, in the findings' order."""
-    return list(frozen_notes(findings, values, channels, rate_hz, healthy, search_start).values())
+    return list(
+        frozen_notes(
+            findings, values, channels, rate_hz, healthy, search_start, train, zero_at_rest
+        ).values()
+    )
 
 
 def frozen_notes(
@@ -52,13 +59,18 @@ def frozen_notes(
     rate_hz: float,
     healthy: tuple[int, int] | Mapping[str, tuple[float, float]],
     search_start: int = 0,
+    train: tuple[int, int] | None = None,
+    zero_at_rest: Collection[str] | None = None,
 ) -> dict[int, str]:
     """Set the type of each finding whose channel is frozen over the fault: ``other``
     (stuck, magnitude ``stuck_at`` and ``offset`` from the healthy mean) or
     ``multiplicative`` with gain 0 (dead); returns a note per change, by the finding's
     ``id``. ``healthy`` is the training window (an index range of ``values``) or each
     channel's healthy mean and standard deviation (:func:`healthy_stats`; ``--model``
-    brings those of its own training window).
+    brings those of its own training window), the training window then given as
+    ``train`` where the record has one (the pipeline's case), or else the channels that
+    read zero when healthy given as ``zero_at_rest`` (:func:`zero_channels`, saved with a
+    ``--model``'s model; with neither, they are not known).
 
     Frozen: the readings over the fault vary by at most :data:`FLAT` of their healthy
     spread, or at least :data:`FROZEN_SHARE` of them lie within that of their median
@@ -81,21 +93,24 @@ def frozen_notes(
     of another shape than a gain only when its readings after the revival sit at the
     healthy mean (:func:`_alive_after`: else it is a dead spell then a lasting fault,
     which the finding is) and its channel's healthy readings never read zero for long
-    (:func:`reads_zero_for_long`: a quiet channel on a coarse converter; not known with
-    ``--model``, which brings no training readings)."""
-    train = None if isinstance(healthy, Mapping) else healthy
+    (:func:`reads_zero_for_long`: a quiet channel on a coarse converter; with
+    ``--model``, as its model saved them, not known in a model saved before)."""
     if not isinstance(healthy, Mapping):
+        train = healthy
         healthy = healthy_stats(values, channels, healthy)
     notes: dict[int, str] = {}
     index = {c: j for j, c in enumerate(channels)}
     n = values.shape[0]
     # channels whose healthy readings read zero for long (no evidence of death there);
-    # unknown with ``--model`` (no training readings: the guard after the revival holds)
+    # with ``--model`` as saved, unknown in an older model (the guard after the revival
+    # holds)
     shaped = {f.channel for f in findings if f.type is not FaultType.MULTIPLICATIVE}
-    zero_at_rest = {
+    zeros = {
         j: reads_zero_for_long(values, j, train, healthy[c][1], rate_hz)
+        if train is not None
+        else c in (zero_at_rest or ())
         for c, j in index.items()
-        if train is not None and c in shaped and c in healthy
+        if (train is not None or zero_at_rest is not None) and c in shaped and c in healthy
     }
     for f in findings:
         j = index.get(f.channel)
@@ -120,7 +135,7 @@ def frozen_notes(
             if (
                 dead is not None
                 and f.type is not FaultType.MULTIPLICATIVE
-                and (zero_at_rest.get(j) or not _alive_after(values, j, dead[1], b, mean, sd))
+                and (zeros.get(j) or not _alive_after(values, j, dead[1], b, mean, sd))
             ):
                 # a shape of its own: dead only if it was the dead readings and alive
                 # ones taken for one fault, not a fault that went on after them, and
@@ -262,16 +277,233 @@ def reads_zero_for_long(
     seg = read_column(values, j, train[0], train[1])
     if seg.size < least:
         return False
-    moved = np.abs(seg) > FLAT * sd  # (NaN: False, as in :func:`frozen_until`)
+    return _zero_stretches(seg, FLAT * sd, least).size > 0
+
+
+def zero_channels(
+    values: npt.NDArray[Any],
+    channels: Sequence[str],
+    train: tuple[int, int],
+    healthy: Mapping[str, tuple[float, float]],
+    rate_hz: float,
+) -> tuple[str, ...]:
+    """The channels whose healthy readings over the training rows ``train`` read zero for
+    long (:func:`reads_zero_for_long`), saved with a model (``SavedModel.zero_at_rest``)
+    for the frozen checks of a ``--model`` run, which has no training readings."""
+    return tuple(
+        c
+        for j, c in enumerate(channels)
+        if c in healthy
+        and healthy[c][1] > 0
+        and reads_zero_for_long(values, j, train, healthy[c][1], rate_hz)
+    )
+
+
+def _zero_stretches(seg: npt.NDArray[Any], tol: float, least: int) -> npt.NDArray[np.int64]:
+    """Where the stretches of ``seg`` frozen at zero (within ``tol``, no
+    :data:`FROZEN_RUN` readings in a row off it) that hold at least ``least`` finite
+    readings begin (indices into ``seg``; the first may go on from before it)."""
+    moved = np.abs(seg) > tol  # (NaN: False, as in :func:`frozen_until`)
     counts = np.cumsum(np.concatenate(([0], moved.astype(np.int64))))
     starts = np.flatnonzero(counts[FROZEN_RUN:] - counts[:-FROZEN_RUN] == FROZEN_RUN)
     # the stretches between runs off zero (and before the first, after the last), by
-    # their finite readings (an outage in training is not zero)
+    # their finite readings (an outage is not zero)
     begins = np.concatenate(([0], starts + FROZEN_RUN))
     ends = np.concatenate((starts, [seg.size]))
     finite = np.cumsum(np.concatenate(([0], np.isfinite(seg).astype(np.int64))))
     keep = ends > begins
-    return bool(np.any(finite[ends[keep]] - finite[begins[keep]] >= least))
+    return begins[keep][finite[ends[keep]] - finite[begins[keep]] >= least]
+
+
+def dead_unattributed(
+    results: Sequence[DetectorResult],
+    findings: Sequence[Finding],
+    values: npt.NDArray[Any],
+    channels: Sequence[str],
+    rate_hz: float,
+    healthy: Mapping[str, tuple[float, float]],
+    train: tuple[int, int] | None = None,
+    search_start: int = 0,
+    inputs: Collection[str] = (),
+    zero_at_rest: Collection[str] | None = None,
+) -> tuple[list[Finding], list[str]]:
+    """Dead sensors in anomalies the detectors attributed to no sensor
+    (``DetectorResult.unattributed``): a finding, and a note, for each channel whose
+    readings went dead (:func:`_dead_from_onset`: frozen at its zero for a long alarm
+    window) within a long alarm window of such an anomaly's onset, with no finding of
+    its own over that stretch. ``healthy`` is each channel's healthy mean and standard
+    deviation; ``train`` the training rows when the record has them (a channel whose
+    healthy readings read zero for long, :func:`reads_zero_for_long`, is left alone:
+    its zeros are no evidence), else ``zero_at_rest`` those channels (:func:`zero_channels`,
+    saved with a ``--model``'s model); with neither, no channel is judged (a flow meter
+    behind a valve closed for long reads exact zeros, healthy); ``search_start`` the first
+    row searched; ``inputs`` the measured inputs (excitation), no sensors under test.
+
+    A dead sensor is found by the residuals it leaves, and they can fail to isolate it:
+    on a quiet stretch (the structure at 0.6-0.7 of its healthy spread), a sensor dead
+    from 10 to 22 s beside another dead from 16 s left all three detectors an anomaly
+    at 9.7-10.2 s they attributed to no sensor ("several sensors at once, or a change of
+    the structure"), and no finding of either (8 of the 160 runs of
+    ``sweep_dead_pairs.py``, exit 0, its readings left as zeros by ``--corrected``).
+    The readings tell what the residuals could not: no alive sensor reads flat at zero
+    for that long (the argument of :func:`_dead_from_onset`) while the structure moves
+    (:func:`_structure_moves`: at rest a coarse channel reads exact zeros, alive), and
+    an anomaly began with it. The finding is the dead sensor's (multiplicative, gain 0)
+    from where its readings froze to where they moved again; its evidence names the
+    detectors whose anomalies it explains (``unattributed_s``: their onsets, each once)
+    and its lead is the one of them nearest its onset that estimates the channel (none
+    does: the first detector that ran that does), whose estimate ``--corrected`` puts in
+    place of the dead readings. Its confidence here is 1: exact zeros for a long alarm
+    window are no chance peak of healthy data (the pipeline then attaches the lead's
+    tests, and lowers it as for any finding whose tests point to another type)."""
+    window = LONG_FACTOR * default_window(rate_hz)
+    least = max(MIN_FLAT_SAMPLES, window)
+    n = values.shape[0]
+    anomalies = sorted((onset, r.detector) for r in results for onset, _, _ in r.unattributed)
+    if not anomalies or (train is None and zero_at_rest is None):
+        return [], []
+    estimated = {r.detector: {*r.reference, *r.residuals} for r in results}
+    zeros: dict[int, bool] = {}
+    found: list[Finding] = []
+    notes: list[str] = []
+    for j, c in enumerate(channels):
+        stats = healthy.get(c)
+        if c in inputs or stats is None or not stats[1] > 0:
+            continue
+        sd = stats[1]
+        tol = FLAT * sd
+        tried: set[int] = set()
+        for onset, _ in anomalies:
+            row = int(round(onset * rate_hz))
+            lo, hi = max(search_start, row - window), min(n, row + window)
+            if lo >= hi:
+                continue
+            seg = read_column(values, j, lo, min(n, hi + least))
+            begins = _zero_stretches(seg, tol, least)
+            begins = begins[begins < hi - lo]
+            if not begins.size:
+                continue
+            first = lo + int(begins[0])
+            head = read_column(values, j, first, first + least)
+            level = float(np.median(head[np.isfinite(head)]))
+            since = _frozen_since_from(values, j, first, level, tol, search_start, row - window)
+            if since is None or since in tried:
+                continue  # dead before this anomaly began (or judged already)
+            tried.add(since)
+            dead = _dead_from_onset(values, j, since, n, sd, rate_hz)
+            if dead is None:
+                continue
+            level, until = dead
+            t0, t1 = since / rate_hz, (None if until >= n else until / rate_hz)
+            if any(
+                g.channel == c
+                and g.onset_s <= (n / rate_hz if t1 is None else t1)
+                and (g.end_s is None or g.end_s >= t0)
+                for g in [*findings, *found]
+            ):
+                continue
+            if j not in zeros:
+                zeros[j] = (
+                    reads_zero_for_long(values, j, train, sd, rate_hz)
+                    if train is not None
+                    else c in (zero_at_rest or ())
+                )
+            if zeros[j]:
+                break
+            if not _structure_moves(results, values, channels, j, (since, until), inputs):
+                continue  # at rest: an alive sensor reads zero too (a coarse converter)
+            # the anomalies it explains: those within a long alarm window of its onset
+            near = [(t, d) for t, d in anomalies if abs(t - t0) <= window / rate_hz] or [
+                (onset, d) for t, d in anomalies if t == onset
+            ]
+            lead = min(near, key=lambda a: (c not in estimated.get(a[1], ()), abs(a[0] - t0)))[1]
+            if c not in estimated.get(lead, ()):
+                # none of them estimates it: a detector that does leads (its estimate is
+                # what ``--corrected`` puts in place of the dead readings), if one ran
+                lead = next((r.detector for r in results if c in estimated[r.detector]), lead)
+            seg = read_column(values, j, since, until)
+            seg = seg[np.isfinite(seg)]
+            spread = float(np.std(seg[np.abs(seg - level) <= tol]))
+            f = Finding(
+                c,
+                FaultType.MULTIPLICATIVE,
+                t0,
+                t1,
+                {"gain": 0.0},
+                1.0,
+                lead,
+                evidence={
+                    "detectors": sorted({d for _, d in near}),
+                    "tests": {},
+                    "frozen": {"level": level, "std_ratio": spread / sd, "was": "unattributed"},
+                    "unattributed_s": sorted({t for t, _ in near}),
+                },
+            )
+            found.append(f)
+            notes.append(
+                f"{c} from {t0:.3f} s"
+                + ("" if t1 is None else f" to {t1:.3f} s")
+                + f": dead (reads 0): its readings vary by {spread / sd:.2g} of their healthy "
+                f"spread (the anomaly {', '.join(sorted({d for _, d in near}))} attributed to "
+                f"no sensor at {near[0][0]:.3f} s began with it)"
+            )
+    return found, notes
+
+
+def _frozen_since_from(
+    values: npt.NDArray[Any], j: int, a: int, level: float, tol: float, stop: int, cut: int
+) -> int | None:
+    """``frozen_since(values, j, a, level, tol, stop)`` when it is at row ``cut`` or later,
+    else None, read back no further than that takes: a channel zero for hours was read back
+    to its first zero once per anomaly in it (400 anomalies in a 4 h stretch: 7.2 s).
+    Searched back to ``cut - 2 * FROZEN_RUN``: a run off the level found there is the one
+    the whole search finds; none found, the stretch began before ``cut`` when
+    :data:`FROZEN_RUN` readings at the level follow ``FROZEN_RUN - 1`` rows after that
+    bound (the stretch then begins there at the latest); else the whole search."""
+    bound = max(stop, cut - 2 * FROZEN_RUN)
+    since = frozen_since(values, j, a, level, tol, bound)
+    if since == bound and bound > stop:
+        head = read_column(values, j, bound + FROZEN_RUN - 1, bound + 2 * FROZEN_RUN - 1)
+        if np.any(np.abs(head - level) > tol):  # (NaN: at the level, as in frozen_since)
+            since = frozen_since(values, j, a, level, tol, stop)
+        else:
+            return None
+    return since if since >= cut else None
+
+
+def _structure_moves(
+    results: Sequence[DetectorResult],
+    values: npt.NDArray[Any],
+    channels: Sequence[str],
+    j: int,
+    rows: tuple[int, int],
+    inputs: Collection[str] = (),
+) -> bool:
+    """Whether most of the other channels (not column ``j``, nor the measured
+    ``inputs``) move over the rows ``rows``: their readings vary by more than their noise
+    there, taken as the largest healthy residual spread a detector has for them (what no
+    estimate of them explains: a sensor's noise and more). More than their noise: the
+    variance of the readings is at least twice the noise's, the structure's share of it
+    at least the noise's own.
+
+    A dead sensor reads zero while the structure moves; at rest, every sensor reads its
+    noise alone, and one whose noise lies below its converter's step reads exactly zero,
+    alive: the 5-floor building at rest for 30 s, its s2 quantized to exact zeros there,
+    was a dead sensor to :func:`dead_unattributed` (its neighbours' readings varied by
+    0.24-1.27 of each detector's healthy residual spread of them there; beside two
+    sensors dead on a quiet stretch of ``sweep_dead_pairs.py``, by 5.3-10)."""
+    judged = moving = 0
+    for k, c in enumerate(channels):
+        noise = max((r.sigma[c] for r in results if c in r.sigma), default=0.0)
+        if k == j or c in inputs or not noise > 0:
+            continue
+        seg = read_column(values, k, rows[0], rows[1])
+        seg = seg[np.isfinite(seg)]
+        if seg.size < MIN_FLAT_SAMPLES:
+            continue
+        judged += 1
+        moving += float(np.var(seg)) > 2.0 * noise * noise
+    return moving * 2 > judged
 
 
 FROZEN_SHARE = 0.9
@@ -361,3 +593,87 @@ def healthy_stats(
         moments.add(np.asarray(block, dtype=np.float64))
     mean, std, _ = moments.stats()
     return {c: (float(mean[j]), float(std[j])) for j, c in enumerate(channels) if moments.n[j] >= 2}
+
+
+def revived_gains(
+    findings: Sequence[Finding], results: Sequence[DetectorResult], rate_hz: float, n: int
+) -> tuple[list[Finding], list[str]]:
+    """The gains that go on after a dead spell: a finding each, and a note, for each gain
+    that :func:`frozen_notes` made a dead sensor to where its readings moved again
+    (evidence ``frozen`` with ``until_s``, ``was`` multiplicative) whose lead detector's
+    residual from there to the end it saw is a gain fault of its own.
+
+    A sensor dead from its fault's onset and alive again before the fault's end is a
+    dead sensor to its revival (:func:`_dead_from_onset`); the readings after are the
+    healthy ones the detectors took for the same fault, or a lasting fault that follows
+    the dead spell. An offset, drift or stuck level after it keeps the whole finding
+    (:func:`_alive_after`: its readings leave the healthy mean), a gain does not (a gain
+    keeps the mean): a sensor dead from 120 to 124 s, then at a gain of 0.5 to the
+    record's end, was reported dead to 124.03 s only, its gain lost (0.62 sd of error in
+    its corrected readings after 124 s), while all three detectors had seen a gain of
+    0.45-0.49 from 120 s to the end. The residual over the revived readings, against the
+    detector's fault-free estimate, tells them apart as the detectors classify every
+    fault (:func:`~analyzer.diagnosis.classify.classify`, with the channel's healthy
+    residual spread) from a long alarm window after the revival (the filters fed the
+    dead readings settle first), over at least one more, up to the first finding of
+    another sensor under way (the estimate takes the other sensors in: a sensor dead
+    120-220 s beside one dead 150-250 s, its finding run on to 249.9 s, read a gain of
+    1.13 over its healthy revived readings): a gain explains it, or, over healthy
+    readings, nothing does. The gain's finding begins at the revival and ends
+    where the detectors saw the fault end; it keeps the detectors' events (the same
+    fault, seen from its onset)."""
+    from analyzer.diagnosis.classify import MIN_GAIN, classify
+
+    window = max(MIN_FLAT_SAMPLES, LONG_FACTOR * default_window(rate_hz))
+    found: list[Finding] = []
+    notes: list[str] = []
+    for f in findings:
+        frozen = f.evidence.get("frozen", {})
+        if frozen.get("was") != str(FaultType.MULTIPLICATIVE) or "until_s" not in frozen:
+            continue
+        lead = next((r for r in results if r.detector == f.detector), None)
+        if lead is None or f.channel not in lead.residuals or f.channel not in lead.reference:
+            continue
+        sigma = lead.sigma.get(f.channel)
+        a = int(round(frozen["until_s"] * rate_hz))
+        end = frozen.get("alarmed_to_s")
+        b = n if end is None else min(n, int(round(end * rate_hz)))
+        # judged from a long alarm window after the revival, over one at least: the
+        # filters fed the dead readings settle first (gains of 1.05-1.16 over the first
+        # 0.4-3 s of healthy revived readings, where the detectors' fault ran on)
+        c = a + window
+        # and only while no other sensor's finding is under way: the estimate takes the
+        # other sensors in (a dead one's estimate of a healthy one is off; law 0)
+        stop = b
+        for g in findings:
+            if g.channel != f.channel and (g.end_s is None or g.end_s * rate_hz > c):
+                stop = min(stop, max(a, int(round(g.onset_s * rate_hz))))
+        if stop - c < window or sigma is None or not sigma > 0:
+            continue
+        # (views: the classification reads them a piece at a time)
+        got = classify(
+            lead.residuals[f.channel][c:stop], lead.reference[f.channel][c:stop], sigma, rate_hz
+        )
+        gain = got.magnitude.get("gain")
+        if got.type is not FaultType.MULTIPLICATIVE or gain is None or abs(gain) < MIN_GAIN:
+            continue
+        g = Finding(
+            f.channel,
+            FaultType.MULTIPLICATIVE,
+            a / rate_hz,
+            None if b >= n else b / rate_hz,
+            {"gain": float(gain)},
+            f.confidence,
+            f.detector,
+            evidence={k: v for k, v in f.evidence.items() if k not in ("frozen",)}
+            | {"revived_s": [f.onset_s, a / rate_hz]},
+            events=list(f.events),
+        )
+        found.append(g)
+        notes.append(
+            f"{f.channel} from {g.onset_s:.3f} s"
+            + ("" if g.end_s is None else f" to {g.end_s:.3f} s")
+            + f": a gain of {gain:.3g} after its dead spell from {f.onset_s:.3f} s (the "
+            f"residual of {f.detector} over its readings alive again)"
+        )
+    return found, notes

@@ -6,8 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from analyzer.detectors.base import DetectorResult
 from analyzer.diagnosis.merge import Finding
-from analyzer.diagnosis.stuck import relabel_frozen
+from analyzer.diagnosis.stuck import (
+    dead_unattributed,
+    healthy_stats,
+    relabel_frozen,
+    revived_gains,
+)
 from analyzer.pipeline import RunOptions, analyze
 from analyzer.simulate import simulate_building
 from analyzer.types import FaultType
@@ -333,3 +339,167 @@ def test_a_channel_that_reads_zero_when_healthy_is_not_dead_from_its_onset():
     assert not any("frozen" in f.evidence for f in found[:2])
     assert (found[2].type, found[2].end_s) == (FaultType.MULTIPLICATIVE, 19.0)
     assert note.startswith("c from 15.000 s to 19.000 s: dead (reads 0)")
+
+
+def test_a_dead_sensor_in_an_anomaly_no_detector_attributed_is_found_by_its_readings():
+    """Anomalies the detectors attributed to no sensor at 14.7 s (``df``, which estimates
+    every channel), 15.0 s (``em``, which estimates none) and 38.0 s. Channel a reads 0
+    from 15 to 27 s: a dead sensor, found (gain 0, from where it froze to where it moved
+    again), its lead the detector nearest that estimates it. Not found: b, zero for 1 s
+    only (less than a long alarm window); c, dead 30-35 s, long before the anomaly at
+    38 s; d, dead 15-27 s but with a finding of its own then; e, a measured input; and a
+    itself when the other channels read their noise alone then (the structure at rest),
+    or when its healthy readings read zero for long in the training window (``--model``:
+    as the model saved it; not known in a model saved before, and then not judged)."""
+    rng = np.random.default_rng(9)
+    values = rng.standard_normal((9000, 5))
+    values[3000:5400, 0] = 0.0
+    values[3000:3200, 1] = 0.0
+    values[6000:7000, 2] = 0.0
+    values[3000:5400, 3:] = 0.0
+    names = list("abcde")
+
+    def result(name: str, at: list[float], estimates: bool) -> DetectorResult:
+        residuals = {c: np.zeros(9000) for c in names} if estimates else {}
+        unattributed = [(t, ("b",), ()) for t in at]
+        sigma = dict.fromkeys(residuals, 0.1)  # (the channels' noise)
+        return DetectorResult(
+            name, tuple(names), {}, [], residuals, sigma=sigma, unattributed=unattributed
+        )
+
+    results = [result("df", [14.7, 38.0], True), result("em", [15.0], False)]
+    own = [Finding("d", FaultType.OTHER, 16.0, 26.0, {"rms": 1.0}, 1.0, "df")]
+    healthy = {c: (0.0, 1.0) for c in names}
+    found, notes = dead_unattributed(
+        results, own, values, names, RATE, healthy, (0, 2000), 0, ("e",)
+    )
+    assert [(f.channel, f.type, f.onset_s, f.end_s, f.magnitude, f.detector) for f in found] == [
+        ("a", FaultType.MULTIPLICATIVE, 15.0, 27.0, {"gain": 0.0}, "df")
+    ]
+    (f,) = found
+    assert f.evidence["detectors"] == ["df", "em"] and f.evidence["unattributed_s"] == [14.7, 15.0]
+    assert f.evidence["frozen"]["was"] == "unattributed"
+    (note,) = notes
+    assert note.startswith("a from 15.000 s to 27.000 s: dead (reads 0)")
+    rest = values.copy()  # the structure at rest: every other channel reads its noise
+    rest[3000:5400, 1:] *= 0.1
+    assert (
+        dead_unattributed(results, own, rest, names, RATE, healthy, (0, 2000), 0, ("e",))[0] == []
+    )
+    values[500:1000, 0] = 0.0  # zero for long in training: its zeros say nothing
+    assert (
+        dead_unattributed(results, own, values, names, RATE, healthy, (0, 2000), 0, ("e",))[0] == []
+    )
+    # --model: no training rows, the channels reading zero at rest as the model saved them
+    for zeros, count in (((), 1), (("a",), 0), (None, 0)):  # (None: an older model's)
+        found = dead_unattributed(
+            results, own, values, names, RATE, healthy, None, 0, ("e",), zeros
+        )
+        assert len(found[0]) == count
+    # no anomaly near it of a detector that estimates it (em's at 15.0 s, twice: one per
+    # channel group): df, which estimates it, leads (--corrected takes its estimate), and
+    # the onset is given once
+    late = [result("df", [38.0], True), result("em", [15.0, 15.0], False)]
+    (f,) = dead_unattributed(late, own, values, names, RATE, healthy, None, 0, ("e",), ())[0]
+    assert (f.detector, f.evidence["detectors"], f.evidence["unattributed_s"]) == (
+        "df",
+        ["em"],
+        [15.0],
+    )
+
+
+def test_a_dead_spell_then_a_gain_keeps_the_gain_from_the_revival(tmp_path):
+    """The 5-floor building (seed 11, 100 Hz, 200 s, trained on 0-80 s): s2 dead from 120
+    to 124 s, then at a gain of 0.5 to the end. Every detector saw one gain of 0.45-0.49
+    from 120 s to the end; its readings read zero from the onset, so it was a dead sensor
+    to 124.03 s only, the gain lost (``--corrected``: 0.62 sd of error after 124 s). Now
+    the dead spell and, from the revival, the gain, which ``--corrected`` divides out.
+    The same sensor dead 120-124 s only keeps its one finding (the control)."""
+    t, y0, names = simulate_building(5, 200.0, 100.0, seed=11)
+    for gain in (0.5, None):
+        y = y0.copy()
+        y[12000:12400, 2] = 0.0
+        if gain is not None:
+            y[12400:, 2] *= gain
+        path = tmp_path / f"gain{gain}.csv"
+        write_archive(
+            path,
+            "csv",
+            np.round(t * 1e9).astype(np.int64),
+            {n: y[:, j] for j, n in enumerate(names)},
+        )
+        analysis = analyze([path], RunOptions(train="0:80", corrected=True))
+        got = [(f.type, f.onset_s, f.end_s, f.magnitude) for f in analysis.findings]
+        dead = (FaultType.MULTIPLICATIVE, 120.0, pytest.approx(124.0, abs=0.05), {"gain": 0.0})
+        if gain is None:
+            assert got == [dead]
+            continue
+        assert got[0] == dead and len(got) == 2
+        kind, onset, end, magnitude = got[1]
+        assert (kind, end) == (FaultType.MULTIPLICATIVE, None)
+        assert onset == pytest.approx(124.0, abs=0.05)
+        assert magnitude["gain"] == pytest.approx(0.5, abs=0.02)
+        fixed = np.asarray(analysis.corrected)[12500:, 2]
+        err = np.sqrt(np.mean((fixed - y0[12500:, 2]) ** 2)) / y0[:8000, 2].std()
+        assert err < 0.05
+
+
+def test_only_a_revived_gain_of_its_own_goes_on_after_a_dead_spell():
+    """Gains made dead from 15 to 20 s, the detectors' fault running on to 40 s: the
+    lead detector's residual over a's revived readings is half its estimate (a gain of
+    0.5 there), over b's healthy noise. a's gain goes on from the revival to 40 s, with
+    the finding's events; b, healthy after its dead spell, gets none; nor does c, whose
+    fault the detectors saw to 23 s, its residual a gain of 1.16 over the 3 s after
+    the revival (the filters settling: judged only from a long alarm window after);
+    nor does a while another sensor's finding is under way from before that."""
+    rng = np.random.default_rng(10)
+    n = 9000
+    k = np.arange(n) / RATE
+    reference = {c: np.sin(2 * np.pi * 1.3 * k + p) for c, p in (("a", 0.0), ("b", 1.0))}
+    residuals = {c: 0.05 * rng.standard_normal(n) for c in "ab"}
+    residuals["a"][4000:8000] -= 0.5 * reference["a"][4000:8000]
+    reference["c"] = reference["a"]
+    residuals["c"] = 0.05 * rng.standard_normal(n)
+    residuals["c"][4000:4600] += 0.16 * reference["c"][4000:4600]
+    lead = DetectorResult(
+        "df", ("a", "b", "c"), {}, [], residuals, reference, sigma=dict.fromkeys("abc", 0.05)
+    )
+    found = []
+    for c, to in (("a", 40.0), ("b", 40.0), ("c", 23.0)):
+        f = Finding(c, FaultType.MULTIPLICATIVE, 15.0, 20.0, {"gain": 0.0}, 0.9, "df")
+        f.evidence = {
+            "detectors": ["df"],
+            "frozen": {"was": "multiplicative", "until_s": 20.0, "alarmed_to_s": to},
+        }
+        found.append(f)
+    more, notes = revived_gains(found, [lead], RATE, n)
+    (g,) = more
+    assert (g.channel, g.type, g.onset_s, g.end_s) == ("a", FaultType.MULTIPLICATIVE, 20.0, 40.0)
+    assert g.magnitude["gain"] == pytest.approx(0.5, abs=0.01)
+    assert g.evidence["revived_s"] == [15.0, 20.0] and "frozen" not in g.evidence
+    assert notes[0].startswith("a from 20.000 s to 40.000 s: a gain of 0.5")
+    # another sensor's fault under way from before the judged stretch: its estimate is off
+    beside = Finding("x", FaultType.MULTIPLICATIVE, 18.0, 45.0, {"gain": 0.0}, 0.9, "df")
+    assert revived_gains([found[0], beside], [lead], RATE, n) == ([], [])
+    beside.onset_s = 30.0  # from later: judged before it, and the gain goes on to 40 s
+    (g,) = revived_gains([found[0], beside], [lead], RATE, n)[0]
+    assert (g.onset_s, g.end_s) == (20.0, 40.0)
+
+
+def test_the_channels_that_read_zero_when_healthy_are_known_from_the_statistics_too():
+    """The pipeline hands the channels' healthy statistics, not the training window, to
+    the frozen check, which then knew no channel that reads zero when healthy (at
+    8419bb2: the guard held only for callers that gave the window). Given the window
+    beside the statistics, the coarse channel's oscillation growing about its healthy
+    mean (``other``), which reads zero for its first seconds, keeps its type; given none
+    (``--model``), it reads dead from its onset (its revived readings sit at the mean)."""
+    rng = np.random.default_rng(7)
+    x = 0.35 * rng.standard_normal((9000, 1))
+    k = np.arange(6000) / RATE
+    x[3000:, 0] += 0.15 * k * np.sin(2 * np.pi * 5.0 * k)
+    values = np.round(x)
+    stats = healthy_stats(values, ["a"], (0, 2000))
+    for train, kind in (((0, 2000), FaultType.OTHER), (None, FaultType.MULTIPLICATIVE)):
+        f = Finding("a", FaultType.OTHER, 15.0, None, {"rms": 1.0}, 1.0, "df")
+        relabel_frozen([f], values, ["a"], RATE, stats, 0, train)
+        assert f.type is kind
