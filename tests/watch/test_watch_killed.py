@@ -760,6 +760,27 @@ def test_a_file_renamed_past_a_name_taken_since_is_the_one_recorded(
         assert _analyses(tmp_path) == [str(sorted(content))]
 
 
+def _killed_with_the_copies_taken_away(settings: WatchSettings, done: Path, away: Path) -> None:
+    """A watcher killed once the first source of its move was removed; then ``--done``'s
+    files taken away to ``away`` (a mount not mounted yet; a downstream job took them)."""
+    _run_killed(settings, lambda undo: _killed_at_an_inbox_unlink(2, undo))
+    for p in done.iterdir():
+        shutil.move(p, away / p.name)
+
+
+def _recorded_with_a_move(tmp_path: Path, moving: Any) -> tuple[Path, Path, Path]:
+    """REPORTS with ``a.csv`` recorded once and its state's ``moving`` set to ``moving``
+    (as edited by hand), an empty INBOX: the REPORTS, the INBOX and the state file."""
+    reports, inbox = tmp_path / "reports", tmp_path / "inbox"
+    inbox.mkdir()
+    _recorded_once(reports)
+    state = reports / ".watch-state.json"
+    doc = json.loads(state.read_text())
+    doc["archives"]["a.csv"]["moving"] = moving
+    state.write_text(json.dumps(doc))
+    return reports, inbox, state
+
+
 def test_a_move_whose_removed_part_is_not_found_is_kept_not_undone(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
 ) -> None:
@@ -773,9 +794,7 @@ def test_a_move_whose_removed_part_is_not_found_is_kept_not_undone(
     away.mkdir()
     with _done_folder(tmp_path, monkeypatch, other=True) as done:
         settings = _settings(tmp_path, done)
-        _run_killed(settings, lambda undo: _killed_at_an_inbox_unlink(2, undo))
-        for p in done.iterdir():
-            shutil.move(p, away / p.name)
+        _killed_with_the_copies_taken_away(settings, done, away)
         caplog.set_level(logging.INFO, logger="analyzer.watch")
         watch(settings, RunOptions())
         said = [r.getMessage() for r in caplog.records]
@@ -801,13 +820,7 @@ def test_a_move_edited_by_hand_in_the_state_is_ignored(
 ) -> None:
     """A state file edited by hand whose move cannot be read: the start says so and
     goes on without it (it stopped with an IndexError at every start)."""
-    reports, inbox = tmp_path / "reports", tmp_path / "inbox"
-    inbox.mkdir()
-    _recorded_once(reports)
-    state = reports / ".watch-state.json"
-    doc = json.loads(state.read_text())
-    doc["archives"]["a.csv"]["moving"] = moving
-    state.write_text(json.dumps(doc))
+    reports, inbox, state = _recorded_with_a_move(tmp_path, moving)
     caplog.set_level(logging.INFO, logger="analyzer.watch")
     settings = WatchSettings(inbox=inbox, reports=reports, settle=0.2, poll=0.05, once=True)
     assert watch(settings, RunOptions()) == 0
@@ -821,13 +834,9 @@ def test_a_move_of_relative_paths_in_the_state_is_ignored(
     """A hand-edited move of relative paths: ignored with a warning, nothing of the
     watcher's folder touched. Before, it was read as paths in the watcher's working
     folder: a ``.partial-`` file there was removed as the move's copy."""
-    reports, inbox = tmp_path / "reports", tmp_path / "inbox"
-    inbox.mkdir()
-    _recorded_once(reports)
-    state = reports / ".watch-state.json"
-    doc = json.loads(state.read_text())
-    doc["archives"]["a.csv"]["moving"] = [["a.csv", ".partial-a.csv-0123abcd", "a.csv"]]
-    state.write_text(json.dumps(doc))
+    reports, inbox, state = _recorded_with_a_move(
+        tmp_path, [["a.csv", ".partial-a.csv-0123abcd", "a.csv"]]
+    )
     monkeypatch.chdir(tmp_path)
     (tmp_path / ".partial-a.csv-0123abcd").write_text("someone's")
     caplog.set_level(logging.INFO, logger="analyzer.watch")
@@ -851,9 +860,7 @@ def test_a_move_kept_for_the_next_start_outlives_its_report_folder(
     away.mkdir()
     with _done_folder(tmp_path, monkeypatch, other=True) as done:
         settings = _settings(tmp_path, done)
-        _run_killed(settings, lambda undo: _killed_at_an_inbox_unlink(2, undo))
-        for p in done.iterdir():
-            shutil.move(p, away / p.name)
+        _killed_with_the_copies_taken_away(settings, done, away)
         shutil.rmtree(tmp_path / "in" / "reports" / "A")
         watch(settings, RunOptions())
         assert [p.name for p in inbox.iterdir()] == ["A_part1.csv"]
