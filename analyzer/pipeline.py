@@ -921,9 +921,7 @@ def _analyze(
             )
             timings["ends without"] = time.perf_counter() - t_ends
         moved = [f for f in findings if periods[id(f)] != (f.onset_s, f.end_s)]
-        # (--model: no training rows of its own, the channels reading zero at rest saved)
-        rows = train if reused is None else None
-        zeros = None if reused is None else reused.zero_at_rest
+        rows, zeros = _at_rest(train, reused)
         notes.extend(
             relabel_frozen(moved, values, chosen, aligned.rate_hz, healthy, train[1], rows, zeros)
         )
@@ -1668,6 +1666,17 @@ def _weak_findings_note(findings: Sequence[Finding], false_alarm_rate: float) ->
     ]
 
 
+def _at_rest(
+    train: tuple[int, int], reused: SavedModel | None
+) -> tuple[tuple[int, int] | None, tuple[str, ...] | None]:
+    """What the frozen checks know of the channels that read zero when healthy: the
+    training rows of a plain run, or, with ``--model`` (no training rows of its own), the
+    channels its model saved as reading zero at rest (None: a model saved before)."""
+    if reused is None:
+        return train, None
+    return None, reused.zero_at_rest
+
+
 def _diagnose(
     results: list[DetectorResult],
     values: Any,
@@ -1716,9 +1725,7 @@ def _diagnose(
     # a frozen sensor's fault from where it froze, before one fault at a time weighs
     # which fault was under way when (a dead sensor's first alarms can come seconds late)
     # (the notes of those it keeps: a finding taken for another's fault has none)
-    # (--model: no training rows of its own, the channels reading zero at rest saved)
-    own = train if reused is None else None
-    zeros = None if reused is None else reused.zero_at_rest
+    own, zeros = _at_rest(train, reused)
     frozen = frozen_notes(findings, values, chosen, rate_hz, healthy, train[1], own, zeros)
     # a lone equivalent-model fault that the residuals taking its sensor's reading in do
     # not carry: the relation's error under a change of the response, not the reading's

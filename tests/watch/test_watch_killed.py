@@ -768,6 +768,18 @@ def _killed_with_the_copies_taken_away(settings: WatchSettings, done: Path, away
         shutil.move(p, away / p.name)
 
 
+def _mounted_again_and_ended(
+    settings: WatchSettings, away: Path, done: Path, content: dict[str, bytes]
+) -> None:
+    """The copies taken away (:func:`_killed_with_the_copies_taken_away`) put back in
+    ``--done``: the next start ends the move, INBOX empty, ``--done`` holding the archive."""
+    for p in away.iterdir():  # (mounted)
+        shutil.move(p, done / p.name)
+    assert watch(settings, RunOptions()) == 0
+    assert not any(settings.inbox.iterdir())
+    assert {p.name: p.read_bytes() for p in done.iterdir()} == content
+
+
 def _recorded_with_a_move(tmp_path: Path, moving: Any) -> tuple[Path, Path, Path]:
     """REPORTS with ``a.csv`` recorded once and its state's ``moving`` set to ``moving``
     (as edited by hand), an empty INBOX: the REPORTS, the INBOX and the state file."""
@@ -803,11 +815,7 @@ def test_a_move_whose_removed_part_is_not_found_is_kept_not_undone(
         assert [p.name for p in inbox.iterdir()] == ["A_part1.csv"]
         assert _analyses(tmp_path) == [str(sorted(content))]
         assert _state_record(tmp_path)["moving"]
-        for p in away.iterdir():  # (mounted)
-            shutil.move(p, done / p.name)
-        assert watch(settings, RunOptions()) == 0
-        assert not any(inbox.iterdir())
-        assert {p.name: p.read_bytes() for p in done.iterdir()} == content
+        _mounted_again_and_ended(settings, away, done, content)
         rec = _state_record(tmp_path)
         assert "moving" not in rec
         assert sorted(rec["moved_to"]) == [str(done / name) for name in sorted(content)]
@@ -866,11 +874,7 @@ def test_a_move_kept_for_the_next_start_outlives_its_report_folder(
         assert [p.name for p in inbox.iterdir()] == ["A_part1.csv"]
         assert _analyses(tmp_path) == [str(sorted(content))]
         assert _state_record(tmp_path)["moving"]
-        for p in away.iterdir():  # (mounted)
-            shutil.move(p, done / p.name)
-        assert watch(settings, RunOptions()) == 0
-        assert not any(inbox.iterdir())
-        assert {p.name: p.read_bytes() for p in done.iterdir()} == content
+        _mounted_again_and_ended(settings, away, done, content)
         assert _analyses(tmp_path) == [str(sorted(content))]
 
 
