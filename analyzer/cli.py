@@ -420,19 +420,14 @@ def _run_options(args: argparse.Namespace) -> Any:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """From the real entry point, the report's figures are drawn by worker processes
-    whose server starts first, before this process imports the report and the pipeline
-    (a second of start-up on one core), and imports matplotlib on the other meanwhile,
-    see :mod:`analyzer.report.workers`; called in-process (tests, embedding), they are
+    whose server starts first and imports matplotlib while this process imports the
+    pipeline (a second of start-up on one core: the other is idle), see
+    :mod:`analyzer.report.workers`; called in-process (tests, embedding), they are
     drawn in-process, with the same result."""
     if not getattr(args, "figure_processes", False):
         from analyzer.pipeline import run
 
         return run(args.inputs, Path(args.out), _run_options(args))
-    from analyzer.figure_server import start_server
-
-    # (where it cannot start, figure_workers tries again, says why and draws in-process)
-    with contextlib.suppress(Exception):
-        start_server()
     from analyzer.paging import tune_heap
 
     if not args.scheduler:  # (a cluster's client frees the blocks it sends: let them go)

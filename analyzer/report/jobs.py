@@ -21,12 +21,12 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from analyzer.figure_server import PRELOAD_MODULE
-
 FloatArray = npt.NDArray[np.float64]
 
 FIGURES_MODULE = "analyzer.report.figures"
 """The module whose functions draw the figures (imported only where a figure is drawn)."""
+PRELOAD_MODULE = "analyzer.report.preload"
+"""What fork servers preload: :data:`FIGURES_MODULE`, without stopping on its errors."""
 MAX_POINTS = 1000
 """Envelope bins per plotted series (a browser draws this many instantly)."""
 

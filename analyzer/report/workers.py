@@ -6,10 +6,9 @@ idle, and matplotlib holds the GIL, so threads cannot share the work. The CLI th
 enters :func:`figure_workers` first thing in ``run``:
 
 * a ``forkserver`` (a multiprocessing *context*, so the default start method of the
-  process is not changed) is started with :data:`~analyzer.figure_server.PRELOAD_MODULE`
-  preloaded (:func:`analyzer.figure_server.start_server`; the CLI starts it even before
-  it imports this module): the server imports matplotlib while the main process imports
-  the report and the pipeline (a second of start-up on one core) and reads the archive;
+  process is not changed) is started with :data:`~analyzer.report.jobs.PRELOAD_MODULE`
+  preloaded: the server imports matplotlib while the main process imports the pipeline
+  (a second of start-up on one core) and reads the archive;
 * at the report, :class:`FigureBatch` submits each figure job as the view describes it
   to a :class:`~concurrent.futures.ProcessPoolExecutor` (at most :data:`MAX_WORKERS`
   workers forked from that server, matplotlib already imported); the main process
@@ -43,13 +42,15 @@ from multiprocessing.connection import wait
 
 from markupsafe import Markup
 
-from analyzer.figure_server import claim_server, start_server
-from analyzer.report.jobs import FigureJob, draw
+from analyzer.report.jobs import PRELOAD_MODULE, FigureJob, draw
 
 log = logging.getLogger("analyzer.report")
 
 MAX_WORKERS = 2
 """Figure processes: the machine this is tuned for has two cores, and eight figures."""
+NICENESS = 10
+"""How much lower than the run the figure processes are scheduled (see
+:meth:`FigureWorkers._yield_cpu`)."""
 JOIN_TIMEOUT_S = 5.0
 """How long a terminated worker is waited for before it is killed."""
 
@@ -80,10 +81,14 @@ class FigureWorkers:
 
     def __init__(self, max_workers: int = MAX_WORKERS) -> None:
         ctx = multiprocessing.get_context("forkserver")
-        # (started now, unless the CLI started it before its imports: then it is this
-        # pool's to stop as well)
-        start_server()
-        self._own_server = claim_server()
+        ctx.set_forkserver_preload([PRELOAD_MODULE])
+        server = getattr(multiprocessing.forkserver, "_forkserver", None)
+        self._own_server = getattr(server, "_forkserver_pid", 0) is None
+        # starts the server now (a fork and exec: milliseconds), not at the first figure:
+        # its imports run on the idle core while this process reads the archive
+        multiprocessing.forkserver.ensure_running()
+        if self._own_server:
+            self._yield_cpu(getattr(server, "_forkserver_pid", None))
         self._lock = threading.Lock()
         self._futures: list[Future[str]] = []
         try:
@@ -93,6 +98,17 @@ class FigureWorkers:
         except BaseException:
             self.close()
             raise
+
+    @staticmethod
+    def _yield_cpu(pid: int | None) -> None:
+        """Lower the server's scheduling priority by :data:`NICENESS` (its workers inherit
+        it): its matplotlib import should take a core the run leaves idle, not compete
+        with the run's reading (a CSV archive is parsed on every core); the figures are
+        needed only at the end, when the workers have the cores to themselves. Without
+        the permission or the call, the server keeps its priority."""
+        if pid is not None:
+            with contextlib.suppress(AttributeError, OSError):
+                os.setpriority(os.PRIO_PROCESS, pid, os.getpriority(os.PRIO_PROCESS, 0) + NICENESS)
 
     @property
     def usable(self) -> bool:

@@ -141,7 +141,7 @@ def test_a_job_that_cannot_be_pickled_is_drawn_in_process():
 def test_the_figure_processes_yield_the_cpu_to_the_run():
     """The server (and so every worker forked from it) runs NICENESS below this process:
     its matplotlib import must not compete with the run's reading."""
-    from analyzer.figure_server import NICENESS
+    from analyzer.report.workers import NICENESS
 
     own = os.getpriority(os.PRIO_PROCESS, 0)
     with figure_workers() as workers:
@@ -229,62 +229,6 @@ def test_cli_pool_path_imports_no_matplotlib_and_leaves_nothing(tmp_path, sample
     assert done.stderr == ""
     assert _leftovers(marker) == []
     assert not any(scratch.iterdir())
-
-
-_ORDER = """
-import json, sys
-import multiprocessing.forkserver as forkserver
-seen = {}
-start = forkserver.ensure_running
-def ensure_running():
-    seen.setdefault("imported", [m for m in HEAVY if m in sys.modules])
-    return start()
-forkserver.ensure_running = ensure_running
-from analyzer.cli import main
-code = main(sys.argv[1:], figure_processes=True)
-print(json.dumps({"code": code, **seen}))
-"""
-
-
-def test_cli_starts_the_figure_server_before_its_heavy_imports(tmp_path):
-    """The server's preload (matplotlib, 1.3-1.4 s of CPU) runs while this process
-    imports the report and the pipeline (a second on one core), not later beside the
-    reading: the CLI starts the server before it imports either (it started it from
-    :mod:`analyzer.report.workers`, whose package imports the diagnosis and numba)."""
-    heavy = ["analyzer.report", "analyzer.pipeline", "analyzer.diagnosis", "numba", "scipy"]
-    code = f"HEAVY = {heavy!r}\n" + _ORDER
-    args = ["run", str(SAMPLE), "--out", str(tmp_path / "o"), "--no-progress"]
-    done = subprocess.run(
-        [sys.executable, "-c", code, *args],
-        capture_output=True,
-        text=True,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
-        timeout=300,
-    )
-    assert done.returncode == 0, done.stderr
-    seen = json.loads(done.stdout.strip().splitlines()[-1])
-    assert seen == {"code": 1, "imported": []}, done.stderr
-
-
-def test_a_pool_stops_the_server_the_cli_started():
-    """The server started early (:func:`analyzer.figure_server.start_server`, as the CLI
-    does) is the figure pool's to stop, as one it started itself; one started otherwise
-    (the watcher's) is left to its starter."""
-    from analyzer.figure_server import start_server
-
-    start_server()
-    early = _server_pid()
-    assert early is not None
-    with figure_workers() as workers:
-        assert workers is not None and _server_pid() == early
-    assert _server_pid() is None
-    multiprocessing.forkserver.ensure_running()  # not through start_server
-    try:
-        with figure_workers() as workers:
-            assert workers is not None
-        assert _server_pid() is not None
-    finally:
-        multiprocessing.forkserver._forkserver._stop()
 
 
 _PRELOAD = """
