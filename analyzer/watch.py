@@ -1691,11 +1691,7 @@ class _Runner:
                 "%s: abandoned (exit code %s); it will be analyzed on the next start", name, code
             )
             return
-        try:
-            current = signature(job.archive.paths, self.settings.inbox)
-        except OSError:
-            current = None
-        if current != job.archive.signature:
+        if not self._as_found(job.archive):
             shutil.rmtree(job.scratch, ignore_errors=True)
             log.info(
                 "%s: changed or removed while it was analyzed; result discarded "
@@ -1867,6 +1863,23 @@ class _Runner:
         with contextlib.suppress(OSError):  # (left in the folder, it harms nothing)
             path.unlink()
 
+    def _as_found(self, archive: ReadyArchive) -> bool:
+        """Whether INBOX holds ``archive`` as it was found: its files unchanged and, with
+        ``--group-by``, no member dropped since (its members listed again). Asked before
+        its analysis is recorded and before its move, as after its copies: a member
+        dropped while the others were analyzed had them recorded and moved without it,
+        and was then analyzed alone as the archive (the first result kept aside)."""
+        inbox, group_by = self.settings.inbox, self.settings.group_by
+        try:
+            listed = (
+                archive.paths
+                if group_by is None
+                else archive_paths(inbox, archive.name, group_by, self.exclude)
+            )
+            return listed == archive.paths and signature(archive.paths, inbox) == archive.signature
+        except OSError:
+            return False
+
     def _move(self, archive: ReadyArchive, rec: Record) -> None:
         """``--done`` / ``--failed``: move the archive's files out of INBOX, once its hold
         is over (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`: until then, a
@@ -1884,14 +1897,10 @@ class _Runner:
         if time.monotonic() < archive.hold_until:
             self.moves[archive.name] = (archive, rec)
             return
-        try:
-            current = signature(archive.paths, self.settings.inbox)
-        except OSError:
-            current = None
-        if current != archive.signature:  # a writer still at it: moving would split it
+        if not self._as_found(archive):  # a writer still at it: moving would split it
             log.warning(
                 "%s: not moved to %s: it changed since it was found complete (still being "
-                "written?)",
+                "written, or a member dropped since?); it is looked at again once it has settled",
                 archive.name,
                 folder,
             )
@@ -2001,13 +2010,7 @@ class _Runner:
 
         try:
             c.future.result()
-            inbox, group_by = self.settings.inbox, self.settings.group_by
-            try:  # (a member dropped meanwhile: moved without it, it was analyzed alone)
-                paths = archive_paths(inbox, name, group_by, self.exclude)
-                current = signature(paths, inbox) if paths == archive.paths else None
-            except OSError:
-                current = None
-            if current != archive.signature:
+            if not self._as_found(archive):
                 for copy in c.copies:
                     _remove(copy)
                 c.tell([])
