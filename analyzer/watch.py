@@ -150,6 +150,8 @@ from __future__ import annotations
 import argparse
 import contextlib
 import copy
+import ctypes
+import ctypes.util
 import errno
 import hashlib
 import json
@@ -630,15 +632,87 @@ def _moving_of(
     return [[str(s), str(c) if c else "", str(t)] for s, c, t in lines]
 
 
+_RENAME_NOREPLACE, _AT_FDCWD = 1, -100  # linux/fs.h, fcntl.h
+
+
+def _renameat2_function() -> Any:
+    try:
+        fn = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True).renameat2
+    except (OSError, AttributeError):  # not Linux, or a C library before glibc 2.28
+        return None
+    fn.argtypes = (ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint)
+    return fn
+
+
+_RENAMEAT2 = _renameat2_function()
+
+_NO_HARD_LINKS = (errno.EPERM, errno.EOPNOTSUPP, errno.ENOSYS, errno.EMLINK, errno.EXDEV)
+"""``link`` errors of a file system without hard links (vfat, some network shares)."""
+
+
+def _rename_new(source: Path, target: Path) -> None:
+    """Rename ``source`` to ``target`` (the same file system), never replacing a file
+    there: :class:`FileExistsError` where ``target`` exists, made by another process
+    since it was looked at too. ``renameat2(RENAME_NOREPLACE)`` (Linux); where it is
+    missing or refused (a file system without it), a file is linked to ``target`` and
+    then unlinked (``link`` never replaces), and a folder, which cannot be, renamed
+    after a look (a rename replaces only an empty folder; a file or a folder that holds
+    anything fails it). Before, a look then ``rename``: a file made in between was lost."""
+    if _RENAMEAT2 is not None:
+        src, dst = os.fsencode(source), os.fsencode(target)
+        if _RENAMEAT2(_AT_FDCWD, src, _AT_FDCWD, dst, _RENAME_NOREPLACE) == 0:
+            return
+        err = ctypes.get_errno()
+        if err not in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP):
+            raise OSError(err, os.strerror(err), str(source), None, str(target))
+    if source.is_dir() and not source.is_symlink():
+        if os.path.lexists(target):
+            raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), str(target))
+        try:
+            os.rename(source, target)
+        except OSError as err:
+            if err.errno in (errno.ENOTEMPTY, errno.EEXIST, errno.ENOTDIR):
+                raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), str(target)) from err
+            raise
+        return
+    try:
+        os.link(source, target, follow_symlinks=False)
+    except OSError as err:
+        if err.errno not in _NO_HARD_LINKS:
+            raise
+        if os.path.lexists(target):  # (no hard links: a look, then the rename, as before)
+            raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), str(target)) from err
+        os.rename(source, target)
+        return
+    os.unlink(source)
+
+
+def _linked(source: Path, target: Path) -> bool:
+    """Whether ``source`` and ``target`` are one file by two names: a rename by
+    :func:`_rename_new`'s link and unlink stopped between them."""
+    try:
+        a, b = os.lstat(source), os.lstat(target)
+    except OSError:
+        return False
+    return (a.st_dev, a.st_ino) == (b.st_dev, b.st_ino)
+
+
 def _place(path: Path, targets: list[Path], k: int, tell: Callable[[], None]) -> Path:
     """``path`` renamed to ``targets[k]``, or, where that name was taken since it was
     planned, to a free one (``targets[k]`` updated) told first (``tell``: the state
-    file), so that the record names the archive's own file."""
-    if os.path.lexists(targets[k]):
-        targets[k] = _free_of(targets[k].parent, targets[k].name, targets)
-        tell()
-    os.rename(path, targets[k])
-    return targets[k]
+    file), so that the record names the archive's own file. The rename never replaces
+    a file (:func:`_rename_new`): a name taken between the look and the rename is
+    found taken by the rename itself, and another free one told and tried."""
+    while True:
+        if os.path.lexists(targets[k]):
+            targets[k] = _free_of(targets[k].parent, targets[k].name, targets)
+            tell()
+        try:
+            _rename_new(path, targets[k])
+            return targets[k]
+        except FileExistsError:
+            if not os.path.lexists(targets[k]):  # (not a name taken: never tried again)
+                raise
 
 
 class MoveCancelled(Exception):
@@ -1022,9 +1096,11 @@ def _end_move(
                 _remove(copy, strict=True)  # (truncated: its source is gone)
             continue
         _place(copy if copy is not None else source, targets, k, tell)
-    for (source, copy, _), placed in zip(lines, placeable, strict=True):
+    for (source, copy, _), placed, target in zip(lines, placeable, targets, strict=True):
         if placed and copy is not None and is_of(source, source, whole=False):
             _remove(source, strict=True)
+        elif placed and copy is None and _linked(source, target):
+            _remove(source, strict=True)  # (its rename by link and unlink, killed between)
     moved = [str(t) for t, placed in zip(targets, placeable, strict=True) if placed]
     return ("finished" if all(placeable) else "gone"), moved
 
@@ -1249,9 +1325,16 @@ class _Copying:
 
 
 def _rename(path: Path, folder: Path) -> Path:
-    target = _free_name(folder, path.name)
-    os.rename(path, target)
-    return target
+    """``path`` renamed into ``folder`` under a free name (:func:`_free_name`), never
+    over a file made there since that name was found free (:func:`_rename_new`)."""
+    while True:
+        target = _free_name(folder, path.name)
+        try:
+            _rename_new(path, target)
+            return target
+        except FileExistsError:
+            if not os.path.lexists(target):
+                raise
 
 
 def _remove(path: Path, strict: bool = False) -> None:

@@ -1,0 +1,138 @@
+"""A name in ``--done`` taken by another process between the watcher's look and its
+rename (:func:`analyzer.watch._place`, :func:`analyzer.watch._rename`): never replaced.
+
+The other process's file is made by the look itself (``os.path.lexists`` of the
+target, from the function that looks), so that these tests hold on any machine."""
+
+from __future__ import annotations
+
+import errno
+import os
+import sys
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import pytest
+from test_watch_killed import OTHER, _archive, _done_folder, _settings, _state_record, _two_parts
+
+from analyzer import watch as watch_module
+from analyzer.options import RunOptions
+from analyzer.watch import watch
+
+
+def _taken_after_look(monkeypatch: pytest.MonkeyPatch, target: Path, looker: str) -> list[bool]:
+    """Make ``target`` (another process's file) right after ``looker`` found it free;
+    returns a list that holds True once it was."""
+    real = os.path.lexists
+    made: list[bool] = []
+
+    def lexists(path: Any) -> bool:
+        found = real(path)
+        caller = sys._getframe(1)
+        callers = {caller.f_code.co_name, caller.f_back and caller.f_back.f_code.co_name}
+        if not found and not made and Path(path) == target and looker in callers:
+            target.write_bytes(OTHER)
+            made.append(True)
+        return found
+
+    monkeypatch.setattr(os.path, "lexists", lexists)
+    return made
+
+
+@pytest.mark.parametrize("how", ["renames", "copies", "one file"])
+def test_a_name_taken_between_the_look_and_the_rename_is_not_replaced(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, how: str
+) -> None:
+    """Another process makes ``A_part0.csv`` in ``--done`` after the watcher found the
+    name free, before its rename: that file stays, and the archive's goes to the next
+    free name (``A_part0-1.csv``), which its record names. Before, the rename replaced
+    the other process's file (lost)."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    with _done_folder(tmp_path, monkeypatch, other=how == "copies") as done:
+        settings = _settings(tmp_path, done)
+        if how == "one file":  # (each file an archive: moved by one rename)
+            settings = replace(settings, group_by=None)
+        looker = "_rename" if how == "one file" else "_place"
+        made = _taken_after_look(monkeypatch, done / "A_part0.csv", looker)
+        assert watch(settings, RunOptions()) == 0
+        assert made
+        assert not any(inbox.iterdir())
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == {
+            "A_part0.csv": OTHER,
+            "A_part0-1.csv": content["A_part0.csv"],
+            "A_part1.csv": content["A_part1.csv"],
+        }
+        if how != "one file":
+            assert sorted(_state_record(tmp_path)["moved_to"]) == [
+                str(done / "A_part0-1.csv"),
+                str(done / "A_part1.csv"),
+            ]
+
+
+@pytest.mark.parametrize("links", [True, False], ids=["link", "no hard links"])
+def test_the_rename_without_renameat2_never_replaces_a_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, links: bool
+) -> None:
+    """Where ``renameat2`` is missing: a file is linked then unlinked (``link`` refuses
+    a taken name); where hard links are refused too, a look then the rename; a folder is
+    never renamed over a file or a folder that holds anything."""
+    monkeypatch.setattr(watch_module, "_RENAMEAT2", None)
+    if not links:
+
+        def no_link(*args: Any, **kwargs: Any) -> None:
+            raise OSError(errno.EPERM, "Operation not permitted")
+
+        monkeypatch.setattr(os, "link", no_link)
+    source, target = tmp_path / "a.csv", tmp_path / "b.csv"
+    source.write_text("a")
+    target.write_text("b")
+    with pytest.raises(FileExistsError):
+        watch_module._rename_new(source, target)
+    assert source.read_text() == "a" and target.read_text() == "b"
+    watch_module._rename_new(source, tmp_path / "c.csv")
+    assert not source.exists() and (tmp_path / "c.csv").read_text() == "a"
+    folder = tmp_path / "mission"
+    folder.mkdir()
+    (folder / "h0.csv").write_text("x")
+    (tmp_path / "taken").mkdir()
+    (tmp_path / "taken" / "other.csv").write_text("y")
+    for taken in (target, tmp_path / "taken"):
+        with pytest.raises(FileExistsError):
+            watch_module._rename_new(folder, taken)
+    assert (folder / "h0.csv").read_text() == "x" and target.read_text() == "b"
+    watch_module._rename_new(folder, tmp_path / "moved")
+    assert (tmp_path / "moved" / "h0.csv").read_text() == "x" and not folder.exists()
+
+
+def test_a_rename_by_link_killed_before_its_unlink_is_ended(tmp_path: Path) -> None:
+    """A watcher killed between the link and the unlink of a rename without
+    ``renameat2`` (the file under both names, in INBOX and in ``--done``): the next
+    start ends the move, and the name left in INBOX goes (one file: nothing is lost).
+    Else it stayed there, to be analyzed alone as the archive."""
+    from analyzer.watch_index import Record, Verdict
+
+    inbox, done = tmp_path / "inbox", tmp_path / "done"
+    inbox.mkdir()
+    done.mkdir()
+    sources = [_archive(inbox / f"A_part{i}.csv", 300 + i) for i in range(2)]
+    content = {p.name: p.read_bytes() for p in sources}
+    rec = Record(
+        name="A",
+        sha256="1" * 64,
+        verdict=Verdict.NO_FAULT,
+        report="A/report.html",
+        inputs=[str(p) for p in sources],
+        processed="2026-01-01T00:00:00Z",
+        analysis_s=1.0,
+        signature=[[p.name, p.stat().st_size, p.stat().st_mtime_ns] for p in sources],
+    )
+    rec.moving = [[str(p), "", str(done / p.name)] for p in sources]
+    os.rename(sources[0], done / sources[0].name)  # (the first renamed)
+    os.link(sources[1], done / sources[1].name)  # (the second linked, not yet unlinked)
+    lines = watch_module._moving_lines(rec)
+    how, moved = watch_module._end_move(rec, inbox, lines, lambda moving: None)
+    assert how == "finished"
+    assert sorted(moved) == [str(done / name) for name in sorted(content)]
+    assert not any(inbox.iterdir())
+    assert {p.name: p.read_bytes() for p in done.iterdir()} == content
