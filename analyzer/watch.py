@@ -995,6 +995,36 @@ def _end_moves(ledger: Ledger, inbox: Path) -> None:
         log.info("%s: its move to %s, stopped by force, %s", rec.name, folder, said)
 
 
+_OLD_COPY = re.compile(r"\.partial-.+-[0-9a-f]{8}")
+"""The name of a move's copy (:func:`_plan_move`: ``hidden_name(".partial-", ...)``)."""
+
+
+def _unknown_copies(ledger: Ledger, folders: Sequence[Path | None]) -> list[Path]:
+    """The hidden ``.partial-`` copies in ``folders`` (``--done``, ``--failed``) that no
+    move of the state file names: left by a watcher older than the forty-sixth session,
+    killed during a move to another file system (it wrote no move to the state file),
+    or a copy of another watcher sharing the folder. Said at the start, never removed:
+    nothing tells them from a file of another process of that name, and a watcher
+    under way may be making them."""
+    known: set[str] = set()
+    for rec in ledger.records.values():
+        with contextlib.suppress(ValueError):
+            known.update(str(c) for _, c, _ in (_moving_lines(rec) if rec.moving else ()) if c)
+    found: list[Path] = []
+    for folder in dict.fromkeys(f for f in folders if f is not None):
+        try:
+            with os.scandir(folder) as entries:
+                names = sorted(e.name for e in entries if _OLD_COPY.fullmatch(e.name))
+        except OSError:
+            continue
+        found += [folder / n for n in names if str(folder / n) not in known]
+    return found
+
+
+UNKNOWN_COPIES_NAMED = 10
+"""How many unknown ``.partial-`` copies the start's line names (:func:`_unknown_copies`)."""
+
+
 def _end_move(
     rec: Record,
     inbox: Path,
@@ -2285,6 +2315,19 @@ def _watch_locked(
     _end_moves(ledger, settings.inbox)  # (first: a record tidied away keeps no copies)
     for name in ledger.tidy():
         log.info("%s: its report folder is gone; it will be analyzed again", name)
+    unknown = _unknown_copies(ledger, [settings.done, settings.failed])
+    if unknown:
+        named = ", ".join(str(p) for p in unknown[:UNKNOWN_COPIES_NAMED])
+        more = len(unknown) - UNKNOWN_COPIES_NAMED
+        log.warning(
+            "%d hidden cop%s of a move that the state file does not know (left by an older "
+            "watcher killed during a move, or another watcher's under way?), not removed: "
+            "%s%s; remove them by hand once checked",
+            len(unknown),
+            "y" if len(unknown) == 1 else "ies",
+            named,
+            f" and {more} more" if more > 0 else "",
+        )
     ledger.save()
     runner = _Runner(settings, options, ledger, stop, cluster, frozenset(exclude))
     if settings.once:  # what --once will go through: the progress's total

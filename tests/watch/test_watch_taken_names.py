@@ -7,6 +7,7 @@ target, from the function that looks), so that these tests hold on any machine."
 from __future__ import annotations
 
 import errno
+import logging
 import os
 import sys
 from dataclasses import replace
@@ -14,7 +15,16 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from test_watch_killed import OTHER, _archive, _done_folder, _settings, _state_record, _two_parts
+from test_watch_killed import (
+    OTHER,
+    _archive,
+    _done_folder,
+    _killed_in_move,
+    _run_killed,
+    _settings,
+    _state_record,
+    _two_parts,
+)
 
 from analyzer import watch as watch_module
 from analyzer.options import RunOptions
@@ -136,3 +146,45 @@ def test_a_rename_by_link_killed_before_its_unlink_is_ended(tmp_path: Path) -> N
     assert sorted(moved) == [str(done / name) for name in sorted(content)]
     assert not any(inbox.iterdir())
     assert {p.name: p.read_bytes() for p in done.iterdir()} == content
+
+
+def test_the_start_names_partial_copies_no_move_accounts_for(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """``.partial-`` copies in ``--done`` that no move of the state file names (an older
+    watcher killed during a move wrote none): each start names them in one warning line
+    and leaves them; those of a move kept for the next start (named in the state) are
+    not among them. Before, nothing was said: they stayed hidden for good."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    with _done_folder(tmp_path, monkeypatch, other=True) as done:
+        settings = _settings(tmp_path, done)
+        _run_killed(settings, lambda undo: _killed_in_move("copying", inbox, undo))
+        kept = sorted(p.name for p in done.iterdir())
+        assert kept and all(name.startswith(".partial-") for name in kept)
+        old = [done / ".partial-B_part0.csv-0123abcd", done / ".partial-B_part1.csv-89abcdef"]
+        for p in old:
+            p.write_bytes(OTHER)
+        (done / ".partial-notes.txt").write_text("someone's")  # (not a copy's name)
+        real_remove = watch_module._remove
+
+        def refused(path: Path, strict: bool = False) -> None:
+            if path.name in kept:  # (the kept move's copies stay, named in the state)
+                raise PermissionError(13, "Permission denied", str(path))
+            real_remove(path, strict)
+
+        caplog.set_level(logging.INFO, logger="analyzer.watch")
+        with monkeypatch.context() as m:
+            m.setattr(watch_module, "_remove", refused)
+            watch(settings, RunOptions())
+        said = [r.getMessage() for r in caplog.records if "hidden cop" in r.getMessage()]
+        assert len(said) == 1, said
+        assert said[0].startswith("2 hidden copies of a move that the state file does not")
+        assert f"{old[0]}, {old[1]};" in said[0]
+        assert not [name for name in kept if name in said[0]]
+        assert all(p.read_bytes() == OTHER for p in old)
+        assert (done / ".partial-notes.txt").read_text() == "someone's"
+        caplog.clear()
+        assert watch(settings, RunOptions()) == 0  # (the kept move ended: its copies placed)
+        said = [r.getMessage() for r in caplog.records if "hidden cop" in r.getMessage()]
+        assert len(said) == 1 and said[0].startswith("2 hidden copies"), said
+        assert {p.name: p.read_bytes() for p in done.iterdir() if p.name in content} == content
