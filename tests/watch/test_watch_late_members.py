@@ -148,7 +148,8 @@ def test_a_kill_after_a_record_without_the_late_member_is_mended(
 ) -> None:
     """Killed once A's two files are recorded, with the third dropped since: the next
     start analyzes the three as A, that record replacing the first (A grew), and moves
-    them; nothing analyzed alone, no record kept aside."""
+    them; nothing analyzed alone, no record kept aside (so before too: a guard that the
+    record without the member, once written, is still mended)."""
     inbox, content = _two_parts(tmp_path, monkeypatch)
     with _done_folder(tmp_path, monkeypatch, other=False) as done:
         settings = _settings(tmp_path, done)
