@@ -650,14 +650,21 @@ _NO_HARD_LINKS = (errno.EPERM, errno.EOPNOTSUPP, errno.ENOSYS, errno.EMLINK, err
 """``link`` errors of a file system without hard links (vfat, some network shares)."""
 
 
-def _rename_new(source: Path, target: Path) -> None:
+def _rename_new(source: Path, target: Path, before_link: Callable[[], None] | None = None) -> None:
     """Rename ``source`` to ``target`` (the same file system), never replacing a file
     there: :class:`FileExistsError` where ``target`` exists, made by another process
     since it was looked at too. ``renameat2(RENAME_NOREPLACE)`` (Linux); where it is
     missing or refused (a file system without it), a file is linked to ``target`` and
     then unlinked (``link`` never replaces), and a folder, which cannot be, renamed
     after a look (a rename replaces only an empty folder; a file or a folder that holds
-    anything fails it). Before, a look then ``rename``: a file made in between was lost."""
+    anything fails it). Before, a look then ``rename``: a file made in between was lost.
+
+    A kill between the link and the unlink leaves the file under both names: the next
+    start ends such a move from the state file (:func:`_end_move`), where a move of one
+    file, which writes none for a rename, writes it in ``before_link``. An unlink
+    refused (INBOX read-only to the watcher) unlinks ``target`` again (the same file,
+    still under its own name) and raises: before, the file stayed in INBOX and under
+    ``target`` too, one more name at each try."""
     if _RENAMEAT2 is not None:
         src, dst = os.fsencode(source), os.fsencode(target)
         if _RENAMEAT2(_AT_FDCWD, src, _AT_FDCWD, dst, _RENAME_NOREPLACE) == 0:
@@ -675,6 +682,8 @@ def _rename_new(source: Path, target: Path) -> None:
                 raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), str(target)) from err
             raise
         return
+    if before_link is not None:
+        before_link()
     try:
         os.link(source, target, follow_symlinks=False)
     except OSError as err:
@@ -684,7 +693,15 @@ def _rename_new(source: Path, target: Path) -> None:
             raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), str(target)) from err
         os.rename(source, target)
         return
-    os.unlink(source)
+    try:
+        os.unlink(source)
+    except OSError:
+        if _linked(source, target):  # (never the file's last name: it is still source)
+            os.unlink(target)
+            raise
+        if os.path.lexists(source) or not os.path.lexists(target):
+            raise
+        # (source unlinked by another process meanwhile: the file is at target, moved)
 
 
 def _linked(source: Path, target: Path) -> bool:
@@ -880,14 +897,16 @@ def _move_all(
     :class:`OSError`, with what was made in ``folder`` removed and INBOX as it was. (The
     watcher makes the copies on a thread of their own: :meth:`_Runner._move`.)
 
-    A move that can be stopped half-done (copies, or several renames) is handed to
-    ``intent`` first, as ``[source, copy, target]`` lines (``copy`` "" for a rename),
-    for the state file, and again before a file goes to another name than planned (taken
-    since): a watcher killed during it is finished or undone by the next start
-    (:func:`_end_moves`), and the record names the archive's own files."""
+    A move that can be stopped half-done (copies, several renames, or one rename by
+    link and unlink, :func:`_rename_new`) is handed to ``intent`` first, as ``[source,
+    copy, target]`` lines (``copy`` "" for a rename), for the state file, and again
+    before a file goes to another name than planned (taken since): a watcher killed
+    during it is finished or undone by the next start (:func:`_end_moves`), and the
+    record names the archive's own files."""
     copies = _other_fs(paths, folder)
     if not copies and len(paths) == 1:
-        return [_rename(paths[0], folder)]  # (a rename: nothing half-done)
+        # (a rename: nothing half-done, told only before a link and unlink in its stead)
+        return [_rename(paths[0], folder, intent)]
     targets, staged = _plan_move(paths, folder, copies)
 
     def tell() -> None:
@@ -1127,10 +1146,12 @@ def _end_move(
             continue
         _place(copy if copy is not None else source, targets, k, tell)
     for (source, copy, _), placed, target in zip(lines, placeable, targets, strict=True):
+        if placed and copy is not None and _linked(copy, target):
+            _remove(copy, strict=True)  # (its rename by link and unlink, killed between)
         if placed and copy is not None and is_of(source, source, whole=False):
             _remove(source, strict=True)
         elif placed and copy is None and _linked(source, target):
-            _remove(source, strict=True)  # (its rename by link and unlink, killed between)
+            _remove(source, strict=True)  # (as for a copy)
     moved = [str(t) for t, placed in zip(targets, placeable, strict=True) if placed]
     return ("finished" if all(placeable) else "gone"), moved
 
@@ -1354,13 +1375,23 @@ class _Copying:
     the move is over."""
 
 
-def _rename(path: Path, folder: Path) -> Path:
+def _rename(
+    path: Path, folder: Path, intent: Callable[[list[list[str]]], None] | None = None
+) -> Path:
     """``path`` renamed into ``folder`` under a free name (:func:`_free_name`), never
-    over a file made there since that name was found free (:func:`_rename_new`)."""
+    over a file made there since that name was found free (:func:`_rename_new`). Its
+    move goes to ``intent`` (the state file) only before a rename by link and unlink,
+    which a kill can stop between them (:func:`_end_move` ends it): before, the next
+    start moved the file again, under a second name (``A-1``) beside the first."""
     while True:
         target = _free_name(folder, path.name)
+
+        def tell(target: Path = target) -> None:
+            if intent is not None:
+                intent(_moving_of([path], [None], [target]))
+
         try:
-            _rename_new(path, target)
+            _rename_new(path, target, tell)
             return target
         except FileExistsError:
             if not os.path.lexists(target):
@@ -1443,6 +1474,9 @@ class _Runner:
         self.held: set[str] = set()
         """Archives not analyzed: what is left in INBOX of a move that the start could
         not end (:func:`_end_moves`)."""
+        self.returned: list[tuple[str, Signature]] = []
+        """Archives not taken as handed on (:meth:`_look_again`), for the inbox tracker
+        (:meth:`handed_back`)."""
         self.asked: dict[str, tuple[Signature, int | None, Future[ArchiveHashes]]] = {}
         """Archives too big to hash on the loop that the inbox tracker asked about
         (:meth:`recorded`), being hashed by :attr:`hasher`."""
@@ -1500,7 +1534,27 @@ class _Runner:
         return 0
 
     def busy(self) -> bool:
-        return bool(self.queue or self.hashing or self.running or self.moves or self.copying)
+        return bool(
+            self.queue
+            or self.hashing
+            or self.running
+            or self.moves
+            or self.copying
+            or self.returned
+        )
+
+    def _look_again(self, archive: ReadyArchive) -> None:
+        """``archive`` not taken as the tracker handed it on (INBOX no longer holds it
+        so, :meth:`_as_found`: its result discarded, its move refused): the tracker
+        hands it on again once it has settled, even unchanged (a ``--group-by`` member
+        that came and went meanwhile), and ``--once`` waits for it. Before, the tracker
+        took it for handed on: it was never analyzed (or moved) again that session."""
+        self.returned.append((archive.name, archive.signature))
+
+    def handed_back(self) -> list[tuple[str, Signature]]:
+        """The archives :meth:`_look_again` gave back since the tracker last asked."""
+        returned, self.returned = self.returned, []
+        return returned
 
     def pump(self, wait: float = 0.0, start: bool = True) -> None:
         """Record the analyses that ended (waiting up to ``wait`` seconds for one), then
@@ -1806,6 +1860,7 @@ class _Runner:
             return
         if not self._as_found(job.archive):
             shutil.rmtree(job.scratch, ignore_errors=True)
+            self._look_again(job.archive)
             log.info(
                 "%s: changed or removed while it was analyzed; result discarded "
                 "(it is analyzed again once it has settled)",
@@ -2017,6 +2072,7 @@ class _Runner:
                 archive.name,
                 folder,
             )
+            self._look_again(archive)
             return
         tell = self._teller(archive, rec, folder)
         try:
@@ -2129,10 +2185,12 @@ class _Runner:
                 c.tell([])
                 log.warning(
                     "%s: not moved to %s: it changed while it was copied there (still being "
-                    "written?)",
+                    "written, or a member dropped meanwhile?); it is looked at again once it "
+                    "has settled",
                     name,
                     c.folder,
                 )
+                self._look_again(archive)
             else:
                 targets = _place_all(archive.paths, c.copies, c.targets, tell)
                 self._moved(archive, c.rec, c.folder, [str(t) for t in targets])
@@ -2360,6 +2418,7 @@ def _watch_locked(
         known=runner.recorded,
         busy=runner.busy,  # (--once: an archive discarded as it changed is done again)
         pause=runner.pause,
+        again=runner.handed_back,  # (not taken as handed on: looked at again)
     )
     try:
         with contextlib.closing(batches):

@@ -512,12 +512,12 @@ def _killed_in_move(stage: str, inbox: Path, monkeypatch: pytest.MonkeyPatch) ->
     elif stage == "between":
         real_rename = watch_module._rename_new
 
-        def rename(src: Path, dst: Path) -> None:
+        def rename(src: Path, dst: Path, *rest: Any) -> None:
             if src.parent == inbox:
                 calls.append(str(src))
                 if len(calls) == 2:
                     raise _Killed
-            real_rename(src, dst)
+            real_rename(src, dst, *rest)
 
         monkeypatch.setattr(watch_module, "_rename_new", rename)
     else:

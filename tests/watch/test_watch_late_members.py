@@ -7,8 +7,10 @@ so that these tests hold on any machine; analyses are quick and counted
 
 from __future__ import annotations
 
+import errno
 import json
 import logging
+import threading
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -16,6 +18,7 @@ from typing import Any
 
 import pytest
 from test_watch_killed import (
+    LIMIT_S,
     _analyses,
     _archive,
     _done_folder,
@@ -28,6 +31,7 @@ from test_watch_killed import (
 from analyzer import watch as watch_module
 from analyzer.options import RunOptions
 from analyzer.watch import watch
+from analyzer.watch_inbox import InboxTracker
 from analyzer.watch_index import Ledger
 
 
@@ -202,3 +206,139 @@ def test_a_file_dropped_late_into_a_folder_archive_is_in_its_one_analysis(
         records = _records(tmp_path)
         assert list(records) == ["F"]
         assert [Path(n).name for n, _, _ in records["F"]["signature"]] == three
+
+
+def _came_and_went(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, step: str, rounds: int = 1
+) -> None:
+    """At A's ``step`` (``_finish``: its analysis ended; ``_move``: its move, past its
+    hold), a third member is in INBOX while the step looks, and taken away right after
+    (a wrong drop taken back, a tool's short-lived file matching the pattern), at the
+    first ``rounds`` such steps: A is in INBOX as it was handed on before the tracker
+    settles on the change. ``_list``: INBOX's listing fails instead (EIO), once."""
+    member = tmp_path / "in" / "inbox" / "A_part2.csv"
+    done: list[bool] = []
+    name = "_move" if step == "_move" else "_finish"
+    real = getattr(watch_module._Runner, name)
+    real_paths = watch_module.archive_paths
+
+    def failing(*args: Any, **kwargs: Any) -> Any:
+        raise OSError(errno.EIO, "Input/output error")
+
+    def disturbed(self: Any, job_or_archive: Any, *rest: Any) -> None:
+        archive = getattr(job_or_archive, "archive", job_or_archive)
+        held = name == "_move" and time.monotonic() < archive.hold_until
+        if archive.name != "A" or len(done) >= rounds or held:
+            real(self, job_or_archive, *rest)
+            return
+        done.append(True)
+        if step == "_list":
+            monkeypatch.setattr(watch_module, "archive_paths", failing)
+            real(self, job_or_archive, *rest)
+            monkeypatch.setattr(watch_module, "archive_paths", real_paths)
+            return
+        _archive(tmp_path / "A_part2.csv", 302).rename(member)
+        real(self, job_or_archive, *rest)
+        member.unlink()
+
+    monkeypatch.setattr(watch_module._Runner, name, disturbed)
+
+
+@pytest.mark.parametrize(
+    ("step", "rounds"),
+    [("_finish", 1), ("_finish", 2), ("_list", 1), ("_move", 1)],
+    ids=["analysis", "analysis-twice", "listing-failed", "move"],
+)
+def test_an_archive_found_changed_but_back_as_it_was_is_done_again(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, step: str, rounds: int
+) -> None:
+    """A member that came and went while A was analyzed (its result discarded), or as
+    its move began (not moved), or INBOX's listing failing then: A, back in INBOX as it
+    was handed on, is handed on again once it has settled (analyzed again, or moved),
+    and ``--once`` waits for it. Before, the tracker took A for handed on already: it was
+    never analyzed or moved again that session (``--once`` ended with A unrecorded, or
+    recorded and left in INBOX, exit code 0)."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    _came_and_went(tmp_path, monkeypatch, step, rounds)
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        assert watch(_settings(tmp_path, done), RunOptions()) == 0
+        analyses = 1 if step == "_move" else 1 + rounds
+        assert _analyses(tmp_path) == [str(sorted(content))] * analyses
+        assert not any(inbox.iterdir())
+        assert sorted(p.name for p in done.iterdir()) == sorted(content)
+        records = _records(tmp_path)
+        assert list(records) == ["A"]
+        assert sorted(Path(p).name for p in records["A"]["moved_to"]) == sorted(content)
+
+
+def test_an_archive_back_as_it_was_is_done_again_by_a_long_running_watcher(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """As above (a member that came and went during A's analysis), without ``--once``:
+    A is analyzed again and moved while the watcher runs. Before, not until the next
+    start."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    _came_and_went(tmp_path, monkeypatch, "_finish")
+    stop = threading.Event()
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        settings = replace(_settings(tmp_path, done), once=False)
+        thread = threading.Thread(
+            target=watch, args=(settings, RunOptions()), kwargs={"stop": stop}
+        )
+        thread.start()
+        try:
+            deadline = time.monotonic() + LIMIT_S
+            while any(inbox.iterdir()) and time.monotonic() < deadline:
+                time.sleep(0.05)
+        finally:
+            stop.set()
+            thread.join(LIMIT_S)
+        assert not thread.is_alive()
+        assert not any(inbox.iterdir())
+        assert list(_records(tmp_path)) == ["A"]
+        assert _analyses(tmp_path) == [str(sorted(content))] * 2
+
+
+def test_an_archive_gone_once_found_changed_is_not_waited_for(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A removed from INBOX while it was analyzed (its result discarded): ``--once`` ends
+    without it (it is not waited for once gone), nothing recorded. (So before too: a
+    guard that the archive handed back is dropped once gone.)"""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    real_finish = watch_module._Runner._finish
+
+    def finish(self: Any, job: Any) -> None:
+        for path in job.archive.paths:
+            path.unlink()
+        real_finish(self, job)
+
+    monkeypatch.setattr(watch_module._Runner, "_finish", finish)
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        assert watch(_settings(tmp_path, done), RunOptions()) == 0
+        assert _analyses(tmp_path) == [str(sorted(content))]
+        assert not any(done.iterdir())
+    state = tmp_path / "in" / "reports" / ".watch-state.json"
+    assert not state.exists() or not _records(tmp_path)
+
+
+def test_the_tracker_hands_back_only_what_it_handed_on_and_after_the_settle_time(
+    tmp_path: Path,
+) -> None:
+    """:meth:`~analyzer.watch_inbox.InboxTracker.again`: the archive is handed on again,
+    unchanged, once a settle time has passed from the hand-back (a member that keeps
+    coming and going costs one settle time each round, never a busy loop); a hand-back
+    of a state other than the one last handed on (a later one handed on meanwhile) is
+    ignored."""
+    _archive(tmp_path / "a.csv", 300)
+    tracker = InboxTracker(tmp_path, 1.0, quiet=True)
+    tracker.rescan()
+    assert tracker.step(0.0) == []
+    (first,) = tracker.step(1.0)
+    assert tracker.step(2.0) == []
+    tracker.again("a.csv", first.signature, 2.0)
+    assert tracker.step(2.5) == []
+    (again,) = tracker.step(3.0)
+    assert (again.paths, again.signature) == (first.paths, first.signature)
+    tracker.again("a.csv", (("a.csv", 0, 0),), 3.0)
+    assert tracker.step(5.0) == []

@@ -9,6 +9,7 @@ from __future__ import annotations
 import errno
 import logging
 import os
+import shutil
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -19,6 +20,7 @@ from test_watch_killed import (
     OTHER,
     _archive,
     _done_folder,
+    _Killed,
     _killed_in_move,
     _run_killed,
     _settings,
@@ -188,3 +190,138 @@ def test_the_start_names_partial_copies_no_move_accounts_for(
         said = [r.getMessage() for r in caplog.records if "hidden cop" in r.getMessage()]
         assert len(said) == 1 and said[0].startswith("2 hidden copies"), said
         assert {p.name: p.read_bytes() for p in done.iterdir() if p.name in content} == content
+
+
+def _unlink_refused_in(inbox: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """INBOX not writable by the watcher, as seen by ``os.unlink`` (EACCES; simulated:
+    root ignores modes)."""
+    real_unlink = os.unlink
+
+    def unlink(path: Any, *args: Any, **kwargs: Any) -> None:
+        if Path(path).parent == inbox:
+            raise PermissionError(errno.EACCES, "Permission denied", str(path))
+        real_unlink(path, *args, **kwargs)
+
+    monkeypatch.setattr(os, "unlink", unlink)
+
+
+@pytest.mark.parametrize("how", ["renames", "one file"])
+def test_an_unlink_refused_after_the_link_leaves_no_second_name(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture, how: str
+) -> None:
+    """Without ``renameat2`` (a network file system) and with INBOX not writable by the
+    watcher: the link into ``--done`` is made, the unlink from INBOX refused. The
+    archive stays in INBOX ("not moved"), and nothing of it in ``--done``, at this start
+    and the next. Before, each start left one more name of each file in ``--done``."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    monkeypatch.setattr(watch_module, "_RENAMEAT2", None)
+    _unlink_refused_in(inbox, monkeypatch)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        settings = _settings(tmp_path, done)
+        if how == "one file":
+            settings = replace(settings, group_by=None)
+        for _ in range(2):
+            watch(settings, RunOptions())
+            assert not any(done.iterdir()), sorted(p.name for p in done.iterdir())
+            assert {p.name: p.read_bytes() for p in inbox.iterdir()} == content
+    assert [r for r in caplog.records if "not moved" in r.getMessage()]
+
+
+def test_a_rename_by_link_killed_before_its_unlink_is_ended_for_one_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A one-file archive (no move in the state file for a rename) moved without
+    ``renameat2``, the watcher killed between the link and the unlink: the next start
+    ends the move (the state file has it, written before the link), and the file is in
+    ``--done`` under one name, which its record names. Before, the next start moved it
+    again, beside itself (``A_part0-1.csv``, the same file)."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    (inbox / "A_part1.csv").unlink()
+    monkeypatch.setattr(watch_module, "_RENAMEAT2", None)
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        settings = replace(_settings(tmp_path, done), group_by=None)
+
+        def kill(undo: pytest.MonkeyPatch) -> None:
+            real_unlink = os.unlink
+
+            def unlink(path: Any, *args: Any, **kwargs: Any) -> None:
+                if Path(path).parent == inbox:
+                    raise _Killed
+                real_unlink(path, *args, **kwargs)
+
+            undo.setattr(os, "unlink", unlink)
+
+        _run_killed(settings, kill)
+        assert (done / "A_part0.csv").exists() and (inbox / "A_part0.csv").exists()
+        assert watch(settings, RunOptions()) == 0
+        assert not any(inbox.iterdir())
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == {
+            "A_part0.csv": content["A_part0.csv"]
+        }
+        assert _state_record(tmp_path)["moved_to"] == [str(done / "A_part0.csv")]
+
+
+def test_a_copy_renamed_by_link_killed_before_its_unlink_is_ended(tmp_path: Path) -> None:
+    """A move by copies (another file system) without ``renameat2`` there, killed between
+    the link of a copy to its target and the unlink of the copy: the next start ends the
+    move and removes the copy's hidden name (the file stays under its target's). Before,
+    the target counted as in place and the ``.partial-`` name stayed (said at each start
+    as a copy no move accounts for)."""
+    from analyzer.watch_index import Record, Verdict
+
+    inbox, done = tmp_path / "inbox", tmp_path / "done"
+    inbox.mkdir()
+    done.mkdir()
+    sources = [_archive(inbox / f"A_part{i}.csv", 300 + i) for i in range(2)]
+    content = {p.name: p.read_bytes() for p in sources}
+    rec = Record(
+        name="A",
+        sha256="1" * 64,
+        verdict=Verdict.NO_FAULT,
+        report="A/report.html",
+        inputs=[str(p) for p in sources],
+        processed="2026-01-01T00:00:00Z",
+        analysis_s=1.0,
+        signature=[[p.name, p.stat().st_size, p.stat().st_mtime_ns] for p in sources],
+    )
+    copies = [done / f".partial-{p.name}-0123abcd" for p in sources]
+    for source, copy in zip(sources, copies, strict=True):
+        shutil.copy2(source, copy)
+    rec.moving = [
+        [str(s), str(c), str(done / s.name)] for s, c in zip(sources, copies, strict=True)
+    ]
+    os.rename(copies[0], done / sources[0].name)  # (the first copy in place)
+    os.link(copies[1], done / sources[1].name)  # (the second linked, not yet unlinked)
+    how, moved = watch_module._end_move(
+        rec, inbox, watch_module._moving_lines(rec), lambda moving: None
+    )
+    assert how == "finished"
+    assert sorted(moved) == [str(done / name) for name in sorted(content)]
+    assert not any(inbox.iterdir())
+    assert {p.name: p.read_bytes() for p in done.iterdir()} == content
+
+
+def test_a_refused_unlink_never_removes_the_files_last_name(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """:func:`~analyzer.watch._rename_new` by link and unlink, the unlink refused: the
+    link is undone, the file still at its own name. Where the source went meanwhile
+    (another process took it), the link is the file's last name: kept, as moved."""
+    real_unlink = os.unlink
+    monkeypatch.setattr(watch_module, "_RENAMEAT2", None)
+    _unlink_refused_in(tmp_path / "in", monkeypatch)
+    (tmp_path / "in").mkdir()
+    source, target = tmp_path / "in" / "a.csv", tmp_path / "b.csv"
+    source.write_text("a")
+    with pytest.raises(PermissionError):
+        watch_module._rename_new(source, target)
+    assert source.read_text() == "a" and not target.exists()
+
+    def taken_away(path: Any, *args: Any, **kwargs: Any) -> None:
+        real_unlink(path)  # (another process's unlink, just before the watcher's)
+        raise FileNotFoundError(errno.ENOENT, "No such file or directory", str(path))
+
+    monkeypatch.setattr(os, "unlink", taken_away)
+    watch_module._rename_new(source, target)
+    assert not source.exists() and target.read_text() == "a"
