@@ -150,6 +150,8 @@ from __future__ import annotations
 import argparse
 import contextlib
 import copy
+import ctypes
+import ctypes.util
 import errno
 import hashlib
 import json
@@ -630,15 +632,104 @@ def _moving_of(
     return [[str(s), str(c) if c else "", str(t)] for s, c, t in lines]
 
 
+_RENAME_NOREPLACE, _AT_FDCWD = 1, -100  # linux/fs.h, fcntl.h
+
+
+def _renameat2_function() -> Any:
+    try:
+        fn = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True).renameat2
+    except (OSError, AttributeError):  # not Linux, or a C library before glibc 2.28
+        return None
+    fn.argtypes = (ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint)
+    return fn
+
+
+_RENAMEAT2 = _renameat2_function()
+
+_NO_HARD_LINKS = (errno.EPERM, errno.EOPNOTSUPP, errno.ENOSYS, errno.EMLINK, errno.EXDEV)
+"""``link`` errors of a file system without hard links (vfat, some network shares)."""
+
+
+def _rename_new(source: Path, target: Path, before_link: Callable[[], None] | None = None) -> None:
+    """Rename ``source`` to ``target`` (the same file system), never replacing a file
+    there: :class:`FileExistsError` where ``target`` exists, made by another process
+    since it was looked at too. ``renameat2(RENAME_NOREPLACE)`` (Linux); where it is
+    missing or refused (a file system without it), a file is linked to ``target`` and
+    then unlinked (``link`` never replaces), and a folder, which cannot be, renamed
+    after a look (a rename replaces only an empty folder; a file or a folder that holds
+    anything fails it). Before, a look then ``rename``: a file made in between was lost.
+
+    A kill between the link and the unlink leaves the file under both names: the next
+    start ends such a move from the state file (:func:`_end_move`), where a move of one
+    file, which writes none for a rename, writes it in ``before_link``. An unlink
+    refused (INBOX read-only to the watcher) unlinks ``target`` again (the same file,
+    still under its own name) and raises: before, the file stayed in INBOX and under
+    ``target`` too, one more name at each try."""
+    if _RENAMEAT2 is not None:
+        src, dst = os.fsencode(source), os.fsencode(target)
+        if _RENAMEAT2(_AT_FDCWD, src, _AT_FDCWD, dst, _RENAME_NOREPLACE) == 0:
+            return
+        err = ctypes.get_errno()
+        if err not in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP):
+            raise OSError(err, os.strerror(err), str(source), None, str(target))
+    if source.is_dir() and not source.is_symlink():
+        if os.path.lexists(target):
+            raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), str(target))
+        try:
+            os.rename(source, target)
+        except OSError as err:
+            if err.errno in (errno.ENOTEMPTY, errno.EEXIST, errno.ENOTDIR):
+                raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), str(target)) from err
+            raise
+        return
+    if before_link is not None:
+        before_link()
+    try:
+        os.link(source, target, follow_symlinks=False)
+    except OSError as err:
+        if err.errno not in _NO_HARD_LINKS:
+            raise
+        if os.path.lexists(target):  # (no hard links: a look, then the rename, as before)
+            raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), str(target)) from err
+        os.rename(source, target)
+        return
+    try:
+        os.unlink(source)
+    except OSError:
+        if _linked(source, target):  # (never the file's last name: it is still source)
+            os.unlink(target)
+            raise
+        if os.path.lexists(source) or not os.path.lexists(target):
+            raise
+        # (source unlinked by another process meanwhile: the file is at target, moved)
+
+
+def _linked(source: Path, target: Path) -> bool:
+    """Whether ``source`` and ``target`` are one file by two names: a rename by
+    :func:`_rename_new`'s link and unlink stopped between them."""
+    try:
+        a, b = os.lstat(source), os.lstat(target)
+    except OSError:
+        return False
+    return (a.st_dev, a.st_ino) == (b.st_dev, b.st_ino)
+
+
 def _place(path: Path, targets: list[Path], k: int, tell: Callable[[], None]) -> Path:
     """``path`` renamed to ``targets[k]``, or, where that name was taken since it was
     planned, to a free one (``targets[k]`` updated) told first (``tell``: the state
-    file), so that the record names the archive's own file."""
-    if os.path.lexists(targets[k]):
-        targets[k] = _free_of(targets[k].parent, targets[k].name, targets)
-        tell()
-    os.rename(path, targets[k])
-    return targets[k]
+    file), so that the record names the archive's own file. The rename never replaces
+    a file (:func:`_rename_new`): a name taken between the look and the rename is
+    found taken by the rename itself, and another free one told and tried."""
+    while True:
+        if os.path.lexists(targets[k]):
+            targets[k] = _free_of(targets[k].parent, targets[k].name, targets)
+            tell()
+        try:
+            _rename_new(path, targets[k])
+            return targets[k]
+        except FileExistsError:
+            if not os.path.lexists(targets[k]):  # (not a name taken: never tried again)
+                raise
 
 
 class MoveCancelled(Exception):
@@ -806,14 +897,16 @@ def _move_all(
     :class:`OSError`, with what was made in ``folder`` removed and INBOX as it was. (The
     watcher makes the copies on a thread of their own: :meth:`_Runner._move`.)
 
-    A move that can be stopped half-done (copies, or several renames) is handed to
-    ``intent`` first, as ``[source, copy, target]`` lines (``copy`` "" for a rename),
-    for the state file, and again before a file goes to another name than planned (taken
-    since): a watcher killed during it is finished or undone by the next start
-    (:func:`_end_moves`), and the record names the archive's own files."""
+    A move that can be stopped half-done (copies, several renames, or one rename by
+    link and unlink, :func:`_rename_new`) is handed to ``intent`` first, as ``[source,
+    copy, target]`` lines (``copy`` "" for a rename), for the state file, and again
+    before a file goes to another name than planned (taken since): a watcher killed
+    during it is finished or undone by the next start (:func:`_end_moves`), and the
+    record names the archive's own files."""
     copies = _other_fs(paths, folder)
     if not copies and len(paths) == 1:
-        return [_rename(paths[0], folder)]  # (a rename: nothing half-done)
+        # (a rename: nothing half-done, told only before a link and unlink in its stead)
+        return [_rename(paths[0], folder, intent)]
     targets, staged = _plan_move(paths, folder, copies)
 
     def tell() -> None:
@@ -921,6 +1014,36 @@ def _end_moves(ledger: Ledger, inbox: Path) -> None:
         log.info("%s: its move to %s, stopped by force, %s", rec.name, folder, said)
 
 
+_OLD_COPY = re.compile(r"\.partial-.+-[0-9a-f]{8}")
+"""The name of a move's copy (:func:`_plan_move`: ``hidden_name(".partial-", ...)``)."""
+
+
+def _unknown_copies(ledger: Ledger, folders: Sequence[Path | None]) -> list[Path]:
+    """The hidden ``.partial-`` copies in ``folders`` (``--done``, ``--failed``) that no
+    move of the state file names: left by a watcher older than the forty-sixth session,
+    killed during a move to another file system (it wrote no move to the state file),
+    or a copy of another watcher sharing the folder. Said at the start, never removed:
+    nothing tells them from a file of another process of that name, and a watcher
+    under way may be making them."""
+    known: set[str] = set()
+    for rec in ledger.records.values():
+        with contextlib.suppress(ValueError):
+            known.update(str(c) for _, c, _ in (_moving_lines(rec) if rec.moving else ()) if c)
+    found: list[Path] = []
+    for folder in dict.fromkeys(f for f in folders if f is not None):
+        try:
+            with os.scandir(folder) as entries:
+                names = sorted(e.name for e in entries if _OLD_COPY.fullmatch(e.name))
+        except OSError:
+            continue
+        found += [folder / n for n in names if str(folder / n) not in known]
+    return found
+
+
+UNKNOWN_COPIES_NAMED = 10
+"""How many unknown ``.partial-`` copies the start's line names (:func:`_unknown_copies`)."""
+
+
 def _end_move(
     rec: Record,
     inbox: Path,
@@ -1022,9 +1145,13 @@ def _end_move(
                 _remove(copy, strict=True)  # (truncated: its source is gone)
             continue
         _place(copy if copy is not None else source, targets, k, tell)
-    for (source, copy, _), placed in zip(lines, placeable, strict=True):
+    for (source, copy, _), placed, target in zip(lines, placeable, targets, strict=True):
+        if placed and copy is not None and _linked(copy, target):
+            _remove(copy, strict=True)  # (its rename by link and unlink, killed between)
         if placed and copy is not None and is_of(source, source, whole=False):
             _remove(source, strict=True)
+        elif placed and copy is None and _linked(source, target):
+            _remove(source, strict=True)  # (as for a copy)
     moved = [str(t) for t, placed in zip(targets, placeable, strict=True) if placed]
     return ("finished" if all(placeable) else "gone"), moved
 
@@ -1248,10 +1375,27 @@ class _Copying:
     the move is over."""
 
 
-def _rename(path: Path, folder: Path) -> Path:
-    target = _free_name(folder, path.name)
-    os.rename(path, target)
-    return target
+def _rename(
+    path: Path, folder: Path, intent: Callable[[list[list[str]]], None] | None = None
+) -> Path:
+    """``path`` renamed into ``folder`` under a free name (:func:`_free_name`), never
+    over a file made there since that name was found free (:func:`_rename_new`). Its
+    move goes to ``intent`` (the state file) only before a rename by link and unlink,
+    which a kill can stop between them (:func:`_end_move` ends it): before, the next
+    start moved the file again, under a second name (``A-1``) beside the first."""
+    while True:
+        target = _free_name(folder, path.name)
+
+        def tell(target: Path = target) -> None:
+            if intent is not None:
+                intent(_moving_of([path], [None], [target]))
+
+        try:
+            _rename_new(path, target, tell)
+            return target
+        except FileExistsError:
+            if not os.path.lexists(target):
+                raise
 
 
 def _remove(path: Path, strict: bool = False) -> None:
@@ -1330,6 +1474,9 @@ class _Runner:
         self.held: set[str] = set()
         """Archives not analyzed: what is left in INBOX of a move that the start could
         not end (:func:`_end_moves`)."""
+        self.returned: list[tuple[str, Signature]] = []
+        """Archives not taken as handed on (:meth:`_look_again`), for the inbox tracker
+        (:meth:`handed_back`)."""
         self.asked: dict[str, tuple[Signature, int | None, Future[ArchiveHashes]]] = {}
         """Archives too big to hash on the loop that the inbox tracker asked about
         (:meth:`recorded`), being hashed by :attr:`hasher`."""
@@ -1387,7 +1534,27 @@ class _Runner:
         return 0
 
     def busy(self) -> bool:
-        return bool(self.queue or self.hashing or self.running or self.moves or self.copying)
+        return bool(
+            self.queue
+            or self.hashing
+            or self.running
+            or self.moves
+            or self.copying
+            or self.returned
+        )
+
+    def _look_again(self, archive: ReadyArchive) -> None:
+        """``archive`` not taken as the tracker handed it on (INBOX no longer holds it
+        so, :meth:`_as_found`: its result discarded, its move refused): the tracker
+        hands it on again once it has settled, even unchanged (a ``--group-by`` member
+        that came and went meanwhile), and ``--once`` waits for it. Before, the tracker
+        took it for handed on: it was never analyzed (or moved) again that session."""
+        self.returned.append((archive.name, archive.signature))
+
+    def handed_back(self) -> list[tuple[str, Signature]]:
+        """The archives :meth:`_look_again` gave back since the tracker last asked."""
+        returned, self.returned = self.returned, []
+        return returned
 
     def pump(self, wait: float = 0.0, start: bool = True) -> None:
         """Record the analyses that ended (waiting up to ``wait`` seconds for one), then
@@ -1691,12 +1858,9 @@ class _Runner:
                 "%s: abandoned (exit code %s); it will be analyzed on the next start", name, code
             )
             return
-        try:
-            current = signature(job.archive.paths, self.settings.inbox)
-        except OSError:
-            current = None
-        if current != job.archive.signature:
+        if not self._as_found(job.archive):
             shutil.rmtree(job.scratch, ignore_errors=True)
+            self._look_again(job.archive)
             log.info(
                 "%s: changed or removed while it was analyzed; result discarded "
                 "(it is analyzed again once it has settled)",
@@ -1867,6 +2031,23 @@ class _Runner:
         with contextlib.suppress(OSError):  # (left in the folder, it harms nothing)
             path.unlink()
 
+    def _as_found(self, archive: ReadyArchive) -> bool:
+        """Whether INBOX holds ``archive`` as it was found: its files unchanged and, with
+        ``--group-by``, no member dropped since (its members listed again). Asked before
+        its analysis is recorded and before its move, as after its copies: a member
+        dropped while the others were analyzed had them recorded and moved without it,
+        and was then analyzed alone as the archive (the first result kept aside)."""
+        inbox, group_by = self.settings.inbox, self.settings.group_by
+        try:
+            listed = (
+                archive.paths
+                if group_by is None
+                else archive_paths(inbox, archive.name, group_by, self.exclude)
+            )
+            return listed == archive.paths and signature(archive.paths, inbox) == archive.signature
+        except OSError:
+            return False
+
     def _move(self, archive: ReadyArchive, rec: Record) -> None:
         """``--done`` / ``--failed``: move the archive's files out of INBOX, once its hold
         is over (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`: until then, a
@@ -1884,17 +2065,14 @@ class _Runner:
         if time.monotonic() < archive.hold_until:
             self.moves[archive.name] = (archive, rec)
             return
-        try:
-            current = signature(archive.paths, self.settings.inbox)
-        except OSError:
-            current = None
-        if current != archive.signature:  # a writer still at it: moving would split it
+        if not self._as_found(archive):  # a writer still at it: moving would split it
             log.warning(
                 "%s: not moved to %s: it changed since it was found complete (still being "
-                "written?)",
+                "written, or a member dropped since?); it is looked at again once it has settled",
                 archive.name,
                 folder,
             )
+            self._look_again(archive)
             return
         tell = self._teller(archive, rec, folder)
         try:
@@ -2001,22 +2179,18 @@ class _Runner:
 
         try:
             c.future.result()
-            inbox, group_by = self.settings.inbox, self.settings.group_by
-            try:  # (a member dropped meanwhile: moved without it, it was analyzed alone)
-                paths = archive_paths(inbox, name, group_by, self.exclude)
-                current = signature(paths, inbox) if paths == archive.paths else None
-            except OSError:
-                current = None
-            if current != archive.signature:
+            if not self._as_found(archive):
                 for copy in c.copies:
                     _remove(copy)
                 c.tell([])
                 log.warning(
                     "%s: not moved to %s: it changed while it was copied there (still being "
-                    "written?)",
+                    "written, or a member dropped meanwhile?); it is looked at again once it "
+                    "has settled",
                     name,
                     c.folder,
                 )
+                self._look_again(archive)
             else:
                 targets = _place_all(archive.paths, c.copies, c.targets, tell)
                 self._moved(archive, c.rec, c.folder, [str(t) for t in targets])
@@ -2199,6 +2373,19 @@ def _watch_locked(
     _end_moves(ledger, settings.inbox)  # (first: a record tidied away keeps no copies)
     for name in ledger.tidy():
         log.info("%s: its report folder is gone; it will be analyzed again", name)
+    unknown = _unknown_copies(ledger, [settings.done, settings.failed])
+    if unknown:
+        named = ", ".join(str(p) for p in unknown[:UNKNOWN_COPIES_NAMED])
+        more = len(unknown) - UNKNOWN_COPIES_NAMED
+        log.warning(
+            "%d hidden cop%s of a move that the state file does not know (left by an older "
+            "watcher killed during a move, or another watcher's under way?), not removed: "
+            "%s%s; remove them by hand once checked",
+            len(unknown),
+            "y" if len(unknown) == 1 else "ies",
+            named,
+            f" and {more} more" if more > 0 else "",
+        )
     ledger.save()
     runner = _Runner(settings, options, ledger, stop, cluster, frozenset(exclude))
     if settings.once:  # what --once will go through: the progress's total
@@ -2231,6 +2418,7 @@ def _watch_locked(
         known=runner.recorded,
         busy=runner.busy,  # (--once: an archive discarded as it changed is done again)
         pause=runner.pause,
+        again=runner.handed_back,  # (not taken as handed on: looked at again)
     )
     try:
         with contextlib.closing(batches):

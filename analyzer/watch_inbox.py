@@ -470,6 +470,21 @@ class InboxTracker:
                 return False
         return True
 
+    def again(self, key: str, sig: Signature, now: float) -> None:
+        """Archive ``key``, handed on as ``sig``, was not taken as such: the consumer
+        found INBOX no longer holding it so (its result discarded, its move refused), a
+        change this tracker may never see (a ``--group-by`` member that came and went
+        between two looks, the group as it was handed on again by the time it is
+        looked at). It is handed on again once it has been stable for its settle time
+        from ``now``, even as ``sig``; if it is gone by then, it is dropped. Before,
+        ``sig`` counted as handed on: the archive was neither analyzed nor moved again
+        while the watcher ran (``once``: it ended without it)."""
+        track = self._tracks.get(key)
+        if track is None or track.yielded != sig:  # (a later state handed on meanwhile)
+            return
+        track.yielded, track.since = None, max(track.since, now)
+        self._dirty.add(key)
+
     def settle_of(self, key: str) -> float:
         """How long archive ``key`` must be stable: ``settle``, doubled each time it
         changed soon (within 4 settle times) after it was handed on as complete (a
@@ -658,6 +673,7 @@ def ready_batches(
     known: Callable[[ReadyArchive], bool | None] | None = None,
     busy: Callable[[], bool] | None = None,
     pause: Callable[[float], object] | None = None,
+    again: Callable[[], Iterable[tuple[str, Signature]]] | None = None,
 ) -> Generator[list[ReadyArchive], None, None]:
     """Batches of archives of ``inbox`` that became ready (see the module doc).
 
@@ -671,6 +687,8 @@ def ready_batches(
     after every idle tick (about 0.1 s) so the consumer can do other work. ``known``:
     :attr:`InboxTracker.known`. ``pause``: how a tick is waited (default
     ``stop.wait``; the consumer may return sooner, when its own work ends).
+    ``again``: the archives (name, signature as handed on) that the consumer hands
+    back since it last asked (:meth:`InboxTracker.again`); ``once`` waits for them too.
     """
     stop = stop or threading.Event()
     tracker = InboxTracker(
@@ -699,6 +717,9 @@ def ready_batches(
                     tracker.touch(sink.get_nowait())
                 except queue.Empty:
                     break
+            for key, sig in again() if again is not None else ():
+                tracker.again(key, sig, now)
+                initial.add(key)
             if now >= next_scan:
                 tracker.rescan()
                 next_scan = now + interval

@@ -510,16 +510,16 @@ def _killed_in_move(stage: str, inbox: Path, monkeypatch: pytest.MonkeyPatch) ->
 
         monkeypatch.setattr(watch_module, "_copy_file", copy)
     elif stage == "between":
-        real_rename = os.rename
+        real_rename = watch_module._rename_new
 
-        def rename(src: Any, dst: Any) -> None:
-            if Path(src).parent == inbox:
+        def rename(src: Path, dst: Path, *rest: Any) -> None:
+            if src.parent == inbox:
                 calls.append(str(src))
                 if len(calls) == 2:
                     raise _Killed
-            real_rename(src, dst)
+            real_rename(src, dst, *rest)
 
-        monkeypatch.setattr(os, "rename", rename)
+        monkeypatch.setattr(watch_module, "_rename_new", rename)
     else:
         real_unlink = Path.unlink
 

@@ -395,11 +395,15 @@ def test_an_archive_that_changed_since_it_was_taken_is_not_moved(
         settings=WatchSettings(inbox, tmp_path / "reports", done=done),
         ledger=Ledger(tmp_path),
         copying={},
+        returned=[],
     )
+    runner._as_found = lambda archive: watch_module._Runner._as_found(runner, archive)  # type: ignore[arg-type]
+    runner._look_again = lambda archive: watch_module._Runner._look_again(runner, archive)  # type: ignore[arg-type]
     record = Record("a.csv", "0" * 64, Verdict.NO_FAULT, "a.csv/report.html", [], "t", 1.0)
     watch_module._Runner._move(runner, archive, record)  # type: ignore[arg-type]
     assert csv.is_file() and not list(done.iterdir())
     assert said(caplog, "a.csv: not moved to ")
+    assert runner.returned == [("a.csv", archive.signature)]  # (looked at again)
 
 
 def test_a_state_file_that_cannot_be_written_after_a_move_does_not_stop_the_watcher(
