@@ -73,6 +73,12 @@ class InputInfo:
     (their stamps jump by more than an hour where their log times do not): each with
     what its clock did. Said in ``errors``; an analysis or export of their channels is
     refused (:func:`one_clock`)."""
+    set_back: str = ""
+    """Of a CSV whose time column steps back by more than an hour for more than a few
+    rows (a clock set back during the recording): where and by how much, as a line
+    without the path. Said in ``errors`` (``inspect`` lists the file); an analysis or
+    export of the input is refused (:func:`one_clock`): its time column times every
+    column of it."""
 
 
 class Reader(Protocol):
@@ -100,13 +106,16 @@ def one_clock(channels: Sequence[str], inputs: Sequence[InputInfo]) -> None:
     """Raise :class:`~analyzer.errors.ReaderError` when ``channels`` (message-path
     names, ``{topic}.{field}``) hold topics of an input timed by two clocks
     (:attr:`InputInfo.clocks`), naming both sides and what to do, or a topic whose
-    header clock was set during the recording (:attr:`InputInfo.clock_steps`)."""
+    header clock was set during the recording (:attr:`InputInfo.clock_steps`), or a
+    CSV's time column set back (:attr:`InputInfo.set_back`)."""
     from analyzer.readers._common import clock_step_refusal, two_clocks
 
     def holds(topic: str) -> bool:
         return any(c.startswith(f"{topic}.") or c.startswith(f"{topic}[") for c in channels)
 
     for info in inputs:
+        if info.set_back:
+            raise ReaderError(f"{info.path}: {info.set_back}")
         stepped = {topic: text for topic, text in info.clock_steps.items() if holds(topic)}
         if stepped:
             raise ReaderError(f"{info.path}: {clock_step_refusal(stepped)}")

@@ -11,6 +11,7 @@ column set back by more than an hour. Logs are built with the real writers."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,6 @@ from test_readers_probe30 import MS, NAMES, ROS2, V3S, Message, v3s, write
 from test_two_clocks import _refused
 
 from analyzer.cli import main
-from analyzer.errors import ReaderError
 from analyzer.readers import csv_reader, open_input
 from analyzer.readers._common import Decoded, Reorderer, TopicTracker
 
@@ -253,25 +253,67 @@ def _csv(path: Path, cells: list[str], header: str = "time") -> Path:
     return path
 
 
+def _set_back(path: Path) -> Any:
+    """The reader of ``path`` read through (no error raised: ``inspect`` lists it)."""
+    reader = open_input(path)
+    collect(reader.chunks())
+    return reader
+
+
 def test_a_csv_time_column_set_back_by_hours_is_refused(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Seconds that step back by two hours at row 4001: before, the rows after it were
-    sorted in among those before (interleaved), said in a line, and analyzed."""
+    sorted in among those before (interleaved), said in a line, and analyzed. ``run``
+    and ``export`` refuse it in one line; ``inspect`` lists the file and says it, as it
+    says a bag's header clock set during the recording (exit 0: at 580dd8d it stopped
+    on it with exit 2)."""
     seconds = np.arange(6000) * 0.01 + 10_000.0
     seconds[4000:] -= 7200.0
     path = _csv(tmp_path / "back.csv", [f"{s:.2f}" for s in seconds])
     said = (
-        f"{path}: the time column 'time' steps back by 2.0 h at data row 4001 ('2840.00': "
+        "the time column 'time' steps back by 2.0 h at data row 4001 ('2840.00': "
         "from 10039.990 s to 2840.000 s): a clock set back during the recording? Its rows "
         "cannot be placed among those before it; correct the times, or split the file at "
         "that row"
     )
-    with pytest.raises(ReaderError) as err:
-        collect(open_input(path).chunks())
-    assert str(err.value) == said
-    assert main(["inspect", str(path)]) == 2
-    assert capsys.readouterr().err == f"analyzer: error: {said}\n"
+    reader = _set_back(path)
+    assert reader.info.set_back == said
+    assert reader.info.errors == [said]  # (the step's own note, of the same row, left out)
+    assert main(["inspect", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert f"  ! {said}\n" in out
+    assert [line.split()[:2] for line in out.splitlines()[-3:-1]] == [["a", "6000"], ["b", "6000"]]
+    assert main(["inspect", str(path), "--json"]) == 0
+    (listed,) = json.loads(capsys.readouterr().out)["inputs"]
+    assert listed["errors"] == [said]
+    for err in _refused(path, tmp_path, capsys):
+        assert err == f"analyzer: error: {path}: {said}\n"
+
+
+def test_a_csv_set_back_in_an_archive_of_files_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """One file of a folder of hourly CSVs set back: ``inspect`` lists both (exit 0),
+    ``run`` and ``export`` refuse the archive naming the file (at 580dd8d the file's
+    reading stopped at the step and the rows before it were analyzed with the rest)."""
+    folder = tmp_path / "hours"
+    folder.mkdir()
+    first = np.arange(3000) * 0.01 + 10_000.0
+    second = first + 30.0
+    second[2000:] -= 7200.0
+    _csv(folder / "a.csv", [f"{s:.2f}" for s in first])
+    late = _csv(folder / "b.csv", [f"{s:.2f}" for s in second])
+    assert main(["inspect", str(folder), "--json"]) == 0
+    listed = {i["path"]: i["errors"] for i in json.loads(capsys.readouterr().out)["inputs"]}
+    assert listed[str(late)][0] == (
+        "the time column 'time' steps back by 2.0 h at data row 2001 ('2850.00': from "
+        "10049.990 s to 2850.000 s): a clock set back during the recording? Its rows "
+        "cannot be placed among those before it; correct the times, or split the file at "
+        "that row"
+    )
+    for err in _refused(folder, tmp_path, capsys):
+        assert err.startswith(f"analyzer: error: {late}: the time column 'time' steps back ")
 
 
 def test_a_csv_date_time_column_set_back_a_day_is_refused(tmp_path: Path) -> None:
@@ -279,10 +321,9 @@ def test_a_csv_date_time_column_set_back_a_day_is_refused(tmp_path: Path) -> Non
     times = start + np.arange(3000) * np.timedelta64(10, "ms")
     times[2000:] -= np.timedelta64(1, "D")
     path = _csv(tmp_path / "iso.csv", [f"{t}Z" for t in times], header="timestamp")
-    with pytest.raises(ReaderError, match=r"the time column 'timestamp' steps back by 24\.0 h "):
-        collect(open_input(path).chunks())
-    with pytest.raises(ReaderError, match=r"at data row 2001 \('2026-03-01T10:00:20.000Z': "):
-        collect(open_input(path).chunks())
+    said = _set_back(path).info.set_back
+    assert said.startswith("the time column 'timestamp' steps back by 24.0 h ")
+    assert "at data row 2001 ('2026-03-01T10:00:20.000Z': " in said
 
 
 def test_a_csv_step_back_under_the_hour_is_sorted_in_as_before(tmp_path: Path) -> None:
@@ -307,8 +348,7 @@ def test_a_csv_set_back_across_blocks_names_its_first_row(
         seconds[step:] -= 7200.0
         path = _csv(tmp_path / f"back{step}.csv", [f"{s:.2f}" for s in seconds])
         cell = f"{seconds[step]:.2f}"
-        with pytest.raises(ReaderError, match=rf"2\.0 h at data row {step + 1} \('{cell}': "):
-            collect(open_input(path).chunks())
+        assert f"2.0 h at data row {step + 1} ('{cell}': " in _set_back(path).info.set_back
 
 
 @pytest.mark.parametrize("bad", [1, 4])
