@@ -239,6 +239,18 @@ recording (a map stamped when its server started) cannot be aligned with the res
 either, its one sample stretching the common clock over the empty hour."""
 
 
+WALL_CLOCK_STEP_NS = 10 * 10**9
+"""A header clock of Unix (wall-clock) times that moves against the log times by more
+than this (10 s) and stays, its stamps jumping by as much, was set during the recording
+(:meth:`TopicTracker._steps`). The offset from stamp to log is a transport latency and a
+recorder's queue (milliseconds to about a second), or an estimate stamped with the time
+of the data it was made from (AMCL's pose: seconds); NTP steps a clock from 128 ms on.
+The real recordings' largest sustained change of that offset is 1.7 s, their widest
+spread 4.9 s (``/amcl_pose`` of ``nav2_turtlebot.mcap``). A simulation clock in the
+headers (stamps below :data:`EPOCH_NS`) keeps :data:`CLOCKS_APART_NS`: a simulation
+paused or slowed moves it against the recorder's wall clock by any amount."""
+
+
 def absolute_log_time(
     start: Callable[[], int | None], end: Callable[[], int | None] | None = None
 ) -> bool:
@@ -330,6 +342,15 @@ def clock_step_refusal(steps: dict[str, str]) -> str:
     )
 
 
+def step_time(ns: int) -> str:
+    """How far a clock stepped, as the lines say it: from an hour on as
+    :func:`long_time`, below it in minutes (from 2) or seconds."""
+    size = abs(ns) / 1e9
+    if size >= 3600:
+        return long_time(ns)
+    return f"{size / 60:.1f} min" if size >= 120 else f"{size:.1f} s"
+
+
 def _stamp_text(ns: int) -> str:
     if ns >= EPOCH_NS:
         return str(iso_utc(ns))
@@ -378,22 +399,33 @@ def _lasting(first: IntArray, last: IntArray, window: int, edge: BoolArray) -> B
 
 
 def _placed(
-    before: IntArray, after: IntArray, between: tuple[IntArray, IntArray]
+    before: IntArray, after: IntArray, between: tuple[IntArray, IntArray], floor: int
 ) -> tuple[IntArray, IntArray]:
     """Where a step between the lasting stretches ending at ``before`` and starting at
     ``after`` is: at the first message of the short stretches ``between`` them that is
-    already on the new clock (within :data:`CLOCKS_APART_NS` of ``after``'s offset),
-    from the last one before it still on the old clock. A glitch right after a clock
-    was set would otherwise move the step past it."""
+    already on the new clock (within ``floor``, the topic's step, of ``after``'s
+    offset), from the last one before it still on the old clock. A glitch right after
+    a clock was set would otherwise move the step past it."""
     first, last = between
-    new = np.flatnonzero(np.abs(first[:, 0] - after[0]) <= CLOCKS_APART_NS)
+    new = np.flatnonzero(np.abs(first[:, 0] - after[0]) <= floor)
     if new.size:
         after = first[new[0]]
         first, last = first[: new[0]], last[: new[0]]
-    old = np.flatnonzero(np.abs(last[:, 0] - before[0]) <= CLOCKS_APART_NS)
+    old = np.flatnonzero(np.abs(last[:, 0] - before[0]) <= floor)
     if old.size:
         before = last[old[-1]]
     return before, after
+
+
+def _stepped(tails: IntArray, first: IntArray, last: IntArray, floor: int) -> BoolArray:
+    """Which lasting stretches (``first`` and ``last`` messages, rows of :class:`_Levels`)
+    are a header clock stepped from the lasting stretch before each (its last message
+    in ``tails``): the offset it settles at (its last message's) lies more than
+    ``floor`` from the one before, and its first stamp jumped by more than ``floor``
+    from that message's (where the stamps go on and only the log times jumped, the
+    source paused or the recorder's clock was set, not this clock)."""
+    moved = np.abs(last[:, 0] - tails[:, 0]) > floor
+    return moved & (np.abs(first[:, 3] - tails[:, 3]) > floor)
 
 
 LEAD_GLITCH_MESSAGES = 4
@@ -854,20 +886,26 @@ class TopicTracker:
         """Follow the header clock of ``topic`` against its log times (messages stamped
         ``t``, logged at ``log_ns``, numbered ``idx``, in log-time order) for a step: the
         clock set during the recording (by NTP or PTP, from 1970 plus the uptime, or a
-        day off), which moves the header-minus-log offset by more than
-        :data:`CLOCKS_APART_NS` and keeps it there. The topic's span then covers the
+        day off), which moves the header-minus-log offset by more than the topic's floor
+        (:meth:`_floor`: 10 s on a wall clock, an hour on a simulation clock) and keeps
+        it there, the stamps jumping by as much. The topic's span then covers the
         jump, so the two-clock rule (:meth:`_apart`, which compares the topics' spans)
-        cannot see it, and one clock for all topics would stretch over the jump. A
-        pause of the recorder moves both times, and not the offset; jitter, a latency
-        and a short stretch off (:func:`_lasting`) are no step. Vectorized: the
-        messages split into stretches where the offset moves by more than the floor
-        from one message to the next; only each stretch's first and last message are
-        compared, and the open stretch is carried to the next batch."""
+        cannot see it, and one clock for all topics would stretch over the jump (or the
+        topic is analyzed shifted by the step). A pause of the recorder moves both
+        times, and not the offset; a pause of the source (a simulation or a playback
+        paused) or the recorder's own clock set moves the log times, not the stamps;
+        jitter, a latency and a short stretch off (:func:`_lasting`) are no step, nor
+        a burst of messages queued through an outage: the level a stretch settles at
+        (its last message) is compared with the last one's. Vectorized: the messages
+        split into stretches where the offset moves by more than the floor from one
+        message to the next; only each stretch's first and last message are compared,
+        and the open stretch is carried to the next batch."""
         if t.size == 0:
             return
         levels = self._levels.setdefault(topic, _Levels())
+        floor = self._floor(topic)
         o = t - log_ns
-        split = np.flatnonzero(np.abs(np.diff(o)) > CLOCKS_APART_NS) + 1
+        split = np.flatnonzero(np.abs(np.diff(o)) > floor) + 1
         starts = np.concatenate((np.zeros(1, dtype=np.int64), split))
         ends = np.concatenate((split - 1, np.array([o.shape[0] - 1], dtype=np.int64)))
 
@@ -877,7 +915,7 @@ class TopicTracker:
         first, last = rows(starts), rows(ends)
         held = levels.open
         if held is not None:
-            if abs(int(o[0]) - int(held[1, 0])) <= CLOCKS_APART_NS:
+            if abs(int(o[0]) - int(held[1, 0])) <= floor:
                 first[0] = held[0]  # (the open stretch goes on)
             else:
                 first = np.concatenate((held[:1], first))
@@ -894,7 +932,7 @@ class TopicTracker:
         tails = last[keys] if levels.anchor is None else np.vstack((levels.anchor, last[keys]))
         pairs = max(min(keys.size, tails.shape[0] - 1), 0)
         later = keys[keys.size - pairs :]
-        step = np.abs(first[later, 0] - tails[:pairs, 0]) > CLOCKS_APART_NS
+        step = _stepped(tails[:pairs], first[later], last[later], floor)
         levels.steps += int(np.count_nonzero(step))
         if levels.before is None:
             k = int(np.argmax(step)) if bool(step.any()) else -1
@@ -908,7 +946,7 @@ class TopicTracker:
                 np.concatenate((kept[1], last[since:after_key])),
             )
             if k >= 0:
-                levels.before, levels.after = _placed(tails[k], first[after_key], between)
+                levels.before, levels.after = _placed(tails[k], first[after_key], between, floor)
             else:
                 levels.between = (
                     between[0][:BETWEEN_STRETCHES],
@@ -928,10 +966,11 @@ class TopicTracker:
             if held is not None and anchor is not None:
                 edge = np.ones(1, dtype=bool)
                 lasting = bool(_lasting(held[:1], held[1:], self._window, edge)[0])
-                if lasting and abs(int(held[0, 0]) - int(anchor[0])) > CLOCKS_APART_NS:
+                floor = self._floor(topic)
+                if lasting and bool(_stepped(anchor[None], held[:1], held[1:], floor)[0]):
                     count += 1
                     if before is None:
-                        before, after = _placed(anchor, held[0], levels.between)
+                        before, after = _placed(anchor, held[0], levels.between, floor)
             if before is None or after is None:
                 continue
             moved = int(after[0]) - int(before[0])
@@ -941,13 +980,19 @@ class TopicTracker:
                 (
                     int(after[1]),
                     topic,
-                    f"header.stamp jumps {long_time(moved)} {way} at "
+                    f"header.stamp jumps {step_time(moved)} {way} at "
                     f"message {int(after[2])} ({self._at(int(after[1]))}), from "
                     f"{_stamp_text(int(before[3]))} to {_stamp_text(int(after[3]))}, while "
                     f"its log times go on (a clock set during the recording?){more}",
                 )
             )
         return {topic: text for _, topic, text in sorted(found)}
+
+    def _floor(self, topic: str) -> int:
+        """The least move of ``topic``'s header clock against the log times that is a
+        step (:meth:`_steps`): :data:`WALL_CLOCK_STEP_NS` where its stamps are Unix
+        times, else (a simulation clock, or not yet known) :data:`CLOCKS_APART_NS`."""
+        return WALL_CLOCK_STEP_NS if self._epoch.get(topic) else CLOCKS_APART_NS
 
     def clock_spans(self) -> dict[str, tuple[int, int]]:
         """Of each topic of :meth:`clocks`: the first and last time its clock gave it."""
