@@ -351,7 +351,9 @@ def step_time(ns: int) -> str:
     return f"{size / 60:.1f} min" if size >= 120 else f"{size:.1f} s"
 
 
-def _stamp_text(ns: int) -> str:
+def stamp_text(ns: int) -> str:
+    """A time as the lines say it: UTC where a Unix time, else seconds (a simulation
+    clock)."""
     if ns >= EPOCH_NS:
         return str(iso_utc(ns))
     return f"{ns / 1e9:.3f} s (not a Unix time)"
@@ -982,7 +984,7 @@ class TopicTracker:
                     topic,
                     f"header.stamp jumps {step_time(moved)} {way} at "
                     f"message {int(after[2])} ({self._at(int(after[1]))}), from "
-                    f"{_stamp_text(int(before[3]))} to {_stamp_text(int(after[3]))}, while "
+                    f"{stamp_text(int(before[3]))} to {stamp_text(int(after[3]))}, while "
                     f"its log times go on (a clock set during the recording?){more}",
                 )
             )

@@ -74,11 +74,11 @@ class InputInfo:
     what its clock did. Said in ``errors``; an analysis or export of their channels is
     refused (:func:`one_clock`)."""
     set_back: str = ""
-    """Of a CSV whose time column steps back by more than an hour for more than a few
-    rows (a clock set back during the recording): where and by how much, as a line
-    without the path. Said in ``errors`` (``inspect`` lists the file); an analysis or
-    export of the input is refused (:func:`one_clock`): its time column times every
-    column of it."""
+    """Of a CSV whose time column, or an MCAP whose log times, step back by more than an
+    hour for more than a few rows or messages (a clock set back during the recording):
+    where and by how much, as a line without the path. Said in ``errors`` (``inspect``
+    lists the file); an analysis or export of the input is refused (:func:`one_clock`):
+    its rows or messages cannot be placed among those before."""
 
 
 class Reader(Protocol):

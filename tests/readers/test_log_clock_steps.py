@@ -1,0 +1,123 @@
+"""An MCAP whose recorder's own clock (its log times, not the header stamps) is set
+during the recording. Set back by hours (an RTC that ran ahead, then NTP): the messages
+logged after it have log times before those written before them; the reader reads in
+log-time order, so they were sorted in before the earlier ones, silently (``--time
+log``), or seemed a header clock gone back and were dropped (``--time header``). Now the
+input says it (``inspect``, exit 0) and ``run`` and ``export`` refuse it (exit 2), as a
+CSV's time column set back. Set forward: a gap with ``--time log``, as a pause of the
+recorder, and nothing with ``--time header``, whose stamps go on. Files made with the
+real MCAP writer."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap.writer import Writer as McapWriter
+from readers_helpers import T0, collect
+from test_readers_probe30 import MS, ROS2, V3S, Message, v3s, write
+
+from analyzer.cli import main
+from analyzer.readers import open_input
+
+HOUR = 3600 * 10**9
+N, AT = 3000, 2000
+
+
+def _recorded(jump: int, at: int = AT, count: int = N - AT) -> list[Message]:
+    """``/imu`` and ``/odom`` at 100 Hz, stamped on a clock that goes on; the recorder's
+    clock moves by ``jump`` at message ``at`` for ``count`` messages; in the order
+    written."""
+    rng = np.random.default_rng(1)
+    out: list[Message] = []
+    for i in range(N):
+        stamp = T0 + i * MS
+        log = stamp + 2_000_000 + (jump if at <= i < at + count else 0)
+        out.append(("/imu", V3S, log, v3s(stamp, np.sin(i / 50) + 0.01 * rng.normal())))
+        out.append(("/odom", V3S, log + MS // 4, v3s(stamp, rng.normal())))
+    return out
+
+
+def _small_chunks(path: Path, messages: list[Message]) -> Path:
+    """``messages`` in an MCAP of ~4 kB chunks: the step falls between chunks."""
+    with path.open("wb") as handle:
+        writer = McapWriter(handle, chunk_size=4000)
+        writer.start(profile="ros2", library="test")
+        channels: dict[str, int] = {}
+        for topic, msgtype, t, make in messages:
+            if topic not in channels:
+                text = ROS2.generate_msgdef(msgtype, ros_version=2)[0]
+                schema = writer.register_schema(msgtype, "ros2msg", text.encode())
+                channels[topic] = writer.register_channel(topic, "cdr", schema)
+            data = bytes(ROS2.serialize_cdr(make(ROS2), msgtype))
+            writer.add_message(channels[topic], log_time=t, data=data, publish_time=t)
+        writer.finish()
+    return path
+
+
+SAID = (
+    "the log times step back by 2.0 h: {where} 2025-12-31T22:00:20.002Z, after messages "
+    "logged up to 2026-01-01T00:00:19.992Z (the recorder's clock set back during the "
+    "recording?); its messages cannot be placed among those logged before them (they "
+    "would be sorted in among them): split the recording there"
+)
+
+
+@pytest.mark.parametrize("time", ["log", "header"])
+@pytest.mark.parametrize("chunked", [False, True])
+def test_a_recorder_clock_set_back_is_said_and_refused(
+    tmp_path: Path, time: str, chunked: bool, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Set back by 2 h at message 2000 of 3000: at 580dd8d the last 1000 messages were
+    placed 2 h before the first (``--time log``, said nowhere) or dropped as a header
+    clock gone back (``--time header``); ``run`` and ``export`` went on."""
+    messages = _recorded(-2 * HOUR)
+    path = (
+        _small_chunks(tmp_path / "x.mcap", messages)
+        if chunked
+        else write(tmp_path / "x.mcap", "mcap", messages)
+    )
+    reader = open_input(path)
+    collect(reader.chunks(time))  # type: ignore[arg-type]
+    said = reader.info.set_back
+    if chunked:
+        assert said.startswith("the log times step back by 2.0 h: the chunk at byte ")
+        assert " starts at 2025-12-31T22:00:" in said  # (the chunk's first message)
+        assert said.endswith(SAID.split("2026-01-01T00:00:19.992Z")[1])
+    else:
+        assert said == SAID.format(where="/imu: a message logged at")
+    assert reader.info.errors[0] == said
+    assert main(["inspect", str(path), "--time", time]) == 0
+    assert f"  ! {said}\n" in capsys.readouterr().out
+    for command in (
+        ["run", str(path), "--out", str(tmp_path / "o"), "--time", time, "--no-progress"],
+        ["export", str(path), "--out", str(tmp_path / "o.csv"), "--time", time],
+    ):
+        assert main(command) == 2
+        assert capsys.readouterr().err == f"analyzer: error: {path}: {said}\n"
+
+
+def test_a_few_messages_logged_far_back_are_no_clock_set_back(tmp_path: Path) -> None:
+    """Up to 4 messages of a topic logged 2 h back (a recorder's clock read wrong): the
+    reorderer's business, as before; nothing refused."""
+    reader = open_input(write(tmp_path / "x.mcap", "mcap", _recorded(-2 * HOUR, count=4)))
+    collect(reader.chunks())
+    assert not any("log times step back" in e for e in reader.info.errors)
+
+
+@pytest.mark.parametrize("jump", [HOUR, 10 * 60 * 10**9])
+def test_a_recorder_clock_set_forward_is_a_gap_or_nothing(tmp_path: Path, jump: int) -> None:
+    """Set forward by an hour or 10 minutes at message 2000, the stamps going on: with
+    ``--time log`` a gap of that length, as a pause of the recorder (both clocks moved
+    forward together); with ``--time header`` the stamps analyzed as they are, no step
+    of the header clock named (its stamps did not jump: only the log times did)."""
+    path = write(tmp_path / "x.mcap", "mcap", _recorded(jump))
+    reader = open_input(path)
+    t, _ = collect(reader.chunks())["/imu.vector.x"]
+    assert reader.info.errors == []
+    assert int(np.diff(t).max()) == jump + MS
+    reader = open_input(path)
+    t, _ = collect(reader.chunks("header"))["/imu.vector.x"]
+    assert reader.info.clock_steps == {} and reader.info.errors == []
+    assert t.size == N and int(np.diff(t).max()) == MS
