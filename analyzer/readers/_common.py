@@ -359,6 +359,82 @@ def stamp_text(ns: int) -> str:
     return f"{ns / 1e9:.3f} s (not a Unix time)"
 
 
+LOG_SET_BACK_NS = CLOCKS_APART_NS + REORDER_WINDOW_NS
+"""Log times that go back in the file's order by more than this (an hour and the reorder
+window, as a CSV's time column set back, ``csv_reader.CLOCK_SET_BACK_NS``) are the
+recorder's own clock set back during the recording (see :class:`LogClock`)."""
+
+
+class LogClock:
+    """The recorder's clock set back during the recording (by NTP, from an RTC that ran
+    ahead): the messages it logged after it have log times before those of the messages
+    written before them. An MCAP or a ROS 1 bag is read in log-time order (its chunks by
+    their start times, each channel's messages by log time), so they were sorted in
+    among the earlier messages, or before them all, silently: with ``--time header`` its stamps
+    then seemed to go back, and the messages were dropped. A clock set forward (the
+    recorder's, or both clocks) is a gap, as a pause of the recorder is.
+
+    Found in the file's order: a chunk that starts more than :data:`LOG_SET_BACK_NS`
+    before the end of a chunk written before it (the chunk index, or the chunks met in
+    a stream), and inside a chunk, a channel with more than
+    :data:`~analyzer.readers._common.LEAD_GLITCH_MESSAGES` messages logged that far
+    before one written before them (a message or a few off are left to the reorderer,
+    as before). Per chunk: a comparison of the chunks' times, and one of each channel's
+    log times, in the file's order, where they are not in order. ``line`` says the first
+    (:attr:`InputInfo.set_back`)."""
+
+    def __init__(self) -> None:
+        self.line = ""
+        self._newest: int | None = None
+
+    def chunks(
+        self, offsets: IntArray, starts: IntArray, ends: IntArray, where: str = "at"
+    ) -> None:
+        """Chunks ``where`` (at, or ending at) byte ``offsets`` logging from ``starts``
+        to ``ends``, in the file's order, after those given before."""
+        if self.line or starts.size == 0:
+            return
+        newest = np.maximum.accumulate(ends)
+        before = np.empty_like(newest)
+        before[0] = starts[0] if self._newest is None else self._newest
+        before[1:] = newest[:-1]
+        if self._newest is not None:
+            np.maximum(before, self._newest, out=before)
+        self._newest = int(max(int(newest[-1]), before[0]))
+        behind = np.flatnonzero(before - starts > LOG_SET_BACK_NS)
+        if behind.size:
+            k = int(behind[0])
+            self._said(
+                int(before[k]),
+                int(starts[k]),
+                f"the chunk {where} byte {int(offsets[k])} starts at",
+            )
+
+    def messages(self, topic: str, offsets: IntArray, log_ns: IntArray) -> None:
+        """The messages of ``topic`` in one chunk, at ``offsets`` in it, logged at
+        ``log_ns``."""
+        if self.line or log_ns.size <= LEAD_GLITCH_MESSAGES:
+            return
+        if bool((log_ns[1:] >= log_ns[:-1]).all()) and bool((offsets[1:] >= offsets[:-1]).all()):
+            return  # (in order: the common case, two comparisons)
+        order = np.argsort(offsets, kind="stable")
+        written = log_ns[order]
+        newest = np.maximum.accumulate(written)
+        behind = np.flatnonzero(newest[:-1] - written[1:] > LOG_SET_BACK_NS) + 1
+        if behind.size > LEAD_GLITCH_MESSAGES:
+            k = int(behind[0])
+            self._said(int(newest[k - 1]), int(written[k]), f"{topic}: a message logged at")
+
+    def _said(self, newest: int, time: int, where: str) -> None:
+        self.line = (
+            f"the log times step back by {long_time(newest - time)}: {where} "
+            f"{stamp_text(time)}, after messages logged up to {stamp_text(newest)} (the "
+            "recorder's clock set back during the recording?); its messages cannot be placed "
+            "among those logged before them (they would be sorted in among them): split the "
+            "recording there"
+        )
+
+
 BETWEEN_STRETCHES = 16
 """Short stretches (glitches) after a topic's last lasting one that :class:`_Levels`
 keeps, to place a step at its first message (:func:`_placed`)."""

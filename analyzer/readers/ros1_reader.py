@@ -32,6 +32,7 @@ from analyzer.errors import ReaderError
 from analyzer.readers._common import (
     ByteArray,
     IntArray,
+    LogClock,
     LogOrder,
     Reorderer,
     TopicTracker,
@@ -266,6 +267,7 @@ class Ros1BagReader:
                 self._index_error = f"bag index damaged ({one_line(err)}); read sequentially"
         self._decoders: dict[int, RosBatchDecoder | None] = {}
         self._tracker = TopicTracker("log")
+        self._log_clock = LogClock()
         self.topics: dict[str, str] = {}
         """The topic of every channel read (for reports per topic)."""
         self.info.absolute_time = absolute_log_time(self.start_ns, self._end_ns)
@@ -288,6 +290,7 @@ class Ros1BagReader:
 
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
         self._tracker = TopicTracker(time)
+        self._log_clock = LogClock()
         reorder = Reorderer(repeats=True, topics=self.topics)
         if self._index_error:
             self._error(self._index_error)
@@ -299,6 +302,9 @@ class Ros1BagReader:
         else:
             yield from self._indexed(reorder, time)
         yield from reorder.flush()
+        if self._log_clock.line:
+            self.info.set_back = self._log_clock.line
+            self._error(self._log_clock.line)
         for line in self._tracker.lines() + reorder.drop_report():
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
@@ -356,6 +362,12 @@ class Ros1BagReader:
         :class:`Reorderer` orders log times) and the samples before the next chunk
         released."""
         infos = sorted(self._chunk_infos, key=lambda c: (c.start_ns, c.pos))
+        written = sorted(self._chunk_infos, key=lambda c: c.pos)
+        self._log_clock.chunks(
+            np.array([c.pos for c in written], dtype=np.int64),
+            np.array([c.start_ns for c in written], dtype=np.int64),
+            np.array([c.end_ns for c in written], dtype=np.int64),
+        )
         gate = LogOrder()
         with self.path.open("rb") as handle:
             for k, info in enumerate(infos):
@@ -536,11 +548,13 @@ class Ros1BagReader:
             decoder = self._decoder(int(conn))
             if decoder is None:
                 continue
+            topic = self._connections[int(conn)].topic
             try:
                 starts, sizes = self._locate(records, offsets[sel], int(conn))
             except _BagError as err:
-                self._error(f"{self._connections[int(conn)].topic}: {one_line(err)}")
+                self._error(f"{topic}: {one_line(err)}")
                 continue
+            self._log_clock.messages(topic, offsets[sel], times[sel])
             gate.push(int(conn), records, starts, sizes, times[sel])
 
     def _decode(self, gate: LogOrder, bound: int | None, reorder: Reorderer) -> None:

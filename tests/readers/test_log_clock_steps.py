@@ -1,12 +1,12 @@
-"""An MCAP whose recorder's own clock (its log times, not the header stamps) is set
-during the recording. Set back by hours (an RTC that ran ahead, then NTP): the messages
-logged after it have log times before those written before them; the reader reads in
-log-time order, so they were sorted in before the earlier ones, silently (``--time
-log``), or seemed a header clock gone back and were dropped (``--time header``). Now the
-input says it (``inspect``, exit 0) and ``run`` and ``export`` refuse it (exit 2), as a
-CSV's time column set back. Set forward: a gap with ``--time log``, as a pause of the
-recorder, and nothing with ``--time header``, whose stamps go on. Files made with the
-real MCAP writer."""
+"""An MCAP or a ROS 1 bag whose recorder's own clock (its log times, not the header
+stamps) is set during the recording. Set back by hours (an RTC that ran ahead, then
+NTP): the messages logged after it have log times before those written before them; the
+reader reads in log-time order, so they were sorted in before the earlier ones, silently
+(``--time log``), or seemed a header clock gone back and were dropped (``--time
+header``). Now the input says it (``inspect``, exit 0) and ``run`` and ``export`` refuse
+it (exit 2), as a CSV's time column set back. Set forward: a gap with ``--time log``, as
+a pause of the recorder, and nothing with ``--time header``, whose stamps go on. Files
+made with the real writers (``mcap``, ``rosbags``)."""
 
 from __future__ import annotations
 
@@ -65,19 +65,21 @@ SAID = (
 
 
 @pytest.mark.parametrize("time", ["log", "header"])
-@pytest.mark.parametrize("chunked", [False, True])
+@pytest.mark.parametrize("kind", ["mcap", "mcap chunks", "ros1"])
 def test_a_recorder_clock_set_back_is_said_and_refused(
-    tmp_path: Path, time: str, chunked: bool, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, time: str, kind: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Set back by 2 h at message 2000 of 3000: at 580dd8d the last 1000 messages were
     placed 2 h before the first (``--time log``, said nowhere) or dropped as a header
-    clock gone back (``--time header``); ``run`` and ``export`` went on."""
+    clock gone back (``--time header``); ``run`` and ``export`` went on. In one chunk
+    (the messages of a topic compared) or across chunks (the chunks' times); also in
+    a ROS 1 bag."""
     messages = _recorded(-2 * HOUR)
-    path = (
-        _small_chunks(tmp_path / "x.mcap", messages)
-        if chunked
-        else write(tmp_path / "x.mcap", "mcap", messages)
-    )
+    chunked = kind == "mcap chunks"
+    if chunked:
+        path = _small_chunks(tmp_path / "x.mcap", messages)
+    else:
+        path = write(tmp_path / ("x.bag" if kind == "ros1" else "x.mcap"), kind, messages)
     reader = open_input(path)
     collect(reader.chunks(time))  # type: ignore[arg-type]
     said = reader.info.set_back
