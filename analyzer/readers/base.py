@@ -74,8 +74,9 @@ class InputInfo:
     what its clock did. Said in ``errors``; an analysis or export of their channels is
     refused (:func:`one_clock`)."""
     set_back: str = ""
-    """Of a CSV whose time column, or an MCAP whose log times, step back by more than an
-    hour for more than a few rows or messages (a clock set back during the recording):
+    """Of a CSV whose time column, or an MCAP or ROS 1 bag whose log times, step back by
+    more than an hour for more than a few rows or messages (a clock set back while
+    recording, :class:`~analyzer.readers._common.LogClock`):
     where and by how much, as a line without the path. Said in ``errors`` (``inspect``
     lists the file); an analysis or export of the input is refused (:func:`one_clock`):
     its rows or messages cannot be placed among those before."""
@@ -106,8 +107,9 @@ def one_clock(channels: Sequence[str], inputs: Sequence[InputInfo]) -> None:
     """Raise :class:`~analyzer.errors.ReaderError` when ``channels`` (message-path
     names, ``{topic}.{field}``) hold topics of an input timed by two clocks
     (:attr:`InputInfo.clocks`), naming both sides and what to do, or a topic whose
-    header clock was set during the recording (:attr:`InputInfo.clock_steps`), or a
-    CSV's time column set back (:attr:`InputInfo.set_back`)."""
+    header clock was set during the recording (:attr:`InputInfo.clock_steps`), or an
+    input whose times step back by hours (:attr:`InputInfo.set_back`: a CSV's time
+    column, a recorder's log times), whatever its channels chosen."""
     from analyzer.readers._common import clock_step_refusal, two_clocks
 
     def holds(topic: str) -> bool:
