@@ -70,16 +70,16 @@ class InputInfo:
     """Of each topic of :attr:`clocks`: the first and last time its clock gave it (ns)."""
     clock_steps: dict[str, str] = field(default_factory=dict)
     """With ``--time header``, the topics whose header clock was set during the recording
-    (their stamps jump by more than an hour where their log times do not): each with
-    what its clock did. Said in ``errors``; an analysis or export of their channels is
+    (their stamps jump by more than 10 s, an hour on a simulation clock, where their
+    log times do not): each with what its clock did. Said in ``errors``; an analysis or export of their channels is
     refused (:func:`one_clock`)."""
     set_back: str = ""
     """Of a CSV whose time column, or an MCAP or ROS 1 bag whose log times, step back by
     more than an hour for more than a few rows or messages (a clock set back while
-    recording, :class:`~analyzer.readers._common.LogClock`):
-    where and by how much, as a line without the path. Said in ``errors`` (``inspect``
-    lists the file); an analysis or export of the input is refused (:func:`one_clock`):
-    its rows or messages cannot be placed among those before."""
+    recording, :class:`~analyzer.readers._common.LogClock`): where and by how much, as
+    a line without the path. Said in ``errors`` (``inspect`` lists the file); an
+    analysis or export of the input is refused (:func:`one_clock`): its rows or
+    messages cannot be placed among those before."""
 
 
 class Reader(Protocol):
