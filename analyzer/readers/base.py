@@ -71,8 +71,8 @@ class InputInfo:
     clock_steps: dict[str, str] = field(default_factory=dict)
     """With ``--time header``, the topics whose header clock was set during the recording
     (their stamps jump by more than 10 s, an hour on a simulation clock, where their
-    log times do not): each with what its clock did. Said in ``errors``; an analysis or export of their channels is
-    refused (:func:`one_clock`)."""
+    log times do not): each with what its clock did. Said in ``errors``; an analysis
+    or export of their channels is refused (:func:`one_clock`)."""
     set_back: str = ""
     """Of a CSV whose time column, or an MCAP or ROS 1 bag whose log times, step back by
     more than an hour for more than a few rows or messages (a clock set back while
