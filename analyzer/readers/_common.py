@@ -23,6 +23,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from analyzer.errors import (
     IntegrityError,
+    ReaderError,
     capped,
     one_line,  # noqa: F401 - re-exported for the readers
 )
@@ -374,56 +375,67 @@ class LogClock:
     then seemed to go back, and the messages were dropped. A clock set forward (the
     recorder's, or both clocks) is a gap, as a pause of the recorder is.
 
-    Found in the file's order: a chunk that starts more than :data:`LOG_SET_BACK_NS`
-    before the end of a chunk written before it (the chunk index, or the chunks met in
-    a stream), and inside a chunk, a channel with more than
-    :data:`~analyzer.readers._common.LEAD_GLITCH_MESSAGES` messages logged that far
-    before one written before them (a message or a few off are left to the reorderer,
-    as before). Per chunk: a comparison of the chunks' times, and one of each channel's
-    log times, in the file's order, where they are not in order. ``line`` says the first
-    (:attr:`InputInfo.set_back`)."""
+    Found per topic, in the file's order: more than
+    :data:`~analyzer.readers._common.LEAD_GLITCH_MESSAGES` messages of a chunk logged
+    more than :data:`LOG_SET_BACK_NS` before one of the topic written before them, in
+    the chunk or in a chunk written before it (a message or a few off are left to the
+    reorderer, as before). Per topic only: a file need not be written in log-time order
+    across topics (a converter may write one topic's whole recording, then the next
+    one's). :meth:`messages` takes one topic's messages of one chunk; the chunks in the
+    file's order where ``in_file_order`` (a stream, or a pass over an indexed file's
+    message indexes: :meth:`may_step_back` says whether one is needed), else inside each
+    chunk only. ``line`` says the first (:attr:`InputInfo.set_back`); with ``stop`` (an
+    input of a multi-file archive) it is raised there instead, naming ``stop``: the file
+    is read up to there."""
 
-    def __init__(self) -> None:
+    def __init__(self, *, in_file_order: bool, stop: Path | None = None) -> None:
         self.line = ""
-        self._newest: int | None = None
+        self.in_file_order = in_file_order
+        self._stop = stop
+        self._newest: dict[str, int] = {}
+        """Per topic: its newest log time in the chunks given before."""
 
-    def chunks(
-        self, offsets: IntArray, starts: IntArray, ends: IntArray, where: str = "at"
-    ) -> None:
-        """Chunks ``where`` (at, or ending at) byte ``offsets`` logging from ``starts``
-        to ``ends``, in the file's order, after those given before."""
-        if self.line or starts.size == 0:
-            return
-        newest = np.maximum.accumulate(ends)
-        before = np.empty_like(newest)
-        before[0] = starts[0] if self._newest is None else self._newest
-        before[1:] = newest[:-1]
-        if self._newest is not None:
-            np.maximum(before, self._newest, out=before)
-        self._newest = int(max(int(newest[-1]), before[0]))
-        behind = np.flatnonzero(before - starts > LOG_SET_BACK_NS)
-        if behind.size:
-            k = int(behind[0])
-            self._said(
-                int(before[k]),
-                int(starts[k]),
-                f"the chunk {where} byte {int(offsets[k])} starts at",
-            )
+    @staticmethod
+    def may_step_back(starts: IntArray, ends: IntArray) -> bool:
+        """Whether chunks logging from ``starts`` to ``ends`` (in the file's order) may
+        hold a topic set back: one starts more than :data:`LOG_SET_BACK_NS` before the
+        end of one written before it (needed for it, not enough: the chunks may hold
+        other topics)."""
+        if starts.size < 2:
+            return False
+        newest = np.maximum.accumulate(ends)[:-1]
+        return bool((newest - starts[1:] > LOG_SET_BACK_NS).any())
 
     def messages(self, topic: str, offsets: IntArray, log_ns: IntArray) -> None:
         """The messages of ``topic`` in one chunk, at ``offsets`` in it, logged at
         ``log_ns``."""
-        if self.line or log_ns.size <= LEAD_GLITCH_MESSAGES:
+        if self.line or log_ns.size == 0:
             return
-        if bool((log_ns[1:] >= log_ns[:-1]).all()) and bool((offsets[1:] >= offsets[:-1]).all()):
-            return  # (in order: the common case, two comparisons)
-        order = np.argsort(offsets, kind="stable")
-        written = log_ns[order]
-        newest = np.maximum.accumulate(written)
-        behind = np.flatnonzero(newest[:-1] - written[1:] > LOG_SET_BACK_NS) + 1
+        before = self._newest.get(topic) if self.in_file_order else None
+        in_order = bool((log_ns[1:] >= log_ns[:-1]).all()) and bool(
+            (offsets[1:] >= offsets[:-1]).all()
+        )
+        written = log_ns if in_order else log_ns[np.argsort(offsets, kind="stable")]
+        newest = int(written[-1]) if in_order else int(written.max())
+        if before is not None:
+            self._newest[topic] = max(before, newest)
+        elif self.in_file_order:
+            self._newest[topic] = newest
+        if written.size <= LEAD_GLITCH_MESSAGES:
+            return
+        if before is not None:  # (the chunks before: the fifth earliest message against them)
+            fifth = int(np.partition(written, LEAD_GLITCH_MESSAGES)[LEAD_GLITCH_MESSAGES])
+            if before - fifth > LOG_SET_BACK_NS:
+                first = int(np.flatnonzero(before - written > LOG_SET_BACK_NS)[0])
+                self._said(before, int(written[first]), f"{topic}: a message logged at")
+                return
+        if in_order:
+            return  # (the common case: two comparisons)
+        running = np.maximum.accumulate(written)
+        behind = np.flatnonzero(running[:-1] - written[1:] > LOG_SET_BACK_NS) + 1
         if behind.size > LEAD_GLITCH_MESSAGES:
             k = int(behind[0])
-            self._said(int(newest[k - 1]), int(written[k]), f"{topic}: a message logged at")
+            self._said(int(running[k - 1]), int(written[k]), f"{topic}: a message logged at")
 
     def _said(self, newest: int, time: int, where: str) -> None:
         self.line = (
@@ -433,6 +445,8 @@ class LogClock:
             "among those logged before them (they would be sorted in among them): split the "
             "recording there"
         )
+        if self._stop is not None:
+            raise ReaderError(f"{self._stop}: {self.line}")
 
 
 BETWEEN_STRETCHES = 16

@@ -91,7 +91,10 @@ class Reader(Protocol):
     A reader may also keep ``fraction_read``: the share of its input that
     :meth:`chunks` has got through so far (0 to 1, rising, approximate), which the
     archive turns into the reading stage's progress; one without it counts as read
-    when its chunks end."""
+    when its chunks end. And ``stop_at_set_back``: set by the archive where it holds
+    several inputs, a clock set back by hours while recording (:attr:`InputInfo.set_back`)
+    stops the reading there, raised as damage (the contract: one damaged file of a
+    multi-file archive does not stop the analysis of the others)."""
 
     info: InputInfo
 

@@ -692,6 +692,9 @@ class CsvReader:
         """Bytes of the line the damage cut (not read)."""
         self._corrupt = False
         """Whether the damage is corrupt data, not a stream cut short (see :class:`_Garbage`)."""
+        self.stop_at_set_back = False
+        """Whether a time column set back stops the reading, raised (an input of a
+        multi-file archive: see ``Reader``), instead of said in ``info.set_back``."""
         self._set_back_row = 0
         """The data row :attr:`InputInfo.set_back` names (see :meth:`_set_back`)."""
         self._invalid_at: list[int] = []
@@ -886,15 +889,20 @@ class CsvReader:
         as a smaller step's), so that ``inspect`` lists the file and says this (as it
         says a header clock set during a recording), while ``run`` and ``export`` refuse
         it (:func:`~analyzer.readers.base.one_clock`). Before the refusal, its rows were
-        analyzed sorted in among those before."""
+        analyzed sorted in among those before. With :attr:`stop_at_set_back` (one input
+        of several), raised instead: the reading stops there, the rows of the blocks
+        before analyzed (as before the refusal in a folder)."""
         name = self._layout.names[self._layout.time_column]
         self._set_back_row = row
-        self.info.set_back = (
+        line = (
             f"the time column {name!r} steps back by {long_time(newest - time)} "
             f"at data row {row} ({cell!r}: from {self._when(newest)} to {self._when(time)}): "
             "a clock set back during the recording? Its rows cannot be placed among those "
             "before it; correct the times, or split the file at that row"
         )
+        if self.stop_at_set_back:
+            raise ReaderError(f"{self.path}: {line}")
+        self.info.set_back = line
 
     def _step_note(self, steps: _Steps, dropped: bool) -> str:
         """What :meth:`chunks` says of times that step back (see :class:`_Steps`): where,

@@ -11,6 +11,7 @@ column set back by more than an hour. Logs are built with the real writers."""
 
 from __future__ import annotations
 
+import html
 import json
 from pathlib import Path
 from typing import Any
@@ -357,12 +358,14 @@ def test_a_csv_time_column_set_back_by_hours_is_refused(
         assert err == f"analyzer: error: {path}: {said}\n"
 
 
-def test_a_csv_set_back_in_an_archive_of_files_is_refused(
+def test_a_csv_set_back_in_a_folder_of_files_stops_its_reading(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """One file of a folder of hourly CSVs set back: ``inspect`` lists both (exit 0),
-    ``run`` and ``export`` refuse the archive naming the file (at 580dd8d the file's
-    reading stopped at the step and the rows before it were analyzed with the rest)."""
+    """The middle one of three files set back: a damaged file of a multi-file archive
+    (CONTRACT.md), not a refusal of the folder (the first version of the refusal: exit
+    2). Its reading stops at the step, as at 580dd8d; ``run`` analyzes the others' rows
+    (exit 0 or 1), its line under ``inputs[].errors`` and in the report; ``inspect``
+    lists it, exit 0."""
     folder = tmp_path / "hours"
     folder.mkdir()
     first = np.arange(3000) * 0.01 + 10_000.0
@@ -370,16 +373,23 @@ def test_a_csv_set_back_in_an_archive_of_files_is_refused(
     second[2000:] -= 7200.0
     _csv(folder / "a.csv", [f"{s:.2f}" for s in first])
     late = _csv(folder / "b.csv", [f"{s:.2f}" for s in second])
-    assert main(["inspect", str(folder), "--json"]) == 0
-    listed = {i["path"]: i["errors"] for i in json.loads(capsys.readouterr().out)["inputs"]}
-    assert listed[str(late)][0] == (
-        "the time column 'time' steps back by 2.0 h at data row 2001 ('2850.00': from "
-        "10049.990 s to 2850.000 s): a clock set back during the recording? Its rows "
-        "cannot be placed among those before it; correct the times, or split the file at "
-        "that row"
+    _csv(folder / "c.csv", [f"{s:.2f}" for s in first + 60.0])
+    said = (
+        f"reading stopped: {late}: the time column 'time' steps back by 2.0 h at data row "
+        "2001 ('2850.00': from 10049.990 s to 2850.000 s): a clock set back during the "
+        "recording? Its rows cannot be placed among those before it; correct the times, "
+        "or split the file at that row"
     )
-    for err in _refused(folder, tmp_path, capsys):
-        assert err.startswith(f"analyzer: error: {late}: the time column 'time' steps back ")
+    code = main(["run", str(folder), "--out", str(tmp_path / "o"), "--no-progress"])
+    capsys.readouterr()
+    assert code in (0, 1)
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    errors = {i["path"]: i["errors"] for i in doc["inputs"]}
+    assert errors == {str(folder / "a.csv"): [], str(late): [said], str(folder / "c.csv"): []}
+    assert {c["name"]: c["samples"] for c in doc["channels"]} == {"a": 6000, "b": 6000}
+    assert said in html.unescape((tmp_path / "o" / "report.html").read_text())
+    assert main(["inspect", str(folder)]) == 0
+    assert f"  ! {said}\n" in capsys.readouterr().out
 
 
 def test_a_csv_date_time_column_set_back_a_day_is_refused(tmp_path: Path) -> None:

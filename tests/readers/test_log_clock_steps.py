@@ -10,6 +10,8 @@ made with the real writers (``mcap``, ``rosbags``)."""
 
 from __future__ import annotations
 
+import html
+import json
 from pathlib import Path
 
 import numpy as np
@@ -72,8 +74,8 @@ def test_a_recorder_clock_set_back_is_said_and_refused(
     """Set back by 2 h at message 2000 of 3000: at 580dd8d the last 1000 messages were
     placed 2 h before the first (``--time log``, said nowhere) or dropped as a header
     clock gone back (``--time header``); ``run`` and ``export`` went on. In one chunk
-    (the messages of a topic compared) or across chunks (the chunks' times); also in
-    a ROS 1 bag."""
+    (the messages of a topic compared) or across chunks (each topic's messages against
+    its own in the chunks written before); also in a ROS 1 bag."""
     messages = _recorded(-2 * HOUR)
     chunked = kind == "mcap chunks"
     if chunked:
@@ -84,8 +86,11 @@ def test_a_recorder_clock_set_back_is_said_and_refused(
     collect(reader.chunks(time))  # type: ignore[arg-type]
     said = reader.info.set_back
     if chunked:
-        assert said.startswith("the log times step back by 2.0 h: the chunk at byte ")
-        assert " starts at 2025-12-31T22:00:" in said  # (the chunk's first message)
+        # (the chunks of each topic compared, the first topic of the chunk set back named)
+        assert said.split(": a message logged at 2025-12-31T22:00:20.00")[0] in (
+            "the log times step back by 2.0 h: /imu",
+            "the log times step back by 2.0 h: /odom",
+        )
         assert said.endswith(SAID.split("2026-01-01T00:00:19.992Z")[1])
     else:
         assert said == SAID.format(where="/imu: a message logged at")
@@ -123,3 +128,85 @@ def test_a_recorder_clock_set_forward_is_a_gap_or_nothing(tmp_path: Path, jump: 
     t, _ = collect(reader.chunks("header"))["/imu.vector.x"]
     assert reader.info.clock_steps == {} and reader.info.errors == []
     assert t.size == N and int(np.diff(t).max()) == MS
+
+
+def _topic_by_topic(path: Path, kind: str) -> Path:
+    """``/imu``'s whole recording (0 to 2 h at 1 Hz), then ``/odom``'s, in ~4 kB chunks:
+    each topic's chunks in log-time order, the file's not (a converter writing topic by
+    topic, or a bag connection by connection): valid, read as at 580dd8d."""
+    messages: list[Message] = []
+    for topic in ("/imu", "/odom"):
+        for i in range(7200):
+            t = T0 + i * 10**9
+            messages.append((topic, V3S, t, v3s(t, float(np.sin(i / 50)))))
+    if kind == "mcap":
+        return _small_chunks(path, messages)
+    from rosbags.rosbag1 import Writer as Ros1Writer
+    from test_readers_probe30 import ROS1
+
+    with Ros1Writer(path) as bag:
+        bag.chunk_threshold = 4000
+        conns = {t: bag.add_connection(t, V3S, typestore=ROS1) for t in ("/imu", "/odom")}
+        for topic, msgtype, t, make in messages:
+            bag.write(conns[topic], t, bytes(ROS1.serialize_ros1(make(ROS1), msgtype)))
+    return path
+
+
+@pytest.mark.parametrize("kind", ["mcap", "ros1"])
+def test_a_file_written_topic_by_topic_is_no_clock_set_back(
+    tmp_path: Path, kind: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Its chunks of ``/odom`` start 2 h before the end of ``/imu``'s written before
+    them; each topic's log times go on: read and analyzed whole (on the first version of
+    the check, comparing the chunks whatever their topics, refused)."""
+    path = _topic_by_topic(tmp_path / ("x.mcap" if kind == "mcap" else "x.bag"), kind)
+    reader = open_input(path)
+    got = collect(reader.chunks())
+    assert reader.info.errors == []
+    assert {name: t.size for name, (t, _) in got.items() if name.endswith(".x")} == {
+        "/imu.vector.x": 7200,
+        "/odom.vector.x": 7200,
+    }
+    code = main(["export", str(path), "--out", str(tmp_path / "o.csv")])
+    assert code == 0, capsys.readouterr().err
+
+
+def _shifted(messages: list[Message], by: int) -> list[Message]:
+    return [(topic, msgtype, t + by, make) for topic, msgtype, t, make in messages]
+
+
+@pytest.mark.parametrize("kind", ["mcap", "mcap chunks", "ros1"])
+def test_a_set_back_file_of_a_folder_is_left_out_and_said(
+    tmp_path: Path, kind: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A folder of three recordings, the middle one's recorder clock set back by 2 h:
+    the contract's damaged file of a multi-file archive. ``run`` analyzes the two others
+    (exit 0 or 1), the middle one not analyzed, its line under ``inputs[].errors`` and
+    in the report; ``inspect`` lists it (exit 0). (On the first version of the check,
+    the whole folder was refused, exit 2.)"""
+    folder = tmp_path / "f"
+    folder.mkdir()
+    suffix = ".bag" if kind == "ros1" else ".mcap"
+    paths = []
+    for k, jump in enumerate((0, -2 * HOUR, 0)):
+        messages = _shifted(_recorded(jump), k * 40 * 10**9)
+        path = folder / f"{k}{suffix}"
+        if kind == "mcap chunks":
+            _small_chunks(path, messages)
+        else:
+            write(path, kind.split()[0], messages)
+        paths.append(path)
+    code = main(["run", str(folder), "--out", str(tmp_path / "o"), "--no-progress"])
+    capsys.readouterr()
+    assert code in (0, 1)
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    errors = {i["path"]: i["errors"] for i in doc["inputs"]}
+    stopped = f"reading stopped: {paths[1]}: the log times step back by 2.0 h: "
+    assert [e.startswith(stopped) for e in errors[str(paths[1])]] == [True]
+    assert errors[str(paths[0])] == errors[str(paths[2])] == []
+    samples = {c["name"]: c["samples"] for c in doc["channels"]}
+    assert samples["/imu.vector.x"] == 2 * N  # (the two others, whole)
+    report = html.unescape((tmp_path / "o" / "report.html").read_text())
+    assert errors[str(paths[1])][0] in report
+    assert main(["inspect", str(folder)]) == 0
+    assert f"  ! {errors[str(paths[1])][0]}\n" in capsys.readouterr().out
