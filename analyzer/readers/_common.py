@@ -366,6 +366,12 @@ window, as a CSV's time column set back, ``csv_reader.CLOCK_SET_BACK_NS``) are t
 recorder's own clock set back during the recording (see :class:`LogClock`)."""
 
 
+SET_BACK_MATCH_NS = 5 * 10**9
+"""A header clock's step or jump back within this (5 s: a message's latency, a 1 Hz
+topic's period) of the size of the recorder's log clock set back is that set back's
+(:meth:`TopicTracker._explained`)."""
+
+
 class LogClock:
     """The recorder's clock set back during the recording (by NTP, from an RTC that ran
     ahead): the messages it logged after it have log times before those of the messages
@@ -390,6 +396,8 @@ class LogClock:
 
     def __init__(self, *, in_file_order: bool, stop: Path | None = None) -> None:
         self.line = ""
+        self.back_ns = 0
+        """How far back the first set back said in ``line`` went."""
         self.in_file_order = in_file_order
         self._stop = stop
         self._newest: dict[str, int] = {}
@@ -438,6 +446,7 @@ class LogClock:
             self._said(int(running[k - 1]), int(written[k]), f"{topic}: a message logged at")
 
     def _said(self, newest: int, time: int, where: str) -> None:
+        self.back_ns = newest - time
         self.line = (
             f"the log times step back by {long_time(newest - time)}: {where} "
             f"{stamp_text(time)}, after messages logged up to {stamp_text(newest)} (the "
@@ -831,6 +840,12 @@ class TopicTracker:
         self._epoch: dict[str, bool] = {}
         self._jumps: dict[str, _Jumps] = {}
         self._levels: dict[str, _Levels] = {}
+        self.log_set_back_ns = 0
+        """How far the recorder's log clock was set back (:class:`LogClock`, said by the
+        reader): the header clock's steps and jumps back it explains are not said
+        (:meth:`_explained`)."""
+        self._explained_at: dict[str, int] = {}
+        """Per topic: the message of its step :meth:`_explained` left out."""
         self._glitches: dict[str, _Glitches] = {}
         self._zero: dict[str, int] = {}
         self._failures: dict[str, list[Any]] = {}
@@ -1066,6 +1081,9 @@ class TopicTracker:
             if before is None or after is None:
                 continue
             moved = int(after[0]) - int(before[0])
+            if self._explained(moved):
+                self._explained_at[topic] = int(after[2])
+                continue
             more = f"; {count} such jumps" if count > 1 else ""
             way = "forward" if moved > 0 else "back"
             found.append(
@@ -1079,6 +1097,16 @@ class TopicTracker:
                 )
             )
         return {topic: text for _, topic, text in sorted(found)}
+
+    def _explained(self, moved: int) -> bool:
+        """Whether a move of a header clock by ``moved`` against the log times (a step),
+        or a jump back by ``moved``, is of the size of the recorder's log clock set back
+        (:attr:`log_set_back_ns`, within :data:`SET_BACK_MATCH_NS`): the messages logged
+        after it were read before those logged before, their stamps a step off, then
+        going back. Not the header clock's doing: not said (nor a jump back at the
+        place of such a step, :attr:`_explained_at`)."""
+        size = self.log_set_back_ns
+        return bool(size) and abs(abs(moved) - size) <= SET_BACK_MATCH_NS
 
     def _floor(self, topic: str) -> int:
         """The least move of ``topic``'s header clock against the log times that is a
@@ -1286,7 +1314,9 @@ class TopicTracker:
                 "forward) (--time log keeps them)"
             )
         for topic, jumps in self._jumps.items():
-            if not jumps.events:
+            if not jumps.events or self._explained(jumps.back_ns):
+                continue
+            if self._explained_at.get(topic) == jumps.index:
                 continue
             more = f"; {jumps.events} such jumps" if jumps.events > 1 else ""
             out.append(

@@ -212,6 +212,7 @@ class McapReader:
         if self._log_clock.line:
             self.info.set_back = self._log_clock.line
             self._error(self._log_clock.line)
+            self._tracker.log_set_back_ns = self._log_clock.back_ns
         for line in self._shared_topics():
             self._error(line)
         for entry in self._decoders.values():

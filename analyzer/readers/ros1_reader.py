@@ -312,6 +312,7 @@ class Ros1BagReader:
         if self._log_clock.line:
             self.info.set_back = self._log_clock.line
             self._error(self._log_clock.line)
+            self._tracker.log_set_back_ns = self._log_clock.back_ns
         for line in self._tracker.lines() + reorder.drop_report():
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
