@@ -79,7 +79,9 @@ class InputInfo:
     recording, :class:`~analyzer.readers._common.LogClock`): where and by how much, as
     a line without the path. Said in ``errors`` (``inspect`` lists the file); an
     analysis or export of the input is refused (:func:`one_clock`): its rows or
-    messages cannot be placed among those before."""
+    messages cannot be placed among those before. Of one input of several, never set:
+    its reading stops there instead (``Reader``'s ``stop_at_set_back``), a damaged
+    file, the others analyzed."""
 
 
 class Reader(Protocol):
