@@ -431,7 +431,9 @@ class LogClock:
             self._newest[topic] = newest
         if written.size <= LEAD_GLITCH_MESSAGES:
             return
-        if before is not None:  # (the chunks before: the fifth earliest message against them)
+        lowest = int(written[0]) if in_order else int(written.min())
+        if before is not None and before - lowest > LOG_SET_BACK_NS:
+            # (the chunks before: the fifth earliest message against them)
             fifth = int(np.partition(written, LEAD_GLITCH_MESSAGES)[LEAD_GLITCH_MESSAGES])
             if before - fifth > LOG_SET_BACK_NS:
                 first = int(np.flatnonzero(before - written > LOG_SET_BACK_NS)[0])
