@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from mcap.writer import IndexType
 from mcap.writer import Writer as McapWriter
 from readers_helpers import T0, collect
 from test_readers_probe30 import MS, ROS2, V3S, Message, v3s, write
@@ -41,10 +42,13 @@ def _recorded(jump: int, at: int = AT, count: int = N - AT) -> list[Message]:
     return out
 
 
-def _small_chunks(path: Path, messages: list[Message]) -> Path:
-    """``messages`` in an MCAP of ~4 kB chunks: the step falls between chunks."""
+def _small_chunks(path: Path, messages: list[Message], indexed: bool = True) -> Path:
+    """``messages`` in an MCAP of ~4 kB chunks: the step falls between chunks. Not
+    ``indexed``: without message indexes nor chunk indexes (read as a stream, in the
+    file's order)."""
     with path.open("wb") as handle:
-        writer = McapWriter(handle, chunk_size=4000)
+        kinds = IndexType.ALL if indexed else IndexType.NONE
+        writer = McapWriter(handle, chunk_size=4000, index_types=kinds)
         writer.start(profile="ros2", library="test")
         channels: dict[str, int] = {}
         for topic, msgtype, t, make in messages:
@@ -67,7 +71,7 @@ SAID = (
 
 
 @pytest.mark.parametrize("time", ["log", "header"])
-@pytest.mark.parametrize("kind", ["mcap", "mcap chunks", "ros1"])
+@pytest.mark.parametrize("kind", ["mcap", "mcap chunks", "mcap stream", "ros1"])
 def test_a_recorder_clock_set_back_is_said_and_refused(
     tmp_path: Path, time: str, kind: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -77,9 +81,9 @@ def test_a_recorder_clock_set_back_is_said_and_refused(
     (the messages of a topic compared) or across chunks (each topic's messages against
     its own in the chunks written before); also in a ROS 1 bag."""
     messages = _recorded(-2 * HOUR)
-    chunked = kind == "mcap chunks"
+    chunked = kind in ("mcap chunks", "mcap stream")
     if chunked:
-        path = _small_chunks(tmp_path / "x.mcap", messages)
+        path = _small_chunks(tmp_path / "x.mcap", messages, indexed=kind == "mcap chunks")
     else:
         path = write(tmp_path / ("x.bag" if kind == "ros1" else "x.mcap"), kind, messages)
     reader = open_input(path)
@@ -141,8 +145,8 @@ def _topic_by_topic(path: Path, kind: str) -> Path:
         for i in range(7200):
             t = T0 + i * 10**9
             messages.append((topic, V3S, t, v3s(t, float(np.sin(i / 50)))))
-    if kind == "mcap":
-        return _small_chunks(path, messages)
+    if kind.startswith("mcap"):
+        return _small_chunks(path, messages, indexed=kind == "mcap")
     from rosbags.rosbag1 import Writer as Ros1Writer
     from test_readers_probe30 import ROS1
 
@@ -154,14 +158,14 @@ def _topic_by_topic(path: Path, kind: str) -> Path:
     return path
 
 
-@pytest.mark.parametrize("kind", ["mcap", "ros1"])
+@pytest.mark.parametrize("kind", ["mcap", "mcap stream", "ros1"])
 def test_a_file_written_topic_by_topic_is_no_clock_set_back(
     tmp_path: Path, kind: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Its chunks of ``/odom`` start 2 h before the end of ``/imu``'s written before
     them; each topic's log times go on: read and analyzed whole (on the first version of
     the check, comparing the chunks whatever their topics, refused)."""
-    path = _topic_by_topic(tmp_path / ("x.mcap" if kind == "mcap" else "x.bag"), kind)
+    path = _topic_by_topic(tmp_path / ("x.bag" if kind == "ros1" else "x.mcap"), kind)
     reader = open_input(path)
     got = collect(reader.chunks())
     assert reader.info.errors == []
