@@ -273,6 +273,9 @@ class Archive:
         last: dict[str, int] = {}
         owner: dict[str, tuple[Reader, int]] = {}
         single = len(self.inputs) == 1
+        for reader in self.readers:  # (one input: said in info.set_back, refused by one_clock)
+            if hasattr(reader, "stop_at_set_back"):
+                reader.stop_at_set_back = not single
         report = None if progress is None else _ReadProgress(progress, self.readers)
         # the next input is read ahead on a thread while this one is consumed: decoding
         # (zstd, Arrow's CSV parser, numpy) runs without the GIL, so two files' worth of

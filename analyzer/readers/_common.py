@@ -23,6 +23,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from analyzer.errors import (
     IntegrityError,
+    ReaderError,
     capped,
     one_line,  # noqa: F401 - re-exported for the readers
 )
@@ -239,6 +240,18 @@ recording (a map stamped when its server started) cannot be aligned with the res
 either, its one sample stretching the common clock over the empty hour."""
 
 
+WALL_CLOCK_STEP_NS = 10 * 10**9
+"""A header clock of Unix (wall-clock) times that moves against the log times by more
+than this (10 s) and stays, its stamps jumping by as much, was set during the recording
+(:meth:`TopicTracker._steps`). The offset from stamp to log is a transport latency and a
+recorder's queue (milliseconds to about a second), or an estimate stamped with the time
+of the data it was made from (AMCL's pose: seconds); NTP steps a clock from 128 ms on.
+The real recordings' largest sustained change of that offset is 1.7 s, their widest
+spread 4.9 s (``/amcl_pose`` of ``nav2_turtlebot.mcap``). A simulation clock in the
+headers (stamps below :data:`EPOCH_NS`) keeps :data:`CLOCKS_APART_NS`: a simulation
+paused or slowed moves it against the recorder's wall clock by any amount."""
+
+
 def absolute_log_time(
     start: Callable[[], int | None], end: Callable[[], int | None] | None = None
 ) -> bool:
@@ -330,10 +343,121 @@ def clock_step_refusal(steps: dict[str, str]) -> str:
     )
 
 
-def _stamp_text(ns: int) -> str:
+def step_time(ns: int) -> str:
+    """How far a clock stepped, as the lines say it: from an hour on as
+    :func:`long_time`, below it in minutes (from 2) or seconds."""
+    size = abs(ns) / 1e9
+    if size >= 3600:
+        return long_time(ns)
+    return f"{size / 60:.1f} min" if size >= 120 else f"{size:.1f} s"
+
+
+def stamp_text(ns: int) -> str:
+    """A time as the lines say it: UTC where a Unix time, else seconds (a simulation
+    clock)."""
     if ns >= EPOCH_NS:
         return str(iso_utc(ns))
     return f"{ns / 1e9:.3f} s (not a Unix time)"
+
+
+LOG_SET_BACK_NS = CLOCKS_APART_NS + REORDER_WINDOW_NS
+"""Log times that go back in the file's order by more than this (an hour and the reorder
+window, as a CSV's time column set back, ``csv_reader.CLOCK_SET_BACK_NS``) are the
+recorder's own clock set back during the recording (see :class:`LogClock`)."""
+
+
+SET_BACK_MATCH_NS = 5 * 10**9
+"""A header clock's step or jump back within this (5 s: a message's latency, a 1 Hz
+topic's period) of the size of the recorder's log clock set back is that set back's
+(:meth:`TopicTracker._explained`)."""
+
+
+class LogClock:
+    """The recorder's clock set back during the recording (by NTP, from an RTC that ran
+    ahead): the messages it logged after it have log times before those of the messages
+    written before them. An MCAP or a ROS 1 bag is read in log-time order (its chunks by
+    their start times, each channel's messages by log time), so they were sorted in
+    among the earlier messages, or before them all, silently: with ``--time header`` its stamps
+    then seemed to go back, and the messages were dropped. A clock set forward (the
+    recorder's, or both clocks) is a gap, as a pause of the recorder is.
+
+    Found per topic, in the file's order: more than
+    :data:`~analyzer.readers._common.LEAD_GLITCH_MESSAGES` messages of a chunk logged
+    more than :data:`LOG_SET_BACK_NS` before one of the topic written before them, in
+    the chunk or in a chunk written before it (a message or a few off are left to the
+    reorderer, as before). Per topic only: a file need not be written in log-time order
+    across topics (a converter may write one topic's whole recording, then the next
+    one's). :meth:`messages` takes one topic's messages of one chunk; the chunks in the
+    file's order where ``in_file_order`` (a stream, or a pass over an indexed file's
+    message indexes: :meth:`may_step_back` says whether one is needed), else inside each
+    chunk only. ``line`` says the first (:attr:`InputInfo.set_back`); with ``stop`` (an
+    input of a multi-file archive) it is raised there instead, naming ``stop``: the file
+    is read up to there."""
+
+    def __init__(self, *, in_file_order: bool, stop: Path | None = None) -> None:
+        self.line = ""
+        self.back_ns = 0
+        """How far back the first set back said in ``line`` went."""
+        self.in_file_order = in_file_order
+        self._stop = stop
+        self._newest: dict[str, int] = {}
+        """Per topic: its newest log time in the chunks given before."""
+
+    @staticmethod
+    def may_step_back(starts: IntArray, ends: IntArray) -> bool:
+        """Whether chunks logging from ``starts`` to ``ends`` (in the file's order) may
+        hold a topic set back: one starts more than :data:`LOG_SET_BACK_NS` before the
+        end of one written before it (needed for it, not enough: the chunks may hold
+        other topics)."""
+        if starts.size < 2:
+            return False
+        newest = np.maximum.accumulate(ends)[:-1]
+        return bool((newest - starts[1:] > LOG_SET_BACK_NS).any())
+
+    def messages(self, topic: str, offsets: IntArray, log_ns: IntArray) -> None:
+        """The messages of ``topic`` in one chunk, at ``offsets`` in it, logged at
+        ``log_ns``."""
+        if self.line or log_ns.size == 0:
+            return
+        before = self._newest.get(topic) if self.in_file_order else None
+        in_order = bool((log_ns[1:] >= log_ns[:-1]).all()) and bool(
+            (offsets[1:] >= offsets[:-1]).all()
+        )
+        written = log_ns if in_order else log_ns[np.argsort(offsets, kind="stable")]
+        newest = int(written[-1]) if in_order else int(written.max())
+        if before is not None:
+            self._newest[topic] = max(before, newest)
+        elif self.in_file_order:
+            self._newest[topic] = newest
+        if written.size <= LEAD_GLITCH_MESSAGES:
+            return
+        lowest = int(written[0]) if in_order else int(written.min())
+        if before is not None and before - lowest > LOG_SET_BACK_NS:
+            # (the chunks before: the fifth earliest message against them)
+            fifth = int(np.partition(written, LEAD_GLITCH_MESSAGES)[LEAD_GLITCH_MESSAGES])
+            if before - fifth > LOG_SET_BACK_NS:
+                first = int(np.flatnonzero(before - written > LOG_SET_BACK_NS)[0])
+                self._said(before, int(written[first]), f"{topic}: a message logged at")
+                return
+        if in_order:
+            return  # (the common case: two comparisons)
+        running = np.maximum.accumulate(written)
+        behind = np.flatnonzero(running[:-1] - written[1:] > LOG_SET_BACK_NS) + 1
+        if behind.size > LEAD_GLITCH_MESSAGES:
+            k = int(behind[0])
+            self._said(int(running[k - 1]), int(written[k]), f"{topic}: a message logged at")
+
+    def _said(self, newest: int, time: int, where: str) -> None:
+        self.back_ns = newest - time
+        self.line = (
+            f"the log times step back by {long_time(newest - time)}: {where} "
+            f"{stamp_text(time)}, after messages logged up to {stamp_text(newest)} (the "
+            "recorder's clock set back during the recording?); its messages cannot be placed "
+            "among those logged before them (they would be sorted in among them): split the "
+            "recording there"
+        )
+        if self._stop is not None:
+            raise ReaderError(f"{self._stop}: {self.line}")
 
 
 BETWEEN_STRETCHES = 16
@@ -378,22 +502,33 @@ def _lasting(first: IntArray, last: IntArray, window: int, edge: BoolArray) -> B
 
 
 def _placed(
-    before: IntArray, after: IntArray, between: tuple[IntArray, IntArray]
+    before: IntArray, after: IntArray, between: tuple[IntArray, IntArray], floor: int
 ) -> tuple[IntArray, IntArray]:
     """Where a step between the lasting stretches ending at ``before`` and starting at
     ``after`` is: at the first message of the short stretches ``between`` them that is
-    already on the new clock (within :data:`CLOCKS_APART_NS` of ``after``'s offset),
-    from the last one before it still on the old clock. A glitch right after a clock
-    was set would otherwise move the step past it."""
+    already on the new clock (within ``floor``, the topic's step, of ``after``'s
+    offset), from the last one before it still on the old clock. A glitch right after
+    a clock was set would otherwise move the step past it."""
     first, last = between
-    new = np.flatnonzero(np.abs(first[:, 0] - after[0]) <= CLOCKS_APART_NS)
+    new = np.flatnonzero(np.abs(first[:, 0] - after[0]) <= floor)
     if new.size:
         after = first[new[0]]
         first, last = first[: new[0]], last[: new[0]]
-    old = np.flatnonzero(np.abs(last[:, 0] - before[0]) <= CLOCKS_APART_NS)
+    old = np.flatnonzero(np.abs(last[:, 0] - before[0]) <= floor)
     if old.size:
         before = last[old[-1]]
     return before, after
+
+
+def _stepped(tails: IntArray, first: IntArray, last: IntArray, floor: int) -> BoolArray:
+    """Which lasting stretches (``first`` and ``last`` messages, rows of :class:`_Levels`)
+    are a header clock stepped from the lasting stretch before each (its last message
+    in ``tails``): the offset it settles at (its last message's) lies more than
+    ``floor`` from the one before, and its first stamp jumped by more than ``floor``
+    from that message's (where the stamps go on and only the log times jumped, the
+    source paused or the recorder's clock was set, not this clock)."""
+    moved = np.abs(last[:, 0] - tails[:, 0]) > floor
+    return moved & (np.abs(first[:, 3] - tails[:, 3]) > floor)
 
 
 LEAD_GLITCH_MESSAGES = 4
@@ -707,6 +842,12 @@ class TopicTracker:
         self._epoch: dict[str, bool] = {}
         self._jumps: dict[str, _Jumps] = {}
         self._levels: dict[str, _Levels] = {}
+        self.log_set_back_ns = 0
+        """How far the recorder's log clock was set back (:class:`LogClock`, said by the
+        reader): the header clock's steps and jumps back it explains are not said
+        (:meth:`_explained`)."""
+        self._explained_at: dict[str, int] = {}
+        """Per topic: the message of its step :meth:`_explained` left out."""
         self._glitches: dict[str, _Glitches] = {}
         self._zero: dict[str, int] = {}
         self._failures: dict[str, list[Any]] = {}
@@ -854,20 +995,26 @@ class TopicTracker:
         """Follow the header clock of ``topic`` against its log times (messages stamped
         ``t``, logged at ``log_ns``, numbered ``idx``, in log-time order) for a step: the
         clock set during the recording (by NTP or PTP, from 1970 plus the uptime, or a
-        day off), which moves the header-minus-log offset by more than
-        :data:`CLOCKS_APART_NS` and keeps it there. The topic's span then covers the
+        day off), which moves the header-minus-log offset by more than the topic's floor
+        (:meth:`_floor`: 10 s on a wall clock, an hour on a simulation clock) and keeps
+        it there, the stamps jumping by as much. The topic's span then covers the
         jump, so the two-clock rule (:meth:`_apart`, which compares the topics' spans)
-        cannot see it, and one clock for all topics would stretch over the jump. A
-        pause of the recorder moves both times, and not the offset; jitter, a latency
-        and a short stretch off (:func:`_lasting`) are no step. Vectorized: the
-        messages split into stretches where the offset moves by more than the floor
-        from one message to the next; only each stretch's first and last message are
-        compared, and the open stretch is carried to the next batch."""
+        cannot see it, and one clock for all topics would stretch over the jump (or the
+        topic is analyzed shifted by the step). A pause of the recorder moves both
+        times, and not the offset; a pause of the source (a simulation or a playback
+        paused) or the recorder's own clock set moves the log times, not the stamps;
+        jitter, a latency and a short stretch off (:func:`_lasting`) are no step, nor
+        a burst of messages queued through an outage: the level a stretch settles at
+        (its last message) is compared with the last one's. Vectorized: the messages
+        split into stretches where the offset moves by more than the floor from one
+        message to the next; only each stretch's first and last message are compared,
+        and the open stretch is carried to the next batch."""
         if t.size == 0:
             return
         levels = self._levels.setdefault(topic, _Levels())
+        floor = self._floor(topic)
         o = t - log_ns
-        split = np.flatnonzero(np.abs(np.diff(o)) > CLOCKS_APART_NS) + 1
+        split = np.flatnonzero(np.abs(np.diff(o)) > floor) + 1
         starts = np.concatenate((np.zeros(1, dtype=np.int64), split))
         ends = np.concatenate((split - 1, np.array([o.shape[0] - 1], dtype=np.int64)))
 
@@ -877,7 +1024,7 @@ class TopicTracker:
         first, last = rows(starts), rows(ends)
         held = levels.open
         if held is not None:
-            if abs(int(o[0]) - int(held[1, 0])) <= CLOCKS_APART_NS:
+            if abs(int(o[0]) - int(held[1, 0])) <= floor:
                 first[0] = held[0]  # (the open stretch goes on)
             else:
                 first = np.concatenate((held[:1], first))
@@ -894,7 +1041,7 @@ class TopicTracker:
         tails = last[keys] if levels.anchor is None else np.vstack((levels.anchor, last[keys]))
         pairs = max(min(keys.size, tails.shape[0] - 1), 0)
         later = keys[keys.size - pairs :]
-        step = np.abs(first[later, 0] - tails[:pairs, 0]) > CLOCKS_APART_NS
+        step = _stepped(tails[:pairs], first[later], last[later], floor)
         levels.steps += int(np.count_nonzero(step))
         if levels.before is None:
             k = int(np.argmax(step)) if bool(step.any()) else -1
@@ -908,7 +1055,7 @@ class TopicTracker:
                 np.concatenate((kept[1], last[since:after_key])),
             )
             if k >= 0:
-                levels.before, levels.after = _placed(tails[k], first[after_key], between)
+                levels.before, levels.after = _placed(tails[k], first[after_key], between, floor)
             else:
                 levels.between = (
                     between[0][:BETWEEN_STRETCHES],
@@ -928,26 +1075,46 @@ class TopicTracker:
             if held is not None and anchor is not None:
                 edge = np.ones(1, dtype=bool)
                 lasting = bool(_lasting(held[:1], held[1:], self._window, edge)[0])
-                if lasting and abs(int(held[0, 0]) - int(anchor[0])) > CLOCKS_APART_NS:
+                floor = self._floor(topic)
+                if lasting and bool(_stepped(anchor[None], held[:1], held[1:], floor)[0]):
                     count += 1
                     if before is None:
-                        before, after = _placed(anchor, held[0], levels.between)
+                        before, after = _placed(anchor, held[0], levels.between, floor)
             if before is None or after is None:
                 continue
             moved = int(after[0]) - int(before[0])
+            if self._explained(moved):
+                self._explained_at[topic] = int(after[2])
+                continue
             more = f"; {count} such jumps" if count > 1 else ""
             way = "forward" if moved > 0 else "back"
             found.append(
                 (
                     int(after[1]),
                     topic,
-                    f"header.stamp jumps {long_time(moved)} {way} at "
+                    f"header.stamp jumps {step_time(moved)} {way} at "
                     f"message {int(after[2])} ({self._at(int(after[1]))}), from "
-                    f"{_stamp_text(int(before[3]))} to {_stamp_text(int(after[3]))}, while "
+                    f"{stamp_text(int(before[3]))} to {stamp_text(int(after[3]))}, while "
                     f"its log times go on (a clock set during the recording?){more}",
                 )
             )
         return {topic: text for _, topic, text in sorted(found)}
+
+    def _explained(self, moved: int) -> bool:
+        """Whether a move of a header clock by ``moved`` against the log times (a step),
+        or a jump back by ``moved``, is of the size of the recorder's log clock set back
+        (:attr:`log_set_back_ns`, within :data:`SET_BACK_MATCH_NS`): the messages logged
+        after it were read before those logged before, their stamps a step off, then
+        going back. Not the header clock's doing: not said (nor a jump back at the
+        place of such a step, :attr:`_explained_at`)."""
+        size = self.log_set_back_ns
+        return bool(size) and abs(abs(moved) - size) <= SET_BACK_MATCH_NS
+
+    def _floor(self, topic: str) -> int:
+        """The least move of ``topic``'s header clock against the log times that is a
+        step (:meth:`_steps`): :data:`WALL_CLOCK_STEP_NS` where its stamps are Unix
+        times, else (a simulation clock, or not yet known) :data:`CLOCKS_APART_NS`."""
+        return WALL_CLOCK_STEP_NS if self._epoch.get(topic) else CLOCKS_APART_NS
 
     def clock_spans(self) -> dict[str, tuple[int, int]]:
         """Of each topic of :meth:`clocks`: the first and last time its clock gave it."""
@@ -1149,7 +1316,9 @@ class TopicTracker:
                 "forward) (--time log keeps them)"
             )
         for topic, jumps in self._jumps.items():
-            if not jumps.events:
+            if not jumps.events or self._explained(jumps.back_ns):
+                continue
+            if self._explained_at.get(topic) == jumps.index:
                 continue
             more = f"; {jumps.events} such jumps" if jumps.events > 1 else ""
             out.append(

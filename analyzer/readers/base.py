@@ -70,9 +70,18 @@ class InputInfo:
     """Of each topic of :attr:`clocks`: the first and last time its clock gave it (ns)."""
     clock_steps: dict[str, str] = field(default_factory=dict)
     """With ``--time header``, the topics whose header clock was set during the recording
-    (their stamps jump by more than an hour where their log times do not): each with
-    what its clock did. Said in ``errors``; an analysis or export of their channels is
-    refused (:func:`one_clock`)."""
+    (their stamps jump by more than 10 s, an hour on a simulation clock, where their
+    log times do not): each with what its clock did. Said in ``errors``; an analysis
+    or export of their channels is refused (:func:`one_clock`)."""
+    set_back: str = ""
+    """Of a CSV whose time column, or an MCAP or ROS 1 bag whose log times, step back by
+    more than an hour for more than a few rows or messages (a clock set back while
+    recording, :class:`~analyzer.readers._common.LogClock`): where and by how much, as
+    a line without the path. Said in ``errors`` (``inspect`` lists the file); an
+    analysis or export of the input is refused (:func:`one_clock`): its rows or
+    messages cannot be placed among those before. Of one input of several, never set:
+    its reading stops there instead (``Reader``'s ``stop_at_set_back``), a damaged
+    file, the others analyzed."""
 
 
 class Reader(Protocol):
@@ -84,7 +93,10 @@ class Reader(Protocol):
     A reader may also keep ``fraction_read``: the share of its input that
     :meth:`chunks` has got through so far (0 to 1, rising, approximate), which the
     archive turns into the reading stage's progress; one without it counts as read
-    when its chunks end."""
+    when its chunks end. And ``stop_at_set_back``: set by the archive where it holds
+    several inputs, a clock set back by hours while recording (:attr:`InputInfo.set_back`)
+    stops the reading there, raised as damage (the contract: one damaged file of a
+    multi-file archive does not stop the analysis of the others)."""
 
     info: InputInfo
 
@@ -100,13 +112,17 @@ def one_clock(channels: Sequence[str], inputs: Sequence[InputInfo]) -> None:
     """Raise :class:`~analyzer.errors.ReaderError` when ``channels`` (message-path
     names, ``{topic}.{field}``) hold topics of an input timed by two clocks
     (:attr:`InputInfo.clocks`), naming both sides and what to do, or a topic whose
-    header clock was set during the recording (:attr:`InputInfo.clock_steps`)."""
+    header clock was set during the recording (:attr:`InputInfo.clock_steps`), or an
+    input whose times step back by hours (:attr:`InputInfo.set_back`: a CSV's time
+    column, a recorder's log times), whatever its channels chosen."""
     from analyzer.readers._common import clock_step_refusal, two_clocks
 
     def holds(topic: str) -> bool:
         return any(c.startswith(f"{topic}.") or c.startswith(f"{topic}[") for c in channels)
 
     for info in inputs:
+        if info.set_back:
+            raise ReaderError(f"{info.path}: {info.set_back}")
         stepped = {topic: text for topic, text in info.clock_steps.items() if holds(topic)}
         if stepped:
             raise ReaderError(f"{info.path}: {clock_step_refusal(stepped)}")

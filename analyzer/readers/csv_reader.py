@@ -692,6 +692,11 @@ class CsvReader:
         """Bytes of the line the damage cut (not read)."""
         self._corrupt = False
         """Whether the damage is corrupt data, not a stream cut short (see :class:`_Garbage`)."""
+        self.stop_at_set_back = False
+        """Whether a time column set back stops the reading, raised (an input of a
+        multi-file archive: see ``Reader``), instead of said in ``info.set_back``."""
+        self._set_back_row = 0
+        """The data row :attr:`InputInfo.set_back` names (see :meth:`_set_back`)."""
         self._invalid_at: list[int] = []
         """Of a corrupt ``.gz``: before which data row (0: the first) each line skipped
         for its number of fields came, as Arrow's reader met them."""
@@ -877,18 +882,27 @@ class CsvReader:
         return rows + row + 1, str(batch.column(self._layout.time_column)[row].as_py()).strip()
 
     def _set_back(self, row: int, cell: str, newest: int, time: int) -> None:
-        """Raise :class:`ReaderError` for a time column set back by more than
-        :data:`CLOCK_SET_BACK_NS` (:attr:`_Steps.set_back`) at data row ``row`` (time
-        cell ``cell``, read as ``time``; ``newest`` the latest time before it): the file,
-        the column, the row. Before, its rows were sorted in among those before, said in
-        a line, and analyzed."""
+        """Note a time column set back by more than :data:`CLOCK_SET_BACK_NS`
+        (:attr:`_Steps.set_back`) at data row ``row`` (time cell ``cell``, read as
+        ``time``; ``newest`` the latest time before it) in :attr:`InputInfo.set_back`:
+        the column, the row, both times. Reading goes on (its rows sorted in or dropped
+        as a smaller step's), so that ``inspect`` lists the file and says this (as it
+        says a header clock set during a recording), while ``run`` and ``export`` refuse
+        it (:func:`~analyzer.readers.base.one_clock`). Before the refusal, its rows were
+        analyzed sorted in among those before. With :attr:`stop_at_set_back` (one input
+        of several), raised instead: the reading stops there, the rows of the blocks
+        before analyzed (as before the refusal in a folder)."""
         name = self._layout.names[self._layout.time_column]
-        raise ReaderError(
-            f"{self.path}: the time column {name!r} steps back by {long_time(newest - time)} "
+        self._set_back_row = row
+        line = (
+            f"the time column {name!r} steps back by {long_time(newest - time)} "
             f"at data row {row} ({cell!r}: from {self._when(newest)} to {self._when(time)}): "
             "a clock set back during the recording? Its rows cannot be placed among those "
             "before it; correct the times, or split the file at that row"
         )
+        if self.stop_at_set_back:
+            raise ReaderError(f"{self.path}: {line}")
+        self.info.set_back = line
 
     def _step_note(self, steps: _Steps, dropped: bool) -> str:
         """What :meth:`chunks` says of times that step back (see :class:`_Steps`): where,
@@ -1127,6 +1141,7 @@ class CsvReader:
         garbled: tuple[int, str] | None = None  # of a corrupt .gz: (data row, why)
         self._clock = (0, 0)
         self._rows_cut = 0
+        self.info.set_back = ""
         self._parted = (0, 0)
         whole = False  # read to the end without an error
         blocks = self._stream()
@@ -1162,7 +1177,7 @@ class CsvReader:
                 # block's start
                 inside = int(np.count_nonzero(t_kept[1:] == t_kept[:-1]))
                 first = steps.push(t_kept)
-                if steps.set_back is not None:
+                if steps.set_back is not None and not self.info.set_back:
                     at, newest = steps.set_back
                     if at >= 0:
                         where = self._row_cell(batch, keep, rows, at)
@@ -1229,7 +1244,9 @@ class CsvReader:
             self._check_rows(rows + broken + self._rows_cut)
         if self._damage is not None:
             self._error(self._damage_note(self._so_far(rows, steps.newest), garbled))
-        if steps.count:
+        if self.info.set_back:
+            self._error(self.info.set_back)  # (its step's note, where the same row, left out)
+        if steps.count and not (self.info.set_back and steps.row == self._set_back_row):
             self._error(self._step_note(steps, bool(reorder.dropped)))
         most = max(repeats.values(), default=0)
         if most:

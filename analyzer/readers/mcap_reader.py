@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any, BinaryIO
 
 import lz4.frame
 import numpy as np
+import numpy.typing as npt
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.exceptions import EndOfFile, McapError
@@ -41,6 +42,7 @@ from analyzer.readers._common import (
     ByteArray,
     Decoded,
     IntArray,
+    LogClock,
     LogOrder,
     Reorderer,
     TopicTracker,
@@ -155,6 +157,10 @@ class McapReader:
             self._channels.update(self._summary.channels)
         self._decoders: dict[int, tuple[str, BatchDecoder] | None] = {}
         self._tracker = TopicTracker("log")
+        self._log_clock = LogClock(in_file_order=False)
+        self.stop_at_set_back = False
+        """Whether a recorder's clock set back stops the reading, raised (an input of a
+        multi-file archive: see ``Reader``), instead of said in ``info.set_back``."""
         self.topics: dict[str, str] = {}
         """The topic of every channel read (for reports per topic)."""
         self._protobuf: Any = None  # one mcap_protobuf factory: it caches per schema
@@ -191,13 +197,22 @@ class McapReader:
         self._tracker = self._shared_tracker or TopicTracker(time)
         self.fraction_read = 0.0
         reorder = Reorderer(repeats=True, topics=self.topics)
+        stop = self.path if self.stop_at_set_back else None
         with self.path.open("rb") as handle:
             if self._summary is not None and self._summary.chunk_indexes:
+                self._log_clock = LogClock(in_file_order=True, stop=stop)
+                self._written_order(handle)
+                self._log_clock.in_file_order = False  # (read in log-time order)
                 yield from self._indexed(handle, reorder, time)
             else:
+                self._log_clock = LogClock(in_file_order=True, stop=stop)
                 if self._summary_error:
                     self._error(self._summary_error)
                 yield from self._streaming(handle, reorder, time)
+        if self._log_clock.line:
+            self.info.set_back = self._log_clock.line
+            self._error(self._log_clock.line)
+            self._tracker.log_set_back_ns = self._log_clock.back_ns
         for line in self._shared_topics():
             self._error(line)
         for entry in self._decoders.values():
@@ -310,6 +325,36 @@ class McapReader:
                 yield from reorder.release(None)
         self._decode_held(gate, None, reorder)  # (held back where the last chunk was damaged)
         yield from reorder.flush()
+
+    def _written_order(self, handle: BinaryIO) -> None:
+        """Before an indexed file is read (in log-time order): where its chunks, in the
+        file's order, may hold a topic whose log times step back by hours
+        (:meth:`LogClock.may_step_back`: rare, also a file written topic by topic), each
+        chunk's message indexes, in the file's order, to the :class:`LogClock` (a chunk
+        without them, or damaged, is checked inside itself when read)."""
+        assert self._summary is not None
+        written = sorted(self._summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
+        if not LogClock.may_step_back(
+            np.array([c.message_start_time for c in written], dtype=np.uint64).astype(np.int64),
+            np.array([c.message_end_time for c in written], dtype=np.uint64).astype(np.int64),
+        ):
+            return
+        for index in written:
+            if not index.message_index_offsets or index.message_index_length <= 0:
+                continue
+            try:
+                handle.seek(index.chunk_start_offset + index.chunk_length)
+                pairs = _message_index_pairs(handle.read(index.message_index_length))
+            except _DAMAGE:
+                continue  # (said when the chunk is read)
+            for cid, entries in pairs.items():
+                channel = self._channels.get(cid)
+                if channel is not None:
+                    self._log_clock.messages(
+                        channel.topic,
+                        entries[1::2].astype(np.int64),
+                        entries[0::2].astype(np.int64),
+                    )
 
     # ------------------------------------------------------------------ streaming path
     def _streaming(
@@ -468,7 +513,9 @@ class McapReader:
                 self._error(f"channel {cid}: {bad} message index entries do not point at messages")
                 offs, length, log_ns = offs[ok], length[ok], log_ns[ok]
             sizes = length - (MESSAGE_PREFIX - 9)
-            if self._decoder(cid, int(sizes.max(initial=0))) is not None:
+            entry = self._decoder(cid, int(sizes.max(initial=0)))
+            if entry is not None:
+                self._log_clock.messages(entry[0], offs, log_ns)
                 gate.push(cid, records, offs + MESSAGE_PREFIX, sizes, log_ns)
 
     def _decode_held(self, gate: LogOrder, bound: int | None, reorder: Reorderer) -> None:
@@ -649,7 +696,13 @@ def _decompress(compression: str, data: bytes | memoryview, size: int, crc: int)
 
 def _parse_message_indexes(data: bytes) -> dict[int, IntArray]:
     """MessageIndex records (one per channel) -> message offsets per channel."""
-    out: dict[int, IntArray] = {}
+    return {cid: pairs[1::2].astype(np.int64) for cid, pairs in _message_index_pairs(data).items()}
+
+
+def _message_index_pairs(data: bytes) -> dict[int, npt.NDArray[np.uint64]]:
+    """MessageIndex records (one per channel) -> their (log time, offset) pairs per
+    channel, flat."""
+    out: dict[int, npt.NDArray[np.uint64]] = {}
     pos = 0
     end = len(data)
     while pos + 9 <= end:
@@ -661,6 +714,6 @@ def _parse_message_indexes(data: bytes) -> dict[int, IntArray]:
             if pos + 15 + nbytes > end or nbytes % 16:
                 raise _ChunkError("MessageIndex record truncated")
             pairs = np.frombuffer(data, dtype="<u8", count=nbytes // 8, offset=pos + 15)
-            out[cid] = pairs[1::2].astype(np.int64)
+            out[cid] = pairs
         pos += 9 + length
     return out

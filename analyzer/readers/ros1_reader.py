@@ -19,6 +19,7 @@ chunk (one block, in practice) does not decompress, which the error says.
 from __future__ import annotations
 
 import bz2
+import io
 import struct
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -32,6 +33,7 @@ from analyzer.errors import ReaderError
 from analyzer.readers._common import (
     ByteArray,
     IntArray,
+    LogClock,
     LogOrder,
     Reorderer,
     TopicTracker,
@@ -266,6 +268,10 @@ class Ros1BagReader:
                 self._index_error = f"bag index damaged ({one_line(err)}); read sequentially"
         self._decoders: dict[int, RosBatchDecoder | None] = {}
         self._tracker = TopicTracker("log")
+        self._log_clock = LogClock(in_file_order=False)
+        self.stop_at_set_back = False
+        """Whether a recorder's clock set back stops the reading, raised (an input of a
+        multi-file archive: see ``Reader``), instead of said in ``info.set_back``."""
         self.topics: dict[str, str] = {}
         """The topic of every channel read (for reports per topic)."""
         self.info.absolute_time = absolute_log_time(self.start_ns, self._end_ns)
@@ -288,6 +294,8 @@ class Ros1BagReader:
 
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
         self._tracker = TopicTracker(time)
+        stop = self.path if self.stop_at_set_back else None
+        self._log_clock = LogClock(in_file_order=True, stop=stop)
         reorder = Reorderer(repeats=True, topics=self.topics)
         if self._index_error:
             self._error(self._index_error)
@@ -297,8 +305,14 @@ class Ros1BagReader:
                 self._decode(gate, None, reorder)
                 yield from reorder.release(None)
         else:
+            self._written_order()
+            self._log_clock.in_file_order = False  # (read in log-time order)
             yield from self._indexed(reorder, time)
         yield from reorder.flush()
+        if self._log_clock.line:
+            self.info.set_back = self._log_clock.line
+            self._error(self._log_clock.line)
+            self._tracker.log_set_back_ns = self._log_clock.back_ns
         for line in self._tracker.lines() + reorder.drop_report():
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
@@ -346,6 +360,39 @@ class Ros1BagReader:
             msgtype=normalize_msgtype(details["type"].decode("utf-8", "replace")),
             msgdef=details.get("message_definition", b"").decode("utf-8", "replace"),
         )
+
+    def _written_order(self) -> None:
+        """Before the bag is read (in log-time order): where its chunks, in the file's
+        order, may hold a topic whose log times step back by hours
+        (:meth:`LogClock.may_step_back`: rare, also a bag written connection by
+        connection), each chunk's index data records (each message's log time), in the
+        file's order, to the :class:`LogClock` (a damaged chunk is said when read)."""
+        written = sorted(self._chunk_infos, key=lambda c: c.pos)
+        if not LogClock.may_step_back(
+            np.array([c.start_ns for c in written], dtype=np.int64),
+            np.array([c.end_ns for c in written], dtype=np.int64),
+        ):
+            return
+        with self.path.open("rb") as handle:
+            for info in written:
+                try:
+                    handle.seek(info.pos)
+                    header_len = _U32.unpack(handle.read(4))[0]
+                    handle.seek(header_len, io.SEEK_CUR)
+                    handle.seek(_U32.unpack(handle.read(4))[0], io.SEEK_CUR)  # (the chunk's data)
+                    for _ in range(info.connections):
+                        fields, data = self._expect(handle, OP_INDEX_DATA)
+                        conn = _U32.unpack(fields["conn"])[0]
+                        if _U32.unpack(fields["ver"])[0] != 1 or conn not in self._connections:
+                            continue
+                        entries = np.frombuffer(data, dtype="<u4").reshape(-1, 3).astype(np.int64)
+                        self._log_clock.messages(
+                            self._connections[conn].topic,
+                            entries[:, 2],
+                            entries[:, 0] * 1_000_000_000 + entries[:, 1],
+                        )
+                except (_BagError, struct.error, KeyError, ValueError, OverflowError, MemoryError):
+                    continue  # (said when the chunk is read)
 
     # ------------------------------------------------------------------ indexed path
     def _indexed(self, reorder: Reorderer, time: TimeSource) -> Iterator[ChannelChunk]:
@@ -536,11 +583,13 @@ class Ros1BagReader:
             decoder = self._decoder(int(conn))
             if decoder is None:
                 continue
+            topic = self._connections[int(conn)].topic
             try:
                 starts, sizes = self._locate(records, offsets[sel], int(conn))
             except _BagError as err:
-                self._error(f"{self._connections[int(conn)].topic}: {one_line(err)}")
+                self._error(f"{topic}: {one_line(err)}")
                 continue
+            self._log_clock.messages(topic, offsets[sel], times[sel])
             gate.push(int(conn), records, starts, sizes, times[sel])
 
     def _decode(self, gate: LogOrder, bound: int | None, reorder: Reorderer) -> None:

@@ -117,6 +117,9 @@ class Ros2BagReader:
         for line in _unlisted(self.path, listed):
             self._error(line)
         self._tracker = TopicTracker("log")
+        self.stop_at_set_back = False
+        """Passed to its MCAP storage files' readers (see ``Reader``; a sqlite3 file's log
+        clock is not checked)."""
         self.topics: dict[str, str] = {}
         """The topic of every channel read (for reports per topic)."""
 
@@ -152,6 +155,7 @@ class Ros2BagReader:
                             self._error(f"{storage_path.name}: {one_line(err)}; skipped")
                             continue
                         reader.topics = self.topics
+                        reader.stop_at_set_back = self.stop_at_set_back
                         source = reader.chunks(time)
                     else:
                         label = storage_path.name if len(storages) > 1 else ""

@@ -11,6 +11,8 @@ column set back by more than an hour. Logs are built with the real writers."""
 
 from __future__ import annotations
 
+import html
+import json
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +24,6 @@ from test_readers_probe30 import MS, NAMES, ROS2, V3S, Message, v3s, write
 from test_two_clocks import _refused
 
 from analyzer.cli import main
-from analyzer.errors import ReaderError
 from analyzer.readers import csv_reader, open_input
 from analyzer.readers._common import Decoded, Reorderer, TopicTracker
 
@@ -218,13 +219,79 @@ def test_a_pause_of_the_recorder_is_no_step(tmp_path: Path) -> None:
     assert _said(tmp_path, _stepped(lambda i, t: t, pause=2 * HOUR)) == []
 
 
-def test_a_step_under_the_hour_is_as_before(tmp_path: Path) -> None:
-    """A clock set forward by 50 minutes, or back by 50 minutes: the floor is an hour
-    (:data:`CLOCKS_APART_NS`, as for two clocks): no new line (the step back keeps its
-    line on the messages dropped)."""
-    assert _said(tmp_path, _stepped(lambda i, t: t - 50 * 60 * 10**9 if i < 300 else t)) == []
-    (line,) = _said(tmp_path, _stepped(lambda i, t: t + 50 * 60 * 10**9 if i < 300 else t))
-    assert line.startswith("/imu: header.stamp goes back by 3000.0 s at message 300")
+MINUTE = 60 * 10**9
+
+
+@pytest.mark.parametrize(
+    "moved, said",
+    [
+        (10 * MINUTE, "jumps 10.0 min forward"),
+        (-10 * MINUTE, "jumps 10.0 min back"),
+        (30 * 10**9, "jumps 30.0 s forward"),
+        (-30 * 10**9, "jumps 30.0 s back"),
+        (-50 * MINUTE, "jumps 50.0 min back"),
+    ],
+)
+def test_a_wall_clock_step_under_the_hour_is_named(
+    tmp_path: Path, moved: int, said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A header clock of Unix times set by 10 minutes or 30 s at message 300 while its
+    log times go on: named and refused as a step of hours is (at 580dd8d, whose floor
+    was an hour, the topic was analyzed shifted by the step after it, or its messages
+    dropped behind the newest stamp, with no step said)."""
+    path = write(tmp_path / "x.mcap", "mcap", _stepped(lambda i, t: t if i < 300 else t + moved))
+    reader = open_input(path)
+    collect(reader.chunks("header"))
+    assert list(reader.info.clock_steps) == ["/imu"]
+    assert reader.info.clock_steps["/imu"].startswith(f"header.stamp {said} at message 300 ")
+    for err in _refused(path, tmp_path, capsys):
+        assert f"--time header: /imu: header.stamp {said} at message 300 " in err
+
+
+def _jittered(i: int, t: int) -> int:
+    """Stamps from a few hundred ms before the log time (a latency that wanders: a
+    loaded recorder, an estimate stamped with the time of its data) to 1.9 s before it
+    from message 400 on (a stretch of 4 s, then back)."""
+    wander = int(np.random.default_rng(i).uniform(0, 400_000_000))
+    return t - wander - (1_500_000_000 if 400 <= i < 800 else 0)
+
+
+def test_jitter_and_pauses_are_no_step(tmp_path: Path) -> None:
+    """What moves the offset from stamp to log without a clock set: a wandering latency
+    (up to 1.9 s), a recorder that pauses 10 minutes (both times move), a source that
+    pauses 10 minutes (a playback paused: the log times move, the stamps go on), and
+    messages queued through a 30-s outage that arrive in a burst (the last 15 s of
+    stamps, logged together, then as before)."""
+    assert _said(tmp_path, _stepped(_jittered, n=1200)) == []
+    assert _said(tmp_path, _stepped(lambda i, t: t, pause=10 * MINUTE)) == []
+    paused = _stepped(lambda i, t: t - (10 * MINUTE if i >= 300 else 0), pause=10 * MINUTE)
+    assert _said(tmp_path, paused) == []
+    burst: list[Message] = []
+    rng = np.random.default_rng(5)
+    for i in range(3600):
+        stamp = T0 + i * MS
+        if 300 <= i < 1800:
+            continue  # (a 30-s outage: the queue keeps the last 1500 messages, 15 s)
+        # the queued messages arrive together at the outage's end, then as before
+        log = T0 + 3300 * MS + (i - 1800) * 10**4 if 1800 <= i < 3300 else stamp + MS // 2
+        burst.append(("/imu", V3S, log, v3s(stamp, rng.normal())))
+        burst.append(("/odom", V3S, stamp + MS // 4, v3s(stamp, rng.normal())))
+    _said(tmp_path, sorted(burst, key=lambda m: m[2]))  # (no step; the glitch rule may drop one)
+
+
+def test_a_simulation_clock_keeps_the_hour(tmp_path: Path) -> None:
+    """Header stamps on a simulation clock (from 1000 s, not Unix times) beside the
+    recorder's wall clock: a simulation paused or run slower moves them against the log
+    times by any amount, so its step is an hour, as before: 10 minutes are not named."""
+    reader = open_input(
+        write(
+            tmp_path / "x.mcap",
+            "mcap",
+            _stepped(lambda i, t: UPTIME + i * MS + (10 * MINUTE if i >= 300 else 0)),
+        )
+    )
+    collect(reader.chunks("header"))
+    assert reader.info.clock_steps == {}
 
 
 @pytest.mark.parametrize("off", [-20 * 365 * DAY, 10 * 365 * DAY])
@@ -253,25 +320,76 @@ def _csv(path: Path, cells: list[str], header: str = "time") -> Path:
     return path
 
 
+def _set_back(path: Path) -> Any:
+    """The reader of ``path`` read through (no error raised: ``inspect`` lists it)."""
+    reader = open_input(path)
+    collect(reader.chunks())
+    return reader
+
+
 def test_a_csv_time_column_set_back_by_hours_is_refused(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Seconds that step back by two hours at row 4001: before, the rows after it were
-    sorted in among those before (interleaved), said in a line, and analyzed."""
+    sorted in among those before (interleaved), said in a line, and analyzed. ``run``
+    and ``export`` refuse it in one line; ``inspect`` lists the file and says it, as it
+    says a bag's header clock set during the recording (exit 0: at 580dd8d it stopped
+    on it with exit 2)."""
     seconds = np.arange(6000) * 0.01 + 10_000.0
     seconds[4000:] -= 7200.0
     path = _csv(tmp_path / "back.csv", [f"{s:.2f}" for s in seconds])
     said = (
-        f"{path}: the time column 'time' steps back by 2.0 h at data row 4001 ('2840.00': "
+        "the time column 'time' steps back by 2.0 h at data row 4001 ('2840.00': "
         "from 10039.990 s to 2840.000 s): a clock set back during the recording? Its rows "
         "cannot be placed among those before it; correct the times, or split the file at "
         "that row"
     )
-    with pytest.raises(ReaderError) as err:
-        collect(open_input(path).chunks())
-    assert str(err.value) == said
-    assert main(["inspect", str(path)]) == 2
-    assert capsys.readouterr().err == f"analyzer: error: {said}\n"
+    reader = _set_back(path)
+    assert reader.info.set_back == said
+    assert reader.info.errors == [said]  # (the step's own note, of the same row, left out)
+    assert main(["inspect", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert f"  ! {said}\n" in out
+    assert [line.split()[:2] for line in out.splitlines()[-3:-1]] == [["a", "6000"], ["b", "6000"]]
+    assert main(["inspect", str(path), "--json"]) == 0
+    (listed,) = json.loads(capsys.readouterr().out)["inputs"]
+    assert listed["errors"] == [said]
+    for err in _refused(path, tmp_path, capsys):
+        assert err == f"analyzer: error: {path}: {said}\n"
+
+
+def test_a_csv_set_back_in_a_folder_of_files_stops_its_reading(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The middle one of three files set back: a damaged file of a multi-file archive
+    (CONTRACT.md), not a refusal of the folder (the first version of the refusal: exit
+    2). Its reading stops at the step, as at 580dd8d; ``run`` analyzes the others' rows
+    (exit 0 or 1), its line under ``inputs[].errors`` and in the report; ``inspect``
+    lists it, exit 0."""
+    folder = tmp_path / "hours"
+    folder.mkdir()
+    first = np.arange(3000) * 0.01 + 10_000.0
+    second = first + 30.0
+    second[2000:] -= 7200.0
+    _csv(folder / "a.csv", [f"{s:.2f}" for s in first])
+    late = _csv(folder / "b.csv", [f"{s:.2f}" for s in second])
+    _csv(folder / "c.csv", [f"{s:.2f}" for s in first + 60.0])
+    said = (
+        f"reading stopped: {late}: the time column 'time' steps back by 2.0 h at data row "
+        "2001 ('2850.00': from 10049.990 s to 2850.000 s): a clock set back during the "
+        "recording? Its rows cannot be placed among those before it; correct the times, "
+        "or split the file at that row"
+    )
+    code = main(["run", str(folder), "--out", str(tmp_path / "o"), "--no-progress"])
+    capsys.readouterr()
+    assert code in (0, 1)
+    doc = json.loads((tmp_path / "o" / "findings.json").read_text())
+    errors = {i["path"]: i["errors"] for i in doc["inputs"]}
+    assert errors == {str(folder / "a.csv"): [], str(late): [said], str(folder / "c.csv"): []}
+    assert {c["name"]: c["samples"] for c in doc["channels"]} == {"a": 6000, "b": 6000}
+    assert said in html.unescape((tmp_path / "o" / "report.html").read_text())
+    assert main(["inspect", str(folder)]) == 0
+    assert f"  ! {said}\n" in capsys.readouterr().out
 
 
 def test_a_csv_date_time_column_set_back_a_day_is_refused(tmp_path: Path) -> None:
@@ -279,10 +397,9 @@ def test_a_csv_date_time_column_set_back_a_day_is_refused(tmp_path: Path) -> Non
     times = start + np.arange(3000) * np.timedelta64(10, "ms")
     times[2000:] -= np.timedelta64(1, "D")
     path = _csv(tmp_path / "iso.csv", [f"{t}Z" for t in times], header="timestamp")
-    with pytest.raises(ReaderError, match=r"the time column 'timestamp' steps back by 24\.0 h "):
-        collect(open_input(path).chunks())
-    with pytest.raises(ReaderError, match=r"at data row 2001 \('2026-03-01T10:00:20.000Z': "):
-        collect(open_input(path).chunks())
+    said = _set_back(path).info.set_back
+    assert said.startswith("the time column 'timestamp' steps back by 24.0 h ")
+    assert "at data row 2001 ('2026-03-01T10:00:20.000Z': " in said
 
 
 def test_a_csv_step_back_under_the_hour_is_sorted_in_as_before(tmp_path: Path) -> None:
@@ -307,8 +424,7 @@ def test_a_csv_set_back_across_blocks_names_its_first_row(
         seconds[step:] -= 7200.0
         path = _csv(tmp_path / f"back{step}.csv", [f"{s:.2f}" for s in seconds])
         cell = f"{seconds[step]:.2f}"
-        with pytest.raises(ReaderError, match=rf"2\.0 h at data row {step + 1} \('{cell}': "):
-            collect(open_input(path).chunks())
+        assert f"2.0 h at data row {step + 1} ('{cell}': " in _set_back(path).info.set_back
 
 
 @pytest.mark.parametrize("bad", [1, 4])
