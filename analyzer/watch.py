@@ -179,7 +179,7 @@ from multiprocessing.context import ForkServerContext, SpawnContext
 from multiprocessing.process import BaseProcess
 from pathlib import Path
 from types import FrameType
-from typing import Any, BinaryIO, TypeVar
+from typing import Any, BinaryIO, NamedTuple, TypeVar
 
 from analyzer import __version__
 from analyzer.diagnosis.training_check import window_warnings
@@ -887,6 +887,7 @@ def _move_all(
     paths: Sequence[Path],
     folder: Path,
     intent: Callable[[list[list[str]]], None] | None = None,
+    kept: list[_Kept] | None = None,
 ) -> list[Path]:
     """Move ``paths`` into ``folder`` under free names (:func:`_free_name`), all or none.
     Where a path is on another file system than ``folder`` (a symbolic link's own, not
@@ -902,7 +903,16 @@ def _move_all(
     copy, target]`` lines (``copy`` "" for a rename), for the state file, and again
     before a file goes to another name than planned (taken since): a watcher killed
     during it is finished or undone by the next start (:func:`_end_moves`), and the
-    record names the archive's own files."""
+    record names the archive's own files.
+
+    Several renames that fail part-way are undone: the files renamed already go back to
+    their names in INBOX (:func:`_put_back`), and the move's lines are emptied. Before,
+    they stayed in ``folder`` and the rest in INBOX, later analyzed alone as the
+    archive. A file that cannot go back (its name in INBOX taken since) stays in
+    ``folder``, appended to ``kept`` with why, never lost; where one could not for
+    another cause, the move's lines stay in the state file, for the next start to end
+    it (:func:`_end_moves`), and what is left in INBOX is not analyzed meanwhile. The
+    lines stay too while files go back: a kill then is ended by the next start."""
     copies = _other_fs(paths, folder)
     if not copies and len(paths) == 1:
         # (a rename: nothing half-done, told only before a link and unlink in its stead)
@@ -915,10 +925,52 @@ def _move_all(
 
     tell()
     if not copies:  # (several renames: one stopped between them is finished next start)
-        return [_place(p, targets, k, tell) for k, p in enumerate(paths)]
+        placed: list[Path] = []
+        try:
+            for k, path in enumerate(paths):
+                placed.append(_place(path, targets, k, tell))
+        except OSError:
+            if _put_back(paths, placed, kept) and intent is not None:
+                intent([])  # (else the next start ends it, and the rest waits for that)
+            raise
+        return placed
     made = [c for c in staged if c is not None]
     _copy_all(paths, made)
     return _place_all(paths, made, targets, tell)
+
+
+class _Kept(NamedTuple):
+    """A file of a move undone that stays in the folder of the move (:func:`_put_back`)."""
+
+    path: Path
+    why: str
+    taken: bool
+    """Its name in INBOX taken since (the move is over); else the move is left for the
+    next start to end."""
+
+
+def _put_back(paths: Sequence[Path], placed: Sequence[Path], kept: list[_Kept] | None) -> bool:
+    """Undo the renames of a move of ``paths`` that failed part-way: each of ``placed``
+    (the first of ``paths``, renamed) renamed back, never over a file
+    (:func:`_rename_new`). One whose name in INBOX was taken since stays where it is,
+    appended to ``kept`` with why (as one that cannot go back for another cause);
+    returns whether every file is back or kept for that reason alone (else the move
+    is left for the next start to end)."""
+    ended = True
+    for source, target in zip(paths, placed, strict=False):
+        try:
+            _rename_new(target, source)
+            continue
+        except FileExistsError:
+            left = _Kept(target, f"its name in INBOX, {source.name}, was taken meanwhile", True)
+        except OSError as err:
+            ended = False
+            left = _Kept(
+                target, f"it cannot go back to INBOX: {one_line(err.strerror or err)}", False
+            )
+        if kept is not None:
+            kept.append(left)
+    return ended
 
 
 _Line = tuple[Path, Path | None, Path]
@@ -2086,9 +2138,10 @@ class _Runner:
                     archive, rec, folder, copies, targets, tell, future, cancel
                 )
                 return
-            moved = [str(t) for t in _move_all(archive.paths, folder, tell)]
+            kept: list[_Kept] = []
+            moved = [str(t) for t in _move_all(archive.paths, folder, tell, kept)]
         except OSError as err:
-            self._not_moved(archive, rec, folder, tell, err)
+            self._not_moved(archive, rec, folder, tell, err, kept)
             return
         self._moved(archive, rec, folder, moved)
 
@@ -2125,16 +2178,36 @@ class _Runner:
         folder: Path,
         tell: Callable[[list[list[str]]], None],
         err: OSError,
+        kept: Sequence[_Kept] = (),
     ) -> None:
         """A move that failed (undone: nothing of it left to end): one line naming the
-        cause; the archive stays in INBOX, recorded."""
-        if rec.moving:
-            tell([])
+        cause; the archive stays in INBOX, recorded. The line names too each file that
+        could not go back to INBOX (``kept``): where its name there was taken since, it
+        joins the record's ``moved_to`` and the move is over; else the move stays in the
+        state file, ended by the next start (what is left in INBOX not analyzed
+        meanwhile)."""
+        cause = _move_error(err, archive.paths, folder)
+        if not kept:
+            if rec.moving:
+                tell([])
+            log.warning("%s: not moved to %s (it stays in INBOX): %s", archive.name, folder, cause)
+            return
+        stays = "; ".join(f"{k.path.name} stays there ({k.why})" for k in kept)
+        if all(k.taken for k in kept):
+            rec.moved_to = [*rec.moved_to, *(str(k.path) for k in kept)]
+            rec.moving = []
+            try:
+                self.ledger.record(rec)
+            except OSError:  # (REPORTS full: written with the next record, or at the stop)
+                self.unsaved = True
+            then = "the rest stays in INBOX"
+        else:
+            then = (
+                "the rest stays in INBOX, not analyzed: the next start ends the move (as one "
+                "stopped by force)"
+            )
         log.warning(
-            "%s: not moved to %s (it stays in INBOX): %s",
-            archive.name,
-            folder,
-            _move_error(err, archive.paths, folder),
+            "%s: not moved to %s: %s; undone but %s; %s", archive.name, folder, cause, stays, then
         )
 
     def _moved(self, archive: ReadyArchive, rec: Record, folder: Path, moved: list[str]) -> None:
