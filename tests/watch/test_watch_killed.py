@@ -1023,3 +1023,137 @@ def test_a_folder_part_removed_by_its_move_is_not_taken_for_a_changed_one(
     (source / "a.csv").unlink()
     assert _end(rec, inbox) == ("kept", [])
     assert [p.name for p in source.iterdir()] == ["b.csv"]
+
+
+# ------------------------------------------------------- a move by renames refused part-way
+
+
+def _three_parts(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> dict[str, bytes]:
+    """:func:`_two_parts` with a third file, ``A_part2.csv``; the contents by name."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    third = _archive(inbox / "A_part2.csv", 302)
+    return {**content, third.name: third.read_bytes()}
+
+
+def _refused(
+    name: str,
+    inbox: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    meanwhile: Any = None,
+    back: Any = None,
+) -> None:
+    """Every rename of INBOX's ``name`` out of it refused (EPERM: another user's file in
+    a sticky INBOX), ``meanwhile()`` called before the first refusal; ``back(target)``
+    called before each rename back into INBOX."""
+    real_rename = watch_module._rename_new
+    refused: list[Path] = []
+
+    def rename(src: Path, dst: Path, *rest: Any) -> None:
+        if src.parent == inbox and src.name == name:
+            if not refused and meanwhile is not None:
+                meanwhile()
+            refused.append(src)
+            raise PermissionError(1, "Operation not permitted", str(src))
+        if dst.parent == inbox and back is not None:
+            back(src)
+        real_rename(src, dst, *rest)
+
+    monkeypatch.setattr(watch_module, "_rename_new", rename)
+
+
+@pytest.mark.parametrize("refused", ["A_part1.csv", "A_part2.csv"], ids=["second", "last"])
+def test_a_move_by_renames_refused_part_way_is_undone(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture, refused: str
+) -> None:
+    """A ``--group-by`` archive of three files whose second (or last) rename into
+    ``--done`` (the same file system) is refused: the files renamed already go back to
+    INBOX, the archive stays whole there, recorded once, its move not in the state, one
+    line naming the cause. Before, they stayed in ``--done`` and the rest was analyzed
+    alone as the archive (the first result kept aside as ``A-1``, its ``moved_to``
+    empty)."""
+    content = _three_parts(tmp_path, monkeypatch)
+    inbox = tmp_path / "in" / "inbox"
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        _refused(refused, inbox, monkeypatch)
+        caplog.set_level(logging.INFO, logger="analyzer.watch")
+        assert watch(_settings(tmp_path, done), RunOptions()) == 0
+        assert {p.name: p.read_bytes() for p in inbox.iterdir()} == content
+        assert not any(done.iterdir())
+        rec = _state_record(tmp_path)
+        assert rec["moved_to"] == [] and "moving" not in rec
+        assert _analyses(tmp_path) == [str(sorted(content))]
+        said = [r.getMessage() for r in caplog.records if "not moved" in r.getMessage()]
+        assert said == [
+            f"A: not moved to {done} (it stays in INBOX): {inbox / refused}: Operation not "
+            "permitted"
+        ]
+
+
+def test_a_file_whose_inbox_name_was_taken_stays_in_done_and_is_said(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The move undone, but another file dropped under the first file's name in INBOX
+    meanwhile: the first file stays in ``--done`` (never over that file: nothing lost),
+    said in the line and in the record's ``moved_to``; the archive, other content now,
+    is analyzed again (its move refused and undone again). Before, the first file stayed
+    in ``--done`` unsaid and unrecorded (the earlier record's ``moved_to`` empty)."""
+    content = _three_parts(tmp_path, monkeypatch)
+    inbox = tmp_path / "in" / "inbox"
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        _refused(
+            "A_part1.csv",
+            inbox,
+            monkeypatch,
+            meanwhile=lambda: (inbox / "A_part0.csv").write_bytes(OTHER),
+        )
+        caplog.set_level(logging.INFO, logger="analyzer.watch")
+        assert watch(_settings(tmp_path, done), RunOptions()) == 0
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == {
+            "A_part0.csv": content["A_part0.csv"]
+        }
+        assert {p.name: p.read_bytes() for p in inbox.iterdir()} == {
+            **content,
+            "A_part0.csv": OTHER,
+        }
+        state = json.loads((tmp_path / "in" / "reports" / ".watch-state.json").read_text())
+        moved = {name: rec["moved_to"] for name, rec in state["archives"].items()}
+        # (the earlier result kept aside under the name --done gave its one file moved)
+        assert moved == {"A": [], "A_part0.csv": [str(done / "A_part0.csv")]}
+        said = [r.getMessage() for r in caplog.records if "not moved" in r.getMessage()]
+        cause = f"{inbox / 'A_part1.csv'}: Operation not permitted"
+        assert said == [
+            f"A: not moved to {done}: {cause}; undone but A_part0.csv stays there (its name "
+            "in INBOX, A_part0.csv, was taken meanwhile); the rest stays in INBOX",
+            f"A: not moved to {done} (it stays in INBOX): {cause}",
+        ]
+
+
+@pytest.mark.parametrize("when", ["before", "after"])
+def test_a_kill_while_a_move_is_undone_is_ended_by_the_next_start(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, when: str
+) -> None:
+    """A watcher killed while it puts the first file of a refused move back in INBOX
+    (before or after its rename back): the next start ends the move (its rename no
+    longer refused), the archive whole in ``--done``, recorded once."""
+    content = _three_parts(tmp_path, monkeypatch)
+    inbox = tmp_path / "in" / "inbox"
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        settings = _settings(tmp_path, done)
+
+        def kill(undo: pytest.MonkeyPatch) -> None:
+            def back(target: Path) -> None:
+                if when == "after":
+                    target.rename(inbox / target.name)
+                raise _Killed
+
+            _refused("A_part1.csv", inbox, undo, back=back)
+
+        _run_killed(settings, kill)
+        assert _state_record(tmp_path)["moving"]
+        assert watch(settings, RunOptions()) == 0
+        assert not any(inbox.iterdir())
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == content
+        rec = _state_record(tmp_path)
+        assert sorted(rec["moved_to"]) == [str(done / name) for name in sorted(content)]
+        assert "moving" not in rec
+        assert _analyses(tmp_path) == [str(sorted(content))]
