@@ -909,9 +909,10 @@ def _move_all(
     their names in INBOX (:func:`_put_back`), and the move's lines are emptied. Before,
     they stayed in ``folder`` and the rest in INBOX, later analyzed alone as the
     archive. A file that cannot go back (its name in INBOX taken since) stays in
-    ``folder``, appended to ``kept`` with why, never lost; where one could not for
-    another cause, the move's lines stay in the state file, for the next start to end
-    it (:func:`_end_moves`), and what is left in INBOX is not analyzed meanwhile. The
+    ``folder``, appended to ``kept`` with why, never lost, and the lines are left to
+    the caller (emptied with the record's ``moved_to``); where one could not for another
+    cause, they stay in the state file, for the next start to end the move
+    (:func:`_end_moves`), and what is left in INBOX is not analyzed meanwhile. The
     lines stay too while files go back: a kill then is ended by the next start."""
     copies = _other_fs(paths, folder)
     if not copies and len(paths) == 1:
@@ -930,8 +931,8 @@ def _move_all(
             for k, path in enumerate(paths):
                 placed.append(_place(path, targets, k, tell))
         except OSError:
-            if _put_back(paths, placed, kept) and intent is not None:
-                intent([])  # (else the next start ends it, and the rest waits for that)
+            if _put_back(paths, placed, kept) and not kept and intent is not None:
+                intent([])  # (a file kept: emptied by the caller with its moved_to)
             raise
         return placed
     made = [c for c in staged if c is not None]
