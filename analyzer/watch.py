@@ -931,7 +931,11 @@ def _move_all(
             for k, path in enumerate(paths):
                 placed.append(_place(path, targets, k, tell))
         except OSError:
-            if _put_back(paths, placed, kept) and not kept and intent is not None:
+            if (
+                _put_back(list(zip(paths[: len(placed)], placed, strict=True)), kept)
+                and not kept
+                and intent is not None
+            ):
                 intent([])  # (a file kept: emptied by the caller with its moved_to)
             raise
         return placed
@@ -950,17 +954,20 @@ class _Kept(NamedTuple):
     next start to end."""
 
 
-def _put_back(paths: Sequence[Path], placed: Sequence[Path], kept: list[_Kept] | None) -> bool:
-    """Undo the renames of a move of ``paths`` that failed part-way: each of ``placed``
-    (the first of ``paths``, renamed) renamed back, never over a file
-    (:func:`_rename_new`). One whose name in INBOX was taken since stays where it is,
-    appended to ``kept`` with why (as one that cannot go back for another cause);
-    returns whether every file is back or kept for that reason alone (else the move
-    is left for the next start to end)."""
+def _put_back(renamed: Sequence[tuple[Path, Path]], kept: list[_Kept] | None) -> bool:
+    """Undo the renames of a move that failed part-way: each ``(source, target)`` of
+    ``renamed`` renamed back, never over a file (:func:`_rename_new`); a target that is
+    its source by a second name (a rename by link and unlink killed between) unlinked.
+    One whose name in INBOX was taken since stays where it is, appended to ``kept`` with
+    why (as one that cannot go back for another cause); returns whether every file is
+    back or kept for that reason alone (else the move is left for the next start)."""
     ended = True
-    for source, target in zip(paths, placed, strict=False):
+    for source, target in renamed:
         try:
-            _rename_new(target, source)
+            if _linked(source, target):
+                _remove(target, strict=True)
+            else:
+                _rename_new(target, source)
             continue
         except FileExistsError:
             left = _Kept(target, f"its name in INBOX, {source.name}, was taken meanwhile", True)
@@ -1063,7 +1070,11 @@ def _end_moves(ledger: Ledger, inbox: Path) -> None:
             "finished": "finished",
             "gone": "finished as far as can be told (part of it, gone from INBOX, is not in "
             "it: taken from there since?)",
+            "put back": "could not be finished (a rename refused): undone, its files put back "
+            "in INBOX; it is moved again",
         }[how]
+        if how == "put back" and moved:
+            said += f" (but for {', '.join(moved)}, whose name in INBOX was taken since)"
         log.info("%s: its move to %s, stopped by force, %s", rec.name, folder, said)
 
 
@@ -1128,6 +1139,12 @@ def _end_move(
       (taken from there since): the move is over with what is there.
     - ``"kept"``: such a part, and the rest still in INBOX: nothing touched (the folder
       may be a mount not mounted yet); the move stays, for the next start.
+    - ``"put back"``: a move of renames (every file in place or in INBOX, as a watcher
+      killed while it undid a move refused part-way leaves it) whose finish is refused
+      again: undone (:func:`_put_back`), the targets returned those kept in the folder
+      (their names in INBOX taken since); the archive is moved again. Before, the move
+      was kept, and the rest held in INBOX, at every start while the refusal lasted.
+      Where a file cannot go back, the error is raised (the move kept).
 
     Before, an archive whose first planned name was taken by another file was taken for
     moved: a source was removed with no copy of it anywhere, or left alone in INBOX and
@@ -1192,12 +1209,22 @@ def _end_move(
     def tell() -> None:
         intent(_moving_of(sources, copies, targets))
 
+    renamed = [(s, t) for (s, _, _), t, p in zip(lines, targets, in_place, strict=True) if p]
     for k, (source, copy, _) in enumerate(lines):
         if in_place[k] or not placeable[k]:
             if copy is not None and not in_place[k] and os.path.lexists(copy):
                 _remove(copy, strict=True)  # (truncated: its source is gone)
             continue
-        _place(copy if copy is not None else source, targets, k, tell)
+        try:
+            renamed.append((source, _place(copy if copy is not None else source, targets, k, tell)))
+        except OSError:
+            # a move of renames, each file there: undone, as by the watcher (_move_all)
+            if not all(placeable) or any(c is not None for c in copies):
+                raise
+            kept: list[_Kept] = []
+            if not _put_back(renamed, kept):
+                raise
+            return "put back", [str(k.path) for k in kept]
     for (source, copy, _), placed, target in zip(lines, placeable, targets, strict=True):
         if placed and copy is not None and _linked(copy, target):
             _remove(copy, strict=True)  # (its rename by link and unlink, killed between)

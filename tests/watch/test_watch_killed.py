@@ -1157,3 +1157,39 @@ def test_a_kill_while_a_move_is_undone_is_ended_by_the_next_start(
         assert sorted(rec["moved_to"]) == [str(done / name) for name in sorted(content)]
         assert "moving" not in rec
         assert _analyses(tmp_path) == [str(sorted(content))]
+
+
+def test_a_move_undone_by_a_killed_watcher_and_still_refused_is_undone_by_the_next_start(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Killed before it put the first file of a refused move back in INBOX, and the
+    rename still refused at the next start: that start cannot finish the move, and undoes
+    it (the first file back in INBOX), then moves the archive again (refused, undone,
+    said); the archive stays whole in INBOX, its move no longer in the state. Before
+    (with no undo at the start), the move was kept, and the rest of the archive held in
+    INBOX, at every start while the refusal lasted."""
+    content = _three_parts(tmp_path, monkeypatch)
+    inbox = tmp_path / "in" / "inbox"
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        settings = _settings(tmp_path, done)
+
+        def back(target: Path) -> None:
+            raise _Killed
+
+        _run_killed(settings, lambda undo: _refused("A_part1.csv", inbox, undo, back=back))
+        assert _state_record(tmp_path)["moving"]
+        _refused("A_part1.csv", inbox, monkeypatch)
+        caplog.set_level(logging.INFO, logger="analyzer.watch")
+        assert watch(settings, RunOptions()) == 0
+        assert {p.name: p.read_bytes() for p in inbox.iterdir()} == content
+        assert not any(done.iterdir())
+        rec = _state_record(tmp_path)
+        assert rec["moved_to"] == [] and "moving" not in rec
+        assert _analyses(tmp_path) == [str(sorted(content))]
+        said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("A:")]
+        assert said == [
+            f"A: its move to {done}, stopped by force, could not be finished (a rename "
+            "refused): undone, its files put back in INBOX; it is moved again",
+            f"A: not moved to {done} (it stays in INBOX): {inbox / 'A_part1.csv'}: Operation "
+            "not permitted",
+        ]
