@@ -1089,25 +1089,31 @@ def test_a_move_by_renames_refused_part_way_is_undone(
         ]
 
 
-def test_a_file_whose_inbox_name_was_taken_stays_in_done_and_is_said(
+def test_a_move_refused_part_way_whose_inbox_name_was_taken_is_not_undone(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
 ) -> None:
-    """The move undone, but another file dropped under the first file's name in INBOX
-    meanwhile: the first file stays in ``--done`` (never over that file: nothing lost),
-    said in the line and in the record's ``moved_to``; the archive, other content now,
-    is analyzed again (its move refused and undone again). Before, the first file stayed
-    in ``--done`` unsaid and unrecorded (the earlier record's ``moved_to`` empty)."""
+    """The move refused part-way, but another file dropped under the first file's name
+    in INBOX meanwhile: nothing is put back (all or none), the move stays in the state
+    file and the rest in INBOX, not analyzed, said in one line naming the name taken;
+    the next start (the rename allowed) ends the move, and the new file is analyzed
+    alone. Before, the other files went back, and the new file was analyzed with them
+    as the archive (the first file left in ``--done``)."""
     content = _three_parts(tmp_path, monkeypatch)
     inbox = tmp_path / "in" / "inbox"
     with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        settings = _settings(tmp_path, done)
+        undo = pytest.MonkeyPatch()
         _refused(
             "A_part1.csv",
             inbox,
-            monkeypatch,
+            undo,
             meanwhile=lambda: (inbox / "A_part0.csv").write_bytes(OTHER),
         )
         caplog.set_level(logging.INFO, logger="analyzer.watch")
-        assert watch(_settings(tmp_path, done), RunOptions()) == 0
+        try:
+            assert watch(settings, RunOptions()) == 0
+        finally:
+            undo.undo()
         assert {p.name: p.read_bytes() for p in done.iterdir()} == {
             "A_part0.csv": content["A_part0.csv"]
         }
@@ -1115,17 +1121,93 @@ def test_a_file_whose_inbox_name_was_taken_stays_in_done_and_is_said(
             **content,
             "A_part0.csv": OTHER,
         }
-        state = json.loads((tmp_path / "in" / "reports" / ".watch-state.json").read_text())
-        moved = {name: rec["moved_to"] for name, rec in state["archives"].items()}
-        # (the earlier result kept aside under the name --done gave its one file moved)
-        assert moved == {"A": [], "A_part0.csv": [str(done / "A_part0.csv")]}
-        said = [r.getMessage() for r in caplog.records if "not moved" in r.getMessage()]
-        cause = f"{inbox / 'A_part1.csv'}: Operation not permitted"
+        assert _analyses(tmp_path) == [str(sorted(content))]
+        rec = _state_record(tmp_path)
+        assert rec["moving"] and rec["moved_to"] == []
+        said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("A: not")]
         assert said == [
-            f"A: not moved to {done}: {cause}; undone but A_part0.csv stays there (its name "
-            "in INBOX, A_part0.csv, was taken meanwhile); the rest stays in INBOX",
-            f"A: not moved to {done} (it stays in INBOX): {cause}",
+            f"A: not moved to {done}: {inbox / 'A_part1.csv'}: Operation not permitted; not "
+            "undone: A_part0.csv in INBOX taken by another file since (the files moved stay "
+            "there, the rest in INBOX, not analyzed): the next start ends the move (as one "
+            "stopped by force)"
         ]
+        assert watch(settings, RunOptions()) == 0
+        assert not any(inbox.iterdir())
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == {
+            **content,
+            "A_part0-1.csv": OTHER,
+        }
+        assert _analyses(tmp_path) == [str(sorted(content)), str(["A_part0.csv"])]
+
+
+def test_a_move_killed_while_undone_is_kept_by_the_start_where_an_inbox_name_was_taken(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Killed before it put the first file of a refused move back in INBOX; another
+    file dropped under that file's name there since, and the rename still refused at
+    the next start: that start cannot finish the move nor undo it (all or none): the
+    move kept, the rest held in INBOX, said in one line naming the name taken. Before,
+    the others went back, and the new file was analyzed with them as the archive."""
+    content = _three_parts(tmp_path, monkeypatch)
+    inbox = tmp_path / "in" / "inbox"
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        settings = _settings(tmp_path, done)
+
+        def back(target: Path) -> None:
+            raise _Killed
+
+        _run_killed(settings, lambda undo: _refused("A_part1.csv", inbox, undo, back=back))
+        moving = _state_record(tmp_path)["moving"]
+        (inbox / "A_part0.csv").write_bytes(OTHER)
+        _refused("A_part1.csv", inbox, monkeypatch)
+        caplog.set_level(logging.INFO, logger="analyzer.watch")
+        assert watch(settings, RunOptions()) == 0
+        assert {p.name: p.read_bytes() for p in inbox.iterdir()} == {
+            **content,
+            "A_part0.csv": OTHER,
+        }
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == {
+            "A_part0.csv": content["A_part0.csv"]
+        }
+        assert _analyses(tmp_path) == [str(sorted(content))]
+        rec = _state_record(tmp_path)
+        assert rec["moving"] == moving and rec["moved_to"] == []
+        said = [r.getMessage() for r in caplog.records if "stopped by force" in r.getMessage()]
+        assert said == [
+            f"A: its move to {done}, stopped by force, cannot be ended: "
+            f"{inbox / 'A_part1.csv'}: Operation not permitted; nor undone: A_part0.csv in "
+            "INBOX taken by another file since; what is left of it in INBOX is not analyzed, "
+            "and the next start tries again",
+            "A: not analyzed: part of the archive whose move was stopped by force and could "
+            "not be ended (said at the start)",
+        ]
+
+
+def test_a_move_whose_file_stays_in_done_is_not_cleared_without_a_list_for_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """:func:`~analyzer.watch._move_all` with no ``kept`` list: a file that cannot go
+    back (its name in INBOX taken in the instant it went back) stays in ``--done``, and
+    the move's lines are not emptied (the file would be in no record). Before, they
+    were emptied though the file was kept."""
+    content = _three_parts(tmp_path, monkeypatch)
+    inbox = tmp_path / "in" / "inbox"
+    done = tmp_path / "done"
+    done.mkdir()
+    told: list[list[list[str]]] = []
+
+    def back(target: Path) -> None:
+        (inbox / target.name).write_bytes(OTHER)
+
+    _refused("A_part1.csv", inbox, monkeypatch, back=back)
+    paths = [inbox / name for name in sorted(content)]
+    with pytest.raises(PermissionError):
+        watch_module._move_all(paths, done, told.append)
+    assert {p.name: p.read_bytes() for p in done.iterdir()} == {
+        "A_part0.csv": content["A_part0.csv"]
+    }
+    assert (inbox / "A_part0.csv").read_bytes() == OTHER
+    assert told and told[-1]
 
 
 @pytest.mark.parametrize("when", ["before", "after"])
