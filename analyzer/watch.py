@@ -179,7 +179,7 @@ from multiprocessing.context import ForkServerContext, SpawnContext
 from multiprocessing.process import BaseProcess
 from pathlib import Path
 from types import FrameType
-from typing import Any, BinaryIO, TypeVar
+from typing import Any, BinaryIO, NamedTuple, TypeVar
 
 from analyzer import __version__
 from analyzer.diagnosis.training_check import window_warnings
@@ -887,6 +887,7 @@ def _move_all(
     paths: Sequence[Path],
     folder: Path,
     intent: Callable[[list[list[str]]], None] | None = None,
+    kept: list[_Kept] | None = None,
 ) -> list[Path]:
     """Move ``paths`` into ``folder`` under free names (:func:`_free_name`), all or none.
     Where a path is on another file system than ``folder`` (a symbolic link's own, not
@@ -902,7 +903,20 @@ def _move_all(
     copy, target]`` lines (``copy`` "" for a rename), for the state file, and again
     before a file goes to another name than planned (taken since): a watcher killed
     during it is finished or undone by the next start (:func:`_end_moves`), and the
-    record names the archive's own files."""
+    record names the archive's own files.
+
+    Several renames that fail part-way are undone: the files renamed already go back to
+    their names in INBOX (:func:`_put_back`), and the move's lines are emptied. Before,
+    they stayed in ``folder`` and the rest in INBOX, later analyzed alone as the
+    archive. Where the name in INBOX of one of them is taken by another file, none goes
+    back (:class:`_NamesTaken` raised): the lines stay in the state file, for the next
+    start to end the move (:func:`_end_moves`), and what is left in INBOX is not
+    analyzed meanwhile (before, the others went back, and the new file was analyzed
+    with them as the archive); so too where one cannot go back for another cause. Such
+    a file, or one whose name was taken in the instant it went back, stays in
+    ``folder``, never lost, appended to ``kept`` with why; for the latter the lines are
+    left to the caller (emptied with the record's ``moved_to``). The lines stay too
+    while files go back: a kill then is ended by the next start."""
     copies = _other_fs(paths, folder)
     if not copies and len(paths) == 1:
         # (a rename: nothing half-done, told only before a link and unlink in its stead)
@@ -915,10 +929,76 @@ def _move_all(
 
     tell()
     if not copies:  # (several renames: one stopped between them is finished next start)
-        return [_place(p, targets, k, tell) for k, p in enumerate(paths)]
+        placed: list[Path] = []
+        try:
+            for k, path in enumerate(paths):
+                placed.append(_place(path, targets, k, tell))
+        except OSError as err:
+            left: list[_Kept] = []
+            renamed = list(zip(paths[: len(placed)], placed, strict=True))
+            undone = _put_back(renamed, left, err)  # (_NamesTaken: the lines stay)
+            if kept is not None:
+                kept.extend(left)
+            if undone and not left and intent is not None:
+                intent([])  # (a file kept: emptied by the caller with its moved_to)
+            raise
+        return placed
     made = [c for c in staged if c is not None]
     _copy_all(paths, made)
     return _place_all(paths, made, targets, tell)
+
+
+class _Kept(NamedTuple):
+    """A file of a move undone that stays in the folder of the move (:func:`_put_back`)."""
+
+    path: Path
+    why: str
+    taken: bool
+    """Its name in INBOX taken in the instant it went back (the move is over); else the
+    move is left for the next start to end."""
+
+
+class _NamesTaken(OSError):
+    """A move of renames that failed part-way (``cause``, whose errno, message and file
+    it has) left as it is, not undone: ``names``, in INBOX, of files it renamed are
+    taken by other files since (:func:`_put_back`)."""
+
+    def __init__(self, cause: OSError, names: list[str]) -> None:
+        super().__init__(cause.errno, cause.strerror, cause.filename)
+        self.names = names
+
+
+def _put_back(renamed: Sequence[tuple[Path, Path]], kept: list[_Kept], cause: OSError) -> bool:
+    """Undo the renames of a move that failed (``cause``) part-way: each ``(source,
+    target)`` of ``renamed`` renamed back, never over a file (:func:`_rename_new`); a
+    target that is its source by a second name (a rename by link and unlink killed
+    between) unlinked. All or none: where a source's name in INBOX is taken by another
+    file, nothing is put back and :class:`_NamesTaken` is raised (the move left for the
+    next start, what is left in INBOX not analyzed); before, the others went back, and
+    the new file was analyzed with them as the archive. One whose name is taken in the
+    instant it goes back, after that look, stays where it is, appended to ``kept`` with
+    why (as one that cannot go back for another cause); returns whether every file is
+    back or kept for that reason alone (else the move is left for the next start)."""
+    taken = [s.name for s, t in renamed if os.path.lexists(s) and not _linked(s, t)]
+    if taken:
+        raise _NamesTaken(cause, taken) from cause
+    ended = True
+    for source, target in renamed:
+        try:
+            if _linked(source, target):
+                _remove(target, strict=True)
+            else:
+                _rename_new(target, source)
+            continue
+        except FileExistsError:
+            left = _Kept(target, f"its name in INBOX, {source.name}, was taken meanwhile", True)
+        except OSError as err:
+            ended = False
+            left = _Kept(
+                target, f"it cannot go back to INBOX: {one_line(err.strerror or err)}", False
+            )
+        kept.append(left)
+    return ended
 
 
 _Line = tuple[Path, Path | None, Path]
@@ -979,12 +1059,16 @@ def _end_moves(ledger: Ledger, inbox: Path) -> None:
         try:
             how, moved = _end_move(rec, inbox, lines, intent)
         except OSError as err:
+            nor = ""
+            if isinstance(err, _NamesTaken):
+                nor = f"; nor undone: {', '.join(err.names)} in INBOX taken by another file since"
             log.warning(
-                "%s: its move to %s, stopped by force, cannot be ended: %s; what is left of "
-                "it in INBOX is not analyzed, and the next start tries again",
+                "%s: its move to %s, stopped by force, cannot be ended: %s%s; what is left "
+                "of it in INBOX is not analyzed, and the next start tries again",
                 rec.name,
                 folder,
                 _move_error(err, [line[0] for line in lines], folder),
+                nor,
             )
             continue
         if how == "kept":
@@ -1010,7 +1094,11 @@ def _end_moves(ledger: Ledger, inbox: Path) -> None:
             "finished": "finished",
             "gone": "finished as far as can be told (part of it, gone from INBOX, is not in "
             "it: taken from there since?)",
+            "put back": "could not be finished (a rename refused): undone, its files put back "
+            "in INBOX; it is moved again",
         }[how]
+        if how == "put back" and moved:
+            said += f" (but for {', '.join(moved)}, whose name in INBOX was taken since)"
         log.info("%s: its move to %s, stopped by force, %s", rec.name, folder, said)
 
 
@@ -1075,6 +1163,14 @@ def _end_move(
       (taken from there since): the move is over with what is there.
     - ``"kept"``: such a part, and the rest still in INBOX: nothing touched (the folder
       may be a mount not mounted yet); the move stays, for the next start.
+    - ``"put back"``: a move of renames (every file in place or in INBOX, as a watcher
+      killed while it undid a move refused part-way leaves it) whose finish is refused
+      again: undone (:func:`_put_back`), the targets returned those kept in the folder
+      (their names in INBOX taken in the instant they went back); the archive is moved
+      again. Before, the move was kept, and the rest held in INBOX, at every start while
+      the refusal lasted. Where a file cannot go back, or the name in INBOX of one is
+      taken by another file (:class:`_NamesTaken`: none put back), the error is raised
+      (the move kept, the rest held).
 
     Before, an archive whose first planned name was taken by another file was taken for
     moved: a source was removed with no copy of it anywhere, or left alone in INBOX and
@@ -1139,12 +1235,22 @@ def _end_move(
     def tell() -> None:
         intent(_moving_of(sources, copies, targets))
 
+    renamed = [(s, t) for (s, _, _), t, p in zip(lines, targets, in_place, strict=True) if p]
     for k, (source, copy, _) in enumerate(lines):
         if in_place[k] or not placeable[k]:
             if copy is not None and not in_place[k] and os.path.lexists(copy):
                 _remove(copy, strict=True)  # (truncated: its source is gone)
             continue
-        _place(copy if copy is not None else source, targets, k, tell)
+        try:
+            renamed.append((source, _place(copy if copy is not None else source, targets, k, tell)))
+        except OSError as err:
+            # a move of renames, each file there: undone, as by the watcher (_move_all)
+            if not all(placeable) or any(c is not None for c in copies):
+                raise
+            kept: list[_Kept] = []
+            if not _put_back(renamed, kept, err):
+                raise
+            return "put back", [str(k.path) for k in kept]
     for (source, copy, _), placed, target in zip(lines, placeable, targets, strict=True):
         if placed and copy is not None and _linked(copy, target):
             _remove(copy, strict=True)  # (its rename by link and unlink, killed between)
@@ -2075,6 +2181,7 @@ class _Runner:
             self._look_again(archive)
             return
         tell = self._teller(archive, rec, folder)
+        kept: list[_Kept] = []
         try:
             if _other_fs(archive.paths, folder):
                 targets, staged = _plan_move(archive.paths, folder, copies=True)
@@ -2086,9 +2193,9 @@ class _Runner:
                     archive, rec, folder, copies, targets, tell, future, cancel
                 )
                 return
-            moved = [str(t) for t in _move_all(archive.paths, folder, tell)]
+            moved = [str(t) for t in _move_all(archive.paths, folder, tell, kept)]
         except OSError as err:
-            self._not_moved(archive, rec, folder, tell, err)
+            self._not_moved(archive, rec, folder, tell, err, kept)
             return
         self._moved(archive, rec, folder, moved)
 
@@ -2125,16 +2232,50 @@ class _Runner:
         folder: Path,
         tell: Callable[[list[list[str]]], None],
         err: OSError,
+        kept: Sequence[_Kept] = (),
     ) -> None:
         """A move that failed (undone: nothing of it left to end): one line naming the
-        cause; the archive stays in INBOX, recorded."""
-        if rec.moving:
-            tell([])
+        cause; the archive stays in INBOX, recorded. The line names too each file that
+        could not go back to INBOX (``kept``): where its name there was taken in the
+        instant it went back, it joins the record's ``moved_to`` and the move is over;
+        else the move stays in the state file, ended by the next start (what is left in
+        INBOX not analyzed meanwhile, said in this line alone). So too for a move not
+        undone, the name in INBOX of a file it renamed taken (:class:`_NamesTaken`)."""
+        cause = _move_error(err, archive.paths, folder)
+        if isinstance(err, _NamesTaken):
+            self.held.add(archive.name)
+            log.warning(
+                "%s: not moved to %s: %s; not undone: %s in INBOX taken by another file "
+                "since (the files moved stay there, the rest in INBOX, not analyzed): the "
+                "next start ends the move (as one stopped by force)",
+                archive.name,
+                folder,
+                cause,
+                ", ".join(err.names),
+            )
+            return
+        if not kept:
+            if rec.moving:
+                tell([])
+            log.warning("%s: not moved to %s (it stays in INBOX): %s", archive.name, folder, cause)
+            return
+        stays = "; ".join(f"{k.path.name} stays there ({k.why})" for k in kept)
+        if all(k.taken for k in kept):
+            rec.moved_to = [*rec.moved_to, *(str(k.path) for k in kept)]
+            rec.moving = []
+            try:
+                self.ledger.record(rec)
+            except OSError:  # (REPORTS full: written with the next record, or at the stop)
+                self.unsaved = True
+            then = "the rest stays in INBOX"
+        else:
+            self.held.add(archive.name)
+            then = (
+                "the rest stays in INBOX, not analyzed: the next start ends the move (as one "
+                "stopped by force)"
+            )
         log.warning(
-            "%s: not moved to %s (it stays in INBOX): %s",
-            archive.name,
-            folder,
-            _move_error(err, archive.paths, folder),
+            "%s: not moved to %s: %s; undone but %s; %s", archive.name, folder, cause, stays, then
         )
 
     def _moved(self, archive: ReadyArchive, rec: Record, folder: Path, moved: list[str]) -> None:

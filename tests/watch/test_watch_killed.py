@@ -1023,3 +1023,255 @@ def test_a_folder_part_removed_by_its_move_is_not_taken_for_a_changed_one(
     (source / "a.csv").unlink()
     assert _end(rec, inbox) == ("kept", [])
     assert [p.name for p in source.iterdir()] == ["b.csv"]
+
+
+# ------------------------------------------------------- a move by renames refused part-way
+
+
+def _three_parts(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> dict[str, bytes]:
+    """:func:`_two_parts` with a third file, ``A_part2.csv``; the contents by name."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    third = _archive(inbox / "A_part2.csv", 302)
+    return {**content, third.name: third.read_bytes()}
+
+
+def _refused(
+    name: str,
+    inbox: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    meanwhile: Any = None,
+    back: Any = None,
+) -> None:
+    """Every rename of INBOX's ``name`` out of it refused (EPERM: another user's file in
+    a sticky INBOX), ``meanwhile()`` called before the first refusal; ``back(target)``
+    called before each rename back into INBOX."""
+    real_rename = watch_module._rename_new
+    refused: list[Path] = []
+
+    def rename(src: Path, dst: Path, *rest: Any) -> None:
+        if src.parent == inbox and src.name == name:
+            if not refused and meanwhile is not None:
+                meanwhile()
+            refused.append(src)
+            raise PermissionError(1, "Operation not permitted", str(src))
+        if dst.parent == inbox and back is not None:
+            back(src)
+        real_rename(src, dst, *rest)
+
+    monkeypatch.setattr(watch_module, "_rename_new", rename)
+
+
+@pytest.mark.parametrize("refused", ["A_part1.csv", "A_part2.csv"], ids=["second", "last"])
+def test_a_move_by_renames_refused_part_way_is_undone(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture, refused: str
+) -> None:
+    """A ``--group-by`` archive of three files whose second (or last) rename into
+    ``--done`` (the same file system) is refused: the files renamed already go back to
+    INBOX, the archive stays whole there, recorded once, its move not in the state, one
+    line naming the cause. Before, they stayed in ``--done`` and the rest was analyzed
+    alone as the archive (the first result kept aside as ``A-1``, its ``moved_to``
+    empty)."""
+    content = _three_parts(tmp_path, monkeypatch)
+    inbox = tmp_path / "in" / "inbox"
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        _refused(refused, inbox, monkeypatch)
+        caplog.set_level(logging.INFO, logger="analyzer.watch")
+        assert watch(_settings(tmp_path, done), RunOptions()) == 0
+        assert {p.name: p.read_bytes() for p in inbox.iterdir()} == content
+        assert not any(done.iterdir())
+        rec = _state_record(tmp_path)
+        assert rec["moved_to"] == [] and "moving" not in rec
+        assert _analyses(tmp_path) == [str(sorted(content))]
+        said = [r.getMessage() for r in caplog.records if "not moved" in r.getMessage()]
+        assert said == [
+            f"A: not moved to {done} (it stays in INBOX): {inbox / refused}: Operation not "
+            "permitted"
+        ]
+
+
+def test_a_move_refused_part_way_whose_inbox_name_was_taken_is_not_undone(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The move refused part-way, but another file dropped under the first file's name
+    in INBOX meanwhile: nothing is put back (all or none), the move stays in the state
+    file and the rest in INBOX, not analyzed, said in one line naming the name taken;
+    the next start (the rename allowed) ends the move, and the new file is analyzed
+    alone. Before, the other files went back, and the new file was analyzed with them
+    as the archive (the first file left in ``--done``)."""
+    content = _three_parts(tmp_path, monkeypatch)
+    inbox = tmp_path / "in" / "inbox"
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        settings = _settings(tmp_path, done)
+        undo = pytest.MonkeyPatch()
+        _refused(
+            "A_part1.csv",
+            inbox,
+            undo,
+            meanwhile=lambda: (inbox / "A_part0.csv").write_bytes(OTHER),
+        )
+        caplog.set_level(logging.INFO, logger="analyzer.watch")
+        try:
+            assert watch(settings, RunOptions()) == 0
+        finally:
+            undo.undo()
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == {
+            "A_part0.csv": content["A_part0.csv"]
+        }
+        assert {p.name: p.read_bytes() for p in inbox.iterdir()} == {
+            **content,
+            "A_part0.csv": OTHER,
+        }
+        assert _analyses(tmp_path) == [str(sorted(content))]
+        rec = _state_record(tmp_path)
+        assert rec["moving"] and rec["moved_to"] == []
+        said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("A: not")]
+        assert said == [
+            f"A: not moved to {done}: {inbox / 'A_part1.csv'}: Operation not permitted; not "
+            "undone: A_part0.csv in INBOX taken by another file since (the files moved stay "
+            "there, the rest in INBOX, not analyzed): the next start ends the move (as one "
+            "stopped by force)"
+        ]
+        assert watch(settings, RunOptions()) == 0
+        assert not any(inbox.iterdir())
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == {
+            **content,
+            "A_part0-1.csv": OTHER,
+        }
+        assert _analyses(tmp_path) == [str(sorted(content)), str(["A_part0.csv"])]
+
+
+def test_a_move_killed_while_undone_is_kept_by_the_start_where_an_inbox_name_was_taken(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Killed before it put the first file of a refused move back in INBOX; another
+    file dropped under that file's name there since, and the rename still refused at
+    the next start: that start cannot finish the move nor undo it (all or none): the
+    move kept, the rest held in INBOX, said in one line naming the name taken. Before,
+    the others went back, and the new file was analyzed with them as the archive."""
+    content = _three_parts(tmp_path, monkeypatch)
+    inbox = tmp_path / "in" / "inbox"
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        settings = _settings(tmp_path, done)
+
+        def back(target: Path) -> None:
+            raise _Killed
+
+        _run_killed(settings, lambda undo: _refused("A_part1.csv", inbox, undo, back=back))
+        moving = _state_record(tmp_path)["moving"]
+        (inbox / "A_part0.csv").write_bytes(OTHER)
+        _refused("A_part1.csv", inbox, monkeypatch)
+        caplog.set_level(logging.INFO, logger="analyzer.watch")
+        assert watch(settings, RunOptions()) == 0
+        assert {p.name: p.read_bytes() for p in inbox.iterdir()} == {
+            **content,
+            "A_part0.csv": OTHER,
+        }
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == {
+            "A_part0.csv": content["A_part0.csv"]
+        }
+        assert _analyses(tmp_path) == [str(sorted(content))]
+        rec = _state_record(tmp_path)
+        assert rec["moving"] == moving and rec["moved_to"] == []
+        said = [r.getMessage() for r in caplog.records if "stopped by force" in r.getMessage()]
+        assert said == [
+            f"A: its move to {done}, stopped by force, cannot be ended: "
+            f"{inbox / 'A_part1.csv'}: Operation not permitted; nor undone: A_part0.csv in "
+            "INBOX taken by another file since; what is left of it in INBOX is not analyzed, "
+            "and the next start tries again",
+            "A: not analyzed: part of the archive whose move was stopped by force and could "
+            "not be ended (said at the start)",
+        ]
+
+
+def test_a_move_whose_file_stays_in_done_is_not_cleared_without_a_list_for_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """:func:`~analyzer.watch._move_all` with no ``kept`` list: a file that cannot go
+    back (its name in INBOX taken in the instant it went back) stays in ``--done``, and
+    the move's lines are not emptied (the file would be in no record). Before, they
+    were emptied though the file was kept."""
+    content = _three_parts(tmp_path, monkeypatch)
+    inbox = tmp_path / "in" / "inbox"
+    done = tmp_path / "done"
+    done.mkdir()
+    told: list[list[list[str]]] = []
+
+    def back(target: Path) -> None:
+        (inbox / target.name).write_bytes(OTHER)
+
+    _refused("A_part1.csv", inbox, monkeypatch, back=back)
+    paths = [inbox / name for name in sorted(content)]
+    with pytest.raises(PermissionError):
+        watch_module._move_all(paths, done, told.append)
+    assert {p.name: p.read_bytes() for p in done.iterdir()} == {
+        "A_part0.csv": content["A_part0.csv"]
+    }
+    assert (inbox / "A_part0.csv").read_bytes() == OTHER
+    assert told and told[-1]
+
+
+@pytest.mark.parametrize("when", ["before", "after"])
+def test_a_kill_while_a_move_is_undone_is_ended_by_the_next_start(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, when: str
+) -> None:
+    """A watcher killed while it puts the first file of a refused move back in INBOX
+    (before or after its rename back): the next start ends the move (its rename no
+    longer refused), the archive whole in ``--done``, recorded once."""
+    content = _three_parts(tmp_path, monkeypatch)
+    inbox = tmp_path / "in" / "inbox"
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        settings = _settings(tmp_path, done)
+
+        def kill(undo: pytest.MonkeyPatch) -> None:
+            def back(target: Path) -> None:
+                if when == "after":
+                    target.rename(inbox / target.name)
+                raise _Killed
+
+            _refused("A_part1.csv", inbox, undo, back=back)
+
+        _run_killed(settings, kill)
+        assert _state_record(tmp_path)["moving"]
+        assert watch(settings, RunOptions()) == 0
+        assert not any(inbox.iterdir())
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == content
+        rec = _state_record(tmp_path)
+        assert sorted(rec["moved_to"]) == [str(done / name) for name in sorted(content)]
+        assert "moving" not in rec
+        assert _analyses(tmp_path) == [str(sorted(content))]
+
+
+def test_a_move_undone_by_a_killed_watcher_and_still_refused_is_undone_by_the_next_start(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Killed before it put the first file of a refused move back in INBOX, and the
+    rename still refused at the next start: that start cannot finish the move, and undoes
+    it (the first file back in INBOX), then moves the archive again (refused, undone,
+    said); the archive stays whole in INBOX, its move no longer in the state. Before
+    (with no undo at the start), the move was kept, and the rest of the archive held in
+    INBOX, at every start while the refusal lasted."""
+    content = _three_parts(tmp_path, monkeypatch)
+    inbox = tmp_path / "in" / "inbox"
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        settings = _settings(tmp_path, done)
+
+        def back(target: Path) -> None:
+            raise _Killed
+
+        _run_killed(settings, lambda undo: _refused("A_part1.csv", inbox, undo, back=back))
+        assert _state_record(tmp_path)["moving"]
+        _refused("A_part1.csv", inbox, monkeypatch)
+        caplog.set_level(logging.INFO, logger="analyzer.watch")
+        assert watch(settings, RunOptions()) == 0
+        assert {p.name: p.read_bytes() for p in inbox.iterdir()} == content
+        assert not any(done.iterdir())
+        rec = _state_record(tmp_path)
+        assert rec["moved_to"] == [] and "moving" not in rec
+        assert _analyses(tmp_path) == [str(sorted(content))]
+        said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("A:")]
+        assert said == [
+            f"A: its move to {done}, stopped by force, could not be finished (a rename "
+            "refused): undone, its files put back in INBOX; it is moved again",
+            f"A: not moved to {done} (it stays in INBOX): {inbox / 'A_part1.csv'}: Operation "
+            "not permitted",
+        ]
