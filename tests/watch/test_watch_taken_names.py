@@ -117,18 +117,16 @@ def test_the_rename_without_renameat2_never_replaces_a_file(
     assert (tmp_path / "moved" / "h0.csv").read_text() == "x" and not folder.exists()
 
 
-def test_a_rename_by_link_killed_before_its_unlink_is_ended(tmp_path: Path) -> None:
-    """A watcher killed between the link and the unlink of a rename without
-    ``renameat2`` (the file under both names, in INBOX and in ``--done``): the next
-    start ends the move, and the name left in INBOX goes (one file: nothing is lost).
-    Else it stayed there, to be analyzed alone as the archive."""
+def _two_part_record(tmp_path: Path) -> tuple[Path, Path, list[Path], Any]:
+    """INBOX and ``--done`` folders, a two-file archive ``A`` in INBOX and its record
+    (analyzed, no fault), for the tests of a move stopped by force: INBOX, ``--done``,
+    the archive's files, the record."""
     from analyzer.watch_index import Record, Verdict
 
     inbox, done = tmp_path / "inbox", tmp_path / "done"
     inbox.mkdir()
     done.mkdir()
     sources = [_archive(inbox / f"A_part{i}.csv", 300 + i) for i in range(2)]
-    content = {p.name: p.read_bytes() for p in sources}
     rec = Record(
         name="A",
         sha256="1" * 64,
@@ -139,6 +137,16 @@ def test_a_rename_by_link_killed_before_its_unlink_is_ended(tmp_path: Path) -> N
         analysis_s=1.0,
         signature=[[p.name, p.stat().st_size, p.stat().st_mtime_ns] for p in sources],
     )
+    return inbox, done, sources, rec
+
+
+def test_a_rename_by_link_killed_before_its_unlink_is_ended(tmp_path: Path) -> None:
+    """A watcher killed between the link and the unlink of a rename without
+    ``renameat2`` (the file under both names, in INBOX and in ``--done``): the next
+    start ends the move, and the name left in INBOX goes (one file: nothing is lost).
+    Else it stayed there, to be analyzed alone as the archive."""
+    inbox, done, sources, rec = _two_part_record(tmp_path)
+    content = {p.name: p.read_bytes() for p in sources}
     rec.moving = [[str(p), "", str(done / p.name)] for p in sources]
     os.rename(sources[0], done / sources[0].name)  # (the first renamed)
     os.link(sources[1], done / sources[1].name)  # (the second linked, not yet unlinked)
@@ -268,23 +276,8 @@ def test_a_copy_renamed_by_link_killed_before_its_unlink_is_ended(tmp_path: Path
     move and removes the copy's hidden name (the file stays under its target's). Before,
     the target counted as in place and the ``.partial-`` name stayed (said at each start
     as a copy no move accounts for)."""
-    from analyzer.watch_index import Record, Verdict
-
-    inbox, done = tmp_path / "inbox", tmp_path / "done"
-    inbox.mkdir()
-    done.mkdir()
-    sources = [_archive(inbox / f"A_part{i}.csv", 300 + i) for i in range(2)]
+    inbox, done, sources, rec = _two_part_record(tmp_path)
     content = {p.name: p.read_bytes() for p in sources}
-    rec = Record(
-        name="A",
-        sha256="1" * 64,
-        verdict=Verdict.NO_FAULT,
-        report="A/report.html",
-        inputs=[str(p) for p in sources],
-        processed="2026-01-01T00:00:00Z",
-        analysis_s=1.0,
-        signature=[[p.name, p.stat().st_size, p.stat().st_mtime_ns] for p in sources],
-    )
     copies = [done / f".partial-{p.name}-0123abcd" for p in sources]
     for source, copy in zip(sources, copies, strict=True):
         shutil.copy2(source, copy)
