@@ -190,9 +190,7 @@ def needing_calibration(err: TooLittleDataError, window: int) -> TooLittleDataEr
     need = -(-4 * calibration_need(window) // 3)
     if err.need >= need:
         return err
-    out = TooLittleDataError(str(err), err.have, need)
-    out.__cause__ = err
-    return out
+    return TooLittleDataError(str(err), err.have, need)
 
 
 def calibrate(train_residual: Series, window: int, false_alarm_rate: float = 1e-6) -> Calibration:
