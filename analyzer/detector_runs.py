@@ -43,19 +43,28 @@ class SkipReason(str):
 def skip_reason(err: DetectorError, data: Dataset) -> str:
     """``err``'s text, with the training rows the detector would need when it had too
     little healthy data. Of what it counts (finite residual samples, rows with every
-    lag) it lost two kinds of rows: those with a gap in some channel, a share of any
-    window (scaled with it), and those of the complete rows it left out while its
-    filters settled or its lags filled, a count that stays (added once). On the SKAB
-    pumps' 600 rows at 1 Hz (no gap, 451 residual samples of the 512 needed) the rows
-    needed are 512 + 150, and 652 were (a share would have said 681)."""
-    if not isinstance(err, TooLittleDataError) or err.need <= err.have:
+    lag) it lost rows with a gap in some channel, a share of any window (scaled with
+    it), and complete rows it left out while its filters settled, which the detectors
+    cap at a quarter of the window: at a short window the cap cuts the settling short,
+    and a longer one leaves more out (a SKAB valve's 241 rows left 60 of the residual,
+    631 rows 157). So the need is counted with a quarter of the window left out, or
+    what was left out when more, and never below the need scaled by the window's rows
+    per counted sample (many gaps, each followed by a settling)."""
+    if not isinstance(err, TooLittleDataError) or err.need <= err.have or err.have <= 0:
         return str(err)
     train = np.asarray(data.train_values())  # (short: the window was too short)
     complete = int(np.isfinite(train).all(axis=1).sum()) if train.ndim == 2 else 0
     if complete <= 0:
         return str(err)  # (no row holds every channel: no length can be told)
-    settled = max(0, complete - err.have)
-    return SkipReason(str(err), math.ceil((err.need + settled) * len(train) / complete))
+    settled = max(complete - err.have, -(-err.need // 3))
+    rows = len(train)
+    return SkipReason(
+        str(err),
+        max(
+            math.ceil((err.need + settled) * rows / complete),
+            math.ceil(err.need * rows / err.have),
+        ),
+    )
 
 
 def detector_names(options: RunOptions) -> tuple[list[str], bool]:

@@ -2194,10 +2194,11 @@ def _no_detector_error(
     return DetectorError(f"no detector could run ({why})")
 
 
-WINDOW_MARGIN = 1.1
+WINDOW_MARGIN = 1.05
 """How much longer than the least a detector's "too little healthy data" asks for the
 training window :func:`_longer_window` suggests: a longer window can let an order or lag
-criterion choose a larger model, which needs a little more."""
+criterion choose a larger model, which needs a little more (the filters' settling is in
+the need already: :func:`analyzer.detector_runs.skip_reason`)."""
 
 
 def _longer_window(
