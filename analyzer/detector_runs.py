@@ -6,6 +6,7 @@ and the groups' results joined back into one per detector."""
 from __future__ import annotations
 
 import contextlib
+import math
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, wait
@@ -18,10 +19,52 @@ import numpy.typing as npt
 
 from analyzer.detectors import REGISTRY, Dataset, DetectorResult, RunContext, detector_class
 from analyzer.detectors.base import SIGNAL_DTYPE
-from analyzer.errors import AnalyzerError, ConfigError, DetectorError
+from analyzer.errors import AnalyzerError, ConfigError, DetectorError, TooLittleDataError
 from analyzer.options import RunOptions
 from analyzer.paging import is_mapped, mapped_file, release, spill, trim_heap
 from analyzer.parallel import DaskExecutor, Executor, TaskHandle, ThreadExecutor
+
+
+class SkipReason(str):
+    """Why a detector did not run, as the findings write it (a text), and, when it had
+    too little healthy data (:class:`~analyzer.errors.TooLittleDataError`), the training
+    rows it would need (``rows``): the reasons travel as text through the channel groups
+    and the screening to the one-line error, which says how long a window would do
+    (:func:`analyzer.pipeline._no_detector_error`)."""
+
+    rows: int | None
+
+    def __new__(cls, text: str, rows: int | None = None) -> SkipReason:
+        reason = super().__new__(cls, text)
+        reason.rows = rows
+        return reason
+
+
+def skip_reason(err: DetectorError, data: Dataset) -> str:
+    """``err``'s text, with the training rows the detector would need when it had too
+    little healthy data. Of what it counts (finite residual samples, rows with every
+    lag) it lost rows with a gap in some channel, a share of any window (scaled with
+    it), and complete rows it left out while its filters settled, which the detectors
+    cap at a quarter of the window: at a short window the cap cuts the settling short,
+    and a longer one leaves more out (a SKAB valve's 241 rows left 60 of the residual,
+    631 rows 157). So the need is counted with a quarter of the window left out, or
+    what was left out when more, and never below the need scaled by the window's rows
+    per counted sample (many gaps, each followed by a settling)."""
+    if not isinstance(err, TooLittleDataError) or err.need <= err.have or err.have <= 0:
+        return str(err)
+    train = np.asarray(data.train_values())  # (short: the window was too short)
+    complete = int(np.isfinite(train).all(axis=1).sum()) if train.ndim == 2 else 0
+    if complete <= 0:
+        return str(err)  # (no row holds every channel: no length can be told)
+    settled = max(complete - err.have, -(-err.need // 3))
+    rows = len(train)
+    return SkipReason(
+        str(err),
+        max(
+            math.ceil((err.need + settled) * rows / complete),
+            math.ceil(err.need * rows / err.have),
+        ),
+    )
 
 
 def detector_names(options: RunOptions) -> tuple[list[str], bool]:
@@ -278,7 +321,7 @@ def _run_planned(
                 if str(outcome).startswith((f"{name}:", f"{name} ")):
                     raise outcome
                 raise DetectorError(f"{name}: {outcome}") from outcome
-            skipped[name] = str(outcome)
+            skipped[name] = skip_reason(outcome, data)
         elif isinstance(outcome, DetectorResult):
             results.append(outcome)
     return results, skipped

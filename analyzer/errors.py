@@ -106,6 +106,23 @@ class DetectorError(AnalyzerError):
     """A detector cannot be fitted or run (too little healthy data, singular model...)."""
 
 
+class TooLittleDataError(DetectorError):
+    """A detector's "too little healthy data": it had ``have`` of the ``need`` samples it
+    counts (training rows, or what it keeps of them: finite residual samples, rows with
+    every lagged value). The numbers, not the message's words, let the run say how long
+    a window would do (:func:`analyzer.detector_runs.skip_reason`): 169 of 170 real
+    archives stopped at the default window with no hint of the length they needed."""
+
+    def __init__(self, message: str, have: int, need: int) -> None:
+        super().__init__(message)
+        self.have = int(have)
+        self.need = int(need)
+
+    def __reduce__(self) -> tuple[type, tuple[str, int, int]]:
+        # (pickled to and from a cluster's workers: the default gives args only)
+        return (type(self), (str(self), self.have, self.need))
+
+
 class IntegrityError(AnalyzerError):
     """An internal consistency check failed: samples changed between two stages of the
     analyzer itself (:class:`~analyzer.readers.tally.Tally`), not a fault of the input.

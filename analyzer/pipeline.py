@@ -3,6 +3,7 @@ backend): readers -> store -> detectors -> diagnosis -> report."""
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import shutil
@@ -20,6 +21,7 @@ import numpy.typing as npt
 from analyzer.config import Config, measured_inputs
 from analyzer.config import members as group_members
 from analyzer.detector_runs import (
+    SkipReason,
     coupled,
     detector_names,
     fits_of,
@@ -812,6 +814,7 @@ def _analyze(
                 options,
                 _apart_in_training(values, chosen, train, aligned.rate_hz),
                 _slow_clock(infos, chosen, aligned.rate_hz, options.rate is not None),
+                (aligned.rate_hz, aligned.duration_s),
             )
             absurd = next((n for n in notes if n.startswith("infinite or absurd values")), None)
             if absurd is not None:  # (a channel whose every value is beyond 1e30, say)
@@ -2153,6 +2156,7 @@ def _no_detector_error(
     options: RunOptions,
     apart: str = "",
     slow: str = "",
+    clock: tuple[float, float] | None = None,
 ) -> DetectorError:
     """The error when no detector could run: each one's reason, after a hint when the
     healthy window is too short for them (``slow``: the common clock is slower than some
@@ -2162,7 +2166,8 @@ def _no_detector_error(
     a config answers (:data:`CONFIG_NEED`) last: the CLI cuts a long line
     (:func:`analyzer.errors.clipped_line`), and ``tilt_laser.bag``'s 1.1-kB line put the
     error function's wish for a ``[[group]]`` first and the hint that fixes the run
-    (``--rate 43.2``) last."""
+    (``--rate 43.2``) last. With ``clock`` (the rate and the archive's duration) a
+    window too short says how long one would do (:func:`_longer_window`)."""
     # the reasons the data can change first, those that need a config last (the line
     # is cut at errors.LINE_MOST: the cut takes the least useful)
     why = "; ".join(sorted(skip_reasons(skipped), key=lambda r: CONFIG_NEED in r))
@@ -2171,9 +2176,11 @@ def _no_detector_error(
     if apart:
         return DetectorError(f"no detector could run: {apart.removeprefix('; ')} ({why})")
     if "too little healthy data" in why:
+        longer = "" if clock is None else _longer_window(skipped, tr, *clock)
         hint = (
             f"the training window {tr[0]:.3f}-{tr[1]:.3f} s is too short for these "
-            "detectors: give a longer healthy stretch with --train START:END"
+            "detectors: "
+            + (longer or "give a longer healthy stretch with --train START:END")
             + (
                 " (the default is the first 20 % of the data, at most 10 min)"
                 if options.train is None and options.config.train is None
@@ -2181,8 +2188,53 @@ def _no_detector_error(
             )
             + slow
         )
+        if longer.startswith("the archive"):  # (no window of it is long enough)
+            hint = longer + slow
         return DetectorError(f"no detector could run: {hint} ({why})")
     return DetectorError(f"no detector could run ({why})")
+
+
+WINDOW_MARGIN = 1.05
+"""How much longer than the least a detector's "too little healthy data" asks for the
+training window :func:`_longer_window` suggests: a longer window can let an order or lag
+criterion choose a larger model, which needs a little more (the filters' settling is in
+the need already: :func:`analyzer.detector_runs.skip_reason`)."""
+
+
+def _longer_window(
+    skipped: dict[str, str], tr: tuple[float, float], rate_hz: float, duration_s: float
+) -> str:
+    """The ``--train`` that lets at least one detector run, from the window's start
+    ``tr[0]``: the fewest training rows a detector that had too little healthy data
+    would need (:class:`analyzer.detector_runs.SkipReason`), :data:`WINDOW_MARGIN`
+    more, to the next whole second. When the rest of the archive is shorter, a window
+    from its start; when the whole archive is, a line that says so (starting ``the
+    archive``: a window of all of it leaves nothing to search).
+    Empty when no detector said what it needs. The option comes first: a cut line
+    (:func:`analyzer.errors.clipped_line`) keeps it."""
+    needs = [r.rows for r in skipped.values() if isinstance(r, SkipReason) and r.rows]
+    if not needs:
+        return ""
+    rows = math.ceil(min(needs) * WINDOW_MARGIN)
+    span = rows / rate_hz
+    need = f"about {math.ceil(span)} s of healthy data ({rows} samples at {rate_hz:.3g} Hz)"
+    if span >= duration_s:  # (a window of every row leaves nothing to search)
+        return (
+            f"the archive's {duration_s:.6g} s at {rate_hz:.3g} Hz are too short for these "
+            f"detectors, which need {need}"
+        )
+    start = tr[0] if tr[0] + span < duration_s else 0.0
+    end: float = math.ceil(start + span)
+    if end >= duration_s:
+        end = start + span
+
+    def secs(x: float) -> str:  # (as --train reads them: no exponent, to the ms)
+        return f"{x:.3f}".rstrip("0").rstrip(".")
+
+    moved = (
+        f", from the archive's start: after {secs(tr[0])} s it holds less" if start != tr[0] else ""
+    )
+    return f"give --train {secs(start)}:{secs(end)}, {need}{moved}"
 
 
 def _slow_clock(

@@ -63,6 +63,7 @@ from analyzer.diagnosis.changes import (
     default_window,
     detect,
     detection_confidence,
+    needing_calibration,
 )
 from analyzer.diagnosis.classify import (
     MIN_GAIN,
@@ -72,7 +73,7 @@ from analyzer.diagnosis.classify import (
     reference_slope,
 )
 from analyzer.diagnosis.events import bounded_onset, diagnose_interval, slope_before
-from analyzer.errors import DetectorError
+from analyzer.errors import DetectorError, TooLittleDataError
 from analyzer.paging import (
     RELEASE_ROWS,
     read_column,
@@ -221,14 +222,19 @@ class ARKalmanBank:
         train = np.asarray(data.train_values(), dtype=np.float64)
         # a criterion's search stops at the order the state limit allows
         highest = self._highest_order(len(data.channels))
-        order = (
-            select_order(train, self.order, highest) if isinstance(self.order, str) else self.order
-        )
-        ar = fit_ar(train, order, data.channels)
+        window = default_window(data.rate_hz)
+        try:
+            order = (
+                select_order(train, self.order, highest)
+                if isinstance(self.order, str)
+                else self.order
+            )
+            ar = fit_ar(train, order, data.channels)
+        except TooLittleDataError as err:  # (the thresholds' calibration needs more)
+            raise needing_calibration(err, window) from None
         block = self._block(ar.m)
         solved = context.map(solved_leave_one_out_task, [(ar, j, block) for j in range(ar.m)])
         estimators = tuple(e for e, _ in solved)
-        window = default_window(data.rate_hz)
         resid, cons, skip, how, inv_covs = self._calibration_outputs(
             ar, estimators, train, context, tuple(P for _, P in solved)
         )

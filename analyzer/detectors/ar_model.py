@@ -16,7 +16,7 @@ import numpy.typing as npt
 from scipy import linalg
 
 from analyzer.diagnosis.streamed import ColumnMoments
-from analyzer.errors import LISTED, DetectorError, capped
+from analyzer.errors import LISTED, DetectorError, TooLittleDataError, capped
 from analyzer.paging import finite_rows, release, row_blocks
 
 FloatArray = npt.NDArray[np.float64]
@@ -215,9 +215,11 @@ def fit_ar(
         usable = sum(b - a - order for a, b in segments)
     need = required_samples(order, m)
     if usable + order < need:
-        raise DetectorError(
+        raise TooLittleDataError(
             f"too little healthy data for an order-{order} AR model of {m} channels: "
-            f"{usable + order} usable training samples, need at least {need}"
+            f"{usable + order} usable training samples, need at least {need}",
+            usable + order,
+            need,
         )
     k = order * m
     B = EE = None
@@ -603,9 +605,11 @@ def _order_logdets(Y: FloatArray, max_order: int) -> tuple[dict[int, float], int
     n, m = Y.shape
     orders = [p for p in range(1, max_order + 1) if required_samples(p, m) <= n]
     if not orders:
-        raise DetectorError(
+        raise TooLittleDataError(
             f"too little healthy data for any AR model of {m} channels: {n} training samples, "
-            f"need at least {required_samples(1, m)}"
+            f"need at least {required_samples(1, m)}",
+            n,
+            required_samples(1, m),
         )
     pmax = orders[-1]
     mean, scale, _ = _column_stats(Y)

@@ -58,7 +58,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from scipy import linalg
 
 from analyzer.detectors.lowpass import recursion
-from analyzer.errors import DetectorError
+from analyzer.errors import DetectorError, TooLittleDataError
 from analyzer.paging import (
     finite_rows,
     release,
@@ -310,8 +310,10 @@ def pretreat(
     if u is not None:
         ok &= finite_rows(np.asarray(u))
     if ok.sum() < 16:
-        raise DetectorError(
-            f"too little healthy data for the pretreatment: {int(ok.sum())} samples"
+        raise TooLittleDataError(
+            f"too little healthy data for the pretreatment: {int(ok.sum())} samples",
+            int(ok.sum()),
+            16,
         )
     # contiguous run with no gap (the observer needs consecutive samples)
     runs = np.flatnonzero(np.diff(np.concatenate(([0], ok.astype(np.int8), [0]))))
@@ -421,9 +423,11 @@ def fit_relation(
     N = Y.shape[0]
     need = Lmax + 4 * (len(assistants) * (Lmax + 1) + 1)
     if need >= N:
-        raise DetectorError(
+        raise TooLittleDataError(
             f"too little healthy data for a {Lmax}-lag relation of {len(assistants)} sensor(s): "
-            f"{N} samples"
+            f"{N} samples",
+            N,
+            need + 1,
         )
     width = Lmax + 1
     p = len(assistants)
@@ -444,10 +448,12 @@ def fit_relation(
     if n < need:
         # rows with a gap anywhere in a lag history are left out: scattered losses
         # (dropped packets) leave few complete ones
-        raise DetectorError(
+        raise TooLittleDataError(
             f"too little healthy data for a {Lmax}-lag relation of {len(assistants)} "
             f"sensor(s): {n} of {N} training rows have every lagged value (gaps in "
-            "these sensors' data)"
+            "these sensors' data)",
+            n,
+            need,
         )
     var_t = float(np.var(t))
     if not var_t > 0.0:

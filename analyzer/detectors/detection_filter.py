@@ -63,7 +63,13 @@ from analyzer.detectors.beard_jones import ParkFilter, check_observable, filter_
 from analyzer.detectors.lowpass import LowpassPieces
 from analyzer.detectors.lti import ImpulseResponseBank, LiftedBank, run_chunked, time_blocks
 from analyzer.detectors.state_space import StateSpaceModel, model_from_ar, model_from_config
-from analyzer.diagnosis.changes import Calibration, alarm_statistic, calibrate, default_window
+from analyzer.diagnosis.changes import (
+    Calibration,
+    alarm_statistic,
+    calibrate,
+    default_window,
+    needing_calibration,
+)
 from analyzer.diagnosis.classify import CORRELATION_LAGS, integrated_time
 from analyzer.diagnosis.events import events_from_residual, first_bound
 from analyzer.diagnosis.streamed import (
@@ -74,7 +80,7 @@ from analyzer.diagnosis.streamed import (
     finite_blocks,
     series_moments,
 )
-from analyzer.errors import DetectorError
+from analyzer.errors import DetectorError, TooLittleDataError
 from analyzer.paging import RELEASE_ROWS, Released, ScratchRows, finite_rows, release, write_rows
 from analyzer.types import FaultType
 
@@ -252,12 +258,15 @@ class DetectionFilter:
         if reason:
             raise DetectorError(f"{self.name} {reason}")
         cfg = self._config_model(context)
-        model = (
-            model_from_config(cfg, data)
-            if cfg is not None
-            else model_from_ar(data, self.order, self.max_order)
-        )
         window = default_window(data.rate_hz)
+        try:
+            model = (
+                model_from_config(cfg, data)
+                if cfg is not None
+                else model_from_ar(data, self.order, self.max_order)
+            )
+        except TooLittleDataError as err:  # (the thresholds' calibration needs more)
+            raise needing_calibration(err, window) from None
         sigma = self._sigma(data.rate_hz)
         filters = self._bank(model, data, sigma, context)
         train = np.asarray(data.train_values(), dtype=np.float64)

@@ -56,10 +56,11 @@ from analyzer.diagnosis.changes import (
     alarm_statistic,
     calibrate,
     default_window,
+    needing_calibration,
 )
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.diagnosis.streamed import row_moments
-from analyzer.errors import DetectorError
+from analyzer.errors import DetectorError, TooLittleDataError
 from analyzer.paging import (
     ScratchRows,
     release,
@@ -355,8 +356,11 @@ class EquivalentModel:
         estimate (:meth:`_held_out_estimate`, whole halves: the chained residuals of its
         edges are calibrated on them)."""
         dt, l1, l2 = rates
-        rel = fit_relation(train, i, ass, self.lags, self.max_lags)
-        pre = pretreat(train[:, i], None if ui is None else train[:, ui], dt, l2, self.table)
+        try:
+            rel = fit_relation(train, i, ass, self.lags, self.max_lags)
+            pre = pretreat(train[:, i], None if ui is None else train[:, ui], dt, l2, self.table)
+        except TooLittleDataError as err:  # (the thresholds' calibration needs more)
+            raise needing_calibration(err, window) from None
         obs = AssistantObserver(pre.a, pre.b, l1, l2, dt)
         phi = float(np.exp(-l1 * dt))
         lag = _settle_samples(rel, phi)

@@ -114,7 +114,7 @@ from analyzer.detectors.decoupling import (
 from analyzer.diagnosis.changes import Calibration, calibrate, default_window
 from analyzer.diagnosis.classify import MIN_GAIN, correlation_time
 from analyzer.diagnosis.events import events_from_residual
-from analyzer.errors import ConfigError, DetectorError
+from analyzer.errors import ConfigError, DetectorError, TooLittleDataError
 from analyzer.stats.results import json_float
 from analyzer.types import FaultType
 
@@ -806,6 +806,8 @@ class ErrorFunction:
             cal_resid = resid + dither
         try:
             cal = calibrate(cal_resid, window, context.false_alarm_rate)
+        except TooLittleDataError as err:  # (its numbers kept: the run's hint reads them)
+            raise TooLittleDataError(f"{channel}: {err}", err.have, err.need) from err
         except DetectorError as err:
             raise DetectorError(f"{channel}: {err}") from err
         summary.update(

@@ -18,7 +18,7 @@ from analyzer.detectors.ar_model import ARModel, fit_ar, select_order
 from analyzer.detectors.base import Dataset
 from analyzer.detectors.beard_jones import filter_riccati
 from analyzer.detectors.lti import LiftedSystem
-from analyzer.errors import DetectorError
+from analyzer.errors import DetectorError, TooLittleDataError
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -137,8 +137,10 @@ def model_from_config(model: Mapping[str, Any], data: Dataset) -> StateSpaceMode
     ok = np.isfinite(Y).all(axis=1) & (np.isfinite(U).all(axis=1) if U.shape[1] else True)
     Y, U = Y[ok], U[ok]
     if Y.shape[0] < 50:
-        raise DetectorError(
-            f"too little healthy data for the [model] noise design: {Y.shape[0]} samples"
+        raise TooLittleDataError(
+            f"too little healthy data for the [model] noise design: {Y.shape[0]} samples",
+            Y.shape[0],
+            50,
         )
     var = np.var(Y, axis=0)
     if np.any(var <= 0):

@@ -41,7 +41,7 @@ from analyzer.diagnosis.streamed import (
     finite_blocks,
     series_moments,
 )
-from analyzer.errors import DetectorError
+from analyzer.errors import DetectorError, TooLittleDataError
 from analyzer.paging import release
 
 FloatArray = npt.NDArray[np.float64]
@@ -173,6 +173,26 @@ def _acf(lagged: FloatArray, n: int) -> FloatArray:
     return acf
 
 
+def calibration_need(window: int) -> int:
+    """Finite samples of a training residual :func:`calibrate` needs with ``window``:
+    four of its long windows."""
+    return 4 * LONG_FACTOR * window
+
+
+def needing_calibration(err: TooLittleDataError, window: int) -> TooLittleDataError:
+    """``err``, a model fit's "too little healthy data", needing at least what the
+    thresholds' calibration after the fit needs (:func:`calibration_need`): a model asks
+    for fewer samples than its calibration, and a window long enough for the model alone
+    failed next on the thresholds (an equivalent model's 64-lag relation asked for 329
+    rows at 1 Hz, its calibration for 512). In training rows: the detectors leave at most a
+    quarter of the window out of the residual while their filters settle (the bank's and
+    the detection filter's ``skip``, the equivalent model's ``_head``)."""
+    need = -(-4 * calibration_need(window) // 3)
+    if err.need >= need:
+        return err
+    return TooLittleDataError(str(err), err.have, need)
+
+
 def calibrate(train_residual: Series, window: int, false_alarm_rate: float = 1e-6) -> Calibration:
     """Healthy statistics of ``train_residual`` (NaNs ignored; one array, or arrays read
     one after the other as one series) for :func:`detect`.
@@ -184,12 +204,14 @@ def calibrate(train_residual: Series, window: int, false_alarm_rate: float = 1e-
     its residuals here (a memory-mapped series' pages are given back as the passes go).
     The same statistics as the whole-series formulas to rounding (tested)."""
     windows = (window, LONG_FACTOR * window)
-    need = 4 * windows[-1]
+    need = calibration_need(window)
     first = series_moments(train_residual)
     if first.n < need:
-        raise DetectorError(
+        raise TooLittleDataError(
             f"too little healthy data to calibrate thresholds: {first.n} finite samples of "
-            f"the training residual, need at least {need} (4 windows of {windows[-1]})"
+            f"the training residual, need at least {need} (4 windows of {windows[-1]})",
+            first.n,
+            need,
         )
     if not 0.0 < false_alarm_rate < 0.5:
         raise DetectorError(f"false_alarm_rate must be in (0, 0.5), got {false_alarm_rate!r}")
