@@ -18,9 +18,8 @@ from typing import Any
 
 import numpy as np
 import pytest
-from mcap.writer import Writer as McapWriter
 from readers_helpers import T0, collect
-from test_readers_probe30 import MS, NAMES, ROS2, V3S, Message, v3s, write
+from test_readers_probe30 import MS, NAMES, V3S, Message, v3s, write, write_mcap
 from test_two_clocks import _refused
 
 from analyzer.cli import main
@@ -145,18 +144,7 @@ def test_a_step_across_batches_is_the_same_step(tmp_path: Path) -> None:
     """Small MCAP chunks (batches of a few messages): the stretches are carried from
     batch to batch, and the step is found once, at the same message."""
     path = tmp_path / "small_chunks.mcap"
-    with path.open("wb") as handle:
-        writer = McapWriter(handle, chunk_size=1500)
-        writer.start(profile="ros2", library="test")
-        channels: dict[str, int] = {}
-        for topic, msgtype, t, make in _stepped(set_back_a_day):
-            if topic not in channels:
-                text = ROS2.generate_msgdef(msgtype, ros_version=2)[0]
-                schema = writer.register_schema(msgtype, "ros2msg", text.encode())
-                channels[topic] = writer.register_channel(topic, "cdr", schema)
-            data = bytes(ROS2.serialize_cdr(make(ROS2), msgtype))
-            writer.add_message(channels[topic], log_time=t, data=data, publish_time=t)
-        writer.finish()
+    write_mcap(path, _stepped(set_back_a_day), chunk_size=1500)
     reader = open_input(path)
     collect(reader.chunks("header"))
     (said,) = reader.info.clock_steps.values()

@@ -17,9 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from mcap.writer import IndexType
-from mcap.writer import Writer as McapWriter
 from readers_helpers import T0, collect
-from test_readers_probe30 import MS, ROS2, V3S, Message, v3s, write
+from test_readers_probe30 import MS, V3S, Message, v3s, write, write_mcap
 
 from analyzer.cli import main
 from analyzer.readers import open_input
@@ -46,20 +45,8 @@ def _small_chunks(path: Path, messages: list[Message], indexed: bool = True) -> 
     """``messages`` in an MCAP of ~4 kB chunks: the step falls between chunks. Not
     ``indexed``: without message indexes nor chunk indexes (read as a stream, in the
     file's order)."""
-    with path.open("wb") as handle:
-        kinds = IndexType.ALL if indexed else IndexType.NONE
-        writer = McapWriter(handle, chunk_size=4000, index_types=kinds)
-        writer.start(profile="ros2", library="test")
-        channels: dict[str, int] = {}
-        for topic, msgtype, t, make in messages:
-            if topic not in channels:
-                text = ROS2.generate_msgdef(msgtype, ros_version=2)[0]
-                schema = writer.register_schema(msgtype, "ros2msg", text.encode())
-                channels[topic] = writer.register_channel(topic, "cdr", schema)
-            data = bytes(ROS2.serialize_cdr(make(ROS2), msgtype))
-            writer.add_message(channels[topic], log_time=t, data=data, publish_time=t)
-        writer.finish()
-    return path
+    kinds = IndexType.ALL if indexed else IndexType.NONE
+    return write_mcap(path, messages, chunk_size=4000, index_types=kinds)
 
 
 SAID = (

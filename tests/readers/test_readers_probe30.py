@@ -70,21 +70,28 @@ def joint_state(stamp_ns: int, names: Sequence[str], pos: Sequence[float]) -> Ca
     return make
 
 
+def write_mcap(path: Path, messages: Sequence[Message] | Any, **options: Any) -> Path:
+    """``messages`` as an MCAP (ROS 2 profile); ``options`` for mcap's writer (its
+    ``chunk_size``, ``index_types``)."""
+    with path.open("wb") as handle:
+        writer = McapWriter(handle, **options)
+        writer.start(profile="ros2", library="test")
+        channels: dict[str, int] = {}
+        for topic, msgtype, t, make in messages:
+            if topic not in channels:
+                text = ROS2.generate_msgdef(msgtype, ros_version=2)[0]
+                schema = writer.register_schema(msgtype, "ros2msg", text.encode())
+                channels[topic] = writer.register_channel(topic, "cdr", schema)
+            data = bytes(ROS2.serialize_cdr(make(ROS2), msgtype))
+            writer.add_message(channels[topic], log_time=t, data=data, publish_time=t)
+        writer.finish()
+    return path
+
+
 def write(path: Path, fmt: str, messages: Sequence[Message]) -> Path:
     """``messages`` as an MCAP (ROS 2 profile), a ROS 1 bag or a ROS 2 sqlite3 bag."""
     if fmt == "mcap":
-        with path.open("wb") as handle:
-            writer = McapWriter(handle)
-            writer.start(profile="ros2", library="test")
-            channels: dict[str, int] = {}
-            for topic, msgtype, t, make in messages:
-                if topic not in channels:
-                    text = ROS2.generate_msgdef(msgtype, ros_version=2)[0]
-                    schema = writer.register_schema(msgtype, "ros2msg", text.encode())
-                    channels[topic] = writer.register_channel(topic, "cdr", schema)
-                data = bytes(ROS2.serialize_cdr(make(ROS2), msgtype))
-                writer.add_message(channels[topic], log_time=t, data=data, publish_time=t)
-            writer.finish()
+        write_mcap(path, messages)
     elif fmt == "ros1":
         with Ros1Writer(path) as bag:
             conns: dict[str, Any] = {}
