@@ -1140,6 +1140,16 @@ def test_a_move_refused_part_way_whose_inbox_name_was_taken_is_not_undone(
         assert _analyses(tmp_path) == [str(sorted(content)), str(["A_part0.csv"])]
 
 
+def _killed_before_the_put_back(settings: Any, inbox: Path) -> None:
+    """A watcher killed before it puts the first file of its move back in INBOX, the
+    rename of ``A_part1.csv`` refused (:func:`_refused`)."""
+
+    def back(target: Path) -> None:
+        raise _Killed
+
+    _run_killed(settings, lambda undo: _refused("A_part1.csv", inbox, undo, back=back))
+
+
 def test_a_move_killed_while_undone_is_kept_by_the_start_where_an_inbox_name_was_taken(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
 ) -> None:
@@ -1153,10 +1163,7 @@ def test_a_move_killed_while_undone_is_kept_by_the_start_where_an_inbox_name_was
     with _done_folder(tmp_path, monkeypatch, other=False) as done:
         settings = _settings(tmp_path, done)
 
-        def back(target: Path) -> None:
-            raise _Killed
-
-        _run_killed(settings, lambda undo: _refused("A_part1.csv", inbox, undo, back=back))
+        _killed_before_the_put_back(settings, inbox)
         moving = _state_record(tmp_path)["moving"]
         (inbox / "A_part0.csv").write_bytes(OTHER)
         _refused("A_part1.csv", inbox, monkeypatch)
@@ -1255,10 +1262,7 @@ def test_a_move_undone_by_a_killed_watcher_and_still_refused_is_undone_by_the_ne
     with _done_folder(tmp_path, monkeypatch, other=False) as done:
         settings = _settings(tmp_path, done)
 
-        def back(target: Path) -> None:
-            raise _Killed
-
-        _run_killed(settings, lambda undo: _refused("A_part1.csv", inbox, undo, back=back))
+        _killed_before_the_put_back(settings, inbox)
         assert _state_record(tmp_path)["moving"]
         _refused("A_part1.csv", inbox, monkeypatch)
         caplog.set_level(logging.INFO, logger="analyzer.watch")
