@@ -22,6 +22,7 @@ from analyzer.config import Config, measured_inputs
 from analyzer.config import members as group_members
 from analyzer.detector_runs import (
     SkipReason,
+    TooShortForNamed,
     coupled,
     detector_names,
     fits_of,
@@ -803,6 +804,19 @@ def _analyze(
                 )
             else:
                 results, skipped = detect(names, "", "signals")
+        except TooShortForNamed as err:  # (the named detectors' window, as for any)
+            _cancel(tests)
+            if _apart_in_training(values, chosen, train, aligned.rate_hz):
+                raise  # (gaps or channels apart: their own line says more)
+            raise _no_detector_error(
+                err.reasons,
+                tr,
+                options,
+                "",
+                _slow_clock(infos, chosen, aligned.rate_hz, options.rate is not None),
+                (aligned.rate_hz, aligned.duration_s),
+                named=True,
+            ) from err
         except BaseException:
             _cancel(tests)
             raise
@@ -2157,6 +2171,7 @@ def _no_detector_error(
     apart: str = "",
     slow: str = "",
     clock: tuple[float, float] | None = None,
+    named: bool = False,
 ) -> DetectorError:
     """The error when no detector could run: each one's reason, after a hint when the
     healthy window is too short for them (``slow``: the common clock is slower than some
@@ -2167,7 +2182,9 @@ def _no_detector_error(
     (:func:`analyzer.errors.clipped_line`), and ``tilt_laser.bag``'s 1.1-kB line put the
     error function's wish for a ``[[group]]`` first and the hint that fixes the run
     (``--rate 43.2``) last. With ``clock`` (the rate and the archive's duration) a
-    window too short says how long one would do (:func:`_longer_window`)."""
+    window too short says how long one would do (:func:`_longer_window`). ``named``:
+    the detectors of ``skipped`` were named with ``--detectors`` and each must run, so
+    the window is the one for all of them, and the line begins with their names."""
     # the reasons the data can change first, those that need a config last (the line
     # is cut at errors.LINE_MOST: the cut takes the least useful)
     why = "; ".join(sorted(skip_reasons(skipped), key=lambda r: CONFIG_NEED in r))
@@ -2175,8 +2192,12 @@ def _no_detector_error(
         return DetectorError(f"no detector could run ({why}){apart}")
     if apart:
         return DetectorError(f"no detector could run: {apart.removeprefix('; ')} ({why})")
+    failed = "no detector could run"
+    if named:
+        names = list(dict.fromkeys(k.split(" (", 1)[0] for k in skipped))
+        failed = f"{', '.join(names)} could not run"
     if "too little healthy data" in why:
-        longer = "" if clock is None else _longer_window(skipped, tr, *clock)
+        longer = "" if clock is None else _longer_window(skipped, tr, *clock, every=named)
         hint = (
             f"the training window {tr[0]:.3f}-{tr[1]:.3f} s is too short for these "
             "detectors: "
@@ -2190,8 +2211,8 @@ def _no_detector_error(
         )
         if longer.startswith("the archive"):  # (no window of it is long enough)
             hint = longer + slow
-        return DetectorError(f"no detector could run: {hint} ({why})")
-    return DetectorError(f"no detector could run ({why})")
+        return DetectorError(f"{failed}: {hint} ({why})")
+    return DetectorError(f"{failed} ({why})")
 
 
 WINDOW_MARGIN = 1.05
@@ -2202,20 +2223,26 @@ the need already: :func:`analyzer.detector_runs.skip_reason`)."""
 
 
 def _longer_window(
-    skipped: dict[str, str], tr: tuple[float, float], rate_hz: float, duration_s: float
+    skipped: dict[str, str],
+    tr: tuple[float, float],
+    rate_hz: float,
+    duration_s: float,
+    every: bool = False,
 ) -> str:
-    """The ``--train`` that lets at least one detector run, from the window's start
-    ``tr[0]``: the fewest training rows a detector that had too little healthy data
-    would need (:class:`analyzer.detector_runs.SkipReason`), :data:`WINDOW_MARGIN`
-    more, to the next whole second. When the rest of the archive is shorter, a window
+    """The ``--train`` that lets at least one detector run (``every``: each of them, the
+    detectors the user named), from the window's start ``tr[0]``: the fewest (most)
+    training rows a detector that had too little healthy data would need
+    (:class:`analyzer.detector_runs.SkipReason`), :data:`WINDOW_MARGIN` more, to the
+    next whole second. When the rest of the archive is shorter, a window
     from its start; when the whole archive is, a line that says so (starting ``the
     archive``: a window of all of it leaves nothing to search).
     Empty when no detector said what it needs. The option comes first: a cut line
     (:func:`analyzer.errors.clipped_line`) keeps it."""
-    needs = [r.rows for r in skipped.values() if isinstance(r, SkipReason) and r.rows]
-    if not needs:
+    needs = [r.rows if isinstance(r, SkipReason) else None for r in skipped.values()]
+    known = [n for n in needs if n]
+    if not known or (every and len(known) < len(needs)):  # (one need untold: no length)
         return ""
-    rows = math.ceil(min(needs) * WINDOW_MARGIN)
+    rows = math.ceil((max(known) if every else min(known)) * WINDOW_MARGIN)
     span = rows / rate_hz
     need = f"about {math.ceil(span)} s of healthy data ({rows} samples at {rate_hz:.3g} Hz)"
     if span >= duration_s:  # (a window of every row leaves nothing to search)
