@@ -816,6 +816,7 @@ def _analyze(
                 _slow_clock(infos, chosen, aligned.rate_hz, options.rate is not None),
                 (aligned.rate_hz, aligned.duration_s),
                 named=True,
+                held=_held_rows(values),
             ) from err
         except BaseException:
             _cancel(tests)
@@ -829,6 +830,7 @@ def _analyze(
                 _apart_in_training(values, chosen, train, aligned.rate_hz),
                 _slow_clock(infos, chosen, aligned.rate_hz, options.rate is not None),
                 (aligned.rate_hz, aligned.duration_s),
+                held=_held_rows(values),
             )
             absurd = next((n for n in notes if n.startswith("infinite or absurd values")), None)
             if absurd is not None:  # (a channel whose every value is beyond 1e30, say)
@@ -2172,6 +2174,7 @@ def _no_detector_error(
     slow: str = "",
     clock: tuple[float, float] | None = None,
     named: bool = False,
+    held: npt.NDArray[np.int64] | None = None,
 ) -> DetectorError:
     """The error when no detector could run: each one's reason, after a hint when the
     healthy window is too short for them (``slow``: the common clock is slower than some
@@ -2184,7 +2187,8 @@ def _no_detector_error(
     (``--rate 43.2``) last. With ``clock`` (the rate and the archive's duration) a
     window too short says how long one would do (:func:`_longer_window`). ``named``:
     the detectors of ``skipped`` were named with ``--detectors`` and each must run, so
-    the window is the one for all of them, and the line begins with their names."""
+    the window is the one for all of them, and the line begins with their names.
+    ``held``: the rows holding every channel (:func:`_held_rows`), for the window's end."""
     # the reasons the data can change first, those that need a config last (the line
     # is cut at errors.LINE_MOST: the cut takes the least useful)
     why = "; ".join(sorted(skip_reasons(skipped), key=lambda r: CONFIG_NEED in r))
@@ -2197,7 +2201,9 @@ def _no_detector_error(
         names = list(dict.fromkeys(k.split(" (", 1)[0] for k in skipped))
         failed = f"{', '.join(names)} could not run"
     if "too little healthy data" in why:
-        longer = "" if clock is None else _longer_window(skipped, tr, *clock, every=named)
+        longer = (
+            "" if clock is None else _longer_window(skipped, tr, *clock, every=named, held=held)
+        )
         hint = (
             f"the training window {tr[0]:.3f}-{tr[1]:.3f} s is too short for these "
             "detectors: "
@@ -2215,6 +2221,18 @@ def _no_detector_error(
     return DetectorError(f"{failed} ({why})")
 
 
+def _held_rows(values: Any) -> npt.NDArray[np.int64]:
+    """``held[i]``: how many of the archive's first ``i`` rows hold a sample of every
+    analyzed channel (``len(values) + 1`` counts, block by block)."""
+    counts = [np.zeros(1, dtype=np.int64)]
+    total = 0
+    for _, block in row_blocks(values):
+        ok = np.isfinite(np.asarray(block, dtype=np.float64)).all(axis=1)
+        counts.append(total + np.cumsum(ok, dtype=np.int64))
+        total = int(counts[-1][-1]) if counts[-1].size else total
+    return np.concatenate(counts)
+
+
 WINDOW_MARGIN = 1.05
 """How much longer than the least a detector's "too little healthy data" asks for the
 training window :func:`_longer_window` suggests: a longer window can let an order or lag
@@ -2228,12 +2246,16 @@ def _longer_window(
     rate_hz: float,
     duration_s: float,
     every: bool = False,
+    held: npt.NDArray[np.int64] | None = None,
 ) -> str:
     """The ``--train`` that lets at least one detector run (``every``: each of them, the
     detectors the user named), from the window's start ``tr[0]``: the fewest (most)
     training rows a detector that had too little healthy data would need
     (:class:`analyzer.detector_runs.SkipReason`), :data:`WINDOW_MARGIN` more, to the
-    next whole second. When the rest of the archive is shorter, a window
+    next whole second. With ``held`` (:func:`_held_rows`) the window is longer where
+    the rows ahead hold fewer samples of every channel than the window did: a gap in the
+    recording past the window (a SKAB valve's 76 s: its suggested 0:718 held 615 rows,
+    too few). When the rest of the archive is shorter, a window
     from its start; when the whole archive is, a line that says so (starting ``the
     archive``: a window of all of it leaves nothing to search).
     Empty when no detector said what it needs. The option comes first: a cut line
@@ -2243,17 +2265,39 @@ def _longer_window(
     if not known or (every and len(known) < len(needs)):  # (one need untold: no length)
         return ""
     rows = math.ceil((max(known) if every else min(known)) * WINDOW_MARGIN)
-    span = rows / rate_hz
-    need = f"about {math.ceil(span)} s of healthy data ({rows} samples at {rate_hz:.3g} Hz)"
-    if span >= duration_s:  # (a window of every row leaves nothing to search)
+    need = (
+        f"about {math.ceil(rows / rate_hz)} s of healthy data ({rows} samples at {rate_hz:.3g} Hz)"
+    )
+    if rows / rate_hz >= duration_s:  # (a window of every row leaves nothing to search)
         return (
             f"the archive's {duration_s:.6g} s at {rate_hz:.3g} Hz are too short for these "
             f"detectors, which need {need}"
         )
-    start = tr[0] if tr[0] + span < duration_s else 0.0
-    end: float = math.ceil(start + span)
+
+    def span(start: float) -> float:
+        """The window's seconds from ``start``: ``rows``, or more where the rows ahead
+        hold fewer samples of every channel than the window did (:func:`_held_rows`)."""
+        if held is None:
+            return rows / rate_hz
+        w0, w1 = (min(len(held) - 1, round(x * rate_hz)) for x in tr)
+        share = (held[w1 + 1 if w1 < len(held) - 1 else w1] - held[w0]) / max(1, w1 + 1 - w0)
+        a = min(len(held) - 1, round(start * rate_hz))
+        ahead = int(np.searchsorted(held, held[a] + math.ceil(rows * share)))
+        return max(rows, ahead - a) / rate_hz  # (past the end: longer than the archive)
+
+    start = tr[0] if tr[0] + span(tr[0]) < duration_s else 0.0
+    length = span(start)
+    if length >= duration_s:  # (its gaps leave too few rows in any window)
+        return (
+            f"the archive's {duration_s:.6g} s at {rate_hz:.3g} Hz hold too few samples "
+            f"of every channel for these detectors, which need {need}"
+        )
+    end: float = math.ceil(start + length)
     if end >= duration_s:
-        end = start + span
+        end = start + length
+    gaps = math.ceil(length - rows / rate_hz)
+    if gaps > 0:
+        need += f" and {gaps} s more for the gaps in it"
 
     def secs(x: float) -> str:  # (as --train reads them: no exponent, to the ms)
         return f"{x:.3f}".rstrip("0").rstrip(".")

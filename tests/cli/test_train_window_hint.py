@@ -102,6 +102,19 @@ def test_named_detectors_get_the_window_each_of_them_needs(tmp_path, capsys, det
     _check_suggestion(path, tmp_path, capsys, detectors=detectors)
 
 
+@pytest.mark.parametrize(("gap_from", "gap_s"), [(450.0, 150.0), (500.0, 300.0)])
+def test_a_gap_past_the_window_lengthens_the_suggestion(tmp_path, capsys, gap_from, gap_s):
+    """A SKAB valve (``valve1/2.csv``) stops recording for 76 s past the default window:
+    the suggested 0:718 held 615 rows, and the run with it stopped again. The window
+    suggested now holds the rows the detectors need, its gaps counted."""
+    path = _record(tmp_path / "g.csv", 3, 2000.0, 1.0, 6)
+    rows = np.loadtxt(path, delimiter=",", skiprows=1)
+    kept = (rows[:, 0] < gap_from) | (rows[:, 0] >= gap_from + gap_s)
+    header = path.read_text().split("\n", 1)[0]
+    np.savetxt(path, rows[kept], delimiter=",", header=header, comments="", fmt="%.9g")
+    _check_suggestion(path, tmp_path, capsys)
+
+
 def test_an_archive_shorter_than_the_need_says_so(tmp_path, capsys):
     """300 s at 1 Hz: no window of it will do; the need it names does on a longer
     record of the same building."""
