@@ -102,6 +102,16 @@ def test_named_detectors_get_the_window_each_of_them_needs(tmp_path, capsys, det
     _check_suggestion(path, tmp_path, capsys, detectors=detectors)
 
 
+def test_named_detectors_on_channel_groups_get_the_window_for_every_group(tmp_path, capsys):
+    """18 channels make two groups (of at most 16): a named detector too short on one
+    group stopped the run there; the window now counts every group's need."""
+    t, y, names = simulate_building(9, 2000.0, 1.0, seed=2, f1_hz=0.1, sensors_per_floor=2)
+    path = tmp_path / "many.csv"
+    header = "time," + ",".join(names)
+    np.savetxt(path, np.column_stack([t, y]), delimiter=",", header=header, comments="", fmt="%.9g")
+    _check_suggestion(path, tmp_path, capsys, detectors="ar_kalman_bank,detection_filter")
+
+
 @pytest.mark.parametrize(("gap_from", "gap_s"), [(450.0, 150.0), (500.0, 300.0)])
 def test_a_gap_past_the_window_lengthens_the_suggestion(tmp_path, capsys, gap_from, gap_s):
     """A SKAB valve (``valve1/2.csv``) stops recording for 76 s past the default window:
