@@ -373,7 +373,7 @@ def _too_short_for_named(
         if outcome is None and i > first:
             try:
                 plan.result()
-            except DetectorError as err:
+            except AnalyzerError as err:
                 outcome = err
         if isinstance(outcome, TooLittleDataError):
             reasons[name] = skip_reason(outcome, data)
