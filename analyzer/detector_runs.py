@@ -67,6 +67,20 @@ def skip_reason(err: DetectorError, data: Dataset) -> str:
     )
 
 
+class TooShortForNamed(DetectorError):
+    """A detector the user named (``--detectors``) had too little healthy data, and every
+    other named one that could not run too: the run stops with the first one's error, as
+    any named detector's, and ``reasons`` (each such detector's :class:`SkipReason`, by
+    name) let the line say the window that lets all of them run
+    (:func:`analyzer.pipeline._no_detector_error`). Before, such a line gave no length:
+    ``ar_kalman_bank: too little healthy data to calibrate thresholds: 181 finite
+    samples ..., need at least 512`` on a SKAB valve at 1 Hz."""
+
+    def __init__(self, message: str, reasons: dict[str, str]) -> None:
+        super().__init__(message)
+        self.reasons = reasons
+
+
 def detector_names(options: RunOptions) -> tuple[list[str], bool]:
     """The detectors a run fits (``--detectors``, else every registered one), and whether
     the user named them: a named detector that cannot run fails the run with its reason
@@ -305,6 +319,8 @@ def _run_planned(
         raise
     if total and per * ended < total:  # detectors left out after an earlier one's error
         ctx.report(stage, 1.0)
+    if ctx.explicit:
+        _too_short_for_named(planned, settled, data)
     results: list[DetectorResult] = []
     skipped: dict[str, str] = {}
     for i, (name, plan) in enumerate(planned):
@@ -327,6 +343,50 @@ def _run_planned(
     return results, skipped
 
 
+def _too_short_for_named(
+    planned: list[tuple[str, Any]],
+    settled: dict[int, DetectorResult | BaseException],
+    data: Dataset,
+) -> None:
+    """Raise :class:`TooShortForNamed` when the first named detector (registry order)
+    that cannot run had too little healthy data and so had every other one that cannot:
+    a window long enough for the first alone stopped at the next one's need. Detectors
+    after the first error were not waited for (its error is raised): their fits are
+    waited for here (on a cluster, fit and run: one task). Returns when another reason
+    stops a named detector (the plain error is raised, as before)."""
+    first = next(
+        (
+            i
+            for i, (_, plan) in enumerate(planned)
+            if isinstance(plan, _NotApplicable | AnalyzerError)
+            or isinstance(settled.get(i), BaseException)
+        ),
+        None,
+    )
+    if first is None or not isinstance(settled.get(first), TooLittleDataError):
+        return
+    reasons: dict[str, str] = {}
+    for i, (name, plan) in enumerate(planned):
+        outcome: Any = settled.get(i)
+        if isinstance(plan, _NotApplicable | AnalyzerError):
+            return
+        if outcome is None and i > first:
+            try:
+                plan.result()
+            except AnalyzerError as err:
+                outcome = err
+        if isinstance(outcome, TooLittleDataError):
+            reasons[name] = skip_reason(outcome, data)
+        elif isinstance(outcome, BaseException):
+            return
+    name = planned[first][0]
+    outcome = settled[first]
+    said = str(outcome)
+    if not said.startswith((f"{name}:", f"{name} ")):
+        said = f"{name}: {said}"
+    raise TooShortForNamed(said, reasons) from outcome
+
+
 def run_groups(
     groups: list[tuple[str, ...]],
     names: list[str],
@@ -345,23 +405,29 @@ def run_groups(
     archive). The error functions, which pair sensors by the config's own groups, run
     once on every channel. Each group's detectors share the run's false-alarm rate in
     proportion to its channels, so the rate per sample of the archive stays the one
-    asked for. Results in group order; skip reasons name the group."""
+    asked for. Results in group order; skip reasons name the group. Named detectors
+    with too little healthy data on a group (:class:`TooShortForNamed`) go on to the
+    other groups, whose needs the window's hint counts too, then stop the run."""
     results: list[DetectorResult] = []
     skipped: dict[str, str] = {}
+    short: list[TooShortForNamed] = []
     whole = [n for n in names if n == "error_function"]
     if whole:
-        results, skipped = run_detectors(
-            whole,
-            options,
-            data,
-            ctx,
-            executor,
-            timings,
-            spill_dir,
-            finished,
-            "",
-            *fits_of("", fits, kept),
-        )
+        try:
+            results, skipped = run_detectors(
+                whole,
+                options,
+                data,
+                ctx,
+                executor,
+                timings,
+                spill_dir,
+                finished,
+                "",
+                *fits_of("", fits, kept),
+            )
+        except TooShortForNamed as err:
+            short.append(err)
     per_group = [n for n in names if n not in whole]
     total = sum(len(g) for g in groups)
     big = is_mapped(data.values)
@@ -374,23 +440,30 @@ def run_groups(
         part = replace(data, values=values, channels=group)
         share = replace(ctx, false_alarm_rate=ctx.false_alarm_rate * len(group) / total)
         tag = f"-g{k}"
-        got, why = run_detectors(
-            per_group,
-            options,
-            part,
-            share,
-            executor,
-            timings,
-            spill_dir,
-            finished,
-            tag,
-            *fits_of(tag, fits, kept),
-        )
+        try:
+            got, why = run_detectors(
+                per_group,
+                options,
+                part,
+                share,
+                executor,
+                timings,
+                spill_dir,
+                finished,
+                tag,
+                *fits_of(tag, fits, kept),
+            )
+        except TooShortForNamed as err:
+            got, why = [], {}
+            short.append(err)
+            err.reasons = {f"{n} ({group[0]}..{group[-1]})": r for n, r in err.reasons.items()}
         results.extend(got)
         for name, reason in why.items():
             skipped[f"{name} ({group[0]}..{group[-1]})"] = reason
         del values, part
         trim_heap()
+    if short:
+        raise TooShortForNamed(str(short[0]), {k: r for e in short for k, r in e.reasons.items()})
     order = {n: i for i, n in enumerate(names)}
     results.sort(key=lambda r: order.get(r.detector, len(order)))  # stable: groups in order
     return results, skipped

@@ -22,6 +22,7 @@ from analyzer.config import Config, measured_inputs
 from analyzer.config import members as group_members
 from analyzer.detector_runs import (
     SkipReason,
+    TooShortForNamed,
     coupled,
     detector_names,
     fits_of,
@@ -803,6 +804,20 @@ def _analyze(
                 )
             else:
                 results, skipped = detect(names, "", "signals")
+        except TooShortForNamed as err:  # (the named detectors' window, as for any)
+            _cancel(tests)
+            if _apart_in_training(values, chosen, train, aligned.rate_hz):
+                raise  # (gaps or channels apart: their own line says more)
+            raise _no_detector_error(
+                err.reasons,
+                tr,
+                options,
+                "",
+                _slow_clock(infos, chosen, aligned.rate_hz, options.rate is not None),
+                (aligned.rate_hz, aligned.duration_s),
+                named=True,
+                held=_held_rows(values),
+            ) from err
         except BaseException:
             _cancel(tests)
             raise
@@ -815,6 +830,7 @@ def _analyze(
                 _apart_in_training(values, chosen, train, aligned.rate_hz),
                 _slow_clock(infos, chosen, aligned.rate_hz, options.rate is not None),
                 (aligned.rate_hz, aligned.duration_s),
+                held=_held_rows(values),
             )
             absurd = next((n for n in notes if n.startswith("infinite or absurd values")), None)
             if absurd is not None:  # (a channel whose every value is beyond 1e30, say)
@@ -2157,6 +2173,8 @@ def _no_detector_error(
     apart: str = "",
     slow: str = "",
     clock: tuple[float, float] | None = None,
+    named: bool = False,
+    held: npt.NDArray[np.int64] | None = None,
 ) -> DetectorError:
     """The error when no detector could run: each one's reason, after a hint when the
     healthy window is too short for them (``slow``: the common clock is slower than some
@@ -2167,7 +2185,10 @@ def _no_detector_error(
     (:func:`analyzer.errors.clipped_line`), and ``tilt_laser.bag``'s 1.1-kB line put the
     error function's wish for a ``[[group]]`` first and the hint that fixes the run
     (``--rate 43.2``) last. With ``clock`` (the rate and the archive's duration) a
-    window too short says how long one would do (:func:`_longer_window`)."""
+    window too short says how long one would do (:func:`_longer_window`). ``named``:
+    the detectors of ``skipped`` were named with ``--detectors`` and each must run, so
+    the window is the one for all of them, and the line begins with their names.
+    ``held``: the rows holding every channel (:func:`_held_rows`), for the window's end."""
     # the reasons the data can change first, those that need a config last (the line
     # is cut at errors.LINE_MOST: the cut takes the least useful)
     why = "; ".join(sorted(skip_reasons(skipped), key=lambda r: CONFIG_NEED in r))
@@ -2175,8 +2196,14 @@ def _no_detector_error(
         return DetectorError(f"no detector could run ({why}){apart}")
     if apart:
         return DetectorError(f"no detector could run: {apart.removeprefix('; ')} ({why})")
+    failed = "no detector could run"
+    if named:
+        names = list(dict.fromkeys(k.split(" (", 1)[0] for k in skipped))
+        failed = f"{', '.join(names)} could not run"
     if "too little healthy data" in why:
-        longer = "" if clock is None else _longer_window(skipped, tr, *clock)
+        longer = (
+            "" if clock is None else _longer_window(skipped, tr, *clock, every=named, held=held)
+        )
         hint = (
             f"the training window {tr[0]:.3f}-{tr[1]:.3f} s is too short for these "
             "detectors: "
@@ -2190,8 +2217,20 @@ def _no_detector_error(
         )
         if longer.startswith("the archive"):  # (no window of it is long enough)
             hint = longer + slow
-        return DetectorError(f"no detector could run: {hint} ({why})")
-    return DetectorError(f"no detector could run ({why})")
+        return DetectorError(f"{failed}: {hint} ({why})")
+    return DetectorError(f"{failed} ({why})")
+
+
+def _held_rows(values: Any) -> npt.NDArray[np.int64]:
+    """``held[i]``: how many of the archive's first ``i`` rows hold a sample of every
+    analyzed channel (``len(values) + 1`` counts, block by block)."""
+    counts = [np.zeros(1, dtype=np.int64)]
+    total = 0
+    for _, block in row_blocks(values):
+        ok = np.isfinite(np.asarray(block, dtype=np.float64)).all(axis=1)
+        counts.append(total + np.cumsum(ok, dtype=np.int64))
+        total = int(counts[-1][-1]) if counts[-1].size else total
+    return np.concatenate(counts)
 
 
 WINDOW_MARGIN = 1.05
@@ -2202,31 +2241,63 @@ the need already: :func:`analyzer.detector_runs.skip_reason`)."""
 
 
 def _longer_window(
-    skipped: dict[str, str], tr: tuple[float, float], rate_hz: float, duration_s: float
+    skipped: dict[str, str],
+    tr: tuple[float, float],
+    rate_hz: float,
+    duration_s: float,
+    every: bool = False,
+    held: npt.NDArray[np.int64] | None = None,
 ) -> str:
-    """The ``--train`` that lets at least one detector run, from the window's start
-    ``tr[0]``: the fewest training rows a detector that had too little healthy data
-    would need (:class:`analyzer.detector_runs.SkipReason`), :data:`WINDOW_MARGIN`
-    more, to the next whole second. When the rest of the archive is shorter, a window
+    """The ``--train`` that lets at least one detector run (``every``: each of them, the
+    detectors the user named), from the window's start ``tr[0]``: the fewest (most)
+    training rows a detector that had too little healthy data would need
+    (:class:`analyzer.detector_runs.SkipReason`), :data:`WINDOW_MARGIN` more, to the
+    next whole second. With ``held`` (:func:`_held_rows`) the window is longer where
+    the rows ahead hold fewer samples of every channel than the window did: a gap in the
+    recording past the window (a SKAB valve's 76 s: its suggested 0:718 held 615 rows,
+    too few). When the rest of the archive is shorter, a window
     from its start; when the whole archive is, a line that says so (starting ``the
     archive``: a window of all of it leaves nothing to search).
     Empty when no detector said what it needs. The option comes first: a cut line
     (:func:`analyzer.errors.clipped_line`) keeps it."""
-    needs = [r.rows for r in skipped.values() if isinstance(r, SkipReason) and r.rows]
-    if not needs:
+    needs = [r.rows if isinstance(r, SkipReason) else None for r in skipped.values()]
+    known = [n for n in needs if n]
+    if not known or (every and len(known) < len(needs)):  # (one need untold: no length)
         return ""
-    rows = math.ceil(min(needs) * WINDOW_MARGIN)
-    span = rows / rate_hz
-    need = f"about {math.ceil(span)} s of healthy data ({rows} samples at {rate_hz:.3g} Hz)"
-    if span >= duration_s:  # (a window of every row leaves nothing to search)
+    rows = math.ceil((max(known) if every else min(known)) * WINDOW_MARGIN)
+    need = (
+        f"about {math.ceil(rows / rate_hz)} s of healthy data ({rows} samples at {rate_hz:.3g} Hz)"
+    )
+    if rows / rate_hz >= duration_s:  # (a window of every row leaves nothing to search)
         return (
             f"the archive's {duration_s:.6g} s at {rate_hz:.3g} Hz are too short for these "
             f"detectors, which need {need}"
         )
-    start = tr[0] if tr[0] + span < duration_s else 0.0
-    end: float = math.ceil(start + span)
+
+    def span(start: float) -> float:
+        """The window's seconds from ``start``: ``rows``, or more where the rows ahead
+        hold fewer samples of every channel than the window did (:func:`_held_rows`)."""
+        if held is None:
+            return rows / rate_hz
+        w0, w1 = (min(len(held) - 1, round(x * rate_hz)) for x in tr)
+        share = (held[w1 + 1 if w1 < len(held) - 1 else w1] - held[w0]) / max(1, w1 + 1 - w0)
+        a = min(len(held) - 1, round(start * rate_hz))
+        ahead = int(np.searchsorted(held, held[a] + math.ceil(rows * share)))
+        return max(rows, ahead - a) / rate_hz  # (past the end: longer than the archive)
+
+    start = tr[0] if tr[0] + span(tr[0]) < duration_s else 0.0
+    length = span(start)
+    if length >= duration_s:  # (its gaps leave too few rows in any window)
+        return (
+            f"the archive's {duration_s:.6g} s at {rate_hz:.3g} Hz hold too few samples "
+            f"of every channel for these detectors, which need {need}"
+        )
+    end: float = math.ceil(start + length)
     if end >= duration_s:
-        end = start + span
+        end = start + length
+    gaps = math.ceil(length - rows / rate_hz)
+    if gaps > 0:
+        need += f" and {gaps} s more for the gaps in it"
 
     def secs(x: float) -> str:  # (as --train reads them: no exponent, to the ms)
         return f"{x:.3f}".rstrip("0").rstrip(".")

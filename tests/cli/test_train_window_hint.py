@@ -30,15 +30,16 @@ def _record(path: Path, floors: int, duration_s: float, rate_hz: float, seed: in
     return path
 
 
-def _run(path: Path, out: Path, capsys, *train: str) -> tuple[int, str]:
+def _run(path: Path, out: Path, capsys, *train: str, detectors: str = "") -> tuple[int, str]:
     args = ["run", path, "--out", out, "--no-progress", *(["--train", *train] if train else [])]
-    code, _, err = run_cli(args, capsys)
+    code, _, err = run_cli([*args, *(["--detectors", detectors] if detectors else [])], capsys)
     return code, err
 
 
-def _suggestion(err: str) -> tuple[float, float]:
+def _suggestion(err: str, detectors: str = "") -> tuple[float, float]:
     """The ``--train`` of the one-line error (as the CLI printed it: cut when long)."""
-    line = one_line_error(err, "no detector could run")
+    failed = f"{detectors.replace(',', ', ')} could not run" if detectors else ""
+    line = one_line_error(err, failed or "no detector could run")
     found = SUGGESTED.search(line)
     assert found is not None, line
     return float(found.group(1)), float(found.group(2))
@@ -51,20 +52,20 @@ while the filters settle, their cap: on these records the least window that ran 
 9 to 24 % shorter than the suggestion.)"""
 
 
-def _check_suggestion(path: Path, tmp_path: Path, capsys, *train: str) -> None:
-    """The run stops with a suggestion; with it a detector runs; a window :data:`SHORTER`
-    times as long is still too short."""
-    code, err = _run(path, tmp_path / "o1", capsys, *train)
+def _check_suggestion(path: Path, tmp_path: Path, capsys, *train: str, detectors: str = "") -> None:
+    """The run stops with a suggestion; with it a detector runs (``detectors``: the
+    ones named, each); a window :data:`SHORTER` times as long is still too short."""
+    code, err = _run(path, tmp_path / "o1", capsys, *train, detectors=detectors)
     assert code == 2
-    start, end = _suggestion(err)
+    start, end = _suggestion(err, detectors)
     if train:  # a given window's start is kept
         assert start == float(train[0].split(":")[0])
     else:
         assert start == 0.0
-    code, err = _run(path, tmp_path / "o2", capsys, f"{start:g}:{end:g}")
+    code, err = _run(path, tmp_path / "o2", capsys, f"{start:g}:{end:g}", detectors=detectors)
     assert code in (0, 1), err
     cut = start + SHORTER * (end - start)
-    code, err = _run(path, tmp_path / "o3", capsys, f"{start:g}:{cut:.3f}")
+    code, err = _run(path, tmp_path / "o3", capsys, f"{start:g}:{cut:.3f}", detectors=detectors)
     assert code == 2 and "too little healthy data" in err, err
 
 
@@ -82,6 +83,46 @@ def test_the_default_window_too_short_says_the_train_that_does(
 def test_a_given_window_too_short_keeps_its_start(tmp_path, capsys):
     path = _record(tmp_path / "g.csv", 3, 1000.0, 1.0, 5)
     _check_suggestion(path, tmp_path, capsys, "100:160")
+
+
+@pytest.mark.parametrize(
+    ("detectors", "rate_hz"),
+    [
+        ("ar_kalman_bank", 1.0),
+        ("detection_filter", 5.0),
+        ("ar_kalman_bank,error_function", 1.0),
+        ("error_function,detection_filter", 5.0),
+    ],
+)
+def test_named_detectors_get_the_window_each_of_them_needs(tmp_path, capsys, detectors, rate_hz):
+    """With ``--detectors`` every named one must run: the line said the first one's
+    "too little healthy data" and no length; it now gives the window for all of them
+    (the largest of their needs), and that window runs them."""
+    path = _record(tmp_path / "n.csv", 3, 2000.0 / rate_hz, rate_hz, 6)
+    _check_suggestion(path, tmp_path, capsys, detectors=detectors)
+
+
+def test_named_detectors_on_channel_groups_get_the_window_for_every_group(tmp_path, capsys):
+    """18 channels make two groups (of at most 16): a named detector too short on one
+    group stopped the run there; the window now counts every group's need."""
+    t, y, names = simulate_building(9, 2000.0, 1.0, seed=2, f1_hz=0.1, sensors_per_floor=2)
+    path = tmp_path / "many.csv"
+    header = "time," + ",".join(names)
+    np.savetxt(path, np.column_stack([t, y]), delimiter=",", header=header, comments="", fmt="%.9g")
+    _check_suggestion(path, tmp_path, capsys, detectors="ar_kalman_bank,detection_filter")
+
+
+@pytest.mark.parametrize(("gap_from", "gap_s"), [(450.0, 150.0), (500.0, 300.0)])
+def test_a_gap_past_the_window_lengthens_the_suggestion(tmp_path, capsys, gap_from, gap_s):
+    """A SKAB valve (``valve1/2.csv``) stops recording for 76 s past the default window:
+    the suggested 0:718 held 615 rows, and the run with it stopped again. The window
+    suggested now holds the rows the detectors need, its gaps counted."""
+    path = _record(tmp_path / "g.csv", 3, 2000.0, 1.0, 6)
+    rows = np.loadtxt(path, delimiter=",", skiprows=1)
+    kept = (rows[:, 0] < gap_from) | (rows[:, 0] >= gap_from + gap_s)
+    header = path.read_text().split("\n", 1)[0]
+    np.savetxt(path, rows[kept], delimiter=",", header=header, comments="", fmt="%.9g")
+    _check_suggestion(path, tmp_path, capsys)
 
 
 def test_an_archive_shorter_than_the_need_says_so(tmp_path, capsys):
