@@ -183,6 +183,8 @@ def _topic_by_topic(path: Path, kind: str) -> Path:
             messages.append((topic, V3S, t, v3s(t, float(np.sin(i / 50)))))
     if kind.startswith("mcap"):
         return _small_chunks(path, messages, indexed=kind == "mcap")
+    if kind == "ros2":
+        return write(path, "ros2", messages)
     from rosbags.rosbag1 import Writer as Ros1Writer
     from test_readers_probe30 import ROS1
 
@@ -194,14 +196,15 @@ def _topic_by_topic(path: Path, kind: str) -> Path:
     return path
 
 
-@pytest.mark.parametrize("kind", ["mcap", "mcap stream", "ros1"])
+@pytest.mark.parametrize("kind", ["mcap", "mcap stream", "ros1", "ros2"])
 def test_a_file_written_topic_by_topic_is_no_clock_set_back(
     tmp_path: Path, kind: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Its chunks of ``/odom`` start 2 h before the end of ``/imu``'s written before
     them; each topic's log times go on: read and analyzed whole (on the first version of
     the check, comparing the chunks whatever their topics, refused)."""
-    path = _topic_by_topic(tmp_path / ("x.bag" if kind == "ros1" else "x.mcap"), kind)
+    name = {"ros1": "x.bag", "ros2": "x"}.get(kind, "x.mcap")
+    path = _topic_by_topic(tmp_path / name, kind)
     reader = open_input(path)
     got = collect(reader.chunks())
     assert reader.info.errors == []
