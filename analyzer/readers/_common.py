@@ -437,7 +437,8 @@ class LogClock:
             fifth = int(np.partition(written, LEAD_GLITCH_MESSAGES)[LEAD_GLITCH_MESSAGES])
             if before - fifth > LOG_SET_BACK_NS:
                 first = int(np.flatnonzero(before - written > LOG_SET_BACK_NS)[0])
-                self._said(before, int(written[first]), f"{topic}: a message logged at")
+                newest = max(before, int(written[:first].max(initial=before)))
+                self._said(newest, int(written[first]), f"{topic}: a message logged at")
                 return
         if in_order:
             return  # (the common case: two comparisons)

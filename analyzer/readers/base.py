@@ -74,7 +74,7 @@ class InputInfo:
     log times do not): each with what its clock did. Said in ``errors``; an analysis
     or export of their channels is refused (:func:`one_clock`)."""
     set_back: str = ""
-    """Of a CSV whose time column, or an MCAP or ROS 1 bag whose log times, step back by
+    """Of a CSV whose time column, or an MCAP or ROS bag whose log times, step back by
     more than an hour for more than a few rows or messages (a clock set back while
     recording, :class:`~analyzer.readers._common.LogClock`): where and by how much, as
     a line without the path. Said in ``errors`` (``inspect`` lists the file); an

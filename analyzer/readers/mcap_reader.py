@@ -10,7 +10,9 @@ The payloads of each channel are then decoded in bulk (see :mod:`rosdecode` and
 
 Files without a usable summary (truncated, not finalized, unchunked) are streamed with
 ``mcap.stream_reader.StreamReader``: what is readable is read, the point where reading
-stopped is recorded in ``info.errors``.
+stopped is recorded in ``info.errors`` (the recorder's clock set back is looked for in
+the file's order, :class:`~analyzer.readers._common.LogClock`: in each chunk and each batch
+of loose messages against those before).
 
 Channels whose encoding cannot be decoded (e.g. ``data_tamer``) are recorded as errors;
 the other channels are still read.
@@ -462,6 +464,9 @@ class McapReader:
         buf, starts, sizes = concat_payloads([m[2] for m in loose])
         for cid in np.unique(channel_ids).tolist():
             sel = np.nonzero(channel_ids == cid)[0]
+            entry = self._decoder(int(cid), int(sizes[sel].max(initial=0)))
+            if entry is not None:  # (the batch in the file's order: a chunk's messages)
+                self._log_clock.messages(entry[0], sel, log_ns[sel])
             self._decode_channel(int(cid), buf, starts[sel], sizes[sel], log_ns[sel], reorder)
         return len(loose)
 

@@ -89,7 +89,8 @@ def write_mcap(path: Path, messages: Sequence[Message] | Any, **options: Any) ->
 
 
 def write(path: Path, fmt: str, messages: Sequence[Message]) -> Path:
-    """``messages`` as an MCAP (ROS 2 profile), a ROS 1 bag or a ROS 2 sqlite3 bag."""
+    """``messages`` as an MCAP (ROS 2 profile), a ROS 1 bag or a ROS 2 bag (sqlite3, or
+    ``ros2 mcap``: MCAP storage)."""
     if fmt == "mcap":
         write_mcap(path, messages)
     elif fmt == "ros1":
@@ -100,7 +101,8 @@ def write(path: Path, fmt: str, messages: Sequence[Message]) -> Path:
                     conns[topic] = bag.add_connection(topic, msgtype, typestore=ROS1)
                 bag.write(conns[topic], t, bytes(ROS1.serialize_ros1(make(ROS1), msgtype)))
     else:
-        with Ros2Writer(path, version=9) as bag:
+        plugin = StoragePlugin.MCAP if fmt == "ros2 mcap" else StoragePlugin.SQLITE3
+        with Ros2Writer(path, version=9, storage_plugin=plugin) as bag:
             conns = {}
             for topic, msgtype, t, make in messages:
                 if topic not in conns:
