@@ -2297,6 +2297,32 @@ class _Runner:
                     where,
                     one_line(err.strerror or err),
                 )
+        if moved and self.settings.group_by is not None:
+            self._left_behind(archive, folder)
+
+    def _left_behind(self, archive: ReadyArchive, folder: Path) -> None:
+        """A ``--group-by`` archive moved: its members INBOX still holds (dropped in the
+        instant between their last listing, :meth:`_as_found`, and the renames), said in
+        one line. What comes after a move is another archive (:meth:`_grew`): it is
+        analyzed on its own under the group's name, the group's record kept aside, as
+        before, but no longer silently. One listing of INBOX after the move, none before
+        it: the move is as quick as before."""
+        try:
+            left = archive_paths(
+                self.settings.inbox, archive.name, self.settings.group_by, self.exclude
+            )
+        except OSError:
+            return
+        if left:
+            log.warning(
+                "%s: %s: dropped as its group was moved to %s (after the last look at its "
+                "members), not in its analysis: analyzed on its own as %s once settled, the "
+                "group's result then kept aside under a free name",
+                archive.name,
+                ", ".join(p.name for p in left),
+                folder,
+                archive.name,
+            )
 
     def _copied(self) -> None:
         """The moves to another file system whose copies are made (or failed, or were

@@ -10,6 +10,7 @@ from __future__ import annotations
 import errno
 import json
 import logging
+import sys
 import threading
 import time
 from dataclasses import replace
@@ -342,3 +343,40 @@ def test_the_tracker_hands_back_only_what_it_handed_on_and_after_the_settle_time
     assert (again.paths, again.signature) == (first.paths, first.signature)
     tracker.again("a.csv", (("a.csv", 0, 0),), 3.0)
     assert tracker.step(5.0) == []
+
+
+@pytest.mark.parametrize("other", [False, True], ids=["renames", "copies"])
+def test_a_member_dropped_after_the_last_listing_is_said_once_its_group_moved(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture, other: bool
+) -> None:
+    """A third member of ``A`` dropped in the instant between the members' last listing
+    (:meth:`~analyzer.watch._Runner._as_found`, true) and the move: the two are moved
+    without it (all or none, as before); a listing of ``A`` in INBOX after the move finds
+    it, said in one line (the file, its group analyzed and moved, that it is analyzed on
+    its own as ``A``, the group's record kept aside). Before, nothing was said: it was
+    analyzed alone as ``A``, the group's result kept aside as ``A-1``, silently."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    real_found = watch_module._Runner._as_found
+    looks: list[str] = []
+
+    last = "_end_copied" if other else "_move"
+
+    def as_found(self: Any, archive: Any) -> bool:
+        found = real_found(self, archive)
+        if found and archive.name == "A" and sys._getframe(1).f_code.co_name == last:
+            looks.append(archive.name)
+            _drop_third(tmp_path)
+        return bool(found)
+
+    monkeypatch.setattr(watch_module._Runner, "_as_found", as_found)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    with _done_folder(tmp_path, monkeypatch, other) as done:
+        assert watch(_settings(tmp_path, done), RunOptions()) == 0
+        assert looks
+        assert set(content) <= {p.name for p in done.iterdir()}
+        assert str(sorted(content)) in _analyses(tmp_path)
+        assert str(["A_part2.csv"]) in _analyses(tmp_path)
+        said = [r.getMessage() for r in caplog.records if "A_part2.csv" in r.getMessage()]
+        assert len(said) == 1, said
+        assert said[0].startswith(f"A: A_part2.csv: dropped as its group was moved to {done}")
+        assert "analyzed on its own as A" in said[0]
