@@ -1579,7 +1579,10 @@ class _Runner:
         started once hashed, in the order they were ready."""
         self.held: set[str] = set()
         """Archives not analyzed: what is left in INBOX of a move that the start could
-        not end (:func:`_end_moves`)."""
+        not end (:func:`_end_moves`), said once at its first offer (:meth:`offer`), or
+        of a move refused part-way that this run could not undo (:meth:`_not_moved`,
+        said there alone). The start's line said only "said at the start", and nothing
+        of what ends the hold (the next start, once the cause is mended)."""
         self.returned: list[tuple[str, Signature]] = []
         """Archives not taken as handed on (:meth:`_look_again`), for the inbox tracker
         (:meth:`handed_back`)."""
@@ -1619,12 +1622,19 @@ class _Runner:
         self.unreadable.discard(archive.name)
         rec = self.ledger.get(archive.name)
         if rec is not None and rec.moving:  # (what is left of it: not the archive)
-            if archive.name not in self.held:
+            if archive.name not in self.held:  # (held by this run: said by _not_moved)
                 self.held.add(archive.name)
+                try:
+                    folder = f" to {_moving_lines(rec)[0][2].parent}"
+                except (ValueError, IndexError):
+                    folder = ""
                 log.warning(
-                    "%s: not analyzed: part of the archive whose move was stopped by force "
-                    "and could not be ended (said at the start)",
+                    "%s: not analyzed: what is left in INBOX of its move%s, stopped by force "
+                    "by an earlier watcher, that this start could not end (said above); "
+                    "left as it is until a start ends the move: restart the watcher once "
+                    "its cause is mended",
                     archive.name,
+                    folder,
                 )
             return
         self.queue[archive.name] = archive
