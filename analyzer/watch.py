@@ -1581,8 +1581,7 @@ class _Runner:
         """Archives not analyzed: what is left in INBOX of a move that the start could
         not end (:func:`_end_moves`), said once at its first offer (:meth:`offer`), or
         of a move refused part-way that this run could not undo (:meth:`_not_moved`,
-        said there alone). The start's line said only "said at the start", and nothing
-        of what ends the hold (the next start, once the cause is mended)."""
+        said there alone). Either ends only with a start that ends the move."""
         self.returned: list[tuple[str, Signature]] = []
         """Archives not taken as handed on (:meth:`_look_again`), for the inbox tracker
         (:meth:`handed_back`)."""
