@@ -852,13 +852,28 @@ def _plan_move(
     return targets, staged
 
 
+class _Stayed(NamedTuple):
+    """The sources a move by copies left in INBOX (:func:`_place_all`), for its line."""
+
+    paths: tuple[Path, ...]
+    """The source that could not be removed (a folder perhaps in part) and those after
+    it, not tried."""
+    err: OSError
+
+
 def _place_all(
-    paths: Sequence[Path], copies: Sequence[Path], targets: list[Path], tell: Callable[[], None]
+    paths: Sequence[Path],
+    copies: Sequence[Path],
+    targets: list[Path],
+    tell: Callable[[], None],
+    stayed: list[_Stayed] | None = None,
 ) -> list[Path]:
     """The end of a move by copies, once every copy is made: each renamed to its target
     (:func:`_place`), then the sources removed. Raises the first :class:`OSError` with
     what was made in the folder removed and INBOX as it was; a source that cannot be
-    removed (INBOX turned read-only since) keeps its place and loses its copy."""
+    removed (INBOX turned read-only since) keeps its place and loses its copy, and so do
+    those after it: the archive split, the sources left in INBOX appended to ``stayed``
+    (a folder partly removed keeps its copy, and is among them)."""
     made = list(copies)  # in the folder: the copies, then the files renamed from them
     try:
         for k, copy in enumerate(copies):
@@ -871,7 +886,7 @@ def _place_all(
         folder_source = path.is_dir() and not path.is_symlink()
         try:
             _remove(path, strict=True)
-        except OSError:
+        except OSError as err:
             # a file still whole in INBOX keeps its place and loses its copy; a folder
             # partly removed keeps its copy
             moved = k + 1 if folder_source else k
@@ -879,6 +894,8 @@ def _place_all(
                 _remove(p)
             if moved == 0:
                 raise
+            if stayed is not None:
+                stayed.append(_Stayed(tuple(paths[k:]), err))
             return targets[:moved]
     return targets
 
@@ -1276,6 +1293,12 @@ def _move_error(err: OSError, paths: Sequence[Path], folder: Path) -> str:
     return f"{where}{one_line(err.strerror or err)}"
 
 
+def _removal_error(err: OSError) -> str:
+    """Why a source of a move by copies could not be removed from INBOX, for its line."""
+    where = f"{os.fsdecode(err.filename)}: " if err.filename else ""
+    return f"cannot remove {where}{one_line(err.strerror or err)}"
+
+
 def _sha256_head(path: Path, size: int) -> str:
     """sha256 of the first ``size`` bytes of the file ``path``."""
     h = hashlib.sha256()
@@ -1579,7 +1602,9 @@ class _Runner:
         started once hashed, in the order they were ready."""
         self.held: set[str] = set()
         """Archives not analyzed: what is left in INBOX of a move that the start could
-        not end (:func:`_end_moves`)."""
+        not end (:func:`_end_moves`), said once at its first offer (:meth:`offer`), or
+        of a move refused part-way that this run could not undo (:meth:`_not_moved`,
+        said there alone). Either ends only with a start that ends the move."""
         self.returned: list[tuple[str, Signature]] = []
         """Archives not taken as handed on (:meth:`_look_again`), for the inbox tracker
         (:meth:`handed_back`)."""
@@ -1619,12 +1644,19 @@ class _Runner:
         self.unreadable.discard(archive.name)
         rec = self.ledger.get(archive.name)
         if rec is not None and rec.moving:  # (what is left of it: not the archive)
-            if archive.name not in self.held:
+            if archive.name not in self.held:  # (held by this run: said by _not_moved)
                 self.held.add(archive.name)
+                try:
+                    folder = f" to {_moving_lines(rec)[0][2].parent}"
+                except (ValueError, IndexError):
+                    folder = ""
                 log.warning(
-                    "%s: not analyzed: part of the archive whose move was stopped by force "
-                    "and could not be ended (said at the start)",
+                    "%s: not analyzed: what is left in INBOX of its move%s, stopped by force "
+                    "by an earlier watcher, that this start could not end (said above); "
+                    "left as it is until a start ends the move: restart the watcher once "
+                    "its cause is mended",
                     archive.name,
+                    folder,
                 )
             return
         self.queue[archive.name] = archive
@@ -2278,8 +2310,18 @@ class _Runner:
             "%s: not moved to %s: %s; undone but %s; %s", archive.name, folder, cause, stays, then
         )
 
-    def _moved(self, archive: ReadyArchive, rec: Record, folder: Path, moved: list[str]) -> None:
-        """A move that is over: its record with where the archive went."""
+    def _moved(
+        self,
+        archive: ReadyArchive,
+        rec: Record,
+        folder: Path,
+        moved: list[str],
+        stayed: _Stayed | None = None,
+    ) -> None:
+        """A move that is over: its record with where the archive went. One by copies
+        may have left sources in INBOX (``stayed``: one could not be removed), said in
+        one line (before, silently): what is left there is another archive, analyzed on
+        its own under the archive's name (:meth:`_grew`), the record kept aside."""
         rec.moving = []
         if moved:
             # (the same content dropped again and moved: its earlier copy stays listed)
@@ -2297,6 +2339,63 @@ class _Runner:
                     where,
                     one_line(err.strerror or err),
                 )
+        if not moved:
+            return
+        if self.settings.group_by is not None and any(
+            p.name != archive.name for p in archive.paths
+        ):  # (a group: its name from the pattern, not an entry's own)
+            self._left_behind(archive, folder, stayed)
+        elif stayed is not None:  # (a folder partly removed: copied whole)
+            log.warning(
+                "%s: moved to %s, but what is left of it stays in INBOX (%s): analyzed on "
+                "its own as %s once settled, the archive's result then kept aside under a "
+                "free name",
+                archive.name,
+                folder,
+                _removal_error(stayed.err),
+                archive.name,
+            )
+
+    def _left_behind(
+        self, archive: ReadyArchive, folder: Path, stayed: _Stayed | None = None
+    ) -> None:
+        """A ``--group-by`` group moved: its members INBOX still holds, said in a line
+        each: those dropped in the instant between their last listing (:meth:`_as_found`)
+        and the renames, and those of the analysis that a move by copies left there
+        (``stayed``: one could not be removed from INBOX), not dropped. What comes after
+        a move is another archive (:meth:`_grew`): it is analyzed on its own under the
+        group's name, the group's record kept aside, as before, but no longer silently.
+        Not for an archive of one entry under its own name (a file the pattern does not
+        match): a file of that name after its move is only a new archive. One listing of
+        INBOX after the move, none before it: the move is as quick as before."""
+        try:
+            left = archive_paths(
+                self.settings.inbox, archive.name, self.settings.group_by, self.exclude
+            )
+        except OSError:
+            left = ()
+        if stayed is not None:
+            log.warning(
+                "%s: %s: in its analysis but left in INBOX by its move to %s (%s): analyzed "
+                "on its own as %s once settled, the group's result then kept aside under a "
+                "free name",
+                archive.name,
+                ", ".join(p.name for p in stayed.paths),
+                folder,
+                _removal_error(stayed.err),
+                archive.name,
+            )
+            left = tuple(p for p in left if p not in stayed.paths)
+        if left:
+            log.warning(
+                "%s: %s: dropped as its group was moved to %s (after the last look at its "
+                "members), not in its analysis: analyzed on its own as %s once settled, the "
+                "group's result then kept aside under a free name",
+                archive.name,
+                ", ".join(p.name for p in left),
+                folder,
+                archive.name,
+            )
 
     def _copied(self) -> None:
         """The moves to another file system whose copies are made (or failed, or were
@@ -2333,8 +2432,15 @@ class _Runner:
                 )
                 self._look_again(archive)
             else:
-                targets = _place_all(archive.paths, c.copies, c.targets, tell)
-                self._moved(archive, c.rec, c.folder, [str(t) for t in targets])
+                stayed: list[_Stayed] = []
+                targets = _place_all(archive.paths, c.copies, c.targets, tell, stayed)
+                self._moved(
+                    archive,
+                    c.rec,
+                    c.folder,
+                    [str(t) for t in targets],
+                    stayed[0] if stayed else None,
+                )
         except MoveCancelled:
             c.tell([])
             log.info(

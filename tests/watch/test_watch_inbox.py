@@ -7,6 +7,7 @@ from __future__ import annotations
 import gzip
 import json
 import logging
+import os
 import re
 import shutil
 import struct
@@ -21,6 +22,7 @@ from analyzer import watch_inbox, watch_index
 from analyzer.errors import UsageError
 from analyzer.watch_inbox import (
     InboxTracker,
+    archive_paths,
     ignored,
     incomplete_reason,
     ros1_index_pos,
@@ -604,3 +606,34 @@ def test_ready_batches_sees_events_and_stops(tmp_path: Path) -> None:
         limit.cancel()
         drop.join()
     assert seen == ["late.csv"]
+
+
+@pytest.mark.parametrize("group_by", [None, r"^(.*)_part[0-9]+\.csv$", r"(\d*)"])
+def test_archive_paths_lists_an_archive_as_the_tracker_groups_it(
+    tmp_path: Path, group_by: str | None
+) -> None:
+    """:func:`~analyzer.watch_inbox.archive_paths` (which groups only the entries whose
+    names hold the archive's) gives, for every archive, what a rescan of INBOX groups
+    under its name: names holding another archive's (``A`` in ``AA_part0.csv``),
+    hidden, temporary and excluded names, a FIFO, a dangling link, a folder, a name
+    that is no UTF-8, an empty group text."""
+    inbox = tmp_path / "inbox"
+    inbox.mkdir()
+    names = [
+        "A_part0.csv", "A_part1.csv", "AA_part0.csv", "A_part2.csv.part", ".A_part3.csv",
+        "xA_part0.csv", "A", "A.csv", "_part0.csv", "B_part0.csv", "excluded_part0.csv",
+        "12", "x", os.fsdecode(b"caf\xe9_part0.csv"),
+    ]  # fmt: skip
+    for name in names:
+        (inbox / name).write_bytes(b"x")
+    (inbox / "A_part4.csv").mkdir()
+    (inbox / "A_part5.csv").symlink_to(inbox / "gone")
+    os.mkfifo(inbox / "A_part6.csv")
+    pattern = None if group_by is None else re.compile(group_by)
+    tracker = InboxTracker(inbox, 0.0, pattern, frozenset({"excluded_part0.csv"}), quiet=True)
+    tracker.rescan()
+    assert tracker.keys
+    for key, members in tracker._members.items():
+        listed = archive_paths(inbox, key, pattern, {"excluded_part0.csv"})
+        assert listed == tuple(inbox / n for n in sorted(members)), key
+    assert archive_paths(inbox, "nothing", pattern) == ()

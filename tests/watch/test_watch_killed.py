@@ -1156,8 +1156,10 @@ def test_a_move_killed_while_undone_is_kept_by_the_start_where_an_inbox_name_was
     """Killed before it put the first file of a refused move back in INBOX; another
     file dropped under that file's name there since, and the rename still refused at
     the next start: that start cannot finish the move nor undo it (all or none): the
-    move kept, the rest held in INBOX, said in one line naming the name taken. Before,
-    the others went back, and the new file was analyzed with them as the archive."""
+    move kept, the rest held in INBOX, said in one line naming the name taken, and the
+    rest's offer says what holds it and what ends the hold (a start, once the cause is
+    mended; it said only "said at the start"). Before, the others went back, and the new
+    file was analyzed with them as the archive."""
     content = _three_parts(tmp_path, monkeypatch)
     inbox = tmp_path / "in" / "inbox"
     with _done_folder(tmp_path, monkeypatch, other=False) as done:
@@ -1185,8 +1187,9 @@ def test_a_move_killed_while_undone_is_kept_by_the_start_where_an_inbox_name_was
             f"{inbox / 'A_part1.csv'}: Operation not permitted; nor undone: A_part0.csv in "
             "INBOX taken by another file since; what is left of it in INBOX is not analyzed, "
             "and the next start tries again",
-            "A: not analyzed: part of the archive whose move was stopped by force and could "
-            "not be ended (said at the start)",
+            f"A: not analyzed: what is left in INBOX of its move to {done}, stopped by force "
+            "by an earlier watcher, that this start could not end (said above); left as it "
+            "is until a start ends the move: restart the watcher once its cause is mended",
         ]
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import errno
 import json
 import logging
+import sys
 import threading
 import time
 from dataclasses import replace
@@ -342,3 +343,142 @@ def test_the_tracker_hands_back_only_what_it_handed_on_and_after_the_settle_time
     assert (again.paths, again.signature) == (first.paths, first.signature)
     tracker.again("a.csv", (("a.csv", 0, 0),), 3.0)
     assert tracker.step(5.0) == []
+
+
+@pytest.mark.parametrize("other", [False, True], ids=["renames", "copies"])
+def test_a_member_dropped_after_the_last_listing_is_said_once_its_group_moved(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture, other: bool
+) -> None:
+    """A third member of ``A`` dropped in the instant between the members' last listing
+    (:meth:`~analyzer.watch._Runner._as_found`, true) and the move: the two are moved
+    without it (all or none, as before); a listing of ``A`` in INBOX after the move finds
+    it, said in one line (the file, its group analyzed and moved, that it is analyzed on
+    its own as ``A``, the group's record kept aside). Before, nothing was said: it was
+    analyzed alone as ``A``, the group's result kept aside as ``A-1``, silently."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    real_found = watch_module._Runner._as_found
+    looks: list[str] = []
+
+    last = "_end_copied" if other else "_move"
+
+    def as_found(self: Any, archive: Any) -> bool:
+        found = real_found(self, archive)
+        if found and archive.name == "A" and sys._getframe(1).f_code.co_name == last:
+            looks.append(archive.name)
+            _drop_third(tmp_path)
+        return bool(found)
+
+    monkeypatch.setattr(watch_module._Runner, "_as_found", as_found)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    with _done_folder(tmp_path, monkeypatch, other) as done:
+        assert watch(_settings(tmp_path, done), RunOptions()) == 0
+        assert looks
+        assert set(content) <= {p.name for p in done.iterdir()}
+        assert str(sorted(content)) in _analyses(tmp_path)
+        assert str(["A_part2.csv"]) in _analyses(tmp_path)
+        said = [r.getMessage() for r in caplog.records if "A_part2.csv" in r.getMessage()]
+        assert len(said) == 1, said
+        assert said[0].startswith(f"A: A_part2.csv: dropped as its group was moved to {done}")
+        assert "analyzed on its own as A" in said[0]
+
+
+def test_a_member_left_in_inbox_by_a_move_by_copies_is_said_so_not_dropped(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A move by copies whose second source cannot be removed from INBOX (a sticky
+    INBOX, a file made immutable): ``A_part0.csv`` is moved, ``A_part1.csv`` keeps its
+    place and loses its copy; it was in the group's analysis, and is said so, with the
+    cause, in one line: not as a member "dropped ... after the last look at its members"
+    (said so by the watcher that first listed the group after a move), before, silently
+    left. It is then analyzed on its own as ``A``, as the line says."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    real_remove = watch_module._remove
+    refused: list[Path] = []
+
+    def remove(path: Path, strict: bool = False) -> None:
+        if strict and path == inbox / "A_part1.csv" and not refused:
+            refused.append(path)
+            raise PermissionError(errno.EPERM, "Operation not permitted", str(path))
+        real_remove(path, strict)
+
+    monkeypatch.setattr(watch_module, "_remove", remove)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    with _done_folder(tmp_path, monkeypatch, other=True) as done:
+        assert watch(_settings(tmp_path, done), RunOptions()) == 0
+        assert refused
+        assert _analyses(tmp_path) == [str(sorted(content)), str(["A_part1.csv"])]
+        said = [r.getMessage() for r in caplog.records if "A_part1.csv" in r.getMessage()]
+        assert said == [
+            f"A: A_part1.csv: in its analysis but left in INBOX by its move to {done} "
+            f"(cannot remove {inbox / 'A_part1.csv'}: Operation not permitted): analyzed on "
+            "its own as A once settled, the group's result then kept aside under a free name"
+        ]
+
+
+def test_a_file_of_no_group_dropped_after_its_move_is_not_said_left_behind(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """With ``--group-by``, a file whose name the pattern does not match (``B.csv``) is
+    an archive of its own, not a group: another ``B.csv`` dropped just after its move is
+    a new archive, analyzed as one, and no line calls it "dropped as its group was
+    moved" (as the first version of that line did: ``B.csv: B.csv: dropped as its
+    group was moved to DONE ...``)."""
+    inbox, _ = _two_parts(tmp_path, monkeypatch)
+    _archive(inbox / "B.csv", 310)
+    real_move = watch_module._move_all
+    dropped: list[str] = []
+
+    def move_all(paths: Any, folder: Path, *args: Any) -> list[Path]:
+        moved = real_move(paths, folder, *args)
+        if [p.name for p in paths] == ["B.csv"] and not dropped:
+            dropped.append("B.csv")
+            _archive(tmp_path / "B.csv", 311).rename(inbox / "B.csv")
+        return moved
+
+    monkeypatch.setattr(watch_module, "_move_all", move_all)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    with _done_folder(tmp_path, monkeypatch, other=False) as done:
+        assert watch(_settings(tmp_path, done), RunOptions()) == 0
+        assert dropped
+        assert _analyses(tmp_path).count(str(["B.csv"])) == 2
+        said = [r.getMessage() for r in caplog.records if "dropped as its group" in r.getMessage()]
+        assert said == []
+
+
+def test_a_folder_left_in_part_in_inbox_by_its_move_by_copies_is_said(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """An archive folder (no ``--group-by``) moved by copies, one of its files not
+    removable from INBOX: its copy is moved whole, what is left of it stays in INBOX,
+    said in one line with the cause (before, silently), and is analyzed on its own as
+    the archive, as the line says."""
+    inbox, _ = _two_parts(tmp_path, monkeypatch)
+    folder = inbox / "F"
+    folder.mkdir()
+    for name in ("A_part0.csv", "A_part1.csv"):
+        (inbox / name).rename(folder / name)
+    real_remove = watch_module._remove
+    refused: list[Path] = []
+
+    def remove(path: Path, strict: bool = False) -> None:
+        if strict and path == folder and not refused:
+            refused.append(folder / "A_part1.csv")
+            (folder / "A_part0.csv").unlink()
+            raise PermissionError(errno.EPERM, "Operation not permitted", str(refused[0]))
+        real_remove(path, strict)
+
+    monkeypatch.setattr(watch_module, "_remove", remove)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    with _done_folder(tmp_path, monkeypatch, other=True) as done:
+        settings = replace(_settings(tmp_path, done), group_by=None)
+        assert watch(settings, RunOptions()) == 0
+        assert refused
+        assert sorted(p.name for p in (done / "F").iterdir()) == ["A_part0.csv", "A_part1.csv"]
+        assert _analyses(tmp_path) == [str(["F"])] * 2
+        assert any("F: new content" in r.getMessage() for r in caplog.records)
+        said = [r.getMessage() for r in caplog.records if "stays in INBOX" in r.getMessage()]
+        assert said == [
+            f"F: moved to {done}, but what is left of it stays in INBOX (cannot remove "
+            f"{refused[0]}: Operation not permitted): analyzed on its own as F once settled, "
+            "the archive's result then kept aside under a free name"
+        ]
