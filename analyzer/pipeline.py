@@ -2288,6 +2288,8 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
                 options.warn(line)
         if options.save_model is not None and analysis.saved is not None:
             save_model(options.save_model, analysis.saved)
+        if options.say is not None:
+            options.say(summary_line(analysis, out))
         return 1 if analysis.faulty else 0
     except BaseException:
         if created:
@@ -2295,6 +2297,33 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         raise
     finally:
         remove_scratch(work)
+
+
+SUMMARY_LISTED = 3
+"""Findings :func:`summary_line` names; it counts the rest."""
+
+
+def summary_line(analysis: Analysis, out: Path) -> str:
+    """The line ``analyzer run`` ends with, terminal or not: how many faults on how many
+    sensors, the first :data:`SUMMARY_LISTED` by onset (sensor, type, onset) and the
+    report's path; or that none was found. A run said nothing when stderr was no
+    terminal (CI, ``| tee``, cron) and ended with exit code 1, which reads as a failure
+    to anyone who has not read the contract: the line says it is a finding."""
+    report = out / "report.html"
+    found = analysis.findings
+    if not found:
+        return f"no sensor fault found; report: {report}"
+    sensors = len({f.channel for f in found})
+    items = [f"{f.channel} {f.type} from {_onset_words(analysis, f)}" for f in found]
+    return (
+        f"{len(found)} sensor fault{'s' if len(found) > 1 else ''} found on {sensors} "
+        f"sensor{'s' if sensors > 1 else ''}: {capped(items, SUMMARY_LISTED)}; report: {report}"
+    )
+
+
+def _onset_words(analysis: Analysis, f: Finding) -> str:
+    """A finding's onset as the summary line says it: seconds from the start."""
+    return f"{f.onset_s:.3f} s"
 
 
 OUTPUT_FILES = ("findings.json", "report.html", "corrected.csv")
@@ -2414,5 +2443,6 @@ __all__ = [
     "input_warnings",
     "load_options",
     "run",
+    "summary_line",
     "write_outputs",
 ]
