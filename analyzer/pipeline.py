@@ -184,9 +184,9 @@ def _select(
             f"({', '.join(list(infos)[:3])}{', ...' if len(infos) > 3 else ''})"
         )
     if patterns:
-        unmatched = store.unmatched(patterns)
+        unmatched = store.unmatched_line(patterns)
         if unmatched:
-            raise UsageError(f"--channels: pattern {unmatched[0]!r} matches no channel")
+            raise UsageError(unmatched)
         chosen = store.select(patterns)
         if not chosen:  # every channel a pattern matches, another leaves out
             raise UsageError(
