@@ -111,6 +111,7 @@ from analyzer.reuse import (
     model_detectors,
     model_info,
     reuse_note,
+    settling_rows,
     warmup,
 )
 from analyzer.scratch import make_scratch, remove_scratch, scratch
@@ -1024,6 +1025,7 @@ def _analyze(
             levels=levels,
             corrected=corrected,
             corrections=corrections,
+            settling=settling_rows(collected),
             saved=reused
             if kept is None
             else SavedModel(

@@ -28,7 +28,14 @@ from scipy import special
 
 from analyzer.report import format as fmt
 from analyzer.report.decimate import Envelope, envelope, moving_mean
-from analyzer.report.jobs import MAX_POINTS, CoverageRow, ResidualPanel, Segment, close_up
+from analyzer.report.jobs import (
+    MAX_POINTS,
+    CoverageRow,
+    ResidualPanel,
+    Segment,
+    close_up,
+    settled_limits,
+)
 from analyzer.report.svg import (
     grid,
     label,
@@ -442,14 +449,18 @@ def residual_figure(
     key: str,
     train_label: str = "training window",
     onset_bound: bool = False,
+    settled_s: float = 0.0,
 ) -> Markup:
     """Top: the leading detector's residual over the whole archive with the training
     window (``train_label``) and the onset; ``overview`` is its ``envelope(t, r,
     MAX_POINTS)``, computed by the caller (a 4-hour record at 100 Hz is 1.44 M samples:
     their envelope is what this figure would draw anyway, and it ships to a worker
-    process in 24 kB). Below, per detector that saw the fault: its residual around the
-    onset, its moving mean and the threshold band that mean must leave. ``onset_bound``:
-    the onset is an upper bound (:data:`ONSET_BOUND_LABEL`)."""
+    process in 24 kB); its axis scaled from the samples after ``settled_s``, its filters'
+    start-up, where the transient before would flatten the rest (:func:`settled_limits`;
+    the start-up shaded grey and hatched, the transient clipped). Below, per detector
+    that saw the fault: its residual around the onset, its moving mean and the threshold
+    band that mean must leave. ``onset_bound``: the onset is an upper bound
+    (:data:`ONSET_BOUND_LABEL`)."""
     axis = TimeAxis.for_span(duration_s)
     sec = TimeAxis.for_times(panels[0].t) if panels else TimeAxis("s", 1.0)
     with style():
@@ -465,6 +476,19 @@ def residual_figure(
             label=train_label,
         )
         _plot_envelope(ax, overview, axis, C_RESIDUAL, f"residual ({shown_name(overview_name)})")
+        limits = settled_limits(overview.t, overview.lo, overview.hi, settled_s)
+        if limits is not None:
+            ax.set_ylim(*limits)
+            ax.axvspan(
+                0.0,
+                settled_s / axis.scale,
+                facecolor="#888888",
+                edgecolor="#555555",
+                alpha=0.18,
+                hatch="//",
+                lw=0,
+                label="filters' start-up (clipped)",
+            )
         _mark_onset(ax, onset_s, end_s, axis, onset_bound)
         ax.set_xlim(0, max(duration_s, 1e-9) / axis.scale)
         ax.set_title("whole record", loc="left")

@@ -216,10 +216,15 @@ class FigureParts:
                 continue
             th = self._threshold(d, ch)
             panels.append(fg.ResidualPanel(d, np.arange(k0, k1) / self.rate, _f64(r[k0:k1]), *th))
+        overview = envelope(Clock(full.shape[0], self.rate), full, fg.MAX_POINTS)  # drawn of it
+        # the axis without the filters' start-up transient, where it would flatten the rest
+        settled_s = min(getattr(self.an, "settling", {}).get(lead, 0), full.shape[0] // 2)
+        settled_s /= self.rate
+        clipped = fg.settled_limits(overview.t, overview.lo, overview.hi, settled_s) is not None
         job = fg.FigureJob(
             "residual_figure",
             (
-                envelope(Clock(full.shape[0], self.rate), full, fg.MAX_POINTS),  # drawn of it
+                overview,
                 lead,
                 panels,
                 onset,
@@ -229,7 +234,13 @@ class FigureParts:
                 f"{view.anchor}-residual",
                 self.train_label,
             ),
-            {"onset_bound": open_since(f) is not None},
+            {"onset_bound": open_since(f) is not None, "settled_s": settled_s if clipped else 0.0},
+        )
+        start_up = (
+            f" The top panel's axis is scaled without the filters' start-up transient (the "
+            f"first {fmt.duration(settled_s)}, hatched grey), which is drawn clipped."
+            if clipped
+            else ""
         )
         bands = "; ".join(
             f"{p.detector}: {p.window}-sample mean outside {fmt.num(p.center)} ± "
@@ -245,7 +256,7 @@ class FigureParts:
             "the fault, around the onset, with the trailing moving mean (black) and the band "
             "it must leave to raise an alarm (red; set from the training residual and the "
             f"false-alarm rate: {bands or 'not available'}). The log-mean-square statistic, "
-            "which alarms on gain changes, is not drawn.",
+            f"which alarms on gain changes, is not drawn.{start_up}",
             job,
         )
 
