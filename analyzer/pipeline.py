@@ -120,7 +120,7 @@ from analyzer.search_after import note as after_note
 from analyzer.search_after import stretches as after_stretches
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
 from analyzer.store.copies import Copy, find_copies
-from analyzer.timeutil import iso_utc, plausible_epoch
+from analyzer.timeutil import iso_utc, plain_number, plausible_epoch, spoken_duration
 from analyzer.types import NS_PER_S
 
 MATERIALIZE_IN_MEMORY = 1 << 24
@@ -304,7 +304,7 @@ def _irregular_channels(infos: Sequence[ChannelInfo], chosen: Sequence[str]) -> 
     return [
         f"{', '.join(names)}: sampled at irregular times (the intervals vary widely): "
         f"aligned at their mean rate {rate:.6g} Hz and interpolated across silences of up "
-        f"to {1e3 * bridge / rate:.3g} ms ({bridge:.3g} mean intervals); longer ones are "
+        f"to {spoken_duration(bridge / rate)} ({bridge:.3g} mean intervals); longer ones are "
         f"gaps ({gaps or 'none'} in each)"
         for (rate, bridge, gaps), names in by.items()
     ]
@@ -2219,11 +2219,13 @@ def _longer_window(
         return ""
     rows = math.ceil(min(needs) * WINDOW_MARGIN)
     span = rows / rate_hz
-    need = f"about {math.ceil(span)} s of healthy data ({rows} samples at {rate_hz:.3g} Hz)"
+    need = (
+        f"about {math.ceil(span)} s of healthy data ({rows} samples at {plain_number(rate_hz)} Hz)"
+    )
     if span >= duration_s:  # (a window of every row leaves nothing to search)
         return (
-            f"the archive's {duration_s:.6g} s at {rate_hz:.3g} Hz are too short for these "
-            f"detectors, which need {need}"
+            f"the archive's {duration_s:.6g} s at {plain_number(rate_hz)} Hz are too short for "
+            f"these detectors, which need {need}"
         )
     start = tr[0] if tr[0] + span < duration_s else 0.0
     end: float = math.ceil(start + span)
@@ -2256,14 +2258,15 @@ def _slow_clock(
     top = rates[fast[0]]
     if given or len(fast) == len(rates):
         return (
-            f", or a faster clock: --rate is {rate_hz:.3g} Hz, and {len(fast)} of the "
-            f"{len(rates)} channels run at up to {top:.3g} Hz"
+            f", or a faster clock: --rate is {plain_number(rate_hz)} Hz, and {len(fast)} of the "
+            f"{len(rates)} channels run at up to {plain_number(top)} Hz"
         )
     at = sum(1 for r in rates.values() if abs(r - rate_hz) <= 0.1 * rate_hz)
     return (
-        f", or analyze faster channels: the common clock runs at {rate_hz:.3g} Hz, the rate "
-        f"of {at} of the {len(rates)} channels, while {len(fast)} run at up to {top:.3g} Hz: "
-        f"--rate {top:.3g}, or --channels naming them ({', '.join(fast[:3])}"
+        f", or analyze faster channels: the common clock runs at {plain_number(rate_hz)} Hz, "
+        f"the rate of {at} of the {len(rates)} channels, while {len(fast)} run at up to "
+        f"{plain_number(top)} Hz: --rate {plain_number(top)}, or --channels naming them "
+        f"({', '.join(fast[:3])}"
         f"{', ...' if len(fast) > 3 else ''})"
     )
 

@@ -44,6 +44,7 @@ from analyzer.paging import is_mapped, mapped_file, pwrite_all, release
 from analyzer.readers.base import ChannelChunk
 from analyzer.readers.tally import Tally
 from analyzer.scratch import make_scratch, remove_scratch
+from analyzer.timeutil import plain_number
 from analyzer.types import NS_PER_S
 
 FloatArray = npt.NDArray[np.float64]
@@ -473,7 +474,8 @@ class ChannelStore:
         if n < 2 and rate_hz is not None and span > 0:
             raise StoreError(
                 f"--rate {rate:g} Hz is too low: the data span {span:.6g} s, which gives "
-                f"{n} row(s) on that clock (need at least 2, so at least {1 / span:.3g} Hz)"
+                f"{n} row(s) on that clock (need at least 2, so at least "
+                f"{plain_number(1 / span)} Hz)"
             )
         most = max(i.samples for i in infos)  # type: ignore[union-attr]
         if n > MAX_ROWS_PER_SAMPLE * most + MIN_ROWS_ALLOWED:
