@@ -1753,7 +1753,23 @@ def _diagnose(
     notes.extend(traced_into_training(findings, reused is not None))
     if reused is not None:
         notes.extend(present_at_search_start(findings, train[1] / rate_hz, rate_hz))
+    else:
+        at_search_start(findings, train[1] / rate_hz, rate_hz)
     return findings, notes
+
+
+def at_search_start(findings: list[Finding], start_s: float, rate_hz: float) -> None:
+    """Mark the findings whose onset is the first sample searched (``start_s``, the
+    training window's end; to within 1.5 samples) with ``evidence.onset_at_search_start``:
+    the fault was there when the search began, so it began at or before then, perhaps
+    inside the training window (SKAB's pump: an onset at 719.000 s, the first sample
+    after ``--train 0:718``, of a change the run's own note put at 581 s). Stated as the
+    onset it read as a fact ("since 17:39:18"). With ``--model`` the search starts after
+    the filters' warm-up instead, and ``onset_at_or_before`` says it
+    (:func:`~analyzer.diagnosis.merge.present_at_search_start`)."""
+    for f in findings:
+        if f.onset_s <= start_s + 1.5 / rate_hz:
+            f.evidence["onset_at_search_start"] = True
 
 
 ECHO_WINDOWS = 4
@@ -2327,8 +2343,10 @@ def summary_line(analysis: Analysis, out: Path) -> str:
 
 
 def _onset_words(analysis: Analysis, f: Finding) -> str:
-    """A finding's onset as the summary line says it: seconds from the start."""
-    return f"{f.onset_s:.3f} s"
+    """A finding's onset as the summary line says it: seconds from the start, ``or
+    earlier`` where it is an upper bound (the fault was there when the search began)."""
+    bound = f.evidence.get("onset_at_search_start") or f.evidence.get("onset_at_or_before")
+    return f"{f.onset_s:.3f} s{' or earlier' if bound else ''}"
 
 
 OUTPUT_FILES = ("findings.json", "report.html", "corrected.csv")

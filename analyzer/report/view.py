@@ -37,7 +37,7 @@ from typing import Any
 from analyzer import __version__
 from analyzer.report import format as fmt
 from analyzer.report.methods import DECISION, TESTS
-from analyzer.report.view_figures import FigureParts, _span, open_since
+from analyzer.report.view_figures import FigureParts, _span, onset_bound
 from analyzer.report.view_records import (
     DetectorTests,
     Fact,
@@ -234,7 +234,7 @@ class _Access(FigureParts, TableParts):
             type=str(f["type"]),
             # an upper bound (the fault was there when the search began) says so wherever
             # it is shown: "at or before 4.310 s", not an exact 4.310 s
-            onset_s=("at or before " if open_since(f) is not None else "")
+            onset_s=("at or before " if onset_bound(f) else "")
             + fmt.seconds(f.get("onset_s"), self.decimals),
             # empty without absolute time (relative timestamps): the page then omits them
             onset_utc=str(f.get("onset") or ""),
@@ -300,6 +300,17 @@ class _Access(FigureParts, TableParts):
                     "the fault was there when the search started at "
                     f"{fmt.seconds(f.get('onset_s'), d)}, after the {self.train_label}: "
                     "it began at or before then (perhaps in an earlier record)",
+                )
+            )
+        if ev.get("onset_at_search_start"):
+            out.append(
+                Fact(
+                    "Onset bound",
+                    "the fault was there when the search started at "
+                    f"{fmt.seconds(f.get('onset_s'), d)}, the first sample after the "
+                    f"{self.train_label}: it began at or before then, perhaps inside the "
+                    "window, whose data the models then took as healthy (a --train that "
+                    "ends earlier tells)",
                 )
             )
         after = ev.get("searched_after")
