@@ -1767,8 +1767,8 @@ def at_search_start(findings: list[Finding], start_s: float, rate_hz: float) -> 
     onset it read as a fact ("since 17:39:18"). With ``--model`` the search starts after
     the filters' warm-up instead, and ``onset_at_or_before`` says it
     (:func:`~analyzer.diagnosis.merge.present_at_search_start`)."""
-    for f in findings:
-        if f.onset_s <= start_s + 1.5 / rate_hz:
+    for f in findings:  # (an onset traced back into the window is where it was traced)
+        if start_s - 0.5 / rate_hz <= f.onset_s <= start_s + 1.5 / rate_hz:
             f.evidence["onset_at_search_start"] = True
 
 
@@ -2335,14 +2335,14 @@ def summary_line(analysis: Analysis, out: Path) -> str:
     if not found:
         return f"no sensor fault found; report: {report}"
     sensors = len({f.channel for f in found})
-    items = [f"{f.channel} {f.type} from {_onset_words(analysis, f)}" for f in found]
+    items = [f"{f.channel} {f.type} from {_onset_words(f)}" for f in found]
     return (
         f"{len(found)} sensor fault{'s' if len(found) > 1 else ''} found on {sensors} "
         f"sensor{'s' if sensors > 1 else ''}: {capped(items, SUMMARY_LISTED)}; report: {report}"
     )
 
 
-def _onset_words(analysis: Analysis, f: Finding) -> str:
+def _onset_words(f: Finding) -> str:
     """A finding's onset as the summary line says it: seconds from the start, ``or
     earlier`` where it is an upper bound (the fault was there when the search began)."""
     bound = f.evidence.get("onset_at_search_start") or f.evidence.get("onset_at_or_before")
