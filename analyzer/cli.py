@@ -334,6 +334,11 @@ def _warn(line: str) -> None:
     sys.stderr.write(f"analyzer: warning: {terminal_safe(line)}\n")
 
 
+def _say(line: str) -> None:
+    """``run``'s last line on stderr (what it found, where the report is)."""
+    sys.stderr.write(f"analyzer: {terminal_safe(line)}\n")
+
+
 def _progress_printer(enabled: bool) -> Any:
     """A progress bar on stderr (a terminal only): the stage, its share done and the
     seconds since the run began."""
@@ -415,6 +420,7 @@ def _run_options(args: argparse.Namespace) -> Any:
         model=args.model,
         save_model=getattr(args, "save_model", None),
         screen=args.screen,
+        say=_say if getattr(args, "command", None) == "run" else None,
     )
 
 

@@ -63,9 +63,9 @@ def _export(
         ChannelStore.from_chunks(archive.chunks(time), tmp) as store,
     ):
         if channels:
-            unmatched = store.unmatched(channels)
+            unmatched = store.unmatched_line(channels)
             if unmatched:
-                raise UsageError(f"--channels: pattern {unmatched[0]!r} matches no channel")
+                raise UsageError(unmatched)
             names = store.select(channels, numeric_only=False)
         else:
             names = store.select(None, numeric_only=False)

@@ -56,6 +56,10 @@ class Analysis:
     screen: dict[str, Any] | None = None
     """With ``--screen``: the screening's detectors and whether they found a fault
     (``findings.json``), from :func:`analyzer.pipeline.analyze_screened`."""
+    settling: dict[str, int] = field(default_factory=dict)
+    """Per detector, the samples from the record's start its filters take to forget
+    their start state (:func:`analyzer.reuse.settling_rows`): the report's whole-record
+    residual is scaled from the samples after them."""
     levels: Any = None
     """Each analyzed channel's response level over time
     (:class:`analyzer.diagnosis.levels.Levels`): the report's level map."""

@@ -55,6 +55,9 @@ class RunOptions:
     warn: Callable[[str], None] | None = None
     """Where :func:`analyzer.pipeline.run` says, once the outputs are written, what went
     wrong with the inputs (a truncated file, samples dropped): the CLI's stderr."""
+    say: Callable[[str], None] | None = None
+    """Where :func:`analyzer.pipeline.run` says its last line (:func:`analyzer.pipeline.
+    summary_line`: what it found and where the report is): the CLI's stderr."""
 
 
 DEFAULT_TRAIN_FRACTION = 0.2

@@ -112,6 +112,7 @@ from analyzer.reuse import (
     model_detectors,
     model_info,
     reuse_note,
+    settling_rows,
     warmup,
 )
 from analyzer.scratch import make_scratch, remove_scratch, scratch
@@ -120,7 +121,7 @@ from analyzer.search_after import note as after_note
 from analyzer.search_after import stretches as after_stretches
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
 from analyzer.store.copies import Copy, find_copies
-from analyzer.timeutil import iso_utc, plausible_epoch
+from analyzer.timeutil import iso_utc, plain_number, plausible_epoch, spoken_duration
 from analyzer.types import NS_PER_S
 
 MATERIALIZE_IN_MEMORY = 1 << 24
@@ -185,9 +186,9 @@ def _select(
             f"({', '.join(list(infos)[:3])}{', ...' if len(infos) > 3 else ''})"
         )
     if patterns:
-        unmatched = store.unmatched(patterns)
+        unmatched = store.unmatched_line(patterns)
         if unmatched:
-            raise UsageError(f"--channels: pattern {unmatched[0]!r} matches no channel")
+            raise UsageError(unmatched)
         chosen = store.select(patterns)
         if not chosen:  # every channel a pattern matches, another leaves out
             raise UsageError(
@@ -304,7 +305,7 @@ def _irregular_channels(infos: Sequence[ChannelInfo], chosen: Sequence[str]) -> 
     return [
         f"{', '.join(names)}: sampled at irregular times (the intervals vary widely): "
         f"aligned at their mean rate {rate:.6g} Hz and interpolated across silences of up "
-        f"to {1e3 * bridge / rate:.3g} ms ({bridge:.3g} mean intervals); longer ones are "
+        f"to {spoken_duration(bridge / rate)} ({bridge:.3g} mean intervals); longer ones are "
         f"gaps ({gaps or 'none'} in each)"
         for (rate, bridge, gaps), names in by.items()
     ]
@@ -1040,6 +1041,7 @@ def _analyze(
             levels=levels,
             corrected=corrected,
             corrections=corrections,
+            settling=settling_rows(collected),
             saved=reused
             if kept is None
             else SavedModel(
@@ -1767,7 +1769,23 @@ def _diagnose(
     notes.extend(traced_into_training(findings, reused is not None))
     if reused is not None:
         notes.extend(present_at_search_start(findings, train[1] / rate_hz, rate_hz))
+    else:
+        at_search_start(findings, train[1] / rate_hz, rate_hz)
     return findings, notes
+
+
+def at_search_start(findings: list[Finding], start_s: float, rate_hz: float) -> None:
+    """Mark the findings whose onset is the first sample searched (``start_s``, the
+    training window's end; to within 1.5 samples) with ``evidence.onset_at_search_start``:
+    the fault was there when the search began, so it began at or before then, perhaps
+    inside the training window (SKAB's pump: an onset at 719.000 s, the first sample
+    after ``--train 0:718``, of a change the run's own note put at 581 s). Stated as the
+    onset it read as a fact ("since 17:39:18"). With ``--model`` the search starts after
+    the filters' warm-up instead, and ``onset_at_or_before`` says it
+    (:func:`~analyzer.diagnosis.merge.present_at_search_start`)."""
+    for f in findings:  # (an onset traced back into the window is where it was traced)
+        if start_s - 0.5 / rate_hz <= f.onset_s <= start_s + 1.5 / rate_hz:
+            f.evidence["onset_at_search_start"] = True
 
 
 ECHO_WINDOWS = 4
@@ -2266,12 +2284,13 @@ def _longer_window(
         return ""
     rows = math.ceil((max(known) if every else min(known)) * WINDOW_MARGIN)
     need = (
-        f"about {math.ceil(rows / rate_hz)} s of healthy data ({rows} samples at {rate_hz:.3g} Hz)"
+        f"about {math.ceil(rows / rate_hz)} s of healthy data ({rows} samples at "
+        f"{plain_number(rate_hz)} Hz)"
     )
     if rows / rate_hz >= duration_s:  # (a window of every row leaves nothing to search)
         return (
-            f"the archive's {duration_s:.6g} s at {rate_hz:.3g} Hz are too short for these "
-            f"detectors, which need {need}"
+            f"the archive's {duration_s:.6g} s at {plain_number(rate_hz)} Hz are too short for "
+            f"these detectors, which need {need}"
         )
 
     def span(start: float) -> float:
@@ -2289,7 +2308,7 @@ def _longer_window(
     length = span(start)
     if length >= duration_s:  # (its gaps leave too few rows in any window)
         return (
-            f"the archive's {duration_s:.6g} s at {rate_hz:.3g} Hz hold too few samples "
+            f"the archive's {duration_s:.6g} s at {plain_number(rate_hz)} Hz hold too few samples "
             f"of every channel for these detectors, which need {need}"
         )
     end: float = math.ceil(start + length)
@@ -2325,14 +2344,15 @@ def _slow_clock(
     top = rates[fast[0]]
     if given or len(fast) == len(rates):
         return (
-            f", or a faster clock: --rate is {rate_hz:.3g} Hz, and {len(fast)} of the "
-            f"{len(rates)} channels run at up to {top:.3g} Hz"
+            f", or a faster clock: --rate is {plain_number(rate_hz)} Hz, and {len(fast)} of the "
+            f"{len(rates)} channels run at up to {plain_number(top)} Hz"
         )
     at = sum(1 for r in rates.values() if abs(r - rate_hz) <= 0.1 * rate_hz)
     return (
-        f", or analyze faster channels: the common clock runs at {rate_hz:.3g} Hz, the rate "
-        f"of {at} of the {len(rates)} channels, while {len(fast)} run at up to {top:.3g} Hz: "
-        f"--rate {top:.3g}, or --channels naming them ({', '.join(fast[:3])}"
+        f", or analyze faster channels: the common clock runs at {plain_number(rate_hz)} Hz, "
+        f"the rate of {at} of the {len(rates)} channels, while {len(fast)} run at up to "
+        f"{plain_number(top)} Hz: --rate {plain_number(top)}, or --channels naming them "
+        f"({', '.join(fast[:3])}"
         f"{', ...' if len(fast) > 3 else ''})"
     )
 
@@ -2359,6 +2379,8 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
                 options.warn(line)
         if options.save_model is not None and analysis.saved is not None:
             save_model(options.save_model, analysis.saved)
+        if options.say is not None:
+            options.say(summary_line(analysis, out))
         return 1 if analysis.faulty else 0
     except BaseException:
         if created:
@@ -2366,6 +2388,35 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         raise
     finally:
         remove_scratch(work)
+
+
+SUMMARY_LISTED = 3
+"""Findings :func:`summary_line` names; it counts the rest."""
+
+
+def summary_line(analysis: Analysis, out: Path) -> str:
+    """The line ``analyzer run`` ends with, terminal or not: how many faults on how many
+    sensors, the first :data:`SUMMARY_LISTED` by onset (sensor, type, onset) and the
+    report's path; or that none was found. A run said nothing when stderr was no
+    terminal (CI, ``| tee``, cron) and ended with exit code 1, which reads as a failure
+    to anyone who has not read the contract: the line says it is a finding."""
+    report = out / "report.html"
+    found = analysis.findings
+    if not found:
+        return f"no sensor fault found; report: {report}"
+    sensors = len({f.channel for f in found})
+    items = [f"{f.channel} {f.type} from {_onset_words(f)}" for f in found]
+    return (
+        f"{len(found)} sensor fault{'s' if len(found) > 1 else ''} found on {sensors} "
+        f"sensor{'s' if sensors > 1 else ''}: {capped(items, SUMMARY_LISTED)}; report: {report}"
+    )
+
+
+def _onset_words(f: Finding) -> str:
+    """A finding's onset as the summary line says it: seconds from the start, ``or
+    earlier`` where it is an upper bound (the fault was there when the search began)."""
+    bound = f.evidence.get("onset_at_search_start") or f.evidence.get("onset_at_or_before")
+    return f"{f.onset_s:.3f} s{' or earlier' if bound else ''}"
 
 
 OUTPUT_FILES = ("findings.json", "report.html", "corrected.csv")
@@ -2485,5 +2536,6 @@ __all__ = [
     "input_warnings",
     "load_options",
     "run",
+    "summary_line",
     "write_outputs",
 ]

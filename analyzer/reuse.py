@@ -5,6 +5,7 @@ settle, and what the notes and ``findings.json`` say about the model."""
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -70,6 +71,19 @@ def warmup(model: SavedModel) -> int:
         for _, fitted in fits.values():
             warm = max(warm, _settling(fitted) + _longest_window(fitted))
     return warm
+
+
+def settling_rows(fits: Mapping[str, Mapping[str, tuple[Any, Any]]]) -> dict[str, int]:
+    """Per detector of ``fits`` (by channel group, then detector: ``(detector, fitted
+    model)``), the samples its filters take to forget their start state at the record's
+    first sample (:func:`_settling`, the longest of its groups'): where its residuals
+    still carry the start-up transient, which the report's whole-record residual leaves
+    out of its scale."""
+    rows: dict[str, int] = {}
+    for group in fits.values():
+        for name, (_, fitted) in group.items():
+            rows[name] = max(rows.get(name, 0), _settling(fitted))
+    return rows
 
 
 def _settling(fitted: Any) -> int:

@@ -34,6 +34,34 @@ def parse_time(text: str) -> tuple[str, float | int]:
     return "ns", int(round(dt.timestamp() * NS_PER_S))
 
 
+def spoken_duration(seconds: float) -> str:
+    """A duration in a user's line, in the unit it reads best in, to two or three
+    significant digits: ``400 ms``, ``5.8 s``, ``42 s``, ``12 min``, ``3.5 h``,
+    ``2.1 d``. The lines wrote them ``{x:.3g}`` in one unit: ``a 5.81e+03-ms period``."""
+    s = float(seconds)
+    if not np.isfinite(s):
+        return f"{s} s"
+    a = abs(s)
+    if a < 1.0:
+        return f"{1e3 * s:.3g} ms"
+    for unit, size in (("d", 86400.0), ("h", 3600.0), ("min", 60.0), ("s", 1.0)):
+        if a >= (size if unit == "s" else 2 * size):
+            x = s / size
+            return f"{x:.1f} {unit}" if abs(x) < 10 else f"{x:.0f} {unit}"
+    return f"{s:.1f} s"  # pragma: no cover - (a >= 1 is seconds at least)
+
+
+def plain_number(x: float, digits: int = 3) -> str:
+    """``x`` to ``digits`` significant digits without an exponent from 1e-3 to 1e9
+    (``2000``, not ``2e+03``; ``1234``, not ``1.23e+03``: digits before the point are
+    kept), for rates and counts in a user's line."""
+    v = float(x)
+    text = f"{v:.{digits}g}"
+    if "e" in text and np.isfinite(v) and 1e-3 <= abs(v) < 1e9:
+        return f"{v:.0f}" if abs(v) >= 1 else f"{v:.{digits + 3}f}".rstrip("0")
+    return text
+
+
 def plausible_epoch(ns: int) -> bool:
     """True when ``ns`` looks like an absolute time (after 1990): relative clocks and
     bags recorded with simulated time start near zero."""

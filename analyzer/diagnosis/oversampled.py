@@ -32,6 +32,7 @@ import numpy as np
 import numpy.typing as npt
 
 from analyzer.diagnosis.training_check import WindowNote
+from analyzer.timeutil import plain_number, spoken_duration
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -179,9 +180,10 @@ def oversampled_note(
     short = (
         f"the channels are sampled at {rate_hz:g} Hz, {rate_hz / content:.0f} times the "
         f"frequency below which {CONTENT_SHARE:.0%} of their healthy power lies "
-        f"({content:.3g} Hz): the detectors' models remember about {memory} "
-        f"samples ({1000 * memory / rate_hz:.3g} ms of a {1000 / content:.3g}-ms "
+        f"({plain_number(content)} Hz): the detectors' models remember about {memory} "
+        f"samples ({spoken_duration(memory / rate_hz)} of a {spoken_duration(1 / content)} "
         f"period), so a gain or a slow change may be missed or put on another sensor; "
-        f"--rate {suggest:g} aligns the channels where the models see it"
+        f"--rate {suggest:g} aligns the channels on a slower clock, where their {memory} "
+        f"samples span {spoken_duration(memory / suggest)} of that period"
     )
     return WindowNote(short, short)

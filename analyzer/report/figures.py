@@ -28,7 +28,14 @@ from scipy import special
 
 from analyzer.report import format as fmt
 from analyzer.report.decimate import Envelope, envelope, moving_mean
-from analyzer.report.jobs import MAX_POINTS, CoverageRow, ResidualPanel, Segment, close_up
+from analyzer.report.jobs import (
+    MAX_POINTS,
+    CoverageRow,
+    ResidualPanel,
+    Segment,
+    close_up,
+    settled_limits,
+)
 from analyzer.report.svg import (
     grid,
     label,
@@ -442,16 +449,21 @@ def residual_figure(
     key: str,
     train_label: str = "training window",
     onset_bound: bool = False,
+    settled_s: float = 0.0,
 ) -> Markup:
     """Top: the leading detector's residual over the whole archive with the training
     window (``train_label``) and the onset; ``overview`` is its ``envelope(t, r,
     MAX_POINTS)``, computed by the caller (a 4-hour record at 100 Hz is 1.44 M samples:
     their envelope is what this figure would draw anyway, and it ships to a worker
-    process in 24 kB). Below, per detector that saw the fault: its residual around the
-    onset, its moving mean and the threshold band that mean must leave. ``onset_bound``:
-    the onset is an upper bound (:data:`ONSET_BOUND_LABEL`)."""
+    process in 24 kB); its axis scaled from the samples after ``settled_s``, its filters'
+    start-up, where the transient before would flatten the rest (:func:`settled_limits`;
+    the start-up shaded grey and hatched, the transient clipped). Below, per detector
+    that saw the fault: its residual around the onset, its moving mean and the threshold
+    band that mean must leave. ``onset_bound``: the onset is an upper bound
+    (:data:`ONSET_BOUND_LABEL`)."""
+    # one unit on every panel, the whole record's: the SKAB record's top panel read
+    # minutes (onset at 12.0) above panels in seconds (onset at 719)
     axis = TimeAxis.for_span(duration_s)
-    sec = TimeAxis.for_times(panels[0].t) if panels else TimeAxis("s", 1.0)
     with style():
         fig = new_figure(WIDTH_IN, 2.3 + 1.9 * len(panels), constrained=False)
         axes = grid(fig, 1 + len(panels), top=0.3, hgap=0.75)[:, 0]
@@ -465,6 +477,19 @@ def residual_figure(
             label=train_label,
         )
         _plot_envelope(ax, overview, axis, C_RESIDUAL, f"residual ({shown_name(overview_name)})")
+        limits = settled_limits(overview.t, overview.lo, overview.hi, settled_s)
+        if limits is not None:
+            ax.set_ylim(*limits)
+            ax.axvspan(
+                0.0,
+                settled_s / axis.scale,
+                facecolor="#888888",
+                edgecolor="#555555",
+                alpha=0.18,
+                hatch="//",
+                lw=0,
+                label="filters' start-up (clipped)",
+            )
         _mark_onset(ax, onset_s, end_s, axis, onset_bound)
         ax.set_xlim(0, max(duration_s, 1e-9) / axis.scale)
         ax.set_title("whole record", loc="left")
@@ -472,12 +497,12 @@ def residual_figure(
         ax.set_xlabel(axis.label())
         _legend(ax)
         for ax, p in zip(axes[1:], panels, strict=True):
-            _plot_series(ax, p.t, p.residual, sec, C_RESIDUAL, "residual")
+            _plot_series(ax, p.t, p.residual, axis, C_RESIDUAL, "residual")
             if p.window and p.window > 1:
                 mm = moving_mean(p.residual, p.window)
                 env = envelope(p.t, mm, MAX_POINTS)
                 ax.plot(
-                    env.t / sec.scale,
+                    env.t / axis.scale,
                     0.5 * (env.lo + env.hi),
                     color=C_MEAN,
                     lw=1.0,
@@ -494,20 +519,19 @@ def residual_figure(
                 )
                 for s in (-1.0, 1.0):
                     ax.axhline(p.center + s * p.half_band, color=C_BAND, lw=0.8, ls=":")
-            _mark_onset(ax, onset_s, end_s, sec, onset_bound)
+            _mark_onset(ax, onset_s, end_s, axis, onset_bound)
             if p.t.size:
-                ax.set_xlim(p.t[0] / sec.scale, p.t[-1] / sec.scale)
+                ax.set_xlim(p.t[0] / axis.scale, p.t[-1] / axis.scale)
             ax.set_title(label(f"{shown_name(p.detector)}: around the onset"), loc="left")
             ax.set_ylabel("channel units")
             _legend(ax)
-        axes[-1].set_xlabel(sec.label() if panels else axis.label())
+        axes[-1].set_xlabel(axis.label())
         return to_svg(fig, key)
 
 
-def _shewhart(ax: Axes, seg: Segment, what: str) -> None:
+def _shewhart(ax: Axes, seg: Segment, what: str, sec: TimeAxis) -> None:
     sh = (seg.tests or {}).get("shewhart", {})
     k = float(sh.get("k") or 3.0)
-    sec = TimeAxis.for_times(seg.t)
     _plot_series(ax, seg.t, seg.z, sec, C_MEASURED, "z", lw=0.5)
     for s in (-k, k):
         ax.axhline(s, color=C_BAND, lw=0.9, ls="--")
@@ -582,8 +606,12 @@ def tests_figure(
             wgap=0.75,
             width_ratios=[1.6, 1.0, 1.0],
         )
+        # one time unit for the segments' charts, the longest's (a short stretch before
+        # the onset read seconds above one of hours after it)
+        spans = [float(s.t[-1] - s.t[0]) for s in segments if s.t.size]
+        sec = TimeAxis.for_span(max(spans, default=0.0))
         for row, seg in zip(axes, segments, strict=False):
-            _shewhart(row[0], seg, what)
+            _shewhart(row[0], seg, what, sec)
             _probability(row[1], seg)
             _acf(row[2], seg)
         fig.suptitle(

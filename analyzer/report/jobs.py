@@ -46,6 +46,37 @@ class CoverageRow:
     open_faults: list[tuple[float, float]] = field(default_factory=list)
 
 
+START_UP_SHARE = 1 / 3
+"""A whole-record residual's axis is scaled without the filters' start-up transient when
+the transient would take more than this share of it (:func:`settled_limits`)."""
+
+
+def settled_limits(
+    t: FloatArray, lo: FloatArray, hi: FloatArray, settled_s: float
+) -> tuple[float, float] | None:
+    """The y-limits of a whole-record residual (``t``, ``lo``, ``hi``: its envelope) from
+    its samples after ``settled_s`` (its filters' start-up, from the record's first
+    sample), when the samples before it would otherwise take more than
+    :data:`START_UP_SHARE` of the axis; else None (the axis as drawn). The filters start
+    from a zero state: a residual of 1.0 at the first sample beside a fault's 0.03 (a
+    ROS 2 bag's battery voltage) left the fault a flat line on the axis."""
+    if not settled_s > 0:
+        return None
+    after = t >= settled_s
+    a_lo, a_hi = lo[after], hi[after]
+    a_lo, a_hi = a_lo[np.isfinite(a_lo)], a_hi[np.isfinite(a_hi)]
+    b_lo, b_hi = lo[~after], hi[~after]
+    b_lo, b_hi = b_lo[np.isfinite(b_lo)], b_hi[np.isfinite(b_hi)]
+    if not (a_lo.size and a_hi.size and b_lo.size and b_hi.size):
+        return None
+    bottom, top = float(a_lo.min()), float(a_hi.max())
+    whole = max(top, float(b_hi.max())) - min(bottom, float(b_lo.min()))
+    if not whole > 0 or (top - bottom) > (1.0 - START_UP_SHARE) * whole:
+        return None
+    pad = 0.08 * (top - bottom) if top > bottom else 0.08 * (abs(top) or 1.0)
+    return bottom - pad, top + pad
+
+
 @dataclass(slots=True)
 class ResidualPanel:
     """One detector's residual over the zoom window and its detection threshold: the

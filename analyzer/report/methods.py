@@ -70,8 +70,8 @@ DETECTORS: dict[str, Method] = {
 TESTS = Method(
     "tests",
     "Innovation tests of the standardized residual",
-    "Seed 003: model-based sensor validation for structural health monitoring with Kalman "
-    "innovation tests (IST, Advanced Control Systems 2012/2013).",
+    "Innovation sequence tests (IST): model-based sensor validation for structural health "
+    "monitoring with Kalman innovation tests (Advanced Control Systems 2012/2013).",
     "Under healthy operation a correct model's standardized residual is zero-mean, of unit "
     "variance, Gaussian and white. Each property is tested at the 5 % level on the stretch "
     "before the onset and on the stretch after it: Shewhart chart (fraction of samples "

@@ -30,6 +30,7 @@ templates display.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -37,7 +38,7 @@ from typing import Any
 from analyzer import __version__
 from analyzer.report import format as fmt
 from analyzer.report.methods import DECISION, TESTS
-from analyzer.report.view_figures import FigureParts, _span, open_since
+from analyzer.report.view_figures import FigureParts, _span, onset_bound
 from analyzer.report.view_records import (
     DetectorTests,
     Fact,
@@ -48,6 +49,12 @@ from analyzer.report.view_records import (
 )
 from analyzer.report.view_tables import TEST_LABELS, TableParts, _cell
 from analyzer.report.workers import FigureBatch, FigureWorkers, active_workers
+
+NEEDS_CONFIG = "needs [[group]]"
+"""How a detector that runs only with a config says so (the error functions, without
+``[[group]]`` reference and uncertain sensors): the normal case of a run without one,
+which the page says as such, not among the detectors that could not run (every default
+report's first screen listed it there, which read as a configuration error)."""
 
 MAX_DETAILED = 6
 """Findings that get a section (figures, tests, evidence); the others are rows of the
@@ -89,7 +96,16 @@ def build_view(
         summarized=max(0, len(findings) - MAX_DETAILED),
         sections=_sections(detailed, len(findings)),
         checked=a.checked(),
-        skipped=[Fact(k, str(v)) for k, v in (doc.get("skipped_detectors") or {}).items()],
+        skipped=[
+            Fact(k, str(v))
+            for k, v in (doc.get("skipped_detectors") or {}).items()
+            if not str(v).startswith(NEEDS_CONFIG)
+        ],
+        by_default=[
+            Fact(k, str(v))
+            for k, v in (doc.get("skipped_detectors") or {}).items()
+            if str(v).startswith(NEEDS_CONFIG)
+        ],
         notes=[str(n) for n in doc.get("notes") or []],
         input_errors=[
             f"{i['path']}: {e}" for i in doc.get("inputs", []) for e in i.get("errors", [])
@@ -234,7 +250,7 @@ class _Access(FigureParts, TableParts):
             type=str(f["type"]),
             # an upper bound (the fault was there when the search began) says so wherever
             # it is shown: "at or before 4.310 s", not an exact 4.310 s
-            onset_s=("at or before " if open_since(f) is not None else "")
+            onset_s=("at or before " if onset_bound(f) else "")
             + fmt.seconds(f.get("onset_s"), self.decimals),
             # empty without absolute time (relative timestamps): the page then omits them
             onset_utc=str(f.get("onset") or ""),
@@ -302,6 +318,17 @@ class _Access(FigureParts, TableParts):
                     "it began at or before then (perhaps in an earlier record)",
                 )
             )
+        if ev.get("onset_at_search_start"):
+            out.append(
+                Fact(
+                    "Onset bound",
+                    "the fault was there when the search started at "
+                    f"{fmt.seconds(f.get('onset_s'), d)}, the first sample after the "
+                    f"{self.train_label}: it began at or before then, perhaps inside the "
+                    "window, whose data the models then took as healthy (a --train that "
+                    "ends earlier tells)",
+                )
+            )
         after = ev.get("searched_after")
         if isinstance(after, Mapping):
             stretch = after.get("stretch_s") or []
@@ -355,6 +382,9 @@ class _Access(FigureParts, TableParts):
             "explained": ("share of residual explained by the fault model", fmt.percent),
             "type_weights": ("type weights", _weights),
             "noise_scale": ("residual spread / healthy spread (fitted)", lambda v: fmt.num(v, 3)),
+            # "law 0; law 3 (circle)": the network's diagnosis laws (Wang & Song 2014,
+            # Section 6.2) that attributed the alarm, said once ("law: law 0" before)
+            "law": ("sensor-network diagnosis laws applied", _laws),
         }
         out = []
         for det, extra in (ev.get("by_detector") or {}).items():
@@ -396,6 +426,11 @@ class _Access(FigureParts, TableParts):
 
 
 # -- helpers ------------------------------------------------------------------------------
+
+
+def _laws(v: Any) -> str:
+    """``law 0; law 3 (circle)`` as ``0; 3 (circle)``: the label names the laws."""
+    return re.sub(r"\blaw (\d)", r"\1", str(v))
 
 
 def _agree(agree: Any, kind: str, lead: str) -> str:

@@ -92,7 +92,7 @@ class FigureParts:
         ch = str(f["channel"])
         onset = float(f["onset_s"])
         end = None if f.get("end_s") is None else float(f["end_s"])
-        bound = open_since(f) is not None  # onset_s an upper bound: the line says so
+        bound = onset_bound(f)  # onset_s an upper bound: the line says so
         dets = [d for d in view.detectors if self._residual(d, ch) is not None]
         lead = view.lead if view.lead in dets else (dets[0] if dets else None)
         k0, k1 = self._zoom(onset, end, lead, ch)
@@ -216,10 +216,15 @@ class FigureParts:
                 continue
             th = self._threshold(d, ch)
             panels.append(fg.ResidualPanel(d, np.arange(k0, k1) / self.rate, _f64(r[k0:k1]), *th))
+        overview = envelope(Clock(full.shape[0], self.rate), full, fg.MAX_POINTS)  # drawn of it
+        # the axis without the filters' start-up transient, where it would flatten the rest
+        settled_s = min(getattr(self.an, "settling", {}).get(lead, 0), full.shape[0] // 2)
+        settled_s /= self.rate
+        clipped = fg.settled_limits(overview.t, overview.lo, overview.hi, settled_s) is not None
         job = fg.FigureJob(
             "residual_figure",
             (
-                envelope(Clock(full.shape[0], self.rate), full, fg.MAX_POINTS),  # drawn of it
+                overview,
                 lead,
                 panels,
                 onset,
@@ -229,7 +234,13 @@ class FigureParts:
                 f"{view.anchor}-residual",
                 self.train_label,
             ),
-            {"onset_bound": open_since(f) is not None},
+            {"onset_bound": onset_bound(f), "settled_s": settled_s if clipped else 0.0},
+        )
+        start_up = (
+            f" The top panel's axis is scaled without the filters' start-up transient (the "
+            f"first {fmt.duration(settled_s)}, hatched grey), which is drawn clipped."
+            if clipped
+            else ""
         )
         bands = "; ".join(
             f"{p.detector}: {p.window}-sample mean outside {fmt.num(p.center)} ± "
@@ -245,7 +256,7 @@ class FigureParts:
             "the fault, around the onset, with the trailing moving mean (black) and the band "
             "it must leave to raise an alarm (red; set from the training residual and the "
             f"false-alarm rate: {bands or 'not available'}). The log-mean-square statistic, "
-            "which alarms on gain changes, is not drawn.",
+            f"which alarms on gain changes, is not drawn.{start_up}",
             job,
         )
 
@@ -479,6 +490,14 @@ def _f64(x: Any) -> FloatArray:
     return np.asarray(x, dtype=np.float64)
 
 
+def onset_bound(f: Mapping[str, Any]) -> bool:
+    """Whether a fault's ``onset_s`` is only an upper bound: it was there when a search
+    began (:func:`open_since`), or at the first sample searched after the training
+    window (``onset_at_search_start``: it may have begun inside the window)."""
+    ev = f.get("evidence") or {}
+    return open_since(f) is not None or bool(ev.get("onset_at_search_start"))
+
+
 def open_since(f: Mapping[str, Any]) -> float | None:
     """Where a fault whose ``onset_s`` is only an upper bound may have begun, or None
     when ``onset_s`` is where it began. With ``--model`` a fault present when the search
@@ -541,5 +560,6 @@ __all__ = [
     "ZOOM_MIN_S",
     "FigureParts",
     "fault_spans",
+    "onset_bound",
     "open_since",
 ]

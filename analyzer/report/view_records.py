@@ -156,6 +156,9 @@ class ReportView:
     summarized: int
     checked: list[Fact]
     skipped: list[Fact]
+    by_default: list[Fact]
+    """Detectors not run because they run only with a config (:data:`~analyzer.report.
+    view.NEEDS_CONFIG`): the normal case without one."""
     notes: list[str]
     input_errors: list[str]
     inputs: list[InputView]

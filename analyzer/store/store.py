@@ -39,11 +39,12 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from analyzer.errors import IntegrityError, StoreError
+from analyzer.errors import IntegrityError, StoreError, capped
 from analyzer.paging import is_mapped, mapped_file, pwrite_all, release
 from analyzer.readers.base import ChannelChunk
 from analyzer.readers.tally import Tally
 from analyzer.scratch import make_scratch, remove_scratch
+from analyzer.timeutil import plain_number
 from analyzer.types import NS_PER_S
 
 FloatArray = npt.NDArray[np.float64]
@@ -400,6 +401,36 @@ class ChannelStore:
         bad = [p for p in include if not self._matching([p])]
         return bad + [f"!{p}" for p in exclude if not self._matching([p])]
 
+    def unmatched_line(self, patterns: Sequence[str], option: str = "--channels") -> str:
+        """The usage error of ``option`` for its first pattern that matches no channel
+        (:meth:`unmatched`), or "" when each matches one: it names the archive's
+        channels (:func:`~analyzer.errors.capped`: the first four and ``and N more``)
+        and, when channels hold the pattern inside their names (``s4`` in
+        ``/s4.data``), the one or the ``*s4*`` that matches them (the pattern is matched
+        against the whole name, and ``s4`` said only that it matches nothing)."""
+        unmatched = self.unmatched(patterns)
+        if not unmatched:
+            return ""
+        pattern = unmatched[0]
+        bang, core = ("!", pattern[1:]) if pattern.startswith("!") else ("", pattern)
+        names = list(self._info)
+        inside = self._matching([f"*{core}*"]) or [
+            n for n in names if fnmatch.fnmatchcase(n.lower(), f"*{core.lower()}*")
+        ]
+        if len(inside) == 1:
+            hint = f"; did you mean {bang}{inside[0]}?"
+        elif inside and self._matching([f"*{core}*"]):
+            hint = f"; did you mean '{bang}*{core}*', which matches {capped(inside)}?"
+        elif inside:
+            hint = f"; did you mean one of {capped(inside)}?"
+        else:
+            hint = ""
+        whole = " (a pattern matches the whole name; " if hint else " ("
+        return (
+            f"{option}: pattern {pattern!r} matches no channel{hint}{whole}the channels: "
+            f"{capped(names)})"
+        )
+
     def _split(self, patterns: Sequence[str]) -> tuple[list[str], list[str]]:
         """Patterns that select, and those that leave out (``!GLOB``; a channel whose name
         starts with ``!`` is still selected by its exact name)."""
@@ -443,7 +474,8 @@ class ChannelStore:
         if n < 2 and rate_hz is not None and span > 0:
             raise StoreError(
                 f"--rate {rate:g} Hz is too low: the data span {span:.6g} s, which gives "
-                f"{n} row(s) on that clock (need at least 2, so at least {1 / span:.3g} Hz)"
+                f"{n} row(s) on that clock (need at least 2, so at least "
+                f"{plain_number(1 / span)} Hz)"
             )
         most = max(i.samples for i in infos)  # type: ignore[union-attr]
         if n > MAX_ROWS_PER_SAMPLE * most + MIN_ROWS_ALLOWED:

@@ -3,6 +3,7 @@ one-line error."""
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import pytest
@@ -25,6 +26,14 @@ def one_line_error(err: str, *needles: str) -> str:
     for n in needles:
         assert n in lines[0], (n, lines[0])
     return lines[0]
+
+
+def said(err: str) -> list[str]:
+    """The lines of a run's stderr before its last one, which says what it found and
+    where the report is (:func:`analyzer.pipeline.summary_line`): the warnings."""
+    lines = err.splitlines()
+    assert lines and re.match(r"analyzer: (no sensor fault|\d+ sensor faults?) found", lines[-1])
+    return lines[:-1]
 
 
 def rounded(doc: Any, digits: int = 9) -> Any:

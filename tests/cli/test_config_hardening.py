@@ -18,7 +18,7 @@ from analyzer.errors import ConfigError, DetectorError
 from analyzer.options import load_options
 from analyzer.simulate import band_limited_noise, inject_fault, shear_building, simulate_response
 from analyzer.writers import write_archive
-from tests.cli.cli_helpers import one_line_error, run_cli
+from tests.cli.cli_helpers import one_line_error, run_cli, said
 
 RATE = 50.0
 MODEL = 'file = "m.npz"\noutputs = ["s0", "s1", "s2", "s3", "s4", "s5"]\n'
@@ -77,7 +77,7 @@ def test_a_groups_measured_inputs_feed_the_models_detection_filter(building, tmp
     out = tmp_path / "o"
     code, _, err = run_cli(["run", building / "d.csv", "--config", cfg, "--out", out], capsys)
     assert code == 1, err
-    assert err == ""
+    assert said(err) == []
     doc = json.loads((out / "findings.json").read_text())
     assert doc["skipped_detectors"] == {}
     ran = {d["name"]: d for d in doc["detectors"]}
@@ -246,7 +246,7 @@ def test_a_model_the_data_cannot_use_is_a_warning(building, tmp_path, capsys, mo
     assert code == 2  # a detector the user named still fails the run
     code, _, err = run_cli([*argv, "--channels", "s*"], capsys)
     assert code == 1, err
-    line = one_line_error(err, "analyzer: warning:", "warn.toml", *needles)
+    line = one_line_error("\n".join(said(err)), "analyzer: warning:", "warn.toml", *needles)
     skipped = json.loads((tmp_path / "o" / "findings.json").read_text())["skipped_detectors"]
     assert needles[-1] in skipped["detection_filter"]
     assert "error:" not in line
@@ -262,7 +262,9 @@ def test_a_group_input_missing_from_the_archive_is_a_warning(building, tmp_path,
     argv = ["run", building / "d.csv", "--config", cfg, "--out", tmp_path / "o"]
     code, _, err = run_cli([*argv, "--channels", "s*"], capsys)
     assert code == 1, err
-    one_line_error(err, "warning", "ground.toml", "[[group]] is not used", "'ground'")
+    one_line_error(
+        "\n".join(said(err)), "warning", "ground.toml", "[[group]] is not used", "'ground'"
+    )
 
 
 @pytest.mark.parametrize(

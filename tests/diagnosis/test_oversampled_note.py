@@ -115,7 +115,7 @@ def test_the_note_names_the_memory_the_run_sets_and_its_limit_follows():
     assert oversampled_note(y, names, (0, y.shape[0]), rate) is None
     note = oversampled_note(y, names, (0, y.shape[0]), rate, memory=7)
     assert note is not None
-    assert "remember about 7 samples (29.8 ms of a 142-ms period)" in note
+    assert "remember about 7 samples (29.8 ms of a 142 ms period)" in note
     rate = 1.2 * MAX_RATIO * hz  # 48 times: over the default's 40, under 80
     y, names = _sines(hz, rate)
     assert "remember about 10 samples" in str(oversampled_note(y, names, (0, y.shape[0]), rate))

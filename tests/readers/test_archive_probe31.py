@@ -240,6 +240,7 @@ def test_run_repeats_the_archives_notes_on_stderr(tmp_path: Path, capsys) -> Non
     assert err.splitlines() == [
         f"analyzer: warning: {folder / 'live.csv'} not read: not a regular file (a FIFO)",
         f"analyzer: warning: {folder / 'part0.csv'} given twice: read once",
+        f"analyzer: no sensor fault found; report: {out / 'report.html'}",
     ]
     notes = json.loads((out / "findings.json").read_text())["notes"]
     assert f"{folder / 'live.csv'} not read: not a regular file (a FIFO)" in notes

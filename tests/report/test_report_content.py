@@ -176,7 +176,7 @@ def test_archive_and_models_sections(faulty):
         "Li, Koh &amp; Nagarajaiah",
         "Park, Rizzoni &amp; Ribbens",
         "Wang &amp; Song",
-        "Seed 003",
+        "Innovation sequence tests (IST)",
     ):
         assert ref in method
 
@@ -282,10 +282,13 @@ def test_input_errors_skipped_detectors_and_notes_are_listed(monkeypatch):
     a = synthetic_analysis(120.0, 2, RATE, [])
     a.inputs[0].errors.append("chunk 3: truncated record at byte 4096")
     a.skipped["error_function"] = "needs [[group]] reference/uncertain sensors"
+    a.skipped["detection_filter"] = "too little healthy data to calibrate"
     html = render_report(a, findings_document(a))
     verdict = html[html.index('id="verdict"') : html.index('id="archive"')]
     assert "Input errors" in verdict and "truncated record at byte 4096" in verdict
-    assert "Detectors not run" in verdict and "error_function" in verdict
+    assert "Detectors not run" in verdict and "detection_filter</b>: too little" in verdict
+    # (the error functions' need of a config is the normal case, said apart)
+    assert "error_function</b> runs only when configured" in verdict
     assert "synthetic analysis" in verdict  # the analysis notes
     archive = html[html.index('id="archive"') : html.index('id="models"')]
     assert "truncated record at byte 4096" in archive
