@@ -45,7 +45,7 @@ from analyzer.diagnosis import (
     one_fault_at_a_time,
     onsets_hidden_by_earlier,
 )
-from analyzer.diagnosis.changes import LONG_FACTOR, default_window
+from analyzer.diagnosis.changes import LONG_FACTOR, default_window, training_need
 from analyzer.diagnosis.clipping import merge_clipped
 from analyzer.diagnosis.common_mode import common_changes
 from analyzer.diagnosis.evidence import (
@@ -66,7 +66,12 @@ from analyzer.diagnosis.stuck import (
     revived_gains,
     zero_channels,
 )
-from analyzer.diagnosis.training_check import WindowNote, window_notes, window_warnings
+from analyzer.diagnosis.training_check import (
+    WindowNeed,
+    WindowNote,
+    window_notes,
+    window_warnings,
+)
 from analyzer.errors import (
     LISTED,
     AnalyzerError,
@@ -842,7 +847,15 @@ def _analyze(
         if reused is None:  # a step or a gain change inside the healthy window itself
             notes.extend(
                 window_notes(
-                    values, chosen, groups, train, tr, aligned.duration_s, aligned.rate_hz, findings
+                    values,
+                    chosen,
+                    groups,
+                    train,
+                    tr,
+                    aligned.duration_s,
+                    aligned.rate_hz,
+                    findings,
+                    lambda: _window_need(results, aligned.rate_hz, values),
                 )
             )
             # and a clock far above what the sensors carry (the models' memory too short)
@@ -2256,6 +2269,24 @@ WINDOW_MARGIN = 1.05
 training window :func:`_longer_window` suggests: a longer window can let an order or lag
 criterion choose a larger model, which needs a little more (the filters' settling is in
 the need already: :func:`analyzer.detector_runs.skip_reason`)."""
+
+
+def _window_need(
+    results: Sequence[DetectorResult], rate_hz: float, values: Any
+) -> WindowNeed | None:
+    """What a training window must hold for each detector of ``results`` to run again
+    (:class:`~analyzer.diagnosis.training_check.WindowNeed`), from their fits, not
+    another fit: the rows that leave their thresholds' calibration enough of the
+    residual at their ``window`` (:func:`~analyzer.diagnosis.changes.training_need`, the
+    need that stopped the SKAB pumps' and the cart-pole's default windows, and always
+    the model fits' at 1 Hz), :data:`WINDOW_MARGIN` more, as :func:`_longer_window`
+    asks of a window too short. None when no detector says its window."""
+    windows = [r.params.get("window") for r in results]
+    known = [int(w) for w in windows if isinstance(w, (int, np.integer)) and w > 0]
+    if not known:
+        return None
+    rows = math.ceil(max(training_need(w) for w in known) * WINDOW_MARGIN)
+    return WindowNeed(rows, rate_hz, _held_rows(values))
 
 
 def _longer_window(

@@ -179,6 +179,14 @@ def calibration_need(window: int) -> int:
     return 4 * LONG_FACTOR * window
 
 
+def training_need(window: int) -> int:
+    """Training rows that leave :func:`calibration_need` samples of the residual with
+    ``window``: the detectors leave at most a quarter of the window out while their
+    filters settle (:func:`needing_calibration`). What a fitted detector's ``window``
+    (its result's ``params``) tells of the window it needs, without another fit."""
+    return -(-4 * calibration_need(window) // 3)
+
+
 def needing_calibration(err: TooLittleDataError, window: int) -> TooLittleDataError:
     """``err``, a model fit's "too little healthy data", needing at least what the
     thresholds' calibration after the fit needs (:func:`calibration_need`): a model asks
@@ -187,7 +195,7 @@ def needing_calibration(err: TooLittleDataError, window: int) -> TooLittleDataEr
     rows at 1 Hz, its calibration for 512). In training rows: the detectors leave at most a
     quarter of the window out of the residual while their filters settle (the bank's and
     the detection filter's ``skip``, the equivalent model's ``_head``)."""
-    need = -(-4 * calibration_need(window) // 3)
+    need = training_need(window)
     if err.need >= need:
         return err
     return TooLittleDataError(str(err), err.have, need)

@@ -77,7 +77,7 @@ channel only when the window fails. 16 channels, 10 minutes at 100 Hz: see
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -225,6 +225,43 @@ def window_warnings(notes: Sequence[str]) -> list[str]:
     return [n.short for n in notes if isinstance(n, WindowNote)]
 
 
+@dataclass(frozen=True, slots=True)
+class WindowNeed:
+    """What a window the notes suggest must hold for the detectors that ran: ``rows``
+    rows with a sample of every channel (the run's own rule, from the detectors' fitted
+    settings: :func:`analyzer.pipeline._window_need`), at ``rate_hz``; ``held``: how many
+    of the archive's first ``i`` rows hold every channel (None: all of them). Without it
+    the notes suggested windows the run then refused: a SKAB pump's ``--train 0:718`` was
+    told ``--train 0:553`` (before a change), which stopped with "give --train 0:718"."""
+
+    rows: int
+    rate_hz: float
+    held: npt.NDArray[np.int64] | None = None
+
+    @property
+    def seconds(self) -> float:
+        return self.rows / self.rate_hz
+
+    def _row(self, x: float) -> int:
+        last = (len(self.held) - 1) if self.held is not None else np.iinfo(np.int64).max
+        return int(min(last, max(0, round(x * self.rate_hz))))
+
+    def holds(self, start: float, end: float) -> bool:
+        """Whether ``start .. end`` (seconds) holds the rows the detectors need."""
+        if self.held is None:
+            return self._row(end) - self._row(start) >= self.rows
+        return int(self.held[self._row(end)] - self.held[self._row(start)]) >= self.rows
+
+    def end(self, start: float) -> float:
+        """The earliest end (seconds) of a window from ``start`` that holds the rows
+        (infinite past the archive's end)."""
+        if self.held is None:
+            return self._row(start) / self.rate_hz + self.seconds
+        a = self._row(start)
+        ahead = int(np.searchsorted(self.held, self.held[a] + self.rows))
+        return ahead / self.rate_hz if ahead < len(self.held) else float("inf")
+
+
 def window_notes(
     values: npt.NDArray[Any],
     channels: Sequence[str],
@@ -234,17 +271,23 @@ def window_notes(
     duration_s: float,
     rate_hz: float,
     findings: Sequence[Finding] = (),
+    need: Callable[[], WindowNeed | None] | None = None,
 ) -> list[str]:
     """The run's notes on its training window (rows ``train`` of the aligned matrix
     ``values``, ``train_s`` in seconds): :func:`check_training` on the channel
     ``groups``, told by :func:`training_notes` (a channel whose drift a finding traced
-    into the window is told by that finding's note)."""
+    into the window is told by that finding's note). ``need``: what the windows it
+    suggests must hold (:class:`WindowNeed`), asked only when a change is found."""
     window = values[train[0] : train[1]]  # a view: each group reads its own columns
     changes = check_training(window, channels, groups, rate_hz, train[0] / rate_hz)
+    if not changes:
+        return []
     drifting = [
         f.channel for f in findings if any(e.evidence.get("starts_in_training") for e in f.events)
     ]
-    return training_notes(changes, train_s, duration_s, drifting)
+    return training_notes(
+        changes, train_s, duration_s, drifting, need() if need is not None else None
+    )
 
 
 def training_notes(
@@ -252,12 +295,16 @@ def training_notes(
     train_s: tuple[float, float],
     duration_s: float,
     drifting: Sequence[str] = (),
+    need: WindowNeed | None = None,
 ) -> list[str]:
     """The run's note (a :class:`WindowNote`) for each change: which sensor, what, when,
     and the windows (``--train``) before and after it. ``train_s``: the window's start and end,
     ``duration_s``: the record's; ``drifting``: channels whose drift was already traced
     into the window (:func:`~analyzer.diagnosis.merge.traced_into_training`), not noted
-    twice."""
+    twice. A window suggested runs when given: it ends before the record does (the
+    search runs from its end) and, with ``need``, holds what the detectors need (the
+    window after the change is lengthened to it); a side too short is said with its
+    length, and where neither side will do the note says so and how else to train."""
     notes: list[str] = []
     a, b = train_s
     for c in changes:
@@ -271,16 +318,29 @@ def training_notes(
         who = c.channels[0]
         if len(c.channels) > 1:
             who += f" (or {' or '.join(c.channels[1:])}: the others cannot tell them apart)"
-        before = f"--train {a:.6g}:{c.lo_s:.6g}" if c.lo_s - a > 0 else None
         back = "" if c.end_s is None else f" and back at about {c.end_s:.6g} s"
         last = c.hi_s if c.end_hi_s is None else c.end_hi_s  # (the change's, or its return's)
-        after_end = min(duration_s, last + (b - a))
-        after = f"--train {last:.6g}:{after_end:.6g}" if after_end > last else None
+        before, after, short = _sides(a, c.lo_s, last, b - a, duration_s, need)
         advice = " or ".join(
             f"{w} ({s})"
             for w, s in ((before, "before it, if the sensor was right then"), (after, "after it"))
             if w is not None
         )
+        if short:
+            needs = (
+                ""
+                if need is None
+                else f", shorter than the ~{need.seconds:.6g} s the detectors need"
+            )
+            said = "; ".join(short) + needs
+            advice = (
+                f"{advice} ({said})"
+                if advice
+                else f"no window free of it is long enough ({said}): fit the models on a "
+                "healthy recording of the same system with --save-model and analyze this one "
+                "with --model"
+            )
+        tells = f"a window that does not cross it tells: {advice}" if before or after else advice
         head = (
             f"the healthy window ({a:.6g}-{b:.6g} s) is not steady: {who} changes inside it "
             f"at about {c.at_s:.6g} s{back}"
@@ -294,12 +354,39 @@ def training_notes(
                 f"(|t| {c.statistic:.3g}, bound {c.critical:.3g}), while the channels modelled "
                 "with it do not; a sensor fault there, or a change of the monitored system "
                 "that they do not share, was fitted into the models as healthy, so faults may "
-                f"be missed or misplaced; a window that does not cross it tells: {advice}",
+                f"be missed or misplaced; {tells}",
                 f"{head} ({' and '.join(what)}): the models were fitted on it; {advice}",
-                (a, c.lo_s) if before is not None else None,
+                (a, c.lo_s) if c.lo_s - a > 0 else None,
             )
         )
     return notes
+
+
+def _sides(
+    a: float, lo: float, last: float, length: float, duration_s: float, need: WindowNeed | None
+) -> tuple[str | None, str | None, list[str]]:
+    """The ``--train`` windows before a change (``a .. lo``) and after it (from ``last``,
+    as long as the window was, or as the detectors need), None where there is no such
+    window or it would not run, and what is said of the sides too short."""
+    short = []
+    before = None
+    if lo - a > 0:
+        if need is None or need.holds(a, lo):
+            before = f"--train {a:.6g}:{lo:.6g}"
+        else:
+            short.append(f"before it: only {lo - a:.6g} s")
+    # the window must end before the record does: the search runs from its end
+    room = duration_s - (1.0 / need.rate_hz if need is not None else 0.0)
+    end = last + length
+    if need is not None:
+        least = need.end(last)
+        end = max(end, least) if max(end, least) < room else least
+    after = None
+    if end < room:
+        after = f"--train {last:.6g}:{end:.6g}"
+    elif duration_s > last:
+        short.append(f"after it: only {duration_s - last:.6g} s to the record's end")
+    return before, after, short
 
 
 _Change = tuple[

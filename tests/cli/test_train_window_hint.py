@@ -16,7 +16,7 @@ import pytest
 from cli_helpers import one_line_error, run_cli
 
 from analyzer.errors import TooLittleDataError
-from analyzer.simulate import simulate_building
+from analyzer.simulate import inject_fault, simulate_building
 
 SKAB_FREE = "benchmark/SKAB/data/anomaly-free/anomaly-free.csv"
 
@@ -139,6 +139,50 @@ def test_an_archive_shorter_than_the_need_says_so(tmp_path, capsys):
     longer = _record(tmp_path / "long.csv", 3, 3 * need, 1.0, 5)
     code, err = _run(longer, tmp_path / "o2", capsys, f"0:{need}")
     assert code in (0, 1), err
+
+
+STEADY = "is not steady"
+
+ADVISED = re.compile(r"--train ([0-9.]+:[0-9.]+)")
+
+
+@pytest.mark.parametrize(
+    ("rate_hz", "duration_s", "train", "onset_s", "seed"),
+    [
+        (1.0, 2400.0, "0:900", 500.0, 1),  # before it too short: after it only
+        (1.0, 1300.0, "0:1000", 600.0, 2),  # after it reaches the end: neither
+        (5.0, 800.0, "0:400", 250.0, 3),  # both long enough at 5 Hz
+    ],
+)
+def test_the_windows_a_step_inside_the_window_suggests_run(
+    tmp_path, capsys, rate_hz, duration_s, train, onset_s, seed
+):
+    """A user audit: SKAB's ``other/9.csv`` stopped at the default window with "give
+    --train 0:718"; with it, a change inside the window was noted with "--train 0:553
+    (before it) or --train 610:1200 (after it)", and 0:553 stopped again with "give
+    --train 0:718" (610:1200 too: it covers the record's end). Every window the note
+    suggests now runs; a side too short is said, not suggested, and so is the case of
+    neither."""
+    t, y, names = simulate_building(
+        3, duration_s, rate_hz, seed=seed, f1_hz=0.1 * rate_hz, sensors_per_floor=2
+    )
+    noise = float(y[:, 1].std() / np.sqrt(1.0 + 10.0**2))  # (20 dB below the signal)
+    y[:, 1] = inject_fault(y[:, 1], rate_hz, "additive", onset_s, 4.0 * noise)
+    path = tmp_path / "step.csv"
+    header = "time," + ",".join(names)
+    np.savetxt(path, np.column_stack([t, y]), delimiter=",", header=header, comments="", fmt="%.9g")
+    code, err = _run(path, tmp_path / "o", capsys, train)
+    assert code in (0, 1), err
+    (warning,) = [line for line in err.splitlines() if STEADY in line]
+    advised = ADVISED.findall(warning)
+    for i, window in enumerate(advised):
+        code, err = _run(path, tmp_path / f"o{i}", capsys, window)
+        assert code in (0, 1), (window, err)
+    # each side is suggested or said too short
+    assert "(before it" in warning or "before it: only" in warning, warning
+    assert "(after it)" in warning or "after it: only" in warning, warning
+    if not advised:
+        assert "no window free of it is long enough" in warning and "--model" in warning
 
 
 @pytest.mark.realdata

@@ -23,6 +23,7 @@ from analyzer.diagnosis.training_check import (
     BATCHES,
     LAGS,
     WindowChange,
+    WindowNeed,
     WindowNote,
     _inflation,
     _parts,
@@ -265,7 +266,9 @@ def test_the_note_names_the_sensor_the_time_and_the_windows_before_and_after():
     )
     assert "s1 (or s0: the others cannot tell them apart)" in twin
     assert "its scale against the others changes 1.46-fold" in twin
-    assert "--train 6.5:13 (after it)" in twin
+    # a window after it as long would pass the record's end (13 s), where the search
+    # starts: none, and said (it was "--train 6.5:13", which the run refused)
+    assert twin.endswith("(after it: only 6.5 s to the record's end)") and "6.5:" not in twin
     # at the window's start: nothing before it; a drift already traced: no second note
     (first,) = training_notes([_change(lo_s=0.0)], (0.0, 12.0), 60.0)
     assert "--train 0:" not in first and "--train 6.5:18.5 (after it)" in first
@@ -275,6 +278,34 @@ def test_the_note_names_the_sensor_the_time_and_the_windows_before_and_after():
     assert "s1 changes inside it at about 6 s and back at about 9 s (between 5.5 and 6.5 s; " \
         "back between 8.5 and 9.5 s)" in back  # fmt: skip
     assert back.endswith("--train 9.5:21.5 (after it)") and back.before == (0.0, 5.5)
+
+
+def test_the_windows_suggested_hold_what_the_detectors_need():
+    """The notes suggested windows the run then refused (SKAB's ``other/9.csv``: "before
+    it" 553 s where the detectors need 718); a side too short is said, the window after
+    the change is as long as they need, and gaps count."""
+    (note,) = training_notes([_change()], (0.0, 12.0), 60.0, need=WindowNeed(100, 10.0))
+    assert note.endswith(
+        "--train 6.5:18.5 (after it) (before it: only 5.5 s, shorter than the ~10 s the "
+        "detectors need)"
+    )
+    assert note.before == (0.0, 5.5)  # (the default window's retraining decides alone)
+    (longer,) = training_notes([_change()], (0.0, 12.0), 60.0, need=WindowNeed(150, 10.0))
+    assert "--train 6.5:21.5 (after it)" in longer
+    (neither,) = training_notes([_change()], (0.0, 12.0), 20.0, need=WindowNeed(150, 10.0))
+    assert "--train" not in neither and neither.short.endswith(
+        "no window free of it is long enough (before it: only 5.5 s; after it: only 13.5 s "
+        "to the record's end, shorter than the ~15 s the detectors need): fit the models on "
+        "a healthy recording of the same system with --save-model and analyze this one "
+        "with --model"
+    )
+    # rows 70-149 hold no sample of some channel: the window after it is longer by them
+    complete = np.ones(600, dtype=bool)
+    complete[70:150] = False
+    held = np.concatenate([[0], np.cumsum(complete)])
+    (gappy,) = training_notes([_change()], (0.0, 12.0), 60.0, need=WindowNeed(50, 10.0, held))
+    assert gappy.endswith("--train 0:5.5 (before it, if the sensor was right then) or "
+                          "--train 6.5:19.5 (after it)")  # fmt: skip
 
 
 def test_a_run_notes_a_step_inside_its_window_in_findings_and_on_stderr(tmp_path, capsys):
@@ -287,6 +318,8 @@ def test_a_run_notes_a_step_inside_its_window_in_findings_and_on_stderr(tmp_path
     main(["run", str(path), "--out", str(out), "--no-progress", "--jobs", "1"])
     notes = json.loads((out / "findings.json").read_text())["notes"]
     (note,) = [n for n in notes if n.startswith("the healthy window (0-12 s) is not steady")]
-    assert "s1 changes inside it at about 6" in note and "--train 0:5." in note
+    assert "s1 changes inside it at about 6" in note and "(after it)" in note
+    # 0:5.4 is too short for the detectors at 100 Hz (the run refuses it): said, not given
+    assert "before it: only 5." in note and "--train 0:" not in note
     err = capsys.readouterr().err
     assert "analyzer: warning: the healthy window (0-12 s) is not steady: s1 changes" in err
