@@ -134,8 +134,9 @@ def test_a_corrupt_gzip_alone_is_analyzed_up_to_the_damage(
     path.write_bytes(zero_sector(gzip.compress(("time,a,b,c\n" + rows).encode())))
     out = tmp_path / "out"
     assert cli.main(["run", str(path), "--out", str(out), "--jobs", "1", "--no-progress"]) == 0
-    err = capsys.readouterr().err.strip().splitlines()
+    *err, last = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "the rest of the file from the damage on dropped" in err[0]
+    assert last.startswith("analyzer: no sensor fault found; report: ")  # (the run's last line)
     findings = json.loads((out / "findings.json").read_text())
     assert findings["start"].startswith("2026-01-01T00:00:00")
     assert 50 < findings["duration_s"] < 150  # up to the damage (200 s written)
