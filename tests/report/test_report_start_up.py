@@ -6,26 +6,18 @@ import dataclasses
 
 import numpy as np
 import pytest
+from report_helpers import RATE, offset_building
 
-from analyzer.pipeline import RunOptions, analyze, findings_document
+from analyzer.pipeline import findings_document
 from analyzer.report import render_report
 from analyzer.report.jobs import settled_limits
-from analyzer.simulate import inject_fault, simulate_building
-from analyzer.writers import write_archive
 
-RATE = 50.0
 SAID = "axis is scaled without the filters&#39; start-up transient"
 
 
 @pytest.fixture(scope="module")
 def faulty(tmp_path_factory):
-    t, y, names = simulate_building(3, 60.0, RATE, seed=1)
-    y[:, 1] = inject_fault(y[:, 1], RATE, "additive", 36.0, 3.0 * float(np.std(y[:, 1])))
-    path = tmp_path_factory.mktemp("b") / "b.csv"
-    write_archive(
-        path, "csv", np.round(t * 1e9).astype(np.int64), dict(zip(names, y.T, strict=True))
-    )
-    analysis = analyze([path], RunOptions(train="0:15"))
+    analysis = offset_building(tmp_path_factory, 3)
     assert analysis.findings
     return analysis
 

@@ -5,26 +5,16 @@ without a config, which read as a configuration error (it is the normal case).""
 
 import re
 
-import numpy as np
 import pytest
+from report_helpers import offset_building
 
-from analyzer.pipeline import RunOptions, analyze, findings_document
+from analyzer.pipeline import findings_document
 from analyzer.report import render_report
-from analyzer.simulate import inject_fault, simulate_building
-from analyzer.writers import write_archive
-
-RATE = 50.0
 
 
 @pytest.fixture(scope="module")
 def page(tmp_path_factory):
-    t, y, names = simulate_building(4, 60.0, RATE, seed=1)
-    y[:, 1] = inject_fault(y[:, 1], RATE, "additive", 36.0, 3.0 * float(np.std(y[:, 1])))
-    path = tmp_path_factory.mktemp("b") / "b.csv"
-    write_archive(
-        path, "csv", np.round(t * 1e9).astype(np.int64), dict(zip(names, y.T, strict=True))
-    )
-    analysis = analyze([path], RunOptions(train="0:15"))
+    analysis = offset_building(tmp_path_factory, 4)
     doc = findings_document(analysis)
     return doc, render_report(analysis, doc)
 
