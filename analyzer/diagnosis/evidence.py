@@ -371,7 +371,11 @@ def windowed_summary(
     summarized as the share of windows each test rejects (about 5 % for a healthy,
     well-modelled residual), on the residual whitened by its model of the training
     window ``train`` (as the tests around an onset; not whitened without one;
-    ``fitted``: those models, :func:`whitenings`, else fitted here)."""
+    ``fitted``: those models, :func:`whitenings`, else fitted here). With ``train``,
+    each test also counts its rejecting windows inside that window after its first
+    quarter (``training_fraction`` and its counts): a real residual is rarely white or
+    normal even when healthy, so its healthy share, not the nominal 5 %, is what the
+    record's is read against."""
     window = max(100, int(round(window_s * rate_hz)))
     out: dict[str, Any] = {}
     for ch in result.residuals if channels is None else channels:
@@ -389,7 +393,12 @@ def windowed_summary(
             else:
                 w = _whitening(result, ch, train)
             white = None if w is None else (w.coefficients, w.scale)
-            out[ch] = summarize(windowed_tests(r, window, standardize=scaling, whitening=white))
+            # each test's share of rejecting windows inside the training window (after
+            # its first quarter, as the whitening's fit): the healthy reference
+            out[ch] = summarize(
+                windowed_tests(r, window, standardize=scaling, whitening=white),
+                reference=None if train is None else (settled(train), train[1]),
+            )
             if w is not None:  # in the window layout: the tests' entries are all objects
                 out[ch]["windows"]["whitening_order"] = w.order
         except DetectorError:

@@ -67,6 +67,7 @@ C_TRAIN = "#2ca02c"
 C_GAP = "#d62728"
 C_COVER = "#4f81bd"
 C_FAULT = "#ff9f1c"
+C_RMS = "#6a3d9a"
 
 
 @dataclass(frozen=True, slots=True)
@@ -459,14 +460,18 @@ def residual_figure(
     start-up, where the transient before would flatten the rest (:func:`settled_limits`;
     the start-up shaded grey and hatched, the transient clipped). Below, per detector
     that saw the fault: its residual around the onset, its moving mean and the threshold
-    band that mean must leave. ``onset_bound``: the onset is an upper bound
+    band that mean must leave (of the window whose test raised the alarm, as the caller
+    chose it), the moving RMS and its bound where the mean-square test raised the alarm
+    (purple), and its first alarm (black, dotted). ``onset_bound``: the onset is an upper bound
     (:data:`ONSET_BOUND_LABEL`)."""
     # one unit on every panel, the whole record's: the SKAB record's top panel read
     # minutes (onset at 12.0) above panels in seconds (onset at 719)
     axis = TimeAxis.for_span(duration_s)
     with style():
-        fig = new_figure(WIDTH_IN, 2.3 + 1.9 * len(panels), constrained=False)
-        axes = grid(fig, 1 + len(panels), top=0.3, hgap=0.75)[:, 0]
+        # (up to three legend lines above each detector's panel: residual, mean, band,
+        # RMS, its bound, onset and first alarm do not fit beside its title on one)
+        fig = new_figure(WIDTH_IN, 2.3 + 2.35 * len(panels), constrained=False)
+        axes = grid(fig, 1 + len(panels), top=0.3, hgap=1.2)[:, 0]
         ax = axes[0]
         ax.axvspan(
             train[0] / axis.scale,
@@ -519,12 +524,31 @@ def residual_figure(
                 )
                 for s in (-1.0, 1.0):
                     ax.axhline(p.center + s * p.half_band, color=C_BAND, lw=0.8, ls=":")
+            if p.rms_window and p.rms_bound is not None and p.center is not None:
+                rms = np.sqrt(moving_mean((p.residual - p.center) ** 2, p.rms_window))
+                env = envelope(p.t, rms, MAX_POINTS)
+                ax.plot(
+                    env.t / axis.scale,
+                    0.5 * (env.lo + env.hi),
+                    color=C_RMS,
+                    lw=1.0,
+                    label=f"{p.rms_window}-sample RMS",
+                )
+                ax.axhline(p.rms_bound, color=C_RMS, lw=0.9, ls="--", label="bound of the RMS")
             _mark_onset(ax, onset_s, end_s, axis, onset_bound)
+            if p.alarm_s is not None:
+                ax.axvline(
+                    p.alarm_s / axis.scale,
+                    color=C_MEAN,
+                    lw=1.0,
+                    ls=(0, (1, 1.5)),
+                    label="first alarm",
+                )
             if p.t.size:
                 ax.set_xlim(p.t[0] / axis.scale, p.t[-1] / axis.scale)
             ax.set_title(label(f"{shown_name(p.detector)}: around the onset"), loc="left")
             ax.set_ylabel("channel units")
-            _legend(ax)
+            _legend(ax, ncols=3)
         axes[-1].set_xlabel(axis.label())
         return to_svg(fig, key)
 

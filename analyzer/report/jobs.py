@@ -80,7 +80,11 @@ def settled_limits(
 @dataclass(slots=True)
 class ResidualPanel:
     """One detector's residual over the zoom window and its detection threshold: the
-    ``window``-sample moving mean alarms outside ``center +- half_band``."""
+    ``window``-sample moving mean alarms outside ``center +- half_band`` (the window
+    whose test raised the alarm, where it was a mean's). ``alarm_s``: the detector's
+    first alarm (s), marked on the panel. ``rms_window``: where the alarm was raised by
+    the mean-square test, its window, whose moving RMS about ``center`` is drawn with
+    its bound ``rms_bound``."""
 
     detector: str
     t: FloatArray
@@ -88,6 +92,9 @@ class ResidualPanel:
     center: float | None = None
     half_band: float | None = None
     window: int | None = None
+    alarm_s: float | None = None
+    rms_window: int | None = None
+    rms_bound: float | None = None
 
 
 @dataclass(slots=True)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -95,7 +96,8 @@ class FigureParts:
         bound = onset_bound(f)  # onset_s an upper bound: the line says so
         dets = [d for d in view.detectors if self._residual(d, ch) is not None]
         lead = view.lead if view.lead in dets else (dets[0] if dets else None)
-        k0, k1 = self._zoom(onset, end, lead, ch)
+        alarm = _alarm_s(((f.get("evidence") or {}).get("by_detector") or {}).get(lead))
+        k0, k1 = self._zoom(onset, end, lead, ch, alarm)
         t = np.arange(k0, k1, dtype=np.float64) / self.rate
         key = view.anchor
         measured = self._measured(ch, k0, k1)
@@ -209,13 +211,28 @@ class FigureParts:
         # lead is in dets: it has a residual on ch (as kept: the envelope reads a long
         # archive's a chunk at a time, no float64 copy of it, nor an array of its times)
         full = np.asarray(self._residual(lead, ch))
-        panels = []
+        panels, said = [], []
+        by_det = (f.get("evidence") or {}).get("by_detector") or {}
         for d in [lead, *[x for x in dets if x != lead]][:MAX_PANELS]:
             r = self._residual(d, ch)
             if r is None:
                 continue
-            th = self._threshold(d, ch)
-            panels.append(fg.ResidualPanel(d, np.arange(k0, k1) / self.rate, _f64(r[k0:k1]), *th))
+            alarm_s = _alarm_s(by_det.get(d))
+            crossed = self._alarm_tests(d, ch, alarm_s)
+            th = self._threshold(d, ch, _drawn_window(crossed))
+            rms = _raised(crossed, "rms")
+            panels.append(
+                fg.ResidualPanel(
+                    d,
+                    np.arange(k0, k1) / self.rate,
+                    _f64(r[k0:k1]),
+                    *th,
+                    alarm_s=alarm_s,
+                    rms_window=None if rms is None else rms.window,
+                    rms_bound=None if rms is None else rms.bound,
+                )
+            )
+            said.append(self._alarm_text(d, alarm_s, crossed, th))
         overview = envelope(Clock(full.shape[0], self.rate), full, fg.MAX_POINTS)  # drawn of it
         # the axis without the filters' start-up transient, where it would flatten the rest
         settled_s = min(getattr(self.an, "settling", {}).get(lead, 0), full.shape[0] // 2)
@@ -242,23 +259,66 @@ class FigureParts:
             if clipped
             else ""
         )
-        bands = "; ".join(
-            f"{p.detector}: {p.window}-sample mean outside {fmt.num(p.center)} ± "
-            f"{fmt.num(p.half_band)}"
-            for p in panels
-            if p.half_band is not None
-        )
         return self.figure(
             "residual",
             "Residual time history",
             "Residual (measured minus fault-free estimate, channel units). Top: the whole "
             f"record for {lead}, {self.train_label} shaded green. Below: each detector that saw "
-            "the fault, around the onset, with the trailing moving mean (black) and the band "
-            "it must leave to raise an alarm (red; set from the training residual and the "
-            f"false-alarm rate: {bands or 'not available'}). The log-mean-square statistic, "
-            f"which alarms on gain changes, is not drawn.{start_up}",
+            "the fault, around the onset, with the test that raised its alarm: the "
+            "trailing moving mean (black) of that window and the band it must leave (red), "
+            "or the window's moving RMS about the healthy mean and the bound it must "
+            "cross (purple, dashed), both set from the training residual and the "
+            "false-alarm rate; and its first alarm (black, dotted). Each detector tests a "
+            "short and a long window, the long one for small lasting changes, each with "
+            "bounds of its own. " + " ".join(said) + f"{start_up}",
             job,
         )
+
+    def _alarm_tests(self, det: str, ch: str, alarm_s: float | None) -> list[AlarmTest]:
+        """The tests of ``det``'s residual on ``ch`` at its first alarm (``alarm_s``),
+        largest crossing first (:func:`alarm_tests`); empty when there is no alarm time
+        or no thresholds."""
+        r = self.results.get(det)
+        th = None if r is None else r.thresholds.get(ch)
+        res = self._residual(det, ch)
+        if alarm_s is None or not isinstance(th, dict) or res is None:
+            return []
+        return alarm_tests(res, th, int(round(alarm_s * self.rate)))
+
+    def _alarm_text(
+        self,
+        det: str,
+        alarm_s: float | None,
+        crossed: Sequence[AlarmTest],
+        drawn: tuple[float | None, float | None, int | None],
+    ) -> str:
+        """One sentence of the residual figure's caption for one detector's panel: when
+        it first alarmed and which window's test crossed its bound there (its value and
+        the bound, in channel units), and what the panel draws."""
+        center, half, window = drawn
+        band = (
+            f"the {window}-sample ({fmt.duration(window / self.rate)}) moving mean and its "
+            f"band {fmt.num(center)} ± {fmt.num(half)}"
+            if center is not None and half is not None and window
+            else "no band (no thresholds)"
+        )
+        if alarm_s is None:
+            return f"{det}: no alarm time in its evidence; drawn: {band}."
+        at = fmt.seconds(alarm_s, 3)
+        over = [a for a in crossed if a.ratio >= 1.0 - RATIO_SLACK]
+        if not over:
+            return (
+                f"{det}: first alarm at {at} (dotted), where no window's test of the residual "
+                f"drawn crossed its bound (its alarm came from another statistic); drawn: {band}."
+            )
+        text = f"{det}: first alarm at {at} (dotted), raised by " + " and by ".join(
+            a.describe(self.rate) + (" (drawn)" if a is _raised(over, a.kind) else "") for a in over
+        )
+        if _raised(over, "mean") is None:
+            # (the mean's band is drawn too: where the alarm came from the mean square
+            # alone, its moving mean had not left it yet)
+            text += f"; drawn beside it: {band}, not crossed then"
+        return text + "."
 
     def _tests_figure(
         self, view: FindingView, ch: str, f: Mapping[str, Any], lead: str
@@ -325,18 +385,20 @@ class FigureParts:
         r = self.results.get(det)
         return None if r is None else r.reference.get(ch)
 
-    def _threshold(self, det: str, ch: str) -> tuple[float | None, float | None, int | None]:
-        """(center, half-band, window) of the short-window mean test in channel units:
-        the alarm fires when the window mean of the residual leaves
-        ``mean +- mean_threshold[0] * std`` (analyzer.diagnosis.changes)."""
+    def _threshold(
+        self, det: str, ch: str, i: int = 0
+    ) -> tuple[float | None, float | None, int | None]:
+        """(center, half-band, window) of the mean test of window ``i`` (0: the short
+        one) in channel units: the alarm fires when the window mean of the residual
+        leaves ``mean +- mean_threshold[i] * std`` (analyzer.diagnosis.changes)."""
         r = self.results.get(det)
         th = None if r is None else r.thresholds.get(ch)
         if not isinstance(th, dict):
             return None, None, None
         try:
             mean, std = float(th["mean"]), float(th["std"])
-            half = float(th["mean_threshold"][0]) * std
-            window = int(th["windows"][0])
+            half = float(th["mean_threshold"][i]) * std
+            window = int(th["windows"][i])
         except (KeyError, IndexError, TypeError, ValueError):
             return None, None, None
         return mean, half, window
@@ -374,7 +436,12 @@ class FigureParts:
         least a second (a few cycles of a structure's first modes), at most half a minute."""
         return float(min(max(CLOSE_SAMPLES / self.rate, CLOSE_MIN_S), CLOSE_MAX_S))
 
-    def _zoom(self, onset: float, end: float | None, det: str | None, ch: str) -> tuple[int, int]:
+    def _zoom(
+        self, onset: float, end: float | None, det: str | None, ch: str, alarm: float | None = None
+    ) -> tuple[int, int]:
+        """The samples around the onset the finding's figures show: at least three long
+        windows each side, to the end where it is near, and past the leading detector's
+        first alarm (``alarm``, s), which a slow drift raises long after its onset."""
         half = min(max(ZOOM_FRACTION * self.duration, ZOOM_MIN_S), ZOOM_MAX_S)
         th = None
         if det and det in self.results:
@@ -384,6 +451,8 @@ class FigureParts:
         right = onset + half
         if end is not None and end < onset + 3 * half:
             right = max(right, end + 0.5 * half)
+        if alarm is not None and alarm < onset + 3 * half:
+            right = max(right, alarm + 0.25 * half)
         k0 = max(0, int(math.floor((onset - half) * self.rate)))
         k1 = min(self.n, int(math.ceil(right * self.rate)) + 1)
         return k0, max(k1, min(self.n, k0 + 2))
@@ -485,6 +554,100 @@ class FigureParts:
 
 # -- helpers ------------------------------------------------------------------------------
 
+RATIO_SLACK = 1e-6
+"""A test at its first alarm counts as crossed at this fraction below its bound: the
+detectors' statistic sums the window by running sums, this by a plain sum, which may
+differ in the last digits where the alarm only just crossed."""
+
+
+@dataclass(frozen=True, slots=True)
+class AlarmTest:
+    """One window's test of a residual at a detector's first alarm: ``kind`` "mean"
+    (the window mean against ``center +- bound``) or "rms" (the root mean square about
+    the healthy mean against ``bound``, the log-mean-square test of gain changes), its
+    ``value`` and ``bound`` in channel units, and ``ratio``, value over bound (over 1:
+    crossed; for the mean, its distance from ``center`` over ``bound``)."""
+
+    index: int
+    window: int
+    kind: str
+    value: float
+    center: float
+    bound: float
+    ratio: float
+
+    def describe(self, rate_hz: float) -> str:
+        """``its 400-sample (2.000 s) moving mean, 0.0664, above its band's upper edge
+        0.0659 (band -0.00084 ± 0.0668)``, as the caption writes it."""
+        w = f"its {self.window}-sample ({fmt.duration(self.window / rate_hz)})"
+        if self.kind == "mean":
+            high = self.value >= self.center
+            edge = self.center + (self.bound if high else -self.bound)
+            return (
+                f"{w} moving mean, {fmt.num(self.value)}, "
+                f"{'above' if high else 'below'} its band's {'upper' if high else 'lower'} "
+                f"edge {fmt.num(edge)} (band {fmt.num(self.center)} ± {fmt.num(self.bound)})"
+            )
+        return (
+            f"{w} RMS about the healthy mean (purple; it rises with a gain change or any "
+            f"large step), {fmt.num(self.value)}, above its bound {fmt.num(self.bound)}"
+        )
+
+
+def alarm_tests(residual: Any, th: Mapping[str, Any], at: int) -> list[AlarmTest]:
+    """Each window's two tests (mean, RMS) of ``residual`` (channel units) on the window
+    ending at sample ``at``, a detector's first alarm, with the thresholds ``th`` of its
+    calibration (:meth:`analyzer.diagnosis.changes.Calibration.as_dict`), largest
+    ``ratio`` first: the test that raised the alarm is the one over its bound, which
+    may be the long window's while the short window's mean is inside its band (a small
+    lasting offset or a slow drift). As the detectors' statistic
+    (``_alarm_statistic_numpy``): the standardized window's sum and sum of squares over
+    its length, missing samples as zeros, a window more than half missing untested."""
+    try:
+        mean, std = float(th["mean"]), float(th["std"])
+        windows = [int(w) for w in th["windows"]]
+        mthr = [float(x) for x in th["mean_threshold"]]
+        lthr = [float(x) for x in th["logq_threshold"]]
+    except (KeyError, TypeError, ValueError):
+        return []
+    if not std > 0:
+        return []
+    out = []
+    for i, w in enumerate(windows[: min(len(mthr), len(lthr))]):
+        if at - w + 1 < 0 or at >= len(residual) or w < 1:
+            continue
+        z = (_f64(residual[at - w + 1 : at + 1]) - mean) / std
+        finite = np.isfinite(z)
+        if finite.sum() <= 0.5 * w:
+            continue
+        z = np.where(finite, z, 0.0)
+        m = float(z.sum()) / w
+        ms = float(np.dot(z, z)) / w
+        rms_bound = std * math.exp(0.5 * lthr[i])
+        out.append(AlarmTest(i, w, "mean", mean + m * std, mean, mthr[i] * std, abs(m) / mthr[i]))
+        rms = std * math.sqrt(ms)
+        out.append(AlarmTest(i, w, "rms", rms, mean, rms_bound, rms / rms_bound))
+    return sorted(out, key=lambda a: -a.ratio)
+
+
+def _raised(crossed: Sequence[AlarmTest], kind: str) -> AlarmTest | None:
+    """The test of ``kind`` ("mean" or "rms") that raised the alarm, the largest crossing
+    of that kind; None when no test of that kind crossed."""
+    return next((a for a in crossed if a.ratio >= 1.0 - RATIO_SLACK and a.kind == kind), None)
+
+
+def _drawn_window(crossed: Sequence[AlarmTest]) -> int:
+    """The window whose moving mean a residual panel draws: that of the mean test that
+    raised the alarm (the largest crossing), else the short window's."""
+    mean = _raised(crossed, "mean")
+    return 0 if mean is None else mean.index
+
+
+def _alarm_s(ev: Any) -> float | None:
+    """A detector's first alarm (s) from its evidence (``first_alarm_s``), else None."""
+    v = ev.get("first_alarm_s") if isinstance(ev, Mapping) else None
+    return float(v) if isinstance(v, int | float) and math.isfinite(v) else None
+
 
 def _f64(x: Any) -> FloatArray:
     return np.asarray(x, dtype=np.float64)
@@ -549,6 +712,9 @@ def _span(s: Sequence[float] | None) -> str:
 
 
 __all__ = [
+    "RATIO_SLACK",
+    "AlarmTest",
+    "alarm_tests",
     "CLOSE_MAX_S",
     "CLOSE_MIN_S",
     "CLOSE_SAMPLES",

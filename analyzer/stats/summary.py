@@ -23,6 +23,8 @@ from analyzer.stats.windowed import WindowedTests
 
 def summarize(
     results: Mapping[str, StatResult] | WindowedTests,
+    *,
+    reference: tuple[int, int] | None = None,
 ) -> dict[str, dict[str, JsonValue]]:
     """JSON-friendly summary of named test results or of a windowed run.
 
@@ -32,16 +34,31 @@ def summarize(
     * a :class:`~analyzer.stats.windowed.WindowedTests` gives, per test, how many of the
       valid windows reject (``rejected``, ``windows``, ``fraction``, against the 5 %
       expected by chance), the ``critical`` value and the largest ``max_statistic``,
-      plus a ``"windows"`` entry with the window layout.
+      plus a ``"windows"`` entry with the window layout. ``reference=(lo, hi)`` (samples,
+      a healthy stretch such as the training window): each test also gets the same
+      count over the windows that lie inside it (``training_rejected``,
+      ``training_windows``, ``training_fraction``), and the layout ``training_span``
+      (``[lo, hi]``): what a healthy residual of this model rejects, the reference a
+      residual that is not white or normal even when healthy is read against, rather
+      than the nominal 5 %.
     """
     if isinstance(results, WindowedTests):
-        return _summarize_windows(results)
+        return _summarize_windows(results, reference)
     return {name: result.as_dict() for name, result in results.items()}
 
 
-def _summarize_windows(results: WindowedTests) -> dict[str, dict[str, JsonValue]]:
+def _summarize_windows(
+    results: WindowedTests, reference: tuple[int, int] | None = None
+) -> dict[str, dict[str, JsonValue]]:
     valid = results.valid
     n_valid = int(valid.sum())
+    inside = None
+    if reference is not None:
+        # the windows wholly inside the healthy stretch (valid ones: a window holding a
+        # gap is not tested), counted from the same per-window decisions, nothing rerun
+        lo, hi = int(reference[0]), int(reference[1])
+        inside = valid & (results.start >= lo) & (results.start + results.window <= hi)
+        n_inside = int(inside.sum())
     out: dict[str, dict[str, JsonValue]] = {
         "windows": {
             "count": results.n_windows,
@@ -66,6 +83,13 @@ def _summarize_windows(results: WindowedTests) -> dict[str, dict[str, JsonValue]
         }
         if stats.critical_low is not None:
             out[name]["critical_low"] = json_float(stats.critical_low)
+        if inside is not None:
+            held = int(stats.reject[inside].sum())
+            out[name]["training_rejected"] = held
+            out[name]["training_windows"] = n_inside
+            out[name]["training_fraction"] = json_float(held / n_inside) if n_inside else None
+    if reference is not None:
+        out["windows"]["training_span"] = [int(reference[0]), int(reference[1])]
     return out
 
 
