@@ -4,6 +4,7 @@ names the key, so a typo never passes silently (CONTRACT.md, "The config file").
 
 from __future__ import annotations
 
+import hashlib
 import math
 import tomllib
 import zipfile
@@ -35,6 +36,37 @@ class Config:
     path: Path | None = None
     model_file: Path | None = None
     """The resolved ``[model] file`` (an input of the run: never overwritten)."""
+    sha256: str = ""
+    """The config file's SHA-256 as read (``findings.json``'s ``config``: which file, as it
+    was, set the run)."""
+
+    def info(self) -> dict[str, Any] | None:
+        """What ``findings.json`` says of the config (``config``; None without one): the
+        file and its digest, and the settings it gave, so a result can be traced to the
+        settings that made it (a run's outputs named no config before: two runs of one
+        archive with different thresholds could not be told apart)."""
+        if self.path is None:
+            return None
+        model = None
+        if self.model is not None:
+            a = np.asarray(self.model["A"])
+            model = {
+                "file": None if self.model_file is None else str(self.model_file),
+                "states": int(a.shape[0]),
+                "outputs": list(self.model.get("outputs") or []),
+                "inputs": list(self.model.get("inputs") or []),
+            }
+        return {
+            "path": str(self.path),
+            "sha256": self.sha256,
+            "train": None
+            if self.train is None
+            else {"start_s": self.train[0], "end_s": self.train[1]},
+            "groups": [{k: v for k, v in g.items() if k in _GROUP} for g in self.groups],
+            "model": model,
+            "detectors": {name: dict(opts) for name, opts in self.detectors.items()},
+            "false_alarm_rate": self.false_alarm_rate,
+        }
 
     def as_context(self) -> dict[str, Any]:
         """The parsed config as handed to detectors (``RunContext.config``)."""
@@ -268,7 +300,8 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
         return Config()
     p = Path(path)
     try:
-        raw = tomllib.loads(p.read_text(encoding="utf-8"))
+        data = p.read_bytes()
+        raw = tomllib.loads(data.decode("utf-8"))
     except FileNotFoundError:
         raise ConfigError(f"--config: {p}: no such file") from None
     except (OSError, UnicodeDecodeError) as err:
@@ -276,7 +309,7 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
     except tomllib.TOMLDecodeError as err:
         raise ConfigError(f"--config: {p}: not valid TOML ({err})") from err
     _unknown("", raw, _TOP, p)
-    cfg = Config(path=p)
+    cfg = Config(path=p, sha256=hashlib.sha256(data).hexdigest())
     if "train" in raw:
         cfg.train = _train(raw["train"], p)
     groups = raw.get("group", [])

@@ -53,6 +53,9 @@ class Analysis:
     """The fitted models of this run (with ``--save-model``), or those it ran (``--model``)."""
     model_info: dict[str, Any] | None = None
     """With ``--model``: the model file and what it was trained on (``findings.json``)."""
+    config_info: dict[str, Any] | None = None
+    """With ``--config``: the file, its digest and its settings (``findings.json``,
+    :meth:`analyzer.config.Config.info`)."""
     screen: dict[str, Any] | None = None
     """With ``--screen``: the screening's detectors and whether they found a fault
     (``findings.json``), from :func:`analyzer.pipeline.analyze_screened`."""
@@ -167,6 +170,7 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
         ],
         "model": a.model_info,
         "screen": a.screen,
+        "config": _jsonable(a.config_info),
         "skipped_detectors": a.skipped,
         "notes": a.notes,
         "corrections": _jsonable(a.corrections),

@@ -1076,6 +1076,7 @@ def _analyze(
                 zero_at_rest=zero_channels(values, chosen, train, healthy, aligned.rate_hz),
             ),
             model_info=None if reused is None else model_info(reused, options),
+            config_info=options.config.info(),
             screen=screen,
         )
 

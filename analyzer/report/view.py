@@ -116,6 +116,7 @@ def build_view(
         coverage_note=coverage_note,
         levels=levels,
         train=a.train_text(),
+        config=a.config_text() if doc.get("config") else "",
         models_heading=a.models_heading(),
         reused=bool(doc.get("model")),
         models=[a.model_view(r) for r in doc.get("detectors", [])],
@@ -196,6 +197,33 @@ class _Access(FigureParts, TableParts):
             Fact("Training window", self.train_text()),
             Fact("False-alarm rate", self.far_text()),
         ]
+
+    def config_text(self) -> str:
+        """The ``--config`` file a run read and what it set (``findings.json``'s
+        ``config``), so the report says which settings made it."""
+        cfg = self.doc.get("config") or {}
+        said = []
+        if cfg.get("train"):
+            tr = cfg["train"]
+            said.append(
+                f"[train] {fmt.seconds(float(tr['start_s']))} to {fmt.seconds(float(tr['end_s']))}"
+            )
+        groups = [str(g.get("name", "?")) for g in cfg.get("groups") or []]
+        if groups:
+            more = " ..." if len(groups) > 4 else ""
+            said.append(f"{len(groups)} [[group]] ({', '.join(groups[:4])}{more})")
+        if cfg.get("model"):
+            m = cfg["model"]
+            said.append(
+                f"[model] of {m.get('states')} states"
+                + (f" from {Path(str(m['file'])).name}" if m.get("file") else "")
+            )
+        for name, opts in (cfg.get("detectors") or {}).items():
+            settings = ", ".join(f"{k} = {v}" for k, v in opts.items()) or "no setting"
+            said.append(f"[detectors.{name}] {settings}")
+        said.append(f"false-alarm rate {fmt.num(float(cfg.get('false_alarm_rate', 0.0)))}")
+        digest = str(cfg.get("sha256", ""))[:12]
+        return f"{Path(str(cfg.get('path', ''))).name} (sha256 {digest}...): " + "; ".join(said)
 
     def train_text(self) -> str:
         a, b = self.train_s

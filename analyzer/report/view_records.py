@@ -166,6 +166,8 @@ class ReportView:
     coverage: FigureView | None
     coverage_note: str
     train: str
+    config: str
+    """The ``--config`` file and what it set (empty without one)."""
     models_heading: str
     reused: bool
     models: list[ModelView]

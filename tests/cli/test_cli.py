@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import subprocess
 import sys
@@ -320,6 +321,7 @@ def test_channels_exclusion_leaves_a_channel_out(faulty_csv, tmp_path, capsys):
     doc = json.loads((tmp_path / "o" / "findings.json").read_text())
     analyzed = [c["name"] for c in doc["channels"] if c["analyzed"]]
     assert "s0" not in analyzed and len(analyzed) == len(doc["channels"]) - 1
+    assert doc["config"] is None  # no --config: nothing to name
     code, _, err = run_cli(
         ["run", str(faulty_csv), "--out", str(tmp_path / "p"), "--channels", "!zz*"], capsys
     )
@@ -367,6 +369,15 @@ def test_config_train_window_is_used(faulty_csv, tmp_path, capsys):
     doc = json.loads((tmp_path / "o" / "findings.json").read_text())
     assert doc["train"]["end_s"] == pytest.approx(20.0, abs=0.01)
     assert doc["detectors"][0]["params"]["order"] == 5
+    # the outputs name the config that set the run, as read, and what it set
+    info = doc["config"]
+    assert info["path"] == str(cfg)
+    assert info["sha256"] == hashlib.sha256(cfg.read_bytes()).hexdigest()
+    assert info["train"] == {"start_s": 0.0, "end_s": 20.0}
+    assert info["detectors"] == {"ar_kalman_bank": {"order": 5}}
+    assert info["groups"] == [] and info["model"] is None
+    html = (tmp_path / "o" / "report.html").read_text()
+    assert "Config file" in html and "[detectors.ar_kalman_bank] order = 5" in html
 
 
 def test_single_channel_is_a_clear_error(tmp_path, capsys):
@@ -477,6 +488,10 @@ def test_error_function_end_to_end_with_config(tmp_path, capsys, approach):
     assert truth <= got, (truth, got)
     assert {f["channel"] for f in faults} <= {"s1", "s2"}
     assert "error_function" in (tmp_path / "o" / "report.html").read_text()
+    info = json.loads((tmp_path / "o" / "findings.json").read_text())["config"]
+    assert info["groups"][0]["name"] == "chain" and info["groups"][0]["reference"] == ["s3", "s4"]
+    assert info["model"]["states"] == A.shape[0]
+    assert info["model"]["file"] == str((tmp_path / "model.npz").resolve())
 
 
 def test_progress_bar_on_a_terminal_shows_each_stage_and_the_time(tmp_path, monkeypatch, capsys):
