@@ -29,6 +29,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 from analyzer import __version__  # noqa: E402
+from analyzer.error_file import error_place, keep_whole, remove_stale  # noqa: E402
 from analyzer.errors import (  # noqa: E402
     AnalyzerError,
     ReaderError,
@@ -221,12 +222,100 @@ INPUT_HELP = (
 )
 
 
+EXIT_CODES = (
+    "exit codes: 0 no sensor fault found (run), or done; 1 at least one sensor fault\n"
+    "found (run); 2 usage or input error (one line on stderr naming the file or option);\n"
+    "130 interrupted"
+)
+
+HELP: dict[str, tuple[str, str]] = {
+    "inspect": (
+        "List what is in an archive: each channel with its number of samples, its start\n"
+        "and end, its rate and its gaps, as a table (or one JSON object with --json) on\n"
+        "stdout. It reads the inputs and writes nothing.\n"
+        "\n"
+        "exit codes: 0 listed; 2 usage or input error (one line on stderr; a line cut\n"
+        "for length ends with the path of a file in TMPDIR that holds it whole)",
+        "examples:\n"
+        "  analyzer inspect samples/building_additive.mcap\n"
+        "  analyzer inspect samples/building_healthy_ros2 --json",
+    ),
+    "export": (
+        "Write an archive's channels aligned on one clock to FILE (.csv or .parquet): a\n"
+        "first column 'time' (seconds from the first sample), then one column per\n"
+        "channel, one row per tick. Nothing else is written; the inputs are never changed.\n"
+        "\n"
+        "exit codes: 0 written; 2 usage or input error (one line on stderr; a line cut for\n"
+        "length ends with the path of the file that holds it whole, FILE.error.txt)",
+        "examples:\n"
+        "  analyzer export samples/building_drift.bag --out drift.csv\n"
+        "  analyzer export samples/building_additive.mcap --out s4.parquet --channels '/s4.*'\n"
+        "  analyzer export samples/building_multiplicative.csv.gz --out slow.csv --rate 50",
+    ),
+    "run": (
+        "Analyze an archive for faulty sensors: which sensor, what kind of fault (an\n"
+        "offset, a gain, a drift, or other), when it started and ended, how large it is.\n"
+        "Writes DIR/report.html and DIR/findings.json (DIR/corrected.csv with --corrected),\n"
+        "then one line on stderr: what was found and where the report is. The inputs are\n"
+        "never changed.\n"
+        "\n"
+        "exit codes: 0 no sensor fault found; 1 at least one sensor fault found; 2 usage\n"
+        "or input error (one line on stderr; a line cut for length ends with the path of\n"
+        "the file that holds it whole, DIR/error.txt); 130 interrupted",
+        "examples:\n"
+        "  analyzer run samples/building_additive.mcap --out out/\n"
+        "  analyzer run samples/building_drift.bag --out drift/ --train 0:15 --jobs 1\n"
+        "  analyzer run samples/building_healthy_ros2 --out healthy/ --save-model building.model",
+    ),
+    "watch": (
+        "Watch the folder INBOX and analyze every archive that lands in it, as 'analyzer\n"
+        "run' does: REPORTS gets a folder per archive (report.html and findings.json, or\n"
+        "error.txt) and index.html, which lists them all. It runs until stopped (Ctrl-C),\n"
+        "or with --once until what INBOX holds is analyzed.\n"
+        "\n"
+        "exit codes: 0 stopped, or --once and no fault found; 1 --once and a fault found;\n"
+        "2 usage error (one line on stderr), or --once and an archive that could not be\n"
+        "analyzed; 130 --once interrupted",
+        "examples:\n"
+        "  analyzer watch inbox/ --out reports/\n"
+        "  analyzer watch inbox/ --out reports/ --once --done analyzed/ --failed failed/\n"
+        "  analyzer watch inbox/ --out reports/ --group-by '^(.*)_part[0-9]+\\.csv$'",
+    ),
+}
+"""Each command's ``--help``: what it does, what it writes and its exit codes first, and
+examples after its options (every example runs from the checkout's folder:
+``tests/cli/test_help.py`` parses them, and the samples' ones were run)."""
+
+
+def _sub(sub: Any, name: str, summary: str) -> argparse.ArgumentParser:
+    """The parser of command ``name``: ``summary`` in the list of commands, and its
+    :data:`HELP` around its options (their lines kept as written)."""
+    description, epilog = HELP[name]
+    parser: argparse.ArgumentParser = sub.add_parser(
+        name,
+        help=summary,
+        description=description,
+        epilog=epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    return parser
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="analyzer", description="Audit sensor logs for faulty sensors.")
+    parser = _Parser(
+        prog="analyzer",
+        description="Audit sensor logs for faulty sensors.",
+        epilog="example:\n  "
+        + HELP["run"][1].splitlines()[1].strip()
+        + "\n\n"
+        + EXIT_CODES
+        + "\n\n'analyzer COMMAND --help' describes a command, its options and examples.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("--version", action="version", version=f"analyzer {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    p = sub.add_parser("inspect", help="what is in an archive: channels, counts, rates, gaps")
+    p = _sub(sub, "inspect", "what is in an archive: channels, counts, rates, gaps")
     p.add_argument("inputs", nargs="+", type=_path_text, metavar="INPUT", help=INPUT_HELP)
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.add_argument(
@@ -237,7 +326,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_msg_path(p)
 
-    p = sub.add_parser("export", help="the time-aligned channels as .csv or .parquet")
+    p = _sub(sub, "export", "the time-aligned channels as .csv or .parquet")
     p.add_argument("inputs", nargs="+", type=_path_text, metavar="INPUT", help=INPUT_HELP)
     p.add_argument(
         "--out", required=True, type=_path_text, metavar="FILE", help="output .csv or .parquet"
@@ -262,7 +351,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_msg_path(p)
 
-    p = sub.add_parser("run", help="analyze; write DIR/report.html and DIR/findings.json")
+    p = _sub(sub, "run", "analyze; write DIR/report.html and DIR/findings.json")
     p.add_argument("inputs", nargs="+", type=_path_text, metavar="INPUT", help=INPUT_HELP)
     p.add_argument(
         "--out",
@@ -279,7 +368,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="also write the fitted models to FILE, for --model on later archives",
     )
 
-    p = sub.add_parser("watch", help="analyze every archive that lands in INBOX")
+    p = _sub(sub, "watch", "analyze every archive that lands in INBOX")
     p.add_argument(
         "inbox", type=_path_text, metavar="INBOX", help="the folder archives are dropped into"
     )
@@ -511,6 +600,22 @@ def _named_end(line: str, inputs: Sequence[str]) -> int:
     return min(ends, default=0)
 
 
+def _cut(line: str, args: argparse.Namespace | None, inputs: Sequence[str]) -> str:
+    """``line`` cut to :data:`~analyzer.errors.LINE_MOST` characters after the inputs it
+    names (one readable line), ended with the path of the file that keeps it whole
+    (:mod:`analyzer.error_file`): ``run``'s ``--out DIR/error.txt``, ``export``'s
+    ``FILE.error.txt``, else a file in TMPDIR. A line about ``--out`` itself (a folder
+    that cannot be made) is kept in TMPDIR too."""
+    keep = _named_end(line, inputs)
+    cut = clipped_line(line, keep=keep)
+    if cut == line:
+        return line
+    command = getattr(args, "command", None) or "command"
+    out = None if line.startswith("--out") else getattr(args, "out", None)
+    where = keep_whole(line, command, error_place(command, out), inputs)
+    return cut if where is None else clipped_line(line, keep=keep, where=where)
+
+
 def _raised_here(err: BaseException) -> bool:
     """Whether ``err`` was raised in the analyzer's own code (a ``print`` to stdout is
     C, so its innermost Python frame is the analyzer's caller), not in a library's pipe
@@ -673,6 +778,8 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
         # what runs killed outright (kill -9, the OOM killer) left in TMPDIR: their
         # scratch directories, gigabytes for a long archive (see analyzer.scratch)
         sweep_stale()
+        # (an earlier run's or export's error file there would contradict this one's end)
+        remove_stale(error_place(args.command, getattr(args, "out", None)))
         _use_msg_path(getattr(args, "msg_path", None))
         if args.command != "watch" and threading.current_thread() is threading.main_thread():
             # SIGTERM (timeout, kill) unwinds as Ctrl-C does, so nothing is left behind;
@@ -685,10 +792,8 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
             return COMMANDS[args.command](args)
     except AnalyzerError as err:
         inputs = [str(i) for i in getattr(args, "inputs", None) or []]
-        # (cut to errors.LINE_MOST after the inputs it names: one readable line)
         line = _naming_inputs(one_line(str(err)), inputs)
-        line = clipped_line(line, keep=_named_end(line, inputs))
-        return _error(line + _earlier(args, started))
+        return _error(_cut(line, args, inputs) + _earlier(args, started))
     except KeyboardInterrupt:
         print(terminal_safe(f"analyzer: interrupted{_earlier(args, started)}"), file=sys.stderr)
         global _UNWOUND

@@ -36,18 +36,21 @@ their advice (a line of 1.1 kB, ``tilt_laser.bag``'s four detectors' reasons and
 hints, wrapped to a screenful and buried the hint that fixed it)."""
 
 
-def clipped_line(text: str, most: int = LINE_MOST, keep: int = 0) -> str:
+def clipped_line(text: str, most: int = LINE_MOST, keep: int = 0, where: str = "") -> str:
     """``text`` cut to at most ``most`` characters at the last clause boundary in the
     second half of them (``; ``, else before a parenthesis, else ``, ``, else a space),
     ended with `` ...``, the parentheses it left open closed, and ``[N characters in
-    all]``: the contract's error is one readable line, and its head (the file it names,
-    the first reason) is what it keeps. Shorter text is returned as it is. The first
-    ``keep`` characters are never cut (the file or option the line names, however long
-    its path), nor the quarter of ``most`` after them (the first reason): a line whose
-    path is that long is longer than ``most``."""
+    all]``, or ``[N characters in all; the whole message: WHERE]`` when the whole text
+    was kept in the file ``where`` (:mod:`analyzer.error_file`): the contract's error is
+    one readable line, and its head (the file it names, the first reason) is what it
+    keeps. Shorter text is returned as it is. The first ``keep`` characters are never
+    cut (the file or option the line names, however long its path), nor the quarter of
+    ``most`` after them (the first reason): a line whose path is that long is longer
+    than ``most``."""
     if len(text) <= most:
         return text
-    tail = f" [{len(text):,} characters in all]"
+    whole = f"; the whole message: {where}" if where else ""
+    tail = f" [{len(text):,} characters in all{whole}]"
     # (" ..." and up to 4 closing parentheses)
     room = max(1, most - len(tail) - 8, keep + (most // 4 if keep else 0))
     cut = -1

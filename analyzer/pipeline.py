@@ -287,10 +287,10 @@ def _upsampled(
     if asked is None or not fastest > 0 or rate <= UPSAMPLED * fastest:
         return []
     text = (
-        f"--rate {asked:g} puts the clock at {rate / fastest:.3g} times the fastest analyzed "
-        f"channel ({fastest:.6g} Hz): the ticks between its readings are interpolated, and "
-        "the models take those lines for the sensors' signal (a rate at or below the "
-        "channels' own fits them)"
+        f"--rate {asked:g} puts the clock at {plain_number(rate / fastest)} times the fastest "
+        f"analyzed channel ({fastest:.6g} Hz): the ticks between its readings are "
+        "interpolated, and the models take those lines for the sensors' signal (a rate at "
+        "or below the channels' own fits them)"
     )
     return [WindowNote(text, text)]
 

@@ -82,6 +82,7 @@ from analyzer.diagnosis.streamed import (
 )
 from analyzer.errors import DetectorError, TooLittleDataError
 from analyzer.paging import RELEASE_ROWS, Released, ScratchRows, finite_rows, release, write_rows
+from analyzer.timeutil import spoken_duration
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -1486,6 +1487,6 @@ def _settling_error(err: DetectorError, settle: int, data: Dataset) -> DetectorE
     return DetectorError(
         f"{err} (the training window's longest stretch without a gap is {longest} samples, "
         f"and a filter's output is left out for up to {settle} samples, "
-        f"{settle / data.rate_hz:.3g} s, while it settles after a gap: a --train with "
+        f"{spoken_duration(settle / data.rate_hz)}, while it settles after a gap: a --train with "
         f"fewer gaps, or leave out the channels with most gaps there: {', '.join(worst)})"
     )

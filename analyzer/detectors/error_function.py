@@ -116,6 +116,7 @@ from analyzer.diagnosis.classify import MIN_GAIN, correlation_time
 from analyzer.diagnosis.events import events_from_residual
 from analyzer.errors import ConfigError, DetectorError, TooLittleDataError
 from analyzer.stats.results import json_float
+from analyzer.timeutil import spoken_duration
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -968,7 +969,7 @@ def _all_at_once(
                 unattributed.append((onset, names, ()))
                 notes.append(
                     f"alarms from {onset:.3f} s on every uncertain sensor of group {group!r} "
-                    f"({', '.join(names)}), beginning within {span_s:.3g} s and ending "
+                    f"({', '.join(names)}), beginning within {spoken_duration(span_s)} and ending "
                     "together: not attributed (a failure of one uncertain sensor raises its "
                     "own error function only; all of them at once is a reference sensor, "
                     "the uncertain sensors failing together, or a change of the structure "

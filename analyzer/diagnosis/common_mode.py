@@ -82,6 +82,7 @@ from analyzer.diagnosis.training_check import (
     MIN_BATCHES,
     WindowNote,
 )
+from analyzer.timeutil import spoken_duration
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -373,8 +374,9 @@ def common_note(changes: Sequence[CommonChange]) -> CommonNote:
         f"{first.finding.onset_s:.6g} s: temperature or a shared supply, not one sensor's fault"
     )
     return CommonNote(
-        f"{head}; not reported: {what}. Each such sensor's slow level ({first.block_s:.3g} s "
-        "means, in units of its scatter in the healthy window) follows the fault's shape "
+        f"{head}; not reported: {what}. Each such sensor's slow level "
+        f"({spoken_duration(first.block_s)} means, in units of its scatter in the healthy "
+        "window) follows the fault's shape "
         f"(|t| {lo:.3g} to {hi:.3g}, bound {first.critical:.3g}), and the faulty sensor's "
         "is explained by most of the others' (a factor and a line) with no step, kink or "
         "shape of its own beyond chance",

@@ -110,4 +110,4 @@ def test_a_long_refusal_of_a_deep_file_names_it(tmp_path, capsys):
     code, _, err = run_cli(["run", path, "--out", tmp_path / "o", "--no-progress"], capsys)
     assert code == 2
     line = one_line_error(err, str(path), "no detector could run")
-    assert "characters in all]" in line
+    assert "characters in all; the whole message: " in line
