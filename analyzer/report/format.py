@@ -227,7 +227,8 @@ def relative_size(size: Any, confidence: Any = None) -> str:
         return ""
     if not math.isfinite(v) or v < 0:
         return ""
-    shown = f"{v:.0f}" if v >= 100 else num(v, 3)
+    # (never in exponent notation: "1.2e-05 of the sensor's usual spread" reads as noise)
+    shown = f"{v:.0f}" if v >= 100 else num(v, 3) if v >= 0.001 or v == 0 else "under 0.001"
     text = (
         f"{shown} × the sensor's usual spread"
         if v >= 1

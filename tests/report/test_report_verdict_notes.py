@@ -196,3 +196,7 @@ def test_the_wording_of_sizes():
     assert relative_size(0.02, 0.3).startswith("small: 0.02 of")
     assert relative_size(SMALL_SIZE, 1.0) == "0.1 of the sensor's usual spread"
     assert relative_size(None, 1.0) == ""
+    # never in exponent notation
+    assert relative_size(0.0011838, 1.0).endswith(": 0.00118 of the sensor's usual spread")
+    assert relative_size(1.2e-5, 1.0).endswith(": under 0.001 of the sensor's usual spread")
+    assert relative_size(1234.4, 1.0) == "1234 × the sensor's usual spread"
