@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Callable
+import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -66,6 +67,10 @@ class Analysis:
     levels: Any = None
     """Each analyzed channel's response level over time
     (:class:`analyzer.diagnosis.levels.Levels`): the report's level map."""
+    healthy: dict[str, tuple[float, float]] = field(default_factory=dict)
+    """Each analyzed channel's mean and standard deviation over the healthy training
+    window (:func:`analyzer.diagnosis.stuck.healthy_stats`, computed once by the fit;
+    with ``--model`` the model's): the yardstick of each finding's ``size_relative``."""
 
     @property
     def duration_s(self) -> float:
@@ -155,6 +160,9 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
                 "confidence": _jsonable(round(float(f.confidence), 4)),
                 "detector": f.detector,
                 "evidence": _jsonable(f.evidence),
+                "size_relative": size_relative(
+                    f.magnitude, a.healthy.get(f.channel), f.onset_s, f.end_s, a.duration_s
+                ),
             }
             for f in a.findings
         ],
@@ -175,6 +183,44 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
         "notes": a.notes,
         "corrections": _jsonable(a.corrections),
     }
+
+
+def size_relative(
+    magnitude: Mapping[str, Any],
+    healthy: tuple[float, float] | None,
+    onset_s: float,
+    end_s: float | None,
+    duration_s: float,
+) -> float | None:
+    """A finding's size in units of its sensor's standard deviation ``sd`` over the
+    healthy training window (``healthy``: that window's mean and ``sd``), 4 significant
+    digits, so that a confidence of 99.9 % can be read against how much the fault moves
+    the reading: ``rms / sd`` where the magnitude has an RMS (``other``: the fault
+    signal's RMS, its offset included), else ``|offset| / sd`` (additive; a stuck
+    sensor's distance from the healthy mean), ``|gain - 1| * sqrt(mean^2 + sd^2) / sd``
+    for a gain (the RMS of the change ``(gain - 1) * reading`` over healthy readings),
+    ``|rate_per_s| * (end - onset) / sd`` for a drift (the offset it has reached at its
+    end, the record's end while it lasts). None where there is no such size (a clipping
+    sensor's limits, no magnitude) or no spread to measure it by (a channel constant or
+    missing in the window)."""
+    if healthy is None:
+        return None
+    mean, sd = float(healthy[0]), float(healthy[1])
+    if not (math.isfinite(sd) and sd > 0.0 and math.isfinite(mean)):
+        return None
+    size: float | None = None
+    if "rms" in magnitude:
+        size = abs(float(magnitude["rms"]))
+    elif "offset" in magnitude:
+        size = abs(float(magnitude["offset"]))
+    elif "gain" in magnitude:
+        size = abs(float(magnitude["gain"]) - 1.0) * math.hypot(mean, sd)
+    elif "rate_per_s" in magnitude:
+        end = duration_s if end_s is None else end_s
+        size = abs(float(magnitude["rate_per_s"])) * max(0.0, end - onset_s)
+    if size is None or not math.isfinite(size):
+        return None
+    return float(f"{size / sd:.4g}")
 
 
 def _jsonable(x: Any) -> Any:

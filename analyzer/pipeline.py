@@ -1055,6 +1055,7 @@ def _analyze(
             corrected=corrected,
             corrections=corrections,
             settling=settling_rows(collected),
+            healthy=healthy,
             saved=reused
             if kept is None
             else SavedModel(

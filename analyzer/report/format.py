@@ -198,6 +198,60 @@ def magnitude(mag: Mapping[str, Any]) -> str:
     return ", ".join(parts) or MISSING
 
 
+SMALL_SIZE = 0.1
+"""A finding whose size is below this fraction of its sensor's standard deviation in the
+healthy training window (findings.json's ``size_relative``) is called small. The value
+is the tool's own yardstick of "fine" in those units, not one tuned here: readings spaced
+by under 0.1 of their healthy standard deviation are finely resolved and those spaced
+wider are coarse (:data:`analyzer.diagnosis.clipping.COARSE`); a sensor whose mean comes
+back within 0.15 of it is taken as healthy again (:data:`analyzer.diagnosis.stuck.
+ALIVE_MEAN`); and the smallest offsets the project's sweeps inject are 0.25 of it
+(``sweep_isolation.py --scale 0.5``). A fault below 0.1 is finer than what the tool
+calls finely resolved and under half the smallest fault it is tested on."""
+
+CLEAR_CONFIDENCE = 0.95
+"""A confidence from which a small finding is called "statistically clear": the 5 %
+level at which the report's innovation tests reject."""
+
+
+def relative_size(size: Any, confidence: Any = None) -> str:
+    """A finding's ``size_relative`` for people: ``9.99 × the sensor's usual spread``,
+    ``0.4 of the sensor's usual spread``; below :data:`SMALL_SIZE` it says so, and with
+    a confidence of :data:`CLEAR_CONFIDENCE` or more that the evidence is nonetheless
+    clear (``statistically clear but small: 0.0205 of the sensor's usual spread``): a
+    finding of rms 0.00085 read ">99.9 %" and nothing told whether it mattered. Empty
+    for None (no size to measure, or no spread to measure it by)."""
+    try:
+        v = float(size)
+    except (TypeError, ValueError):
+        return ""
+    if not math.isfinite(v) or v < 0:
+        return ""
+    # (never in exponent notation: "1.2e-05 of the sensor's usual spread" reads as noise)
+    shown = f"{v:.0f}" if v >= 100 else num(v, 3) if v >= 0.001 or v == 0 else "under 0.001"
+    text = (
+        f"{shown} × the sensor's usual spread"
+        if v >= 1
+        else f"{shown} of the sensor's usual spread"
+    )
+    if v >= SMALL_SIZE:
+        return text
+    try:
+        clear = float(confidence) >= CLEAR_CONFIDENCE
+    except (TypeError, ValueError):
+        clear = False
+    return ("statistically clear but small: " if clear else "small: ") + text
+
+
+def is_small(size: Any) -> bool:
+    """True for a ``size_relative`` below :data:`SMALL_SIZE` (None: False)."""
+    try:
+        v = float(size)
+    except (TypeError, ValueError):
+        return False
+    return math.isfinite(v) and 0 <= v < SMALL_SIZE
+
+
 def _gain_note(v: Any) -> str:
     """What a gain below the classifier's :data:`~analyzer.diagnosis.classify.MIN_GAIN`
     means: a dead sensor only at 0 (the contract's gain 0, a sensor frozen at zero), else
@@ -240,7 +294,9 @@ def is_short_list(v: Any, limit: int = 8) -> bool:
 
 
 __all__ = [
+    "CLEAR_CONFIDENCE",
     "MISSING",
+    "SMALL_SIZE",
     "TIME_DECIMALS",
     "TIME_UNITS",
     "at",
@@ -248,12 +304,14 @@ __all__ = [
     "duration",
     "is_scalar",
     "is_short_list",
+    "is_small",
     "magnitude",
     "natural_key",
     "num",
     "num_range",
     "percent",
     "rate",
+    "relative_size",
     "scalar",
     "seconds",
     "shorten",

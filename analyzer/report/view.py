@@ -38,6 +38,7 @@ from typing import Any
 from analyzer import __version__
 from analyzer.report import format as fmt
 from analyzer.report.methods import DECISION, TESTS
+from analyzer.report.notes import onset_lines, sort_notes
 from analyzer.report.view_figures import FigureParts, _span, onset_bound
 from analyzer.report.view_records import (
     DetectorTests,
@@ -130,6 +131,13 @@ def build_view(
     )
     view.figure_failures = a.draw_figures()
     view.notes.extend(view.figure_failures)
+    view.sorted_notes = sort_notes(
+        view.notes,
+        view.input_errors,
+        {s.label: s.value for s in view.skipped},
+        faulty={str(f["channel"]) for f in faults},
+    )
+    view.caveats = [*view.sorted_notes.key, *onset_lines(faults, view.notes, a.decimals)]
     return view
 
 
@@ -299,6 +307,8 @@ class _Access(FigureParts, TableParts):
             found=self.fault_facts(f),
             evidence=self.evidence_facts(ev),
             corrections=self.corrections(f),
+            size=fmt.relative_size(f.get("size_relative"), f.get("confidence")),
+            small=fmt.is_small(f.get("size_relative")),
         )
 
     def tests_views(self, f: Mapping[str, Any]) -> list[DetectorTests]:

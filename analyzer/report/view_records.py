@@ -16,6 +16,7 @@ from markupsafe import Markup
 
 from analyzer.report import format as fmt
 from analyzer.report.methods import Method
+from analyzer.report.notes import Notes
 
 # -- records the templates display ------------------------------------------------------
 
@@ -93,6 +94,11 @@ class FindingView:
     evidence: list[tuple[str, list[Fact]]] = field(default_factory=list)
     corrections: list[list[Fact]] = field(default_factory=list)
     remarks: list[str] = field(default_factory=list)
+    size: str = ""
+    """The size against the sensor's spread in the training window
+    (:func:`analyzer.report.format.relative_size`); empty where there is none."""
+    small: bool = False
+    """Below :data:`analyzer.report.format.SMALL_SIZE` of that spread."""
 
 
 @dataclass(slots=True)
@@ -182,6 +188,14 @@ class ReportView:
     """Every analyzed channel's response level over time (:func:`figures.level_figure`)."""
     sections: str = ""
     """Which findings have a section (``findings 1-6``) when not all do, else empty."""
+    sorted_notes: Notes = field(default_factory=Notes)
+    """:attr:`notes`, :attr:`input_errors` and :attr:`skipped` grouped by kind, with the
+    count line (:func:`analyzer.report.notes.sort_notes`)."""
+    small_size: str = fmt.num(fmt.SMALL_SIZE)
+    """Below what share of the sensor's usual spread a finding is called small."""
+    caveats: list[str] = field(default_factory=list)
+    """What changes how to read the findings, shown beside the verdict: the key notes
+    and each onset that is only a bound (:func:`analyzer.report.notes.onset_lines`)."""
 
     @property
     def figure_count(self) -> int:
