@@ -266,8 +266,8 @@ class FigureParts:
             f"record for {lead}, {self.train_label} shaded green. Below: each detector that saw "
             "the fault, around the onset, with the test that raised its alarm: the "
             "trailing moving mean (black) of that window and the band it must leave (red), "
-            "or the window's moving RMS about the healthy mean and the bound it must "
-            "cross (purple, dashed), both set from the training residual and the "
+            "or the window's moving RMS about the healthy mean (it rises with a gain "
+            "change or any large step) and the bound it must cross (purple, dashed), both set from the training residual and the "
             "false-alarm rate; and its first alarm (black, dotted). Each detector tests a "
             "short and a long window, the long one for small lasting changes, each with "
             "bounds of its own. " + " ".join(said) + f"{start_up}",
@@ -589,8 +589,8 @@ class AlarmTest:
                 f"edge {fmt.num(edge)} (band {fmt.num(self.center)} ± {fmt.num(self.bound)})"
             )
         return (
-            f"{w} RMS about the healthy mean (purple; it rises with a gain change or any "
-            f"large step), {fmt.num(self.value)}, above its bound {fmt.num(self.bound)}"
+            f"{w} RMS about the healthy mean (purple), {fmt.num(self.value)}, above its "
+            f"bound {fmt.num(self.bound)}"
         )
 
 
