@@ -144,7 +144,8 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         type=_csv_list,
         metavar="GLOB[,GLOB...]",
         help="channels to analyze (shell patterns; !GLOB leaves channels out); default: "
-        "every non-constant numeric channel",
+        "every non-constant numeric channel but flags or labels (two whole-number values "
+        "over the record), which only their exact name selects",
     )
     p.add_argument(
         "--train",

@@ -55,6 +55,9 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
                     "gaps": i.gaps,
                     # (only when so: a regular channel's entry is as it always was)
                     **({"irregular": True} if i.irregular else {}),
+                    # its two values, where it holds only two whole numbers over the
+                    # record: a flag or label, which run leaves out unless named
+                    **({"flag": [int(x) for x in i.levels or ()]} if i.flag else {}),
                 }
                 for i in infos
             ],
@@ -100,9 +103,10 @@ def render_table(doc: dict[str, Any]) -> str:
         lines.append(f"start {doc['start']}")
     rows = [("channel", "samples", "start_s", "end_s", "rate_hz", "gaps")]
     for c in doc["channels"]:
+        flag = c.get("flag")
         rows.append(
             (
-                safe(c["name"]),
+                safe(c["name"]) + (f" [flag {flag[0]}/{flag[1]}]" if flag else ""),
                 str(c["samples"]),
                 f"{c['start_s']:.3f}",
                 f"{c['end_s']:.3f}",
@@ -119,4 +123,9 @@ def render_table(doc: dict[str, Any]) -> str:
     lines.append(f"{len(doc['channels'])} channel(s)")
     if any(c.get("irregular") for c in doc["channels"]):
         lines.append("* sampled at irregular times: the mean rate (intervals vary widely)")
+    if any(c.get("flag") for c in doc["channels"]):
+        lines.append(
+            "[flag a/b]: only the whole numbers a and b over the record (a status flag or a "
+            "label, not a measurement): run leaves it out unless --channels names it"
+        )
     return "\n".join(lines)

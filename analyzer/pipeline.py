@@ -168,12 +168,92 @@ class CopyNote(str):
         return note
 
 
+FLAGS_LISTED = 20
+"""Flag channels the note names one by one (the rest counted)."""
+
+
+class FlagNote(WindowNote):
+    """The note naming the channels left out as flags or labels, not measurements (two
+    whole-number values over the whole record: :attr:`~analyzer.store.ChannelInfo.flag`),
+    with their ``names``; ``run`` repeats it on stderr (a label column analyzed as a
+    sensor was found faulty, and its constant zero in a training window made the AR
+    regressions singular: the user who reads only stderr hears why it is gone)."""
+
+    names: tuple[str, ...] = ()
+
+    @classmethod
+    def of(cls, infos: Sequence[ChannelInfo]) -> FlagNote:
+        """The note on the flag channels ``infos`` (at least one). (Built from its text,
+        as :class:`WindowNote`, it pickles as one: a watcher's analyses run in other
+        processes.)"""
+        note = cls(_flag_text(infos))
+        note.names = tuple(i.name for i in infos)
+        return note
+
+
+def _two_values(info: ChannelInfo) -> str:
+    """A flag channel's two values, as whole numbers: ``0 and 1``."""
+    lo, hi = info.levels or (0.0, 0.0)
+    return f"{int(lo)} and {int(hi)}"
+
+
+def _flag_text(infos: Sequence[ChannelInfo]) -> str:
+    """What :class:`FlagNote` says of the flag channels ``infos`` (at least one)."""
+    if len(infos) == 1:
+        return (
+            f"{_flags_held(infos)}: a flag or label, not a measurement; left out of the "
+            "analysis; name it in --channels to analyze it"
+        )
+    return (
+        f"{_flags_held(infos)}: flags or labels, not measurements; left out of the analysis; "
+        "name them in --channels to analyze them"
+    )
+
+
+def _flags_held(infos: Sequence[ChannelInfo]) -> str:
+    """The flag channels ``infos`` and their values: ``anomaly holds only 0 and 1 over
+    the record``."""
+    pairs = {_two_values(i) for i in infos}
+    if len(infos) == 1:
+        return f"{infos[0].name} holds only {_two_values(infos[0])} over the record"
+    if len(pairs) == 1:
+        names = capped([i.name for i in infos], FLAGS_LISTED, what="channels")
+        return f"{names} hold only {pairs.pop()} over the record"
+    each = [f"{i.name} ({_two_values(i)})" for i in infos]
+    return f"{capped(each, FLAGS_LISTED, what='channels')} hold only two whole numbers each"
+
+
+def _flags(
+    infos: dict[str, ChannelInfo],
+    chosen: Sequence[str],
+    patterns: Sequence[str] | None,
+    named: Collection[str],
+) -> list[ChannelInfo]:
+    """The channels of ``chosen`` that are flags or labels (:attr:`~analyzer.store.
+    ChannelInfo.flag`) and that neither ``--channels`` (``patterns``) names by their
+    exact name nor the config (``named``): a glob (``*``, ``/robot.*``) selects sensors,
+    and a label beside them is left out as by default; naming it keeps it."""
+    exact = {*(patterns or ()), *named}
+    return [infos[c] for c in chosen if infos[c].flag and c not in exact]
+
+
+def _config_named(options: RunOptions) -> set[str]:
+    """The channels the config names: its ``[[group]]`` members and ``[model]`` outputs
+    and inputs (a step command of 0 and 1 may be the model's measured input)."""
+    config = options.config
+    out = {c for g in config.groups for c in group_members(g)}
+    if config.model is not None:
+        out.update(config.model.get("outputs", []), config.model.get("inputs", []))
+    return out
+
+
 def _select(
     store: ChannelStore,
     patterns: list[str] | None,
     notes: list[str],
     relabelled: Sequence[str] = (),
     drop_copies: bool = True,
+    named: Collection[str] = (),
 ) -> list[str]:
     """The channels to analyze: ``--channels``' (``patterns``), else every numeric one
     that is not constant, whose meaning does not change between messages (names
@@ -181,7 +261,10 @@ def _select(
     with ``drop_copies``, that does not copy an earlier one over the whole record
     (:func:`analyzer.store.copies.find_copies`: a note names them). Channels that
     ``--channels`` names are all kept, copies too (a choice the user made; where the
-    copies make every detector's model singular the run is refused, naming them)."""
+    copies make every detector's model singular the run is refused, naming them).
+    Flags and labels (two whole-number values over the record: :func:`_flags`) are left
+    out unless ``--channels`` or the config (``named``) names them exactly (a note
+    says which, and how to keep them)."""
     infos = {i.name: i for i in store.infos()}
     if not infos:
         raise ReaderError("no numeric channel found in the input")
@@ -209,6 +292,18 @@ def _select(
         constant = [c for c in infos if infos[c].constant]
         if constant:
             notes.append(ConstantNote(constant))
+    # (a lone channel is refused as one, flag or not: the detectors need two)
+    flags = _flags(infos, chosen, patterns, named) if len(chosen) > 1 else []
+    if flags:
+        notes.append(FlagNote.of(flags))
+        if len(flags) == len(chosen):
+            where = "--channels: every channel it selects" if patterns else "every channel"
+            raise UsageError(
+                f"no channel left to analyze: {where} is a flag or label, not a measurement "
+                f"({_flags_held(flags)}); name them one by one in --channels to analyze them"
+            )
+        left_out = {i.name for i in flags}
+        chosen = [c for c in chosen if c not in left_out]
     # '!' patterns alone leave channels out of the default ones, which these are not of
     if not patterns or all(p.startswith("!") for p in patterns):
         mixed = [c for c in chosen if c.startswith(tuple(relabelled))] if relabelled else []
@@ -634,7 +729,9 @@ def _analyze(
             relabelled = [p for i in archive.inputs for p in i.relabelled]
             # (the config's groups and [model] name their channels: all are kept)
             named = bool(options.config.groups) or options.config.model is not None
-            chosen = _select(store, options.channels, notes, relabelled, not named)
+            chosen = _select(
+                store, options.channels, notes, relabelled, not named, _config_named(options)
+            )
         else:
             chosen = model_channels(store, reused, options, notes)
         one_clock(chosen, archive.inputs)  # (else: "a timestamp lies far from the others")
@@ -2072,9 +2169,11 @@ def _varying_in_training(
         # named with --detectors say it themselves)
         left = [c for n in notes if isinstance(n, ConstantNote) for c in n.names]
         copied = [c for n in notes if isinstance(n, CopyNote) for c in n.names]
+        flags = [c for n in notes if isinstance(n, FlagNote) for c in n.names]
         raise UsageError(
             f"one channel to analyze ({chosen[0]}): every detector estimates a sensor "
             "from the others and needs at least 2 channels (--channels chooses them)"
+            + (f"; flags or labels not analyzed: {_few(flags)}" if flags else "")
             + (
                 f"; copies of another channel over the whole record not analyzed: {_few(copied)}"
                 if copied

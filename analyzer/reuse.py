@@ -45,7 +45,14 @@ def model_channels(
             "leave --rate out or fit a model at that rate"
         )
     fitted = set(model.channels)
-    others = [i.name for i in infos if i.name not in fitted and not i.constant]
+    others = [i.name for i in infos if i.name not in fitted and not i.constant and not i.flag]
+    flags = [i.name for i in infos if i.name not in fitted and i.flag]
+    if flags:
+        more = f" and {len(flags) - 5} more" if len(flags) > 5 else ""
+        notes.append(
+            f"flags or labels of this archive (two whole numbers over the record), not in the "
+            f"model, not analyzed: {', '.join(flags[:5])}{more}"
+        )
     if others:
         more = f" and {len(others) - 5} more" if len(others) > 5 else ""
         notes.append(

@@ -95,6 +95,12 @@ fill the disk with an aligned matrix of gaps."""
 
 MIN_ROWS_ALLOWED = 1_000_000
 
+FLAG_SAMPLES = 100
+"""Fewest finite samples of a channel of two whole-number values for it to be a flag
+(:attr:`ChannelInfo.flag`): a handful of samples shows few values whatever the channel
+(an AIS topic's two messages gave two timestamps), as the training window's few-values
+note also asks 100 samples before it speaks (:func:`analyzer.pipeline._few_values`)."""
+
 
 @dataclass(slots=True)
 class ChannelInfo:
@@ -115,10 +121,27 @@ class ChannelInfo:
     """The longest step between two samples that the alignment interpolates across, in
     nominal periods (``1 / rate_hz``): a longer one is a gap. :data:`GAP_FACTOR` for a
     regular channel."""
+    levels: tuple[float, ...] | None = None
+    """Its distinct finite values, in increasing order, when it has at most two over the
+    whole record (``()`` for an empty channel); None when it has more."""
 
     @property
     def constant(self) -> bool:
         return not (self.finite > 1 and self.maximum > self.minimum)
+
+    @property
+    def flag(self) -> bool:
+        """Whether it holds exactly two values over the whole record, both whole numbers
+        (0 and 1, 1 and 2...): a status flag, a mode or a label column (SKAB's
+        ``anomaly`` and ``changepoint``, written by the benchmark's authors), not a
+        measurement. (One value is :attr:`constant`; fewer than :data:`FLAG_SAMPLES`
+        samples tell nothing.)"""
+        return (
+            self.finite >= FLAG_SAMPLES
+            and self.levels is not None
+            and len(self.levels) == 2
+            and all(float(x).is_integer() for x in self.levels)
+        )
 
 
 @dataclass(slots=True)
@@ -650,20 +673,25 @@ def _summarize(name: str, t: IntArray, v: FloatArray, block: int = 1 << 22) -> C
     gaps = 0
     finite = 0
     lo, hi = np.inf, -np.inf
+    levels: set[float] | None = set()
     for s in range(0, n, block):
         e = min(n, s + block)
         vv = np.asarray(v[s:e])
         fin = np.isfinite(vv)
         finite += int(fin.sum())
         if fin.any():
-            lo = min(lo, float(vv[fin].min()))
-            hi = max(hi, float(vv[fin].max()))
+            ff = vv[fin]
+            b_lo, b_hi = float(ff.min()), float(ff.max())
+            lo, hi = min(lo, b_lo), max(hi, b_hi)
+            if levels is not None:
+                levels = _two_levels(levels, ff, b_lo, b_hi)
         release(v[s:e])
         if period > 0:
             tt = np.asarray(t[max(0, s - 1) : e])
             gaps += int(np.count_nonzero(np.diff(tt) > GAP_FACTOR * period))
             release(t[max(0, s - 1) : e])
     rate = NS_PER_S / period if period > 0 else 0.0
+    kept = None if levels is None else tuple(sorted(levels))
     if period > 0 and n - 1 >= 1 / RARE_STEPS and gaps > RARE_STEPS * (n - 1):
         # more gaps than a regular clock's outages: the steps may vary by nature
         irregular = _irregular(t, period)
@@ -681,8 +709,21 @@ def _summarize(name: str, t: IntArray, v: FloatArray, block: int = 1 << 22) -> C
                 hi,
                 irregular=True,
                 bridge=longest / mean,
+                levels=kept,
             )
-    return ChannelInfo(name, n, int(t[0]), int(t[-1]), rate, gaps, finite, lo, hi)
+    return ChannelInfo(name, n, int(t[0]), int(t[-1]), rate, gaps, finite, lo, hi, levels=kept)
+
+
+def _two_levels(seen: set[float], block: FloatArray, lo: float, hi: float) -> set[float] | None:
+    """The distinct values of a channel so far, ``seen`` (at most two), with those of its
+    next ``block`` of finite values (its least ``lo`` and greatest ``hi``); None once
+    there are more than two. Vectorized over the block: each value is compared with
+    the block's two extremes, so a channel of more values is known at its first block
+    and its later blocks are not compared at all."""
+    if lo != hi and not bool(np.all((block == lo) | (block == hi))):
+        return None
+    out = seen | {lo, hi}
+    return out if len(out) <= 2 else None
 
 
 def _irregular(t: IntArray, period: float) -> tuple[float, float] | None:
