@@ -44,7 +44,7 @@ KINDS: tuple[tuple[str, str, re.Pattern[str]], ...] = (
         "About which channels were analyzed",
         re.compile(
             r"not analyzed|not in the model|\[\[group\]\]|channels analyzed in \d+ groups"
-            r"|searched again without|copies of another channel"
+            r"|searched again without|copies of another channel|left out of the analysis"
         ),
     ),
     (

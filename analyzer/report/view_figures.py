@@ -267,10 +267,12 @@ class FigureParts:
             "the fault, around the onset, with the test that raised its alarm: the "
             "trailing moving mean (black) of that window and the band it must leave (red), "
             "or the window's moving RMS about the healthy mean (it rises with a gain "
-            "change or any large step) and the bound it must cross (purple, dashed), both set from the training residual and the "
-            "false-alarm rate; and its first alarm (black, dotted). Each detector tests a "
-            "short and a long window, the long one for small lasting changes, each with "
-            "bounds of its own. " + " ".join(said) + f"{start_up}",
+            "change or any large step) and the bound it must cross (purple, dashed), both "
+            "set from the training residual and the false-alarm rate; and its first alarm "
+            "(black, dotted). Each detector tests a short and a long window, the long one "
+            "for small lasting changes, each with bounds of its own. "
+            + " ".join(said)
+            + f"{start_up}",
             job,
         )
 

@@ -200,3 +200,14 @@ def test_the_wording_of_sizes():
     assert relative_size(0.0011838, 1.0).endswith(": 0.00118 of the sensor's usual spread")
     assert relative_size(1.2e-5, 1.0).endswith(": under 0.001 of the sensor's usual spread")
     assert relative_size(1234.4, 1.0) == "1234 × the sensor's usual spread"
+
+
+def test_a_note_that_begins_with_a_channel_name_is_sorted_by_what_it_says():
+    """A channel's name opens many notes and may be any word: SKAB's label column
+    ``anomaly`` opened the note that left it out, which was sorted among the alarms'
+    notes (``^anomaly``) instead of with the channels left out."""
+    note = (
+        "anomaly, changepoint hold only 0 and 1 over the record: flags or labels, not "
+        "measurements; left out of the analysis; name them in --channels to analyze them"
+    )
+    assert kind_of(note) == "channels"
