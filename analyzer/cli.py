@@ -244,14 +244,17 @@ HELP: dict[str, tuple[str, str]] = {
     "export": (
         "Write an archive's channels aligned on one clock to FILE (.csv or .parquet): a\n"
         "first column 'time' (seconds from the first sample), then one column per\n"
-        "channel, one row per tick. Nothing else is written; the inputs are never changed.\n"
+        "channel, one row per tick (--utc adds a last column 'utc' of UTC times). A\n"
+        "parquet file also holds the record's UTC start and each channel's own rate as\n"
+        "metadata. Ends with one line on stderr: rows, channels, rate, start and FILE.\n"
+        "Nothing else is written; the inputs are never changed.\n"
         "\n"
         "exit codes: 0 written; 2 usage or input error (one line on stderr; a line cut for\n"
         "length ends with the path of the file that holds it whole, FILE.error.txt)",
         "examples:\n"
         "  analyzer export samples/building_drift.bag --out drift.csv\n"
         "  analyzer export samples/building_additive.mcap --out s4.parquet --channels '/s4.*'\n"
-        "  analyzer export samples/building_multiplicative.csv.gz --out slow.csv --rate 50",
+        "  analyzer export samples/building_multiplicative.csv.gz --out slow.csv --rate 50 --utc",
     ),
     "run": (
         "Analyze an archive for faulty sensors: which sensor, what kind of fault (an\n"
@@ -350,6 +353,12 @@ def build_parser() -> argparse.ArgumentParser:
         default="log",
         help="timestamps: log time (default) or header.stamp where messages have one",
     )
+    p.add_argument(
+        "--utc",
+        action="store_true",
+        help="add a last column 'utc': each row's time as ISO-8601 UTC (refused for "
+        "relative times)",
+    )
     add_msg_path(p)
 
     p = _sub(sub, "run", "analyze; write DIR/report.html and DIR/findings.json")
@@ -367,6 +376,12 @@ def build_parser() -> argparse.ArgumentParser:
         type=_path_text,
         metavar="FILE",
         help="also write the fitted models to FILE, for --model on later archives",
+    )
+    p.add_argument(
+        "--utc",
+        action="store_true",
+        help="with --corrected: add a last column 'utc' to DIR/corrected.csv, each row's "
+        "time as ISO-8601 UTC (refused for relative times)",
     )
 
     p = _sub(sub, "watch", "analyze every archive that lands in INBOX")
@@ -488,6 +503,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         rate=args.rate,
         time=args.time,
         warn=_warn,
+        utc=args.utc,
+        say=_say,
     )
     return 0
 
@@ -511,6 +528,7 @@ def _run_options(args: argparse.Namespace) -> Any:
         save_model=getattr(args, "save_model", None),
         screen=args.screen,
         say=_say if getattr(args, "command", None) == "run" else None,
+        utc=getattr(args, "utc", False),
     )
 
 

@@ -1,24 +1,73 @@
 """``analyzer export``: the time-aligned channels as .csv or .parquet, block by block
-(memory does not grow with the archive's length)."""
+(memory does not grow with the archive's length).
+
+The contract fixes the columns: ``time`` (seconds from the first sample), then one per
+channel. What that leaves out is said elsewhere: a parquet file carries the record's
+absolute start, the clock's rate and each channel's own rate and sample count as
+key-value metadata (:func:`parquet_metadata`); ``--utc`` adds a last column ``utc`` of
+UTC times; and a successful export ends with one line on stderr (:func:`summary_line`)
+after a warning naming the channels whose values are mostly interpolated
+(:func:`interpolation_warnings`). An export said nothing, and its file held no trace of
+when the record was made (a nav2 bag of 2026-05-08 exported as seconds from 0)."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from analyzer.errors import UsageError, capped
 from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
 from analyzer.readers import open_archive
-from analyzer.readers.base import TimeSource, one_clock
+from analyzer.readers.base import InputInfo, TimeSource, one_clock
 from analyzer.scratch import scratch
-from analyzer.store import AlignedSeries, ChannelStore, clock_rate
+from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
+from analyzer.timeutil import (
+    exact_unit,
+    iso_times,
+    iso_utc,
+    plain_number,
+    plausible_epoch,
+    spoken_duration,
+)
 
 BLOCK = 1 << 16
 
 WARNED_LINES = 5
 """Lines of input errors an export repeats through ``warn`` (as ``run`` does)."""
+
+INTERPOLATED = 2.0
+"""A varying channel exported on a clock more than this many times its own rate is
+named in a warning: at least half of its values are interpolated between its samples
+(/amcl_pose at 1.4 Hz on a nav2 bag's 27.6 Hz clock: 2 625 values from 135 samples)."""
+
+RATE_SLACK = 0.01
+"""``--rate`` is "above every channel's own rate" when above the fastest by more than
+this share: a measured rate of 199.98 Hz is a 200 Hz channel."""
+
+UTC_COLUMN = "utc"
+
+
+@dataclass(frozen=True, slots=True)
+class Exported:
+    """What an export wrote: its last line on stderr, its warnings and a parquet file's
+    metadata are views of it."""
+
+    path: Path
+    rows: int
+    rate_hz: float
+    start_ns: int
+    """The first row's time: epoch nanoseconds (UTC) when :attr:`absolute`, else the
+    record's own clock."""
+    absolute: bool
+    channels: tuple[ChannelInfo, ...]
+    """Each exported channel's raw samples (its own rate and count), in column order."""
+    asked_rate: float | None = None
+    """``--rate``, when given."""
 
 
 def export_archive(
@@ -28,10 +77,15 @@ def export_archive(
     rate: float | None = None,
     time: TimeSource = "log",
     warn: Callable[[str], None] | None = None,
+    utc: bool = False,
+    say: Callable[[str], None] | None = None,
 ) -> Path:
     """Write the aligned channels of ``inputs`` to ``out``; what went wrong with the
     inputs while they were read (a truncated file, samples dropped: ``inputs[].errors``
-    of ``inspect``) is told to ``warn``, a line each, once the file is written."""
+    of ``inspect``) and the channels whose values are mostly interpolated are told to
+    ``warn``, a line each, once the file is written, then :func:`summary_line` to
+    ``say``. ``utc``: a last column ``utc`` of ISO-8601 UTC times (``--utc``), refused
+    for a record of relative times before anything is written."""
     suffix = "".join(out.suffixes[-1:]).lower()
     if suffix not in (".csv", ".parquet"):
         raise UsageError(f"--out: {out} must end in .csv or .parquet")
@@ -41,11 +95,17 @@ def export_archive(
     not_into_inputs(out, inputs, "--out", "export elsewhere")
     created = prepare_dir(out.parent, "--out")  # before reading: not at the end
     try:
-        return _export(inputs, out, suffix, channels, rate, time, warn)
+        done = _export(inputs, out, suffix, channels, rate, time, warn, utc)
     except BaseException:
         if created:
             remove_if_empty(out.parent)
         raise
+    if warn is not None:
+        for line in interpolation_warnings(done):
+            warn(line)
+    if say is not None:
+        say(summary_line(done))
+    return out
 
 
 def _export(
@@ -56,7 +116,8 @@ def _export(
     rate: float | None,
     time: TimeSource,
     warn: Callable[[str], None] | None = None,
-) -> Path:
+    utc: bool = False,
+) -> Exported:
     archive = open_archive(inputs)
     with (
         scratch("analyzer-export-") as tmp,
@@ -79,12 +140,27 @@ def _export(
             )
         one_clock(names, archive.inputs)
         aligned = store.align(names, _default_rate(store, names) if rate is None else rate)
+        absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
+            aligned.start_ns
+        )
+        if utc:
+            _check_utc(names, absolute, archive.inputs)
+        infos = {i.name: i for i in store.infos()}
+        done = Exported(
+            path=out,
+            rows=aligned.n,
+            rate_hz=aligned.rate_hz,
+            start_ns=aligned.start_ns,
+            absolute=absolute,
+            channels=tuple(infos[n] for n in aligned.channels),
+            asked_rate=rate,
+        )
         tmp_out = out.with_name(f".{out.name}.part")
         try:
             if suffix == ".csv":
-                _write_csv(aligned, tmp_out)
+                _write_csv(aligned, tmp_out, utc)
             else:
-                _write_parquet(aligned, tmp_out)
+                _write_parquet(aligned, tmp_out, utc, parquet_metadata(done))
             tmp_out.replace(out)
         finally:
             tmp_out.unlink(missing_ok=True)
@@ -94,7 +170,121 @@ def _export(
             warn(line)
         if len(lines) > WARNED_LINES:
             warn(f"{len(lines) - WARNED_LINES} more input errors (`analyzer inspect` lists them)")
-    return out
+    return done
+
+
+def _check_utc(names: Sequence[str], absolute: bool, inputs: Sequence[InputInfo]) -> None:
+    """``--utc``: refused, before anything is written, for a record without a date (a
+    CSV of seconds, a bag on a simulation clock: there is no UTC time to write) and for
+    a channel named ``utc`` (two columns of one name)."""
+    if not absolute:
+        relative = [str(i.path) for i in inputs if not i.absolute_time]
+        where = capped(relative or [str(i.path) for i in inputs], 3, what="inputs")
+        what = (
+            "relative times (seconds, no date)"
+            if relative
+            else "times before 1990 (a simulation's clock, not a date)"
+        )
+        raise UsageError(
+            f"--utc: {where} has {what}: there is no UTC time to write; export without --utc"
+        )
+    if UTC_COLUMN in names:
+        raise UsageError(
+            f"--utc: a channel is named {UTC_COLUMN!r}; leave it out (--channels "
+            f"'!{UTC_COLUMN}') or export without --utc"
+        )
+
+
+def interpolated_channels(done: Exported) -> list[ChannelInfo]:
+    """The varying channels on a clock more than :data:`INTERPOLATED` times their own
+    rate. A constant channel is not among them: its values between samples are its
+    value."""
+    return [
+        i
+        for i in done.channels
+        if not i.constant and i.rate_hz > 0 and done.rate_hz > INTERPOLATED * i.rate_hz
+    ]
+
+
+def interpolation_warnings(done: Exported) -> list[str]:
+    """At most one line: ``--rate`` above every channel's own rate (the share of rows
+    that are not readings of even the fastest), else the channels exported at more
+    than twice their own rate, the first four named with their rates."""
+    slow = interpolated_channels(done)
+    fastest = max((i.rate_hz for i in done.channels), default=0.0)
+    clock = f"{plain_number(done.rate_hz, 4)} Hz"
+    if done.asked_rate is not None and fastest > 0 and done.rate_hz > fastest * (1 + RATE_SLACK):
+        share = 100.0 * (1.0 - fastest / done.rate_hz)
+        more = (
+            f", and {len(slow)} varying channel{'s are' if len(slow) > 1 else ' is'} at more "
+            f"than twice {'their' if len(slow) > 1 else 'its'} own rate"
+            if slow
+            else ""
+        )
+        return [
+            f"{done.path}: --rate {done.asked_rate:g} is above every channel's own rate (the "
+            f"fastest: {plain_number(fastest, 4)} Hz): at least {share:.0f} % of the rows hold "
+            f"values interpolated between samples, not readings{more} (without --rate the "
+            "clock is the channels' dominant rate)"
+        ]
+    if not slow:
+        return []
+    named = capped([f"{i.name} ({plain_number(i.rate_hz, 3)} Hz)" for i in slow], 4)
+    return [
+        f"{done.path}: {len(slow)} channel{'s' if len(slow) > 1 else ''} exported at more "
+        f"than twice {'their' if len(slow) > 1 else 'its'} own rate on the {clock} clock, "
+        f"the values between {'their' if len(slow) > 1 else 'its'} samples interpolated: "
+        f"{named}"
+    ]
+
+
+def summary_line(done: Exported) -> str:
+    """The line a successful export ends with (as ``run``'s): rows, channels, the
+    clock's rate, the span and its start (UTC, or that the times are relative) and the
+    file."""
+    n = len(done.channels)
+    span = spoken_duration(done.rows / done.rate_hz)
+    start = f"from {iso_utc(done.start_ns)}" if done.absolute else "relative times, no date"
+    return (
+        f"exported {done.rows} row{'s' if done.rows != 1 else ''} of {n} "
+        f"channel{'s' if n != 1 else ''} at {plain_number(done.rate_hz, 4)} Hz ({span}, "
+        f"{start}) to {done.path}"
+    )
+
+
+def parquet_metadata(done: Exported) -> dict[bytes, bytes]:
+    """A parquet file's key-value metadata (``pyarrow.parquet.read_schema(F).metadata``):
+    ``analyzer.start_utc`` (ISO-8601, empty for relative times), ``analyzer.start_ns``
+    (the first row's time: epoch nanoseconds, or the record's own clock),
+    ``analyzer.absolute_time``, ``analyzer.time`` (what the ``time`` column holds),
+    ``analyzer.rate_hz``, ``analyzer.rows``, ``analyzer.channels`` (JSON: each channel's
+    ``name``, own ``rate_hz``, raw ``samples`` and ``interpolated``: more than twice its
+    rate, :func:`interpolated_channels`) and ``analyzer.version``."""
+    from analyzer import __version__
+
+    slow = {i.name for i in interpolated_channels(done)}
+    start = (
+        str(iso_times(np.array([done.start_ns]), exact_unit(done.start_ns, done.rate_hz))[0])
+        if done.absolute
+        else ""
+    )
+    channels = [
+        {"name": i.name, "rate_hz": i.rate_hz, "samples": i.samples, "interpolated": i.name in slow}
+        for i in done.channels
+    ]
+    meta = {
+        "start_utc": start,
+        "start_ns": str(done.start_ns),
+        "absolute_time": "true" if done.absolute else "false",
+        "time": "seconds from start_utc (the first row)"
+        if done.absolute
+        else "seconds from the first row (relative times, no date)",
+        "rate_hz": repr(float(done.rate_hz)),
+        "rows": str(done.rows),
+        "channels": json.dumps(channels),
+        "version": __version__,
+    }
+    return {f"analyzer.{k}".encode(): v.encode() for k, v in meta.items()}
 
 
 def _default_rate(store: ChannelStore, names: Sequence[str]) -> float:
@@ -109,34 +299,55 @@ def _default_rate(store: ChannelStore, names: Sequence[str]) -> float:
     return clock_rate([infos[n] for n in varying or names])
 
 
-def _table(aligned: AlignedSeries, a: int, blk: np.ndarray, schema: object) -> object:
+def _table(aligned: AlignedSeries, a: int, blk: np.ndarray, schema: Any) -> Any:
+    """Rows ``a .. a + len(blk) - 1``: ``time``, the channels and, when the schema has
+    it, ``utc`` (ISO-8601 strings in a CSV, a UTC timestamp in a parquet file)."""
     import pyarrow as pa
 
     t = np.arange(a, a + blk.shape[0]) / aligned.rate_hz
     cols = [pa.array(t)] + [pa.array(blk[:, j], from_pandas=True) for j in range(blk.shape[1])]
+    if len(schema) > len(cols):  # (the last column: utc)
+        ns = aligned.times_ns(a, a + blk.shape[0])
+        kind = schema.field(len(cols)).type
+        if pa.types.is_timestamp(kind):
+            cols.append(pa.array(ns, type=pa.int64()).cast(kind))
+        else:
+            cols.append(pa.array(iso_times(ns, exact_unit(aligned.start_ns, aligned.rate_hz))))
     return pa.Table.from_arrays(cols, schema=schema)
 
 
-def _schema(aligned: AlignedSeries) -> object:
+def _schema(aligned: AlignedSeries, utc: Any = None) -> Any:
+    """``time``, the channels (float64) and ``utc`` of type ``utc`` when given."""
     import pyarrow as pa
 
-    return pa.schema([("time", pa.float64())] + [(c, pa.float64()) for c in aligned.channels])
+    fields = [("time", pa.float64())] + [(c, pa.float64()) for c in aligned.channels]
+    if utc is not None:
+        fields.append((UTC_COLUMN, utc))
+    return pa.schema(fields)
 
 
-def _write_csv(aligned: AlignedSeries, path: Path) -> None:
-    """CSV via pyarrow's writer: shortest round-trip floats, an empty cell for a gap."""
+def _write_csv(aligned: AlignedSeries, path: Path, utc: bool = False) -> None:
+    """CSV via pyarrow's writer: shortest round-trip floats, an empty cell for a gap;
+    ``utc``: a last column of ISO-8601 UTC times."""
+    import pyarrow as pa
     import pyarrow.csv as pcsv
 
-    schema = _schema(aligned)
+    schema = _schema(aligned, pa.string() if utc else None)
     with pcsv.CSVWriter(str(path), schema) as w:
         for a, blk in aligned.blocks(BLOCK):
             w.write_table(_table(aligned, a, blk, schema))
 
 
-def _write_parquet(aligned: AlignedSeries, path: Path) -> None:
+def _write_parquet(
+    aligned: AlignedSeries, path: Path, utc: bool = False, meta: dict[bytes, bytes] | None = None
+) -> None:
+    """Parquet with ``meta`` as the file's key-value metadata; ``utc``: a last column of
+    nanosecond UTC timestamps."""
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
-    schema = _schema(aligned)
+    schema = _schema(aligned, pa.timestamp("ns", tz="UTC") if utc else None)
+    schema = schema.with_metadata(meta or {})
     with pq.ParquetWriter(str(path), schema) as w:
         for a, blk in aligned.blocks(BLOCK):
             w.write_table(_table(aligned, a, blk, schema))

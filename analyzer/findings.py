@@ -243,14 +243,17 @@ def _jsonable(x: Any) -> Any:
 
 
 def write_outputs(
-    analysis: Analysis, out_dir: Path, warn: Callable[[str], None] | None = None
+    analysis: Analysis, out_dir: Path, warn: Callable[[str], None] | None = None, utc: bool = False
 ) -> dict[str, Any]:
     """``out_dir/findings.json`` and ``out_dir/report.html`` (each atomically; both are
     built before either is replaced, so an error leaves both as they were). The report's
     figures are drawn by the worker processes of an enclosing
     :func:`analyzer.report.workers.figure_workers` context (``analyzer run`` enters one),
     else in this process; the page is the same either way. A figure that cannot be drawn
-    leaves a line in its place, a note in both files and a ``warn`` line."""
+    leaves a line in its place, a note in both files and a ``warn`` line. ``utc``
+    (``run --corrected --utc``): ``corrected.csv`` gets a last column ``utc``, each row's
+    time as ISO-8601 UTC (for a record of absolute times: the run refused it otherwise,
+    :func:`analyzer.options.check_utc`)."""
     from analyzer.report import render_view
     from analyzer.report.view import build_view
 
@@ -278,6 +281,10 @@ def write_outputs(
     write_atomic(out_dir / "report.html", html)
     if analysis.corrected is not None:
         write_corrected_csv(
-            out_dir / "corrected.csv", analysis.times_between, analysis.analyzed, analysis.corrected
+            out_dir / "corrected.csv",
+            analysis.times_between,
+            analysis.analyzed,
+            analysis.corrected,
+            (analysis.start_ns, analysis.rate_hz) if utc and analysis.absolute_time else None,
         )
     return doc

@@ -58,6 +58,9 @@ class RunOptions:
     say: Callable[[str], None] | None = None
     """Where :func:`analyzer.pipeline.run` says its last line (:func:`analyzer.pipeline.
     summary_line`: what it found and where the report is): the CLI's stderr."""
+    utc: bool = False
+    """``run --corrected --utc``: ``corrected.csv`` gets a last column ``utc`` of UTC
+    times (its ``time`` column counts seconds from the first sample, as ``export``'s)."""
 
 
 DEFAULT_TRAIN_FRACTION = 0.2
@@ -225,7 +228,28 @@ def load_options(config_path: str | None, **kw: Any) -> RunOptions:
             detector_class(name)  # an unknown name is a usage error before any reading
     if kw.get("screen"):
         kw["screen"] = _check_screen(list(dict.fromkeys(kw["screen"])), kw)
+    if kw.get("utc") and not kw.get("corrected"):
+        raise UsageError(
+            "--utc: adds a column of UTC times to DIR/corrected.csv, which only --corrected "
+            "writes; give --corrected too"
+        )
     return RunOptions(config=cfg, **kw)
+
+
+def check_utc(absolute: bool, channels: Sequence[str]) -> None:
+    """``run --corrected --utc``, once the record is read and before it is analyzed: a
+    record without a date (a CSV of seconds, a bag on a simulation clock) has no UTC time
+    to write, and an analyzed channel named ``utc`` would make two columns of one name."""
+    if not absolute:
+        raise UsageError(
+            "--utc: the record has relative times (seconds with no date, or a clock before "
+            "1990, a simulation's): there is no UTC time to write; run without --utc"
+        )
+    if "utc" in channels:
+        raise UsageError(
+            "--utc: an analyzed channel is named 'utc'; leave it out (--channels '!utc') or "
+            "run without --utc"
+        )
 
 
 def _check_screen(screen: list[str], kw: dict[str, Any]) -> list[str]:

@@ -86,7 +86,14 @@ from analyzer.errors import (
 from analyzer.findings import Analysis, findings_document, input_digest, write_outputs
 from analyzer.grouping import partition
 from analyzer.modelfile import SavedModel, check_model_path, save_model
-from analyzer.options import MIN_TRAIN_ROWS, RunOptions, default_train, load_options, parse_train
+from analyzer.options import (
+    MIN_TRAIN_ROWS,
+    RunOptions,
+    check_utc,
+    default_train,
+    load_options,
+    parse_train,
+)
 from analyzer.outage import treat_outages
 from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
 from analyzer.paging import release, row_blocks, trim_heap
@@ -780,6 +787,8 @@ def _analyze(
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
             aligned.start_ns
         )
+        if options.utc:
+            check_utc(absolute, chosen)
         tr, train = _training_window(options, aligned, absolute, notes)
         try:
             values, chosen = _varying_in_training(
@@ -2500,7 +2509,7 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         analysis = analyze_screened(inputs, options, work)
         if options.progress:
             options.progress("report", 0.0)
-        write_outputs(analysis, out, options.warn)
+        write_outputs(analysis, out, options.warn, options.utc)
         if options.progress:
             options.progress("report", 1.0)
         if options.warn is not None:

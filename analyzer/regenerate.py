@@ -40,7 +40,8 @@ import numpy.typing as npt
 
 from analyzer.diagnosis.classify import MIN_GAIN
 from analyzer.paging import RELEASE_ROWS, release
-from analyzer.types import FaultType
+from analyzer.timeutil import exact_unit, iso_times
+from analyzer.types import NS_PER_S, FaultType
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -1143,13 +1144,17 @@ def write_corrected_csv(
     t_s: FloatArray | Callable[[int, int], FloatArray],
     channels: Sequence[str],
     corrected: FloatArray,
+    utc: tuple[int, float] | None = None,
 ) -> Path:
     """Write ``time`` (seconds) and every channel of ``corrected`` as CSV: shortest
     round-trip floats, an empty cell for a gap (as ``analyzer export``); written to a
     temporary name and renamed, so a reader never sees half a file. ``t_s``: the time
     column, or a function of ``(a, b)`` that gives rows ``a .. b - 1`` of it. The rows are
     written :data:`RELEASE_ROWS` at a time with the pages of a mapped ``corrected`` given
-    back, so a long archive takes memory set by that piece."""
+    back, so a long archive takes memory set by that piece. ``utc``: ``(start_ns,
+    rate_hz)`` of the record's clock, for a last column ``utc`` holding row ``k``'s time
+    ``start_ns + k / rate_hz`` as ISO-8601 UTC (``run --corrected --utc``: ``time``
+    counts from the first sample, a date appears nowhere else in the file)."""
     import pyarrow as pa
     import pyarrow.csv as pcsv
 
@@ -1167,9 +1172,12 @@ def write_corrected_csv(
             f"got {np.shape(corrected)}"
         )
     names = ["time", *channels]
-    if len(set(names)) != len(names):
-        raise ValueError(f"duplicate column names in {names}")
+    if len(set(names + (["utc"] if utc else []))) != len(names) + bool(utc):
+        raise ValueError(f"duplicate column names in {names}{' and utc' if utc else ''}")
     schema = pa.schema([(name, pa.float64()) for name in names])
+    if utc is not None:
+        schema = schema.append(pa.field("utc", pa.string()))
+        unit = exact_unit(*utc)
     p.parent.mkdir(parents=True, exist_ok=True)
     tmp = p.with_name(f".{p.name}.part")
     try:
@@ -1180,6 +1188,10 @@ def write_corrected_csv(
                 cols = [pa.array(np.asarray(times(a, b), dtype=np.float64))] + [
                     pa.array(rows[:, j], from_pandas=True) for j in range(rows.shape[1])
                 ]
+                if utc is not None:
+                    k = np.arange(a, b, dtype=np.int64)
+                    ns = utc[0] + np.round(k * (NS_PER_S / utc[1])).astype(np.int64)
+                    cols.append(pa.array(iso_times(ns, unit)))
                 writer.write_table(pa.Table.from_arrays(cols, schema=schema))
                 release(corrected[a:b])
         os.replace(tmp, p)

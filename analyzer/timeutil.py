@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from datetime import UTC, datetime
+from typing import Literal
 
 import numpy as np
 
@@ -18,6 +19,29 @@ def iso_utc(ns: int | None) -> str | None:
     sec, rem = divmod(ms * 1_000_000, NS_PER_S)
     dt = datetime.fromtimestamp(sec, tz=UTC)
     return dt.strftime("%Y-%m-%dT%H:%M:%S") + f".{rem // 1_000_000:03d}Z"
+
+
+IsoUnit = Literal["ms", "us", "ns"]
+
+
+def exact_unit(start_ns: int, rate_hz: float) -> IsoUnit:
+    """The coarsest of ms, us and ns in which every tick ``start_ns + round(k * 1e9 /
+    rate_hz)`` of a clock is exact: a record that starts on a millisecond at 200 Hz is
+    written ``...13.383Z``, one that starts at a ROS log time ``...13.382747123Z``."""
+    period = NS_PER_S / rate_hz
+    units: tuple[tuple[IsoUnit, int], ...] = (("ms", 1_000_000), ("us", 1_000))
+    for unit, size in units:
+        if start_ns % size == 0 and period == round(period) and round(period) % size == 0:
+            return unit
+    return "ns"
+
+
+def iso_times(times_ns: np.ndarray, unit: IsoUnit) -> np.ndarray:
+    """Epoch nanoseconds as ISO-8601 UTC strings (``2026-05-08T09:59:13.383Z``) written to
+    ``unit`` (truncated: :func:`exact_unit` gives the unit that loses nothing), vectorized
+    (a column of an export, ``--utc``)."""
+    stamps = np.asarray(times_ns, dtype=np.int64).astype("datetime64[ns]")
+    return np.datetime_as_string(stamps, unit=unit, timezone="UTC")
 
 
 def parse_time(text: str) -> tuple[str, float | int]:
