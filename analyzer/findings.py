@@ -53,6 +53,11 @@ class Analysis:
     """The fitted models of this run (with ``--save-model``), or those it ran (``--model``)."""
     model_info: dict[str, Any] | None = None
     """With ``--model``: the model file and what it was trained on (``findings.json``)."""
+    saved_model: dict[str, Any] | None = None
+    """With ``--save-model``: the file the fitted models are saved to, its SHA-256, the
+    window they were fitted on, what was searched after it (None: nothing) and the
+    warnings about that window (``findings.json``'s ``saved_model``; set by
+    :func:`analyzer.pipeline.run`)."""
     screen: dict[str, Any] | None = None
     """With ``--screen``: the screening's detectors and whether they found a fault
     (``findings.json``), from :func:`analyzer.pipeline.analyze_screened`."""
@@ -166,6 +171,7 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
             for r in a.results
         ],
         "model": a.model_info,
+        "saved_model": a.saved_model,
         "screen": a.screen,
         "skipped_detectors": a.skipped,
         "notes": a.notes,

@@ -180,6 +180,13 @@ class ReportView:
     """Every analyzed channel's response level over time (:func:`figures.level_figure`)."""
     sections: str = ""
     """Which findings have a section (``findings 1-6``) when not all do, else empty."""
+    saved: str = ""
+    """With ``--save-model``: where the fitted models went, what was searched after the
+    training window and the warnings about it (:meth:`~analyzer.report.view._Access.
+    saved_text`)."""
+    nothing_searched: bool = False
+    """A ``--save-model`` run whose training window is the whole record: nothing was
+    searched, and the verdict does not say "no sensor fault found"."""
 
     @property
     def figure_count(self) -> int:
