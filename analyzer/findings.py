@@ -57,6 +57,11 @@ class Analysis:
     config_info: dict[str, Any] | None = None
     """With ``--config``: the file, its digest and its settings (``findings.json``,
     :meth:`analyzer.config.Config.info`)."""
+    saved_model: dict[str, Any] | None = None
+    """With ``--save-model``: the file the fitted models are saved to, its SHA-256, the
+    window they were fitted on, what was searched after it (None: nothing) and the
+    warnings about that window (``findings.json``'s ``saved_model``; set by
+    :func:`analyzer.pipeline.run`)."""
     screen: dict[str, Any] | None = None
     """With ``--screen``: the screening's detectors and whether they found a fault
     (``findings.json``), from :func:`analyzer.pipeline.analyze_screened`."""
@@ -177,6 +182,7 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
             for r in a.results
         ],
         "model": a.model_info,
+        "saved_model": a.saved_model,
         "screen": a.screen,
         "config": _jsonable(a.config_info),
         "skipped_detectors": a.skipped,

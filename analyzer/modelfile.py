@@ -158,9 +158,16 @@ class _Restricted(pickle.Unpickler):
         raise pickle.UnpicklingError(f"refused to build {module}.{name}")
 
 
-def save_model(path: Path, model: SavedModel) -> None:
-    """Write ``model`` to ``path`` atomically (a reader never sees half a file)."""
-    write_atomic(path, framed(pickle.dumps(model, protocol=5)))
+def save_model(path: Path, model: SavedModel, data: bytes | None = None) -> None:
+    """Write ``model`` to ``path`` atomically (a reader never sees half a file): its
+    :func:`model_bytes`, or ``data``, those bytes made before (whose SHA-256 the run's
+    ``findings.json`` gives)."""
+    write_atomic(path, model_bytes(model) if data is None else data)
+
+
+def model_bytes(model: SavedModel) -> bytes:
+    """The bytes of ``model``'s file (:func:`framed`)."""
+    return framed(pickle.dumps(model, protocol=5))
 
 
 def framed(payload: bytes) -> bytes:

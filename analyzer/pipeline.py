@@ -3,13 +3,15 @@ backend): readers -> store -> detectors -> diagnosis -> report."""
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
 import math
 import os
 import re
 import shutil
 import time
 import warnings
-from collections.abc import Callable, Collection, Sequence
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
@@ -85,7 +87,7 @@ from analyzer.errors import (
 )
 from analyzer.findings import Analysis, findings_document, input_digest, write_outputs
 from analyzer.grouping import partition
-from analyzer.modelfile import SavedModel, check_model_path, save_model
+from analyzer.modelfile import SavedModel, check_model_path, model_bytes, save_model
 from analyzer.options import (
     MIN_TRAIN_ROWS,
     RunOptions,
@@ -106,7 +108,7 @@ from analyzer.parallel import (
     make_executor,
 )
 from analyzer.readers import Archive, ArchiveNote, open_archive
-from analyzer.readers.base import one_clock
+from analyzer.readers.base import InputInfo, one_clock
 from analyzer.readers.tally import Tally
 from analyzer.reconfigure import (
     SEARCH_AGAIN_MIN,
@@ -561,6 +563,33 @@ def _spread_against_model(
     return [WindowNote(text, text)]
 
 
+def _rate_against_model(
+    infos: Sequence[ChannelInfo], chosen: Sequence[str], model_hz: float
+) -> list[str]:
+    """With ``--model``: a note (repeated on stderr, as :func:`_spread_against_model`'s)
+    when the channels run at another rate than the model was fitted at: they are
+    resampled to the model's rate, and at a lower one of theirs the samples between
+    their readings are interpolated lines, which the models take for the sensors'
+    signal (a healthy 50-Hz file with a 200-Hz model gave three anomalies attributed to
+    no sensor, "a change of the structure or excitation", and said so only in
+    ``findings.json``; the audit)."""
+    own = clock_rate([i for i in infos if i.name in set(chosen)])
+    if not own > 0 or abs(own - model_hz) <= 0.01 * model_hz:
+        return []
+    between = (
+        f"; {model_hz / own:.3g} times as many samples, the ones between their readings "
+        "interpolated, which the models take for the sensors' signal"
+        if own < model_hz
+        else ""
+    )
+    text = (
+        f"the channels run at {plain_number(own, 4)} Hz and the model at "
+        f"{plain_number(model_hz, 4)} Hz: they are resampled to the model's rate{between} (a "
+        "model fitted at their own rate fits them best)"
+    )
+    return [WindowNote(text, text)]
+
+
 RETRAIN_SHARE = 0.25
 """The default training window is cut before a sensor's change inside it when at least
 this share of it is left (:func:`_trained_before`)."""
@@ -705,6 +734,45 @@ def _checked(run: Callable[[], Analysis], work: Path) -> Analysis:
     return analysis
 
 
+CUT_SHORT = re.compile(r"truncated|unreadable from some point on|reading stopped")
+"""An input error that says the file was read only up to some point (the MCAP and
+ROS 1 readers' ``truncated or damaged at byte N``, a damaged ``.gz`` CSV's
+``unreadable from some point on``, a member whose reading stopped)."""
+
+
+@contextlib.contextmanager
+def _cut_short_said(inputs: Sequence[InputInfo], store: ChannelStore) -> Iterator[None]:
+    """An analysis of an archive an input of which was cut short (:data:`CUT_SHORT`)
+    that stops with an error says so first: ``FILE: truncated or damaged at byte N
+    (...): only S s of data were read; `` before the error, of the same class (the
+    watcher files it by its class). Else a truncated MCAP too short to analyze said only
+    that the training window was too short ("give --train 0:12"), and the damage, the
+    cause, was told only by a run that got further (the audit). Not an internal check's
+    error (:class:`IntegrityError`), nor one that names the damage already."""
+    damage = [(i.path, e) for i in inputs for e in i.errors if CUT_SHORT.search(e)]
+    if not damage:
+        yield
+        return
+    spans = [(i.start_ns, i.end_ns) for i in store.infos() if i.samples > 0]
+    read_s = (max(b for _, b in spans) - min(a for a, _ in spans)) / NS_PER_S if spans else 0.0
+    try:
+        yield
+    except IntegrityError:
+        raise
+    except AnalyzerError as err:
+        path, error = damage[0]
+        what = error.split("; ", 1)[0]
+        if what in str(err):
+            raise
+        more = f" (and {len(damage) - 1} more input errors of the kind)" if len(damage) > 1 else ""
+        told = type(err).__new__(type(err))
+        told.__dict__.update(err.__dict__)
+        told.args = (
+            f"{path}: {what}{more}: only {plain_number(read_s)} s of data were read; {err}",
+        )
+        raise told from err
+
+
 def _analyze(
     inputs: Sequence[str | Path],
     options: RunOptions,
@@ -719,7 +787,7 @@ def _analyze(
     t_start = time.perf_counter()
     archive, store, fed = _read_checked(inputs, options, work)
     notes.extend(archive.notes)
-    with store:
+    with store, _cut_short_said(archive.inputs, store):
         timings["read"] = time.perf_counter() - t_start
         if progress:
             progress("read", 1.0)
@@ -777,13 +845,7 @@ def _analyze(
         notes.extend(_irregular_channels(infos, chosen))
         notes.extend(_upsampled(infos, chosen, aligned.rate_hz, options.rate))
         if reused is not None:
-            own = clock_rate([i for i in infos if i.name in set(chosen)])
-            if own > 0 and abs(own - reused.rate_hz) > 0.01 * reused.rate_hz:
-                notes.append(
-                    f"the channels run at {own:.6g} Hz and the model at {reused.rate_hz:.6g} "
-                    "Hz: they are resampled onto the model's clock (a model fitted at their "
-                    "own rate fits them best)"
-                )
+            notes.extend(_rate_against_model(infos, chosen, reused.rate_hz))
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
             aligned.start_ns
         )
@@ -2507,6 +2569,10 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
     work = make_scratch()
     try:
         analysis = analyze_screened(inputs, options, work)
+        model = None
+        if options.save_model is not None and analysis.saved is not None:
+            model = model_bytes(analysis.saved)  # (its SHA-256 in findings.json)
+            analysis.saved_model = saved_model_info(analysis, options.save_model, model)
         if options.progress:
             options.progress("report", 0.0)
         write_outputs(analysis, out, options.warn, options.utc)
@@ -2519,7 +2585,7 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
             for line in window_warnings(analysis.notes):  # a training window not healthy
                 options.warn(line)
         if options.save_model is not None and analysis.saved is not None:
-            save_model(options.save_model, analysis.saved)
+            save_model(options.save_model, analysis.saved, model)
         if options.say is not None:
             options.say(summary_line(analysis, out))
         return 1 if analysis.faulty else 0
@@ -2543,13 +2609,56 @@ def summary_line(analysis: Analysis, out: Path) -> str:
     to anyone who has not read the contract: the line says it is a finding."""
     report = out / "report.html"
     found = analysis.findings
+    saved = getattr(analysis, "saved_model", None)  # (an analysis of before it was kept)
+    model = f"; {_saved_words(saved)}" if saved else ""
+    if saved and saved["searched"] is None:
+        return f"nothing after the training window to analyze{model}; report: {report}"
+    after = " after the training window" if saved else ""
     if not found:
-        return f"no sensor fault found; report: {report}"
+        return f"no sensor fault found{after}{model}; report: {report}"
     sensors = len({f.channel for f in found})
     items = [f"{f.channel} {f.type} from {_onset_words(f)}" for f in found]
     return (
         f"{len(found)} sensor fault{'s' if len(found) > 1 else ''} found on {sensors} "
-        f"sensor{'s' if sensors > 1 else ''}: {capped(items, SUMMARY_LISTED)}; report: {report}"
+        f"sensor{'s' if sensors > 1 else ''}{after}: {capped(items, SUMMARY_LISTED)}{model}; "
+        f"report: {report}"
+    )
+
+
+def saved_model_info(analysis: Analysis, path: Path, data: bytes) -> dict[str, Any]:
+    """``findings.json``'s ``saved_model`` of a ``--save-model`` run (:attr:`Analysis.
+    saved_model`): the file (``path``), the SHA-256 of its bytes ``data``, the window the
+    models were fitted on, what was searched for faults after it (None: nothing, the
+    window reaching the record's end) and the warnings the checks of that window gave
+    (their stderr lines: a step or gain change inside it...). A fit-only run said "no
+    sensor fault found", and nothing of the model, though nothing had been searched
+    (the audit)."""
+    start, end = analysis.train
+    searched = (
+        {"start_s": end / analysis.rate_hz, "end_s": analysis.duration_s}
+        if end < analysis.n
+        else None
+    )
+    return {
+        "path": str(path),
+        "sha256": hashlib.sha256(data).hexdigest(),
+        "train": {"start_s": start / analysis.rate_hz, "end_s": (end - 1) / analysis.rate_hz},
+        "searched": searched,
+        "warnings": window_warnings(analysis.notes),
+    }
+
+
+def _saved_words(saved: Mapping[str, Any]) -> str:
+    """The summary line's words on the saved model: its file, the window it was fitted
+    on, and, where that window's checks warned, that it was (not a clean bill)."""
+    tr = saved["train"]
+    window = f"{tr['start_s']:.6g}-{tr['end_s']:.6g} s"
+    warned = len(saved["warnings"])
+    if not warned:
+        return f"model saved to {saved['path']} (fitted on {window})"
+    return (
+        f"model saved to {saved['path']}, fitted on a window with "
+        f"{'a warning' if warned == 1 else f'{warned} warnings'} ({window}: see above)"
     )
 
 

@@ -74,6 +74,10 @@ class Correction:
     """Mean regenerated fault signal ``f_s`` over the period (channel units)."""
     rms_fault: float | None
     note: str = ""
+    onset_s: float | None = None
+    """The onset of the fault corrected (its finding's ``onset_s``): ``start_s`` is
+    earlier where the correction reaches back before it (an offset or gain present when
+    a ``--model`` search began is corrected from the record's start)."""
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -81,6 +85,7 @@ class Correction:
             "detector": self.detector,
             "type": self.type,
             "start_s": self.start_s,
+            "onset_s": self.start_s if self.onset_s is None else self.onset_s,
             "end_s": self.end_s,
             "method": self.method,
             "samples": self.samples,
@@ -350,18 +355,20 @@ def corrected_values(
             note: str = "",
             ev: FaultLike = ev,
             end: float | None = None if stop_s is None else float(stop_s),
+            begin: float | None = None,
         ) -> dict[str, Any]:
             return Correction(
                 ev.channel,
                 ev.detector,
                 FaultType(ev.type).value,
-                float(ev.onset_s),
+                float(ev.onset_s) if begin is None else begin,
                 end,
                 method,
                 samples,
                 mean,
                 rms,
                 note,
+                float(ev.onset_s),
             ).as_dict()
 
         j = index.get(ev.channel)
@@ -380,7 +387,10 @@ def corrected_values(
             continue
         notes = []
         again = None
+        begin = None  # (the onset's own time, unless the span starts elsewhere)
         if id(ev) in spans:
+            if spans[id(ev)].start != start:  # (from the record's start: its true start)
+                begin = spans[id(ev)].start / rate_hz
             start, stop = spans[id(ev)].start, spans[id(ev)].stop
             notes.append(spans[id(ev)].note)
         elif plan is not None:
@@ -424,6 +434,7 @@ def corrected_values(
                 total / count if count else None,
                 float(np.sqrt(squares / count)) if count else None,
                 note,
+                begin=begin,
             )
         )
     return out, records

@@ -5,7 +5,7 @@ settle, and what the notes and ``findings.json`` say about the model."""
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -13,7 +13,7 @@ import numpy as np
 
 from analyzer.detectors import REGISTRY
 from analyzer.diagnosis.changes import Calibration
-from analyzer.errors import UsageError
+from analyzer.errors import UsageError, capped
 from analyzer.findings import sha256_of
 from analyzer.modelfile import SavedModel
 from analyzer.options import RunOptions
@@ -34,11 +34,7 @@ def model_channels(
     missing = [c for c in model.channels if c not in have]
     where = options.model_path or "the model"
     if missing:
-        more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
-        raise UsageError(
-            f"--model {where}: this archive has no channel {', '.join(missing[:3])}{more} "
-            f"(the model was fitted on {len(model.channels)} channels)"
-        )
+        raise UsageError(_missing_line(store, missing, where, len(model.channels)))
     if options.rate is not None and abs(options.rate - model.rate_hz) > 1e-9 * model.rate_hz:
         raise UsageError(
             f"--rate {options.rate:g}: the model {where} was fitted at {model.rate_hz:.6g} Hz; "
@@ -65,6 +61,22 @@ def model_channels(
             f"--time {model.time_source} ones"
         )
     return list(model.channels)
+
+
+def _missing_line(store: ChannelStore, missing: Sequence[str], where: str, fitted: int) -> str:
+    """``--model``'s error for the model's channels this archive lacks: the first three
+    and how many more, the archive's own channels (the first four and how many more, as
+    ``--channels``' error: a file of another system, or of renamed sensors, said only
+    what it lacked), and, where an archive's channel holds a missing one's name
+    (``/s4.data`` for ``s4``, ``S4``), did you mean it (:meth:`ChannelStore.did_you_mean`)."""
+    more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
+    near = next(((c, n) for c in missing if (n := store.did_you_mean(c, literal=True))), None)
+    hint = f"; did you mean {near[1]} for {near[0]}?" if near else ""
+    return (
+        f"--model {where}: this archive has no channel {', '.join(missing[:3])}{more}{hint} "
+        f"(the model was fitted on {fitted} channels; the archive's channels: "
+        f"{capped(store.names)})"
+    )
 
 
 def warmup(model: SavedModel) -> int:

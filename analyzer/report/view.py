@@ -92,6 +92,8 @@ def build_view(
         version=str(doc.get("analyzer_version", __version__)),
         faulty=bool(faults),
         headline=a.headline(faults),
+        saved=a.saved_text(),
+        nothing_searched=a.nothing_searched(),
         verdict_facts=a.verdict_facts(),
         findings=findings,
         summarized=max(0, len(findings) - MAX_DETAILED),
@@ -171,6 +173,8 @@ class _Access(FigureParts, TableParts):
         return f"Sensor fault audit: {name}" if name else "Sensor fault audit"
 
     def headline(self, faults: Sequence[Mapping[str, Any]]) -> str:
+        if self.nothing_searched():
+            return "Nothing after the training window to analyze: the models were fitted only."
         if not faults:
             return "No sensor fault found."
         sensors = sorted({str(f["channel"]) for f in faults}, key=fmt.natural_key)
@@ -178,6 +182,40 @@ class _Access(FigureParts, TableParts):
         what = "sensor fault" if n == 1 else "sensor faults"
         on = "sensor" if len(sensors) == 1 else "sensors"
         return f"{n} {what} found on {len(sensors)} {on}: {', '.join(sensors)}."
+
+    def nothing_searched(self) -> bool:
+        """A ``--save-model`` run whose training window reaches the record's end: no
+        fault was searched (its verdict is not "no sensor fault found")."""
+        saved = self.doc.get("saved_model")
+        return saved is not None and saved.get("searched") is None
+
+    def saved_text(self) -> str:
+        """With ``--save-model``: where the models fitted on the training window were
+        saved, what was searched after it, and the warnings its checks gave; else ""."""
+        saved = self.doc.get("saved_model")
+        if not saved:
+            return ""
+        tr = saved.get("train") or {}
+        fitted = (
+            f"The models fitted on the training window ({fmt.seconds(tr.get('start_s'))} "
+            f"to {fmt.seconds(tr.get('end_s'))}) were saved to {saved.get('path')} "
+            f"(SHA-256 {saved.get('sha256')})."
+        )
+        searched = saved.get("searched")
+        after = (
+            " The window covers the whole record: nothing after it was searched for faults."
+            if searched is None
+            else f" Faults were searched after it, from {fmt.seconds(searched.get('start_s'))}"
+            f" to {fmt.seconds(searched.get('end_s'))}."
+        )
+        warned = [str(w) for w in saved.get("warnings") or []]
+        warning = (
+            f" The checks of the training window warned (fit again on a healthy window "
+            f"before using the model): {'; '.join(warned)}."
+            if warned
+            else ""
+        )
+        return fitted + after + warning
 
     def verdict_facts(self) -> list[Fact]:
         start = self.doc.get("start")
@@ -440,7 +478,9 @@ class _Access(FigureParts, TableParts):
         for c in self.doc.get("corrections") or []:
             if c.get("channel") != f.get("channel"):
                 continue
-            if abs(float(c.get("start_s") or 0) - float(f.get("onset_s") or 0)) > 1.0:
+            # (its fault's onset: a correction from the record's start starts before it)
+            onset = c.get("onset_s", c.get("start_s"))
+            if abs(float(onset or 0) - float(f.get("onset_s") or 0)) > 1.0:
                 continue
             out.append(
                 [

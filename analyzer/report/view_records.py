@@ -196,6 +196,13 @@ class ReportView:
     caveats: list[str] = field(default_factory=list)
     """What changes how to read the findings, shown beside the verdict: the key notes
     and each onset that is only a bound (:func:`analyzer.report.notes.onset_lines`)."""
+    saved: str = ""
+    """With ``--save-model``: where the fitted models went, what was searched after the
+    training window and the warnings about it (:meth:`~analyzer.report.view._Access.
+    saved_text`)."""
+    nothing_searched: bool = False
+    """A ``--save-model`` run whose training window is the whole record: nothing was
+    searched, and the verdict does not say "no sensor fault found"."""
 
     @property
     def figure_count(self) -> int:

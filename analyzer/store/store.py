@@ -27,6 +27,7 @@ hand over with one time array, keep it once (:meth:`ChannelStore._sharing`).
 from __future__ import annotations
 
 import fnmatch
+import glob
 import os
 import re
 import sys
@@ -435,24 +436,35 @@ class ChannelStore:
         if not unmatched:
             return ""
         pattern = unmatched[0]
-        bang, core = ("!", pattern[1:]) if pattern.startswith("!") else ("", pattern)
-        names = list(self._info)
-        inside = self._matching([f"*{core}*"]) or [
-            n for n in names if fnmatch.fnmatchcase(n.lower(), f"*{core.lower()}*")
-        ]
-        if len(inside) == 1:
-            hint = f"; did you mean {bang}{inside[0]}?"
-        elif inside and self._matching([f"*{core}*"]):
-            hint = f"; did you mean '{bang}*{core}*', which matches {capped(inside)}?"
-        elif inside:
-            hint = f"; did you mean one of {capped(inside)}?"
-        else:
-            hint = ""
+        near = self.did_you_mean(pattern)
+        hint = f"; did you mean {near}?" if near else ""
         whole = " (a pattern matches the whole name; " if hint else " ("
         return (
             f"{option}: pattern {pattern!r} matches no channel{hint}{whole}the channels: "
-            f"{capped(names)})"
+            f"{capped(list(self._info))})"
         )
+
+    def did_you_mean(self, pattern: str, literal: bool = False) -> str:
+        """What ``"did you mean ...?"`` names for ``pattern`` (its ``GLOB`` for ``!GLOB``):
+        the channels that hold it inside their names, case aside (``s4`` in
+        ``/s4.data``): the one, the ``*s4*`` that matches them, or a few of them; "" when
+        none does. ``literal``: ``pattern`` is a channel's name, not a pattern (its
+        brackets are characters; a model's channel the archive lacks,
+        :func:`analyzer.reuse.model_channels`). For :meth:`unmatched_line` too."""
+        bang, core = (
+            ("!", pattern[1:]) if pattern.startswith("!") and not literal else ("", pattern)
+        )
+        glob_core = glob.escape(core) if literal else core
+        inside = self._matching([f"*{glob_core}*"]) or [
+            n for n in self._info if fnmatch.fnmatchcase(n.lower(), f"*{glob_core.lower()}*")
+        ]
+        if len(inside) == 1:
+            return f"{bang}{inside[0]}"
+        if inside and self._matching([f"*{glob_core}*"]) and not literal:
+            return f"'{bang}*{core}*', which matches {capped(inside)}"
+        if inside:
+            return f"one of {capped(inside)}"
+        return ""
 
     def _split(self, patterns: Sequence[str]) -> tuple[list[str], list[str]]:
         """Patterns that select, and those that leave out (``!GLOB``; a channel whose name

@@ -233,7 +233,11 @@ EXERCISES: dict[str, Callable[[dict[str, Any]], bool]] = {
     "additive_mcap_corrected": lambda doc: (
         _has_format(Format.MCAP)(doc) and bool(doc["faults"]) and bool(doc["corrections"])
     ),
-    "drift_ros1bag_save_model": _has_format(Format.ROS1BAG),
+    "drift_ros1bag_save_model": lambda doc: (
+        _has_format(Format.ROS1BAG)(doc)
+        and doc["saved_model"] is not None
+        and doc["saved_model"]["path"].endswith("drift.model")
+    ),
     "multiplicative_csv": lambda doc: (
         _has_format(Format.CSV)(doc) and bool(doc["skipped_detectors"])
     ),
@@ -425,6 +429,8 @@ def _objects(doc: dict[str, Any]) -> Iterator[tuple[str, dict[str, Any], dict[st
         yield "corrections[]", DEFS["correction"], item
     if doc["model"] is not None:
         yield "model", DEFS["model"], doc["model"]
+    if doc.get("saved_model") is not None:
+        yield "saved_model", DEFS["savedModel"], doc["saved_model"]
     if doc["screen"] is not None:
         yield "screen", DEFS["screen"], doc["screen"]
 
