@@ -16,6 +16,7 @@ import numpy as np
 from analyzer import __version__
 from analyzer.detectors import DetectorResult
 from analyzer.diagnosis import Finding
+from analyzer.diagnosis.unexplained import Unexplained
 from analyzer.modelfile import SavedModel
 from analyzer.outdir import write_atomic
 from analyzer.readers.base import InputInfo
@@ -63,6 +64,10 @@ class Analysis:
     levels: Any = None
     """Each analyzed channel's response level over time
     (:class:`analyzer.diagnosis.levels.Levels`): the report's level map."""
+    unexplained: list[Unexplained] = field(default_factory=list)
+    """Alarms the findings do not explain (:mod:`analyzer.diagnosis.unexplained`): a
+    second faulty sensor the run may have missed (``findings.json``'s
+    ``unexplained_alarms``, the verdict's warning, the run's last line)."""
 
     @property
     def duration_s(self) -> float:
@@ -170,6 +175,16 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
         "skipped_detectors": a.skipped,
         "notes": a.notes,
         "corrections": _jsonable(a.corrections),
+        "unexplained_alarms": [
+            {
+                "channels": list(u.channels),
+                "onset_s": round(u.onset_s, 4),
+                "onset": a.onset_iso(u.onset_s),
+                "detectors": list(u.detectors),
+                "beside": list(u.beside),
+            }
+            for u in a.unexplained
+        ],
     }
 
 

@@ -180,6 +180,9 @@ class ReportView:
     """Every analyzed channel's response level over time (:func:`figures.level_figure`)."""
     sections: str = ""
     """Which findings have a section (``findings 1-6``) when not all do, else empty."""
+    unexplained: str = ""
+    """The verdict's warning: alarms the findings do not explain (``findings.json``'s
+    ``unexplained_alarms``: a second faulty sensor the run may have missed), else empty."""
 
     @property
     def figure_count(self) -> int:
