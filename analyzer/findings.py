@@ -17,6 +17,7 @@ import numpy as np
 from analyzer import __version__
 from analyzer.detectors import DetectorResult
 from analyzer.diagnosis import Finding
+from analyzer.diagnosis.unexplained import Unexplained
 from analyzer.modelfile import SavedModel
 from analyzer.outdir import write_atomic
 from analyzer.readers.base import InputInfo
@@ -76,6 +77,10 @@ class Analysis:
     """Each analyzed channel's mean and standard deviation over the healthy training
     window (:func:`analyzer.diagnosis.stuck.healthy_stats`, computed once by the fit;
     with ``--model`` the model's): the yardstick of each finding's ``size_relative``."""
+    unexplained: list[Unexplained] = field(default_factory=list)
+    """Alarms the findings do not explain (:mod:`analyzer.diagnosis.unexplained`): a
+    second faulty sensor the run may have missed (``findings.json``'s
+    ``unexplained_alarms``, the verdict's warning, the run's last line)."""
 
     @property
     def duration_s(self) -> float:
@@ -188,6 +193,16 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
         "skipped_detectors": a.skipped,
         "notes": a.notes,
         "corrections": _jsonable(a.corrections),
+        "unexplained_alarms": [
+            {
+                "channels": list(u.channels),
+                "onset_s": round(u.onset_s, 4),
+                "onset": a.onset_iso(u.onset_s),
+                "detectors": list(u.detectors),
+                "beside": list(u.beside),
+            }
+            for u in a.unexplained
+        ],
     }
 
 

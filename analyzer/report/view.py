@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from analyzer import __version__
+from analyzer.diagnosis.unexplained import either
 from analyzer.report import format as fmt
 from analyzer.report.methods import DECISION, TESTS
 from analyzer.report.notes import onset_lines, sort_notes
@@ -60,6 +61,8 @@ report's first screen listed it there, which read as a configuration error)."""
 MAX_DETAILED = 6
 """Findings that get a section (figures, tests, evidence); the others are rows of the
 verdict table only. The most confident get one, the earliest first among equals."""
+UNEXPLAINED_LISTED = 3
+"""Alarms the verdict's warning names one by one; the rest are counted."""
 
 
 # -- building the view ------------------------------------------------------------------
@@ -94,6 +97,7 @@ def build_view(
         headline=a.headline(faults),
         saved=a.saved_text(),
         nothing_searched=a.nothing_searched(),
+        unexplained=a.unexplained(faults),
         verdict_facts=a.verdict_facts(),
         findings=findings,
         summarized=max(0, len(findings) - MAX_DETAILED),
@@ -216,6 +220,35 @@ class _Access(FigureParts, TableParts):
             else ""
         )
         return fitted + after + warning
+
+    def unexplained(self, faults: Sequence[Mapping[str, Any]]) -> str:
+        """The verdict's warning on alarms no finding explains (``unexplained_alarms``):
+        on which sensors, from when, and the run that searches the others without one of
+        them (the detectors isolate one fault at a time: on a 6-floor building whose s1
+        and s2 went faulty at once, ``--channels '!s0'`` found both, where leaving out
+        the sensor already found, s4, found neither); empty without any."""
+        items = list(self.doc.get("unexplained_alarms") or [])
+        if not items or not faults:
+            return ""
+        shown = [
+            f"on {either([str(c) for c in u.get('channels') or []])} from "
+            f"{fmt.seconds(u.get('onset_s'), 1)} (seen by "
+            f"{', '.join(str(d) for d in u.get('detectors') or [])})"
+            for u in items[:UNEXPLAINED_LISTED]
+        ]
+        more = len(items) - UNEXPLAINED_LISTED
+        found = {str(f["channel"]) for f in faults}
+        named = [str(c) for c in items[0].get("channels") or []]
+        leave = next((c for c in named if c not in found), named[0] if named else "")
+        return (
+            "Alarms these findings do not explain: "
+            + "; ".join(shown)
+            + (f"; and {more} more (notes)" if more > 0 else "")
+            + ". Another sensor may be faulty (the detectors isolate one fault at a time), "
+            + "or the structure or its load changed. Run again leaving out one of these "
+            + f"sensors at a time (--channels '!{leave}') to search the others without it; "
+            + "the notes below say more."
+        )
 
     def verdict_facts(self) -> list[Fact]:
         start = self.doc.get("start")

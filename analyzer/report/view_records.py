@@ -203,6 +203,9 @@ class ReportView:
     nothing_searched: bool = False
     """A ``--save-model`` run whose training window is the whole record: nothing was
     searched, and the verdict does not say "no sensor fault found"."""
+    unexplained: str = ""
+    """The verdict's warning: alarms the findings do not explain (``findings.json``'s
+    ``unexplained_alarms``: a second faulty sensor the run may have missed), else empty."""
 
     @property
     def figure_count(self) -> int:
