@@ -472,7 +472,13 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     doc = inspect_archive(args.inputs, time=args.time)
     errors = [f"{i['path']}: {e}" for i in doc["inputs"] for e in i["errors"]]
     if not doc["channels"] and errors:  # nothing could be read: an input error, as for run
-        raise ReaderError(capped(errors, 3, "; ", "input errors"))
+        # (said as run says it: the reasons alone, each ending "skipped", read as warnings)
+        # (each reason names its file: the inputs are not listed again before them)
+        n = len(doc["inputs"])
+        raise ReaderError(
+            f"no channel could be read from {'the input' if n == 1 else f'any of {n} inputs'}: "
+            + capped(errors, 3, "; ", "input errors")
+        )
     _emit(json.dumps(doc, indent=2) if args.json else render_table(doc))
     if not doc["channels"]:  # read, and nothing numeric: listed (exit 0), and said
         _warn(doc["notes"][-1])

@@ -565,3 +565,17 @@ def test_msg_path_reads_a_bag_without_definitions(tmp_path, capsys, monkeypatch)
     assert code == 2
     one_line_error(err, "--msg-path", "Broken.msg: cannot parse")
     assert not (tmp_path / "o").exists()
+
+
+def test_inspect_of_inputs_none_of_which_can_be_read_says_so_first(tmp_path, capsys):
+    """Where nothing at all could be read, inspect's error says that first, as run's does:
+    it was the readers' reasons alone, each ending "; skipped", which read as warnings
+    (an MCAP folder of an unsupported encoding)."""
+    folder = tmp_path / "in"
+    folder.mkdir()
+    for k in range(2):
+        (folder / f"r{k}.mcap").write_bytes((SAMPLES / "building_additive.mcap").read_bytes()[:300])
+    code, stdout, err = run_cli(["inspect", str(folder)], capsys)
+    assert code == 2 and stdout == ""
+    line = one_line_error(err, "r0.mcap", "r1.mcap")
+    assert line.startswith("analyzer: error: no channel could be read from any of 2 inputs: ")
