@@ -126,6 +126,15 @@ OPEN_FAULT_LABEL = "may have begun (onset at or before)"
 """The legend of the span before such an onset, where the fault may already have been."""
 
 
+def _plot_statistic(
+    ax: Axes, t: FloatArray, values: FloatArray, axis: TimeAxis, color: str, label: str
+) -> None:
+    """A moving statistic of a residual panel (its mean, its RMS) as one line through
+    the middle of its envelope (:func:`envelope`: at most :data:`MAX_POINTS` drawn)."""
+    env = envelope(t, values, MAX_POINTS)
+    ax.plot(env.t / axis.scale, 0.5 * (env.lo + env.hi), color=color, lw=1.0, label=label)
+
+
 def _mark_onset(
     ax: Axes, onset_s: float, end_s: float | None, axis: TimeAxis, bound: bool = False
 ) -> None:
@@ -505,14 +514,7 @@ def residual_figure(
             _plot_series(ax, p.t, p.residual, axis, C_RESIDUAL, "residual")
             if p.window and p.window > 1:
                 mm = moving_mean(p.residual, p.window)
-                env = envelope(p.t, mm, MAX_POINTS)
-                ax.plot(
-                    env.t / axis.scale,
-                    0.5 * (env.lo + env.hi),
-                    color=C_MEAN,
-                    lw=1.0,
-                    label=f"{p.window}-sample moving mean",
-                )
+                _plot_statistic(ax, p.t, mm, axis, C_MEAN, f"{p.window}-sample moving mean")
             if p.center is not None and p.half_band is not None:
                 ax.axhspan(
                     p.center - p.half_band,
@@ -526,14 +528,7 @@ def residual_figure(
                     ax.axhline(p.center + s * p.half_band, color=C_BAND, lw=0.8, ls=":")
             if p.rms_window and p.rms_bound is not None and p.center is not None:
                 rms = np.sqrt(moving_mean((p.residual - p.center) ** 2, p.rms_window))
-                env = envelope(p.t, rms, MAX_POINTS)
-                ax.plot(
-                    env.t / axis.scale,
-                    0.5 * (env.lo + env.hi),
-                    color=C_RMS,
-                    lw=1.0,
-                    label=f"{p.rms_window}-sample RMS",
-                )
+                _plot_statistic(ax, p.t, rms, axis, C_RMS, f"{p.rms_window}-sample RMS")
                 ax.axhline(p.rms_bound, color=C_RMS, lw=0.9, ls="--", label="bound of the RMS")
             _mark_onset(ax, onset_s, end_s, axis, onset_bound)
             if p.alarm_s is not None:
