@@ -6,11 +6,20 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from analyzer.errors import capped, terminal_safe
-from analyzer.readers import open_archive
+from analyzer.errors import ReaderError, StoreError, UsageError, capped, one_line, terminal_safe
+from analyzer.readers import Archive, open_archive
 from analyzer.readers.base import InputInfo, TimeSource
 from analyzer.scratch import scratch
-from analyzer.store import ChannelStore
+from analyzer.selection import (
+    ConstantNote,
+    CopyNote,
+    FlagNote,
+    MixedNote,
+    default_train,
+    lone_channel,
+    select_channels,
+)
+from analyzer.store import ChannelInfo, ChannelStore
 from analyzer.timeutil import iso_utc, plausible_epoch
 from analyzer.types import NS_PER_S
 
@@ -33,6 +42,7 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
         notes = [str(n) for n in archive.notes]
         if not infos:
             notes.append(nothing_numeric(archive.inputs))
+        why, defaults = run_choice(store, archive, t0) if infos else ({}, None)
         return {
             "inputs": [
                 {
@@ -58,10 +68,73 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
                     # its two values, where it holds only two whole numbers over the
                     # record: a flag or label, which run leaves out unless named
                     **({"flag": [int(x) for x in i.levels or ()]} if i.flag else {}),
+                    # whether run analyzes it by default, and if not why (run's own rule)
+                    "analyzed": i.name not in why,
+                    **why.get(i.name, {}),
                 }
                 for i in infos
             ],
+            **({"run_defaults": defaults} if defaults is not None else {}),
         }
+
+
+def run_choice(
+    store: ChannelStore, archive: Archive, t0: int
+) -> tuple[dict[str, dict[str, str]], dict[str, Any]]:
+    """What ``run`` does with this archive by default (no ``--channels``, ``--rate``,
+    ``--train`` or config), from its own code: the channels it leaves out, each with
+    ``{"why": ...}`` (and ``"copy_of"`` for a copy), from the notes of
+    :func:`~analyzer.selection.select_channels`; and ``run_defaults``: how many it
+    analyzes, the common clock's rate and start (on this listing's time axis: ``t0``)
+    and the default training window, in ``--train``'s seconds from the clock's start
+    (:func:`~analyzer.selection.default_train` of the clock's span, as ``run`` aligns
+    it: nothing is aligned here). Where ``run`` refuses the archive, ``"refused"``: its
+    error line. Two choices wait for the aligned data, and are made at run time (the
+    summary line says so): a channel that does not vary in the training window, or counts
+    through it (a clock: the cart-pole MCAP's ``stamp``), is left out, and a default
+    window that a sensor's change crosses is cut before it. Aligning the window here
+    would cost a long or fast archive's inspect seconds and memory."""
+    notes: list[str] = []
+    relabelled = [p for i in archive.inputs for p in i.relabelled]
+    refused = None
+    try:
+        chosen = select_channels(store, None, notes, relabelled)
+        lone_channel(chosen, notes)  # (run refuses one: every detector needs two)
+    except (UsageError, ReaderError) as err:
+        chosen, refused = [], one_line(err)
+    infos = {i.name: i for i in store.infos()}
+    why: dict[str, dict[str, str]] = {}
+    for note in notes:
+        if isinstance(note, ConstantNote):
+            why.update({c: {"why": _constant_kind(infos[c])} for c in note.names})
+        elif isinstance(note, FlagNote):
+            why.update({c: {"why": "flag"} for c in note.names})
+        elif isinstance(note, CopyNote):
+            why.update({c.channel: {"why": "copy", "copy_of": c.of} for c in note.copies})
+        elif isinstance(note, MixedNote):
+            why.update({c: {"why": "meaning changes"} for c in note.names})
+    if refused is not None:
+        # (what run would have kept, it does not analyze either: it stops)
+        why.update({c: {"why": "refused"} for c in infos if c not in why})
+        return why, {"channels": 0, "refused": refused}
+    try:
+        clock = store.align(chosen)
+    except StoreError as err:  # (a timestamp far from the others: run stops there too)
+        why.update({c: {"why": "refused"} for c in chosen})
+        return why, {"channels": 0, "refused": one_line(err)}
+    start, end = default_train(clock.duration_s)
+    return why, {
+        "channels": len(chosen),
+        "rate_hz": round(clock.rate_hz, 6),
+        "clock_start_s": (clock.start_ns - t0) / NS_PER_S,
+        "train": {"start_s": start, "end_s": round(end, 6)},
+    }
+
+
+def _constant_kind(info: ChannelInfo) -> str:
+    """How a channel :func:`~analyzer.selection.select_channels` left out as constant is
+    constant: ``empty`` (no finite value), ``one sample`` (one) or ``constant``."""
+    return "empty" if info.finite == 0 else "one sample" if info.finite == 1 else "constant"
 
 
 def nothing_numeric(inputs: Sequence[InputInfo]) -> str:
@@ -103,10 +176,9 @@ def render_table(doc: dict[str, Any]) -> str:
         lines.append(f"start {doc['start']}")
     rows = [("channel", "samples", "start_s", "end_s", "rate_hz", "gaps")]
     for c in doc["channels"]:
-        flag = c.get("flag")
         rows.append(
             (
-                safe(c["name"]) + (f" [flag {flag[0]}/{flag[1]}]" if flag else ""),
+                safe(c["name"]) + _mark(c),
                 str(c["samples"]),
                 f"{c['start_s']:.3f}",
                 f"{c['end_s']:.3f}",
@@ -128,4 +200,59 @@ def render_table(doc: dict[str, Any]) -> str:
             "[flag a/b]: only the whole numbers a and b over the record (a status flag or a "
             "label, not a measurement): run leaves it out unless --channels names it"
         )
+    lines.extend(_legend(doc["channels"]))
+    if doc.get("run_defaults"):
+        lines.append(defaults_line(doc["run_defaults"], len(doc["channels"])))
     return "\n".join(lines)
+
+
+LEGEND = {
+    "constant": "[constant] one value over the whole record",
+    "empty": "[empty] no value (only gaps)",
+    "one sample": "[one sample] a single value",
+    "copy": "[copy of X] equal to X on every sample, or an exact linear function of it "
+    "(--channels naming it keeps it)",
+    "meaning changes": "[meaning changes] what it measures changes between messages (see "
+    "the input's errors; --channels naming it keeps it)",
+    "refused": "[refused] run refuses the archive (below)",
+}
+"""The marks of the channels ``run`` leaves out by default (:func:`_mark`), explained."""
+
+
+def _mark(channel: dict[str, Any]) -> str:
+    """After a channel's name: ``[flag a/b]``, or why ``run`` leaves it out by default
+    (``[constant]``, ``[copy of X]``...); nothing for a channel it analyzes."""
+    flag = channel.get("flag")
+    if flag:
+        return f" [flag {flag[0]}/{flag[1]}]"
+    why = channel.get("why")
+    if why is None or why == "flag":
+        return ""
+    if why == "copy":
+        return f" [copy of {terminal_safe(channel['copy_of'])}]"
+    return f" [{why}]"
+
+
+def _legend(channels: Sequence[dict[str, Any]]) -> list[str]:
+    """The marks shown explained (:data:`LEGEND`), in one line."""
+    shown = {c["why"] for c in channels if c.get("why")}
+    kinds = [text for why, text in LEGEND.items() if why in shown]
+    return ["left out by run by default: " + "; ".join(kinds)] if kinds else []
+
+
+def defaults_line(defaults: dict[str, Any], listed: int) -> str:
+    """What ``run`` analyzes by default (:func:`run_choice`): how many channels, the
+    common clock's rate and the training window, or why it refuses the archive."""
+    if "refused" in defaults:
+        return f"run refuses this archive by default: {terminal_safe(defaults['refused'])}"
+    train = defaults["train"]
+    start = defaults["clock_start_s"]
+    since = f" from {start:.3f} s" if start else ""
+    return (
+        f"run by default: {defaults['channels']} of {listed} channel(s) on a common clock of "
+        f"{defaults['rate_hz']:.6g} Hz{since} (--rate), trained on "
+        f"{train['start_s']:.6g}-{train['end_s']:.6g} s of it (the first 20 %, at most 10 "
+        "minutes: --train); at run time it also leaves out any channel that does not vary "
+        "in that window or counts through it (a clock), and cuts the window short before a "
+        "sensor's change inside it"
+    )

@@ -63,12 +63,6 @@ class RunOptions:
     times (its ``time`` column counts seconds from the first sample, as ``export``'s)."""
 
 
-DEFAULT_TRAIN_FRACTION = 0.2
-
-
-DEFAULT_TRAIN_MAX_S = 600.0
-
-
 MIN_TRAIN_ROWS = 16
 """Fewer training samples than this cannot calibrate anything: a usage error naming
 ``--train`` (the detectors ask for more, each with its own reason)."""
@@ -182,11 +176,6 @@ def check_train(text: str) -> None:
     (ka, a), (kb, b) = _train_parts(text)
     if ka == kb and not (float(a) < float(b) and (ka == "ns" or float(a) >= 0.0)):
         raise UsageError(f"--train: the window {text!r} must satisfy 0 <= START < END")
-
-
-def default_train(duration_s: float) -> tuple[float, float]:
-    """The first 20 % of the data, at most 10 minutes (CONTRACT.md)."""
-    return 0.0, min(DEFAULT_TRAIN_FRACTION * duration_s, DEFAULT_TRAIN_MAX_S)
 
 
 def load_options(config_path: str | None, **kw: Any) -> RunOptions:

@@ -99,7 +99,6 @@ from analyzer.options import (
     MIN_TRAIN_ROWS,
     RunOptions,
     check_utc,
-    default_train,
     load_options,
     parse_train,
 )
@@ -140,117 +139,17 @@ from analyzer.scratch import make_scratch, remove_scratch, scratch
 from analyzer.search_after import Stretch, found_after
 from analyzer.search_after import note as after_note
 from analyzer.search_after import stretches as after_stretches
+from analyzer.selection import (
+    default_train,
+    lone_channel,
+    select_channels,
+)
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
-from analyzer.store.copies import Copy, find_copies
 from analyzer.timeutil import iso_utc, plain_number, plausible_epoch, spoken_duration
 from analyzer.types import NS_PER_S
 
 MATERIALIZE_IN_MEMORY = 1 << 24
 """Aligned matrices up to this many values stay in memory; larger ones are memory-mapped."""
-
-
-class ConstantNote(str):
-    """The note naming the constant or empty channels left out, with their ``names``."""
-
-    names: tuple[str, ...]
-
-    def __new__(cls, names: Sequence[str]) -> ConstantNote:
-        note = super().__new__(cls, f"constant or empty channels not analyzed: {', '.join(names)}")
-        note.names = tuple(names)
-        return note
-
-
-COPIES_LISTED = 20
-"""Copies the note names one by one (the rest counted: a 1000-channel record of copies
-made a note of 37 kB; the review)."""
-
-
-class CopyNote(str):
-    """The note naming the channels left out as copies of others (:mod:`analyzer.store.
-    copies`), with their ``names``."""
-
-    names: tuple[str, ...]
-
-    def __new__(cls, copies: Sequence[Copy]) -> CopyNote:
-        note = super().__new__(
-            cls,
-            "copies of another channel over the whole record (equal on every sample, or "
-            "an exact linear function of it: nothing the other does not carry, and "
-            "together they make the models singular), not analyzed: "
-            + capped([f"{c.channel} {c.relation}" for c in copies], COPIES_LISTED, what="copies")
-            + "; --channels naming them analyzes them",
-        )
-        note.names = tuple(c.channel for c in copies)
-        return note
-
-
-FLAGS_LISTED = 20
-"""Flag channels the note names one by one (the rest counted)."""
-
-
-class FlagNote(WindowNote):
-    """The note naming the channels left out as flags or labels, not measurements (two
-    whole-number values over the whole record: :attr:`~analyzer.store.ChannelInfo.flag`),
-    with their ``names``; ``run`` repeats it on stderr (a label column analyzed as a
-    sensor was found faulty, and its constant zero in a training window made the AR
-    regressions singular: the user who reads only stderr hears why it is gone)."""
-
-    names: tuple[str, ...] = ()
-
-    @classmethod
-    def of(cls, infos: Sequence[ChannelInfo]) -> FlagNote:
-        """The note on the flag channels ``infos`` (at least one). (Built from its text,
-        as :class:`WindowNote`, it pickles as one: a watcher's analyses run in other
-        processes.)"""
-        note = cls(_flag_text(infos))
-        note.names = tuple(i.name for i in infos)
-        return note
-
-
-def _two_values(info: ChannelInfo) -> str:
-    """A flag channel's two values, as whole numbers: ``0 and 1``."""
-    lo, hi = info.levels or (0.0, 0.0)
-    return f"{int(lo)} and {int(hi)}"
-
-
-def _flag_text(infos: Sequence[ChannelInfo]) -> str:
-    """What :class:`FlagNote` says of the flag channels ``infos`` (at least one)."""
-    if len(infos) == 1:
-        return (
-            f"{_flags_held(infos)}: a flag or label, not a measurement; left out of the "
-            "analysis; name it in --channels to analyze it"
-        )
-    return (
-        f"{_flags_held(infos)}: flags or labels, not measurements; left out of the analysis; "
-        "name them in --channels to analyze them"
-    )
-
-
-def _flags_held(infos: Sequence[ChannelInfo]) -> str:
-    """The flag channels ``infos`` and their values: ``anomaly holds only 0 and 1 over
-    the record``."""
-    pairs = {_two_values(i) for i in infos}
-    if len(infos) == 1:
-        return f"{infos[0].name} holds only {_two_values(infos[0])} over the record"
-    if len(pairs) == 1:
-        names = capped([i.name for i in infos], FLAGS_LISTED, what="channels")
-        return f"{names} hold only {pairs.pop()} over the record"
-    each = [f"{i.name} ({_two_values(i)})" for i in infos]
-    return f"{capped(each, FLAGS_LISTED, what='channels')} hold only two whole numbers each"
-
-
-def _flags(
-    infos: dict[str, ChannelInfo],
-    chosen: Sequence[str],
-    patterns: Sequence[str] | None,
-    named: Collection[str],
-) -> list[ChannelInfo]:
-    """The channels of ``chosen`` that are flags or labels (:attr:`~analyzer.store.
-    ChannelInfo.flag`) and that neither ``--channels`` (``patterns``) names by their
-    exact name nor the config (``named``): a glob (``*``, ``/robot.*``) selects sensors,
-    and a label beside them is left out as by default; naming it keeps it."""
-    exact = {*(patterns or ()), *named}
-    return [infos[c] for c in chosen if infos[c].flag and c not in exact]
 
 
 def _config_named(options: RunOptions) -> set[str]:
@@ -261,95 +160,6 @@ def _config_named(options: RunOptions) -> set[str]:
     if config.model is not None:
         out.update(config.model.get("outputs", []), config.model.get("inputs", []))
     return out
-
-
-def _select(
-    store: ChannelStore,
-    patterns: list[str] | None,
-    notes: list[str],
-    relabelled: Sequence[str] = (),
-    drop_copies: bool = True,
-    named: Collection[str] = (),
-) -> list[str]:
-    """The channels to analyze: ``--channels``' (``patterns``), else every numeric one
-    that is not constant, whose meaning does not change between messages (names
-    starting with one of ``relabelled``: the readers say why in the inputs' errors) and,
-    with ``drop_copies``, that does not copy an earlier one over the whole record
-    (:func:`analyzer.store.copies.find_copies`: a note names them). Channels that
-    ``--channels`` names are all kept, copies too (a choice the user made; where the
-    copies make every detector's model singular the run is refused, naming them).
-    Flags and labels (two whole-number values over the record: :func:`_flags`) are left
-    out unless ``--channels`` or the config (``named``) names them exactly (a note
-    says which, and how to keep them)."""
-    infos = {i.name: i for i in store.infos()}
-    if not infos:
-        raise ReaderError("no numeric channel found in the input")
-    if all(i.constant for i in infos.values()):  # (the archive's own: an input error)
-        raise ReaderError(
-            "no channel to analyze: every numeric channel is constant or empty "
-            f"({', '.join(list(infos)[:3])}{', ...' if len(infos) > 3 else ''})"
-        )
-    if patterns:
-        unmatched = store.unmatched_line(patterns)
-        if unmatched:
-            raise UsageError(unmatched)
-        chosen = store.select(patterns)
-        if not chosen:  # every channel a pattern matches, another leaves out
-            raise UsageError(
-                f"--channels: '{','.join(patterns)}' leaves no channel to analyze (its '!' "
-                "patterns leave out every channel)"
-            )
-        constant = [c for c in chosen if infos[c].constant]
-        if constant:
-            notes.append(ConstantNote(constant))
-        chosen = [c for c in chosen if not infos[c].constant]
-    else:
-        chosen = store.select(None)
-        constant = [c for c in infos if infos[c].constant]
-        if constant:
-            notes.append(ConstantNote(constant))
-    # (a lone channel is refused as one, flag or not: the detectors need two)
-    flags = _flags(infos, chosen, patterns, named) if len(chosen) > 1 else []
-    if flags:
-        notes.append(FlagNote.of(flags))
-        if len(flags) == len(chosen):
-            where = "--channels: every channel it selects" if patterns else "every channel"
-            raise UsageError(
-                f"no channel left to analyze: {where} is a flag or label, not a measurement "
-                f"({_flags_held(flags)}); name them one by one in --channels to analyze them"
-            )
-        left_out = {i.name for i in flags}
-        chosen = [c for c in chosen if c not in left_out]
-    # '!' patterns alone leave channels out of the default ones, which these are not of
-    if not patterns or all(p.startswith("!") for p in patterns):
-        mixed = [c for c in chosen if c.startswith(tuple(relabelled))] if relabelled else []
-        if mixed:
-            notes.append(
-                f"not analyzed: {', '.join(mixed)}: what they measure changes between "
-                "messages (see the input's errors); --channels naming them analyzes them"
-            )
-            left_out = set(mixed)
-            chosen = [c for c in chosen if c not in left_out]
-            if not chosen:
-                raise UsageError(
-                    "no channel left to analyze: every varying channel changes meaning "
-                    f"between messages ({', '.join(mixed[:3])}"
-                    + (", ..." if len(mixed) > 3 else "")
-                    + "); name them with --channels to analyze them anyway"
-                )
-        if drop_copies and chosen:
-            copies = find_copies(store, chosen)
-            if copies:
-                notes.append(CopyNote(copies))
-                copied = {c.channel for c in copies}
-                chosen = [c for c in chosen if c not in copied]
-    if not chosen and patterns:
-        raise UsageError(
-            f"--channels: every channel '{','.join(patterns)}' selects is constant or empty"
-        )
-    if not chosen:
-        raise UsageError("no channel left to analyze (all selected channels are constant or empty)")
-    return chosen
 
 
 CROWDED = 1.5
@@ -811,7 +621,7 @@ def _analyze(
             relabelled = [p for i in archive.inputs for p in i.relabelled]
             # (the config's groups and [model] name their channels: all are kept)
             named = bool(options.config.groups) or options.config.model is not None
-            chosen = _select(
+            chosen = select_channels(
                 store, options.channels, notes, relabelled, not named, _config_named(options)
             )
         else:
@@ -2201,12 +2011,6 @@ def _counters(tv: Any) -> npt.NDArray[np.bool_]:
     return np.asarray(counter, dtype=bool)
 
 
-def _few(names: Sequence[str], most: int = 5) -> str:
-    """``names`` comma-separated, cut to the first ``most`` with the count."""
-    shown = ", ".join(names[:most])
-    return shown if len(names) <= most else f"{shown}, ... ({len(names)})"
-
-
 def _varying_in_training(
     values: Any,
     chosen: list[str],
@@ -2222,23 +2026,8 @@ def _varying_in_training(
     every channel stays: the model's channels were modelled on its own window."""
     if options.model is not None:
         return values, chosen
-    if len(chosen) == 1 and not options.detectors:
-        # (said first: no training window makes up for it, the realdata audit; detectors
-        # named with --detectors say it themselves)
-        left = [c for n in notes if isinstance(n, ConstantNote) for c in n.names]
-        copied = [c for n in notes if isinstance(n, CopyNote) for c in n.names]
-        flags = [c for n in notes if isinstance(n, FlagNote) for c in n.names]
-        raise UsageError(
-            f"one channel to analyze ({chosen[0]}): every detector estimates a sensor "
-            "from the others and needs at least 2 channels (--channels chooses them)"
-            + (f"; flags or labels not analyzed: {_few(flags)}" if flags else "")
-            + (
-                f"; copies of another channel over the whole record not analyzed: {_few(copied)}"
-                if copied
-                else ""
-            )
-            + (f"; constant or empty channels not analyzed: {_few(left)}" if left else "")
-        )
+    if not options.detectors:  # (detectors named with --detectors say it themselves)
+        lone_channel(chosen, notes)
     tv = np.asarray(values[train[0] : train[1]])
     if tv.shape[0] < MIN_TRAIN_ROWS:
         raise UsageError(

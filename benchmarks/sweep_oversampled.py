@@ -33,8 +33,8 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from analyzer.diagnosis.oversampled import MAX_RATIO, content_frequency  # noqa: E402
-from analyzer.options import default_train  # noqa: E402
 from analyzer.pipeline import RunOptions, analyze  # noqa: E402
+from analyzer.selection import default_train  # noqa: E402
 from analyzer.simulate import inject_fault, simulate_building  # noqa: E402
 
 

@@ -185,7 +185,7 @@ def test_channels_flat_in_their_fingerprints_are_matched_by_their_sums(tmp_path,
 def test_the_note_names_the_first_copies_and_counts_the_rest():
     """A record of 1000 copies made a note of 37 kB (the review): it names the first
     :data:`COPIES_LISTED` and counts the rest; its ``names`` keep every one."""
-    from analyzer.pipeline import COPIES_LISTED, CopyNote
+    from analyzer.selection import COPIES_LISTED, CopyNote
     from analyzer.store.copies import Copy
 
     copies = [Copy(f"c{k}", "a", 1.0, 0.0) for k in range(COPIES_LISTED + 5)]

@@ -87,6 +87,7 @@ from scipy import special
 
 from analyzer.diagnosis.merge import Finding
 from analyzer.types import FaultType
+from analyzer.window_note import WindowNote
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -198,26 +199,6 @@ def check_training(
                 )
             )
     return changes
-
-
-class WindowNote(str):
-    """A note of this check: a plain string to every reader of ``notes`` (findings.json,
-    the report), recognisable so that ``run`` repeats its ``short`` form on stderr (it
-    says the run's models were fitted on a window that was not healthy: a user who reads
-    only the exit code and stderr must hear it too)."""
-
-    short: str
-    before: tuple[float, float] | None
-    """The window before the change (seconds), where one is left: what a run on the
-    default window trains on instead (:func:`analyzer.pipeline.analyze`)."""
-
-    def __new__(
-        cls, text: str, short: str = "", before: tuple[float, float] | None = None
-    ) -> WindowNote:
-        note = super().__new__(cls, text)
-        note.short = short or text
-        note.before = before
-        return note
 
 
 def window_warnings(notes: Sequence[str]) -> list[str]:

@@ -8,7 +8,7 @@ matrix, two components of a quaternion that stay equal, the joints of a fake joi
 publisher that all move together. Modelled together they make every AR regression
 singular (the least-squares estimate needs a non-singular Gram matrix of the lagged
 channels), and the run was refused as a whole. :func:`find_copies` names them, so that
-the default run leaves them out (:func:`analyzer.pipeline._select`).
+the default run leaves them out (:func:`analyzer.selection.select_channels`).
 
 Only a copy over the *whole* record counts: two sensors that agree in the healthy window
 and part later (one of them faulty) are both kept, as the fault is in what tells them

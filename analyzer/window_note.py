@@ -1,0 +1,25 @@
+"""The notes of a run that it repeats on stderr (:class:`WindowNote`): in a module of its
+own, importing nothing, for ``inspect`` to share :mod:`analyzer.selection` with ``run``
+without the diagnosis's import time."""
+
+from __future__ import annotations
+
+
+class WindowNote(str):
+    """A note of this check: a plain string to every reader of ``notes`` (findings.json,
+    the report), recognisable so that ``run`` repeats its ``short`` form on stderr (it
+    says the run's models were fitted on a window that was not healthy: a user who reads
+    only the exit code and stderr must hear it too)."""
+
+    short: str
+    before: tuple[float, float] | None
+    """The window before the change (seconds), where one is left: what a run on the
+    default window trains on instead (:func:`analyzer.pipeline.analyze`)."""
+
+    def __new__(
+        cls, text: str, short: str = "", before: tuple[float, float] | None = None
+    ) -> WindowNote:
+        note = super().__new__(cls, text)
+        note.short = short or text
+        note.before = before
+        return note
