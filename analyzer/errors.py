@@ -94,6 +94,24 @@ class ConfigError(AnalyzerError):
     """The TOML config file is unreadable, has an unknown key or a bad value."""
 
 
+class ArchiveMismatch(AnalyzerError):
+    """Mixed into an option's error when the option is sound but this archive cannot be
+    analyzed with it: too few channels, none that ``--channels`` matches, not the
+    channels of ``--model``, too short for the training window. ``analyzer run`` treats
+    it as the option's error it also is (exit 2); ``analyzer watch`` as the archive's:
+    moved to ``--failed`` like a corrupt file, where an error of the options alone (one
+    every archive would get) leaves the archive in INBOX. A NAB file of one channel was
+    classed with the options, left in INBOX, and said nothing on the next start."""
+
+
+class ArchiveUsageError(UsageError, ArchiveMismatch):
+    """An option (``--channels``, ``--train``, ``--model``) this archive does not fit."""
+
+
+class ArchiveConfigError(ConfigError, ArchiveMismatch):
+    """A ``--config`` setting (``[train]``, a group's channels) this archive does not fit."""
+
+
 class ReaderError(AnalyzerError):
     """An input file is missing, of unknown format, truncated or corrupt."""
 

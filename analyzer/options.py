@@ -16,7 +16,7 @@ from typing import Any
 
 from analyzer.config import Config, load_config
 from analyzer.detectors import REGISTRY, detector_class
-from analyzer.errors import AnalyzerError, ConfigError, UsageError
+from analyzer.errors import AnalyzerError, ArchiveUsageError, ConfigError, UsageError
 from analyzer.findings import sha256_of
 from analyzer.modelfile import SavedModel, check_model_path, load_model
 from analyzer.readers.base import TimeSource
@@ -108,7 +108,7 @@ def parse_train(
     for kind, val in parts:
         if kind == "ns":
             if not absolute:
-                raise UsageError(
+                raise ArchiveUsageError(
                     f"--train: {text!r} uses absolute times but the input has relative timestamps"
                 )
             secs.append((int(val) - start_ns) / NS_PER_S)
@@ -127,14 +127,14 @@ def parse_train(
             lo = 0.0
     if lo < 0.0 and parts[0][0] == "ns" and lo < hi:
         # an ISO start before the data: say where the data starts, not "0 <= START"
-        raise UsageError(
+        raise ArchiveUsageError(
             f"--train: the window {text!r} starts {-lo:.3f} s before the data "
             f"(which starts at {iso_utc(start_ns)}); start it there or later"
         )
     if not (0.0 <= lo < hi):
         raise UsageError(f"--train: the window {text!r} must satisfy 0 <= START < END")
     if lo >= duration_s:
-        raise UsageError(
+        raise ArchiveUsageError(
             f"--train: the window {text!r} starts after the data ends ({duration_s:.3f} s)"
         )
     return lo, min(hi, duration_s)
@@ -186,6 +186,27 @@ def default_train(duration_s: float) -> tuple[float, float]:
     return 0.0, min(DEFAULT_TRAIN_FRACTION * duration_s, DEFAULT_TRAIN_MAX_S)
 
 
+def check_model_options(
+    model: SavedModel, rate: float | None, detectors: Sequence[str] | None, where: str | None
+) -> None:
+    """``--rate`` and ``--detectors`` against the ``--model`` they are given with (at
+    ``where``), before any reading: an error every archive would get, which ``analyzer
+    watch`` reported after each archive, each left in INBOX, instead of at its start."""
+    where = where or ""
+    if rate is not None and abs(rate - model.rate_hz) > 1e-9 * model.rate_hz:
+        raise UsageError(
+            f"--rate {rate:g}: the model {where} was fitted at {model.rate_hz:.6g} Hz; "
+            "leave --rate out or fit a model at that rate"
+        )
+    rank = {n: i for i, n in enumerate(REGISTRY)}
+    held = sorted(model.detectors(), key=lambda n: rank.get(n, len(rank)))
+    absent = [d for d in detectors or () if d not in held]
+    if absent:
+        raise UsageError(
+            f"--detectors {absent[0]}: not in the model {where} (it holds {', '.join(held)})"
+        )
+
+
 def load_options(config_path: str | None, **kw: Any) -> RunOptions:
     """RunOptions with the config file loaded and validated (every detector section,
     whether or not that detector runs: a typo never passes silently)."""
@@ -223,6 +244,8 @@ def load_options(config_path: str | None, **kw: Any) -> RunOptions:
         kw["detectors"] = list(dict.fromkeys(kw["detectors"]))  # each detector runs once
         for name in kw["detectors"]:
             detector_class(name)  # an unknown name is a usage error before any reading
+    if kw.get("model") is not None:
+        check_model_options(kw["model"], kw.get("rate"), kw.get("detectors"), kw["model_path"])
     if kw.get("screen"):
         kw["screen"] = _check_screen(list(dict.fromkeys(kw["screen"])), kw)
     return RunOptions(config=cfg, **kw)

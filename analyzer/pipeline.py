@@ -75,7 +75,8 @@ from analyzer.diagnosis.training_check import (
 from analyzer.errors import (
     LISTED,
     AnalyzerError,
-    ConfigError,
+    ArchiveConfigError,
+    ArchiveUsageError,
     DetectorError,
     IntegrityError,
     ReaderError,
@@ -193,10 +194,10 @@ def _select(
     if patterns:
         unmatched = store.unmatched_line(patterns)
         if unmatched:
-            raise UsageError(unmatched)
+            raise ArchiveUsageError(unmatched)
         chosen = store.select(patterns)
         if not chosen:  # every channel a pattern matches, another leaves out
-            raise UsageError(
+            raise ArchiveUsageError(
                 f"--channels: '{','.join(patterns)}' leaves no channel to analyze (its '!' "
                 "patterns leave out every channel)"
             )
@@ -220,7 +221,7 @@ def _select(
             left_out = set(mixed)
             chosen = [c for c in chosen if c not in left_out]
             if not chosen:
-                raise UsageError(
+                raise ArchiveUsageError(
                     "no channel left to analyze: every varying channel changes meaning "
                     f"between messages ({', '.join(mixed[:3])}"
                     + (", ..." if len(mixed) > 3 else "")
@@ -233,11 +234,13 @@ def _select(
                 copied = {c.channel for c in copies}
                 chosen = [c for c in chosen if c not in copied]
     if not chosen and patterns:
-        raise UsageError(
+        raise ArchiveUsageError(
             f"--channels: every channel '{','.join(patterns)}' selects is constant or empty"
         )
     if not chosen:
-        raise UsageError("no channel left to analyze (all selected channels are constant or empty)")
+        raise ArchiveUsageError(
+            "no channel left to analyze (all selected channels are constant or empty)"
+        )
     return chosen
 
 
@@ -699,7 +702,7 @@ def _analyze(
                 if (m := COARSE_CLOCK.match(e)) and 2 * int(m[1]) >= int(m[2])
             ]
             if coarse and str(err).startswith("the training window") and "sample(s) at" in str(err):
-                raise UsageError(f"{err}; {coarse[0]}") from None
+                raise ArchiveUsageError(f"{err}; {coarse[0]}") from None
             raise
         # logger outages (every analyzed channel at one value, or repeating its values,
         # at once): missing data, not a sensor's fault, and a note (analyzer.outage)
@@ -1924,7 +1927,7 @@ def _training_window(
     elif options.config.train is not None:
         tr = options.config.train
         if tr[0] >= duration:
-            raise ConfigError(
+            raise ArchiveConfigError(
                 f"{options.config.path}: [train] the window {tr[0]:g}-{tr[1]:g} s starts "
                 f"after the data ends ({duration:.3f} s)"
             )
@@ -1949,10 +1952,10 @@ def _training_window(
         # (unless the run is there to save the models fitted on it, above)
         covers = f"covers all the data (which ends at {duration:.3f} s): nothing is left to search"
         if options.train is not None:
-            raise UsageError(
+            raise ArchiveUsageError(
                 f"--train: the window {options.train!r} {covers} for faults; end it earlier"
             )
-        raise ConfigError(
+        raise ArchiveConfigError(
             f"{options.config.path}: [train] the window {tr[0]:g}-"
             f"{(options.config.train or tr)[1]:g} s {covers} for faults; end it earlier"
         )
@@ -2070,7 +2073,7 @@ def _varying_in_training(
         # named with --detectors say it themselves)
         left = [c for n in notes if isinstance(n, ConstantNote) for c in n.names]
         copied = [c for n in notes if isinstance(n, CopyNote) for c in n.names]
-        raise UsageError(
+        raise ArchiveUsageError(
             f"one channel to analyze ({chosen[0]}): every detector estimates a sensor "
             "from the others and needs at least 2 channels (--channels chooses them)"
             + (
@@ -2082,7 +2085,7 @@ def _varying_in_training(
         )
     tv = np.asarray(values[train[0] : train[1]])
     if tv.shape[0] < MIN_TRAIN_ROWS:
-        raise UsageError(
+        raise ArchiveUsageError(
             f"the training window {tr[0]:.3f}-{tr[1]:.3f} s holds {tv.shape[0]} sample(s) "
             f"at {rate_hz:.6g} Hz, need at least {MIN_TRAIN_ROWS}: give a longer "
             "one with --train (the default is the first 20 % of the data, at most 10 min)"
@@ -2123,7 +2126,7 @@ def _varying_in_training(
             if options.config.train is not None
             else "--train (default: the first 20 % of the data)"
         )
-        raise UsageError(
+        raise ArchiveUsageError(
             "every selected channel is constant or empty in the training window "
             f"({tr[0]:.3f}-{tr[1]:.3f} s): choose another window with {how}"
         )
@@ -2426,20 +2429,25 @@ SUMMARY_LISTED = 3
 
 
 def summary_line(analysis: Analysis, out: Path) -> str:
-    """The line ``analyzer run`` ends with, terminal or not: how many faults on how many
-    sensors, the first :data:`SUMMARY_LISTED` by onset (sensor, type, onset) and the
-    report's path; or that none was found. A run said nothing when stderr was no
-    terminal (CI, ``| tee``, cron) and ended with exit code 1, which reads as a failure
-    to anyone who has not read the contract: the line says it is a finding."""
-    report = out / "report.html"
-    found = analysis.findings
+    """The line ``analyzer run`` ends with, terminal or not: :func:`faults_words` and the
+    report's path. A run said nothing when stderr was no terminal (CI, ``| tee``, cron)
+    and ended with exit code 1, which reads as a failure to anyone who has not read the
+    contract: the line says it is a finding."""
+    return f"{faults_words(analysis.findings)}; report: {out / 'report.html'}"
+
+
+def faults_words(found: Sequence[Finding]) -> str:
+    """How many faults on how many sensors, the first :data:`SUMMARY_LISTED` by onset
+    (sensor, type, onset); or that none was found: :func:`summary_line`'s, and the
+    watcher's line for an archive with a fault (``analyzer.watch``), which said only
+    "fault (s2)"."""
     if not found:
-        return f"no sensor fault found; report: {report}"
+        return "no sensor fault found"
     sensors = len({f.channel for f in found})
     items = [f"{f.channel} {f.type} from {_onset_words(f)}" for f in found]
     return (
         f"{len(found)} sensor fault{'s' if len(found) > 1 else ''} found on {sensors} "
-        f"sensor{'s' if sensors > 1 else ''}: {capped(items, SUMMARY_LISTED)}; report: {report}"
+        f"sensor{'s' if sensors > 1 else ''}: {capped(items, SUMMARY_LISTED)}"
     )
 
 
