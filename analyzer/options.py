@@ -16,7 +16,13 @@ from typing import Any
 
 from analyzer.config import Config, load_config
 from analyzer.detectors import REGISTRY, detector_class
-from analyzer.errors import AnalyzerError, ArchiveUsageError, ConfigError, UsageError
+from analyzer.errors import (
+    AnalyzerError,
+    ArchiveUsageError,
+    ConfigError,
+    ShortUsageError,
+    UsageError,
+)
 from analyzer.findings import sha256_of
 from analyzer.modelfile import SavedModel, check_model_path, load_model
 from analyzer.readers.base import TimeSource
@@ -134,7 +140,7 @@ def parse_train(
     if not (0.0 <= lo < hi):
         raise UsageError(f"--train: the window {text!r} must satisfy 0 <= START < END")
     if lo >= duration_s:
-        raise ArchiveUsageError(
+        raise ShortUsageError(
             f"--train: the window {text!r} starts after the data ends ({duration_s:.3f} s)"
         )
     return lo, min(hi, duration_s)
@@ -170,6 +176,12 @@ def _train_parts(text: str) -> tuple[tuple[str, Any], tuple[str, Any]]:
     """The two halves of ``--train START:END`` as :func:`parse_time` reads them."""
     start, end = _split_train(text)
     return parse_time(start), parse_time(end)
+
+
+def train_is_absolute(text: str) -> bool:
+    """Whether ``--train`` gives a time as ISO-8601 (an absolute time), which fits only
+    the archives holding it: ``analyzer watch`` refuses it (every other archive failed)."""
+    return any(kind == "ns" for kind, _ in _train_parts(text))
 
 
 def check_train(text: str) -> None:

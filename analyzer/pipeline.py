@@ -75,11 +75,13 @@ from analyzer.diagnosis.training_check import (
 from analyzer.errors import (
     LISTED,
     AnalyzerError,
-    ArchiveConfigError,
     ArchiveUsageError,
     DetectorError,
     IntegrityError,
     ReaderError,
+    ShortConfigError,
+    ShortDetectorError,
+    ShortUsageError,
     UsageError,
     capped,
     one_line,
@@ -702,7 +704,7 @@ def _analyze(
                 if (m := COARSE_CLOCK.match(e)) and 2 * int(m[1]) >= int(m[2])
             ]
             if coarse and str(err).startswith("the training window") and "sample(s) at" in str(err):
-                raise ArchiveUsageError(f"{err}; {coarse[0]}") from None
+                raise ShortUsageError(f"{err}; {coarse[0]}") from None
             raise
         # logger outages (every analyzed channel at one value, or repeating its values,
         # at once): missing data, not a sensor's fault, and a note (analyzer.outage)
@@ -1927,7 +1929,7 @@ def _training_window(
     elif options.config.train is not None:
         tr = options.config.train
         if tr[0] >= duration:
-            raise ArchiveConfigError(
+            raise ShortConfigError(
                 f"{options.config.path}: [train] the window {tr[0]:g}-{tr[1]:g} s starts "
                 f"after the data ends ({duration:.3f} s)"
             )
@@ -1952,10 +1954,10 @@ def _training_window(
         # (unless the run is there to save the models fitted on it, above)
         covers = f"covers all the data (which ends at {duration:.3f} s): nothing is left to search"
         if options.train is not None:
-            raise ArchiveUsageError(
+            raise ShortUsageError(
                 f"--train: the window {options.train!r} {covers} for faults; end it earlier"
             )
-        raise ArchiveConfigError(
+        raise ShortConfigError(
             f"{options.config.path}: [train] the window {tr[0]:g}-"
             f"{(options.config.train or tr)[1]:g} s {covers} for faults; end it earlier"
         )
@@ -2085,7 +2087,7 @@ def _varying_in_training(
         )
     tv = np.asarray(values[train[0] : train[1]])
     if tv.shape[0] < MIN_TRAIN_ROWS:
-        raise ArchiveUsageError(
+        raise ShortUsageError(
             f"the training window {tr[0]:.3f}-{tr[1]:.3f} s holds {tv.shape[0]} sample(s) "
             f"at {rate_hz:.6g} Hz, need at least {MIN_TRAIN_ROWS}: give a longer "
             "one with --train (the default is the first 20 % of the data, at most 10 min)"
@@ -2251,7 +2253,7 @@ def _no_detector_error(
         )
         if longer.startswith("the archive"):  # (no window of it is long enough)
             hint = longer + slow
-        return DetectorError(f"{failed}: {hint} ({why})")
+        return ShortDetectorError(f"{failed}: {hint} ({why})")
     return DetectorError(f"{failed} ({why})")
 
 

@@ -84,10 +84,13 @@ Inputs
     that was only pausing: it is analyzed again instead; ``--once`` waits for these
     moves).
     An archive that these options, sound in themselves, cannot analyze (one channel,
-    ``--channels`` matching none of its channels, not the channels of ``--model``,
-    ``--train`` beyond its end: :attr:`ErrorKind.MISMATCH`) is the archive's error and
-    goes to ``--failed``, as a corrupt one does. An archive whose error is of the options
-    alone (one every archive would get) or is not its own (above) stays in INBOX, and
+    ``--channels`` matching none of its channels, not the channels of ``--model``:
+    :attr:`Record.error_reason` ``mismatch``) is the archive's error and goes to
+    ``--failed``, as a corrupt one does, once an archive has fit these options (until
+    then it may be the option's: it stays, said with the option to check). An archive too
+    short for the training window (a file still being written: ``too short``), one whose
+    error is of the options alone (one every archive would get) or is not its own (above)
+    stays in INBOX, and
     so does one that changed since it was found complete. DIR must be outside INBOX's
     own archives and outside REPORTS (exit 2 otherwise), and writable, as INBOX then must
     be (exit 2 at start otherwise; a move refused later is a warning naming the folder
@@ -192,13 +195,15 @@ from analyzer.diagnosis.training_check import window_warnings
 from analyzer.errors import (
     AnalyzerError,
     ArchiveMismatch,
+    ArchiveTooShort,
     ConfigError,
+    TooLittleDataError,
     UsageError,
     one_line,
     terminal_safe,
 )
 from analyzer.findings import write_outputs
-from analyzer.options import RunOptions
+from analyzer.options import RunOptions, train_is_absolute
 from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
 from analyzer.parallel import DaskExecutor
@@ -225,6 +230,8 @@ from analyzer.watch_inbox import (
     signature,
 )
 from analyzer.watch_index import (
+    MISMATCH,
+    TOO_SHORT,
     ErrorKind,
     Ledger,
     Record,
@@ -401,13 +408,23 @@ EXIT_INPUT_ERROR = 2
 EXIT_INTERNAL_ERROR = 3
 EXIT_OPTION_ERROR = 4
 EXIT_MISMATCH = 5
+EXIT_TOO_SHORT = 6
 ERROR_KINDS = {
     EXIT_INPUT_ERROR: ErrorKind.INPUT,
     EXIT_INTERNAL_ERROR: ErrorKind.INTERNAL,
     EXIT_OPTION_ERROR: ErrorKind.OPTIONS,
-    EXIT_MISMATCH: ErrorKind.MISMATCH,
+    EXIT_MISMATCH: ErrorKind.INPUT,
+    EXIT_TOO_SHORT: ErrorKind.OPTIONS,
 }
-"""An analysis's exit code (:func:`analysis_into`) and whose fault its error is."""
+"""An analysis's exit code (:func:`analysis_into`) and whose fault its error is: kinds a
+watcher of analyzer 49 knows, which reads the state file of this one
+(:attr:`Record.error_reason` says more)."""
+ERROR_REASONS = {EXIT_MISMATCH: MISMATCH, EXIT_TOO_SHORT: TOO_SHORT}
+"""The exit codes of :data:`ERROR_KINDS` with a finer reason (:attr:`Record.error_reason`)."""
+MISFIT = ".misfit"
+"""The file a mismatch's analysis leaves beside ``error.txt`` with the option to check
+(:attr:`~analyzer.errors.ArchiveMismatch.option`), read into
+:attr:`Record.misfit_option`."""
 
 
 CONFIG_WARNINGS = ".config-warnings"
@@ -440,10 +457,12 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
     ``out_dir/error.txt``, with ``work`` as its scratch space; the config warnings ``run``
     would print, if any, into ``out_dir/`` :data:`CONFIG_WARNINGS` (the watcher logs
     them). Returns the exit code: 0/1 analyzed (no fault/fault), 2 input error, 3 bug or
-    an error of the output side (a full disk), 4 an error of the options alone
-    (:class:`UsageError`, :class:`ConfigError`), 5 an archive that the options, sound in
-    themselves, do not fit (one channel, ``--channels`` matching none of its channels,
-    ``--train`` beyond its end: :class:`ArchiveMismatch`)."""
+    an error of the options alone (:class:`UsageError`, :class:`ConfigError`), 5 an
+    archive that the options, sound in themselves, do not fit (one channel,
+    ``--channels`` matching none of its channels: :class:`ArchiveMismatch`, its option
+    in ``out_dir/`` :data:`MISFIT`), 6 an archive too short for the training window, as
+    one still being written (:class:`ArchiveTooShort`, a detector's too little healthy
+    data)."""
     try:
         analysis = analyze_screened(inputs, options, work)
         figures: list[str] = []  # (figures that could not be drawn)
@@ -460,8 +479,13 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
         if analysis.findings:
             write_atomic(out_dir / FAULT_WORDS, faults_words(analysis.findings))
         return 1 if analysis.faulty else 0
+    except (ArchiveTooShort, TooLittleDataError) as err:  # (first: a mismatch too)
+        _error_file(out_dir, one_line(err) + "\n")
+        return EXIT_TOO_SHORT
     except ArchiveMismatch as err:  # (a UsageError too: caught first)
         _error_file(out_dir, one_line(err) + "\n")
+        with contextlib.suppress(OSError):
+            write_atomic(out_dir / MISFIT, err.option)
         return EXIT_MISMATCH
     except (UsageError, ConfigError) as err:
         _error_file(out_dir, one_line(err) + "\n")
@@ -1176,6 +1200,21 @@ _OLD_COPY = re.compile(r"\.partial-.+-[0-9a-f]{8}")
 """The name of a move's copy (:func:`_plan_move`: ``hidden_name(".partial-", ...)``)."""
 
 
+def _forget_left(ledger: Ledger, inbox: Path) -> None:
+    """Clear :attr:`Record.left_in_inbox` of the archives no longer in INBOX (removed
+    by hand since): the index said "left in INBOX" of a file that was gone."""
+    gone = [
+        rec
+        for rec in ledger.records.values()
+        if rec.left_in_inbox and not any((inbox / p).exists() for p in rec.inputs)
+    ]
+    for rec in gone:
+        rec.left_in_inbox = None
+    if gone:
+        with contextlib.suppress(OSError):  # (REPORTS full: the next record says it)
+            ledger.save()
+
+
 def _unknown_copies(ledger: Ledger, folders: Sequence[Path | None]) -> list[Path]:
     """The hidden ``.partial-`` copies in ``folders`` (``--done``, ``--failed``) that no
     move of the state file names: left by a watcher older than the forty-sixth session,
@@ -1641,6 +1680,12 @@ class _Runner:
         self.unwritten = 0
         """Analyses since the start whose outputs could not be written (a full disk)."""
         self.fingerprint = options_fingerprint(options)
+        self.fitted = ledger.fitted(self.fingerprint)
+        """Whether an archive has been analyzed with these options (:meth:`Ledger.fitted`):
+        until then an archive they do not fit stays in INBOX (:meth:`_stays_why`)."""
+        self.unfit: dict[str, ReadyArchive] = {}
+        """Archives they do not fit, left in INBOX while no archive has fit these options
+        (:attr:`fitted`): moved to ``--failed`` once one has (:meth:`_fits`)."""
         self.moves: dict[str, tuple[ReadyArchive, Record]] = {}
         """Archives recorded whose move by ``--done``/``--failed`` waits for the end of
         their hold (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`)."""
@@ -2006,6 +2051,11 @@ class _Runner:
         analyzed again on the next start, said so)."""
         if rec.verdict is not Verdict.ERROR or rec.error_kind is ErrorKind.INTERNAL:
             return None
+        if rec.error_reason == TOO_SHORT:
+            return (
+                "too short for the training window so far (a file still being written?): "
+                "analyzed again when it changes"
+            )
         if rec.error_kind is ErrorKind.OPTIONS:
             return (
                 "an error of the options, not of the archive (every archive would get it): "
@@ -2013,6 +2063,11 @@ class _Runner:
             )
         if self.settings.failed is None:
             return "no --failed folder to move it to"
+        if rec.error_reason == MISMATCH and not self.fitted:
+            return (
+                "no archive has fit these options yet: check "
+                f"{rec.misfit_option or 'the options'} (moved to --failed once one has)"
+            )
         return None
 
     def _left_in_inbox(self, name: str, said: bool) -> None:
@@ -2047,7 +2102,8 @@ class _Runner:
         if rec is not None and rec.sha256 == digest:
             again = rec.redo_reason(self.fingerprint)
             if again is None:
-                self.skipped.add(name)
+                if name not in self.results:  # (dropped again in this run: counted once)
+                    self.skipped.add(name)
                 self._hashed.pop(name, None)  # (another hash only if it changes)
                 self._found_already(archive, rec)
                 return
@@ -2200,6 +2256,7 @@ class _Runner:
         self._hashed.pop(name, None)
         self.skipped.discard(name)
         self.results[name] = rec.verdict
+        self.unfit.pop(name, None)
         at = self.progress()
         if rec.error_kind is ErrorKind.INTERNAL:
             log.error(
@@ -2220,6 +2277,27 @@ class _Runner:
             log.warning("%s: %s", name, line)
         self._move(job.archive, rec)
         self._left_in_inbox(job.archive.name, said=True)
+        if rec.verdict is not Verdict.ERROR and not self.fitted:
+            self._fits(name)
+
+    def _fits(self, name: str) -> None:
+        """The archive ``name`` is the first these options have analyzed: the archives
+        they did not fit, left in INBOX until now (:attr:`unfit`), are the archives'
+        errors after all, and go to ``--failed``."""
+        self.fitted = True
+        for other, archive in list(self.unfit.items()):
+            del self.unfit[other]
+            rec = self.ledger.get(other)
+            if rec is None or rec.verdict is not Verdict.ERROR or rec.error_reason != MISMATCH:
+                continue  # (analyzed again since)
+            self.left.discard(other)
+            log.info(
+                "%s: %s fits these options: %s is this archive's error, not theirs",
+                other,
+                name,
+                rec.misfit_option or "the option",
+            )
+            self._move(archive, rec)
 
     def _result(self, job: _Job, elapsed: float) -> Record:
         """The record of a finished analysis process, from what it left in its scratch
@@ -2277,6 +2355,10 @@ class _Runner:
         elif code in ERROR_KINDS and error.is_file():
             message, _, details = error.read_text(encoding="utf-8").partition("\n")
             rec.error_kind = ERROR_KINDS[code]
+            rec.error_reason = ERROR_REASONS.get(code)
+            if code == EXIT_MISMATCH:
+                with contextlib.suppress(OSError, ValueError):
+                    rec.misfit_option = (job.scratch / MISFIT).read_text(encoding="utf-8")
         elif code is not None and code < 0:
             message = f"analysis process killed by signal {-code}"
             with contextlib.suppress(ValueError):
@@ -2370,6 +2452,9 @@ class _Runner:
         to tmpfs: 1.2-6.2 s)."""
         folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
         if rec.error_kind in (ErrorKind.OPTIONS, ErrorKind.INTERNAL) or folder is None:
+            return
+        if self._stays_why(rec) is not None:  # (a mismatch before any archive fit)
+            self.unfit[archive.name] = archive
             return
         if archive.name in self.copying:  # (the move under way moves it, or, changed, it
             return  # is offered again; a second move took its place, its copies left)
@@ -2752,8 +2837,14 @@ def watch(
     """Watch ``settings.inbox`` until ``stop`` is set (or, with ``once``, until what was
     there is done). After ``stop``, running analyses finish unless ``abandon`` is set.
     Returns the exit code (0; with ``once``: see :meth:`_Runner.exit_code`, 130 when
-    stopped first); raises :class:`UsageError` for bad folders or a REPORTS folder
+    stopped first); raises :class:`UsageError` for an ISO ``--train`` (it fits only the
+    archives holding it), bad folders or a REPORTS folder
     locked by another watcher."""
+    if options.train is not None and train_is_absolute(options.train):
+        raise UsageError(
+            f"--train {options.train}: ISO times fit only the archives that hold them; give "
+            "the window in seconds from each archive's start (e.g. --train 0:60)"
+        )
     stop = stop or threading.Event()
     abandon = abandon or threading.Event()
     settings = replace(
@@ -2792,6 +2883,7 @@ def _watch_locked(
     its exit code."""
     ledger = Ledger.load(settings.reports)
     _end_moves(ledger, settings.inbox)  # (first: a record tidied away keeps no copies)
+    _forget_left(ledger, settings.inbox)
     for name in ledger.tidy():
         log.info("%s: its report folder is gone; it will be analyzed again", name)
     unknown = _unknown_copies(ledger, [settings.done, settings.failed])

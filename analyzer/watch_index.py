@@ -71,23 +71,27 @@ class Verdict(StrEnum):
     ERROR = "error"
 
 
+MISMATCH = "mismatch"
+""":attr:`Record.error_reason` of an archive these options, sound in themselves, do not fit."""
+TOO_SHORT = "too short"
+""":attr:`Record.error_reason` of an archive too short for the training window."""
+
+
 class ErrorKind(StrEnum):
     """Why an archive could not be analyzed, which says what happens to it next."""
 
     INPUT = "input"
-    """The archive itself (corrupt, unreadable, too short): a verdict on the content,
-    kept while the options stay the same; moved to ``--failed``."""
-    MISMATCH = "does not fit the options"
-    """This archive cannot be analyzed with these options, which are sound in
-    themselves (:class:`~analyzer.errors.ArchiveMismatch`: one channel, none that
-    ``--channels`` matches, not the channels of ``--model``, too short for the training
-    window): the archive's, as INPUT, kept while the options stay the same; moved to
-    ``--failed``."""
+    """The archive itself (corrupt, unreadable), or an archive these options, sound in
+    themselves, do not fit (:attr:`Record.error_reason` ``mismatch``): a verdict on the
+    content, kept while the options stay the same; moved to ``--failed`` (a mismatch only
+    once an archive has fit these options, :meth:`Ledger.fitted`)."""
     OPTIONS = "options"
     """An error of the options alone, one every archive would get (a ``--train`` that
     cannot be read, a ``[model]`` of the config that does not fit together, ``--rate``
-    against the model's): kept while the options stay the same, and the archive is left
-    in INBOX (with mended options it is fine), said each time it is seen."""
+    against the model's), or an archive too short for the training window
+    (:attr:`Record.error_reason` ``too short``: a file still being written): kept while
+    the options stay the same, and the archive is left in INBOX (with mended options, or
+    grown, it is fine), said each time it is seen."""
     INTERNAL = "internal"
     """Not the archive's fault (an internal error, a full disk, a killed analysis): shown
     in the index, but analyzed again on the next start; the archive stays in INBOX."""
@@ -142,6 +146,18 @@ class Record:
     corrected: str | None = None
     """Link to ``corrected.csv`` (``--corrected``: the readings with the faults
     corrected), relative to REPORTS; None where the analysis wrote none."""
+    error_reason: str | None = None
+    """Of an ``error``, a finer reason than :attr:`error_kind`: ``mismatch`` (an
+    ``input`` error: an archive that these options, sound in themselves, do not fit, as
+    a one-channel file or ``--channels`` matching none of its channels, with
+    :attr:`misfit_option` the option to check) or ``too short`` (an ``options`` error: too
+    short for the training window, as a file still being written; left in INBOX and
+    analyzed again when it grows). A field, not a kind of its own: a watcher of
+    analyzer 49, which knows only the kinds, still reads the state (it leaves out fields
+    it does not know)."""
+    misfit_option: str | None = None
+    """Of a ``mismatch``: the option the archive does not fit (``--channels``,
+    ``--model``, ``--train``, ``--config``)."""
     left_in_inbox: str | None = None
     """Of an ``error`` that stays in INBOX on purpose, why (no ``--failed`` folder, an
     error of the options alone), set each time a watcher sees the archive there; None
@@ -505,6 +521,16 @@ class Ledger:
         self._views_stale = True
         self.refresh_views()
 
+    def fitted(self, options: str) -> bool:
+        """Whether an archive has been analyzed (a fault or no fault) with the options of
+        fingerprint ``options``: until then an archive they do not fit
+        (:attr:`Record.error_reason` ``mismatch``) may show an option wrong for every
+        archive (``--channels 'S*'``), and stays in INBOX; it moved the whole INBOX to
+        ``--failed``, one archive at a time. Told from the records (the state file)."""
+        return any(
+            r.options == options and r.verdict is not Verdict.ERROR for r in self.records.values()
+        )
+
     def newest_first(self) -> list[Record]:
         return sorted(self.records.values(), key=lambda r: (r.processed, r.name), reverse=True)
 
@@ -728,7 +754,7 @@ def index_view(index: dict[str, Any]) -> IndexView:
             details += f"; moved to {', '.join(r['moved_to'])}"
         if r.get("corrected"):
             details += f"; corrected readings in {r['corrected']}"
-        if not r["moved_to"] and r.get("left_in_inbox"):
+        if r.get("left_in_inbox"):  # (cleared by a move: an earlier copy's is listed)
             details += f"; left in INBOX: {r['left_in_inbox']}"
         duration = r["duration_s"]
         rows.append(

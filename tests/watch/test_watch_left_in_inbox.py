@@ -28,7 +28,7 @@ from analyzer import watch as watch_module
 from analyzer.errors import UsageError
 from analyzer.report.format import magnitude
 from analyzer.watch import WatchSettings
-from analyzer.watch_index import Record, Verdict, episodes, index_view, render_index
+from analyzer.watch_index import ErrorKind, Record, Verdict, episodes, index_view, render_index
 
 # the fixtures of test_watch_run (found by pytest among this module's names)
 folders = test_watch_run.folders
@@ -68,7 +68,8 @@ def test_a_one_channel_archive_is_said_left_in_inbox_until_failed_takes_it(
     assert start_watcher(settings).join() == 2
     record = state(reports)["nab.csv"]
     assert record["error"].startswith("one channel to analyze (value)")
-    assert record["error_kind"] == "does not fit the options"
+    assert (record["error_kind"], record["error_reason"]) == ("input", "mismatch")
+    assert record["misfit_option"] == "--channels"
     assert said(caplog, "nab.csv: left in INBOX: no --failed folder to move it to") == [
         "nab.csv: left in INBOX: no --failed folder to move it to"
     ]
@@ -88,30 +89,114 @@ def test_a_one_channel_archive_is_said_left_in_inbox_until_failed_takes_it(
     assert "1 archive found analyzed already, not analyzed again" in summary
     assert "; 1 archive in error left in INBOX" in summary
 
-    caplog.clear()  # with --failed: moved there, as a corrupt file, and nothing left
+    caplog.clear()  # with --failed, once an archive fits: moved there, as a corrupt file
+    write(inbox / "a.csv", "csv", seed=1)
     assert start_watcher(replace(settings, failed=failed)).join() == 0
     assert (failed / "nab.csv").is_file() and not (inbox / "nab.csv").exists()
-    assert said(caplog, "left in INBOX") == []
     assert index(reports)["nab.csv"]["left_in_inbox"] is None
+    assert state(reports)["a.csv"]["verdict"] == "no fault"
 
 
-def test_channels_matching_none_of_an_archive_move_it_to_failed(
+def test_channels_matching_no_archive_leave_them_all_in_inbox_until_one_fits(
     tmp_path: Path,
     folders: tuple[Path, Path],
     start_watcher: Callable[..., Watcher],
     caplog: pytest.LogCaptureFixture,
 ) -> None:
+    """A ``--channels`` typo fits no archive: with ``--failed`` the branch moved the
+    whole INBOX there, one archive at a time. Until an archive has fit these options,
+    one they do not fit stays in INBOX, said with the option to check, and ``--once``
+    exits 2; the options mended, each is analyzed again."""
+    inbox, reports = folders
+    failed = tmp_path / "failed"
+    write(inbox / "a.csv", "csv", seed=1)
+    write(inbox / "b.csv", "csv", seed=2)
+    settings = WatchSettings(inbox, reports, settle=SETTLE, poll=0.1, failed=failed, once=True)
+    typo = replace(OPTIONS, channels=["S*"])
+    for _ in range(2):  # (the second start: found recorded, said again)
+        caplog.clear()
+        assert start_watcher(settings, typo).join() == 2
+        for name in ("a.csv", "b.csv"):
+            assert (inbox / name).is_file()
+            record = state(reports)[name]
+            assert record["error"].startswith("--channels: pattern 'S*' matches no")
+            assert (record["error_kind"], record["error_reason"]) == ("input", "mismatch")
+            assert said(
+                caplog,
+                f"{name}: left in INBOX: no archive has fit these options yet: check --channels",
+            )
+            assert index(reports)[name]["left_in_inbox"].startswith("no archive has fit")
+        assert not failed.exists() or not list(failed.iterdir())
+    caplog.clear()
+    assert start_watcher(settings, replace(OPTIONS, channels=["s*"])).join() == 0
+    assert started(caplog) == ["a.csv", "b.csv"] or started(caplog) == ["b.csv", "a.csv"]
+    assert {r["verdict"] for r in state(reports).values()} == {"no fault"}
+
+
+def test_once_an_archive_fits_one_the_options_do_not_fit_goes_to_failed(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A mixed INBOX (a one-channel NAB file among the robot's): the robot's archive
+    fits, so the NAB file's error is its own, and it goes to ``--failed``."""
     inbox, reports = folders
     failed = tmp_path / "failed"
     write(inbox / "a.csv", "csv", seed=1)
     one_channel(inbox / "nab.csv")
     settings = WatchSettings(inbox, reports, settle=SETTLE, poll=0.1, failed=failed, once=True)
-    assert start_watcher(settings, replace(OPTIONS, channels=["zz*"])).join() == 2
-    for name in ("a.csv", "nab.csv"):
-        assert state(reports)[name]["error"].startswith("--channels: pattern 'zz*' matches no")
-        assert state(reports)[name]["error_kind"] == "does not fit the options"
-        assert (failed / name).is_file() and not (inbox / name).exists()
-    assert said(caplog, "left in INBOX") == []
+    assert start_watcher(settings).join() == 2  # (nab.csv: an error of this run)
+    assert (failed / "nab.csv").is_file() and not (inbox / "nab.csv").exists()
+    assert state(reports)["nab.csv"]["misfit_option"] == "--channels"
+    assert state(reports)["a.csv"]["verdict"] == "no fault"
+    assert index(reports)["nab.csv"]["left_in_inbox"] is None
+
+
+def test_an_iso_train_is_refused_at_start(folders: tuple[Path, Path]) -> None:
+    """An ISO window fits only the archives holding it: every other archive failed."""
+    inbox, reports = folders
+    iso = replace(OPTIONS, train="2026-01-01T00:00:01Z:2026-01-01T00:00:12Z")
+    with pytest.raises(UsageError, match=r"^--train 2026-01-01T00:00:01Z:.*: ISO times fit"):
+        watch_module.watch(WatchSettings(inbox, reports, settle=SETTLE, once=True), iso)
+    assert not reports.exists()
+
+
+def test_a_csv_written_slowly_stays_in_inbox_until_whole(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A CSV whose writer pauses longer than the settle time is too short for the
+    training window at first: it stays in INBOX (as in analyzer 49) and is analyzed again
+    when it grows. The branch moved it to ``--failed``, and the rest of it, appended
+    after, went there as a second file without a header: the recording cut in two."""
+    inbox, reports = folders
+    done, failed = tmp_path / "done", tmp_path / "failed"
+    whole = write(tmp_path / "whole.csv", "csv", seed=1).read_bytes()
+    cut = 0
+    for _ in range(11):  # (the header and 10 rows: 0.1 s)
+        cut = whole.index(b"\n", cut) + 1
+    (inbox / "a.csv").write_bytes(whole[:cut])
+    settings = WatchSettings(inbox, reports, settle=SETTLE, poll=0.1, done=done, failed=failed)
+    watcher = start_watcher(settings)
+    wait_until(
+        lambda: said(caplog, "a.csv: left in INBOX") or said(caplog, "a.csv: moved"),
+        "the first part's error",
+    )
+    (line,) = said(caplog, "a.csv: left in INBOX")
+    assert line.startswith("a.csv: left in INBOX: too short for the training window so far")
+    record = state(reports)["a.csv"]
+    assert (record["error_kind"], record["error_reason"]) == ("options", "too short")
+    with (inbox / "a.csv").open("ab") as f:  # the writer goes on
+        f.write(whole[cut:])
+    wait_until(lambda: said(caplog, "a.csv: moved to "), "the whole file's move")
+    watcher.stop.set()
+    assert watcher.join() == 0
+    assert (done / "a.csv").read_bytes() == whole
+    assert not failed.exists() or not list(failed.iterdir())
+    assert state(reports)["a.csv"]["verdict"] == "no fault"
 
 
 def _options_error(*args: object, **kw: object) -> None:
@@ -265,3 +350,46 @@ def test_a_dead_sensor_is_shown_dead_in_the_index_not_only_multiplicative() -> N
     (row,) = index_view(doc).episodes
     assert row.types == "multiplicative: gain ×0 (dead sensor)"
     assert "corrected.csv" not in render_index(doc)  # (none written: not listed)
+
+
+def test_the_state_holds_only_error_kinds_an_older_watcher_reads() -> None:
+    """A watcher of analyzer 49 refused the whole state file for a kind it did not know
+    ("'does not fit the options' is not a valid ErrorKind"): going back to it meant
+    analyzing everything again. The finer reasons are fields it leaves out."""
+    assert {str(kind) for kind in ErrorKind} == {"input", "options", "internal"}
+    doc = _record("n.csv", {"channel": "s1", "type": "additive"}).as_json()
+    assert {"error_reason", "misfit_option"} <= set(doc)
+
+
+def test_a_file_dropped_again_in_the_same_run_is_counted_once(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    inbox, reports = folders
+    done = tmp_path / "done"
+    write(inbox / "a.csv", "csv", seed=1)
+    watcher = start_watcher(WatchSettings(inbox, reports, settle=SETTLE, poll=0.1, done=done))
+    wait_until(lambda: (done / "a.csv").is_file(), "the first move")
+    (inbox / "a.csv").write_bytes((done / "a.csv").read_bytes())  # dropped again
+    wait_until(lambda: (done / "a-1.csv").is_file(), "the second move")
+    watcher.stop.set()
+    assert watcher.join() == 0
+    (summary,) = said(caplog, " analyzed in ")
+    assert summary.startswith("1 archive analyzed in ") and ": 1 no fault; index: " in summary
+
+
+def test_the_left_in_inbox_note_goes_once_the_file_is_removed(
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+) -> None:
+    inbox, reports = folders
+    one_channel(inbox / "nab.csv")
+    settings = WatchSettings(inbox, reports, settle=SETTLE, poll=0.1, once=True)
+    assert start_watcher(settings).join() == 2
+    assert index(reports)["nab.csv"]["left_in_inbox"] == "no --failed folder to move it to"
+    (inbox / "nab.csv").unlink()  # removed by hand
+    assert start_watcher(settings).join() == 0
+    assert index(reports)["nab.csv"]["left_in_inbox"] is None
+    assert "left in INBOX" not in (reports / "index.html").read_text()

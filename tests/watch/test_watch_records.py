@@ -118,26 +118,27 @@ def test_an_error_of_the_options_is_redone_with_other_options_and_keeps_the_arch
     start_watcher: Callable[..., Watcher],
     caplog: pytest.LogCaptureFixture,
 ) -> None:
-    """A ``--train`` beyond the data's end is the archive's (too short for it): it is
-    kept in INBOX here, without ``--failed``, said each time, and ``--once`` exits 2."""
+    """A ``--train`` beyond the data's end: the archive is too short for it (as a file
+    still being written), kept in INBOX even with ``--failed``, said each time, and
+    ``--once`` exits 2."""
     inbox, reports = folders
+    failed = tmp_path / "failed"
     write(inbox / "a.csv", "csv", seed=1)  # 40 s
     late = replace(OPTIONS, train="100:120")  # after the data's end
-    settings = WatchSettings(inbox, reports, settle=SETTLE, poll=0.1, once=True)
+    settings = WatchSettings(inbox, reports, settle=SETTLE, poll=0.1, failed=failed, once=True)
     assert start_watcher(settings, late).join() == 2
     record = state(reports)["a.csv"]
     assert record["verdict"] == "error" and record["error"].startswith("--train: ")
-    assert record["error_kind"] == "does not fit the options"
+    assert (record["error_kind"], record["error_reason"]) == ("options", "too short")
     assert record["options"] == watch_module.options_fingerprint(late)
-    assert record["left_in_inbox"] == "no --failed folder to move it to"
-    assert (inbox / "a.csv").is_file()
+    assert record["left_in_inbox"].startswith("too short for the training window so far")
+    assert (inbox / "a.csv").is_file() and not failed.exists()
 
     caplog.clear()  # the same options: the same error, found recorded, said again
     assert start_watcher(settings, late).join() == 2
     assert started(caplog) == [] and said(caplog, "1 archive found analyzed already")
-    assert said(
-        caplog, "a.csv: left in INBOX: no --failed folder to move it to; its error: --train"
-    )
+    assert said(caplog, "a.csv: left in INBOX: too short for the training window so far")
+    assert (inbox / "a.csv").is_file() and not failed.exists()
 
     caplog.clear()  # other options: analyzed again
     assert start_watcher(settings).join() in (0, 1)
