@@ -2453,7 +2453,7 @@ class _Runner:
         folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
         if rec.error_kind in (ErrorKind.OPTIONS, ErrorKind.INTERNAL) or folder is None:
             return
-        if self._stays_why(rec) is not None:  # (a mismatch before any archive fit)
+        if rec.error_reason == MISMATCH and self._stays_why(rec) is not None:  # (none fit)
             self.unfit[archive.name] = archive
             return
         if archive.name in self.copying:  # (the move under way moves it, or, changed, it

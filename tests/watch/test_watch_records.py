@@ -132,13 +132,13 @@ def test_an_error_of_the_options_is_redone_with_other_options_and_keeps_the_arch
     assert (record["error_kind"], record["error_reason"]) == ("options", "too short")
     assert record["options"] == watch_module.options_fingerprint(late)
     assert record["left_in_inbox"].startswith("too short for the training window so far")
-    assert (inbox / "a.csv").is_file() and not failed.exists()
+    assert (inbox / "a.csv").is_file() and not (failed / "a.csv").exists()
 
     caplog.clear()  # the same options: the same error, found recorded, said again
     assert start_watcher(settings, late).join() == 2
     assert started(caplog) == [] and said(caplog, "1 archive found analyzed already")
     assert said(caplog, "a.csv: left in INBOX: too short for the training window so far")
-    assert (inbox / "a.csv").is_file() and not failed.exists()
+    assert (inbox / "a.csv").is_file() and not (failed / "a.csv").exists()
 
     caplog.clear()  # other options: analyzed again
     assert start_watcher(settings).join() in (0, 1)
