@@ -7,6 +7,7 @@ say what was expected.
 
 from __future__ import annotations
 
+import re
 import unicodedata
 from collections.abc import Sequence
 
@@ -97,6 +98,51 @@ class ConfigError(AnalyzerError):
     """The TOML config file is unreadable, has an unknown key or a bad value."""
 
 
+class ArchiveMismatch(AnalyzerError):
+    """Mixed into an option's error when the option is sound but this archive cannot be
+    analyzed with it: too few channels, none that ``--channels`` matches, not the
+    channels of ``--model`` (too short for the training window: :class:`ArchiveTooShort`).
+    ``analyzer run`` treats it as the option's error it also is (exit 2); ``analyzer
+    watch`` as the archive's, moved to ``--failed`` like a corrupt file once an archive
+    has fit the options (until then the option may be wrong for every archive), where
+    an error of the options alone leaves the archive in INBOX. A NAB file of one channel
+    was classed with the options, left in INBOX, and said nothing on the next start."""
+
+    @property
+    def option(self) -> str:
+        """The option to check when no archive fits (``--channels``, ``--model``,
+        ``--train``, ``--config``): the one the message starts with, ``--config`` for a
+        setting of the config file, else ``--channels`` (one channel, none left)."""
+        if isinstance(self, ConfigError):
+            return "--config"
+        named = re.match(r"--[a-z][a-z-]*", str(self))
+        return named[0] if named else "--channels"
+
+
+class ArchiveUsageError(UsageError, ArchiveMismatch):
+    """An option (``--channels``, ``--train``, ``--model``) this archive does not fit."""
+
+
+class ArchiveConfigError(ConfigError, ArchiveMismatch):
+    """A ``--config`` setting (``[train]``, a group's channels) this archive does not fit."""
+
+
+class ArchiveTooShort(ArchiveMismatch):
+    """Mixed into an archive's error that a file still being written can cause: too
+    short for the training window (too few samples in it, a window that starts after
+    the data ends or covers all of it). ``analyzer watch`` leaves such an archive in
+    INBOX, analyzed again when it grows: moved to ``--failed``, a CSV written slowly was
+    cut in two there (its first part moved, the rest written into INBOX again)."""
+
+
+class ShortUsageError(ArchiveUsageError, ArchiveTooShort):
+    """``--train`` (or the default window) that this archive is too short for."""
+
+
+class ShortConfigError(ArchiveConfigError, ArchiveTooShort):
+    """The config's ``[train]`` that this archive is too short for."""
+
+
 class ReaderError(AnalyzerError):
     """An input file is missing, of unknown format, truncated or corrupt."""
 
@@ -124,6 +170,11 @@ class TooLittleDataError(DetectorError):
     def __reduce__(self) -> tuple[type, tuple[str, int, int]]:
         # (pickled to and from a cluster's workers: the default gives args only)
         return (type(self), (str(self), self.have, self.need))
+
+
+class ShortDetectorError(DetectorError, ArchiveTooShort):
+    """No detector could run for too little healthy data: the training window (by
+    default the first 20 % of the data) is too short, as in a file still being written."""
 
 
 class IntegrityError(AnalyzerError):

@@ -16,7 +16,13 @@ from typing import Any
 
 from analyzer.config import Config, load_config
 from analyzer.detectors import REGISTRY, detector_class
-from analyzer.errors import AnalyzerError, ConfigError, UsageError
+from analyzer.errors import (
+    AnalyzerError,
+    ArchiveUsageError,
+    ConfigError,
+    ShortUsageError,
+    UsageError,
+)
 from analyzer.findings import sha256_of
 from analyzer.modelfile import SavedModel, check_model_path, load_model
 from analyzer.readers.base import TimeSource
@@ -105,7 +111,7 @@ def parse_train(
     for kind, val in parts:
         if kind == "ns":
             if not absolute:
-                raise UsageError(
+                raise ArchiveUsageError(
                     f"--train: {text!r} uses absolute times but the input has relative timestamps"
                 )
             secs.append((int(val) - start_ns) / NS_PER_S)
@@ -124,14 +130,14 @@ def parse_train(
             lo = 0.0
     if lo < 0.0 and parts[0][0] == "ns" and lo < hi:
         # an ISO start before the data: say where the data starts, not "0 <= START"
-        raise UsageError(
+        raise ArchiveUsageError(
             f"--train: the window {text!r} starts {-lo:.3f} s before the data "
             f"(which starts at {iso_utc(start_ns)}); start it there or later"
         )
     if not (0.0 <= lo < hi):
         raise UsageError(f"--train: the window {text!r} must satisfy 0 <= START < END")
     if lo >= duration_s:
-        raise UsageError(
+        raise ShortUsageError(
             f"--train: the window {text!r} starts after the data ends ({duration_s:.3f} s)"
         )
     return lo, min(hi, duration_s)
@@ -169,6 +175,12 @@ def _train_parts(text: str) -> tuple[tuple[str, Any], tuple[str, Any]]:
     return parse_time(start), parse_time(end)
 
 
+def train_is_absolute(text: str) -> bool:
+    """Whether ``--train`` gives a time as ISO-8601 (an absolute time), which fits only
+    the archives holding it: ``analyzer watch`` refuses it (every other archive failed)."""
+    return any(kind == "ns" for kind, _ in _train_parts(text))
+
+
 def check_train(text: str) -> None:
     """What can be checked of ``--train`` before the data is read (its syntax and order),
     so a bad window is a usage error up front (the watcher checks it once, not per
@@ -176,6 +188,27 @@ def check_train(text: str) -> None:
     (ka, a), (kb, b) = _train_parts(text)
     if ka == kb and not (float(a) < float(b) and (ka == "ns" or float(a) >= 0.0)):
         raise UsageError(f"--train: the window {text!r} must satisfy 0 <= START < END")
+
+
+def check_model_options(
+    model: SavedModel, rate: float | None, detectors: Sequence[str] | None, where: str | None
+) -> None:
+    """``--rate`` and ``--detectors`` against the ``--model`` they are given with (at
+    ``where``), before any reading: an error every archive would get, which ``analyzer
+    watch`` reported after each archive, each left in INBOX, instead of at its start."""
+    where = where or ""
+    if rate is not None and abs(rate - model.rate_hz) > 1e-9 * model.rate_hz:
+        raise UsageError(
+            f"--rate {rate:g}: the model {where} was fitted at {model.rate_hz:.6g} Hz; "
+            "leave --rate out or fit a model at that rate"
+        )
+    rank = {n: i for i, n in enumerate(REGISTRY)}
+    held = sorted(model.detectors(), key=lambda n: rank.get(n, len(rank)))
+    absent = [d for d in detectors or () if d not in held]
+    if absent:
+        raise UsageError(
+            f"--detectors {absent[0]}: not in the model {where} (it holds {', '.join(held)})"
+        )
 
 
 def load_options(config_path: str | None, **kw: Any) -> RunOptions:
@@ -215,6 +248,8 @@ def load_options(config_path: str | None, **kw: Any) -> RunOptions:
         kw["detectors"] = list(dict.fromkeys(kw["detectors"]))  # each detector runs once
         for name in kw["detectors"]:
             detector_class(name)  # an unknown name is a usage error before any reading
+    if kw.get("model") is not None:
+        check_model_options(kw["model"], kw.get("rate"), kw.get("detectors"), kw["model_path"])
     if kw.get("screen"):
         kw["screen"] = _check_screen(list(dict.fromkeys(kw["screen"])), kw)
     if kw.get("utc") and not kw.get("corrected"):

@@ -84,10 +84,13 @@ from analyzer.diagnosis.unexplained import (
 from analyzer.errors import (
     LISTED,
     AnalyzerError,
-    ConfigError,
+    ArchiveUsageError,
     DetectorError,
     IntegrityError,
     ReaderError,
+    ShortConfigError,
+    ShortDetectorError,
+    ShortUsageError,
     UsageError,
     capped,
     one_line,
@@ -684,7 +687,7 @@ def _analyze(
                 if (m := COARSE_CLOCK.match(e)) and 2 * int(m[1]) >= int(m[2])
             ]
             if coarse and str(err).startswith("the training window") and "sample(s) at" in str(err):
-                raise UsageError(f"{err}; {coarse[0]}") from None
+                raise ShortUsageError(f"{err}; {coarse[0]}") from None
             raise
         # logger outages (every analyzed channel at one value, or repeating its values,
         # at once): missing data, not a sensor's fault, and a note (analyzer.outage)
@@ -1891,7 +1894,7 @@ def _training_window(
     elif options.config.train is not None:
         tr = options.config.train
         if tr[0] >= duration:
-            raise ConfigError(
+            raise ShortConfigError(
                 f"{options.config.path}: [train] the window {tr[0]:g}-{tr[1]:g} s starts "
                 f"after the data ends ({duration:.3f} s)"
             )
@@ -1916,10 +1919,10 @@ def _training_window(
         # (unless the run is there to save the models fitted on it, above)
         covers = f"covers all the data (which ends at {duration:.3f} s): nothing is left to search"
         if options.train is not None:
-            raise UsageError(
+            raise ShortUsageError(
                 f"--train: the window {options.train!r} {covers} for faults; end it earlier"
             )
-        raise ConfigError(
+        raise ShortConfigError(
             f"{options.config.path}: [train] the window {tr[0]:g}-"
             f"{(options.config.train or tr)[1]:g} s {covers} for faults; end it earlier"
         )
@@ -2030,7 +2033,7 @@ def _varying_in_training(
         lone_channel(chosen, notes)
     tv = np.asarray(values[train[0] : train[1]])
     if tv.shape[0] < MIN_TRAIN_ROWS:
-        raise UsageError(
+        raise ShortUsageError(
             f"the training window {tr[0]:.3f}-{tr[1]:.3f} s holds {tv.shape[0]} sample(s) "
             f"at {rate_hz:.6g} Hz, need at least {MIN_TRAIN_ROWS}: give a longer "
             "one with --train (the default is the first 20 % of the data, at most 10 min)"
@@ -2071,7 +2074,7 @@ def _varying_in_training(
             if options.config.train is not None
             else "--train (default: the first 20 % of the data)"
         )
-        raise UsageError(
+        raise ArchiveUsageError(
             "every selected channel is constant or empty in the training window "
             f"({tr[0]:.3f}-{tr[1]:.3f} s): choose another window with {how}"
         )
@@ -2196,7 +2199,7 @@ def _no_detector_error(
         )
         if longer.startswith("the archive"):  # (no window of it is long enough)
             hint = longer + slow
-        return DetectorError(f"{failed}: {hint} ({why})")
+        return ShortDetectorError(f"{failed}: {hint} ({why})")
     return DetectorError(f"{failed} ({why})")
 
 
@@ -2378,36 +2381,42 @@ SUMMARY_LISTED = 3
 
 
 def summary_line(analysis: Analysis, out: Path) -> str:
-    """The line ``analyzer run`` ends with, terminal or not: how many faults on how many
-    sensors, the first :data:`SUMMARY_LISTED` by onset (sensor, type, onset) and the
-    report's path; or that none was found. A run said nothing when stderr was no
-    terminal (CI, ``| tee``, cron) and ended with exit code 1, which reads as a failure
-    to anyone who has not read the contract: the line says it is a finding. Alarms the
-    findings do not explain (:mod:`analyzer.diagnosis.unexplained`) end it: "1 sensor
-    fault found on 1 sensor" read as the answer where a second sensor's alarms were
-    left in the notes."""
+    """The line ``analyzer run`` ends with, terminal or not: :func:`faults_words`, what a
+    ``--save-model`` run saved, the report's path, and the alarms the findings do not
+    explain. A run said nothing when stderr was no terminal (CI, ``| tee``, cron) and
+    ended with exit code 1, which reads as a failure to anyone who has not read the
+    contract: the line says it is a finding. Alarms the findings do not explain
+    (:mod:`analyzer.diagnosis.unexplained`) end it: "1 sensor fault found on 1 sensor"
+    read as the answer where a second sensor's alarms were left in the notes."""
     report = out / "report.html"
-    found = analysis.findings
     saved = getattr(analysis, "saved_model", None)  # (an analysis of before it was kept)
     model = f"; {_saved_words(saved)}" if saved else ""
     if saved and saved["searched"] is None:
         return f"nothing after the training window to analyze{model}; report: {report}"
     after = " after the training window" if saved else ""
-    if not found:
-        return f"no sensor fault found{after}{model}; report: {report}"
-    sensors = len({f.channel for f in found})
-    items = [f"{f.channel} {f.type} from {_onset_words(f)}" for f in found]
     # (an Analysis of a caller that predates the field has none)
     unexplained = spoken([u.channels for u in getattr(analysis, "unexplained", [])])
     tail = (
         f"; alarms on {capped(unexplained, SUMMARY_LISTED)} not explained: see the report"
-        if unexplained
+        if unexplained and analysis.findings
         else ""
     )
+    return f"{faults_words(analysis.findings, after)}{model}; report: {report}{tail}"
+
+
+def faults_words(found: Sequence[Finding], after: str = "") -> str:
+    """How many faults on how many sensors (found ``after``: " after the training
+    window" of a ``--save-model`` run), the first :data:`SUMMARY_LISTED` by onset
+    (sensor, type, onset); or that none was found: :func:`summary_line`'s, and the
+    watcher's line for an archive with a fault (``analyzer.watch``), which said only
+    "fault (s2)"."""
+    if not found:
+        return f"no sensor fault found{after}"
+    sensors = len({f.channel for f in found})
+    items = [f"{f.channel} {f.type} from {_onset_words(f)}" for f in found]
     return (
         f"{len(found)} sensor fault{'s' if len(found) > 1 else ''} found on {sensors} "
-        f"sensor{'s' if sensors > 1 else ''}{after}: {capped(items, SUMMARY_LISTED)}{model}; "
-        f"report: {report}{tail}"
+        f"sensor{'s' if sensors > 1 else ''}{after}: {capped(items, SUMMARY_LISTED)}"
     )
 
 

@@ -13,10 +13,10 @@ import numpy as np
 
 from analyzer.detectors import REGISTRY
 from analyzer.diagnosis.changes import Calibration
-from analyzer.errors import UsageError, capped
+from analyzer.errors import ArchiveUsageError, capped
 from analyzer.findings import sha256_of
 from analyzer.modelfile import SavedModel
-from analyzer.options import RunOptions
+from analyzer.options import RunOptions, check_model_options
 from analyzer.store import ChannelStore
 
 WARMUP_S = 1.0
@@ -34,12 +34,8 @@ def model_channels(
     missing = [c for c in model.channels if c not in have]
     where = options.model_path or "the model"
     if missing:
-        raise UsageError(_missing_line(store, missing, where, len(model.channels)))
-    if options.rate is not None and abs(options.rate - model.rate_hz) > 1e-9 * model.rate_hz:
-        raise UsageError(
-            f"--rate {options.rate:g}: the model {where} was fitted at {model.rate_hz:.6g} Hz; "
-            "leave --rate out or fit a model at that rate"
-        )
+        raise ArchiveUsageError(_missing_line(store, missing, where, len(model.channels)))
+    check_model_options(model, options.rate, options.detectors, options.model_path)
     fitted = set(model.channels)
     others = [i.name for i in infos if i.name not in fitted and not i.constant and not i.flag]
     flags = [i.name for i in infos if i.name not in fitted and i.flag]
@@ -151,12 +147,7 @@ def model_detectors(model: SavedModel, options: RunOptions) -> list[str]:
     held = sorted(model.detectors(), key=lambda n: rank.get(n, len(rank)))
     if not options.detectors:
         return held
-    absent = [d for d in options.detectors if d not in held]
-    if absent:
-        raise UsageError(
-            f"--detectors {absent[0]}: not in the model {options.model_path or ''} "
-            f"(it holds {', '.join(held)})"
-        )
+    check_model_options(model, options.rate, options.detectors, options.model_path)
     return [d for d in held if d in options.detectors]
 
 

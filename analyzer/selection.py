@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Collection, Sequence
 
-from analyzer.errors import ReaderError, UsageError, capped
+from analyzer.errors import ArchiveUsageError, ReaderError, capped
 from analyzer.store import ChannelInfo, ChannelStore
 from analyzer.store.copies import Copy, find_copies
 from analyzer.window_note import WindowNote
@@ -176,10 +176,10 @@ def select_channels(
     if patterns:
         unmatched = store.unmatched_line(patterns)
         if unmatched:
-            raise UsageError(unmatched)
+            raise ArchiveUsageError(unmatched)
         chosen = store.select(patterns)
         if not chosen:  # every channel a pattern matches, another leaves out
-            raise UsageError(
+            raise ArchiveUsageError(
                 f"--channels: '{','.join(patterns)}' leaves no channel to analyze (its '!' "
                 "patterns leave out every channel)"
             )
@@ -198,7 +198,7 @@ def select_channels(
         notes.append(FlagNote.of(flags))
         if len(flags) == len(chosen):
             where = "--channels: every channel it selects" if patterns else "every channel"
-            raise UsageError(
+            raise ArchiveUsageError(
                 f"no channel left to analyze: {where} is a flag or label, not a measurement "
                 f"({_flags_held(flags)}); name them one by one in --channels to analyze them"
             )
@@ -212,7 +212,7 @@ def select_channels(
             left_out = set(mixed)
             chosen = [c for c in chosen if c not in left_out]
             if not chosen:
-                raise UsageError(
+                raise ArchiveUsageError(
                     "no channel left to analyze: every varying channel changes meaning "
                     f"between messages ({', '.join(mixed[:3])}"
                     + (", ..." if len(mixed) > 3 else "")
@@ -225,11 +225,13 @@ def select_channels(
                 copied = {c.channel for c in copies}
                 chosen = [c for c in chosen if c not in copied]
     if not chosen and patterns:
-        raise UsageError(
+        raise ArchiveUsageError(
             f"--channels: every channel '{','.join(patterns)}' selects is constant or empty"
         )
     if not chosen:
-        raise UsageError("no channel left to analyze (all selected channels are constant or empty)")
+        raise ArchiveUsageError(
+            "no channel left to analyze (all selected channels are constant or empty)"
+        )
     return chosen
 
 
@@ -242,7 +244,7 @@ def lone_channel(chosen: Sequence[str], notes: Sequence[str]) -> None:
     left = [c for n in notes if isinstance(n, ConstantNote) for c in n.names]
     copied = [c for n in notes if isinstance(n, CopyNote) for c in n.names]
     flags = [c for n in notes if isinstance(n, FlagNote) for c in n.names]
-    raise UsageError(
+    raise ArchiveUsageError(
         f"one channel to analyze ({chosen[0]}): every detector estimates a sensor "
         "from the others and needs at least 2 channels (--channels chooses them)"
         + (f"; flags or labels not analyzed: {_few(flags)}" if flags else "")

@@ -77,13 +77,20 @@ Inputs
     Archives are only read, never modified. ``--done DIR`` moves each analyzed archive
     (fault or no fault) to DIR after its report is written, ``--failed DIR`` each archive
     that could not be analyzed; an archive dropped again with the same content is moved
-    without being analyzed again. A name taken in DIR gets a ``-1``, ``-2``... suffix.
+    without being analyzed again, said with its earlier result and report. A name taken
+    in DIR gets a ``-1``, ``-2``... suffix, said (``moved to DIR as x-1.bag``).
     An archive is moved only once :data:`~analyzer.watch_inbox.SOON_SETTLES` settle
     times have passed since it was found complete (a change until then shows a writer
     that was only pausing: it is analyzed again instead; ``--once`` waits for these
     moves).
-    An archive whose error depends on the options (``--channels`` matching none of its
-    channels, ``--train`` beyond its end) or is not its own (above) stays in INBOX, and
+    An archive that these options, sound in themselves, cannot analyze (one channel,
+    ``--channels`` matching none of its channels, not the channels of ``--model``:
+    :attr:`Record.error_reason` ``mismatch``) is the archive's error and goes to
+    ``--failed``, as a corrupt one does, once an archive has fit these options (until
+    then it may be the option's: it stays, said with the option to check). An archive too
+    short for the training window (a file still being written: ``too short``), one whose
+    error is of the options alone (one every archive would get) or is not its own (above)
+    stays in INBOX, and
     so does one that changed since it was found complete. DIR must be outside INBOX's
     own archives and outside REPORTS (exit 2 otherwise), and writable, as INBOX then must
     be (exit 2 at start otherwise; a move refused later is a warning naming the folder
@@ -139,8 +146,10 @@ Stopping
 
 Exit codes: 0 after a clean shutdown; with ``--once``, 1 when an archive analyzed by this
 run has a fault, else 2 when an archive of this run could not be analyzed (an error
-record, an archive that cannot be read, a report that cannot be written), else 0
-(archives found analyzed already do not count), and 130 when a signal stopped it first;
+record, an archive that cannot be read, a report that cannot be written) or INBOX holds
+an archive in error that stays there (no ``--failed``, an error of the options: said
+``NAME: left in INBOX: REASON`` each time it is seen, and in the index), else 0 (other
+archives found analyzed already do not count), and 130 when a signal stopped it first;
 2 on a usage error (INBOX missing, REPORTS locked by another watcher, ``--done`` inside
 REPORTS, bad ``--group-by``...).
 """
@@ -183,13 +192,29 @@ from typing import Any, BinaryIO, NamedTuple, TypeVar
 
 from analyzer import __version__
 from analyzer.diagnosis.training_check import window_warnings
-from analyzer.errors import AnalyzerError, ConfigError, UsageError, one_line, terminal_safe
+from analyzer.errors import (
+    AnalyzerError,
+    ArchiveMismatch,
+    ArchiveTooShort,
+    ConfigError,
+    TooLittleDataError,
+    UsageError,
+    one_line,
+    terminal_safe,
+)
 from analyzer.findings import write_outputs
-from analyzer.options import RunOptions
+from analyzer.options import RunOptions, train_is_absolute
 from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
 from analyzer.parallel import DaskExecutor
-from analyzer.pipeline import WARNED_LINES, analyze_screened, config_warnings, input_warnings
+from analyzer.pipeline import (
+    WARNED_LINES,
+    analyze_screened,
+    config_warnings,
+    faults_words,
+    input_warnings,
+)
+from analyzer.report.format import magnitude
 from analyzer.report.jobs import PRELOAD_MODULE
 from analyzer.scratch import hold, make_scratch, remove_scratch
 from analyzer.types import MSG_PATH_ENV
@@ -205,6 +230,8 @@ from analyzer.watch_inbox import (
     signature,
 )
 from analyzer.watch_index import (
+    MISMATCH,
+    TOO_SHORT,
     ErrorKind,
     Ledger,
     Record,
@@ -274,8 +301,9 @@ class WatchSettings:
 def options_fingerprint(options: RunOptions) -> str:
     """What the findings depend on, as 16 hex digits of a sha256: the analyzer version
     and the analysis options (not ``--jobs``, ``--scheduler`` or the progress display,
-    which never change them; the saved model by its file's sha256). An error recorded
-    with another fingerprint is analyzed again (:meth:`Record.redo_reason`)."""
+    which never change them; the saved model by its file's sha256) and the kinds of
+    error (:class:`ErrorKind`). An error recorded with another fingerprint is analyzed
+    again (:meth:`Record.redo_reason`)."""
     config = options.config
     doc = {
         "version": __version__,
@@ -289,6 +317,10 @@ def options_fingerprint(options: RunOptions) -> str:
         "model": options.model_sha256 or options.model_path,
         "screen": options.screen,
         "msg_path": os.environ.get(MSG_PATH_ENV, ""),
+        # how errors are classed: an error recorded before the archive's were told from
+        # the options' (a one-channel file, left in INBOX as an "options" error) is
+        # analyzed again once, and moved to --failed
+        "error_kinds": sorted(str(kind) for kind in ErrorKind),
     }
     text = json.dumps(doc, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -375,12 +407,24 @@ def _prepare(settings: WatchSettings) -> set[str]:
 EXIT_INPUT_ERROR = 2
 EXIT_INTERNAL_ERROR = 3
 EXIT_OPTION_ERROR = 4
+EXIT_MISMATCH = 5
+EXIT_TOO_SHORT = 6
 ERROR_KINDS = {
     EXIT_INPUT_ERROR: ErrorKind.INPUT,
     EXIT_INTERNAL_ERROR: ErrorKind.INTERNAL,
     EXIT_OPTION_ERROR: ErrorKind.OPTIONS,
+    EXIT_MISMATCH: ErrorKind.INPUT,
+    EXIT_TOO_SHORT: ErrorKind.OPTIONS,
 }
-"""An analysis's exit code (:func:`analysis_into`) and whose fault its error is."""
+"""An analysis's exit code (:func:`analysis_into`) and whose fault its error is: kinds a
+watcher of analyzer 49 knows, which reads the state file of this one
+(:attr:`Record.error_reason` says more)."""
+ERROR_REASONS = {EXIT_MISMATCH: MISMATCH, EXIT_TOO_SHORT: TOO_SHORT}
+"""The exit codes of :data:`ERROR_KINDS` with a finer reason (:attr:`Record.error_reason`)."""
+MISFIT = ".misfit"
+"""The file a mismatch's analysis leaves beside ``error.txt`` with the option to check
+(:attr:`~analyzer.errors.ArchiveMismatch.option`), read into
+:attr:`Record.misfit_option`."""
 
 
 CONFIG_WARNINGS = ".config-warnings"
@@ -389,6 +433,16 @@ about the config (:func:`~analyzer.pipeline.config_warnings`), the training wind
 (:func:`~analyzer.diagnosis.training_check.window_warnings`: a fault inside the default
 window, trained around) and figures that could not be drawn, one a line; the watcher
 logs them and removes the file before it publishes the report folder."""
+
+CORRECTED = "corrected.csv"
+"""What ``--corrected`` writes beside the report (:func:`~analyzer.findings.write_outputs`),
+linked from the archive's record (:attr:`Record.corrected`)."""
+
+FAULT_WORDS = ".faults"
+"""The file an analysis with a fault leaves beside its outputs with its faults as
+``analyzer run``'s last line says them (:func:`~analyzer.pipeline.faults_words`); the
+watcher logs it with the report's path, keeps it in the archive's record
+(:attr:`Record.summary`) and removes the file before it publishes the report folder."""
 
 INPUT_WARNINGS = ".input-warnings"
 """The file an analysis that went on past input errors (a truncated file, a damaged
@@ -403,9 +457,12 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
     ``out_dir/error.txt``, with ``work`` as its scratch space; the config warnings ``run``
     would print, if any, into ``out_dir/`` :data:`CONFIG_WARNINGS` (the watcher logs
     them). Returns the exit code: 0/1 analyzed (no fault/fault), 2 input error, 3 bug or
-    an error of the output side (a full disk), 4 an option that does not fit this archive
-    (``--channels`` matching none of its channels, ``--train`` beyond its end:
-    :class:`UsageError`, :class:`ConfigError`)."""
+    an error of the options alone (:class:`UsageError`, :class:`ConfigError`), 5 an
+    archive that the options, sound in themselves, do not fit (one channel,
+    ``--channels`` matching none of its channels: :class:`ArchiveMismatch`, its option
+    in ``out_dir/`` :data:`MISFIT`), 6 an archive too short for the training window, as
+    one still being written (:class:`ArchiveTooShort`, a detector's too little healthy
+    data)."""
     try:
         analysis = analyze_screened(inputs, options, work)
         figures: list[str] = []  # (figures that could not be drawn)
@@ -419,7 +476,17 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
             write_atomic(out_dir / CONFIG_WARNINGS, "".join(f"{line}\n" for line in lines))
         if damage := input_warnings(analysis):
             write_atomic(out_dir / INPUT_WARNINGS, json.dumps(damage))
+        if analysis.findings:
+            write_atomic(out_dir / FAULT_WORDS, faults_words(analysis.findings))
         return 1 if analysis.faulty else 0
+    except (ArchiveTooShort, TooLittleDataError) as err:  # (first: a mismatch too)
+        _error_file(out_dir, one_line(err) + "\n")
+        return EXIT_TOO_SHORT
+    except ArchiveMismatch as err:  # (a UsageError too: caught first)
+        _error_file(out_dir, one_line(err) + "\n")
+        with contextlib.suppress(OSError):
+            write_atomic(out_dir / MISFIT, err.option)
+        return EXIT_MISMATCH
     except (UsageError, ConfigError) as err:
         _error_file(out_dir, one_line(err) + "\n")
         return EXIT_OPTION_ERROR
@@ -592,6 +659,16 @@ def _duration(seconds: float) -> str:
     if minutes < 90:
         return f"{minutes} min"
     return f"{minutes // 60} h {minutes % 60:02d} min"
+
+
+def _renamed_words(archive: ReadyArchive, moved: Sequence[str]) -> str:
+    """`` as NAME`` where a single file was moved under another name (its own was taken
+    in the folder: ``x-1.bag``), else "": the line said only "moved to DONE", and the
+    archive was not there under its name."""
+    if len(moved) != 1 or len(archive.paths) != 1:
+        return ""
+    name = Path(moved[0]).name
+    return "" if name == archive.paths[0].name else f" as {name}"
 
 
 def _free_name(folder: Path, name: str) -> Path:
@@ -1123,6 +1200,21 @@ _OLD_COPY = re.compile(r"\.partial-.+-[0-9a-f]{8}")
 """The name of a move's copy (:func:`_plan_move`: ``hidden_name(".partial-", ...)``)."""
 
 
+def _forget_left(ledger: Ledger, inbox: Path) -> None:
+    """Clear :attr:`Record.left_in_inbox` of the archives no longer in INBOX (removed
+    by hand since): the index said "left in INBOX" of a file that was gone."""
+    gone = [
+        rec
+        for rec in ledger.records.values()
+        if rec.left_in_inbox and not any((inbox / p).exists() for p in rec.inputs)
+    ]
+    for rec in gone:
+        rec.left_in_inbox = None
+    if gone:
+        with contextlib.suppress(OSError):  # (REPORTS full: the next record says it)
+            ledger.save()
+
+
 def _unknown_copies(ledger: Ledger, folders: Sequence[Path | None]) -> list[Path]:
     """The hidden ``.partial-`` copies in ``folders`` (``--done``, ``--failed``) that no
     move of the state file names: left by a watcher older than the forty-sixth session,
@@ -1572,17 +1664,28 @@ class _Runner:
         self.running: dict[str, _Job] = {}
         self.expected: int | None = None
         """With ``--once``: the archives INBOX held at the start (the progress's total)."""
-        self.skipped = 0
-        """Archives found recorded already (not in the rate of the analyses)."""
+        self.skipped: set[str] = set()
+        """Archives found recorded already (not in the rate of the analyses), by name."""
         self.begun: float | None = None
         """``time.monotonic()`` when the first analysis started."""
-        self.verdicts: dict[Verdict, int] = dict.fromkeys(Verdict, 0)
-        """The verdicts recorded since the start (:meth:`summary`)."""
+        self.results: dict[str, Verdict] = {}
+        """The verdict of each archive analyzed since the start, by name, its last one
+        where it was analyzed again (:meth:`summary`): counted by analysis, an archive
+        analyzed while half written, then whole, was two archives, one an error."""
+        self.left: set[str] = set()
+        """Archives seen since the start that stay in INBOX in error
+        (:meth:`_left_in_inbox`): ``--once`` exits with 2 while there are any."""
         self.unreadable: set[str] = set()
         """Archives skipped since the start because they cannot be read."""
         self.unwritten = 0
         """Analyses since the start whose outputs could not be written (a full disk)."""
         self.fingerprint = options_fingerprint(options)
+        self.fitted = ledger.fitted(self.fingerprint)
+        """Whether an archive has been analyzed with these options (:meth:`Ledger.fitted`):
+        until then an archive they do not fit stays in INBOX (:meth:`_stays_why`)."""
+        self.unfit: dict[str, ReadyArchive] = {}
+        """Archives they do not fit, left in INBOX while no archive has fit these options
+        (:attr:`fitted`): moved to ``--failed`` once one has (:meth:`_fits`)."""
         self.moves: dict[str, tuple[ReadyArchive, Record]] = {}
         """Archives recorded whose move by ``--done``/``--failed`` waits for the end of
         their hold (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`)."""
@@ -1664,10 +1767,12 @@ class _Runner:
     def exit_code(self) -> int:
         """``--once``'s exit code: 1 when an archive analyzed by this run has a fault,
         else 2 when an archive of this run could not be analyzed (an error, unreadable,
-        its report not written), else 0. Archives found analyzed already do not count."""
-        if self.verdicts[Verdict.FAULT]:
+        its report not written) or one found analyzed already is left in INBOX in error
+        (:attr:`left`), else 0. Other archives found analyzed already do not count."""
+        verdicts = set(self.results.values())
+        if Verdict.FAULT in verdicts:
             return 1
-        if self.verdicts[Verdict.ERROR] or self.unreadable or self.unwritten:
+        if Verdict.ERROR in verdicts or self.left or self.unreadable or self.unwritten:
             return 2
         return 0
 
@@ -1851,7 +1956,7 @@ class _Runner:
     @property
     def counted(self) -> int:
         """Archives recorded, or found recorded already, since the start."""
-        return self.skipped + sum(self.verdicts.values())
+        return len(self.skipped) + len(self.results)
 
     def progress(self) -> str:
         """With ``--once``, where the watcher stands: `` [done/total, about T left]``
@@ -1859,7 +1964,7 @@ class _Runner:
         if self.expected is None:
             return ""
         total = max(self.expected, self.counted)
-        analyzed = self.counted - self.skipped
+        analyzed = self.counted - len(self.skipped)
         if self.begun is None or analyzed == 0 or self.counted >= total:
             return f" [{self.counted}/{total}]"
         left = (time.monotonic() - self.begun) / analyzed * (total - self.counted)
@@ -1867,21 +1972,123 @@ class _Runner:
 
     def summary(self) -> str | None:
         """What this watcher did, for its last lines: ``24 archives analyzed in 39.5 s: 22
-        no fault, 1 fault, 1 error (3 found analyzed already)``; None if nothing."""
-        analyzed = sum(self.verdicts.values())
+        no fault, 1 fault, 1 error; 3 other archives found analyzed already, not
+        analyzed again``; None if nothing. Archives, each once with its last verdict
+        (an archive analyzed again after it changed was counted twice), and those found
+        analyzed already after the verdicts, not in a parenthesis that read as part of
+        them ("2 error (1 found analyzed already)", the one found a fault)."""
+        analyzed = len(self.results)
         if not analyzed and not self.skipped and not self.unreadable and not self.unwritten:
             return None
         took = "" if self.begun is None else f" in {_duration(time.monotonic() - self.begun)}"
-        parts = ", ".join(f"{n} {v}" for v, n in self.verdicts.items() if n)
+        counts = {v: n for v in Verdict if (n := sum(r is v for r in self.results.values()))}
+        parts = ", ".join(f"{n} {v}" for v, n in counts.items())
         text = f"{analyzed} archive{'' if analyzed == 1 else 's'} analyzed{took}"
         text += f": {parts}" if parts else ""
         if self.skipped:
-            text += f" ({self.skipped} found analyzed already)"
+            n = len(self.skipped)
+            text += (
+                f"; {n} {'other ' if analyzed else ''}archive{'' if n == 1 else 's'} found "
+                "analyzed already, not analyzed again"
+            )
+        if self.left:
+            n = len(self.left)
+            text += f"; {n} archive{'' if n == 1 else 's'} in error left in INBOX"
         if self.unreadable:
             text += f"; {len(self.unreadable)} skipped (cannot be read)"
         if self.unwritten:
             text += f"; {self.unwritten} whose report could not be written"
         return text
+
+    def _counted_as(self, name: str, kept: str) -> None:
+        """The earlier archive of ``name``, kept aside as ``kept``
+        (:meth:`~analyzer.watch_index.Ledger.keep_aside`), counted under that name: the
+        new content under ``name`` is another archive."""
+        if name in self.results:
+            self.results[kept] = self.results.pop(name)
+        if name in self.skipped:
+            self.skipped.discard(name)
+            self.skipped.add(kept)
+        if name in self.left:
+            self.left.discard(name)
+            self.left.add(kept)
+
+    def _verdict_words(self, rec: Record) -> str:
+        """An archive's result as its log lines say it: its faults as ``analyzer run``'s
+        last line says them (or the faulty sensors, in the record of an older watcher),
+        that none was found, or its error; and where its report is."""
+        report = self.settings.reports / rec.report
+        if rec.verdict is Verdict.FAULT:
+            words = rec.summary or f"faults on {', '.join(rec.faulty_sensors)}"
+            return f"{words}; report: {report}"
+        if rec.verdict is Verdict.NO_FAULT:
+            return f"no sensor fault found; report: {report}"
+        return f"{rec.error}; see {report}"
+
+    def _found_already(self, archive: ReadyArchive, rec: Record) -> None:
+        """``archive``, recorded already with this content, not analyzed again: moved by
+        ``--done``/``--failed`` as its verdict says, or left in INBOX. An archive to be
+        moved is one dropped again (or whose move an earlier start could not make), said
+        with its earlier result (it was only "moved to DONE", the verdict nowhere); one
+        left in INBOX in error is said each time (:meth:`_left_in_inbox`); the others
+        (a watcher without ``--done`` started again over its INBOX) only at debug level."""
+        name = archive.name
+        folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
+        if folder is not None and self._stays_why(rec) is None:
+            log.info(
+                "%s: found analyzed already (same content), not analyzed again: %s",
+                name,
+                self._verdict_words(rec),
+            )
+        else:
+            log.debug("%s: already analyzed (same content): %s", name, rec.verdict)
+        self._move(archive, rec)
+        self._left_in_inbox(name, said=False)
+
+    def _stays_why(self, rec: Record) -> str | None:
+        """Why an archive recorded in error stays in INBOX, or None: moved (or to be
+        moved) by ``--failed``, not an error, or an internal error (not a verdict:
+        analyzed again on the next start, said so)."""
+        if rec.verdict is not Verdict.ERROR or rec.error_kind is ErrorKind.INTERNAL:
+            return None
+        if rec.error_reason == TOO_SHORT:
+            return (
+                "too short for the training window so far (a file still being written?): "
+                "analyzed again when it changes"
+            )
+        if rec.error_kind is ErrorKind.OPTIONS:
+            return (
+                "an error of the options, not of the archive (every archive would get it): "
+                "mend them and start the watcher again"
+            )
+        if self.settings.failed is None:
+            return "no --failed folder to move it to"
+        if rec.error_reason == MISMATCH and not self.fitted:
+            return (
+                "no archive has fit these options yet: check "
+                f"{rec.misfit_option or 'the options'} (moved to --failed once one has)"
+            )
+        return None
+
+    def _left_in_inbox(self, name: str, said: bool) -> None:
+        """Where the archive ``name``, just recorded or found recorded, stays in INBOX in
+        error (:meth:`_stays_why`): a warning line each time it is seen, its record's
+        :attr:`~analyzer.watch_index.Record.left_in_inbox`, and ``--once`` exits with 2
+        (:attr:`left`). A NAB file of one channel stayed in INBOX with nothing said, and
+        the next ``--once`` said "0 archives analyzed" and exited 0. ``said``: its error
+        is on the line before (the end of its analysis), not repeated."""
+        rec = self.ledger.get(name)
+        why = None if rec is None else self._stays_why(rec)
+        if rec is None or why is None:
+            self.left.discard(name)
+            return
+        self.left.add(name)
+        error = "" if said else f"; its error: {rec.error}"
+        log.warning("%s: left in INBOX: %s%s", name, why, error)
+        if rec.left_in_inbox != why:
+            rec.left_in_inbox = why
+            with contextlib.suppress(OSError):  # (REPORTS full: said on the next record)
+                self.ledger.record(rec)
 
     def _start(self, archive: ReadyArchive) -> None:
         name = archive.name
@@ -1895,10 +2102,10 @@ class _Runner:
         if rec is not None and rec.sha256 == digest:
             again = rec.redo_reason(self.fingerprint)
             if again is None:
-                self.skipped += 1
+                if name not in self.results:  # (dropped again in this run: counted once)
+                    self.skipped.add(name)
                 self._hashed.pop(name, None)  # (another hash only if it changes)
-                log.debug("%s: already analyzed (same content): %s", name, rec.verdict)
-                self._move(archive, rec)
+                self._found_already(archive, rec)
                 return
             log.info("%s: analyzed again: %s", name, again)
         if archive.incomplete:
@@ -2022,6 +2229,7 @@ class _Runner:
                 else:
                     kept = self.ledger.keep_aside(name)
                     log.info("%s: new content; the earlier one's result is kept as %s", name, kept)
+                    self._counted_as(name, kept)
             mine = self.ledger.get(name)  # (its record, unless kept aside just now)
             folder = publish(
                 job.scratch,
@@ -2031,6 +2239,8 @@ class _Runner:
                 self.ledger.folders_except(name),
             )
             rec.report = f"{folder.name}/{rec.report.partition('/')[2]}"
+            if rec.corrected is not None:
+                rec.corrected = f"{folder.name}/{CORRECTED}"
             self.ledger.record(rec)
         except OSError as err:  # REPORTS full or gone: not the archive's fault
             shutil.rmtree(job.scratch, ignore_errors=True)
@@ -2044,7 +2254,9 @@ class _Runner:
             )
             return
         self._hashed.pop(name, None)
-        self.verdicts[rec.verdict] += 1
+        self.skipped.discard(name)
+        self.results[name] = rec.verdict
+        self.unfit.pop(name, None)
         at = self.progress()
         if rec.error_kind is ErrorKind.INTERNAL:
             log.error(
@@ -2058,13 +2270,34 @@ class _Runner:
         elif rec.verdict is Verdict.ERROR:
             log.info("%s: error in %.1f s%s: %s", name, elapsed, at, rec.error)
         elif rec.verdict is Verdict.FAULT:
-            faulty = ", ".join(rec.faulty_sensors)
-            log.info("%s: fault (%s) in %.1f s%s", name, faulty, elapsed, at)
+            log.info("%s: fault in %.1f s%s: %s", name, elapsed, at, self._verdict_words(rec))
         else:
             log.info("%s: no fault in %.1f s%s", name, elapsed, at)
         for line in rec.input_errors:  # (what analyzer run warns of: it went on past them)
             log.warning("%s: %s", name, line)
         self._move(job.archive, rec)
+        self._left_in_inbox(job.archive.name, said=True)
+        if rec.verdict is not Verdict.ERROR and not self.fitted:
+            self._fits(name)
+
+    def _fits(self, name: str) -> None:
+        """The archive ``name`` is the first these options have analyzed: the archives
+        they did not fit, left in INBOX until now (:attr:`unfit`), are the archives'
+        errors after all, and go to ``--failed``."""
+        self.fitted = True
+        for other, archive in list(self.unfit.items()):
+            del self.unfit[other]
+            rec = self.ledger.get(other)
+            if rec is None or rec.verdict is not Verdict.ERROR or rec.error_reason != MISMATCH:
+                continue  # (analyzed again since)
+            self.left.discard(other)
+            log.info(
+                "%s: %s fits these options: %s is this archive's error, not theirs",
+                other,
+                name,
+                rec.misfit_option or "the option",
+            )
+            self._move(archive, rec)
 
     def _result(self, job: _Job, elapsed: float) -> Record:
         """The record of a finished analysis process, from what it left in its scratch
@@ -2102,15 +2335,19 @@ class _Runner:
                         "onset": f.get("onset"),
                         "end": f.get("end"),
                         "from_start": bool(f.get("evidence", {}).get("onset_at_or_before")),
+                        "size": magnitude(f["magnitude"]) if f.get("magnitude") else None,
                     }
                     for f in faults
                 ]
+                rec.summary = self._fault_words(job) if faults else None
                 rec.start = doc.get("start")
                 rec.duration_s = doc.get("duration_s")
                 rec.screen = doc.get("screen")
                 rec.verdict = Verdict.FAULT if faults else Verdict.NO_FAULT
                 rec.input_errors = self._input_warnings(job)
                 rec.report = f"{dirname}/report.html"
+                if (job.scratch / CORRECTED).is_file():
+                    rec.corrected = f"{dirname}/{CORRECTED}"
                 rec.error_kind = None
                 return rec
             except (OSError, ValueError, KeyError, TypeError) as err:
@@ -2118,6 +2355,10 @@ class _Runner:
         elif code in ERROR_KINDS and error.is_file():
             message, _, details = error.read_text(encoding="utf-8").partition("\n")
             rec.error_kind = ERROR_KINDS[code]
+            rec.error_reason = ERROR_REASONS.get(code)
+            if code == EXIT_MISMATCH:
+                with contextlib.suppress(OSError, ValueError):
+                    rec.misfit_option = (job.scratch / MISFIT).read_text(encoding="utf-8")
         elif code is not None and code < 0:
             message = f"analysis process killed by signal {-code}"
             with contextlib.suppress(ValueError):
@@ -2151,6 +2392,20 @@ class _Runner:
             more = len(lines) - WARNED_LINES
             lines = [*lines[:WARNED_LINES], f"{more} more input errors and notes in findings.json"]
         return lines
+
+    @staticmethod
+    def _fault_words(job: _Job) -> str | None:
+        """The faults as ``analyzer run``'s last line says them, that the analysis left
+        (:data:`FAULT_WORDS`), or None; the file is removed (it is not part of the
+        report)."""
+        path = job.scratch / FAULT_WORDS
+        try:
+            text = one_line(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):  # (none: an analysis that wrote none)
+            return None
+        with contextlib.suppress(OSError):
+            path.unlink()
+        return text
 
     @staticmethod
     def _log_config_warnings(job: _Job) -> None:
@@ -2190,13 +2445,16 @@ class _Runner:
         """``--done`` / ``--failed``: move the archive's files out of INBOX, once its hold
         is over (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`: until then, a
         change shows that a writer was only pausing, and the archive is analyzed again
-        instead). An archive whose error is an option's or not its own
+        instead). An archive whose error is of the options alone or not its own
         (:class:`ErrorKind`) stays. A move to another file system is copies, made by
         :attr:`copier`'s thread and ended by the loop once they are (:meth:`_copied`):
         made here, they held up every other archive and the stop signal (a 1.5 GB archive
         to tmpfs: 1.2-6.2 s)."""
         folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
         if rec.error_kind in (ErrorKind.OPTIONS, ErrorKind.INTERNAL) or folder is None:
+            return
+        if rec.error_reason == MISMATCH and self._stays_why(rec) is not None:  # (none fit)
+            self.unfit[archive.name] = archive
             return
         if archive.name in self.copying:  # (the move under way moves it, or, changed, it
             return  # is offered again; a second move took its place, its copies left)
@@ -2326,7 +2584,8 @@ class _Runner:
         if moved:
             # (the same content dropped again and moved: its earlier copy stays listed)
             rec.moved_to = [*rec.moved_to, *moved]
-            log.info("%s: moved to %s", archive.name, folder)
+            rec.left_in_inbox = None
+            log.info("%s: moved to %s%s", archive.name, folder, _renamed_words(archive, moved))
             try:
                 self.ledger.record(rec)
             except OSError as err:  # REPORTS full: the watcher goes on (it died here)
@@ -2578,8 +2837,14 @@ def watch(
     """Watch ``settings.inbox`` until ``stop`` is set (or, with ``once``, until what was
     there is done). After ``stop``, running analyses finish unless ``abandon`` is set.
     Returns the exit code (0; with ``once``: see :meth:`_Runner.exit_code`, 130 when
-    stopped first); raises :class:`UsageError` for bad folders or a REPORTS folder
+    stopped first); raises :class:`UsageError` for an ISO ``--train`` (it fits only the
+    archives holding it), bad folders or a REPORTS folder
     locked by another watcher."""
+    if options.train is not None and train_is_absolute(options.train):
+        raise UsageError(
+            f"--train {options.train}: ISO times fit only the archives that hold them; give "
+            "the window in seconds from each archive's start (e.g. --train 0:60)"
+        )
     stop = stop or threading.Event()
     abandon = abandon or threading.Event()
     settings = replace(
@@ -2618,6 +2883,7 @@ def _watch_locked(
     its exit code."""
     ledger = Ledger.load(settings.reports)
     _end_moves(ledger, settings.inbox)  # (first: a record tidied away keeps no copies)
+    _forget_left(ledger, settings.inbox)
     for name in ledger.tidy():
         log.info("%s: its report folder is gone; it will be analyzed again", name)
     unknown = _unknown_copies(ledger, [settings.done, settings.failed])

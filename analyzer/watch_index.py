@@ -14,7 +14,8 @@
   at most every :data:`VIEW_INTERVAL_S` seconds (:meth:`Ledger.refresh_views`): a year
   of hourly files is 8760 lines, and rewriting both views after each of a burst of
   archives would cost the watcher more than the bookkeeping of the state itself.
-* ``REPORTS/<archive>/``: ``report.html`` + ``findings.json``, or ``error.txt``. Written
+* ``REPORTS/<archive>/``: ``report.html`` + ``findings.json`` (+ ``corrected.csv`` with
+  ``--corrected``), or ``error.txt``. Written
   into a hidden temporary directory that is renamed into place (:func:`publish`).
 """
 
@@ -70,16 +71,27 @@ class Verdict(StrEnum):
     ERROR = "error"
 
 
+MISMATCH = "mismatch"
+""":attr:`Record.error_reason` of an archive these options, sound in themselves, do not fit."""
+TOO_SHORT = "too short"
+""":attr:`Record.error_reason` of an archive too short for the training window."""
+
+
 class ErrorKind(StrEnum):
     """Why an archive could not be analyzed, which says what happens to it next."""
 
     INPUT = "input"
-    """The archive itself (corrupt, unreadable, too short): a verdict on the content,
-    kept while the options stay the same; moved to ``--failed``."""
+    """The archive itself (corrupt, unreadable), or an archive these options, sound in
+    themselves, do not fit (:attr:`Record.error_reason` ``mismatch``): a verdict on the
+    content, kept while the options stay the same; moved to ``--failed`` (a mismatch only
+    once an archive has fit these options, :meth:`Ledger.fitted`)."""
     OPTIONS = "options"
-    """An option does not fit this archive (``--channels`` matching nothing, ``--train``
-    beyond its end): kept while the options stay the same, and the archive stays in
-    INBOX (with other options it may be fine)."""
+    """An error of the options alone, one every archive would get (a ``--train`` that
+    cannot be read, a ``[model]`` of the config that does not fit together, ``--rate``
+    against the model's), or an archive too short for the training window
+    (:attr:`Record.error_reason` ``too short``: a file still being written): kept while
+    the options stay the same, and the archive is left in INBOX (with mended options, or
+    grown, it is fine), said each time it is seen."""
     INTERNAL = "internal"
     """Not the archive's fault (an internal error, a full disk, a killed analysis): shown
     in the index, but analyzed again on the next start; the archive stays in INBOX."""
@@ -131,6 +143,29 @@ class Record:
     ``signature``), to tell a file that grew from one replaced by another recording
     (:meth:`analyzer.watch._Runner._grew`); empty for a single file (``sha256`` is its
     own) and in the records of older watchers. Not in ``index.json``."""
+    corrected: str | None = None
+    """Link to ``corrected.csv`` (``--corrected``: the readings with the faults
+    corrected), relative to REPORTS; None where the analysis wrote none."""
+    error_reason: str | None = None
+    """Of an ``error``, a finer reason than :attr:`error_kind`: ``mismatch`` (an
+    ``input`` error: an archive that these options, sound in themselves, do not fit, as
+    a one-channel file or ``--channels`` matching none of its channels, with
+    :attr:`misfit_option` the option to check) or ``too short`` (an ``options`` error: too
+    short for the training window, as a file still being written; left in INBOX and
+    analyzed again when it grows). A field, not a kind of its own: a watcher of
+    analyzer 49, which knows only the kinds, still reads the state (it leaves out fields
+    it does not know)."""
+    misfit_option: str | None = None
+    """Of a ``mismatch``: the option the archive does not fit (``--channels``,
+    ``--model``, ``--train``, ``--config``)."""
+    left_in_inbox: str | None = None
+    """Of an ``error`` that stays in INBOX on purpose, why (no ``--failed`` folder, an
+    error of the options alone), set each time a watcher sees the archive there; None
+    once it is moved, and for an internal error (analyzed again on the next start)."""
+    summary: str | None = None
+    """Of a ``fault``: its faults as ``analyzer run``'s last line says them (``2 sensor
+    faults found on 2 sensors: s1 additive from 20.000 s, ...``), without the report's
+    path; None for other verdicts and in the records of older watchers."""
     moving: list[list[str]] = field(default_factory=list)
     """A move by ``--done``/``--failed`` under way that could be stopped half-done
     (copies to another file system, several renames): ``[source, copy, target]``
@@ -456,6 +491,8 @@ class Ledger:
             self.save_state()
             os.replace(self.reports / rec.folder, self.reports / folder)
         kept.report = f"{folder}/{leaf}"
+        if kept.corrected is not None:
+            kept.corrected = f"{folder}/{Path(kept.corrected).name}"
         self.save_state()
         self._views_stale = True
         return new
@@ -483,6 +520,16 @@ class Ledger:
         self.save_state()
         self._views_stale = True
         self.refresh_views()
+
+    def fitted(self, options: str) -> bool:
+        """Whether an archive has been analyzed (a fault or no fault) with the options of
+        fingerprint ``options``: until then an archive they do not fit
+        (:attr:`Record.error_reason` ``mismatch``) may show an option wrong for every
+        archive (``--channels 'S*'``), and stays in INBOX; it moved the whole INBOX to
+        ``--failed``, one archive at a time. Told from the records (the state file)."""
+        return any(
+            r.options == options and r.verdict is not Verdict.ERROR for r in self.records.values()
+        )
 
     def newest_first(self) -> list[Record]:
         return sorted(self.records.values(), key=lambda r: (r.processed, r.name), reverse=True)
@@ -572,7 +619,9 @@ def episodes(records: Iterable[Record]) -> list[dict[str, Any]]:
     onset and the last one's end (None while it lasts to the end of the latest). An
     archive in between without that fault ends the episode. Archives without absolute
     times are never joined. Each episode: ``channel``, ``types`` (as classified in each
-    archive, in order, each once), ``onset``, ``end``, ``archives``."""
+    archive, in order, each once), ``size`` (the fault's size in its first archive, as
+    the report says it: ``gain ×0 (dead sensor)``; None in the records of older
+    watchers), ``onset``, ``end``, ``archives``."""
     timed: list[tuple[int, Record]] = []
     out: list[dict[str, Any]] = []
     for rec in records:
@@ -615,6 +664,7 @@ def _episode(fault: dict[str, Any], archive: str) -> dict[str, Any]:
     return {
         "channel": str(fault["channel"]),
         "types": [fault["type"]],
+        "size": fault.get("size"),
         "onset": fault.get("onset"),
         "end": fault.get("end"),
         "archives": [archive],
@@ -672,6 +722,8 @@ class IndexView:
     updated: str
     rows: list[IndexRow]
     episodes: list[EpisodeRow] = field(default_factory=list)
+    corrected: bool = False
+    """Whether an archive's folder holds a ``corrected.csv`` (the footer lists it)."""
 
 
 def _screening(screen: dict[str, Any]) -> str:
@@ -700,6 +752,10 @@ def index_view(index: dict[str, Any]) -> IndexView:
             details += f"; dropped as {r['dropped_as']} (a later archive took the name)"
         if r["moved_to"]:
             details += f"; moved to {', '.join(r['moved_to'])}"
+        if r.get("corrected"):
+            details += f"; corrected readings in {r['corrected']}"
+        if r.get("left_in_inbox"):  # (cleared by a move: an earlier copy's is listed)
+            details += f"; left in INBOX: {r['left_in_inbox']}"
         duration = r["duration_s"]
         rows.append(
             IndexRow(
@@ -724,7 +780,8 @@ def index_view(index: dict[str, Any]) -> IndexView:
         shown.append(
             EpisodeRow(
                 sensor=str(ep["channel"]),
-                types=", ".join(str(t) for t in ep["types"]),
+                types=", ".join(str(t) for t in ep["types"])
+                + (f": {ep['size']}" if ep.get("size") else ""),
                 onset=str(ep["onset"] or "n/a"),
                 end=str(ep["end"] or f"to the end of {names[-1]}"),
                 archives=span,
@@ -744,6 +801,7 @@ def index_view(index: dict[str, Any]) -> IndexView:
         updated=str(index["updated"]),
         rows=rows,
         episodes=shown,
+        corrected=any(r.get("corrected") for r in index["archives"]),
     )
 
 

@@ -114,7 +114,12 @@ from analyzer.detectors.decoupling import (
 from analyzer.diagnosis.changes import Calibration, calibrate, default_window
 from analyzer.diagnosis.classify import MIN_GAIN, correlation_time
 from analyzer.diagnosis.events import events_from_residual
-from analyzer.errors import ConfigError, DetectorError, TooLittleDataError
+from analyzer.errors import (
+    ArchiveConfigError,
+    ConfigError,
+    DetectorError,
+    TooLittleDataError,
+)
 from analyzer.stats.results import json_float
 from analyzer.timeutil import spoken_duration
 from analyzer.types import FaultType
@@ -205,7 +210,7 @@ def resolve_groups(channels: Sequence[str], config: Mapping[str, Any]) -> list[G
             raise ConfigError(f"group {name!r}: {both} listed as both reference and uncertain")
         for c in (*unc, *ref, *inp):
             if c not in chans:
-                raise ConfigError(
+                raise ArchiveConfigError(
                     f"group {name!r}: channel {c!r} is not in the data (have {list(chans)})"
                 )
         for c in unc:

@@ -323,6 +323,29 @@ def test_the_watcher_runs_each_archive_with_the_model(model, record, tmp_path):
     assert [(f["channel"], f["type"]) for f in doc["faults"]] == [("s0", "additive")]
 
 
+def test_the_watcher_refuses_a_rate_or_detector_the_model_has_not_at_its_start(
+    model, record, tmp_path
+):
+    """Errors every archive would get: the watcher stops at its start (exit 2, one
+    line), where it analyzed each archive, recorded an error and left it in INBOX."""
+    inbox = tmp_path / "inbox"
+    inbox.mkdir()
+    t, y = _piece(record, 3)
+    _write(inbox / "hour.csv", t, y, record[2])
+    reports = tmp_path / "reports"
+    for extra, needle in (
+        (["--rate", "50"], "analyzer: error: --rate 50: the model "),
+        (["--detectors", "error_function"], "analyzer: error: --detectors error_function: "),
+    ):
+        argv = ["watch", inbox, "--out", reports, "--once", "--model", model, *extra]
+        done = subprocess.run(
+            [sys.executable, "-m", "analyzer", *map(str, argv)], capture_output=True, text=True
+        )
+        assert done.returncode == 2, done.stderr
+        assert done.stderr.startswith(needle) and done.stderr.count("\n") == 1, done.stderr
+        assert not reports.exists()
+
+
 # ------------------------------------------------------------------------- bad input
 
 

@@ -59,6 +59,7 @@ def test_a_fault_going_on_across_hourly_archives_is_one_episode():
         {
             "channel": "s5",
             "types": ["additive", "drift"],
+            "size": None,  # (records of older watchers: no size)
             "onset": "2026-03-02T00:30:00.000Z",
             "end": "2026-03-02T02:20:00.000Z",
             "archives": ["h0", "h1", "h2"],
@@ -66,6 +67,7 @@ def test_a_fault_going_on_across_hourly_archives_is_one_episode():
         {  # lasted to the end of h1, but h2 does not have it from its start
             "channel": "s2",
             "types": ["additive"],
+            "size": None,
             "onset": "2026-03-02T01:10:00.000Z",
             "end": None,
             "archives": ["h1"],

@@ -301,10 +301,10 @@ def test_a_big_unfinished_archive_recorded_with_its_content_is_not_waited_for(
     state_file.write_text(json.dumps(doc))
     caplog.set_level(logging.INFO, logger="analyzer.watch")
     settings = WatchSettings(inbox=inbox, reports=reports, settle=0.2, poll=0.05, once=True)
-    assert watch(settings, RunOptions()) == 0
+    assert watch(settings, RunOptions()) == 2  # (its record an error: left in INBOX)
     said = [r.getMessage() for r in caplog.records]
     assert not [line for line in said if "waiting up to" in line]
-    assert any("1 found analyzed already" in line for line in said)
+    assert any("1 archive found analyzed already" in line for line in said)
     assert json.loads(state_file.read_text())["archives"][big.name]["sha256"] == sha256_of(big)
 
 
@@ -1279,6 +1279,8 @@ def test_a_move_undone_by_a_killed_watcher_and_still_refused_is_undone_by_the_ne
         assert said == [
             f"A: its move to {done}, stopped by force, could not be finished (a rename "
             "refused): undone, its files put back in INBOX; it is moved again",
+            "A: found analyzed already (same content), not analyzed again: no sensor fault "
+            f"found; report: {settings.reports / 'A' / 'report.html'}",
             f"A: not moved to {done} (it stays in INBOX): {inbox / 'A_part1.csv'}: Operation "
             "not permitted",
         ]

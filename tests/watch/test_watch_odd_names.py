@@ -72,7 +72,9 @@ def test_the_watcher_goes_on_past_odd_names(inbox: Path, tmp_path: Path) -> None
     assert sorted(r["verdict"] for r in state.values()) == ["fault", "no fault", "no fault"]
     assert 'href="M%E4rz.csv/report.html"' in (reports / "index.html").read_text()
     again = _watch(inbox, reports)  # (it died at every start)
-    assert again.returncode == 0 and "3 found analyzed already" in again.stderr, again.stderr
+    assert again.returncode == 0 and "3 archives found analyzed already" in again.stderr, (
+        again.stderr
+    )
 
 
 def test_an_archive_of_constant_channels_is_an_input_error(tmp_path: Path) -> None:

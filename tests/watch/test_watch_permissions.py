@@ -39,6 +39,13 @@ def small_archive(path: Path, n: int = 400) -> Path:
     return path
 
 
+def unreadable_archive(path: Path) -> Path:
+    """A CSV without data rows: an input error, moved to ``--failed`` (one too short
+    for the training window stays in INBOX, as a file still being written)."""
+    path.write_text("not,a\ntable\n")
+    return path
+
+
 def refuse_writes_to(monkeypatch: pytest.MonkeyPatch, refused: set[Path]) -> None:
     """``os.access(path, W_OK)`` is False for the folders in ``refused`` (which the test
     may fill later), as for a user who may not write them."""
@@ -120,7 +127,7 @@ def test_a_move_refused_while_running_names_the_folder_that_refused_it(
     in INBOX, and the warning names ``--failed``'s folder as the cause (a refused
     rename names its source only: the line said ``INBOX/a.csv: Permission denied``)."""
     inbox, reports, failed = folders
-    small_archive(inbox / "a.csv")
+    unreadable_archive(inbox / "a.csv")
     refused: set[Path] = set()
     refuse_writes_to(monkeypatch, refused)
 

@@ -112,12 +112,15 @@ def test_a_report_that_cannot_be_written_is_retried_on_the_next_start(
     assert started(caplog) == ["a.csv"] and "a.csv" in state(reports)
 
 
-def test_an_option_error_is_redone_with_other_options_and_keeps_the_archive(
+def test_an_error_of_the_options_is_redone_with_other_options_and_keeps_the_archive(
     tmp_path: Path,
     folders: tuple[Path, Path],
     start_watcher: Callable[..., Watcher],
     caplog: pytest.LogCaptureFixture,
 ) -> None:
+    """A ``--train`` beyond the data's end: the archive is too short for it (as a file
+    still being written), kept in INBOX even with ``--failed``, said each time, and
+    ``--once`` exits 2."""
     inbox, reports = folders
     failed = tmp_path / "failed"
     write(inbox / "a.csv", "csv", seed=1)  # 40 s
@@ -126,13 +129,16 @@ def test_an_option_error_is_redone_with_other_options_and_keeps_the_archive(
     assert start_watcher(settings, late).join() == 2
     record = state(reports)["a.csv"]
     assert record["verdict"] == "error" and record["error"].startswith("--train: ")
-    assert record["error_kind"] == "options"
+    assert (record["error_kind"], record["error_reason"]) == ("options", "too short")
     assert record["options"] == watch_module.options_fingerprint(late)
-    assert (inbox / "a.csv").is_file()  # not moved: with other options it may be fine
+    assert record["left_in_inbox"].startswith("too short for the training window so far")
+    assert (inbox / "a.csv").is_file() and not (failed / "a.csv").exists()
 
-    caplog.clear()  # the same options: the same error, found recorded
-    assert start_watcher(settings, late).join() == 0
-    assert started(caplog) == [] and said(caplog, "(1 found analyzed already)")
+    caplog.clear()  # the same options: the same error, found recorded, said again
+    assert start_watcher(settings, late).join() == 2
+    assert started(caplog) == [] and said(caplog, "1 archive found analyzed already")
+    assert said(caplog, "a.csv: left in INBOX: too short for the training window so far")
+    assert (inbox / "a.csv").is_file() and not (failed / "a.csv").exists()
 
     caplog.clear()  # other options: analyzed again
     assert start_watcher(settings).join() in (0, 1)
@@ -200,7 +206,10 @@ def test_once_exits_1_on_a_fault_2_on_an_error_and_0_otherwise(
     write(inbox / "faulty.csv", "csv", seed=2, fault=True)
     (inbox / "broken2.csv").write_text("not,a\ntable\n")
     assert start_watcher(settings).join() == 1  # a fault before an error
-    assert start_watcher(settings).join() == 0  # nothing new
+    # nothing new, but the broken ones are left in INBOX in error (no --failed)
+    assert start_watcher(settings).join() == 2
+    assert start_watcher(replace(settings, failed=tmp_path / "failed")).join() == 0  # moved
+    assert start_watcher(settings).join() == 0  # nothing new, nothing left in error
     assert {k: v["verdict"] for k, v in state(reports).items()} == {
         "healthy.csv": "no fault",
         "broken.csv": "error",
@@ -274,7 +283,8 @@ def test_once_does_not_wait_again_for_an_incomplete_archive_recorded_already(
     assert first.join(timeout=8) == 2  # waited 1 s for zero.csv, then its error
     assert state(reports)["zero.csv"]["verdict"] == "error"
     again = start_watcher(settings)  # the default 10 min
-    assert again.join(timeout=8) == 0  # nothing new: zero.csv found analyzed already
+    # nothing new: zero.csv found analyzed already (not waited for), left in INBOX in error
+    assert again.join(timeout=8) == 2
 
 
 # --------------------------------------------------------------------------- same name
