@@ -645,9 +645,13 @@ def _gain_ended(
         llr = np.where(np.isfinite(llr), llr * weight, 0.0)  # a gap says nothing
         cum = total + np.cumsum(llr)
         peak = np.maximum(np.maximum.accumulate(cum), top)
-        # where each sample's running maximum lies (the end it would give)
+        # where each sample's running maximum lies (the end it would give): its first
+        # sample, a strictly new maximum, as the maximum carried between pieces (argmax;
+        # across a gap the sum is flat, and a tie kept to its last sample moved an end
+        # at a gap's start to its far side)
         rows = np.arange(lo + 1, hi + 1)
-        ends = np.maximum.accumulate(np.where(cum > top, np.where(cum >= peak, rows, 0), 0))
+        before = np.concatenate(([top], peak[:-1]))
+        ends = np.maximum.accumulate(np.where(cum > before, rows, 0))
         ends = np.maximum(ends, at)
         # each earlier sample is an end the sum may fall from: their count is the bound's
         # multiplicity, so a fault's length does not raise its chance of a false end
