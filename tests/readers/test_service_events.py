@@ -88,7 +88,7 @@ def test_a_file_of_service_events_only_says_so(tmp_path: Path, capsys) -> None:
     path = _mcap(tmp_path / "calls.mcap", with_data=False)
     assert main(["inspect", str(path)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err == f"analyzer: error: {path}: {NOTE}"
+    assert err == f"analyzer: error: no channel could be read from the input: {path}: {NOTE}"
 
 
 @pytest.mark.realdata
