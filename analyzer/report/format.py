@@ -221,11 +221,8 @@ def relative_size(size: Any, confidence: Any = None) -> str:
     clear (``statistically clear but small: 0.0205 of the sensor's usual spread``): a
     finding of rms 0.00085 read ">99.9 %" and nothing told whether it mattered. Empty
     for None (no size to measure, or no spread to measure it by)."""
-    try:
-        v = float(size)
-    except (TypeError, ValueError):
-        return ""
-    if not math.isfinite(v) or v < 0:
+    v = _size(size)
+    if v is None:
         return ""
     # (never in exponent notation: "1.2e-05 of the sensor's usual spread" reads as noise)
     shown = f"{v:.0f}" if v >= 100 else num(v, 3) if v >= 0.001 or v == 0 else "under 0.001"
@@ -245,11 +242,17 @@ def relative_size(size: Any, confidence: Any = None) -> str:
 
 def is_small(size: Any) -> bool:
     """True for a ``size_relative`` below :data:`SMALL_SIZE` (None: False)."""
+    v = _size(size)
+    return v is not None and v < SMALL_SIZE
+
+
+def _size(size: Any) -> float | None:
+    """A ``size_relative`` as a finite, non-negative number; None for anything else."""
     try:
         v = float(size)
     except (TypeError, ValueError):
-        return False
-    return math.isfinite(v) and 0 <= v < SMALL_SIZE
+        return None
+    return v if math.isfinite(v) and v >= 0 else None
 
 
 def _gain_note(v: Any) -> str:
