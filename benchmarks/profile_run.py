@@ -12,7 +12,10 @@ in), a script, not a timed test:
   own share, the outputs) is printed apart.
 * ``--mode cprofile``: the run serially (``--jobs 1``: the tasks run on the main thread,
   where cProfile sees them) under cProfile, the ``--top`` functions by cumulative and by
-  own time. The reading's threads and the figure workers are not in it.
+  own time. The reading's threads are not in it.
+
+Both call the CLI's ``main`` as the console script does: the report's figures are drawn
+by worker processes (their CPU is not this process's), as in ``bench_pipeline.py``.
 
     python benchmarks/profile_run.py ARCHIVE [--mode threads|cprofile] [--top 30]
                                      [--pstats FILE] [-- ANALYZER RUN OPTIONS]
@@ -96,7 +99,7 @@ def run_threads(argv: list[str]) -> None:
         for method in ("fit", "run"):
             setattr(cls, method, cpu.wrap(f"{cls.__name__}.{method}", getattr(cls, method)))
     main_cpu, process_cpu, wall = time.thread_time(), time.process_time(), time.perf_counter()
-    rc = main(argv)
+    rc = main(argv, figure_processes=True)  # as the console script: figures in workers
     main_cpu = time.thread_time() - main_cpu
     process_cpu, wall = time.process_time() - process_cpu, time.perf_counter() - wall
     tasks = sum(cpu.seconds.values())
@@ -115,7 +118,7 @@ def run_cprofile(argv: list[str], top: int, keep: Path | None) -> None:
 
     profile = cProfile.Profile()
     process_cpu, wall = time.process_time(), time.perf_counter()
-    rc = profile.runcall(main, [*argv, "--jobs", "1"])
+    rc = profile.runcall(main, [*argv, "--jobs", "1"], figure_processes=True)
     process_cpu, wall = time.process_time() - process_cpu, time.perf_counter() - wall
     print(f"exit {rc}; wall {wall:.2f} s, CPU {process_cpu:.2f} s (serial, under cProfile)")
     if keep is not None:
