@@ -144,6 +144,8 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
             for i in a.inputs
         ],
         "start": iso_utc(a.start_ns) if a.absolute_time else None,
+        # (relative times: the file's own time of 0 s, which the *_s count from)
+        "time_origin_s": None if a.absolute_time else round(a.start_ns / NS_PER_S, 9),
         "duration_s": round(a.duration_s, 6),
         "rate_hz": a.rate_hz,
         "train": {"start_s": train0 / a.rate_hz, "end_s": (train1 - 1) / a.rate_hz},

@@ -6,6 +6,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from analyzer.coverage import SAID_SHARE, SpanGaps, gaps_line, span_gaps
 from analyzer.errors import ReaderError, StoreError, UsageError, capped, one_line, terminal_safe
 from analyzer.readers import Archive, open_archive
 from analyzer.readers.base import InputInfo, TimeSource
@@ -18,6 +19,7 @@ from analyzer.selection import (
     default_train,
     lone_channel,
     select_channels,
+    without_samples,
 )
 from analyzer.store import ChannelInfo, ChannelStore
 from analyzer.timeutil import iso_utc, plausible_epoch
@@ -43,6 +45,7 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
         if not infos:
             notes.append(nothing_numeric(archive.inputs))
         why, defaults = run_choice(store, archive, t0) if infos else ({}, None)
+        holes = span_gaps(store, [i.name for i in infos])
         return {
             "inputs": [
                 {
@@ -55,6 +58,8 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
             ],
             "notes": notes,
             "start": iso_utc(t0) if absolute and infos else None,
+            # relative times: the input's own time that start_s 0 is (run's time_origin_s)
+            "time_origin_s": round(t0 / NS_PER_S, 9) if infos and not absolute else None,
             "channels": [
                 {
                     "name": i.name,
@@ -75,7 +80,14 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
                 for i in infos
             ],
             **({"run_defaults": defaults} if defaults is not None else {}),
+            # (where at least 1 % of the span has no sample of any channel)
+            **({"span": holes.as_json()} if holes and holes.share >= SAID_SHARE else {}),
         }
+
+
+NO_TRAINING_SAMPLES = "no training samples"
+"""``why`` of a channel with no sample in the default training window (run's
+:class:`~analyzer.selection.NoSamplesNote`)."""
 
 
 def run_choice(
@@ -123,8 +135,16 @@ def run_choice(
         why.update({c: {"why": "refused"} for c in chosen})
         return why, {"channels": 0, "refused": one_line(err)}
     start, end = default_train(clock.duration_s)
+    # (run finds these in the aligned window, and says "no samples in the training window")
+    missing = without_samples(
+        store,
+        chosen,
+        clock.start_ns + round(start * NS_PER_S),
+        clock.start_ns + round(end * NS_PER_S),
+    )
+    why.update({c: {"why": NO_TRAINING_SAMPLES} for c in missing})
     return why, {
-        "channels": len(chosen),
+        "channels": len(chosen) - len(missing),
         "rate_hz": round(clock.rate_hz, 6),
         "clock_start_s": (clock.start_ns - t0) / NS_PER_S,
         "train": {"start_s": start, "end_s": round(end, 6)},
@@ -174,6 +194,8 @@ def render_table(doc: dict[str, Any]) -> str:
         lines.append(f"note: {safe(note)}")
     if doc.get("start"):
         lines.append(f"start {doc['start']}")
+    elif doc.get("time_origin_s"):  # (not 0: times that start at 0 need no line)
+        lines.append(origin_line(doc["time_origin_s"]))
     rows = [("channel", "samples", "start_s", "end_s", "rate_hz", "gaps")]
     for c in doc["channels"]:
         rows.append(
@@ -201,9 +223,20 @@ def render_table(doc: dict[str, Any]) -> str:
             "label, not a measurement): run leaves it out unless --channels names it"
         )
     lines.extend(_legend(doc["channels"]))
+    if doc.get("span"):
+        span = doc["span"]
+        lines.append(gaps_line(SpanGaps(span["span_s"], span["gaps"], span["without_data_s"])))
     if doc.get("run_defaults"):
         lines.append(defaults_line(doc["run_defaults"], len(doc["channels"])))
     return "\n".join(lines)
+
+
+def origin_line(origin_s: float) -> str:
+    """What relative times count from: the first sample's own time in the input."""
+    return (
+        f"times in seconds from the first sample, which is at {origin_s:.3f} s in the "
+        f"input (its own time = start_s + {origin_s:.3f})"
+    )
 
 
 LEGEND = {
@@ -215,6 +248,9 @@ LEGEND = {
     "meaning changes": "[meaning changes] what it measures changes between messages (see "
     "the input's errors; --channels naming it keeps it)",
     "refused": "[refused] run refuses the archive (below)",
+    NO_TRAINING_SAMPLES: "[no training samples] no samples in the default training window "
+    "(its data lie outside it: see the notes; --train choosing a window where it has data "
+    "keeps it)",
 }
 """The marks of the channels ``run`` leaves out by default (:func:`_mark`), explained."""
 

@@ -139,8 +139,24 @@ def parse_train(
     if lo >= duration_s:
         raise ShortUsageError(
             f"--train: the window {text!r} starts after the data ends ({duration_s:.3f} s)"
+            + ("" if absolute else _own_times(text, lo, hi, start_ns, duration_s))
         )
     return lo, min(hi, duration_s)
+
+
+def _own_times(text: str, lo: float, hi: float, start_ns: int, duration_s: float) -> str:
+    """Of relative times that do not start at 0 (a CSV whose times run 100-160 s), where
+    ``--train``'s start (``lo``) falls inside the input's own times: the window converted,
+    and why (the times count from the first sample); else empty. Seconds that fit the
+    file's own times were refused as "after the data ends", and nothing said so."""
+    origin = start_ns / NS_PER_S
+    if origin <= 0.0 or not origin <= lo < origin + duration_s:
+        return ""
+    a, b = lo - origin, hi - origin
+    return (
+        f"; --train {text} is {a:.6g}:{b:.6g} here: times count from the first sample, "
+        f"{origin:.3f} s in the file"
+    )
 
 
 _SLACK_WORDS = {

@@ -22,6 +22,7 @@ import numpy.typing as npt
 
 from analyzer.config import Config, measured_inputs
 from analyzer.config import members as group_members
+from analyzer.coverage import span_gaps, span_note
 from analyzer.detector_runs import (
     SkipReason,
     TooShortForNamed,
@@ -143,6 +144,7 @@ from analyzer.search_after import Stretch, found_after
 from analyzer.search_after import note as after_note
 from analyzer.search_after import stretches as after_stretches
 from analyzer.selection import (
+    NoSamplesNote,
     default_train,
     lone_channel,
     select_channels,
@@ -656,6 +658,7 @@ def _analyze(
         # the raw samples are no longer needed: unmap them now, or their pages stay in the
         # resident set for the rest of the run (memory that grows with the archive)
         infos = store.infos()
+        notes.extend(span_note(span_gaps(store, chosen)))  # (a gappy folder: how much)
         store.close()
         # and their files: for a long archive the largest scratch files after the matrix
         # (16 bytes per value: a time and a value), kept to the end of the run until now
@@ -2050,11 +2053,16 @@ def _varying_in_training(
         )
     if not flat.any() and not counters.any():
         return values, chosen
-    dropped = [c for c, f in zip(chosen, flat, strict=True) if f]
+    # (a channel with no sample there is not dead: its data lie elsewhere)
+    empty = ~np.isfinite(tv).any(axis=0) if tv.size else np.ones(len(chosen), dtype=bool)
+    missing = [c for c, f in zip(chosen, flat & empty, strict=True) if f]
+    if missing:
+        notes.append(NoSamplesNote(missing, tr))
+    dropped = [c for c, f, e in zip(chosen, flat, empty, strict=True) if f and not e]
     if dropped:
         notes.append(
-            "constant (or one value in 99 % of the samples) or empty in the training "
-            "window, not analyzed: " + ", ".join(dropped)
+            "constant (or one value in 99 % of the samples) in the training window, not "
+            "analyzed: " + ", ".join(dropped)
         )
     if counters.any():
         # a ramp made the bank's and the detection filter's regressions singular (both

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from collections.abc import Collection, Sequence
 
+import numpy as np
+
 from analyzer.errors import ArchiveUsageError, ReaderError, capped
 from analyzer.store import ChannelInfo, ChannelStore
 from analyzer.store.copies import Copy, find_copies
@@ -144,6 +146,45 @@ class MixedNote(str):
         )
         note.names = tuple(names)
         return note
+
+
+class NoSamplesNote(str):
+    """The note naming the channels left out because they have no sample in the training
+    window (their data begin after it, end before it, or a gap covers it: a file of the
+    archive that names the same sensors otherwise, :func:`~analyzer.readers.apart_names`),
+    with their ``names``. Not "constant or empty": the sensor may be alive, only not
+    there (the audit read the old words as dead sensors)."""
+
+    names: tuple[str, ...]
+
+    def __new__(cls, names: Sequence[str], window: tuple[float, float]) -> NoSamplesNote:
+        note = super().__new__(
+            cls,
+            f"no samples in the training window ({window[0]:.6g}-{window[1]:.6g} s), not "
+            f"analyzed: {capped(list(names), COPIES_LISTED, what='channels')} (their data "
+            "lie outside it; --train choosing a window where they have data analyzes them)",
+        )
+        note.names = tuple(names)
+        return note
+
+
+def without_samples(
+    store: ChannelStore, chosen: Sequence[str], start_ns: int, end_ns: int
+) -> list[str]:
+    """The channels of ``chosen`` that have no sample from ``start_ns`` to ``end_ns``
+    (a training window on the store's time axis): what ``inspect`` says ``run`` leaves out
+    as :class:`NoSamplesNote` says (``run`` itself finds them in the aligned window). Two
+    binary searches of each channel's times, no pass over its samples."""
+    out = []
+    for c in chosen:
+        t, _ = store.raw(c)
+        if t.shape[0] == 0:
+            continue
+        a = int(np.searchsorted(t, start_ns, side="left"))
+        b = int(np.searchsorted(t, end_ns, side="right"))
+        if b <= a:
+            out.append(c)
+    return out
 
 
 def select_channels(

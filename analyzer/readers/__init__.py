@@ -22,7 +22,7 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from analyzer.errors import IntegrityError, ReaderError
+from analyzer.errors import IntegrityError, ReaderError, capped
 from analyzer.readers._common import (
     bag_files,
     file_digest,
@@ -281,6 +281,7 @@ class Archive:
         # (zstd, Arrow's CSV parser, numpy) runs without the GIL, so two files' worth of
         # work overlaps; the queue bounds what is held ahead
         ahead: dict[int, _ReadAhead] = {}
+        held = [_Held() for _ in self.readers]
         try:
             for i, reader in enumerate(self.readers):
                 nxt = i + 1
@@ -290,9 +291,11 @@ class Archive:
                 for chunk in self._stream(reader, source, last, owner, single):
                     if report is not None:
                         report.inside(i)
+                    held[i].add(chunk)
                     yield chunk
                 if report is not None:
                     report.finished(i)
+            self.notes.extend(ArchiveNote(n) for n in apart_names(self.readers, held))
         finally:
             for pending in ahead.values():
                 pending.close()
@@ -330,6 +333,70 @@ class Archive:
             else:
                 line = f"{name}: {count} {unit} overlap the previous input in time; dropped"
             reader.info.errors.append(line)
+
+
+class _Held:
+    """What one input of an archive streamed: its channels' names and the first and last
+    time of any of its samples (:func:`apart_names`)."""
+
+    __slots__ = ("first", "last", "names")
+
+    def __init__(self) -> None:
+        self.names: set[str] = set()
+        self.first: int | None = None
+        self.last: int | None = None
+
+    def add(self, chunk: ChannelChunk) -> None:
+        """Count ``chunk`` in (a block of samples: no per-sample work)."""
+        if not len(chunk):
+            return
+        self.names.add(chunk.name)
+        a, b = int(chunk.t_ns[0]), int(chunk.t_ns[-1])
+        self.first = a if self.first is None else min(self.first, a)
+        self.last = b if self.last is None else max(self.last, b)
+
+
+NAMES_SHOWN = 3
+"""Channel names a note on an input apart from the others shows, of its and of theirs."""
+
+
+def apart_names(readers: Sequence[Reader], held: Sequence[_Held]) -> list[str]:
+    """The notes on the inputs of a multi-file archive that share no channel name with
+    any other input and hold data only where the others have none (their times do not
+    overlap): most likely the same sensors under other names (a CSV hour beside MCAP
+    hours: ``s0`` for ``/s0.data``), which the analysis keeps as separate channels, each
+    with no data where the other has it (an audit: the CSV's channels left out as "empty
+    in the training window", and a fault inside its hour found 61 s late, where the MCAP
+    names' data resumed). Inputs that hold different channels over the same time (one
+    file per sensor node) are how such archives are meant to be: no note."""
+    full = [(r, h) for r, h in zip(readers, held, strict=True) if h.first is not None]
+    if len(full) < 2:
+        return []
+    notes = []
+    for r, h in full:
+        others = [o for o in full if o[1] is not h]
+        theirs = set().union(*(o[1].names for o in others))
+        if h.names & theirs:
+            continue
+        if any(_overlap(h, o) for _, o in others):
+            continue
+        mine = capped(sorted(h.names), NAMES_SHOWN, what="channels")
+        them = capped(sorted(theirs), NAMES_SHOWN, what="channels")
+        notes.append(
+            f"{r.info.path} shares no channel name with the archive's other files ({mine} "
+            f"against {them}) and holds data only where they have none: likely other "
+            "names for the same sensors (a CSV written beside MCAP files, say): its "
+            "channels are taken as other sensors, with no data outside its time, and the "
+            "others have a gap over it (give its columns the others' names to join them)"
+        )
+    return notes
+
+
+def _overlap(a: _Held, b: _Held) -> bool:
+    """Whether two inputs' times (``first``-``last``) overlap."""
+    assert a.first is not None and a.last is not None
+    assert b.first is not None and b.last is not None
+    return a.first <= b.last and b.first <= a.last
 
 
 def _one_span(

@@ -532,7 +532,7 @@ def test_a_channel_at_one_value_through_the_training_window_is_left_out(tmp_path
     doc = json.loads((tmp_path / "o" / "findings.json").read_text())
     assert code == 1, err
     assert (
-        "constant (or one value in 99 % of the samples) or empty in the training window, "
+        "constant (or one value in 99 % of the samples) in the training window, "
         f"not analyzed: {names[2]}" in doc["notes"]
     )
     assert "ar_kalman_bank" not in doc["skipped_detectors"]
