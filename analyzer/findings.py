@@ -22,6 +22,7 @@ from analyzer.modelfile import SavedModel
 from analyzer.outdir import write_atomic
 from analyzer.readers.base import InputInfo
 from analyzer.regenerate import write_corrected_csv
+from analyzer.selection import STUCK_SAMPLES
 from analyzer.store import ChannelInfo
 from analyzer.timeutil import iso_utc
 from analyzer.types import NS_PER_S
@@ -77,6 +78,10 @@ class Analysis:
     """Each analyzed channel's mean and standard deviation over the healthy training
     window (:func:`analyzer.diagnosis.stuck.healthy_stats`, computed once by the fit;
     with ``--model`` the model's): the yardstick of each finding's ``size_relative``."""
+    left_out: dict[str, dict[str, str]] = field(default_factory=dict)
+    """Why each channel not analyzed was left out: ``{"why": ...}`` (and ``"copy_of"``),
+    as ``inspect --json`` says it (:func:`analyzer.selection.left_out`):
+    findings.json's ``channels[]``."""
     unexplained: list[Unexplained] = field(default_factory=list)
     """Alarms the findings do not explain (:mod:`analyzer.diagnosis.unexplained`): a
     second faulty sensor the run may have missed (``findings.json``'s
@@ -156,6 +161,8 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
                 "rate_hz": round(c.rate_hz, 6),
                 "gaps": c.gaps,
                 "analyzed": c.name in a.analyzed,
+                # why not, where not (an Analysis of a caller that predates it has none)
+                **({} if c.name in a.analyzed else getattr(a, "left_out", {}).get(c.name, {})),
             }
             for c in a.channels
         ],
@@ -187,7 +194,8 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
                 "notes": list(r.notes),
             }
             for r in a.results
-        ],
+        ]
+        + _constant_check(a.findings),
         "model": a.model_info,
         "saved_model": a.saved_model,
         "screen": a.screen,
@@ -206,6 +214,23 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
             for u in a.unexplained
         ],
     }
+
+
+def _constant_check(found: list[Finding]) -> list[dict[str, Any]]:
+    """The entry of ``detectors`` for the check that reported channels reading one value
+    over the whole record (:func:`analyzer.pipeline.constant_findings`), where it did."""
+    stuck = [f.channel for f in found if f.detector == "constant_check"]
+    if not stuck:
+        return []
+    return [
+        {
+            "name": "constant_check",
+            "channels": stuck,
+            "params": {"min_samples": STUCK_SAMPLES},
+            "model": {},
+            "notes": [],
+        }
+    ]
 
 
 def size_relative(

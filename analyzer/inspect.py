@@ -12,16 +12,14 @@ from analyzer.readers import Archive, open_archive
 from analyzer.readers.base import InputInfo, TimeSource
 from analyzer.scratch import scratch
 from analyzer.selection import (
-    ConstantNote,
-    CopyNote,
-    FlagNote,
-    MixedNote,
+    NO_TRAINING_SAMPLES,
     default_train,
+    left_out,
     lone_channel,
     select_channels,
     without_samples,
 )
-from analyzer.store import ChannelInfo, ChannelStore
+from analyzer.store import ChannelStore
 from analyzer.timeutil import iso_utc, plausible_epoch
 from analyzer.types import NS_PER_S
 
@@ -85,11 +83,6 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
         }
 
 
-NO_TRAINING_SAMPLES = "no training samples"
-"""``why`` of a channel with no sample in the default training window (run's
-:class:`~analyzer.selection.NoSamplesNote`)."""
-
-
 def run_choice(
     store: ChannelStore, archive: Archive, t0: int
 ) -> tuple[dict[str, dict[str, str]], dict[str, Any]]:
@@ -115,16 +108,7 @@ def run_choice(
     except (UsageError, ReaderError) as err:
         chosen, refused = [], one_line(err)
     infos = {i.name: i for i in store.infos()}
-    why: dict[str, dict[str, str]] = {}
-    for note in notes:
-        if isinstance(note, ConstantNote):
-            why.update({c: {"why": _constant_kind(infos[c])} for c in note.names})
-        elif isinstance(note, FlagNote):
-            why.update({c: {"why": "flag"} for c in note.names})
-        elif isinstance(note, CopyNote):
-            why.update({c.channel: {"why": "copy", "copy_of": c.of} for c in note.copies})
-        elif isinstance(note, MixedNote):
-            why.update({c: {"why": "meaning changes"} for c in note.names})
+    why = left_out(notes, infos)
     if refused is not None:
         # (what run would have kept, it does not analyze either: it stops)
         why.update({c: {"why": "refused"} for c in infos if c not in why})
@@ -149,12 +133,6 @@ def run_choice(
         "clock_start_s": (clock.start_ns - t0) / NS_PER_S,
         "train": {"start_s": start, "end_s": round(end, 6)},
     }
-
-
-def _constant_kind(info: ChannelInfo) -> str:
-    """How a channel :func:`~analyzer.selection.select_channels` left out as constant is
-    constant: ``empty`` (no finite value), ``one sample`` (one) or ``constant``."""
-    return "empty" if info.finite == 0 else "one sample" if info.finite == 1 else "constant"
 
 
 def nothing_numeric(inputs: Sequence[InputInfo]) -> str:

@@ -144,14 +144,20 @@ from analyzer.search_after import Stretch, found_after
 from analyzer.search_after import note as after_note
 from analyzer.search_after import stretches as after_stretches
 from analyzer.selection import (
+    SIBLINGS_LISTED,
+    CounterNote,
     NoSamplesNote,
+    StuckNote,
+    WindowConstantNote,
     default_train,
+    left_out,
     lone_channel,
     select_channels,
+    stuck_words,
 )
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
 from analyzer.timeutil import iso_utc, plain_number, plausible_epoch, spoken_duration
-from analyzer.types import NS_PER_S
+from analyzer.types import NS_PER_S, FaultType
 
 MATERIALIZE_IN_MEMORY = 1 << 24
 """Aligned matrices up to this many values stay in memory; larger ones are memory-mapped."""
@@ -1029,6 +1035,10 @@ def _analyze(
                 for c in corrections
             ):
                 notes.append(said)
+        # the sensors --channels named that read one value over the whole record
+        findings = sorted(
+            [*findings, *constant_findings(notes)], key=lambda f: (f.onset_s, f.channel)
+        )
         timings["total"] = time.perf_counter() - t_start
         return Analysis(
             inputs=archive.inputs,
@@ -1074,7 +1084,66 @@ def _analyze(
             model_info=None if reused is None else model_info(reused, options),
             config_info=options.config.info(),
             screen=screen,
+            left_out=_left_out(notes, infos, chosen, options),
         )
+
+
+CONSTANT_CHECK = "constant_check"
+"""The name findings.json gives the check of :func:`constant_findings` (its findings'
+``detector``, its entry in ``detectors``)."""
+
+
+def constant_findings(notes: Sequence[str]) -> list[Finding]:
+    """A finding for each channel ``--channels`` selected that reads one value on every
+    sample of the record beside varying channels (the selection's
+    :class:`~analyzer.selection.StuckNote`): the detectors cannot model it (nothing
+    varies), and a note alone let a dead sensor pass as "no sensor fault found", exit 0
+    (a new user's audit). At 0 the contract's dead sensor (``multiplicative``, gain 0),
+    else ``other`` stuck at its value; from the record's start (at or before: it may have
+    been so before the record began) to its end, confidence 1 (every sample read)."""
+    found = []
+    for note in notes:
+        if not isinstance(note, StuckNote):
+            continue
+        for info in note.infos:
+            value = float(info.minimum)
+            dead = value == 0.0
+            found.append(
+                Finding(
+                    info.name,
+                    FaultType.MULTIPLICATIVE if dead else FaultType.OTHER,
+                    0.0,
+                    None,
+                    {"gain": 0.0} if dead else {"stuck_at": value},
+                    1.0,
+                    CONSTANT_CHECK,
+                    evidence={
+                        "detectors": [CONSTANT_CHECK],
+                        "tests": {},
+                        "onset_at_or_before": True,
+                        "constant": {
+                            "value": value,
+                            "samples": info.finite,
+                            "said": stuck_words(info),
+                        },
+                    },
+                )
+            )
+    return found
+
+
+def _left_out(
+    notes: Sequence[str], infos: Sequence[ChannelInfo], chosen: Sequence[str], options: RunOptions
+) -> dict[str, dict[str, str]]:
+    """Why each channel of ``infos`` not in ``chosen`` was not analyzed, as ``inspect
+    --json`` says it (:func:`~analyzer.selection.left_out`), the training window's
+    choices included; one the selection's notes do not name was ``not selected``
+    (``--channels`` or the saved model did not name it)."""
+    why = left_out(notes, {i.name: i for i in infos})
+    analyzed = set(chosen)
+    return {
+        i.name: why.get(i.name, {"why": "not selected"}) for i in infos if i.name not in analyzed
+    }
 
 
 ESTIMATED = ("reference", "residual")
@@ -2057,20 +2126,20 @@ def _varying_in_training(
     empty = ~np.isfinite(tv).any(axis=0) if tv.size else np.ones(len(chosen), dtype=bool)
     missing = [c for c, f in zip(chosen, flat & empty, strict=True) if f]
     if missing:
-        notes.append(NoSamplesNote(missing, tr))
+        notes.append(NoSamplesNote.of(missing, tr))
     dropped = [c for c, f, e in zip(chosen, flat, empty, strict=True) if f and not e]
     if dropped:
-        notes.append(
-            "constant (or one value in 99 % of the samples) in the training window, not "
-            "analyzed: " + ", ".join(dropped)
-        )
+        notes.append(_window_constant_note(dropped, tr))
     if counters.any():
         # a ramp made the bank's and the detection filter's regressions singular (both
         # skipped) and the equivalent model reported it as a drift
+        ramps = [c for c, f in zip(chosen, counters, strict=True) if f]
         notes.append(
-            "a counter or clock in the training window (the same step from each sample to "
-            "the next), not analyzed: "
-            + ", ".join(c for c, f in zip(chosen, counters, strict=True) if f)
+            CounterNote(
+                "a counter or clock in the training window (the same step from each sample "
+                "to the next), not analyzed: " + ", ".join(ramps),
+                ramps,
+            )
         )
     flat = flat | counters
     keep = np.flatnonzero(~flat)
@@ -2087,6 +2156,25 @@ def _varying_in_training(
             f"({tr[0]:.3f}-{tr[1]:.3f} s): choose another window with {how}"
         )
     return np.asarray(values)[:, keep], [chosen[k] for k in keep]
+
+
+def _window_constant_note(dropped: Sequence[str], tr: tuple[float, float]) -> WindowConstantNote:
+    """The note on the channels ``dropped`` as not varying in the training window ``tr``
+    (seconds) although they vary over the record (a channel constant over the whole
+    record was left out before): repeated on stderr, for it was a note only (a sensor
+    dead at the start, then alive, and exit 0 "no sensor fault found": a new user's
+    audit), saying the window and that a ``--train`` where they vary analyzes them."""
+    names = capped(list(dropped), SIBLINGS_LISTED, what="channels")
+    one = len(dropped) == 1
+    note = WindowConstantNote(
+        "constant (or one value in 99 % of the samples) in the training window, not "
+        "analyzed: " + ", ".join(dropped),
+        f"{names} {'reads' if one else 'read'} one value in the training window "
+        f"{tr[0]:.3f}-{tr[1]:.3f} s but {'varies' if one else 'vary'} later: not analyzed; "
+        f"a --train where {'it varies analyzes it' if one else 'they vary analyzes them'}",
+    )
+    note.names = tuple(dropped)
+    return note
 
 
 COARSE_CLOCK = re.compile(r"(\d+) of (\d+) rows give a channel a second value at the same time")

@@ -6,13 +6,15 @@ is what ``run`` does. A module of its own, light to import: ``inspect`` stays fa
 
 from __future__ import annotations
 
-from collections.abc import Collection, Sequence
+import re
+from collections.abc import Collection, Mapping, Sequence
 
 import numpy as np
 
 from analyzer.errors import ArchiveUsageError, ReaderError, capped
 from analyzer.store import ChannelInfo, ChannelStore
 from analyzer.store.copies import Copy, find_copies
+from analyzer.store.store import FLAG_SAMPLES
 from analyzer.window_note import WindowNote
 
 DEFAULT_TRAIN_FRACTION = 0.2
@@ -35,6 +37,165 @@ class ConstantNote(str):
         note = super().__new__(cls, f"constant or empty channels not analyzed: {', '.join(names)}")
         note.names = tuple(names)
         return note
+
+
+STUCK_SAMPLES = FLAG_SAMPLES
+"""Fewest finite samples, all of one value, for a channel ``--channels`` names to be
+reported as a fault (:class:`StuckNote`), and for a default run's warning on one
+(:class:`ConstantSiblingNote`): as for a flag, a handful of samples tells nothing (a topic
+published twice, a status read once a minute), while 100 equal readings of a sensor whose
+neighbours vary are no chance (a noisy accelerometer repeats its reading to the last bit
+on a few samples in a row, not on 100)."""
+
+
+def one_value(info: ChannelInfo) -> str:
+    """A constant channel's one value as said to a user: ``0.0``, ``2.5``, ``-1e+30``."""
+    return repr(float(info.minimum)) if abs(info.minimum) < 1e15 else f"{info.minimum:.6g}"
+
+
+def _samples(n: int) -> str:
+    """``n`` samples, thousands spaced: ``12 000 samples``, ``1 sample``."""
+    return f"{n:,}".replace(",", " ") + (" sample" if n == 1 else " samples")
+
+
+def stuck_words(info: ChannelInfo) -> str:
+    """What is said of a constant channel reported as a fault (:class:`StuckNote`), in
+    the finding and the notes: ``reads 0.0 on every one of its 12 000 samples: dead or
+    stuck, or a signal below its resolution``."""
+    return (
+        f"reads {one_value(info)} on every one of its {_samples(info.finite)}: dead or "
+        "stuck, or a signal below its resolution"
+    )
+
+
+class StuckNote(ConstantNote):
+    """The note naming the channels ``--channels`` selected that read one value on every
+    sample of the record (at least :data:`STUCK_SAMPLES`) beside varying ones: not
+    analyzed by the detectors (nothing to model), each reported as a fault of its own
+    (:func:`analyzer.pipeline.constant_findings`). A :class:`ConstantNote`, so ``why``
+    says ``constant`` as for any constant channel; ``infos``: the channels themselves."""
+
+    infos: tuple[ChannelInfo, ...] = ()
+
+    def __new__(cls, text: str) -> StuckNote:
+        # (built from its text, :meth:`of` adding the rest: it pickles as one, for a
+        # watcher's analyses run in other processes)
+        return str.__new__(cls, text)
+
+    @classmethod
+    def of(cls, infos: Sequence[ChannelInfo]) -> StuckNote:
+        """The note on the constant channels ``infos`` (at least one)."""
+        text = "; ".join(f"{i.name} {stuck_words(i)}" for i in infos)
+        note = cls(
+            f"{text}: not analyzed by the detectors (one value has nothing to model), "
+            "reported as a fault (constant_check)"
+        )
+        note.names = tuple(i.name for i in infos)
+        note.infos = tuple(infos)
+        return note
+
+
+SIBLINGS_LISTED = 5
+"""Constant siblings :class:`ConstantSiblingNote` names one by one (the rest counted)."""
+
+
+def _family(name: str) -> str:
+    """A channel's name with each run of digits as ``#``: ``/s3.data`` and ``/s0.data``,
+    ``s3`` and ``s0``, ``/a.data[3]`` and ``/a.data[0]`` are of one family."""
+    return re.sub(r"\d+", "#", name)
+
+
+class ConstantSiblingNote(WindowNote):
+    """The note (repeated on stderr) naming the channels a default run leaves out as
+    constant (the contract's default) whose name is an analyzed channel's but for its
+    digits (``/s3.data`` beside ``/s0.data`` .. ``/s2.data``): one sensor of a set that
+    reads one value over the whole record is a dead or stuck sensor more often than a
+    channel that means to be constant, and it was left out with a note only (a new
+    user's audit: exit 0, "no sensor fault found"). ``names``: those channels."""
+
+    names: tuple[str, ...] = ()
+
+    @classmethod
+    def of(cls, infos: Sequence[ChannelInfo]) -> ConstantSiblingNote:
+        """The note on the constant siblings ``infos`` (at least one)."""
+        each = capped(
+            [f"{i.name} ({one_value(i)} on all {_samples(i.finite)})" for i in infos],
+            SIBLINGS_LISTED,
+            what="channels",
+        )
+        one = len(infos) == 1
+        note = cls(
+            f"{each} read{'s' if one else ''} one value over the whole record while the "
+            f"channels named like {'it' if one else 'them'} vary: left out as constant (a dead "
+            f"or stuck sensor?); name {'it' if one else 'them'} in --channels to have "
+            f"{'it' if one else 'them'} reported as a fault"
+        )
+        note.names = tuple(i.name for i in infos)
+        return note
+
+
+def constant_siblings(infos: Mapping[str, ChannelInfo], chosen: Sequence[str]) -> list[ChannelInfo]:
+    """The constant channels of ``infos`` with at least :data:`STUCK_SAMPLES` samples
+    whose name is one of ``chosen``'s but for its digits (:func:`_family`)."""
+    families = {_family(c) for c in chosen}
+    return [
+        i
+        for i in infos.values()
+        if i.constant
+        and i.finite >= STUCK_SAMPLES
+        and i.name not in chosen
+        and _family(i.name) in families
+    ]
+
+
+class WindowConstantNote(WindowNote):
+    """The note (repeated on stderr) naming the channels left out because they do not vary
+    in the training window although they vary over the record (constant there, or one
+    value in 99 % of its samples, or empty there): a dead start, a sensor switched on
+    late; ``names``: those channels, ``why``: ``constant in the training window``."""
+
+    names: tuple[str, ...] = ()
+    why = "constant in the training window"
+
+
+class CounterNote(str):
+    """The note naming the channels left out as counters or clocks in the training window
+    (the same step from each sample to the next), with their ``names``."""
+
+    names: tuple[str, ...]
+    why = "counter"
+
+    def __new__(cls, text: str, names: Sequence[str] = ()) -> CounterNote:
+        note = super().__new__(cls, text)
+        note.names = tuple(names)
+        return note
+
+
+def constant_kind(info: ChannelInfo) -> str:
+    """How a channel :func:`select_channels` left out as constant is constant: ``empty``
+    (no finite value), ``one sample`` (one) or ``constant``."""
+    return "empty" if info.finite == 0 else "one sample" if info.finite == 1 else "constant"
+
+
+def left_out(notes: Sequence[str], infos: Mapping[str, ChannelInfo]) -> dict[str, dict[str, str]]:
+    """Why each channel the selection's (and the training window's) ``notes`` name was
+    not analyzed: ``{"why": ...}``, and ``"copy_of"`` for a copy; the vocabulary of
+    ``inspect --json`` and findings.json's ``channels[]`` alike (one rule for both)."""
+    why: dict[str, dict[str, str]] = {}
+    for note in notes:
+        if isinstance(note, ConstantNote):
+            why.update({c: {"why": constant_kind(infos[c])} for c in note.names if c in infos})
+        elif isinstance(note, FlagNote):
+            why.update({c: {"why": "flag"} for c in note.names})
+        elif isinstance(note, CopyNote):
+            why.update({c.channel: {"why": "copy", "copy_of": c.of} for c in note.copies})
+        elif isinstance(note, MixedNote):
+            why.update({c: {"why": "meaning changes"} for c in note.names})
+        elif isinstance(note, (WindowConstantNote, CounterNote)):
+            why.update({c: {"why": note.why} for c in note.names})
+        elif isinstance(note, NoSamplesNote):
+            why.update({c: {"why": NO_TRAINING_SAMPLES} for c in note.names})
+    return why
 
 
 COPIES_LISTED = 20
@@ -148,6 +309,11 @@ class MixedNote(str):
         return note
 
 
+NO_TRAINING_SAMPLES = "no training samples"
+"""``why`` of a channel with no sample in the training window (:class:`NoSamplesNote`),
+in ``inspect --json`` and findings.json's ``channels[]`` alike."""
+
+
 class NoSamplesNote(str):
     """The note naming the channels left out because they have no sample in the training
     window (their data begin after it, end before it, or a gap covers it: a file of the
@@ -155,14 +321,20 @@ class NoSamplesNote(str):
     with their ``names``. Not "constant or empty": the sensor may be alive, only not
     there (the audit read the old words as dead sensors)."""
 
-    names: tuple[str, ...]
+    names: tuple[str, ...] = ()
 
-    def __new__(cls, names: Sequence[str], window: tuple[float, float]) -> NoSamplesNote:
-        note = super().__new__(
-            cls,
+    def __new__(cls, text: str) -> NoSamplesNote:
+        # (built from its text, :meth:`of` adding the rest: it pickles as one, for a
+        # watcher's analyses run in other processes)
+        return str.__new__(cls, text)
+
+    @classmethod
+    def of(cls, names: Sequence[str], window: tuple[float, float]) -> NoSamplesNote:
+        """The note on the channels ``names`` without a sample in ``window`` (seconds)."""
+        note = cls(
             f"no samples in the training window ({window[0]:.6g}-{window[1]:.6g} s), not "
             f"analyzed: {capped(list(names), COPIES_LISTED, what='channels')} (their data "
-            "lie outside it; --train choosing a window where they have data analyzes them)",
+            "lie outside it; --train choosing a window where they have data analyzes them)"
         )
         note.names = tuple(names)
         return note
@@ -225,9 +397,15 @@ def select_channels(
                 "patterns leave out every channel)"
             )
         constant = [c for c in chosen if infos[c].constant]
-        if constant:
-            notes.append(ConstantNote(constant))
         chosen = [c for c in chosen if not infos[c].constant]
+        # one value on every sample of a sensor the user named, beside varying ones: a
+        # fault (dead or stuck), not a note only; alone, refused as before (below)
+        stuck = [infos[c] for c in constant if infos[c].finite >= STUCK_SAMPLES] if chosen else []
+        rest = [c for c in constant if c not in {i.name for i in stuck}]
+        if stuck:
+            notes.append(StuckNote.of(stuck))
+        if rest:
+            notes.append(ConstantNote(rest))
     else:
         chosen = store.select(None)
         constant = [c for c in infos if infos[c].constant]
@@ -265,6 +443,10 @@ def select_channels(
                 notes.append(CopyNote(copies))
                 copied = {c.channel for c in copies}
                 chosen = [c for c in chosen if c not in copied]
+    if chosen and (not patterns or all(p.startswith("!") for p in patterns)):
+        siblings = constant_siblings(infos, chosen)
+        if siblings:
+            notes.append(ConstantSiblingNote.of(siblings))
     if not chosen and patterns:
         raise ArchiveUsageError(
             f"--channels: every channel '{','.join(patterns)}' selects is constant or empty"

@@ -185,7 +185,13 @@ class _Access(FigureParts, TableParts):
         n = len(faults)
         what = "sensor fault" if n == 1 else "sensor faults"
         on = "sensor" if len(sensors) == 1 else "sensors"
-        return f"{n} {what} found on {len(sensors)} {on}: {', '.join(sensors)}."
+        # a sensor reading one value over the whole record, said as plainly as found
+        stuck = [
+            f" {f['channel']} {c['said']}."
+            for f in faults
+            if isinstance(c := (f.get("evidence") or {}).get("constant"), Mapping) and c.get("said")
+        ]
+        return f"{n} {what} found on {len(sensors)} {on}: {', '.join(sensors)}." + "".join(stuck)
 
     def nothing_searched(self) -> bool:
         """A ``--save-model`` run whose training window reaches the record's end: no
@@ -418,7 +424,18 @@ class _Access(FigureParts, TableParts):
         ev = f.get("evidence") or {}
         d = self.decimals
         out = []
-        if ev.get("onset_at_or_before"):
+        constant = ev.get("constant")
+        if isinstance(constant, Mapping):
+            # (constant_check: the channel was not analyzed, its raw samples were read)
+            out.append(Fact("Reading", f"{f.get('channel')} {constant.get('said', '')}"))
+            out.append(
+                Fact(
+                    "Onset bound",
+                    "it read one value from the record's first sample to its last: it began "
+                    "at or before the record's start (perhaps in an earlier record)",
+                )
+            )
+        elif ev.get("onset_at_or_before"):
             out.append(
                 Fact(
                     "Onset bound",

@@ -1,0 +1,179 @@
+"""A sensor that reads one value over the whole record (a new user's audit: a dead
+accelerometer named in ``--channels`` was dropped with a note only, exit 0 "no sensor
+fault found"; one dead in the training window only, the same). Named, it is a finding of
+its own (``constant_check``); by default it stays out (the contract) with a warning when
+it is a sibling of analyzed channels; and findings.json says why each channel was left
+out, in ``inspect --json``'s words."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from jsonschema import Draft202012Validator
+
+from analyzer.schema import findings_schema
+from analyzer.selection import constant_siblings
+from analyzer.simulate import simulate_building
+from analyzer.store import ChannelInfo
+from analyzer.writers import write_archive
+from tests.cli.cli_helpers import one_line_error, run_cli, said
+
+ALL = "/s0.data,/s1.data,/s2.data,/s3.data,/s4.data"
+
+
+def _record(tmp_path, value=0.0, until=None, name="r.mcap", extra=None):
+    """A 5-floor building, 60 s at 200 Hz (12 000 samples a channel), written as an MCAP
+    through the project's writer, with ``/s3.data`` at ``value`` over the whole record
+    (or over its first ``until`` samples only); ``extra``: more channels."""
+    t, y, names = simulate_building(duration_s=60.0, seed=31)
+    y[: until if until is not None else len(t), 3] = value
+    data = {k: y[:, i] for i, k in enumerate(names)} | (extra or {})
+    path = tmp_path / name
+    t_ns = (t * 1e9).round().astype(np.int64)
+    write_archive(path, "mcap", t_ns, data, start_iso="2026-05-01T00:00:00Z")
+    return path
+
+
+def _run(tmp_path, capsys, path, *more):
+    out = tmp_path / "o"
+    code, _, err = run_cli(["run", path, "--out", out, "--no-progress", *more], capsys)
+    doc = json.loads((out / "findings.json").read_text()) if code in (0, 1) else None
+    return code, err, doc, out
+
+
+def _valid(doc):
+    errors = list(Draft202012Validator(findings_schema()).iter_errors(doc))
+    assert errors == [], [e.message[:200] for e in errors]
+
+
+@pytest.mark.parametrize("channels", [ALL, "/s*"])
+def test_a_named_dead_sensor_is_a_finding(tmp_path, capsys, channels):
+    code, err, doc, out = _run(tmp_path, capsys, _record(tmp_path), "--channels", channels)
+    assert code == 1, err
+    (f,) = [f for f in doc["faults"] if f["channel"] == "/s3.data"]
+    assert f["type"] == "multiplicative"
+    assert f["magnitude"] == {"gain": 0.0}
+    assert (f["onset_s"], f["end_s"], f["onset"]) == (0.0, None, "2026-05-01T00:00:00.000Z")
+    assert f["detector"] == "constant_check"
+    assert f["evidence"]["detectors"] == ["constant_check"]
+    assert f["evidence"]["onset_at_or_before"] is True
+    assert f["evidence"]["constant"]["value"] == 0.0
+    assert f["evidence"]["constant"]["samples"] == 12000
+    assert "constant_check" in [d["name"] for d in doc["detectors"]]
+    assert err.splitlines()[-1].startswith(
+        "analyzer: 1 sensor fault found on 1 sensor: /s3.data multiplicative from 0.000 s "
+        "or earlier"
+    )
+    words = "reads 0.0 on every one of its 12 000 samples: dead or stuck, or a signal below"
+    assert words in (out / "report.html").read_text()
+    (s3,) = [c for c in doc["channels"] if c["name"] == "/s3.data"]
+    assert (s3["analyzed"], s3["why"]) == (False, "constant")
+    _valid(doc)
+
+
+def test_a_named_sensor_stuck_at_another_value_is_other_stuck_at(tmp_path, capsys):
+    code, err, doc, _ = _run(tmp_path, capsys, _record(tmp_path, 2.5), "--channels", ALL)
+    assert code == 1, err
+    (f,) = [f for f in doc["faults"] if f["channel"] == "/s3.data"]
+    assert (f["type"], f["magnitude"]) == ("other", {"stuck_at": 2.5})
+    assert f["evidence"]["constant"]["samples"] == 12000
+    _valid(doc)
+
+
+def test_a_named_constant_channel_alone_is_refused_as_before(tmp_path, capsys):
+    path = _record(tmp_path)
+    code, _, err = run_cli(["run", path, "--out", tmp_path / "o", "--channels", "/s3.data"], capsys)
+    assert code == 2
+    one_line_error(err, "constant or empty")
+
+
+def test_few_samples_at_one_value_are_no_finding(tmp_path, capsys):
+    """A channel of one value on fewer than 100 samples (a status read a few times) is
+    left out as before: no finding, no warning."""
+    t, y, names = simulate_building(duration_s=60.0, seed=31)
+    path = tmp_path / "r.csv"
+    few = np.full(t.size, np.nan)
+    few[::200] = 0.0  # (60 samples)
+    header = "time," + ",".join([*names, "status"])
+    np.savetxt(
+        path, np.column_stack([t, y, few]), delimiter=",", header=header, comments="", fmt="%.17g"
+    )
+    code, err, doc, _ = _run(tmp_path, capsys, path, "--channels", "s*")
+    assert code in (0, 1), err
+    assert "status" not in {f["channel"] for f in doc["faults"]}
+    (status,) = [c for c in doc["channels"] if c["name"] == "status"]
+    assert (status["analyzed"], status["why"]) == (False, "constant")
+
+
+def test_by_default_a_constant_sibling_stays_out_with_a_warning(tmp_path, capsys):
+    extra = {"temperature": np.full(12000, 21.0)}
+    code, err, doc, _ = _run(tmp_path, capsys, _record(tmp_path, extra=extra))
+    assert code == 0, err
+    assert doc["faults"] == []
+    warnings = [ln for ln in said(err) if "/s3.data" in ln]
+    assert len(warnings) == 1, err
+    assert warnings[0].startswith("analyzer: warning: /s3.data (0.0 on all 12 000 samples)")
+    assert "name it in --channels to have it reported as a fault" in warnings[0]
+    # (a constant channel of another name is no sibling: left out without a warning)
+    assert not any("/temperature.data" in ln for ln in said(err))
+    whys = {c["name"]: c.get("why") for c in doc["channels"] if not c["analyzed"]}
+    assert whys == {"/s3.data": "constant", "/temperature.data": "constant"}
+
+
+def test_a_sensor_dead_in_the_training_window_only_is_warned_of(tmp_path, capsys):
+    code, err, doc, _ = _run(tmp_path, capsys, _record(tmp_path, until=3000))
+    assert code in (0, 1), err
+    (line,) = [ln for ln in said(err) if "/s3.data" in ln]
+    assert line == (
+        "analyzer: warning: /s3.data reads one value in the training window "
+        "0.000-12.000 s but varies later: not analyzed; a --train where it varies analyzes it"
+    )
+    (s3,) = [c for c in doc["channels"] if c["name"] == "/s3.data"]
+    assert (s3["analyzed"], s3["why"]) == (False, "constant in the training window")
+    _valid(doc)
+
+
+def test_findings_json_says_why_a_copy_or_an_unselected_channel_was_left_out(tmp_path, capsys):
+    t, y, names = simulate_building(duration_s=60.0, seed=31)
+    extra = {"s4f": 1.8 * y[:, 4] + 32.0}
+    path = _record(tmp_path, value=0.0, until=0, extra=extra)
+    code, err, doc, _ = _run(tmp_path, capsys, path)
+    assert code in (0, 1), err
+    (copy,) = [c for c in doc["channels"] if not c["analyzed"]]
+    assert copy == copy | {"name": "/s4f.data", "why": "copy", "copy_of": "/s4.data"}
+    _valid(doc)
+    code, err, doc, _ = _run(tmp_path, capsys, path, "--channels", "/s0.data,/s1.data,/s2.data")
+    assert code in (0, 1), err
+    whys = {c["name"]: c.get("why") for c in doc["channels"] if not c["analyzed"]}
+    assert whys == {n: "not selected" for n in ("/s3.data", "/s4.data", "/s4f.data")}
+    _valid(doc)
+
+
+def _info(name, value=0.0, finite=12000):
+    return ChannelInfo(name, finite, 0, 1, 200.0, 0, finite, value, value)
+
+
+@pytest.mark.parametrize(
+    ("constant", "analyzed", "sibling"),
+    [
+        ("/s3.data", ["/s0.data", "/s1.data"], True),
+        ("s3", ["s0", "s1"], True),
+        ("/a.data[3]", ["/a.data[0]", "/a.data[1]"], True),
+        ("/temperature", ["/s0.data", "/s1.data"], False),
+        ("/b.data[3]", ["/a.data[0]", "/a.data[1]"], False),
+    ],
+)
+def test_a_sibling_is_named_as_analyzed_ones_but_for_its_digits(constant, analyzed, sibling):
+    infos = {n: _info(n) for n in analyzed} | {constant: _info(constant)}
+    for n in analyzed:  # (varying)
+        infos[n] = ChannelInfo(n, 12000, 0, 1, 200.0, 0, 12000, -1.0, 1.0)
+    found = [i.name for i in constant_siblings(infos, analyzed)]
+    assert found == ([constant] if sibling else [])
+
+
+def test_a_sibling_of_few_samples_is_not_named():
+    infos = {"/s0.data": ChannelInfo("/s0.data", 500, 0, 1, 200.0, 0, 500, -1.0, 1.0)}
+    infos["/s1.data"] = _info("/s1.data", finite=99)
+    assert constant_siblings(infos, ["/s0.data"]) == []
