@@ -2340,6 +2340,9 @@ class _Runner:
                     for f in faults
                 ]
                 rec.summary = self._fault_words(job) if faults else None
+                rec.channels = [
+                    str(c["name"]) for c in doc.get("channels", []) if c.get("analyzed", True)
+                ]
                 rec.start = doc.get("start")
                 rec.duration_s = doc.get("duration_s")
                 rec.screen = doc.get("screen")

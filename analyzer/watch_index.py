@@ -166,6 +166,11 @@ class Record:
     """Of a ``fault``: its faults as ``analyzer run``'s last line says them (``2 sensor
     faults found on 2 sensors: s1 additive from 20.000 s, ...``), without the report's
     path; None for other verdicts and in the records of older watchers."""
+    channels: list[str] | None = None
+    """The channels its analysis searched (``findings.json``'s ``channels`` that were
+    analyzed), which tells an archive of another source from one that had a channel
+    without its fault (:func:`episodes`); None for errors and in the records of older
+    watchers. Not in ``index.json``."""
     moving: list[list[str]] = field(default_factory=list)
     """A move by ``--done``/``--failed`` under way that could be stopped half-done
     (copies to another file system, several renames): ``[source, copy, target]``
@@ -580,6 +585,7 @@ class Ledger:
             doc = rec.as_json()
             del doc["signature"]
             del doc["file_marks"]
+            del doc["channels"]
             doc.pop("moving", None)
             rows.append(doc)
         counts = {str(v): sum(r["verdict"] == v for r in rows) for v in Verdict}
@@ -616,12 +622,24 @@ def episodes(records: Iterable[Record]) -> list[dict[str, Any]]:
     where it goes on: a fault that lasts to the end of one archive and is present from
     the first sample of the next (``from_start``: with ``--model``, which searches a
     file from its start) on the same sensor is one episode, with the first archive's
-    onset and the last one's end (None while it lasts to the end of the latest). An
-    archive in between without that fault ends the episode. Archives without absolute
-    times are never joined. Each episode: ``channel``, ``types`` (as classified in each
-    archive, in order, each once), ``size`` (the fault's size in its first archive, as
-    the report says it: ``gain ×0 (dead sensor)``; None in the records of older
-    watchers), ``onset``, ``end``, ``archives``."""
+    onset and the last one's end (None while it lasts to the end of the latest).
+    Archives without absolute times are never joined.
+
+    What ends an episode on a channel, whose last archive ends at time E: an archive
+    that starts within :data:`JOIN_GAP_S` of E (one that follows it: the only kind
+    that can carry it on) and analyzed that channel without that fault from its start,
+    or no archive starting within that gap at all. An archive that starts earlier
+    (more than the gap before E: it overlaps the earlier archive's span, as a second
+    recorder's file of the same minute) or that did not analyze that channel (another
+    source's) neither carries an episode on nor ends it: only an archive in the gap
+    between the two breaks the chain. Of two archives that both follow E, the one that
+    starts first (then by name) decides.
+
+    Each episode: ``channel``, ``types`` (as classified in each archive, in order, each
+    once), ``size`` (the fault's size in its first archive, as the report says it:
+    ``gain ×0 (dead sensor)``; None in the records of older watchers), ``onset``,
+    ``from_start`` (the fault was there from its first archive's first sample
+    searched, so its onset is "at or before" ``onset``), ``end``, ``archives``."""
     timed: list[tuple[int, Record]] = []
     out: list[dict[str, Any]] = []
     for rec in records:
@@ -631,33 +649,48 @@ def episodes(records: Iterable[Record]) -> list[dict[str, Any]]:
         else:
             timed.append((start, rec))
     timed.sort(key=lambda item: (item[0], item[1].name))
+    gap = JOIN_GAP_S * NS_PER_S
     going: dict[str, tuple[dict[str, Any], int]] = {}  # channel -> (episode, its end in ns)
     for start, rec in timed:
         end = start + int(round(float(rec.duration_s or 0.0) * NS_PER_S))
-        # an episode goes on only into the archive that follows its last one
-        going = {
-            ch: (ep, at)
-            for ch, (ep, at) in going.items()
-            if abs(start - at) <= JOIN_GAP_S * NS_PER_S
-        }
-        after: dict[str, tuple[dict[str, Any], int]] = {}
+        # (sorted by start: an episode no archive followed within the gap is over)
+        going = {ch: (ep, at) for ch, (ep, at) in going.items() if start <= at + gap}
+        follows = {ch for ch, (_, at) in going.items() if start >= at - gap}
+        carried: set[str] = set()  # the channels whose episode goes on into rec
+        mine: set[str] = set()  # those whose open episode is now rec's
         for fault in rec.fault_list:
             channel = str(fault["channel"])
-            earlier = going.pop(channel, None) if fault.get("from_start") else None
-            if earlier is None:
-                ep = _episode(fault, rec.name)
-                out.append(ep)
-            else:
-                ep = earlier[0]
+            if channel in follows and channel not in carried and fault.get("from_start"):
+                ep = going[channel][0]
+                carried.add(channel)
                 ep["archives"].append(rec.name)
                 if fault["type"] not in ep["types"]:
                     ep["types"].append(fault["type"])
                 ep["end"] = fault.get("end")
+            else:
+                ep = _episode(fault, rec.name)
+                out.append(ep)
             if fault.get("end") is None:
-                after[channel] = (ep, end)
-        going = after
+                # (of an overlapping archive's and an earlier one's, the later-ending)
+                if channel in carried or channel not in going or going[channel][1] < end:
+                    going[channel] = (ep, end)
+                    mine.add(channel)
+            elif channel in carried and channel not in mine:
+                del going[channel]  # (carried on into rec, and ended in it)
+        analyzed = _analyzed(rec)
+        for channel in follows - carried - mine:
+            if analyzed is None or channel in analyzed:
+                going.pop(channel, None)  # followed by an archive of that channel without it
     out.sort(key=lambda ep: (_epoch_ns(ep["onset"]) or 0, ep["channel"]))
     return out
+
+
+def _analyzed(rec: Record) -> set[str] | None:
+    """The channels ``rec``'s analysis searched (None: every one, for the records of
+    older watchers, which did not keep them)."""
+    if rec.verdict is Verdict.ERROR:
+        return set()
+    return None if rec.channels is None else set(rec.channels)
 
 
 def _episode(fault: dict[str, Any], archive: str) -> dict[str, Any]:
@@ -666,6 +699,7 @@ def _episode(fault: dict[str, Any], archive: str) -> dict[str, Any]:
         "types": [fault["type"]],
         "size": fault.get("size"),
         "onset": fault.get("onset"),
+        "from_start": bool(fault.get("from_start")),
         "end": fault.get("end"),
         "archives": [archive],
     }
@@ -736,6 +770,15 @@ def _screening(screen: dict[str, Any]) -> str:
     return f"{by} could not screen it, analyzed by every detector"
 
 
+def _onset_words(ep: dict[str, Any]) -> str:
+    """An episode's onset as ``index.html`` says it: "at or before" it where the fault
+    was there from its first archive's first sample searched (it may have begun before
+    that archive), as ``analyzer run``'s report says it."""
+    if not ep.get("onset"):
+        return "n/a"
+    return f"at or before {ep['onset']}" if ep.get("from_start") else str(ep["onset"])
+
+
 def index_view(index: dict[str, Any]) -> IndexView:
     """The display strings of ``index.html`` from the ``index.json`` document."""
     rows = []
@@ -782,7 +825,7 @@ def index_view(index: dict[str, Any]) -> IndexView:
                 sensor=str(ep["channel"]),
                 types=", ".join(str(t) for t in ep["types"])
                 + (f": {ep['size']}" if ep.get("size") else ""),
-                onset=str(ep["onset"] or "n/a"),
+                onset=_onset_words(ep),
                 end=str(ep["end"] or f"to the end of {names[-1]}"),
                 archives=span,
                 href=hrefs.get(names[0], ""),

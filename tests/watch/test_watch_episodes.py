@@ -18,7 +18,7 @@ from analyzer.cli import main
 from analyzer.pipeline import load_options
 from analyzer.simulate import inject_fault, simulate_building
 from analyzer.watch import WatchSettings, watch
-from analyzer.watch_index import JOIN_GAP_S, Record, Verdict, episodes
+from analyzer.watch_index import JOIN_GAP_S, Record, Verdict, episodes, index_view
 from analyzer.writers import write_archive
 
 
@@ -61,6 +61,7 @@ def test_a_fault_going_on_across_hourly_archives_is_one_episode():
             "types": ["additive", "drift"],
             "size": None,  # (records of older watchers: no size)
             "onset": "2026-03-02T00:30:00.000Z",
+            "from_start": False,
             "end": "2026-03-02T02:20:00.000Z",
             "archives": ["h0", "h1", "h2"],
         },
@@ -69,6 +70,7 @@ def test_a_fault_going_on_across_hourly_archives_is_one_episode():
             "types": ["additive"],
             "size": None,
             "onset": "2026-03-02T01:10:00.000Z",
+            "from_start": False,
             "end": None,
             "archives": ["h1"],
         },
@@ -99,6 +101,68 @@ def test_what_breaks_an_episode():
     # archives without absolute times: each fault on its own
     eps = episodes([_rec("a", None, [open_s5]), _rec("b", None, [_f("s5", H1, None, True)])])
     assert [e["archives"] for e in eps] == [["a"], ["b"]]
+
+
+def test_an_episode_there_from_its_first_archives_start_says_at_or_before():
+    """A fault there from the first sample searched of its first archive may have begun
+    before it: the episode carries ``from_start`` and the index says "at or before", as
+    ``analyzer run``'s report does (before, a plain onset: the end of the filters'
+    warm-up, a made-up time)."""
+    recs = [
+        _rec("h0", H0, [_f("s5", "2026-03-02T00:00:03.600Z", None, True)]),
+        _rec(
+            "h1", H1, [_f("s5", H1, None, True), _f("s2", "2026-03-02T01:10:00.000Z", None, False)]
+        ),
+    ]
+    eps = episodes(recs)
+    assert [(e["channel"], e["from_start"], e["archives"]) for e in eps] == [
+        ("s5", True, ["h0", "h1"]),
+        ("s2", False, ["h1"]),
+    ]
+    index = {
+        "archives": [],
+        "episodes": eps,
+        "counts": {"fault": 2, "no fault": 0, "error": 0},
+        "analyzer_version": "0",
+        "updated": "",
+    }
+    onsets = [row.onset for row in index_view(index).episodes]
+    assert onsets == ["at or before 2026-03-02T00:00:03.600Z", "2026-03-02T01:10:00.000Z"]
+
+
+def _chan(rec: Record, channels: list[str] | None) -> Record:
+    rec.channels = channels
+    return rec
+
+
+def test_an_archive_overlapping_rather_than_between_does_not_split_an_episode():
+    """The audit's INBOX: h14 and h15 (consecutive minutes, an offset on s2 through both)
+    and transient (the same minute as h14, other data, no s2 fault). transient lies over
+    h14's span, not in the gap between h14 and h15: one episode (before: two, split by
+    transient). Only an archive that follows h14 and analyzed s2 without the fault
+    breaks it; one of another source (no s2) does not."""
+    t0, t1 = "2026-03-02T14:02:00.000Z", "2026-03-02T14:03:00.000Z"
+    s0_gain = _f("s0", "2026-03-02T14:02:20.000Z", None, False, kind="gain")
+
+    def inbox(*extra: Record) -> list[list[str]]:
+        recs = [
+            _chan(
+                _rec("h14.csv", t0, [_f("s2", "2026-03-02T14:02:03.600Z", None, True)], 60.0), None
+            ),
+            _chan(_rec("h15.csv", t1, [_f("s2", t1, None, True)], 60.0), ["s0", "s2"]),
+            *extra,
+        ]
+        return [e["archives"] for e in episodes(recs) if e["channel"] == "s2"]
+
+    assert inbox() == [["h14.csv", "h15.csv"]]
+    transient = _chan(_rec("transient.csv", t0, [s0_gain], 60.0), ["s0", "s2"])
+    assert inbox(transient) == [["h14.csv", "h15.csv"]]
+    # (a healthy archive of s2 in the gap between them, as before, ends it)
+    between = _chan(_rec("between.csv", t1, [], 60.0), ["s0", "s2"])
+    assert inbox(between) == [["h14.csv"], ["h15.csv"]]
+    # (one in the gap that did not analyze s2: another source's; it does not)
+    other = _chan(_rec("between.csv", t1, [], 60.0), ["t0", "t1"])
+    assert inbox(other) == [["h14.csv", "h15.csv"]]
 
 
 def test_watcher_joins_a_fault_across_two_consecutive_files(tmp_path: Path):
