@@ -1127,6 +1127,36 @@ def _moving_lines(rec: Record) -> list[_Line]:
     return lines
 
 
+def note_moves(
+    reports: Path, rec: Record, sources: Sequence[Path | str], targets: Sequence[str]
+) -> None:
+    """Write into ``rec``'s ``findings.json`` where each of its inputs is now, after a
+    move by ``--done``/``--failed``: ``inputs[].moved_to`` beside ``path`` (where it was
+    read, in INBOX, which no longer holds it); a member of a folder moved whole, under
+    the folder's new place. Written atomically, as every file of REPORTS. A report that
+    cannot be read or written is said in one line, the move kept (it is in the state
+    file and the index)."""
+    if rec.verdict is Verdict.ERROR or len(sources) != len(targets):
+        return
+    path = reports / rec.folder / "findings.json"
+    pairs = [(os.path.abspath(s), t) for s, t in zip(sources, targets, strict=True)]
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        for item in doc["inputs"]:
+            read = os.path.abspath(str(item["path"]))
+            for source, target in pairs:
+                if read == source or read.startswith(source + os.sep):
+                    item["moved_to"] = target + read[len(source) :]
+                    break
+        write_atomic(path, json.dumps(doc, indent=2, allow_nan=False) + "\n")
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        log.warning(
+            "%s: its findings.json does not say where its inputs were moved (%s)",
+            rec.name,
+            one_line(getattr(err, "strerror", None) or err),
+        )
+
+
 def _end_moves(ledger: Ledger, inbox: Path) -> None:
     """At the start: the moves of a watcher killed outright during them, finished or
     undone (:func:`_end_move`), each said in a line. A move that cannot be ended yet
@@ -1180,6 +1210,7 @@ def _end_moves(ledger: Ledger, inbox: Path) -> None:
         rec.moving = []
         if moved:
             rec.moved_to = [*rec.moved_to, *moved]
+            note_moves(ledger.reports, rec, [line[0] for line in lines], moved)
         said = {
             "undone": "undone (its copies there removed); it is moved again",
             "changed": "undone (its copies there removed): part of it changed since it "
@@ -2589,6 +2620,7 @@ class _Runner:
             rec.moved_to = [*rec.moved_to, *moved]
             rec.left_in_inbox = None
             log.info("%s: moved to %s%s", archive.name, folder, _renamed_words(archive, moved))
+            note_moves(self.settings.reports, rec, archive.paths, moved)
             try:
                 self.ledger.record(rec)
             except OSError as err:  # REPORTS full: the watcher goes on (it died here)
