@@ -417,6 +417,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="analyze an archive that stays stable but still looks unfinished (a truncated "
         "MCAP, an empty file) after this long anyway, with its error record (default 600)",
     )
+    p.add_argument(
+        "--give-up-after",
+        type=_positive_float,
+        default=600.0,
+        metavar="SECONDS",
+        help="an archive too short for the training window stays in INBOX (a file still "
+        "being written grows); one unchanged this long is given up and moved to --failed "
+        "(default 600)",
+    )
     p.add_argument("--done", type=_path_text, metavar="DIR", help="move each analyzed archive here")
     p.add_argument(
         "--failed",

@@ -254,6 +254,13 @@ KILL_GRACE_S = 2.0
 """When abandoning, how long an analysis process gets after SIGTERM before SIGKILL."""
 
 
+GIVE_UP_AFTER_S = 600.0
+"""Default of ``--give-up-after``: a file too short for the training window, unchanged
+this long, is no longer taken for one still being written (a recorder writes at least
+every few minutes; a short but complete archive stayed in INBOX for good, and each
+``--once`` exited 2)."""
+
+
 @dataclass(frozen=True, slots=True)
 class WatchSettings:
     """The watcher's own options (the analysis options are a :class:`RunOptions`)."""
@@ -268,6 +275,10 @@ class WatchSettings:
     once: bool = False
     jobs: int = 1
     incomplete_timeout: float = INCOMPLETE_TIMEOUT_S
+    give_up_after: float = GIVE_UP_AFTER_S
+    """``--give-up-after``: seconds an archive too short for the training window (left in
+    INBOX: a file still being written grows) stays unchanged before it is given up, an
+    error of its own, and moved to ``--failed`` (:meth:`_Runner._gives_up`)."""
 
     @classmethod
     def from_args(cls, args: argparse.Namespace) -> WatchSettings:
@@ -295,6 +306,7 @@ class WatchSettings:
             once=bool(args.once),
             jobs=args.jobs or os.cpu_count() or 1,
             incomplete_timeout=args.wait_unfinished,
+            give_up_after=args.give_up_after,
         )
 
 
@@ -659,6 +671,12 @@ def _duration(seconds: float) -> str:
     if minutes < 90:
         return f"{minutes} min"
     return f"{minutes // 60} h {minutes % 60:02d} min"
+
+
+def _last_change(signature: Sequence[Sequence[Any]]) -> float:
+    """When the files of a signature (``(path, size, mtime_ns)`` each) last changed, in
+    seconds since the epoch (0 for none)."""
+    return max((int(entry[2]) for entry in signature), default=0) / 1e9
 
 
 def _renamed_words(archive: ReadyArchive, moved: Sequence[str]) -> str:
@@ -1718,6 +1736,9 @@ class _Runner:
         """Archives they do not fit, left in INBOX while no archive has fit these options
         (:attr:`fitted`): moved to ``--failed`` once one has (:meth:`_fits`)."""
         self.moves: dict[str, tuple[ReadyArchive, Record]] = {}
+        self.short: dict[str, tuple[ReadyArchive, float]] = {}
+        """The archives too short for the training window, left in INBOX, and the
+        ``time.monotonic()`` at which they are given up if unchanged (:meth:`_gives_up`)."""
         """Archives recorded whose move by ``--done``/``--failed`` waits for the end of
         their hold (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`)."""
         self.unsaved = False
@@ -1772,6 +1793,7 @@ class _Runner:
         if hashing is not None and hashing[0].signature != archive.signature:
             self.hasher.drop(hashing[2])  # (of the old content)
         self.moves.pop(archive.name, None)  # (it changed: moved after its next analysis)
+        self.short.pop(archive.name, None)  # (it changed: not given up)
         if archive.unreadable is not None:  # (said by the tracker; counted, not analyzed)
             self.unreadable.add(archive.name)
             return
@@ -1836,6 +1858,7 @@ class _Runner:
         self._reap(wait)
         self._copied()
         self._held_moves()
+        self._short_ends()
         self._forget_gone()
         while start and len(self.running) < self.slots:
             archive = self._next()
@@ -2082,10 +2105,14 @@ class _Runner:
         analyzed again on the next start, said so)."""
         if rec.verdict is not Verdict.ERROR or rec.error_kind is ErrorKind.INTERNAL:
             return None
-        if rec.error_reason == TOO_SHORT:
+        if rec.error_reason == TOO_SHORT and rec.error_kind is ErrorKind.OPTIONS:
+            at = _last_change(rec.signature) + self.settings.give_up_after
+            then = "moved to --failed" if self.settings.failed is not None else "an error"
             return (
                 "too short for the training window so far (a file still being written?): "
-                "analyzed again when it changes"
+                f"analyzed again when it changes; given up ({then}) at "
+                f"{time.strftime('%Y-%m-%d %H:%M:%S', time.localtime(at))} if unchanged "
+                f"until then (--give-up-after {self.settings.give_up_after:g})"
             )
         if rec.error_kind is ErrorKind.OPTIONS:
             return (
@@ -2100,6 +2127,56 @@ class _Runner:
                 f"{rec.misfit_option or 'the options'} (moved to --failed once one has)"
             )
         return None
+
+    def _gives_up(self, archive: ReadyArchive, rec: Record) -> bool:
+        """Whether ``archive``, recorded too short for the training window (left in
+        INBOX: a file still being written grows), is given up now: unchanged (its size
+        and mtime, :attr:`~analyzer.watch_inbox.ReadyArchive.signature`) for
+        ``--give-up-after`` seconds, its record becomes an error of the archive's own
+        (``error_kind`` ``input``, ``error_reason`` still ``too short``), said in a
+        line, and it is moved to ``--failed`` as such (left in INBOX, said so, without
+        one). Until then it waits in :attr:`short`, looked at again once its time is
+        up (:meth:`_short_ends`); a change hands it on again (:meth:`offer`). Told from
+        the mtime, not from when the watcher saw it: ``--once`` over a file unchanged
+        that long moves it on that run, and a restart does not start the count again."""
+        if rec.error_reason != TOO_SHORT or rec.error_kind is not ErrorKind.OPTIONS:
+            return False
+        unchanged = time.time() - _last_change(archive.signature)
+        left = self.settings.give_up_after - unchanged
+        if left > 0:
+            self.short[archive.name] = (archive, time.monotonic() + left)
+            return False
+        self.short.pop(archive.name, None)
+        words = f"unchanged for {_duration(unchanged)}"
+        rec.error = f"{rec.error} (given up: {words}, not a file still being written)"
+        rec.error_kind = ErrorKind.INPUT
+        rec.left_in_inbox = None
+        try:
+            self.ledger.record(rec)
+        except OSError:  # (REPORTS full: written with the next record, or at the stop)
+            self.unsaved = True
+        log.warning(
+            "%s: given up: too short for the training window and %s (--give-up-after %g)%s",
+            archive.name,
+            words,
+            self.settings.give_up_after,
+            "" if self.settings.failed is not None else "; no --failed folder to move it to",
+        )
+        return True
+
+    def _short_ends(self) -> None:
+        """The archives too short for the training window whose time to be given up
+        has come (:meth:`_gives_up`), given up and moved, where the record is still
+        that one."""
+        now = time.monotonic()
+        for name, (archive, due) in list(self.short.items()):
+            if now < due:
+                continue
+            del self.short[name]
+            rec = self.ledger.get(name)
+            if rec is not None and name not in self.running and name not in self.queue:
+                self._move(archive, rec)
+                self._left_in_inbox(name, said=True)
 
     def _left_in_inbox(self, name: str, said: bool) -> None:
         """Where the archive ``name``, just recorded or found recorded, stays in INBOX in
@@ -2485,6 +2562,8 @@ class _Runner:
         made here, they held up every other archive and the stop signal (a 1.5 GB archive
         to tmpfs: 1.2-6.2 s)."""
         folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
+        if self._gives_up(archive, rec):
+            folder = self.settings.failed
         if rec.error_kind in (ErrorKind.OPTIONS, ErrorKind.INTERNAL) or folder is None:
             return
         if rec.error_reason == MISMATCH and self._stays_why(rec) is not None:  # (none fit)
