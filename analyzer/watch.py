@@ -44,13 +44,15 @@ Exactly once
     the next start. A report folder deleted by hand makes its archive be analyzed again
     on the next start. An archive that arrives under the name of a recorded one with
     other content (the earlier file replaced, or moved away by ``--done``) does not
-    replace the earlier result: that record, its report folder and its fault episodes
-    are kept under a free name (that of the file ``--done`` moved it to when it
-    differs, else ``name-1.ext``, ``name-2.ext``...), with ``dropped_as`` the name it
-    came under. An archive that grew after its analysis (the earlier content is the
-    file's beginning; a folder or group whose earlier files are all there, none shorter
-    or older, each that changed beginning with its earlier content) is the same
-    archive: its record is replaced (:meth:`_Runner._grew`). An
+    replace the earlier result: that record and its fault episodes are kept under a
+    free name (that of the file ``--done`` moved it to when it differs, else
+    ``name-1.ext``, ``name-2.ext``...), with ``dropped_as`` the name it came under, and
+    its report folder stays where it was announced; the new content's report goes to the
+    next free folder (``name-1.ext``...), said on its line. An archive that grew after
+    its analysis (the earlier content is the file's beginning; a folder or group whose
+    earlier files are all there, none shorter or older, each that changed beginning
+    with its earlier content) is the same archive: its record is replaced
+    (:meth:`_Runner._grew`). An
     archive that still looks unfinished but is recorded already with this content is
     not waited for.
 
@@ -2322,6 +2324,7 @@ class _Runner:
             return
         try:
             rec = self._result(job, elapsed)
+            kept: str | None = None
             earlier = self.ledger.get(name)
             if (
                 earlier is not None
@@ -2336,16 +2339,28 @@ class _Runner:
                     )
                 else:
                     kept = self.ledger.keep_aside(name)
-                    log.info("%s: new content; the earlier one's result is kept as %s", name, kept)
                     self._counted_as(name, kept)
             mine = self.ledger.get(name)  # (its record, unless kept aside just now)
+            if mine is None and kept is not None:  # (the earlier folder stays as announced)
+                previous: str | None = self.ledger.new_folder(name)
+            else:
+                previous = mine.folder if mine else None
             folder = publish(
                 job.scratch,
                 self.settings.reports,
                 name,
-                mine.folder if mine else None,
+                previous,
                 self.ledger.folders_except(name),
             )
+            if kept is not None:
+                log.info(
+                    "%s: new content; its report goes to %s (the earlier content's result "
+                    "stays in %s, listed as %s in the index)",
+                    name,
+                    folder,
+                    self.settings.reports / self.ledger.records[kept].folder,
+                    kept,
+                )
             rec.report = f"{folder.name}/{rec.report.partition('/')[2]}"
             if rec.corrected is not None:
                 rec.corrected = f"{folder.name}/{CORRECTED}"
@@ -2562,7 +2577,7 @@ class _Runner:
         made here, they held up every other archive and the stop signal (a 1.5 GB archive
         to tmpfs: 1.2-6.2 s)."""
         folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
-        if self._gives_up(archive, rec):
+        if rec.error_reason == TOO_SHORT and self._gives_up(archive, rec):
             folder = self.settings.failed
         if rec.error_kind in (ErrorKind.OPTIONS, ErrorKind.INTERNAL) or folder is None:
             return

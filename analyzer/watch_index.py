@@ -477,30 +477,34 @@ class Ledger:
     def keep_aside(self, name: str) -> str:
         """Make room for a new archive under ``name`` without losing the record of the
         earlier one (another content that arrived under that name: replaced in INBOX,
-        or moved away by ``--done``/``--failed`` and dropped again): its record and its
-        report folder take a free name (that of the file ``--done`` moved it to when
-        that differs, else ``stem-N.suffixes``), with ``dropped_as`` the name it came
-        under. Nothing published is deleted. Returns the new name."""
-        rec = self.records[name]
+        or moved away by ``--done``/``--failed`` and dropped again): its record takes a
+        free name (that of the file ``--done`` moved it to when that differs, else
+        ``stem-N.suffixes``), with ``dropped_as`` the name it came under; its report
+        folder stays where it is, so that every report path the watcher printed for it
+        still points to it (the new archive's report takes a free folder of its own:
+        :meth:`new_folder`). Before, the folder moved to the new name and the new
+        analysis took the old folder, so the lines and links printed for the earlier
+        one showed other data. Nothing published is moved or deleted. Returns the new
+        name."""
+        rec = self.records.pop(name)
         new = self._free_name(rec)
-        folder = report_dirname(new)
-        _, _, leaf = rec.report.partition("/")
-        # the record under its new name first, its folder still where it is, then the
-        # folder renamed, then the record with it: a watcher killed between two of these
-        # steps leaves a record whose folder is there (the next archive's report does not
-        # take it: :func:`publish`'s ``keep``), or at its new name (:meth:`tidy` finds
-        # it), where a kill between the rename and the state's write lost the record
-        del self.records[name]
-        kept = self.records[new] = replace(rec, name=new, dropped_as=rec.dropped_as or name)
-        if (self.reports / rec.folder).is_dir():
-            self.save_state()
-            os.replace(self.reports / rec.folder, self.reports / folder)
-        kept.report = f"{folder}/{leaf}"
-        if kept.corrected is not None:
-            kept.corrected = f"{folder}/{Path(kept.corrected).name}"
+        self.records[new] = replace(rec, name=new, dropped_as=rec.dropped_as or name)
         self.save_state()
         self._views_stale = True
         return new
+
+    def new_folder(self, name: str) -> str:
+        """A free report folder for a new content of ``name`` whose earlier result keeps
+        its folder (:meth:`keep_aside`): ``stem-N.suffixes`` (as :func:`report_dirname`
+        makes it), the first that no record links to and that is not in REPORTS."""
+        taken = {rec.folder for rec in self.records.values()}
+        stem, dot, suffixes = name.partition(".")
+        n = 1
+        while True:
+            folder = _fitting(report_dirname(f"{stem}-{n}{dot}{suffixes}"))
+            if folder not in taken and not os.path.lexists(self.reports / folder):
+                return folder
+            n += 1
 
     def _free_name(self, rec: Record) -> str:
         def free(candidate: str) -> bool:
@@ -782,6 +786,7 @@ def _onset_words(ep: dict[str, Any]) -> str:
 def index_view(index: dict[str, Any]) -> IndexView:
     """The display strings of ``index.html`` from the ``index.json`` document."""
     rows = []
+    superseded = {r["dropped_as"] for r in index["archives"] if r.get("dropped_as")}
     for r in index["archives"]:
         verdict = str(r["verdict"])
         details = r["error"] or "report"
@@ -792,7 +797,12 @@ def index_view(index: dict[str, Any]) -> IndexView:
             more = f" (and {len(damage) - 1} more lines)" if len(damage) > 1 else ""
             details += f"; analyzed past input errors: {damage[0]}{more}"
         if r.get("dropped_as"):
-            details += f"; dropped as {r['dropped_as']} (a later archive took the name)"
+            details += (
+                f"; dropped as {r['dropped_as']}: an earlier content of that name, its "
+                f"report where it was announced (the latest is {r['dropped_as']}'s line)"
+            )
+        elif r["name"] in superseded:
+            details += "; the latest result of this name (earlier ones: dropped as it)"
         if r["moved_to"]:
             details += f"; moved to {', '.join(r['moved_to'])}"
         if r.get("corrected"):
