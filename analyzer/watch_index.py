@@ -6,8 +6,8 @@
 * ``REPORTS/.watch-state.json``: one record per archive name: the sha256 of its content,
   the (path, size, mtime) signature it had, and the result. Written atomically after
   every archive (before its files are moved); this is what makes the watcher process
-  each content once across restarts. An earlier content of a name keeps its record and
-  report folder under another name (:meth:`Ledger.keep_aside`).
+  each content once across restarts. An earlier content of a name keeps its record under
+  another name, and its report folder where it was (:meth:`Ledger.keep_aside`).
 * ``REPORTS/index.json`` and ``REPORTS/index.html``: every archive with its verdict,
   faulty sensors and a link to its report (or error), newest first. Views of the state,
   rewritten (atomically) after an archive, or, while archives end in quick succession,
@@ -152,9 +152,10 @@ class Record:
     a one-channel file or ``--channels`` matching none of its channels, with
     :attr:`misfit_option` the option to check) or ``too short`` (an ``options`` error: too
     short for the training window, as a file still being written; left in INBOX and
-    analyzed again when it grows). A field, not a kind of its own: a watcher of
-    analyzer 49, which knows only the kinds, still reads the state (it leaves out fields
-    it does not know)."""
+    analyzed again when it grows; unchanged for ``--give-up-after`` seconds, given up:
+    its ``error_kind`` becomes ``input`` and it goes to ``--failed``). A field, not a
+    kind of its own: a watcher of analyzer 49, which knows only the kinds, still reads
+    the state (it leaves out fields it does not know)."""
     misfit_option: str | None = None
     """Of a ``mismatch``: the option the archive does not fit (``--channels``,
     ``--model``, ``--train``, ``--config``)."""
@@ -357,8 +358,8 @@ def publish(
     folder or the new one, never a half-written one. A folder there that is no report
     of the watcher's (a user's folder, or INBOX's archives, which an INBOX inside
     REPORTS put there: both were deleted), or that is in ``keep`` (the folders of the
-    other records: one kept aside by :meth:`Ledger.keep_aside`, its folder not renamed
-    yet when a watcher was killed), is left alone: the report takes the first free name
+    other records: one kept aside by :meth:`Ledger.keep_aside`, whose folder stays where
+    it was announced), is left alone: the report takes the first free name
     of ``NAME-report``, ``NAME-report-2``... Returns the report's folder."""
     base = report_dirname(name)
     names = [previous] if previous else []
