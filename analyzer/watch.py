@@ -1738,11 +1738,11 @@ class _Runner:
         """Archives they do not fit, left in INBOX while no archive has fit these options
         (:attr:`fitted`): moved to ``--failed`` once one has (:meth:`_fits`)."""
         self.moves: dict[str, tuple[ReadyArchive, Record]] = {}
+        """Archives recorded whose move by ``--done``/``--failed`` waits for the end of
+        their hold (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`)."""
         self.short: dict[str, tuple[ReadyArchive, float]] = {}
         """The archives too short for the training window, left in INBOX, and the
         ``time.monotonic()`` at which they are given up if unchanged (:meth:`_gives_up`)."""
-        """Archives recorded whose move by ``--done``/``--failed`` waits for the end of
-        their hold (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`)."""
         self.unsaved = False
         """A move not written to the state file (REPORTS full): written at the latest
         when the watcher stops (:meth:`save_unsaved`)."""
@@ -2109,10 +2109,10 @@ class _Runner:
             return None
         if rec.error_reason == TOO_SHORT and rec.error_kind is ErrorKind.OPTIONS:
             at = _last_change(rec.signature) + self.settings.give_up_after
-            then = "moved to --failed" if self.settings.failed is not None else "an error"
+            then = " and moved to --failed" if self.settings.failed is not None else ""
             return (
                 "too short for the training window so far (a file still being written?): "
-                f"analyzed again when it changes; given up ({then}) at "
+                f"analyzed again when it changes; given up{then} at "
                 f"{time.strftime('%Y-%m-%d %H:%M:%S', time.localtime(at))} if unchanged "
                 f"until then (--give-up-after {self.settings.give_up_after:g})"
             )
@@ -2149,6 +2149,8 @@ class _Runner:
             self.short[archive.name] = (archive, time.monotonic() + left)
             return False
         self.short.pop(archive.name, None)
+        if not self._as_found(archive):  # (changed since: handed on again once settled)
+            return False
         words = f"unchanged for {_duration(unchanged)}"
         rec.error = f"{rec.error} (given up: {words}, not a file still being written)"
         rec.error_kind = ErrorKind.INPUT

@@ -56,7 +56,7 @@ def test_once_moves_a_short_archive_unchanged_that_long_to_failed(
     assert (rec["error_kind"], rec["error_reason"]) == ("input", "too short")
     assert "unchanged for 60 min" in rec["error"] and rec["moved_to"] == [str(failed / "old.csv")]
     (left,) = said(caplog, "new.csv: left in INBOX")
-    assert "given up (moved to --failed) at " in left and "--give-up-after 600" in left
+    assert "given up and moved to --failed at " in left and "--give-up-after 600" in left
     assert state(reports)["new.csv"]["error_kind"] == "options"
     # a second --once: the new file, not unchanged that long yet, still stays
     caplog.clear()
