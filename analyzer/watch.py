@@ -256,11 +256,17 @@ KILL_GRACE_S = 2.0
 """When abandoning, how long an analysis process gets after SIGTERM before SIGKILL."""
 
 
-GIVE_UP_AFTER_S = 600.0
+GIVE_UP_AFTER_S = 3600.0
 """Default of ``--give-up-after``: a file too short for the training window, unchanged
-this long, is no longer taken for one still being written (a recorder writes at least
-every few minutes; a short but complete archive stayed in INBOX for good, and each
-``--once`` exited 2)."""
+this long, is no longer taken for one still being written (a short but complete archive
+stayed in INBOX for good, and each ``--once`` exited 2). An hour: loggers that append a
+table every 15 min or hourly are common, and one that pauses longer than this between
+appends has its file cut in two (0: never given up)."""
+
+
+def _now() -> float:
+    """Seconds since the epoch (the give-up's clock: tests set it)."""
+    return time.time()
 
 
 @dataclass(frozen=True, slots=True)
@@ -675,10 +681,9 @@ def _duration(seconds: float) -> str:
     return f"{minutes // 60} h {minutes % 60:02d} min"
 
 
-def _last_change(signature: Sequence[Sequence[Any]]) -> float:
-    """When the files of a signature (``(path, size, mtime_ns)`` each) last changed, in
-    seconds since the epoch (0 for none)."""
-    return max((int(entry[2]) for entry in signature), default=0) / 1e9
+def _size(signature: Sequence[Sequence[Any]]) -> int:
+    """The bytes of the files of a signature (``(path, size, mtime_ns)`` each)."""
+    return sum(int(entry[1]) for entry in signature)
 
 
 def _renamed_words(archive: ReadyArchive, moved: Sequence[str]) -> str:
@@ -1230,7 +1235,10 @@ def _end_moves(ledger: Ledger, inbox: Path) -> None:
         rec.moving = []
         if moved:
             rec.moved_to = [*rec.moved_to, *moved]
-            note_moves(ledger.reports, rec, [line[0] for line in lines], moved)
+            done = [line for line in lines if str(line[2]) in set(moved)]  # (maybe in part)
+            note_moves(
+                ledger.reports, rec, [line[0] for line in done], [str(line[2]) for line in done]
+            )
         said = {
             "undone": "undone (its copies there removed); it is moved again",
             "changed": "undone (its copies there removed): part of it changed since it "
@@ -1741,8 +1749,9 @@ class _Runner:
         """Archives recorded whose move by ``--done``/``--failed`` waits for the end of
         their hold (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`)."""
         self.short: dict[str, tuple[ReadyArchive, float]] = {}
-        """The archives too short for the training window, left in INBOX, and the
-        ``time.monotonic()`` at which they are given up if unchanged (:meth:`_gives_up`)."""
+        """The archives too short for the training window, left in INBOX, and the time
+        (:func:`_now`) at which they are given up if unchanged and these options have
+        analyzed an archive by then (:meth:`_gives_up`)."""
         self.unsaved = False
         """A move not written to the state file (REPORTS full): written at the latest
         when the watcher stops (:meth:`save_unsaved`)."""
@@ -2108,13 +2117,24 @@ class _Runner:
         if rec.verdict is not Verdict.ERROR or rec.error_kind is ErrorKind.INTERNAL:
             return None
         if rec.error_reason == TOO_SHORT and rec.error_kind is ErrorKind.OPTIONS:
-            at = _last_change(rec.signature) + self.settings.give_up_after
-            then = " and moved to --failed" if self.settings.failed is not None else ""
-            return (
+            why = (
                 "too short for the training window so far (a file still being written?): "
-                f"analyzed again when it changes; given up{then} at "
-                f"{time.strftime('%Y-%m-%d %H:%M:%S', time.localtime(at))} if unchanged "
-                f"until then (--give-up-after {self.settings.give_up_after:g})"
+                "analyzed again when it changes; "
+            )
+            after = self.settings.give_up_after
+            if not after:
+                return why + "never given up (--give-up-after 0)"
+            at = (rec.short_since or _now()) + after
+            then = " and moved to --failed" if self.settings.failed is not None else ""
+            when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(at))
+            if not self.fitted:
+                return why + (
+                    "no archive has fit these options yet: check --train (given up only "
+                    f"once one has, and it is unchanged for --give-up-after {after:g})"
+                )
+            return (
+                why
+                + f"given up{then} at {when} if unchanged until then (--give-up-after {after:g})"
             )
         if rec.error_kind is ErrorKind.OPTIONS:
             return (
@@ -2132,21 +2152,30 @@ class _Runner:
 
     def _gives_up(self, archive: ReadyArchive, rec: Record) -> bool:
         """Whether ``archive``, recorded too short for the training window (left in
-        INBOX: a file still being written grows), is given up now: unchanged (its size
-        and mtime, :attr:`~analyzer.watch_inbox.ReadyArchive.signature`) for
-        ``--give-up-after`` seconds, its record becomes an error of the archive's own
-        (``error_kind`` ``input``, ``error_reason`` still ``too short``), said in a
-        line, and it is moved to ``--failed`` as such (left in INBOX, said so, without
-        one). Until then it waits in :attr:`short`, looked at again once its time is
-        up (:meth:`_short_ends`); a change hands it on again (:meth:`offer`). Told from
-        the mtime, not from when the watcher saw it: ``--once`` over a file unchanged
-        that long moves it on that run, and a restart does not start the count again."""
-        if rec.error_reason != TOO_SHORT or rec.error_kind is not ErrorKind.OPTIONS:
+        INBOX: a file still being written grows), is given up now: unchanged for
+        ``--give-up-after`` seconds (0: never) since the watcher first saw it at its
+        size (:attr:`~analyzer.watch_index.Record.short_since`, in the state: a restart
+        does not start the count again; not the file's mtime, which a share whose clock
+        is behind or a copy that kept it made look old at first sight), and these
+        options have analyzed at least one archive (:attr:`fitted`: a ``--train`` that
+        fits no archive is the options' error, and gave up the whole INBOX). Its record
+        becomes an error of the archive's own (``error_kind`` ``input``, ``error_reason``
+        still ``too short``), said in a line and in its ``error.txt``, and it is moved
+        to ``--failed`` as such (left in INBOX, said so, without one). Until then it
+        waits in :attr:`short`, looked at again once its time is up
+        (:meth:`_short_ends`); a change hands it on again (:meth:`offer`)."""
+        after = self.settings.give_up_after
+        if rec.error_reason != TOO_SHORT or rec.error_kind is not ErrorKind.OPTIONS or not after:
             return False
-        unchanged = time.time() - _last_change(archive.signature)
-        left = self.settings.give_up_after - unchanged
-        if left > 0:
-            self.short[archive.name] = (archive, time.monotonic() + left)
+        if rec.short_since is None:  # (a record of an older watcher: seen now)
+            rec.short_since = _now()
+            try:
+                self.ledger.record(rec)
+            except OSError:
+                self.unsaved = True
+        unchanged = _now() - rec.short_since
+        if unchanged < after or not self.fitted:
+            self.short[archive.name] = (archive, rec.short_since + after)
             return False
         self.short.pop(archive.name, None)
         if not self._as_found(archive):  # (changed since: handed on again once settled)
@@ -2155,6 +2184,12 @@ class _Runner:
         rec.error = f"{rec.error} (given up: {words}, not a file still being written)"
         rec.error_kind = ErrorKind.INPUT
         rec.left_in_inbox = None
+        error_txt = self.settings.reports / rec.folder / "error.txt"
+        with contextlib.suppress(OSError):  # (said in the archive's own error.txt too)
+            text = error_txt.read_text(encoding="utf-8").rstrip("\n")
+            write_atomic(
+                error_txt, f"{text}\n\nGiven up: {words}, not a file still being written.\n"
+            )
         try:
             self.ledger.record(rec)
         except OSError:  # (REPORTS full: written with the next record, or at the stop)
@@ -2172,10 +2207,10 @@ class _Runner:
         """The archives too short for the training window whose time to be given up
         has come (:meth:`_gives_up`), given up and moved, where the record is still
         that one."""
-        now = time.monotonic()
+        now = _now()
         for name, (archive, due) in list(self.short.items()):
-            if now < due:
-                continue
+            if now < due or not self.fitted:
+                continue  # (none fit these options yet: a wrong --train, not the archive)
             del self.short[name]
             rec = self.ledger.get(name)
             if rec is not None and name not in self.running and name not in self.queue:
@@ -2328,6 +2363,9 @@ class _Runner:
             rec = self._result(job, elapsed)
             kept: str | None = None
             earlier = self.ledger.get(name)
+            if rec.error_reason == TOO_SHORT:  # (--give-up-after counts from first sight)
+                same = earlier is not None and _size(earlier.signature) == _size(rec.signature)
+                rec.short_since = (earlier.short_since if same and earlier else None) or _now()
             if (
                 earlier is not None
                 and earlier.sha256 != rec.sha256
@@ -2465,9 +2503,8 @@ class _Runner:
                     for f in faults
                 ]
                 rec.summary = self._fault_words(job) if faults else None
-                rec.channels = [
-                    str(c["name"]) for c in doc.get("channels", []) if c.get("analyzed", True)
-                ]
+                rate = doc.get("rate_hz")
+                rec.rate_hz = float(rate) if isinstance(rate, int | float) and rate > 0 else None
                 rec.start = doc.get("start")
                 rec.duration_s = doc.get("duration_s")
                 rec.screen = doc.get("screen")

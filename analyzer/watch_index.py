@@ -21,6 +21,7 @@
 
 from __future__ import annotations
 
+import bisect
 import fcntl
 import hashlib
 import json
@@ -167,11 +168,14 @@ class Record:
     """Of a ``fault``: its faults as ``analyzer run``'s last line says them (``2 sensor
     faults found on 2 sensors: s1 additive from 20.000 s, ...``), without the report's
     path; None for other verdicts and in the records of older watchers."""
-    channels: list[str] | None = None
-    """The channels its analysis searched (``findings.json``'s ``channels`` that were
-    analyzed), which tells an archive of another source from one that had a channel
-    without its fault (:func:`episodes`); None for errors and in the records of older
-    watchers. Not in ``index.json``."""
+    rate_hz: float | None = None
+    """Its sample rate (``findings.json``'s ``rate_hz``): the sample period that
+    :func:`episodes` allows between one archive's end and the next one's start; None
+    for errors and in the records of older watchers."""
+    short_since: float | None = None
+    """Of a ``too short`` archive left in INBOX: when the watcher first saw it at its
+    size (seconds since the epoch): ``--give-up-after`` counts from then, not from the
+    file's mtime (a share whose clock is behind, a copy that kept its mtime)."""
     moving: list[list[str]] = field(default_factory=list)
     """A move by ``--done``/``--failed`` under way that could be stopped half-done
     (copies to another file system, several renames): ``[source, copy, target]``
@@ -590,7 +594,8 @@ class Ledger:
             doc = rec.as_json()
             del doc["signature"]
             del doc["file_marks"]
-            del doc["channels"]
+            del doc["rate_hz"]
+            del doc["short_since"]
             doc.pop("moving", None)
             rows.append(doc)
         counts = {str(v): sum(r["verdict"] == v for r in rows) for v in Verdict}
@@ -618,84 +623,151 @@ def index_json(index: dict[str, Any]) -> str:
 
 
 JOIN_GAP_S = 5.0
-"""Two archives are consecutive when the second starts within this many seconds of the
-first one's end (hourly files of one recorder meet to a sample period)."""
+"""The least join gap: an archive that starts within this many seconds after the end of
+an archive whose fault lasts to its end, with that fault from its start, carries the
+fault on (a recorder that takes a few seconds to start its next file)."""
+
+JOIN_GAP_PERIODS = 2.5
+"""The join gap in sample periods of the earlier archive, where that is longer than
+:data:`JOIN_GAP_S`: a minute-rate logger that lost one sample at a rotation starts its
+next file two periods after the last one's end, which this joins; more missing is a gap,
+as ``findings.json``'s ``gaps`` count one (steps longer than 2.5 sample periods)."""
+
+JOIN_TOLERANCE_S = 0.001
+"""The least tolerance before an archive's end (one sample period of it, where longer):
+how far a following archive may start before the earlier one's end and still follow it
+rather than overlap it (a duration counted to the end of the last sample period, or a
+recorder that writes the rotation's sample in both files)."""
 
 
 def episodes(records: Iterable[Record]) -> list[dict[str, Any]]:
-    """Every fault of the archives, oldest first, joined across consecutive archives
-    where it goes on: a fault that lasts to the end of one archive and is present from
-    the first sample of the next (``from_start``: with ``--model``, which searches a
-    file from its start) on the same sensor is one episode, with the first archive's
-    onset and the last one's end (None while it lasts to the end of the latest).
-    Archives without absolute times are never joined.
+    """Every fault of the archives, oldest first, joined across archives where it goes
+    on; each episode has the first onset and the last end (None while it lasts to the
+    end of its latest archive). Archives without absolute times are never joined.
 
-    What ends an episode on a channel, whose last archive ends at time E: an archive
-    that starts within :data:`JOIN_GAP_S` of E (one that follows it: the only kind
-    that can carry it on) and analyzed that channel without that fault from its start,
-    or no archive starting within that gap at all. An archive that starts earlier
-    (more than the gap before E: it overlaps the earlier archive's span, as a second
-    recorder's file of the same minute) or that did not analyze that channel (another
-    source's) neither carries an episode on nor ends it: only an archive in the gap
-    between the two breaks the chain. Of two archives that both follow E, the one that
-    starts first (then by name) decides.
+    Two faults on the same sensor in two archives (A starting no later than B, A ending
+    at E) are one episode when
+
+    * B follows A and carries A's fault on: A's fault lasts to E, B has it from its
+      first sample searched (``from_start``: with ``--model``, which searches a file
+      from its start), and B starts no earlier than E less one sample period of A (at
+      least :data:`JOIN_TOLERANCE_S`) and no later than the join gap after E (the
+      longer of :data:`JOIN_GAP_S` and :data:`JOIN_GAP_PERIODS` sample periods of A); or
+    * their times overlap: B's fault begins before A's ends (within that tolerance) and
+      after A's began, as a second file of the same time that sees the same fault (a
+      duplicate, a second recorder's): it joins the episode rather than split it.
+
+    So an episode goes on where ANY archive that follows its last one carries it, and
+    ends where none does (followers without the fault, or none within the gap). An
+    archive that has no fault on that sensor never splits an episode, wherever it lies:
+    one that overlaps A or B (a file of the same minute, another source's) or one that
+    follows A beside an archive that carries the fault. Nothing depends on the archives'
+    names or the order they come in. A healthy archive between two faulty ones ends the
+    episode only by taking the time between them: the later one no longer starts within
+    the gap.
 
     Each episode: ``channel``, ``types`` (as classified in each archive, in order, each
     once), ``size`` (the fault's size in its first archive, as the report says it:
     ``gain ×0 (dead sensor)``; None in the records of older watchers), ``onset``,
     ``from_start`` (the fault was there from its first archive's first sample
     searched, so its onset is "at or before" ``onset``), ``end``, ``archives``."""
-    timed: list[tuple[int, Record]] = []
+    timed: list[_Timed] = []
     out: list[dict[str, Any]] = []
     for rec in records:
         start = _epoch_ns(rec.start)
         if start is None or rec.duration_s is None:
             out.extend(_episode(f, rec.name) for f in rec.fault_list)
-        else:
-            timed.append((start, rec))
-    timed.sort(key=lambda item: (item[0], item[1].name))
-    gap = JOIN_GAP_S * NS_PER_S
-    going: dict[str, tuple[dict[str, Any], int]] = {}  # channel -> (episode, its end in ns)
-    for start, rec in timed:
-        end = start + int(round(float(rec.duration_s or 0.0) * NS_PER_S))
-        # (sorted by start: an episode no archive followed within the gap is over)
-        going = {ch: (ep, at) for ch, (ep, at) in going.items() if start <= at + gap}
-        follows = {ch for ch, (_, at) in going.items() if start >= at - gap}
-        carried: set[str] = set()  # the channels whose episode goes on into rec
-        mine: set[str] = set()  # those whose open episode is now rec's
-        for fault in rec.fault_list:
-            channel = str(fault["channel"])
-            if channel in follows and channel not in carried and fault.get("from_start"):
-                ep = going[channel][0]
-                carried.add(channel)
-                ep["archives"].append(rec.name)
-                if fault["type"] not in ep["types"]:
-                    ep["types"].append(fault["type"])
-                ep["end"] = fault.get("end")
-            else:
-                ep = _episode(fault, rec.name)
-                out.append(ep)
-            if fault.get("end") is None:
-                # (of an overlapping archive's and an earlier one's, the later-ending)
-                if channel in carried or channel not in going or going[channel][1] < end:
-                    going[channel] = (ep, end)
-                    mine.add(channel)
-            elif channel in carried and channel not in mine:
-                del going[channel]  # (carried on into rec, and ended in it)
-        analyzed = _analyzed(rec)
-        for channel in follows - carried - mine:
-            if analyzed is None or channel in analyzed:
-                going.pop(channel, None)  # followed by an archive of that channel without it
+        elif rec.fault_list:
+            timed.append(_Timed.of(rec, start))
+    timed.sort(key=lambda t: (t.start, t.rec.name))
+    parent = {(i, k): (i, k) for i, t in enumerate(timed) for k in range(len(t.rec.fault_list))}
+
+    def root(node: tuple[int, int]) -> tuple[int, int]:
+        while parent[node] != node:
+            parent[node] = parent[parent[node]]
+            node = parent[node]
+        return node
+
+    starts = [t.start for t in timed]
+    for i, a in enumerate(timed):
+        # (the archives that start before the join gap after a's end: sorted by start)
+        for j in range(i + 1, bisect.bisect_right(starts, a.end + a.gap)):
+            for k, fa in enumerate(a.rec.fault_list):
+                for m, fb in enumerate(timed[j].rec.fault_list):
+                    if fa["channel"] == fb["channel"] and _joined(a, k, timed[j], m):
+                        parent[root((i, k))] = root((j, m))
+    groups: dict[tuple[int, int], list[tuple[int, int]]] = {}
+    for node in parent:  # (in the order of the archives' starts)
+        groups.setdefault(root(node), []).append(node)
+    out.extend(_joined_episode([(timed[i], k) for i, k in nodes]) for nodes in groups.values())
     out.sort(key=lambda ep: (_epoch_ns(ep["onset"]) or 0, ep["channel"]))
     return out
 
 
-def _analyzed(rec: Record) -> set[str] | None:
-    """The channels ``rec``'s analysis searched (None: every one, for the records of
-    older watchers, which did not keep them)."""
-    if rec.verdict is Verdict.ERROR:
-        return set()
-    return None if rec.channels is None else set(rec.channels)
+@dataclass(frozen=True, slots=True)
+class _Timed:
+    """An archive with absolute times, as :func:`episodes` joins it (times in ns)."""
+
+    rec: Record
+    start: int
+    end: int
+    tolerance: int
+    """One sample period, at least :data:`JOIN_TOLERANCE_S`."""
+    gap: int
+    """The join gap after its end."""
+
+    @classmethod
+    def of(cls, rec: Record, start: int) -> _Timed:
+        period = 1.0 / rec.rate_hz if rec.rate_hz else 0.0  # (0: older watchers' records)
+        return cls(
+            rec,
+            start,
+            start + int(round(float(rec.duration_s or 0.0) * NS_PER_S)),
+            int(max(period, JOIN_TOLERANCE_S) * NS_PER_S),
+            int(max(JOIN_GAP_PERIODS * period, JOIN_GAP_S) * NS_PER_S),
+        )
+
+    def span(self, k: int) -> tuple[int, int]:
+        """Its fault ``k``'s onset and end (its archive's start, end where not said)."""
+        fault = self.rec.fault_list[k]
+        onset = _epoch_ns(fault.get("onset"))
+        end = _epoch_ns(fault.get("end"))
+        return (self.start if onset is None else onset, self.end if end is None else end)
+
+
+def _joined(a: _Timed, k: int, b: _Timed, m: int) -> bool:
+    """Whether fault ``k`` of ``a`` and fault ``m`` of ``b`` (same sensor; ``b`` starts
+    no earlier than ``a``) are one episode (:func:`episodes`)."""
+    fa, fb = a.rec.fault_list[k], b.rec.fault_list[m]
+    if (
+        fa.get("end") is None
+        and fb.get("from_start")
+        and a.end - a.tolerance <= b.start <= a.end + a.gap
+    ):
+        return True  # (b follows a and carries the fault on)
+    onset_a, end_a = a.span(k)
+    onset_b, end_b = b.span(m)
+    return onset_b <= end_a + a.tolerance and onset_a <= end_b + b.tolerance  # (overlap)
+
+
+def _joined_episode(members: list[tuple[_Timed, int]]) -> dict[str, Any]:
+    """One episode of the faults ``members`` (each an archive and its fault's index),
+    in the order of their archives' starts: the earliest onset's fault gives its onset,
+    size and ``from_start``; the latest ending one its end."""
+    first_t, first_k = min(members, key=lambda mk: mk[0].span(mk[1])[0])
+    ep = _episode(first_t.rec.fault_list[first_k], first_t.rec.name)
+    ep["archives"], ep["types"] = [], []
+    for t, k in members:
+        if t.rec.name not in ep["archives"]:
+            ep["archives"].append(t.rec.name)
+        if t.rec.fault_list[k]["type"] not in ep["types"]:
+            ep["types"].append(t.rec.fault_list[k]["type"])
+    last_t, last_k = max(
+        members,
+        key=lambda mk: (mk[0].span(mk[1])[1], mk[0].rec.fault_list[mk[1]].get("end") is None),
+    )
+    ep["end"] = last_t.rec.fault_list[last_k].get("end")
+    return ep
 
 
 def _episode(fault: dict[str, Any], archive: str) -> dict[str, Any]:

@@ -387,44 +387,30 @@ def _recorded_once(reports: Path) -> Ledger:
     return ledger
 
 
-@pytest.mark.parametrize("killed", [True, False])
-def test_a_record_kept_aside_keeps_its_folder_whenever_the_watcher_is_killed(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, killed: bool
-) -> None:
+def test_a_record_kept_aside_keeps_its_folder(tmp_path: Path) -> None:
     """New content under a recorded name: the earlier record is kept aside under a new
     name (``a-1.csv``) and its report folder stays where it was announced (``a.csv/``),
-    so keeping it aside is one write of the state: a watcher killed at it leaves the
-    record under its old name or its new one, its folder found either way, and the new
-    content's report does not replace that folder. (Before, the folder was renamed too,
-    and a kill between the rename and the state's write had to be repaired by the next
-    start.)"""
+    so keeping it aside is one write of the state (a watcher killed at it leaves the
+    record under its old name or its new one, its folder where it was), and the new
+    content's report goes to a folder of its own (before, the folder was renamed to
+    ``a-1.csv/`` and the new report took ``a.csv/``, which the earlier lines had
+    announced)."""
     reports = tmp_path / "reports"
     ledger = _recorded_once(reports)
-    if killed:
-
-        def save(self: Ledger) -> None:
-            raise _Killed
-
-        monkeypatch.setattr(Ledger, "save_state", save)
-        with pytest.raises(_Killed):
-            ledger.keep_aside("a.csv")
-        monkeypatch.undo()
-    else:
-        assert ledger.keep_aside("a.csv") == "a-1.csv"
+    assert ledger.keep_aside("a.csv") == "a-1.csv"
     again = Ledger.load(reports)
     assert again.tidy() == []
     (rec,) = again.records.values()
     assert rec.report == "a.csv/report.html" and (reports / rec.report).read_text() == "first"
-    assert rec.dropped_as == (None if killed else "a.csv")
+    assert rec.dropped_as == "a.csv"
     scratch = reports / ".tmp-new"
     scratch.mkdir()
     (scratch / "report.html").write_text("second")
-    if not killed:
-        final = publish(
-            scratch, reports, "a.csv", again.new_folder("a.csv"), again.folders_except("a.csv")
-        )
-        assert final.name == "a-1.csv" and (final / "report.html").read_text() == "second"
-        assert (reports / rec.report).read_text() == "first"
+    final = publish(
+        scratch, reports, "a.csv", again.new_folder("a.csv"), again.folders_except("a.csv")
+    )
+    assert final.name == "a-1.csv" and (final / "report.html").read_text() == "second"
+    assert (reports / rec.report).read_text() == "first"
 
 
 def test_the_next_start_says_what_it_removed_of_a_killed_watcher(

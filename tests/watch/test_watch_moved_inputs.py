@@ -14,8 +14,9 @@ from test_watch_run import (
     write,
 )
 
-from analyzer.watch import WatchSettings, note_moves, watch
-from analyzer.watch_index import Record, Verdict
+from analyzer.watch import WatchSettings, _end_moves, note_moves, watch
+from analyzer.watch_inbox import signature
+from analyzer.watch_index import Ledger, Record, Verdict
 
 
 def test_findings_json_says_where_a_moved_input_is_now(tmp_path: Path) -> None:
@@ -48,4 +49,39 @@ def test_a_member_of_a_folder_moved_whole_is_under_the_folders_new_place(tmp_pat
     note_moves(reports, rec, [inbox / "day"], [str(tmp_path / "done" / "day-1")])
     inputs = json.loads((reports / "day" / "findings.json").read_text())["inputs"]
     assert inputs[0]["moved_to"] == str(tmp_path / "done" / "day-1" / "h0.csv")
+    assert "moved_to" not in inputs[1]
+
+
+def test_a_killed_move_finished_in_part_at_the_next_start_says_so_in_findings_json(
+    tmp_path: Path,
+) -> None:
+    """A watcher killed in the move of a group of two files: one renamed into --done,
+    the other gone from INBOX since. The next start finishes the move as far as it can
+    ("gone"): the moved file's ``moved_to`` is written (before: only where every file of
+    the move was moved, so a move ended in part left findings.json without it)."""
+    inbox, reports, done = tmp_path / "inbox", tmp_path / "reports", tmp_path / "done"
+    for folder in (inbox, reports / "grp", done):
+        folder.mkdir(parents=True)
+    (done / "a.csv").write_text("t,s1\n0,1\n")
+    sig = [list(entry) for entry in signature([done / "a.csv"], done)]
+    doc = {"inputs": [{"path": str(inbox / n), "errors": []} for n in ("a.csv", "b.csv")]}
+    (reports / "grp" / "findings.json").write_text(json.dumps(doc))
+    ledger = Ledger(reports)
+    ledger.records["grp"] = Record(
+        name="grp",
+        sha256="1" * 64,
+        verdict=Verdict.NO_FAULT,
+        report="grp/report.html",
+        inputs=["a.csv", "b.csv"],
+        processed="2026-01-01T00:00:00Z",
+        analysis_s=1.0,
+        signature=[*sig, ["b.csv", 10, 0]],
+        moving=[[str(inbox / n), "", str(done / n)] for n in ("a.csv", "b.csv")],
+    )
+    ledger.save_state()
+    ledger = Ledger.load(reports)
+    _end_moves(ledger, inbox)
+    assert ledger.records["grp"].moved_to == [str(done / "a.csv")]
+    inputs = json.loads((reports / "grp" / "findings.json").read_text())["inputs"]
+    assert inputs[0].get("moved_to") == str(done / "a.csv")
     assert "moved_to" not in inputs[1]
