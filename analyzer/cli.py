@@ -102,6 +102,16 @@ def _positive_float(text: str) -> float:
     return v
 
 
+def _non_negative_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (v >= 0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text!r}")
+    return v
+
+
 def _positive_int(text: str) -> int:
     try:
         v = int(text)
@@ -416,6 +426,17 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SECONDS",
         help="analyze an archive that stays stable but still looks unfinished (a truncated "
         "MCAP, an empty file) after this long anyway, with its error record (default 600)",
+    )
+    p.add_argument(
+        "--give-up-after",
+        type=_non_negative_float,
+        default=3600.0,
+        metavar="SECONDS",
+        help="an archive too short for the training window stays in INBOX (a file still "
+        "being written grows); one unchanged this long since the watcher first saw it is "
+        "given up and moved to --failed, once these options have analyzed an archive "
+        "(default 3600: one hour; 0: never). A logger that pauses longer than this between "
+        "appends has its file cut in two: set it above the logger's longest pause",
     )
     p.add_argument("--done", type=_path_text, metavar="DIR", help="move each analyzed archive here")
     p.add_argument(

@@ -44,13 +44,15 @@ Exactly once
     the next start. A report folder deleted by hand makes its archive be analyzed again
     on the next start. An archive that arrives under the name of a recorded one with
     other content (the earlier file replaced, or moved away by ``--done``) does not
-    replace the earlier result: that record, its report folder and its fault episodes
-    are kept under a free name (that of the file ``--done`` moved it to when it
-    differs, else ``name-1.ext``, ``name-2.ext``...), with ``dropped_as`` the name it
-    came under. An archive that grew after its analysis (the earlier content is the
-    file's beginning; a folder or group whose earlier files are all there, none shorter
-    or older, each that changed beginning with its earlier content) is the same
-    archive: its record is replaced (:meth:`_Runner._grew`). An
+    replace the earlier result: that record and its fault episodes are kept under a
+    free name (that of the file ``--done`` moved it to when it differs, else
+    ``name-1.ext``, ``name-2.ext``...), with ``dropped_as`` the name it came under, and
+    its report folder stays where it was announced; the new content's report goes to the
+    next free folder (``name-1.ext``...), said on its line. An archive that grew after
+    its analysis (the earlier content is the file's beginning; a folder or group whose
+    earlier files are all there, none shorter or older, each that changed beginning
+    with its earlier content) is the same archive: its record is replaced
+    (:meth:`_Runner._grew`). An
     archive that still looks unfinished but is recorded already with this content is
     not waited for.
 
@@ -254,6 +256,19 @@ KILL_GRACE_S = 2.0
 """When abandoning, how long an analysis process gets after SIGTERM before SIGKILL."""
 
 
+GIVE_UP_AFTER_S = 3600.0
+"""Default of ``--give-up-after``: a file too short for the training window, unchanged
+this long, is no longer taken for one still being written (a short but complete archive
+stayed in INBOX for good, and each ``--once`` exited 2). An hour: loggers that append a
+table every 15 min or hourly are common, and one that pauses longer than this between
+appends has its file cut in two (0: never given up)."""
+
+
+def _now() -> float:
+    """Seconds since the epoch (the give-up's clock: tests set it)."""
+    return time.time()
+
+
 @dataclass(frozen=True, slots=True)
 class WatchSettings:
     """The watcher's own options (the analysis options are a :class:`RunOptions`)."""
@@ -268,6 +283,10 @@ class WatchSettings:
     once: bool = False
     jobs: int = 1
     incomplete_timeout: float = INCOMPLETE_TIMEOUT_S
+    give_up_after: float = GIVE_UP_AFTER_S
+    """``--give-up-after``: seconds an archive too short for the training window (left in
+    INBOX: a file still being written grows) stays unchanged before it is given up, an
+    error of its own, and moved to ``--failed`` (:meth:`_Runner._gives_up`)."""
 
     @classmethod
     def from_args(cls, args: argparse.Namespace) -> WatchSettings:
@@ -295,6 +314,7 @@ class WatchSettings:
             once=bool(args.once),
             jobs=args.jobs or os.cpu_count() or 1,
             incomplete_timeout=args.wait_unfinished,
+            give_up_after=args.give_up_after,
         )
 
 
@@ -659,6 +679,11 @@ def _duration(seconds: float) -> str:
     if minutes < 90:
         return f"{minutes} min"
     return f"{minutes // 60} h {minutes % 60:02d} min"
+
+
+def _size(signature: Sequence[Sequence[Any]]) -> int:
+    """The bytes of the files of a signature (``(path, size, mtime_ns)`` each)."""
+    return sum(int(entry[1]) for entry in signature)
 
 
 def _renamed_words(archive: ReadyArchive, moved: Sequence[str]) -> str:
@@ -1127,6 +1152,36 @@ def _moving_lines(rec: Record) -> list[_Line]:
     return lines
 
 
+def note_moves(
+    reports: Path, rec: Record, sources: Sequence[Path | str], targets: Sequence[str]
+) -> None:
+    """Write into ``rec``'s ``findings.json`` where each of its inputs is now, after a
+    move by ``--done``/``--failed``: ``inputs[].moved_to`` beside ``path`` (where it was
+    read, in INBOX, which no longer holds it); a member of a folder moved whole, under
+    the folder's new place. Written atomically, as every file of REPORTS. A report that
+    cannot be read or written is said in one line, the move kept (it is in the state
+    file and the index)."""
+    if rec.verdict is Verdict.ERROR or len(sources) != len(targets):
+        return
+    path = reports / rec.folder / "findings.json"
+    pairs = [(os.path.abspath(s), t) for s, t in zip(sources, targets, strict=True)]
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        for item in doc["inputs"]:
+            read = os.path.abspath(str(item["path"]))
+            for source, target in pairs:
+                if read == source or read.startswith(source + os.sep):
+                    item["moved_to"] = target + read[len(source) :]
+                    break
+        write_atomic(path, json.dumps(doc, indent=2, allow_nan=False) + "\n")
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        log.warning(
+            "%s: its findings.json does not say where its inputs were moved (%s)",
+            rec.name,
+            one_line(getattr(err, "strerror", None) or err),
+        )
+
+
 def _end_moves(ledger: Ledger, inbox: Path) -> None:
     """At the start: the moves of a watcher killed outright during them, finished or
     undone (:func:`_end_move`), each said in a line. A move that cannot be ended yet
@@ -1180,6 +1235,10 @@ def _end_moves(ledger: Ledger, inbox: Path) -> None:
         rec.moving = []
         if moved:
             rec.moved_to = [*rec.moved_to, *moved]
+            done = [line for line in lines if str(line[2]) in set(moved)]  # (maybe in part)
+            note_moves(
+                ledger.reports, rec, [line[0] for line in done], [str(line[2]) for line in done]
+            )
         said = {
             "undone": "undone (its copies there removed); it is moved again",
             "changed": "undone (its copies there removed): part of it changed since it "
@@ -1689,6 +1748,10 @@ class _Runner:
         self.moves: dict[str, tuple[ReadyArchive, Record]] = {}
         """Archives recorded whose move by ``--done``/``--failed`` waits for the end of
         their hold (:attr:`~analyzer.watch_inbox.ReadyArchive.hold_until`)."""
+        self.short: dict[str, tuple[ReadyArchive, float]] = {}
+        """The archives too short for the training window, left in INBOX, and the time
+        (:func:`_now`) at which they are given up if unchanged and these options have
+        analyzed an archive by then (:meth:`_gives_up`)."""
         self.unsaved = False
         """A move not written to the state file (REPORTS full): written at the latest
         when the watcher stops (:meth:`save_unsaved`)."""
@@ -1741,6 +1804,7 @@ class _Runner:
         if hashing is not None and hashing[0].signature != archive.signature:
             self.hasher.drop(hashing[2])  # (of the old content)
         self.moves.pop(archive.name, None)  # (it changed: moved after its next analysis)
+        self.short.pop(archive.name, None)  # (it changed: not given up)
         if archive.unreadable is not None:  # (said by the tracker; counted, not analyzed)
             self.unreadable.add(archive.name)
             return
@@ -1805,6 +1869,7 @@ class _Runner:
         self._reap(wait)
         self._copied()
         self._held_moves()
+        self._short_ends()
         self._forget_gone()
         while start and len(self.running) < self.slots:
             archive = self._next()
@@ -2051,10 +2116,25 @@ class _Runner:
         analyzed again on the next start, said so)."""
         if rec.verdict is not Verdict.ERROR or rec.error_kind is ErrorKind.INTERNAL:
             return None
-        if rec.error_reason == TOO_SHORT:
-            return (
+        if rec.error_reason == TOO_SHORT and rec.error_kind is ErrorKind.OPTIONS:
+            why = (
                 "too short for the training window so far (a file still being written?): "
-                "analyzed again when it changes"
+                "analyzed again when it changes; "
+            )
+            after = self.settings.give_up_after
+            if not after:
+                return why + "never given up (--give-up-after 0)"
+            at = (rec.short_since or _now()) + after
+            then = " and moved to --failed" if self.settings.failed is not None else ""
+            when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(at))
+            if not self.fitted:
+                return why + (
+                    "no archive has fit these options yet: check --train (given up only "
+                    f"once one has, and it is unchanged for --give-up-after {after:g})"
+                )
+            return (
+                why
+                + f"given up{then} at {when} if unchanged until then (--give-up-after {after:g})"
             )
         if rec.error_kind is ErrorKind.OPTIONS:
             return (
@@ -2069,6 +2149,73 @@ class _Runner:
                 f"{rec.misfit_option or 'the options'} (moved to --failed once one has)"
             )
         return None
+
+    def _gives_up(self, archive: ReadyArchive, rec: Record) -> bool:
+        """Whether ``archive``, recorded too short for the training window (left in
+        INBOX: a file still being written grows), is given up now: unchanged for
+        ``--give-up-after`` seconds (0: never) since the watcher first saw it at its
+        size (:attr:`~analyzer.watch_index.Record.short_since`, in the state: a restart
+        does not start the count again; not the file's mtime, which a share whose clock
+        is behind or a copy that kept it made look old at first sight), and these
+        options have analyzed at least one archive (:attr:`fitted`: a ``--train`` that
+        fits no archive is the options' error, and gave up the whole INBOX). Its record
+        becomes an error of the archive's own (``error_kind`` ``input``, ``error_reason``
+        still ``too short``), said in a line and in its ``error.txt``, and it is moved
+        to ``--failed`` as such (left in INBOX, said so, without one). Until then it
+        waits in :attr:`short`, looked at again once its time is up
+        (:meth:`_short_ends`); a change hands it on again (:meth:`offer`)."""
+        after = self.settings.give_up_after
+        if rec.error_reason != TOO_SHORT or rec.error_kind is not ErrorKind.OPTIONS or not after:
+            return False
+        if rec.short_since is None:  # (a record of an older watcher: seen now)
+            rec.short_since = _now()
+            try:
+                self.ledger.record(rec)
+            except OSError:
+                self.unsaved = True
+        unchanged = _now() - rec.short_since
+        if unchanged < after or not self.fitted:
+            self.short[archive.name] = (archive, rec.short_since + after)
+            return False
+        self.short.pop(archive.name, None)
+        if not self._as_found(archive):  # (changed since: handed on again once settled)
+            return False
+        words = f"unchanged for {_duration(unchanged)}"
+        rec.error = f"{rec.error} (given up: {words}, not a file still being written)"
+        rec.error_kind = ErrorKind.INPUT
+        rec.left_in_inbox = None
+        error_txt = self.settings.reports / rec.folder / "error.txt"
+        with contextlib.suppress(OSError):  # (said in the archive's own error.txt too)
+            text = error_txt.read_text(encoding="utf-8").rstrip("\n")
+            write_atomic(
+                error_txt, f"{text}\n\nGiven up: {words}, not a file still being written.\n"
+            )
+        try:
+            self.ledger.record(rec)
+        except OSError:  # (REPORTS full: written with the next record, or at the stop)
+            self.unsaved = True
+        log.warning(
+            "%s: given up: too short for the training window and %s (--give-up-after %g)%s",
+            archive.name,
+            words,
+            self.settings.give_up_after,
+            "" if self.settings.failed is not None else "; no --failed folder to move it to",
+        )
+        return True
+
+    def _short_ends(self) -> None:
+        """The archives too short for the training window whose time to be given up
+        has come (:meth:`_gives_up`), given up and moved, where the record is still
+        that one."""
+        now = _now()
+        for name, (archive, due) in list(self.short.items()):
+            if now < due or not self.fitted:
+                continue  # (none fit these options yet: a wrong --train, not the archive)
+            del self.short[name]
+            rec = self.ledger.get(name)
+            if rec is not None and name not in self.running and name not in self.queue:
+                self._move(archive, rec)
+                self._left_in_inbox(name, said=True)
 
     def _left_in_inbox(self, name: str, said: bool) -> None:
         """Where the archive ``name``, just recorded or found recorded, stays in INBOX in
@@ -2214,7 +2361,11 @@ class _Runner:
             return
         try:
             rec = self._result(job, elapsed)
+            kept: str | None = None
             earlier = self.ledger.get(name)
+            if rec.error_reason == TOO_SHORT:  # (--give-up-after counts from first sight)
+                same = earlier is not None and _size(earlier.signature) == _size(rec.signature)
+                rec.short_since = (earlier.short_since if same and earlier else None) or _now()
             if (
                 earlier is not None
                 and earlier.sha256 != rec.sha256
@@ -2228,16 +2379,28 @@ class _Runner:
                     )
                 else:
                     kept = self.ledger.keep_aside(name)
-                    log.info("%s: new content; the earlier one's result is kept as %s", name, kept)
                     self._counted_as(name, kept)
             mine = self.ledger.get(name)  # (its record, unless kept aside just now)
+            if mine is None and kept is not None:  # (the earlier folder stays as announced)
+                previous: str | None = self.ledger.new_folder(name)
+            else:
+                previous = mine.folder if mine else None
             folder = publish(
                 job.scratch,
                 self.settings.reports,
                 name,
-                mine.folder if mine else None,
+                previous,
                 self.ledger.folders_except(name),
             )
+            if kept is not None:
+                log.info(
+                    "%s: new content; its report goes to %s (the earlier content's result "
+                    "stays in %s, listed as %s in the index)",
+                    name,
+                    folder,
+                    self.settings.reports / self.ledger.records[kept].folder,
+                    kept,
+                )
             rec.report = f"{folder.name}/{rec.report.partition('/')[2]}"
             if rec.corrected is not None:
                 rec.corrected = f"{folder.name}/{CORRECTED}"
@@ -2340,6 +2503,8 @@ class _Runner:
                     for f in faults
                 ]
                 rec.summary = self._fault_words(job) if faults else None
+                rate = doc.get("rate_hz")
+                rec.rate_hz = float(rate) if isinstance(rate, int | float) and rate > 0 else None
                 rec.start = doc.get("start")
                 rec.duration_s = doc.get("duration_s")
                 rec.screen = doc.get("screen")
@@ -2451,6 +2616,8 @@ class _Runner:
         made here, they held up every other archive and the stop signal (a 1.5 GB archive
         to tmpfs: 1.2-6.2 s)."""
         folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
+        if rec.error_reason == TOO_SHORT and self._gives_up(archive, rec):
+            folder = self.settings.failed
         if rec.error_kind in (ErrorKind.OPTIONS, ErrorKind.INTERNAL) or folder is None:
             return
         if rec.error_reason == MISMATCH and self._stays_why(rec) is not None:  # (none fit)
@@ -2586,6 +2753,7 @@ class _Runner:
             rec.moved_to = [*rec.moved_to, *moved]
             rec.left_in_inbox = None
             log.info("%s: moved to %s%s", archive.name, folder, _renamed_words(archive, moved))
+            note_moves(self.settings.reports, rec, archive.paths, moved)
             try:
                 self.ledger.record(rec)
             except OSError as err:  # REPORTS full: the watcher goes on (it died here)

@@ -6,8 +6,8 @@
 * ``REPORTS/.watch-state.json``: one record per archive name: the sha256 of its content,
   the (path, size, mtime) signature it had, and the result. Written atomically after
   every archive (before its files are moved); this is what makes the watcher process
-  each content once across restarts. An earlier content of a name keeps its record and
-  report folder under another name (:meth:`Ledger.keep_aside`).
+  each content once across restarts. An earlier content of a name keeps its record under
+  another name, and its report folder where it was (:meth:`Ledger.keep_aside`).
 * ``REPORTS/index.json`` and ``REPORTS/index.html``: every archive with its verdict,
   faulty sensors and a link to its report (or error), newest first. Views of the state,
   rewritten (atomically) after an archive, or, while archives end in quick succession,
@@ -21,6 +21,7 @@
 
 from __future__ import annotations
 
+import bisect
 import fcntl
 import hashlib
 import json
@@ -152,9 +153,10 @@ class Record:
     a one-channel file or ``--channels`` matching none of its channels, with
     :attr:`misfit_option` the option to check) or ``too short`` (an ``options`` error: too
     short for the training window, as a file still being written; left in INBOX and
-    analyzed again when it grows). A field, not a kind of its own: a watcher of
-    analyzer 49, which knows only the kinds, still reads the state (it leaves out fields
-    it does not know)."""
+    analyzed again when it grows; unchanged for ``--give-up-after`` seconds, given up:
+    its ``error_kind`` becomes ``input`` and it goes to ``--failed``). A field, not a
+    kind of its own: a watcher of analyzer 49, which knows only the kinds, still reads
+    the state (it leaves out fields it does not know)."""
     misfit_option: str | None = None
     """Of a ``mismatch``: the option the archive does not fit (``--channels``,
     ``--model``, ``--train``, ``--config``)."""
@@ -166,6 +168,14 @@ class Record:
     """Of a ``fault``: its faults as ``analyzer run``'s last line says them (``2 sensor
     faults found on 2 sensors: s1 additive from 20.000 s, ...``), without the report's
     path; None for other verdicts and in the records of older watchers."""
+    rate_hz: float | None = None
+    """Its sample rate (``findings.json``'s ``rate_hz``): the sample period that
+    :func:`episodes` allows between one archive's end and the next one's start; None
+    for errors and in the records of older watchers."""
+    short_since: float | None = None
+    """Of a ``too short`` archive left in INBOX: when the watcher first saw it at its
+    size (seconds since the epoch): ``--give-up-after`` counts from then, not from the
+    file's mtime (a share whose clock is behind, a copy that kept its mtime)."""
     moving: list[list[str]] = field(default_factory=list)
     """A move by ``--done``/``--failed`` under way that could be stopped half-done
     (copies to another file system, several renames): ``[source, copy, target]``
@@ -352,8 +362,8 @@ def publish(
     folder or the new one, never a half-written one. A folder there that is no report
     of the watcher's (a user's folder, or INBOX's archives, which an INBOX inside
     REPORTS put there: both were deleted), or that is in ``keep`` (the folders of the
-    other records: one kept aside by :meth:`Ledger.keep_aside`, its folder not renamed
-    yet when a watcher was killed), is left alone: the report takes the first free name
+    other records: one kept aside by :meth:`Ledger.keep_aside`, whose folder stays where
+    it was announced), is left alone: the report takes the first free name
     of ``NAME-report``, ``NAME-report-2``... Returns the report's folder."""
     base = report_dirname(name)
     names = [previous] if previous else []
@@ -472,30 +482,34 @@ class Ledger:
     def keep_aside(self, name: str) -> str:
         """Make room for a new archive under ``name`` without losing the record of the
         earlier one (another content that arrived under that name: replaced in INBOX,
-        or moved away by ``--done``/``--failed`` and dropped again): its record and its
-        report folder take a free name (that of the file ``--done`` moved it to when
-        that differs, else ``stem-N.suffixes``), with ``dropped_as`` the name it came
-        under. Nothing published is deleted. Returns the new name."""
-        rec = self.records[name]
+        or moved away by ``--done``/``--failed`` and dropped again): its record takes a
+        free name (that of the file ``--done`` moved it to when that differs, else
+        ``stem-N.suffixes``), with ``dropped_as`` the name it came under; its report
+        folder stays where it is, so that every report path the watcher printed for it
+        still points to it (the new archive's report takes a free folder of its own:
+        :meth:`new_folder`). Before, the folder moved to the new name and the new
+        analysis took the old folder, so the lines and links printed for the earlier
+        one showed other data. Nothing published is moved or deleted. Returns the new
+        name."""
+        rec = self.records.pop(name)
         new = self._free_name(rec)
-        folder = report_dirname(new)
-        _, _, leaf = rec.report.partition("/")
-        # the record under its new name first, its folder still where it is, then the
-        # folder renamed, then the record with it: a watcher killed between two of these
-        # steps leaves a record whose folder is there (the next archive's report does not
-        # take it: :func:`publish`'s ``keep``), or at its new name (:meth:`tidy` finds
-        # it), where a kill between the rename and the state's write lost the record
-        del self.records[name]
-        kept = self.records[new] = replace(rec, name=new, dropped_as=rec.dropped_as or name)
-        if (self.reports / rec.folder).is_dir():
-            self.save_state()
-            os.replace(self.reports / rec.folder, self.reports / folder)
-        kept.report = f"{folder}/{leaf}"
-        if kept.corrected is not None:
-            kept.corrected = f"{folder}/{Path(kept.corrected).name}"
+        self.records[new] = replace(rec, name=new, dropped_as=rec.dropped_as or name)
         self.save_state()
         self._views_stale = True
         return new
+
+    def new_folder(self, name: str) -> str:
+        """A free report folder for a new content of ``name`` whose earlier result keeps
+        its folder (:meth:`keep_aside`): ``stem-N.suffixes`` (as :func:`report_dirname`
+        makes it), the first that no record links to and that is not in REPORTS."""
+        taken = {rec.folder for rec in self.records.values()}
+        stem, dot, suffixes = name.partition(".")
+        n = 1
+        while True:
+            folder = _fitting(report_dirname(f"{stem}-{n}{dot}{suffixes}"))
+            if folder not in taken and not os.path.lexists(self.reports / folder):
+                return folder
+            n += 1
 
     def _free_name(self, rec: Record) -> str:
         def free(candidate: str) -> bool:
@@ -580,6 +594,8 @@ class Ledger:
             doc = rec.as_json()
             del doc["signature"]
             del doc["file_marks"]
+            del doc["rate_hz"]
+            del doc["short_since"]
             doc.pop("moving", None)
             rows.append(doc)
         counts = {str(v): sum(r["verdict"] == v for r in rows) for v in Verdict}
@@ -607,57 +623,151 @@ def index_json(index: dict[str, Any]) -> str:
 
 
 JOIN_GAP_S = 5.0
-"""Two archives are consecutive when the second starts within this many seconds of the
-first one's end (hourly files of one recorder meet to a sample period)."""
+"""The least join gap: an archive that starts within this many seconds after the end of
+an archive whose fault lasts to its end, with that fault from its start, carries the
+fault on (a recorder that takes a few seconds to start its next file)."""
+
+JOIN_GAP_PERIODS = 2.5
+"""The join gap in sample periods of the earlier archive, where that is longer than
+:data:`JOIN_GAP_S`: a minute-rate logger that lost one sample at a rotation starts its
+next file two periods after the last one's end, which this joins; more missing is a gap,
+as ``findings.json``'s ``gaps`` count one (steps longer than 2.5 sample periods)."""
+
+JOIN_TOLERANCE_S = 0.001
+"""The least tolerance before an archive's end (one sample period of it, where longer):
+how far a following archive may start before the earlier one's end and still follow it
+rather than overlap it (a duration counted to the end of the last sample period, or a
+recorder that writes the rotation's sample in both files)."""
 
 
 def episodes(records: Iterable[Record]) -> list[dict[str, Any]]:
-    """Every fault of the archives, oldest first, joined across consecutive archives
-    where it goes on: a fault that lasts to the end of one archive and is present from
-    the first sample of the next (``from_start``: with ``--model``, which searches a
-    file from its start) on the same sensor is one episode, with the first archive's
-    onset and the last one's end (None while it lasts to the end of the latest). An
-    archive in between without that fault ends the episode. Archives without absolute
-    times are never joined. Each episode: ``channel``, ``types`` (as classified in each
-    archive, in order, each once), ``size`` (the fault's size in its first archive, as
-    the report says it: ``gain ×0 (dead sensor)``; None in the records of older
-    watchers), ``onset``, ``end``, ``archives``."""
-    timed: list[tuple[int, Record]] = []
+    """Every fault of the archives, oldest first, joined across archives where it goes
+    on; each episode has the first onset and the last end (None while it lasts to the
+    end of its latest archive). Archives without absolute times are never joined.
+
+    Two faults on the same sensor in two archives (A starting no later than B, A ending
+    at E) are one episode when
+
+    * B follows A and carries A's fault on: A's fault lasts to E, B has it from its
+      first sample searched (``from_start``: with ``--model``, which searches a file
+      from its start), and B starts no earlier than E less one sample period of A (at
+      least :data:`JOIN_TOLERANCE_S`) and no later than the join gap after E (the
+      longer of :data:`JOIN_GAP_S` and :data:`JOIN_GAP_PERIODS` sample periods of A); or
+    * their times overlap: B's fault begins before A's ends (within that tolerance) and
+      after A's began, as a second file of the same time that sees the same fault (a
+      duplicate, a second recorder's): it joins the episode rather than split it.
+
+    So an episode goes on where ANY archive that follows its last one carries it, and
+    ends where none does (followers without the fault, or none within the gap). An
+    archive that has no fault on that sensor never splits an episode, wherever it lies:
+    one that overlaps A or B (a file of the same minute, another source's) or one that
+    follows A beside an archive that carries the fault. Nothing depends on the archives'
+    names or the order they come in. A healthy archive between two faulty ones ends the
+    episode only by taking the time between them: the later one no longer starts within
+    the gap.
+
+    Each episode: ``channel``, ``types`` (as classified in each archive, in order, each
+    once), ``size`` (the fault's size in its first archive, as the report says it:
+    ``gain ×0 (dead sensor)``; None in the records of older watchers), ``onset``,
+    ``from_start`` (the fault was there from its first archive's first sample
+    searched, so its onset is "at or before" ``onset``), ``end``, ``archives``."""
+    timed: list[_Timed] = []
     out: list[dict[str, Any]] = []
     for rec in records:
         start = _epoch_ns(rec.start)
         if start is None or rec.duration_s is None:
             out.extend(_episode(f, rec.name) for f in rec.fault_list)
-        else:
-            timed.append((start, rec))
-    timed.sort(key=lambda item: (item[0], item[1].name))
-    going: dict[str, tuple[dict[str, Any], int]] = {}  # channel -> (episode, its end in ns)
-    for start, rec in timed:
-        end = start + int(round(float(rec.duration_s or 0.0) * NS_PER_S))
-        # an episode goes on only into the archive that follows its last one
-        going = {
-            ch: (ep, at)
-            for ch, (ep, at) in going.items()
-            if abs(start - at) <= JOIN_GAP_S * NS_PER_S
-        }
-        after: dict[str, tuple[dict[str, Any], int]] = {}
-        for fault in rec.fault_list:
-            channel = str(fault["channel"])
-            earlier = going.pop(channel, None) if fault.get("from_start") else None
-            if earlier is None:
-                ep = _episode(fault, rec.name)
-                out.append(ep)
-            else:
-                ep = earlier[0]
-                ep["archives"].append(rec.name)
-                if fault["type"] not in ep["types"]:
-                    ep["types"].append(fault["type"])
-                ep["end"] = fault.get("end")
-            if fault.get("end") is None:
-                after[channel] = (ep, end)
-        going = after
+        elif rec.fault_list:
+            timed.append(_Timed.of(rec, start))
+    timed.sort(key=lambda t: (t.start, t.rec.name))
+    parent = {(i, k): (i, k) for i, t in enumerate(timed) for k in range(len(t.rec.fault_list))}
+
+    def root(node: tuple[int, int]) -> tuple[int, int]:
+        while parent[node] != node:
+            parent[node] = parent[parent[node]]
+            node = parent[node]
+        return node
+
+    starts = [t.start for t in timed]
+    for i, a in enumerate(timed):
+        # (the archives that start before the join gap after a's end: sorted by start)
+        for j in range(i + 1, bisect.bisect_right(starts, a.end + a.gap)):
+            for k, fa in enumerate(a.rec.fault_list):
+                for m, fb in enumerate(timed[j].rec.fault_list):
+                    if fa["channel"] == fb["channel"] and _joined(a, k, timed[j], m):
+                        parent[root((i, k))] = root((j, m))
+    groups: dict[tuple[int, int], list[tuple[int, int]]] = {}
+    for node in parent:  # (in the order of the archives' starts)
+        groups.setdefault(root(node), []).append(node)
+    out.extend(_joined_episode([(timed[i], k) for i, k in nodes]) for nodes in groups.values())
     out.sort(key=lambda ep: (_epoch_ns(ep["onset"]) or 0, ep["channel"]))
     return out
+
+
+@dataclass(frozen=True, slots=True)
+class _Timed:
+    """An archive with absolute times, as :func:`episodes` joins it (times in ns)."""
+
+    rec: Record
+    start: int
+    end: int
+    tolerance: int
+    """One sample period, at least :data:`JOIN_TOLERANCE_S`."""
+    gap: int
+    """The join gap after its end."""
+
+    @classmethod
+    def of(cls, rec: Record, start: int) -> _Timed:
+        period = 1.0 / rec.rate_hz if rec.rate_hz else 0.0  # (0: older watchers' records)
+        return cls(
+            rec,
+            start,
+            start + int(round(float(rec.duration_s or 0.0) * NS_PER_S)),
+            int(max(period, JOIN_TOLERANCE_S) * NS_PER_S),
+            int(max(JOIN_GAP_PERIODS * period, JOIN_GAP_S) * NS_PER_S),
+        )
+
+    def span(self, k: int) -> tuple[int, int]:
+        """Its fault ``k``'s onset and end (its archive's start, end where not said)."""
+        fault = self.rec.fault_list[k]
+        onset = _epoch_ns(fault.get("onset"))
+        end = _epoch_ns(fault.get("end"))
+        return (self.start if onset is None else onset, self.end if end is None else end)
+
+
+def _joined(a: _Timed, k: int, b: _Timed, m: int) -> bool:
+    """Whether fault ``k`` of ``a`` and fault ``m`` of ``b`` (same sensor; ``b`` starts
+    no earlier than ``a``) are one episode (:func:`episodes`)."""
+    fa, fb = a.rec.fault_list[k], b.rec.fault_list[m]
+    if (
+        fa.get("end") is None
+        and fb.get("from_start")
+        and a.end - a.tolerance <= b.start <= a.end + a.gap
+    ):
+        return True  # (b follows a and carries the fault on)
+    onset_a, end_a = a.span(k)
+    onset_b, end_b = b.span(m)
+    return onset_b <= end_a + a.tolerance and onset_a <= end_b + b.tolerance  # (overlap)
+
+
+def _joined_episode(members: list[tuple[_Timed, int]]) -> dict[str, Any]:
+    """One episode of the faults ``members`` (each an archive and its fault's index),
+    in the order of their archives' starts: the earliest onset's fault gives its onset,
+    size and ``from_start``; the latest ending one its end."""
+    first_t, first_k = min(members, key=lambda mk: mk[0].span(mk[1])[0])
+    ep = _episode(first_t.rec.fault_list[first_k], first_t.rec.name)
+    ep["archives"], ep["types"] = [], []
+    for t, k in members:
+        if t.rec.name not in ep["archives"]:
+            ep["archives"].append(t.rec.name)
+        if t.rec.fault_list[k]["type"] not in ep["types"]:
+            ep["types"].append(t.rec.fault_list[k]["type"])
+    last_t, last_k = max(
+        members,
+        key=lambda mk: (mk[0].span(mk[1])[1], mk[0].rec.fault_list[mk[1]].get("end") is None),
+    )
+    ep["end"] = last_t.rec.fault_list[last_k].get("end")
+    return ep
 
 
 def _episode(fault: dict[str, Any], archive: str) -> dict[str, Any]:
@@ -666,6 +776,7 @@ def _episode(fault: dict[str, Any], archive: str) -> dict[str, Any]:
         "types": [fault["type"]],
         "size": fault.get("size"),
         "onset": fault.get("onset"),
+        "from_start": bool(fault.get("from_start")),
         "end": fault.get("end"),
         "archives": [archive],
     }
@@ -736,9 +847,19 @@ def _screening(screen: dict[str, Any]) -> str:
     return f"{by} could not screen it, analyzed by every detector"
 
 
+def _onset_words(ep: dict[str, Any]) -> str:
+    """An episode's onset as ``index.html`` says it: "at or before" it where the fault
+    was there from its first archive's first sample searched (it may have begun before
+    that archive), as ``analyzer run``'s report says it."""
+    if not ep.get("onset"):
+        return "n/a"
+    return f"at or before {ep['onset']}" if ep.get("from_start") else str(ep["onset"])
+
+
 def index_view(index: dict[str, Any]) -> IndexView:
     """The display strings of ``index.html`` from the ``index.json`` document."""
     rows = []
+    superseded = {r["dropped_as"] for r in index["archives"] if r.get("dropped_as")}
     for r in index["archives"]:
         verdict = str(r["verdict"])
         details = r["error"] or "report"
@@ -749,7 +870,12 @@ def index_view(index: dict[str, Any]) -> IndexView:
             more = f" (and {len(damage) - 1} more lines)" if len(damage) > 1 else ""
             details += f"; analyzed past input errors: {damage[0]}{more}"
         if r.get("dropped_as"):
-            details += f"; dropped as {r['dropped_as']} (a later archive took the name)"
+            details += (
+                f"; dropped as {r['dropped_as']}: an earlier content of that name, its "
+                f"report where it was announced (the latest is {r['dropped_as']}'s line)"
+            )
+        elif r["name"] in superseded:
+            details += "; the latest result of this name (earlier ones: dropped as it)"
         if r["moved_to"]:
             details += f"; moved to {', '.join(r['moved_to'])}"
         if r.get("corrected"):
@@ -782,7 +908,7 @@ def index_view(index: dict[str, Any]) -> IndexView:
                 sensor=str(ep["channel"]),
                 types=", ".join(str(t) for t in ep["types"])
                 + (f": {ep['size']}" if ep.get("size") else ""),
-                onset=str(ep["onset"] or "n/a"),
+                onset=_onset_words(ep),
                 end=str(ep["end"] or f"to the end of {names[-1]}"),
                 archives=span,
                 href=hrefs.get(names[0], ""),

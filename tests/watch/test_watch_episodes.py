@@ -5,6 +5,7 @@ not there from the next archive's start) ends it."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 from pathlib import Path
 from typing import Any
@@ -18,7 +19,7 @@ from analyzer.cli import main
 from analyzer.pipeline import load_options
 from analyzer.simulate import inject_fault, simulate_building
 from analyzer.watch import WatchSettings, watch
-from analyzer.watch_index import JOIN_GAP_S, Record, Verdict, episodes
+from analyzer.watch_index import JOIN_GAP_S, Record, Verdict, episodes, index_view
 from analyzer.writers import write_archive
 
 
@@ -61,6 +62,7 @@ def test_a_fault_going_on_across_hourly_archives_is_one_episode():
             "types": ["additive", "drift"],
             "size": None,  # (records of older watchers: no size)
             "onset": "2026-03-02T00:30:00.000Z",
+            "from_start": False,
             "end": "2026-03-02T02:20:00.000Z",
             "archives": ["h0", "h1", "h2"],
         },
@@ -69,6 +71,7 @@ def test_a_fault_going_on_across_hourly_archives_is_one_episode():
             "types": ["additive"],
             "size": None,
             "onset": "2026-03-02T01:10:00.000Z",
+            "from_start": False,
             "end": None,
             "archives": ["h1"],
         },
@@ -99,6 +102,118 @@ def test_what_breaks_an_episode():
     # archives without absolute times: each fault on its own
     eps = episodes([_rec("a", None, [open_s5]), _rec("b", None, [_f("s5", H1, None, True)])])
     assert [e["archives"] for e in eps] == [["a"], ["b"]]
+
+
+def test_an_episode_there_from_its_first_archives_start_says_at_or_before():
+    """A fault there from the first sample searched of its first archive may have begun
+    before it: the episode carries ``from_start`` and the index says "at or before", as
+    ``analyzer run``'s report does (before, a plain onset: the end of the filters'
+    warm-up, a made-up time)."""
+    recs = [
+        _rec("h0", H0, [_f("s5", "2026-03-02T00:00:03.600Z", None, True)]),
+        _rec(
+            "h1", H1, [_f("s5", H1, None, True), _f("s2", "2026-03-02T01:10:00.000Z", None, False)]
+        ),
+    ]
+    eps = episodes(recs)
+    assert [(e["channel"], e["from_start"], e["archives"]) for e in eps] == [
+        ("s5", True, ["h0", "h1"]),
+        ("s2", False, ["h1"]),
+    ]
+    index = {
+        "archives": [],
+        "episodes": eps,
+        "counts": {"fault": 2, "no fault": 0, "error": 0},
+        "analyzer_version": "0",
+        "updated": "",
+    }
+    onsets = [row.onset for row in index_view(index).episodes]
+    assert onsets == ["at or before 2026-03-02T00:00:03.600Z", "2026-03-02T01:10:00.000Z"]
+
+
+T0, T1, T2 = (f"2026-03-02T14:0{m}:00.000Z" for m in (2, 3, 4))
+
+
+def _at(second: float) -> str:
+    """14:02:00 plus ``second`` seconds, as an ISO time."""
+    minutes, rest = divmod(second, 60.0)
+    return f"2026-03-02T14:{2 + int(minutes):02d}:{rest:06.3f}Z"
+
+
+def _rated(rec: Record, rate: float) -> None:
+    """``rec`` with its sample rate (none in the records of older watchers: so that the
+    assertions below, not this, fail on a watcher without it)."""
+    with contextlib.suppress(AttributeError):
+        rec.rate_hz = rate
+
+
+def _s2(*extra: Record) -> list[list[str]]:
+    """The s2 episodes' archives of the audit's INBOX: h14 and h15 (consecutive minutes,
+    an offset on s2 through both, 10 samples a second) with ``extra``, in any order."""
+    recs = [
+        _rec("h14.csv", T0, [_f("s2", _at(3.6), None, True)], 60.0),
+        _rec("h15.csv", T1, [_f("s2", T1, None, True)], 60.0),
+        *extra,
+    ]
+    for rec in recs:
+        _rated(rec, 10.0)
+    out = [e["archives"] for e in episodes(recs) if e["channel"] == "s2"]
+    assert out == [e["archives"] for e in episodes(reversed(recs)) if e["channel"] == "s2"]
+    return out
+
+
+def test_an_archive_overlapping_rather_than_between_does_not_split_an_episode():
+    """The audit's INBOX with transient (the same minute as h14, other data, no s2
+    fault): one episode (before: two, split by transient). An archive with no s2 fault
+    never splits it, wherever it lies: inside h14's last seconds, over the join, or
+    following h14 beside h15 (before: a file inside h14's last 5 s split it, and which
+    of two followers decided went by their names)."""
+    assert _s2() == [["h14.csv", "h15.csv"]]
+    s0_gain = _f("s0", _at(20.0), None, False, kind="gain")
+    assert _s2(_rec("transient.csv", T0, [s0_gain], 60.0)) == [["h14.csv", "h15.csv"]]
+    for name in ("a_other.csv", "z_other.csv"):
+        for start, seconds in ((_at(56.0), 2.0), (_at(54.0), 26.0), (T1, 60.0)):
+            assert _s2(_rec(name, start, [], seconds)) == [["h14.csv", "h15.csv"]], (name, start)
+    # (a healthy archive that takes the time between them ends it: h15 no longer follows)
+    assert _s2(
+        _rec("between.csv", T1, [], 60.0), _rec("h16.csv", T2, [_f("s2", T2, None, True)], 60.0)
+    ) == [["h14.csv", "h15.csv", "h16.csv"]]
+
+
+def test_an_overlapping_archive_with_the_same_fault_joins_its_episode():
+    """A file over h14's and h15's join with the s2 fault from its start (a second
+    recorder's, a duplicate) is part of the one episode (before: three, ``[h14] [x]
+    [h15]``); a duplicate of h14 does not take h14's place (before: ``[a_dup, h15]`` and
+    ``[h14]`` alone, by the names)."""
+    x = _rec("x.csv", _at(30.0), [_f("s2", _at(30.0), None, True)], 60.0)
+    assert _s2(x) == [["h14.csv", "x.csv", "h15.csv"]]
+    dup = _rec("a_dup.csv", T0, [_f("s2", _at(3.6), None, True)], 60.0)
+    assert _s2(dup) == [["a_dup.csv", "h14.csv", "h15.csv"]]
+    # (a fault of the same sensor that ended before the overlapping file's began: its own)
+    h14 = _rec("h14.csv", T0, [_f("s2", _at(3.6), _at(10.0), False)], 60.0)
+    y = _rec("y.csv", _at(30.0), [_f("s2", _at(40.0), _at(45.0), False)], 20.0)
+    assert [e["archives"] for e in episodes([h14, y])] == [["h14.csv"], ["y.csv"]]
+
+
+def test_the_join_gap_and_tolerance_follow_the_sample_period():
+    """A following archive may start up to one sample period before the earlier one's
+    end (at least 1 ms) and up to the longer of 5 s and 2.5 sample periods after it: a
+    minute-rate logger that lost one sample at a rotation is not split (before: a fixed
+    5 s, so one lost sample of a slow logger always split; and 5 s before the end)."""
+
+    def joined(rate: float, first_s: float, second_start_s: float) -> bool:
+        a = _rec("a", T0, [_f("s2", T0, None, True)], first_s)
+        b = _rec("b", _at(second_start_s), [_f("s2", _at(second_start_s), None, True)], 600.0)
+        _rated(a, rate)
+        _rated(b, rate)
+        return len(episodes([a, b])) == 1
+
+    minute = 1.0 / 60.0
+    assert joined(minute, 600.0, 600.0 + 120.0)  # (one sample lost: two periods)
+    assert not joined(minute, 600.0, 600.0 + 151.0)  # (more than 2.5 periods)
+    assert joined(10.0, 60.0, 60.0 + JOIN_GAP_S - 0.1)
+    assert not joined(10.0, 60.0, 60.0 + JOIN_GAP_S + 0.1)
+    assert joined(10.0, 60.0, 59.95)  # (within one period before the end)
 
 
 def test_watcher_joins_a_fault_across_two_consecutive_files(tmp_path: Path):

@@ -387,72 +387,30 @@ def _recorded_once(reports: Path) -> Ledger:
     return ledger
 
 
-def _killed_at_folder_rename(monkeypatch: pytest.MonkeyPatch, after: bool) -> None:
-    """Kill the watcher at the rename of a report folder (``after``: at the first state
-    write after it)."""
-    real_replace, real_save = os.replace, Ledger.save_state
-    renamed: list[str] = []
-
-    def rename(src: Any, dst: Any) -> None:
-        if Path(src).is_dir():
-            if not after:
-                raise _Killed
-            renamed.append(str(dst))
-        real_replace(src, dst)
-
-    def save(self: Ledger) -> None:
-        if renamed:
-            raise _Killed
-        real_save(self)
-
-    monkeypatch.setattr(os, "replace", rename)
-    monkeypatch.setattr(Ledger, "save_state", save)
-
-
-def _restarted_after_kept_aside(
-    reports: Path, monkeypatch: pytest.MonkeyPatch, *, after: bool
-) -> tuple[Ledger, Record]:
-    """A record kept aside by a watcher killed at its folder's rename (``after``: once
-    the folder moved), then the next start's ledger, tidied (nothing forgotten), and
-    its one record."""
+def test_a_record_kept_aside_keeps_its_folder(tmp_path: Path) -> None:
+    """New content under a recorded name: the earlier record is kept aside under a new
+    name (``a-1.csv``) and its report folder stays where it was announced (``a.csv/``),
+    so keeping it aside is one write of the state (a watcher killed at it leaves the
+    record under its old name or its new one, its folder where it was), and the new
+    content's report goes to a folder of its own (before, the folder was renamed to
+    ``a-1.csv/`` and the new report took ``a.csv/``, which the earlier lines had
+    announced)."""
+    reports = tmp_path / "reports"
     ledger = _recorded_once(reports)
-    _killed_at_folder_rename(monkeypatch, after=after)
-    with pytest.raises(_Killed):
-        ledger.keep_aside("a.csv")
-    monkeypatch.undo()
+    assert ledger.keep_aside("a.csv") == "a-1.csv"
     again = Ledger.load(reports)
     assert again.tidy() == []
     (rec,) = again.records.values()
-    return again, rec
-
-
-def test_a_record_kept_aside_survives_a_kill_after_its_folder_moved(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """New content under a recorded name: the earlier record and its folder are kept
-    aside (``a-1.csv``). A watcher killed once the folder was renamed, before the state
-    said so: the next start finds the record with its folder (before, the state still
-    pointed at ``a.csv/``, gone, so the start forgot that result)."""
-    reports = tmp_path / "reports"
-    again, rec = _restarted_after_kept_aside(reports, monkeypatch, after=True)
+    assert rec.report == "a.csv/report.html" and (reports / rec.report).read_text() == "first"
     assert rec.dropped_as == "a.csv"
-    assert (reports / rec.report).read_text() == "first"
-
-
-def test_a_record_kept_aside_survives_a_kill_before_its_folder_moved(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """Killed at the folder's rename (the record under its new name, its folder not
-    moved yet): the next start keeps that record, and the new content's report does
-    not replace its folder."""
-    reports = tmp_path / "reports"
-    again, rec = _restarted_after_kept_aside(reports, monkeypatch, after=False)
     scratch = reports / ".tmp-new"
     scratch.mkdir()
     (scratch / "report.html").write_text("second")
-    final = publish(scratch, reports, "a.csv", None, again.folders_except("a.csv"))
+    final = publish(
+        scratch, reports, "a.csv", again.new_folder("a.csv"), again.folders_except("a.csv")
+    )
+    assert final.name == "a-1.csv" and (final / "report.html").read_text() == "second"
     assert (reports / rec.report).read_text() == "first"
-    assert (final / "report.html").read_text() == "second"
 
 
 def test_the_next_start_says_what_it_removed_of_a_killed_watcher(

@@ -294,7 +294,8 @@ def test_a_new_archive_under_a_recorded_name_keeps_the_earlier_result(
     tmp_path: Path, folders: tuple[Path, Path], start_watcher: Callable[..., Watcher]
 ) -> None:
     """A recorder that always writes ``latest.csv``, moved away by ``--done`` each time:
-    the earlier file's record, report and fault episode stay, under a new name."""
+    the earlier file's record and fault episode stay, under a new name, and its report
+    where it was announced (``latest.csv/``)."""
     inbox, reports = folders
     done = tmp_path / "done"
     settings = WatchSettings(inbox, reports, settle=SETTLE, poll=0.1, done=done, once=True)
@@ -311,10 +312,13 @@ def test_a_new_archive_under_a_recorded_name_keeps_the_earlier_result(
     assert kept["verdict"] == "fault" and kept["sha256"] == first["sha256"]
     assert kept["dropped_as"] == "latest.csv"
     assert kept["moved_to"] == [str(done / "latest.csv")]
-    assert kept["report"] == "latest-1.csv/report.html"
-    findings = (reports / "latest-1.csv" / "findings.json").read_text()
+    # (the earlier result stays where its report was announced; the new one goes to
+    # the next free folder)
+    assert kept["report"] == "latest.csv/report.html"
+    assert new["report"] == "latest-1.csv/report.html"
+    findings = (reports / "latest.csv" / "findings.json").read_text()
     assert '"faults": []' not in findings
-    assert (reports / "latest.csv" / "report.html").is_file()
+    assert '"faults": []' in (reports / "latest-1.csv" / "findings.json").read_text()
 
     index = json.loads((reports / "index.json").read_text())
     assert {a["name"] for a in index["archives"]} == {"latest.csv", "latest-1.csv"}

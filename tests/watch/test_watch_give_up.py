@@ -1,0 +1,154 @@
+"""``--give-up-after``: an archive too short for the training window stays in INBOX (a
+file still being written grows, and is analyzed again); one unchanged (size and mtime)
+that long is given up: an error of its own, moved to ``--failed`` with its reason. Before,
+a short but complete archive stayed in INBOX for good, and each ``--once`` exited 2."""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+import test_watch_run
+from test_watch_run import SETTLE, Watcher, state, wait_until, write
+
+from analyzer.cli import build_parser
+from analyzer.watch import WatchSettings
+
+# the fixtures of test_watch_run (found by pytest among this module's names)
+folders = test_watch_run.folders
+start_watcher = test_watch_run.start_watcher
+_info_logs = test_watch_run._info_logs
+_stop_fork_server = test_watch_run._stop_fork_server
+
+
+def said(caplog: pytest.LogCaptureFixture, text: str) -> list[str]:
+    return [r.getMessage() for r in caplog.records if text in r.getMessage()]
+
+
+def short_csv(tmp_path: Path, path: Path) -> Path:
+    """A CSV of 2 s: too short for the tests' 12 s training window."""
+    write(path, "csv", seconds=2.0, seed=4)
+    return path
+
+
+class Clock:
+    """The give-up's clock (``analyzer.watch._now``), ``ahead`` seconds ahead of ours."""
+
+    def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        self.ahead = 0.0
+        # (raising=False: on a watcher without it, the assertions fail, not this)
+        monkeypatch.setattr("analyzer.watch._now", lambda: time.time() + self.ahead, raising=False)
+
+
+def test_the_give_up_counts_from_first_sight_not_from_the_mtime(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    caplog: pytest.LogCaptureFixture,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A short file whose mtime is two hours old (a share whose clock is behind, a copy
+    that kept it) is not given up at first sight (before: moved to --failed at once);
+    an hour after (the default) the watcher first saw it, it is, and its error.txt says
+    so. A long archive fits these options."""
+    clock = Clock(monkeypatch)
+    inbox, reports = folders
+    failed = tmp_path / "failed"
+    old = short_csv(tmp_path, inbox / "old.csv")
+    two_hours_ago = time.time() - 7200
+    os.utime(old, (two_hours_ago, two_hours_ago))
+    write(inbox / "long.csv", "csv", seed=5)
+    settings = WatchSettings(
+        inbox, reports, settle=SETTLE, failed=failed, once=True, give_up_after=3600.0
+    )
+    assert start_watcher(settings).join() == 2
+    assert (inbox / "old.csv").is_file() and not any(failed.iterdir())
+    (left,) = said(caplog, "old.csv: left in INBOX")
+    assert "given up and moved to --failed at " in left and "--give-up-after 3600" in left
+    # a touch, and 59 minutes later: still there
+    os.utime(old)
+    clock.ahead = 59 * 60
+    caplog.clear()
+    assert start_watcher(settings).join() == 2
+    assert (inbox / "old.csv").is_file() and not said(caplog, "given up:")
+    (again,) = said(caplog, "old.csv: left in INBOX")  # (the time it said at first sight)
+    assert again.partition(" at ")[2][:19] == left.partition(" at ")[2][:19], (left, again)
+    clock.ahead = 3601
+    caplog.clear()
+    assert start_watcher(settings).join() == 0
+    assert not (inbox / "old.csv").exists() and (failed / "old.csv").is_file()
+    (line,) = said(caplog, "old.csv: given up")
+    assert "too short for the training window and unchanged for 60 min" in line, line
+    rec = state(reports)["old.csv"]
+    assert (rec["error_kind"], rec["error_reason"]) == ("input", "too short")
+    assert "(given up: unchanged for 60 min" in rec["error"]
+    assert "Given up: unchanged for 60 min" in (reports / rec["report"]).read_text()
+
+
+def test_a_train_window_that_fits_no_archive_gives_up_none(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    caplog: pytest.LogCaptureFixture,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Every archive too short for these options' training window (a mistyped
+    ``--train``), however long unchanged: all stay in INBOX, said "check --train", as on
+    the base (before: the whole INBOX given up to --failed as the archives' errors). Once
+    an archive fits, the ones unchanged that long are given up."""
+    clock = Clock(monkeypatch)
+    inbox, reports = folders
+    failed = tmp_path / "failed"
+    two_hours_ago = time.time() - 7200
+    for name in ("a.csv", "b.csv"):
+        os.utime(short_csv(tmp_path, inbox / name), (two_hours_ago, two_hours_ago))
+    settings = WatchSettings(inbox, reports, settle=SETTLE, failed=failed, once=True)
+    assert start_watcher(settings).join() == 2
+    clock.ahead = 7200
+    caplog.clear()
+    assert start_watcher(settings).join() == 2
+    assert sorted(p.name for p in inbox.iterdir()) == ["a.csv", "b.csv"]
+    assert not any(failed.iterdir())
+    assert not said(caplog, "given up:")
+    assert all("check --train" in line for line in said(caplog, ": left in INBOX:"))
+    assert len(said(caplog, ": left in INBOX:")) == 2
+    write(inbox / "long.csv", "csv", seed=5)
+    caplog.clear()
+    assert start_watcher(settings).join() == 0
+    assert sorted(p.name for p in failed.iterdir()) == ["a.csv", "b.csv"]
+
+
+def test_a_running_watcher_gives_up_a_short_archive_once_its_time_is_up(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    caplog: pytest.LogCaptureFixture,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    clock = Clock(monkeypatch)
+    inbox, reports = folders
+    failed = tmp_path / "failed"
+    write(inbox / "long.csv", "csv", seed=5)
+    short_csv(tmp_path, inbox / "a.csv")
+    settings = WatchSettings(inbox, reports, settle=SETTLE, poll=0.1, failed=failed)
+    watcher = start_watcher(settings)
+    wait_until(lambda: said(caplog, "a.csv: left in INBOX"), "the short file's error")
+    wait_until(lambda: "long.csv" in state(reports), "the long file's analysis")
+    assert (inbox / "a.csv").is_file()
+    clock.ahead = 3601  # (the give-up's clock, not ours: no test waits an hour)
+    wait_until(lambda: (failed / "a.csv").is_file(), "the short file given up")
+    watcher.stop.set()
+    assert watcher.join() == 0
+    assert said(caplog, "a.csv: given up: too short for the training window and unchanged")
+
+
+def test_give_up_after_is_an_option_of_watch() -> None:
+    args = build_parser().parse_args(["watch", "in", "--out", "r", "--give-up-after", "90"])
+    assert WatchSettings.from_args(args).give_up_after == 90.0
+    args = build_parser().parse_args(["watch", "in", "--out", "r", "--give-up-after", "0"])
+    assert WatchSettings.from_args(args).give_up_after == 0.0
+    args = build_parser().parse_args(["watch", "in", "--out", "r"])
+    assert WatchSettings.from_args(args).give_up_after == 3600.0
