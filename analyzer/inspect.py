@@ -17,6 +17,7 @@ from analyzer.selection import (
     MixedNote,
     default_train,
     lone_channel,
+    no_numeric_channel,
     select_channels,
 )
 from analyzer.store import ChannelInfo, ChannelStore
@@ -42,7 +43,12 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
         notes = [str(n) for n in archive.notes]
         if not infos:
             notes.append(nothing_numeric(archive.inputs))
-        why, defaults = run_choice(store, archive, t0) if infos else ({}, None)
+        why, defaults = (
+            run_choice(store, archive, t0)
+            if infos
+            # (run refuses it: said as for any archive run refuses, with run's line)
+            else ({}, {"channels": 0, "refused": no_numeric_channel(archive.inputs)})
+        )
         return {
             "inputs": [
                 {
@@ -74,7 +80,7 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
                 }
                 for i in infos
             ],
-            **({"run_defaults": defaults} if defaults is not None else {}),
+            "run_defaults": defaults,
         }
 
 
