@@ -18,9 +18,9 @@ import threading
 import time
 import traceback
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any, NoReturn, TextIO
 
 # One BLAS thread unless the user says otherwise: the hot paths are many small and tall
 # products, which threaded BLAS on a few cores makes far slower (measured 15x on 2 cores);
@@ -213,7 +213,6 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="also write DIR/corrected.csv with faulty channels corrected over their fault periods",
     )
-    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     p.add_argument(
         "--model",
         type=_path_text,
@@ -221,6 +220,26 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         help="run the fitted models saved by --save-model instead of fitting on this "
         "archive (a fault present from its first sample is found too)",
     )
+
+
+PLAIN_PROGRESS_EVERY_S = 5.0
+"""Off a terminal (``--progress``), the least time between two progress lines, a stage's
+first line apart: a CI log of a long run gets a line every few seconds (no "no output
+for N minutes" timeout), not hundreds."""
+
+
+def add_progress_options(p: argparse.ArgumentParser) -> None:
+    """``--progress`` and ``--no-progress`` (``run``): one or the other, or neither (a
+    bar on a terminal, nothing elsewhere)."""
+    shown = p.add_mutually_exclusive_group()
+    shown.add_argument(
+        "--progress",
+        action="store_true",
+        help="show progress on stderr even when it is not a terminal (a CI log, a file): "
+        "plain lines, one when a stage begins and at most one every "
+        f"{PLAIN_PROGRESS_EVERY_S:g} seconds within it",
+    )
+    shown.add_argument("--no-progress", action="store_true", help="no progress on stderr")
 
 
 INPUT_HELP = (
@@ -381,6 +400,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="folder for report.html and findings.json (made if missing)",
     )
     add_run_options(p)
+    add_progress_options(p)
     p.add_argument(
         "--save-model",
         type=_path_text,
@@ -406,6 +426,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="folder of the reports: one sub-folder per archive, and index.html",
     )
     add_run_options(p)
+    # (accepted as run accepts it; watch shows no progress bar: one line per archive)
+    p.add_argument("--no-progress", action="store_true", help="no progress bar (none is shown)")
     p.add_argument(
         "--poll",
         type=_positive_float,
@@ -465,11 +487,22 @@ def _say(line: str) -> None:
     sys.stderr.write(f"analyzer: {terminal_safe(line)}\n")
 
 
-def _progress_printer(enabled: bool) -> Any:
-    """A progress bar on stderr (a terminal only): the stage, its share done and the
-    seconds since the run began."""
-    if not enabled or not sys.stderr.isatty():
+def _progress_printer(args: argparse.Namespace) -> Any:
+    """What ``run`` shows of its progress on stderr: a bar redrawn in place on a
+    terminal; plain lines (:func:`plain_progress`) with ``--progress`` elsewhere; nothing
+    with ``--no-progress``, nor off a terminal without ``--progress``."""
+    if getattr(args, "no_progress", False):
         return None
+    if sys.stderr.isatty():
+        return _progress_bar()
+    if getattr(args, "progress", False):
+        return plain_progress(sys.stderr, time.monotonic)
+    return None
+
+
+def _progress_bar() -> Any:
+    """A progress bar on stderr (a terminal): the stage, its share done and the seconds
+    since the run began, redrawn on one line per stage."""
     began = time.monotonic()
 
     def show(stage: str, fraction: float) -> None:
@@ -483,6 +516,33 @@ def _progress_printer(enabled: bool) -> Any:
         if fraction >= 1.0:
             sys.stderr.write("\n")
         sys.stderr.flush()
+
+    return show
+
+
+def plain_progress(
+    stream: TextIO, clock: Callable[[], float], every_s: float = PLAIN_PROGRESS_EVERY_S
+) -> Any:
+    """Progress for a log (not a terminal): whole lines, no carriage return nor redraw.
+    A line the first time a stage is named, else at most one every ``every_s`` seconds
+    of ``clock`` (stages that take turns, a detector's own inside ``detect``, do not
+    add lines), each ``analyzer: progress: STAGE NN% (T s)`` with the seconds since the
+    run began: a CI log of a long run stays short and is never silent for long."""
+    began = clock()
+    lock = threading.Lock()
+    seen: set[str] = set()
+    last = [began]
+
+    def show(stage: str, fraction: float) -> None:
+        with lock:
+            now = clock()
+            if stage in seen and now - last[0] < every_s:
+                return
+            seen.add(stage)
+            last[0] = now
+            share = 100 * max(0.0, min(1.0, fraction))
+            stream.write(f"analyzer: progress: {stage} {share:.0f}% ({now - began:.1f} s)\n")
+            stream.flush()
 
     return show
 
@@ -549,7 +609,7 @@ def _run_options(args: argparse.Namespace) -> Any:
         scheduler=args.scheduler,
         time_source=args.time,
         corrected=args.corrected,
-        progress=_progress_printer(not args.no_progress),
+        progress=_progress_printer(args),
         warn=_warn,
         model=args.model,
         save_model=getattr(args, "save_model", None),
@@ -693,10 +753,12 @@ def _earlier(args: argparse.Namespace | None, started: float) -> str:
     if args is None or getattr(args, "command", None) != "run" or not args.out:
         return ""
     out = Path(args.out)
-    earlier = [n for n in ("findings.json", "report.html") if _older(out / n, started)]
+    names = ("findings.json", "report.html", "corrected.csv")
+    earlier = [n for n in names if _older(out / n, started)]
     if not earlier:
         return ""
-    return f" ({out} keeps an earlier run's {' and '.join(earlier)}, not this run's)"
+    listed = ", ".join(earlier[:-1]) + " and " + earlier[-1] if len(earlier) > 1 else earlier[0]
+    return f" ({out} keeps an earlier run's {listed}, not this run's)"
 
 
 def _older(path: Path, started: float) -> bool:

@@ -83,7 +83,7 @@ def keep_whole(
     path written, as the line should say it, or None if no file could be written (the
     line is then cut as before, with no path)."""
     text = HEAD.format(command=command, when=_now()) + "\n" + terminal_safe(message) + "\n"
-    if place is not None and not _touches_inputs(place, inputs):
+    if place is not None and not touches_inputs(place, inputs):
         try:
             place.parent.mkdir(parents=True, exist_ok=True)
             write_atomic(place, text)
@@ -99,7 +99,7 @@ def keep_whole(
     return name
 
 
-def _touches_inputs(place: Path, inputs: Sequence[str | Path]) -> bool:
+def touches_inputs(place: Path, inputs: Sequence[str | Path]) -> bool:
     """Whether ``place`` is an input, or lies in an input folder or in the folder of an
     input file: the error file is never written there."""
     target = place.resolve()
@@ -116,4 +116,4 @@ def _now() -> str:
     return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
-__all__ = ["ERROR_FILE", "HEAD", "error_place", "keep_whole", "remove_stale"]
+__all__ = ["ERROR_FILE", "HEAD", "error_place", "keep_whole", "remove_stale", "touches_inputs"]

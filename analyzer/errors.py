@@ -31,6 +31,13 @@ def capped(items: Sequence[str], most: int = LISTED, sep: str = ", ", what: str 
     return sep.join(items[:most]) + f" and {len(items) - most} more" + (f" {what}" if what else "")
 
 
+def counted(n: int, noun: str, plural: str = "") -> str:
+    """``n`` and ``noun`` as said: ``1 row``, ``2 rows``, ``0 rows`` (``plural`` where it
+    is not ``noun + "s"``: ``1 was``/``2 were`` counts take a verb of their own). A
+    message read ``1 rows without a readable time ... skipped`` (a new user's audit)."""
+    return f"{n} {noun if n == 1 else plural or noun + 's'}"
+
+
 LINE_MOST = 640
 """Characters of the one-line error :func:`clipped_line` keeps: two or three reasons with
 their advice (a line of 1.1 kB, ``tilt_laser.bag``'s four detectors' reasons and two

@@ -4,10 +4,11 @@ CONTRACT.md (plus extension fields), ``report.html`` and, with ``--corrected``,
 
 from __future__ import annotations
 
+import csv
 import hashlib
 import json
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,6 +19,7 @@ from analyzer import __version__
 from analyzer.detectors import DetectorResult
 from analyzer.diagnosis import Finding
 from analyzer.diagnosis.unexplained import Unexplained
+from analyzer.error_file import touches_inputs
 from analyzer.modelfile import SavedModel
 from analyzer.outdir import write_atomic
 from analyzer.readers.base import InputInfo
@@ -28,6 +30,11 @@ from analyzer.timeutil import iso_utc
 from analyzer.types import NS_PER_S
 
 SCHEMA = "analyzer.findings/1"
+
+CORRECTED_CSV = "corrected.csv"
+"""What ``run --corrected`` writes beside ``findings.json``, which names it
+(``corrected_csv``): how a later run into the same folder knows the file as the
+analyzer's own (:func:`earlier_corrected`)."""
 
 
 @dataclass(slots=True)
@@ -203,6 +210,7 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
         "skipped_detectors": a.skipped,
         "notes": a.notes,
         "corrections": _jsonable(a.corrections),
+        "corrected_csv": CORRECTED_CSV if a.corrected is not None else None,
         "unexplained_alarms": [
             {
                 "channels": list(u.channels),
@@ -306,14 +314,21 @@ def write_outputs(
     from analyzer.report.view import build_view
 
     doc = findings_document(analysis)
-    if analysis.corrected is None and (out_dir / "corrected.csv").exists():
-        # an earlier run's, which this one does not replace (the folder may be the
-        # user's: nothing in it is deleted), so it is not read as this run's
-        doc["notes"] = [
-            *doc["notes"],
-            f"{out_dir / 'corrected.csv'} is not this run's (it was not asked for corrected "
-            "signals, --corrected): an earlier run's output",
-        ]
+    stale = out_dir / CORRECTED_CSV
+    earlier = analysis.corrected is None and stale.exists()
+    # (asked before findings.json is replaced: the earlier one names the file)
+    remove = earlier and earlier_corrected(out_dir, [i.path for i in analysis.inputs])
+    if earlier and not remove:
+        # not known as the analyzer's (a file of the user's, an older version's output,
+        # a folder that is an input): left as it is, and not read as this run's
+        kept = (
+            f"{stale} is not this run's (it was not asked for corrected signals, "
+            "--corrected) and was left as it was: no findings.json of the analyzer beside "
+            "it names it as its output"
+        )
+        doc["notes"] = [*doc["notes"], kept]
+        if warn is not None:
+            warn(kept)
     # the page is rendered before either file is replaced: if rendering fails, the
     # folder keeps the previous run's findings.json and report.html, a matching pair,
     # rather than a new findings.json beside an old report
@@ -327,12 +342,47 @@ def write_outputs(
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
     write_atomic(out_dir / "findings.json", text)
     write_atomic(out_dir / "report.html", html)
+    if remove:
+        stale.unlink(missing_ok=True)
+        if warn is not None:
+            warn(
+                f"removed {stale}, an earlier run's corrected signals: this run was not "
+                "asked for them (--corrected)"
+            )
     if analysis.corrected is not None:
         write_corrected_csv(
-            out_dir / "corrected.csv",
+            out_dir / CORRECTED_CSV,
             analysis.times_between,
             analysis.analyzed,
             analysis.corrected,
             (analysis.start_ns, analysis.rate_hz) if utc and analysis.absolute_time else None,
         )
     return doc
+
+
+def earlier_corrected(out_dir: Path, inputs: Sequence[str | Path]) -> bool:
+    """Whether ``out_dir/corrected.csv`` is an earlier run's, which a run without
+    ``--corrected`` removes (as :func:`analyzer.error_file.remove_stale` does an earlier
+    ``error.txt``) so that it is not read as this run's: the ``findings.json`` beside it
+    names it (``corrected_csv``), and its header is the columns that run wrote (``time``,
+    the channels it analyzed, ``utc`` perhaps). Never a file in or beside an input (the
+    inputs and their folders are never changed), a link, nor a file of the user's of
+    that name, whose header or folder says otherwise."""
+    path = out_dir / CORRECTED_CSV
+    try:
+        if path.is_symlink() or not path.is_file() or touches_inputs(path, inputs):
+            return False
+        doc = json.loads((out_dir / "findings.json").read_text(encoding="utf-8"))
+        with path.open(encoding="utf-8", newline="") as f:
+            header = next(csv.reader([f.readline(1 << 20)]), [])
+    except (OSError, UnicodeDecodeError, ValueError):
+        return False
+    if not isinstance(doc, dict) or doc.get("schema") != SCHEMA:
+        return False
+    if doc.get("corrected_csv") != CORRECTED_CSV:
+        return False
+    analyzed = [
+        c.get("name") for c in doc.get("channels", []) if isinstance(c, dict) and c.get("analyzed")
+    ]
+    columns = header[1:-1] if header[-1:] == ["utc"] else header[1:]
+    return header[:1] == ["time"] and sorted(columns) == sorted(map(str, analyzed))

@@ -16,6 +16,7 @@ from analyzer.selection import (
     default_train,
     left_out,
     lone_channel,
+    no_numeric_channel,
     select_channels,
     without_samples,
 )
@@ -42,7 +43,12 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
         notes = [str(n) for n in archive.notes]
         if not infos:
             notes.append(nothing_numeric(archive.inputs))
-        why, defaults = run_choice(store, archive, t0) if infos else ({}, None)
+        why, defaults = (
+            run_choice(store, archive, t0)
+            if infos
+            # (run refuses it: said as for any archive run refuses, with run's line)
+            else ({}, {"channels": 0, "refused": no_numeric_channel(archive.inputs)})
+        )
         holes = span_gaps(store, [i.name for i in infos])
         return {
             "inputs": [
@@ -77,7 +83,7 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
                 }
                 for i in infos
             ],
-            **({"run_defaults": defaults} if defaults is not None else {}),
+            "run_defaults": defaults,
             # (where at least 1 % of the span has no sample of any channel)
             **({"span": holes.as_json()} if holes and holes.share >= SAID_SHARE else {}),
         }

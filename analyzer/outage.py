@@ -78,6 +78,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.errors import counted
 from analyzer.paging import RELEASE_ROWS, release, row_blocks
 from analyzer.readers import ArchiveNote
 
@@ -204,7 +205,7 @@ def outage_note(outages: Sequence[Outage], channels: Sequence[str], rate_hz: flo
         o = outages[0]
         rows = o.end - o.start
         return OutageNote(
-            f"logger outage: all {m} channels {what(o)} from {span(o)} ({rows} rows; "
+            f"logger outage: all {m} channels {what(o)} from {span(o)} ({counted(rows, 'row')}; "
             "the data acquisition, not a sensor); treated as missing data"
         )
     total = sum(o.end - o.start for o in outages)

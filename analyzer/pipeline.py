@@ -152,6 +152,7 @@ from analyzer.selection import (
     default_train,
     left_out,
     lone_channel,
+    no_numeric_channel,
     select_channels,
     stuck_words,
 )
@@ -620,13 +621,7 @@ def _analyze(
         if progress:
             progress("read", 1.0)
         if not store.infos():
-            why = [i.no_numeric for i in archive.inputs if i.no_numeric]  # (a CSV's: all text)
-            why += [e for i in archive.inputs for e in i.errors]
-            bad = capped(why, 3, "; ", "input errors")
-            raise ReaderError(
-                f"{capped([str(i.path) for i in archive.inputs], 3, what='inputs')}: "
-                "no numeric channel found" + (f" ({bad})" if bad else "")
-            )
+            raise ReaderError(no_numeric_channel(archive.inputs))
         reused = options.model
         if reused is None:
             relabelled = [p for i in archive.inputs for p in i.relabelled]
@@ -1737,7 +1732,8 @@ def _weak_findings_note(findings: Sequence[Finding], false_alarm_rate: float) ->
         else ""
     )
     return [
-        f"{len(weak)} of {len(findings)} findings have a confidence below {WEAK_CONFIDENCE} "
+        f"{len(weak)} of {len(findings)} findings {'has' if len(weak) == 1 else 'have'} a "
+        f"confidence below {WEAK_CONFIDENCE} "
         f"({named}{more}): weak evidence, each about as likely no fault{why}"
     ]
 
@@ -2177,7 +2173,7 @@ def _window_constant_note(dropped: Sequence[str], tr: tuple[float, float]) -> Wi
     return note
 
 
-COARSE_CLOCK = re.compile(r"(\d+) of (\d+) rows give a channel a second value at the same time")
+COARSE_CLOCK = re.compile(r"(\d+) of (\d+) rows? gives? a channel a second value at the same time")
 """The CSV reader's line on rows collapsed onto one time (how many, of how many)."""
 
 GAPPY_SHARE = 0.05
@@ -2428,7 +2424,8 @@ def _slow_clock(
     at = sum(1 for r in rates.values() if abs(r - rate_hz) <= 0.1 * rate_hz)
     return (
         f", or analyze faster channels: the common clock runs at {plain_number(rate_hz)} Hz, "
-        f"the rate of {at} of the {len(rates)} channels, while {len(fast)} run at up to "
+        f"the rate of {at} of the {len(rates)} channels, while {len(fast)} "
+        f"{'runs' if len(fast) == 1 else 'run'} at up to "
         f"{plain_number(top)} Hz: --rate {plain_number(top)}, or --channels naming them "
         f"({', '.join(fast[:3])}"
         f"{', ...' if len(fast) > 3 else ''})"

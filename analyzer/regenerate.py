@@ -39,6 +39,7 @@ import numpy as np
 import numpy.typing as npt
 
 from analyzer.diagnosis.classify import MIN_GAIN
+from analyzer.errors import counted
 from analyzer.paging import RELEASE_ROWS, release
 from analyzer.timeutil import exact_unit, iso_times
 from analyzer.types import NS_PER_S, FaultType
@@ -425,7 +426,10 @@ def corrected_values(
                 release(None if whole is None else whole[a:b])
         note = "; ".join(x for x in notes if x)
         if count < stop - start:
-            left = f"{stop - start - count} samples left as measured (gap or already corrected)"
+            left = (
+                f"{counted(stop - start - count, 'sample')} left as measured (gap or "
+                "already corrected)"
+            )
             note = f"{note}; {left}" if note else left
         records.append(
             record(

@@ -12,6 +12,7 @@ from collections.abc import Collection, Mapping, Sequence
 import numpy as np
 
 from analyzer.errors import ArchiveUsageError, ReaderError, capped
+from analyzer.readers.base import InputInfo
 from analyzer.store import ChannelInfo, ChannelStore
 from analyzer.store.copies import Copy, find_copies
 from analyzer.store.store import FLAG_SAMPLES
@@ -21,6 +22,20 @@ DEFAULT_TRAIN_FRACTION = 0.2
 
 
 DEFAULT_TRAIN_MAX_S = 600.0
+
+
+def no_numeric_channel(inputs: Sequence[InputInfo]) -> str:
+    """``run``'s error line for an archive read without it holding any numeric channel
+    (a bag of strings, a CSV of text columns): the inputs, and why where a reader could
+    tell or the inputs' errors; ``inspect`` shows the same line as ``run_defaults``'s
+    ``refused``."""
+    why = [i.no_numeric for i in inputs if i.no_numeric]  # (a CSV's: all text)
+    why += [e for i in inputs for e in i.errors]
+    bad = capped(why, 3, "; ", "input errors")
+    return (
+        f"{capped([str(i.path) for i in inputs], 3, what='inputs')}: "
+        "no numeric channel found" + (f" ({bad})" if bad else "")
+    )
 
 
 def default_train(duration_s: float) -> tuple[float, float]:

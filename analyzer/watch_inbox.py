@@ -60,6 +60,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from analyzer.errors import counted
 from analyzer.readers import SUFFIXES, Format, skipped_folder
 from analyzer.readers._common import bag_listed_files, special_kind
 
@@ -267,7 +268,7 @@ def sqlite_unfinished(head: bytes, size: int) -> str | None:
     version-valid-for number (offset 92); else nothing is said (sqlite.org/fileformat2.html,
     "In-header database size")."""
     if size < SQLITE_HEADER:
-        return f"sqlite database unfinished: {size} bytes, less than its header"
+        return f"sqlite database unfinished: {counted(size, 'byte')}, less than its header"
     (page_size,) = struct.unpack_from(">H", head, 16)
     page_size = 65536 if page_size == 1 else page_size
     counter, pages = struct.unpack_from(">II", head, 24)

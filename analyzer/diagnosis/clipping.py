@@ -33,6 +33,7 @@ import numpy.typing as npt
 
 from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.merge import Finding
+from analyzer.errors import counted
 from analyzer.paging import read_column
 from analyzer.types import FaultType
 
@@ -299,8 +300,9 @@ def merge_clipped(
         out = [f for f in out if id(f) not in gone] + [merged]
         limits = " and ".join(f"{v:.6g}" for v in (clip.high, clip.low) if v is not None)
         notes.append(
-            f"{channel} clips at {limits} from {t0:.3f} s: {clip.count} readings "
-            f"({clip.fraction:.1%} of those from the first to the last) sit at its extremes, "
+            f"{channel} clips at {limits} from {t0:.3f} s: {counted(clip.count, 'reading')} "
+            f"({clip.fraction:.1%} of those from the first to the last) "
+            f"{'sits' if clip.count == 1 else 'sit'} at its extremes, "
             "a pile-up a healthy signal's tail does not make (the sensor saturates: past its "
             "range, or its amplifier's; or the quantity sits at a bound); its "
             f"{len(mine)} finding(s) from then on "

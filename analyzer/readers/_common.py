@@ -25,6 +25,7 @@ from analyzer.errors import (
     IntegrityError,
     ReaderError,
     capped,
+    counted,
     one_line,  # noqa: F401 - re-exported for the readers
 )
 from analyzer.readers.base import ChannelChunk
@@ -1283,11 +1284,17 @@ class TopicTracker:
             for topic, text in self.clock_steps().items()
         ]
         out += [
-            f"{topic}: {count} messages could not be decoded ({reason})"
+            f"{topic}: {counted(count, 'message')} could not be decoded ({reason})"
             for topic, (count, reason) in self._failures.items()
         ]
         out += [
-            f"{topic}: {count} messages have header.stamp 0 (not set); their log time is used"
+            f"{topic}: {counted(count, 'message')} "
+            + (
+                "has header.stamp 0 (not set); its"
+                if count == 1
+                else "have header.stamp 0 (not set); their"
+            )
+            + " log time is used"
             for topic, count in self._zero.items()
         ]
         window = f"{self._window / 1e9:g} s"
@@ -1299,7 +1306,8 @@ class TopicTracker:
                 else ""
             )
             out.append(
-                f"{topic}: {found.dropped + found.kept} messages stamped more than {window} "
+                f"{topic}: {counted(found.dropped + found.kept, 'message')} stamped more than "
+                f"{window} "
                 f"ahead of the messages around them (the first: message {found.index}, "
                 f"{self._at(found.log_ns)}, {found.ahead_ns / 1e9:.1f} s ahead): "
                 f"{found.dropped} dropped{kept} (--time log keeps them)"
@@ -1309,12 +1317,17 @@ class TopicTracker:
                 continue
             k = int(clock.open_t.size)
             lead = int(clock.open_t[0]) - int(clock.open_log[0]) - clock.ref
+            last, them, which = (
+                ("the last message read is", "it", "")
+                if k == 1
+                else (f"the last {k} messages read are", "them", "the first: ")
+            )
             out.append(
-                f"{topic}: the last {k} messages read are stamped more than {window} ahead "
-                f"of the message before them (the first: message {int(clock.open_idx[0])}, "
+                f"{topic}: {last} stamped more than {window} ahead of the message before "
+                f"{them} ({which}message {int(clock.open_idx[0])}, "
                 f"{self._at(int(clock.open_log[0]))}, {lead / 1e9:.1f} s ahead): kept (with "
-                "no message after them, a glitch cannot be told from a clock that stepped "
-                "forward) (--time log keeps them)"
+                f"no message after {them}, a glitch cannot be told from a clock that stepped "
+                f"forward) (--time log keeps {them})"
             )
         for topic, jumps in self._jumps.items():
             if not jumps.events or self._explained(jumps.back_ns):
@@ -1324,8 +1337,9 @@ class TopicTracker:
             more = f"; {jumps.events} such jumps" if jumps.events > 1 else ""
             out.append(
                 f"{topic}: header.stamp goes back by {jumps.back_ns / 1e9:.1f} s at message "
-                f"{jumps.index} ({self._at(jumps.log_ns)}); {jumps.dropped} messages stamped "
-                f"before the newest stamp so far dropped{more} (--time log keeps them)"
+                f"{jumps.index} ({self._at(jumps.log_ns)}); "
+                f"{counted(jumps.dropped, 'message')} stamped before the newest stamp so far "
+                f"dropped{more} (--time log keeps them)"
             )
         elements: dict[str, list[tuple[str, _Relabels]]] = {}
         for (topic, name_), change in self._relabels.items():

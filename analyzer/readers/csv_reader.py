@@ -101,7 +101,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 
-from analyzer.errors import IntegrityError, ReaderError, capped
+from analyzer.errors import IntegrityError, ReaderError, capped, counted
 from analyzer.readers._common import (
     CLOCKS_APART_NS,
     HASH_BLOCK,
@@ -784,7 +784,10 @@ class CsvReader:
         if parsed >= expected:
             return
         key = (str(self.path), self._size, expected, parsed)
-        what = f"{self.path}: {parsed} rows read of the {expected} lines under its header"
+        what = (
+            f"{self.path}: {counted(parsed, 'row')} read of the "
+            f"{counted(expected, 'line')} under its header"
+        )
         if key in _SHORT_READS:
             self._error(f"{what} (the same on a second read: lines this count cannot tell)")
             return
@@ -799,7 +802,9 @@ class CsvReader:
 
     def _so_far(self, rows: int, newest: int | None) -> str:
         """How much was read: rows, up to which time."""
-        return f"{rows} rows" + (f", up to {self._when(newest)}" if newest is not None else "")
+        return counted(rows, "row") + (
+            f", up to {self._when(newest)}" if newest is not None else ""
+        )
 
     def _damage_note(self, so_far: str, garbled: tuple[int, str] | None) -> str:
         """What :meth:`chunks` says of a damaged ``.gz``: a stream cut short is read up
@@ -807,7 +812,7 @@ class CsvReader:
         read up to the first that looks like garbage, and the rest of the file is
         dropped."""
         if not self._corrupt:
-            cut = f"; the {self._damage_cut} bytes of the line it cut dropped"
+            cut = f"; the {counted(self._damage_cut, 'byte')} of the line it cut dropped"
             cut = cut if self._damage_cut else ""
             return (
                 f"unreadable from some point on ({self._damage}); the rows before it were "
@@ -1016,8 +1021,8 @@ class CsvReader:
                 f"two time columns: {mine!r} gave the time "
                 f"({self._time_text().removeprefix(f'column {mine!r}: ')}); {theirs!r} "
                 f"(date-times) was ignored: its date-times less the times of {mine!r} vary by "
-                f"{spread / 1e9:.3f} s over the first {int(both.sum())} rows (more than the "
-                f"{allowed / 1e9:g} s resolution of the two), so they do not agree"
+                f"{spread / 1e9:.3f} s over the first {counted(int(both.sum()), 'row')} "
+                f"(more than the {allowed / 1e9:g} s resolution of the two), so they do not agree"
             )
             return
 
@@ -1061,7 +1066,8 @@ class CsvReader:
             f"{self.path}: two time columns part at data row {rows + row + 1}: {theirs!r} "
             f"{stamp!r} lies {int(diff[first]) / 1e9:+.3f} s from {mine!r} {cell!r} "
             f"({iso_utc(int(t_ns[row]))}), after they agreed (to {allowed / 1e9:g} s) over "
-            f"the first {compared} rows, which made the times absolute: one of the two jumps "
+            f"the first {counted(compared, 'row')}, which made the times absolute: one of the "
+            "two jumps "
             f"there; correct the file, or leave {theirs!r} out of it for relative times from "
             f"{mine!r}"
         )
@@ -1254,7 +1260,8 @@ class CsvReader:
             # a second became one sample a second; rows of a sparse table, one channel a
             # row, repeat the time with no channel collapsed)
             self._error(
-                f"{most} of {rows} rows give a channel a second value at the same time (a "
+                f"{most} of {counted(rows, 'row')} {'gives' if most == 1 else 'give'} a channel a "
+                "second value at the same time (a "
                 "clock too coarse for the rows, or rows written twice); the aligned channels "
                 "keep one value per time"
             )
@@ -1262,16 +1269,17 @@ class CsvReader:
             self._error(note)
         if skipped + broken:
             self._error(
-                f"{skipped + broken} rows without a readable time or with the wrong number of "
-                "fields skipped"
+                f"{counted(skipped + broken, 'row')} without a readable time or with the wrong "
+                "number of fields skipped"
             )
         for name, count in bad_cells.items():
-            self._error(f"{name}: {count} non-numeric cells treated as gaps")
+            self._error(f"{name}: {counted(count, 'non-numeric cell')} treated as gaps")
         for name, (nonblank, numbers) in text_cells.items():
             if 2 * numbers > nonblank:  # at most half numbers: a text column by any reading
                 self._error(
-                    f"{name}: skipped as a text column, though {numbers} of its {nonblank} "
-                    "non-blank cells are numbers"
+                    f"{name}: skipped as a text column, though {numbers} of its "
+                    f"{counted(nonblank, 'non-blank cell')} "
+                    + ("is a number" if numbers == 1 else "are numbers")
                 )
         blank = [
             name

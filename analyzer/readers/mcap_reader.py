@@ -39,7 +39,7 @@ from mcap.reader import SeekingReader
 from mcap.records import Channel, Chunk, ChunkIndex, DataEnd, Footer, Message, MessageIndex, Schema
 from mcap.stream_reader import StreamReader
 
-from analyzer.errors import ReaderError
+from analyzer.errors import ReaderError, counted
 from analyzer.readers._common import (
     ByteArray,
     Decoded,
@@ -113,7 +113,9 @@ def check_magic(path: Path, head: bytes) -> None:
     if head.startswith(b"\x89MCAP0") and head[6:7] != b"\r":
         hint = ", possibly mangled by a CRLF conversion"
     elif len(head) < 8 and MAGIC.startswith(head):
-        raise ReaderError(f"{path}: truncated MCAP file ({len(head)} bytes, no complete magic)")
+        raise ReaderError(
+            f"{path}: truncated MCAP file ({counted(len(head), 'byte')}, no complete magic)"
+        )
     raise ReaderError(f"{path}: not an MCAP file (bad magic {shown}){hint}")
 
 
@@ -416,7 +418,12 @@ class McapReader:
         if loose:
             count += self._decode_loose(loose, reorder, time)
         if damage is not None:  # counted once what was read before the damage is decoded
-            self._error(f"{damage}; the {count} messages before it were read")
+            before = (
+                "the message before it was"
+                if count == 1
+                else f"the {count} messages before it were"
+            )
+            self._error(f"{damage}; {before} read")
         if not finished:
             self._error("truncated: the file ends without a DataEnd/Footer record")
         elif damage is None and not self._ends_with_magic(handle):

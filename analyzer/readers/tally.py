@@ -27,6 +27,7 @@ from collections.abc import Iterable, Iterator
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.errors import counted
 from analyzer.readers.base import ChannelChunk
 
 MOD = 1 << 64
@@ -81,11 +82,12 @@ class Tally:
             if a == b:
                 continue
             if a[0] != b[0]:
-                what = f"{a[0]} samples {before}, {b[0]} {after}"
+                what = f"{counted(a[0], 'sample')} {before}, {b[0]} {after}"
             else:
                 parts = [w for w, x, y in (("times", a[1], b[1]), ("values", a[2], b[2])) if x != y]
                 what = (
-                    f"{a[0]} samples {before} and {after}, but their {' and '.join(parts)} differ"
+                    f"{counted(a[0], 'sample')} {before} and {after}, but their "
+                    f"{' and '.join(parts)} differ"
                 )
             out.append(f"{name!r}: {what}")
         return out

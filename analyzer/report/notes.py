@@ -99,7 +99,7 @@ ORDER = (INPUT_ERRORS, "training", "findings", SKIPPED, "channels", "input", "al
 
 KEY = re.compile(
     r"is not steady|^trained on |default window cut before|traced back to"
-    r"|present when the search started|findings have a confidence below"
+    r"|present when the search started|findings ha(?:ve|s) a confidence below"
     r"|the archive's spread against the model's|may be missed"
 )
 """Notes that change how to read the findings, shown beside the verdict: the training

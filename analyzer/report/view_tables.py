@@ -16,6 +16,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from analyzer.errors import counted
 from analyzer.report import format as fmt
 from analyzer.report.methods import DETECTORS, Method
 from analyzer.report.view_records import (
@@ -266,7 +267,7 @@ class TableParts:
         out = []
         for name, m in DETECTORS.items():
             if name in ran:
-                status = f"ran on {len(ran[name].get('channels', []))} channels"
+                status = f"ran on {counted(len(ran[name].get('channels', [])), 'channel')}"
             elif name in skipped:
                 status = f"skipped: {skipped[name]}"
             else:

@@ -65,10 +65,16 @@ def test_inspect_says_nothing_can_be_analyzed(
     if name == "labels.csv":
         assert "(no numeric column besides the time column 'time' (text: label, state))" in note
     assert err == f"analyzer: warning: {note}\n"
+    # run_defaults is there as for any archive run refuses (before, it was missing)
+    refused = doc["run_defaults"]["refused"]
+    assert doc["run_defaults"] == {"channels": 0, "refused": refused}
+    assert refused.startswith(f"{path}: no numeric channel found")
     code, out, err = run_cli(["inspect", path], capsys)
     assert code == 0
     assert f"note: {note}" in out.splitlines()
-    assert out.rstrip().endswith("0 channel(s)")
+    lines = out.rstrip().splitlines()
+    assert lines[-2].endswith("0 channel(s)")
+    assert lines[-1] == f"run refuses this archive by default: {refused}"
     assert err == f"analyzer: warning: {note}\n"
 
 
@@ -79,7 +85,9 @@ def test_run_and_export_refuse_it_naming_the_file(
     path = INPUTS[name](tmp_path / name)
     code, _, err = run_cli(["run", path, "--out", tmp_path / "o", "--no-progress"], capsys)
     assert code == 2
-    one_line_error(err, f"{path}: no numeric channel found")
+    line = one_line_error(err, f"{path}: no numeric channel found")
+    code, out, _ = run_cli(["inspect", "--json", path], capsys)
+    assert line == f"analyzer: error: {json.loads(out)['run_defaults']['refused']}"
     code, _, err = run_cli(["export", path, "--out", tmp_path / "o.csv"], capsys)
     assert code == 2
     line = one_line_error(err, f"{path}: no numeric channel to export")
@@ -125,4 +133,6 @@ def test_real_inputs_with_nothing_numeric(
     assert err == f"analyzer: warning: {note}\n"
     code, _, err = run_cli(["run", path, "--out", tmp_path / "o", "--no-progress"], capsys)
     assert code == 2
-    one_line_error(err, f"{path}: no numeric channel found")
+    line = one_line_error(err, f"{path}: no numeric channel found")
+    code, out, _ = run_cli(["inspect", "--json", path], capsys)
+    assert line == f"analyzer: error: {json.loads(out)['run_defaults']['refused']}"

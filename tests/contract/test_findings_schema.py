@@ -263,6 +263,42 @@ def test_a_run_writes_a_valid_findings_json(runs, case):
     assert problems(doc) == []
 
 
+MAGNITUDE_KEY = {"additive": "offset", "multiplicative": "gain", "drift": "rate_per_s"}
+"""The magnitude key each fault type must have (CONTRACT.md); ``other`` has any."""
+
+
+def test_real_runs_give_each_type_its_magnitude_key_and_the_schema_asks_for_it(runs):
+    """The real runs hold a fault of every type, each with its type's magnitude key (so
+    the schema's rule, that an additive fault has an offset and so on, fits what the
+    analyzer writes), and their documents validate; the same faults with that key taken
+    out, or a fault of another type's magnitude, do not."""
+    seen: set[str] = set()
+    for case, doc in runs.all():
+        for k, fault in enumerate(doc["faults"]):
+            seen.add(fault["type"])
+            key = MAGNITUDE_KEY.get(fault["type"])
+            if key is None:
+                continue
+            assert key in fault["magnitude"], (case, fault)
+            broken = copy.deepcopy(doc)
+            del broken["faults"][k]["magnitude"][key]
+            assert ("faults", k, "magnitude") in [
+                tuple(e.absolute_path) for e in VALIDATOR.iter_errors(broken)
+            ], (case, k)
+        assert problems(doc) == [], case
+    assert seen == set(MAGNITUDE_KEY) | {"other"}, seen
+
+
+def test_a_fault_of_type_other_may_have_any_magnitude(synthetic_doc):
+    """``other`` (erratic, stuck, clipping, a fault without a shape) has no key of its
+    own: an empty magnitude, or one of offset and rms, is valid."""
+    doc = copy.deepcopy(synthetic_doc)
+    assert doc["faults"][3]["type"] == "other"
+    for magnitude in ({}, {"offset": 1.0, "rms": 2.0}, {"gain": 0.5}):
+        doc["faults"][3]["magnitude"] = magnitude
+        assert problems(doc) == [], magnitude
+
+
 def test_a_synthetic_analysis_with_every_fault_type_is_valid(synthetic_doc):
     types = {f["type"] for f in synthetic_doc["faults"]}
     assert types == {str(t) for t in FaultType}
@@ -313,6 +349,23 @@ BROKEN: dict[str, tuple[Callable[[dict[str, Any]], None], tuple[Any, ...]]] = {
     "offset a string": (
         _set(("faults", 0, "magnitude", "offset"), "2 m/s2"),
         ("faults", 0, "magnitude", "offset"),
+    ),
+    # each type's own magnitude key (CONTRACT.md; before, any magnitude object passed)
+    "additive magnitude empty": (
+        _set(("faults", 0, "magnitude"), {}),
+        ("faults", 0, "magnitude"),
+    ),
+    "additive magnitude a gain": (
+        _set(("faults", 0, "magnitude"), {"gain": 2.0}),
+        ("faults", 0, "magnitude"),
+    ),
+    "multiplicative magnitude an offset": (
+        _set(("faults", 1, "magnitude"), {"offset": 2.0}),
+        ("faults", 1, "magnitude"),
+    ),
+    "drift magnitude empty": (
+        _set(("faults", 2, "magnitude"), {}),
+        ("faults", 2, "magnitude"),
     ),
     "no detectors in evidence": (
         _set(("faults", 0, "evidence", "detectors"), []),

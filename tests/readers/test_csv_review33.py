@@ -187,7 +187,7 @@ def test_a_sound_or_cut_gzip_with_a_step_back_keeps_its_rows(tmp_path: Path, cut
     assert any(
         e.startswith("the time steps back by 14.990 s at data row 15000") for e in info.errors
     )
-    assert "1 rows without a readable time or with the wrong number of fields skipped" in (
+    assert "1 row without a readable time or with the wrong number of fields skipped" in (
         info.errors
     )
     assert not [e for e in info.errors if "garbage" in e]

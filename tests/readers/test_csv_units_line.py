@@ -149,7 +149,7 @@ def test_only_units_are_read_as_units(tmp_path: Path) -> None:
         assert all(len(got[name][0]) == 50 for name in names), case
         units = [e for e in info.errors if "read as units" in e]
         assert bool(units) == (case == "units"), case
-        assert any("1 rows without a readable time" in e for e in info.errors) == skipped, case
+        assert any("1 row without a readable time" in e for e in info.errors) == skipped, case
 
 
 def test_a_header_over_a_units_line_alone_is_no_data(tmp_path: Path) -> None:

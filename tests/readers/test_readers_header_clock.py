@@ -101,7 +101,7 @@ def test_forward_glitch_drops_the_glitch_not_what_follows(tmp_path: Path, fmt: s
     assert v.tolist() == [i for i in range(1000) if i != 100]
     assert t.tolist() == [T0 + i * MS for i in range(1000) if i != 100]
     assert errors == [
-        "/imu: 1 messages stamped more than 2 s ahead of the messages around them (the "
+        "/imu: 1 message stamped more than 2 s ahead of the messages around them (the "
         "first: message 100, t=1.00 s, 100.0 s ahead): 1 dropped (--time log keeps them)"
     ]
     # the log clock keeps it, nothing to say
@@ -117,7 +117,7 @@ def test_forward_glitch_at_the_first_message(tmp_path: Path, fmt: str) -> None:
     t, v, errors, _ = _read(write(tmp_path / NAMES[fmt], fmt, _glitched({0: 100 * S})), "/imu")
     assert v.tolist() == list(range(1, 1000))
     assert errors == [
-        "/imu: 1 messages stamped more than 2 s ahead of the messages around them (the "
+        "/imu: 1 message stamped more than 2 s ahead of the messages around them (the "
         "first: message 0, t=0.00 s, 100.0 s ahead): 1 dropped (--time log keeps them)"
     ]
 
@@ -201,7 +201,7 @@ def test_glitch_at_a_batch_boundary_does_not_drop_what_follows() -> None:
     assert v.tolist() == [k for k in range(n) if k != 199] + [199]  # in time order
     assert int(t[-1]) == int(stamps[199])
     assert tracker.lines() == [
-        "/b: 1 messages stamped more than 2 s ahead of the messages around them (the first: "
+        "/b: 1 message stamped more than 2 s ahead of the messages around them (the first: "
         "message 199, t=1.99 s, 100.0 s ahead): 0 dropped, 1 kept (passed on at the end of "
         "a batch, before the next message showed them; they no longer count as the newest "
         "stamp) (--time log keeps them)"
@@ -228,7 +228,7 @@ def test_glitch_at_the_first_message_in_tiny_batches(batch: int) -> None:
     kept = batch < 3
     assert v.tolist() == list(range(1, n)) + [0] * kept
     head = (
-        "/b: 1 messages stamped more than 2 s ahead of the messages around them (the "
+        "/b: 1 message stamped more than 2 s ahead of the messages around them (the "
         "first: message 0, t=0.00 s, 100.0 s ahead): "
     )
     tail = (
@@ -371,10 +371,10 @@ def test_glitch_on_the_last_message_is_said(tmp_path: Path) -> None:
     )
     assert v.size == 1000 and int(t[-1]) == T0 + 999 * MS + 100 * S
     assert errors == [
-        "/imu: the last 1 messages read are stamped more than 2 s ahead of the message "
-        "before them (the first: message 999, t=9.99 s, 100.0 s ahead): kept (with no "
-        "message after them, a glitch cannot be told from a clock that stepped forward) "
-        "(--time log keeps them)"
+        "/imu: the last message read is stamped more than 2 s ahead of the message "
+        "before it (message 999, t=9.99 s, 100.0 s ahead): kept (with no "
+        "message after it, a glitch cannot be told from a clock that stepped forward) "
+        "(--time log keeps it)"
     ]
 
 

@@ -117,7 +117,7 @@ def test_every_note_lands_in_exactly_one_group():
         "the healthy window (0-60 s) is not steady: s2 changes inside it at about 45 s",
         "s0: 9,989 samples on only about 931 distinct log times at 10 Hz (written in batches)",
         "alarm on s2 at 16.150 s explained by the alarm on its assistant sensor(s) s4 (law 0)",
-        "1 of 3 findings have a confidence below 0.05 (s1 at 3.0 s): weak evidence",
+        "1 of 3 findings has a confidence below 0.05 (s1 at 3.0 s): weak evidence",
         "something no rule has heard of",
     ]
     sorted_ = sort_notes(notes, ["x.mcap: truncated"], {"error_function": "needs a config"})
