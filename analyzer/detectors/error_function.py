@@ -53,8 +53,9 @@ Eq. 19 counts samples. On a record sampled well above its modes its ``p`` spans 
 of their period, and the most sensitive function that short still carries part of the
 structure's response, whose level wanders over seconds on a lightly damped structure:
 the healthy residual then grows and shrinks with it, and reads as a gain on a healthy
-sensor. The default ``p`` is therefore doubled while doubling gains more sensitivity than
-averaging twice the samples could (:meth:`ErrorFunction._direct_p`).
+sensor. The default ``p`` is therefore doubled, every doubling scored, up to the longest
+that gained more sensitivity than averaging twice the samples could
+(:meth:`ErrorFunction._direct_p`).
 
 Units, alignment and vectorization
 ----------------------------------
@@ -157,6 +158,18 @@ SQRT2 = math.sqrt(2.0)
 """What doubling an error function's window gains at most in sensitivity when its
 healthy residual is measurement noise (twice the samples averaged): :meth:`ErrorFunction.
 _direct_p` doubles the direct approach's default ``p`` only while it gains more."""
+
+MAX_COEFFICIENTS = 1000
+"""A doubled window (:meth:`ErrorFunction._direct_p`) holds at most this many
+coefficients (channels x (p + 1)): the covariance grows with their square and its
+eigenproblem with their cube (5 channels: p up to 160; 32 channels: up to 30)."""
+
+WINDOW_WORK = 4e9
+"""Multiply-adds (windows x coefficients^2) a doubled window's covariance may cost before
+it is read from every few windows only (:func:`_stride`): about a second."""
+
+MIN_WINDOWS_PER_COEFFICIENT = 20
+"""The stride of :func:`_stride` keeps at least this many windows per coefficient."""
 
 WEAK_SENSITIVITY = 2.0
 """An error function whose response to the loss of its sensor is below this many healthy
@@ -310,23 +323,36 @@ def _sees_unmeasured(
 # ----------------------------------------------------------------- data windows
 
 
-def _windows_gram(z: FloatArray, p: int) -> tuple[FloatArray, int]:
+def _windows_gram(z: FloatArray, p: int, stride: int = 1) -> tuple[FloatArray, int]:
     """``(sum of outer products, count)`` of the complete windows of ``p + 1`` samples of
     the standardized data ``z`` (N, n_ch): the Gram matrix ``W_NY W_NY^T`` of Eq. 28 with
     one column per window (windows touching a NaN are left out). A window's vector is
     channel-major, ``c * (p + 1) + s`` with ``s = 0`` the oldest sample. Accumulated in
-    chunks, so memory does not grow with the training length."""
+    chunks, so memory does not grow with the training length. ``stride``: only every
+    ``stride``-th window is used (:func:`_stride`; 1, all of them, for Eq. 19's window)."""
     n_ch = z.shape[1]
     m = n_ch * (p + 1)
     gram = np.zeros((m, m))
     count = 0
     for a in range(0, z.shape[0] - p, _CHUNK):
         b = min(z.shape[0], a + _CHUNK + p)
-        win = sliding_window_view(z[a:b], p + 1, axis=0).reshape(-1, m)
+        win = sliding_window_view(z[a:b], p + 1, axis=0)[(-a) % stride :: stride]
+        win = win.reshape(-1, m)
         win = win[np.all(np.isfinite(win), axis=1)]
         gram += win.T @ win
         count += int(win.shape[0])
     return gram, count
+
+
+def _stride(n_windows: int, m: int) -> int:
+    """Every how many windows a doubled window's covariance (:meth:`ErrorFunction.
+    _direct_p`) reads, so that it costs at most about ``WINDOW_WORK`` multiply-adds
+    (windows x coefficients^2) while keeping at least ``MIN_WINDOWS_PER_COEFFICIENT``
+    windows per coefficient: neighbouring windows share all but one sample, so a long
+    training window read at a stride loses little."""
+    by_work = math.ceil(n_windows * m * m / WINDOW_WORK)
+    by_count = n_windows // (MIN_WINDOWS_PER_COEFFICIENT * m)
+    return max(1, min(by_work, by_count))
 
 
 def _select(S: FloatArray, R: FloatArray, basis: FloatArray) -> tuple[FloatArray, float]:
@@ -465,8 +491,8 @@ class ErrorFunction:
     * ``p``: window length in samples. Default: ``P_FACTOR`` times the smallest ``p`` of
       Eq. 19, with the model's order ``n`` (or, without ``[model]``, ``n = 2 x`` the
       group's sensors: one second-order degree of freedom per sensor); the direct
-      approach doubles it, up to the detection window, while each doubling raises the
-      function's sensitivity more than ``sqrt(2)`` (:meth:`_direct_p`).
+      approach doubles it, up to the detection window, to the longest window whose own
+      doubling raised the function's sensitivity more than ``sqrt(2)`` (:meth:`_direct_p`).
     * ``l``: training samples (from the start of the training window) used for the
       direct SVD (default: the whole training window).
     * ``direction``: ``"sensitive"`` (default, see the module docstring) or ``"paper"``
@@ -672,7 +698,7 @@ class ErrorFunction:
         swung three times as hard, a false gain of 1.20 on the healthy s3 (the fault on
         s4 plays no part: s4 is in no other function).
 
-        So ``p`` is doubled from that default while doubling raises the function's
+        So ``p`` is doubled from that default where doubling raises the function's
         sensitivity (its response to the loss of its sensor, in healthy standard
         deviations) more than ``sqrt(2)``: a residual that is measurement noise gains at
         most that from twice the samples (what the detector's own averaging also gives),
@@ -681,8 +707,13 @@ class ErrorFunction:
         the detector times) and where either half of the training window would hold too
         few windows for the out-of-sample calibration (:meth:`_held_out`). On that
         sample 10 -> 40 (sensitivity 2.1 -> 17); the paper's chain keeps its 14 (10.3 at
-        14, 11.0 at 28). All candidates are read from one covariance, of the longest
-        window's, so the search costs about one fit of it. Skipped when the config sets
+        14, 11.0 at 28). Every candidate is scored and the longest whose own doubling
+        gained more than ``sqrt(2)`` is kept: the gain is not even (5 floors at 1000 Hz:
+        1.75, 1.83, 2.79, 12.8, 50.2 at p = 10 ... 160, flat before it takes off), so
+        stopping at the first doubling that gains less would keep 10. The candidates are
+        grown one at a time up to ``MAX_COEFFICIENTS``, and a doubled window's covariance
+        is read at a stride on a long training window (:func:`_stride`), so the search
+        costs a few of Eq. 19's fits, not one of the longest window's. Skipped when the config sets
         ``p`` or ``direction = "paper"`` (no sensitivity to compare)."""
         model = context.config.get("model")
         n_model = int(model_matrices(model)[0].shape[0]) if model else None
@@ -694,35 +725,33 @@ class ErrorFunction:
         rows = min(z.shape[0] // 2, used.shape[0])  # the halves of _held_out
 
         def fits(p: int) -> bool:
-            return p <= window and rows - p > n_ch * (p + 1)
+            return p <= window and n_ch * (p + 1) <= MAX_COEFFICIENTS and rows - p > n_ch * (p + 1)
 
         candidates = [p0]
         while fits(2 * candidates[-1]):
             candidates.append(2 * candidates[-1])
         if len(candidates) == 1:
             return p0, []
-        top = candidates[-1]
-        gram, n_win = _windows_gram(used, top)
-        if n_win <= n_ch * (top + 1):
-            return p0, []
-        cov = gram / n_win
         chosen = p0
         tried: list[tuple[int, float]] = []
-        for p in candidates:
-            idx = [c * (top + 1) + s for c in range(n_ch) for s in range(p + 1)]
-            sub = cov[np.ix_(idx, idx)]
-            S = np.zeros_like(sub)
-            S[: p + 1, : p + 1] = sub[: p + 1, : p + 1]
+        for p in candidates:  # grown one at a time: the cost follows what is scored
+            m = n_ch * (p + 1)
+            gram, n_win = _windows_gram(used, p, _stride(used.shape[0] - p, m))
+            if n_win <= m:
+                break
+            cov = gram / n_win
+            S = np.zeros_like(cov)
+            S[: p + 1, : p + 1] = cov[: p + 1, : p + 1]
             try:
-                _, ratio = _select(S, sub + NOISE_FLOOR**2 * np.eye(len(idx)), np.eye(len(idx)))
+                _, ratio = _select(S, cov + NOISE_FLOOR**2 * np.eye(m), np.eye(m))
             except DetectorError:
                 break
             sens = float(np.sqrt(max(ratio, 0.0)))
-            gains = not tried or sens > SQRT2 * tried[-1][1]
+            if tried and sens > SQRT2 * tried[-1][1]:
+                chosen = p  # the longest window whose own doubling gained more than sqrt(2)
             tried.append((p, sens))
-            if not gains:
-                break
-            chosen = p
+        if len(tried) < 2:
+            return p0, []
         return chosen, tried
 
     def _direct(
@@ -736,7 +765,8 @@ class ErrorFunction:
         window (:meth:`_direct_p`); None for the default of Eq. 19."""
         model = context.config.get("model")
         n_model = int(model_matrices(model)[0].shape[0]) if model else None
-        p = self._p_for(g, n_model) if p is None else p
+        p0 = self._p_for(g, n_model)
+        p = p0 if p is None else p
         check_conditions(
             n=n_model,
             n_s=len(g.reference),
@@ -747,8 +777,10 @@ class ErrorFunction:
             group=g.name,
         )
         used = z if self.l is None else z[: self.l]
-        gram, n_win = _windows_gram(used, p)
         m = z.shape[1] * (p + 1)
+        # a window doubled by _direct_p reads its covariance at a stride on long records
+        stride = 1 if p == p0 or self.p is not None else _stride(used.shape[0] - p, m)
+        gram, n_win = _windows_gram(used, p, stride)
         if n_win <= m:
             raise DetectorError(
                 f"{channel}: too little training "
