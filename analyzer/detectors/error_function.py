@@ -47,6 +47,16 @@ direction (directions with large singular values lose automatically), for the in
 approach it is the model's exact decoupling null space. Either way the choice is made on
 the training data only and does not depend on any failure.
 
+Choosing the window (direct approach)
+-------------------------------------
+Eq. 19 counts samples. On a record sampled well above its modes its ``p`` spans a sliver
+of their period, and the most sensitive function that short still carries part of the
+structure's response, whose level wanders over seconds on a lightly damped structure:
+the healthy residual then grows and shrinks with it, and reads as a gain on a healthy
+sensor. The default ``p`` is therefore doubled, every doubling scored, up to the longest
+that gained more sensitivity than averaging twice the samples could
+(:meth:`ErrorFunction._direct_p`).
+
 Units, alignment and vectorization
 ----------------------------------
 ``e_i`` is scaled to read in sensor ``i``'s units as ``measured - estimated``. Its
@@ -136,11 +146,30 @@ function on noise-free data, negligible on real data."""
 
 P_FACTOR = 2
 """Default ``p`` is this many times the smallest ``p`` of Eq. 19 (the paper: "normally, p
-is selected to be several times larger than the required number"). Larger windows buy
-little (the paper's example at 250 Hz, 1 % noise: sensor 1's response to its loss is 11
-healthy standard deviations at p = 20, 12.5 at p = 40) but smear a failure's onset and end
-over the ``p + 1`` samples of the window."""
+is selected to be several times larger than the required number"). Where the data allow
+it, larger windows buy little (the paper's example at 250 Hz, 1 % noise: sensor 1's
+response to its loss is 11 healthy standard deviations at p = 20, 12.5 at p = 40) but
+smear a failure's onset and end over the ``p + 1`` samples of the window; where they buy
+much (a record sampled well above its modes), the direct approach doubles it
+(:meth:`ErrorFunction._direct_p`)."""
 
+
+SQRT2 = math.sqrt(2.0)
+"""What doubling an error function's window gains at most in sensitivity when its
+healthy residual is measurement noise (twice the samples averaged): :meth:`ErrorFunction.
+_direct_p` doubles the direct approach's default ``p`` only while it gains more."""
+
+MAX_COEFFICIENTS = 1000
+"""A doubled window (:meth:`ErrorFunction._direct_p`) holds at most this many
+coefficients (channels x (p + 1)): the covariance grows with their square and its
+eigenproblem with their cube (5 channels: p up to 160; 32 channels: up to 30)."""
+
+WINDOW_WORK = 4e9
+"""Multiply-adds (windows x coefficients^2) a doubled window's covariance may cost before
+it is read from every few windows only (:func:`_stride`): about a second."""
+
+MIN_WINDOWS_PER_COEFFICIENT = 20
+"""The stride of :func:`_stride` keeps at least this many windows per coefficient."""
 
 WEAK_SENSITIVITY = 2.0
 """An error function whose response to the loss of its sensor is below this many healthy
@@ -294,23 +323,36 @@ def _sees_unmeasured(
 # ----------------------------------------------------------------- data windows
 
 
-def _windows_gram(z: FloatArray, p: int) -> tuple[FloatArray, int]:
+def _windows_gram(z: FloatArray, p: int, stride: int = 1) -> tuple[FloatArray, int]:
     """``(sum of outer products, count)`` of the complete windows of ``p + 1`` samples of
     the standardized data ``z`` (N, n_ch): the Gram matrix ``W_NY W_NY^T`` of Eq. 28 with
     one column per window (windows touching a NaN are left out). A window's vector is
     channel-major, ``c * (p + 1) + s`` with ``s = 0`` the oldest sample. Accumulated in
-    chunks, so memory does not grow with the training length."""
+    chunks, so memory does not grow with the training length. ``stride``: only every
+    ``stride``-th window is used (:func:`_stride`; 1, all of them, for Eq. 19's window)."""
     n_ch = z.shape[1]
     m = n_ch * (p + 1)
     gram = np.zeros((m, m))
     count = 0
     for a in range(0, z.shape[0] - p, _CHUNK):
         b = min(z.shape[0], a + _CHUNK + p)
-        win = sliding_window_view(z[a:b], p + 1, axis=0).reshape(-1, m)
+        win = sliding_window_view(z[a:b], p + 1, axis=0)[(-a) % stride :: stride]
+        win = win.reshape(-1, m)
         win = win[np.all(np.isfinite(win), axis=1)]
         gram += win.T @ win
         count += int(win.shape[0])
     return gram, count
+
+
+def _stride(n_windows: int, m: int) -> int:
+    """Every how many windows a doubled window's covariance (:meth:`ErrorFunction.
+    _direct_p`) reads, so that it costs at most about ``WINDOW_WORK`` multiply-adds
+    (windows x coefficients^2) while keeping at least ``MIN_WINDOWS_PER_COEFFICIENT``
+    windows per coefficient: neighbouring windows share all but one sample, so a long
+    training window read at a stride loses little."""
+    by_work = math.ceil(n_windows * m * m / WINDOW_WORK)
+    by_count = n_windows // (MIN_WINDOWS_PER_COEFFICIENT * m)
+    return max(1, min(by_work, by_count))
 
 
 def _select(S: FloatArray, R: FloatArray, basis: FloatArray) -> tuple[FloatArray, float]:
@@ -448,7 +490,9 @@ class ErrorFunction:
       ``"indirect"`` (from ``[model]``, Eq. 1-25).
     * ``p``: window length in samples. Default: ``P_FACTOR`` times the smallest ``p`` of
       Eq. 19, with the model's order ``n`` (or, without ``[model]``, ``n = 2 x`` the
-      group's sensors: one second-order degree of freedom per sensor).
+      group's sensors: one second-order degree of freedom per sensor); the direct
+      approach doubles it, up to the detection window, to the longest window whose own
+      doubling raised the function's sensitivity more than ``sqrt(2)`` (:meth:`_direct_p`).
     * ``l``: training samples (from the start of the training window) used for the
       direct SVD (default: the whole training window).
     * ``direction``: ``"sensitive"`` (default, see the module docstring) or ``"paper"``
@@ -609,10 +653,13 @@ class ErrorFunction:
                 if self.approach == "indirect":
                     w_std, cov, summary = self._indirect(g, k, z, std, context)
                 else:
-                    w_std, cov, summary = self._direct(g, ch, z, context)
-                    held_out = self._held_out(g, ch, z, std, chans, mean, data, context)
+                    p, tried = self._direct_p(g, z, window, context)
+                    w_std, cov, summary = self._direct(g, ch, z, context, p)
+                    held_out = self._held_out(g, ch, z, std, chans, mean, data, context, p)
                     held = held_out is not None
                     summary["calibration"] = "out-of-sample" if held else "in-sample"
+                    if tried:
+                        summary["p_tried"] = [{"p": q, "sensitivity": v} for q, v in tried]
                 f = self._finish(
                     ch, g, chans, w_std, cov, mean, std, data, context, window, summary, held_out
                 )
@@ -634,17 +681,92 @@ class ErrorFunction:
             self.approach, self.direction, window, tuple(functions), tuple(notes), isolating
         )
 
+    def _direct_p(
+        self, g: Group, z: FloatArray, window: int, context: RunContext
+    ) -> tuple[int, list[tuple[int, float]]]:
+        """The direct approach's window for the examined sensor (column 0 of ``z``) and
+        the sensitivities tried, ``[(p, sensitivity), ...]`` (empty when none was).
+
+        Eq. 19's ``p`` counts samples, not seconds: on a record sampled well above its
+        modes, ``P_FACTOR`` times it spans a sliver of their period (11 samples, 55 ms, of
+        a 1 Hz building's at 200 Hz), and a function that short cannot tell the sensor
+        from its references without amplifying their noise, so the sensitive choice
+        leaves part of the structure's response in it. That part follows the response's
+        level, which wanders over seconds on a lightly damped structure: on the bundled
+        additive sample s3's function read 0.78 on its training window (0.63 of it the
+        response, 0.45 the noise) and up to 1.38 from 20 to 36 s, where the building
+        swung three times as hard, a false gain of 1.20 on the healthy s3 (the fault on
+        s4 plays no part: s4 is in no other function).
+
+        So ``p`` is doubled from that default where doubling raises the function's
+        sensitivity (its response to the loss of its sensor, in healthy standard
+        deviations) more than ``sqrt(2)``: a residual that is measurement noise gains at
+        most that from twice the samples (what the detector's own averaging also gives),
+        so more means the shorter function was leaking the response. Doubling stops at
+        the detection window (``window``: a longer function smears a fault beyond what
+        the detector times) and where either half of the training window would hold too
+        few windows for the out-of-sample calibration (:meth:`_held_out`). On that
+        sample 10 -> 40 (sensitivity 2.1 -> 17); the paper's chain keeps its 14 (10.3 at
+        14, 11.0 at 28). Every candidate is scored and the longest whose own doubling
+        gained more than ``sqrt(2)`` is kept: the gain is not even (5 floors at 1000 Hz:
+        1.75, 1.83, 2.79, 12.8, 50.2 at p = 10 ... 160, flat before it takes off), so
+        stopping at the first doubling that gains less would keep 10. The candidates are
+        grown one at a time up to ``MAX_COEFFICIENTS``, and a doubled window's covariance
+        is read at a stride on a long training window (:func:`_stride`), so the search
+        costs a few of Eq. 19's fits, not one of the longest window's. Skipped when the config sets
+        ``p`` or ``direction = "paper"`` (no sensitivity to compare)."""
+        model = context.config.get("model")
+        n_model = int(model_matrices(model)[0].shape[0]) if model else None
+        p0 = self._p_for(g, n_model)
+        if self.p is not None or self.direction != "sensitive":
+            return p0, []
+        used = z if self.l is None else z[: self.l]
+        n_ch = z.shape[1]
+        rows = min(z.shape[0] // 2, used.shape[0])  # the halves of _held_out
+
+        def fits(p: int) -> bool:
+            return p <= window and n_ch * (p + 1) <= MAX_COEFFICIENTS and rows - p > n_ch * (p + 1)
+
+        candidates = [p0]
+        while fits(2 * candidates[-1]):
+            candidates.append(2 * candidates[-1])
+        if len(candidates) == 1:
+            return p0, []
+        chosen = p0
+        tried: list[tuple[int, float]] = []
+        for p in candidates:  # grown one at a time: the cost follows what is scored
+            m = n_ch * (p + 1)
+            gram, n_win = _windows_gram(used, p, _stride(used.shape[0] - p, m))
+            if n_win <= m:
+                break
+            cov = gram / n_win
+            S = np.zeros_like(cov)
+            S[: p + 1, : p + 1] = cov[: p + 1, : p + 1]
+            try:
+                _, ratio = _select(S, cov + NOISE_FLOOR**2 * np.eye(m), np.eye(m))
+            except DetectorError:
+                break
+            sens = float(np.sqrt(max(ratio, 0.0)))
+            if tried and sens > SQRT2 * tried[-1][1]:
+                chosen = p  # the longest window whose own doubling gained more than sqrt(2)
+            tried.append((p, sens))
+        if len(tried) < 2:
+            return p0, []
+        return chosen, tried
+
     def _direct(
-        self, g: Group, channel: str, z: FloatArray, context: RunContext
+        self, g: Group, channel: str, z: FloatArray, context: RunContext, p: int | None = None
     ) -> tuple[FloatArray, FloatArray, dict[str, Any]]:
         """Eq. 26-29 for the examined sensor (column 0 of the standardized training data
         ``z``): ``W_NY`` from its windows, SVD, choice of the left null vector. The window
         holds ``p + 1`` samples of every channel; Eq. 26 leaves out the examined sensor's
         newest sample because in the paper's example no reference sees the input
-        directly, and then its coefficient simply comes out near zero."""
+        directly, and then its coefficient simply comes out near zero. ``p``: the
+        window (:meth:`_direct_p`); None for the default of Eq. 19."""
         model = context.config.get("model")
         n_model = int(model_matrices(model)[0].shape[0]) if model else None
-        p = self._p_for(g, n_model)
+        p0 = self._p_for(g, n_model)
+        p = p0 if p is None else p
         check_conditions(
             n=n_model,
             n_s=len(g.reference),
@@ -655,8 +777,10 @@ class ErrorFunction:
             group=g.name,
         )
         used = z if self.l is None else z[: self.l]
-        gram, n_win = _windows_gram(used, p)
         m = z.shape[1] * (p + 1)
+        # a window doubled by _direct_p reads its covariance at a stride on long records
+        stride = 1 if p == p0 or self.p is not None else _stride(used.shape[0] - p, m)
+        gram, n_win = _windows_gram(used, p, stride)
         if n_win <= m:
             raise DetectorError(
                 f"{channel}: too little training "
@@ -699,10 +823,12 @@ class ErrorFunction:
         mean: FloatArray,
         data: Dataset,
         context: RunContext,
+        p: int | None = None,
     ) -> FloatArray | None:
         """The training residual of the direct approach out of sample: the error function
-        fitted on each half of the training window (:meth:`_direct`, :func:`_unit_fit`)
-        and applied to the other half (None when a half is too short for the SVD).
+        (window ``p``, as the whole window's) fitted on each half of the training window
+        (:meth:`_direct`, :func:`_unit_fit`) and applied to the other half (None when a
+        half is too short for the SVD).
 
         The direct approach chooses the direction of least variance of the training
         windows themselves, so its residual there is smaller than on any other data: on
@@ -718,7 +844,7 @@ class ErrorFunction:
         values = np.asarray(data.train_values(), dtype=np.float64)[:, idx]
         for fit_rows, test_rows in (p_rows, p_rows[::-1]):
             try:
-                w, cov, summary = self._direct(g, channel, z[fit_rows], context)
+                w, cov, summary = self._direct(g, channel, z[fit_rows], context, p)
             except DetectorError:
                 return None
             p = int(summary["p"])
