@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 import test_watch_run
-from test_watch_run import SETTLE, Watcher, state, wait_until, write
+from test_watch_run import SETTLE, Watcher, said, state, wait_until, write
 
 from analyzer.cli import build_parser
 from analyzer.watch import WatchSettings
@@ -22,10 +22,6 @@ folders = test_watch_run.folders
 start_watcher = test_watch_run.start_watcher
 _info_logs = test_watch_run._info_logs
 _stop_fork_server = test_watch_run._stop_fork_server
-
-
-def said(caplog: pytest.LogCaptureFixture, text: str) -> list[str]:
-    return [r.getMessage() for r in caplog.records if text in r.getMessage()]
 
 
 def short_csv(tmp_path: Path, path: Path) -> Path:

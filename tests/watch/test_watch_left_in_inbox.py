@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import test_watch_run
-from test_watch_run import OPTIONS, SETTLE, Watcher, started, state, wait_until, write
+from test_watch_run import OPTIONS, SETTLE, Watcher, said, started, state, wait_until, write
 
 from analyzer import watch as watch_module
 from analyzer.errors import UsageError
@@ -35,10 +35,6 @@ folders = test_watch_run.folders
 start_watcher = test_watch_run.start_watcher
 _info_logs = test_watch_run._info_logs
 _stop_fork_server = test_watch_run._stop_fork_server
-
-
-def said(caplog: pytest.LogCaptureFixture, text: str) -> list[str]:
-    return [r.getMessage() for r in caplog.records if text in r.getMessage()]
 
 
 def one_channel(path: Path) -> Path:

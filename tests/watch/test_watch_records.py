@@ -21,7 +21,7 @@ from typing import Any
 
 import pytest
 import test_watch_run
-from test_watch_run import OPTIONS, SETTLE, Watcher, started, state, write
+from test_watch_run import OPTIONS, SETTLE, Watcher, said, started, state, write
 
 from analyzer import watch as watch_module
 from analyzer.cli import main
@@ -40,10 +40,6 @@ _stop_fork_server = test_watch_run._stop_fork_server
 def _forked(monkeypatch: pytest.MonkeyPatch) -> None:
     """Analyses in processes forked from this one, so that they see its replacements."""
     monkeypatch.setattr(watch_module, "_context", lambda: multiprocessing.get_context("fork"))
-
-
-def said(caplog: pytest.LogCaptureFixture, text: str) -> list[str]:
-    return [r.getMessage() for r in caplog.records if text in r.getMessage()]
 
 
 def test_an_internal_error_is_retried_on_the_next_start_and_never_moved(

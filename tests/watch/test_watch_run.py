@@ -62,6 +62,11 @@ def building(
     return t_ns, {name: y[:, i] for i, name in enumerate(names)}
 
 
+def said(caplog: pytest.LogCaptureFixture, text: str) -> list[str]:
+    """The watcher's log messages that contain ``text``."""
+    return [r.getMessage() for r in caplog.records if text in r.getMessage()]
+
+
 def write(path: Path, fmt: str, **kw: object) -> Path:
     t_ns, data = building(**kw)  # type: ignore[arg-type]
     write_archive(path, fmt, t_ns, data, start_iso=START)
