@@ -151,22 +151,35 @@ class ConstantSiblingNote(WindowNote):
 
 def constant_siblings(infos: Mapping[str, ChannelInfo], chosen: Sequence[str]) -> list[ChannelInfo]:
     """The constant channels of ``infos`` with at least :data:`STUCK_SAMPLES` samples
-    whose name is one of ``chosen``'s but for its digits (:func:`_family`)."""
-    families = {_family(c) for c in chosen}
-    return [
+    whose name is one of ``chosen``'s but for its digits (:func:`_family`), in families
+    where they are fewer than the varying ones (:func:`_few_of_many`)."""
+    candidates = [
         i
         for i in infos.values()
-        if i.constant
-        and i.finite >= STUCK_SAMPLES
-        and i.name not in chosen
-        and _family(i.name) in families
+        if i.constant and i.finite >= STUCK_SAMPLES and i.name not in chosen
     ]
+    return _few_of_many(candidates, chosen)
+
+
+def _few_of_many(constant: Sequence[ChannelInfo], varying: Sequence[str]) -> list[ChannelInfo]:
+    """Of the ``constant`` channels, those of a family (:func:`_family`) whose ``varying``
+    members outnumber its constant ones: one sensor of a set that reads one value is a
+    dead or stuck sensor, while a family mostly constant is a structure with constant
+    entries (a ROS covariance matrix: nav2's ``/amcl_pose.pose.covariance[2]`` and 30
+    more read 0.0 beside the 5 that vary, and each was warned of as a dead sensor)."""
+    alive: dict[str, int] = {}
+    for c in varying:
+        alive[_family(c)] = alive.get(_family(c), 0) + 1
+    dead: dict[str, int] = {}
+    for i in constant:
+        dead[_family(i.name)] = dead.get(_family(i.name), 0) + 1
+    return [i for i in constant if dead[_family(i.name)] < alive.get(_family(i.name), 0)]
 
 
 class WindowConstantNote(WindowNote):
     """The note (repeated on stderr) naming the channels left out because they do not vary
     in the training window although they vary over the record (constant there, or one
-    value in 99 % of its samples, or empty there): a dead start, a sensor switched on
+    value in 99 % of its samples; empty there is :class:`NoSamplesNote`'s): a dead start, a sensor switched on
     late; ``names``: those channels, ``why``: ``constant in the training window``."""
 
     names: tuple[str, ...] = ()
@@ -415,7 +428,12 @@ def select_channels(
         chosen = [c for c in chosen if not infos[c].constant]
         # one value on every sample of a sensor the user named, beside varying ones: a
         # fault (dead or stuck), not a note only; alone, refused as before (below)
-        stuck = [infos[c] for c in constant if infos[c].finite >= STUCK_SAMPLES] if chosen else []
+        # (named exactly, always; matched by a glob, where its family mostly varies: a
+        # glob over a message also matches its covariance's constant entries)
+        exact = {*patterns, *named}
+        many = [infos[c] for c in constant if infos[c].finite >= STUCK_SAMPLES] if chosen else []
+        few = {i.name for i in _few_of_many([i for i in many if i.name not in exact], chosen)}
+        stuck = [i for i in many if i.name in exact or i.name in few]
         rest = [c for c in constant if c not in {i.name for i in stuck}]
         if stuck:
             notes.append(StuckNote.of(stuck))

@@ -177,3 +177,47 @@ def test_a_sibling_of_few_samples_is_not_named():
     infos = {"/s0.data": ChannelInfo("/s0.data", 500, 0, 1, 200.0, 0, 500, -1.0, 1.0)}
     infos["/s1.data"] = _info("/s1.data", finite=99)
     assert constant_siblings(infos, ["/s0.data"]) == []
+
+
+def _covariance_like():
+    """Nine entries of a covariance-like family, two varying and seven reading 0.0 (as
+    nav2's ``/amcl_pose.pose.covariance[i]``: mostly constant by construction)."""
+    rng = np.random.default_rng(5)
+    return {
+        f"cov{k}": (rng.normal(0.0, 1.0, 12000) if k in (0, 4) else np.zeros(12000))
+        for k in range(9)
+    }
+
+
+def test_a_mostly_constant_family_is_no_dead_sensor(tmp_path, capsys):
+    """A family whose constant members outnumber its varying ones is a structure with
+    constant entries, not a set of sensors one of which died: no warning by default
+    (nav2's covariance entries were each warned of as a dead sensor), and a glob over it
+    reports none as a fault, while the dead ``/s3.data`` among its varying siblings still is."""
+    path = _record(tmp_path, extra=_covariance_like())
+    code, err, doc, _ = _run(tmp_path, capsys, path)
+    assert not any("/cov" in ln for ln in said(err)), err
+    assert any(ln.startswith("analyzer: warning: /s3.data") for ln in said(err)), err
+    code, err, doc, _ = _run(tmp_path, capsys, path, "--channels", "/*")
+    assert code == 1, err
+    stuck = {f["channel"] for f in doc["faults"] if f["detector"] == "constant_check"}
+    assert stuck == {"/s3.data"}
+    whys = {c["name"]: c.get("why") for c in doc["channels"] if not c["analyzed"]}
+    assert whys["/cov1.data"] == "constant"
+
+
+def test_a_constant_channel_named_exactly_is_a_finding_whatever_its_family(tmp_path, capsys):
+    path = _record(tmp_path, value=1.0, extra=_covariance_like())
+    code, err, doc, _ = _run(tmp_path, capsys, path, "--channels", ALL + ",/cov1.data,/cov0.data")
+    assert code == 1, err
+    stuck = {f["channel"] for f in doc["faults"] if f["detector"] == "constant_check"}
+    assert stuck == {"/s3.data", "/cov1.data"}
+
+
+def test_the_constant_minority_of_a_family_is_named():
+    varying = [f"/c.data[{k}]" for k in (0, 4)]
+    infos = {n: ChannelInfo(n, 12000, 0, 1, 200.0, 0, 12000, -1.0, 1.0) for n in varying}
+    infos |= {f"/c.data[{k}]": _info(f"/c.data[{k}]") for k in (1, 2, 3)}
+    assert constant_siblings(infos, varying) == []  # (3 constant, 2 varying)
+    infos = {k: v for k, v in infos.items() if k not in ("/c.data[2]", "/c.data[3]")}
+    assert [i.name for i in constant_siblings(infos, varying)] == ["/c.data[1]"]
