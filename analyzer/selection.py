@@ -179,8 +179,9 @@ def _few_of_many(constant: Sequence[ChannelInfo], varying: Sequence[str]) -> lis
 class WindowConstantNote(WindowNote):
     """The note (repeated on stderr) naming the channels left out because they do not vary
     in the training window although they vary over the record (constant there, or one
-    value in 99 % of its samples; empty there is :class:`NoSamplesNote`'s): a dead start, a sensor switched on
-    late; ``names``: those channels, ``why``: ``constant in the training window``."""
+    value in 99 % of its samples; empty there is :class:`NoSamplesNote`'s): a dead
+    start, a sensor switched on late; ``names``: those channels, ``why``: ``constant in
+    the training window``."""
 
     names: tuple[str, ...] = ()
     why = "constant in the training window"
