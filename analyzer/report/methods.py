@@ -67,6 +67,23 @@ DETECTORS: dict[str, Method] = {
     ),
 }
 
+CHECKS: dict[str, Method] = {
+    "constant_check": Method(
+        "constant_check",
+        "A sensor that reads one value",
+        "",
+        "A channel that --channels selected and that reads one value on every one of at "
+        "least 100 samples, while the other selected channels vary, has nothing for a "
+        "model to fit: no detector analyzes it, and it is reported as a fault of its own, "
+        "from the record's start (it may have read so before the record began) to its end. "
+        "At 0 it is a dead sensor (a gain of 0), at another value a sensor stuck there; "
+        "either way it may also be a signal below the sensor's resolution. A default run "
+        "leaves constant channels out and only warns of one named like analyzed channels.",
+    ),
+}
+"""Checks that are not detectors, described where they reported something (a report
+lists every detector, run or not; a check only when it ran)."""
+
 TESTS = Method(
     "tests",
     "Innovation tests of the standardized residual",

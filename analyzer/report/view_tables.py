@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 from analyzer.errors import counted
 from analyzer.report import format as fmt
-from analyzer.report.methods import DETECTORS, Method
+from analyzer.report.methods import CHECKS, DETECTORS, Method
 from analyzer.report.view_records import (
     ChannelTable,
     ChannelView,
@@ -275,7 +275,9 @@ class TableParts:
             out.append(MethodView(m, status, name in ran))
         for name in ran:
             if name not in DETECTORS:
-                out.append(MethodView(Method(name, name, "", ""), "ran", True))
+                m = CHECKS.get(name, Method(name, name, "", ""))
+                status = f"reported {counted(len(ran[name].get('channels', [])), 'channel')}"
+                out.append(MethodView(m, status, True))
         return out
 
     def threshold_facts(self) -> list[Fact]:

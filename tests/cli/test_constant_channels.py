@@ -221,3 +221,15 @@ def test_the_constant_minority_of_a_family_is_named():
     assert constant_siblings(infos, varying) == []  # (3 constant, 2 varying)
     infos = {k: v for k, v in infos.items() if k not in ("/c.data[2]", "/c.data[3]")}
     assert [i.name for i in constant_siblings(infos, varying)] == ["/c.data[1]"]
+
+
+def test_the_report_says_what_the_constant_check_is_where_it_reported(tmp_path, capsys):
+    """The report's Method section describes each detector; the check had only its name
+    and "ran" (stuck51's own note): now what it does, where it reported a channel."""
+    code, err, _, out = _run(tmp_path, capsys, _record(tmp_path), "--channels", ALL)
+    assert code == 1, err
+    html = (out / "report.html").read_text()
+    assert "A sensor that reads one value" in html
+    assert "reported 1 channel" in html
+    code, err, _, out = _run(tmp_path, capsys, _record(tmp_path, value=None, until=0))
+    assert "A sensor that reads one value" not in (out / "report.html").read_text()
