@@ -216,3 +216,39 @@ def test_a_record_of_timestamps_only_is_refused_saying_so(tmp_path):
     archive, store = _store(path)
     with store, pytest.raises(ArchiveUsageError, match="every varying channel is a log message"):
         select_channels(store, None, [], log_topics=[])
+
+
+def test_run_leaves_them_out_too(tmp_path, capsys):
+    """``run`` selects as ``inspect`` says: of the log and one sensor, one channel is
+    left (refused as one, naming the log's fields), where the log's level and line were
+    analyzed beside it."""
+    store = get_typestore(Stores.ROS1_NOETIC)
+    log = store.types["rosgraph_msgs/msg/Log"]
+    header = store.types["std_msgs/msg/Header"]
+    stamp = store.types["builtin_interfaces/msg/Time"]
+    f64 = store.types["std_msgs/msg/Float64"]
+    path = tmp_path / "one.bag"
+    with Ros1Writer(path) as bag:
+        out = bag.add_connection("/rosout", "rosgraph_msgs/msg/Log", typestore=store)
+        s0 = bag.add_connection("/s0", "std_msgs/msg/Float64", typestore=store)
+        for i in range(N):
+            t = T0 + i * STEP
+            data = store.serialize_ros1(f64(data=float(SENSOR[i, 0])), "std_msgs/msg/Float64")
+            bag.write(s0, t, bytes(data))
+            head = header(seq=i, stamp=stamp(sec=t // 10**9, nanosec=t % 10**9), frame_id="")
+            msg = log(
+                header=head,
+                level=int(LEVELS[i]),
+                name="/n",
+                msg="m",
+                file="f",
+                function="g",
+                line=int(LINES[i]),
+                topics=[],
+            )
+            bag.write(out, t, bytes(store.serialize_ros1(msg, "rosgraph_msgs/msg/Log")))
+    code = main(["run", str(path), "--out", str(tmp_path / "o"), "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "one channel to analyze (/s0.data)" in err, err
+    assert "log messages' fields and timestamps not analyzed: /rosout.level, /rosout.line" in err
