@@ -20,11 +20,12 @@ from typing import Any
 
 import numpy as np
 
-from analyzer.errors import UsageError, capped
+from analyzer.errors import ReaderError, UsageError, capped
 from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
 from analyzer.readers import open_archive
-from analyzer.readers.base import InputInfo, TimeSource, one_clock
+from analyzer.readers.base import InputInfo, TimeSource, about_selection, one_clock
 from analyzer.scratch import scratch
+from analyzer.selection import select_channels
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
 from analyzer.timeutil import (
     exact_unit,
@@ -139,13 +140,15 @@ def _export(
                 f"{where}: no numeric channel to export" + (f" ({bad})" if bad else "")
             )
         one_clock(names, archive.inputs)
-        aligned = store.align(names, _default_rate(store, names) if rate is None else rate)
+        rated = names if rate is not None else _voting(store, names, archive.inputs)
+        aligned = store.align(names, _default_rate(store, rated) if rate is None else rate)
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
             aligned.start_ns
         )
         if utc:
             _check_utc(names, absolute, archive.inputs)
         infos = {i.name: i for i in store.infos()}
+        every = list(infos)
         done = Exported(
             path=out,
             rows=aligned.n,
@@ -165,7 +168,12 @@ def _export(
         finally:
             tmp_out.unlink(missing_ok=True)
     if warn is not None:
-        lines = [f"{i.path}: {e}" for i in archive.inputs for e in i.errors]
+        lines = [
+            f"{i.path}: {e}"
+            for i in archive.inputs
+            for e in i.errors
+            if about_selection(e, i, every, names)
+        ]
         for line in lines[:WARNED_LINES]:
             warn(line)
         if len(lines) > WARNED_LINES:
@@ -285,6 +293,23 @@ def parquet_metadata(done: Exported) -> dict[bytes, bytes]:
         "version": __version__,
     }
     return {f"analyzer.{k}".encode(): v.encode() for k, v in meta.items()}
+
+
+def _voting(store: ChannelStore, names: Sequence[str], inputs: Sequence[InputInfo]) -> list[str]:
+    """The channels of ``names`` that set an export's default clock: those a default
+    ``run`` analyzes (:func:`~analyzer.selection.select_channels`: not constant, not a
+    flag, a copy, a channel whose meaning changes between messages, a log message's
+    field or a timestamp), or all of ``names`` where it analyzes none of them (or
+    refuses the archive). ``nav2_turtlebot.mcap``'s 7 ``/tf.transforms[0].*`` at 58 Hz,
+    three frames interleaved (meaning changes), outvoted its 6 varying ``/odom``
+    channels at 27.6 Hz, which ``run`` analyzes alone (a new user's audit)."""
+    relabelled = [p for i in inputs for p in i.relabelled]
+    logs = [t for i in inputs for t in i.log_topics]
+    try:
+        analyzed = set(select_channels(store, None, [], relabelled, log_topics=logs))
+    except (UsageError, ReaderError):
+        return list(names)
+    return [n for n in names if n in analyzed] or list(names)
 
 
 def _default_rate(store: ChannelStore, names: Sequence[str]) -> float:

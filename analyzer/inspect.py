@@ -12,7 +12,9 @@ from analyzer.readers import Archive, open_archive
 from analyzer.readers.base import InputInfo, TimeSource
 from analyzer.scratch import scratch
 from analyzer.selection import (
+    LOG_FIELD,
     NO_TRAINING_SAMPLES,
+    TIME_FIELD,
     default_train,
     left_out,
     lone_channel,
@@ -109,7 +111,8 @@ def run_choice(
     relabelled = [p for i in archive.inputs for p in i.relabelled]
     refused = None
     try:
-        chosen = select_channels(store, None, notes, relabelled)
+        logs = [t for i in archive.inputs for t in i.log_topics]
+        chosen = select_channels(store, None, notes, relabelled, log_topics=logs)
         lone_channel(chosen, notes)  # (run refuses one: every detector needs two)
     except (UsageError, ReaderError) as err:
         chosen, refused = [], one_line(err)
@@ -232,6 +235,11 @@ LEGEND = {
     "meaning changes": "[meaning changes] what it measures changes between messages (see "
     "the input's errors; --channels naming it keeps it)",
     "refused": "[refused] run refuses the archive (below)",
+    LOG_FIELD: "[log message field] a field of a log message (/rosout), not a measurement "
+    "(--channels naming it keeps it)",
+    TIME_FIELD: "[timestamp field] a time written in the message (seconds and "
+    "nanoseconds, or a stamp that never goes back), not a measurement (--channels naming "
+    "it keeps it)",
     NO_TRAINING_SAMPLES: "[no training samples] no samples in the default training window "
     "(its data lie outside it: see the notes; --train choosing a window where it has data "
     "keeps it)",

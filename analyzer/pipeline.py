@@ -118,7 +118,7 @@ from analyzer.parallel import (
     make_executor,
 )
 from analyzer.readers import Archive, ArchiveNote, open_archive
-from analyzer.readers.base import InputInfo, one_clock
+from analyzer.readers.base import InputInfo, about_selection, one_clock
 from analyzer.readers.tally import Tally
 from analyzer.reconfigure import (
     SEARCH_AGAIN_MIN,
@@ -628,7 +628,13 @@ def _analyze(
             # (the config's groups and [model] name their channels: all are kept)
             named = bool(options.config.groups) or options.config.model is not None
             chosen = select_channels(
-                store, options.channels, notes, relabelled, not named, _config_named(options)
+                store,
+                options.channels,
+                notes,
+                relabelled,
+                not named,
+                _config_named(options),
+                [t for i in archive.inputs for t in i.log_topics],
             )
         else:
             chosen = model_channels(store, reused, options, notes)
@@ -2641,7 +2647,7 @@ def _warn_inputs(analysis: Analysis, out: Path, warn: Callable[[str], None]) -> 
     """The inputs' errors (a truncated or unreadable file, samples dropped) and the
     archive's assembly notes (:func:`_archive_notes`), which a run that still exits 0 or 1
     would otherwise keep to findings.json and the report."""
-    lines = input_warnings(analysis)
+    lines = input_warnings(analysis, selected_only=True)
     notes = _archive_notes(analysis)
     for line in lines[:WARNED_LINES]:
         warn(line)
@@ -2650,11 +2656,21 @@ def _warn_inputs(analysis: Analysis, out: Path, warn: Callable[[str], None]) -> 
         warn(f"{len(lines) - WARNED_LINES} more {what} in {out / 'findings.json'}")
 
 
-def input_warnings(analysis: Analysis) -> list[str]:
+def input_warnings(analysis: Analysis, selected_only: bool = False) -> list[str]:
     """The lines ``analyzer run`` warns of about the inputs of a run that went on: each
     input error (``FILE: error``), then the archive's assembly notes
-    (:func:`_archive_notes`)."""
-    lines = [f"{i.path}: {e}" for i in analysis.inputs for e in i.errors]
+    (:func:`_archive_notes`). ``selected_only``: without the errors about topics that
+    ``--channels`` (or a saved model) left out (:func:`~analyzer.readers.base.
+    about_selection`: findings.json keeps them)."""
+    names = [c.name for c in analysis.channels]
+    unselected = {c for c, why in analysis.left_out.items() if why.get("why") == "not selected"}
+    selected = [c for c in names if c not in unselected]
+    lines = [
+        f"{i.path}: {e}"
+        for i in analysis.inputs
+        for e in i.errors
+        if not (selected_only and unselected) or about_selection(e, i, names, selected)
+    ]
     return lines + _archive_notes(analysis)
 
 

@@ -218,6 +218,8 @@ def left_out(notes: Sequence[str], infos: Mapping[str, ChannelInfo]) -> dict[str
             why.update({c: {"why": "flag"} for c in note.names})
         elif isinstance(note, CopyNote):
             why.update({c.channel: {"why": "copy", "copy_of": c.of} for c in note.copies})
+        elif isinstance(note, NotMeasuredNote):
+            why.update({c: {"why": w} for c, w in note.whys.items()})
         elif isinstance(note, MixedNote):
             why.update({c: {"why": "meaning changes"} for c in note.names})
         elif isinstance(note, (WindowConstantNote, CounterNote)):
@@ -388,6 +390,101 @@ def without_samples(
     return out
 
 
+LOG_FIELD = "log message field"
+"""``why`` of a field of a log message (:data:`~analyzer.readers.base.LOG_TYPES`)."""
+
+TIME_FIELD = "timestamp field"
+"""``why`` of a part of a time written in a message (:func:`time_fields`)."""
+
+SPLIT_TIMES = (("sec", "nsec"), ("sec", "nanosec"), ("secs", "nsecs"), ("seconds", "nanos"))
+"""The two fields of a time split into whole seconds and nanoseconds: ROS's
+``builtin_interfaces/Time`` (and ROS 1's ``time``), Foxglove's ``Time``, protobuf's
+``google.protobuf.Timestamp``."""
+
+CLOCK_FIELDS = frozenset({"stamp", "timestamp"})
+"""Names of a field that holds a time as one number; it is a clock reading where its
+values never go back over the record (:func:`time_fields`)."""
+
+
+def time_fields(store: ChannelStore, names: Sequence[str]) -> list[str]:
+    """The channels of ``names`` that hold a time written in the message, not a
+    measurement: both parts of a split time (:data:`SPLIT_TIMES`: ``X.sec`` beside
+    ``X.nsec``; the nanoseconds part is a sawtooth that wraps each second, the seconds
+    part a staircase), and a field named ``stamp`` or ``timestamp`` whose values never
+    go back over the record (a clock; :data:`CLOCK_FIELDS`). Analyzed as sensors, they
+    set the common clock and the advice (Keelson's 83 ``timestamp.seconds`` and
+    ``.nanos`` were a record's only default channels; a new user's audit)."""
+    present = set(store.names)  # (the other part may be constant: left out already)
+    out = []
+    for name in names:
+        parent, dot, leaf = name.rpartition(".")
+        if not dot:
+            parent, leaf = "", name
+        stem = f"{parent}." if dot else ""
+        if (
+            any(
+                (leaf == whole and f"{stem}{part}" in present)
+                or (leaf == part and f"{stem}{whole}" in present)
+                for whole, part in SPLIT_TIMES
+            )
+            or leaf in CLOCK_FIELDS
+            and _never_back(store, name)
+        ):
+            out.append(name)
+    return out
+
+
+def _never_back(store: ChannelStore, name: str) -> bool:
+    """Whether the channel ``name``'s finite values never decrease (one pass, in numpy)."""
+    _, v = store.raw(name)
+    finite = v[np.isfinite(v)]
+    return finite.shape[0] > 1 and bool(np.all(finite[1:] >= finite[:-1]))
+
+
+class NotMeasuredNote(str):
+    """The note naming the channels left out because they are not measurements: the
+    fields of log messages (:data:`LOG_FIELD`) and times written in messages
+    (:data:`TIME_FIELD`); ``names``, and ``whys``: each one's reason."""
+
+    names: tuple[str, ...] = ()
+    whys: dict[str, str]
+
+    def __new__(cls, text: str) -> NotMeasuredNote:
+        # (built from its text, :meth:`of` adding the rest: it pickles as one, for a
+        # watcher's analyses run in other processes)
+        return str.__new__(cls, text)
+
+    @classmethod
+    def of(cls, whys: Mapping[str, str]) -> NotMeasuredNote:
+        """The note on the channels ``whys`` names, each with its reason."""
+        logs = [c for c, w in whys.items() if w == LOG_FIELD]
+        times = [c for c, w in whys.items() if w == TIME_FIELD]
+        parts = []
+        if logs:
+            parts.append(f"fields of log messages: {capped(logs, COPIES_LISTED, what='channels')}")
+        if times:
+            parts.append(f"timestamps: {capped(times, COPIES_LISTED, what='channels')}")
+        note = cls(
+            f"not measurements, not analyzed: {'; '.join(parts)}; --channels naming them "
+            "analyzes them"
+        )
+        note.names = tuple(whys)
+        note.whys = dict(whys)
+        return note
+
+
+def not_measured(
+    store: ChannelStore, names: Sequence[str], log_topics: Sequence[str]
+) -> dict[str, str]:
+    """Of ``names``, those that are no measurement, each with why: a field of a topic of
+    ``log_topics`` (a log message's: :data:`LOG_FIELD`), or a time written in a message
+    (:func:`time_fields`: :data:`TIME_FIELD`)."""
+    prefixes = tuple(p for t in log_topics for p in (f"{t}.", f"{t}["))
+    whys = {c: LOG_FIELD for c in names if prefixes and c.startswith(prefixes)}
+    whys.update({c: TIME_FIELD for c in time_fields(store, names) if c not in whys})
+    return {c: whys[c] for c in names if c in whys}
+
+
 def select_channels(
     store: ChannelStore,
     patterns: list[str] | None,
@@ -395,6 +492,7 @@ def select_channels(
     relabelled: Sequence[str] = (),
     drop_copies: bool = True,
     named: Collection[str] = (),
+    log_topics: Sequence[str] = (),
 ) -> list[str]:
     """The channels to analyze: ``--channels``' (``patterns``), else every numeric one
     that is not constant, whose meaning does not change between messages (names
@@ -405,7 +503,9 @@ def select_channels(
     copies make every detector's model singular the run is refused, naming them).
     Flags and labels (two whole-number values over the record: :func:`_flags`) are left
     out unless ``--channels`` or the config (``named``) names them exactly (a note
-    says which, and how to keep them)."""
+    says which, and how to keep them), and so are the fields of log messages (topics of
+    ``log_topics``) and the times written in messages (:func:`not_measured`) unless
+    ``--channels`` (other than ``!`` patterns alone) or the config names them."""
     infos = {i.name: i for i in store.infos()}
     if not infos:
         raise ReaderError("no numeric channel found in the input")
@@ -445,6 +545,8 @@ def select_channels(
         constant = [c for c in infos if infos[c].constant]
         if constant:
             notes.append(ConstantNote(constant))
+    if not patterns or all(p.startswith("!") for p in patterns):
+        chosen = _measured(store, chosen, notes, log_topics, named)
     # (a lone channel is refused as one, flag or not: the detectors need two)
     flags = _flags(infos, chosen, patterns, named) if len(chosen) > 1 else []
     if flags:
@@ -492,6 +594,30 @@ def select_channels(
     return chosen
 
 
+def _measured(
+    store: ChannelStore,
+    chosen: list[str],
+    notes: list[str],
+    log_topics: Sequence[str],
+    named: Collection[str],
+) -> list[str]:
+    """``chosen`` without the channels that are no measurement (:func:`not_measured`)
+    and that the config does not name (``named``), a note naming them; refused where
+    nothing else is left."""
+    whys = {c: w for c, w in not_measured(store, chosen, log_topics).items() if c not in named}
+    if not whys:
+        return chosen
+    notes.append(NotMeasuredNote.of(whys))
+    kept = [c for c in chosen if c not in whys]
+    if not kept:
+        raise ArchiveUsageError(
+            "no channel left to analyze: every varying channel is a log message's field or "
+            f"a timestamp, not a measurement ({_few(list(whys), 3)}); name them with "
+            "--channels to analyze them anyway"
+        )
+    return kept
+
+
 def lone_channel(chosen: Sequence[str], notes: Sequence[str]) -> None:
     """Raise the usage error on one channel left to analyze (``chosen``), naming those
     the selection's ``notes`` left out: every detector estimates a sensor from the others
@@ -501,10 +627,16 @@ def lone_channel(chosen: Sequence[str], notes: Sequence[str]) -> None:
     left = [c for n in notes if isinstance(n, ConstantNote) for c in n.names]
     copied = [c for n in notes if isinstance(n, CopyNote) for c in n.names]
     flags = [c for n in notes if isinstance(n, FlagNote) for c in n.names]
+    unmeasured = [c for n in notes if isinstance(n, NotMeasuredNote) for c in n.names]
     raise ArchiveUsageError(
         f"one channel to analyze ({chosen[0]}): every detector estimates a sensor "
         "from the others and needs at least 2 channels (--channels chooses them)"
         + (f"; flags or labels not analyzed: {_few(flags)}" if flags else "")
+        + (
+            f"; log messages' fields and timestamps not analyzed: {_few(unmeasured)}"
+            if unmeasured
+            else ""
+        )
         + (
             f"; copies of another channel over the whole record not analyzed: {_few(copied)}"
             if copied

@@ -9,7 +9,7 @@ one Python object per sample on the hot path.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Collection, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal, Protocol
@@ -55,6 +55,10 @@ class InputInfo:
     """Prefixes of channel names whose meaning changes between messages (an array's
     element named by a string that changes, ``/tf.transforms[0].``; a ``JointState``'s
     ``position[``): said in ``errors``, and not analyzed unless ``--channels`` names them."""
+    log_topics: list[str] = field(default_factory=list)
+    """Topics whose message type is a log message (:data:`LOG_TYPES`: ``/rosout``): their
+    numbers (a level, a source line, the message's own time) measure nothing, and
+    ``run`` leaves them out unless ``--channels`` names them."""
     no_numeric: str = ""
     """Why the input holds no numeric channel, where its reader can tell while opening
     it (a CSV whose columns besides the time are all text): listing it is no error
@@ -82,6 +86,53 @@ class InputInfo:
     messages cannot be placed among those before. Of one input of several, never set:
     its reading stops there instead (``Reader``'s ``stop_at_set_back``), a damaged
     file, the others analyzed."""
+
+
+LOG_TYPES = frozenset(
+    {
+        "rosgraph_msgs/msg/Log",  # ROS 1's /rosout
+        "rcl_interfaces/msg/Log",  # ROS 2's /rosout
+        "foxglove.Log",  # Foxglove's schema (JSON, protobuf, flatbuffer)
+        "foxglove_msgs/msg/Log",  # the same as a ROS message
+        "foxglove_msgs/msg/LogMessage",
+    }
+)
+"""Message types of log messages (a text, its severity, where in the source it was
+written): not measurements, whatever numbers they hold."""
+
+
+def add_log_topics(info: InputInfo, topics: dict[str, str]) -> None:
+    """Add to ``info.log_topics`` those of ``topics`` (topic to message type, spelled
+    ``pkg/Type`` or ``pkg/msg/Type``) whose type is a log message's (:data:`LOG_TYPES`)."""
+    from analyzer.readers.rostypes import normalize_msgtype
+
+    for topic, msgtype in topics.items():
+        if normalize_msgtype(msgtype) in LOG_TYPES and topic not in info.log_topics:
+            info.log_topics.append(topic)
+
+
+TWO_CLOCKS = "--time header: two clocks: "
+"""How the line of :func:`~analyzer.readers._common.two_clocks` begins."""
+
+
+def about_selection(
+    line: str, info: InputInfo, channels: Collection[str], selected: Collection[str]
+) -> bool:
+    """Whether the input error ``line`` of ``info`` bears on the ``selected`` channels
+    (of all its archive's ``channels``), for a run or export that chose channels: a line
+    about a topic (``/tf: ...``) none of whose channels is selected does not, nor the
+    two-clocks line of ``--time header`` where the selected topics run on one clock (it
+    told the user to choose such topics: repeated after they did, it read as unheeded;
+    a new user's audit). The line stays in findings.json's ``inputs[].errors``."""
+
+    def holds(topic: str, names: Collection[str]) -> bool:
+        return any(c.startswith((f"{topic}.", f"{topic}[")) for c in names)
+
+    if line.startswith(TWO_CLOCKS) and info.clocks:
+        used = {t: source for t, source in info.clocks.items() if holds(t, selected)}
+        return len({source == "header" for source in used.values()}) > 1
+    topic = line.removeprefix("--time header: ").split(": ", 1)[0]
+    return not holds(topic, channels) or holds(topic, selected)
 
 
 class Reader(Protocol):

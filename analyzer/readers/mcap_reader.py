@@ -56,7 +56,7 @@ from analyzer.readers._common import (
     gather_rows,
     one_line,
 )
-from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
+from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource, add_log_topics
 from analyzer.readers.rosdecode import Encoding, RosBatchDecoder
 from analyzer.readers.rostypes import (
     EMPTY_MESSAGE_BYTES,
@@ -219,6 +219,7 @@ class McapReader:
             self._tracker.log_set_back_ns = self._log_clock.back_ns
         for line in self._shared_topics():
             self._error(line)
+        add_log_topics(self.info, self._types())
         for entry in self._decoders.values():
             if entry is not None and isinstance(entry[1], RosBatchDecoder) and entry[1].notice:
                 self._error(f"{entry[0]}: {entry[1].notice}")
@@ -229,6 +230,15 @@ class McapReader:
             self.info.clocks = self._tracker.clocks()
             self.info.clock_spans = self._tracker.clock_spans()
             self.info.clock_steps = self._tracker.clock_steps()
+
+    def _types(self) -> dict[str, str]:
+        """Each topic's message type (its schema's name), where it has a schema."""
+        types = {}
+        for channel in self._channels.values():
+            schema = self._schemas.get(channel.schema_id) if channel.schema_id else None
+            if schema is not None:
+                types[channel.topic] = schema.name
+        return types
 
     def _shared_topics(self) -> list[str]:
         """One line per topic that several channels of one message type (publishers)

@@ -43,7 +43,7 @@ from analyzer.readers._common import (
     gather_uint,
     one_line,
 )
-from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
+from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource, add_log_topics
 from analyzer.readers.rosdecode import RosBatchDecoder
 from analyzer.readers.rostypes import TypeResolutionError, normalize_msgtype, store_from_definition
 from analyzer.types import Format
@@ -316,6 +316,7 @@ class Ros1BagReader:
         for line in self._tracker.lines() + reorder.drop_report():
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
+        add_log_topics(self.info, {c.topic: c.msgtype for c in self._connections.values()})
         self.info.clocks = self._tracker.clocks()
         self.info.clock_spans = self._tracker.clock_spans()
         self.info.clock_steps = self._tracker.clock_steps()

@@ -50,7 +50,7 @@ from analyzer.readers._common import (  # noqa: F401 - bag_files re-exported
     per_topic,
     special_kind,
 )
-from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
+from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource, add_log_topics
 from analyzer.readers.mcap_reader import McapReader
 from analyzer.readers.rosdecode import RosBatchDecoder
 from analyzer.readers.rostypes import (
@@ -178,6 +178,7 @@ class Ros2BagReader:
         for line in self._tracker.lines():
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
+        add_log_topics(self.info, dict(self._decoders.keys()))
         self.info.clocks = self._tracker.clocks()
         self.info.clock_spans = self._tracker.clock_spans()
         self.info.clock_steps = self._tracker.clock_steps()

@@ -45,6 +45,7 @@ from analyzer.paging import is_mapped, mapped_file, pwrite_all, release
 from analyzer.readers.base import ChannelChunk
 from analyzer.readers.tally import Tally
 from analyzer.scratch import make_scratch, remove_scratch
+from analyzer.store.patterns import matching
 from analyzer.timeutil import plain_number
 from analyzer.types import NS_PER_S
 
@@ -439,6 +440,12 @@ class ChannelStore:
         near = self.did_you_mean(pattern)
         hint = f"; did you mean {near}?" if near else ""
         whole = " (a pattern matches the whole name; " if hint else " ("
+        if "[" in pattern:
+            whole += (
+                "brackets holding digits, * or ? match an array's index as written, "
+                "'/scan.ranges[1*]'; any other '[' starts a set of characters, '[[]' "
+                "matches a '['; "
+            )
         return (
             f"{option}: pattern {pattern!r} matches no channel{hint}{whole}the channels: "
             f"{capped(list(self._info))})"
@@ -446,25 +453,51 @@ class ChannelStore:
 
     def did_you_mean(self, pattern: str, literal: bool = False) -> str:
         """What ``"did you mean ...?"`` names for ``pattern`` (its ``GLOB`` for ``!GLOB``):
-        the channels that hold it inside their names, case aside (``s4`` in
-        ``/s4.data``): the one, the ``*s4*`` that matches them, or a few of them; "" when
-        none does. ``literal``: ``pattern`` is a channel's name, not a pattern (its
-        brackets are characters; a model's channel the archive lacks,
-        :func:`analyzer.reuse.model_channels`). For :meth:`unmatched_line` too."""
+        the pattern written as a channel's name (:meth:`_rewritten`: ``odom.*`` for
+        ``/odom.*``, ``/odom/pose/*`` for ``/odom.pose.*``), or the channels that hold
+        it inside their names, case aside (``s4`` in ``/s4.data``): the one, the
+        ``*s4*`` that matches them, or a few of them; "" when none does. ``literal``:
+        ``pattern`` is a channel's name, not a pattern (its brackets are characters; a
+        model's channel the archive lacks, :func:`analyzer.reuse.model_channels`). For
+        :meth:`unmatched_line` too."""
         bang, core = (
             ("!", pattern[1:]) if pattern.startswith("!") and not literal else ("", pattern)
         )
+        if not literal:
+            rewritten = self._rewritten(core)
+            if rewritten:
+                found = self._matching([rewritten])
+                if len(found) == 1 and found[0] == rewritten:
+                    return f"{bang}{rewritten}"
+                return f"'{bang}{rewritten}', which matches {capped(found)}"
         glob_core = glob.escape(core) if literal else core
-        inside = self._matching([f"*{glob_core}*"]) or [
-            n for n in self._info if fnmatch.fnmatchcase(n.lower(), f"*{glob_core.lower()}*")
+        wrapped = f"{'' if glob_core.startswith('*') else '*'}{glob_core}"
+        wrapped += "" if glob_core.endswith("*") else "*"
+        inside = self._matching([wrapped]) or [
+            n for n in self._info if fnmatch.fnmatchcase(n.lower(), wrapped.lower())
         ]
         if len(inside) == 1:
             return f"{bang}{inside[0]}"
-        if inside and self._matching([f"*{glob_core}*"]) and not literal:
-            return f"'{bang}*{core}*', which matches {capped(inside)}"
+        if inside and self._matching([wrapped]) and not literal:
+            return f"'{bang}{wrapped}', which matches {capped(inside)}"
         if inside:
             return f"one of {capped(inside)}"
         return ""
+
+    def _rewritten(self, pattern: str) -> str:
+        """``pattern`` as the channels are named, where a common slip makes it match none
+        and the mended one matches some: a ROS topic without its leading ``/``
+        (``odom.*``), or a field path written with ``/`` as PlotJuggler and rqt write it
+        (``/odom/pose/*``: the fields follow the topic after a ``.``; the last ``/``s
+        are tried first, as a topic's name holds ``/`` too: ``/turtle1/pose/x`` is
+        ``/turtle1/pose.x``); "" when none matches."""
+        tries = [] if pattern.startswith(("/", "*")) else [f"/{pattern}"]
+        for head in tries[:] or [pattern]:
+            slashes = [i for i, ch in enumerate(head) if ch == "/" and i > 0]
+            for k in range(1, len(slashes) + 1):
+                cut = slashes[-k]
+                tries.append(head[:cut] + "." + head[cut + 1 :].replace("/", "."))
+        return next((p for p in tries if self._matching([p])), "")
 
     def _split(self, patterns: Sequence[str]) -> tuple[list[str], list[str]]:
         """Patterns that select, and those that leave out (``!GLOB``; a channel whose name
@@ -474,11 +507,10 @@ class ChannelStore:
         return include, exclude
 
     def _matching(self, patterns: Sequence[str]) -> list[str]:
-        return [
-            name
-            for name in self._info
-            if any(name == p or fnmatch.fnmatchcase(name, p) for p in patterns)
-        ]
+        """The channels any of ``patterns`` matches (:func:`~analyzer.store.patterns.
+        matching`: an array's index ``[10*]`` as written), in the store's order."""
+        hit = {n for p in patterns for n in matching(self._info, p)}
+        return [name for name in self._info if name in hit]
 
     def align(
         self,

@@ -108,11 +108,12 @@ def test_a_header_clock_set_during_the_recording_is_named(
 
 
 def test_the_remedies_pass(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """The topic left out (its line stays a warning), or the log times (nothing to
-    say): the export goes through."""
+    """The topic left out, or the log times: the export goes through, and says nothing
+    (the line on the topic left out is in ``inspect``'s errors; repeated on stderr
+    after the user followed it, it read as unheeded: ux52 item 13)."""
     path = write(tmp_path / "x.mcap", "mcap", _stepped(synced_from_uptime))
     for extra, warned in (
-        (["--time", "header", "--channels", "!/imu.*"], True),
+        (["--time", "header", "--channels", "!/imu.*"], False),
         (["--time", "log"], False),
     ):
         command = ["export", str(path), "--out", str(tmp_path / "o.csv"), *extra]
