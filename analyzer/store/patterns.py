@@ -69,8 +69,11 @@ def _shell(part: str) -> str:
     """A piece of a shell pattern as a regular expression (no anchors)."""
     if not part:
         return ""
-    translated = fnmatch.translate(part)  # "(?s:...)\Z"
-    return translated[len("(?s:") : -len(r")\Z")]
+    translated = fnmatch.translate(part)  # "(?s:...)\Z" ("\z" from Python 3.14)
+    inner = re.fullmatch(r"\(\?s:(.*)\)\\[Zz]", translated, re.DOTALL)
+    if inner is None:  # pragma: no cover - another form of fnmatch.translate
+        raise RuntimeError(f"unexpected fnmatch.translate form: {translated!r}")
+    return inner.group(1)
 
 
 def matches(name: str, pattern: str) -> bool:
