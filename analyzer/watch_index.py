@@ -22,6 +22,7 @@
 from __future__ import annotations
 
 import bisect
+import contextlib
 import fcntl
 import hashlib
 import json
@@ -510,6 +511,29 @@ class Ledger:
             if folder not in taken and not os.path.lexists(self.reports / folder):
                 return folder
             n += 1
+
+    def reserve(self, rec: Record) -> None:
+        """Keep ``rec`` in the state file before its report is published into
+        :attr:`Record.folder`, a new folder (:meth:`new_folder`, for new content whose
+        name's earlier result keeps its own). A watcher killed after the publish, whose
+        line named that folder, leaves it recorded: the next start finds the archive
+        analyzed already, its report where the line said. Killed before the publish, the
+        record's folder is missing: the next start forgets it (:meth:`tidy`), and the
+        archive is analyzed again. Before, the record was written only after the
+        publish: a kill between left the folder announced but linked by no record and
+        never removed, and the next start published the same content to ``NAME-report``.
+        Not the index: it must not link a folder not there yet."""
+        self.records[rec.name] = rec
+        self.save_state()
+        self._views_stale = True
+
+    def forget(self, name: str) -> None:
+        """Drop the record of ``name`` (reserved, :meth:`reserve`, but its report not
+        published) from the state file; a state that cannot be written keeps it, and the
+        next start forgets it (its folder missing)."""
+        self.records.pop(name, None)
+        with contextlib.suppress(OSError):
+            self.save_state()
 
     def _free_name(self, rec: Record) -> str:
         def free(candidate: str) -> bool:

@@ -20,6 +20,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Iterator, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -1242,3 +1243,84 @@ def test_a_move_undone_by_a_killed_watcher_and_still_refused_is_undone_by_the_ne
             f"A: not moved to {done} (it stays in INBOX): {inbox / 'A_part1.csv'}: Operation "
             "not permitted",
         ]
+
+
+def test_a_touched_archive_whose_move_was_killed_is_not_moved_twice(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An archive analyzed by a watcher without ``--done``, then touched (the same
+    content, other mtimes), is moved by the next watcher, which is killed once its
+    copies are in place, before INBOX changes. The start after finishes that move: the
+    archive once in ``--done``. Before, the record kept its analysis's mtimes: the
+    files in place were not known as the archive's, the move was taken for one of an
+    archive changed since, and the archive was moved again beside them
+    (``A_part0-1.csv``, ``A_part1-1.csv``)."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    with _done_folder(tmp_path, monkeypatch, other=True) as done:
+        settings = _settings(tmp_path, done)
+        assert watch(replace(settings, done=None), RunOptions()) == 0
+        later = time.time() + 60
+        for path in inbox.iterdir():
+            os.utime(path, (later, later))
+        _run_killed(settings, lambda undo: _killed_in_move("renamed", inbox, undo))
+        assert watch(settings, RunOptions()) == 0
+        assert not any(inbox.iterdir())
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == content
+        rec = _state_record(tmp_path)
+        assert sorted(rec["moved_to"]) == [str(done / name) for name in sorted(content)]
+        assert _analyses(tmp_path) == [str(sorted(content))]
+
+
+def _killed_before_the_new_contents_record(undo: pytest.MonkeyPatch) -> None:
+    """Kill the watcher once the report of ``a.csv``'s new content is published (its
+    folder said on its line), before its record is written."""
+    real_record = Ledger.record
+
+    def record(self: Ledger, rec: Record) -> None:
+        if rec.name == "a.csv" and rec.dropped_as is None and rec.folder != "a.csv":
+            raise _Killed
+        real_record(self, rec)
+
+    undo.setattr(Ledger, "record", record)
+
+
+def test_a_new_contents_report_folder_published_before_a_kill_is_its_record_s(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """``a.csv`` analyzed, then replaced in INBOX by other content: the earlier record
+    is kept aside (``a-1.csv``, its folder ``a.csv/``), and the new content's report
+    goes to ``a-1.csv/``, said on its line. A watcher killed between that publish and
+    the record: the next start finds the new content recorded, its report in
+    ``a-1.csv/`` as said, linked by the index, not analyzed again. Before, ``a-1.csv/``
+    was linked by no record and never removed, and the next start analyzed the content
+    again into ``a.csv-report/``."""
+    monkeypatch.setattr(watch_module, "_context", lambda: multiprocessing.get_context("fork"))
+    monkeypatch.setattr(watch_module, "analysis_into", _quick_analysis)
+    inbox, reports = tmp_path / "in" / "inbox", tmp_path / "in" / "reports"
+    inbox.mkdir(parents=True)
+    settings = WatchSettings(inbox, reports, settle=0.2, poll=0.05, once=True)
+    _archive(inbox / "a.csv", 300)
+    assert watch(settings, RunOptions()) == 0
+    _archive(inbox / "new.csv", 301)
+    os.replace(inbox / "new.csv", inbox / "a.csv")
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    _run_killed(settings, _killed_before_the_new_contents_record)
+    (line,) = [r.getMessage() for r in caplog.records if "its report goes to" in r.getMessage()]
+    assert f"its report goes to {reports / 'a-1.csv'} " in line, line
+    assert watch(settings, RunOptions()) == 0
+    records = json.loads((reports / ".watch-state.json").read_text())["archives"]
+    assert records["a.csv"]["report"] == "a-1.csv/report.html"
+    assert records["a.csv"]["sha256"] == sha256_of(inbox / "a.csv")
+    assert records["a-1.csv"]["report"] == "a.csv/report.html"
+    assert sorted(p.name for p in reports.iterdir() if not p.name.startswith(".")) == [
+        "a-1.csv",
+        "a.csv",
+        "index.html",
+        "index.json",
+    ]
+    index = json.loads((reports / "index.json").read_text())
+    assert sorted(row["report"] for row in index["archives"]) == [
+        "a-1.csv/report.html",
+        "a.csv/report.html",
+    ]
+    assert len(_analyses(tmp_path)) == 2  # (each content once)
