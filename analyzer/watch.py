@@ -2410,7 +2410,7 @@ class _Runner:
                     self._counted_as(name, kept)
             mine = self.ledger.get(name)  # (its record, unless kept aside just now)
             reserved = mine is None and kept is not None
-            previous = mine.folder if mine else None
+            previous = mine.folder if mine else self.ledger.unpublished_folder(name)
             if reserved:  # (the earlier folder stays as announced)
                 previous = self.ledger.new_folder(name)
                 self._linked_to(rec, previous)
@@ -3093,7 +3093,14 @@ def _watch_locked(
     _end_moves(ledger, settings.inbox)  # (first: a record tidied away keeps no copies)
     _forget_left(ledger, settings.inbox)
     for name in ledger.tidy():
-        log.info("%s: its report folder is gone; it will be analyzed again", name)
+        if name in ledger.unpublished:
+            log.info(
+                "%s: its report was never written (the watcher was stopped before); it "
+                "will be analyzed again",
+                name,
+            )
+        else:
+            log.info("%s: its report folder is gone; it will be analyzed again", name)
     unknown = _unknown_copies(ledger, [settings.done, settings.failed])
     if unknown:
         named = ", ".join(str(p) for p in unknown[:UNKNOWN_COPIES_NAMED])

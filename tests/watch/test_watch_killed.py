@@ -7,6 +7,7 @@ Every wait has a hard timeout; processes and threads started here are ended in
 from __future__ import annotations
 
 import contextlib
+import errno
 import inspect
 import json
 import logging
@@ -1311,6 +1312,7 @@ def test_a_new_contents_report_folder_published_before_a_kill_is_its_record_s(
     records = json.loads((reports / ".watch-state.json").read_text())["archives"]
     assert records["a.csv"]["report"] == "a-1.csv/report.html"
     assert records["a.csv"]["sha256"] == sha256_of(inbox / "a.csv")
+    assert "unpublished" not in records["a.csv"]  # (published: the start's tidy says so)
     assert records["a-1.csv"]["report"] == "a.csv/report.html"
     assert sorted(p.name for p in reports.iterdir() if not p.name.startswith(".")) == [
         "a-1.csv",
@@ -1324,3 +1326,144 @@ def test_a_new_contents_report_folder_published_before_a_kill_is_its_record_s(
         "a.csv/report.html",
     ]
     assert len(_analyses(tmp_path)) == 2  # (each content once)
+
+
+def _a_replaced(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> tuple[Path, Path, WatchSettings]:
+    """``a.csv`` analyzed by a watcher, then replaced in INBOX by other content (the
+    next watcher keeps the earlier record aside and reserves ``a-1.csv/`` for the new
+    content's report); returns INBOX, REPORTS and the settings (``--once``)."""
+    monkeypatch.setattr(watch_module, "_context", lambda: multiprocessing.get_context("fork"))
+    monkeypatch.setattr(watch_module, "analysis_into", _quick_analysis)
+    inbox, reports = tmp_path / "in" / "inbox", tmp_path / "in" / "reports"
+    inbox.mkdir(parents=True)
+    settings = WatchSettings(inbox, reports, settle=0.2, poll=0.05, once=True)
+    _archive(inbox / "a.csv", 300)
+    assert watch(settings, RunOptions()) == 0
+    _archive(inbox / "new.csv", 301)
+    os.replace(inbox / "new.csv", inbox / "a.csv")
+    return inbox, reports, settings
+
+
+def _links_only_folders_there(reports: Path) -> None:
+    """Every record of the state and every row of the index links a folder of REPORTS
+    that is there."""
+    state = json.loads((reports / ".watch-state.json").read_text())["archives"]
+    index = json.loads((reports / "index.json").read_text())["archives"]
+    for row in [*state.values(), *index]:
+        assert (reports / row["report"]).parent.is_dir(), row
+
+
+def test_a_new_content_killed_before_its_publish_goes_to_its_reserved_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A watcher killed between the reserve of ``a.csv``'s new content (its record
+    written, for ``a-1.csv/``) and its publish: the next start says that its report was
+    never written (not that its folder is gone: none was made), analyzes it again, and
+    publishes it into ``a-1.csv/``, the folder reserved. Before, the line said "its
+    report folder is gone", and the report went to ``a.csv-report/``."""
+    inbox, reports, settings = _a_replaced(tmp_path, monkeypatch)
+    real_publish = watch_module.publish
+
+    def killed(undo: pytest.MonkeyPatch) -> None:
+        def publish(scratch: Path, reports_: Path, name: str, *args: Any) -> Path:
+            if name == "a.csv" and _recorded(reports) == {"a.csv", "a-1.csv"}:
+                raise _Killed
+            return real_publish(scratch, reports_, name, *args)
+
+        undo.setattr(watch_module, "publish", publish)
+
+    _run_killed(settings, killed)
+    state = json.loads((reports / ".watch-state.json").read_text())["archives"]
+    assert state["a.csv"]["report"] == "a-1.csv/report.html"  # (reserved, not published)
+    assert not (reports / "a-1.csv").exists()
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    assert watch(settings, RunOptions()) == 0
+    said = [r.getMessage() for r in caplog.records]
+    assert (
+        "a.csv: its report was never written (the watcher was stopped before); it will "
+        "be analyzed again" in said
+    )
+    assert not [line for line in said if "report folder is gone" in line]
+    records = json.loads((reports / ".watch-state.json").read_text())["archives"]
+    assert records["a.csv"]["report"] == "a-1.csv/report.html"
+    assert records["a.csv"]["sha256"] == sha256_of(inbox / "a.csv")
+    assert "unpublished" not in records["a.csv"]
+    assert records["a-1.csv"]["report"] == "a.csv/report.html"
+    assert sorted(p.name for p in reports.iterdir() if not p.name.startswith(".")) == [
+        "a-1.csv",
+        "a.csv",
+        "index.html",
+        "index.json",
+    ]
+    _links_only_folders_there(reports)
+    assert len(_analyses(tmp_path)) == 3  # (the new content again: never published)
+
+
+def test_a_new_content_whose_publish_fails_is_not_recorded(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The publish of ``a.csv``'s new content, reserved, fails (REPORTS full): its record
+    is forgotten (:meth:`Ledger.forget`), so neither the state nor the index links a
+    folder never made, and the next start analyzes it again; the earlier content's
+    result stays, kept aside as ``a-1.csv``."""
+    inbox, reports, settings = _a_replaced(tmp_path, monkeypatch)
+    real_publish = watch_module.publish
+
+    def publish(scratch: Path, reports_: Path, name: str, *args: Any) -> Path:
+        if name == "a.csv":
+            raise OSError(errno.ENOSPC, "No space left on device", str(reports_ / "a-1.csv"))
+        return real_publish(scratch, reports_, name, *args)
+
+    monkeypatch.setattr(watch_module, "publish", publish)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    assert watch(settings, RunOptions()) == 2
+    assert any("a.csv: cannot write its report" in r.getMessage() for r in caplog.records)
+    assert _recorded(reports) == {"a-1.csv"}
+    _links_only_folders_there(reports)
+    monkeypatch.setattr(watch_module, "publish", real_publish)
+    assert watch(settings, RunOptions()) == 0
+    records = json.loads((reports / ".watch-state.json").read_text())["archives"]
+    assert records["a.csv"]["sha256"] == sha256_of(inbox / "a.csv")
+    assert records["a-1.csv"]["report"] == "a.csv/report.html"
+    _links_only_folders_there(reports)
+    assert len(_analyses(tmp_path)) == 3
+
+
+def test_a_new_content_whose_reserve_cannot_be_written_is_not_recorded(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The state write of the reserve of ``a.csv``'s new content fails (REPORTS full,
+    once): no record of it is kept, in the state or in memory, so nothing links a
+    folder never made, and its content is not taken for analyzed already. Before, the
+    record stayed in memory: the run's end wrote it to the state and the index linked
+    ``a-1.csv/``, never made (and the same content found again in a running watcher was
+    "found analyzed already" with that folder as its report, then forgotten by the next
+    start: its result lost)."""
+    inbox, reports, settings = _a_replaced(tmp_path, monkeypatch)
+    real_reserve = Ledger.reserve
+
+    def reserve(self: Ledger, rec: Record) -> None:
+        def refused() -> None:
+            raise OSError(errno.ENOSPC, "No space left on device", str(self.path))
+
+        self.save_state = refused  # type: ignore[method-assign]
+        try:
+            real_reserve(self, rec)
+        finally:
+            del self.save_state
+
+    monkeypatch.setattr(Ledger, "reserve", reserve)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    assert watch(settings, RunOptions()) == 2
+    assert any("a.csv: cannot write its report" in r.getMessage() for r in caplog.records)
+    assert _recorded(reports) == {"a-1.csv"}
+    assert not (reports / "a-1.csv").exists()
+    _links_only_folders_there(reports)
+    monkeypatch.setattr(Ledger, "reserve", real_reserve)
+    assert watch(settings, RunOptions()) == 0
+    records = json.loads((reports / ".watch-state.json").read_text())["archives"]
+    assert records["a.csv"]["sha256"] == sha256_of(inbox / "a.csv")
+    _links_only_folders_there(reports)
+    assert len(_analyses(tmp_path)) == 3
