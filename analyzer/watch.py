@@ -48,7 +48,9 @@ Exactly once
     free name (that of the file ``--done`` moved it to when it differs, else
     ``name-1.ext``, ``name-2.ext``...), with ``dropped_as`` the name it came under, and
     its report folder stays where it was announced; the new content's report goes to the
-    next free folder (``name-1.ext``...), said on its line. An archive that grew after
+    next free folder (``name-1.ext``...), said on its line, its record written before
+    that folder is published (:meth:`~analyzer.watch_index.Ledger.reserve`: a kill
+    between leaves no folder linked by no record). An archive that grew after
     its analysis (the earlier content is the file's beginning; a folder or group whose
     earlier files are all there, none shorter or older, each that changed beginning
     with its earlier content) is the same archive: its record is replaced
@@ -1205,8 +1207,9 @@ def _end_moves(ledger: Ledger, inbox: Path) -> None:
             with contextlib.suppress(OSError):  # (REPORTS full: saved at the start's end)
                 ledger.save_state()
 
+        moved_from: list[Path] = []
         try:
-            how, moved = _end_move(rec, inbox, lines, intent)
+            how, moved = _end_move(rec, inbox, lines, intent, moved_from)
         except OSError as err:
             nor = ""
             if isinstance(err, _NamesTaken):
@@ -1233,12 +1236,9 @@ def _end_moves(ledger: Ledger, inbox: Path) -> None:
             )
             continue
         rec.moving = []
-        if moved:
+        if moved:  # (maybe in part; under other names than planned where taken since)
             rec.moved_to = [*rec.moved_to, *moved]
-            done = [line for line in lines if str(line[2]) in set(moved)]  # (maybe in part)
-            note_moves(
-                ledger.reports, rec, [line[0] for line in done], [str(line[2]) for line in done]
-            )
+            note_moves(ledger.reports, rec, moved_from, moved)
         said = {
             "undone": "undone (its copies there removed); it is moved again",
             "changed": "undone (its copies there removed): part of it changed since it "
@@ -1305,10 +1305,13 @@ def _end_move(
     inbox: Path,
     lines: list[_Line],
     intent: Callable[[list[list[str]]], None],
+    moved_from: list[Path] | None = None,
 ) -> tuple[str, list[str]]:
     """Finish or undo the move of ``rec`` that a watcher killed outright left half-done
     (its :attr:`~analyzer.watch_index.Record.moving`, as ``lines``); returns how (below)
-    and the targets the archive is in now. Decided from the sources and from what is
+    and the targets the archive is in now, whose sources are appended to ``moved_from``
+    in the same order (a target may have another name than its line's: one taken
+    since, :func:`_place`). Decided from the sources and from what is
     the archive's own: a file is the archive's (a source as recorded, or a copy or
     target of it) only where it has the size and mtime the record has for the source
     (a rename and ``copy2`` keep both), never by its name alone (another process may
@@ -1418,6 +1421,9 @@ def _end_move(
             kept: list[_Kept] = []
             if not _put_back(renamed, kept, err):
                 raise
+            if moved_from is not None:
+                source_of = {t: s for s, t in renamed}
+                moved_from += [source_of[k.path] for k in kept]
             return "put back", [str(k.path) for k in kept]
     for (source, copy, _), placed, target in zip(lines, placeable, targets, strict=True):
         if placed and copy is not None and _linked(copy, target):
@@ -1427,6 +1433,8 @@ def _end_move(
         elif placed and copy is None and _linked(source, target):
             _remove(source, strict=True)  # (as for a copy)
     moved = [str(t) for t, placed in zip(targets, placeable, strict=True) if placed]
+    if moved_from is not None:
+        moved_from += [s for s, placed in zip(sources, placeable, strict=True) if placed]
     return ("finished" if all(placeable) else "gone"), moved
 
 
@@ -2090,6 +2098,25 @@ class _Runner:
             return f"no sensor fault found; report: {report}"
         return f"{rec.error}; see {report}"
 
+    def _same_content(self, archive: ReadyArchive, rec: Record) -> None:
+        """``archive``, found with ``rec``'s content but other sizes and mtimes in its
+        signature (a ``touch``, the same file copied in again), gives the record its
+        signature: the record names the files as INBOX holds them now, by which the next
+        start knows the archive's own files in a move stopped by a kill
+        (:func:`_end_move`: by size and mtime) and reuses its hash
+        (:meth:`_known_hashes`). Before, the record kept the signature of its analysis:
+        a file touched since, its move by copies killed once the copies were in place,
+        was taken at the next start for one changed since, and moved again beside its
+        copy (``x-1.csv``: twice in ``--done``); and it was hashed again at every start."""
+        sig = [list(s) for s in archive.signature]
+        if rec.signature == sig:
+            return
+        rec.signature = sig
+        try:
+            self.ledger.save_state()
+        except OSError:  # (REPORTS full: written with the next record, or at the stop)
+            self.unsaved = True
+
     def _found_already(self, archive: ReadyArchive, rec: Record) -> None:
         """``archive``, recorded already with this content, not analyzed again: moved by
         ``--done``/``--failed`` as its verdict says, or left in INBOX. An archive to be
@@ -2160,8 +2187,10 @@ class _Runner:
         options have analyzed at least one archive (:attr:`fitted`: a ``--train`` that
         fits no archive is the options' error, and gave up the whole INBOX). Its record
         becomes an error of the archive's own (``error_kind`` ``input``, ``error_reason``
-        still ``too short``), said in a line and in its ``error.txt``, and it is moved
-        to ``--failed`` as such (left in INBOX, said so, without one). Until then it
+        still ``too short``, its error ending ``(given up: unchanged for N min, ...)``),
+        said in a line, and its ``error.txt`` begins with that error, as the index says
+        it (before, with the plain error, the given-up words in a paragraph below), and
+        it is moved to ``--failed`` as such (left in INBOX, said so, without one). Until then it
         waits in :attr:`short`, looked at again once its time is up
         (:meth:`_short_ends`); a change hands it on again (:meth:`offer`)."""
         after = self.settings.give_up_after
@@ -2185,11 +2214,9 @@ class _Runner:
         rec.error_kind = ErrorKind.INPUT
         rec.left_in_inbox = None
         error_txt = self.settings.reports / rec.folder / "error.txt"
-        with contextlib.suppress(OSError):  # (said in the archive's own error.txt too)
-            text = error_txt.read_text(encoding="utf-8").rstrip("\n")
-            write_atomic(
-                error_txt, f"{text}\n\nGiven up: {words}, not a file still being written.\n"
-            )
+        with contextlib.suppress(OSError):  # (its first line, the error, as in the index)
+            details = error_txt.read_text(encoding="utf-8").partition("\n")[2]
+            write_atomic(error_txt, f"{rec.error}\n{details}")
         try:
             self.ledger.record(rec)
         except OSError:  # (REPORTS full: written with the next record, or at the stop)
@@ -2252,6 +2279,7 @@ class _Runner:
                 if name not in self.results:  # (dropped again in this run: counted once)
                     self.skipped.add(name)
                 self._hashed.pop(name, None)  # (another hash only if it changes)
+                self._same_content(archive, rec)
                 self._found_already(archive, rec)
                 return
             log.info("%s: analyzed again: %s", name, again)
@@ -2381,17 +2409,24 @@ class _Runner:
                     kept = self.ledger.keep_aside(name)
                     self._counted_as(name, kept)
             mine = self.ledger.get(name)  # (its record, unless kept aside just now)
-            if mine is None and kept is not None:  # (the earlier folder stays as announced)
-                previous: str | None = self.ledger.new_folder(name)
-            else:
-                previous = mine.folder if mine else None
-            folder = publish(
-                job.scratch,
-                self.settings.reports,
-                name,
-                previous,
-                self.ledger.folders_except(name),
-            )
+            reserved = mine is None and kept is not None
+            previous = mine.folder if mine else self.ledger.unpublished_folder(name)
+            if reserved:  # (the earlier folder stays as announced)
+                previous = self.ledger.new_folder(name)
+                self._linked_to(rec, previous)
+                self.ledger.reserve(rec)  # (a kill after the publish: its line holds)
+            try:
+                folder = publish(
+                    job.scratch,
+                    self.settings.reports,
+                    name,
+                    previous,
+                    self.ledger.folders_except(name),
+                )
+            except OSError:
+                if reserved:
+                    self.ledger.forget(name)
+                raise
             if kept is not None:
                 log.info(
                     "%s: new content; its report goes to %s (the earlier content's result "
@@ -2401,9 +2436,7 @@ class _Runner:
                     self.settings.reports / self.ledger.records[kept].folder,
                     kept,
                 )
-            rec.report = f"{folder.name}/{rec.report.partition('/')[2]}"
-            if rec.corrected is not None:
-                rec.corrected = f"{folder.name}/{CORRECTED}"
+            self._linked_to(rec, folder.name)
             self.ledger.record(rec)
         except OSError as err:  # REPORTS full or gone: not the archive's fault
             shutil.rmtree(job.scratch, ignore_errors=True)
@@ -2442,6 +2475,13 @@ class _Runner:
         self._left_in_inbox(job.archive.name, said=True)
         if rec.verdict is not Verdict.ERROR and not self.fitted:
             self._fits(name)
+
+    @staticmethod
+    def _linked_to(rec: Record, folder: str) -> None:
+        """``rec``'s links (its report or error, ``corrected.csv``) into ``folder``."""
+        rec.report = f"{folder}/{rec.report.partition('/')[2]}"
+        if rec.corrected is not None:
+            rec.corrected = f"{folder}/{CORRECTED}"
 
     def _fits(self, name: str) -> None:
         """The archive ``name`` is the first these options have analyzed: the archives
@@ -3053,7 +3093,14 @@ def _watch_locked(
     _end_moves(ledger, settings.inbox)  # (first: a record tidied away keeps no copies)
     _forget_left(ledger, settings.inbox)
     for name in ledger.tidy():
-        log.info("%s: its report folder is gone; it will be analyzed again", name)
+        if name in ledger.unpublished:
+            log.info(
+                "%s: its report was never written (the watcher was stopped before); it "
+                "will be analyzed again",
+                name,
+            )
+        else:
+            log.info("%s: its report folder is gone; it will be analyzed again", name)
     unknown = _unknown_copies(ledger, [settings.done, settings.failed])
     if unknown:
         named = ", ".join(str(p) for p in unknown[:UNKNOWN_COPIES_NAMED])

@@ -22,6 +22,7 @@
 from __future__ import annotations
 
 import bisect
+import contextlib
 import fcntl
 import hashlib
 import json
@@ -183,6 +184,12 @@ class Record:
     ends; the start after a watcher killed during it finishes or undoes it
     (:func:`analyzer.watch._end_move`). In the state file only while not empty; not in
     ``index.json``."""
+    unpublished: bool = False
+    """Reserved (:meth:`Ledger.reserve`): written to the state file before its report
+    was published into :attr:`folder`. True only in the state of a watcher stopped by
+    force between the two (the record that follows the publish has it False): the next
+    start then tells a folder never made from one removed since (:meth:`Ledger.tidy`).
+    In the state file only while True; not in ``index.json``."""
 
     @property
     def folder(self) -> str:
@@ -216,6 +223,8 @@ class Record:
         doc = {name: getattr(self, name) for name in _RECORD_FIELDS}
         if not self.moving:
             del doc["moving"]  # (the state of a watcher between moves, as before)
+        if not self.unpublished:
+            del doc["unpublished"]
         doc["verdict"] = str(self.verdict)
         if self.error_kind is not None:
             doc["error_kind"] = str(self.error_kind)
@@ -397,6 +406,10 @@ class Ledger:
         self._views_written = -math.inf
         """``time.monotonic()`` of the last rewrite of the views."""
         self._views_interval = VIEW_INTERVAL_S
+        self.unpublished: dict[str, str] = {}
+        """The folders reserved for archives whose report was never published (a
+        watcher stopped by force between :meth:`reserve` and the publish), by name: set
+        by :meth:`tidy`, taken by :meth:`unpublished_folder`."""
 
     @classmethod
     def load(cls, reports: Path) -> Ledger:
@@ -429,7 +442,10 @@ class Ledger:
         forget archives whose report folder is gone, so that they are analyzed again, but
         for one whose move a start could not end (:attr:`Record.moving`: forgotten, what
         was left of it in INBOX was analyzed alone as the archive, and its ``.partial-``
-        copies stayed), kept until its move is ended. Returns the names forgotten."""
+        copies stayed), kept until its move is ended. A record reserved but never
+        published (:attr:`Record.unpublished`, its folder never made) is forgotten too,
+        its folder kept in :attr:`unpublished`; one whose folder is there was published
+        and holds. Returns the names forgotten."""
         own_temp = tuple(f".{name}." for name in (STATE_FILE, "index.json", "index.html"))
         for entry in self.reports.iterdir():
             if entry.is_dir() and entry.name.startswith((TMP_PREFIX, OLD_PREFIX)):
@@ -460,13 +476,19 @@ class Ledger:
                 repaired = True
         # (not one whose move could not be ended: its lines are all that tells what is
         # left of its archive in INBOX from an archive of its own)
+        for rec in self.records.values():
+            if rec.unpublished and (self.reports / rec.folder).is_dir():
+                rec.unpublished = False  # (stopped after the publish: its record holds)
+                repaired = True
         gone = [
             name
             for name, rec in self.records.items()
             if not (self.reports / rec.folder).is_dir() and not rec.moving
         ]
         for name in gone:
-            del self.records[name]
+            rec = self.records.pop(name)
+            if rec.unpublished:
+                self.unpublished[name] = rec.folder
         if gone or repaired:
             self.save()
         return gone
@@ -510,6 +532,46 @@ class Ledger:
             if folder not in taken and not os.path.lexists(self.reports / folder):
                 return folder
             n += 1
+
+    def reserve(self, rec: Record) -> None:
+        """Keep ``rec`` in the state file before its report is published into
+        :attr:`Record.folder`, a new folder (:meth:`new_folder`, for new content whose
+        name's earlier result keeps its own). A watcher killed after the publish, whose
+        line named that folder, leaves it recorded: the next start finds the archive
+        analyzed already, its report where the line said. Killed before the publish, the
+        record's folder is missing: the next start forgets it (:meth:`tidy`), and the
+        archive is analyzed again. Before, the record was written only after the
+        publish: a kill between left the folder announced but linked by no record and
+        never removed, and the next start published the same content to ``NAME-report``.
+        Not the index: it must not link a folder not there yet (:meth:`record`, after
+        the publish, has the views rewritten). A state that cannot be written raises,
+        and the record is dropped: one left in memory would make the same content, found
+        again in that run, "analyzed already", its report a folder never made."""
+        self.records[rec.name] = replace(rec, unpublished=True)
+        try:
+            self.save_state()
+        except OSError:  # (REPORTS full: nothing is recorded that was not published)
+            del self.records[rec.name]
+            raise
+
+    def unpublished_folder(self, name: str) -> str | None:
+        """The folder reserved for ``name``'s report by a watcher stopped before it
+        published it (:meth:`tidy`), once: the report of its content, analyzed again,
+        goes there, the name that content's line would have said, unless a record or
+        another file has it since. Before, it went to ``NAME-report`` (the archive's
+        own name being the earlier content's folder)."""
+        folder = self.unpublished.pop(name, None)
+        if folder is None or folder in {rec.folder for rec in self.records.values()}:
+            return None
+        return None if os.path.lexists(self.reports / folder) else folder
+
+    def forget(self, name: str) -> None:
+        """Drop the record of ``name`` (reserved, :meth:`reserve`, but its report not
+        published) from the state file; a state that cannot be written keeps it, and the
+        next start forgets it (its folder missing)."""
+        self.records.pop(name, None)
+        with contextlib.suppress(OSError):
+            self.save_state()
 
     def _free_name(self, rec: Record) -> str:
         def free(candidate: str) -> bool:
@@ -597,6 +659,7 @@ class Ledger:
             del doc["rate_hz"]
             del doc["short_since"]
             doc.pop("moving", None)
+            doc.pop("unpublished", None)
             rows.append(doc)
         counts = {str(v): sum(r["verdict"] == v for r in rows) for v in Verdict}
         return {

@@ -7,6 +7,7 @@ Every wait has a hard timeout; processes and threads started here are ended in
 from __future__ import annotations
 
 import contextlib
+import errno
 import inspect
 import json
 import logging
@@ -20,6 +21,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Iterator, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -1242,3 +1244,226 @@ def test_a_move_undone_by_a_killed_watcher_and_still_refused_is_undone_by_the_ne
             f"A: not moved to {done} (it stays in INBOX): {inbox / 'A_part1.csv'}: Operation "
             "not permitted",
         ]
+
+
+def test_a_touched_archive_whose_move_was_killed_is_not_moved_twice(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An archive analyzed by a watcher without ``--done``, then touched (the same
+    content, other mtimes), is moved by the next watcher, which is killed once its
+    copies are in place, before INBOX changes. The start after finishes that move: the
+    archive once in ``--done``. Before, the record kept its analysis's mtimes: the
+    files in place were not known as the archive's, the move was taken for one of an
+    archive changed since, and the archive was moved again beside them
+    (``A_part0-1.csv``, ``A_part1-1.csv``)."""
+    inbox, content = _two_parts(tmp_path, monkeypatch)
+    with _done_folder(tmp_path, monkeypatch, other=True) as done:
+        settings = _settings(tmp_path, done)
+        assert watch(replace(settings, done=None), RunOptions()) == 0
+        later = time.time() + 60
+        for path in inbox.iterdir():
+            os.utime(path, (later, later))
+        _run_killed(settings, lambda undo: _killed_in_move("renamed", inbox, undo))
+        assert watch(settings, RunOptions()) == 0
+        assert not any(inbox.iterdir())
+        assert {p.name: p.read_bytes() for p in done.iterdir()} == content
+        rec = _state_record(tmp_path)
+        assert sorted(rec["moved_to"]) == [str(done / name) for name in sorted(content)]
+        assert _analyses(tmp_path) == [str(sorted(content))]
+
+
+def _killed_before_the_new_contents_record(undo: pytest.MonkeyPatch) -> None:
+    """Kill the watcher once the report of ``a.csv``'s new content is published (its
+    folder said on its line), before its record is written."""
+    real_record = Ledger.record
+
+    def record(self: Ledger, rec: Record) -> None:
+        if rec.name == "a.csv" and rec.dropped_as is None and rec.folder != "a.csv":
+            raise _Killed
+        real_record(self, rec)
+
+    undo.setattr(Ledger, "record", record)
+
+
+def test_a_new_contents_report_folder_published_before_a_kill_is_its_record_s(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """``a.csv`` analyzed, then replaced in INBOX by other content: the earlier record
+    is kept aside (``a-1.csv``, its folder ``a.csv/``), and the new content's report
+    goes to ``a-1.csv/``, said on its line. A watcher killed between that publish and
+    the record: the next start finds the new content recorded, its report in
+    ``a-1.csv/`` as said, linked by the index, not analyzed again. Before, ``a-1.csv/``
+    was linked by no record and never removed, and the next start analyzed the content
+    again into ``a.csv-report/``."""
+    monkeypatch.setattr(watch_module, "_context", lambda: multiprocessing.get_context("fork"))
+    monkeypatch.setattr(watch_module, "analysis_into", _quick_analysis)
+    inbox, reports = tmp_path / "in" / "inbox", tmp_path / "in" / "reports"
+    inbox.mkdir(parents=True)
+    settings = WatchSettings(inbox, reports, settle=0.2, poll=0.05, once=True)
+    _archive(inbox / "a.csv", 300)
+    assert watch(settings, RunOptions()) == 0
+    _archive(inbox / "new.csv", 301)
+    os.replace(inbox / "new.csv", inbox / "a.csv")
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    _run_killed(settings, _killed_before_the_new_contents_record)
+    (line,) = [r.getMessage() for r in caplog.records if "its report goes to" in r.getMessage()]
+    assert f"its report goes to {reports / 'a-1.csv'} " in line, line
+    assert watch(settings, RunOptions()) == 0
+    records = json.loads((reports / ".watch-state.json").read_text())["archives"]
+    assert records["a.csv"]["report"] == "a-1.csv/report.html"
+    assert records["a.csv"]["sha256"] == sha256_of(inbox / "a.csv")
+    assert "unpublished" not in records["a.csv"]  # (published: the start's tidy says so)
+    assert records["a-1.csv"]["report"] == "a.csv/report.html"
+    assert sorted(p.name for p in reports.iterdir() if not p.name.startswith(".")) == [
+        "a-1.csv",
+        "a.csv",
+        "index.html",
+        "index.json",
+    ]
+    index = json.loads((reports / "index.json").read_text())
+    assert sorted(row["report"] for row in index["archives"]) == [
+        "a-1.csv/report.html",
+        "a.csv/report.html",
+    ]
+    assert len(_analyses(tmp_path)) == 2  # (each content once)
+
+
+def _a_replaced(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> tuple[Path, Path, WatchSettings]:
+    """``a.csv`` analyzed by a watcher, then replaced in INBOX by other content (the
+    next watcher keeps the earlier record aside and reserves ``a-1.csv/`` for the new
+    content's report); returns INBOX, REPORTS and the settings (``--once``)."""
+    monkeypatch.setattr(watch_module, "_context", lambda: multiprocessing.get_context("fork"))
+    monkeypatch.setattr(watch_module, "analysis_into", _quick_analysis)
+    inbox, reports = tmp_path / "in" / "inbox", tmp_path / "in" / "reports"
+    inbox.mkdir(parents=True)
+    settings = WatchSettings(inbox, reports, settle=0.2, poll=0.05, once=True)
+    _archive(inbox / "a.csv", 300)
+    assert watch(settings, RunOptions()) == 0
+    _archive(inbox / "new.csv", 301)
+    os.replace(inbox / "new.csv", inbox / "a.csv")
+    return inbox, reports, settings
+
+
+def _links_only_folders_there(reports: Path) -> None:
+    """Every record of the state and every row of the index links a folder of REPORTS
+    that is there."""
+    state = json.loads((reports / ".watch-state.json").read_text())["archives"]
+    index = json.loads((reports / "index.json").read_text())["archives"]
+    for row in [*state.values(), *index]:
+        assert (reports / row["report"]).parent.is_dir(), row
+
+
+def test_a_new_content_killed_before_its_publish_goes_to_its_reserved_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A watcher killed between the reserve of ``a.csv``'s new content (its record
+    written, for ``a-1.csv/``) and its publish: the next start says that its report was
+    never written (not that its folder is gone: none was made), analyzes it again, and
+    publishes it into ``a-1.csv/``, the folder reserved. Before, the line said "its
+    report folder is gone", and the report went to ``a.csv-report/``."""
+    inbox, reports, settings = _a_replaced(tmp_path, monkeypatch)
+    real_publish = watch_module.publish
+
+    def killed(undo: pytest.MonkeyPatch) -> None:
+        def publish(scratch: Path, reports_: Path, name: str, *args: Any) -> Path:
+            if name == "a.csv" and _recorded(reports) == {"a.csv", "a-1.csv"}:
+                raise _Killed
+            return real_publish(scratch, reports_, name, *args)
+
+        undo.setattr(watch_module, "publish", publish)
+
+    _run_killed(settings, killed)
+    state = json.loads((reports / ".watch-state.json").read_text())["archives"]
+    assert state["a.csv"]["report"] == "a-1.csv/report.html"  # (reserved, not published)
+    assert not (reports / "a-1.csv").exists()
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    assert watch(settings, RunOptions()) == 0
+    said = [r.getMessage() for r in caplog.records]
+    assert (
+        "a.csv: its report was never written (the watcher was stopped before); it will "
+        "be analyzed again" in said
+    )
+    assert not [line for line in said if "report folder is gone" in line]
+    records = json.loads((reports / ".watch-state.json").read_text())["archives"]
+    assert records["a.csv"]["report"] == "a-1.csv/report.html"
+    assert records["a.csv"]["sha256"] == sha256_of(inbox / "a.csv")
+    assert "unpublished" not in records["a.csv"]
+    assert records["a-1.csv"]["report"] == "a.csv/report.html"
+    assert sorted(p.name for p in reports.iterdir() if not p.name.startswith(".")) == [
+        "a-1.csv",
+        "a.csv",
+        "index.html",
+        "index.json",
+    ]
+    _links_only_folders_there(reports)
+    assert len(_analyses(tmp_path)) == 3  # (the new content again: never published)
+
+
+def test_a_new_content_whose_publish_fails_is_not_recorded(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The publish of ``a.csv``'s new content, reserved, fails (REPORTS full): its record
+    is forgotten (:meth:`Ledger.forget`), so neither the state nor the index links a
+    folder never made, and the next start analyzes it again; the earlier content's
+    result stays, kept aside as ``a-1.csv``."""
+    inbox, reports, settings = _a_replaced(tmp_path, monkeypatch)
+    real_publish = watch_module.publish
+
+    def publish(scratch: Path, reports_: Path, name: str, *args: Any) -> Path:
+        if name == "a.csv":
+            raise OSError(errno.ENOSPC, "No space left on device", str(reports_ / "a-1.csv"))
+        return real_publish(scratch, reports_, name, *args)
+
+    monkeypatch.setattr(watch_module, "publish", publish)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    assert watch(settings, RunOptions()) == 2
+    assert any("a.csv: cannot write its report" in r.getMessage() for r in caplog.records)
+    assert _recorded(reports) == {"a-1.csv"}
+    _links_only_folders_there(reports)
+    monkeypatch.setattr(watch_module, "publish", real_publish)
+    assert watch(settings, RunOptions()) == 0
+    records = json.loads((reports / ".watch-state.json").read_text())["archives"]
+    assert records["a.csv"]["sha256"] == sha256_of(inbox / "a.csv")
+    assert records["a-1.csv"]["report"] == "a.csv/report.html"
+    _links_only_folders_there(reports)
+    assert len(_analyses(tmp_path)) == 3
+
+
+def test_a_new_content_whose_reserve_cannot_be_written_is_not_recorded(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The state write of the reserve of ``a.csv``'s new content fails (REPORTS full,
+    once): no record of it is kept, in the state or in memory, so nothing links a
+    folder never made, and its content is not taken for analyzed already. Before, the
+    record stayed in memory: the run's end wrote it to the state and the index linked
+    ``a-1.csv/``, never made (and the same content found again in a running watcher was
+    "found analyzed already" with that folder as its report, then forgotten by the next
+    start: its result lost)."""
+    inbox, reports, settings = _a_replaced(tmp_path, monkeypatch)
+    real_reserve = Ledger.reserve
+
+    def reserve(self: Ledger, rec: Record) -> None:
+        def refused() -> None:
+            raise OSError(errno.ENOSPC, "No space left on device", str(self.path))
+
+        self.save_state = refused  # type: ignore[method-assign]
+        try:
+            real_reserve(self, rec)
+        finally:
+            del self.save_state
+
+    monkeypatch.setattr(Ledger, "reserve", reserve)
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    assert watch(settings, RunOptions()) == 2
+    assert any("a.csv: cannot write its report" in r.getMessage() for r in caplog.records)
+    assert _recorded(reports) == {"a-1.csv"}
+    assert not (reports / "a-1.csv").exists()
+    _links_only_folders_there(reports)
+    monkeypatch.setattr(Ledger, "reserve", real_reserve)
+    assert watch(settings, RunOptions()) == 0
+    records = json.loads((reports / ".watch-state.json").read_text())["archives"]
+    assert records["a.csv"]["sha256"] == sha256_of(inbox / "a.csv")
+    _links_only_folders_there(reports)
+    assert len(_analyses(tmp_path)) == 3

@@ -4,9 +4,12 @@ holds it)."""
 
 from __future__ import annotations
 
+import errno
 import json
 from pathlib import Path
+from typing import Any
 
+import pytest
 from test_watch_run import (
     OPTIONS,
     SETTLE,
@@ -14,6 +17,7 @@ from test_watch_run import (
     write,
 )
 
+from analyzer import watch as watch_module
 from analyzer.watch import WatchSettings, _end_moves, note_moves, watch
 from analyzer.watch_inbox import signature
 from analyzer.watch_index import Ledger, Record, Verdict
@@ -85,3 +89,82 @@ def test_a_killed_move_finished_in_part_at_the_next_start_says_so_in_findings_js
     inputs = json.loads((reports / "grp" / "findings.json").read_text())["inputs"]
     assert inputs[0].get("moved_to") == str(done / "a.csv")
     assert "moved_to" not in inputs[1]
+
+
+def _group_in_move(tmp_path: Path) -> tuple[Path, Path, Path, Ledger]:
+    """A group ``grp`` of ``a.csv`` and ``b.csv`` whose move by renames into ``done`` was
+    stopped by a kill with ``a.csv`` in ``done``, ``b.csv`` still in INBOX: INBOX,
+    REPORTS, ``done`` and the state as the next start loads it."""
+    inbox, reports, done = tmp_path / "inbox", tmp_path / "reports", tmp_path / "done"
+    for folder in (inbox, reports / "grp", done):
+        folder.mkdir(parents=True)
+    (done / "a.csv").write_text("t,s1\n0,1\n")
+    (inbox / "b.csv").write_text("t,s1\n1,2\n")
+    sig = [
+        *(list(entry) for entry in signature([done / "a.csv"], done)),
+        *(list(entry) for entry in signature([inbox / "b.csv"], inbox)),
+    ]
+    doc = {"inputs": [{"path": str(inbox / n), "errors": []} for n in ("a.csv", "b.csv")]}
+    (reports / "grp" / "findings.json").write_text(json.dumps(doc))
+    ledger = Ledger(reports)
+    ledger.records["grp"] = Record(
+        name="grp",
+        sha256="1" * 64,
+        verdict=Verdict.NO_FAULT,
+        report="grp/report.html",
+        inputs=["a.csv", "b.csv"],
+        processed="2026-01-01T00:00:00Z",
+        analysis_s=1.0,
+        signature=sig,
+        moving=[[str(inbox / n), "", str(done / n)] for n in ("a.csv", "b.csv")],
+    )
+    ledger.save_state()
+    return inbox, reports, done, Ledger.load(reports)
+
+
+def _moved_to(reports: Path) -> list[str | None]:
+    inputs = json.loads((reports / "grp" / "findings.json").read_text())["inputs"]
+    return [item.get("moved_to") for item in inputs]
+
+
+def test_a_killed_move_finished_under_a_name_taken_since_says_it_in_findings_json(
+    tmp_path: Path,
+) -> None:
+    """The start that finishes the move finds ``b.csv``'s planned name in ``done`` taken
+    by another file since: ``b.csv`` goes to ``b-1.csv``, and findings.json says so.
+    Before, the moved files were told from the move's planned names: ``b.csv``'s
+    ``moved_to`` was missing (the record had it)."""
+    inbox, reports, done, ledger = _group_in_move(tmp_path)
+    (done / "b.csv").write_text("another process's file\n")
+    _end_moves(ledger, inbox)
+    rec = ledger.records["grp"]
+    assert sorted(rec.moved_to) == [str(done / "a.csv"), str(done / "b-1.csv")]
+    assert _moved_to(reports) == [str(done / "a.csv"), str(done / "b-1.csv")]
+    assert (done / "b-1.csv").read_text() == "t,s1\n1,2\n"
+
+
+def test_a_killed_move_put_back_but_for_a_file_says_where_that_file_is(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The start that ends the move is refused ``b.csv``'s rename (INBOX read-only to
+    it, say): the move is undone, but ``a.csv``, whose name in INBOX another file takes
+    in the instant it goes back, stays in ``done``: "put back" with one file moved.
+    findings.json says where ``a.csv`` is (the review of watch51 feared it did not:
+    reproduced here), and nothing for ``b.csv``, back in INBOX."""
+    inbox, reports, done, ledger = _group_in_move(tmp_path)
+    real_rename = watch_module._rename_new
+
+    def rename(source: Path, target: Path, *rest: Any) -> None:
+        if source == inbox / "b.csv":
+            raise PermissionError(errno.EACCES, "Permission denied", str(source))
+        if target == inbox / "a.csv":  # (taken in the instant it goes back)
+            target.write_text("another process's file\n")
+            raise FileExistsError(errno.EEXIST, "File exists", str(target))
+        real_rename(source, target, *rest)
+
+    monkeypatch.setattr(watch_module, "_rename_new", rename)
+    _end_moves(ledger, inbox)
+    rec = ledger.records["grp"]
+    assert rec.moving == [] and rec.moved_to == [str(done / "a.csv")]
+    assert (inbox / "b.csv").is_file() and (done / "a.csv").is_file()
+    assert _moved_to(reports) == [str(done / "a.csv"), None]

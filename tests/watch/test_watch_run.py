@@ -458,19 +458,33 @@ def test_second_watcher_is_refused(
     assert err.count("\n") == 1 and "in use by another watcher" in err
 
 
+def own_tempdir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A TMPDIR of the test's own, where the watcher makes its analyses' scratch space
+    (``analyzer-watch-*``): what is left there is this test's watcher's alone. Before,
+    the tests compared the shared TMPDIR before and after, and a watcher of another
+    process (another pytest) that made one meanwhile failed them."""
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    monkeypatch.setenv("TMPDIR", str(temp))
+    monkeypatch.setattr(tempfile, "tempdir", str(temp))
+    return temp
+
+
 def test_stop_waits_for_the_running_analysis_and_a_second_stop_abandons_it(
     tmp_path: Path,
     folders: tuple[Path, Path],
     start_watcher: Callable[..., Watcher],
     caplog: pytest.LogCaptureFixture,
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     inbox, reports = folders
-    scratch_before = set(Path(tempfile.gettempdir()).glob("analyzer-watch-*"))
+    temp = own_tempdir(tmp_path, monkeypatch)
     write(tmp_path / "long.csv", "csv", seconds=300.0, rate=200.0, floors=5)
     w = start_watcher(WatchSettings(inbox, reports, settle=SETTLE, jobs=1))
     wait_until(lambda: (reports / "index.html").exists(), "the watcher to start")
     os.replace(tmp_path / "long.csv", inbox / "long.csv")
     wait_until(lambda: started(caplog) == ["long.csv"], "the analysis to start")
+    assert list(temp.glob("analyzer-watch-*")), "its scratch space is not where this looks"
     w.stop.set()
     time.sleep(0.3)
     assert w.thread is not None and w.thread.is_alive()  # waiting for the analysis
@@ -485,7 +499,7 @@ def test_stop_waits_for_the_running_analysis_and_a_second_stop_abandons_it(
         "index.json",
     ]
     # the abandoned analysis took its scratch space with it
-    assert set(Path(tempfile.gettempdir()).glob("analyzer-watch-*")) <= scratch_before
+    assert not list(temp.glob("analyzer-watch-*"))
 
 
 def test_a_crashed_analysis_is_an_error_record_and_the_watcher_goes_on(
@@ -493,6 +507,7 @@ def test_a_crashed_analysis_is_an_error_record_and_the_watcher_goes_on(
     folders: tuple[Path, Path],
     start_watcher: Callable[..., Watcher],
     caplog: pytest.LogCaptureFixture,
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """An analysis process killed outright (as the OOM killer would) is an error record
     with its cause, and the watcher goes on with the next archive.
@@ -502,7 +517,8 @@ def test_a_crashed_analysis_is_an_error_record_and_the_watcher_goes_on(
     the CPU that long on a loaded machine), nothing was tested: then again, on an
     archive 4x as long."""
     inbox, reports = folders
-    scratch_before = set(Path(tempfile.gettempdir()).glob("analyzer-watch-*"))
+    temp = own_tempdir(tmp_path, monkeypatch)
+    seen: set[Path] = set()
     w = start_watcher(WatchSettings(inbox, reports, settle=SETTLE, jobs=1))
     wait_until(lambda: (reports / "index.html").exists(), "the watcher to start")
     for attempt, seconds in enumerate((300.0, 1200.0)):
@@ -512,6 +528,7 @@ def test_a_crashed_analysis_is_an_error_record_and_the_watcher_goes_on(
         wait_until(lambda: name in started(caplog), "the analysis to start")  # noqa: B023
         children = multiprocessing.active_children()  # (reaps those that have ended)
         if children:
+            seen.update(temp.glob("analyzer-watch-*"))  # (its scratch space, before the kill)
             (child,) = children
             assert child.pid is not None
             os.kill(child.pid, signal.SIGKILL)  # as the OOM killer would
@@ -528,7 +545,8 @@ def test_a_crashed_analysis_is_an_error_record_and_the_watcher_goes_on(
     wait_until(lambda: "next.mcap" in state(reports), "the next archive")
     assert w.thread is not None and w.thread.is_alive()
     # the killed analysis's scratch space was the watcher's to remove
-    assert set(Path(tempfile.gettempdir()).glob("analyzer-watch-*")) <= scratch_before
+    assert seen, "its scratch space is not where this test looks"
+    assert not list(temp.glob("analyzer-watch-*"))
 
 
 def test_cli_watcher_finishes_the_running_analysis_on_sigterm(
