@@ -860,7 +860,7 @@ class TopicTracker:
         self._seen_labels: dict[tuple[str, str], dict[tuple[str, ...], None]] = {}
         """Per topic and string array: the contents seen (at the batches' ends and first
         changes; at most :data:`SEEN_LABELS`), in order."""
-        self.signs = QuaternionSigns()
+        self.signs = QuaternionSigns(self.relabelled)
         """The quaternions' signs, made continuous along time (:mod:`~analyzer.readers.
         quaternions`) by the reader's :class:`Reorderer` (one a storage file of a split
         ROS 2 bag: kept here, across them)."""
@@ -1495,7 +1495,7 @@ class Reorderer:
             yield from self._release(bound, final)
             return
         # (counted as released before: the signs are a change of the reader's own)
-        yield from self._signs.released(list(self._release(bound, final)), self.topics)
+        yield from self._signs.released(self._release(bound, final), self.topics)
 
     def _release(self, bound: int | None, final: bool) -> Iterator[ChannelChunk]:
         """:meth:`release`'s chunks, each counted as released (:attr:`passed`)."""

@@ -30,7 +30,7 @@ carried from the file before).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -92,59 +92,79 @@ class QuaternionSigns:
     each channel's samples after those released before), release after release; what was
     done, per quaternion, for the run's note (:meth:`changed`)."""
 
-    def __init__(self) -> None:
+    def __init__(self, relabelled: Callable[[], list[str]] | None = None) -> None:
+        self._relabelled = relabelled
+        """The prefixes of the channels whose meaning changes between messages so far
+        (:meth:`~analyzer.readers._common.TopicTracker.relabelled`)."""
         self._last: dict[str, FloatArray] = {}
         self._kind: dict[str, bool] = {}
         """Per prefix of channel names: whether its channels are a quaternion's."""
         self.flips: dict[str, Flips] = {}
 
-    def released(self, chunks: list[ChannelChunk], topics: Mapping[str, str]) -> list[ChannelChunk]:
+    def released(
+        self, chunks: Iterable[ChannelChunk], topics: Mapping[str, str]
+    ) -> Iterator[ChannelChunk]:
         """``chunks`` (one release: each channel's next samples in time order) with each
         quaternion's sign made continuous with the samples released before; ``topics``
         (every channel pushed so far, to its topic) tells which channels are one
-        message's fields. The four fields of one message come with equal times."""
-        at = {c.name: i for i, c in enumerate(chunks)}
-        for prefix in self._quaternions(at, topics):
-            where = [at.get(f"{prefix}.{f}") for f in FIELDS]
-            if any(i is None for i in where):
+        message's fields. A quaternion's four channels are held until all four have come
+        (one after the other: the fields of one message share their times); the others
+        pass through at once, and so does, from the release on where it is known, one
+        whose meaning changes between messages (``/tf.transforms[0]`` holding one
+        frame's rotation, then another's: no sign can follow one rotation there)."""
+        waiting: dict[str, dict[str, ChannelChunk]] = {}
+        mixed: tuple[str, ...] | None = None
+        for chunk in chunks:
+            prefix, _, leaf = chunk.name.rpartition(".")
+            if leaf not in FIELDS or not self._quaternion(prefix, chunk.name, topics):
+                yield chunk
                 continue
-            parts = [chunks[i] for i in where if i is not None]
-            t = parts[0].t_ns
-            if any(not _same_times(t, p.t_ns) for p in parts[1:]):
+            if mixed is None:
+                mixed = tuple(self._relabelled()) if self._relabelled is not None else ()
+            if prefix.startswith(mixed):  # (several frames' rotations in turn: left alone)
+                yield chunk
                 continue
-            q = np.column_stack([p.values for p in parts])
-            kept, changes = continuous(q, self._last.get(prefix))
-            seen = self.flips.setdefault(prefix, Flips())
-            seen.messages += int(q.shape[0])
-            usable = np.flatnonzero(np.isfinite(kept).all(axis=1))
-            if usable.size:
-                self._last[prefix] = kept[usable[-1]].copy()
-            if kept is q:
-                continue
-            seen.changes += changes
-            seen.negated += int(np.count_nonzero(np.einsum("ij,ij->i", kept, q) < 0))
-            for j, (i, p) in enumerate(zip(where, parts, strict=True)):
-                if i is not None:
-                    chunks[i] = ChannelChunk(p.name, p.t_ns, np.ascontiguousarray(kept[:, j]))
-        return chunks
+            group = waiting.setdefault(prefix, {})
+            group[leaf] = chunk
+            if len(group) == len(FIELDS):
+                del waiting[prefix]
+                yield from self._continued(prefix, [group[f] for f in FIELDS])
+        for group in waiting.values():  # (not all four released: as they came)
+            yield from group.values()
 
-    def _quaternions(self, at: Mapping[str, int], topics: Mapping[str, str]) -> list[str]:
-        """The prefixes of the quaternions among the channels ``at`` (found once each)."""
-        out = []
-        for name in at:
-            prefix, _, leaf = name.rpartition(".")
-            if leaf != "x" or not prefix:
-                continue
-            kind = self._kind.get(prefix)
-            if kind is None:
-                topic = topics.get(name, "")
-                fields = [n for n in topics if n.startswith(f"{prefix}.") and topics[n] == topic]
-                kind = self._kind[prefix] = sorted(f[len(prefix) + 1 :] for f in fields) == sorted(
-                    FIELDS
-                )
-            if kind:
-                out.append(prefix)
-        return out
+    def _continued(self, prefix: str, parts: list[ChannelChunk]) -> list[ChannelChunk]:
+        """A quaternion's four chunks (``x, y, z, w``) made continuous in sign."""
+        t = parts[0].t_ns
+        if any(not _same_times(t, p.t_ns) for p in parts[1:]):
+            return parts
+        q = np.column_stack([p.values for p in parts])
+        kept, changes = continuous(q, self._last.get(prefix))
+        seen = self.flips.setdefault(prefix, Flips())
+        seen.messages += int(q.shape[0])
+        usable = np.flatnonzero(np.isfinite(kept).all(axis=1))
+        if usable.size:
+            self._last[prefix] = kept[usable[-1]].copy()
+        if kept is q:
+            return parts
+        seen.changes += changes
+        seen.negated += int(np.count_nonzero(np.einsum("ij,ij->i", kept, q) < 0))
+        return [
+            ChannelChunk(p.name, p.t_ns, np.ascontiguousarray(kept[:, j]))
+            for j, p in enumerate(parts)
+        ]
+
+    def _quaternion(self, prefix: str, name: str, topics: Mapping[str, str]) -> bool:
+        """Whether the channels under ``prefix`` (``name`` one of them) are exactly one
+        topic's ``.x``, ``.y``, ``.z``, ``.w`` (decided once per prefix)."""
+        kind = self._kind.get(prefix)
+        if kind is None:
+            topic = topics.get(name, "")
+            head = f"{prefix}."
+            fields = sorted(
+                n[len(head) :] for n, tp in topics.items() if n.startswith(head) and tp == topic
+            )
+            kind = self._kind[prefix] = bool(prefix) and fields == sorted(FIELDS)
+        return kind
 
     def changed(self) -> dict[str, Flips]:
         """The quaternions whose sign was changed, by the prefix of their channels'

@@ -224,3 +224,40 @@ def test_ros_example_ground_truth_has_no_sign_jump(corpus: Path) -> None:
         dots = np.einsum("ij,ij->i", q[1:], q[:-1])
         assert dots.min() > 0.99, (topic, dots.min())
     assert reader.info.sign_flips["groundtruth.pose.orientation"].changes == 13
+
+
+def test_rotations_of_several_frames_in_turn_are_left_alone(tmp_path: Path) -> None:
+    """``/tf.transforms[0]`` holding one frame's rotation, then another's (two
+    broadcasters on one topic: its meaning changes between messages, said and not
+    analyzed by default) keeps its values as written: no sign can follow one rotation
+    there (nav2_turtlebot.mcap's ``/tf.transforms[0]`` had 2 551 "sign changes")."""
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    tf_type = "tf2_msgs/msg/TFMessage"
+    t = T0 + np.arange(60, dtype=np.int64) * 100_000_000
+    frames = {"a": (0.0, 0.0, 0.1, 0.995), "b": (0.0, 0.0, -0.1, -0.995)}
+    path = tmp_path / "tf.mcap"
+    text, _ = store.generate_msgdef(tf_type, ros_version=2)
+    with path.open("wb") as handle:
+        writer = McapWriter(handle)
+        writer.start(profile="ros2", library="test")
+        schema = writer.register_schema(tf_type, "ros2msg", text.encode())
+        channel = writer.register_channel("/tf", "cdr", schema)
+        for i in range(60):
+            child = "a" if i % 2 == 0 else "b"
+            x, y, z, w = frames[child]
+            transform = default_message(store, "geometry_msgs/msg/TransformStamped")
+            transform.header.frame_id = "map"
+            transform.child_frame_id = child
+            rotation = store.types["geometry_msgs/msg/Quaternion"](x=x, y=y, z=z, w=w)
+            transform.transform.rotation = rotation
+            message = store.types[tf_type](transforms=[transform])
+            data = bytes(store.serialize_cdr(message, tf_type))
+            writer.add_message(channel, int(t[i]), data, int(t[i]))
+        writer.finish()
+    reader = open_input(path)
+    got = collect(reader.chunks())
+    prefix = "/tf.transforms[0].transform.rotation"
+    w = got[f"{prefix}.w"][1]
+    np.testing.assert_array_equal(w, np.where(np.arange(60) % 2 == 0, 0.995, -0.995))
+    assert reader.info.relabelled == ["/tf.transforms[0]."]
+    assert reader.info.sign_flips == {}
