@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from analyzer import __version__
+from analyzer.data_ends import data_end
 from analyzer.detectors import DetectorResult
 from analyzer.diagnosis import Finding
 from analyzer.diagnosis.unexplained import Unexplained
@@ -187,7 +188,11 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
                 "detector": f.detector,
                 "evidence": _jsonable(f.evidence),
                 "size_relative": size_relative(
-                    f.magnitude, a.healthy.get(f.channel), f.onset_s, f.end_s, a.duration_s
+                    f.magnitude,
+                    a.healthy.get(f.channel),
+                    f.onset_s,
+                    f.end_s if f.end_s is not None else data_end(f.evidence),
+                    a.duration_s,
                 ),
             }
             for f in a.findings

@@ -23,6 +23,7 @@ import numpy.typing as npt
 from analyzer.config import Config, measured_inputs
 from analyzer.config import members as group_members
 from analyzer.coverage import span_gaps, span_note
+from analyzer.data_ends import ends_with_data
 from analyzer.detector_runs import (
     SkipReason,
     TooShortForNamed,
@@ -119,6 +120,7 @@ from analyzer.parallel import (
 )
 from analyzer.readers import Archive, ArchiveNote, open_archive
 from analyzer.readers.base import InputInfo, about_selection, one_clock
+from analyzer.readers.quaternions import flipped_note
 from analyzer.readers.tally import Tally
 from analyzer.reconfigure import (
     SEARCH_AGAIN_MIN,
@@ -639,6 +641,7 @@ def _analyze(
         else:
             chosen = model_channels(store, reused, options, notes)
         one_clock(chosen, archive.inputs)  # (else: "a timestamp lies far from the others")
+        notes.extend(n for n in [flipped_note(archive.inputs, chosen)] if n)
         t0 = time.perf_counter()
         aligned: AlignedSeries = store.align(
             chosen, options.rate if reused is None else reused.rate_hz
@@ -1036,6 +1039,10 @@ def _analyze(
                 for c in corrections
             ):
                 notes.append(said)
+        # a fault under way where its channel stopped publishing lasts, as far as is known,
+        # to the end of its data: no end (evidence.data_ends_s), not a recovery there (the
+        # findings' own ends served the alarms they explain and the corrections above)
+        ends_with_data(findings, values, chosen, aligned.rate_hz)
         # the sensors --channels named that read one value over the whole record
         findings = sorted(
             [*findings, *constant_findings(notes)], key=lambda f: (f.onset_s, f.channel)

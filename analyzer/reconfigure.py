@@ -73,6 +73,15 @@ def lost_stretches(values: npt.NDArray[Any], rate_hz: float) -> list[list[tuple[
     return out
 
 
+def last_rows(values: npt.NDArray[Any]) -> npt.NDArray[np.int64]:
+    """Each column's last row with a finite value (-1: none), read from the end a block
+    of rows at a time (:func:`_first_finite`)."""
+    n = values.shape[0]
+    return _first_finite(
+        values, range(((n - 1) // RELEASE_ROWS) * RELEASE_ROWS, -1, -RELEASE_ROWS), n, True
+    )
+
+
 def _first_finite(
     values: npt.NDArray[Any], starts: range, n: int, backwards: bool = False
 ) -> npt.NDArray[np.int64]:

@@ -29,6 +29,7 @@ from analyzer.errors import (
     one_line,  # noqa: F401 - re-exported for the readers
 )
 from analyzer.readers.base import ChannelChunk
+from analyzer.readers.quaternions import QuaternionSigns
 from analyzer.readers.tally import Tally
 from analyzer.timeutil import iso_utc, plausible_epoch
 
@@ -832,7 +833,9 @@ class TopicTracker:
       window behind are reordered, as before. Vectorized: a running maximum per batch,
       carried across batches;
     * string arrays beside numeric arrays (``JointState.name``) that change content
-      (:class:`Relabel`, found by the decoders): ``position[i]`` follows the index.
+      (:class:`Relabel`, found by the decoders): ``position[i]`` follows the index;
+    * quaternions (``pose.orientation``) whose sign changes between messages: made
+      continuous as the reorderer releases them, in time order (:attr:`signs`).
     """
 
     def __init__(self, time: str, window_ns: int = REORDER_WINDOW_NS) -> None:
@@ -857,6 +860,10 @@ class TopicTracker:
         self._seen_labels: dict[tuple[str, str], dict[tuple[str, ...], None]] = {}
         """Per topic and string array: the contents seen (at the batches' ends and first
         changes; at most :data:`SEEN_LABELS`), in order."""
+        self.signs = QuaternionSigns(self.relabelled)
+        """The quaternions' signs, made continuous along time (:mod:`~analyzer.readers.
+        quaternions`) by the reader's :class:`Reorderer` (one a storage file of a split
+        ROS 2 bag: kept here, across them)."""
         self._labels: dict[tuple[str, str], tuple[str, ...]] = {}
         """Per topic and string array: its strings in the topic's last message so far (of
         any publisher: two publishing different frames on one topic relabel it too)."""
@@ -1415,6 +1422,10 @@ class Reorderer:
     channel. A sample that still arrives later than an already released one cannot be
     placed; it is dropped and counted in :attr:`dropped`.
 
+    With ``signs`` (the ROS and MCAP readers), the quaternions among the channels of a
+    release are made continuous in sign (:class:`~analyzer.readers.quaternions.
+    QuaternionSigns`) after they are counted as released.
+
     With ``repeats`` (the ROS and MCAP readers), samples at the same time as the one
     before them on their channel are counted in :attr:`duplicates` (and kept: they are
     raw samples of the input, which ``inspect`` counts; the aligned channels can hold
@@ -1434,8 +1445,10 @@ class Reorderer:
         *,
         repeats: bool = False,
         topics: dict[str, str] | None = None,
+        signs: QuaternionSigns | None = None,
     ) -> None:
         self._window = window_ns
+        self._signs = signs
         self._batch = batch_samples
         self._repeats = repeats
         self._held = 0
@@ -1478,6 +1491,14 @@ class Reorderer:
         if not final and self._held < self._batch:
             return
         self._held = 0
+        if self._signs is None:
+            yield from self._release(bound, final)
+            return
+        # (counted as released before: the signs are a change of the reader's own)
+        yield from self._signs.released(self._release(bound, final), self.topics)
+
+    def _release(self, bound: int | None, final: bool) -> Iterator[ChannelChunk]:
+        """:meth:`release`'s chunks, each counted as released (:attr:`passed`)."""
         # the fields of one topic (a CSV's columns) share their time arrays: their
         # concatenation, order and cut are worked out once, and the part held back
         # stays shared for the next release

@@ -12,13 +12,16 @@ from __future__ import annotations
 from collections.abc import Collection, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal, Protocol
+from typing import TYPE_CHECKING, Literal, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
 from analyzer.errors import ReaderError
 from analyzer.types import Format
+
+if TYPE_CHECKING:
+    from analyzer.readers.quaternions import Flips
 
 TimeSource = Literal["log", "header"]
 
@@ -63,6 +66,10 @@ class InputInfo:
     """Why the input holds no numeric channel, where its reader can tell while opening
     it (a CSV whose columns besides the time are all text): listing it is no error
     (``inspect`` says this in its note), analyzing or exporting it is."""
+    sign_flips: dict[str, Flips] = field(default_factory=dict)
+    """The quaternions whose sign changed between messages and was made continuous
+    (:mod:`analyzer.readers.quaternions`), by the prefix of their channels' names
+    (``/imu.orientation``): the run's note says which, when their channels are analyzed."""
     clocks: dict[str, str] = field(default_factory=dict)
     """With ``--time header``, where its topics' times come from two clocks (header
     stamps on a simulation clock beside log times on the wall clock, or the other way

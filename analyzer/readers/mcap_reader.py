@@ -200,7 +200,7 @@ class McapReader:
         own = self._shared_tracker is None
         self._tracker = self._shared_tracker or TopicTracker(time)
         self.fraction_read = 0.0
-        reorder = Reorderer(repeats=True, topics=self.topics)
+        reorder = Reorderer(repeats=True, topics=self.topics, signs=self._tracker.signs)
         stop = self.path if self.stop_at_set_back else None
         with self.path.open("rb") as handle:
             if self._summary is not None and self._summary.chunk_indexes:
@@ -227,6 +227,7 @@ class McapReader:
             self._error(line)
         if own:
             self.info.relabelled = self._tracker.relabelled()
+            self.info.sign_flips = self._tracker.signs.changed()
             self.info.clocks = self._tracker.clocks()
             self.info.clock_spans = self._tracker.clock_spans()
             self.info.clock_steps = self._tracker.clock_steps()

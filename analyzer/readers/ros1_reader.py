@@ -296,7 +296,7 @@ class Ros1BagReader:
         self._tracker = TopicTracker(time)
         stop = self.path if self.stop_at_set_back else None
         self._log_clock = LogClock(in_file_order=True, stop=stop)
-        reorder = Reorderer(repeats=True, topics=self.topics)
+        reorder = Reorderer(repeats=True, topics=self.topics, signs=self._tracker.signs)
         if self._index_error:
             self._error(self._index_error)
             gate = LogOrder()
@@ -317,6 +317,7 @@ class Ros1BagReader:
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
         add_log_topics(self.info, {c.topic: c.msgtype for c in self._connections.values()})
+        self.info.sign_flips = self._tracker.signs.changed()
         self.info.clocks = self._tracker.clocks()
         self.info.clock_spans = self._tracker.clock_spans()
         self.info.clock_steps = self._tracker.clock_steps()

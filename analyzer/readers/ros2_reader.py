@@ -179,6 +179,7 @@ class Ros2BagReader:
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
         add_log_topics(self.info, dict(self._decoders.keys()))
+        self.info.sign_flips = self._tracker.signs.changed()
         self.info.clocks = self._tracker.clocks()
         self.info.clock_spans = self._tracker.clock_spans()
         self.info.clock_steps = self._tracker.clock_steps()
@@ -220,7 +221,7 @@ class Ros2BagReader:
     # ------------------------------------------------------------------ sqlite3
     def _sqlite(self, storage: Any, time: TimeSource, label: str = "") -> Iterator[ChannelChunk]:
         topics = {c.id: (c.topic, c.msgtype) for c in storage.connections}
-        reorder = Reorderer(repeats=True, topics=self.topics)
+        reorder = Reorderer(repeats=True, topics=self.topics, signs=self._tracker.signs)
         uri = Path(storage.path).resolve().as_uri() + "?immutable=1"
         try:
             with closing(sqlite3.connect(uri, uri=True)) as db:
@@ -287,7 +288,7 @@ class Ros2BagReader:
     # ------------------------------------------------------------------ fallback
     def _generic(self, bag: Any, time: TimeSource) -> Iterator[ChannelChunk]:
         """rosbags' message iterator (per-message compressed bags), decoded in batches."""
-        reorder = Reorderer(repeats=True, topics=self.topics)
+        reorder = Reorderer(repeats=True, topics=self.topics, signs=self._tracker.signs)
         batch: list[tuple[Any, int, bytes]] = []
 
         def flush() -> None:

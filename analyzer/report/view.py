@@ -370,7 +370,7 @@ class _Access(FigureParts, TableParts):
             end_s=(
                 fmt.seconds(f["end_s"], self.decimals)
                 if f.get("end_s") is not None
-                else "to the end"
+                else _open_end(ev, self.decimals)
             ),
             end_utc=str(f.get("end") or ""),
             onset_clock=str(f.get("onset") or fmt.clock(f.get("onset_s"), self.decimals)),
@@ -628,3 +628,13 @@ def _weights(v: Any) -> str:
 
 
 __all__ = ["MAX_DETAILED", "FigureView", "FindingView", "ReportView", "build_view"]
+
+
+def _open_end(evidence: Mapping[str, Any], decimals: int) -> str:
+    """A finding's end where it has none: to the end of the record, or of its channel's
+    data where the channel stopped publishing while the fault was under way
+    (``evidence.data_ends_s``: no recovery is known)."""
+    ends = evidence.get("data_ends_s")
+    if ends is None:
+        return "to the end"
+    return f"to the end of its data ({fmt.seconds(float(ends), decimals)}: the channel stops there)"
