@@ -84,11 +84,14 @@ def stuck_words(info: ChannelInfo) -> str:
 
 
 class StuckNote(ConstantNote):
-    """The note naming the channels ``--channels`` selected that read one value on every
-    sample of the record (at least :data:`STUCK_SAMPLES`) beside varying ones: not
-    analyzed by the detectors (nothing to model), each reported as a fault of its own
-    (:func:`analyzer.pipeline.constant_findings`). A :class:`ConstantNote`, so ``why``
-    says ``constant`` as for any constant channel; ``infos``: the channels themselves."""
+    """The note naming the channels the user named (``--channels``, the config's sensors:
+    :func:`select_channels`; a saved model's: :func:`model_stuck`) that read one value on
+    every sample of the record (at least :data:`STUCK_SAMPLES`) beside varying ones, each
+    reported as a fault of its own (:func:`analyzer.pipeline.constant_findings`). Not
+    analyzed by the detectors (nothing to model), but with ``--model`` (``modelled``):
+    the saved model needs each of its channels, so its detectors read it still. A
+    :class:`ConstantNote`, so ``why`` says ``constant`` where the channel is left out;
+    ``infos``: the channels themselves."""
 
     infos: tuple[ChannelInfo, ...] = ()
 
@@ -98,16 +101,48 @@ class StuckNote(ConstantNote):
         return str.__new__(cls, text)
 
     @classmethod
-    def of(cls, infos: Sequence[ChannelInfo]) -> StuckNote:
-        """The note on the constant channels ``infos`` (at least one)."""
+    def of(cls, infos: Sequence[ChannelInfo], modelled: bool = False) -> StuckNote:
+        """The note on the constant channels ``infos`` (at least one); ``modelled``:
+        channels of a saved model, which its detectors read still."""
         text = "; ".join(f"{i.name} {stuck_words(i)}" for i in infos)
-        note = cls(
-            f"{text}: not analyzed by the detectors (one value has nothing to model), "
+        how = (
+            "read by the saved model's detectors still (it needs each of its channels), "
+            "and reported as one fault with what they found on it (constant_check)"
+            if modelled
+            else "not analyzed by the detectors (one value has nothing to model), "
             "reported as a fault (constant_check)"
         )
+        note = cls(f"{text}: {how}")
         note.names = tuple(i.name for i in infos)
         note.infos = tuple(infos)
         return note
+
+
+def model_stuck(
+    infos: Sequence[ChannelInfo],
+    channels: Sequence[str],
+    inputs: Collection[str] = (),
+    zero_at_rest: Collection[str] = (),
+) -> list[ChannelInfo]:
+    """The channels of a saved model (``channels``) that read one value on every one of
+    at least :data:`STUCK_SAMPLES` samples of this record while another of them varies:
+    a sensor that died after the model was saved (the model's fit left out any channel
+    that did not vary in its own window, so each of its channels varied then). Not its
+    measured ``inputs`` (an excitation that reads one value may be none applied), nor,
+    at 0, a channel it saved as reading zero at rest (``zero_at_rest``: a flow meter
+    behind a closed valve, whose zeros are no dead sensor's)."""
+    named = set(channels)
+    mine = [i for i in infos if i.name in named]
+    if all(i.constant for i in mine):
+        return []
+    return [
+        i
+        for i in mine
+        if i.constant
+        and i.finite >= STUCK_SAMPLES
+        and i.name not in inputs
+        and not (i.minimum == 0.0 and i.name in zero_at_rest)
+    ]
 
 
 SIBLINGS_LISTED = 5
@@ -149,14 +184,20 @@ class ConstantSiblingNote(WindowNote):
         return note
 
 
-def constant_siblings(infos: Mapping[str, ChannelInfo], chosen: Sequence[str]) -> list[ChannelInfo]:
+def constant_siblings(
+    infos: Mapping[str, ChannelInfo], chosen: Sequence[str], reported: Collection[str] = ()
+) -> list[ChannelInfo]:
     """The constant channels of ``infos`` with at least :data:`STUCK_SAMPLES` samples
     whose name is one of ``chosen``'s but for its digits (:func:`_family`), in families
-    where they are fewer than the varying ones (:func:`_few_of_many`)."""
+    where they are fewer than the varying ones (:func:`_few_of_many`); not those
+    ``reported`` as faults already (a config's sensor: :class:`StuckNote`)."""
     candidates = [
         i
         for i in infos.values()
-        if i.constant and i.finite >= STUCK_SAMPLES and i.name not in chosen
+        if i.constant
+        and i.finite >= STUCK_SAMPLES
+        and i.name not in chosen
+        and i.name not in reported
     ]
     return _few_of_many(candidates, chosen)
 
@@ -395,6 +436,7 @@ def select_channels(
     relabelled: Sequence[str] = (),
     drop_copies: bool = True,
     named: Collection[str] = (),
+    sensors: Collection[str] = (),
 ) -> list[str]:
     """The channels to analyze: ``--channels``' (``patterns``), else every numeric one
     that is not constant, whose meaning does not change between messages (names
@@ -405,7 +447,12 @@ def select_channels(
     copies make every detector's model singular the run is refused, naming them).
     Flags and labels (two whole-number values over the record: :func:`_flags`) are left
     out unless ``--channels`` or the config (``named``) names them exactly (a note
-    says which, and how to keep them)."""
+    says which, and how to keep them). A constant channel of at least
+    :data:`STUCK_SAMPLES` samples beside varying ones is a fault (:class:`StuckNote`)
+    where ``--channels`` names it (exactly, or by a glob where its family mostly varies)
+    or, by default, where the config names it as a sensor (``sensors``: its
+    ``[[group]]``'s channels, reference and uncertain sensors, ``[model]`` outputs; not
+    the measured inputs, whose constant may be no excitation at all)."""
     infos = {i.name: i for i in store.infos()}
     if not infos:
         raise ReaderError("no numeric channel found in the input")
@@ -443,8 +490,18 @@ def select_channels(
     else:
         chosen = store.select(None)
         constant = [c for c in infos if infos[c].constant]
-        if constant:
-            notes.append(ConstantNote(constant))
+        # a sensor the config names that reads one value, beside varying channels: a
+        # fault, as one --channels names exactly (a note only let it pass: exit 0)
+        stuck = [
+            infos[c]
+            for c in constant
+            if c in sensors and infos[c].finite >= STUCK_SAMPLES and chosen
+        ]
+        rest = [c for c in constant if c not in {i.name for i in stuck}]
+        if stuck:
+            notes.append(StuckNote.of(stuck))
+        if rest:
+            notes.append(ConstantNote(rest))
     # (a lone channel is refused as one, flag or not: the detectors need two)
     flags = _flags(infos, chosen, patterns, named) if len(chosen) > 1 else []
     if flags:
@@ -478,7 +535,8 @@ def select_channels(
                 copied = {c.channel for c in copies}
                 chosen = [c for c in chosen if c not in copied]
     if chosen and (not patterns or all(p.startswith("!") for p in patterns)):
-        siblings = constant_siblings(infos, chosen)
+        reported = [c for n in notes if isinstance(n, StuckNote) for c in n.names]
+        siblings = constant_siblings(infos, chosen, reported)
         if siblings:
             notes.append(ConstantSiblingNote.of(siblings))
     if not chosen and patterns:
