@@ -817,6 +817,7 @@ def _analyze(
             )
 
         screen, screen_note = None, ""
+        unrun: DetectorError | None = None  # (why no detector ran, where the run goes on)
         try:
             if options.screen:
                 results, skipped, screen, screen_note = _screened(
@@ -826,23 +827,28 @@ def _analyze(
                 results, skipped = detect(names, "", "signals")
         except TooShortForNamed as err:  # (the named detectors' window, as for any)
             _cancel(tests)
-            if _apart_in_training(values, chosen, train, aligned.rate_hz):
-                raise  # (gaps or channels apart: their own line says more)
-            raise _no_detector_error(
-                err.reasons,
-                tr,
-                options,
-                "",
-                _slow_clock(infos, chosen, aligned.rate_hz, options.rate is not None),
-                (aligned.rate_hz, aligned.duration_s),
-                named=True,
-                held=_held_rows(values),
-            ) from err
+            named_error: DetectorError = err  # (gaps or channels apart: their own line)
+            if not _apart_in_training(values, chosen, train, aligned.rate_hz):
+                named_error = _no_detector_error(
+                    err.reasons,
+                    tr,
+                    options,
+                    "",
+                    _slow_clock(infos, chosen, aligned.rate_hz, options.rate is not None),
+                    (aligned.rate_hz, aligned.duration_s),
+                    named=True,
+                    held=_held_rows(values),
+                )
+            if not _constant_only_possible(notes, options):
+                if named_error is err:
+                    raise
+                raise named_error from err
+            results, skipped, unrun = [], dict(err.reasons), named_error
         except BaseException:
             _cancel(tests)
             raise
         timings["detect"] = time.perf_counter() - t0
-        if not results:
+        if not results and unrun is None:
             error = _no_detector_error(
                 skipped,
                 tr,
@@ -854,8 +860,36 @@ def _analyze(
             )
             absurd = next((n for n in notes if n.startswith("infinite or absurd values")), None)
             if absurd is not None:  # (a channel whose every value is beyond 1e30, say)
-                raise DetectorError(f"{error}; {absurd}") from None
-            raise error
+                error = DetectorError(f"{error}; {absurd}")
+            if not _constant_only_possible(notes, options):
+                raise error from None
+            unrun = error
+        if unrun is not None:
+            # a sensor named that reads one value over the record is a fault the
+            # detectors need not confirm: reported, with why they could not run
+            notes.append(NoDetectorNote.of(unrun, notes))
+            timings["total"] = time.perf_counter() - t_start
+            return Analysis(
+                inputs=archive.inputs,
+                channels=infos,
+                analyzed=tuple(chosen),
+                rate_hz=aligned.rate_hz,
+                start_ns=aligned.start_ns,
+                absolute_time=absolute,
+                n=aligned.n,
+                train=train,
+                results=[],
+                findings=constant_findings(notes, []),
+                values=values,
+                notes=notes,
+                timings=timings,
+                skipped=skipped,
+                healthy=healthy,
+                model_info=None if reused is None else model_info(reused, options),
+                config_info=options.config.info(),
+                left_out=_left_out(notes, infos, chosen, options),
+                unrun=unrun,
+            )
         findings, found_notes = diagnose(results)
         notes.extend(found_notes)
         if reused is None:  # a step or a gain change inside the healthy window itself
@@ -1102,6 +1136,33 @@ def _analyze(
             screen=screen,
             left_out=_left_out(notes, infos, chosen, options),
         )
+
+
+def _constant_only_possible(notes: Sequence[str], options: RunOptions) -> bool:
+    """Whether a run whose detectors could not run reports the constant check's findings
+    (a :class:`~analyzer.selection.StuckNote` among the ``notes``) rather than stop: a
+    dead sensor the user named needs no model to be seen (a 12-s cart-pole record whose
+    ``cart_position`` reads 0.0 on all 244 samples stopped with "no detector could run",
+    naming it nowhere: the audit). Not with ``--save-model``, which has nothing to save."""
+    return options.save_model is None and any(isinstance(n, StuckNote) for n in notes)
+
+
+class NoDetectorNote(WindowNote):
+    """The note (repeated on stderr) of a run whose detectors could not run, that reports
+    the constant check's findings alone (:func:`_constant_only_possible`): why they could
+    not run (the error the run stopped with before), and that no other fault was searched
+    for, so the exit code 1 is the dead sensors' only."""
+
+    @classmethod
+    def of(cls, error: Exception, notes: Sequence[str]) -> NoDetectorNote:
+        """The note on ``error`` (the detectors' error), naming the channels the
+        ``notes``' :class:`~analyzer.selection.StuckNote` reports."""
+        names = [c for n in notes if isinstance(n, StuckNote) for c in n.names]
+        text = (
+            f"no fault but a dead or stuck sensor ({', '.join(names)}) was searched for: "
+            f"only the constant check ran (it needs no healthy window); {one_line(error)}"
+        )
+        return cls(text, text)
 
 
 CONSTANT_CHECK = "constant_check"

@@ -217,6 +217,64 @@ def _few_of_many(constant: Sequence[ChannelInfo], varying: Sequence[str]) -> lis
     return [i for i in constant if dead[_family(i.name)] < alive.get(_family(i.name), 0)]
 
 
+def _lone_constants(constant: Sequence[ChannelInfo], varying: Sequence[str]) -> list[ChannelInfo]:
+    """Of the ``constant`` channels a ``--channels`` glob matched, those of no family
+    (:func:`_family`: no other channel of the selection is named like them but for its
+    digits): a quantity of its own (an IMU's ``angular_velocity.x``), not an entry of a
+    covariance matrix or a table, whose constant entries are its structure
+    (:func:`_few_of_many` judges those)."""
+    count: dict[str, int] = {}
+    for c in [*varying, *(i.name for i in constant)]:
+        count[_family(c)] = count.get(_family(c), 0) + 1
+    return [i for i in constant if count[_family(i.name)] == 1]
+
+
+GLOB_CONSTANTS_LISTED = 10
+"""Channels :class:`ConstantGlobNote` names one by one (the rest counted): the six axes
+of an IMU and its orientation fit."""
+
+
+class ConstantGlobNote(WindowNote):
+    """The note (repeated on stderr) naming the channels a ``--channels`` glob matched
+    that read one value over the whole record (at least :data:`STUCK_SAMPLES` samples)
+    and that no finding reports: of no family (:func:`_lone_constants`), so no varying
+    sibling tells a dead sensor from a quantity nothing changed (a planar robot's
+    height, roll and pitch: nav2's ``/odom.*`` matches 7 such channels, each 0.0 on all
+    2639 samples; a fault each would be 7 false ones). A glob is the user's choice of a
+    topic, not of each of its fields: they are left out as constant, as before, but said
+    where the user reads (a new user's audit: the six axes of a dead IMU, matched by
+    ``/imu.*``, were left out with a note in findings.json only). ``names``: those
+    channels."""
+
+    names: tuple[str, ...] = ()
+
+    @classmethod
+    def of(cls, infos: Sequence[ChannelInfo]) -> ConstantGlobNote:
+        """The note on the constant channels ``infos`` (at least one)."""
+        counts = {i.finite for i in infos}
+        same = len(counts) == 1
+        each = capped(
+            [
+                f"{i.name} ({one_value(i)}{'' if same else f' on {_samples(i.finite)}'})"
+                for i in infos
+            ],
+            GLOB_CONSTANTS_LISTED,
+            what="channels",
+        )
+        one = len(infos) == 1
+        every = (
+            f" on every one of {'its' if one else 'their'} {_samples(counts.pop())}" if same else ""
+        )
+        note = cls(
+            f"--channels: {each} read{'s' if one else ''} one value{every}: not analyzed, "
+            "as constant (a dead or stuck sensor, or a quantity nothing changed in this "
+            f"record); name {'it' if one else 'them'} exactly in --channels to have "
+            f"{'it' if one else 'them'} reported as a fault"
+        )
+        note.names = tuple(i.name for i in infos)
+        return note
+
+
 class WindowConstantNote(WindowNote):
     """The note (repeated on stderr) naming the channels left out because they do not vary
     in the training window although they vary over the record (constant there, or one
@@ -487,6 +545,9 @@ def select_channels(
             notes.append(StuckNote.of(stuck))
         if rest:
             notes.append(ConstantNote(rest))
+        quiet = _lone_constants([i for i in many if i.name in rest], chosen)
+        if quiet:
+            notes.append(ConstantGlobNote.of(quiet))
     else:
         chosen = store.select(None)
         constant = [c for c in infos if infos[c].constant]
@@ -540,14 +601,29 @@ def select_channels(
         if siblings:
             notes.append(ConstantSiblingNote.of(siblings))
     if not chosen and patterns:
-        raise ArchiveUsageError(
-            f"--channels: every channel '{','.join(patterns)}' selects is constant or empty"
-        )
+        raise ArchiveUsageError(_all_constant_line(patterns, [infos[c] for c in constant]))
     if not chosen:
         raise ArchiveUsageError(
             "no channel left to analyze (all selected channels are constant or empty)"
         )
     return chosen
+
+
+def _all_constant_line(patterns: Sequence[str], infos: Sequence[ChannelInfo]) -> str:
+    """The usage error when every channel ``--channels`` (``patterns``) selects is
+    constant or empty (``infos``): each with its one value (or ``empty``), and that one
+    value is reported as a fault only beside channels that vary. "every channel selects
+    is constant or empty" named none of the six axes of a dead IMU (a new user's audit)."""
+    each = capped(
+        [f"{i.name} ({one_value(i) if i.finite else 'empty'})" for i in infos],
+        GLOB_CONSTANTS_LISTED,
+        what="channels",
+    )
+    return (
+        f"--channels: every channel '{','.join(patterns)}' selects is constant or empty: "
+        f"{each}; one value over the whole record is reported as a dead or stuck sensor "
+        "only beside channels that vary (select some with them)"
+    )
 
 
 def lone_channel(chosen: Sequence[str], notes: Sequence[str]) -> None:

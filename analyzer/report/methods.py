@@ -80,9 +80,14 @@ CHECKS: dict[str, Method] = {
         "analyzes it; only a saved model's detectors still read it, as the model needs "
         "each of its channels, and what they found on it is part of this one finding. "
         "At 0 it is a dead sensor (a gain of 0), at another value a sensor stuck there; "
-        "either way it may also be a signal below the sensor's resolution. A run that names "
-        "no channel (no --channels, config groups or model) leaves constant channels out "
-        "and only warns of one named like analyzed channels.",
+        "either way it may also be a signal below the sensor's resolution. It needs no "
+        "healthy window: where the detectors could not run (a record too short for them), "
+        "its findings are reported alone, and nothing else was searched for. A run that "
+        "names no channel (no --channels, config groups or model) leaves constant channels "
+        "out and only warns of one named like analyzed channels; a channel that a "
+        "--channels pattern such as '/imu.*' matches, and that no other channel is named "
+        "like, is left out with a warning (nothing tells a dead sensor from a quantity "
+        "nothing changed, a planar robot's height).",
     ),
 }
 """Checks that are not detectors, described where they reported something (a report
