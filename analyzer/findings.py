@@ -90,6 +90,11 @@ class Analysis:
     """Why each channel not analyzed was left out: ``{"why": ...}`` (and ``"copy_of"``),
     as ``inspect --json`` says it (:func:`analyzer.selection.left_out`):
     findings.json's ``channels[]``."""
+    unrun: Exception | None = None
+    """Why the detectors could not run where the run reported the constant check's
+    findings alone (a dead sensor the user named needs no model: :func:`analyzer.
+    pipeline._constant_only_possible`); ``None`` where they ran. The watcher raises it
+    again where it is a too-short archive's, which waits in INBOX to grow."""
     unexplained: list[Unexplained] = field(default_factory=list)
     """Alarms the findings do not explain (:mod:`analyzer.diagnosis.unexplained`): a
     second faulty sensor the run may have missed (``findings.json``'s

@@ -83,7 +83,8 @@ def partition(
         if absent:
             notes.append(
                 f"[[group]] {g.get('name', '?')}: {', '.join(absent)} not analyzed (not in "
-                "the archive, left out by --channels, or constant in the training window)"
+                "the archive, left out by --channels, or constant: over the record or in the "
+                "training window)"
             )
         members = sorted({index[c] for c in declared if c in index})
         if len(members) >= 2:

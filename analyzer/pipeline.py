@@ -166,6 +166,17 @@ MATERIALIZE_IN_MEMORY = 1 << 24
 """Aligned matrices up to this many values stay in memory; larger ones are memory-mapped."""
 
 
+def _config_sensors(options: RunOptions) -> set[str]:
+    """The channels the config names as sensors under test: its ``[[group]]`` members
+    and ``[model]`` outputs, without the measured inputs (``[[group]] inputs``, ``[model]
+    inputs``: an excitation that reads one value may be none applied, not a dead sensor)."""
+    config = options.config
+    out = {c for g in config.groups for c in group_members(g)}
+    if config.model is not None:
+        out.update(config.model.get("outputs", []))
+    return out - measured_inputs(config.as_context())
+
+
 def _config_named(options: RunOptions) -> set[str]:
     """The channels the config names: its ``[[group]]`` members and ``[model]`` outputs
     and inputs (a step command of 0 and 1 may be the model's measured input)."""
@@ -368,17 +379,21 @@ or this many times less, is named with ``--model`` (:func:`_spread_against_model
 
 
 def _spread_against_model(
-    values: Any, chosen: Sequence[str], healthy: dict[str, tuple[float, float]]
+    values: Any,
+    chosen: Sequence[str],
+    healthy: dict[str, tuple[float, float]],
+    skip: Collection[str] = (),
 ) -> list[str]:
     """With ``--model``: a note (repeated on stderr) naming the channels whose spread over
     the archive is :data:`MODEL_SPREAD` times the model's healthy spread or more, or that
     much less: another unit (mm/s^2 for m/s^2, g), a sensor's gain, or a load far from
     the model's window. An archive in other units gave exit 0 and only "an anomaly at 3 s
-    on all 10 channels attributed to no sensor" (audit)."""
+    on all 10 channels attributed to no sensor" (audit). Not the channels ``skip`` (one
+    value over the record: a fault of their own, whose finding says it)."""
     here = healthy_stats(values, chosen, (0, len(values)))
     odd = []
     for c in chosen:
-        if c not in here or c not in healthy or not healthy[c][1] > 0:
+        if c in skip or c not in here or c not in healthy or not healthy[c][1] > 0:
             continue
         ratio = here[c][1] / healthy[c][1]
         if not 1 / MODEL_SPREAD < ratio < MODEL_SPREAD:
@@ -637,6 +652,7 @@ def _analyze(
                 not named,
                 _config_named(options),
                 [t for i in archive.inputs for t in i.log_topics],
+                _config_sensors(options),
             )
         else:
             chosen = model_channels(store, reused, options, notes)
@@ -731,8 +747,9 @@ def _analyze(
             names = model_detectors(reused, options)
             notes.append(reuse_note(reused, options, tr[1] + 1 / aligned.rate_hz))
         healthy = healthy_stats(values, chosen, train) if reused is None else dict(reused.healthy)
-        if reused is not None:
-            notes.extend(_spread_against_model(values, chosen, healthy))
+        if reused is not None:  # (a dead sensor's 0x is its finding's: said there)
+            stuck = {c for n in notes if isinstance(n, StuckNote) for c in n.names}
+            notes.extend(_spread_against_model(values, chosen, healthy, stuck))
         parallel = not isinstance(executor, SerialExecutor)
         ctx = RunContext(
             false_alarm_rate=options.config.false_alarm_rate
@@ -804,6 +821,7 @@ def _analyze(
             )
 
         screen, screen_note = None, ""
+        unrun: DetectorError | None = None  # (why no detector ran, where the run goes on)
         try:
             if options.screen:
                 results, skipped, screen, screen_note = _screened(
@@ -813,23 +831,28 @@ def _analyze(
                 results, skipped = detect(names, "", "signals")
         except TooShortForNamed as err:  # (the named detectors' window, as for any)
             _cancel(tests)
-            if _apart_in_training(values, chosen, train, aligned.rate_hz):
-                raise  # (gaps or channels apart: their own line says more)
-            raise _no_detector_error(
-                err.reasons,
-                tr,
-                options,
-                "",
-                _slow_clock(infos, chosen, aligned.rate_hz, options.rate is not None),
-                (aligned.rate_hz, aligned.duration_s),
-                named=True,
-                held=_held_rows(values),
-            ) from err
+            named_error: DetectorError = err  # (gaps or channels apart: their own line)
+            if not _apart_in_training(values, chosen, train, aligned.rate_hz):
+                named_error = _no_detector_error(
+                    err.reasons,
+                    tr,
+                    options,
+                    "",
+                    _slow_clock(infos, chosen, aligned.rate_hz, options.rate is not None),
+                    (aligned.rate_hz, aligned.duration_s),
+                    named=True,
+                    held=_held_rows(values),
+                )
+            if not _constant_only_possible(notes, options):
+                if named_error is err:
+                    raise
+                raise named_error from err
+            results, skipped, unrun = [], dict(err.reasons), named_error
         except BaseException:
             _cancel(tests)
             raise
         timings["detect"] = time.perf_counter() - t0
-        if not results:
+        if not results and unrun is None:
             error = _no_detector_error(
                 skipped,
                 tr,
@@ -841,8 +864,36 @@ def _analyze(
             )
             absurd = next((n for n in notes if n.startswith("infinite or absurd values")), None)
             if absurd is not None:  # (a channel whose every value is beyond 1e30, say)
-                raise DetectorError(f"{error}; {absurd}") from None
-            raise error
+                error = DetectorError(f"{error}; {absurd}")
+            if not _constant_only_possible(notes, options):
+                raise error from None
+            unrun = error
+        if unrun is not None:
+            # a sensor named that reads one value over the record is a fault the
+            # detectors need not confirm: reported, with why they could not run
+            notes.append(NoDetectorNote.of(unrun, notes))
+            timings["total"] = time.perf_counter() - t_start
+            return Analysis(
+                inputs=archive.inputs,
+                channels=infos,
+                analyzed=tuple(chosen),
+                rate_hz=aligned.rate_hz,
+                start_ns=aligned.start_ns,
+                absolute_time=absolute,
+                n=aligned.n,
+                train=train,
+                results=[],
+                findings=constant_findings(notes, []),
+                values=values,
+                notes=notes,
+                timings=timings,
+                skipped=skipped,
+                healthy=healthy,
+                model_info=None if reused is None else model_info(reused, options),
+                config_info=options.config.info(),
+                left_out=_left_out(notes, infos, chosen, options),
+                unrun=unrun,
+            )
         findings, found_notes = diagnose(results)
         notes.extend(found_notes)
         if reused is None:  # a step or a gain change inside the healthy window itself
@@ -1043,10 +1094,9 @@ def _analyze(
         # to the end of its data: no end (evidence.data_ends_s), not a recovery there (the
         # findings' own ends served the alarms they explain and the corrections above)
         ends_with_data(findings, values, chosen, aligned.rate_hz)
-        # the sensors --channels named that read one value over the whole record
-        findings = sorted(
-            [*findings, *constant_findings(notes)], key=lambda f: (f.onset_s, f.channel)
-        )
+        # the sensors named (--channels, the config, the model) that read one value over
+        # the whole record: one finding each, with what the detectors found on it
+        findings = constant_findings(notes, findings)
         timings["total"] = time.perf_counter() - t_start
         return Analysis(
             inputs=archive.inputs,
@@ -1096,48 +1146,87 @@ def _analyze(
         )
 
 
+def _constant_only_possible(notes: Sequence[str], options: RunOptions) -> bool:
+    """Whether a run whose detectors could not run reports the constant check's findings
+    (a :class:`~analyzer.selection.StuckNote` among the ``notes``) rather than stop: a
+    dead sensor the user named needs no model to be seen (a 12-s cart-pole record whose
+    ``cart_position`` reads 0.0 on all 244 samples stopped with "no detector could run",
+    naming it nowhere: the audit). Not with ``--save-model``, which has nothing to save."""
+    return options.save_model is None and any(isinstance(n, StuckNote) for n in notes)
+
+
+class NoDetectorNote(WindowNote):
+    """The note (repeated on stderr) of a run whose detectors could not run, that reports
+    the constant check's findings alone (:func:`_constant_only_possible`): why they could
+    not run (the error the run stopped with before), and that no other fault was searched
+    for, so the exit code 1 is the dead sensors' only."""
+
+    @classmethod
+    def of(cls, error: Exception, notes: Sequence[str]) -> NoDetectorNote:
+        """The note on ``error`` (the detectors' error), naming the channels the
+        ``notes``' :class:`~analyzer.selection.StuckNote` reports."""
+        names = [c for n in notes if isinstance(n, StuckNote) for c in n.names]
+        text = (
+            f"no fault but a dead or stuck sensor ({', '.join(names)}) was searched for: "
+            f"only the constant check ran (it needs no healthy window); {one_line(error)}"
+        )
+        return cls(text, text)
+
+
 CONSTANT_CHECK = "constant_check"
 """The name findings.json gives the check of :func:`constant_findings` (its findings'
 ``detector``, its entry in ``detectors``)."""
 
 
-def constant_findings(notes: Sequence[str]) -> list[Finding]:
-    """A finding for each channel ``--channels`` selected that reads one value on every
-    sample of the record beside varying channels (the selection's
-    :class:`~analyzer.selection.StuckNote`): the detectors cannot model it (nothing
-    varies), and a note alone let a dead sensor pass as "no sensor fault found", exit 0
-    (a new user's audit). At 0 the contract's dead sensor (``multiplicative``, gain 0),
-    else ``other`` stuck at its value; from the record's start (at or before: it may have
-    been so before the record began) to its end, confidence 1 (every sample read)."""
-    found = []
-    for note in notes:
-        if not isinstance(note, StuckNote):
-            continue
-        for info in note.infos:
-            value = float(info.minimum)
-            dead = value == 0.0
-            found.append(
-                Finding(
-                    info.name,
-                    FaultType.MULTIPLICATIVE if dead else FaultType.OTHER,
-                    0.0,
-                    None,
-                    {"gain": 0.0} if dead else {"stuck_at": value},
-                    1.0,
-                    CONSTANT_CHECK,
-                    evidence={
-                        "detectors": [CONSTANT_CHECK],
-                        "tests": {},
-                        "onset_at_or_before": True,
-                        "constant": {
-                            "value": value,
-                            "samples": info.finite,
-                            "said": stuck_words(info),
-                        },
-                    },
-                )
-            )
-    return found
+def constant_findings(notes: Sequence[str], findings: Sequence[Finding]) -> list[Finding]:
+    """``findings`` with a finding for each channel named (``--channels``, the config's
+    sensors, a saved model's channels) that reads one value on every sample of the
+    record beside varying channels (the selection's :class:`~analyzer.selection.
+    StuckNote`), sorted by onset: a note alone let a dead sensor pass as "no sensor fault
+    found", exit 0 (a new user's audit). At 0 the contract's dead sensor
+    (``multiplicative``, gain 0), else ``other`` stuck at its value; from the record's
+    start (at or before: it may have been so before the record began) to its end,
+    confidence 1 (every sample read). The detectors' own findings on such a channel
+    (``--model`` runs them on it: the model needs it; they search only after their
+    warm-up) are the same fault: one finding, their names in ``evidence.detectors``
+    (CONTRACT.md: one physical fault is one entry)."""
+    stuck = [i for n in notes if isinstance(n, StuckNote) for i in n.infos]
+    names = {i.name for i in stuck}
+    seen = {i.name: [f for f in findings if f.channel == i.name] for i in stuck}
+    out = [f for f in findings if f.channel not in names]
+    out += [_constant_finding(i, seen[i.name]) for i in stuck]
+    return sorted(out, key=lambda f: (f.onset_s, f.channel))
+
+
+def _constant_finding(info: ChannelInfo, also: Sequence[Finding]) -> Finding:
+    """The finding on ``info``, a channel that reads one value over the whole record,
+    with the detectors of the findings ``also`` on it (and their earliest onset,
+    ``evidence.constant.seen_from_s``) as its evidence."""
+    value = float(info.minimum)
+    dead = value == 0.0
+    detectors = [d for f in also for d in f.evidence.get("detectors", [f.detector])]
+    constant: dict[str, Any] = {
+        "value": value,
+        "samples": info.finite,
+        "said": stuck_words(info),
+    }
+    if also:
+        constant["seen_from_s"] = min(f.onset_s for f in also)
+    return Finding(
+        info.name,
+        FaultType.MULTIPLICATIVE if dead else FaultType.OTHER,
+        0.0,
+        None,
+        {"gain": 0.0} if dead else {"stuck_at": value},
+        1.0,
+        CONSTANT_CHECK,
+        evidence={
+            "detectors": list(dict.fromkeys([CONSTANT_CHECK, *detectors])),
+            "tests": {},
+            "onset_at_or_before": True,
+            "constant": constant,
+        },
+    )
 
 
 def _left_out(

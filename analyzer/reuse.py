@@ -11,12 +11,14 @@ from typing import Any
 
 import numpy as np
 
+from analyzer.config import measured_inputs
 from analyzer.detectors import REGISTRY
 from analyzer.diagnosis.changes import Calibration
 from analyzer.errors import ArchiveUsageError, capped
 from analyzer.findings import sha256_of
 from analyzer.modelfile import SavedModel
 from analyzer.options import RunOptions, check_model_options
+from analyzer.selection import StuckNote, model_stuck
 from analyzer.store import ChannelStore
 
 WARMUP_S = 1.0
@@ -28,7 +30,10 @@ def model_channels(
 ) -> list[str]:
     """``--model``'s channels, all of which this archive must have (:class:`UsageError`
     naming the option and the missing ones), in the model's order; a note names the
-    archive's other channels (not analyzed) and a time source other than the model's."""
+    archive's other channels (not analyzed) and a time source other than the model's,
+    and one (a :class:`~analyzer.selection.StuckNote`) those of its channels that read
+    one value over this whole record: a sensor dead since the model was saved, reported
+    as a fault (:func:`analyzer.pipeline.constant_findings`), not a note only."""
     infos = store.infos()
     have = {i.name for i in infos}
     missing = [c for c in model.channels if c not in have]
@@ -36,6 +41,11 @@ def model_channels(
     if missing:
         raise ArchiveUsageError(_missing_line(store, missing, where, len(model.channels)))
     check_model_options(model, options.rate, options.detectors, options.model_path)
+    stuck = model_stuck(
+        infos, model.channels, measured_inputs(model.config), model.zero_at_rest or ()
+    )
+    if stuck:
+        notes.append(StuckNote.of(stuck, modelled=True))
     fitted = set(model.channels)
     others = [i.name for i in infos if i.name not in fitted and not i.constant and not i.flag]
     flags = [i.name for i in infos if i.name not in fitted and i.flag]

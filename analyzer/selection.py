@@ -84,11 +84,14 @@ def stuck_words(info: ChannelInfo) -> str:
 
 
 class StuckNote(ConstantNote):
-    """The note naming the channels ``--channels`` selected that read one value on every
-    sample of the record (at least :data:`STUCK_SAMPLES`) beside varying ones: not
-    analyzed by the detectors (nothing to model), each reported as a fault of its own
-    (:func:`analyzer.pipeline.constant_findings`). A :class:`ConstantNote`, so ``why``
-    says ``constant`` as for any constant channel; ``infos``: the channels themselves."""
+    """The note naming the channels the user named (``--channels``, the config's sensors:
+    :func:`select_channels`; a saved model's: :func:`model_stuck`) that read one value on
+    every sample of the record (at least :data:`STUCK_SAMPLES`) beside varying ones, each
+    reported as a fault of its own (:func:`analyzer.pipeline.constant_findings`). Not
+    analyzed by the detectors (nothing to model), but with ``--model`` (``modelled``):
+    the saved model needs each of its channels, so its detectors read it still. A
+    :class:`ConstantNote`, so ``why`` says ``constant`` where the channel is left out;
+    ``infos``: the channels themselves."""
 
     infos: tuple[ChannelInfo, ...] = ()
 
@@ -98,16 +101,48 @@ class StuckNote(ConstantNote):
         return str.__new__(cls, text)
 
     @classmethod
-    def of(cls, infos: Sequence[ChannelInfo]) -> StuckNote:
-        """The note on the constant channels ``infos`` (at least one)."""
+    def of(cls, infos: Sequence[ChannelInfo], modelled: bool = False) -> StuckNote:
+        """The note on the constant channels ``infos`` (at least one); ``modelled``:
+        channels of a saved model, which its detectors read still."""
         text = "; ".join(f"{i.name} {stuck_words(i)}" for i in infos)
-        note = cls(
-            f"{text}: not analyzed by the detectors (one value has nothing to model), "
+        how = (
+            "read by the saved model's detectors still (it needs each of its channels), "
+            "and reported as one fault with what they found on it (constant_check)"
+            if modelled
+            else "not analyzed by the detectors (one value has nothing to model), "
             "reported as a fault (constant_check)"
         )
+        note = cls(f"{text}: {how}")
         note.names = tuple(i.name for i in infos)
         note.infos = tuple(infos)
         return note
+
+
+def model_stuck(
+    infos: Sequence[ChannelInfo],
+    channels: Sequence[str],
+    inputs: Collection[str] = (),
+    zero_at_rest: Collection[str] = (),
+) -> list[ChannelInfo]:
+    """The channels of a saved model (``channels``) that read one value on every one of
+    at least :data:`STUCK_SAMPLES` samples of this record while another of them varies:
+    a sensor that died after the model was saved (the model's fit left out any channel
+    that did not vary in its own window, so each of its channels varied then). Not its
+    measured ``inputs`` (an excitation that reads one value may be none applied), nor,
+    at 0, a channel it saved as reading zero at rest (``zero_at_rest``: a flow meter
+    behind a closed valve, whose zeros are no dead sensor's)."""
+    named = set(channels)
+    mine = [i for i in infos if i.name in named]
+    if all(i.constant for i in mine):
+        return []
+    return [
+        i
+        for i in mine
+        if i.constant
+        and i.finite >= STUCK_SAMPLES
+        and i.name not in inputs
+        and not (i.minimum == 0.0 and i.name in zero_at_rest)
+    ]
 
 
 SIBLINGS_LISTED = 5
@@ -149,14 +184,20 @@ class ConstantSiblingNote(WindowNote):
         return note
 
 
-def constant_siblings(infos: Mapping[str, ChannelInfo], chosen: Sequence[str]) -> list[ChannelInfo]:
+def constant_siblings(
+    infos: Mapping[str, ChannelInfo], chosen: Sequence[str], reported: Collection[str] = ()
+) -> list[ChannelInfo]:
     """The constant channels of ``infos`` with at least :data:`STUCK_SAMPLES` samples
     whose name is one of ``chosen``'s but for its digits (:func:`_family`), in families
-    where they are fewer than the varying ones (:func:`_few_of_many`)."""
+    where they are fewer than the varying ones (:func:`_few_of_many`); not those
+    ``reported`` as faults already (a config's sensor: :class:`StuckNote`)."""
     candidates = [
         i
         for i in infos.values()
-        if i.constant and i.finite >= STUCK_SAMPLES and i.name not in chosen
+        if i.constant
+        and i.finite >= STUCK_SAMPLES
+        and i.name not in chosen
+        and i.name not in reported
     ]
     return _few_of_many(candidates, chosen)
 
@@ -174,6 +215,64 @@ def _few_of_many(constant: Sequence[ChannelInfo], varying: Sequence[str]) -> lis
     for i in constant:
         dead[_family(i.name)] = dead.get(_family(i.name), 0) + 1
     return [i for i in constant if dead[_family(i.name)] < alive.get(_family(i.name), 0)]
+
+
+def _lone_constants(constant: Sequence[ChannelInfo], varying: Sequence[str]) -> list[ChannelInfo]:
+    """Of the ``constant`` channels a ``--channels`` glob matched, those of no family
+    (:func:`_family`: no other channel of the selection is named like them but for its
+    digits): a quantity of its own (an IMU's ``angular_velocity.x``), not an entry of a
+    covariance matrix or a table, whose constant entries are its structure
+    (:func:`_few_of_many` judges those)."""
+    count: dict[str, int] = {}
+    for c in [*varying, *(i.name for i in constant)]:
+        count[_family(c)] = count.get(_family(c), 0) + 1
+    return [i for i in constant if count[_family(i.name)] == 1]
+
+
+GLOB_CONSTANTS_LISTED = 10
+"""Channels :class:`ConstantGlobNote` names one by one (the rest counted): the six axes
+of an IMU and its orientation fit."""
+
+
+class ConstantGlobNote(WindowNote):
+    """The note (repeated on stderr) naming the channels a ``--channels`` glob matched
+    that read one value over the whole record (at least :data:`STUCK_SAMPLES` samples)
+    and that no finding reports: of no family (:func:`_lone_constants`), so no varying
+    sibling tells a dead sensor from a quantity nothing changed (a planar robot's
+    height, roll and pitch: nav2's ``/odom.*`` matches 7 such channels, each 0.0 on all
+    2639 samples; a fault each would be 7 false ones). A glob is the user's choice of a
+    topic, not of each of its fields: they are left out as constant, as before, but said
+    where the user reads (a new user's audit: the six axes of a dead IMU, matched by
+    ``/imu.*``, were left out with a note in findings.json only). ``names``: those
+    channels."""
+
+    names: tuple[str, ...] = ()
+
+    @classmethod
+    def of(cls, infos: Sequence[ChannelInfo]) -> ConstantGlobNote:
+        """The note on the constant channels ``infos`` (at least one)."""
+        counts = {i.finite for i in infos}
+        same = len(counts) == 1
+        each = capped(
+            [
+                f"{i.name} ({one_value(i)}{'' if same else f' on {_samples(i.finite)}'})"
+                for i in infos
+            ],
+            GLOB_CONSTANTS_LISTED,
+            what="channels",
+        )
+        one = len(infos) == 1
+        every = (
+            f" on every one of {'its' if one else 'their'} {_samples(counts.pop())}" if same else ""
+        )
+        note = cls(
+            f"--channels: {each} read{'s' if one else ''} one value{every}: not analyzed, "
+            "as constant (a dead or stuck sensor, or a quantity nothing changed in this "
+            f"record); name {'it' if one else 'them'} exactly in --channels to have "
+            f"{'it' if one else 'them'} reported as a fault"
+        )
+        note.names = tuple(i.name for i in infos)
+        return note
 
 
 class WindowConstantNote(WindowNote):
@@ -493,6 +592,7 @@ def select_channels(
     drop_copies: bool = True,
     named: Collection[str] = (),
     log_topics: Sequence[str] = (),
+    sensors: Collection[str] = (),
 ) -> list[str]:
     """The channels to analyze: ``--channels``' (``patterns``), else every numeric one
     that is not constant, whose meaning does not change between messages (names
@@ -505,7 +605,13 @@ def select_channels(
     out unless ``--channels`` or the config (``named``) names them exactly (a note
     says which, and how to keep them), and so are the fields of log messages (topics of
     ``log_topics``) and the times written in messages (:func:`not_measured`) unless
-    ``--channels`` (other than ``!`` patterns alone) or the config names them."""
+    ``--channels`` (other than ``!`` patterns alone) or the config names them. A
+    constant channel of at least :data:`STUCK_SAMPLES` samples beside varying ones is
+    a fault (:class:`StuckNote`) where ``--channels`` names it (exactly, or by a glob
+    where its family mostly varies) or, by default, where the config names it as a
+    sensor (``sensors``: its ``[[group]]``'s channels, reference and uncertain
+    sensors, ``[model]`` outputs; not the measured inputs, whose constant may be no
+    excitation at all)."""
     infos = {i.name: i for i in store.infos()}
     if not infos:
         raise ReaderError("no numeric channel found in the input")
@@ -540,11 +646,24 @@ def select_channels(
             notes.append(StuckNote.of(stuck))
         if rest:
             notes.append(ConstantNote(rest))
+        quiet = _lone_constants([i for i in many if i.name in rest], chosen)
+        if quiet:
+            notes.append(ConstantGlobNote.of(quiet))
     else:
         chosen = store.select(None)
         constant = [c for c in infos if infos[c].constant]
-        if constant:
-            notes.append(ConstantNote(constant))
+        # a sensor the config names that reads one value, beside varying channels: a
+        # fault, as one --channels names exactly (a note only let it pass: exit 0)
+        stuck = [
+            infos[c]
+            for c in constant
+            if c in sensors and infos[c].finite >= STUCK_SAMPLES and chosen
+        ]
+        rest = [c for c in constant if c not in {i.name for i in stuck}]
+        if stuck:
+            notes.append(StuckNote.of(stuck))
+        if rest:
+            notes.append(ConstantNote(rest))
     if not patterns or all(p.startswith("!") for p in patterns):
         chosen = _measured(store, chosen, notes, log_topics, named)
     # (a lone channel is refused as one, flag or not: the detectors need two)
@@ -580,13 +699,12 @@ def select_channels(
                 copied = {c.channel for c in copies}
                 chosen = [c for c in chosen if c not in copied]
     if chosen and (not patterns or all(p.startswith("!") for p in patterns)):
-        siblings = constant_siblings(infos, chosen)
+        reported = [c for n in notes if isinstance(n, StuckNote) for c in n.names]
+        siblings = constant_siblings(infos, chosen, reported)
         if siblings:
             notes.append(ConstantSiblingNote.of(siblings))
     if not chosen and patterns:
-        raise ArchiveUsageError(
-            f"--channels: every channel '{','.join(patterns)}' selects is constant or empty"
-        )
+        raise ArchiveUsageError(_all_constant_line(patterns, [infos[c] for c in constant]))
     if not chosen:
         raise ArchiveUsageError(
             "no channel left to analyze (all selected channels are constant or empty)"
@@ -616,6 +734,23 @@ def _measured(
             "--channels to analyze them anyway"
         )
     return kept
+
+
+def _all_constant_line(patterns: Sequence[str], infos: Sequence[ChannelInfo]) -> str:
+    """The usage error when every channel ``--channels`` (``patterns``) selects is
+    constant or empty (``infos``): each with its one value (or ``empty``), and that one
+    value is reported as a fault only beside channels that vary. "every channel selects
+    is constant or empty" named none of the six axes of a dead IMU (a new user's audit)."""
+    each = capped(
+        [f"{i.name} ({one_value(i) if i.finite else 'empty'})" for i in infos],
+        GLOB_CONSTANTS_LISTED,
+        what="channels",
+    )
+    return (
+        f"--channels: every channel '{','.join(patterns)}' selects is constant or empty: "
+        f"{each}; one value over the whole record is reported as a dead or stuck sensor "
+        "only beside channels that vary (select some with them)"
+    )
 
 
 def lone_channel(chosen: Sequence[str], notes: Sequence[str]) -> None:

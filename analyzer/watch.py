@@ -487,6 +487,10 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
     data)."""
     try:
         analysis = analyze_screened(inputs, options, work)
+        if isinstance(analysis.unrun, ArchiveTooShort):
+            # (the constant check's findings alone: a file still being written waits to
+            # grow, as before, and is analyzed whole)
+            raise analysis.unrun
         figures: list[str] = []  # (figures that could not be drawn)
         write_outputs(analysis, out_dir, figures.append)
         lines = [

@@ -173,5 +173,5 @@ def test_a_group_channel_not_analyzed_is_named():
     assert any({"a", "b"} <= set(g) for g in groups)
     assert notes[0] == (
         "[[group]] g: /nosuch not analyzed (not in the archive, left out by --channels, or "
-        "constant in the training window)"
+        "constant: over the record or in the training window)"
     )

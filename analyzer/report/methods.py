@@ -72,13 +72,22 @@ CHECKS: dict[str, Method] = {
         "constant_check",
         "A sensor that reads one value",
         "",
-        "A channel that --channels selected and that reads one value on every one of at "
-        "least 100 samples, while the other selected channels vary, has nothing for a "
-        "model to fit: no detector analyzes it, and it is reported as a fault of its own, "
-        "from the record's start (it may have read so before the record began) to its end. "
+        "A channel the user named (with --channels, as a sensor of the config's groups or "
+        "model, or as a channel of a saved model given with --model) that reads one value "
+        "on every one of at least 100 samples, while the other channels vary, is reported "
+        "as a fault of its own, from the record's start (it may have read so before the "
+        "record began) to its end. It has nothing for a model to fit, so no detector "
+        "analyzes it; only a saved model's detectors still read it, as the model needs "
+        "each of its channels, and what they found on it is part of this one finding. "
         "At 0 it is a dead sensor (a gain of 0), at another value a sensor stuck there; "
-        "either way it may also be a signal below the sensor's resolution. A default run "
-        "leaves constant channels out and only warns of one named like analyzed channels.",
+        "either way it may also be a signal below the sensor's resolution. It needs no "
+        "healthy window: where the detectors could not run (a record too short for them), "
+        "its findings are reported alone, and nothing else was searched for. A run that "
+        "names no channel (no --channels, config groups or model) leaves constant channels "
+        "out and only warns of one named like analyzed channels; a channel that a "
+        "--channels pattern such as '/imu.*' matches, and that no other channel is named "
+        "like, is left out with a warning (nothing tells a dead sensor from a quantity "
+        "nothing changed, a planar robot's height).",
     ),
 }
 """Checks that are not detectors, described where they reported something (a report

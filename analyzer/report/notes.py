@@ -30,6 +30,9 @@ OTHER = "other"
 
 KINDS: tuple[tuple[str, str, re.Pattern[str]], ...] = (
     # (kind, heading, wording): the first that matches a note gives its kind
+    # (a run whose detectors could not run, that reports a dead sensor alone: its
+    # note quotes their reasons, which name a [[group]] or the training window)
+    ("findings", "About the findings", re.compile(r"^no fault but a dead or stuck sensor")),
     (
         "training",
         "About the training window",
@@ -101,12 +104,14 @@ KEY = re.compile(
     r"is not steady|^trained on |default window cut before|traced back to"
     r"|present when the search started|findings ha(?:ve|s) a confidence below"
     r"|the archive's spread against the model's|may be missed"
+    r"|^no fault but a dead or stuck sensor"
 )
 """Notes that change how to read the findings, shown beside the verdict: the training
 window was not steady (the models took a change for health, faults may be missed or
 misplaced) or was cut before such a change; a fault traced back into the window or to
 the record's start; findings of weak confidence; an archive whose spread is not the
-model's; a clock so fast for the signal that a gain or a slow change may be missed."""
+model's; a clock so fast for the signal that a gain or a slow change may be missed; a
+run whose detectors could not run, that searched for nothing but dead or stuck sensors."""
 
 ON_A_FINDING = re.compile(r"a finding on it may be")
 """A caveat about some channels (``a finding on it may be rounding: s3``): beside the

@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 from jsonschema import Draft202012Validator
 
+from analyzer.cli import main
 from analyzer.schema import findings_schema
-from analyzer.selection import constant_siblings
+from analyzer.selection import constant_siblings, model_stuck
 from analyzer.simulate import simulate_building
 from analyzer.store import ChannelInfo
 from analyzer.writers import write_archive
@@ -233,3 +234,125 @@ def test_the_report_says_what_the_constant_check_is_where_it_reported(tmp_path, 
     assert "reported 1 channel" in html
     code, err, _, out = _run(tmp_path, capsys, _record(tmp_path, value=None, until=0))
     assert "A sensor that reads one value" not in (out / "report.html").read_text()
+
+
+@pytest.fixture(scope="module")
+def saved_model(tmp_path_factory):
+    """A model saved on the healthy 5-floor record (its ``/s3.data`` varies)."""
+    where = tmp_path_factory.mktemp("model")
+    path = _record(where, value=None, until=0)
+    model = where / "model.json"
+    code = main(
+        ["run", str(path), "--out", str(where / "o"), "--no-progress"]
+        + ["--save-model", str(model)]
+    )
+    assert code == 0
+    return model
+
+
+@pytest.mark.parametrize(
+    ("value", "kind", "magnitude"),
+    [(0.0, "multiplicative", {"gain": 0.0}), (2.5, "other", {"stuck_at": 2.5})],
+)
+def test_a_model_channel_dead_since_the_model_was_saved_is_the_constant_check_finding(
+    tmp_path, capsys, saved_model, value, kind, magnitude
+):
+    """A sensor that died after the model was saved: the model's detectors found it from
+    their warm-up's end (3.47 s), with a warning that its spread was 0x the model's ("another
+    unit, a sensor's gain"); now one finding, the constant check's, from the record's
+    start, naming the detectors that saw it too; the channel stays analyzed (the saved
+    model needs it), without the spread warning."""
+    path = _record(tmp_path, value)
+    code, err, doc, out = _run(tmp_path, capsys, path, "--model", saved_model)
+    assert code == 1, err
+    (f,) = [f for f in doc["faults"] if f["channel"] == "/s3.data"]
+    assert (f["type"], f["magnitude"], f["detector"]) == (kind, magnitude, "constant_check")
+    assert (f["onset_s"], f["end_s"], f["confidence"]) == (0.0, None, 1.0)
+    assert f["evidence"]["onset_at_or_before"] is True
+    assert f["evidence"]["constant"]["samples"] == 12000
+    assert f["evidence"]["detectors"][0] == "constant_check"
+    assert len(f["evidence"]["detectors"]) > 1  # (the model's detectors saw it too)
+    assert f["evidence"]["constant"]["seen_from_s"] > 0.0
+    assert not any("/s3.data" in ln for ln in said(err)), err
+    (s3,) = [c for c in doc["channels"] if c["name"] == "/s3.data"]
+    assert s3["analyzed"] is True and "why" not in s3
+    assert [d["channels"] for d in doc["detectors"] if d["name"] == "constant_check"] == [
+        ["/s3.data"]
+    ]
+    html = (out / "report.html").read_text()
+    assert "A sensor that reads one value" in html and "saved model" in html
+    _valid(doc)
+
+
+def test_a_healthy_record_with_the_model_has_no_constant_check(tmp_path, capsys, saved_model):
+    code, err, doc, _ = _run(
+        tmp_path, capsys, _record(tmp_path, None, until=0), "--model", saved_model
+    )
+    assert code in (0, 1), err
+    assert not any(f["detector"] == "constant_check" for f in doc["faults"])
+
+
+def _config(tmp_path, group):
+    path = tmp_path / "groups.toml"
+    path.write_text(group)
+    return path
+
+
+TOWER = (
+    '[[group]]\nname = "tower"\n'
+    'channels = ["/s0.data", "/s1.data", "/s2.data", "/s3.data", "/s4.data"]\n'
+)
+
+
+def test_a_dead_sensor_a_config_group_names_is_a_finding(tmp_path, capsys):
+    """A constant channel a ``[[group]]`` names is a sensor the user named, as with
+    ``--channels``: a finding (it was left out with the sibling warning, exit 0)."""
+    config = _config(tmp_path, TOWER)
+    code, err, doc, out = _run(tmp_path, capsys, _record(tmp_path), "--config", config)
+    assert code == 1, err
+    (f,) = [f for f in doc["faults"] if f["channel"] == "/s3.data"]
+    assert (f["type"], f["magnitude"], f["detector"]) == (
+        "multiplicative",
+        {"gain": 0.0},
+        "constant_check",
+    )
+    assert (f["onset_s"], f["end_s"]) == (0.0, None)
+    assert f["evidence"]["detectors"] == ["constant_check"]
+    assert not any(ln.startswith("analyzer: warning: /s3.data") for ln in said(err)), err
+    (s3,) = [c for c in doc["channels"] if c["name"] == "/s3.data"]
+    assert (s3["analyzed"], s3["why"]) == (False, "constant")
+    assert "A sensor that reads one value" in (out / "report.html").read_text()
+    _valid(doc)
+
+
+def test_a_group_sensor_of_any_name_is_one_but_not_a_group_input(tmp_path, capsys):
+    """Named by the config, a constant channel is a finding whatever its name (no
+    sibling of an analyzed one: it had no warning either); a group's measured input that
+    reads one value (no excitation applied) is left out as before."""
+    extra = {"t": np.full(12000, 21.0), "f": np.zeros(12000)}
+    group = TOWER.replace('"/s4.data"]', '"/s4.data", "/t.data"]') + 'inputs = ["/f.data"]\n'
+    config = _config(tmp_path, group)
+    code, err, doc, _ = _run(tmp_path, capsys, _record(tmp_path, extra=extra), "--config", config)
+    assert code == 1, err
+    stuck = {
+        f["channel"]: f["magnitude"] for f in doc["faults"] if f["detector"] == "constant_check"
+    }
+    assert stuck == {"/s3.data": {"gain": 0.0}, "/t.data": {"stuck_at": 21.0}}
+    whys = {c["name"]: c.get("why") for c in doc["channels"] if not c["analyzed"]}
+    assert whys == {"/s3.data": "constant", "/t.data": "constant", "/f.data": "constant"}
+    _valid(doc)
+
+
+def test_a_model_channel_is_stuck_only_beside_a_varying_one():
+    varying = ChannelInfo("/s0.data", 12000, 0, 1, 200.0, 0, 12000, -1.0, 1.0)
+    dead, few = _info("/s3.data"), _info("/s4.data", finite=99)
+    found = model_stuck([varying, dead, few], ["/s0.data", "/s3.data", "/s4.data"])
+    assert [i.name for i in found] == ["/s3.data"]
+    assert model_stuck([varying, dead], ["/s3.data"]) == []  # (no channel of it varies)
+    assert model_stuck([dead], ["/s3.data"]) == []
+    # (a measured input, or a channel the model saw read zero at rest: no dead sensor)
+    both = ["/s0.data", "/s3.data"]
+    assert model_stuck([varying, dead], both, inputs={"/s3.data"}) == []
+    assert model_stuck([varying, dead], both, zero_at_rest={"/s3.data"}) == []
+    stuck = _info("/s3.data", value=2.5)
+    assert model_stuck([varying, stuck], both, zero_at_rest={"/s3.data"}) == [stuck]
