@@ -25,7 +25,7 @@ from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
 from analyzer.readers import open_archive
 from analyzer.readers.base import InputInfo, TimeSource, about_selection, one_clock
 from analyzer.scratch import scratch
-from analyzer.selection import select_channels
+from analyzer.selection import no_numeric_channel, select_channels
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
 from analyzer.timeutil import (
     exact_unit,
@@ -133,11 +133,8 @@ def _export(
             names = store.select(None, numeric_only=False)
         if not names:
             where = capped([str(i) for i in inputs], 3, what="inputs")
-            why = [i.no_numeric for i in archive.inputs if i.no_numeric]
-            why += [e for i in archive.inputs for e in i.errors]
-            bad = capped(why, 3, "; ", "input errors")
             raise UsageError(
-                f"{where}: no numeric channel to export" + (f" ({bad})" if bad else "")
+                no_numeric_channel(archive.inputs, "no numeric channel to export", where)
             )
         one_clock(names, archive.inputs)
         rated = names if rate is not None else _voting(store, names, archive.inputs)

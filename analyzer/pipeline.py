@@ -151,6 +151,7 @@ from analyzer.selection import (
     NoSamplesNote,
     StuckNote,
     WindowConstantNote,
+    cut_short,
     default_train,
     left_out,
     lone_channel,
@@ -580,22 +581,18 @@ def _checked(run: Callable[[], Analysis], work: Path) -> Analysis:
     return analysis
 
 
-CUT_SHORT = re.compile(r"truncated|unreadable from some point on|reading stopped")
-"""An input error that says the file was read only up to some point (the MCAP and
-ROS 1 readers' ``truncated or damaged at byte N``, a damaged ``.gz`` CSV's
-``unreadable from some point on``, a member whose reading stopped)."""
-
-
 @contextlib.contextmanager
 def _cut_short_said(inputs: Sequence[InputInfo], store: ChannelStore) -> Iterator[None]:
-    """An analysis of an archive an input of which was cut short (:data:`CUT_SHORT`)
-    that stops with an error says so first: ``FILE: truncated or damaged at byte N
-    (...): only S s of data were read; `` before the error, of the same class (the
-    watcher files it by its class). Else a truncated MCAP too short to analyze said only
-    that the training window was too short ("give --train 0:12"), and the damage, the
-    cause, was told only by a run that got further (the audit). Not an internal check's
-    error (:class:`IntegrityError`), nor one that names the damage already."""
-    damage = [(i.path, e) for i in inputs for e in i.errors if CUT_SHORT.search(e)]
+    """An analysis of an archive an input of which was cut short
+    (:data:`~analyzer.selection.CUT_SHORT`; the errors that say where it was cut first:
+    :func:`~analyzer.selection.cut_short`) that stops with an error says so first:
+    ``FILE: truncated or damaged at byte N (...): only S s of data were read; `` before
+    the error, of the same class (the watcher files it by its class). Else a truncated
+    MCAP too short to analyze said only that the training window was too short ("give
+    --train 0:12"), and the damage, the cause, was told only by a run that got further
+    (the audit). Not an internal check's error (:class:`IntegrityError`), nor one that
+    names the damage already."""
+    damage = cut_short(inputs)
     if not damage:
         yield
         return

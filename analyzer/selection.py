@@ -24,18 +24,42 @@ DEFAULT_TRAIN_FRACTION = 0.2
 DEFAULT_TRAIN_MAX_S = 600.0
 
 
-def no_numeric_channel(inputs: Sequence[InputInfo]) -> str:
+CUT_SHORT = re.compile(r"truncated|unreadable from some point on|reading stopped")
+"""An input error that says the file was read only up to some point (the MCAP and
+ROS 1 readers' ``truncated or damaged at byte N``, a damaged ``.gz`` CSV's
+``unreadable from some point on``, a member whose reading stopped)."""
+
+
+def cut_short(inputs: Sequence[InputInfo]) -> list[tuple[str, str]]:
+    """(path, error) of the inputs' errors that say a file was read only up to some point
+    (:data:`CUT_SHORT`), those that say where it was cut (``truncated ...``) first: a ROS
+    1 bag cut short says first that its index lies past its end ("truncated?"), which is
+    not where its data stops."""
+    damage = [(str(i.path), e) for i in inputs for e in i.errors if CUT_SHORT.search(e)]
+    return sorted(damage, key=lambda d: not d[1].startswith("truncated"))
+
+
+def no_numeric_channel(
+    inputs: Sequence[InputInfo], what: str = "no numeric channel found", where: str = ""
+) -> str:
     """``run``'s error line for an archive read without it holding any numeric channel
     (a bag of strings, a CSV of text columns): the inputs, and why where a reader could
     tell or the inputs' errors; ``inspect`` shows the same line as ``run_defaults``'s
-    ``refused``."""
+    ``refused``. Where a file was cut short, that comes first, as the cause (a truncated
+    MCAP whose only chunk was cut said "no numeric channel found" first, and the damage
+    in the parenthesis after). ``export`` says ``what`` of the inputs it was given
+    (``where``)."""
     why = [i.no_numeric for i in inputs if i.no_numeric]  # (a CSV's: all text)
     why += [e for i in inputs for e in i.errors]
+    damage = [d for d in cut_short(inputs) if "(truncated?)" not in d[1]]  # (a guess)
+    lead = ""
+    if damage:
+        path, lead = damage[0]
+        why.remove(lead)
+        lead = (f"{path}: " if len(inputs) > 1 else "") + f"{lead}, so "
     bad = capped(why, 3, "; ", "input errors")
-    return (
-        f"{capped([str(i.path) for i in inputs], 3, what='inputs')}: "
-        "no numeric channel found" + (f" ({bad})" if bad else "")
-    )
+    where = where or capped([str(i.path) for i in inputs], 3, what="inputs")
+    return f"{where}: {lead}{what}" + (f" ({bad})" if bad else "")
 
 
 def default_train(duration_s: float) -> tuple[float, float]:

@@ -12,7 +12,10 @@ Files without a usable summary (truncated, not finalized, unchunked) are streame
 ``mcap.stream_reader.StreamReader``: what is readable is read, the point where reading
 stopped is recorded in ``info.errors`` (the recorder's clock set back is looked for in
 the file's order, :class:`~analyzer.readers._common.LogClock`: in each chunk and each batch
-of loose messages against those before).
+of loose messages against those before). A file that ends inside a Chunk record (a power
+loss mid-write) keeps that chunk's complete messages: its data is decompressed as far as
+it goes (:mod:`~analyzer.readers.cut_chunk`) and its whole records read, and the error
+says how many messages were kept and that the rest of the chunk is lost.
 
 Channels whose encoding cannot be decoded (e.g. ``data_tamer``) are recorded as errors;
 the other channels are still read.
@@ -57,6 +60,7 @@ from analyzer.readers._common import (
     one_line,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource, add_log_topics
+from analyzer.readers.cut_chunk import CutDataError, cut_prefix, recovered_share
 from analyzer.readers.rosdecode import Encoding, RosBatchDecoder
 from analyzer.readers.rostypes import (
     EMPTY_MESSAGE_BYTES,
@@ -382,8 +386,9 @@ class McapReader:
         finished = False
         count = 0
         damage: str | None = None
+        at = [0]  # where the record being read starts
         try:
-            for record in reader.records:
+            for record in _positioned(handle, reader.records, at):
                 if isinstance(record, MessageIndex) and pending is not None:
                     pending[1].append(record)
                     continue
@@ -428,7 +433,11 @@ class McapReader:
             count += self._stream_chunk(pending[0], indexes, reorder, time)
         if loose:
             count += self._decode_loose(loose, reorder, time)
-        if damage is not None:  # counted once what was read before the damage is decoded
+        cut = self._cut_chunk(handle, at[0], reorder) if damage is not None else None
+        if cut is not None:
+            count += cut[0]
+            self._error(f"{cut[1]}; {count} message(s) read in all")
+        elif damage is not None:  # counted once what was read before the damage is decoded
             before = (
                 "the message before it was"
                 if count == 1
@@ -473,6 +482,49 @@ class McapReader:
             return 0
         return int(sum(v.size for v in by_channel.values()))
 
+    def _cut_chunk(
+        self, handle: BinaryIO, start: int, reorder: Reorderer
+    ) -> tuple[int, str] | None:
+        """The complete messages of a Chunk record at ``start`` that the file ends
+        inside (a power loss mid-write), decoded, and what the error says of it: the
+        chunk is decompressed as far as its data goes (:func:`cut_prefix`) and its whole
+        records are read. None where no chunk is cut there (the damage is elsewhere)."""
+        handle.seek(start)
+        raw = handle.read()
+        head = 9 + 8 + 8 + 8 + 4 + 4
+        if len(raw) < head or raw[0] != OP_CHUNK or 9 + _U64.unpack_from(raw, 1)[0] <= len(raw):
+            return None
+        size = _U64.unpack_from(raw, 9 + 16)[0]
+        comp_len = _U32.unpack_from(raw, 9 + 28)[0]
+        compression = raw[head : head + comp_len].decode("utf-8", "replace")
+        data_at = head + comp_len + 8
+        if data_at > len(raw):
+            return None  # cut before its data starts: nothing of it can be had
+        kind = f"{compression}-compressed" if compression else "uncompressed"
+        where = f"truncated inside the {kind} chunk at byte {start} (the file ends at byte "
+        where += f"{self._size})"
+        try:
+            records = as_bytes_array(cut_prefix(compression, raw[data_at:])[:size])
+        except CutDataError as err:
+            return 0, f"{where}; {one_line(err)}, so none of its messages can be recovered"
+        if not records.size:
+            what = (
+                f"its {kind} data holds no complete block before the cut"
+                if compression
+                else "none of its data is in the file"
+            )
+            return 0, f"{where}; {what}, so none of its messages can be recovered"
+        try:
+            by_channel = self._scan_chunk(records, cut=True)
+            gate = LogOrder()
+            self._locate_chunk(records, by_channel, gate)
+            self._decode_held(gate, None, reorder)
+        except _DAMAGE as err:
+            return 0, f"{where}; its records are damaged ({one_line(err)}); skipped"
+        found = int(sum(v.size for v in by_channel.values()))
+        got = int(records.size)
+        return found, f"{where}; {recovered_share(found, got, size, compressed=bool(compression))}"
+
     def _decode_loose(
         self, loose: list[tuple[int, int, bytes]], reorder: Reorderer, time: TimeSource
     ) -> int:
@@ -489,9 +541,11 @@ class McapReader:
         return len(loose)
 
     # ------------------------------------------------------------------ chunk contents
-    def _scan_chunk(self, records: ByteArray) -> dict[int, IntArray]:
+    def _scan_chunk(self, records: ByteArray, *, cut: bool = False) -> dict[int, IntArray]:
         """Message offsets per channel of a chunk without usable MessageIndex records;
-        registers the Schema and Channel records found inside."""
+        registers the Schema and Channel records found inside. With ``cut`` (the part
+        of a chunk before the file ended), the walk stops at the first record that is
+        not whole."""
         data = records.tobytes()
         end = len(data)
         offsets: dict[int, list[int]] = {}
@@ -501,6 +555,8 @@ class McapReader:
             length = _U64.unpack_from(data, pos + 1)[0]
             body = pos + 9
             if body + length > end:
+                if cut:
+                    break
                 raise _ChunkError(f"record at offset {pos} runs past the end of the chunk")
             if opcode == OP_MESSAGE:
                 offsets.setdefault(_U16.unpack_from(data, body)[0], []).append(pos)
@@ -676,6 +732,19 @@ def _mcap_ros2_fallback(schema: Schema, cause: BaseException) -> BatchDecoder:
 
 
 # ---------------------------------------------------------------------- record parsing
+
+
+def _positioned(handle: BinaryIO, records: Iterator[Any], at: list[int]) -> Iterator[Any]:
+    """``records`` (a :class:`StreamReader`'s, reading ``handle`` without a buffer of its
+    own), with ``at[0]`` set, before each is read, to where it starts: where the stream
+    stops, the record it was reading."""
+    while True:
+        at[0] = handle.tell()
+        try:
+            record = next(records)
+        except StopIteration:
+            return
+        yield record
 
 
 def _chunk_records(raw: memoryview) -> ByteArray:

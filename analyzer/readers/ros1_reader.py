@@ -12,8 +12,10 @@ scanned record by record from the start; what is readable is read and the proble
 recorded in ``info.errors``, with how many messages were read and up to when. A file
 that ends inside a chunk (a power loss mid-write) keeps that chunk's complete messages,
 as ``rosbag reindex`` does: an uncompressed chunk's records are walked up to the cut; an
-lz4 chunk's complete frame blocks are decompressed and walked the same way; a cut bz2
-chunk (one block, in practice) does not decompress, which the error says.
+lz4 chunk is decompressed up to the cut (its complete frame blocks, then the cut block
+sequence by sequence: :mod:`~analyzer.readers.cut_chunk`) and walked the same way; a cut
+bz2 chunk (one block, in practice) does not decompress, which the error says. The error
+says how many messages were recovered and that the rest of the chunk is lost.
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ from analyzer.readers._common import (
     one_line,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource, add_log_topics
+from analyzer.readers.cut_chunk import CutDataError, cut_prefix, recovered_share
 from analyzer.readers.rosdecode import RosBatchDecoder
 from analyzer.readers.rostypes import TypeResolutionError, normalize_msgtype, store_from_definition
 from analyzer.types import Format
@@ -127,19 +130,12 @@ def _read_cut_record(handle: BinaryIO) -> tuple[dict[str, bytes], bytes, int] | 
 
 def _cut_chunk(compression: str, data: bytes) -> tuple[ByteArray, str]:
     """The record bytes that can be had from a chunk the file ends inside (``data``, the
-    part of its compressed data before the cut), and why none can where that is so."""
-    if compression == "none":
-        return as_bytes_array(data), ""
-    out = b""
+    part of its compressed data before the cut: :func:`cut_prefix`), and why none can
+    where that is so."""
     try:
-        if compression == "lz4":  # an LZ4 frame's blocks decompress one by one
-            out = lz4.frame.LZ4FrameDecompressor().decompress(data)
-        elif compression == "bz2":  # a bz2 stream's blocks (up to 900 kB, a whole chunk)
-            out = bz2.BZ2Decompressor().decompress(data)
-        else:
-            return as_bytes_array(b""), f"unsupported chunk compression {compression!r}"
-    except (OSError, ValueError, RuntimeError, EOFError) as err:
-        return as_bytes_array(b""), f"its {compression} data does not decompress ({one_line(err)})"
+        out = cut_prefix(compression, data)
+    except CutDataError as err:
+        return as_bytes_array(b""), one_line(err)
     if not out:
         return as_bytes_array(b""), (
             f"its {compression}-compressed data holds no complete block before the cut, so "
@@ -503,13 +499,15 @@ class Ros1BagReader:
                                     if compression == "none"
                                     else f"{compression}-compressed"
                                 )
-                                what = why or (
-                                    f"its {found[1].size} complete message(s) before the cut "
-                                    "were recovered"
+                                what = why or recovered_share(
+                                    int(found[1].size),
+                                    int(records.size),
+                                    _U32.unpack(fields["size"])[0],
+                                    compressed=compression != "none",
                                 )
                                 self._error(
                                     f"truncated inside the {kind} chunk at byte {position} "
-                                    f"(the file ends at byte {handle.tell()}): {what}; "
+                                    f"(the file ends at byte {handle.tell()}); {what}; "
                                     f"{read.in_all()}"
                                 )
                             return

@@ -198,11 +198,15 @@ def test_a_correction_from_the_record_start_starts_at_zero(fit_only, record, tmp
 def test_a_file_cut_short_too_short_to_analyze_says_it_was_cut_short(tmp_path, capsys):
     """``head -c 900000 building_additive.mcap``: the error said only that the training
     window was too short ("give --train 0:12"), and the damage was named only by a run
-    that got further."""
+    that got further. (The file ends inside a chunk, whose complete messages are read.)"""
     cut = tmp_path / "trunc.mcap"
     cut.write_bytes((SAMPLES / "building_additive.mcap").read_bytes()[:900_000])
     code, _, err = run_cli(["run", cut, "--out", tmp_path / "o", "--no-progress"], capsys)
     assert code == 2
-    line = one_line_error(err, "truncated or damaged at byte 900000", "s of data were read")
+    line = one_line_error(
+        err,
+        "truncated inside the zstd-compressed chunk at byte 691894 (the file ends at byte "
+        "900000): only 41.1 s of data were read",
+    )
     # the damage first (a long line is cut at its end), the reason the run stopped after
     assert line.index("truncated") < line.index("too short")
