@@ -94,6 +94,7 @@ from analyzer.errors import (
     ShortUsageError,
     UsageError,
     capped,
+    clipped_line,
     one_line,
 )
 from analyzer.findings import Analysis, findings_document, input_digest, write_outputs
@@ -1985,7 +1986,14 @@ def _training_window(
         # the search runs from the window's end: a window over all the data leaves
         # nothing to search, and "no fault found" (exit 0) would be a claim not made
         # (unless the run is there to save the models fitted on it, above)
-        covers = f"covers all the data (which ends at {duration:.3f} s): nothing is left to search"
+        # a window that starts later covers the end only: it is what comes after it
+        # that is missing ('800:900' of an 889-s bag "covered all the data")
+        covers = (
+            f"covers all the data (which ends at {duration:.3f} s): nothing is left to search"
+            if train[0] <= 0
+            else f"reaches the end of the data (which ends at {duration:.3f} s): it leaves "
+            "nothing after it to search"
+        )
         if options.train is not None:
             raise ShortUsageError(
                 f"--train: the window {options.train!r} {covers} for faults; end it earlier"
@@ -2456,6 +2464,9 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
                 options.warn(line)
             for line in window_warnings(analysis.notes):  # a training window not healthy
                 options.warn(line)
+            skipped = skipped_warning(analysis, options)
+            if skipped:  # (default detectors that did not run: findings.json alone said it)
+                options.warn(skipped)
         if options.save_model is not None and analysis.saved is not None:
             save_model(options.save_model, analysis.saved, model)
         if options.say is not None:
@@ -2467,6 +2478,52 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         raise
     finally:
         remove_scratch(work)
+
+
+def skipped_warning(analysis: Analysis, options: RunOptions) -> str:
+    """A line for stderr naming the default detectors that did not run while others did,
+    each with its reason (findings.json's ``skipped_detectors``), and what lets them run
+    (a ``--train`` long enough, :func:`_longer_window`, where the data were too few):
+    nav2's ``--train 0:27``, the window the README suggests, ran the equivalent model
+    alone, and the run said "no sensor fault found" with nothing of the other two. The
+    error functions' wish for a config's reference sensors (:data:`CONFIG_NEED`) is left
+    out: they run only so. Empty when every detector ran, or none did (an error)."""
+    data = {k: v for k, v in analysis.skipped.items() if CONFIG_NEED not in v}
+    if not analysis.results or not data:
+        return ""
+    ran = list(dict.fromkeys(r.detector for r in analysis.results))
+    names = list(dict.fromkeys(k.split(" (", 1)[0] for k in data))
+    some = [n for n in names if n in ran]  # (skipped on some channel groups only)
+    whole = [n for n in names if n not in ran]
+    parts = [", ".join(whole)] if whole else []
+    if some:
+        parts.append(f"{', '.join(some)} on some channel groups")
+    line = f"{' and '.join(parts)} did not run: the search ran with {', '.join(ran)} alone"
+    told = {k: v for k, v in data.items() if isinstance(v, SkipReason) and v.rows}
+    if told and not options.model:  # (their window: the rows each said it needs)
+        rate = analysis.rate_hz
+        tr = (analysis.train[0] / rate, (analysis.train[1] - 1) / rate)
+        longer = _longer_window(
+            told, tr, rate, analysis.duration_s, every=True, held=_held_rows(analysis.values)
+        )
+        them = (
+            "them"
+            if len(told) == len(data)
+            else ", ".join(dict.fromkeys(k.split(" (", 1)[0] for k in told))
+        )
+        if longer.startswith("give "):
+            line += f"; to let {them} run, {longer}"
+        elif longer:
+            line += f"; {longer}"
+    elif "too little healthy data" in " ".join(data.values()) and not options.model:
+        line += "; a longer healthy stretch (--train START:END) lets them run"
+    # each reason to its first parenthesis (the same words for both AR detectors then
+    # share one entry): the whole of them is in findings.json
+    why = "; ".join(skip_reasons({k: v.split(" (", 1)[0] for k, v in data.items()}))
+    return clipped_line(
+        f"{line} ({why}; findings.json's skipped_detectors has the whole reasons)",
+        keep=len(line),
+    )
 
 
 SUMMARY_LISTED = 3
