@@ -22,7 +22,7 @@ import numpy.typing as npt
 
 from analyzer.config import Config, measured_inputs
 from analyzer.config import members as group_members
-from analyzer.coverage import span_gaps, span_note
+from analyzer.coverage import outside_note, span_gaps, span_note
 from analyzer.detector_runs import (
     SkipReason,
     TooShortForNamed,
@@ -158,7 +158,14 @@ from analyzer.selection import (
     stuck_words,
 )
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
-from analyzer.timeutil import iso_utc, plain_number, plausible_epoch, spoken_duration
+from analyzer.timeutil import (
+    iso_utc,
+    plain_number,
+    plausible_epoch,
+    seconds_text,
+    short_seconds,
+    spoken_duration,
+)
 from analyzer.types import NS_PER_S, FaultType
 
 MATERIALIZE_IN_MEMORY = 1 << 24
@@ -196,8 +203,9 @@ def _crowded_channels(
         if i.samples > CROWDED * times:
             notes.append(
                 f"{i.name}: {i.samples:,} samples on only about {int(times):,} distinct log "
-                f"times at {i.rate_hz:.6g} Hz (written in batches): one value per tick of "
-                f"the {rate:.6g} Hz clock is analyzed; --time header (where messages carry "
+                f"times at {plain_number(i.rate_hz)} Hz (written in batches): one value per tick "
+                f"of the {plain_number(rate)} Hz clock is analyzed; --time header (where "
+                "messages carry "
                 "stamps) may keep more"
             )
     return notes
@@ -221,8 +229,9 @@ def _upsampled(
     if asked is None or not fastest > 0 or rate <= UPSAMPLED * fastest:
         return []
     text = (
-        f"--rate {asked:g} puts the clock at {plain_number(rate / fastest)} times the fastest "
-        f"analyzed channel ({fastest:.6g} Hz): the ticks between its readings are "
+        f"--rate {plain_number(asked)} puts the clock at {plain_number(rate / fastest)} times "
+        "the fastest "
+        f"analyzed channel ({plain_number(fastest)} Hz): the ticks between its readings are "
         "interpolated, and the models take those lines for the sensors' signal (a rate at "
         "or below the channels' own fits them)"
     )
@@ -243,7 +252,8 @@ def _irregular_channels(infos: Sequence[ChannelInfo], chosen: Sequence[str]) -> 
             by.setdefault((i.rate_hz, i.bridge, i.gaps), []).append(c)
     return [
         f"{', '.join(names)}: sampled at irregular times (the intervals vary widely): "
-        f"aligned at their mean rate {rate:.6g} Hz and interpolated across silences of up "
+        f"aligned at their mean rate {plain_number(rate)} Hz and interpolated across silences "
+        "of up "
         f"to {spoken_duration(bridge / rate)} ({bridge:.3g} mean intervals); longer ones are "
         f"gaps ({gaps or 'none'} in each)"
         for (rate, bridge, gaps), names in by.items()
@@ -272,9 +282,10 @@ def _partial_channels(
         if not rows:
             continue
         what = " and ".join(
-            f"its first {b / rate_hz:.6g} s"
+            f"its first {seconds_text(b / rate_hz)} s"
             if a == 0
-            else f"its last {(b - a) / rate_hz:.6g} s (after {a / rate_hz:.6g} s)"
+            else f"its last {seconds_text((b - a) / rate_hz)} s (after "
+            f"{seconds_text(a / rate_hz)} s)"
             for a, b in rows
         )
         if name not in searched:
@@ -472,9 +483,10 @@ def _trained_before(
     second.notes.insert(
         0,
         WindowNote(
-            f"trained on {lo:.6g}-{hi:.6g} s instead of the default window, which a change "
+            f"trained on {short_seconds(lo)}-{short_seconds(hi)} s instead of the default "
+            "window, which a change "
             f"crosses: {what}{fewer}; --train chooses the window",
-            f"trained on {lo:.6g}-{hi:.6g} s instead: "
+            f"trained on {short_seconds(lo)}-{short_seconds(hi)} s instead: "
             + first.short.split(": the models were fitted on it", 1)[0]
             + fewer,
         ),
@@ -674,6 +686,8 @@ def _analyze(
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
             aligned.start_ns
         )
+        # (a file recorded apart from the others, whose channels were left out)
+        notes.extend(outside_note(infos, chosen, aligned.start_ns, aligned.duration_s, absolute))
         if options.utc:
             check_utc(absolute, chosen)
         tr, train = _training_window(options, aligned, absolute, notes)
@@ -1171,16 +1185,19 @@ def _model_stretch(
     got = healthy_stretch(findings, n, rate_hz, max(train[1], wanted), wanted, least)
     if got is None:
         return None, (
-            f"--corrected with --model: no stretch of at least {least / rate_hz:.6g} s of this "
-            f"record is free of findings ({wanted / rate_hz:.6g} s from each, after the "
+            "--corrected with --model: no stretch of at least "
+            f"{spoken_duration(least / rate_hz)} of this "
+            f"record is free of findings ({spoken_duration(wanted / rate_hz)} from each, after the "
             "filters' warm-up), so no healthy stretch calibrates the regeneration: a reading "
             "replaced by an estimate is replaced to its finding's end, even where the sensor "
             "is alive again or the estimate is no better than the reading"
         )
     return got, (
         f"--corrected with --model: the regeneration's healthy stretch is "
-        f"{got[0] / rate_hz:.6g}-{got[1] / rate_hz:.6g} s of this record (the longest with no "
-        f"finding active, after the filters' warm-up and {wanted / rate_hz:.6g} s from each "
+        f"{short_seconds(got[0] / rate_hz)}-{short_seconds(got[1] / rate_hz)} s of this record "
+        "(the longest with no "
+        f"finding active, after the filters' warm-up and {spoken_duration(wanted / rate_hz)} from "
+        "each "
         "finding): a reading replaced by an estimate ends where the readings are alive "
         "again, and is left as measured where the estimate's error there is as large as "
         "the fault's"
@@ -1952,9 +1969,10 @@ def _training_window(
         tr = (0.0, (warm - 1) / aligned.rate_hz)
         if warm < wanted:
             notes.append(
-                f"the model's filters need {wanted / aligned.rate_hz:.6g} s to settle from "
+                f"the model's filters need {spoken_duration(wanted / aligned.rate_hz)} to "
+                "settle from "
                 f"their zero start state, longer than half this record: the fault search "
-                f"starts at {warm / aligned.rate_hz:.6g} s, and a finding there may be "
+                f"starts at {seconds_text(warm / aligned.rate_hz)} s, and a finding there may be "
                 "the filters still settling (a longer file, or one that follows on, "
                 "tells)"
             )
@@ -1973,7 +1991,8 @@ def _training_window(
     train = (int(round(tr[0] * aligned.rate_hz)), int(round(tr[1] * aligned.rate_hz)) + 1)
     if reused is None and train[0] > 0:
         notes.append(
-            f"the {tr[0]:.6g} s before the training window are not searched for faults (the "
+            f"the {short_seconds(tr[0])} s before the training window are not searched for "
+            "faults (the "
             "search runs from the window's end): a window at the start covers them"
         )
     if reused is None and train[1] >= aligned.n and options.save_model is not None:
@@ -2111,7 +2130,7 @@ def _varying_in_training(
     if tv.shape[0] < MIN_TRAIN_ROWS:
         raise ShortUsageError(
             f"the training window {tr[0]:.3f}-{tr[1]:.3f} s holds {tv.shape[0]} sample(s) "
-            f"at {rate_hz:.6g} Hz, need at least {MIN_TRAIN_ROWS}: give a longer "
+            f"at {plain_number(rate_hz)} Hz, need at least {MIN_TRAIN_ROWS}: give a longer "
             "one with --train (the default is the first 20 % of the data, at most 10 min)"
         )
     flat = flat_channels(tv) | _mostly_one_value(tv)
@@ -2341,7 +2360,7 @@ def _window_need(
 
 
 def _longer_window(
-    skipped: dict[str, str],
+    skipped: Mapping[str, str],
     tr: tuple[float, float],
     rate_hz: float,
     duration_s: float,
@@ -2371,7 +2390,8 @@ def _longer_window(
     )
     if rows / rate_hz >= duration_s:  # (a window of every row leaves nothing to search)
         return (
-            f"the archive's {duration_s:.6g} s at {plain_number(rate_hz)} Hz are too short for "
+            f"the archive's {spoken_duration(duration_s)} at {plain_number(rate_hz)} Hz are "
+            "too short for "
             f"these detectors, which need {need}"
         )
 
@@ -2390,7 +2410,8 @@ def _longer_window(
     length = span(start)
     if length >= duration_s:  # (its gaps leave too few rows in any window)
         return (
-            f"the archive's {duration_s:.6g} s at {plain_number(rate_hz)} Hz hold too few samples "
+            f"the archive's {spoken_duration(duration_s)} at {plain_number(rate_hz)} Hz hold "
+            "too few samples "
             f"of every channel for these detectors, which need {need}"
         )
     end: float = math.ceil(start + length)
@@ -2597,7 +2618,7 @@ def _saved_words(saved: Mapping[str, Any]) -> str:
     """The summary line's words on the saved model: its file, the window it was fitted
     on, and, where that window's checks warned, that it was (not a clean bill)."""
     tr = saved["train"]
-    window = f"{tr['start_s']:.6g}-{tr['end_s']:.6g} s"
+    window = f"{short_seconds(tr['start_s'])}-{short_seconds(tr['end_s'])} s"
     warned = len(saved["warnings"])
     if not warned:
         return f"model saved to {saved['path']} (fitted on {window})"
@@ -2611,7 +2632,7 @@ def _onset_words(f: Finding) -> str:
     """A finding's onset as the summary line says it: seconds from the start, ``or
     earlier`` where it is an upper bound (the fault was there when the search began)."""
     bound = f.evidence.get("onset_at_search_start") or f.evidence.get("onset_at_or_before")
-    return f"{f.onset_s:.3f} s{' or earlier' if bound else ''}"
+    return f"{seconds_text(f.onset_s)} s{' or earlier' if bound else ''}"
 
 
 OUTPUT_FILES = ("findings.json", "report.html", "corrected.csv")

@@ -201,12 +201,14 @@ def oversampled_note(
     if suggest is None:
         return None
     short = (
-        f"the channels are sampled at {rate_hz:g} Hz, {rate_hz / content:.0f} times the "
+        f"the channels are sampled at {plain_number(rate_hz)} Hz, {rate_hz / content:.0f} "
+        "times the "
         f"frequency below which {CONTENT_SHARE:.0%} of their healthy power lies "
         f"({plain_number(content)} Hz): the detectors' models remember about {memory} "
         f"samples ({spoken_duration(memory / rate_hz)} of a {spoken_duration(1 / content)} "
         f"period), so a gain or a slow change may be missed or put on another sensor; "
-        f"--rate {suggest:g} aligns the channels on a slower clock, where their {memory} "
+        f"--rate {plain_number(suggest)} aligns the channels on a slower clock, where their "
+        f"{memory} "
         f"samples span {spoken_duration(memory / suggest)} of that period"
     )
     return WindowNote(short, short)

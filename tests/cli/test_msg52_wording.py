@@ -5,10 +5,10 @@ from __future__ import annotations
 import json
 
 import numpy as np
+from cli_helpers import one_line_error, run_cli, said
 
 from analyzer.simulate import simulate_building
 from analyzer.writers import write_archive
-from cli_helpers import one_line_error, run_cli, said
 
 
 def _building(tmp_path):
@@ -55,3 +55,13 @@ def test_default_detectors_that_did_not_run_are_named_on_stderr(tmp_path, capsys
     code, _, err = run_cli(["run", src, "--out", tmp_path / "b", "--train", window], capsys)
     assert code == 0, err
     assert not [ln for ln in said(err) if "did not run" in ln], err
+
+
+def test_a_rate_and_a_span_in_a_line_are_written_without_exponents(tmp_path, capsys):
+    """``--rate 1e6`` was refused as "the common clock at 1e+06 Hz would need ... rows
+    over 59.995 s" (and a span of years as ``4.51335e+08 s``)."""
+    src = _building(tmp_path)
+    code, _, err = run_cli(["run", src, "--out", tmp_path / "a", "--rate", "1e6"], capsys)
+    assert code == 2
+    line = one_line_error(err, "the common clock at 1000000 Hz", "over 60 s")
+    assert "e+" not in line
