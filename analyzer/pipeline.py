@@ -277,34 +277,46 @@ def _partial_channels(
     (:mod:`analyzer.reconfigure`), which a note of its own reports, unless ``not_again``
     (a fixed channel set, or too few channels left), when the note names the
     ``--channels`` that does it, if enough channels would be left."""
-    notes = []
+    # the fields of one topic that stop together are one note (fourteen alike, one per
+    # field of two topics, on ROS_example.bag)
+    groups: dict[tuple[str, tuple[tuple[int, int], ...], bool], list[str]] = {}
     for name, rows in zip(chosen, stretches, strict=True):
-        if not rows:
-            continue
+        if rows:
+            key = (name.split(".", 1)[0], tuple(rows), name in searched)
+            groups.setdefault(key, []).append(name)
+    notes = []
+    for (topic, rows, there), names in groups.items():
+        one = len(names) == 1
+        its = "its" if one else "their"
         what = " and ".join(
-            f"its first {seconds_text(b / rate_hz)} s"
+            f"{its} first {short_seconds(b / rate_hz)} s"
             if a == 0
-            else f"its last {seconds_text((b - a) / rate_hz)} s (after "
-            f"{seconds_text(a / rate_hz)} s)"
+            else f"{its} last {short_seconds((b - a) / rate_hz)} s (after "
+            f"{short_seconds(a / rate_hz)} s)"
             for a, b in rows
         )
-        if name not in searched:
+        who = (
+            f"{names[0]} has" if one else f"{capped(names)} ({len(names)} channels of {topic}) have"
+        )
+        it, pattern = ("it", names[0]) if one else ("them", f"{topic}.*")
+        if not there:
             then = "inside the healthy window, before the faults are searched"
-            notes.append(f"{name} has no reading in {what} of the record ({then})")
+            notes.append(f"{who} no reading in {what} of the record ({then})")
             continue
         if not not_again:
-            advice = "the others are searched again without it there (below)"
-        elif len(chosen) - 1 >= SEARCH_AGAIN_MIN:
-            advice = f"--channels '!{name}' searches the others there"
+            advice = f"the others are searched again without {it} there (below)"
+        elif len(chosen) - len(names) >= SEARCH_AGAIN_MIN:
+            advice = f"--channels '!{pattern}' searches the others there"
         else:
             advice = (
-                f"too few channels would be left to search the others without it (at least "
-                f"{SEARCH_AGAIN_MIN}: with two, each is estimated from the other alone)"
+                f"too few channels would be left to search the others without {it} (at "
+                f"least {SEARCH_AGAIN_MIN}: with two, each is estimated from the other alone)"
             )
         notes.append(
-            f"{name} has no reading in {what} of the record: where it is missing, the "
-            "detectors that model it with the others (ar_kalman_bank, detection_filter) "
-            f"lose their view of them too; {advice}"
+            f"{who} no reading in {what} of the record: where "
+            f"{'it is' if one else 'they are'} missing, the detectors that model {it} with the "
+            "others (ar_kalman_bank, detection_filter) lose their view of "
+            f"{'them' if one else 'the others'} too; {advice}"
         )
     return notes
 
@@ -1972,7 +1984,7 @@ def _training_window(
                 f"the model's filters need {spoken_duration(wanted / aligned.rate_hz)} to "
                 "settle from "
                 f"their zero start state, longer than half this record: the fault search "
-                f"starts at {seconds_text(warm / aligned.rate_hz)} s, and a finding there may be "
+                f"starts at {short_seconds(warm / aligned.rate_hz)} s, and a finding there may be "
                 "the filters still settling (a longer file, or one that follows on, "
                 "tells)"
             )
@@ -2601,14 +2613,18 @@ def saved_model_info(analysis: Analysis, path: Path, data: bytes) -> dict[str, A
     (the audit)."""
     start, end = analysis.train
     searched = (
-        {"start_s": end / analysis.rate_hz, "end_s": analysis.duration_s}
+        {"start_s": round(end / analysis.rate_hz, 4), "end_s": round(analysis.duration_s, 6)}
         if end < analysis.n
         else None
     )
     return {
         "path": str(path),
         "sha256": hashlib.sha256(data).hexdigest(),
-        "train": {"start_s": start / analysis.rate_hz, "end_s": (end - 1) / analysis.rate_hz},
+        # (as findings.json's train: to four decimals)
+        "train": {
+            "start_s": round(start / analysis.rate_hz, 4),
+            "end_s": round((end - 1) / analysis.rate_hz, 4),
+        },
         "searched": searched,
         "warnings": window_warnings(analysis.notes),
     }

@@ -413,9 +413,16 @@ def select_channels(
         raise ReaderError("no numeric channel found in the input")
     if all(i.constant for i in infos.values()):  # (the archive's own: an input error)
         notes.append(ConstantNote(list(infos)))  # (for inspect: run stops on the error)
+        # (a channel of one sample is neither: cart-pole/test.mcap's, each one message)
+        single = all(i.samples == 1 for i in infos.values())
         raise ReaderError(
-            "no channel to analyze: every numeric channel is constant or empty "
-            f"({', '.join(list(infos)[:3])}{', ...' if len(infos) > 3 else ''})"
+            "no channel to analyze: every numeric channel "
+            + (
+                "holds one sample, nothing to follow over time "
+                if single
+                else "is constant or empty "
+            )
+            + f"({', '.join(list(infos)[:3])}{', ...' if len(infos) > 3 else ''})"
         )
     if patterns:
         unmatched = store.unmatched_line(patterns)

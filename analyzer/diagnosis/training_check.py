@@ -86,7 +86,7 @@ import numpy.typing as npt
 from scipy import special
 
 from analyzer.diagnosis.merge import Finding
-from analyzer.timeutil import seconds_text, spoken_duration, window_text
+from analyzer.timeutil import short_seconds, spoken_duration, window_text
 from analyzer.types import FaultType
 from analyzer.window_note import WindowNote
 
@@ -300,7 +300,7 @@ def training_notes(
         who = c.channels[0]
         if len(c.channels) > 1:
             who += f" (or {' or '.join(c.channels[1:])}: the others cannot tell them apart)"
-        back = "" if c.end_s is None else f" and back at about {seconds_text(c.end_s)} s"
+        back = "" if c.end_s is None else f" and back at about {short_seconds(c.end_s)} s"
         last = c.hi_s if c.end_hi_s is None else c.end_hi_s  # (the change's, or its return's)
         before, after, short = _sides(a, c.lo_s, last, b - a, duration_s, need)
         advice = " or ".join(
@@ -324,13 +324,15 @@ def training_notes(
             )
         tells = f"a window that does not cross it tells: {advice}" if before or after else advice
         head = (
-            f"the healthy window ({seconds_text(a)}-{seconds_text(b)} s) is not steady: {who} "
+            f"the healthy window ({short_seconds(a)}-{short_seconds(b)} s) is not steady: {who} "
             "changes "
-            f"inside it at about {seconds_text(c.at_s)} s{back}"
+            f"inside it at about {short_seconds(c.at_s)} s{back}"
         )
-        between = f"between {seconds_text(c.lo_s)} and {seconds_text(c.hi_s)} s"
+        between = f"between {short_seconds(c.lo_s)} and {short_seconds(c.hi_s)} s"
         if c.end_lo_s is not None and c.end_hi_s is not None:
-            between += f"; back between {seconds_text(c.end_lo_s)} and {seconds_text(c.end_hi_s)} s"
+            between += (
+                f"; back between {short_seconds(c.end_lo_s)} and {short_seconds(c.end_hi_s)} s"
+            )
         notes.append(
             WindowNote(
                 f"{head} ({between}): {' and '.join(what)} "
@@ -357,7 +359,7 @@ def _sides(
         if need is None or need.holds(a, lo):
             before = f"--train {window_text(a, lo)}"
         else:
-            short.append(f"before it: only {spoken_duration(lo - a)}")
+            short.append(f"before it: only {short_seconds(lo - a)} s")
     # the window must end before the record does: the search runs from its end
     room = duration_s - (1.0 / need.rate_hz if need is not None else 0.0)
     end = last + length
@@ -368,7 +370,7 @@ def _sides(
     if end < room:
         after = f"--train {window_text(last, end)}"
     elif duration_s > last:
-        short.append(f"after it: only {spoken_duration(duration_s - last)} to the record's end")
+        short.append(f"after it: only {short_seconds(duration_s - last)} s to the record's end")
     return before, after, short
 
 

@@ -45,7 +45,7 @@ from analyzer.paging import is_mapped, mapped_file, pwrite_all, release
 from analyzer.readers.base import ChannelChunk
 from analyzer.readers.tally import Tally
 from analyzer.scratch import make_scratch, remove_scratch
-from analyzer.timeutil import plain_number, seconds_text, spoken_duration
+from analyzer.timeutil import plain_number, short_seconds, spoken_duration
 from analyzer.types import NS_PER_S
 
 FloatArray = npt.NDArray[np.float64]
@@ -563,7 +563,7 @@ class ChannelStore:
                 "an outlier timestamp"
             )
         return (
-            f"; {name} has no sample for {_span_text(gap)} after {seconds_text(where)} s: records "
+            f"; {name} has no sample for {_span_text(gap)} after {short_seconds(where)} s: records "
             "that far apart in time are analyzed one at a time (one clock cannot hold them)"
         )
 

@@ -9,7 +9,7 @@ from analyzer.diagnosis.merge import Finding
 from analyzer.diagnosis.training_check import _sides
 from analyzer.pipeline import faults_words
 from analyzer.report import format as fmt
-from analyzer.timeutil import iso_utc, seconds_text, spoken_duration, window_text
+from analyzer.timeutil import iso_utc, seconds_text, short_seconds, window_text
 from analyzer.types import FaultType
 
 
@@ -27,7 +27,7 @@ def test_the_report_and_the_summary_round_an_onset_alike():
 def test_times_in_lines_have_no_six_figures_or_exponents():
     assert seconds_text(41.1003) == "41.100"
     assert window_text(47.4004, 225.2061) == "47.4:225.206"
-    assert spoken_duration(12.0001) == "12 s"
+    assert short_seconds(12.0001) == "12"  # (the close-up's ± 12.0001 s)
     # a change in a training window from 47.4004 s: the windows it gives are typed alike
     before, after, _ = _sides(0.0, 47.4004, 60.2, 47.4004, 900.0, None)
     assert before == "--train 0:47.4" and after == "--train 60.2:107.6"
