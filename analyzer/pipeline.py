@@ -2402,7 +2402,7 @@ def _longer_window(
     )
     if rows / rate_hz >= duration_s:  # (a window of every row leaves nothing to search)
         return (
-            f"the archive's {spoken_duration(duration_s)} at {plain_number(rate_hz)} Hz are "
+            f"the archive's {short_seconds(duration_s)} s at {plain_number(rate_hz)} Hz are "
             "too short for "
             f"these detectors, which need {need}"
         )
@@ -2422,7 +2422,7 @@ def _longer_window(
     length = span(start)
     if length >= duration_s:  # (its gaps leave too few rows in any window)
         return (
-            f"the archive's {spoken_duration(duration_s)} at {plain_number(rate_hz)} Hz hold "
+            f"the archive's {short_seconds(duration_s)} s at {plain_number(rate_hz)} Hz hold "
             "too few samples "
             f"of every channel for these detectors, which need {need}"
         )
@@ -2493,11 +2493,12 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
             options.progress("report", 1.0)
         if options.warn is not None:
             _warn_inputs(analysis, out, options.warn)
-            for line in config_warnings(options.config, analysis):
+            configured = config_warnings(options.config, analysis)
+            for line in configured:
                 options.warn(line)
             for line in window_warnings(analysis.notes):  # a training window not healthy
                 options.warn(line)
-            skipped = skipped_warning(analysis, options)
+            skipped = skipped_warning(analysis, options, " ".join(configured))
             if skipped:  # (default detectors that did not run: findings.json alone said it)
                 options.warn(skipped)
         if options.save_model is not None and analysis.saved is not None:
@@ -2513,15 +2514,25 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         remove_scratch(work)
 
 
-def skipped_warning(analysis: Analysis, options: RunOptions) -> str:
+def skipped_warning(analysis: Analysis, options: RunOptions, said: str = "") -> str:
     """A line for stderr naming the default detectors that did not run while others did,
     each with its reason (findings.json's ``skipped_detectors``), and what lets them run
     (a ``--train`` long enough, :func:`_longer_window`, where the data were too few):
     nav2's ``--train 0:27``, the window the README suggests, ran the equivalent model
     alone, and the run said "no sensor fault found" with nothing of the other two. The
     error functions' wish for a config's reference sensors (:data:`CONFIG_NEED`) is left
-    out: they run only so. Empty when every detector ran, or none did (an error)."""
-    data = {k: v for k, v in analysis.skipped.items() if CONFIG_NEED not in v}
+    out: they run only so; so are detectors named in ``said`` (the config's warnings,
+    :func:`config_warnings`, which name a detector whose section was not used). Empty
+    when every detector ran, or none did (an error)."""
+    # (the error functions run only on a config's groups: their reasons are the config's,
+    # which config_warnings says; so is a detector whose config section was not used)
+    data = {
+        k: v
+        for k, v in analysis.skipped.items()
+        if CONFIG_NEED not in v
+        and k.split(" (", 1)[0] != "error_function"
+        and k.split(" (", 1)[0] not in said
+    }
     if not analysis.results or not data:
         return ""
     ran = list(dict.fromkeys(r.detector for r in analysis.results))
