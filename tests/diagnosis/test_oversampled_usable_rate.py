@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from analyzer.diagnosis.changes import default_window, training_need
-from analyzer.diagnosis.oversampled import oversampled_note, usable_rate
+from analyzer.diagnosis.oversampled import oversampled_note
 
 
 def _sines(hz: float, rate: float, seconds: float) -> np.ndarray:
@@ -33,6 +33,8 @@ def test_a_rate_the_training_window_is_too_short_at_is_not_named():
 
 
 def test_the_usable_rate_is_the_slowest_round_one_the_window_suffices_at():
+    from analyzer.diagnosis.oversampled import usable_rate  # (new: the base has none)
+
     need = training_need(default_window(20.0))  # (683 rows at the least window)
     assert usable_rate(20.0, 200.0, need / 20.0) == 20.0
     # a shorter window: 25 Hz is not enough either, 50 Hz is

@@ -9,7 +9,7 @@ from analyzer.diagnosis.merge import Finding
 from analyzer.diagnosis.training_check import _sides
 from analyzer.pipeline import faults_words
 from analyzer.report import format as fmt
-from analyzer.timeutil import iso_utc, seconds_text, short_seconds, window_text
+from analyzer.timeutil import iso_utc
 from analyzer.types import FaultType
 
 
@@ -25,6 +25,8 @@ def test_the_report_and_the_summary_round_an_onset_alike():
 
 
 def test_times_in_lines_have_no_six_figures_or_exponents():
+    from analyzer.timeutil import seconds_text, short_seconds, window_text  # (new)
+
     assert seconds_text(41.1003) == "41.100"
     assert window_text(47.4004, 225.2061) == "47.4:225.206"
     assert short_seconds(12.0001) == "12"  # (the close-up's ± 12.0001 s)
