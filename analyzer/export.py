@@ -227,7 +227,8 @@ def interpolation_warnings(done: Exported) -> list[str]:
             else ""
         )
         return [
-            f"{done.path}: --rate {done.asked_rate:g} is above every channel's own rate (the "
+            f"{done.path}: --rate {plain_number(done.asked_rate)} is above every channel's own "
+            "rate (the "
             f"fastest: {plain_number(fastest, 4)} Hz): at least {share:.0f} % of the rows hold "
             f"values interpolated between samples, not readings{more} (without --rate the "
             "clock is the channels' dominant rate)"

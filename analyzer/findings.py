@@ -166,7 +166,11 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
         "time_origin_s": None if a.absolute_time else round(a.start_ns / NS_PER_S, 9),
         "duration_s": round(a.duration_s, 6),
         "rate_hz": a.rate_hz,
-        "train": {"start_s": train0 / a.rate_hz, "end_s": (train1 - 1) / a.rate_hz},
+        # (to four decimals, as onset_s: 19.980169008087802 was written)
+        "train": {
+            "start_s": round(train0 / a.rate_hz, 4),
+            "end_s": round((train1 - 1) / a.rate_hz, 4),
+        },
         "channels": [
             {
                 "name": c.name,

@@ -23,7 +23,7 @@ from analyzer.selection import (
     without_samples,
 )
 from analyzer.store import ChannelStore
-from analyzer.timeutil import iso_utc, plausible_epoch
+from analyzer.timeutil import iso_utc, plain_number, plausible_epoch, short_seconds
 from analyzer.types import NS_PER_S
 
 
@@ -278,8 +278,9 @@ def defaults_line(defaults: dict[str, Any], listed: int) -> str:
     since = f" from {start:.3f} s" if start else ""
     return (
         f"run by default: {defaults['channels']} of {listed} channel(s) on a common clock of "
-        f"{defaults['rate_hz']:.6g} Hz{since} (--rate), trained on "
-        f"{train['start_s']:.6g}-{train['end_s']:.6g} s of it (the first 20 %, at most 10 "
+        f"{plain_number(defaults['rate_hz'], 4)} Hz{since} (--rate), trained on "
+        f"{short_seconds(train['start_s'])}-{short_seconds(train['end_s'])} s of it (the first "
+        "20 %, at most 10 "
         "minutes: --train); at run time it also leaves out any channel that does not vary "
         "in that window or counts through it (a clock), and cuts the window short before a "
         "sensor's change inside it"

@@ -26,7 +26,7 @@ from analyzer.errors import (
 from analyzer.findings import sha256_of
 from analyzer.modelfile import SavedModel, check_model_path, load_model
 from analyzer.readers.base import TimeSource
-from analyzer.timeutil import iso_utc, parse_time
+from analyzer.timeutil import iso_utc, parse_time, plain_number, window_text
 from analyzer.types import NS_PER_S
 
 Progress = Callable[[str, float], None]
@@ -154,7 +154,7 @@ def _own_times(text: str, lo: float, hi: float, start_ns: int, duration_s: float
         return ""
     a, b = lo - origin, hi - origin
     return (
-        f"; --train {text} is {a:.6g}:{b:.6g} here: times count from the first sample, "
+        f"; --train {text} is {window_text(a, b)} here: times count from the first sample, "
         f"{origin:.3f} s in the file"
     )
 
@@ -215,7 +215,8 @@ def check_model_options(
     where = where or ""
     if rate is not None and abs(rate - model.rate_hz) > 1e-9 * model.rate_hz:
         raise UsageError(
-            f"--rate {rate:g}: the model {where} was fitted at {model.rate_hz:.6g} Hz; "
+            f"--rate {plain_number(rate)}: the model {where} was fitted at "
+            f"{plain_number(model.rate_hz, 6)} Hz; "
             "leave --rate out or fit a model at that rate"
         )
     rank = {n: i for i, n in enumerate(REGISTRY)}

@@ -22,7 +22,7 @@ import numpy.typing as npt
 
 from analyzer.config import Config, measured_inputs
 from analyzer.config import members as group_members
-from analyzer.coverage import span_gaps, span_note
+from analyzer.coverage import outside_note, span_gaps, span_note
 from analyzer.data_ends import ends_with_data
 from analyzer.detector_runs import (
     SkipReason,
@@ -95,6 +95,7 @@ from analyzer.errors import (
     ShortUsageError,
     UsageError,
     capped,
+    clipped_line,
     one_line,
 )
 from analyzer.findings import Analysis, findings_document, input_digest, write_outputs
@@ -160,7 +161,14 @@ from analyzer.selection import (
     stuck_words,
 )
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
-from analyzer.timeutil import iso_utc, plain_number, plausible_epoch, spoken_duration
+from analyzer.timeutil import (
+    iso_utc,
+    plain_number,
+    plausible_epoch,
+    seconds_text,
+    short_seconds,
+    spoken_duration,
+)
 from analyzer.types import NS_PER_S, FaultType
 
 MATERIALIZE_IN_MEMORY = 1 << 24
@@ -209,8 +217,9 @@ def _crowded_channels(
         if i.samples > CROWDED * times:
             notes.append(
                 f"{i.name}: {i.samples:,} samples on only about {int(times):,} distinct log "
-                f"times at {i.rate_hz:.6g} Hz (written in batches): one value per tick of "
-                f"the {rate:.6g} Hz clock is analyzed; --time header (where messages carry "
+                f"times at {plain_number(i.rate_hz)} Hz (written in batches): one value per tick "
+                f"of the {plain_number(rate)} Hz clock is analyzed; --time header (where "
+                "messages carry "
                 "stamps) may keep more"
             )
     return notes
@@ -234,8 +243,9 @@ def _upsampled(
     if asked is None or not fastest > 0 or rate <= UPSAMPLED * fastest:
         return []
     text = (
-        f"--rate {asked:g} puts the clock at {plain_number(rate / fastest)} times the fastest "
-        f"analyzed channel ({fastest:.6g} Hz): the ticks between its readings are "
+        f"--rate {plain_number(asked)} puts the clock at {plain_number(rate / fastest)} times "
+        "the fastest "
+        f"analyzed channel ({plain_number(fastest)} Hz): the ticks between its readings are "
         "interpolated, and the models take those lines for the sensors' signal (a rate at "
         "or below the channels' own fits them)"
     )
@@ -256,7 +266,8 @@ def _irregular_channels(infos: Sequence[ChannelInfo], chosen: Sequence[str]) -> 
             by.setdefault((i.rate_hz, i.bridge, i.gaps), []).append(c)
     return [
         f"{', '.join(names)}: sampled at irregular times (the intervals vary widely): "
-        f"aligned at their mean rate {rate:.6g} Hz and interpolated across silences of up "
+        f"aligned at their mean rate {plain_number(rate)} Hz and interpolated across silences "
+        "of up "
         f"to {spoken_duration(bridge / rate)} ({bridge:.3g} mean intervals); longer ones are "
         f"gaps ({gaps or 'none'} in each)"
         for (rate, bridge, gaps), names in by.items()
@@ -280,33 +291,46 @@ def _partial_channels(
     (:mod:`analyzer.reconfigure`), which a note of its own reports, unless ``not_again``
     (a fixed channel set, or too few channels left), when the note names the
     ``--channels`` that does it, if enough channels would be left."""
-    notes = []
+    # the fields of one topic that stop together are one note (fourteen alike, one per
+    # field of two topics, on ROS_example.bag)
+    groups: dict[tuple[str, tuple[tuple[int, int], ...], bool], list[str]] = {}
     for name, rows in zip(chosen, stretches, strict=True):
-        if not rows:
-            continue
+        if rows:
+            key = (name.split(".", 1)[0], tuple(rows), name in searched)
+            groups.setdefault(key, []).append(name)
+    notes = []
+    for (topic, rows, there), names in groups.items():
+        one = len(names) == 1
+        its = "its" if one else "their"
         what = " and ".join(
-            f"its first {b / rate_hz:.6g} s"
+            f"{its} first {short_seconds(b / rate_hz)} s"
             if a == 0
-            else f"its last {(b - a) / rate_hz:.6g} s (after {a / rate_hz:.6g} s)"
+            else f"{its} last {short_seconds((b - a) / rate_hz)} s (after "
+            f"{short_seconds(a / rate_hz)} s)"
             for a, b in rows
         )
-        if name not in searched:
+        who = (
+            f"{names[0]} has" if one else f"{capped(names)} ({len(names)} channels of {topic}) have"
+        )
+        it, pattern = ("it", names[0]) if one else ("them", f"{topic}.*")
+        if not there:
             then = "inside the healthy window, before the faults are searched"
-            notes.append(f"{name} has no reading in {what} of the record ({then})")
+            notes.append(f"{who} no reading in {what} of the record ({then})")
             continue
         if not not_again:
-            advice = "the others are searched again without it there (below)"
-        elif len(chosen) - 1 >= SEARCH_AGAIN_MIN:
-            advice = f"--channels '!{name}' searches the others there"
+            advice = f"the others are searched again without {it} there (below)"
+        elif len(chosen) - len(names) >= SEARCH_AGAIN_MIN:
+            advice = f"--channels '!{pattern}' searches the others there"
         else:
             advice = (
-                f"too few channels would be left to search the others without it (at least "
-                f"{SEARCH_AGAIN_MIN}: with two, each is estimated from the other alone)"
+                f"too few channels would be left to search the others without {it} (at "
+                f"least {SEARCH_AGAIN_MIN}: with two, each is estimated from the other alone)"
             )
         notes.append(
-            f"{name} has no reading in {what} of the record: where it is missing, the "
-            "detectors that model it with the others (ar_kalman_bank, detection_filter) "
-            f"lose their view of them too; {advice}"
+            f"{who} no reading in {what} of the record: where "
+            f"{'it is' if one else 'they are'} missing, the detectors that model {it} with the "
+            "others (ar_kalman_bank, detection_filter) lose their view of "
+            f"{'them' if one else 'the others'} too; {advice}"
         )
     return notes
 
@@ -489,9 +513,10 @@ def _trained_before(
     second.notes.insert(
         0,
         WindowNote(
-            f"trained on {lo:.6g}-{hi:.6g} s instead of the default window, which a change "
+            f"trained on {short_seconds(lo)}-{short_seconds(hi)} s instead of the default "
+            "window, which a change "
             f"crosses: {what}{fewer}; --train chooses the window",
-            f"trained on {lo:.6g}-{hi:.6g} s instead: "
+            f"trained on {short_seconds(lo)}-{short_seconds(hi)} s instead: "
             + first.short.split(": the models were fitted on it", 1)[0]
             + fewer,
         ),
@@ -695,6 +720,8 @@ def _analyze(
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
             aligned.start_ns
         )
+        # (a file recorded apart from the others, whose channels were left out)
+        notes.extend(outside_note(infos, chosen, aligned.start_ns, aligned.duration_s, absolute))
         if options.utc:
             check_utc(absolute, chosen)
         tr, train = _training_window(options, aligned, absolute, notes)
@@ -1269,16 +1296,19 @@ def _model_stretch(
     got = healthy_stretch(findings, n, rate_hz, max(train[1], wanted), wanted, least)
     if got is None:
         return None, (
-            f"--corrected with --model: no stretch of at least {least / rate_hz:.6g} s of this "
-            f"record is free of findings ({wanted / rate_hz:.6g} s from each, after the "
+            "--corrected with --model: no stretch of at least "
+            f"{spoken_duration(least / rate_hz)} of this "
+            f"record is free of findings ({spoken_duration(wanted / rate_hz)} from each, after the "
             "filters' warm-up), so no healthy stretch calibrates the regeneration: a reading "
             "replaced by an estimate is replaced to its finding's end, even where the sensor "
             "is alive again or the estimate is no better than the reading"
         )
     return got, (
         f"--corrected with --model: the regeneration's healthy stretch is "
-        f"{got[0] / rate_hz:.6g}-{got[1] / rate_hz:.6g} s of this record (the longest with no "
-        f"finding active, after the filters' warm-up and {wanted / rate_hz:.6g} s from each "
+        f"{short_seconds(got[0] / rate_hz)}-{short_seconds(got[1] / rate_hz)} s of this record "
+        "(the longest with no "
+        f"finding active, after the filters' warm-up and {spoken_duration(wanted / rate_hz)} from "
+        "each "
         "finding): a reading replaced by an estimate ends where the readings are alive "
         "again, and is left as measured where the estimate's error there is as large as "
         "the fault's"
@@ -2050,9 +2080,10 @@ def _training_window(
         tr = (0.0, (warm - 1) / aligned.rate_hz)
         if warm < wanted:
             notes.append(
-                f"the model's filters need {wanted / aligned.rate_hz:.6g} s to settle from "
+                f"the model's filters need {spoken_duration(wanted / aligned.rate_hz)} to "
+                "settle from "
                 f"their zero start state, longer than half this record: the fault search "
-                f"starts at {warm / aligned.rate_hz:.6g} s, and a finding there may be "
+                f"starts at {short_seconds(warm / aligned.rate_hz)} s, and a finding there may be "
                 "the filters still settling (a longer file, or one that follows on, "
                 "tells)"
             )
@@ -2071,7 +2102,8 @@ def _training_window(
     train = (int(round(tr[0] * aligned.rate_hz)), int(round(tr[1] * aligned.rate_hz)) + 1)
     if reused is None and train[0] > 0:
         notes.append(
-            f"the {tr[0]:.6g} s before the training window are not searched for faults (the "
+            f"the {short_seconds(tr[0])} s before the training window are not searched for "
+            "faults (the "
             "search runs from the window's end): a window at the start covers them"
         )
     if reused is None and train[1] >= aligned.n and options.save_model is not None:
@@ -2084,7 +2116,14 @@ def _training_window(
         # the search runs from the window's end: a window over all the data leaves
         # nothing to search, and "no fault found" (exit 0) would be a claim not made
         # (unless the run is there to save the models fitted on it, above)
-        covers = f"covers all the data (which ends at {duration:.3f} s): nothing is left to search"
+        # a window that starts later covers the end only: it is what comes after it
+        # that is missing ('800:900' of an 889-s bag "covered all the data")
+        covers = (
+            f"covers all the data (which ends at {duration:.3f} s): nothing is left to search"
+            if train[0] <= 0
+            else f"reaches the end of the data (which ends at {duration:.3f} s): it leaves "
+            "nothing after it to search"
+        )
         if options.train is not None:
             raise ShortUsageError(
                 f"--train: the window {options.train!r} {covers} for faults; end it earlier"
@@ -2202,7 +2241,7 @@ def _varying_in_training(
     if tv.shape[0] < MIN_TRAIN_ROWS:
         raise ShortUsageError(
             f"the training window {tr[0]:.3f}-{tr[1]:.3f} s holds {tv.shape[0]} sample(s) "
-            f"at {rate_hz:.6g} Hz, need at least {MIN_TRAIN_ROWS}: give a longer "
+            f"at {plain_number(rate_hz)} Hz, need at least {MIN_TRAIN_ROWS}: give a longer "
             "one with --train (the default is the first 20 % of the data, at most 10 min)"
         )
     flat = flat_channels(tv) | _mostly_one_value(tv)
@@ -2432,7 +2471,7 @@ def _window_need(
 
 
 def _longer_window(
-    skipped: dict[str, str],
+    skipped: Mapping[str, str],
     tr: tuple[float, float],
     rate_hz: float,
     duration_s: float,
@@ -2462,7 +2501,8 @@ def _longer_window(
     )
     if rows / rate_hz >= duration_s:  # (a window of every row leaves nothing to search)
         return (
-            f"the archive's {duration_s:.6g} s at {plain_number(rate_hz)} Hz are too short for "
+            f"the archive's {short_seconds(duration_s)} s at {plain_number(rate_hz)} Hz are "
+            "too short for "
             f"these detectors, which need {need}"
         )
 
@@ -2481,7 +2521,8 @@ def _longer_window(
     length = span(start)
     if length >= duration_s:  # (its gaps leave too few rows in any window)
         return (
-            f"the archive's {duration_s:.6g} s at {plain_number(rate_hz)} Hz hold too few samples "
+            f"the archive's {short_seconds(duration_s)} s at {plain_number(rate_hz)} Hz hold "
+            "too few samples "
             f"of every channel for these detectors, which need {need}"
         )
     end: float = math.ceil(start + length)
@@ -2551,10 +2592,14 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
             options.progress("report", 1.0)
         if options.warn is not None:
             _warn_inputs(analysis, out, options.warn)
-            for line in config_warnings(options.config, analysis):
+            configured = config_warnings(options.config, analysis)
+            for line in configured:
                 options.warn(line)
             for line in window_warnings(analysis.notes):  # a training window not healthy
                 options.warn(line)
+            skipped = skipped_warning(analysis, options, " ".join(configured))
+            if skipped:  # (default detectors that did not run: findings.json alone said it)
+                options.warn(skipped)
         if options.save_model is not None and analysis.saved is not None:
             save_model(options.save_model, analysis.saved, model)
         if options.say is not None:
@@ -2566,6 +2611,62 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         raise
     finally:
         remove_scratch(work)
+
+
+def skipped_warning(analysis: Analysis, options: RunOptions, said: str = "") -> str:
+    """A line for stderr naming the default detectors that did not run while others did,
+    each with its reason (findings.json's ``skipped_detectors``), and what lets them run
+    (a ``--train`` long enough, :func:`_longer_window`, where the data were too few):
+    nav2's ``--train 0:27``, the window the README suggests, ran the equivalent model
+    alone, and the run said "no sensor fault found" with nothing of the other two. The
+    error functions' wish for a config's reference sensors (:data:`CONFIG_NEED`) is left
+    out: they run only so; so are detectors named in ``said`` (the config's warnings,
+    :func:`config_warnings`, which name a detector whose section was not used). Empty
+    when every detector ran, or none did (an error)."""
+    # (the error functions run only on a config's groups: their reasons are the config's,
+    # which config_warnings says; so is a detector whose config section was not used)
+    data = {
+        k: v
+        for k, v in analysis.skipped.items()
+        if CONFIG_NEED not in v
+        and k.split(" (", 1)[0] != "error_function"
+        and k.split(" (", 1)[0] not in said
+    }
+    if not analysis.results or not data:
+        return ""
+    ran = list(dict.fromkeys(r.detector for r in analysis.results))
+    names = list(dict.fromkeys(k.split(" (", 1)[0] for k in data))
+    some = [n for n in names if n in ran]  # (skipped on some channel groups only)
+    whole = [n for n in names if n not in ran]
+    parts = [", ".join(whole)] if whole else []
+    if some:
+        parts.append(f"{', '.join(some)} on some channel groups")
+    line = f"{' and '.join(parts)} did not run: the search ran with {', '.join(ran)} alone"
+    told = {k: v for k, v in data.items() if isinstance(v, SkipReason) and v.rows}
+    if told and not options.model:  # (their window: the rows each said it needs)
+        rate = analysis.rate_hz
+        tr = (analysis.train[0] / rate, (analysis.train[1] - 1) / rate)
+        longer = _longer_window(
+            told, tr, rate, analysis.duration_s, every=True, held=_held_rows(analysis.values)
+        )
+        them = (
+            "them"
+            if len(told) == len(data)
+            else ", ".join(dict.fromkeys(k.split(" (", 1)[0] for k in told))
+        )
+        if longer.startswith("give "):
+            line += f"; to let {them} run, {longer}"
+        elif longer:
+            line += f"; {longer}"
+    elif "too little healthy data" in " ".join(data.values()) and not options.model:
+        line += "; a longer healthy stretch (--train START:END) lets them run"
+    # each reason to its first parenthesis (the same words for both AR detectors then
+    # share one entry): the whole of them is in findings.json
+    why = "; ".join(skip_reasons({k: v.split(" (", 1)[0] for k, v in data.items()}))
+    return clipped_line(
+        f"{line} ({why}; findings.json's skipped_detectors has the whole reasons)",
+        keep=len(line),
+    )
 
 
 SUMMARY_LISTED = 3
@@ -2622,14 +2723,18 @@ def saved_model_info(analysis: Analysis, path: Path, data: bytes) -> dict[str, A
     (the audit)."""
     start, end = analysis.train
     searched = (
-        {"start_s": end / analysis.rate_hz, "end_s": analysis.duration_s}
+        {"start_s": round(end / analysis.rate_hz, 4), "end_s": round(analysis.duration_s, 6)}
         if end < analysis.n
         else None
     )
     return {
         "path": str(path),
         "sha256": hashlib.sha256(data).hexdigest(),
-        "train": {"start_s": start / analysis.rate_hz, "end_s": (end - 1) / analysis.rate_hz},
+        # (as findings.json's train: to four decimals)
+        "train": {
+            "start_s": round(start / analysis.rate_hz, 4),
+            "end_s": round((end - 1) / analysis.rate_hz, 4),
+        },
         "searched": searched,
         "warnings": window_warnings(analysis.notes),
     }
@@ -2639,7 +2744,7 @@ def _saved_words(saved: Mapping[str, Any]) -> str:
     """The summary line's words on the saved model: its file, the window it was fitted
     on, and, where that window's checks warned, that it was (not a clean bill)."""
     tr = saved["train"]
-    window = f"{tr['start_s']:.6g}-{tr['end_s']:.6g} s"
+    window = f"{short_seconds(tr['start_s'])}-{short_seconds(tr['end_s'])} s"
     warned = len(saved["warnings"])
     if not warned:
         return f"model saved to {saved['path']} (fitted on {window})"
@@ -2653,7 +2758,7 @@ def _onset_words(f: Finding) -> str:
     """A finding's onset as the summary line says it: seconds from the start, ``or
     earlier`` where it is an upper bound (the fault was there when the search began)."""
     bound = f.evidence.get("onset_at_search_start") or f.evidence.get("onset_at_or_before")
-    return f"{f.onset_s:.3f} s{' or earlier' if bound else ''}"
+    return f"{seconds_text(f.onset_s)} s{' or earlier' if bound else ''}"
 
 
 OUTPUT_FILES = ("findings.json", "report.html", "corrected.csv")

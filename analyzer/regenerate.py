@@ -85,15 +85,22 @@ class Correction:
             "channel": self.channel,
             "detector": self.detector,
             "type": self.type,
-            "start_s": self.start_s,
-            "onset_s": self.start_s if self.onset_s is None else self.onset_s,
-            "end_s": self.end_s,
+            # (to findings.json's four decimals, as a fault's onset_s and end_s)
+            "start_s": _time(self.start_s),
+            "onset_s": _time(self.start_s if self.onset_s is None else self.onset_s),
+            "end_s": _time(self.end_s),
             "method": self.method,
             "samples": self.samples,
             "mean_fault": self.mean_fault,
             "rms_fault": self.rms_fault,
             "note": self.note,
         }
+
+
+def _time(x: float | None) -> float | None:
+    """A time in seconds to four decimals, as findings.json writes a fault's
+    ``onset_s`` (``corrections[]`` wrote ``300.002537658976``)."""
+    return None if x is None else round(float(x), 4)
 
 
 def fault_signal(

@@ -16,6 +16,7 @@ from analyzer.readers.base import InputInfo
 from analyzer.store import ChannelInfo, ChannelStore
 from analyzer.store.copies import Copy, find_copies
 from analyzer.store.store import FLAG_SAMPLES
+from analyzer.timeutil import short_seconds
 from analyzer.window_note import WindowNote
 
 DEFAULT_TRAIN_FRACTION = 0.2
@@ -486,7 +487,8 @@ class NoSamplesNote(str):
     def of(cls, names: Sequence[str], window: tuple[float, float]) -> NoSamplesNote:
         """The note on the channels ``names`` without a sample in ``window`` (seconds)."""
         note = cls(
-            f"no samples in the training window ({window[0]:.6g}-{window[1]:.6g} s), not "
+            f"no samples in the training window ({short_seconds(window[0])}-"
+            f"{short_seconds(window[1])} s), not "
             f"analyzed: {capped(list(names), COPIES_LISTED, what='channels')} (their data "
             "lie outside it; --train choosing a window where they have data analyzes them)"
         )
@@ -641,9 +643,16 @@ def select_channels(
         raise ReaderError("no numeric channel found in the input")
     if all(i.constant for i in infos.values()):  # (the archive's own: an input error)
         notes.append(ConstantNote(list(infos)))  # (for inspect: run stops on the error)
+        # (a channel of one sample is neither: cart-pole/test.mcap's, each one message)
+        single = all(i.samples == 1 for i in infos.values())
         raise ReaderError(
-            "no channel to analyze: every numeric channel is constant or empty "
-            f"({', '.join(list(infos)[:3])}{', ...' if len(infos) > 3 else ''})"
+            "no channel to analyze: every numeric channel "
+            + (
+                "holds one sample, nothing to follow over time "
+                if single
+                else "is constant or empty "
+            )
+            + f"({', '.join(list(infos)[:3])}{', ...' if len(infos) > 3 else ''})"
         )
     if patterns:
         unmatched = store.unmatched_line(patterns)

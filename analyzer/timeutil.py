@@ -75,6 +75,35 @@ def spoken_duration(seconds: float) -> str:
     return f"{s:.1f} s"  # pragma: no cover - (a >= 1 is seconds at least)
 
 
+def seconds_text(x: float, decimals: int = 3) -> str:
+    """A time (or span) in seconds to ``decimals`` decimals, without an exponent, rounded
+    half up from whole nanoseconds as :func:`iso_utc` rounds to the millisecond: every
+    line, the report and findings.json's ISO times then say one time alike. An onset at
+    300.0625 s was ``300.062 s`` in the report (half to even) and ``300.063 s`` on
+    stderr (a value a hair above it), a note's time ``41.1003 s`` (``:.6g``)."""
+    v = float(x)
+    if not np.isfinite(v):
+        return f"{v}"
+    ns = int(round(v * NS_PER_S))
+    unit = 10 ** (9 - decimals)
+    q = (ns + unit // 2) // unit  # (half up: toward the later time, as iso_utc)
+    whole, frac = divmod(abs(q), 10**decimals)
+    sign = "-" if q < 0 else ""
+    return f"{sign}{whole}.{frac:0{decimals}d}" if decimals > 0 else f"{sign}{whole}"
+
+
+def window_text(start_s: float, end_s: float) -> str:
+    """A ``--train`` window as a user types it, each end to the millisecond without
+    trailing zeros (``47.4:225.206``, not ``47.4004:225.206``)."""
+    return f"{short_seconds(start_s)}:{short_seconds(end_s)}"
+
+
+def short_seconds(x: float) -> str:
+    """:func:`seconds_text` without trailing zeros (``12``, ``47.4``)."""
+    text = seconds_text(x)
+    return text.rstrip("0").rstrip(".") if "." in text else text
+
+
 def plain_number(x: float, digits: int = 3) -> str:
     """``x`` to ``digits`` significant digits without an exponent from 1e-3 to 1e9
     (``2000``, not ``2e+03``; ``1234``, not ``1.23e+03``: digits before the point are

@@ -21,6 +21,7 @@ Residual convention: ``measured - estimated`` (the paper plots ``estimated - mea
 from __future__ import annotations
 
 import numbers
+import re
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -138,6 +139,30 @@ def _is_integer(value: Any) -> bool:
     return isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_)
 
 
+ESTIMATOR_INDEX = re.compile(r"without channel (\d+)")
+"""How the bank's leave-one-out estimators name their left-out channel where the
+channels' names are not known (:mod:`analyzer.detectors.kalman_bank`)."""
+
+
+def _named(err: DetectorError, channels: Sequence[str]) -> DetectorError:
+    """``err`` with each ``without channel j`` its channel's name: the skip reason read
+    ``the Kalman estimator without channel 0 is unstable``, an index where the user
+    knows names. Other errors (too little data, say) are returned as they are."""
+    text = str(err)
+    if type(err) is not DetectorError or not ESTIMATOR_INDEX.search(text):
+        return err
+    return DetectorError(
+        ESTIMATOR_INDEX.sub(
+            lambda m: (
+                f"without {channels[int(m.group(1))]}"
+                if int(m.group(1)) < len(channels)
+                else m.group(0)
+            ),
+            text,
+        )
+    )
+
+
 @dataclass(frozen=True, slots=True)
 class FittedBank:
     ar: ARModel
@@ -233,11 +258,17 @@ class ARKalmanBank:
         except TooLittleDataError as err:  # (the thresholds' calibration needs more)
             raise needing_calibration(err, window) from None
         block = self._block(ar.m)
-        solved = context.map(solved_leave_one_out_task, [(ar, j, block) for j in range(ar.m)])
-        estimators = tuple(e for e, _ in solved)
-        resid, cons, skip, how, inv_covs = self._calibration_outputs(
-            ar, estimators, train, context, tuple(P for _, P in solved)
-        )
+        try:
+            solved = context.map(solved_leave_one_out_task, [(ar, j, block) for j in range(ar.m)])
+            estimators = tuple(e for e, _ in solved)
+            resid, cons, skip, how, inv_covs = self._calibration_outputs(
+                ar, estimators, train, context, tuple(P for _, P in solved)
+            )
+        except DetectorError as err:
+            named = _named(err, data.channels)
+            if named is err:
+                raise
+            raise named from err
         res_cal, con_cal, taus = [], [], []
         # the false-alarm rate is per sample of the archive: shared among its channels
         alpha = context.false_alarm_rate / ar.m

@@ -82,7 +82,7 @@ from analyzer.diagnosis.training_check import (
     MIN_BATCHES,
     WindowNote,
 )
-from analyzer.timeutil import spoken_duration
+from analyzer.timeutil import short_seconds, spoken_duration
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -362,7 +362,7 @@ def common_note(changes: Sequence[CommonChange]) -> CommonNote:
     n, m = len(widest.shared), len(widest.group)
     what = ", ".join(
         f"the {c.finding.type.value} fault on {c.finding.channel} from "
-        f"{c.finding.onset_s:.6g} s ({'+'.join(_detectors(c.finding))})"
+        f"{short_seconds(c.finding.onset_s)} s ({'+'.join(_detectors(c.finding))})"
         for c in ordered[:LISTED]
     )
     if len(ordered) > LISTED:
@@ -371,7 +371,8 @@ def common_note(changes: Sequence[CommonChange]) -> CommonNote:
     hi = max(c.spread[1] for c in changes)
     head = (
         f"a slow change common to {n} of {m} sensors ({', '.join(widest.shared)}) from "
-        f"{first.finding.onset_s:.6g} s: temperature or a shared supply, not one sensor's fault"
+        f"{short_seconds(first.finding.onset_s)} s: temperature or a shared supply, not one "
+        "sensor's fault"
     )
     return CommonNote(
         f"{head}; not reported: {what}. Each such sensor's slow level "

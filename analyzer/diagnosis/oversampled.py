@@ -31,6 +31,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.diagnosis.changes import default_window, training_need
 from analyzer.diagnosis.training_check import WindowNote
 from analyzer.timeutil import plain_number, spoken_duration
 
@@ -144,6 +145,22 @@ def suggested_rate(content_hz: float, ratio: float = SUGGESTED_RATIO) -> float:
     return float(next(k * decade for k in (1, 2, 2.5, 5, 10) if k * decade >= need))
 
 
+def usable_rate(suggest: float, limit_hz: float, window_s: float) -> float | None:
+    """The slowest round rate from ``suggest`` up to ``limit_hz`` (the clock below which
+    the note is not given) at which a training window of ``window_s`` seconds holds the
+    rows the detectors need (:func:`~analyzer.diagnosis.changes.training_need` of their
+    default alarm window); None when none does. A rate the run then refuses is no advice:
+    ``rosbag2_test``'s 0.17-Hz sines at 25 Hz with ``--train 0:29`` were told ``--rate 5``,
+    where the window holds 146 of the 683 rows needed (and a gain of 0.5 put on one of
+    them was found at 25 Hz, from its onset, on the right sensor)."""
+    rate = suggest
+    while rate <= limit_hz * (1 + 1e-9):
+        if window_s * rate >= training_need(default_window(rate)):
+            return rate
+        rate = suggested_rate(rate * (1 + 1e-6), 1.0)  # (the next round one)
+    return None
+
+
 def oversampled_note(
     values: npt.NDArray[Any],
     channels: Sequence[str],
@@ -176,14 +193,22 @@ def oversampled_note(
     content = float(np.median(contents))
     if rate_hz <= ratio_limit(memory) * content:
         return None
-    suggest = suggested_rate(content, suggested_ratio(memory))
+    suggest = usable_rate(
+        suggested_rate(content, suggested_ratio(memory)),
+        ratio_limit(memory) * content,
+        (train[1] - train[0]) / rate_hz,
+    )
+    if suggest is None:
+        return None
     short = (
-        f"the channels are sampled at {rate_hz:g} Hz, {rate_hz / content:.0f} times the "
+        f"the channels are sampled at {plain_number(rate_hz)} Hz, {rate_hz / content:.0f} "
+        "times the "
         f"frequency below which {CONTENT_SHARE:.0%} of their healthy power lies "
         f"({plain_number(content)} Hz): the detectors' models remember about {memory} "
         f"samples ({spoken_duration(memory / rate_hz)} of a {spoken_duration(1 / content)} "
         f"period), so a gain or a slow change may be missed or put on another sensor; "
-        f"--rate {suggest:g} aligns the channels on a slower clock, where their {memory} "
+        f"--rate {plain_number(suggest)} aligns the channels on a slower clock, where their "
+        f"{memory} "
         f"samples span {spoken_duration(memory / suggest)} of that period"
     )
     return WindowNote(short, short)

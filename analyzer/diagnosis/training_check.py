@@ -86,6 +86,7 @@ import numpy.typing as npt
 from scipy import special
 
 from analyzer.diagnosis.merge import Finding
+from analyzer.timeutil import short_seconds, spoken_duration, window_text
 from analyzer.types import FaultType
 from analyzer.window_note import WindowNote
 
@@ -299,7 +300,7 @@ def training_notes(
         who = c.channels[0]
         if len(c.channels) > 1:
             who += f" (or {' or '.join(c.channels[1:])}: the others cannot tell them apart)"
-        back = "" if c.end_s is None else f" and back at about {c.end_s:.6g} s"
+        back = "" if c.end_s is None else f" and back at about {short_seconds(c.end_s)} s"
         last = c.hi_s if c.end_hi_s is None else c.end_hi_s  # (the change's, or its return's)
         before, after, short = _sides(a, c.lo_s, last, b - a, duration_s, need)
         advice = " or ".join(
@@ -311,7 +312,7 @@ def training_notes(
             needs = (
                 ""
                 if need is None
-                else f", shorter than the ~{need.seconds:.6g} s the detectors need"
+                else f", shorter than the ~{spoken_duration(need.seconds)} the detectors need"
             )
             said = "; ".join(short) + needs
             advice = (
@@ -323,12 +324,15 @@ def training_notes(
             )
         tells = f"a window that does not cross it tells: {advice}" if before or after else advice
         head = (
-            f"the healthy window ({a:.6g}-{b:.6g} s) is not steady: {who} changes inside it "
-            f"at about {c.at_s:.6g} s{back}"
+            f"the healthy window ({short_seconds(a)}-{short_seconds(b)} s) is not steady: {who} "
+            "changes "
+            f"inside it at about {short_seconds(c.at_s)} s{back}"
         )
-        between = f"between {c.lo_s:.6g} and {c.hi_s:.6g} s"
+        between = f"between {short_seconds(c.lo_s)} and {short_seconds(c.hi_s)} s"
         if c.end_lo_s is not None and c.end_hi_s is not None:
-            between += f"; back between {c.end_lo_s:.6g} and {c.end_hi_s:.6g} s"
+            between += (
+                f"; back between {short_seconds(c.end_lo_s)} and {short_seconds(c.end_hi_s)} s"
+            )
         notes.append(
             WindowNote(
                 f"{head} ({between}): {' and '.join(what)} "
@@ -353,9 +357,9 @@ def _sides(
     before = None
     if lo - a > 0:
         if need is None or need.holds(a, lo):
-            before = f"--train {a:.6g}:{lo:.6g}"
+            before = f"--train {window_text(a, lo)}"
         else:
-            short.append(f"before it: only {lo - a:.6g} s")
+            short.append(f"before it: only {short_seconds(lo - a)} s")
     # the window must end before the record does: the search runs from its end
     room = duration_s - (1.0 / need.rate_hz if need is not None else 0.0)
     end = last + length
@@ -364,9 +368,9 @@ def _sides(
         end = max(end, least) if max(end, least) < room else least
     after = None
     if end < room:
-        after = f"--train {last:.6g}:{end:.6g}"
+        after = f"--train {window_text(last, end)}"
     elif duration_s > last:
-        short.append(f"after it: only {duration_s - last:.6g} s to the record's end")
+        short.append(f"after it: only {short_seconds(duration_s - last)} s to the record's end")
     return before, after, short
 
 

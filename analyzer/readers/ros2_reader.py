@@ -22,6 +22,7 @@ topics are recorded in ``info.errors``.
 
 from __future__ import annotations
 
+import re
 import sqlite3
 from collections.abc import Iterator
 from contextlib import closing
@@ -414,8 +415,23 @@ def _in_time_order(bag: BagReader, storages: list[Any]) -> list[Any]:
     return ordered
 
 
+MISSING_FILES = re.compile(r"Some database files are missing: \[(.*)\]")
+"""rosbags' error on storage files metadata.yaml names that are not there (a Python
+list of them)."""
+
+
 def _bag_error(err: BaseException) -> str:
+    """The line on a ROS 2 bag rosbags could not open: the files metadata.yaml names that
+    are missing said as a list of names, not a Python list (``['b2/nodb/x_0.db3']``)."""
     text = one_line(err)
+    missing = MISSING_FILES.search(text)
+    if missing:
+        names = [n.strip().strip("'\"") for n in missing.group(1).split(",") if n.strip()]
+        what = "a storage file" if len(names) == 1 else "storage files"
+        return (
+            f"cannot open ROS 2 bag: {what} its metadata.yaml lists "
+            f"{'is' if len(names) == 1 else 'are'} missing: {', '.join(names)}"
+        )
     if isinstance(err, BagReaderError) and "Serialization format" in text:
         formats = text.split("{", 1)[-1].split("}", 1)[0]
         return f"unsupported serialization_format {formats} (only cdr is supported)"

@@ -46,6 +46,7 @@ from analyzer.report.svg import (
     text_width_in,
     to_svg,
 )
+from analyzer.timeutil import short_seconds
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -416,7 +417,7 @@ def signal_figure(
                         lw=0,
                     )
             else:
-                ax.set_title(f"close-up: onset ± {close_s:g} s", loc="left")
+                ax.set_title(f"close-up: onset ± {short_seconds(close_s or 0.0)} s", loc="left")
         axes[-1].set_xlabel(axis.label())
         return to_svg(fig, key)
 

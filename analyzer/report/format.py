@@ -9,6 +9,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from analyzer.diagnosis.classify import MIN_GAIN
+from analyzer.timeutil import seconds_text
 
 MISSING = "n/a"
 
@@ -82,10 +83,12 @@ def num_range(lo: Any, hi: Any, digits: int = 4) -> str:
 
 
 def seconds(x: float | None, decimals: int = 3) -> str:
-    """``16.000 s``; ``n/a`` for None."""
+    """``16.000 s``; ``n/a`` for None. Rounded as every line of the run rounds a time
+    (:func:`analyzer.timeutil.seconds_text`: half up, as the ISO times): an onset at
+    300.0625 s read ``300.062 s`` here and ``300.063 s`` on stderr."""
     if x is None or not math.isfinite(float(x)):
         return MISSING
-    return f"{float(x):.{decimals}f} s"
+    return f"{seconds_text(float(x), decimals)} s"
 
 
 TIME_DECIMALS = 4

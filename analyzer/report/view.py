@@ -172,8 +172,16 @@ class _Access(FigureParts, TableParts):
 
     # -- verdict ----------------------------------------------------------------------
     def title(self) -> str:
-        paths = [Path(str(i.get("path", ""))).name for i in self.doc.get("inputs", [])]
-        name = ", ".join(paths[:3]) + (f" and {len(paths) - 3} more" if len(paths) > 3 else "")
+        """The inputs' names; their folder's where more than three share one (a folder
+        run's title listed ``a_part0.bag, a_part1.mcap, a_part2 and 4 more``, broken
+        members among them)."""
+        full = [Path(str(i.get("path", ""))) for i in self.doc.get("inputs", [])]
+        paths = [p.name for p in full]
+        folders = {p.parent for p in full}
+        if len(paths) > 3 and len(folders) == 1 and next(iter(folders)).name:
+            name = f"{next(iter(folders)).name} ({len(paths)} files)"
+        else:
+            name = ", ".join(paths[:3]) + (f" and {len(paths) - 3} more" if len(paths) > 3 else "")
         return f"Sensor fault audit: {name}" if name else "Sensor fault audit"
 
     def headline(self, faults: Sequence[Mapping[str, Any]]) -> str:

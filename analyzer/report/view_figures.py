@@ -29,6 +29,7 @@ from analyzer.report import jobs as fg
 from analyzer.report.decimate import Clock, binned_nan_fraction, envelope, runs
 from analyzer.report.view_records import FigureView, FindingView
 from analyzer.report.workers import FigureBatch
+from analyzer.timeutil import short_seconds
 from analyzer.types import NS_PER_S
 
 FloatArray = npt.NDArray[np.float64]
@@ -144,7 +145,9 @@ class FigureParts:
                     + ("; dash-dot purple: end" if end is not None else "")
                     + ("; dotted grey: the limits its readings pile up at" if limits else "")
                     + (
-                        f". Below: close-up of the onset (± {self._close_s():g} s, shaded above)"
+                        ". Below: close-up of the onset (± "
+                        f"{short_seconds(self._close_s())} s, shaded "
+                        "above)"
                         if fg.close_up(t, onset, self._close_s()) is not None
                         else ""
                     )

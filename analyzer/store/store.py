@@ -46,7 +46,7 @@ from analyzer.readers.base import ChannelChunk
 from analyzer.readers.tally import Tally
 from analyzer.scratch import make_scratch, remove_scratch
 from analyzer.store.patterns import matching
-from analyzer.timeutil import plain_number
+from analyzer.timeutil import plain_number, short_seconds, spoken_duration
 from analyzer.types import NS_PER_S
 
 FloatArray = npt.NDArray[np.float64]
@@ -540,15 +540,18 @@ class ChannelStore:
         span = (t1 - t0) / NS_PER_S
         if n < 2 and rate_hz is not None and span > 0:
             raise StoreError(
-                f"--rate {rate:g} Hz is too low: the data span {span:.6g} s, which gives "
+                f"--rate {plain_number(rate)} Hz is too low: the data span "
+                f"{spoken_duration(span)}, which "
+                f"gives "
                 f"{n} row(s) on that clock (need at least 2, so at least "
                 f"{plain_number(1 / span)} Hz)"
             )
         most = max(i.samples for i in infos)  # type: ignore[union-attr]
         if n > MAX_ROWS_PER_SAMPLE * most + MIN_ROWS_ALLOWED:
             raise StoreError(
-                f"the common clock at {rate:g} Hz would need "
-                f"{_count(n if np.isfinite(rows) else span * rate)} rows over {span:.6g} s for "
+                f"the common clock at {plain_number(rate)} Hz would need "
+                f"{_count(n if np.isfinite(rows) else span * rate)} rows over "
+                f"{spoken_duration(span)} for "
                 f"at most {most:,} samples per channel: a timestamp lies far from the others "
                 "(an outlier, or a wrong unit), or --rate is far above the data's rate"
                 + self._largest_gap(channels, span)
@@ -592,8 +595,8 @@ class ChannelStore:
                 "an outlier timestamp"
             )
         return (
-            f"; {name} has no sample for {_span_text(gap)} after {where:.6g} s: records that "
-            "far apart in time are analyzed one at a time (one clock cannot hold them)"
+            f"; {name} has no sample for {_span_text(gap)} after {short_seconds(where)} s: records "
+            "that far apart in time are analyzed one at a time (one clock cannot hold them)"
         )
 
     def _apart(self, channels: Sequence[str], span_s: float) -> str:
@@ -1218,7 +1221,7 @@ def _span_text(seconds: float) -> str:
         return f"{seconds / 86400:.1f} days"
     if seconds >= 2 * 3600:
         return f"{seconds / 3600:.1f} h"
-    return f"{seconds:.6g} s"
+    return spoken_duration(seconds)
 
 
 def _count(rows: float) -> str:
