@@ -943,4 +943,5 @@ def test_the_model_runs_stretch_is_named_or_its_absence_said():
     got, said = _model_stretch(found, 1400, 100.0, (0, 100), model)  # 1-4 s beats 13-14 s
     assert got == (100, 400)
     got, said = _model_stretch([_event("other", 1.5, None)], 2000, 100.0, (0, 100), model)
-    assert got is None and "no stretch of at least 1 s" in said
+    # (the duration as the notes speak it: spoken_duration's "1.0 s")
+    assert got is None and "no stretch of at least 1.0 s of this record" in said
