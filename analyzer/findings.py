@@ -26,6 +26,9 @@ from analyzer.outdir import write_atomic
 from analyzer.readers.base import InputInfo
 from analyzer.regenerate import write_corrected_csv
 from analyzer.selection import STUCK_SAMPLES
+from analyzer.silent import MIN_SAMPLES as SILENT_SAMPLES
+from analyzer.silent import MIN_WINDOWS as SILENT_WINDOWS
+from analyzer.silent import SILENT_CHECK
 from analyzer.store import ChannelInfo
 from analyzer.timeutil import iso_utc
 from analyzer.types import NS_PER_S
@@ -216,7 +219,8 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
             }
             for r in a.results
         ]
-        + _constant_check(a.findings),
+        + _constant_check(a.findings)
+        + _silent_check(a.findings),
         "model": a.model_info,
         "saved_model": a.saved_model,
         "screen": a.screen,
@@ -249,6 +253,24 @@ def _constant_check(found: list[Finding]) -> list[dict[str, Any]]:
             "name": "constant_check",
             "channels": stuck,
             "params": {"min_samples": STUCK_SAMPLES},
+            "model": {},
+            "notes": [],
+        }
+    ]
+
+
+def _silent_check(found: list[Finding]) -> list[dict[str, Any]]:
+    """The entry of ``detectors`` for the check that reported channels whose readings gave
+    way to blank cells or NaN for the rest of the record (:mod:`analyzer.silent`), where
+    it did."""
+    silent = [f.channel for f in found if f.detector == SILENT_CHECK]
+    if not silent:
+        return []
+    return [
+        {
+            "name": SILENT_CHECK,
+            "channels": silent,
+            "params": {"min_samples": SILENT_SAMPLES, "min_alarm_windows": SILENT_WINDOWS},
             "model": {},
             "notes": [],
         }

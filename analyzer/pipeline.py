@@ -160,6 +160,7 @@ from analyzer.selection import (
     select_channels,
     stuck_words,
 )
+from analyzer.silent import merged, silent_findings
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
 from analyzer.timeutil import (
     iso_utc,
@@ -662,6 +663,8 @@ def _analyze(
         if not store.infos():
             raise ReaderError(no_numeric_channel(archive.inputs))
         reused = options.model
+        # CSV columns blank in every row: no channel, but named as what they are
+        blank = {c for i in archive.inputs for c in i.blank_until} - set(store.names)
         if reused is None:
             relabelled = [p for i in archive.inputs for p in i.relabelled]
             # (the config's groups and [model] name their channels: all are kept)
@@ -675,9 +678,10 @@ def _analyze(
                 _config_named(options),
                 [t for i in archive.inputs for t in i.log_topics],
                 _config_sensors(options),
+                blank,
             )
         else:
-            chosen = model_channels(store, reused, options, notes)
+            chosen = model_channels(store, reused, options, notes, blank)
         one_clock(chosen, archive.inputs)  # (else: "a timestamp lies far from the others")
         notes.extend(n for n in [flipped_note(archive.inputs, chosen)] if n)
         t0 = time.perf_counter()
@@ -763,6 +767,11 @@ def _analyze(
         )
         few = len(chosen) - len(lost) < SEARCH_AGAIN_MIN
         notes.extend(_partial_channels(stretches, chosen, aligned.rate_hz, set(lost), fixed or few))
+        # a sensor whose readings give way to blank cells or NaN for the rest of the record
+        # (the others going on): dead, a finding as one that reads 0 (analyzer.silent)
+        silent = silent_findings(
+            values, chosen, aligned.rate_hz, aligned.start_ns, infos, archive.inputs
+        )
         if fixed or few:
             lost = {}
         data = Dataset(values, tuple(chosen), aligned.rate_hz, train, healthy=reused is None)
@@ -867,7 +876,7 @@ def _analyze(
                     named=True,
                     held=_held_rows(values),
                 )
-            if not _constant_only_possible(notes, options):
+            if not _constant_only_possible(notes, options, silent):
                 if named_error is err:
                     raise
                 raise named_error from err
@@ -889,13 +898,13 @@ def _analyze(
             absurd = next((n for n in notes if n.startswith("infinite or absurd values")), None)
             if absurd is not None:  # (a channel whose every value is beyond 1e30, say)
                 error = DetectorError(f"{error}; {absurd}")
-            if not _constant_only_possible(notes, options):
+            if not _constant_only_possible(notes, options, silent):
                 raise error from None
             unrun = error
         if unrun is not None:
             # a sensor named that reads one value over the record is a fault the
             # detectors need not confirm: reported, with why they could not run
-            notes.append(NoDetectorNote.of(unrun, notes))
+            notes.append(NoDetectorNote.of(unrun, notes, silent))
             timings["total"] = time.perf_counter() - t_start
             return Analysis(
                 inputs=archive.inputs,
@@ -907,7 +916,7 @@ def _analyze(
                 n=aligned.n,
                 train=train,
                 results=[],
-                findings=constant_findings(notes, []),
+                findings=merged(silent, constant_findings(notes, [])),
                 values=values,
                 notes=notes,
                 timings=timings,
@@ -1120,7 +1129,7 @@ def _analyze(
         ends_with_data(findings, values, chosen, aligned.rate_hz)
         # the sensors named (--channels, the config, the model) that read one value over
         # the whole record: one finding each, with what the detectors found on it
-        findings = constant_findings(notes, findings)
+        findings = merged(silent, constant_findings(notes, findings))
         timings["total"] = time.perf_counter() - t_start
         return Analysis(
             inputs=archive.inputs,
@@ -1170,13 +1179,18 @@ def _analyze(
         )
 
 
-def _constant_only_possible(notes: Sequence[str], options: RunOptions) -> bool:
+def _constant_only_possible(
+    notes: Sequence[str], options: RunOptions, silent: Sequence[Finding] = ()
+) -> bool:
     """Whether a run whose detectors could not run reports the constant check's findings
-    (a :class:`~analyzer.selection.StuckNote` among the ``notes``) rather than stop: a
+    (a :class:`~analyzer.selection.StuckNote` among the ``notes``) or the ``silent``
+    sensors' (:mod:`analyzer.silent`) rather than stop: a
     dead sensor the user named needs no model to be seen (a 12-s cart-pole record whose
     ``cart_position`` reads 0.0 on all 244 samples stopped with "no detector could run",
     naming it nowhere: the audit). Not with ``--save-model``, which has nothing to save."""
-    return options.save_model is None and any(isinstance(n, StuckNote) for n in notes)
+    return options.save_model is None and (
+        bool(silent) or any(isinstance(n, StuckNote) for n in notes)
+    )
 
 
 class NoDetectorNote(WindowNote):
@@ -1186,13 +1200,19 @@ class NoDetectorNote(WindowNote):
     for, so the exit code 1 is the dead sensors' only."""
 
     @classmethod
-    def of(cls, error: Exception, notes: Sequence[str]) -> NoDetectorNote:
+    def of(
+        cls, error: Exception, notes: Sequence[str], silent: Sequence[Finding] = ()
+    ) -> NoDetectorNote:
         """The note on ``error`` (the detectors' error), naming the channels the
-        ``notes``' :class:`~analyzer.selection.StuckNote` reports."""
+        ``notes``' :class:`~analyzer.selection.StuckNote` reports and the ``silent``
+        findings' (:mod:`analyzer.silent`)."""
         names = [c for n in notes if isinstance(n, StuckNote) for c in n.names]
+        names += [f.channel for f in silent]
+        which = [w for w, on in (("constant", len(names) > len(silent)), ("silent", silent)) if on]
+        checks = f"{' and '.join(which)} check{'s' if len(which) > 1 else ''} ran"
         text = (
             f"no fault but a dead or stuck sensor ({', '.join(names)}) was searched for: "
-            f"only the constant check ran (it needs no healthy window); {one_line(error)}"
+            f"only the {checks} (it needs no healthy window); {one_line(error)}"
         )
         return cls(text, text)
 

@@ -5,7 +5,7 @@ settle, and what the notes and ``findings.json`` say about the model."""
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +26,11 @@ WARMUP_S = 1.0
 
 
 def model_channels(
-    store: ChannelStore, model: SavedModel, options: RunOptions, notes: list[str]
+    store: ChannelStore,
+    model: SavedModel,
+    options: RunOptions,
+    notes: list[str],
+    blank: Collection[str] = (),
 ) -> list[str]:
     """``--model``'s channels, all of which this archive must have (:class:`UsageError`
     naming the option and the missing ones), in the model's order; a note names the
@@ -38,6 +42,16 @@ def model_channels(
     have = {i.name for i in infos}
     missing = [c for c in model.channels if c not in have]
     where = options.model_path or "the model"
+    dead = [c for c in missing if c in blank]
+    if dead:
+        # (the column is there, blank in every row: "this archive has no channel s3"
+        # was false, and a dead sensor's archive was refused as another system's)
+        raise ArchiveUsageError(
+            f"--model {where}: {', '.join(dead)} "
+            f"{'is' if len(dead) == 1 else 'are'} in this archive but blank in every row "
+            "(a dead sensor, or one not recorded): no reading to audit it by; the model "
+            f"needs all its {len(model.channels)} channels"
+        )
     if missing:
         raise ArchiveUsageError(_missing_line(store, missing, where, len(model.channels)))
     check_model_options(model, options.rate, options.detectors, options.model_path)

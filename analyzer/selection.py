@@ -619,6 +619,7 @@ def select_channels(
     named: Collection[str] = (),
     log_topics: Sequence[str] = (),
     sensors: Collection[str] = (),
+    blank: Collection[str] = (),
 ) -> list[str]:
     """The channels to analyze: ``--channels``' (``patterns``), else every numeric one
     that is not constant, whose meaning does not change between messages (names
@@ -656,6 +657,14 @@ def select_channels(
         )
     if patterns:
         unmatched = store.unmatched_line(patterns)
+        dead = [p for p in patterns if p in blank and p not in infos]
+        if unmatched and dead:
+            # (a CSV column blank in every row, ``blank``: "matches no channel" was false)
+            raise ArchiveUsageError(
+                f"--channels: {', '.join(dead)} {'is' if len(dead) == 1 else 'are'} in the "
+                "input but blank in every row (a dead sensor, or one not recorded): no "
+                "reading to analyze"
+            )
         if unmatched:
             raise ArchiveUsageError(unmatched)
         chosen = store.select(patterns)

@@ -54,6 +54,12 @@ class InputInfo:
     time: str = ""
     """Where its times come from, for people, where the reader chose (a CSV's time column
     and how its cells were read); ``inspect`` shows it."""
+    blank_until: dict[str, int] = field(default_factory=dict)
+    """Of a CSV's columns blank in its last rows (or in every row): the time of the file's
+    last row (ns), to which the column was written as "no reading" (blank or ``nan``
+    cells on rows whose other columns have data). A sensor that went silent there, not
+    a column that was never written: :func:`analyzer.silent.silent_findings` tells it
+    from a topic that stops publishing (a node stopped), which leaves no such mark."""
     relabelled: list[str] = field(default_factory=list)
     """Prefixes of channel names whose meaning changes between messages (an array's
     element named by a string that changes, ``/tf.transforms[0].``; a ``JointState``'s

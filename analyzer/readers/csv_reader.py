@@ -1143,6 +1143,11 @@ class CsvReader:
         # of each channel: values at the time of its value before, and its last time
         repeats: dict[str, int] = {}
         latest: dict[str, int] = {}
+        read_to: dict[str, int] = {}  # of each numeric column: its latest time with a reading
+        # and its rows with a reading, and the rows up to its last one (a sparse table's
+        # column, one topic a row, is blank on the other topics' rows: no silence)
+        dense: dict[str, tuple[int, int]] = {}
+        newest = -(2**63)  # the latest time of any row kept
         garbage = _Garbage()
         garbled: tuple[int, str] | None = None  # of a corrupt .gz: (data row, why)
         self._clock = (0, 0)
@@ -1199,6 +1204,8 @@ class CsvReader:
                     steps.row = rows + row + 1
                     steps.text = str(batch.column(self._layout.time_column)[row].as_py())
                 rows += batch.num_rows
+                if t_kept.size:
+                    newest = max(newest, int(t_kept.max()))
                 for index, name in enumerate(self._layout.names):
                     if index == self._layout.time_column or index in self._layout.ignored:
                         continue
@@ -1208,6 +1215,9 @@ class CsvReader:
                         values = _numpy(column)
                         reorder.push(name, t_kept, values[keep] if dropped else values)
                         if t_kept.size:
+                            read_to[name] = max(read_to.get(name, -(2**63)), int(t_kept.max()))
+                            had = dense.get(name, (0, 0))[0]
+                            dense[name] = (had + t_kept.size, rows)
                             again = inside + int(latest.get(name) == int(t_kept[0]))
                             repeats[name] = repeats.get(name, 0) + again
                             latest[name] = int(t_kept[-1])
@@ -1228,7 +1238,12 @@ class CsvReader:
                     present &= keep
                     times = t_ns[present]
                     reorder.push(name, times, values[present])
+                    read_to.setdefault(name, -(2**63))
                     if times.size:
+                        read_to[name] = max(read_to[name], int(times.max()))
+                        had = dense.get(name, (0, 0))[0]
+                        at = rows - batch.num_rows + int(np.flatnonzero(present)[-1]) + 1
+                        dense[name] = (had + times.size, at)
                         again = int(np.count_nonzero(times[1:] == times[:-1]))
                         again += int(latest.get(name) == int(times[0]))
                         repeats[name] = repeats.get(name, 0) + again
@@ -1246,6 +1261,13 @@ class CsvReader:
         finally:
             blocks.close()
         yield from reorder.flush()
+        # columns written as no reading (blank or nan cells) in the file's last rows, read
+        # on most rows before (more than half: at most one topic of a sparse table is)
+        self.info.blank_until = {
+            name: newest
+            for name, at in read_to.items()
+            if at < newest and 2 * dense.get(name, (0, 0))[0] > dense.get(name, (0, 0))[1]
+        }
         if whole and self._damage is None:
             self._check_rows(rows + broken + self._rows_cut)
         if self._damage is not None:
@@ -1292,7 +1314,11 @@ class CsvReader:
         ]
         if rows and blank:
             # (a column blank in every row had no note: it vanished from inspect)
-            self._error(f"{', '.join(blank)}: blank in every row; no channel")
+            self._error(
+                f"{', '.join(blank)}: blank in every row (no reading at all: a dead sensor, "
+                "or one not recorded); not analyzed"
+            )
+            self.info.blank_until.update(dict.fromkeys(blank, newest))
         for line in reorder.drop_report():
             self._error(line)
 

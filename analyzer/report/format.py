@@ -196,6 +196,8 @@ def magnitude(mag: Mapping[str, Any]) -> str:
             parts.append(f"gain ×{num(v)}{_gain_note(v)}")
         elif key == "rate_per_s":
             parts.append(f"drift {_signed(v)} per s")
+        elif key == "no_data_s":  # (analyzer.silent: blank or NaN to the record's end)
+            parts.append(f"no reading for {num(v)} s (dead sensor: silent)")
         else:
             parts.append(f"{key} {num(v)}")
     return ", ".join(parts) or MISSING

@@ -89,6 +89,19 @@ CHECKS: dict[str, Method] = {
         "like, is left out with a warning (nothing tells a dead sensor from a quantity "
         "nothing changed, a planar robot's height).",
     ),
+    "silent_check": Method(
+        "silent_check",
+        "A sensor that goes silent",
+        "",
+        "A channel that has readings and then, to the end of the record, none, while the "
+        "other channels go on, is reported as a fault from its first missing sample, when "
+        "the file marks the silence: blank (or nan) cells on rows whose other columns have "
+        "data, or a topic that goes on publishing NaN. It needs at least 100 samples and "
+        "three of the detectors' long alarm windows of silence. A topic whose messages "
+        "simply stop is not reported: a recorder or a node stopped, not necessarily the "
+        "sensor; a note says the channel has no reading there. The fault's size is the "
+        "time without a reading (no_data_s).",
+    ),
 }
 """Checks that are not detectors, described where they reported something (a report
 lists every detector, run or not; a check only when it ran)."""

@@ -2,7 +2,9 @@
 (``analyzer.reconfigure``), so a fault on another sensor while it is missing is found.
 
 Before, the bank and the detection filter lost their view of every channel where one was
-missing: a 2-sd offset on s3 24 s after s4 died went unreported (exit 0, a note)."""
+missing: a 2-sd offset on s3 24 s after s4 died went unreported (exit 0, a note). The
+dead channel, blank or NaN to the end, is itself a finding (``silent_check``,
+:mod:`analyzer.silent`, since the ux53 audit): the detectors' findings are the others."""
 
 from __future__ import annotations
 
@@ -35,6 +37,19 @@ def _archive(path: Path, seed: int, dead: int, faulty: int | None, kind: str = "
     return names[dead]
 
 
+def _detected(faults: list) -> list:
+    """The detectors' findings: all but the dead channel's own (``silent_check``)."""
+    return [f for f in faults if f["detector"] != "silent_check"]
+
+
+def _silent(faults: list, lost: str) -> None:
+    """The one ``silent_check`` finding: ``lost``, from 48 s to the end (72 s)."""
+    (f,) = [f for f in faults if f["detector"] == "silent_check"]
+    assert (f["channel"], f["type"], f["end_s"]) == (lost, "other", None)
+    assert f["onset_s"] == pytest.approx(48.0, abs=0.02)
+    assert f["magnitude"]["no_data_s"] == pytest.approx(72.0, abs=0.05)
+
+
 def _run(capsys, path: Path, out: Path, *extra: str) -> tuple[int, dict]:
     code, _, err = run_cli(["run", path, "--out", out, "--no-progress", *extra], capsys)
     assert code in (0, 1), err
@@ -49,7 +64,8 @@ def test_a_fault_while_a_channel_is_missing_is_found(tmp_path, capsys, seed, dea
     lost = _archive(tmp_path / "a.csv", seed, dead, faulty, kind)
     code, doc = _run(capsys, tmp_path / "a.csv", tmp_path / "out")
     assert code == 1
-    (f,) = doc["faults"]
+    (f,) = _detected(doc["faults"])
+    _silent(doc["faults"], lost)
     assert (f["channel"], f["type"]) == (f"s{faulty}", kind)
     assert abs(f["onset_s"] - 72.0) < 1.0
     assert f["evidence"]["searched_without"] == [lost]
@@ -65,7 +81,8 @@ def test_a_fault_while_a_channel_is_missing_is_found(tmp_path, capsys, seed, dea
 def test_a_healthy_record_with_a_missing_channel_stays_healthy(tmp_path, capsys, seed):
     lost = _archive(tmp_path / "a.csv", seed, seed % 6, None)
     code, doc = _run(capsys, tmp_path / "a.csv", tmp_path / "out")
-    assert code == 0, doc["faults"]
+    assert code == 1 and not _detected(doc["faults"]), doc["faults"]
+    _silent(doc["faults"], lost)
     assert any(
         n.startswith(f"the other channels were searched again without {lost}")
         and "nothing more was found there" in n
@@ -110,12 +127,15 @@ def test_the_second_search_on_a_mapped_matrix_and_in_groups(tmp_path, monkeypatc
     assert (work / "aligned-without.npy").exists()
     monkeypatch.setattr(pipeline, "partition", lambda *a, **k: grouping.partition(*a, **k, size=3))
     grouped = pipeline.analyze([tmp_path / "a.csv"], RunOptions(jobs=2))
-    for run in (memory, mapped, grouped):
-        assert [(f.channel, f.type.value) for f in run.findings] == [("s3", "additive")]
-        assert run.findings[0].evidence["searched_without"] == ["s4"]
-    assert mapped.findings[0].onset_s == memory.findings[0].onset_s
-    assert mapped.findings[0].magnitude["offset"] == pytest.approx(
-        memory.findings[0].magnitude["offset"], rel=1e-6
+    found = {}
+    for name, run in (("memory", memory), ("mapped", mapped), ("grouped", grouped)):
+        pairs = [(f.channel, f.type.value, f.detector == "silent_check") for f in run.findings]
+        assert pairs == [("s4", "other", True), ("s3", "additive", False)]
+        found[name] = run.findings[1]
+        assert found[name].evidence["searched_without"] == ["s4"]
+    assert found["mapped"].onset_s == found["memory"].onset_s
+    assert found["mapped"].magnitude["offset"] == pytest.approx(
+        found["memory"].magnitude["offset"], rel=1e-6
     )
 
 
@@ -157,8 +177,12 @@ def test_a_sensor_that_publishes_nan_after_it_died(tmp_path, capsys):
     write_archive(tmp_path / "a.mcap", "mcap", t_ns, {c: Y[:, j] for j, c in enumerate(names)})
     code, doc = _run(capsys, tmp_path / "a.mcap", tmp_path / "out")
     assert code == 1
-    assert [(f["channel"], f["type"]) for f in doc["faults"]] == [("/s3.data", "additive")]
-    assert doc["faults"][0]["evidence"]["searched_without"] == ["/s4.data"]
+    assert [(f["channel"], f["type"]) for f in doc["faults"]] == [
+        ("/s4.data", "other"),
+        ("/s3.data", "additive"),
+    ]
+    _silent(doc["faults"], "/s4.data")
+    assert doc["faults"][1]["evidence"]["searched_without"] == ["/s4.data"]
     assert any(
         n.startswith("/s4.data has no reading in its last 72 s (after 48 s) of the record")
         for n in doc["notes"]
@@ -206,11 +230,14 @@ def test_the_second_search_keeps_the_first_searchs_results_and_the_schema(tmp_pa
         assert not errors, [e.message for e in errors]
     serial, threads = docs
     for a, b in zip(serial["detectors"], threads["detectors"], strict=True):
+        if a["name"] == "silent_check":  # (a check, no model: the same channels)
+            assert a == b
+            continue
         for key in ("training_tests", "windowed_tests"):
             assert json.dumps(a["model"][key], sort_keys=True) == json.dumps(
                 b["model"][key], sort_keys=True
             )
-    assert serial["faults"][0]["evidence"]["searched_without"] == ["s4"]
+    assert _detected(serial["faults"])[0]["evidence"]["searched_without"] == ["s4"]
 
 
 def test_no_second_search_for_a_channel_missing_only_in_the_healthy_window(tmp_path, monkeypatch):

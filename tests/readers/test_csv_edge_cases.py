@@ -53,7 +53,10 @@ def test_a_column_blank_in_every_row_is_named(tmp_path: Path) -> None:
     path.write_text("time,a,empty,late\n" + late)
     got, info = read(path)
     assert set(got) == {"a", "late"}
-    assert info.errors == ["empty: blank in every row; no channel"]
+    assert info.errors == [
+        "empty: blank in every row (no reading at all: a dead sensor, or one not recorded); "
+        "not analyzed"
+    ]
     # a separator ending every line (header too) is no column left blank
     trailing = tmp_path / "trailing.csv"
     trailing.write_text("time,a,\n" + "".join(f"{i * 0.01:.2f},{i},\n" for i in range(100)))

@@ -1,0 +1,129 @@
+"""Sensors that go silent: a channel that has readings and then, for the rest of the
+record, explicit "no reading" marks while the other analyzed channels go on.
+
+The marks are a CSV's blank (or ``nan``) cells on rows whose other columns have data
+(:attr:`~analyzer.readers.base.InputInfo.blank_until`) and a topic that goes on
+publishing NaN (its samples run on, read as NaN: the channel's last sample, NaN or not,
+:attr:`~analyzer.store.store.ChannelInfo.end_ns`). Such a sensor is dead as surely as
+one that reads 0 from then on, which the detectors report as a gain of 0: a note alone
+let it pass as "no sensor fault found", exit 0 (the ux53 audit). A topic whose messages
+simply stop leaves no mark: a node or a recorder stopped, not necessarily the sensor; its
+channels keep the run's note (and a finding under way there ends with the data,
+:mod:`analyzer.data_ends`).
+
+The rule: the silence lasts from the channel's last reading to the record's last reading
+(of any analyzed channel), the marks reach to within one long alarm window of that end,
+and it holds at least :data:`MIN_SAMPLES` rows and :data:`MIN_WINDOWS` long alarm
+windows (:func:`~analyzer.diagnosis.readings.shortest`). The finding is ``other`` from
+the first missing sample, ``magnitude.no_data_s`` the seconds without a reading, detector
+:data:`SILENT_CHECK`, confidence 1 (every row read).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy.typing as npt
+
+from analyzer.diagnosis import Finding
+from analyzer.diagnosis.readings import shortest
+from analyzer.readers.base import InputInfo
+from analyzer.reconfigure import last_rows
+from analyzer.store.store import ChannelInfo
+from analyzer.types import FaultType
+
+SILENT_CHECK = "silent_check"
+"""The name findings.json gives the check (its findings' ``detector``)."""
+
+MIN_SAMPLES = 100
+"""Fewest rows of silence for a finding: the evidence the constant check asks of a stuck
+sensor (one value on at least 100 samples), so a silent sensor and a frozen one are
+judged on as much data."""
+
+MIN_WINDOWS = 3
+"""Fewest long alarm windows of silence for a finding: a detector's alarm is judged on
+one; three are more than a dropped burst of rows that a logger fills in again."""
+
+DECIMALS = 4
+"""Decimals of the times written, as of ``onset_s``."""
+
+
+def silent_findings(
+    values: npt.NDArray[Any],
+    chosen: Sequence[str],
+    rate_hz: float,
+    start_ns: int,
+    infos: Sequence[ChannelInfo],
+    inputs: Sequence[InputInfo],
+) -> list[Finding]:
+    """A finding for each channel of ``chosen`` (the columns of the aligned matrix
+    ``values``, rows at ``rate_hz`` from ``start_ns``) that went silent by the module's
+    rule; ``infos`` and ``inputs`` give where its explicit marks end."""
+    if not rate_hz > 0 or values.shape[0] == 0:
+        return []
+    last = last_rows(values)
+    if not bool((last >= 0).any()):
+        return []
+    record = int(last.max())
+    window = shortest(rate_hz)
+    least = max(MIN_SAMPLES, MIN_WINDOWS * window)
+    marked = _marks_end(infos, inputs)
+    out = []
+    for j, name in enumerate(chosen):
+        row = int(last[j])
+        if row < 0 or record - row < least or name not in marked:
+            continue
+        mark = (marked[name] - start_ns) * rate_hz / 1e9
+        if mark < record - window:
+            continue  # its samples stop: no mark of silence (a node stopped)
+        out.append(silent_finding(name, (row + 1) / rate_hz, (record - row) / rate_hz))
+    return out
+
+
+def silent_finding(name: str, onset_s: float, no_data_s: float) -> Finding:
+    """The finding on ``name``, without a reading from ``onset_s`` for ``no_data_s``
+    seconds, to the record's end."""
+    return Finding(
+        name,
+        FaultType.OTHER,
+        round(onset_s, DECIMALS),
+        None,
+        {"no_data_s": round(no_data_s, DECIMALS)},
+        1.0,
+        SILENT_CHECK,
+        evidence={"detectors": [SILENT_CHECK], "tests": {}},
+    )
+
+
+def _marks_end(infos: Sequence[ChannelInfo], inputs: Sequence[InputInfo]) -> dict[str, int]:
+    """Of each channel with explicit "no reading" marks, the latest time they reach (ns):
+    a CSV column's blank cells to its file's last row; NaN samples to the last sample."""
+    marked: dict[str, int] = {}
+    for info in infos:
+        if info.samples > info.finite:  # NaN samples: published as no reading
+            marked[info.name] = info.end_ns
+    for i in inputs:
+        for name, at in i.blank_until.items():
+            marked[name] = max(marked.get(name, at), at)
+    return marked
+
+
+def merged(silent: Sequence[Finding], findings: Sequence[Finding]) -> list[Finding]:
+    """``findings`` with the ``silent`` ones, sorted by onset: a detector's finding on a
+    silent channel from its silence on is the same fault (CONTRACT.md: one physical fault
+    is one entry), its detector named in the silent finding's ``evidence.detectors``."""
+    at: Mapping[str, Finding] = {f.channel: f for f in silent}
+    out = []
+    for f in findings:
+        s = at.get(f.channel)
+        if s is not None and f.onset_s >= s.onset_s:
+            names = f.evidence.get("detectors", [f.detector])
+            s.evidence["detectors"] = list(dict.fromkeys([*s.evidence["detectors"], *names]))
+            continue
+        out.append(f)
+    out.extend(silent)
+    return sorted(out, key=lambda f: (f.onset_s, f.channel))
+
+
+__all__ = ["SILENT_CHECK", "merged", "silent_finding", "silent_findings"]
