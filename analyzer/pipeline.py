@@ -57,7 +57,8 @@ from analyzer.diagnosis.evidence import (
     whitenings,
     windowed_summary,
 )
-from analyzer.diagnosis.levels import excursions, level_note, response_levels
+from analyzer.diagnosis.levels import LEVEL_TRAIN_BINS, excursions, level_note, response_levels
+from analyzer.diagnosis.load import LOUD_NOTE, load_range, loudest
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.oversampled import MEMORY_SAMPLES, oversampled_note
 from analyzer.diagnosis.readings import refuted_by_readings, residual_health
@@ -415,6 +416,44 @@ def _rate_against_model(
         f"the channels run at {plain_number(own, 4)} Hz and the model at "
         f"{plain_number(model_hz, 4)} Hz: they are resampled to the model's rate{between} (a "
         "model fitted at their own rate fits them best)"
+    )
+    return [WindowNote(text, text)]
+
+
+def _louder_than_window(
+    values: Any, train: tuple[int, int], rate_hz: float, train_bins: npt.NDArray[np.bool_]
+) -> list[str]:
+    """A note (repeated on stderr) when the response after the healthy window ``train``
+    (rows) grows to :data:`~analyzer.diagnosis.load.LOUD_NOTE` times the loudest it was
+    inside it or more (the median channel's 2-s variance: :mod:`analyzer.diagnosis.load`),
+    for a window too short for the level map's note (``train_bins``, its bins inside the
+    window: fewer than :data:`~analyzer.diagnosis.levels.LEVEL_TRAIN_BINS`; a longer one
+    shows the response's own spread, and :func:`~analyzer.diagnosis.levels.level_note`
+    names the stretches beyond it).
+    The models' errors grow with the response, so a quiet window's thresholds are low for
+    the loud stretches: a healthy 60-s record of a simulated 5-floor building, its first
+    12 s as the window, went up to 11 times its level after it, and with one floor's
+    sensor left out 2-3 of 10 such records had false findings there (none with
+    ``--train 0:30``). The detectors ask for more evidence in such stretches; the note
+    says where, and that a longer window covers it."""
+    if int(train_bins.sum()) >= LEVEL_TRAIN_BINS:
+        return []
+    ratio, row = loudest(
+        load_range(values, train, rate_hz),
+        values,
+        range(values.shape[1]),
+        train[1],
+        values.shape[0],
+    )
+    if ratio < LOUD_NOTE:
+        return []
+    at = row / rate_hz
+    text = (
+        f"the response after the healthy window grows to {ratio:.1f} times the loudest it "
+        f"was inside it (at {at:.1f} s): the models were fitted on a quieter stretch and "
+        "their errors grow with the response, so the detectors ask more of an alarm there "
+        "before they report it; a longer healthy window (--train) that takes in louder "
+        "stretches covers it"
     )
     return [WindowNote(text, text)]
 
@@ -974,6 +1013,8 @@ def _analyze(
         unexplained = unexplained_alarms(results, findings, slack, excursions(levels)[0])
         notes.extend(_after_gap_notes(findings, values, chosen, aligned.rate_hz))
         notes.extend(n for n in [level_note(levels)] if n)
+        if levels is not None and levels.train is not None:
+            notes.extend(_louder_than_window(values, train, aligned.rate_hz, levels.train))
         if isinstance(executor, DaskExecutor):  # after the work: tasks sent again, say
             notes.append(executor.describe())
         if screen is not None:
