@@ -72,7 +72,7 @@ from analyzer.diagnosis.changes import (
 )
 from analyzer.diagnosis.classify import CORRELATION_LAGS, integrated_time
 from analyzer.diagnosis.events import events_from_residual, first_bound
-from analyzer.diagnosis.load import LOUD_KINDS, LoadGuard
+from analyzer.diagnosis.load import LOUD_KINDS, LOUD_MARK, LoadGuard
 from analyzer.diagnosis.streamed import (
     BlockMeans,
     LaggedSums,
@@ -919,8 +919,8 @@ class DetectionFilter:
                 if not many and ev.type in LOUD_KINDS and not apart:
                     notes.append(
                         f"anomaly on {names[j]} at {when} not reported: the other sensors' "
-                        f"response there was {load:.1f} times the loudest of the healthy "
-                        "window, which raises every filter's residual, and its filter was "
+                        f"signals there were {load:.1f} {LOUD_MARK}, which raises every "
+                        "filter's residual, and its filter was "
                         f"no closer to its direction than the others to theirs ({viol[j]:.2f} "
                         f"of its threshold, their typical {typical:.2f}; at most "
                         f"{DIRECTION_SEPARATION:g}x isolates in so loud a stretch)"

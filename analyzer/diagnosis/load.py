@@ -9,8 +9,9 @@ first mode's envelope time constant 7.9 s) the 2-s mean square of a 12-s window 
 records). There every residual rises together, and in a small bank one other residual
 over its threshold confirmed healthy alarms as faults (``benchmarks/sweep_missing_floor.py``).
 
-The level measured here is each channel's variance over a moving window (its mean taken
-out, so an offset or a slow drift is no louder), over the largest it reached inside the
+The level measured here is each channel's variance over a moving window (the detectors'
+long window: 2 s from 64 Hz up, 128 samples below; its mean taken out, so an offset or a
+slow drift is no louder), over the largest it reached inside the
 healthy window; a stretch's level is the median of that over some channels. A level over
 1 is a response the models never saw: there the detectors ask for more evidence of a
 gain or a shapeless change (:data:`LOUD_KINDS`) than an alarm confirmed by one other
@@ -23,6 +24,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -41,9 +43,15 @@ guard leaves it be (with one floor's sensor left out of the simulated 5-floor bu
 equivalent model and the bank alone, unconfirmed, in such stretches: 3 of 10 seeds). The
 healthy findings the guard stops were all of these two types."""
 
-LOUD_NOTE = 2.0
-"""A record whose level (the median channel's) reaches this many times the healthy
-window's loudest gets a note suggesting a longer healthy window (:func:`loudest`)."""
+LOUD_BANK_MAX = 5
+"""The equivalent model's guard applies to records of at most this many channels: the
+banks the detection filter's own rule is loosest in (under 6: one other residual over its
+threshold confirms); larger ones leave a lone gain to the readings' judgement."""
+
+LOUD_MARK = "times the loudest of the healthy window"
+"""The words of every detector's note on an alarm the guard did not report (the run's
+note counts them: :func:`loud_stretch_count`)."""
+
 
 LEVEL_BLOCK = 1 << 18
 """Rows read at once when a level is measured over a long stretch."""
@@ -60,16 +68,28 @@ class LoadRange:
 
 
 def level_window(rate_hz: float) -> int:
-    """Samples the level is averaged over: the detectors' long window (2 s), the window
-    their mean-square statistics alarm on."""
+    """Samples the level is averaged over: the detectors' long window, the window their
+    mean-square statistics alarm on (``LONG_FACTOR`` times
+    :func:`~analyzer.diagnosis.changes.default_window`: 2 s from 64 Hz up, 128 samples
+    below, e.g. 12.8 s at 10 Hz and 128 s at 1 Hz). The level is meant to say how loud the
+    stretch an alarm was raised on was, so it is measured over that same stretch, not over
+    a fixed 2 s: 2 s of a 1-Hz channel hold 2 samples, no variance."""
     return LONG_FACTOR * default_window(rate_hz)
 
 
 def _moving_variance(x: FloatArray, window: int) -> FloatArray:
     """Trailing moving variance of ``x`` over ``window`` samples, NaNs left out (NaN where
-    a window holds fewer than half its samples finite)."""
+    a window holds fewer than half its samples finite).
+
+    The stretch's own mean is taken out first (the healthy window's, for
+    :func:`load_range`): the variance comes from running sums of values and squares, and
+    of raw values far from zero (a latitude, a pressure in pascals, a 1.7e9 timestamp-like
+    count) those sums round away the spread itself. Raw, stationary channels at an offset
+    of 1e6 (sd 1) or of a latitude (sd 1e-7) read 2.3-3.5 times the healthy window's
+    loudest after it; centred, 0.955 like any other (``tests/diagnosis/test_load.py``)."""
     ok = np.isfinite(x)
-    v = np.where(ok, x, 0.0)
+    centre = float(np.mean(x[ok])) if ok.any() else 0.0
+    v = np.where(ok, x - centre, 0.0)
     n = moving_mean(ok.astype(np.float64), window)
     with np.errstate(invalid="ignore", divide="ignore"):
         m1 = moving_mean(v, window) / n
@@ -171,3 +191,12 @@ class LoadGuard:
         raised it and one after (the mean-square statistics look back a long window)."""
         w = level_window(self.rate_hz)
         return self(columns, own, k0 - w, k0 + w)
+
+
+def loud_stretch_count(events: Sequence[Any], notes: Sequence[str]) -> int:
+    """How many of ``events`` (anything with an ``evidence`` dict) carry a ``load_ratio``
+    (raised where the other channels were louder than anywhere in the healthy window) plus
+    how many of ``notes`` are a detector's word on an alarm it did not report there
+    (:data:`LOUD_MARK`)."""
+    kept = sum(1 for ev in events if "load_ratio" in ev.evidence)
+    return kept + sum(1 for n in notes if LOUD_MARK in n)

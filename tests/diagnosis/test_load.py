@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from analyzer.diagnosis.load import LoadGuard, load_range, load_ratio
@@ -30,3 +31,20 @@ def test_the_level_is_the_other_channels_not_the_sensors_own():
     guard = LoadGuard(gained, TRAIN, RATE_HZ, healthy=True)
     assert guard(range(5), 0, 6400, 12000) == pytest.approx(plain)
     assert LoadGuard(gained, TRAIN, RATE_HZ, healthy=False)(range(5), 0, 6000, 12000) == 0.0
+
+
+@pytest.mark.parametrize(
+    ("offset", "sd"), [(1e6, 1.0), (1e6, 1e-3), (47.123456, 1e-7), (1.7e9, 1.0)]
+)
+def test_a_channel_far_from_zero_is_no_louder_than_the_same_channel_centred(offset, sd):
+    """Stationary channels at a large offset (a pressure in pascals, a latitude, a
+    timestamp-like count) have the level of the same channels at zero: the running sums
+    the variance comes from must not round their spread away (raw sums read them 2.3-3.5
+    times the healthy window's loudest after it)."""
+    rate, n, train = 100.0, 360_000, (0, 72_000)
+    base = np.random.default_rng(0).standard_normal((n, 3))
+    centred = load_ratio(load_range(base, train, rate), base, [0, 1, 2], train[1], n)
+    y = offset + sd * base
+    level = load_ratio(load_range(y, train, rate), y, [0, 1, 2], train[1], n)
+    assert centred < 1.0
+    assert level == pytest.approx(centred, rel=0.02)

@@ -249,10 +249,11 @@ def _notes(analysis) -> list[str]:
 
 def _refused(note: str, channel: str) -> bool:
     """Whether ``note`` says the equivalent model's lone fault on ``channel`` was not
-    reported: its readings refuted it, or (lvl52) it was raised where the other sensors'
-    response was louder than anywhere in the healthy window (the load changes of
-    ``harmonic_res`` and ``narrowband``: analyzer.diagnosis.load), which it no longer
-    reaches the readings' judgement from."""
+    reported: its readings refuted it, or (lvl52), in a record of under 6 channels
+    (``harmonic_res`` on 2 floors), it was raised where the other sensors' signals were
+    louder than anywhere in the healthy window (analyzer.diagnosis.load), which it no
+    longer reaches the readings' judgement from; larger records (``narrowband`` on 3
+    floors, 6 channels) still go to the readings."""
     refuted = (
         note.startswith("equivalent_model's ")
         and f" fault on {channel} at " in note
