@@ -58,7 +58,8 @@ from analyzer.diagnosis.evidence import (
     whitenings,
     windowed_summary,
 )
-from analyzer.diagnosis.levels import excursions, level_note, response_levels
+from analyzer.diagnosis.levels import LEVEL_TRAIN_BINS, excursions, level_note, response_levels
+from analyzer.diagnosis.load import load_range, loud_stretch_count, loudest
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
 from analyzer.diagnosis.oversampled import MEMORY_SAMPLES, oversampled_note
 from analyzer.diagnosis.readings import refuted_by_readings, residual_health
@@ -458,6 +459,51 @@ def _rate_against_model(
         f"the channels run at {plain_number(own, 4)} Hz and the model at "
         f"{plain_number(model_hz, 4)} Hz: they are resampled to the model's rate{between} (a "
         "model fitted at their own rate fits them best)"
+    )
+    return [WindowNote(text, text)]
+
+
+def _louder_than_window(
+    values: Any,
+    train: tuple[int, int],
+    rate_hz: float,
+    train_bins: npt.NDArray[np.bool_],
+    judged: int,
+) -> list[str]:
+    """A note (repeated on stderr) when ``judged`` findings' events or alarms left
+    unreported (:func:`~analyzer.diagnosis.load.loud_stretch_count`) lie where the signals
+    after the healthy window ``train`` (rows) were louder than anywhere inside it (the
+    median channel's variance over the detectors' long window:
+    :mod:`analyzer.diagnosis.load`), for a window too short for the level map's note
+    (``train_bins``, its bins inside the window: fewer than
+    :data:`~analyzer.diagnosis.levels.LEVEL_TRAIN_BINS`; a longer one shows the signals'
+    own spread, and :func:`~analyzer.diagnosis.levels.level_note` names the stretches
+    beyond it).
+
+    Only then: the thresholds were set on the window, and every model's error grows with
+    its signals, so a finding or an unreported alarm there is one the user should read
+    with that in mind; a record that is merely louder later, with nothing judged there,
+    needs no word (on healthy 60-s records of the simulated 5-floor building a note on
+    every level past 2 times the window's came on 5 of 10; this one on none of them). A
+    healthy 60-s record of that building, its first 12 s as the window, went up to 11
+    times its level after it, and with one floor's sensor left out 2-3 of 10 such records
+    had false findings there (none with ``--train 0:30``)."""
+    if judged == 0 or int(train_bins.sum()) >= LEVEL_TRAIN_BINS:
+        return []
+    rng = load_range(values, train, rate_hz)
+    ratio, row = loudest(rng, values, range(values.shape[1]), train[1], values.shape[0])
+    if ratio <= 1.0:
+        return []
+    span = rng.window / rate_hz
+    text = (
+        f"{judged} of the detectors' alarms (reported as findings or not) lie where the "
+        "signals were louder than anywhere in the healthy window (their "
+        f"{span:g}-s variance, the median channel's, up to {ratio:.1f} times the "
+        f"window's largest, at {row / rate_hz:.1f} s): the "
+        "thresholds were set on a quieter stretch, so the detectors asked more of an alarm "
+        "there (a finding's evidence gives load_ratio; the notes name the alarms left out); "
+        "if a stretch as loud is known to be healthy, a --train window that takes it in "
+        "judges them on it"
     )
     return [WindowNote(text, text)]
 
@@ -1067,6 +1113,12 @@ def _analyze(
         unexplained = unexplained_alarms(results, findings, slack, excursions(levels)[0])
         notes.extend(_after_gap_notes(findings, values, chosen, aligned.rate_hz))
         notes.extend(n for n in [level_note(levels)] if n)
+        if levels is not None and levels.train is not None:
+            judged = loud_stretch_count(
+                [ev for f in findings for ev in f.events],
+                [n for r in results for n in r.notes],
+            )
+            notes.extend(_louder_than_window(values, train, aligned.rate_hz, levels.train, judged))
         if isinstance(executor, DaskExecutor):  # after the work: tasks sent again, say
             notes.append(executor.describe())
         if screen is not None:

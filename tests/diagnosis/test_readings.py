@@ -238,12 +238,29 @@ def test_a_change_of_the_excitation_is_no_sensors_fault(tmp_path, case, floors, 
     sine at the training level), each the equivalent model's alone."""
     analysis, _ = _analyzed(tmp_path, case, floors, seed, fault=False)
     assert analysis.findings == []
-    assert any(
-        n.startswith("equivalent_model's ")
-        and f" fault on {channel} at " in n
-        and "carry too little of it" in n
-        for n in analysis.notes
-    ), analysis.notes
+    assert any(_refused(n, channel) for n in _notes(analysis)), _notes(analysis)
+
+
+def _notes(analysis) -> list[str]:
+    """The run's notes and the equivalent model's own."""
+    em = [n for r in analysis.results if r.detector == "equivalent_model" for n in r.notes]
+    return [*analysis.notes, *em]
+
+
+def _refused(note: str, channel: str) -> bool:
+    """Whether ``note`` says the equivalent model's lone fault on ``channel`` was not
+    reported: its readings refuted it, or (lvl52), in a record of under 6 channels
+    (``harmonic_res`` on 2 floors), it was raised where the other sensors' signals were
+    louder than anywhere in the healthy window (analyzer.diagnosis.load), which it no
+    longer reaches the readings' judgement from; larger records (``narrowband`` on 3
+    floors, 6 channels) still go to the readings."""
+    refuted = (
+        note.startswith("equivalent_model's ")
+        and f" fault on {channel} at " in note
+        and "carry too little of it" in note
+    )
+    loud = note.startswith(f"alarm on {channel} at ") and "times the loudest of the healthy" in note
+    return refuted or loud
 
 
 @pytest.mark.parametrize(
@@ -259,11 +276,7 @@ def test_a_change_of_the_excitation_beside_a_real_fault_is_no_sensors_fault(
     0.04 of it."""
     analysis, faulty = _analyzed(tmp_path, case, floors, seed, fault=True)
     assert [(f.channel, f.type) for f in analysis.findings] == [(faulty, FaultType.ADDITIVE)]
-    assert any(
-        n.startswith(f"equivalent_model's multiplicative fault on {channel} at ")
-        and "carry too little of it" in n
-        for n in analysis.notes
-    ), analysis.notes
+    assert any(_refused(n, channel) for n in _notes(analysis)), _notes(analysis)
 
 
 def test_a_change_of_the_excitation_in_a_model_run_is_no_sensors_fault(tmp_path):
