@@ -139,6 +139,12 @@ class Record:
     """Of an archive analyzed past input errors (a truncated file, a damaged member of a
     folder: ``findings.json``'s ``inputs[].errors`` and the archive's notes), the lines
     ``analyzer run`` warns of: the first five, and a count of the rest."""
+    warnings: list[str] = field(default_factory=list)
+    """Of an analyzed archive, the other lines the watcher warned of after its verdict,
+    as ``analyzer run`` does: about the config (a ``[[group]]`` naming no channel of it),
+    the model (its spread 1000 times the model's: another unit), the training window, and
+    the anomalies the detectors attributed to no sensor. Empty in the records of older
+    watchers. The index says how many, and the first."""
     file_marks: dict[str, str] = field(default_factory=dict)
     """Of a folder or group, each file's mark (:func:`analyzer.watch.file_mark`: the
     sha256 of its first and last 64 KiB) by its path relative to INBOX (as in
@@ -932,6 +938,12 @@ def index_view(index: dict[str, Any]) -> IndexView:
             damage = r["input_errors"]
             more = f" (and {len(damage) - 1} more lines)" if len(damage) > 1 else ""
             details += f"; analyzed past input errors: {damage[0]}{more}"
+        if r.get("warnings"):
+            said = r["warnings"]
+            many = f"{len(said)} warnings" if len(said) > 1 else "1 warning"
+            details += f"; {many}: {said[0]}" + (
+                " (all of them in index.json and the watcher's log)" if len(said) > 1 else ""
+            )
         if r.get("dropped_as"):
             details += (
                 f"; dropped as {r['dropped_as']}: an earlier content of that name, its "
