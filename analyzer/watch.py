@@ -242,6 +242,7 @@ from analyzer.watch_index import (
     ReportsLock,
     Verdict,
     hidden_name,
+    more_warnings,
     now_iso,
     publish,
     report_dirname,
@@ -496,12 +497,13 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
             raise analysis.unrun
         figures: list[str] = []  # (figures that could not be drawn)
         write_outputs(analysis, out_dir, figures.append)
-        lines = [
-            *config_warnings(options.config, analysis),
-            *window_warnings(analysis.notes),
-            *figures,
+        lines = [  # (the archive's own lines first: the index shows the first)
             # (findings.json's notes too, but "no fault" in the index hid them)
             *(n for n in analysis.notes if isinstance(n, AnomalyNote)),
+            *window_warnings(analysis.notes),
+            *figures,
+            # (last: every archive gets them, and first they hid its anomaly, rcfg53)
+            *config_warnings(options.config, analysis),
         ]
         if lines:
             write_atomic(out_dir / CONFIG_WARNINGS, "".join(f"{line}\n" for line in lines))
@@ -2146,16 +2148,23 @@ class _Runner:
         self._move(archive, rec)
         self._left_in_inbox(name, said=False)
 
-    def _train_option(self) -> str:
-        """The option that set the training window an archive too short for it was
-        measured against: ``--train``, the config's ``[train]`` (a watcher given no
-        ``--train`` was told to check it), or the default window when neither is set."""
+    def _train_advice(self, after: float) -> str:
+        """What to do about archives too short for the training window while none has
+        fit it: check the option that set the window (``--train``, the config's
+        ``[train]``: a watcher given no ``--train`` was told to check it), or, with
+        neither, give one (the default window is used: "check --train (the default
+        training window is used) (given up ...)", two parentheses and an option not
+        given, rcfg53); then when it is given up."""
+        then = f"given up only once one has, and it is unchanged for --give-up-after {after:g}"
         if self.options.train is not None:
-            return "--train"
+            return f"check --train ({then})"
         config = self.options.config
         if config.train is not None and config.path is not None:
-            return f"--config {config.path} [train]"
-        return "--train (the default training window is used)"
+            return f"check --config {config.path} [train] ({then})"
+        return (
+            "give --train or a config [train] (without either, the default training "
+            f"window is used; {then.replace('one has', 'an archive has fit')})"
+        )
 
     def _stays_why(self, rec: Record) -> str | None:
         """Why an archive recorded in error stays in INBOX, or None: moved (or to be
@@ -2175,11 +2184,7 @@ class _Runner:
             then = " and moved to --failed" if self.settings.failed is not None else ""
             when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(at))
             if not self.fitted:
-                return why + (
-                    f"no archive has fit these options yet: check {self._train_option()} "
-                    "(given up only once one has, and it is unchanged for --give-up-after "
-                    f"{after:g})"
-                )
+                return why + f"no archive has fit these options yet: {self._train_advice(after)}"
             return (
                 why
                 + f"given up{then} at {when} if unchanged until then (--give-up-after {after:g})"
@@ -2637,7 +2642,9 @@ class _Runner:
     def _log_config_warnings(job: _Job) -> list[str]:
         """Log, as ``analyzer run`` prints them, the warnings the analysis left
         (:data:`CONFIG_WARNINGS`), and remove their file: it is not part of the report.
-        Returns them, for the archive's record (:attr:`Record.warnings`)."""
+        Returns them, for the archive's record (:attr:`Record.warnings`): the first
+        :data:`~analyzer.pipeline.WARNED_LINES` and a count of the rest
+        (:func:`~analyzer.watch_index.more_warnings`), as ``input_errors`` keeps them."""
         path = job.scratch / CONFIG_WARNINGS
         try:
             text = path.read_text(encoding="utf-8")
@@ -2650,6 +2657,9 @@ class _Runner:
             log.warning("%s: %s", job.archive.name, line)
         with contextlib.suppress(OSError):  # (left in the folder, it harms nothing)
             path.unlink()
+        if len(lines) > WARNED_LINES:  # (every line in every record: 3000 config lines
+            # made a 786 KB state, rewritten on every save, rcfg53)
+            lines = [*lines[:WARNED_LINES], more_warnings(len(lines) - WARNED_LINES)]
         return lines
 
     def _as_found(self, archive: ReadyArchive) -> bool:

@@ -148,6 +148,30 @@ def test_a_config_train_window_that_fits_no_archive_names_the_config(
         assert "--train" not in line, line
 
 
+def test_the_default_window_that_fits_no_archive_says_to_give_one(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Neither ``--train`` nor a config ``[train]``: the default window fits no archive,
+    and the line says to give one, in one parenthesis (rcfg53 item 3: before, "check
+    --train (the default training window is used) (given up only once ...)", an option
+    not given and two parentheses in a row)."""
+    inbox, reports = folders
+    for name in ("a.csv", "b.csv"):
+        short_csv(tmp_path, inbox / name)
+    settings = WatchSettings(inbox, reports, settle=SETTLE, failed=tmp_path / "failed", once=True)
+    assert start_watcher(settings, RunOptions()).join() == 2
+    lines = said(caplog, ": left in INBOX:")
+    assert len(lines) == 2
+    for line in lines:
+        advice = line.split("no archive has fit these options yet: ", 1)[1]
+        assert advice.startswith("give --train or a config [train] ("), line
+        assert "check" not in advice and ") (" not in advice, line
+        assert advice.count("(") == 1 and advice.endswith(")"), line
+
+
 def test_a_running_watcher_gives_up_a_short_archive_once_its_time_is_up(
     tmp_path: Path,
     folders: tuple[Path, Path],

@@ -81,3 +81,65 @@ def test_the_index_says_an_archive_has_warnings(
         n = len(records[name]["warnings"])
         said = f"{n} warnings: " if n > 1 else "1 warning: "
         assert said + records[name]["warnings"][0] in html.unescape(page), name
+
+
+def test_the_archives_own_warnings_come_before_the_configs(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+) -> None:
+    """The config's lines, which every archive gets, came first: the index's first warning
+    of an archive with an anomaly on every sensor was the config line a plain archive
+    had too (rcfg53 item 2)."""
+    inbox, reports = folders
+    _archive(inbox / "all3.csv", seed=3, gain_from_25_s=3.0)
+    cfg = tmp_path / "cfg.toml"
+    cfg.write_text(CONFIG)
+    options = load_options(str(cfg), train="0:12")
+    assert (
+        start_watcher(WatchSettings(inbox, reports, settle=SETTLE, once=True), options).join() == 0
+    )
+    said = state(reports)["all3.csv"]["warnings"]
+    config_at = [i for i, w in enumerate(said) if w.startswith(f"{cfg}: ")]
+    assert said[0].startswith("anomaly at 25.0 s on s0, s1, s2 "), said
+    assert config_at and config_at == list(range(len(said) - len(config_at), len(said))), said
+    page = html.unescape((reports / "index.html").read_text())
+    assert f"{len(said)} warnings: anomaly at 25.0 s on s0, s1, s2 " in page
+
+
+def test_an_archives_warnings_are_capped_and_the_shown_one_cut(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Every warning line went into every record: a config of 300 groups naming a missing
+    channel made 300 lines per archive in the state and index.json, and one group naming
+    2000 missing channels one line of ~20 KB on the index page (rcfg53 item 1). The
+    record keeps the first lines and a count of the rest, as ``input_errors``; the log
+    has them all; the page cuts the one it shows."""
+    inbox, reports = folders
+    _archive(inbox / "plain.csv", seed=1)
+    wide = ", ".join(f'"gone{i:04d}"' for i in range(2000))
+    groups = "".join(f'[[group]]\nname = "g{i}"\nchannels = ["x{i}"]\n' for i in range(300))
+    cfg = tmp_path / "cfg.toml"
+    cfg.write_text(f'[[group]]\nname = "wide"\nchannels = ["s0", "s1", {wide}]\n' + groups)
+    options = load_options(str(cfg), train="0:12")
+    assert (
+        start_watcher(WatchSettings(inbox, reports, settle=SETTLE, once=True), options).join() == 0
+    )
+    logged = [
+        r.getMessage()
+        for r in caplog.records
+        if r.levelno == logging.WARNING and r.getMessage().startswith("plain.csv: ")
+    ]
+    assert len(logged) == 301, len(logged)  # (the log: every line)
+    said = state(reports)["plain.csv"]["warnings"]
+    assert said[-1] == "296 more warnings in the watcher's log", said[-1]
+    assert len(said) == 6 and said[:5] == [m.removeprefix("plain.csv: ") for m in logged[:5]]
+    index = json.loads((reports / "index.json").read_text())
+    assert index["archives"][0]["warnings"] == said
+    page = html.unescape((reports / "index.html").read_text())
+    assert "301 warnings: " in page and "(all of them in the watcher's log)" in page
+    assert "gone0000" in page and "gone1999" not in page  # (cut, not dropped)
+    assert " ... [" in page and len(page) < 20_000, len(page)
