@@ -146,8 +146,19 @@ def add_msg_path(p: argparse.ArgumentParser) -> None:
     )
 
 
-def add_run_options(p: argparse.ArgumentParser) -> None:
-    """Options shared by ``run`` and ``watch``."""
+JOBS_HELP = {
+    "run": "local parallelism: run the detectors (and the bank's time blocks) on N "
+    "threads, same results as serial; default: number of cores, 1 = serial",
+    "watch": "local parallelism: analyze up to N archives at once, each in a process of "
+    "its own (one archive alone gets N threads); default: number of cores; not used "
+    "with --scheduler (the cluster's worker threads set it)",
+}
+"""``--jobs``'s help by command: ``watch --help`` described ``run``'s threads (a new
+user's audit, ux53 item 11)."""
+
+
+def add_run_options(p: argparse.ArgumentParser, command: str = "run") -> None:
+    """Options shared by ``run`` and ``watch`` (``command``: whose help ``--jobs`` gets)."""
     add_msg_path(p)
     p.add_argument(
         "--channels",
@@ -192,8 +203,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         "--jobs",
         type=_positive_int,
         metavar="N",
-        help="local parallelism: run the detectors (and the bank's time blocks) on N "
-        "threads, same results as serial; default: number of cores, 1 = serial",
+        help=JOBS_HELP[command],
     )
     p.add_argument(
         "--scheduler",
@@ -250,6 +260,15 @@ INPUT_HELP = (
     "times that overlap (CSVs without dates; MCAP files and bags on a simulation clock, "
     "log times before 1990) cannot be stitched and are refused)"
 )
+
+
+WATCH_SETUP = (
+    "INBOX must exist (REPORTS, --done and --failed are made when missing): from the\n"
+    "checkout's folder, this first gives the examples a folder and an archive in it:\n"
+    "  mkdir -p inbox && cp samples/building_additive.mcap inbox/"
+)
+"""What ``watch --help``'s examples need first: they stopped at "INBOX ... is not a
+directory" run as written from the checkout (a new user's audit, ux53 item 5)."""
 
 
 EXIT_CODES = (
@@ -312,7 +331,9 @@ HELP: dict[str, tuple[str, str]] = {
         "examples:\n"
         "  analyzer watch inbox/ --out reports/\n"
         "  analyzer watch inbox/ --out reports/ --once --done analyzed/ --failed failed/\n"
-        "  analyzer watch inbox/ --out reports/ --group-by '^(.*)_part[0-9]+\\.csv$'",
+        "  analyzer watch inbox/ --out reports/ --group-by '^(.*)_part[0-9]+\\.csv$'\n"
+        "\n"
+        f"{WATCH_SETUP}",
     ),
 }
 """Each command's ``--help``: what it does, what it writes and its exit codes first, and
@@ -425,7 +446,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="REPORTS",
         help="folder of the reports: one sub-folder per archive, and index.html",
     )
-    add_run_options(p)
+    add_run_options(p, "watch")
     # (accepted as run accepts it; watch shows no progress bar: one line per archive)
     p.add_argument("--no-progress", action="store_true", help="no progress bar (none is shown)")
     p.add_argument(

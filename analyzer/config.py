@@ -130,6 +130,15 @@ def _matrix(value: Any, key: str, path: Path, source: str | None = None) -> np.n
 NPZ_MAGIC = b"PK\x03\x04"
 """The first bytes of an .npz (a zip archive, as ``np.savez`` writes it)."""
 
+NPZ_RECIPE = (
+    "[model] file names an .npz of the structure's discrete state-space matrices, written by "
+    'np.savez("model.npz", A=A, B=B, C=C, D=D, dt=dt) (C: one row per [model] outputs '
+    "channel, B and D: one column per [model] inputs channel; README: The config file), "
+    "or leave [model] out to run without a known model"
+)
+"""What a missing ``[model] file`` is and how to write one: the config examples name a
+``model.npz`` a new user does not have."""
+
 
 def _npz_arrays(mfile: Path, path: Path) -> dict[str, Any]:
     """A, B, C, D and dt of the .npz ``mfile`` (``[model] file``): :class:`ConfigError`
@@ -139,6 +148,8 @@ def _npz_arrays(mfile: Path, path: Path) -> dict[str, Any]:
     try:
         with mfile.open("rb") as f:
             head = f.read(len(NPZ_MAGIC))
+    except FileNotFoundError:
+        raise ConfigError(f"{where} does not exist: {NPZ_RECIPE}") from None
     except OSError as err:
         raise ConfigError(f"{where} cannot be read ({err.strerror or err})") from None
     if head != NPZ_MAGIC:

@@ -95,6 +95,7 @@ class SavedModel:
     channels: tuple[str, ...]
     rate_hz: float
     train_s: tuple[float, float]
+    """The training window's first and last sample, seconds from the record's start."""
     inputs: tuple[tuple[str, str], ...]
     """``(path, sha256)`` of each file of the training archive."""
     groups: tuple[tuple[str, ...], ...]
@@ -122,6 +123,14 @@ class SavedModel:
     before it was kept: not known, and a dead sensor in an anomaly attributed to no sensor
     is then not looked for (:func:`~analyzer.diagnosis.stuck.dead_unattributed`)."""
 
+    def train_window_s(self) -> tuple[float, float]:
+        """The training window as the fit run's ``findings.json`` and last line said it:
+        its first and last sample, to four decimals. (A model saved before this rule holds
+        the window asked for, whose end can be one sample later: a ``--model`` run said
+        0-120.000 s of a model saved "fitted on 0-119.995 s", a new user's audit, ux53
+        item 10.)"""
+        return round(self.train_s[0], 4), round(self.train_s[1], 4)
+
     def detectors(self) -> list[str]:
         """The detectors fitted in this model, in the order they ran."""
         return list(dict.fromkeys(name for fits in self.fits.values() for name in fits))
@@ -130,7 +139,7 @@ class SavedModel:
         """What ``findings.json`` and the report say about the model (JSON-friendly)."""
         return {
             "trained_on": [{"path": p, "sha256": h} for p, h in self.inputs],
-            "train": {"start_s": self.train_s[0], "end_s": self.train_s[1]},
+            "train": dict(zip(("start_s", "end_s"), self.train_window_s(), strict=True)),
             "channels": list(self.channels),
             "rate_hz": self.rate_hz,
             "detectors": self.detectors(),

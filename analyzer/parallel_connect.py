@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import socket
 import threading
 import time
@@ -21,6 +22,17 @@ from analyzer.errors import UsageError
 
 CONNECT_MARGIN_S = 2.0
 """Beyond the connection timeout, how long the connecting thread is given to say so."""
+
+
+_LIST_REPR = re.compile(r"\[((?:'[^'\[\]]*'(?:, )?)+)\]")
+"""A Python list of strings in a message (``['inproc', 'tcp']``)."""
+
+
+def plain_lists(text: str) -> str:
+    """``text`` with each Python list of strings in it as plain words: Dask's "unknown
+    address scheme 'http' (known schemes: ['inproc', 'tcp', ...])" ended a user's error
+    line with a list's repr (a new user's audit, ux53 item 13)."""
+    return _LIST_REPR.sub(lambda m: m.group(1).replace("'", ""), text)
 
 
 def _quiet_close(client: Any) -> None:
@@ -61,7 +73,7 @@ def _connect(
             try:
                 client.__init__(address, timeout=wait, set_as_default=False)  # type: ignore[misc]
             except Exception as err:  # whatever answered there, it is not a usable scheduler
-                why = " ".join(str(err).split())[:200] or type(err).__name__
+                why = plain_lists(" ".join(str(err).split()))[:200] or type(err).__name__
                 if not isinstance(err, OSError | TimeoutError):
                     why = f"no Dask scheduler answered there: {why}"
                 raise UsageError(f"--scheduler {address}: cannot connect ({why})") from err

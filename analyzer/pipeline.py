@@ -172,6 +172,7 @@ from analyzer.timeutil import (
     spoken_duration,
 )
 from analyzer.types import NS_PER_S, FaultType
+from analyzer.window_note import AnomalyNote
 
 MATERIALIZE_IN_MEMORY = 1 << 24
 """Aligned matrices up to this many values stay in memory; larger ones are memory-mapped."""
@@ -1209,7 +1210,8 @@ def _analyze(
             else SavedModel(
                 channels=tuple(chosen),
                 rate_hz=aligned.rate_hz,
-                train_s=(tr[0], tr[1]),
+                # (its first and last sample, as findings.json's saved_model says them)
+                train_s=(train[0] / aligned.rate_hz, (train[1] - 1) / aligned.rate_hz),
                 inputs=tuple(
                     (str(i.path), i.sha256 or input_digest(Path(i.path))) for i in archive.inputs
                 ),
@@ -1906,7 +1908,7 @@ def _unattributed_notes(
                 )
     if len(said) > UNATTRIBUTED_LISTED:
         out.append(f"{len(said) - UNATTRIBUTED_LISTED} more such anomalies (detectors' notes)")
-    return out
+    return [AnomalyNote(line) for line in out]
 
 
 WEAK_CONFIDENCE = 0.05
@@ -2673,7 +2675,13 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
             if skipped:  # (default detectors that did not run: findings.json alone said it)
                 options.warn(skipped)
         if options.save_model is not None and analysis.saved is not None:
+            earlier = _file_sha256(options.save_model)
             save_model(options.save_model, analysis.saved, model)
+            if earlier is not None and options.warn is not None:
+                options.warn(
+                    f"--save-model {options.save_model}: replaced the file that was there "
+                    f"(its SHA-256 was {earlier}; it is not kept)"
+                )
         if options.say is not None:
             options.say(summary_line(analysis, out))
         return 1 if analysis.faulty else 0
@@ -2683,6 +2691,36 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         raise
     finally:
         remove_scratch(work)
+
+
+def _file_sha256(path: Path) -> str | None:
+    """The SHA-256 of the file at ``path``, or None where there is none (or it cannot be
+    read): ``--save-model`` onto an existing model replaced it without a word, and a
+    production model was lost to one mistyped command (a new user's audit, ux53 item 12)."""
+    try:
+        return hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else None
+    except OSError:
+        return None
+
+
+def _skipped_words(whole: list[str], some: list[str], ran: list[str]) -> str:
+    """The head of :func:`skipped_warning`: the detectors that did not run at all
+    (``whole``), or not on some channel groups (``some``), and what searched instead.
+    A detector of ``some`` ran on the other groups: the line said it "did not run" and
+    that the search "ran with" it "alone" (a new user's audit, ux53 item 7)."""
+    rest = [r for r in ran if r not in some]
+    others = " and ".join([", ".join(rest[:-1]), rest[-1]] if len(rest) > 1 else rest)
+    if not some:
+        return f"{', '.join(whole)} did not run: the search ran with {', '.join(ran)} alone"
+    them = ", ".join(some)
+    searched = (
+        f"which {others} searched without {'it' if len(some) == 1 else 'them'}"
+        if others
+        else "which no other detector searched"
+    )
+    if not whole:
+        return f"{them} did not run on some channel groups, {searched}"
+    return f"{', '.join(whole)} did not run, nor {them} on some channel groups, {searched}"
 
 
 def skipped_warning(analysis: Analysis, options: RunOptions, said: str = "") -> str:
@@ -2710,10 +2748,7 @@ def skipped_warning(analysis: Analysis, options: RunOptions, said: str = "") -> 
     names = list(dict.fromkeys(k.split(" (", 1)[0] for k in data))
     some = [n for n in names if n in ran]  # (skipped on some channel groups only)
     whole = [n for n in names if n not in ran]
-    parts = [", ".join(whole)] if whole else []
-    if some:
-        parts.append(f"{', '.join(some)} on some channel groups")
-    line = f"{' and '.join(parts)} did not run: the search ran with {', '.join(ran)} alone"
+    line = _skipped_words(whole, some, ran)
     told = {k: v for k, v in data.items() if isinstance(v, SkipReason) and v.rows}
     if told and not options.model:  # (their window: the rows each said it needs)
         rate = analysis.rate_hz

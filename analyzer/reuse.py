@@ -179,9 +179,10 @@ def reuse_note(model: SavedModel, options: RunOptions, warm_s: float) -> str:
     trained = ", ".join(Path(p).name for p, _ in model.inputs[:3])
     if len(model.inputs) > 3:
         trained += f" and {len(model.inputs) - 3} more files"
+    start, end = model.train_window_s()
     return (
         f"fitted models from {options.model_path or 'a model file'} (trained on {trained}, "
-        f"healthy window {model.train_s[0]:.3f}-{model.train_s[1]:.3f} s); nothing was "
+        f"healthy window {start:.3f}-{end:.3f} s); nothing was "
         f"fitted on this archive, and no fault is searched in its first {warm_s:.3f} s "
         "while the filters settle"
     )

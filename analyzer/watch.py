@@ -242,11 +242,13 @@ from analyzer.watch_index import (
     ReportsLock,
     Verdict,
     hidden_name,
+    more_warnings,
     now_iso,
     publish,
     report_dirname,
     scratch_dir,
 )
+from analyzer.window_note import AnomalyNote
 
 log = logging.getLogger("analyzer.watch")
 
@@ -453,8 +455,10 @@ CONFIG_WARNINGS = ".config-warnings"
 """The file an analysis leaves beside its outputs with the lines ``analyzer run`` prints
 about the config (:func:`~analyzer.pipeline.config_warnings`), the training window
 (:func:`~analyzer.diagnosis.training_check.window_warnings`: a fault inside the default
-window, trained around) and figures that could not be drawn, one a line; the watcher
-logs them and removes the file before it publishes the report folder."""
+window, trained around), figures that could not be drawn and the run's anomalies
+attributed to no sensor (:class:`~analyzer.window_note.AnomalyNote`), one a line; the
+watcher logs them, keeps them in the archive's record (:attr:`Record.warnings`) and
+removes the file before it publishes the report folder."""
 
 CORRECTED = "corrected.csv"
 """What ``--corrected`` writes beside the report (:func:`~analyzer.findings.write_outputs`),
@@ -493,10 +497,13 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
             raise analysis.unrun
         figures: list[str] = []  # (figures that could not be drawn)
         write_outputs(analysis, out_dir, figures.append)
-        lines = [
-            *config_warnings(options.config, analysis),
+        lines = [  # (the archive's own lines first: the index shows the first)
+            # (findings.json's notes too, but "no fault" in the index hid them)
+            *(n for n in analysis.notes if isinstance(n, AnomalyNote)),
             *window_warnings(analysis.notes),
             *figures,
+            # (last: every archive gets them, and first they hid its anomaly, rcfg53)
+            *config_warnings(options.config, analysis),
         ]
         if lines:
             write_atomic(out_dir / CONFIG_WARNINGS, "".join(f"{line}\n" for line in lines))
@@ -2141,6 +2148,24 @@ class _Runner:
         self._move(archive, rec)
         self._left_in_inbox(name, said=False)
 
+    def _train_advice(self, after: float) -> str:
+        """What to do about archives too short for the training window while none has
+        fit it: check the option that set the window (``--train``, the config's
+        ``[train]``: a watcher given no ``--train`` was told to check it), or, with
+        neither, give one (the default window is used: "check --train (the default
+        training window is used) (given up ...)", two parentheses and an option not
+        given, rcfg53); then when it is given up."""
+        then = f"given up only once one has, and it is unchanged for --give-up-after {after:g}"
+        if self.options.train is not None:
+            return f"check --train ({then})"
+        config = self.options.config
+        if config.train is not None and config.path is not None:
+            return f"check --config {config.path} [train] ({then})"
+        return (
+            "give --train or a config [train] (without either, the default training "
+            f"window is used; {then.replace('one has', 'an archive has fit')})"
+        )
+
     def _stays_why(self, rec: Record) -> str | None:
         """Why an archive recorded in error stays in INBOX, or None: moved (or to be
         moved) by ``--failed``, not an error, or an internal error (not a verdict:
@@ -2159,10 +2184,7 @@ class _Runner:
             then = " and moved to --failed" if self.settings.failed is not None else ""
             when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(at))
             if not self.fitted:
-                return why + (
-                    "no archive has fit these options yet: check --train (given up only "
-                    f"once one has, and it is unchanged for --give-up-after {after:g})"
-                )
+                return why + f"no archive has fit these options yet: {self._train_advice(after)}"
             return (
                 why
                 + f"given up{then} at {when} if unchanged until then (--give-up-after {after:g})"
@@ -2527,8 +2549,7 @@ class _Runner:
         error = job.scratch / "error.txt"
         details = ""  # what follows the one-line message in error.txt (a traceback)
         rec.error_kind = ErrorKind.INTERNAL
-        if code in (0, 1):
-            self._log_config_warnings(job)
+        warned = self._log_config_warnings(job) if code in (0, 1) else []
         if code in (0, 1) and findings.is_file():
             try:
                 doc = json.loads(findings.read_text(encoding="utf-8"))
@@ -2554,6 +2575,7 @@ class _Runner:
                 rec.screen = doc.get("screen")
                 rec.verdict = Verdict.FAULT if faults else Verdict.NO_FAULT
                 rec.input_errors = self._input_warnings(job)
+                rec.warnings = warned
                 rec.report = f"{dirname}/report.html"
                 if (job.scratch / CORRECTED).is_file():
                     rec.corrected = f"{dirname}/{CORRECTED}"
@@ -2617,21 +2639,28 @@ class _Runner:
         return text
 
     @staticmethod
-    def _log_config_warnings(job: _Job) -> None:
-        """Log, as ``analyzer run`` prints them, the config warnings the analysis left
-        (:data:`CONFIG_WARNINGS`), and remove their file: it is not part of the report."""
+    def _log_config_warnings(job: _Job) -> list[str]:
+        """Log, as ``analyzer run`` prints them, the warnings the analysis left
+        (:data:`CONFIG_WARNINGS`), and remove their file: it is not part of the report.
+        Returns them, for the archive's record (:attr:`Record.warnings`): the first
+        :data:`~analyzer.pipeline.WARNED_LINES` and a count of the rest
+        (:func:`~analyzer.watch_index.more_warnings`), as ``input_errors`` keeps them."""
         path = job.scratch / CONFIG_WARNINGS
         try:
             text = path.read_text(encoding="utf-8")
         except FileNotFoundError:
-            return
+            return []
         except (OSError, ValueError) as err:
             text = f"its config warnings cannot be read ({one_line(err)})\n"
-        for line in text.splitlines():
-            if line.strip():
-                log.warning("%s: %s", job.archive.name, line)
+        lines = [line for line in text.splitlines() if line.strip()]
+        for line in lines:
+            log.warning("%s: %s", job.archive.name, line)
         with contextlib.suppress(OSError):  # (left in the folder, it harms nothing)
             path.unlink()
+        if len(lines) > WARNED_LINES:  # (every line in every record: 3000 config lines
+            # made a 786 KB state, rewritten on every save, rcfg53)
+            lines = [*lines[:WARNED_LINES], more_warnings(len(lines) - WARNED_LINES)]
+        return lines
 
     def _as_found(self, archive: ReadyArchive) -> bool:
         """Whether INBOX holds ``archive`` as it was found: its files unchanged and, with
@@ -3129,6 +3158,11 @@ def _watch_locked(
         where = (
             f"analyses as cluster tasks {cluster.describe()[4:]} (the workers read the archives)"
         )
+        if options.jobs is not None:  # (said: it was ignored without a word, ux53 item 11)
+            where += (
+                f"; --jobs {options.jobs} not used: the cluster's worker threads set how "
+                "many archives are analyzed at once"
+            )
     log.info(
         "watching %s (%s, settle %g s); reports in %s; %s",
         settings.inbox,
@@ -3159,10 +3193,11 @@ def _watch_locked(
                     runner.offer(archive)
                 runner.pump()
         if runner.running and not abandon.is_set():
+            many = len(runner.running)
             log.info(
-                "stopping: waiting for %d running analysis(es) to finish "
-                "(signal again to abandon them)",
-                len(runner.running),
+                "stopping: waiting for %s to finish (signal again to abandon %s)",
+                f"{many} running analyses" if many > 1 else "1 running analysis",
+                "them" if many > 1 else "it",
             )
             while runner.running and not abandon.is_set():
                 runner.pump(wait=TICK_S, start=False)
@@ -3173,15 +3208,19 @@ def _watch_locked(
         runner.save_unsaved()
         ledger.refresh_views(force=True)
         if runner.queue or runner.hashing:
+            ready = len(runner.queue) + len(runner.hashing)
             log.info(
-                "%d ready archive(s) not started; they are analyzed on the next start",
-                len(runner.queue) + len(runner.hashing),
+                "%s not started; %s analyzed on the next start",
+                f"{ready} ready archives" if ready > 1 else "1 ready archive",
+                "they are" if ready > 1 else "it is",
             )
         if runner.moves:
+            moves = len(runner.moves)
             log.info(
-                "%d analyzed archive(s) not moved yet (stopped before the end of their hold); "
-                "they are moved on the next start",
-                len(runner.moves),
+                "%s not moved yet (stopped before the end of %s hold); %s moved on the next start",
+                f"{moves} analyzed archives" if moves > 1 else "1 analyzed archive",
+                "their" if moves > 1 else "its",
+                "they are" if moves > 1 else "it is",
             )
     summary = runner.summary()
     if summary is not None:

@@ -41,7 +41,7 @@ from typing import Any
 from urllib.parse import quote
 
 from analyzer import __version__
-from analyzer.errors import UsageError
+from analyzer.errors import UsageError, clipped_line, counted
 from analyzer.outdir import write_atomic
 from analyzer.timeutil import iso_utc, parse_time
 from analyzer.types import NS_PER_S
@@ -139,6 +139,14 @@ class Record:
     """Of an archive analyzed past input errors (a truncated file, a damaged member of a
     folder: ``findings.json``'s ``inputs[].errors`` and the archive's notes), the lines
     ``analyzer run`` warns of: the first five, and a count of the rest."""
+    warnings: list[str] = field(default_factory=list)
+    """Of an analyzed archive, the other lines the watcher warned of after its verdict,
+    as ``analyzer run`` does: about the config (a ``[[group]]`` naming no channel of it),
+    the model (its spread 1000 times the model's: another unit), the training window, and
+    the anomalies the detectors attributed to no sensor: the archive's own lines first,
+    the config's (every archive's) last; the first five, and a count of the rest
+    (:func:`more_warnings`). Empty in the records of older watchers. The index says how
+    many, and the first."""
     file_marks: dict[str, str] = field(default_factory=dict)
     """Of a folder or group, each file's mark (:func:`analyzer.watch.file_mark`: the
     sha256 of its first and last 64 KiB) by its path relative to INBOX (as in
@@ -919,6 +927,29 @@ def _onset_words(ep: dict[str, Any]) -> str:
     return f"at or before {ep['onset']}" if ep.get("from_start") else str(ep["onset"])
 
 
+WARNING_SHOWN = 320
+"""Characters of an archive's first warning ``index.html`` shows: a ``[[group]]`` naming
+5000 missing channels made one line of 97 KB on the page (rcfg53)."""
+
+_MORE_WARNINGS = " more warnings in the watcher's log"
+
+
+def more_warnings(n: int) -> str:
+    """The line that ends an archive's :attr:`Record.warnings` in place of the ``n``
+    lines past the first :data:`~analyzer.pipeline.WARNED_LINES` (every line in every
+    record: 3000 config lines made a 786 KB state and a 798 KB index.json, rcfg53)."""
+    return f"{n}{_MORE_WARNINGS}"
+
+
+def warning_count(said: list[str]) -> int:
+    """How many warnings the lines of :attr:`Record.warnings` stand for: the lines, and
+    those the last one counts (:func:`more_warnings`) in place of itself."""
+    head, _, tail = said[-1].partition(" ") if said else ("", "", "")
+    if head.isdigit() and f" {tail}" == _MORE_WARNINGS:
+        return len(said) - 1 + int(head)
+    return len(said)
+
+
 def index_view(index: dict[str, Any]) -> IndexView:
     """The display strings of ``index.html`` from the ``index.json`` document."""
     rows = []
@@ -932,6 +963,13 @@ def index_view(index: dict[str, Any]) -> IndexView:
             damage = r["input_errors"]
             more = f" (and {len(damage) - 1} more lines)" if len(damage) > 1 else ""
             details += f"; analyzed past input errors: {damage[0]}{more}"
+        if r.get("warnings"):
+            said = r["warnings"]
+            n = warning_count(said)
+            where = "the watcher's log" if n > len(said) else "index.json and the watcher's log"
+            details += f"; {counted(n, 'warning')}: {clipped_line(said[0], WARNING_SHOWN)}" + (
+                f" (all of them in {where})" if n > 1 else ""
+            )
         if r.get("dropped_as"):
             details += (
                 f"; dropped as {r['dropped_as']}: an earlier content of that name, its "

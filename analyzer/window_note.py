@@ -23,3 +23,11 @@ class WindowNote(str):
         note.short = short or text
         note.before = before
         return note
+
+
+class AnomalyNote(str):
+    """A note of an anomaly the detectors saw and attributed to no sensor (or a second
+    fault beside a found one that their network cannot pin down): a plain string to every
+    reader of ``notes``, recognisable so that ``watch`` counts it among the archive's
+    warnings in its index (an anomaly on every sensor, an archive in another unit, was a
+    plain "no fault" there: a new user's audit, ux53)."""

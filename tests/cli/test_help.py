@@ -75,3 +75,36 @@ def test_the_top_help_has_an_example_and_the_exit_codes(capsys):
     args, extra = build_parser().parse_known_args(example[1:])
     assert extra == [] and args.command == "run"
     assert (REPO / args.inputs[0]).exists()
+
+
+def test_the_watch_examples_run_as_written_after_the_setup_they_give(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``watch --help``'s examples stopped at "INBOX: .../inbox is not a directory" run
+    as written from the checkout (a new user's audit, ux53 item 5): the help now gives the
+    command that makes INBOX (with a sample in it), and its ``--once`` example then runs
+    (here in a folder whose ``samples`` is the checkout's)."""
+    import subprocess
+
+    text = _help(["watch", "--help"], capsys)
+    (setup,) = [ln.strip() for ln in text.splitlines() if ln.strip().startswith("mkdir ")]
+    (once,) = [words for words in _examples(text) if "--once" in words]
+    (tmp_path / "samples").symlink_to(REPO / "samples")
+    monkeypatch.chdir(tmp_path)
+    subprocess.run(["sh", "-c", setup], check=True)
+    assert main(once[1:]) == 1  # (the sample's fault)
+    capsys.readouterr()
+    assert not any((tmp_path / "inbox").iterdir())
+    assert [p.name for p in (tmp_path / "analyzed").iterdir()] == ["building_additive.mcap"]
+    assert (tmp_path / "reports" / "index.html").is_file()
+
+
+def test_the_jobs_help_is_each_commands_own(capsys: pytest.CaptureFixture[str]) -> None:
+    """``watch --help`` described ``--jobs`` as ``run``'s threads of detectors (ux53
+    item 11): watch's says archives at once, and that ``--scheduler`` leaves it unused."""
+    watch_help = " ".join(_help(["watch", "--help"], capsys).split())
+    run_help = " ".join(_help(["run", "--help"], capsys).split())
+    assert "analyze up to N archives at once" in watch_help
+    assert "not used with --scheduler" in watch_help
+    assert "run the detectors (and the bank's time blocks) on N threads" in run_help
+    assert "run the detectors (and the bank's time blocks)" not in watch_help

@@ -248,3 +248,22 @@ def test_cluster_watcher_with_a_saved_model_gives_the_local_records(
         assert ours["model"] == theirs["model"]
         assert ours["model"]["sha256"] == hashlib.sha256(moved.read_bytes()).hexdigest()
         assert ours["faults"] == theirs["faults"]
+
+
+def test_jobs_with_a_scheduler_is_said_not_used(
+    cluster: Any, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """``watch --jobs 4 --scheduler ...``: the cluster sets how many archives are analyzed
+    at once, and the watcher's first line says ``--jobs`` is not used (it was ignored
+    without a word: a new user's audit, ux53 item 11); ``--help`` says so too."""
+    inbox = tmp_path / "inbox"
+    inbox.mkdir()
+    caplog.set_level(logging.INFO, logger="analyzer.watch")
+    options = RunOptions(train=OPTIONS.train, scheduler=cluster.scheduler_address, jobs=4)
+    assert watch(WatchSettings(inbox, tmp_path / "reports", settle=0.2, once=True), options) == 0
+    (line,) = [r.getMessage() for r in caplog.records if r.getMessage().startswith("watching ")]
+    assert "--jobs 4 not used: the cluster's worker threads set" in line, line
+    caplog.clear()
+    options = RunOptions(train=OPTIONS.train, scheduler=cluster.scheduler_address)
+    assert watch(WatchSettings(inbox, tmp_path / "reports", settle=0.2, once=True), options) == 0
+    assert not [r for r in caplog.records if "--jobs" in r.getMessage()]

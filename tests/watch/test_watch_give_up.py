@@ -15,6 +15,8 @@ import test_watch_run
 from test_watch_run import SETTLE, Watcher, said, state, wait_until, write
 
 from analyzer.cli import build_parser
+from analyzer.config import load_config
+from analyzer.options import RunOptions
 from analyzer.watch import WatchSettings
 
 # the fixtures of test_watch_run (found by pytest among this module's names)
@@ -120,6 +122,54 @@ def test_a_train_window_that_fits_no_archive_gives_up_none(
     caplog.clear()
     assert start_watcher(settings).join() == 0
     assert sorted(p.name for p in failed.iterdir()) == ["a.csv", "b.csv"]
+
+
+def test_a_config_train_window_that_fits_no_archive_names_the_config(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A training window set by the config's ``[train]`` (no ``--train``) that fits no
+    archive: the line says to check that config's [train], where the window came from
+    (a new user's audit, ux53 item 6: before, "check --train", which was not given)."""
+    inbox, reports = folders
+    for name in ("a.csv", "b.csv"):
+        short_csv(tmp_path, inbox / name)
+    cfg = tmp_path / "cfg.toml"
+    cfg.write_text("[train]\nstart = 0.0\nend = 12.0\n")
+    options = RunOptions(config=load_config(cfg))
+    settings = WatchSettings(inbox, reports, settle=SETTLE, failed=tmp_path / "failed", once=True)
+    assert start_watcher(settings, options).join() == 2
+    lines = said(caplog, ": left in INBOX:")
+    assert len(lines) == 2
+    for line in lines:
+        assert f"check --config {cfg} [train]" in line, line
+        assert "--train" not in line, line
+
+
+def test_the_default_window_that_fits_no_archive_says_to_give_one(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Neither ``--train`` nor a config ``[train]``: the default window fits no archive,
+    and the line says to give one, in one parenthesis (rcfg53 item 3: before, "check
+    --train (the default training window is used) (given up only once ...)", an option
+    not given and two parentheses in a row)."""
+    inbox, reports = folders
+    for name in ("a.csv", "b.csv"):
+        short_csv(tmp_path, inbox / name)
+    settings = WatchSettings(inbox, reports, settle=SETTLE, failed=tmp_path / "failed", once=True)
+    assert start_watcher(settings, RunOptions()).join() == 2
+    lines = said(caplog, ": left in INBOX:")
+    assert len(lines) == 2
+    for line in lines:
+        advice = line.split("no archive has fit these options yet: ", 1)[1]
+        assert advice.startswith("give --train or a config [train] ("), line
+        assert "check" not in advice and ") (" not in advice, line
+        assert advice.count("(") == 1 and advice.endswith(")"), line
 
 
 def test_a_running_watcher_gives_up_a_short_archive_once_its_time_is_up(

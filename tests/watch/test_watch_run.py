@@ -581,7 +581,7 @@ def test_cli_watcher_finishes_the_running_analysis_on_sigterm(
         err.append(lines.get())
     text = "".join(err)
     assert proc.returncode == 0, text
-    assert "stopping: waiting for 1 running analysis(es) to finish" in text
+    assert "stopping: waiting for 1 running analysis to finish" in text  # (ux53 item 13)
     assert re.search(r"good\.csv: (no fault|fault \(.*\)) in \d+\.\d s", text), text
     assert err[-1].rstrip().endswith("analyzer watch: stopped")
     assert state(reports)["good.csv"]["verdict"] in ("fault", "no fault")
