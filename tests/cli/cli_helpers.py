@@ -3,12 +3,16 @@ one-line error."""
 
 from __future__ import annotations
 
+import json
 import re
+from pathlib import Path
 from typing import Any
 
 import pytest
+from jsonschema import Draft202012Validator
 
 from analyzer.cli import main
+from analyzer.schema import findings_schema
 
 
 def run_cli(argv: list[Any], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
@@ -47,3 +51,20 @@ def rounded(doc: Any, digits: int = 9) -> Any:
     if isinstance(doc, float):
         return float(f"{doc:.{digits}g}")
     return doc
+
+
+def run_to(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], path: Path, *more: Any
+) -> tuple[int, str, Any, Path]:
+    """``analyzer run PATH --out TMP/o MORE``: exit code, stderr, findings.json (None
+    unless the exit code is 0 or 1) and the output folder."""
+    out = tmp_path / "o"
+    code, _, err = run_cli(["run", path, "--out", out, "--no-progress", *more], capsys)
+    doc = json.loads((out / "findings.json").read_text()) if code in (0, 1) else None
+    return code, err, doc, out
+
+
+def schema_valid(doc: Any) -> None:
+    """``doc`` passes the findings.json schema (the first errors shown otherwise)."""
+    errors = list(Draft202012Validator(findings_schema()).iter_errors(doc))
+    assert errors == [], [e.message[:200] for e in errors]

@@ -7,19 +7,15 @@ out, in ``inspect --json``'s words."""
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
-from jsonschema import Draft202012Validator
 
 from analyzer.cli import main
-from analyzer.schema import findings_schema
 from analyzer.selection import constant_siblings, model_stuck
 from analyzer.simulate import simulate_building
 from analyzer.store import ChannelInfo
 from analyzer.writers import write_archive
-from tests.cli.cli_helpers import one_line_error, run_cli, said
+from tests.cli.cli_helpers import one_line_error, run_cli, run_to, said, schema_valid
 
 ALL = "/s0.data,/s1.data,/s2.data,/s3.data,/s4.data"
 
@@ -37,21 +33,9 @@ def _record(tmp_path, value=0.0, until=None, name="r.mcap", extra=None):
     return path
 
 
-def _run(tmp_path, capsys, path, *more):
-    out = tmp_path / "o"
-    code, _, err = run_cli(["run", path, "--out", out, "--no-progress", *more], capsys)
-    doc = json.loads((out / "findings.json").read_text()) if code in (0, 1) else None
-    return code, err, doc, out
-
-
-def _valid(doc):
-    errors = list(Draft202012Validator(findings_schema()).iter_errors(doc))
-    assert errors == [], [e.message[:200] for e in errors]
-
-
 @pytest.mark.parametrize("channels", [ALL, "/s*"])
 def test_a_named_dead_sensor_is_a_finding(tmp_path, capsys, channels):
-    code, err, doc, out = _run(tmp_path, capsys, _record(tmp_path), "--channels", channels)
+    code, err, doc, out = run_to(tmp_path, capsys, _record(tmp_path), "--channels", channels)
     assert code == 1, err
     (f,) = [f for f in doc["faults"] if f["channel"] == "/s3.data"]
     assert f["type"] == "multiplicative"
@@ -71,16 +55,16 @@ def test_a_named_dead_sensor_is_a_finding(tmp_path, capsys, channels):
     assert words in (out / "report.html").read_text()
     (s3,) = [c for c in doc["channels"] if c["name"] == "/s3.data"]
     assert (s3["analyzed"], s3["why"]) == (False, "constant")
-    _valid(doc)
+    schema_valid(doc)
 
 
 def test_a_named_sensor_stuck_at_another_value_is_other_stuck_at(tmp_path, capsys):
-    code, err, doc, _ = _run(tmp_path, capsys, _record(tmp_path, 2.5), "--channels", ALL)
+    code, err, doc, _ = run_to(tmp_path, capsys, _record(tmp_path, 2.5), "--channels", ALL)
     assert code == 1, err
     (f,) = [f for f in doc["faults"] if f["channel"] == "/s3.data"]
     assert (f["type"], f["magnitude"]) == ("other", {"stuck_at": 2.5})
     assert f["evidence"]["constant"]["samples"] == 12000
-    _valid(doc)
+    schema_valid(doc)
 
 
 def test_a_named_constant_channel_alone_is_refused_as_before(tmp_path, capsys):
@@ -101,7 +85,7 @@ def test_few_samples_at_one_value_are_no_finding(tmp_path, capsys):
     np.savetxt(
         path, np.column_stack([t, y, few]), delimiter=",", header=header, comments="", fmt="%.17g"
     )
-    code, err, doc, _ = _run(tmp_path, capsys, path, "--channels", "s*")
+    code, err, doc, _ = run_to(tmp_path, capsys, path, "--channels", "s*")
     assert code in (0, 1), err
     assert "status" not in {f["channel"] for f in doc["faults"]}
     (status,) = [c for c in doc["channels"] if c["name"] == "status"]
@@ -110,7 +94,7 @@ def test_few_samples_at_one_value_are_no_finding(tmp_path, capsys):
 
 def test_by_default_a_constant_sibling_stays_out_with_a_warning(tmp_path, capsys):
     extra = {"temperature": np.full(12000, 21.0)}
-    code, err, doc, _ = _run(tmp_path, capsys, _record(tmp_path, extra=extra))
+    code, err, doc, _ = run_to(tmp_path, capsys, _record(tmp_path, extra=extra))
     assert code == 0, err
     assert doc["faults"] == []
     warnings = [ln for ln in said(err) if "/s3.data" in ln]
@@ -124,7 +108,7 @@ def test_by_default_a_constant_sibling_stays_out_with_a_warning(tmp_path, capsys
 
 
 def test_a_sensor_dead_in_the_training_window_only_is_warned_of(tmp_path, capsys):
-    code, err, doc, _ = _run(tmp_path, capsys, _record(tmp_path, until=3000))
+    code, err, doc, _ = run_to(tmp_path, capsys, _record(tmp_path, until=3000))
     assert code in (0, 1), err
     (line,) = [ln for ln in said(err) if "/s3.data" in ln]
     assert line == (
@@ -133,23 +117,23 @@ def test_a_sensor_dead_in_the_training_window_only_is_warned_of(tmp_path, capsys
     )
     (s3,) = [c for c in doc["channels"] if c["name"] == "/s3.data"]
     assert (s3["analyzed"], s3["why"]) == (False, "constant in the training window")
-    _valid(doc)
+    schema_valid(doc)
 
 
 def test_findings_json_says_why_a_copy_or_an_unselected_channel_was_left_out(tmp_path, capsys):
     t, y, names = simulate_building(duration_s=60.0, seed=31)
     extra = {"s4f": 1.8 * y[:, 4] + 32.0}
     path = _record(tmp_path, value=0.0, until=0, extra=extra)
-    code, err, doc, _ = _run(tmp_path, capsys, path)
+    code, err, doc, _ = run_to(tmp_path, capsys, path)
     assert code in (0, 1), err
     (copy,) = [c for c in doc["channels"] if not c["analyzed"]]
     assert copy == copy | {"name": "/s4f.data", "why": "copy", "copy_of": "/s4.data"}
-    _valid(doc)
-    code, err, doc, _ = _run(tmp_path, capsys, path, "--channels", "/s0.data,/s1.data,/s2.data")
+    schema_valid(doc)
+    code, err, doc, _ = run_to(tmp_path, capsys, path, "--channels", "/s0.data,/s1.data,/s2.data")
     assert code in (0, 1), err
     whys = {c["name"]: c.get("why") for c in doc["channels"] if not c["analyzed"]}
     assert whys == {n: "not selected" for n in ("/s3.data", "/s4.data", "/s4f.data")}
-    _valid(doc)
+    schema_valid(doc)
 
 
 def _info(name, value=0.0, finite=12000):
@@ -196,10 +180,10 @@ def test_a_mostly_constant_family_is_no_dead_sensor(tmp_path, capsys):
     (nav2's covariance entries were each warned of as a dead sensor), and a glob over it
     reports none as a fault, while the dead ``/s3.data`` among its varying siblings still is."""
     path = _record(tmp_path, extra=_covariance_like())
-    code, err, doc, _ = _run(tmp_path, capsys, path)
+    code, err, doc, _ = run_to(tmp_path, capsys, path)
     assert not any("/cov" in ln for ln in said(err)), err
     assert any(ln.startswith("analyzer: warning: /s3.data") for ln in said(err)), err
-    code, err, doc, _ = _run(tmp_path, capsys, path, "--channels", "/*")
+    code, err, doc, _ = run_to(tmp_path, capsys, path, "--channels", "/*")
     assert code == 1, err
     stuck = {f["channel"] for f in doc["faults"] if f["detector"] == "constant_check"}
     assert stuck == {"/s3.data"}
@@ -209,7 +193,7 @@ def test_a_mostly_constant_family_is_no_dead_sensor(tmp_path, capsys):
 
 def test_a_constant_channel_named_exactly_is_a_finding_whatever_its_family(tmp_path, capsys):
     path = _record(tmp_path, value=1.0, extra=_covariance_like())
-    code, err, doc, _ = _run(tmp_path, capsys, path, "--channels", ALL + ",/cov1.data,/cov0.data")
+    code, err, doc, _ = run_to(tmp_path, capsys, path, "--channels", ALL + ",/cov1.data,/cov0.data")
     assert code == 1, err
     stuck = {f["channel"] for f in doc["faults"] if f["detector"] == "constant_check"}
     assert stuck == {"/s3.data", "/cov1.data"}
@@ -227,12 +211,12 @@ def test_the_constant_minority_of_a_family_is_named():
 def test_the_report_says_what_the_constant_check_is_where_it_reported(tmp_path, capsys):
     """The report's Method section describes each detector; the check had only its name
     and "ran" (stuck51's own note): now what it does, where it reported a channel."""
-    code, err, _, out = _run(tmp_path, capsys, _record(tmp_path), "--channels", ALL)
+    code, err, _, out = run_to(tmp_path, capsys, _record(tmp_path), "--channels", ALL)
     assert code == 1, err
     html = (out / "report.html").read_text()
     assert "A sensor that reads one value" in html
     assert "reported 1 channel" in html
-    code, err, _, out = _run(tmp_path, capsys, _record(tmp_path, value=None, until=0))
+    code, err, _, out = run_to(tmp_path, capsys, _record(tmp_path, value=None, until=0))
     assert "A sensor that reads one value" not in (out / "report.html").read_text()
 
 
@@ -263,7 +247,7 @@ def test_a_model_channel_dead_since_the_model_was_saved_is_the_constant_check_fi
     start, naming the detectors that saw it too; the channel stays analyzed (the saved
     model needs it), without the spread warning."""
     path = _record(tmp_path, value)
-    code, err, doc, out = _run(tmp_path, capsys, path, "--model", saved_model)
+    code, err, doc, out = run_to(tmp_path, capsys, path, "--model", saved_model)
     assert code == 1, err
     (f,) = [f for f in doc["faults"] if f["channel"] == "/s3.data"]
     assert (f["type"], f["magnitude"], f["detector"]) == (kind, magnitude, "constant_check")
@@ -281,11 +265,11 @@ def test_a_model_channel_dead_since_the_model_was_saved_is_the_constant_check_fi
     ]
     html = (out / "report.html").read_text()
     assert "A sensor that reads one value" in html and "saved model" in html
-    _valid(doc)
+    schema_valid(doc)
 
 
 def test_a_healthy_record_with_the_model_has_no_constant_check(tmp_path, capsys, saved_model):
-    code, err, doc, _ = _run(
+    code, err, doc, _ = run_to(
         tmp_path, capsys, _record(tmp_path, None, until=0), "--model", saved_model
     )
     assert code in (0, 1), err
@@ -308,7 +292,7 @@ def test_a_dead_sensor_a_config_group_names_is_a_finding(tmp_path, capsys):
     """A constant channel a ``[[group]]`` names is a sensor the user named, as with
     ``--channels``: a finding (it was left out with the sibling warning, exit 0)."""
     config = _config(tmp_path, TOWER)
-    code, err, doc, out = _run(tmp_path, capsys, _record(tmp_path), "--config", config)
+    code, err, doc, out = run_to(tmp_path, capsys, _record(tmp_path), "--config", config)
     assert code == 1, err
     (f,) = [f for f in doc["faults"] if f["channel"] == "/s3.data"]
     assert (f["type"], f["magnitude"], f["detector"]) == (
@@ -322,7 +306,7 @@ def test_a_dead_sensor_a_config_group_names_is_a_finding(tmp_path, capsys):
     (s3,) = [c for c in doc["channels"] if c["name"] == "/s3.data"]
     assert (s3["analyzed"], s3["why"]) == (False, "constant")
     assert "A sensor that reads one value" in (out / "report.html").read_text()
-    _valid(doc)
+    schema_valid(doc)
 
 
 def test_a_group_sensor_of_any_name_is_one_but_not_a_group_input(tmp_path, capsys):
@@ -332,7 +316,7 @@ def test_a_group_sensor_of_any_name_is_one_but_not_a_group_input(tmp_path, capsy
     extra = {"t": np.full(12000, 21.0), "f": np.zeros(12000)}
     group = TOWER.replace('"/s4.data"]', '"/s4.data", "/t.data"]') + 'inputs = ["/f.data"]\n'
     config = _config(tmp_path, group)
-    code, err, doc, _ = _run(tmp_path, capsys, _record(tmp_path, extra=extra), "--config", config)
+    code, err, doc, _ = run_to(tmp_path, capsys, _record(tmp_path, extra=extra), "--config", config)
     assert code == 1, err
     stuck = {
         f["channel"]: f["magnitude"] for f in doc["faults"] if f["detector"] == "constant_check"
@@ -340,7 +324,7 @@ def test_a_group_sensor_of_any_name_is_one_but_not_a_group_input(tmp_path, capsy
     assert stuck == {"/s3.data": {"gain": 0.0}, "/t.data": {"stuck_at": 21.0}}
     whys = {c["name"]: c.get("why") for c in doc["channels"] if not c["analyzed"]}
     assert whys == {"/s3.data": "constant", "/t.data": "constant", "/f.data": "constant"}
-    _valid(doc)
+    schema_valid(doc)
 
 
 def test_a_model_channel_is_stuck_only_beside_a_varying_one():

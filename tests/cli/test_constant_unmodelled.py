@@ -7,15 +7,11 @@ with a note in findings.json only (now one warning line names them)."""
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
-from jsonschema import Draft202012Validator
 
-from analyzer.schema import findings_schema
 from analyzer.simulate import simulate_building
 from analyzer.writers import write_archive
-from tests.cli.cli_helpers import one_line_error, run_cli, said
+from tests.cli.cli_helpers import one_line_error, run_cli, run_to, said, schema_valid
 
 
 def _record(tmp_path, value=0.0, extra=None, duration_s=60.0):
@@ -32,28 +28,16 @@ def _record(tmp_path, value=0.0, extra=None, duration_s=60.0):
     return path
 
 
-def _run(tmp_path, capsys, path, *more):
-    out = tmp_path / "o"
-    code, _, err = run_cli(["run", path, "--out", out, "--no-progress", *more], capsys)
-    doc = json.loads((out / "findings.json").read_text()) if code in (0, 1) else None
-    return code, err, doc, out
-
-
-def _valid(doc):
-    errors = list(Draft202012Validator(findings_schema()).iter_errors(doc))
-    assert errors == [], [e.message[:200] for e in errors]
-
-
 SHORT = "/s0.data,/s1.data,/s3.data"
 
 
-def test_a_named_dead_sensor_is_reported_when_no_detector_can_run(tmp_path, capsys):
+def test_a_named_dead_sensor_is_reported_when_no_detector_canrun_to(tmp_path, capsys):
     """12 s at 200 Hz: the default window (2.4 s) is too short for every detector, and
     the run stopped with exit 2, naming the dead /s3.data nowhere (a new user's audit,
     on a 12-s cart-pole record). The constant check needs no window: its finding is
     reported (exit 1), with why the others could not run on stderr and in the notes."""
     path = _record(tmp_path, duration_s=12.0)
-    code, err, doc, out = _run(tmp_path, capsys, path, "--channels", SHORT)
+    code, err, doc, out = run_to(tmp_path, capsys, path, "--channels", SHORT)
     assert code == 1, err
     (f,) = doc["faults"]
     assert (f["channel"], f["detector"], f["magnitude"]) == (
@@ -72,7 +56,7 @@ def test_a_named_dead_sensor_is_reported_when_no_detector_can_run(tmp_path, caps
     assert err.splitlines()[-1].startswith("analyzer: 1 sensor fault found on 1 sensor: /s3.data")
     page = (out / "report.html").read_text()
     assert "reads 0.0 on every one of its 2 400 samples" in page
-    _valid(doc)
+    schema_valid(doc)
 
 
 def test_no_detector_and_no_dead_sensor_is_still_refused(tmp_path, capsys):
@@ -122,7 +106,7 @@ def test_constant_fields_a_glob_matches_are_warned_of(tmp_path, capsys):
     only (a new user's audit: a dead IMU's six axes, ``--channels '/imu.*'``): one
     warning line names them with their values; no finding (nothing tells a dead sensor
     from a quantity nothing changed); a table's constant entries stay quiet."""
-    code, err, doc, _ = _run(
+    code, err, doc, _ = run_to(
         tmp_path, capsys, _lone_fields(tmp_path), "--channels", "/s*,/gyro*,/cov*"
     )
     assert code == 0, err
@@ -142,7 +126,7 @@ def test_constant_fields_a_glob_matches_are_warned_of(tmp_path, capsys):
 def test_constant_fields_named_exactly_are_findings(tmp_path, capsys):
     """The warning's advice works: named exactly, beside varying channels, they are."""
     names = "/s0.data,/s1.data,/s2.data,/gyro_x.data,/gyro_y.data"
-    code, err, doc, _ = _run(tmp_path, capsys, _lone_fields(tmp_path), "--channels", names)
+    code, err, doc, _ = run_to(tmp_path, capsys, _lone_fields(tmp_path), "--channels", names)
     assert code == 1, err
     assert {f["channel"] for f in doc["faults"]} == {"/gyro_x.data", "/gyro_y.data"}
     assert "read one value on every one of their" not in err
@@ -164,7 +148,7 @@ def test_realdata_cart_pole_stuck_position_is_reported(tmp_path, capsys, realdat
         f"/cartpole/state.{c}"
         for c in ("cart_position", "cart_velocity", "pole_angle", "pole_angular_velocity")
     )
-    code, err, doc, _ = _run(tmp_path, capsys, path, "--channels", names)
+    code, err, doc, _ = run_to(tmp_path, capsys, path, "--channels", names)
     assert code == 1, err
     found = {
         (f["channel"], f["detector"], f["evidence"]["constant"]["samples"]) for f in doc["faults"]
@@ -178,7 +162,7 @@ def test_realdata_dead_imu_a_glob_selects_is_warned_of(tmp_path, capsys, realdat
     on all 1 565 samples, and stderr said nothing of them."""
     path = realdata / "ros2" / "plotjuggler" / "rosbag2_test"
     args = ["--train", "0:29", "--channels", "/imu.*,/battery.voltage,/pose.pose.position.x"]
-    code, err, doc, _ = _run(tmp_path, capsys, path, *args)
+    code, err, doc, _ = run_to(tmp_path, capsys, path, *args)
     assert code in (0, 1), err
     (line,) = [ln for ln in said(err) if "/imu.angular_velocity.x" in ln]
     for axis in ("angular_velocity", "linear_acceleration"):
