@@ -1118,6 +1118,7 @@ def _analyze(
             judged = loud_stretch_count(
                 [ev for f in findings for ev in f.events],
                 [n for r in results for n in r.notes],
+                len(chosen),
             )
             notes.extend(_louder_than_window(values, train, aligned.rate_hz, levels.train, judged))
         if isinstance(executor, DaskExecutor):  # after the work: tasks sent again, say

@@ -193,10 +193,19 @@ class LoadGuard:
         return self(columns, own, k0 - w, k0 + w)
 
 
-def loud_stretch_count(events: Sequence[Any], notes: Sequence[str]) -> int:
-    """How many of ``events`` (anything with an ``evidence`` dict) carry a ``load_ratio``
-    (raised where the other channels were louder than anywhere in the healthy window) plus
-    how many of ``notes`` are a detector's word on an alarm it did not report there
-    (:data:`LOUD_MARK`)."""
-    kept = sum(1 for ev in events if "load_ratio" in ev.evidence)
+def loud_stretch_count(events: Sequence[Any], notes: Sequence[str], channels: int) -> int:
+    """How many of ``events`` (with an ``evidence`` dict and a ``type``) the guard judged:
+    of its kinds (:data:`LOUD_KINDS`) and carrying a ``load_ratio`` (raised where the other
+    channels were louder than anywhere in the healthy window), in a record of at most
+    :data:`LOUD_BANK_MAX` analyzed ``channels`` (larger ones are not guarded), plus how many
+    of ``notes`` are a detector's word on an alarm it did not report there
+    (:data:`LOUD_MARK`). An offset or a drift there carries its ``load_ratio`` too, but
+    nothing more was asked of it: the run's note on the bundled sample's offset said the
+    detectors "asked more of an alarm there" (the merged session's CI)."""
+    guarded = channels <= LOUD_BANK_MAX
+    kept = sum(
+        1
+        for ev in events
+        if guarded and "load_ratio" in ev.evidence and getattr(ev, "type", None) in LOUD_KINDS
+    )
     return kept + sum(1 for n in notes if LOUD_MARK in n)
