@@ -25,7 +25,7 @@ from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
 from analyzer.readers import open_archive
 from analyzer.readers.base import InputInfo, TimeSource, about_selection, one_clock
 from analyzer.scratch import scratch
-from analyzer.selection import no_numeric_channel, select_channels
+from analyzer.selection import no_numeric_channel, select_channels, typed_fields
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
 from analyzer.timeutil import (
     exact_unit,
@@ -304,7 +304,11 @@ def _voting(store: ChannelStore, names: Sequence[str], inputs: Sequence[InputInf
     relabelled = [p for i in inputs for p in i.relabelled]
     logs = [t for i in inputs for t in i.log_topics]
     try:
-        analyzed = set(select_channels(store, None, [], relabelled, log_topics=logs))
+        analyzed = set(
+            select_channels(
+                store, None, [], relabelled, log_topics=logs, typed=typed_fields(inputs)
+            )
+        )
     except (UsageError, ReaderError):
         return list(names)
     return [n for n in names if n in analyzed] or list(names)

@@ -12,6 +12,7 @@ from analyzer.readers import Archive, open_archive
 from analyzer.readers.base import InputInfo, TimeSource
 from analyzer.scratch import scratch
 from analyzer.selection import (
+    DURATION_FIELD,
     LOG_FIELD,
     NO_TRAINING_SAMPLES,
     TIME_FIELD,
@@ -20,6 +21,7 @@ from analyzer.selection import (
     lone_channel,
     no_numeric_channel,
     select_channels,
+    typed_fields,
     without_samples,
 )
 from analyzer.store import ChannelStore
@@ -112,7 +114,9 @@ def run_choice(
     refused = None
     try:
         logs = [t for i in archive.inputs for t in i.log_topics]
-        chosen = select_channels(store, None, notes, relabelled, log_topics=logs)
+        chosen = select_channels(
+            store, None, notes, relabelled, log_topics=logs, typed=typed_fields(archive.inputs)
+        )
         lone_channel(chosen, notes)  # (run refuses one: every detector needs two)
     except (UsageError, ReaderError) as err:
         chosen, refused = [], one_line(err)
@@ -237,9 +241,12 @@ LEGEND = {
     "refused": "[refused] run refuses the archive (below)",
     LOG_FIELD: "[log message field] a field of a log message (/rosout), not a measurement "
     "(--channels naming it keeps it)",
-    TIME_FIELD: "[timestamp field] a time written in the message (seconds and "
-    "nanoseconds, or a stamp that never goes back), not a measurement (--channels naming "
-    "it keeps it)",
+    TIME_FIELD: "[timestamp field] a time written in the message (a field of type time, "
+    "or, where the message's types are unknown, seconds and nanoseconds or a stamp that "
+    "never goes back), not a measurement (--channels naming it keeps it)",
+    DURATION_FIELD: "[duration field] a span of time written in the message (a field of "
+    "type duration, such as a trajectory point's time_from_start): a plan or a setting, "
+    "not a reading (--channels naming it keeps it)",
     NO_TRAINING_SAMPLES: "[no training samples] no samples in the default training window "
     "(its data lie outside it: see the notes; --train choosing a window where it has data "
     "keeps it)",

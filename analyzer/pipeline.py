@@ -160,6 +160,7 @@ from analyzer.selection import (
     no_numeric_channel,
     select_channels,
     stuck_words,
+    typed_fields,
 )
 from analyzer.silent import merged, silent_findings
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
@@ -726,6 +727,7 @@ def _analyze(
                 [t for i in archive.inputs for t in i.log_topics],
                 _config_sensors(options),
                 blank,
+                typed_fields(archive.inputs),
             )
         else:
             chosen = model_channels(store, reused, options, notes, blank)

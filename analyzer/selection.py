@@ -7,7 +7,7 @@ is what ``run`` does. A module of its own, light to import: ``inspect`` stays fa
 from __future__ import annotations
 
 import re
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Collection, Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -521,6 +521,13 @@ LOG_FIELD = "log message field"
 TIME_FIELD = "timestamp field"
 """``why`` of a part of a time written in a message (:func:`time_fields`)."""
 
+DURATION_FIELD = "duration field"
+"""``why`` of a part of a span of time written in a message, a field of ROS's type
+``duration`` (``builtin_interfaces/Duration``: a trajectory point's
+``time_from_start``, a marker's ``lifetime``; :func:`time_fields`). Not a time, and not
+a sensor's reading either: a plan or a setting, written as whole seconds beside
+nanoseconds (the nanoseconds wrap each second: neither part alone follows the span)."""
+
 SPLIT_TIMES = (("sec", "nsec"), ("sec", "nanosec"), ("secs", "nsecs"), ("seconds", "nanos"))
 """The two fields of a time split into whole seconds and nanoseconds: ROS's
 ``builtin_interfaces/Time`` (and ROS 1's ``time``), Foxglove's ``Time``, protobuf's
@@ -530,18 +537,36 @@ CLOCK_FIELDS = frozenset({"stamp", "timestamp"})
 """Names of a field that holds a time as one number; it is a clock reading where its
 values never go back over the record (:func:`time_fields`)."""
 
+_INDEX = re.compile(r"\[\d+\]")
 
-def time_fields(store: ChannelStore, names: Sequence[str]) -> list[str]:
-    """The channels of ``names`` that hold a time written in the message, not a
-    measurement: both parts of a split time (:data:`SPLIT_TIMES`: ``X.sec`` beside
+
+def time_fields(
+    store: ChannelStore,
+    names: Sequence[str],
+    typed: Mapping[str, Mapping[str, str]] | None = None,
+) -> dict[str, str]:
+    """The channels of ``names`` that hold a time or a span written in the message, not
+    a measurement, each with its ``why`` (:data:`TIME_FIELD`, :data:`DURATION_FIELD`).
+    A channel of a topic whose message definition the reader knows (``typed``:
+    :attr:`~analyzer.readers.base.InputInfo.time_fields`) is one by its field's type
+    (ROS's ``time`` or ``duration``) and by nothing else: a ``float64 stamp`` that rises
+    is a measurement. Of the others (CSV columns, JSON and protobuf messages), by its
+    name and shape: both parts of a split time (:data:`SPLIT_TIMES`: ``X.sec`` beside
     ``X.nsec``; the nanoseconds part is a sawtooth that wraps each second, the seconds
     part a staircase), and a field named ``stamp`` or ``timestamp`` whose values never
     go back over the record (a clock; :data:`CLOCK_FIELDS`). Analyzed as sensors, they
     set the common clock and the advice (Keelson's 83 ``timestamp.seconds`` and
     ``.nanos`` were a record's only default channels; a new user's audit)."""
+    typed = typed or {}
     present = set(store.names)  # (the other part may be constant: left out already)
-    out = []
+    out = {}
     for name in names:
+        fields = _typed_fields(name, typed)
+        if fields is not None:
+            kind = fields[1].get(_INDEX.sub("[*]", fields[0]))
+            if kind is not None:
+                out[name] = DURATION_FIELD if kind == "duration" else TIME_FIELD
+            continue
         parent, dot, leaf = name.rpartition(".")
         if not dot:
             parent, leaf = "", name
@@ -555,8 +580,32 @@ def time_fields(store: ChannelStore, names: Sequence[str]) -> list[str]:
             or leaf in CLOCK_FIELDS
             and _never_back(store, name)
         ):
-            out.append(name)
+            out[name] = TIME_FIELD
     return out
+
+
+def typed_fields(inputs: Sequence[InputInfo]) -> dict[str, dict[str, str]]:
+    """The time and duration fields of the topics whose types the readers of ``inputs``
+    know (:attr:`~analyzer.readers.base.InputInfo.time_fields`), merged by topic."""
+    out: dict[str, dict[str, str]] = {}
+    for info in inputs:
+        for topic, fields in info.time_fields.items():
+            out.setdefault(topic, {}).update(fields)
+    return out
+
+
+def _typed_fields(
+    name: str, typed: Mapping[str, Mapping[str, str]]
+) -> tuple[str, Mapping[str, str]] | None:
+    """The field of the channel ``name`` (after its topic's ``.``) and its topic's time
+    fields, where ``typed`` knows the topic's types; else None."""
+    topic, dot, rest = name.partition(".")
+    while dot:
+        if topic in typed:
+            return rest, typed[topic]
+        head, dot, rest = rest.partition(".")
+        topic = f"{topic}.{head}"
+    return None
 
 
 def _never_back(store: ChannelStore, name: str) -> bool:
@@ -568,8 +617,9 @@ def _never_back(store: ChannelStore, name: str) -> bool:
 
 class NotMeasuredNote(str):
     """The note naming the channels left out because they are not measurements: the
-    fields of log messages (:data:`LOG_FIELD`) and times written in messages
-    (:data:`TIME_FIELD`); ``names``, and ``whys``: each one's reason."""
+    fields of log messages (:data:`LOG_FIELD`), times written in messages
+    (:data:`TIME_FIELD`) and spans (:data:`DURATION_FIELD`); ``names``, and ``whys``:
+    each one's reason."""
 
     names: tuple[str, ...] = ()
     whys: dict[str, str]
@@ -584,11 +634,17 @@ class NotMeasuredNote(str):
         """The note on the channels ``whys`` names, each with its reason."""
         logs = [c for c, w in whys.items() if w == LOG_FIELD]
         times = [c for c, w in whys.items() if w == TIME_FIELD]
+        spans = [c for c, w in whys.items() if w == DURATION_FIELD]
         parts = []
         if logs:
             parts.append(f"fields of log messages: {capped(logs, COPIES_LISTED, what='channels')}")
         if times:
             parts.append(f"timestamps: {capped(times, COPIES_LISTED, what='channels')}")
+        if spans:
+            parts.append(
+                "durations (a plan or a setting, not a reading): "
+                f"{capped(spans, COPIES_LISTED, what='channels')}"
+            )
         note = cls(
             f"not measurements, not analyzed: {'; '.join(parts)}; --channels naming them "
             "analyzes them"
@@ -599,14 +655,18 @@ class NotMeasuredNote(str):
 
 
 def not_measured(
-    store: ChannelStore, names: Sequence[str], log_topics: Sequence[str]
+    store: ChannelStore,
+    names: Sequence[str],
+    log_topics: Sequence[str],
+    typed: Mapping[str, Mapping[str, str]] | None = None,
 ) -> dict[str, str]:
     """Of ``names``, those that are no measurement, each with why: a field of a topic of
-    ``log_topics`` (a log message's: :data:`LOG_FIELD`), or a time written in a message
-    (:func:`time_fields`: :data:`TIME_FIELD`)."""
+    ``log_topics`` (a log message's: :data:`LOG_FIELD`), or a time or a span written in
+    a message (:func:`time_fields`, with the readers' field types ``typed``:
+    :data:`TIME_FIELD`, :data:`DURATION_FIELD`)."""
     prefixes = tuple(p for t in log_topics for p in (f"{t}.", f"{t}["))
     whys = {c: LOG_FIELD for c in names if prefixes and c.startswith(prefixes)}
-    whys.update({c: TIME_FIELD for c in time_fields(store, names) if c not in whys})
+    whys.update({c: w for c, w in time_fields(store, names, typed).items() if c not in whys})
     return {c: whys[c] for c in names if c in whys}
 
 
@@ -620,6 +680,7 @@ def select_channels(
     log_topics: Sequence[str] = (),
     sensors: Collection[str] = (),
     blank: Collection[str] = (),
+    typed: Mapping[str, Mapping[str, str]] | None = None,
 ) -> list[str]:
     """The channels to analyze: ``--channels``' (``patterns``), else every numeric one
     that is not constant, whose meaning does not change between messages (names
@@ -631,8 +692,9 @@ def select_channels(
     Flags and labels (two whole-number values over the record: :func:`_flags`) are left
     out unless ``--channels`` or the config (``named``) names them exactly (a note
     says which, and how to keep them), and so are the fields of log messages (topics of
-    ``log_topics``) and the times written in messages (:func:`not_measured`) unless
-    ``--channels`` (other than ``!`` patterns alone) or the config names them. A
+    ``log_topics``) and the times and durations written in messages (:func:`not_measured`,
+    by the readers' field types ``typed`` where they know them) unless ``--channels``
+    (other than ``!`` patterns alone) or the config names them. A
     constant channel of at least :data:`STUCK_SAMPLES` samples beside varying ones is
     a fault (:class:`StuckNote`) where ``--channels`` names it (exactly, or by a glob
     where its family mostly varies) or, by default, where the config names it as a
@@ -707,7 +769,7 @@ def select_channels(
         if rest:
             notes.append(ConstantNote(rest))
     if not patterns or all(p.startswith("!") for p in patterns):
-        chosen = _measured(store, chosen, notes, log_topics, named)
+        chosen = _measured(store, chosen, notes, log_topics, named, typed)
     # (a lone channel is refused as one, flag or not: the detectors need two)
     flags = _flags(infos, chosen, patterns, named) if len(chosen) > 1 else []
     if flags:
@@ -760,22 +822,49 @@ def _measured(
     notes: list[str],
     log_topics: Sequence[str],
     named: Collection[str],
+    typed: Mapping[str, Mapping[str, str]] | None = None,
 ) -> list[str]:
     """``chosen`` without the channels that are no measurement (:func:`not_measured`)
     and that the config does not name (``named``), a note naming them; refused where
     nothing else is left."""
-    whys = {c: w for c, w in not_measured(store, chosen, log_topics).items() if c not in named}
+    measured = not_measured(store, chosen, log_topics, typed)
+    whys = {c: w for c, w in measured.items() if c not in named}
     if not whys:
         return chosen
     notes.append(NotMeasuredNote.of(whys))
     kept = [c for c in chosen if c not in whys]
     if not kept:
+        said = _kinds_said(whys.values(), _KINDS, "or")
         raise ArchiveUsageError(
-            "no channel left to analyze: every varying channel is a log message's field or "
-            f"a timestamp, not a measurement ({_few(list(whys), 3)}); name them with "
-            "--channels to analyze them anyway"
+            f"no channel left to analyze: every varying channel is {said}, not a "
+            f"measurement ({_few(list(whys), 3)}); name them with --channels to analyze "
+            "them anyway"
         )
     return kept
+
+
+_KINDS = {
+    LOG_FIELD: "a log message's field",
+    TIME_FIELD: "a timestamp",
+    DURATION_FIELD: "a duration",
+}
+"""How the refusal of :func:`_measured` names each ``why`` it met."""
+
+_KINDS_MANY = {
+    LOG_FIELD: "log messages' fields",
+    TIME_FIELD: "timestamps",
+    DURATION_FIELD: "durations",
+}
+"""How :func:`lone_channel` names the reasons of the channels it lists."""
+
+
+def _kinds_said(whys: Iterable[str], words: Mapping[str, str], last: str) -> str:
+    """The ``words`` of the ``whys`` met, in ``words``' order, joined as a list ending
+    with ``last`` ("or", "and"): only what is there (a record of log messages alone was
+    said to hold "a log message's field or a timestamp")."""
+    met = set(whys)
+    kinds = [k for w, k in words.items() if w in met]
+    return ", ".join(kinds[:-1]) + f" {last} {kinds[-1]}" if len(kinds) > 1 else "".join(kinds)
 
 
 def _all_constant_line(patterns: Sequence[str], infos: Sequence[ChannelInfo]) -> str:
@@ -805,12 +894,13 @@ def lone_channel(chosen: Sequence[str], notes: Sequence[str]) -> None:
     copied = [c for n in notes if isinstance(n, CopyNote) for c in n.names]
     flags = [c for n in notes if isinstance(n, FlagNote) for c in n.names]
     unmeasured = [c for n in notes if isinstance(n, NotMeasuredNote) for c in n.names]
+    kinds = [w for n in notes if isinstance(n, NotMeasuredNote) for w in n.whys.values()]
     raise ArchiveUsageError(
         f"one channel to analyze ({chosen[0]}): every detector estimates a sensor "
         "from the others and needs at least 2 channels (--channels chooses them)"
         + (f"; flags or labels not analyzed: {_few(flags)}" if flags else "")
         + (
-            f"; log messages' fields and timestamps not analyzed: {_few(unmeasured)}"
+            f"; {_kinds_said(kinds, _KINDS_MANY, 'and')} not analyzed: {_few(unmeasured)}"
             if unmeasured
             else ""
         )

@@ -214,7 +214,13 @@ def test_a_record_of_timestamps_only_is_refused_saying_so(tmp_path):
             writer.add_message(cid, t, json.dumps(row).encode(), t)
         writer.finish()
     archive, store = _store(path)
-    with store, pytest.raises(ArchiveUsageError, match="every varying channel is a log message"):
+    # (what the record holds: timestamps only, not "a log message's field or a timestamp")
+    with (
+        store,
+        pytest.raises(
+            ArchiveUsageError, match="every varying channel is a timestamp, not a measurement"
+        ),
+    ):
         select_channels(store, None, [], log_topics=[])
 
 
@@ -251,4 +257,5 @@ def test_run_leaves_them_out_too(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2
     assert "one channel to analyze (/s0.data)" in err, err
-    assert "log messages' fields and timestamps not analyzed: /rosout.level, /rosout.line" in err
+    # (log fields only: "and timestamps" named what was not there)
+    assert "; log messages' fields not analyzed: /rosout.level, /rosout.line" in err

@@ -9,7 +9,7 @@ one Python object per sample on the hot path.
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterator, Sequence
+from collections.abc import Collection, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, Protocol
@@ -68,6 +68,15 @@ class InputInfo:
     """Topics whose message type is a log message (:data:`LOG_TYPES`: ``/rosout``): their
     numbers (a level, a source line, the message's own time) measure nothing, and
     ``run`` leaves them out unless ``--channels`` names them."""
+    time_fields: dict[str, dict[str, str]] = field(default_factory=dict)
+    """Of each topic whose message definition the reader knows (ROS 1 and ROS 2 bags,
+    MCAP with ``ros1msg``, ``ros2msg`` or ``ros2idl`` schemas): its fields that hold a
+    time (``"time"``: ROS's ``time``, ``builtin_interfaces/Time``) or a span
+    (``"duration"``), named as its channels are after the topic's ``.``, each array
+    index written ``[*]`` (:func:`~analyzer.readers.rosdecode.time_fields`); empty for a
+    topic with none. ``run`` leaves them out unless ``--channels`` names them; a topic
+    listed here is judged by its types only, not by names
+    (:func:`analyzer.selection.time_fields`)."""
     no_numeric: str = ""
     """Why the input holds no numeric channel, where its reader can tell while opening
     it (a CSV whose columns besides the time are all text): listing it is no error
@@ -122,6 +131,17 @@ def add_log_topics(info: InputInfo, topics: dict[str, str]) -> None:
     for topic, msgtype in topics.items():
         if normalize_msgtype(msgtype) in LOG_TYPES and topic not in info.log_topics:
             info.log_topics.append(topic)
+
+
+def add_time_fields(info: InputInfo, decoders: Iterable[tuple[str, object]]) -> None:
+    """Add to ``info.time_fields`` the time and duration fields of each topic of
+    ``decoders`` (topic and its decoder) decoded by its message definition (a
+    :class:`~analyzer.readers.rosdecode.RosBatchDecoder`; other decoders know no types)."""
+    from analyzer.readers.rosdecode import RosBatchDecoder
+
+    for topic, decoder in decoders:
+        if isinstance(decoder, RosBatchDecoder):
+            info.time_fields.setdefault(topic, {}).update(decoder.time_fields())
 
 
 TWO_CLOCKS = "--time header: two clocks: "

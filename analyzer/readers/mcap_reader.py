@@ -59,7 +59,13 @@ from analyzer.readers._common import (
     gather_rows,
     one_line,
 )
-from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource, add_log_topics
+from analyzer.readers.base import (
+    ChannelChunk,
+    InputInfo,
+    TimeSource,
+    add_log_topics,
+    add_time_fields,
+)
 from analyzer.readers.cut_chunk import CutDataError, cut_prefix, recovered_share
 from analyzer.readers.rosdecode import Encoding, RosBatchDecoder
 from analyzer.readers.rostypes import (
@@ -224,6 +230,7 @@ class McapReader:
         for line in self._shared_topics():
             self._error(line)
         add_log_topics(self.info, self._types())
+        add_time_fields(self.info, (e for e in self._decoders.values() if e is not None))
         for entry in self._decoders.values():
             if entry is not None and isinstance(entry[1], RosBatchDecoder) and entry[1].notice:
                 self._error(f"{entry[0]}: {entry[1].notice}")

@@ -45,7 +45,13 @@ from analyzer.readers._common import (
     gather_uint,
     one_line,
 )
-from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource, add_log_topics
+from analyzer.readers.base import (
+    ChannelChunk,
+    InputInfo,
+    TimeSource,
+    add_log_topics,
+    add_time_fields,
+)
 from analyzer.readers.cut_chunk import CutDataError, cut_prefix, recovered_share
 from analyzer.readers.rosdecode import RosBatchDecoder
 from analyzer.readers.rostypes import TypeResolutionError, normalize_msgtype, store_from_definition
@@ -313,6 +319,14 @@ class Ros1BagReader:
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
         add_log_topics(self.info, {c.topic: c.msgtype for c in self._connections.values()})
+        add_time_fields(
+            self.info,
+            (
+                (self._connections[c].topic, d)
+                for c, d in self._decoders.items()
+                if c in self._connections
+            ),
+        )
         self.info.sign_flips = self._tracker.signs.changed()
         self.info.clocks = self._tracker.clocks()
         self.info.clock_spans = self._tracker.clock_spans()

@@ -51,7 +51,13 @@ from analyzer.readers._common import (  # noqa: F401 - bag_files re-exported
     per_topic,
     special_kind,
 )
-from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource, add_log_topics
+from analyzer.readers.base import (
+    ChannelChunk,
+    InputInfo,
+    TimeSource,
+    add_log_topics,
+    add_time_fields,
+)
 from analyzer.readers.mcap_reader import McapReader
 from analyzer.readers.rosdecode import RosBatchDecoder
 from analyzer.readers.rostypes import (
@@ -180,6 +186,7 @@ class Ros2BagReader:
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
         add_log_topics(self.info, dict(self._decoders.keys()))
+        add_time_fields(self.info, ((t, d) for (t, _), d in self._decoders.items()))
         self.info.sign_flips = self._tracker.signs.changed()
         self.info.clocks = self._tracker.clocks()
         self.info.clock_spans = self._tracker.clock_spans()

@@ -442,6 +442,48 @@ def compute_layout(store: Typestore, msgtype: str, data: bytes, encoding: Encodi
     return _Walker(store, data, encoding).layout(msgtype)
 
 
+# --------------------------------------------------------------------------- field types
+
+TIME_TYPES: dict[str, str] = {
+    "builtin_interfaces/msg/Time": "time",
+    "builtin_interfaces/msg/Duration": "duration",
+}
+"""The message types of a time written in a message (ROS 2's ``builtin_interfaces``;
+rosbags reads ROS 1's ``time`` and ``duration`` as the same two), by what they hold: a
+moment (``time``) or a span (``duration``)."""
+
+
+def time_fields(store: Typestore, msgtype: str) -> dict[str, str]:
+    """The numeric leaves of ``msgtype`` that belong to a time or a duration
+    (:data:`TIME_TYPES`), named as the channels are (:class:`Layout`) with every array
+    index written ``[*]`` (``points[*].time_from_start.sec``), each with its kind. From
+    the message definition, not the names: a ``float64 stamp`` is a measurement, a
+    ``duration`` a span (a header's stamp is no channel: left out). One walk of the
+    definition; arrays of messages are walked once."""
+    out: dict[str, str] = {}
+
+    def walk(typename: str, prefix: str, kind: str | None, depth: int) -> None:
+        if depth > 32 or typename not in store.fielddefs:  # (definitions do not nest so deep)
+            return
+        for fieldname, desc in store.fielddefs[typename][1]:
+            if fieldname != FILLER_FIELD:
+                leaf(f"{prefix}{fieldname}", desc, kind, depth)
+
+    def leaf(name: str, desc: FieldDesc, kind: str | None, depth: int) -> None:
+        node = desc[0]
+        if node == Nodetype.NAME:
+            if desc[1] != HEADER_TYPE:
+                walk(desc[1], f"{name}.", TIME_TYPES.get(desc[1], kind), depth + 1)
+        elif node == Nodetype.BASE:
+            if kind is not None and desc[1][0] in NUMERIC:
+                out[name] = kind
+        else:
+            leaf(f"{name}[*]", desc[1][0], kind, depth)
+
+    walk(msgtype, "", None, 0)
+    return out
+
+
 # --------------------------------------------------------------------------- reference path
 
 
@@ -576,6 +618,12 @@ class RosBatchDecoder:
         if labels:
             decoded.relabels = self._relabels(buf, starts, labels, decoded.label_ends)
         return decoded
+
+    def time_fields(self) -> dict[str, str]:
+        """The fields of its type that hold a time or a duration (:func:`time_fields`),
+        from the definition it decodes with (the first candidate before a message chose
+        one: the candidates define the same type)."""
+        return time_fields(self._store or self._candidates[0], self.msgtype)
 
     def deserialize(self, data: bytes) -> object:
         """The reference decoder (rosbags) for one message."""
