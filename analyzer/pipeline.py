@@ -167,6 +167,7 @@ from analyzer.timeutil import (
     iso_utc,
     plain_number,
     plausible_epoch,
+    rows_within,
     seconds_text,
     short_seconds,
     spoken_duration,
@@ -2211,7 +2212,8 @@ def _training_window(
         tr = (tr[0], min(tr[1], duration))
     else:
         tr = default_train(duration)
-    train = (int(round(tr[0] * aligned.rate_hz)), int(round(tr[1] * aligned.rate_hz)) + 1)
+    # (the rows inside the window asked for: the nearest row could lie before its start)
+    train = rows_within(tr[0], tr[1], aligned.rate_hz)
     if reused is None and train[0] > 0:
         notes.append(
             f"the {short_seconds(tr[0])} s before the training window are not searched for "
