@@ -162,12 +162,13 @@ from analyzer.selection import (
     stuck_words,
     typed_fields,
 )
-from analyzer.silent import merged, silent_findings
+from analyzer.silent import blank_findings, merged, silent_findings
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
 from analyzer.timeutil import (
     iso_utc,
     plain_number,
     plausible_epoch,
+    rows_within,
     seconds_text,
     short_seconds,
     spoken_duration,
@@ -337,6 +338,39 @@ def _partial_channels(
             f"{'them' if one else 'the others'} too; {advice}"
         )
     return notes
+
+
+def _blank_model_note(dead: Sequence[str], results: Sequence[DetectorResult]) -> str:
+    """With ``--model``: what its detectors (``results``) could audit beside the channels
+    ``dead``, blank in every row of this record (each one's finding): the residuals that
+    have data. A detector that models the channels together (the AR bank, the detection
+    filter) has none without one of them, the equivalent model keeps those of the
+    channels not modelled from it; "1 sensor fault found" alone let a user think the
+    others were audited as usual."""
+    if not dead:
+        return ""
+    one = len(dead) == 1
+    it = "it" if one else "them"
+    blind, partial = [], []
+    for r in results:
+        seen = [c for c, z in r.residuals.items() if c not in dead and np.isfinite(z).any()]
+        if not seen:
+            blind.append(r.detector)
+        elif len(seen) < len(r.residuals) - len(dead):
+            partial.append(f"{r.detector} audits only {', '.join(seen)}")
+    said = []
+    if blind:
+        said.append(f"{' and '.join(blind)} {'has' if len(blind) == 1 else 'have'} no residual")
+    if partial:
+        said.append(f"{'; '.join(partial)} (the others are modelled from {it})")
+    what = " and ".join(said) if said else "its detectors audit the others"
+    pattern = " ".join(f"'!{c}'" for c in dead)
+    return (
+        f"{capped(dead)} {'is' if one else 'are'} blank in every row (a dead sensor"
+        f"{'' if one else 's'}: {'its' if one else 'their'} finding); the model's detectors "
+        f"need {it} beside the others: without {it}, {what}; a model saved without {it} "
+        f"(--save-model on a healthy record with --channels {pattern}) audits the others in full"
+    )
 
 
 def _residual_tests(
@@ -731,11 +765,13 @@ def _analyze(
             )
         else:
             chosen = model_channels(store, reused, options, notes, blank)
+        # (a saved model's channel blank in every row: a column of NaN, and its finding)
+        unread = [c for c in chosen if c in blank] if reused is not None else []
         one_clock(chosen, archive.inputs)  # (else: "a timestamp lies far from the others")
         notes.extend(n for n in [flipped_note(archive.inputs, chosen)] if n)
         t0 = time.perf_counter()
         aligned: AlignedSeries = store.align(
-            chosen, options.rate if reused is None else reused.rate_hz
+            chosen, options.rate if reused is None else reused.rate_hz, blank=unread
         )
         n_values = aligned.n * len(chosen)
         big = n_values > MATERIALIZE_IN_MEMORY and not in_memory
@@ -759,7 +795,8 @@ def _analyze(
         # the raw samples are no longer needed: unmap them now, or their pages stay in the
         # resident set for the rest of the run (memory that grows with the archive)
         infos = store.infos()
-        notes.extend(span_note(span_gaps(store, chosen)))  # (a gappy folder: how much)
+        read = [c for c in chosen if c not in unread]  # (the channels with samples)
+        notes.extend(span_note(span_gaps(store, read)))  # (a gappy folder: how much)
         store.close()
         # and their files: for a long archive the largest scratch files after the matrix
         # (16 bytes per value: a time and a value), kept to the end of the run until now
@@ -820,7 +857,7 @@ def _analyze(
         # (the others going on): dead, a finding as one that reads 0 (analyzer.silent)
         silent = silent_findings(
             values, chosen, aligned.rate_hz, aligned.start_ns, infos, archive.inputs
-        )
+        ) + blank_findings(unread, aligned.duration_s)
         if fixed or few:
             lost = {}
         data = Dataset(values, tuple(chosen), aligned.rate_hz, train, healthy=reused is None)
@@ -1186,6 +1223,7 @@ def _analyze(
         # the sensors named (--channels, the config, the model) that read one value over
         # the whole record: one finding each, with what the detectors found on it
         findings = merged(silent, constant_findings(notes, findings))
+        notes.extend(n for n in [_blank_model_note(unread, results)] if n)
         timings["total"] = time.perf_counter() - t_start
         return Analysis(
             inputs=archive.inputs,
@@ -2176,7 +2214,8 @@ def _training_window(
         tr = (tr[0], min(tr[1], duration))
     else:
         tr = default_train(duration)
-    train = (int(round(tr[0] * aligned.rate_hz)), int(round(tr[1] * aligned.rate_hz)) + 1)
+    # (the rows inside the window asked for: the nearest row could lie before its start)
+    train = rows_within(tr[0], tr[1], aligned.rate_hz)
     if reused is None and train[0] > 0:
         notes.append(
             f"the {short_seconds(tr[0])} s before the training window are not searched for "

@@ -33,7 +33,9 @@ def model_channels(
     blank: Collection[str] = (),
 ) -> list[str]:
     """``--model``'s channels, all of which this archive must have (:class:`UsageError`
-    naming the option and the missing ones), in the model's order; a note names the
+    naming the option and the missing ones; a CSV column of ``blank``, there but blank in
+    every row, is had: a dead sensor's finding, unless every channel is so), in the
+    model's order; a note names the
     archive's other channels (not analyzed) and a time source other than the model's,
     and one (a :class:`~analyzer.selection.StuckNote`) those of its channels that read
     one value over this whole record: a sensor dead since the model was saved, reported
@@ -43,15 +45,18 @@ def model_channels(
     missing = [c for c in model.channels if c not in have]
     where = options.model_path or "the model"
     dead = [c for c in missing if c in blank]
-    if dead:
-        # (the column is there, blank in every row: "this archive has no channel s3"
-        # was false, and a dead sensor's archive was refused as another system's)
+    if dead and len(dead) == len(model.channels):
+        # (no channel of the model has a reading: nothing to audit by it)
         raise ArchiveUsageError(
-            f"--model {where}: {', '.join(dead)} "
+            f"--model {where}: {', '.join(dead[:3])}"
+            f"{f' and {len(dead) - 3} more' if len(dead) > 3 else ''} "
             f"{'is' if len(dead) == 1 else 'are'} in this archive but blank in every row "
-            "(a dead sensor, or one not recorded): no reading to audit it by; the model "
-            f"needs all its {len(model.channels)} channels"
+            "(dead sensors, or ones not recorded): no reading to audit by the model"
         )
+    # the column is there, blank in every row: a dead sensor, the finding of
+    # :func:`blank_findings`; the others audited as far as the model allows ("this
+    # archive has no channel s3" was false, and the healthy sensors went unaudited)
+    missing = [c for c in missing if c not in blank]
     if missing:
         raise ArchiveUsageError(_missing_line(store, missing, where, len(model.channels)))
     check_model_options(model, options.rate, options.detectors, options.model_path)

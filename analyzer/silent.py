@@ -96,6 +96,18 @@ def silent_finding(name: str, onset_s: float, no_data_s: float) -> Finding:
     )
 
 
+def blank_findings(names: Sequence[str], duration_s: float) -> list[Finding]:
+    """The finding on each channel of ``names``: a saved model's channel (``--model``)
+    whose CSV column is there but blank in every row of a record ``duration_s`` long. A
+    sensor dead before the record began, as surely as one that goes silent in it: without
+    a reading from the record's start (the model's other channels audited as far as the
+    model allows without it)."""
+    out = [silent_finding(name, 0.0, duration_s) for name in names]
+    for f in out:  # (dead when the record began: perhaps before it, as a constant one)
+        f.evidence["onset_at_or_before"] = True
+    return out
+
+
 def _marks_end(infos: Sequence[ChannelInfo], inputs: Sequence[InputInfo]) -> dict[str, int]:
     """Of each channel with explicit "no reading" marks, the latest time they reach (ns):
     a CSV column's blank cells to its file's last row; NaN samples to the last sample."""
@@ -126,4 +138,4 @@ def merged(silent: Sequence[Finding], findings: Sequence[Finding]) -> list[Findi
     return sorted(out, key=lambda f: (f.onset_s, f.channel))
 
 
-__all__ = ["SILENT_CHECK", "merged", "silent_finding", "silent_findings"]
+__all__ = ["SILENT_CHECK", "blank_findings", "merged", "silent_finding", "silent_findings"]

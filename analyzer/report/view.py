@@ -264,14 +264,18 @@ class _Access(FigureParts, TableParts):
             + "the notes below say more."
         )
 
+    def _channel_count(self) -> int:
+        """The archive's numeric channels and the analyzed ones not among them (a saved
+        model's channel whose CSV column is blank in every row: "5 of 4")."""
+        names = {c.get("name") for c in self.doc.get("channels", [])}
+        return len(names | set(self.analyzed))
+
     def verdict_facts(self) -> list[Fact]:
         start = self.doc.get("start")
         return [
             Fact("Record start", str(start) if start else "relative timestamps (no absolute time)"),
             Fact("Duration", fmt.duration(self.duration)),
-            Fact(
-                "Analyzed channels", f"{len(self.analyzed)} of {len(self.doc.get('channels', []))}"
-            ),
+            Fact("Analyzed channels", f"{len(self.analyzed)} of {self._channel_count()}"),
             Fact(
                 "Detectors run",
                 ", ".join(r["name"] for r in self.doc.get("detectors", [])) or "none",

@@ -31,7 +31,7 @@ import glob
 import os
 import re
 import sys
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Collection, Iterable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -518,13 +518,17 @@ class ChannelStore:
         rate_hz: float | None = None,
         start_ns: int | None = None,
         end_ns: int | None = None,
+        blank: Collection[str] = (),
     ) -> AlignedSeries:
         """The channels on a common clock (default rate: :func:`clock_rate`, the dominant
-        rate of the measuring channels)."""
+        rate of the measuring channels). ``blank``: channels of ``channels`` that have no
+        sample at all (a CSV column blank in every row that a saved model needs), their
+        columns all NaN, the clock set by the others."""
         self._need_final()
-        if not channels:
+        empty = tuple(c for c in channels if c in blank)
+        if len(empty) == len(channels):
             raise StoreError("no channel to align")
-        infos = [self.info(c) for c in channels]
+        infos = [self.info(c) for c in channels if c not in empty]
         assert all(isinstance(i, ChannelInfo) for i in infos)
         rate = clock_rate(infos) if rate_hz is None else float(rate_hz)  # type: ignore[arg-type]
         if not rate > 0:
@@ -556,7 +560,7 @@ class ChannelStore:
                 "(an outlier, or a wrong unit), or --rate is far above the data's rate"
                 + self._largest_gap(channels, span)
             )
-        return AlignedSeries(self, tuple(channels), rate, t0, n)
+        return AlignedSeries(self, tuple(channels), rate, t0, n, empty)
 
     def _largest_gap(self, channels: Sequence[str], span_s: float) -> str:
         """For the error above: the largest stretch that no channel covers
@@ -889,6 +893,8 @@ class AlignedSeries:
     rate_hz: float
     start_ns: int
     n: int
+    blank: tuple[str, ...] = ()
+    """Channels without a sample (:meth:`ChannelStore.align`'s ``blank``): all NaN."""
 
     @property
     def duration_s(self) -> float:
@@ -909,6 +915,8 @@ class AlignedSeries:
             return out
         grid = self.times_ns(a, b)
         for j, name in enumerate(self.channels):
+            if name in self.blank:
+                continue  # (no sample: NaN, as the gaps)
             t, v = self.store.raw(name)
             info = self.store.info(name)
             assert isinstance(info, ChannelInfo)
@@ -942,8 +950,9 @@ class AlignedSeries:
             out: FloatArray = np.empty(shape)
         else:
             out = mapped_file(path, shape, np.float64)
-        infos = [self.store.info(name) for name in self.channels]
-        raws = [self.store.raw(name) for name in self.channels]
+        read = [j for j, name in enumerate(self.channels) if name not in self.blank]
+        infos = [self.store.info(self.channels[j]) for j in read]
+        raws = [self.store.raw(self.channels[j]) for j in read]
         finders = [_Finder(t) for t, _ in raws]
         fd = None if path is None else os.open(path, os.O_WRONLY)
         found: list[IntArray] = []  # per block with unreadable values: counts per channel
@@ -952,7 +961,9 @@ class AlignedSeries:
             b = min(self.n, a + block)
             grid = self.times_ns(a, b)
             rows = out[a:b] if fd is None else np.empty((b - a, shape[1]))
-            for j, ((t, v), info, find) in enumerate(zip(raws, infos, finders, strict=True)):
+            if len(read) < shape[1]:
+                rows[:] = np.nan  # (the blank channels' columns)
+            for j, (t, v), info, find in zip(read, raws, infos, finders, strict=True):
                 assert isinstance(info, ChannelInfo)
                 # straight into the rows, without the block's intermediate copies:
                 # a channel sampled on this very clock (what _resample returns for it)
