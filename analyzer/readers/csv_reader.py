@@ -65,9 +65,12 @@ the header costs its rows (counted in ``info.errors``), not the file. Times belo
 (before 1973) are taken as relative time: ``InputInfo.absolute_time`` is False. Times
 after the year 2262 (epoch milliseconds in a column whose name does not say ``ms``, say)
 are not times: int64 nanoseconds cannot hold them. Times that step back by more than the
-reorder window (a clock set back; zone-less local times at the change to winter time,
-which are read as UTC all the same) are named in ``info.errors``, with what became of
-the rows behind.
+reorder window are named in ``info.errors``, with what became of the rows behind; a clock
+set back by hours, zone-less local times set back an hour (the change to winter time)
+and relative times that start again from the file's first time (a logger restarted) are
+refused by ``run`` and ``export`` (``info.set_back``, see :meth:`CsvReader._set_back`).
+A column of dates beside a time column of times of day (``Date,Time``) is joined with it
+into date-times (:meth:`CsvReader._join_date`).
 
 Damage: a ``.gz`` whose stream Arrow cannot inflate to its end (cut short, corrupt) is
 read again by :class:`_Gunzip`, which stops at the last whole line before the damage, so
@@ -92,7 +95,7 @@ import re
 import warnings
 import zlib
 from collections.abc import Callable, Generator, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -193,6 +196,11 @@ TIME_OF_DAY = r"^\d+:\d{2}:\d{2}(?:\.\d{1,9})?$"
 DAY_NS = 86_400_000_000_000
 """Nanoseconds in a day: a time of day that steps back by more than half of it is the
 next day's."""
+DATE_NAMES = frozenset({"date", "datum", "fecha", "data"})
+"""Names of a column of dates that goes with a column of times of day (any case; English,
+German, Spanish, Italian and Portuguese), see :meth:`CsvReader._join_date`."""
+DATE_ONLY = r"^(?:\d{4}[-/.]\d{1,2}[-/.]\d{1,2}|\d{1,2}[-/.]\d{1,2}[-/.]\d{2}(?:\d{2})?)$"
+"""A date without a time (``2026-03-29``, ``29.03.2026``, ``03/29/26``)."""
 FORMAT_SAMPLE = 200
 TAIL_BYTES = 65536
 """The end of a file read for its last time cells (:meth:`CsvReader._tail_cells`)."""
@@ -274,7 +282,10 @@ _DATA_TIME = re.compile(
 """A cell that is a date, a date-time or a time of day (for :func:`_is_data`)."""
 DST_STEP_NS = (1_800_000_000_000, 3_600_000_000_000 + REORDER_WINDOW_NS)
 """A step back in this range (more than half an hour, at most an hour) in times without
-a zone is named as the change from summer to winter time."""
+a zone is named as the change from summer to winter time (refused where more than
+:data:`~analyzer.readers._common.LEAD_GLITCH_MESSAGES` rows in a row lie that far back);
+a jump forward in this range over a whole hour of the clock, as the change to summer
+time (:func:`_hour_skipped`)."""
 CLOCK_SET_BACK_NS = CLOCKS_APART_NS + REORDER_WINDOW_NS
 """A time that steps back further than this (an hour, as a header clock's step in a
 recording, :data:`~analyzer.readers._common.CLOCKS_APART_NS`, and the reorder window:
@@ -284,7 +295,8 @@ would interleave with them, or lie before them in reverse order), so the file is
 (:meth:`CsvReader._set_back`) once more than
 :data:`~analyzer.readers._common.LEAD_GLITCH_MESSAGES` rows in a row lie that far back
 (fewer are outliers, a row stamped 0, as before). A shorter step is sorted in and said,
-as before."""
+as before, but in times without a zone (:data:`DST_STEP_NS`) and a restart of relative
+times (:meth:`_Steps._fold`)."""
 _CLOCK_TAIL = re.compile(r"\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d*)?)?\s*(?:[AaPp]\.?[Mm]\.?)?\s*(\S.*)?$")
 """A time of day and what follows it in a cell: a zone (``Z``, ``+01:00``, ``CET``) or nothing."""
 CUT_ROW_LINES = 100
@@ -362,21 +374,46 @@ class _Steps:
     """Rows of the run still open at the end of the times pushed so far."""
     text: str = ""
     """Its time cell."""
+    far_ns: int = CLOCK_SET_BACK_NS
+    """How far back a row lies, at least, to count in :attr:`set_back`'s runs: a clock set
+    back by more than an hour; in times without a zone, more than half an hour (the
+    change from summer to winter time, :data:`DST_STEP_NS`, whose two hours cannot be
+    told apart)."""
+    restarts: bool = False
+    """Whether restarts are looked for (relative times: seconds from a start, no date)."""
+    fold_from: int | None = None
+    """Of such times: the time of the file's first row. A run of rows behind that starts
+    at it (to within the reorder window) and goes on past it over times already read is
+    a restart (see :meth:`_fold`)."""
+    fold: tuple[int, int] | None = None
+    """Of the times last pushed: where the first such restart starts (its index, -1: in an
+    earlier push, see :attr:`fold_start`) and the latest time before it, as
+    :attr:`set_back`."""
+    fold_open: tuple[int, int] | None = None
+    """Of the times last pushed: a run that may be a restart, still open at their end (its
+    index and the latest time before it), for the caller to keep in :attr:`fold_start`."""
+    fold_start: tuple[int, str, int, int] | None = None
+    """That run's first row: its data row, time cell, the latest time before it and its
+    time (kept by the caller)."""
+    _fold_rows: int = 0
+    """Rows of such a run open at the end of the times pushed so far (0: none)."""
     _was_behind: bool = False
 
     def push(self, t: IntArray) -> int | None:
         """Take the next times read; the index in ``t`` of the file's first step back
         when it is there, else None."""
-        self.set_back = self.far_open = None
+        self.set_back = self.far_open = self.fold = self.fold_open = None
         if t.size == 0:
             return None
+        if self.restarts and self.fold_from is None:
+            self.fold_from = int(t[0])
         last = int(t[-1])
         if (self.newest is None or int(t[0]) >= self.newest - REORDER_WINDOW_NS) and bool(
             (t[1:] >= t[:-1]).all()
         ):  # in order (the common case, a single pass)
             self.newest = last if self.newest is None else max(self.newest, last)
             self._was_behind = False
-            self.far_rows = 0
+            self.far_rows = self._fold_rows = 0
             return None
         newest = np.maximum.accumulate(t)
         if self.newest is not None:
@@ -386,6 +423,7 @@ class _Steps:
         before[1:] = newest[:-1]
         behind = (before - t) > REORDER_WINDOW_NS
         self._far(before, t)
+        self._fold(before, t, behind)
         self.newest = int(newest[-1])
         if not bool(behind.any()):
             self._was_behind = False
@@ -407,7 +445,7 @@ class _Steps:
         """Runs of rows more than :data:`CLOCK_SET_BACK_NS` before the latest time read
         before each (``before``): :attr:`set_back`, :attr:`far_open` and
         :attr:`far_rows` for the times ``t`` of a push, the run open before counted on."""
-        far = before - t > CLOCK_SET_BACK_NS
+        far = before - t > self.far_ns
         if not bool(far.any()):
             self.far_rows = 0
             return
@@ -426,6 +464,44 @@ class _Steps:
         if last > 0:
             at = int(starts[last - 1])
             self.far_open = (at, int(before[at]))
+
+    def _fold(self, before: IntArray, t: IntArray, behind: np.ndarray) -> None:
+        """Of relative times (:attr:`fold_from`): :attr:`fold` and :attr:`fold_open`
+        for the times ``t`` of a push (``before``: the latest time read before each,
+        ``behind``: the rows more than the reorder window before it).
+
+        A logger that restarts counts its seconds from its start again: a run of rows
+        behind begins at (about) the file's first time and goes on over the times
+        already read, each of them falling on a time of the stretch before the restart
+        (before, they were sorted in among those rows and one of the two values kept at
+        each time: half the record lost, said as rows "written in batches"). Such a run
+        is a restart once it holds more than
+        :data:`~analyzer.readers._common.LEAD_GLITCH_MESSAGES` rows and one of them lies
+        past the first time by more than the window. A run that stays before the first
+        time (rows of the file's start written late, a step back before the start) is
+        sorted in as before."""
+        if self.fold_from is None:
+            return
+        if not bool(behind.any()):
+            self._fold_rows = 0
+            return
+        near = self.fold_from + REORDER_WINDOW_NS
+        rise = behind & ~np.concatenate(([self._was_behind], behind[:-1]))
+        run = np.cumsum(rise)  # each row's run: 0 the one open before this push
+        starts = np.flatnonzero(rise)
+        restart = np.concatenate(([self._fold_rows > 0], t[starts] <= near))
+        begins = np.concatenate(([-self._fold_rows], starts))
+        rows = np.arange(t.size) - begins[run] + 1  # of each row of a run: its rows so far
+        fire = behind & restart[run] & (t > near) & (rows > LEAD_GLITCH_MESSAGES)
+        if bool(fire.any()):
+            k = int(run[int(np.argmax(fire))])
+            at = int(starts[k - 1]) if k else -1
+            self.fold = (at, int(before[at]) if k else 0)
+        last = int(run[-1]) if bool(behind[-1]) and bool(restart[run[-1]]) else -1
+        self._fold_rows = int(rows[-1]) if last >= 0 else 0
+        if last > 0:
+            at = int(starts[last - 1])
+            self.fold_open = (at, int(before[at]))
 
 
 GARBAGE_BACK_STEPS = 3.0
@@ -510,6 +586,28 @@ class _Garbage:
                     end = int(rows[i])  # the row before had jumped ahead: garbage too
                     why = f"a time {d[i - 1] / 1e9:.6g} s ahead of the row before, then back"
         return (end, why) if end < t.size else None
+
+
+HOUR_NS = 3_600_000_000_000
+
+
+def _hour_skipped(t: IntArray, previous: int | None) -> int | None:
+    """The index in ``t`` of the first time that follows the time before it (``previous``
+    before ``t[0]``) by more than half an hour and at most an hour and the reorder window
+    (:data:`DST_STEP_NS`) and skips a whole hour of the clock (``01:59:59.98`` to
+    ``03:00:00.00``, the change to summer time in local times), else None."""
+    ext = t if previous is None else np.concatenate(([previous], t))
+    if ext.size < 2:
+        return None
+    d = np.diff(ext)
+    jump = (d > DST_STEP_NS[0]) & (d <= DST_STEP_NS[1])
+    if not bool(jump.any()):
+        return None
+    before, after = ext[:-1], ext[1:]
+    skipped = jump & (after >= (before // HOUR_NS + 2) * HOUR_NS)
+    if not bool(skipped.any()):
+        return None
+    return int(np.argmax(skipped)) + (0 if previous is not None else 1)
 
 
 def _median_step(t: IntArray) -> float | None:
@@ -730,10 +828,22 @@ class CsvReader:
         """The least and largest date-time less time (ns) of the blocks read so far."""
         self._no_numeric = ""
         """Why no column is a channel (:attr:`InputInfo.no_numeric`), else ""."""
+        self._date_column: int | None = None
+        """A column of dates whose cells are joined with the time column's times of day
+        (``Date,Time``: see :meth:`_join_date`); None: none."""
+        self._date_note = ""
+        """Why a column named as a date was not joined with the times (said in
+        ``info.errors``), else ""."""
+        self._zoneless = False
+        """Whether the time column holds date-times or times of day without a zone
+        (local times, read as UTC): a step back of about an hour there is refused
+        (:meth:`_set_back`)."""
         first_time = self._inspect_first_block()
         total, sha, self._lines = _digest_and_lines(self.path, self._layout.compressed)
         self.info = InputInfo(self.path, Format.CSV, size_bytes=total, sha256=sha)
         self.info.no_numeric = self._no_numeric
+        if self._date_note:
+            self._error(self._date_note)
         if self._layout.units_line:  # a guess (a units line has no readable time): said
             self._error(_units_note(self._layout))
         if self._layout.renamed:
@@ -884,30 +994,76 @@ class CsvReader:
         """The data row and time cell of the ``at``-th row kept of ``batch`` (after
         ``rows`` rows)."""
         row = int(np.flatnonzero(keep)[at])
-        return rows + row + 1, str(batch.column(self._layout.time_column)[row].as_py()).strip()
+        return rows + row + 1, str(self._time_cells(batch)[row].as_py()).strip()
 
-    def _set_back(self, row: int, cell: str, newest: int, time: int) -> None:
-        """Note a time column set back by more than :data:`CLOCK_SET_BACK_NS`
-        (:attr:`_Steps.set_back`) at data row ``row`` (time cell ``cell``, read as
+    def _set_back(
+        self, row: int, cell: str, newest: int, time: int, *, restart: int | None = None
+    ) -> None:
+        """Note a time column set back (:attr:`_Steps.set_back`: by more than
+        :data:`CLOCK_SET_BACK_NS`, or, in times without a zone, by more than half an
+        hour; with ``restart``, the time of the file's first row, :attr:`_Steps.fold`:
+        relative times counting from there again) at data row ``row`` (time cell ``cell``, read as
         ``time``; ``newest`` the latest time before it) in :attr:`InputInfo.set_back`:
-        the column, the row, both times. Reading goes on (its rows sorted in or dropped
-        as a smaller step's), so that ``inspect`` lists the file and says this (as it
-        says a header clock set during a recording), while ``run`` and ``export`` refuse
-        it (:func:`~analyzer.readers.base.one_clock`). Before the refusal, its rows were
-        analyzed sorted in among those before. With :attr:`stop_at_set_back` (one input
-        of several), raised instead: the reading stops there, the rows of the blocks
-        before analyzed (as before the refusal in a folder)."""
+        the column, the row, both times, what to do. Reading goes on (its rows sorted in
+        or dropped as a smaller step's), so that ``inspect`` lists the file and says this
+        (as it says a header clock set during a recording), while ``run`` and ``export``
+        refuse it (:func:`~analyzer.readers.base.one_clock`). Before the refusal, its
+        rows were analyzed sorted in among those before (an hour of local times at the
+        change to winter time merged into the hour before it, a restarted logger's
+        second stretch laid over its first, one value kept at each time). With
+        :attr:`stop_at_set_back` (one input of several), raised instead: the reading
+        stops there, the rows of the blocks before analyzed (as before the refusal in a
+        folder)."""
         name = self._layout.names[self._layout.time_column]
         self._set_back_row = row
-        line = (
-            f"the time column {name!r} steps back by {long_time(newest - time)} "
-            f"at data row {row} ({cell!r}: from {self._when(newest)} to {self._when(time)}): "
-            "a clock set back during the recording? Its rows cannot be placed among those "
-            "before it; correct the times, or split the file at that row"
-        )
+        back = newest - time
+        if restart is not None:
+            line = (
+                f"the time column {name!r} steps back by {back / 1e9:.3f} s at data row "
+                f"{row} ({cell!r}: from {self._when(newest)} to {self._when(time)}), to the "
+                f"time of its first row ({self._when(restart)}), and counts on "
+                "over the times already read: a logger restarted, its clock counting from "
+                "its start again? Its rows would fall on those before at the same times; "
+                "split the file at that row and analyze the parts apart"
+            )
+        elif self._zoneless and DST_STEP_NS[0] < back <= DST_STEP_NS[1]:
+            line = (
+                f"the time column {name!r} steps back by {back / 1e9:.3f} s at data row {row} "
+                f"({cell!r}: from {self._when(newest).removesuffix('Z')} to "
+                f"{self._when(time).removesuffix('Z')}), in times without a zone: local "
+                "times set back an hour, as at the change from summer to winter time? The "
+                "hour after the step repeats the times of the hour before, which cannot be "
+                "told apart; write the times in UTC, or as date-times with their offset "
+                "from UTC (such as +02:00 before the change and +01:00 after it)"
+            )
+        else:
+            line = (
+                f"the time column {name!r} steps back by {long_time(back)} "
+                f"at data row {row} ({cell!r}: from {self._when(newest)} to "
+                f"{self._when(time)}): a clock set back during the recording? Its rows cannot "
+                "be placed among those before it; correct the times, or split the file at "
+                "that row"
+            )
         if self.stop_at_set_back:
             raise ReaderError(f"{self.path}: {line}")
         self.info.set_back = line
+
+    def _spring_note(self, row: int, cell: str, before: int, time: int) -> str:
+        """What :meth:`chunks` says where times without a zone skip a whole clock hour
+        (:func:`_hour_skipped`, at data row ``row``, time cell ``cell`` read as ``time``,
+        ``before`` the time of the row before): most likely local times set forward at
+        the change to summer time, which, read as UTC, leave an hour without data and
+        UTC times that are the file's local times (ux55 item 11: the gap was said, not
+        what it may be). The reading is unchanged."""
+        return (
+            f"the time jumps forward by {(time - before) / 1e9:.3f} s at data row {row} "
+            f"({cell!r}: from {self._when(before).removesuffix('Z')} to "
+            f"{self._when(time).removesuffix('Z')}), over a whole hour of the clock, in "
+            "times without a zone: local times set forward, as at the change from winter to "
+            "summer time? Read as UTC, that hour is a gap and every time said in UTC is the "
+            "file's local time; write the times in UTC, or as date-times with their offset "
+            "from UTC, for true UTC times"
+        )
 
     def _step_note(self, steps: _Steps, dropped: bool) -> str:
         """What :meth:`chunks` says of times that step back (see :class:`_Steps`): where,
@@ -944,6 +1100,9 @@ class CsvReader:
         """Which column holds the time and how its cells are read (``InputInfo.time``)."""
         name = self._layout.names[self._layout.time_column]
         kind = self._time_kind
+        which = f"column {name!r}"
+        if self._date_column is not None:
+            which = f"columns {self._layout.names[self._date_column]!r} and {name!r} joined"
         if kind == "ns":
             how = "integer nanoseconds " + (
                 "since 1970 (UTC)"
@@ -964,7 +1123,7 @@ class CsvReader:
                 " since 1970 (UTC)" if self.info.absolute_time and not self._offset else ""
             )
             how += ", relative" if not self.info.absolute_time else ""
-        return f"column {name!r}: {how}{self._anchor_text}"
+        return f"{which}: {how}{self._anchor_text}"
 
     def _anchor(self) -> None:
         """Of a file whose time column holds relative times (``time``: seconds from the
@@ -1072,6 +1231,52 @@ class CsvReader:
             f"{mine!r}"
         )
 
+    def _join_date(self, batch: pa.RecordBatch) -> None:
+        """Of a file whose time column holds times of day beside a column named as a date
+        (``Date``, ``Datum``, ``Fecha``, ``Data``; any case, a format in brackets
+        allowed) that holds dates alone (``2026-03-29``, ``29.03.2026``, ``03/29/2026``)
+        in at least :data:`NUMERIC_SHARE` of its non-blank cells of the first block
+        (``batch``): the two are read as one date-time, ``"{date} {time}"``
+        (:meth:`_time_cells`), as a spreadsheet or logger that writes them apart means
+        them (absolute times, UTC where no zone is given; the day first or the month
+        first as for any date-time, see :func:`_datetime_format`), and the date column is
+        no channel. Before, the date column was skipped as text without a word and the
+        times were relative times of day: no start, no UTC onset, the day lost. A date
+        column beside times that are no times of day (seconds) is said in
+        ``info.errors``, not joined."""
+        names = self._layout.names
+        date = _date_column(names, self._layout.time_column)
+        if date is None:
+            return
+        cells = self._clean(batch.column(date))
+        cells = cells.filter(pc.cast(pc.utf8_length(cells), pa.bool_()))
+        dates = int(pc.sum(pc.match_substring_regex(cells, DATE_ONLY)).as_py() or 0)
+        if not len(cells) or dates < NUMERIC_SHARE * len(cells):
+            return
+        clock = self._clean(batch.column(self._layout.time_column))
+        if self._time_kind_of(clock) != "timeofday":
+            self._date_note = (
+                f"column {names[date]!r} holds dates, not joined with the time column "
+                f"{names[self._layout.time_column]!r}, which holds no times of day; "
+                "skipped as text"
+            )
+            return
+        self._date_column = date
+        self._layout = replace(self._layout, ignored=(*self._layout.ignored, date))
+
+    def _time_cells(self, batch: pa.RecordBatch) -> pa.Array:
+        """The time cells of ``batch``: the time column's, or, where a date column goes
+        with it (:meth:`_join_date`), each row's date and time of day joined by a space
+        (blank where either is blank: a row without a readable time)."""
+        column = batch.column(self._layout.time_column)
+        if self._date_column is None:
+            return column
+        date = pc.utf8_trim_whitespace(batch.column(self._date_column))
+        clock = pc.utf8_trim_whitespace(column)
+        blank = pc.or_(pc.equal(date, ""), pc.equal(clock, ""))
+        joined = pc.binary_join_element_wise(date, clock, " ")
+        return pc.if_else(blank, pa.scalar("", pa.string()), joined)
+
     def _tail_cells(self, most: int = 50) -> list[str]:
         """The time cells of the file's last lines (up to ``most``, from its last 64 KiB;
         none of a compressed file): the dates at its end may tell the day from the month
@@ -1089,10 +1294,15 @@ class CsvReader:
         lines = [line for line in lines if line.strip()][-most:]
         width = len(self._layout.names)
         column = self._layout.time_column
+        date = self._date_column
         return [
             fields[column].strip()
+            if date is None
+            else f"{fields[date].strip()} {fields[column].strip()}"
             for fields in csv.reader(lines, delimiter=self._layout.separator)
-            if len(fields) == width and fields[column].strip()
+            if len(fields) == width
+            and fields[column].strip()
+            and (date is None or fields[date].strip())
         ]
 
     @property
@@ -1114,7 +1324,7 @@ class CsvReader:
         self._time_format, self._day_first = self._day_first, None
         batch = self._first_batch()
         if batch is not None:
-            t_ns, keep = self._times(batch.column(self._layout.time_column), first=True)
+            t_ns, keep = self._times(self._time_cells(batch), first=True)
             if bool(keep.any()):
                 self._first_time = int(t_ns[keep].min())
         self.info.errors = [e for e in self.info.errors if not e.startswith(EITHER_WAY)]
@@ -1139,7 +1349,12 @@ class CsvReader:
         text_cells: dict[str, tuple[int, int]] = {}  # skipped columns: (non-blank, numbers)
         filled: set[int] = set()  # columns Arrow parsed as numbers in some block
         rows = 0
-        steps = _Steps()
+        spring = ""  # zone-less times that skip a clock hour (the change to summer time)
+        previous: int | None = None  # of such times: the last time of the block before
+        steps = _Steps(
+            far_ns=DST_STEP_NS[0] if self._zoneless else CLOCK_SET_BACK_NS,
+            restarts=not self.info.absolute_time and self._time_kind in ("seconds", "ns"),
+        )
         # of each channel: values at the time of its value before, and its last time
         repeats: dict[str, int] = {}
         latest: dict[str, int] = {}
@@ -1159,7 +1374,7 @@ class CsvReader:
         try:
             for batch, invalid in blocks:
                 clock = self._clock
-                t_ns, keep = self._times(batch.column(self._layout.time_column))
+                t_ns, keep = self._times(self._time_cells(batch))
                 found = self._garbage_at(garbage, batch, t_ns, keep, rows)
                 if found is not None:  # a corrupt .gz: the rest is not read
                     cut, why = found
@@ -1168,7 +1383,7 @@ class CsvReader:
                     # again without the garbage (a cell of it sends the times through
                     # float64, a midnight in it moves a time of day's clock)
                     self._clock = clock
-                    t_ns, keep = self._times(batch.column(self._layout.time_column))
+                    t_ns, keep = self._times(self._time_cells(batch))
                     # lines skipped in the garbage are not counted (Arrow counts them as
                     # it parses, which it may do ahead of the block it passes on)
                     broken = bisect.bisect_left(self._invalid_at, rows + cut)
@@ -1187,22 +1402,38 @@ class CsvReader:
                 # have a value on every row kept): the same count for each but at the
                 # block's start
                 inside = int(np.count_nonzero(t_kept[1:] == t_kept[:-1]))
+                if self._zoneless and not spring and t_kept.size:
+                    at = _hour_skipped(t_kept, previous)
+                    if at is not None:
+                        row, cell = self._row_cell(batch, keep, rows, at)
+                        before = int(t_kept[at - 1]) if at else previous
+                        spring = self._spring_note(row, cell, before or 0, int(t_kept[at]))
+                    previous = int(t_kept[-1])
                 first = steps.push(t_kept)
-                if steps.set_back is not None and not self.info.set_back:
-                    at, newest = steps.set_back
+                for run, began, restart in (
+                    (steps.set_back, steps.far_start, None),
+                    (steps.fold, steps.fold_start, steps.fold_from),
+                ):
+                    if run is None or self.info.set_back:
+                        continue
+                    at, newest = run
                     if at >= 0:
                         where = self._row_cell(batch, keep, rows, at)
-                        self._set_back(*where, newest, int(t_kept[at]))
-                    elif steps.far_start is not None:  # (the run began in an earlier block)
-                        self._set_back(*steps.far_start)
+                        self._set_back(*where, newest, int(t_kept[at]), restart=restart)
+                    elif began is not None:  # (the run began in an earlier block)
+                        self._set_back(*began, restart=restart)
                 if steps.far_open is not None:  # (such a run, open at the block's end)
                     at, newest = steps.far_open
                     where = self._row_cell(batch, keep, rows, at)
                     steps.far_start = (*where, newest, int(t_kept[at]))
+                if steps.fold_open is not None:
+                    at, newest = steps.fold_open
+                    where = self._row_cell(batch, keep, rows, at)
+                    steps.fold_start = (*where, newest, int(t_kept[at]))
                 if first is not None:  # the first step back: where, and its cells
                     row = int(np.flatnonzero(keep)[first])
                     steps.row = rows + row + 1
-                    steps.text = str(batch.column(self._layout.time_column)[row].as_py())
+                    steps.text = str(self._time_cells(batch)[row].as_py())
                 rows += batch.num_rows
                 if t_kept.size:
                     newest = max(newest, int(t_kept.max()))
@@ -1276,6 +1507,8 @@ class CsvReader:
             self._error(self.info.set_back)  # (its step's note, where the same row, left out)
         if steps.count and not (self.info.set_back and steps.row == self._set_back_row):
             self._error(self._step_note(steps, bool(reorder.dropped)))
+        if spring:
+            self._error(spring)
         most = max(repeats.values(), default=0)
         if most:
             # (collapsed without a word: a time column cut to whole seconds under 100 rows
@@ -1794,10 +2027,11 @@ class CsvReader:
                 f"{self.path}: no data rows: no line under the first has its "
                 f"{len(self._layout.names)} fields (is the first line the header?)"
             )
+        self._join_date(batch)
         if self._layout.compressed:
             # the rows inflated after a damage may be garbage: the rows before it alone
             # say what the columns and the times are (whether they are absolute, above all)
-            t_ns, keep = self._times(batch.column(self._layout.time_column), first=True)
+            t_ns, keep = self._times(self._time_cells(batch), first=True)
             found = self._garbage_at(_Garbage(), batch, t_ns, keep, 0)
             if found is not None:
                 batch = batch.slice(0, found[0])
@@ -1830,8 +2064,13 @@ class CsvReader:
                 f"{self._layout.names[self._layout.time_column]!r}"
                 + (f" (text: {capped(text, 4, what='columns')})" if text else "")
             )
-        time_column = batch.column(self._layout.time_column)
+        time_column = self._time_cells(batch)
         t_ns, keep = self._times(time_column, first=True)
+        if self._time_kind in ("datetime", "timeofday"):
+            cells = self._clean(time_column)
+            cells = cells.filter(pc.cast(pc.utf8_length(cells), pa.bool_()))
+            tail = _CLOCK_TAIL.search(str(cells[0].as_py())) if len(cells) else None
+            self._zoneless = not (tail and tail.group(1))
         if not bool(keep.any()):
             name = self._layout.names[self._layout.time_column]
             text = self._clean(time_column)
@@ -2542,6 +2781,19 @@ def _units_note(layout: _Layout) -> str:
 def _shorten(text: str, most: int = 60) -> str:
     """``text`` cut to ``most`` characters, ``...`` saying so."""
     return text if len(text) <= most else text[: most - 3] + "..."
+
+
+def _date_column(names: Sequence[str], time_column: int) -> int | None:
+    """The first column other than ``time_column`` whose name, lowercased and less a
+    format in brackets (``Date (dd.mm.yyyy)``), is one of :data:`DATE_NAMES` (None:
+    none), for :meth:`CsvReader._join_date`."""
+    for i, name in enumerate(names):
+        base = name.strip().lower()
+        if found := _BRACKETED.fullmatch(base):
+            base = found.group(1).strip()
+        if i != time_column and base in DATE_NAMES:
+            return i
+    return None
 
 
 def _time_column(names: list[str]) -> tuple[int, str]:
