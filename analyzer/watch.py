@@ -2037,22 +2037,20 @@ class _Runner:
             if gone(sig):
                 del self._hashed[name]
 
-    @property
-    def counted(self) -> int:
-        """Archives recorded, or found recorded already, since the start."""
-        return len(self.skipped) + len(self.results)
-
     def progress(self) -> str:
-        """With ``--once``, where the watcher stands: `` [done/total, about T left]``
-        (the time left from the rate so far, parallel analyses included); else ""."""
+        """With ``--once``, where the watcher stands: `` [analyzed/to analyze, about T
+        left]`` (the time left from the rate so far, parallel analyses included); else "".
+        Analyses alone: the archives found analyzed already are neither done nor to do
+        (before, ``[3/3]`` ended the only analysis of a pass that found two recorded,
+        ux53 item 13), so the total drops as the watcher finds them."""
         if self.expected is None:
             return ""
-        total = max(self.expected, self.counted)
-        analyzed = self.counted - len(self.skipped)
-        if self.begun is None or analyzed == 0 or self.counted >= total:
-            return f" [{self.counted}/{total}]"
-        left = (time.monotonic() - self.begun) / analyzed * (total - self.counted)
-        return f" [{self.counted}/{total}, about {_duration(left)} left]"
+        analyzed = len(self.results)
+        total = max(self.expected - len(self.skipped), analyzed)
+        if self.begun is None or analyzed == 0 or analyzed >= total:
+            return f" [{analyzed}/{total}]"
+        left = (time.monotonic() - self.begun) / analyzed * (total - analyzed)
+        return f" [{analyzed}/{total}, about {_duration(left)} left]"
 
     def summary(self) -> str | None:
         """What this watcher did, for its last lines: ``24 archives analyzed in 39.5 s: 22
@@ -2134,13 +2132,19 @@ class _Runner:
         moved is one dropped again (or whose move an earlier start could not make), said
         with its earlier result (it was only "moved to DONE", the verdict nowhere); one
         left in INBOX in error is said each time (:meth:`_left_in_inbox`); the others
-        (a watcher without ``--done`` started again over its INBOX) only at debug level."""
+        (a watcher without ``--done`` started again over its INBOX) only at debug level.
+        One never moved (no ``moved_to``: a watcher stopped before the end of its hold, a
+        move undone, no ``--done`` before) is said as such, not as dropped again: "found
+        analyzed already" read as a file dropped a second time (ux53 item 13)."""
         name = archive.name
         folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
         if folder is not None and self._stays_why(rec) is None:
             log.info(
-                "%s: found analyzed already (same content), not analyzed again: %s",
+                "%s: %s, not analyzed again: %s",
                 name,
+                "found analyzed already (same content)"
+                if rec.moved_to
+                else "analyzed already and not moved yet (same content)",
                 self._verdict_words(rec),
             )
         else:

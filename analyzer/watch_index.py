@@ -918,13 +918,47 @@ def _screening(screen: dict[str, Any]) -> str:
     return f"{by} could not screen it, analyzed by every detector"
 
 
-def _onset_words(ep: dict[str, Any]) -> str:
-    """An episode's onset as ``index.html`` says it: "at or before" it where the fault
-    was there from its first archive's first sample searched (it may have begun before
-    that archive), as ``analyzer run``'s report says it."""
+def _onset_words(ep: dict[str, Any], archives: list[dict[str, Any]]) -> str:
+    """An episode's onset as ``index.html`` says it: where the fault was there from its
+    first archive's first sample searched (``from_start``: it may have begun before that
+    archive), "from the start", with the time before which nothing was judged where that
+    is not the first sample of one of its archives, as ``analyzer run``'s last line says
+    it. It read "at or before" the onset: the archive's first sample for one fault there
+    from the start, 3.6 s later for another (the filters' warm-up; ux53 item 8)."""
     if not ep.get("onset"):
         return "n/a"
-    return f"at or before {ep['onset']}" if ep.get("from_start") else str(ep["onset"])
+    onset = str(ep["onset"])
+    if not ep.get("from_start"):
+        return onset
+    starts = {r.get("start") for r in archives if r["name"] in ep["archives"]}
+    if onset in starts:
+        return f"from the start ({onset})"
+    return f"from the start (not judged before {onset})"
+
+
+def _identical(names: list[str], archives: list[dict[str, Any]]) -> list[list[str]]:
+    """``names`` (an episode's archives, in their order) grouped by content: the archives
+    of one ``sha256`` (one file copied in under two names, each analyzed: the watcher's
+    content check goes by name) in one group, the first analyzed first, the groups in
+    the order of their first names. The index said "2 archives: offset_copy.csv to
+    offset_mid.csv" for a file and its copy, which read as a span of time (ux53 item 9)."""
+    rows = {r["name"]: r for r in archives}
+    groups: dict[str, list[str]] = {}
+    for name in names:
+        sha = (rows.get(name) or {}).get("sha256")
+        groups.setdefault(str(sha) if sha else f"\0{name}", []).append(name)
+    return [
+        sorted(g, key=lambda n: (str(rows[n]["processed"]), n) if n in rows else ("", n))
+        for g in groups.values()
+    ]
+
+
+def _identical_words(group: list[str]) -> str:
+    """``offset_mid.csv (and 1 identical file: offset_copy.csv)``; one name alone."""
+    if len(group) == 1:
+        return group[0]
+    more = len(group) - 1
+    return f"{group[0]} (and {counted(more, 'identical file')}: {', '.join(group[1:])})"
 
 
 WARNING_SHOWN = 320
@@ -1002,17 +1036,18 @@ def index_view(index: dict[str, Any]) -> IndexView:
     hrefs = {row.name: row.href for row in rows}
     shown = []
     for ep in index.get("episodes", []):
-        names = list(ep["archives"])
-        span = names[0] if len(names) == 1 else f"{len(names)} archives: {names[0]} to {names[-1]}"
+        groups = _identical(list(ep["archives"]), index["archives"])
+        said = [_identical_words(g) for g in groups]
+        span = said[0] if len(said) == 1 else f"{len(said)} archives: {said[0]} to {said[-1]}"
         shown.append(
             EpisodeRow(
                 sensor=str(ep["channel"]),
                 types=", ".join(str(t) for t in ep["types"])
                 + (f": {ep['size']}" if ep.get("size") else ""),
-                onset=_onset_words(ep),
-                end=str(ep["end"] or f"to the end of {names[-1]}"),
+                onset=_onset_words(ep, index["archives"]),
+                end=str(ep["end"] or f"to the end of {groups[-1][0]}"),
                 archives=span,
-                href=hrefs.get(names[0], ""),
+                href=hrefs.get(groups[0][0], ""),
             )
         )
     counts = index["counts"]

@@ -193,7 +193,7 @@ def magnitude(mag: Mapping[str, Any]) -> str:
         if key == "offset":
             parts.append(f"offset {_signed(v)}")
         elif key == "gain":
-            parts.append(f"gain ×{num(v)}{_gain_note(v)}")
+            parts.append(gain_words(v))
         elif key == "rate_per_s":
             parts.append(f"drift {_signed(v)} per s")
         elif key == "no_data_s":  # (analyzer.silent: blank or NaN to the record's end)
@@ -258,6 +258,16 @@ def _size(size: Any) -> float | None:
     except (TypeError, ValueError):
         return None
     return v if math.isfinite(v) and v >= 0 else None
+
+
+def gain_words(v: Any, inside: bool = False) -> str:
+    """``gain ×1.546``, ``gain ×0 (dead sensor)``: a gain as the report, the watcher's
+    index and ``analyzer run``'s last line say it; ``inside`` a parenthesis (the line's),
+    its note after a colon, ``gain ×0: dead sensor``, not in a second one."""
+    note = _gain_note(v)
+    if inside and note:
+        note = f": {note.strip()[1:-1]}"
+    return f"gain ×{num(v)}{note}"
 
 
 def _gain_note(v: Any) -> str:

@@ -355,14 +355,14 @@ def test_once_says_how_far_it_is_and_how_long_is_left(
     assert summary.startswith("3 archives analyzed in ")
     assert f"{verdicts.count('no fault')} no fault" in summary or "no fault" not in verdicts
     assert summary.endswith(f"; index: {reports / 'index.html'}")
-    # a second pass finds them recorded and one new: the recorded count, the rate is
-    # that of the one analysis (here: nothing left after it)
+    # a second pass finds them recorded and one new: the counter counts analyses, the
+    # three found analyzed already are not in it ("[4/4]" read as four analyzed, ux53)
     write(inbox / "hour3.csv", "csv", seed=13)
     caplog.clear()
     assert start_watcher(settings).join() in (0, 1)
     lines = [r.getMessage() for r in caplog.records if " [" in r.getMessage()]
     assert len(lines) == 1 and lines[0].startswith("hour3.csv: "), lines
-    assert re.search(r" \[4/4\]($|: )", lines[0]), lines
+    assert re.search(r" \[1/1\]($|: )", lines[0]), lines
     assert any(
         r.getMessage().startswith("1 archive analyzed in ")
         and "; 3 other archives found analyzed already, not analyzed again; index: "
@@ -381,12 +381,12 @@ def test_the_time_left_comes_from_the_analyses_not_from_archives_found_recorded(
     monkeypatch.setattr(watch_module.time, "monotonic", lambda: 1000.0)
     progress = watch_module._Runner.progress
     # 4000 of a year found recorded at once, then 10 analyses in 100 s: 10 s each
-    state = SimpleNamespace(expected=8760, counted=4010, skipped=range(4000), begun=900.0)
-    assert progress(state) == " [4010/8760, about 13 h 12 min left]"  # 4750 x 10 s
-    state = SimpleNamespace(expected=3, counted=1, skipped=range(0), begun=990.0)
+    state = SimpleNamespace(expected=8760, results=range(10), skipped=range(4000), begun=900.0)
+    assert progress(state) == " [10/4760, about 13 h 12 min left]"  # 4750 x 10 s
+    state = SimpleNamespace(expected=3, results=range(1), skipped=range(0), begun=990.0)
     assert progress(state) == " [1/3, about 20 s left]"
-    state = SimpleNamespace(expected=3, counted=2, skipped=range(2), begun=None)  # none analyzed
-    assert progress(state) == " [2/3]"
+    state = SimpleNamespace(expected=3, results=range(0), skipped=range(2), begun=None)
+    assert progress(state) == " [0/1]"  # (none analyzed yet: two found analyzed already)
     assert progress(SimpleNamespace(expected=None)) == ""
     assert watch_module._duration(89) == "89 s" and watch_module._duration(3600) == "60 min"
 
