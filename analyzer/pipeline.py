@@ -2873,14 +2873,23 @@ def _size_words(f: Finding) -> str:
     from analyzer.report.format import gain_words, num
 
     mag = f.magnitude or {}
-    gain = mag.get("gain")
+    gain, stuck = _finite(mag.get("gain")), _finite(mag.get("stuck_at"))
     if f.type is FaultType.MULTIPLICATIVE and gain is not None:
         return f" ({gain_words(gain, inside=True)})"
     if f.type is FaultType.OTHER and mag.get("no_data_s") is not None:
         return " (no reading: dead sensor, silent)"
-    if f.type is FaultType.OTHER and mag.get("stuck_at") is not None:
-        return f" (stuck at {num(mag['stuck_at'])})"
-    return ""
+    if f.type is FaultType.OTHER and stuck is not None:
+        return f" (stuck at {num(stuck)})"
+    return ""  # (a size not measured, NaN, is not said: it read "gain ×n/a")
+
+
+def _finite(v: Any) -> float | None:
+    """``v`` as a float where it is a finite number, else None."""
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
 
 
 def _onset_words(f: Finding) -> str:
@@ -2893,9 +2902,15 @@ def _onset_words(f: Finding) -> str:
     another (ux53 item 8). ``onset_s`` is unchanged. A fault there when the search began
     right after the training window (``onset_at_search_start``) keeps "T s or earlier":
     the window before it was taken as healthy, not left unjudged."""
-    at = seconds_text(f.onset_s)
+    onset = _finite(f.onset_s)
     if f.evidence.get("onset_at_or_before"):
+        if onset is None:  # (not known when it was first judged: "before nan s")
+            return "the start"
+        at = seconds_text(onset)
         return "the start" if float(at) == 0 else f"the start (not judged before {at} s)"
+    if onset is None:
+        return "an unknown time"
+    at = seconds_text(onset)
     return f"{at} s{' or earlier' if f.evidence.get('onset_at_search_start') else ''}"
 
 

@@ -439,8 +439,8 @@ class _Access(FigureParts, TableParts):
             out.append(
                 Fact(
                     "Onset bound",
-                    "it read one value from the record's first sample to its last: it began "
-                    "at or before the record's start (perhaps in an earlier record)",
+                    "it read one value from the record's first sample to its last: there "
+                    "from the start (it may have begun in an earlier record)",
                 )
             )
         elif ev.get("onset_at_or_before"):
@@ -449,7 +449,8 @@ class _Access(FigureParts, TableParts):
                     "Onset bound",
                     "the fault was there when the search started at "
                     f"{fmt.seconds(f.get('onset_s'), d)}, after the {self.train_label}: "
-                    "it began at or before then (perhaps in an earlier record)",
+                    "from the start (not judged before then; it may have begun in an "
+                    "earlier record)",
                 )
             )
         if ev.get("onset_at_search_start"):
@@ -661,8 +662,8 @@ def onset_words(f: Mapping[str, Any], decimals: int) -> str:
     another (ux53 item 8); ``onset_s`` is unchanged."""
     at = f.get("onset_s")
     if (f.get("evidence") or {}).get("onset_at_or_before"):
-        if float(at or 0) == 0:
-            return "from the start"
+        if fmt.seconds(at, decimals) in (fmt.MISSING, fmt.seconds(0.0, decimals)):
+            return "from the start"  # (at 0, or not known: it read "before n/a")
         return f"from the start (not judged before {fmt.seconds(at, decimals)})"
     return ("at or before " if onset_bound(f) else "") + fmt.seconds(at, decimals)
 

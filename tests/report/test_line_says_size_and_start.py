@@ -119,3 +119,50 @@ def test_the_index_says_the_start_as_the_line_does():
         f"from the start ({start})",
         "2026-03-03T14:00:30.000Z",
     ]
+
+
+# -- edge sizes and onsets (review of ux53 item 8) --------------------------------------
+
+
+def _line(f: Finding) -> str:
+    return faults_words([f]).split(": ", 1)[1]
+
+
+def test_a_gain_near_1_reads_apart_from_1():
+    """A gain of 1.0004 read ``(gain ×1)``, no change at all."""
+    near = [_finding("s2", FaultType.MULTIPLICATIVE, 5.0, {"gain": g}) for g in (1.0004, 0.99996)]
+    assert [_line(f) for f in near] == [
+        "s2 multiplicative (gain ×1.0004) from 5.000 s",
+        "s2 multiplicative (gain ×0.99996) from 5.000 s",
+    ]
+    from analyzer.report.format import magnitude
+
+    assert magnitude({"gain": 1.00004}) == "gain ×1.00004"  # (the report's words alike)
+    assert magnitude({"gain": 1.0}) == "gain ×1" and magnitude({"gain": 1.5}) == "gain ×1.5"
+
+
+def test_a_nearly_dead_gain_says_one_colon():
+    """``(gain ×0.0256: reads 2.56 % of its signal: nearly dead)`` read two colons."""
+    f = _finding("s2", FaultType.MULTIPLICATIVE, 5.0, {"gain": 0.0256})
+    assert _line(f) == (
+        "s2 multiplicative (gain ×0.0256: reads 2.56 % of its signal, nearly dead) from 5.000 s"
+    )
+
+
+def test_a_size_or_an_onset_not_measured_is_not_said_as_nan():
+    """A NaN gain read ``(gain ×n/a)``, a NaN stuck value ``(stuck at n/a)``, a NaN onset
+    there from the start ``from the start (not judged before nan s)`` in the line and
+    ``... before n/a`` in the report."""
+    from analyzer.report.view import onset_words
+
+    nan = float("nan")
+    gain = _finding("s2", FaultType.MULTIPLICATIVE, 5.0, {"gain": nan})
+    stuck = _finding("s1", FaultType.OTHER, 5.0, {"stuck_at": nan})
+    assert _line(gain) == "s2 multiplicative from 5.000 s"
+    assert _line(stuck) == "s1 other from 5.000 s"
+    bound = _finding("s2", FaultType.MULTIPLICATIVE, nan, {"gain": 2.0}, onset_at_or_before=True)
+    assert _line(bound) == "s2 multiplicative (gain ×2) from the start"
+    loose = _finding("s2", FaultType.MULTIPLICATIVE, nan, {"gain": 2.0})
+    assert _line(loose) == "s2 multiplicative (gain ×2) from an unknown time"
+    said = onset_words({"onset_s": nan, "evidence": {"onset_at_or_before": True}}, 3)
+    assert said == "from the start"

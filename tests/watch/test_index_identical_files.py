@@ -67,7 +67,9 @@ def test_archives_of_other_contents_are_still_a_span():
         _row("h2.csv", "two", "2026-12-07T10:00:02Z"),
     ]
     ep = _view(rows, ["h1-copy.csv", "h1.csv", "h1-again.csv", "h2.csv"])
+    # every archive counted, the identical ones too (it said "2 archives" of these 4,
+    # the index's counts 4)
     assert ep.archives == (
-        "2 archives: h1.csv (and 2 identical files: h1-again.csv, h1-copy.csv) to h2.csv"
+        "4 archives: h1.csv (and 2 identical files: h1-again.csv, h1-copy.csv) to h2.csv"
     )
     assert _view(rows[3:], ["h2.csv"]).archives == "h2.csv"
