@@ -2855,7 +2855,7 @@ def faults_words(found: Sequence[Finding], after: str = "") -> str:
     if not found:
         return f"no sensor fault found{after}"
     sensors = len({f.channel for f in found})
-    items = [f"{f.channel} {f.type} from {_onset_words(f)}" for f in found]
+    items = [f"{f.channel} {f.type}{_size_words(f)} from {_onset_words(f)}" for f in found]
     return (
         f"{len(found)} sensor fault{'s' if len(found) > 1 else ''} found on {sensors} "
         f"sensor{'s' if sensors > 1 else ''}{after}: {capped(items, SUMMARY_LISTED)}"
@@ -2903,11 +2903,56 @@ def _saved_words(saved: Mapping[str, Any]) -> str:
     )
 
 
+def _size_words(f: Finding) -> str:
+    """The size a finding's type word alone does not say, for the summary line: a gain
+    (`` (gain ×1.5)``; at 0 `` (gain ×0: dead sensor)``, the index's and the report's
+    words after a colon), a stuck value (`` (stuck at 0.37)``), a silence (`` (no reading: dead
+    sensor, silent)``); "" for an offset or a drift, whose type word says what the sensor
+    does (the bundled sample's line stays ``/s4.data additive from 16.000 s``). The
+    line said ``s3 multiplicative`` for a dead sensor, "dead" only in the index and the
+    report, and a watcher's user reads the line (ux53 item 8)."""
+    from analyzer.report.format import gain_words, num
+
+    mag = f.magnitude or {}
+    gain, stuck = _finite(mag.get("gain")), _finite(mag.get("stuck_at"))
+    if f.type is FaultType.MULTIPLICATIVE and gain is not None:
+        return f" ({gain_words(gain, inside=True)})"
+    if f.type is FaultType.OTHER and mag.get("no_data_s") is not None:
+        return " (no reading: dead sensor, silent)"
+    if f.type is FaultType.OTHER and stuck is not None:
+        return f" (stuck at {num(stuck)})"
+    return ""  # (a size not measured, NaN, is not said: it read "gain ×n/a")
+
+
+def _finite(v: Any) -> float | None:
+    """``v`` as a float where it is a finite number, else None."""
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
+
+
 def _onset_words(f: Finding) -> str:
-    """A finding's onset as the summary line says it: seconds from the start, ``or
-    earlier`` where it is an upper bound (the fault was there when the search began)."""
-    bound = f.evidence.get("onset_at_search_start") or f.evidence.get("onset_at_or_before")
-    return f"{seconds_text(f.onset_s)} s{' or earlier' if bound else ''}"
+    """A finding's onset as the summary line says it: seconds from the start, or, for a
+    fault already there when the detectors could first judge the record (evidence
+    ``onset_at_or_before``: a constant channel's from its first sample, ``--model``'s
+    from the filters' warm-up), "the start", with the time before which nothing was
+    judged where that is not the first sample: one fault present from the first sample
+    read "from 0.000 s or earlier" by one detector and "from 3.600 s or earlier" by
+    another (ux53 item 8). ``onset_s`` is unchanged. A fault there when the search began
+    right after the training window (``onset_at_search_start``) keeps "T s or earlier":
+    the window before it was taken as healthy, not left unjudged."""
+    onset = _finite(f.onset_s)
+    if f.evidence.get("onset_at_or_before"):
+        if onset is None:  # (not known when it was first judged: "before nan s")
+            return "the start"
+        at = seconds_text(onset)
+        return "the start" if float(at) == 0 else f"the start (not judged before {at} s)"
+    if onset is None:
+        return "an unknown time"
+    at = seconds_text(onset)
+    return f"{at} s{' or earlier' if f.evidence.get('onset_at_search_start') else ''}"
 
 
 OUTPUT_FILES = ("findings.json", "report.html", "corrected.csv")

@@ -182,7 +182,7 @@ import sys
 import threading
 import time
 import traceback
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import Future
 from concurrent.futures import wait as wait_futures
 from dataclasses import dataclass, replace
@@ -227,7 +227,7 @@ from analyzer.watch_inbox import (
     INCOMPLETE_TIMEOUT_S,
     ReadyArchive,
     Signature,
-    archive_names,
+    archive_members,
     archive_paths,
     ignored,
     ready_batches,
@@ -1740,8 +1740,9 @@ class _Runner:
         )
         self.queue: dict[str, ReadyArchive] = {}
         self.running: dict[str, _Job] = {}
-        self.expected: int | None = None
-        """With ``--once``: the archives INBOX held at the start (the progress's total)."""
+        self.expected: frozenset[str] | None = None
+        """With ``--once``: the archives INBOX held at the start that it will analyze, as
+        far as their records tell (:meth:`to_analyze`; the progress's total)."""
         self.skipped: set[str] = set()
         """Archives found recorded already (not in the rate of the analyses), by name."""
         self.begun: float | None = None
@@ -2037,22 +2038,41 @@ class _Runner:
             if gone(sig):
                 del self._hashed[name]
 
-    @property
-    def counted(self) -> int:
-        """Archives recorded, or found recorded already, since the start."""
-        return len(self.skipped) + len(self.results)
-
     def progress(self) -> str:
-        """With ``--once``, where the watcher stands: `` [done/total, about T left]``
-        (the time left from the rate so far, parallel analyses included); else ""."""
+        """With ``--once``, where the watcher stands: `` [analyzed/to analyze, about T
+        left]`` (the time left from the rate so far, parallel analyses included); else "".
+        Analyses alone: the archives found analyzed already are neither done nor to do
+        (before, ``[3/3]`` ended the only analysis of a pass that found two recorded,
+        ux53 item 13), left out of the total from the start (:meth:`to_analyze`: it
+        dropped only as the watcher reached them, so a new file that sorted first said
+        ``[1/4, about 32 s left]`` for the pass's only analysis)."""
         if self.expected is None:
             return ""
-        total = max(self.expected, self.counted)
-        analyzed = self.counted - len(self.skipped)
-        if self.begun is None or analyzed == 0 or self.counted >= total:
-            return f" [{self.counted}/{total}]"
-        left = (time.monotonic() - self.begun) / analyzed * (total - self.counted)
-        return f" [{self.counted}/{total}, about {_duration(left)} left]"
+        analyzed = len(self.results)
+        # (those counted at the start that turn out recorded: their hash matched where
+        # their signature did not, a file touched)
+        total = max(len(self.expected) - len(self.skipped & self.expected), analyzed)
+        if self.begun is None or analyzed == 0 or analyzed >= total:
+            return f" [{analyzed}/{total}]"
+        left = (time.monotonic() - self.begun) / analyzed * (total - analyzed)
+        return f" [{analyzed}/{total}, about {_duration(left)} left]"
+
+    def to_analyze(self, members: Mapping[str, tuple[Path, ...]]) -> frozenset[str]:
+        """Of INBOX's archives at the start (``members``: their paths by name), those
+        this watcher will analyze as far as their records tell, without reading them:
+        not one whose record has its present signature (its files' sizes and
+        modification times, trusted as its content as :meth:`_known_hashes` trusts
+        them) and no reason to be analyzed again."""
+        inbox = self.settings.inbox
+        out = set()
+        for name, paths in members.items():
+            rec = self.ledger.get(name)
+            if rec is not None and rec.redo_reason(self.fingerprint) is None:
+                with contextlib.suppress(OSError):  # (gone or unreadable: counted)
+                    if rec.signature == [list(s) for s in signature(paths, inbox)]:
+                        continue
+            out.add(name)
+        return frozenset(out)
 
     def summary(self) -> str | None:
         """What this watcher did, for its last lines: ``24 archives analyzed in 39.5 s: 22
@@ -2134,13 +2154,19 @@ class _Runner:
         moved is one dropped again (or whose move an earlier start could not make), said
         with its earlier result (it was only "moved to DONE", the verdict nowhere); one
         left in INBOX in error is said each time (:meth:`_left_in_inbox`); the others
-        (a watcher without ``--done`` started again over its INBOX) only at debug level."""
+        (a watcher without ``--done`` started again over its INBOX) only at debug level.
+        One never moved (no ``moved_to``: a watcher stopped before the end of its hold, a
+        move undone, no ``--done`` before) is said as such, not as dropped again: "found
+        analyzed already" read as a file dropped a second time (ux53 item 13)."""
         name = archive.name
         folder = self.settings.failed if rec.verdict is Verdict.ERROR else self.settings.done
         if folder is not None and self._stays_why(rec) is None:
             log.info(
-                "%s: found analyzed already (same content), not analyzed again: %s",
+                "%s: %s, not analyzed again: %s",
                 name,
+                "found analyzed already (same content)"
+                if rec.moved_to
+                else "analyzed already and not moved yet (same content)",
                 self._verdict_words(rec),
             )
         else:
@@ -3150,7 +3176,9 @@ def _watch_locked(
     ledger.save()
     runner = _Runner(settings, options, ledger, stop, cluster, frozenset(exclude))
     if settings.once:  # what --once will go through: the progress's total
-        runner.expected = len(archive_names(settings.inbox, settings.group_by, exclude))
+        runner.expected = runner.to_analyze(
+            archive_members(settings.inbox, settings.group_by, exclude)
+        )
     how = f"polling every {settings.poll:g} s" if settings.poll else "file events"
     if cluster is None:
         where = f"{settings.jobs} analysis process{'' if settings.jobs == 1 else 'es'}"

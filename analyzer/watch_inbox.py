@@ -618,6 +618,19 @@ def archive_names(
     return tracker.keys
 
 
+def archive_members(
+    inbox: Path, group_by: re.Pattern[str] | None = None, exclude: Iterable[str] = ()
+) -> dict[str, tuple[Path, ...]]:
+    """The archives INBOX holds now and their member paths (sorted, as
+    :attr:`ReadyArchive.paths`), as :func:`ready_batches` groups its entries: one
+    listing of INBOX for all of them (:func:`archive_paths` lists it for one)."""
+    tracker = InboxTracker(inbox, 0.0, group_by, frozenset(exclude), quiet=True)
+    tracker.rescan()
+    return {
+        k: tuple(inbox / n for n in sorted(names)) for k, names in tracker._members.items() if names
+    }
+
+
 def archive_paths(
     inbox: Path, name: str, group_by: re.Pattern[str] | None = None, exclude: Iterable[str] = ()
 ) -> tuple[Path, ...]:
@@ -764,6 +777,7 @@ __all__ = [
     "SOON_SETTLES",
     "InboxTracker",
     "ReadyArchive",
+    "archive_members",
     "archive_names",
     "Signature",
     "ignored",

@@ -32,7 +32,7 @@ import os
 import shutil
 import time
 import uuid
-from collections.abc import Collection, Iterable
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass, field, fields, replace
 from enum import StrEnum
 from pathlib import Path
@@ -918,13 +918,55 @@ def _screening(screen: dict[str, Any]) -> str:
     return f"{by} could not screen it, analyzed by every detector"
 
 
-def _onset_words(ep: dict[str, Any]) -> str:
-    """An episode's onset as ``index.html`` says it: "at or before" it where the fault
-    was there from its first archive's first sample searched (it may have begun before
-    that archive), as ``analyzer run``'s report says it."""
+def _onset_words(ep: dict[str, Any], by_name: Mapping[str, dict[str, Any]]) -> str:
+    """An episode's onset as ``index.html`` says it: where the fault was there from its
+    first archive's first sample searched (``from_start``: it may have begun before that
+    archive), "from the start", with the time before which nothing was judged where that
+    is not the first sample of one of its archives, as ``analyzer run``'s last line says
+    it. It read "at or before" the onset: the archive's first sample for one fault there
+    from the start, 3.6 s later for another (the filters' warm-up; ux53 item 8).
+    ``by_name``: the index's archives by name (:func:`_by_name`, built once per index:
+    a search of the archives per episode made a year of hourly archives, each with a
+    fault, take 32 s in place of 0.25 s)."""
     if not ep.get("onset"):
         return "n/a"
-    return f"at or before {ep['onset']}" if ep.get("from_start") else str(ep["onset"])
+    onset = str(ep["onset"])
+    if not ep.get("from_start"):
+        return onset
+    starts = {by_name[n].get("start") for n in ep["archives"] if n in by_name}
+    if onset in starts:
+        return f"from the start ({onset})"
+    return f"from the start (not judged before {onset})"
+
+
+def _by_name(archives: Iterable[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """The index's archive rows by name, for the episodes' words (one row per name)."""
+    return {r["name"]: r for r in archives}
+
+
+def _identical(names: list[str], rows: Mapping[str, dict[str, Any]]) -> list[list[str]]:
+    """``names`` (an episode's archives, in their order) grouped by content: the archives
+    of one ``sha256`` (one file copied in under two names, each analyzed: the watcher's
+    content check goes by name) in one group, the first analyzed first, the groups in
+    the order of their first names. The index said "2 archives: offset_copy.csv to
+    offset_mid.csv" for a file and its copy, which read as a span of time (ux53 item 9).
+    ``rows``: the index's archives by name (:func:`_by_name`)."""
+    groups: dict[str, list[str]] = {}
+    for name in names:
+        sha = (rows.get(name) or {}).get("sha256")
+        groups.setdefault(str(sha) if sha else f"\0{name}", []).append(name)
+    return [
+        sorted(g, key=lambda n: (str(rows[n]["processed"]), n) if n in rows else ("", n))
+        for g in groups.values()
+    ]
+
+
+def _identical_words(group: list[str]) -> str:
+    """``offset_mid.csv (and 1 identical file: offset_copy.csv)``; one name alone."""
+    if len(group) == 1:
+        return group[0]
+    more = len(group) - 1
+    return f"{group[0]} (and {counted(more, 'identical file')}: {', '.join(group[1:])})"
 
 
 WARNING_SHOWN = 320
@@ -1001,18 +1043,23 @@ def index_view(index: dict[str, Any]) -> IndexView:
         )
     hrefs = {row.name: row.href for row in rows}
     shown = []
+    by_name = _by_name(index["archives"])
     for ep in index.get("episodes", []):
         names = list(ep["archives"])
-        span = names[0] if len(names) == 1 else f"{len(names)} archives: {names[0]} to {names[-1]}"
+        groups = _identical(names, by_name)
+        said = [_identical_words(g) for g in groups]
+        # (every archive counted, the identical ones too, as the index's counts count
+        # them: "2 archives: h1.csv (and 2 identical files: ...) to h2.csv" covered 4)
+        span = said[0] if len(said) == 1 else f"{len(names)} archives: {said[0]} to {said[-1]}"
         shown.append(
             EpisodeRow(
                 sensor=str(ep["channel"]),
                 types=", ".join(str(t) for t in ep["types"])
                 + (f": {ep['size']}" if ep.get("size") else ""),
-                onset=_onset_words(ep),
-                end=str(ep["end"] or f"to the end of {names[-1]}"),
+                onset=_onset_words(ep, by_name),
+                end=str(ep["end"] or f"to the end of {groups[-1][0]}"),
                 archives=span,
-                href=hrefs.get(names[0], ""),
+                href=hrefs.get(groups[0][0], ""),
             )
         )
     counts = index["counts"]

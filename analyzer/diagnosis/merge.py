@@ -1035,7 +1035,9 @@ def present_at_search_start(findings: list[Finding], start_s: float, rate_hz: fl
     """With ``--model`` the fault search starts after the filters' warm-up (``start_s``):
     a finding that starts there was already present, so its onset is only an upper
     bound. Its evidence says so (``onset_at_or_before``) and a note says it (unless
-    :func:`traced_into_training` already traced its shape back)."""
+    :func:`traced_into_training` already traced its shape back), in the words of the
+    report's table and ``analyzer run``'s last line: "from the start", not judged before
+    (it said "at or before then" beside them)."""
     notes = []
     for f in findings:
         if f.onset_s > start_s + 1.5 / rate_hz:
@@ -1045,7 +1047,7 @@ def present_at_search_start(findings: list[Finding], start_s: float, rate_hz: fl
         if not traced:
             notes.append(
                 f"{f.type.value} fault on {f.channel}: present when the search started at "
-                f"{start_s:.3f} s (after the filters' warm-up), so it started at or before "
-                "then (see the archive before this one)"
+                f"{start_s:.3f} s (after the filters' warm-up): there from the start, not "
+                "judged before then (see the archive before this one)"
             )
     return notes

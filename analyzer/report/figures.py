@@ -30,6 +30,8 @@ from analyzer.report import format as fmt
 from analyzer.report.decimate import Envelope, envelope, moving_mean
 from analyzer.report.jobs import (
     MAX_POINTS,
+    ONSET_LABEL,
+    OPEN_FAULT_LABEL,
     CoverageRow,
     ResidualPanel,
     Segment,
@@ -120,13 +122,6 @@ def _plot_envelope(
         ax.plot(x, env.lo, color=color, lw=lw, label=label(name))
 
 
-ONSET_BOUND_LABEL = "onset: at or before"
-"""The onset line's legend where the onset is only an upper bound (the fault was there
-when the search began: ``--model``'s offset from the first sample, found at 4.31 s)."""
-OPEN_FAULT_LABEL = "may have begun (onset at or before)"
-"""The legend of the span before such an onset, where the fault may already have been."""
-
-
 def _plot_statistic(
     ax: Axes, t: FloatArray, values: FloatArray, axis: TimeAxis, color: str, label: str
 ) -> None:
@@ -137,17 +132,11 @@ def _plot_statistic(
 
 
 def _mark_onset(
-    ax: Axes, onset_s: float, end_s: float | None, axis: TimeAxis, bound: bool = False
+    ax: Axes, onset_s: float, end_s: float | None, axis: TimeAxis, label: str = ONSET_LABEL
 ) -> None:
-    """The onset (red, dashed) and the end (purple, dash-dot); ``bound``: the onset is an
-    upper bound, and its legend says so."""
-    ax.axvline(
-        onset_s / axis.scale,
-        color=C_ONSET,
-        ls="--",
-        lw=1.2,
-        label=ONSET_BOUND_LABEL if bound else "onset",
-    )
+    """The onset (red, dashed) and the end (purple, dash-dot); ``label``: the onset's
+    legend (:data:`ONSET_LABEL`, :data:`ONSET_BOUND_LABEL`, :data:`FROM_START_LABEL`)."""
+    ax.axvline(onset_s / axis.scale, color=C_ONSET, ls="--", lw=1.2, label=label)
     if end_s is not None:
         ax.axvline(end_s / axis.scale, color=C_END, ls="-.", lw=1.2, label="end")
 
@@ -367,13 +356,13 @@ def signal_figure(
     key: str,
     close_s: float | None = None,
     limits: Sequence[float] = (),
-    onset_bound: bool = False,
+    onset_label: str = ONSET_LABEL,
 ) -> Markup:
     """The measured signal around the onset with the detector's fault-free estimate (the
     gap between them is the estimated fault). With ``close_s``, a second panel shows
     ``onset +- close_s`` closely enough to see the waveforms (shaded grey above).
     ``limits``: the values a clipping sensor's readings pile up at, drawn as dotted lines.
-    ``onset_bound``: the onset is an upper bound (:data:`ONSET_BOUND_LABEL`)."""
+    ``onset_label``: the onset line's legend (:func:`_mark_onset`)."""
     axis = TimeAxis.for_times(t)
     close = close_up(t, onset_s, close_s)
     with style():
@@ -394,7 +383,7 @@ def signal_figure(
                     C_ESTIMATE,
                     f"fault-free estimate ({shown_name(estimate_name)})",
                 )
-            _mark_onset(ax, onset_s, end_s, axis, onset_bound)
+            _mark_onset(ax, onset_s, end_s, axis, onset_label)
             for k, level in enumerate(limits):
                 ax.axhline(
                     level,
@@ -430,17 +419,17 @@ def corrected_figure(
     end_s: float | None,
     channel: str,
     key: str,
-    onset_bound: bool = False,
+    onset_label: str = ONSET_LABEL,
 ) -> Markup:
     """Measured and corrected signal (fault removed, Wang & Song 2014, Section 6.3);
-    ``onset_bound``: the onset is an upper bound (:data:`ONSET_BOUND_LABEL`)."""
+    ``onset_label``: the onset line's legend (:func:`_mark_onset`)."""
     axis = TimeAxis.for_times(t)
     with style():
         fig = new_figure(WIDTH_IN, 2.6, constrained=False)
         ax = grid(fig, 1, top=0.3)[0, 0]
         _plot_series(ax, t, measured, axis, C_MEASURED, f"measured {shown_name(channel)}")
         _plot_series(ax, t, corrected, axis, C_CORRECTED, "corrected")
-        _mark_onset(ax, onset_s, end_s, axis, onset_bound)
+        _mark_onset(ax, onset_s, end_s, axis, onset_label)
         if t.size:
             ax.set_xlim(t[0] / axis.scale, t[-1] / axis.scale)
         ax.set_xlabel(axis.label())
@@ -459,7 +448,7 @@ def residual_figure(
     duration_s: float,
     key: str,
     train_label: str = "training window",
-    onset_bound: bool = False,
+    onset_label: str = ONSET_LABEL,
     settled_s: float = 0.0,
 ) -> Markup:
     """Top: the leading detector's residual over the whole archive with the training
@@ -472,8 +461,8 @@ def residual_figure(
     that saw the fault: its residual around the onset, its moving mean and the threshold
     band that mean must leave (of the window whose test raised the alarm, as the caller
     chose it), the moving RMS and its bound where the mean-square test raised the alarm
-    (purple), and its first alarm (black, dotted). ``onset_bound``: the onset is an upper bound
-    (:data:`ONSET_BOUND_LABEL`)."""
+    (purple), and its first alarm (black, dotted). ``onset_label``: the onset line's legend
+    (:func:`_mark_onset`)."""
     # one unit on every panel, the whole record's: the SKAB record's top panel read
     # minutes (onset at 12.0) above panels in seconds (onset at 719)
     axis = TimeAxis.for_span(duration_s)
@@ -505,7 +494,7 @@ def residual_figure(
                 lw=0,
                 label="filters' start-up (clipped)",
             )
-        _mark_onset(ax, onset_s, end_s, axis, onset_bound)
+        _mark_onset(ax, onset_s, end_s, axis, onset_label)
         ax.set_xlim(0, max(duration_s, 1e-9) / axis.scale)
         ax.set_title("whole record", loc="left")
         ax.set_ylabel("channel units")
@@ -531,7 +520,7 @@ def residual_figure(
                 rms = np.sqrt(moving_mean((p.residual - p.center) ** 2, p.rms_window))
                 _plot_statistic(ax, p.t, rms, axis, C_RMS, f"{p.rms_window}-sample RMS")
                 ax.axhline(p.rms_bound, color=C_RMS, lw=0.9, ls="--", label="bound of the RMS")
-            _mark_onset(ax, onset_s, end_s, axis, onset_bound)
+            _mark_onset(ax, onset_s, end_s, axis, onset_label)
             if p.alarm_s is not None:
                 ax.axvline(
                     p.alarm_s / axis.scale,

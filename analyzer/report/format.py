@@ -193,7 +193,7 @@ def magnitude(mag: Mapping[str, Any]) -> str:
         if key == "offset":
             parts.append(f"offset {_signed(v)}")
         elif key == "gain":
-            parts.append(f"gain ×{num(v)}{_gain_note(v)}")
+            parts.append(gain_words(v))
         elif key == "rate_per_s":
             parts.append(f"drift {_signed(v)} per s")
         elif key == "no_data_s":  # (analyzer.silent: blank or NaN to the record's end)
@@ -258,6 +258,32 @@ def _size(size: Any) -> float | None:
     except (TypeError, ValueError):
         return None
     return v if math.isfinite(v) and v >= 0 else None
+
+
+def gain_words(v: Any, inside: bool = False) -> str:
+    """``gain ×1.546``, ``gain ×0 (dead sensor)``: a gain as the report, the watcher's
+    index and ``analyzer run``'s last line say it; ``inside`` a parenthesis (the line's),
+    its note after a colon, ``gain ×0: dead sensor``, not in a second one, and the note's
+    own colon a comma (``gain ×0.0256: reads 2.56 % of its signal, nearly dead``: it
+    read two colons)."""
+    note = _gain_note(v)
+    if inside and note:
+        note = f": {note.strip()[1:-1].replace(': ', ', ')}"
+    return f"gain ×{gain_num(v)}{note}"
+
+
+def gain_num(v: Any) -> str:
+    """A gain with :func:`num`'s 4 significant digits, and as many more as make one that
+    is not 1 (nor -1) read apart from it: a gain of 1.0004 read ``×1``, no change at all;
+    now ``×1.0004``."""
+    said = num(v)
+    if said not in ("1", "-1") or abs(float(v)) == 1:
+        return said
+    digits = 4
+    while said in ("1", "-1") and digits < 17:
+        digits += 1
+        said = num(v, digits)
+    return said
 
 
 def _gain_note(v: Any) -> str:

@@ -30,6 +30,21 @@ PRELOAD_MODULE = "analyzer.report.preload"
 MAX_POINTS = 1000
 """Envelope bins per plotted series (a browser draws this many instantly)."""
 
+ONSET_LABEL = "onset"
+"""The onset line's legend where the onset is where the fault began."""
+ONSET_BOUND_LABEL = "onset: at or before"
+"""The onset line's legend where the onset is only an upper bound (the fault was there
+when a search began after the training window or after a stretch)."""
+FROM_START_LABEL = "from the start (not judged before)"
+"""The onset line's legend for a fault there when the detectors could first judge the
+record (evidence ``onset_at_or_before``: ``--model``'s offset from the first sample,
+found at 4.31 s, the end of the filters' warm-up): the words of the report's table,
+``from the start (not judged before 4.310 s)``, and of ``analyzer run``'s last line."""
+OPEN_FAULT_LABEL = "may have begun (not judged)"
+"""The legend of the span before an onset that is not where the fault began, a span not
+judged (the start of the record, or a stretch left out), where it may already have
+been; it read "(onset at or before)" beside a table's "from the start"."""
+
 
 @dataclass(slots=True)
 class CoverageRow:
@@ -144,8 +159,12 @@ def draw(job: FigureJob) -> str:
 __all__ = [
     "CLOSE_MIN_POINTS",
     "FIGURES_MODULE",
+    "FROM_START_LABEL",
     "PRELOAD_MODULE",
     "MAX_POINTS",
+    "ONSET_BOUND_LABEL",
+    "ONSET_LABEL",
+    "OPEN_FAULT_LABEL",
     "CoverageRow",
     "FigureJob",
     "ResidualPanel",

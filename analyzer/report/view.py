@@ -375,8 +375,7 @@ class _Access(FigureParts, TableParts):
             type=str(f["type"]),
             # an upper bound (the fault was there when the search began) says so wherever
             # it is shown: "at or before 4.310 s", not an exact 4.310 s
-            onset_s=("at or before " if onset_bound(f) else "")
-            + fmt.seconds(f.get("onset_s"), self.decimals),
+            onset_s=onset_words(f, self.decimals),
             # empty without absolute time (relative timestamps): the page then omits them
             onset_utc=str(f.get("onset") or ""),
             end_s=(
@@ -387,6 +386,7 @@ class _Access(FigureParts, TableParts):
             end_utc=str(f.get("end") or ""),
             onset_clock=str(f.get("onset") or fmt.clock(f.get("onset_s"), self.decimals)),
             end_clock=str(f.get("end") or fmt.clock(f.get("end_s"), self.decimals)),
+            onset_fact=_onset_fact(f, self.decimals),
             magnitude=fmt.magnitude(f.get("magnitude") or {}),
             confidence=fmt.percent(f.get("confidence")),
             detectors=[str(d) for d in ev.get("detectors", [f.get("detector")])],
@@ -443,8 +443,8 @@ class _Access(FigureParts, TableParts):
             out.append(
                 Fact(
                     "Onset bound",
-                    "it read one value from the record's first sample to its last: it began "
-                    "at or before the record's start (perhaps in an earlier record)",
+                    "it read one value from the record's first sample to its last: there "
+                    "from the start (it may have begun in an earlier record)",
                 )
             )
         elif ev.get("onset_at_or_before"):
@@ -453,7 +453,8 @@ class _Access(FigureParts, TableParts):
                     "Onset bound",
                     "the fault was there when the search started at "
                     f"{fmt.seconds(f.get('onset_s'), d)}, after the {self.train_label}: "
-                    "it began at or before then (perhaps in an earlier record)",
+                    "from the start (not judged before then; it may have begun in an "
+                    "earlier record)",
                 )
             )
         if ev.get("onset_at_search_start"):
@@ -650,3 +651,35 @@ def _open_end(evidence: Mapping[str, Any], decimals: int) -> str:
     if ends is None:
         return "to the end"
     return f"to the end of its data ({fmt.seconds(float(ends), decimals)}: the channel stops there)"
+
+
+def onset_words(f: Mapping[str, Any], decimals: int) -> str:
+    """A finding's onset as the report's table says it: ``30.000 s``; ``at or before
+    12.000 s`` where it is an upper bound (:func:`~analyzer.report.view_figures.
+    onset_bound`: there when a search began after the training window or after a
+    stretch); and for a fault there when the detectors could first judge the record
+    (evidence ``onset_at_or_before``: a constant channel from its first sample,
+    ``--model`` from the filters' warm-up) ``from the start``, with the time before
+    which nothing was judged where that is not the first sample, as ``analyzer run``'s
+    last line and the watcher's index say it. One fault present from the first sample
+    read "at or before 0.000 s" from one detector and "at or before 3.600 s" from
+    another (ux53 item 8); ``onset_s`` is unchanged."""
+    at = f.get("onset_s")
+    if (f.get("evidence") or {}).get("onset_at_or_before"):
+        if fmt.seconds(at, decimals) in (fmt.MISSING, fmt.seconds(0.0, decimals)):
+            return "from the start"  # (at 0, or not known: it read "before n/a")
+        return f"from the start (not judged before {fmt.seconds(at, decimals)})"
+    return ("at or before " if onset_bound(f) else "") + fmt.seconds(at, decimals)
+
+
+def _onset_fact(f: Mapping[str, Any], decimals: int) -> str:
+    """The finding's "Onset" line: :func:`onset_words` and "from the start", unless
+    those words say the start already, then its UTC time where it has one, in the
+    parenthesis those words may have opened (not a second one after it)."""
+    words = onset_words(f, decimals)
+    utc = str(f.get("onset") or "")
+    if not words.startswith("from the start"):
+        return f"{words} from the start" + (f" ({utc})" if utc else "")
+    if not utc:
+        return words
+    return f"{words[:-1]}, {utc})" if words.endswith(")") else f"{words} ({utc})"

@@ -95,6 +95,8 @@ class FigureParts:
         onset = float(f["onset_s"])
         end = None if f.get("end_s") is None else float(f["end_s"])
         bound = onset_bound(f)  # onset_s an upper bound: the line says so
+        label = onset_label(f)
+        from_start = label == fg.FROM_START_LABEL
         dets = [d for d in view.detectors if self._residual(d, ch) is not None]
         lead = view.lead if view.lead in dets else (dets[0] if dets else None)
         alarm = _alarm_s(((f.get("evidence") or {}).get("by_detector") or {}).get(lead))
@@ -126,7 +128,7 @@ class FigureParts:
                     ch,
                     f"{key}-signal",
                 ),
-                {"close_s": self._close_s(), "limits": limits, "onset_bound": bound},
+                {"close_s": self._close_s(), "limits": limits, "onset_label": label},
             )
             view.figures.append(
                 self.figure(
@@ -137,8 +139,11 @@ class FigureParts:
                     f"estimate of {est_det or 'no detector'} (orange); their difference is the "
                     "estimated fault. Dashed red line: "
                     + (
-                        "the onset's upper bound (the fault was there when the search began, "
-                        "so it began at or before then)"
+                        "the time before which nothing was judged (the fault was there from "
+                        "the start: when the search began)"
+                        if from_start
+                        else "the onset's upper bound (the fault was there when the search "
+                        "began, so it began at or before then)"
                         if bound
                         else "identified onset"
                     )
@@ -183,7 +188,7 @@ class FigureParts:
             job = fg.FigureJob(
                 "corrected_figure",
                 (t, measured, _f64(corrected[k0:k1, j]), onset, end, ch, f"{key}-corrected"),
-                {"onset_bound": bound},
+                {"onset_label": label},
             )
             view.figures.append(
                 self.figure(
@@ -254,7 +259,7 @@ class FigureParts:
                 f"{view.anchor}-residual",
                 self.train_label,
             ),
-            {"onset_bound": onset_bound(f), "settled_s": settled_s if clipped else 0.0},
+            {"onset_label": onset_label(f), "settled_s": settled_s if clipped else 0.0},
         )
         start_up = (
             f" The top panel's axis is scaled without the filters' start-up transient (the "
@@ -666,6 +671,18 @@ def onset_bound(f: Mapping[str, Any]) -> bool:
     return open_since(f) is not None or bool(ev.get("onset_at_search_start"))
 
 
+def onset_label(f: Mapping[str, Any]) -> str:
+    """The legend of a finding's onset line in its figures, in the words of the report's
+    table (:func:`analyzer.report.view.onset_words`): ``from the start (not judged
+    before)`` for a fault there when the detectors could first judge the record
+    (evidence ``onset_at_or_before``), ``onset: at or before`` for another upper bound,
+    else ``onset``. The figures said "onset: at or before" where the table said "from
+    the start (not judged before 4.310 s)" for the same finding."""
+    if (f.get("evidence") or {}).get("onset_at_or_before"):
+        return fg.FROM_START_LABEL
+    return fg.ONSET_BOUND_LABEL if onset_bound(f) else fg.ONSET_LABEL
+
+
 def open_since(f: Mapping[str, Any]) -> float | None:
     """Where a fault whose ``onset_s`` is only an upper bound may have begun, or None
     when ``onset_s`` is where it began. With ``--model`` a fault present when the search
@@ -732,5 +749,6 @@ __all__ = [
     "FigureParts",
     "fault_spans",
     "onset_bound",
+    "onset_label",
     "open_since",
 ]

@@ -75,11 +75,17 @@ class FindingView:
     channel: str
     type: str
     onset_s: str
+    """The onset as the table says it: ``30.000 s``, ``at or before 12.000 s``, or, for a
+    fault there when the detectors could first judge the record, ``from the start (not
+    judged before 3.600 s)`` (:func:`~analyzer.report.view.onset_words`)."""
     onset_utc: str
     end_s: str
     end_utc: str
     onset_clock: str
     end_clock: str
+    onset_fact: str
+    """The onset as the finding's "Onset" line says it: ``30.000 s from the start``, or
+    :attr:`onset_s` where that already says the start."""
     magnitude: str
     confidence: str
     detectors: list[str]

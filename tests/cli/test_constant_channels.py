@@ -47,9 +47,10 @@ def test_a_named_dead_sensor_is_a_finding(tmp_path, capsys, channels):
     assert f["evidence"]["constant"]["value"] == 0.0
     assert f["evidence"]["constant"]["samples"] == 12000
     assert "constant_check" in [d["name"] for d in doc["detectors"]]
+    # the line says "dead", and "the start" (it read "from 0.000 s or earlier", ux53)
     assert err.splitlines()[-1].startswith(
-        "analyzer: 1 sensor fault found on 1 sensor: /s3.data multiplicative from 0.000 s "
-        "or earlier"
+        "analyzer: 1 sensor fault found on 1 sensor: /s3.data multiplicative (gain ×0: dead "
+        "sensor) from the start; report: "
     )
     words = "reads 0.0 on every one of its 12 000 samples: dead or stuck, or a signal below"
     assert words in (out / "report.html").read_text()

@@ -66,18 +66,24 @@ def model_run(monkeypatch):
 # -- an onset that is an upper bound -------------------------------------------------------
 
 
-def test_an_upper_bound_onset_says_at_or_before_wherever_it_is_shown(model_run):
+def test_a_fault_there_from_the_start_is_said_alike_wherever_it_is_shown(model_run):
     _, doc, html = model_run
     f = doc["faults"][0]
     verdict = html[html.index('id="verdict"') : html.index('id="findings"')]
-    assert f"at or before {f['onset_s']:.3f} s" in verdict
-    assert _fact(html, "Onset").startswith(f"at or before {f['onset_s']:.3f} s from the start")
+    # there when the filters could first judge: "from the start", as the run's line says
+    # it (it read "at or before 4.310 s", a constant channel's "at or before 0.000 s")
+    said = f"from the start (not judged before {f['onset_s']:.3f} s"
+    assert said + ")" in verdict
+    assert _fact(html, "Onset").startswith(said)
+    # and the figures in the same words (their legends read "onset: at or before")
     for kind in ("signal", "residual"):
-        assert "onset: at or before" in _texts(_figure(html, kind)), kind
-    assert "upper bound" in _figure(html, "signal")  # the caption
+        assert "from the start (not judged before)" in _texts(_figure(html, kind)), kind
+    assert "nothing was judged (the fault was there from the start" in _figure(html, "signal")
     for kind in ("coverage", "levels"):
-        assert "may have begun (onset at or before)" in _texts(_figure(html, kind)), kind
-        assert "upper bound" in _figure(html, kind)
+        assert "may have begun (not judged)" in _texts(_figure(html, kind)), kind
+        assert "upper bound" in _figure(html, kind)  # the caption, of every such finding
+    assert "from the start (not judged before then" in _fact(html, "Onset bound")
+    assert "at or before" not in html.replace("an onset that is an upper bound", "")
 
 
 def test_an_exact_onset_is_shown_as_it_is(monkeypatch):
@@ -211,7 +217,7 @@ def test_the_fault_evidence_findings_json_documents_is_in_the_finding(monkeypatc
 
 def test_a_model_onset_bound_says_why(model_run):
     _, _, html = model_run
-    assert "it began at or before then" in _fact(html, "Onset bound")
+    assert "from the start (not judged before then" in _fact(html, "Onset bound")
     assert "after the filters&#39; warm-up" in _fact(html, "Onset bound")
 
 

@@ -104,11 +104,11 @@ def test_what_breaks_an_episode():
     assert [e["archives"] for e in eps] == [["a"], ["b"]]
 
 
-def test_an_episode_there_from_its_first_archives_start_says_at_or_before():
+def test_an_episode_there_from_its_first_archives_start_says_from_the_start():
     """A fault there from the first sample searched of its first archive may have begun
-    before it: the episode carries ``from_start`` and the index says "at or before", as
-    ``analyzer run``'s report does (before, a plain onset: the end of the filters'
-    warm-up, a made-up time)."""
+    before it: the episode carries ``from_start`` and the index says "from the start",
+    and the time before which nothing was judged, as ``analyzer run``'s report does
+    (before, a plain onset: the end of the filters' warm-up, a made-up time)."""
     recs = [
         _rec("h0", H0, [_f("s5", "2026-03-02T00:00:03.600Z", None, True)]),
         _rec(
@@ -128,7 +128,11 @@ def test_an_episode_there_from_its_first_archives_start_says_at_or_before():
         "updated": "",
     }
     onsets = [row.onset for row in index_view(index).episodes]
-    assert onsets == ["at or before 2026-03-02T00:00:03.600Z", "2026-03-02T01:10:00.000Z"]
+    # (said as analyzer run's line says it since ux53 item 8; it read "at or before")
+    assert onsets == [
+        "from the start (not judged before 2026-03-02T00:00:03.600Z)",
+        "2026-03-02T01:10:00.000Z",
+    ]
 
 
 T0, T1, T2 = (f"2026-03-02T14:0{m}:00.000Z" for m in (2, 3, 4))

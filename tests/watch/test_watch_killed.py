@@ -1239,7 +1239,8 @@ def test_a_move_undone_by_a_killed_watcher_and_still_refused_is_undone_by_the_ne
         assert said == [
             f"A: its move to {done}, stopped by force, could not be finished (a rename "
             "refused): undone, its files put back in INBOX; it is moved again",
-            "A: found analyzed already (same content), not analyzed again: no sensor fault "
+            "A: analyzed already and not moved yet (same content), not analyzed again: no "
+            "sensor fault "
             f"found; report: {settings.reports / 'A' / 'report.html'}",
             f"A: not moved to {done} (it stays in INBOX): {inbox / 'A_part1.csv'}: Operation "
             "not permitted",

@@ -256,6 +256,33 @@ def test_a_file_dropped_again_is_said_with_its_earlier_result_and_new_name(
     assert (done / "a-1.csv").is_file()
 
 
+def test_an_archive_not_moved_yet_is_not_said_dropped_again(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """An archive analyzed and never moved (a watcher without ``--done``, or one stopped
+    before the end of its hold), found by the next start, is said as analyzed and not
+    moved yet: "found analyzed already (same content)" read as a file dropped again
+    (ux53 item 13). One moved and dropped again keeps those words (the test above)."""
+    inbox, reports = folders
+    done = tmp_path / "done"
+    write(inbox / "a.csv", "csv", seed=1)
+    settings = WatchSettings(inbox, reports, settle=SETTLE, poll=0.1, once=True)
+    assert start_watcher(settings).join() == 0
+    caplog.clear()
+    assert start_watcher(replace(settings, done=done)).join() == 0
+    assert started(caplog) == []
+    report = reports / "a.csv" / "report.html"
+    assert said(caplog, "a.csv: ") == [
+        "a.csv: analyzed already and not moved yet (same content), not analyzed again: no "
+        f"sensor fault found; report: {report}",
+        f"a.csv: moved to {done}",
+    ]
+    assert said(caplog, "a.csv: found analyzed already") == []
+
+
 def test_the_summary_counts_an_archive_analyzed_twice_once(
     tmp_path: Path,
     folders: tuple[Path, Path],
