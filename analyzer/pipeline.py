@@ -2802,7 +2802,25 @@ def summary_line(analysis: Analysis, out: Path) -> str:
         if unexplained and analysis.findings
         else ""
     )
-    return f"{faults_words(analysis.findings, after)}{model}; report: {report}{tail}"
+    return (
+        f"{faults_words(analysis.findings, after)}{_unsearched(analysis)}{model}; "
+        f"report: {report}{tail}"
+    )
+
+
+def _unsearched(analysis: Analysis) -> str:
+    """The summary line's words on the channels no fault was searched for because they
+    have no sample in the training window (:class:`~analyzer.selection.NoSamplesNote`,
+    said on stderr before): "no sensor fault found" alone read as every sensor checked
+    where a renamed column's fault was never looked for (ux55). Empty where there are
+    none."""
+    names = sorted({c for n in analysis.notes if isinstance(n, NoSamplesNote) for c in n.names})
+    if not names:
+        return ""
+    return (
+        f" ({len(names)} channel{'s' if len(names) > 1 else ''} not searched, with no data "
+        "in the training window: see above)"
+    )
 
 
 def faults_words(found: Sequence[Finding], after: str = "") -> str:
