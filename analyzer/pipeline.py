@@ -101,6 +101,7 @@ from analyzer.errors import (
 )
 from analyzer.findings import Analysis, findings_document, input_digest, write_outputs
 from analyzer.grouping import partition
+from analyzer.missing_codes import CodeHint, as_gaps, code_hints, gaps_note
 from analyzer.modelfile import SavedModel, check_model_path, model_bytes, save_model
 from analyzer.options import (
     MIN_TRAIN_ROWS,
@@ -599,9 +600,11 @@ def _read_checked(
     reading = None if progress is None else partial(progress, "read")
     archive = open_archive(inputs)
     fed = Tally()
-    store = ChannelStore.from_chunks(
-        fed.counted(archive.chunks(options.time_source, reading)), work / "store"
-    )
+    codes = options.missing_values
+    coded: dict[str, int] = {}
+    chunks = as_gaps(archive.chunks(options.time_source, reading), codes, coded)
+    store = ChannelStore.from_chunks(fed.counted(chunks), work / "store")
+    archive.notes.extend(n for n in [gaps_note(coded, codes)] if n)
     try:
         _store_unchanged(store, fed, "")
     except IntegrityError:
@@ -1184,6 +1187,9 @@ def _analyze(
         # the sensors named (--channels, the config, the model) that read one value over
         # the whole record: one finding each, with what the detectors found on it
         findings = merged(silent, constant_findings(notes, findings))
+        # a clipped or stuck value that may be a logger's "no reading" (-9999): said how
+        # to declare it (:mod:`analyzer.missing_codes`)
+        notes.extend(code_hints(findings, values, chosen))
         timings["total"] = time.perf_counter() - t_start
         return Analysis(
             inputs=archive.inputs,
@@ -2671,6 +2677,8 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
             for line in configured:
                 options.warn(line)
             for line in window_warnings(analysis.notes):  # a training window not healthy
+                options.warn(line)
+            for line in (n for n in analysis.notes if isinstance(n, CodeHint)):
                 options.warn(line)
             skipped = skipped_warning(analysis, options, " ".join(configured))
             if skipped:  # (default detectors that did not run: findings.json alone said it)
