@@ -8,10 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from analyzer.diagnosis import Finding
-from analyzer.missing_codes import code_hints
 from analyzer.simulate import inject_fault, simulate_building
-from analyzer.types import FaultType
 from analyzer.writers import write_archive
 from tests.cli.cli_helpers import one_line_error, run_cli, run_to, said, schema_valid
 
@@ -51,9 +48,7 @@ def test_a_finding_at_a_usual_code_says_how_to_declare_it(tmp_path, capsys):
     coded = _coded(doc)
     assert coded, doc["faults"]  # (the fixture's codes are findings when read as values)
     hints = [w for w in said(err) if "give --missing-values -9999" in w]
-    assert sorted(h.split(": ")[2] for h in hints) == sorted(f["channel"] for f in coded), (
-        err
-    )
+    assert sorted(h.split(": ")[2] for h in hints) == sorted(f["channel"] for f in coded), err
     assert all("a usual missing-value code" in h for h in hints)
     schema_valid(doc)
 
@@ -81,23 +76,3 @@ def test_missing_values_not_numbers_is_one_line(tmp_path, capsys):
     )
     assert code == 2
     one_line_error(err, "--missing-values", "'none'")
-
-
-def _finding(channel, magnitude):
-    return Finding(channel, FaultType.OTHER, 1.0, None, magnitude, 0.9, "x", evidence={})
-
-
-def test_a_value_far_outside_is_hinted_a_real_limit_is_not():
-    """-6999 (no usual code) far outside readings of about +-1 is hinted; a sensor
-    clipping at its largest reading (1.0) is not."""
-    col = np.sin(np.linspace(0, 60, 3000))
-    far = col.copy()
-    far[100:150] = -6999.0
-    clipped = np.minimum(col, 0.8)
-    values = np.column_stack([far, clipped])
-    hints = code_hints(
-        [_finding("a", {"stuck_at": -6999.0}), _finding("b", {"clipped_high": 0.8})],
-        values,
-        ["a", "b"],
-    )
-    assert len(hints) == 1 and hints[0].startswith("a: its stuck level -6999 is far outside")
