@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numbers
 import re
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -376,6 +377,7 @@ class ARKalmanBank:
         stop: int | None = None,
         into: BankOutputs | None = None,
         consistency: bool = True,
+        shown: str | None = None,
     ) -> BankOutputs:
         """Run the bank over ``Y[start:stop]`` (raw units), into ``into`` when given;
         without ``consistency`` only the residuals and estimates (``nis`` None: the
@@ -385,7 +387,10 @@ class ARKalmanBank:
         zero state at the record's start, or after a warm-up when ``start > 0``). With a
         parallel executor in ``context`` the span is cut into time blocks, each filtered
         from a warm-up of ``BankFilter.warmup`` samples before it, so the blocks are
-        independent and equal the serial run to rounding."""
+        independent and equal the serial run to rounding. ``shown``: the progress stage
+        each finished block advances (the whole record's pass: on a day's archive the
+        longest step of a run, which left its progress silent for most of a minute;
+        serially it is one block, one step)."""
         bank = model.bank
         if bank is None:  # pragma: no cover - fitted by fit()
             raise DetectorError("ar_kalman_bank: the model has no estimator bank")
@@ -411,7 +416,10 @@ class ARKalmanBank:
         items = [(ar.mean, ar.scale, held, Y[a - w : b], w, inv, wanted) for a, b, w in spans]
         if cluster:
             assert context is not None
-            for (a, _, _), out in zip(spans, context.imap(_bank_block_task, items), strict=True):
+            pieces = zip(spans, context.imap(_bank_block_task, items), strict=True)
+            for k, ((a, _, _), out) in enumerate(pieces):
+                if shown is not None:
+                    context.report(shown, (k + 1) / len(spans))
                 write_rows(into.resid, a, out.resid)
                 write_rows(into.est, a, out.est)
                 if into.nis is not None:
@@ -424,7 +432,9 @@ class ARKalmanBank:
             for task in tasks:
                 _bank_block_into(task)
         else:
-            context.map(_bank_block_into, tasks)
+            context.map(_counted(_bank_block_into, context, shown, len(tasks)), tasks)
+        if shown is not None and context is not None:
+            context.report(shown, 1.0)
         return into
 
     def estimate_warmup(self, model: FittedBank, j: int) -> int | None:
@@ -460,7 +470,9 @@ class ARKalmanBank:
         explained: list[tuple[int, int, int]] = []  # (channel, start, stop) already isolated
         # the residuals and estimates over the whole record; the estimators' consistency
         # only where a fault is isolated (recomputed there with the corrections so far)
-        out = self._bank_outputs(model, Y, context, consistency=False)
+        out = self._bank_outputs(
+            model, Y, context, consistency=False, shown=f"{self.name} residuals"
+        )
         # the residual the report shows: as measured, before any correction
         resid0: npt.NDArray[Any] = out.resid
         est0: npt.NDArray[Any] = out.est
@@ -1250,6 +1262,25 @@ def _bank_block_into(task: tuple[tuple[Any, ...], BankOutputs, int]) -> None:
     """:func:`bank_block` writing its rows into shared outputs (serially or on threads)."""
     (mean, scale, bank, Y, warm, inv_covs, consistency), into, at = task
     bank_block(mean, scale, bank, Y, warm, inv_covs, into=into, at=at, consistency=consistency)
+
+
+def _counted(
+    fn: Callable[[Any], None], context: RunContext, shown: str | None, total: int
+) -> Callable[[Any], None]:
+    """``fn`` (a time block's task on threads) that, done, advances the progress stage
+    ``shown`` by one of ``total`` blocks (one call per block: no per-sample work)."""
+    if shown is None:
+        return fn
+    lock = threading.Lock()
+    done = [0]
+
+    def counted(task: Any) -> None:
+        fn(task)
+        with lock:
+            done[0] += 1
+            context.report(shown, done[0] / total)
+
+    return counted
 
 
 def _kept(context: RunContext, name: str, a: FloatArray) -> npt.NDArray[Any]:
