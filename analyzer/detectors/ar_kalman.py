@@ -389,8 +389,9 @@ class ARKalmanBank:
         from a warm-up of ``BankFilter.warmup`` samples before it, so the blocks are
         independent and equal the serial run to rounding. ``shown``: the progress stage
         each finished block advances (the whole record's pass: on a day's archive the
-        longest step of a run, which left its progress silent for most of a minute;
-        serially it is one block, one step)."""
+        longest step of a run, which left its progress silent for most of a minute).
+        Short of 100 %: the pass's end is the detector's, which ``detect`` says (a
+        terminal's bar ends a line at 100 %, one per stage of the run)."""
         bank = model.bank
         if bank is None:  # pragma: no cover - fitted by fit()
             raise DetectorError("ar_kalman_bank: the model has no estimator bank")
@@ -418,7 +419,7 @@ class ARKalmanBank:
             assert context is not None
             pieces = zip(spans, context.imap(_bank_block_task, items), strict=True)
             for k, ((a, _, _), out) in enumerate(pieces):
-                if shown is not None:
+                if shown is not None and k + 1 < len(spans):
                     context.report(shown, (k + 1) / len(spans))
                 write_rows(into.resid, a, out.resid)
                 write_rows(into.est, a, out.est)
@@ -436,8 +437,6 @@ class ARKalmanBank:
                 _bank_block_into(task)
         else:
             context.map(_bank_block_into, tasks)
-        if shown is not None and context is not None:
-            context.report(shown, 1.0)
         return into
 
     def estimate_warmup(self, model: FittedBank, j: int) -> int | None:
@@ -1282,8 +1281,9 @@ def _bank_block_into(task: tuple[tuple[Any, ...], BankOutputs, int, _Advance | N
 class _Advance:
     """The progress of the bank's pass over the whole record: rows filtered of ``total``
     (from every time block, on threads too), said as stage ``shown`` each time one more
-    hundredth is done. On a day's archive the pass is the run's longest step, and it
-    left ``--progress`` silent for 45-58 s (the ux55 audit)."""
+    hundredth is done, short of the whole (see :meth:`ARKalmanBank._bank_outputs`). On
+    a day's archive the pass is the run's longest step, and it left ``--progress``
+    silent for 45-58 s (the ux55 audit)."""
 
     def __init__(self, context: RunContext, shown: str, total: int) -> None:
         self.context, self.shown, self.total = context, shown, max(1, total)
@@ -1295,7 +1295,7 @@ class _Advance:
         with self.lock:
             self.done += rows
             hundredths = 100 * self.done // self.total
-            if hundredths > self.said:
+            if self.said < hundredths < 100:
                 self.said = hundredths
                 self.context.report(self.shown, min(1.0, self.done / self.total))
 
