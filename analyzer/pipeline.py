@@ -2859,7 +2859,7 @@ def _unexplained_words(analysis: Analysis) -> str:
     alarms = [(u.onset_s, u.channels) for u in getattr(analysis, "unexplained", [])]
     more = 0
     if not analysis.findings:
-        quiet = [n for n in analysis.notes if isinstance(n, AnomalyNote)]
+        quiet = [n for n in getattr(analysis, "notes", ()) if isinstance(n, AnomalyNote)]
         alarms = [(n.onset_s, n.channels) for n in quiet if n.onset_s is not None]
         more = sum(n.more for n in quiet)
     if not alarms:
@@ -2884,7 +2884,8 @@ def _unsearched(analysis: Analysis) -> str:
     said on stderr before): "no sensor fault found" alone read as every sensor checked
     where a renamed column's fault was never looked for (ux55). Empty where there are
     none."""
-    names = sorted({c for n in analysis.notes if isinstance(n, NoSamplesNote) for c in n.names})
+    notes = getattr(analysis, "notes", ())  # (an Analysis-like caller's may have none)
+    names = sorted({c for n in notes if isinstance(n, NoSamplesNote) for c in n.names})
     if not names:
         return ""
     return (
