@@ -102,6 +102,15 @@ def _positive_float(text: str) -> float:
     return v
 
 
+def _missing_codes(text: str) -> tuple[float, ...]:
+    from analyzer.missing_codes import parse_codes
+
+    try:
+        return parse_codes(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
 def _non_negative_float(text: str) -> float:
     try:
         v = float(text)
@@ -198,6 +207,14 @@ def add_run_options(p: argparse.ArgumentParser, command: str = "run") -> None:
         type=_positive_float,
         metavar="HZ",
         help="rate of the common clock; default: the dominant rate of the channels",
+    )
+    p.add_argument(
+        "--missing-values",
+        type=_missing_codes,
+        metavar="CODE[,CODE...]",
+        default=(),
+        help="numbers the loggers write where they have no reading (e.g. -9999): their "
+        "samples are taken as gaps, as blank cells are; default: none (read as values)",
     )
     p.add_argument(
         "--jobs",
@@ -637,6 +654,7 @@ def _run_options(args: argparse.Namespace) -> Any:
         screen=args.screen,
         say=_say if getattr(args, "command", None) == "run" else None,
         utc=getattr(args, "utc", False),
+        missing_values=getattr(args, "missing_values", ()),
     )
 
 

@@ -64,6 +64,9 @@ class RunOptions:
     say: Callable[[str], None] | None = None
     """Where :func:`analyzer.pipeline.run` says its last line (:func:`analyzer.pipeline.
     summary_line`: what it found and where the report is): the CLI's stderr."""
+    missing_values: tuple[float, ...] = ()
+    """``--missing-values``: numbers the loggers write for "no reading" (``-9999``),
+    whose samples are taken as gaps (:mod:`analyzer.missing_codes`)."""
     utc: bool = False
     """``run --corrected --utc``: ``corrected.csv`` gets a last column ``utc`` of UTC
     times (its ``time`` column counts seconds from the first sample, as ``export``'s)."""

@@ -81,7 +81,6 @@ from analyzer.diagnosis.unexplained import (
     echoes,
     lasting,
     missed_clusters,
-    spoken,
     unexplained_alarms,
 )
 from analyzer.errors import (
@@ -101,6 +100,7 @@ from analyzer.errors import (
 )
 from analyzer.findings import Analysis, findings_document, input_digest, write_outputs
 from analyzer.grouping import partition
+from analyzer.missing_codes import CodeHint, as_gaps, code_hints, gaps_note
 from analyzer.modelfile import SavedModel, check_model_path, model_bytes, save_model
 from analyzer.options import (
     MIN_TRAIN_ROWS,
@@ -634,9 +634,11 @@ def _read_checked(
     reading = None if progress is None else partial(progress, "read")
     archive = open_archive(inputs)
     fed = Tally()
-    store = ChannelStore.from_chunks(
-        fed.counted(archive.chunks(options.time_source, reading)), work / "store"
-    )
+    codes = options.missing_values
+    coded: dict[str, int] = {}
+    chunks = as_gaps(archive.chunks(options.time_source, reading), codes, coded)
+    store = ChannelStore.from_chunks(fed.counted(chunks), work / "store")
+    archive.notes.extend(n for n in [gaps_note(coded, codes)] if n)
     try:
         _store_unchanged(store, fed, "")
     except IntegrityError:
@@ -1224,6 +1226,9 @@ def _analyze(
         # the whole record: one finding each, with what the detectors found on it
         findings = merged(silent, constant_findings(notes, findings))
         notes.extend(n for n in [_blank_model_note(unread, results)] if n)
+        # a clipped or stuck value that may be a logger's "no reading" (-9999): said how
+        # to declare it (:mod:`analyzer.missing_codes`)
+        notes.extend(code_hints(findings, values, chosen))
         timings["total"] = time.perf_counter() - t_start
         return Analysis(
             inputs=archive.inputs,
@@ -1879,7 +1884,7 @@ UNATTRIBUTED_LISTED = 3
 
 def _unattributed_notes(
     results: Sequence[DetectorResult], findings: Sequence[Finding], rate_hz: float
-) -> list[str]:
+) -> list[AnomalyNote]:
     """The run's notes on anomalies the detectors saw and attributed to no sensor
     (``DetectorResult.unattributed``), which only their own notes told before: two
     sensors faulty from the same instant on a 6-channel building gave no finding and
@@ -1891,16 +1896,15 @@ def _unattributed_notes(
       window of each other, with no finding under way then: several sensors at once,
       or a change of the structure or excitation."""
     slack = LONG_FACTOR * default_window(rate_hz) / rate_hz
-    out: list[str] = []
+    out: list[AnomalyNote] = []
+    reported = {f.channel for f in findings}
     seen: set[tuple[tuple[str, ...], tuple[str, ...]]] = set()
     for r in results:
         for onset, channels, beside in r.unattributed:
             if beside and (beside, channels) not in seen:
                 seen.add((beside, channels))
                 out.append(
-                    f"{r.detector}: beside the fault on {', '.join(beside)} at {onset:.1f} s, "
-                    f"a fault on one of {', '.join(channels)} explains its alarms (not "
-                    "reported: its sensor network cannot tell which)"
+                    AnomalyNote(_beside_words(r.detector, onset, beside, channels, reported))
                 )
 
     def echo(t0: float, t1: float) -> bool:
@@ -1922,12 +1926,17 @@ def _unattributed_notes(
             else ""
         )
         out.append(
-            f"anomaly at {c[0][0]:.1f} s on {', '.join(names)} attributed to no sensor by "
-            f"{', '.join(detectors)}: several sensors at once, or a change of the structure "
-            f"or excitation{lasted} (the detectors' notes say more)"
+            AnomalyNote.at(
+                f"anomaly at {c[0][0]:.1f} s on {', '.join(names)} attributed to no sensor by "
+                f"{', '.join(detectors)}: several sensors at once, or a change of the structure "
+                f"or excitation{lasted} (the detectors' notes say more)",
+                c[0][0],
+                tuple(names),
+            )
         )
     if len(missed) > UNATTRIBUTED_LISTED:
-        out.append(f"{len(missed) - UNATTRIBUTED_LISTED} more such anomalies (detectors' notes)")
+        more = len(missed) - UNATTRIBUTED_LISTED
+        out.append(AnomalyNote.counting(f"{more} more such anomalies (detectors' notes)", more))
     # alarms a blind residual leaves undecided: one detector's, but its peers had lost
     # their view too (a channel gone missing): said at the run's level, once per sensors
     # (a 5 sd offset on s0 beside a channel missing from 200 s: exit 0, nothing said)
@@ -1941,15 +1950,45 @@ def _unattributed_notes(
             said.append((onset, alarming, blind))
             if len(said) <= UNATTRIBUTED_LISTED:
                 out.append(
-                    f"anomaly at {onset:.1f} s on {', '.join(alarming)} attributed to no sensor "
-                    f"by {r.detector}: a fault on {', '.join(alarming)} or on "
-                    f"{' or '.join(blind)} explains it, and the residuals of "
-                    f"{', '.join(blind)} have no data there (a channel they are modelled from "
-                    "is missing)"
+                    AnomalyNote.at(
+                        f"anomaly at {onset:.1f} s on {', '.join(alarming)} attributed to no "
+                        f"sensor by {r.detector}: a fault on {', '.join(alarming)} or on "
+                        f"{' or '.join(blind)} explains it, and the residuals of "
+                        f"{', '.join(blind)} have no data there (a channel they are modelled from "
+                        "is missing)",
+                        onset,
+                        tuple(alarming),
+                    )
                 )
     if len(said) > UNATTRIBUTED_LISTED:
-        out.append(f"{len(said) - UNATTRIBUTED_LISTED} more such anomalies (detectors' notes)")
-    return [AnomalyNote(line) for line in out]
+        more = len(said) - UNATTRIBUTED_LISTED
+        out.append(AnomalyNote.counting(f"{more} more such anomalies (detectors' notes)", more))
+    return out
+
+
+def _beside_words(
+    detector: str,
+    onset: float,
+    beside: Sequence[str],
+    channels: Sequence[str],
+    reported: Collection[str],
+) -> str:
+    """The note on a second fault a detector's sensor network places beside another:
+    "beside the fault on X" where X is a finding; where X is none (the run did not report
+    it: the note named a fault the user could not find in findings.json, the ux55
+    audit), the two are said as one anomaly neither of whose faults is reported."""
+    if all(b in reported for b in beside):
+        return (
+            f"{detector}: beside the fault on {', '.join(beside)} at {onset:.1f} s, "
+            f"a fault on one of {', '.join(channels)} explains its alarms (not "
+            "reported: its sensor network cannot tell which)"
+        )
+    return (
+        f"{detector}: anomaly at {onset:.1f} s that a fault on {', '.join(beside)} together "
+        f"with one on one of {', '.join(channels)} would explain; neither is a finding of "
+        "this run (the first was not confirmed, and its sensor network cannot tell which "
+        "of the others)"
+    )
 
 
 WEAK_CONFIDENCE = 0.05
@@ -2713,6 +2752,8 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
                 options.warn(line)
             for line in window_warnings(analysis.notes):  # a training window not healthy
                 options.warn(line)
+            for line in (n for n in analysis.notes if isinstance(n, CodeHint)):
+                options.warn(line)
             skipped = skipped_warning(analysis, options, " ".join(configured))
             if skipped:  # (default detectors that did not run: findings.json alone said it)
                 options.warn(skipped)
@@ -2837,13 +2878,61 @@ def summary_line(analysis: Analysis, out: Path) -> str:
         return f"nothing after the training window to analyze{model}; report: {report}"
     after = " after the training window" if saved else ""
     # (an Analysis of a caller that predates the field has none)
-    unexplained = spoken([u.channels for u in getattr(analysis, "unexplained", [])])
-    tail = (
-        f"; alarms on {capped(unexplained, SUMMARY_LISTED)} not explained: see the report"
-        if unexplained and analysis.findings
-        else ""
+    tail = _unexplained_words(analysis)
+    return (
+        f"{faults_words(analysis.findings, after)}{_unsearched(analysis)}{model}; "
+        f"report: {report}{tail}"
     )
-    return f"{faults_words(analysis.findings, after)}{model}; report: {report}{tail}"
+
+
+SENSORS_NAMED = 3
+"""Sensors the last line names by name among its unexplained alarms; more are counted
+(a day's 16 channels made a line of 536 characters: the ux55 audit)."""
+
+
+def _unexplained_words(analysis: Analysis) -> str:
+    """The last line's tail on the alarms no finding explains, short: how many times,
+    the first (seconds, and UTC where the times are absolute), on which sensors (named
+    up to :data:`SENSORS_NAMED`, else counted); the report has each one. With findings:
+    :attr:`Analysis.unexplained`; without: the anomalies the detectors attributed to no
+    sensor (:class:`~analyzer.window_note.AnomalyNote`), which left a run's stderr silent
+    with exit 0 (ux55). Empty where there are none."""
+    alarms = [(u.onset_s, u.channels) for u in getattr(analysis, "unexplained", [])]
+    more = 0
+    if not analysis.findings:
+        quiet = [n for n in getattr(analysis, "notes", ()) if isinstance(n, AnomalyNote)]
+        alarms = [(n.onset_s, n.channels) for n in quiet if n.onset_s is not None]
+        more = sum(n.more for n in quiet)
+    if not alarms:
+        return ""
+    count = len(alarms) + more
+    first = min(t for t, _ in alarms)
+    sensors = sorted({c for _, chs in alarms for c in chs})
+    named = (
+        " and ".join([", ".join(sensors[:-1]), sensors[-1]] if len(sensors) > 1 else sensors)
+        if len(sensors) <= SENSORS_NAMED
+        else f"{len(sensors)}{' or more' if more else ''} sensors"
+    )
+    when = f"at {first:.1f} s" if count == 1 else f"at {count} times from {first:.1f} s"
+    if analysis.absolute_time:
+        when += f" ({iso_utc(analysis.start_ns + round(first * NS_PER_S))})"
+    return f"; alarms not explained {when}, on {named}: see the report"
+
+
+def _unsearched(analysis: Analysis) -> str:
+    """The summary line's words on the channels no fault was searched for because they
+    have no sample in the training window (:class:`~analyzer.selection.NoSamplesNote`,
+    said on stderr before): "no sensor fault found" alone read as every sensor checked
+    where a renamed column's fault was never looked for (ux55). Empty where there are
+    none."""
+    notes = getattr(analysis, "notes", ())  # (an Analysis-like caller's may have none)
+    names = sorted({c for n in notes if isinstance(n, NoSamplesNote) for c in n.names})
+    if not names:
+        return ""
+    return (
+        f" ({len(names)} channel{'s' if len(names) > 1 else ''} not searched, with no data "
+        "in the training window: see above)"
+    )
 
 
 def faults_words(found: Sequence[Finding], after: str = "") -> str:

@@ -469,28 +469,39 @@ NO_TRAINING_SAMPLES = "no training samples"
 in ``inspect --json`` and findings.json's ``channels[]`` alike."""
 
 
-class NoSamplesNote(str):
-    """The note naming the channels left out because they have no sample in the training
-    window (their data begin after it, end before it, or a gap covers it: a file of the
-    archive that names the same sensors otherwise, :func:`~analyzer.readers.apart_names`),
-    with their ``names``. Not "constant or empty": the sensor may be alive, only not
-    there (the audit read the old words as dead sensors)."""
+class NoSamplesNote(WindowNote):
+    """The note (repeated on stderr) naming the channels left out because they have no
+    sample in the training window (their data begin after it, end before it, or a gap
+    covers it: a file of the archive that names the same sensors otherwise,
+    :func:`~analyzer.readers.apart_names`, a column renamed or added in a later file,
+    :func:`~analyzer.readers.renamed_columns`), with their ``names``. Not "constant or
+    empty": the sensor may be alive, only not there (the audit read the old words as dead
+    sensors). On stderr, for a fault on such a channel is never searched for: a renamed
+    column's fault passed as "no sensor fault found", exit 0, with nothing said (ux55)."""
 
     names: tuple[str, ...] = ()
 
-    def __new__(cls, text: str) -> NoSamplesNote:
+    def __new__(cls, text: str, short: str = "") -> NoSamplesNote:
         # (built from its text, :meth:`of` adding the rest: it pickles as one, for a
         # watcher's analyses run in other processes)
-        return str.__new__(cls, text)
+        note = super().__new__(cls, text, short)
+        return note  # type: ignore[return-value]
 
     @classmethod
     def of(cls, names: Sequence[str], window: tuple[float, float]) -> NoSamplesNote:
         """The note on the channels ``names`` without a sample in ``window`` (seconds)."""
+        span = f"{short_seconds(window[0])}-{short_seconds(window[1])} s"
+        listed = capped(list(names), COPIES_LISTED, what="channels")
+        one = len(names) == 1
         note = cls(
-            f"no samples in the training window ({short_seconds(window[0])}-"
-            f"{short_seconds(window[1])} s), not "
-            f"analyzed: {capped(list(names), COPIES_LISTED, what='channels')} (their data "
-            "lie outside it; --train choosing a window where they have data analyzes them)"
+            f"no samples in the training window ({span}), not "
+            f"analyzed: {listed} (their data "
+            "lie outside it; --train choosing a window where they have data analyzes them)",
+            f"{capped(list(names), SIBLINGS_LISTED, what='channels')} "
+            f"{'has' if one else 'have'} no sample in the training window {span}: not "
+            f"analyzed, so a fault on {'it' if one else 'them'} cannot be found; give "
+            f"--train (or [train] in a config) a window where {'it has' if one else 'they have'}"
+            " data",
         )
         note.names = tuple(names)
         return note

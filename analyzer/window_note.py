@@ -30,4 +30,26 @@ class AnomalyNote(str):
     fault beside a found one that their network cannot pin down): a plain string to every
     reader of ``notes``, recognisable so that ``watch`` counts it among the archive's
     warnings in its index (an anomaly on every sensor, an archive in another unit, was a
-    plain "no fault" there: a new user's audit, ux53)."""
+    plain "no fault" there: a new user's audit, ux53). ``onset_s`` and ``channels``: the
+    anomaly's first alarm and sensors, where the note is one anomaly; ``more``: how many
+    anomalies a "N more such anomalies" note counts (the run's last line says how many
+    and from when: ux55)."""
+
+    onset_s: float | None = None
+    channels: tuple[str, ...] = ()
+    more: int = 0
+
+    @classmethod
+    def at(cls, text: str, onset_s: float, channels: tuple[str, ...]) -> AnomalyNote:
+        """The note ``text`` on one anomaly from ``onset_s`` on ``channels``."""
+        note = cls(text)
+        note.onset_s = onset_s
+        note.channels = channels
+        return note
+
+    @classmethod
+    def counting(cls, text: str, more: int) -> AnomalyNote:
+        """The note ``text`` that counts ``more`` anomalies not named one by one."""
+        note = cls(text)
+        note.more = more
+        return note

@@ -381,6 +381,7 @@ def bank_block(
     consistency: bool = True,
     innov_moments: InnovationMoments | None = None,
     moments_from: int = 0,
+    advanced: Callable[[int], None] | None = None,
 ) -> BankBlock:
     """Bank outputs for ``Y[warm:]`` (raw units), every estimator filtered from a zero
     state at ``Y[0]``, written to rows ``at ..`` of ``into`` when given. Works through
@@ -396,7 +397,9 @@ def bank_block(
     added to it chunk by chunk instead (``innov`` None: a long window's innovations,
     ``m - 1`` values per estimator and sample, are not held). Without ``consistency``
     (or when ``into`` has no ``nis``) only the residuals and estimates are computed,
-    by the estimate outputs alone where the bank has them (``nis`` is None)."""
+    by the estimate outputs alone where the bank has them (``nis`` is None).
+    ``advanced``: called with the rows each chunk wrote (a run's progress: one call a
+    chunk, no per-sample work)."""
     N, m = Y.shape
     L = N - warm
     if into is None:
@@ -457,6 +460,8 @@ def bank_block(
         h = system.history  # the rows this chunk read: done with them, but the history
         read.upto(e0 if h is None else max(0, e0 - h), final=e0 == N)
         written.upto(rows.stop, final=e0 == N)  # and the rows it wrote (memory-mapped)
+        if advanced is not None:
+            advanced(rows.stop - rows.start)
         if nis is None:
             continue
         if bank.whitened:

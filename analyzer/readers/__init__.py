@@ -296,6 +296,8 @@ class Archive:
                 if report is not None:
                     report.finished(i)
             self.notes.extend(ArchiveNote(n) for n in apart_names(self.readers, held))
+            self.notes.extend(ArchiveNote(n) for n in renamed_columns(self.readers, held))
+            columns_left_out(self.readers, held)
         finally:
             for pending in ahead.values():
                 pending.close()
@@ -390,6 +392,67 @@ def apart_names(readers: Sequence[Reader], held: Sequence[_Held]) -> list[str]:
             "others have a gap over it (give its columns the others' names to join them)"
         )
     return notes
+
+
+def _in_turn(readers: Sequence[Reader], held: Sequence[_Held]) -> list[tuple[Reader, _Held]]:
+    """The inputs that held data, by their first time, where each one's times lie after
+    the one's before it (an archive of hourly files); empty where any two overlap (one
+    file per sensor node over the same time: different columns are how it is meant)."""
+    full = sorted(
+        ((r, h) for r, h in zip(readers, held, strict=True) if h.first is not None),
+        key=lambda rh: rh[1].first or 0,
+    )
+    for (_, a), (_, b) in zip(full, full[1:], strict=False):
+        if _overlap(a, b):
+            return []
+    return full
+
+
+def renamed_columns(readers: Sequence[Reader], held: Sequence[_Held]) -> list[str]:
+    """The notes on the files of an archive of files in turn (:func:`_in_turn`) from
+    which some channels begin exactly where others end: ``s2`` in the files before,
+    ``s2_new`` from this one on (a re-labelled or re-wired logger channel). The two are
+    separate channels to the analysis, and the new name has no data in the training
+    window: a fault on it was never searched for, and a run said "no sensor fault found"
+    without a word (a new user's audit, ux55). Names that share no name with the
+    others at all are :func:`apart_names`'s."""
+    full = _in_turn(readers, held)
+    notes = []
+    for k in range(1, len(full)):
+        before = set().union(*(h.names for _, h in full[:k]))
+        after = set().union(*(h.names for _, h in full[k:]))
+        ended = sorted(before - after)
+        begun = sorted(full[k][1].names - before)
+        if not ended or not begun or not (before & after):
+            continue
+        notes.append(
+            f"{full[k][0].info.path}: {capped(begun, NAMES_SHOWN, what='channels')} "
+            f"{'begins' if len(begun) == 1 else 'begin'} in this file where "
+            f"{capped(ended, NAMES_SHOWN, what='channels')} "
+            f"{'ends' if len(ended) == 1 else 'end'}: the same "
+            f"{'sensor' if len(begun) == len(ended) == 1 else 'sensors'} renamed? Each name "
+            "is analyzed as its own channel (give a column one name in every file to join it)"
+        )
+    return notes
+
+
+def columns_left_out(readers: Sequence[Reader], held: Sequence[_Held]) -> None:
+    """Mark, in each CSV file of an archive of files in turn (:func:`_in_turn`), the
+    columns of the files before it that its header lacks as without a reading to its
+    last time (:attr:`~analyzer.readers.base.InputInfo.blank_until`), as blank cells
+    are: the files are rows of one table, and a column missing from a file's header is
+    a sensor with no reading in its rows (``s2`` after it became ``s2_new``: a note
+    only, exit 0, where the same silence in blank cells is a finding; the ux55 audit).
+    A topic that stops in MCAP or bag files stays unmarked (a node stopped, not
+    necessarily the sensor: :mod:`analyzer.silent`)."""
+    full = _in_turn(readers, held)
+    seen: set[str] = set()
+    for reader, h in full:
+        if reader.info.format == Format.CSV and h.last is not None:
+            for name in seen - h.names:
+                at = reader.info.blank_until.get(name, h.last)
+                reader.info.blank_until[name] = max(at, h.last)
+        seen |= h.names
 
 
 def _overlap(a: _Held, b: _Held) -> bool:

@@ -58,7 +58,10 @@ def test_a_second_and_third_fault_left_unattributed_are_said_in_all_three_places
     assert abs(alarm["onset_s"] - 150.0) < 2.0 and alarm["onset"] is None
     assert len(alarm["detectors"]) >= 2 and alarm["beside"] == []
     assert last.startswith("analyzer: 1 sensor fault found on 1 sensor: s4 additive")
-    assert re.search(r"; alarms on [^;]*s1[^;]* not explained: see the report$", last), last
+    assert re.search(
+        r"; alarms not explained at 1[45]\d\.\d s, on (\d sensors|[^;]*s1[^;]*): see the report$",
+        last,
+    ), last
     # right under the verdict's headline, before the verdict's facts
     (warning,) = WARNING.findall(html)
     head = html.index('<p class="headline">')
@@ -74,3 +77,55 @@ def test_a_single_fault_or_a_healthy_record_gets_no_warning(tmp_path, capsys, fa
     assert doc["unexplained_alarms"] == []
     assert "not explained" not in last
     assert not WARNING.findall(html)
+
+
+def test_anomalies_with_no_finding_are_said_on_the_last_line(tmp_path, capsys):
+    """Two sensors faulty from the same instant, no other fault: the detectors attribute
+    the anomaly to no sensor and the run finds no fault (exit 0); its last line said
+    nothing of it (the ux55 audit: stderr silent with anomalies on 8-12 of 16 sensors).
+    Now it ends with when and on which sensors, briefly."""
+    code, last, doc, _ = _run(tmp_path, capsys, [(1, 150.0, None), (2, 150.0, None)])
+    assert code == 0 and doc["faults"] == []
+    assert any(n.startswith("anomaly at ") for n in doc["notes"]), doc["notes"]
+    assert last.startswith("analyzer: no sensor fault found; report: ")
+    tail = re.search(
+        r"; alarms not explained at (\d+ times from )?1[45]\d\.\d s, on ([^;]*): see the report$",
+        last,
+    )
+    assert tail, last
+    assert "s1" in tail[2] or "sensors" in tail[2]
+
+
+def test_the_last_line_counts_many_alarms_and_sensors(tmp_path, capsys):
+    """Alarms at several times on many sensors: one short tail (how many times, from
+    when, how many sensors), not every channel set (536 characters in the audit)."""
+    from analyzer.diagnosis.unexplained import Unexplained
+    from analyzer.findings import Analysis
+    from analyzer.pipeline import summary_line
+
+    names = tuple(f"/data.data[{k}]" for k in range(16))
+    unexplained = [
+        Unexplained(names[k : k + 10], 3600.0 * (k + 1), ("ar_kalman_bank",), ()) for k in range(5)
+    ]
+    analysis = Analysis.__new__(Analysis)
+    for key, value in {
+        "findings": [_finding()],
+        "unexplained": unexplained,
+        "notes": [],
+        "absolute_time": True,
+        "start_ns": 1_780_272_000 * 10**9,
+    }.items():
+        object.__setattr__(analysis, key, value)
+    line = summary_line(analysis, Path("out"))
+    tail = line.split("; report: out/report.html")[1]
+    assert tail == (
+        "; alarms not explained at 5 times from 3600.0 s (2026-06-01T01:00:00.000Z), "
+        "on 14 sensors: see the report"
+    ), tail
+
+
+def _finding():
+    from analyzer.diagnosis import Finding
+    from analyzer.types import FaultType
+
+    return Finding("/data.data[5]", FaultType.ADDITIVE, 62400.0, None, {"offset": 4.3}, 0.99, "x")

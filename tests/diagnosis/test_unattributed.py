@@ -48,9 +48,20 @@ def test_a_second_fault_beside_a_found_one_is_noted_once():
         "equivalent_model",
         [(720.1, ("s0", "s1"), ("s3",)), (721.0, ("s0", "s1"), ("s3",))],
     )
-    (note,) = _unattributed_notes([em], [finding(720.0)], RATE)
+    s3 = Finding("s3", FaultType.ADDITIVE, 720.0, None, {"offset": 1.0}, 1.0, "x")
+    (note,) = _unattributed_notes([em], [s3], RATE)
     assert note.startswith("equivalent_model: beside the fault on s3 at 720.1 s, a fault on one")
     assert "s0, s1" in note
+
+
+def test_a_second_fault_beside_one_not_reported_does_not_name_it_as_the_fault():
+    """The network's first fault (s3) is no finding of the run: the note named "the fault
+    on s3", which findings.json did not have (the ux55 audit); it says neither is one."""
+    em = result("equivalent_model", [(720.1, ("s0", "s1"), ("s3",))])
+    (note,) = _unattributed_notes([em], [finding(720.0)], RATE)
+    assert "beside the fault on" not in note
+    assert note.startswith("equivalent_model: anomaly at 720.1 s that a fault on s3 together")
+    assert "neither is a finding of this run" in note
 
 
 def test_many_anomalies_are_counted_past_the_first_three():
