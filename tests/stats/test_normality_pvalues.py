@@ -53,3 +53,10 @@ def test_the_evidence_carries_them() -> None:
         assert (p < 0.05) == out[name]["reject"] or abs(
             out[name]["statistic"] - out[name]["critical"]
         ) < 0.05
+
+
+def test_the_report_cell_shows_the_pvalue() -> None:
+    from analyzer.report.view_tables import _cell
+
+    t = {"statistic": 1.0, "critical": 2.492, "reject": False, "pvalue": 0.356, "n": 2000}
+    assert _cell(t, "anderson_darling").critical == "2.492, p 0.36"
