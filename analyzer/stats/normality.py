@@ -34,8 +34,11 @@ case's null law:
 
 * case 1 (the law N(0, 1) known, not fitted to the sample tested): Anderson-Darling
   from Marsaglia and Marsaglia (2004), "Evaluating the Anderson-Darling distribution"
-  (the asymptotic law with their correction for N); Cramer-von Mises from
-  :func:`scipy.stats.cramervonmises` (Csorgo and Faraway 1996), on the same sample;
+  (the asymptotic law with their correction for N); Cramer-von Mises, Stephens'
+  modified statistic (made to follow the asymptotic law at any N) against that law
+  (Csorgo and Faraway 1996, eq. 1.2, as :func:`scipy.stats.cramervonmises` sums it;
+  within 0.002 of its finite-N p-value at N = 500; scipy.stats itself is not imported,
+  0.6-0.8 s of start-up);
 * case 2 (mean and deviation fitted to the sample): D'Agostino and Stephens (1986),
   Table 4.9, on A^2 (1 + 0.75/N + 2.25/N^2) and W^2 (1 + 0.5/N) (the formulas of
   ``statsmodels.stats.diagnostic.normal_ad`` and of R's ``nortest``).
@@ -51,8 +54,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from scipy.special import log_ndtr, ndtr
-from scipy.stats import cramervonmises as scipy_cramervonmises
+from scipy.special import gammaln, kv, log_ndtr, ndtr
 
 from analyzer.stats._checks import (
     NORMALITY_MIN_N,
@@ -188,6 +190,25 @@ def _cvm_case2_pvalue(w2: float, n: int) -> float:
     return float(min(1.0, max(0.0, p)))
 
 
+def _cvm_asymptotic_cdf(w2: float) -> float:
+    """P(W^2 <= w2) of the asymptotic Cramer-von Mises law (Csorgo and Faraway 1996,
+    eq. 1.2; terms added until they fall under 1e-10, as scipy's ``_cdf_cvm_inf``)."""
+    x = float(w2)
+    if not x > 0:
+        return 0.0
+    total, k = 0.0, 0
+    while k < 100:
+        y = 4 * k + 1
+        q = y * y / (16.0 * x)
+        u = np.exp(gammaln(k + 0.5) - gammaln(k + 1)) / (np.pi**1.5 * np.sqrt(x))
+        term = float(u * np.sqrt(y) * np.exp(-q) * kv(0.25, q))
+        total += term
+        if abs(term) < 1e-10:
+            break
+        k += 1
+    return min(1.0, max(0.0, total))
+
+
 def normality_pvalue(test: str, case: int, raw: float, y: FloatArray) -> float | None:
     """The p-value of ``test`` (``anderson_darling`` or ``cramer_von_mises``) of the
     sorted sample ``y`` whose unmodified statistic is ``raw``, in Stephens' ``case``
@@ -198,7 +219,7 @@ def normality_pvalue(test: str, case: int, raw: float, y: FloatArray) -> float |
     if test == "anderson_darling":
         return 1.0 - _marsaglia_cdf(raw, n) if case == 1 else _ad_case2_pvalue(raw, n)
     if case == 1:
-        return float(np.clip(scipy_cramervonmises(y, "norm").pvalue, 0.0, 1.0))
+        return 1.0 - _cvm_asymptotic_cdf(float(modify_cramer_von_mises(raw, n, 1)))
     return _cvm_case2_pvalue(raw, n)
 
 
