@@ -100,7 +100,10 @@ def long_run_mean_test(x: Any, lags: int) -> LongRunMeanResult:
     n = y.shape[0]
     variance = long_run_variance(y, lags)
     mean = float(np.mean(y))
-    t = float(np.sqrt(n) * abs(mean) / np.sqrt(variance)) if variance > 0 else float("inf")
+    if variance > 0:
+        t = float(np.sqrt(n) * abs(mean) / np.sqrt(variance))
+    else:  # (a stretch of one value: no spread to judge it by; an all-zero one is no offset)
+        t = 0.0 if mean == 0 else float("inf")
     return LongRunMeanResult(
         statistic=t,
         critical=Z_975,

@@ -76,7 +76,17 @@ def test_a_gain_found_right_has_tests_that_agree(tmp_path, gain: float) -> None:
     work.mkdir()
     (f,) = analyze([str(path)], RunOptions(), work).findings
     assert (f.channel, f.type.value) == ("s2", "multiplicative")
+    assert f.evidence["tests_agree"] is True  # (first: the base lacks mean_long_run)
     after = f.evidence["tests"][f.detector]["after"]
     assert after["whiteness"]["reject"] and after["mean"]["reject"]
     assert not after["mean_long_run"]["reject"]
-    assert f.evidence["tests_agree"] is True
+
+
+def test_a_stretch_of_zeros_is_no_offset() -> None:
+    """No spread and a zero mean: t = 0 (it read inf and rejected, a review); a constant
+    non-zero stretch still rejects."""
+    from analyzer.stats.moments import long_run_mean_test
+
+    assert long_run_mean_test(np.zeros(50), 5).statistic == 0.0
+    assert not long_run_mean_test(np.zeros(50), 5).reject
+    assert long_run_mean_test(np.full(50, 2.0), 5).reject

@@ -60,3 +60,12 @@ def test_the_report_cell_shows_the_pvalue() -> None:
 
     t = {"statistic": 1.0, "critical": 2.492, "reject": False, "pvalue": 0.356, "n": 2000}
     assert _cell(t, "anderson_darling").critical == "2.492, p 0.36"
+
+
+@pytest.mark.parametrize("w2", [1.2, 3.0, 50.0, 2e3, 1e4, 1e6])
+def test_the_cramer_von_mises_tail_never_climbs_back(w2: float) -> None:
+    """Far in the tail the asymptotic series lost its sum and ``1 - cdf`` rose back to
+    0.01-0.23 (a review): the p-value falls with the statistic, to 0."""
+    p = 1.0 - normality._cvm_asymptotic_cdf(w2)
+    assert 0.0 <= p <= 1.0 - normality._cvm_asymptotic_cdf(1.168) + 1e-12
+    assert p < 1e-3
