@@ -182,6 +182,20 @@ def percent(p: float | None) -> str:
     return f"{v:.1f} %"
 
 
+def score(x: float | None) -> str:
+    """A finding's ``confidence`` as what it is, an agreement score from 0 to 1 (``0.98``),
+    not a percentage: it combines the detectors that agree as if they were independent
+    evidence and is lowered where the tests point to another type, but it is not a
+    calibrated probability (near the detection limit wrong findings reached 1.0).
+    Never rounds a value below 1 up to 1."""
+    if x is None or not math.isfinite(float(x)):
+        return MISSING
+    v = float(x)
+    if 0.995 <= v < 1.0:
+        return "> 0.99"
+    return f"{v:.2f}"
+
+
 def rate(hz: float | None) -> str:
     return MISSING if hz is None else f"{num(hz, 6)} Hz"
 
@@ -344,6 +358,7 @@ __all__ = [
     "num",
     "num_range",
     "percent",
+    "score",
     "rate",
     "relative_size",
     "scalar",

@@ -388,7 +388,7 @@ class _Access(FigureParts, TableParts):
             end_clock=str(f.get("end") or fmt.clock(f.get("end_s"), self.decimals)),
             onset_fact=_onset_fact(f, self.decimals),
             magnitude=fmt.magnitude(f.get("magnitude") or {}),
-            confidence=fmt.percent(f.get("confidence")),
+            confidence=fmt.score(f.get("confidence")),
             detectors=[str(d) for d in ev.get("detectors", [f.get("detector")])],
             lead=str(f.get("detector")),
             tests_agree=_agree(ev.get("tests_agree"), str(f["type"]), str(f.get("detector"))),

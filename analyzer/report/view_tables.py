@@ -315,14 +315,15 @@ def _windowed_cell(t: Mapping[str, Any]) -> str:
 def _cell(t: Mapping[str, Any] | None, test: str = "") -> TestCell:
     """One test result as display strings. The Shewhart chart's ``critical`` is the
     fraction expected beyond the limits (the decision is a binomial test of the count),
-    so it is labelled as such, with the p-value where known."""
+    so it is labelled as such; it and the normality tests (decided by their tabulated
+    points) carry their p-value where known."""
     if not t:
         return TestCell(fmt.MISSING, fmt.MISSING, None)
     crit = fmt.num(t.get("critical"), 4)
     if test == "shewhart":
         crit = f"exp. {crit}"
-        if t.get("pvalue") is not None:
-            crit += f", p {fmt.num(t['pvalue'], 2)}"
+    if test in ("shewhart", "anderson_darling", "cramer_von_mises") and t.get("pvalue") is not None:
+        crit += f", p {fmt.num(t['pvalue'], 2)}"
     if t.get("critical_low") is not None:
         crit = f"{fmt.num(t['critical_low'], 4)} to {crit}"
     reject = t.get("reject")

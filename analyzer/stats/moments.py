@@ -14,7 +14,10 @@ Seed 003 (IST Advanced Control Systems 2012/2013):
   sum of all squared entries is chi-square with N r degrees of freedom.
 
 Both tests assume a white innovation: test whiteness first (the slides stop the test
-sequence when whiteness is rejected).
+sequence when whiteness is rejected). Where whiteness is rejected, the variance of
+sqrt(N) mean is not the variance of one sample but the series' long-run variance (its
+spectral density at frequency zero): :func:`long_run_mean_test` holds the mean against
+a Newey-West (Bartlett) estimate of it, over the lags the whiteness test looked at.
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ from analyzer.stats._checks import (
     frozen,
     norm_sf,
 )
-from analyzer.stats.results import CovarianceResult, MeanResult
+from analyzer.stats.results import CovarianceResult, LongRunMeanResult, MeanResult
 
 
 def mean_test(x: Any) -> MeanResult:
@@ -62,6 +65,53 @@ def mean_test(x: Any) -> MeanResult:
         mean=frozen(mean),
         z=frozen(z),
         per_component=frozen(per_component),
+    )
+
+
+def long_run_variance(x: FloatArray, lags: int) -> float:
+    """Newey-West estimate of the long-run variance of a 1-D series (finite samples):
+    ``g_0 + 2 sum_{k=1}^{L} (1 - k / (L + 1)) g_k`` with ``g_k = sum_t d_t d_{t-k} / N``
+    the autocovariances about the sample mean (``d = x - mean``) and ``L = lags`` (the
+    Bartlett weights keep it positive). For a white series it is the variance; for a
+    correlated one, ``N`` times the variance of its mean (Newey and West 1987; the
+    estimator of ``statsmodels``' HAC covariance with ``use_correction=False``)."""
+    d = x - float(np.mean(x))
+    n = d.shape[0]
+    top = max(0, min(int(lags), n - 1))
+    acov = np.array([float(d[k:] @ d[: n - k]) for k in range(top + 1)]) / n
+    weights = 1.0 - np.arange(1, top + 1) / (top + 1.0)
+    return float(acov[0] + 2.0 * np.sum(weights * acov[1:]))
+
+
+def long_run_mean_test(x: Any, lags: int) -> LongRunMeanResult:
+    """Zero-mean test of a 1-D standardized innovation that need not be white (NaN
+    dropped): ``t = sqrt(N) |mean| / sqrt(V)`` with ``V`` the :func:`long_run_variance`
+    over ``lags`` lags (the whiteness test's), rejected when ``t > 1.96``, two-sided
+    ``p = 2 (1 - Phi(t))``. ``V`` is taken about the stretch's own mean, so a spread
+    larger than the healthy one (a gain) widens the bound as the correlation does.
+    This is the test :func:`analyzer.diagnosis.evidence.consistent_types` reads where the
+    whiteness test rejected (seed 003: the mean test assumes whiteness)."""
+    arr = as_float_array(x, "x")
+    if arr.ndim != 1:
+        raise DetectorError(f"expected a 1-D standardized innovation for x, got shape {arr.shape}")
+    y = arr[np.isfinite(arr)]
+    if y.shape[0] < 2:
+        raise DetectorError(f"the long-run mean test needs 2 finite samples, got {y.shape[0]}")
+    n = y.shape[0]
+    variance = long_run_variance(y, lags)
+    mean = float(np.mean(y))
+    if variance > 0:
+        t = float(np.sqrt(n) * abs(mean) / np.sqrt(variance))
+    else:  # (a stretch of one value: no spread to judge it by; an all-zero one is no offset)
+        t = 0.0 if mean == 0 else float("inf")
+    return LongRunMeanResult(
+        statistic=t,
+        critical=Z_975,
+        reject=t > Z_975,
+        pvalue=float(2.0 * norm_sf(t)),
+        n=n,
+        lags=int(min(lags, n - 1)),
+        variance=variance,
     )
 
 

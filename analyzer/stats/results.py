@@ -4,9 +4,10 @@ the numbers behind it, and turn themselves into JSON-friendly dicts for
 
 Every result has ``statistic`` (what is compared with the threshold), ``critical`` (the
 5 % threshold; the upper one for a two-sided test), ``reject`` (the null hypothesis "zero
-mean, unit variance, white, Gaussian innovation" is rejected at 5 %), ``pvalue`` (``None``
-for the table-based Anderson-Darling and Cramer-von Mises tests) and ``n`` (finite
-samples used).
+mean, unit variance, white, Gaussian innovation" is rejected at 5 %), ``pvalue`` (for
+Anderson-Darling and Cramer-von Mises from published approximations of their null laws,
+:func:`analyzer.stats.normality.normality_pvalue`; the decision stays the tabulated
+one) and ``n`` (finite samples used).
 """
 
 from __future__ import annotations
@@ -126,6 +127,22 @@ class MeanResult(StatResult):
             mean=[json_float(v) for v in self.mean],
             per_component=[bool(v) for v in self.per_component],
         )
+        return out
+
+
+@dataclass(frozen=True, slots=True)
+class LongRunMeanResult(StatResult):
+    """Zero-mean test against the long-run variance (a residual that is not white):
+    ``statistic = sqrt(n) |mean| / sqrt(variance)``, ``critical = 1.96``; ``variance``
+    the Newey-West estimate over ``lags`` lags
+    (:func:`analyzer.stats.moments.long_run_mean_test`)."""
+
+    lags: int
+    variance: float
+
+    def as_dict(self) -> dict[str, JsonValue]:
+        out = StatResult.as_dict(self)
+        out.update(lags=int(self.lags), variance=json_float(self.variance))
         return out
 
 

@@ -30,7 +30,7 @@ def summarize(
 
     * ``{name: StatResult}`` gives ``{name: result.as_dict()}``, e.g.
       ``{"anderson_darling": {"statistic": 0.41, "critical": 2.492, "reject": false,
-      "pvalue": null, "n": 1000, "case": 1, "raw": 0.41}, ...}``.
+      "pvalue": 0.84, "n": 1000, "case": 1, "raw": 0.41}, ...}``.
     * a :class:`~analyzer.stats.windowed.WindowedTests` gives, per test, how many of the
       valid windows reject (``rejected``, ``windows``, ``fraction``, against the 5 %
       expected by chance), the ``critical`` value and the largest ``max_statistic``,

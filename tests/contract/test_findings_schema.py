@@ -449,6 +449,7 @@ def _declared(definition: dict[str, Any]) -> set[str]:
 DEFS: dict[str, Any] = SCHEMA_DOC["$defs"]
 TEST_DEFS = {"anderson_darling": "normality", "cramer_von_mises": "normality"}
 TEST_DEFS |= {"mean": "meanTest", "covariance": "covarianceTest"}
+TEST_DEFS |= {"mean_long_run": "longRunMeanTest"}
 """The definition of each innovation test's result (the others are named as the test)."""
 
 

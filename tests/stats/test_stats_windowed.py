@@ -43,7 +43,8 @@ def assert_matches_scalar(result: WindowedTests, z: np.ndarray) -> None:
             )
             assert stats.reject[i] == expected.reject, (name, i)
             assert stats.critical == pytest.approx(expected.critical, rel=1e-12)
-            if expected.pvalue is None:
+            if expected.pvalue is None or name in ("anderson_darling", "cramer_von_mises"):
+                # the windows count decisions: no p-value for the normality tests there
                 assert stats.pvalue is None
             else:
                 assert stats.pvalue is not None
