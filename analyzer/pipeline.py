@@ -83,6 +83,7 @@ from analyzer.diagnosis.unexplained import (
     missed_clusters,
     spoken,
     unexplained_alarms,
+    unplaced,
 )
 from analyzer.errors import (
     LISTED,
@@ -1107,11 +1108,21 @@ def _analyze(
         findings = [*findings, *dead]
         notes.extend(told)
         findings.sort(key=lambda f: (f.onset_s, f.channel))
+        # the detection filter's lone shapeless fault on a sensor whose alarm the bank
+        # could not place: an alarm no sensor's fault explains, not that sensor's fault
+        findings, unplaced_alarms, unplaced_notes = unplaced(findings, results, slack)
+        notes.extend(unplaced_notes)
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
         notes.extend(_unattributed_notes(results, findings, aligned.rate_hz))
         # and those of them no finding explains: a second faulty sensor the verdict,
         # findings.json and the run's last line name (the notes alone were missed)
-        unexplained = unexplained_alarms(results, findings, slack, excursions(levels)[0])
+        unexplained = sorted(
+            [
+                *unexplained_alarms(results, findings, slack, excursions(levels)[0]),
+                *unplaced_alarms,
+            ],
+            key=lambda u: (u.onset_s, u.channels),
+        )
         notes.extend(_after_gap_notes(findings, values, chosen, aligned.rate_hz))
         notes.extend(n for n in [level_note(levels)] if n)
         if levels is not None and levels.train is not None:
@@ -2799,7 +2810,7 @@ def summary_line(analysis: Analysis, out: Path) -> str:
     unexplained = spoken([u.channels for u in getattr(analysis, "unexplained", [])])
     tail = (
         f"; alarms on {capped(unexplained, SUMMARY_LISTED)} not explained: see the report"
-        if unexplained and analysis.findings
+        if unexplained
         else ""
     )
     return f"{faults_words(analysis.findings, after)}{model}; report: {report}{tail}"

@@ -240,9 +240,10 @@ class _Access(FigureParts, TableParts):
         on which sensors, from when, and the run that searches the others without one of
         them (the detectors isolate one fault at a time: on a 6-floor building whose s1
         and s2 went faulty at once, ``--channels '!s0'`` found both, where leaving out
-        the sensor already found, s4, found neither); empty without any."""
+        the sensor already found, s4, found neither); empty without any. In a run that
+        found no fault these are alarms the detectors could not place on a sensor."""
         items = list(self.doc.get("unexplained_alarms") or [])
-        if not items or not faults:
+        if not items:
             return ""
         shown = [
             f"on {either([str(c) for c in u.get('channels') or []])} from "
@@ -254,11 +255,21 @@ class _Access(FigureParts, TableParts):
         found = {str(f["channel"]) for f in faults}
         named = [str(c) for c in items[0].get("channels") or []]
         leave = next((c for c in named if c not in found), named[0] if named else "")
+        # without a finding: the detection filter's alarms the bank could not place
+        # (analyzer.diagnosis.unexplained.unplaced)
+        lead, cause = (
+            ("Alarms these findings do not explain: ", "Another sensor may be faulty (the "
+             "detectors isolate one fault at a time)")
+            if faults
+            else ("Alarms no sensor's fault was found for: ", "A sensor may be faulty whose "
+                  "own residual barely changes (a gain on a sensor the others estimate "
+                  "poorly)")
+        )  # fmt: skip
         return (
-            "Alarms these findings do not explain: "
+            lead
             + "; ".join(shown)
             + (f"; and {more} more (notes)" if more > 0 else "")
-            + ". Another sensor may be faulty (the detectors isolate one fault at a time), "
+            + f". {cause}, "
             + "or the structure or its load changed. Run again leaving out one of these "
             + f"sensors at a time (--channels '!{leave}') to search the others without it; "
             + "the notes below say more."
