@@ -185,6 +185,14 @@ def _lone_shapeless(f: Finding) -> bool:
     )
 
 
+def _ends(r: DetectorResult) -> list[float]:
+    """When each of ``r``'s unattributed anomalies' alarms ended: as the detector gave
+    them, or (without them) at their onsets."""
+    if len(r.unattributed_end_s) == len(r.unattributed):
+        return list(r.unattributed_end_s)
+    return [onset for onset, _, _ in r.unattributed]
+
+
 def unplaced(
     findings: Sequence[Finding], results: Sequence[DetectorResult], slack_s: float
 ) -> tuple[list[Finding], list[Unexplained], list[str]]:
@@ -195,11 +203,20 @@ def unplaced(
     The detection filter names a sensor by the output direction its residual vector
     lies closest to; the bank by the one estimator, blind to the sensor, that stays
     consistent while those that read it degrade. Where the bank alarmed on the sensor
-    by the finding's end (its alarm intervals last: only their onsets are kept, and one
-    begun before the finding may run through it), left that anomaly unattributed (no
+    during the finding's own span, left that anomaly unattributed (no
     estimator singled the sensor out: the one blind to it degraded as well, or no shape
     and no confirmation) and placed no fault on the sensor, the filter's direction is
     the nearest of the wrong ones, and no fault shape (``other``) backs it.
+    A bank alarm counts when it overlaps the finding's own span, each dated to within
+    ``slack_s`` at either edge: ``slack_s`` is the change detectors' long window
+    (``LONG_FACTOR`` windows, the run's ``slack``), the longest stretch over which a
+    detector averages a residual before it alarms, and alarm runs closer than it are one
+    alarm (:func:`analyzer.diagnosis.changes.detect`). So the bank's alarm and the
+    finding count as one change when they come within two long windows of each other,
+    one for each detector's dating. The bank's alarm runs from its onset to its end
+    (``DetectorResult.unattributed_end_s``): one begun 5 s before the finding and still
+    under way counts, one on the sensor minutes before and ended since does not. Without
+    the ends (a result that does not give them) an alarm is taken to end at its onset.
     A gain of 0.7 on the ground floor of a building with one sensor per floor
     (ux54 item 1) leaves the sensor's own residuals unchanged (its estimate from the other
     floors misses a sixth of its variance, which the gain scales down by as much as it
@@ -209,28 +226,32 @@ def unplaced(
     alarm stands, on the sensors whose residuals raised it, as :class:`Unexplained`."""
     bank = [r for r in results if r.detector == LEAVE_ONE_OUT]
     anomalies = sorted(
-        (onset, channels) for r in bank for onset, channels, beside in r.unattributed if not beside
+        (onset, until, channels)
+        for r in bank
+        for (onset, channels, beside), until in zip(r.unattributed, _ends(r), strict=True)
+        if not beside
     )
     kept: list[Finding] = []
     out: list[Unexplained] = []
     notes: list[str] = []
     placed = {e.channel for r in bank for e in r.events}
     refused: list[tuple[Finding, tuple[str, ...]]] = []
+    reach = 2.0 * slack_s  # a long window for each detector's dating of the edges
     for f in findings:
         end = float("inf") if f.end_s is None else f.end_s
-        # the bank's unplaced alarms up to the finding's end: its alarm intervals last
-        # (only their onsets are kept), and one begun before the finding may run through it
-        before = [(onset, channels) for onset, channels in anomalies if onset <= end + slack_s]
+        # the bank's unplaced alarms that overlap the finding's own span, as dated
+        near = [
+            (onset, channels)
+            for onset, until, channels in anomalies
+            if onset <= end + reach and until >= f.onset_s - reach
+        ]
         if (
             not _lone_shapeless(f)
             or f.channel in placed
-            or not any(f.channel in channels for _, channels in before)
+            or not any(f.channel in channels for _, channels in near)
         ):
             kept.append(f)
             continue
-        near = [(t, chs) for t, chs in before if t >= f.onset_s - slack_s] or [
-            max((t, chs) for t, chs in before if f.channel in chs)
-        ]
         channels = tuple(sorted({f.channel, *(c for _, chs in near for c in chs)}))
         refused.append((f, channels))
     for f, channels in refused:

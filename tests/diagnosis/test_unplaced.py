@@ -24,10 +24,13 @@ SLACK = 2.0
 CHANNELS = ("s0", "s1", "s2", "s3")
 
 
-def bank(unattributed, events=()):
-    return DetectorResult(
+def bank(unattributed, events=(), ends=None):
+    result = DetectorResult(
         "ar_kalman_bank", CHANNELS, {}, list(events), {}, unattributed=unattributed
     )
+    if ends is not None:  # (when each anomaly's alarms ended: the bank gives them)
+        result.unattributed_end_s = list(ends)
+    return result
 
 
 def lone(channel, onset, end=None, kind=FaultType.OTHER, detector="detection_filter"):
@@ -44,10 +47,28 @@ def test_a_lone_shapeless_filter_finding_the_bank_could_not_place_is_unexplained
     assert len(notes) == 1 and "s2" in notes[0] and "not reported" in notes[0]
 
 
-def test_a_bank_alarm_begun_before_the_finding_counts():
-    # the bank keeps only its anomalies' onsets; one begun 5 s before may run through it
-    kept, out, _ = unplaced([lone("s2", 263.4, 275.1)], [bank([(258.4, ("s2",), ())])], SLACK)
+def test_a_bank_alarm_begun_before_the_finding_and_still_under_way_counts():
+    # seed 502's: the bank's alarm on s2 began 5 s before the filter's finding
+    kept, out, _ = unplaced(
+        [lone("s2", 263.4, 275.1)], [bank([(258.4, ("s2",), ())], ends=[270.0])], SLACK
+    )
     assert kept == [] and out[0].channels == ("s2",)
+
+
+@pytest.mark.parametrize("end", [None, 260.0])
+def test_an_early_bank_alarm_ended_long_before_the_finding_does_not_count(end):
+    # a bank alarm on s2 at 20 s, over by 30 s, says nothing of the filter's finding on
+    # s2 from 250 s: the finding stands (it was dropped, whatever the look-back)
+    f = lone("s2", 250.0, end)
+    # without the alarms' ends an alarm is taken to end at its onset
+    kept, out, notes = unplaced([f], [bank([(20.0, ("s2",), ())])], SLACK)
+    assert kept == [f] and out == [] and notes == []
+    assert unplaced([f], [bank([(20.0, ("s2",), ())], ends=[30.0])], SLACK)[0] == [f]
+    # the bound: two long windows (SLACK), one for each detector's dating of the edges
+    # (seed 502's bank alarm on s2 ended 2.3 s before the filter's finding there)
+    for ended, counts in ((250.0 - 2.3, True), (250.0 - 2.5 * SLACK, False)):
+        alarm = bank([(240.0, ("s2",), ())], ends=[ended])
+        assert (unplaced([f], [alarm], SLACK)[0] == []) is counts
 
 
 def test_findings_with_a_shape_another_detector_or_a_placed_fault_stand():
