@@ -596,6 +596,12 @@ def merge_groups(results: list[DetectorResult], order: Sequence[str]) -> list[De
             {},
             notes=[n for p in parts for n in p.notes],
             unattributed=[u for p in parts for u in p.unattributed],
+            # the ends only where every part gave them (they pair with the anomalies)
+            unattributed_end_s=(
+                [e for p in parts for e in p.unattributed_end_s]
+                if all(len(p.unattributed_end_s) == len(p.unattributed) for p in parts)
+                else []
+            ),
             undecided=[u for p in parts for u in p.undecided],
         )
         for p in parts:  # a channel in two configured groups: its first group's signals

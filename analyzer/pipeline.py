@@ -82,6 +82,7 @@ from analyzer.diagnosis.unexplained import (
     lasting,
     missed_clusters,
     unexplained_alarms,
+    unplaced,
 )
 from analyzer.errors import (
     LISTED,
@@ -1148,11 +1149,21 @@ def _analyze(
         findings = [*findings, *dead]
         notes.extend(told)
         findings.sort(key=lambda f: (f.onset_s, f.channel))
+        # the detection filter's lone shapeless fault on a sensor whose alarm the bank
+        # could not place: an alarm no sensor's fault explains, not that sensor's fault
+        findings, unplaced_alarms, unplaced_notes = unplaced(findings, results, slack)
+        notes.extend(unplaced_notes)
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
         notes.extend(_unattributed_notes(results, findings, aligned.rate_hz))
         # and those of them no finding explains: a second faulty sensor the verdict,
         # findings.json and the run's last line name (the notes alone were missed)
-        unexplained = unexplained_alarms(results, findings, slack, excursions(levels)[0])
+        unexplained = sorted(
+            [
+                *unexplained_alarms(results, findings, slack, excursions(levels)[0]),
+                *unplaced_alarms,
+            ],
+            key=lambda u: (u.onset_s, u.channels),
+        )
         notes.extend(_after_gap_notes(findings, values, chosen, aligned.rate_hz))
         notes.extend(n for n in [level_note(levels)] if n)
         if levels is not None and levels.train is not None:
@@ -2899,7 +2910,7 @@ def _unexplained_words(analysis: Analysis) -> str:
     with exit 0 (ux55). Empty where there are none."""
     alarms = [(u.onset_s, u.channels) for u in getattr(analysis, "unexplained", [])]
     more = 0
-    if not analysis.findings:
+    if not analysis.findings and not alarms:  # (else the bank's unplaced ones: det53a)
         quiet = [n for n in getattr(analysis, "notes", ()) if isinstance(n, AnomalyNote)]
         alarms = [(n.onset_s, n.channels) for n in quiet if n.onset_s is not None]
         more = sum(n.more for n in quiet)

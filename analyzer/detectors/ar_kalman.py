@@ -469,6 +469,7 @@ class ARKalmanBank:
         events: list[Event] = []
         notes: list[str] = self._order_note(ar.order, data)
         unattributed: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = []
+        unattributed_end: list[float] = []  # when each one's alarms ended
         explained: list[tuple[int, int, int]] = []  # (channel, start, stop) already isolated
         # the residuals and estimates over the whole record; the estimators' consistency
         # only where a fault is isolated (recomputed there with the corrections so far)
@@ -544,6 +545,7 @@ class ARKalmanBank:
                 explained.extend(spans)
                 t = min(a for _, a, _ in spans) / rate
                 unattributed.append((t, tuple(data.channels[c] for c, _, _ in spans), ()))
+                unattributed_end.append(max(b for _, _, b in spans) / rate)
                 notes.append(
                     f"residual anomaly at {t:.3f} s on "
                     f"{', '.join(data.channels[c] for c, _, _ in spans)} not attributed to a "
@@ -565,6 +567,7 @@ class ARKalmanBank:
                 explained.append((j, a, b))
                 t = a / rate
                 unattributed.append((t, (data.channels[j],), ()))
+                unattributed_end.append(b / rate)
                 notes.append(
                     f"gain-like change of residual at {t:.3f} s on {data.channels[j]} "
                     "not attributed to the sensor: no estimator confirmed it, and the "
@@ -654,6 +657,7 @@ class ARKalmanBank:
             },
             notes=notes,
             unattributed=unattributed,
+            unattributed_end_s=unattributed_end,
         )
 
     def _highest_order(self, m: int) -> int:

@@ -221,6 +221,11 @@ class DetectorResult:
     onset in seconds, the channels whose residuals alarmed (or that may be faulty), and
     the sensors it found faulty beside them at that time (the equivalent model: a second
     fault on one of the channels), if any."""
+    unattributed_end_s: list[float] = field(default_factory=list)
+    """Where the detector gives them (the bank), in ``unattributed``'s order: when each of
+    those anomalies' alarms ended, in seconds (the record's end while they last); empty
+    otherwise. An alarm lasts: its onset alone cannot tell whether it ran into a later
+    finding (:func:`analyzer.diagnosis.unexplained.unplaced`)."""
     undecided: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = field(default_factory=list)
     """Alarms whose sensor's fault and that of another sensor, whose own residual had no
     data then, explain alike (the equivalent model's law 0 with blind residuals): their

@@ -168,3 +168,108 @@ def spoken(channel_sets: Sequence[Sequence[str]]) -> list[str]:
         if said not in out:
             out.append(said)
     return out
+
+
+PLACING_DETECTOR = "detection_filter"
+"""The detector whose lone, shapeless findings :func:`unplaced` weighs."""
+
+LEAVE_ONE_OUT = "ar_kalman_bank"
+"""The detector whose isolation test weighs them: the bank of estimators that each leave
+one sensor out (Chang et al. 2017, Section 2.3)."""
+
+
+def _lone_shapeless(f: Finding) -> bool:
+    return (
+        list(f.evidence.get("detectors") or [f.detector]) == [PLACING_DETECTOR]
+        and f.type.value == "other"
+    )
+
+
+def _ends(r: DetectorResult) -> list[float]:
+    """When each of ``r``'s unattributed anomalies' alarms ended: as the detector gave
+    them, or (without them) at their onsets."""
+    if len(r.unattributed_end_s) == len(r.unattributed):
+        return list(r.unattributed_end_s)
+    return [onset for onset, _, _ in r.unattributed]
+
+
+def unplaced(
+    findings: Sequence[Finding], results: Sequence[DetectorResult], slack_s: float
+) -> tuple[list[Finding], list[Unexplained], list[str]]:
+    """``findings`` less the detection filter's lone ``other`` faults on a sensor whose
+    alarms the bank saw and could not place (and on which it placed no fault), those
+    alarms as unexplained, and a note for each.
+
+    The detection filter names a sensor by the output direction its residual vector
+    lies closest to; the bank by the one estimator, blind to the sensor, that stays
+    consistent while those that read it degrade. Where the bank alarmed on the sensor
+    during the finding's own span, left that anomaly unattributed (no
+    estimator singled the sensor out: the one blind to it degraded as well, or no shape
+    and no confirmation) and placed no fault on the sensor, the filter's direction is
+    the nearest of the wrong ones, and no fault shape (``other``) backs it.
+    A bank alarm counts when it overlaps the finding's own span, each dated to within
+    ``slack_s`` at either edge: ``slack_s`` is the change detectors' long window
+    (``LONG_FACTOR`` windows, the run's ``slack``), the longest stretch over which a
+    detector averages a residual before it alarms, and alarm runs closer than it are one
+    alarm (:func:`analyzer.diagnosis.changes.detect`). So the bank's alarm and the
+    finding count as one change when they come within two long windows of each other,
+    one for each detector's dating. The bank's alarm runs from its onset to its end
+    (``DetectorResult.unattributed_end_s``): one begun 5 s before the finding and still
+    under way counts, one on the sensor minutes before and ended since does not. Without
+    the ends (a result that does not give them) an alarm is taken to end at its onset.
+    A gain of 0.7 on the ground floor of a building with one sensor per floor
+    (ux54 item 1) leaves the sensor's own residuals unchanged (its estimate from the other
+    floors misses a sixth of its variance, which the gain scales down by as much as it
+    adds ``0.3`` of the estimate: 0.90, 1.01 and 1.02 times the healthy variance in the
+    three detectors), while the residuals of the floors estimated from it grow 2-9 times:
+    the filter named the healthy s2 (or s1) in 9 of 10 records, the bank s0 in none. The
+    alarm stands, on the sensors whose residuals raised it, as :class:`Unexplained`."""
+    bank = [r for r in results if r.detector == LEAVE_ONE_OUT]
+    anomalies = sorted(
+        (onset, until, channels)
+        for r in bank
+        for (onset, channels, beside), until in zip(r.unattributed, _ends(r), strict=True)
+        if not beside
+    )
+    kept: list[Finding] = []
+    out: list[Unexplained] = []
+    notes: list[str] = []
+    placed = {e.channel for r in bank for e in r.events}
+    refused: list[tuple[Finding, tuple[str, ...]]] = []
+    reach = 2.0 * slack_s  # a long window for each detector's dating of the edges
+    for f in findings:
+        end = float("inf") if f.end_s is None else f.end_s
+        # the bank's unplaced alarms that overlap the finding's own span, as dated
+        near = [
+            (onset, channels)
+            for onset, until, channels in anomalies
+            if onset <= end + reach and until >= f.onset_s - reach
+        ]
+        if (
+            not _lone_shapeless(f)
+            or f.channel in placed
+            or not any(f.channel in channels for _, channels in near)
+        ):
+            kept.append(f)
+            continue
+        channels = tuple(sorted({f.channel, *(c for _, chs in near for c in chs)}))
+        refused.append((f, channels))
+    for f, channels in refused:
+        # as the run's other anomalies: one while a reported fault lasts may be its doing
+        # (a later find of the sensor itself: the filter's lone s2 alarms beside s0's gain
+        # found 17.7 s late on a 600-s record), and each set of sensors is said once
+        if not lasting(kept, f.onset_s, f.onset_s if f.end_s is None else f.end_s, slack_s) and all(
+            u.channels != channels for u in out
+        ):
+            out.append(Unexplained(channels, f.onset_s, (LEAVE_ONE_OUT, PLACING_DETECTOR), ()))
+        notes.append(
+            f"{PLACING_DETECTOR}'s other fault on {f.channel} from {f.onset_s:.3f} s not "
+            f"reported: the {LEAVE_ONE_OUT}'s residual of {f.channel} alarmed by then and "
+            f"none of its estimators (each blind to one sensor) singled {f.channel} out, "
+            "and no fault shape backs the filter's choice. Alarms on "
+            f"{either(channels)} that no sensor's fault was placed for: a fault on a "
+            "sensor whose own residual barely changes (a gain on a sensor the others "
+            "estimate poorly, such as the ground floor of a building with one sensor per "
+            "floor), or a change of the structure or its load"
+        )
+    return kept, out, notes

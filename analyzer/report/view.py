@@ -240,9 +240,12 @@ class _Access(FigureParts, TableParts):
         on which sensors, from when, and the run that searches the others without one of
         them (the detectors isolate one fault at a time: on a 6-floor building whose s1
         and s2 went faulty at once, ``--channels '!s0'`` found both, where leaving out
-        the sensor already found, s4, found neither); empty without any."""
+        the sensor already found, s4, found neither); empty without any. In a run that
+        found no fault these are alarms the detectors could not place on a sensor, said
+        without that advice: the faulty sensor there may be one they are estimated from,
+        not one of those named."""
         items = list(self.doc.get("unexplained_alarms") or [])
-        if not items or not faults:
+        if not items:
             return ""
         shown = [
             f"on {either([str(c) for c in u.get('channels') or []])} from "
@@ -251,13 +254,27 @@ class _Access(FigureParts, TableParts):
             for u in items[:UNEXPLAINED_LISTED]
         ]
         more = len(items) - UNEXPLAINED_LISTED
+        listed = "; ".join(shown) + (f"; and {more} more (notes)" if more > 0 else "")
+        if not faults:
+            # the detection filter's alarms the bank could not place (unexplained.unplaced):
+            # the sensors named are those whose residuals rose, estimated from the faulty
+            # one, so leaving one of them out searches the wrong ones (a 4-floor building
+            # with a gain on s0: --channels '!s2' then found a fault on the healthy s1)
+            return (
+                "Alarms the detectors could not place on a sensor: "
+                + listed
+                + ". The faulty sensor may be none of these: a sensor the others are "
+                "estimated from (such as the ground floor of a building with one sensor "
+                "per floor) can be faulty while its own readings still match their "
+                "estimate, and it raises the alarms of the others; or the structure or its "
+                "load changed. The notes below say more."
+            )
         found = {str(f["channel"]) for f in faults}
         named = [str(c) for c in items[0].get("channels") or []]
         leave = next((c for c in named if c not in found), named[0] if named else "")
         return (
             "Alarms these findings do not explain: "
-            + "; ".join(shown)
-            + (f"; and {more} more (notes)" if more > 0 else "")
+            + listed
             + ". Another sensor may be faulty (the detectors isolate one fault at a time), "
             + "or the structure or its load changed. Run again leaving out one of these "
             + f"sensors at a time (--channels '!{leave}') to search the others without it; "

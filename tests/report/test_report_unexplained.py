@@ -1,7 +1,9 @@
 """The verdict's warning on alarms the findings do not explain (``findings.json``'s
 ``unexplained_alarms``): one line right under the headline naming the sensors, when,
-and the run that searches the others without one of them; none without such alarms, in
-a healthy report, or for a ``findings.json`` written before the field."""
+and the run that searches the others without one of them; none without such alarms or
+for a ``findings.json`` written before the field; in a report without findings, the
+alarms the detectors could not place on a sensor, with no run to try (the sensors
+named there may all be healthy)."""
 
 from __future__ import annotations
 
@@ -55,11 +57,23 @@ def test_more_than_three_are_counted():
     assert warning.count(" from ") == 3 and "and 2 more (notes)" in warning
 
 
-def test_no_warning_without_unexplained_alarms_or_without_findings():
+def test_no_warning_without_unexplained_alarms():
     doc, html = _report([])
     assert doc["unexplained_alarms"] == [] and not WARNING.findall(html)
-    alarm = [Unexplained(("s1",), 61.0, ("ar_kalman_bank",), ())]
-    assert not WARNING.findall(_report(alarm, faults=False)[1])
+
+
+def test_without_findings_the_alarms_no_sensor_was_placed_for_are_said():
+    # (analyzer.diagnosis.unexplained.unplaced: the detection filter's lone shapeless
+    # alarms the bank could not place, the only unexplained alarms of a run without a
+    # finding; a ground-floor gain was reported on a healthy floor before, ux54 item 1)
+    alarm = [Unexplained(("s2",), 61.0, ("ar_kalman_bank", "detection_filter"), ())]
+    (warning,) = WARNING.findall(_report(alarm, faults=False)[1])
+    assert warning.startswith("<strong>&#9888; Alarms the detectors could not place on a sensor: ")
+    assert "on s2 from 61.0 s (seen by ar_kalman_bank, detection_filter)" in warning
+    assert "Another sensor" not in warning and "ground floor" in warning
+    # no run leaving out a named sensor: the faulty one may be one they are estimated
+    # from (leaving out s2 of a 4-floor building with a gain on s0 found the healthy s1)
+    assert "--channels" not in warning and "Run again" not in warning
 
 
 def test_a_findings_document_written_before_the_field_renders_without_it():
