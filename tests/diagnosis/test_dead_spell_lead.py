@@ -8,7 +8,7 @@ import numpy as np
 
 from analyzer.detectors.base import Event
 from analyzer.diagnosis import merge_events
-from analyzer.diagnosis.merge import Finding
+from analyzer.diagnosis.merge import Finding, _fragment
 from analyzer.diagnosis.stuck import relabel_frozen
 from analyzer.types import FaultType
 
@@ -67,3 +67,46 @@ def test_readings_that_froze_soon_after_the_traced_onset_are_a_dead_sensor():
     assert "the detectors saw it from 14.000 s: it starts where they froze" in note
     assert (found[1].onset_s, found[1].end_s, found[1].magnitude) == (12.0, 30.0, {"gain": 0.21})
     assert "frozen" not in found[1].evidence
+
+
+A = FaultType.ADDITIVE
+
+
+def _offset(detector: str, onset: float, end: float, conf: float, first: float) -> Event:
+    return Event("s1", onset, end, A, {"offset": 1.0}, conf, detector, {"first_alarm_s": first})
+
+
+def test_a_stretch_stays_when_the_spanning_detector_began_late():
+    """An offset from 100 s that the equivalent model saw from 100 to 120 s and again
+    from 125 s, and the bank only from 119 s: the bank did not see the fault from the
+    model's start, so the model's first stretch is no mere stretch, and it leads (the
+    model's second stretch is no detector agreeing on a later start). Led by the bank,
+    the fault's first 19 s were reported nowhere."""
+    events = [
+        _offset("equivalent_model", 100.0, 120.0, 1.0, 100.2),
+        _offset("equivalent_model", 125.0, 200.0, 1.0, 125.3),
+        _offset("ar_kalman_bank", 119.0, 200.0, 1.0, 119.5),
+    ]
+    (f,) = merge_events(events)
+    assert (f.onset_s, f.end_s, f.detector) == (100.0, 120.0, "equivalent_model")
+    # the first stretch is a mere stretch only where the spanning detector saw the fault
+    # from its start (no later than slack after the stretch's first alarm)
+    assert not _fragment(events[0], events, 1.0)
+    whole = [*events[:2], _offset("ar_kalman_bank", 100.5, 200.0, 1.0, 101.0)]
+    assert _fragment(whole[0], whole, 1.0)
+
+
+def test_the_detector_that_saw_it_whole_leads_over_two_that_saw_stretches():
+    """The model (100-120 s, 125-200 s) and the detection filter (100.1-130 s,
+    135-200 s) each saw an offset in two stretches, the bank whole (100-200 s, less
+    confident). The later stretches are no two detectors agreeing on a later start:
+    the bank leads, from 100 s to 200 s (was the model's second stretch, from 125 s)."""
+    events = [
+        _offset("equivalent_model", 100.0, 120.0, 1.0, 100.2),
+        _offset("equivalent_model", 125.0, 200.0, 1.0, 125.3),
+        _offset("detection_filter", 100.1, 130.0, 1.0, 100.3),
+        _offset("detection_filter", 135.0, 200.0, 1.0, 135.3),
+        _offset("ar_kalman_bank", 100.0, 200.0, 0.9, 100.5),
+    ]
+    (f,) = merge_events(events)
+    assert (f.onset_s, f.end_s, f.detector) == (100.0, 200.0, "ar_kalman_bank")
