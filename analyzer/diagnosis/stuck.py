@@ -118,7 +118,7 @@ def frozen_notes(
         if j is None or stats is None:
             continue
         mean, sd = stats
-        a = max(0, int(round(f.onset_s * rate_hz)))
+        a = onset = max(0, int(round(f.onset_s * rate_hz)))
         b = n if f.end_s is None else min(n, int(round(f.end_s * rate_hz)))
         seg = read_column(values, j, a, b)
         seg = seg[np.isfinite(seg)]
@@ -132,6 +132,11 @@ def frozen_notes(
             # frozen for a while only: a fault of another kind, unless it read dead
             # from its onset (no fault of an alive sensor reads flat at zero)
             dead = _dead_from_onset(values, j, a, b, sd, rate_hz)
+            if dead is None:
+                # or dead from a little after it: the onset traced back before the freeze
+                froze = _froze_after_onset(values, j, a, b, sd, rate_hz)
+                if froze is not None:
+                    a, dead = froze, _dead_from_onset(values, j, froze, b, sd, rate_hz)
             if (
                 dead is not None
                 and f.type is not FaultType.MULTIPLICATIVE
@@ -149,7 +154,9 @@ def frozen_notes(
             near = np.abs(seg - level) <= tol
         spread = float(np.std(seg[near]))
         before, alarmed, alarmed_to = f.type, f.onset_s, f.end_s
-        since = frozen_since(values, j, a, level, tol, search_start)
+        # where they froze: after the traced onset (:func:`_froze_after_onset`), or
+        # before it
+        since = a if a > onset else frozen_since(values, j, a, level, tol, search_start)
         if abs(level) <= ZERO * sd:
             f.type = FaultType.MULTIPLICATIVE
             f.magnitude = {"gain": 0.0}
@@ -160,7 +167,7 @@ def frozen_notes(
             what = f"stuck at {level:.6g}"
         f.evidence["frozen"] = {"level": level, "std_ratio": spread / sd, "was": str(before)}
         moved = []
-        if since < a:
+        if since < onset or a > onset:
             f.onset_s = since / rate_hz
             f.evidence["frozen"].update({"since_s": f.onset_s, "alarmed_from_s": alarmed})
             moved.append(f"the detectors saw it from {alarmed:.3f} s: it starts where they froze")
@@ -226,6 +233,35 @@ def _dead_from_onset(
     # count of finite ones (a few zeros before an outage are no dead sensor)
     finite = int(np.count_nonzero(np.isfinite(read_column(values, j, a, until))))
     return (level, until) if finite >= least else None
+
+
+def _froze_after_onset(
+    values: npt.NDArray[Any], j: int, a: int, b: int, sd: float, rate_hz: float
+) -> int | None:
+    """The row where the readings of column ``j`` froze at the sensor's zero (within
+    :data:`FLAT` of the healthy ``sd``, for at least a long alarm window) when that is
+    after the fault's onset row ``a`` by no more than a long alarm window (before its end
+    row ``b``); None otherwise.
+
+    A change-point fit traces a fault's onset back from its alarms, and the span it
+    judges a change by is a long alarm window (:data:`~analyzer.diagnosis.changes.
+    LONG_FACTOR` windows of :func:`~analyzer.diagnosis.changes.default_window`): an onset
+    that far before the freeze is the same fault (:func:`dead_unattributed` pairs a dead
+    stretch with an anomaly within that window too). A sensor dead from 150 to 200 s
+    was given an onset of 148.29 s by the equivalent model, its readings alive for the
+    first 1.71 s of the finding, and the dead-sensor rule, which asked for zeros from the
+    onset on, did not fire. Where they froze is found as :func:`frozen_since` finds it,
+    from inside the first such stretch."""
+    window = LONG_FACTOR * default_window(rate_hz)
+    least = max(MIN_FLAT_SAMPLES, window)
+    seg = read_column(values, j, a, min(b, a + window + least))
+    begins = _zero_stretches(seg, FLAT * sd, least)
+    begins = begins[(begins > 0) & (begins <= window)]
+    if not begins.size:
+        return None
+    inside = a + int(begins[0]) + 2 * FROZEN_RUN
+    since = frozen_since(values, j, inside, 0.0, FLAT * sd, a)
+    return since if a < since < b else None
 
 
 ALIVE_MEAN = 0.15
