@@ -1,6 +1,10 @@
 """The AR -> Kalman bank detector against Chang et al. (2017)'s numerical example and
 randomized buildings."""
 
+import functools
+import inspect
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -9,7 +13,7 @@ from analyzer.detectors.ar_model import fit_ar
 from analyzer.detectors.base import Dataset, RunContext
 from analyzer.detectors.lti import simulate_reference
 from analyzer.errors import DetectorError
-from analyzer.simulate import inject_fault, simulate_building
+from analyzer.simulate import inject_fault, shear_building, simulate_building
 
 RATE = 200.0
 
@@ -21,36 +25,104 @@ def _run(Y, names, train_s=15.0, order=7):
     return det.run(det.fit(ds, ctx), ds, ctx)
 
 
+# Chang et al. (2017), Section 3 "Numerical example" (/work/shared/seeds/001_*.txt, the
+# paragraphs at lines 168 and 172): "the natural frequencies are 1.01 Hz, 2.93 Hz, 4.63 Hz,
+# 5.94 Hz, 6.78 Hz, while the damping is assumed to be 2%", sampled at 200 Hz for 60 s, the
+# first 15 s fit the AR model, each fault is added to the 5th floor at 16 s. The paper's
+# sizes (Section 3, Figs. 6-8, lines 201-205): offset 0.8 x the largest reading, gain
+# 1.5, drift 2.5e-3 per sample.
+PAPER_FREQUENCIES_HZ = (1.01, 2.93, 4.63, 5.94, 6.78)
+PAPER_DAMPING = 0.02
+PAPER_FAULT_ONSET_S = 16.0
+PAPER_TRAIN_S = 15.0
+
+MODEL_FREQUENCIES_REL_ERROR = 0.0065
+"""A uniform shear building cannot match the paper's spacing: its five frequencies are
+1.01, 2.948, 4.648, 5.970 and 6.809 Hz, 0.61 % above the paper's at most (2.948 vs 2.93)."""
+
+PAPER_SEEDS = (0, 1, 2, 3, 4)
+"""Measured at the default order (BIC, capped at 10) over seeds 0-9 (README's table of
+this example): the largest size errors are 0.30 % (offset), 2.44 % (gain) and 0.14 %
+(drift), the largest onset errors 0.000 s, 0.31 s and 0.057 s; over the seeds run here,
+0.13 %, 2.15 %, 0.14 % and 0.000 s, 0.15 s, 0.025 s. At the paper's order 7 the gain of
+1.5 is found within 0.5 s on 4 of those 10 seeds only (README says why)."""
+
+SIZE_REL_TOL = {"additive": 0.01, "multiplicative": 0.03, "drift": 0.004}
+"""README's bounds: 1 % (offset), 3 % (gain), 0.4 % (drift), above the measured maxima
+(0.30 %, 2.44 %, 0.14 %) and below a 5 % error in the fitted offset or drift and a 10 %
+error in the gain's change (1.5 read as 1.55), which must fail."""
+
+ONSET_TOL_S = {"additive": 0.02, "multiplicative": 0.35, "drift": 0.1}
+"""README's bounds on the onset (measured: 0.000 s, 0.31 s, 0.057 s over seeds 0-9)."""
+
+
+@functools.cache
+def _paper_case(seed: int) -> tuple[np.ndarray, list[str], ARKalmanBank, Any]:
+    """Chang et al.'s building at ``seed`` and the bank fitted at the default order on
+    its first 15 s."""
+    _, Y, names = simulate_building(n_floors=5, duration_s=60.0, seed=seed)
+    det = ARKalmanBank()
+    ds = Dataset(Y, tuple(names), RATE, (0, int(PAPER_TRAIN_S * RATE)))
+    return Y, names, det, det.fit(ds, RunContext())
+
+
 @pytest.fixture(scope="module")
 def paper_building():
     # Section 3: five stories, f1 = 1.01 Hz, 2 % damping, 200 Hz, ~20 dB SNR, 60 s
     return simulate_building(n_floors=5, duration_s=60.0, seed=0)
 
 
-def test_paper_healthy_run_has_no_finding(paper_building):
-    _, Y, names = paper_building
-    assert _run(Y, names).events == []
+def test_paper_building_constants() -> None:
+    """The constants of Chang et al.'s building, as the paper gives them (Section 3):
+    the simulator's defaults are 1.01 Hz and 2 % damping, and its five frequencies are
+    the paper's to the measured 0.61 % (a uniform shear building's spacing)."""
+    for fn in (simulate_building, shear_building):
+        params = inspect.signature(fn).parameters
+        assert params["f1_hz"].default == PAPER_FREQUENCIES_HZ[0]
+        assert params["damping"].default == PAPER_DAMPING
+        assert params["n_floors"].default == len(PAPER_FREQUENCIES_HZ)
+    b = shear_building()
+    np.testing.assert_allclose(
+        b.frequencies_hz, PAPER_FREQUENCIES_HZ, rtol=MODEL_FREQUENCIES_REL_ERROR
+    )
+    np.testing.assert_allclose(b.frequencies_hz, [1.01, 2.948, 4.648, 5.970, 6.809], atol=5e-4)
+    # the model itself (not only the record it keeps): 2 % of critical in every mode
+    lam = np.linalg.eigvals(b.A)
+    lam = lam[lam.imag > 0]
+    np.testing.assert_allclose(-lam.real / np.abs(lam), PAPER_DAMPING, rtol=1e-9)
+    np.testing.assert_allclose(np.sort(np.abs(lam)) / (2 * np.pi), b.frequencies_hz, rtol=1e-9)
 
 
+@pytest.mark.parametrize("seed", PAPER_SEEDS)
+def test_paper_healthy_run_has_no_finding(seed: int) -> None:
+    Y, names, det, model = _paper_case(seed)
+    ds = Dataset(Y, tuple(names), RATE, (0, int(PAPER_TRAIN_S * RATE)))
+    assert det.run(model, ds, RunContext()).events == []
+
+
+@pytest.mark.parametrize("seed", PAPER_SEEDS)
 @pytest.mark.parametrize(
     ("kind", "size"),
     [("additive", "0.8max"), ("multiplicative", 1.5), ("drift", 2.5e-3 * RATE)],
 )
-def test_paper_faults_on_floor_5(paper_building, kind, size):
-    _, Y, names = paper_building
+def test_paper_faults_on_floor_5(seed: int, kind: str, size: float | str) -> None:
+    """Chang et al.'s three faults on floor 5 at 16 s, at the default order: one finding,
+    on s4, of the right type, its onset and size within README's bounds."""
+    Y, names, det, model = _paper_case(seed)
     y5 = Y[:, 4]
-    amount = 0.8 * np.max(np.abs(y5)) if size == "0.8max" else size
+    amount = 0.8 * float(np.max(np.abs(y5))) if size == "0.8max" else float(size)
     Yf = Y.copy()
-    Yf[:, 4] = inject_fault(y5, RATE, kind, 16.0, amount)
-    res = _run(Yf, names)
+    Yf[:, 4] = inject_fault(y5, RATE, kind, PAPER_FAULT_ONSET_S, amount)
+    ds = Dataset(Yf, tuple(names), RATE, (0, int(PAPER_TRAIN_S * RATE)))
+    res = det.run(model, ds, RunContext())
     assert len(res.events) == 1, res.events
     ev = res.events[0]
     assert ev.channel == "s4"
     assert ev.type.value == kind
-    assert abs(ev.onset_s - 16.0) < 0.5
+    assert abs(ev.onset_s - PAPER_FAULT_ONSET_S) <= ONSET_TOL_S[kind]
     assert ev.end_s is None
     key = {"additive": "offset", "multiplicative": "gain", "drift": "rate_per_s"}[kind]
-    assert ev.magnitude[key] == pytest.approx(amount, rel=0.1)
+    assert ev.magnitude[key] == pytest.approx(amount, rel=SIZE_REL_TOL[kind])
     assert ev.confidence > 0.7
     # the evidence names the candidate sensors and the estimators by channel
     assert "s4" in ev.evidence["candidates"] and set(ev.evidence["candidates"]) <= set(names)

@@ -233,8 +233,10 @@ def test_offset_fault_is_isolated(buildings, seed, floor):
     assert [e.channel for e in res.events] == [names[floor]], res.events
     (ev,) = res.events
     assert ev.type.value == "additive"
-    assert abs(ev.onset_s - 20.0) < 0.5
-    assert ev.magnitude["offset"] == pytest.approx(sd, rel=0.2)
+    # measured on seeds 0-5, every floor, as here: onset within 0.04 s,
+    # offset within 3.5 % of the 1 sd injected
+    assert abs(ev.onset_s - 20.0) <= 0.1
+    assert ev.magnitude["offset"] == pytest.approx(sd, rel=0.05)
     # the residual direction identified it: its own filter stayed on e_i, the others left
     assert ev.evidence["off_direction_violation"] < 1.0
     assert ev.evidence["confirmed"]

@@ -193,7 +193,12 @@ def test_section64_fault_on_sensor_two_is_isolated_like_fig12():
         if detect(z, cal, search_start=train[1]):
             alarming.add(name)
     assert "s4" not in alarming and "s2" in alarming
-    assert np.mean(zeta["s2"][t > 12.0]) == pytest.approx(0.2, rel=0.1)  # regenerated f_s
+    # regenerated f_s: the residual's step above its healthy level (the training window's
+    # mean, -0.0144: the assistant state's own error, not the fault) is the 0.2 injected,
+    # 0.2007 here (+0.36 %; noise seeds 0-9: +0.32 to +0.42 %). The raw level after 12 s,
+    # 0.1863, is 6.8 % short of 0.2 by that healthy level.
+    healthy = np.mean(zeta["s2"][train[0] : train[1]])
+    assert np.mean(zeta["s2"][t > 12.0]) - healthy == pytest.approx(0.2, rel=0.01)
     net = network_from_config(["s1", "s2", "s3", "s4"], {"s4": ["s1"], "s2": ["s4"], "s3": ["s2"]})
     d = net.diagnose(alarming)
     assert d.faulty == ("s2",)
@@ -409,8 +414,10 @@ def test_offset_fault_is_isolated(buildings, seed, floor):
     assert [e.channel for e in res.events] == [names[floor]], (res.events, res.notes)
     (ev,) = res.events
     assert ev.type.value == "additive"
-    assert abs(ev.onset_s - 20.0) < 0.5
-    assert ev.magnitude["offset"] == pytest.approx(sd, rel=0.2)
+    # measured on seeds 0-5, every floor, as here: onset within 0.05 s,
+    # offset within 4.6 % of the 1 sd injected
+    assert abs(ev.onset_s - 20.0) <= 0.1
+    assert ev.magnitude["offset"] == pytest.approx(sd, rel=0.06)
     assert ev.evidence["law"].startswith("law 0")
 
 
