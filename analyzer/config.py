@@ -312,7 +312,8 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
     p = Path(path)
     try:
         data = p.read_bytes()
-        raw = tomllib.loads(data.decode("utf-8"))
+        # (a byte-order mark, as Windows' Notepad saves, is no TOML: read past it)
+        raw = tomllib.loads(data.decode("utf-8-sig"))
     except FileNotFoundError:
         raise ConfigError(f"--config: {p}: no such file") from None
     except (OSError, UnicodeDecodeError) as err:

@@ -357,10 +357,14 @@ def write_outputs(
     if earlier and not remove:
         # not known as the analyzer's (a file of the user's, an older version's output,
         # a folder that is an input): left as it is, and not read as this run's
+        why = (
+            "it is an input or lies beside one (inputs are never changed)"
+            if touches_inputs(stale, [i.path for i in analysis.inputs])
+            else "no findings.json of the analyzer beside it names it as its output"
+        )
         kept = (
             f"{stale} is not this run's (it was not asked for corrected signals, "
-            "--corrected) and was left as it was: no findings.json of the analyzer beside "
-            "it names it as its output"
+            f"--corrected) and was left as it was: {why}"
         )
         doc["notes"] = [*doc["notes"], kept]
         if warn is not None:

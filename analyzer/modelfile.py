@@ -201,6 +201,33 @@ def check_model_path(path: Path, out: Path | None = None) -> None:
         raise UsageError(f"--save-model: directory {path.parent} does not exist")
 
 
+MODEL_HEAD = b"analyzer.model/"
+"""How every model file begins, of any format (:data:`MAGIC` is this format's)."""
+
+
+def not_a_model(path: Path) -> None:
+    """Before any work: ``--save-model`` replaces an existing file only if it is an
+    analyzer model (of any format) or empty; any other file is refused
+    (:class:`UsageError`), since the replaced file is not kept: ``--save-model data.csv``
+    had replaced a recording with a model, saying so only afterwards (a QA audit's
+    ux56 item 2)."""
+    try:
+        if not path.is_file():
+            return
+        with path.open("rb") as f:
+            head = f.read(len(MODEL_HEAD))
+    except OSError as err:
+        raise UsageError(
+            f"--save-model: cannot read {path}, which exists: {err.strerror or err}; "
+            "name another file"
+        ) from None
+    if head and not head.startswith(MODEL_HEAD):
+        raise UsageError(
+            f"--save-model: {path} exists and is not an analyzer model (the replaced file "
+            "would not be kept); name another file or remove it"
+        )
+
+
 def _later_fields(model: SavedModel) -> None:
     """Give the fields a file saved before they existed left unset (a slotted dataclass's
     pickle holds its fields' values in order, and an older one stops short) their

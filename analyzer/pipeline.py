@@ -102,7 +102,13 @@ from analyzer.errors import (
 from analyzer.findings import Analysis, findings_document, input_digest, write_outputs
 from analyzer.grouping import partition
 from analyzer.missing_codes import CodeHint, as_gaps, code_hints, gaps_note
-from analyzer.modelfile import SavedModel, check_model_path, model_bytes, save_model
+from analyzer.modelfile import (
+    SavedModel,
+    check_model_path,
+    model_bytes,
+    not_a_model,
+    save_model,
+)
 from analyzer.options import (
     MIN_TRAIN_ROWS,
     RunOptions,
@@ -111,7 +117,7 @@ from analyzer.options import (
     parse_train,
 )
 from analyzer.outage import treat_outages
-from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
+from analyzer.outdir import not_into_inputs, not_over_inputs, only_run, prepare_dir, remove_if_empty
 from analyzer.paging import release, row_blocks, trim_heap
 from analyzer.parallel import (
     DaskExecutor,
@@ -2743,7 +2749,20 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
     out = Path(out_dir)
     if options.save_model is not None:
         _check_save_model(options.save_model, out, inputs, options)
+    written = OUTPUT_FILES if options.corrected else OUTPUT_FILES[:2]
+    not_over_inputs(out, written, inputs, "findings.json")
     created = prepare_dir(out, "--out")  # before the work: it must not fail at the end
+    try:
+        with only_run(out):
+            return _run_into(inputs, out, options, created)
+    except BaseException:
+        if created:
+            remove_if_empty(out)
+        raise
+
+
+def _run_into(inputs: Sequence[str | Path], out: Path, options: RunOptions, created: bool) -> int:
+    """:func:`run`'s work, once ``out`` is checked, made and held (:func:`only_run`)."""
     work = make_scratch()
     try:
         analysis = analyze_screened(inputs, options, work)
@@ -2779,10 +2798,6 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         if options.say is not None:
             options.say(summary_line(analysis, out))
         return 1 if analysis.faulty else 0
-    except BaseException:
-        if created:
-            remove_if_empty(out)
-        raise
     finally:
         remove_scratch(work)
 
@@ -3066,6 +3081,7 @@ def _check_save_model(
     in ``--out`` (created next), not one of the run's outputs, and none of its inputs:
     the archive, the ``--config`` file or the config's ``[model] file``."""
     check_model_path(path, out)
+    not_a_model(path)
     target = path.resolve()
     if target == out.resolve():
         raise UsageError(f"--save-model: {path} is the --out directory, expected a file name")
