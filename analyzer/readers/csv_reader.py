@@ -67,7 +67,8 @@ after the year 2262 (epoch milliseconds in a column whose name does not say ``ms
 are not times: int64 nanoseconds cannot hold them. Times that step back by more than the
 reorder window are named in ``info.errors``, with what became of the rows behind; a clock
 set back by hours, zone-less local times set back an hour (the change to winter time)
-and relative times that start again from the file's first time (a logger restarted) are
+and relative times that start again from the file's first time, or more than half the
+way back to it (a logger restarted, :meth:`_Steps._fold`), are
 refused by ``run`` and ``export`` (``info.set_back``, see :meth:`CsvReader._set_back`).
 A column of dates beside a time column of times of day (``Date,Time``) is joined with it
 into date-times (:meth:`CsvReader._join_date`).
@@ -397,6 +398,8 @@ class _Steps:
     time (kept by the caller)."""
     _fold_rows: int = 0
     """Rows of such a run open at the end of the times pushed so far (0: none)."""
+    _fold_t0: int = 0
+    """The time of that open run's first row."""
     _was_behind: bool = False
 
     def push(self, t: IntArray) -> int | None:
@@ -474,12 +477,18 @@ class _Steps:
         behind begins at (about) the file's first time and goes on over the times
         already read, each of them falling on a time of the stretch before the restart
         (before, they were sorted in among those rows and one of the two values kept at
-        each time: half the record lost, said as rows "written in batches"). Such a run
-        is a restart once it holds more than
+        each time: half the record lost, said as rows "written in batches"). The run
+        begins at the file's first time (to within the window), or nearer to it than to
+        the latest time read before it: its step back is more than half the way to the
+        first time, more than half of the times read so far (a counter that starts
+        again at 5 s or 37 s, the logger's boot taking that long, or the file starting
+        at 0 s of a clock that restarts later; a batch written late steps back by a
+        small share of them). Such a run is a restart once it holds more than
         :data:`~analyzer.readers._common.LEAD_GLITCH_MESSAGES` rows and one of them lies
-        past the first time by more than the window. A run that stays before the first
-        time (rows of the file's start written late, a step back before the start) is
-        sorted in as before."""
+        past both the first time and the run's own first time by more than the window
+        (it counts on over the times already read). A run that stays before the first
+        time (rows of the file's start written late, a step back before the start), or
+        within the window of its own start, is sorted in as before."""
         if self.fold_from is None:
             return
         if not bool(behind.any()):
@@ -489,16 +498,22 @@ class _Steps:
         rise = behind & ~np.concatenate(([self._was_behind], behind[:-1]))
         run = np.cumsum(rise)  # each row's run: 0 the one open before this push
         starts = np.flatnonzero(rise)
-        restart = np.concatenate(([self._fold_rows > 0], t[starts] <= near))
+        first = t[starts]
+        # (back more than half the way to the first time: nearer to it than to the latest)
+        halfway = first - self.fold_from < before[starts] - first
+        restart = np.concatenate(([self._fold_rows > 0], (first <= near) | halfway))
         begins = np.concatenate(([-self._fold_rows], starts))
         rows = np.arange(t.size) - begins[run] + 1  # of each row of a run: its rows so far
-        fire = behind & restart[run] & (t > near) & (rows > LEAD_GLITCH_MESSAGES)
+        t0 = np.concatenate(([self._fold_t0], first))  # each run's first time
+        past = t > np.maximum(near, t0[run] + REORDER_WINDOW_NS)
+        fire = behind & restart[run] & past & (rows > LEAD_GLITCH_MESSAGES)
         if bool(fire.any()):
             k = int(run[int(np.argmax(fire))])
             at = int(starts[k - 1]) if k else -1
             self.fold = (at, int(before[at]) if k else 0)
         last = int(run[-1]) if bool(behind[-1]) and bool(restart[run[-1]]) else -1
         self._fold_rows = int(rows[-1]) if last >= 0 else 0
+        self._fold_t0 = int(t0[last]) if last >= 0 else 0
         if last > 0:
             at = int(starts[last - 1])
             self.fold_open = (at, int(before[at]))
@@ -1018,9 +1033,14 @@ class CsvReader:
         self._set_back_row = row
         back = newest - time
         if restart is not None:
+            to = (  # (to it, or more than half the way back to it: _Steps._fold)
+                "to the"
+                if time - restart <= REORDER_WINDOW_NS
+                else "more than half the way back to the"
+            )
             line = (
                 f"the time column {name!r} steps back by {back / 1e9:.3f} s at data row "
-                f"{row} ({cell!r}: from {self._when(newest)} to {self._when(time)}), to the "
+                f"{row} ({cell!r}: from {self._when(newest)} to {self._when(time)}), {to} "
                 f"time of its first row ({self._when(restart)}), and counts on "
                 "over the times already read: a logger restarted, its clock counting from "
                 "its start again? Its rows would fall on those before at the same times; "
