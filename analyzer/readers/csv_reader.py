@@ -232,6 +232,18 @@ LAYOUT_LINES = 200
 """Non-blank lines (of the 64 KiB sample) from which the separator and the header are
 found: a logger's preamble may be tens of lines long."""
 TOA5 = ('"TOA5",', "TOA5,")
+LVM = "LabVIEW Measurement"
+"""The first line of an NI LabVIEW measurement file (``.lvm``): its header's ``Date``
+and ``Time`` are the start of relative times (:func:`_lvm_start`)."""
+LVM_END = "***End_of_Header***"
+"""The line that ends each header of an ``.lvm`` file."""
+COMMENT_NAMES = frozenset({"comment", "comments"})
+"""Header names of a column of remarks, not readings (LabVIEW's ``.lvm`` writes one,
+``Comment``, after the channels): blank in every row, it is no channel, said once in
+``inspect`` (:attr:`~analyzer.readers.base.InputInfo.skipped`), not called a dead
+sensor at every run."""
+_LVM_DATE = re.compile(r"^(\d{4})[/-](\d{1,2})[/-](\d{1,2})$")
+_LVM_TIME = re.compile(r"^(\d{1,2}):(\d{2}):(\d{2})(?:[.,](\d+))?$")
 """How a Campbell Scientific TOA5 file starts: its station line, then the header, a
 units line and a processing line (``Smp``, ``Avg``...) above the rows. Unquoted: the
 same table opened in a spreadsheet and saved as CSV again."""
@@ -336,6 +348,9 @@ class _Layout:
     renamed: tuple[tuple[str, str], ...] = ()
     """Header names given to more than one column, and the name each repeat is read as
     (:func:`_unique`): said in ``info.errors``."""
+    header_start_ns: int | None = None
+    """The start an ``.lvm`` file's header gives (its ``Date`` and ``Time``, read as UTC),
+    for relative times (:func:`_lvm_start`); None: none."""
 
 
 @dataclass(slots=True)
@@ -881,6 +896,20 @@ class CsvReader:
             if self._offset and first_time is not None:
                 first_time += self._offset
                 self.info.absolute_time = True
+        start = self._layout.header_start_ns
+        if (
+            self._time_kind == "seconds"
+            and not self.info.absolute_time
+            and start is not None
+            and first_time is not None
+        ):  # (an .lvm's X_Value counts seconds from its header's Date and Time)
+            self._offset = start
+            first_time += start
+            self.info.absolute_time = True
+            self._anchor_text = (
+                f"; absolute times from the LabVIEW header's Date and Time: 0 s is "
+                f"{iso_utc(start)} (the header gives no zone: read as UTC)"
+            )
         self._first_time = first_time
         self.info.time = self._time_text()
         if self._day_first is not None:
@@ -1565,6 +1594,13 @@ class CsvReader:
             and index not in filled
             and name != f"column{index}"  # no header either: a trailing separator
         ]
+        remarks = [name for name in blank if name.strip().lower() in COMMENT_NAMES]
+        if rows and remarks:  # (LabVIEW's Comment column: no sensor, said in inspect)
+            blank = [name for name in blank if name not in remarks]
+            self.info.skipped = (
+                f"{', '.join(repr(r) for r in remarks)}: a column of comments, blank in "
+                "every row: not a channel"
+            )
         if rows and blank:
             # (a column blank in every row had no note: it vanished from inspect)
             self._error(
@@ -1696,6 +1732,7 @@ class CsvReader:
             units=units,
             units_line=numbered[units_at][0] + 1 if units_at is not None and not toa5 else 0,
             renamed=tuple((g, n) for g, n in zip(given, names, strict=True) if g != n),
+            header_start_ns=_lvm_start(lines[:header]) if lines[0].startswith(LVM) else None,
         )
 
     def _separator(self, lines: list[str]) -> str:
@@ -2589,6 +2626,36 @@ def _open_quote(line: str, separator: str) -> bool:
             at_start = False
         k += 1
     return quoted
+
+
+def _lvm_start(lines: Sequence[str]) -> int | None:
+    """The start an ``.lvm`` file's first header gives, ``Date`` (``2026/03/29``) and
+    ``Time`` (``00:58:00.000``, to as many decimals as LabVIEW writes), in nanoseconds
+    since 1970 read as UTC (the header says no zone); None where either is missing or
+    unreadable. Only the lines before the first :data:`LVM_END` are read (a segment's
+    header may repeat them)."""
+    fields: dict[str, str] = {}
+    for line in lines:
+        if line.strip().startswith(LVM_END):
+            break
+        parts = re.split(r"[\t,;]", line.strip(), maxsplit=1)
+        value = parts[1].strip() if len(parts) > 1 else ""
+        fields.setdefault(parts[0].strip().lower(), value)
+    date = _LVM_DATE.match(fields.get("date", ""))
+    time = _LVM_TIME.match(fields.get("time", ""))
+    if date is None or time is None:
+        return None
+    try:
+        day = np.datetime64(
+            f"{int(date[1]):04d}-{int(date[2]):02d}-{int(date[3]):02d}", "ns"
+        ).astype(np.int64)
+    except ValueError:
+        return None
+    hours, minutes, seconds = int(time[1]), int(time[2]), int(time[3])
+    if hours > 23 or minutes > 59 or seconds > 60:
+        return None
+    fraction = int((time[4] or "0")[:9].ljust(9, "0"))
+    return int(day) + ((hours * 60 + minutes) * 60 + seconds) * 1_000_000_000 + fraction
 
 
 def _header_line(lines: list[str], separator: str, open_end: bool) -> int:
