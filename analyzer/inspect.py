@@ -61,6 +61,7 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
                     "format": str(i.format),
                     "errors": list(i.errors),
                     **({"time": i.time} if i.time else {}),
+                    **({"skipped": i.skipped} if i.skipped else {}),
                 }
                 for i in archive.inputs
             ],
@@ -179,6 +180,8 @@ def render_table(doc: dict[str, Any]) -> str:
         lines.append(f"{safe(i['path'])}  [{i['format']}]")
         if i.get("time"):
             lines.append(f"  time: {safe(i['time'])}")
+        if i.get("skipped"):
+            lines.append(f"  skipped: {safe(i['skipped'])}")
         for e in i["errors"]:
             lines.append(f"  ! {safe(e)}")
     for note in doc.get("notes", ()):

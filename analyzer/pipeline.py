@@ -72,8 +72,12 @@ from analyzer.diagnosis.stuck import (
     zero_channels,
 )
 from analyzer.diagnosis.training_check import (
+    ALPHA,
+    WindowChange,
     WindowNeed,
     WindowNote,
+    change_words,
+    check_training,
     window_notes,
     window_warnings,
 )
@@ -179,6 +183,7 @@ from analyzer.timeutil import (
     seconds_text,
     short_seconds,
     spoken_duration,
+    window_text,
 )
 from analyzer.types import NS_PER_S, FaultType
 from analyzer.window_note import AnomalyNote
@@ -970,6 +975,7 @@ def _analyze(
                     (aligned.rate_hz, aligned.duration_s),
                     named=True,
                     held=_held_rows(values),
+                    crosses=_change_inside(values, chosen, groups, aligned.rate_hz),
                 )
             if not _constant_only_possible(notes, options, silent):
                 if named_error is err:
@@ -989,6 +995,7 @@ def _analyze(
                 _slow_clock(infos, chosen, aligned.rate_hz, options.rate is not None),
                 (aligned.rate_hz, aligned.duration_s),
                 held=_held_rows(values),
+                crosses=_change_inside(values, chosen, groups, aligned.rate_hz),
             )
             absurd = next((n for n in notes if n.startswith("infinite or absurd values")), None)
             if absurd is not None:  # (a channel whose every value is beyond 1e30, say)
@@ -2559,6 +2566,7 @@ def _no_detector_error(
     clock: tuple[float, float] | None = None,
     named: bool = False,
     held: npt.NDArray[np.int64] | None = None,
+    crosses: ChangeInside | None = None,
 ) -> DetectorError:
     """The error when no detector could run: each one's reason, after a hint when the
     healthy window is too short for them (``slow``: the common clock is slower than some
@@ -2572,7 +2580,8 @@ def _no_detector_error(
     window too short says how long one would do (:func:`_longer_window`). ``named``:
     the detectors of ``skipped`` were named with ``--detectors`` and each must run, so
     the window is the one for all of them, and the line begins with their names.
-    ``held``: the rows holding every channel (:func:`_held_rows`), for the window's end."""
+    ``held``: the rows holding every channel (:func:`_held_rows`), for the window's end;
+    ``crosses``: the change a suggested window would hold (:func:`_change_inside`)."""
     # the reasons the data can change first, those that need a config last (the line
     # is cut at errors.LINE_MOST: the cut takes the least useful)
     why = "; ".join(sorted(skip_reasons(skipped), key=lambda r: CONFIG_NEED in r))
@@ -2586,7 +2595,9 @@ def _no_detector_error(
         failed = f"{', '.join(names)} could not run"
     if "too little healthy data" in why:
         longer = (
-            "" if clock is None else _longer_window(skipped, tr, *clock, every=named, held=held)
+            ""
+            if clock is None
+            else _longer_window(skipped, tr, *clock, every=named, held=held, crosses=crosses)
         )
         hint = (
             f"the training window {tr[0]:.3f}-{tr[1]:.3f} s is too short for these "
@@ -2642,6 +2653,59 @@ def _window_need(
     return WindowNeed(rows, rate_hz, _held_rows(values))
 
 
+ChangeInside = Callable[[float, float], WindowChange | None]
+"""The first change of a sensor inside a window (its start and end in seconds) that
+the healthy window's own check sees (:func:`_change_inside`), None when it sees none."""
+
+
+def _change_inside(
+    values: Any, channels: Sequence[str], groups: Sequence[Sequence[str]], rate_hz: float
+) -> ChangeInside:
+    """The check of the healthy window (:func:`~analyzer.diagnosis.training_check.
+    check_training`) for a window the run would suggest: a SKAB pump's labelled record
+    was told ``give --train 0:718`` while its anomaly began at 600 s, and the run with
+    that window fitted the anomaly as healthy (no fault found). The window is checked,
+    and so is the stretch from its start twice as long (the record's end at most): a
+    change near the window's end has too little after it inside the window for the
+    test to see it, and the longer stretch gives it as much after it as before. The
+    earliest change before the window's end is returned. The two checks are each at half
+    the healthy window's level (:data:`~analyzer.diagnosis.training_check.ALPHA`,
+    Bonferroni): a healthy record is refused with at most the probability that its
+    window is said not steady (a simulated 3-floor building at 1 Hz, healthy, had a
+    change "seen" at |t| 7.97 against the bound 7.95 of one check at the full level, and
+    its run was refused). Run only where the run stops
+    for a window too short: its cost is the check's on twice the window, less than
+    the detectors' fits on the window itself."""
+
+    def inside(start: float, end: float) -> WindowChange | None:
+        a = max(0, round(start * rate_hz))
+        b = min(len(values), round(end * rate_hz) + 1)
+        longer = b < len(values)  # (the window and as much again after it)
+        alpha = ALPHA / 2 if longer else ALPHA  # (two checks: each at half the level)
+        seen = check_training(values[a:b], channels, groups, rate_hz, a / rate_hz, alpha=alpha)
+        if longer:
+            stretch = values[a : min(len(values), 2 * b - a)]
+            seen += check_training(stretch, channels, groups, rate_hz, a / rate_hz, alpha=alpha)
+        before = [c for c in seen if c.at_s < end]
+        return min(before, key=lambda c: c.at_s, default=None)
+
+    return inside
+
+
+def _too_short_before(change: WindowChange, start: float, end: float, need: str) -> str:
+    """The line for a record whose suggested window (``start .. end`` s, holding
+    ``need``) crosses ``change``: the run would fit it as healthy. It starts with "the
+    archive" (:func:`_no_detector_error` puts it first, in place of the hint)."""
+    who, what = change_words(change)
+    said = f" ({' and '.join(what)})" if what else ""
+    return (
+        "the archive is too short before its first change to train on (fit the models on a "
+        "healthy recording of the same system with --save-model and analyze this one with "
+        f"--model): {who} changes at about {short_seconds(change.at_s)} s{said}, inside "
+        f"--train {window_text(start, end)}, the window these detectors need ({need})"
+    )
+
+
 def _longer_window(
     skipped: Mapping[str, str],
     tr: tuple[float, float],
@@ -2649,6 +2713,7 @@ def _longer_window(
     duration_s: float,
     every: bool = False,
     held: npt.NDArray[np.int64] | None = None,
+    crosses: ChangeInside | None = None,
 ) -> str:
     """The ``--train`` that lets at least one detector run (``every``: each of them, the
     detectors the user named), from the window's start ``tr[0]``: the fewest (most)
@@ -2660,6 +2725,9 @@ def _longer_window(
     too few). When the rest of the archive is shorter, a window
     from its start; when the whole archive is, a line that says so (starting ``the
     archive``: a window of all of it leaves nothing to search).
+    With ``crosses`` (:func:`_change_inside`), a window that holds a change the run
+    sees says so instead (:func:`_too_short_before`): the record before the change is
+    too short to train on, and a window across it would fit the change as healthy.
     Empty when no detector said what it needs. The option comes first: a cut line
     (:func:`analyzer.errors.clipped_line`) keeps it."""
     needs = [r.rows if isinstance(r, SkipReason) else None for r in skipped.values()]
@@ -2703,6 +2771,9 @@ def _longer_window(
     gaps = math.ceil(length - rows / rate_hz)
     if gaps > 0:
         need += f" and {gaps} s more for the gaps in it"
+    change = None if crosses is None else crosses(start, end)
+    if change is not None:
+        return _too_short_before(change, start, end, need)
 
     def secs(x: float) -> str:  # (as --train reads them: no exponent, to the ms)
         return f"{x:.3f}".rstrip("0").rstrip(".")

@@ -202,6 +202,20 @@ def check_training(
     return changes
 
 
+def change_words(c: WindowChange) -> tuple[str, list[str]]:
+    """Who changed (the channel, with those the others cannot tell from it) and what
+    changed (its level's step, its scale's change), as the notes say them."""
+    what = []
+    if c.offset is not None:
+        what.append(f"its level steps by {c.offset:+.4g}")
+    if c.gain is not None:
+        what.append(f"its scale against the others changes {c.gain:.3g}-fold")
+    who = c.channels[0]
+    if len(c.channels) > 1:
+        who += f" (or {' or '.join(c.channels[1:])}: the others cannot tell them apart)"
+    return who, what
+
+
 def window_warnings(notes: Sequence[str]) -> list[str]:
     """The short forms of the run's :class:`WindowNote` notes, for stderr."""
     return [n.short for n in notes if isinstance(n, WindowNote)]
@@ -292,14 +306,7 @@ def training_notes(
     for c in changes:
         if c.channels[0] in drifting:
             continue
-        what = []
-        if c.offset is not None:
-            what.append(f"its level steps by {c.offset:+.4g}")
-        if c.gain is not None:
-            what.append(f"its scale against the others changes {c.gain:.3g}-fold")
-        who = c.channels[0]
-        if len(c.channels) > 1:
-            who += f" (or {' or '.join(c.channels[1:])}: the others cannot tell them apart)"
+        who, what = change_words(c)
         back = "" if c.end_s is None else f" and back at about {short_seconds(c.end_s)} s"
         last = c.hi_s if c.end_hi_s is None else c.end_hi_s  # (the change's, or its return's)
         before, after, short = _sides(a, c.lo_s, last, b - a, duration_s, need)

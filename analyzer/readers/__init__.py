@@ -1,7 +1,8 @@
 """The input layer: files in, :class:`~analyzer.readers.base.ChannelChunk` streams out.
 
 * :func:`open_input` opens one input (MCAP file, ROS 1 bag, ROS 2 bag directory or bare
-  ``.db3``, CSV/TSV optionally gzipped), detected by magic bytes first, then by suffix.
+  ``.db3``, CSV/TSV optionally gzipped, a LabVIEW ``.lvm``), detected by magic bytes
+  first, then by suffix.
 * :func:`open_archive` opens the inputs that together form one archive (several paths,
   and/or a directory of files such as one file per hour, its subfolders included) and
   streams them in time order.
@@ -60,6 +61,7 @@ SUFFIXES: dict[str, Format] = {
     ".tsv": Format.CSV,
     ".csv.gz": Format.CSV,
     ".tsv.gz": Format.CSV,
+    ".lvm": Format.CSV,
 }
 """Suffixes of the files taken from a directory archive, and their format."""
 
@@ -68,11 +70,16 @@ TOA5_MAGICS = (b'"TOA5",', b'\xef\xbb\xbf"TOA5",', b"TOA5,", b"\xef\xbb\xbfTOA5,
 UTF-8 byte order mark, quoted as the logger writes it or not (opened in a spreadsheet and
 saved again)."""
 
+LVM_MAGIC = b"LabVIEW Measure"
+"""How an NI LabVIEW measurement file (``.lvm``, tab-separated text) starts: its first
+line is ``LabVIEW Measurement`` (the 16 bytes read hold this much of it)."""
+
 _MAGICS: tuple[tuple[bytes, Format], ...] = (
     (b"\x89MCAP0\r\n", Format.MCAP),
     (b"#ROSBAG V", Format.ROS1BAG),
     (b"SQLite format 3\x00", Format.ROS2BAG),
     *((magic, Format.CSV) for magic in TOA5_MAGICS),
+    (LVM_MAGIC, Format.CSV),
 )
 
 TOA5_SUFFIX = ".dat"

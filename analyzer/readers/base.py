@@ -99,6 +99,10 @@ class InputInfo:
     (their stamps jump by more than 10 s, an hour on a simulation clock, where their
     log times do not): each with what its clock did. Said in ``errors``; an analysis
     or export of their channels is refused (:func:`one_clock`)."""
+    skipped: str = ""
+    """Columns a reader left out as no channel by what they are (a LabVIEW ``.lvm``'s
+    ``Comment`` column, blank in every row): ``inspect`` says it once; ``run`` says
+    nothing (they were called dead sensors at every run)."""
     set_back: str = ""
     """Of a CSV whose time column, or an MCAP or ROS bag whose log times, step back by
     more than an hour for more than a few rows or messages (a clock set back while

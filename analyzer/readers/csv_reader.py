@@ -67,7 +67,8 @@ after the year 2262 (epoch milliseconds in a column whose name does not say ``ms
 are not times: int64 nanoseconds cannot hold them. Times that step back by more than the
 reorder window are named in ``info.errors``, with what became of the rows behind; a clock
 set back by hours, zone-less local times set back an hour (the change to winter time)
-and relative times that start again from the file's first time (a logger restarted) are
+and relative times that start again from the file's first time, or more than half the
+way back to it (a logger restarted, :meth:`_Steps._fold`), are
 refused by ``run`` and ``export`` (``info.set_back``, see :meth:`CsvReader._set_back`).
 A column of dates beside a time column of times of day (``Date,Time``) is joined with it
 into date-times (:meth:`CsvReader._join_date`).
@@ -231,6 +232,18 @@ LAYOUT_LINES = 200
 """Non-blank lines (of the 64 KiB sample) from which the separator and the header are
 found: a logger's preamble may be tens of lines long."""
 TOA5 = ('"TOA5",', "TOA5,")
+LVM = "LabVIEW Measurement"
+"""The first line of an NI LabVIEW measurement file (``.lvm``): its header's ``Date``
+and ``Time`` are the start of relative times (:func:`_lvm_start`)."""
+LVM_END = "***End_of_Header***"
+"""The line that ends each header of an ``.lvm`` file."""
+COMMENT_NAMES = frozenset({"comment", "comments"})
+"""Header names of a column of remarks, not readings (LabVIEW's ``.lvm`` writes one,
+``Comment``, after the channels): blank in every row, it is no channel, said once in
+``inspect`` (:attr:`~analyzer.readers.base.InputInfo.skipped`), not called a dead
+sensor at every run."""
+_LVM_DATE = re.compile(r"^(\d{4})[/-](\d{1,2})[/-](\d{1,2})$")
+_LVM_TIME = re.compile(r"^(\d{1,2}):(\d{2}):(\d{2})(?:[.,](\d+))?$")
 """How a Campbell Scientific TOA5 file starts: its station line, then the header, a
 units line and a processing line (``Smp``, ``Avg``...) above the rows. Unquoted: the
 same table opened in a spreadsheet and saved as CSV again."""
@@ -335,6 +348,9 @@ class _Layout:
     renamed: tuple[tuple[str, str], ...] = ()
     """Header names given to more than one column, and the name each repeat is read as
     (:func:`_unique`): said in ``info.errors``."""
+    header_start_ns: int | None = None
+    """The start an ``.lvm`` file's header gives (its ``Date`` and ``Time``, read as UTC),
+    for relative times (:func:`_lvm_start`); None: none."""
 
 
 @dataclass(slots=True)
@@ -397,6 +413,8 @@ class _Steps:
     time (kept by the caller)."""
     _fold_rows: int = 0
     """Rows of such a run open at the end of the times pushed so far (0: none)."""
+    _fold_t0: int = 0
+    """The time of that open run's first row."""
     _was_behind: bool = False
 
     def push(self, t: IntArray) -> int | None:
@@ -474,12 +492,18 @@ class _Steps:
         behind begins at (about) the file's first time and goes on over the times
         already read, each of them falling on a time of the stretch before the restart
         (before, they were sorted in among those rows and one of the two values kept at
-        each time: half the record lost, said as rows "written in batches"). Such a run
-        is a restart once it holds more than
+        each time: half the record lost, said as rows "written in batches"). The run
+        begins at the file's first time (to within the window), or nearer to it than to
+        the latest time read before it: its step back is more than half the way to the
+        first time, more than half of the times read so far (a counter that starts
+        again at 5 s or 37 s, the logger's boot taking that long, or the file starting
+        at 0 s of a clock that restarts later; a batch written late steps back by a
+        small share of them). Such a run is a restart once it holds more than
         :data:`~analyzer.readers._common.LEAD_GLITCH_MESSAGES` rows and one of them lies
-        past the first time by more than the window. A run that stays before the first
-        time (rows of the file's start written late, a step back before the start) is
-        sorted in as before."""
+        past both the first time and the run's own first time by more than the window
+        (it counts on over the times already read). A run that stays before the first
+        time (rows of the file's start written late, a step back before the start), or
+        within the window of its own start, is sorted in as before."""
         if self.fold_from is None:
             return
         if not bool(behind.any()):
@@ -489,16 +513,22 @@ class _Steps:
         rise = behind & ~np.concatenate(([self._was_behind], behind[:-1]))
         run = np.cumsum(rise)  # each row's run: 0 the one open before this push
         starts = np.flatnonzero(rise)
-        restart = np.concatenate(([self._fold_rows > 0], t[starts] <= near))
+        first = t[starts]
+        # (back more than half the way to the first time: nearer to it than to the latest)
+        halfway = first - self.fold_from < before[starts] - first
+        restart = np.concatenate(([self._fold_rows > 0], (first <= near) | halfway))
         begins = np.concatenate(([-self._fold_rows], starts))
         rows = np.arange(t.size) - begins[run] + 1  # of each row of a run: its rows so far
-        fire = behind & restart[run] & (t > near) & (rows > LEAD_GLITCH_MESSAGES)
+        t0 = np.concatenate(([self._fold_t0], first))  # each run's first time
+        past = t > np.maximum(near, t0[run] + REORDER_WINDOW_NS)
+        fire = behind & restart[run] & past & (rows > LEAD_GLITCH_MESSAGES)
         if bool(fire.any()):
             k = int(run[int(np.argmax(fire))])
             at = int(starts[k - 1]) if k else -1
             self.fold = (at, int(before[at]) if k else 0)
         last = int(run[-1]) if bool(behind[-1]) and bool(restart[run[-1]]) else -1
         self._fold_rows = int(rows[-1]) if last >= 0 else 0
+        self._fold_t0 = int(t0[last]) if last >= 0 else 0
         if last > 0:
             at = int(starts[last - 1])
             self.fold_open = (at, int(before[at]))
@@ -866,6 +896,20 @@ class CsvReader:
             if self._offset and first_time is not None:
                 first_time += self._offset
                 self.info.absolute_time = True
+        start = self._layout.header_start_ns
+        if (
+            self._time_kind == "seconds"
+            and not self.info.absolute_time
+            and start is not None
+            and first_time is not None
+        ):  # (an .lvm's X_Value counts seconds from its header's Date and Time)
+            self._offset = start
+            first_time += start
+            self.info.absolute_time = True
+            self._anchor_text = (
+                f"; absolute times from the LabVIEW header's Date and Time: 0 s is "
+                f"{iso_utc(start)} (the header gives no zone: read as UTC)"
+            )
         self._first_time = first_time
         self.info.time = self._time_text()
         if self._day_first is not None:
@@ -1018,9 +1062,14 @@ class CsvReader:
         self._set_back_row = row
         back = newest - time
         if restart is not None:
+            to = (  # (to it, or more than half the way back to it: _Steps._fold)
+                "to the"
+                if time - restart <= REORDER_WINDOW_NS
+                else "more than half the way back to the"
+            )
             line = (
                 f"the time column {name!r} steps back by {back / 1e9:.3f} s at data row "
-                f"{row} ({cell!r}: from {self._when(newest)} to {self._when(time)}), to the "
+                f"{row} ({cell!r}: from {self._when(newest)} to {self._when(time)}), {to} "
                 f"time of its first row ({self._when(restart)}), and counts on "
                 "over the times already read: a logger restarted, its clock counting from "
                 "its start again? Its rows would fall on those before at the same times; "
@@ -1545,6 +1594,13 @@ class CsvReader:
             and index not in filled
             and name != f"column{index}"  # no header either: a trailing separator
         ]
+        remarks = [name for name in blank if name.strip().lower() in COMMENT_NAMES]
+        if rows and remarks:  # (LabVIEW's Comment column: no sensor, said in inspect)
+            blank = [name for name in blank if name not in remarks]
+            self.info.skipped = (
+                f"{', '.join(repr(r) for r in remarks)}: a column of comments, blank in "
+                "every row: not a channel"
+            )
         if rows and blank:
             # (a column blank in every row had no note: it vanished from inspect)
             self._error(
@@ -1676,6 +1732,7 @@ class CsvReader:
             units=units,
             units_line=numbered[units_at][0] + 1 if units_at is not None and not toa5 else 0,
             renamed=tuple((g, n) for g, n in zip(given, names, strict=True) if g != n),
+            header_start_ns=_lvm_start(lines[:header]) if lines[0].startswith(LVM) else None,
         )
 
     def _separator(self, lines: list[str]) -> str:
@@ -2569,6 +2626,36 @@ def _open_quote(line: str, separator: str) -> bool:
             at_start = False
         k += 1
     return quoted
+
+
+def _lvm_start(lines: Sequence[str]) -> int | None:
+    """The start an ``.lvm`` file's first header gives, ``Date`` (``2026/03/29``) and
+    ``Time`` (``00:58:00.000``, to as many decimals as LabVIEW writes), in nanoseconds
+    since 1970 read as UTC (the header says no zone); None where either is missing or
+    unreadable. Only the lines before the first :data:`LVM_END` are read (a segment's
+    header may repeat them)."""
+    fields: dict[str, str] = {}
+    for line in lines:
+        if line.strip().startswith(LVM_END):
+            break
+        parts = re.split(r"[\t,;]", line.strip(), maxsplit=1)
+        value = parts[1].strip() if len(parts) > 1 else ""
+        fields.setdefault(parts[0].strip().lower(), value)
+    date = _LVM_DATE.match(fields.get("date", ""))
+    time = _LVM_TIME.match(fields.get("time", ""))
+    if date is None or time is None:
+        return None
+    try:
+        day = np.datetime64(
+            f"{int(date[1]):04d}-{int(date[2]):02d}-{int(date[3]):02d}", "ns"
+        ).astype(np.int64)
+    except ValueError:
+        return None
+    hours, minutes, seconds = int(time[1]), int(time[2]), int(time[3])
+    if hours > 23 or minutes > 59 or seconds > 60:
+        return None
+    fraction = int((time[4] or "0")[:9].ljust(9, "0"))
+    return int(day) + ((hours * 60 + minutes) * 60 + seconds) * 1_000_000_000 + fraction
 
 
 def _header_line(lines: list[str], separator: str, open_end: bool) -> int:

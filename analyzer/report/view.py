@@ -237,7 +237,8 @@ class _Access(FigureParts, TableParts):
 
     def unexplained(self, faults: Sequence[Mapping[str, Any]]) -> str:
         """The verdict's warning on alarms no finding explains (``unexplained_alarms``):
-        on which sensors, from when, and the run that searches the others without one of
+        on which sensors, from when (seconds, and the UTC time where the record has
+        absolute times), and the run that searches the others without one of
         them (the detectors isolate one fault at a time: on a 6-floor building whose s1
         and s2 went faulty at once, ``--channels '!s0'`` found both, where leaving out
         the sensor already found, s4, found neither); empty without any. In a run that
@@ -247,9 +248,13 @@ class _Access(FigureParts, TableParts):
         items = list(self.doc.get("unexplained_alarms") or [])
         if not items:
             return ""
+        # (the clock time too where the record has one, as the findings give it: in a
+        # 24 h archive "from 7199.8 s" alone left the user to count the hours)
         shown = [
             f"on {either([str(c) for c in u.get('channels') or []])} from "
-            f"{fmt.seconds(u.get('onset_s'), 1)} (seen by "
+            f"{fmt.seconds(u.get('onset_s'), 1)}"
+            + (f" at {u['onset']}" if u.get("onset") else "")
+            + " (seen by "
             f"{', '.join(str(d) for d in u.get('detectors') or [])})"
             for u in items[:UNEXPLAINED_LISTED]
         ]

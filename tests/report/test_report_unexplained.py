@@ -45,7 +45,8 @@ def test_the_warning_sits_under_the_headline_and_names_sensors_time_and_the_reru
     assert html.index('<p class="headline">') < html.index('<p class="unexplained"')
     assert html.index('<p class="unexplained"') < html.index("Record start")
     # (61.25 s to a tenth: half up, as every time of the run is rounded, ISO times too)
-    assert f"on s0 and {escape(EVIL)} from 61.3 s (seen by equivalent_model)" in warning
+    utc = doc["unexplained_alarms"][0]["onset"]  # (and the clock time: ux55 item 10)
+    assert f"on s0 and {escape(EVIL)} from 61.3 s at {utc} (seen by equivalent_model)" in warning
     # one of the sensors without a finding is the one to leave out, not the one found
     assert f"--channels &#39;!{escape(EVIL)}&#39;" in warning
     assert EVIL not in html.split('<p class="headline">')[1].split("</div>")[0]
@@ -67,9 +68,11 @@ def test_without_findings_the_alarms_no_sensor_was_placed_for_are_said():
     # alarms the bank could not place, the only unexplained alarms of a run without a
     # finding; a ground-floor gain was reported on a healthy floor before, ux54 item 1)
     alarm = [Unexplained(("s2",), 61.0, ("ar_kalman_bank", "detection_filter"), ())]
-    (warning,) = WARNING.findall(_report(alarm, faults=False)[1])
+    doc, html = _report(alarm, faults=False)
+    (warning,) = WARNING.findall(html)
     assert warning.startswith("<strong>&#9888; Alarms the detectors could not place on a sensor: ")
-    assert "on s2 from 61.0 s (seen by ar_kalman_bank, detection_filter)" in warning
+    utc = doc["unexplained_alarms"][0]["onset"]  # (and the clock time: ux55 item 10)
+    assert f"on s2 from 61.0 s at {utc} (seen by ar_kalman_bank, detection_filter)" in warning
     assert "Another sensor" not in warning and "ground floor" in warning
     # no run leaving out a named sensor: the faulty one may be one they are estimated
     # from (leaving out s2 of a 4-floor building with a gain on s0 found the healthy s1)
