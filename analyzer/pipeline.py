@@ -174,7 +174,7 @@ from analyzer.timeutil import (
     short_seconds,
     spoken_duration,
 )
-from analyzer.types import NS_PER_S, FaultType
+from analyzer.types import NS_PER_S, FaultType, prefixed
 from analyzer.window_note import AnomalyNote
 
 MATERIALIZE_IN_MEMORY = 1 << 24
@@ -928,7 +928,9 @@ def _analyze(
             run_ctx = ctx
             if label and ctx.progress is not None:
                 shown = ctx.progress
-                run_ctx = replace(ctx, progress=lambda stage, done: shown(label + stage, done))
+                run_ctx = replace(
+                    ctx, progress=lambda stage, done: shown(prefixed(label, stage), done)
+                )
             into = work / signals if big else None
             shared = (options, data, run_ctx, executor, timings, into, start_tests)
             if single:
@@ -1779,7 +1781,9 @@ def _search_context(ctx: RunContext, scratch: str, label: str | None = None) -> 
     run_ctx = replace(ctx, workdir=own, explicit=False)
     if ctx.progress is not None:
         shown, prefix = ctx.progress, f"{label or scratch} "
-        run_ctx = replace(run_ctx, progress=lambda stage, done: shown(prefix + stage, done))
+        run_ctx = replace(
+            run_ctx, progress=lambda stage, done: shown(prefixed(prefix, stage), done)
+        )
     return run_ctx
 
 
