@@ -258,6 +258,19 @@ def _upsampled(
     return [WindowNote(text, text)]
 
 
+def _interpolated(infos: Sequence[ChannelInfo], chosen: Sequence[str], rate: float) -> list[str]:
+    """One note naming the analyzed channels on a clock more than twice their own rate
+    and how many times (a 1 Hz temperature beside 50 Hz accelerometers: 50-fold), in
+    export's words (:func:`analyzer.export.interpolated_words`): the values between their
+    samples are interpolated lines, which the models see as the sensor's signal. Export
+    said it and run did not (the ux55 audit, item 13)."""
+    from analyzer.export import interpolated_words, slower_channels
+
+    wanted = set(chosen)
+    slow = slower_channels([i for i in infos if i.name in wanted], rate)
+    return [interpolated_words(slow, rate, "analyzed", fold=True)] if slow else []
+
+
 def _irregular_channels(infos: Sequence[ChannelInfo], chosen: Sequence[str]) -> list[str]:
     """A note on the analyzed channels sampled at irregular times (event-driven, Poisson
     timestamps: :func:`analyzer.store.store._irregular`), those of one rate and bridge
@@ -807,7 +820,9 @@ def _analyze(
         trim_heap()  # and what reading freed (the CSV reader's Arrow buffers, say)
         notes.extend(_crowded_channels(infos, chosen, aligned.rate_hz))
         notes.extend(_irregular_channels(infos, chosen))
-        notes.extend(_upsampled(infos, chosen, aligned.rate_hz, options.rate))
+        # (a --rate far above every channel says it already, of them all)
+        upsampled = _upsampled(infos, chosen, aligned.rate_hz, options.rate)
+        notes.extend(upsampled or _interpolated(infos, chosen, aligned.rate_hz))
         if reused is not None:
             notes.extend(_rate_against_model(infos, chosen, reused.rate_hz))
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
