@@ -53,6 +53,12 @@ def test_detect_is_one_rising_stage_with_each_detectors_steps_in_its_detail(jobs
     # the detection filter's pass over the whole record: a few steps, never per sample
     record = [d for d in details if d.startswith("detection_filter run: whole record")]
     assert 2 <= len(record) <= 99
+    # the bank's steps after its pass: the alarm search by channel, and a fault's
+    # stretch filtered again piece by piece once corrected (a day's run: a silent minute)
+    assert any(d.startswith("ar_kalman_bank run: channels searched for alarms ") for d in details)
+    assert any(
+        d.startswith("ar_kalman_bank run: fault 1 corrected and filtered again: ") for d in details
+    )
     # the share reaches each detector's fit and run ends: 2 of 2 x detectors
     assert shares.count(1.0) >= 1 and max(shares[:-1]) <= 1.0
 

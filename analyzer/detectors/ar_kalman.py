@@ -614,12 +614,16 @@ class ARKalmanBank:
             column = _corrected_rows(Y, fixes, a, b, channel=j)[:, 0]
             fixes.append((j, a, b, _undo_fault(column, out.est[a:b, j], cls, rate)))
             del column
-            for p in range(a, min(N, b + warm), CONSISTENCY_PIECE):
+            pieces = range(a, min(N, b + warm), CONSISTENCY_PIECE)
+            for k, p in enumerate(pieces):
                 q = min(N, b + warm, p + CONSISTENCY_PIECE)
                 s = max(0, p - warm)
                 seg = _corrected_rows(Y, fixes, s, q)
                 rows = BankOutputs(out.resid[s:q], out.est[s:q], None)
                 self._bank_outputs(model, seg, context, start=p - s, stop=q - s, into=rows)
+                # (a fault that lasts for hours: a day's run was silent for a minute here)
+                done = f"fault {len(events)} corrected and filtered again: {k + 1}/{len(pieces)}"
+                context.report(done, (k + 1) / len(pieces))
             alarms = None
             isolated = f"{len(events)} fault{'' if len(events) == 1 else 's'} isolated"
             context.report(isolated, min(1.0, len(events) / m))
@@ -1114,7 +1118,7 @@ def _alarm_intervals(
     ]
     if context is None:
         return [_detect_task(t) for t in tasks]
-    return context.map_shared(_detect_task, tasks)
+    return context.map_shared(_detect_task, tasks, "channels searched for alarms")
 
 
 def _detect_task(task: tuple[FloatArray, Calibration, int]) -> list[Interval]:
