@@ -40,7 +40,7 @@ from analyzer.errors import (  # noqa: E402
     terminal_safe,
 )
 from analyzer.scratch import sweep_stale  # noqa: E402
-from analyzer.types import MSG_PATH_ENV  # noqa: E402
+from analyzer.types import MSG_PATH_ENV, stage_detail  # noqa: E402
 
 
 class _Parser(argparse.ArgumentParser):
@@ -540,15 +540,19 @@ def _progress_printer(args: argparse.Namespace) -> Any:
 
 def _progress_bar() -> Any:
     """A progress bar on stderr (a terminal): the stage, its share done and the seconds
-    since the run began, redrawn on one line per stage."""
+    since the run began, with the part under way before the seconds (a detector's step
+    inside ``detect``: :class:`~analyzer.types.Stage`), redrawn on one line per stage."""
     began = time.monotonic()
 
     def show(stage: str, fraction: float) -> None:
         width = 30
         done = int(round(width * max(0.0, min(1.0, fraction))))
         elapsed = time.monotonic() - began
+        # the part under way, blank (what was there cleared) when the stage has ended
+        detail = stage_detail(stage) if fraction < 1.0 else ""
+        part = f" {detail:<{BAR_DETAIL}.{BAR_DETAIL}}" if stage_detail(stage) else ""
         sys.stderr.write(
-            f"\r{stage:<16} [{'#' * done}{'.' * (width - done)}] {100 * fraction:5.1f}%"
+            f"\r{stage:<16} [{'#' * done}{'.' * (width - done)}] {100 * fraction:5.1f}%{part}"
             f" {elapsed:8.1f} s"
         )
         if fraction >= 1.0:
@@ -558,6 +562,11 @@ def _progress_bar() -> Any:
     return show
 
 
+BAR_DETAIL = 48
+"""Characters of a progress bar's detail (the part under way), padded to this width so a
+shorter one redrawn over a longer one leaves nothing of it behind."""
+
+
 def plain_progress(
     stream: TextIO, clock: Callable[[], float], every_s: float = PLAIN_PROGRESS_EVERY_S
 ) -> Any:
@@ -565,7 +574,9 @@ def plain_progress(
     A line the first time a stage is named, else at most one every ``every_s`` seconds
     of ``clock`` (stages that take turns, a detector's own inside ``detect``, do not
     add lines), each ``analyzer: progress: STAGE NN% (T s)`` with the seconds since the
-    run began: a CI log of a long run stays short and is never silent for long."""
+    run began, or ``STAGE NN% (DETAIL; T s)`` with the part under way (a detector's step
+    inside ``detect``: :class:`~analyzer.types.Stage`): a CI log of a long run stays
+    short and is never silent for long."""
     began = clock()
     lock = threading.Lock()
     seen: set[str] = set()
@@ -579,7 +590,9 @@ def plain_progress(
             seen.add(stage)
             last[0] = now
             share = 100 * max(0.0, min(1.0, fraction))
-            stream.write(f"analyzer: progress: {stage} {share:.0f}% ({now - began:.1f} s)\n")
+            detail = stage_detail(stage)
+            said = f"{detail}; " if detail else ""
+            stream.write(f"analyzer: progress: {stage} {share:.0f}% ({said}{now - began:.1f} s)\n")
             stream.flush()
 
     return show

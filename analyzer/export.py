@@ -13,7 +13,7 @@ when the record was made (a nav2 bag of 2026-05-08 exported as seconds from 0)."
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -202,13 +202,40 @@ def _check_utc(names: Sequence[str], absolute: bool, inputs: Sequence[InputInfo]
 
 def interpolated_channels(done: Exported) -> list[ChannelInfo]:
     """The varying channels on a clock more than :data:`INTERPOLATED` times their own
-    rate. A constant channel is not among them: its values between samples are its
-    value."""
+    rate (:func:`slower_channels`)."""
+    return slower_channels(done.channels, done.rate_hz)
+
+
+def slower_channels(channels: Iterable[ChannelInfo], rate_hz: float) -> list[ChannelInfo]:
+    """The varying channels of ``channels`` on a ``rate_hz`` clock more than
+    :data:`INTERPOLATED` times their own rate (export's and run's). A constant channel is
+    not among them: its values between samples are its value."""
     return [
         i
-        for i in done.channels
-        if not i.constant and i.rate_hz > 0 and done.rate_hz > INTERPOLATED * i.rate_hz
+        for i in channels
+        if not i.constant and i.rate_hz > 0 and rate_hz > INTERPOLATED * i.rate_hz
     ]
+
+
+def interpolated_words(
+    slow: Sequence[ChannelInfo], rate_hz: float, verb: str, fold: bool = False
+) -> str:
+    """``N channels VERB at more than twice their own rate on the R Hz clock, the values
+    between their samples interpolated: NAME (RATE Hz), ...`` (the first four named), for
+    the channels of :func:`slower_channels`; ``fold``: each named with how many times its
+    own rate the clock is (``temp1 (1 Hz, 50-fold)``). Export's warning and run's note."""
+    many = len(slow) > 1
+    clock = f"{plain_number(rate_hz, 4)} Hz"
+
+    def named(i: ChannelInfo) -> str:
+        times = f", {plain_number(rate_hz / i.rate_hz, 3)}-fold" if fold else ""
+        return f"{i.name} ({plain_number(i.rate_hz, 3)} Hz{times})"
+
+    return (
+        f"{len(slow)} channel{'s' if many else ''} {verb} at more than twice "
+        f"{'their' if many else 'its'} own rate on the {clock} clock, the values between "
+        f"{'their' if many else 'its'} samples interpolated: " + capped([named(i) for i in slow], 4)
+    )
 
 
 def interpolation_warnings(done: Exported) -> list[str]:
@@ -217,7 +244,6 @@ def interpolation_warnings(done: Exported) -> list[str]:
     than twice their own rate, the first four named with their rates."""
     slow = interpolated_channels(done)
     fastest = max((i.rate_hz for i in done.channels), default=0.0)
-    clock = f"{plain_number(done.rate_hz, 4)} Hz"
     if done.asked_rate is not None and fastest > 0 and done.rate_hz > fastest * (1 + RATE_SLACK):
         share = 100.0 * (1.0 - fastest / done.rate_hz)
         more = (
@@ -235,13 +261,7 @@ def interpolation_warnings(done: Exported) -> list[str]:
         ]
     if not slow:
         return []
-    named = capped([f"{i.name} ({plain_number(i.rate_hz, 3)} Hz)" for i in slow], 4)
-    return [
-        f"{done.path}: {len(slow)} channel{'s' if len(slow) > 1 else ''} exported at more "
-        f"than twice {'their' if len(slow) > 1 else 'its'} own rate on the {clock} clock, "
-        f"the values between {'their' if len(slow) > 1 else 'its'} samples interpolated: "
-        f"{named}"
-    ]
+    return [f"{done.path}: {interpolated_words(slow, done.rate_hz, 'exported')}"]
 
 
 def summary_line(done: Exported) -> str:

@@ -185,7 +185,7 @@ from analyzer.timeutil import (
     spoken_duration,
     window_text,
 )
-from analyzer.types import NS_PER_S, FaultType
+from analyzer.types import NS_PER_S, FaultType, prefixed
 from analyzer.window_note import AnomalyNote
 
 MATERIALIZE_IN_MEMORY = 1 << 24
@@ -267,6 +267,19 @@ def _upsampled(
         "or below the channels' own fits them)"
     )
     return [WindowNote(text, text)]
+
+
+def _interpolated(infos: Sequence[ChannelInfo], chosen: Sequence[str], rate: float) -> list[str]:
+    """One note naming the analyzed channels on a clock more than twice their own rate
+    and how many times (a 1 Hz temperature beside 50 Hz accelerometers: 50-fold), in
+    export's words (:func:`analyzer.export.interpolated_words`): the values between their
+    samples are interpolated lines, which the models see as the sensor's signal. Export
+    said it and run did not (the ux55 audit, item 13)."""
+    from analyzer.export import interpolated_words, slower_channels
+
+    wanted = set(chosen)
+    slow = slower_channels([i for i in infos if i.name in wanted], rate)
+    return [interpolated_words(slow, rate, "analyzed", fold=True)] if slow else []
 
 
 def _irregular_channels(infos: Sequence[ChannelInfo], chosen: Sequence[str]) -> list[str]:
@@ -818,7 +831,9 @@ def _analyze(
         trim_heap()  # and what reading freed (the CSV reader's Arrow buffers, say)
         notes.extend(_crowded_channels(infos, chosen, aligned.rate_hz))
         notes.extend(_irregular_channels(infos, chosen))
-        notes.extend(_upsampled(infos, chosen, aligned.rate_hz, options.rate))
+        # (a --rate far above every channel says it already, of them all)
+        upsampled = _upsampled(infos, chosen, aligned.rate_hz, options.rate)
+        notes.extend(upsampled or _interpolated(infos, chosen, aligned.rate_hz))
         if reused is not None:
             notes.extend(_rate_against_model(infos, chosen, reused.rate_hz))
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
@@ -939,7 +954,9 @@ def _analyze(
             run_ctx = ctx
             if label and ctx.progress is not None:
                 shown = ctx.progress
-                run_ctx = replace(ctx, progress=lambda stage, done: shown(label + stage, done))
+                run_ctx = replace(
+                    ctx, progress=lambda stage, done: shown(prefixed(label, stage), done)
+                )
             into = work / signals if big else None
             shared = (options, data, run_ctx, executor, timings, into, start_tests)
             if single:
@@ -1792,7 +1809,9 @@ def _search_context(ctx: RunContext, scratch: str, label: str | None = None) -> 
     run_ctx = replace(ctx, workdir=own, explicit=False)
     if ctx.progress is not None:
         shown, prefix = ctx.progress, f"{label or scratch} "
-        run_ctx = replace(run_ctx, progress=lambda stage, done: shown(prefix + stage, done))
+        run_ctx = replace(
+            run_ctx, progress=lambda stage, done: shown(prefixed(prefix, stage), done)
+        )
     return run_ctx
 
 

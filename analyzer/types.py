@@ -31,3 +31,31 @@ watcher's analyses inherit it): directories, separated by ``os.pathsep``, below 
 each ``<package>/msg/<Type>.msg`` defines ``package/msg/Type`` for the files that embed
 no definition of it (ROS 2 sqlite bags recorded before Iron, say; see
 :func:`analyzer.readers.rostypes.user_store`)."""
+
+
+class Stage(str):
+    """A progress stage's name as the run reports it (``detect``, ``again detect``): a
+    caller that compares or prints stages sees the name alone, as before; ``detail`` says
+    which part of the stage is under way (``detection_filter run: time blocks 3/8``), for
+    the progress printers to add. Inside ``detect`` each detector's fit and run, and the
+    blocks and filters they split into, advance the one stage with its detector named
+    there, so its share never goes back (before, a detector's own steps were stages of
+    their own, which went back from ``detect 33%`` to ``ar_kalman_bank 6%``)."""
+
+    detail: str
+
+    def __new__(cls, name: str, detail: str = "") -> Stage:
+        stage = super().__new__(cls, name)
+        stage.detail = detail
+        return stage
+
+
+def stage_detail(stage: str) -> str:
+    """The part of ``stage`` under way (:class:`Stage`), or "" for a plain name."""
+    return str(getattr(stage, "detail", ""))
+
+
+def prefixed(prefix: str, stage: str) -> str:
+    """``prefix + stage`` (``again detect``, ``screen detect``) keeping ``stage``'s
+    detail (a plain ``+`` would drop it)."""
+    return Stage(prefix + stage, stage_detail(stage))

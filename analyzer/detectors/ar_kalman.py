@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import numbers
 import re
-import threading
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -34,6 +33,7 @@ import numpy.typing as npt
 from analyzer.detectors.ar_model import ARModel, error_ratio, fit_ar, select_order
 from analyzer.detectors.base import (
     SIGNAL_DTYPE,
+    Advance,
     Dataset,
     DetectorResult,
     Event,
@@ -261,7 +261,11 @@ class ARKalmanBank:
             raise needing_calibration(err, window) from None
         block = self._block(ar.m)
         try:
-            solved = context.map(solved_leave_one_out_task, [(ar, j, block) for j in range(ar.m)])
+            solved = context.map(
+                solved_leave_one_out_task,
+                [(ar, j, block) for j in range(ar.m)],
+                "estimators solved",
+            )
             estimators = tuple(e for e, _ in solved)
             resid, cons, skip, how, inv_covs = self._calibration_outputs(
                 ar, estimators, train, context, tuple(P for _, P in solved)
@@ -342,7 +346,7 @@ class ARKalmanBank:
             # each fold's estimators take the whole model's settle and warm-up times
             times = tuple((e.settle, e.warmup) for e in estimators)
             tasks = [(held, a, b, ar.order, block, skip, times, solutions, into) for a, b in spans]
-            folds = map_in(context, _cv_fold_task, tasks)
+            folds = map_in(context, _cv_fold_task, tasks, "calibration folds")
             how = f"{k}-fold out-of-sample"
         except DetectorError:
             item = (train, 0, n, None, block, skip, None, None, into)
@@ -363,7 +367,8 @@ class ARKalmanBank:
         cons = series("cal-cons")
         into = cons if shared else None
         items = [(held, fold, inv_covs, into) for fold in folds]
-        for fold, nis in zip(folds, map_in(context, _cv_consistency_task, items), strict=True):
+        checked = map_in(context, _cv_consistency_task, items, "consistency folds")
+        for fold, nis in zip(folds, checked, strict=True):
             if nis is not None:
                 write_rows(cons, fold.a, nis)
         return resid, cons, skip, how, inv_covs
@@ -420,7 +425,8 @@ class ARKalmanBank:
             pieces = zip(spans, context.imap(_bank_block_task, items), strict=True)
             for k, ((a, _, _), out) in enumerate(pieces):
                 if shown is not None and k + 1 < len(spans):
-                    context.report(shown, (k + 1) / len(spans))
+                    done = f"{shown}: time blocks {k + 1}/{len(spans)}"
+                    context.report(done, (k + 1) / len(spans))
                 write_rows(into.resid, a, out.resid)
                 write_rows(into.est, a, out.est)
                 if into.nis is not None:
@@ -429,7 +435,7 @@ class ARKalmanBank:
                 del out
             return into
         advanced = (
-            None if shown is None or context is None else _Advance(context, shown, stop - start)
+            None if shown is None or context is None else Advance(context, shown, stop - start)
         )
         tasks = [(item, into, a, advanced) for (a, _, _), item in zip(spans, items, strict=True)]
         if len(tasks) == 1 or context is None:
@@ -473,9 +479,7 @@ class ARKalmanBank:
         explained: list[tuple[int, int, int]] = []  # (channel, start, stop) already isolated
         # the residuals and estimates over the whole record; the estimators' consistency
         # only where a fault is isolated (recomputed there with the corrections so far)
-        out = self._bank_outputs(
-            model, Y, context, consistency=False, shown=f"{self.name} residuals"
-        )
+        out = self._bank_outputs(model, Y, context, consistency=False, shown="whole record")
         # the residual the report shows: as measured, before any correction
         resid0: npt.NDArray[Any] = out.resid
         est0: npt.NDArray[Any] = out.est
@@ -610,14 +614,19 @@ class ARKalmanBank:
             column = _corrected_rows(Y, fixes, a, b, channel=j)[:, 0]
             fixes.append((j, a, b, _undo_fault(column, out.est[a:b, j], cls, rate)))
             del column
-            for p in range(a, min(N, b + warm), CONSISTENCY_PIECE):
+            pieces = range(a, min(N, b + warm), CONSISTENCY_PIECE)
+            for k, p in enumerate(pieces):
                 q = min(N, b + warm, p + CONSISTENCY_PIECE)
                 s = max(0, p - warm)
                 seg = _corrected_rows(Y, fixes, s, q)
                 rows = BankOutputs(out.resid[s:q], out.est[s:q], None)
                 self._bank_outputs(model, seg, context, start=p - s, stop=q - s, into=rows)
+                # (a fault that lasts for hours: a day's run was silent for a minute here)
+                done = f"fault {len(events)} corrected and filtered again: {k + 1}/{len(pieces)}"
+                context.report(done, (k + 1) / len(pieces))
             alarms = None
-            context.report("ar_kalman_bank", min(1.0, len(events) / m))
+            isolated = f"{len(events)} fault{'' if len(events) == 1 else 's'} isolated"
+            context.report(isolated, min(1.0, len(events) / m))
         # the residual the report shows: as measured, before any correction, kept in the
         # pipeline's signal precision (each float64 array let go before the next is copied;
         # memory-mapped ones are converted channel by channel as the pipeline spills them)
@@ -1109,7 +1118,7 @@ def _alarm_intervals(
     ]
     if context is None:
         return [_detect_task(t) for t in tasks]
-    return context.map_shared(_detect_task, tasks)
+    return context.map_shared(_detect_task, tasks, "channels searched for alarms")
 
 
 def _detect_task(task: tuple[FloatArray, Calibration, int]) -> list[Interval]:
@@ -1264,9 +1273,9 @@ def _bank_block_task(item: tuple[Any, ...]) -> BankBlock:
     return bank_block(mean, scale, bank, Y, warm, inv_covs, consistency=consistency)
 
 
-def _bank_block_into(task: tuple[tuple[Any, ...], BankOutputs, int, _Advance | None]) -> None:
+def _bank_block_into(task: tuple[tuple[Any, ...], BankOutputs, int, Advance | None]) -> None:
     """:func:`bank_block` writing its rows into shared outputs (serially or on threads),
-    advancing the run's progress (``_Advance``) chunk by chunk where given."""
+    advancing the run's progress (``Advance``) chunk by chunk where given."""
     (mean, scale, bank, Y, warm, inv_covs, consistency), into, at, advanced = task
     bank_block(
         mean,
@@ -1280,28 +1289,6 @@ def _bank_block_into(task: tuple[tuple[Any, ...], BankOutputs, int, _Advance | N
         consistency=consistency,
         advanced=advanced,
     )
-
-
-class _Advance:
-    """The progress of the bank's pass over the whole record: rows filtered of ``total``
-    (from every time block, on threads too), said as stage ``shown`` each time one more
-    hundredth is done, short of the whole (see :meth:`ARKalmanBank._bank_outputs`). On
-    a day's archive the pass is the run's longest step, and it left ``--progress``
-    silent for 45-58 s (the ux55 audit)."""
-
-    def __init__(self, context: RunContext, shown: str, total: int) -> None:
-        self.context, self.shown, self.total = context, shown, max(1, total)
-        self.done = 0
-        self.said = 0
-        self.lock = threading.Lock()
-
-    def __call__(self, rows: int) -> None:
-        with self.lock:
-            self.done += rows
-            hundredths = 100 * self.done // self.total
-            if self.said < hundredths < 100:
-                self.said = hundredths
-                self.context.report(self.shown, min(1.0, self.done / self.total))
 
 
 def _kept(context: RunContext, name: str, a: FloatArray) -> npt.NDArray[Any]:

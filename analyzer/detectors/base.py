@@ -15,6 +15,7 @@ Conventions
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -91,9 +92,65 @@ class Dataset:
         return self.values[self.train[0] : self.train[1]]
 
 
-def map_in(context: RunContext | None, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
-    """``context.map(fn, items)``, or a plain loop when there is no context."""
-    return [fn(x) for x in items] if context is None else context.map(fn, items)
+def map_in(
+    context: RunContext | None, fn: Callable[[T], R], items: Sequence[T], shown: str = ""
+) -> list[R]:
+    """``context.map(fn, items, shown)``, or a plain loop when there is no context."""
+    return [fn(x) for x in items] if context is None else context.map(fn, items, shown)
+
+
+class _Counted:
+    """``fn`` that says each finished item (``Steps``): what :meth:`RunContext.map`
+    maps where its items run in this process (serially or on its threads)."""
+
+    def __init__(self, fn: Callable[[Any], Any], steps: Steps) -> None:
+        self.fn, self.steps = fn, steps
+
+    def __call__(self, item: Any) -> Any:
+        out = self.fn(item)
+        self.steps.done()
+        return out
+
+
+class Advance:
+    """The progress of a pass over the whole record: rows filtered of ``total`` (from
+    every time block, on threads too), said as ``shown`` each time one more hundredth is
+    done, short of the whole (the pass's end is its step's: ``detect`` says it). On a
+    day's archive such a pass (the bank's, the detection filter's) is a run's longest
+    step, and each left ``--progress`` silent for most of a minute (the ux55 audit)."""
+
+    def __init__(self, context: RunContext, shown: str, total: int) -> None:
+        self.context, self.shown, self.total = context, shown, max(1, total)
+        self.done = 0
+        self.said = 0
+        self.lock = threading.Lock()
+
+    def __call__(self, rows: int) -> None:
+        with self.lock:
+            self.done += rows
+            hundredths = 100 * self.done // self.total
+            if self.said < hundredths < 100:
+                self.said = hundredths
+                self.context.report(f"{self.shown} {hundredths}%", hundredths / 100)
+
+
+class Steps:
+    """The items of one step of a detector (time blocks, filters, observers) finished so
+    far, said to the run's progress as ``shown k/n`` with the share ``k / n``, one call
+    per item (never per sample), from any thread: the step a detector's fit or run spends
+    its time in, which ``detect`` names inside its own share (see
+    :class:`analyzer.types.Stage`)."""
+
+    def __init__(self, context: RunContext, shown: str, total: int) -> None:
+        self.context, self.shown, self.total = context, shown, max(1, total)
+        self.count = 0
+        self.lock = threading.Lock()
+
+    def done(self) -> None:
+        with self.lock:
+            self.count += 1
+            count = min(self.count, self.total)
+            self.context.report(f"{self.shown} {count}/{self.total}", count / self.total)
 
 
 @dataclass(slots=True)
@@ -121,12 +178,23 @@ class RunContext:
     """Threads of this process for :meth:`map_shared` when ``executor`` is a cluster
     (None: those items run one after the other in the calling thread)."""
 
-    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
+    def map(self, fn: Callable[[T], R], items: Sequence[T], shown: str = "") -> list[R]:
         """``[fn(x) for x in items]`` on the context's executor, results in input order.
 
         ``fn`` must be a module-level (picklable) function and ``items`` picklable (numpy
         arrays are fine): on a Dask cluster each item is a task. An exception raised by
-        ``fn`` comes back with its type and message."""
+        ``fn`` comes back with its type and message. ``shown`` (``time blocks``): each
+        finished item advances the run's progress (:class:`Steps`); on a cluster as its
+        result comes back."""
+        if shown and self.progress is not None and len(items) > 1:
+            steps = Steps(self, shown, len(items))
+            if self.shares_memory:
+                return self.map(_Counted(fn, steps), items)
+            out = []
+            for result in self.imap(fn, items):
+                out.append(result)
+                steps.done()
+            return out
         if self.executor is None:
             return [fn(x) for x in items]
         return self.executor.map(fn, items)
@@ -146,11 +214,14 @@ class RunContext:
         once; the items (tuples) carry it in place of ``obj``."""
         return obj if self.shares_memory else self.executor.scatter(obj)  # type: ignore[union-attr]
 
-    def map_shared(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
+    def map_shared(self, fn: Callable[[T], R], items: Sequence[T], shown: str = "") -> list[R]:
         """:meth:`map` where the items share this process's memory (serially or on
         threads); when the executor is a cluster, on this process's own threads
         (``local``), else one after the other in this thread: for items that hold (views
-        of) the archive, which a cluster would ship whole with every item."""
+        of) the archive, which a cluster would ship whole with every item. ``shown``: as
+        for :meth:`map`."""
+        if shown and self.progress is not None and len(items) > 1:
+            fn = _Counted(fn, Steps(self, shown, len(items)))
         if self.shares_memory:
             return self.map(fn, items)
         if self.local is not None:

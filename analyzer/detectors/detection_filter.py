@@ -52,10 +52,12 @@ import numpy.typing as npt
 
 from analyzer.detectors.base import (
     SIGNAL_DTYPE,
+    Advance,
     Dataset,
     DetectorResult,
     Event,
     RunContext,
+    Steps,
     dilate_forward,
     map_in,
 )
@@ -292,7 +294,12 @@ class DetectionFilter:
         m = filters[0].n_outputs
         rows = sum(seg.values.shape[0] - seg.start for seg in segments)
         keep = rows * k * (m - 1) * 8 <= KEPT_RESIDUALS_BYTES
-        parts = map_in(context, _moments_task, [(seg, kept("zeta", seg), keep) for seg in segments])
+        parts = map_in(
+            context,
+            _moments_task,
+            [(seg, kept("zeta", seg), keep) for seg in segments],
+            "calibration stretches",
+        )
         alpha_far = context.false_alarm_rate / len(data.channels)  # per channel
         zcal, dcal, dinv, qscale, taus = [], [], [], [], []
         for i in range(k):
@@ -319,6 +326,7 @@ class DetectionFilter:
                 (seg, inv_covs, kept("nis", seg), off)
                 for seg, off in zip(segments, offs, strict=True)
             ],
+            "direction stretches",
         )
         del offs
         for i in range(k):
@@ -351,7 +359,7 @@ class DetectionFilter:
         if check:
             check_observable(model.A, model.C, eig)  # once for the bank (Theorem 4.1)
         tasks = [(model, i, self.fault_pole, sigma, names, eig) for i in range(len(model.outputs))]
-        return tuple(map_in(context, _park_task, tasks))
+        return tuple(map_in(context, _park_task, tasks, "filters designed"))
 
     def _held_out_half(
         self,
@@ -397,7 +405,7 @@ class DetectionFilter:
         # the tasks need the channel names and the training rows, not the archive
         light = replace(data, values=train, train=(0, n))
         tasks = [(self, model, light, train, sigma, order, rows) for rows in halves]
-        parts = map_in(context, _held_out_half_task, tasks)
+        parts = map_in(context, _held_out_half_task, tasks, "held-out halves")
         return [parts[1], parts[0]]  # evaluated on the first half, then on the second
 
     @staticmethod
@@ -517,12 +525,19 @@ class DetectionFilter:
         if context is not None and hist is not None:
             blocks = time_blocks(0, N, max(hist, 1), context, values.shape[1])
             spans = [(a, b) for a, b, _ in blocks]
+        # its pass over the whole record (a run's, not the few stretches of an event)
+        # advances the progress chunk by chunk: on a day's archive the detection filter's
+        # run left --progress silent for most of a minute
+        advanced = (
+            Advance(context, "whole record", N) if context is not None and not directions else None
+        )
         if len(spans) == 1 or context is None:
             for a, b in spans:
-                _df_span((model, bank, values, 0, a, b, outs, directions))
+                _df_span((model, bank, values, 0, a, b, outs, directions, advanced))
         elif context.shares_memory:
             context.map(
-                _df_span, [(model, bank, values, 0, a, b, outs, directions) for a, b in spans]
+                _df_span,
+                [(model, bank, values, 0, a, b, outs, directions, advanced) for a, b in spans],
             )
         else:  # a cluster: each task gets its span and the history before it, nothing more
             # (the model and the bank are sent to each worker once); a few spans in flight
@@ -534,7 +549,9 @@ class DetectionFilter:
                 (shared_model, shared_bank, values[base:b], base, a, b, None, directions)
                 for base, (a, b) in zip(starts, spans, strict=True)
             )
+            shown = Steps(context, "time blocks", len(spans))
             for (a, b), piece in zip(spans, context.imap(_df_span, tasks), strict=True):
+                shown.done()
                 for whole, part in zip(outs, piece, strict=True):
                     if whole is not None and whole.ndim == 2:  # (filters, samples)
                         write_rows(whole.T, a, part.T)  # to a long archive's file directly
@@ -777,7 +794,7 @@ class DetectionFilter:
         tasks = [
             (model, i, names[i], zetas, refs, rate, self.name, data, scratch) for i in range(m)
         ]
-        found = context.map_shared(_filter_events_task, tasks)
+        found = context.map_shared(_filter_events_task, tasks, "filters searched")
         w = model.window
         cands: list[tuple[int, int, Event]] = []  # (first alarm, filter, event)
         for i in range(m):
@@ -1420,7 +1437,8 @@ def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray 
     ``a .. b - 1``) when given, else returned as arrays of ``b - a`` columns; the direction
     statistic only with ``directions`` (and a bank with every output). ``values`` holds
     the archive's rows from ``base`` on."""
-    model, bank, values, base, a, b, outs, directions = task
+    model, bank, values, base, a, b, outs, directions, *more = task
+    advanced = more[0] if more else None  # (rows done: Advance)
     ssm = model.model
     k = len(model.filters)
     m = model.filters[0].n_outputs
@@ -1451,6 +1469,8 @@ def _df_span(task: tuple[Any, ...]) -> tuple[FloatArray, FloatArray, FloatArray 
         write_rows(zeta.T, cols.start, (y[:, -2] * scale).T)
         write_rows(ref.T, cols.start, y[:, -1].T)  # centred, scaled: see _run_outputs
         written.upto(cols.stop, final=lo + y.shape[2] == b)
+        if advanced is not None:
+            advanced(cols.stop - cols.start)
         if nis is None:
             continue
         for i in range(k):

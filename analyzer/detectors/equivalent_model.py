@@ -334,7 +334,7 @@ class EquivalentModel:
             ass = [data.index(a) for a in net.assistant_sensors(s)]
             ass += [data.index(c) for c in known if c != uch]
             tasks.append((self, shared, data.index(s), ass, ui, (dt, l1, l2), window, far))
-        fitted = context.map(_fit_observer_task, tasks)
+        fitted = context.map(_fit_observer_task, tasks, "observers fitted")
         observers = tuple(ob for ob, _, _ in fitted)
         settle = max((lag for _, lag, _ in fitted), default=0)
         held = {data.channels[ob.target]: halves for ob, _, halves in fitted}
@@ -535,7 +535,7 @@ class EquivalentModel:
         ]
         unweighed: list[str] = []  # notes on alarms too thin to weigh (no candidates)
         for task, (zeta, z, found, thin) in zip(
-            tasks, context.map_shared(_observer_task, tasks), strict=True
+            tasks, context.map_shared(_observer_task, tasks, "observers run"), strict=True
         ):
             residuals[task[2]] = zeta
             reference[task[2]] = z

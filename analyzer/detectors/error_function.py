@@ -1012,7 +1012,9 @@ class ErrorFunction:
                 _in_sensor_time(ev, f, r, y, data.rate_hz, data.search_start)
                 _in_sensor_units(ev, f)
             events.extend(found)
-            context.report(self.name, (k + 1) / len(model.functions))
+            context.report(
+                f"error functions {k + 1}/{len(model.functions)}", (k + 1) / len(model.functions)
+            )
         notes = [*model.notes, *unweighed]
         unattributed: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = []
         if model.functions:

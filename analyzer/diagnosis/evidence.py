@@ -256,12 +256,22 @@ def consistent_types(after: dict[str, Any]) -> list[str]:
     return out
 
 
+def mean_test_read(after: Mapping[str, Any]) -> str:
+    """Which mean test :func:`consistent_types` reads of the stretch after the onset:
+    ``mean_long_run`` where whiteness is rejected and it ran, else ``mean`` (held against
+    the stretch's own deviation where the covariance test rejected a larger spread,
+    :func:`_mean_beyond_spread`). The report says which, beside both."""
+    long_run = after.get("mean_long_run")
+    if bool((after.get("whiteness") or {}).get("reject")) and isinstance(long_run, Mapping):
+        return "mean_long_run"
+    return "mean"
+
+
 def _mean_rejected(after: dict[str, Any]) -> bool:
     """The mean's verdict for :func:`consistent_types`: the long-run mean test's where
     whiteness is rejected and it ran, else :func:`_mean_beyond_spread`'s."""
-    long_run = after.get("mean_long_run")
-    if bool(after.get("whiteness", {}).get("reject")) and isinstance(long_run, dict):
-        return bool(long_run.get("reject"))
+    if mean_test_read(after) == "mean_long_run":
+        return bool(after["mean_long_run"].get("reject"))
     return _mean_beyond_spread(after)
 
 

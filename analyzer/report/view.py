@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from analyzer import __version__
+from analyzer.diagnosis.evidence import mean_test_read
 from analyzer.diagnosis.unexplained import either
 from analyzer.report import format as fmt
 from analyzer.report.methods import DECISION, TESTS
@@ -49,7 +50,7 @@ from analyzer.report.view_records import (
     ReportView,
     TestRow,
 )
-from analyzer.report.view_tables import TEST_LABELS, TableParts, _cell
+from analyzer.report.view_tables import FINDING_TEST_LABELS, MEAN_READ, TableParts, _cell
 from analyzer.report.workers import FigureBatch, FigureWorkers, active_workers
 
 NEEDS_CONFIG = "needs [[group]]"
@@ -429,14 +430,16 @@ class _Access(FigureParts, TableParts):
             before, after = t.get("before") or {}, t.get("after") or {}
             rows = [
                 TestRow(
-                    TEST_LABELS[k][0],
-                    TEST_LABELS[k][1],
+                    FINDING_TEST_LABELS[k][0],
+                    FINDING_TEST_LABELS[k][1],
                     _cell(before.get(k), k),
                     _cell(after.get(k), k),
                 )
-                for k in TEST_LABELS
+                for k in FINDING_TEST_LABELS
                 if k in before or k in after
             ]
+            # (a findings.json of before the long-run test: no word on it)
+            read = MEAN_READ[mean_test_read(after)] if "mean_long_run" in after else ""
             out.append(
                 DetectorTests(
                     detector=str(det),
@@ -445,6 +448,7 @@ class _Access(FigureParts, TableParts):
                     rows=rows,
                     consistent_with=", ".join(t.get("consistent_with") or []) or "none",
                     lead=det == f.get("detector"),
+                    mean_read=read,
                 )
             )
         out.sort(key=lambda d: not d.lead)

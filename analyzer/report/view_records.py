@@ -66,6 +66,8 @@ class DetectorTests:
     rows: list[TestRow]
     consistent_with: str
     lead: bool
+    mean_read: str = ""
+    """Which mean test the type vote read (``MEAN_READ``), "" without the long-run one."""
 
 
 @dataclass(slots=True)

@@ -42,6 +42,31 @@ TEST_LABELS: dict[str, tuple[str, str]] = {
     "covariance": ("Unit covariance", "N · variance, two-sided"),
 }
 
+FINDING_TEST_LABELS: dict[str, tuple[str, str]] = {
+    **{k: v for k, v in TEST_LABELS.items() if k != "covariance"},
+    "mean_long_run": (
+        "Zero mean, long-run",
+        "|t|: mean over its long-run deviation (Newey-West, whiteness's lags)",
+    ),
+    "covariance": TEST_LABELS["covariance"],
+}
+"""A finding's innovation-test table: the training tests' rows, with the long-run mean
+test (findings.json's ``mean_long_run``) beside the plain one: where whiteness is
+rejected the type vote reads it (:func:`analyzer.diagnosis.evidence.mean_test_read`)."""
+
+MEAN_READ: dict[str, str] = {
+    "mean_long_run": (
+        "The type vote read the long-run zero-mean test: after the onset the residual is "
+        "not white (whiteness rejected), and the plain zero-mean test assumes white samples, "
+        "so the mean is held against the larger spread its correlation gives it."
+    ),
+    "mean": (
+        "The type vote read the plain zero-mean test: after the onset the residual is white "
+        "enough (whiteness not rejected); the long-run test is shown for comparison."
+    ),
+}
+"""Which mean test the type vote read, in plain words (under a finding's test table)."""
+
 
 class TableParts:
     """The tables of a view (see the module doc), a base of
