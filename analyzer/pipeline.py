@@ -3171,7 +3171,6 @@ def _check_save_model(
     in ``--out`` (created next), not one of the run's outputs, and none of its inputs:
     the archive, the ``--config`` file or the config's ``[model] file``."""
     check_model_path(path, out)
-    not_a_model(path)
     target = path.resolve()
     if target == out.resolve():
         raise UsageError(f"--save-model: {path} is the --out directory, expected a file name")
@@ -3188,6 +3187,7 @@ def _check_save_model(
         "write the model elsewhere",
         {"the --config file": config.path, "the config's [model] file": config.model_file},
     )
+    not_a_model(path)  # (after: a file the run reads is named as such first)
 
 
 def config_warnings(config: Config, analysis: Analysis) -> list[str]:

@@ -41,9 +41,14 @@ _held: dict[Path, int] = {}
 
 
 def make_scratch(prefix: str = PREFIX, base: str | Path | None = None) -> Path:
-    """A new directory ``base/prefix*`` (default base: TMPDIR) with its lock held."""
+    """A new directory ``base/prefix*`` (default base: TMPDIR) with its lock held. An
+    interruption (SIGTERM, Ctrl-C) while it is being made removes it again: a signal
+    that came between the directory and its lock left ``analyzer-*/.lock.PID`` behind
+    (seen by ``test_sigterm_stops_cleanly_without_leftovers`` on a loaded machine)."""
     path = Path(tempfile.mkdtemp(prefix=prefix, dir=base))
-    if fcntl is not None:
+    if fcntl is None:
+        return path
+    try:
         temp = path / f"{LOCK}.{os.getpid()}"
         fd = os.open(temp, os.O_RDWR | os.O_CREAT, 0o600)
         try:
@@ -52,8 +57,11 @@ def make_scratch(prefix: str = PREFIX, base: str | Path | None = None) -> Path:
             os.close(fd)
             os.unlink(temp)
             return path
-        os.rename(temp, path / LOCK)
         _held[path] = fd
+        os.rename(temp, path / LOCK)
+    except BaseException:
+        remove_scratch(path)
+        raise
     return path
 
 

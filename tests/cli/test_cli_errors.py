@@ -396,7 +396,7 @@ def test_sigterm_stops_cleanly_without_leftovers(tmp_path):
             continue
         assert proc.returncode == 130, err
         assert "interrupted" in err and "Traceback" not in err
-        assert not any(scratch.iterdir())
+        assert not any(scratch.iterdir()), [str(p) for p in scratch.rglob("*")]
         assert not (case / "o").exists()
         return
     pytest.fail("the run ended before SIGTERM could be sent, twice")
