@@ -200,21 +200,41 @@ def rate(hz: float | None) -> str:
     return MISSING if hz is None else f"{num(hz, 6)} Hz"
 
 
-def magnitude(mag: Mapping[str, Any]) -> str:
-    """``offset +9.988``, ``gain x1.546``, ``drift +0.4998 per s`` (channel units)."""
+def magnitude(mag: Mapping[str, Any], interval: Mapping[str, Any] | None = None) -> str:
+    """``offset +9.988``, ``gain x1.546``, ``drift +0.4998 per s`` (channel units), each
+    with its 95 % interval where ``interval`` (findings.json's ``magnitude_interval``)
+    has one: ``gain ×0.93 (95 %: 0.91 to 0.95)``."""
     parts = []
     for key, v in mag.items():
         if key == "offset":
-            parts.append(f"offset {_signed(v)}")
+            parts.append(f"offset {_signed(v)}{_within(interval, key)}")
         elif key == "gain":
-            parts.append(gain_words(v))
+            parts.append(gain_words(v) + _within(interval, key))
         elif key == "rate_per_s":
-            parts.append(f"drift {_signed(v)} per s")
+            parts.append(f"drift {_signed(v)} per s{_within(interval, key)}")
         elif key == "no_data_s":  # (analyzer.silent: blank or NaN to the record's end)
             parts.append(f"no reading for {num(v)} s (dead sensor: silent)")
         else:
             parts.append(f"{key} {num(v)}")
     return ", ".join(parts) or MISSING
+
+
+def _within(interval: Mapping[str, Any] | None, key: str) -> str:
+    """`` (95 %: lo to hi)`` of ``interval[key]``, or nothing where it has none."""
+    pair = (interval or {}).get(key)
+    if not isinstance(pair, (list, tuple)) or len(pair) != 2 or None in pair:
+        return ""
+    return f" (95 %: {num_range(pair[0], pair[1])})"
+
+
+def onset_interval(pair: Any, decimals: int) -> str:
+    """`` (95 %: 151.2 to 151.4 s)`` of findings.json's ``onset_interval_s``, or nothing
+    where it is null (the onset a bound, or from no fit: ``interval_notes`` says which)."""
+    if not isinstance(pair, (list, tuple)) or len(pair) != 2 or None in pair:
+        return ""
+    if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in pair):
+        return ""
+    return f" (95 %: {seconds_text(float(pair[0]), decimals)} to {seconds(pair[1], decimals)})"
 
 
 SMALL_SIZE = 0.1
