@@ -26,7 +26,7 @@ from __future__ import annotations
 import bisect
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -155,9 +155,10 @@ class Interval:
     last_alarm: int
     peak: float
     p_value: float
-    onset_range: tuple[int, int] | None = None
+    onset_range: tuple[int, int] | None = field(default=None, compare=False)
     """The onsets (first and last sample) the change-point search could not tell from
-    ``onset`` at 95 % (:func:`change_point_profile`); None where the onset is no search's."""
+    ``onset`` at 95 % (:func:`change_point_profile`); None where the onset is no search's.
+    Not part of an interval's equality: the same stretch is the same interval."""
 
 
 def default_window(rate_hz: float) -> int:

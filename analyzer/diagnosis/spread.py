@@ -48,8 +48,8 @@ per independent sample (divided by the residual's correlation time, as the class
 counts its samples); where it is a drift's line traced back to zero (``-c / b``), the
 delta method's ``sd^2 = var(D) / b^2 + D^2 var(b) / b^4 - 2 D cov(D, b) / b^3`` with
 ``D`` the line's value at the stretch's mean time. Where the onset is a bound (the
-record's start, a line held at the stretch's end), there is no interval: the reason
-is given instead.
+record's start, a drift's line held through the alarm's onset), there is no interval:
+the reason is given instead.
 """
 
 from __future__ import annotations
@@ -190,7 +190,11 @@ def drift_spread(
             s.add(u * (f - b * u))
         lags = s.lags(tau_corr)
         se = math.sqrt(max(s.total(lags), 0.0)) / suu if suu > 0.0 else math.inf
-        note = "the fitted line's zero lay outside the stretch: its onset is a bound"
+        note = (
+            "a bound: the fitted line met zero where no drift can begin (after the "
+            "alarm's onset, or further back than the stretch is long), so it was held "
+            "through that onset"
+        )
         return Spread({"rate_per_s": se}, lags, None, note)
     se_e, se_h, se_eh = ScoreSums(), ScoreSums(), ScoreSums()
     stt = 0.0
