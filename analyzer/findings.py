@@ -245,7 +245,9 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
 
 def finding_intervals(f: Finding) -> dict[str, Any]:
     """A fault's 95 % intervals (findings.json's ``magnitude_interval``,
-    ``onset_interval_s`` and, where either is null, ``interval_notes`` saying why): those
+    ``onset_interval_s`` and, where either is null or the size's counts only part of its
+    error (a gain's: noise only; a model without its sample count), ``interval_notes``
+    saying why): those
     of the event whose fit gave the finding's size and onset
     (:func:`analyzer.diagnosis.spread.event_intervals`), never another fit's. A size or
     onset that came from elsewhere (another detector that gives none, a step after the
@@ -274,6 +276,8 @@ def finding_intervals(f: Finding) -> dict[str, Any]:
     else:
         sizes = lead.intervals["magnitude"]
         magnitude = {"level": lead.intervals["level"], **_jsonable(sizes)}
+        if lead.intervals.get("magnitude_partial"):  # (given, but it counts part of the error)
+            notes["magnitude"] = str(lead.intervals["magnitude_partial"])
     onset: list[float] | None = None
     bound = (f.evidence or {}).get("onset_at_or_before")
     if bound:

@@ -404,7 +404,11 @@ class _Access(FigureParts, TableParts):
             onset_clock=str(f.get("onset") or fmt.clock(f.get("onset_s"), self.decimals)),
             end_clock=str(f.get("end") or fmt.clock(f.get("end_s"), self.decimals)),
             onset_fact=_onset_fact(f, self.decimals),
-            magnitude=fmt.magnitude(f.get("magnitude") or {}, f.get("magnitude_interval")),
+            magnitude=fmt.magnitude(
+                f.get("magnitude") or {},
+                f.get("magnitude_interval"),
+                bool((f.get("interval_notes") or {}).get("magnitude")),
+            ),
             confidence=fmt.score(f.get("confidence")),
             detectors=[str(d) for d in ev.get("detectors", [f.get("detector")])],
             lead=str(f.get("detector")),

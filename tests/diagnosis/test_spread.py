@@ -6,6 +6,8 @@ says why; the intervals hold their estimate and shrink as the fault's stretch gr
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import statsmodels.api as sm
@@ -115,10 +117,15 @@ def test_change_point_onset_range_holds_the_onset_and_narrows_with_a_larger_step
     assert spans[1] < spans[0]
 
 
-def _finding(evidence: dict, extra: dict, magnitude_of_finding: dict | None = None) -> Finding:
+def _finding(
+    evidence: dict,
+    extra: dict,
+    magnitude_of_finding: dict | None = None,
+    level_variance: float | None = 1e-4,
+) -> Finding:
     noise = coloured(2000, 5)
     c = classify(0.8 + noise, None, float(noise.std()), RATE, correlation_time(noise))
-    iv = event_intervals(c, (990, 1010), 10.0, extra, RATE)
+    iv = event_intervals(c, (990, 1010), 10.0, extra, RATE, level_variance)
     ev = Event("s1", 10.0, None, c.type, c.magnitude, 0.9, "det", {}, iv)
     mag = dict(c.magnitude) if magnitude_of_finding is None else magnitude_of_finding
     return Finding("s1", c.type, 10.0, None, mag, 0.9, "det", evidence, [ev])
@@ -130,8 +137,62 @@ def test_finding_intervals_hold_the_size_and_onset():
     lo, hi = out["magnitude_interval"]["offset"]
     assert out["magnitude_interval"]["level"] == 0.95
     assert lo < f.magnitude["offset"] < hi
-    assert out["onset_interval_s"] == [9.9, 10.1]
+    # one sample period before the profile's first onset (sample 990): the fault began
+    # after the last sample that may be healthy
+    assert out["onset_interval_s"] == [9.89, 10.1]
     assert "interval_notes" not in out
+
+
+def test_an_onset_on_one_sample_has_an_interval_one_sample_wide():
+    """A profile that pins the first faulty sample to ``k`` ([k, k]) gives the interval
+    from the sample before it: never zero width."""
+    noise = coloured(2000, 5)
+    c = classify(0.8 + noise, None, float(noise.std()), RATE, correlation_time(noise))
+    lo, hi = event_intervals(c, (1600, 1600), 16.0, {}, RATE, 1e-4)["onset_s"]
+    assert hi == 16.0 and lo == pytest.approx(15.99) and hi - lo == pytest.approx(1 / RATE)
+
+
+def test_a_gains_size_is_noise_only_and_its_onset_has_no_interval():
+    """A gain's interval held the true gain in 68-70 % of simulated records: it keeps its
+    numbers but says it counts the fit's noise only; its onset (a mean-and-spread
+    change-point search, not a gain's model) has none, and says why."""
+    n = 3000
+    t = np.arange(n) / RATE
+    ref = 2.0 * np.sin(2 * np.pi * 1.3 * t)
+    e = np.random.default_rng(2).normal(scale=0.3, size=n)
+    c = classify(0.6 * (ref + e) - ref, ref, 0.3, RATE)
+    assert c.type is FaultType.MULTIPLICATIVE
+    iv = event_intervals(c, (990, 1010), 10.0, {}, RATE, 1e-4)
+    ev = Event("s1", 10.0, None, c.type, c.magnitude, 0.9, "det", {}, iv)
+    out = finding_intervals(
+        Finding("s1", c.type, 10.0, None, dict(c.magnitude), 0.9, "det", {}, [ev])
+    )
+    lo, hi = out["magnitude_interval"]["gain"]
+    assert lo < c.magnitude["gain"] < hi
+    assert "noise only" in out["interval_notes"]["magnitude"]
+    assert "68-70 %" in out["interval_notes"]["magnitude"]
+    assert out["onset_interval_s"] is None
+    assert "not a gain" in out["interval_notes"]["onset"]
+
+
+def test_a_model_without_its_sample_count_says_its_size_interval_is_narrower():
+    """A model saved before the calibration kept its training sample count has no
+    variance of the healthy level: the size's interval leaves that error out, and says
+    so (with a known count, no note)."""
+    r = np.random.default_rng(4).normal(size=12_000)
+    cal = calibrate(r[:10_000], 25)
+    assert cal.mean_variance() is not None
+    old = dataclasses.replace(cal, samples=0)
+    assert old.mean_variance() is None
+    full = finding_intervals(_finding({}, {}, level_variance=cal.mean_variance()))
+    part = finding_intervals(_finding({}, {}, level_variance=old.mean_variance()))
+    assert "interval_notes" not in full
+    assert "older version" in part["interval_notes"]["magnitude"]
+    (flo, fhi), (plo, phi) = (
+        full["magnitude_interval"]["offset"],
+        part["magnitude_interval"]["offset"],
+    )
+    assert phi - plo < fhi - flo
 
 
 def test_bound_onset_has_no_interval_and_says_why():

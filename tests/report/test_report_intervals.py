@@ -15,6 +15,17 @@ def test_size_shows_its_interval():
     assert "95 %" not in fmt.magnitude({"offset": 2.0}, {"level": 0.95, "offset": None})
 
 
+def test_a_partial_size_interval_reads_noise_only_with_the_sizes_digits():
+    """A gain's interval (interval_notes.magnitude beside it) is labelled noise only, not
+    95 %; the bounds keep the same decimals (no dropped trailing zero)."""
+    gain = fmt.magnitude({"gain": 0.6}, {"level": 0.95, "gain": [0.59672, 0.59973]}, True)
+    assert "(noise only: 0.5967 to 0.5997)" in gain and "95 %" not in gain
+    off = fmt.magnitude(
+        {"offset": 9.992212852925862}, {"level": 0.95, "offset": [9.88698, 10.09745]}
+    )
+    assert off == "offset +9.992 (95 %: 9.887 to 10.097)"
+
+
 def test_onset_shows_its_interval_and_a_bound_none():
     f = {"onset_s": 151.3, "onset_interval_s": [151.2, 151.4], "evidence": {}}
     assert "151.300 s from the start (95 %: 151.200 to 151.400 s)" in _onset_fact(f, 3)
