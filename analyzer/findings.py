@@ -206,6 +206,7 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
                     f.end_s if f.end_s is not None else data_end(f.evidence),
                     a.duration_s,
                 ),
+                **finding_intervals(f),
             }
             for f in a.findings
         ],
@@ -240,6 +241,64 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
             for u in a.unexplained
         ],
     }
+
+
+def finding_intervals(f: Finding) -> dict[str, Any]:
+    """A fault's 95 % intervals (findings.json's ``magnitude_interval``,
+    ``onset_interval_s`` and, where either is null or the size's counts only part of its
+    error (a gain's: noise only; a model without its sample count), ``interval_notes``
+    saying why): those
+    of the event whose fit gave the finding's size and onset
+    (:func:`analyzer.diagnosis.spread.event_intervals`), never another fit's. A size or
+    onset that came from elsewhere (another detector that gives none, a step after the
+    fit) has none, and an onset that is a bound (a fault there from the record's start)
+    none either."""
+    sized = [
+        e
+        for e in f.events
+        if e.intervals is not None
+        and e.type is f.type
+        and e.intervals["of_magnitude"] == f.magnitude
+    ]
+    timed = [e for e in sized if e.intervals is not None and e.intervals["of_onset_s"] == f.onset_s]
+    notes: dict[str, str] = {}
+    lead = (timed or sized)[0] if timed or sized else None
+    magnitude: dict[str, Any] | None = None
+    if lead is None or lead.intervals is None:
+        given = any(e.intervals is not None for e in f.events)
+        notes["magnitude"] = (
+            "the size came from a step after the fitted shape, which gives no interval"
+            if given
+            else f"the detector that sized it ({f.detector}) gives no interval"
+        )
+    elif lead.intervals.get("magnitude") is None:
+        notes["magnitude"] = str(lead.intervals.get("magnitude_note"))
+    else:
+        sizes = lead.intervals["magnitude"]
+        magnitude = {"level": lead.intervals["level"], **_jsonable(sizes)}
+        if lead.intervals.get("magnitude_partial"):  # (given, but it counts part of the error)
+            notes["magnitude"] = str(lead.intervals["magnitude_partial"])
+    onset: list[float] | None = None
+    bound = (f.evidence or {}).get("onset_at_or_before")
+    if bound:
+        notes["onset"] = (
+            "a bound, not an estimate: the fault was there when the search began "
+            "(from the start, not judged before onset_s)"
+        )
+    elif not timed or timed[0].intervals is None:
+        notes["onset"] = (
+            "the onset came from a step after the detector's fit (a merge of events, a "
+            "search without a sensor), which gives no interval"
+        )
+    elif timed[0].intervals.get("onset_s") is None:
+        notes["onset"] = str(timed[0].intervals.get("onset_note"))
+    else:
+        lo, hi = timed[0].intervals["onset_s"]
+        onset = [round(float(lo), 4), round(float(hi), 4)]
+    out: dict[str, Any] = {"magnitude_interval": magnitude, "onset_interval_s": onset}
+    if notes:
+        out["interval_notes"] = notes
+    return out
 
 
 def _constant_check(found: list[Finding]) -> list[dict[str, Any]]:

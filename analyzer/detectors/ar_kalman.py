@@ -76,6 +76,7 @@ from analyzer.diagnosis.classify import (
 )
 from analyzer.diagnosis.events import bounded_onset, diagnose_interval, slope_before
 from analyzer.diagnosis.load import LoadGuard
+from analyzer.diagnosis.spread import event_intervals
 from analyzer.errors import DetectorError, TooLittleDataError
 from analyzer.paging import (
     RELEASE_ROWS,
@@ -1082,6 +1083,9 @@ class ARKalmanBank:
                 **early,
                 **moved_evidence,
             },
+            intervals=event_intervals(
+                cls, iv.onset_range, onset_s, early, rate, model.residual_cal[j].mean_variance()
+            ),
         )
         return ev, [(j, iv.onset, stop)], cls
 

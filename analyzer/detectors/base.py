@@ -267,6 +267,9 @@ class Event:
     confidence: float
     detector: str
     evidence: dict[str, Any] = field(default_factory=dict)
+    intervals: dict[str, Any] | None = None
+    """95 % intervals of the size and onset, from the fit that gave them
+    (:func:`analyzer.diagnosis.spread.event_intervals`); None where the detector gives none."""
 
 
 @dataclass(slots=True)

@@ -26,13 +26,14 @@ from __future__ import annotations
 import bisect
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 from scipy import special
 
+from analyzer.diagnosis.spread import profile_range
 from analyzer.diagnosis.streamed import (
     LaggedSums,
     RunningMoments,
@@ -64,6 +65,19 @@ class Calibration:
     logq_mean: tuple[float, ...]
     logq_sd: tuple[float, ...]
     false_alarm_rate: float
+    samples: int = 0
+    """Finite samples of the training residual it was calibrated on (0: not known, a
+    calibration read back from its thresholds)."""
+
+    def mean_variance(self) -> float | None:
+        """The variance of ``mean``, the healthy level a fault's size is measured from:
+        the training residual's long-run variance (``std^2`` times the long window's
+        length times its window mean's variance, the Bartlett-weighted sum of its
+        autocorrelations) over its samples; None where they are not known."""
+        n = int(getattr(self, "samples", 0))
+        if n <= 0:
+            return None
+        return self.std**2 * self.windows[-1] * self.mean_sd[-1] ** 2 / n
 
     @property
     def z_crit(self) -> float:
@@ -141,6 +155,10 @@ class Interval:
     last_alarm: int
     peak: float
     p_value: float
+    onset_range: tuple[int, int] | None = field(default=None, compare=False)
+    """The onsets (first and last sample) the change-point search could not tell from
+    ``onset`` at 95 % (:func:`change_point_profile`); None where the onset is no search's.
+    Not part of an interval's equality: the same stretch is the same interval."""
 
 
 def default_window(rate_hz: float) -> int:
@@ -274,6 +292,7 @@ def calibrate(train_residual: Series, window: int, false_alarm_rate: float = 1e-
         logq_mean=tuple(lqm),
         logq_sd=tuple(lqs),
         false_alarm_rate=false_alarm_rate,
+        samples=n,
     )
 
 
@@ -656,6 +675,14 @@ def change_point(z: FloatArray, *, before_normal: bool = True) -> int:
     if not before_normal:
         k = change_point(x[::-1], before_normal=True)
         return x.shape[0] - k
+    return int(np.argmax(change_point_profile(x)))
+
+
+def change_point_profile(x: FloatArray) -> FloatArray:
+    """The log-likelihood ratio of :func:`change_point`'s change at each sample of ``x``
+    (finite, ``before_normal``): its argmax is the change point, and the samples whose
+    ratio lies near the best (:func:`analyzer.diagnosis.spread.profile_range`) are the
+    onsets the data cannot tell from it."""
     n_tot = x.shape[0]
     s1 = np.cumsum(x[::-1])[::-1]
     s2 = np.cumsum((x * x)[::-1])[::-1]
@@ -665,7 +692,7 @@ def change_point(z: FloatArray, *, before_normal: bool = True) -> int:
     llr = 0.5 * (s2 - n - n * np.log(v))
     # need at least a couple of samples after the change to estimate (mu, v)
     llr[-2:] = -np.inf
-    return int(np.argmax(llr))
+    return llr
 
 
 STAT_PIECE = 1 << 18
@@ -740,11 +767,15 @@ def intervals(
         p = float(min(1.0, 2.0 * special.ndtr(-z_peak) * n_windows))
         lo = max(prev_end, a - wl - 2 * w)
         hi = min(n, a + w)
-        onset = (
-            lo + change_point(cal.standardize(residual[lo:hi]), before_normal=True)
-            if hi - lo > 4
-            else a
-        )
+        onset, within = a, None
+        if hi - lo > 4:
+            z = cal.standardize(residual[lo:hi])
+            llr = change_point_profile(np.where(np.isfinite(z), z, 0.0))
+            onset = lo + int(np.argmax(llr))
+            near = profile_range(llr, cal.window * cal.mean_sd[0] ** 2)
+            within = None if near is None else (lo + near[0], min(lo + near[1], a))
+        if onset > a:
+            within = None  # (the first alarm, a bound: the search put the change after it)
         onset = min(onset, a)
         last = b - 1
         if b >= n - 1:
@@ -758,7 +789,7 @@ def intervals(
                 else b
             )
             end = max(end, onset + 1)
-        out.append(Interval(onset, end, a, last, peak, p))
+        out.append(Interval(onset, end, a, last, peak, p, within))
         prev_end = end if end is not None else n
     return out
 

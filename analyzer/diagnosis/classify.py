@@ -34,6 +34,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.diagnosis.spread import (
+    Spread,
+    drift_spread,
+    gain_spread,
+    offset_spread,
+)
 from analyzer.diagnosis.streamed import LaggedSums, Series, finite_blocks, series_moments
 from analyzer.types import FaultType
 
@@ -64,6 +70,9 @@ class Classification:
     """The residual's spread about the shape over the healthy one, as the chosen fit has it:
     1 (the healthy level), the gain's magnitude (a gain scales the noise) or a level of
     the fit's own."""
+    spread: Spread | None = None
+    """The size's standard error and a drift's onset's, from the same fit and samples
+    (:mod:`analyzer.diagnosis.spread`); None for ``other`` faults."""
 
     @property
     def weighed(self) -> bool:
@@ -386,9 +395,11 @@ def classify(
     c = d - b * mean_tau
     rss = max(0.0, rss_add - b * s_tf)
     onset_shift = 0.0
+    held = False
     if b != 0.0:
         onset_shift = float(np.clip(-c / b, -last_tau, 0.0))
         if onset_shift != -c / b:
+            held = True
             # The line meets zero outside the onsets a drift can have (after the detected
             # onset, or further back than the stretch is long): a drift b (tau - s) is
             # zero at its onset s, so the drift fit is the line through the nearest
@@ -478,6 +489,16 @@ def classify(
             params,
         )
     _, _, mag, moved = fits[best]
+    if best is FaultType.ADDITIVE:
+        spread = offset_spread(pieces, n, d, tau_corr)
+    elif best is FaultType.DRIFT:
+        held_at = onset_shift if held else None
+        spread = drift_spread(pieces, n, (d, c, b), mean_tau, tau_corr, held_at)
+    else:  # the gain: the scaled fit's where that variant was chosen (one parameter)
+        ml = g is not None and abs(1.0 + g) >= MIN_GAIN and chosen[best][1] == 1
+        ml = ml and _scaled_gain(n, energy, cross, den, noise) is not None
+        sums = (energy, cross, den)
+        spread = gain_spread(pieces, n, params["gain"], sums, noise, tau_corr, ml)
     return Classification(
-        best, mag, weights[best.value], moved, weights, explained, params, chosen[best][2]
+        best, mag, weights[best.value], moved, weights, explained, params, chosen[best][2], spread
     )

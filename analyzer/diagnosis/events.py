@@ -30,6 +30,7 @@ from analyzer.diagnosis.classify import (
     classify,
     reference_slope,
 )
+from analyzer.diagnosis.spread import event_intervals
 from analyzer.paging import buffer, release
 from analyzer.types import FaultType
 
@@ -164,6 +165,14 @@ def events_from_residual(
                         confidence=float(detection_confidence(iv) * cls.confidence * factor),
                         detector=detector,
                         evidence=ev,
+                        intervals=event_intervals(
+                            cls,
+                            iv.onset_range if iv is first else None,
+                            onset_s,
+                            extra,
+                            rate_hz,
+                            cal.mean_variance(),
+                        ),
                     )
                 )
             iv = None

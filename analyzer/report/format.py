@@ -200,21 +200,69 @@ def rate(hz: float | None) -> str:
     return MISSING if hz is None else f"{num(hz, 6)} Hz"
 
 
-def magnitude(mag: Mapping[str, Any]) -> str:
-    """``offset +9.988``, ``gain x1.546``, ``drift +0.4998 per s`` (channel units)."""
+def magnitude(
+    mag: Mapping[str, Any], interval: Mapping[str, Any] | None = None, partial: bool = False
+) -> str:
+    """``offset +9.988``, ``gain x1.546``, ``drift +0.4998 per s`` (channel units), each
+    with its 95 % interval where ``interval`` (findings.json's ``magnitude_interval``)
+    has one: ``offset +9.992 (95 %: 9.887 to 10.097)``, the bounds to the size's own
+    digits. ``partial`` (findings.json's ``interval_notes.magnitude`` beside a given
+    interval: a gain's, or one from an older model) labels it ``(noise only: ...)``,
+    since it counts only part of the size's error."""
+    label = "noise only" if partial else "95 %"
     parts = []
     for key, v in mag.items():
         if key == "offset":
-            parts.append(f"offset {_signed(v)}")
+            parts.append(f"offset {_signed(v)}{_within(interval, key, label)}")
         elif key == "gain":
-            parts.append(gain_words(v))
+            parts.append(gain_words(v) + _within(interval, key, label))
         elif key == "rate_per_s":
-            parts.append(f"drift {_signed(v)} per s")
+            parts.append(f"drift {_signed(v)} per s{_within(interval, key, label)}")
         elif key == "no_data_s":  # (analyzer.silent: blank or NaN to the record's end)
             parts.append(f"no reading for {num(v)} s (dead sensor: silent)")
         else:
             parts.append(f"{key} {num(v)}")
     return ", ".join(parts) or MISSING
+
+
+def _within(interval: Mapping[str, Any] | None, key: str, label: str = "95 %") -> str:
+    """`` (95 %: lo to hi)`` of ``interval[key]``, or nothing where it has none. The
+    bounds keep a fixed number of decimals, as many as four significant digits give the
+    wider bound (``9.887 to 10.097``, not ``9.887 to 10.1``), more where they would read
+    alike."""
+    pair = (interval or {}).get(key)
+    if not isinstance(pair, (list, tuple)) or len(pair) != 2 or None in pair:
+        return ""
+    if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in pair):
+        return f" ({label}: {num_range(pair[0], pair[1])})"
+    lo, hi = float(pair[0]), float(pair[1])
+    return f" ({label}: {_fixed_range(lo, hi)})"
+
+
+def _fixed_range(lo: float, hi: float, digits: int = 4) -> str:
+    """``lo to hi`` with the same decimals: enough for ``digits`` significant digits of
+    the smaller magnitude (at least), and more (to 15) until the two read apart; zeros
+    both end in are dropped."""
+    small = min(abs(lo), abs(hi)) or max(abs(lo), abs(hi))
+    if small == 0.0 or abs(math.log10(small)) > 12:
+        return num_range(lo, hi, digits)
+    decimals = max(0, digits - 1 - math.floor(math.log10(small)))
+    while f"{lo:.{decimals}f}" == f"{hi:.{decimals}f}" and lo != hi and decimals < 15:
+        decimals += 1
+    a, b = f"{lo:.{decimals}f}", f"{hi:.{decimals}f}"
+    while "." in a and a.endswith("0") and b.endswith("0"):  # (0.9100 to 0.9500: 0.91 to 0.95)
+        a, b = a[:-1].rstrip("."), b[:-1].rstrip(".")
+    return f"{a} to {b}"
+
+
+def onset_interval(pair: Any, decimals: int) -> str:
+    """`` (95 %: 151.2 to 151.4 s)`` of findings.json's ``onset_interval_s``, or nothing
+    where it is null (the onset a bound, or from no fit: ``interval_notes`` says which)."""
+    if not isinstance(pair, (list, tuple)) or len(pair) != 2 or None in pair:
+        return ""
+    if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in pair):
+        return ""
+    return f" (95 %: {seconds_text(float(pair[0]), decimals)} to {seconds(pair[1], decimals)})"
 
 
 SMALL_SIZE = 0.1

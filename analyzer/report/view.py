@@ -410,7 +410,11 @@ class _Access(FigureParts, TableParts):
             onset_clock=str(f.get("onset") or fmt.clock(f.get("onset_s"), self.decimals)),
             end_clock=str(f.get("end") or fmt.clock(f.get("end_s"), self.decimals)),
             onset_fact=_onset_fact(f, self.decimals),
-            magnitude=fmt.magnitude(f.get("magnitude") or {}),
+            magnitude=fmt.magnitude(
+                f.get("magnitude") or {},
+                f.get("magnitude_interval"),
+                bool((f.get("interval_notes") or {}).get("magnitude")),
+            ),
             confidence=fmt.score(f.get("confidence")),
             detectors=[str(d) for d in ev.get("detectors", [f.get("detector")])],
             lead=str(f.get("detector")),
@@ -699,13 +703,15 @@ def onset_words(f: Mapping[str, Any], decimals: int) -> str:
 
 
 def _onset_fact(f: Mapping[str, Any], decimals: int) -> str:
-    """The finding's "Onset" line: :func:`onset_words` and "from the start", unless
-    those words say the start already, then its UTC time where it has one, in the
-    parenthesis those words may have opened (not a second one after it)."""
+    """The finding's "Onset" line: :func:`onset_words` and "from the start" with its 95 %
+    interval (findings.json's ``onset_interval_s``), unless those words say the start
+    already, then its UTC time where it has one, in the parenthesis those words may have
+    opened (not a second one after it)."""
     words = onset_words(f, decimals)
     utc = str(f.get("onset") or "")
     if not words.startswith("from the start"):
-        return f"{words} from the start" + (f" ({utc})" if utc else "")
+        within = fmt.onset_interval(f.get("onset_interval_s"), decimals)
+        return f"{words} from the start{within}" + (f" ({utc})" if utc else "")
     if not utc:
         return words
     return f"{words[:-1]}, {utc})" if words.endswith(")") else f"{words} ({utc})"

@@ -79,6 +79,15 @@ def long_run_variance(x: FloatArray, lags: int) -> float:
     n = d.shape[0]
     top = max(0, min(int(lags), n - 1))
     acov = np.array([float(d[k:] @ d[: n - k]) for k in range(top + 1)]) / n
+    return bartlett_sum(acov)
+
+
+def bartlett_sum(acov: FloatArray) -> float:
+    """``a_0 + 2 sum_{k=1}^{L} (1 - k / (L + 1)) a_k`` of the lagged sums or
+    autocovariances ``a_0 .. a_L``: the Newey-West (Bartlett-weighted) long-run sum that
+    :func:`long_run_variance` takes of a series' autocovariances, and
+    :mod:`analyzer.diagnosis.spread` of a fit's score products (its HAC variance)."""
+    top = acov.shape[0] - 1
     weights = 1.0 - np.arange(1, top + 1) / (top + 1.0)
     return float(acov[0] + 2.0 * np.sum(weights * acov[1:]))
 
