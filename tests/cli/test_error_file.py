@@ -133,7 +133,10 @@ def test_inspect_keeps_the_whole_message_in_tmpdir(tmp_path, capsys, tmpdir_here
     code, stdout, err = run_cli(["inspect", folder], capsys)
     assert code == 2 and stdout == ""
     # (cut inside their first chunk: nothing of it decompresses)
-    cut = "truncated inside the zstd-compressed chunk at byte 45 (the file ends at byte 300)"
+    cut = (
+        "truncated inside the zstd-compressed chunk that starts at byte 45 (the file ends at "
+        "byte 300)"
+    )
     count, where = _whole(one_line_error(err, cut))
     head, message = Path(where).read_text(encoding="utf-8").splitlines()
     assert Path(where).parent == tmpdir_here
