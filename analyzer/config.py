@@ -5,7 +5,9 @@ names the key, so a typo never passes silently (CONTRACT.md, "The config file").
 from __future__ import annotations
 
 import hashlib
+import json
 import math
+import re
 import tomllib
 import zipfile
 from collections.abc import Mapping
@@ -79,11 +81,22 @@ class Config:
 
 
 def _unknown(where: str, got: dict[str, Any], allowed: set[str], path: Path) -> None:
+    """Refuse a key of table ``where`` (``[train]``; ``""`` at the top) not ``allowed``,
+    written as in the file: ``[train] bogus``, a table ``[bogus]`` (a QA audit read
+    ``train.'bogus'``, a notation of no TOML file)."""
     extra = sorted(set(got) - allowed)
     if extra:
-        raise ConfigError(
-            f"{path}: unknown key {where}{extra[0]!r} (allowed: {', '.join(sorted(allowed))})"
-        )
+        key = extra[0]
+        shown = key if _BARE_KEY.fullmatch(key) else json.dumps(key, ensure_ascii=False)
+        if where:
+            said = f"key {where} {shown}"
+        else:  # (a table at the top is a section: [bogus])
+            said = f"section [{shown}]" if isinstance(got[key], dict) else f"key {shown}"
+        raise ConfigError(f"{path}: unknown {said} (allowed: {', '.join(sorted(allowed))})")
+
+
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+"""A TOML key written without quotes."""
 
 
 def _names(value: Any, key: str, path: Path) -> list[str]:
@@ -194,7 +207,7 @@ def load_model(raw: Any, path: Path) -> dict[str, Any]:
         raise ConfigError(
             f'{path}: [model] must be a table (file = "model.npz", outputs = [...]), got {raw!r}'
         )
-    _unknown("model.", raw, _MODEL, path)
+    _unknown("[model]", raw, _MODEL, path)
     mats: dict[str, Any] = {}
     if "file" in raw:
         if not isinstance(raw["file"], str):
@@ -356,7 +369,7 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
     for name, opts in dets.items():
         if known_detectors is not None and name not in known_detectors:
             raise ConfigError(
-                f"{p}: unknown key 'detectors.{name}' (known detectors: "
+                f"{p}: [detectors.{name}]: unknown detector '{name}' (known: "
                 f"{', '.join(sorted(known_detectors))})"
             )
         if not isinstance(opts, dict):
@@ -372,7 +385,7 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
     th = raw.get("thresholds", {})
     if not isinstance(th, dict):
         raise ConfigError(f"{p}: [thresholds] must be a table (false_alarm_rate = ...), got {th!r}")
-    _unknown("thresholds.", th, _THRESHOLDS, p)
+    _unknown("[thresholds]", th, _THRESHOLDS, p)
     if "false_alarm_rate" in th:
         far = th["false_alarm_rate"]
         if not _number(far) or not 0.0 < float(far) < 0.5:
@@ -385,7 +398,7 @@ def _train(t: Any, p: Path) -> tuple[float, float]:
     """``[train]``: start (default 0) and end, seconds from the first sample."""
     if not isinstance(t, dict):
         raise ConfigError(f"{p}: [train] must be a table with start and end")
-    _unknown("train.", t, _TRAIN, p)
+    _unknown("[train]", t, _TRAIN, p)
     if "end" not in t:
         raise ConfigError(f"{p}: [train] needs numeric start and end seconds (no end)")
     start, end = t.get("start", 0.0), t["end"]
@@ -402,7 +415,7 @@ def _group(g: Any, i: int, p: Path) -> dict[str, Any]:
     reference (trusted) or uncertain (under test), and a measured input is neither."""
     if not isinstance(g, dict):
         raise ConfigError(f"{p}: [[group]] #{i + 1} must be a table, got {g!r}")
-    _unknown(f"group[{i}].", g, _GROUP, p)
+    _unknown(f"[[group]] #{i + 1}", g, _GROUP, p)
     name = g.get("name", f"group{i + 1}")
     if not isinstance(name, str):
         raise ConfigError(f"{p}: group[{i}].name must be a string, got {name!r}")

@@ -116,7 +116,13 @@ def run_choice(
     try:
         logs = [t for i in archive.inputs for t in i.log_topics]
         chosen = select_channels(
-            store, None, notes, relabelled, log_topics=logs, typed=typed_fields(archive.inputs)
+            store,
+            None,
+            notes,
+            relabelled,
+            log_topics=logs,
+            typed=typed_fields(archive.inputs),
+            sources={c: str(p) for c, p in archive.sources.items()},
         )
         lone_channel(chosen, notes)  # (run refuses one: every detector needs two)
     except (UsageError, ReaderError) as err:

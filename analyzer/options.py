@@ -140,8 +140,14 @@ def parse_train(
     if not (0.0 <= lo < hi):
         raise UsageError(f"--train: the window {text!r} must satisfy 0 <= START < END")
     if lo >= duration_s:
+        # (in the form the window was written: an ISO start is answered with a time)
+        ends = (
+            f", which ends at {iso_utc(start_ns + round(duration_s * NS_PER_S))}"
+            if parts[0][0] == "ns"
+            else f" ends ({duration_s:.3f} s)"
+        )
         raise ShortUsageError(
-            f"--train: the window {text!r} starts after the data ends ({duration_s:.3f} s)"
+            f"--train: the window {text!r} starts after the data{ends}"
             + ("" if absolute else _own_times(text, lo, hi, start_ns, duration_s))
         )
     return lo, min(hi, duration_s)
@@ -302,8 +308,8 @@ def _check_screen(screen: list[str], kw: dict[str, Any]) -> list[str]:
     ``--save-model`` (a screened run may fit only some of the detectors)."""
     for name in screen:
         if name not in REGISTRY:
-            known = ", ".join(REGISTRY)
-            raise UsageError(f"--screen {name}: no such detector (known: {known})")
+            known = ", ".join(sorted(REGISTRY))
+            raise UsageError(f"--screen: unknown detector {name!r} (known: {known})")
     if kw.get("save_model") is not None:
         raise UsageError(
             "--screen: not used with --save-model (a screened run fits only the screening's "

@@ -742,13 +742,25 @@ def _cut_short_said(inputs: Sequence[InputInfo], store: ChannelStore) -> Iterato
         what = error.split("; ", 1)[0]
         if what in str(err):
             raise
-        more = f" (and {len(damage) - 1} more input errors of the kind)" if len(damage) > 1 else ""
+        more = _also_cut(path, damage)
         told = type(err).__new__(type(err))
         told.__dict__.update(err.__dict__)
         told.args = (
             f"{path}: {what}{more}: only {plain_number(read_s)} s of data were read; {err}",
         )
         raise told from err
+
+
+def _also_cut(path: str, damage: Sequence[tuple[str, str]]) -> str:
+    """The other inputs that were cut short, named after the first one's damage: `` (also
+    cut short: b.mcap, c.bag)``; empty where there are none. The first input's own other
+    errors of the kind are not counted: a ROS 1 bag cut short also says its index lies
+    past its end ("truncated?"), the same cut, and a run said "(and 1 more input errors
+    of the kind)" of it without naming it (a QA audit)."""
+    others = list(dict.fromkeys(p for p, _ in damage if p != path))
+    if not others:
+        return ""
+    return f" (also cut short: {capped(others, 3, what='inputs')})"
 
 
 def _analyze(
@@ -789,6 +801,7 @@ def _analyze(
                 _config_sensors(options),
                 blank,
                 typed_fields(archive.inputs),
+                {c: str(p) for c, p in archive.sources.items()},
             )
         else:
             chosen = model_channels(store, reused, options, notes, blank)

@@ -12,6 +12,7 @@ from collections.abc import Collection, Iterable, Mapping, Sequence
 import numpy as np
 
 from analyzer.errors import ArchiveUsageError, ReaderError, capped
+from analyzer.readers import ArchiveNote
 from analyzer.readers.base import InputInfo
 from analyzer.store import ChannelInfo, ChannelStore
 from analyzer.store.copies import Copy, find_copies
@@ -340,7 +341,7 @@ def left_out(notes: Sequence[str], infos: Mapping[str, ChannelInfo]) -> dict[str
             why.update({c: {"why": constant_kind(infos[c])} for c in note.names if c in infos})
         elif isinstance(note, FlagNote):
             why.update({c: {"why": "flag"} for c in note.names})
-        elif isinstance(note, CopyNote):
+        elif isinstance(note, (CopyNote, TwinInputNote)):
             why.update({c.channel: {"why": "copy", "copy_of": c.of} for c in note.copies})
         elif isinstance(note, NotMeasuredNote):
             why.update({c: {"why": w} for c, w in note.whys.items()})
@@ -377,6 +378,60 @@ class CopyNote(str):
         note.names = tuple(c.channel for c in copies)
         note.copies = tuple(copies)
         return note
+
+
+class TwinInputNote(ArchiveNote):
+    """The note on an input of the archive whose every analyzed channel copies one of
+    another input's (:func:`twin_inputs`): the same recording twice in one folder (as
+    CSV and as MCAP, or a file copied under another name), whose channels would be
+    analyzed as other sensors, each fault found twice (a QA audit: "2 sensor faults
+    found on 2 sensors" for one). An :class:`~analyzer.readers.ArchiveNote`, so that
+    ``run`` says it on stderr; ``copies`` are the channels left out."""
+
+    copies: tuple[Copy, ...]
+
+    def __new__(cls, twin: str, kept: str, why: str, copies: Sequence[Copy]) -> TwinInputNote:
+        shown = capped([f"{c.channel} = {c.of}" for c in copies], NAMES_SHOWN_TWIN, what="channels")
+        note = super().__new__(
+            cls,
+            f"{twin} holds the same recording as {kept} (each of its channels equals one "
+            f"of {kept}'s at the same times: {shown}): analyzed once, as {kept}'s channels "
+            f"({why}); --channels naming {twin}'s channels analyzes them too",
+        )
+        note.copies = tuple(copies)
+        return note
+
+
+NAMES_SHOWN_TWIN = 3
+"""Channel pairs a :class:`TwinInputNote` shows (the rest counted)."""
+
+
+def twin_inputs(
+    copies: Sequence[Copy], chosen: Sequence[str], sources: Mapping[str, str]
+) -> tuple[list[TwinInputNote], list[Copy]]:
+    """The notes on inputs whose every channel in ``chosen`` copies a channel of one
+    other input (``sources``: each channel's input file), and the ``copies`` that are
+    not theirs (a copy inside one file, or only some channels of a file: the
+    :class:`CopyNote`'s). The copy kept is the one read first: the inputs are read in
+    time order, and by file name where they start together."""
+    by_input: dict[str, list[str]] = {}
+    for c in chosen:
+        if c in sources:
+            by_input.setdefault(sources[c], []).append(c)
+    of = {c.channel: c for c in copies}
+    notes: list[TwinInputNote] = []
+    twinned: set[str] = set()
+    for path, names in by_input.items():
+        if not all(n in of for n in names):
+            continue
+        kept = {sources.get(of[n].of) for n in names}
+        if len(kept) != 1 or None in kept or path in kept:
+            continue
+        first = str(next(iter(kept)))
+        why = "the first of the two by file name" if first < path else "the one read first"
+        notes.append(TwinInputNote(path, first, why, [of[n] for n in names]))
+        twinned.update(names)
+    return notes, [c for c in copies if c.channel not in twinned]
 
 
 FLAGS_LISTED = 20
@@ -692,6 +747,7 @@ def select_channels(
     sensors: Collection[str] = (),
     blank: Collection[str] = (),
     typed: Mapping[str, Mapping[str, str]] | None = None,
+    sources: Mapping[str, str] | None = None,
 ) -> list[str]:
     """The channels to analyze: ``--channels``' (``patterns``), else every numeric one
     that is not constant, whose meaning does not change between messages (names
@@ -711,7 +767,10 @@ def select_channels(
     where its family mostly varies) or, by default, where the config names it as a
     sensor (``sensors``: its ``[[group]]``'s channels, reference and uncertain
     sensors, ``[model]`` outputs; not the measured inputs, whose constant may be no
-    excitation at all)."""
+    excitation at all). An input whose every channel copies another input's (the same
+    recording twice: ``sources`` names each channel's input) is left out with its own
+    note (:class:`TwinInputNote`)."""
+    sources = sources or {}
     infos = {i.name: i for i in store.infos()}
     if not infos:
         raise ReaderError("no numeric channel found in the input")
@@ -809,9 +868,12 @@ def select_channels(
                 )
         if drop_copies and chosen:
             copies = find_copies(store, chosen)
+            twins, copies = twin_inputs(copies, chosen, sources)
+            notes.extend(twins)
             if copies:
                 notes.append(CopyNote(copies))
-                copied = {c.channel for c in copies}
+            copied = {c.channel for c in copies} | {c.channel for n in twins for c in n.copies}
+            if copied:
                 chosen = [c for c in chosen if c not in copied]
     if chosen and (not patterns or all(p.startswith("!") for p in patterns)):
         reported = [c for n in notes if isinstance(n, StuckNote) for c in n.names]

@@ -391,8 +391,15 @@ class InboxTracker:
     _members: dict[str, set[str]] = field(default_factory=dict)
     _tracks: dict[str, _Track] = field(default_factory=dict)
     _dirty: set[str] = field(default_factory=set)
+    once: bool = False
+    """``watch --once``: an archive that is only empty (a 0-byte file, an empty folder)
+    once stable for its settle time is handed on at once, to be recorded as empty, not
+    waited for (:func:`_only_empty`)."""
     _special: set[str] = field(default_factory=set)
     """Entries ignored as FIFOs, sockets or devices, each said once."""
+    _loops: set[str] = field(default_factory=set)
+    """Entries ignored as links to INBOX or a folder above it (:meth:`_is_loop`), each
+    said once."""
     _settles: dict[str, float] = field(default_factory=dict)
     """Archives whose settle time grew beyond ``settle`` (:meth:`settle_of`)."""
     _taken: dict[str, float] = field(default_factory=dict)
@@ -421,6 +428,27 @@ class InboxTracker:
         self._special.add(name)
         return True
 
+    def _is_loop(self, name: str) -> bool:
+        """Whether INBOX entry ``name`` is a symbolic link to INBOX itself or to a folder
+        above it (``loop -> ../inbox``): not an archive, as its folder holds INBOX's
+        archives again (it was waited on as one, for an empty file it reached through
+        the link); said once."""
+        path = self.inbox / name
+        if not path.is_symlink():
+            self._loops.discard(name)
+            return False
+        try:
+            target, inbox = path.resolve(), self.inbox.resolve()
+        except (OSError, RuntimeError):
+            return False
+        if target != inbox and target not in inbox.parents:
+            self._loops.discard(name)
+            return False
+        if name not in self._loops and not self.quiet:
+            log.warning("%s: ignored: a link to %s, which holds INBOX itself", name, target)
+        self._loops.add(name)
+        return True
+
     def rescan(self) -> None:
         """Re-list INBOX (start, polling, and the periodic safety rescan)."""
         try:
@@ -429,7 +457,8 @@ class InboxTracker:
                     e.name
                     for e in entries
                     # (d_type: a stat only for links and special files)
-                    if e.is_file() or e.is_dir() or not self._is_special(e.name)
+                    if (e.is_file() or e.is_dir() or not self._is_special(e.name))
+                    and not (e.is_symlink() and self._is_loop(e.name))
                 }
         except FileNotFoundError:
             names = set()
@@ -447,7 +476,11 @@ class InboxTracker:
         k = self.key(name)
         if k is None:
             return
-        if os.path.lexists(self.inbox / name) and not self._is_special(name):
+        if (
+            os.path.lexists(self.inbox / name)
+            and not self._is_special(name)
+            and not self._is_loop(name)
+        ):
             self._members.setdefault(k, set()).add(name)
         else:
             self._members.get(k, set()).discard(name)
@@ -570,7 +603,8 @@ class InboxTracker:
                 track.known = None if track.reason else False
             if problem is None and track.reason and track.known is None:
                 track.known = self._known(ReadyArchive(k, paths, sig, track.reason))
-                if track.known is False and _gist(track.reason) != track.told:
+                waits = not (self.once and _only_empty(track.reason))  # (handed on now)
+                if waits and track.known is False and _gist(track.reason) != track.told:
                     track.told = _gist(track.reason)
                     if not self.quiet:
                         log.warning(
@@ -590,12 +624,24 @@ class InboxTracker:
             if track.problem is not None:
                 track.problem, track.yielded = None, None
             gave_up = now - track.since >= self.incomplete_timeout
+            gave_up = gave_up or (self.once and _only_empty(track.reason))
             if track.reason is None or track.known or gave_up:
                 track.yielded = sig
                 self._taken[k] = now
                 hold = now + SOON_SETTLES * self.settle_of(k)
                 ready.append(ReadyArchive(k, paths, sig, track.reason, hold_until=hold))
         return ready
+
+
+def _only_empty(reason: str | None) -> bool:
+    """Whether an archive looks unfinished only for being empty: a 0-byte file (or a
+    folder's 0-byte member), an empty folder. Under ``--once``, stable for its settle
+    time, nothing more is on its way (a copy writes its first bytes at once), and a
+    0-byte file held ``watch --once`` for 10 minutes (a QA audit); a truncated MCAP or
+    an unindexed bag is still waited for (a copy or a recorder that pauses)."""
+    return reason is not None and (
+        reason in ("empty file", "empty directory") or reason.endswith(": empty file")
+    )
 
 
 def _gist(reason: str) -> str:
@@ -720,7 +766,7 @@ def ready_batches(
     """
     stop = stop or threading.Event()
     tracker = InboxTracker(
-        inbox, settle, group_by, frozenset(exclude), incomplete_timeout, known=known
+        inbox, settle, group_by, frozenset(exclude), incomplete_timeout, known=known, once=once
     )
     tick = min(0.25, max(0.02, settle / 4))
     sink: queue.SimpleQueue[str] = queue.SimpleQueue()

@@ -16,6 +16,7 @@ a multi-file archive a damaged file does not stop the others: it is listed in
 from __future__ import annotations
 
 import contextlib
+import os
 import queue
 import threading
 import time as time_module
@@ -261,6 +262,10 @@ class Archive:
         """What the archive's folders held that is not read (the analyzer's own outputs, a
         FIFO, a folder reached twice through a link) and inputs given twice, as
         :class:`ArchiveNote`."""
+        self.sources: dict[str, Path] = {}
+        """The input each channel was first read from, once :meth:`chunks` has streamed
+        them all (the same recording in two inputs: :class:`~analyzer.selection.
+        TwinInputNote`)."""
 
     def start_ns(self) -> int | None:
         """Start time of the first readable input."""
@@ -302,6 +307,9 @@ class Archive:
                     yield chunk
                 if report is not None:
                     report.finished(i)
+            for reader, h in zip(self.readers, held, strict=True):
+                for name in sorted(h.names):
+                    self.sources.setdefault(name, reader.info.path)
             self.notes.extend(ArchiveNote(n) for n in apart_names(self.readers, held))
             self.notes.extend(ArchiveNote(n) for n in renamed_columns(self.readers, held))
             columns_left_out(self.readers, held)
@@ -677,6 +685,11 @@ def _walk(
                 f"{entry} not read: the analyzer's output beside {directory / 'findings.json'}"
             )
             continue
+        if entry.is_symlink() and not entry.exists():
+            # (said where it could be an input: a known suffix, or none, as a folder has)
+            if _suffix(entry) or not entry.suffix:
+                skipped.append(f"{entry} not read: {_dangling(entry)}")
+            continue
         if entry.is_dir():
             if is_ros2_bag(entry):
                 found.append(entry)
@@ -698,6 +711,17 @@ def _walk(
                 skipped.append(f"{entry} not read: not a regular file ({special})")
         elif _suffix(entry) or _is_toa5(entry):
             found.append(entry)
+
+
+def _dangling(link: Path) -> str:
+    """Why the symbolic link ``link``, whose target cannot be reached, is not read: a
+    link to a folder on a drive not mounted (say) was passed over without a word, as if
+    the archive had nothing there (a QA audit)."""
+    try:
+        target = os.readlink(link)
+    except OSError:
+        return "a symbolic link whose target cannot be read"
+    return f"a symbolic link to {target}, which does not exist"
 
 
 def _is_toa5(path: Path) -> bool:
@@ -774,6 +798,7 @@ def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
             failed.append(opened.info)
         else:
             readers.append(opened)
+    readers = _read_once(readers, skipped)
     if not readers:
         raise ReaderError(
             f"none of the {len(members)} inputs can be read; first: {failed[0].path}: "
@@ -781,6 +806,31 @@ def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
         )
     _one_clock(readers)
     return Archive(readers, failed, skipped)
+
+
+def _read_once(readers: Sequence[Reader], skipped: list[str]) -> list[Reader]:
+    """``readers`` without those whose file holds the same bytes as an earlier one's (a
+    file copied under another name), each said in ``skipped``: its samples would all be
+    dropped as overlapping the first's, five warnings that never said why. (The same
+    recording in another format is found by its values: :class:`~analyzer.selection.
+    TwinInputNote`.)"""
+    first: dict[tuple[int, str], Path] = {}
+    kept: list[Reader] = []
+    for reader in readers:
+        info = reader.info
+        if not info.sha256 or not info.size_bytes:
+            kept.append(reader)
+            continue
+        seen = first.setdefault((info.size_bytes, info.sha256), info.path)
+        if seen == info.path:
+            kept.append(reader)
+            continue
+        why = "the first of the two by file name" if str(seen) < str(info.path) else "given first"
+        skipped.append(
+            f"{info.path} holds the same bytes as {seen} (a copy of the file): read once, "
+            f"as {seen} ({why})"
+        )
+    return kept
 
 
 EPOCH_NS = 100_000_000 * 1_000_000_000

@@ -508,7 +508,9 @@ class McapReader:
         if data_at > len(raw):
             return None  # cut before its data starts: nothing of it can be had
         kind = f"{compression}-compressed" if compression else "uncompressed"
-        where = f"truncated inside the {kind} chunk at byte {start} (the file ends at byte "
+        where = (
+            f"truncated inside the {kind} chunk that starts at byte {start} (the file ends at byte "
+        )
         where += f"{self._size})"
         try:
             records = as_bytes_array(cut_prefix(compression, raw[data_at:])[:size])

@@ -520,8 +520,9 @@ class Ros1BagReader:
                                     compressed=compression != "none",
                                 )
                                 self._error(
-                                    f"truncated inside the {kind} chunk at byte {position} "
-                                    f"(the file ends at byte {handle.tell()}); {what}; "
+                                    f"truncated inside the {kind} chunk that starts at byte "
+                                    f"{position} (the file ends at byte {handle.tell()}); "
+                                    f"{what}; "
                                     f"{read.in_all()}"
                                 )
                             return

@@ -63,6 +63,13 @@ beta`` on values far from zero)."""
 BLOCK = 1 << 20
 """Samples of a pair compared at once."""
 
+SAME_TIME_NS = 1_000
+"""Largest difference, in nanoseconds, between the times of two channels' samples for
+them to count as recorded at the same times: a microsecond, the resolution of ISO times
+written with six decimals (the same recording written as MCAP, with nanosecond times,
+and as CSV differs by under a microsecond on some samples; an audit's two copies of one
+recording in one folder were analyzed as 10 sensors)."""
+
 COSINE_BLOCK = 1024
 """Channels whose fingerprints are compared with every earlier one's at once (a
 10 000-column CSV needs no 800-MB matrix)."""
@@ -90,18 +97,20 @@ class Copy:
 
 def find_copies(store: ChannelStore, names: Sequence[str]) -> list[Copy]:
     """The channels of ``names`` (in their order) that copy an earlier one of ``names``
-    over the whole record: recorded at the same times, with gaps (NaN) at the same
-    samples, and ``|b - (alpha a + beta)|`` within :data:`COPY_TOLERANCE` of ``b``'s
-    range (plus :data:`ROUNDING` of its magnitude) on every sample. Each copy names the
+    over the whole record: recorded at the same times (within :data:`SAME_TIME_NS`),
+    with gaps (NaN) at the same samples, and ``|b - (alpha a + beta)|`` within
+    :data:`COPY_TOLERANCE` of ``b``'s range (plus :data:`ROUNDING` of its magnitude) on
+    every sample. Each copy names the
     first channel it copies that is kept (a copy of a copy names the original).
     Constant channels are never copies (they are left out anyway)."""
     infos = {i.name: i for i in store.infos()}
-    by_shape: dict[tuple[int, int, int, int], list[str]] = {}
+    by_shape: dict[tuple[int, int], list[str]] = {}
     for name in names:
         i = infos[name]
         if i.constant:
             continue
-        by_shape.setdefault((i.samples, i.finite, i.start_ns, i.end_ns), []).append(name)
+        # (the spans are compared with the times, within SAME_TIME_NS)
+        by_shape.setdefault((i.samples, i.finite), []).append(name)
     found: list[Copy] = []
     for group in by_shape.values():
         if len(group) > 1:
@@ -242,7 +251,7 @@ def _same_everywhere(
     tol = _tolerance(b)
     for s in range(0, a.samples, BLOCK):
         e = min(a.samples, s + BLOCK)
-        if ta is not tb and not np.array_equal(ta[s:e], tb[s:e]):
+        if ta is not tb and not _same_times(ta[s:e], tb[s:e]):
             return False
         x = np.asarray(va[s:e], dtype=np.float64)
         y = np.asarray(vb[s:e], dtype=np.float64)
@@ -256,3 +265,11 @@ def _same_everywhere(
         if diff.size and float(diff.max()) > tol:
             return False
     return True
+
+
+def _same_times(ta: npt.NDArray[np.int64], tb: npt.NDArray[np.int64]) -> bool:
+    """Whether two blocks of sample times agree within :data:`SAME_TIME_NS` each."""
+    if np.array_equal(ta, tb):
+        return True
+    diff = np.asarray(ta, dtype=np.int64) - np.asarray(tb, dtype=np.int64)
+    return bool(np.abs(diff).max() <= SAME_TIME_NS)

@@ -574,7 +574,9 @@ def test_inspect_of_inputs_none_of_which_can_be_read_says_so_first(tmp_path, cap
     folder = tmp_path / "in"
     folder.mkdir()
     for k in range(2):
-        (folder / f"r{k}.mcap").write_bytes((SAMPLES / "building_additive.mcap").read_bytes()[:300])
+        # (cut at 300 and 301 bytes: two copies of the same bytes would be read once)
+        data = (SAMPLES / "building_additive.mcap").read_bytes()[: 300 + k]
+        (folder / f"r{k}.mcap").write_bytes(data)
     code, stdout, err = run_cli(["inspect", str(folder)], capsys)
     assert code == 2 and stdout == ""
     line = one_line_error(err, "r0.mcap", "r1.mcap")

@@ -129,11 +129,15 @@ def test_inspect_keeps_the_whole_message_in_tmpdir(tmp_path, capsys, tmpdir_here
     folder = tmp_path / "in"
     folder.mkdir()
     for k in range(3):
-        (folder / f"recording_{k}_{'0' * 150}.mcap").write_bytes(src.read_bytes()[:300])
+        # (cut at 300-302 bytes: three copies of the same bytes would be read once)
+        (folder / f"recording_{k}_{'0' * 150}.mcap").write_bytes(src.read_bytes()[: 300 + k])
     code, stdout, err = run_cli(["inspect", folder], capsys)
     assert code == 2 and stdout == ""
     # (cut inside their first chunk: nothing of it decompresses)
-    cut = "truncated inside the zstd-compressed chunk at byte 45 (the file ends at byte 300)"
+    cut = (
+        "truncated inside the zstd-compressed chunk that starts at byte 45 (the file ends at "
+        "byte 30"
+    )
     count, where = _whole(one_line_error(err, cut))
     head, message = Path(where).read_text(encoding="utf-8").splitlines()
     assert Path(where).parent == tmpdir_here

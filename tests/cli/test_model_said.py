@@ -205,8 +205,8 @@ def test_a_file_cut_short_too_short_to_analyze_says_it_was_cut_short(tmp_path, c
     assert code == 2
     line = one_line_error(
         err,
-        "truncated inside the zstd-compressed chunk at byte 691894 (the file ends at byte "
-        "900000): only 41.1 s of data were read",
+        "truncated inside the zstd-compressed chunk that starts at byte 691894 (the file ends "
+        "at byte 900000): only 41.1 s of data were read",
     )
     # the damage first (a long line is cut at its end), the reason the run stopped after
     assert line.index("truncated") < line.index("too short")

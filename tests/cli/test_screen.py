@@ -115,7 +115,7 @@ def test_the_watchers_analysis_is_screened_too(tmp_path):
 @pytest.mark.parametrize(
     "extra, needle",
     [
-        (["--screen", "nope"], "no such detector"),
+        (["--screen", "nope"], "--screen: unknown detector 'nope'"),
         (["--screen", "equivalent_model", "--detectors", "ar_kalman_bank"], "not among"),
         (
             ["--screen", "equivalent_model,ar_kalman_bank"]

@@ -111,8 +111,8 @@ def test_a_roslz4_chunk_cut_keeps_its_complete_messages(tmp_path: Path) -> None:
     assert 0.4 * 40_000 < count < 40_000
     assert errors[0] == "bag index lies past the end of the file (truncated?); read sequentially"
     assert errors[1].startswith(
-        f"truncated inside the lz4-compressed chunk at byte {pos} (the file ends at byte "
-        f"{end}); its {count} complete message(s) before the cut were recovered (from the "
+        f"truncated inside the lz4-compressed chunk that starts at byte {pos} (the file ends "
+        f"at byte {end}); its {count} complete message(s) before the cut were recovered (from the "
         "first "
     )
     lost = (
@@ -218,7 +218,8 @@ def test_an_mcap_cut_inside_its_one_chunk_keeps_its_complete_messages(
     (line,) = [e for e in info.errors if "truncated" in e]
     kind = "uncompressed" if compression == "none" else f"{compression}-compressed"
     assert line.startswith(
-        f"truncated inside the {kind} chunk at byte {pos} (the file ends at byte {size}); its "
+        f"truncated inside the {kind} chunk that starts at byte {pos} (the file ends at byte "
+        f"{size}); its "
         f"{count} complete message(s) before the cut were recovered (from the first "
     )
     how = "" if compression == "none" else ", decompressed"
@@ -287,7 +288,7 @@ def test_a_zstd_chunk_cut_in_its_first_block_says_so_first(
     assert main(["run", str(cut), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert err.startswith(
-        f"analyzer: error: {cut}: truncated inside the zstd-compressed chunk at byte "
+        f"analyzer: error: {cut}: truncated inside the zstd-compressed chunk that starts at byte "
     )
     assert (
         "its zstd-compressed data holds no complete block before the cut, so none of its "

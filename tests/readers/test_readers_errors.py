@@ -483,6 +483,8 @@ def test_relative_and_unix_times_are_not_one_archive(tmp_path: Path) -> None:
     write_archive(tmp_path / "abs.mcap", "mcap", t_ns, data, start_iso="2026-01-01T00:00:00Z")
     with pytest.raises(ReaderError, match=r"rel\.csv has relative times .*abs\.mcap Unix"):
         open_archive([tmp_path / "rel.csv", tmp_path / "abs.mcap"])
-    write_archive(tmp_path / "rel2.csv", "csv", t_ns + 2_000_000_000, data)
+    # (other values: the same bytes as rel.csv, relative times from 0, are read once)
+    later = {k: v + 1.0 for k, v in data.items()}
+    write_archive(tmp_path / "rel2.csv", "csv", t_ns + 2_000_000_000, later)
     archive = open_archive([tmp_path / "rel.csv", tmp_path / "rel2.csv"])  # one clock: fine
     assert len(archive.inputs) == 2

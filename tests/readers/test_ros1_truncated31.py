@@ -101,7 +101,7 @@ def test_cut_inside_the_only_chunk_keeps_its_complete_messages(tmp_path: Path) -
     assert 0.59 * 6000 < count < 0.6 * 6000
     assert errors[0] == "bag index lies past the end of the file (truncated?); read sequentially"
     assert errors[1].startswith(
-        f"truncated inside the uncompressed chunk at byte {pos} (the file ends at byte "
+        f"truncated inside the uncompressed chunk that starts at byte {pos} (the file ends at byte "
         f"{size}); its {count} complete message(s) before the cut were recovered"
     )
     _said(errors, count)
@@ -132,7 +132,8 @@ def test_cut_in_a_later_chunk_keeps_the_chunks_before_and_its_part(tmp_path: Pat
     before = _prefix(_read(_cut(full, pos, "whole_chunks.bag"))[0])
     assert 0 < before < count
     assert errors[-1].startswith(
-        f"truncated inside the uncompressed chunk at byte {pos} (the file ends at byte {size}); "
+        f"truncated inside the uncompressed chunk that starts at byte {pos} (the file ends at "
+        f"byte {size}); "
         f"its {count - before} complete message(s) before the cut were recovered"
     )
     _said(errors, count)
@@ -147,8 +148,8 @@ def test_cut_lz4_chunk_keeps_its_whole_blocks(tmp_path: Path) -> None:
     count = _prefix(values)
     assert 0 < count < 40_000
     assert errors[-1].startswith(
-        f"truncated inside the lz4-compressed chunk at byte {pos} (the file ends at byte "
-        f"{size}); its {count} complete message(s) before the cut were recovered"
+        f"truncated inside the lz4-compressed chunk that starts at byte {pos} (the file ends "
+        f"at byte {size}); its {count} complete message(s) before the cut were recovered"
     )
     _said(errors, count)
 
@@ -163,8 +164,8 @@ def test_cut_bz2_chunk_says_its_messages_are_lost(tmp_path: Path) -> None:
     count = _prefix(values)
     assert count == _prefix(_read(_cut(full, pos, "whole_chunks.bag"))[0]) > 0
     assert errors[-1] == (
-        f"truncated inside the bz2-compressed chunk at byte {pos} (the file ends at byte "
-        f"{size}); its bz2-compressed data holds no complete block before the cut, so none "
+        f"truncated inside the bz2-compressed chunk that starts at byte {pos} (the file ends "
+        f"at byte {size}); its bz2-compressed data holds no complete block before the cut, so none "
         f"of its messages can be recovered; {count} message(s) read in all, up to "
         f"{(count - 1) // 2 * PERIOD_NS / 1e9:.3f} s after the first"
     )
