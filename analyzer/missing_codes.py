@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from analyzer.readers.base import ChannelChunk
+from analyzer.store.store import UNREADABLE
 
 USUAL_CODES = (-9999.0, -99999.0, 9999.0, -999.0)
 """Missing-value codes in common use, which a clipped or stuck value equal to one is
@@ -48,22 +50,118 @@ def parse_codes(text: str) -> tuple[float, ...]:
     return tuple(dict.fromkeys(codes))
 
 
+@dataclass(slots=True)
+class Unread:
+    """What :func:`as_gaps` dropped, by channel: ``coded`` the samples equal to a
+    ``--missing-values`` code, ``absurd`` the infinite ones and those beyond
+    :data:`~analyzer.store.store.UNREADABLE` in magnitude, ``nan`` the NaN ones (a reader's
+    "no reading"), ``kept`` the samples handed on, ``last`` the latest time of one
+    dropped."""
+
+    coded: dict[str, int] = field(default_factory=dict)
+    absurd: dict[str, int] = field(default_factory=dict)
+    nan: dict[str, int] = field(default_factory=dict)
+    kept: dict[str, int] = field(default_factory=dict)
+    last: dict[str, int] = field(default_factory=dict)
+    """Each channel's latest time (ns) of a sample dropped: a topic that goes on
+    publishing NaN after its sensor died marks its silence so (:mod:`analyzer.silent`)."""
+
+    def lost(self) -> dict[str, tuple[str, int]]:
+        """The channels every sample of which was dropped (none handed on): the words
+        for what their samples were, and how many there were."""
+        out = {}
+        for name in {**self.absurd, **self.coded, **self.nan}:
+            if self.kept.get(name):
+                continue
+            kinds = [
+                (words, counts[name])
+                for counts, words in (
+                    (
+                        self.absurd,
+                        "infinite or beyond 1e30 in magnitude (an overrange or error code?)",
+                    ),
+                    (self.coded, "a missing-value code (--missing-values)"),
+                    (self.nan, "NaN (no reading)"),
+                )
+                if counts.get(name)
+            ]
+            out[name] = (" or ".join(w for w, _ in kinds), sum(k for _, k in kinds))
+        return out
+
+
 def as_gaps(
-    chunks: Iterator[ChannelChunk], codes: Sequence[float], counts: dict[str, int]
+    chunks: Iterator[ChannelChunk], codes: Sequence[float], unread: Unread
 ) -> Iterator[ChannelChunk]:
-    """``chunks`` with each sample equal to one of ``codes`` made NaN (a gap, as a blank
-    cell), counted by channel into ``counts``. A block at a time: no per-sample work."""
-    if not codes:
-        yield from chunks
-        return
+    """``chunks`` without their samples that are no reading: NaN, infinite, beyond
+    :data:`~analyzer.store.store.UNREADABLE` in magnitude (an overrange or error code, a
+    corrupt cell) or equal to one of ``codes``, each counted by channel into ``unread``.
+
+    Dropped before the store, as a CSV reader drops a blank cell: a gap of one sample is
+    then bridged by the alignment as a blank cell's is, where a NaN kept as a sample was
+    a gap every model's filter had to settle after (a -9999 or an infinity every 250
+    rows of one channel left no detector able to run, while blank cells at the same
+    rows gave the finding: the ux56 audit). A block at a time: one vectorized mask per
+    chunk, no per-sample work; a chunk with nothing to drop is handed on as it is (its
+    times still the very array the store may share among a message's fields)."""
     wanted = np.asarray(codes, dtype=np.float64)
     for chunk in chunks:
-        hit = np.isin(chunk.values, wanted)
-        n = int(np.count_nonzero(hit))
+        values = np.asarray(chunk.values)
+        with np.errstate(invalid="ignore"):
+            ok = np.abs(values) <= UNREADABLE  # (False for NaN and the infinities)
+        hit = np.isin(values, wanted) if wanted.size else None
+        if hit is not None:
+            ok &= ~hit
+        name = chunk.name
+        n = int(np.count_nonzero(ok))
+        unread.kept[name] = unread.kept.get(name, 0) + n
+        if n == ok.shape[0]:
+            yield chunk
+            continue
+        nan = int(np.count_nonzero(np.isnan(values[~ok])))
+        coded = 0 if hit is None else int(np.count_nonzero(hit))
+        absurd = ok.shape[0] - n - nan - coded
+        for counts, k in ((unread.nan, nan), (unread.coded, coded), (unread.absurd, absurd)):
+            if k:
+                counts[name] = counts.get(name, 0) + k
+        t_ns = np.asarray(chunk.t_ns)
+        at = int(t_ns[~ok].max())
+        unread.last[name] = max(unread.last.get(name, at), at)
         if n:
-            counts[chunk.name] = counts.get(chunk.name, 0) + n
-            chunk = ChannelChunk(chunk.name, chunk.t_ns, np.where(hit, np.nan, chunk.values))
-        yield chunk
+            yield ChannelChunk(name, t_ns[ok], values[ok])
+
+
+def absurd_note(counts: Mapping[str, int]) -> str:
+    """The note on the infinite or absurd samples taken as gaps (by channel), or ""
+    (:func:`analyzer.pipeline._analyze` appends it to an error where no detector could
+    run, by its first words)."""
+    if not counts:
+        return ""
+    return (
+        "infinite or absurd values (beyond 1e30: an overrange or error code?) taken as gaps: "
+        + ", ".join(f"{c} ({n})" for c, n in counts.items() if n)
+    )
+
+
+class UnreadNote(str):
+    """The note (repeated on stderr) naming the channels none of whose samples is a
+    reading (every one NaN, infinite, beyond 1e30 or a ``--missing-values`` code), which
+    are not analyzed, with their ``names``. Said for what it is: the training window's
+    "no sample in the training window ... give --train" (which such a channel also
+    met) sent the user looking for a window no ``--train`` can give (the ux56 audit)."""
+
+    names: tuple[str, ...] = ()
+
+    def __new__(cls, lost: Mapping[str, tuple[str, int]]) -> UnreadNote:
+        note = super().__new__(
+            cls,
+            "; ".join(
+                f"{name}: every one of its {n} values is {words}, so all were taken as "
+                "gaps: not analyzed, in any training window (it has no reading)"
+                for name, (words, n) in lost.items()
+            ),
+        )
+        note.names = tuple(lost)
+        return note
 
 
 def gaps_note(counts: Mapping[str, int], codes: Sequence[float]) -> str:
@@ -147,4 +245,14 @@ def code_hints(
     return notes
 
 
-__all__ = ["USUAL_CODES", "CodeHint", "as_gaps", "code_hints", "gaps_note", "parse_codes"]
+__all__ = [
+    "USUAL_CODES",
+    "CodeHint",
+    "Unread",
+    "UnreadNote",
+    "absurd_note",
+    "as_gaps",
+    "code_hints",
+    "gaps_note",
+    "parse_codes",
+]

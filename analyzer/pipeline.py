@@ -105,7 +105,15 @@ from analyzer.errors import (
 )
 from analyzer.findings import Analysis, findings_document, input_digest, write_outputs
 from analyzer.grouping import partition
-from analyzer.missing_codes import CodeHint, as_gaps, code_hints, gaps_note
+from analyzer.missing_codes import (
+    CodeHint,
+    Unread,
+    UnreadNote,
+    absurd_note,
+    as_gaps,
+    code_hints,
+    gaps_note,
+)
 from analyzer.modelfile import (
     SavedModel,
     check_model_path,
@@ -647,29 +655,33 @@ def analyze_screened(inputs: Sequence[str | Path], options: RunOptions, workdir:
 
 def _read_checked(
     inputs: Sequence[str | Path], options: RunOptions, work: Path
-) -> tuple[Archive, ChannelStore, Tally]:
+) -> tuple[Archive, ChannelStore, Tally, Unread]:
     """The inputs read into a finalized store, checked: what the readers handed over
     (tallied chunk by chunk, :class:`~analyzer.readers.tally.Tally`) must be what the
     store holds, sample for sample (each reader's reordering checks itself the same way,
     :meth:`~analyzer.readers._common.Reorderer.flush`). Returns the tally too, for the
     store's check again once it is aligned (:func:`_store_unchanged`). Raises
     :class:`IntegrityError` naming the channels that differ (:func:`_checked` reads
-    again)."""
+    again).
+
+    The samples that are no reading (NaN, infinite, beyond 1e30, a ``--missing-values``
+    code) are dropped on the way into the store, as blank cells are
+    (:func:`~analyzer.missing_codes.as_gaps`): returned counted by channel too."""
     progress = options.progress
     reading = None if progress is None else partial(progress, "read")
     archive = open_archive(inputs)
     fed = Tally()
     codes = options.missing_values
-    coded: dict[str, int] = {}
-    chunks = as_gaps(archive.chunks(options.time_source, reading), codes, coded)
+    unread = Unread()
+    chunks = as_gaps(archive.chunks(options.time_source, reading), codes, unread)
     store = ChannelStore.from_chunks(fed.counted(chunks), work / "store")
-    archive.notes.extend(n for n in [gaps_note(coded, codes)] if n)
+    archive.notes.extend(n for n in [gaps_note(unread.coded, codes)] if n)
     try:
         _store_unchanged(store, fed, "")
     except IntegrityError:
         store.close()
         raise
-    return archive, store, fed
+    return archive, store, fed, unread
 
 
 def _store_unchanged(store: ChannelStore, fed: Tally, when: str) -> None:
@@ -775,17 +787,29 @@ def _analyze(
     notes: list[str] = []
     progress = options.progress
     t_start = time.perf_counter()
-    archive, store, fed = _read_checked(inputs, options, work)
+    archive, store, fed, no_reading = _read_checked(inputs, options, work)
     notes.extend(archive.notes)
+    # (channels none of whose samples is a reading: said for that, not analyzed)
+    unreadable_only = {c: w for c, w in no_reading.lost().items() if c not in store.names}
+    if unreadable_only:
+        notes.append(UnreadNote(unreadable_only))
     with store, _cut_short_said(archive.inputs, store):
         timings["read"] = time.perf_counter() - t_start
         if progress:
             progress("read", 1.0)
         if not store.infos():
-            raise ReaderError(no_numeric_channel(archive.inputs))
+            raise ReaderError(
+                no_numeric_channel(
+                    archive.inputs,
+                    f"no channel has a reading ({UnreadNote(unreadable_only)})"
+                    if unreadable_only
+                    else "no numeric channel found",
+                )
+            )
         reused = options.model
         # CSV columns blank in every row: no channel, but named as what they are
         blank = {c for i in archive.inputs for c in i.blank_until} - set(store.names)
+        blank |= set(unreadable_only)  # (no reading in any sample: as blank, once dropped)
         if reused is None:
             relabelled = [p for i in archive.inputs for p in i.relabelled]
             # (the config's groups and [model] name their channels: all are kept)
@@ -818,14 +842,12 @@ def _analyze(
         path = work / "aligned.npy" if big else None
         unreadable = np.zeros(len(chosen), dtype=np.int64)
         values = aligned.materialize(path, unreadable=unreadable)
-        if unreadable.any():
-            notes.append(
-                "infinite or absurd values (beyond 1e30: an overrange or error code?) "
-                "taken as gaps: "
-                + ", ".join(
-                    f"{c} ({n})" for c, n in zip(chosen, unreadable.tolist(), strict=True) if n
-                )
-            )
+        # (those the reading dropped, and any the alignment met: none from finite samples)
+        beyond = dict(no_reading.absurd)
+        for c, n in zip(chosen, unreadable.tolist(), strict=True):
+            if n:
+                beyond[c] = beyond.get(c, 0) + n
+        notes.extend(n for n in [absurd_note(beyond)] if n)
         release(values)  # written: its pages go back to the page cache (see analyzer.paging)
         # the raw samples were read again to align them: unchanged since they were checked
         _store_unchanged(store, fed, " after the alignment")
@@ -898,7 +920,13 @@ def _analyze(
         # a sensor whose readings give way to blank cells or NaN for the rest of the record
         # (the others going on): dead, a finding as one that reads 0 (analyzer.silent)
         silent = silent_findings(
-            values, chosen, aligned.rate_hz, aligned.start_ns, infos, archive.inputs
+            values,
+            chosen,
+            aligned.rate_hz,
+            aligned.start_ns,
+            infos,
+            archive.inputs,
+            no_reading.last,
         ) + blank_findings(unread, aligned.duration_s)
         if fixed or few:
             lost = {}
@@ -2885,7 +2913,7 @@ def _run_into(inputs: Sequence[str | Path], out: Path, options: RunOptions, crea
                 options.warn(line)
             for line in window_warnings(analysis.notes):  # a training window not healthy
                 options.warn(line)
-            for line in (n for n in analysis.notes if isinstance(n, CodeHint)):
+            for line in (n for n in analysis.notes if isinstance(n, (CodeHint, UnreadNote))):
                 options.warn(line)
             skipped = skipped_warning(analysis, options, " ".join(configured))
             if skipped:  # (default detectors that did not run: findings.json alone said it)

@@ -56,10 +56,13 @@ def silent_findings(
     start_ns: int,
     infos: Sequence[ChannelInfo],
     inputs: Sequence[InputInfo],
+    dropped: Mapping[str, int] | None = None,
 ) -> list[Finding]:
     """A finding for each channel of ``chosen`` (the columns of the aligned matrix
     ``values``, rows at ``rate_hz`` from ``start_ns``) that went silent by the module's
-    rule; ``infos`` and ``inputs`` give where its explicit marks end."""
+    rule; ``infos``, ``inputs`` and ``dropped`` (each channel's last sample dropped as no
+    reading as it was read, ns: :class:`~analyzer.missing_codes.Unread`) give where its
+    explicit marks end."""
     if not rate_hz > 0 or values.shape[0] == 0:
         return []
     last = last_rows(values)
@@ -68,7 +71,7 @@ def silent_findings(
     record = int(last.max())
     window = shortest(rate_hz)
     least = max(MIN_SAMPLES, MIN_WINDOWS * window)
-    marked = _marks_end(infos, inputs)
+    marked = _marks_end(infos, inputs, dropped or {})
     out = []
     for j, name in enumerate(chosen):
         row = int(last[j])
@@ -108,13 +111,17 @@ def blank_findings(names: Sequence[str], duration_s: float) -> list[Finding]:
     return out
 
 
-def _marks_end(infos: Sequence[ChannelInfo], inputs: Sequence[InputInfo]) -> dict[str, int]:
+def _marks_end(
+    infos: Sequence[ChannelInfo], inputs: Sequence[InputInfo], dropped: Mapping[str, int]
+) -> dict[str, int]:
     """Of each channel with explicit "no reading" marks, the latest time they reach (ns):
-    a CSV column's blank cells to its file's last row; NaN samples to the last sample."""
-    marked: dict[str, int] = {}
+    a CSV column's blank cells to its file's last row; NaN samples to the last sample;
+    the samples dropped as no reading as they were read (NaN, infinite, a code:
+    ``dropped``, their last), which are such marks too."""
+    marked: dict[str, int] = dict(dropped)
     for info in infos:
         if info.samples > info.finite:  # NaN samples: published as no reading
-            marked[info.name] = info.end_ns
+            marked[info.name] = max(marked.get(info.name, info.end_ns), info.end_ns)
     for i in inputs:
         for name, at in i.blank_until.items():
             marked[name] = max(marked.get(name, at), at)

@@ -1512,6 +1512,16 @@ __all__ = [
 ]
 
 
+def _percent(share: float) -> str:
+    """A share of samples, in percent, for a message: whole percents from 1 % up, one
+    decimal below (a channel with a gap every 250 samples was "s4 0 %", named as the
+    channel with most gaps beside "0"), and "under 0.1 %" below that, never "0 %" for a
+    channel that has gaps."""
+    if share >= 1:
+        return f"{share:.0f} %"
+    return f"{share:.1f} %" if share >= 0.05 else "under 0.1 %"
+
+
 def _settling_error(err: DetectorError, settle: int, data: Dataset) -> DetectorError:
     """``err`` (too few healthy samples) saying why where gaps are the reason: a filter's
     output is left out while it settles after each gap of its inputs, so a training
@@ -1528,7 +1538,7 @@ def _settling_error(err: DetectorError, settle: int, data: Dataset) -> DetectorE
         return err
     missing = (~np.isfinite(train)).mean(axis=0)
     worst = [
-        f"{data.channels[j]} {100 * missing[j]:.0f} %"
+        f"{data.channels[j]} {_percent(100 * float(missing[j]))}"
         for j in np.argsort(-missing, kind="stable")[:3]
         if missing[j] > 0
     ]
