@@ -206,7 +206,8 @@ def add_run_options(p: argparse.ArgumentParser, command: str = "run") -> None:
         "--rate",
         type=_positive_float,
         metavar="HZ",
-        help="rate of the common clock; default: the dominant rate of the channels",
+        help="rate of the common clock; default: the dominant rate of the channels, or a "
+        "slower one where that runs far above what they carry (a note says which)",
     )
     p.add_argument(
         "--missing-values",

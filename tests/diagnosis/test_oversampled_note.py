@@ -166,13 +166,20 @@ def test_the_runs_memory_is_the_order_its_config_sets():
 
 def test_the_run_names_the_order_its_config_sets(tmp_path):
     """A 4-floor building at 500 Hz (content about 5 Hz) with the bank's order set to 4:
-    the note says the models remember 4 samples, not 10, and names a rate where 4
-    samples span a quarter period (50 Hz)."""
+    at ``--rate 500`` the note says the models remember 4 samples, not 10, and names a
+    rate where 4 samples span a quarter period (50 Hz); without ``--rate`` the run
+    analyzes the record at that rate, and its note names the same memory."""
     t, y, names = simulate_building(n_floors=4, duration_s=30.0, rate_hz=500.0, seed=1)
     config = tmp_path / "c.toml"
     config.write_text("[detectors.ar_kalman_bank]\norder = 4\n")
     options = ("--detectors", "ar_kalman_bank", "--train", "0:15", "--config", str(config))
-    run_csv(tmp_path, t, y, names, code=0, options=options)
-    doc = json.loads((tmp_path / "out" / "findings.json").read_text())
+    for part, rate in (("asked", ("--rate", "500")), ("default", ())):
+        (tmp_path / part).mkdir()
+        run_csv(tmp_path / part, t, y, names, code=0, options=(*options, *rate))
+    doc = json.loads((tmp_path / "asked" / "out" / "findings.json").read_text())
     (note,) = [n for n in doc["notes"] if "sampled at 500 Hz" in n]
     assert "remember about 4 samples (8 ms of a" in note and "--rate 50 aligns" in note
+    doc = json.loads((tmp_path / "default" / "out" / "findings.json").read_text())
+    assert (doc["rate_hz"], doc["logged_rate_hz"]) == (50.0, 500.0)
+    (note,) = [n for n in doc["notes"] if n.startswith("record logged at 500 Hz, analyzed at 50")]
+    assert "remember about 4 samples, 8 ms at 500 Hz" in note
