@@ -239,7 +239,9 @@ def add_run_options(p: argparse.ArgumentParser, command: str = "run") -> None:
     p.add_argument(
         "--corrected",
         action="store_true",
-        help="also write DIR/corrected.csv with faulty channels corrected over their fault periods",
+        help="also write DIR/corrected.csv with faulty channels corrected over their fault "
+        "periods, at the rate analyzed (a record the run analyzes slower than it was logged "
+        "at, or --rate, gives it at that rate)",
     )
     p.add_argument(
         "--model",

@@ -502,10 +502,22 @@ def _rate_against_model(
         if own < model_hz
         else ""
     )
+    # (a model below their rate may be one a run saved after slowing such a record on
+    # purpose, where fitting at the logged rate is the worse choice: the advice says so;
+    # the model file does not record whether its run slowed the record)
+    advice = (
+        " (a model fitted at their own rate fits them best)"
+        if own < model_hz
+        else (
+            " (a model fitted at their own rate fits them best, unless that rate runs far "
+            "above what they carry: a run without --rate then analyzes them slower, and "
+            "its model, saved at that slower rate, is the better one)"
+        )
+    )
     text = (
         f"the channels run at {plain_number(own, 4)} Hz and the model at "
-        f"{plain_number(model_hz, 4)} Hz: they are resampled to the model's rate{between} (a "
-        "model fitted at their own rate fits them best)"
+        f"{plain_number(model_hz, 4)} Hz: they are resampled to the model's rate{between}"
+        f"{advice}"
     )
     return [WindowNote(text, text)]
 
@@ -796,11 +808,13 @@ def _analyze(
         )
         # a clock far above what the sensors carry, without --rate: aligned slower, as
         # --rate would (a retrained pass keeps its first pass's clock: ``slowed``)
-        slowed = slowed or _slower_clock(aligned, chosen, options, absolute)
+        clips: str | None = None  # (a sensor that clips keeps the logged clock: said why)
+        if slowed is None:
+            slowed, clips = _slower_clock(aligned, chosen, options, absolute)
         if slowed is not None:
             options = replace(options, rate=slowed.suggest)
             aligned = store.align(chosen, slowed.suggest, blank=unread)
-            notes.append(slower_clock_note(slowed))
+            notes.append(slower_clock_note(slowed, options.corrected))
         n_values = aligned.n * len(chosen)
         big = n_values > MATERIALIZE_IN_MEMORY and not in_memory
         path = work / "aligned.npy" if big else None
@@ -1062,7 +1076,7 @@ def _analyze(
             # 5.5 Hz at 2 kHz), which would name a slower rate again
             memory = _models_memory(options.config, {r.detector for r in results})
             fast = (
-                oversampled_note(values, chosen, train, aligned.rate_hz, memory)
+                oversampled_note(values, chosen, train, aligned.rate_hz, memory, clips)
                 if slowed is None
                 else None
             )
@@ -1903,13 +1917,15 @@ AR_DETECTORS = ("ar_kalman_bank", "detection_filter")
 
 def _slower_clock(
     aligned: AlignedSeries, chosen: Sequence[str], options: RunOptions, absolute: bool
-) -> Oversampled | None:
+) -> tuple[Oversampled | None, str | None]:
     """The slower clock a run aligns the channels at when their own (``aligned``'s) runs
     far above what they carry (:func:`~analyzer.diagnosis.oversampled.oversampled`, the
     note's measurement, over the first rows of the healthy window the run would take):
     only without ``--rate`` (any value, the logged rate too, keeps its clock) and
     ``--model`` (whose rate is the model's). None where the clock stays, or the window
-    cannot be taken (the run then says why, at its own rate).
+    cannot be taken (the run then says why, at its own rate); beside it, the channel
+    that clips where that alone kept the clock (:func:`_clips_as_logged`: the end-of-run
+    note says so).
 
     The detectors' models remember a number of samples: at 2 kHz their 10 samples are
     5 ms of a building's 170-1000-ms periods, and a gain of 0.5 on a simulated 4-floor
@@ -1918,26 +1934,29 @@ def _slower_clock(
     at the rate the note named. Measured before the whole matrix is aligned, on the
     window's rows alone, so the record is aligned once, at the rate it is analyzed at."""
     if options.rate is not None or options.model is not None:
-        return None
+        return None, None
     try:
         _, (a, b) = _training_window(options, aligned, absolute, [])
     except AnalyzerError:
-        return None
+        return None, None
     if b - a < 2:
-        return None
+        return None, None
     # (the channels measured only: of many, a few dozen)
     picked = tuple(chosen[j] for j in measured_channels(len(chosen)))
     rows = replace(aligned, channels=picked).block(a, min(b, a + MOST_SAMPLES))
     rows[np.abs(rows) > UNREADABLE] = np.nan  # (as the matrix takes them: gaps)
     memory = _models_memory(options.config, detector_names(options)[0])
     found = oversampled(rows, picked, (0, b - a), aligned.rate_hz, memory)
-    if found is None or not slowed_itself(found) or _clips_as_logged(aligned, chosen, (a, b)):
-        return None
-    return found
+    if found is None or not slowed_itself(found):
+        return None, None
+    clips = _clips_as_logged(aligned, chosen, (a, b))
+    return (None, clips) if clips is not None else (found, None)
 
 
-def _clips_as_logged(aligned: AlignedSeries, chosen: Sequence[str], train: tuple[int, int]) -> bool:
-    """Whether a channel's readings after the healthy window (rows ``train`` of
+def _clips_as_logged(
+    aligned: AlignedSeries, chosen: Sequence[str], train: tuple[int, int]
+) -> str | None:
+    """The first channel whose readings after the healthy window (rows ``train`` of
     ``aligned``) pile up at a limit as logged (a sensor that clips:
     :func:`~analyzer.diagnosis.clipping.find_clipping` on its raw samples): such a record
     keeps its clock. Clipping is read from exact repeats of the limit, which the low-pass
@@ -1953,8 +1972,8 @@ def _clips_as_logged(aligned: AlignedSeries, chosen: Sequence[str], train: tuple
         t, v = aligned.store.raw(name)
         a, b = int(np.searchsorted(t, t0)), int(np.searchsorted(t, t1))
         if b < len(t) and find_clipping(v[:, None], 0, b, (a, b)) is not None:
-            return True
-    return False
+            return name
+    return None
 
 
 def _models_memory(config: Config, ran: Collection[str]) -> int:
