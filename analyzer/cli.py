@@ -206,7 +206,8 @@ def add_run_options(p: argparse.ArgumentParser, command: str = "run") -> None:
         "--rate",
         type=_positive_float,
         metavar="HZ",
-        help="rate of the common clock; default: the dominant rate of the channels",
+        help="rate of the common clock; default: the dominant rate of the channels, or a "
+        "slower one where that runs far above what they carry (a note says which)",
     )
     p.add_argument(
         "--missing-values",
@@ -238,7 +239,9 @@ def add_run_options(p: argparse.ArgumentParser, command: str = "run") -> None:
     p.add_argument(
         "--corrected",
         action="store_true",
-        help="also write DIR/corrected.csv with faulty channels corrected over their fault periods",
+        help="also write DIR/corrected.csv with faulty channels corrected over their fault "
+        "periods, at the rate analyzed (a record the run analyzes slower than it was logged "
+        "at, or --rate, gives it at that rate)",
     )
     p.add_argument(
         "--model",

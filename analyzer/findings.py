@@ -19,6 +19,7 @@ from analyzer import __version__
 from analyzer.data_ends import data_end
 from analyzer.detectors import DetectorResult
 from analyzer.diagnosis import Finding
+from analyzer.diagnosis.oversampled import Oversampled
 from analyzer.diagnosis.unexplained import Unexplained
 from analyzer.error_file import touches_inputs
 from analyzer.modelfile import SavedModel
@@ -102,6 +103,11 @@ class Analysis:
     """Alarms the findings do not explain (:mod:`analyzer.diagnosis.unexplained`): a
     second faulty sensor the run may have missed (``findings.json``'s
     ``unexplained_alarms``, the verdict's warning, the run's last line)."""
+    slowed: Oversampled | None = None
+    """Where the run chose a slower clock itself (no ``--rate``): the rate the channels
+    were logged at, their content and the rate they were analyzed at (``rate_hz``;
+    :func:`analyzer.diagnosis.oversampled.oversampled`): ``findings.json``'s
+    ``logged_rate_hz``."""
 
     @property
     def duration_s(self) -> float:
@@ -169,6 +175,8 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
         "time_origin_s": None if a.absolute_time else round(a.start_ns / NS_PER_S, 9),
         "duration_s": round(a.duration_s, 6),
         "rate_hz": a.rate_hz,
+        # (the rate the channels were logged at, where the run analyzed them slower)
+        "logged_rate_hz": None if a.slowed is None else a.slowed.rate_hz,
         # (to four decimals, as onset_s: 19.980169008087802 was written)
         "train": {
             "start_s": round(train0 / a.rate_hz, 4),

@@ -50,7 +50,7 @@ from analyzer.diagnosis import (
     onsets_hidden_by_earlier,
 )
 from analyzer.diagnosis.changes import LONG_FACTOR, default_window, training_need
-from analyzer.diagnosis.clipping import merge_clipped
+from analyzer.diagnosis.clipping import find_clipping, merge_clipped
 from analyzer.diagnosis.common_mode import common_changes
 from analyzer.diagnosis.evidence import (
     attach_evidence,
@@ -61,7 +61,16 @@ from analyzer.diagnosis.evidence import (
 from analyzer.diagnosis.levels import LEVEL_TRAIN_BINS, excursions, level_note, response_levels
 from analyzer.diagnosis.load import load_range, loud_stretch_count, loudest
 from analyzer.diagnosis.merge import present_at_search_start, traced_into_training
-from analyzer.diagnosis.oversampled import MEMORY_SAMPLES, oversampled_note
+from analyzer.diagnosis.oversampled import (
+    MEMORY_SAMPLES,
+    MOST_SAMPLES,
+    Oversampled,
+    measured_channels,
+    oversampled,
+    oversampled_note,
+    slowed_itself,
+    slower_clock_note,
+)
 from analyzer.diagnosis.readings import refuted_by_readings, residual_health
 from analyzer.diagnosis.stuck import (
     dead_unattributed,
@@ -183,6 +192,7 @@ from analyzer.selection import (
 )
 from analyzer.silent import blank_findings, merged, silent_findings
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
+from analyzer.store.store import UNREADABLE
 from analyzer.timeutil import (
     iso_utc,
     plain_number,
@@ -524,10 +534,22 @@ def _rate_against_model(
         if own < model_hz
         else ""
     )
+    # (a model below their rate may be one a run saved after slowing such a record on
+    # purpose, where fitting at the logged rate is the worse choice: the advice says so;
+    # the model file does not record whether its run slowed the record)
+    advice = (
+        " (a model fitted at their own rate fits them best)"
+        if own < model_hz
+        else (
+            " (a model fitted at their own rate fits them best, unless that rate runs far "
+            "above what they carry: a run without --rate then analyzes them slower, and "
+            "its model, saved at that slower rate, is the better one)"
+        )
+    )
     text = (
         f"the channels run at {plain_number(own, 4)} Hz and the model at "
-        f"{plain_number(model_hz, 4)} Hz: they are resampled to the model's rate{between} (a "
-        "model fitted at their own rate fits them best)"
+        f"{plain_number(model_hz, 4)} Hz: they are resampled to the model's rate{between}"
+        f"{advice}"
     )
     return [WindowNote(text, text)]
 
@@ -613,8 +635,10 @@ def _trained_before(
     try:
         again.mkdir(exist_ok=True)
         retrained = replace(options, train=window)
+        slowed = analysis.slowed  # (the first pass's clock: the window was cut on it)
         second = _checked(
-            lambda: _analyze(inputs, retrained, again, in_memory, executor, local), again
+            lambda: _analyze(inputs, retrained, again, in_memory, executor, local, slowed),
+            again,
         )
     except (AnalyzerError, OSError, MemoryError) as err:
         # (a long archive's second pass needs its scratch space again: a full disk too)
@@ -782,7 +806,10 @@ def _analyze(
     in_memory: bool,
     executor: Executor,
     local: ThreadExecutor | None = None,
+    slowed: Oversampled | None = None,
 ) -> Analysis:
+    """One analysis of ``inputs`` (:func:`analyze`'s, and :func:`_trained_before`'s
+    second pass, which passes the slower clock its first pass chose: ``slowed``)."""
     timings: dict[str, float] = {}
     notes: list[str] = []
     progress = options.progress
@@ -837,6 +864,18 @@ def _analyze(
         aligned: AlignedSeries = store.align(
             chosen, options.rate if reused is None else reused.rate_hz, blank=unread
         )
+        absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
+            aligned.start_ns
+        )
+        # a clock far above what the sensors carry, without --rate: aligned slower, as
+        # --rate would (a retrained pass keeps its first pass's clock: ``slowed``)
+        clips: str | None = None  # (a sensor that clips keeps the logged clock: said why)
+        if slowed is None:
+            slowed, clips = _slower_clock(aligned, chosen, options, absolute)
+        if slowed is not None:
+            options = replace(options, rate=slowed.suggest)
+            aligned = store.align(chosen, slowed.suggest, blank=unread)
+            notes.append(slower_clock_note(slowed, options.corrected))
         n_values = aligned.n * len(chosen)
         big = n_values > MATERIALIZE_IN_MEMORY and not in_memory
         path = work / "aligned.npy" if big else None
@@ -871,9 +910,6 @@ def _analyze(
         notes.extend(upsampled or _interpolated(infos, chosen, aligned.rate_hz))
         if reused is not None:
             notes.extend(_rate_against_model(infos, chosen, reused.rate_hz))
-        absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
-            aligned.start_ns
-        )
         # (a file recorded apart from the others, whose channels were left out)
         notes.extend(outside_note(infos, chosen, aligned.start_ns, aligned.duration_s, absolute))
         if options.utc:
@@ -1073,6 +1109,7 @@ def _analyze(
                 rate_hz=aligned.rate_hz,
                 start_ns=aligned.start_ns,
                 absolute_time=absolute,
+                slowed=slowed,
                 n=aligned.n,
                 train=train,
                 results=[],
@@ -1103,9 +1140,17 @@ def _analyze(
                     lambda: _window_need(results, aligned.rate_hz, values),
                 )
             )
-            # and a clock far above what the sensors carry (the models' memory too short)
+            # and a clock far above what the sensors carry (the models' memory too short),
+            # where the user chose it (--rate): a clock the run chose is said already,
+            # and the channels low-passed to it may measure a little slower than they did
+            # at their own (the noise above its Nyquist gone: 4.7 Hz at 200 Hz against
+            # 5.5 Hz at 2 kHz), which would name a slower rate again
             memory = _models_memory(options.config, {r.detector for r in results})
-            fast = oversampled_note(values, chosen, train, aligned.rate_hz, memory)
+            fast = (
+                oversampled_note(values, chosen, train, aligned.rate_hz, memory, clips)
+                if slowed is None
+                else None
+            )
             if fast is not None:
                 notes.append(fast)
         # and without the sensors found faulty while anomalies no sensor explained came
@@ -1319,6 +1364,7 @@ def _analyze(
             rate_hz=aligned.rate_hz,
             start_ns=aligned.start_ns,
             absolute_time=absolute,
+            slowed=slowed,
             n=aligned.n,
             train=train,
             results=results,
@@ -1940,6 +1986,67 @@ def _after_gap_notes(
 
 AR_DETECTORS = ("ar_kalman_bank", "detection_filter")
 """The detectors whose models remember an AR order's samples (:func:`_models_memory`)."""
+
+
+def _slower_clock(
+    aligned: AlignedSeries, chosen: Sequence[str], options: RunOptions, absolute: bool
+) -> tuple[Oversampled | None, str | None]:
+    """The slower clock a run aligns the channels at when their own (``aligned``'s) runs
+    far above what they carry (:func:`~analyzer.diagnosis.oversampled.oversampled`, the
+    note's measurement, over the first rows of the healthy window the run would take):
+    only without ``--rate`` (any value, the logged rate too, keeps its clock) and
+    ``--model`` (whose rate is the model's). None where the clock stays, or the window
+    cannot be taken (the run then says why, at its own rate); beside it, the channel
+    that clips where that alone kept the clock (:func:`_clips_as_logged`: the end-of-run
+    note says so).
+
+    The detectors' models remember a number of samples: at 2 kHz their 10 samples are
+    5 ms of a building's 170-1000-ms periods, and a gain of 0.5 on a simulated 4-floor
+    building was missed there (exit 0, an anomaly attributed to no sensor), found at
+    200 Hz; of the 20 records ``benchmarks/sweep_oversampled.py`` noted, 19 were right
+    at the rate the note named. Measured before the whole matrix is aligned, on the
+    window's rows alone, so the record is aligned once, at the rate it is analyzed at."""
+    if options.rate is not None or options.model is not None:
+        return None, None
+    try:
+        _, (a, b) = _training_window(options, aligned, absolute, [])
+    except AnalyzerError:
+        return None, None
+    if b - a < 2:
+        return None, None
+    # (the channels measured only: of many, a few dozen)
+    picked = tuple(chosen[j] for j in measured_channels(len(chosen)))
+    rows = replace(aligned, channels=picked).block(a, min(b, a + MOST_SAMPLES))
+    rows[np.abs(rows) > UNREADABLE] = np.nan  # (as the matrix takes them: gaps)
+    memory = _models_memory(options.config, detector_names(options)[0])
+    found = oversampled(rows, picked, (0, b - a), aligned.rate_hz, memory)
+    if found is None or not slowed_itself(found):
+        return None, None
+    clips = _clips_as_logged(aligned, chosen, (a, b))
+    return (None, clips) if clips is not None else (found, None)
+
+
+def _clips_as_logged(
+    aligned: AlignedSeries, chosen: Sequence[str], train: tuple[int, int]
+) -> str | None:
+    """The first channel whose readings after the healthy window (rows ``train`` of
+    ``aligned``) pile up at a limit as logged (a sensor that clips:
+    :func:`~analyzer.diagnosis.clipping.find_clipping` on its raw samples): such a record
+    keeps its clock. Clipping is read from exact repeats of the limit, which the low-pass
+    before a slower clock smears: a 6-channel building at 200 Hz whose s2 clipped at
+    half its peak from 72 s was one clipping finding at 200 Hz, a gain of 0.80 from
+    105.7 s at the 100 Hz its content asked for. The raw samples of each channel once
+    (only for a record that would be slowed)."""
+    t0 = aligned.start_ns + int(round(train[0] / aligned.rate_hz * NS_PER_S))
+    t1 = aligned.start_ns + int(round(train[1] / aligned.rate_hz * NS_PER_S))
+    for name in chosen:
+        if name in aligned.blank:
+            continue
+        t, v = aligned.store.raw(name)
+        a, b = int(np.searchsorted(t, t0)), int(np.searchsorted(t, t1))
+        if b < len(t) and find_clipping(v[:, None], 0, b, (a, b)) is not None:
+            return name
+    return None
 
 
 def _models_memory(config: Config, ran: Collection[str]) -> int:

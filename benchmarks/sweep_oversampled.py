@@ -1,6 +1,7 @@
 """A gain on one sensor of buildings logged at rates far above their modes: how often the
 analysis gets it right, against the clock's ratio to the content frequency that
-``analyzer/diagnosis/oversampled.py`` notes (above 40 the run says so and names a rate).
+``analyzer/diagnosis/oversampled.py`` measures (above 40 a run without ``--rate`` aligns
+the channels at a slower rate, which it names; with ``--rate`` the run notes that rate).
 
 For each rate, floor count and seed it simulates the shear building (one sensor a floor,
 ``--seconds`` long), measures the content frequency of each channel over the default
@@ -8,13 +9,16 @@ training window (the frequency below which 95 % of its power lies; the median ov
 channels) and puts a gain of ``--gain`` on ``s1`` from the middle of the record to its
 end, writes the record as CSV and runs the whole analysis (``pipeline.analyze``,
 defaults). A case is **right** with exactly one finding: on ``s1``, multiplicative, its
-onset within 1 s. The table gives every case and the share right by ratio (below 40,
-40-80, above 80); ``--at-note`` runs each noted case again at the rate the note names. A
-script, not a timed test (about 3 minutes for the default grid)::
+onset within 1 s. The table gives every case, the rate it was analyzed at and the share
+right by ratio (below 40, 40-80, above 80); ``--at-note`` runs each case again at the
+rate a note names (``--rate``'s advice: a run given ``--rate`` whose clock is far above
+the content), ``--logged`` each case the run analyzed slower again at its logged rate
+(``--rate`` that rate: the default run before it chose the clock). A script, not a timed
+test (about 3 minutes for the default grid)::
 
     python benchmarks/sweep_oversampled.py [--rates 100,200,500,1000] [--floors 3,4,6,8]
                                            [--seeds 1:3] [--gain 0.5] [--seconds 120]
-                                           [--at-note]
+                                           [--at-note] [--logged]
 """
 
 from __future__ import annotations
@@ -48,8 +52,11 @@ def right(analysis, onset: float) -> bool:
     )
 
 
-def case(rate: float, floors: int, seed: int, args, folder: Path) -> tuple[float, bool, str]:
-    """``(ratio, right, right at the noted rate or "")`` of one record."""
+def case(
+    rate: float, floors: int, seed: int, args, folder: Path
+) -> tuple[float, bool, float, str, str]:
+    """``(ratio, right, the rate analyzed at, right at the noted rate or "", right at the
+    logged rate or "")`` of one record."""
     t, y, names = simulate_building(
         n_floors=floors, duration_s=args.seconds, rate_hz=rate, seed=seed
     )
@@ -69,12 +76,15 @@ def case(rate: float, floors: int, seed: int, args, folder: Path) -> tuple[float
         fmt="%.9g",
     )
     analysis = analyze([path], RunOptions())
-    again = ""
-    note = next((n for n in analysis.notes if "aligns the channels where" in n), None)
+    again = logged = ""
+    note = next((n for n in analysis.notes if "aligns the channels" in n), None)
     if args.at_note and note is not None:
         asked = float(re.search(r"--rate (\S+) aligns", note).group(1))
         again = "right" if right(analyze([path], RunOptions(rate=asked)), onset) else "wrong"
-    return ratio, right(analysis, onset), again
+    if args.logged and analysis.slowed is not None:
+        at_logged = analyze([path], RunOptions(rate=analysis.slowed.rate_hz))
+        logged = "right" if right(at_logged, onset) else "wrong"
+    return ratio, right(analysis, onset), analysis.rate_hz, again, logged
 
 
 def main() -> None:
@@ -85,6 +95,7 @@ def main() -> None:
     ap.add_argument("--gain", type=float, default=0.5)
     ap.add_argument("--seconds", type=float, default=120.0)
     ap.add_argument("--at-note", action="store_true")
+    ap.add_argument("--logged", action="store_true")
     args = ap.parse_args()
     lo, hi = (int(v) for v in args.seeds.split(":"))
     buckets: dict[str, list[bool]] = {f"< {MAX_RATIO}": [], "40-80": [], "> 80": []}
@@ -92,7 +103,7 @@ def main() -> None:
         for rate in (float(r) for r in args.rates.split(",")):
             for floors in (int(f) for f in args.floors.split(",")):
                 for seed in range(lo, hi):
-                    ratio, ok, again = case(rate, floors, seed, args, Path(tmp))
+                    ratio, ok, at, again, logged = case(rate, floors, seed, args, Path(tmp))
                     key = (
                         f"< {MAX_RATIO}"
                         if ratio <= MAX_RATIO
@@ -103,9 +114,11 @@ def main() -> None:
                     buckets[key].append(ok)
                     noted = "noted" if ratio > MAX_RATIO else ""
                     later = f"at the noted rate: {again}" if again else ""
+                    if logged:
+                        later += f" at the logged rate: {logged}"
                     print(
                         f"{rate:7g} Hz {floors} floors seed {seed}: ratio {ratio:6.1f} "
-                        f"{'right' if ok else 'WRONG':5} {noted:5} {later}",
+                        f"at {at:5g} Hz {'right' if ok else 'WRONG':5} {noted:5} {later}",
                         flush=True,
                     )
     print("\nratio      right / cases")

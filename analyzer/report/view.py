@@ -297,7 +297,7 @@ class _Access(FigureParts, TableParts):
         start = self.doc.get("start")
         return [
             Fact("Record start", str(start) if start else "relative timestamps (no absolute time)"),
-            Fact("Duration", fmt.duration(self.duration)),
+            Fact("Duration", fmt.duration(self.duration) + self.logged_text()),
             Fact("Analyzed channels", f"{len(self.analyzed)} of {self._channel_count()}"),
             Fact(
                 "Detectors run",
@@ -313,10 +313,31 @@ class _Access(FigureParts, TableParts):
             Fact(
                 "Detectors", ", ".join(r["name"] for r in self.doc.get("detectors", [])) or "none"
             ),
-            Fact("Duration", f"{fmt.duration(self.duration)} at {fmt.rate(self.rate)}"),
+            Fact("Duration", self.duration_text()),
             Fact("Training window", self.train_text()),
             Fact("False-alarm rate", self.far_text()),
         ]
+
+    def duration_text(self) -> str:
+        """The duration analyzed and its clock, and the rate logged where the run
+        analyzed the channels slower (:meth:`logged_text`)."""
+        text = f"{fmt.duration(self.duration)} at {fmt.rate(self.rate)}"
+        logged = self.doc.get("logged_rate_hz")
+        if logged:
+            text += f" (logged at {fmt.rate(float(logged))}: see the notes about the input)"
+        return text
+
+    def logged_text(self) -> str:
+        """Where the run analyzed the channels slower than they were logged
+        (``findings.json``'s ``logged_rate_hz``: a clock far above what the sensors
+        carry, whose note says why), both rates; else nothing."""
+        logged = self.doc.get("logged_rate_hz")
+        if not logged:
+            return ""
+        return (
+            f" (analyzed at {fmt.rate(self.rate)}, logged at {fmt.rate(float(logged))}: "
+            "see the notes about the input)"
+        )
 
     def config_text(self) -> str:
         """The ``--config`` file a run read and what it set (``findings.json``'s

@@ -108,3 +108,12 @@ def test_the_jobs_help_is_each_commands_own(capsys: pytest.CaptureFixture[str]) 
     assert "not used with --scheduler" in watch_help
     assert "run the detectors (and the bank's time blocks) on N threads" in run_help
     assert "run the detectors (and the bank's time blocks)" not in watch_help
+
+
+def test_corrected_says_its_file_is_at_the_rate_analyzed(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # a record the run analyzes slower than it was logged at gives corrected.csv at the
+    # slower rate: the option's help says so (the review of rate54's M2)
+    text = " ".join(_help(["run", "--help"], capsys).split())
+    assert "corrected over their fault periods, at the rate analyzed" in text

@@ -12,13 +12,16 @@ from analyzer.config import Config
 from analyzer.diagnosis.oversampled import (
     MAX_RATIO,
     MEMORY_SAMPLES,
+    Oversampled,
     content_frequency,
     oversampled_note,
+    slower_clock_note,
     suggested_rate,
     welch,
 )
-from analyzer.pipeline import _models_memory
+from analyzer.pipeline import _models_memory, _rate_against_model
 from analyzer.simulate import simulate_building
+from analyzer.store.store import ChannelInfo
 
 
 @pytest.mark.parametrize(
@@ -166,13 +169,45 @@ def test_the_runs_memory_is_the_order_its_config_sets():
 
 def test_the_run_names_the_order_its_config_sets(tmp_path):
     """A 4-floor building at 500 Hz (content about 5 Hz) with the bank's order set to 4:
-    the note says the models remember 4 samples, not 10, and names a rate where 4
-    samples span a quarter period (50 Hz)."""
+    at ``--rate 500`` the note says the models remember 4 samples, not 10, and names a
+    rate where 4 samples span a quarter period (50 Hz); without ``--rate`` the run
+    analyzes the record at that rate, and its note names the same memory."""
     t, y, names = simulate_building(n_floors=4, duration_s=30.0, rate_hz=500.0, seed=1)
     config = tmp_path / "c.toml"
     config.write_text("[detectors.ar_kalman_bank]\norder = 4\n")
     options = ("--detectors", "ar_kalman_bank", "--train", "0:15", "--config", str(config))
-    run_csv(tmp_path, t, y, names, code=0, options=options)
-    doc = json.loads((tmp_path / "out" / "findings.json").read_text())
+    for part, rate in (("asked", ("--rate", "500")), ("default", ())):
+        (tmp_path / part).mkdir()
+        run_csv(tmp_path / part, t, y, names, code=0, options=(*options, *rate))
+    doc = json.loads((tmp_path / "asked" / "out" / "findings.json").read_text())
     (note,) = [n for n in doc["notes"] if "sampled at 500 Hz" in n]
     assert "remember about 4 samples (8 ms of a" in note and "--rate 50 aligns" in note
+    doc = json.loads((tmp_path / "default" / "out" / "findings.json").read_text())
+    assert (doc["rate_hz"], doc["logged_rate_hz"]) == (50.0, 500.0)
+    (note,) = [n for n in doc["notes"] if n.startswith("record logged at 500 Hz, analyzed at 50")]
+    assert "remember about 4 samples, 8 ms at 500 Hz" in note
+
+
+def test_the_slowed_note_names_corrected_csv_only_with_corrected():
+    # (the review's M2: with --corrected, the file's rate is said where the clock is)
+    found = Oversampled(2000.0, 5.5, 200.0, 10)
+    plain, asked = slower_clock_note(found), slower_clock_note(found, corrected=True)
+    assert "corrected.csv" not in plain.short and "corrected.csv" not in str(plain)
+    assert asked.short.endswith("(corrected.csv too is written at 200 Hz, low-passed)")
+    assert asked.short in str(asked)
+
+
+def _infos(rate: float) -> list[ChannelInfo]:
+    return [ChannelInfo(f"s{k}", 1000, 0, 10**10, rate, 0, 1000, -1.0, 1.0) for k in range(3)]
+
+
+def test_a_model_slower_than_the_channels_does_not_just_advise_their_rate():
+    # a --save-model of a run that slowed a 2-kHz record is at 100 Hz on purpose: the
+    # warning must not tell the user a model at 2 kHz fits best (the review's M3)
+    (slower,) = _rate_against_model(_infos(2000.0), ["s0", "s1", "s2"], 100.0)
+    assert "resampled to the model's rate" in slower
+    assert not slower.endswith("(a model fitted at their own rate fits them best)"), slower
+    assert "a run without --rate then analyzes them slower" in slower
+    # a model faster than the channels (their samples interpolated): the advice stands
+    (faster,) = _rate_against_model(_infos(50.0), ["s0", "s1", "s2"], 200.0)
+    assert faster.endswith("(a model fitted at their own rate fits them best)"), faster
