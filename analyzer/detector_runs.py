@@ -24,10 +24,10 @@ from analyzer.errors import AnalyzerError, ConfigError, DetectorError, TooLittle
 from analyzer.options import RunOptions
 from analyzer.paging import is_mapped, mapped_file, release, spill, trim_heap
 from analyzer.parallel import DaskExecutor, Executor, TaskHandle, ThreadExecutor
-from analyzer.types import Stage
+from analyzer.types import Note, Stage
 
 
-class SkipReason(str):
+class SkipReason(Note):
     """Why a detector did not run, as the findings write it (a text), and, when it had
     too little healthy data (:class:`~analyzer.errors.TooLittleDataError`), the training
     rows it would need (``rows``): the reasons travel as text through the channel groups

@@ -23,6 +23,7 @@ import numpy.typing as npt
 
 from analyzer.readers.base import ChannelChunk
 from analyzer.store.store import UNREADABLE
+from analyzer.types import Note
 
 USUAL_CODES = (-9999.0, -99999.0, 9999.0, -999.0)
 """Missing-value codes in common use, which a clipped or stuck value equal to one is
@@ -142,7 +143,7 @@ def absurd_note(counts: Mapping[str, int]) -> str:
     )
 
 
-class UnreadNote(str):
+class UnreadNote(Note):
     """The note (repeated on stderr) naming the channels none of whose samples is a
     reading (every one NaN, infinite, beyond 1e30 or a ``--missing-values`` code), which
     are not analyzed, with their ``names``. Said for what it is: the training window's
@@ -207,7 +208,7 @@ def _far_outside(column: npt.NDArray[Any], value: float) -> bool:
     return value < lo - FAR_SPANS * span or value > hi + FAR_SPANS * span
 
 
-class CodeHint(str):
+class CodeHint(Note):
     """A note of :func:`code_hints`: a plain string to every reader of ``notes``,
     recognisable so that ``run`` repeats it on stderr (the finding it is about changes
     the exit code; the user must hear that it may be no reading at all)."""

@@ -18,6 +18,7 @@ from analyzer.store import ChannelInfo, ChannelStore
 from analyzer.store.copies import Copy, find_copies
 from analyzer.store.store import FLAG_SAMPLES
 from analyzer.timeutil import short_seconds
+from analyzer.types import Note
 from analyzer.window_note import WindowNote
 
 DEFAULT_TRAIN_FRACTION = 0.2
@@ -69,7 +70,7 @@ def default_train(duration_s: float) -> tuple[float, float]:
     return 0.0, min(DEFAULT_TRAIN_FRACTION * duration_s, DEFAULT_TRAIN_MAX_S)
 
 
-class ConstantNote(str):
+class ConstantNote(Note):
     """The note naming the constant or empty channels left out, with their ``names``."""
 
     names: tuple[str, ...]
@@ -312,7 +313,7 @@ class WindowConstantNote(WindowNote):
     why = "constant in the training window"
 
 
-class CounterNote(str):
+class CounterNote(Note):
     """The note naming the channels left out as counters or clocks in the training window
     (the same step from each sample to the next), with their ``names``."""
 
@@ -359,7 +360,7 @@ COPIES_LISTED = 20
 made a note of 37 kB; the review)."""
 
 
-class CopyNote(str):
+class CopyNote(Note):
     """The note naming the channels left out as copies of others (:mod:`analyzer.store.
     copies`), with their ``names`` and the ``copies`` themselves (which each copies)."""
 
@@ -503,7 +504,7 @@ def _flags(
     return [infos[c] for c in chosen if infos[c].flag and c not in exact]
 
 
-class MixedNote(str):
+class MixedNote(Note):
     """The note naming the channels left out because what they measure changes between
     messages, with their ``names``."""
 
@@ -681,7 +682,7 @@ def _never_back(store: ChannelStore, name: str) -> bool:
     return finite.shape[0] > 1 and bool(np.all(finite[1:] >= finite[:-1]))
 
 
-class NotMeasuredNote(str):
+class NotMeasuredNote(Note):
     """The note naming the channels left out because they are not measurements: the
     fields of log messages (:data:`LOG_FIELD`), times written in messages
     (:data:`TIME_FIELD`) and spans (:data:`DURATION_FIELD`); ``names``, and ``whys``:

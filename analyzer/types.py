@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from enum import StrEnum
+from typing import Any
 
 
 class Format(StrEnum):
@@ -33,7 +34,35 @@ no definition of it (ROS 2 sqlite bags recorded before Iron, say; see
 :func:`analyzer.readers.rostypes.user_store`)."""
 
 
-class Stage(str):
+def _note_again(cls: type, text: str, state: dict[str, Any]) -> Any:
+    """A :class:`Note` of class ``cls`` rebuilt from its ``text`` and attributes."""
+    note: Any = str.__new__(cls, text)
+    for name, value in state.items():
+        object.__setattr__(note, name, value)
+    return note
+
+
+class Note(str):
+    """A string that carries attributes beside its text (a run's notes: the channels it
+    names, an onset), pickled as its text and attributes: a subclass whose ``__new__``
+    builds the text from other arguments (``ConstantNote(names)``) was unpickled by
+    calling that ``__new__`` with the text, which garbled it (``ConstantNote`` came back
+    as "constant or empty channels not analyzed: c, o, n, s, ...") or failed
+    (``UnreadNote``); notes cross processes (``--jobs``, a Dask cluster, the watcher's
+    analyses)."""
+
+    __slots__ = ()
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        state = dict(getattr(self, "__dict__", {}))
+        for cls in type(self).__mro__:
+            for name in getattr(cls, "__slots__", ()):
+                if hasattr(self, name):
+                    state[name] = getattr(self, name)
+        return (_note_again, (type(self), str(self), state))
+
+
+class Stage(Note):
     """A progress stage's name as the run reports it (``detect``, ``again detect``): a
     caller that compares or prints stages sees the name alone, as before; ``detail`` says
     which part of the stage is under way (``detection_filter run: time blocks 3/8``), for

@@ -4,8 +4,10 @@ without the diagnosis's import time."""
 
 from __future__ import annotations
 
+from analyzer.types import Note
 
-class WindowNote(str):
+
+class WindowNote(Note):
     """A note of this check: a plain string to every reader of ``notes`` (findings.json,
     the report), recognisable so that ``run`` repeats its ``short`` form on stderr (it
     says the run's models were fitted on a window that was not healthy: a user who reads
@@ -25,7 +27,7 @@ class WindowNote(str):
         return note
 
 
-class AnomalyNote(str):
+class AnomalyNote(Note):
     """A note of an anomaly the detectors saw and attributed to no sensor (or a second
     fault beside a found one that their network cannot pin down): a plain string to every
     reader of ``notes``, recognisable so that ``watch`` counts it among the archive's

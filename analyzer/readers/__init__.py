@@ -35,7 +35,7 @@ from analyzer.readers._common import (
     special_kind,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, Reader, TimeSource
-from analyzer.types import Format
+from analyzer.types import Format, Note
 
 # The format readers are imported when a file of theirs is opened: an MCAP run need not
 # import pyarrow (the CSV reader) nor the ROS 2 bag stack (rosbags.rosbag2, YAML, sqlite),
@@ -206,7 +206,7 @@ def _safe_start(reader: Reader) -> int | None:
         return None
 
 
-class ArchiveNote(str):
+class ArchiveNote(Note):
     """A note on how an archive was put together (a file not read, one given twice):
     a plain string to every reader of ``notes``, recognisable among a run's other notes
     so that ``run`` can repeat it on stderr (:attr:`Archive.notes`)."""
