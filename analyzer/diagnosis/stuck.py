@@ -659,8 +659,8 @@ def dead_again(
     ``--model``, ``zero_at_rest``; with neither, not judged) is left alone. Each spell runs
     from where its readings froze to where they moved again (:func:`frozen_until`, past
     the detectors' end if the readings stay dead); it keeps the finding's detector,
-    confidence and events (the same alarms), and its evidence ``frozen.revived_s`` says
-    where the spell before it ended."""
+    confidence and events (the detectors' one event it came from), and its evidence is
+    its own stretch's (:func:`_again_evidence`)."""
     least = max(MIN_FLAT_SAMPLES, LONG_FACTOR * default_window(rate_hz))
     index = {c: j for j, c in enumerate(channels)}
     n = values.shape[0]
@@ -714,15 +714,7 @@ def dead_again(
                     {"gain": 0.0},
                     f.confidence,
                     f.detector,
-                    evidence={k: v for k, v in f.evidence.items() if k != "frozen"}
-                    | {
-                        "frozen": {
-                            "level": level,
-                            "std_ratio": spread / stats[1],
-                            "was": frozen.get("was", "unattributed"),
-                            "revived_s": revived / rate_hz,
-                        }
-                    },
+                    evidence=_again_evidence(f, level, spread / stats[1], revived / rate_hz),
                     events=list(f.events),
                 )
                 found.append(g)
@@ -738,6 +730,23 @@ def dead_again(
                 break
             a = revived = until
     return found, notes
+
+
+def _again_evidence(
+    f: Finding, level: float, std_ratio: float, previous_end_s: float
+) -> dict[str, Any]:
+    """The evidence of a dead spell again after ``f``'s revival: only what is true of its
+    own stretch. The detectors that saw the one event it came from, and its readings:
+    ``frozen`` with their ``level``, ``std_ratio`` and ``previous_end_s``, where the dead
+    spell before it ended. Not ``f``'s by-detector evidence, test spans or ``frozen.was``:
+    those describe ``f``'s onset (the tests are computed for its own stretch afterwards,
+    as for every finding: :func:`analyzer.diagnosis.evidence.attach_evidence`)."""
+    evidence: dict[str, Any] = {
+        "frozen": {"level": level, "std_ratio": std_ratio, "previous_end_s": previous_end_s}
+    }
+    if "detectors" in f.evidence:
+        evidence["detectors"] = list(f.evidence["detectors"])
+    return evidence
 
 
 def revived_gains(

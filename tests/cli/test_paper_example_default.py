@@ -63,3 +63,18 @@ def test_both_dead_spells_of_sensor_2_are_findings(tmp_path, capsys, seed):
     assert [f["type"] for f in s1] == ["other"], s1
     assert abs(s1[0]["onset_s"] - TRAIN_S - 2.0) <= TOL_S
     assert abs(s1[0]["end_s"] - TRAIN_S - 8.0) <= TOL_S
+
+
+def test_the_second_dead_spell_carries_evidence_of_its_own_stretch(tmp_path, capsys):
+    """The second spell's finding does not copy the first's evidence (review rli54 M3):
+    every time in it lies in its own spell, or is where the spell before it ended."""
+    faults = _run(tmp_path, capsys, 0)
+    first, second = sorted((f for f in faults if f["channel"] == "s2"), key=lambda f: f["onset_s"])
+    ev = second["evidence"]
+    lo, hi = second["onset_s"], second["end_s"]
+    assert "by_detector" not in ev and "was" not in ev["frozen"], ev
+    assert ev["frozen"]["previous_end_s"] == pytest.approx(first["end_s"], abs=TOL_S)
+    assert ev["detectors"] == ["error_function"]
+    spans = [t["after_span_s"] for t in ev.get("tests", {}).values()]
+    for a, b in spans:
+        assert lo - 1e-9 <= a <= b <= hi + 1e-9, (spans, lo, hi)
