@@ -660,7 +660,14 @@ def dead_again(
     from where its readings froze to where they moved again (:func:`frozen_until`, past
     the detectors' end if the readings stay dead); it keeps the finding's detector,
     confidence and events (the detectors' one event it came from), and its evidence is
-    its own stretch's (:func:`_again_evidence`)."""
+    its own stretch's (:func:`_again_evidence`).
+
+    Its limit: a spell shorter than that long alarm window (1.98 s at 250 Hz), or broken
+    by missing readings, is not found, and the rest of the event after the cut is not
+    made an unexplained alarm either (an event also goes on past a revival into healthy
+    readings, as far as the detectors' windows lag, or into a gain: :func:`revived_gains`;
+    no rule tells those apart yet); the first spell's note says where the detectors'
+    event ended (``frozen.alarmed_to_s``)."""
     least = max(MIN_FLAT_SAMPLES, LONG_FACTOR * default_window(rate_hz))
     index = {c: j for j, c in enumerate(channels)}
     n = values.shape[0]
