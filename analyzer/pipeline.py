@@ -73,6 +73,7 @@ from analyzer.diagnosis.oversampled import (
 )
 from analyzer.diagnosis.readings import refuted_by_readings, residual_health
 from analyzer.diagnosis.stuck import (
+    dead_again,
     dead_unattributed,
     frozen_notes,
     healthy_stats,
@@ -2287,6 +2288,10 @@ def _diagnose(
     findings, conflicts = one_fault_at_a_time(findings, coupled(results))
     notes.extend(conflicts)
     notes.extend(frozen[id(f)] for f in findings if id(f) in frozen)
+    # a dead spell again after a revival, inside the anomaly the detectors saw as one
+    again, told = dead_again(findings, results, values, chosen, rate_hz, healthy, own, zeros)
+    findings = sorted([*findings, *again], key=lambda f: (f.onset_s, f.channel))
+    notes.extend(told)
     # a gain after a dead spell: the finding the dead sensor's cut short goes on
     revived, said = revived_gains(findings, results, rate_hz, np.shape(values)[0])
     findings = sorted([*findings, *revived], key=lambda f: (f.onset_s, f.channel))

@@ -53,6 +53,11 @@ UNEXPLAINED_LIMIT = 0.5
 """``other`` when the best shape explains less than this share of the fault energy above
 the healthy noise floor (a stated, documented rule, not a fitted constant)."""
 
+OFF_NOISE = 2.0
+"""A reading off a gain's ``a y`` by more than this many healthy residual standard
+deviations is off it beyond the noise (about the two-sided 95 % point of Gaussian
+noise): :func:`_erratic_reading` counts such samples."""
+
 
 @dataclass(frozen=True, slots=True)
 class Classification:
@@ -235,6 +240,39 @@ def _explained_floor(kind: FaultType, gain: float, floor: float, evident: bool =
     return floor
 
 
+def _erratic_reading(
+    n: int, off: int, energy: float, cross: float, den: float, rss: float, floor: float
+) -> float | None:
+    """The share of the reading's energy above the healthy noise that the least-squares
+    gain explains, when the fault is an erratic reading rather than a gain below 1; None
+    when the gain stands. ``n`` samples, ``off`` of them where the reading is off the
+    gain's ``a y`` by more than :data:`OFF_NOISE` healthy standard deviations; ``rss``
+    what the gain leaves, ``sum (z - a y)^2``; ``floor`` the healthy ``n s2``.
+
+    A gain below 1 takes the signal away: its shape ``(a - 1) y`` is mostly ``-y``
+    whatever the reading does, so the share of the fault signal it explains (the
+    classifier's ``explained``) counts the lost signal, which a dead sensor and one
+    giving full-size random data uncorrelated with its signal both lose: Li et al.'s
+    sensor 1 (random data at the signal's size) was a gain of -0.09 to 0.13 in 20 of 20
+    failures, explained 0.54-0.66, "nearly dead". The reading ``z = f + y`` tells them
+    apart: by the gain's model it is ``a (y + e)``, so what ``a y`` leaves is the
+    reading's noise, within :data:`OFF_NOISE` sd at all but a few samples. The fault is
+    ``other`` (erratic) when ``a y`` explains less than :data:`UNEXPLAINED_LIMIT` of the
+    reading's energy above the noise (``(Szz - rss) / (Szz - n s2)``) and the reading is
+    off it beyond the noise at more than that share of the samples (the reading is
+    erratic throughout, not at the stretch's edges only: a windowed residual's first and
+    last ``p`` samples mix the healthy readings in, and a dead sensor's reading there is
+    off a gain near 0 as much as an erratic one's; Li et al.'s sensor 2, dead, left 3-14
+    times the floor there, off at 5-15 % of its samples). A gain that shrinks the
+    reading, with noise of its own left, stays a gain."""
+    szz = energy + 2.0 * cross + den  # the reading's energy (z = f + y)
+    above = szz - floor
+    if not above > 0.0 or not n > 0 or off <= UNEXPLAINED_LIMIT * n:
+        return None
+    share = float(np.clip((szz - rss) / above, 0.0, 1.0))
+    return share if share < UNEXPLAINED_LIMIT else None
+
+
 def _slope_evident(
     energy: float, rss_slope: float, n_eff: float, slope: float, gain: float
 ) -> bool:
@@ -376,7 +414,7 @@ def classify(
     mean_tau = sum_tau / n
     g = cross / den if ref_arr is not None and den > 0.0 else None
     # pass 2: sums about the means, and the multiplicative fit's residual
-    rss_add, s_tt, s_tf, rss_mult = 0.0, 0.0, 0.0, 0.0
+    rss_add, s_tt, s_tf, rss_mult, off = 0.0, 0.0, 0.0, 0.0, 0
     for f, y, tau in pieces():
         fc = f - d
         tc = tau - mean_tau
@@ -384,7 +422,9 @@ def classify(
         s_tt += float(np.dot(tc, tc))
         s_tf += float(np.dot(tc, fc))
         if g is not None and y is not None:
-            rss_mult += float(np.sum((f - g * y) ** 2))  # the least-squares gain's
+            left = f - g * y  # what the least-squares gain leaves
+            rss_mult += float(np.sum(left * left))
+            off += int(np.count_nonzero(np.abs(left) > OFF_NOISE * sigma))
 
     fits: dict[FaultType, tuple[float, int, dict[str, float], float]] = {}
     # additive: f = D
@@ -472,6 +512,21 @@ def classify(
         lam2 = rss_best / floor
         evident = evident and gain * gain - 1.0 >= lam2 - gain * gain
     own = _explained_floor(best, gain, floor, evident)
+    erratic = None
+    if best is FaultType.MULTIPLICATIVE and g is not None and abs(gain) < 1.0:
+        erratic = _erratic_reading(n, off, energy, cross, den, rss_mult, floor)
+    if erratic is not None:
+        # a reading that a gain below 1 explains at few of its samples: erratic, not a
+        # gain (:func:`_erratic_reading`); its share of the reading is the explained one
+        return Classification(
+            FaultType.OTHER,
+            {"offset": d, "rms": float(np.sqrt(energy / n))},
+            float(np.clip(1.0 - erratic, 0.0, 1.0)),
+            0.0,
+            weights,
+            erratic,
+            {**params, "reading_explained": erratic},
+        )
     explained = float((energy - rss_best + own - floor) / excess) if excess > 0 else 0.0
     # (a share: a shape that leaves less than its own model's noise, a gain's credited
     # a^2 beside a fit whose noise is less, explained 1.04-2.04 of the energy; every rule

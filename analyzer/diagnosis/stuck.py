@@ -631,6 +631,131 @@ def healthy_stats(
     return {c: (float(mean[j]), float(std[j])) for j, c in enumerate(channels) if moments.n[j] >= 2}
 
 
+def dead_again(
+    findings: Sequence[Finding],
+    results: Sequence[DetectorResult],
+    values: npt.NDArray[Any],
+    channels: Sequence[str],
+    rate_hz: float,
+    healthy: Mapping[str, tuple[float, float]],
+    train: tuple[int, int] | None = None,
+    zero_at_rest: Collection[str] | None = None,
+) -> tuple[list[Finding], list[str]]:
+    """The dead spells that follow a revival inside a finding's period as the detectors
+    saw it: a finding (multiplicative, gain 0), and a note, for each stretch of the
+    channel's readings frozen at its zero for a long alarm window (as
+    :func:`_dead_from_onset` asks) between where :func:`frozen_notes` cut a dead finding
+    at its readings' revival (evidence ``frozen.until_s``) and the end the detectors saw
+    (``alarmed_to_s``; the record's end for none), not already another finding's.
+
+    The detectors merge alarms closer together than their long window (8 windows, 2 s
+    at 250 Hz) into one event: Li et al.'s sensor 2, reading zero at 4-6 s and again at
+    8-10 s, was one event from 4 to 10 s, and the dead-sensor rule cut it at 6 s, where
+    its readings first moved again; the second dead spell was then reported nowhere (no
+    finding, no unexplained alarm). What follows a revival is judged from the readings,
+    as the first spell was: no alive sensor reads flat at zero for a long alarm window
+    while the structure moves (:func:`_structure_moves`), and a channel whose healthy
+    readings read zero for long (``train``: :func:`reads_zero_for_long`; with
+    ``--model``, ``zero_at_rest``; with neither, not judged) is left alone. Each spell runs
+    from where its readings froze to where they moved again (:func:`frozen_until`, past
+    the detectors' end if the readings stay dead); it keeps the finding's detector,
+    confidence and events (the detectors' one event it came from), and its evidence is
+    its own stretch's (:func:`_again_evidence`).
+
+    Its limit: a spell shorter than that long alarm window (1.98 s at 250 Hz), or broken
+    by missing readings, is not found, and the rest of the event after the cut is not
+    made an unexplained alarm either (an event also goes on past a revival into healthy
+    readings, as far as the detectors' windows lag, or into a gain: :func:`revived_gains`;
+    no rule tells those apart yet); the first spell's note says where the detectors'
+    event ended (``frozen.alarmed_to_s``)."""
+    least = max(MIN_FLAT_SAMPLES, LONG_FACTOR * default_window(rate_hz))
+    index = {c: j for j, c in enumerate(channels)}
+    n = values.shape[0]
+    found: list[Finding] = []
+    notes: list[str] = []
+    for f in findings:
+        frozen = f.evidence.get("frozen", {})
+        j = index.get(f.channel)
+        stats = healthy.get(f.channel)
+        if j is None or stats is None or not stats[1] > 0 or "until_s" not in frozen:
+            continue
+        if abs(float(frozen.get("level", np.inf))) > ZERO * stats[1]:
+            continue  # stuck away from zero, not dead: not this rule's
+        seen = frozen.get("alarmed_to_s")
+        b = n if seen is None else min(n, int(round(seen * rate_hz)))
+        a = int(round(frozen["until_s"] * rate_hz))
+        tol = FLAT * stats[1]
+        if train is not None:
+            if reads_zero_for_long(values, j, train, stats[1], rate_hz):
+                continue
+        elif zero_at_rest is None or f.channel in zero_at_rest:
+            continue
+        revived = a
+        while b - a > least:
+            begins = _zero_stretches(read_column(values, j, a, b), tol, least)
+            begins = begins[begins > 0]  # (the first goes on from before: the revival's)
+            if not begins.size:
+                break
+            start = a + int(begins[0])
+            dead = _dead_from_onset(values, j, start, n, stats[1], rate_hz)
+            if dead is None:
+                break
+            level, until = dead
+            t0, t1 = start / rate_hz, (None if until >= n else until / rate_hz)
+            taken = any(
+                g.channel == f.channel
+                and g.onset_s < (n / rate_hz if t1 is None else t1)
+                and (g.end_s is None or g.end_s > t0)
+                and g is not f
+                for g in [*findings, *found]
+            )
+            if not taken and _structure_moves(results, values, channels, j, (start, until)):
+                seg = read_column(values, j, start, until)
+                seg = seg[np.isfinite(seg)]
+                spread = float(np.std(seg[np.abs(seg - level) <= tol]))
+                g = Finding(
+                    f.channel,
+                    FaultType.MULTIPLICATIVE,
+                    t0,
+                    t1,
+                    {"gain": 0.0},
+                    f.confidence,
+                    f.detector,
+                    evidence=_again_evidence(f, level, spread / stats[1], revived / rate_hz),
+                    events=list(f.events),
+                )
+                found.append(g)
+                notes.append(
+                    f"{f.channel} from {t0:.3f} s"
+                    + ("" if t1 is None else f" to {t1:.3f} s")
+                    + f": dead (reads 0) again: its readings vary by {spread / stats[1]:.2g} "
+                    f"of their healthy spread (after its dead spell from {f.onset_s:.3f} s "
+                    f"ended at {revived / rate_hz:.3f} s, inside the anomaly the detectors "
+                    "saw as one)"
+                )
+            if until >= b:
+                break
+            a = revived = until
+    return found, notes
+
+
+def _again_evidence(
+    f: Finding, level: float, std_ratio: float, previous_end_s: float
+) -> dict[str, Any]:
+    """The evidence of a dead spell again after ``f``'s revival: only what is true of its
+    own stretch. The detectors that saw the one event it came from, and its readings:
+    ``frozen`` with their ``level``, ``std_ratio`` and ``previous_end_s``, where the dead
+    spell before it ended. Not ``f``'s by-detector evidence, test spans or ``frozen.was``:
+    those describe ``f``'s onset (the tests are computed for its own stretch afterwards,
+    as for every finding: :func:`analyzer.diagnosis.evidence.attach_evidence`)."""
+    evidence: dict[str, Any] = {
+        "frozen": {"level": level, "std_ratio": std_ratio, "previous_end_s": previous_end_s}
+    }
+    if "detectors" in f.evidence:
+        evidence["detectors"] = list(f.evidence["detectors"])
+    return evidence
+
+
 def revived_gains(
     findings: Sequence[Finding], results: Sequence[DetectorResult], rate_hz: float, n: int
 ) -> tuple[list[Finding], list[str]]:
@@ -680,10 +805,13 @@ def revived_gains(
         c = a + window
         # and only while no other sensor's finding is under way: the estimate takes the
         # other sensors in (a dead one's estimate of a healthy one is off; law 0)
+        # (nor past the next finding of its own: a second dead spell, :func:`dead_again`)
         stop = b
         for g in findings:
             if g.channel != f.channel and (g.end_s is None or g.end_s * rate_hz > c):
                 stop = min(stop, max(a, int(round(g.onset_s * rate_hz))))
+            elif g.channel == f.channel and g.onset_s * rate_hz >= a and g is not f:
+                stop = min(stop, int(round(g.onset_s * rate_hz)))
         if stop - c < window or sigma is None or not sigma > 0:
             continue
         # (views: the classification reads them a piece at a time)
