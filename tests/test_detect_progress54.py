@@ -96,3 +96,40 @@ def test_plain_progress_says_the_step_under_way_and_adds_no_line_for_it():
         "analyzer: progress: detect 50% (detection_filter run: time blocks 51/100; 5.0 s)",
         "analyzer: progress: tests 50% (9.9 s)",
     ]
+
+
+GROUPS = """\
+[[group]]
+name = "low"
+channels = ["/s0.data", "/s1.data", "/s2.data"]
+
+[[group]]
+name = "high"
+channels = ["/s3.data", "/s4.data"]
+"""
+
+
+def test_channel_groups_are_parts_of_one_rising_detect_stage(tmp_path: Path) -> None:
+    """With channel groups each group was a stage of its own (``detect group 0``,
+    ``detect group 1``, ...), each first said at its own early share: a 500-channel run
+    showed ``detect group N 17%`` for 55 s and never said how many groups there were
+    (the ux56 audit, item 5). Now one ``detect`` stage whose share only rises, each
+    group named with its number of all in the step under way."""
+    from analyzer.config import load_config
+
+    cfg = tmp_path / "groups.toml"
+    cfg.write_text(GROUPS)
+    seen: list[tuple[str, str, float]] = []
+
+    def progress(stage: str, share: float) -> None:
+        seen.append((str(stage), getattr(stage, "detail", ""), share))
+
+    analyze([SAMPLE], RunOptions(jobs=1, progress=progress, config=load_config(cfg)))
+    stages = {s for s, _, _ in seen}
+    assert not any(s.startswith("detect group") for s in stages), stages
+    shares = [f for s, _, f in seen if s == "detect"]
+    assert all(b >= a for a, b in zip(shares, shares[1:], strict=False)), shares
+    assert shares[-1] == 1.0
+    details = [d for s, d, _ in seen if s == "detect"]
+    assert any(d.startswith("group 1/2 (/s0.data../s2.data): ") for d in details), details
+    assert any(d.startswith("group 2/2 (/s3.data../s4.data): ") for d in details), details
