@@ -273,6 +273,27 @@ def _erratic_reading(
     return share if share < UNEXPLAINED_LIMIT else None
 
 
+def _other(
+    d: float,
+    energy: float,
+    n: int,
+    explained: float,
+    weights: dict[str, float],
+    params: dict[str, float],
+) -> Classification:
+    """An ``other`` fault (no shape explains it): its mean ``d`` and RMS as its size, the
+    surer the less of it the shapes explain (``1 - explained``)."""
+    return Classification(
+        FaultType.OTHER,
+        {"offset": d, "rms": float(np.sqrt(energy / n))},
+        float(np.clip(1.0 - explained, 0.0, 1.0)),
+        0.0,
+        weights,
+        explained,
+        params,
+    )
+
+
 def _slope_evident(
     energy: float, rss_slope: float, n_eff: float, slope: float, gain: float
 ) -> bool:
@@ -518,15 +539,7 @@ def classify(
     if erratic is not None:
         # a reading that a gain below 1 explains at few of its samples: erratic, not a
         # gain (:func:`_erratic_reading`); its share of the reading is the explained one
-        return Classification(
-            FaultType.OTHER,
-            {"offset": d, "rms": float(np.sqrt(energy / n))},
-            float(np.clip(1.0 - erratic, 0.0, 1.0)),
-            0.0,
-            weights,
-            erratic,
-            {**params, "reading_explained": erratic},
-        )
+        return _other(d, energy, n, erratic, weights, {**params, "reading_explained": erratic})
     explained = float((energy - rss_best + own - floor) / excess) if excess > 0 else 0.0
     # (a share: a shape that leaves less than its own model's noise, a gain's credited
     # a^2 beside a fit whose noise is less, explained 1.04-2.04 of the energy; every rule
@@ -534,15 +547,7 @@ def classify(
     explained = min(explained, 1.0)
     if explained < UNEXPLAINED_LIMIT:
         # the more of the fault energy the shapes leave unexplained, the surer "other" is
-        return Classification(
-            FaultType.OTHER,
-            {"offset": d, "rms": float(np.sqrt(energy / n))},
-            float(np.clip(1.0 - explained, 0.0, 1.0)),
-            0.0,
-            weights,
-            explained,
-            params,
-        )
+        return _other(d, energy, n, explained, weights, params)
     _, _, mag, moved = fits[best]
     if best is FaultType.ADDITIVE:
         spread = offset_spread(pieces, n, d, tau_corr)
