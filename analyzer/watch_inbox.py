@@ -290,6 +290,25 @@ def _looks_like_bag(directory: Path, files: Sequence[Path]) -> bool:
     return any(f.suffix == ".db3" or pattern.fullmatch(f.name) for f in files)
 
 
+SPLIT_NAME = re.compile(r"(.+)_(\d+)\.(db3|mcap)(\.zstd)?")
+"""A ROS 2 recorder's storage file: ``<bag>_<N>.db3`` / ``.mcap``, N counting its splits."""
+
+
+def _unlisted_split(path: Path, listed: Sequence[str], files: Sequence[Path]) -> str | None:
+    """The first storage file in the bag folder ``path`` that is a split of its recording
+    (named ``<stem>_<N>`` as a listed file, or as the folder) but that metadata.yaml does
+    not list, or None. rosbag2 rewrites metadata.yaml at each split while it writes the
+    next file, so such a file is a recording under way; a file of another name stays what
+    the reader says it is (not read, for it may belong to another recording)."""
+    stems = {path.name} | {m.group(1) for name in listed if (m := SPLIT_NAME.fullmatch(name))}
+    names = set(listed)
+    for f in files:
+        m = SPLIT_NAME.fullmatch(f.name)
+        if m is not None and m.group(1) in stems and f.name not in names:
+            return f.name
+    return None
+
+
 def incomplete_reason(path: Path, _seen: set[Path] | None = None) -> str | None:
     """Why the archive member ``path`` looks unfinished, or None when it looks complete.
 
@@ -307,6 +326,8 @@ def incomplete_reason(path: Path, _seen: set[Path] | None = None) -> str | None:
         for name in listed:
             if not (path / name).is_file():
                 return f"storage file {name} listed in metadata.yaml is missing"
+        if (split := _unlisted_split(path, listed, files)) is not None:
+            return f"storage file {split} not in metadata.yaml yet (still recording?)"
         for f in files:
             if f.name != "metadata.yaml" and (reason := _file_incomplete(f)):
                 return f"{f.name}: {reason}"

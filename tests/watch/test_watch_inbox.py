@@ -144,6 +144,31 @@ def test_ros2_bag_directory_needs_metadata_and_its_storage(tmp_path: Path) -> No
     assert incomplete_reason(bag) == "metadata.yaml not readable yet"
 
 
+def test_a_split_not_yet_in_metadata_is_a_recording_under_way(tmp_path: Path) -> None:
+    """rosbag2 rewrites metadata.yaml at each split while it writes the next file: a bag
+    folder whose metadata.yaml lists ``rec_0.db3`` beside a ``rec_1.db3`` was analyzed
+    and, with --done, moved while the recorder was still writing into it (ux58 item 7).
+    A split sibling not listed yet holds the folder; a file of another name does not."""
+    src = small_archive(tmp_path / "src_bag", "ros2bag")
+    storage = next(src.glob("*.db3"))
+    bag = tmp_path / "rec2"  # a folder renamed: the stem comes from the listed files too
+    bag.mkdir()
+    shutil.copy2(storage, bag / "split_imu_0.db3")
+    meta = (src / "metadata.yaml").read_text().replace(storage.name, "split_imu_0.db3")
+    (bag / "metadata.yaml").write_text(meta)
+    assert incomplete_reason(bag) is None
+    shutil.copy2(storage, bag / "other.db3")  # another recording's file: the reader's note
+    assert incomplete_reason(bag) is None
+    shutil.copy2(storage, bag / "split_imu_1.db3")
+    assert incomplete_reason(bag) == (
+        "storage file split_imu_1.db3 not in metadata.yaml yet (still recording?)"
+    )
+    (bag / "split_imu_1.db3").rename(bag / "rec2_1.db3")  # named after the folder
+    assert incomplete_reason(bag) == (
+        "storage file rec2_1.db3 not in metadata.yaml yet (still recording?)"
+    )
+
+
 def test_a_db3_shorter_than_its_header_says_is_unfinished(tmp_path: Path) -> None:
     """A bag copied piecewise (metadata.yaml first, the .db3 with pauses longer than
     --settle) was analyzed half copied ("database disk image is malformed") and, with
