@@ -531,6 +531,12 @@ def _warn(line: str) -> None:
     sys.stderr.write(f"analyzer: warning: {terminal_safe(line)}\n")
 
 
+def _note(line: str) -> None:
+    """One line on stderr of information about a run (what it did of its own accord that
+    the user should know, nothing wrong: not a warning)."""
+    sys.stderr.write(f"analyzer: note: {terminal_safe(line)}\n")
+
+
 def _say(line: str) -> None:
     """``run``'s last line on stderr (what it found, where the report is)."""
     sys.stderr.write(f"analyzer: {terminal_safe(line)}\n")
@@ -678,6 +684,7 @@ def _run_options(args: argparse.Namespace) -> Any:
         save_model=getattr(args, "save_model", None),
         screen=args.screen,
         say=_say if getattr(args, "command", None) == "run" else None,
+        note=_note if getattr(args, "command", None) == "run" else None,
         utc=getattr(args, "utc", False),
         missing_values=getattr(args, "missing_values", ()),
     )
