@@ -155,6 +155,19 @@ def add_msg_path(p: argparse.ArgumentParser) -> None:
     )
 
 
+def add_missing_values(p: argparse.ArgumentParser) -> None:
+    """``--missing-values``, of ``run``, ``watch``, ``inspect`` and ``export`` alike: the
+    same samples are no reading to each (:func:`analyzer.missing_codes.as_gaps`)."""
+    p.add_argument(
+        "--missing-values",
+        type=_missing_codes,
+        metavar="CODE[,CODE...]",
+        default=(),
+        help="numbers the loggers write where they have no reading (e.g. -9999): their "
+        "samples are taken as gaps, as blank cells are; default: none (read as values)",
+    )
+
+
 JOBS_HELP = {
     "run": "local parallelism: run the detectors (and the bank's time blocks) on N "
     "threads, same results as serial; default: number of cores, 1 = serial",
@@ -209,14 +222,7 @@ def add_run_options(p: argparse.ArgumentParser, command: str = "run") -> None:
         help="rate of the common clock; default: the dominant rate of the channels, or a "
         "slower one where that runs far above what they carry (a note says which)",
     )
-    p.add_argument(
-        "--missing-values",
-        type=_missing_codes,
-        metavar="CODE[,CODE...]",
-        default=(),
-        help="numbers the loggers write where they have no reading (e.g. -9999): their "
-        "samples are taken as gaps, as blank cells are; default: none (read as values)",
-    )
+    add_missing_values(p)
     p.add_argument(
         "--jobs",
         type=_positive_int,
@@ -398,6 +404,7 @@ def build_parser() -> argparse.ArgumentParser:
         default="log",
         help="timestamps: log time (default) or header.stamp where messages have one",
     )
+    add_missing_values(p)
     add_msg_path(p)
 
     p = _sub(sub, "export", "the time-aligned channels as .csv or .parquet")
@@ -429,6 +436,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="add a last column 'utc': each row's time as ISO-8601 UTC (refused for "
         "relative times)",
     )
+    add_missing_values(p)
     add_msg_path(p)
 
     p = _sub(sub, "run", "analyze; write DIR/report.html and DIR/findings.json")
@@ -523,6 +531,12 @@ def _warn(line: str) -> None:
     sys.stderr.write(f"analyzer: warning: {terminal_safe(line)}\n")
 
 
+def _note(line: str) -> None:
+    """One line on stderr of information about a run (what it did of its own accord that
+    the user should know, nothing wrong: not a warning)."""
+    sys.stderr.write(f"analyzer: note: {terminal_safe(line)}\n")
+
+
 def _say(line: str) -> None:
     """``run``'s last line on stderr (what it found, where the report is)."""
     sys.stderr.write(f"analyzer: {terminal_safe(line)}\n")
@@ -604,7 +618,7 @@ def plain_progress(
 def cmd_inspect(args: argparse.Namespace) -> int:
     from analyzer.inspect import inspect_archive, render_table
 
-    doc = inspect_archive(args.inputs, time=args.time)
+    doc = inspect_archive(args.inputs, time=args.time, missing_values=args.missing_values)
     errors = [f"{i['path']}: {e}" for i in doc["inputs"] for e in i["errors"]]
     if not doc["channels"] and errors:  # nothing could be read: an input error, as for run
         # (said as run says it: the reasons alone, each ending "skipped", read as warnings)
@@ -646,6 +660,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         warn=_warn,
         utc=args.utc,
         say=_say,
+        missing_values=args.missing_values,
     )
     return 0
 
@@ -669,6 +684,7 @@ def _run_options(args: argparse.Namespace) -> Any:
         save_model=getattr(args, "save_model", None),
         screen=args.screen,
         say=_say if getattr(args, "command", None) == "run" else None,
+        note=_note if getattr(args, "command", None) == "run" else None,
         utc=getattr(args, "utc", False),
         missing_values=getattr(args, "missing_values", ()),
     )

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from analyzer.errors import ReaderError, UsageError, capped
+from analyzer.missing_codes import Unread, as_gaps, no_reading_line, read_notes
 from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
 from analyzer.readers import open_archive
 from analyzer.readers.base import InputInfo, TimeSource, about_selection, one_clock
@@ -80,13 +81,20 @@ def export_archive(
     warn: Callable[[str], None] | None = None,
     utc: bool = False,
     say: Callable[[str], None] | None = None,
+    missing_values: Sequence[float] = (),
 ) -> Path:
     """Write the aligned channels of ``inputs`` to ``out``; what went wrong with the
     inputs while they were read (a truncated file, samples dropped: ``inputs[].errors``
     of ``inspect``) and the channels whose values are mostly interpolated are told to
     ``warn``, a line each, once the file is written, then :func:`summary_line` to
     ``say``. ``utc``: a last column ``utc`` of ISO-8601 UTC times (``--utc``), refused
-    for a record of relative times before anything is written."""
+    for a record of relative times before anything is written.
+
+    The samples that are no reading (NaN, infinite, beyond 1e30, one of
+    ``missing_values``: ``--missing-values``) are dropped as they are read, as ``run``
+    drops them (:func:`~analyzer.missing_codes.as_gaps`): the file holds an empty cell
+    (a null) where the aligned clock has no reading there, never an infinity or a code as
+    a value, and ``warn`` is told how many were dropped by channel, in ``run``'s words."""
     suffix = "".join(out.suffixes[-1:]).lower()
     if suffix not in (".csv", ".parquet"):
         raise UsageError(f"--out: {out} must end in .csv or .parquet")
@@ -96,7 +104,7 @@ def export_archive(
     not_into_inputs(out, inputs, "--out", "export elsewhere")
     created = prepare_dir(out.parent, "--out")  # before reading: not at the end
     try:
-        done = _export(inputs, out, suffix, channels, rate, time, warn, utc)
+        done = _export(inputs, out, suffix, channels, rate, time, warn, utc, missing_values)
     except BaseException:
         if created:
             remove_if_empty(out.parent)
@@ -118,11 +126,14 @@ def _export(
     time: TimeSource,
     warn: Callable[[str], None] | None = None,
     utc: bool = False,
+    missing_values: Sequence[float] = (),
 ) -> Exported:
     archive = open_archive(inputs)
+    unread = Unread()
+    chunks = as_gaps(archive.chunks(time), missing_values, unread)
     with (
         scratch("analyzer-export-") as tmp,
-        ChannelStore.from_chunks(archive.chunks(time), tmp) as store,
+        ChannelStore.from_chunks(chunks, tmp) as store,
     ):
         if channels:
             unmatched = store.unmatched_line(channels)
@@ -133,9 +144,8 @@ def _export(
             names = store.select(None, numeric_only=False)
         if not names:
             where = capped([str(i) for i in inputs], 3, what="inputs")
-            raise UsageError(
-                no_numeric_channel(archive.inputs, "no numeric channel to export", where)
-            )
+            what = no_reading_line(unread) or "no numeric channel to export"
+            raise UsageError(no_numeric_channel(archive.inputs, what, where))
         one_clock(names, archive.inputs)
         rated = names if rate is not None else _voting(store, names, archive.inputs)
         aligned = store.align(names, _default_rate(store, rated) if rate is None else rate)
@@ -175,7 +185,22 @@ def _export(
             warn(line)
         if len(lines) > WARNED_LINES:
             warn(f"{len(lines) - WARNED_LINES} more input errors (`analyzer inspect` lists them)")
+        # (what was dropped as no reading, by channel; with --channels, of those it chose)
+        for note in read_notes(_chosen(unread, names, every=not channels), missing_values):
+            warn(f"{out}: {note}")
     return done
+
+
+def _chosen(unread: Unread, names: Sequence[str], every: bool) -> Unread:
+    """``unread``'s counts of the exported channels ``names``, and with ``every`` (no
+    ``--channels``) of the channels dropped whole too, which no column holds (said as
+    ``run`` says them: they have no reading)."""
+    wanted = set(names) | (set(unread.lost()) if every else set())
+
+    def kept(counts: dict[str, int]) -> dict[str, int]:
+        return {c: n for c, n in counts.items() if c in wanted}
+
+    return Unread(kept(unread.coded), kept(unread.absurd), kept(unread.nan), kept(unread.kept), {})
 
 
 def _check_utc(names: Sequence[str], absolute: bool, inputs: Sequence[InputInfo]) -> None:

@@ -8,6 +8,7 @@ from typing import Any
 
 from analyzer.coverage import SAID_SHARE, SpanGaps, gaps_line, span_gaps
 from analyzer.errors import ReaderError, StoreError, UsageError, capped, one_line, terminal_safe
+from analyzer.missing_codes import Unread, as_gaps, no_reading_line, read_notes
 from analyzer.readers import Archive, open_archive
 from analyzer.readers.base import InputInfo, TimeSource
 from analyzer.scratch import scratch
@@ -29,29 +30,51 @@ from analyzer.timeutil import iso_utc, plain_number, plausible_epoch, short_seco
 from analyzer.types import NS_PER_S
 
 
-def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> dict[str, Any]:
+def inspect_archive(
+    inputs: Sequence[str | Path],
+    time: TimeSource = "log",
+    missing_values: Sequence[float] = (),
+) -> dict[str, Any]:
     """The contract's ``inspect --json`` object, plus ``start`` (absolute UTC, where known)
     and ``notes``: how the archive was put together (a file not read, one given twice:
     :attr:`~analyzer.readers.Archive.notes`), as ``run`` puts them in findings.json, and,
     for an archive read without an error that holds no numeric channel (a bag of
     strings, an empty bag), :func:`nothing_numeric`'s line: listing it is no error, but
-    ``run`` and ``export`` refuse it."""
+    ``run`` and ``export`` refuse it.
+
+    The samples that are no reading (NaN, infinite, beyond 1e30, one of
+    ``missing_values``: ``--missing-values``) are dropped as they are read, as ``run``
+    drops them (:func:`~analyzer.missing_codes.as_gaps`): a channel's ``samples``, rate
+    and gaps are its readings', and the notes count what was dropped by channel in
+    ``run``'s words (before, an infinity or a -9999 was listed as a sample)."""
     archive = open_archive(inputs)
+    unread = Unread()
+    chunks = as_gaps(archive.chunks(time), missing_values, unread)
     with (
         scratch("analyzer-inspect-") as tmp,
-        ChannelStore.from_chunks(archive.chunks(time), tmp) as store,
+        ChannelStore.from_chunks(chunks, tmp) as store,
     ):
         infos = store.infos()
         t0 = min((i.start_ns for i in infos), default=0)
         absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(t0)
         notes = [str(n) for n in archive.notes]
-        if not infos:
+        notes += [str(n) for n in read_notes(unread, missing_values)]
+        unread_all = no_reading_line(unread)
+        if not infos and unread_all is None:
             notes.append(nothing_numeric(archive.inputs))
         why, defaults = (
             run_choice(store, archive, t0)
             if infos
             # (run refuses it: said as for any archive run refuses, with run's line)
-            else ({}, {"channels": 0, "refused": no_numeric_channel(archive.inputs)})
+            else (
+                {},
+                {
+                    "channels": 0,
+                    "refused": no_numeric_channel(
+                        archive.inputs, unread_all or "no numeric channel found"
+                    ),
+                },
+            )
         )
         holes = span_gaps(store, [i.name for i in infos])
         return {

@@ -165,6 +165,31 @@ class UnreadNote(Note):
         return note
 
 
+def read_notes(unread: Unread, codes: Sequence[float]) -> list[str]:
+    """The notes on what :func:`as_gaps` dropped as the record was read, as ``run``
+    gives them (``inspect`` and ``export`` read the record as it does, and say it in the
+    same words): the codes taken as gaps, the infinite or absurd values taken as gaps,
+    each by channel with its count, and the channels none of whose samples is a reading
+    (:class:`UnreadNote`). NaN samples, as blank cells, are gaps without a note."""
+    notes: list[str] = [
+        n for n in (gaps_note(unread.coded, codes), absurd_note(unread.absurd)) if n
+    ]
+    lost = unread.lost()
+    if lost:
+        notes.append(UnreadNote(lost))
+    return notes
+
+
+def no_reading_line(unread: Unread) -> str | None:
+    """The reason an archive whose every channel was dropped has no channel, in
+    ``run``'s words (``no channel has a reading (...)``), or None where some channel was
+    kept or none was dropped whole."""
+    lost = unread.lost()
+    if not lost or any(unread.kept.values()):
+        return None
+    return f"no channel has a reading ({UnreadNote(lost)})"
+
+
 def gaps_note(counts: Mapping[str, int], codes: Sequence[float]) -> str:
     """The note on the samples ``--missing-values`` made gaps (by channel), or ""."""
     if not counts:
@@ -255,5 +280,7 @@ __all__ = [
     "as_gaps",
     "code_hints",
     "gaps_note",
+    "no_reading_line",
     "parse_codes",
+    "read_notes",
 ]

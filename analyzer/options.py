@@ -61,6 +61,10 @@ class RunOptions:
     warn: Callable[[str], None] | None = None
     """Where :func:`analyzer.pipeline.run` says, once the outputs are written, what went
     wrong with the inputs (a truncated file, samples dropped): the CLI's stderr."""
+    note: Callable[[str], None] | None = None
+    """Where :func:`analyzer.pipeline.run` says, before its last line, what it did of its
+    own accord that the user should know (:class:`~analyzer.window_note.InfoNote`: the
+    record analyzed slower than it was logged at): the CLI's stderr, ``analyzer: note:``."""
     say: Callable[[str], None] | None = None
     """Where :func:`analyzer.pipeline.run` says its last line (:func:`analyzer.pipeline.
     summary_line`: what it found and where the report is): the CLI's stderr."""

@@ -205,7 +205,7 @@ from analyzer.timeutil import (
     window_text,
 )
 from analyzer.types import NS_PER_S, FaultType, prefixed
-from analyzer.window_note import AnomalyNote
+from analyzer.window_note import AnomalyNote, info_lines
 
 MATERIALIZE_IN_MEMORY = 1 << 24
 """Aligned matrices up to this many values stay in memory; larger ones are memory-mapped."""
@@ -3030,6 +3030,9 @@ def _run_into(inputs: Sequence[str | Path], out: Path, options: RunOptions, crea
             skipped = skipped_warning(analysis, options, " ".join(configured))
             if skipped:  # (default detectors that did not run: findings.json alone said it)
                 options.warn(skipped)
+        if options.note is not None:  # (what the run did of its own accord: information)
+            for line in info_lines(analysis.notes):
+                options.note(line)
         if options.save_model is not None and analysis.saved is not None:
             earlier = _file_sha256(options.save_model)
             save_model(options.save_model, analysis.saved, model)

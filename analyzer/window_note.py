@@ -1,8 +1,11 @@
-"""The notes of a run that it repeats on stderr (:class:`WindowNote`): in a module of its
+"""The notes of a run that it repeats on stderr (:class:`WindowNote` as warnings,
+:class:`InfoNote` as information): in a module of its
 own, importing nothing, for ``inspect`` to share :mod:`analyzer.selection` with ``run``
 without the diagnosis's import time."""
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 from analyzer.types import Note
 
@@ -25,6 +28,26 @@ class WindowNote(Note):
         note.short = short or text
         note.before = before
         return note
+
+
+class InfoNote(Note):
+    """A note of a run that it repeats on stderr as information (``analyzer: note:``),
+    not as a warning: it says what the run did of its own accord, which the user should
+    know but which is not wrong (the record analyzed at a slower rate than it was logged
+    at, :func:`analyzer.diagnosis.oversampled.slower_clock_note`). Its ``short`` form is
+    the stderr line."""
+
+    short: str
+
+    def __new__(cls, text: str, short: str = "") -> InfoNote:
+        note = super().__new__(cls, text)
+        note.short = short or text
+        return note
+
+
+def info_lines(notes: Sequence[str]) -> list[str]:
+    """The short forms of the run's :class:`InfoNote` notes, for stderr."""
+    return [n.short for n in notes if isinstance(n, InfoNote)]
 
 
 class AnomalyNote(Note):

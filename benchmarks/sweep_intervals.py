@@ -13,7 +13,7 @@ whose ``onset_interval_s`` holds the true onset (of those with one: ``onset null
 the findings whose onset is a bound), and the intervals' median widths. The intervals are
 not widened to reach 95 %: a share far below it is the estimator's bias or a too narrow
 profile, which README says. A script, not a timed test (3 layouts x 6 cases x 10 seeds:
-about 15 minutes)::
+3-5 minutes on a shared 2-core machine, 2026-12-07)::
 
     python benchmarks/sweep_intervals.py [--seeds 1:11] [--seconds 200]
 """

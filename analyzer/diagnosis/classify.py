@@ -550,15 +550,15 @@ def classify(
         return _other(d, energy, n, explained, weights, params)
     _, _, mag, moved = fits[best]
     if best is FaultType.ADDITIVE:
-        spread = offset_spread(pieces, n, d, tau_corr)
+        spread = offset_spread(pieces, n, d, tau_corr, rate_hz)
     elif best is FaultType.DRIFT:
         held_at = onset_shift if held else None
-        spread = drift_spread(pieces, n, (d, c, b), mean_tau, tau_corr, held_at)
+        spread = drift_spread(pieces, n, (d, c, b), mean_tau, tau_corr, held_at, rate_hz)
     else:  # the gain: the scaled fit's where that variant was chosen (one parameter)
         ml = g is not None and abs(1.0 + g) >= MIN_GAIN and chosen[best][1] == 1
         ml = ml and _scaled_gain(n, energy, cross, den, noise) is not None
         sums = (energy, cross, den)
-        spread = gain_spread(pieces, n, params["gain"], sums, noise, tau_corr, ml)
+        spread = gain_spread(pieces, n, params["gain"], sums, noise, tau_corr, ml, rate_hz)
     return Classification(
         best, mag, weights[best.value], moved, weights, explained, params, chosen[best][2], spread
     )

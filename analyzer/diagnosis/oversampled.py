@@ -37,6 +37,7 @@ import numpy.typing as npt
 from analyzer.diagnosis.changes import default_window, training_need
 from analyzer.diagnosis.training_check import WindowNote
 from analyzer.timeutil import plain_number, spoken_duration
+from analyzer.window_note import InfoNote
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -286,8 +287,9 @@ def oversampled_note(
     return WindowNote(short, short)
 
 
-def slower_clock_note(found: Oversampled, corrected: bool = False) -> WindowNote:
-    """The note (its short form on stderr) of a run that aligned the channels at
+def slower_clock_note(found: Oversampled, corrected: bool = False) -> InfoNote:
+    """The note (its short form on stderr, ``analyzer: note:``: information, not a
+    warning; the run did what it should) of a run that aligned the channels at
     ``found.suggest`` rather than at the rate they were logged at (``found.rate_hz``),
     because its models' memory spans too little of the channels' period there: what
     the memory spans at both rates, and the ``--rate`` that keeps the logged one. With
@@ -314,4 +316,4 @@ def slower_clock_note(found: Oversampled, corrected: bool = False) -> WindowNote
         f"below {plain_number(content)} Hz, and the logged rate is {rate / content:.0f} "
         "times that)"
     )
-    return WindowNote(text, short)
+    return InfoNote(text, short)

@@ -35,7 +35,11 @@ residual's correlation time (samples), over which its autocorrelation lasts. (A 
 version used the Newey-West (1994) rule ``floor(4 (n / 100)^(2/9))``, 11 lags over 100 s
 at 100 Hz: the offsets' errors were 1.6 times too small, their intervals held the true
 offset in 70 % of the sweep's records; the residual stays correlated for longer than
-that rule assumes.) The intervals are what the estimators
+that rule assumes.) The sum pairs samples within one contiguous run of the stretch only
+(:class:`RunLaggedSums`): a lag never reaches across a gap in the aligned record (rows
+where the channel or its estimate has no value), whose two sides may differ, a level
+that stepped while the channel was silent; each run's sum is its own, as statsmodels'
+``cov_type="hac-panel"`` with each run a group. The intervals are what the estimators
 give, not widened to a target: ``benchmarks/sweep_intervals.py`` measures how often they
 hold the true size and onset (README), and they miss where the estimate is biased (a
 fault near the detection limit, a fit bent by the stretch's ends), which no standard
@@ -59,7 +63,7 @@ no interval: the reason is given instead.
 The 95 % level is nominal everywhere, and two cases are marked as falling short of it
 (measured: ``benchmarks/sweep_intervals.py``, README). A gain's size interval keeps its
 numbers but counts the fit's noise only, not the error of the fault-free reference it is
-measured against (``magnitude_partial``: it held the true gain in 68-70 % of simulated
+measured against (``magnitude_partial``: it held the true gain in 68-75 % of simulated
 records). A gain's onset has no interval: the search models a shift in the residual's
 mean and spread, not a gain, and its profile held the true onset in 60-89 %. A size
 measured from the healthy level whose variance is not known (a model saved before the
@@ -76,8 +80,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from analyzer.diagnosis.streamed import LaggedSums
 from analyzer.stats.moments import bartlett_sum
+from analyzer.stats.whiteness import lagged_products
 from analyzer.types import FaultType
 
 if TYPE_CHECKING:
@@ -99,7 +103,7 @@ may choose. It counts samples, not time: 5 s at 100 Hz, but 0.5 s at 1 kHz."""
 GAIN_SIZE_NOTE = (
     "counts the fit's noise only, not the error of the fault-free reference the gain is "
     "measured against (it pulls the estimate towards no gain): it held the true gain in "
-    "68-70 % of simulated records (README, Intervals of size and onset), not 95 %"
+    "68-75 % of simulated records (README, Intervals of size and onset), not 95 %"
 )
 """Why a gain's size interval is labelled "noise only" (:func:`event_intervals`)."""
 GAIN_ONSET_NOTE = (
@@ -132,19 +136,123 @@ def hac_lags(lagged: FloatArray, n: int, tau_corr: float = 1.0) -> int:
     return max(0, min(n - 1, MAX_LAGS, max(lags, int(math.ceil(tau_corr)))))
 
 
+SPACED_GROWTH = 4
+"""A block whose runs laid out apart (:func:`_spaced`) would be more than this many times
+its samples long has its lagged products summed lag by lag instead (:func:`_run_products`):
+a stretch cut by many short gaps would otherwise take :data:`MAX_LAGS` zeros per gap."""
+
+
+def _spaced(d: FloatArray, at: npt.NDArray[np.int64], gap: int) -> FloatArray:
+    """``d`` (samples at rows ``at``, increasing) laid out with ``gap`` zeros between its
+    contiguous runs (where ``at`` steps by more than one row) and none within them: its
+    lagged products up to lag ``gap`` are then those of pairs within one run."""
+    step = np.where(np.diff(at) > 1, gap + 1, 1)
+    pos = np.concatenate(([0], np.cumsum(step)))
+    out = np.zeros(int(pos[-1]) + 1 if pos.shape[0] else 0)
+    out[pos] = d
+    return out
+
+
+def _run_products(d: FloatArray, at: npt.NDArray[np.int64], max_lag: int) -> FloatArray:
+    """``c[k] = sum_t d[t] d[t + k]`` over the pairs ``k`` rows apart within one contiguous
+    run of ``at`` (``k = 0 .. min(max_lag, n - 1)``): :func:`lagged_products` of
+    :func:`_spaced` where that is short enough, else lag by lag (a pair ``k`` places apart
+    is in one run where its rows are ``k`` apart: one vectorized product per lag)."""
+    n = d.shape[0]
+    if n == 0:
+        return np.zeros(1)
+    top = min(max_lag, n - 1)
+    breaks = int(np.count_nonzero(np.diff(at) > 1))
+    if n + breaks * max_lag <= SPACED_GROWTH * n:
+        return lagged_products(_spaced(d, at, max_lag), max_lag)[: top + 1]
+    out = np.empty(top + 1)
+    out[0] = float(np.dot(d, d))
+    for k in range(1, top + 1):
+        same = (at[k:] - at[:-k]) == k
+        out[k] = float(np.dot(d[k:][same], d[:-k][same]))
+    return out
+
+
+def _contiguous(at: npt.NDArray[np.int64]) -> bool:
+    """Whether the increasing rows ``at`` follow one another with no row missing."""
+    return at.shape[0] < 2 or int(at[-1] - at[0]) == at.shape[0] - 1
+
+
+class RunLaggedSums:
+    """The lagged products ``c_k = sum_t d_t d_{t+k}`` (``k`` up to ``max_lag``) of a
+    series with gaps, added block by block with each sample's row: only pairs within one
+    contiguous run of rows count, never a pair across a gap (the aligned record's rows
+    where the channel, or its estimate, has no value: NaN). Without gaps the same sums as
+    :class:`~analyzer.diagnosis.streamed.LaggedSums` (the same arithmetic), with them the
+    sum of each run's own."""
+
+    __slots__ = ("max_lag", "n", "sums", "tail", "tail_at")
+
+    def __init__(self, max_lag: int) -> None:
+        self.max_lag = int(max_lag)
+        self.sums = np.zeros(self.max_lag + 1)
+        self.tail = np.empty(0)
+        self.tail_at = np.empty(0, dtype=np.int64)
+        self.n = 0
+
+    def add(self, d: FloatArray, first: int, at: npt.NDArray[np.int64] | None = None) -> None:
+        """Add the samples ``d`` at rows ``at`` (increasing), or, where ``at`` is None, at
+        the contiguous rows from ``first`` on (no array of rows is made: a gapless
+        stretch costs what :class:`~analyzer.diagnosis.streamed.LaggedSums` does)."""
+        m = d.shape[0]
+        if m == 0:
+            return
+        held = self.tail.shape[0]
+        ext = np.concatenate((self.tail, d)) if held else d
+        joined = at is None and (not held or int(self.tail_at[-1]) + 1 == first)
+        if joined and _contiguous(self.tail_at):
+            s = lagged_products(ext, self.max_lag)
+            t = lagged_products(self.tail, self.max_lag) if held else None
+            keep = max(0, ext.shape[0] - self.max_lag)
+            tail_at = np.arange(first + m - (ext.shape[0] - keep), first + m, dtype=np.int64)
+        else:
+            rows = np.arange(first, first + m, dtype=np.int64) if at is None else at
+            ext_at = np.concatenate((self.tail_at, rows)) if held else rows
+            s = _run_products(ext, ext_at, self.max_lag)
+            t = _run_products(self.tail, self.tail_at, self.max_lag) if held else None
+            keep = max(0, ext.shape[0] - self.max_lag)
+            tail_at = ext_at[keep:].copy()
+        self.sums[: s.shape[0]] += s
+        if t is not None:  # (the carried samples' own products: counted with the block before)
+            self.sums[: t.shape[0]] -= t
+        self.tail, self.tail_at = ext[keep:].copy(), tail_at
+        self.n += m
+
+    def values(self) -> FloatArray:
+        """The sums at the lags the series is long enough for (``min(max_lag, n - 1)``)."""
+        return self.sums[: max(0, min(self.max_lag, self.n - 1)) + 1].copy()
+
+
 class ScoreSums:
     """The lagged products ``c_k = sum_t psi_t psi_{t+k}`` (``k`` up to :data:`MAX_LAGS`)
     of a score series added block by block, and their Newey-West long-run sum ``S = c_0
     + 2 sum_k (1 - k / (L + 1)) c_k`` over ``L`` lags (about zero: a fit's scores sum to
-    zero at its estimate)."""
+    zero at its estimate). Only pairs within one contiguous run of the stretch's valid
+    samples count (:class:`RunLaggedSums`): a lag does not reach across a gap, whose two
+    sides may differ (a level that stepped while the channel was silent), as statsmodels'
+    ``cov_type="hac-panel"`` with each run a group. ``rate_hz``: the rows' rate, by which
+    each sample's ``tau`` (seconds from the stretch's first row) gives its row."""
 
-    __slots__ = ("lagged",)
+    __slots__ = ("lagged", "rate_hz")
 
-    def __init__(self) -> None:
-        self.lagged = LaggedSums(MAX_LAGS)
+    def __init__(self, rate_hz: float) -> None:
+        self.lagged = RunLaggedSums(MAX_LAGS)
+        self.rate_hz = rate_hz
 
-    def add(self, psi: FloatArray) -> None:
-        self.lagged.add(np.asarray(psi, dtype=np.float64))
+    def add(self, psi: FloatArray, tau: FloatArray) -> None:
+        if tau.shape[0] == 0:
+            return
+        first = round(float(tau[0]) * self.rate_hz)
+        last = round(float(tau[-1]) * self.rate_hz)
+        at = None
+        if last - first != tau.shape[0] - 1:  # (a gap inside the block: each sample's row)
+            at = np.rint(np.asarray(tau, dtype=np.float64) * self.rate_hz).astype(np.int64)
+        self.lagged.add(np.asarray(psi, dtype=np.float64), first, at)
 
     def lags(self, tau_corr: float) -> int:
         """:func:`hac_lags` of this series."""
@@ -191,12 +299,12 @@ Pieces = Callable[[], Iterable[tuple[FloatArray, FloatArray | None, FloatArray]]
 them."""
 
 
-def offset_spread(pieces: Pieces, n: int, offset: float, tau_corr: float) -> Spread:
+def offset_spread(pieces: Pieces, n: int, offset: float, tau_corr: float, rate_hz: float) -> Spread:
     """The offset's (the stretch's mean's) standard error: ``sqrt(S) / n``, ``S`` the
     Newey-West sum of ``e = f - offset``."""
-    s = ScoreSums()
-    for f, _, _ in pieces():
-        s.add(f - offset)
+    s = ScoreSums(rate_hz)
+    for f, _, tau in pieces():
+        s.add(f - offset, tau)
     lags = s.lags(tau_corr)
     se = math.sqrt(max(s.total(lags), 0.0)) / n
     return Spread({"offset": se}, lags, level_slope={"offset": -1.0})
@@ -209,6 +317,7 @@ def drift_spread(
     mean_tau: float,
     tau_corr: float,
     held_at: float | None,
+    rate_hz: float,
 ) -> Spread:
     """A drift's rate's standard error and its traced onset's (``line``: the mean ``D``
     of the fault signal, the intercept ``c`` and rate ``b``; ``f = c + b tau``).
@@ -216,12 +325,12 @@ def drift_spread(
     outside the admissible onsets), whose onset is then a bound, not an estimate."""
     d, c, b = line
     if held_at is not None:
-        s = ScoreSums()
+        s = ScoreSums(rate_hz)
         suu = 0.0
         for f, _, tau in pieces():
             u = tau - held_at
             suu += float(np.dot(u, u))
-            s.add(u * (f - b * u))
+            s.add(u * (f - b * u), tau)
         lags = s.lags(tau_corr)
         se = math.sqrt(max(s.total(lags), 0.0)) / suu if suu > 0.0 else math.inf
         note = (
@@ -230,16 +339,16 @@ def drift_spread(
             "through that onset"
         )
         return Spread({"rate_per_s": se}, lags, None, note)
-    se_e, se_h, se_eh = ScoreSums(), ScoreSums(), ScoreSums()
+    se_e, se_h, se_eh = ScoreSums(rate_hz), ScoreSums(rate_hz), ScoreSums(rate_hz)
     stt = 0.0
     for f, _, tau in pieces():
         tc = tau - mean_tau
         e = f - (c + b * tau)
         h = tc * e
         stt += float(np.dot(tc, tc))
-        se_e.add(e)
-        se_h.add(h)
-        se_eh.add(e + h)
+        se_e.add(e, tau)
+        se_h.add(h, tau)
+        se_eh.add(e + h, tau)
     # (one lag count for the three sums, the rate's score's: their covariance needs it)
     lags = se_h.lags(tau_corr)
     s_e, s_h = se_e.total(lags), se_h.total(lags)
@@ -265,19 +374,20 @@ def gain_spread(
     noise: float,
     tau_corr: float,
     scaled: bool,
+    rate_hz: float,
 ) -> Spread:
     """A gain's standard error. ``sums``: ``Sff``, ``Sfy``, ``Syy`` of the stretch;
     ``scaled``: the gain is :func:`~analyzer.diagnosis.classify._scaled_gain`'s maximum
     likelihood (its noise scaled with it, healthy variance ``noise``), else the least
     squares' ``1 + Sfy / Syy``."""
     energy, cross, den = sums
-    s = ScoreSums()
+    s = ScoreSums(rate_hz)
     sum_f = sum_y = 0.0
     if not scaled:
         g = gain - 1.0
-        for f, y, _ in pieces():
+        for f, y, tau in pieces():
             if y is not None:
-                s.add(y * (f - g * y))
+                s.add(y * (f - g * y), tau)
                 sum_y += float(np.sum(y))
         lags = s.lags(tau_corr)
         if not den > 0.0:
@@ -288,10 +398,10 @@ def gain_spread(
     u = 1.0 / gain
     szz = energy + 2.0 * cross + den
     szy = cross + den
-    for f, y, _ in pieces():
+    for f, y, tau in pieces():
         if y is not None:
             z = f + y
-            s.add((u * z - y) * z - noise / u)
+            s.add((u * z - y) * z - noise / u, tau)
             sum_f += float(np.sum(f))
             sum_y += float(np.sum(y))
     bread = szz + n * noise / (u * u)

@@ -88,10 +88,14 @@ def test_a_gain_on_an_oversampled_record_is_found_at_its_own_rate(tmp_path: Path
     assert note.startswith("record logged at 2000 Hz, analyzed at 200 Hz: "), note
     assert "remember about 10 samples" in note and "--rate 2000 keeps the logged rate" in note
     assert not [n for n in doc["notes"] if "aligns the channels" in n]  # (said once)
-    err = [line for line in capsys.readouterr().err.splitlines() if "record logged at" in line]
+    stderr = capsys.readouterr().err.splitlines()
+    err = [line for line in stderr if "record logged at" in line]
     assert len(err) == 1 and err[0].endswith(
         "--rate 2000 keeps the logged rate (corrected.csv too is written at 200 Hz, low-passed)"
     ), err
+    # (information, not a warning: the run did what it should; before the last line)
+    assert err[0].startswith("analyzer: note: record logged at 2000 Hz"), err
+    assert stderr.index(err[0]) < len(stderr) - 1 and "report:" in stderr[-1], stderr
     rows = (tmp_path / "out" / "corrected.csv").read_text().count("\n") - 1  # (its header)
     assert rows == pytest.approx(60.0 * 200, abs=2), "corrected.csv at the rate analyzed"
     assert doc["duration_s"] == pytest.approx(60.0, abs=0.01)  # (seconds, not rows)
