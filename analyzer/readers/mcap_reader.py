@@ -73,6 +73,7 @@ from analyzer.readers.rostypes import (
     EmptyMessageType,
     TypeResolutionError,
     candidate_stores,
+    msg_path_hint,
     normalize_msgtype,
     refuse_service_event,
     store_from_definition,
@@ -709,12 +710,11 @@ class McapReader:
             if schema.encoding in expected:
                 raise TypeResolutionError(
                     f"message type {msgtype!r} has an empty definition in the file but "
-                    f"{largest}-byte messages: unknown without definitions (--msg-path: the "
-                    "directories of its package's msg/ files)"
+                    f"{largest}-byte messages: unknown without definitions "
+                    f"({msg_path_hint(msgtype)})"
                 )
             raise TypeResolutionError(
-                f"unknown message type {msgtype!r} without definitions (--msg-path: "
-                "the directories of its package's msg/ files)"
+                f"unknown message type {msgtype!r} without definitions ({msg_path_hint(msgtype)})"
             )
         return RosBatchDecoder(stores, msgtype, wire, bulk=self.bulk)
 
