@@ -14,6 +14,7 @@ from analyzer.scratch import scratch
 from analyzer.selection import (
     DURATION_FIELD,
     LOG_FIELD,
+    LONG_ARRAY_WHY,
     NO_TRAINING_SAMPLES,
     TIME_FIELD,
     default_train,
@@ -24,7 +25,7 @@ from analyzer.selection import (
     typed_fields,
     without_samples,
 )
-from analyzer.store import ChannelStore
+from analyzer.store import LONG_ARRAY, ChannelStore
 from analyzer.timeutil import iso_utc, plain_number, plausible_epoch, short_seconds
 from analyzer.types import NS_PER_S
 
@@ -256,6 +257,9 @@ LEGEND = {
     DURATION_FIELD: "[duration field] a span of time written in the message (a field of "
     "type duration, such as a trajectory point's time_from_start): a plan or a setting, "
     "not a reading (--channels naming it keeps it)",
+    LONG_ARRAY_WHY: f"[long array] an element of an array field of more than {LONG_ARRAY} "
+    "numbers (a laser scan's beams): one sensor's many readings, not that many sensors "
+    "(--channels naming it keeps it)",
     NO_TRAINING_SAMPLES: "[no training samples] no samples in the default training window "
     "(its data lie outside it: see the notes; --train choosing a window where it has data "
     "keeps it)",
