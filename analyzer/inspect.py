@@ -9,7 +9,7 @@ from typing import Any
 from analyzer.coverage import SAID_SHARE, SpanGaps, gaps_line, span_gaps
 from analyzer.errors import ReaderError, StoreError, UsageError, capped, one_line, terminal_safe
 from analyzer.readers import Archive, open_archive
-from analyzer.readers.base import InputInfo, TimeSource
+from analyzer.readers.base import InputInfo, TimeSource, channel_labels
 from analyzer.scratch import scratch
 from analyzer.selection import (
     DURATION_FIELD,
@@ -55,6 +55,7 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
             else ({}, {"channels": 0, "refused": no_numeric_channel(archive.inputs)})
         )
         holes = span_gaps(store, [i.name for i in infos])
+        labels = channel_labels(archive.inputs, (i.name for i in infos))
         return {
             "inputs": [
                 {
@@ -86,6 +87,8 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
                     # whether run analyzes it by default, and if not why (run's own rule)
                     "analyzed": i.name not in why,
                     **why.get(i.name, {}),
+                    # the name its message gives it (a JointState's joint), where it has one
+                    **({"label": labels[i.name]} if i.name in labels else {}),
                 }
                 for i in infos
             ],
@@ -201,7 +204,7 @@ def render_table(doc: dict[str, Any]) -> str:
     for c in doc["channels"]:
         rows.append(
             (
-                safe(c["name"]) + _mark(c),
+                safe(c["name"]) + (f" ({safe(c['label'])})" if c.get("label") else "") + _mark(c),
                 str(c["samples"]),
                 f"{c['start_s']:.3f}",
                 f"{c['end_s']:.3f}",

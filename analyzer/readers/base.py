@@ -9,7 +9,7 @@ one Python object per sample on the hot path.
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterable, Iterator, Sequence
+from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, Protocol
@@ -64,6 +64,13 @@ class InputInfo:
     """Prefixes of channel names whose meaning changes between messages (an array's
     element named by a string that changes, ``/tf.transforms[0].``; a ``JointState``'s
     ``position[``): said in ``errors``, and not analyzed unless ``--channels`` names them."""
+    labels: dict[str, str] = field(default_factory=dict)
+    """The names a message gives its numeric arrays' elements, where they do not change
+    between messages (:meth:`~analyzer.readers._common.TopicTracker.labels`): a channel
+    name, or the prefix of an element's channels, -> the name (``/joint_states.
+    velocity[4]`` -> ``right_wheel``, from ``JointState.name``; ``/tf.transforms[0]`` ->
+    its ``child_frame_id``). The channel keeps its contract name (``[i]``); the label is
+    shown beside it (:func:`channel_label`)."""
     log_topics: list[str] = field(default_factory=list)
     """Topics whose message type is a log message (:data:`LOG_TYPES`: ``/rosout``): their
     numbers (a level, a source line, the message's own time) measure nothing, and
@@ -220,3 +227,35 @@ def one_clock(channels: Sequence[str], inputs: Sequence[InputInfo]) -> None:
         if len({source == "header" for source in used.values()}) > 1:
             spans = info.clock_spans
             raise ReaderError(f"{info.path}: {two_clocks(used, spans)}")
+
+
+def channel_label(labels: Mapping[str, str], name: str) -> str | None:
+    """The label of the channel ``name`` in ``labels`` (:attr:`InputInfo.labels`): its
+    own, or its element's (``/tf.transforms[0]`` for ``/tf.transforms[0].transform.x``)."""
+    if name in labels:
+        return labels[name]
+    head = name
+    while "]." in head:
+        head = head[: head.rindex("].") + 1]
+        if head in labels:
+            return labels[head]
+    return None
+
+
+def channel_labels(inputs: Iterable[InputInfo], names: Iterable[str]) -> dict[str, str]:
+    """The labels of the channels ``names`` that have one (:func:`channel_label`), from
+    the ``inputs``' readers; a name two inputs label differently is left without."""
+    merged: dict[str, str] = {}
+    clash: set[str] = set()
+    for info in inputs:
+        for key, label in getattr(info, "labels", {}).items():  # (an older pickle: none)
+            if merged.setdefault(key, label) != label:
+                clash.add(key)
+    for key in clash:
+        del merged[key]
+    out = {}
+    for name in names:
+        label = channel_label(merged, name) if merged else None
+        if label:
+            out[name] = label
+    return out

@@ -239,6 +239,7 @@ class McapReader:
             self._error(line)
         if own:
             self.info.relabelled = self._tracker.relabelled()
+            self.info.labels = self._tracker.labels()
             self.info.sign_flips = self._tracker.signs.changed()
             self.info.clocks = self._tracker.clocks()
             self.info.clock_spans = self._tracker.clock_spans()

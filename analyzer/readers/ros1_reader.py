@@ -318,6 +318,7 @@ class Ros1BagReader:
         for line in self._tracker.lines() + reorder.drop_report():
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
+        self.info.labels = self._tracker.labels()
         add_log_topics(self.info, {c.topic: c.msgtype for c in self._connections.values()})
         add_time_fields(
             self.info,

@@ -192,6 +192,7 @@ class Ros2BagReader:
         for line in self._tracker.lines():
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
+        self.info.labels = self._tracker.labels()
         add_log_topics(self.info, dict(self._decoders.keys()))
         add_time_fields(self.info, ((t, d) for (t, _), d in self._decoders.items()))
         self.info.sign_flips = self._tracker.signs.changed()
