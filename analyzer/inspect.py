@@ -7,9 +7,17 @@ from pathlib import Path
 from typing import Any
 
 from analyzer.coverage import SAID_SHARE, SpanGaps, gaps_line, span_gaps
-from analyzer.errors import ReaderError, StoreError, UsageError, capped, one_line, terminal_safe
+from analyzer.errors import (
+    ReaderError,
+    StoreError,
+    UsageError,
+    capped,
+    counted,
+    one_line,
+    terminal_safe,
+)
 from analyzer.readers import Archive, open_archive
-from analyzer.readers.base import InputInfo, TimeSource, channel_labels
+from analyzer.readers.base import InputInfo, TimeSource, channel_labels, without_channels
 from analyzer.scratch import scratch
 from analyzer.selection import (
     DURATION_FIELD,
@@ -48,6 +56,9 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
         notes = [str(n) for n in archive.notes]
         if not infos:
             notes.append(nothing_numeric(archive.inputs))
+        textual = without_channels(archive.inputs, [i.name for i in infos]) if infos else []
+        if textual:
+            notes.append(textual_note(textual))
         why, defaults = (
             run_choice(store, archive, t0)
             if infos
@@ -93,6 +104,16 @@ def inspect_archive(inputs: Sequence[str | Path], time: TimeSource = "log") -> d
                 for i in infos
             ],
             "run_defaults": defaults,
+            # (topics decoded that gave no channel: a String, a text; only where some are)
+            **(
+                {
+                    "topics_without_numbers": [
+                        {"topic": t, "type": k, "messages": n} for t, k, n in textual
+                    ]
+                }
+                if textual
+                else {}
+            ),
             # (where at least 1 % of the span has no sample of any channel)
             **({"span": holes.as_json()} if holes and holes.share >= SAID_SHARE else {}),
         }
@@ -157,6 +178,22 @@ def run_choice(
         "clock_start_s": (clock.start_ns - t0) / NS_PER_S,
         "train": {"start_s": start, "end_s": round(end, 6)},
     }
+
+
+TOPICS_LISTED = 10
+"""Topics without a numeric field :func:`textual_note` names one by one."""
+
+
+def textual_note(topics: Sequence[tuple[str, str, int]]) -> str:
+    """The note naming the topics that were read but gave no channel (topic, type,
+    messages): no number in their messages (a ``std_msgs/String``, a status text), so
+    nothing to analyze; they vanished from the listing without a word (ux58 #9)."""
+    each = capped(
+        [f"{t} ({k}, {counted(n, 'message')})" for t, k, n in topics],
+        TOPICS_LISTED,
+        what="topics",
+    )
+    return f"no numeric field in their messages, not analyzed: {each}"
 
 
 def nothing_numeric(inputs: Sequence[InputInfo]) -> str:

@@ -864,6 +864,8 @@ class TopicTracker:
         """The quaternions' signs, made continuous along time (:mod:`~analyzer.readers.
         quaternions`) by the reader's :class:`Reorderer` (one a storage file of a split
         ROS 2 bag: kept here, across them)."""
+        self._messages: dict[str, int] = {}
+        """Per topic: the messages decoded (numeric fields or not: :meth:`messages`)."""
         self._siblings: dict[tuple[str, str], tuple[str, ...]] = {}
         """Per topic and string array: the numeric arrays beside it (:class:`Relabel`)."""
         self._labels: dict[tuple[str, str], tuple[str, ...]] = {}
@@ -883,6 +885,7 @@ class TopicTracker:
         if decoded.failed:
             seen = self._failures.setdefault(topic, [0, decoded.first_error])
             seen[0] += decoded.failed
+        self._messages[topic] = self._messages.get(topic, 0) + decoded.n
         if decoded.n == 0:
             return
         if self._t0 is None:
@@ -1273,6 +1276,11 @@ class TopicTracker:
             for name in change.first.siblings:
                 out[f"{topic}.{name}." if name.endswith("]") else f"{topic}.{name}["] = None
         return list(out)
+
+    def messages(self) -> dict[str, int]:
+        """The messages decoded per topic, a topic without a numeric field too (a
+        ``std_msgs/String``: no channel, which ``inspect`` names: ux58 #9)."""
+        return dict(self._messages)
 
     def labels(self) -> dict[str, str]:
         """The names the messages give their numeric arrays' elements, where no index

@@ -71,6 +71,10 @@ class InputInfo:
     velocity[4]`` -> ``right_wheel``, from ``JointState.name``; ``/tf.transforms[0]`` ->
     its ``child_frame_id``). The channel keeps its contract name (``[i]``); the label is
     shown beside it (:func:`channel_label`)."""
+    topics: dict[str, tuple[str, int]] = field(default_factory=dict)
+    """Of a bag or MCAP: each topic decoded -> its message type and messages decoded
+    (:func:`add_topics`), a topic without a numeric field too: ``inspect`` names those
+    that gave no channel (:func:`without_channels`), which vanished from its listing."""
     log_topics: list[str] = field(default_factory=list)
     """Topics whose message type is a log message (:data:`LOG_TYPES`: ``/rosout``): their
     numbers (a level, a source line, the message's own time) measure nothing, and
@@ -142,6 +146,30 @@ def add_log_topics(info: InputInfo, topics: dict[str, str]) -> None:
     for topic, msgtype in topics.items():
         if normalize_msgtype(msgtype) in LOG_TYPES and topic not in info.log_topics:
             info.log_topics.append(topic)
+
+
+def add_topics(info: InputInfo, types: Mapping[str, str], messages: Mapping[str, int]) -> None:
+    """Set ``info.topics`` of the topics of ``types`` (topic to message type) that
+    ``messages`` counts (messages decoded per topic)."""
+    for topic, msgtype in types.items():
+        if messages.get(topic):
+            info.topics[topic] = (msgtype, int(messages[topic]))
+
+
+def without_channels(
+    inputs: Iterable[InputInfo], channels: Iterable[str]
+) -> list[tuple[str, str, int]]:
+    """The topics of ``inputs`` decoded without giving any of ``channels`` (a
+    ``std_msgs/String``, a topic of text): (topic, type, messages), in input order."""
+    heads = {name.split(".", 1)[0] for name in channels}
+    heads |= {name.split("[", 1)[0] for name in channels}
+    out: dict[str, tuple[str, str, int]] = {}
+    for info in inputs:
+        for topic, (msgtype, count) in getattr(info, "topics", {}).items():
+            if topic in heads or topic in out:
+                continue
+            out[topic] = (topic, msgtype, count)
+    return list(out.values())
 
 
 def add_time_fields(info: InputInfo, decoders: Iterable[tuple[str, object]]) -> None:

@@ -65,6 +65,7 @@ from analyzer.readers.base import (
     TimeSource,
     add_log_topics,
     add_time_fields,
+    add_topics,
 )
 from analyzer.readers.cut_chunk import CutDataError, cut_prefix, recovered_share
 from analyzer.readers.rosdecode import Encoding, RosBatchDecoder
@@ -231,6 +232,7 @@ class McapReader:
         for line in self._shared_topics():
             self._error(line)
         add_log_topics(self.info, self._types())
+        add_topics(self.info, self._types(), self._tracker.messages())
         add_time_fields(self.info, (e for e in self._decoders.values() if e is not None))
         for entry in self._decoders.values():
             if entry is not None and isinstance(entry[1], RosBatchDecoder) and entry[1].notice:

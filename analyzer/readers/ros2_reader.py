@@ -58,6 +58,7 @@ from analyzer.readers.base import (
     TimeSource,
     add_log_topics,
     add_time_fields,
+    add_topics,
 )
 from analyzer.readers.mcap_reader import McapReader
 from analyzer.readers.rosdecode import RosBatchDecoder
@@ -194,6 +195,7 @@ class Ros2BagReader:
         self.info.relabelled = self._tracker.relabelled()
         self.info.labels = self._tracker.labels()
         add_log_topics(self.info, dict(self._decoders.keys()))
+        add_topics(self.info, dict(self._decoders.keys()), self._tracker.messages())
         add_time_fields(self.info, ((t, d) for (t, _), d in self._decoders.items()))
         self.info.sign_flips = self._tracker.signs.changed()
         self.info.clocks = self._tracker.clocks()
