@@ -24,7 +24,7 @@ from analyzer.diagnosis.unexplained import Unexplained
 from analyzer.error_file import touches_inputs
 from analyzer.modelfile import SavedModel
 from analyzer.outdir import write_atomic
-from analyzer.readers.base import InputInfo
+from analyzer.readers.base import InputInfo, channel_labels
 from analyzer.regenerate import write_corrected_csv
 from analyzer.selection import STUCK_SAMPLES
 from analyzer.silent import MIN_SAMPLES as SILENT_SAMPLES
@@ -125,6 +125,12 @@ class Analysis:
         """Rows ``a .. b - 1`` of :meth:`times_s`."""
         return np.arange(a, b) / self.rate_hz
 
+    @property
+    def labels(self) -> dict[str, str]:
+        """The channels' labels, where their messages name them (a ``JointState``'s
+        joint: :func:`~analyzer.readers.base.channel_labels`)."""
+        return channel_labels(self.inputs, (c.name for c in self.channels))
+
     def onset_iso(self, seconds: float | None) -> str | None:
         if seconds is None or not self.absolute_time:
             return None
@@ -158,6 +164,7 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
     """``findings.json`` exactly as in CONTRACT.md (plus extension fields)."""
     a = analysis
     train0, train1 = a.train
+    labels = a.labels
     return {
         "schema": SCHEMA,
         "analyzer_version": __version__,
@@ -191,12 +198,15 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
                 "analyzed": c.name in a.analyzed,
                 # why not, where not (an Analysis of a caller that predates it has none)
                 **({} if c.name in a.analyzed else getattr(a, "left_out", {}).get(c.name, {})),
+                # the name the message gives it (a JointState's joint), where it has one
+                **({"label": labels[c.name]} if c.name in labels else {}),
             }
             for c in a.channels
         ],
         "faults": [
             {
                 "channel": f.channel,
+                **({"label": labels[f.channel]} if f.channel in labels else {}),
                 "type": str(f.type),
                 "onset_s": round(f.onset_s, 4),
                 "end_s": None if f.end_s is None else round(f.end_s, 4),

@@ -7,14 +7,23 @@ from pathlib import Path
 from typing import Any
 
 from analyzer.coverage import SAID_SHARE, SpanGaps, gaps_line, span_gaps
-from analyzer.errors import ReaderError, StoreError, UsageError, capped, one_line, terminal_safe
+from analyzer.errors import (
+    ReaderError,
+    StoreError,
+    UsageError,
+    capped,
+    counted,
+    one_line,
+    terminal_safe,
+)
 from analyzer.missing_codes import Unread, as_gaps, no_reading_line, read_notes
 from analyzer.readers import Archive, open_archive
-from analyzer.readers.base import InputInfo, TimeSource
+from analyzer.readers.base import InputInfo, TimeSource, channel_labels, without_channels
 from analyzer.scratch import scratch
 from analyzer.selection import (
     DURATION_FIELD,
     LOG_FIELD,
+    LONG_ARRAY_WHY,
     NO_TRAINING_SAMPLES,
     TIME_FIELD,
     default_train,
@@ -25,7 +34,7 @@ from analyzer.selection import (
     typed_fields,
     without_samples,
 )
-from analyzer.store import ChannelStore
+from analyzer.store import LONG_ARRAY, ChannelStore
 from analyzer.timeutil import iso_utc, plain_number, plausible_epoch, short_seconds
 from analyzer.types import NS_PER_S
 
@@ -62,6 +71,9 @@ def inspect_archive(
         unread_all = no_reading_line(unread)
         if not infos and unread_all is None:
             notes.append(nothing_numeric(archive.inputs))
+        textual = without_channels(archive.inputs, [i.name for i in infos]) if infos else []
+        if textual:
+            notes.append(textual_note(textual))
         why, defaults = (
             run_choice(store, archive, t0)
             if infos
@@ -77,6 +89,7 @@ def inspect_archive(
             )
         )
         holes = span_gaps(store, [i.name for i in infos])
+        labels = channel_labels(archive.inputs, (i.name for i in infos))
         return {
             "inputs": [
                 {
@@ -108,10 +121,22 @@ def inspect_archive(
                     # whether run analyzes it by default, and if not why (run's own rule)
                     "analyzed": i.name not in why,
                     **why.get(i.name, {}),
+                    # the name its message gives it (a JointState's joint), where it has one
+                    **({"label": labels[i.name]} if i.name in labels else {}),
                 }
                 for i in infos
             ],
             "run_defaults": defaults,
+            # (topics decoded that gave no channel: a String, a text; only where some are)
+            **(
+                {
+                    "topics_without_numbers": [
+                        {"topic": t, "type": k, "messages": n} for t, k, n in textual
+                    ]
+                }
+                if textual
+                else {}
+            ),
             # (where at least 1 % of the span has no sample of any channel)
             **({"span": holes.as_json()} if holes and holes.share >= SAID_SHARE else {}),
         }
@@ -178,6 +203,22 @@ def run_choice(
     }
 
 
+TOPICS_LISTED = 10
+"""Topics without a numeric field :func:`textual_note` names one by one."""
+
+
+def textual_note(topics: Sequence[tuple[str, str, int]]) -> str:
+    """The note naming the topics that were read but gave no channel (topic, type,
+    messages): no number in their messages (a ``std_msgs/String``, a status text), so
+    nothing to analyze; they vanished from the listing without a word (ux58 #9)."""
+    each = capped(
+        [f"{t} ({k}, {counted(n, 'message')})" for t, k, n in topics],
+        TOPICS_LISTED,
+        what="topics",
+    )
+    return f"no numeric field in their messages, not analyzed: {each}"
+
+
 def nothing_numeric(inputs: Sequence[InputInfo]) -> str:
     """The note on an archive read without an error that holds no numeric channel: why,
     where a reader could tell (:attr:`~analyzer.readers.InputInfo.no_numeric`)."""
@@ -223,7 +264,7 @@ def render_table(doc: dict[str, Any]) -> str:
     for c in doc["channels"]:
         rows.append(
             (
-                safe(c["name"]) + _mark(c),
+                safe(c["name"]) + (f" ({safe(c['label'])})" if c.get("label") else "") + _mark(c),
                 str(c["samples"]),
                 f"{c['start_s']:.3f}",
                 f"{c['end_s']:.3f}",
@@ -279,6 +320,9 @@ LEGEND = {
     DURATION_FIELD: "[duration field] a span of time written in the message (a field of "
     "type duration, such as a trajectory point's time_from_start): a plan or a setting, "
     "not a reading (--channels naming it keeps it)",
+    LONG_ARRAY_WHY: f"[long array] an element of an array field of more than {LONG_ARRAY} "
+    "numbers (a laser scan's beams): one sensor's many readings, not that many sensors "
+    "(--channels naming it keeps it)",
     NO_TRAINING_SAMPLES: "[no training samples] no samples in the default training window "
     "(its data lie outside it: see the notes; --train choosing a window where it has data "
     "keeps it)",

@@ -3152,7 +3152,8 @@ def summary_line(analysis: Analysis, out: Path) -> str:
     # (an Analysis of a caller that predates the field has none)
     tail = _unexplained_words(analysis)
     return (
-        f"{faults_words(analysis.findings, after)}{_unsearched(analysis)}{model}; "
+        f"{faults_words(analysis.findings, after, getattr(analysis, 'labels', None))}"
+        f"{_unsearched(analysis)}{model}; "
         f"report: {report}{tail}"
     )
 
@@ -3207,16 +3208,24 @@ def _unsearched(analysis: Analysis) -> str:
     )
 
 
-def faults_words(found: Sequence[Finding], after: str = "") -> str:
+def faults_words(
+    found: Sequence[Finding], after: str = "", labels: Mapping[str, str] | None = None
+) -> str:
     """How many faults on how many sensors (found ``after``: " after the training
     window" of a ``--save-model`` run), the first :data:`SUMMARY_LISTED` by onset
-    (sensor, type, onset); or that none was found: :func:`summary_line`'s, and the
-    watcher's line for an archive with a fault (``analyzer.watch``), which said only
-    "fault (s2)"."""
+    (sensor, with its label in parentheses where its message names it: ``labels``, a
+    ``JointState``'s joint; type, onset); or that none was found: :func:`summary_line`'s,
+    and the watcher's line for an archive with a fault (``analyzer.watch``), which said
+    only "fault (s2)"."""
     if not found:
         return f"no sensor fault found{after}"
+    labels = labels or {}
     sensors = len({f.channel for f in found})
-    items = [f"{f.channel} {f.type}{_size_words(f)} from {_onset_words(f)}" for f in found]
+    items = [
+        f"{f.channel}{f' ({labels[f.channel]})' if f.channel in labels else ''} "
+        f"{f.type}{_size_words(f)} from {_onset_words(f)}"
+        for f in found
+    ]
     return (
         f"{len(found)} sensor fault{'s' if len(found) > 1 else ''} found on {sensors} "
         f"sensor{'s' if sensors > 1 else ''}{after}: {capped(items, SUMMARY_LISTED)}"

@@ -14,7 +14,7 @@ import numpy as np
 from analyzer.errors import ArchiveUsageError, ReaderError, capped
 from analyzer.readers import ArchiveNote
 from analyzer.readers.base import InputInfo
-from analyzer.store import ChannelInfo, ChannelStore
+from analyzer.store import LONG_ARRAY, ChannelInfo, ChannelStore, long_arrays
 from analyzer.store.copies import Copy, find_copies
 from analyzer.store.store import FLAG_SAMPLES
 from analyzer.timeutil import short_seconds
@@ -346,6 +346,8 @@ def left_out(notes: Sequence[str], infos: Mapping[str, ChannelInfo]) -> dict[str
             why.update({c.channel: {"why": "copy", "copy_of": c.of} for c in note.copies})
         elif isinstance(note, NotMeasuredNote):
             why.update({c: {"why": w} for c, w in note.whys.items()})
+        elif isinstance(note, LongArrayNote):
+            why.update({c: {"why": LONG_ARRAY_WHY} for c in note.names})
         elif isinstance(note, MixedNote):
             why.update({c: {"why": "meaning changes"} for c in note.names})
         elif isinstance(note, (WindowConstantNote, CounterNote)):
@@ -841,6 +843,7 @@ def select_channels(
             notes.append(ConstantNote(rest))
     if not patterns or all(p.startswith("!") for p in patterns):
         chosen = _measured(store, chosen, notes, log_topics, named, typed)
+        chosen = _short_arrays(store, chosen, notes, named)
     # (a lone channel is refused as one, flag or not: the detectors need two)
     flags = _flags(infos, chosen, patterns, named) if len(chosen) > 1 else []
     if flags:
@@ -915,6 +918,61 @@ def _measured(
             "them anyway"
         )
     return kept
+
+
+LONG_ARRAY_WHY = "long array"
+"""``why`` of an element of a long array (:data:`~analyzer.store.LONG_ARRAY`: a laser
+scan's beams), left out of the default channels (:func:`_short_arrays`)."""
+
+LONG_ARRAYS_LISTED = 10
+"""Long arrays :class:`LongArrayNote` names one by one (the rest counted)."""
+
+
+class LongArrayNote(WindowNote):
+    """The note, repeated on stderr, naming the long arrays whose elements the default
+    channels leave out (:func:`_short_arrays`): ``names``, their elements; ``arrays``:
+    each array's ``[*]`` pattern with its count of elements."""
+
+    names: tuple[str, ...] = ()
+    arrays: dict[str, int]
+
+    @classmethod
+    def of(cls, arrays: Mapping[str, Sequence[str]]) -> LongArrayNote:
+        """The note on the long arrays ``arrays`` (pattern -> elements; at least one)."""
+        each = capped(
+            [f"{field} ({len(elements)} elements)" for field, elements in arrays.items()],
+            LONG_ARRAYS_LISTED,
+            what="arrays",
+        )
+        first, one = next(iter(arrays)), len(arrays) == 1
+        note = cls(
+            f"{each}: more than {LONG_ARRAY} numbers in one field of a message, one sensor's "
+            "many readings of one kind (a laser scan's beams, a point cloud), not as many "
+            "sensors: not analyzed by default, and counted as one channel for the common "
+            f"clock; --channels naming them analyzes them ('{first}' names every element "
+            f"of {'it' if one else 'the first'})"
+        )
+        note.names = tuple(c for elements in arrays.values() for c in elements)
+        note.arrays = {field: len(elements) for field, elements in arrays.items()}
+        return note
+
+
+def _short_arrays(
+    store: ChannelStore, chosen: list[str], notes: list[str], named: Collection[str]
+) -> list[str]:
+    """``chosen`` without the elements of long arrays (:func:`~analyzer.store.long_arrays`,
+    counted over every channel of the store: an array's constant elements count too),
+    but those the config names (``named``), a note naming the arrays; unless nothing
+    else varies (a record of one long array, a data logger's ``Float64MultiArray`` of
+    many sensors: analyzed as before, as its elements are then all it holds)."""
+    arrays = long_arrays(store.names)
+    members = {c for elements in arrays.values() for c in elements} - set(named)
+    out = {c for c in chosen if c in members}
+    if not out or len(out) == len(chosen):
+        return chosen
+    left = {f: [c for c in elements if c in out] for f, elements in arrays.items()}
+    notes.append(LongArrayNote.of({f: elements for f, elements in left.items() if elements}))
+    return [c for c in chosen if c not in out]
 
 
 _KINDS = {

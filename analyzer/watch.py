@@ -510,7 +510,9 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
         if damage := input_warnings(analysis):
             write_atomic(out_dir / INPUT_WARNINGS, json.dumps(damage))
         if analysis.findings:
-            write_atomic(out_dir / FAULT_WORDS, faults_words(analysis.findings))
+            write_atomic(
+                out_dir / FAULT_WORDS, faults_words(analysis.findings, labels=analysis.labels)
+            )
         return 1 if analysis.faulty else 0
     except (ArchiveTooShort, TooLittleDataError) as err:  # (first: a mismatch too)
         _error_file(out_dir, one_line(err) + "\n")

@@ -864,6 +864,10 @@ class TopicTracker:
         """The quaternions' signs, made continuous along time (:mod:`~analyzer.readers.
         quaternions`) by the reader's :class:`Reorderer` (one a storage file of a split
         ROS 2 bag: kept here, across them)."""
+        self._messages: dict[str, int] = {}
+        """Per topic: the messages decoded (numeric fields or not: :meth:`messages`)."""
+        self._siblings: dict[tuple[str, str], tuple[str, ...]] = {}
+        """Per topic and string array: the numeric arrays beside it (:class:`Relabel`)."""
         self._labels: dict[tuple[str, str], tuple[str, ...]] = {}
         """Per topic and string array: its strings in the topic's last message so far (of
         any publisher: two publishing different frames on one topic relabel it too)."""
@@ -881,6 +885,7 @@ class TopicTracker:
         if decoded.failed:
             seen = self._failures.setdefault(topic, [0, decoded.first_error])
             seen[0] += decoded.failed
+        self._messages[topic] = self._messages.get(topic, 0) + decoded.n
         if decoded.n == 0:
             return
         if self._t0 is None:
@@ -891,6 +896,7 @@ class TopicTracker:
             if before is not None and before != first:  # since the topic's last batch
                 changes.insert(0, Relabel(name, 0, before, first, 1, siblings))
             self._labels[(topic, name)] = last
+            self._siblings[(topic, name)] = siblings
             contents = self._seen_labels.setdefault((topic, name), {})
             for names in kinds:
                 if len(contents) < SEEN_LABELS:
@@ -1270,6 +1276,34 @@ class TopicTracker:
             for name in change.first.siblings:
                 out[f"{topic}.{name}." if name.endswith("]") else f"{topic}.{name}["] = None
         return list(out)
+
+    def messages(self) -> dict[str, int]:
+        """The messages decoded per topic, a topic without a numeric field too (a
+        ``std_msgs/String``: no channel, which ``inspect`` names: ux58 #9)."""
+        return dict(self._messages)
+
+    def labels(self) -> dict[str, str]:
+        """The names the messages give their numeric arrays' elements, where no index
+        names two things (:meth:`_renamed`; those are left out, said by
+        :meth:`relabelled`): ``JointState.name`` labels ``/joint_states.position[4]``
+        and ``velocity[4]`` (the channel) with its 5th name; an element's own name
+        (``transforms[0].child_frame_id``) labels the element (``/tf.transforms[0]``,
+        the prefix of its channels). A list that grows or shrinks gives each index the
+        name of the longest seen; an empty name labels nothing."""
+        out: dict[str, str] = {}
+        for (topic, field_), contents in self._seen_labels.items():
+            if not contents or self._renamed(topic, field_):
+                continue
+            names = max(contents, key=len)
+            for sibling in self._siblings.get((topic, field_), ()):
+                if sibling.endswith("]"):  # (an element named by its own string)
+                    if names and names[0]:
+                        out[f"{topic}.{sibling}"] = names[0]
+                    continue
+                for i, name in enumerate(names):
+                    if name:
+                        out[f"{topic}.{sibling}[{i}]"] = name
+        return out
 
     def _renamed(self, topic: str, field: str) -> bool:
         """Whether two contents seen of a string array name different things at one index

@@ -9,7 +9,7 @@ one Python object per sample on the hot path.
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterable, Iterator, Sequence
+from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, Protocol
@@ -64,6 +64,17 @@ class InputInfo:
     """Prefixes of channel names whose meaning changes between messages (an array's
     element named by a string that changes, ``/tf.transforms[0].``; a ``JointState``'s
     ``position[``): said in ``errors``, and not analyzed unless ``--channels`` names them."""
+    labels: dict[str, str] = field(default_factory=dict)
+    """The names a message gives its numeric arrays' elements, where they do not change
+    between messages (:meth:`~analyzer.readers._common.TopicTracker.labels`): a channel
+    name, or the prefix of an element's channels, -> the name (``/joint_states.
+    velocity[4]`` -> ``right_wheel``, from ``JointState.name``; ``/tf.transforms[0]`` ->
+    its ``child_frame_id``). The channel keeps its contract name (``[i]``); the label is
+    shown beside it (:func:`channel_label`)."""
+    topics: dict[str, tuple[str, int]] = field(default_factory=dict)
+    """Of a bag or MCAP: each topic decoded -> its message type and messages decoded
+    (:func:`add_topics`), a topic without a numeric field too: ``inspect`` names those
+    that gave no channel (:func:`without_channels`), which vanished from its listing."""
     log_topics: list[str] = field(default_factory=list)
     """Topics whose message type is a log message (:data:`LOG_TYPES`: ``/rosout``): their
     numbers (a level, a source line, the message's own time) measure nothing, and
@@ -135,6 +146,30 @@ def add_log_topics(info: InputInfo, topics: dict[str, str]) -> None:
     for topic, msgtype in topics.items():
         if normalize_msgtype(msgtype) in LOG_TYPES and topic not in info.log_topics:
             info.log_topics.append(topic)
+
+
+def add_topics(info: InputInfo, types: Mapping[str, str], messages: Mapping[str, int]) -> None:
+    """Set ``info.topics`` of the topics of ``types`` (topic to message type) that
+    ``messages`` counts (messages decoded per topic)."""
+    for topic, msgtype in types.items():
+        if messages.get(topic):
+            info.topics[topic] = (msgtype, int(messages[topic]))
+
+
+def without_channels(
+    inputs: Iterable[InputInfo], channels: Iterable[str]
+) -> list[tuple[str, str, int]]:
+    """The topics of ``inputs`` decoded without giving any of ``channels`` (a
+    ``std_msgs/String``, a topic of text): (topic, type, messages), in input order."""
+    heads = {name.split(".", 1)[0] for name in channels}
+    heads |= {name.split("[", 1)[0] for name in channels}
+    out: dict[str, tuple[str, str, int]] = {}
+    for info in inputs:
+        for topic, (msgtype, count) in getattr(info, "topics", {}).items():
+            if topic in heads or topic in out:
+                continue
+            out[topic] = (topic, msgtype, count)
+    return list(out.values())
 
 
 def add_time_fields(info: InputInfo, decoders: Iterable[tuple[str, object]]) -> None:
@@ -220,3 +255,35 @@ def one_clock(channels: Sequence[str], inputs: Sequence[InputInfo]) -> None:
         if len({source == "header" for source in used.values()}) > 1:
             spans = info.clock_spans
             raise ReaderError(f"{info.path}: {two_clocks(used, spans)}")
+
+
+def channel_label(labels: Mapping[str, str], name: str) -> str | None:
+    """The label of the channel ``name`` in ``labels`` (:attr:`InputInfo.labels`): its
+    own, or its element's (``/tf.transforms[0]`` for ``/tf.transforms[0].transform.x``)."""
+    if name in labels:
+        return labels[name]
+    head = name
+    while "]." in head:
+        head = head[: head.rindex("].") + 1]
+        if head in labels:
+            return labels[head]
+    return None
+
+
+def channel_labels(inputs: Iterable[InputInfo], names: Iterable[str]) -> dict[str, str]:
+    """The labels of the channels ``names`` that have one (:func:`channel_label`), from
+    the ``inputs``' readers; a name two inputs label differently is left without."""
+    merged: dict[str, str] = {}
+    clash: set[str] = set()
+    for info in inputs:
+        for key, label in getattr(info, "labels", {}).items():  # (an older pickle: none)
+            if merged.setdefault(key, label) != label:
+                clash.add(key)
+    for key in clash:
+        del merged[key]
+    out = {}
+    for name in names:
+        label = channel_label(merged, name) if merged else None
+        if label:
+            out[name] = label
+    return out

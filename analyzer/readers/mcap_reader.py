@@ -65,6 +65,7 @@ from analyzer.readers.base import (
     TimeSource,
     add_log_topics,
     add_time_fields,
+    add_topics,
 )
 from analyzer.readers.cut_chunk import CutDataError, cut_prefix, recovered_share
 from analyzer.readers.rosdecode import Encoding, RosBatchDecoder
@@ -73,6 +74,7 @@ from analyzer.readers.rostypes import (
     EmptyMessageType,
     TypeResolutionError,
     candidate_stores,
+    msg_path_hint,
     normalize_msgtype,
     refuse_service_event,
     store_from_definition,
@@ -230,6 +232,7 @@ class McapReader:
         for line in self._shared_topics():
             self._error(line)
         add_log_topics(self.info, self._types())
+        add_topics(self.info, self._types(), self._tracker.messages())
         add_time_fields(self.info, (e for e in self._decoders.values() if e is not None))
         for entry in self._decoders.values():
             if entry is not None and isinstance(entry[1], RosBatchDecoder) and entry[1].notice:
@@ -238,6 +241,7 @@ class McapReader:
             self._error(line)
         if own:
             self.info.relabelled = self._tracker.relabelled()
+            self.info.labels = self._tracker.labels()
             self.info.sign_flips = self._tracker.signs.changed()
             self.info.clocks = self._tracker.clocks()
             self.info.clock_spans = self._tracker.clock_spans()
@@ -709,12 +713,11 @@ class McapReader:
             if schema.encoding in expected:
                 raise TypeResolutionError(
                     f"message type {msgtype!r} has an empty definition in the file but "
-                    f"{largest}-byte messages: unknown without definitions (--msg-path: the "
-                    "directories of its package's msg/ files)"
+                    f"{largest}-byte messages: unknown without definitions "
+                    f"({msg_path_hint(msgtype)})"
                 )
             raise TypeResolutionError(
-                f"unknown message type {msgtype!r} without definitions (--msg-path: "
-                "the directories of its package's msg/ files)"
+                f"unknown message type {msgtype!r} without definitions ({msg_path_hint(msgtype)})"
             )
         return RosBatchDecoder(stores, msgtype, wire, bulk=self.bulk)
 

@@ -51,6 +51,7 @@ from analyzer.readers.base import (
     TimeSource,
     add_log_topics,
     add_time_fields,
+    add_topics,
 )
 from analyzer.readers.cut_chunk import CutDataError, cut_prefix, recovered_share
 from analyzer.readers.rosdecode import RosBatchDecoder
@@ -318,7 +319,10 @@ class Ros1BagReader:
         for line in self._tracker.lines() + reorder.drop_report():
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
-        add_log_topics(self.info, {c.topic: c.msgtype for c in self._connections.values()})
+        self.info.labels = self._tracker.labels()
+        types = {c.topic: c.msgtype for c in self._connections.values()}
+        add_log_topics(self.info, types)
+        add_topics(self.info, types, self._tracker.messages())
         add_time_fields(
             self.info,
             (

@@ -24,8 +24,9 @@ from __future__ import annotations
 
 import re
 import sqlite3
+import threading
 from collections.abc import Iterator
-from contextlib import closing
+from contextlib import closing, contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -57,6 +58,7 @@ from analyzer.readers.base import (
     TimeSource,
     add_log_topics,
     add_time_fields,
+    add_topics,
 )
 from analyzer.readers.mcap_reader import McapReader
 from analyzer.readers.rosdecode import RosBatchDecoder
@@ -64,11 +66,17 @@ from analyzer.readers.rostypes import (
     EmptyMessageType,
     TypeResolutionError,
     candidate_stores,
+    msg_path_hint,
     normalize_msgtype,
     refuse_service_event,
     store_from_definition,
 )
 from analyzer.types import Format
+
+try:  # rosbags reads sqlite3 storage through apsw (0.11 on)
+    import apsw
+except ImportError:  # pragma: no cover - an older rosbags: the standard library's sqlite3
+    apsw = None  # type: ignore[assignment]
 
 SQL_BATCH = 50_000
 """Rows fetched from a sqlite3 storage file per batch."""
@@ -185,7 +193,9 @@ class Ros2BagReader:
         for line in self._tracker.lines():
             self._error(line)
         self.info.relabelled = self._tracker.relabelled()
+        self.info.labels = self._tracker.labels()
         add_log_topics(self.info, dict(self._decoders.keys()))
+        add_topics(self.info, dict(self._decoders.keys()), self._tracker.messages())
         add_time_fields(self.info, ((t, d) for (t, _), d in self._decoders.items()))
         self.info.sign_flips = self._tracker.signs.changed()
         self.info.clocks = self._tracker.clocks()
@@ -221,8 +231,8 @@ class Ros2BagReader:
                 if fmt in (MessageDefinitionFormat.MSG, MessageDefinitionFormat.IDL):
                     raise EmptyMessageType(msgtype)  # a definition, and it is empty
                 raise TypeResolutionError(
-                    f"unknown message type {msgtype!r} without definitions (give the folder "
-                    "that holds its package's msg/ folder with --msg-path)"
+                    f"unknown message type {msgtype!r} without definitions "
+                    f"({msg_path_hint(msgtype)})"
                 )
         return RosBatchDecoder(stores, msgtype, "cdr", bulk=self.bulk)
 
@@ -328,9 +338,68 @@ class Ros2BagReader:
             self.info.errors.append(line)
 
 
+KNOWN_DEFINITION_ENCODINGS = ("ros2msg", "ros2idl")
+"""The ``message_definitions`` encodings rosbags reads. rosbag2 (Iron on) writes a row of
+encoding ``""`` (or ``"unknown"``) and no text for a type whose definition it could not
+find where it recorded (ros2/rosbag2#1352: a custom package not sourced in the recording
+shell); rosbags 0.11 then fails to open the whole bag (``KeyError: ''``)."""
+
+_HIDE_UNKNOWN_DEFINITIONS = (
+    "CREATE TEMP VIEW message_definitions AS SELECT * FROM main.message_definitions "
+    f"WHERE encoding IN {KNOWN_DEFINITION_ENCODINGS!r}"
+)
+
+_OPENING = threading.Lock()
+
+
+class _Bag(BagReader):
+    """rosbags' reader, whose sqlite3 storage files are opened with their
+    ``message_definitions`` rows of an encoding rosbags does not read hidden
+    (:data:`KNOWN_DEFINITION_ENCODINGS`): those types are then without a definition, as
+    in a bag recorded before Iron: decoded from ``--msg-path`` or a standard typestore,
+    or their topics skipped with a line that names ``--msg-path``; the rest of the bag
+    is read."""
+
+    def open(self) -> None:
+        with _known_definitions_only():
+            super().open()
+
+
+@contextmanager
+def _known_definitions_only() -> Iterator[None]:
+    """While it lasts, every sqlite connection rosbags opens (through ``apsw``, which
+    calls ``apsw.connection_hooks`` on each new connection) sees ``message_definitions``
+    as a temporary view of the rows of a known encoding: a temporary object shadows the
+    file's table of that name, and the file is not written (opened read-only). One bag
+    opened at a time (the hook list is the process's)."""
+    if apsw is None:  # pragma: no cover
+        yield
+        return
+    with _OPENING:
+        apsw.connection_hooks.append(_hide_unknown_definitions)
+        try:
+            yield
+        finally:
+            apsw.connection_hooks.remove(_hide_unknown_definitions)
+
+
+def _hide_unknown_definitions(conn: Any) -> None:
+    """:func:`_known_definitions_only`'s hook: a file without the table is left as it is,
+    and one that cannot be read too (rosbags then says why)."""
+    try:
+        found = conn.execute(
+            "SELECT count(*) FROM main.sqlite_master "
+            "WHERE type = 'table' AND name = 'message_definitions'"
+        ).fetchone()
+        if found and found[0]:
+            conn.execute(_HIDE_UNKNOWN_DEFINITIONS)
+    except apsw.Error:
+        return
+
+
 def _open_bag(path: Path) -> BagReader:
     """An unopened rosbags reader; ``with`` opens and closes it."""
-    return BagReader(path)
+    return _Bag(path)
 
 
 def _storages(bag: BagReader) -> list[Any] | None:
@@ -429,7 +498,8 @@ list of them)."""
 
 def _bag_error(err: BaseException) -> str:
     """The line on a ROS 2 bag rosbags could not open: the files metadata.yaml names that
-    are missing said as a list of names, not a Python list (``['b2/nodb/x_0.db3']``)."""
+    are missing said as a list of names, not a Python list (``['b2/nodb/x_0.db3']``); an
+    error whose text says nothing (a ``KeyError``'s bare key, ``''``) named by its kind."""
     text = one_line(err)
     missing = MISSING_FILES.search(text)
     if missing:
@@ -444,4 +514,9 @@ def _bag_error(err: BaseException) -> str:
         return f"unsupported serialization_format {formats} (only cdr is supported)"
     if isinstance(err, FileNotFoundError):
         return f"not a ROS 2 bag ({text})"
+    raw = " ".join(str(err).split())
+    if isinstance(err, LookupError) or not raw:
+        # a KeyError's text is only the key (``''``): say what failed
+        said = f" {raw}" if raw else " and no message"
+        return f"cannot open ROS 2 bag: the rosbags library failed with {type(err).__name__}{said}"
     return f"cannot open ROS 2 bag: {text}"

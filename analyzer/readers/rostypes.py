@@ -181,6 +181,13 @@ def user_store(spec: str) -> Typestore | None:
     return store
 
 
+def msg_path_hint(msgtype: str) -> str:
+    """The fix for a message type a file does not define, worded alike for every format
+    (MCAP files and ROS 2 bags said it two ways): the ``.msg`` file's path, which
+    :func:`user_store` finds at any depth below a ``--msg-path`` folder."""
+    return f"give the folder that holds {normalize_msgtype(msgtype)}.msg with --msg-path"
+
+
 def candidate_stores(msgtype: str) -> list[Typestore]:
     """Typestores that define ``msgtype`` for a file that does not: the user's message
     path first (:data:`MSG_PATH_ENV`), then the standard ones in :data:`FALLBACK_STORES`

@@ -190,7 +190,11 @@ class _Access(FigureParts, TableParts):
             return "Nothing after the training window to analyze: the models were fitted only."
         if not faults:
             return "No sensor fault found."
-        sensors = sorted({str(f["channel"]) for f in faults}, key=fmt.natural_key)
+        labels = {str(f["channel"]): f" ({f['label']})" for f in faults if f.get("label")}
+        sensors = [
+            c + labels.get(c, "")
+            for c in sorted({str(f["channel"]) for f in faults}, key=fmt.natural_key)
+        ]
         n = len(faults)
         what = "sensor fault" if n == 1 else "sensor faults"
         on = "sensor" if len(sensors) == 1 else "sensors"
@@ -416,6 +420,7 @@ class _Access(FigureParts, TableParts):
             number=i + 1,
             anchor=f"finding-{i + 1}",
             channel=str(f["channel"]),
+            label=str(f.get("label") or ""),
             type=str(f["type"]),
             # an upper bound (the fault was there when the search began) says so wherever
             # it is shown: "at or before 4.310 s", not an exact 4.310 s

@@ -107,6 +107,9 @@ class FindingView:
     (:func:`analyzer.report.format.relative_size`); empty where there is none."""
     small: bool = False
     """Below :data:`analyzer.report.format.SMALL_SIZE` of that spread."""
+    label: str = ""
+    """The name the channel's message gives it (a ``JointState``'s joint:
+    findings.json's ``label``), shown beside it; empty where there is none."""
 
 
 @dataclass(slots=True)

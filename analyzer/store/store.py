@@ -869,10 +869,60 @@ UNCERTAINTY_FIELD = re.compile(r"(?:^|[./])[A-Za-z0-9_]*covariance(?:\[\d+\])*$"
 ``/imu.orientation_covariance[0]``): an estimate's uncertainty, published with it."""
 
 
+LONG_ARRAY = 64
+"""An array field of a message with more elements than this (channels ``topic.field[i]``
+of one field, :func:`long_arrays`) holds one sensor's many readings of one kind: a laser
+scan's beams (a few hundred to a few thousand), a point cloud's or a depth image's
+numbers. The numbered sensors a message carries side by side stay below it: a robot's
+joints (a humanoid's ``JointState`` has a few dozen), a 6x6 covariance (36), an array
+of a few thermocouples or strain gauges. A 360-beam ``/scan`` at 10 Hz, counted as 360
+channels, outvoted a 200-Hz IMU, odometry and joints for the common clock (15 channels),
+and the run was refused (the training window too short at 10 Hz), while each beam was
+analyzed as a sensor of its own (ux58)."""
+
+_INDEX = re.compile(r"\[\d+\]")
+
+
+def array_field(name: str) -> str | None:
+    """The array field a channel is an element of, its indices as ``[*]``
+    (``/scan.ranges[148]`` -> ``/scan.ranges[*]``, ``/tf.transforms[3].transform.x`` ->
+    ``/tf.transforms[*].transform.x``: the pattern ``--channels`` takes for all its
+    elements); None for a channel that is no array's element."""
+    field, count = _INDEX.subn("[*]", name)
+    return field if count else None
+
+
+def long_arrays(names: Iterable[str]) -> dict[str, list[str]]:
+    """The array fields of more than :data:`LONG_ARRAY` elements among the channels
+    ``names`` (:func:`array_field`), each with its elements, in ``names``' order."""
+    fields: dict[str, list[str]] = {}
+    for name in names:
+        field = array_field(name)
+        if field is not None:
+            fields.setdefault(field, []).append(name)
+    return {f: elements for f, elements in fields.items() if len(elements) > LONG_ARRAY}
+
+
+def _votes(infos: Sequence[ChannelInfo]) -> list[float]:
+    """The rates that vote for the common clock: one per channel, but one per long array
+    (:func:`long_arrays`: the rate most of its elements share)."""
+    arrays = long_arrays(i.name for i in infos)
+    members = {name for elements in arrays.values() for name in elements}
+    votes = [i.rate_hz for i in infos if i.name not in members]
+    rates = {i.name: i.rate_hz for i in infos}
+    for elements in arrays.values():
+        own = [rates[name] for name in elements if rates[name] > 0]
+        if own:
+            votes.append(dominant_rate(own))
+    return votes
+
+
 def clock_rate(infos: Sequence[ChannelInfo]) -> float:
     """The default rate of the common clock for the channels ``infos``: the
     :func:`dominant_rate` of those that measure something, the entries of covariance
-    arrays (:data:`UNCERTAINTY_FIELD`) not voting unless every channel is one. A 6x6
+    arrays (:data:`UNCERTAINTY_FIELD`) not voting unless every channel is one, and the
+    elements of a long array (:data:`LONG_ARRAY`: a laser scan's beams) voting as one
+    channel. A 6x6
     covariance matrix is up to 21 distinct numbers per message of the estimate it
     qualifies: counted as channels, a 1.4 Hz pose estimate's 8 varying entries (its pose
     and 4 of its covariance) outvoted a 27 Hz odometry's 6 (the realdata audit's
@@ -880,8 +930,8 @@ def clock_rate(infos: Sequence[ChannelInfo]) -> float:
     for any detector. Among the channels that vote it is still the rate most share: a
     16-channel 100-Hz archive runs at 100 Hz beside any number of slower ones fewer than
     16."""
-    measured = [i.rate_hz for i in infos if not UNCERTAINTY_FIELD.search(i.name)]
-    return dominant_rate(measured if any(r > 0 for r in measured) else [i.rate_hz for i in infos])
+    measured = [i for i in infos if not UNCERTAINTY_FIELD.search(i.name)]
+    return dominant_rate(_votes(measured if any(i.rate_hz > 0 for i in measured) else infos))
 
 
 @dataclass(frozen=True, slots=True)

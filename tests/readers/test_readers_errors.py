@@ -324,8 +324,8 @@ def test_an_mcap_schema_without_definition_reads_with_a_message_path(
     assert collect(reader.chunks()) == {}
     assert reader.info.errors == [
         "/reading: message type 'my_pkg/msg/Reading' has an empty definition in the file but "
-        "18-byte messages: unknown without definitions (--msg-path: the directories of its "
-        "package's msg/ files); skipped"
+        "18-byte messages: unknown without definitions (give the folder that holds "
+        "my_pkg/msg/Reading.msg with --msg-path); skipped"
     ]
     _msg_file(tmp_path / "msgs", "my_pkg/msg/Reading", "float64 value\nstring label\n")
     monkeypatch.setenv(MSG_PATH_ENV, str(tmp_path / "msgs"))
