@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import atexit
 import contextlib
+import errno
 import json
 import math
 import os
@@ -604,6 +605,7 @@ def plain_progress(
 def cmd_inspect(args: argparse.Namespace) -> int:
     from analyzer.inspect import inspect_archive, render_table
 
+    _stdout_open()  # (before the inputs are read: nothing could show what they hold)
     doc = inspect_archive(args.inputs, time=args.time)
     errors = [f"{i['path']}: {e}" for i in doc["inputs"] for e in i["errors"]]
     if not doc["channels"] and errors:  # nothing could be read: an input error, as for run
@@ -620,11 +622,22 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     return 0
 
 
+def _stdout_open() -> None:
+    """An :class:`OSError` naming stdout where the process has none (started with it
+    closed): the command's result could not be printed anywhere."""
+    if sys.stdout is None:
+        raise OSError(errno.EBADF, "closed, so the result cannot be printed", "stdout")
+
+
 def _emit(text: str) -> None:
     """``text`` and a newline on stdout, flushed here: a stdout that cannot take it
     (``> FILE`` on a full disk, ``> /dev/full``) is an error line naming stdout, not a
     bare ``No space left on device`` naming nothing (a closed pipe stays the
-    BrokenPipeError that :func:`main` ends quietly on)."""
+    BrokenPipeError that :func:`main` ends quietly on). A process started with stdout
+    closed (``>&-``, a service without one) has none (``sys.stdout`` is None, and
+    ``print`` writes nothing without a word): an error line too, where it was an
+    "internal error" (a QA audit's ux59 item H2)."""
+    _stdout_open()
     try:
         print(text)
         sys.stdout.flush()

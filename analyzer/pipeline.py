@@ -129,7 +129,6 @@ from analyzer.modelfile import (
     check_model_path,
     model_bytes,
     not_a_model,
-    save_model,
 )
 from analyzer.options import (
     MIN_TRAIN_ROWS,
@@ -3015,7 +3014,12 @@ def _run_into(inputs: Sequence[str | Path], out: Path, options: RunOptions, crea
             analysis.saved_model = saved_model_info(analysis, options.save_model, model)
         if options.progress:
             options.progress("report", 0.0)
-        write_outputs(analysis, out, options.warn, options.utc)
+        earlier = None
+        also: list[tuple[Path, bytes]] = []
+        if options.save_model is not None and model is not None:
+            earlier = _file_sha256(options.save_model)
+            also.append((options.save_model, model))  # (put in place with the outputs)
+        write_outputs(analysis, out, options.warn, options.utc, also)
         if options.progress:
             options.progress("report", 1.0)
         if options.warn is not None:
@@ -3030,14 +3034,11 @@ def _run_into(inputs: Sequence[str | Path], out: Path, options: RunOptions, crea
             skipped = skipped_warning(analysis, options, " ".join(configured))
             if skipped:  # (default detectors that did not run: findings.json alone said it)
                 options.warn(skipped)
-        if options.save_model is not None and analysis.saved is not None:
-            earlier = _file_sha256(options.save_model)
-            save_model(options.save_model, analysis.saved, model)
-            if earlier is not None and options.warn is not None:
-                options.warn(
-                    f"--save-model {options.save_model}: replaced the file that was there "
-                    f"(its SHA-256 was {earlier}; it is not kept)"
-                )
+        if earlier is not None and options.warn is not None:
+            options.warn(
+                f"--save-model {options.save_model}: replaced the file that was there "
+                f"(its SHA-256 was {earlier}; it is not kept)"
+            )
         if options.say is not None:
             options.say(summary_line(analysis, out))
         return 1 if analysis.faulty else 0

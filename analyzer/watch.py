@@ -206,7 +206,7 @@ from analyzer.errors import (
     one_line,
     terminal_safe,
 )
-from analyzer.findings import write_outputs
+from analyzer.findings import Analysis, write_outputs
 from analyzer.options import RunOptions, train_is_absolute
 from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
@@ -236,6 +236,7 @@ from analyzer.watch_inbox import (
 from analyzer.watch_index import (
     MISMATCH,
     TOO_SHORT,
+    UNWRITTEN,
     ErrorKind,
     Ledger,
     Record,
@@ -433,9 +434,16 @@ EXIT_INTERNAL_ERROR = 3
 EXIT_OPTION_ERROR = 4
 EXIT_MISMATCH = 5
 EXIT_TOO_SHORT = 6
+EXIT_UNWRITTEN = 7
+"""An analysis whose outputs could not be written (REPORTS full): not the archive's
+fault, which stays in INBOX and is analyzed again on the next start, as after an
+internal error; but said as the file's error (``REPORTS/x.mcap/report.html: No space
+left on device``), with no traceback (it was an "internal error: OSError" that asked
+the user to report a bug: a QA audit's ux59 item M2)."""
 ERROR_KINDS = {
     EXIT_INPUT_ERROR: ErrorKind.INPUT,
     EXIT_INTERNAL_ERROR: ErrorKind.INTERNAL,
+    EXIT_UNWRITTEN: ErrorKind.INTERNAL,
     EXIT_OPTION_ERROR: ErrorKind.OPTIONS,
     EXIT_MISMATCH: ErrorKind.INPUT,
     EXIT_TOO_SHORT: ErrorKind.OPTIONS,
@@ -443,7 +451,7 @@ ERROR_KINDS = {
 """An analysis's exit code (:func:`analysis_into`) and whose fault its error is: kinds a
 watcher of analyzer 49 knows, which reads the state file of this one
 (:attr:`Record.error_reason` says more)."""
-ERROR_REASONS = {EXIT_MISMATCH: MISMATCH, EXIT_TOO_SHORT: TOO_SHORT}
+ERROR_REASONS = {EXIT_MISMATCH: MISMATCH, EXIT_TOO_SHORT: TOO_SHORT, EXIT_UNWRITTEN: UNWRITTEN}
 """The exit codes of :data:`ERROR_KINDS` with a finer reason (:attr:`Record.error_reason`)."""
 MISFIT = ".misfit"
 """The file a mismatch's analysis leaves beside ``error.txt`` with the option to check
@@ -495,22 +503,11 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
             # (the constant check's findings alone: a file still being written waits to
             # grow, as before, and is analyzed whole)
             raise analysis.unrun
-        figures: list[str] = []  # (figures that could not be drawn)
-        write_outputs(analysis, out_dir, figures.append)
-        lines = [  # (the archive's own lines first: the index shows the first)
-            # (findings.json's notes too, but "no fault" in the index hid them)
-            *(n for n in analysis.notes if isinstance(n, AnomalyNote)),
-            *window_warnings(analysis.notes),
-            *figures,
-            # (last: every archive gets them, and first they hid its anomaly, rcfg53)
-            *config_warnings(options.config, analysis),
-        ]
-        if lines:
-            write_atomic(out_dir / CONFIG_WARNINGS, "".join(f"{line}\n" for line in lines))
-        if damage := input_warnings(analysis):
-            write_atomic(out_dir / INPUT_WARNINGS, json.dumps(damage))
-        if analysis.findings:
-            write_atomic(out_dir / FAULT_WORDS, faults_words(analysis.findings))
+        try:
+            _write_results(analysis, options, out_dir)
+        except OSError as err:  # (REPORTS full): the file's error, not a bug's
+            _error_file(out_dir, unwritten_line(err, out_dir) + "\n")
+            return EXIT_UNWRITTEN
         return 1 if analysis.faulty else 0
     except (ArchiveTooShort, TooLittleDataError) as err:  # (first: a mismatch too)
         _error_file(out_dir, one_line(err) + "\n")
@@ -530,6 +527,41 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
         text = f"internal error: {type(err).__name__}: {one_line(err)}"
         _error_file(out_dir, f"{text}\n\n{traceback.format_exc()}")
         return 3
+
+
+def _write_results(analysis: Analysis, options: RunOptions, out_dir: Path) -> None:
+    """The outputs of ``analyzer run`` into ``out_dir`` and the files the watcher reads
+    beside them (:data:`CONFIG_WARNINGS`, :data:`INPUT_WARNINGS`, :data:`FAULT_WORDS`),
+    which it removes before it publishes the folder (renamed into REPORTS whole, so a
+    reader never sees part of it)."""
+    figures: list[str] = []  # (figures that could not be drawn)
+    write_outputs(analysis, out_dir, figures.append)
+    lines = [  # (the archive's own lines first: the index shows the first)
+        # (findings.json's notes too, but "no fault" in the index hid them)
+        *(n for n in analysis.notes if isinstance(n, AnomalyNote)),
+        *window_warnings(analysis.notes),
+        *figures,
+        # (last: every archive gets them, and first they hid its anomaly, rcfg53)
+        *config_warnings(options.config, analysis),
+    ]
+    if lines:
+        write_atomic(out_dir / CONFIG_WARNINGS, "".join(f"{line}\n" for line in lines))
+    if damage := input_warnings(analysis):
+        write_atomic(out_dir / INPUT_WARNINGS, json.dumps(damage))
+    if analysis.findings:
+        write_atomic(out_dir / FAULT_WORDS, faults_words(analysis.findings))
+
+
+def unwritten_line(err: OSError, out_dir: Path) -> str:
+    """The error line of outputs that could not be written into ``out_dir`` (the
+    analysis's scratch folder, on this machine or a cluster worker's): the file by its
+    name in the folder (``report.html: No space left on device``), which the watcher
+    says as ``REPORTS/<folder>/report.html`` (:meth:`Watcher._result`); another file by
+    its path."""
+    name = os.fsdecode(err.filename) if err.filename is not None else ""
+    if name and Path(name).parent == out_dir:
+        name = Path(name).name
+    return one_line(f"{name}: {err.strerror or err}" if name else str(err.strerror or err))
 
 
 def _error_file(out_dir: Path, text: str) -> None:
@@ -2611,6 +2643,10 @@ class _Runner:
                 message = f"internal error: unreadable findings.json ({one_line(err)})"
         elif code in ERROR_KINDS and error.is_file():
             message, _, details = error.read_text(encoding="utf-8").partition("\n")
+            if code == EXIT_UNWRITTEN and not Path(message).is_absolute():
+                # ("report.html: No space left on device", the file by its name in the
+                # scratch folder: said where the report goes)
+                message = f"{self.settings.reports / dirname}{os.sep}{message}"
             rec.error_kind = ERROR_KINDS[code]
             rec.error_reason = ERROR_REASONS.get(code)
             if code == EXIT_MISMATCH:
@@ -2620,6 +2656,8 @@ class _Runner:
             message = f"analysis process killed by signal {-code}"
             with contextlib.suppress(ValueError):
                 message = f"analysis process killed by {signal.Signals(-code).name}"
+        elif code == EXIT_UNWRITTEN:  # (not even error.txt could be written)
+            message = f"its report could not be written into {self.settings.reports}"
         else:
             message = f"analysis process exited with code {code}"
         if job.archive.incomplete:
