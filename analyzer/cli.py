@@ -158,9 +158,10 @@ def add_msg_path(p: argparse.ArgumentParser) -> None:
 
 JOBS_HELP = {
     "run": "local parallelism: run the detectors (and the bank's time blocks) on N "
-    "threads, same results as serial; default: number of cores, 1 = serial",
+    "threads, same results as serial; default: the number of CPUs it may use, 1 = serial",
     "watch": "local parallelism: analyze up to N archives at once, each in a process of "
-    "its own (one archive alone gets N threads); default: number of cores; not used "
+    "its own (one archive alone gets N threads); default: the number of CPUs it may "
+    "use; not used "
     "with --scheduler (the cluster's worker threads set it)",
 }
 """``--jobs``'s help by command: ``watch --help`` described ``run``'s threads (a new
@@ -951,16 +952,19 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
         args.figure_processes = figure_processes
         global _ONE_SHOT
         _ONE_SHOT = args.command != "watch"
+        if args.command != "watch" and threading.current_thread() is threading.main_thread():
+            # SIGTERM (timeout, kill) unwinds as Ctrl-C does, so nothing is left behind;
+            # the watcher handles its own signals. Set as soon as the command is known:
+            # before, a SIGTERM while the stale scratch folders were swept ended the
+            # process by the signal (143, nothing said; ux59 item L1). One while Python
+            # itself starts still does: no handler can be set before (README).
+            previous = signal.signal(signal.SIGTERM, _terminate)
         # what runs killed outright (kill -9, the OOM killer) left in TMPDIR: their
         # scratch directories, gigabytes for a long archive (see analyzer.scratch)
         sweep_stale()
         # (an earlier run's or export's error file there would contradict this one's end)
         remove_stale(error_place(args.command, getattr(args, "out", None)))
         _use_msg_path(getattr(args, "msg_path", None))
-        if args.command != "watch" and threading.current_thread() is threading.main_thread():
-            # SIGTERM (timeout, kill) unwinds as Ctrl-C does, so nothing is left behind;
-            # the watcher handles its own signals
-            previous = signal.signal(signal.SIGTERM, _terminate)
         with warnings.catch_warnings():
             # numerical warnings on degenerate stretches (all-NaN windows...) are handled
             # by the code that meets them; stderr carries only the one-line verdicts

@@ -6,7 +6,6 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import math
-import os
 import re
 import shutil
 import time
@@ -147,6 +146,7 @@ from analyzer.parallel import (
     ThreadExecutor,
     locked,
     make_executor,
+    usable_cpus,
 )
 from analyzer.readers import Archive, ArchiveNote, open_archive
 from analyzer.readers.base import InputInfo, about_selection, one_clock
@@ -448,12 +448,13 @@ def analyze(
     everything is kept in memory and the scratch space is removed on return.
 
     The detectors run on the executor ``--jobs``/``--scheduler`` ask for
-    (:func:`analyzer.parallel.make_executor`: one thread per core by default, ``--jobs 1``
+    (:func:`analyzer.parallel.make_executor`: one thread per usable CPU by default
+    (:func:`~analyzer.parallel.usable_cpus`), ``--jobs 1``
     serially; on a Dask cluster the detectors' steps stay here and the pieces they split
     off go to the workers, see :func:`~analyzer.detector_runs.run_detectors`); the
     results are the serial run's whatever the executor. The scheduler is contacted
     first, so an unreachable one fails before any reading."""
-    jobs = options.jobs if options.jobs is not None else (os.cpu_count() or 1)
+    jobs = options.jobs if options.jobs is not None else usable_cpus()
     executor = make_executor(jobs, options.scheduler)
     # on a cluster, this process's own share of the work (alarm searches, observers,
     # residual tests) runs on --jobs threads (default: one per core) of its own

@@ -104,7 +104,7 @@ Inputs
     archive as it was found (one that changed while it was copied is analyzed again).
 
 Running
-    ``--jobs N`` analyses run at a time (default: one per core), each on one thread, or
+    ``--jobs N`` analyses run at a time (default: one per CPU it may use), each on one thread, or
     on all N when it starts with nothing else running or waiting (a file an hour is
     analyzed on every core; the findings do not depend on it), each in its own process
     (forked from a preloaded server: a crash or a runaway archive cannot take the watcher
@@ -210,7 +210,7 @@ from analyzer.findings import Analysis, write_outputs
 from analyzer.options import RunOptions, train_is_absolute
 from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
-from analyzer.parallel import DaskExecutor
+from analyzer.parallel import DaskExecutor, usable_cpus
 from analyzer.pipeline import (
     WARNED_LINES,
     analyze_screened,
@@ -317,7 +317,7 @@ class WatchSettings:
             failed=Path(args.failed) if args.failed else None,
             group_by=group_by,
             once=bool(args.once),
-            jobs=args.jobs or os.cpu_count() or 1,
+            jobs=args.jobs or usable_cpus(),
             incomplete_timeout=args.wait_unfinished,
             give_up_after=args.give_up_after,
         )
@@ -2240,7 +2240,7 @@ class _Runner:
                 return why + "never given up (--give-up-after 0)"
             at = (rec.short_since or _now()) + after
             then = " and moved to --failed" if self.settings.failed is not None else ""
-            when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(at))
+            when = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(at))  # (as the log's)
             if not self.fitted:
                 return why + f"no archive has fit these options yet: {self._train_advice(after)}"
             return (
@@ -3298,11 +3298,14 @@ def _watch_locked(
 
 
 class _StderrFormatter(logging.Formatter):
-    """Local ISO times, and each message one line of printable characters (a file name
-    with a newline or a control character in it: :func:`~analyzer.errors.terminal_safe`)."""
+    """ISO times in UTC (``2026-12-07T18:33:13Z``), and each message one line of
+    printable characters (a file name with a newline or a control character in it:
+    :func:`~analyzer.errors.terminal_safe`). The times were local without a zone, while
+    ``index.json``'s are UTC: ambiguous across a change to or from summer time, or in
+    logs gathered from machines in several zones (a QA audit's ux59 item L5)."""
 
     def formatTime(self, record: logging.LogRecord, datefmt: str | None = None) -> str:  # noqa: N802
-        return time.strftime("%Y-%m-%dT%H:%M:%S", time.localtime(record.created))
+        return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(record.created))
 
     def format(self, record: logging.LogRecord) -> str:
         # (the message only: a traceback, with ANALYZER_DEBUG, keeps its lines)

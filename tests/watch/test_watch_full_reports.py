@@ -70,3 +70,57 @@ def test_a_full_reports_disk_is_the_report_file_s_error_and_the_archive_stays(
     assert (inbox / "b.csv").is_file()  # (analyzed again on the next start)
     index = json.loads((reports / "index.json").read_text())
     assert said in json.dumps(index)
+
+
+def test_the_log_s_times_are_utc_with_a_z(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The watcher's log lines carry UTC times with a ``Z``, as ``index.json``'s (a QA
+    audit's ux59 item L5: they were local times without a zone)."""
+    import logging
+    import time
+
+    monkeypatch.setenv("TZ", "America/New_York")
+    time.tzset()
+    try:
+        record = logging.LogRecord("analyzer.watch", logging.INFO, __file__, 1, "x", (), None)
+        record.created = 1_796_668_393.0  # 2026-12-07T18:33:13Z, 13:33:13 in New York
+        line = watch_module._StderrFormatter("%(asctime)s analyzer watch: %(message)s").format(
+            record
+        )
+    finally:
+        monkeypatch.undo()  # (TZ as it was)
+        time.tzset()
+    assert line == "2026-12-07T18:33:13Z analyzer watch: x"
+
+
+class _FakeClient:
+    """A Dask client whose one task has ended with ``result``."""
+
+    def __init__(self, result: object) -> None:
+        from concurrent.futures import Future
+
+        self.future: Future[object] = Future()
+        self.future.set_result(result)
+
+    def submit(self, fn: object, *args: object, pure: bool = True) -> object:
+        return self.future
+
+
+def test_a_cluster_task_whose_report_cannot_be_written_says_which_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``watch --scheduler``: the worker's files written into REPORTS on a full disk.
+    Before, the OSError went up through the watcher's loop."""
+    from types import SimpleNamespace
+
+    from analyzer.watch_cluster import ClusterTask
+
+    out = tmp_path / ".tmp-x.mcap"
+    out.mkdir()
+    files = {"findings.json": b"{}", "report.html": b"<html></html>"}
+    executor = SimpleNamespace(client=_FakeClient((1, files)))
+    task = ClusterTask(executor, ["x.mcap"], "options", out)  # type: ignore[arg-type]
+    FullDisk(monkeypatch, out, name="report.html")
+    task.join()
+    assert (out / "error.txt").read_text() == "report.html: No space left on device\n"
+    assert task.exitcode == watch_module.EXIT_UNWRITTEN
+    assert sorted(p.name for p in out.iterdir()) == ["error.txt"]
