@@ -457,7 +457,7 @@ def analyze(
     jobs = options.jobs if options.jobs is not None else usable_cpus()
     executor = make_executor(jobs, options.scheduler)
     # on a cluster, this process's own share of the work (alarm searches, observers,
-    # residual tests) runs on --jobs threads (default: one per core) of its own
+    # residual tests) runs on --jobs threads (default: one per usable CPU) of its own
     local = ThreadExecutor(jobs) if isinstance(executor, DaskExecutor) and jobs > 1 else None
     done = False
     try:

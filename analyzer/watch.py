@@ -104,8 +104,8 @@ Inputs
     archive as it was found (one that changed while it was copied is analyzed again).
 
 Running
-    ``--jobs N`` analyses run at a time (default: one per CPU it may use), each on one thread, or
-    on all N when it starts with nothing else running or waiting (a file an hour is
+    ``--jobs N`` analyses run at a time (default: one per CPU it may use), each on one
+    thread, or on all N when it starts with nothing else running or waiting (a file an hour is
     analyzed on every core; the findings do not depend on it), each in its own process
     (forked from a preloaded server: a crash or a runaway archive cannot take the watcher
     down) with one BLAS thread unless ``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS`` /
@@ -556,7 +556,7 @@ def unwritten_line(err: OSError, out_dir: Path) -> str:
     """The error line of outputs that could not be written into ``out_dir`` (the
     analysis's scratch folder, on this machine or a cluster worker's): the file by its
     name in the folder (``report.html: No space left on device``), which the watcher
-    says as ``REPORTS/<folder>/report.html`` (:meth:`Watcher._result`); another file by
+    says as ``REPORTS/<folder>/report.html`` (:meth:`_Runner._result`); another file by
     its path."""
     name = os.fsdecode(err.filename) if err.filename is not None else ""
     if name and Path(name).parent == out_dir:
