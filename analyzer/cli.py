@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import atexit
 import contextlib
+import errno
 import json
 import math
 import os
@@ -170,9 +171,10 @@ def add_missing_values(p: argparse.ArgumentParser) -> None:
 
 JOBS_HELP = {
     "run": "local parallelism: run the detectors (and the bank's time blocks) on N "
-    "threads, same results as serial; default: number of cores, 1 = serial",
+    "threads, same results as serial; default: the number of CPUs it may use, 1 = serial",
     "watch": "local parallelism: analyze up to N archives at once, each in a process of "
-    "its own (one archive alone gets N threads); default: number of cores; not used "
+    "its own (one archive alone gets N threads); default: the number of CPUs it may "
+    "use; not used "
     "with --scheduler (the cluster's worker threads set it)",
 }
 """``--jobs``'s help by command: ``watch --help`` described ``run``'s threads (a new
@@ -618,6 +620,7 @@ def plain_progress(
 def cmd_inspect(args: argparse.Namespace) -> int:
     from analyzer.inspect import inspect_archive, render_table
 
+    _stdout_open()  # (before the inputs are read: nothing could show what they hold)
     doc = inspect_archive(args.inputs, time=args.time, missing_values=args.missing_values)
     errors = [f"{i['path']}: {e}" for i in doc["inputs"] for e in i["errors"]]
     if not doc["channels"] and errors:  # nothing could be read: an input error, as for run
@@ -634,11 +637,22 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     return 0
 
 
+def _stdout_open() -> None:
+    """An :class:`OSError` naming stdout where the process has none (started with it
+    closed): the command's result could not be printed anywhere."""
+    if sys.stdout is None:
+        raise OSError(errno.EBADF, "closed, so the result cannot be printed", "stdout")
+
+
 def _emit(text: str) -> None:
     """``text`` and a newline on stdout, flushed here: a stdout that cannot take it
     (``> FILE`` on a full disk, ``> /dev/full``) is an error line naming stdout, not a
     bare ``No space left on device`` naming nothing (a closed pipe stays the
-    BrokenPipeError that :func:`main` ends quietly on)."""
+    BrokenPipeError that :func:`main` ends quietly on). A process started with stdout
+    closed (``>&-``, a service without one) has none (``sys.stdout`` is None, and
+    ``print`` writes nothing without a word): an error line too, where it was an
+    "internal error" (a QA audit's ux59 item H2)."""
+    _stdout_open()
     try:
         print(text)
         sys.stdout.flush()
@@ -954,16 +968,19 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
         args.figure_processes = figure_processes
         global _ONE_SHOT
         _ONE_SHOT = args.command != "watch"
+        if args.command != "watch" and threading.current_thread() is threading.main_thread():
+            # SIGTERM (timeout, kill) unwinds as Ctrl-C does, so nothing is left behind;
+            # the watcher handles its own signals. Set as soon as the command is known:
+            # before, a SIGTERM while the stale scratch folders were swept ended the
+            # process by the signal (143, nothing said; ux59 item L1). One while Python
+            # itself starts still does: no handler can be set before (README).
+            previous = signal.signal(signal.SIGTERM, _terminate)
         # what runs killed outright (kill -9, the OOM killer) left in TMPDIR: their
         # scratch directories, gigabytes for a long archive (see analyzer.scratch)
         sweep_stale()
         # (an earlier run's or export's error file there would contradict this one's end)
         remove_stale(error_place(args.command, getattr(args, "out", None)))
         _use_msg_path(getattr(args, "msg_path", None))
-        if args.command != "watch" and threading.current_thread() is threading.main_thread():
-            # SIGTERM (timeout, kill) unwinds as Ctrl-C does, so nothing is left behind;
-            # the watcher handles its own signals
-            previous = signal.signal(signal.SIGTERM, _terminate)
         with warnings.catch_warnings():
             # numerical warnings on degenerate stretches (all-NaN windows...) are handled
             # by the code that meets them; stderr carries only the one-line verdicts

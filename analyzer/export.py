@@ -22,7 +22,7 @@ import numpy as np
 
 from analyzer.errors import ReaderError, UsageError, capped
 from analyzer.missing_codes import Unread, as_gaps, no_reading_line, read_notes
-from analyzer.outdir import not_into_inputs, prepare_dir, remove_if_empty
+from analyzer.outdir import named_error, not_into_inputs, prepare_dir, remove_if_empty
 from analyzer.readers import open_archive
 from analyzer.readers.base import InputInfo, TimeSource, about_selection, one_clock
 from analyzer.scratch import scratch
@@ -172,6 +172,12 @@ def _export(
             else:
                 _write_parquet(aligned, tmp_out, utc, parquet_metadata(done))
             tmp_out.replace(out)
+        except OSError as err:
+            if err.filename not in (None, str(tmp_out)):
+                raise  # (another file's error)
+            # (pyarrow's words name no file: "Error writing bytes to file. Detail: [errno
+            # 28] ...", a QA audit's ux59 item M1): the line names the export's file
+            raise named_error(err, out) from err
         finally:
             tmp_out.unlink(missing_ok=True)
     if warn is not None:

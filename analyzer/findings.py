@@ -23,7 +23,7 @@ from analyzer.diagnosis.oversampled import Oversampled
 from analyzer.diagnosis.unexplained import Unexplained
 from analyzer.error_file import touches_inputs
 from analyzer.modelfile import SavedModel
-from analyzer.outdir import write_atomic
+from analyzer.outdir import staged
 from analyzer.readers.base import InputInfo, channel_labels
 from analyzer.regenerate import write_corrected_csv
 from analyzer.selection import STUCK_SAMPLES
@@ -412,10 +412,21 @@ def _jsonable(x: Any) -> Any:
 
 
 def write_outputs(
-    analysis: Analysis, out_dir: Path, warn: Callable[[str], None] | None = None, utc: bool = False
+    analysis: Analysis,
+    out_dir: Path,
+    warn: Callable[[str], None] | None = None,
+    utc: bool = False,
+    also: Sequence[tuple[Path, bytes]] = (),
 ) -> dict[str, Any]:
-    """``out_dir/findings.json`` and ``out_dir/report.html`` (each atomically; both are
-    built before either is replaced, so an error leaves both as they were). The report's
+    """``out_dir/findings.json``, ``out_dir/report.html`` and, where the analysis has
+    corrected signals, ``out_dir/corrected.csv``, with ``also`` (other files of the run,
+    each a path and its bytes: ``--save-model``'s). All are written under temporary
+    names first and renamed into place only once every one is written
+    (:func:`analyzer.outdir.staged`; ``findings.json`` last): an error (a full disk, an
+    interrupt) leaves every file as it was, and names the file it met (``out/report.html:
+    No space left on device``). Before, a full disk left a new ``findings.json``, valid
+    and naming this run's faults, behind exit code 2: beside the earlier run's report, or
+    naming a ``corrected.csv`` never written (a QA audit's ux59 item H1). The report's
     figures are drawn by the worker processes of an enclosing
     :func:`analyzer.report.workers.figure_workers` context (``analyzer run`` enters one),
     else in this process; the page is the same either way. A figure that cannot be drawn
@@ -457,8 +468,26 @@ def write_outputs(
             for line in view.figure_failures:
                 warn(line)
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
-    write_atomic(out_dir / "findings.json", text)
-    write_atomic(out_dir / "report.html", html)
+    with staged() as files:
+        for path, data in also:
+            files.write(path, data)
+        if analysis.corrected is not None:
+            corrected = analysis.corrected
+            files.write_with(
+                out_dir / CORRECTED_CSV,
+                lambda tmp: write_corrected_csv(
+                    tmp,
+                    analysis.times_between,
+                    analysis.analyzed,
+                    corrected,
+                    (analysis.start_ns, analysis.rate_hz)
+                    if utc and analysis.absolute_time
+                    else None,
+                ),
+            )
+        files.write(out_dir / "report.html", html)
+        files.write(out_dir / "findings.json", text)  # (last: the file a reader looks for)
+        files.commit()
     if remove:
         stale.unlink(missing_ok=True)
         if warn is not None:
@@ -466,14 +495,6 @@ def write_outputs(
                 f"removed {stale}, an earlier run's corrected signals: this run was not "
                 "asked for them (--corrected)"
             )
-    if analysis.corrected is not None:
-        write_corrected_csv(
-            out_dir / CORRECTED_CSV,
-            analysis.times_between,
-            analysis.analyzed,
-            analysis.corrected,
-            (analysis.start_ns, analysis.rate_hz) if utc and analysis.absolute_time else None,
-        )
     return doc
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 
 from analyzer.errors import UsageError
@@ -132,18 +132,113 @@ def remove_if_empty(path: Path) -> None:
 
 
 def write_atomic(path: Path, data: bytes | str) -> None:
-    """Write ``path`` via a temporary file and rename, so readers never see half a file."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    """Write ``path`` via a temporary file and rename, so readers never see half a file;
+    an error writing it names ``path`` (:func:`named_error`)."""
+    with staged() as files:
+        files.write(path, data)
+        files.commit()
+
+
+def named_error(err: OSError, path: str | Path) -> OSError:
+    """``err``, an error writing the file ``path``, as an :class:`OSError` naming
+    ``path`` with the system's words for its error number: the error line then says
+    ``out/report.html: No space left on device``, where before it said ``No space left
+    on device`` (a temporary file's error, which named nothing the user knows) or
+    pyarrow's ``Error writing bytes to file. Detail: [errno 28] ...`` (a QA audit's
+    ux59 item M1)."""
+    code = err.errno
+    words = os.strerror(code) if code else (err.strerror or str(err))
+    return OSError(code, words, os.fspath(path))
+
+
+def _umask() -> int:
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
+
+
+class Staged:
+    """Files written under temporary names beside their places (:meth:`write`,
+    :meth:`write_with`), which :meth:`commit` renames into place only once every one of
+    them is written: a run whose disk fills while it writes its outputs leaves every
+    file of the earlier run as it was, not a new ``findings.json`` beside an old
+    ``report.html``, or naming a ``corrected.csv`` that was never written (a QA audit's
+    ux59 item H1). Made by :func:`staged`, which removes every temporary file not put in
+    place, however the block ends. An error writing a file names the file's place
+    (:func:`named_error`), not its temporary name."""
+
+    def __init__(self) -> None:
+        self._files: list[tuple[Path, Path]] = []
+        """(place, temporary file), in the order :meth:`commit` renames them."""
+
+    def write(self, path: Path, data: bytes | str) -> None:
+        """``data`` (text as UTF-8) into a temporary file for ``path``."""
+        # (a file name that is no UTF-8 is held with surrogates: written as \udcXX)
+        raw = data.encode("utf-8", "backslashreplace") if isinstance(data, str) else data
+        fd, tmp = self._temporary(path)
+        try:
+            with os.fdopen(fd, "wb") as f:
+                f.write(raw)
+        except OSError as err:
+            raise named_error(err, path) from err
+        self._usual_mode(tmp, path)
+
+    def write_with(self, path: Path, writer: Callable[[Path], object]) -> None:
+        """``writer(tmp)`` writes the file for ``path`` at ``tmp``, a temporary name in
+        ``path``'s folder (a writer of its own: pyarrow's CSV writer)."""
+        fd, tmp = self._temporary(path)
+        os.close(fd)
+        try:
+            writer(tmp)
+        except OSError as err:
+            if err.filename not in (None, str(tmp)):
+                raise  # (another file's error: a writer that reads one)
+            raise named_error(err, path) from err
+        self._usual_mode(tmp, path)
+
+    def _temporary(self, path: Path) -> tuple[int, Path]:
+        """A new empty file beside ``path`` (open, its descriptor), to be renamed to it."""
+        path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            fd, name = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+        except OSError as err:
+            raise named_error(err, path) from err
+        self._files.append((path, Path(name)))
+        return fd, Path(name)
+
+    @staticmethod
+    def _usual_mode(tmp: Path, path: Path) -> None:
+        """mkstemp creates 0600: give the usual file mode (0666 less the umask)."""
+        try:
+            os.chmod(tmp, 0o666 & ~_umask())
+        except OSError as err:
+            raise named_error(err, path) from err
+
+    def commit(self) -> None:
+        """Rename every file written into its place, in the order they were written (the
+        one a reader looks for first, ``findings.json``, is written last)."""
+        while self._files:
+            path, tmp = self._files[0]
+            try:
+                os.replace(tmp, path)
+            except OSError as err:
+                raise named_error(err, path) from err
+            self._files.pop(0)
+
+    def discard(self) -> None:
+        """Remove every temporary file not put in place."""
+        for _, tmp in self._files:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+        self._files.clear()
+
+
+@contextlib.contextmanager
+def staged() -> Iterator[Staged]:
+    """A :class:`Staged` whose temporary files are removed when the block ends, however
+    it ends (those :meth:`Staged.commit` renamed are in place by then)."""
+    files = Staged()
     try:
-        with os.fdopen(fd, "wb") as f:
-            # (a file name that is no UTF-8 is held with surrogates: written as \udcXX)
-            text = data.encode("utf-8", "backslashreplace") if isinstance(data, str) else data
-            f.write(text)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the usual file mode
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        yield files
+    finally:
+        files.discard()

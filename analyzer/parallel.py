@@ -30,6 +30,7 @@ from here too:
 
 from __future__ import annotations
 
+import os
 import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -230,6 +231,20 @@ def locked(progress: Callable[[str, float], None] | None) -> Callable[[str, floa
     return report
 
 
+def usable_cpus() -> int:
+    """The number of CPUs this process may run on, ``--jobs``' default: its CPU
+    affinity (``taskset``, a container's cpuset), where the system gives one, else the
+    machine's cores. ``os.cpu_count()`` counted the host's cores: ``taskset -c 0`` on a
+    2-core machine ran 2 analysis processes on one CPU, and a CI container allowed a
+    few CPUs of a large host ran a thread for each of its cores (a QA audit's ux59
+    item L4). A CPU-time quota (cgroup ``cpu.max``) is not counted, as in
+    ``os.process_cpu_count()`` of Python 3.13."""
+    try:
+        return len(os.sched_getaffinity(0)) or 1
+    except (AttributeError, OSError):  # (no affinity: macOS, Windows)
+        return os.cpu_count() or 1
+
+
 __all__ = [
     "CONNECT_MARGIN_S",
     "CONNECT_TIMEOUT_S",
@@ -243,6 +258,7 @@ __all__ = [
     "SerialExecutor",
     "TaskHandle",
     "ThreadExecutor",
+    "usable_cpus",
     "blas_threads_setting",
     "locked",
     "make_executor",

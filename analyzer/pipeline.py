@@ -6,7 +6,6 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import math
-import os
 import re
 import shutil
 import time
@@ -129,7 +128,6 @@ from analyzer.modelfile import (
     check_model_path,
     model_bytes,
     not_a_model,
-    save_model,
 )
 from analyzer.options import (
     MIN_TRAIN_ROWS,
@@ -148,6 +146,7 @@ from analyzer.parallel import (
     ThreadExecutor,
     locked,
     make_executor,
+    usable_cpus,
 )
 from analyzer.readers import Archive, ArchiveNote, open_archive
 from analyzer.readers.base import InputInfo, about_selection, one_clock
@@ -449,15 +448,16 @@ def analyze(
     everything is kept in memory and the scratch space is removed on return.
 
     The detectors run on the executor ``--jobs``/``--scheduler`` ask for
-    (:func:`analyzer.parallel.make_executor`: one thread per core by default, ``--jobs 1``
+    (:func:`analyzer.parallel.make_executor`: one thread per usable CPU by default
+    (:func:`~analyzer.parallel.usable_cpus`), ``--jobs 1``
     serially; on a Dask cluster the detectors' steps stay here and the pieces they split
     off go to the workers, see :func:`~analyzer.detector_runs.run_detectors`); the
     results are the serial run's whatever the executor. The scheduler is contacted
     first, so an unreachable one fails before any reading."""
-    jobs = options.jobs if options.jobs is not None else (os.cpu_count() or 1)
+    jobs = options.jobs if options.jobs is not None else usable_cpus()
     executor = make_executor(jobs, options.scheduler)
     # on a cluster, this process's own share of the work (alarm searches, observers,
-    # residual tests) runs on --jobs threads (default: one per core) of its own
+    # residual tests) runs on --jobs threads (default: one per usable CPU) of its own
     local = ThreadExecutor(jobs) if isinstance(executor, DaskExecutor) and jobs > 1 else None
     done = False
     try:
@@ -3015,7 +3015,12 @@ def _run_into(inputs: Sequence[str | Path], out: Path, options: RunOptions, crea
             analysis.saved_model = saved_model_info(analysis, options.save_model, model)
         if options.progress:
             options.progress("report", 0.0)
-        write_outputs(analysis, out, options.warn, options.utc)
+        earlier = None
+        also: list[tuple[Path, bytes]] = []
+        if options.save_model is not None and model is not None:
+            earlier = _file_sha256(options.save_model)
+            also.append((options.save_model, model))  # (put in place with the outputs)
+        write_outputs(analysis, out, options.warn, options.utc, also)
         if options.progress:
             options.progress("report", 1.0)
         if options.warn is not None:
@@ -3033,14 +3038,11 @@ def _run_into(inputs: Sequence[str | Path], out: Path, options: RunOptions, crea
         if options.note is not None:  # (what the run did of its own accord: information)
             for line in info_lines(analysis.notes):
                 options.note(line)
-        if options.save_model is not None and analysis.saved is not None:
-            earlier = _file_sha256(options.save_model)
-            save_model(options.save_model, analysis.saved, model)
-            if earlier is not None and options.warn is not None:
-                options.warn(
-                    f"--save-model {options.save_model}: replaced the file that was there "
-                    f"(its SHA-256 was {earlier}; it is not kept)"
-                )
+        if earlier is not None and options.warn is not None:
+            options.warn(
+                f"--save-model {options.save_model}: replaced the file that was there "
+                f"(its SHA-256 was {earlier}; it is not kept)"
+            )
         if options.say is not None:
             options.say(summary_line(analysis, out))
         return 1 if analysis.faulty else 0

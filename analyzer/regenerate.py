@@ -40,6 +40,7 @@ import numpy.typing as npt
 
 from analyzer.diagnosis.classify import MIN_GAIN
 from analyzer.errors import counted
+from analyzer.outdir import named_error
 from analyzer.paging import RELEASE_ROWS, release
 from analyzer.timeutil import exact_unit, iso_times
 from analyzer.types import NS_PER_S, FaultType
@@ -1176,7 +1177,8 @@ def write_corrected_csv(
     back, so a long archive takes memory set by that piece. ``utc``: ``(start_ns,
     rate_hz)`` of the record's clock, for a last column ``utc`` holding row ``k``'s time
     ``start_ns + k / rate_hz`` as ISO-8601 UTC (``run --corrected --utc``: ``time``
-    counts from the first sample, a date appears nowhere else in the file)."""
+    counts from the first sample, a date appears nowhere else in the file). An error
+    writing it names ``path`` (:func:`analyzer.outdir.named_error`)."""
     import pyarrow as pa
     import pyarrow.csv as pcsv
 
@@ -1217,6 +1219,8 @@ def write_corrected_csv(
                 writer.write_table(pa.Table.from_arrays(cols, schema=schema))
                 release(corrected[a:b])
         os.replace(tmp, p)
+    except OSError as err:  # (pyarrow's words name no file: the line names ``path``)
+        raise named_error(err, p) from err
     finally:
         tmp.unlink(missing_ok=True)
     return p

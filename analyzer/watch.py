@@ -104,8 +104,8 @@ Inputs
     archive as it was found (one that changed while it was copied is analyzed again).
 
 Running
-    ``--jobs N`` analyses run at a time (default: one per core), each on one thread, or
-    on all N when it starts with nothing else running or waiting (a file an hour is
+    ``--jobs N`` analyses run at a time (default: one per CPU it may use), each on one
+    thread, or on all N when it starts with nothing else running or waiting (a file an hour is
     analyzed on every core; the findings do not depend on it), each in its own process
     (forked from a preloaded server: a crash or a runaway archive cannot take the watcher
     down) with one BLAS thread unless ``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS`` /
@@ -206,11 +206,11 @@ from analyzer.errors import (
     one_line,
     terminal_safe,
 )
-from analyzer.findings import write_outputs
+from analyzer.findings import Analysis, write_outputs
 from analyzer.options import RunOptions, train_is_absolute
 from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
-from analyzer.parallel import DaskExecutor
+from analyzer.parallel import DaskExecutor, usable_cpus
 from analyzer.pipeline import (
     WARNED_LINES,
     analyze_screened,
@@ -236,6 +236,7 @@ from analyzer.watch_inbox import (
 from analyzer.watch_index import (
     MISMATCH,
     TOO_SHORT,
+    UNWRITTEN,
     ErrorKind,
     Ledger,
     Record,
@@ -316,7 +317,7 @@ class WatchSettings:
             failed=Path(args.failed) if args.failed else None,
             group_by=group_by,
             once=bool(args.once),
-            jobs=args.jobs or os.cpu_count() or 1,
+            jobs=args.jobs or usable_cpus(),
             incomplete_timeout=args.wait_unfinished,
             give_up_after=args.give_up_after,
         )
@@ -433,9 +434,16 @@ EXIT_INTERNAL_ERROR = 3
 EXIT_OPTION_ERROR = 4
 EXIT_MISMATCH = 5
 EXIT_TOO_SHORT = 6
+EXIT_UNWRITTEN = 7
+"""An analysis whose outputs could not be written (REPORTS full): not the archive's
+fault, which stays in INBOX and is analyzed again on the next start, as after an
+internal error; but said as the file's error (``REPORTS/x.mcap/report.html: No space
+left on device``), with no traceback (it was an "internal error: OSError" that asked
+the user to report a bug: a QA audit's ux59 item M2)."""
 ERROR_KINDS = {
     EXIT_INPUT_ERROR: ErrorKind.INPUT,
     EXIT_INTERNAL_ERROR: ErrorKind.INTERNAL,
+    EXIT_UNWRITTEN: ErrorKind.INTERNAL,
     EXIT_OPTION_ERROR: ErrorKind.OPTIONS,
     EXIT_MISMATCH: ErrorKind.INPUT,
     EXIT_TOO_SHORT: ErrorKind.OPTIONS,
@@ -443,7 +451,7 @@ ERROR_KINDS = {
 """An analysis's exit code (:func:`analysis_into`) and whose fault its error is: kinds a
 watcher of analyzer 49 knows, which reads the state file of this one
 (:attr:`Record.error_reason` says more)."""
-ERROR_REASONS = {EXIT_MISMATCH: MISMATCH, EXIT_TOO_SHORT: TOO_SHORT}
+ERROR_REASONS = {EXIT_MISMATCH: MISMATCH, EXIT_TOO_SHORT: TOO_SHORT, EXIT_UNWRITTEN: UNWRITTEN}
 """The exit codes of :data:`ERROR_KINDS` with a finer reason (:attr:`Record.error_reason`)."""
 MISFIT = ".misfit"
 """The file a mismatch's analysis leaves beside ``error.txt`` with the option to check
@@ -495,24 +503,11 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
             # (the constant check's findings alone: a file still being written waits to
             # grow, as before, and is analyzed whole)
             raise analysis.unrun
-        figures: list[str] = []  # (figures that could not be drawn)
-        write_outputs(analysis, out_dir, figures.append)
-        lines = [  # (the archive's own lines first: the index shows the first)
-            # (findings.json's notes too, but "no fault" in the index hid them)
-            *(n for n in analysis.notes if isinstance(n, AnomalyNote)),
-            *window_warnings(analysis.notes),
-            *figures,
-            # (last: every archive gets them, and first they hid its anomaly, rcfg53)
-            *config_warnings(options.config, analysis),
-        ]
-        if lines:
-            write_atomic(out_dir / CONFIG_WARNINGS, "".join(f"{line}\n" for line in lines))
-        if damage := input_warnings(analysis):
-            write_atomic(out_dir / INPUT_WARNINGS, json.dumps(damage))
-        if analysis.findings:
-            write_atomic(
-                out_dir / FAULT_WORDS, faults_words(analysis.findings, labels=analysis.labels)
-            )
+        try:
+            _write_results(analysis, options, out_dir)
+        except OSError as err:  # (REPORTS full): the file's error, not a bug's
+            _error_file(out_dir, unwritten_line(err, out_dir) + "\n")
+            return EXIT_UNWRITTEN
         return 1 if analysis.faulty else 0
     except (ArchiveTooShort, TooLittleDataError) as err:  # (first: a mismatch too)
         _error_file(out_dir, one_line(err) + "\n")
@@ -532,6 +527,41 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
         text = f"internal error: {type(err).__name__}: {one_line(err)}"
         _error_file(out_dir, f"{text}\n\n{traceback.format_exc()}")
         return 3
+
+
+def _write_results(analysis: Analysis, options: RunOptions, out_dir: Path) -> None:
+    """The outputs of ``analyzer run`` into ``out_dir`` and the files the watcher reads
+    beside them (:data:`CONFIG_WARNINGS`, :data:`INPUT_WARNINGS`, :data:`FAULT_WORDS`),
+    which it removes before it publishes the folder (renamed into REPORTS whole, so a
+    reader never sees part of it)."""
+    figures: list[str] = []  # (figures that could not be drawn)
+    write_outputs(analysis, out_dir, figures.append)
+    lines = [  # (the archive's own lines first: the index shows the first)
+        # (findings.json's notes too, but "no fault" in the index hid them)
+        *(n for n in analysis.notes if isinstance(n, AnomalyNote)),
+        *window_warnings(analysis.notes),
+        *figures,
+        # (last: every archive gets them, and first they hid its anomaly, rcfg53)
+        *config_warnings(options.config, analysis),
+    ]
+    if lines:
+        write_atomic(out_dir / CONFIG_WARNINGS, "".join(f"{line}\n" for line in lines))
+    if damage := input_warnings(analysis):
+        write_atomic(out_dir / INPUT_WARNINGS, json.dumps(damage))
+    if analysis.findings:
+        write_atomic(out_dir / FAULT_WORDS, faults_words(analysis.findings, labels=analysis.labels))
+
+
+def unwritten_line(err: OSError, out_dir: Path) -> str:
+    """The error line of outputs that could not be written into ``out_dir`` (the
+    analysis's scratch folder, on this machine or a cluster worker's): the file by its
+    name in the folder (``report.html: No space left on device``), which the watcher
+    says as ``REPORTS/<folder>/report.html`` (:meth:`_Runner._result`); another file by
+    its path."""
+    name = os.fsdecode(err.filename) if err.filename is not None else ""
+    if name and Path(name).parent == out_dir:
+        name = Path(name).name
+    return one_line(f"{name}: {err.strerror or err}" if name else str(err.strerror or err))
 
 
 def _error_file(out_dir: Path, text: str) -> None:
@@ -2210,7 +2240,7 @@ class _Runner:
                 return why + "never given up (--give-up-after 0)"
             at = (rec.short_since or _now()) + after
             then = " and moved to --failed" if self.settings.failed is not None else ""
-            when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(at))
+            when = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(at))  # (as the log's)
             if not self.fitted:
                 return why + f"no archive has fit these options yet: {self._train_advice(after)}"
             return (
@@ -2613,6 +2643,10 @@ class _Runner:
                 message = f"internal error: unreadable findings.json ({one_line(err)})"
         elif code in ERROR_KINDS and error.is_file():
             message, _, details = error.read_text(encoding="utf-8").partition("\n")
+            if code == EXIT_UNWRITTEN and not Path(message).is_absolute():
+                # ("report.html: No space left on device", the file by its name in the
+                # scratch folder: said where the report goes)
+                message = f"{self.settings.reports / dirname}{os.sep}{message}"
             rec.error_kind = ERROR_KINDS[code]
             rec.error_reason = ERROR_REASONS.get(code)
             if code == EXIT_MISMATCH:
@@ -2622,6 +2656,8 @@ class _Runner:
             message = f"analysis process killed by signal {-code}"
             with contextlib.suppress(ValueError):
                 message = f"analysis process killed by {signal.Signals(-code).name}"
+        elif code == EXIT_UNWRITTEN:  # (not even error.txt could be written)
+            message = f"its report could not be written into {self.settings.reports}"
         else:
             message = f"analysis process exited with code {code}"
         if job.archive.incomplete:
@@ -3262,11 +3298,14 @@ def _watch_locked(
 
 
 class _StderrFormatter(logging.Formatter):
-    """Local ISO times, and each message one line of printable characters (a file name
-    with a newline or a control character in it: :func:`~analyzer.errors.terminal_safe`)."""
+    """ISO times in UTC (``2026-12-07T18:33:13Z``), and each message one line of
+    printable characters (a file name with a newline or a control character in it:
+    :func:`~analyzer.errors.terminal_safe`). The times were local without a zone, while
+    ``index.json``'s are UTC: ambiguous across a change to or from summer time, or in
+    logs gathered from machines in several zones (a QA audit's ux59 item L5)."""
 
     def formatTime(self, record: logging.LogRecord, datefmt: str | None = None) -> str:  # noqa: N802
-        return time.strftime("%Y-%m-%dT%H:%M:%S", time.localtime(record.created))
+        return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(record.created))
 
     def format(self, record: logging.LogRecord) -> str:
         # (the message only: a traceback, with ANALYZER_DEBUG, keeps its lines)

@@ -139,10 +139,28 @@ class ClusterTask:
                 text = f"internal error: the analysis task {how} the cluster: "
                 text += f"{type(err).__name__}: {why}\n"
                 code, files = 3, {"error.txt": text.encode()}
-        for name, data in files.items():
-            write_atomic(self.out / Path(name).name, data)
+        try:
+            for name, data in files.items():
+                write_atomic(self.out / Path(name).name, data)
+        except OSError as err:  # (REPORTS full): the file's error, as a local analysis's
+            code = self._unwritten(err)
         self.exitcode = code
         self._close()
+
+    def _unwritten(self, err: OSError) -> int:
+        """The task's files could not be written into :attr:`out` (REPORTS full): what
+        was written is removed, ``error.txt`` names the file where it can be written,
+        and the exit code is a local analysis's that could not write its report
+        (:data:`analyzer.watch.EXIT_UNWRITTEN`). Before, the error went up through the
+        watcher's loop."""
+        from analyzer.watch import EXIT_UNWRITTEN, unwritten_line
+
+        for leftover in self.out.iterdir():
+            with contextlib.suppress(OSError):
+                leftover.unlink()
+        with contextlib.suppress(OSError):
+            write_atomic(self.out / "error.txt", unwritten_line(err, self.out) + "\n")
+        return EXIT_UNWRITTEN
 
     def terminate(self) -> None:
         """Cancel the task: one not yet started never runs; one running on a worker

@@ -77,6 +77,9 @@ MISMATCH = "mismatch"
 """:attr:`Record.error_reason` of an archive these options, sound in themselves, do not fit."""
 TOO_SHORT = "too short"
 """:attr:`Record.error_reason` of an archive too short for the training window."""
+UNWRITTEN = "unwritten"
+""":attr:`Record.error_reason` of an archive whose report could not be written (REPORTS
+full): an ``internal`` error, not the archive's fault."""
 
 
 class ErrorKind(StrEnum):
@@ -163,7 +166,8 @@ class Record:
     :attr:`misfit_option` the option to check) or ``too short`` (an ``options`` error: too
     short for the training window, as a file still being written; left in INBOX and
     analyzed again when it grows; unchanged for ``--give-up-after`` seconds, given up:
-    its ``error_kind`` becomes ``input`` and it goes to ``--failed``). A field, not a
+    its ``error_kind`` becomes ``input`` and it goes to ``--failed``) or ``unwritten``
+    (an ``internal`` error: its report could not be written, REPORTS full). A field, not a
     kind of its own: a watcher of analyzer 49, which knows only the kinds, still reads
     the state (it leaves out fields it does not know)."""
     misfit_option: str | None = None
@@ -214,6 +218,8 @@ class Record:
         watcher (no fingerprint: possibly an internal error) is redone once."""
         if self.verdict is not Verdict.ERROR:
             return None
+        if self.error_kind is ErrorKind.INTERNAL and self.error_reason == UNWRITTEN:
+            return "its last report could not be written (not the archive's fault)"
         if self.error_kind is ErrorKind.INTERNAL:
             return "its last analysis ended in an internal error (not the archive's fault)"
         if self.options is None:

@@ -109,7 +109,8 @@ def test_an_analysis_on_a_full_disk_returns_its_code_without_a_traceback(
     out = tmp_path / "out"
     out.mkdir()
     code = watch.analysis_into([str(src)], RunOptions(train="0:12"), out, tmp_path)
-    assert code == watch.EXIT_INTERNAL_ERROR and not (out / "error.txt").exists()
+    # (not the archive's fault: left in INBOX, as after an internal error; ux59 M2)
+    assert code == watch.EXIT_UNWRITTEN and not (out / "error.txt").exists()
 
 
 @pytest.mark.parametrize("channels", [[], ["--channels", "!a"], ["--channels", "a"]])
