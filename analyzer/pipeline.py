@@ -1686,6 +1686,9 @@ def _ends_without(
         for f, g in hidden:
             if g.channel != left:
                 continue
+            # its shape as the residuals without the later fault's trace read it, where
+            # that search saw the fault over the same period
+            notes.extend(n for n in [_shape_without(f, g, found, slack)] if n)
             # ended where the later fault began (lost there, or ended): an end after it;
             # or within a long window after one of its detectors saw it begin (its
             # finding's onset may be another's early one, which the onset search moves
@@ -1799,6 +1802,62 @@ def _within_both(h: Finding, lost_at: float | None, past: float, slack: float) -
         if e.type is h.type and e.end_s is not None and lo < e.end_s <= past + slack
     ]
     return max(ends, key=lambda e: float(e.end_s or 0.0)) if ends else None
+
+
+def _shape_without(f: Finding, g: Finding, found: Sequence[Finding], slack: float) -> str:
+    """The type and size of ``f``, a finding whose end a later fault of another sensor
+    hid (:func:`~analyzer.diagnosis.merge.ends_hidden_by_later`; ``g``, that fault), from
+    ``found``, the findings of the detectors fitted again without ``g``'s sensor: one on
+    ``f``'s sensor over the same period (its onset and its end within ``slack``, a long
+    alarm window, of ``f``'s; both open, or both closed) whose type or size differs gives
+    its type, size, detector and confidence; ``f`` changes in place (evidence
+    ``shape_without``: the sensor left out, the detector, the type and size before).
+    Returns a note, or ``""`` when there is no such finding or nothing differs.
+
+    A detector that estimates a sensor from another sees that one's fault in its
+    residual of the sensor: from where the later fault began, its trace is in the
+    stretch the first fault's shape is fitted on, over the first fault's own to its end.
+    Without the later fault's sensor the residuals carry the first fault alone. An
+    offset of 2 sd on s4 of the 3x2 building from 16 s, with a drift of 0.5 sd/s on s5
+    from 32 s (Chang et al.'s Fig. 15, seed 4): the detection filter and the observers,
+    whose estimates of s4 take s5's drift in, read the stretch 16-50 s as a gain of 0.41
+    (explained 0.63) and outvoted the bank's offset (5.06 for 5.36); without s5 all three
+    read an offset (5.29-5.35). The search is the one the end is looked for in
+    (:func:`_ends_without`): a search without the later sensor is run only for such a
+    pair."""
+    if "frozen" in f.evidence:
+        return ""  # its readings decided its type (analyzer.diagnosis.stuck)
+
+    def near(a: float | None, b: float | None) -> bool:
+        if a is None or b is None:
+            return a is None and b is None  # (both open)
+        return abs(a - b) <= slack
+
+    same = [
+        h
+        for h in found
+        if h.channel == f.channel and near(h.onset_s, f.onset_s) and near(h.end_s, f.end_s)
+    ]
+    if not same:
+        return ""
+    h = min(same, key=lambda x: abs(x.onset_s - f.onset_s))
+    if h.type is f.type and h.magnitude == f.magnitude:
+        return ""
+    kind_was, size_was, detector_was = f.type.value, dict(f.magnitude), f.detector
+    was = {"type": kind_was, "magnitude": size_was, "detector": detector_was}
+    f.type, f.magnitude = h.type, dict(h.magnitude)
+    f.detector, f.confidence = h.detector, h.confidence
+    f.evidence["shape_without"] = {"left_out": g.channel, "detector": h.detector, "was": was}
+    size = ", ".join(f"{k} {v:.4g}" for k, v in f.magnitude.items())
+    before = ", ".join(f"{k} {v:.4g}" for k, v in size_was.items())
+    kind = "" if f.type.value == kind_was else f"a {kind_was} fault, "
+    return (
+        f"{f.type.value} fault on {f.channel} ({size}) as {h.detector} saw it with "
+        f"{g.channel} left out; with {g.channel} {detector_was} read {kind}{before}: "
+        f"the {g.type.value} fault on {g.channel} (from {g.onset_s:.3f} s) was in the "
+        "stretch its shape was fitted on, in the residuals of the detectors that model "
+        "the two sensors together"
+    )
 
 
 def _onset_without(f: Finding, g: Finding, found: Sequence[Finding], slack: float) -> str:
