@@ -330,10 +330,11 @@ def test_a_shape_without_the_later_sensor_over_another_period_is_not_taken(monke
 
 def test_a_shape_without_the_later_sensor_of_the_same_type_keeps_its_own_size(monkeypatch):
     """A gain of 1.8 on s4 of the 3x2 building from 16 s, a drift on s5 from 32 s (seed
-    1): every detector read a gain, the bank's 1.796. Without s5, the same floor's pair
-    and s4's best neighbour, the estimate of s4 is worse and the gain came out 1.871.
-    The type agrees, so the finding keeps its own size, detector and confidence (before:
-    it took 1.871, 4 % off)."""
+    1, as the detectors read it at 3ab2b72; on 796cd85 the same record was read as a
+    drift, so the findings are built here by hand): every detector read a gain, the
+    bank's 1.796. Without s5, the same floor's pair and s4's best neighbour, the estimate
+    of s4 is worse and the gain came out 1.871. The type agrees, so the finding keeps its
+    own size, detector and confidence (before: it took 1.871, 4 % off)."""
     M = FaultType.MULTIPLICATIVE
     f = _finding(
         _shaped("s4", BANK, 16.14, None, M, {"gain": 1.796}),
