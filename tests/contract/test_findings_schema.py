@@ -425,6 +425,27 @@ def test_a_period_from_a_search_without_a_sensor_is_declared_and_valid():
     assert problems(broken)
 
 
+def test_a_shape_from_a_search_without_a_sensor_is_declared_and_valid():
+    """``evidence.shape_without`` as the pipeline writes it (``pipeline._shape_without``:
+    a type and size read without a later fault's sensor, Chang et al.'s Fig. 15 offset
+    read as a gain with the drift in)."""
+    a = _synthetic()
+    a.findings[0].evidence["shape_without"] = {
+        "left_out": "s5",
+        "detector": "ar_kalman_bank",
+        "was": {"type": "multiplicative", "magnitude": {"gain": 0.4145}, "detector": "x"},
+    }
+    doc = as_written(findings_document(a))
+    assert problems(doc) == []
+    declared = DEFS["evidence"]["properties"].get("shape_without")
+    assert declared is not None and set(doc["faults"][0]["evidence"]["shape_without"]) <= (
+        _declared(declared)
+    )
+    broken = copy.deepcopy(doc)
+    del broken["faults"][0]["evidence"]["shape_without"]["was"]["type"]
+    assert problems(broken)
+
+
 @pytest.mark.parametrize("case", list(BROKEN))
 def test_a_broken_document_is_invalid(synthetic_doc, case):
     assert problems(synthetic_doc) == []
@@ -467,7 +488,7 @@ def _objects(doc: dict[str, Any]) -> Iterator[tuple[str, dict[str, Any], dict[st
         yield "faults[]", DEFS["fault"], item
         yield "faults[].magnitude", DEFS["magnitude"], item["magnitude"]
         yield "faults[].evidence", DEFS["evidence"], evidence
-        for part in ("frozen", "clipped", "end_without", "onset_without"):
+        for part in ("frozen", "clipped", "end_without", "onset_without", "shape_without"):
             if part in evidence:
                 declared = DEFS["evidence"]["properties"][part]
                 yield f"faults[].evidence.{part}", declared, evidence[part]

@@ -142,6 +142,66 @@ def test_reoccurring_faults_are_isolated_one_after_the_other():
     assert abs(got[0][2] - 16) <= 1 and abs(got[1][2] - 32) <= 1
 
 
+@pytest.mark.parametrize("seed", [3, 4])
+def test_reoccurring_faults_at_the_default_order_keep_the_drift_and_the_offsets_size(seed):
+    """Fig. 15 at the default order: the offset on s4 from 16 s is fitted before the
+    drift on s5 from 32 s begins, where the estimator that leaves s4 out first loses
+    consistency. Before, its fit ran to a long window before the first alarm interval
+    that began later (37.03 s at seed 4, the other channels alarming since 16 s with the
+    offset's spread): 3.04 and 5.06 for 4.01 and 5.36, and the leftover kept s5's residual
+    alarmed from 16 s, so its drift was taken for the offset's echo and lost."""
+    _, Y, names = simulate_building(n_floors=3, sensors_per_floor=2, duration_s=50.0, seed=seed)
+    Yf = Y.copy()
+    offset = 2.0 * np.std(Y[:, 4])
+    Yf[:, 4] = inject_fault(Y[:, 4], RATE, "additive", 16.0, offset)
+    Yf[:, 5] = inject_fault(Y[:, 5], RATE, "drift", 32.0, 0.5 * np.std(Y[:, 5]))
+    res = _run(Yf, names, order="bic")
+    got = sorted(res.events, key=lambda e: e.channel)
+    assert [(e.channel, e.type.value) for e in got] == [("s4", "additive"), ("s5", "drift")]
+    assert abs(got[0].onset_s - 16.0) < 0.1 and abs(got[1].onset_s - 32.0) < 0.1
+    assert got[0].magnitude["offset"] == pytest.approx(offset, rel=0.01)
+    assert got[1].magnitude["rate_per_s"] == pytest.approx(0.5 * np.std(Y[:, 5]), rel=0.01)
+
+
+def _loss(common: bool) -> tuple[int | None, int]:
+    """``_first_violation`` for estimator 0 of a bank fitted on the 3x2 building, over
+    the consistency of the healthy record with every estimator's raised 3 times from
+    row ``r``: alike (``common``, a change of the environment), or from ``r`` for
+    estimator 0 and already from a third of the record for the others (the others see
+    sensor 0's fault under way, estimator 0 only the next fault, of another sensor)."""
+    _, Y, names = simulate_building(n_floors=3, sensors_per_floor=2, duration_s=30.0, seed=0)
+    ds = Dataset(Y, tuple(names), RATE, (0, int(15.0 * RATE)))
+    det = ARKalmanBank()
+    model = det.fit(ds, RunContext())
+    N = Y.shape[0]
+    nis = det._consistency(model, Y, [], 0, N).copy()
+    r = int(24.0 * RATE)
+    nis[r:] *= 3.0
+    if not common:
+        nis[int(N / 3) :, 1:] *= 10.0
+    lost = det._first_violation(
+        model,
+        0,
+        (int(15.0 * RATE), N),
+        lambda j, windows: (nis[a:b, j] for a, b in windows),
+        lambda lo, hi: nis[lo:hi],
+    )
+    return lost, r
+
+
+def test_a_loss_of_consistency_common_to_every_estimator_is_not_the_next_fault():
+    """A change of the environment (sweep_eov's thermal records) raises every
+    estimator's statistic alike: estimator 0 loses consistency with the others, which
+    is no fault of another sensor, so it sets no limit on sensor 0's fault's fit (the
+    bank's s3 offset 89 s before the fault at thermalgain, 2 floors, seed 2, came from
+    such a limit). Where the others, seeing sensor 0's fault, are far more inconsistent
+    when estimator 0 loses it, the loss stands, within a long window of the change."""
+    lost, _ = _loss(common=True)
+    assert lost is None
+    lost, r = _loss(common=False)
+    assert lost is not None and r <= lost <= r + int(2.0 * RATE)
+
+
 def test_intermittent_fault_has_an_end():
     _, Y, names = simulate_building(n_floors=4, duration_s=45.0, seed=7)
     Yf = Y.copy()
