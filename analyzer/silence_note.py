@@ -55,11 +55,20 @@ class SilenceNote(ArchiveNote):
     __slots__ = ()
 
 
-def silences(store: ChannelStore, info: ChannelInfo, limit_ns: float) -> list[tuple[int, int]]:
+def silences(
+    store: ChannelStore,
+    info: ChannelInfo,
+    limit_ns: float,
+    seen: dict[tuple[int, int, float], list[tuple[int, int]]],
+) -> list[tuple[int, int]]:
     """The steps of ``info``'s channel longer than ``limit_ns``: (last sample before, first
-    after), in nanoseconds; at most :data:`SPANS` + 1 of them are needed, all are
-    counted by the caller from the list's length (a channel has few such steps)."""
+    after), in nanoseconds (a channel has few such steps). The fields of one message
+    share their times in the store (the same memory): read once, the answer kept in
+    ``seen`` by that memory and the limit."""
     t, _ = store.raw(info.name)
+    key = (int(t.__array_interface__["data"][0]), int(t.shape[0]), float(limit_ns))
+    if key in seen:
+        return seen[key]
     n = t.shape[0]
     found: list[tuple[int, int]] = []
     for s in range(0, n - 1, BLOCK):
@@ -68,6 +77,7 @@ def silences(store: ChannelStore, info: ChannelInfo, limit_ns: float) -> list[tu
         at = np.flatnonzero(np.diff(tt) > limit_ns)
         found.extend(zip(tt[at].tolist(), tt[at + 1].tolist(), strict=True))
         release(t[s:e])
+    seen[key] = found
     return found
 
 
@@ -99,6 +109,7 @@ def silence_note(
     mid-record (module doc), times in seconds from ``start_ns`` (the common clock's
     start); nothing where none is."""
     groups: dict[tuple[tuple[int, int], ...], list[str]] = {}
+    seen: dict[tuple[int, int, float], list[tuple[int, int]]] = {}
     rates: dict[tuple[tuple[int, int], ...], float] = {}
     for name in names:
         info = store.info(name)
@@ -110,7 +121,7 @@ def silence_note(
             SILENT_LEAST_S * NS_PER_S,
             info.bridge * period,
         )
-        found = tuple(silences(store, info, limit))
+        found = tuple(silences(store, info, limit, seen))
         if found:
             groups.setdefault(found, []).append(name)
             rates[found] = max(rates.get(found, 0.0), info.rate_hz)

@@ -15,8 +15,6 @@ from cli_helpers import run_cli
 
 from analyzer.writers import write_archive
 
-REALDATA = Path("/work/shared/realdata")
-
 
 def _bursty(path: Path) -> tuple[int, float, float]:
     """A CSV of two channels at exponential steps (mean 10 ms) with two pauses of 3 s:

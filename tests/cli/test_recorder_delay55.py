@@ -25,8 +25,6 @@ from analyzer.writers import write_archive
 
 RATE = 200.0
 ONSET_S = 30.0
-REALDATA = Path("/work/shared/realdata")
-ROSBAG2_TEST = REALDATA / "ros2" / "plotjuggler" / "rosbag2_test"
 
 
 def _bag(path: Path, late_ns: int) -> Path:
@@ -119,12 +117,12 @@ def test_csv_alone_has_no_time_source(tmp_path, capsys):
     assert "Timestamps:" not in (out / "report.html").read_text()
 
 
-@pytest.mark.skipif(not ROSBAG2_TEST.is_dir(), reason="real data not present")
-def test_rosbag2_test_battery_fault_carries_the_caution(tmp_path, capsys):
+def test_rosbag2_test_battery_fault_carries_the_caution(realdata, tmp_path, capsys):
     """The audit's case: ``--train 0:29`` (the window the tool suggests) finds
     ``/battery.voltage other from 54.840 s``; a ``/battery`` message was logged 15 ms
     later than its usual delay at 54.856 s (``--time header`` finds no fault)."""
-    code, err, doc, _ = run_to(tmp_path, capsys, ROSBAG2_TEST, "--train", "0:29", "--jobs", "1")
+    bag = realdata / "ros2" / "plotjuggler" / "rosbag2_test"
+    code, err, doc, _ = run_to(tmp_path, capsys, bag, "--train", "0:29", "--jobs", "1")
     assert code in (0, 1), err
     assert doc["time_source"] == "log"
     jitter = [ln for ln in said(err) if ln.startswith("analyzer: warning: log times of /battery")]
