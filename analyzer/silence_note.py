@@ -87,9 +87,12 @@ def _topic(name: str) -> str:
 
 
 def _went_on(store: ChannelStore, others: Sequence[str], span: tuple[int, int]) -> list[str]:
-    """The topics (or CSV columns) among ``others`` with a sample inside ``span`` (a
-    silence of another channel): one binary search per topic, its first channel's."""
+    """The topics (or CSV columns) among ``others`` with a sample in the middle half of
+    ``span`` (a silence of another channel; not merely near its ends, as a topic that
+    paused with it, a few milliseconds apart, has): one binary search per topic, its
+    first channel's."""
     a, b = span
+    a, b = a + (b - a) // 4, b - (b - a) // 4
     out: list[str] = []
     firsts: dict[str, str] = {}
     for n in others:
@@ -140,7 +143,9 @@ def silence_note(
             for a, b in found[:SPANS]
         ]
         more = f" and {len(found) - SPANS} more" if len(found) > SPANS else ""
-        others = _went_on(store, [n for n in names if n not in members], found[0])
+        # (other topics only: a topic's other fields, such as another frame of /tf, are
+        # no sign that the sensor went on)
+        others = _went_on(store, [n for n in names if _topic(n) not in topics], found[0])
         beside = f" while {capped(others, 2)} went on" if others else ""
         items.append(f"{who}: no sample {', '.join(spans)}{more}{beside}")
     said = capped(items, LISTED, "; ", "channels with such silences")
