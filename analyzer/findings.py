@@ -32,7 +32,7 @@ from analyzer.silent import MIN_WINDOWS as SILENT_WINDOWS
 from analyzer.silent import SILENT_CHECK
 from analyzer.store import ChannelInfo
 from analyzer.timeutil import iso_utc
-from analyzer.types import NS_PER_S
+from analyzer.types import NS_PER_S, Format
 
 SCHEMA = "analyzer.findings/1"
 
@@ -109,6 +109,17 @@ class Analysis:
     :func:`analyzer.diagnosis.oversampled.oversampled`): ``findings.json``'s
     ``logged_rate_hz``."""
 
+    time_source: str | None = None
+    """Which time the messages' samples were placed at: ``"log"`` (when the recorder
+    wrote each message) or ``"header"`` (each message's ``header.stamp``, its log time
+    where it has none), as ``--time`` chose; None where no input has messages (CSV files
+    alone: their time column): :func:`time_source` (``findings.json``'s ``time_source``)."""
+
+    cautions: dict[tuple[str, float], str] = field(default_factory=dict)
+    """Per finding (its channel and ``onset_s``) whose onset coincides with a message its
+    topic's recorder logged late (:func:`analyzer.delay_note.onset_cautions`): the
+    caution, ``findings.json``'s ``faults[].caution``."""
+
     @property
     def duration_s(self) -> float:
         """``n / rate``: the time ``n`` samples cover (one sample period each)."""
@@ -135,6 +146,21 @@ class Analysis:
         if seconds is None or not self.absolute_time:
             return None
         return iso_utc(self.start_ns + int(round(seconds * NS_PER_S)))
+
+
+MESSAGE_FORMATS = frozenset({Format.MCAP, Format.ROS1BAG, Format.ROS2BAG})
+"""Input formats of messages, each with a log time and perhaps a ``header.stamp``:
+those ``--time`` applies to."""
+
+
+def time_source(inputs: Sequence[InputInfo], chosen: str) -> str | None:
+    """``findings.json``'s ``time_source``: ``chosen`` (``--time``: ``"log"`` or
+    ``"header"``) where any of ``inputs`` is an MCAP or ROS bag, whose samples it placed;
+    None for CSV files alone, timed by their own time column whatever ``--time`` says.
+    The two choices can give different findings (a recorder that logs a message late
+    moves its sample on the log-time axis, not on the header's): a reader of the file
+    alone could not tell which it was (the robotics audit ux58 item 4)."""
+    return chosen if any(i.format in MESSAGE_FORMATS for i in inputs) else None
 
 
 def sha256_of(path: Path) -> str:
@@ -182,6 +208,8 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
         "time_origin_s": None if a.absolute_time else round(a.start_ns / NS_PER_S, 9),
         "duration_s": round(a.duration_s, 6),
         "rate_hz": a.rate_hz,
+        # (log times or header stamps: which --time placed the messages' samples at)
+        "time_source": getattr(a, "time_source", None),
         # (the rate the channels were logged at, where the run analyzed them slower)
         "logged_rate_hz": None if a.slowed is None else a.slowed.rate_hz,
         # (to four decimals, as onset_s: 19.980169008087802 was written)
@@ -225,6 +253,12 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
                     a.duration_s,
                 ),
                 **finding_intervals(f),
+                # (where its onset coincides with a message the recorder logged late)
+                **(
+                    {"caution": said}
+                    if (said := getattr(a, "cautions", {}).get((f.channel, f.onset_s)))
+                    else {}
+                ),
             }
             for f in a.findings
         ],

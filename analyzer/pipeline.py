@@ -23,6 +23,7 @@ from analyzer.config import Config, measured_inputs
 from analyzer.config import members as group_members
 from analyzer.coverage import outside_note, span_gaps, span_note
 from analyzer.data_ends import ends_with_data
+from analyzer.delay_note import cautions_line, jitter_note, jitters, onset_cautions
 from analyzer.detector_runs import (
     SkipReason,
     TooShortForNamed,
@@ -112,7 +113,13 @@ from analyzer.errors import (
     clipped_line,
     one_line,
 )
-from analyzer.findings import Analysis, findings_document, input_digest, write_outputs
+from analyzer.findings import (
+    Analysis,
+    findings_document,
+    input_digest,
+    time_source,
+    write_outputs,
+)
 from analyzer.grouping import partition
 from analyzer.missing_codes import (
     CodeHint,
@@ -190,6 +197,7 @@ from analyzer.selection import (
     stuck_words,
     typed_fields,
 )
+from analyzer.silence_note import silence_note
 from analyzer.silent import blank_findings, merged, silent_findings
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
 from analyzer.store.store import UNREADABLE
@@ -899,6 +907,8 @@ def _analyze(
         infos = store.infos()
         read = [c for c in chosen if c not in unread]  # (the channels with samples)
         notes.extend(span_note(span_gaps(store, read)))  # (a gappy folder: how much)
+        # (an analyzed sensor that stops for a while mid-record: which, and when)
+        notes.extend(silence_note(store, read, aligned.start_ns, aligned.duration_s))
         store.close()
         # and their files: for a long archive the largest scratch files after the matrix
         # (16 bytes per value: a time and a value), kept to the end of the run until now
@@ -906,6 +916,9 @@ def _analyze(
         trim_heap()  # and what reading freed (the CSV reader's Arrow buffers, say)
         notes.extend(_crowded_channels(infos, chosen, aligned.rate_hz))
         notes.extend(_irregular_channels(infos, chosen))
+        # (log times that jitter against the header stamps by a sizeable share of a period)
+        jittery = jitters(archive.inputs, infos, chosen)
+        notes.extend(jitter_note(jittery))
         # (a --rate far above every channel says it already, of them all)
         upsampled = _upsampled(infos, chosen, aligned.rate_hz, options.rate)
         notes.extend(upsampled or _interpolated(infos, chosen, aligned.rate_hz))
@@ -1124,6 +1137,7 @@ def _analyze(
                 config_info=options.config.info(),
                 left_out=_left_out(notes, infos, chosen, options),
                 unrun=unrun,
+                time_source=time_source(archive.inputs, options.time_source),
             )
         findings, found_notes = diagnose(results)
         notes.extend(found_notes)
@@ -1357,6 +1371,16 @@ def _analyze(
         # a clipped or stuck value that may be a logger's "no reading" (-9999): said how
         # to declare it (:mod:`analyzer.missing_codes`)
         notes.extend(code_hints(findings, values, chosen))
+        # a finding whose onset coincides with a message the recorder logged late
+        cautions = onset_cautions(
+            [
+                (f.channel, f.onset_s, f"{f.channel} {f.type} from {f.onset_s:.3f} s")
+                for f in findings
+            ],
+            jittery,
+            aligned.start_ns,
+        )
+        notes.extend(cautions_line(cautions))
         timings["total"] = time.perf_counter() - t_start
         return Analysis(
             inputs=archive.inputs,
@@ -1405,6 +1429,8 @@ def _analyze(
             config_info=options.config.info(),
             screen=screen,
             left_out=_left_out(notes, infos, chosen, options),
+            time_source=time_source(archive.inputs, options.time_source),
+            cautions=cautions,
         )
 
 

@@ -20,7 +20,9 @@ Layouts and the channel names they produce (``write_archive`` returns this mappi
   ``/imuK.linear_acceleration.x``, ``.y``, ``.z`` (a last group with fewer keys leaves the
   remaining axes 0). Every Imu message also has orientation ``(0, 0, 0, 1)``, zero
   angular velocity and zero covariances (34 more constant channels per topic), and
-  ``header.stamp`` equal to its log time (plus ``header_offset_ns``).
+  ``header.stamp`` equal to its log time (plus ``header_offset_ns``: one offset for
+  all, or one per message, as a recorder that logs some messages late gives: log times
+  ``t_ns`` that jitter, and ``header_offset_ns = regular - t_ns``).
 * CSV ignores the layout: column ``time`` (seconds from the first sample, with 9
   decimals, or ISO-8601 UTC strings when ``start_iso`` is given), then one column per key
   named by the key.
@@ -213,7 +215,7 @@ def _mcap(
     compression: str | None,
     serializer: str,
     chunk_size: int,
-    header_offset_ns: int,
+    header_offset_ns: int | npt.NDArray[np.int64],
 ) -> dict[str, str]:
     from mcap.writer import CompressionType
     from mcap.writer import Writer as McapWriter
@@ -287,7 +289,7 @@ def _ros1(
     data: Mapping[str, npt.NDArray[Any]],
     *,
     compression: str | None,
-    header_offset_ns: int,
+    header_offset_ns: int | npt.NDArray[np.int64],
 ) -> dict[str, str]:
     from rosbags.rosbag1 import Writer as Bag1Writer
 
@@ -319,7 +321,7 @@ def write_ros2_bag(
     *,
     layout: str = "float64",
     storage: str = "sqlite3",
-    header_offset_ns: int = 0,
+    header_offset_ns: int | npt.NDArray[np.int64] = 0,
 ) -> dict[str, str]:
     """Write a ROS 2 bag directory (rosbag2 version 9, ``storage`` ``"sqlite3"`` or
     ``"mcap"``) with rosbags; returns the key -> channel mapping (see the module doc)."""
@@ -383,7 +385,7 @@ def write_archive(
     compression: str | None = None,
     serializer: str = "numpy",
     chunk_size: int = 1 << 20,
-    header_offset_ns: int = 0,
+    header_offset_ns: int | npt.NDArray[np.int64] = 0,
 ) -> dict[str, str]:
     """Write ``data`` (key -> values, one value per ``t_ns`` entry) as ``fmt``.
 

@@ -29,6 +29,7 @@ from analyzer.errors import (
     one_line,  # noqa: F401 - re-exported for the readers
 )
 from analyzer.readers.base import ChannelChunk
+from analyzer.readers.delays import LogDelays
 from analyzer.readers.quaternions import QuaternionSigns
 from analyzer.readers.tally import Tally
 from analyzer.timeutil import iso_utc, plausible_epoch
@@ -878,6 +879,9 @@ class TopicTracker:
         self._logged: tuple[int, int] | None = None
         """With ``--time header``: the first and last log time of any message, the span
         of the recording on the recorder's clock (see :meth:`_apart`)."""
+        self.delays = LogDelays()
+        """With ``--time log``: how far each topic's log times depart from its header
+        stamps (:mod:`~analyzer.readers.delays`)."""
 
     def push(self, reorder: Reorderer, topic: str, decoded: Decoded, log_ns: IntArray) -> None:
         """Note what ``decoded`` (messages of ``topic`` logged at ``log_ns``) holds beside
@@ -933,6 +937,8 @@ class TopicTracker:
                 times = times[keep]
         elif self.time == "header":
             self._span(topic, "log", log_ns)
+        elif decoded.stamps is not None:  # (--time log: how far the log times depart)
+            self.delays.add(topic, log_ns, decoded.stamps, NO_STAMP)
         self._seen[topic] = self._seen.get(topic, 0) + int(log_ns.shape[0])
         reorder.push_decoded(topic, decoded, times)
 

@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from analyzer.errors import ReaderError
+from analyzer.readers.delays import TopicDelays
 from analyzer.types import Format
 
 if TYPE_CHECKING:
@@ -123,6 +124,11 @@ class InputInfo:
     messages cannot be placed among those before. Of one input of several, never set:
     its reading stops there instead (``Reader``'s ``stop_at_set_back``), a damaged
     file, the others analyzed."""
+    log_delays: dict[str, TopicDelays] = field(default_factory=dict)
+    """With ``--time log``, of each topic whose messages carry header stamps: how far
+    its log times depart from them (:mod:`~analyzer.readers.delays`), for the note on
+    log times that jitter by a sizeable share of a sample period (:mod:`analyzer.
+    delay_note`)."""
 
 
 LOG_TYPES = frozenset(

@@ -246,6 +246,7 @@ class McapReader:
             self.info.clocks = self._tracker.clocks()
             self.info.clock_spans = self._tracker.clock_spans()
             self.info.clock_steps = self._tracker.clock_steps()
+            self.info.log_delays = self._tracker.delays.topics
 
     def _types(self) -> dict[str, str]:
         """Each topic's message type (its schema's name), where it has a schema."""

@@ -335,6 +335,7 @@ class Ros1BagReader:
         self.info.clocks = self._tracker.clocks()
         self.info.clock_spans = self._tracker.clock_spans()
         self.info.clock_steps = self._tracker.clock_steps()
+        self.info.log_delays = self._tracker.delays.topics
 
     # ------------------------------------------------------------------ index
     def _read_index(self, index_pos: int, conn_count: int, chunk_count: int) -> None:

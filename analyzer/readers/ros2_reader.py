@@ -201,6 +201,7 @@ class Ros2BagReader:
         self.info.clocks = self._tracker.clocks()
         self.info.clock_spans = self._tracker.clock_spans()
         self.info.clock_steps = self._tracker.clock_steps()
+        self.info.log_delays = self._tracker.delays.topics
 
     def _overlap(self, name: str, dropped: dict[str, int]) -> None:
         for topic, unit, count in per_topic(dropped, self.topics):

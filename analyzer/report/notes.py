@@ -55,7 +55,7 @@ KINDS: tuple[tuple[str, str, re.Pattern[str]], ...] = (
         "About the input",
         re.compile(
             r"distinct log times|distinct values|timestamp|--time\b|sampled at|\bgaps?\b"
-            r"|outage|logger|--rate\b|quantiz|missing for|repeat"
+            r"|outage|logger|--rate\b|quantiz|missing for|repeat|silent mid-record"
         ),
     ),
     (
@@ -104,14 +104,18 @@ KEY = re.compile(
     r"is not steady|^trained on |default window cut before|traced back to"
     r"|present when the search started|findings ha(?:ve|s) a confidence below"
     r"|the archive's spread against the model's|may be missed"
-    r"|^no fault but a dead or stuck sensor"
+    r"|^no fault but a dead or stuck sensor|may be the recorder's delay, not the sensor's"
+    r"|^analyzed channels silent mid-record"
 )
 """Notes that change how to read the findings, shown beside the verdict: the training
 window was not steady (the models took a change for health, faults may be missed or
 misplaced) or was cut before such a change; a fault traced back into the window or to
 the record's start; findings of weak confidence; an archive whose spread is not the
 model's; a clock so fast for the signal that a gain or a slow change may be missed; a
-run whose detectors could not run, that searched for nothing but dead or stuck sensors."""
+run whose detectors could not run, that searched for nothing but dead or stuck sensors;
+a finding whose onset coincides with a message the recorder logged late
+(:func:`analyzer.delay_note.onset_cautions`); an analyzed sensor silent for a while
+mid-record (:func:`analyzer.silence_note.silence_note`)."""
 
 ON_A_FINDING = re.compile(r"a finding on it may be")
 """A caveat about some channels (``a finding on it may be rounding: s3``): beside the

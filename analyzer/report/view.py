@@ -124,6 +124,7 @@ def build_view(
         coverage_note=coverage_note,
         levels=levels,
         train=a.train_text(),
+        time_source=a.time_text(),
         config=a.config_text() if doc.get("config") else "",
         models_heading=a.models_heading(),
         reused=bool(doc.get("model")),
@@ -321,6 +322,24 @@ class _Access(FigureParts, TableParts):
             Fact("Training window", self.train_text()),
             Fact("False-alarm rate", self.far_text()),
         ]
+
+    def time_text(self) -> str:
+        """Which time the messages' samples were placed at (``findings.json``'s
+        ``time_source``): the two can give different findings, so the report says which
+        made it; nothing for CSV files alone (their own time column) or a file
+        written before the key."""
+        source = self.doc.get("time_source")
+        if source == "log":
+            return (
+                "Timestamps: log times (when the recorder wrote each message; --time "
+                "header places the samples at their messages' header.stamp instead)"
+            )
+        if source == "header":
+            return (
+                "Timestamps: the header.stamp of each message (--time header; its log "
+                "time where it has none)"
+            )
+        return ""
 
     def duration_text(self) -> str:
         """The duration analyzed and its clock, and the rate logged where the run

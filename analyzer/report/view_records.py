@@ -204,6 +204,9 @@ class ReportView:
     count line (:func:`analyzer.report.notes.sort_notes`)."""
     small_size: str = fmt.num(fmt.SMALL_SIZE)
     """Below what share of the sensor's usual spread a finding is called small."""
+    time_source: str = ""
+    """Which time the messages' samples were placed at (``findings.json``'s
+    ``time_source``), said in the Archive section; empty for CSV files alone."""
     caveats: list[str] = field(default_factory=list)
     """What changes how to read the findings, shown beside the verdict: the key notes
     and each onset that is only a bound (:func:`analyzer.report.notes.onset_lines`)."""
