@@ -50,6 +50,11 @@ def merge_events(events: Iterable[Event], slack_s: float = 1.0) -> list[Finding]
     by_channel: dict[str, list[Event]] = {}
     for ev in events:
         by_channel.setdefault(ev.channel, []).append(ev)
+    # a change a detector saw on one sensor where a fault of another ended: that fault's
+    # trace leaving the residual, not this sensor's fault changing (:func:`_other_ended`)
+    traces = {
+        id(e) for evs in by_channel.values() for e in evs if _other_ended(e, by_channel, slack_s)
+    }
     findings: list[Finding] = []
     for channel, evs in by_channel.items():
         evs.sort(key=lambda e: e.onset_s)
@@ -58,13 +63,15 @@ def merge_events(events: Iterable[Event], slack_s: float = 1.0) -> list[Finding]
             for g in groups:
                 if any(
                     _overlap(ev.onset_s, ev.end_s, o.onset_s, o.end_s, slack_s) for o in g
-                ) and not _told_apart(ev, g, slack_s):
+                ) and not _told_apart(ev, g, slack_s, id(ev) in traces):
                     g.append(ev)
                     break
             else:
                 groups.append([ev])
         changes = {
-            (e.detector, e.evidence["changed_at_s"]) for e in evs if "changed_at_s" in e.evidence
+            (e.detector, e.evidence["changed_at_s"])
+            for e in evs
+            if "changed_at_s" in e.evidence and id(e) not in traces
         }
         for g in groups:
             # the events of detectors that saw this fault change into the next (their
@@ -104,12 +111,39 @@ def merge_events(events: Iterable[Event], slack_s: float = 1.0) -> list[Finding]
     return findings
 
 
-def _told_apart(e: Event, group: list[Event], slack_s: float) -> bool:
+def _other_ended(e: Event, by_channel: dict[str, list[Event]], slack_s: float) -> bool:
+    """Whether ``e`` is a part from a change (evidence ``changed_at_s``) that its detector
+    saw within ``slack_s`` of where an event on another channel, under way since more
+    than ``slack_s`` before, ended: the other sensor's fault left the residual of ``e``'s
+    sensor there (a detector that models the two together carries each fault into the
+    other's residual), so the change is that fault's end, not this sensor's fault
+    changing.
+
+    An offset on s0 from 100 to 200 s and one on s3 from 150 to 250 s (6 floors, seed 3):
+    the bank and the equivalent model saw s3's fault whole, 150.0-250.0 s (offsets 3.91
+    and 3.85 for 3.85 injected); the detection filter saw it change at 200.13 s, where
+    s0's ended (the equivalent model's s0 event ended at 200.0 s). Its part before the
+    change (3.66: s0's fault in it) led, the finding ended at 200.13 s, and the part
+    after it was taken for s0's fault, whose end the detectors had not yet agreed on."""
+    at = e.evidence.get("changed_at_s")
+    if at is None:
+        return False
+    return any(
+        o.end_s is not None and abs(o.end_s - at) <= slack_s and o.onset_s < at - slack_s
+        for channel, evs in by_channel.items()
+        if channel != e.channel
+        for o in evs
+    )
+
+
+def _told_apart(e: Event, group: list[Event], slack_s: float, trace: bool = False) -> bool:
     """Whether ``e``'s detector has an earlier event in ``group`` that ended before ``e``
     began, with no event of another detector in ``group`` spanning the two (from before
     the first's end to ``slack_s`` past ``e``'s onset): one fault that a detector saw in
     stretches, while another saw it whole, stays one finding; not so where ``e`` begins
-    at a change of the fault its detector found (evidence ``changed_at_s``)."""
+    at a change of the fault its detector found (evidence ``changed_at_s``), unless that
+    change is another sensor's fault ending (``trace``, :func:`_other_ended`): then
+    the detectors that saw the fault whole across it keep it one finding."""
 
     def spans(x: Event, o: Event) -> bool:
         return (
@@ -119,7 +153,7 @@ def _told_apart(e: Event, group: list[Event], slack_s: float) -> bool:
             and (x.end_s is None or x.end_s >= e.onset_s + slack_s)
         )
 
-    if e.evidence.get("changed_at_s") is not None:  # its detector saw the fault change
+    if e.evidence.get("changed_at_s") is not None and not trace:  # the fault changed
         return any(_after(e, o, slack_s) for o in group)
     return any(_after(e, o, slack_s) and not any(spans(x, o) for x in group) for o in group)
 
