@@ -33,6 +33,7 @@ from analyzer.silent import SILENT_CHECK
 from analyzer.store import ChannelInfo
 from analyzer.timeutil import iso_utc
 from analyzer.types import NS_PER_S
+from analyzer.what_to_check import unit_of, what_to_check
 
 SCHEMA = "analyzer.findings/1"
 
@@ -204,28 +205,30 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
             for c in a.channels
         ],
         "faults": [
-            {
-                "channel": f.channel,
-                **({"label": labels[f.channel]} if f.channel in labels else {}),
-                "type": str(f.type),
-                "onset_s": round(f.onset_s, 4),
-                "end_s": None if f.end_s is None else round(f.end_s, 4),
-                "onset": a.onset_iso(f.onset_s),
-                "end": a.onset_iso(f.end_s),
-                # (null, not a findings.json that cannot be written, should one not be finite)
-                "magnitude": _jsonable({k: float(v) for k, v in f.magnitude.items()}),
-                "confidence": _jsonable(round(float(f.confidence), 4)),
-                "detector": f.detector,
-                "evidence": _jsonable(f.evidence),
-                "size_relative": size_relative(
-                    f.magnitude,
-                    a.healthy.get(f.channel),
-                    f.onset_s,
-                    f.end_s if f.end_s is not None else data_end(f.evidence),
-                    a.duration_s,
-                ),
-                **finding_intervals(f),
-            }
+            _with_check(
+                {
+                    "channel": f.channel,
+                    **({"label": labels[f.channel]} if f.channel in labels else {}),
+                    "type": str(f.type),
+                    "onset_s": round(f.onset_s, 4),
+                    "end_s": None if f.end_s is None else round(f.end_s, 4),
+                    "onset": a.onset_iso(f.onset_s),
+                    "end": a.onset_iso(f.end_s),
+                    # (null, not a findings.json that cannot be written, should one not be finite)
+                    "magnitude": _jsonable({k: float(v) for k, v in f.magnitude.items()}),
+                    "confidence": _jsonable(round(float(f.confidence), 4)),
+                    "detector": f.detector,
+                    "evidence": _jsonable(f.evidence),
+                    "size_relative": size_relative(
+                        f.magnitude,
+                        a.healthy.get(f.channel),
+                        f.onset_s,
+                        f.end_s if f.end_s is not None else data_end(f.evidence),
+                        a.duration_s,
+                    ),
+                    **finding_intervals(f),
+                }
+            )
             for f in a.findings
         ],
         "detectors": [
@@ -259,6 +262,14 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
             for u in a.unexplained
         ],
     }
+
+
+def _with_check(fault: dict[str, Any]) -> dict[str, Any]:
+    """``fault`` with its ``check``: what to look at on the sensor, in plain words
+    (:func:`analyzer.what_to_check.what_to_check`, with the unit the channel's name ends
+    in)."""
+    fault["check"] = what_to_check(fault, unit_of(str(fault["channel"])))
+    return fault
 
 
 def finding_intervals(f: Finding) -> dict[str, Any]:

@@ -864,6 +864,9 @@ class CsvReader:
         self._date_note = ""
         """Why a column named as a date was not joined with the times (said in
         ``info.errors``), else ""."""
+        self._zone: str | None = None
+        """The zone of the time column's first date-time (``+02:00``), "" for none; None:
+        no date-times (:attr:`InputInfo.time_zone`)."""
         self._zoneless = False
         """Whether the time column holds date-times or times of day without a zone
         (local times, read as UTC): a step back of about an hour there is refused
@@ -912,6 +915,7 @@ class CsvReader:
             )
         self._first_time = first_time
         self.info.time = self._time_text()
+        self.info.time_zone = self._zone if self._time_kind == "datetime" else None
         if self._day_first is not None:
             self._error(
                 f"{EITHER_WAY} read month first, {self._time_format!r}; a file of the same "
@@ -2128,6 +2132,7 @@ class CsvReader:
             cells = cells.filter(pc.cast(pc.utf8_length(cells), pa.bool_()))
             tail = _CLOCK_TAIL.search(str(cells[0].as_py())) if len(cells) else None
             self._zoneless = not (tail and tail.group(1))
+            self._zone = (tail.group(1) or "").strip() if tail else ""
         if not bool(keep.any()):
             name = self._layout.names[self._layout.time_column]
             text = self._clean(time_column)

@@ -31,6 +31,7 @@ from analyzer.report.view_records import FigureView, FindingView
 from analyzer.report.workers import FigureBatch
 from analyzer.timeutil import short_seconds
 from analyzer.types import NS_PER_S
+from analyzer.what_to_check import unit_of
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -52,6 +53,7 @@ class FigureParts:
     here."""
 
     an: Any
+    doc: Mapping[str, Any]
     batch: FigureBatch
     pending: list[tuple[FigureView, int]]
     rate: float
@@ -204,6 +206,17 @@ class FigureParts:
                 "Corrected signal not computed (run with --corrected to include it)."
             )
 
+    def _own_order(self, det: str) -> str:
+        """``, apart from the detector's own order-10 model of the signals`` where the
+        detector ``det`` has an AR order of its own (findings.json's ``model.order``):
+        the whitening filter's order and the Models section's ``order`` then differ, and a
+        reader saw "AR(26)" in a caption beside "order 10" with nothing to say why."""
+        for r in self.doc.get("detectors", []):
+            order = (r.get("model") or {}).get("order") if r.get("name") == det else None
+            if isinstance(order, int) and not isinstance(order, bool):
+                return f", apart from the detector's own order-{order} model of the signals"
+        return ""
+
     def _residual_figure(
         self,
         view: FindingView,
@@ -259,7 +272,11 @@ class FigureParts:
                 f"{view.anchor}-residual",
                 self.train_label,
             ),
-            {"onset_label": onset_label(f), "settled_s": settled_s if clipped else 0.0},
+            {
+                "onset_label": onset_label(f),
+                "settled_s": settled_s if clipped else 0.0,
+                "units": unit_of(ch) or "channel units",
+            },
         )
         start_up = (
             f" The top panel's axis is scaled without the filters' start-up transient (the "
@@ -270,7 +287,8 @@ class FigureParts:
         return self.figure(
             "residual",
             "Residual time history",
-            "Residual (measured minus fault-free estimate, channel units). Top: the whole "
+            f"Residual (measured minus fault-free estimate, {unit_of(ch) or 'channel units'})."
+            " Top: the whole "
             f"record for {lead}, {self.train_label} shaded green. Below: each detector that saw "
             "the fault, around the onset, with the test that raised its alarm: the "
             "trailing moving mean (black) of that window and the band it must leave (red), "
@@ -369,7 +387,8 @@ class FigureParts:
         spec = t.get("whitening")
         what = (
             f"Whitened residual of {det} (training mean and deviation removed, then the "
-            f"one-step error of its AR({spec.get('order')}) model of the training window, "
+            f"one-step error of a {spec.get('order')}-term whitening filter (an AR model of "
+            f"this residual in the training window{self._own_order(det)}), "
             "in units of its healthy deviation: what the tests ran on)"
             if white and isinstance(spec, dict)
             else f"Standardized residual of {det} (training mean and deviation removed)"
