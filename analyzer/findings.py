@@ -33,7 +33,7 @@ from analyzer.silent import SILENT_CHECK
 from analyzer.store import ChannelInfo
 from analyzer.timeutil import iso_utc
 from analyzer.types import NS_PER_S
-from analyzer.what_to_check import unit_of, what_to_check
+from analyzer.what_to_check import channel_units, what_to_check
 
 SCHEMA = "analyzer.findings/1"
 
@@ -166,6 +166,7 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
     a = analysis
     train0, train1 = a.train
     labels = a.labels
+    units = channel_units(a.inputs, {f.channel for f in a.findings})
     return {
         "schema": SCHEMA,
         "analyzer_version": __version__,
@@ -227,7 +228,8 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
                         a.duration_s,
                     ),
                     **finding_intervals(f),
-                }
+                },
+                units,
             )
             for f in a.findings
         ],
@@ -264,11 +266,11 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
     }
 
 
-def _with_check(fault: dict[str, Any]) -> dict[str, Any]:
+def _with_check(fault: dict[str, Any], units: Mapping[str, str]) -> dict[str, Any]:
     """``fault`` with its ``check``: what to look at on the sensor, in plain words
-    (:func:`analyzer.what_to_check.what_to_check`, with the unit the channel's name ends
-    in)."""
-    fault["check"] = what_to_check(fault, unit_of(str(fault["channel"])))
+    (:func:`analyzer.what_to_check.what_to_check`, with the channel's unit of ``units``,
+    :func:`analyzer.what_to_check.channel_units`)."""
+    fault["check"] = what_to_check(fault, units.get(str(fault["channel"]), ""))
     return fault
 
 

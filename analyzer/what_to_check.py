@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 UNIT_AT_END = re.compile(r"[(\[]\s*([A-Za-z°%µμΩ][\w/^°%µμΩ.*·-]{0,11})\s*[)\]]\s*$")
@@ -35,6 +35,24 @@ def unit_of(channel: str) -> str:
     """The unit at the end of ``channel``'s name (``m/s2`` of ``s2 (m/s2)``), else ""."""
     m = UNIT_AT_END.search(channel)
     return m.group(1) if m else ""
+
+
+def channel_units(inputs: Iterable[Any], names: Iterable[str]) -> dict[str, str]:
+    """The unit of each channel of ``names`` that has one: at the end of its name
+    (:func:`unit_of`), else from its input's units line (``InputInfo.units``, where two
+    inputs agree on it)."""
+    given: dict[str, str] = {}
+    clash: set[str] = set()
+    for info in inputs:
+        for name, unit in (getattr(info, "units", None) or {}).items():
+            if given.setdefault(name, unit) != unit:
+                clash.add(name)
+    out = {}
+    for name in names:
+        unit = unit_of(name) or ("" if name in clash else given.get(name, ""))
+        if unit:
+            out[name] = unit
+    return out
 
 
 def type_words(kind: str) -> str:
@@ -112,4 +130,4 @@ def what_to_check(f: Mapping[str, Any], unit: str = "") -> str:
     return f"{what}: {advice}" if what else advice
 
 
-__all__ = ["TYPE_WORDS", "type_words", "unit_of", "what_to_check"]
+__all__ = ["TYPE_WORDS", "channel_units", "type_words", "unit_of", "what_to_check"]

@@ -875,6 +875,11 @@ class CsvReader:
         total, sha, self._lines = _digest_and_lines(self.path, self._layout.compressed)
         self.info = InputInfo(self.path, Format.CSV, size_bytes=total, sha256=sha)
         self.info.no_numeric = self._no_numeric
+        self.info.units = {
+            n: u
+            for i, (n, u) in enumerate(zip(self._layout.names, self._layout.units, strict=False))
+            if u and i != self._layout.time_column
+        }
         if self._date_note:
             self._error(self._date_note)
         if self._layout.units_line:  # a guess (a units line has no readable time): said

@@ -364,6 +364,7 @@ def signal_figure(
     close_s: float | None = None,
     limits: Sequence[float] = (),
     onset_label: str = ONSET_LABEL,
+    units: str = "",
 ) -> Markup:
     """The measured signal around the onset with the detector's fault-free estimate (the
     gap between them is the estimated fault). With ``close_s``, a second panel shows
@@ -401,7 +402,7 @@ def signal_figure(
                 )
             if tt.size:
                 ax.set_xlim(tt[0] / axis.scale, tt[-1] / axis.scale)
-            ax.set_ylabel(value_label(channel))
+            ax.set_ylabel(units or value_label(channel))
             if i == 0:
                 _legend(ax)
                 if close is not None and close_s is not None:
@@ -427,6 +428,7 @@ def corrected_figure(
     channel: str,
     key: str,
     onset_label: str = ONSET_LABEL,
+    units: str = "",
 ) -> Markup:
     """Measured and corrected signal (fault removed, Wang & Song 2014, Section 6.3);
     ``onset_label``: the onset line's legend (:func:`_mark_onset`)."""
@@ -440,7 +442,7 @@ def corrected_figure(
         if t.size:
             ax.set_xlim(t[0] / axis.scale, t[-1] / axis.scale)
         ax.set_xlabel(axis.label())
-        ax.set_ylabel(value_label(channel))
+        ax.set_ylabel(units or value_label(channel))
         _legend(ax)
         return to_svg(fig, key)
 

@@ -53,7 +53,7 @@ from analyzer.report.view_records import (
 )
 from analyzer.report.view_tables import FINDING_TEST_LABELS, MEAN_READ, TableParts, _cell
 from analyzer.report.workers import FigureBatch, FigureWorkers, active_workers
-from analyzer.what_to_check import type_words, unit_of, what_to_check
+from analyzer.what_to_check import channel_units, type_words, what_to_check
 
 NEEDS_CONFIG = "needs [[group]]"
 """How a detector that runs only with a config says so (the error functions, without
@@ -186,6 +186,12 @@ class _Access(FigureParts, TableParts):
         # with --model the shaded start is the filters' warm-up, not a training window
         self.train_label = "filters' warm-up" if doc.get("model") else "training window"
         self.reused = bool(doc.get("model"))
+        # each channel's unit: at the end of its name, or from its CSV's units line
+        self.units = channel_units(
+            getattr(analysis, "inputs", []) or [],
+            [str(c.get("name")) for c in doc.get("channels", [])]
+            + [str(f.get("channel")) for f in doc.get("faults", [])],
+        )
 
     # -- verdict ----------------------------------------------------------------------
     def title(self) -> str:
@@ -495,9 +501,9 @@ class _Access(FigureParts, TableParts):
                 f.get("magnitude") or {},
                 f.get("magnitude_interval"),
                 partial,
-                unit_of(str(f["channel"])),
+                self.units.get(str(f["channel"]), ""),
             ),
-            check=str(f.get("check") or what_to_check(f, unit_of(str(f["channel"])))),
+            check=str(f.get("check") or what_to_check(f, self.units.get(str(f["channel"]), ""))),
             no_range=no_range(f),
             type_words=type_words(str(f["type"])),
             partial=partial,

@@ -31,7 +31,6 @@ from analyzer.report.view_records import FigureView, FindingView
 from analyzer.report.workers import FigureBatch
 from analyzer.timeutil import short_seconds
 from analyzer.types import NS_PER_S
-from analyzer.what_to_check import unit_of
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -54,6 +53,7 @@ class FigureParts:
 
     an: Any
     doc: Mapping[str, Any]
+    units: dict[str, str]
     batch: FigureBatch
     pending: list[tuple[FigureView, int]]
     rate: float
@@ -130,7 +130,12 @@ class FigureParts:
                     ch,
                     f"{key}-signal",
                 ),
-                {"close_s": self._close_s(), "limits": limits, "onset_label": label},
+                {
+                    "close_s": self._close_s(),
+                    "limits": limits,
+                    "onset_label": label,
+                    "units": self.units.get(ch) or "channel units",
+                },
             )
             view.figures.append(
                 self.figure(
@@ -190,7 +195,7 @@ class FigureParts:
             job = fg.FigureJob(
                 "corrected_figure",
                 (t, measured, _f64(corrected[k0:k1, j]), onset, end, ch, f"{key}-corrected"),
-                {"onset_label": label},
+                {"onset_label": label, "units": self.units.get(ch) or "channel units"},
             )
             view.figures.append(
                 self.figure(
@@ -275,7 +280,7 @@ class FigureParts:
             {
                 "onset_label": onset_label(f),
                 "settled_s": settled_s if clipped else 0.0,
-                "units": unit_of(ch) or "channel units",
+                "units": self.units.get(ch) or "channel units",
             },
         )
         start_up = (
@@ -287,8 +292,9 @@ class FigureParts:
         return self.figure(
             "residual",
             "Residual time history",
-            f"Residual (measured minus fault-free estimate, {unit_of(ch) or 'channel units'})."
-            " Top: the whole "
+            "Residual (measured minus fault-free estimate, "
+            f"{self.units.get(ch) or 'channel units'}). "
+            "Top: the whole "
             f"record for {lead}, {self.train_label} shaded green. Below: each detector that saw "
             "the fault, around the onset, with the test that raised its alarm: the "
             "trailing moving mean (black) of that window and the band it must leave (red), "

@@ -31,10 +31,10 @@ def _text(html: str) -> str:
     return " ".join(unescape(re.sub(r"<[^>]+>", " ", html)).split())
 
 
-def _csv(path: Path, zone: str, unit: str) -> Path:
+def _csv(path: Path, zone: str, unit: str, units_line: bool = False) -> Path:
     """A 4-floor building at 50 Hz whose s1 takes an offset of 3 sd at 36 s of 60, its
     times date-times ending in ``zone`` (``+02:00``, or "" for none) and each channel's
-    name ending in `` (unit)``."""
+    name ending in `` (unit)``, or with ``units_line`` followed by a units line."""
     t, y, names = simulate_building(4, 60.0, RATE, seed=1)
     y[:, 1] = inject_fault(y[:, 1], RATE, "additive", 36.0, 3.0 * float(np.std(y[:, 1])))
     start = datetime(2026, 11, 30, 14, 0, 0, tzinfo=UTC)
@@ -45,7 +45,10 @@ def _csv(path: Path, zone: str, unit: str) -> Path:
         )
         for i, s in enumerate(t)
     ]
-    header = ",".join(["time", *[f"{n} ({unit})" for n in names]])
+    if units_line:
+        header = ",".join(["time", *names]) + "\n" + ",".join(["", *[unit] * len(names)])
+    else:
+        header = ",".join(["time", *[f"{n} ({unit})" for n in names]])
     path.write_text(header + "\n" + "\n".join(rows) + "\n")
     return path
 
@@ -135,6 +138,22 @@ def test_sizes_and_value_axes_carry_the_channels_unit(page):
     assert ">m/s2<" in html  # a chart's value axis (svg text)
     assert "measured minus fault-free estimate, m/s2" in html
     assert "s1 (m/s2)" in html  # (the channel's name stays its whole header)
+
+
+def test_a_csv_units_line_gives_the_unit_too(tmp_path):
+    from analyzer.what_to_check import channel_units
+
+    path = _csv(tmp_path / "l.csv", "Z", "mm", units_line=True)
+    info = CsvReader(path).info
+    assert info.units == {f"s{i}": "mm" for i in range(4)}
+    assert channel_units([info], ["s1", "x (g)", "other"]) == {"s1": "mm", "x (g)": "g"}
+    analysis = analyze([path], RunOptions(train="0:15"))
+    doc = findings_document(analysis)
+    (f,) = [f for f in doc["faults"] if f["channel"] == "s1"]
+    assert f["check"].endswith(" mm: check mounting, cable and zero")
+    text = _text(render_report(analysis, doc))
+    assert re.search(r"offset \+[\d.]+ mm \(95 %", text)
+    assert "clock was" not in text and "read as UTC" not in text  # (Z is UTC: nothing to add)
 
 
 # -- time zones -------------------------------------------------------------------------
