@@ -33,6 +33,7 @@ from analyzer.silent import SILENT_CHECK
 from analyzer.store import ChannelInfo
 from analyzer.timeutil import iso_utc
 from analyzer.types import NS_PER_S, Format
+from analyzer.what_to_check import channel_units, what_to_check
 
 SCHEMA = "analyzer.findings/1"
 
@@ -191,6 +192,7 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
     a = analysis
     train0, train1 = a.train
     labels = a.labels
+    units = channel_units(a.inputs, {f.channel for f in a.findings})
     return {
         "schema": SCHEMA,
         "analyzer_version": __version__,
@@ -232,34 +234,37 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
             for c in a.channels
         ],
         "faults": [
-            {
-                "channel": f.channel,
-                **({"label": labels[f.channel]} if f.channel in labels else {}),
-                "type": str(f.type),
-                "onset_s": round(f.onset_s, 4),
-                "end_s": None if f.end_s is None else round(f.end_s, 4),
-                "onset": a.onset_iso(f.onset_s),
-                "end": a.onset_iso(f.end_s),
-                # (null, not a findings.json that cannot be written, should one not be finite)
-                "magnitude": _jsonable({k: float(v) for k, v in f.magnitude.items()}),
-                "confidence": _jsonable(round(float(f.confidence), 4)),
-                "detector": f.detector,
-                "evidence": _jsonable(f.evidence),
-                "size_relative": size_relative(
-                    f.magnitude,
-                    a.healthy.get(f.channel),
-                    f.onset_s,
-                    f.end_s if f.end_s is not None else data_end(f.evidence),
-                    a.duration_s,
-                ),
-                **finding_intervals(f),
-                # (where its onset coincides with a message the recorder logged late)
-                **(
-                    {"caution": said}
-                    if (said := getattr(a, "cautions", {}).get((f.channel, f.onset_s)))
-                    else {}
-                ),
-            }
+            _with_check(
+                {
+                    "channel": f.channel,
+                    **({"label": labels[f.channel]} if f.channel in labels else {}),
+                    "type": str(f.type),
+                    "onset_s": round(f.onset_s, 4),
+                    "end_s": None if f.end_s is None else round(f.end_s, 4),
+                    "onset": a.onset_iso(f.onset_s),
+                    "end": a.onset_iso(f.end_s),
+                    # (null, not a findings.json that cannot be written, should one not be finite)
+                    "magnitude": _jsonable({k: float(v) for k, v in f.magnitude.items()}),
+                    "confidence": _jsonable(round(float(f.confidence), 4)),
+                    "detector": f.detector,
+                    "evidence": _jsonable(f.evidence),
+                    "size_relative": size_relative(
+                        f.magnitude,
+                        a.healthy.get(f.channel),
+                        f.onset_s,
+                        f.end_s if f.end_s is not None else data_end(f.evidence),
+                        a.duration_s,
+                    ),
+                    **finding_intervals(f),
+                    # (where its onset coincides with a message the recorder logged late)
+                    **(
+                        {"caution": said}
+                        if (said := getattr(a, "cautions", {}).get((f.channel, f.onset_s)))
+                        else {}
+                    ),
+                },
+                units,
+            )
             for f in a.findings
         ],
         "detectors": [
@@ -293,6 +298,14 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
             for u in a.unexplained
         ],
     }
+
+
+def _with_check(fault: dict[str, Any], units: Mapping[str, str]) -> dict[str, Any]:
+    """``fault`` with its ``check``: what to look at on the sensor, in plain words
+    (:func:`analyzer.what_to_check.what_to_check`, with the channel's unit of ``units``,
+    :func:`analyzer.what_to_check.channel_units`)."""
+    fault["check"] = what_to_check(fault, units.get(str(fault["channel"]), ""))
+    return fault
 
 
 def finding_intervals(f: Finding) -> dict[str, Any]:

@@ -100,10 +100,14 @@ MAX_LAGS = 500
 """Lags of a score's products kept for the Newey-West sum: the most :func:`hac_lags`
 may choose. It counts samples, not time: 5 s at 100 Hz, but 0.5 s at 1 kHz."""
 
+GAIN_COVERAGE = "68-75 %"
+"""The share of simulated records in which a gain's "noise only" interval held the true
+gain (benchmarks/sweep_intervals.py, README's Intervals of size and onset): said by
+:data:`GAIN_SIZE_NOTE` and by the report beside such an interval."""
 GAIN_SIZE_NOTE = (
     "counts the fit's noise only, not the error of the fault-free reference the gain is "
     "measured against (it pulls the estimate towards no gain): it held the true gain in "
-    "68-75 % of simulated records (README, Intervals of size and onset), not 95 %"
+    f"{GAIN_COVERAGE} of simulated records (README, Intervals of size and onset), not 95 %"
 )
 """Why a gain's size interval is labelled "noise only" (:func:`event_intervals`)."""
 GAIN_ONSET_NOTE = (

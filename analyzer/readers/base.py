@@ -52,6 +52,13 @@ class InputInfo:
     """True when timestamps are nanoseconds since the Unix epoch (UTC); False for relative
     times (a CSV without dates; an MCAP or bag whose log times end before 1990, a
     simulation clock), which an archive does not stitch where they overlap."""
+    units: dict[str, str] = field(default_factory=dict)
+    """Of a CSV with a units line under its header: each column's unit (``s2`` ->
+    ``m/s^2``) where it gives one; the report writes it after sizes and on axes."""
+    time_zone: str | None = None
+    """Of a CSV's date-times: the zone its first time gave (``+02:00``, ``Z``), ""
+    where it gave none (read as UTC); None where the reader read no date-times. The
+    report says it beside the UTC times it prints."""
     time: str = ""
     """Where its times come from, for people, where the reader chose (a CSV's time column
     and how its cells were read); ``inspect`` shows it."""

@@ -864,6 +864,9 @@ class CsvReader:
         self._date_note = ""
         """Why a column named as a date was not joined with the times (said in
         ``info.errors``), else ""."""
+        self._zone: str | None = None
+        """The zone of the time column's first date-time (``+02:00``), "" for none; None:
+        no date-times (:attr:`InputInfo.time_zone`)."""
         self._zoneless = False
         """Whether the time column holds date-times or times of day without a zone
         (local times, read as UTC): a step back of about an hour there is refused
@@ -872,6 +875,11 @@ class CsvReader:
         total, sha, self._lines = _digest_and_lines(self.path, self._layout.compressed)
         self.info = InputInfo(self.path, Format.CSV, size_bytes=total, sha256=sha)
         self.info.no_numeric = self._no_numeric
+        self.info.units = {
+            n: u
+            for i, (n, u) in enumerate(zip(self._layout.names, self._layout.units, strict=False))
+            if u and i != self._layout.time_column
+        }
         if self._date_note:
             self._error(self._date_note)
         if self._layout.units_line:  # a guess (a units line has no readable time): said
@@ -912,6 +920,7 @@ class CsvReader:
             )
         self._first_time = first_time
         self.info.time = self._time_text()
+        self.info.time_zone = self._zone if self._time_kind == "datetime" else None
         if self._day_first is not None:
             self._error(
                 f"{EITHER_WAY} read month first, {self._time_format!r}; a file of the same "
@@ -2128,6 +2137,7 @@ class CsvReader:
             cells = cells.filter(pc.cast(pc.utf8_length(cells), pa.bool_()))
             tail = _CLOCK_TAIL.search(str(cells[0].as_py())) if len(cells) else None
             self._zoneless = not (tail and tail.group(1))
+            self._zone = (tail.group(1) or "").strip() if tail else ""
         if not bool(keep.any()):
             name = self._layout.names[self._layout.time_column]
             text = self._clean(time_column)

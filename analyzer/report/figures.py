@@ -49,6 +49,7 @@ from analyzer.report.svg import (
     to_svg,
 )
 from analyzer.timeutil import short_seconds
+from analyzer.what_to_check import unit_of
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -345,6 +346,12 @@ def level_figure(
 # -- per finding ------------------------------------------------------------------------
 
 
+def value_label(channel: str) -> str:
+    """A value axis's label: the unit ``channel``'s name ends in (``m/s2`` of
+    ``s2 (m/s2)``), else "channel units"."""
+    return unit_of(channel) or "channel units"
+
+
 def signal_figure(
     t: FloatArray,
     measured: FloatArray,
@@ -357,6 +364,7 @@ def signal_figure(
     close_s: float | None = None,
     limits: Sequence[float] = (),
     onset_label: str = ONSET_LABEL,
+    units: str = "",
 ) -> Markup:
     """The measured signal around the onset with the detector's fault-free estimate (the
     gap between them is the estimated fault). With ``close_s``, a second panel shows
@@ -394,7 +402,7 @@ def signal_figure(
                 )
             if tt.size:
                 ax.set_xlim(tt[0] / axis.scale, tt[-1] / axis.scale)
-            ax.set_ylabel("channel units")
+            ax.set_ylabel(units or value_label(channel))
             if i == 0:
                 _legend(ax)
                 if close is not None and close_s is not None:
@@ -420,6 +428,7 @@ def corrected_figure(
     channel: str,
     key: str,
     onset_label: str = ONSET_LABEL,
+    units: str = "",
 ) -> Markup:
     """Measured and corrected signal (fault removed, Wang & Song 2014, Section 6.3);
     ``onset_label``: the onset line's legend (:func:`_mark_onset`)."""
@@ -433,7 +442,7 @@ def corrected_figure(
         if t.size:
             ax.set_xlim(t[0] / axis.scale, t[-1] / axis.scale)
         ax.set_xlabel(axis.label())
-        ax.set_ylabel("channel units")
+        ax.set_ylabel(units or value_label(channel))
         _legend(ax)
         return to_svg(fig, key)
 
@@ -450,6 +459,7 @@ def residual_figure(
     train_label: str = "training window",
     onset_label: str = ONSET_LABEL,
     settled_s: float = 0.0,
+    units: str = "channel units",
 ) -> Markup:
     """Top: the leading detector's residual over the whole archive with the training
     window (``train_label``) and the onset; ``overview`` is its ``envelope(t, r,
@@ -497,7 +507,7 @@ def residual_figure(
         _mark_onset(ax, onset_s, end_s, axis, onset_label)
         ax.set_xlim(0, max(duration_s, 1e-9) / axis.scale)
         ax.set_title("whole record", loc="left")
-        ax.set_ylabel("channel units")
+        ax.set_ylabel(units)
         ax.set_xlabel(axis.label())
         _legend(ax)
         for ax, p in zip(axes[1:], panels, strict=True):
@@ -532,7 +542,7 @@ def residual_figure(
             if p.t.size:
                 ax.set_xlim(p.t[0] / axis.scale, p.t[-1] / axis.scale)
             ax.set_title(label(f"{shown_name(p.detector)}: around the onset"), loc="left")
-            ax.set_ylabel("channel units")
+            ax.set_ylabel(units)
             _legend(ax, ncols=3)
         axes[-1].set_xlabel(axis.label())
         return to_svg(fig, key)
@@ -642,6 +652,7 @@ __all__ = [
     "coverage_figure",
     "level_figure",
     "residual_figure",
+    "value_label",
     "signal_figure",
     "tests_figure",
 ]

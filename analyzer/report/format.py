@@ -201,23 +201,29 @@ def rate(hz: float | None) -> str:
 
 
 def magnitude(
-    mag: Mapping[str, Any], interval: Mapping[str, Any] | None = None, partial: bool = False
+    mag: Mapping[str, Any],
+    interval: Mapping[str, Any] | None = None,
+    partial: bool = False,
+    unit: str = "",
 ) -> str:
     """``offset +9.988``, ``gain x1.546``, ``drift +0.4998 per s`` (channel units), each
     with its 95 % interval where ``interval`` (findings.json's ``magnitude_interval``)
     has one: ``offset +9.992 (95 %: 9.887 to 10.097)``, the bounds to the size's own
     digits. ``partial`` (findings.json's ``interval_notes.magnitude`` beside a given
     interval: a gain's, or one from an older model) labels it ``(noise only: ...)``,
-    since it counts only part of the size's error."""
+    since it counts only part of the size's error. ``unit`` (the one a channel's name
+    ends in: :func:`analyzer.what_to_check.unit_of`) follows an offset's and a drift's
+    size and interval: ``offset +3.559 m/s2 (95 %: 3.553 to 3.565 m/s2)``."""
     label = "noise only" if partial else "95 %"
+    u = f" {unit}" if unit else ""
     parts = []
     for key, v in mag.items():
         if key == "offset":
-            parts.append(f"offset {_signed(v)}{_within(interval, key, label)}")
+            parts.append(f"offset {_signed(v)}{u}{_within(interval, key, label, u, _sci(v))}")
         elif key == "gain":
             parts.append(gain_words(v) + _within(interval, key, label))
         elif key == "rate_per_s":
-            parts.append(f"drift {_signed(v)} per s{_within(interval, key, label)}")
+            parts.append(f"drift {_signed(v)}{u} per s{_within(interval, key, label, u, _sci(v))}")
         elif key == "no_data_s":  # (analyzer.silent: blank or NaN to the record's end)
             parts.append(f"no reading for {num(v)} s (dead sensor: silent)")
         else:
@@ -225,18 +231,30 @@ def magnitude(
     return ", ".join(parts) or MISSING
 
 
-def _within(interval: Mapping[str, Any] | None, key: str, label: str = "95 %") -> str:
+def _within(
+    interval: Mapping[str, Any] | None,
+    key: str,
+    label: str = "95 %",
+    unit: str = "",
+    sci: bool = False,
+) -> str:
     """`` (95 %: lo to hi)`` of ``interval[key]``, or nothing where it has none. The
     bounds keep a fixed number of decimals, as many as four significant digits give the
     wider bound (``9.887 to 10.097``, not ``9.887 to 10.1``), more where they would read
-    alike."""
+    alike; in powers of ten as the size itself where it is shown so (``sci``): one cell
+    read ``drift -2.664e-06 per s (95 %: -0.0000049854 to -0.0000003429)``."""
     pair = (interval or {}).get(key)
     if not isinstance(pair, (list, tuple)) or len(pair) != 2 or None in pair:
         return ""
-    if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in pair):
-        return f" ({label}: {num_range(pair[0], pair[1])})"
+    if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in pair) or sci:
+        return f" ({label}: {num_range(pair[0], pair[1])}{unit})"
     lo, hi = float(pair[0]), float(pair[1])
-    return f" ({label}: {_fixed_range(lo, hi)})"
+    return f" ({label}: {_fixed_range(lo, hi)}{unit})"
+
+
+def _sci(v: Any) -> bool:
+    """Whether :func:`num` shows ``v`` in powers of ten (``-2.664e-06``)."""
+    return "e" in num(v)
 
 
 def _fixed_range(lo: float, hi: float, digits: int = 4) -> str:

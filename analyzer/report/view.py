@@ -37,6 +37,7 @@ from typing import Any
 
 from analyzer import __version__
 from analyzer.diagnosis.evidence import mean_test_read
+from analyzer.diagnosis.spread import GAIN_COVERAGE
 from analyzer.diagnosis.unexplained import either
 from analyzer.report import format as fmt
 from analyzer.report.methods import DECISION, TESTS
@@ -52,12 +53,24 @@ from analyzer.report.view_records import (
 )
 from analyzer.report.view_tables import FINDING_TEST_LABELS, MEAN_READ, TableParts, _cell
 from analyzer.report.workers import FigureBatch, FigureWorkers, active_workers
+from analyzer.what_to_check import channel_units, type_words, what_to_check
 
 NEEDS_CONFIG = "needs [[group]]"
 """How a detector that runs only with a config says so (the error functions, without
 ``[[group]]`` reference and uncertain sensors): the normal case of a run without one,
 which the page says as such, not among the detectors that could not run (every default
 report's first screen listed it there, which read as a configuration error)."""
+
+UTC_NAMES = frozenset({"Z", "UTC", "GMT", "+00:00", "+0000", "UTC+00:00"})
+"""Zones a date-time may give that are UTC itself: nothing to add beside a UTC time."""
+
+NOISE_ONLY = (
+    "A gain's range marked “noise only” counts the noise of the fit only, not the error of "
+    "the fault-free estimate the gain is measured against, so it is narrower than a 95 % "
+    "range: in simulated records it held the true gain in {coverage} of cases, not 95 %."
+)
+"""What a "noise only" range is, said where a finding has one (its figure is
+:data:`analyzer.diagnosis.spread.GAIN_COVERAGE`, also in findings.json's note)."""
 
 MAX_DETAILED = 6
 """Findings that get a section (figures, tests, evidence); the others are rows of the
@@ -137,6 +150,9 @@ def build_view(
             Fact(k, fmt.seconds(v, 2)) for k, v in (getattr(analysis, "timings", {}) or {}).items()
         ],
     )
+    view.utc_words = a.utc_words()
+    if any(f.partial for f in findings):
+        view.noise_only = NOISE_ONLY.format(coverage=GAIN_COVERAGE)
     view.figure_failures = a.draw_figures()
     view.notes.extend(view.figure_failures)
     view.sorted_notes = sort_notes(
@@ -171,6 +187,12 @@ class _Access(FigureParts, TableParts):
         # with --model the shaded start is the filters' warm-up, not a training window
         self.train_label = "filters' warm-up" if doc.get("model") else "training window"
         self.reused = bool(doc.get("model"))
+        # each channel's unit: at the end of its name, or from its CSV's units line
+        self.units = channel_units(
+            getattr(analysis, "inputs", []) or [],
+            [str(c.get("name")) for c in doc.get("channels", [])]
+            + [str(f.get("channel")) for f in doc.get("faults", [])],
+        )
 
     # -- verdict ----------------------------------------------------------------------
     def title(self) -> str:
@@ -298,10 +320,45 @@ class _Access(FigureParts, TableParts):
         names = {c.get("name") for c in self.doc.get("channels", [])}
         return len(names | set(self.analyzed))
 
+    def zones(self) -> tuple[list[str], bool]:
+        """What the inputs' date-times said of their zone (:attr:`analyzer.readers.base.
+        InputInfo.time_zone`): the offsets other than UTC they gave (``UTC+02:00``), and
+        whether one gave none (its times read as UTC). A technician matching a site log at
+        +02:00 was two hours off, and zone-less local times were called "absolute UTC"."""
+        zones = [getattr(i, "time_zone", None) for i in getattr(self.an, "inputs", []) or []]
+        offsets = sorted({str(z) for z in zones if z and str(z).upper() not in UTC_NAMES})
+        return [f"UTC{z}" if z[:1] in "+-" else z for z in offsets], any(z == "" for z in zones)
+
+    def zone_words(self) -> str:
+        """:meth:`zones` in words beside the record's start: ``times in UTC; the input's
+        clock was UTC+02:00``, ``read as UTC (the file gives no time zone)``; empty
+        where the inputs' times were UTC or no date-times."""
+        offsets, zoneless = self.zones()
+        said = [f"times in UTC; the input's clock was {', '.join(offsets)}"] if offsets else []
+        if zoneless:
+            said.append("read as UTC (the file gives no time zone)")
+        return "; ".join(said)
+
+    def utc_words(self) -> str:
+        """How the note under the verdict table names the times below the seconds."""
+        offsets, zoneless = self.zones()
+        if zoneless and not offsets:
+            return "the time read as UTC (the file gives no time zone)"
+        clock = f" (the input's clock was {', '.join(offsets)})" if offsets else ""
+        return (
+            "the time in UTC" + clock + ("; times without a zone read as UTC" if zoneless else "")
+        )
+
     def verdict_facts(self) -> list[Fact]:
         start = self.doc.get("start")
+        zone = self.zone_words() if start else ""
         return [
-            Fact("Record start", str(start) if start else "relative timestamps (no absolute time)"),
+            Fact(
+                "Record start",
+                (f"{start} ({zone})" if zone else str(start))
+                if start
+                else "relative timestamps (no absolute time)",
+            ),
             Fact("Duration", fmt.duration(self.duration) + self.logged_text()),
             Fact("Analyzed channels", f"{len(self.analyzed)} of {self._channel_count()}"),
             Fact(
@@ -435,6 +492,10 @@ class _Access(FigureParts, TableParts):
     # -- findings ---------------------------------------------------------------------
     def finding_view(self, i: int, f: Mapping[str, Any]) -> FindingView:
         ev = f.get("evidence") or {}
+        # a given range beside a note counts part of the size's error (a gain's: noise only)
+        partial = bool((f.get("interval_notes") or {}).get("magnitude")) and bool(
+            f.get("magnitude_interval")
+        )
         return FindingView(
             number=i + 1,
             anchor=f"finding-{i + 1}",
@@ -458,8 +519,13 @@ class _Access(FigureParts, TableParts):
             magnitude=fmt.magnitude(
                 f.get("magnitude") or {},
                 f.get("magnitude_interval"),
-                bool((f.get("interval_notes") or {}).get("magnitude")),
+                partial,
+                self.units.get(str(f["channel"]), ""),
             ),
+            check=str(f.get("check") or what_to_check(f, self.units.get(str(f["channel"]), ""))),
+            no_range=no_range(f),
+            type_words=type_words(str(f["type"])),
+            partial=partial,
             confidence=fmt.score(f.get("confidence")),
             detectors=[str(d) for d in ev.get("detectors", [f.get("detector")])],
             lead=str(f.get("detector")),
@@ -726,6 +792,31 @@ def _open_end(evidence: Mapping[str, Any], decimals: int) -> str:
     if ends is None:
         return "to the end"
     return f"to the end of its data ({fmt.seconds(float(ends), decimals)}: the channel stops there)"
+
+
+NO_RANGE: dict[str, str] = {
+    "the size came from a step after": "no range: measured after the fit, which gives none",
+    "the detector that sized it": "no range: its detector gives none",
+}
+"""Why a size has no range, in a few words for the verdict's cell, by the start of
+findings.json's ``interval_notes.magnitude`` (:func:`analyzer.findings.finding_intervals`)."""
+
+
+def no_range(f: Mapping[str, Any]) -> str:
+    """`` (no range: measured after the fit, which gives none)`` beside a fitted size
+    (an offset, a gain other than a dead sensor's 0, a drift) that has no interval: in
+    a table where the next row's size has one, a reader saw no reason for the
+    difference (it sat in the notes). Empty where the size has its range or is of no
+    fitted shape."""
+    mag = f.get("magnitude") or {}
+    note = str((f.get("interval_notes") or {}).get("magnitude") or "")
+    if f.get("magnitude_interval") or not note:
+        return ""
+    fitted = "offset" in mag or "rate_per_s" in mag or "gain" in mag
+    if not fitted or fmt.num(mag.get("gain", 1.0)) == "0" or "rms" in mag or "stuck_at" in mag:
+        return ""
+    said = next((v for k, v in NO_RANGE.items() if note.startswith(k)), "")
+    return f" ({said or 'no range: ' + note.split(':')[0]})"
 
 
 def onset_words(f: Mapping[str, Any], decimals: int) -> str:

@@ -52,6 +52,8 @@ class FigureParts:
     here."""
 
     an: Any
+    doc: Mapping[str, Any]
+    units: dict[str, str]
     batch: FigureBatch
     pending: list[tuple[FigureView, int]]
     rate: float
@@ -128,7 +130,12 @@ class FigureParts:
                     ch,
                     f"{key}-signal",
                 ),
-                {"close_s": self._close_s(), "limits": limits, "onset_label": label},
+                {
+                    "close_s": self._close_s(),
+                    "limits": limits,
+                    "onset_label": label,
+                    "units": self.units.get(ch) or "channel units",
+                },
             )
             view.figures.append(
                 self.figure(
@@ -188,7 +195,7 @@ class FigureParts:
             job = fg.FigureJob(
                 "corrected_figure",
                 (t, measured, _f64(corrected[k0:k1, j]), onset, end, ch, f"{key}-corrected"),
-                {"onset_label": label},
+                {"onset_label": label, "units": self.units.get(ch) or "channel units"},
             )
             view.figures.append(
                 self.figure(
@@ -203,6 +210,17 @@ class FigureParts:
             view.remarks.append(
                 "Corrected signal not computed (run with --corrected to include it)."
             )
+
+    def _own_order(self, det: str) -> str:
+        """``, apart from the detector's own order-10 model of the signals`` where the
+        detector ``det`` has an AR order of its own (findings.json's ``model.order``):
+        the whitening filter's order and the Models section's ``order`` then differ, and a
+        reader saw "AR(26)" in a caption beside "order 10" with nothing to say why."""
+        for r in self.doc.get("detectors", []):
+            order = (r.get("model") or {}).get("order") if r.get("name") == det else None
+            if isinstance(order, int) and not isinstance(order, bool):
+                return f", apart from the detector's own order-{order} model of the signals"
+        return ""
 
     def _residual_figure(
         self,
@@ -259,7 +277,11 @@ class FigureParts:
                 f"{view.anchor}-residual",
                 self.train_label,
             ),
-            {"onset_label": onset_label(f), "settled_s": settled_s if clipped else 0.0},
+            {
+                "onset_label": onset_label(f),
+                "settled_s": settled_s if clipped else 0.0,
+                "units": self.units.get(ch) or "channel units",
+            },
         )
         start_up = (
             f" The top panel's axis is scaled without the filters' start-up transient (the "
@@ -270,7 +292,9 @@ class FigureParts:
         return self.figure(
             "residual",
             "Residual time history",
-            "Residual (measured minus fault-free estimate, channel units). Top: the whole "
+            "Residual (measured minus fault-free estimate, "
+            f"{self.units.get(ch) or 'channel units'}). "
+            "Top: the whole "
             f"record for {lead}, {self.train_label} shaded green. Below: each detector that saw "
             "the fault, around the onset, with the test that raised its alarm: the "
             "trailing moving mean (black) of that window and the band it must leave (red), "
@@ -369,7 +393,8 @@ class FigureParts:
         spec = t.get("whitening")
         what = (
             f"Whitened residual of {det} (training mean and deviation removed, then the "
-            f"one-step error of its AR({spec.get('order')}) model of the training window, "
+            f"one-step error of a {spec.get('order')}-term whitening filter (an AR model of "
+            f"this residual in the training window{self._own_order(det)}), "
             "in units of its healthy deviation: what the tests ran on)"
             if white and isinstance(spec, dict)
             else f"Standardized residual of {det} (training mean and deviation removed)"

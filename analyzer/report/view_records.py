@@ -107,6 +107,17 @@ class FindingView:
     (:func:`analyzer.report.format.relative_size`); empty where there is none."""
     small: bool = False
     """Below :data:`analyzer.report.format.SMALL_SIZE` of that spread."""
+    no_range: str = ""
+    """Why the magnitude has no range, where a fitted size has none (`` (no range:
+    ...)``, :func:`analyzer.report.view.no_range`)."""
+    check: str = ""
+    """What to look at on the sensor (findings.json's ``check``,
+    :func:`analyzer.what_to_check.what_to_check`)."""
+    type_words: str = ""
+    """The type as a reader says it: ``offset (zero shift)``, ``gain (scale error)``."""
+    partial: bool = False
+    """The magnitude's range counts noise only (a gain's): :attr:`ReportView.noise_only`
+    says what that means."""
     label: str = ""
     """The name the channel's message gives it (a ``JointState``'s joint:
     findings.json's ``label``), shown beside it; empty where there is none."""
@@ -217,6 +228,13 @@ class ReportView:
     nothing_searched: bool = False
     """A ``--save-model`` run whose training window is the whole record: nothing was
     searched, and the verdict does not say "no sensor fault found"."""
+    utc_words: str = "the time in UTC"
+    """How the page names the absolute times below the seconds: in UTC, with the offset
+    the input's clock used, or read as UTC where the file gives no zone
+    (:meth:`analyzer.report.view._Access.zone_words`)."""
+    noise_only: str = ""
+    """Why a range marked "noise only" (a gain's) is narrower than a 95 % one and how
+    often it held the true gain, where a finding has such a range; else empty."""
     unexplained: str = ""
     """The verdict's warning: alarms the findings do not explain (``findings.json``'s
     ``unexplained_alarms``: a second faulty sensor the run may have missed), else empty."""

@@ -288,7 +288,7 @@ def test_input_errors_skipped_detectors_and_notes_are_listed(monkeypatch):
     assert "Input errors" in verdict and "truncated record at byte 4096" in verdict
     assert "Detectors not run" in verdict and "detection_filter</b>: too little" in verdict
     # (the error functions' need of a config is the normal case, said apart)
-    assert "error_function</b> runs only when configured" in verdict
+    assert "One more check, <b>error_function</b>, was not run" in verdict
     assert "synthetic analysis" in verdict  # the analysis notes
     archive = html[html.index('id="archive"') : html.index('id="models"')]
     assert "truncated record at byte 4096" in archive
