@@ -82,7 +82,7 @@ class Jitter:
 
 def topic_of(channel: str) -> str:
     """A message channel's topic: its name up to the first dot (ROS topic names hold
-    none; ``/imu/data.linear_acceleration.y`` is ``/imu/data``)."""
+    none; ``/imu/data.linear_acceleration.y`` is ``/imu/data``); a CSV column itself."""
     return channel.split(".", 1)[0]
 
 

@@ -152,6 +152,17 @@ def named_error(err: OSError, path: str | Path) -> OSError:
 
 
 def _umask() -> int:
+    """The process's umask, read without changing it where the system says it (Linux's
+    ``/proc/self/status``): setting it to 0 and back, the only portable way, leaves a
+    moment in which a file another thread creates (the watcher's, a worker's) gets no
+    umask at all."""
+    try:
+        with open("/proc/self/status", encoding="ascii", errors="replace") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
     umask = os.umask(0)
     os.umask(umask)
     return umask

@@ -19,6 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from analyzer.delay_note import topic_of
 from analyzer.errors import capped
 from analyzer.paging import release
 from analyzer.readers import ArchiveNote
@@ -81,11 +82,6 @@ def silences(
     return found
 
 
-def _topic(name: str) -> str:
-    """A message channel's topic (its name up to the first dot); a CSV column itself."""
-    return name.split(".", 1)[0]
-
-
 def _went_on(store: ChannelStore, others: Sequence[str], span: tuple[int, int]) -> list[str]:
     """The topics (or CSV columns) among ``others`` with a sample in the middle half of
     ``span`` (a silence of another channel; not merely near its ends, as a topic that
@@ -96,7 +92,7 @@ def _went_on(store: ChannelStore, others: Sequence[str], span: tuple[int, int]) 
     out: list[str] = []
     firsts: dict[str, str] = {}
     for n in others:
-        firsts.setdefault(_topic(n), n)
+        firsts.setdefault(topic_of(n), n)
     for topic, first in firsts.items():
         t, _ = store.raw(first)
         k = int(np.searchsorted(t, a, side="right"))
@@ -132,7 +128,7 @@ def silence_note(
         return []
     items = []
     for found, members in sorted(groups.items(), key=lambda g: g[0][0][0]):
-        topics = list(dict.fromkeys(_topic(m) for m in members))
+        topics = list(dict.fromkeys(topic_of(m) for m in members))
         who = capped(topics, 2) if len(topics) < len(members) else capped(members, 2)
         rate = rates[found]
         spans = [
@@ -145,7 +141,7 @@ def silence_note(
         more = f" and {len(found) - SPANS} more" if len(found) > SPANS else ""
         # (other topics only: a topic's other fields, such as another frame of /tf, are
         # no sign that the sensor went on)
-        others = _went_on(store, [n for n in names if _topic(n) not in topics], found[0])
+        others = _went_on(store, [n for n in names if topic_of(n) not in topics], found[0])
         beside = f" while {capped(others, 2)} went on" if others else ""
         items.append(f"{who}: no sample {', '.join(spans)}{more}{beside}")
     said = capped(items, LISTED, "; ", "channels with such silences")

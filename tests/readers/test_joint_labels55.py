@@ -47,22 +47,6 @@ def test_a_changing_name_order_labels_nothing(tmp_path: Path) -> None:
     assert reader.info.labels == {}
 
 
-def test_a_list_that_grows_and_shrinks_keeps_its_names(tmp_path: Path) -> None:
-    messages = [
-        (
-            "/js",
-            JS,
-            T0 + i * MS,
-            joint_state(T0 + i * MS, ["a", "b", "c"][: 2 + i % 2], [i] * (2 + i % 2)),
-        )
-        for i in range(300)
-    ]
-    reader = open_input(write(tmp_path / "js.mcap", "mcap", messages))
-    collect(reader.chunks())
-    assert reader.info.labels["/js.position[2]"] == "c"
-    assert reader.info.labels["/js.velocity[1]"] == "b"
-
-
 def test_an_element_label_covers_its_channels() -> None:
     labels = {"/tf.transforms[0]": "base_link", "/js.position[1]": "b"}
     assert channel_label(labels, "/tf.transforms[0].transform.translation.x") == "base_link"

@@ -660,7 +660,8 @@ def _split_mcap_bag(path: Path, at: int) -> None:
 
 def test_names_that_only_grow_or_shrink_are_no_relabelling(tmp_path: Path) -> None:
     """Review: a JointState whose name[] alternates [a, b, c] / [a, b] keeps each index's
-    joint, yet its arrays were left out."""
+    joint, yet its arrays were left out; its channels are labelled with the longest
+    list's names (the robotics audit ux58 item 5)."""
     messages = [
         (
             "/js",
@@ -673,6 +674,8 @@ def test_names_that_only_grow_or_shrink_are_no_relabelling(tmp_path: Path) -> No
     reader = open_input(write(tmp_path / "js.mcap", "mcap", messages))
     collect(reader.chunks())
     assert reader.info.errors == [] and reader.info.relabelled == []
+    assert reader.info.labels["/js.position[2]"] == "c"
+    assert reader.info.labels["/js.velocity[1]"] == "b"
 
 
 def test_only_the_first_elements_names_are_compared(tmp_path: Path) -> None:
