@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 from analyzer.diagnosis.classify import MIN_GAIN
@@ -97,12 +98,14 @@ TIME_DECIMALS = 4
 
 def time_decimals(rate_hz: float | None) -> int:
     """Decimals a time of a record sampled at ``rate_hz`` needs for one sample to read
-    apart from the next: 3 up to 1 kHz, 4 above (as many as findings.json keeps). At
-    2 kHz an onset at 20.0005 s was shown as ``20.000 s`` above its ISO time
-    ``...T00:00:20.001Z``: two times in one cell."""
+    apart from the next, and no more: none at 1 Hz or slower, 2 at 100 Hz, 3 at 1 kHz, 4
+    above (as many as findings.json keeps); 3 where the rate is not known. At 2 kHz an
+    onset at 20.0005 s was shown as ``20.000 s`` above its ISO time
+    ``...T00:00:20.001Z``: two times in one cell; at 1 Hz ``2121.000 s`` claimed
+    a millisecond the record does not have (ux60 item 8)."""
     if rate_hz is None or not math.isfinite(float(rate_hz)) or rate_hz <= 0:
         return 3
-    return min(TIME_DECIMALS, max(3, math.ceil(math.log10(float(rate_hz)) - 1e-9)))
+    return min(TIME_DECIMALS, max(0, math.ceil(math.log10(float(rate_hz)) - 1e-9)))
 
 
 TIME_UNITS = (("d", 86400.0, 3 * 86400.0), ("h", 3600.0, 3 * 3600.0), ("min", 60.0, 15 * 60.0))
@@ -118,6 +121,76 @@ def time_unit(span_s: float) -> tuple[str, float]:
         if span_s >= shortest:
             return unit, scale
     return "s", 1.0
+
+
+@dataclass(frozen=True, slots=True)
+class Clock:
+    """How the report writes a time from the record's start: in the unit its charts of
+    the whole record use (:func:`time_unit`), rounded to the sample period
+    (:func:`time_decimals`). A short record's times are seconds (``16.00 s`` at
+    100 Hz); a long one's read as its charts' axes do, in minutes (or hours, days) and
+    the seconds left: ``35 min 21 s`` at 1 Hz, ``30 min 0.00 s`` at 100 Hz, where the
+    verdict table said ``2121.000 s`` beside charts in minutes (ux60 item 8).
+    findings.json keeps seconds (``onset_s``)."""
+
+    decimals: int = 3
+    unit: str = "s"
+
+    @classmethod
+    def of(cls, span_s: float, rate_hz: float | None) -> Clock:
+        """The clock of a record ``span_s`` long sampled at ``rate_hz``."""
+        return cls(time_decimals(rate_hz), time_unit(span_s)[0])
+
+    @property
+    def long(self) -> bool:
+        """Whether times are written in minutes or longer units."""
+        return self.unit != "s"
+
+    def __call__(self, x: float | None) -> str:
+        """``x`` seconds from the start: ``16.00 s``, ``35 min 21 s``,
+        ``2 h 5 min 21 s``; ``n/a`` for None or NaN."""
+        if not self.long or x is None or not math.isfinite(float(x)):
+            return seconds(x, self.decimals)
+        return _split_time(float(x), self.decimals, self.unit)
+
+    def words(self) -> str:
+        """What the times are in, for a sentence: ``seconds``, ``minutes and seconds``."""
+        return {
+            "s": "seconds",
+            "min": "minutes and seconds",
+            "h": "hours, minutes and seconds",
+        }.get(self.unit, "days, hours, minutes and seconds")
+
+    def range(self, lo: float, hi: float) -> str:
+        """``151.20 to 151.40 s``; ``29 min 59.99 s to 30 min 0.00 s`` in a long record."""
+        if self.long:
+            return f"{self(lo)} to {self(hi)}"
+        return f"{seconds_text(float(lo), self.decimals)} to {seconds(hi, self.decimals)}"
+
+
+def as_clock(when: Clock | int) -> Clock:
+    """``when`` as a :class:`Clock`: a number of decimals is a short record's seconds."""
+    return when if isinstance(when, Clock) else Clock(int(when))
+
+
+_UNIT_SECONDS = {"d": 86400, "h": 3600, "min": 60}
+
+
+def _split_time(x: float, decimals: int, unit: str) -> str:
+    """``x`` seconds as whole units from ``unit`` down to minutes and the seconds left
+    with ``decimals`` decimals: rounded before it is split (1799.999 s at 100 Hz is
+    ``30 min 0.00 s``, not ``29 min 60.00 s``); a negative time keeps its sign."""
+    sign = "-" if x < 0 else ""
+    ticks = round(abs(x) * 10**decimals)
+    whole, frac = divmod(ticks, 10**decimals)
+    parts = []
+    for name in ("d", "h", "min"):
+        if _UNIT_SECONDS[name] > _UNIT_SECONDS[unit]:
+            continue
+        n, whole = divmod(whole, _UNIT_SECONDS[name])
+        parts.append(f"{n} {name}")
+    sec = f"{whole}" + (f".{frac:0{decimals}d}" if decimals else "")
+    return sign + " ".join([*parts, f"{sec} s"])
 
 
 def at(x: float | None, span_s: float) -> str:
@@ -140,7 +213,7 @@ def clock(x: float | None, decimals: int = 3) -> str:
     h, rem = divmod(ticks, 3600 * unit)
     m, rem = divmod(rem, 60 * unit)
     s, frac = divmod(rem, unit)
-    return f"+{h:02d}:{m:02d}:{s:02d}.{frac:0{decimals}d}"
+    return f"+{h:02d}:{m:02d}:{s:02d}" + (f".{frac:0{decimals}d}" if decimals else "")
 
 
 def duration(x: float) -> str:
@@ -273,14 +346,15 @@ def _fixed_range(lo: float, hi: float, digits: int = 4) -> str:
     return f"{a} to {b}"
 
 
-def onset_interval(pair: Any, decimals: int) -> str:
+def onset_interval(pair: Any, when: Clock | int) -> str:
     """`` (95 %: 151.2 to 151.4 s)`` of findings.json's ``onset_interval_s``, or nothing
-    where it is null (the onset a bound, or from no fit: ``interval_notes`` says which)."""
+    where it is null (the onset a bound, or from no fit: ``interval_notes`` says which);
+    ``when``: the record's :class:`Clock`, or the decimals of its seconds."""
     if not isinstance(pair, (list, tuple)) or len(pair) != 2 or None in pair:
         return ""
     if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in pair):
         return ""
-    return f" (95 %: {seconds_text(float(pair[0]), decimals)} to {seconds(pair[1], decimals)})"
+    return f" (95 %: {as_clock(when).range(float(pair[0]), float(pair[1]))})"
 
 
 SMALL_SIZE = 0.1
@@ -410,9 +484,11 @@ def is_short_list(v: Any, limit: int = 8) -> bool:
 __all__ = [
     "CLEAR_CONFIDENCE",
     "MISSING",
+    "Clock",
     "SMALL_SIZE",
     "TIME_DECIMALS",
     "TIME_UNITS",
+    "as_clock",
     "at",
     "clock",
     "duration",

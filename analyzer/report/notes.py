@@ -24,6 +24,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from analyzer.report.format import Clock, as_clock
+
 INPUT_ERRORS = "input errors"
 SKIPPED = "detectors not run"
 OTHER = "other"
@@ -241,7 +243,7 @@ def count_line(groups: Sequence[NoteGroup]) -> str:
 
 
 def onset_lines(
-    faults: Sequence[Mapping[str, Any]], notes: Sequence[str], decimals: int = 3
+    faults: Sequence[Mapping[str, Any]], notes: Sequence[str], when: Clock | int = 3
 ) -> list[str]:
     """A line for the verdict for each finding whose onset is only an upper bound because
     the fault was there when the search began, right after the training window
@@ -249,7 +251,7 @@ def onset_lines(
     window, whose data the models then took as healthy. Only its evidence said so (an
     "at or before" in the table); with ``--model`` (``onset_at_or_before``), and where a
     note traced the fault back into the window, the analysis's own note says it already
-    (:data:`KEY`)."""
+    (:data:`KEY`). ``when``: the record's clock, or the decimals of its seconds."""
     out = []
     for i, f in enumerate(faults):
         if not (f.get("evidence") or {}).get("onset_at_search_start"):
@@ -258,9 +260,9 @@ def onset_lines(
         if any(f"fault on {channel} from" in str(n) and KEY.search(str(n)) for n in notes):
             continue
         at = f.get("onset_s")
-        when = "?" if at is None else f"{float(at):.{decimals}f} s"
+        said = "?" if at is None else as_clock(when)(float(at))
         out.append(
-            f"finding {i + 1} ({channel}) was there when the search began at {when}, right "
+            f"finding {i + 1} ({channel}) was there when the search began at {said}, right "
             "after the training window: it began then or earlier, perhaps inside the "
             "window, which the models then took as healthy (a --train that ends earlier "
             "tells)"

@@ -40,6 +40,7 @@ from analyzer.diagnosis.evidence import mean_test_read
 from analyzer.diagnosis.spread import GAIN_COVERAGE
 from analyzer.diagnosis.unexplained import either
 from analyzer.report import format as fmt
+from analyzer.report import healthy
 from analyzer.report.methods import DECISION, TESTS
 from analyzer.report.notes import onset_lines, sort_notes
 from analyzer.report.view_figures import FigureParts, _span, onset_bound
@@ -161,7 +162,9 @@ def build_view(
         {s.label: s.value for s in view.skipped},
         faulty={str(f["channel"]) for f in faults},
     )
-    view.caveats = [*view.sorted_notes.key, *onset_lines(faults, view.notes, a.decimals)]
+    view.caveats = [*view.sorted_notes.key, *onset_lines(faults, view.notes, a.when)]
+    view.time_words = a.when.words()
+    view.healthy_words = a.healthy_words()
     return view
 
 
@@ -175,9 +178,13 @@ class _Access(FigureParts, TableParts):
         self.batch = batch
         self.pending: list[tuple[FigureView, int]] = []
         self.rate = float(doc.get("rate_hz") or getattr(analysis, "rate_hz", 1.0) or 1.0)
-        # decimals of an onset or end: one sample apart must read apart (4 above 1 kHz)
+        # decimals of an onset or end: one sample apart must read apart (4 above 1 kHz),
+        # and no more (none at 1 Hz)
         self.decimals = fmt.time_decimals(self.rate)
         self.duration = float(doc.get("duration_s") or 0.0)
+        # a time from the start as the charts of the whole record give it: seconds in a
+        # short record, minutes and seconds (hours, days) in a long one
+        self.when = fmt.Clock.of(self.duration, self.rate)
         self.analyzed: tuple[str, ...] = tuple(getattr(analysis, "analyzed", ()) or ())
         self.values = getattr(analysis, "values", None)
         self.n = int(getattr(analysis, "n", 0) or (0 if self.values is None else len(self.values)))
@@ -243,16 +250,16 @@ class _Access(FigureParts, TableParts):
             return ""
         tr = saved.get("train") or {}
         fitted = (
-            f"The models fitted on the training window ({fmt.seconds(tr.get('start_s'))} "
-            f"to {fmt.seconds(tr.get('end_s'))}) were saved to {saved.get('path')} "
+            f"The models fitted on the training window ({self.when(tr.get('start_s'))} "
+            f"to {self.when(tr.get('end_s'))}) were saved to {saved.get('path')} "
             f"(SHA-256 {saved.get('sha256')})."
         )
         searched = saved.get("searched")
         after = (
             " The window covers the whole record: nothing after it was searched for faults."
             if searched is None
-            else f" Faults were searched after it, from {fmt.seconds(searched.get('start_s'))}"
-            f" to {fmt.seconds(searched.get('end_s'))}."
+            else f" Faults were searched after it, from {self.when(searched.get('start_s'))}"
+            f" to {self.when(searched.get('end_s'))}."
         )
         warned = [str(w) for w in saved.get("warnings") or []]
         warning = (
@@ -276,11 +283,13 @@ class _Access(FigureParts, TableParts):
         items = list(self.doc.get("unexplained_alarms") or [])
         if not items:
             return ""
+        # (to a tenth of a second at most: an alarm is not timed as a finding's onset)
+        coarse = fmt.Clock(min(1, self.when.decimals), self.when.unit)
         # (the clock time too where the record has one, as the findings give it: in a
         # 24 h archive "from 7199.8 s" alone left the user to count the hours)
         shown = [
             f"on {either([str(c) for c in u.get('channels') or []])} from "
-            f"{fmt.seconds(u.get('onset_s'), 1)}"
+            f"{coarse(u.get('onset_s'))}"
             + (f" at {u['onset']}" if u.get("onset") else "")
             + " (seen by "
             f"{', '.join(str(d) for d in u.get('detectors') or [])})"
@@ -377,8 +386,33 @@ class _Access(FigureParts, TableParts):
             ),
             Fact("Duration", self.duration_text()),
             Fact("Training window", self.train_text()),
-            Fact("False-alarm rate", self.far_text()),
+            Fact("False alarms", self.false_alarms()),
+            *self.smallest(),
         ]
+
+    def smallest(self) -> list[Fact]:
+        """The offset per sensor the detectors would have found (:func:`analyzer.report.
+        healthy.smallest_offsets`), as a fact; none where no detector has thresholds."""
+        results = list(self.results.values())
+        said = healthy.smallest_words(
+            healthy.smallest_offsets(results, self.analyzed),
+            self.units,
+            healthy.held_seconds(results, self.rate),
+        )
+        return [Fact("Smallest offset it would have found", said)] if said else []
+
+    def false_alarms(self) -> str:
+        """How much healthy record the detectors' settings allow per false alarm, from
+        the rates their thresholds were set with (:mod:`analyzer.report.healthy`); the
+        rate per sample where the analysis has no thresholds to read."""
+        said = healthy.false_alarm_words(healthy.detector_rates(self.results.values()), self.rate)
+        return self.far_text() if said == fmt.MISSING else said
+
+    def healthy_words(self) -> str:
+        """The healthy verdict's sentence: what was taken as healthy, not itself checked."""
+        a, b = self.train_s
+        train = f"the first {self.when(b)}" if a <= 0 else f"{self.when(a)} to {self.when(b)}"
+        return healthy.healthy_words(train, self.reused)
 
     def time_text(self) -> str:
         """Which time the messages' samples were placed at (``findings.json``'s
@@ -462,7 +496,7 @@ class _Access(FigureParts, TableParts):
                 "let the filters settle, and no fault is searched there"
             )
         return (
-            f"Training (healthy reference) window: {fmt.at(a, b)} to {fmt.at(b, b)} from "
+            f"Training (healthy reference) window: {self.when(a)} to {self.when(b)} from "
             f"the start ({fmt.duration(b - a)})"
         )
 
@@ -504,18 +538,16 @@ class _Access(FigureParts, TableParts):
             type=str(f["type"]),
             # an upper bound (the fault was there when the search began) says so wherever
             # it is shown: "at or before 4.310 s", not an exact 4.310 s
-            onset_s=onset_words(f, self.decimals),
+            onset_s=onset_words(f, self.when),
             # empty without absolute time (relative timestamps): the page then omits them
             onset_utc=str(f.get("onset") or ""),
             end_s=(
-                fmt.seconds(f["end_s"], self.decimals)
-                if f.get("end_s") is not None
-                else _open_end(ev, self.decimals)
+                self.when(f["end_s"]) if f.get("end_s") is not None else _open_end(ev, self.when)
             ),
             end_utc=str(f.get("end") or ""),
             onset_clock=str(f.get("onset") or fmt.clock(f.get("onset_s"), self.decimals)),
             end_clock=str(f.get("end") or fmt.clock(f.get("end_s"), self.decimals)),
-            onset_fact=_onset_fact(f, self.decimals),
+            onset_fact=_onset_fact(f, self.when),
             magnitude=fmt.magnitude(
                 f.get("magnitude") or {},
                 f.get("magnitude_interval"),
@@ -575,7 +607,7 @@ class _Access(FigureParts, TableParts):
         ``searched_after``, ``after_gap_s``) in a line each: findings.json had them and the
         page did not (a dead sensor's frozen readings, a --model onset's upper bound)."""
         ev = f.get("evidence") or {}
-        d = self.decimals
+        w = self.when
         out = []
         constant = ev.get("constant")
         if isinstance(constant, Mapping):
@@ -593,7 +625,7 @@ class _Access(FigureParts, TableParts):
                 Fact(
                     "Onset bound",
                     "the fault was there when the search started at "
-                    f"{fmt.seconds(f.get('onset_s'), d)}, after the {self.train_label}: "
+                    f"{w(f.get('onset_s'))}, after the {self.train_label}: "
                     "from the start (not judged before then; it may have begun in an "
                     "earlier record)",
                 )
@@ -603,7 +635,7 @@ class _Access(FigureParts, TableParts):
                 Fact(
                     "Onset bound",
                     "the fault was there when the search started at "
-                    f"{fmt.seconds(f.get('onset_s'), d)}, the first sample after the "
+                    f"{w(f.get('onset_s'))}, the first sample after the "
                     f"{self.train_label}: it began at or before then, perhaps inside the "
                     "window, whose data the models then took as healthy (a --train that "
                     "ends earlier tells)",
@@ -614,7 +646,7 @@ class _Access(FigureParts, TableParts):
             stretch = after.get("stretch_s") or []
             text = (
                 f"found by a search again with the same models from "
-                f"{fmt.seconds(after.get('search_start_s'), d)}, after a stretch "
+                f"{w(after.get('search_start_s'))}, after a stretch "
                 f"({_span(stretch)}) whose anomaly the detectors attributed to no sensor"
             )
             if after.get("onset_at_or_before"):
@@ -635,8 +667,8 @@ class _Access(FigureParts, TableParts):
             out.append(
                 Fact(
                     "After a gap",
-                    f"found soon after a gap in its data from {fmt.seconds(gap[0], d)} to "
-                    f"{fmt.seconds(gap[1], d)}: it may have begun in the gap",
+                    f"found soon after a gap in its data from {w(gap[0])} to "
+                    f"{w(gap[1])}: it may have begun in the gap",
                 )
             )
         frozen = ev.get("frozen")
@@ -651,12 +683,12 @@ class _Access(FigureParts, TableParts):
             )
         clipped = ev.get("clipped")
         if isinstance(clipped, Mapping):
-            out.append(Fact("Clipping", _clipped(clipped, d)))
+            out.append(Fact("Clipping", _clipped(clipped, w)))
         return out
 
     def evidence_facts(self, ev: Mapping[str, Any]) -> list[tuple[str, list[Fact]]]:
         known = {
-            "first_alarm_s": ("first alarm", lambda v: fmt.seconds(v, self.decimals)),
+            "first_alarm_s": ("first alarm", lambda v: self.when(v)),
             "peak_over_threshold": ("peak / threshold", lambda v: fmt.num(v, 3)),
             "p_value": ("p-value (healthy data this extreme)", _pvalue),
             "explained": ("share of residual explained by the fault model", fmt.percent),
@@ -691,12 +723,8 @@ class _Access(FigureParts, TableParts):
                     Fact("method", str(c.get("method"))),
                     Fact(
                         "period",
-                        f"{fmt.seconds(c.get('start_s'), self.decimals)} to "
-                        + (
-                            fmt.seconds(c["end_s"], self.decimals)
-                            if c.get("end_s") is not None
-                            else "the end"
-                        ),
+                        f"{self.when(c.get('start_s'))} to "
+                        + (self.when(c["end_s"]) if c.get("end_s") is not None else "the end"),
                     ),
                     Fact("samples corrected", fmt.num(c.get("samples"), 12)),
                     Fact("mean fault removed", fmt.num(c.get("mean_fault"))),
@@ -727,7 +755,7 @@ def _agree(agree: Any, kind: str, lead: str) -> str:
     )
 
 
-def _clipped(c: Mapping[str, Any], decimals: int) -> str:
+def _clipped(c: Mapping[str, Any], when: fmt.Clock) -> str:
     """A clipping sensor's evidence: ``at +4.2 (high) and -4.2 (low): 812 readings (31.5 %
     of those from the first to the last) from 720.000 s to 1200.000 s; 21 findings merged
     (additive, other)``."""
@@ -739,7 +767,7 @@ def _clipped(c: Mapping[str, Any], decimals: int) -> str:
     text = (
         f"at {' and '.join(limits) or fmt.MISSING}: {fmt.num(c.get('readings'), 12)} readings "
         f"({fmt.percent(c.get('fraction'))} of those from the first to the last) from "
-        f"{fmt.seconds(c.get('first_s'), decimals)} to {fmt.seconds(c.get('last_s'), decimals)}"
+        f"{when(c.get('first_s'))} to {when(c.get('last_s'))}"
     )
     merged = c.get("findings_merged")
     if merged:
@@ -747,8 +775,7 @@ def _clipped(c: Mapping[str, Any], decimals: int) -> str:
         text += f"; {merged} findings merged" + (f" ({types})" if types else "")
     if c.get("in_healthy_window_from_s") is not None:
         text += (
-            "; it clipped in the healthy window too, from "
-            f"{fmt.seconds(c['in_healthy_window_from_s'], decimals)}"
+            f"; it clipped in the healthy window too, from {when(c['in_healthy_window_from_s'])}"
         )
     return text
 
@@ -784,14 +811,14 @@ def _weights(v: Any) -> str:
 __all__ = ["MAX_DETAILED", "FigureView", "FindingView", "ReportView", "build_view"]
 
 
-def _open_end(evidence: Mapping[str, Any], decimals: int) -> str:
+def _open_end(evidence: Mapping[str, Any], when: fmt.Clock | int) -> str:
     """A finding's end where it has none: to the end of the record, or of its channel's
     data where the channel stopped publishing while the fault was under way
     (``evidence.data_ends_s``: no recovery is known)."""
     ends = evidence.get("data_ends_s")
     if ends is None:
         return "to the end"
-    return f"to the end of its data ({fmt.seconds(float(ends), decimals)}: the channel stops there)"
+    return f"to the end of its data ({fmt.as_clock(when)(float(ends))}: the channel stops there)"
 
 
 NO_RANGE: dict[str, str] = {
@@ -819,7 +846,7 @@ def no_range(f: Mapping[str, Any]) -> str:
     return f" ({said or 'no range: ' + note.split(':')[0]})"
 
 
-def onset_words(f: Mapping[str, Any], decimals: int) -> str:
+def onset_words(f: Mapping[str, Any], when: fmt.Clock | int) -> str:
     """A finding's onset as the report's table says it: ``30.000 s``; ``at or before
     12.000 s`` where it is an upper bound (:func:`~analyzer.report.view_figures.
     onset_bound`: there when a search began after the training window or after a
@@ -829,24 +856,26 @@ def onset_words(f: Mapping[str, Any], decimals: int) -> str:
     which nothing was judged where that is not the first sample, as ``analyzer run``'s
     last line and the watcher's index say it. One fault present from the first sample
     read "at or before 0.000 s" from one detector and "at or before 3.600 s" from
-    another (ux53 item 8); ``onset_s`` is unchanged."""
+    another (ux53 item 8); ``onset_s`` is unchanged. ``when``: the record's
+    :class:`~analyzer.report.format.Clock` (or the decimals of a short record's seconds)."""
     at = f.get("onset_s")
+    said = fmt.as_clock(when)
     if (f.get("evidence") or {}).get("onset_at_or_before"):
-        if fmt.seconds(at, decimals) in (fmt.MISSING, fmt.seconds(0.0, decimals)):
+        if said(at) in (fmt.MISSING, said(0.0)):
             return "from the start"  # (at 0, or not known: it read "before n/a")
-        return f"from the start (not judged before {fmt.seconds(at, decimals)})"
-    return ("at or before " if onset_bound(f) else "") + fmt.seconds(at, decimals)
+        return f"from the start (not judged before {said(at)})"
+    return ("at or before " if onset_bound(f) else "") + said(at)
 
 
-def _onset_fact(f: Mapping[str, Any], decimals: int) -> str:
+def _onset_fact(f: Mapping[str, Any], when: fmt.Clock | int) -> str:
     """The finding's "Onset" line: :func:`onset_words` and "from the start" with its 95 %
     interval (findings.json's ``onset_interval_s``), unless those words say the start
     already, then its UTC time where it has one, in the parenthesis those words may have
     opened (not a second one after it)."""
-    words = onset_words(f, decimals)
+    words = onset_words(f, when)
     utc = str(f.get("onset") or "")
     if not words.startswith("from the start"):
-        within = fmt.onset_interval(f.get("onset_interval_s"), decimals)
+        within = fmt.onset_interval(f.get("onset_interval_s"), when)
         return f"{words} from the start{within}" + (f" ({utc})" if utc else "")
     if not utc:
         return words

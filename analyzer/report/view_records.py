@@ -232,6 +232,12 @@ class ReportView:
     """How the page names the absolute times below the seconds: in UTC, with the offset
     the input's clock used, or read as UTC where the file gives no zone
     (:meth:`analyzer.report.view._Access.zone_words`)."""
+    healthy_words: str = ""
+    """The healthy verdict's sentence (:mod:`analyzer.report.healthy`): what was taken
+    as healthy and was not itself checked."""
+    time_words: str = "seconds"
+    """What the verdict table's onsets and ends are written in (:meth:`analyzer.report.
+    format.Clock.words`): ``seconds``, or ``minutes and seconds`` in a long record."""
     noise_only: str = ""
     """Why a range marked "noise only" (a gain's) is narrower than a 95 % one and how
     often it held the true gain, where a finding has such a range; else empty."""

@@ -76,6 +76,7 @@ class TableParts:
     an: Any
     doc: Mapping[str, Any]
     rate: float
+    when: fmt.Clock
     analyzed: tuple[str, ...]
     results: dict[Any, Any]
 
@@ -115,8 +116,8 @@ class TableParts:
                     analyzed=c.name in self.analyzed,
                     samples=f"{c.samples:,}",
                     rate=fmt.rate(c.rate_hz),
-                    start_s=fmt.seconds((c.start_ns - start) / NS_PER_S),
-                    end_s=fmt.seconds((c.end_ns - start) / NS_PER_S),
+                    start_s=self.when((c.start_ns - start) / NS_PER_S),
+                    end_s=self.when((c.end_ns - start) / NS_PER_S),
                     gaps=str(c.gaps),
                     range=fmt.num_range(c.minimum, c.maximum),
                 )

@@ -48,7 +48,8 @@ def test_an_onset_at_the_search_start_is_an_upper_bound(tmp_path, capsys, at_s, 
     last = err.splitlines()[-1]
     if bound:
         assert f["onset_s"] == pytest.approx(15.02)
-        assert f"at or before {onset}" in html
+        # (the report rounds to the sample period, 2 decimals at 50 Hz; the run's line 3)
+        assert f"at or before {f['onset_s']:.2f} s" in html
         assert "the first sample after the training window" in html
         assert f"s1 additive from {onset} or earlier;" in last
     else:

@@ -72,7 +72,7 @@ def test_a_fault_there_from_the_start_is_said_alike_wherever_it_is_shown(model_r
     verdict = html[html.index('id="verdict"') : html.index('id="findings"')]
     # there when the filters could first judge: "from the start", as the run's line says
     # it (it read "at or before 4.310 s", a constant channel's "at or before 0.000 s")
-    said = f"from the start (not judged before {f['onset_s']:.3f} s"
+    said = f"from the start (not judged before {f['onset_s']:.2f} s"  # (50 Hz: 2 decimals)
     assert said + ")" in verdict
     assert _fact(html, "Onset").startswith(said)
     # and the figures in the same words (their legends read "onset: at or before")
@@ -110,9 +110,11 @@ def test_with_a_model_every_figure_calls_the_first_seconds_the_filters_warm_up(m
 
 
 def test_time_decimals_follow_the_rate():
-    assert [fmt.time_decimals(r) for r in (1.0, 50.0, 1000.0, 1024.0, 2000.0, 50_000.0)] == [
-        3,
-        3,
+    # (to the sample period, ux60 item 8: 3 decimals at 1 Hz read "2121.000 s")
+    assert [fmt.time_decimals(r) for r in (0.1, 1.0, 50.0, 1000.0, 1024.0, 2000.0, 50_000.0)] == [
+        0,
+        0,
+        2,
         3,
         4,
         4,
@@ -207,9 +209,10 @@ def test_the_fault_evidence_findings_json_documents_is_in_the_finding(monkeypatc
     assert "<dt>Frozen readings</dt><dd>median reading 0, varying 0 × their healthy" in one
     assert "(the residual alone gave multiplicative)" in one
     assert "<dt>Clipping</dt><dd>at 4.25 (high) and -4.25 (low): 812 readings (31.5 %" in one
-    assert "from 60.000 s to 110.000 s; 21 findings merged (additive, other)" in one
-    assert "<dt>After a gap</dt><dd>found soon after a gap in its data from 50.000 s" in one
-    assert "from 90.000 s, after a stretch (70.000-80.000 s)" in two
+    # (times to the sample period: 2 decimals at 50 Hz)
+    assert "from 60.00 s to 110.00 s; 21 findings merged (additive, other)" in one
+    assert "<dt>After a gap</dt><dd>found soon after a gap in its data from 50.00 s" in one
+    assert "from 90.00 s, after a stretch (70.000-80.000 s)" in two
     assert "so it may have begun in the stretch" in two
     assert "<dt>Searched without</dt><dd>/accel.data[0]: found by a second search" in two
     assert _fact(two, "Onset").startswith("at or before 90.")  # searched_after's bound

@@ -141,7 +141,7 @@ def test_an_onset_at_the_search_start_is_said_beside_the_verdict(monkeypatch):
     page = render_report(a, findings_document(a))
     verdict = _text(_section(page, "verdict"))
     channel = a.analyzed[1]
-    assert f"finding 1 ({channel}) was there when the search began at 75.500 s" in verdict
+    assert f"finding 1 ({channel}) was there when the search began at 75.50 s" in verdict
 
 
 # -- the size against the sensor's spread ------------------------------------------------
