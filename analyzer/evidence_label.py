@@ -138,7 +138,7 @@ def label_of(
         )
     if level_change:
         label = LABELS[min(LABELS.index(label) + 1, len(LABELS) - 1)]
-        why = [*why, "it overlaps a change of the whole structure's response (load or structure)"]
+        why = [*why, "it overlaps a stretch where the load or the structure changed"]
     return label, why
 
 
