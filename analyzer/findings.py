@@ -19,9 +19,11 @@ from analyzer import __version__
 from analyzer.data_ends import data_end
 from analyzer.detectors import DetectorResult
 from analyzer.diagnosis import Finding
+from analyzer.diagnosis.levels import excursions
 from analyzer.diagnosis.oversampled import Oversampled
 from analyzer.diagnosis.unexplained import Unexplained
 from analyzer.error_file import touches_inputs
+from analyzer.evidence_label import fault_label, level_changes
 from analyzer.modelfile import SavedModel
 from analyzer.outdir import staged
 from analyzer.readers.base import InputInfo, channel_labels
@@ -193,6 +195,8 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
     train0, train1 = a.train
     labels = a.labels
     units = channel_units(a.inputs, {f.channel for f in a.findings})
+    # the stretches the run's level note names (the load or the structure changed)
+    changed, _ = excursions(getattr(a, "levels", None))
     return {
         "schema": SCHEMA,
         "analyzer_version": __version__,
@@ -234,36 +238,44 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
             for c in a.channels
         ],
         "faults": [
-            _with_check(
-                {
-                    "channel": f.channel,
-                    **({"label": labels[f.channel]} if f.channel in labels else {}),
-                    "type": str(f.type),
-                    "onset_s": round(f.onset_s, 4),
-                    "end_s": None if f.end_s is None else round(f.end_s, 4),
-                    "onset": a.onset_iso(f.onset_s),
-                    "end": a.onset_iso(f.end_s),
-                    # (null, not a findings.json that cannot be written, should one not be finite)
-                    "magnitude": _jsonable({k: float(v) for k, v in f.magnitude.items()}),
-                    "confidence": _jsonable(round(float(f.confidence), 4)),
-                    "detector": f.detector,
-                    "evidence": _jsonable(f.evidence),
-                    "size_relative": size_relative(
-                        f.magnitude,
-                        a.healthy.get(f.channel),
-                        f.onset_s,
-                        f.end_s if f.end_s is not None else data_end(f.evidence),
-                        a.duration_s,
-                    ),
-                    **finding_intervals(f),
-                    # (where its onset coincides with a message the recorder logged late)
-                    **(
-                        {"caution": said}
-                        if (said := getattr(a, "cautions", {}).get((f.channel, f.onset_s)))
-                        else {}
-                    ),
-                },
-                units,
+            _with_label(
+                _with_check(
+                    {
+                        "channel": f.channel,
+                        **({"label": labels[f.channel]} if f.channel in labels else {}),
+                        "type": str(f.type),
+                        "onset_s": round(f.onset_s, 4),
+                        "end_s": None if f.end_s is None else round(f.end_s, 4),
+                        "onset": a.onset_iso(f.onset_s),
+                        "end": a.onset_iso(f.end_s),
+                        # (null, not an unwritable findings.json, should one not be finite)
+                        "magnitude": _jsonable({k: float(v) for k, v in f.magnitude.items()}),
+                        "confidence": _jsonable(round(float(f.confidence), 4)),
+                        "detector": f.detector,
+                        "evidence": _jsonable(f.evidence),
+                        "size_relative": size_relative(
+                            f.magnitude,
+                            a.healthy.get(f.channel),
+                            f.onset_s,
+                            f.end_s if f.end_s is not None else data_end(f.evidence),
+                            a.duration_s,
+                        ),
+                        **finding_intervals(f),
+                        # (where its onset coincides with a message the recorder logged late)
+                        **(
+                            {"caution": said}
+                            if (said := getattr(a, "cautions", {}).get((f.channel, f.onset_s)))
+                            else {}
+                        ),
+                        # (where it overlaps a stretch of the level note: a load change)
+                        **(
+                            {"level_change": over}
+                            if (over := level_changes(f.onset_s, f.end_s, changed, a.duration_s))
+                            else {}
+                        ),
+                    },
+                    units,
+                )
             )
             for f in a.findings
         ],
@@ -305,6 +317,15 @@ def _with_check(fault: dict[str, Any], units: Mapping[str, str]) -> dict[str, An
     (:func:`analyzer.what_to_check.what_to_check`, with the channel's unit of ``units``,
     :func:`analyzer.what_to_check.channel_units`)."""
     fault["check"] = what_to_check(fault, units.get(str(fault["channel"]), ""))
+    return fault
+
+
+def _with_label(fault: dict[str, Any]) -> dict[str, Any]:
+    """``fault`` with its ``evidence_label`` (strong, moderate or weak) and
+    ``evidence_label_why`` (:func:`analyzer.evidence_label.fault_label`)."""
+    label, why = fault_label(fault)
+    fault["evidence_label"] = label
+    fault["evidence_label_why"] = why
     return fault
 
 

@@ -37,8 +37,10 @@ from typing import Any
 
 from analyzer import __version__
 from analyzer.diagnosis.evidence import mean_test_read
+from analyzer.diagnosis.levels import LISTED
 from analyzer.diagnosis.spread import GAIN_COVERAGE
 from analyzer.diagnosis.unexplained import either
+from analyzer.evidence_label import LABEL_WORDS, LARGE, MEASURED, SMALL
 from analyzer.report import format as fmt
 from analyzer.report import healthy
 from analyzer.report.methods import DECISION, TESTS
@@ -72,6 +74,18 @@ NOISE_ONLY = (
 )
 """What a "noise only" range is, said where a finding has one (its figure is
 :data:`analyzer.diagnosis.spread.GAIN_COVERAGE`, also in findings.json's note)."""
+
+STRENGTH_NOTE = (
+    "The evidence column weighs what each finding carries, not the agreement score: weak "
+    "(confirm before sending anyone) where one detector alone saw it, it is below "
+    f"{SMALL:g} of the sensor's usual spread, the innovation tests point to another type, "
+    "or the recorder logged a message late at its onset; strong where more detectors "
+    f"agree, the tests agree with the type and its size is at least {LARGE:g} (the usual "
+    "spread); moderate otherwise; one step lower where it overlaps a change of the whole "
+    f"structure's response. {MEASURED}"
+)
+"""The sentence under the verdict table on the evidence labels (:mod:`analyzer.
+evidence_label`, whose :data:`~analyzer.evidence_label.MEASURED` gives the rates)."""
 
 MAX_DETAILED = 6
 """Findings that get a section (figures, tests, evidence); the others are rows of the
@@ -113,6 +127,7 @@ def build_view(
         saved=a.saved_text(),
         nothing_searched=a.nothing_searched(),
         unexplained=a.unexplained(faults),
+        load_change=a.load_change(faults),
         verdict_facts=a.verdict_facts(),
         findings=findings,
         summarized=max(0, len(findings) - MAX_DETAILED),
@@ -152,6 +167,8 @@ def build_view(
         ],
     )
     view.utc_words = a.utc_words()
+    if any(f.strength for f in findings):
+        view.strength_note = STRENGTH_NOTE
     if any(f.partial for f in findings):
         view.noise_only = NOISE_ONLY.format(coverage=GAIN_COVERAGE)
     view.figure_failures = a.draw_figures()
@@ -322,6 +339,58 @@ class _Access(FigureParts, TableParts):
             + f"sensors at a time (--channels '!{leave}') to search the others without it; "
             + "the notes below say more."
         )
+
+    def load_change(self, faults: Sequence[Mapping[str, Any]]) -> str:
+        """The verdict's line on the stretches where the whole structure's response left
+        the training window's range (the run's level note) that findings overlap
+        (``level_change``), naming those findings: they may be that change (a load or
+        the structure itself), not sensors' faults. On SKAB's anomaly-free record the
+        note sat among the notes, "2 other", while the headline counted 7 faults; empty
+        where no finding overlaps one."""
+        stretches: dict[tuple[float, float, float], list[int]] = {}
+        for i, f in enumerate(faults):
+            for c in f.get("level_change") or []:
+                key = (float(c["start_s"]), float(c["end_s"]), float(c["level"]))
+                stretches.setdefault(key, []).append(i + 1)
+        if not stretches:
+            return ""
+        spans = sorted(stretches)
+        if len(spans) <= LISTED:
+            shown = "at " + " and ".join(
+                self.stretch(a, b, f"{fmt.num(level, 2)}x its training level")
+                for a, b, level in spans
+            )
+        else:  # (SKAB's anomaly-free record: six, from 46.5 min to its end)
+            low, high = min(x[2] for x in spans), max(x[2] for x in spans)
+            shown = f"in {len(spans)} stretches over " + self.stretch(
+                spans[0][0],
+                max(x[1] for x in spans),
+                f"{fmt.num(low, 2)}-{fmt.num(high, 2)}x its training level",
+            )
+        numbers = sorted({n for ns in stretches.values() for n in ns})
+        one, them = len(numbers) == 1, "it" if len(stretches) == 1 else "them"
+        change = "that change" if len(stretches) == 1 else "those changes"
+        named = ", ".join(str(n) for n in numbers)
+        who = (
+            f"finding {named} overlaps {them} and may be {change}, not a sensor's fault "
+            "(its evidence label is one step lower for it)"
+            if one
+            else f"findings {named} overlap {them} and may be {change}, not sensors' faults "
+            "(their evidence labels are one step lower for it)"
+        )
+        return (
+            "The whole structure's response (the load, or the structure itself) changed "
+            f"beyond anything in the training window {shown}: {who}. "
+            "The response-level map under Archive shows whether a sensor stands out from "
+            "the others."
+        )
+
+    def stretch(self, a: float, b: float, level: str) -> str:
+        """``2789.0-2822.0 s (46.5-47.0 min; 2.7x its training level)``: seconds, as the
+        table gives onsets, with minutes beside them in a record of over 10 minutes (as
+        the level map's axis), and ``level``."""
+        minutes = f"{a / 60.0:.1f}-{b / 60.0:.1f} min; " if self.duration > 600.0 else ""
+        return f"{a:.1f}-{b:.1f} s ({minutes}{level})"
 
     def _channel_count(self) -> int:
         """The archive's numeric channels and the analyzed ones not among them (a saved
@@ -535,6 +604,8 @@ class _Access(FigureParts, TableParts):
             anchor=f"finding-{i + 1}",
             channel=str(f["channel"]),
             label=str(f.get("label") or ""),
+            strength=LABEL_WORDS.get(str(f.get("evidence_label") or ""), ""),
+            strength_why="; ".join(str(w) for w in f.get("evidence_label_why") or []),
             type=str(f["type"]),
             # an upper bound (the fault was there when the search began) says so wherever
             # it is shown: "at or before 4.310 s", not an exact 4.310 s

@@ -121,6 +121,12 @@ class FindingView:
     label: str = ""
     """The name the channel's message gives it (a ``JointState``'s joint:
     findings.json's ``label``), shown beside it; empty where there is none."""
+    strength: str = ""
+    """How much evidence stands behind it, in words: ``strong``, ``moderate``, ``weak:
+    confirm before sending anyone`` (findings.json's ``evidence_label``,
+    :mod:`analyzer.evidence_label`)."""
+    strength_why: str = ""
+    """Why that label (``evidence_label_why``, joined)."""
 
 
 @dataclass(slots=True)
@@ -241,6 +247,12 @@ class ReportView:
     noise_only: str = ""
     """Why a range marked "noise only" (a gain's) is narrower than a 95 % one and how
     often it held the true gain, where a finding has such a range; else empty."""
+    load_change: str = ""
+    """The verdict's line on a change of the whole structure's response that findings
+    overlap (their ``level_change``): they may be that change, not sensors; else empty."""
+    strength_note: str = ""
+    """What the evidence labels mean and how often each was right in the sweeps, under
+    the verdict table."""
     unexplained: str = ""
     """The verdict's warning: alarms the findings do not explain (``findings.json``'s
     ``unexplained_alarms``: a second faulty sensor the run may have missed), else empty."""
