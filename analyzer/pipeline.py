@@ -354,7 +354,7 @@ def _partial_channels(
         if rows:
             key = (name.split(".", 1)[0], tuple(rows), name in searched)
             groups.setdefault(key, []).append(name)
-    notes = []
+    notes: list[str] = []
     for (topic, rows, there), names in groups.items():
         one = len(names) == 1
         its = "its" if one else "their"
