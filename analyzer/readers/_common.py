@@ -1367,11 +1367,11 @@ class TopicTracker:
         relabelling, the joints left out). Per content of the batch (a few), not per
         message (:func:`by_name`); a name that appears later gets the next index."""
         key = (topic, field_)
-        first, last, siblings, _ = decoded.label_ends[field_]
+        first, _, siblings, kinds = decoded.label_ends[field_]
         if key in self._unordered or not siblings or any(s.endswith("]") for s in siblings):
             return
         got = decoded.label_rows.get(field_)
-        if got is None and first != last:  # (more contents than BY_NAME_ORDERS)
+        if got is None and len(kinds) > 1:  # (more contents than BY_NAME_ORDERS)
             self._unordered.add(key)
             return
         rows, codes, contents = got or (
@@ -1576,9 +1576,9 @@ SEEN_LABELS = 9
 
 @dataclass(slots=True)
 class _Moved:
-    """A string array whose numeric arrays were put back in one order by name: the names
-    that appeared after the first message, and those missing from some message (before
-    the last name it has), each with its first log time."""
+    """A string array beside numeric arrays: the names that appeared after the topic's
+    first message, and those missing from a message after they were seen, each with its
+    first log time (said where the arrays were put back in one order by name)."""
 
     added: dict[str, int] = field(default_factory=dict)
     missing: dict[str, int] = field(default_factory=dict)

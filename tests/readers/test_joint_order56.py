@@ -124,3 +124,22 @@ def test_a_run_audits_the_joints_and_finds_the_real_fault(
     assert [(f["channel"], f.get("label"), f["type"]) for f in findings["faults"]] == [
         ("/js.position[1]", "b", "multiplicative")
     ]
+
+
+def test_repeated_names_are_no_order_to_follow(tmp_path: Path) -> None:
+    """[a, a, b] then [b, a, a]: which ``a`` is which cannot be told; left out as
+    before (the index line)."""
+    messages = [
+        (
+            "/js",
+            JS,
+            T0 + i * MS,
+            joint_state(T0 + i * MS, ["a", "a", "b"] if i < 50 else ["b", "a", "a"], [i, -i, 0]),
+        )
+        for i in range(100)
+    ]
+    reader = open_input(write(tmp_path / "x.mcap", "mcap", messages))
+    collect(reader.chunks())
+    assert reader.info.relabelled == ["/js.position[", "/js.velocity["]
+    (line,) = reader.info.errors
+    assert "follow the index, not the name" in line
