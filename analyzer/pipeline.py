@@ -197,7 +197,7 @@ from analyzer.selection import (
     stuck_words,
     typed_fields,
 )
-from analyzer.silence_note import silence_note
+from analyzer.silence_note import StoppedNote, silence_note, stopped_words
 from analyzer.silent import blank_findings, merged, silent_findings
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
 from analyzer.store.store import UNREADABLE
@@ -354,7 +354,7 @@ def _partial_channels(
         if rows:
             key = (name.split(".", 1)[0], tuple(rows), name in searched)
             groups.setdefault(key, []).append(name)
-    notes = []
+    notes: list[str] = []
     for (topic, rows, there), names in groups.items():
         one = len(names) == 1
         its = "its" if one else "their"
@@ -369,12 +369,18 @@ def _partial_channels(
             f"{names[0]} has" if one else f"{capped(names)} ({len(names)} channels of {topic}) have"
         )
         it, pattern = ("it", names[0]) if one else ("them", f"{topic}.*")
+        # (the time from which a channel that stops has no reading, for the last line)
+        stop = next((a / rate_hz for a, b in rows if a > 0), None)
         if not there:
             then = "inside the healthy window, before the faults are searched"
-            notes.append(f"{who} no reading in {what} of the record ({then})")
+            notes.append(
+                StoppedNote.of(f"{who} no reading in {what} of the record ({then})", names, stop)
+            )
             continue
         if not not_again:
-            advice = f"the others are searched again without {it} there (below)"
+            advice = (
+                f"the others are searched again without {it} there (the notes say what that found)"
+            )
         elif len(chosen) - len(names) >= SEARCH_AGAIN_MIN:
             advice = f"--channels '!{pattern}' searches the others there"
         else:
@@ -382,12 +388,13 @@ def _partial_channels(
                 f"too few channels would be left to search the others without {it} (at "
                 f"least {SEARCH_AGAIN_MIN}: with two, each is estimated from the other alone)"
             )
-        notes.append(
+        text = (
             f"{who} no reading in {what} of the record: where "
             f"{'it is' if one else 'they are'} missing, the detectors that model {it} with the "
             "others (ar_kalman_bank, detection_filter) lose their view of "
             f"{'them' if one else 'the others'} too; {advice}"
         )
+        notes.append(StoppedNote.of(text, names, stop))
     return notes
 
 
@@ -3294,16 +3301,22 @@ def _unsearched(analysis: Analysis) -> str:
     """The summary line's words on the channels no fault was searched for because they
     have no sample in the training window (:class:`~analyzer.selection.NoSamplesNote`,
     said on stderr before): "no sensor fault found" alone read as every sensor checked
-    where a renamed column's fault was never looked for (ux55). Empty where there are
-    none."""
+    where a renamed column's fault was never looked for (ux55); and on those that stop
+    before the record's end (:func:`~analyzer.silence_note.stopped_words`: a topic that
+    stopped for good, searched only where it has data). Empty where there are none."""
     notes = getattr(analysis, "notes", ())  # (an Analysis-like caller's may have none)
     names = sorted({c for n in notes if isinstance(n, NoSamplesNote) for c in n.names})
-    if not names:
-        return ""
-    return (
-        f" ({len(names)} channel{'s' if len(names) > 1 else ''} not searched, with no data "
-        "in the training window: see above)"
-    )
+    said = []
+    if names:
+        said.append(
+            f"{len(names)} channel{'s' if len(names) > 1 else ''} not searched, with no data "
+            "in the training window"
+        )
+    # (a sensor that stopped for good: "no sensor fault found" alone read as the whole
+    # record audited)
+    if stopped := stopped_words(notes):
+        said.append(stopped)
+    return f" ({'; '.join(said)}: see above)" if said else ""
 
 
 def faults_words(

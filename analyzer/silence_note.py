@@ -56,6 +56,48 @@ class SilenceNote(ArchiveNote):
     __slots__ = ()
 
 
+class StoppedNote(ArchiveNote):
+    """The note on analyzed channels without a reading for long at the record's start or
+    end (:func:`analyzer.pipeline._partial_channels`: a sensor that started late, or a
+    topic that stopped for good while the others went on), said on stderr with the
+    archive's notes and beside the report's verdict. An IMU that stopped at 40 % of a
+    record was said in findings.json's notes and among the report's "other notes" alone:
+    stderr ended with "no sensor fault found", which read as the whole record audited
+    (rob56). ``stopped``: the channels that stop before the record's end, and the time
+    (seconds from the start) from which they have no reading, which the run's last line
+    names."""
+
+    stopped: tuple[tuple[str, float], ...] = ()
+
+    @classmethod
+    def of(cls, text: str, names: Sequence[str], stop_s: float | None) -> StoppedNote:
+        """The note ``text`` on ``names`` (a topic's channels, or one), which have no
+        reading from ``stop_s`` to the record's end (None: they run to it); built from its
+        text, the rest added, so that it pickles as a note does."""
+        note = cls(text)
+        if stop_s is not None:
+            note.stopped = tuple((n, stop_s) for n in names)
+        return note
+
+
+def stopped_words(notes: Sequence[str]) -> str:
+    """The run's last line's words on the channels that stop before the record's end
+    (:class:`StoppedNote`): ``/imu has no reading after 48 s``, the fields of one topic
+    named by it, or how many stop; empty where none does."""
+    ends: dict[str, float] = {}
+    for n in notes:
+        for name, at in getattr(n, "stopped", ()) if isinstance(n, StoppedNote) else ():
+            ends[name] = min(at, ends.get(name, at))
+    if not ends:
+        return ""
+    topics = {topic_of(n) for n in ends}
+    if len(topics) == 1:
+        (topic,) = topics
+        who = topic if len(ends) > 1 else next(iter(ends))
+        return f"{who} has no reading after {short_seconds(min(ends.values()))} s"
+    return f"{len(topics)} topics (or sensors) stop before the record ends"
+
+
 def silences(
     store: ChannelStore,
     info: ChannelInfo,

@@ -17,11 +17,12 @@ batches. Each batch lists the archives that became *ready* since the previous on
 * **Stable.** The (relative path, size, mtime) of every file of the archive has not
   changed for ``settle`` seconds, measured on the monotonic clock by observing it (an old
   mtime alone is not trusted: network file systems and copies that preserve times lie).
-* **Complete**, where the format says so (:func:`incomplete_reason`): an MCAP file has its
-  magic at both ends; a ROS 1 bag has an index (``index_pos`` in the bag header is not 0
-  and the file extends past it); a ROS 2 bag directory has its ``metadata.yaml``, the
-  storage files it lists (by name in the folder, as the reader opens them), none with a
-  sqlite journal, and a sqlite file is as long as its header says
+* **Complete**, where the format says so (:func:`incomplete_reason`): a file that holds
+  only the beginning of an MCAP's, ROS 1 bag's or sqlite file's opening magic is not; an
+  MCAP file has its magic at both ends; a ROS 1 bag has an index (``index_pos`` in the bag
+  header is not 0 and the file extends past it); a ROS 2 bag directory has its
+  ``metadata.yaml``, the storage files it lists (by name in the folder, as the reader
+  opens them), none with a sqlite journal, and a sqlite file is as long as its header says
   (:func:`sqlite_unfinished`); a CSV file (``.gz`` too) has a data row under its header
   line. An archive that is stable but still looks unfinished after ``incomplete_timeout``
   seconds (a recorder that died, a truncated copy) is yielded anyway with the reason, so
@@ -87,6 +88,8 @@ upload that stalled longer than ``--settle`` was analyzed as an unknown format, 
 moved to ``--failed`` under the uploader's hands."""
 SQLITE_SIDECARS = ("-journal", "-wal", "-shm")
 MCAP_MAGIC = b"\x89MCAP0\r\n"
+WRITING = "(still being written?)"
+"""The end of the reasons of a file whose format says it is not closed yet."""
 ROS1_MAGIC = b"#ROSBAG V2.0\n"
 SQLITE_MAGIC = b"SQLite format 3\x00"
 SQLITE_HEADER = 100
@@ -204,9 +207,15 @@ def _file_incomplete(path: Path) -> str | None:
     head, tail, size = _read_ends(path, CSV_HEAD if csv else 4096 + 64)
     if size == 0:
         return "empty file"
+    if not csv and (begun := _magic_begun(head)) is not None:
+        magic, name = begun
+        return (
+            f"{name} file with only the first {size} of the {len(magic)} bytes of its "
+            f"opening magic {WRITING}"
+        )
     if head.startswith(MCAP_MAGIC):
         if size < 2 * len(MCAP_MAGIC) or not tail.endswith(MCAP_MAGIC):
-            return "MCAP file without its closing magic (still being written?)"
+            return f"MCAP file without its closing magic {WRITING}"
         return None
     if head.startswith(ROS1_MAGIC):
         index_pos = ros1_index_pos(head)
@@ -225,6 +234,22 @@ def _file_incomplete(path: Path) -> str | None:
             return sqlite_unfinished(head, size)
     if csv and not _csv_has_row(head, size, gz=path.name.lower().endswith(".gz")):
         return "a header line only (no data row yet)"
+    return None
+
+
+OPENING_MAGICS = ((MCAP_MAGIC, "MCAP"), (ROS1_MAGIC, "ROS 1 bag"), (SQLITE_MAGIC, "SQLite"))
+"""The first bytes of the formats whose structure says when they are complete."""
+
+
+def _magic_begun(head: bytes) -> tuple[bytes, str] | None:
+    """The opening magic, and its format's name, that ``head`` (a whole file, not a CSV)
+    is the beginning of and shorter than, or None: a recorder that has opened its file
+    and written its first bytes (an MCAP writer's ``\\x89MCA``), which was taken for a
+    complete file of unknown format, analyzed at once and moved to ``--failed`` under the
+    writer's hands."""
+    for magic, name in OPENING_MAGICS:
+        if len(head) < len(magic) and magic.startswith(head):
+            return magic, name
     return None
 
 
@@ -667,7 +692,12 @@ def _only_empty(reason: str | None) -> bool:
 
 def _gist(reason: str) -> str:
     """An unfinished reason without its numbers (``sqlite database unfinished: # of the #
-    bytes...``): a copy that pauses again and again gives the same gist."""
+    bytes...``): a copy that pauses again and again gives the same gist. The reasons of a
+    file being written (:data:`WRITING`: the first bytes of an MCAP's opening magic, then
+    no closing magic) have one gist per member, so that a logger's file is said once."""
+    if reason.endswith(WRITING):
+        member, _, _ = reason.rpartition(": ")
+        return f"{member}: {WRITING}"
     return re.sub(r"\d+", "#", reason)
 
 

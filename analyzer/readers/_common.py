@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import stat
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -134,6 +135,10 @@ LabelEnds = tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...], tuple[tuple
 """A string array in a batch: its first and last message's strings, its siblings and its
 contents (:attr:`Decoded.label_ends`)."""
 
+LabelRows = tuple[IntArray, IntArray, tuple[tuple[str, ...], ...]]
+"""A string array in a batch, message by message: the rows that have it, the index of
+each one's content among the contents, and the contents (:attr:`Decoded.label_rows`)."""
+
 
 @dataclass(slots=True)
 class Decoded:
@@ -156,6 +161,11 @@ class Decoded:
     """Per such string array: its strings in the batch's first and last message, its
     siblings (:class:`Relabel`) and its contents in the batch, for the comparison with
     the topic's batches before."""
+    label_rows: dict[str, LabelRows] = field(default_factory=dict)
+    """Per such string array whose content changes in the batch, into at most
+    :data:`BY_NAME_ORDERS` contents: which content each message has (the topic's
+    tracker puts a ``JointState``'s values back in one order by name:
+    :func:`by_name`)."""
 
     def note_failure(self, err: BaseException | str, count: int = 1) -> None:
         """Count ``count`` undecodable messages, keeping the first reason."""
@@ -223,6 +233,51 @@ def merge_parts(
         rows_sorted = all_rows[order]
         merged[name] = (None if rows_sorted.size == n else rows_sorted, all_values[order])
     return merged
+
+
+BY_NAME_ORDERS = 16
+"""Most contents a string array takes in one batch for the numeric arrays beside it to be
+put back in one order by name (:func:`by_name`): a driver restarted now and then
+publishes its joints in another order; more contents than this in a batch are no order
+of a few names, and are left out as before."""
+
+
+def by_name(
+    columns: dict[str, tuple[IntArray | None, FloatArray]],
+    siblings: Sequence[str],
+    n: int,
+    rows: IntArray,
+    codes: IntArray,
+    targets: Sequence[Sequence[int]],
+) -> dict[str, tuple[IntArray | None, FloatArray]]:
+    """``columns`` (of a batch of ``n`` messages) with the elements of the numeric arrays
+    ``siblings`` (``position[j]``) of the messages ``rows``, whose string array has the
+    content ``codes``, moved to the index ``targets[code][j]``: that of their name in the
+    topic's first order. One selection per element and content, not per message; the
+    other columns, and the messages without the string array, as they are."""
+    width = max((len(t) for t in targets), default=0)
+    table = np.tile(np.arange(width, dtype=np.int64), (len(targets), 1))
+    for k, t in enumerate(targets):
+        table[k, : len(t)] = t
+    row_code = np.full(n, -1, dtype=np.int64)
+    row_code[rows] = codes
+    pattern = re.compile(rf"({'|'.join(map(re.escape, siblings))})\[(\d+)\]")
+    parts: dict[str, list[tuple[IntArray | None, FloatArray]]] = {}
+    for name, (r, v) in columns.items():
+        m = pattern.fullmatch(name)
+        j = int(m[2]) if m else width
+        if m is None or j >= width:
+            parts.setdefault(name, []).append((r, v))
+            continue
+        at = np.arange(n, dtype=np.int64) if r is None else r
+        code = row_code[at]
+        target = np.where(code >= 0, table[np.maximum(code, 0), j], j)
+        for t in np.unique(target).tolist():
+            sel = target == t
+            parts.setdefault(f"{m[1]}[{t}]", []).append((at[sel], v[sel]))
+    merged = merge_parts(parts, n)
+    first = {name: k for k, name in enumerate(columns)}
+    return {k: merged[k] for k in sorted(merged, key=lambda k: first.get(k, len(first)))}
 
 
 # --------------------------------------------------------------------------- per-topic notes
@@ -858,6 +913,17 @@ class TopicTracker:
         self._zero: dict[str, int] = {}
         self._failures: dict[str, list[Any]] = {}
         self._relabels: dict[tuple[str, str], _Relabels] = {}
+        self._orders: dict[tuple[str, str], list[str]] = {}
+        """Per topic and string array beside flat numeric arrays (``JointState.name``):
+        the names in their first order, those that appear later added at the end; the
+        arrays' elements are put back in this order (:meth:`_in_first_order`)."""
+        self._unordered: set[tuple[str, str]] = set()
+        """Those whose order could not be followed (names repeated or empty, or more
+        contents in a batch than :data:`BY_NAME_ORDERS`): left out as before."""
+        self._moved: set[tuple[str, str]] = set()
+        """Those whose elements were moved back in order (said by the reader)."""
+        self._changes: dict[tuple[str, str], _Moved] = {}
+        """Their names that appeared or went missing."""
         self._seen_labels: dict[tuple[str, str], dict[tuple[str, ...], None]] = {}
         """Per topic and string array: the contents seen (at the batches' ends and first
         changes; at most :data:`SEEN_LABELS`), in order."""
@@ -905,6 +971,7 @@ class TopicTracker:
             for names in kinds:
                 if len(contents) < SEEN_LABELS:
                     contents[names] = None
+            self._in_first_order(topic, name, decoded, log_ns)
         for change in changes:
             key = (topic, change.field)
             known = self._relabels.get(key)
@@ -1268,8 +1335,77 @@ class TopicTracker:
             jumps.events += int(events.size)
         jumps.dropped += int(np.count_nonzero(drop & new))
 
+    def _moved_line(self, topic: str, field_: str, change: _Relabels) -> str:
+        """The line on a string array whose numeric arrays were put back in its first
+        order by name (:meth:`_in_first_order`): where its order first changed, the
+        order kept, and the names that appeared or went missing."""
+        first = change.first
+        moved = self._changes[(topic, field_)]
+        arrays = ", ".join(f"{name}[i]" for name in first.siblings)
+        more = f"; {change.count} changes" if change.count > 1 else ""
+        line = (
+            f"{topic}: {first.field}[] changed order at {self._at(change.log_ns)} "
+            f"({_names(first.before)} -> {_names(first.after)}){more}; {arrays} put back in "
+            f"the first order by name, {_names(tuple(self._orders[(topic, field_)]))}"
+        )
+        for what, found in (("added", moved.added), ("missing", moved.missing)):
+            if found:
+                said = [f"{n} from {self._at(t)}" for n, t in list(found.items())[:3]]
+                rest = f" and {len(found) - 3} more" if len(found) > 3 else ""
+                line += f"; {what}: {', '.join(said)}{rest}"
+        return line
+
     def _at(self, log_ns: int) -> str:
         return f"t={(log_ns - (self._t0 or 0)) / 1e9:.2f} s"
+
+    def _in_first_order(self, topic: str, field_: str, decoded: Decoded, log_ns: IntArray) -> None:
+        """Put the elements of the flat numeric arrays beside the string array ``field_``
+        of ``decoded`` (``JointState.position[j]`` beside ``name``) back in the topic's
+        first order by name (:attr:`_orders`): a driver restarted mid-record that
+        publishes the same joints in another order moved ``position[4]`` to another
+        joint, whose channel then mixed two joints (a false fault, or, said as a
+        relabelling, the joints left out). Per content of the batch (a few), not per
+        message (:func:`by_name`); a name that appears later gets the next index."""
+        key = (topic, field_)
+        first, _, siblings, kinds = decoded.label_ends[field_]
+        if key in self._unordered or not siblings or any(s.endswith("]") for s in siblings):
+            return
+        got = decoded.label_rows.get(field_)
+        if got is None and len(kinds) > 1:  # (more contents than BY_NAME_ORDERS)
+            self._unordered.add(key)
+            return
+        rows, codes, contents = got or (
+            np.arange(decoded.n, dtype=np.int64),
+            np.zeros(decoded.n, dtype=np.int64),
+            (first,),
+        )
+        if any(len(set(c)) < len(c) or "" in c for c in contents):
+            self._unordered.add(key)  # (names repeated or empty: no order to follow)
+            return
+        _, seen_at = np.unique(codes, return_index=True)
+        came = np.argsort(seen_at).tolist()  # (the contents as they came)
+        if key not in self._orders:
+            self._orders[key] = list(contents[came[0]])
+            self._changes[key] = _Moved()
+        order, said = self._orders[key], self._changes[key]
+        index = {name: i for i, name in enumerate(order)}
+        known = [0] * len(contents)  # (the names known when each content came)
+        for k in came:
+            for name in contents[k]:
+                if name not in index:
+                    index[name] = len(order)
+                    order.append(name)
+                    said.added.setdefault(name, int(log_ns[rows[seen_at[k]]]))
+            known[k] = len(order)
+        for k in came:
+            for name in order[: known[k]]:
+                if name not in contents[k]:
+                    said.missing.setdefault(name, int(log_ns[rows[seen_at[k]]]))
+        targets = [[index[name] for name in c] for c in contents]
+        if all(t == list(range(len(t))) for t in targets):
+            return
+        decoded.columns = by_name(decoded.columns, siblings, decoded.n, rows, codes, targets)
+        self._moved.add(key)
 
     def relabelled(self) -> list[str]:
         """Prefixes of the channels whose meaning changed between messages: an array's
@@ -1301,6 +1437,8 @@ class TopicTracker:
             if not contents or self._renamed(topic, field_):
                 continue
             names = max(contents, key=len)
+            if (topic, field_) in self._orders and (topic, field_) not in self._unordered:
+                names = tuple(self._orders[(topic, field_)])
             for sibling in self._siblings.get((topic, field_), ()):
                 if sibling.endswith("]"):  # (an element named by its own string)
                     if names and names[0]:
@@ -1315,6 +1453,8 @@ class TopicTracker:
         """Whether two contents seen of a string array name different things at one index
         (a name list that only grows or shrinks, ``[a, b, c]`` then ``[a, b]``, keeps
         every index's meaning)."""
+        if (topic, field) in self._orders and (topic, field) not in self._unordered:
+            return False  # (put back in one order by name: each index keeps its name)
         seen = list(self._seen_labels.get((topic, field), {}))
         return any(
             any(x != y for x, y in zip(a, b, strict=False))
@@ -1388,6 +1528,9 @@ class TopicTracker:
                 f"{counted(jumps.dropped, 'message')} stamped before the newest stamp so far "
                 f"dropped{more} (--time log keeps them)"
             )
+        for (topic, name_), change in self._relabels.items():
+            if (topic, name_) in self._moved and not self._renamed(topic, name_):
+                out.append(self._moved_line(topic, name_, change))
         elements: dict[str, list[tuple[str, _Relabels]]] = {}
         for (topic, name_), change in self._relabels.items():
             if not self._renamed(topic, name_):
@@ -1429,6 +1572,16 @@ class TopicTracker:
 
 SEEN_LABELS = 9
 """Contents of a relabelled string array kept for its line (one more than it shows)."""
+
+
+@dataclass(slots=True)
+class _Moved:
+    """A string array beside numeric arrays: the names that appeared after the topic's
+    first message, and those missing from a message after they were seen, each with its
+    first log time (said where the arrays were put back in one order by name)."""
+
+    added: dict[str, int] = field(default_factory=dict)
+    missing: dict[str, int] = field(default_factory=dict)
 
 
 def _names(names: tuple[str, ...], most: int = 8) -> str:

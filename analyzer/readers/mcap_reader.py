@@ -699,7 +699,7 @@ class McapReader:
                 return _mcap_ros2_fallback(schema, err)
             fallback = (lambda: candidate_stores(msgtype)) if wire == "cdr" else None
             return RosBatchDecoder([store], msgtype, wire, bulk=self.bulk, fallback=fallback)
-        if schema.encoding not in expected and schema.encoding:
+        if schema.encoding not in expected and schema.encoding and not _no_definition(schema):
             raise TypeResolutionError(
                 f"schema encoding {schema.encoding!r} is not a ROS message definition "
                 f"(expected {' or '.join(expected)})"
@@ -725,6 +725,20 @@ class McapReader:
     def _error(self, line: str) -> None:
         if line not in self.info.errors:
             self.info.errors.append(line)
+
+
+UNKNOWN_ENCODING = "unknown"
+"""The schema encoding rosbag2 (Iron on) gives a type whose definition it did not find
+where it recorded (``rosbag2_storage::MessageDefinition::empty_message_definition_for``),
+with no text: a type without definitions, as a schema of encoding ``""``."""
+
+
+def _no_definition(schema: Schema) -> bool:
+    """Whether ``schema`` is rosbag2's mark of a definition not found (encoding
+    :data:`UNKNOWN_ENCODING`, no text): decoded from ``--msg-path`` or a standard
+    typestore, or its topic skipped with the ``--msg-path`` hint, not refused as a
+    schema of another kind."""
+    return schema.encoding == UNKNOWN_ENCODING and not schema.data
 
 
 def _mcap_ros2_fallback(schema: Schema, cause: BaseException) -> BatchDecoder:

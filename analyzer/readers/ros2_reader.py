@@ -31,9 +31,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from rosbags.interfaces import MessageDefinitionFormat
+from rosbags.interfaces import MessageDefinition, MessageDefinitionFormat
 from rosbags.rosbag2 import Reader as BagReader
 from rosbags.rosbag2 import ReaderError as BagReaderError
+from rosbags.rosbag2 import storage_mcap
 
 from analyzer.errors import ReaderError
 from analyzer.readers._common import (  # noqa: F401 - bag_files re-exported
@@ -371,17 +372,37 @@ def _known_definitions_only() -> Iterator[None]:
     """While it lasts, every sqlite connection rosbags opens (through ``apsw``, which
     calls ``apsw.connection_hooks`` on each new connection) sees ``message_definitions``
     as a temporary view of the rows of a known encoding: a temporary object shadows the
-    file's table of that name, and the file is not written (opened read-only). One bag
-    opened at a time (the hook list is the process's)."""
-    if apsw is None:  # pragma: no cover
-        yield
-        return
+    file's table of that name, and the file is not written (opened read-only); and an
+    MCAP storage file's schema of an encoding rosbags does not read is no definition
+    (:func:`_known_msgdef`). One bag opened at a time (the hook list and rosbags' module
+    are the process's)."""
     with _OPENING:
-        apsw.connection_hooks.append(_hide_unknown_definitions)
+        storage_mcap.get_msgdef = _known_msgdef
+        if apsw is not None:
+            apsw.connection_hooks.append(_hide_unknown_definitions)
         try:
             yield
         finally:
-            apsw.connection_hooks.remove(_hide_unknown_definitions)
+            storage_mcap.get_msgdef = _ROSBAGS_MSGDEF
+            if apsw is not None:
+                apsw.connection_hooks.remove(_hide_unknown_definitions)
+
+
+_ROSBAGS_MSGDEF = storage_mcap.get_msgdef
+"""rosbags' reading of an MCAP storage file's schema record, which fails with
+``KeyError: 'unknown'`` on the schema rosbag2 writes for a type it did not find where it
+recorded (encoding ``unknown``, no text): the whole bag was refused."""
+
+
+def _known_msgdef(schema: Any) -> Any:
+    """:data:`_ROSBAGS_MSGDEF`, with a schema of an encoding rosbags does not read taken
+    as no definition (as one of encoding ``""``): the type is then decoded from
+    ``--msg-path`` or a standard typestore, or its topic skipped with the line that names
+    ``--msg-path`` (:meth:`Ros2BagReader._make_decoder`); the rest of the bag is read."""
+    try:
+        return _ROSBAGS_MSGDEF(schema)
+    except KeyError:
+        return MessageDefinition(MessageDefinitionFormat.NONE, "")
 
 
 def _hide_unknown_definitions(conn: Any) -> None:

@@ -40,6 +40,7 @@ from rosbags.typesys.base import normalize_fieldname
 from rosbags.typesys.store import Typestore
 
 from analyzer.readers._common import (
+    BY_NAME_ORDERS,
     NO_STAMP,
     ByteArray,
     ColumnAccumulator,
@@ -47,6 +48,7 @@ from analyzer.readers._common import (
     FloatArray,
     IntArray,
     LabelEnds,
+    LabelRows,
     Relabel,
     field_view,
     gather_rows,
@@ -616,7 +618,9 @@ class RosBatchDecoder:
         decoded.columns = merge_parts(parts, n)
         decoded.stamps = stamps if any_stamp else None
         if labels:
-            decoded.relabels = self._relabels(buf, starts, labels, decoded.label_ends)
+            decoded.relabels = self._relabels(
+                buf, starts, labels, decoded.label_ends, decoded.label_rows
+            )
         return decoded
 
     def time_fields(self) -> dict[str, str]:
@@ -730,10 +734,13 @@ class RosBatchDecoder:
         starts: IntArray,
         labels: dict[str, _LabelRows],
         ends: dict[str, LabelEnds],
+        by_row: dict[str, LabelRows],
     ) -> list[Relabel]:
         """Where each string array's content changed in the batch (compared in bulk by
         hash; the strings are read only at the first change and at the batch's ends,
-        which go into ``ends`` with the siblings and its contents)."""
+        which go into ``ends`` with the siblings and its contents). A string array that
+        changes into at most :data:`~analyzer.readers._common.BY_NAME_ORDERS` contents
+        gives ``by_row`` which message has which (each content read once)."""
 
         cache = self._label_texts
         if len(cache) > LABEL_CACHE:  # (ids unique to each message: read them again)
@@ -767,8 +774,11 @@ class RosBatchDecoder:
             last = names(rows.size - 1) if where.size else first
             # every content the batch holds (a few: read once each)
             if where.size:
-                _, at = np.unique(hashes, return_index=True)
+                _, at, code = np.unique(hashes, return_index=True, return_inverse=True)
                 kinds = tuple(names(int(k)) for k in np.sort(at)[:LABEL_KINDS])
+                if at.size <= BY_NAME_ORDERS:
+                    contents = tuple(names(int(k)) for k in at)
+                    by_row[field] = (rows, code.astype(np.int64).reshape(-1), contents)
             else:
                 kinds = (first,)
             ends[field] = (first, last, siblings, kinds)

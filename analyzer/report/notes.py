@@ -58,6 +58,7 @@ KINDS: tuple[tuple[str, str, re.Pattern[str]], ...] = (
         re.compile(
             r"distinct log times|distinct values|timestamp|--time\b|sampled at|\bgaps?\b"
             r"|outage|logger|--rate\b|quantiz|missing for|repeat|silent mid-record"
+            r"|\bno reading in (?:its|their) (?:first|last) "
         ),
     ),
     (
@@ -107,7 +108,7 @@ KEY = re.compile(
     r"|present when the search started|findings ha(?:ve|s) a confidence below"
     r"|the archive's spread against the model's|may be missed"
     r"|^no fault but a dead or stuck sensor|may be the recorder's delay, not the sensor's"
-    r"|^analyzed channels silent mid-record"
+    r"|^analyzed channels silent mid-record|\bno reading in (?:its|their) (?:first|last) "
 )
 """Notes that change how to read the findings, shown beside the verdict: the training
 window was not steady (the models took a change for health, faults may be missed or
@@ -117,7 +118,9 @@ model's; a clock so fast for the signal that a gain or a slow change may be miss
 run whose detectors could not run, that searched for nothing but dead or stuck sensors;
 a finding whose onset coincides with a message the recorder logged late
 (:func:`analyzer.delay_note.onset_cautions`); an analyzed sensor silent for a while
-mid-record (:func:`analyzer.silence_note.silence_note`)."""
+mid-record (:func:`analyzer.silence_note.silence_note`), or without a reading for long at
+the record's start or end (:class:`analyzer.silence_note.StoppedNote`: a topic that
+stopped for good, said among the other notes alone)."""
 
 ON_A_FINDING = re.compile(r"a finding on it may be")
 """A caveat about some channels (``a finding on it may be rounding: s3``): beside the

@@ -3,8 +3,8 @@
 (``InputInfo.labels``), shown beside the channel in ``inspect``, findings.json
 (``channels[].label``, ``faults[].label``), the run's last line and the report (ux58 #5:
 ``/joint_states.velocity[4] multiplicative`` never said it was ``right_wheel``). A name
-order that changes between messages gives no label: those channels are left out, said as
-before."""
+order that changes between messages is put back in the first order by name (rob56), and
+labelled so."""
 
 from __future__ import annotations
 
@@ -38,13 +38,14 @@ def test_steady_joint_names_label_their_elements(tmp_path: Path, fmt: str) -> No
     assert reader.info.errors == []
 
 
-def test_a_changing_name_order_labels_nothing(tmp_path: Path) -> None:
-    """[a, b, c] then [b, a, c]: index 0 names two joints; its channels are left out
-    (said in the errors, as before), and none is labelled."""
+def test_a_changing_name_order_labels_the_first_order(tmp_path: Path) -> None:
+    """[a, b, c] then [b, a, c]: the values are put back in the first order by name
+    (rob56 #2), so each index keeps its joint and is labelled with it."""
     reader = open_input(write(tmp_path / "x.mcap", "mcap", _joint_messages()))
     collect(reader.chunks())
-    assert reader.info.relabelled == ["/joint_states.position[", "/joint_states.velocity["]
-    assert reader.info.labels == {}
+    assert reader.info.relabelled == []
+    assert reader.info.labels["/joint_states.position[0]"] == "a"
+    assert reader.info.labels["/joint_states.velocity[2]"] == "c"
 
 
 def test_an_element_label_covers_its_channels() -> None:
