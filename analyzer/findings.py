@@ -534,14 +534,14 @@ def write_outputs(
             )
         files.write(out_dir / "report.html", html)
         files.write(out_dir / "findings.json", text)  # (last: the file a reader looks for)
+        if remove:
+            files.remove(stale)  # (with the renames: a failed one leaves it too)
         files.commit()
-    if remove:
-        stale.unlink(missing_ok=True)
-        if warn is not None:
-            warn(
-                f"removed {stale}, an earlier run's corrected signals: this run was not "
-                "asked for them (--corrected)"
-            )
+    if remove and warn is not None:
+        warn(
+            f"removed {stale}, an earlier run's corrected signals: this run was not "
+            "asked for them (--corrected)"
+        )
     return doc
 
 
