@@ -40,6 +40,7 @@ from analyzer.errors import (  # noqa: E402
     one_line,
     terminal_safe,
 )
+from analyzer.lossy_stderr import lossy_stderr  # noqa: E402
 from analyzer.scratch import sweep_stale  # noqa: E402
 from analyzer.types import MSG_PATH_ENV, stage_detail  # noqa: E402
 
@@ -951,7 +952,16 @@ def _cluster_failure(err: BaseException, args: argparse.Namespace | None) -> str
 
 def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -> int:
     """``analyzer ARGV``: the exit code. ``figure_processes`` (the real entry point only)
-    lets ``run`` draw the report's figures in worker processes of its own."""
+    lets ``run`` draw the report's figures in worker processes of its own. stderr may be
+    lost (closed, a pipe whose reader has gone, a full non-blocking pipe): what would
+    have been said is dropped, and the files and the exit code are the same
+    (:mod:`analyzer.lossy_stderr`)."""
+    with lossy_stderr():
+        return _main(argv, figure_processes=figure_processes)
+
+
+def _main(argv: Sequence[str] | None, *, figure_processes: bool) -> int:
+    """:func:`main`, with stderr that cannot fail."""
     args = None
     previous = None
     started = time.time()

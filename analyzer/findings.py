@@ -191,6 +191,73 @@ def input_digest(path: Path) -> str:
 
 def findings_document(analysis: Analysis) -> dict[str, Any]:
     """``findings.json`` exactly as in CONTRACT.md (plus extension fields)."""
+    doc = _document(analysis)
+    unknown = [line for f in analysis.findings if (line := not_finite_note(f, analysis.labels))]
+    if unknown:
+        doc["notes"] = [*doc["notes"], *unknown]
+    return doc
+
+
+CONTRACT_NUMBERS = ("offset", "gain", "rate_per_s")
+"""The sizes CONTRACT.md says are numbers (``magnitude``'s); its other keys (``rms``,
+``stuck_at``, a clipping's limits...) are the analyzer's own and may be null."""
+
+LARGEST = float(np.finfo(np.float64).max)
+"""The largest finite number JSON and a double hold, written for an infinite size."""
+
+
+def contract_magnitude(magnitude: Mapping[str, Any]) -> dict[str, Any]:
+    """A fault's ``magnitude`` for findings.json: the contract's three sizes always
+    numbers (CONTRACT.md; the schema allowed null, a QA audit's ux59 item L7), the
+    others null where not finite. None of them was ever found not finite (ux59 and the
+    int56 audit tried infinite, NaN, 1e300 and 1e-160 readings, values at the 1e30
+    limit beyond which readings are gaps, dead sensors): should one be, an infinite
+    size is written as the largest double with its sign (it is larger than any number
+    findings.json can hold), one that is not a number as 0, and
+    :func:`not_finite_note` says so in the notes."""
+    out: dict[str, Any] = {}
+    for key, value in magnitude.items():
+        v = float(value)
+        if key in CONTRACT_NUMBERS and not math.isfinite(v):
+            v = math.copysign(LARGEST, v) if math.isinf(v) else 0.0
+        out[str(key)] = v if math.isfinite(v) else None
+    return out
+
+
+def contract_confidence(confidence: float) -> float:
+    """A fault's ``confidence`` for findings.json: 0-1 to 4 decimals, always a number
+    (CONTRACT.md). One not finite (never found) is written 0, the analyzer not sure of
+    the fault at all, rather than null: the fault is still listed and the exit code
+    still 1; :func:`not_finite_note` says so in the notes."""
+    c = float(confidence)
+    return round(c, 4) if math.isfinite(c) else 0.0
+
+
+def not_finite_note(f: Finding, labels: Mapping[str, str] | None = None) -> str | None:
+    """The note for a fault whose contract sizes or confidence were not finite numbers
+    (:func:`contract_magnitude`, :func:`contract_confidence`), None for every other."""
+    bad = [k for k in CONTRACT_NUMBERS if k in f.magnitude and not _finite(f.magnitude[k])]
+    if not _finite(f.confidence):
+        bad.append("confidence")
+    if not bad:
+        return None
+    name = (labels or {}).get(f.channel, f.channel)
+    return (
+        f"{name}'s {str(f.type)} fault at {f.onset_s:.3f} s: its {', '.join(bad)} could not be "
+        "computed (not a finite number); findings.json gives 0 for one that is not a "
+        "number and the largest number it can hold, with its sign, for an infinite one"
+    )
+
+
+def _finite(x: Any) -> bool:
+    try:
+        return math.isfinite(float(x))
+    except (TypeError, ValueError):
+        return False
+
+
+def _document(analysis: Analysis) -> dict[str, Any]:
+    """:func:`findings_document` but for its notes of sizes not finite."""
     a = analysis
     train0, train1 = a.train
     labels = a.labels
@@ -248,9 +315,9 @@ def findings_document(analysis: Analysis) -> dict[str, Any]:
                         "end_s": None if f.end_s is None else round(f.end_s, 4),
                         "onset": a.onset_iso(f.onset_s),
                         "end": a.onset_iso(f.end_s),
-                        # (null, not an unwritable findings.json, should one not be finite)
-                        "magnitude": _jsonable({k: float(v) for k, v in f.magnitude.items()}),
-                        "confidence": _jsonable(round(float(f.confidence), 4)),
+                        # (numbers, as CONTRACT.md says, even should one not be finite)
+                        "magnitude": contract_magnitude(f.magnitude),
+                        "confidence": contract_confidence(f.confidence),
                         "detector": f.detector,
                         "evidence": _jsonable(f.evidence),
                         "size_relative": size_relative(
@@ -555,14 +622,14 @@ def write_outputs(
             )
         files.write(out_dir / "report.html", html)
         files.write(out_dir / "findings.json", text)  # (last: the file a reader looks for)
+        if remove:
+            files.remove(stale)  # (with the renames: a failed one leaves it too)
         files.commit()
-    if remove:
-        stale.unlink(missing_ok=True)
-        if warn is not None:
-            warn(
-                f"removed {stale}, an earlier run's corrected signals: this run was not "
-                "asked for them (--corrected)"
-            )
+    if remove and warn is not None:
+        warn(
+            f"removed {stale}, an earlier run's corrected signals: this run was not "
+            "asked for them (--corrected)"
+        )
     return doc
 
 

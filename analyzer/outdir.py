@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
+import secrets
 import tempfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
@@ -168,6 +170,10 @@ def _umask() -> int:
     return umask
 
 
+_NO_FLUSH = frozenset({errno.EINVAL, errno.ENOTSUP, errno.EOPNOTSUPP})
+"""``fsync``'s errors that say the file system cannot flush, not that data were lost."""
+
+
 class Staged:
     """Files written under temporary names beside their places (:meth:`write`,
     :meth:`write_with`), which :meth:`commit` renames into place only once every one of
@@ -181,6 +187,8 @@ class Staged:
     def __init__(self) -> None:
         self._files: list[tuple[Path, Path]] = []
         """(place, temporary file), in the order :meth:`commit` renames them."""
+        self._gone: list[Path] = []
+        """Files :meth:`commit` removes (:meth:`remove`)."""
 
     def write(self, path: Path, data: bytes | str) -> None:
         """``data`` (text as UTF-8) into a temporary file for ``path``."""
@@ -225,16 +233,69 @@ class Staged:
         except OSError as err:
             raise named_error(err, path) from err
 
+    def remove(self, path: Path) -> None:
+        """Remove ``path`` as part of :meth:`commit`: with the renames, or not at all (an
+        earlier run's ``corrected.csv`` that this run does not write)."""
+        self._gone.append(path)
+
     def commit(self) -> None:
-        """Rename every file written into its place, in the order they were written (the
-        one a reader looks for first, ``findings.json``, is written last)."""
-        while self._files:
-            path, tmp = self._files[0]
+        """Put every file written in its place, in the order they were written (the one a
+        reader looks for first, ``findings.json``, is written last), all or none as far
+        as POSIX allows: the earlier files are first kept under temporary names beside
+        their places (:func:`_keep_aside`), then the new ones renamed in; if any step
+        fails, the earlier files are put back and the new ones taken out, so the folder
+        is as it was, byte for byte; after the last rename the earlier files are
+        removed. Before, a rename that failed part-way (a folder made read-only, a
+        disk's error) left the new files already renamed beside the earlier others."""
+        self._sync()
+        aside: list[tuple[Path, Path]] = []  # (place, its earlier file's temporary name)
+        placed: list[Path] = []  # (places that had no file and were given one)
+        try:
+            for path in [*(p for p, _ in self._files), *self._gone]:
+                kept = _keep_aside(path)
+                if kept is not None:
+                    aside.append((path, kept))
+            had = {p for p, _ in aside}
+            while self._files:
+                path, tmp = self._files[0]
+                try:
+                    os.replace(tmp, path)
+                except OSError as err:
+                    raise named_error(err, path) from err
+                self._files.pop(0)
+                if path not in had:
+                    placed.append(path)
+            for path in self._gone:
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(path)  # (where it was linked aside: renamed, it is gone)
+        except BaseException:
+            _put_back(aside, placed)
+            raise
+        self._gone.clear()
+        for _, kept in aside:
+            with contextlib.suppress(OSError):
+                os.unlink(kept)
+        _sync_folders({p.parent for p, _ in aside} | {p.parent for p in placed})
+
+    def _sync(self) -> None:
+        """Flush every file written to the disk before any is renamed in (``fsync``),
+        so that a power cut after the renames cannot leave a new name on an empty or
+        half-written file (file systems may write a rename before the data it names),
+        and so that a network file system's late write error (a full disk said only
+        when the data reach the server) fails the run before any file is replaced. A
+        file system that cannot flush (``EINVAL``) is not an error. About 20 ms for a
+        run's usual three files, 60 ms more with a 50 MB ``corrected.csv``."""
+        for path, tmp in self._files:
             try:
-                os.replace(tmp, path)
+                fd = os.open(tmp, os.O_RDONLY)
+                try:
+                    os.fsync(fd)
+                finally:
+                    os.close(fd)
             except OSError as err:
+                if err.errno in _NO_FLUSH:
+                    continue
                 raise named_error(err, path) from err
-            self._files.pop(0)
 
     def discard(self) -> None:
         """Remove every temporary file not put in place."""
@@ -242,6 +303,68 @@ class Staged:
             with contextlib.suppress(OSError):
                 tmp.unlink()
         self._files.clear()
+
+
+def _keep_aside(path: Path) -> Path | None:
+    """Keep the file at ``path`` (if any) under a new hidden name beside it too, and
+    return that name: a second link to it where the file system has links (``path``
+    then stays in place until the new file replaces it, so a reader never finds it
+    missing), else ``path`` renamed. None when there is no file at ``path`` (or a
+    folder, which the rename in refuses as before)."""
+    if not os.path.lexists(path) or (path.is_dir() and not path.is_symlink()):
+        return None
+    linked = True
+    for _ in range(100):
+        kept = path.with_name(f".{path.name}.earlier-{secrets.token_hex(6)}")
+        try:
+            if linked:
+                os.link(path, kept, follow_symlinks=False)
+            else:
+                os.close(os.open(kept, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+                os.replace(path, kept)
+            return kept
+        except FileExistsError:
+            continue
+        except OSError as err:
+            if not linked:
+                with contextlib.suppress(OSError):
+                    os.unlink(kept)
+                raise named_error(err, path) from err
+            linked = False  # (no links here: a FAT stick, some network file systems)
+    raise named_error(OSError(errno.EEXIST, os.strerror(errno.EEXIST)), path)
+
+
+def _put_back(aside: Sequence[tuple[Path, Path]], placed: Sequence[Path]) -> None:
+    """Undo a :meth:`Staged.commit` that failed part-way: every earlier file back in its
+    place (``aside``: place, temporary name) and the new files that had no earlier one
+    (``placed``) removed. An earlier file that cannot be put back stays under its
+    temporary name (hidden, beside its place) rather than being lost."""
+    for path in placed:
+        with contextlib.suppress(OSError):
+            os.unlink(path)
+    for path, kept in aside:
+        try:
+            os.replace(kept, path)
+        except OSError:
+            continue
+        # (where both were links to one file, rename does nothing: the name stays)
+        with contextlib.suppress(OSError):
+            os.unlink(kept)
+
+
+def _sync_folders(folders: set[Path]) -> None:
+    """Flush the folders' entries (the renames) to the disk, where the system can."""
+    for folder in folders:
+        try:
+            fd = os.open(folder, os.O_RDONLY)
+        except OSError:
+            continue
+        try:
+            os.fsync(fd)
+        except OSError:
+            pass  # (a folder that cannot be flushed: some file systems; the renames hold)
+        finally:
+            os.close(fd)
 
 
 @contextlib.contextmanager

@@ -36,6 +36,7 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Protocol, TypeVar
 
+from analyzer.cgroup_cpus import cgroup_cpu_limit
 from analyzer.errors import UsageError
 from analyzer.parallel_connect import CONNECT_MARGIN_S, blas_threads_setting
 from analyzer.parallel_dask import (
@@ -232,17 +233,21 @@ def locked(progress: Callable[[str, float], None] | None) -> Callable[[str, floa
 
 
 def usable_cpus() -> int:
-    """The number of CPUs this process may run on, ``--jobs``' default: its CPU
-    affinity (``taskset``, a container's cpuset), where the system gives one, else the
-    machine's cores. ``os.cpu_count()`` counted the host's cores: ``taskset -c 0`` on a
-    2-core machine ran 2 analysis processes on one CPU, and a CI container allowed a
-    few CPUs of a large host ran a thread for each of its cores (a QA audit's ux59
-    item L4). A CPU-time quota (cgroup ``cpu.max``) is not counted, as in
-    ``os.process_cpu_count()`` of Python 3.13."""
+    """The number of CPUs this process may use, ``--jobs``' default: its CPU affinity
+    (``taskset``, a container's cpuset), where the system gives one, else the machine's
+    cores; and no more than its cgroup's CPU-time quota allows (a container's ``--cpus
+    2``: :func:`analyzer.cgroup_cpus.cgroup_cpu_limit`, the quota over its period rounded
+    up). ``os.cpu_count()`` counted the host's
+    cores: ``taskset -c 0`` on a 2-core machine ran 2 analysis processes on one CPU, and
+    a CI container allowed a few CPUs of a large host ran a thread for each of its cores
+    (a QA audit's ux59 item L4); a quota was not counted until the integrator's audit's
+    int56 item 3 (``os.process_cpu_count()`` of Python 3.13 does not count it either)."""
     try:
-        return len(os.sched_getaffinity(0)) or 1
+        cpus = len(os.sched_getaffinity(0)) or 1
     except (AttributeError, OSError):  # (no affinity: macOS, Windows)
-        return os.cpu_count() or 1
+        cpus = os.cpu_count() or 1
+    quota = cgroup_cpu_limit()
+    return cpus if quota is None else max(1, min(cpus, quota))
 
 
 __all__ = [

@@ -306,19 +306,54 @@ def test_a_synthetic_analysis_with_every_fault_type_is_valid(synthetic_doc):
     assert problems(synthetic_doc) == []
 
 
-def test_numbers_that_are_not_finite_are_written_as_null_and_valid():
-    """``_jsonable`` writes a NaN or infinite magnitude, confidence or test number as
-    null; the schema allows null there."""
+def test_the_contract_s_numbers_are_never_written_null():
+    """CONTRACT.md says a fault's ``confidence`` and ``magnitude.offset/gain/rate_per_s``
+    are numbers; the schema allowed null there, and the writer wrote null for one not
+    finite (a QA audit's ux59 item L7, int56 item 4). None was ever found not finite;
+    should one be, it is written as a number (an infinite size as the largest double with
+    its sign, one that is not a number as 0, a confidence as 0) and a note says so. The
+    analyzer's own numbers (``rms``, a test's statistic) stay null where not finite."""
     analysis = _synthetic()
+    sizes = {"offset": math.nan, "gain": math.inf, "rate_per_s": -math.inf, "rms": math.nan}
     f = analysis.findings[0]
-    f.magnitude = {"offset": math.nan}
-    f.confidence = math.inf
+    f.magnitude = dict(sizes)
+    f.confidence = math.nan
     f.evidence["tests"][f.detector]["after"]["mean"]["statistic"] = math.nan
     doc = as_written(findings_document(analysis))
     fault = doc["faults"][0]
-    assert fault["magnitude"] == {"offset": None} and fault["confidence"] is None
+    largest = float(np.finfo(np.float64).max)
+    expected = {"offset": 0.0, "gain": largest, "rate_per_s": -largest, "rms": None}
+    assert fault["magnitude"] == expected
+    assert fault["confidence"] == 0.0
     assert fault["evidence"]["tests"][f.detector]["after"]["mean"]["statistic"] is None
+    said = [n for n in doc["notes"] if "could not be computed" in n]
+    assert len(said) == 1 and "offset, gain, rate_per_s, confidence" in said[0], said
     assert problems(doc) == []
+    assert not any("could not be computed" in n for n in synthetic_doc_notes())
+
+
+def synthetic_doc_notes() -> list[str]:
+    """The notes of the synthetic analysis as it is (every number finite)."""
+    return list(findings_document(_synthetic())["notes"])
+
+
+@pytest.mark.parametrize(
+    ("path", "value"),
+    [
+        (("magnitude", "offset"), None),
+        (("magnitude", "gain"), None),
+        (("magnitude", "rate_per_s"), None),
+        (("confidence",), None),
+    ],
+)
+def test_the_schema_refuses_null_where_the_contract_says_a_number(synthetic_doc, path, value):
+    doc = copy.deepcopy(synthetic_doc)
+    fault = doc["faults"][0]
+    holder = fault
+    for step in path[:-1]:
+        holder = holder[step]
+    holder[path[-1]] = value
+    assert problems(doc) != [], path
 
 
 # ---------------------------------------------------------------------------- broken documents
