@@ -22,7 +22,13 @@ import numpy as np
 
 from analyzer.errors import ReaderError, UsageError, capped
 from analyzer.missing_codes import Unread, as_gaps, no_reading_line, read_notes
-from analyzer.outdir import named_error, not_into_inputs, prepare_dir, remove_if_empty
+from analyzer.outdir import (
+    named_error,
+    not_into_inputs,
+    prepare_dir,
+    remove_if_empty,
+    spreadsheet_safe,
+)
 from analyzer.readers import open_archive
 from analyzer.readers.base import InputInfo, TimeSource, about_selection, one_clock
 from analyzer.scratch import scratch
@@ -420,11 +426,14 @@ def _schema(aligned: AlignedSeries, utc: Any = None) -> Any:
 
 def _write_csv(aligned: AlignedSeries, path: Path, utc: bool = False) -> None:
     """CSV via pyarrow's writer: shortest round-trip floats, an empty cell for a gap;
-    ``utc``: a last column of ISO-8601 UTC times."""
+    ``utc``: a last column of ISO-8601 UTC times. A channel name a spreadsheet would take
+    for a formula is written with a ``'`` in front (:func:`~analyzer.outdir.spreadsheet_safe`)."""
     import pyarrow as pa
     import pyarrow.csv as pcsv
 
     schema = _schema(aligned, pa.string() if utc else None)
+    # the header's names as text a spreadsheet does not evaluate (the cells below are numbers)
+    schema = pa.schema([f.with_name(spreadsheet_safe(f.name)) for f in schema])
     with pcsv.CSVWriter(str(path), schema) as w:
         for a, blk in aligned.blocks(BLOCK):
             w.write_table(_table(aligned, a, blk, schema))

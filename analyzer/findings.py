@@ -25,7 +25,7 @@ from analyzer.diagnosis.unexplained import Unexplained
 from analyzer.error_file import touches_inputs
 from analyzer.evidence_label import fault_label, level_changes
 from analyzer.modelfile import SavedModel
-from analyzer.outdir import staged
+from analyzer.outdir import spreadsheet_safe, staged
 from analyzer.readers.base import InputInfo, channel_labels
 from analyzer.regenerate import write_corrected_csv
 from analyzer.selection import STUCK_SAMPLES
@@ -658,4 +658,5 @@ def earlier_corrected(out_dir: Path, inputs: Sequence[str | Path]) -> bool:
         c.get("name") for c in doc.get("channels", []) if isinstance(c, dict) and c.get("analyzed")
     ]
     columns = header[1:-1] if header[-1:] == ["utc"] else header[1:]
-    return header[:1] == ["time"] and sorted(columns) == sorted(map(str, analyzed))
+    written = (spreadsheet_safe(str(name)) for name in analyzed)  # (as the header has them)
+    return header[:1] == ["time"] and sorted(columns) == sorted(written)

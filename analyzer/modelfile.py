@@ -10,18 +10,25 @@ file's own first minutes would take such a fault for the healthy state).
 
 The file is the magic line :data:`MAGIC`, a line with the SHA-256 of the rest, and a
 pickle of :class:`SavedModel` (:func:`framed`): a file damaged anywhere is refused.
-Loading never runs arbitrary code: the unpickler only builds the classes a model is
-made of (the analyzer's detectors, diagnosis and statistics), numpy arrays and plain
-builtin values (:class:`_Restricted`, after the pickle
-documentation's "Restricting Globals"); anything else is refused as a damaged or foreign
-file. A model is tied to the analyzer version that wrote it (the fitted classes change
-between versions): another version's model is refused with a message saying so.
+The unpickler (:class:`_Restricted`) builds only the exact ``(module, name)`` pairs of
+:data:`_ALLOWED`: the classes a saved model is made of, numpy's array, dtype and scalar
+rebuilding and ``complex``, each of which only checks and stores its arguments; a file
+that names anything else is refused before it is imported or called ("does not hold an
+analyzer model"), and one that changes an allowed class or enum member (a pickle's
+``BUILD`` can set attributes on them) is refused and the class put back
+(:func:`_unpickle`). What this does not stop: a file may still ask for much memory or
+time (an array or impulse-response bank of a huge declared size), and a model's numbers
+decide the findings, so a forged model gives forged findings. The SHA-256 line finds
+damage, not who wrote the file: load model files only from people you trust. A model
+is tied to the analyzer version that wrote it (the fitted classes change between
+versions): another version's model is refused with a message saying so.
 """
 
 from __future__ import annotations
 
-import builtins
+import enum
 import hashlib
+import importlib
 import io
 import pickle
 from dataclasses import MISSING, dataclass, field, fields
@@ -39,43 +46,46 @@ Format 2: an impulse-response bank holds its Markov parameters, not their spectr
 fitted on 10 minutes: 56.7 -> 20.4 MB).
 Files of an earlier format are refused with the remedy: fit again."""
 
-_BUILTINS = frozenset(
-    {
-        "complex",
-        "float",
-        "int",
-        "bool",
-        "str",
-        "bytes",
-        "bytearray",
-        "tuple",
-        "list",
-        "dict",
-        "set",
-        "frozenset",
-        "slice",
-        "range",
-    }  # fmt: skip
-)
-_NUMPY = {
+_ALLOWED: dict[str, frozenset[str]] = {
+    "analyzer.modelfile": frozenset({"SavedModel"}),
+    "analyzer.diagnosis.changes": frozenset({"Calibration"}),
+    "analyzer.detectors.ar_kalman": frozenset({"ARKalmanBank", "FittedBank"}),
+    "analyzer.detectors.ar_model": frozenset({"ARModel"}),
+    "analyzer.detectors.assistant_observer": frozenset(
+        {"AssistantObserver", "Pretreatment", "Relation"}
+    ),
+    "analyzer.detectors.beard_jones": frozenset({"ParkFilter"}),
+    "analyzer.detectors.detection_filter": frozenset({"DetectionFilter", "FittedDetectionFilter"}),
+    "analyzer.detectors.equivalent_model": frozenset(
+        {"EquivalentModel", "FittedEquivalentModel", "TargetObserver"}
+    ),
+    "analyzer.detectors.error_function": frozenset(
+        {"ErrorFunction", "ErrorFunctionModel", "SensorFunction"}
+    ),
+    "analyzer.detectors.kalman_bank": frozenset({"BankFilter", "LeaveOneOut"}),
+    "analyzer.detectors.lti": frozenset(
+        {"ImpulseResponseBank", "LiftedBank", "StackedLiftedSystem"}
+    ),
+    "analyzer.detectors.network": frozenset({"Propagation", "SensorNetwork"}),
+    "analyzer.detectors.state_space": frozenset({"StateSpaceModel"}),
     "numpy": frozenset({"dtype", "ndarray"}),
     "numpy._core.numeric": frozenset({"_frombuffer"}),
     "numpy.core.numeric": frozenset({"_frombuffer"}),
     "numpy._core.multiarray": frozenset({"_reconstruct", "scalar"}),
     "numpy.core.multiarray": frozenset({"_reconstruct", "scalar"}),
+    "builtins": frozenset({"complex"}),
 }
-
-
-_MODEL_MODULES = (
-    "analyzer.detectors.",
-    "analyzer.diagnosis.",
-    "analyzer.stats.",
-    "analyzer.types",
-    "analyzer.modelfile",
-)
-"""The packages whose classes a model is made of (settings, fitted models, calibrations):
-a pickle may call a class it names with arguments of its choosing, so classes elsewhere in
-the analyzer (stores, scratch space, writers) are refused too."""
+"""Every ``(module, name)`` a model file may name, matched exactly (a pickle may call
+what it names, with arguments of its choosing, so each is harmless with any): the
+classes a saved model is made of (what ``pickletools`` lists in models saved by every
+detector, alone and together, with and without a config's groups and ``[model]``; and
+the bank's lifted form, which a filter with a long memory takes), numpy's array, dtype
+and scalar rebuilding (under numpy 2's and numpy 1's module names) and ``complex``.
+Each class only checks and stores its arguments. ``tests/cli/test_model_loader.py``
+fails when a saved model names anything this table lacks. Before, any class reachable
+from the analyzer's detector, diagnosis and statistics modules passed, through dotted
+names too (``np.f2py.subprocess.Popen``, ``np.memmap``): a crafted file ran a command
+(a security audit, ux63 item H1)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -148,23 +158,71 @@ class SavedModel:
         }
 
 
+class RefusedGlobal(pickle.UnpicklingError):
+    """A model file named something :data:`_ALLOWED` lacks (refused before it is
+    imported or called), or changed one of the analyzer's classes (put back)."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
 class _Restricted(pickle.Unpickler):
-    """Builds only the analyzer's own classes, numpy arrays and builtin values."""
+    """Builds only what :data:`_ALLOWED` names, after the pickle documentation's
+    "Restricting Globals"."""
 
     def find_class(self, module: str, name: str) -> Any:
-        if module == "builtins" and name in _BUILTINS:
-            return getattr(builtins, name)
-        if name in _NUMPY.get(module, ()):
+        if name in _ALLOWED.get(module, ()):
             return super().find_class(module, name)
-        if module == "numpy" and name[:1] != "_":
-            obj = super().find_class(module, name)
-            if isinstance(obj, type) and issubclass(obj, __import__("numpy").generic):
-                return obj  # numpy scalar types (float64, int64, bool_...)
-        if module.startswith(_MODEL_MODULES):
-            obj = super().find_class(module, name)
-            if isinstance(obj, type):
-                return obj
-        raise pickle.UnpicklingError(f"refused to build {module}.{name}")
+        what = f"{module}.{name}"  # the file's text: quoted, and cut if long
+        shown = repr(what if len(what) <= 80 else what[:80] + "...")
+        raise RefusedGlobal(f"it asks to build {shown}, which is not part of one")
+
+
+def _shared_objects() -> list[Any]:
+    """The analyzer's classes a model file may name and their enum members: objects a
+    pickle could change for the whole process (its ``BUILD`` sets attributes on
+    whatever it built, a class or an enum member too)."""
+    objs: list[Any] = []
+    for module, names in _ALLOWED.items():
+        if not module.startswith("analyzer."):
+            continue  # numpy's and builtin types cannot be changed
+        mod = importlib.import_module(module)
+        for name in sorted(names):
+            cls = getattr(mod, name)
+            objs.append(cls)
+            if isinstance(cls, enum.EnumMeta):
+                objs.extend(cls)
+    return objs
+
+
+def _restore(before: list[tuple[Any, dict[str, Any]]]) -> list[str]:
+    """Put back any attribute of the objects of :func:`_shared_objects` that loading
+    changed; the names of those changed."""
+    changed = []
+    for obj, attrs in before:
+        now = dict(vars(obj))
+        if now.keys() == attrs.keys() and all(now[k] is v for k, v in attrs.items()):
+            continue
+        changed.append(getattr(obj, "__qualname__", None) or f"{type(obj).__qualname__}.{obj}")
+        for key in now.keys() - attrs.keys():
+            delattr(obj, key)
+        for key, value in attrs.items():
+            if now.get(key) is not value:
+                setattr(obj, key, value)
+    return changed
+
+
+def _unpickle(payload: bytes) -> Any:
+    """``payload`` built by :class:`_Restricted`; :class:`RefusedGlobal` also when it
+    changed one of the analyzer's classes (put back as they were)."""
+    before = [(obj, dict(vars(obj))) for obj in _shared_objects()]
+    try:
+        return _Restricted(io.BytesIO(payload)).load()
+    finally:
+        changed = _restore(before)
+        if changed:
+            raise RefusedGlobal(f"it changed the analyzer's {changed[0]} (put back as it was)")
 
 
 def save_model(path: Path, model: SavedModel, data: bytes | None = None) -> None:
@@ -268,7 +326,12 @@ def load_model(path: str | Path) -> SavedModel:
             "with it): fit it again with --save-model"
         )
     try:
-        model = _Restricted(io.BytesIO(payload)).load()
+        model = _unpickle(payload)
+    except RefusedGlobal as err:
+        raise UsageError(
+            f"--model: {p} does not hold an analyzer model: {err.reason} (refused); load "
+            "model files only from people you trust"
+        ) from None
     except Exception as err:  # noqa: BLE001 - any failure to unpickle is a bad file
         raise UsageError(f"--model: {p} is damaged or not an analyzer model ({err})") from None
     if not isinstance(model, SavedModel):

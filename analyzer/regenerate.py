@@ -40,7 +40,7 @@ import numpy.typing as npt
 
 from analyzer.diagnosis.classify import MIN_GAIN
 from analyzer.errors import counted
-from analyzer.outdir import named_error
+from analyzer.outdir import named_error, spreadsheet_safe
 from analyzer.paging import RELEASE_ROWS, release
 from analyzer.timeutil import exact_unit, iso_times
 from analyzer.types import NS_PER_S, FaultType
@@ -1177,8 +1177,10 @@ def write_corrected_csv(
     back, so a long archive takes memory set by that piece. ``utc``: ``(start_ns,
     rate_hz)`` of the record's clock, for a last column ``utc`` holding row ``k``'s time
     ``start_ns + k / rate_hz`` as ISO-8601 UTC (``run --corrected --utc``: ``time``
-    counts from the first sample, a date appears nowhere else in the file). An error
-    writing it names ``path`` (:func:`analyzer.outdir.named_error`)."""
+    counts from the first sample, a date appears nowhere else in the file). A channel
+    name a spreadsheet would take for a formula is written with a ``'`` in front
+    (:func:`~analyzer.outdir.spreadsheet_safe`). An error writing it names ``path``
+    (:func:`analyzer.outdir.named_error`)."""
     import pyarrow as pa
     import pyarrow.csv as pcsv
 
@@ -1198,7 +1200,8 @@ def write_corrected_csv(
     names = ["time", *channels]
     if len(set(names + (["utc"] if utc else []))) != len(names) + bool(utc):
         raise ValueError(f"duplicate column names in {names}{' and utc' if utc else ''}")
-    schema = pa.schema([(name, pa.float64()) for name in names])
+    # the header's names as text a spreadsheet does not evaluate (the cells below are numbers)
+    schema = pa.schema([(spreadsheet_safe(name), pa.float64()) for name in names])
     if utc is not None:
         schema = schema.append(pa.field("utc", pa.string()))
         unit = exact_unit(*utc)
