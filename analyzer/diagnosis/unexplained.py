@@ -159,17 +159,6 @@ def either(channels: Sequence[str]) -> str:
     return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
 
 
-def spoken(channel_sets: Sequence[Sequence[str]]) -> list[str]:
-    """Each distinct set of sensors of ``channel_sets`` (in order) as :func:`either` says
-    it: the summary line and the report's verdict name each once."""
-    out: list[str] = []
-    for channels in channel_sets:
-        said = either(channels)
-        if said not in out:
-            out.append(said)
-    return out
-
-
 PLACING_DETECTOR = "detection_filter"
 """The detector whose lone, shapeless findings :func:`unplaced` weighs."""
 

@@ -239,11 +239,6 @@ class ReportView:
     """The verdict's warning: alarms the findings do not explain (``findings.json``'s
     ``unexplained_alarms``: a second faulty sensor the run may have missed), else empty."""
 
-    @property
-    def figure_count(self) -> int:
-        own = sum(len(f.figures) for f in self.findings)
-        return own + sum(f is not None for f in (self.coverage, self.levels))
-
 
 __all__ = [
     "ChannelTable",
