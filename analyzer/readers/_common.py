@@ -296,7 +296,7 @@ def two_clocks(clocks: dict[str, str], spans: dict[str, tuple[int, int]]) -> str
     of their times (``spans``: first and last, nanoseconds), and what to do."""
 
     def listed(topics: list[str]) -> str:
-        return ", ".join(topics[:4]) + (f" and {len(topics) - 4} more" if len(topics) > 4 else "")
+        return capped(topics)
 
     def side(*sources: str) -> tuple[list[str], int, int]:
         topics = [t for t, s in clocks.items() if s in sources]

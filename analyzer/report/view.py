@@ -39,6 +39,7 @@ from analyzer import __version__
 from analyzer.diagnosis.evidence import mean_test_read
 from analyzer.diagnosis.spread import GAIN_COVERAGE
 from analyzer.diagnosis.unexplained import either
+from analyzer.errors import capped
 from analyzer.report import format as fmt
 from analyzer.report.methods import DECISION, TESTS
 from analyzer.report.notes import onset_lines, sort_notes
@@ -205,7 +206,7 @@ class _Access(FigureParts, TableParts):
         if len(paths) > 3 and len(folders) == 1 and next(iter(folders)).name:
             name = f"{next(iter(folders)).name} ({len(paths)} files)"
         else:
-            name = ", ".join(paths[:3]) + (f" and {len(paths) - 3} more" if len(paths) > 3 else "")
+            name = capped(paths, 3)
         return f"Sensor fault audit: {name}" if name else "Sensor fault audit"
 
     def headline(self, faults: Sequence[Mapping[str, Any]]) -> str:
@@ -369,7 +370,7 @@ class _Access(FigureParts, TableParts):
 
     def checked(self) -> list[Fact]:
         names = list(self.analyzed)
-        shown = ", ".join(names[:24]) + (f" and {len(names) - 24} more" if len(names) > 24 else "")
+        shown = capped(names, 24)
         return [
             Fact("Channels", f"{len(names)}: {shown}"),
             Fact(
@@ -451,12 +452,10 @@ class _Access(FigureParts, TableParts):
         model = self.doc.get("model")
         if model:  # --model: nothing was fitted on this archive
             tr = model.get("train") or {}
-            files = ", ".join(Path(str(i.get("path", ""))).name for i in model["trained_on"][:3])
-            more = len(model["trained_on"]) - 3
+            files = capped([Path(str(i.get("path", ""))).name for i in model["trained_on"]], 3)
             return (
                 f"No training on this archive: the models were fitted on {files}"
-                + (f" and {more} more" if more > 0 else "")
-                + f" ({fmt.seconds(float(tr.get('start_s', 0.0)))} to "
+                f" ({fmt.seconds(float(tr.get('start_s', 0.0)))} to "
                 f"{fmt.seconds(float(tr.get('end_s', 0.0)))} of it) and loaded from "
                 f"{model.get('path')}; the first {fmt.duration(b - a + 1 / self.rate)} here "
                 "let the filters settle, and no fault is searched there"
