@@ -38,7 +38,7 @@ from typing import Any
 from analyzer import __version__
 from analyzer.diagnosis.evidence import mean_test_read
 from analyzer.diagnosis.spread import GAIN_COVERAGE
-from analyzer.diagnosis.unexplained import either
+from analyzer.diagnosis.unexplained import and_joined
 from analyzer.errors import capped
 from analyzer.report import format as fmt
 from analyzer.report.methods import DECISION, TESTS
@@ -116,6 +116,7 @@ def build_view(
         verdict_facts=a.verdict_facts(),
         findings=findings,
         summarized=max(0, len(findings) - MAX_DETAILED),
+        detailed=len(detailed),
         sections=_sections(detailed, len(findings)),
         checked=a.checked(),
         skipped=[
@@ -280,7 +281,7 @@ class _Access(FigureParts, TableParts):
         # (the clock time too where the record has one, as the findings give it: in a
         # 24 h archive "from 7199.8 s" alone left the user to count the hours)
         shown = [
-            f"on {either([str(c) for c in u.get('channels') or []])} from "
+            f"on {and_joined([str(c) for c in u.get('channels') or []])} from "
             f"{fmt.seconds(u.get('onset_s'), 1)}"
             + (f" at {u['onset']}" if u.get("onset") else "")
             + " (seen by "

@@ -182,6 +182,10 @@ class ReportView:
     verdict_facts: list[Fact]
     findings: list[FindingView]
     summarized: int
+    """Findings listed in the verdict table only (past :data:`~analyzer.report.view.
+    MAX_DETAILED`)."""
+    detailed: int
+    """Findings with a section of their own (the page says how many)."""
     checked: list[Fact]
     skipped: list[Fact]
     by_default: list[Fact]
