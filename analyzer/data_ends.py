@@ -19,9 +19,7 @@ import numpy.typing as npt
 from analyzer.diagnosis.merge import Finding
 from analyzer.diagnosis.readings import shortest
 from analyzer.reconfigure import last_rows
-
-DECIMALS = 4
-"""Decimals of ``evidence.data_ends_s``, as of ``end_s``."""
+from analyzer.timeutil import json_time
 
 
 def ends_with_data(
@@ -49,7 +47,7 @@ def ends_with_data(
         if f.end_s * rate_hz >= row - window:
             # (the first row without a reading: the time the run's note on the channel
             # gives, "no reading in its last ... s (after 740.406 s)")
-            f.evidence["data_ends_s"] = round((row + 1) / rate_hz, DECIMALS)
+            f.evidence["data_ends_s"] = json_time((row + 1) / rate_hz)
             f.end_s = None
 
 

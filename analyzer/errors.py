@@ -21,6 +21,10 @@ def one_line(err: BaseException | str) -> str:
 LISTED = 4
 """Items of a list an error message names before it counts the rest (:func:`capped`)."""
 
+WARNED_LINES = 5
+"""Lines of input errors a command repeats on stderr before it counts the rest (``run``,
+``export``, ``watch``'s record): findings.json, or ``analyzer inspect``, has them all."""
+
 
 def capped(items: Sequence[str], most: int = LISTED, sep: str = ", ", what: str = "") -> str:
     """``items`` joined by ``sep``, the first ``most`` of them and ``and N more`` (``and N

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from analyzer.errors import ReaderError, UsageError, capped
+from analyzer.errors import WARNED_LINES, ReaderError, UsageError, capped
 from analyzer.missing_codes import Unread, as_gaps, no_reading_line, read_notes
 from analyzer.outdir import (
     named_error,
@@ -44,9 +44,6 @@ from analyzer.timeutil import (
 )
 
 BLOCK = 1 << 16
-
-WARNED_LINES = 5
-"""Lines of input errors an export repeats through ``warn`` (as ``run`` does)."""
 
 INTERPOLATED = 2.0
 """A varying channel exported on a clock more than this many times its own rate is

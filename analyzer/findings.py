@@ -33,7 +33,7 @@ from analyzer.silent import MIN_SAMPLES as SILENT_SAMPLES
 from analyzer.silent import MIN_WINDOWS as SILENT_WINDOWS
 from analyzer.silent import SILENT_CHECK
 from analyzer.store import ChannelInfo
-from analyzer.timeutil import iso_utc
+from analyzer.timeutil import DURATION_DECIMALS, iso_utc, json_time
 from analyzer.types import NS_PER_S, Format
 from analyzer.what_to_check import channel_units, what_to_check
 
@@ -279,7 +279,7 @@ def _document(analysis: Analysis) -> dict[str, Any]:
         "start": iso_utc(a.start_ns) if a.absolute_time else None,
         # (relative times: the file's own time of 0 s, which the *_s count from)
         "time_origin_s": None if a.absolute_time else round(a.start_ns / NS_PER_S, 9),
-        "duration_s": round(a.duration_s, 6),
+        "duration_s": round(a.duration_s, DURATION_DECIMALS),
         "rate_hz": a.rate_hz,
         # (log times or header stamps: which --time placed the messages' samples at)
         "time_source": getattr(a, "time_source", None),
@@ -287,8 +287,8 @@ def _document(analysis: Analysis) -> dict[str, Any]:
         "logged_rate_hz": None if a.slowed is None else a.slowed.rate_hz,
         # (to four decimals, as onset_s: 19.980169008087802 was written)
         "train": {
-            "start_s": round(train0 / a.rate_hz, 4),
-            "end_s": round((train1 - 1) / a.rate_hz, 4),
+            "start_s": json_time(train0 / a.rate_hz),
+            "end_s": json_time((train1 - 1) / a.rate_hz),
         },
         "channels": [
             {
@@ -311,8 +311,8 @@ def _document(analysis: Analysis) -> dict[str, Any]:
                         "channel": f.channel,
                         **({"label": labels[f.channel]} if f.channel in labels else {}),
                         "type": str(f.type),
-                        "onset_s": round(f.onset_s, 4),
-                        "end_s": None if f.end_s is None else round(f.end_s, 4),
+                        "onset_s": json_time(f.onset_s),
+                        "end_s": None if f.end_s is None else json_time(f.end_s),
                         "onset": a.onset_iso(f.onset_s),
                         "end": a.onset_iso(f.end_s),
                         # (numbers, as CONTRACT.md says, even should one not be finite)
@@ -369,7 +369,7 @@ def _document(analysis: Analysis) -> dict[str, Any]:
         "unexplained_alarms": [
             {
                 "channels": list(u.channels),
-                "onset_s": round(u.onset_s, 4),
+                "onset_s": json_time(u.onset_s),
                 "onset": a.onset_iso(u.onset_s),
                 "detectors": list(u.detectors),
                 "beside": list(u.beside),
@@ -447,7 +447,7 @@ def finding_intervals(f: Finding) -> dict[str, Any]:
         notes["onset"] = str(timed[0].intervals.get("onset_note"))
     else:
         lo, hi = timed[0].intervals["onset_s"]
-        onset = [round(float(lo), 4), round(float(hi), 4)]
+        onset = [json_time(float(lo)), json_time(float(hi))]
     out: dict[str, Any] = {"magnitude_interval": magnitude, "onset_interval_s": onset}
     if notes:
         out["interval_notes"] = notes

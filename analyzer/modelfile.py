@@ -38,6 +38,7 @@ from typing import Any
 from analyzer import __version__
 from analyzer.errors import UsageError
 from analyzer.outdir import write_atomic
+from analyzer.timeutil import json_time
 
 MAGIC = b"analyzer.model/3\n"
 """Format 3: a SHA-256 of the content after the magic line (:func:`framed`).
@@ -139,7 +140,7 @@ class SavedModel:
         the window asked for, whose end can be one sample later: a ``--model`` run said
         0-120.000 s of a model saved "fitted on 0-119.995 s", a new user's audit, ux53
         item 10.)"""
-        return round(self.train_s[0], 4), round(self.train_s[1], 4)
+        return json_time(self.train_s[0]), json_time(self.train_s[1])
 
     def detectors(self) -> list[str]:
         """The detectors fitted in this model, in the order they ran."""

@@ -82,10 +82,6 @@ class DaskLog:
                     handler.removeFilter(_HOLD)
                 _held_handlers.clear()
 
-    @property
-    def is_open(self) -> bool:
-        return self._is_open
-
     def _keep(self, record: logging.LogRecord) -> None:
         try:
             line = _FORMAT.format(record)

@@ -100,6 +100,7 @@ from analyzer.diagnosis.unexplained import (
 )
 from analyzer.errors import (
     LISTED,
+    WARNED_LINES,
     AnalyzerError,
     ArchiveUsageError,
     DetectorError,
@@ -202,7 +203,9 @@ from analyzer.silent import blank_findings, merged, silent_findings
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
 from analyzer.store.store import UNREADABLE
 from analyzer.timeutil import (
+    DURATION_DECIMALS,
     iso_utc,
+    json_time,
     plain_number,
     plausible_epoch,
     rows_within,
@@ -2073,7 +2076,7 @@ def _after_gap_notes(
                 break
             start = a
         late = f.onset_s - end / rate_hz
-        f.evidence["after_gap_s"] = [round(start / rate_hz, 4), round(end / rate_hz, 4)]
+        f.evidence["after_gap_s"] = [json_time(start / rate_hz), json_time(end / rate_hz)]
         where = (
             "its onset is where the data resumed"
             if late <= 1.5 / rate_hz
@@ -3353,17 +3356,19 @@ def saved_model_info(analysis: Analysis, path: Path, data: bytes) -> dict[str, A
     (the audit)."""
     start, end = analysis.train
     searched = (
-        {"start_s": round(end / analysis.rate_hz, 4), "end_s": round(analysis.duration_s, 6)}
+        {
+            "start_s": json_time(end / analysis.rate_hz),
+            "end_s": round(analysis.duration_s, DURATION_DECIMALS),  # (as ``duration_s``)
+        }
         if end < analysis.n
         else None
     )
     return {
         "path": str(path),
         "sha256": hashlib.sha256(data).hexdigest(),
-        # (as findings.json's train: to four decimals)
-        "train": {
-            "start_s": round(start / analysis.rate_hz, 4),
-            "end_s": round((end - 1) / analysis.rate_hz, 4),
+        "train": {  # (as findings.json's train)
+            "start_s": json_time(start / analysis.rate_hz),
+            "end_s": json_time((end - 1) / analysis.rate_hz),
         },
         "searched": searched,
         "warnings": window_warnings(analysis.notes),
@@ -3511,10 +3516,6 @@ def config_warnings(config: Config, analysis: Analysis) -> list[str]:
             f"{config.path}: [detectors.{r.detector}] {n}" for n in r.notes if n.startswith(stem)
         )
     return lines
-
-
-WARNED_LINES = 5
-"""Lines of input errors :func:`run` repeats on stderr; findings.json has them all."""
 
 
 def _warn_inputs(analysis: Analysis, out: Path, warn: Callable[[str], None]) -> None:

@@ -42,7 +42,7 @@ from analyzer.diagnosis.classify import MIN_GAIN
 from analyzer.errors import counted
 from analyzer.outdir import named_error, spreadsheet_safe
 from analyzer.paging import RELEASE_ROWS, release
-from analyzer.timeutil import exact_unit, iso_times
+from analyzer.timeutil import exact_unit, iso_times, json_time
 from analyzer.types import NS_PER_S, FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -99,9 +99,9 @@ class Correction:
 
 
 def _time(x: float | None) -> float | None:
-    """A time in seconds to four decimals, as findings.json writes a fault's
-    ``onset_s`` (``corrections[]`` wrote ``300.002537658976``)."""
-    return None if x is None else round(float(x), 4)
+    """A time in seconds as findings.json writes a fault's ``onset_s``
+    (:func:`~analyzer.timeutil.json_time`; ``corrections[]`` wrote ``300.002537658976``)."""
+    return None if x is None else json_time(float(x))
 
 
 def fault_signal(

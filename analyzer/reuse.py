@@ -69,16 +69,14 @@ def model_channels(
     others = [i.name for i in infos if i.name not in fitted and not i.constant and not i.flag]
     flags = [i.name for i in infos if i.name not in fitted and i.flag]
     if flags:
-        more = f" and {len(flags) - 5} more" if len(flags) > 5 else ""
         notes.append(
             f"flags or labels of this archive (two whole numbers over the record), not in the "
-            f"model, not analyzed: {', '.join(flags[:5])}{more}"
+            f"model, not analyzed: {capped(flags, 5)}"
         )
     if others:
-        more = f" and {len(others) - 5} more" if len(others) > 5 else ""
         notes.append(
             f"{len(others)} channel(s) of this archive are not in the model and were not "
-            f"analyzed: {', '.join(others[:5])}{more} (a model fitted with them includes them)"
+            f"analyzed: {capped(others, 5)} (a model fitted with them includes them)"
         )
     if options.time_source != model.time_source:
         notes.append(
@@ -94,11 +92,10 @@ def _missing_line(store: ChannelStore, missing: Sequence[str], where: str, fitte
     ``--channels``' error: a file of another system, or of renamed sensors, said only
     what it lacked), and, where an archive's channel holds a missing one's name
     (``/s4.data`` for ``s4``, ``S4``), did you mean it (:meth:`ChannelStore.did_you_mean`)."""
-    more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
     near = next(((c, n) for c in missing if (n := store.did_you_mean(c, literal=True))), None)
     hint = f"; did you mean {near[1]} for {near[0]}?" if near else ""
     return (
-        f"--model {where}: this archive has no channel {', '.join(missing[:3])}{more}{hint} "
+        f"--model {where}: this archive has no channel {capped(missing, 3)}{hint} "
         f"(the model was fitted on {fitted} channels; the archive's channels: "
         f"{capped(store.names)})"
     )

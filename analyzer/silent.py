@@ -31,6 +31,7 @@ from analyzer.diagnosis.readings import shortest
 from analyzer.readers.base import InputInfo
 from analyzer.reconfigure import last_rows
 from analyzer.store.store import ChannelInfo
+from analyzer.timeutil import json_time
 from analyzer.types import FaultType
 
 SILENT_CHECK = "silent_check"
@@ -44,9 +45,6 @@ judged on as much data."""
 MIN_WINDOWS = 3
 """Fewest long alarm windows of silence for a finding: a detector's alarm is judged on
 one; three are more than a dropped burst of rows that a logger fills in again."""
-
-DECIMALS = 4
-"""Decimals of the times written, as of ``onset_s``."""
 
 
 def silent_findings(
@@ -90,9 +88,9 @@ def silent_finding(name: str, onset_s: float, no_data_s: float) -> Finding:
     return Finding(
         name,
         FaultType.OTHER,
-        round(onset_s, DECIMALS),
+        json_time(onset_s),
         None,
-        {"no_data_s": round(no_data_s, DECIMALS)},
+        {"no_data_s": json_time(no_data_s)},
         1.0,
         SILENT_CHECK,
         evidence={"detectors": [SILENT_CHECK], "tests": {}},

@@ -121,6 +121,22 @@ def plausible_epoch(ns: int) -> bool:
     return bool(ns > np.int64(631152000) * NS_PER_S)
 
 
+TIME_DECIMALS = 4
+"""Decimals findings.json (and the saved model, the corrections) keep of a time in
+seconds: ``onset_s``, ``end_s``, a window's ``start_s``... A tenth of a millisecond
+tells one sample from the next up to 10 kHz (:func:`json_time`)."""
+
+DURATION_DECIMALS = 6
+"""Decimals findings.json keeps of the record's length ``duration_s``, and of the
+record's end where it is written as a time (``saved_model.searched.end_s``): it is the
+same number, so it reads alike in both fields."""
+
+
+def json_time(x: float) -> float:
+    """A time in seconds as findings.json writes it: to :data:`TIME_DECIMALS`."""
+    return round(x, TIME_DECIMALS)
+
+
 ROW_SLACK = 1e-6
 """Of a sample period: how far a window's end may lie past a row's time (float error in
 ``seconds * rate``) and still be read as on it."""

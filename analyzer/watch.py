@@ -197,12 +197,14 @@ from typing import Any, BinaryIO, NamedTuple, TypeVar
 from analyzer import __version__
 from analyzer.diagnosis.training_check import window_warnings
 from analyzer.errors import (
+    WARNED_LINES,
     AnalyzerError,
     ArchiveMismatch,
     ArchiveTooShort,
     ConfigError,
     TooLittleDataError,
     UsageError,
+    capped,
     one_line,
     terminal_safe,
 )
@@ -212,7 +214,6 @@ from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
 from analyzer.parallel import DaskExecutor, usable_cpus
 from analyzer.pipeline import (
-    WARNED_LINES,
     analyze_screened,
     config_warnings,
     faults_words,
@@ -245,6 +246,7 @@ from analyzer.watch_index import (
     hidden_name,
     more_warnings,
     now_iso,
+    numbered_names,
     publish,
     report_dirname,
     scratch_dir,
@@ -742,14 +744,11 @@ def _renamed_words(archive: ReadyArchive, moved: Sequence[str]) -> str:
 
 
 def _free_name(folder: Path, name: str) -> Path:
-    """``folder/name``, or ``folder/stem-N.suffixes`` if that is taken."""
-    target = folder / name
-    stem, dot, suffixes = name.partition(".")
-    n = 1
-    while os.path.lexists(target):
-        target = folder / f"{stem}-{n}{dot}{suffixes}"
-        n += 1
-    return target
+    """``folder/name``, or ``folder/stem-N.suffixes`` if that is taken
+    (:func:`~analyzer.watch_index.numbered_names`)."""
+    if not os.path.lexists(folder / name):
+        return folder / name
+    return next(folder / c for c in numbered_names(name) if not os.path.lexists(folder / c))
 
 
 def _other_fs(paths: Sequence[Path], folder: Path) -> bool:
@@ -762,11 +761,9 @@ def _other_fs(paths: Sequence[Path], folder: Path) -> bool:
 def _free_of(folder: Path, name: str, taken: Sequence[Path]) -> Path:
     """:func:`_free_name`, free of ``taken`` too (the other files of a move)."""
     target = _free_name(folder, name)
-    stem, dot, suffixes = name.partition(".")
-    n = 1
+    others = numbered_names(name)
     while target in taken:
-        target = _free_name(folder, f"{stem}-{n}{dot}{suffixes}")
-        n += 1
+        target = _free_name(folder, next(others))
     return target
 
 
@@ -2671,7 +2668,7 @@ class _Runner:
     @staticmethod
     def _input_warnings(job: _Job) -> list[str]:
         """The input errors and notes an analysis that went on past them left
-        (:data:`INPUT_WARNINGS`), the first :data:`~analyzer.pipeline.WARNED_LINES` and a
+        (:data:`INPUT_WARNINGS`), the first :data:`~analyzer.errors.WARNED_LINES` and a
         count of the rest, as ``analyzer run`` prints them; the file is removed (it is not
         part of the report, whose findings.json has them all)."""
         path = job.scratch / INPUT_WARNINGS
@@ -2707,7 +2704,7 @@ class _Runner:
         """Log, as ``analyzer run`` prints them, the warnings the analysis left
         (:data:`CONFIG_WARNINGS`), and remove their file: it is not part of the report.
         Returns them, for the archive's record (:attr:`Record.warnings`): the first
-        :data:`~analyzer.pipeline.WARNED_LINES` and a count of the rest
+        :data:`~analyzer.errors.WARNED_LINES` and a count of the rest
         (:func:`~analyzer.watch_index.more_warnings`), as ``input_errors`` keeps them."""
         path = job.scratch / CONFIG_WARNINGS
         try:
@@ -3200,16 +3197,13 @@ def _watch_locked(
             log.info("%s: its report folder is gone; it will be analyzed again", name)
     unknown = _unknown_copies(ledger, [settings.done, settings.failed])
     if unknown:
-        named = ", ".join(str(p) for p in unknown[:UNKNOWN_COPIES_NAMED])
-        more = len(unknown) - UNKNOWN_COPIES_NAMED
         log.warning(
             "%d hidden cop%s of a move that the state file does not know (left by an older "
             "watcher killed during a move, or another watcher's under way?), not removed: "
-            "%s%s; remove them by hand once checked",
+            "%s; remove them by hand once checked",
             len(unknown),
             "y" if len(unknown) == 1 else "ies",
-            named,
-            f" and {more} more" if more > 0 else "",
+            capped([str(p) for p in unknown], UNKNOWN_COPIES_NAMED),
         )
     ledger.save()
     runner = _Runner(settings, options, ledger, stop, cluster, frozenset(exclude))

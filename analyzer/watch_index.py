@@ -25,6 +25,7 @@ import bisect
 import contextlib
 import fcntl
 import hashlib
+import itertools
 import json
 import logging
 import math
@@ -32,7 +33,7 @@ import os
 import shutil
 import time
 import uuid
-from collections.abc import Collection, Iterable, Mapping
+from collections.abc import Collection, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field, fields, replace
 from enum import StrEnum
 from pathlib import Path
@@ -264,6 +265,15 @@ def report_dirname(name: str) -> str:
     ``__index.html``). A record links to its own folder (:attr:`Record.folder`), so the
     records of watchers that named ``_x`` folder ``_x`` stay valid."""
     return f"_{name}" if name in RESERVED or name.startswith((".", "_")) else name
+
+
+def numbered_names(name: str) -> Iterator[str]:
+    """The names that stand for ``name`` where it is taken, in the order tried:
+    ``stem-1.suffixes``, ``stem-2.suffixes``... (``x.csv.gz``: ``x-1.csv.gz``, the number
+    before every suffix, so the name still reads as its format). One rule for the
+    archives moved to DONE or FAILED, their report folders and their records."""
+    stem, dot, suffixes = name.partition(".")
+    return (f"{stem}-{n}{dot}{suffixes}" for n in itertools.count(1))
 
 
 def now_iso() -> str:
@@ -539,13 +549,8 @@ class Ledger:
         its folder (:meth:`keep_aside`): ``stem-N.suffixes`` (as :func:`report_dirname`
         makes it), the first that no record links to and that is not in REPORTS."""
         taken = {rec.folder for rec in self.records.values()}
-        stem, dot, suffixes = name.partition(".")
-        n = 1
-        while True:
-            folder = _fitting(report_dirname(f"{stem}-{n}{dot}{suffixes}"))
-            if folder not in taken and not os.path.lexists(self.reports / folder):
-                return folder
-            n += 1
+        folders = (_fitting(report_dirname(c)) for c in numbered_names(name))
+        return next(f for f in folders if f not in taken and not os.path.lexists(self.reports / f))
 
     def reserve(self, rec: Record) -> None:
         """Keep ``rec`` in the state file before its report is published into
@@ -597,11 +602,7 @@ class Ledger:
             moved = Path(rec.moved_to[0]).name
             if moved != rec.name and free(moved):
                 return moved
-        stem, dot, suffixes = rec.name.partition(".")
-        n = 1
-        while not free(candidate := f"{stem}-{n}{dot}{suffixes}"):
-            n += 1
-        return candidate
+        return next(c for c in numbered_names(rec.name) if free(c))
 
     def record(self, rec: Record) -> None:
         """Keep ``rec``: the state file at once, the views when due
@@ -984,7 +985,7 @@ _MORE_WARNINGS = " more warnings in the watcher's log"
 
 def more_warnings(n: int) -> str:
     """The line that ends an archive's :attr:`Record.warnings` in place of the ``n``
-    lines past the first :data:`~analyzer.pipeline.WARNED_LINES` (every line in every
+    lines past the first :data:`~analyzer.errors.WARNED_LINES` (every line in every
     record: 3000 config lines made a 786 KB state and a 798 KB index.json, rcfg53)."""
     return f"{n}{_MORE_WARNINGS}"
 

@@ -150,35 +150,40 @@ def building() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return t, y, 0.1 * y[:2400].std(axis=0)
 
 
-@pytest.mark.parametrize(
-    "quiet",
-    [
-        0.02,
-        0.03,
-        0.04,
-        0.05,
-        pytest.param(
-            0.01,
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="every channel reads exactly 0.0 from 80 s to the end: the values "
-                "are those of a logger writing zeros, which must be found",
-            ),
-        ),
-    ],
-)
+def _quiet_after_80_s(
+    building: tuple[np.ndarray, np.ndarray, np.ndarray], quiet: float
+) -> np.ndarray:
+    """The quantized building with its amplitude times ``quiet`` for its last 40 s."""
+    t, y, count = building
+    return np.round(y * np.where(t < 80.0, 1.0, quiet)[:, None] / count) * count
+
+
+@pytest.mark.parametrize("quiet", [0.02, 0.03, 0.04, 0.05])
 @pytest.mark.parametrize("block", [None, 997])
 def test_a_quiet_spell_of_quantized_channels_is_no_outage(monkeypatch, building, quiet, block):
     """The building quiet (amplitude x ``quiet``) for its last 40 s reads 0 counts on
     every channel at once for stretches of every length there, the longest of them its
     channels' longest runs: they were once taken out of the runs a stretch must beat,
     and 7.8 s of valid quiet data (at x0.03) became outages. Cut in blocks too."""
-    t, y, count = building
-    values = np.round(y * np.where(t < 80.0, 1.0, quiet)[:, None] / count) * count
-    assert outage._held_stretches(values, len(t))[0].size > 0  # the channels do hold
+    values = _quiet_after_80_s(building, quiet)
+    assert outage._held_stretches(values, len(values))[0].size > 0  # the channels do hold
     if block is not None:
         monkeypatch.setattr(outage, "SCAN_VALUES", block * values.shape[1])
     assert find_outages(values) == []
+
+
+@pytest.mark.parametrize("block", [None, 997])
+def test_a_quiet_spell_that_reads_exactly_zero_on_every_channel_is_an_outage(
+    monkeypatch, building, block
+):
+    """Quieter still (x0.01), every channel reads exactly 0.0 from 80 s to the record's
+    end: the values of a logger writing zeros, which must be found as one outage over
+    that span (whole, or cut in blocks)."""
+    values = _quiet_after_80_s(building, 0.01)
+    assert not values[8000:].any() and values[7999].any()
+    if block is not None:
+        monkeypatch.setattr(outage, "SCAN_VALUES", block * values.shape[1])
+    assert find_outages(values) == [Outage(8000, 12000, 0.0)]
 
 
 @pytest.mark.parametrize("kind", ["zeros", "frozen"])

@@ -254,6 +254,12 @@ class Pretreatment:
 PRETREAT_ROWS = 1 << 16
 """Samples the pretreatment's observers run through at a time (their states carried)."""
 
+PRETREAT_MIN_SAMPLES = 16
+"""Fewest finite healthy samples the pretreatment accepts: it fits two unknowns
+``(a, b)`` by least squares to the output error of observers that start from a zero
+state, and below this raises :class:`TooLittleDataError` (the count it names as needed).
+A floor set with the code when it was first written, with no stated derivation."""
+
 
 def _output_errors(
     y: FloatArray,
@@ -309,11 +315,11 @@ def pretreat(
     ok = finite_rows(yy)  # a block of a memory-mapped window at a time
     if u is not None:
         ok &= finite_rows(np.asarray(u))
-    if ok.sum() < 16:
+    if ok.sum() < PRETREAT_MIN_SAMPLES:
         raise TooLittleDataError(
             f"too little healthy data for the pretreatment: {int(ok.sum())} samples",
             int(ok.sum()),
-            16,
+            PRETREAT_MIN_SAMPLES,
         )
     # contiguous run with no gap (the observer needs consecutive samples)
     runs = np.flatnonzero(np.diff(np.concatenate(([0], ok.astype(np.int8), [0]))))

@@ -331,16 +331,6 @@ class Detector(Protocol):
         ...
 
 
-def channel_subset(channels: Sequence[str], wanted: Sequence[str]) -> list[int]:
-    """Indices of ``wanted`` in ``channels`` (raises ``KeyError`` naming a missing one)."""
-    out = []
-    for name in wanted:
-        if name not in channels:
-            raise KeyError(name)
-        out.append(list(channels).index(name))
-    return out
-
-
 def dilate_forward(mask: npt.NDArray[np.bool_], n: int) -> npt.NDArray[np.bool_]:
     """True wherever ``mask`` was True within the previous ``n`` samples (the samples a
     filter that settles in ``n`` samples still remembers a gap in); ``mask`` itself when

@@ -80,7 +80,7 @@ import numpy.typing as npt
 from scipy import linalg
 
 from analyzer.detectors.lti import ImpulseResponseBank, LiftedBank, LiftedSystem, system_bank
-from analyzer.errors import DetectorError
+from analyzer.errors import DetectorError, capped
 
 FloatArray = npt.NDArray[np.float64]
 Modes = Sequence[complex] | npt.NDArray[Any]
@@ -642,8 +642,7 @@ def _ar_state_gain(
 
 
 def _fmt_modes(modes: Sequence[complex]) -> str:
-    parts = []
-    for z in modes[:4]:
-        parts.append(f"{z.real:.4g}" if abs(z.imag) < 1e-12 else f"{z.real:.4g}{z.imag:+.4g}j")
-    more = f" and {len(modes) - 4} more" if len(modes) > 4 else ""
-    return ", ".join(parts) + more
+    parts = [
+        f"{z.real:.4g}" if abs(z.imag) < 1e-12 else f"{z.real:.4g}{z.imag:+.4g}j" for z in modes
+    ]
+    return capped(parts, 4)

@@ -685,15 +685,6 @@ def run_chunked(
                 yield lo, y[:, :, lo - a - off :]
 
 
-def bank_segment(
-    bank: ImpulseResponseBank | LiftedBank, v: FloatArray, lo: int, hi: int
-) -> FloatArray:
-    """Outputs ``(k, q, hi - lo)`` of the bank over samples ``lo .. hi - 1`` of the run over
-    ``v``, recomputed from the input the bank remembers only."""
-    parts = [y for _, y in run_chunked(bank, lambda a, b: v[a:b], hi, lo)]
-    return np.concatenate(parts, axis=2)
-
-
 def simulate_reference(
     F: FloatArray, G: FloatArray, H: FloatArray, J: FloatArray, u: FloatArray
 ) -> FloatArray:

@@ -378,14 +378,6 @@ class SensorNetwork:
         order.extend(x for x in members if x not in order)
         return tuple(order)
 
-    def structure_of(self, sensor: str) -> Structure | None:
-        """The structure ``sensor`` belongs to (a branch's attach sensor belongs to its own
-        line or circle)."""
-        for st in self.structures():
-            if sensor in st.sensors:
-                return st
-        return None
-
     # -- diagnosis -------------------------------------------------------------------------
     def has_residual(self, sensor: str) -> bool:
         """True for sensors with an observer (they have assistant sensors) and for

@@ -23,6 +23,13 @@ from analyzer.errors import DetectorError, TooLittleDataError
 FloatArray = npt.NDArray[np.float64]
 
 
+NOISE_DESIGN_MIN_SAMPLES = 50
+"""Fewest finite healthy rows the ``[model]`` noise design estimates the outputs'
+variances from (``R0 = diag(var(Y))``): a variance from ``n`` samples has a relative
+standard error of about ``sqrt(2 / (n - 1))``, 20 % at 50. A floor set with the code
+when it was first written, with no stated derivation."""
+
+
 @dataclass(frozen=True, slots=True)
 class StateSpaceModel:
     """The model the bank is built on, on centred (and for AR, scaled) data:
@@ -136,11 +143,11 @@ def model_from_config(model: Mapping[str, Any], data: Dataset) -> StateSpaceMode
     U, u_mean = _centred(train, ii)
     ok = np.isfinite(Y).all(axis=1) & (np.isfinite(U).all(axis=1) if U.shape[1] else True)
     Y, U = Y[ok], U[ok]
-    if Y.shape[0] < 50:
+    if Y.shape[0] < NOISE_DESIGN_MIN_SAMPLES:
         raise TooLittleDataError(
             f"too little healthy data for the [model] noise design: {Y.shape[0]} samples",
             Y.shape[0],
-            50,
+            NOISE_DESIGN_MIN_SAMPLES,
         )
     var = np.var(Y, axis=0)
     if np.any(var <= 0):

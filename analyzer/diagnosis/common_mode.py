@@ -82,6 +82,7 @@ from analyzer.diagnosis.training_check import (
     MIN_BATCHES,
     WindowNote,
 )
+from analyzer.errors import capped
 from analyzer.timeutil import short_seconds, spoken_duration
 from analyzer.types import FaultType
 
@@ -360,13 +361,14 @@ def common_note(changes: Sequence[CommonChange]) -> CommonNote:
     first = ordered[0]
     widest = max(changes, key=lambda c: len(c.shared))
     n, m = len(widest.shared), len(widest.group)
-    what = ", ".join(
-        f"the {c.finding.type.value} fault on {c.finding.channel} from "
-        f"{short_seconds(c.finding.onset_s)} s ({'+'.join(_detectors(c.finding))})"
-        for c in ordered[:LISTED]
+    what = capped(
+        [
+            f"the {c.finding.type.value} fault on {c.finding.channel} from "
+            f"{short_seconds(c.finding.onset_s)} s ({'+'.join(_detectors(c.finding))})"
+            for c in ordered
+        ],
+        LISTED,
     )
-    if len(ordered) > LISTED:
-        what += f" and {len(ordered) - LISTED} more"
     lo = min(c.spread[0] for c in changes)
     hi = max(c.spread[1] for c in changes)
     head = (

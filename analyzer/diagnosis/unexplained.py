@@ -151,23 +151,12 @@ def unexplained_alarms(
     return sorted(out, key=lambda u: (u.onset_s, u.channels))
 
 
-def either(channels: Sequence[str]) -> str:
-    """The sensors of one unexplained anomaly as a user reads them: ``s4``, ``s4 and
-    s5`` (their residuals alarmed; with several, no detector could tell which sensor
-    is faulty)."""
+def and_joined(channels: Sequence[str]) -> str:
+    """The sensors of one unexplained anomaly as a user reads them, joined by commas and
+    a last "and": ``s4``, ``s4 and s5``, ``s0, s1 and s2`` (their residuals alarmed;
+    with several, no detector could tell which sensor is faulty)."""
     names = list(channels)
     return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
-
-
-def spoken(channel_sets: Sequence[Sequence[str]]) -> list[str]:
-    """Each distinct set of sensors of ``channel_sets`` (in order) as :func:`either` says
-    it: the summary line and the report's verdict name each once."""
-    out: list[str] = []
-    for channels in channel_sets:
-        said = either(channels)
-        if said not in out:
-            out.append(said)
-    return out
 
 
 PLACING_DETECTOR = "detection_filter"
@@ -267,7 +256,7 @@ def unplaced(
             f"reported: the {LEAVE_ONE_OUT}'s residual of {f.channel} alarmed by then and "
             f"none of its estimators (each blind to one sensor) singled {f.channel} out, "
             "and no fault shape backs the filter's choice. Alarms on "
-            f"{either(channels)} that no sensor's fault was placed for: a fault on a "
+            f"{and_joined(channels)} that no sensor's fault was placed for: a fault on a "
             "sensor whose own residual barely changes (a gain on a sensor the others "
             "estimate poorly, such as the ground floor of a building with one sensor per "
             "floor), or a change of the structure or its load"

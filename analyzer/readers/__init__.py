@@ -34,7 +34,7 @@ from analyzer.readers._common import (
     per_topic,
     special_kind,
 )
-from analyzer.readers.base import ChannelChunk, InputInfo, Reader, TimeSource
+from analyzer.readers.base import ChannelChunk, InputInfo, Reader, TimeSource, damage_of
 from analyzer.types import Format, Note
 
 # The format readers are imported when a file of theirs is opened: an MCAP run need not
@@ -172,29 +172,42 @@ def _open_members(members: Sequence[Path]) -> list[Reader | ReaderError]:
 
 
 def open_input(path: str | Path) -> Reader:
-    """Open one input; raises ReaderError (one line, naming the file) if it cannot be read."""
+    """Open one input; raises ReaderError (one line, naming the file) if it cannot be read:
+    the reader's own refusals, and what its parsing libraries raise on a damaged or foreign
+    file (:func:`~analyzer.readers.base.damage_of`). Any other exception is a bug of ours
+    and is left to reach the CLI's "internal error" line."""
     path = Path(path)
     fmt = detect_format(path)
     try:
-        if fmt is Format.MCAP:
-            from analyzer.readers.mcap_reader import McapReader
-
-            return McapReader(path)
-        if fmt is Format.ROS1BAG:
-            from analyzer.readers.ros1_reader import Ros1BagReader
-
-            return Ros1BagReader(path)
-        if fmt is Format.ROS2BAG:
-            from analyzer.readers.ros2_reader import Ros2BagReader
-
-            return Ros2BagReader(path)
-        from analyzer.readers.csv_reader import CsvReader
-
-        return CsvReader(path)
+        kind = _reader_class(fmt)
+    except ImportError as err:  # (a library missing from the installation)
+        raise ReaderError(f"{path}: cannot be read as {fmt.value} ({one_line(err)})") from err
+    try:
+        return kind(path)
     except ReaderError:
         raise
-    except Exception as err:  # noqa: BLE001 - a corrupt file fails in the parsing libraries
+    except damage_of(kind) as err:  # a corrupt file fails in the parsing libraries
         raise ReaderError(f"{path}: cannot be read as {fmt.value} ({one_line(err)})") from err
+
+
+def _reader_class(fmt: Format) -> Callable[[Path], Reader]:
+    """The reader of ``fmt``, imported only when an input of that format is given (each
+    pulls in its own libraries: pyarrow for CSV, rosbags' storage for ROS 2 bags)."""
+    if fmt is Format.MCAP:
+        from analyzer.readers.mcap_reader import McapReader
+
+        return McapReader
+    if fmt is Format.ROS1BAG:
+        from analyzer.readers.ros1_reader import Ros1BagReader
+
+        return Ros1BagReader
+    if fmt is Format.ROS2BAG:
+        from analyzer.readers.ros2_reader import Ros2BagReader
+
+        return Ros2BagReader
+    from analyzer.readers.csv_reader import CsvReader
+
+    return CsvReader
 
 
 def _safe_start(reader: Reader) -> int | None:
@@ -202,7 +215,7 @@ def _safe_start(reader: Reader) -> int | None:
     where its error is recorded or raised with the file's name)."""
     try:
         return reader.start_ns()
-    except Exception:  # noqa: BLE001
+    except damage_of(reader):
         return None
 
 
@@ -336,7 +349,7 @@ class Archive:
             if single:
                 raise
             reader.info.errors.append(f"reading stopped: {one_line(err)}")
-        except Exception as err:  # noqa: BLE001 - a damaged file must not stop the others
+        except damage_of(reader) as err:  # a damaged file must not stop the others
             if single:
                 raise ReaderError(f"{reader.info.path}: {one_line(err)}") from err
             reader.info.errors.append(f"reading stopped: {one_line(err)}")

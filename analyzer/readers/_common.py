@@ -29,7 +29,7 @@ from analyzer.errors import (
     counted,
     one_line,  # noqa: F401 - re-exported for the readers
 )
-from analyzer.readers.base import ChannelChunk
+from analyzer.readers.base import DAMAGE, ChannelChunk
 from analyzer.readers.delays import LogDelays
 from analyzer.readers.quaternions import QuaternionSigns
 from analyzer.readers.tally import Tally
@@ -311,7 +311,9 @@ paused or slowed moves it against the recorder's wall clock by any amount."""
 
 
 def absolute_log_time(
-    start: Callable[[], int | None], end: Callable[[], int | None] | None = None
+    start: Callable[[], int | None],
+    end: Callable[[], int | None] | None = None,
+    damage: tuple[type[Exception], ...] = (),
 ) -> bool:
     """Whether a recording whose first and last log times ``start()`` and ``end()``
     give keeps Unix (wall-clock) times (:attr:`InputInfo.absolute_time`): False where it
@@ -321,13 +323,15 @@ def absolute_log_time(
     files of several such runs are not stitched as one (:func:`analyzer.readers._one_span`).
     The end decides, not the start: a 2023 recording with one message logged at 0 (a
     constant published before the clock was set) keeps its dates (the review). True
-    where it has no message, or its times cannot be read (the damage is said while
-    reading)."""
+    where it has no message, or its times cannot be read: ``start`` or ``end`` raises
+    :data:`~analyzer.readers.base.DAMAGE` or ``damage`` (the reader's libraries', whose
+    damage is said while reading); any other exception is a bug, and raised."""
+    damaged: tuple[type[Exception], ...] = (ReaderError, *DAMAGE, *damage)
     try:
         last = end() if end is not None else None
         if last is None:
             last = start()
-    except Exception:  # noqa: BLE001 - a damaged file: its reader says so when read
+    except damaged:  # a damaged file: its reader says so when read
         return True
     return last is None or plausible_epoch(last)
 
@@ -347,7 +351,7 @@ def two_clocks(clocks: dict[str, str], spans: dict[str, tuple[int, int]]) -> str
     of their times (``spans``: first and last, nanoseconds), and what to do."""
 
     def listed(topics: list[str]) -> str:
-        return ", ".join(topics[:4]) + (f" and {len(topics) - 4} more" if len(topics) > 4 else "")
+        return capped(topics)
 
     def side(*sources: str) -> tuple[list[str], int, int]:
         topics = [t for t, s in clocks.items() if s in sources]

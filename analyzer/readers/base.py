@@ -9,6 +9,8 @@ one Python object per sample on the hot path.
 
 from __future__ import annotations
 
+import struct
+import zlib
 from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +27,34 @@ if TYPE_CHECKING:
     from analyzer.readers.quaternions import Flips
 
 TimeSource = Literal["log", "header"]
+
+DAMAGE: tuple[type[Exception], ...] = (
+    OSError,
+    EOFError,
+    ValueError,
+    OverflowError,
+    IndexError,
+    MemoryError,
+    struct.error,
+    zlib.error,
+)
+"""What the standard library and numpy raise on a damaged or foreign file: a short read,
+a length or offset out of range, bytes that do not decode (``UnicodeDecodeError``, a
+``ValueError``), a broken deflate stream; an index past a short buffer's end (``IndexError``: the
+readers' own decoders index the bytes they were given) and a declared size too large to
+hold (``MemoryError``), so that one such input of several is skipped, as the contract asks,
+rather than ending the run. Each reader adds its libraries' own error
+classes (:func:`damage_of`). Only these count as the file's damage where reading is
+caught (one damaged input of several does not stop the others): a ``TypeError``,
+``AttributeError`` or ``KeyError`` is a bug of ours, and reaches the CLI's "internal
+error" line instead of reading as a damaged file."""
+
+
+def damage_of(reader: object) -> tuple[type[Exception], ...]:
+    """The exceptions by which ``reader`` (a reader or its class) says its file is damaged
+    or foreign: :data:`DAMAGE`, :class:`~analyzer.errors.ReaderError` and the classes its
+    ``damage`` attribute names (its parsing libraries' errors)."""
+    return (ReaderError, *DAMAGE, *getattr(reader, "damage", ()))
 
 
 @dataclass(frozen=True, slots=True)
@@ -232,7 +262,9 @@ class Reader(Protocol):
     when its chunks end. And ``stop_at_set_back``: set by the archive where it holds
     several inputs, a clock set back by hours while recording (:attr:`InputInfo.set_back`)
     stops the reading there, raised as damage (the contract: one damaged file of a
-    multi-file archive does not stop the analysis of the others)."""
+    multi-file archive does not stop the analysis of the others). And ``damage``: the
+    error classes its parsing libraries raise on a damaged file, beyond :data:`DAMAGE`
+    (:func:`damage_of`)."""
 
     info: InputInfo
 

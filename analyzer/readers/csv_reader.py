@@ -98,7 +98,7 @@ import zlib
 from collections.abc import Callable, Generator, Iterator, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 import pyarrow as pa
@@ -800,6 +800,9 @@ def _last_line_break(text: bytes, end: int) -> int:
 
 class CsvReader:
     """One CSV/TSV file."""
+
+    damage: ClassVar[tuple[type[Exception], ...]] = (pa.ArrowException, csv.Error)
+    """Its libraries' errors on a damaged file (:func:`~analyzer.readers.base.damage_of`)."""
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)

@@ -35,6 +35,7 @@ from analyzer.readers._common import (
     FloatArray,
     IntArray,
 )
+from analyzer.readers.base import DAMAGE
 
 
 class BatchDecoder(Protocol):
@@ -114,10 +115,16 @@ def split_header(top: dict[str, Any]) -> int:
 
 
 class ObjectDecoder:
-    """Per-message decoder: ``decode_one(bytes) -> object``, flattened generically."""
+    """Per-message decoder: ``decode_one(bytes) -> object``, flattened generically. A
+    message ``decode_one`` refuses with :data:`~analyzer.readers.base.DAMAGE` or one of
+    ``damage`` (its library's errors: protobuf's ``DecodeError``) is counted as
+    undecodable; any other exception is a bug, and raised."""
 
-    def __init__(self, decode_one: Callable[[bytes], Any]) -> None:
+    def __init__(
+        self, decode_one: Callable[[bytes], Any], damage: tuple[type[Exception], ...] = ()
+    ) -> None:
         self._decode_one = decode_one
+        self._damage = (*DAMAGE, *damage)
 
     def decode(self, buf: ByteArray, starts: IntArray, sizes: IntArray) -> Decoded:
         n = int(starts.shape[0])
@@ -128,7 +135,7 @@ class ObjectDecoder:
         for row, (start, size) in enumerate(zip(starts.tolist(), sizes.tolist(), strict=True)):
             try:
                 obj = self._decode_one(raw[start : start + size])
-            except Exception as err:  # noqa: BLE001 - recorded per topic
+            except self._damage as err:  # recorded per topic
                 decoded.note_failure(err)
                 continue
             flat: dict[str, float] = {}

@@ -30,7 +30,7 @@ import struct
 import zlib
 from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, BinaryIO
+from typing import TYPE_CHECKING, Any, BinaryIO, ClassVar
 
 import lz4.frame
 import numpy as np
@@ -41,6 +41,7 @@ from mcap.exceptions import EndOfFile, McapError
 from mcap.reader import SeekingReader
 from mcap.records import Channel, Chunk, ChunkIndex, DataEnd, Footer, Message, MessageIndex, Schema
 from mcap.stream_reader import StreamReader
+from rosbags.serde import SerdeError
 
 from analyzer.errors import ReaderError, counted
 from analyzer.readers._common import (
@@ -136,6 +137,16 @@ class McapReader:
     whose schema has no definition text fall back to rosbags' standard ROS 2 types;
     ``bulk=False`` forces the reference (per-message) decoders."""
 
+    damage: ClassVar[tuple[type[Exception], ...]] = (
+        McapError,
+        _ChunkError,
+        zstandard.ZstdError,
+        RuntimeError,  # (lz4.frame's, on a damaged frame)
+        SerdeError,
+        TypeResolutionError,
+    )
+    """Its libraries' errors on a damaged file (:func:`~analyzer.readers.base.damage_of`)."""
+
     def __init__(
         self,
         path: str | Path,
@@ -183,7 +194,7 @@ class McapReader:
         self.fraction_read = 0.0
         """The share of the file :meth:`chunks` has got through (see ``Reader``)."""
         if own_info:  # (a ROS 2 bag's storage file: the bag decides)
-            self.info.absolute_time = absolute_log_time(self.start_ns, self._end_ns)
+            self.info.absolute_time = absolute_log_time(self.start_ns, self._end_ns, self.damage)
 
     # ------------------------------------------------------------------ protocol
     def start_ns(self) -> int | None:
@@ -676,9 +687,11 @@ class McapReader:
                 raise TypeResolutionError(f"cannot load protobuf schema: {one_line(err)}") from err
             if decode is None:
                 raise TypeResolutionError("cannot load the protobuf schema")
+            from google.protobuf.message import DecodeError
+
             from analyzer.readers.decoders import ObjectDecoder
 
-            return ObjectDecoder(decode)
+            return ObjectDecoder(decode, (DecodeError,))
         raise TypeResolutionError(f"unsupported message encoding {encoding!r}")
 
     def _ros_decoder(self, channel: Channel, schema: Schema | None, largest: int) -> BatchDecoder:

@@ -26,10 +26,11 @@ import struct
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import BinaryIO
+from typing import BinaryIO, ClassVar
 
 import lz4.frame
 import numpy as np
+from rosbags.serde import SerdeError
 
 from analyzer.errors import ReaderError
 from analyzer.readers._common import (
@@ -220,6 +221,14 @@ def _decompress(compression: str, data: bytes, size: int) -> ByteArray:
 class Ros1BagReader:
     """One ROS 1 bag file."""
 
+    damage: ClassVar[tuple[type[Exception], ...]] = (
+        _BagError,
+        RuntimeError,  # (lz4.frame's, on a damaged frame)
+        SerdeError,
+        TypeResolutionError,
+    )
+    """Its libraries' errors on a damaged file (:func:`~analyzer.readers.base.damage_of`)."""
+
     def __init__(self, path: str | Path, *, bulk: bool = True) -> None:
         self.path = Path(path)
         try:
@@ -277,7 +286,7 @@ class Ros1BagReader:
         multi-file archive: see ``Reader``), instead of said in ``info.set_back``."""
         self.topics: dict[str, str] = {}
         """The topic of every channel read (for reports per topic)."""
-        self.info.absolute_time = absolute_log_time(self.start_ns, self._end_ns)
+        self.info.absolute_time = absolute_log_time(self.start_ns, self._end_ns, self.damage)
 
     # ------------------------------------------------------------------ protocol
     def start_ns(self) -> int | None:

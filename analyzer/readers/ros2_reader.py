@@ -28,7 +28,7 @@ import threading
 from collections.abc import Iterator
 from contextlib import closing, contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from rosbags.interfaces import MessageDefinition, MessageDefinitionFormat
@@ -89,6 +89,14 @@ STORAGE_SUFFIXES = (".db3", ".mcap", ".db3.zstd", ".mcap.zstd")
 class Ros2BagReader:
     """One ROS 2 bag."""
 
+    damage: ClassVar[tuple[type[Exception], ...]] = (
+        BagReaderError,
+        sqlite3.Error,
+        *((apsw.Error,) if apsw is not None else ()),
+        *McapReader.damage,  # (MCAP storage files)
+    )
+    """Its libraries' errors on a damaged bag (:func:`~analyzer.readers.base.damage_of`)."""
+
     def __init__(self, path: str | Path, *, bulk: bool = True) -> None:
         self.path = Path(path)
         self.bulk = bulk
@@ -131,7 +139,7 @@ class Ros2BagReader:
             raise ReaderError(f"{self.path}: {problems[0]}")
         total, sha = file_digest(bag_files(self.path))
         self.info = InputInfo(self.path, Format.ROS2BAG, size_bytes=total, sha256=sha)
-        self.info.absolute_time = absolute_log_time(self.start_ns, lambda: self._end)
+        self.info.absolute_time = absolute_log_time(self.start_ns, lambda: self._end, self.damage)
         for line in problems:
             self._error(f"{line}; skipped")
         for line in _unlisted(self.path, listed):

@@ -36,6 +36,7 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 from rosbags.interfaces import Nodetype
+from rosbags.serde import SerdeError
 from rosbags.typesys.base import normalize_fieldname
 from rosbags.typesys.store import Typestore
 
@@ -54,10 +55,20 @@ from analyzer.readers._common import (
     gather_rows,
     merge_parts,
 )
+from analyzer.readers.base import DAMAGE
 
 Encoding = Literal["cdr", "ros1"]
 FieldDesc = tuple[Any, ...]
 """A rosbags field descriptor: ``(Nodetype, details)``."""
+
+MESSAGE_DAMAGE: tuple[type[Exception], ...] = (SerdeError, *DAMAGE)
+"""What rosbags' reference decoder raises on a message its definition does not decode
+(its own ``SerdeError``; a short buffer's ``struct.error``, bytes that are not UTF-8):
+the message is counted as undecodable. Anything else is a bug, and raised."""
+
+_NOT_THIS_STORE: tuple[type[Exception], ...] = (*MESSAGE_DAMAGE, KeyError)
+"""A message a candidate definition does not decode, or a type (or nested type) the
+candidate store lacks (``KeyError``): try the next store."""
 
 MAX_LAYOUTS = 32
 """Distinct layouts kept per topic before the rest of a batch goes to the reference decoder."""
@@ -662,7 +673,7 @@ class RosBatchDecoder:
                         store.deserialize_cdr(data, self.msgtype)
                     else:
                         store.deserialize_ros1(data, self.msgtype)
-                except Exception:  # noqa: BLE001 - any failure means "not this store"
+                except _NOT_THIS_STORE:
                     continue
             return store
         return None
@@ -813,7 +824,7 @@ class RosBatchDecoder:
             try:
                 obj = self.deserialize(data)
                 flat, stamp = flatten_message(store, self.msgtype, obj)
-            except Exception as err:  # noqa: BLE001 - recorded per topic, never fatal
+            except MESSAGE_DAMAGE as err:  # recorded per topic, never fatal
                 decoded.note_failure(err)
                 continue
             acc.add(row, flat)

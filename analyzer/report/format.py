@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from analyzer.diagnosis.classify import MIN_GAIN
-from analyzer.timeutil import seconds_text
+from analyzer.timeutil import TIME_DECIMALS, seconds_text
 
 MISSING = "n/a"
 
@@ -90,10 +90,6 @@ def seconds(x: float | None, decimals: int = 3) -> str:
     if x is None or not math.isfinite(float(x)):
         return MISSING
     return f"{seconds_text(float(x), decimals)} s"
-
-
-TIME_DECIMALS = 4
-"""Decimals findings.json keeps of a time in seconds (``onset_s``, ``end_s``)."""
 
 
 def time_decimals(rate_hz: float | None) -> int:

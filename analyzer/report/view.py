@@ -39,7 +39,8 @@ from analyzer import __version__
 from analyzer.diagnosis.evidence import mean_test_read
 from analyzer.diagnosis.levels import LISTED
 from analyzer.diagnosis.spread import GAIN_COVERAGE
-from analyzer.diagnosis.unexplained import either
+from analyzer.diagnosis.unexplained import and_joined
+from analyzer.errors import capped
 from analyzer.evidence_label import LABEL_WORDS, LARGE, MEASURED, SMALL
 from analyzer.report import format as fmt
 from analyzer.report import healthy
@@ -131,6 +132,7 @@ def build_view(
         verdict_facts=a.verdict_facts(),
         findings=findings,
         summarized=max(0, len(findings) - MAX_DETAILED),
+        detailed=len(detailed),
         sections=_sections(detailed, len(findings)),
         checked=a.checked(),
         skipped=[
@@ -229,7 +231,7 @@ class _Access(FigureParts, TableParts):
         if len(paths) > 3 and len(folders) == 1 and next(iter(folders)).name:
             name = f"{next(iter(folders)).name} ({len(paths)} files)"
         else:
-            name = ", ".join(paths[:3]) + (f" and {len(paths) - 3} more" if len(paths) > 3 else "")
+            name = capped(paths, 3)
         return f"Sensor fault audit: {name}" if name else "Sensor fault audit"
 
     def headline(self, faults: Sequence[Mapping[str, Any]]) -> str:
@@ -305,7 +307,7 @@ class _Access(FigureParts, TableParts):
         # (the clock time too where the record has one, as the findings give it: in a
         # 24 h archive "from 7199.8 s" alone left the user to count the hours)
         shown = [
-            f"on {either([str(c) for c in u.get('channels') or []])} from "
+            f"on {and_joined([str(c) for c in u.get('channels') or []])} from "
             f"{coarse(u.get('onset_s'))}"
             + (f" at {u['onset']}" if u.get("onset") else "")
             + " (seen by "
@@ -447,7 +449,7 @@ class _Access(FigureParts, TableParts):
 
     def checked(self) -> list[Fact]:
         names = list(self.analyzed)
-        shown = ", ".join(names[:24]) + (f" and {len(names) - 24} more" if len(names) > 24 else "")
+        shown = capped(names, 24)
         return [
             Fact("Channels", f"{len(names)}: {shown}"),
             Fact(
@@ -554,12 +556,10 @@ class _Access(FigureParts, TableParts):
         model = self.doc.get("model")
         if model:  # --model: nothing was fitted on this archive
             tr = model.get("train") or {}
-            files = ", ".join(Path(str(i.get("path", ""))).name for i in model["trained_on"][:3])
-            more = len(model["trained_on"]) - 3
+            files = capped([Path(str(i.get("path", ""))).name for i in model["trained_on"]], 3)
             return (
                 f"No training on this archive: the models were fitted on {files}"
-                + (f" and {more} more" if more > 0 else "")
-                + f" ({fmt.seconds(float(tr.get('start_s', 0.0)))} to "
+                f" ({fmt.seconds(float(tr.get('start_s', 0.0)))} to "
                 f"{fmt.seconds(float(tr.get('end_s', 0.0)))} of it) and loaded from "
                 f"{model.get('path')}; the first {fmt.duration(b - a + 1 / self.rate)} here "
                 "let the filters settle, and no fault is searched there"

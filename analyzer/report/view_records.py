@@ -188,6 +188,10 @@ class ReportView:
     verdict_facts: list[Fact]
     findings: list[FindingView]
     summarized: int
+    """Findings listed in the verdict table only (past :data:`~analyzer.report.view.
+    MAX_DETAILED`)."""
+    detailed: int
+    """Findings with a section of their own (the page says how many)."""
     checked: list[Fact]
     skipped: list[Fact]
     by_default: list[Fact]
@@ -256,11 +260,6 @@ class ReportView:
     unexplained: str = ""
     """The verdict's warning: alarms the findings do not explain (``findings.json``'s
     ``unexplained_alarms``: a second faulty sensor the run may have missed), else empty."""
-
-    @property
-    def figure_count(self) -> int:
-        own = sum(len(f.figures) for f in self.findings)
-        return own + sum(f is not None for f in (self.coverage, self.levels))
 
 
 __all__ = [

@@ -143,11 +143,6 @@ class WindowedTests:
         """``{test name: WindowStats}`` in the order of :attr:`TESTS`."""
         return {name: getattr(self, name) for name in self.TESTS}
 
-    def reject_any(self) -> BoolArray:
-        """Windows where at least one test rejects."""
-        out: BoolArray = np.logical_or.reduce([s.reject for s in self.tests().values()])
-        return out
-
 
 def windowed_tests(
     z: Any,

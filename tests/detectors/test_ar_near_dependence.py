@@ -27,10 +27,19 @@ def test_a_computed_channel_is_named_with_the_channels_it_combines():
 
 
 def test_near_duplicates_with_their_own_noise_are_fitted():
+    """A twin of s2 with noise of its own (1e-4 of its sd) is no exact combination: the
+    fit keeps all 7 channels, with a full-rank innovation covariance (what the bank's
+    Riccati solution needs) in which the twin's innovation is s2's, and a stable model."""
     y, names = _building()
     rng = np.random.default_rng(0)
     twin = y[:, 2] + 1e-4 * y[:, 2].std() * rng.standard_normal(y.shape[0])
-    fit_ar(np.column_stack([y, twin]), 4, [*names, "s6"])
+    model = fit_ar(np.column_stack([y, twin]), 4, [*names, "s6"])
+    assert (model.m, model.order) == (7, 4)
+    assert np.isfinite(model.coefs).all()
+    assert np.linalg.eigvalsh(model.sigma).min() > 0.0
+    s = model.sigma
+    assert s[2, 6] / np.sqrt(s[2, 2] * s[6, 6]) > 0.9999
+    assert np.abs(np.linalg.eigvals(model.companion()[0])).max() < 1.0
 
 
 def test_a_copy_rounded_to_float32_is_named_as_dependent():

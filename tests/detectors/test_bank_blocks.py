@@ -142,13 +142,7 @@ def test_bank_run_in_time_blocks_equals_serial_run(fitted, shares_memory, two_th
     faulty = Dataset(Y, data.channels, RATE, data.train)
     serial = det.run(model, faulty, RunContext())
     pool = two_thread_pool(shares_memory)
-    ctx = RunContext(jobs=2)
-    try:
-        ctx.executor = pool  # type: ignore[attr-defined]
-    except AttributeError:
-        pytest.skip("RunContext has no executor")
-    if not hasattr(ctx, "map"):
-        pytest.skip("RunContext has no map")
+    ctx = RunContext(jobs=2, executor=pool)
     blocked = det.run(model, faulty, ctx)
     assert pool.calls >= 1
     assert [(e.channel, e.type, e.onset_s) for e in blocked.events] == [

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analyzer.detectors.base import channel_subset, dilate_forward
+from analyzer.detectors.base import dilate_forward
 
 
 @pytest.mark.parametrize("n", [0, 1, 3, 25])
@@ -22,9 +22,3 @@ def test_dilate_forward_marks_the_samples_a_gap_is_remembered_in(n: int) -> None
 def test_dilate_forward_of_no_gap_is_no_gap() -> None:
     mask = np.zeros(50, dtype=bool)
     assert not dilate_forward(mask, 10).any()
-
-
-def test_channel_subset_names_the_missing_channel() -> None:
-    assert channel_subset(["a", "b", "c"], ["c", "a"]) == [2, 0]
-    with pytest.raises(KeyError, match="d"):
-        channel_subset(["a", "b"], ["d"])

@@ -19,7 +19,7 @@ from analyzer.detectors.assistant_observer import fit_relation
 from analyzer.detectors.base import Dataset, RunContext
 from analyzer.detectors.beard_jones import filter_bank, park_filter, unobservable_modes
 from analyzer.detectors.detection_filter import DetectionFilter
-from analyzer.detectors.lti import ImpulseResponseBank, StackedLiftedSystem, bank_segment
+from analyzer.detectors.lti import ImpulseResponseBank, StackedLiftedSystem, run_chunked
 from analyzer.simulate import simulate_building
 
 RATE = 200.0
@@ -71,6 +71,15 @@ def test_long_memory_falls_back_to_the_stacked_lifted_system(monkeypatch):
         assert np.max(np.abs(out[i].T - ref)) <= 1e-10 * np.max(np.abs(ref))
     # a stretch recomputed alone equals the same stretch of the whole run
     assert np.allclose(bank_segment(bank, v, 2100, 2130), out[:, :, 2100:2130], atol=1e-12)
+
+
+def bank_segment(bank, v, lo, hi):
+    """Outputs ``(k, q, hi - lo)`` of the bank over samples ``lo .. hi - 1`` of the run over
+    ``v``, as :func:`~analyzer.detectors.lti.run_chunked` gives them from ``lo`` (the
+    detection filter's isolation and streamed runs start there), recomputed from the
+    input the bank remembers only."""
+    parts = [y for _, y in run_chunked(bank, lambda a, b: v[a:b], hi, lo)]
+    return np.concatenate(parts, axis=2)
 
 
 @pytest.mark.parametrize(("lo", "hi"), [(0, 5), (1, 40), (2990, 3020), (9990, 10007)])

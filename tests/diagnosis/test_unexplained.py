@@ -8,7 +8,7 @@ from __future__ import annotations
 from analyzer.detectors.base import DetectorResult
 from analyzer.diagnosis.levels import Excursion
 from analyzer.diagnosis.merge import Finding
-from analyzer.diagnosis.unexplained import Unexplained, either, spoken, unexplained_alarms
+from analyzer.diagnosis.unexplained import Unexplained, and_joined, unexplained_alarms
 from analyzer.types import FaultType
 
 SLACK = 2.0
@@ -77,6 +77,6 @@ def test_the_equivalent_models_second_fault_is_reported_unless_one_of_them_was_f
 
 
 def test_sensors_are_named_once_each_set():
-    assert either(["s1"]) == "s1"
-    assert either(["s0", "s1", "s2"]) == "s0, s1 and s2"
-    assert spoken([("s1", "s2"), ("s4",), ("s1", "s2")]) == ["s1 and s2", "s4"]
+    assert and_joined(["s1"]) == "s1"
+    assert and_joined(["s4", "s5"]) == "s4 and s5"
+    assert and_joined(["s0", "s1", "s2"]) == "s0, s1 and s2"

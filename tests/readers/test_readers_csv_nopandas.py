@@ -55,10 +55,34 @@ def test_first_block_format_and_times_equal_the_pandas_choice(
     np.testing.assert_array_equal(t_fast[keep_fast], t_slow[keep_slow])
 
 
-@pytest.mark.parametrize("cells", CELLS)
-def test_plain_iso_cells_are_what_pandas_iso8601_parses(cells: list[str]) -> None:
+PLAIN_AND_ARROW = [
+    (True, True),
+    (True, True),  # (an offset with or without its colon)
+    (True, True),  # (no zone: plain too)
+    (False, True),  # no seconds, a date alone: not plain, though Arrow reads them
+    (True, False),  # each cell plain; Arrow refuses zoned and zone-less together
+    (False, False),
+    (True, False),  # the form is plain; the day is not there
+    (False, False),
+    (True, False),  # plain, out of the nanosecond range
+    (False, False),
+    (False, True),  # an offset of hours alone: not plain
+]
+"""Per case of :data:`CELLS`: whether the cells are plain ISO 8601 (``_plain_iso``), and
+whether Arrow parses them (``_iso_datetimes``)."""
+
+
+@pytest.mark.parametrize(
+    ("cells", "plain", "arrow"),
+    [(c, *e) for c, e in zip(CELLS, PLAIN_AND_ARROW, strict=True)],
+)
+def test_plain_iso_cells_are_what_pandas_iso8601_parses(
+    cells: list[str], plain: bool, arrow: bool
+) -> None:
     text = pa.array(cells)
-    if csv_reader._plain_iso(text) and _reader()._iso_datetimes(text) is not None:
+    assert csv_reader._plain_iso(text) is plain
+    assert (_reader()._iso_datetimes(text) is not None) is arrow
+    if plain and arrow:
         series = pd.Series(cells, dtype=object)
         assert csv_reader._datetime_format(series) == ("ISO8601", None)
 
