@@ -18,7 +18,14 @@ from analyzer.errors import (
 )
 from analyzer.missing_codes import Unread, as_gaps, no_reading_line, read_notes
 from analyzer.readers import Archive, open_archive
-from analyzer.readers.base import InputInfo, TimeSource, channel_labels, without_channels
+from analyzer.readers.base import (
+    InputInfo,
+    TimeSource,
+    channel_labels,
+    known_topics,
+    topic_of,
+    without_channels,
+)
 from analyzer.scratch import scratch
 from analyzer.selection import (
     DURATION_FIELD,
@@ -90,6 +97,7 @@ def inspect_archive(
         )
         holes = span_gaps(store, [i.name for i in infos])
         labels = channel_labels(archive.inputs, (i.name for i in infos))
+        topics = known_topics(archive.inputs)
         return {
             "inputs": [
                 {
@@ -116,7 +124,16 @@ def inspect_archive(
                     # (only when so: a regular channel's entry is as it always was)
                     # (its rate_hz is the mean rate between its gaps, the rate it is
                     # aligned at; mean_rate_hz its samples over its whole span)
-                    **({"irregular": True, "mean_rate_hz": _mean_rate(i)} if i.irregular else {}),
+                    # (and its topic, which the table's legend gives the mean rate of)
+                    **(
+                        {
+                            "irregular": True,
+                            "mean_rate_hz": _mean_rate(i),
+                            "topic": topic_of(i.name, topics),
+                        }
+                        if i.irregular
+                        else {}
+                    ),
                     # its two values, where it holds only two whole numbers over the
                     # record: a flag or label, which run leaves out unless named
                     **({"flag": [int(x) for x in i.levels or ()]} if i.flag else {}),
@@ -310,11 +327,12 @@ def render_table(doc: dict[str, Any]) -> str:
 
 def _irregular_legend(channels: Sequence[dict[str, Any]]) -> str:
     """What the ``*`` after an irregular channel's rate means, and the other mean rate
-    (``mean_rate_hz``) of up to three of their topics (a topic's fields share it)."""
+    (``mean_rate_hz``) of up to three of their topics (a topic's fields share it; a CSV
+    column is its own: ``topic``, :func:`~analyzer.readers.base.topic_of`)."""
     rates: dict[str, float] = {}
     for c in channels:
         if c.get("irregular"):
-            rates.setdefault(str(c["name"]).split(".", 1)[0], float(c["mean_rate_hz"]))
+            rates.setdefault(str(c.get("topic", c["name"])), float(c["mean_rate_hz"]))
     shown = ", ".join(f"{terminal_safe(t)} {r:.3f} Hz" for t, r in list(rates.items())[:3])
     more = f" and {len(rates) - 3} more" if len(rates) > 3 else ""
     return (

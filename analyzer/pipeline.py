@@ -156,7 +156,7 @@ from analyzer.parallel import (
     usable_cpus,
 )
 from analyzer.readers import Archive, ArchiveNote, open_archive
-from analyzer.readers.base import InputInfo, about_selection, one_clock
+from analyzer.readers.base import InputInfo, about_selection, known_topics, one_clock, topic_of
 from analyzer.readers.quaternions import flipped_note
 from analyzer.readers.tally import Tally
 from analyzer.reconfigure import (
@@ -333,6 +333,7 @@ def _irregular_channels(infos: Sequence[ChannelInfo], chosen: Sequence[str]) -> 
 def _partial_channels(
     stretches: Sequence[Sequence[tuple[int, int]]],
     chosen: Sequence[str],
+    topics: Collection[str],
     rate_hz: float,
     searched: set[str],
     not_again: bool,
@@ -346,13 +347,15 @@ def _partial_channels(
     the healthy window): the others are searched again without them
     (:mod:`analyzer.reconfigure`), which a note of its own reports, unless ``not_again``
     (a fixed channel set, or too few channels left), when the note names the
-    ``--channels`` that does it, if enough channels would be left."""
+    ``--channels`` that does it, if enough channels would be left. A channel's topic is
+    of the record's ``topics`` (:func:`~analyzer.readers.base.topic_of`: a CSV column is
+    its own)."""
     # the fields of one topic that stop together are one note (fourteen alike, one per
     # field of two topics, on ROS_example.bag)
     groups: dict[tuple[str, tuple[tuple[int, int], ...], bool], list[str]] = {}
     for name, rows in zip(chosen, stretches, strict=True):
         if rows:
-            key = (name.split(".", 1)[0], tuple(rows), name in searched)
+            key = (topic_of(name, topics), tuple(rows), name in searched)
             groups.setdefault(key, []).append(name)
     notes = []
     for (topic, rows, there), names in groups.items():
@@ -908,7 +911,8 @@ def _analyze(
         read = [c for c in chosen if c not in unread]  # (the channels with samples)
         notes.extend(span_note(span_gaps(store, read)))  # (a gappy folder: how much)
         # (an analyzed sensor that stops for a while mid-record: which, and when)
-        notes.extend(silence_note(store, read, aligned.start_ns, aligned.duration_s))
+        topics = known_topics(archive.inputs)
+        notes.extend(silence_note(store, read, topics, aligned.start_ns, aligned.duration_s))
         store.close()
         # and their files: for a long archive the largest scratch files after the matrix
         # (16 bytes per value: a time and a value), kept to the end of the run until now
@@ -966,7 +970,9 @@ def _analyze(
             or bool(options.screen)
         )
         few = len(chosen) - len(lost) < SEARCH_AGAIN_MIN
-        notes.extend(_partial_channels(stretches, chosen, aligned.rate_hz, set(lost), fixed or few))
+        notes.extend(
+            _partial_channels(stretches, chosen, topics, aligned.rate_hz, set(lost), fixed or few)
+        )
         # a sensor whose readings give way to blank cells or NaN for the rest of the record
         # (the others going on): dead, a finding as one that reads 0 (analyzer.silent)
         silent = silent_findings(
@@ -1379,6 +1385,7 @@ def _analyze(
             ],
             jittery,
             aligned.start_ns,
+            topics,
         )
         notes.extend(cautions_line(cautions))
         timings["total"] = time.perf_counter() - t_start

@@ -169,13 +169,36 @@ def add_topics(info: InputInfo, types: Mapping[str, str], messages: Mapping[str,
             info.topics[topic] = (msgtype, int(messages[topic]))
 
 
+def known_topics(inputs: Iterable[InputInfo]) -> frozenset[str]:
+    """The topics the readers of ``inputs`` decoded (:attr:`InputInfo.topics`): none for
+    a CSV, whose columns are channels of no topic. :func:`topic_of`'s ``topics``."""
+    return frozenset(t for info in inputs for t in getattr(info, "topics", {}))
+
+
+def topic_of(channel: str, topics: Collection[str]) -> str:
+    """The topic of the channel ``channel``: the longest of ``topics`` (the record's,
+    :func:`known_topics`) that it is, or that its name begins with before a ``.`` or a
+    ``[`` (``/imu/data.linear_acceleration.y`` is ``/imu/data``; an MCAP's topic may hold
+    dots, ``imu.front.x`` is ``imu.front`` where that is a topic); the channel itself
+    where none is (a CSV column: ``acc.x`` is a column, not a field of a topic ``acc``).
+    The one rule of the notes that speak of topics (silences, delays, channels that
+    stop), of ``inspect`` and of the selection's typed time fields: the name's text alone
+    cannot tell a topic's dot from a field's."""
+    if channel in topics:
+        return channel
+    for at in range(len(channel) - 1, 0, -1):
+        if channel[at] in ".[" and channel[:at] in topics:
+            return channel[:at]
+    return channel
+
+
 def without_channels(
-    inputs: Iterable[InputInfo], channels: Iterable[str]
+    inputs: Sequence[InputInfo], channels: Iterable[str]
 ) -> list[tuple[str, str, int]]:
     """The topics of ``inputs`` decoded without giving any of ``channels`` (a
     ``std_msgs/String``, a topic of text): (topic, type, messages), in input order."""
-    heads = {name.split(".", 1)[0] for name in channels}
-    heads |= {name.split("[", 1)[0] for name in channels}
+    topics = known_topics(inputs)
+    heads = {topic_of(name, topics) for name in channels}
     out: dict[str, tuple[str, str, int]] = {}
     for info in inputs:
         for topic, (msgtype, count) in getattr(info, "topics", {}).items():
