@@ -21,6 +21,7 @@ from analyzer.readers import Archive, open_archive
 from analyzer.readers.base import (
     InputInfo,
     TimeSource,
+    absolute_times,
     channel_labels,
     known_topics,
     topic_of,
@@ -42,7 +43,7 @@ from analyzer.selection import (
     without_samples,
 )
 from analyzer.store import LONG_ARRAY, ChannelInfo, ChannelStore
-from analyzer.timeutil import iso_utc, plain_number, plausible_epoch, short_seconds
+from analyzer.timeutil import iso_utc, plain_number, short_seconds
 from analyzer.types import NS_PER_S
 
 
@@ -72,7 +73,7 @@ def inspect_archive(
     ):
         infos = store.infos()
         t0 = min((i.start_ns for i in infos), default=0)
-        absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(t0)
+        absolute = absolute_times(archive.inputs)
         notes = [str(n) for n in archive.notes]
         notes += [str(n) for n in read_notes(unread, missing_values)]
         unread_all = no_reading_line(unread)

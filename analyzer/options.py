@@ -297,7 +297,7 @@ def check_utc(absolute: bool, channels: Sequence[str]) -> None:
     if not absolute:
         raise UsageError(
             "--utc: the record has relative times (seconds with no date, or a clock before "
-            "1990, a simulation's): there is no UTC time to write; run without --utc"
+            "1973, a simulation's): there is no UTC time to write; run without --utc"
         )
     if "utc" in channels:
         raise UsageError(

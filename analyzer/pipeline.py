@@ -156,7 +156,14 @@ from analyzer.parallel import (
     usable_cpus,
 )
 from analyzer.readers import Archive, ArchiveNote, open_archive
-from analyzer.readers.base import InputInfo, about_selection, known_topics, one_clock, topic_of
+from analyzer.readers.base import (
+    InputInfo,
+    about_selection,
+    absolute_times,
+    known_topics,
+    one_clock,
+    topic_of,
+)
 from analyzer.readers.quaternions import flipped_note
 from analyzer.readers.tally import Tally
 from analyzer.reconfigure import (
@@ -204,7 +211,6 @@ from analyzer.store.store import UNREADABLE
 from analyzer.timeutil import (
     iso_utc,
     plain_number,
-    plausible_epoch,
     rows_within,
     seconds_text,
     short_seconds,
@@ -876,9 +882,7 @@ def _analyze(
         aligned: AlignedSeries = store.align(
             chosen, options.rate if reused is None else reused.rate_hz, blank=unread
         )
-        absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
-            aligned.start_ns
-        )
+        absolute = absolute_times(archive.inputs)
         # a clock far above what the sensors carry, without --rate: aligned slower, as
         # --rate would (a retrained pass keeps its first pass's clock: ``slowed``)
         clips: str | None = None  # (a sensor that clips keeps the logged clock: said why)

@@ -115,10 +115,23 @@ def plain_number(x: float, digits: int = 3) -> str:
     return text
 
 
+EPOCH_LINE_NS = 100_000_000 * NS_PER_S
+"""An input's times at or after this (1e8 s since 1970: 1973-03-03T09:46:40Z) are Unix
+times (UTC); before it, relative times (seconds from a start, a simulation clock,
+nanoseconds since boot). The one line by which the readers decide
+(:attr:`~analyzer.readers.base.InputInfo.absolute_time`), which ``run``, ``inspect`` and
+``export`` then take as it is. Why 1973 and not later: a logger whose clock was never
+set writes dates from 1980-01-01 (the FAT file system's and GPS's start), and that
+date, said as such, is what shows the user the clock was never set (relative seconds
+hide it); a relative clock reaches 1e8 s only after 3.2 years of counting. Header stamps,
+judged beside the recorder's log times, keep a later line of their own
+(:data:`~analyzer.readers._common.HEADER_EPOCH_NS`)."""
+
+
 def plausible_epoch(ns: int) -> bool:
-    """True when ``ns`` looks like an absolute time (after 1990): relative clocks and
-    bags recorded with simulated time start near zero."""
-    return bool(ns > np.int64(631152000) * NS_PER_S)
+    """True when ``ns`` is a Unix time by :data:`EPOCH_LINE_NS` (relative clocks and bags
+    recorded with simulated time start near zero)."""
+    return bool(ns >= EPOCH_LINE_NS)
 
 
 ROW_SLACK = 1e-6

@@ -229,11 +229,16 @@ def merge_parts(
 
 BoolArray = npt.NDArray[np.bool_]
 
-EPOCH_NS = 10**18
+HEADER_EPOCH_NS = 10**18
 """Header stamps at or above this (1e9 s, 2001-09-09T01:46:40Z) are wall-clock (Unix
 epoch) times; a topic whose nonzero stamps are mostly below it runs on a simulation clock
 (Gazebo's ``/clock`` starts at 0; 1e9 s is 31.7 years of simulated time), on which a
-stamp of 0 is a real time, not "unset"."""
+stamp of 0 is a real time, not "unset". Later than the line of an input's own times
+(:data:`~analyzer.timeutil.EPOCH_LINE_NS`, 1973) on purpose: header stamps are judged
+beside the recorder's log times, a wall clock of this century, and a node whose clock
+was never set (stamps from 1980) keeps a clock of its own as a simulation does; the
+input's own times have no other clock beside them, and their date, 1980 or not, is
+said."""
 
 CLOCKS_APART_NS = 3600 * 10**9
 """Header stamps that lie this far (an hour) and more from the other topics' times, and
@@ -251,7 +256,7 @@ recorder's queue (milliseconds to about a second), or an estimate stamped with t
 of the data it was made from (AMCL's pose: seconds); NTP steps a clock from 128 ms on.
 The real recordings' largest sustained change of that offset is 1.7 s, their widest
 spread 4.9 s (``/amcl_pose`` of ``nav2_turtlebot.mcap``). A simulation clock in the
-headers (stamps below :data:`EPOCH_NS`) keeps :data:`CLOCKS_APART_NS`: a simulation
+headers (stamps below :data:`HEADER_EPOCH_NS`) keeps :data:`CLOCKS_APART_NS`: a simulation
 paused or slowed moves it against the recorder's wall clock by any amount."""
 
 
@@ -260,7 +265,7 @@ def absolute_log_time(
 ) -> bool:
     """Whether a recording whose first and last log times ``start()`` and ``end()``
     give keeps Unix (wall-clock) times (:attr:`InputInfo.absolute_time`): False where it
-    ends before 1990 (:func:`~analyzer.timeutil.plausible_epoch`, the rule by which a
+    ends before 1973 (:func:`~analyzer.timeutil.plausible_epoch`, the one rule by which a
     report gives ``start: null``): a simulation clock (Gazebo's ``/clock`` from 0, a
     harness from 0.1 s), counted from its own start like a CSV without dates, so that
     files of several such runs are not stitched as one (:func:`analyzer.readers._one_span`).
@@ -301,14 +306,14 @@ def two_clocks(clocks: dict[str, str], spans: dict[str, tuple[int, int]]) -> str
         return topics, lo, hi
 
     def when(lo: int, hi: int) -> str:
-        if hi >= EPOCH_NS:
+        if hi >= HEADER_EPOCH_NS:
             return f"Unix times, {iso_utc(lo)} to {iso_utc(hi)}"
         return f"{lo / 1e9:.3f} to {hi / 1e9:.3f} s, not Unix times: a simulation clock?"
 
     stamped, lo, hi = side("header")
     others, other_lo, other_hi = side("log", "stamped")
     stamped_when = when(lo, hi)
-    if min(hi, other_hi) >= EPOCH_NS:  # (both Unix times: how far apart)
+    if min(hi, other_hi) >= HEADER_EPOCH_NS:  # (both Unix times: how far apart)
         apart = long_time(max(lo - other_hi, other_lo - hi))
         stamped_when += f", {apart} {'before' if hi < other_lo else 'after'} the others"
     logged = [t for t in others if clocks[t] == "log"]
@@ -358,7 +363,7 @@ def step_time(ns: int) -> str:
 def stamp_text(ns: int) -> str:
     """A time as the lines say it: UTC where a Unix time, else seconds (a simulation
     clock)."""
-    if ns >= EPOCH_NS:
+    if ns >= HEADER_EPOCH_NS:
         return str(iso_utc(ns))
     return f"{ns / 1e9:.3f} s (not a Unix time)"
 
@@ -808,9 +813,9 @@ class TopicTracker:
 
     * messages that could not be decoded (counted, the first reason kept);
     * with ``--time header``: a ``header.stamp`` of 0 (a driver that does not set it) is
-      no stamp where the topic's stamps are wall-clock times (:data:`EPOCH_NS`): the
+      no stamp where the topic's stamps are wall-clock times (:data:`HEADER_EPOCH_NS`): the
       message's log time is used, and counted. On a simulation clock (stamps mostly below
-      :data:`EPOCH_NS`) 0 is a real time (Gazebo starts at 0). Each topic is decided by
+      :data:`HEADER_EPOCH_NS`) 0 is a real time (Gazebo starts at 0). Each topic is decided by
       the nonzero stamps of its first batch that has any, and keeps that decision; a
       batch of only zeros before that is taken as unset. Messages given their log time
       (or without a header) take no part in the two rules below;
@@ -956,7 +961,7 @@ class TopicTracker:
         """With ``--time header``, where the topics' times come from two clocks: each
         topic's clock, ``"header"`` (its own stamps) or ``"log"`` (its log times: no
         header, or stamps of 0 taken as unset), else ``{}``. Two clocks: the stamps of
-        the topics timed by their headers are Unix times (:data:`EPOCH_NS`) and the log
+        the topics timed by their headers are Unix times (:data:`HEADER_EPOCH_NS`) and the log
         times of the others are not, or the other way round (a simulation clock in the
         headers, as Gazebo's ``use_sim_time`` gives, beside a recorder's wall clock).
         Their samples lie years apart, which one common clock cannot hold. A topic with
@@ -968,7 +973,8 @@ class TopicTracker:
             if by_topic.get(topic) != "header":
                 by_topic[topic] = source
         epoch = {
-            topic: self._spans[(topic, source)][1] >= EPOCH_NS for topic, source in by_topic.items()
+            topic: self._spans[(topic, source)][1] >= HEADER_EPOCH_NS
+            for topic, source in by_topic.items()
         }
         header = {epoch[t] for t, s in by_topic.items() if s == "header"}
         log = {epoch[t] for t, s in by_topic.items() if s == "log"}
@@ -1158,7 +1164,7 @@ class TopicTracker:
         if epoch is None:
             valid = stamps[~(unset | zero)]
             if valid.size:
-                epoch = 2 * int(np.count_nonzero(valid >= EPOCH_NS)) >= int(valid.size)
+                epoch = 2 * int(np.count_nonzero(valid >= HEADER_EPOCH_NS)) >= int(valid.size)
                 self._epoch[topic] = epoch
         return epoch is None or epoch
 

@@ -50,8 +50,9 @@ class InputInfo:
     errors: list[str] = field(default_factory=list)
     absolute_time: bool = True
     """True when timestamps are nanoseconds since the Unix epoch (UTC); False for relative
-    times (a CSV without dates; an MCAP or bag whose log times end before 1990, a
-    simulation clock), which an archive does not stitch where they overlap."""
+    times (a CSV without dates; an MCAP or bag whose log times end before 1973, a
+    simulation clock: :data:`~analyzer.timeutil.EPOCH_LINE_NS`), which an archive does
+    not stitch where they overlap (:func:`absolute_times`)."""
     units: dict[str, str] = field(default_factory=dict)
     """Of a CSV with a units line under its header: each column's unit (``s2`` ->
     ``m/s^2``) where it gives one; the report writes it after sizes and on axes."""
@@ -167,6 +168,17 @@ def add_topics(info: InputInfo, types: Mapping[str, str], messages: Mapping[str,
     for topic, msgtype in types.items():
         if messages.get(topic):
             info.topics[topic] = (msgtype, int(messages[topic]))
+
+
+def absolute_times(inputs: Iterable[InputInfo]) -> bool:
+    """Whether the times of the archive of ``inputs`` are Unix times (UTC), so that a run
+    gives a ``start`` date: each input's reader decided
+    (:attr:`InputInfo.absolute_time`, by :data:`~analyzer.timeutil.EPOCH_LINE_NS`), and
+    ``run``, ``inspect`` and ``export`` take that decision as it is. (They each judged
+    the first sample's time again by a later line, 1990: a CSV of dates from 1980, a
+    logger's clock never set, was "seconds since 1970 (UTC)" in ``inspect``'s time line
+    and relative, without its date, everywhere else.)"""
+    return all(i.absolute_time for i in inputs)
 
 
 def known_topics(inputs: Iterable[InputInfo]) -> frozenset[str]:
