@@ -32,6 +32,7 @@ from analyzer.readers import ArchiveNote
 from analyzer.readers.base import InputInfo, known_topics, topic_of
 from analyzer.readers.delays import KEPT, TopicDelays
 from analyzer.store import ChannelInfo
+from analyzer.timeutil import seconds_text
 from analyzer.types import NS_PER_S
 
 JITTER_SHARE = 0.25
@@ -179,7 +180,7 @@ def onset_cautions(
         way = "late" if late[k] > 0 else "early"
         out[(channel, onset_s)] = (
             f"{said}: its onset coincides with a message of {j.topic} logged "
-            f"{_ms(abs(int(late[k])))} {way} (at {when[k]:.3f} s; "
+            f"{_ms(abs(int(late[k])))} {way} (at {seconds_text(when[k])} s; "
             f"{100 * abs(int(late[k])) / NS_PER_S / j.period_s:.0f} % of its sample period): "
             "the fault may be the recorder's delay, not the sensor's: try --time header"
         )

@@ -43,7 +43,7 @@ from analyzer.selection import (
     without_samples,
 )
 from analyzer.store import LONG_ARRAY, ChannelInfo, ChannelStore
-from analyzer.timeutil import iso_utc, plain_number, short_seconds
+from analyzer.timeutil import iso_utc, plain_number, seconds_text, short_seconds
 from analyzer.types import NS_PER_S
 
 
@@ -297,8 +297,8 @@ def render_table(doc: dict[str, Any]) -> str:
             (
                 safe(c["name"]) + (f" ({safe(c['label'])})" if c.get("label") else "") + _mark(c),
                 str(c["samples"]),
-                f"{c['start_s']:.3f}",
-                f"{c['end_s']:.3f}",
+                f"{seconds_text(c['start_s'])}",
+                f"{seconds_text(c['end_s'])}",
                 f"{c['rate_hz']:.3f}" + ("*" if c.get("irregular") else ""),
                 str(c["gaps"]),
             )
@@ -346,8 +346,8 @@ def _irregular_legend(channels: Sequence[dict[str, Any]]) -> str:
 def origin_line(origin_s: float) -> str:
     """What relative times count from: the first sample's own time in the input."""
     return (
-        f"times in seconds from the first sample, which is at {origin_s:.3f} s in the "
-        f"input (its own time = start_s + {origin_s:.3f})"
+        f"times in seconds from the first sample, which is at {seconds_text(origin_s)} s in the "
+        f"input (its own time = start_s + {seconds_text(origin_s)})"
     )
 
 
@@ -406,7 +406,7 @@ def defaults_line(defaults: dict[str, Any], listed: int) -> str:
         return f"run refuses this archive by default: {terminal_safe(defaults['refused'])}"
     train = defaults["train"]
     start = defaults["clock_start_s"]
-    since = f" from {start:.3f} s" if start else ""
+    since = f" from {seconds_text(start)} s" if start else ""
     return (
         f"run by default: {defaults['channels']} of {listed} channel(s) on a common clock of "
         f"{plain_number(defaults['rate_hz'], 4)} Hz{since} (--rate), trained on "

@@ -1384,7 +1384,7 @@ def _analyze(
         # a finding whose onset coincides with a message the recorder logged late
         cautions = onset_cautions(
             [
-                (f.channel, f.onset_s, f"{f.channel} {f.type} from {f.onset_s:.3f} s")
+                (f.channel, f.onset_s, f"{f.channel} {f.type} from {seconds_text(f.onset_s)} s")
                 for f in findings
             ],
             jittery,
@@ -1801,11 +1801,11 @@ def _ends_without(
                 )
             notes.append(
                 f"{f.type.value} fault on {f.channel}: ended at "
-                + ("the record's end" if end is None else f"{end:.3f} s")
+                + ("the record's end" if end is None else f"{seconds_text(end)} s")
                 + f" as {source.detector} saw it with {left} left out{size}; with {left} it was "
                 "reported to "
-                + ("the record's end" if was is None else f"{was:.3f} s")
-                + f", the {g.type.value} fault on {left} (from {g.onset_s:.3f} s) in the "
+                + ("the record's end" if was is None else f"{seconds_text(was)} s")
+                + f", the {g.type.value} fault on {left} (from {seconds_text(g.onset_s)} s) in the "
                 "residuals of the detectors that model the two sensors together"
             )
     # the onsets after every end: a finding with an earlier fault under way where it began
@@ -1902,7 +1902,7 @@ def _shape_without(f: Finding, g: Finding, found: Sequence[Finding], slack: floa
         f"{f.type.value} fault on {f.channel} ({size}) as {h.detector} saw it with "
         f"{g.channel} left out; with {g.channel} {detector_was} read a {kind_was} fault, "
         f"{before}: "
-        f"the {g.type.value} fault on {g.channel} (from {g.onset_s:.3f} s) was in the "
+        f"the {g.type.value} fault on {g.channel} (from {seconds_text(g.onset_s)} s) was in the "
         "stretch its shape was fitted on, in the residuals of the detectors that model "
         "the two sensors together"
     )
@@ -1957,15 +1957,15 @@ def _onset_without(f: Finding, g: Finding, found: Sequence[Finding], slack: floa
     kind = "" if h.type is f.type else f" (with {g.channel}: a {f.type.value} fault)"
     f.type, f.magnitude = h.type, dict(h.magnitude)
     size = ", ".join(f"{k} {v:.4g}" for k, v in f.magnitude.items())
-    span = "the record's end" if was[1] is None else f"{was[1]:.3f} s"
+    span = "the record's end" if was[1] is None else f"{seconds_text(was[1])} s"
     return (
-        f"{f.type.value} fault on {f.channel}: from {h.onset_s:.3f} s to "
-        + ("the record's end" if f.end_s is None else f"{f.end_s:.3f} s")
+        f"{f.type.value} fault on {f.channel}: from {seconds_text(h.onset_s)} s to "
+        + ("the record's end" if f.end_s is None else f"{seconds_text(f.end_s)} s")
         + ("" if ended is None else f" (its end as seen with {ended['left_out']} left out)")
         + f" ({size}) as {h.detector} saw it with {g.channel} left out{kind}; with "
-        f"{g.channel} {f.detector} saw it from {was[0]:.3f} s to {span}, while the "
+        f"{g.channel} {f.detector} saw it from {seconds_text(was[0])} s to {span}, while the "
         f"{g.type.value} fault "
-        f"on {g.channel} (from {g.onset_s:.3f} s) was under way, in the residuals of the "
+        f"on {g.channel} (from {seconds_text(g.onset_s)} s) was under way, in the residuals of the "
         "detectors that model the two sensors together"
     )
 
@@ -2456,10 +2456,11 @@ def _input_echoes(
             kept.append(f)
             continue
         notes.append(
-            f"{f.detector}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
-            f"reported: it began {f.onset_s - cause.onset_s:+.1f} s from the {cause.type.value} "
-            f"anomaly on the measured input {cause.channel} ({cause.onset_s:.3f} s), which "
-            "reaches every residual that takes the input in: taken for its echo"
+            f"{f.detector}'s {f.type.value} fault on {f.channel} at {seconds_text(f.onset_s)} s "
+            f"not reported: it began {f.onset_s - cause.onset_s:+.1f} s from the "
+            f"{cause.type.value} anomaly on the measured input {cause.channel} "
+            f"({seconds_text(cause.onset_s)} s), which reaches every residual that takes the input "
+            "in: taken for its echo"
         )
     return kept, notes
 
@@ -2551,7 +2552,7 @@ def _training_window(
         if tr[0] >= duration:
             raise ShortConfigError(
                 f"{options.config.path}: [train] the window {tr[0]:g}-{tr[1]:g} s starts "
-                f"after the data ends ({duration:.3f} s)"
+                f"after the data ends ({seconds_text(duration)} s)"
             )
         tr = (tr[0], min(tr[1], duration))
     else:
@@ -2577,10 +2578,11 @@ def _training_window(
         # a window that starts later covers the end only: it is what comes after it
         # that is missing ('800:900' of an 889-s bag "covered all the data")
         covers = (
-            f"covers all the data (which ends at {duration:.3f} s): nothing is left to search"
+            f"covers all the data (which ends at {seconds_text(duration)} s): nothing is left to "
+            "search"
             if train[0] <= 0
-            else f"reaches the end of the data (which ends at {duration:.3f} s): it leaves "
-            "nothing after it to search"
+            else f"reaches the end of the data (which ends at {seconds_text(duration)} s): it "
+            "leaves nothing after it to search"
         )
         if options.train is not None:
             raise ShortUsageError(
@@ -2698,7 +2700,8 @@ def _varying_in_training(
     tv = np.asarray(values[train[0] : train[1]])
     if tv.shape[0] < MIN_TRAIN_ROWS:
         raise ShortUsageError(
-            f"the training window {tr[0]:.3f}-{tr[1]:.3f} s holds {tv.shape[0]} sample(s) "
+            f"the training window {seconds_text(tr[0])}-{seconds_text(tr[1])} s holds "
+            f"{tv.shape[0]} sample(s) "
             f"at {plain_number(rate_hz)} Hz, need at least {MIN_TRAIN_ROWS}: give a longer "
             "one with --train (the default is the first 20 % of the data, at most 10 min)"
         )
@@ -2745,7 +2748,7 @@ def _varying_in_training(
         )
         raise ArchiveUsageError(
             "every selected channel is constant or empty in the training window "
-            f"({tr[0]:.3f}-{tr[1]:.3f} s): choose another window with {how}"
+            f"({seconds_text(tr[0])}-{seconds_text(tr[1])} s): choose another window with {how}"
         )
     return np.asarray(values)[:, keep], [chosen[k] for k in keep]
 
@@ -2762,8 +2765,9 @@ def _window_constant_note(dropped: Sequence[str], tr: tuple[float, float]) -> Wi
         "constant (or one value in 99 % of the samples) in the training window, not "
         "analyzed: " + ", ".join(dropped),
         f"{names} {'reads' if one else 'read'} one value in the training window "
-        f"{tr[0]:.3f}-{tr[1]:.3f} s but {'varies' if one else 'vary'} later: not analyzed; "
-        f"a --train where {'it varies analyzes it' if one else 'they vary analyzes them'}",
+        f"{seconds_text(tr[0])}-{seconds_text(tr[1])} s but {'varies' if one else 'vary'} later: "
+        "not analyzed; a --train where "
+        f"{'it varies analyzes it' if one else 'they vary analyzes them'}",
     )
     note.names = tuple(dropped)
     return note
@@ -2879,8 +2883,8 @@ def _no_detector_error(
             else _longer_window(skipped, tr, *clock, every=named, held=held, crosses=crosses)
         )
         hint = (
-            f"the training window {tr[0]:.3f}-{tr[1]:.3f} s is too short for these "
-            "detectors: "
+            f"the training window {seconds_text(tr[0])}-{seconds_text(tr[1])} s is too short for "
+            "these detectors: "
             + (longer or "give a longer healthy stretch with --train START:END")
             + (
                 " (the default is the first 20 % of the data, at most 10 min)"
@@ -3054,13 +3058,12 @@ def _longer_window(
     if change is not None:
         return _too_short_before(change, start, end, need)
 
-    def secs(x: float) -> str:  # (as --train reads them: no exponent, to the ms)
-        return f"{x:.3f}".rstrip("0").rstrip(".")
-
     moved = (
-        f", from the archive's start: after {secs(tr[0])} s it holds less" if start != tr[0] else ""
+        f", from the archive's start: after {short_seconds(tr[0])} s it holds less"
+        if start != tr[0]
+        else ""
     )
-    return f"give --train {secs(start)}:{secs(end)}, {need}{moved}"
+    return f"give --train {short_seconds(start)}:{short_seconds(end)}, {need}{moved}"
 
 
 def _slow_clock(

@@ -24,7 +24,7 @@ from analyzer.paging import release
 from analyzer.readers import ArchiveNote
 from analyzer.readers.base import topic_of
 from analyzer.store import ChannelInfo, ChannelStore
-from analyzer.timeutil import plain_number, short_seconds
+from analyzer.timeutil import plain_number, seconds_text, short_seconds
 from analyzer.types import NS_PER_S
 
 SILENT_PERIODS = 50
@@ -140,7 +140,8 @@ def silence_note(
         who = capped(heads, 2) if len(heads) < len(members) else capped(members, 2)
         rate = rates[found]
         spans = [
-            f"from {(a - start_ns) / NS_PER_S:.3f} to {(b - start_ns) / NS_PER_S:.3f} s "
+            f"from {seconds_text((a - start_ns) / NS_PER_S)} to "
+            f"{seconds_text((b - start_ns) / NS_PER_S)} s "
             f"({short_seconds((b - a) / NS_PER_S)} s: about "
             f"{plain_number(max(1, round((b - a) / NS_PER_S * rate) - 1), 3)} samples missing "
             f"at {plain_number(rate, 4)} Hz)"

@@ -60,15 +60,19 @@ def parse_time(text: str) -> tuple[str, float | int]:
 
 def spoken_duration(seconds: float) -> str:
     """A duration in a user's line, in the unit it reads best in, to two or three
-    significant digits: ``400 ms``, ``5.8 s``, ``42 s``, ``12 min``, ``3.5 h``,
-    ``2.1 d``. The lines wrote them ``{x:.3g}`` in one unit: ``a 5.81e+03-ms period``."""
+    significant digits: ``400 ms``, ``5.8 s``, ``100 s``, ``2.0 min``, ``90 min``,
+    ``3.5 h``, ``2.3 days``. The one way every line says a span (notes, stderr, the
+    watcher's log, the readers' clock lines); the report's tables keep exact cells
+    (:func:`analyzer.report.format.duration`). Six functions said them six ways: 100 s
+    was ``100 s``, ``2 min``, ``100.0 s``; 200 000 s ``2.3 d``, ``55 h 33 min``, ``2.3
+    days``. The lines wrote them ``{x:.3g}`` in one unit: ``a 5.81e+03-ms period``."""
     s = float(seconds)
     if not np.isfinite(s):
         return f"{s} s"
     a = abs(s)
     if a < 1.0:
         return f"{1e3 * s:.3g} ms"
-    for unit, size in (("d", 86400.0), ("h", 3600.0), ("min", 60.0), ("s", 1.0)):
+    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0), ("s", 1.0)):
         if a >= (size if unit == "s" else 2 * size):
             x = s / size
             return f"{x:.1f} {unit}" if abs(x) < 10 else f"{x:.0f} {unit}"

@@ -32,7 +32,8 @@ from analyzer.readers.base import ChannelChunk
 from analyzer.readers.delays import LogDelays
 from analyzer.readers.quaternions import QuaternionSigns
 from analyzer.readers.tally import Tally
-from analyzer.timeutil import iso_utc, plausible_epoch
+from analyzer.timeutil import iso_utc, plausible_epoch, spoken_duration
+from analyzer.types import NS_PER_S
 
 IntArray = npt.NDArray[np.int64]
 FloatArray = npt.NDArray[np.float64]
@@ -282,13 +283,6 @@ def absolute_log_time(
     return last is None or plausible_epoch(last)
 
 
-def long_time(ns: int) -> str:
-    """A stretch of an hour or more between two clocks, as the lines say it: in hours
-    below two days, else in days."""
-    days = abs(ns) / 86400e9
-    return f"{days:.1f} days" if days >= 2 else f"{days * 24:.1f} h"
-
-
 def two_clocks(clocks: dict[str, str], spans: dict[str, tuple[int, int]]) -> str:
     """What ``--time header`` did where the topics' times come from two clocks
     (:meth:`TopicTracker.clocks`: topic to ``"header"``, the side timed by header
@@ -314,7 +308,7 @@ def two_clocks(clocks: dict[str, str], spans: dict[str, tuple[int, int]]) -> str
     others, other_lo, other_hi = side("log", "stamped")
     stamped_when = when(lo, hi)
     if min(hi, other_hi) >= HEADER_EPOCH_NS:  # (both Unix times: how far apart)
-        apart = long_time(max(lo - other_hi, other_lo - hi))
+        apart = spoken_duration(max(lo - other_hi, other_lo - hi) / NS_PER_S)
         stamped_when += f", {apart} {'before' if hi < other_lo else 'after'} the others"
     logged = [t for t in others if clocks[t] == "log"]
     also = [t for t in others if clocks[t] == "stamped"]
@@ -349,15 +343,6 @@ def clock_step_refusal(steps: dict[str, str]) -> str:
         f"analysis needs one clock: use --time log, or leave "
         f"{'it' if len(topics) == 1 else 'them'} out with --channels '{out}'"
     )
-
-
-def step_time(ns: int) -> str:
-    """How far a clock stepped, as the lines say it: from an hour on as
-    :func:`long_time`, below it in minutes (from 2) or seconds."""
-    size = abs(ns) / 1e9
-    if size >= 3600:
-        return long_time(ns)
-    return f"{size / 60:.1f} min" if size >= 120 else f"{size:.1f} s"
 
 
 def stamp_text(ns: int) -> str:
@@ -459,7 +444,7 @@ class LogClock:
     def _said(self, newest: int, time: int, where: str) -> None:
         self.back_ns = newest - time
         self.line = (
-            f"the log times step back by {long_time(newest - time)}: {where} "
+            f"the log times step back by {spoken_duration((newest - time) / NS_PER_S)}: {where} "
             f"{stamp_text(time)}, after messages logged up to {stamp_text(newest)} (the "
             "recorder's clock set back during the recording?); its messages cannot be placed "
             "among those logged before them (they would be sorted in among them): split the "
@@ -1119,7 +1104,7 @@ class TopicTracker:
                 (
                     int(after[1]),
                     topic,
-                    f"header.stamp jumps {step_time(moved)} {way} at "
+                    f"header.stamp jumps {spoken_duration(abs(moved) / NS_PER_S)} {way} at "
                     f"message {int(after[2])} ({self._at(int(after[1]))}), from "
                     f"{stamp_text(int(before[3]))} to {stamp_text(int(after[3]))}, while "
                     f"its log times go on (a clock set during the recording?){more}",

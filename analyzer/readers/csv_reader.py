@@ -115,15 +115,14 @@ from analyzer.readers._common import (
     FloatArray,
     IntArray,
     Reorderer,
-    long_time,
     one_line,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
-from analyzer.timeutil import iso_utc, plausible_epoch
+from analyzer.timeutil import iso_utc, plausible_epoch, spoken_duration
 
 if TYPE_CHECKING:  # pandas is imported where a time column needs it: MCAP and bag runs,
     import pandas as pd  # and CSVs with numeric or ISO times, never load it (~0.3 s)
-from analyzer.types import Format
+from analyzer.types import NS_PER_S, Format
 
 TIME_NAMES = ("time", "timestamp", "t", "__time", "%time", "datetime")
 """Names of a time column (any case), preferred to the names :func:`_time_unit` accepts."""
@@ -1091,7 +1090,7 @@ class CsvReader:
             )
         else:
             line = (
-                f"the time column {name!r} steps back by {long_time(back)} "
+                f"the time column {name!r} steps back by {spoken_duration(back / NS_PER_S)} "
                 f"at data row {row} ({cell!r}: from {self._when(newest)} to "
                 f"{self._when(time)}): a clock set back during the recording? Its rows cannot "
                 "be placed among those before it; correct the times, or split the file at "
