@@ -69,14 +69,20 @@ def spoken_duration(seconds: float) -> str:
     s = float(seconds)
     if not np.isfinite(s):
         return f"{s} s"
-    a = abs(s)
-    if a < 1.0:
-        return f"{1e3 * s:.3g} ms"
-    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0), ("s", 1.0)):
-        if a >= (size if unit == "s" else 2 * size):
-            x = s / size
-            return f"{x:.1f} {unit}" if abs(x) < 10 else f"{x:.0f} {unit}"
-    return f"{s:.1f} s"  # pragma: no cover - (a >= 1 is seconds at least)
+    if abs(s) < 1.0 and "e" not in (ms := f"{1e3 * s:.3g}"):  # (999.7 ms: 1.0 s)
+        return f"{ms} ms"
+    # (the largest unit of which it is two or more, as written: 7199.98 s is 2.0 h, not
+    # 120 min)
+    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        text = _digits(s / size)
+        if abs(float(text)) >= 2:
+            return f"{text} {unit}"
+    return f"{_digits(s)} s"
+
+
+def _digits(x: float) -> str:
+    """``x`` as :func:`spoken_duration` writes it: one decimal below 10, none above."""
+    return f"{x:.1f}" if abs(x) < 10 else f"{x:.0f}"
 
 
 def seconds_text(x: float, decimals: int = 3) -> str:

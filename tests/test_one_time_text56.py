@@ -55,6 +55,9 @@ def test_one_way_to_say_a_span():
         "90 min",
         "2.3 days",
     ]
+    # (its unit by the number as written: a 2 h step measured a hair short is no "120 min",
+    # nor 999.7 ms "1e+03 ms")
+    assert spoken_duration(7199.98) == "2.0 h" and spoken_duration(0.9997) == "1.0 s"
     day = 86_400 * 10**9
     start = 1_700_000_000 * 10**9
     line = two_clocks(
