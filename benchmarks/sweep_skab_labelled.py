@@ -53,13 +53,13 @@ import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _realdata import default_corpus  # noqa: E402
+from _corpus import default_corpus  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 SKAB = Path("benchmark/SKAB/data")
 FREE = SKAB / "anomaly-free" / "anomaly-free.csv"
 DEFAULT_CORPUS = default_corpus()
-"""``--corpus``'s default (:func:`_realdata.default_corpus`)."""
+"""``--corpus``'s default (:func:`_corpus.default_corpus`)."""
 SUGGESTED = re.compile(r"give --train ([0-9.]+):([0-9.]+)")
 KEYS = (
     "found",

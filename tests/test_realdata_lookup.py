@@ -42,7 +42,7 @@ def test_the_benchmarks_default_alike(tmp_path, monkeypatch):
     """The SKAB sweeps' ``--corpus`` default: the same order."""
     import importlib.util
 
-    script = Path(__file__).resolve().parents[1] / "benchmarks" / "_realdata.py"
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "_corpus.py"
     spec = importlib.util.spec_from_file_location("bench_realdata", script)
     assert spec is not None and spec.loader is not None
     bench = importlib.util.module_from_spec(spec)

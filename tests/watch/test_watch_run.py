@@ -347,8 +347,8 @@ def test_once_says_how_far_it_is_and_how_long_is_left(
         if re.match(r"hour\d\.csv: (no fault|fault|error)", r.getMessage())
     ]
     assert len(ends) == 3
-    assert re.search(r" \[1/3, about \d+ s left\]", ends[0]), ends
-    assert re.search(r" \[2/3, about \d+ s left\]", ends[1]), ends
+    assert re.search(r" \[1/3, about \d+(\.\d)? s left\]", ends[0]), ends
+    assert re.search(r" \[2/3, about \d+(\.\d)? s left\]", ends[1]), ends
     assert ends[2].endswith(" [3/3]") or " [3/3]:" in ends[2], ends
     verdicts = [e.split(": ")[1].split(" in ")[0] for e in ends]  # no fault / fault (..)
     (summary,) = [r.getMessage() for r in caplog.records if " analyzed" in r.getMessage()]
@@ -697,7 +697,7 @@ def test_wait_unfinished_hands_a_truncated_file_on_after_its_seconds(
     assert records["cut.mcap"]["verdict"] == "error"
     assert records["good.csv"]["verdict"] == "no fault"
     err = capsys.readouterr().err
-    assert "waiting up to 1 s (--wait-unfinished) for cut.mcap to be complete" in err, err
+    assert "waiting up to 1.0 s (--wait-unfinished) for cut.mcap to be complete" in err, err
     assert (inbox / "cut.mcap").read_bytes() == cut  # never modified
 
 

@@ -1,7 +1,8 @@
-"""Where the benchmarks find the real-data corpus when ``--corpus`` is not given: the
-same rule as the tests' (``tests/_realdata.py``): ``$ANALYZER_REALDATA`` where it names a
-folder, then ``../shared/realdata`` beside this checkout (a git worktree elsewhere has
-none beside it: set ``ANALYZER_REALDATA`` or give ``--corpus``)."""
+"""Where the benchmarks find the real-data corpus when ``--corpus`` is not given, by the
+same rule as the tests' (``tests/_realdata.py``; a name of its own, as the tests load
+the sweeps beside it): ``$ANALYZER_REALDATA`` where it names a folder, then
+``../shared/realdata`` beside this checkout (a git worktree elsewhere has none beside
+it: set ``ANALYZER_REALDATA`` or give ``--corpus``)."""
 
 from __future__ import annotations
 
