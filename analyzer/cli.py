@@ -287,7 +287,7 @@ INPUT_HELP = (
     "folder's files) are one archive, stitched in time order (samples of a later input "
     "that overlap an earlier one's time are dropped, with a warning; files with relative "
     "times that overlap (CSVs without dates; MCAP files and bags on a simulation clock, "
-    "log times before 1990) cannot be stitched and are refused)"
+    "log times before 1973) cannot be stitched and are refused)"
 )
 
 

@@ -22,16 +22,17 @@ recordings the two give the same result (README, *Log time or header stamps*).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from analyzer.errors import capped
 from analyzer.readers import ArchiveNote
-from analyzer.readers.base import InputInfo
+from analyzer.readers.base import InputInfo, known_topics, topic_of
 from analyzer.readers.delays import KEPT, TopicDelays
 from analyzer.store import ChannelInfo
+from analyzer.timeutil import seconds_text
 from analyzer.types import NS_PER_S
 
 JITTER_SHARE = 0.25
@@ -80,12 +81,6 @@ class Jitter:
         return self.delays.over(JITTER_SHARE * self.period_s * NS_PER_S)
 
 
-def topic_of(channel: str) -> str:
-    """A message channel's topic: its name up to the first dot (ROS topic names hold
-    none; ``/imu/data.linear_acceleration.y`` is ``/imu/data``); a CSV column itself."""
-    return channel.split(".", 1)[0]
-
-
 def jitters(
     inputs: Sequence[InputInfo], infos: Sequence[ChannelInfo], chosen: Sequence[str]
 ) -> list[Jitter]:
@@ -95,10 +90,11 @@ def jitters(
     is measured over them all."""
     rates: dict[str, float] = {}
     by_name = {i.name: i for i in infos}
+    topics = known_topics(inputs)
     for name in chosen:
         info = by_name.get(name)
         if info is not None and info.rate_hz > 0:
-            topic = topic_of(name)
+            topic = topic_of(name, topics)
             rates[topic] = max(rates.get(topic, 0.0), info.rate_hz)
     merged: dict[str, TopicDelays] = {}
     for i in inputs:
@@ -156,17 +152,21 @@ def jitter_note(found: Sequence[Jitter]) -> list[str]:
 
 
 def onset_cautions(
-    findings: Sequence[tuple[str, float, str]], found: Sequence[Jitter], start_ns: int
+    findings: Sequence[tuple[str, float, str]],
+    found: Sequence[Jitter],
+    start_ns: int,
+    topics: Collection[str],
 ) -> dict[tuple[str, float], str]:
     """Per finding (channel, onset in seconds from ``start_ns``, and how it is said:
     ``/battery.voltage other from 54.840 s``) whose onset lies within
     :data:`NEAR_PERIODS` sample periods of a message of its topic delayed by more than
     :data:`JITTER_SHARE` of a period (among the largest departures kept), the caution:
-    the message nearest the onset, how late and when, and what to try."""
+    the message nearest the onset, how late and when, and what to try. ``topics``: the
+    record's (:func:`~analyzer.readers.base.known_topics`), which tell a channel's topic."""
     by_topic = {j.topic: j for j in found}
     out: dict[tuple[str, float], str] = {}
     for channel, onset_s, said in findings:
-        j = by_topic.get(topic_of(channel))
+        j = by_topic.get(topic_of(channel, topics))
         if j is None:
             continue
         late = j.delays.late_ns
@@ -180,7 +180,7 @@ def onset_cautions(
         way = "late" if late[k] > 0 else "early"
         out[(channel, onset_s)] = (
             f"{said}: its onset coincides with a message of {j.topic} logged "
-            f"{_ms(abs(int(late[k])))} {way} (at {when[k]:.3f} s; "
+            f"{_ms(abs(int(late[k])))} {way} (at {seconds_text(when[k])} s; "
             f"{100 * abs(int(late[k])) / NS_PER_S / j.period_s:.0f} % of its sample period): "
             "the fault may be the recorder's delay, not the sensor's: try --time header"
         )

@@ -30,7 +30,13 @@ from analyzer.outdir import (
     spreadsheet_safe,
 )
 from analyzer.readers import open_archive
-from analyzer.readers.base import InputInfo, TimeSource, about_selection, one_clock
+from analyzer.readers.base import (
+    InputInfo,
+    TimeSource,
+    about_selection,
+    absolute_times,
+    one_clock,
+)
 from analyzer.scratch import scratch
 from analyzer.selection import no_numeric_channel, select_channels, typed_fields
 from analyzer.store import AlignedSeries, ChannelInfo, ChannelStore, clock_rate
@@ -39,7 +45,6 @@ from analyzer.timeutil import (
     iso_times,
     iso_utc,
     plain_number,
-    plausible_epoch,
     spoken_duration,
 )
 
@@ -152,9 +157,7 @@ def _export(
         one_clock(names, archive.inputs)
         rated = names if rate is not None else _voting(store, names, archive.inputs)
         aligned = store.align(names, _default_rate(store, rated) if rate is None else rate)
-        absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
-            aligned.start_ns
-        )
+        absolute = absolute_times(archive.inputs)
         if utc:
             _check_utc(names, absolute, archive.inputs)
         infos = {i.name: i for i in store.infos()}
@@ -217,15 +220,12 @@ def _check_utc(names: Sequence[str], absolute: bool, inputs: Sequence[InputInfo]
     CSV of seconds, a bag on a simulation clock: there is no UTC time to write) and for
     a channel named ``utc`` (two columns of one name)."""
     if not absolute:
+        # (the readers decided: absolute_times; a simulation's clock is relative too)
         relative = [str(i.path) for i in inputs if not i.absolute_time]
-        where = capped(relative or [str(i.path) for i in inputs], 3, what="inputs")
-        what = (
-            "relative times (seconds, no date)"
-            if relative
-            else "times before 1990 (a simulation's clock, not a date)"
-        )
+        where = capped(relative, 3, what="inputs")
         raise UsageError(
-            f"--utc: {where} has {what}: there is no UTC time to write; export without --utc"
+            f"--utc: {where} has relative times (seconds with no date, or a simulation's "
+            "clock): there is no UTC time to write; export without --utc"
         )
     if UTC_COLUMN in names:
         raise UsageError(

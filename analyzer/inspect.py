@@ -18,7 +18,15 @@ from analyzer.errors import (
 )
 from analyzer.missing_codes import Unread, as_gaps, no_reading_line, read_notes
 from analyzer.readers import Archive, open_archive
-from analyzer.readers.base import InputInfo, TimeSource, channel_labels, without_channels
+from analyzer.readers.base import (
+    InputInfo,
+    TimeSource,
+    absolute_times,
+    channel_labels,
+    known_topics,
+    topic_of,
+    without_channels,
+)
 from analyzer.scratch import scratch
 from analyzer.selection import (
     DURATION_FIELD,
@@ -35,7 +43,7 @@ from analyzer.selection import (
     without_samples,
 )
 from analyzer.store import LONG_ARRAY, ChannelInfo, ChannelStore
-from analyzer.timeutil import iso_utc, plain_number, plausible_epoch, short_seconds
+from analyzer.timeutil import iso_utc, plain_number, seconds_text, short_seconds
 from analyzer.types import NS_PER_S
 
 
@@ -65,7 +73,7 @@ def inspect_archive(
     ):
         infos = store.infos()
         t0 = min((i.start_ns for i in infos), default=0)
-        absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(t0)
+        absolute = absolute_times(archive.inputs)
         notes = [str(n) for n in archive.notes]
         notes += [str(n) for n in read_notes(unread, missing_values)]
         unread_all = no_reading_line(unread)
@@ -90,6 +98,7 @@ def inspect_archive(
         )
         holes = span_gaps(store, [i.name for i in infos])
         labels = channel_labels(archive.inputs, (i.name for i in infos))
+        topics = known_topics(archive.inputs)
         return {
             "inputs": [
                 {
@@ -116,7 +125,16 @@ def inspect_archive(
                     # (only when so: a regular channel's entry is as it always was)
                     # (its rate_hz is the mean rate between its gaps, the rate it is
                     # aligned at; mean_rate_hz its samples over its whole span)
-                    **({"irregular": True, "mean_rate_hz": _mean_rate(i)} if i.irregular else {}),
+                    # (and its topic, which the table's legend gives the mean rate of)
+                    **(
+                        {
+                            "irregular": True,
+                            "mean_rate_hz": _mean_rate(i),
+                            "topic": topic_of(i.name, topics),
+                        }
+                        if i.irregular
+                        else {}
+                    ),
                     # its two values, where it holds only two whole numbers over the
                     # record: a flag or label, which run leaves out unless named
                     **({"flag": [int(x) for x in i.levels or ()]} if i.flag else {}),
@@ -279,8 +297,8 @@ def render_table(doc: dict[str, Any]) -> str:
             (
                 safe(c["name"]) + (f" ({safe(c['label'])})" if c.get("label") else "") + _mark(c),
                 str(c["samples"]),
-                f"{c['start_s']:.3f}",
-                f"{c['end_s']:.3f}",
+                f"{seconds_text(c['start_s'])}",
+                f"{seconds_text(c['end_s'])}",
                 f"{c['rate_hz']:.3f}" + ("*" if c.get("irregular") else ""),
                 str(c["gaps"]),
             )
@@ -310,11 +328,12 @@ def render_table(doc: dict[str, Any]) -> str:
 
 def _irregular_legend(channels: Sequence[dict[str, Any]]) -> str:
     """What the ``*`` after an irregular channel's rate means, and the other mean rate
-    (``mean_rate_hz``) of up to three of their topics (a topic's fields share it)."""
+    (``mean_rate_hz``) of up to three of their topics (a topic's fields share it; a CSV
+    column is its own: ``topic``, :func:`~analyzer.readers.base.topic_of`)."""
     rates: dict[str, float] = {}
     for c in channels:
         if c.get("irregular"):
-            rates.setdefault(str(c["name"]).split(".", 1)[0], float(c["mean_rate_hz"]))
+            rates.setdefault(str(c.get("topic", c["name"])), float(c["mean_rate_hz"]))
     shown = ", ".join(f"{terminal_safe(t)} {r:.3f} Hz" for t, r in list(rates.items())[:3])
     more = f" and {len(rates) - 3} more" if len(rates) > 3 else ""
     return (
@@ -327,8 +346,8 @@ def _irregular_legend(channels: Sequence[dict[str, Any]]) -> str:
 def origin_line(origin_s: float) -> str:
     """What relative times count from: the first sample's own time in the input."""
     return (
-        f"times in seconds from the first sample, which is at {origin_s:.3f} s in the "
-        f"input (its own time = start_s + {origin_s:.3f})"
+        f"times in seconds from the first sample, which is at {seconds_text(origin_s)} s in the "
+        f"input (its own time = start_s + {seconds_text(origin_s)})"
     )
 
 
@@ -387,7 +406,7 @@ def defaults_line(defaults: dict[str, Any], listed: int) -> str:
         return f"run refuses this archive by default: {terminal_safe(defaults['refused'])}"
     train = defaults["train"]
     start = defaults["clock_start_s"]
-    since = f" from {start:.3f} s" if start else ""
+    since = f" from {seconds_text(start)} s" if start else ""
     return (
         f"run by default: {defaults['channels']} of {listed} channel(s) on a common clock of "
         f"{plain_number(defaults['rate_hz'], 4)} Hz{since} (--rate), trained on "

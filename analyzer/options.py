@@ -26,7 +26,7 @@ from analyzer.errors import (
 from analyzer.findings import sha256_of
 from analyzer.modelfile import SavedModel, check_model_path, load_model
 from analyzer.readers.base import TimeSource
-from analyzer.timeutil import iso_utc, parse_time, plain_number, window_text
+from analyzer.timeutil import iso_utc, parse_time, plain_number, seconds_text, window_text
 from analyzer.types import NS_PER_S
 
 Progress = Callable[[str, float], None]
@@ -130,15 +130,15 @@ def parse_train(
         if -lo <= slack:
             if notes is not None:
                 notes.append(
-                    f"--train: the window {text!r} starts {-lo:.3f} s before the data's first "
-                    f"sample ({iso_utc(start_ns)}): it starts at that sample (a start "
+                    f"--train: the window {text!r} starts {seconds_text(-lo)} s before the data's "
+                    f"first sample ({iso_utc(start_ns)}): it starts at that sample (a start "
                     f"{_SLACK_WORDS.get(slack, 'up to 1 s before the data')} is its start)"
                 )
             lo = 0.0
     if lo < 0.0 and parts[0][0] == "ns" and lo < hi:
         # an ISO start before the data: say where the data starts, not "0 <= START"
         raise ArchiveUsageError(
-            f"--train: the window {text!r} starts {-lo:.3f} s before the data "
+            f"--train: the window {text!r} starts {seconds_text(-lo)} s before the data "
             f"(which starts at {iso_utc(start_ns)}); start it there or later"
         )
     if not (0.0 <= lo < hi):
@@ -148,7 +148,7 @@ def parse_train(
         ends = (
             f", which ends at {iso_utc(start_ns + round(duration_s * NS_PER_S))}"
             if parts[0][0] == "ns"
-            else f" ends ({duration_s:.3f} s)"
+            else f" ends ({seconds_text(duration_s)} s)"
         )
         raise ShortUsageError(
             f"--train: the window {text!r} starts after the data{ends}"
@@ -168,7 +168,7 @@ def _own_times(text: str, lo: float, hi: float, start_ns: int, duration_s: float
     a, b = lo - origin, hi - origin
     return (
         f"; --train {text} is {window_text(a, b)} here: times count from the first sample, "
-        f"{origin:.3f} s in the file"
+        f"{seconds_text(origin)} s in the file"
     )
 
 
@@ -297,7 +297,7 @@ def check_utc(absolute: bool, channels: Sequence[str]) -> None:
     if not absolute:
         raise UsageError(
             "--utc: the record has relative times (seconds with no date, or a clock before "
-            "1990, a simulation's): there is no UTC time to write; run without --utc"
+            "1973, a simulation's): there is no UTC time to write; run without --utc"
         )
     if "utc" in channels:
         raise UsageError(

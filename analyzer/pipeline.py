@@ -157,7 +157,14 @@ from analyzer.parallel import (
     usable_cpus,
 )
 from analyzer.readers import Archive, ArchiveNote, open_archive
-from analyzer.readers.base import InputInfo, about_selection, one_clock
+from analyzer.readers.base import (
+    InputInfo,
+    about_selection,
+    absolute_times,
+    known_topics,
+    one_clock,
+    topic_of,
+)
 from analyzer.readers.quaternions import flipped_note
 from analyzer.readers.tally import Tally
 from analyzer.reconfigure import (
@@ -207,7 +214,6 @@ from analyzer.timeutil import (
     iso_utc,
     json_time,
     plain_number,
-    plausible_epoch,
     rows_within,
     seconds_text,
     short_seconds,
@@ -336,6 +342,7 @@ def _irregular_channels(infos: Sequence[ChannelInfo], chosen: Sequence[str]) -> 
 def _partial_channels(
     stretches: Sequence[Sequence[tuple[int, int]]],
     chosen: Sequence[str],
+    topics: Collection[str],
     rate_hz: float,
     searched: set[str],
     not_again: bool,
@@ -349,13 +356,15 @@ def _partial_channels(
     the healthy window): the others are searched again without them
     (:mod:`analyzer.reconfigure`), which a note of its own reports, unless ``not_again``
     (a fixed channel set, or too few channels left), when the note names the
-    ``--channels`` that does it, if enough channels would be left."""
+    ``--channels`` that does it, if enough channels would be left. A channel's topic is
+    of the record's ``topics`` (:func:`~analyzer.readers.base.topic_of`: a CSV column is
+    its own)."""
     # the fields of one topic that stop together are one note (fourteen alike, one per
     # field of two topics, on ROS_example.bag)
     groups: dict[tuple[str, tuple[tuple[int, int], ...], bool], list[str]] = {}
     for name, rows in zip(chosen, stretches, strict=True):
         if rows:
-            key = (name.split(".", 1)[0], tuple(rows), name in searched)
+            key = (topic_of(name, topics), tuple(rows), name in searched)
             groups.setdefault(key, []).append(name)
     notes: list[str] = []
     for (topic, rows, there), names in groups.items():
@@ -377,7 +386,9 @@ def _partial_channels(
         if not there:
             then = "inside the healthy window, before the faults are searched"
             notes.append(
-                StoppedNote.of(f"{who} no reading in {what} of the record ({then})", names, stop)
+                StoppedNote.of(
+                    f"{who} no reading in {what} of the record ({then})", names, stop, topic
+                )
             )
             continue
         if not not_again:
@@ -397,7 +408,7 @@ def _partial_channels(
             "others (ar_kalman_bank, detection_filter) lose their view of "
             f"{'them' if one else 'the others'} too; {advice}"
         )
-        notes.append(StoppedNote.of(text, names, stop))
+        notes.append(StoppedNote.of(text, names, stop, topic))
     return notes
 
 
@@ -883,9 +894,7 @@ def _analyze(
         aligned: AlignedSeries = store.align(
             chosen, options.rate if reused is None else reused.rate_hz, blank=unread
         )
-        absolute = all(i.absolute_time for i in archive.inputs) and plausible_epoch(
-            aligned.start_ns
-        )
+        absolute = absolute_times(archive.inputs)
         # a clock far above what the sensors carry, without --rate: aligned slower, as
         # --rate would (a retrained pass keeps its first pass's clock: ``slowed``)
         clips: str | None = None  # (a sensor that clips keeps the logged clock: said why)
@@ -918,7 +927,8 @@ def _analyze(
         read = [c for c in chosen if c not in unread]  # (the channels with samples)
         notes.extend(span_note(span_gaps(store, read)))  # (a gappy folder: how much)
         # (an analyzed sensor that stops for a while mid-record: which, and when)
-        notes.extend(silence_note(store, read, aligned.start_ns, aligned.duration_s))
+        topics = known_topics(archive.inputs)
+        notes.extend(silence_note(store, read, topics, aligned.start_ns, aligned.duration_s))
         store.close()
         # and their files: for a long archive the largest scratch files after the matrix
         # (16 bytes per value: a time and a value), kept to the end of the run until now
@@ -976,7 +986,9 @@ def _analyze(
             or bool(options.screen)
         )
         few = len(chosen) - len(lost) < SEARCH_AGAIN_MIN
-        notes.extend(_partial_channels(stretches, chosen, aligned.rate_hz, set(lost), fixed or few))
+        notes.extend(
+            _partial_channels(stretches, chosen, topics, aligned.rate_hz, set(lost), fixed or few)
+        )
         # a sensor whose readings give way to blank cells or NaN for the rest of the record
         # (the others going on): dead, a finding as one that reads 0 (analyzer.silent)
         silent = silent_findings(
@@ -1384,11 +1396,12 @@ def _analyze(
         # a finding whose onset coincides with a message the recorder logged late
         cautions = onset_cautions(
             [
-                (f.channel, f.onset_s, f"{f.channel} {f.type} from {f.onset_s:.3f} s")
+                (f.channel, f.onset_s, f"{f.channel} {f.type} from {seconds_text(f.onset_s)} s")
                 for f in findings
             ],
             jittery,
             aligned.start_ns,
+            topics,
         )
         notes.extend(cautions_line(cautions))
         timings["total"] = time.perf_counter() - t_start
@@ -1800,11 +1813,11 @@ def _ends_without(
                 )
             notes.append(
                 f"{f.type.value} fault on {f.channel}: ended at "
-                + ("the record's end" if end is None else f"{end:.3f} s")
+                + ("the record's end" if end is None else f"{seconds_text(end)} s")
                 + f" as {source.detector} saw it with {left} left out{size}; with {left} it was "
                 "reported to "
-                + ("the record's end" if was is None else f"{was:.3f} s")
-                + f", the {g.type.value} fault on {left} (from {g.onset_s:.3f} s) in the "
+                + ("the record's end" if was is None else f"{seconds_text(was)} s")
+                + f", the {g.type.value} fault on {left} (from {seconds_text(g.onset_s)} s) in the "
                 "residuals of the detectors that model the two sensors together"
             )
     # the onsets after every end: a finding with an earlier fault under way where it began
@@ -1901,7 +1914,7 @@ def _shape_without(f: Finding, g: Finding, found: Sequence[Finding], slack: floa
         f"{f.type.value} fault on {f.channel} ({size}) as {h.detector} saw it with "
         f"{g.channel} left out; with {g.channel} {detector_was} read a {kind_was} fault, "
         f"{before}: "
-        f"the {g.type.value} fault on {g.channel} (from {g.onset_s:.3f} s) was in the "
+        f"the {g.type.value} fault on {g.channel} (from {seconds_text(g.onset_s)} s) was in the "
         "stretch its shape was fitted on, in the residuals of the detectors that model "
         "the two sensors together"
     )
@@ -1956,15 +1969,15 @@ def _onset_without(f: Finding, g: Finding, found: Sequence[Finding], slack: floa
     kind = "" if h.type is f.type else f" (with {g.channel}: a {f.type.value} fault)"
     f.type, f.magnitude = h.type, dict(h.magnitude)
     size = ", ".join(f"{k} {v:.4g}" for k, v in f.magnitude.items())
-    span = "the record's end" if was[1] is None else f"{was[1]:.3f} s"
+    span = "the record's end" if was[1] is None else f"{seconds_text(was[1])} s"
     return (
-        f"{f.type.value} fault on {f.channel}: from {h.onset_s:.3f} s to "
-        + ("the record's end" if f.end_s is None else f"{f.end_s:.3f} s")
+        f"{f.type.value} fault on {f.channel}: from {seconds_text(h.onset_s)} s to "
+        + ("the record's end" if f.end_s is None else f"{seconds_text(f.end_s)} s")
         + ("" if ended is None else f" (its end as seen with {ended['left_out']} left out)")
         + f" ({size}) as {h.detector} saw it with {g.channel} left out{kind}; with "
-        f"{g.channel} {f.detector} saw it from {was[0]:.3f} s to {span}, while the "
+        f"{g.channel} {f.detector} saw it from {seconds_text(was[0])} s to {span}, while the "
         f"{g.type.value} fault "
-        f"on {g.channel} (from {g.onset_s:.3f} s) was under way, in the residuals of the "
+        f"on {g.channel} (from {seconds_text(g.onset_s)} s) was under way, in the residuals of the "
         "detectors that model the two sensors together"
     )
 
@@ -2455,10 +2468,11 @@ def _input_echoes(
             kept.append(f)
             continue
         notes.append(
-            f"{f.detector}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
-            f"reported: it began {f.onset_s - cause.onset_s:+.1f} s from the {cause.type.value} "
-            f"anomaly on the measured input {cause.channel} ({cause.onset_s:.3f} s), which "
-            "reaches every residual that takes the input in: taken for its echo"
+            f"{f.detector}'s {f.type.value} fault on {f.channel} at {seconds_text(f.onset_s)} s "
+            f"not reported: it began {f.onset_s - cause.onset_s:+.1f} s from the "
+            f"{cause.type.value} anomaly on the measured input {cause.channel} "
+            f"({seconds_text(cause.onset_s)} s), which reaches every residual that takes the input "
+            "in: taken for its echo"
         )
     return kept, notes
 
@@ -2550,7 +2564,7 @@ def _training_window(
         if tr[0] >= duration:
             raise ShortConfigError(
                 f"{options.config.path}: [train] the window {tr[0]:g}-{tr[1]:g} s starts "
-                f"after the data ends ({duration:.3f} s)"
+                f"after the data ends ({seconds_text(duration)} s)"
             )
         tr = (tr[0], min(tr[1], duration))
     else:
@@ -2576,10 +2590,11 @@ def _training_window(
         # a window that starts later covers the end only: it is what comes after it
         # that is missing ('800:900' of an 889-s bag "covered all the data")
         covers = (
-            f"covers all the data (which ends at {duration:.3f} s): nothing is left to search"
+            f"covers all the data (which ends at {seconds_text(duration)} s): nothing is left to "
+            "search"
             if train[0] <= 0
-            else f"reaches the end of the data (which ends at {duration:.3f} s): it leaves "
-            "nothing after it to search"
+            else f"reaches the end of the data (which ends at {seconds_text(duration)} s): it "
+            "leaves nothing after it to search"
         )
         if options.train is not None:
             raise ShortUsageError(
@@ -2697,7 +2712,8 @@ def _varying_in_training(
     tv = np.asarray(values[train[0] : train[1]])
     if tv.shape[0] < MIN_TRAIN_ROWS:
         raise ShortUsageError(
-            f"the training window {tr[0]:.3f}-{tr[1]:.3f} s holds {tv.shape[0]} sample(s) "
+            f"the training window {seconds_text(tr[0])}-{seconds_text(tr[1])} s holds "
+            f"{tv.shape[0]} sample(s) "
             f"at {plain_number(rate_hz)} Hz, need at least {MIN_TRAIN_ROWS}: give a longer "
             "one with --train (the default is the first 20 % of the data, at most 10 min)"
         )
@@ -2744,7 +2760,7 @@ def _varying_in_training(
         )
         raise ArchiveUsageError(
             "every selected channel is constant or empty in the training window "
-            f"({tr[0]:.3f}-{tr[1]:.3f} s): choose another window with {how}"
+            f"({seconds_text(tr[0])}-{seconds_text(tr[1])} s): choose another window with {how}"
         )
     return np.asarray(values)[:, keep], [chosen[k] for k in keep]
 
@@ -2761,8 +2777,9 @@ def _window_constant_note(dropped: Sequence[str], tr: tuple[float, float]) -> Wi
         "constant (or one value in 99 % of the samples) in the training window, not "
         "analyzed: " + ", ".join(dropped),
         f"{names} {'reads' if one else 'read'} one value in the training window "
-        f"{tr[0]:.3f}-{tr[1]:.3f} s but {'varies' if one else 'vary'} later: not analyzed; "
-        f"a --train where {'it varies analyzes it' if one else 'they vary analyzes them'}",
+        f"{seconds_text(tr[0])}-{seconds_text(tr[1])} s but {'varies' if one else 'vary'} later: "
+        "not analyzed; a --train where "
+        f"{'it varies analyzes it' if one else 'they vary analyzes them'}",
     )
     note.names = tuple(dropped)
     return note
@@ -2878,8 +2895,8 @@ def _no_detector_error(
             else _longer_window(skipped, tr, *clock, every=named, held=held, crosses=crosses)
         )
         hint = (
-            f"the training window {tr[0]:.3f}-{tr[1]:.3f} s is too short for these "
-            "detectors: "
+            f"the training window {seconds_text(tr[0])}-{seconds_text(tr[1])} s is too short for "
+            "these detectors: "
             + (longer or "give a longer healthy stretch with --train START:END")
             + (
                 " (the default is the first 20 % of the data, at most 10 min)"
@@ -3053,13 +3070,12 @@ def _longer_window(
     if change is not None:
         return _too_short_before(change, start, end, need)
 
-    def secs(x: float) -> str:  # (as --train reads them: no exponent, to the ms)
-        return f"{x:.3f}".rstrip("0").rstrip(".")
-
     moved = (
-        f", from the archive's start: after {secs(tr[0])} s it holds less" if start != tr[0] else ""
+        f", from the archive's start: after {short_seconds(tr[0])} s it holds less"
+        if start != tr[0]
+        else ""
     )
-    return f"give --train {secs(start)}:{secs(end)}, {need}{moved}"
+    return f"give --train {short_seconds(start)}:{short_seconds(end)}, {need}{moved}"
 
 
 def _slow_clock(

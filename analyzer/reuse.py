@@ -20,6 +20,7 @@ from analyzer.modelfile import SavedModel
 from analyzer.options import RunOptions, check_model_options
 from analyzer.selection import StuckNote, model_stuck
 from analyzer.store import ChannelStore
+from analyzer.timeutil import seconds_text
 
 WARMUP_S = 1.0
 """With ``--model``: the least time at a record's start in which no fault is searched."""
@@ -184,8 +185,8 @@ def reuse_note(model: SavedModel, options: RunOptions, warm_s: float) -> str:
     start, end = model.train_window_s()
     return (
         f"fitted models from {options.model_path or 'a model file'} (trained on {trained}, "
-        f"healthy window {start:.3f}-{end:.3f} s); nothing was "
-        f"fitted on this archive, and no fault is searched in its first {warm_s:.3f} s "
+        f"healthy window {seconds_text(start)}-{seconds_text(end)} s); nothing was "
+        f"fitted on this archive, and no fault is searched in its first {seconds_text(warm_s)} s "
         "while the filters settle"
     )
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from analyzer.errors import ArchiveUsageError, ReaderError, capped
 from analyzer.readers import ArchiveNote
-from analyzer.readers.base import InputInfo
+from analyzer.readers.base import InputInfo, topic_of
 from analyzer.store import LONG_ARRAY, ChannelInfo, ChannelStore, long_arrays
 from analyzer.store.copies import Copy, find_copies
 from analyzer.store.store import FLAG_SAMPLES
@@ -667,14 +667,12 @@ def _typed_fields(
     name: str, typed: Mapping[str, Mapping[str, str]]
 ) -> tuple[str, Mapping[str, str]] | None:
     """The field of the channel ``name`` (after its topic's ``.``) and its topic's time
-    fields, where ``typed`` knows the topic's types; else None."""
-    topic, dot, rest = name.partition(".")
-    while dot:
-        if topic in typed:
-            return rest, typed[topic]
-        head, dot, rest = rest.partition(".")
-        topic = f"{topic}.{head}"
-    return None
+    fields, where ``typed`` knows the topic's types (its topic by
+    :func:`~analyzer.readers.base.topic_of`); else None."""
+    topic = topic_of(name, typed)
+    if topic not in typed or not name.startswith(f"{topic}."):
+        return None
+    return name[len(topic) + 1 :], typed[topic]
 
 
 def _never_back(store: ChannelStore, name: str) -> bool:

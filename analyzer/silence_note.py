@@ -15,16 +15,16 @@ topic) are one item, named by their topic; at most :data:`LISTED` items and
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 
 import numpy as np
 
-from analyzer.delay_note import topic_of
 from analyzer.errors import capped
 from analyzer.paging import release
 from analyzer.readers import ArchiveNote
+from analyzer.readers.base import topic_of
 from analyzer.store import ChannelInfo, ChannelStore
-from analyzer.timeutil import plain_number, short_seconds
+from analyzer.timeutil import plain_number, seconds_text, short_seconds
 from analyzer.types import NS_PER_S
 
 SILENT_PERIODS = 50
@@ -65,18 +65,18 @@ class StoppedNote(ArchiveNote):
     stderr ended with "no sensor fault found", which read as the whole record audited
     (rob56). ``stopped``: the channels that stop before the record's end, and the time
     (seconds from the start) from which they have no reading, which the run's last line
-    names."""
+    names, with the topic of each (:func:`~analyzer.readers.base.topic_of`)."""
 
-    stopped: tuple[tuple[str, float], ...] = ()
+    stopped: tuple[tuple[str, float, str], ...] = ()
 
     @classmethod
-    def of(cls, text: str, names: Sequence[str], stop_s: float | None) -> StoppedNote:
-        """The note ``text`` on ``names`` (a topic's channels, or one), which have no
+    def of(cls, text: str, names: Sequence[str], stop_s: float | None, topic: str) -> StoppedNote:
+        """The note ``text`` on ``names`` (the channels of ``topic``, or one), which have no
         reading from ``stop_s`` to the record's end (None: they run to it); built from its
         text, the rest added, so that it pickles as a note does."""
         note = cls(text)
         if stop_s is not None:
-            note.stopped = tuple((n, stop_s) for n in names)
+            note.stopped = tuple((n, stop_s, topic) for n in names)
         return note
 
 
@@ -85,12 +85,13 @@ def stopped_words(notes: Sequence[str]) -> str:
     (:class:`StoppedNote`): ``/imu has no reading after 48 s``, the fields of one topic
     named by it, or how many stop; empty where none does."""
     ends: dict[str, float] = {}
+    topics: set[str] = set()
     for n in notes:
-        for name, at in getattr(n, "stopped", ()) if isinstance(n, StoppedNote) else ():
+        for name, at, topic in getattr(n, "stopped", ()) if isinstance(n, StoppedNote) else ():
             ends[name] = min(at, ends.get(name, at))
+            topics.add(topic)
     if not ends:
         return ""
-    topics = {topic_of(n) for n in ends}
     if len(topics) == 1:
         (topic,) = topics
         who = topic if len(ends) > 1 else next(iter(ends))
@@ -124,17 +125,19 @@ def silences(
     return found
 
 
-def _went_on(store: ChannelStore, others: Sequence[str], span: tuple[int, int]) -> list[str]:
-    """The topics (or CSV columns) among ``others`` with a sample in the middle half of
-    ``span`` (a silence of another channel; not merely near its ends, as a topic that
-    paused with it, a few milliseconds apart, has): one binary search per topic, its
-    first channel's."""
+def _went_on(
+    store: ChannelStore, others: Sequence[str], topics: Collection[str], span: tuple[int, int]
+) -> list[str]:
+    """The topics (of the record's ``topics``; or CSV columns) among ``others`` with a
+    sample in the middle half of ``span`` (a silence of another channel; not merely near
+    its ends, as a topic that paused with it, a few milliseconds apart, has): one binary
+    search per topic, its first channel's."""
     a, b = span
     a, b = a + (b - a) // 4, b - (b - a) // 4
     out: list[str] = []
     firsts: dict[str, str] = {}
     for n in others:
-        firsts.setdefault(topic_of(n), n)
+        firsts.setdefault(topic_of(n, topics), n)
     for topic, first in firsts.items():
         t, _ = store.raw(first)
         k = int(np.searchsorted(t, a, side="right"))
@@ -144,11 +147,17 @@ def _went_on(store: ChannelStore, others: Sequence[str], span: tuple[int, int]) 
 
 
 def silence_note(
-    store: ChannelStore, names: Sequence[str], start_ns: int, span_s: float
+    store: ChannelStore,
+    names: Sequence[str],
+    topics: Collection[str],
+    start_ns: int,
+    span_s: float,
 ) -> list[str]:
     """The note on the channels ``names`` (analyzed, with samples) that are silent
     mid-record (module doc), times in seconds from ``start_ns`` (the common clock's
-    start); nothing where none is."""
+    start); nothing where none is. ``topics``: the record's
+    (:func:`~analyzer.readers.base.known_topics`; none for a CSV, whose columns are each
+    named)."""
     groups: dict[tuple[tuple[int, int], ...], list[str]] = {}
     seen: dict[tuple[int, int, float], list[tuple[int, int]]] = {}
     rates: dict[tuple[tuple[int, int], ...], float] = {}
@@ -170,11 +179,12 @@ def silence_note(
         return []
     items = []
     for found, members in sorted(groups.items(), key=lambda g: g[0][0][0]):
-        topics = list(dict.fromkeys(topic_of(m) for m in members))
-        who = capped(topics, 2) if len(topics) < len(members) else capped(members, 2)
+        heads = list(dict.fromkeys(topic_of(m, topics) for m in members))
+        who = capped(heads, 2) if len(heads) < len(members) else capped(members, 2)
         rate = rates[found]
         spans = [
-            f"from {(a - start_ns) / NS_PER_S:.3f} to {(b - start_ns) / NS_PER_S:.3f} s "
+            f"from {seconds_text((a - start_ns) / NS_PER_S)} to "
+            f"{seconds_text((b - start_ns) / NS_PER_S)} s "
             f"({short_seconds((b - a) / NS_PER_S)} s: about "
             f"{plain_number(max(1, round((b - a) / NS_PER_S * rate) - 1), 3)} samples missing "
             f"at {plain_number(rate, 4)} Hz)"
@@ -183,7 +193,9 @@ def silence_note(
         more = f" and {len(found) - SPANS} more" if len(found) > SPANS else ""
         # (other topics only: a topic's other fields, such as another frame of /tf, are
         # no sign that the sensor went on)
-        others = _went_on(store, [n for n in names if topic_of(n) not in topics], found[0])
+        others = _went_on(
+            store, [n for n in names if topic_of(n, topics) not in heads], topics, found[0]
+        )
         beside = f" while {capped(others, 2)} went on" if others else ""
         items.append(f"{who}: no sample {', '.join(spans)}{more}{beside}")
     said = capped(items, LISTED, "; ", "channels with such silences")

@@ -60,19 +60,29 @@ def parse_time(text: str) -> tuple[str, float | int]:
 
 def spoken_duration(seconds: float) -> str:
     """A duration in a user's line, in the unit it reads best in, to two or three
-    significant digits: ``400 ms``, ``5.8 s``, ``42 s``, ``12 min``, ``3.5 h``,
-    ``2.1 d``. The lines wrote them ``{x:.3g}`` in one unit: ``a 5.81e+03-ms period``."""
+    significant digits: ``400 ms``, ``5.8 s``, ``100 s``, ``2.0 min``, ``90 min``,
+    ``3.5 h``, ``2.3 days``. The one way every line says a span (notes, stderr, the
+    watcher's log, the readers' clock lines); the report's tables keep exact cells
+    (:func:`analyzer.report.format.duration`). Six functions said them six ways: 100 s
+    was ``100 s``, ``2 min``, ``100.0 s``; 200 000 s ``2.3 d``, ``55 h 33 min``, ``2.3
+    days``. The lines wrote them ``{x:.3g}`` in one unit: ``a 5.81e+03-ms period``."""
     s = float(seconds)
     if not np.isfinite(s):
         return f"{s} s"
-    a = abs(s)
-    if a < 1.0:
-        return f"{1e3 * s:.3g} ms"
-    for unit, size in (("d", 86400.0), ("h", 3600.0), ("min", 60.0), ("s", 1.0)):
-        if a >= (size if unit == "s" else 2 * size):
-            x = s / size
-            return f"{x:.1f} {unit}" if abs(x) < 10 else f"{x:.0f} {unit}"
-    return f"{s:.1f} s"  # pragma: no cover - (a >= 1 is seconds at least)
+    if abs(s) < 1.0 and "e" not in (ms := f"{1e3 * s:.3g}"):  # (999.7 ms: 1.0 s)
+        return f"{ms} ms"
+    # (the largest unit of which it is two or more, as written: 7199.98 s is 2.0 h, not
+    # 120 min)
+    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        text = _digits(s / size)
+        if abs(float(text)) >= 2:
+            return f"{text} {unit}"
+    return f"{_digits(s)} s"
+
+
+def _digits(x: float) -> str:
+    """``x`` as :func:`spoken_duration` writes it: one decimal below 10, none above."""
+    return f"{x:.1f}" if abs(x) < 10 else f"{x:.0f}"
 
 
 def seconds_text(x: float, decimals: int = 3) -> str:
@@ -115,10 +125,23 @@ def plain_number(x: float, digits: int = 3) -> str:
     return text
 
 
+EPOCH_LINE_NS = 100_000_000 * NS_PER_S
+"""An input's times at or after this (1e8 s since 1970: 1973-03-03T09:46:40Z) are Unix
+times (UTC); before it, relative times (seconds from a start, a simulation clock,
+nanoseconds since boot). The one line by which the readers decide
+(:attr:`~analyzer.readers.base.InputInfo.absolute_time`), which ``run``, ``inspect`` and
+``export`` then take as it is. Why 1973 and not later: a logger whose clock was never
+set writes dates from 1980-01-01 (the FAT file system's and GPS's start), and that
+date, said as such, is what shows the user the clock was never set (relative seconds
+hide it); a relative clock reaches 1e8 s only after 3.2 years of counting. Header stamps,
+judged beside the recorder's log times, keep a later line of their own
+(:data:`~analyzer.readers._common.HEADER_EPOCH_NS`)."""
+
+
 def plausible_epoch(ns: int) -> bool:
-    """True when ``ns`` looks like an absolute time (after 1990): relative clocks and
-    bags recorded with simulated time start near zero."""
-    return bool(ns > np.int64(631152000) * NS_PER_S)
+    """True when ``ns`` is a Unix time by :data:`EPOCH_LINE_NS` (relative clocks and bags
+    recorded with simulated time start near zero)."""
+    return bool(ns >= EPOCH_LINE_NS)
 
 
 TIME_DECIMALS = 4

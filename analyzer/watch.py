@@ -222,6 +222,7 @@ from analyzer.pipeline import (
 from analyzer.report.format import magnitude
 from analyzer.report.jobs import PRELOAD_MODULE
 from analyzer.scratch import hold, make_scratch, remove_scratch
+from analyzer.timeutil import spoken_duration
 from analyzer.types import MSG_PATH_ENV
 from analyzer.watch_cluster import ClusterTask, warm_worker
 from analyzer.watch_inbox import (
@@ -716,16 +717,6 @@ def _warm_cluster(cluster: DaskExecutor) -> None:
     kernels), while the first archives settle."""
     with contextlib.suppress(Exception):
         cluster.client.run(warm_worker)
-
-
-def _duration(seconds: float) -> str:
-    """``40 s``, ``12 min``, ``3 h 58 min``."""
-    if seconds < 90:
-        return f"{seconds:.0f} s"
-    minutes = int(round(seconds / 60))
-    if minutes < 90:
-        return f"{minutes} min"
-    return f"{minutes // 60} h {minutes % 60:02d} min"
 
 
 def _size(signature: Sequence[Sequence[Any]]) -> int:
@@ -2084,7 +2075,7 @@ class _Runner:
         if self.begun is None or analyzed == 0 or analyzed >= total:
             return f" [{analyzed}/{total}]"
         left = (time.monotonic() - self.begun) / analyzed * (total - analyzed)
-        return f" [{analyzed}/{total}, about {_duration(left)} left]"
+        return f" [{analyzed}/{total}, about {spoken_duration(left)} left]"
 
     def to_analyze(self, members: Mapping[str, tuple[Path, ...]]) -> frozenset[str]:
         """Of INBOX's archives at the start (``members``: their paths by name), those
@@ -2113,7 +2104,7 @@ class _Runner:
         analyzed = len(self.results)
         if not analyzed and not self.skipped and not self.unreadable and not self.unwritten:
             return None
-        took = "" if self.begun is None else f" in {_duration(time.monotonic() - self.begun)}"
+        took = "" if self.begun is None else f" in {spoken_duration(time.monotonic() - self.begun)}"
         counts = {v: n for v in Verdict if (n := sum(r is v for r in self.results.values()))}
         parts = ", ".join(f"{n} {v}" for v, n in counts.items())
         text = f"{analyzed} archive{'' if analyzed == 1 else 's'} analyzed{took}"
@@ -2290,7 +2281,7 @@ class _Runner:
         self.short.pop(archive.name, None)
         if not self._as_found(archive):  # (changed since: handed on again once settled)
             return False
-        words = f"unchanged for {_duration(unchanged)}"
+        words = f"unchanged for {spoken_duration(unchanged)}"
         rec.error = f"{rec.error} (given up: {words}, not a file still being written)"
         rec.error_kind = ErrorKind.INPUT
         rec.left_in_inbox = None

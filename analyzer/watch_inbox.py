@@ -64,6 +64,7 @@ from typing import Any
 from analyzer.errors import counted
 from analyzer.readers import SUFFIXES, Format, skipped_folder
 from analyzer.readers._common import bag_listed_files, special_kind
+from analyzer.timeutil import spoken_duration
 
 log = logging.getLogger("analyzer.watch")
 
@@ -655,7 +656,7 @@ class InboxTracker:
                     if not self.quiet:
                         log.warning(
                             "waiting up to %s (--wait-unfinished) for %s to be complete: %s",
-                            _span(self.incomplete_timeout),
+                            spoken_duration(self.incomplete_timeout),
                             k,
                             track.reason,
                         )
@@ -699,11 +700,6 @@ def _gist(reason: str) -> str:
         member, _, _ = reason.rpartition(": ")
         return f"{member}: {WRITING}"
     return re.sub(r"\d+", "#", reason)
-
-
-def _span(seconds: float) -> str:
-    """``10 min``, ``90 s``."""
-    return f"{seconds / 60:.0f} min" if seconds >= 120 else f"{seconds:.0f} s"
 
 
 def archive_names(

@@ -60,6 +60,9 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _corpus import default_corpus  # noqa: E402
 
 from analyzer.pipeline import RunOptions, analyze  # noqa: E402
 from analyzer.simulate import inject_fault  # noqa: E402
@@ -67,7 +70,8 @@ from analyzer.simulate import inject_fault  # noqa: E402
 KINDS = ("additive", "multiplicative", "drift")
 MAGNITUDE = {"additive": "offset", "multiplicative": "gain", "drift": "rate_per_s"}
 RECORD = Path("benchmark/SKAB/data/anomaly-free/anomaly-free.csv")
-DEFAULT_CORPUS = Path(__file__).resolve().parent.parent.parent / "shared" / "realdata"
+DEFAULT_CORPUS = default_corpus()
+"""``--corpus``'s default (:func:`_corpus.default_corpus`)."""
 
 Finding = tuple[str, str, float, float | None, dict[str, float]]
 """channel, type, onset s, end s (None: to the end), magnitude."""

@@ -51,10 +51,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _corpus import default_corpus  # noqa: E402
+
 ROOT = Path(__file__).resolve().parent.parent
 SKAB = Path("benchmark/SKAB/data")
 FREE = SKAB / "anomaly-free" / "anomaly-free.csv"
-DEFAULT_CORPUS = ROOT.parent / "shared" / "realdata"
+DEFAULT_CORPUS = default_corpus()
+"""``--corpus``'s default (:func:`_corpus.default_corpus`)."""
 SUGGESTED = re.compile(r"give --train ([0-9.]+):([0-9.]+)")
 KEYS = (
     "found",

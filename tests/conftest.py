@@ -13,26 +13,14 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 from pathlib import Path  # noqa: E402
 
 import pytest  # noqa: E402
-
-REPO = Path(__file__).resolve().parents[1]
-
-
-def realdata_root() -> Path | None:
-    env = os.environ.get("ANALYZER_REALDATA")
-    cands = [Path(env)] if env else []
-    cands.append(REPO.parent / "shared" / "realdata")
-    for c in cands:
-        if c.is_dir():
-            return c
-    return None
+from _realdata import realdata_or_skip  # noqa: E402
 
 
 @pytest.fixture
 def realdata() -> Path:
-    root = realdata_root()
-    if root is None:
-        pytest.skip("../shared/realdata is absent (set ANALYZER_REALDATA to run these tests)")
-    return root
+    """The real-data corpus (:func:`_realdata.realdata_root`), or a skip saying where it
+    was looked for."""
+    return realdata_or_skip()
 
 
 def _findings_of(analysis) -> list[tuple]:

@@ -6,11 +6,11 @@ to the end of its channel's data) and says where the data ends
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _realdata import realdata_or_skip
 
 from analyzer.diagnosis.merge import Finding
 from analyzer.types import FaultType
@@ -53,12 +53,7 @@ def test_size_of_a_drift_to_the_end_of_its_data() -> None:
 
 
 def _realdata() -> Path:
-    env = os.environ.get("ANALYZER_REALDATA")
-    root = Path(env) if env else Path(__file__).resolve().parents[1] / "../shared/realdata"
-    path = root / "ros1/evo/ROS_example.bag"
-    if not path.is_file():
-        pytest.skip("real-data corpus absent (set ANALYZER_REALDATA)")
-    return path
+    return realdata_or_skip("ros1/evo/ROS_example.bag")
 
 
 @pytest.mark.realdata

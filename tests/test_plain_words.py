@@ -29,7 +29,9 @@ EXPONENT = re.compile(r"\d[eE][+-]\d")
         (150.0, "2.5 min"),
         (725.0, "12 min"),
         (4 * 3600.0, "4.0 h"),
-        (3 * 86400.0, "3.0 d"),
+        (3 * 86400.0, "3.0 days"),
+        (5400.0, "90 min"),
+        (200_000.0, "2.3 days"),
     ],
 )
 def test_a_duration_reads_in_its_unit(seconds, said):

@@ -35,6 +35,7 @@ from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.merge import Finding
 from analyzer.errors import counted
 from analyzer.paging import read_column
+from analyzer.timeutil import seconds_text
 from analyzer.types import FaultType
 
 MIN_CLIPPED = 10
@@ -292,7 +293,7 @@ def merge_clipped(
         for g in echoes:
             gone.add(id(g))
             notes.append(
-                f"{g.detector}'s {g.type} fault on {g.channel} at {g.onset_s:.3f} s not "
+                f"{g.detector}'s {g.type} fault on {g.channel} at {seconds_text(g.onset_s)} s not "
                 f"reported: it began and ended while {channel} clipped, with a clipped "
                 f"reading within {near:.0f} s of it, and the models that take {channel} in "
                 f"see {g.channel} through it: taken for that fault"
@@ -300,7 +301,8 @@ def merge_clipped(
         out = [f for f in out if id(f) not in gone] + [merged]
         limits = " and ".join(f"{v:.6g}" for v in (clip.high, clip.low) if v is not None)
         notes.append(
-            f"{channel} clips at {limits} from {t0:.3f} s: {counted(clip.count, 'reading')} "
+            f"{channel} clips at {limits} from {seconds_text(t0)} s: "
+            f"{counted(clip.count, 'reading')} "
             f"({clip.fraction:.1%} of those from the first to the last) "
             f"{'sits' if clip.count == 1 else 'sit'} at its extremes, "
             "a pile-up a healthy signal's tail does not make (the sensor saturates: past its "
@@ -311,7 +313,7 @@ def merge_clipped(
                 ""
                 if clip.healthy_from is None
                 else f". It clipped at that limit in the healthy window already, from "
-                f"{clip.healthy_from / rate_hz:.3f} s: its range is too small for this "
+                f"{seconds_text(clip.healthy_from / rate_hz)} s: its range is too small for this "
                 "response (or the quantity sits at a bound), and the detectors were fitted "
                 "on its clipped readings"
             )

@@ -32,6 +32,7 @@ from analyzer.diagnosis.classify import (
 )
 from analyzer.diagnosis.spread import event_intervals
 from analyzer.paging import buffer, release
+from analyzer.timeutil import seconds_text
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -198,7 +199,7 @@ def unweighed_note(channel: str, onsets_s: Sequence[float]) -> str:
     alarm over a gap (or over the filters' warm-up after one) has fewer than three finite
     residual samples, which say nothing of a sensor's fault (the realdata audit: such an
     alarm was a finding of confidence 0 and offset 0, and exit 1 for it)."""
-    listed = ", ".join(f"{t:.3f} s" for t in onsets_s[:UNWEIGHED_LISTED])
+    listed = ", ".join(f"{seconds_text(t)} s" for t in onsets_s[:UNWEIGHED_LISTED])
     more = len(onsets_s) - UNWEIGHED_LISTED
     at = f"{listed} and {more} more" if more > 0 else listed
     alarms = "alarm" if len(onsets_s) == 1 else f"{len(onsets_s)} alarms"

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from analyzer.detectors.base import Event
+from analyzer.timeutil import seconds_text
 from analyzer.types import FaultType
 
 
@@ -371,7 +372,8 @@ def one_fault_at_a_time(
         if explained and len(explained) == len(_detectors(f)):
             drops[id(f)] = (
                 list(explained.values()),
-                f"{f.detector}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
+                f"{f.detector}'s {f.type.value} fault on {f.channel} at "
+                f"{seconds_text(f.onset_s)} s not "
                 f"reported: {_explained_text(explained)}: taken for that fault (law 0), one "
                 "fault at a time",
             )
@@ -383,18 +385,19 @@ def one_fault_at_a_time(
                 continue
             drops[id(f)] = (
                 [within],
-                f"{f.detector}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
+                f"{f.detector}'s {f.type.value} fault on {f.channel} at "
+                f"{seconds_text(f.onset_s)} s not "
                 f"reported: it began while {f.detector} had the {within.type.value} fault "
-                f"on {within.channel} (from {within.onset_s:.3f} s) under way and ended "
+                f"on {within.channel} (from {seconds_text(within.onset_s)} s) under way and ended "
                 f"when that one did, on sensors {f.detector} models together: taken for "
                 "that fault, one fault at a time",
             )
             continue
         cause, single, followers = taken
         note = (
-            f"{single}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
+            f"{single}'s {f.type.value} fault on {f.channel} at {seconds_text(f.onset_s)} s not "
             f"reported: it began while the {cause.type.value} fault on {cause.channel} "
-            f"(from {cause.onset_s:.3f} s, found by {', '.join(_detectors(cause))}"
+            f"(from {seconds_text(cause.onset_s)} s, found by {', '.join(_detectors(cause))}"
             f"{_through_text(cause, findings, explains)}) "
             f"was under way, and {single} models the two sensors together: taken for that "
             "fault, one fault at a time"
@@ -460,6 +463,7 @@ def ends_of_later_faults(
         if not ended:
             continue
         lead = _lead(ended, slack_s)
+        assert lead.end_s is not None  # (ended: the events of ``ended`` all have an end)
         was, size = f.end_s, ""
         f.end_s = lead.end_s
         if lead.type is f.type and lead.magnitude != f.magnitude:
@@ -468,12 +472,12 @@ def ends_of_later_faults(
             size = f", and its size is theirs ({_sized(f.magnitude)})"
         others = sorted({e.detector for e in f.events if id(e) in explained})
         notes.append(
-            f"{f.type.value} fault on {f.channel}: ended at {lead.end_s:.3f} s as "
+            f"{f.type.value} fault on {f.channel}: ended at {seconds_text(lead.end_s)} s as "
             f"{', '.join(sorted({e.detector for e in ended}))} saw it{size}; "
             f"{', '.join(others)} saw it to "
-            + ("the record's end" if was is None else f"{was:.3f} s")
+            + ("the record's end" if was is None else f"{seconds_text(was)} s")
             + f", where the {later.type.value} fault on {later.channel} (from "
-            f"{later.onset_s:.3f} s) ended, a sensor they model together with {f.channel}"
+            f"{seconds_text(later.onset_s)} s) ended, a sensor they model together with {f.channel}"
         )
     return notes
 
@@ -759,9 +763,11 @@ def _resolve_drops(
             dropped.discard(k)  # the sensor's own fault again, not the other's doing
     notes = [drops[id(f)][1] for f in findings if id(f) in dropped]
     for f in restored:
-        causes = ", ".join(f"{c.channel} (from {c.onset_s:.3f} s)" for c in drops[id(f)][0])
+        causes = ", ".join(
+            f"{c.channel} (from {seconds_text(c.onset_s)} s)" for c in drops[id(f)][0]
+        )
         notes.append(
-            f"the {f.type.value} fault on {f.channel} from {f.onset_s:.3f} s is reported "
+            f"the {f.type.value} fault on {f.channel} from {seconds_text(f.onset_s)} s is reported "
             f"although it could be taken for the fault on {causes}: that one was taken for "
             "it in turn (directly or through others), and of them this one has the most "
             "support"
@@ -1032,8 +1038,8 @@ def _explained_text(explained: dict[str, Finding]) -> str:
     """Why the ``explained`` detectors' part in a finding is their assistants' fault."""
     return "; ".join(
         f"no residual of the sensors {d} assists confirmed it, and its assistant sensor "
-        f"{g.channel} was already faulty ({g.type.value} from {g.onset_s:.3f} s, found by "
-        f"{', '.join(x for x in _detectors(g) if x != d)})"
+        f"{g.channel} was already faulty ({g.type.value} from {seconds_text(g.onset_s)} s, found "
+        f"by {', '.join(x for x in _detectors(g) if x != d)})"
         for d, g in explained.items()
     )
 
@@ -1086,21 +1092,21 @@ def traced_into_training(findings: list[Finding], reused: bool = False) -> list[
             back = (
                 "the record's start"
                 if min(traced) <= 0
-                else f"{min(traced):.3f} s, inside the warm-up"
+                else f"{seconds_text(min(traced))} s, inside the warm-up"
             )
             notes.append(
-                f"{f.type.value} fault on {f.channel} from {f.onset_s:.3f} s (the end of the "
-                f"filters' warm-up, where the search starts): traced back to {back}, so it "
-                "was probably there when the record began (see the archive before this one)"
+                f"{f.type.value} fault on {f.channel} from {seconds_text(f.onset_s)} s (the end of "
+                f"the filters' warm-up, where the search starts): traced back to {back}, so it was "
+                "probably there when the record began (see the archive before this one)"
             )
             continue
         notes.append(
-            f"{f.type.value} fault on {f.channel} from {f.onset_s:.3f} s (the end of the "
-            f"healthy window): traced back to {min(traced):.3f} s, inside the window, so the "
-            "trend was there while the window was taken as healthy; it may be the monitored "
-            "system's own slow change (warming, load, season) rather than the sensor's, and "
-            "while it lasts, faults of the sensors modelled with it are taken for it; a "
-            "healthy window that covers such changes (--train) tells them apart"
+            f"{f.type.value} fault on {f.channel} from {seconds_text(f.onset_s)} s (the end of the "
+            f"healthy window): traced back to {seconds_text(min(traced))} s, inside the window, so "
+            "the trend was there while the window was taken as healthy; it may be the monitored "
+            "system's own slow change (warming, load, season) rather than the sensor's, and while "
+            "it lasts, faults of the sensors modelled with it are taken for it; a healthy window "
+            "that covers such changes (--train) tells them apart"
         )
     return notes
 
@@ -1121,7 +1127,7 @@ def present_at_search_start(findings: list[Finding], start_s: float, rate_hz: fl
         if not traced:
             notes.append(
                 f"{f.type.value} fault on {f.channel}: present when the search started at "
-                f"{start_s:.3f} s (after the filters' warm-up): there from the start, not "
-                "judged before then (see the archive before this one)"
+                f"{seconds_text(start_s)} s (after the filters' warm-up): there from the start, "
+                "not judged before then (see the archive before this one)"
             )
     return notes

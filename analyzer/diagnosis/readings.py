@@ -77,6 +77,7 @@ from analyzer.diagnosis.classify import correlation_time
 from analyzer.diagnosis.evidence import settled
 from analyzer.diagnosis.merge import Finding
 from analyzer.diagnosis.streamed import series_moments
+from analyzer.timeutil import seconds_text
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -358,7 +359,8 @@ def refuted_by_readings(
                 f"{g.channel} from {g.onset_s:.1f} s" for g in beside
             )
         notes.append(
-            f"{JUDGED_DETECTOR}'s {f.type.value} fault on {f.channel} at {f.onset_s:.3f} s not "
+            f"{JUDGED_DETECTOR}'s {f.type.value} fault on {f.channel} at "
+            f"{seconds_text(f.onset_s)} s not "
             f"reported: the residuals of {f.channel} that take its reading in against an "
             f"estimate made without it carry too little of it ({shares} of the fault, "
             f"{rows[0] / rate_hz:.1f}-{rows[1] / rate_hz:.1f} s; a fault of the reading "

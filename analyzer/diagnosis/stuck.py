@@ -21,6 +21,7 @@ from analyzer.diagnosis.changes import LONG_FACTOR, default_window
 from analyzer.diagnosis.merge import Finding
 from analyzer.diagnosis.streamed import ColumnMoments
 from analyzer.paging import read_column, row_blocks
+from analyzer.timeutil import seconds_text
 from analyzer.types import FaultType
 
 FLAT = 0.01
@@ -170,16 +171,18 @@ def frozen_notes(
         if since < onset or a > onset:
             f.onset_s = since / rate_hz
             f.evidence["frozen"].update({"since_s": f.onset_s, "alarmed_from_s": alarmed})
-            moved.append(f"the detectors saw it from {alarmed:.3f} s: it starts where they froze")
+            moved.append(
+                f"the detectors saw it from {seconds_text(alarmed)} s: it starts where they froze"
+            )
         if until < b:
             f.end_s = until / rate_hz
             f.evidence["frozen"].update({"until_s": f.end_s, "alarmed_to_s": alarmed_to})
-            seen = "the record's end" if alarmed_to is None else f"{alarmed_to:.3f} s"
+            seen = "the record's end" if alarmed_to is None else f"{seconds_text(alarmed_to)} s"
             moved.append(f"the detectors saw it to {seen}: it ends where they moved again")
         if f.type is not before or what.startswith("stuck") or moved:
             notes[id(f)] = (
-                f"{f.channel} from {f.onset_s:.3f} s"
-                + ("" if f.end_s is None else f" to {f.end_s:.3f} s")
+                f"{f.channel} from {seconds_text(f.onset_s)} s"
+                + ("" if f.end_s is None else f" to {seconds_text(f.end_s)} s")
                 + f": {what}: its readings vary by {spread / sd:.2g} of their healthy spread "
                 f"(the residual alone read it as {before}" + "".join(f"; {m}" for m in moved) + ")"
             )
@@ -477,11 +480,11 @@ def dead_unattributed(
             )
             found.append(f)
             notes.append(
-                f"{c} from {t0:.3f} s"
-                + ("" if t1 is None else f" to {t1:.3f} s")
+                f"{c} from {seconds_text(t0)} s"
+                + ("" if t1 is None else f" to {seconds_text(t1)} s")
                 + f": dead (reads 0): its readings vary by {spread / sd:.2g} of their healthy "
                 f"spread (the anomaly {', '.join(sorted({d for _, d in near}))} attributed to "
-                f"no sensor at {near[0][0]:.3f} s began with it)"
+                f"no sensor at {seconds_text(near[0][0])} s began with it)"
             )
     return found, notes
 
@@ -726,12 +729,12 @@ def dead_again(
                 )
                 found.append(g)
                 notes.append(
-                    f"{f.channel} from {t0:.3f} s"
-                    + ("" if t1 is None else f" to {t1:.3f} s")
+                    f"{f.channel} from {seconds_text(t0)} s"
+                    + ("" if t1 is None else f" to {seconds_text(t1)} s")
                     + f": dead (reads 0) again: its readings vary by {spread / stats[1]:.2g} "
-                    f"of their healthy spread (after its dead spell from {f.onset_s:.3f} s "
-                    f"ended at {revived / rate_hz:.3f} s, inside the anomaly the detectors "
-                    "saw as one)"
+                    "of their healthy spread (after its dead spell from "
+                    f"{seconds_text(f.onset_s)} s ended at {seconds_text(revived / rate_hz)} s, "
+                    "inside the anomaly the detectors saw as one)"
                 )
             if until >= b:
                 break
@@ -835,9 +838,9 @@ def revived_gains(
         )
         found.append(g)
         notes.append(
-            f"{f.channel} from {g.onset_s:.3f} s"
-            + ("" if g.end_s is None else f" to {g.end_s:.3f} s")
-            + f": a gain of {gain:.3g} after its dead spell from {f.onset_s:.3f} s (the "
+            f"{f.channel} from {seconds_text(g.onset_s)} s"
+            + ("" if g.end_s is None else f" to {seconds_text(g.end_s)} s")
+            + f": a gain of {gain:.3g} after its dead spell from {seconds_text(f.onset_s)} s (the "
             f"residual of {f.detector} over its readings alive again)"
         )
     return found, notes

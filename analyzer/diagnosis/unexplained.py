@@ -37,6 +37,7 @@ from dataclasses import dataclass
 from analyzer.detectors import DetectorResult
 from analyzer.diagnosis.levels import Excursion
 from analyzer.diagnosis.merge import Finding
+from analyzer.timeutil import seconds_text
 
 Anomaly = tuple[float, str, tuple[str, ...]]
 """An anomaly no sensor was found for: onset (s), the detector, the channels it named."""
@@ -252,7 +253,7 @@ def unplaced(
         ):
             out.append(Unexplained(channels, f.onset_s, (LEAVE_ONE_OUT, PLACING_DETECTOR), ()))
         notes.append(
-            f"{PLACING_DETECTOR}'s other fault on {f.channel} from {f.onset_s:.3f} s not "
+            f"{PLACING_DETECTOR}'s other fault on {f.channel} from {seconds_text(f.onset_s)} s not "
             f"reported: the {LEAVE_ONE_OUT}'s residual of {f.channel} alarmed by then and "
             f"none of its estimators (each blind to one sensor) singled {f.channel} out, "
             "and no fault shape backs the filter's choice. Alarms on "

@@ -35,6 +35,7 @@ from analyzer.readers._common import (
     special_kind,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, Reader, TimeSource, damage_of
+from analyzer.timeutil import plausible_epoch
 from analyzer.types import Format, Note
 
 # The format readers are imported when a file of theirs is opened: an MCAP run need not
@@ -846,10 +847,6 @@ def _read_once(readers: Sequence[Reader], skipped: list[str]) -> list[Reader]:
     return kept
 
 
-EPOCH_NS = 100_000_000 * 1_000_000_000
-"""Timestamps at or above this (1973) are Unix times (as the CSV reader takes them)."""
-
-
 def _one_clock(readers: Sequence[Reader]) -> None:
     """Inputs with relative times (seconds from their start: a CSV without dates) and
     inputs with Unix times cannot be stitched on one clock: the error said "a timestamp
@@ -860,7 +857,7 @@ def _one_clock(readers: Sequence[Reader]) -> None:
     for r in readers:
         if r.info.absolute_time:
             start = r.start_ns()
-            if start is not None and start >= EPOCH_NS:
+            if start is not None and plausible_epoch(start):
                 raise ReaderError(
                     f"{relative.info.path} has relative times (seconds from its start) and "
                     f"{r.info.path} Unix times (UTC): one archive needs one clock; analyze "

@@ -33,7 +33,8 @@ from analyzer.readers.base import DAMAGE, ChannelChunk
 from analyzer.readers.delays import LogDelays
 from analyzer.readers.quaternions import QuaternionSigns
 from analyzer.readers.tally import Tally
-from analyzer.timeutil import iso_utc, plausible_epoch
+from analyzer.timeutil import iso_utc, plausible_epoch, spoken_duration
+from analyzer.types import NS_PER_S
 
 IntArray = npt.NDArray[np.int64]
 FloatArray = npt.NDArray[np.float64]
@@ -284,11 +285,16 @@ def by_name(
 
 BoolArray = npt.NDArray[np.bool_]
 
-EPOCH_NS = 10**18
+HEADER_EPOCH_NS = 10**18
 """Header stamps at or above this (1e9 s, 2001-09-09T01:46:40Z) are wall-clock (Unix
 epoch) times; a topic whose nonzero stamps are mostly below it runs on a simulation clock
 (Gazebo's ``/clock`` starts at 0; 1e9 s is 31.7 years of simulated time), on which a
-stamp of 0 is a real time, not "unset"."""
+stamp of 0 is a real time, not "unset". Later than the line of an input's own times
+(:data:`~analyzer.timeutil.EPOCH_LINE_NS`, 1973) on purpose: header stamps are judged
+beside the recorder's log times, a wall clock of this century, and a node whose clock
+was never set (stamps from 1980) keeps a clock of its own as a simulation does; the
+input's own times have no other clock beside them, and their date, 1980 or not, is
+said."""
 
 CLOCKS_APART_NS = 3600 * 10**9
 """Header stamps that lie this far (an hour) and more from the other topics' times, and
@@ -306,7 +312,7 @@ recorder's queue (milliseconds to about a second), or an estimate stamped with t
 of the data it was made from (AMCL's pose: seconds); NTP steps a clock from 128 ms on.
 The real recordings' largest sustained change of that offset is 1.7 s, their widest
 spread 4.9 s (``/amcl_pose`` of ``nav2_turtlebot.mcap``). A simulation clock in the
-headers (stamps below :data:`EPOCH_NS`) keeps :data:`CLOCKS_APART_NS`: a simulation
+headers (stamps below :data:`HEADER_EPOCH_NS`) keeps :data:`CLOCKS_APART_NS`: a simulation
 paused or slowed moves it against the recorder's wall clock by any amount."""
 
 
@@ -317,7 +323,7 @@ def absolute_log_time(
 ) -> bool:
     """Whether a recording whose first and last log times ``start()`` and ``end()``
     give keeps Unix (wall-clock) times (:attr:`InputInfo.absolute_time`): False where it
-    ends before 1990 (:func:`~analyzer.timeutil.plausible_epoch`, the rule by which a
+    ends before 1973 (:func:`~analyzer.timeutil.plausible_epoch`, the one rule by which a
     report gives ``start: null``): a simulation clock (Gazebo's ``/clock`` from 0, a
     harness from 0.1 s), counted from its own start like a CSV without dates, so that
     files of several such runs are not stitched as one (:func:`analyzer.readers._one_span`).
@@ -334,13 +340,6 @@ def absolute_log_time(
     except damaged:  # a damaged file: its reader says so when read
         return True
     return last is None or plausible_epoch(last)
-
-
-def long_time(ns: int) -> str:
-    """A stretch of an hour or more between two clocks, as the lines say it: in hours
-    below two days, else in days."""
-    days = abs(ns) / 86400e9
-    return f"{days:.1f} days" if days >= 2 else f"{days * 24:.1f} h"
 
 
 def two_clocks(clocks: dict[str, str], spans: dict[str, tuple[int, int]]) -> str:
@@ -360,15 +359,15 @@ def two_clocks(clocks: dict[str, str], spans: dict[str, tuple[int, int]]) -> str
         return topics, lo, hi
 
     def when(lo: int, hi: int) -> str:
-        if hi >= EPOCH_NS:
+        if hi >= HEADER_EPOCH_NS:
             return f"Unix times, {iso_utc(lo)} to {iso_utc(hi)}"
         return f"{lo / 1e9:.3f} to {hi / 1e9:.3f} s, not Unix times: a simulation clock?"
 
     stamped, lo, hi = side("header")
     others, other_lo, other_hi = side("log", "stamped")
     stamped_when = when(lo, hi)
-    if min(hi, other_hi) >= EPOCH_NS:  # (both Unix times: how far apart)
-        apart = long_time(max(lo - other_hi, other_lo - hi))
+    if min(hi, other_hi) >= HEADER_EPOCH_NS:  # (both Unix times: how far apart)
+        apart = spoken_duration(max(lo - other_hi, other_lo - hi) / NS_PER_S)
         stamped_when += f", {apart} {'before' if hi < other_lo else 'after'} the others"
     logged = [t for t in others if clocks[t] == "log"]
     also = [t for t in others if clocks[t] == "stamped"]
@@ -405,19 +404,10 @@ def clock_step_refusal(steps: dict[str, str]) -> str:
     )
 
 
-def step_time(ns: int) -> str:
-    """How far a clock stepped, as the lines say it: from an hour on as
-    :func:`long_time`, below it in minutes (from 2) or seconds."""
-    size = abs(ns) / 1e9
-    if size >= 3600:
-        return long_time(ns)
-    return f"{size / 60:.1f} min" if size >= 120 else f"{size:.1f} s"
-
-
 def stamp_text(ns: int) -> str:
     """A time as the lines say it: UTC where a Unix time, else seconds (a simulation
     clock)."""
-    if ns >= EPOCH_NS:
+    if ns >= HEADER_EPOCH_NS:
         return str(iso_utc(ns))
     return f"{ns / 1e9:.3f} s (not a Unix time)"
 
@@ -513,7 +503,7 @@ class LogClock:
     def _said(self, newest: int, time: int, where: str) -> None:
         self.back_ns = newest - time
         self.line = (
-            f"the log times step back by {long_time(newest - time)}: {where} "
+            f"the log times step back by {spoken_duration((newest - time) / NS_PER_S)}: {where} "
             f"{stamp_text(time)}, after messages logged up to {stamp_text(newest)} (the "
             "recorder's clock set back during the recording?); its messages cannot be placed "
             "among those logged before them (they would be sorted in among them): split the "
@@ -867,9 +857,9 @@ class TopicTracker:
 
     * messages that could not be decoded (counted, the first reason kept);
     * with ``--time header``: a ``header.stamp`` of 0 (a driver that does not set it) is
-      no stamp where the topic's stamps are wall-clock times (:data:`EPOCH_NS`): the
+      no stamp where the topic's stamps are wall-clock times (:data:`HEADER_EPOCH_NS`): the
       message's log time is used, and counted. On a simulation clock (stamps mostly below
-      :data:`EPOCH_NS`) 0 is a real time (Gazebo starts at 0). Each topic is decided by
+      :data:`HEADER_EPOCH_NS`) 0 is a real time (Gazebo starts at 0). Each topic is decided by
       the nonzero stamps of its first batch that has any, and keeps that decision; a
       batch of only zeros before that is taken as unset. Messages given their log time
       (or without a header) take no part in the two rules below;
@@ -1027,7 +1017,7 @@ class TopicTracker:
         """With ``--time header``, where the topics' times come from two clocks: each
         topic's clock, ``"header"`` (its own stamps) or ``"log"`` (its log times: no
         header, or stamps of 0 taken as unset), else ``{}``. Two clocks: the stamps of
-        the topics timed by their headers are Unix times (:data:`EPOCH_NS`) and the log
+        the topics timed by their headers are Unix times (:data:`HEADER_EPOCH_NS`) and the log
         times of the others are not, or the other way round (a simulation clock in the
         headers, as Gazebo's ``use_sim_time`` gives, beside a recorder's wall clock).
         Their samples lie years apart, which one common clock cannot hold. A topic with
@@ -1039,7 +1029,8 @@ class TopicTracker:
             if by_topic.get(topic) != "header":
                 by_topic[topic] = source
         epoch = {
-            topic: self._spans[(topic, source)][1] >= EPOCH_NS for topic, source in by_topic.items()
+            topic: self._spans[(topic, source)][1] >= HEADER_EPOCH_NS
+            for topic, source in by_topic.items()
         }
         header = {epoch[t] for t, s in by_topic.items() if s == "header"}
         log = {epoch[t] for t, s in by_topic.items() if s == "log"}
@@ -1184,7 +1175,7 @@ class TopicTracker:
                 (
                     int(after[1]),
                     topic,
-                    f"header.stamp jumps {step_time(moved)} {way} at "
+                    f"header.stamp jumps {spoken_duration(abs(moved) / NS_PER_S)} {way} at "
                     f"message {int(after[2])} ({self._at(int(after[1]))}), from "
                     f"{stamp_text(int(before[3]))} to {stamp_text(int(after[3]))}, while "
                     f"its log times go on (a clock set during the recording?){more}",
@@ -1229,7 +1220,7 @@ class TopicTracker:
         if epoch is None:
             valid = stamps[~(unset | zero)]
             if valid.size:
-                epoch = 2 * int(np.count_nonzero(valid >= EPOCH_NS)) >= int(valid.size)
+                epoch = 2 * int(np.count_nonzero(valid >= HEADER_EPOCH_NS)) >= int(valid.size)
                 self._epoch[topic] = epoch
         return epoch is None or epoch
 

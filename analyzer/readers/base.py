@@ -80,8 +80,9 @@ class InputInfo:
     errors: list[str] = field(default_factory=list)
     absolute_time: bool = True
     """True when timestamps are nanoseconds since the Unix epoch (UTC); False for relative
-    times (a CSV without dates; an MCAP or bag whose log times end before 1990, a
-    simulation clock), which an archive does not stitch where they overlap."""
+    times (a CSV without dates; an MCAP or bag whose log times end before 1973, a
+    simulation clock: :data:`~analyzer.timeutil.EPOCH_LINE_NS`), which an archive does
+    not stitch where they overlap (:func:`absolute_times`)."""
     units: dict[str, str] = field(default_factory=dict)
     """Of a CSV with a units line under its header: each column's unit (``s2`` ->
     ``m/s^2``) where it gives one; the report writes it after sizes and on axes."""
@@ -199,13 +200,47 @@ def add_topics(info: InputInfo, types: Mapping[str, str], messages: Mapping[str,
             info.topics[topic] = (msgtype, int(messages[topic]))
 
 
+def absolute_times(inputs: Iterable[InputInfo]) -> bool:
+    """Whether the times of the archive of ``inputs`` are Unix times (UTC), so that a run
+    gives a ``start`` date: each input's reader decided
+    (:attr:`InputInfo.absolute_time`, by :data:`~analyzer.timeutil.EPOCH_LINE_NS`), and
+    ``run``, ``inspect`` and ``export`` take that decision as it is. (They each judged
+    the first sample's time again by a later line, 1990: a CSV of dates from 1980, a
+    logger's clock never set, was "seconds since 1970 (UTC)" in ``inspect``'s time line
+    and relative, without its date, everywhere else.)"""
+    return all(i.absolute_time for i in inputs)
+
+
+def known_topics(inputs: Iterable[InputInfo]) -> frozenset[str]:
+    """The topics the readers of ``inputs`` decoded (:attr:`InputInfo.topics`): none for
+    a CSV, whose columns are channels of no topic. :func:`topic_of`'s ``topics``."""
+    return frozenset(t for info in inputs for t in getattr(info, "topics", {}))
+
+
+def topic_of(channel: str, topics: Collection[str]) -> str:
+    """The topic of the channel ``channel``: the longest of ``topics`` (the record's,
+    :func:`known_topics`) that it is, or that its name begins with before a ``.`` or a
+    ``[`` (``/imu/data.linear_acceleration.y`` is ``/imu/data``; an MCAP's topic may hold
+    dots, ``imu.front.x`` is ``imu.front`` where that is a topic); the channel itself
+    where none is (a CSV column: ``acc.x`` is a column, not a field of a topic ``acc``).
+    The one rule of the notes that speak of topics (silences, delays, channels that
+    stop), of ``inspect`` and of the selection's typed time fields: the name's text alone
+    cannot tell a topic's dot from a field's."""
+    if channel in topics:
+        return channel
+    for at in range(len(channel) - 1, 0, -1):
+        if channel[at] in ".[" and channel[:at] in topics:
+            return channel[:at]
+    return channel
+
+
 def without_channels(
-    inputs: Iterable[InputInfo], channels: Iterable[str]
+    inputs: Sequence[InputInfo], channels: Iterable[str]
 ) -> list[tuple[str, str, int]]:
     """The topics of ``inputs`` decoded without giving any of ``channels`` (a
     ``std_msgs/String``, a topic of text): (topic, type, messages), in input order."""
-    heads = {name.split(".", 1)[0] for name in channels}
-    heads |= {name.split("[", 1)[0] for name in channels}
+    topics = known_topics(inputs)
+    heads = {topic_of(name, topics) for name in channels}
     out: dict[str, tuple[str, str, int]] = {}
     for info in inputs:
         for topic, (msgtype, count) in getattr(info, "topics", {}).items():

@@ -54,7 +54,7 @@ again as text (see :meth:`CsvReader._stream`).
 The time column holds seconds or the unit its name gives (decimal text is converted to
 integer nanoseconds exactly), integer nanoseconds (integers above 1e15, unless its name
 gives a unit other than seconds: since 1970 where as nanoseconds they are dates after
-1990; where they are no such date as nanoseconds but are as microseconds, refused
+1973; where they are no such date as nanoseconds but are as microseconds, refused
 naming both readings, epoch microseconds or nanoseconds since boot; else nanoseconds
 from another start, relative; epoch milliseconds are refused by name), times of day or elapsed
 times without a date (``hh:mm:ss[.f]``: relative times, a step back of more than half a
@@ -62,7 +62,8 @@ day being the next day) or date-time strings (ISO 8601 or any format pandas reco
 UTC where no zone is given). Its kind is that of at least 90 % of the first block's
 non-blank cells, so that a units line, a repeated header or a run of zero bytes under
 the header costs its rows (counted in ``info.errors``), not the file. Times below 1e8 s
-(before 1973) are taken as relative time: ``InputInfo.absolute_time`` is False. Times
+(before 1973: :data:`~analyzer.timeutil.EPOCH_LINE_NS`) are taken as relative time:
+``InputInfo.absolute_time`` is False. Times
 after the year 2262 (epoch milliseconds in a column whose name does not say ``ms``, say)
 are not times: int64 nanoseconds cannot hold them. Times that step back by more than the
 reorder window are named in ``info.errors``, with what became of the rows behind; a clock
@@ -114,15 +115,14 @@ from analyzer.readers._common import (
     FloatArray,
     IntArray,
     Reorderer,
-    long_time,
     one_line,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
-from analyzer.timeutil import iso_utc, plausible_epoch
+from analyzer.timeutil import iso_utc, plausible_epoch, spoken_duration
 
 if TYPE_CHECKING:  # pandas is imported where a time column needs it: MCAP and bag runs,
     import pandas as pd  # and CSVs with numeric or ISO times, never load it (~0.3 s)
-from analyzer.types import Format
+from analyzer.types import NS_PER_S, Format
 
 TIME_NAMES = ("time", "timestamp", "t", "__time", "%time", "datetime")
 """Names of a time column (any case), preferred to the names :func:`_time_unit` accepts."""
@@ -176,11 +176,9 @@ MiB blocks and at 378-398 MB with 1 MiB, in 2.73-2.80 s of CPU instead of 3.14-3
 KiB: 354 MB but slower again, 256 KiB slower still)."""
 NS_THRESHOLD = 1e15
 """Integer times above this are nanoseconds, since 1970 when as such they are dates after
-1990 (:func:`~analyzer.timeutil.plausible_epoch`), from another start when they are no
+1973 (:func:`~analyzer.timeutil.plausible_epoch`), from another start when they are no
 such date as microseconds either; epoch microseconds (1.77e15), which nanoseconds since
 boot may be too, are refused naming both (see :meth:`CsvReader._time_kind_of`)."""
-EPOCH_THRESHOLD_S = 1e8
-"""Times in seconds at or above this are Unix times; below, relative times."""
 
 NUMERIC_SHARE = 0.9
 """A column is numeric when at least this share of its non-blank cells are numbers (a
@@ -893,14 +891,10 @@ class CsvReader:
                 + ", ".join(f"{g!r} as {n!r}" for g, n in self._layout.renamed[:8])
                 + (f", ... ({len(self._layout.renamed)})" if len(self._layout.renamed) > 8 else "")
             )
-        self.info.absolute_time = (
-            self._time_kind == "datetime"
-            or (self._time_kind == "ns" and first_time is not None and plausible_epoch(first_time))
-            or (
-                self._time_kind == "seconds"
-                and first_time is not None
-                and first_time >= EPOCH_THRESHOLD_S * 1e9
-            )
+        self.info.absolute_time = self._time_kind == "datetime" or (
+            self._time_kind in ("ns", "seconds")
+            and first_time is not None
+            and plausible_epoch(first_time)
         )
         if self._time_kind in ("seconds", "ns") and not self.info.absolute_time:
             self._anchor()
@@ -1099,7 +1093,7 @@ class CsvReader:
             )
         else:
             line = (
-                f"the time column {name!r} steps back by {long_time(back)} "
+                f"the time column {name!r} steps back by {spoken_duration(back / NS_PER_S)} "
                 f"at data row {row} ({cell!r}: from {self._when(newest)} to "
                 f"{self._when(time)}): a clock set back during the recording? Its rows cannot "
                 "be placed among those before it; correct the times, or split the file at "
@@ -2376,13 +2370,14 @@ class CsvReader:
 
 
 def _epoch_microseconds(value: float) -> bool:
-    """Whether ``value`` as microseconds is a date after 1990 that int64 nanoseconds hold."""
+    """Whether ``value`` as microseconds is a date after 1973
+    (:func:`~analyzer.timeutil.plausible_epoch`) that int64 nanoseconds hold."""
     return value * 1e3 < _NS_MAX and plausible_epoch(int(value * 1e3))
 
 
 def _epoch_unit_hint(cell: str) -> str:
     """What a number that is no time in seconds may be: epoch milliseconds or
-    microseconds (the unit that gives a date after 1990, where one does), and how to say
+    microseconds (the unit that gives a date after 1973, where one does), and how to say
     so in the column's name."""
     try:
         value = abs(float(cell))

@@ -595,12 +595,13 @@ class ChannelStore:
         if k == 0 or k == t.shape[0] - 2:
             which = "first" if k == 0 else "last"
             return (
-                f"; the {which} sample of {name} lies {_span_text(gap)} from the others: "
+                f"; the {which} sample of {name} lies {spoken_duration(gap)} from the others: "
                 "an outlier timestamp"
             )
         return (
-            f"; {name} has no sample for {_span_text(gap)} after {short_seconds(where)} s: records "
-            "that far apart in time are analyzed one at a time (one clock cannot hold them)"
+            f"; {name} has no sample for {spoken_duration(gap)} after {short_seconds(where)} s: "
+            "records that far apart in time are analyzed one at a time (one clock cannot hold "
+            "them)"
         )
 
     def _apart(self, channels: Sequence[str], span_s: float) -> str:
@@ -623,7 +624,7 @@ class ChannelStore:
         if gap < 0.5 * span_s:
             return ""
         return (
-            f"; no channel has a sample for {_span_text(gap)} between {before}'s last and "
+            f"; no channel has a sample for {spoken_duration(gap)} between {before}'s last and "
             f"{after}'s first: records that far apart in time are analyzed one at a time "
             "(one clock cannot hold them)"
         )
@@ -1274,15 +1275,6 @@ def _slots(tt: IntArray, period: float, most: int, bridge: float = GAP_FACTOR) -
     advance[0] = 0
     advance[1:][jump] = np.minimum(np.rint(steps[jump]).astype(np.int64), most + 1)
     return np.cumsum(advance)
-
-
-def _span_text(seconds: float) -> str:
-    """``45 s``, ``3.2 h``, ``29.7 days``."""
-    if seconds >= 2 * 86400:
-        return f"{seconds / 86400:.1f} days"
-    if seconds >= 2 * 3600:
-        return f"{seconds / 3600:.1f} h"
-    return spoken_duration(seconds)
 
 
 def _count(rows: float) -> str:

@@ -44,7 +44,7 @@ def test_inspect_counts_the_years_between_inputs_as_without_data(tmp_path, capsy
     assert span["span_s"] > 734 * 86400
     assert span["without_data_s"] > 0.99 * span["span_s"]
     code, out, _ = run_cli(["inspect", folder], capsys)
-    assert "100 % of the 735 d span has no data: 1 gap, 735 d in all" in out.splitlines()
+    assert "100 % of the 735 days span has no data: 1 gap, 735 days in all" in out.splitlines()
 
 
 def test_a_run_says_what_lies_outside_the_analyzed_span(tmp_path, capsys):
@@ -55,6 +55,6 @@ def test_a_run_says_what_lies_outside_the_analyzed_span(tmp_path, capsys):
     lines = [ln for ln in said(err) if "outside the analyzed span" in ln]
     assert len(lines) == 1, err
     assert "the analysis spans 60 s from 2026-05-08T10:00:00.000Z" in lines[0]
-    assert "735 d before it" in lines[0]
+    assert "735 days before it" in lines[0]
     notes = json.loads((out / "findings.json").read_text())["notes"]
     assert any("outside the analyzed span" in n for n in notes)

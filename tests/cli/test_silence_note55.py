@@ -97,7 +97,7 @@ def test_many_silent_channels_are_capped(tmp_path):
         keep = (t < (100 + 30 * c) * 10**9) | (t >= (110 + 30 * c) * 10**9)
         chunks.append(ChannelChunk(f"c{c}", t[keep], np.ones(int(keep.sum()))))
     with ChannelStore.from_chunks(chunks, tmp_path) as store:
-        (note,) = silence_note(store, [f"c{c}" for c in range(10)], 0, 600.0)
+        (note,) = silence_note(store, [f"c{c}" for c in range(10)], (), 0, 600.0)
     assert note.count("no sample from") == LISTED
     assert note.count("; ") == LISTED  # between the items, and before the closing clause
     assert f"and {10 - LISTED} more channels with such silences" in note

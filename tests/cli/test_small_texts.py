@@ -24,7 +24,8 @@ def test_the_fields_of_a_topic_that_stop_together_are_one_note():
     chosen = ["ORB.x", "ORB.y", "ORB.z", "S.x", "S.y", "gt.x"]
     rate = 10.0
     stops = [[(7404, 8890)]] * 3 + [[(7406, 8890)]] * 2 + [[]]
-    notes = _partial_channels(stops, chosen, rate, set(chosen), False)
+    topics = {"ORB", "S", "gt"}  # (a bag's: its channels are fields of these topics)
+    notes = _partial_channels(stops, chosen, topics, rate, set(chosen), False)
     assert len(notes) == 2, notes
     assert notes[0].startswith(
         "ORB.x, ORB.y, ORB.z (3 channels of ORB) have no reading in their last 148.6 s "
@@ -32,7 +33,9 @@ def test_the_fields_of_a_topic_that_stop_together_are_one_note():
     )
     assert notes[1].startswith("S.x, S.y (2 channels of S) have no reading in their last")
     # one channel alone: the note as it was
-    (one,) = _partial_channels([[(7404, 8890)], []], ["a.x", "b.x"], rate, {"a.x"}, False)
+    (one,) = _partial_channels(
+        [[(7404, 8890)], []], ["a.x", "b.x"], {"a", "b"}, rate, {"a.x"}, False
+    )
     assert one.startswith("a.x has no reading in its last 148.6 s (after 740.4 s) of the record")
 
 

@@ -2,17 +2,14 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
+from _realdata import realdata_or_skip
 
 
 @pytest.fixture
 def corpus() -> Path:
-    """The real-data corpus (``../shared/realdata`` or ``$ANALYZER_REALDATA``)."""
-    env = os.environ.get("ANALYZER_REALDATA")
-    root = Path(env) if env else Path(__file__).resolve().parents[2] / "../shared/realdata"
-    if not root.is_dir():
-        pytest.skip("real-data corpus absent (set ANALYZER_REALDATA)")
-    return root.resolve()
+    """The real-data corpus (:func:`_realdata.realdata_root`: ``$ANALYZER_REALDATA``, then
+    ``../shared/realdata`` beside the checkout), or a skip saying where it was looked for."""
+    return realdata_or_skip()

@@ -1,4 +1,4 @@
-"""MCAP files and ROS bags on a simulation clock (log times before 1990: Gazebo's
+"""MCAP files and ROS bags on a simulation clock (log times before 1973: Gazebo's
 ``/clock`` from 0, a harness from 0.1 s) have relative times, as a CSV without dates
 does: several runs that each start near 0 are refused as one archive (they were stitched,
 and all but the first run's overlap dropped: 8903 of the 9989 messages of cart-pole's

@@ -143,7 +143,7 @@ def test_header_stamps_years_before_the_log_times_are_two_clocks(tmp_path: Path,
     assert reader.info.clocks == {"/odom": "header", "/tf": "log"}
     (line,) = [e for e in reader.info.errors if e.startswith("--time header")]
     assert "/odom timed by their header.stamp (Unix times, 2021-01-02T" in line
-    assert "1825.0 days before the others), /tf by their log times (no header.stamp" in line
+    assert "1825 days before the others), /tf by their log times (no header.stamp" in line
     assert "or 0; Unix times, 2026-01-01T00:00:00.005Z to 2026-01-01T00:00:05.995Z)" in line
 
 
@@ -162,7 +162,7 @@ def test_one_topic_stamped_years_off_is_the_clock_apart(
     out = capsys.readouterr().out
     assert (
         "two clocks: /imu timed by their header.stamp (Unix times, 2021-01-02T00:00:00.000Z "
-        "to 2021-01-02T00:00:05.990Z, 1825.0 days before the others), /odom by their "
+        "to 2021-01-02T00:00:05.990Z, 1825 days before the others), /odom by their "
         "header.stamp and /tf by their log times (no header.stamp, or 0; together Unix "
         "times, 2026-01-01T00:00:00.000Z to 2026-01-01T00:00:05.995Z)" in out
     )
