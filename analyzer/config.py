@@ -71,6 +71,8 @@ class Config:
             "model": model,
             "detectors": {name: dict(opts) for name, opts in self.detectors.items()},
             "false_alarm_rate": self.false_alarm_rate,
+            # (where it has a [rename] table: NEW -> OLD channel names)
+            **({"rename": dict(self.rename)} if self.rename else {}),
         }
 
     def as_context(self) -> dict[str, Any]:

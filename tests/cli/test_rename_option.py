@@ -88,6 +88,7 @@ def test_a_fault_after_the_seam_is_found_on_the_joined_channel(tmp_path, capsys)
     (fault,) = doc["faults"]
     assert fault["channel"] == "s2" and fault["type"] == "additive", fault
     assert abs(fault["onset_s"] - 100.0) < 2.0, fault
+    assert doc["config"]["rename"] == {"s2_new": "s2"}
     schema_valid(doc)
 
 
