@@ -227,6 +227,13 @@ def add_run_options(p: argparse.ArgumentParser, command: str = "run") -> None:
     )
     add_missing_values(p)
     p.add_argument(
+        "--rename",
+        action="append",
+        metavar="NEW=OLD",
+        help="read channel NEW as channel OLD: a sensor replaced under a new name from one "
+        "file on is joined to the one it replaces (repeatable; the config's [rename] too)",
+    )
+    p.add_argument(
         "--jobs",
         type=_positive_int,
         metavar="N",
@@ -702,6 +709,7 @@ def _run_options(args: argparse.Namespace) -> Any:
         note=_note if getattr(args, "command", None) == "run" else None,
         utc=getattr(args, "utc", False),
         missing_values=getattr(args, "missing_values", ()),
+        rename=getattr(args, "rename", None) or (),
     )
 
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from analyzer.errors import ConfigError, capped
 
-_TOP = {"train", "group", "model", "detectors", "thresholds"}
+_TOP = {"train", "group", "model", "detectors", "thresholds", "rename"}
 _TRAIN = {"start", "end"}
 _GROUP = {"name", "channels", "reference", "uncertain", "inputs"}
 _MODEL = {"file", "A", "B", "C", "D", "dt", "outputs", "inputs"}
@@ -38,6 +38,9 @@ class Config:
     path: Path | None = None
     model_file: Path | None = None
     """The resolved ``[model] file`` (an input of the run: never overwritten)."""
+    rename: dict[str, str] = field(default_factory=dict)
+    """``[rename]``: ``NEW = "OLD"`` pairs, each NEW channel name read as the OLD one
+    (``--rename NEW=OLD``'s table: a sensor replaced under a new name)."""
     sha256: str = ""
     """The config file's SHA-256 as read (``findings.json``'s ``config``: which file, as it
     was, set the run)."""
@@ -68,6 +71,8 @@ class Config:
             "model": model,
             "detectors": {name: dict(opts) for name, opts in self.detectors.items()},
             "false_alarm_rate": self.false_alarm_rate,
+            # (where it has a [rename] table: NEW -> OLD channel names)
+            **({"rename": dict(self.rename)} if self.rename else {}),
         }
 
     def as_context(self) -> dict[str, Any]:
@@ -382,6 +387,7 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
             f'{p}: [detectors.error_function] approach = "indirect" needs a [model] '
             '(A, B, C, D); or use approach = "direct"'
         )
+    cfg.rename = _rename(raw.get("rename", {}), p)
     th = raw.get("thresholds", {})
     if not isinstance(th, dict):
         raise ConfigError(f"{p}: [thresholds] must be a table (false_alarm_rate = ...), got {th!r}")
@@ -392,6 +398,21 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
             raise ConfigError(f"{p}: thresholds.false_alarm_rate must be in (0, 0.5), got {far!r}")
         cfg.false_alarm_rate = float(far)
     return cfg
+
+
+def _rename(table: Any, p: Path) -> dict[str, str]:
+    """``[rename]``: a table of ``NEW = "OLD"`` channel names (``s3b = "s3"``), each a
+    non-empty string; checked further with ``--rename``'s (:func:`analyzer.options.
+    renames`)."""
+    if not isinstance(table, dict):
+        raise ConfigError(f'{p}: [rename] must be a table of NEW = "OLD" channel names')
+    for new, old in table.items():
+        if not isinstance(old, str) or not old.strip() or not new.strip():
+            raise ConfigError(
+                f'{p}: [rename] {new} = {old!r}: expected NEW = "OLD" (the channel\'s name in '
+                'the later files, then the name it replaces: s3b = "s3")'
+            )
+    return {str(new).strip(): str(old).strip() for new, old in table.items()}
 
 
 def _train(t: Any, p: Path) -> tuple[float, float]:

@@ -26,6 +26,7 @@ from analyzer.error_file import touches_inputs
 from analyzer.evidence_label import fault_label, level_changes
 from analyzer.modelfile import SavedModel
 from analyzer.outdir import spreadsheet_safe, staged
+from analyzer.readers import renamed_successors
 from analyzer.readers.base import InputInfo, channel_labels
 from analyzer.regenerate import write_corrected_csv
 from analyzer.selection import STUCK_SAMPLES
@@ -93,6 +94,12 @@ class Analysis:
     """Each analyzed channel's mean and standard deviation over the healthy training
     window (:func:`analyzer.diagnosis.stuck.healthy_stats`, computed once by the fit;
     with ``--model`` the model's): the yardstick of each finding's ``size_relative``."""
+    no_reading: dict[str, str] = field(default_factory=dict)
+    """The channels of the inputs with no reading at all (a CSV column blank in every row,
+    an MCAP field NaN in every message, every value a ``--missing-values`` code or beyond
+    1e30), not analyzed, each with what its values were (``blank in every row``): they
+    have no :class:`~analyzer.store.ChannelInfo`, and findings.json's ``channels[]``
+    left them out, so a script never learnt a column of the file was dead (ch56)."""
     left_out: dict[str, dict[str, str]] = field(default_factory=dict)
     """Why each channel not analyzed was left out: ``{"why": ...}`` (and ``"copy_of"``),
     as ``inspect --json`` says it (:func:`analyzer.selection.left_out`):
@@ -262,6 +269,7 @@ def _document(analysis: Analysis) -> dict[str, Any]:
     train0, train1 = a.train
     labels = a.labels
     units = channel_units(a.inputs, {f.channel for f in a.findings})
+    successors = renamed_successors(a.notes)
     # the stretches the run's level note names (the load or the structure changed)
     changed, _ = excursions(getattr(a, "levels", None))
     return {
@@ -303,7 +311,8 @@ def _document(analysis: Analysis) -> dict[str, Any]:
                 **({"label": labels[c.name]} if c.name in labels else {}),
             }
             for c in a.channels
-        ],
+        ]
+        + unread_channels(a),
         "faults": [
             _with_label(
                 _with_check(
@@ -342,6 +351,7 @@ def _document(analysis: Analysis) -> dict[str, Any]:
                         ),
                     },
                     units,
+                    successors,
                 )
             )
             for f in a.findings
@@ -379,12 +389,54 @@ def _document(analysis: Analysis) -> dict[str, Any]:
     }
 
 
-def _with_check(fault: dict[str, Any], units: Mapping[str, str]) -> dict[str, Any]:
+def _with_check(
+    fault: dict[str, Any],
+    units: Mapping[str, str],
+    successors: Mapping[str, tuple[str, ...]] | None = None,
+) -> dict[str, Any]:
     """``fault`` with its ``check``: what to look at on the sensor, in plain words
     (:func:`analyzer.what_to_check.what_to_check`, with the channel's unit of ``units``,
-    :func:`analyzer.what_to_check.channel_units`)."""
-    fault["check"] = what_to_check(fault, units.get(str(fault["channel"]), ""))
+    :func:`analyzer.what_to_check.channel_units`), and, where other channels begin in
+    the file where its channel ends (``successors``, :func:`analyzer.readers.
+    renamed_successors`), that it may be the same sensor renamed: findings.json alone
+    said "dead sensor" of a sensor replaced under a new name (the ux62 audit)."""
+    channel = str(fault["channel"])
+    check = what_to_check(fault, units.get(channel, ""))
+    begun = (successors or {}).get(channel, ())
+    if begun:
+        one = len(begun) == 1
+        fix = f"give --rename {begun[0]}={channel}" if one else "give --rename NEW=OLD"
+        check += (
+            f" (another channel{'' if one else 's'}, {', '.join(begun)}, "
+            f"{'begins' if one else 'begin'} where it ends: renamed? {fix})"
+        )
+    fault["check"] = check
     return fault
+
+
+NO_READING = "no reading"
+"""``why`` of a channel with no reading at all (:attr:`Analysis.no_reading`)."""
+
+
+def unread_channels(a: Analysis) -> list[dict[str, Any]]:
+    """findings.json's ``channels[]`` entries of the channels with no reading at all
+    (:attr:`Analysis.no_reading`) that were not analyzed: no sample, ``why`` "no
+    reading" and ``no_reading`` what their values were. A saved model's channel blank
+    in every row stays analyzed (its finding says it) and is not listed here."""
+    listed = {c.name for c in a.channels}
+    return [
+        {
+            "name": name,
+            "samples": 0,
+            "rate_hz": 0.0,
+            "gaps": 0,
+            "analyzed": False,
+            "why": NO_READING,
+            "no_reading": what,
+        }
+        for name, what in getattr(a, "no_reading", {}).items()
+        if name not in listed and name not in a.analyzed
+    ]
 
 
 def _with_label(fault: dict[str, Any]) -> dict[str, Any]:

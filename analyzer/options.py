@@ -71,6 +71,10 @@ class RunOptions:
     missing_values: tuple[float, ...] = ()
     """``--missing-values``: numbers the loggers write for "no reading" (``-9999``),
     whose samples are taken as gaps (:mod:`analyzer.missing_codes`)."""
+    rename: tuple[tuple[str, str], ...] = ()
+    """``--rename NEW=OLD`` and the config's ``[rename]`` (the option's win on one NEW
+    name): each NEW channel name read as the OLD one it replaces
+    (:attr:`analyzer.readers.Archive.renames`), a sensor replaced under a new name."""
     utc: bool = False
     """``run --corrected --utc``: ``corrected.csv`` gets a last column ``utc`` of UTC
     times (its ``time`` column counts seconds from the first sample, as ``export``'s)."""
@@ -287,7 +291,39 @@ def load_options(config_path: str | None, **kw: Any) -> RunOptions:
             "--utc: adds a column of UTC times to DIR/corrected.csv, which only --corrected "
             "writes; give --corrected too"
         )
+    kw["rename"] = renames(kw.get("rename") or (), cfg.rename)
     return RunOptions(config=cfg, **kw)
+
+
+def renames(given: Sequence[str], config: Mapping[str, str]) -> tuple[tuple[str, str], ...]:
+    """``--rename``'s ``NEW=OLD`` texts, checked, after the config's ``[rename]`` pairs
+    (the option's win on one NEW name): :class:`UsageError` for a text without ``=``, an
+    empty name, a name renamed to itself, one NEW given twice, or an OLD that is
+    itself renamed (two NEW names may read as one OLD: a sensor replaced twice; an input
+    holding two of them at once is the reading's error)."""
+    pairs = dict(config)
+    seen: set[str] = set()
+    for text in given:
+        new, sep, old = text.partition("=")
+        new, old = new.strip(), old.strip()
+        if not sep or not new or not old:
+            raise UsageError(
+                f"--rename {text}: expected NEW=OLD (the channel's name in the later "
+                "files, then the name it replaces: --rename s3b=s3)"
+            )
+        if new in seen:
+            raise UsageError(f"--rename {text}: {new} is renamed twice")
+        seen.add(new)
+        pairs[new] = old
+    for new, old in pairs.items():
+        if new == old:
+            raise UsageError(f"--rename {new}={old}: a name renamed to itself")
+        if old in pairs:
+            raise UsageError(
+                f"--rename {new}={old}: {old} is itself renamed (--rename {old}={pairs[old]}); "
+                f"give --rename {new}={pairs[old]}"
+            )
+    return tuple(pairs.items())
 
 
 def check_utc(absolute: bool, channels: Sequence[str]) -> None:

@@ -156,7 +156,7 @@ from analyzer.parallel import (
     make_executor,
     usable_cpus,
 )
-from analyzer.readers import Archive, ArchiveNote, open_archive
+from analyzer.readers import Archive, ArchiveNote, check_renames, open_archive
 from analyzer.readers.base import (
     InputInfo,
     about_selection,
@@ -724,6 +724,7 @@ def _read_checked(
     progress = options.progress
     reading = None if progress is None else partial(progress, "read")
     archive = open_archive(inputs)
+    archive.renames = dict(options.rename)
     fed = Tally()
     codes = options.missing_values
     unread = Unread()
@@ -731,8 +732,9 @@ def _read_checked(
     store = ChannelStore.from_chunks(fed.counted(chunks), work / "store")
     archive.notes.extend(n for n in [gaps_note(unread.coded, codes)] if n)
     try:
+        check_renames(archive)  # (a NEW name no input holds: the option's error)
         _store_unchanged(store, fed, "")
-    except IntegrityError:
+    except (IntegrityError, UsageError):
         store.close()
         raise
     return archive, store, fed, unread
@@ -867,6 +869,7 @@ def _analyze(
         # CSV columns blank in every row: no channel, but named as what they are
         blank = {c for i in archive.inputs for c in i.blank_until} - set(store.names)
         blank |= set(unreadable_only)  # (no reading in any sample: as blank, once dropped)
+        unread_words = _no_reading(blank, unreadable_only)
         if reused is None:
             relabelled = [p for i in archive.inputs for p in i.relabelled]
             # (the config's groups and [model] name their channels: all are kept)
@@ -888,6 +891,9 @@ def _analyze(
             chosen = model_channels(store, reused, options, notes, blank)
         # (a saved model's channel blank in every row: a column of NaN, and its finding)
         unread = [c for c in chosen if c in blank] if reused is not None else []
+        notes.extend(
+            _blank_note([c for c in blank if c not in chosen and c not in unreadable_only])
+        )
         one_clock(chosen, archive.inputs)  # (else: "a timestamp lies far from the others")
         notes.extend(n for n in [flipped_note(archive.inputs, chosen)] if n)
         t0 = time.perf_counter()
@@ -1158,6 +1164,7 @@ def _analyze(
                 model_info=None if reused is None else model_info(reused, options),
                 config_info=options.config.info(),
                 left_out=_left_out(notes, infos, chosen, options),
+                no_reading=unread_words,
                 unrun=unrun,
                 time_source=time_source(archive.inputs, options.time_source),
             )
@@ -1452,6 +1459,7 @@ def _analyze(
             config_info=options.config.info(),
             screen=screen,
             left_out=_left_out(notes, infos, chosen, options),
+            no_reading=unread_words,
             time_source=time_source(archive.inputs, options.time_source),
             cautions=cautions,
         )
@@ -1549,6 +1557,36 @@ def _constant_finding(info: ChannelInfo, also: Sequence[Finding]) -> Finding:
             "constant": constant,
         },
     )
+
+
+def _no_reading(blank: set[str], unread: Mapping[str, tuple[str, int]]) -> dict[str, str]:
+    """The channels with no reading at all, each with what its values were: a CSV column
+    ``blank`` in every row, or one of ``unread`` (:meth:`~analyzer.missing_codes.Unread.
+    lost`: every value NaN, a ``--missing-values`` code or beyond 1e30), in name order
+    (findings.json's ``channels[]`` and the report's channel table list them)."""
+    return {
+        c: (
+            f"every one of its {unread[c][1]} values is {unread[c][0]}"
+            if c in unread
+            else "blank in every row"
+        )
+        for c in sorted(blank)
+    }
+
+
+def _blank_note(blank: Sequence[str]) -> list[str]:
+    """The note on the CSV columns ``blank`` in every row that were not analyzed: the
+    reader says it on stderr as an input's error, and findings.json's ``notes`` said
+    nothing of them (a channel with no reading, said as :class:`~analyzer.missing_codes.
+    UnreadNote` says the others)."""
+    if not blank:
+        return []
+    one = len(blank) == 1
+    return [
+        f"{capped(sorted(blank))}: blank in every row (no reading at all: "
+        f"{'a dead sensor, or one' if one else 'dead sensors, or ones'} not recorded), so "
+        f'not analyzed; listed in channels with why "no reading"'
+    ]
 
 
 def _left_out(

@@ -24,7 +24,7 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from analyzer.errors import IntegrityError, ReaderError, capped
+from analyzer.errors import IntegrityError, ReaderError, UsageError, capped
 from analyzer.readers._common import (
     bag_files,
     file_digest,
@@ -48,10 +48,14 @@ __all__ = [
     "ChannelChunk",
     "InputInfo",
     "Reader",
+    "RenameError",
+    "RenamedNote",
     "Unstitchable",
+    "check_renames",
     "detect_format",
     "open_archive",
     "open_input",
+    "renamed_successors",
     "skipped_folder",
 ]
 
@@ -243,6 +247,25 @@ def _one_date_order(readers: Sequence[Reader]) -> None:
             r.read_day_first()
 
 
+class RenameError(UsageError):
+    """``--rename NEW=OLD`` (or the config's ``[rename]``) that this archive cannot take:
+    an input holds both names. Raised through :meth:`Archive.chunks` whatever the
+    number of inputs (an option's error: exit 2, not one input's damage)."""
+
+
+def check_renames(archive: Archive) -> None:
+    """Raise :class:`RenameError` for a NEW name of ``archive``'s :attr:`~Archive.renames`
+    that no input held, once its chunks were all read: a typo would otherwise join
+    nothing without a word."""
+    unknown = [new for new in archive.renames if new not in archive.renamed]
+    if unknown:
+        new = unknown[0]
+        raise RenameError(
+            f"--rename {new}={archive.renames[new]}: no input has a channel {new} "
+            "(NEW=OLD: the name the sensor has in the later files, then the one it replaces)"
+        )
+
+
 class Unstitchable(ReaderError):
     """Inputs of one archive that cannot be placed in time against each other (relative
     times that overlap): a refusal of the whole archive, not one input's damage."""
@@ -276,6 +299,14 @@ class Archive:
         """What the archive's folders held that is not read (the analyzer's own outputs, a
         FIFO, a folder reached twice through a link) and inputs given twice, as
         :class:`ArchiveNote`."""
+        self.renames: dict[str, str] = {}
+        """``--rename NEW=OLD`` (and the config's ``[rename]``): each NEW channel name, as
+        read, and the OLD one its samples are read as (:meth:`chunks`), a sensor
+        replaced under a new name from one file on joined to the one it replaces."""
+        self.renamed: dict[str, list[Path]] = {}
+        """The inputs each NEW name of :attr:`renames` was read from, once :meth:`chunks`
+        has streamed them all (a NEW name no input holds is the option's error:
+        :func:`check_renames`)."""
         self.sources: dict[str, Path] = {}
         """The input each channel was first read from, once :meth:`chunks` has streamed
         them all (the same recording in two inputs: :class:`~analyzer.selection.
@@ -314,6 +345,8 @@ class Archive:
                 if nxt < len(self.readers) and _threadable(self.readers[nxt]):
                     ahead[nxt] = _ReadAhead(self.readers[nxt].chunks, time)
                 source = ahead.pop(i) if i in ahead else reader.chunks(time)
+                if self.renames:
+                    source = self._renamed(reader, source)
                 for chunk in self._stream(reader, source, last, owner, single):
                     if report is not None:
                         report.inside(i)
@@ -325,11 +358,39 @@ class Archive:
                 for name in sorted(h.names):
                     self.sources.setdefault(name, reader.info.path)
             self.notes.extend(ArchiveNote(n) for n in apart_names(self.readers, held))
-            self.notes.extend(ArchiveNote(n) for n in renamed_columns(self.readers, held))
+            self.notes.extend(renamed_columns(self.readers, held))
             columns_left_out(self.readers, held)
         finally:
             for pending in ahead.values():
                 pending.close()
+
+    def _renamed(self, reader: Reader, source: Iterator[ChannelChunk]) -> Iterator[ChannelChunk]:
+        """One input's chunks with each NEW name of :attr:`renames` read as its OLD one
+        (chunk by chunk, no per-sample work), and its blank columns' names too
+        (:attr:`~analyzer.readers.base.InputInfo.blank_until`). An input that holds
+        both names is refused: two sensors at once cannot be one channel."""
+        held: set[str] = set()
+        for chunk in source:
+            old = self.renames.get(chunk.name)
+            if old is None:
+                held.add(chunk.name)
+                yield chunk
+                continue
+            held.add(chunk.name)
+            yield ChannelChunk(old, chunk.t_ns, chunk.values)
+        both = sorted(n for n in held if self.renames.get(n) in held)
+        if both:
+            new = both[0]
+            raise RenameError(
+                f"--rename {new}={self.renames[new]}: {reader.info.path} holds both "
+                f"{new} and {self.renames[new]} (two sensors at once cannot be one channel)"
+            )
+        for new, old in self.renames.items():
+            if new in held or new in reader.info.blank_until:
+                self.renamed.setdefault(new, []).append(Path(reader.info.path))
+            if new in reader.info.blank_until:
+                at = reader.info.blank_until.pop(new)
+                reader.info.blank_until[old] = max(at, reader.info.blank_until.get(old, at))
 
     @staticmethod
     def _stream(
@@ -344,7 +405,7 @@ class Archive:
         dropped: dict[str, int] = {}
         try:
             yield from monotonic(_one_span(reader, source, last, owner), last, dropped, strict=True)
-        except (Unstitchable, IntegrityError):  # (an internal check's: the pipeline's)
+        except (Unstitchable, IntegrityError, RenameError):  # (an internal check's, an option's)
             raise
         except ReaderError as err:
             if single:
@@ -437,6 +498,31 @@ def _in_turn(readers: Sequence[Reader], held: Sequence[_Held]) -> list[tuple[Rea
     return full
 
 
+class RenamedNote(ArchiveNote):
+    """:func:`renamed_columns`' note, with the channels that begin in its file by each
+    one that ends there (``successors``): a finding of a channel that ended says it
+    may be renamed (findings.json's ``check``, :func:`renamed_successors`)."""
+
+    successors: dict[str, tuple[str, ...]]
+
+    def __new__(
+        cls, text: str, successors: dict[str, tuple[str, ...]] | None = None
+    ) -> RenamedNote:
+        note = super().__new__(cls, text)
+        note.successors = dict(successors or {})
+        return note
+
+
+def renamed_successors(notes: Sequence[str]) -> dict[str, tuple[str, ...]]:
+    """The channels that begin where each channel ends in an archive of files in turn,
+    by the ending one, from a run's :class:`RenamedNote` notes."""
+    out: dict[str, tuple[str, ...]] = {}
+    for note in notes:
+        for ended, begun in getattr(note, "successors", {}).items():
+            out[ended] = tuple(dict.fromkeys([*out.get(ended, ()), *begun]))
+    return out
+
+
 def renamed_columns(readers: Sequence[Reader], held: Sequence[_Held]) -> list[str]:
     """The notes on the files of an archive of files in turn (:func:`_in_turn`) from
     which some channels begin exactly where others end: ``s2`` in the files before,
@@ -446,7 +532,7 @@ def renamed_columns(readers: Sequence[Reader], held: Sequence[_Held]) -> list[st
     without a word (a new user's audit, ux55). Names that share no name with the
     others at all are :func:`apart_names`'s."""
     full = _in_turn(readers, held)
-    notes = []
+    notes: list[str] = []
     for k in range(1, len(full)):
         before = set().union(*(h.names for _, h in full[:k]))
         after = set().union(*(h.names for _, h in full[k:]))
@@ -454,13 +540,18 @@ def renamed_columns(readers: Sequence[Reader], held: Sequence[_Held]) -> list[st
         begun = sorted(full[k][1].names - before)
         if not ended or not begun or not (before & after):
             continue
+        one = len(begun) == len(ended) == 1
+        fix = f"--rename {begun[0]}={ended[0]}" if one else "--rename NEW=OLD for each"
         notes.append(
-            f"{full[k][0].info.path}: {capped(begun, NAMES_SHOWN, what='channels')} "
-            f"{'begins' if len(begun) == 1 else 'begin'} in this file where "
-            f"{capped(ended, NAMES_SHOWN, what='channels')} "
-            f"{'ends' if len(ended) == 1 else 'end'}: the same "
-            f"{'sensor' if len(begun) == len(ended) == 1 else 'sensors'} renamed? Each name "
-            "is analyzed as its own channel (give a column one name in every file to join it)"
+            RenamedNote(
+                f"{full[k][0].info.path}: {capped(begun, NAMES_SHOWN, what='channels')} "
+                f"{'begins' if len(begun) == 1 else 'begin'} in this file where "
+                f"{capped(ended, NAMES_SHOWN, what='channels')} "
+                f"{'ends' if len(ended) == 1 else 'end'}: the same "
+                f"{'sensor' if one else 'sensors'} renamed? Each name is analyzed as its "
+                f"own channel (give {fix} to join them)",
+                {name: tuple(begun) for name in ended},
+            )
         )
     return notes
 

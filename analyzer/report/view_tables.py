@@ -122,6 +122,22 @@ class TableParts:
                     range=fmt.num_range(c.minimum, c.maximum),
                 )
             )
+        listed = {v.name for v in out}
+        for name, what in (getattr(self.an, "no_reading", {}) or {}).items():
+            # (a column with no reading at all: no sample, said for what it is)
+            if name not in listed and name not in self.analyzed:
+                out.append(
+                    ChannelView(
+                        name=name,
+                        analyzed=False,
+                        samples="0",
+                        rate=fmt.MISSING,
+                        start_s=fmt.MISSING,
+                        end_s=fmt.MISSING,
+                        gaps=fmt.MISSING,
+                        range=f"no reading: {what}",
+                    )
+                )
         return out
 
     # -- models and method ---------------------------------------------------------------------
