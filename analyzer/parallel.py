@@ -45,6 +45,7 @@ from analyzer.parallel_dask import (
     RESEND_LIMIT,
     SEND_TIMEOUT_S,
     WAIT_POLL_S,
+    ClusterTrouble,
     DaskExecutor,
 )
 from analyzer.parallel_tasks import _pickled_nbytes as _pickled_nbytes
@@ -253,6 +254,7 @@ __all__ = [
     "RESEND_LIMIT",
     "SEND_TIMEOUT_S",
     "WAIT_POLL_S",
+    "ClusterTrouble",
     "DaskExecutor",
     "Executor",
     "SerialExecutor",
