@@ -911,7 +911,7 @@ def _analyze(
         read = [c for c in chosen if c not in unread]  # (the channels with samples)
         notes.extend(span_note(span_gaps(store, read)))  # (a gappy folder: how much)
         # (an analyzed sensor that stops for a while mid-record: which, and when)
-        notes.extend(silence_note(store, read, aligned.start_ns, aligned.duration_s))
+        notes.extend(silence_note(store, read, aligned.start_ns, aligned.duration_s, archive.seams))
         store.close()
         # and their files: for a long archive the largest scratch files after the matrix
         # (16 bytes per value: a time and a value), kept to the end of the run until now

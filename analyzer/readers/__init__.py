@@ -401,12 +401,18 @@ class Archive:
         if line is not None:
             reader.info.errors.append(line)
         if is_gap(start - last, spacing, REORDER_WINDOW_NS):
-            self._seam(before, reader, last, f"where a gap of {(start - last) / 1e9:.3f} s begins")
+            words = f"where a gap of {(start - last) / 1e9:.3f} s begins"
+            self._seam(before, reader, last, words, gap_to=start)
         return False
 
-    def _seam(self, before: Reader, reader: Reader, end: int, where: str) -> None:
-        """Keep the seam of ``before`` and ``reader`` at ``end`` (:attr:`seams`)."""
-        self.seams.append(Seam(end, f"the seam of {_name(before)} and {_name(reader)}, {where}"))
+    def _seam(
+        self, before: Reader, reader: Reader, end: int, where: str, gap_to: int | None = None
+    ) -> None:
+        """Keep the seam of ``before`` and ``reader`` at ``end`` (:attr:`seams`; ``gap_to``,
+        where a gap begins there, the later file's first time)."""
+        files = (_name(before), _name(reader))
+        words = f"the seam of {files[0]} and {files[1]}, {where}"
+        self.seams.append(Seam(end, words, gap_to, files))
 
 
 def _name(reader: Reader) -> str:

@@ -27,7 +27,7 @@ import numpy as np
 from analyzer.errors import capped
 from analyzer.readers._common import DST_STEP_NS, HOUR_NS, hour_skipped
 from analyzer.readers.base import Reader
-from analyzer.timeutil import iso_utc
+from analyzer.timeutil import iso_utc, plausible_epoch
 
 SEAM_SLACK_S = 2.0
 """An alarm no finding explains that begins within this many seconds of a seam where
@@ -51,6 +51,10 @@ class Seam:
 
     at_ns: int
     words: str
+    gap_to_ns: int | None = None
+    """Where a gap begins at the seam: the later file's first time (else None)."""
+    files: tuple[str, str] = ("", "")
+    """The two files' names, the earlier first."""
 
 
 def zoneless(reader: Reader) -> bool:
@@ -171,3 +175,21 @@ def near_seam(seams: list[Seam], start_ns: int, onset_s: float) -> Seam | None:
         ):
             best = seam
     return best
+
+
+def gap_between_files(seams: list[Seam], a_ns: int, b_ns: int) -> str:
+    """Where a channel's silence from ``a_ns`` to ``b_ns`` is a gap between two files of
+    the archive (its ends within :data:`SEAM_SLACK_S` of a seam's), the words that say
+    so, with the gap's times in UTC where they are plausible dates: ``no file covers
+    00:50:00-00:55:00 UTC (between h09.mcap and h11.mcap)``; else "". A missing hour's
+    file was said as a sensor that stopped, in seconds from the record's start (ux62
+    LOW 10)."""
+    slack = SEAM_SLACK_S * 1e9
+    for seam in seams:
+        if seam.gap_to_ns is None:
+            continue
+        if abs(seam.at_ns - a_ns) <= slack and abs(seam.gap_to_ns - b_ns) <= slack:
+            first, then = iso_utc(a_ns), iso_utc(b_ns)
+            when = f" from {first} to {then}" if first and then and plausible_epoch(a_ns) else ""
+            return f"no file covers it{when} (between {seam.files[0]} and {seam.files[1]})"
+    return ""

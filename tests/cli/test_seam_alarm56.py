@@ -60,6 +60,14 @@ def test_alarm_at_a_seam_with_dropped_samples_is_tied_to_it(
         f"analyzer: warning: {archive / 'h02.mcap'}: /data: 2000 messages overlap the previous "
         "input in time (19.990 s that h01.mcap covers already; its samples are kept); dropped"
     ]
+    # the third file ends 20 s before the fourth begins: a gap between files, said as one
+    # (it read as a sensor that stopped, in seconds only: ux62 LOW 10)
+    (silent,) = [line for line in err.splitlines() if "silent mid-record" in line]
+    assert (
+        "/data: no sample from 159.990 to 180.000 s (20.01 s: about 2000 samples missing at "
+        "100 Hz; no file covers it from 2026-10-01T00:02:39.990Z to 2026-10-01T00:03:00.000Z "
+        "(between h02.mcap and h03.mcap))"
+    ) in silent
     seam = "the seam of h01.mcap and h02.mcap, where 2000 overlapping messages were dropped"
     last = err.splitlines()[-1]
     assert "additive from 250.000 s" in last
