@@ -366,10 +366,17 @@ class DaskExecutor:
             future = entry.future
             if future is None:
                 return self._here(fn, entry.item)
+            # (a computed result is given the connection timeout to arrive: a large one
+            # took over the poll's 2 s on a loaded machine, and was sent again as lost)
+            wait = max(WAIT_POLL_S, self.timeout) if future.status == "finished" else WAIT_POLL_S
             try:
-                return future.result(timeout=WAIT_POLL_S)
+                return future.result(timeout=wait)
             except Exception as err:
-                if future.status == "finished" and entry.fetches < FETCH_TRIES:
+                if (
+                    future.status == "finished"
+                    and entry.fetches < FETCH_TRIES
+                    and not self._stranded()
+                ):
                     # computed, and its result on a worker: the wait timed out as it came,
                     # or fetching it failed (a connection that timed out): fetched again,
                     # not sent again as lost

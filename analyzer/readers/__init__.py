@@ -391,13 +391,17 @@ class Archive:
         if start is None or end.last is None:
             return False
         spacing, last = end.spacing(), end.last
-        line = set_back_line(reader, before, last, start)
+        # (files of other channels over the same hour, one per sensor node, are no clock
+        # change: only a file sharing a channel with those before it is judged so)
+        columns = getattr(reader, "column_names", None)
+        shared = columns is None or bool(set(columns()) & end.names)
+        line = set_back_line(reader, before, last, start) if shared else None
         if line is not None:
             reader.info.errors.append(f"reading stopped: {line}")
             words = f"where {_name(reader)} was left out (its times repeat an hour read already)"
             self._seam(before, reader, last, words)
             return True
-        line = forward_line(reader, before, last, start, spacing)
+        line = forward_line(reader, before, last, start, spacing) if shared else None
         if line is not None:
             reader.info.errors.append(line)
         if is_gap(start - last, spacing, REORDER_WINDOW_NS):

@@ -1369,6 +1369,17 @@ class CsvReader:
     def start_ns(self) -> int | None:
         return self._first_time
 
+    def column_names(self) -> list[str]:
+        """The names of the columns besides the time column (and those left out): the
+        channels a file may hold, from its header (an archive's seams: whether two
+        files share a channel)."""
+        layout = self._layout
+        return [
+            name
+            for index, name in enumerate(layout.names)
+            if index != layout.time_column and index not in layout.ignored
+        ]
+
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
         del time  # CSV rows have one time only
         self.fraction_read = 0.0

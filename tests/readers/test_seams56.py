@@ -113,3 +113,17 @@ def test_overlap_at_a_seam_is_one_line_per_file(tmp_path: Path) -> None:
     assert [s.words for s in archive.seams] == [
         "the seam of a.csv and b.csv, where 6 overlapping samples were dropped"
     ]
+
+
+def test_zoneless_files_of_other_channels_over_the_same_hour_are_no_clock_change(
+    tmp_path: Path,
+) -> None:
+    """One zone-less file per sensor node over the same hour (other column names): both
+    read whole, nothing said of a clock."""
+    _hour_file(tmp_path / "node_a.csv", DAY.replace(hour=2))
+    other = _hour_file(tmp_path / "node_b.csv", DAY.replace(hour=2))
+    other.write_text(other.read_text().replace("time,s0,s1,s2", "time,b0,b1,b2", 1))
+    archive = open_archive(tmp_path)
+    samples = collect(archive.chunks())
+    assert samples["s0"][0].size == samples["b0"][0].size == 360
+    assert all(i.errors == [] for i in archive.inputs)
