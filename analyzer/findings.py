@@ -383,6 +383,7 @@ def _document(analysis: Analysis) -> dict[str, Any]:
                 "onset": a.onset_iso(u.onset_s),
                 "detectors": list(u.detectors),
                 "beside": list(u.beside),
+                "seam": getattr(u, "seam", "") or None,
             }
             for u in a.unexplained
         ],

@@ -46,6 +46,7 @@ from analyzer.parallel_dask import (
     RESEND_LIMIT,
     SEND_TIMEOUT_S,
     WAIT_POLL_S,
+    ClusterTrouble,
     DaskExecutor,
 )
 from analyzer.parallel_tasks import _pickled_nbytes as _pickled_nbytes
@@ -258,6 +259,7 @@ __all__ = [
     "RESEND_LIMIT",
     "SEND_TIMEOUT_S",
     "WAIT_POLL_S",
+    "ClusterTrouble",
     "DaskExecutor",
     "Executor",
     "SerialExecutor",

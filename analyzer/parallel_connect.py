@@ -35,6 +35,15 @@ def plain_lists(text: str) -> str:
     return _LIST_REPR.sub(lambda m: m.group(1).replace("'", ""), text)
 
 
+def _other_protocol(err: BaseException) -> bool:
+    """Whether ``err`` (from starting a client) is Dask reading another protocol's bytes
+    as its own: an HTTP server's ``HTTP/1.1`` read as a frame count asked numpy for
+    "3.07 EiB" (the message the user got, ux62 LOW 9), or bytes that do not decode."""
+    if isinstance(err, MemoryError | UnicodeDecodeError | EOFError):
+        return True
+    return type(err).__module__.split(".")[0] in ("msgpack", "struct", "_struct")
+
+
 def _quiet_close(client: Any) -> None:
     """Close a client whose start failed, so its finalizer has nothing left to report."""
     with contextlib.suppress(Exception):  # best effort on an already broken client
@@ -74,7 +83,10 @@ def _connect(
                 client.__init__(address, timeout=wait, set_as_default=False)  # type: ignore[misc]
             except Exception as err:  # whatever answered there, it is not a usable scheduler
                 why = plain_lists(" ".join(str(err).split()))[:200] or type(err).__name__
-                if not isinstance(err, OSError | TimeoutError):
+                if _other_protocol(err):
+                    why = "no Dask scheduler answered there: the service there speaks another"
+                    why += " protocol"
+                elif not isinstance(err, OSError | TimeoutError):
                     why = f"no Dask scheduler answered there: {why}"
                 raise UsageError(f"--scheduler {address}: cannot connect ({why})") from err
             connected.append(time.monotonic())

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
-from analyzer.errors import UsageError
+from analyzer.errors import UsageError, counted
 from analyzer.paging import release
 from analyzer.parallel_connect import _connect, _probe
 from analyzer.parallel_logs import DaskLog
@@ -41,6 +41,7 @@ from analyzer.parallel_tasks import (
     _said,
     _tasks,
 )
+from analyzer.types import Note
 
 if TYPE_CHECKING:
     from analyzer.parallel import TaskHandle
@@ -59,6 +60,14 @@ INLINE_BYTES = 1 << 16
 """An item's parts smaller than this (pickled) go with its task; larger ones are
 scattered beside it."""
 
+FETCH_TRIES = 3
+"""How many times the result of a task the cluster has computed is waited for again
+when fetching it fails or times out, before the task is sent again."""
+
+MEMORY_RESTARTS = "worker-restart-memory"
+"""The scheduler's topic of the events a nanny sends when it restarts its worker for
+going over its memory limit."""
+
 RESEND_LIMIT = 3
 """How many times an item whose task the cluster lost is sent again before it is
 computed in this process."""
@@ -70,6 +79,13 @@ SEND_TIMEOUT_S = 120.0
 """How long sending an item's data (or a shared object) to the cluster may take before it
 counts as refused (and is tried again): the largest block (4 M values, 32 MB) takes
 about 0.3 s over gigabit Ethernet, 30 s at 10 Mbit/s."""
+
+
+class ClusterTrouble(Note):
+    """The line of :meth:`DaskExecutor.trouble` among a run's notes: ``run`` repeats it on
+    stderr as a warning (the run went on in its own process)."""
+
+    __slots__ = ()
 
 
 class DaskExecutor:
@@ -125,7 +141,12 @@ class DaskExecutor:
         self.n_workers = len(workers)
         self.workers = max(1, sum(int(w.get("nthreads", 1)) for w in workers.values()))
         self.resent = 0
-        """Tasks sent to the cluster again after it lost them (a worker gone)."""
+        """Tasks sent to the cluster again after it lost them (cancelled: a worker gone
+        with their data, or the data they need)."""
+        self.retried = 0
+        """Tasks sent again after the cluster refused them, or after their result could
+        not be fetched :data:`FETCH_TRIES` times (a slow or loaded cluster, a connection
+        that timed out: nothing lost)."""
         self.here = 0
         """Tasks computed in this process because the cluster could not take them."""
         self.gone: str | None = None
@@ -135,6 +156,13 @@ class DaskExecutor:
         self._renewed: dict[Any, Any] = {}  # a lost handle's replacement
         self._unusable_since: float | None = None
         self._lock = threading.Lock()
+        self._began = time.monotonic()
+        self._began_wall = time.time()  # (the scheduler's events carry wall times)
+        self.gone_after_s: float | None = None
+        """Seconds from the connection to when :attr:`gone` was set."""
+        self._restarts = 0  # the workers' restarts for memory, last counted
+        limits = {int(w.get("memory_limit") or 0) for w in workers.values()}
+        self._memory_limit = min(limits) if limits and 0 not in limits else None
 
     def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
         return list(self.imap(fn, items))
@@ -190,16 +218,63 @@ class DaskExecutor:
                 "OPENBLAS_NUM_THREADS=1 (threaded BLAS slows the filters down)"
             )
         if self.resent:
-            # (a task cancelled or a result lost in transit: a worker gone with its data,
-            # or, on a loaded machine, a connection that timed out; no worker need die)
+            # (a task cancelled: a worker gone with its data or the data it needs)
             text += (
-                f"; {_tasks(self.resent)} sent again after the cluster lost them (a worker, "
-                "its data or a connection gone)"
+                f"; {_tasks(self.resent)} sent again after the cluster lost them (a worker "
+                "gone with their data)"
+            )
+        if self.retried:
+            # (a send refused, or a result that could not be fetched: on a loaded machine,
+            # a connection that timed out; before, counted as lost, 3-5 in runs where
+            # nothing was: ux62 MEDIUM 3)
+            text += (
+                f"; {_tasks(self.retried)} sent again after a reply timed out or failed (a "
+                "slow or loaded cluster; nothing lost)"
             )
         if self.here:
             why = f": {self.gone}" if self.gone else ""
             text += f"; {_tasks(self.here)} computed here (the cluster could not take them{why})"
         return text
+
+    def trouble(self) -> str | None:
+        """One line for stderr where the cluster failed the run, naming the cause: the
+        scheduler gone (and when), no worker left, the workers restarted for going over
+        their memory limit (what to do), and the tasks computed in this process instead;
+        None where nothing of that happened. Before, a run whose scheduler was killed, or
+        whose workers the nannies kept restarting for memory (190 s against 80 s), ended
+        as a local run with only a note in findings.json (ux62 MEDIUM 4)."""
+        if self.gone != "the scheduler is gone":
+            self._count_restarts()
+        parts = []
+        after = f" {self.gone_after_s:.0f} s into the run" if self.gone_after_s is not None else ""
+        if self.gone == "the scheduler is gone":
+            parts.append(f"the scheduler went away{after}")
+        elif self.gone:
+            parts.append(f"no worker was left{after}")
+        if self._restarts:
+            limit = (
+                f" ({self._memory_limit / 2**20:.0f} MiB)" if self._memory_limit is not None else ""
+            )
+            parts.append(
+                f"the workers were restarted {counted(self._restarts, 'time')} for going over "
+                f"their memory limit{limit}: give them more (dask worker --memory-limit)"
+            )
+        if self.here:
+            parts.append(f"{_tasks(self.here)} computed here instead, slower")
+        return f"--scheduler {self.address}: {'; '.join(parts)}" if parts else None
+
+    def _count_restarts(self) -> None:
+        """Count the workers' restarts for going over their memory limit since the
+        connection (the nannies' ``worker-restart-memory`` events, kept by the scheduler),
+        while the scheduler answers."""
+        client = self.client
+        if client.status != "running":
+            return
+        with contextlib.suppress(Exception):  # (a scheduler that no longer answers)
+            events = client.sync(
+                client.scheduler.events, topic=MEMORY_RESTARTS, callback_timeout=self.timeout
+            )
+            self._restarts = sum(1 for when, _ in events if when >= self._began_wall)
 
     # -- a task the cluster lost -------------------------------------------------------------
     def _send(self, fn: Callable[[Any], Any], entry: _Sent) -> None:
@@ -207,6 +282,7 @@ class DaskExecutor:
         times in all for the item) when the cluster refuses it; else leave it to be
         computed here (``entry.future`` None)."""
         entry.future = None
+        entry.fetches = 0
         while self.gone is None and entry.tries <= RESEND_LIMIT:
             try:
                 entry.future = self._submit(fn, entry.item)
@@ -217,7 +293,10 @@ class DaskExecutor:
                 continue
             if entry.tries:
                 with self._lock:
-                    self.resent += 1
+                    if entry.lost:
+                        self.resent += 1
+                    else:
+                        self.retried += 1
             return
 
     def _submit(self, fn: Callable[[Any], Any], item: Any) -> Any:
@@ -287,14 +366,29 @@ class DaskExecutor:
             future = entry.future
             if future is None:
                 return self._here(fn, entry.item)
+            # (a computed result is given the connection timeout to arrive: a large one
+            # took over the poll's 2 s on a loaded machine, and was sent again as lost)
+            wait = max(WAIT_POLL_S, self.timeout) if future.status == "finished" else WAIT_POLL_S
             try:
-                return future.result(timeout=WAIT_POLL_S)
+                return future.result(timeout=wait)
             except Exception as err:
+                if (
+                    future.status == "finished"
+                    and entry.fetches < FETCH_TRIES
+                    and not self._stranded()
+                ):
+                    # computed, and its result on a worker: the wait timed out as it came,
+                    # or fetching it failed (a connection that timed out): fetched again,
+                    # not sent again as lost
+                    entry.fetches += 1
+                    if not isinstance(err, TimeoutError):
+                        time.sleep(WAIT_POLL_S / 4)
+                    continue
                 if not future.done():
                     # still on its way (or the connection is down): while the cluster has a
                     # worker it will come; without one for a while it never will
                     if self._stranded():
-                        self._lost(fn, entry)
+                        self._lost(fn, entry, lost=False)
                     elif not isinstance(err, TimeoutError):  # (failed at once: not so often)
                         time.sleep(WAIT_POLL_S / 4)
                     continue
@@ -311,7 +405,11 @@ class DaskExecutor:
                     if other is not entry and other.future is not None and other.future.cancelled():
                         self._lost(fn, other)
 
-    def _lost(self, fn: Callable[[Any], Any], entry: _Sent) -> None:
+    def _lost(self, fn: Callable[[Any], Any], entry: _Sent, lost: bool = True) -> None:
+        """Send ``entry`` again (or compute it here): ``lost``, its task was cancelled or
+        its result lost (counted in :attr:`resent` when sent), else it could not be had
+        (counted in :attr:`retried`)."""
+        entry.lost = entry.lost or lost
         if entry.future is not None:
             with contextlib.suppress(Exception):
                 entry.future.release()
@@ -336,6 +434,8 @@ class DaskExecutor:
             if now - self._unusable_since < self.timeout and not closed:
                 return False
             self.gone = why
+            self.gone_after_s = now - self._began
+            self._count_restarts()
             return True
 
     def _unusable(self) -> str | None:
@@ -389,12 +489,14 @@ class _Sent:
     block, a view of its memory-mapped rows: read again if it must be sent again), not
     the arrays that went."""
 
-    __slots__ = ("future", "item", "tries")
+    __slots__ = ("fetches", "future", "item", "lost", "tries")
 
     def __init__(self, item: Any) -> None:
         self.item = item
         self.future: Any = None
         self.tries = 0
+        self.fetches = 0  # waits for a computed result that did not bring it
+        self.lost = False  # its task was cancelled, or its result lost, once
 
 
 def _stream_on(

@@ -92,6 +92,7 @@ from analyzer.diagnosis.training_check import (
     window_warnings,
 )
 from analyzer.diagnosis.unexplained import (
+    Unexplained,
     echoes,
     lasting,
     missed_clusters,
@@ -148,6 +149,7 @@ from analyzer.outage import treat_outages
 from analyzer.outdir import not_into_inputs, not_over_inputs, only_run, prepare_dir, remove_if_empty
 from analyzer.paging import release, row_blocks, trim_heap
 from analyzer.parallel import (
+    ClusterTrouble,
     DaskExecutor,
     Executor,
     SerialExecutor,
@@ -166,6 +168,7 @@ from analyzer.readers.base import (
     topic_of,
 )
 from analyzer.readers.quaternions import flipped_note
+from analyzer.readers.seams import Seam, near_seam
 from analyzer.readers.tally import Tally
 from analyzer.reconfigure import (
     SEARCH_AGAIN_MIN,
@@ -934,7 +937,9 @@ def _analyze(
         notes.extend(span_note(span_gaps(store, read)))  # (a gappy folder: how much)
         # (an analyzed sensor that stops for a while mid-record: which, and when)
         topics = known_topics(archive.inputs)
-        notes.extend(silence_note(store, read, topics, aligned.start_ns, aligned.duration_s))
+        notes.extend(
+            silence_note(store, read, topics, aligned.start_ns, aligned.duration_s, archive.seams)
+        )
         store.close()
         # and their files: for a long archive the largest scratch files after the matrix
         # (16 bytes per value: a time and a value), kept to the end of the run until now
@@ -1314,7 +1319,8 @@ def _analyze(
         findings, unplaced_alarms, unplaced_notes = unplaced(findings, results, slack)
         notes.extend(unplaced_notes)
         notes.extend(_weak_findings_note(findings, ctx.false_alarm_rate))
-        notes.extend(_unattributed_notes(results, findings, aligned.rate_hz))
+        seam_at = partial(near_seam, archive.seams, aligned.start_ns)
+        notes.extend(_unattributed_notes(results, findings, aligned.rate_hz, seam_at))
         # and those of them no finding explains: a second faulty sensor the verdict,
         # findings.json and the run's last line name (the notes alone were missed)
         unexplained = sorted(
@@ -1324,6 +1330,7 @@ def _analyze(
             ],
             key=lambda u: (u.onset_s, u.channels),
         )
+        unexplained = [_tied_to_seam(u, seam_at(u.onset_s)) for u in unexplained]
         notes.extend(_after_gap_notes(findings, values, chosen, aligned.rate_hz))
         notes.extend(n for n in [level_note(levels)] if n)
         if levels is not None and levels.train is not None:
@@ -1335,6 +1342,9 @@ def _analyze(
             notes.extend(_louder_than_window(values, train, aligned.rate_hz, levels.train, judged))
         if isinstance(executor, DaskExecutor):  # after the work: tasks sent again, say
             notes.append(executor.describe())
+            trouble = executor.trouble()  # (the cluster lost: a warning on stderr too)
+            if trouble is not None:
+                notes.append(ClusterTrouble(trouble))
         if screen is not None:
             notes.append(screen_note)
         t0 = time.perf_counter()
@@ -2231,8 +2241,20 @@ UNATTRIBUTED_LISTED = 3
 """Unattributed anomalies named one by one in the run's notes; the rest are counted."""
 
 
+def _tied_to_seam(alarm: Unexplained, seam: Seam | None) -> Unexplained:
+    """``alarm`` with the words of the seam between two files it begins at (where the
+    tool dropped samples or left a file out, or a gap begins: :class:`~analyzer.readers.
+    seams.Seam`), which explains the jump the detectors saw better than a second fault
+    (ux62 MEDIUM 5: the seam's alarm was blamed on "a change of the structure or
+    excitation"). It stays listed: a fault may begin there too."""
+    return alarm if seam is None else replace(alarm, seam=seam.words)
+
+
 def _unattributed_notes(
-    results: Sequence[DetectorResult], findings: Sequence[Finding], rate_hz: float
+    results: Sequence[DetectorResult],
+    findings: Sequence[Finding],
+    rate_hz: float,
+    seam_at: Callable[[float], Seam | None] = lambda _t: None,
 ) -> list[AnomalyNote]:
     """The run's notes on anomalies the detectors saw and attributed to no sensor
     (``DetectorResult.unattributed``), which only their own notes told before: two
@@ -2243,7 +2265,9 @@ def _unattributed_notes(
       of some sensors, with the one it named, explains the alarms);
     * an anomaly that two or more detectors left unattributed within one long alarm
       window of each other, with no finding under way then: several sensors at once,
-      or a change of the structure or excitation."""
+      or a change of the structure or excitation; or, where it begins at a seam between
+      two files that ``seam_at`` finds (samples dropped, a file left out, a gap), that
+      seam's jump in the signal."""
     slack = LONG_FACTOR * default_window(rate_hz) / rate_hz
     out: list[AnomalyNote] = []
     reported = {f.channel for f in findings}
@@ -2274,11 +2298,17 @@ def _unattributed_notes(
             if during
             else ""
         )
+        seam = seam_at(c[0][0])
+        cause = (
+            "several sensors at once, or a change of the structure or excitation"
+            if seam is None
+            else f"at {seam.words}: the jump where the files were joined, more likely than "
+            "the sensors (the input errors say more)"
+        )
         out.append(
             AnomalyNote.at(
                 f"anomaly at {c[0][0]:.1f} s on {', '.join(names)} attributed to no sensor by "
-                f"{', '.join(detectors)}: several sensors at once, or a change of the structure "
-                f"or excitation{lasted} (the detectors' notes say more)",
+                f"{', '.join(detectors)}: {cause}{lasted} (the detectors' notes say more)",
                 c[0][0],
                 tuple(names),
             )
@@ -3192,6 +3222,8 @@ def _run_into(inputs: Sequence[str | Path], out: Path, options: RunOptions, crea
                 options.warn(line)
             for line in (n for n in analysis.notes if isinstance(n, (CodeHint, UnreadNote))):
                 options.warn(line)
+            for line in (n for n in analysis.notes if isinstance(n, ClusterTrouble)):
+                options.warn(line)  # (the cluster failed the run: it went on here)
             skipped = skipped_warning(analysis, options, " ".join(configured))
             if skipped:  # (default detectors that did not run: findings.json alone said it)
                 options.warn(skipped)
@@ -3351,7 +3383,9 @@ def _unexplained_words(analysis: Analysis) -> str:
     when = f"at {first:.1f} s" if count == 1 else f"at {count} times from {first:.1f} s"
     if analysis.absolute_time:
         when += f" ({iso_utc(analysis.start_ns + round(first * NS_PER_S))})"
-    return f"; alarms not explained {when}, on {named}: see the report"
+    seams = [u.seam for u in getattr(analysis, "unexplained", []) if getattr(u, "seam", "")]
+    at_seam = f", {'one ' if count > 1 else ''}at {seams[0]}" if seams else ""
+    return f"; alarms not explained {when}, on {named}{at_seam}: see the report"
 
 
 def _unsearched(analysis: Analysis) -> str:

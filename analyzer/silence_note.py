@@ -23,6 +23,7 @@ from analyzer.errors import capped
 from analyzer.paging import release
 from analyzer.readers import ArchiveNote
 from analyzer.readers.base import topic_of
+from analyzer.readers.seams import Seam, gap_between_files
 from analyzer.store import ChannelInfo, ChannelStore
 from analyzer.timeutil import plain_number, seconds_text, short_seconds
 from analyzer.types import NS_PER_S
@@ -146,18 +147,26 @@ def _went_on(
     return out
 
 
+def _between(seams: list[Seam], a: int, b: int) -> str:
+    """``; no file covers it ...`` where the silence ``a``-``b`` is a gap between files."""
+    words = gap_between_files(seams, a, b)
+    return f"; {words}" if words else ""
+
+
 def silence_note(
     store: ChannelStore,
     names: Sequence[str],
     topics: Collection[str],
     start_ns: int,
     span_s: float,
+    seams: Sequence[Seam] = (),
 ) -> list[str]:
     """The note on the channels ``names`` (analyzed, with samples) that are silent
     mid-record (module doc), times in seconds from ``start_ns`` (the common clock's
     start); nothing where none is. ``topics``: the record's
     (:func:`~analyzer.readers.base.known_topics`; none for a CSV, whose columns are each
-    named)."""
+    named). A silence that is a gap between two files of the archive (``seams``:
+    :func:`~analyzer.readers.seams.gap_between_files`) says so."""
     groups: dict[tuple[tuple[int, int], ...], list[str]] = {}
     seen: dict[tuple[int, int, float], list[tuple[int, int]]] = {}
     rates: dict[tuple[tuple[int, int], ...], float] = {}
@@ -187,7 +196,7 @@ def silence_note(
             f"{seconds_text((b - start_ns) / NS_PER_S)} s "
             f"({short_seconds((b - a) / NS_PER_S)} s: about "
             f"{plain_number(max(1, round((b - a) / NS_PER_S * rate) - 1), 3)} samples missing "
-            f"at {plain_number(rate, 4)} Hz)"
+            f"at {plain_number(rate, 4)} Hz{_between(list(seams), a, b)})"
             for a, b in found[:SPANS]
         ]
         more = f" and {len(found) - SPANS} more" if len(found) > SPANS else ""

@@ -47,12 +47,15 @@ Anomaly = tuple[float, str, tuple[str, ...]]
 class Unexplained:
     """Alarms no reported finding explains: on ``channels`` (a fault on one of them
     explains them, when several), beginning at ``onset_s``, seen by ``detectors``,
-    while the findings on ``beside`` were under way (if any)."""
+    while the findings on ``beside`` were under way (if any); ``seam``, where they begin
+    at a seam between two files that changed what was read (samples dropped, a file
+    left out, a gap: :class:`~analyzer.readers.seams.Seam`), its words, else ""."""
 
     channels: tuple[str, ...]
     onset_s: float
     detectors: tuple[str, ...]
     beside: tuple[str, ...]
+    seam: str = ""
 
 
 def missed_clusters(

@@ -26,6 +26,7 @@ from pathlib import Path
 
 from analyzer.errors import IntegrityError, ReaderError, UsageError, capped
 from analyzer.readers._common import (
+    REORDER_WINDOW_NS,
     bag_files,
     file_digest,
     lfs_pointer,
@@ -35,6 +36,7 @@ from analyzer.readers._common import (
     special_kind,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, Reader, TimeSource, damage_of
+from analyzer.readers.seams import Seam, dropped_line, forward_line, is_gap, set_back_line
 from analyzer.timeutil import plausible_epoch
 from analyzer.types import Format, Note
 
@@ -307,6 +309,11 @@ class Archive:
         """The inputs each NEW name of :attr:`renames` was read from, once :meth:`chunks`
         has streamed them all (a NEW name no input holds is the option's error:
         :func:`check_renames`)."""
+        self.seams: list[Seam] = []
+        """Once :meth:`chunks` has streamed the inputs: the seams between files where
+        samples were dropped (times read already), a file was left out (a zone-less
+        clock set back an hour) or a gap begins (:class:`~analyzer.readers.seams.Seam`),
+        so that an alarm no finding explains beside one is tied to it."""
         self.sources: dict[str, Path] = {}
         """The input each channel was first read from, once :meth:`chunks` has streamed
         them all (the same recording in two inputs: :class:`~analyzer.selection.
@@ -344,16 +351,26 @@ class Archive:
                 nxt = i + 1
                 if nxt < len(self.readers) and _threadable(self.readers[nxt]):
                     ahead[nxt] = _ReadAhead(self.readers[nxt].chunks, time)
+                before, end = _latest(self.readers[:i], held[:i])
+                if before is not None and self._at_seam(before, end, reader):
+                    if i in ahead:  # (left out: a zone-less clock set back an hour)
+                        ahead.pop(i).close()
+                    if report is not None:
+                        report.finished(i)
+                    continue
                 source = ahead.pop(i) if i in ahead else reader.chunks(time)
                 if self.renames:
                     source = self._renamed(reader, source)
-                for chunk in self._stream(reader, source, last, owner, single):
+                lost: list[str] = []  # (samples dropped as times read already, said)
+                for chunk in self._stream(reader, source, last, owner, single, before, lost):
                     if report is not None:
                         report.inside(i)
                     held[i].add(chunk)
                     yield chunk
                 if report is not None:
                     report.finished(i)
+                if before is not None and end.last is not None and lost:
+                    self._seam(before, reader, end.last, f"where {lost[0]} were dropped")
             for reader, h in zip(self.readers, held, strict=True):
                 for name in sorted(h.names):
                     self.sources.setdefault(name, reader.info.path)
@@ -399,12 +416,19 @@ class Archive:
         last: dict[str, int],
         owner: dict[str, tuple[Reader, int]],
         single: bool,
+        before: Reader | None = None,
+        lost: list[str] | None = None,
     ) -> Iterator[ChannelChunk]:
-        """One input's chunks, time-ordered against the inputs before it; its errors
-        recorded (several inputs) or raised (one input)."""
+        """One input's chunks, time-ordered against the inputs before it (``before``:
+        the one whose times end last); its errors recorded (several inputs) or raised
+        (one input). The samples dropped as times read already are said in one line,
+        and how many put in ``lost`` (``6000 overlapping messages``)."""
         dropped: dict[str, int] = {}
+        spans: dict[str, tuple[int, int]] = {}
         try:
-            yield from monotonic(_one_span(reader, source, last, owner), last, dropped, strict=True)
+            yield from monotonic(
+                _one_span(reader, source, last, owner), last, dropped, strict=True, spans=spans
+            )
         except (Unstitchable, IntegrityError, RenameError):  # (an internal check's, an option's)
             raise
         except ReaderError as err:
@@ -419,30 +443,97 @@ class Archive:
             if isinstance(source, _ReadAhead):
                 source.close()
         topics: dict[str, str] = getattr(reader, "topics", {})
-        for name, unit, count in per_topic(dropped, topics):
-            if single:  # (the readers order their own samples: not expected)
+        if single:  # (the readers order their own samples: not expected)
+            for name, unit, count in per_topic(dropped, topics):
                 line = f"{name}: {count} {unit} not after an earlier one of the input; dropped"
-            else:
-                line = f"{name}: {count} {unit} overlap the previous input in time; dropped"
+                reader.info.errors.append(line)
+        elif dropped:
+            reader.info.errors.append(dropped_line(before, dropped, spans, topics))
+            if lost is not None:
+                counts = per_topic(dropped, topics)
+                unit = "messages" if any(u == "messages" for _, u, _ in counts) else "samples"
+                lost.append(f"{max(c for _, _, c in counts)} overlapping {unit}")
+
+    def _at_seam(self, before: Reader, end: _Held, reader: Reader) -> bool:
+        """What the seam between ``before`` (the input read before ``reader`` whose times
+        end last; ``end``, what it held) and ``reader`` tells, said as a CSV file's own times are
+        (:mod:`analyzer.readers.seams`): True where ``reader`` is left out, its zone-less
+        clock set back an hour (a damaged file, as one whose own times step back so:
+        ``reading stopped: ...``; before, every sample of it was dropped as overlapping,
+        a line per channel, and no clock named: ux62 HIGH 1); a jump forward over a
+        clock hour said on it; the seam kept where it was left out or a gap begins."""
+        start = _safe_start(reader)
+        if start is None or end.last is None:
+            return False
+        spacing, last = end.spacing(), end.last
+        # (files of other channels over the same hour, one per sensor node, are no clock
+        # change: only a file sharing a channel with those before it is judged so)
+        columns = getattr(reader, "column_names", None)
+        shared = columns is None or bool(set(columns()) & end.names)
+        line = set_back_line(reader, before, last, start) if shared else None
+        if line is not None:
+            reader.info.errors.append(f"reading stopped: {line}")
+            words = f"where {_name(reader)} was left out (its times repeat an hour read already)"
+            self._seam(before, reader, last, words)
+            return True
+        line = forward_line(reader, before, last, start, spacing) if shared else None
+        if line is not None:
             reader.info.errors.append(line)
+        if is_gap(start - last, spacing, REORDER_WINDOW_NS):
+            words = f"where a gap of {(start - last) / 1e9:.3f} s begins"
+            self._seam(before, reader, last, words, gap_to=start)
+        return False
+
+    def _seam(
+        self, before: Reader, reader: Reader, end: int, where: str, gap_to: int | None = None
+    ) -> None:
+        """Keep the seam of ``before`` and ``reader`` at ``end`` (:attr:`seams`; ``gap_to``,
+        where a gap begins there, the later file's first time)."""
+        files = (_name(before), _name(reader))
+        words = f"the seam of {files[0]} and {files[1]}, {where}"
+        self.seams.append(Seam(end, words, gap_to, files))
+
+
+def _name(reader: Reader) -> str:
+    """An input as a seam's note names it: its file name."""
+    return Path(reader.info.path).name
+
+
+def _latest(readers: Sequence[Reader], held: Sequence[_Held]) -> tuple[Reader | None, _Held]:
+    """Of the inputs read so far, the one whose times end last, and what it held (None
+    and an empty record before any input held data)."""
+    best: tuple[Reader | None, _Held] = (None, _Held())
+    for reader, h in zip(readers, held, strict=True):
+        if h.last is not None and (best[1].last is None or h.last > best[1].last):
+            best = (reader, h)
+    return best
 
 
 class _Held:
     """What one input of an archive streamed: its channels' names and the first and last
     time of any of its samples (:func:`apart_names`)."""
 
-    __slots__ = ("first", "last", "names")
+    __slots__ = ("count", "first", "last", "names")
 
     def __init__(self) -> None:
         self.names: set[str] = set()
         self.first: int | None = None
         self.last: int | None = None
+        self.count = 0  # samples, of every channel
+
+    def spacing(self) -> float | None:
+        """The mean time between two samples of a channel (ns), None where unknown."""
+        per = self.count / max(1, len(self.names))
+        if self.first is None or self.last is None or per < 2:
+            return None
+        return (self.last - self.first) / (per - 1)
 
     def add(self, chunk: ChannelChunk) -> None:
         """Count ``chunk`` in (a block of samples: no per-sample work)."""
         if not len(chunk):
             return
         self.names.add(chunk.name)
+        self.count += len(chunk)
         a, b = int(chunk.t_ns[0]), int(chunk.t_ns[-1])
         self.first = a if self.first is None else min(self.first, a)
         self.last = b if self.last is None else max(self.last, b)

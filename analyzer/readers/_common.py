@@ -54,6 +54,34 @@ REORDER_WINDOW_NS = 2_000_000_000
 """Where no bound on future timestamps is known (header stamps, unindexed files), samples
 within this many nanoseconds of the newest one are held back for the next batch."""
 
+DST_STEP_NS = (1_800_000_000_000, 3_600_000_000_000 + REORDER_WINDOW_NS)
+"""A step back in this range (more than half an hour, at most an hour) in times without
+a zone is named as the change from summer to winter time (refused where more than
+:data:`LEAD_GLITCH_MESSAGES` rows in a row lie that far back);
+a jump forward in this range over a whole hour of the clock, as the change to summer
+time (:func:`hour_skipped`)."""
+HOUR_NS = 3_600_000_000_000
+
+
+def hour_skipped(t: IntArray, previous: int | None) -> int | None:
+    """The index in ``t`` of the first time that follows the time before it (``previous``
+    before ``t[0]``) by more than half an hour and at most an hour and the reorder window
+    (:data:`DST_STEP_NS`) and skips a whole hour of the clock (``01:59:59.98`` to
+    ``03:00:00.00``, the change to summer time in local times), else None."""
+    ext = t if previous is None else np.concatenate(([previous], t))
+    if ext.size < 2:
+        return None
+    d = np.diff(ext)
+    jump = (d > DST_STEP_NS[0]) & (d <= DST_STEP_NS[1])
+    if not bool(jump.any()):
+        return None
+    before, after = ext[:-1], ext[1:]
+    skipped = jump & (after >= (before // HOUR_NS + 2) * HOUR_NS)
+    if not bool(skipped.any()):
+        return None
+    return int(np.argmax(skipped)) + (0 if previous is not None else 1)
+
+
 EMPTY_T: IntArray = np.zeros(0, dtype=np.int64)
 EMPTY_V: FloatArray = np.zeros(0, dtype=np.float64)
 
@@ -1912,12 +1940,14 @@ def monotonic(
     dropped: dict[str, int],
     *,
     strict: bool = False,
+    spans: dict[str, tuple[int, int]] | None = None,
 ) -> Iterator[ChannelChunk]:
     """Pass ``chunks`` through, dropping samples earlier than the last one already passed
     for the same channel (with ``strict``, also samples at the same time: duplicates where
-    two files overlap). ``last`` and ``dropped`` are updated in place. Used where several
-    sources are concatenated: the files of a directory archive, the split files of a
-    ROS 2 bag."""
+    two files overlap). ``last`` and ``dropped`` are updated in place, and ``spans``
+    (where given) with the first and last time dropped of each channel. Used where
+    several sources are concatenated: the files of a directory archive, the split files
+    of a ROS 2 bag."""
     for chunk in chunks:
         if len(chunk) == 0:
             continue
@@ -1926,6 +1956,11 @@ def monotonic(
         if prev is not None and (first < prev or (strict and first == prev)):
             keep = chunk.t_ns > prev if strict else chunk.t_ns >= prev
             dropped[chunk.name] = dropped.get(chunk.name, 0) + int(np.count_nonzero(~keep))
+            if spans is not None:
+                gone = chunk.t_ns[~keep]
+                lo, hi = int(gone.min()), int(gone.max())
+                was = spans.get(chunk.name)
+                spans[chunk.name] = (lo, hi) if was is None else (min(was[0], lo), max(was[1], hi))
             if not bool(np.any(keep)):
                 continue
             chunk = ChannelChunk(chunk.name, chunk.t_ns[keep], chunk.values[keep])

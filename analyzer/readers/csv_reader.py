@@ -109,12 +109,14 @@ import pyarrow.csv as pacsv
 from analyzer.errors import IntegrityError, ReaderError, capped, counted
 from analyzer.readers._common import (
     CLOCKS_APART_NS,
+    DST_STEP_NS,
     HASH_BLOCK,
     LEAD_GLITCH_MESSAGES,
     REORDER_WINDOW_NS,
     FloatArray,
     IntArray,
     Reorderer,
+    hour_skipped,
     one_line,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
@@ -291,12 +293,6 @@ _DATA_TIME = re.compile(
     r"^(?:\d{1,4}[-/.]\d{1,2}[-/.]\d{1,4}(?:[T ]+\d{1,2}:\d{2}.*)?|\d{1,2}:\d{2}(?::\d{2}.*)?)$"
 )
 """A cell that is a date, a date-time or a time of day (for :func:`_is_data`)."""
-DST_STEP_NS = (1_800_000_000_000, 3_600_000_000_000 + REORDER_WINDOW_NS)
-"""A step back in this range (more than half an hour, at most an hour) in times without
-a zone is named as the change from summer to winter time (refused where more than
-:data:`~analyzer.readers._common.LEAD_GLITCH_MESSAGES` rows in a row lie that far back);
-a jump forward in this range over a whole hour of the clock, as the change to summer
-time (:func:`_hour_skipped`)."""
 CLOCK_SET_BACK_NS = CLOCKS_APART_NS + REORDER_WINDOW_NS
 """A time that steps back further than this (an hour, as a header clock's step in a
 recording, :data:`~analyzer.readers._common.CLOCKS_APART_NS`, and the reorder window:
@@ -614,28 +610,6 @@ class _Garbage:
                     end = int(rows[i])  # the row before had jumped ahead: garbage too
                     why = f"a time {d[i - 1] / 1e9:.6g} s ahead of the row before, then back"
         return (end, why) if end < t.size else None
-
-
-HOUR_NS = 3_600_000_000_000
-
-
-def _hour_skipped(t: IntArray, previous: int | None) -> int | None:
-    """The index in ``t`` of the first time that follows the time before it (``previous``
-    before ``t[0]``) by more than half an hour and at most an hour and the reorder window
-    (:data:`DST_STEP_NS`) and skips a whole hour of the clock (``01:59:59.98`` to
-    ``03:00:00.00``, the change to summer time in local times), else None."""
-    ext = t if previous is None else np.concatenate(([previous], t))
-    if ext.size < 2:
-        return None
-    d = np.diff(ext)
-    jump = (d > DST_STEP_NS[0]) & (d <= DST_STEP_NS[1])
-    if not bool(jump.any()):
-        return None
-    before, after = ext[:-1], ext[1:]
-    skipped = jump & (after >= (before // HOUR_NS + 2) * HOUR_NS)
-    if not bool(skipped.any()):
-        return None
-    return int(np.argmax(skipped)) + (0 if previous is not None else 1)
 
 
 def _median_step(t: IntArray) -> float | None:
@@ -1105,11 +1079,11 @@ class CsvReader:
 
     def _spring_note(self, row: int, cell: str, before: int, time: int) -> str:
         """What :meth:`chunks` says where times without a zone skip a whole clock hour
-        (:func:`_hour_skipped`, at data row ``row``, time cell ``cell`` read as ``time``,
-        ``before`` the time of the row before): most likely local times set forward at
-        the change to summer time, which, read as UTC, leave an hour without data and
-        UTC times that are the file's local times (ux55 item 11: the gap was said, not
-        what it may be). The reading is unchanged."""
+        (:func:`~analyzer.readers._common.hour_skipped`, at data row ``row``, time cell
+        ``cell`` read as ``time``, ``before`` the time of the row before): most likely
+        local times set forward at the change to summer time, which, read as UTC, leave
+        an hour without data and UTC times that are the file's local times (ux55 item 11:
+        the gap was said, not what it may be). The reading is unchanged."""
         return (
             f"the time jumps forward by {(time - before) / 1e9:.3f} s at data row {row} "
             f"({cell!r}: from {self._when(before).removesuffix('Z')} to "
@@ -1392,6 +1366,17 @@ class CsvReader:
     def start_ns(self) -> int | None:
         return self._first_time
 
+    def column_names(self) -> list[str]:
+        """The names of the columns besides the time column (and those left out): the
+        channels a file may hold, from its header (an archive's seams: whether two
+        files share a channel)."""
+        layout = self._layout
+        return [
+            name
+            for index, name in enumerate(layout.names)
+            if index != layout.time_column and index not in layout.ignored
+        ]
+
     def chunks(self, time: TimeSource = "log") -> Iterator[ChannelChunk]:
         del time  # CSV rows have one time only
         self.fraction_read = 0.0
@@ -1458,7 +1443,7 @@ class CsvReader:
                 # block's start
                 inside = int(np.count_nonzero(t_kept[1:] == t_kept[:-1]))
                 if self._zoneless and not spring and t_kept.size:
-                    at = _hour_skipped(t_kept, previous)
+                    at = hour_skipped(t_kept, previous)
                     if at is not None:
                         row, cell = self._row_cell(batch, keep, rows, at)
                         before = int(t_kept[at - 1]) if at else previous

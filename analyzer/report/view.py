@@ -311,7 +311,13 @@ class _Access(FigureParts, TableParts):
             f"{coarse(u.get('onset_s'))}"
             + (f" at {u['onset']}" if u.get("onset") else "")
             + " (seen by "
-            f"{', '.join(str(d) for d in u.get('detectors') or [])})"
+            f"{', '.join(str(d) for d in u.get('detectors') or [])}"
+            + (
+                f"; at {u['seam']}: likely the jump where the files were joined"
+                if u.get("seam")
+                else ""
+            )
+            + ")"
             for u in items[:UNEXPLAINED_LISTED]
         ]
         more = len(items) - UNEXPLAINED_LISTED

@@ -192,7 +192,10 @@ def test_relative_pieces_that_follow_each_other_still_stitch(tmp_path: Path) -> 
     assert not any(i.info.absolute_time for i in archive.readers)
     samples = collect(archive.chunks())
     assert samples["x"][0].size == 899
-    assert archive.inputs[1].errors == ["x: 1 samples overlap the previous input in time; dropped"]
+    assert archive.inputs[1].errors == [
+        "x: 1 samples overlap the previous input in time (a time that a.csv covers already; "
+        "its samples are kept); dropped"
+    ]
 
 
 # --------------------------------------------------------------------------- notes
@@ -256,4 +259,7 @@ def test_relative_pieces_that_overlap_by_a_few_samples_still_stitch(tmp_path: Pa
     _csv(tmp_path / "b.csv", t_s + t_s[-3], data)  # its first 3 samples repeat a's last
     archive = open_archive(tmp_path)
     assert collect(archive.chunks())["x"][0].size == 597
-    assert archive.inputs[1].errors == ["x: 3 samples overlap the previous input in time; dropped"]
+    assert archive.inputs[1].errors == [
+        "x: 3 samples overlap the previous input in time (0.040 s that a.csv covers already; "
+        "its samples are kept); dropped"
+    ]

@@ -39,6 +39,7 @@ def test_the_warning_sits_under_the_headline_and_names_sensors_time_and_the_reru
             "onset": doc["unexplained_alarms"][0]["onset"],
             "detectors": ["equivalent_model"],
             "beside": ["s0"],
+            "seam": None,
         }
     ]
     (warning,) = WARNING.findall(html)
