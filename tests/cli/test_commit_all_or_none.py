@@ -14,28 +14,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pytest
 from cli_helpers import one_line_error, run_cli
 
 from analyzer.outdir import staged
-from analyzer.simulate import inject_fault, simulate_building
-from analyzer.writers import write_archive
-
-RATE = 50.0
-
-
-@pytest.fixture(scope="module")
-def faulty(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """60 s of a 3-floor building at 50 Hz, an offset on its second sensor at 36 s."""
-    t, y, names = simulate_building(3, 60.0, RATE, seed=3)
-    y[:, 1] = inject_fault(y[:, 1], RATE, "additive", 36.0, 3.0 * float(np.std(y[:, 1])))
-    path = tmp_path_factory.mktemp("in") / "b.csv"
-    t_ns = np.round(t * 1e9).astype(np.int64)
-    write_archive(
-        path, "csv", t_ns, dict(zip(names, y.T, strict=True)), start_iso="2026-03-01T12:00:00Z"
-    )
-    return path
 
 
 def snapshot(folder: Path) -> dict[str, bytes]:
@@ -93,7 +75,7 @@ def _run(src: Path, out: Path, capsys: pytest.CaptureFixture[str], *more: str) -
 
 @pytest.mark.parametrize("links", [True, False], ids=["links", "no-links"])
 def test_a_failed_second_rename_leaves_the_earlier_run_byte_for_byte(
-    faulty: Path,
+    offset_csv: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
     monkeypatch: pytest.MonkeyPatch,
@@ -103,13 +85,13 @@ def test_a_failed_second_rename_leaves_the_earlier_run_byte_for_byte(
     ``corrected.csv``) fails. Before: the new corrected.csv beside the earlier
     report.html and findings.json."""
     out = tmp_path / "o"
-    assert _run(faulty, out, capsys, "--corrected", "--train", "0:15")[0] == 1
+    assert _run(offset_csv, out, capsys, "--corrected", "--train", "0:15")[0] == 1
     before = snapshot(out)
     assert sorted(before) == ["corrected.csv", "findings.json", "report.html"]
     if not links:
         _no_links(monkeypatch)
     seam = FailingRename(monkeypatch, out, 2)
-    code, err = _run(faulty, out, capsys, "--corrected", "--train", "0:16")
+    code, err = _run(offset_csv, out, capsys, "--corrected", "--train", "0:16")
     monkeypatch.undo()
     assert seam.renamed == ["corrected.csv", "report.html"]
     assert code == 2, err
@@ -118,7 +100,7 @@ def test_a_failed_second_rename_leaves_the_earlier_run_byte_for_byte(
 
 
 def test_a_failed_rename_into_a_new_folder_leaves_nothing(
-    faulty: Path,
+    offset_csv: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
     monkeypatch: pytest.MonkeyPatch,
@@ -128,14 +110,14 @@ def test_a_failed_rename_into_a_new_folder_leaves_nothing(
     out = tmp_path / "o"
     out.mkdir()
     FailingRename(monkeypatch, out, 2)
-    code, err = _run(faulty, out, capsys, "--corrected", "--train", "0:15")
+    code, err = _run(offset_csv, out, capsys, "--corrected", "--train", "0:15")
     monkeypatch.undo()
     assert code == 2, err
     assert snapshot(out) == {}
 
 
 def test_a_failed_rename_keeps_the_earlier_corrected_csv_too(
-    faulty: Path,
+    offset_csv: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
     monkeypatch: pytest.MonkeyPatch,
@@ -144,10 +126,10 @@ def test_a_failed_rename_keeps_the_earlier_corrected_csv_too(
     renames, so a failed one (``findings.json``'s, the second) leaves it with its pair.
     Before: the new report.html beside the earlier findings.json and corrected.csv."""
     out = tmp_path / "o"
-    assert _run(faulty, out, capsys, "--corrected", "--train", "0:15")[0] == 1
+    assert _run(offset_csv, out, capsys, "--corrected", "--train", "0:15")[0] == 1
     before = snapshot(out)
     seam = FailingRename(monkeypatch, out, 2)
-    code, err = _run(faulty, out, capsys, "--train", "0:16")
+    code, err = _run(offset_csv, out, capsys, "--train", "0:16")
     monkeypatch.undo()
     assert seam.failed == "findings.json", seam.renamed
     assert code == 2, err
@@ -155,13 +137,13 @@ def test_a_failed_rename_keeps_the_earlier_corrected_csv_too(
 
 
 def test_after_a_run_no_earlier_file_is_left_aside(
-    faulty: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    offset_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """The earlier files kept aside while the new ones are renamed in are removed after
     the last rename; an earlier corrected.csv a run was not asked for is gone."""
     out = tmp_path / "o"
-    assert _run(faulty, out, capsys, "--corrected", "--train", "0:15")[0] == 1
-    code, err = _run(faulty, out, capsys, "--train", "0:16")
+    assert _run(offset_csv, out, capsys, "--corrected", "--train", "0:15")[0] == 1
+    code, err = _run(offset_csv, out, capsys, "--train", "0:16")
     assert code == 1, err
     assert sorted(snapshot(out)) == ["findings.json", "report.html"]
     assert '"start_s": 0.0,\n    "end_s": 16.0' in (out / "findings.json").read_text()

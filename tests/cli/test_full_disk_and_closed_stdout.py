@@ -12,32 +12,14 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 from cli_helpers import one_line_error, run_cli
-
-from analyzer.simulate import inject_fault, simulate_building
-from analyzer.writers import write_archive
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "report"))
 from full_disk import FullDisk, snapshot  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 SAMPLE = REPO / "samples" / "building_additive.mcap"
-RATE = 50.0
-
-
-@pytest.fixture(scope="module")
-def faulty(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """60 s of a 3-floor building at 50 Hz, an offset on its second sensor at 36 s."""
-    t, y, names = simulate_building(3, 60.0, RATE, seed=3)
-    y[:, 1] = inject_fault(y[:, 1], RATE, "additive", 36.0, 3.0 * float(np.std(y[:, 1])))
-    path = tmp_path_factory.mktemp("in") / "b.csv"
-    t_ns = np.round(t * 1e9).astype(np.int64)
-    write_archive(
-        path, "csv", t_ns, dict(zip(names, y.T, strict=True)), start_iso="2026-03-01T12:00:00Z"
-    )
-    return path
 
 
 def _run(src: Path, out: Path, capsys: pytest.CaptureFixture[str], *more: str) -> tuple[int, str]:
@@ -48,7 +30,7 @@ def _run(src: Path, out: Path, capsys: pytest.CaptureFixture[str], *more: str) -
 
 
 def test_run_on_a_full_disk_leaves_the_earlier_pair_and_names_the_file(
-    faulty: Path,
+    offset_csv: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
     monkeypatch: pytest.MonkeyPatch,
@@ -57,10 +39,10 @@ def test_run_on_a_full_disk_leaves_the_earlier_pair_and_names_the_file(
     disk. Before: the new findings.json beside the earlier report.html, and a line that
     named no file."""
     out = tmp_path / "o"
-    assert _run(faulty, out, capsys, "--corrected")[0] == 1
+    assert _run(offset_csv, out, capsys, "--corrected")[0] == 1
     before = snapshot(out)
     disk = FullDisk(monkeypatch, out, 2)
-    code, err = _run(faulty, out, capsys, "--corrected", "--train", "0:16")
+    code, err = _run(offset_csv, out, capsys, "--corrected", "--train", "0:16")
     monkeypatch.undo()
     assert code == 2, err
     line = one_line_error(err, f"{out / str(disk.failed)}: No space left on device")
@@ -69,7 +51,7 @@ def test_run_on_a_full_disk_leaves_the_earlier_pair_and_names_the_file(
 
 
 def test_run_corrected_on_a_full_disk_leaves_no_findings(
-    faulty: Path,
+    offset_csv: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
     monkeypatch: pytest.MonkeyPatch,
@@ -80,7 +62,7 @@ def test_run_corrected_on_a_full_disk_leaves_no_findings(
     out = tmp_path / "o"
 
     disk = FullDisk(monkeypatch, out, name="corrected.csv")
-    code, err = _run(faulty, out, capsys, "--corrected")
+    code, err = _run(offset_csv, out, capsys, "--corrected")
     monkeypatch.undo()
     assert disk.failed == "corrected.csv", disk.written
     assert code == 2, err
@@ -90,7 +72,7 @@ def test_run_corrected_on_a_full_disk_leaves_no_findings(
 
 
 def test_run_save_model_on_a_full_disk_writes_nothing(
-    faulty: Path,
+    offset_csv: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
     monkeypatch: pytest.MonkeyPatch,
@@ -102,7 +84,7 @@ def test_run_save_model_on_a_full_disk_writes_nothing(
     out.mkdir()
 
     disk = FullDisk(monkeypatch, out, name="m.model")
-    code, err = _run(faulty, out, capsys, "--save-model", str(out / "m.model"))
+    code, err = _run(offset_csv, out, capsys, "--save-model", str(out / "m.model"))
     monkeypatch.undo()
     assert disk.failed == "m.model", disk.written
     assert code == 2, err
@@ -112,7 +94,7 @@ def test_run_save_model_on_a_full_disk_writes_nothing(
 
 @pytest.mark.parametrize("suffix", [".csv", ".parquet"])
 def test_export_on_a_full_disk_names_its_file(
-    faulty: Path,
+    offset_csv: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
     monkeypatch: pytest.MonkeyPatch,
@@ -123,7 +105,7 @@ def test_export_on_a_full_disk_names_its_file(
     target = tmp_path / "x" / f"e{suffix}"
     target.parent.mkdir()
     FullDisk(monkeypatch, target.parent, 1)
-    code, _, err = run_cli(["export", faulty, "--out", target], capsys)
+    code, _, err = run_cli(["export", offset_csv, "--out", target], capsys)
     assert code == 2, err
     one_line_error(err, f"analyzer: error: {target}: No space left on device")
     assert list(target.parent.iterdir()) == []

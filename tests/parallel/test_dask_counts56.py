@@ -10,8 +10,6 @@ import contextlib
 import socket
 import threading
 import time
-import warnings
-from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -109,20 +107,6 @@ def test_a_cancelled_task_is_counted_lost_and_a_refused_send_as_slow() -> None:
         slow.describe()
     )
     assert "lost them" not in slow.describe()
-
-
-@pytest.fixture
-def in_process() -> Iterator[Any]:
-    """A cluster in this process (fast to start), closed by the test or after it."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)  # (the dashboard's port)
-        c = distributed.LocalCluster(
-            n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"
-        )
-    try:
-        yield c
-    finally:
-        c.close()
 
 
 def test_an_undisturbed_cluster_has_no_trouble_and_memory_restarts_are_named(

@@ -65,20 +65,6 @@ def lone() -> Iterator[Any]:
         yield c
 
 
-@pytest.fixture
-def in_process() -> Iterator[Any]:
-    """A cluster in this process (fast to start, scaled down or closed by the test)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)  # (the dashboard's port)
-        c = distributed.LocalCluster(
-            n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"
-        )
-    try:
-        yield c
-    finally:
-        c.close()
-
-
 def _within(seconds: float, call: Callable[[], Any]) -> Any:
     """``call()``, failing the test when it has not returned after ``seconds`` (before
     the fixes these calls never returned)."""
