@@ -71,6 +71,10 @@ class RunOptions:
     missing_values: tuple[float, ...] = ()
     """``--missing-values``: numbers the loggers write for "no reading" (``-9999``),
     whose samples are taken as gaps (:mod:`analyzer.missing_codes`)."""
+    inside: Path | None = None
+    """The watcher's INBOX, by its real path: nothing is read through a symbolic link
+    leading out of it (:func:`analyzer.readers.open_archive`); None for ``run``, which
+    reads what its user names."""
     utc: bool = False
     """``run --corrected --utc``: ``corrected.csv`` gets a last column ``utc`` of UTC
     times (its ``time`` column counts seconds from the first sample, as ``export``'s)."""
