@@ -194,3 +194,28 @@ def test_a_definition_nested_64_deep_is_read(tmp_path: Path) -> None:
     archive = open_archive(path)
     assert sum(c.values.size for c in archive.chunks("log")) == 900
     assert archive.inputs[0].errors == []
+
+
+@pytest.mark.parametrize("compression", ["bz2", "lz4"])
+def test_a_ros1_chunk_declaring_4_gb_refuses_the_bag(tmp_path: Path, compression: str) -> None:
+    """A ROS 1 bag whose chunks' ``size`` field says 4.3 GB (its largest u32): refused in
+    one line before anything is decompressed. Before, each chunk was decompressed whole,
+    with no limit (``bz2.decompress``, ``lz4.frame.decompress``), then skipped."""
+    import numpy as np
+
+    from analyzer.writers import write_archive
+
+    path = tmp_path / "big.bag"
+    t = np.arange(2000, dtype=np.int64) * 10_000_000 + T0
+    write_archive(path, "ros1bag", t, {"a": np.sin(t / 1e9)}, compression=compression)
+    raw = bytearray(path.read_bytes())
+    field = b"\t\x00\x00\x00size="  # (the field's length, 9, then its name)
+    at = raw.find(field)
+    assert at > 0, "no chunk size field found"
+    while at > 0:
+        raw[at + len(field) : at + len(field) + 4] = b"\xff\xff\xff\xff"
+        at = raw.find(field, at + 1)
+    patched = raw
+    path.write_bytes(bytes(patched))
+    with pytest.raises(ReaderError, match=r"big\.bag: a chunk declares 4\.3 GB uncompressed"):
+        list(open_archive(path).chunks("log"))
