@@ -13,8 +13,13 @@ from collections.abc import Sequence
 
 
 def one_line(err: BaseException | str) -> str:
-    """An exception (or text) as a single line, for ``InputInfo.errors`` and messages."""
-    text = str(err).strip() or type(err).__name__
+    """An exception (or text) as a single line, for ``InputInfo.errors`` and messages;
+    a bare ``MemoryError`` (a buffer the machine could not give) as ``not enough
+    memory``, where its class name alone was printed."""
+    text = str(err).strip()
+    if not text and isinstance(err, MemoryError):
+        text = "not enough memory"
+    text = text or type(err).__name__
     return " ".join(text.split())
 
 

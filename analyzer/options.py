@@ -75,6 +75,10 @@ class RunOptions:
     """``--rename NEW=OLD`` and the config's ``[rename]`` (the option's win on one NEW
     name): each NEW channel name read as the OLD one it replaces
     (:attr:`analyzer.readers.Archive.renames`), a sensor replaced under a new name."""
+    inside: Path | None = None
+    """The watcher's INBOX, by its real path: nothing is read through a symbolic link
+    leading out of it (:func:`analyzer.readers.open_archive`); None for ``run``, which
+    reads what its user names."""
     utc: bool = False
     """``run --corrected --utc``: ``corrected.csv`` gets a last column ``utc`` of UTC
     times (its ``time`` column counts seconds from the first sample, as ``export``'s)."""

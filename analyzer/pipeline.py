@@ -726,7 +726,7 @@ def _read_checked(
     (:func:`~analyzer.missing_codes.as_gaps`): returned counted by channel too."""
     progress = options.progress
     reading = None if progress is None else partial(progress, "read")
-    archive = open_archive(inputs)
+    archive = open_archive(inputs, options.inside)
     archive.renames = dict(options.rename)
     fed = Tally()
     codes = options.missing_values

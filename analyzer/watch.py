@@ -219,6 +219,7 @@ from analyzer.pipeline import (
     faults_words,
     input_warnings,
 )
+from analyzer.readers._common import link_out, open_inside
 from analyzer.report.format import magnitude
 from analyzer.report.jobs import PRELOAD_MODULE
 from analyzer.scratch import hold, make_scratch, remove_scratch
@@ -1489,10 +1490,19 @@ def _removal_error(err: OSError) -> str:
     return f"cannot remove {where}{one_line(err.strerror or err)}"
 
 
-def _sha256_head(path: Path, size: int) -> str:
-    """sha256 of the first ``size`` bytes of the file ``path``."""
+def _open_in(path: Path, root: Path | None) -> BinaryIO:
+    """The file ``path`` opened for reading; with ``root`` (INBOX), never through a
+    symbolic link leading out of it (:func:`~analyzer.readers._common.open_inside`:
+    by its real path, ``O_NOFOLLOW``), as the watcher reads INBOX's files."""
+    if root is None:
+        return path.open("rb")
+    return os.fdopen(open_inside(path, root.resolve()), "rb")
+
+
+def _sha256_head(path: Path, size: int, root: Path | None = None) -> str:
+    """sha256 of the first ``size`` bytes of the file ``path`` (of INBOX ``root``)."""
     h = hashlib.sha256()
-    with path.open("rb") as f:
+    with _open_in(path, root) as f:
         while size > 0 and (block := f.read(min(size, 1 << 20))):
             h.update(block)
             size -= len(block)
@@ -1510,14 +1520,15 @@ its ``metadata.yaml``; a ROS 1 bag's header, given its index on close): such a f
 that changed is judged by its size and mtime alone (:meth:`_Runner._grew`)."""
 
 
-def file_mark(path: Path, size: int) -> str:
+def file_mark(path: Path, size: int, root: Path | None = None) -> str:
     """sha256 of the first and the last :data:`MARK_BYTES` of the first ``size`` bytes
     of the file ``path`` (all of them when there are fewer): a folder's file that grew
     from what it was keeps the mark of its earlier size, another recording put in its
     place does not. Two small reads, where a second hash of every byte of a folder
-    would double the cost of hashing it on the watcher's loop."""
+    would double the cost of hashing it on the watcher's loop. ``root``: INBOX, as
+    :func:`_open_in`."""
     h = hashlib.sha256()
-    with path.open("rb") as f:
+    with _open_in(path, root) as f:
         h.update(f.read(min(size, MARK_BYTES)))
         if size > MARK_BYTES:
             at = max(MARK_BYTES, size - MARK_BYTES)
@@ -1555,12 +1566,15 @@ def hash_archive(
     folder or group, each file's :func:`file_mark`; of a single file, with ``head``
     (its earlier size), the sha256 of its first ``head`` bytes too, in the same read
     (not a second read of a large file that grew). Raises :class:`HashCancelled` soon
-    after ``cancel`` is set."""
+    after ``cancel`` is set. Files are read as :func:`_open_in` reads INBOX ``root``'s,
+    and a folder's files that are links leading out of it are not part of it (as in
+    its :func:`~analyzer.watch_inbox.signature`)."""
     heads: dict[str, str] = {}
+    real_root = root.resolve()
 
     def one(path: Path, h: Any, cut: int | None = None) -> None:
         pos = 0
-        with path.open("rb") as f:
+        with _open_in(path, root) as f:
             while True:
                 if pos == cut:
                     heads[path.relative_to(root).as_posix()] = h.hexdigest()
@@ -1581,12 +1595,16 @@ def hash_archive(
 
     def entry(path: Path) -> str:
         h = hashlib.sha256()
-        files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+        files = [path]
+        if path.is_dir():
+            files = sorted(
+                p for p in path.rglob("*") if p.is_file() and link_out(p, real_root) is None
+            )
         for p in files:
             if path.is_dir():  # (as sha256_of: each file's path in it, then its bytes)
                 h.update(p.relative_to(path).as_posix().encode())
             one(p, h)
-            marks[p.relative_to(root).as_posix()] = file_mark(p, p.stat().st_size)
+            marks[p.relative_to(root).as_posix()] = file_mark(p, p.stat().st_size, root)
         return h.hexdigest()
 
     if len(paths) == 1:
@@ -1757,6 +1775,7 @@ class _Runner:
             progress=None,
             warn=None,  # an archive's input errors go to its own record
             jobs=1 if settings.jobs > 1 else options.jobs,
+            inside=settings.inbox.resolve(),  # (nothing read through a link out of it)
         )
         self.queue: dict[str, ReadyArchive] = {}
         self.running: dict[str, _Job] = {}
@@ -3080,7 +3099,7 @@ class _Runner:
                     return False
                 head = job.hashes.heads.get(name)
                 if head is None:  # (hashed before, without it: read again)
-                    head = _sha256_head(inbox / name, size)
+                    head = _sha256_head(inbox / name, size, inbox)
                 return head == earlier.sha256
             for name, size, mtime in old:
                 if ignored(name.rpartition("/")[2]):  # (rsync's .x.csv.AbC12z)
@@ -3093,7 +3112,7 @@ class _Runner:
                     now[name] != (size, mtime)
                     and was is not None
                     and not name.lower().endswith(REWRITTEN_IN_PLACE)
-                    and file_mark(inbox / name, size) != was
+                    and file_mark(inbox / name, size, inbox) != was
                 ):
                     return False
         except OSError:

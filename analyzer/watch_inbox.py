@@ -63,7 +63,13 @@ from typing import Any
 
 from analyzer.errors import counted
 from analyzer.readers import SUFFIXES, Format, skipped_folder
-from analyzer.readers._common import bag_listed_files, special_kind
+from analyzer.readers._common import (
+    LINK_LOOP,
+    bag_listed_files,
+    link_out,
+    open_inside,
+    special_kind,
+)
 from analyzer.timeutil import spoken_duration
 
 log = logging.getLogger("analyzer.watch")
@@ -146,17 +152,34 @@ def ignored(name: str) -> bool:
 # --------------------------------------------------------------------------- signatures
 
 
-def _files(path: Path) -> list[Path]:
-    if path.is_dir():
-        return sorted(p for p in path.rglob("*") if p.is_file())
-    return [path]
+def _files(path: Path, real_root: Path, away: Callable[[Path, str], None] | None) -> list[Path]:
+    """The files of the archive entry ``path`` (itself, or those in its folders), but
+    for the links leading out of ``real_root`` (INBOX's real path: never read, their
+    targets not part of the archive), each handed to ``away`` with the reason."""
+    if not path.is_dir():
+        return [path]
+    files = []
+    for p in sorted(path.rglob("*")):  # (links to folders not followed)
+        if not p.is_file():
+            continue
+        if (why := link_out(p, real_root, "INBOX")) is not None:
+            if away is not None:
+                away(p, why)
+            continue
+        files.append(p)
+    return files
 
 
-def signature(paths: Iterable[Path], root: Path) -> Signature:
-    """The signature of the files under ``paths``; raises OSError if one vanishes."""
+def signature(
+    paths: Iterable[Path], root: Path, away: Callable[[Path, str], None] | None = None
+) -> Signature:
+    """The signature of the files under ``paths``; raises OSError if one vanishes. A
+    file of a folder that is a symbolic link leading out of ``root`` is not part of it
+    (:func:`~analyzer.readers._common.link_out`; handed to ``away``)."""
     sig = []
+    real_root = root.resolve()
     for path in paths:
-        for f in _files(path):
+        for f in _files(path, real_root, away):
             st = f.stat()
             sig.append((f.relative_to(root).as_posix(), st.st_size, st.st_mtime_ns))
     return tuple(sorted(sig))
@@ -165,10 +188,13 @@ def signature(paths: Iterable[Path], root: Path) -> Signature:
 # --------------------------------------------------------------------------- completeness
 
 
-def _read_ends(path: Path, n: int) -> tuple[bytes, bytes, int]:
+def _read_ends(path: Path, n: int, root: Path | None = None) -> tuple[bytes, bytes, int]:
     # O_NONBLOCK: a FIFO that took a file's place opens at once instead of waiting for a
-    # writer (forever, deaf to signals); it is then refused as not a regular file
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    # writer (forever, deaf to signals); it is then refused as not a regular file. With
+    # ``root`` (INBOX's real path), a file that is (or became) a link leading out of it
+    # is not opened (:func:`~analyzer.readers._common.open_inside`: O_NOFOLLOW)
+    plain = os.O_RDONLY | os.O_NONBLOCK
+    fd = os.open(path, plain) if root is None else open_inside(path, root)
     with os.fdopen(fd, "rb") as f:
         st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode):
@@ -203,9 +229,9 @@ def ros1_index_pos(header: bytes) -> int | None:
     return None
 
 
-def _file_incomplete(path: Path) -> str | None:
+def _file_incomplete(path: Path, root: Path | None = None) -> str | None:
     csv = path.name.lower().endswith(CSV_SUFFIXES)
-    head, tail, size = _read_ends(path, CSV_HEAD if csv else 4096 + 64)
+    head, tail, size = _read_ends(path, CSV_HEAD if csv else 4096 + 64, root)
     if size == 0:
         return "empty file"
     if not csv and (begun := _magic_begun(head)) is not None:
@@ -335,17 +361,29 @@ def _unlisted_split(path: Path, listed: Sequence[str], files: Sequence[Path]) ->
     return None
 
 
-def incomplete_reason(path: Path, _seen: set[Path] | None = None) -> str | None:
+def incomplete_reason(
+    path: Path, _seen: set[Path] | None = None, root: Path | None = None
+) -> str | None:
     """Why the archive member ``path`` looks unfinished, or None when it looks complete.
 
     Only the structure is checked here (a few bytes at each end); stability is the
     caller's business. A file of unknown or damaged format is "complete": the analysis
-    will say what is wrong with it."""
+    will say what is wrong with it. With ``root`` (INBOX's real path), what leads out of
+    it through a symbolic link is not looked at (:func:`~analyzer.readers._common.
+    link_out`), and files are opened with ``O_NOFOLLOW``."""
     if not path.is_dir():
-        return _file_incomplete(path)
-    files = [f for f in sorted(path.iterdir()) if f.is_file() and not f.name.startswith(".")]
+        return _file_incomplete(path, root)
+
+    def inside(p: Path) -> bool:
+        return root is None or link_out(p, root) is None
+
+    files = [
+        f
+        for f in sorted(path.iterdir())
+        if f.is_file() and not f.name.startswith(".") and inside(f)
+    ]
     metadata = path / "metadata.yaml"
-    if metadata.is_file():
+    if metadata.is_file() and inside(metadata):
         listed = bag_listed_files(path)  # (by name, as the reader opens them)
         if listed is None:
             return "metadata.yaml not readable yet"
@@ -355,16 +393,18 @@ def incomplete_reason(path: Path, _seen: set[Path] | None = None) -> str | None:
         if (split := _unlisted_split(path, listed, files)) is not None:
             return f"storage file {split} not in metadata.yaml yet (still recording?)"
         for f in files:
-            if f.name != "metadata.yaml" and (reason := _file_incomplete(f)):
+            if f.name != "metadata.yaml" and (reason := _file_incomplete(f, root)):
                 return f"{f.name}: {reason}"
         return None
-    subfolders = [p for p in sorted(path.iterdir()) if p.is_dir() and not p.name.startswith(".")]
+    subfolders = [
+        p for p in sorted(path.iterdir()) if p.is_dir() and not p.name.startswith(".") and inside(p)
+    ]
     if not files and not subfolders:
         return "empty directory"  # still being filled
     if files and _looks_like_bag(path, files):
         return "ROS 2 bag without metadata.yaml (still recording?)"
     for f in files:
-        if not ignored(f.name) and (reason := _file_incomplete(f)):
+        if not ignored(f.name) and (reason := _file_incomplete(f, root)):
             return f"{f.name}: {reason}"
     # the analysis reads the subfolders too (a folder of day folders): their files are
     # checked alike, an empty one is no sign of a copy under way; as the readers walk
@@ -374,7 +414,7 @@ def incomplete_reason(path: Path, _seen: set[Path] | None = None) -> str | None:
     for sub in subfolders:
         if skipped_folder(sub, seen) is not None:
             continue
-        reason = incomplete_reason(sub, seen)
+        reason = incomplete_reason(sub, seen, root)
         if reason is not None and reason != "empty directory":
             return f"{sub.name}/{reason}" if ":" in reason else f"{sub.name}: {reason}"
     return None
@@ -445,8 +485,11 @@ class InboxTracker:
     _special: set[str] = field(default_factory=set)
     """Entries ignored as FIFOs, sockets or devices, each said once."""
     _loops: set[str] = field(default_factory=set)
-    """Entries ignored as links to INBOX or a folder above it (:meth:`_is_loop`), each
-    said once."""
+    """Entries ignored as symbolic links not followed (:meth:`_is_loop`: to INBOX or a
+    folder above it, out of INBOX, a loop), each said once."""
+    _away: set[str] = field(default_factory=set)
+    """Files of folder archives not read as links out of INBOX (by their path relative
+    to it: :meth:`_member_away`), each said once."""
     _settles: dict[str, float] = field(default_factory=dict)
     """Archives whose settle time grew beyond ``settle`` (:meth:`settle_of`)."""
     _taken: dict[str, float] = field(default_factory=dict)
@@ -476,37 +519,64 @@ class InboxTracker:
         return True
 
     def _is_loop(self, name: str) -> bool:
-        """Whether INBOX entry ``name`` is a symbolic link to INBOX itself or to a folder
-        above it (``loop -> ../inbox``): not an archive, as its folder holds INBOX's
-        archives again (it was waited on as one, for an empty file it reached through
-        the link); said once."""
+        """Whether INBOX entry ``name`` is a symbolic link not followed: to INBOX itself
+        or to a folder above it (``loop -> ../inbox``: its folder holds INBOX's archives
+        again; it was waited on as one, for an empty file it reached through the link),
+        to anything else outside INBOX (``passwd.csv -> /etc/passwd``: whoever may drop
+        files would have the watcher read, and publish in its report and index, what
+        only the watcher's account may read), or a link loop. Such an entry is not an
+        archive: never read, never moved; said once. A link to a file or folder inside
+        INBOX is followed (read as what it leads to; ``--done`` moves the link)."""
         path = self.inbox / name
         if not path.is_symlink():
             self._loops.discard(name)
             return False
+        inbox = self.inbox.resolve()
         try:
-            target, inbox = path.resolve(), self.inbox.resolve()
+            target = path.resolve()
         except (OSError, RuntimeError):
-            return False
-        if target != inbox and target not in inbox.parents:
-            self._loops.discard(name)
-            return False
+            target = None
+        if target is not None and (target == inbox or target in inbox.parents):
+            why = f"a link to {target}, which holds INBOX itself"
+        else:
+            out = link_out(path, inbox, "INBOX")
+            if out is None:
+                self._loops.discard(name)
+                return False
+            why = out if out == LINK_LOOP else f"{out}: never read nor moved"
         if name not in self._loops and not self.quiet:
-            log.warning("%s: ignored: a link to %s, which holds INBOX itself", name, target)
+            log.warning("%s: ignored: %s", name, why)
         self._loops.add(name)
         return True
+
+    def _listed(self, entry: os.DirEntry[str]) -> bool:
+        """Whether the INBOX entry ``entry`` may be an archive's member: not a link that
+        is not followed (:meth:`_is_loop`), nor a FIFO, socket or device
+        (:meth:`_is_special`). One that cannot be looked at is not, said once: it was
+        the ``OSError`` of the whole listing, which stopped the watcher."""
+        try:
+            if entry.is_symlink() and self._is_loop(entry.name):
+                return False
+            # (d_type: a stat only for links and special files)
+            return entry.is_file() or entry.is_dir() or not self._is_special(entry.name)
+        except OSError as err:
+            if entry.name not in self._loops and not self.quiet:
+                log.warning("%s: ignored: cannot look at it (%s)", entry.name, err.strerror or err)
+            self._loops.add(entry.name)
+            return False
+
+    def _member_away(self, path: Path, why: str) -> None:
+        """A file of a folder archive not read, as a link out of INBOX; said once."""
+        rel = path.relative_to(self.inbox).as_posix()
+        if rel not in self._away and not self.quiet:
+            log.warning("%s: ignored: %s: never read nor moved", rel, why)
+        self._away.add(rel)
 
     def rescan(self) -> None:
         """Re-list INBOX (start, polling, and the periodic safety rescan)."""
         try:
             with os.scandir(self.inbox) as entries:
-                names = {
-                    e.name
-                    for e in entries
-                    # (d_type: a stat only for links and special files)
-                    if (e.is_file() or e.is_dir() or not self._is_special(e.name))
-                    and not (e.is_symlink() and self._is_loop(e.name))
-                }
+                names = {e.name for e in entries if self._listed(e)}
         except FileNotFoundError:
             names = set()
         members: dict[str, set[str]] = {}
@@ -525,8 +595,8 @@ class InboxTracker:
             return
         if (
             os.path.lexists(self.inbox / name)
-            and not self._is_special(name)
             and not self._is_loop(name)
+            and not self._is_special(name)
         ):
             self._members.setdefault(k, set()).add(name)
         else:
@@ -612,7 +682,7 @@ class InboxTracker:
             paths = tuple(self.inbox / n for n in names)
             problem = None
             try:
-                sig = signature(paths, self.inbox)
+                sig = signature(paths, self.inbox, self._member_away)
             except OSError as err:
                 problem = unreadable_reason(paths, err, self.inbox)
                 if problem is None:  # a member vanished or changed type under us: look again
@@ -637,7 +707,7 @@ class InboxTracker:
                         (
                             r if p.name == k else f"{p.name}: {r}"
                             for p in paths
-                            if (r := incomplete_reason(p))
+                            if (r := incomplete_reason(p, root=self.inbox.resolve()))
                         ),
                         None,
                     )
@@ -737,13 +807,7 @@ def archive_paths(
     tracker = InboxTracker(inbox, 0.0, group_by, frozenset(exclude), quiet=True)
     try:
         with os.scandir(inbox) as entries:
-            names = [
-                e.name
-                for e in entries
-                if name in e.name
-                # (d_type: a stat only for links and special files, as rescan)
-                and (e.is_file() or e.is_dir() or not tracker._is_special(e.name))
-            ]
+            names = [e.name for e in entries if name in e.name and tracker._listed(e)]
     except FileNotFoundError:
         return ()
     return tuple(inbox / n for n in sorted(names) if tracker.key(n) == name)

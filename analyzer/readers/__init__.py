@@ -30,12 +30,14 @@ from analyzer.readers._common import (
     bag_files,
     file_digest,
     lfs_pointer,
+    link_out,
     monotonic,
     one_line,
     per_topic,
     special_kind,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, Reader, TimeSource, damage_of
+from analyzer.readers.chunk_limits import OversizedChunk
 from analyzer.readers.seams import Seam, dropped_line, forward_line, is_gap, set_back_line
 from analyzer.timeutil import plausible_epoch
 from analyzer.types import Format, Note
@@ -191,6 +193,8 @@ def open_input(path: str | Path) -> Reader:
         raise ReaderError(f"{path}: cannot be read as {fmt.value} ({one_line(err)})") from err
     try:
         return kind(path)
+    except OversizedChunk as err:  # (raised without the file's name)
+        raise ReaderError(f"{path}: {one_line(err)}") from err
     except ReaderError:
         raise
     except damage_of(kind) as err:  # a corrupt file fails in the parsing libraries
@@ -431,6 +435,10 @@ class Archive:
             )
         except (Unstitchable, IntegrityError, RenameError):  # (an internal check's, an option's)
             raise
+        except OversizedChunk as err:  # (raised without the file's name)
+            if single:
+                raise ReaderError(f"{reader.info.path}: {one_line(err)}") from err
+            reader.info.errors.append(f"reading stopped: {one_line(err)}")
         except ReaderError as err:
             if single:
                 raise
@@ -827,7 +835,9 @@ own. They are named in the archive's notes; hidden folders are skipped without a
 as hidden files are."""
 
 
-def _members(directory: Path, skipped: list[str] | None = None) -> list[Path]:
+def _members(
+    directory: Path, skipped: list[str] | None = None, inside: Path | None = None
+) -> list[Path]:
     """The inputs of a directory archive: files with a known suffix, and ROS 2 bags
     (each one input), in it and in its subfolders at any depth, in sorted order.
 
@@ -835,7 +845,11 @@ def _members(directory: Path, skipped: list[str] | None = None) -> list[Path]:
     ``findings.json`` (:data:`OWN_OUTPUTS`), FIFOs and other special files with a known
     suffix, backup folders (:data:`SKIPPED_FOLDER_ENDINGS`), a folder that cannot be
     listed, and a folder reached a second time through a symbolic link (a link to a
-    folder above it would loop). Hidden files and folders are skipped without a word."""
+    folder above it would loop). Hidden files and folders are skipped without a word.
+    With ``inside`` (the watcher's INBOX, by its real path), a symbolic link leading out
+    of it is not followed, and a ROS 2 bag with such a file is not read (named in
+    ``skipped`` too): whoever may drop files would otherwise have the analysis read,
+    and publish in its report, what only the watcher's account may read."""
     try:
         entries = sorted(directory.iterdir())
     except OSError as err:
@@ -843,8 +857,22 @@ def _members(directory: Path, skipped: list[str] | None = None) -> list[Path]:
             f"{directory}: cannot list the folder: {one_line(err.strerror or err)}"
         ) from err
     found: list[Path] = []
-    _walk(directory, entries, {directory.resolve()}, found, [] if skipped is None else skipped)
+    seen = {directory.resolve()}
+    _walk(directory, entries, seen, found, [] if skipped is None else skipped, inside)
     return found
+
+
+def bag_link_out(bag: Path, inside: Path) -> str | None:
+    """Why the ROS 2 bag folder ``bag`` is not read under the watcher's INBOX
+    ``inside`` (its real path): one of its files is a symbolic link leading out of it
+    (:func:`~analyzer.readers._common.link_out`; ``x.db3 is a symbolic link to ...``),
+    or it is one itself; None when it may be read."""
+    if (why := link_out(bag, inside)) is not None:
+        return why
+    for f in bag_files(bag):
+        if (why := link_out(f, inside)) is not None:
+            return f"its file {f.name} is {why}"
+    return None
 
 
 def skipped_folder(entry: Path, seen: set[Path]) -> str | None:
@@ -868,7 +896,12 @@ def skipped_folder(entry: Path, seen: set[Path]) -> str | None:
 
 
 def _walk(
-    directory: Path, entries: list[Path], seen: set[Path], found: list[Path], skipped: list[str]
+    directory: Path,
+    entries: list[Path],
+    seen: set[Path],
+    found: list[Path],
+    skipped: list[str],
+    inside: Path | None = None,
 ) -> None:
     """:func:`_members` of ``directory``, whose ``entries`` are listed already; ``seen``
     holds the real paths of the folders read so far."""
@@ -886,8 +919,14 @@ def _walk(
             if _suffix(entry) or not entry.suffix:
                 skipped.append(f"{entry} not read: {_dangling(entry)}")
             continue
+        if inside is not None and (why := link_out(entry, inside)) is not None:
+            skipped.append(f"{entry} not read: {why}")
+            continue
         if entry.is_dir():
             if is_ros2_bag(entry):
+                if inside is not None and (why := bag_link_out(entry, inside)) is not None:
+                    skipped.append(f"{entry} not read: {why}")
+                    continue
                 found.append(entry)
                 continue
             why = skipped_folder(entry, seen)
@@ -901,7 +940,7 @@ def _walk(
                     f"{entry} not read: cannot list the folder: {one_line(err.strerror or err)}"
                 )
                 continue
-            _walk(entry, inner, seen, found, skipped)
+            _walk(entry, inner, seen, found, skipped, inside)
         elif (special := special_kind(entry)) is not None:
             if _suffix(entry):
                 skipped.append(f"{entry} not read: not a regular file ({special})")
@@ -944,14 +983,17 @@ def _failed(path: Path, err: ReaderError) -> InputInfo:
     return info
 
 
-def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
+def open_archive(paths: str | Path | Sequence[str | Path], inside: Path | None = None) -> Archive:
     """Open the inputs of one archive.
 
     A directory that is not a ROS 2 bag stands for the files in it and in its subfolders
     (see :data:`SUFFIXES`) and the ROS 2 bags under it (:func:`_members`). With one
     input in total, any problem raises ReaderError; with several, an input that cannot be
     opened is recorded (and skipped) unless none can be opened. Inputs with relative
-    times that overlap are refused while they are read (:class:`Unstitchable`)."""
+    times that overlap are refused while they are read (:class:`Unstitchable`).
+    ``inside``: the watcher's INBOX (:attr:`~analyzer.options.RunOptions.inside`):
+    nothing is read through a symbolic link leading out of it (an input that is one, or
+    a ROS 2 bag with such a file, raises ReaderError; a folder's, skipped, said)."""
     if isinstance(paths, str | Path):
         paths = [paths]
     if not paths:
@@ -962,8 +1004,13 @@ def open_archive(paths: str | Path | Sequence[str | Path]) -> Archive:
         path = Path(raw)
         if not path.exists():
             raise ReaderError(f"{path}: no such file or directory")
+        if inside is not None:
+            bag = path.is_dir() and is_ros2_bag(path)
+            why = bag_link_out(path, inside) if bag else link_out(path, inside)
+            if why is not None:
+                raise ReaderError(f"{path}: not read: {why}")
         if path.is_dir() and not is_ros2_bag(path):
-            found = _members(path, skipped)
+            found = _members(path, skipped, inside)
             if not found:
                 raise ReaderError(
                     f"{path}: the directory holds no input (.mcap, .bag, .db3, .csv, .tsv, "

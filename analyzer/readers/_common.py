@@ -9,6 +9,7 @@ without holding more than a batch or two in memory.
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import os
 import re
@@ -2057,3 +2058,59 @@ def special_kind(path: Path) -> str | None:
     if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
         return None
     return next((kind for test, kind in SPECIAL_KINDS if test(mode)), "a special file")
+
+
+LINK_LOOP = "a symbolic link loop"
+"""What :func:`link_out` says of a link that leads back to itself."""
+
+
+def link_out(path: Path, root: Path, where: str = "the watched folder") -> str | None:
+    """Why ``path``, a member of the folder ``root`` (the watcher's INBOX, given by its
+    real path), is not read: a symbolic link whose real path is outside ``root``
+    (``a symbolic link to /etc/passwd, outside {where}``), or a link loop;
+    None for anything else (a link whose target is inside ``root`` is followed). A
+    dangling link is not one: nothing can be read through it, and its callers say so.
+
+    Only links can lead out: a file reached through real folders under ``root`` lies
+    in it, so a walk asks this of its links alone (one ``resolve`` each)."""
+    if not path.is_symlink():
+        return None
+    try:
+        real = path.resolve(strict=True)
+    except RuntimeError:  # (a loop, on Python < 3.13)
+        return LINK_LOOP
+    except OSError as err:
+        if err.errno == errno.ELOOP:
+            return LINK_LOOP
+        return None  # (dangling, or gone meanwhile: said where it is read)
+    if real == root or real.is_relative_to(root):
+        return None
+    return f"a symbolic link to {real}, outside {where}"
+
+
+def open_inside(path: Path, root: Path) -> int:
+    """A read-only descriptor of the regular file ``path`` of the folder ``root`` (the
+    watcher's INBOX, by its real path), opened by its real path with ``O_NOFOLLOW``
+    (and ``O_NONBLOCK``: a FIFO put in its place opens at once and is refused), so that
+    a file swapped for a link after it was checked is not read through it; on Linux the
+    descriptor's own path (``/proc/self/fd``) is checked to lie in ``root`` too (a
+    folder above it swapped for a link). Raises ``OSError`` for a path leading out of
+    ``root`` or not a regular file."""
+    why = link_out(path, root)
+    if why is not None:
+        raise OSError(errno.EACCES, why, str(path))
+    flags = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOFOLLOW", 0)
+    fd = os.open(path.resolve(), flags)
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise OSError(errno.EINVAL, "not a regular file", str(path))
+        try:
+            real = Path(os.readlink(f"/proc/self/fd/{fd}"))
+        except OSError:  # (no /proc: the O_NOFOLLOW open above is what there is)
+            real = root
+        if real != root and not real.is_relative_to(root):
+            raise OSError(errno.EACCES, f"a link to {real}, outside the watched folder", str(path))
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd

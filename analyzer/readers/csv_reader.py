@@ -1526,7 +1526,8 @@ class CsvReader:
                 whole = True
         except (pa.ArrowException, OSError, EOFError, ValueError) as err:
             self._error(
-                f"unreadable from some point on ({one_line(err)}); the rows before it were read"
+                f"unreadable from some point on ({self._arrow_words(err)}); the rows before "
+                "it were read"
                 f" ({self._so_far(rows, steps.newest)})"
             )
         finally:
@@ -2057,6 +2058,20 @@ class CsvReader:
             ),
         )
 
+    def _arrow_words(self, err: BaseException) -> str:
+        """Arrow's error ``err`` in plain words where it is about a line longer than its
+        block (:data:`BLOCK_BYTES`): "straddling object straddles two block boundaries
+        (try to increase block size?)" for a data line, "header is larger than block
+        size" for the header (a line of a million columns: only the head of the file is
+        split into names, so their count is not said); else its own, on one line."""
+        text = one_line(err)
+        most = f"{BLOCK_BYTES >> 20} MiB, the most one line may hold"
+        if "straddl" in text:
+            return f"a line longer than {most}: damaged, or not a table of readings?"
+        if "header is larger than block size" in text:
+            return f"its header line is longer than {most}: a table of too many columns?"
+        return text
+
     def _first_batch(self) -> pa.RecordBatch | None:
         """The body's first block with rows, every column as text (None: none has)."""
         with contextlib.closing(self._batches()) as blocks:
@@ -2066,7 +2081,8 @@ class CsvReader:
         try:
             batch = self._first_batch()
         except (pa.ArrowException, OSError, EOFError, ValueError) as err:
-            raise ReaderError(f"{self.path}: cannot parse as CSV ({one_line(err)})") from err
+            why = self._arrow_words(err)
+            raise ReaderError(f"{self.path}: cannot parse as CSV ({why})") from err
         if batch is None:
             # the rows are there (a header alone is found by _detect) but Arrow skipped
             # them all for their number of fields: a damaged header, or lines above it

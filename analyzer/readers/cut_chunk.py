@@ -28,6 +28,7 @@ import lz4.block
 import zstandard
 
 from analyzer.readers._common import one_line
+from analyzer.readers.chunk_limits import MAX_CHUNK_BYTES
 
 _U32 = struct.Struct("<I")
 LZ4_FRAME_MAGIC = 0x184D2204
@@ -43,20 +44,27 @@ class CutDataError(ValueError):
     """The compressed data before the cut is not what its compression says."""
 
 
-def cut_prefix(compression: str, data: bytes) -> bytes:
+ZSTD_PIECE = 4096
+"""Compressed bytes fed at a time to zstd's streaming decompressor, which takes no
+output limit: so many give at most 128 MiB (a 128 KiB block per 4-byte RLE block),
+checked against the limit after each."""
+
+
+def cut_prefix(compression: str, data: bytes, limit: int = MAX_CHUNK_BYTES) -> bytes:
     """The decompressed bytes that ``data`` (a chunk's compressed data, cut short) gives,
-    in order from its start. ``compression`` is the chunk's: ``none`` or ``""`` (none),
-    ``lz4``, ``zstd`` or ``bz2``. Raises :class:`CutDataError` for damaged data or an
-    unknown compression."""
+    in order from its start, hardly more than ``limit`` (the chunk's declared size:
+    :mod:`analyzer.readers.chunk_limits`). ``compression`` is the chunk's: ``none`` or
+    ``""`` (none), ``lz4``, ``zstd`` or ``bz2``. Raises :class:`CutDataError` for
+    damaged data or an unknown compression."""
     try:
         if compression in ("none", ""):
-            return bytes(data)
+            return bytes(data[: limit + 1])
         if compression == "lz4":
-            return lz4_frame_prefix(data)
+            return lz4_frame_prefix(data, limit)
         if compression == "zstd":
-            return zstandard.ZstdDecompressor().decompressobj().decompress(data)
+            return _zstd_prefix(data, limit)
         if compression == "bz2":
-            return bz2.BZ2Decompressor().decompress(data)
+            return bz2.BZ2Decompressor().decompress(data, max_length=limit + 1)
     except (OSError, ValueError, RuntimeError, EOFError, zstandard.ZstdError) as err:
         if isinstance(err, CutDataError):
             raise
@@ -64,13 +72,26 @@ def cut_prefix(compression: str, data: bytes) -> bytes:
     raise CutDataError(f"unsupported chunk compression {compression!r}")
 
 
-def lz4_frame_prefix(data: bytes) -> bytes:
+def _zstd_prefix(data: bytes, limit: int) -> bytes:
+    """What zstd ``data`` cut short gives, fed :data:`ZSTD_PIECE` bytes at a time until
+    more than ``limit`` bytes came out."""
+    stream = zstandard.ZstdDecompressor().decompressobj()
+    out = bytearray()
+    for at in range(0, len(data), ZSTD_PIECE):
+        out += stream.decompress(data[at : at + ZSTD_PIECE])
+        if len(out) > limit:
+            break
+    return bytes(out)
+
+
+def lz4_frame_prefix(data: bytes, limit: int | None = None) -> bytes:
     """The decompressed bytes of the LZ4 frames in ``data`` up to where it ends: whole
     blocks by the ``lz4`` library, the cut block by :func:`lz4_block_prefix` (linked
-    blocks with the frame's output before them as their history)."""
+    blocks with the frame's output before them as their history); with ``limit``, no
+    frame is begun once more than that many bytes came out (a block is at most 4 MiB)."""
     out = bytearray()
     pos, end = 0, len(data)
-    while pos + 4 <= end:
+    while pos + 4 <= end and (limit is None or len(out) <= limit):
         magic = _U32.unpack_from(data, pos)[0]
         if magic in LZ4_SKIPPABLE:
             if pos + 8 > end:
@@ -79,13 +100,13 @@ def lz4_frame_prefix(data: bytes) -> bytes:
             continue
         if magic != LZ4_FRAME_MAGIC:
             raise CutDataError(f"no LZ4 frame at byte {pos} of the chunk's data")
-        pos = _lz4_frame(data, pos, out)
+        pos = _lz4_frame(data, pos, out, limit)
     return bytes(out)
 
 
-def _lz4_frame(data: bytes, pos: int, out: bytearray) -> int:
+def _lz4_frame(data: bytes, pos: int, out: bytearray, limit: int | None = None) -> int:
     """Decompress the frame at ``pos`` of ``data`` onto ``out``; where the frame ends
-    (``len(data)`` where it is cut)."""
+    (``len(data)`` where it is cut, or where more than ``limit`` bytes came out)."""
     end = len(data)
     if pos + 7 > end:
         return end
@@ -98,7 +119,7 @@ def _lz4_frame(data: bytes, pos: int, out: bytearray) -> int:
     checksum = 4 if flags & 0x10 else 0
     pos += 7 + (8 if flags & 0x08 else 0)
     frame_start = len(out)
-    while pos + 4 <= end:
+    while pos + 4 <= end and (limit is None or len(out) <= limit):
         size = _U32.unpack_from(data, pos)[0]
         pos += 4
         if size == 0:  # the end mark, then the content checksum if any

@@ -32,7 +32,6 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO, ClassVar
 
-import lz4.frame
 import numpy as np
 import numpy.typing as npt
 import zstandard
@@ -44,6 +43,7 @@ from mcap.stream_reader import StreamReader
 from rosbags.serde import SerdeError
 
 from analyzer.errors import ReaderError, counted
+from analyzer.readers import chunk_limits
 from analyzer.readers._common import (
     ByteArray,
     Decoded,
@@ -73,6 +73,7 @@ from analyzer.readers.rosdecode import Encoding, RosBatchDecoder
 from analyzer.readers.rostypes import (
     EMPTY_MESSAGE_BYTES,
     EmptyMessageType,
+    NestedTooDeep,
     TypeResolutionError,
     candidate_stores,
     msg_path_hint,
@@ -523,13 +524,14 @@ class McapReader:
         data_at = head + comp_len + 8
         if data_at > len(raw):
             return None  # cut before its data starts: nothing of it can be had
+        chunk_limits.check_chunk(size, _U64.unpack_from(raw, data_at - 8)[0], compression)
         kind = f"{compression}-compressed" if compression else "uncompressed"
         where = (
             f"truncated inside the {kind} chunk that starts at byte {start} (the file ends at byte "
         )
         where += f"{self._size})"
         try:
-            records = as_bytes_array(cut_prefix(compression, raw[data_at:])[:size])
+            records = as_bytes_array(cut_prefix(compression, raw[data_at:], size)[:size])
         except CutDataError as err:
             return 0, f"{where}; {one_line(err)}, so none of its messages can be recovered"
         if not records.size:
@@ -706,6 +708,8 @@ class McapReader:
             fmt = "idl" if schema.encoding == "ros2idl" else "msg"
             try:
                 store = store_from_definition(msgtype, schema.data.decode(), fmt)
+            except NestedTooDeep:  # (mcap_ros2's decoder would recurse as deep)
+                raise
             except (TypeResolutionError, UnicodeDecodeError) as err:
                 if schema.encoding != "ros2msg":
                     raise TypeResolutionError(one_line(err)) from err
@@ -808,17 +812,15 @@ def _chunk_records(raw: memoryview) -> ByteArray:
 
 
 def _decompress(compression: str, data: bytes | memoryview, size: int, crc: int) -> ByteArray:
+    if compression not in ("zstd", "lz4", ""):
+        raise _ChunkError(f"unsupported chunk compression {compression!r}")
     try:
-        if compression == "zstd":
-            out = zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
-        elif compression == "lz4":
-            out = lz4.frame.decompress(bytes(data))
-        elif compression == "":
-            out = bytes(data)
-        else:
-            raise _ChunkError(f"unsupported chunk compression {compression!r}")
+        # (at most size + 1 bytes; a size beyond the limits refuses the file)
+        out = chunk_limits.decompress(compression, data, size)
     except (zstandard.ZstdError, RuntimeError) as err:
         raise _ChunkError(f"cannot decompress ({compression}): {one_line(err)}") from err
+    if len(out) > size:  # (stopped at size + 1 bytes)
+        raise _ChunkError(f"its data decompresses to more than the {size} bytes it declares")
     if len(out) != size:
         raise _ChunkError(f"decompressed {len(out)} bytes, expected {size}")
     if crc and zlib.crc32(out) != crc:

@@ -20,7 +20,6 @@ says how many messages were recovered and that the rest of the chunk is lost.
 
 from __future__ import annotations
 
-import bz2
 import io
 import struct
 from collections.abc import Iterator
@@ -28,11 +27,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO, ClassVar
 
-import lz4.frame
 import numpy as np
 from rosbags.serde import SerdeError
 
 from analyzer.errors import ReaderError
+from analyzer.readers import chunk_limits
 from analyzer.readers._common import (
     ByteArray,
     IntArray,
@@ -136,12 +135,13 @@ def _read_cut_record(handle: BinaryIO) -> tuple[dict[str, bytes], bytes, int] | 
     return _fields(header), handle.read(data_len), data_len
 
 
-def _cut_chunk(compression: str, data: bytes) -> tuple[ByteArray, str]:
+def _cut_chunk(compression: str, data: bytes, size: int, packed: int) -> tuple[ByteArray, str]:
     """The record bytes that can be had from a chunk the file ends inside (``data``, the
-    part of its compressed data before the cut: :func:`cut_prefix`), and why none can
-    where that is so."""
+    part of its ``packed`` bytes of compressed data before the cut: :func:`cut_prefix`,
+    at most its declared ``size``), and why none can where that is so."""
+    chunk_limits.check_chunk(size, packed, compression)
     try:
-        out = cut_prefix(compression, data)
+        out = cut_prefix(compression, data, size)[:size]
     except CutDataError as err:
         return as_bytes_array(b""), one_line(err)
     if not out:
@@ -202,17 +202,15 @@ def _op(fields: dict[str, bytes]) -> int:
 
 
 def _decompress(compression: str, data: bytes, size: int) -> ByteArray:
+    if compression not in ("none", "bz2", "lz4"):
+        raise _BagError(f"unsupported chunk compression {compression!r}")
     try:
-        if compression == "none":
-            out = data
-        elif compression == "bz2":
-            out = bz2.decompress(data)
-        elif compression == "lz4":
-            out = lz4.frame.decompress(data)
-        else:
-            raise _BagError(f"unsupported chunk compression {compression!r}")
-    except (OSError, ValueError, RuntimeError) as err:
+        # (at most size + 1 bytes; a size beyond the limits refuses the file)
+        out = chunk_limits.decompress(compression, data, size)
+    except (OSError, ValueError, RuntimeError, EOFError) as err:
         raise _BagError(f"cannot decompress ({compression}): {one_line(err)}") from err
+    if len(out) > size:  # (stopped at size + 1 bytes)
+        raise _BagError(f"its data decompresses to more than the {size} bytes it declares")
     if len(out) != size:
         raise _BagError(f"decompressed {len(out)} bytes, expected {size}")
     return as_bytes_array(out)
@@ -518,7 +516,9 @@ class Ros1BagReader:
                             continue  # (a chunk never completed: its records follow loose)
                         compression = fields["compression"].decode("ascii", "replace")
                         if len(data) < data_len:  # the file ends inside this chunk
-                            records, why = _cut_chunk(compression, data)
+                            records, why = _cut_chunk(
+                                compression, data, _U32.unpack(fields["size"])[0], data_len
+                            )
                             found = self._scan_chunk(records, cut=True)
                             yield from read.taken([(records, *found)])
                             if errors:

@@ -72,6 +72,45 @@ class ServiceEventType(TypeResolutionError):
     definition."""
 
 
+MAX_NESTING = 64
+"""The deepest a message definition may nest types (a field of a type with a field of a
+type...): real ones nest a few levels (``sensor_msgs/msg/Imu``: 3); a definition
+nested 20 000 deep exhausted Python's stack while its messages were decoded, and the
+whole file was lost (security review ux63, M2). A type nested deeper, or within
+itself, is refused (:class:`NestedTooDeep`): its topic is skipped with a note."""
+
+
+class NestedTooDeep(TypeResolutionError):
+    """A message definition that nests types more than :data:`MAX_NESTING` deep, or a
+    type within itself (:func:`check_nesting`)."""
+
+
+def _field_types(store: Typestore, msgtype: str) -> set[str]:
+    """The types the fields of ``msgtype`` hold (of arrays and sequences too)."""
+    found = set()
+    for _, desc in store.fielddefs.get(msgtype, ((), ()))[1]:
+        while desc[0] in (Nodetype.ARRAY, Nodetype.SEQUENCE):
+            desc = desc[1][0]
+        if desc[0] == Nodetype.NAME:
+            found.add(desc[1])
+    return found
+
+
+def check_nesting(store: Typestore, msgtype: str) -> None:
+    """Raise :class:`NestedTooDeep` when ``msgtype`` nests types more than
+    :data:`MAX_NESTING` deep in ``store``, or holds itself (then every level has a
+    type): level by level, without recursion, at most that many levels."""
+    level = {msgtype}
+    for _ in range(MAX_NESTING):
+        level = set().union(*(_field_types(store, t) for t in level))
+        if not level:
+            return
+    raise NestedTooDeep(
+        f"its message definition nests types more than {MAX_NESTING} deep, or within "
+        "themselves (real ones nest a few)"
+    )
+
+
 SERVICE_EVENT_SUFFIX = "_Event"
 """The end of a service event type's name (``example_interfaces/srv/AddTwoInts_Event``)."""
 
@@ -128,6 +167,7 @@ def _definition_store(msgtype: str, text: str, fmt: str) -> Typestore:
         ) from err
     if msgtype not in store.fielddefs:
         raise TypeResolutionError(f"the embedded definition does not define {msgtype!r}")
+    check_nesting(store, msgtype)
     return store
 
 

@@ -41,9 +41,9 @@ def _recorded(monkeypatch) -> list[list[str]]:
         calls.append(list(names))
         return run_groups(group_list, names, *args)
 
-    def opened(inputs):
+    def opened(inputs, *args):
         calls.append(["read"])
-        return open_archive(inputs)
+        return open_archive(inputs, *args)
 
     monkeypatch.setattr(pipeline, "run_detectors", detectors)
     monkeypatch.setattr(pipeline, "run_groups", groups)

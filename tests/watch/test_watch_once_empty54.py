@@ -59,14 +59,24 @@ def test_a_link_to_the_inbox_or_above_is_no_archive(tmp_path, caplog):
     elsewhere = tmp_path / "site"
     elsewhere.mkdir()
     (elsewhere / "b.csv").write_text("time,s\n0,1\n1,2\n")
-    os.symlink(elsewhere, inbox / "site")  # (an archive linked in: still one)
+    # (an archive linked in from outside INBOX: no longer one, sec56b: never read, never
+    # moved, said once; a link inside INBOX still is, test_watch_links_out56)
+    os.symlink(elsewhere, inbox / "site")
     tracker = InboxTracker(inbox, settle=0.5, once=True)
     with caplog.at_level(logging.WARNING, logger="analyzer"):
         tracker.rescan()
         tracker.rescan()
         tracker.touch("loop")
-    assert tracker.keys == {"a.csv", "site"}
+        tracker.touch("site")
+    assert tracker.keys == {"a.csv"}
     said = [r.getMessage() for r in caplog.records]
+    assert (
+        said.count(
+            f"site: ignored: a symbolic link to {elsewhere.resolve()}, outside INBOX: never read "
+            "nor moved"
+        )
+        == 1
+    )
     assert said.count(f"loop: ignored: a link to {inbox.resolve()}, which holds INBOX itself") == 1
     assert said.count(f"up: ignored: a link to {tmp_path.resolve()}, which holds INBOX itself") == 1
 

@@ -168,10 +168,10 @@ def _deny(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
     run as root, who reads everything)."""
     read_ends = watch_inbox._read_ends
 
-    def denied(path: Path, n: int) -> tuple[bytes, bytes, int]:
+    def denied(path: Path, n: int, root: Path | None = None) -> tuple[bytes, bytes, int]:
         if path.name == name:
             raise PermissionError(errno.EACCES, "Permission denied", str(path))
-        return read_ends(path, n)
+        return read_ends(path, n, root)
 
     monkeypatch.setattr(watch_inbox, "_read_ends", denied)
 

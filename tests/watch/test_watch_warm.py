@@ -92,11 +92,12 @@ def test_an_analysis_that_starts_alone_gets_every_thread(tmp_path, monkeypatch):
         return r
 
     def archive(name: str) -> ReadyArchive:
-        path = tmp_path / name
+        path = tmp_path / "in" / name  # (in INBOX: the watcher reads nothing outside it)
         path.write_bytes(name.encode())
         return ReadyArchive(name, (path,), ((str(path), path.stat().st_size, 0),))
 
     (tmp_path / "out").mkdir()
+    (tmp_path / "in").mkdir()
     r = runner(2)
     r._start(archive("a"))  # alone
     r.offer(archive("c"))  # waiting while b starts
