@@ -73,7 +73,8 @@ RESEND_LIMIT = 3
 computed in this process."""
 
 WAIT_POLL_S = 2.0
-"""How often a wait for a task's result checks that the cluster can still run it."""
+"""How often a wait for a task to finish checks that the cluster can still run it (not a
+limit on fetching a finished task's result: that is :data:`SEND_TIMEOUT_S`)."""
 
 SEND_TIMEOUT_S = 120.0
 """How long sending an item's data (or a shared object) to the cluster may take before it
@@ -152,6 +153,7 @@ class DaskExecutor:
         self.gone: str | None = None
         """Why the cluster no longer gets tasks (none of them is sent once this is set)."""
         self._future = distributed.Future
+        self._wait = distributed.wait
         self._shared: dict[Any, Any] = {}  # what each live handle of scatter() stands for
         self._renewed: dict[Any, Any] = {}  # a lost handle's replacement
         self._unusable_since: float | None = None
@@ -361,16 +363,21 @@ class DaskExecutor:
 
     def _outcome(self, fn: Callable[[Any], Any], entry: _Sent, pending: deque[_Sent]) -> Any:
         """The result of ``entry``'s task (the item computed here when the cluster cannot
-        take it); the task's own exception raised unchanged."""
+        take it); the task's own exception raised unchanged. A finished task's result is
+        fetched within :data:`SEND_TIMEOUT_S`, not :data:`WAIT_POLL_S`: a block's outputs
+        (up to 80 MB) took longer than the poll on a loaded machine, and each such fetch
+        given up sent the task again (4-5 times a run without a worker lost, 35 when
+        the poll was 0.3 s) and, at the limit, computed it here, in this process."""
         while True:
             future = entry.future
             if future is None:
                 return self._here(fn, entry.item)
-            # (a computed result is given the connection timeout to arrive: a large one
-            # took over the poll's 2 s on a loaded machine, and was sent again as lost)
-            wait = max(WAIT_POLL_S, self.timeout) if future.status == "finished" else WAIT_POLL_S
             try:
-                return future.result(timeout=wait)
+                if not future.done():
+                    self._wait([future], timeout=WAIT_POLL_S)  # TimeoutError while it runs
+                # done: its result travels, which for a large block on a loaded machine can
+                # take longer than the poll (given up then, it was sent again for nothing)
+                return future.result(timeout=SEND_TIMEOUT_S)
             except Exception as err:
                 if (
                     future.status == "finished"

@@ -489,3 +489,26 @@ def test_the_task_s_own_errors_are_not_named_as_the_cluster_s(
     assert capsys.readouterr().err.strip() == (
         f"analyzer: error: {tmp_path / 'o'}: Permission denied"
     )
+
+
+def _block_outputs(k: int) -> np.ndarray:
+    """A time block's outputs (8 MB): a result that takes a while to fetch."""
+    return np.full(1_000_000, float(k))
+
+
+def test_a_finished_task_s_result_is_fetched_not_sent_again(
+    cluster: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A finished task whose result takes longer to fetch than the poll for its end
+    (a block's 80 MB of outputs on a loaded machine, against 2 s; here any fetch, against
+    a poll of a microsecond) is fetched, not counted as lost: before, each such fetch
+    given up sent the task again, and at the limit computed it in the run's process
+    (what raised the run's memory with ``--scheduler``)."""
+    monkeypatch.setattr(analyzer.parallel_dask, "WAIT_POLL_S", 1e-6)
+    ex = DaskExecutor(cluster.scheduler_address)
+    try:
+        got = _within(120, lambda: list(ex.imap(_block_outputs, range(4))))
+        assert [float(x[0]) for x in got] == [0.0, 1.0, 2.0, 3.0]
+        assert (ex.resent, ex.here) == (0, 0), ex.describe()
+    finally:
+        ex.close()
