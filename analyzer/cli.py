@@ -42,6 +42,7 @@ from analyzer.errors import (  # noqa: E402
 )
 from analyzer.lossy_stderr import lossy_stderr  # noqa: E402
 from analyzer.scratch import sweep_stale  # noqa: E402
+from analyzer.time_left import TimeLeft, left_text  # noqa: E402
 from analyzer.types import MSG_PATH_ENV, stage_detail  # noqa: E402
 
 
@@ -568,19 +569,26 @@ def _progress_printer(args: argparse.Namespace) -> Any:
 def _progress_bar() -> Any:
     """A progress bar on stderr (a terminal): the stage, its share done and the seconds
     since the run began, with the part under way before the seconds (a detector's step
-    inside ``detect``: :class:`~analyzer.types.Stage`), redrawn on one line per stage."""
+    inside ``detect``: :class:`~analyzer.types.Stage`) and, once it can be said, the time
+    left (:class:`~analyzer.time_left.TimeLeft`; not on the line a stage ends with),
+    redrawn on one line per stage."""
     began = time.monotonic()
+    estimate = TimeLeft(time.monotonic)
 
     def show(stage: str, fraction: float) -> None:
         width = 30
         done = int(round(width * max(0.0, min(1.0, fraction))))
+        left = estimate.update(stage, fraction)
         elapsed = time.monotonic() - began
         # the part under way, blank (what was there cleared) when the stage has ended
         detail = stage_detail(stage) if fraction < 1.0 else ""
         part = f" {detail:<{BAR_DETAIL}.{BAR_DETAIL}}" if stage_detail(stage) else ""
+        # (padded: a shorter estimate redrawn over a longer one leaves nothing behind;
+        # blank on a stage's last line, which stays as the record of when it ended)
+        said = "" if left is None or fraction >= 1.0 else left_text(left)
         sys.stderr.write(
             f"\r{stage:<16} [{'#' * done}{'.' * (width - done)}] {100 * fraction:5.1f}%{part}"
-            f" {elapsed:8.1f} s"
+            f" {said:>{BAR_LEFT}} {elapsed:8.1f} s"
         )
         if fraction >= 1.0:
             sys.stderr.write("\n")
@@ -593,6 +601,10 @@ BAR_DETAIL = 48
 """Characters of a progress bar's detail (the part under way), padded to this width so a
 shorter one redrawn over a longer one leaves nothing of it behind."""
 
+BAR_LEFT = len("about 10.0 days left")
+"""Characters of a progress bar's time left (:func:`~analyzer.time_left.left_text`),
+right-aligned to this width before the seconds."""
+
 
 def plain_progress(
     stream: TextIO, clock: Callable[[], float], every_s: float = PLAIN_PROGRESS_EVERY_S
@@ -602,16 +614,20 @@ def plain_progress(
     of ``clock`` (stages that take turns, a detector's own inside ``detect``, do not
     add lines), each ``analyzer: progress: STAGE NN% (T s)`` with the seconds since the
     run began, or ``STAGE NN% (DETAIL; T s)`` with the part under way (a detector's step
-    inside ``detect``: :class:`~analyzer.types.Stage`): a CI log of a long run stays
-    short and is never silent for long."""
+    inside ``detect``: :class:`~analyzer.types.Stage`), and ``; about N min left`` after
+    the seconds once the time left can be said (:class:`~analyzer.time_left.TimeLeft`,
+    given every update, said or not): a CI log of a long run stays short and is never
+    silent for long."""
     began = clock()
     lock = threading.Lock()
     seen: set[str] = set()
     last = [began]
+    estimate = TimeLeft(clock)
 
     def show(stage: str, fraction: float) -> None:
         with lock:
             now = clock()
+            left = estimate.update(stage, fraction)
             if stage in seen and now - last[0] < every_s:
                 return
             seen.add(stage)
@@ -619,7 +635,10 @@ def plain_progress(
             share = 100 * max(0.0, min(1.0, fraction))
             detail = stage_detail(stage)
             said = f"{detail}; " if detail else ""
-            stream.write(f"analyzer: progress: {stage} {share:.0f}% ({said}{now - began:.1f} s)\n")
+            ahead = "" if left is None else f"; {left_text(left)}"
+            stream.write(
+                f"analyzer: progress: {stage} {share:.0f}% ({said}{now - began:.1f} s{ahead})\n"
+            )
             stream.flush()
 
     return show
