@@ -2094,7 +2094,10 @@ class _Runner:
         if self.begun is None or analyzed == 0 or analyzed >= total:
             return f" [{analyzed}/{total}]"
         left = (time.monotonic() - self.begun) / analyzed * (total - analyzed)
-        return f" [{analyzed}/{total}, about {spoken_duration(left)} left]"
+        # (an estimate under a second said in milliseconds, "about 501 ms left", claimed a
+        # precision the rate of a few analyses does not have)
+        when = "under 1 s" if left < 1.0 else f"about {spoken_duration(left)}"
+        return f" [{analyzed}/{total}, {when} left]"
 
     def to_analyze(self, members: Mapping[str, tuple[Path, ...]]) -> frozenset[str]:
         """Of INBOX's archives at the start (``members``: their paths by name), those

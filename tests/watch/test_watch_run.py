@@ -347,8 +347,8 @@ def test_once_says_how_far_it_is_and_how_long_is_left(
         if re.match(r"hour\d\.csv: (no fault|fault|error)", r.getMessage())
     ]
     assert len(ends) == 3
-    assert re.search(r" \[1/3, about \d+(\.\d)? s left\]", ends[0]), ends
-    assert re.search(r" \[2/3, about \d+(\.\d)? s left\]", ends[1]), ends
+    assert re.search(r" \[1/3, (about \d+(\.\d)? s|under 1 s) left\]", ends[0]), ends
+    assert re.search(r" \[2/3, (about \d+(\.\d)? s|under 1 s) left\]", ends[1]), ends
     assert ends[2].endswith(" [3/3]") or " [3/3]:" in ends[2], ends
     verdicts = [e.split(": ")[1].split(" in ")[0] for e in ends]  # no fault / fault (..)
     (summary,) = [r.getMessage() for r in caplog.records if " analyzed" in r.getMessage()]
