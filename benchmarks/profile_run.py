@@ -17,8 +17,21 @@ in), a script, not a timed test:
 Both call the CLI's ``main`` as the console script does: the report's figures are drawn
 by worker processes (their CPU is not this process's), as in ``bench_pipeline.py``.
 
+``--src DIR`` profiles another checkout (``git worktree add DIR COMMIT``) instead of this
+one, so that a commit older than this script can be profiled the same way. The
+checkout's bytecode is written first, as ``pip install`` does and ``bench_pipeline.py``
+does: under ``PYTHONDONTWRITEBYTECODE`` (set on the shared machine) a checkout without
+it compiles its modules again in every run, 0.3-0.4 s of the main thread's CPU that no
+installed analyzer spends and that one checkout of a comparison may pay and the other
+not. ``--baseline-src DIR --repeat N`` runs this checkout and DIR in turns, each in a
+process of its own (threads mode, N runs each), and tables the median CPU of each task
+for both and their difference: which stage a commit made dearer, in CPU seconds, which
+the machine's load moves less than the wall time.
+
     python benchmarks/profile_run.py ARCHIVE [--mode threads|cprofile] [--top 30]
-                                     [--pstats FILE] [-- ANALYZER RUN OPTIONS]
+                                     [--pstats FILE] [--src DIR]
+                                     [--baseline-src DIR [--repeat 2]]
+                                     [-- ANALYZER RUN OPTIONS]
 
 Set ``OPENBLAS_NUM_THREADS=1`` as the other benchmarks do (set here when unset).
 """
@@ -27,12 +40,16 @@ from __future__ import annotations
 
 import argparse
 import collections
+import compileall
 import concurrent.futures
 import cProfile
 import functools
 import io
+import json
 import os
 import pstats
+import statistics
+import subprocess
 import sys
 import tempfile
 import threading
@@ -42,7 +59,11 @@ from pathlib import Path
 from typing import Any
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+HERE = Path(__file__).resolve().parents[1]
+"""The checkout this script is in: the one profiled unless ``--src`` names another."""
+
+MAIN = "main thread (all of it)"
+OTHER = "other threads (reading, stores)"
 
 
 class ThreadCPU:
@@ -81,8 +102,10 @@ def _task_name(fn: Any) -> str:
     return f"{module}.{getattr(fn, '__qualname__', type(fn).__name__)}"
 
 
-def run_threads(argv: list[str]) -> None:
-    """The run with every thread-pool task and each detector's fit and run timed."""
+def run_threads(argv: list[str]) -> dict[str, Any]:
+    """The run with every thread-pool task and each detector's fit and run timed: the
+    exit code, wall and process CPU seconds and each task's CPU seconds (and the main
+    and other threads' under :data:`MAIN` and :data:`OTHER`), also printed."""
     cpu = ThreadCPU()
     submit = concurrent.futures.ThreadPoolExecutor.submit
 
@@ -107,9 +130,15 @@ def run_threads(argv: list[str]) -> None:
     print(f"{'CPU s':>7} {'share':>6} {'calls':>6}  task (exclusive thread CPU)")
     for name, seconds in cpu.seconds.most_common():
         print(f"{seconds:7.3f} {seconds / process_cpu:6.1%} {cpu.calls[name]:6d}  {name}")
-    print(f"{main_cpu:7.3f} {main_cpu / process_cpu:6.1%} {'':6}  main thread (all of it)")
     rest = process_cpu - tasks - main_cpu
-    print(f"{rest:7.3f} {rest / process_cpu:6.1%} {'':6}  other threads (reading, stores)")
+    print(f"{main_cpu:7.3f} {main_cpu / process_cpu:6.1%} {'':6}  {MAIN}")
+    print(f"{rest:7.3f} {rest / process_cpu:6.1%} {'':6}  {OTHER}")
+    return {
+        "exit": rc,
+        "wall_s": wall,
+        "cpu_s": process_cpu,
+        "tasks": {**cpu.seconds, MAIN: main_cpu, OTHER: rest},
+    }
 
 
 def run_cprofile(argv: list[str], top: int, keep: Path | None) -> None:
@@ -130,19 +159,92 @@ def run_cprofile(argv: list[str], top: int, keep: Path | None) -> None:
         print(text.strip().replace(str(Path.cwd()) + "/", "") + "\n")
 
 
+def byte_compile(root: Path) -> None:
+    """Write the bytecode of ``root``'s analyzer package (see the module's docstring)."""
+    if not compileall.compile_dir(str(root / "analyzer"), quiet=1):
+        raise SystemExit(f"profile_run: {root / 'analyzer'} does not compile")
+
+
+def median_tasks(runs: list[dict[str, float]]) -> dict[str, float]:
+    """Each task's median CPU seconds over ``runs`` (a task missing from a run counts 0 s
+    there: a commit may split or merge the tasks)."""
+    names = {name for run in runs for name in run}
+    return {name: statistics.median(run.get(name, 0.0) for run in runs) for name in names}
+
+
+def comparison(mine: list[dict[str, Any]], theirs: list[dict[str, Any]]) -> list[str]:
+    """The table of two checkouts' runs (:func:`run_threads`'s results): the median
+    process CPU and each task's median CPU seconds for both, and this checkout's minus
+    the baseline's; the largest differences either way first."""
+    ours = median_tasks([run["tasks"] for run in mine])
+    base = median_tasks([run["tasks"] for run in theirs])
+    rows = [f"{'this':>7} {'base':>7} {'diff':>7}  task (median thread CPU s)"]
+    cpu = [statistics.median(r["cpu_s"] for r in runs) for runs in (mine, theirs)]
+    rows.append(f"{cpu[0]:7.2f} {cpu[1]:7.2f} {cpu[0] - cpu[1]:+7.2f}  the process in all")
+    names = sorted(set(ours) | set(base), key=lambda n: -abs(ours.get(n, 0) - base.get(n, 0)))
+    for name in names:
+        a, b = ours.get(name, 0.0), base.get(name, 0.0)
+        rows.append(f"{a:7.3f} {b:7.3f} {a - b:+7.3f}  {name}")
+    return rows
+
+
+def compare(args: argparse.Namespace, root: Path) -> None:
+    """The checkout ``root`` and ``--baseline-src`` in turns, each run a process of its
+    own."""
+    sources = [("this", root), ("base", args.baseline_src.resolve())]
+    runs: dict[str, list[dict[str, Any]]] = {label: [] for label, _ in sources}
+    with tempfile.TemporaryDirectory(prefix="profile_run_") as tmp:
+        for turn in range(args.repeat):  # the two take turns at going first
+            for label, root in sources if turn % 2 == 0 else sources[::-1]:
+                out = Path(tmp) / f"{label}{turn}.json"
+                cmd = [sys.executable, __file__, str(args.archive), "--src", str(root)]
+                cmd += ["--json", str(out)] + (["--", *args.run_args] if args.run_args else [])
+                done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+                if done.returncode != 0 or not out.exists():
+                    raise SystemExit(f"profile_run: the {label} run failed:\n{done.stderr}")
+                runs[label].append(json.loads(out.read_text()))
+                run = runs[label][-1]
+                print(f"  {label} ({root}): wall {run['wall_s']:.1f} s, CPU {run['cpu_s']:.2f} s")
+    print("\n".join(comparison(runs["this"], runs["base"])))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("archive", type=Path)
     parser.add_argument("--mode", choices=("threads", "cprofile"), default="threads")
     parser.add_argument("--top", type=int, default=30, help="functions listed (cprofile)")
     parser.add_argument("--pstats", type=Path, help="also save the cProfile statistics here")
+    parser.add_argument("--src", type=Path, help="profile this checkout instead of this one")
+    parser.add_argument(
+        "--baseline-src", type=Path, help="another checkout, run in turns (threads mode)"
+    )
+    parser.add_argument("--repeat", type=int, default=2, help="runs each (--baseline-src)")
+    parser.add_argument("--json", type=Path, help="also write the threads mode's figures here")
     parser.add_argument("run_args", nargs="*", help="more `analyzer run` options, after --")
     args = parser.parse_args()
+    root = (args.src or HERE).resolve()
+    byte_compile(root)
+    if args.baseline_src is not None:
+        byte_compile(args.baseline_src)
+        print(
+            f"profile_run: {root} against {args.baseline_src}, load average "
+            f"{os.getloadavg()[0]:.1f}, {args.archive}"
+        )
+        compare(args, root)
+        return
+    sys.path.insert(0, str(root))  # before anything imports analyzer
+    import analyzer
+
+    if Path(analyzer.__file__).resolve().parents[1] != root:
+        raise SystemExit(f"profile_run: analyzer imported from {analyzer.__file__}, not {root}")
     with tempfile.TemporaryDirectory() as out:
         argv = ["run", str(args.archive), "--out", out, "--no-progress", *args.run_args]
         print(f"profile_run: {args.mode}, load average {os.getloadavg()[0]:.1f}, {args.archive}")
+        print(f"checkout: {root}")  # (checked above: the analyzer imported is this one's)
         if args.mode == "threads":
-            run_threads(argv)
+            result = run_threads(argv)
+            if args.json is not None:
+                args.json.write_text(json.dumps(result))
         else:
             run_cprofile(argv, args.top, args.pstats)
 

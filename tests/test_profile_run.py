@@ -89,3 +89,37 @@ def test_calls_on_other_threads_are_not_taken_from_the_caller(
     cpu.wrap("outer", outer)()
     assert cpu.seconds == {"outer": 1.0, "task": 15.0}
     assert cpu.calls["task"] == 3
+
+
+def _run(cpu_s: float, **tasks: float) -> dict[str, object]:
+    return {"exit": 0, "wall_s": 2 * cpu_s, "cpu_s": cpu_s, "tasks": tasks}
+
+
+def test_two_checkouts_are_compared_task_by_task_on_medians() -> None:
+    mine = [_run(10.0, fit=3.0, tests=2.0), _run(12.0, fit=5.0, tests=2.2)]
+    mine.append(_run(11.0, fit=4.0, tests=2.1))
+    theirs = [_run(9.0, fit=3.0, tests=2.0), _run(9.5, fit=3.2, tests=2.0)]
+    rows = profile_run.comparison(mine, theirs)
+    assert rows[1].split() == ["11.00", "9.25", "+1.75", "the", "process", "in", "all"]
+    # the largest difference first: the fit's median 4.0 against 3.1
+    assert rows[2].split() == ["4.000", "3.100", "+0.900", "fit"]
+    assert rows[3].split() == ["2.100", "2.000", "+0.100", "tests"]
+
+
+def test_a_task_one_checkout_does_not_have_counts_as_no_cpu() -> None:
+    rows = profile_run.comparison([_run(5.0, fit=1.0)], [_run(5.5, fit=1.0, folds=0.5)])
+    assert rows[2].split() == ["0.000", "0.500", "-0.500", "folds"]
+    assert rows[3].split() == ["1.000", "1.000", "+0.000", "fit"]
+
+
+def test_the_profiled_checkout_is_compiled_before_it_runs(tmp_path: Path) -> None:
+    package = tmp_path / "analyzer"
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    (package / "stage.py").write_text("X = 1\n")
+    profile_run.byte_compile(tmp_path)
+    compiled = sorted(p.name.split(".")[0] for p in (package / "__pycache__").iterdir())
+    assert compiled == ["__init__", "stage"]
+    (package / "broken.py").write_text("def (:\n")
+    with pytest.raises(SystemExit, match="does not compile"):
+        profile_run.byte_compile(tmp_path)
