@@ -171,6 +171,21 @@ def add_missing_values(p: argparse.ArgumentParser) -> None:
     )
 
 
+def add_rename(p: argparse.ArgumentParser, config: bool = False) -> None:
+    """``--rename NEW=OLD``, of ``run``, ``watch``, ``inspect`` and ``export`` alike: a
+    channel joined in ``run`` is the same channel to ``inspect`` and ``export``
+    (:func:`analyzer.readers.parse_renames`); ``config``: the command's ``--config`` has a
+    ``[rename]`` table too."""
+    p.add_argument(
+        "--rename",
+        action="append",
+        metavar="NEW=OLD",
+        help="read channel NEW as channel OLD: a sensor replaced under a new name from one "
+        "file on is joined to the one it replaces (repeatable"
+        + ("; the config's [rename] too)" if config else ")"),
+    )
+
+
 JOBS_HELP = {
     "run": "local parallelism: run the detectors (and the bank's time blocks) on N "
     "threads, same results as serial; default: the number of CPUs it may use, 1 = serial",
@@ -227,13 +242,7 @@ def add_run_options(p: argparse.ArgumentParser, command: str = "run") -> None:
         "slower one where that runs far above what they carry (a note says which)",
     )
     add_missing_values(p)
-    p.add_argument(
-        "--rename",
-        action="append",
-        metavar="NEW=OLD",
-        help="read channel NEW as channel OLD: a sensor replaced under a new name from one "
-        "file on is joined to the one it replaces (repeatable; the config's [rename] too)",
-    )
+    add_rename(p, config=True)
     p.add_argument(
         "--jobs",
         type=_positive_int,
@@ -416,6 +425,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="timestamps: log time (default) or header.stamp where messages have one",
     )
     add_missing_values(p)
+    add_rename(p)
     add_msg_path(p)
 
     p = _sub(sub, "export", "the time-aligned channels as .csv or .parquet")
@@ -448,6 +458,7 @@ def build_parser() -> argparse.ArgumentParser:
         "relative times)",
     )
     add_missing_values(p)
+    add_rename(p)
     add_msg_path(p)
 
     p = _sub(sub, "run", "analyze; write DIR/report.html and DIR/findings.json")
@@ -646,9 +657,13 @@ def plain_progress(
 
 def cmd_inspect(args: argparse.Namespace) -> int:
     from analyzer.inspect import inspect_archive, render_table
+    from analyzer.readers import parse_renames
 
     _stdout_open()  # (before the inputs are read: nothing could show what they hold)
-    doc = inspect_archive(args.inputs, time=args.time, missing_values=args.missing_values)
+    rename = parse_renames(args.rename or ())  # (before reading: a typo costs no wait)
+    doc = inspect_archive(
+        args.inputs, time=args.time, missing_values=args.missing_values, rename=rename
+    )
     errors = [f"{i['path']}: {e}" for i in doc["inputs"] for e in i["errors"]]
     if not doc["channels"] and errors:  # nothing could be read: an input error, as for run
         # (said as run says it: the reasons alone, each ending "skipped", read as warnings)
@@ -691,7 +706,9 @@ def _emit(text: str) -> None:
 
 def cmd_export(args: argparse.Namespace) -> int:
     from analyzer.export import export_archive
+    from analyzer.readers import parse_renames
 
+    rename = parse_renames(args.rename or ())  # (before reading: a typo costs no wait)
     export_archive(
         args.inputs,
         Path(args.out),
@@ -702,6 +719,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         utc=args.utc,
         say=_say,
         missing_values=args.missing_values,
+        rename=rename,
     )
     return 0
 

@@ -402,8 +402,8 @@ def load_config(path: str | Path | None, known_detectors: set[str] | None = None
 
 def _rename(table: Any, p: Path) -> dict[str, str]:
     """``[rename]``: a table of ``NEW = "OLD"`` channel names (``s3b = "s3"``), each a
-    non-empty string; checked further with ``--rename``'s (:func:`analyzer.options.
-    renames`)."""
+    non-empty string; checked further with ``--rename``'s (:func:`analyzer.readers.
+    parse_renames`)."""
     if not isinstance(table, dict):
         raise ConfigError(f'{p}: [rename] must be a table of NEW = "OLD" channel names')
     for new, old in table.items():

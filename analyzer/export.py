@@ -29,7 +29,7 @@ from analyzer.outdir import (
     remove_if_empty,
     spreadsheet_safe,
 )
-from analyzer.readers import open_archive
+from analyzer.readers import check_renames, open_archive
 from analyzer.readers.base import (
     InputInfo,
     TimeSource,
@@ -90,6 +90,7 @@ def export_archive(
     utc: bool = False,
     say: Callable[[str], None] | None = None,
     missing_values: Sequence[float] = (),
+    rename: Sequence[tuple[str, str]] = (),
 ) -> Path:
     """Write the aligned channels of ``inputs`` to ``out``; what went wrong with the
     inputs while they were read (a truncated file, samples dropped: ``inputs[].errors``
@@ -102,7 +103,12 @@ def export_archive(
     ``missing_values``: ``--missing-values``) are dropped as they are read, as ``run``
     drops them (:func:`~analyzer.missing_codes.as_gaps`): the file holds an empty cell
     (a null) where the aligned clock has no reading there, never an infinity or a code as
-    a value, and ``warn`` is told how many were dropped by channel, in ``run``'s words."""
+    a value, and ``warn`` is told how many were dropped by channel, in ``run``'s words.
+
+    ``rename``: ``--rename``'s ``(NEW, OLD)`` pairs (:func:`~analyzer.readers.
+    parse_renames`), each NEW channel read as OLD as ``run`` reads it (one column OLD
+    across the seam); a NEW name no input holds, or an input holding both names, is
+    ``run``'s error, before anything is written."""
     suffix = "".join(out.suffixes[-1:]).lower()
     if suffix not in (".csv", ".parquet"):
         raise UsageError(f"--out: {out} must end in .csv or .parquet")
@@ -112,7 +118,7 @@ def export_archive(
     not_into_inputs(out, inputs, "--out", "export elsewhere")
     created = prepare_dir(out.parent, "--out")  # before reading: not at the end
     try:
-        done = _export(inputs, out, suffix, channels, rate, time, warn, utc, missing_values)
+        done = _export(inputs, out, suffix, channels, rate, time, warn, utc, missing_values, rename)
     except BaseException:
         if created:
             remove_if_empty(out.parent)
@@ -135,14 +141,17 @@ def _export(
     warn: Callable[[str], None] | None = None,
     utc: bool = False,
     missing_values: Sequence[float] = (),
+    rename: Sequence[tuple[str, str]] = (),
 ) -> Exported:
     archive = open_archive(inputs)
+    archive.renames = dict(rename)
     unread = Unread()
     chunks = as_gaps(archive.chunks(time), missing_values, unread)
     with (
         scratch("analyzer-export-") as tmp,
         ChannelStore.from_chunks(chunks, tmp) as store,
     ):
+        check_renames(archive)  # (a NEW name no input holds: the option's error)
         if channels:
             unmatched = store.unmatched_line(channels)
             if unmatched:

@@ -26,7 +26,7 @@ from analyzer.error_file import touches_inputs
 from analyzer.evidence_label import fault_label, level_changes
 from analyzer.modelfile import SavedModel
 from analyzer.outdir import spreadsheet_safe, staged
-from analyzer.readers import renamed_successors
+from analyzer.readers import renamed_from_json, renamed_successors
 from analyzer.readers.base import InputInfo, channel_labels
 from analyzer.regenerate import write_corrected_csv
 from analyzer.selection import STUCK_SAMPLES
@@ -100,6 +100,12 @@ class Analysis:
     1e30), not analyzed, each with what its values were (``blank in every row``): they
     have no :class:`~analyzer.store.ChannelInfo`, and findings.json's ``channels[]``
     left them out, so a script never learnt a column of the file was dead (ch56)."""
+    renamed: dict[str, dict[str, tuple[str, ...]]] = field(default_factory=dict)
+    """The renames applied (``--rename NEW=OLD`` and the config's ``[rename]``): by OLD
+    channel, each NEW name read as it and the inputs that held NEW
+    (:func:`~analyzer.readers.applied_renames`): each channel's ``renamed_from`` in
+    findings.json. The config's table alone was written (``config.rename``), the
+    option not at all: a reader could not tell where a joined channel's samples came from."""
     left_out: dict[str, dict[str, str]] = field(default_factory=dict)
     """Why each channel not analyzed was left out: ``{"why": ...}`` (and ``"copy_of"``),
     as ``inspect --json`` says it (:func:`analyzer.selection.left_out`):
@@ -309,6 +315,7 @@ def _document(analysis: Analysis) -> dict[str, Any]:
                 **({} if c.name in a.analyzed else getattr(a, "left_out", {}).get(c.name, {})),
                 # the name the message gives it (a JointState's joint), where it has one
                 **({"label": labels[c.name]} if c.name in labels else {}),
+                **_renamed_from(a, c.name),
             }
             for c in a.channels
         ]
@@ -421,9 +428,14 @@ NO_READING = "no reading"
 
 def unread_channels(a: Analysis) -> list[dict[str, Any]]:
     """findings.json's ``channels[]`` entries of the channels with no reading at all
-    (:attr:`Analysis.no_reading`) that were not analyzed: no sample, ``why`` "no
-    reading" and ``no_reading`` what their values were. A saved model's channel blank
-    in every row stays analyzed (its finding says it) and is not listed here."""
+    (:attr:`Analysis.no_reading`): no sample, ``why`` "no reading" and ``no_reading``
+    what their values were, ``analyzed`` false. A saved model's channel blank in every
+    row (``--model``) is listed so too, but ``analyzed`` true, as the model's other
+    channels: its detectors take it (a column of gaps), its finding says it is dead
+    (``silent_check``), ``corrected.csv`` has its column, and a note says what the model
+    could audit without it (:func:`analyzer.pipeline._blank_model_note`). It was left
+    out of ``channels[]`` altogether, though the same column without ``--model`` was
+    listed (ch57)."""
     listed = {c.name for c in a.channels}
     return [
         {
@@ -431,13 +443,21 @@ def unread_channels(a: Analysis) -> list[dict[str, Any]]:
             "samples": 0,
             "rate_hz": 0.0,
             "gaps": 0,
-            "analyzed": False,
+            "analyzed": name in a.analyzed,
             "why": NO_READING,
             "no_reading": what,
+            **_renamed_from(a, name),
         }
         for name, what in getattr(a, "no_reading", {}).items()
-        if name not in listed and name not in a.analyzed
+        if name not in listed
     ]
+
+
+def _renamed_from(a: Analysis, name: str) -> dict[str, Any]:
+    """A channel's ``renamed_from`` (:attr:`Analysis.renamed`), where it was joined by
+    ``--rename`` or the config's ``[rename]``."""
+    renamed = getattr(a, "renamed", {}).get(name)
+    return {"renamed_from": renamed_from_json(renamed)} if renamed else {}
 
 
 def _with_label(fault: dict[str, Any]) -> dict[str, Any]:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +17,14 @@ from analyzer.errors import (
     terminal_safe,
 )
 from analyzer.missing_codes import Unread, as_gaps, no_reading_line, read_notes
-from analyzer.readers import Archive, open_archive
+from analyzer.readers import (
+    Archive,
+    applied_renames,
+    check_renames,
+    open_archive,
+    renamed_from_json,
+    renamed_words,
+)
 from analyzer.readers.base import (
     InputInfo,
     TimeSource,
@@ -51,6 +58,7 @@ def inspect_archive(
     inputs: Sequence[str | Path],
     time: TimeSource = "log",
     missing_values: Sequence[float] = (),
+    rename: Sequence[tuple[str, str]] = (),
 ) -> dict[str, Any]:
     """The contract's ``inspect --json`` object, plus ``start`` (absolute UTC, where known)
     and ``notes``: how the archive was put together (a file not read, one given twice:
@@ -63,19 +71,28 @@ def inspect_archive(
     ``missing_values``: ``--missing-values``) are dropped as they are read, as ``run``
     drops them (:func:`~analyzer.missing_codes.as_gaps`): a channel's ``samples``, rate
     and gaps are its readings', and the notes count what was dropped by channel in
-    ``run``'s words (before, an infinity or a -9999 was listed as a sample)."""
+    ``run``'s words (before, an infinity or a -9999 was listed as a sample).
+
+    ``rename``: ``--rename``'s ``(NEW, OLD)`` pairs (:func:`~analyzer.readers.
+    parse_renames`), each NEW channel read as OLD as ``run`` reads it; a channel so
+    joined has ``renamed_from`` (NEW and the inputs that held it) and a note says it. A
+    NEW name no input holds, or an input holding both names, is ``run``'s error."""
     archive = open_archive(inputs)
+    archive.renames = dict(rename)
     unread = Unread()
     chunks = as_gaps(archive.chunks(time), missing_values, unread)
     with (
         scratch("analyzer-inspect-") as tmp,
         ChannelStore.from_chunks(chunks, tmp) as store,
     ):
+        check_renames(archive)  # (a NEW name no input holds: the option's error)
         infos = store.infos()
+        renamed = applied_renames(archive)
         t0 = min((i.start_ns for i in infos), default=0)
         absolute = absolute_times(archive.inputs)
         notes = [str(n) for n in archive.notes]
         notes += [str(n) for n in read_notes(unread, missing_values)]
+        notes += [rename_note(old, new) for old, new in renamed.items()]
         unread_all = no_reading_line(unread)
         if not infos and unread_all is None:
             notes.append(nothing_numeric(archive.inputs))
@@ -143,6 +160,12 @@ def inspect_archive(
                     **why.get(i.name, {}),
                     # the name its message gives it (a JointState's joint), where it has one
                     **({"label": labels[i.name]} if i.name in labels else {}),
+                    # (--rename: the names read as it, and the inputs that held them)
+                    **(
+                        {"renamed_from": renamed_from_json(renamed[i.name])}
+                        if i.name in renamed
+                        else {}
+                    ),
                 }
                 for i in infos
             ],
@@ -160,6 +183,13 @@ def inspect_archive(
             # (where at least 1 % of the span has no sample of any channel)
             **({"span": holes.as_json()} if holes and holes.share >= SAID_SHARE else {}),
         }
+
+
+def rename_note(old: str, new: Mapping[str, tuple[str, ...]]) -> str:
+    """The note on channel ``old`` joined by ``--rename`` (:func:`~analyzer.readers.
+    applied_renames`' ``new``): ``s3: read from s3b in log_02.csv (--rename s3b=s3)``."""
+    given = ", ".join(f"--rename {n}={old}" for n in new)
+    return f"{old}: {renamed_words(new)} ({given})"
 
 
 def _mean_rate(info: ChannelInfo) -> float:

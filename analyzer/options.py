@@ -25,6 +25,7 @@ from analyzer.errors import (
 )
 from analyzer.findings import sha256_of
 from analyzer.modelfile import SavedModel, check_model_path, load_model
+from analyzer.readers import parse_renames
 from analyzer.readers.base import TimeSource
 from analyzer.timeutil import iso_utc, parse_time, plain_number, seconds_text, window_text
 from analyzer.types import NS_PER_S
@@ -295,39 +296,8 @@ def load_options(config_path: str | None, **kw: Any) -> RunOptions:
             "--utc: adds a column of UTC times to DIR/corrected.csv, which only --corrected "
             "writes; give --corrected too"
         )
-    kw["rename"] = renames(kw.get("rename") or (), cfg.rename)
+    kw["rename"] = parse_renames(kw.get("rename") or (), cfg.rename)
     return RunOptions(config=cfg, **kw)
-
-
-def renames(given: Sequence[str], config: Mapping[str, str]) -> tuple[tuple[str, str], ...]:
-    """``--rename``'s ``NEW=OLD`` texts, checked, after the config's ``[rename]`` pairs
-    (the option's win on one NEW name): :class:`UsageError` for a text without ``=``, an
-    empty name, a name renamed to itself, one NEW given twice, or an OLD that is
-    itself renamed (two NEW names may read as one OLD: a sensor replaced twice; an input
-    holding two of them at once is the reading's error)."""
-    pairs = dict(config)
-    seen: set[str] = set()
-    for text in given:
-        new, sep, old = text.partition("=")
-        new, old = new.strip(), old.strip()
-        if not sep or not new or not old:
-            raise UsageError(
-                f"--rename {text}: expected NEW=OLD (the channel's name in the later "
-                "files, then the name it replaces: --rename s3b=s3)"
-            )
-        if new in seen:
-            raise UsageError(f"--rename {text}: {new} is renamed twice")
-        seen.add(new)
-        pairs[new] = old
-    for new, old in pairs.items():
-        if new == old:
-            raise UsageError(f"--rename {new}={old}: a name renamed to itself")
-        if old in pairs:
-            raise UsageError(
-                f"--rename {new}={old}: {old} is itself renamed (--rename {old}={pairs[old]}); "
-                f"give --rename {new}={pairs[old]}"
-            )
-    return tuple(pairs.items())
 
 
 def check_utc(absolute: bool, channels: Sequence[str]) -> None:

@@ -158,7 +158,13 @@ from analyzer.parallel import (
     make_executor,
     usable_cpus,
 )
-from analyzer.readers import Archive, ArchiveNote, check_renames, open_archive
+from analyzer.readers import (
+    Archive,
+    ArchiveNote,
+    applied_renames,
+    check_renames,
+    open_archive,
+)
 from analyzer.readers.base import (
     InputInfo,
     about_selection,
@@ -223,7 +229,7 @@ from analyzer.timeutil import (
     spoken_duration,
     window_text,
 )
-from analyzer.types import NS_PER_S, FaultType, prefixed
+from analyzer.types import NS_PER_S, FaultType, Note, prefixed
 from analyzer.window_note import AnomalyNote, info_lines
 
 MATERIALIZE_IN_MEMORY = 1 << 24
@@ -415,16 +421,41 @@ def _partial_channels(
     return notes
 
 
-def _blank_model_note(dead: Sequence[str], results: Sequence[DetectorResult]) -> str:
+BLANK_WORDS = "blank in every row"
+"""What a CSV column with no cell filled was (:func:`_no_reading`)."""
+
+
+class BlankModelNote(Note):
+    """:func:`_blank_model_note`'s note, which ``run`` repeats on stderr as a warning and
+    ``watch`` among the archive's warnings: stderr said only the reader's "blank in every
+    row; not analyzed", not that the model's detectors lost the other channels too."""
+
+    __slots__ = ()
+
+
+def _blank_model_note(
+    dead: Sequence[str],
+    results: Sequence[DetectorResult],
+    no_reading: Mapping[str, str] | None = None,
+) -> str:
     """With ``--model``: what its detectors (``results``) could audit beside the channels
     ``dead``, blank in every row of this record (each one's finding): the residuals that
     have data. A detector that models the channels together (the AR bank, the detection
     filter) has none without one of them, the equivalent model keeps those of the
     channels not modelled from it; "1 sensor fault found" alone let a user think the
-    others were audited as usual."""
+    others were audited as usual. Each dead channel is listed in findings.json's
+    ``channels[]`` as one with no reading (:func:`analyzer.findings.unread_channels`);
+    ``no_reading``: what each one's values were (:func:`_no_reading`): "blank in every
+    row" was said of an MCAP field NaN in every message too."""
     if not dead:
         return ""
     one = len(dead) == 1
+    blank = all((no_reading or {}).get(c, BLANK_WORDS) == BLANK_WORDS for c in dead)
+    state = (
+        f"{'is' if one else 'are'} {BLANK_WORDS}"
+        if blank
+        else f"{'has' if one else 'have'} no reading at all"
+    )
     it = "it" if one else "them"
     blind, partial = [], []
     for r in results:
@@ -440,11 +471,12 @@ def _blank_model_note(dead: Sequence[str], results: Sequence[DetectorResult]) ->
         said.append(f"{'; '.join(partial)} (the others are modelled from {it})")
     what = " and ".join(said) if said else "its detectors audit the others"
     pattern = " ".join(f"'!{c}'" for c in dead)
-    return (
-        f"{capped(dead)} {'is' if one else 'are'} blank in every row (a dead sensor"
-        f"{'' if one else 's'}: {'its' if one else 'their'} finding); the model's detectors "
-        f"need {it} beside the others: without {it}, {what}; a model saved without {it} "
-        f"(--save-model on a healthy record with --channels {pattern}) audits the others in full"
+    return BlankModelNote(
+        f"{capped(dead)} {state} (a dead sensor"
+        f"{'' if one else 's'}: {'its' if one else 'their'} finding; listed in channels "
+        f'with why "no reading"); the model\'s detectors need {it} beside the others: '
+        f"without {it}, {what}; a model saved without {it} (--save-model on a healthy "
+        f"record with --channels {pattern}) audits the others in full"
     )
 
 
@@ -728,6 +760,7 @@ def _read_checked(
     reading = None if progress is None else partial(progress, "read")
     archive = open_archive(inputs, options.inside)
     archive.renames = dict(options.rename)
+    archive.rename_origin = config_renames(options)
     fed = Tally()
     codes = options.missing_values
     unread = Unread()
@@ -1170,6 +1203,7 @@ def _analyze(
                 config_info=options.config.info(),
                 left_out=_left_out(notes, infos, chosen, options),
                 no_reading=unread_words,
+                renamed=applied_renames(archive),
                 unrun=unrun,
                 time_source=time_source(archive.inputs, options.time_source),
             )
@@ -1406,7 +1440,7 @@ def _analyze(
         # the sensors named (--channels, the config, the model) that read one value over
         # the whole record: one finding each, with what the detectors found on it
         findings = merged(silent, constant_findings(notes, findings))
-        notes.extend(n for n in [_blank_model_note(unread, results)] if n)
+        notes.extend(n for n in [_blank_model_note(unread, results, unread_words)] if n)
         # a clipped or stuck value that may be a logger's "no reading" (-9999): said how
         # to declare it (:mod:`analyzer.missing_codes`)
         notes.extend(code_hints(findings, values, chosen))
@@ -1470,6 +1504,7 @@ def _analyze(
             screen=screen,
             left_out=_left_out(notes, infos, chosen, options),
             no_reading=unread_words,
+            renamed=applied_renames(archive),
             time_source=time_source(archive.inputs, options.time_source),
             cautions=cautions,
         )
@@ -1569,6 +1604,19 @@ def _constant_finding(info: ChannelInfo, also: Sequence[Finding]) -> Finding:
     )
 
 
+def config_renames(options: RunOptions) -> dict[str, str]:
+    """The renames of ``options`` that its config's ``[rename]`` gave (the option did not
+    override them), each as its errors name it: ``F: [rename] s9 = "s2"``
+    (:attr:`~analyzer.readers.Archive.rename_origin`)."""
+    cfg = options.config
+    given = dict(options.rename)
+    return {
+        new: f'{cfg.path}: [rename] {new} = "{old}"'
+        for new, old in cfg.rename.items()
+        if given.get(new) == old
+    }
+
+
 def _no_reading(blank: set[str], unread: Mapping[str, tuple[str, int]]) -> dict[str, str]:
     """The channels with no reading at all, each with what its values were: a CSV column
     ``blank`` in every row, or one of ``unread`` (:meth:`~analyzer.missing_codes.Unread.
@@ -1578,7 +1626,7 @@ def _no_reading(blank: set[str], unread: Mapping[str, tuple[str, int]]) -> dict[
         c: (
             f"every one of its {unread[c][1]} values is {unread[c][0]}"
             if c in unread
-            else "blank in every row"
+            else BLANK_WORDS
         )
         for c in sorted(blank)
     }
@@ -3220,7 +3268,8 @@ def _run_into(inputs: Sequence[str | Path], out: Path, options: RunOptions, crea
                 options.warn(line)
             for line in window_warnings(analysis.notes):  # a training window not healthy
                 options.warn(line)
-            for line in (n for n in analysis.notes if isinstance(n, (CodeHint, UnreadNote))):
+            warned = (CodeHint, UnreadNote, BlankModelNote)
+            for line in (n for n in analysis.notes if isinstance(n, warned)):
                 options.warn(line)
             for line in (n for n in analysis.notes if isinstance(n, ClusterTrouble)):
                 options.warn(line)  # (the cluster failed the run: it went on here)
@@ -3647,6 +3696,7 @@ def _archive_notes(analysis: Analysis) -> list[str]:
 __all__ = [
     "Analysis",
     "AnalyzerError",
+    "BlankModelNote",
     "RunOptions",
     "analyze",
     "findings_document",

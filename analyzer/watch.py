@@ -214,6 +214,7 @@ from analyzer.outdir import write_atomic
 from analyzer.paging import tune_heap
 from analyzer.parallel import DaskExecutor, usable_cpus
 from analyzer.pipeline import (
+    BlankModelNote,
     analyze_screened,
     config_warnings,
     faults_words,
@@ -543,6 +544,8 @@ def _write_results(analysis: Analysis, options: RunOptions, out_dir: Path) -> No
     lines = [  # (the archive's own lines first: the index shows the first)
         # (findings.json's notes too, but "no fault" in the index hid them)
         *(n for n in analysis.notes if isinstance(n, AnomalyNote)),
+        # (--model: a model's channel blank in every row, and what the model lost with it)
+        *(n for n in analysis.notes if isinstance(n, BlankModelNote)),
         *window_warnings(analysis.notes),
         *figures,
         # (last: every archive gets them, and first they hid its anomaly, rcfg53)

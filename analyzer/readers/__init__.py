@@ -20,7 +20,7 @@ import os
 import queue
 import threading
 import time as time_module
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -55,11 +55,15 @@ __all__ = [
     "RenameError",
     "RenamedNote",
     "Unstitchable",
+    "applied_renames",
     "check_renames",
     "detect_format",
     "open_archive",
     "open_input",
+    "parse_renames",
+    "renamed_from_json",
     "renamed_successors",
+    "renamed_words",
     "skipped_folder",
 ]
 
@@ -267,9 +271,71 @@ def check_renames(archive: Archive) -> None:
     if unknown:
         new = unknown[0]
         raise RenameError(
-            f"--rename {new}={archive.renames[new]}: no input has a channel {new} "
+            f"{archive.rename_given(new)}: no input has a channel {new} "
             "(NEW=OLD: the name the sensor has in the later files, then the one it replaces)"
         )
+
+
+def parse_renames(
+    given: Sequence[str], config: Mapping[str, str] | None = None
+) -> tuple[tuple[str, str], ...]:
+    """``--rename``'s ``NEW=OLD`` texts, checked, after the config's ``[rename]`` pairs
+    (the option's win on one NEW name): :class:`UsageError` for a text without ``=``, an
+    empty name, a name renamed to itself, one NEW given twice, or an OLD that is
+    itself renamed (two NEW names may read as one OLD: a sensor replaced twice; an input
+    holding two of them at once is the reading's error). One parsing for ``run``,
+    ``watch``, ``inspect`` and ``export`` (here, not in :mod:`analyzer.options`, whose
+    imports ``inspect`` need not pay for)."""
+    pairs = dict(config or {})
+    seen: set[str] = set()
+    for text in given:
+        new, sep, old = text.partition("=")
+        new, old = new.strip(), old.strip()
+        if not sep or not new or not old:
+            raise UsageError(
+                f"--rename {text}: expected NEW=OLD (the channel's name in the later "
+                "files, then the name it replaces: --rename s3b=s3)"
+            )
+        if new in seen:
+            raise UsageError(f"--rename {text}: {new} is renamed twice")
+        seen.add(new)
+        pairs[new] = old
+    for new, old in pairs.items():
+        if new == old:
+            raise UsageError(f"--rename {new}={old}: a name renamed to itself")
+        if old in pairs:
+            raise UsageError(
+                f"--rename {new}={old}: {old} is itself renamed (--rename {old}={pairs[old]}); "
+                f"give --rename {new}={pairs[old]}"
+            )
+    return tuple(pairs.items())
+
+
+def applied_renames(archive: Archive) -> dict[str, dict[str, tuple[str, ...]]]:
+    """The renames of ``archive`` that were applied, once its chunks were all read: by
+    OLD channel name, each NEW name read as it and the inputs that held NEW (as their
+    paths are written in findings.json's ``inputs``), in the order they were read.
+    findings.json's and ``inspect --json``'s ``renamed_from`` of a channel: a reader of
+    them could not tell that a channel's later samples came from another column."""
+    out: dict[str, dict[str, tuple[str, ...]]] = {}
+    for new, paths in archive.renamed.items():
+        out.setdefault(archive.renames[new], {})[new] = tuple(str(p) for p in paths)
+    return out
+
+
+def renamed_from_json(renamed: Mapping[str, tuple[str, ...]]) -> list[dict[str, object]]:
+    """A channel's ``renamed_from`` (of :func:`applied_renames`): each NEW name and the
+    inputs its samples came from."""
+    return [{"name": new, "inputs": list(paths)} for new, paths in renamed.items()]
+
+
+def renamed_words(renamed: Mapping[str, tuple[str, ...]]) -> str:
+    """``read from s3b in log_02.csv, log_03.csv``: a channel's :func:`applied_renames`
+    entry in the report's channel table and ``inspect``'s note."""
+    return "; ".join(
+        f"read from {new} in {capped([Path(p).name for p in paths], 3, what='inputs')}"
+        for new, paths in renamed.items()
+    )
 
 
 class Unstitchable(ReaderError):
@@ -309,6 +375,9 @@ class Archive:
         """``--rename NEW=OLD`` (and the config's ``[rename]``): each NEW channel name, as
         read, and the OLD one its samples are read as (:meth:`chunks`), a sensor
         replaced under a new name from one file on joined to the one it replaces."""
+        self.rename_origin: dict[str, str] = {}
+        """How each NEW name of :attr:`renames` that did not come from ``--rename`` was
+        given, for its errors (:meth:`rename_given`): the config's ``[rename]`` line."""
         self.renamed: dict[str, list[Path]] = {}
         """The inputs each NEW name of :attr:`renames` was read from, once :meth:`chunks`
         has streamed them all (a NEW name no input holds is the option's error:
@@ -385,6 +454,12 @@ class Archive:
             for pending in ahead.values():
                 pending.close()
 
+    def rename_given(self, new: str) -> str:
+        """How the rename of ``new`` was given, as its errors name it: ``--rename
+        NEW=OLD``, or the config's line (``F: [rename] NEW = "OLD"``), which named
+        ``--rename`` to a user who had given none."""
+        return self.rename_origin.get(new, f"--rename {new}={self.renames[new]}")
+
     def _renamed(self, reader: Reader, source: Iterator[ChannelChunk]) -> Iterator[ChannelChunk]:
         """One input's chunks with each NEW name of :attr:`renames` read as its OLD one
         (chunk by chunk, no per-sample work), and its blank columns' names too
@@ -403,7 +478,7 @@ class Archive:
         if both:
             new = both[0]
             raise RenameError(
-                f"--rename {new}={self.renames[new]}: {reader.info.path} holds both "
+                f"{self.rename_given(new)}: {reader.info.path} holds both "
                 f"{new} and {self.renames[new]} (two sensors at once cannot be one channel)"
             )
         for new, old in self.renames.items():

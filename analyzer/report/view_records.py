@@ -148,6 +148,10 @@ class ChannelView:
     end_s: str
     gaps: str
     range: str
+    renamed: str = ""
+    """Where ``--rename`` (or the config's ``[rename]``) joined another name to it: what
+    it was read from (``read from s3b in log_02.csv``, :func:`~analyzer.readers.
+    renamed_words`), under its name."""
 
 
 @dataclass(slots=True)

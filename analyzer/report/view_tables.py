@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from analyzer.errors import counted
+from analyzer.readers import renamed_words
 from analyzer.report import format as fmt
 from analyzer.report.methods import CHECKS, DETECTORS, Method
 from analyzer.report.view_records import (
@@ -120,25 +121,34 @@ class TableParts:
                     end_s=self.when((c.end_ns - start) / NS_PER_S),
                     gaps=str(c.gaps),
                     range=fmt.num_range(c.minimum, c.maximum),
+                    renamed=self._renamed(c.name),
                 )
             )
         listed = {v.name for v in out}
         for name, what in (getattr(self.an, "no_reading", {}) or {}).items():
-            # (a column with no reading at all: no sample, said for what it is)
-            if name not in listed and name not in self.analyzed:
+            # (a column with no reading at all: no sample, said for what it is; a saved
+            # model's such channel too, analyzed: its finding says it is dead)
+            if name not in listed:
                 out.append(
                     ChannelView(
                         name=name,
-                        analyzed=False,
+                        analyzed=name in self.analyzed,
                         samples="0",
                         rate=fmt.MISSING,
                         start_s=fmt.MISSING,
                         end_s=fmt.MISSING,
                         gaps=fmt.MISSING,
                         range=f"no reading: {what}",
+                        renamed=self._renamed(name),
                     )
                 )
         return out
+
+    def _renamed(self, name: str) -> str:
+        """Channel ``name``'s :attr:`ChannelView.renamed`: the names ``--rename`` read as
+        it and the inputs that held them (:attr:`analyzer.findings.Analysis.renamed`)."""
+        renamed = (getattr(self.an, "renamed", {}) or {}).get(name)
+        return renamed_words(renamed) if renamed else ""
 
     # -- models and method ---------------------------------------------------------------------
     def model_view(self, d: Mapping[str, Any]) -> ModelView:

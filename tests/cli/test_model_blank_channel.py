@@ -14,7 +14,7 @@ import pytest
 
 from analyzer.simulate import simulate_building
 from analyzer.writers import write_archive
-from tests.cli.cli_helpers import run_cli, run_to, schema_valid
+from tests.cli.cli_helpers import run_cli, run_to, said, schema_valid
 
 RATE = 100.0
 START = "2026-03-03T14:00:00Z"
@@ -97,3 +97,47 @@ def test_a_channel_absent_from_the_archive_is_still_refused(tmp_path, capsys, mo
     code, _, err = run_cli(["run", day, "--out", tmp_path / "o", "--model", saved], capsys)
     assert code == 2
     assert f"this archive has no channel {names[3]}" in err
+
+
+@pytest.mark.parametrize(("fmt", "words"), [("csv", "blank in every row"), ("mcap", "NaN")])
+def test_a_blank_model_channel_is_listed_in_channels(tmp_path, capsys, fmt, words):
+    """A model saved on four channels, run on a record whose s2 has no reading at all
+    (a CSV column blank in every row, an MCAP field NaN in every message): s2 is in
+    ``channels[]`` (it was missing: listed without --model, not with it) with samples 0,
+    why "no reading" and what its values were; it stays analyzed, as the model's other
+    channels (its finding, silent_check; corrected.csv's column); the run warns what the
+    model lost with it; the report's channel table has its row (ch57)."""
+    t, y, _ = simulate_building(4, 60.0, RATE, seed=4)
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    fit = tmp_path / f"fit.{fmt}"
+    names = write_archive(fit, fmt, t_ns, {f"s{j}": y[:, j] for j in range(4)}, start_iso=START)
+    saved = tmp_path / "four.model"
+    code, _, err = run_cli(
+        ["run", fit, "--out", tmp_path / "fit", "--no-progress", "--save-model", saved], capsys
+    )
+    assert code == 0, err
+    dead = names["s2"]
+    y[:, 2] = np.nan
+    day = tmp_path / "day" / f"b.{fmt}"
+    day.parent.mkdir()
+    write_archive(day, fmt, t_ns, {f"s{j}": y[:, j] for j in range(4)}, start_iso=START)
+    code, err, doc, out = run_to(tmp_path, capsys, day, "--model", saved, "--corrected")
+    assert code == 1, err
+    schema_valid(doc)
+    (entry,) = [c for c in doc["channels"] if c["name"] == dead]
+    assert (entry["samples"], entry["why"], entry["analyzed"]) == (0, "no reading", True), entry
+    assert words in entry["no_reading"], entry
+    assert sorted(c["name"] for c in doc["channels"]) == sorted(names.values())
+    assert sorted(c["name"] for c in doc["channels"] if c["analyzed"]) == sorted(
+        doc["model"]["channels"]
+    )
+    (f,) = doc["faults"]
+    assert (f["channel"], f["detector"]) == (dead, "silent_check")
+    header = (out / "corrected.csv").read_text().splitlines()[0].replace('"', "").split(",")
+    assert sorted(header[1:]) == sorted(doc["model"]["channels"])
+    (warned,) = [w for w in said(err) if "the model's detectors need it" in w]
+    state = "is blank in every row" if fmt == "csv" else "has no reading at all"
+    assert warned.startswith(f"analyzer: warning: {dead} {state} (a dead sensor"), warned
+    assert 'listed in channels with why "no reading"' in warned, warned
+    html = (out / "report.html").read_text()
+    assert f"no reading: {entry['no_reading']}" in html

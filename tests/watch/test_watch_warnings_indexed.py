@@ -143,3 +143,49 @@ def test_an_archives_warnings_are_capped_and_the_shown_one_cut(
     assert "301 warnings: " in page and "(all of them in the watcher's log)" in page
     assert "gone0000" in page and "gone1999" not in page  # (cut, not dropped)
     assert " ... [" in page and len(page) < 20_000, len(page)
+
+
+def test_a_blank_model_channel_is_among_the_archives_warnings(
+    tmp_path: Path,
+    folders: tuple[Path, Path],
+    start_watcher: Callable[..., Watcher],
+) -> None:
+    """``watch --model`` on an archive whose column of a model's channel is blank in
+    every row: what the model lost with it (its detectors that have no residual without
+    it) is among the archive's warnings, as ``run`` warns it; the record's warnings held
+    only the reader's "blank in every row; not analyzed" (ch57)."""
+    from analyzer.cli import main
+
+    inbox, reports = folders
+    fit = _archive(tmp_path / "fit.csv", seed=1)
+    model = tmp_path / "building.model"
+    out = tmp_path / "fit"
+    assert (
+        main(
+            [
+                "run",
+                str(fit),
+                "--out",
+                str(out),
+                "--no-progress",
+                "--train",
+                "0:12",
+                "--save-model",
+                str(model),
+            ]
+        )
+        == 0
+    )
+    t, y, names = simulate_building(3, 40.0, 100.0, seed=2)
+    y[:, 1] = np.nan
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    write_archive(
+        inbox / "dead.csv", "csv", t_ns, {n: y[:, i] for i, n in enumerate(names)}, start_iso=START
+    )
+    options = load_options(None, model=str(model))
+    assert (
+        start_watcher(WatchSettings(inbox, reports, settle=SETTLE, once=True), options).join() == 1
+    )
+    said = state(reports)["dead.csv"]["warnings"]
+    (lost,) = [w for w in said if "the model's detectors need it" in w]
+    assert lost.startswith(f"{names[1]} is blank in every row (a dead sensor"), lost
