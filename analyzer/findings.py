@@ -34,7 +34,7 @@ from analyzer.silent import MIN_SAMPLES as SILENT_SAMPLES
 from analyzer.silent import MIN_WINDOWS as SILENT_WINDOWS
 from analyzer.silent import SILENT_CHECK
 from analyzer.store import ChannelInfo
-from analyzer.timeutil import DURATION_DECIMALS, iso_utc, json_time
+from analyzer.timeutil import DURATION_DECIMALS, iso_utc, json_time, seconds_text
 from analyzer.types import NS_PER_S, Format
 from analyzer.what_to_check import channel_units, what_to_check
 
@@ -256,8 +256,8 @@ def not_finite_note(f: Finding, labels: Mapping[str, str] | None = None) -> str 
         return None
     name = (labels or {}).get(f.channel, f.channel)
     return (
-        f"{name}'s {str(f.type)} fault at {f.onset_s:.3f} s: its {', '.join(bad)} could not be "
-        "computed (not a finite number); findings.json gives 0 for one that is not a "
+        f"{name}'s {str(f.type)} fault at {seconds_text(f.onset_s)} s: its {', '.join(bad)} could "
+        "not be computed (not a finite number); findings.json gives 0 for one that is not a "
         "number and the largest number it can hold, with its sign, for an infinite one"
     )
 

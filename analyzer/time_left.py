@@ -1,7 +1,7 @@
 """An estimate of the time a ``run`` has left, for its progress on stderr (the bar and
 ``--progress``'s plain lines; the operator's audit ux62 LOW 7: a month's run said its
-stages' shares and seconds but not when it would end, where ``watch --once`` says
-``about 32 s left``).
+stages' shares and seconds but not when it would end, where ``watch --once`` said
+``about 32 s left``); :func:`left_text` words it for both commands.
 
 How it is computed (:class:`TimeLeft`): each stage is a known share of a run's work,
 from the benchmarks' per-stage seconds (:data:`STAGE_WEIGHTS`); the work done is the
@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+
+from analyzer.timeutil import spoken_digits
 
 STAGE_WEIGHTS: dict[str, float] = {
     "read": 1.5,
@@ -106,13 +108,18 @@ class TimeLeft:
 
 def left_text(seconds: float) -> str:
     """The time left as a line says it, rounded as an estimate is: ``less than a
-    minute left``, ``about 3 min left``, ``about 2.5 h left``, ``about 3.2 days left``
-    (not ``2.97 min``: the estimate is not that precise)."""
+    minute left``, ``about 3 min left``, ``about 2.5 h left``, ``about 13 h left``,
+    ``about 3.2 days left`` (not ``2.97 min`` nor ``13.2 h``: the estimate is not that
+    precise). The one wording of a time left, ``run``'s progress and ``watch --once``'s
+    (``[2/3, less than a minute left]``): the watcher said 20 s as ``about 20 s left``
+    and 0.5 s as ``under 1 s left`` where ``run`` said ``less than a minute left``,
+    digits its estimate (from the rate of a few analyses) does not have; ``run``'s was
+    measured off by up to half (README)."""
     s = max(0.0, float(seconds))
     if s < 60.0:
         return "less than a minute left"
     if s < 90 * 60.0:
         return f"about {max(1, round(s / 60.0))} min left"
     if s < 48 * 3600.0:
-        return f"about {s / 3600.0:.1f} h left"
-    return f"about {s / 86400.0:.1f} days left"
+        return f"about {spoken_digits(s / 3600.0)} h left"
+    return f"about {spoken_digits(s / 86400.0)} days left"

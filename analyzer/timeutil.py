@@ -74,15 +74,18 @@ def spoken_duration(seconds: float) -> str:
     # (the largest unit of which it is two or more, as written: 7199.98 s is 2.0 h, not
     # 120 min)
     for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
-        text = _digits(s / size)
+        text = spoken_digits(s / size)
         if abs(float(text)) >= 2:
             return f"{text} {unit}"
-    return f"{_digits(s)} s"
+    return f"{spoken_digits(s)} s"
 
 
-def _digits(x: float) -> str:
-    """``x`` as :func:`spoken_duration` writes it: one decimal below 10, none above."""
-    return f"{x:.1f}" if abs(x) < 10 else f"{x:.0f}"
+def spoken_digits(x: float) -> str:
+    """``x`` as :func:`spoken_duration` (and a time left,
+    :func:`~analyzer.time_left.left_text`) writes it: one decimal below 10, none above,
+    by the number as written (9.98 is ``10``: ``10.0`` had a decimal above 10)."""
+    text = f"{x:.1f}"
+    return text if abs(float(text)) < 10 else f"{x:.0f}"
 
 
 def seconds_text(x: float, decimals: int = 3) -> str:

@@ -224,6 +224,7 @@ from analyzer.readers._common import link_out, open_inside
 from analyzer.report.format import magnitude
 from analyzer.report.jobs import PRELOAD_MODULE
 from analyzer.scratch import hold, make_scratch, remove_scratch
+from analyzer.time_left import left_text
 from analyzer.timeutil import spoken_duration
 from analyzer.types import MSG_PATH_ENV
 from analyzer.watch_cluster import ClusterTask, warm_worker
@@ -2082,7 +2083,8 @@ class _Runner:
 
     def progress(self) -> str:
         """With ``--once``, where the watcher stands: `` [analyzed/to analyze, about T
-        left]`` (the time left from the rate so far, parallel analyses included); else "".
+        left]`` (the time left from the rate so far, parallel analyses included, worded
+        by :func:`~analyzer.time_left.left_text` as ``run``'s progress is); else "".
         Analyses alone: the archives found analyzed already are neither done nor to do
         (before, ``[3/3]`` ended the only analysis of a pass that found two recorded,
         ux53 item 13), left out of the total from the start (:meth:`to_analyze`: it
@@ -2097,10 +2099,9 @@ class _Runner:
         if self.begun is None or analyzed == 0 or analyzed >= total:
             return f" [{analyzed}/{total}]"
         left = (time.monotonic() - self.begun) / analyzed * (total - analyzed)
-        # (an estimate under a second said in milliseconds, "about 501 ms left", claimed a
-        # precision the rate of a few analyses does not have)
-        when = "under 1 s" if left < 1.0 else f"about {spoken_duration(left)}"
-        return f" [{analyzed}/{total}, {when} left]"
+        # (worded as run's progress words it: the two said 20 s as "about 20 s left" and
+        # "less than a minute left"; the rate of a few analyses is no more precise)
+        return f" [{analyzed}/{total}, {left_text(left)}]"
 
     def to_analyze(self, members: Mapping[str, tuple[Path, ...]]) -> frozenset[str]:
         """Of INBOX's archives at the start (``members``: their paths by name), those

@@ -15,6 +15,8 @@ import re
 from collections.abc import Iterable, Mapping
 from typing import Any
 
+from analyzer.timeutil import seconds_text
+
 UNIT_AT_END = re.compile(r"[(\[]\s*([A-Za-z°%µμΩ][\w/^°%µμΩ.*·-]{0,11})\s*[)\]]\s*$")
 """A unit in round or square brackets at the end of a channel's name: ``(m/s2)``,
 ``[mm]``, ``[degC]``, ``(%)``; one short word without spaces (``s2 (floor 3)`` names no
@@ -82,7 +84,7 @@ def _since(f: Mapping[str, Any]) -> str:
     if f.get("onset"):
         return str(f["onset"])
     try:
-        return f"{float(f.get('onset_s') or 0.0):.3f} s from the start"
+        return f"{seconds_text(float(f.get('onset_s') or 0.0))} s from the start"
     except (TypeError, ValueError):
         return "its onset"
 

@@ -84,6 +84,7 @@ from analyzer.paging import (
     release,
     write_rows,
 )
+from analyzer.timeutil import seconds_text
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -552,7 +553,7 @@ class ARKalmanBank:
                 unattributed.append((t, tuple(data.channels[c] for c, _, _ in spans), ()))
                 unattributed_end.append(max(b for _, _, b in spans) / rate)
                 notes.append(
-                    f"residual anomaly at {t:.3f} s on "
+                    f"residual anomaly at {seconds_text(t)} s on "
                     f"{', '.join(data.channels[c] for c, _, _ in spans)} not attributed to a "
                     "sensor (no estimator isolates it: several sensors at once, or a change "
                     "of the structure or excitation; or no fault shape and no confirmation)"
@@ -574,7 +575,7 @@ class ARKalmanBank:
                 unattributed.append((t, (data.channels[j],), ()))
                 unattributed_end.append(b / rate)
                 notes.append(
-                    f"gain-like change of residual at {t:.3f} s on {data.channels[j]} "
+                    f"gain-like change of residual at {seconds_text(t)} s on {data.channels[j]} "
                     "not attributed to the sensor: no estimator confirmed it, and the "
                     f"estimators that take {data.channels[j]} in move against the change "
                     f"its correction would take out of them ({ratio:+.2f} times it, "

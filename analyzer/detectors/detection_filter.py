@@ -85,7 +85,7 @@ from analyzer.diagnosis.streamed import (
 )
 from analyzer.errors import DetectorError, TooLittleDataError
 from analyzer.paging import RELEASE_ROWS, Released, ScratchRows, finite_rows, release, write_rows
-from analyzer.timeutil import spoken_duration
+from analyzer.timeutil import seconds_text, spoken_duration
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -854,18 +854,25 @@ class DetectionFilter:
                     "candidates": [names[c] for c in chans],
                 }
             )
-            when = f"{ev.onset_s:.3f} s"
+            when = f"{seconds_text(ev.onset_s)} s"
             if blurred:
                 # several sensors at once: a filter's alarm that began inside its own
                 # reported fault, of its type, is that fault going on beside another
                 went_on = _went_on(group, last, w / rate)
                 for c, cand in went_on:
+                    ended = last[c].end_s
+                    assert ended is not None  # (_went_on: only faults that ended)
                     notes.append(
                         f"the {cand.type.value} fault on {names[c]} from "
-                        f"{last[c].onset_s:.3f} s goes on past {last[c].end_s:.3f} s to "
-                        + ("the record's end" if cand.end_s is None else f"{cand.end_s:.3f} s")
-                        + f": its filter alarmed again from {cand.onset_s:.3f} s, inside it, "
-                        "beside another sensor's fault"
+                        f"{seconds_text(last[c].onset_s)} s goes on past {seconds_text(ended)} s "
+                        "to "
+                        + (
+                            "the record's end"
+                            if cand.end_s is None
+                            else f"{seconds_text(cand.end_s)} s"
+                        )
+                        + f": its filter alarmed again from {seconds_text(cand.onset_s)} s, inside "
+                        "it, beside another sensor's fault"
                     )
                     last[c].end_s = cand.end_s
                 chans = [c for c in chans if c not in {c for c, _ in went_on}]
@@ -913,7 +920,7 @@ class DetectionFilter:
                 # this one goes on through it
                 before.end_s = ev.end_s
                 notes.append(
-                    f"the fault on {names[j]} from {before.onset_s:.3f} s goes on past "
+                    f"the fault on {names[j]} from {seconds_text(before.onset_s)} s goes on past "
                     f"{when}, where its filter's residual changed with another sensor's fault"
                 )
                 continue
@@ -949,15 +956,15 @@ class DetectionFilter:
                 # sensor's fault began): that fault went on beside it, not a second one
                 before.end_s = ev.end_s
                 notes.append(
-                    f"the fault on {names[j]} from {before.onset_s:.3f} s goes on past "
-                    f"{began.onset_s:.3f} s and {when}: its filter's residual changed where "
-                    "another sensor's fault began and ended, no sensor named between"
+                    f"the fault on {names[j]} from {seconds_text(before.onset_s)} s goes on past "
+                    f"{seconds_text(began.onset_s)} s and {when}: its filter's residual changed "
+                    "where another sensor's fault began and ended, no sensor named between"
                 )
                 continue
             if began is not None:
                 notes.append(
-                    f"the fault on {names[j]} from {when} began at {began.onset_s:.3f} s, "
-                    "where its filter's residual changed and no sensor was named (several "
+                    f"the fault on {names[j]} from {when} began at {seconds_text(began.onset_s)} "
+                    "s, where its filter's residual changed and no sensor was named (several "
                     "faults at once)"
                 )
                 began_at.append((ev, began.onset_s))

@@ -67,6 +67,7 @@ from analyzer.paging import (
     release,
     write_rows,
 )
+from analyzer.timeutil import seconds_text, spoken_duration
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -693,7 +694,7 @@ class EquivalentModel:
             if not ev.evidence.get("confirmed_by", [None]) and ev.type in LOUD_KINDS:
                 events.remove(ev)
                 notes.append(
-                    f"alarm on {ev.channel} at {first_s:.3f} s not reported: no target "
+                    f"alarm on {ev.channel} at {seconds_text(first_s)} s not reported: no target "
                     "sensor's residual confirmed it, and the other sensors' signals there "
                     f"were {load:.1f} {LOUD_MARK}, which raises every residual (a "
                     "longer healthy window covers it)"
@@ -789,17 +790,19 @@ class EquivalentModel:
                 )
                 if judged.second is not None:
                     notes.append(
-                        f"alarm on {s} at {t0:.3f} s: the residuals that cannot see it alarm "
-                        f"with a second fault, on {judged.second}, which its own target "
-                        "sensors' residuals confirm (two faults at once, not a change of the "
-                        "data as a whole)"
+                        f"alarm on {s} at {seconds_text(t0)} s: the residuals that cannot see it "
+                        f"alarm with a second fault, on {judged.second}, which its own target "
+                        "sensors' residuals confirm (two faults at once, not a change of the data "
+                        "as a whole)"
                     )
                 decisions[-1]["grade"] = judged.evidence
                 confirmed = judged.confirmed
                 if judged.changed is not None:
                     decisions[-1]["changed"] = sorted(alarming)
                     put_down[id(ev)] = ("changed", ())
-                    notes.append(f"alarm on {s} at {t0:.3f} s not attributed: {judged.changed}")
+                    notes.append(
+                        f"alarm on {s} at {seconds_text(t0)} s not attributed: {judged.changed}"
+                    )
                     continue
             if s in diag.faulty:
                 put_down[id(ev)] = ("confirmed" if confirmed else "own", ())
@@ -808,17 +811,17 @@ class EquivalentModel:
             unconfirmed = s in diag.faulty and not confirmed
             if unconfirmed and ev.type is FaultType.OTHER:
                 notes.append(
-                    f"anomaly on {s} at {t0:.3f} s not reported: it has no fault shape and "
-                    "no target sensor's residual saw it (model mismatch rather than a "
-                    "sensor fault)"
+                    f"anomaly on {s} at {seconds_text(t0)} s not reported: it has no fault shape "
+                    "and no target sensor's residual saw it (model mismatch rather than a sensor "
+                    "fault)"
                 )
             elif unconfirmed and ev.end_s is not None and ev.end_s - ev.onset_s < slack_s:
                 # as the bank does (ar_kalman_bank._next_fault): a change gone within the
                 # long window that no other residual confirms is within the model's error
                 notes.append(
-                    f"anomaly on {s} at {t0:.3f} s not reported: it was over within "
-                    f"{ev.end_s - ev.onset_s:.3f} s and no target sensor's residual saw it "
-                    "(within the model's own error rather than a sensor fault)"
+                    f"anomaly on {s} at {seconds_text(t0)} s not reported: it was over within "
+                    f"{spoken_duration(ev.end_s - ev.onset_s)} and no target sensor's residual saw "
+                    "it (within the model's own error rather than a sensor fault)"
                 )
             elif s in diag.faulty:
                 ev.evidence.update(
@@ -837,26 +840,26 @@ class EquivalentModel:
                 accepted.append((s, ev, t0, diag, len(decisions) - 1))
             elif s in diag.propagated:
                 notes.append(
-                    f"alarm on {s} at {t0:.3f} s explained by the alarm on its assistant "
+                    f"alarm on {s} at {seconds_text(t0)} s explained by the alarm on its assistant "
                     f"sensor(s) {', '.join(diag.propagated[s])} (law 0)"
                 )
             elif diag.laws.get(s, "").startswith("undecided"):
                 decisions[-1]["blind"] = sorted(net.dependencies(s) & dark)
                 notes.append(
-                    f"alarm on {s} at {t0:.3f} s not attributed: {diag.laws[s]} (missing "
+                    f"alarm on {s} at {seconds_text(t0)} s not attributed: {diag.laws[s]} (missing "
                     "samples of its assistants), so a fault there explains it as well as one "
                     f"on {s} (law 0 cannot decide)"
                 )
             elif diag.faulty:  # a second fault beside those, on one of the ambiguous
                 notes.append(
-                    f"alarm on {s} at {t0:.3f} s not attributed: beside the fault on "
+                    f"alarm on {s} at {seconds_text(t0)} s not attributed: beside the fault on "
                     f"{', '.join(diag.faulty)}, a fault on any one of "
                     f"{', '.join(diag.ambiguous)} explains the alarms (law 0 for two faults)"
                 )
             else:
                 notes.append(
-                    f"alarm on {s} at {t0:.3f} s not attributed: no law isolates one sensor "
-                    f"among {', '.join(sorted(alarming))}"
+                    f"alarm on {s} at {seconds_text(t0)} s not attributed: no law isolates one "
+                    f"sensor among {', '.join(sorted(alarming))}"
                 )
         # A target's observer can see its assistant's fault before the assistant's own
         # residual does (a gain fault on s5 alarmed s4's residual, whose assistant it is,
@@ -883,10 +886,12 @@ class EquivalentModel:
                 continue
             r, tr = root
             withdrawn.add(id(ev))
-            decisions[k]["revised"] = f"explained by the alarm on {r} at {tr:.3f} s (law 0)"
+            decisions[k]["revised"] = (
+                f"explained by the alarm on {r} at {seconds_text(tr)} s (law 0)"
+            )
             notes.append(
-                f"alarm on {s} at {t0:.3f} s explained by the alarm on its assistant sensor "
-                f"{r} that began at {tr:.3f} s while it lasted (law 0)"
+                f"alarm on {s} at {seconds_text(t0)} s explained by the alarm on its assistant "
+                f"sensor {r} that began at {seconds_text(tr)} s while it lasted (law 0)"
             )
         events = [ev for ev in events if id(ev) not in withdrawn]
         return events, notes, decisions

@@ -131,7 +131,7 @@ from analyzer.errors import (
     TooLittleDataError,
 )
 from analyzer.stats.results import json_float
-from analyzer.timeutil import spoken_duration
+from analyzer.timeutil import seconds_text, spoken_duration
 from analyzer.types import FaultType
 
 FloatArray = npt.NDArray[np.float64]
@@ -1101,11 +1101,11 @@ def _all_at_once(
                 onset = min(e.onset_s for e in near)
                 unattributed.append((onset, names, ()))
                 notes.append(
-                    f"alarms from {onset:.3f} s on every uncertain sensor of group {group!r} "
-                    f"({', '.join(names)}), beginning within {spoken_duration(span_s)} and ending "
-                    "together: not attributed (a failure of one uncertain sensor raises its "
-                    "own error function only; all of them at once is a reference sensor, "
-                    "the uncertain sensors failing together, or a change of the structure "
+                    f"alarms from {seconds_text(onset)} s on every uncertain sensor of group "
+                    f"{group!r} ({', '.join(names)}), beginning within {spoken_duration(span_s)} "
+                    "and ending together: not attributed (a failure of one uncertain sensor "
+                    "raises its own error function only; all of them at once is a reference "
+                    "sensor, the uncertain sensors failing together, or a change of the structure "
                     "or excitation)"
                 )
                 k += len(near)
@@ -1137,8 +1137,8 @@ def _one_per_fault(events: list[Event], span_s: float, notes: list[str]) -> list
             best.evidence["candidates"] = sorted({e.channel for e in group})
             best.confidence *= UNISOLATED_FACTOR
             notes.append(
-                f"alarms near {t0:.3f} s on {best.channel} and {', '.join(others)}: reported "
-                f"once, on the strongest ({best.channel}); without [[group]] the error "
+                f"alarms near {seconds_text(t0)} s on {best.channel} and {', '.join(others)}: "
+                f"reported once, on the strongest ({best.channel}); without [[group]] the error "
                 "functions cannot tell which sensor failed"
             )
         # while that fault lasts, every function that uses the sensor may alarm later
@@ -1148,9 +1148,9 @@ def _one_per_fault(events: list[Event], span_s: float, notes: list[str]) -> list
         pending = [e for e in pending if _first_alarm(e) > t0 + span_s and _first_alarm(e) >= until]
         for e in later:
             notes.append(
-                f"alarm on {e.channel} at {_first_alarm(e):.3f} s, during the fault reported on "
-                f"{best.channel}: taken as its effect (without [[group]] the error functions "
-                "cannot tell a second failure from it)"
+                f"alarm on {e.channel} at {seconds_text(_first_alarm(e))} s, during the fault "
+                f"reported on {best.channel}: taken as its effect (without [[group]] the error "
+                "functions cannot tell a second failure from it)"
             )
         out.append(best)
     return out

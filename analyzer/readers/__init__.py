@@ -39,7 +39,7 @@ from analyzer.readers._common import (
 from analyzer.readers.base import ChannelChunk, InputInfo, Reader, TimeSource, damage_of
 from analyzer.readers.chunk_limits import OversizedChunk
 from analyzer.readers.seams import Seam, dropped_line, forward_line, is_gap, set_back_line
-from analyzer.timeutil import plausible_epoch
+from analyzer.timeutil import plausible_epoch, spoken_duration
 from analyzer.types import Format, Note
 
 # The format readers are imported when a file of theirs is opened: an MCAP run need not
@@ -563,7 +563,7 @@ class Archive:
         if line is not None:
             reader.info.errors.append(line)
         if is_gap(start - last, spacing, REORDER_WINDOW_NS):
-            words = f"where a gap of {(start - last) / 1e9:.3f} s begins"
+            words = f"where a gap of {spoken_duration((start - last) / 1e9)} begins"
             self._seam(before, reader, last, words, gap_to=start)
         return False
 

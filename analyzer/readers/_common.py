@@ -34,7 +34,7 @@ from analyzer.readers.base import DAMAGE, ChannelChunk
 from analyzer.readers.delays import LogDelays
 from analyzer.readers.quaternions import QuaternionSigns
 from analyzer.readers.tally import Tally
-from analyzer.timeutil import iso_utc, plausible_epoch, spoken_duration
+from analyzer.timeutil import iso_utc, plausible_epoch, seconds_text, spoken_duration
 from analyzer.types import NS_PER_S
 
 IntArray = npt.NDArray[np.int64]
@@ -390,7 +390,10 @@ def two_clocks(clocks: dict[str, str], spans: dict[str, tuple[int, int]]) -> str
     def when(lo: int, hi: int) -> str:
         if hi >= HEADER_EPOCH_NS:
             return f"Unix times, {iso_utc(lo)} to {iso_utc(hi)}"
-        return f"{lo / 1e9:.3f} to {hi / 1e9:.3f} s, not Unix times: a simulation clock?"
+        return (
+            f"{seconds_text(lo / NS_PER_S)} to {seconds_text(hi / NS_PER_S)} s, not Unix "
+            "times: a simulation clock?"
+        )
 
     stamped, lo, hi = side("header")
     others, other_lo, other_hi = side("log", "stamped")
@@ -438,7 +441,7 @@ def stamp_text(ns: int) -> str:
     clock)."""
     if ns >= HEADER_EPOCH_NS:
         return str(iso_utc(ns))
-    return f"{ns / 1e9:.3f} s (not a Unix time)"
+    return f"{seconds_text(ns / NS_PER_S)} s (not a Unix time)"
 
 
 LOG_SET_BACK_NS = CLOCKS_APART_NS + REORDER_WINDOW_NS

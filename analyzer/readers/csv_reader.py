@@ -120,7 +120,7 @@ from analyzer.readers._common import (
     one_line,
 )
 from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
-from analyzer.timeutil import iso_utc, plausible_epoch, spoken_duration
+from analyzer.timeutil import iso_utc, plausible_epoch, seconds_text, spoken_duration
 
 if TYPE_CHECKING:  # pandas is imported where a time column needs it: MCAP and bag runs,
     import pandas as pd  # and CSVs with numeric or ISO times, never load it (~0.3 s)
@@ -932,7 +932,7 @@ class CsvReader:
         """A time read, as it is said in ``info.errors``."""
         if self.info.absolute_time:
             return iso_utc(ns) or ""
-        return f"{ns / 1e9:.3f} s"
+        return f"{seconds_text(ns / NS_PER_S)} s"
 
     def _so_far(self, rows: int, newest: int | None) -> str:
         """How much was read: rows, up to which time."""
@@ -1048,16 +1048,17 @@ class CsvReader:
                 else "more than half the way back to the"
             )
             line = (
-                f"the time column {name!r} steps back by {back / 1e9:.3f} s at data row "
-                f"{row} ({cell!r}: from {self._when(newest)} to {self._when(time)}), {to} "
-                f"time of its first row ({self._when(restart)}), and counts on "
-                "over the times already read: a logger restarted, its clock counting from "
-                "its start again? Its rows would fall on those before at the same times; "
-                "split the file at that row and analyze the parts apart"
+                f"the time column {name!r} steps back by {spoken_duration(back / NS_PER_S)} at "
+                f"data row {row} ({cell!r}: from {self._when(newest)} to {self._when(time)}), {to} "
+                f"time of its first row ({self._when(restart)}), and counts on over the times "
+                "already read: a logger restarted, its clock counting from its start again? Its "
+                "rows would fall on those before at the same times; split the file at that row "
+                "and analyze the parts apart"
             )
         elif self._zoneless and DST_STEP_NS[0] < back <= DST_STEP_NS[1]:
             line = (
-                f"the time column {name!r} steps back by {back / 1e9:.3f} s at data row {row} "
+                f"the time column {name!r} steps back by {spoken_duration(back / NS_PER_S)} at "
+                f"data row {row} "
                 f"({cell!r}: from {self._when(newest).removesuffix('Z')} to "
                 f"{self._when(time).removesuffix('Z')}), in times without a zone: local "
                 "times set back an hour, as at the change from summer to winter time? The "
@@ -1085,13 +1086,13 @@ class CsvReader:
         an hour without data and UTC times that are the file's local times (ux55 item 11:
         the gap was said, not what it may be). The reading is unchanged."""
         return (
-            f"the time jumps forward by {(time - before) / 1e9:.3f} s at data row {row} "
-            f"({cell!r}: from {self._when(before).removesuffix('Z')} to "
-            f"{self._when(time).removesuffix('Z')}), over a whole hour of the clock, in "
-            "times without a zone: local times set forward, as at the change from winter to "
-            "summer time? Read as UTC, that hour is a gap and every time said in UTC is the "
-            "file's local time; write the times in UTC, or as date-times with their offset "
-            "from UTC, for true UTC times"
+            f"the time jumps forward by {spoken_duration((time - before) / NS_PER_S)} at data row "
+            f"{row} ({cell!r}: from {self._when(before).removesuffix('Z')} to "
+            f"{self._when(time).removesuffix('Z')}), over a whole hour of the clock, in times "
+            "without a zone: local times set forward, as at the change from winter to summer "
+            "time? Read as UTC, that hour is a gap and every time said in UTC is the file's local "
+            "time; write the times in UTC, or as date-times with their offset from UTC, for true "
+            "UTC times"
         )
 
     def _step_note(self, steps: _Steps, dropped: bool) -> str:
@@ -1119,7 +1120,8 @@ class CsvReader:
         )
         window = REORDER_WINDOW_NS / 1e9
         return (
-            f"the time steps back by {back:.3f} s at data row {steps.row} ({steps.text!r}: "
+            f"the time steps back by {spoken_duration(back)} at data row {steps.row} "
+            f"({steps.text!r}: "
             f"from {self._when(steps.before_ns)} to {self._when(steps.after_ns)}){dst}; "
             f"the {steps.behind} "
             f"rows stamped more than {window:g} s before a time read earlier{more} are {fate}"
@@ -1209,7 +1211,8 @@ class CsvReader:
                 f"two time columns: {mine!r} gave the time "
                 f"({self._time_text().removeprefix(f'column {mine!r}: ')}); {theirs!r} "
                 f"(date-times) was ignored: its date-times less the times of {mine!r} vary by "
-                f"{spread / 1e9:.3f} s over the first {counted(int(both.sum()), 'row')} "
+                f"{spoken_duration(spread / NS_PER_S)} over the first "
+                f"{counted(int(both.sum()), 'row')} "
                 f"(more than the {allowed / 1e9:g} s resolution of the two), so they do not agree"
             )
             return

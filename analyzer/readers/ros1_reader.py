@@ -56,6 +56,7 @@ from analyzer.readers.base import (
 from analyzer.readers.cut_chunk import CutDataError, cut_prefix, recovered_share
 from analyzer.readers.rosdecode import RosBatchDecoder
 from analyzer.readers.rostypes import TypeResolutionError, normalize_msgtype, store_from_definition
+from analyzer.timeutil import spoken_duration
 from analyzer.types import Format
 
 MAGIC = b"#ROSBAG V2.0\n"
@@ -182,7 +183,8 @@ class _ScanCount:
         plural, were = ("s", "were") if self.count != 1 else ("", "was")
         until = (self.last - self.first) / 1e9
         return (
-            f"the {self.count} message{plural} before it {were} read, up to {until:.3f} s "
+            f"the {self.count} message{plural} before it {were} read, up to "
+            f"{spoken_duration(until)} "
             "after the first"
         )
 
@@ -191,7 +193,9 @@ class _ScanCount:
         if self.first is None or self.last is None:
             return "no message read in all"
         until = (self.last - self.first) / 1e9
-        return f"{self.count} message(s) read in all, up to {until:.3f} s after the first"
+        return (
+            f"{self.count} message(s) read in all, up to {spoken_duration(until)} after the first"
+        )
 
 
 def _op(fields: dict[str, bytes]) -> int:

@@ -27,7 +27,7 @@ import numpy as np
 from analyzer.errors import capped
 from analyzer.readers._common import DST_STEP_NS, HOUR_NS, hour_skipped
 from analyzer.readers.base import Reader
-from analyzer.timeutil import iso_utc, plausible_epoch
+from analyzer.timeutil import iso_utc, plausible_epoch, spoken_duration
 
 SEAM_SLACK_S = 2.0
 """An alarm no finding explains that begins within this many seconds of a seam where
@@ -80,12 +80,12 @@ def set_back_line(reader: Reader, before: Reader, end_ns: int, start_ns: int) ->
     if not DST_STEP_NS[0] < back <= DST_STEP_NS[1]:
         return None
     return (
-        f"{reader.info.path}: its times begin {back / 1e9:.3f} s before the last time of "
-        f"{before.info.path} (from {_local(end_ns)} to {_local(start_ns)}), in times "
-        "without a zone: local times set back an hour, as at the change from summer to "
-        "winter time? The hour after the step repeats the times of the hour before, which "
-        "cannot be told apart; write the times in UTC, or as date-times with their offset "
-        "from UTC (such as +02:00 before the change and +01:00 after it)"
+        f"{reader.info.path}: its times begin {spoken_duration(back / 1e9)} before the last time "
+        f"of {before.info.path} (from {_local(end_ns)} to {_local(start_ns)}), in times without a "
+        "zone: local times set back an hour, as at the change from summer to winter time? The "
+        "hour after the step repeats the times of the hour before, which cannot be told apart; "
+        "write the times in UTC, or as date-times with their offset from UTC (such as +02:00 "
+        "before the change and +01:00 after it)"
     )
 
 
@@ -106,7 +106,7 @@ def forward_line(
     if not (over or (DST_STEP_NS[0] < step <= DST_STEP_NS[1] and start_ns >= _hour_on(end_ns))):
         return None
     return (
-        f"its times begin {(start_ns - end_ns) / 1e9:.3f} s after the "
+        f"its times begin {spoken_duration((start_ns - end_ns) / 1e9)} after the "
         f"last time of {before.info.path} (from {_local(end_ns)} to {_local(start_ns)}), "
         "over a whole hour of the clock, in times without a zone: local times set forward, "
         "as at the change from winter to summer time (or that hour's file missing)? Read "
@@ -148,7 +148,7 @@ def dropped_line(
         each = len(set(by.values())) == 1
         amount = f"{max(by.values())} {unit} each" if each else f"{sum(by.values())} {unit} in all"
         what = f"{capped(names, NAMES_SHOWN, what=kind)} ({len(names)} {kind}): {amount}"
-    span = f"{(last - first) / 1e9:.3f} s" if last > first else "a time"
+    span = spoken_duration((last - first) / 1e9) if last > first else "a time"
     source = (
         f"{span} that {Path(before.info.path).name} covers already; its samples are kept"
         if before is not None

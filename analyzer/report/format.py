@@ -218,7 +218,7 @@ def duration(x: float) -> str:
     if not math.isfinite(s):
         return MISSING
     if s < 120:
-        return f"{s:.3f} s"
+        return seconds(s)
     # rounded to what is shown before it is split: 599.99 s is 10 min 0.0 s, not 9 min 60.0 s
     tenths = round(s * 10)
     if tenths < 36000:

@@ -29,7 +29,7 @@ from analyzer.report import jobs as fg
 from analyzer.report.decimate import Clock, binned_nan_fraction, envelope, runs
 from analyzer.report.view_records import FigureView, FindingView
 from analyzer.report.workers import FigureBatch
-from analyzer.timeutil import short_seconds
+from analyzer.timeutil import seconds_text, short_seconds
 from analyzer.types import NS_PER_S
 
 FloatArray = npt.NDArray[np.float64]
@@ -754,7 +754,7 @@ def _span(s: Sequence[float] | None) -> str:
         return fmt.MISSING
     a, b = float(s[0]), float(s[1])
     if fmt.time_unit(b - a)[0] == "s":
-        return f"{a:.3f}-{b:.3f} s"
+        return f"{seconds_text(a)}-{fmt.seconds(b)}"
     return f"{fmt.at(a, b - a).split()[0]}-{fmt.at(b, b - a)}"
 
 

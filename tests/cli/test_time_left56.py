@@ -107,7 +107,31 @@ def test_left_text_rounds_as_an_estimate():
     assert left_text(178.0) == "about 3 min left"
     assert left_text(89 * 60.0) == "about 89 min left"
     assert left_text(2.5 * 3600) == "about 2.5 h left"
+    assert left_text(13.19 * 3600) == "about 13 h left"  # (two digits, not 13.2)
+    assert left_text(9.97 * 3600) == "about 10 h left"  # (not 10.0)
     assert left_text(3.2 * 86400) == "about 3.2 days left"
+    assert left_text(12.4 * 86400) == "about 12 days left"
+
+
+def test_watch_once_words_the_time_left_as_run_does(monkeypatch):
+    """``watch --once``'s ``[done/total, ...]`` says the time left in ``run``'s words
+    (:func:`~analyzer.time_left.left_text`): it said 20 s as ``about 20 s left`` and
+    0.5 s as ``under 1 s left`` where run's progress said ``less than a minute left``."""
+    from types import SimpleNamespace
+
+    from analyzer import watch as watch_module
+    from analyzer.time_left import left_text
+
+    monkeypatch.setattr(watch_module.time, "monotonic", lambda: 1000.0)
+    # one of two analyzed, begun `took` seconds ago: the other takes as long
+    for took in (0.5, 20.0, 59.0, 178.0, 13.19 * 3600, 3.2 * 86400):
+        state = SimpleNamespace(
+            expected=frozenset("ab"), results=range(1), skipped=set(), begun=1000.0 - took
+        )
+        said = watch_module._Runner.progress(state)
+        assert said == f" [1/2, {left_text(took)}]", (took, said)
+    state = SimpleNamespace(expected=frozenset("ab"), results=range(1), skipped=set(), begun=980.0)
+    assert watch_module._Runner.progress(state) == " [1/2, less than a minute left]"
 
 
 def test_plain_progress_lines_say_the_time_left_once_past_read():

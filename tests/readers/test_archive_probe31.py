@@ -260,6 +260,6 @@ def test_relative_pieces_that_overlap_by_a_few_samples_still_stitch(tmp_path: Pa
     archive = open_archive(tmp_path)
     assert collect(archive.chunks())["x"][0].size == 597
     assert archive.inputs[1].errors == [
-        "x: 3 samples overlap the previous input in time (0.040 s that a.csv covers already; "
+        "x: 3 samples overlap the previous input in time (40 ms that a.csv covers already; "
         "its samples are kept); dropped"
     ]

@@ -184,9 +184,7 @@ def test_a_sound_or_cut_gzip_with_a_step_back_keeps_its_rows(tmp_path: Path, cut
     got, info = read(path)
     whole = _whole_rows(path.read_bytes()) - 1 if cut else 29_999
     assert len(got["a"][1]) == whole
-    assert any(
-        e.startswith("the time steps back by 14.990 s at data row 15000") for e in info.errors
-    )
+    assert any(e.startswith("the time steps back by 15 s at data row 15000") for e in info.errors)
     assert "1 row without a readable time or with the wrong number of fields skipped" in (
         info.errors
     )

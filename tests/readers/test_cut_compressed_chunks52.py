@@ -26,6 +26,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from analyzer.cli import main
 from analyzer.readers.ros1_reader import Ros1BagReader
+from analyzer.timeutil import spoken_duration
 from analyzer.writers import write_archive
 
 ROS1 = get_typestore(Stores.ROS1_NOETIC)
@@ -120,8 +121,8 @@ def test_a_roslz4_chunk_cut_keeps_its_complete_messages(tmp_path: Path) -> None:
     )
     assert lost in errors[1]
     assert errors[1].endswith(
-        f"; {count} message(s) read in all, up to {(count - 1) // 2 * PERIOD_NS / 1e9:.3f} s "
-        "after the first"
+        f"; {count} message(s) read in all, up to "
+        f"{spoken_duration((count - 1) // 2 * PERIOD_NS / 1e9)} after the first"
     )
 
 

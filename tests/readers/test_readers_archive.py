@@ -110,7 +110,7 @@ def test_overlapping_inputs_drop_the_overlap(tmp_path: Path) -> None:
     got = collect(archive.chunks())
     np.testing.assert_array_equal(got["/s0.data"][0], np.concatenate([t[:600], t[600:]]))
     assert archive.inputs[1].errors == [
-        "/s0: 100 messages overlap the previous input in time (0.495 s that one.mcap covers "
+        "/s0: 100 messages overlap the previous input in time (495 ms that one.mcap covers "
         "already; its samples are kept); dropped"
     ]
 

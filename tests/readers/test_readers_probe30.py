@@ -345,7 +345,7 @@ def test_archive_overlap_one_line_per_topic(tmp_path: Path) -> None:
     archive = open_archive(tmp_path)
     assert collect(archive.chunks())["/v.vector.z"][1].size == 200
     assert archive.inputs[1].errors == [
-        "/v: 50 messages overlap the previous input in time (0.490 s that a.mcap covers "
+        "/v: 50 messages overlap the previous input in time (490 ms that a.mcap covers "
         "already; its samples are kept); dropped"
     ]
 
@@ -429,7 +429,7 @@ def test_export_warns_about_its_inputs(tmp_path: Path, capsys: pytest.CaptureFix
     err = capsys.readouterr().err.splitlines()
     assert err[0] == (
         f"analyzer: warning: {folder / 'b.mcap'}: /v: 100 messages overlap the previous "
-        "input in time (0.990 s that a.mcap covers already; its samples are kept); dropped"
+        "input in time (990 ms that a.mcap covers already; its samples are kept); dropped"
     )
     assert len(err) == 2 and err[1].startswith("analyzer: exported ")  # (its last line)
     assert out.is_file()

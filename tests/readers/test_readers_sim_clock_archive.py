@@ -95,7 +95,7 @@ def test_unix_time_files_that_overlap_still_stitch(tmp_path: Path, fmt: str) -> 
     samples = collect(archive.chunks())
     assert samples["/s0.data"][0].size == 500
     assert archive.inputs[1].errors == [
-        "/s0: 100 messages overlap the previous input in time (0.990 s that "
+        "/s0: 100 messages overlap the previous input in time (990 ms that "
         f"{paths[0].name} covers already; its samples are kept); dropped"
     ]
 

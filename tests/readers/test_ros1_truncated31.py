@@ -16,6 +16,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from analyzer.cli import main
 from analyzer.readers.ros1_reader import Ros1BagReader
+from analyzer.timeutil import spoken_duration
 
 ROS1 = get_typestore(Stores.ROS1_NOETIC)
 FLOAT64 = "std_msgs/msg/Float64"
@@ -87,7 +88,7 @@ def _said(errors: list[str], count: int) -> None:
     """The error line names the messages read and the time they reach."""
     last_ns = (count - 1) // 2 * PERIOD_NS
     assert errors[-1].endswith(
-        f"; {count} message(s) read in all, up to {last_ns / 1e9:.3f} s after the first"
+        f"; {count} message(s) read in all, up to {spoken_duration(last_ns / 1e9)} after the first"
     ), errors
 
 
@@ -167,7 +168,7 @@ def test_cut_bz2_chunk_says_its_messages_are_lost(tmp_path: Path) -> None:
         f"truncated inside the bz2-compressed chunk that starts at byte {pos} (the file ends "
         f"at byte {size}); its bz2-compressed data holds no complete block before the cut, so none "
         f"of its messages can be recovered; {count} message(s) read in all, up to "
-        f"{(count - 1) // 2 * PERIOD_NS / 1e9:.3f} s after the first"
+        f"{spoken_duration((count - 1) // 2 * PERIOD_NS / 1e9)} after the first"
     )
 
 
@@ -206,7 +207,7 @@ def test_records_of_a_chunk_never_closed_are_read(tmp_path: Path) -> None:
     assert errors == [
         "bag is not indexed (recording not closed?); read sequentially",
         f"file ends at byte {header_end + 4 + data_len} without an index section; the 1000 "
-        "messages before it were read, up to 4.990 s after the first",
+        "messages before it were read, up to 5.0 s after the first",
     ]
 
 
