@@ -53,6 +53,32 @@ def test_change_point_end_of_fault():
     assert abs(change_point(x, before_normal=False) - 800) <= 10
 
 
+def _step(n: int, start: int, stop: int, level: float, wobble: float) -> np.ndarray:
+    """No noise: a healthy part of exactly unit variance (+1, -1, +1, ...: the N(0, 1)
+    the change point's likelihood expects; all zeros would fit the changed part's
+    N(mu, v) better, v going to 0), and ``level`` with a ``wobble`` of alternating sign in
+    ``[start, stop)``."""
+    x = (-1.0) ** np.arange(n)
+    x[start:stop] = level + wobble * (-1.0) ** np.arange(stop - start)
+    return x
+
+
+@pytest.mark.parametrize("wobble", [0.0, 0.5, 1.0])
+@pytest.mark.parametrize("level", [4.0, -3.0, -10.0])
+@pytest.mark.parametrize("at", [20, 21, 37, 100, 163, 180])
+def test_change_point_of_a_noiseless_step_is_its_exact_sample(at, level, wobble):
+    """The first changed sample (the onset) and the first healthy one (the end), to the
+    sample: a step has no noise to hide it behind (test audit ux65 C6: an end one sample
+    late passed the +-10-sample test above and was caught once, by accident)."""
+    n = 200
+    assert change_point(_step(n, at, n, level, wobble)) == at
+    assert change_point(_step(n, 0, at, level, wobble), before_normal=False) == at
+    # a fault between healthy stretches, each end searched on its side
+    fault = _step(n, at // 2, at, level, wobble)
+    assert change_point(fault[: at - 2]) == at // 2
+    assert change_point(fault[at // 2 + 3 :], before_normal=False) == at - (at // 2 + 3)
+
+
 def test_calibration_needs_enough_samples():
     with pytest.raises(DetectorError, match="too little healthy data"):
         calibrate(np.random.default_rng(0).normal(size=100), 50)

@@ -22,10 +22,15 @@ START = "2026-03-29T00:58:00.000Z"
 START_NS = int(np.datetime64(START.removesuffix("Z"), "ns").astype(np.int64))
 
 
-def _lvm(path: Path, seconds: float = 120.0, fault_at: float | None = None) -> Path:
+def _lvm(
+    path: Path,
+    seconds: float = 120.0,
+    fault_at: float | None = None,
+    clock: str = "00:58:00.0000000000000000",
+) -> Path:
     """An ``.lvm`` file as LabVIEW's Write To Measurement File writes it: a file header
-    with ``Date`` and ``Time``, a segment header, then ``X_Value``, the channels and a
-    blank ``Comment`` column (each row ends with a tab)."""
+    with ``Date`` and ``Time`` (``clock``), a segment header, then ``X_Value``, the
+    channels and a blank ``Comment`` column (each row ends with a tab)."""
     t, y, names = simulate_building(3, seconds, RATE, seed=5, f1_hz=1.0)
     if fault_at is not None:
         y[:, 1] = inject_fault(y[:, 1], RATE, "additive", fault_at, 4.0 * float(np.std(y[:, 1])))
@@ -41,13 +46,13 @@ def _lvm(path: Path, seconds: float = 120.0, fault_at: float | None = None) -> P
         "Time_Pref\tRelative",
         "Operator\tlab",
         "Date\t2026/03/29",
-        "Time\t00:58:00.0000000000000000",
+        f"Time\t{clock}",
         "***End_of_Header***\t",
         "",
         f"Channels\t{m}\t" + "\t" * (m - 1),
         "Samples\t" + "\t".join([str(len(t))] * m),
         "Date\t" + "\t".join(["2026/03/29"] * m),
-        "Time\t" + "\t".join(["00:58:00.0000000000000000"] * m),
+        "Time\t" + "\t".join([clock] * m),
         "X_Dimension\t" + "\t".join(["Time"] * m),
         "X0\t" + "\t".join(["0.0000000000000000E+0"] * m),
         "Delta_X\t" + "\t".join([f"{1 / RATE:.6f}"] * m),
@@ -69,6 +74,30 @@ def test_the_header_gives_the_start_and_the_comment_column_is_no_channel(tmp_pat
     assert int(got["s0"][0][0]) == START_NS
     assert not any("Comment" in e for e in info.errors), info.errors
     assert info.skipped.startswith("'Comment': a column of comments"), info.skipped
+
+
+@pytest.mark.parametrize(
+    ("clock", "utc"),
+    [
+        ("00:58:00.25", "2026-03-29T00:58:00.250"),
+        ("00:58:00.5", "2026-03-29T00:58:00.500"),
+        ("00:58:00.2500000000000000", "2026-03-29T00:58:00.250"),
+        ("00:58:07.000125", "2026-03-29T00:58:07.000125"),
+    ],
+)
+def test_the_header_times_fraction_of_a_second_is_kept(
+    tmp_path: Path, clock: str, utc: str
+) -> None:
+    """``Time 00:58:00.25`` starts the record a quarter second after 00:58:00, however
+    many decimals LabVIEW wrote (test audit ux65 R1: the fraction's digits padded on the
+    wrong side read ``.25`` as 25 nanoseconds and nothing caught it, the one fixture's
+    fraction being zero)."""
+    got, info = read(_lvm(tmp_path / "bench.lvm", seconds=10.0, clock=clock))
+    assert info.absolute_time
+    first = int(got["s0"][0][0])
+    unit = "us" if len(utc) > 23 else "ms"
+    assert str(np.datetime64(first, "ns").astype(f"datetime64[{unit}]")) == utc
+    assert first == int(np.datetime64(utc, "ns").astype(np.int64))
 
 
 def test_inspect_says_the_comment_column_once_and_run_not_at_all(
