@@ -58,16 +58,21 @@ def _private(folder: Path) -> bool:
     )
 
 
-def fallback_dir(tmp: str | None = None) -> str:
-    """This user's private cache folder under ``tmp`` (the temporary directory), or a
-    fresh one of its own when that name is taken by something that is not private."""
+def private_dir(prefix: str, tmp: str | None = None) -> str:
+    """This user's private folder ``PREFIX-UID`` under ``tmp`` (the temporary directory),
+    or a fresh one of its own when that name is taken by something that is not private."""
     root = Path(tmp or tempfile.gettempdir())
-    folder = root / f"analyzer-numba-{os.getuid()}"
+    folder = root / f"{prefix}-{os.getuid()}"
     with contextlib.suppress(OSError):
         folder.mkdir(mode=0o700, exist_ok=True)
     if _private(folder):
         return str(folder)
-    return tempfile.mkdtemp(prefix="analyzer-numba-", dir=root)
+    return tempfile.mkdtemp(prefix=f"{prefix}-", dir=root)
+
+
+def fallback_dir(tmp: str | None = None) -> str:
+    """numba's private cache folder under ``tmp``: ``analyzer-numba-UID``, or a fresh one."""
+    return private_dir("analyzer-numba", tmp)
 
 
 def needs_fallback(

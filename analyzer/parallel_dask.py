@@ -122,7 +122,7 @@ class DaskExecutor:
         except ImportError as err:
             raise UsageError(
                 f"--scheduler {address}: needs the 'distributed' package "
-                "(pip install 'analyzer[distributed]')"
+                "(pip install 'sensorlog-analyzer[distributed]')"
             ) from err
         if not address.strip():
             raise UsageError("--scheduler: an empty address; expected one like tcp://HOST:PORT")

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -567,11 +569,16 @@ def test_msg_path_reads_a_bag_without_definitions(tmp_path, capsys, monkeypatch)
     assert not (tmp_path / "o").exists()
 
 
-def test_inspect_of_inputs_none_of_which_can_be_read_says_so_first(tmp_path, capsys):
+def test_inspect_of_inputs_none_of_which_can_be_read_says_so_first(tmp_path, capsys, monkeypatch):
     """Where nothing at all could be read, inspect's error says that first, as run's does:
     it was the readers' reasons alone, each ending "; skipped", which read as warnings
-    (an MCAP folder of an unsupported encoding)."""
-    folder = tmp_path / "in"
+    (an MCAP folder of an unsupported encoding). A cut line's full text would go to a file
+    of the temporary folder: this test's own, never the real /tmp (before, one per run)."""
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    monkeypatch.chdir(tmp_path)  # short input names: the line names both before any cut
+    folder = Path("in")
     folder.mkdir()
     for k in range(2):
         # (cut at 300 and 301 bytes: two copies of the same bytes would be read once)
@@ -581,3 +588,5 @@ def test_inspect_of_inputs_none_of_which_can_be_read_says_so_first(tmp_path, cap
     assert code == 2 and stdout == ""
     line = one_line_error(err, "r0.mcap", "r1.mcap")
     assert line.startswith("analyzer: error: no channel could be read from any of 2 inputs: ")
+    for named in re.findall(r"\S*analyzer-error-\S*?\.txt", line):
+        assert Path(named).parent == scratch, named
