@@ -175,8 +175,8 @@ def out_of_memory_line() -> str:
     if soft == resource.RLIM_INFINITY:
         return OUT_OF_MEMORY
     return (
-        f"{OUT_OF_MEMORY}; or raise the address-space limit (ulimit -v, now "
-        f"{soft / 1e6:,.0f} MB): the scratch files the run maps count against it"
+        f"{OUT_OF_MEMORY}; or raise the address-space limit (now ulimit -v {soft // 1024}, "
+        "in kB): the scratch files the run maps count against it"
     )
 
 

@@ -178,7 +178,9 @@ def test_cannot_allocate_memory_gets_the_out_of_memory_advice(
     monkeypatch.setattr(analyzer.errors, "resource", _Limits(limited), raising=False)
     code, err, _, _ = run_to(tmp_path, capsys, parts[0])
     assert code == 2, err
-    line = one_line_error(err, "out of memory (choose fewer channels", "ulimit -v", "1,536 MB")
+    line = one_line_error(
+        err, "out of memory (choose fewer channels", "ulimit -v", "ulimit -v 1500000"
+    )
     from analyzer.errors import out_of_memory_line
 
     assert line.endswith(out_of_memory_line())
