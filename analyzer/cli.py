@@ -33,11 +33,13 @@ from analyzer import __version__  # noqa: E402
 from analyzer.error_file import error_place, keep_whole, remove_stale  # noqa: E402
 from analyzer.errors import (  # noqa: E402
     AnalyzerError,
+    MachineLimit,
     ReaderError,
     UsageError,
     capped,
     clipped_line,
     one_line,
+    out_of_memory_line,
     terminal_safe,
 )
 from analyzer.lossy_stderr import lossy_stderr  # noqa: E402
@@ -786,11 +788,16 @@ def _sigterm_after_imports() -> Iterator[None]:
         yield
         return
     seen: list[int] = []
-    previous = signal.signal(signal.SIGTERM, lambda signum, frame: seen.append(signum))
+    previous = {
+        signum: signal.signal(signum, lambda signum, frame: seen.append(signum))
+        for signum in STOPPING
+        if signal.getsignal(signum) is not signal.SIG_IGN
+    }
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
     if seen:
         raise KeyboardInterrupt
 
@@ -808,6 +815,24 @@ COMMANDS = {"inspect": cmd_inspect, "export": cmd_export, "run": cmd_run, "watch
 
 def _terminate(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt  # unwinds like Ctrl-C: scratch files and partial outputs go
+
+
+STOPPING = (signal.SIGTERM, signal.SIGHUP)
+"""The signals that stop ``run``, ``inspect`` and ``export`` as Ctrl-C does (exit 130,
+"interrupted", scratch space and partial outputs removed): SIGTERM (a timeout, ``kill``)
+and SIGHUP (the terminal closed, an ssh session dropped). A SIGHUP ended ``run`` with 129,
+nothing said, its scratch folder and an empty new ``--out`` left (ux66 L1)."""
+
+
+def _stop_on_signals() -> dict[int, Any]:
+    """:func:`_terminate` as the handler of :data:`STOPPING`, and the handlers it
+    replaced. A signal ignored when the command started stays ignored: ``nohup`` ignores
+    SIGHUP so that the run goes on after its terminal is closed."""
+    return {
+        signum: signal.signal(signum, _terminate)
+        for signum in STOPPING
+        if signal.getsignal(signum) is not signal.SIG_IGN
+    }
 
 
 def _naming_inputs(message: str, inputs: Sequence[str]) -> str:
@@ -1008,7 +1033,7 @@ def main(argv: Sequence[str] | None = None, *, figure_processes: bool = False) -
 def _main(argv: Sequence[str] | None, *, figure_processes: bool) -> int:
     """:func:`main`, with stderr that cannot fail."""
     args = None
-    previous = None
+    previous: dict[int, Any] = {}
     started = time.time()
     try:
         parsed, extra = build_parser().parse_known_args(argv)
@@ -1029,7 +1054,7 @@ def _main(argv: Sequence[str] | None, *, figure_processes: bool) -> int:
             # before, a SIGTERM while the stale scratch folders were swept ended the
             # process by the signal (143, nothing said; ux59 item L1). One while Python
             # itself starts still does: no handler can be set before (README).
-            previous = signal.signal(signal.SIGTERM, _terminate)
+            previous = _stop_on_signals()
         # what runs killed outright (kill -9, the OOM killer) left in TMPDIR: their
         # scratch directories, gigabytes for a long archive (see analyzer.scratch)
         sweep_stale()
@@ -1063,12 +1088,12 @@ def _main(argv: Sequence[str] | None, *, figure_processes: bool) -> int:
         if lost is not None:
             return _error(lost + _earlier(args, started))
         where = f"{err.filename}: " if getattr(err, "filename", None) else ""
+        if err.errno == errno.ENOMEM and not isinstance(err, MachineLimit):
+            # (mapping a scratch file beyond ``ulimit -v``: "Cannot allocate memory")
+            return _error(out_of_memory_line() + _earlier(args, started))
         return _error(f"{where}{err.strerror or err}{_earlier(args, started)}")
     except MemoryError:
-        return _error(
-            "out of memory (choose fewer channels with --channels, or a lower --rate)"
-            + _earlier(args, started)
-        )
+        return _error(out_of_memory_line() + _earlier(args, started))
     except Exception as err:  # a bug: still one line and exit 2, never 1 ("fault found")
         lost = _cluster_failure(err, args)
         if lost is not None:
@@ -1080,8 +1105,8 @@ def _main(argv: Sequence[str] | None, *, figure_processes: bool) -> int:
             f"ANALYZER_DEBUG=1 for the traceback){_earlier(args, started)}"
         )
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 if __name__ == "__main__":  # pragma: no cover

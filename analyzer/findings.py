@@ -676,7 +676,8 @@ def write_outputs(
             for line in view.figure_failures:
                 warn(line)
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
-    with staged() as files:
+    # (and what a run killed while it replaced these files left: ux66 M2)
+    with staged([out_dir / CORRECTED_CSV], warn) as files:
         for path, data in also:
             files.write(path, data)
         if analysis.corrected is not None:

@@ -5,9 +5,11 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import re
 import secrets
 import tempfile
-from collections.abc import Callable, Iterator, Mapping, Sequence
+import time
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 
 from analyzer.errors import UsageError
@@ -202,11 +204,18 @@ class Staged:
     place, however the block ends. An error writing a file names the file's place
     (:func:`named_error`), not its temporary name."""
 
-    def __init__(self) -> None:
+    def __init__(
+        self, tidy: Collection[Path] = (), warn: Callable[[str], object] | None = None
+    ) -> None:
         self._files: list[tuple[Path, Path]] = []
         """(place, temporary file), in the order :meth:`commit` renames them."""
         self._gone: list[Path] = []
         """Files :meth:`commit` removes (:meth:`remove`)."""
+        self._tidy = list(tidy)
+        """Places, beyond those written or removed, whose leftovers :meth:`commit` tidies
+        (:func:`tidy_leftovers`)."""
+        self._warn = warn
+        self._since = time.time()
 
     def write(self, path: Path, data: bytes | str) -> None:
         """``data`` (text as UTF-8) into a temporary file for ``path``."""
@@ -265,6 +274,12 @@ class Staged:
         is as it was, byte for byte; after the last rename the earlier files are
         removed. Before, a rename that failed part-way (a folder made read-only, a
         disk's error) left the new files already renamed beside the earlier others."""
+        written = [p for p, _ in self._files]
+        own = {tmp for _, tmp in self._files}
+        places = [*written, *self._gone, *self._tidy]
+        for line in tidy_leftovers(places, self._since, own, restore=written):
+            if self._warn is not None:
+                self._warn(line)
         self._sync()
         aside: list[tuple[Path, Path]] = []  # (place, its earlier file's temporary name)
         placed: list[Path] = []  # (places that had no file and were given one)
@@ -321,6 +336,61 @@ class Staged:
             with contextlib.suppress(OSError):
                 tmp.unlink()
         self._files.clear()
+
+
+def _leftovers(path: Path) -> re.Pattern[str]:
+    """The names this module gives ``path``'s temporary files beside it: ``.NAME.XXXXXXXX``
+    (:meth:`Staged._temporary`, ``mkstemp``'s eight characters) and
+    ``.NAME.earlier-HHHHHHHHHHHH`` (:func:`_keep_aside`)."""
+    name = re.escape(path.name)
+    return re.compile(rf"\.{name}\.(?:[a-z0-9_]{{8}}|earlier-[0-9a-f]{{12}})")
+
+
+def tidy_leftovers(
+    places: Iterable[Path],
+    since: float,
+    own: Collection[Path] = (),
+    restore: Collection[Path] | None = None,
+) -> list[str]:
+    """Tidy what a run killed outright (``kill -9``, the OOM killer) while it put its
+    files in place left beside ``places``: its temporary files (names of
+    :func:`_leftovers` only, older than ``since``, none of ``own``) are removed, and
+    where a place of ``restore`` (default: every place) has no file but an earlier one
+    kept aside for it, the newest of those is put back first. Returns a line for each
+    file put back. Before, the hidden files stayed for good, one set per killed run
+    (ux66 M2); a file of any other name is never touched. (Only the files a run writes
+    are put back: an earlier ``corrected.csv`` without its place is one a run not asked
+    for ``--corrected`` removed on purpose, and was killed before it removed the copy.)"""
+    said: list[str] = []
+    for path in dict.fromkeys(places):
+        try:
+            names = [n for n in os.listdir(path.parent) if _leftovers(path).fullmatch(n)]
+        except OSError:
+            continue  # (a folder not there yet, or unreadable: nothing to tidy)
+        found: list[tuple[float, Path]] = []
+        for name in names:
+            left = path.parent / name
+            try:
+                info = left.lstat()
+            except OSError:
+                continue
+            if left in own or max(info.st_mtime, info.st_ctime) >= since:
+                continue
+            found.append((info.st_ctime, left))
+        earlier = sorted((c, p) for c, p in found if ".earlier-" in p.name)
+        if earlier and not os.path.lexists(path) and (restore is None or path in restore):
+            kept = earlier[-1][1]
+            with contextlib.suppress(OSError):
+                os.replace(kept, path)
+                said.append(
+                    f"{path}: put back from {kept.name}, which a run stopped while it "
+                    "replaced its outputs left beside it"
+                )
+        for _, left in found:
+            with contextlib.suppress(OSError):
+                if left.exists() or left.is_symlink():
+                    left.unlink()
+    return said
 
 
 def _keep_aside(path: Path) -> Path | None:
@@ -386,10 +456,14 @@ def _sync_folders(folders: set[Path]) -> None:
 
 
 @contextlib.contextmanager
-def staged() -> Iterator[Staged]:
+def staged(
+    tidy: Collection[Path] = (), warn: Callable[[str], object] | None = None
+) -> Iterator[Staged]:
     """A :class:`Staged` whose temporary files are removed when the block ends, however
-    it ends (those :meth:`Staged.commit` renamed are in place by then)."""
-    files = Staged()
+    it ends (those :meth:`Staged.commit` renamed are in place by then); ``tidy``: places
+    beyond those it writes whose leftovers its commit tidies, ``warn`` told of a file
+    put back (:func:`tidy_leftovers`)."""
+    files = Staged(tidy, warn)
     try:
         yield files
     finally:

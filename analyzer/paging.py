@@ -38,6 +38,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from analyzer.errors import ScratchFull
+from analyzer.scratch import FULL
+
 FOLIO = 2 << 20
 """What :func:`release` rounds its byte range out to (from the mapping's start, which is
 at a file offset that is a multiple of it for every mapping made here). The page cache
@@ -515,7 +518,7 @@ def mapped_file(path: Path, shape: tuple[int, ...], dtype: npt.DTypeLike) -> np.
         if err.errno in _NO_FALLOCATE:
             return out
         del out
-        raise OSError(
+        raise (ScratchFull if err.errno in FULL else OSError)(
             err.errno,
             f"{err.strerror} (scratch space for {size / 1e6:.0f} MB; set TMPDIR to a "
             "directory on a larger disk)",

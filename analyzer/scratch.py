@@ -19,6 +19,7 @@ never finds a new directory's ``.lock`` unlocked.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import shutil
 import tempfile
@@ -31,6 +32,8 @@ try:
 except ImportError:  # pragma: no cover - not POSIX: no locks, no sweeping
     fcntl = None  # type: ignore[assignment]
 
+from analyzer.errors import ScratchFull
+
 LOCK = ".lock"
 PREFIX = "analyzer-"
 MIN_AGE_S = 60.0
@@ -38,6 +41,32 @@ MIN_AGE_S = 60.0
 
 _held: dict[Path, int] = {}
 """Scratch directory -> the descriptor of its lock file, for this process."""
+
+
+FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
+"""The errors of a write that the disk (or a quota, or a file-size limit) had no room
+for."""
+
+
+def scratch_full(err: OSError, place: str | Path | None = None) -> OSError:
+    """``err`` as the run's error when it is a write into scratch space that had no room
+    (:data:`FULL`): :class:`~analyzer.errors.ScratchFull`, naming the file, the scratch
+    folder ``place`` (default: the file's) and TMPDIR, the advice to move it; any
+    other error as it is. A full TMPDIR said only "No space left on device", and an
+    operator looked at ``--out``'s disk, which had room (ux66 M1)."""
+    if err.errno not in FULL or isinstance(err, ScratchFull):
+        return err
+    name = os.fsdecode(err.filename) if err.filename is not None else ""
+    folder = Path(place) if place is not None else Path(name).parent if name else None
+    where = (
+        f"the scratch folder {folder}"
+        if folder is not None
+        else f"scratch space in TMPDIR ({tempfile.gettempdir()})"
+    )
+    line = f"{err.strerror or err}: no room for {where}; set TMPDIR to a directory on a larger disk"
+    full = ScratchFull(err.errno, line, *((name,) if name else ()))
+    full.__cause__ = err
+    return full
 
 
 def make_scratch(prefix: str = PREFIX, base: str | Path | None = None) -> Path:

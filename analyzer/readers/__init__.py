@@ -36,7 +36,14 @@ from analyzer.readers._common import (
     per_topic,
     special_kind,
 )
-from analyzer.readers.base import ChannelChunk, InputInfo, Reader, TimeSource, damage_of
+from analyzer.readers.base import (
+    ChannelChunk,
+    InputInfo,
+    Reader,
+    TimeSource,
+    check_limit,
+    damage_of,
+)
 from analyzer.readers.chunk_limits import OversizedChunk
 from analyzer.readers.seams import Seam, dropped_line, forward_line, is_gap, set_back_line
 from analyzer.timeutil import plausible_epoch, spoken_duration
@@ -133,6 +140,7 @@ def detect_format(path: str | Path) -> Format:
         with path.open("rb") as handle:
             head = handle.read(16)
     except OSError as err:
+        check_limit(err)  # (the machine's limit, not the file's)
         raise ReaderError(f"{path}: cannot read: {one_line(err.strerror or err)}") from err
     for magic, fmt in _MAGICS:
         if head.startswith(magic):
@@ -165,6 +173,7 @@ def _open_members(members: Sequence[Path]) -> list[Reader | ReaderError]:
         try:
             return open_input(member)
         except ReaderError as err:
+            check_limit(err)  # (too many open files: the run's error, not this member's)
             return err
 
     def threadable(member: Path) -> bool:
@@ -202,6 +211,7 @@ def open_input(path: str | Path) -> Reader:
     except ReaderError:
         raise
     except damage_of(kind) as err:  # a corrupt file fails in the parsing libraries
+        check_limit(err)  # (unless the machine ran out of open files or memory)
         raise ReaderError(f"{path}: cannot be read as {fmt.value} ({one_line(err)})") from err
 
 
@@ -230,7 +240,8 @@ def _safe_start(reader: Reader) -> int | None:
     where its error is recorded or raised with the file's name)."""
     try:
         return reader.start_ns()
-    except damage_of(reader):
+    except damage_of(reader) as err:
+        check_limit(err)
         return None
 
 
@@ -515,10 +526,12 @@ class Archive:
                 raise ReaderError(f"{reader.info.path}: {one_line(err)}") from err
             reader.info.errors.append(f"reading stopped: {one_line(err)}")
         except ReaderError as err:
+            check_limit(err)  # (the machine's limit: the run's error, not the file's)
             if single:
                 raise
             reader.info.errors.append(f"reading stopped: {one_line(err)}")
         except damage_of(reader) as err:  # a damaged file must not stop the others
+            check_limit(err)
             if single:
                 raise ReaderError(f"{reader.info.path}: {one_line(err)}") from err
             reader.info.errors.append(f"reading stopped: {one_line(err)}")

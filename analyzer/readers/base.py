@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Literal, Protocol
 import numpy as np
 import numpy.typing as npt
 
-from analyzer.errors import ReaderError
+from analyzer.errors import MachineLimit, ReaderError, limit_line
 from analyzer.readers.delays import TopicDelays
 from analyzer.types import Format
 
@@ -48,6 +48,25 @@ classes (:func:`damage_of`). Only these count as the file's damage where reading
 caught (one damaged input of several does not stop the others): a ``TypeError``,
 ``AttributeError`` or ``KeyError`` is a bug of ours, and reaches the CLI's "internal
 error" line instead of reading as a damaged file."""
+
+
+def check_limit(err: BaseException) -> None:
+    """Raise :class:`~analyzer.errors.MachineLimit` (from ``err``) where ``err``, or an
+    exception it was raised from, is the machine's limit rather than the file's damage:
+    too many open files (EMFILE, ENFILE) or no memory for a buffer the system was asked
+    for (an ``OSError`` ENOMEM). Every handler that would record or raise ``err`` as an
+    input's damage calls it first (:data:`DAMAGE` holds ``OSError``). A bare
+    ``MemoryError`` stays damage: it is what a damaged file's declared size too large to
+    hold raises, and one such input of several is skipped."""
+    seen: set[int] = set()
+    cause: BaseException | None = err
+    while cause is not None and id(cause) not in seen:
+        seen.add(id(cause))
+        if isinstance(cause, MachineLimit):
+            raise cause
+        if isinstance(cause, OSError) and (line := limit_line(cause.errno)) is not None:
+            raise MachineLimit(cause.errno, line) from err
+        cause = cause.__cause__ or cause.__context__
 
 
 def damage_of(reader: object) -> tuple[type[Exception], ...]:

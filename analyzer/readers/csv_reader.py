@@ -119,7 +119,7 @@ from analyzer.readers._common import (
     hour_skipped,
     one_line,
 )
-from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource
+from analyzer.readers.base import ChannelChunk, InputInfo, TimeSource, check_limit
 from analyzer.timeutil import iso_utc, plausible_epoch, seconds_text, spoken_duration
 
 if TYPE_CHECKING:  # pandas is imported where a time column needs it: MCAP and bag runs,
@@ -781,6 +781,7 @@ class CsvReader:
         try:
             size = self.path.stat().st_size
         except OSError as err:
+            check_limit(err)  # (the machine's limit, not the file's)
             raise ReaderError(f"{self.path}: cannot read: {one_line(err.strerror or err)}") from err
         if size == 0:
             raise ReaderError(f"{self.path}: empty file (0 bytes)")
@@ -1528,6 +1529,7 @@ class CsvReader:
             else:
                 whole = True
         except (pa.ArrowException, OSError, EOFError, ValueError) as err:
+            check_limit(err)  # (the machine's limit is not the file's damage)
             self._error(
                 f"unreadable from some point on ({self._arrow_words(err)}); the rows before "
                 "it were read"
@@ -2084,6 +2086,7 @@ class CsvReader:
         try:
             batch = self._first_batch()
         except (pa.ArrowException, OSError, EOFError, ValueError) as err:
+            check_limit(err)  # (the machine's limit is not the file's damage)
             why = self._arrow_words(err)
             raise ReaderError(f"{self.path}: cannot parse as CSV ({why})") from err
         if batch is None:

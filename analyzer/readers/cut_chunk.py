@@ -28,6 +28,7 @@ import lz4.block
 import zstandard
 
 from analyzer.readers._common import one_line
+from analyzer.readers.base import check_limit
 from analyzer.readers.chunk_limits import MAX_CHUNK_BYTES
 
 _U32 = struct.Struct("<I")
@@ -66,6 +67,7 @@ def cut_prefix(compression: str, data: bytes, limit: int = MAX_CHUNK_BYTES) -> b
         if compression == "bz2":
             return bz2.BZ2Decompressor().decompress(data, max_length=limit + 1)
     except (OSError, ValueError, RuntimeError, EOFError, zstandard.ZstdError) as err:
+        check_limit(err)  # (the machine's limit is not the file's damage)
         if isinstance(err, CutDataError):
             raise
         raise CutDataError(f"its {compression} data does not decompress ({one_line(err)})") from err

@@ -67,6 +67,7 @@ from analyzer.readers.base import (
     add_log_topics,
     add_time_fields,
     add_topics,
+    check_limit,
 )
 from analyzer.readers.cut_chunk import CutDataError, cut_prefix, recovered_share
 from analyzer.readers.rosdecode import Encoding, RosBatchDecoder
@@ -165,6 +166,7 @@ class McapReader:
             with self.path.open("rb") as handle:
                 head = handle.read(8)
         except OSError as err:
+            check_limit(err)  # (the machine's limit, not the file's)
             raise ReaderError(f"{self.path}: cannot read: {one_line(err.strerror or err)}") from err
         if size == 0:
             raise ReaderError(f"{self.path}: empty file (0 bytes)")
@@ -298,6 +300,7 @@ class McapReader:
             try:
                 return SeekingReader(handle).get_summary()
             except (McapError, struct.error, ValueError, EOFError, OSError) as err:
+                check_limit(err)  # (the machine's limit is not the file's damage)
                 self._summary_error = (
                     f"summary section unreadable ({one_line(err)}); read sequentially"
                 )
@@ -357,6 +360,7 @@ class McapReader:
                     by_channel = self._scan_chunk(records)
                 self._locate_chunk(records, by_channel, gate)
             except _DAMAGE as err:
+                check_limit(err)  # (the machine's limit is not the file's damage)
                 self._error(f"chunk at byte {index.chunk_start_offset}: {one_line(err)}; skipped")
                 continue
             finally:
@@ -388,7 +392,8 @@ class McapReader:
             try:
                 handle.seek(index.chunk_start_offset + index.chunk_length)
                 pairs = _message_index_pairs(handle.read(index.message_index_length))
-            except _DAMAGE:
+            except _DAMAGE as err:
+                check_limit(err)  # (the machine's limit is not the file's damage)
                 continue  # (said when the chunk is read)
             for cid, entries in pairs.items():
                 channel = self._channels.get(cid)
@@ -502,6 +507,7 @@ class McapReader:
             self._locate_chunk(records, by_channel, gate)
             self._decode_held(gate, None, reorder)
         except _DAMAGE as err:
+            check_limit(err)  # (the machine's limit is not the file's damage)
             self._error(f"chunk starting at t={chunk.message_start_time}: {one_line(err)}; skipped")
             return 0
         return int(sum(v.size for v in by_channel.values()))
@@ -547,6 +553,7 @@ class McapReader:
             self._locate_chunk(records, by_channel, gate)
             self._decode_held(gate, None, reorder)
         except _DAMAGE as err:
+            check_limit(err)  # (the machine's limit is not the file's damage)
             return 0, f"{where}; its records are damaged ({one_line(err)}); skipped"
         found = int(sum(v.size for v in by_channel.values()))
         got = int(records.size)

@@ -52,6 +52,7 @@ from analyzer.readers.base import (
     add_log_topics,
     add_time_fields,
     add_topics,
+    check_limit,
 )
 from analyzer.readers.cut_chunk import CutDataError, cut_prefix, recovered_share
 from analyzer.readers.rosdecode import RosBatchDecoder
@@ -212,6 +213,7 @@ def _decompress(compression: str, data: bytes, size: int) -> ByteArray:
         # (at most size + 1 bytes; a size beyond the limits refuses the file)
         out = chunk_limits.decompress(compression, data, size)
     except (OSError, ValueError, RuntimeError, EOFError) as err:
+        check_limit(err)  # (the machine's limit is not the file's damage)
         raise _BagError(f"cannot decompress ({compression}): {one_line(err)}") from err
     if len(out) > size:  # (stopped at size + 1 bytes)
         raise _BagError(f"its data decompresses to more than the {size} bytes it declares")
@@ -241,6 +243,7 @@ class Ros1BagReader:
         except _BagError as err:
             raise ReaderError(f"{self.path}: truncated ROS 1 bag (no complete bag header)") from err
         except OSError as err:
+            check_limit(err)  # (the machine's limit, not the file's)
             raise ReaderError(f"{self.path}: cannot read: {one_line(err.strerror or err)}") from err
         if size == 0:
             raise ReaderError(f"{self.path}: empty file (0 bytes)")
@@ -277,6 +280,7 @@ class Ros1BagReader:
             try:
                 self._read_index(index_pos, conn_count, chunk_count)
             except (_BagError, struct.error, KeyError, OverflowError, MemoryError) as err:
+                check_limit(err)  # (the machine's limit is not the file's damage)
                 self._connections.clear()
                 self._chunk_infos.clear()
                 self._index_error = f"bag index damaged ({one_line(err)}); read sequentially"
@@ -458,6 +462,7 @@ class Ros1BagReader:
                         times.append(entries[:, 0] * 1_000_000_000 + entries[:, 1])
                         offsets.append(entries[:, 2])
                 except (_BagError, struct.error, KeyError, OverflowError, MemoryError) as err:
+                    check_limit(err)  # (the machine's limit is not the file's damage)
                     self._error(f"chunk at byte {info.pos}: {one_line(err)}; skipped")
                     continue
                 if conns:
@@ -549,6 +554,7 @@ class Ros1BagReader:
                     elif op == OP_CHUNK_INFO:
                         return  # the index section starts: all data was read
             except (_BagError, struct.error, KeyError, OverflowError, MemoryError) as err:
+                check_limit(err)  # (the machine's limit is not the file's damage)
                 yield from read.taken(self._loose(loose))
                 if errors:
                     self._error(

@@ -61,11 +61,31 @@ def _worker_init() -> None:
     ``parent_process().sentinel`` is the read end of a pipe whose write end only the main
     process holds: it becomes readable (EOF) exactly when that process ends."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)  # (and a hang-up: the main process's too)
     parent = multiprocessing.parent_process()
     if parent is not None and parent.sentinel is not None:
         threading.Thread(
             target=_exit_with, args=(parent.sentinel,), name="analyzer-orphan-watch", daemon=True
         ).start()
+
+
+@contextlib.contextmanager
+def _hangup_ignored() -> Iterator[None]:
+    """SIGHUP ignored during the block, in which the forkserver and multiprocessing's
+    resource tracker are started (a fork and exec, which keeps an ignored signal
+    ignored): a hang-up sent to the whole process group (a terminal closed) is the main
+    process's to act on, which stops the run as SIGTERM does; the two helpers, killed
+    by it, printed "resource_tracker: process died unexpectedly" and a traceback per
+    semaphore above "interrupted" (ux66 L1). They end with the main process anyway. A
+    hang-up in these milliseconds is lost."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGHUP, previous)
 
 
 def _exit_with(sentinel: int) -> None:
@@ -86,7 +106,8 @@ class FigureWorkers:
         self._own_server = getattr(server, "_forkserver_pid", 0) is None
         # starts the server now (a fork and exec: milliseconds), not at the first figure:
         # its imports run on the idle core while this process reads the archive
-        multiprocessing.forkserver.ensure_running()
+        with _hangup_ignored():
+            multiprocessing.forkserver.ensure_running()
         if self._own_server:
             self._yield_cpu(getattr(server, "_forkserver_pid", None))
         self._lock = threading.Lock()

@@ -44,7 +44,7 @@ from analyzer.errors import IntegrityError, StoreError, capped
 from analyzer.paging import is_mapped, mapped_file, pwrite_all, release
 from analyzer.readers.base import ChannelChunk
 from analyzer.readers.tally import Tally
-from analyzer.scratch import make_scratch, remove_scratch
+from analyzer.scratch import make_scratch, remove_scratch, scratch_full
 from analyzer.store.patterns import matching
 from analyzer.timeutil import plain_number, short_seconds, spoken_duration
 from analyzer.types import NS_PER_S
@@ -286,6 +286,17 @@ class ChannelStore:
         return d / f"ch{idx:05d}.t", d / f"ch{idx:05d}.v"
 
     def _spill_all(self) -> None:
+        """Every channel's buffered samples appended to its files in the scratch folder;
+        a full scratch disk said as such (:func:`~analyzer.scratch.scratch_full`)."""
+        try:
+            self._spill_each()
+        except OSError as err:
+            full = scratch_full(err, self._workdir)
+            if full is err:
+                raise
+            raise full from err
+
+    def _spill_each(self) -> None:
         for name, raw in self._raw.items():
             if not raw.buffered:
                 continue
