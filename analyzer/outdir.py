@@ -246,7 +246,7 @@ class Staged:
         """A new empty file beside ``path`` (open, its descriptor), to be renamed to it."""
         path.parent.mkdir(parents=True, exist_ok=True)
         try:
-            fd, name = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+            fd, name = tempfile.mkstemp(prefix=f".{path.name}.new-", dir=path.parent)
         except OSError as err:
             raise named_error(err, path) from err
         self._files.append((path, Path(name)))
@@ -339,11 +339,12 @@ class Staged:
 
 
 def _leftovers(path: Path) -> re.Pattern[str]:
-    """The names this module gives ``path``'s temporary files beside it: ``.NAME.XXXXXXXX``
-    (:meth:`Staged._temporary`, ``mkstemp``'s eight characters) and
+    """The names this module gives ``path``'s temporary files beside it:
+    ``.NAME.new-XXXXXXXX`` (:meth:`Staged._temporary`, ``mkstemp``'s eight characters after
+    ``new-``, so that a user's ``.report.html.backup01`` is never taken for one) and
     ``.NAME.earlier-HHHHHHHHHHHH`` (:func:`_keep_aside`)."""
     name = re.escape(path.name)
-    return re.compile(rf"\.{name}\.(?:[a-z0-9_]{{8}}|earlier-[0-9a-f]{{12}})")
+    return re.compile(rf"\.{name}\.(?:new-[a-z0-9_]{{8}}|earlier-[0-9a-f]{{12}})")
 
 
 def tidy_leftovers(

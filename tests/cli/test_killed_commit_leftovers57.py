@@ -33,13 +33,18 @@ def _aged(path: Path, text: str) -> Path:
 
 LEFT = [
     ".findings.json.earlier-9161d97646ec",
-    ".findings.json.qsi71ybk",
+    ".findings.json.new-qsi71ybk",
     ".report.html.earlier-f9951a711c8a",
     ".corrected.csv.earlier-0123456789ab",
 ]
 """A killed run's leftovers, as the audit found them (and one of ``--corrected``)."""
 
-THE_USERS = [".findings.json.bak", "findings.json.earlier-9161d97646ec", ".report.html.old"]
+THE_USERS = [
+    ".findings.json.bak",
+    "findings.json.earlier-9161d97646ec",
+    ".report.html.old",
+    ".report.html.backup01",  # (the shape of mkstemp's eight characters)
+]
 """Files of other names beside them: never touched."""
 
 
@@ -71,7 +76,7 @@ def test_an_earlier_file_without_its_place_is_put_back(tmp_path: Path) -> None:
     older = _aged(tmp_path / ".findings.json.earlier-000000000001", "older")
     time.sleep(0.05)
     newer = _aged(tmp_path / ".findings.json.earlier-000000000002", "newer")
-    temporary = _aged(tmp_path / ".findings.json.k2j4h5g6", "half written")
+    temporary = _aged(tmp_path / ".findings.json.new-k2j4h5g6", "half written")
     said = tidy_leftovers([place], time.time())
     assert place.read_text() == "newer"
     assert not older.exists() and not newer.exists() and not temporary.exists()
@@ -85,7 +90,7 @@ def test_this_runs_own_and_newer_files_are_left(tmp_path: Path) -> None:
 
     place = tmp_path / "report.html"
     since = time.time() - 60
-    own = _aged(tmp_path / ".report.html.abcdefgh", "this run's")
+    own = _aged(tmp_path / ".report.html.new-abcdefgh", "this run's")
     fresh = tmp_path / ".report.html.earlier-00000000000f"
     fresh.write_text("made after the run began")
     assert tidy_leftovers([place], since, {own}) == []
