@@ -2425,7 +2425,8 @@ class _Runner:
                 self._same_content(archive, rec)
                 self._found_already(archive, rec)
                 return
-            log.info("%s: analyzed again: %s", name, again)
+            if name not in self.retries:  # (a retry's series said once)
+                log.info("%s: analyzed again: %s", name, again)
         if archive.incomplete:
             log.warning(
                 "%s: analyzing although it still looks unfinished: %s", name, archive.incomplete
@@ -3311,9 +3312,9 @@ def watch(
     with contextlib.ExitStack() as stack:
         if cluster is not None:
             stack.callback(cluster.close)
-        stack.enter_context(InboxLock(settings.inbox))
         lock = stack.enter_context(ReportsLock(settings.reports))
-        return _watch_locked(settings, options, stop, abandon, exclude, cluster, lock)
+        inbox = stack.enter_context(InboxLock(settings.inbox))  # (after: REPORTS said first)
+        return _watch_locked(settings, options, stop, abandon, exclude, cluster, lock, inbox)
 
 
 def _watch_locked(
@@ -3324,6 +3325,7 @@ def _watch_locked(
     exclude: set[str],
     cluster: DaskExecutor | None,
     lock: ReportsLock | None = None,
+    inbox_lock: InboxLock | None = None,
 ) -> int:
     """:func:`watch` once REPORTS is locked (and the cluster, if any, connected); returns
     its exit code."""
@@ -3389,6 +3391,7 @@ def _watch_locked(
         busy=runner.busy,  # (--once: an archive discarded as it changed is done again)
         pause=runner.pause,
         again=runner.handed_back,  # (not taken as handed on: looked at again)
+        back=inbox_lock.renew if inbox_lock is not None else None,  # (the new INBOX locked)
     )
     try:
         with contextlib.closing(batches):

@@ -498,6 +498,8 @@ class InboxTracker:
     gone: bool = False
     """INBOX itself was missing at the last look (:meth:`rescan`): said once when it
     goes, once when it comes back."""
+    back: Callable[[], None] | None = None
+    """Called when INBOX comes back (the watcher locks the new folder)."""
 
     def key(self, name: str) -> str | None:
         """The archive an INBOX entry belongs to, or None if the entry is ignored."""
@@ -609,6 +611,8 @@ class InboxTracker:
             )
         else:
             log.warning("INBOX %s is back; watching it again", self.inbox)
+        if not gone and self.back is not None:
+            self.back()
 
     def touch(self, name: str) -> None:
         """An event about INBOX entry ``name`` (created, modified, moved, deleted)."""
@@ -882,6 +886,7 @@ def ready_batches(
     busy: Callable[[], bool] | None = None,
     pause: Callable[[float], object] | None = None,
     again: Callable[[], Iterable[tuple[str, Signature]]] | None = None,
+    back: Callable[[], None] | None = None,
 ) -> Generator[list[ReadyArchive], None, None]:
     """Batches of archives of ``inbox`` that became ready (see the module doc).
 
@@ -897,10 +902,18 @@ def ready_batches(
     ``stop.wait``; the consumer may return sooner, when its own work ends).
     ``again``: the archives (name, signature as handed on) that the consumer hands
     back since it last asked (:meth:`InboxTracker.again`); ``once`` waits for them too.
+    ``back``: called when INBOX, gone, is there again (:attr:`InboxTracker.back`).
     """
     stop = stop or threading.Event()
     tracker = InboxTracker(
-        inbox, settle, group_by, frozenset(exclude), incomplete_timeout, known=known, once=once
+        inbox,
+        settle,
+        group_by,
+        frozenset(exclude),
+        incomplete_timeout,
+        known=known,
+        once=once,
+        back=back,
     )
     tick = min(0.25, max(0.02, settle / 4))
     sink: queue.SimpleQueue[str] = queue.SimpleQueue()

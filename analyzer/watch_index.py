@@ -330,8 +330,10 @@ class ReportsLock:
             return False
         try:
             now = os.stat(self.path)
-        except OSError:
+        except (FileNotFoundError, NotADirectoryError):
             return True
+        except OSError:  # (REPORTS unreadable for a while: its writes fail, tried again)
+            return False
         held = os.fstat(self._fd)
         return (now.st_dev, now.st_ino) != (held.st_dev, held.st_ino)
 
@@ -426,6 +428,26 @@ class InboxLock:
             os.close(fd)  # (no locks on this file system: unlocked, as before)
             return
         self._fd = fd
+
+    def renew(self) -> None:
+        """INBOX made again after it went (:attr:`~analyzer.watch_inbox.InboxTracker.gone`):
+        the lock held is on the folder that went, so lock the new one (:meth:`acquire`:
+        :class:`UsageError` if another watcher has taken it meanwhile). Nothing is done
+        while INBOX is the folder locked, or is not there."""
+        try:
+            now = os.stat(self.inbox)
+        except OSError:
+            return
+        if self._fd is not None:
+            held = os.fstat(self._fd)
+            if (now.st_dev, now.st_ino) == (held.st_dev, held.st_ino):
+                return
+        old, self._fd = self._fd, None
+        try:
+            self.acquire()
+        finally:
+            if old is not None:
+                os.close(old)
 
     def release(self) -> None:
         if self._fd is not None:
