@@ -1809,7 +1809,7 @@ class _Runner:
         nothing more is written there."""
         self.retries: dict[str, _Retry] = {}
         """Archives whose report could not be written, tried again while the watcher
-        runs (:meth:`_retry_later`), by name."""
+        runs (:meth:`_unwritten`), by name."""
         self.exclude = exclude
         """INBOX's entries that are output folders (never archives' members)."""
         self.stopping = stopping
