@@ -33,6 +33,51 @@ def prepare_dir(path: Path, option: str = "--out") -> bool:
     return created
 
 
+WATCH_STATE_FILE = ".watch-state.json"
+"""A watcher's state file in its REPORTS folder (:data:`analyzer.watch_index.STATE_FILE`)."""
+WATCH_LOCK_FILE = ".lock"
+"""A watcher's lock file in its REPORTS folder (:data:`analyzer.watch_index.LOCK_FILE`)."""
+
+
+def _watched(folder: Path) -> bool:
+    """Whether ``folder`` is a watcher's REPORTS: it holds a watcher's state file, or a
+    lock file that a process holds locked."""
+    if (folder / WATCH_STATE_FILE).is_file():
+        return True
+    try:
+        import fcntl
+    except ImportError:  # (not POSIX)
+        return False
+    try:
+        fd = os.open(folder / WATCH_LOCK_FILE, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    except OSError:
+        return False
+    finally:
+        os.close(fd)  # (closing ends the shared lock this test may have taken)
+    return False
+
+
+def not_into_watch(path: Path, option: str = "--out") -> None:
+    """``option``'s ``path`` must not be a watcher's REPORTS folder nor inside one:
+    :class:`UsageError` naming it otherwise. A run there replaced a report the watcher
+    had announced (``REPORTS/a.mcap/report.html`` then told of another file, the index
+    still of ``a.mcap``), and nothing noticed (a QA audit's ux66 item M4)."""
+    target = path.resolve()
+    for folder in (target, *target.parents):
+        if folder.is_dir() and _watched(folder):
+            where = "is" if folder == target else f"is inside {folder},"
+            raise UsageError(
+                f"{option}: {path} {where} a watcher's report folder: its reports are "
+                "the watcher's; write elsewhere"
+            )
+
+
 def not_into_inputs(
     path: Path,
     inputs: Sequence[str | Path],

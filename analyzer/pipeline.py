@@ -146,7 +146,14 @@ from analyzer.options import (
     parse_train,
 )
 from analyzer.outage import treat_outages
-from analyzer.outdir import not_into_inputs, not_over_inputs, only_run, prepare_dir, remove_if_empty
+from analyzer.outdir import (
+    not_into_inputs,
+    not_into_watch,
+    not_over_inputs,
+    only_run,
+    prepare_dir,
+    remove_if_empty,
+)
 from analyzer.paging import release, row_blocks, trim_heap
 from analyzer.parallel import (
     ClusterTrouble,
@@ -3232,6 +3239,7 @@ def run(inputs: Sequence[str | Path], out_dir: str | Path, options: RunOptions) 
         _check_save_model(options.save_model, out, inputs, options)
     written = OUTPUT_FILES if options.corrected else OUTPUT_FILES[:2]
     not_over_inputs(out, written, inputs, "findings.json")
+    not_into_watch(out)  # (a watcher's reports are its own: ux66 item M4)
     created = prepare_dir(out, "--out")  # before the work: it must not fail at the end
     try:
         with only_run(out):

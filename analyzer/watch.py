@@ -41,9 +41,11 @@ Exactly once
     the fingerprint, is analyzed again once). An error that is not the archive's (an
     internal error, a report that cannot be written, a full disk, an analysis process
     killed) is shown in the index but is no verdict: the archive is analyzed again on
-    the next start. A report folder deleted by hand makes its archive be analyzed again
-    on the next start. An archive that arrives under the name of a recorded one with
-    other content (the earlier file replaced, or moved away by ``--done``) does not
+    the next start; one whose report could not be written is also tried again while the
+    watcher runs, after :data:`RETRY_FIRST_S`, doubling up to :data:`RETRY_MAX_S`. A
+    report folder deleted by hand makes its archive be analyzed again on the next start.
+    An archive that arrives under the name of a recorded one with other content (the
+    earlier file replaced, or moved away by ``--done``) does not
     replace the earlier result: that record and its fault episodes are kept under a
     free name (that of the file ``--done`` moved it to when it differs, else
     ``name-1.ext``, ``name-2.ext``...), with ``dropped_as`` the name it came under, and
@@ -58,9 +60,18 @@ Exactly once
     archive that still looks unfinished but is recorded already with this content is
     not waited for.
 
-One watcher per REPORTS
-    ``REPORTS/.lock`` is ``flock``-ed for the watcher's lifetime. A second watcher on the
-    same REPORTS does not wait: it exits at once with code 2 and a one-line error.
+One watcher per REPORTS, one per INBOX
+    ``REPORTS/.lock`` is ``flock``-ed for the watcher's lifetime, and so is INBOX itself
+    (a descriptor of the folder: :class:`~analyzer.watch_index.InboxLock`). A second
+    watcher on the same REPORTS, or on the same INBOX with another REPORTS, does not
+    wait: it exits at once with code 2 and a one-line error. REPORTS removed or replaced
+    under the watcher (its lock file no longer the one locked) is made again and locked
+    again before the next write, its state and index rebuilt from what it holds, and the
+    archives whose reports went with it analyzed again while INBOX holds them
+    (:meth:`_Runner._reports_here`); another watcher holding the new lock by then: exit 2,
+    nothing more written there. ``analyzer run --out`` into a watcher's REPORTS, or a
+    folder of it, is refused (:func:`analyzer.outdir.not_into_watch`). An INBOX that goes
+    away is said once, and once when it is back.
 
 Outputs
     ``REPORTS/<archive>/report.html`` and ``findings.json`` (as ``analyzer run``), or
@@ -131,8 +142,8 @@ On a cluster
     watcher, which publishes and records them as above (:mod:`analyzer.watch_cluster`).
 
 Stopping
-    SIGINT or SIGTERM: no new analysis starts; the running ones finish and are recorded,
-    then the watcher exits (an archive being hashed is not waited for: archives over
+    SIGINT, SIGTERM or SIGHUP: no new analysis starts; the running ones finish and are
+    recorded, then the watcher exits (an archive being hashed is not waited for: archives over
     :data:`INLINE_HASH_BYTES` are hashed by a thread of their own, off the loop; nor is a
     move's copy to another file system, made by a thread of its own too: it stops at its
     next block, what it made is removed, and the archive, recorded, is moved on the next
@@ -140,9 +151,10 @@ Stopping
     start, as that of a watcher killed during it). A second
     signal abandons the running analyses (their processes are killed, their scratch folders
     removed, nothing recorded: they are analyzed on the next start). Analysis processes
-    ignore SIGINT, so Ctrl-C in a terminal behaves the same; under systemd use
-    ``KillMode=mixed`` so that SIGTERM reaches only the watcher. A watcher killed outright
-    (SIGKILL) takes its analyses with it (:func:`_end_with`); what it left in REPORTS
+    ignore SIGINT and SIGHUP, so Ctrl-C or a hang-up in a terminal behaves the same; under
+    systemd use ``KillMode=mixed`` so that SIGTERM reaches only the watcher. A watcher
+    killed outright (SIGKILL) takes its analyses with it (:func:`_end_with`); what it left
+    in REPORTS
     (hidden ``.tmp-``/``.old-`` folders, half-written state) is removed by the next start,
     a move it left half-done is finished or undone then (:func:`_end_move`; one that
     cannot be told yet is kept, and what is left of its archive not analyzed), and what
@@ -243,6 +255,7 @@ from analyzer.watch_index import (
     TOO_SHORT,
     UNWRITTEN,
     ErrorKind,
+    InboxLock,
     Ledger,
     Record,
     ReportsLock,
@@ -263,6 +276,13 @@ TICK_S = 0.1
 """How often the loop wakes up while it waits for analyses to end."""
 EXIT_INTERRUPTED = 130
 """``--once`` stopped by a signal before it was through (as ``analyzer run``)."""
+RETRY_FIRST_S = 10.0
+"""How long after a report that could not be written (REPORTS full, unwritable, gone:
+not the archive's fault) its archive is analyzed again while the watcher runs; doubled
+after each failure, up to :data:`RETRY_MAX_S`. Before, it waited for the next start,
+weeks away for a service (a QA audit's ux66 item H2)."""
+RETRY_MAX_S = 600.0
+"""The longest wait between two tries of an archive whose report could not be written."""
 KILL_GRACE_S = 2.0
 """When abandoning, how long an analysis process gets after SIGTERM before SIGKILL."""
 
@@ -586,6 +606,7 @@ def _analyze_into(
     """Body of an analysis process: :func:`analysis_into`, its code the exit code; it
     ends with the watcher of pid ``watcher`` (:func:`_end_with`)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is for the watcher to handle
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)  # (so is a terminal's hang-up)
     work = Path(work_dir)  # the watcher's: it removes it however this process ends
     hold(work)  # and if the watcher is killed, it stays while this process uses it
     if watcher is not None:
@@ -1757,6 +1778,20 @@ def _earlier_files(rec: Record) -> set[tuple[str, int, int]]:
     return {(str(p), int(n), int(t)) for p, n, t in rec.signature}
 
 
+@dataclass
+class _Retry:
+    """An archive whose report could not be written, tried again later
+    (:meth:`_Runner._unwritten`)."""
+
+    archive: ReadyArchive
+    error: str
+    """The last try's error (said again only when it changes)."""
+    due: float | None
+    """``time.monotonic()`` of the next try; None once handed back for it."""
+    delay: float
+    tries: int
+
+
 class _Runner:
     """The queue of ready archives and the analysis processes (at most ``jobs``)."""
 
@@ -1768,8 +1803,17 @@ class _Runner:
         stopping: threading.Event,
         cluster: DaskExecutor | None = None,
         exclude: frozenset[str] = frozenset(),
+        lock: ReportsLock | None = None,
     ) -> None:
         self.settings = settings
+        self.lock = lock
+        """REPORTS' lock, checked before each step that writes there (:meth:`_reports_here`)."""
+        self.lost_reports = False
+        """REPORTS was taken by another watcher after it was removed under this one:
+        nothing more is written there."""
+        self.retries: dict[str, _Retry] = {}
+        """Archives whose report could not be written, tried again while the watcher
+        runs (:meth:`_unwritten`), by name."""
         self.exclude = exclude
         """INBOX's entries that are output folders (never archives' members)."""
         self.stopping = stopping
@@ -1862,6 +1906,9 @@ class _Runner:
                 copying.cancel.set()  # (changed: its copies are not what INBOX holds)
                 copying.again = archive
             return
+        retry = self.retries.get(archive.name)
+        if retry is not None and retry.archive.signature != archive.signature:
+            del self.retries[archive.name]  # (changed: a new archive, a new series)
         self.queue.pop(archive.name, None)  # the newest state of an archive wins
         hashing = self.hashing.pop(archive.name, None)
         if hashing is not None and hashing[0].signature != archive.signature:
@@ -1929,7 +1976,9 @@ class _Runner:
     def pump(self, wait: float = 0.0, start: bool = True) -> None:
         """Record the analyses that ended (waiting up to ``wait`` seconds for one), then
         start queued ones while there are free slots."""
+        self._reports_here()
         self._reap(wait)
+        self._retry_due()
         self._copied()
         self._held_moves()
         self._short_ends()
@@ -2380,7 +2429,8 @@ class _Runner:
                 self._same_content(archive, rec)
                 self._found_already(archive, rec)
                 return
-            log.info("%s: analyzed again: %s", name, again)
+            if name not in self.retries:  # (a retry's series said once)
+                log.info("%s: analyzed again: %s", name, again)
         if archive.incomplete:
             log.warning(
                 "%s: analyzing although it still looks unfinished: %s", name, archive.incomplete
@@ -2392,12 +2442,7 @@ class _Runner:
         except OSError as err:  # REPORTS full or gone: not the archive's fault
             self.unwritten += 1
             where = f"{os.fsdecode(err.filename)}: " if err.filename else ""
-            log.error(
-                "%s: cannot write its report: %s%s; it is analyzed again on the next start",
-                name,
-                where,
-                one_line(err.strerror or err),
-            )
+            self._unwritten(archive, f"{where}{one_line(err.strerror or err)}")
             return
         inputs = [str(p) for p in archive.paths]
         process: BaseProcess | ClusterTask
@@ -2422,6 +2467,8 @@ class _Runner:
                 process.start()
         self.running[name] = _Job(archive, digest, hashes, scratch, process, time.monotonic(), work)
         size = sum(s[1] for s in archive.signature)
+        if name in self.retries:  # (its series said once: not each try)
+            return
         log.info(
             "%s: start (%d input%s, %.1f MB)",
             name,
@@ -2540,18 +2587,20 @@ class _Runner:
             shutil.rmtree(job.scratch, ignore_errors=True)
             self.unwritten += 1
             where = f"{os.fsdecode(err.filename)}: " if err.filename else ""
-            log.error(
-                "%s: cannot write its report: %s%s; it is analyzed again on the next start",
-                name,
-                where,
-                one_line(err.strerror or err),
-            )
+            self._unwritten(job.archive, f"{where}{one_line(err.strerror or err)}")
             return
         self._hashed.pop(name, None)
         self.skipped.discard(name)
         self.results[name] = rec.verdict
         self.unfit.pop(name, None)
         at = self.progress()
+        if rec.error_reason == UNWRITTEN and not self.settings.once:
+            self._unwritten(job.archive, rec.error or "", f" (analyzed in {elapsed:.1f} s{at})")
+            return
+        retry = self.retries.pop(name, None)
+        if retry is not None:  # (its failed tries no longer count: it is written)
+            self.unwritten -= retry.tries
+            log.info("%s: its report is written now, at try %d", name, retry.tries + 1)
         if rec.error_kind is ErrorKind.INTERNAL:
             log.error(
                 "%s: error in %.1f s%s: %s (not the archive's fault: it is analyzed again "
@@ -2573,6 +2622,87 @@ class _Runner:
         self._left_in_inbox(job.archive.name, said=True)
         if rec.verdict is not Verdict.ERROR and not self.fitted:
             self._fits(name)
+
+    def _unwritten(self, archive: ReadyArchive, error: str, took: str = "") -> None:
+        """``archive``'s report could not be written (``error``: the file and the
+        system's words): not the archive's fault. While the watcher runs (not
+        ``--once``), it is tried again after :data:`RETRY_FIRST_S`, twice as long after
+        each failure up to :data:`RETRY_MAX_S` (:meth:`_retry_due`); said at the first
+        failure of a series and when the error changes, not at each try."""
+        name = archive.name
+        if self.settings.once:
+            log.error(
+                "%s: cannot write its report%s: %s; it is analyzed again on the next start",
+                name,
+                took,
+                error,
+            )
+            return
+        retry = self.retries.get(name)
+        delay = RETRY_FIRST_S if retry is None else min(2 * retry.delay, RETRY_MAX_S)
+        tries = 1 if retry is None else retry.tries + 1
+        if retry is None or retry.error != error:
+            log.error(
+                "%s: cannot write its report%s: %s (not the archive's fault); tried again in "
+                "%s, then less often (up to every %s) while it fails",
+                name,
+                took,
+                error,
+                spoken_duration(delay),
+                spoken_duration(RETRY_MAX_S),
+            )
+        self.retries[name] = _Retry(archive, error, time.monotonic() + delay, delay, tries)
+
+    def _retry_due(self) -> None:
+        """The archives whose try is due (:meth:`_unwritten`): handed back to the inbox
+        tracker, which hands each on again once it is stable (gone: dropped)."""
+        now = time.monotonic()
+        for name, retry in self.retries.items():
+            if retry.due is not None and now >= retry.due and name not in self.running:
+                retry.due = None  # (one hand-back per try)
+                self.queue.pop(name, None)
+                self._look_again(retry.archive)
+
+    def _reports_here(self) -> None:
+        """Before the loop writes to REPORTS: if REPORTS (its lock file) is no longer the
+        one locked at the start (removed by a clean-up job, or replaced), make it again,
+        lock it again, and rebuild the state and index from what it holds; the archives
+        whose reports went with it are analyzed again while INBOX holds them. Before, the
+        watcher went on failing every archive without exiting, and a second watcher
+        could lock the new folder and share it (a QA audit's ux66 item H1). A second
+        watcher holding the new lock: :class:`UsageError` (exit 2), nothing more
+        written there."""
+        if self.lock is None or self.lost_reports or not self.lock.lost():
+            return
+        reports = self.settings.reports
+        try:
+            self.lock.retake()
+            ledger = Ledger.load(reports)
+        except UsageError:
+            self.lost_reports = True
+            raise
+        ledger.tidy()
+        old, self.ledger = self.ledger, ledger
+        try:
+            ledger.save()
+        except OSError as err:  # (a full disk: written with the next record)
+            log.warning("cannot write the state in %s: %s", reports, err.strerror or err)
+        self.fitted = ledger.fitted(self.fingerprint)
+        again = [rec for name, rec in old.records.items() if name not in ledger.records]
+        for rec in again:
+            self.returned.append((rec.name, tuple((p, n, t) for p, n, t in rec.signature)))
+        log.warning(
+            "REPORTS %s was removed or replaced under the watcher: made again and locked "
+            "again, its state and index rebuilt from what it holds (%d record%s); %d "
+            "archive%s whose report went with it %s analyzed again while INBOX holds %s",
+            reports,
+            len(ledger.records),
+            "" if len(ledger.records) == 1 else "s",
+            len(again),
+            "" if len(again) == 1 else "s",
+            "is" if len(again) == 1 else "are",
+            "it" if len(again) == 1 else "them",
+        )
 
     @staticmethod
     def _linked_to(rec: Record, folder: str) -> None:
@@ -3186,8 +3316,9 @@ def watch(
     with contextlib.ExitStack() as stack:
         if cluster is not None:
             stack.callback(cluster.close)
-        stack.enter_context(ReportsLock(settings.reports))
-        return _watch_locked(settings, options, stop, abandon, exclude, cluster)
+        lock = stack.enter_context(ReportsLock(settings.reports))
+        inbox = stack.enter_context(InboxLock(settings.inbox))  # (after: REPORTS said first)
+        return _watch_locked(settings, options, stop, abandon, exclude, cluster, lock, inbox)
 
 
 def _watch_locked(
@@ -3197,6 +3328,8 @@ def _watch_locked(
     abandon: threading.Event,
     exclude: set[str],
     cluster: DaskExecutor | None,
+    lock: ReportsLock | None = None,
+    inbox_lock: InboxLock | None = None,
 ) -> int:
     """:func:`watch` once REPORTS is locked (and the cluster, if any, connected); returns
     its exit code."""
@@ -3223,7 +3356,7 @@ def _watch_locked(
             capped([str(p) for p in unknown], UNKNOWN_COPIES_NAMED),
         )
     ledger.save()
-    runner = _Runner(settings, options, ledger, stop, cluster, frozenset(exclude))
+    runner = _Runner(settings, options, ledger, stop, cluster, frozenset(exclude), lock)
     if settings.once:  # what --once will go through: the progress's total
         runner.expected = runner.to_analyze(
             archive_members(settings.inbox, settings.group_by, exclude)
@@ -3262,6 +3395,7 @@ def _watch_locked(
         busy=runner.busy,  # (--once: an archive discarded as it changed is done again)
         pause=runner.pause,
         again=runner.handed_back,  # (not taken as handed on: looked at again)
+        back=inbox_lock.renew if inbox_lock is not None else None,  # (the new INBOX locked)
     )
     try:
         with contextlib.closing(batches):
@@ -3282,8 +3416,9 @@ def _watch_locked(
         runner.hasher.close()
         runner.stop_moves()
         runner.abandon_all()
-        runner.save_unsaved()
-        ledger.refresh_views(force=True)
+        if not runner.lost_reports:  # (else REPORTS is another watcher's now)
+            runner.save_unsaved()
+            runner.ledger.refresh_views(force=True)
         if runner.queue or runner.hashing:
             ready = len(runner.queue) + len(runner.hashing)
             log.info(
@@ -3326,7 +3461,7 @@ class _StderrFormatter(logging.Formatter):
 
 
 def watch_main(args: argparse.Namespace, options: RunOptions) -> int:
-    """``analyzer watch``: :func:`watch` with log lines on stderr, and SIGINT/SIGTERM
+    """``analyzer watch``: :func:`watch` with log lines on stderr, and SIGINT/SIGTERM/SIGHUP
     handled as described in the module doc."""
     settings = WatchSettings.from_args(args)
     stop, abandon = threading.Event(), threading.Event()
@@ -3342,7 +3477,9 @@ def watch_main(args: argparse.Namespace, options: RunOptions) -> int:
     log.propagate = False
     previous = {}
     if threading.current_thread() is threading.main_thread():
-        for signum in (signal.SIGINT, signal.SIGTERM):
+        # SIGHUP (a terminal closed, a session ended) as SIGTERM: before, it killed the
+        # watcher with 129 and not a word (a QA audit's ux66 item L1)
+        for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
             previous[signum] = signal.signal(signum, on_signal)
     try:
         return watch(settings, options, stop=stop, abandon=abandon)

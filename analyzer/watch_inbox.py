@@ -495,6 +495,11 @@ class InboxTracker:
     _taken: dict[str, float] = field(default_factory=dict)
     """When each archive was last handed on as complete (kept when it goes away, as
     ``--done`` moves it: a writer still at it then makes a new file of that name)."""
+    gone: bool = False
+    """INBOX itself was missing at the last look (:meth:`rescan`): said once when it
+    goes, once when it comes back."""
+    back: Callable[[], None] | None = None
+    """Called when INBOX comes back (the watcher locks the new folder)."""
 
     def key(self, name: str) -> str | None:
         """The archive an INBOX entry belongs to, or None if the entry is ignored."""
@@ -577,8 +582,11 @@ class InboxTracker:
         try:
             with os.scandir(self.inbox) as entries:
                 names = {e.name for e in entries if self._listed(e)}
-        except FileNotFoundError:
+        except (FileNotFoundError, NotADirectoryError):
             names = set()
+            self._inbox_gone(True)
+        else:
+            self._inbox_gone(False)
         members: dict[str, set[str]] = {}
         for name in names:
             k = self.key(name)
@@ -586,6 +594,25 @@ class InboxTracker:
                 members.setdefault(k, set()).add(name)
         self._dirty.update(self._members.keys() | members.keys())
         self._members = members
+
+    def _inbox_gone(self, gone: bool) -> None:
+        """Say when INBOX goes (removed by a clean-up job, a share unmounted) and when
+        it comes back, once each, not at every look: before, a watcher whose INBOX was
+        removed watched nothing in silence (a QA audit's ux66 item M5)."""
+        if gone == self.gone:
+            return
+        self.gone = gone
+        if self.quiet:
+            return
+        if gone:
+            log.warning(
+                "INBOX %s is gone (removed, or its share unmounted?); waiting for it to come back",
+                self.inbox,
+            )
+        else:
+            log.warning("INBOX %s is back; watching it again", self.inbox)
+        if not gone and self.back is not None:
+            self.back()
 
     def touch(self, name: str) -> None:
         """An event about INBOX entry ``name`` (created, modified, moved, deleted)."""
@@ -859,6 +886,7 @@ def ready_batches(
     busy: Callable[[], bool] | None = None,
     pause: Callable[[float], object] | None = None,
     again: Callable[[], Iterable[tuple[str, Signature]]] | None = None,
+    back: Callable[[], None] | None = None,
 ) -> Generator[list[ReadyArchive], None, None]:
     """Batches of archives of ``inbox`` that became ready (see the module doc).
 
@@ -874,10 +902,18 @@ def ready_batches(
     ``stop.wait``; the consumer may return sooner, when its own work ends).
     ``again``: the archives (name, signature as handed on) that the consumer hands
     back since it last asked (:meth:`InboxTracker.again`); ``once`` waits for them too.
+    ``back``: called when INBOX, gone, is there again (:attr:`InboxTracker.back`).
     """
     stop = stop or threading.Event()
     tracker = InboxTracker(
-        inbox, settle, group_by, frozenset(exclude), incomplete_timeout, known=known, once=once
+        inbox,
+        settle,
+        group_by,
+        frozenset(exclude),
+        incomplete_timeout,
+        known=known,
+        once=once,
+        back=back,
     )
     tick = min(0.25, max(0.02, settle / 4))
     sink: queue.SimpleQueue[str] = queue.SimpleQueue()

@@ -283,13 +283,76 @@ def now_iso() -> str:
 # --------------------------------------------------------------------------- lock
 
 
+def lock_holder(fd: int) -> int | None:
+    """The pid of the process holding a ``flock`` on the file open as ``fd``, as Linux's
+    ``/proc/locks`` tells it (None where it does not: another system, a lock taken on
+    another machine of a network file system)."""
+    try:
+        st = os.fstat(fd)
+        with open("/proc/locks", encoding="ascii", errors="replace") as f:
+            lines = f.read().splitlines()
+    except OSError:
+        return None
+    inode = f":{st.st_ino}"
+    for line in lines:
+        parts = line.split()
+        # "1: FLOCK  ADVISORY  WRITE 4242 08:01:1234 0 EOF" (a waiter's line has "->")
+        if len(parts) >= 6 and parts[1] == "FLOCK" and "->" not in parts:
+            device = parts[5]
+            if device.endswith(inode) and parts[4].isdigit():
+                major, _, minor = device[: -len(inode)].partition(":")
+                try:
+                    same = os.makedev(int(major, 16), int(minor, 16)) == st.st_dev
+                except ValueError:
+                    continue
+                if same and int(parts[4]) != os.getpid():
+                    return int(parts[4])
+    return None
+
+
 class ReportsLock:
     """``flock`` on ``REPORTS/.lock`` while the watcher runs. A second watcher on the same
-    REPORTS does not wait: :meth:`acquire` raises :class:`UsageError` (exit code 2)."""
+    REPORTS does not wait: :meth:`acquire` raises :class:`UsageError` (exit code 2).
+
+    The lock holds only while ``REPORTS/.lock`` is the file locked: a REPORTS folder
+    removed under the watcher (a clean-up job) took the lock with it, and a second
+    watcher could then start there (a QA audit's ux66 item H1). :meth:`lost` tells it,
+    and :meth:`retake` makes the folder again and locks it again."""
 
     def __init__(self, reports: Path) -> None:
         self.path = reports / LOCK_FILE
         self._fd: int | None = None
+
+    def lost(self) -> bool:
+        """Whether ``REPORTS/.lock`` is no longer the file this watcher locked (removed
+        with its folder, or replaced): one ``stat`` and one ``fstat``."""
+        if self._fd is None:
+            return False
+        try:
+            now = os.stat(self.path)
+        except (FileNotFoundError, NotADirectoryError):
+            return True
+        except OSError:  # (REPORTS unreadable for a while: its writes fail, tried again)
+            return False
+        held = os.fstat(self._fd)
+        return (now.st_dev, now.st_ino) != (held.st_dev, held.st_ino)
+
+    def retake(self) -> None:
+        """After :meth:`lost`: make REPORTS again (with its parents) and lock it anew;
+        :class:`UsageError` when that cannot be done or when another watcher holds the
+        new lock now (it started there meanwhile)."""
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise UsageError(
+                f"--out: cannot make {self.path.parent} again: {err.strerror or err}"
+            ) from None
+        old, self._fd = self._fd, None
+        try:
+            self.acquire()
+        finally:
+            if old is not None:
+                os.close(old)  # (the lock of a file no longer there: it guards nothing)
 
     def acquire(self) -> None:
         try:
@@ -321,6 +384,77 @@ class ReportsLock:
             self._fd = None
 
     def __enter__(self) -> ReportsLock:
+        self.acquire()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.release()
+
+
+class InboxLock:
+    """``flock`` on the INBOX folder itself (a descriptor of the folder: nothing is
+    written into INBOX, whose files are only read) while the watcher runs. A second
+    watcher on the same INBOX, even with another REPORTS, does not wait: :meth:`acquire`
+    raises :class:`UsageError` (exit code 2) naming INBOX and the first watcher's pid
+    where the system tells it (:func:`lock_holder`). Before, both analyzed every archive
+    and split the reports between their two REPORTS folders (a QA audit's ux66 item M3).
+    A file system without ``flock`` leaves INBOX unlocked."""
+
+    def __init__(self, inbox: Path) -> None:
+        self.inbox = inbox
+        self._fd: int | None = None
+
+    def acquire(self) -> None:
+        try:
+            fd = os.open(self.inbox, os.O_RDONLY | os.O_DIRECTORY)
+        except OSError:
+            return  # (INBOX is checked before: gone since, it is said as such later)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = lock_holder(fd)
+            os.close(fd)
+            raise UsageError(
+                f"INBOX: {self.inbox} is watched by another watcher"
+                f"{f' (pid {holder})' if holder else ''}; only one watcher may watch an "
+                "INBOX folder"
+            ) from None
+        except OSError:
+            os.close(fd)  # (no locks on this file system: unlocked, as before)
+            return
+        self._fd = fd
+
+    def renew(self) -> None:
+        """INBOX made again after it went (:attr:`~analyzer.watch_inbox.InboxTracker.gone`):
+        the lock held is on the folder that went, so lock the new one (:meth:`acquire`:
+        :class:`UsageError` if another watcher has taken it meanwhile). Nothing is done
+        while INBOX is the folder locked, or is not there."""
+        try:
+            now = os.stat(self.inbox)
+        except OSError:
+            return
+        if self._fd is not None:
+            held = os.fstat(self._fd)
+            if (now.st_dev, now.st_ino) == (held.st_dev, held.st_ino):
+                return
+        old, self._fd = self._fd, None
+        try:
+            self.acquire()
+        finally:
+            if old is not None:
+                os.close(old)
+
+    def release(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+
+    def __enter__(self) -> InboxLock:
         self.acquire()
         return self
 
@@ -1098,9 +1232,11 @@ __all__ = [
     "EpisodeRow",
     "IndexRow",
     "IndexView",
+    "InboxLock",
     "Ledger",
     "Record",
     "ReportsLock",
+    "lock_holder",
     "Verdict",
     "episodes",
     "now_iso",
