@@ -214,6 +214,7 @@ from analyzer.errors import (
     ArchiveMismatch,
     ArchiveTooShort,
     ConfigError,
+    MachineLimit,
     TooLittleDataError,
     UsageError,
     capped,
@@ -461,7 +462,9 @@ EXIT_OPTION_ERROR = 4
 EXIT_MISMATCH = 5
 EXIT_TOO_SHORT = 6
 EXIT_UNWRITTEN = 7
-"""An analysis whose outputs could not be written (REPORTS full): not the archive's
+"""An analysis whose outputs could not be written (REPORTS full), or that the machine
+stopped (:class:`~analyzer.errors.MachineLimit`: its scratch space full, too many open
+files, no memory): not the archive's
 fault, which stays in INBOX and is analyzed again on the next start, as after an
 internal error; but said as the file's error (``REPORTS/x.mcap/report.html: No space
 left on device``), with no traceback (it was an "internal error: OSError" that asked
@@ -549,6 +552,12 @@ def analysis_into(inputs: list[str], options: RunOptions, out_dir: Path, work: P
     except AnalyzerError as err:
         _error_file(out_dir, one_line(err) + "\n")
         return 2
+    except MachineLimit as err:  # (scratch space full, too many open files, no memory)
+        # the machine's, not the archive's: one line, no traceback, tried again as a
+        # report that could not be written is (it was "internal error: ScratchFull"
+        # with a traceback, an operator's audit's ux66 M1)
+        _error_file(out_dir, one_line(err.strerror or err) + "\n")
+        return EXIT_UNWRITTEN
     except Exception as err:  # noqa: BLE001 - recorded as this archive's error
         text = f"internal error: {type(err).__name__}: {one_line(err)}"
         _error_file(out_dir, f"{text}\n\n{traceback.format_exc()}")

@@ -74,7 +74,12 @@ class FullDisk:
             prefix = str(kw.get("prefix", ""))
             here = self._here(Path(name).parent)
             if here and not prefix.startswith(".analyzer-probe-"):
-                output = prefix[1:-1] if prefix.startswith(".") else Path(name).name
+                # (".report.html.new-": the output report.html)
+                output = (
+                    prefix[1:].removesuffix("new-").removesuffix(".")
+                    if prefix.startswith(".")
+                    else Path(name).name
+                )
                 self._temps[Path(name).name] = output
                 if self._next(output):
                     self._full.add(fd)

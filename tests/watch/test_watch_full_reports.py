@@ -124,3 +124,25 @@ def test_a_cluster_task_whose_report_cannot_be_written_says_which_file(
     assert (out / "error.txt").read_text() == "report.html: No space left on device\n"
     assert task.exitcode == watch_module.EXIT_UNWRITTEN
     assert sorted(p.name for p in out.iterdir()) == ["error.txt"]
+
+
+def test_a_full_scratch_space_is_one_line_and_tried_again(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The machine's limit met while analyzing (res57b's ``ScratchFull``: TMPDIR full) is
+    said in its own line, no traceback, and counted as a report not written (tried again,
+    the archive stays in INBOX); it was "internal error: ScratchFull" with a traceback
+    (an operator's audit's ux66 M1)."""
+    import errno
+
+    from analyzer.errors import ScratchFull
+
+    def full(*args: object, **kwargs: object) -> None:
+        raise ScratchFull(errno.ENOSPC, "No space left on device: no room for the scratch")
+
+    monkeypatch.setattr(watch_module, "analyze_screened", full)
+    out = tmp_path / "out"
+    out.mkdir()
+    code = watch_module.analysis_into([str(tmp_path / "b.csv")], RunOptions(), out, tmp_path)
+    assert code == watch_module.EXIT_UNWRITTEN
+    assert (out / "error.txt").read_text() == ("No space left on device: no room for the scratch\n")
