@@ -3487,8 +3487,12 @@ def watch_main(args: argparse.Namespace, options: RunOptions) -> int:
     previous = {}
     if threading.current_thread() is threading.main_thread():
         # SIGHUP (a terminal closed, a session ended) as SIGTERM: before, it killed the
-        # watcher with 129 and not a word (a QA audit's ux66 item L1)
+        # watcher with 129 and not a word (a QA audit's ux66 item L1). A signal ignored
+        # at the start stays ignored: `nohup analyzer watch ...` ignores SIGHUP so that the
+        # watcher goes on after its terminal is closed (as run does: cli._stop_on_signals)
         for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+            if signum == signal.SIGHUP and signal.getsignal(signum) is signal.SIG_IGN:
+                continue
             previous[signum] = signal.signal(signum, on_signal)
     try:
         return watch(settings, options, stop=stop, abandon=abandon)
