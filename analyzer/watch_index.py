@@ -38,7 +38,7 @@ from dataclasses import dataclass, field, fields, replace
 from enum import StrEnum
 from pathlib import Path
 from types import TracebackType
-from typing import Any
+from typing import Any, Self
 from urllib.parse import quote
 
 from analyzer import __version__
@@ -310,7 +310,35 @@ def lock_holder(fd: int) -> int | None:
     return None
 
 
-class ReportsLock:
+class _HeldLock:
+    """A ``flock`` held on an open descriptor while the watcher runs (:meth:`acquire`,
+    given by each kind), released by :meth:`release` or at the end of a ``with`` block."""
+
+    _fd: int | None = None
+
+    def acquire(self) -> None:
+        raise NotImplementedError
+
+    def release(self) -> None:
+        if self._fd is not None:
+            fcntl.flock(self._fd, fcntl.LOCK_UN)
+            os.close(self._fd)
+            self._fd = None
+
+    def __enter__(self) -> Self:
+        self.acquire()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.release()
+
+
+class ReportsLock(_HeldLock):
     """``flock`` on ``REPORTS/.lock`` while the watcher runs. A second watcher on the same
     REPORTS does not wait: :meth:`acquire` raises :class:`UsageError` (exit code 2).
 
@@ -377,26 +405,8 @@ class ReportsLock:
         os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
         self._fd = fd
 
-    def release(self) -> None:
-        if self._fd is not None:
-            fcntl.flock(self._fd, fcntl.LOCK_UN)
-            os.close(self._fd)
-            self._fd = None
 
-    def __enter__(self) -> ReportsLock:
-        self.acquire()
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.release()
-
-
-class InboxLock:
+class InboxLock(_HeldLock):
     """``flock`` on the INBOX folder itself (a descriptor of the folder: nothing is
     written into INBOX, whose files are only read) while the watcher runs. A second
     watcher on the same INBOX, even with another REPORTS, does not wait: :meth:`acquire`
@@ -448,23 +458,6 @@ class InboxLock:
         finally:
             if old is not None:
                 os.close(old)
-
-    def release(self) -> None:
-        if self._fd is not None:
-            os.close(self._fd)
-            self._fd = None
-
-    def __enter__(self) -> InboxLock:
-        self.acquire()
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.release()
 
 
 # --------------------------------------------------------------------------- report dirs

@@ -273,15 +273,16 @@ def test_an_inbox_made_again_is_locked_again(tmp_path: Path) -> None:
         mine.release()
 
 
-def test_sighup_stops_the_watcher_as_sigterm_does(tmp_path: Path) -> None:
-    """SIGHUP (a terminal closed) ended the watcher with 129 and no word; it is a clean
-    stop now: its "stopped" line, exit 0."""
+@contextmanager
+def _watching(tmp_path: Path, **popen: Any) -> Iterator[subprocess.Popen[str]]:
+    """``analyzer watch`` of an empty INBOX in a process of its own, once it said it is
+    watching (its signal handlers set); killed at the end if still running."""
     inbox = tmp_path / "inbox"
     inbox.mkdir()
     root = Path(__file__).resolve().parents[2]
     env = dict(os.environ, PYTHONPATH=str(root))
     cmd = [sys.executable, "-m", "analyzer", "watch", str(inbox), "--out", str(tmp_path / "r")]
-    proc = subprocess.Popen(cmd, env=env, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    proc = subprocess.Popen(cmd, env=env, stderr=subprocess.PIPE, text=True, cwd=tmp_path, **popen)
     try:
         assert proc.stderr is not None
         lines = []
@@ -292,12 +293,19 @@ def test_sighup_stops_the_watcher_as_sigterm_does(tmp_path: Path) -> None:
             if "watching" in line or not line:
                 break
         assert "watching" in lines[-1], lines
-        proc.send_signal(signal.SIGHUP)
-        rest = proc.communicate(timeout=LIMIT_S)[1]
+        yield proc
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+def test_sighup_stops_the_watcher_as_sigterm_does(tmp_path: Path) -> None:
+    """SIGHUP (a terminal closed) ended the watcher with 129 and no word; it is a clean
+    stop now: its "stopped" line, exit 0."""
+    with _watching(tmp_path) as proc:
+        proc.send_signal(signal.SIGHUP)
+        rest = proc.communicate(timeout=LIMIT_S)[1]
     assert proc.returncode == 0, (proc.returncode, rest)
     assert rest.rstrip().endswith("analyzer watch: stopped"), rest
 
@@ -306,37 +314,12 @@ def test_a_watcher_under_nohup_goes_on_after_a_hang_up(tmp_path: Path) -> None:
     """``nohup analyzer watch ...``: SIGHUP ignored when the watcher starts stays ignored
     (the terminal closed, the watcher goes on), as ``run`` keeps it; the SIGHUP handler
     taken above set it anew, and nohup's watcher stopped with its terminal."""
-    inbox = tmp_path / "inbox"
-    inbox.mkdir()
-    root = Path(__file__).resolve().parents[2]
-    env = dict(os.environ, PYTHONPATH=str(root))
-    cmd = [sys.executable, "-m", "analyzer", "watch", str(inbox), "--out", str(tmp_path / "r")]
-    proc = subprocess.Popen(
-        cmd,
-        env=env,
-        stderr=subprocess.PIPE,
-        text=True,
-        cwd=tmp_path,
-        preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN),  # (as nohup)
-    )
-    try:
-        assert proc.stderr is not None
-        lines = []
-        end = time.monotonic() + LIMIT_S
-        while time.monotonic() < end:
-            line = proc.stderr.readline()
-            lines.append(line)
-            if "watching" in line or not line:
-                break
-        assert "watching" in lines[-1], lines
+    nohup = {"preexec_fn": lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN)}
+    with _watching(tmp_path, **nohup) as proc:
         proc.send_signal(signal.SIGHUP)
         with pytest.raises(subprocess.TimeoutExpired):
             proc.wait(timeout=2.0)  # (still watching)
         proc.send_signal(signal.SIGTERM)
         rest = proc.communicate(timeout=LIMIT_S)[1]
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
     assert proc.returncode == 0, (proc.returncode, rest)
     assert rest.rstrip().endswith("analyzer watch: stopped"), rest
