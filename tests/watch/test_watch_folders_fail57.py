@@ -282,6 +282,9 @@ def _watching(tmp_path: Path, **popen: Any) -> Iterator[subprocess.Popen[str]]:
     root = Path(__file__).resolve().parents[2]
     env = dict(os.environ, PYTHONPATH=str(root))
     cmd = [sys.executable, "-m", "analyzer", "watch", str(inbox), "--out", str(tmp_path / "r")]
+    # (SIGHUP as a terminal's session has it, unless the test says otherwise: a suite run
+    # under nohup passed its ignored SIGHUP on, and the watcher keeps an ignored one)
+    popen.setdefault("preexec_fn", lambda: signal.signal(signal.SIGHUP, signal.SIG_DFL))
     proc = subprocess.Popen(cmd, env=env, stderr=subprocess.PIPE, text=True, cwd=tmp_path, **popen)
     try:
         assert proc.stderr is not None
